@@ -1,0 +1,7 @@
+"""grasp_intent_ros: intent-uncertainty-aware shared-control tele-grasping for the Kinova MICO.
+
+The method lives in :mod:`grasp_intent_ros.core` (no ROS), rosbag2 sessions in
+:mod:`grasp_intent_ros.bag`, and the rclpy layer in :mod:`grasp_intent_ros.ros` and the node modules.
+"""
+
+__version__ = '0.1.0'

@@ -1,0 +1,254 @@
+"""Intent interpretation (paper eqs. 3-4): task probabilities w -> joint events u -> target vector v.
+
+Tasks are indexed 0..m-1. A *zone* is a non-empty set of tasks, written as a bitmask (bit i set means
+task i is satisfied). Zones are ordered by (number of tasks, bitmask): for m = 3 with tasks
+(usage, transfer, handover) the order is U, T, H, UT, UH, TH, UTH, the row order of the paper's tables.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import InvalidIntentError
+
+__all__ = [
+    'MAX_TASKS',
+    'DEFAULT_TASKS',
+    'DEFAULT_CLARIFICATION_THRESHOLD',
+    'Interpretation',
+    'NeedsClarification',
+    'IntentResult',
+    'all_zones',
+    'zone_label',
+    'zone_labels',
+    'parse_zones',
+    'default_task_names',
+    'validate_w',
+    'event_probabilities',
+    'interpret',
+    'reconstruct_w',
+]
+
+MAX_TASKS = 10
+"""Largest number of principal tasks m (2^m - 1 = 1023 zones)."""
+
+DEFAULT_TASKS = ('usage', 'transfer', 'handover')
+DEFAULT_CLARIFICATION_THRESHOLD = 0.5
+
+
+def _check_m(m: int) -> None:
+    if not 1 <= m <= MAX_TASKS:
+        raise InvalidIntentError(f'number of tasks must be 1..{MAX_TASKS}, got {m}')
+
+
+def all_zones(m: int) -> tuple[int, ...]:
+    """All 2^m - 1 non-empty task subsets as bitmasks, ordered by (number of tasks, bitmask)."""
+    _check_m(m)
+    return tuple(sorted(range(1, 1 << m), key=lambda z: (bin(z).count('1'), z)))
+
+
+def default_task_names(m: int) -> tuple[str, ...]:
+    """('usage', 'transfer', 'handover') for m = 3, else ('task1', ..., 'task<m>')."""
+    _check_m(m)
+    return DEFAULT_TASKS if m == 3 else tuple(f'task{i + 1}' for i in range(m))
+
+
+def _symbols(task_names: Sequence[str]) -> tuple[list[str], str]:
+    initials = [name[:1].upper() for name in task_names]
+    if all(initials) and len(set(initials)) == len(initials):
+        return initials, ''
+    return [str(i + 1) for i in range(len(task_names))], '+'
+
+
+def zone_label(zone: int, task_names: Sequence[str]) -> str:
+    """Short label of a zone: task initials ('UT') when they are unique, else task numbers ('1+3')."""
+    symbols, sep = _symbols(task_names)
+    if not 0 < zone < (1 << len(task_names)):
+        raise InvalidIntentError(f'zone {zone} is not a non-empty subset of {len(task_names)} tasks')
+    return sep.join(s for i, s in enumerate(symbols) if zone >> i & 1)
+
+
+def zone_labels(zones: Sequence[int], task_names: Sequence[str]) -> tuple[str, ...]:
+    """Labels of several zones, in the given order."""
+    return tuple(zone_label(z, task_names) for z in zones)
+
+
+def parse_zones(labels: Sequence[str], task_names: Sequence[str]) -> tuple[int, ...]:
+    """Bitmasks of zones given by label (as produced by :func:`zone_label`).
+
+    Raises
+    ------
+    InvalidIntentError
+        For an unknown label.
+    """
+    known = {zone_label(z, task_names): z for z in all_zones(len(task_names))}
+    out = []
+    for label in labels:
+        if label not in known:
+            raise InvalidIntentError(
+                f'unknown zone {label!r} for tasks {list(task_names)}; known: {", ".join(known)}')
+        out.append(known[label])
+    return tuple(out)
+
+
+def validate_w(w: ArrayLike, m: int | None = None) -> NDArray[np.float64]:
+    """Check a task-probability vector and return it as a float array of shape (m,).
+
+    Raises
+    ------
+    InvalidIntentError
+        If w is not 1-D, has the wrong length (or more than MAX_TASKS entries), holds a NaN or
+        infinity, or has a value outside [0, 1].
+    """
+    try:
+        arr = np.asarray(w, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InvalidIntentError(f'w must be a vector of numbers: {exc}') from None
+    if arr.ndim != 1 or arr.size == 0:
+        raise InvalidIntentError(f'w must be a non-empty 1-D vector, got shape {arr.shape}')
+    if m is not None and arr.size != m:
+        raise InvalidIntentError(f'w must have {m} entries (one per task), got {arr.size}')
+    if arr.size > MAX_TASKS:
+        raise InvalidIntentError(f'w has {arr.size} entries; at most {MAX_TASKS} tasks are supported')
+    if not np.all(np.isfinite(arr)):
+        raise InvalidIntentError(f'w must be finite, got {arr.tolist()}')
+    if np.any(arr < 0.0) or np.any(arr > 1.0):
+        raise InvalidIntentError(f'every entry of w must lie in [0, 1], got {arr.tolist()}')
+    return arr
+
+
+def event_probabilities(w: ArrayLike) -> NDArray[np.float64]:
+    """Joint event probabilities u (eq. 3), shape (2^m,), indexed by event bitmask.
+
+    u[Y] = prod_{i in Y} w_i * prod_{j not in Y} (1 - w_j); u[0] is the "no task" event.
+    """
+    w_arr = validate_w(w)
+    m = w_arr.size
+    masks = np.arange(1 << m)
+    bits = (masks[:, None] >> np.arange(m)[None, :]) & 1  # (2^m, m)
+    factors = np.where(bits == 1, w_arr[None, :], 1.0 - w_arr[None, :])
+    return np.prod(factors, axis=1)
+
+
+@dataclass(frozen=True)
+class IntentResult:
+    """What :func:`interpret` found for one w.
+
+    Attributes
+    ----------
+    w : ndarray, shape (m,)
+    u : ndarray, shape (2^m,)
+        Joint event probabilities indexed by bitmask.
+    zones : tuple of int, length K
+        The zones v is expressed over.
+    p_none : float
+        Probability that no task is intended, u[0].
+    """
+
+    w: NDArray[np.float64]
+    u: NDArray[np.float64]
+    zones: tuple[int, ...]
+    p_none: float
+
+    @property
+    def needs_clarification(self) -> bool:
+        """True when no target vector could be formed and the operator should be asked."""
+        return isinstance(self, NeedsClarification)
+
+
+@dataclass(frozen=True)
+class Interpretation(IntentResult):
+    """A usable target vector v over ``zones`` (eq. 4). ``v`` sums to 1."""
+
+    v: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class NeedsClarification(IntentResult):
+    """No target vector: "no task" is too likely, or the model has no zone the intent supports."""
+
+    reason: str
+
+    @property
+    def v(self) -> None:
+        """Always None: there is no target vector to plan for."""
+        return None
+
+
+def interpret(w: ArrayLike, zones: Sequence[int] | None = None, *,
+              clarification_threshold: float = DEFAULT_CLARIFICATION_THRESHOLD,
+              ) -> Interpretation | NeedsClarification:
+    """Turn task probabilities into a target vector over a model's zones.
+
+    Parameters
+    ----------
+    w : array_like, shape (m,)
+        Independent probability of each principal task, in [0, 1].
+    zones : sequence of int, optional
+        The model's zones (bitmasks over the m tasks). Default: all 2^m - 1 zones in core order.
+    clarification_threshold : float in (0, 1]
+        Ask for clarification when P(no task) >= this value.
+
+    Returns
+    -------
+    Interpretation or NeedsClarification
+
+    Raises
+    ------
+    InvalidIntentError
+        For a malformed w, zones that are not non-empty subsets of m tasks, or a threshold outside (0, 1].
+    """
+    w_arr = validate_w(w)
+    m = w_arr.size
+    if not (isinstance(clarification_threshold, (int, float, np.floating))
+            and 0.0 < float(clarification_threshold) <= 1.0):
+        raise InvalidIntentError(
+            f'clarification_threshold must lie in (0, 1], got {clarification_threshold!r}')
+    zone_tuple = all_zones(m) if zones is None else tuple(int(z) for z in zones)
+    if not zone_tuple:
+        raise InvalidIntentError('zones must not be empty')
+    bad = [z for z in zone_tuple if not 0 < z < (1 << m)]
+    if bad:
+        raise InvalidIntentError(f'zones {bad} are not non-empty subsets of {m} tasks')
+    if len(set(zone_tuple)) != len(zone_tuple):
+        raise InvalidIntentError(f'zones contain duplicates: {list(zone_tuple)}')
+    u = event_probabilities(w_arr)
+    p_none = float(u[0])
+    if p_none >= float(clarification_threshold):
+        return NeedsClarification(w=w_arr, u=u, zones=zone_tuple, p_none=p_none,
+                                  reason=f'P(no task) = {p_none:.4f} >= threshold '
+                                         f'{float(clarification_threshold):.4f}')
+    u_zones = u[np.asarray(zone_tuple)]
+    total = float(u_zones.sum())
+    if not total > 0.0 or not math.isfinite(total):
+        return NeedsClarification(w=w_arr, u=u, zones=zone_tuple, p_none=p_none,
+                                  reason='no zone of the model has non-zero probability under this w')
+    return Interpretation(w=w_arr, u=u, zones=zone_tuple, p_none=p_none, v=u_zones / total)
+
+
+def reconstruct_w(p: ArrayLike, zones: Sequence[int], m: int) -> NDArray[np.float64]:
+    """Principal-task probabilities implied by a zone posterior: w_i = sum of p_k over zones containing i.
+
+    Parameters
+    ----------
+    p : array_like, shape (K,) or (N, K)
+    zones : sequence of int, length K
+    m : int
+        Number of tasks.
+
+    Returns
+    -------
+    ndarray, shape (m,) or (N, m)
+    """
+    _check_m(m)
+    p_arr = np.asarray(p, dtype=np.float64)
+    zone_arr = np.asarray(zones, dtype=np.int64)
+    if p_arr.shape[-1] != zone_arr.size:
+        raise InvalidIntentError(f'p has {p_arr.shape[-1]} entries but there are {zone_arr.size} zones')
+    membership = ((zone_arr[:, None] >> np.arange(m)[None, :]) & 1).astype(np.float64)  # (K, m)
+    return p_arr @ membership

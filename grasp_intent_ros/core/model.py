@@ -1,0 +1,437 @@
+"""Multi-task grasp model: one multivariate normal per zone, trained with inclusive labeling.
+
+Zone k (a bitmask over the principal tasks) is fitted to every demonstration whose task set contains
+k (paper Table II, Fig. 3): a pose for "usage and transfer" also trains "usage", "transfer" and
+"usage and transfer". Demonstrations whose task set is not a zone of the model are events the model's
+structure rules out (e.g. "handover only" in the 5-zone cup model) and are left out of training.
+
+Each zone is the maximum-likelihood normal of its demonstrations (the fixed point of EM for one
+component) with a ridge added to the covariance so that a rank-deficient zone still gives a valid
+model; zone priors are proportional to the inclusive counts. The posterior P(k|x) (eq. 2) is computed
+in log space and is differentiated analytically.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import ArrayLike, NDArray
+
+from .data import Demonstrations
+from .errors import InvalidFeaturesError, ModelError, ModelFormatError
+from .features import FeatureSpace
+from .intent import all_zones, parse_zones, zone_labels
+
+__all__ = [
+    'GraspModel',
+    'Gaussian',
+    'ZONE_STRUCTURES',
+    'DEFAULT_RIDGE',
+    'FORMAT_VERSION',
+    'fit_gaussian',
+    'structure_zones',
+]
+
+FORMAT_VERSION = 1
+"""Version of the saved model document."""
+
+DEFAULT_RIDGE = 1e-3
+"""Covariance ridge as a fraction of each feature's bound range: adds (ridge * range_i)^2 to Sigma_ii."""
+
+ZONE_STRUCTURES: dict[str, tuple[str, ...]] = {
+    '7zone': ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH'),
+    '5zone': ('U', 'T', 'UT', 'TH', 'UTH'),
+    '4zone': ('T', 'UT', 'TH', 'UTH'),
+}
+"""The paper's zone structures for three tasks (Fig. 5), by zone label: all zones; no "H only" and
+no "U and H only" (handover implies transfer); and also no "U only" (every grasp transfers)."""
+
+_LOG_2PI = float(np.log(2.0 * np.pi))
+
+
+def structure_zones(structure: str | Sequence[str], task_names: Sequence[str]) -> tuple[int, ...]:
+    """Zone bitmasks of a named structure ('7zone', '5zone', '4zone') or of a list of zone labels,
+    in core order (number of tasks, bitmask)."""
+    labels = ZONE_STRUCTURES.get(structure, None) if isinstance(structure, str) else tuple(structure)
+    if labels is None:
+        raise ModelError(f'unknown zone structure {structure!r}; known: {", ".join(ZONE_STRUCTURES)} '
+                         'or a list of zone labels')
+    zones = set(parse_zones(labels, task_names))
+    return tuple(z for z in all_zones(len(task_names)) if z in zones)
+
+
+@dataclass(frozen=True)
+class Gaussian:
+    """A multivariate normal with its sample count. mean: shape (d,), cov: shape (d, d)."""
+
+    mean: NDArray[np.float64]
+    cov: NDArray[np.float64]
+    count: int
+
+
+def fit_gaussian(x: NDArray[np.float64], ridge_var: NDArray[np.float64]) -> Gaussian:
+    """Maximum-likelihood normal of the rows of x (shape (n, d), n >= 1) plus a diagonal ridge.
+
+    Raises
+    ------
+    ModelError
+        If x has no rows.
+    """
+    if x.shape[0] == 0:
+        raise ModelError('cannot fit a Gaussian to zero demonstrations')
+    mean = x.mean(axis=0)
+    diff = x - mean
+    cov = diff.T @ diff / x.shape[0] + np.diag(ridge_var)
+    return Gaussian(mean, 0.5 * (cov + cov.T), int(x.shape[0]))
+
+
+def _as_matrix(a: Any, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
+    try:
+        arr = np.asarray(a, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ModelFormatError(f'{what}: {exc}') from None
+    if arr.shape != shape:
+        raise ModelFormatError(f'{what} must have shape {shape}, got {arr.shape}')
+    if not np.all(np.isfinite(arr)):
+        raise ModelFormatError(f'{what} contains NaN or infinity')
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class GraspModel:
+    """A trained multi-task grasp model. Immutable; build with :meth:`fit` or :meth:`load`.
+
+    Attributes
+    ----------
+    name : str
+    task_names : tuple of str, length m
+    zones : tuple of int, length K
+        Zone bitmasks in core order.
+    features : FeatureSpace
+        Feature names, units and planner bounds (``lower``, ``upper``).
+    means : ndarray, shape (K, d)
+    covariances : ndarray, shape (K, d, d)
+    priors : ndarray, shape (K,)
+    counts : ndarray of int, shape (K,)
+        Inclusive training counts per zone.
+    task_means, task_covariances, task_counts : shapes (m, d), (m, d, d), (m,)
+        Principal-task Gaussians (every training demonstration containing task i), used for ambiguity.
+    demo_x : ndarray, shape (N, d)
+        The training demonstrations (the planner starts from the best of them).
+    demo_sets : ndarray of int, shape (N,)
+        Task-set bitmask of each training demonstration.
+    data_hash : str
+        sha256 of the training data set.
+    """
+
+    name: str
+    task_names: tuple[str, ...]
+    zones: tuple[int, ...]
+    features: FeatureSpace
+    means: NDArray[np.float64]
+    covariances: NDArray[np.float64]
+    priors: NDArray[np.float64]
+    counts: NDArray[np.int64]
+    task_means: NDArray[np.float64]
+    task_covariances: NDArray[np.float64]
+    task_counts: NDArray[np.int64]
+    demo_x: NDArray[np.float64]
+    demo_sets: NDArray[np.int64]
+    data_hash: str = ''
+    ridge: float = DEFAULT_RIDGE
+    _precisions: NDArray[np.float64] = field(init=False, repr=False)
+    _log_norm: NDArray[np.float64] = field(init=False, repr=False)
+    _prec_stack: NDArray[np.float64] = field(init=False, repr=False)
+    _prec_mean: NDArray[np.float64] = field(init=False, repr=False)
+    demo_posterior: NDArray[np.float64] = field(init=False, repr=False)
+    """Posterior of every training demonstration, shape (N, K) (computed once, for start selection)."""
+
+    def __post_init__(self) -> None:
+        K, d, m = len(self.zones), self.features.dim, len(self.task_names)
+        if K == 0:
+            raise ModelFormatError('a model needs at least one zone')
+        for z in self.zones:
+            if not 0 < z < (1 << m):
+                raise ModelFormatError(f'zone {z} is not a non-empty subset of {m} tasks')
+        if len(set(self.zones)) != K:
+            raise ModelFormatError('zones contain duplicates')
+        means = _as_matrix(self.means, (K, d), 'means')
+        covs = _as_matrix(self.covariances, (K, d, d), 'covariances')
+        priors = _as_matrix(self.priors, (K,), 'priors')
+        if np.any(priors <= 0.0) or abs(priors.sum() - 1.0) > 1e-6:
+            raise ModelFormatError(f'priors must be positive and sum to 1, got {priors.tolist()}')
+        try:
+            chol = np.linalg.cholesky(covs)
+        except np.linalg.LinAlgError:
+            raise ModelFormatError('every zone covariance must be symmetric positive definite') from None
+        if not np.allclose(covs, np.swapaxes(covs, 1, 2), atol=1e-12):
+            raise ModelFormatError('every zone covariance must be symmetric')
+        eye = np.broadcast_to(np.eye(d), (K, d, d))
+        chol_inv = np.linalg.solve(chol, eye)
+        precisions = np.swapaxes(chol_inv, 1, 2) @ chol_inv
+        log_det = 2.0 * np.log(np.diagonal(chol, axis1=1, axis2=2)).sum(axis=1)
+        log_norm = -0.5 * (d * _LOG_2PI + log_det) + np.log(priors)
+        object.__setattr__(self, 'means', means)
+        object.__setattr__(self, 'covariances', covs)
+        object.__setattr__(self, 'priors', priors)
+        object.__setattr__(self, 'counts', np.asarray(self.counts, dtype=np.int64))
+        object.__setattr__(self, 'task_means', _as_matrix(self.task_means, (m, d), 'task_means'))
+        object.__setattr__(self, 'task_covariances',
+                           _as_matrix(self.task_covariances, (m, d, d), 'task_covariances'))
+        object.__setattr__(self, 'task_counts', np.asarray(self.task_counts, dtype=np.int64))
+        precisions = 0.5 * (precisions + np.swapaxes(precisions, 1, 2))
+        object.__setattr__(self, '_precisions', precisions)
+        # Stacked for one matrix product per evaluation: g = prec_mean - x @ prec_stack.T, shape (N, K*d)
+        object.__setattr__(self, '_prec_stack', precisions.reshape(K * d, d))
+        object.__setattr__(self, '_prec_mean', np.einsum('kij,kj->ki', precisions, means).reshape(K * d))
+        object.__setattr__(self, '_log_norm', log_norm)
+        demo_x = np.asarray(self.demo_x, dtype=np.float64)
+        if demo_x.ndim != 2 or demo_x.shape[1] != d or demo_x.shape[0] == 0:
+            raise ModelFormatError(f'demonstrations must have shape (N>0, {d}), got {demo_x.shape}')
+        if not np.all(np.isfinite(demo_x)):
+            raise ModelFormatError('demonstrations contain NaN or infinity')
+        demo_sets = np.asarray(self.demo_sets, dtype=np.int64)
+        if demo_sets.shape != (demo_x.shape[0],) or np.any(demo_sets <= 0) or np.any(demo_sets >= 1 << m):
+            raise ModelFormatError('demonstration task sets must be non-empty subsets of the tasks, '
+                                   'one per demonstration')
+        object.__setattr__(self, 'demo_x', demo_x)
+        object.__setattr__(self, 'demo_sets', demo_sets)
+        object.__setattr__(self, 'demo_posterior', self.posterior(demo_x))
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def feature_names(self) -> tuple[str, ...]:
+        """Names of the d features."""
+        return self.features.names
+
+    @property
+    def lower(self) -> NDArray[np.float64]:
+        """Lower feature bounds, shape (d,)."""
+        return self.features.lower
+
+    @property
+    def upper(self) -> NDArray[np.float64]:
+        """Upper feature bounds, shape (d,)."""
+        return self.features.upper
+
+    @property
+    def zone_labels(self) -> tuple[str, ...]:
+        """Short zone labels ('U', 'UT', ...) in zone order."""
+        return zone_labels(self.zones, self.task_names)
+
+    # ------------------------------------------------------------------ training
+    @classmethod
+    def fit(cls, demos: Demonstrations, zones: Sequence[int] | None = None, *, name: str = '',
+            ridge: float = DEFAULT_RIDGE) -> GraspModel:
+        """Train a model with inclusive labeling.
+
+        Parameters
+        ----------
+        demos : Demonstrations
+        zones : sequence of int, optional
+            Zone bitmasks; default all 2^m - 1 zones.
+        ridge : float
+            Covariance ridge as a fraction of each feature's bound range.
+
+        Raises
+        ------
+        ModelError
+            If a zone or a task has no training demonstration, or ridge is not positive.
+        """
+        m = len(demos.task_names)
+        zone_set = set(all_zones(m) if zones is None else (int(z) for z in zones))
+        ordered = tuple(z for z in all_zones(m) if z in zone_set)
+        if len(ordered) != len(zone_set):
+            raise ModelError(f'zones must be non-empty subsets of the {m} tasks')
+        if not ridge > 0.0:
+            raise ModelError(f'ridge must be positive, got {ridge}')
+        kept = demos.select(np.isin(demos.task_sets, ordered))
+        ridge_var = (ridge * (demos.features.upper - demos.features.lower)) ** 2
+        gaussians = []
+        for z in ordered:
+            rows = (kept.task_sets & z) == z
+            if not rows.any():
+                raise ModelError(f'zone {zone_labels((z,), demos.task_names)[0]} has no demonstration')
+            gaussians.append(fit_gaussian(kept.x[rows], ridge_var))
+        tasks = []
+        for i, task in enumerate(demos.task_names):
+            rows = (kept.task_sets >> i & 1) == 1
+            if not rows.any():
+                raise ModelError(f'task {task!r} has no demonstration among the model\'s zones')
+            tasks.append(fit_gaussian(kept.x[rows], ridge_var))
+        counts = np.array([g.count for g in gaussians])
+        return cls(name=name, task_names=demos.task_names, zones=ordered, features=demos.features,
+                   means=np.stack([g.mean for g in gaussians]),
+                   covariances=np.stack([g.cov for g in gaussians]),
+                   priors=counts / counts.sum(), counts=counts,
+                   task_means=np.stack([g.mean for g in tasks]),
+                   task_covariances=np.stack([g.cov for g in tasks]),
+                   task_counts=np.array([g.count for g in tasks]),
+                   demo_x=kept.x, demo_sets=kept.task_sets,
+                   data_hash=kept.sha256(), ridge=ridge)
+
+    # ------------------------------------------------------------------ inference
+    def _check_x(self, x: ArrayLike) -> tuple[NDArray[np.float64], bool]:
+        try:
+            arr = np.asarray(x, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise InvalidFeaturesError(f'x must be numeric: {exc}') from None
+        single = arr.ndim == 1
+        arr2 = arr[None, :] if single else arr
+        if arr2.ndim != 2 or arr2.shape[1] != self.features.dim:
+            raise InvalidFeaturesError(
+                f'x must have shape ({self.features.dim},) or (N, {self.features.dim}), got {arr.shape}')
+        if not np.all(np.isfinite(arr2)):
+            raise InvalidFeaturesError('x contains NaN or infinity')
+        return arr2, single
+
+    def _log_joint_and_score(self, arr: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                                      NDArray[np.float64]]:
+        """log P(x|k) + log P(k), shape (N, K), and g_k = d log P(x|k)/dx, shape (N, K, d)."""
+        n, K, d = arr.shape[0], len(self.zones), self.features.dim
+        g = (self._prec_mean - arr @ self._prec_stack.T).reshape(n, K, d)  # -Sigma_k^-1 (x - mu_k)
+        diff = arr[:, None, :] - self.means[None, :, :]
+        return self._log_norm + 0.5 * np.sum(diff * g, axis=2), g
+
+    def log_joint(self, x: ArrayLike) -> NDArray[np.float64]:
+        """log P(x|k) + log P(k), shape (K,) for x of shape (d,), or (N, K) for (N, d)."""
+        arr, single = self._check_x(x)
+        out = self._log_joint_and_score(arr)[0]
+        return out[0] if single else out
+
+    def posterior(self, x: ArrayLike) -> NDArray[np.float64]:
+        """Zone posterior P(k|x) (eq. 2): shape (K,) for x of shape (d,), or (N, K) for (N, d).
+
+        Computed in log space (log-sum-exp), so it stays finite and normalised far from every mean.
+        """
+        return self.posterior_jacobian(x)[0]
+
+    def posterior_jacobian(self, x: ArrayLike, *, check: bool = True,
+                           ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Posterior and its analytic Jacobian.
+
+        dP_k/dx = P_k (g_k - sum_j P_j g_j), g_k = d log P(x|k)/dx = -Sigma_k^-1 (x - mu_k).
+
+        Returns
+        -------
+        p : ndarray, shape (K,) or (N, K)
+        dp_dx : ndarray, shape (K, d) or (N, K, d)
+
+        ``check=False`` skips input validation (for solvers that only pass finite float arrays).
+        """
+        if check:
+            arr, single = self._check_x(x)
+        else:
+            arr = x if np.ndim(x) == 2 else np.reshape(x, (1, -1))  # type: ignore[assignment]
+            single = np.ndim(x) == 1
+        lj, g = self._log_joint_and_score(arr)
+        p = np.exp(lj - lj.max(axis=1, keepdims=True))
+        p /= p.sum(axis=1, keepdims=True)
+        g_mean = np.matmul(p[:, None, :], g)  # (N, 1, d)
+        jac = p[:, :, None] * (g - g_mean)
+        return (p[0], jac[0]) if single else (p, jac)
+
+    # ------------------------------------------------------------------ persistence
+    def to_document(self) -> dict[str, Any]:
+        """The model as a plain, YAML-ready mapping (see :meth:`from_document`)."""
+        return {
+            'format_version': FORMAT_VERSION,
+            'name': self.name,
+            'task_names': list(self.task_names),
+            'zones': list(self.zone_labels),
+            'features': [{'name': n, 'unit': u, 'lower': float(lo), 'upper': float(hi)}
+                         for n, u, lo, hi in zip(self.features.names, self.features.units,
+                                                 self.features.lower, self.features.upper)],
+            'approach_features': list(self.features.approach_range),
+            'ridge': float(self.ridge),
+            'data_hash': self.data_hash,
+            'zone_models': [{'zone': label, 'count': int(n), 'prior': float(p),
+                             'mean': [float(v) for v in mu],
+                             'covariance': [[float(v) for v in row] for row in cov]}
+                            for label, n, p, mu, cov in zip(self.zone_labels, self.counts, self.priors,
+                                                            self.means, self.covariances)],
+            'task_models': [{'task': t, 'count': int(n), 'mean': [float(v) for v in mu],
+                             'covariance': [[float(v) for v in row] for row in cov]}
+                            for t, n, mu, cov in zip(self.task_names, self.task_counts,
+                                                     self.task_means, self.task_covariances)],
+            'demonstrations': [{'tasks': zone_labels((int(s),), self.task_names)[0],
+                                'x': [round(float(v), 6) for v in row]}
+                               for row, s in zip(self.demo_x, self.demo_sets)],
+        }
+
+    def to_yaml(self) -> str:
+        """The model document as YAML text."""
+        header = (f'# grasp_intent_ros multi-task grasp model {self.name!r}: one normal per zone\n'
+                  f'# (inclusive labeling). Units per feature below; covariances in those units squared.\n')
+        return header + yaml.safe_dump(self.to_document(), sort_keys=False, width=120)
+
+    @classmethod
+    def from_document(cls, doc: Any) -> GraspModel:
+        """Build a model from a mapping produced by :meth:`to_document`.
+
+        Raises
+        ------
+        ModelFormatError
+            Naming the first missing or malformed field.
+        """
+        if not isinstance(doc, dict):
+            raise ModelFormatError('a model document must be a mapping')
+        try:
+            version = doc['format_version']
+            if version != FORMAT_VERSION:
+                raise ModelFormatError(f'unsupported model format_version {version!r} '
+                                       f'(this code reads {FORMAT_VERSION})')
+            task_names = tuple(str(t) for t in doc['task_names'])
+            feats = doc['features']
+            a0, a1 = (int(v) for v in doc['approach_features'])
+            features = FeatureSpace(names=tuple(str(f['name']) for f in feats),
+                                    units=tuple(str(f['unit']) for f in feats),
+                                    lower=np.array([float(f['lower']) for f in feats]),
+                                    upper=np.array([float(f['upper']) for f in feats]),
+                                    approach_range=(a0, a1))
+            zones = parse_zones([str(z) for z in doc['zones']], task_names)
+            zm, tm = doc['zone_models'], doc['task_models']
+            if [str(z['zone']) for z in zm] != [str(z) for z in doc['zones']]:
+                raise ModelFormatError('zone_models must list the zones in the order of "zones"')
+            return cls(name=str(doc.get('name', '')), task_names=task_names, zones=zones,
+                       features=features,
+                       means=[z['mean'] for z in zm], covariances=[z['covariance'] for z in zm],
+                       priors=[z['prior'] for z in zm], counts=[int(z['count']) for z in zm],
+                       task_means=[t['mean'] for t in tm],
+                       task_covariances=[t['covariance'] for t in tm],
+                       task_counts=[int(t['count']) for t in tm],
+                       demo_x=[dm['x'] for dm in doc['demonstrations']],
+                       demo_sets=list(parse_zones([str(dm['tasks']) for dm in doc['demonstrations']],
+                                                  task_names)),
+                       data_hash=str(doc.get('data_hash', '')), ridge=float(doc.get('ridge', DEFAULT_RIDGE)))
+        except ModelFormatError:
+            raise
+        except KeyError as exc:
+            raise ModelFormatError(f'model document lacks field {exc}') from None
+        except (TypeError, ValueError, IndexError) as exc:
+            raise ModelFormatError(f'malformed model document: {exc}') from None
+
+    @classmethod
+    def from_yaml(cls, text: str) -> GraspModel:
+        """Parse a model from YAML text. Raises ModelFormatError for bad YAML or a bad document."""
+        try:
+            doc = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            raise ModelFormatError(f'model document is not valid YAML: {exc}') from None
+        return cls.from_document(doc)
+
+    def save(self, path: str | Path) -> None:
+        """Write the model as a YAML file."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(self.to_yaml())
+
+    @classmethod
+    def load(cls, path: str | Path) -> GraspModel:
+        """Read a model saved by :meth:`save`. Raises FileNotFoundError or ModelFormatError."""
+        return cls.from_yaml(Path(path).read_text())

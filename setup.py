@@ -1,0 +1,44 @@
+"""ament_python / pip packaging for grasp_intent_ros."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = 'grasp_intent_ros'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(include=[package_name, f'{package_name}.*']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', [f'resource/{package_name}']),
+        (f'share/{package_name}', ['package.xml']),
+        (f'share/{package_name}/config', glob('config/*.yaml') + glob('config/*.urdf')),
+        (f'share/{package_name}/config/models', glob('config/models/*.yaml')),
+        (f'share/{package_name}/config/data', glob('config/data/*.csv')),
+        (f'share/{package_name}/bags', glob('bags/**/*', recursive=True)),
+    ],
+    python_requires='>=3.10',
+    install_requires=[
+        'numpy>=1.24',
+        'scipy>=1.10',
+        'pyyaml>=6',
+        'pin>=2.7',
+        'rosbags>=0.10',
+        'mcap>=1.1',
+        'mcap-ros2-support>=0.5',
+        'matplotlib>=3.7',
+    ],
+    extras_require={
+        'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-common-interfaces'],
+        'test': ['pytest>=7', 'pytest-timeout>=2', 'hypothesis>=6', 'mypy>=1.5', 'types-PyYAML'],
+    },
+    zip_safe=True,
+    maintainer='grasp_intent_ros developers',
+    maintainer_email='grasp-intent-ros@example.org',
+    description='Intent-uncertainty-aware shared-control grasp planning for the Kinova MICO (ROS 2 Jazzy).',
+    license='BSD-3-Clause',
+    entry_points={
+        'console_scripts': [
+        ],
+    },
+)

@@ -1,0 +1,37 @@
+"""Fixtures for the ROS-free unit tests: small synthetic models with a known structure."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grasp_intent_ros.core.data import Demonstrations
+from grasp_intent_ros.core.features import MICO_3F
+from grasp_intent_ros.core.intent import DEFAULT_TASKS, all_zones
+from grasp_intent_ros.core.model import GraspModel
+
+
+def synthetic_demos(seed: int = 0, per_set: int = 40, spread: float = 0.12) -> Demonstrations:
+    """Demonstrations for all 7 task sets of 3 tasks, each set around its own mean inside the bounds."""
+    rng = np.random.default_rng(seed)
+    centre = 0.5 * (MICO_3F.lower + MICO_3F.upper)
+    half = 0.5 * (MICO_3F.upper - MICO_3F.lower)
+    x, sets = [], []
+    for zone in all_zones(3):
+        mean = centre + rng.uniform(-0.3, 0.3, MICO_3F.dim) * half
+        for _ in range(per_set):
+            row = mean + rng.normal(0.0, spread, MICO_3F.dim) * half
+            row[3:6] /= np.linalg.norm(row[3:6])
+            x.append(np.clip(row, MICO_3F.lower, MICO_3F.upper))
+            sets.append(zone)
+    return Demonstrations(np.array(x), np.array(sets), DEFAULT_TASKS)
+
+
+@pytest.fixture(scope='session')
+def demos() -> Demonstrations:
+    return synthetic_demos()
+
+
+@pytest.fixture(scope='session')
+def toy_model(demos: Demonstrations) -> GraspModel:
+    return GraspModel.fit(demos, name='toy')

@@ -1,0 +1,149 @@
+"""Multi-task grasp model: inclusive labeling, posterior, analytic gradient, persistence."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from grasp_intent_ros.core.data import Demonstrations, load_csv, save_csv
+from grasp_intent_ros.core.errors import (DataError, InvalidFeaturesError, ModelError,
+                                          ModelFormatError)
+from grasp_intent_ros.core.features import MICO_3F
+from grasp_intent_ros.core.intent import DEFAULT_TASKS
+from grasp_intent_ros.core.model import GraspModel, structure_zones
+
+from .conftest import synthetic_demos
+
+
+def test_inclusive_labeling_counts(demos: Demonstrations, toy_model: GraspModel) -> None:
+    per_set = demos.counts()
+    for k, zone in enumerate(toy_model.zones):
+        expected = sum(n for s, n in per_set.items() if s & zone == zone)
+        assert toy_model.counts[k] == expected
+    # zone "U" (bit 0) trains on U, UT, UH and UTH demonstrations
+    assert toy_model.counts[0] == 4 * 40
+    assert_allclose(toy_model.priors, toy_model.counts / toy_model.counts.sum())
+    # zone mean is the mean of its inclusive demonstrations
+    rows = (demos.task_sets & 0b011) == 0b011
+    assert_allclose(toy_model.means[toy_model.zones.index(0b011)], demos.x[rows].mean(axis=0), atol=1e-12)
+
+
+def test_structure_drops_events_the_structure_rules_out(demos: Demonstrations) -> None:
+    zones = structure_zones('5zone', DEFAULT_TASKS)
+    assert zones == (0b001, 0b010, 0b011, 0b110, 0b111)
+    m5 = GraspModel.fit(demos, zones)
+    # H-only and UH demonstrations are left out, so task H = TH + UTH only
+    assert m5.task_counts.tolist() == [3 * 40, 4 * 40, 2 * 40]
+    assert len(m5.demo_x) == 5 * 40
+
+
+def test_posterior_is_normalised_and_stable_far_away(toy_model: GraspModel) -> None:
+    rng = np.random.default_rng(1)
+    x = rng.uniform(MICO_3F.lower, MICO_3F.upper, (200, MICO_3F.dim))
+    p = toy_model.posterior(x)
+    assert p.shape == (200, 7)
+    assert_allclose(p.sum(axis=1), 1.0, atol=1e-12)
+    far = np.full(MICO_3F.dim, 1e3)
+    p_far = toy_model.posterior(far)
+    assert np.all(np.isfinite(p_far)) and p_far.sum() == pytest.approx(1.0)
+    assert_allclose(toy_model.posterior(x[0]), p[0], atol=1e-15)
+
+
+def test_analytic_jacobian_matches_finite_differences(toy_model: GraspModel) -> None:
+    """Relative error < 1e-5 at 100 random x near the data (central differences, h = 1e-6)."""
+    rng = np.random.default_rng(2)
+    idx = rng.integers(0, len(toy_model.demo_x), 100)
+    xs = toy_model.demo_x[idx] + rng.normal(0.0, 0.02, (100, MICO_3F.dim))
+    _, jac = toy_model.posterior_jacobian(xs)
+    h = 1e-6
+    for n, x in enumerate(xs):
+        fd = np.empty((7, MICO_3F.dim))
+        for i in range(MICO_3F.dim):
+            e = np.zeros(MICO_3F.dim)
+            e[i] = h
+            fd[:, i] = (toy_model.posterior(x + e) - toy_model.posterior(x - e)) / (2 * h)
+        scale = max(np.abs(fd).max(), 1e-3)
+        assert np.abs(jac[n] - fd).max() / scale < 1e-5, n
+
+
+def test_rank_deficient_zone_still_gives_a_valid_model() -> None:
+    base = synthetic_demos(per_set=40)
+    # the "UTH" zone gets 2 demonstrations only (rank 1 covariance before the ridge)
+    keep = np.ones(len(base), dtype=bool)
+    keep[np.flatnonzero(base.task_sets == 0b111)[2:]] = False
+    m = GraspModel.fit(base.select(keep))
+    assert m.counts[-1] == 2
+    assert np.all(np.linalg.eigvalsh(m.covariances) > 0)
+    assert np.all(np.isfinite(m.posterior(m.means)))
+
+
+def test_zone_without_data_is_a_clear_error(demos: Demonstrations) -> None:
+    only_u = demos.select(demos.task_sets == 0b001)
+    with pytest.raises(ModelError, match='zone T has no demonstration'):
+        GraspModel.fit(only_u)
+    with pytest.raises(ModelError, match='ridge'):
+        GraspModel.fit(demos, ridge=0.0)
+
+
+def test_yaml_round_trip(tmp_path, toy_model: GraspModel) -> None:  # type: ignore[no-untyped-def]
+    path = tmp_path / 'models' / 'toy.yaml'
+    toy_model.save(path)
+    loaded = GraspModel.load(path)
+    assert loaded.zones == toy_model.zones and loaded.task_names == toy_model.task_names
+    assert loaded.feature_names == MICO_3F.names and loaded.data_hash == toy_model.data_hash
+    assert_allclose(loaded.means, toy_model.means, atol=1e-12)
+    assert_allclose(loaded.covariances, toy_model.covariances, atol=1e-12)
+    assert_allclose(loaded.demo_x, toy_model.demo_x, atol=1e-6)
+    x = toy_model.demo_x[:10]
+    assert_allclose(loaded.posterior(x), toy_model.posterior(x), atol=1e-6)
+    text = path.read_text()
+    for word in ('palm_x', 'unit', 'covariance', 'prior', 'count', 'data_hash', 'UTH'):
+        assert word in text
+
+
+@pytest.mark.parametrize(('mutate', 'match'), [
+    (lambda d: d.pop('zone_models'), 'lacks field'),
+    (lambda d: d.__setitem__('format_version', 99), 'format_version'),
+    (lambda d: d['zone_models'][0].__setitem__('mean', [0.0]), 'shape'),
+    (lambda d: d['zone_models'][0].__setitem__('covariance', (-np.eye(10)).tolist()), 'positive definite'),
+    (lambda d: d['zone_models'][1].__setitem__('prior', 5.0), 'priors'),
+    (lambda d: d.__setitem__('zones', ['U', 'X']), 'unknown zone'),
+])
+def test_malformed_documents_raise(toy_model: GraspModel, mutate, match) -> None:  # type: ignore[no-untyped-def]
+    doc = toy_model.to_document()
+    mutate(doc)
+    with pytest.raises(ModelFormatError, match=match):
+        GraspModel.from_document(doc)
+
+
+def test_bad_yaml_and_bad_x(toy_model: GraspModel) -> None:
+    with pytest.raises(ModelFormatError):
+        GraspModel.from_yaml('zones: [unclosed')
+    with pytest.raises(ModelFormatError):
+        GraspModel.from_yaml('- a list')
+    with pytest.raises(InvalidFeaturesError):
+        toy_model.posterior(np.zeros(3))
+    with pytest.raises(InvalidFeaturesError):
+        toy_model.posterior(np.full(10, np.nan))
+
+
+def test_csv_round_trip_and_errors(tmp_path, demos: Demonstrations) -> None:  # type: ignore[no-untyped-def]
+    path = tmp_path / 'd.csv'
+    save_csv(demos, path)
+    back = load_csv(path)
+    assert back.task_names == DEFAULT_TASKS
+    assert_allclose(back.x, demos.x, atol=1e-6)
+    assert (back.task_sets == demos.task_sets).all()
+    assert back.sha256() == load_csv(path).sha256()
+    lines = path.read_text().splitlines()
+    bad = tmp_path / 'bad.csv'
+    bad.write_text('\n'.join([lines[0], lines[1].rsplit(',', 1)[0] + ',2']))
+    with pytest.raises(DataError, match=r'bad.csv:2: task column'):
+        load_csv(bad)
+    bad.write_text('\n'.join([lines[0], ','.join(['0'] * 13)]))
+    with pytest.raises(DataError, match='satisfies no task'):
+        load_csv(bad)
+    bad.write_text('a,b,c\n1,2,3\n')
+    with pytest.raises(DataError, match='first 10 columns'):
+        load_csv(bad)
