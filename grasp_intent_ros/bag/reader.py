@@ -1,0 +1,224 @@
+"""Reading session bags: with rosbags (metadata.yaml + storage) and, independently, with mcap."""
+
+from __future__ import annotations
+
+import heapq
+import os
+from collections.abc import Collection, Iterator
+from contextlib import ExitStack
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+from rosbags.interfaces import ConnectionExtRosbag2, MessageDefinitionFormat
+from rosbags.rosbag2 import Reader, ReaderError
+from rosbags.serde import SerdeError
+from rosbags.typesys import Stores, TypesysError, get_types_from_msg, get_typestore
+
+from .errors import BagReadError
+from .qos import QosSpec, decode_qos
+
+if TYPE_CHECKING:
+    from rosbags.interfaces import Connection
+    from rosbags.typesys.store import Typestore
+
+__all__ = [
+    'BagMessage',
+    'TopicInfo',
+    'McapMessage',
+    'read_messages',
+    'topics_info',
+    'read_messages_mcap',
+]
+
+
+@dataclass(frozen=True)
+class BagMessage:
+    """One message as stored: its topic, type, receive time and CDR bytes.
+
+    Attributes:
+        topic: Topic name.
+        msgtype: Message type, e.g. 'geometry_msgs/msg/PoseStamped'.
+        timestamp_ns: Receive (log) time, ns since the epoch.
+        cdr: Serialized message, CDR with encapsulation header.
+    """
+
+    topic: str
+    msgtype: str
+    timestamp_ns: int
+    cdr: bytes
+    _typestore: Typestore = field(repr=False, compare=False)
+
+    def decode(self) -> object:
+        """Deserialize :attr:`cdr` into a rosbags message object (decoded anew on each call).
+
+        Raises:
+            BagReadError: The bytes are not a valid ``msgtype`` message.
+        """
+        try:
+            return self._typestore.deserialize_cdr(self.cdr, self.msgtype)
+        except (SerdeError, TypesysError, KeyError) as exc:
+            msg = f'cannot decode {self.msgtype!r} on {self.topic!r} at {self.timestamp_ns} ns: {exc}'
+            raise BagReadError(msg) from exc
+
+
+@dataclass(frozen=True)
+class TopicInfo:
+    """What a bag holds on one topic.
+
+    Attributes:
+        msgtype: Message type.
+        count: Number of messages.
+        qos: Offered QoS profiles recorded for the topic (one per recorded publisher).
+    """
+
+    msgtype: str
+    count: int
+    qos: tuple[QosSpec, ...]
+
+
+@dataclass(frozen=True)
+class McapMessage:
+    """One message as read by the ``mcap`` library, independently of rosbags.
+
+    Attributes:
+        topic: Channel topic.
+        schema_name: Schema name, i.e. the message type, e.g. 'std_msgs/msg/String'.
+        log_time_ns: Log (receive) time, ns since the epoch.
+        decoded: The ``mcap_ros2`` dynamic message object (fields as attributes).
+    """
+
+    topic: str
+    schema_name: str
+    log_time_ns: int
+    decoded: Any
+
+
+def read_messages(
+    path: str | os.PathLike[str],
+    *,
+    topics: Collection[str] | None = None,
+    typestore: Typestore | None = None,
+) -> Iterator[BagMessage]:
+    """Iterate over a rosbag2 bag's messages in timestamp order, with rosbags.
+
+    Args:
+        path: Bag directory (with metadata.yaml).
+        topics: Only these topics; None for all.
+        typestore: Types for :meth:`BagMessage.decode`; default ROS 2 Jazzy, extended with any type
+            the bag defines that the store lacks.
+
+    Yields:
+        :class:`BagMessage`, timestamps non-decreasing.
+
+    Raises:
+        BagReadError: On first iteration, if the bag is missing/malformed or a topic is not in it.
+    """
+    bag_path = Path(path)
+    store = typestore if typestore is not None else get_typestore(Stores.ROS2_JAZZY)
+    try:
+        with Reader(bag_path) as reader:
+            conns = _select(reader.connections, topics, bag_path)
+            _register_missing_types(store, conns, bag_path)
+            for conn, stamp, data in reader.messages(connections=conns):
+                yield BagMessage(conn.topic, conn.msgtype, stamp, bytes(data), store)
+    except (ReaderError, OSError) as exc:
+        raise BagReadError(f'cannot read bag {bag_path}: {exc}') from exc
+
+
+def topics_info(path: str | os.PathLike[str]) -> dict[str, TopicInfo]:
+    """Summarise a rosbag2 bag per topic: type, message count, offered QoS.
+
+    Raises:
+        BagReadError: The bag is missing/malformed, a topic has two types, or a recorded QoS has a
+            reliability/durability outside :class:`QosSpec`.
+    """
+    bag_path = Path(path)
+    try:
+        with Reader(bag_path) as reader:
+            conns = list(reader.connections)
+    except (ReaderError, OSError) as exc:
+        raise BagReadError(f'cannot read bag {bag_path}: {exc}') from exc
+    infos: dict[str, TopicInfo] = {}
+    for conn in conns:
+        qos = conn.ext.offered_qos_profiles if isinstance(conn.ext, ConnectionExtRosbag2) else []
+        try:
+            specs = tuple(decode_qos(q) for q in qos)
+        except BagReadError as exc:
+            raise BagReadError(f'bag {bag_path}, topic {conn.topic!r}: {exc}') from exc
+        if (seen := infos.get(conn.topic)) is not None:
+            if seen.msgtype != conn.msgtype:
+                msg = (
+                    f'bag {bag_path}: topic {conn.topic!r} has two types, '
+                    f'{seen.msgtype!r} and {conn.msgtype!r}'
+                )
+                raise BagReadError(msg)
+            infos[conn.topic] = TopicInfo(seen.msgtype, seen.count + conn.msgcount, seen.qos + specs)
+        else:
+            infos[conn.topic] = TopicInfo(conn.msgtype, conn.msgcount, specs)
+    return infos
+
+
+def read_messages_mcap(
+    path: str | os.PathLike[str],
+    *,
+    topics: Collection[str] | None = None,
+) -> Iterator[McapMessage]:
+    """Iterate over the messages of a bag's .mcap file(s) in log-time order, with ``mcap``/``mcap_ros2``.
+
+    Independent of rosbags and metadata.yaml: decodes with the schemas stored in the MCAP files.
+
+    Args:
+        path: Bag directory (all ``*.mcap`` in it, merged by log time) or one .mcap file.
+        topics: Only these topics; None for all.
+
+    Yields:
+        :class:`McapMessage`, log times non-decreasing.
+
+    Raises:
+        BagReadError: On first iteration, if there is no .mcap file or a file cannot be read/decoded.
+    """
+    bag_path = Path(path)
+    files = sorted(bag_path.glob('*.mcap')) if bag_path.is_dir() else [bag_path]
+    if not files or not all(f.is_file() for f in files):
+        raise BagReadError(f'no .mcap file at {bag_path}')
+    wanted = None if topics is None else list(topics)
+    try:
+        with ExitStack() as stack:
+            streams = [
+                _mcap_file_messages(stack.enter_context(f.open('rb')), wanted) for f in files
+            ]
+            yield from heapq.merge(*streams, key=lambda m: m.log_time_ns)
+    except (McapError, OSError) as exc:
+        raise BagReadError(f'cannot read MCAP in {bag_path}: {exc}') from exc
+
+
+def _mcap_file_messages(stream: Any, topics: list[str] | None) -> Iterator[McapMessage]:
+    reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+    for schema, channel, message, decoded in reader.iter_decoded_messages(topics=topics, log_time_order=True):
+        yield McapMessage(channel.topic, schema.name if schema else '', message.log_time, decoded)
+
+
+def _select(conns: list[Connection], topics: Collection[str] | None, bag_path: Path) -> list[Connection]:
+    if topics is None:
+        return list(conns)
+    wanted = set(topics)
+    if missing := wanted - {c.topic for c in conns}:
+        raise BagReadError(f'bag {bag_path} has no topic(s) {sorted(missing)}')
+    return [c for c in conns if c.topic in wanted]
+
+
+def _register_missing_types(store: Typestore, conns: list[Connection], bag_path: Path) -> None:
+    """Add to ``store`` the bag's own definitions of message types it lacks."""
+    for conn in conns:
+        if conn.msgtype in store.fielddefs:
+            continue
+        if conn.msgdef.format != MessageDefinitionFormat.MSG:
+            raise BagReadError(f'bag {bag_path}: type {conn.msgtype!r} is unknown and has no .msg definition')
+        try:
+            store.register(get_types_from_msg(conn.msgdef.data, conn.msgtype))
+        except TypesysError as exc:
+            raise BagReadError(f'bag {bag_path}: cannot register type {conn.msgtype!r}: {exc}') from exc

@@ -1,0 +1,234 @@
+"""Writing a session to a rosbag2 directory (metadata.yaml v9, MCAP storage, CDR messages)."""
+
+from __future__ import annotations
+
+import operator
+import os
+import struct
+import threading
+from contextlib import suppress
+from pathlib import Path
+from typing import TYPE_CHECKING, Final, Literal
+
+from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
+from rosbags.serde import SerdeError
+from rosbags.typesys import Stores, TypesysError, get_typestore
+
+from .errors import BagWriteError
+from .qos import QosSpec, encode_qos
+
+if TYPE_CHECKING:
+    from types import TracebackType
+
+    from rosbags.interfaces import Connection
+    from rosbags.typesys.store import Typestore
+
+__all__ = ['SessionWriter']
+
+_MAX_TIMESTAMP_NS: Final = 2**63 - 1
+
+
+class SessionWriter:
+    """Write one recording session as a rosbag2 directory that ``ros2 bag info/play`` (Jazzy) reads.
+
+    The bag is created when the writer is constructed and finished (MCAP summary, then metadata.yaml)
+    by :meth:`close`, which the context manager always calls, also when the ``with`` body raises, so
+    that what was recorded before an error stays readable. Writes are serialised by a lock, so one
+    writer can be fed from several executor threads.
+
+    Args:
+        path: Bag directory to create; it must not exist. Its parent directories are created.
+        typestore: Message types used for schemas and :meth:`write_message`; default: ROS 2 Jazzy.
+
+    Raises:
+        BagWriteError: ``path`` exists, or the directory/storage file cannot be created.
+
+    Example:
+        >>> with SessionWriter(tmp / 'session') as bag:  # doctest: +SKIP
+        ...     bag.add_topic('/intent', 'std_msgs/msg/Float64MultiArray', qos=QosSpec())
+        ...     bag.write('/intent', stamp_ns, cdr_bytes)
+    """
+
+    def __init__(self, path: str | os.PathLike[str], *, typestore: Typestore | None = None) -> None:
+        self._path = Path(path)
+        self._typestore = typestore if typestore is not None else get_typestore(Stores.ROS2_JAZZY)
+        self._lock = threading.Lock()
+        self._connections: dict[str, Connection] = {}
+        self._count = 0
+        self._closed = True
+        if self._path.exists():
+            msg = f'cannot write bag {self._path}: it exists already (a session bag is never overwritten)'
+            raise BagWriteError(msg, path=self._path)
+        try:
+            self._writer = Writer(self._path, version=9, storage_plugin=StoragePlugin.MCAP)
+            self._writer.open()
+        except WriterError as exc:
+            raise BagWriteError(f'cannot write bag {self._path}: {exc}', path=self._path) from exc
+        except OSError as exc:
+            msg = f'cannot create bag {self._path}: {exc.strerror or exc}'
+            raise BagWriteError(msg, path=self._path) from exc
+        self._closed = False
+
+    @property
+    def path(self) -> Path:
+        """The bag directory."""
+        return self._path
+
+    @property
+    def message_count(self) -> int:
+        """Messages written so far (all topics)."""
+        return self._count
+
+    @property
+    def closed(self) -> bool:
+        """True once :meth:`close` ran or a write failed."""
+        return self._closed
+
+    @property
+    def topics(self) -> dict[str, str]:
+        """A copy of the added topics: topic name -> message type."""
+        return {topic: conn.msgtype for topic, conn in self._connections.items()}
+
+    def add_topic(self, topic: str, msgtype: str, *, qos: QosSpec) -> None:
+        """Declare a topic before writing to it.
+
+        Args:
+            topic: Fully qualified topic name, e.g. '/grasp_intent/intent'.
+            msgtype: Message type in the typestore, e.g. 'std_msgs/msg/Float64MultiArray'.
+            qos: The QoS the publisher offered; stored as the topic's ``offered_qos_profiles``.
+
+        Raises:
+            BagWriteError: Writer closed, topic malformed or already added, msgtype unknown.
+        """
+        with self._lock:
+            self._check_open()
+            if not isinstance(topic, str) or not topic.startswith('/'):
+                raise self._error(f'topic must be a fully qualified name starting with "/", got {topic!r}')
+            if topic in self._connections:
+                raise self._error(f'topic {topic!r} was already added')
+            if msgtype not in self._typestore.fielddefs:
+                raise self._error(f'message type {msgtype!r} of topic {topic!r} is not in the typestore')
+            if not isinstance(qos, QosSpec):
+                raise self._error(f'qos must be a QosSpec, got {type(qos).__name__}')
+            try:
+                conn = self._writer.add_connection(
+                    topic,
+                    msgtype,
+                    typestore=self._typestore,
+                    offered_qos_profiles=[encode_qos(qos)],
+                )
+            except (WriterError, TypesysError) as exc:
+                raise self._error(f'cannot add topic {topic!r}: {exc}') from exc
+            self._connections[topic] = conn
+
+    def write(self, topic: str, timestamp_ns: int, cdr: bytes | memoryview) -> None:
+        """Write one already serialized message (CDR with its 4-byte encapsulation header).
+
+        Args:
+            topic: A topic given to :meth:`add_topic`.
+            timestamp_ns: Receive time, ns since the epoch, in [0, 2**63).
+            cdr: The serialized message, e.g. from an rclpy subscription with ``raw=True``.
+
+        Raises:
+            BagWriteError: Writer closed, topic unknown, bad timestamp or data, or an OS error
+                (e.g. ENOSPC); after an OS error the writer is closed and the bag is incomplete.
+        """
+        with self._lock:
+            self._write_locked(topic, timestamp_ns, cdr)
+
+    def write_message(self, topic: str, timestamp_ns: int, msg: object) -> None:
+        """Serialize a rosbags message object of the topic's type to CDR and write it.
+
+        Raises:
+            BagWriteError: As :meth:`write`, or the message is not of the topic's type or cannot be
+                serialized (e.g. a primitive array that is not a numpy array).
+        """
+        with self._lock:
+            self._check_open()
+            conn = self._connection(topic)
+            msgtype = getattr(msg, '__msgtype__', None)
+            if msgtype != conn.msgtype:
+                raise self._error(
+                    f'topic {topic!r} carries {conn.msgtype!r}, got a message of type {msgtype!r}'
+                )
+            try:
+                cdr = self._typestore.serialize_cdr(msg, conn.msgtype, little_endian=True)
+            except (SerdeError, TypesysError, struct.error, AttributeError, TypeError, ValueError) as exc:
+                raise self._error(f'cannot serialize {conn.msgtype!r} for topic {topic!r}: {exc}') from exc
+            self._write_locked(topic, timestamp_ns, cdr)
+
+    def close(self) -> None:
+        """Finish the bag: write the MCAP summary and metadata.yaml. Idempotent.
+
+        Raises:
+            BagWriteError: An OS error while finishing (e.g. ENOSPC); the bag is then incomplete.
+        """
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            try:
+                self._writer.close()
+            except OSError as exc:
+                raise self._failed('closing', exc) from exc
+
+    def __enter__(self) -> SessionWriter:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc_val: BaseException | None,
+        exc_tb: TracebackType | None,
+    ) -> Literal[False]:
+        self.close()
+        return False
+
+    def __repr__(self) -> str:
+        state = 'closed' if self._closed else 'open'
+        return (
+            f'SessionWriter({str(self._path)!r}, {state}, '
+            f'{len(self._connections)} topics, {self._count} messages)'
+        )
+
+    def _write_locked(self, topic: str, timestamp_ns: int, cdr: bytes | memoryview) -> None:
+        self._check_open()
+        conn = self._connection(topic)
+        try:
+            stamp = operator.index(timestamp_ns)
+        except TypeError:
+            raise self._error(f'timestamp_ns must be an integer (ns), got {timestamp_ns!r}') from None
+        if not 0 <= stamp <= _MAX_TIMESTAMP_NS:
+            raise self._error(f'timestamp_ns must be in [0, 2**63), got {stamp}')
+        if not isinstance(cdr, (bytes, memoryview)) or len(cdr) < 4:
+            raise self._error(f'cdr must be serialized bytes with a 4-byte encapsulation header on {topic!r}')
+        try:
+            self._writer.write(conn, stamp, cdr)
+        except OSError as exc:
+            raise self._failed('writing', exc) from exc
+        self._count += 1
+
+    def _connection(self, topic: str) -> Connection:
+        try:
+            return self._connections[topic]
+        except KeyError:
+            raise self._error(f'topic {topic!r} was not added (call add_topic first)') from None
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise self._error(f'writer for bag {self._path} is closed')
+
+    def _error(self, msg: str) -> BagWriteError:
+        return BagWriteError(msg, path=self._path, messages_written=self._count)
+
+    def _failed(self, action: str, exc: OSError) -> BagWriteError:
+        """Abort the storage after an OS error and describe what was lost."""
+        self._closed = True
+        with suppress(Exception):
+            self._writer.abort()
+        msg = (
+            f'{action} bag {self._path} failed: {exc.strerror or exc} (errno {exc.errno}); '
+            f'{self._count} messages had been written; the bag is incomplete (no MCAP summary, '
+            'no metadata.yaml) and messages still buffered in the open chunk are lost'
+        )
+        return self._error(msg)
