@@ -132,7 +132,8 @@ def event_probabilities(w: ArrayLike) -> NDArray[np.float64]:
     masks = np.arange(1 << m)
     bits = (masks[:, None] >> np.arange(m)[None, :]) & 1  # (2^m, m)
     factors = np.where(bits == 1, w_arr[None, :], 1.0 - w_arr[None, :])
-    return np.prod(factors, axis=1)
+    u: NDArray[np.float64] = np.prod(factors, axis=1)
+    return u
 
 
 @dataclass(frozen=True)

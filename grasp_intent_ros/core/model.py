@@ -400,14 +400,16 @@ class GraspModel:
                 raise ModelFormatError('zone_models must list the zones in the order of "zones"')
             return cls(name=str(doc.get('name', '')), task_names=task_names, zones=zones,
                        features=features,
-                       means=[z['mean'] for z in zm], covariances=[z['covariance'] for z in zm],
-                       priors=[z['prior'] for z in zm], counts=[int(z['count']) for z in zm],
-                       task_means=[t['mean'] for t in tm],
-                       task_covariances=[t['covariance'] for t in tm],
-                       task_counts=[int(t['count']) for t in tm],
-                       demo_x=[dm['x'] for dm in doc['demonstrations']],
-                       demo_sets=list(parse_zones([str(dm['tasks']) for dm in doc['demonstrations']],
-                                                  task_names)),
+                       means=np.asarray([z['mean'] for z in zm], dtype=np.float64),
+                       covariances=np.asarray([z['covariance'] for z in zm], dtype=np.float64),
+                       priors=np.asarray([z['prior'] for z in zm], dtype=np.float64),
+                       counts=np.asarray([int(z['count']) for z in zm], dtype=np.int64),
+                       task_means=np.asarray([t['mean'] for t in tm], dtype=np.float64),
+                       task_covariances=np.asarray([t['covariance'] for t in tm], dtype=np.float64),
+                       task_counts=np.asarray([int(t['count']) for t in tm], dtype=np.int64),
+                       demo_x=np.asarray([dm['x'] for dm in doc['demonstrations']], dtype=np.float64),
+                       demo_sets=np.asarray(parse_zones([str(dm['tasks']) for dm in doc['demonstrations']],
+                                                        task_names), dtype=np.int64),
                        data_hash=str(doc.get('data_hash', '')), ridge=float(doc.get('ridge', DEFAULT_RIDGE)))
         except ModelFormatError:
             raise

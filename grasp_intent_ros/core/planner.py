@@ -24,7 +24,8 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import Bounds, NonlinearConstraint, OptimizeResult, minimize
+from scipy.optimize import (  # type: ignore[import-untyped]
+    Bounds, NonlinearConstraint, OptimizeResult, minimize)
 
 from .errors import PlanningError
 from .intent import reconstruct_w
@@ -171,7 +172,8 @@ def select_starts(model: GraspModel, v: NDArray[np.float64], n_starts: int = 3,
         first = np.argsort(f, kind='stable')[:1]
     rest = [int(i) for i in pool[np.argsort(f[pool], kind='stable')] if i != first[0]]
     starts = [int(first[0]), *rest[:n_starts - 1]]
-    return model.demo_x[np.asarray(starts)]
+    out: NDArray[np.float64] = model.demo_x[np.asarray(starts)]
+    return out
 
 
 def _refine(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.float64], method: Method,
