@@ -8,7 +8,7 @@ index  name         unit  meaning
 =====  ===========  ====  =====================================================================
 0-2    palm_x/y/z   m     palm centre in the object frame
 3-5    approach_x..  1    unit approach direction of the palm (the hand's z axis), object frame
-6      roll         rad   wrist roll about the approach axis; 0 = fingers' thumb side towards +z
+6      roll         rad   wrist roll about the approach axis (see core.kinematics for the frame)
 7-9    finger_1..3  rad   finger closure, 0 open .. 1.51 closed (stands in for finger force)
 =====  ===========  ====  =====================================================================
 """

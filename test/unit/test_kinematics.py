@@ -1,0 +1,340 @@
+"""Unit tests of grasp_intent_ros.core.kinematics and core.resources (no rclpy)."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+from numpy.typing import NDArray
+
+from grasp_intent_ros.core import resources
+from grasp_intent_ros.core.errors import InvalidFeaturesError, KinematicsError
+from grasp_intent_ros.core.features import APPROACH, FINGER_CLOSED, FINGERS, PALM, ROLL
+from grasp_intent_ros.core.kinematics import (
+    ARM_JOINTS,
+    EE_FRAME,
+    FINGER_JOINTS,
+    HOME_Q,
+    MicoKinematics,
+    default_urdf_path,
+    features_to_obj_T_ee,
+    matrix_to_pose,
+    obj_T_ee_to_features,
+    pose_to_matrix,
+)
+
+WIDE = (0, 3, 4, 5)
+
+# -- an independent implementation of Kinova's MICO DH table (standard DH, theta = s q + o) -------------
+_K = math.sin(math.radians(30)) / math.sin(math.radians(60))
+_D1, _D2, _D3, _D4, _D5, _D6, _E2 = 0.2755, 0.2900, 0.1233, 0.0741, 0.0741, 0.1600, 0.0070
+_DH = (  # a, d, alpha, s, o
+    (0.0, _D1, math.pi / 2, -1.0, 0.0),
+    (_D2, 0.0, math.pi, 1.0, -math.pi / 2),
+    (0.0, -_E2, math.pi / 2, 1.0, math.pi / 2),
+    (0.0, -(_D3 + _K * _D4), math.radians(60), 1.0, 0.0),
+    (0.0, -_K * (_D4 + _D5), math.radians(60), 1.0, -math.pi),
+    (0.0, -(_K * _D5 + _D6), math.pi, 1.0, math.pi / 2),
+)
+
+
+def dh_fk(q: NDArray[np.float64]) -> NDArray[np.float64]:
+    base_T_i = np.eye(4)
+    for (a, d, alpha, s, o), q_i in zip(_DH, q):
+        theta = s * q_i + o
+        ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
+        base_T_i = base_T_i @ np.array([[ct, -st * ca, st * sa, a * ct],
+                                        [st, ct * ca, -ct * sa, a * st],
+                                        [0.0, sa, ca, d],
+                                        [0.0, 0.0, 0.0, 1.0]])
+    return base_T_i
+
+
+@pytest.fixture(scope='module')
+def kin() -> MicoKinematics:
+    return MicoKinematics()
+
+
+def random_q(kin: MicoKinematics, rng: np.random.Generator) -> NDArray[np.float64]:
+    """Joint angles within the limits, wide joints within pi of home."""
+    q = rng.uniform(kin.lower, kin.upper)
+    q[list(WIDE)] = HOME_Q[list(WIDE)] + rng.uniform(-math.pi, math.pi, len(WIDE))
+    return q
+
+
+def pose_errors(base_T_a: NDArray[np.float64], base_T_b: NDArray[np.float64]) -> tuple[float, float]:
+    pos = float(np.linalg.norm(base_T_a[:3, 3] - base_T_b[:3, 3]))
+    cos_angle = (np.trace(base_T_a[:3, :3].T @ base_T_b[:3, :3]) - 1.0) / 2.0
+    return pos, math.acos(min(1.0, max(-1.0, cos_angle)))
+
+
+# -- URDF and model ---------------------------------------------------------------------------------
+
+def test_model_joints_and_limits(kin: MicoKinematics) -> None:
+    assert kin.joint_names == ARM_JOINTS
+    assert kin.model.nq == 6
+    assert_allclose(kin.lower[[1, 2]], np.radians([50.0, 35.0]))
+    assert_allclose(kin.upper[[1, 2]], np.radians([310.0, 325.0]))
+    assert np.all(kin.lower[list(WIDE)] <= HOME_Q[list(WIDE)] - 2 * math.pi)
+    assert np.all(kin.upper[list(WIDE)] >= HOME_Q[list(WIDE)] + 2 * math.pi)
+    assert np.all((kin.lower < HOME_Q) & (HOME_Q < kin.upper))
+    assert_allclose(kin.velocity_limits, np.radians([36, 36, 36, 48, 48, 48]))
+    with pytest.raises(ValueError):
+        kin.lower[0] = 0.0
+
+
+def test_urdf_fingers() -> None:
+    full = pin.buildModelFromUrdf(str(default_urdf_path()))
+    for name in FINGER_JOINTS:
+        jid = full.getJointId(name)
+        assert jid < full.njoints
+        assert full.lowerPositionLimit[full.idx_qs[jid]] == 0.0
+        assert full.upperPositionLimit[full.idx_qs[jid]] == pytest.approx(FINGER_CLOSED)
+    for i in (1, 2, 3):
+        assert full.existFrame(f'm1n6s300_link_finger_{i}')
+        assert full.existFrame(f'm1n6s300_link_finger_tip_{i}')
+    assert full.nq == 9  # fingertips are fixed
+
+
+def test_fk_matches_dh_table(kin: MicoKinematics) -> None:
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        q = rng.uniform(-2 * math.pi, 2 * math.pi, 6)
+        assert_allclose(kin.fk(q), dh_fk(q), rtol=0.0, atol=1e-9)
+
+
+def test_home_fk(kin: MicoKinematics) -> None:
+    base_T_ee = kin.fk(HOME_Q)
+    assert_allclose(base_T_ee[:3, 3], (0.2149, -0.2036, 0.4187), atol=1e-3)
+
+
+def test_fk_rejects_bad_q(kin: MicoKinematics) -> None:
+    for bad in (np.zeros(5), np.zeros((6, 1)), np.full(6, np.nan), 'abcdef'):
+        with pytest.raises(KinematicsError):
+            kin.fk(bad)
+
+
+# -- inverse kinematics -----------------------------------------------------------------------------
+
+def test_ik_round_trip_from_home(kin: MicoKinematics) -> None:
+    rng = np.random.default_rng(1)
+    n, successes = 100, 0
+    for _ in range(n):
+        base_T_target = kin.fk(random_q(kin, rng))
+        res = kin.ik(base_T_target, HOME_Q, restarts=8, rng=rng)
+        assert np.all((kin.lower <= res.q) & (res.q <= kin.upper))
+        assert np.all(np.abs(res.q[list(WIDE)] - HOME_Q[list(WIDE)]) <= math.pi + 1e-9)
+        if res.success:
+            successes += 1
+            pos, rot = pose_errors(kin.fk(res.q), base_T_target)
+            assert pos <= 1e-4 and rot <= 1e-3, res.message
+            assert res.pos_error_m == pytest.approx(pos, abs=1e-9)
+    assert successes / n >= 0.95
+
+
+def test_ik_near_seed_is_fast_and_exact(kin: MicoKinematics) -> None:
+    rng = np.random.default_rng(2)
+    for _ in range(30):
+        q_true = random_q(kin, rng)
+        q_seed = np.clip(q_true + rng.normal(0.0, 0.05, 6), kin.lower, kin.upper)
+        base_T_target = kin.fk(q_true)
+        res = kin.ik(base_T_target, q_seed, restarts=0)
+        assert res.success, res.message
+        assert res.attempts == 1 and res.iterations <= 20
+        pos, rot = pose_errors(kin.fk(res.q), base_T_target)
+        assert pos <= 1e-4 and rot <= 1e-3
+        # the same solution (joint errors of a few mrad are allowed near the wrist singularity q5 = 0)
+        assert_allclose(res.q, q_true, atol=0.05)
+
+
+def test_ik_answer_on_branch_nearest_seed(kin: MicoKinematics) -> None:
+    q_true = np.array([1.0, 2.5, 1.5, -0.5, 2.0, 0.3])
+    q_seed = q_true + np.array([2 * math.pi, 0.0, 0.0, -2 * math.pi, 4 * math.pi, 2 * math.pi]) + 0.02
+    res = kin.ik(kin.fk(q_true), q_seed)
+    assert res.success, res.message
+    # joint 5's nearest branch (q + 4 pi = 14.6) lies beyond the 4 pi limit: the nearest one inside is taken
+    expected = q_true + np.array([2 * math.pi, 0.0, 0.0, -2 * math.pi, 2 * math.pi, 2 * math.pi])
+    assert_allclose(res.q, expected, atol=0.02)
+
+
+def test_nearest_branch(kin: MicoKinematics) -> None:
+    q = np.array([0.1, 2.0, 2.0, 0.2, 0.3, 0.4])
+    ref = np.array([6.3, 5.0, 0.7, -6.0, -12.5, 30.0])
+    out = kin.nearest_branch(q, ref)
+    assert_allclose(out[[1, 2]], q[[1, 2]])
+    assert_allclose(out[[0, 3]], q[[0, 3]] + np.array([2 * math.pi, -2 * math.pi]))
+    assert kin.lower[4] <= out[4] and out[5] <= kin.upper[5]
+    assert_allclose(kin.fk(out), kin.fk(q), atol=1e-12)
+
+
+def test_ik_reproducible(kin: MicoKinematics) -> None:
+    q_true = random_q(kin, np.random.default_rng(3))
+    target = kin.fk(q_true)
+    first = kin.ik(target, rng=7)
+    second = kin.ik(target, rng=7)
+    assert_allclose(first.q, second.q)
+    assert first.iterations == second.iterations
+
+
+def test_ik_unreachable_reports_failure(kin: MicoKinematics) -> None:
+    base_T_target = np.eye(4)
+    base_T_target[:3, 3] = (2.0, 0.0, 0.3)
+    res = kin.ik(base_T_target, restarts=2)
+    assert not res.success
+    assert res.pos_error_m > 1.0
+    assert res.attempts == 3
+    assert np.all(np.isfinite(res.q)) and np.all((kin.lower <= res.q) & (res.q <= kin.upper))
+    assert 'did not converge' in res.message
+
+
+def test_ik_rejects_bad_input(kin: MicoKinematics) -> None:
+    good = kin.fk(HOME_Q)
+    skewed = good.copy()
+    skewed[:3, :3] *= 1.1
+    bottom = good.copy()
+    bottom[3, 0] = 1.0
+    for target in (np.eye(3), np.full((4, 4), np.nan), skewed, bottom):
+        with pytest.raises(KinematicsError):
+            kin.ik(target)
+    with pytest.raises(KinematicsError):
+        kin.ik(good, np.zeros(5))
+    with pytest.raises(KinematicsError):
+        kin.ik(good, restarts=-1)
+    with pytest.raises(KinematicsError):
+        kin.ik(good, pos_tol=0.0)
+
+
+def test_missing_urdf_raises(tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError):
+        MicoKinematics(tmp_path / 'nope.urdf')
+    bad = tmp_path / 'two_link.urdf'
+    bad.write_text('<robot name="r"><link name="a"/><link name="b"/>'
+                   '<joint name="j" type="revolute"><parent link="a"/><child link="b"/>'
+                   '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/>'
+                   '</joint></robot>')
+    with pytest.raises(KinematicsError):
+        MicoKinematics(bad)
+
+
+# -- grasp features <-> end-effector pose -------------------------------------------------------------
+
+_unit_approach = st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)).filter(
+    lambda v: 0.1 < math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
+    and v[2] / math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2) < 0.999)
+
+
+@settings(max_examples=200, deadline=None)
+@given(palm=st.tuples(*[st.floats(-0.3, 0.3)] * 3), approach=_unit_approach,
+       roll=st.floats(-math.pi / 2, 3 * math.pi / 2, exclude_max=True),
+       fingers=st.tuples(*[st.floats(0.0, FINGER_CLOSED)] * 3))
+def test_features_round_trip(palm: tuple[float, ...], approach: tuple[float, ...], roll: float,
+                             fingers: tuple[float, ...]) -> None:
+    x = np.array([*palm, *approach, roll, *fingers])
+    obj_T_ee = features_to_obj_T_ee(x)
+    a_hat = x[APPROACH] / np.linalg.norm(x[APPROACH])
+    assert_allclose(obj_T_ee[:3, 2], a_hat, atol=1e-12)  # EE z axis = approach
+    assert_allclose(obj_T_ee[:3, 3], x[PALM])  # EE origin = palm centre
+    assert_allclose(obj_T_ee[:3, :3].T @ obj_T_ee[:3, :3], np.eye(3), atol=1e-12)
+    assert np.linalg.det(obj_T_ee[:3, :3]) == pytest.approx(1.0)
+    back = obj_T_ee_to_features(obj_T_ee, x[FINGERS])
+    expected = x.copy()
+    expected[APPROACH] = a_hat
+    # roll is periodic: compare on the circle, then exactly away from the wrap point
+    assert abs(math.remainder(back[ROLL] - roll, 2 * math.pi)) < 1e-9
+    assert -math.pi / 2 <= back[ROLL] < 3 * math.pi / 2
+    back[ROLL] = expected[ROLL] = 0.0
+    assert_allclose(back, expected, atol=1e-9)
+
+
+def test_feature_convention_examples() -> None:
+    top = np.zeros(10)
+    top[APPROACH] = (0.0, 0.0, -1.0)
+    assert_allclose(features_to_obj_T_ee(top)[:3, :3], np.diag([1.0, -1.0, -1.0]), atol=1e-15)
+    # roll r turns the EE by -r about its own z axis (= +r about the object's z axis for a top grasp)
+    top[ROLL] = math.pi / 2
+    assert_allclose(features_to_obj_T_ee(top)[:3, 0], (0.0, 1.0, 0.0), atol=1e-15)
+    side = np.zeros(10)
+    side[APPROACH] = (2.0, 0.0, 0.0)  # not normalised on purpose
+    R = features_to_obj_T_ee(side)[:3, :3]
+    assert_allclose(R[:, 2], (1.0, 0.0, 0.0), atol=1e-15)
+    assert_allclose(R[:, 0], (0.0, 0.0, 1.0), atol=1e-15)  # thumb up
+    below = np.zeros(10)
+    below[APPROACH] = (0.0, 0.0, 1.0)  # singular for R_min: deterministic R_x(pi)
+    assert_allclose(features_to_obj_T_ee(below)[:3, :3], np.eye(3), atol=1e-15)
+    nearly = below.copy()
+    nearly[APPROACH] = (1e-9, 0.0, 1.0)
+    R = features_to_obj_T_ee(nearly)[:3, :3]
+    assert_allclose(R.T @ R, np.eye(3), atol=1e-12)
+    assert_allclose(R[:, 2], (1e-9, 0.0, 1.0), atol=1e-12)
+
+
+def test_features_reject_bad_input() -> None:
+    for bad in (np.zeros(9), np.full(10, np.nan), np.zeros(10)):  # the last has a zero approach
+        with pytest.raises(InvalidFeaturesError):
+            features_to_obj_T_ee(bad)
+    with pytest.raises(InvalidFeaturesError):
+        obj_T_ee_to_features(np.eye(4), np.zeros(2))
+    with pytest.raises(KinematicsError):
+        obj_T_ee_to_features(np.eye(3), np.zeros(3))
+
+
+def test_features_to_base_pose_and_ik(kin: MicoKinematics) -> None:
+    """The planner's path: features in the object frame -> base_T_ee -> joint angles."""
+    base_T_obj = pose_to_matrix((0.35, -0.25, 0.0), (0.0, 0.0, math.sin(0.3), math.cos(0.3)))
+    x = np.array([0.0, 0.0, 0.12, 0.0, 0.0, -1.0, 0.2, 0.5, 0.5, 0.5])
+    base_T_ee = base_T_obj @ features_to_obj_T_ee(x)
+    res = kin.ik(base_T_ee)
+    assert res.success, res.message
+    assert_allclose(kin.fk(res.q)[:3, 2], base_T_obj[:3, :3] @ x[APPROACH], atol=1e-3)
+
+
+# -- poses --------------------------------------------------------------------------------------------
+
+def test_pose_matrix_round_trip() -> None:
+    half = math.radians(45)
+    T = pose_to_matrix((1.0, 2.0, 3.0), (0.0, 0.0, math.sin(half), math.cos(half)))  # 90 deg about z
+    assert_allclose(T[:3, :3], [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]], atol=1e-15)
+    rng = np.random.default_rng(4)
+    for _ in range(50):
+        quat = rng.normal(size=4)
+        quat /= np.linalg.norm(quat)
+        position, back = matrix_to_pose(pose_to_matrix(rng.normal(size=3), 3.0 * quat))
+        assert back[3] >= 0.0
+        assert_allclose(back, quat * np.sign(quat[3]), atol=1e-12)
+    with pytest.raises(KinematicsError):
+        pose_to_matrix((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0))
+    with pytest.raises(KinematicsError):
+        pose_to_matrix((0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+
+
+# -- resources ----------------------------------------------------------------------------------------
+
+def test_config_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv(resources.CONFIG_ENV_VAR, raising=False)
+    assert (resources.config_dir() / 'mico_3f.urdf').is_file()
+    assert default_urdf_path().name == 'mico_3f.urdf'
+    monkeypatch.setenv(resources.CONFIG_ENV_VAR, str(tmp_path))
+    assert resources.config_dir() == tmp_path
+    with pytest.raises(FileNotFoundError, match='mico_3f.urdf'):
+        default_urdf_path()
+    monkeypatch.setenv(resources.CONFIG_ENV_VAR, str(tmp_path / 'missing'))
+    with pytest.raises(FileNotFoundError, match=resources.CONFIG_ENV_VAR):
+        resources.config_dir()
+
+
+def test_core_kinematics_does_not_import_rclpy() -> None:
+    code = ('import sys, grasp_intent_ros.core.kinematics, grasp_intent_ros.core.resources; '
+            'sys.exit("rclpy" in sys.modules)')
+    assert subprocess.run([sys.executable, '-c', code], check=False, timeout=60).returncode == 0
+
+
+def test_ee_frame_name(kin: MicoKinematics) -> None:
+    assert kin.model.existFrame(EE_FRAME)
