@@ -8,4 +8,4 @@ bash "$repo/scripts/venv.sh"
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$(( (($$ % 80)) + 10 ))}"
 cd "$repo"
-exec "$repo/.venv/bin/python" -m pytest "$@"
+exec "$repo/.venv/bin/python" -m pytest -q "$@"
