@@ -32,6 +32,7 @@ __all__ = [
     'event_probabilities',
     'interpret',
     'reconstruct_w',
+    'restrict',
 ]
 
 MAX_TASKS = 10
@@ -253,3 +254,44 @@ def reconstruct_w(p: ArrayLike, zones: Sequence[int], m: int) -> NDArray[np.floa
         raise InvalidIntentError(f'p has {p_arr.shape[-1]} entries but there are {zone_arr.size} zones')
     membership = ((zone_arr[:, None] >> np.arange(m)[None, :]) & 1).astype(np.float64)  # (K, m)
     return p_arr @ membership
+
+
+def restrict(v: ArrayLike, zones: Sequence[int], model_zones: Sequence[int]) -> NDArray[np.float64] | None:
+    """Re-express a target vector over a model's zones: keep the model's zones, renormalise.
+
+    For v = interpret(w).v over all zones this equals interpret(w, model_zones).v.
+
+    Parameters
+    ----------
+    v : array_like, shape (K,)
+        Target vector over ``zones``.
+    zones : sequence of int, length K
+    model_zones : sequence of int
+        Must all be among ``zones``.
+
+    Returns
+    -------
+    ndarray over ``model_zones`` summing to 1, or None when v gives those zones no probability
+    (the operator must be asked for clarification).
+
+    Raises
+    ------
+    InvalidIntentError
+        For a v that is not a finite, non-negative vector with one entry per zone, or a model zone
+        that v does not cover.
+    """
+    arr = np.asarray(v, dtype=np.float64)
+    zone_list = [int(z) for z in zones]
+    if arr.shape != (len(zone_list),) or not np.all(np.isfinite(arr)) or np.any(arr < 0.0):
+        raise InvalidIntentError(f'v must be a finite, non-negative vector with {len(zone_list)} entries, '
+                                 f'got {arr.tolist()}')
+    index = {z: i for i, z in enumerate(zone_list)}
+    missing = [z for z in model_zones if z not in index]
+    if missing:
+        raise InvalidIntentError(f'v does not cover the model zones {missing}')
+    sub = arr[[index[int(z)] for z in model_zones]]
+    total = float(sub.sum())
+    if not total > 0.0:
+        return None
+    out: NDArray[np.float64] = sub / total
+    return out

@@ -106,3 +106,17 @@ def test_labels_for_generic_tasks() -> None:
     names = intent.default_task_names(4)
     assert intent.zone_label(0b0101, names) == '1+3'
     assert intent.parse_zones(['1+3'], names) == (0b0101,)
+
+
+@pytest.mark.parametrize('structure', ['7zone', '5zone', '4zone'])
+def test_restrict_equals_interpreting_for_the_model(structure: str) -> None:
+    zones = structure_zones(structure, TASKS)
+    for w in [(0.9, 0.1, 0.9), (0.3, 0.8, 0.2), (0.9, 0.9, 0.9)]:
+        full = intent.interpret(w)
+        direct = intent.interpret(w, zones)
+        assert full.v is not None and direct.v is not None
+        assert_allclose(intent.restrict(full.v, full.zones, zones), direct.v, atol=1e-12)
+    v_u_only = np.eye(7)[0]
+    assert intent.restrict(v_u_only, intent.all_zones(3), structure_zones('4zone', TASKS)) is None
+    with pytest.raises(InvalidIntentError):
+        intent.restrict([0.5, 0.5], intent.all_zones(3), zones)
