@@ -1,0 +1,100 @@
+"""Intent interpreter node: task probabilities w -> target vector v over all zones (paper eqs. 3-4).
+
+Run: ``python -m grasp_intent_ros.intent_interpreter``
+     ``[--ros-args --params-file config/intent_interpreter.yaml]``
+
+Topics (relative; ``-r __ns:=/robot1`` moves them)
+    in   ``intent/w``              std_msgs/Float64MultiArray, m values in [0, 1], one per task
+    out  ``intent/v``              std_msgs/Float64MultiArray, 2^m - 1 values in core zone order,
+                                   one dimension labelled with the zone labels ("U,T,H,UT,UH,TH,UTH")
+    out  ``intent/clarification``  std_msgs/String, the reason, instead of v when P(no task) >= threshold
+    out  ``/diagnostics``
+Parameters
+    ``task_names`` (string[], default usage, transfer, handover): names of the m tasks in w's order
+    ``clarification_threshold`` (float in (0, 1], default 0.5)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from rclpy.node import Node
+from std_msgs.msg import Float64MultiArray, String
+
+from .core.errors import InvalidIntentError
+from .core.intent import (DEFAULT_CLARIFICATION_THRESHOLD, DEFAULT_TASKS, MAX_TASKS, NeedsClarification,
+                          all_zones, interpret, validate_w, zone_labels)
+from .ros.conversions import array_to_msg, msg_to_array
+from .ros.diagnostics import NodeDiagnostics
+from .ros.params import ParamSpec, declare_parameters
+from .ros.qos import input_qos, output_qos
+from .ros.run import run_node
+
+__all__ = ['IntentInterpreter', 'PARAMETERS', 'main']
+
+
+def check_task_names(names: Sequence[str]) -> None:
+    """1..MAX_TASKS unique, non-empty names without commas. Raises InvalidIntentError."""
+    all_zones(len(names))
+    if any(not n or ',' in n or n != n.strip() for n in names):
+        raise InvalidIntentError(f'task names must be non-empty, without commas or surrounding spaces: '
+                                 f'{list(names)}')
+    if len(set(names)) != len(names):
+        raise InvalidIntentError(f'task names must be unique: {list(names)}')
+
+
+def check_threshold(value: float) -> None:
+    """The threshold must be > 0 (the upper bound 1 is enforced by the descriptor's range)."""
+    if not value > 0.0:
+        raise InvalidIntentError(f'must lie in (0, 1], got {value}')
+
+
+PARAMETERS = (
+    ParamSpec('task_names', DEFAULT_TASKS,
+              'Names of the m principal tasks, in the order of the entries of w (m = expected length of w).',
+              validator=check_task_names, constraints=f'1..{MAX_TASKS} unique names without commas'),
+    ParamSpec('clarification_threshold', DEFAULT_CLARIFICATION_THRESHOLD,
+              'Ask for clarification instead of publishing v when P(no task) >= this probability.',
+              range=(0.0, 1.0), validator=check_threshold, constraints='in (0, 1]'),
+)
+
+
+class IntentInterpreter(Node):
+    """Subscribes to w, publishes v (or a clarification request). ``kwargs`` go to ``rclpy.node.Node``."""
+
+    def __init__(self, node_name: str = 'intent_interpreter', **kwargs: Any) -> None:
+        super().__init__(node_name, **kwargs)
+        self._diagnostics = NodeDiagnostics(self, 'intent')
+        self._params = declare_parameters(self, PARAMETERS, on_change=self._configure)
+        self._configure(self._params)
+        self._v_pub = self.create_publisher(Float64MultiArray, 'intent/v', output_qos())
+        self._clarification_pub = self.create_publisher(String, 'intent/clarification', output_qos())
+        self._w_sub = self.create_subscription(Float64MultiArray, 'intent/w',
+                                               self._diagnostics.guard(self._on_w), input_qos())
+
+    def _configure(self, changed: Mapping[str, Any]) -> None:
+        task_names = self._params['task_names']
+        self._zones = all_zones(len(task_names))
+        self._labels = zone_labels(self._zones, task_names)
+        self._diagnostics.set_value('tasks', ','.join(task_names))
+        self._diagnostics.set_value('clarification threshold', self._params['clarification_threshold'])
+
+    def _on_w(self, msg: Float64MultiArray) -> None:
+        w = validate_w(msg_to_array(msg, max_size=MAX_TASKS, error=InvalidIntentError, what='w'),
+                       len(self._params['task_names']))
+        result = interpret(w, self._zones,
+                           clarification_threshold=self._params['clarification_threshold'])
+        if isinstance(result, NeedsClarification):
+            self._clarification_pub.publish(String(data=result.reason))
+        else:
+            self._v_pub.publish(array_to_msg(result.v, [self._labels]))
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point: run the node until SIGINT/SIGTERM."""
+    run_node(IntentInterpreter, args)
+
+
+if __name__ == '__main__':
+    main()

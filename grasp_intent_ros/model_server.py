@@ -1,0 +1,154 @@
+"""Model server node: hosts the trained grasp models and publishes the active one, latched.
+
+Run: ``python -m grasp_intent_ros.model_server``
+     ``[--ros-args --params-file config/model_server.yaml]``
+
+Topics (relative; ``-r __ns:=/robot1`` moves them)
+    out, latched  ``model/active``               std_msgs/String: the versioned model document
+                                                 (see :mod:`grasp_intent_ros.ros.conversions`)
+    out, latched  ``model/ambiguity``            std_msgs/Float64MultiArray, KL matrix (m, m), nats;
+                                                 [i, j] = KL(task i || task j); both dims labelled
+                                                 with the task names
+    out, latched  ``model/ambiguity/symmetric``  same layout: KL + KL^T
+    out, latched  ``model/ambiguity/pinsker``    same layout: Pinsker bounds min(sqrt(KL / 2), 1)
+    in            ``model/query``                std_msgs/Float64MultiArray, a feature vector x, shape (d,)
+    out           ``model/posterior``            std_msgs/Float64MultiArray, P(zone | x) over the active
+                                                 model's zones, dim labelled with the zone labels
+    out           ``/diagnostics``
+Parameters
+    ``model`` (string, default cup_7zone): active model, the stem of a YAML file in the models
+    directory; changeable at run time; an unknown or malformed model is rejected with the reason.
+    ``models_dir`` (string, read-only, default '' = <config_dir()>/models).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from rclpy.node import Node
+from std_msgs.msg import Float64MultiArray, String
+
+from .core import ambiguity
+from .core.errors import InvalidFeaturesError, ModelError, ModelFormatError
+from .core.model import GraspModel
+from .core.resources import config_dir
+from .ros.conversions import array_to_msg, model_to_msg, msg_to_array
+from .ros.diagnostics import NodeDiagnostics
+from .ros.params import ParamSpec, declare_parameters
+from .ros.qos import input_qos, latched_qos, output_qos
+from .ros.run import run_node
+
+__all__ = ['ModelServer', 'ModelFiles', 'PARAMETERS', 'MAX_FEATURES', 'main']
+
+MAX_FEATURES = 1024
+"""Largest feature vector accepted on model/query (values)."""
+
+PARAMETERS = (
+    ParamSpec('model', 'cup_7zone',
+              'Active grasp model: the file stem of a model YAML in models_dir (e.g. cup_7zone).'),
+    ParamSpec('models_dir', '',
+              "Directory of the trained models (*.yaml); '' means the package's config/models.",
+              read_only=True),
+)
+
+
+class ModelFiles:
+    """The model YAML files of one directory, loaded on demand and cached by modification time."""
+
+    def __init__(self, directory: Path) -> None:
+        self.directory = directory
+        self._cache: dict[str, tuple[int, GraspModel]] = {}
+
+    def names(self) -> tuple[str, ...]:
+        """Stems of the ``*.yaml`` files, sorted."""
+        return tuple(sorted(p.stem for p in self.directory.glob('*.yaml') if p.is_file()))
+
+    def load(self, name: str) -> GraspModel:
+        """The model stored as ``<name>.yaml``.
+
+        Raises
+        ------
+        ModelError
+            If there is no such model (the reason lists the known names).
+        ModelFormatError
+            If the file is not a valid model document.
+        """
+        known = self.names()
+        if name not in known:
+            raise ModelError(f'unknown model {name!r} in {self.directory}; known: '
+                             f'{", ".join(known) or "none"}')
+        path = self.directory / f'{name}.yaml'
+        mtime = path.stat().st_mtime_ns
+        cached = self._cache.get(name)
+        if cached is None or cached[0] != mtime:
+            try:
+                cached = (mtime, GraspModel.load(path))
+            except ModelFormatError as exc:
+                raise ModelFormatError(f'{path}: {exc}') from None
+            self._cache[name] = cached
+        return cached[1]
+
+
+class ModelServer(Node):
+    """Publishes the active model and its ambiguity (latched) and answers posterior queries."""
+
+    def __init__(self, node_name: str = 'model_server', **kwargs: Any) -> None:
+        super().__init__(node_name, **kwargs)
+        self._diagnostics = NodeDiagnostics(self, 'model')
+        self._files: ModelFiles | None = None
+        self._version = 0
+        self._active_pub = self.create_publisher(String, 'model/active', latched_qos())
+        self._kl_pub = self.create_publisher(Float64MultiArray, 'model/ambiguity', latched_qos())
+        self._sym_pub = self.create_publisher(Float64MultiArray, 'model/ambiguity/symmetric', latched_qos())
+        self._pinsker_pub = self.create_publisher(Float64MultiArray, 'model/ambiguity/pinsker', latched_qos())
+        self._posterior_pub = self.create_publisher(Float64MultiArray, 'model/posterior', output_qos())
+        self._params = declare_parameters(self, PARAMETERS, check=self._check, on_change=self._activate)
+        self._activate(self._params)
+        self._query_sub = self.create_subscription(Float64MultiArray, 'model/query',
+                                                   self._diagnostics.guard(self._on_query), input_qos())
+
+    def _model_files(self, models_dir: str) -> ModelFiles:
+        if self._files is None:
+            try:
+                directory = Path(models_dir).expanduser() if models_dir else config_dir() / 'models'
+            except FileNotFoundError as exc:
+                raise ModelError(str(exc)) from None
+            if not directory.is_dir():
+                raise ModelError(f'models_dir {str(directory)!r} is not a directory')
+            self._files = ModelFiles(directory)
+        return self._files
+
+    def _check(self, values: Mapping[str, Any]) -> None:
+        self._model_files(values['models_dir']).load(values['model'])
+
+    def _activate(self, changed: Mapping[str, Any]) -> None:
+        name = self._params['model']
+        model = self._model_files(self._params['models_dir']).load(name)
+        report = ambiguity.report(model)
+        self._version += 1
+        self._model = model
+        tasks = [model.task_names, model.task_names]
+        self._active_pub.publish(model_to_msg(model, name=name, version=self._version))
+        self._kl_pub.publish(array_to_msg(report.kl, tasks))
+        self._sym_pub.publish(array_to_msg(report.symmetric, tasks))
+        self._pinsker_pub.publish(array_to_msg(report.pinsker, tasks))
+        self._diagnostics.set_value('active model', name)
+        self._diagnostics.set_value('model version', self._version)
+        self._diagnostics.set_value('zones', ','.join(model.zone_labels))
+        self.get_logger().info(f'active model {name!r} (version {self._version}, '
+                               f'zones {",".join(model.zone_labels)})')
+
+    def _on_query(self, msg: Float64MultiArray) -> None:
+        x = msg_to_array(msg, max_size=MAX_FEATURES, error=InvalidFeaturesError, what='x')
+        self._posterior_pub.publish(array_to_msg(self._model.posterior(x), [self._model.zone_labels]))
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point: run the node until SIGINT/SIGTERM."""
+    run_node(ModelServer, args)
+
+
+if __name__ == '__main__':
+    main()

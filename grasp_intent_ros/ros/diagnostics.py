@@ -1,0 +1,156 @@
+"""Per-node diagnostics on ``/diagnostics`` (diagnostic_msgs/DiagnosticArray), without diagnostic_updater.
+
+One :class:`NodeDiagnostics` per node component counts the messages received and rejected, keeps the
+last error and the last processing time, and publishes one DiagnosticStatus named
+``<node fully-qualified name>: <component>`` every ``period`` seconds and at once when an input is
+rejected. Levels: OK while the last input was processed; WARN after a rejected input (message = the
+reason) until an input is processed again; ERROR after an unexpected exception, or whatever
+:meth:`NodeDiagnostics.set_state` asks for (the worse of the two wins).
+
+:meth:`NodeDiagnostics.guard` wraps a subscription callback so that no exception escapes it: a
+:class:`~grasp_intent_ros.core.errors.GraspIntentError` (bad input) is a rejection, anything else an
+internal error logged with its traceback; either way the node keeps serving.
+"""
+
+from __future__ import annotations
+
+import functools
+import threading
+import time
+import traceback
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.node import Node
+
+from ..core.errors import GraspIntentError
+from .qos import output_qos
+
+__all__ = ['NodeDiagnostics', 'OK', 'WARN', 'ERROR', 'STALE', 'DIAGNOSTICS_TOPIC']
+
+OK, WARN, ERROR, STALE = (DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR,
+                          DiagnosticStatus.STALE)
+DIAGNOSTICS_TOPIC = '/diagnostics'
+
+M = TypeVar('M')
+
+
+def _level(level: Any) -> int:
+    """DiagnosticStatus levels are bytes of length 1 in rclpy; compare them as ints."""
+    return level[0] if isinstance(level, (bytes, bytearray)) else int(level)
+
+
+class NodeDiagnostics:
+    """Counters, last error and timing of one node component, published on ``/diagnostics``.
+
+    Parameters
+    ----------
+    node : Node
+        Owner: creates the publisher and the timer on it.
+    component : str
+        Second half of the status name, e.g. 'intent'.
+    period : float
+        Seconds between periodic publications.
+    hardware_id : str
+    """
+
+    def __init__(self, node: Node, component: str, *, period: float = 1.0, hardware_id: str = '') -> None:
+        self._node = node
+        self.name = f'{node.get_fully_qualified_name()}: {component}'
+        self._hardware_id = hardware_id
+        self._lock = threading.Lock()
+        self._received = 0
+        self._rejected = 0
+        self._last_error = ''
+        self._last_seconds: float | None = None
+        self._outcome_level: int = _level(OK)
+        self._outcome_message = 'waiting for input'
+        self._state_level: int = _level(OK)
+        self._state_message = ''
+        self._values: dict[str, str] = {}
+        self._publisher = node.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, output_qos())
+        self._timer = node.create_timer(period, self.publish)
+
+    # ---------------------------------------------------------------- recording
+    def set_state(self, level: bytes | int, message: str) -> None:
+        """A standing condition of the node (e.g. ERROR 'no model'); OK with '' clears it."""
+        with self._lock:
+            self._state_level, self._state_message = _level(level), message
+
+    def set_value(self, key: str, value: object) -> None:
+        """An extra key/value shown in every status (e.g. the active model)."""
+        with self._lock:
+            self._values[key] = str(value)
+
+    def processed(self, seconds: float) -> None:
+        """An input was processed in ``seconds`` (wall time)."""
+        with self._lock:
+            self._last_seconds = seconds
+            self._outcome_level, self._outcome_message = _level(OK), 'ok'
+
+    def rejected(self, reason: str, *, level: bytes | int = WARN) -> None:
+        """An input was rejected: count it, log it and publish a WARN (or ``level``) status now."""
+        with self._lock:
+            self._rejected += 1
+            self._last_error = reason
+            self._outcome_level, self._outcome_message = _level(level), f'rejected input: {reason}'
+        if _level(level) >= _level(ERROR):
+            self._node.get_logger().error(f'{self.name}: {reason}')
+        else:
+            self._node.get_logger().warning(f'rejected input: {reason}')
+        self.publish()
+
+    def guard(self, callback: Callable[[M], object]) -> Callable[[M], None]:
+        """Wrap a subscription callback: count, time, and turn every exception into a rejection.
+
+        A GraspIntentError (the core's bad-input errors, or raised by the conversions) is a WARN
+        rejection with its message as the reason; any other exception is an ERROR rejection with its
+        traceback logged. Nothing escapes.
+        """
+        @functools.wraps(callback)
+        def guarded(msg: M) -> None:
+            start = time.perf_counter()
+            with self._lock:
+                self._received += 1
+            try:
+                callback(msg)
+            except GraspIntentError as exc:
+                self.rejected(str(exc))
+            except Exception as exc:  # noqa: BLE001 - an exception escaping a callback kills the node
+                self._node.get_logger().error(traceback.format_exc())
+                self.rejected(f'internal error: {type(exc).__name__}: {exc}', level=ERROR)
+            else:
+                self.processed(time.perf_counter() - start)
+        return guarded
+
+    # ---------------------------------------------------------------- reporting
+    def status(self) -> DiagnosticStatus:
+        """The current DiagnosticStatus."""
+        with self._lock:
+            if self._state_level > self._outcome_level and self._state_message:
+                level, message = self._state_level, self._state_message
+            else:
+                level, message = self._outcome_level, self._outcome_message
+                if self._state_message:
+                    message = f'{message}; {self._state_message}'
+            values = {
+                'messages received': str(self._received),
+                'messages rejected': str(self._rejected),
+                'last error': self._last_error,
+                'last processing time [ms]': ('' if self._last_seconds is None
+                                              else f'{1e3 * self._last_seconds:.3f}'),
+                **self._values,
+            }
+        return DiagnosticStatus(level=bytes([level]), name=self.name, message=message,
+                                hardware_id=self._hardware_id,
+                                values=[KeyValue(key=k, value=v) for k, v in values.items()])
+
+    def publish(self) -> None:
+        """Publish the current status now."""
+        try:
+            msg = DiagnosticArray(status=[self.status()])
+            msg.header.stamp = self._node.get_clock().now().to_msg()
+            self._publisher.publish(msg)
+        except Exception as exc:  # noqa: BLE001 - e.g. during shutdown; never raise from a timer
+            self._node.get_logger().warning(f'diagnostics not published: {exc}')

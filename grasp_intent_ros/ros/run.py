@@ -1,0 +1,76 @@
+"""The Jazzy node run idiom, written once: init, build the node, spin, shut down cleanly.
+
+SIGINT and SIGTERM both end the process with exit code 0 and no traceback: rclpy's own signal
+handlers (installed by ``rclpy.init`` for both signals) shut the context down, the executor raises
+``ExternalShutdownException`` (or ``KeyboardInterrupt``), and the node is destroyed before
+``rclpy.try_shutdown``. A signal that arrives while the node is being built (its rcl calls then fail
+on the shut-down context) also exits 0; one that arrives before ``rclpy.init`` (during imports) gets
+Python's default handling. A configuration error found while the node is built (a parameter rejected by
+its descriptor or validator, a missing model) is logged and ends the process with exit code 1.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import rclpy
+import rclpy.logging
+from rclpy.exceptions import ParameterException
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+
+from ..core.errors import GraspIntentError
+from .params import ParameterError
+
+__all__ = ['run_node', 'STARTUP_ERRORS']
+
+STARTUP_ERRORS: tuple[type[Exception], ...] = (ParameterError, ParameterException, GraspIntentError)
+"""Errors a node constructor raises for bad configuration: reported in one line, exit code 1."""
+
+
+def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None, *,
+             executor_factory: Callable[[], Executor] | None = None) -> None:
+    """Initialise rclpy, build a node and spin it until shutdown.
+
+    Parameters
+    ----------
+    node_factory : callable
+        Builds the node (a Node subclass or a lambda); called after ``rclpy.init``, in the default
+        context, so ``--ros-args`` (remappings, ``--params-file``) apply to it.
+    args : sequence of str, optional
+        Command line for ``rclpy.init``; default ``sys.argv``.
+    executor_factory : callable, optional
+        Builds the executor, e.g. ``rclpy.executors.MultiThreadedExecutor`` for a node whose
+        callbacks must run concurrently; default a SingleThreadedExecutor.
+
+    Raises
+    ------
+    SystemExit
+        With code 1 when the node cannot be built because of its configuration.
+    """
+    rclpy.init(args=None if args is None else list(args))
+    node: Node | None = None
+    executor: Executor | None = None
+    try:
+        executor = SingleThreadedExecutor() if executor_factory is None else executor_factory()
+        try:
+            node = node_factory()
+        except STARTUP_ERRORS as exc:
+            if not rclpy.ok():
+                return  # SIGINT/SIGTERM while starting: the context was shut down under the node
+            rclpy.logging.get_logger('grasp_intent_ros').fatal(f'cannot start: {exc}')
+            raise SystemExit(1) from None
+        except Exception:
+            if rclpy.ok():
+                raise
+            return  # SIGINT/SIGTERM while starting: rcl calls fail on the shut-down context
+        executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if executor is not None:
+            executor.shutdown()
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()

@@ -1,0 +1,153 @@
+"""In-process tests of the model server node (private Context per test, tiny models from test/conftest.py)."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+
+import pytest
+from diagnostic_msgs.msg import DiagnosticStatus
+from numpy.testing import assert_allclose
+from rclpy.parameter import Parameter
+from std_msgs.msg import Float64MultiArray, String
+
+from grasp_intent_ros.core import ambiguity
+from grasp_intent_ros.core.errors import ModelFormatError
+from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.model_server import ModelServer
+from grasp_intent_ros.ros.conversions import model_from_msg, model_to_msg, msg_labels, msg_to_array
+from grasp_intent_ros.ros.params import ParameterError
+from grasp_intent_ros.ros.qos import latched_qos
+
+TASKS = ('usage', 'transfer', 'handover')
+
+
+@pytest.fixture
+def server(ros, tiny_models):
+    models_dir, _ = tiny_models
+    return ros.add(ModelServer(context=ros.context, parameter_overrides=[
+        Parameter('models_dir', value=str(models_dir))]))
+
+
+def latched(ros, msg_type, topic):
+    return ros.subscribe(msg_type, topic, latched_qos())
+
+
+def assert_same_model(a: GraspModel, b: GraspModel) -> None:
+    assert a.zones == b.zones and a.task_names == b.task_names
+    assert_allclose(a.means, b.means, atol=1e-12)
+    assert_allclose(a.covariances, b.covariances, atol=1e-12)
+    assert_allclose(a.priors, b.priors, atol=1e-12)
+
+
+def test_late_subscriber_receives_latched_model_and_ambiguity(ros, server, tiny_models):
+    model = tiny_models[1]['cup_7zone']
+    # the server published while nobody listened: let it run first, then subscribe
+    statuses = ros.diagnostics()
+    assert ros.wait_for(lambda: statuses, timeout=3.0)
+    active = latched(ros, String, 'model/active')
+    matrices = {t: latched(ros, Float64MultiArray, f'model/ambiguity{t}')
+                for t in ('', '/symmetric', '/pinsker')}
+    assert ros.wait_for(lambda: active and all(matrices.values()))
+    doc = model_from_msg(active[0])
+    assert (doc.name, doc.version) == ('cup_7zone', 1)
+    assert_same_model(doc.model, model)
+    assert_same_model(GraspModel.from_yaml(active[0].data), model)  # header lines are YAML comments
+    report = ambiguity.report(model)
+    for suffix, expected in (('', report.kl), ('/symmetric', report.symmetric), ('/pinsker', report.pinsker)):
+        msg = matrices[suffix][0]
+        assert msg_labels(msg) == (TASKS, TASKS)
+        assert [(d.size, d.stride) for d in msg.layout.dim] == [(3, 9), (3, 3)]
+        assert_allclose(msg_to_array(msg, ndim=2), expected, rtol=0, atol=1e-12)
+
+
+def test_query_posterior_equals_core(ros, server, tiny_models):
+    model = tiny_models[1]['cup_7zone']
+    posteriors = ros.subscribe(Float64MultiArray, 'model/posterior')
+    query = ros.publisher(Float64MultiArray, 'model/query')
+    x = model.means[3]
+    assert ros.publish_until(query, Float64MultiArray(data=list(x)), lambda: posteriors)
+    assert msg_labels(posteriors[0]) == (model.zone_labels,)
+    assert_allclose(msg_to_array(posteriors[0]), model.posterior(x), rtol=0, atol=1e-12)
+
+
+BAD_X = {
+    'wrong length': ([0.1] * 9, 'x must have shape (10,)'),
+    'NaN': ([0.1] * 9 + [math.nan], 'NaN or infinity'),
+    'Inf': ([-math.inf] + [0.1] * 9, 'NaN or infinity'),
+    'empty': ([], 'x is empty'),
+    'oversized': ([0.1] * 5000, 'oversized'),
+}
+
+
+@pytest.mark.parametrize('kind', list(BAD_X))
+def test_bad_query_is_rejected_with_warn_and_server_keeps_serving(ros, server, tiny_models, kind):
+    model = tiny_models[1]['cup_7zone']
+    statuses = ros.diagnostics()
+    posteriors = ros.subscribe(Float64MultiArray, 'model/posterior')
+    query = ros.publisher(Float64MultiArray, 'model/query')
+    bad, reason = BAD_X[kind]
+    assert ros.publish_until(query, Float64MultiArray(data=bad), lambda: [
+        s for s in statuses if s.level == DiagnosticStatus.WARN and reason in s.message]), reason
+    assert posteriors == []
+    assert ros.publish_until(query, Float64MultiArray(data=list(model.means[0])), lambda: posteriors)
+    assert_allclose(msg_to_array(posteriors[-1]), model.posterior(model.means[0]), atol=1e-12)
+
+
+def test_model_switch_at_run_time_republishes(ros, server, tiny_models):
+    models = tiny_models[1]
+    active = latched(ros, String, 'model/active')
+    kl = latched(ros, Float64MultiArray, 'model/ambiguity')
+    assert ros.wait_for(lambda: active and kl)
+    assert server.set_parameters([Parameter('model', value='cup_5zone')])[0].successful
+    assert ros.wait_for(lambda: len(active) >= 2 and len(kl) >= 2)
+    doc = model_from_msg(active[-1])
+    assert (doc.name, doc.version) == ('cup_5zone', 2)
+    assert doc.sha256 != model_from_msg(active[0]).sha256
+    assert_same_model(doc.model, models['cup_5zone'])
+    assert_allclose(msg_to_array(kl[-1], ndim=2), ambiguity.kl_matrix(models['cup_5zone']), atol=1e-12)
+    # queries are now answered by the new model, over its five zones
+    posteriors = ros.subscribe(Float64MultiArray, 'model/posterior')
+    query = ros.publisher(Float64MultiArray, 'model/query')
+    x = models['cup_5zone'].means[1]
+    assert ros.publish_until(query, Float64MultiArray(data=list(x)), lambda: posteriors)
+    assert posteriors[-1].layout.dim[0].label == 'U,T,UT,TH,UTH'
+    assert_allclose(msg_to_array(posteriors[-1]), models['cup_5zone'].posterior(x), atol=1e-12)
+
+
+def test_unknown_or_malformed_model_is_rejected(ros, server):
+    active = latched(ros, String, 'model/active')
+    assert ros.wait_for(lambda: active)
+    result = server.set_parameters([Parameter('model', value='cup_9zone')])[0]
+    assert not result.successful
+    assert "unknown model 'cup_9zone'" in result.reason and 'broken, cup_5zone, cup_7zone' in result.reason
+    result = server.set_parameters([Parameter('model', value='broken')])[0]
+    assert not result.successful and 'broken.yaml' in result.reason and 'lacks field' in result.reason
+    result = server.set_parameters([Parameter('models_dir', value='/tmp')])[0]
+    assert not result.successful and 'read-only' in result.reason
+    assert server.get_parameter('model').value == 'cup_7zone'
+    ros.wait_for(lambda: len(active) > 1, timeout=0.5)
+    assert len(active) == 1, 'a rejected change must not republish'
+
+
+def test_unknown_initial_model_fails_construction(ros, tiny_models):
+    with pytest.raises(ParameterError, match='known: broken, cup_5zone, cup_7zone'):
+        ModelServer(context=ros.context, parameter_overrides=[
+            Parameter('models_dir', value=str(tiny_models[0])), Parameter('model', value='mug')])
+
+
+def test_model_document_parsing_rejects_malformed_documents(tiny_models):
+    model = tiny_models[1]['cup_5zone']
+    text = model_to_msg(model, name='cup_5zone', version=4).data
+    doc = model_from_msg(String(data=text))
+    assert (doc.name, doc.version) == ('cup_5zone', 4)
+    assert_same_model(doc.model, model)
+    with pytest.raises(ModelFormatError, match='header'):
+        model_from_msg(String(data=model.to_yaml()))
+    with pytest.raises(ModelFormatError, match='corrupted'):
+        model_from_msg(String(data=text.replace('prior: 0.', 'prior: 1.', 1)))
+    header = text.split('\n')[:2]
+    body = 'zones: [U\n'
+    header.append(f'# model_sha256: {hashlib.sha256(body.encode()).hexdigest()}')
+    with pytest.raises(ModelFormatError, match='not valid YAML'):
+        model_from_msg(String(data='\n'.join(header) + '\n' + body))
