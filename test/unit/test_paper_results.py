@@ -42,12 +42,13 @@ def models() -> dict[str, GraspModel]:
     ('cup_7zone', (0.9, 0.9, 0.9)),
     ('flashlight_7zone', (0.9, 0.1, 0.1)),
 ], ids=['cup-single', 'cup-two', 'cup-three', 'flashlight-single'])
+@pytest.mark.parametrize('method', ['lm', 'slsqp'])
 def test_planner_reconstructs_intent(models: dict[str, GraspModel], name: str,
-                                     w: tuple[float, float, float]) -> None:
+                                     w: tuple[float, float, float], method: planner.Method) -> None:
     model = models[name]
     r = intent.interpret(w, model.zones)
     assert r.v is not None
-    res = planner.plan(model, r.v)
+    res = planner.plan(model, r.v, method=method)
     assert res.success, res.message
     assert np.all(np.abs(res.w - np.asarray(w)) < W_TOLERANCE), (res.w, w)
     assert_allclose(res.posterior, r.v, atol=P_TOLERANCE)
@@ -60,3 +61,22 @@ def test_model_ambiguity_from_seven_to_five_zones(models: dict[str, GraspModel])
     assert kl5[H, T] < kl7[H, T], (kl7, kl5)
     assert kl5[U, H] > kl7[U, H], (kl7, kl5)
     assert kl5[H, U] > kl7[H, U], (kl7, kl5)
+
+
+@pytest.mark.parametrize('name, w', [
+    ('cup_7zone', (0.9, 0.1, 0.1)),
+    ('cup_7zone', (0.9, 0.9, 0.1)),
+    ('cup_7zone', (0.9, 0.9, 0.9)),
+    ('cup_7zone', (0.9, 0.1, 0.9)),
+    ('cup_5zone', (0.9, 0.1, 0.9)),
+    ('cup_4zone', (0.9, 0.1, 0.9)),
+], ids=['II-single', 'II-two', 'II-three', 'IV-7', 'IV-5', 'IV-4'])
+def test_sqp_and_interior_point_agree_on_the_cup_cases(models: dict[str, GraspModel], name: str,
+                                                       w: tuple[float, float, float]) -> None:
+    """The paper ran SQP and interior point to check they reach the same minimum (Tables II, IV)."""
+    model = models[name]
+    v = intent.interpret(w, model.zones).v
+    assert v is not None
+    sqp = planner.plan(model, v, method='slsqp')
+    ip = planner.plan(model, v, method='trust-constr')
+    assert abs(sqp.objective - ip.objective) < 1e-6, (sqp.objective, ip.objective, ip.message)
