@@ -2,8 +2,14 @@
 
 SIGINT and SIGTERM both end the process with exit code 0 and no traceback: rclpy's own signal
 handlers (installed by ``rclpy.init`` for both signals) shut the context down, the executor raises
-``ExternalShutdownException`` (or ``KeyboardInterrupt``), and the node is destroyed before
-``rclpy.try_shutdown``. A signal that arrives while the node is being built (its rcl calls then fail
+``ExternalShutdownException``, and the node is destroyed before ``rclpy.try_shutdown``.
+
+Python's own SIGINT handling is switched off first. rclpy 7.1 chains its SIGINT handler to Python's,
+whose KeyboardInterrupt would end the spin while rclpy's signal thread is still triggering the
+executor's guard condition, which is then destroyed under it: a use-after-free, seen as a segfault on
+about one SIGINT in five. Ignored at the Python level, SIGINT ends the spin as SIGTERM does. The
+executor (:class:`ShutdownSafeExecutor`) also turns the RCLError of a shutdown that lands between two
+rclpy steps into the normal ExternalShutdownException. A signal that arrives while the node is being built (its rcl calls then fail
 on the shut-down context) also exits 0; one that arrives before ``rclpy.init`` (during imports) gets
 Python's default handling. A configuration error found while the node is built (a parameter rejected by
 its descriptor or validator, a missing model) is logged and ends the process with exit code 1.
@@ -11,6 +17,8 @@ its descriptor or validator, a missing model) is logged and ends the process wit
 
 from __future__ import annotations
 
+import signal
+import threading
 from collections.abc import Callable, Sequence
 
 import rclpy
@@ -22,10 +30,28 @@ from rclpy.node import Node
 from ..core.errors import GraspIntentError
 from .params import ParameterError
 
-__all__ = ['run_node', 'STARTUP_ERRORS']
+__all__ = ['run_node', 'STARTUP_ERRORS', 'ShutdownSafeExecutor']
 
 STARTUP_ERRORS: tuple[type[Exception], ...] = (ParameterError, ParameterException, GraspIntentError)
 """Errors a node constructor raises for bad configuration: reported in one line, exit code 1."""
+
+
+class ShutdownSafeExecutor(SingleThreadedExecutor):
+    """A SingleThreadedExecutor whose spin ends with ExternalShutdownException, never an RCLError, when
+    the context is shut down under it.
+
+    rclpy 7.1 checks ``context.ok()`` and then builds the next wait set; a signal handled in between
+    (rclpy's signal thread shuts the context down) makes ``WaitSet()`` raise RCLError ("the given
+    context is not valid"), which would otherwise surface as a traceback with exit code 1.
+    """
+
+    def spin_once(self, timeout_sec: float | None = None) -> None:
+        try:
+            super().spin_once(timeout_sec)
+        except RuntimeError:  # rclpy's RCLError derives from RuntimeError
+            if self.context.ok():
+                raise
+            raise ExternalShutdownException() from None
 
 
 def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None, *,
@@ -41,18 +67,20 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
         Command line for ``rclpy.init``; default ``sys.argv``.
     executor_factory : callable, optional
         Builds the executor, e.g. ``rclpy.executors.MultiThreadedExecutor`` for a node whose
-        callbacks must run concurrently; default a SingleThreadedExecutor.
+        callbacks must run concurrently; default a :class:`ShutdownSafeExecutor`.
 
     Raises
     ------
     SystemExit
         With code 1 when the node cannot be built because of its configuration.
     """
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # see the module docstring
     rclpy.init(args=None if args is None else list(args))
     node: Node | None = None
     executor: Executor | None = None
     try:
-        executor = SingleThreadedExecutor() if executor_factory is None else executor_factory()
+        executor = ShutdownSafeExecutor() if executor_factory is None else executor_factory()
         try:
             node = node_factory()
         except STARTUP_ERRORS as exc:

@@ -1,0 +1,520 @@
+"""In-process tests of the grasp planner node (private Context per test, see test/conftest.py).
+
+The model is config/models/cup_7zone.yaml when it exists, else a tiny model fitted here on seeded
+demonstrations around seven reachable prototype grasps (the conftest tiny models have random features,
+most of which the MICO cannot reach). Expected answers come from the core planner with the same
+reachability constraint the node uses (IK seeded from Home, 8 restarts, seed 0).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+from numpy.testing import assert_allclose
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, String
+from trajectory_msgs.msg import JointTrajectory
+from visualization_msgs.msg import Marker, MarkerArray
+
+from grasp_intent_ros.core import planner
+from grasp_intent_ros.core.data import Demonstrations
+from grasp_intent_ros.core.demos import grasp_features
+from grasp_intent_ros.core.features import FINGERS, MICO_3F
+from grasp_intent_ros.core.intent import all_zones, interpret, restrict
+from grasp_intent_ros.core.kinematics import (ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics,
+                                              features_to_obj_T_ee, pose_to_matrix)
+from grasp_intent_ros.core.model import GraspModel, structure_zones
+from grasp_intent_ros.grasp_planner import MIN_TRAJECTORY_TIME, PARAMETERS, GraspPlanner
+from grasp_intent_ros.ros.conversions import array_to_msg, model_from_msg, model_to_msg
+from grasp_intent_ros.ros.params import ParameterError
+from grasp_intent_ros.ros.qos import latched_qos
+from grasp_intent_ros.ros.robot import (matrix_to_pose_msg, pose_msg_to_matrix, posterior_from_msg,
+                                        stamped_array_from_msg)
+
+REPO = Path(__file__).resolve().parents[2]
+TASKS = ('usage', 'transfer', 'handover')
+LABELS_7 = 'U,T,H,UT,UH,TH,UTH'
+DEFAULT_POSE = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+W_GOOD = (0.9, 0.9, 0.1)
+TOPICS = ('pose', 'joints', 'trajectory', 'posterior', 'features', 'markers')
+METHOD = next(spec.default for spec in PARAMETERS if spec.name == 'method')
+
+
+# ---------------------------------------------------------------------------------- models
+_DEG = math.pi / 180.0
+_PROTOTYPES = {  # task set -> (aim, azimuth, elevation, standoff, roll, closure), object frame
+    1: ((0.05, 0.0, 0.05), 0.0, 10 * _DEG, 0.03, 0.0, 1.2),
+    2: ((0.0, 0.0, 0.06), 0.0, 80 * _DEG, 0.03, 0.0, 1.3),
+    4: ((0.0, 0.0, 0.10), 30 * _DEG, 60 * _DEG, 0.05, math.pi, 0.6),
+    3: ((0.03, 0.0, 0.05), 0.0, 40 * _DEG, 0.03, 0.0, 1.1),
+    5: ((0.05, 0.0, 0.05), -30 * _DEG, 20 * _DEG, 0.05, math.pi, 0.8),
+    6: ((0.0, 0.0, 0.08), -45 * _DEG, 70 * _DEG, 0.04, math.pi, 0.9),
+    7: ((0.03, 0.0, 0.06), 20 * _DEG, 45 * _DEG, 0.04, math.pi, 1.0),
+}
+
+
+def reachable_tiny_models(per_set: int = 10, seed: int = 3) -> dict[str, GraspModel]:
+    """7- and 5-zone models fitted on noisy copies of prototype grasps the MICO reaches at DEFAULT_POSE."""
+    rng = np.random.default_rng(seed)
+    rows, sets = [], []
+    for task_set, (aim, azimuth, elevation, standoff, roll, closure) in _PROTOTYPES.items():
+        for _ in range(per_set):
+            x = grasp_features(np.add(aim, rng.normal(0.0, 0.005, 3)), azimuth + rng.normal(0.0, 3 * _DEG),
+                               elevation + rng.normal(0.0, 3 * _DEG), standoff + rng.normal(0.0, 0.003),
+                               roll + rng.normal(0.0, 0.05), closure + rng.normal(0.0, 0.05, 3))
+            rows.append(np.clip(x, MICO_3F.lower, MICO_3F.upper))
+            sets.append(task_set)
+    demos = Demonstrations(np.array(rows), np.array(sets), TASKS)
+    return {f'cup_{s}': GraspModel.fit(demos, structure_zones(s, TASKS), name=f'cup_{s}') for s in ('7zone', '5zone')}
+
+
+def as_published(model: GraspModel) -> GraspModel:
+    """The model as the node reads it from model/active (the document rounds demonstrations to 1e-6,
+    which moves the planner's starts: compare with the core on this copy)."""
+    return model_from_msg(model_to_msg(model, name=model.name, version=1)).model
+
+
+@pytest.fixture(scope='module')
+def tiny() -> dict[str, GraspModel]:
+    return {name: as_published(m) for name, m in reachable_tiny_models().items()}
+
+
+@pytest.fixture(scope='module')
+def model(tiny: dict[str, GraspModel]) -> GraspModel:
+    """The cup 7-zone model of config/models when it exists, else the tiny one."""
+    path = REPO / 'config' / 'models' / 'cup_7zone.yaml'
+    return as_published(GraspModel.load(path)) if path.is_file() else tiny['cup_7zone']
+
+
+@pytest.fixture(scope='module')
+def kin() -> MicoKinematics:
+    return MicoKinematics()
+
+
+def core_plan(kin: MicoKinematics, model: GraspModel, v_all: Any, base_T_obj: Any = DEFAULT_POSE, *,
+              warm_start: Any = None, q_seed: Any = HOME_Q) -> planner.PlanResult:
+    """What the node computes for v over all zones: restrict, then plan with IK reachability."""
+    v = restrict(v_all, all_zones(len(model.task_names)), model.zones)
+    return planner.plan(model, v, method=METHOD, warm_start=warm_start, accept=lambda x: kin.ik(
+        base_T_obj @ features_to_obj_T_ee(x), q_seed, restarts=8).success)
+
+
+# ---------------------------------------------------------------------------------- messages
+def ns(stamp: Time) -> int:
+    return int(stamp.sec) * 10**9 + int(stamp.nanosec)
+
+
+def v_msg(values: Any, label: str | None = LABELS_7) -> Float64MultiArray:
+    """v as the interpreter sends it (labelled), or raw data as ``ros2 topic pub`` does (label None)."""
+    if label is None:
+        return Float64MultiArray(data=[float(x) for x in values])
+    return array_to_msg(np.asarray(values, dtype=np.float64), [label])
+
+
+def pose_msg(position: Any, xyzw: Any, frame_id: str = BASE_FRAME) -> PoseStamped:
+    msg = matrix_to_pose_msg(np.eye(4), frame_id=frame_id, stamp=Time())
+    msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = (float(c) for c in position)
+    o = msg.pose.orientation
+    o.x, o.y, o.z, o.w = (float(c) for c in xyzw)
+    return msg
+
+
+@dataclass
+class Plan:
+    """The six outputs of one plan."""
+
+    stamp: int
+    pose: PoseStamped
+    joints: JointState
+    trajectory: JointTrajectory
+    posterior: Any  # GraspPosterior
+    features: Float64MultiArray
+    markers: MarkerArray
+
+    @property
+    def x(self) -> np.ndarray:
+        return stamped_array_from_msg(self.features)[2]
+
+    @property
+    def q_arm(self) -> np.ndarray:
+        return np.array(self.joints.position[:6])
+
+
+class Grasps:
+    """Every grasp/* output received by the probe, paired by stamp."""
+
+    def __init__(self, ros: Any) -> None:
+        types = (PoseStamped, JointState, JointTrajectory, Float64MultiArray, Float64MultiArray, MarkerArray)
+        topics = ('pose', 'joint_targets', 'trajectory', 'posterior', 'features', 'markers')
+        self.received = {key: ros.subscribe(t, f'grasp/{topic}') for key, t, topic in zip(TOPICS, types, topics)}
+
+    @staticmethod
+    def _stamp(key: str, msg: Any) -> int:
+        if key == 'posterior':
+            return ns(posterior_from_msg(msg).stamp)
+        if key == 'features':
+            return ns(stamped_array_from_msg(msg)[0])
+        if key == 'markers':
+            return ns(msg.markers[0].header.stamp)
+        return ns(msg.header.stamp)
+
+    def count(self) -> int:
+        return sum(len(msgs) for msgs in self.received.values())
+
+    def plans(self, after: int = -1) -> list[Plan]:
+        """Complete plans (all six outputs) with a stamp > ``after``, oldest first."""
+        by_stamp: dict[int, dict[str, Any]] = {}
+        for key, msgs in self.received.items():
+            for msg in msgs:
+                by_stamp.setdefault(self._stamp(key, msg), {})[key] = msg
+        return [Plan(stamp, **{k: (posterior_from_msg(v) if k == 'posterior' else v) for k, v in out.items()})
+                for stamp, out in sorted(by_stamp.items()) if stamp > after and len(out) == len(TOPICS)]
+
+    def stamps_after(self, after: int) -> list[int]:
+        return [s for key, msgs in self.received.items() for s in (self._stamp(key, m) for m in msgs) if s > after]
+
+
+@dataclass
+class Rig:
+    ros: Any
+    node: GraspPlanner
+    grasps: Grasps
+    statuses: list[Any]
+    v_pub: Any
+    model_pub: Any
+    pose_pub: Any
+    joints_pub: Any
+
+    def now(self) -> int:
+        return ns(self.ros.node.get_clock().now().to_msg())
+
+    def request(self, msg: Float64MultiArray, publisher: Any = None, timeout: float = 10.0) -> Plan:
+        """Publish ``msg`` (default on intent/v) until a plan newer than now arrives; return it."""
+        start = self.now()
+        assert self.ros.publish_until(publisher or self.v_pub, msg, lambda: self.grasps.plans(start),
+                                      timeout=timeout, period=0.5), 'no complete plan received'
+        return self.grasps.plans(start)[0]
+
+    def warn(self, reason: str) -> Callable[[], list[Any]]:
+        return lambda: [s for s in self.statuses if s.level == DiagnosticStatus.WARN and reason in s.message]
+
+
+@pytest.fixture
+def make_rig(ros: Any) -> Callable[..., Rig]:
+    def make(model: GraspModel | None, **node_kwargs: Any) -> Rig:
+        statuses = ros.diagnostics()
+        node = ros.add(GraspPlanner(context=ros.context, **node_kwargs))
+        rig = Rig(ros, node, Grasps(ros), statuses, ros.publisher(Float64MultiArray, 'intent/v'),
+                  ros.publisher(String, 'model/active', latched_qos()), ros.publisher(PoseStamped, 'object/pose'),
+                  ros.publisher(JointState, 'joint_states'))
+        if model is not None:
+            rig.model_pub.publish(model_to_msg(model, name=model.name or 'model', version=1))
+        return rig
+    return make
+
+
+@pytest.fixture
+def rig(make_rig: Callable[..., Rig], model: GraspModel) -> Rig:
+    return make_rig(model)
+
+
+def assert_fk_reproduces_pose(kin: MicoKinematics, plan: Plan) -> None:
+    base_T_ee = pose_msg_to_matrix(plan.pose, frame_id=BASE_FRAME)
+    fk = kin.fk(plan.q_arm)
+    assert np.linalg.norm(fk[:3, 3] - base_T_ee[:3, 3]) < 1e-3
+    cos = (np.trace(fk[:3, :3].T @ base_T_ee[:3, :3]) - 1.0) / 2.0
+    assert math.acos(min(1.0, max(-1.0, cos))) < 0.01
+
+
+# ---------------------------------------------------------------------------------- tests
+def test_v_in_grasp_out_equals_core(rig: Rig, model: GraspModel, kin: MicoKinematics) -> None:
+    v = interpret(W_GOOD).v
+    plan = rig.request(v_msg(v))
+    assert plan.stamp == rig.grasps.plans()[0].stamp, 'the first plan (no warm start) is the one compared'
+    expected = core_plan(kin, model, v)
+    assert expected.status != 'rejected'
+    # posterior: P over the model's zones, then w; labelled "<zones>|<tasks>"
+    assert plan.posterior.zone_labels == model.zone_labels and plan.posterior.task_names == TASKS
+    assert_allclose(plan.posterior.p, expected.posterior, rtol=0, atol=1e-6)
+    assert_allclose(plan.posterior.w, expected.w, rtol=0, atol=1e-6)
+    assert plan.features.layout.dim[1].label == ','.join(MICO_3F.names)
+    assert_allclose(plan.x, expected.x, rtol=0, atol=1e-6)
+    # pose = object pose composed with the feature transform; FK of the joint targets reproduces it
+    assert plan.pose.header.frame_id == BASE_FRAME
+    assert_allclose(pose_msg_to_matrix(plan.pose, frame_id=BASE_FRAME),
+                    DEFAULT_POSE @ features_to_obj_T_ee(plan.x), atol=1e-9)
+    assert list(plan.joints.name) == list(ARM_JOINTS + FINGER_JOINTS)
+    assert_fk_reproduces_pose(kin, plan)
+    assert_allclose(plan.joints.position[6:], plan.x[FINGERS], atol=1e-12)
+    # trajectory: one point, same joints, time from the velocity limits (from Home: no joint state yet)
+    assert list(plan.trajectory.joint_names) == list(plan.joints.name)
+    (point,) = plan.trajectory.points
+    assert_allclose(point.positions, plan.joints.position, atol=1e-12)
+    duration = point.time_from_start.sec + 1e-9 * point.time_from_start.nanosec
+    expected_duration = max(MIN_TRAJECTORY_TIME, float(np.max(np.abs(plan.q_arm - HOME_Q) / kin.velocity_limits)))
+    assert duration == pytest.approx(expected_duration, abs=1e-6)
+    # markers: object cylinder at the object, arrow ending at the palm, three finger lines, top zones
+    cylinder, arrow, fingers, text = plan.markers.markers
+    assert [m.type for m in plan.markers.markers] == [Marker.CYLINDER, Marker.ARROW, Marker.LINE_LIST,
+                                                      Marker.TEXT_VIEW_FACING]
+    assert all(m.header.frame_id == BASE_FRAME for m in plan.markers.markers)
+    assert (cylinder.pose.position.x, cylinder.pose.position.y) == pytest.approx(DEFAULT_POSE[:2, 3])
+    palm = DEFAULT_POSE[:3, :3] @ plan.x[:3] + DEFAULT_POSE[:3, 3]
+    assert [arrow.points[1].x, arrow.points[1].y, arrow.points[1].z] == pytest.approx(palm)
+    assert len(fingers.points) == 6
+    top = model.zone_labels[int(np.argmax(expected.posterior))]
+    assert f'{top}  {np.max(expected.posterior):.2f}' in text.text
+
+
+def test_object_pose_change_moves_the_grasp(rig: Rig, kin: MicoKinematics) -> None:
+    before = rig.request(v_msg(interpret(W_GOOD).v))
+    moved = pose_to_matrix((0.3, -0.25, 0.02), (0.0, 0.0, 1.0, 0.0))
+    after = rig.request(pose_msg((0.3, -0.25, 0.02), (0.0, 0.0, 1.0, 0.0)), rig.pose_pub)
+    assert_allclose(pose_msg_to_matrix(after.pose, frame_id=BASE_FRAME), moved @ features_to_obj_T_ee(after.x),
+                    atol=1e-9)
+    shift = pose_msg_to_matrix(after.pose, frame_id=BASE_FRAME)[:3, 3] - pose_msg_to_matrix(
+        before.pose, frame_id=BASE_FRAME)[:3, 3]
+    assert np.linalg.norm(shift) > 0.04
+    assert_fk_reproduces_pose(kin, after)
+
+
+def test_unreachable_object_publishes_no_targets_and_says_why(rig: Rig) -> None:
+    rig.request(v_msg(interpret(W_GOOD).v))
+    start = rig.now()
+    assert rig.ros.publish_until(rig.pose_pub, pose_msg((3.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0)),
+                                 rig.warn('no reachable grasp'), timeout=10.0, period=1.0)
+    status = rig.warn('no reachable grasp')()[-1]
+    assert status.name.endswith('grasp_planner: planning')
+    assert 'IK failed for all' in status.message and '3.00 m from the base' in status.message
+    assert rig.grasps.stamps_after(start) == []
+    # back within reach: served again
+    rig.request(pose_msg((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0)), rig.pose_pub)
+
+
+def test_joint_states_seed_ik_in_any_order_nearest_branch(rig: Rig, kin: MicoKinematics) -> None:
+    first = rig.request(v_msg(interpret(W_GOOD).v))
+    seed = first.q_arm + np.array([2 * math.pi, 0.0, 0.0, 0.0, 0.0, -2 * math.pi])  # same pose, other branch
+    assert np.all(seed >= kin.lower) and np.all(seed <= kin.upper)
+    names = list(ARM_JOINTS + FINGER_JOINTS)[::-1]
+    values = dict(zip(ARM_JOINTS + FINGER_JOINTS, [*seed, 0.3, 0.3, 0.3]))
+    joint_state = JointState(name=names, position=[float(values[n]) for n in names])
+    fingers_only = JointState(name=list(FINGER_JOINTS), position=[0.1, 0.1, 0.1])  # ignored
+    start = rig.now()
+
+    def seeded() -> list[Plan]:
+        return [p for p in rig.grasps.plans(start) if np.allclose(p.q_arm, seed, atol=1e-3)]
+
+    deadline = time.monotonic() + 10.0
+    while not seeded() and time.monotonic() < deadline:
+        rig.joints_pub.publish(joint_state)
+        rig.joints_pub.publish(fingers_only)
+        rig.v_pub.publish(v_msg(interpret(W_GOOD).v))
+        rig.ros.wait_for(seeded, timeout=0.4)
+    plan = seeded()[0]
+    assert_fk_reproduces_pose(kin, plan)
+    duration = plan.trajectory.points[0].time_from_start
+    assert duration.sec + 1e-9 * duration.nanosec == pytest.approx(MIN_TRAJECTORY_TIME)
+    assert not [s for s in rig.statuses if s.level != DiagnosticStatus.OK], 'a finger-only joint state is no error'
+
+
+def test_latest_only_burst(rig: Rig, model: GraspModel, kin: MicoKinematics) -> None:
+    rig.request(v_msg(interpret(W_GOOD).v))
+    before = len(rig.grasps.plans())
+    burst = [interpret((0.9, t, 0.1)).v for t in np.linspace(0.05, 0.95, 100)]
+    for v in burst:
+        rig.v_pub.publish(v_msg(v))
+        rig.ros.executor.spin_once(timeout_sec=0.0)
+    checked: dict[int, bool] = {}
+
+    def last_answers_last_v() -> bool:
+        plans = rig.grasps.plans()
+        if len(plans) <= before:
+            return False
+        if len(plans) not in checked:  # the node warm-starts from its previous plan
+            expected = core_plan(kin, model, burst[-1], warm_start=plans[-2].x)
+            checked[len(plans)] = (np.allclose(plans[-1].x, expected.x, atol=1e-6)
+                                   and np.allclose(plans[-1].posterior.p, expected.posterior, atol=1e-6))
+        return checked[len(plans)]
+
+    assert rig.ros.wait_for(last_answers_last_v, timeout=15.0), 'the last plan does not answer the last v'
+    settled = len(rig.grasps.plans())
+    assert not rig.ros.wait_for(lambda: len(rig.grasps.plans()) > settled, timeout=0.5), 'backlog: plans kept coming'
+    made = settled - before
+    assert 1 <= made <= 20, f'{made} plans for 100 messages'
+
+    def superseded() -> list[Any]:  # the node itself dropped inputs that a newer one replaced
+        return [s for s in rig.statuses if s.name.endswith('planning') and
+                int({kv.key: kv.value for kv in s.values}.get('inputs superseded', '0')) > 0]
+    assert rig.ros.wait_for(superseded, timeout=3.0)
+
+
+def _corrupted(model: GraspModel) -> String:
+    text = model_to_msg(model, name='cup_7zone', version=2).data
+    return String(data=text.replace('prior: 0.', 'prior: 1.', 1))
+
+
+BAD_INPUTS: dict[str, tuple[str, Callable[[GraspModel], Any], str]] = {
+    'v wrong length': ('v', lambda m: v_msg([0.2] * 5, None), 'must have 7 entries'),
+    'v NaN': ('v', lambda m: v_msg([math.nan] + [1 / 6] * 6), 'NaN or infinity'),
+    'v Inf': ('v', lambda m: v_msg([math.inf] + [0.0] * 6), 'NaN or infinity'),
+    'v negative': ('v', lambda m: v_msg([-0.1, 0.6, 0.5, 0.0, 0.0, 0.0, 0.0]), 'non-negative'),
+    'v not summing to 1': ('v', lambda m: v_msg([0.5] * 7), 'sum to 1'),
+    'v empty': ('v', lambda m: v_msg([], None), 'v is empty'),
+    'v oversized': ('v', lambda m: v_msg([1 / 2000] * 2000, None), 'oversized'),
+    'v unknown zone label': ('v', lambda m: v_msg(interpret(W_GOOD).v, 'U,T,H,UT,UH,TH,XYZ'),
+                             "do not match the model's 3 tasks"),
+    'v labels of two tasks': ('v', lambda m: v_msg([0.5, 0.3, 0.2], 'U,T,UT'), 'must name each of the 7 zones'),
+    'v label count': ('v', lambda m: v_msg(interpret(W_GOOD).v, 'U,T,H,UT,UH,TH'), 'label names 6 zones'),
+    'model not a document': ('model', lambda m: String(data='zones: [U, T]'), 'lacks the header lines'),
+    'model corrupted': ('model', _corrupted, 'corrupted'),
+    'pose quaternion': ('pose', lambda m: pose_msg((0.3, -0.3, 0.0), (0.0, 0.0, 0.0, 2.0)), 'unit norm'),
+    'pose NaN': ('pose', lambda m: pose_msg((math.nan, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0)), 'must be finite'),
+    'pose frame': ('pose', lambda m: pose_msg((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0), 'world'),
+                   "frame 'm1n6s300_link_base'"),
+    'joint_states NaN': ('joints', lambda m: JointState(name=list(ARM_JOINTS), position=[math.nan] + [1.0] * 5),
+                         'NaN or infinity for'),
+    'joint_states length': ('joints', lambda m: JointState(name=list(ARM_JOINTS), position=[1.0] * 5),
+                            'names but 5 positions'),
+}
+
+
+@pytest.mark.parametrize('kind', list(BAD_INPUTS))
+def test_bad_input_warns_and_node_keeps_serving(rig: Rig, model: GraspModel, kind: str) -> None:
+    topic, make_msg, reason = BAD_INPUTS[kind]
+    if topic == 'model':  # the node must hold the good model before the bad one replaces it on the latched topic
+        rig.request(v_msg(interpret(W_GOOD).v))
+    publisher = {'v': rig.v_pub, 'model': rig.model_pub, 'pose': rig.pose_pub, 'joints': rig.joints_pub}[topic]
+    start = rig.now()
+    assert rig.ros.publish_until(publisher, make_msg(model), rig.warn(reason), timeout=5.0, period=0.5), \
+        f'no WARN diagnostic naming {reason!r}'
+    status = rig.warn(reason)()[-1]
+    values = {kv.key: kv.value for kv in status.values}
+    assert reason in values['last error'] and int(values['messages rejected']) >= 1
+    assert rig.grasps.stamps_after(start) == [], 'something was published for a bad input'
+    plan = rig.request(v_msg(interpret((0.2, 0.9, 0.9)).v))
+    assert plan.posterior.zone_labels == model.zone_labels
+
+
+def test_clarification_needed_and_model_switch(make_rig: Callable[..., Rig], tiny: dict[str, GraspModel],
+                                               kin: MicoKinematics) -> None:
+    five, seven = tiny['cup_5zone'], tiny['cup_7zone']
+    rig = make_rig(five)
+    h_only = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0])  # no zone of the 5-zone model is possible
+    assert rig.ros.publish_until(rig.v_pub, v_msg(h_only), rig.warn('clarification needed'), period=0.5)
+    assert 'U,T,UT,TH,UTH' in rig.warn('clarification needed')()[-1].message
+    v = interpret(W_GOOD).v
+    plan = rig.request(v_msg(v))
+    assert plan.posterior.zone_labels == ('U', 'T', 'UT', 'TH', 'UTH')
+    assert_allclose(plan.posterior.p, core_plan(kin, five, v).posterior, atol=1e-6)
+    # a new model re-plans the current v without a warm start from the other model
+    switched = rig.request(model_to_msg(seven, name='cup_7zone', version=2), rig.model_pub)
+    assert switched.posterior.zone_labels == tuple(LABELS_7.split(','))
+    assert_allclose(switched.x, core_plan(kin, seven, v).x, atol=1e-6)
+
+
+def test_unreachable_best_grasp_falls_back_to_reachable_candidate(make_rig: Callable[..., Rig],
+                                                                   tiny: dict[str, GraspModel],
+                                                                   kin: MicoKinematics) -> None:
+    model = tiny['cup_5zone']
+    rng = np.random.default_rng(0)
+    for _ in range(40):  # a v whose best candidate the arm cannot reach (found with the core planner)
+        v = interpret(rng.uniform(0.0, 1.0, 3)).v
+        if v is not None and (expected := core_plan(kin, model, v)).rejected and expected.status != 'rejected':
+            break
+    else:
+        pytest.fail('no v with an unreachable best grasp found')
+    rig = make_rig(model)
+    plan = rig.request(v_msg(v))
+    assert_allclose(plan.x, expected.x, atol=1e-6)
+    assert expected.objective > expected.candidates[0].objective
+
+    def fallback_reported() -> list[dict[str, str]]:
+        values = [{kv.key: kv.value for kv in s.values} for s in rig.statuses if s.name.endswith('planning')]
+        return [v for v in values if v.get('fallback to a reachable candidate') == '1']
+    assert rig.ros.wait_for(fallback_reported, timeout=3.0)
+    assert fallback_reported()[-1]['last plan reachability'].startswith(
+        f'best grasp unreachable: published candidate {expected.rejected + 1} of {len(expected.candidates)}')
+
+
+def test_parameters_are_validated_and_object_pose_parameters_replan(rig: Rig) -> None:
+    node = rig.node
+    for name, value, reason in (('method', 'newton', 'must be one of'),
+                                ('object_orientation', [0.0, 0.0, 0.0, 2.0], 'unit norm'),
+                                ('object_position', [0.3, 0.0], '3 finite numbers'),
+                                ('object_marker_size', [0.08, -0.1], 'positive'),
+                                ('urdf_path', '/tmp/x.urdf', 'read-only')):
+        result = node.set_parameters([Parameter(name, value=value)])[0]
+        assert not result.successful and reason in result.reason, (name, result.reason)
+    for name, value in (('n_starts', 0), ('ik_restarts', 101), ('min_replan_period', -1.0)):
+        assert not node.set_parameters([Parameter(name, value=value)])[0].successful
+    rig.request(v_msg(interpret(W_GOOD).v))
+    start = rig.now()
+    assert node.set_parameters([Parameter('object_position', value=[0.28, -0.3, 0.0])])[0].successful
+    assert rig.ros.wait_for(lambda: rig.grasps.plans(start), timeout=10.0)
+    plan = rig.grasps.plans(start)[0]
+    moved = pose_to_matrix((0.28, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+    assert_allclose(pose_msg_to_matrix(plan.pose, frame_id=BASE_FRAME), moved @ features_to_obj_T_ee(plan.x),
+                    atol=1e-9)
+
+
+def test_params_file_and_invalid_initial_parameters(ros: Any) -> None:
+    node = ros.add(GraspPlanner(context=ros.context, cli_args=[
+        '--ros-args', '--params-file', str(REPO / 'config' / 'grasp_planner.yaml')]))
+    assert node.get_parameter('method').value == 'lm'
+    assert tuple(node.get_parameter('object_orientation').value) == (0.0, 0.0, 1.0, 0.0)
+    with pytest.raises(ParameterError, match='unit norm'):
+        GraspPlanner(context=ros.context, parameter_overrides=[
+            Parameter('object_orientation', value=[0.0, 0.0, 0.5, 0.5])])
+    with pytest.raises(ParameterError, match='urdf_path'):
+        GraspPlanner(context=ros.context, parameter_overrides=[Parameter('urdf_path', value='/nonexistent.urdf')])
+
+
+def test_send_intent_prints_the_chain_answer(rig: Rig, model: GraspModel, kin: MicoKinematics) -> None:
+    from grasp_intent_ros.intent_interpreter import IntentInterpreter
+    from grasp_intent_ros.send_intent import IntentSender, NoGrasp, format_grasp
+
+    rig.ros.add(IntentInterpreter(context=rig.ros.context))
+    sender = rig.ros.add(IntentSender(context=rig.ros.context))
+    answer = sender.send(W_GOOD, rig.ros.executor, timeout=10.0)
+    assert_allclose(answer.v, interpret(W_GOOD).v, atol=1e-12)
+    assert answer.v_labels == tuple(LABELS_7.split(','))
+    assert_allclose(answer.posterior.p, core_plan(kin, model, interpret(W_GOOD).v).posterior, atol=1e-6)
+    assert ns(answer.pose.header.stamp) == ns(answer.joints.header.stamp) == ns(answer.posterior.stamp)
+    text = format_grasp(answer)
+    for heading in ('w (sent)', 'v (intent/v)', 'P (grasp)', 'w (reconstructed)', 'end effector', 'joint targets'):
+        assert heading in text
+    assert all(name in text for name in ARM_JOINTS + FINGER_JOINTS)
+    with pytest.raises(NoGrasp, match='clarification'):
+        sender.send((0.1, 0.1, 0.1), rig.ros.executor, timeout=10.0)
+
+
+def test_robot_conversions_reject_malformed_messages() -> None:
+    from grasp_intent_ros.core.errors import GraspIntentError, KinematicsError
+    from grasp_intent_ros.ros.robot import joint_positions, posterior_to_msg
+
+    stamp = Time(sec=12, nanosec=34)
+    msg = posterior_to_msg([0.25, 0.75], [0.5], ('U', 'T'), ('usage',), stamp=stamp)
+    assert [(d.label, d.size, d.stride) for d in msg.layout.dim] == [('stamp=12.000000034', 1, 3), ('U,T|usage', 3, 3)]
+    parsed = posterior_from_msg(msg)
+    assert (parsed.stamp, parsed.zone_labels, parsed.task_names) == (stamp, ('U', 'T'), ('usage',))
+    assert_allclose(np.concatenate([parsed.p, parsed.w]), [0.25, 0.75, 0.5])
+    msg.layout.dim[1].label = 'U,T,usage'
+    with pytest.raises(GraspIntentError, match='<zones>|<tasks>'):
+        posterior_from_msg(msg)
+    with pytest.raises(GraspIntentError, match='2 dimension'):
+        posterior_from_msg(v_msg([0.5, 0.5], 'U,T'))
+    assert joint_positions(JointState(name=['a', 'b'], position=[1.0, 2.0]), ['b']) == pytest.approx([2.0])
+    assert joint_positions(JointState(name=['a'], position=[1.0]), ['a', 'b']) is None
+    with pytest.raises(KinematicsError, match='duplicate'):
+        joint_positions(JointState(name=['a', 'a'], position=[1.0, 2.0]), ['a'])
