@@ -1,0 +1,394 @@
+"""Session recorder: the node suite's topics -> one rosbag2 MCAP bag (what ``ros2 bag record`` would write).
+
+Run: ``python -m grasp_intent_ros.recorder OUT_DIR [--topics T ...] [--ros-args -r __ns:=/robot1]``
+
+Topics
+    ``--topics`` takes topic names relative to the recorder's namespace (or absolute); a name ending
+    in ``/`` selects every topic under it. Default: ``intent/ model/ grasp/ object/ joint_states
+    /diagnostics``. Matching topics are discovered every ``--discovery-period`` seconds, so nodes may
+    start before or after the recorder.
+Recording
+    Messages are taken serialized (``raw=True``) and written unchanged with
+    :class:`~grasp_intent_ros.bag.SessionWriter`, stamped with the receive time (node clock, ns).
+    Each topic is subscribed with the reliability and durability its publishers offer (best effort /
+    volatile if they differ; transient local for latched topics, so the last ``model/active`` is
+    recorded even when it was published before the recorder started), keep-last ``--depth``; that
+    offered QoS (depth 0: history not visible through discovery, as ``ros2 bag record`` stores it) is
+    written into the bag's metadata.
+Diagnostics
+    ``/diagnostics`` status ``<node>: recorder``: messages received, 'messages written' in total and
+    per topic ('topic /intent/w': n), ERROR with the reason once a write failed.
+Ending
+    SIGINT/SIGTERM: the bag is closed (MCAP summary, metadata.yaml), a one-line summary printed, exit 0.
+    A write error (e.g. disk full): an ERROR log naming the bag and the number of messages written,
+    nothing more is recorded, exit code 1. A bag directory that exists already: exit code 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import importlib
+import os
+import sys
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import rclpy
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.subscription import Subscription
+from rclpy.topic_endpoint_info import TopicEndpointInfo
+from rclpy.utilities import remove_ros_args
+from rosbags.typesys import Stores, get_typestore
+
+from .bag import BagWriteError, QosSpec, SessionWriter
+from .ros.diagnostics import ERROR, WARN, NodeDiagnostics
+from .ros.run import run_node
+
+__all__ = ['Recorder', 'TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'offered_qos', 'main']
+
+DEFAULT_TOPICS = ('intent/', 'model/', 'grasp/', 'object/', 'joint_states', '/diagnostics')
+"""Recorded by default: relative to the recorder's namespace; a trailing '/' selects a whole subtree."""
+
+DEFAULT_DEPTH = 1000
+"""Keep-last depth of the recorder's subscriptions (messages): absorbs bursts while a write blocks."""
+
+
+@dataclass(frozen=True)
+class TopicSelection:
+    """Fully qualified topic names and prefixes (ending in '/') to record."""
+
+    names: frozenset[str]
+    prefixes: tuple[str, ...]
+
+    @classmethod
+    def resolve(cls, node: Node, patterns: Iterable[str]) -> TopicSelection:
+        """Resolve ``patterns`` (relative names are expanded and remapped against ``node``).
+
+        Raises:
+            ValueError: A pattern is empty or not a valid topic name.
+        """
+        names, prefixes = set(), []
+        for pattern in patterns:
+            subtree = pattern.endswith('/')
+            stem = pattern.rstrip('/')
+            if not stem:
+                raise ValueError(f'not a topic name or prefix: {pattern!r}')
+            try:
+                full = node.resolve_topic_name(stem)
+            except Exception as exc:  # rclpy raises its own (Invalid*NameException) types
+                raise ValueError(f'not a topic name or prefix: {pattern!r}: {exc}') from None
+            if subtree:
+                prefixes.append(full + '/')
+            else:
+                names.add(full)
+        return cls(frozenset(names), tuple(prefixes))
+
+    def matches(self, topic: str) -> bool:
+        """Whether a fully qualified topic name is selected."""
+        return topic in self.names or topic.startswith(self.prefixes)
+
+
+def offered_qos(publishers: Sequence[TopicEndpointInfo]) -> QosSpec:
+    """The QoS to record (and subscribe with) for a topic's publishers.
+
+    Reliable / transient local only if every publisher offers it, so the subscription matches all of
+    them. Depth 0: publisher history is not visible through discovery.
+
+    Raises:
+        ValueError: ``publishers`` is empty.
+    """
+    if not publishers:
+        raise ValueError('a topic without publishers has no offered QoS')
+    reliable = all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in publishers)
+    latched = all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers)
+    return QosSpec('reliable' if reliable else 'best_effort',
+                   'transient_local' if latched else 'volatile', 0)
+
+
+def _subscription_qos(spec: QosSpec, depth: int) -> QoSProfile:
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST, depth=depth,
+        reliability=(ReliabilityPolicy.RELIABLE if spec.reliability == 'reliable'
+                     else ReliabilityPolicy.BEST_EFFORT),
+        durability=(DurabilityPolicy.TRANSIENT_LOCAL if spec.durability == 'transient_local'
+                    else DurabilityPolicy.VOLATILE))
+
+
+def _message_class(msgtype: str) -> Any:
+    """The rclpy message class of 'pkg/msg/Name'. Raises ImportError/AttributeError/ValueError."""
+    package, kind, name = msgtype.split('/')
+    return getattr(importlib.import_module(f'{package}.{kind}'), name)
+
+
+class Recorder(Node):
+    """Records the selected topics, serialized, into a new rosbag2 MCAP bag at ``out_dir``.
+
+    Args:
+        out_dir: Bag directory to create; it must not exist.
+        topics: Topic names/prefixes, see :data:`DEFAULT_TOPICS`.
+        qos_overrides: Topic (as in ``topics``, relative or absolute) -> QoS to subscribe with and
+            record, instead of the discovered offered QoS.
+        depth: Keep-last depth of each subscription (messages).
+        discovery_period: Seconds between looks at the ROS graph for new topics.
+        on_failure: Called once with the :class:`BagWriteError` after a write error stopped the
+            recording (``main`` shuts the context down with it); default: nothing more.
+        node_name: Node name; ``kwargs`` go to ``rclpy.node.Node`` (e.g. ``context``, ``namespace``).
+
+    Raises:
+        BagWriteError: ``out_dir`` exists or cannot be created.
+        ValueError: A topic pattern is invalid, or depth/discovery_period is not positive.
+
+    The bag is finished by :meth:`close`, which :meth:`destroy_node` calls.
+    """
+
+    def __init__(self, out_dir: str | os.PathLike[str], *, topics: Iterable[str] = DEFAULT_TOPICS,
+                 qos_overrides: Mapping[str, QosSpec] | None = None, depth: int = DEFAULT_DEPTH,
+                 discovery_period: float = 0.5,
+                 on_failure: Callable[[BagWriteError], object] | None = None,
+                 node_name: str = 'recorder', **kwargs: Any) -> None:
+        if depth < 1 or not discovery_period > 0.0:
+            raise ValueError(f'depth must be >= 1 and discovery_period > 0, got {depth}, {discovery_period}')
+        super().__init__(node_name, **kwargs)
+        self._typestore = get_typestore(Stores.ROS2_JAZZY)
+        try:
+            self._selection = TopicSelection.resolve(self, topics)
+            self._overrides = {self.resolve_topic_name(t): q for t, q in (qos_overrides or {}).items()}
+            self._bag = SessionWriter(out_dir, typestore=self._typestore)  # last: no empty bag left behind
+        except BaseException:
+            Node.destroy_node(self)
+            raise
+        self._depth = depth
+        self._on_failure = on_failure
+        self._topic_subs: dict[str, Subscription] = {}
+        self._recorded: dict[str, tuple[str, QosSpec]] = {}
+        self._skipped: set[str] = set()
+        self._qos_warned: set[str] = set()
+        self._counts: dict[str, int] = {}
+        self._error: BagWriteError | None = None
+        self._received_after_error = 0
+        self._diagnostics = NodeDiagnostics(self, 'recorder')
+        self._diagnostics.set_value('bag', self._bag.path)
+        self._diagnostics.set_value('messages written', 0)
+        self._timer = self.create_timer(discovery_period, self.discover)
+        self.get_logger().info(f'recording to {self._bag.path}: '
+                               f'{", ".join(sorted(self._selection.names | set(self._selection.prefixes)))}')
+        self.discover()
+
+    # ------------------------------------------------------------------ state
+    @property
+    def path(self) -> Path:
+        """The bag directory."""
+        return self._bag.path
+
+    @property
+    def counts(self) -> dict[str, int]:
+        """A copy of the messages written per topic."""
+        return dict(self._counts)
+
+    @property
+    def recorded_topics(self) -> dict[str, tuple[str, QosSpec]]:
+        """A copy of the subscribed topics: name -> (message type, recorded QoS)."""
+        return dict(self._recorded)
+
+    @property
+    def error(self) -> BagWriteError | None:
+        """The write error that stopped the recording, if any."""
+        return self._error
+
+    def summary(self) -> str:
+        """One line: messages per topic, and the error if the recording failed."""
+        per_topic = ', '.join(f'{t} {n}' for t, n in sorted(self._counts.items())) or 'no topics'
+        line = (f'recorder: {sum(self._counts.values())} messages on {len(self._counts)} topics '
+                f'in {self._bag.path} ({per_topic})')
+        if self._error is not None:
+            line += f'; FAILED: {self._error}'
+            if self._received_after_error:
+                line += f'; {self._received_after_error} messages received after the error not recorded'
+        return line
+
+    # ------------------------------------------------------------------ discovery
+    def discover(self) -> None:
+        """Subscribe to every selected topic that has appeared with a publisher since the last look."""
+        if self._error is not None or self._bag.closed:
+            return
+        try:
+            graph = self.get_topic_names_and_types()
+        except Exception as exc:  # noqa: BLE001 - e.g. the context is shutting down; never raise in a timer
+            self.get_logger().warning(f'topic discovery failed: {exc}')
+            return
+        for topic, types in graph:
+            if topic in self._topic_subs:
+                self._check_late_publishers(topic)
+                continue
+            if topic in self._skipped or not self._selection.matches(topic):
+                continue
+            if len(types) != 1:
+                self._skip(topic, f'it has {len(types)} message types {types}; one is needed')
+                continue
+            try:
+                publishers = self.get_publishers_info_by_topic(topic)
+            except Exception as exc:  # noqa: BLE001
+                self.get_logger().warning(f'cannot query the publishers of {topic}: {exc}')
+                continue
+            if publishers:  # a topic seen only through its subscribers waits for a publisher
+                self._subscribe(topic, types[0], self._overrides.get(topic) or offered_qos(publishers))
+
+    def _check_late_publishers(self, topic: str) -> None:
+        """Warn (once per topic) about a publisher that appeared after the subscription and offers a
+        weaker QoS than it requests (best effort / volatile): DDS connects nothing, its messages are lost."""
+        if topic in self._qos_warned:
+            return
+        try:
+            publishers = self.get_publishers_info_by_topic(topic)
+        except Exception:  # noqa: BLE001 - shutting down; the next look will tell
+            return
+        if not publishers:
+            return
+        offered, subscribed = offered_qos(publishers), self._recorded[topic][1]
+        if ((subscribed.reliability, offered.reliability) == ('reliable', 'best_effort')
+                or (subscribed.durability, offered.durability) == ('transient_local', 'volatile')):
+            self._qos_warned.add(topic)
+            message = (f'{topic}: a publisher offers {offered.reliability}/{offered.durability} but the recorder '
+                       f'subscribed {subscribed.reliability}/{subscribed.durability}; its messages are NOT '
+                       'recorded (restart the recorder to record it)')
+            self.get_logger().warning(message)
+            self._diagnostics.set_state(WARN, message)
+
+    def _skip(self, topic: str, reason: str) -> None:
+        self._skipped.add(topic)
+        self.get_logger().warning(f'not recording {topic}: {reason}')
+
+    def _subscribe(self, topic: str, msgtype: str, qos: QosSpec) -> None:
+        if msgtype not in self._typestore.fielddefs:
+            self._skip(topic, f'type {msgtype} is not a ROS 2 Jazzy standard type known to the bag writer')
+            return
+        try:
+            msg_class = _message_class(msgtype)
+        except (ImportError, AttributeError, ValueError) as exc:
+            self._skip(topic, f'type {msgtype} cannot be imported: {exc}')
+            return
+        try:
+            self._bag.add_topic(topic, msgtype, qos=qos)
+        except BagWriteError as exc:
+            self._fail(exc)
+            return
+        self._counts[topic] = 0
+        self._recorded[topic] = (msgtype, qos)
+        self._diagnostics.set_value(f'topic {topic}', 0)
+        self._topic_subs[topic] = self.create_subscription(
+            msg_class, topic, self._diagnostics.guard(functools.partial(self._on_message, topic)),
+            _subscription_qos(qos, self._depth), raw=True)
+        self.get_logger().info(f'recording {topic} ({msgtype}, {qos.reliability}, {qos.durability})')
+
+    # ------------------------------------------------------------------ writing
+    def _on_message(self, topic: str, data: bytes) -> None:
+        if self._error is not None:
+            self._received_after_error += 1
+            return
+        stamp_ns = self.get_clock().now().nanoseconds
+        try:
+            self._bag.write(topic, stamp_ns, data)
+        except BagWriteError as exc:
+            self._fail(exc)
+        except Exception as exc:  # noqa: BLE001 - never let a callback raise; never drop silently
+            self._fail(BagWriteError(f'cannot write {topic} to bag {self._bag.path}: '
+                                     f'{type(exc).__name__}: {exc}', path=self._bag.path,
+                                     messages_written=self._bag.message_count))
+        else:
+            count = self._counts[topic] = self._counts[topic] + 1
+            self._diagnostics.set_value(f'topic {topic}', count)
+            self._diagnostics.set_value('messages written', self._bag.message_count)
+
+    def _fail(self, exc: BagWriteError) -> None:
+        """Stop recording after a write error: report it, unsubscribe, call ``on_failure``."""
+        if self._error is not None:
+            return
+        self._error = exc
+        where = f' [bag {exc.path or self._bag.path}, {exc.messages_written} messages written before the error]'
+        self.get_logger().error(f'recording stopped, nothing more is recorded: {exc}'
+                                f'{"" if str(self._bag.path) in str(exc) else where}')
+        self._diagnostics.set_state(ERROR, f'recording stopped: {exc}')
+        self._diagnostics.publish()
+        self._timer.cancel()
+        for subscription in self._topic_subs.values():
+            self.destroy_subscription(subscription)
+        try:
+            self._bag.close()
+        except BagWriteError as close_exc:
+            self.get_logger().error(f'closing the bag after the error failed too: {close_exc}')
+        if self._on_failure is not None:
+            try:
+                self._on_failure(exc)
+            except Exception as cb_exc:  # noqa: BLE001
+                self.get_logger().error(f'on_failure callback raised {type(cb_exc).__name__}: {cb_exc}')
+
+    def close(self) -> None:
+        """Stop discovery and finish the bag (MCAP summary, metadata.yaml). Idempotent.
+
+        A failure while finishing is logged and kept in :attr:`error`.
+        """
+        self._timer.cancel()
+        try:
+            self._bag.close()
+        except BagWriteError as exc:
+            if self._error is None:
+                self._error = exc
+                self.get_logger().error(f'closing bag {self._bag.path} failed: {exc}')
+
+    def destroy_node(self) -> None:
+        """Close the bag, then destroy the node."""
+        self.close()
+        super().destroy_node()
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog='python -m grasp_intent_ros.recorder',
+        description='Record the node suite\'s topics into a rosbag2 MCAP bag until SIGINT/SIGTERM.')
+    parser.add_argument('out_dir', type=Path, help='bag directory to create (must not exist)')
+    parser.add_argument('--topics', nargs='+', metavar='T', default=list(DEFAULT_TOPICS),
+                        help='topics to record, relative to the node namespace; a trailing "/" selects '
+                             f'a subtree (default: {" ".join(DEFAULT_TOPICS)})')
+    parser.add_argument('--depth', type=int, default=DEFAULT_DEPTH,
+                        help=f'keep-last depth of each subscription (default {DEFAULT_DEPTH})')
+    parser.add_argument('--discovery-period', type=float, default=0.5,
+                        help='seconds between looks for new topics (default 0.5)')
+    return parser
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point: record until SIGINT/SIGTERM (exit 0) or a write error (exit 1).
+
+    ``args`` is a full command line (program name first), like ``sys.argv``, which it defaults to.
+    """
+    argv = list(sys.argv if args is None else args)
+    options = _parser().parse_args(remove_ros_args(argv)[1:])
+    if options.depth < 1 or not options.discovery_period > 0.0:
+        _parser().error('--depth must be >= 1 and --discovery-period > 0')
+    built: list[Recorder] = []
+
+    def build() -> Recorder:
+        try:
+            recorder = Recorder(options.out_dir, topics=options.topics, depth=options.depth,
+                                discovery_period=options.discovery_period,
+                                on_failure=lambda _exc: rclpy.try_shutdown())  # run_node's context
+        except ValueError as exc:  # a bad --topics entry
+            print(f'recorder: error: {exc}', file=sys.stderr)
+            raise SystemExit(2) from None
+        built.append(recorder)
+        return recorder
+
+    run_node(build, argv)
+    if built:
+        recorder = built[0]
+        print(recorder.summary(), flush=True)
+        if recorder.error is not None:
+            raise SystemExit(1)
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,175 @@
+"""In-process tests of the session recorder (private Context per test: the ``ros`` fixture of test/conftest.py).
+
+"Nothing lost": 2000 Float64MultiArray at 1 kHz, each carrying its sequence number, are all found in
+the bag, in order, by the rosbags reader and by the independent mcap reader; topics, types and offered
+QoS (transient local for a latched String published before the recorder existed) match what was sent.
+"""
+
+from __future__ import annotations
+
+import errno
+from pathlib import Path
+
+import pytest
+import rosbags.rosbag2
+import yaml
+from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
+
+from grasp_intent_ros.bag import BagWriteError, QosSpec, read_messages, read_messages_mcap, topics_info
+from grasp_intent_ros.recorder import Recorder
+from grasp_intent_ros.ros.qos import latched_qos
+
+N = 2000
+PERIOD = 1e-3  # s: 1 kHz
+NS = '/robot1'
+W, MODEL, POSE = f'{NS}/intent/w', f'{NS}/model/active', f'{NS}/object/pose'
+DIAG = '/diagnostics'
+F64MA, STRING, POSE_T = 'std_msgs/msg/Float64MultiArray', 'std_msgs/msg/String', 'geometry_msgs/msg/PoseStamped'
+MODEL_DOC = '# model_name: cup_7zone\n# model_version: 1\nname: cup_7zone\n'
+DEEP_RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=N, reliability=ReliabilityPolicy.RELIABLE,
+                           durability=DurabilityPolicy.VOLATILE)
+BEST_EFFORT = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)
+
+
+def w_msg(seq: int) -> Float64MultiArray:
+    """Message ``seq``: data = (seq, 0.25, 1 - seq / N), one labelled dimension."""
+    msg = Float64MultiArray(data=[float(seq), 0.25, 1.0 - seq / N])
+    msg.layout.dim.append(MultiArrayDimension(label='seq,a,b', size=3, stride=3))
+    return msg
+
+
+def publish_at_rate(ros, publisher, count: int, period: float) -> list[int]:
+    """Publish w_msg(0..count-1) from a timer every ``period`` s; returns the live list of sent seqs."""
+    sent: list[int] = []
+
+    def tick() -> None:
+        if len(sent) < count:
+            publisher.publish(w_msg(len(sent)))
+            sent.append(len(sent))
+        else:
+            timer.cancel()
+
+    timer = ros.node.create_timer(period, tick)
+    return sent
+
+
+def test_nothing_lost_at_1khz_and_latched_model_recorded(ros, tmp_path: Path) -> None:
+    model_pub = ros.publisher(String, MODEL, latched_qos())
+    model_pub.publish(String(data=MODEL_DOC))  # before the recorder exists: only transient local gets it
+    w_pub = ros.publisher(Float64MultiArray, W, DEEP_RELIABLE)
+    pose_pub = ros.publisher(PoseStamped, POSE, BEST_EFFORT)
+    ros.publisher(Float64MultiArray, f'{NS}/other/w', DEEP_RELIABLE)  # not selected
+    ros.publisher(Float64MultiArray, '/intent/w', DEEP_RELIABLE)  # outside the namespace
+
+    bag = tmp_path / 'session'
+    recorder = ros.add(Recorder(bag, context=ros.context, namespace=NS, discovery_period=0.1))
+    assert ros.wait_for(lambda: w_pub.get_subscription_count() >= 1 and pose_pub.get_subscription_count() >= 1
+                        and recorder.counts.get(MODEL) == 1, timeout=10.0), recorder.summary()
+
+    sent = publish_at_rate(ros, w_pub, N, PERIOD)
+    assert ros.wait_for(lambda: recorder.counts[W] == N, timeout=20.0), recorder.summary()
+    assert len(sent) == N
+    assert set(recorder.recorded_topics) == {W, MODEL, POSE, DIAG}  # /diagnostics: the recorder's own
+    ros.remove(recorder)  # destroy_node closes the bag
+
+    assert (bag / 'metadata.yaml').is_file()
+    assert recorder.error is None
+    assert f'{W} {N}, {MODEL} 1, {POSE} 0)' in recorder.summary()
+
+    # topics, types, counts and offered QoS as sent (depth 0: history is not visible through discovery)
+    info = topics_info(bag)
+    n_diag = info.pop(DIAG).count
+    assert {t: (i.msgtype, i.count) for t, i in info.items()} == {
+        W: (F64MA, N), MODEL: (STRING, 1), POSE: (POSE_T, 0)}
+    assert info[W].qos == (QosSpec('reliable', 'volatile', 0),)
+    assert info[MODEL].qos == (QosSpec('reliable', 'transient_local', 0),)
+    assert info[POSE].qos == (QosSpec('best_effort', 'volatile', 0),)
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert (meta['version'], meta['storage_identifier'], meta['message_count']) == (9, 'mcap', N + 1 + n_diag)
+
+    # every message, in order, with its values, by rosbags ...
+    messages = list(read_messages(bag, topics=[W]))
+    assert [int(m.decode().data[0]) for m in messages] == list(range(N))
+    stamps = [m.timestamp_ns for m in messages]
+    assert stamps == sorted(stamps)
+    for m in messages[:: N // 20]:
+        msg = m.decode()
+        seq = int(msg.data[0])
+        assert list(msg.data) == [seq, 0.25, 1.0 - seq / N]
+        assert [(d.label, d.size, d.stride) for d in msg.layout.dim] == [('seq,a,b', 3, 3)]
+    (model,) = [m.decode() for m in read_messages(bag, topics=[MODEL])]
+    assert model.data == MODEL_DOC
+
+    # ... and by the independent mcap reader
+    mcap = list(read_messages_mcap(bag))
+    assert [int(m.decoded.data[0]) for m in mcap if m.topic == W] == list(range(N))
+    assert [m.log_time_ns for m in mcap if m.topic == W] == stamps
+    assert [(m.schema_name, m.decoded.data) for m in mcap if m.topic == MODEL] == [(STRING, MODEL_DOC)]
+    assert len(mcap) == N + 1 + n_diag
+
+
+def test_write_error_stops_recording_reports_and_calls_on_failure(ros, tmp_path: Path, monkeypatch) -> None:
+    """A disk-full error from the storage: ERROR status and log, no more writes, on_failure called once."""
+    writes = {'n': 0}
+    original = rosbags.rosbag2.Writer.write
+
+    def write_until_disk_full(self, *args, **kwargs):
+        writes['n'] += 1
+        if writes['n'] > 5:
+            raise OSError(errno.ENOSPC, 'No space left on device')
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(rosbags.rosbag2.Writer, 'write', write_until_disk_full)
+    statuses = ros.diagnostics()
+    failures: list[BagWriteError] = []
+    w_pub = ros.publisher(Float64MultiArray, W, DEEP_RELIABLE)
+    recorder = ros.add(Recorder(tmp_path / 'full', context=ros.context, namespace=NS, discovery_period=0.1,
+                                on_failure=failures.append))
+    assert ros.wait_for(lambda: w_pub.get_subscription_count() >= 1, timeout=10.0)
+    sent = publish_at_rate(ros, w_pub, 50, PERIOD)
+    assert ros.wait_for(lambda: failures and len(sent) == 50, timeout=10.0)
+
+    assert len(failures) == 1
+    error = recorder.error
+    assert error is failures[0] and error.path == tmp_path / 'full' and error.messages_written == 5
+    assert 'No space left on device' in str(error) and '5 messages had been written' in str(error)
+    assert recorder.counts[W] == 5
+    assert 'FAILED' in recorder.summary()
+    assert ros.wait_for(lambda: [s for s in statuses if s.name == f'{NS}/recorder: recorder'
+                                 and s.level == DiagnosticStatus.ERROR and 'No space left' in s.message])
+    assert w_pub.get_subscription_count() == 0 or ros.wait_for(lambda: w_pub.get_subscription_count() == 0)
+    ros.remove(recorder)  # closing again is harmless
+    assert writes['n'] == 6  # nothing was written after the failure
+
+
+def test_existing_bag_is_never_overwritten(ros, tmp_path: Path) -> None:
+    (tmp_path / 'taken').mkdir()
+    with pytest.raises(BagWriteError, match='exists already'):
+        Recorder(tmp_path / 'taken', context=ros.context)
+
+
+def test_qos_override_and_explicit_topics(ros, tmp_path: Path) -> None:
+    pub = ros.publisher(Float64MultiArray, f'{NS}/grasp/posterior', DEEP_RELIABLE)
+    ros.publisher(Float64MultiArray, f'{NS}/intent/v', DEEP_RELIABLE)
+    recorder = ros.add(Recorder(tmp_path / 'b', context=ros.context, namespace=NS, discovery_period=0.1,
+                                topics=['grasp/'], qos_overrides={'grasp/posterior': QosSpec('best_effort')}))
+    assert ros.wait_for(lambda: pub.get_subscription_count() >= 1, timeout=10.0)
+    assert ros.publish_until(pub, w_msg(7), lambda: recorder.counts.get(f'{NS}/grasp/posterior', 0) >= 1)
+    assert set(recorder.recorded_topics) == {f'{NS}/grasp/posterior'}
+    ros.remove(recorder)
+    assert topics_info(tmp_path / 'b')[f'{NS}/grasp/posterior'].qos == (QosSpec('best_effort', 'volatile', 10),)
+
+
+def test_late_publisher_with_weaker_qos_is_reported(ros, tmp_path: Path) -> None:
+    """A volatile publisher joining a latched topic cannot reach the transient-local subscription: WARN."""
+    statuses = ros.diagnostics()
+    ros.publisher(String, MODEL, latched_qos()).publish(String(data=MODEL_DOC))
+    recorder = ros.add(Recorder(tmp_path / 'b', context=ros.context, namespace=NS, discovery_period=0.1))
+    assert ros.wait_for(lambda: recorder.counts.get(MODEL) == 1, timeout=10.0)
+    ros.publisher(String, MODEL, DEEP_RELIABLE)
+    assert ros.wait_for(lambda: [s for s in statuses if s.name == f'{NS}/recorder: recorder'
+                                 and s.level == DiagnosticStatus.WARN and 'NOT recorded' in s.message],
+                        timeout=10.0)

@@ -1,0 +1,173 @@
+"""The recorder as a real ``python -m grasp_intent_ros.recorder`` process, fed over loopback DDS by the
+in-process probe (``ros`` fixture of test/conftest.py, whose domain id the process shares).
+
+Only the recorder processes started here are ever signalled, by PID.
+"""
+
+from __future__ import annotations
+
+import os
+import resource
+import signal
+import subprocess
+import sys
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+import yaml
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Float64MultiArray, String
+
+from grasp_intent_ros.bag import QosSpec, read_messages, read_messages_mcap, topics_info
+from grasp_intent_ros.ros.qos import latched_qos
+
+REPO = Path(__file__).resolve().parents[2]
+STARTUP = 20.0
+"""Seconds the process gets to start (imports, DDS discovery) on a loaded machine."""
+N = 2000
+NS = '/robot1'
+W, MODEL, DIAG = f'{NS}/intent/w', f'{NS}/model/active', '/diagnostics'
+MODEL_DOC = '# model_name: cup_7zone\nname: cup_7zone\n'
+DEEP_RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=N, reliability=ReliabilityPolicy.RELIABLE,
+                           durability=DurabilityPolicy.VOLATILE)
+
+
+class RecorderProcess:
+    """``python -m grasp_intent_ros.recorder BAG --ros-args -r __ns:=/robot1``; output to files."""
+
+    def __init__(self, bag: Path, domain_id: int, log_dir: Path,
+                 preexec_fn: Callable[[], None] | None = None) -> None:
+        env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': str(domain_id),
+               'PYTHONUNBUFFERED': '1', 'PYTHONDONTWRITEBYTECODE': '1'}
+        env.pop('ROS_STATIC_PEERS', None)
+        self.stdout_path, self.stderr_path = log_dir / 'recorder.out', log_dir / 'recorder.err'
+        cmd = [sys.executable, '-m', 'grasp_intent_ros.recorder', str(bag), '--discovery-period', '0.2',
+               '--ros-args', '-r', f'__ns:={NS}']
+        with self.stdout_path.open('wb') as out, self.stderr_path.open('wb') as err:
+            self.popen = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=out, stderr=err,
+                                          stdin=subprocess.DEVNULL, preexec_fn=preexec_fn)
+
+    def stop(self, sig: int, timeout: float = 10.0) -> int:
+        """Send ``sig`` to this PID (unless it exited) and wait; SIGKILL after ``timeout`` s."""
+        if self.popen.poll() is None:
+            self.popen.send_signal(sig)
+        try:
+            return self.popen.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.popen.kill()
+            self.popen.wait()
+            pytest.fail(f'recorder (pid {self.popen.pid}) did not exit within {timeout} s of signal {sig}')
+
+    def output(self) -> tuple[str, str]:
+        return self.stdout_path.read_text(errors='replace'), self.stderr_path.read_text(errors='replace')
+
+
+@pytest.fixture
+def start_recorder(ros, tmp_path: Path) -> Iterator[Callable[..., RecorderProcess]]:
+    started: list[RecorderProcess] = []
+
+    def start(bag: Path, **kwargs) -> RecorderProcess:
+        started.append(RecorderProcess(bag, ros.domain_id, tmp_path, **kwargs))
+        return started[-1]
+
+    yield start
+    for proc in started:
+        if proc.popen.poll() is None:
+            proc.popen.kill()  # only after a failed test; by PID
+            proc.popen.wait()
+
+
+def recorder_count(statuses: list, key: str) -> int:
+    """The recorder's last reported count for ``key`` (e.g. 'topic /robot1/intent/w'), -1 if none yet."""
+    for status in reversed(statuses):
+        if status.name == f'{NS}/recorder: recorder':
+            values = {kv.key: kv.value for kv in status.values}
+            if key in values:
+                return int(values[key])
+    return -1
+
+
+def test_process_records_2000_messages_at_1khz_and_closes_on_sigint(ros, start_recorder, tmp_path) -> None:
+    model_pub = ros.publisher(String, MODEL, latched_qos())
+    model_pub.publish(String(data=MODEL_DOC))  # latched, published before the recorder starts
+    w_pub = ros.publisher(Float64MultiArray, W, DEEP_RELIABLE)
+    statuses = ros.diagnostics()
+    bag = tmp_path / 'session'
+    proc = start_recorder(bag)
+    assert ros.wait_for(lambda: w_pub.get_subscription_count() >= 1 and recorder_count(statuses, f'topic {MODEL}') == 1,
+                        timeout=STARTUP), proc.output()
+
+    sent: list[int] = []
+
+    def tick() -> None:
+        if len(sent) < N:
+            w_pub.publish(Float64MultiArray(data=[float(len(sent)), 0.5, 0.5]))
+            sent.append(len(sent))
+        else:
+            timer.cancel()
+
+    timer = ros.node.create_timer(1e-3, tick)  # 1 kHz
+    assert ros.wait_for(lambda: len(sent) == N, timeout=20.0)
+    # the recorder reports what it wrote on /diagnostics (1 Hz): wait until it has all, then SIGINT
+    assert ros.wait_for(lambda: recorder_count(statuses, f'topic {W}') == N, timeout=10.0), \
+        (recorder_count(statuses, f'topic {W}'), proc.output())
+    assert proc.stop(signal.SIGINT) == 0, proc.output()
+    stdout, stderr = proc.output()
+    assert 'Traceback' not in stderr
+    summary = stdout.strip().splitlines()[-1]
+    assert f'{W} {N},' in summary and f'{MODEL} 1)' in summary, summary
+
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert (meta['version'], meta['storage_identifier']) == (9, 'mcap')
+    info = topics_info(bag)
+    assert (info[W].msgtype, info[W].count, info[W].qos) == (
+        'std_msgs/msg/Float64MultiArray', N, (QosSpec('reliable', 'volatile', 0),))
+    assert (info[MODEL].msgtype, info[MODEL].count, info[MODEL].qos) == (
+        'std_msgs/msg/String', 1, (QosSpec('reliable', 'transient_local', 0),))
+    assert set(info) == {W, MODEL, DIAG}
+    assert [int(m.decode().data[0]) for m in read_messages(bag, topics=[W])] == list(range(N))
+    assert [int(m.decoded.data[0]) for m in read_messages_mcap(bag, topics=[W])] == list(range(N))
+    assert [m.decoded.data for m in read_messages_mcap(bag, topics=[MODEL])] == [MODEL_DOC]
+
+
+def test_process_closes_the_bag_on_sigterm(ros, start_recorder, tmp_path) -> None:
+    ros.publisher(String, MODEL, latched_qos()).publish(String(data=MODEL_DOC))
+    statuses = ros.diagnostics()
+    bag = tmp_path / 'session'
+    proc = start_recorder(bag)
+    assert ros.wait_for(lambda: recorder_count(statuses, f'topic {MODEL}') == 1, timeout=STARTUP), proc.output()
+    assert proc.stop(signal.SIGTERM) == 0, proc.output()
+    assert 'Traceback' not in proc.output()[1]
+    assert topics_info(bag)[MODEL].count == 1
+
+
+def _limit_file_size() -> None:
+    """In the child: files may not grow beyond 200 kB; writing more fails with EFBIG (not SIGXFSZ)."""
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, 200_000))
+
+
+def test_process_exits_nonzero_with_an_error_when_the_bag_cannot_be_written(ros, start_recorder, tmp_path) -> None:
+    """File size limit as a stand-in for a full disk: the first 1 MiB MCAP chunk cannot be written."""
+    w_pub = ros.publisher(Float64MultiArray, W, DEEP_RELIABLE)
+    bag = tmp_path / 'session'
+    proc = start_recorder(bag, preexec_fn=_limit_file_size)
+    assert ros.wait_for(lambda: w_pub.get_subscription_count() >= 1, timeout=STARTUP), proc.output()
+    big = Float64MultiArray(data=[0.5] * 2000)  # 16 kB: the chunk fills after ~65 messages
+
+    def publish_until_exit() -> bool:
+        for _ in range(10):
+            w_pub.publish(big)
+        return proc.popen.poll() is not None
+
+    assert ros.wait_for(publish_until_exit, timeout=20.0), proc.output()
+    code = proc.stop(signal.SIGTERM)  # it has exited on its own; no signal is sent
+    stdout, stderr = proc.output()
+    assert code == 1, (stdout, stderr)
+    assert 'Traceback' not in stderr
+    error_lines = [line for line in stderr.splitlines() if '[ERROR]' in line and 'recording stopped' in line]
+    assert error_lines, stderr
+    assert str(bag) in error_lines[0] and 'File too large' in error_lines[0]
+    assert 'messages had been written' in error_lines[0]
+    assert 'FAILED' in stdout.strip().splitlines()[-1]
