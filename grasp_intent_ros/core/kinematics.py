@@ -80,6 +80,7 @@ from .features import APPROACH, FINGERS, MICO_3F, PALM, ROLL
 from .resources import config_dir
 
 __all__ = [
+    'MAX_REACH',
     'ARM_JOINTS',
     'FINGER_JOINTS',
     'BASE_FRAME',
@@ -107,6 +108,14 @@ URDF_FILENAME = 'mico_3f.urdf'
 HOME_Q: NDArray[np.float64] = np.array([4.80469, 2.92482, 1.002, 4.20319, 1.4458, 1.3233])
 """kinova-ros "Home" (rad), tool at about (0.2149, -0.2036, 0.4187) m in the base frame. Read-only."""
 HOME_Q.setflags(write=False)
+
+_SHOULDER = np.array([0.0, 0.0, 0.2755])
+"""Joint 2's axis point in the base frame (m): height D1 of the DH table."""
+
+MAX_REACH = 0.7285
+"""Upper bound on the distance from :data:`_SHOULDER` to the EE origin (m): the sum of the link lengths
+D2 + D3 + D4 + D5 + D6 + e2; FK of 20,000 random joint vectors reaches at most 0.708 m. IK answers a
+target beyond it at once instead of spending its restarts."""
 
 _WIDE_JOINTS = np.array([True, False, False, True, True, True])
 """Joints without end stops on the robot (1, 4, 5, 6): IK answers are wrapped by 2 pi towards the seed."""
@@ -367,6 +376,12 @@ class MicoKinematics:
         generator = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(
             0 if rng is None else rng)
 
+        shoulder_to_target = float(np.linalg.norm(base_T_target[:3, 3] - _SHOULDER))
+        if shoulder_to_target > MAX_REACH + pos_tol:
+            return IkResult(q=q_ref.copy(), success=False, pos_error_m=shoulder_to_target - MAX_REACH,
+                            rot_error_rad=math.nan, iterations=0, attempts=0,
+                            message=f'target {shoulder_to_target:.3f} m from the shoulder, beyond the arm\'s '
+                                    f'reach of {MAX_REACH:.3f} m')
         world_M_target = self._world_M_base * pin.SE3(base_T_target[:3, :3], base_T_target[:3, 3])
         data = self.model.createData()
         q_start = self._into_limits(q_ref)

@@ -190,6 +190,15 @@ def test_ik_unreachable_reports_failure(kin: MicoKinematics) -> None:
     res = kin.ik(base_T_target, restarts=2)
     assert not res.success
     assert res.pos_error_m > 1.0
+    assert res.attempts == 0 and res.iterations == 0  # beyond MAX_REACH: answered without iterating
+    assert np.all(np.isfinite(res.q)) and np.all((kin.lower <= res.q) & (res.q <= kin.upper))
+    assert 'reach' in res.message
+
+
+def test_ik_that_does_not_converge_reports_failure(kin: MicoKinematics) -> None:
+    q_far = np.array(HOME_Q) + np.array([1.0, -0.6, 0.8, 1.0, 1.0, 1.0])
+    res = kin.ik(kin.fk(q_far), restarts=2, max_iter=1)  # one iteration per attempt cannot get there
+    assert not res.success
     assert res.attempts == 3
     assert np.all(np.isfinite(res.q)) and np.all((kin.lower <= res.q) & (res.q <= kin.upper))
     assert 'did not converge' in res.message
@@ -338,3 +347,4 @@ def test_core_kinematics_does_not_import_rclpy() -> None:
 
 def test_ee_frame_name(kin: MicoKinematics) -> None:
     assert kin.model.existFrame(EE_FRAME)
+
