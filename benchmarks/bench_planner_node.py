@@ -1,7 +1,8 @@
 """Latest-only benchmark of the grasp planner node (issue 3): prints figures, asserts nothing.
 
 An in-process GraspPlanner (its own rclpy Context) gets the cup 7-zone model and then a new target
-vector v every 10 ms for 10 s (seeded random w, interpreted over all zones), faster than it can plan.
+vector v every 10 ms for 10 s (seeded random w, interpreted over all zones; ``--stream walk``: a random
+walk of w, as from a smooth intent estimate during teleoperation), faster than it can plan.
 Printed: how many plans it made for how many messages, the end-to-end latency from publishing a v to
 receiving the grasp/joint_targets that answer it (median, p99, max), the in-node planning and IK times
 (sampled from its diagnostics), and the largest backlog.
@@ -40,6 +41,9 @@ def main() -> None:
     parser.add_argument('--period', type=float, default=0.01, help='seconds between two v messages')
     parser.add_argument('--duration', type=float, default=10.0, help='seconds of publishing')
     parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--stream', choices=('random', 'walk'), default='random',
+                        help='independent random w (default) or a teleoperation-like random walk of w '
+                             '(each entry moves by N(0, 0.01) per message)')
     parser.add_argument('--method', default=None, help="the node's method parameter (default: its default)")
     args = parser.parse_args()
     if os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE') != 'LOCALHOST':
@@ -71,8 +75,11 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     n = int(round(args.duration / args.period))
     messages = []
+    w = np.full(m, 0.5)
     while len(messages) < n + 1:
-        result = intent.interpret(rng.uniform(0.0, 1.0, m))
+        w = rng.uniform(0.0, 1.0, m) if args.stream == 'random' else np.clip(
+            w + rng.normal(0.0, 0.01, m), 0.02, 0.98)
+        result = intent.interpret(w)
         if result.v is not None and intent.restrict(result.v, intent.all_zones(m), model.zones) is not None:
             messages.append(array_to_msg(result.v, [labels]))
 
@@ -140,7 +147,7 @@ def main() -> None:
         return f'median {np.median(values):.1f} ms over {values.size} samples' if values.size else 'n/a'
 
     print(f'method {method}, model {path} ({len(model.zones)} zones); {n} v messages, one every '
-          f'{1e3 * args.period:.0f} ms for {end - start:.1f} s')
+          f'{1e3 * args.period:.0f} ms for {end - start:.1f} s ({args.stream} w stream)')
     print(f'plans answering the burst: {len(pairs)} ({answered} distinct v); '
           f'node: {last.get("plans", "?")} plans in all, {last.get("inputs superseded", "?")} inputs superseded')
     if latency_ms.size:
