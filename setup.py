@@ -1,4 +1,5 @@
 """ament_python / pip packaging for grasp_intent_ros."""
+import os
 from glob import glob
 
 from setuptools import find_packages, setup
@@ -15,7 +16,10 @@ setup(
         (f'share/{package_name}/config', glob('config/*.yaml') + glob('config/*.urdf')),
         (f'share/{package_name}/config/models', glob('config/models/*.yaml')),
         (f'share/{package_name}/config/data', glob('config/data/*.csv')),
-        (f'share/{package_name}/bags', glob('bags/**/*', recursive=True)),
+    ] + [
+        # recorded sessions, one directory per bag
+        (f'share/{package_name}/{os.path.dirname(path)}', [path])
+        for path in sorted(glob('bags/*/*')) if os.path.isfile(path)
     ],
     python_requires='>=3.10',
     install_requires=[
@@ -39,6 +43,10 @@ setup(
     license='BSD-3-Clause',
     entry_points={
         'console_scripts': [
+            f'{name} = {package_name}.{name}:main' for name in (
+                'intent_interpreter', 'model_server', 'grasp_planner', 'send_intent', 'demo',
+                'recorder', 'replay', 'report', 'generate_data', 'train', 'paper_tables',
+                'ambiguity_report')
         ],
     },
 )
