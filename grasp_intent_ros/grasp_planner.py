@@ -197,6 +197,8 @@ class GraspPlanner(Node):
             self.create_subscription(JointState, 'joint_states', guard(self._on_joint_state), input_qos()),
         ]
         self._worker = threading.Thread(target=self._work, name=f'{node_name}_planning', daemon=True)
+        # SIGINT/SIGTERM shut the context down before destroy_node runs: stop planning at once
+        self.context.on_shutdown(self._stop.set)
         self._worker.start()
 
     def destroy_node(self) -> None:
@@ -331,8 +333,14 @@ class GraspPlanner(Node):
             note = f'best of {n} candidates reachable'
         self._plan_diag.set_value('last plan reachability', note)
         self._warm = (key, result.x)
-        if not self._stop.is_set():
+        if self._stop.is_set():
+            return
+        try:
             self._publish(inputs, doc, result, answers[result.x.tobytes()].q)
+        except Exception:
+            if self.context.ok():
+                raise
+            # the context was shut down (a signal) between the check above and a publish: nothing to send to
 
     def _publish(self, inputs: _Inputs, doc: ModelDocument, result: planner.PlanResult,
                  q: NDArray[np.float64]) -> None:

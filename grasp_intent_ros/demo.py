@@ -1,0 +1,409 @@
+"""The README's main command: the three nodes as separate processes, the paper's intent cases through them.
+
+Run: ``python -m grasp_intent_ros.demo [--models-dir DIR] [--timeout S]`` (``scripts/demo.sh`` does this)
+
+1. Refuses a domain on which other nodes show up within :data:`DOMAIN_CHECK` seconds, then starts
+   ``intent_interpreter``, ``model_server`` and ``grasp_planner`` as ``python -m`` processes (with
+   their ``config/<node>.yaml`` parameter files) and waits, up to ``--timeout`` seconds, until each is up:
+   the interpreter subscribes to ``intent/w`` and reports on ``/diagnostics``, the model server publishes
+   ``model/active`` and offers its parameter services, the planner reports the model it received. A node
+   that does not come up is named, with the end of its stderr.
+2. Sends the cases of :data:`grasp_intent_ros.paper_tables.CASES` through the running chain with
+   :class:`~grasp_intent_ros.send_intent.IntentSender` (an answer is the first plan stamped after the send)
+   and prints each with :func:`~grasp_intent_ros.send_intent.format_grasp`: v, P, reconstructed w,
+   end-effector pose, MICO joint targets. Before a case on another model it sets the model server's
+   ``model`` parameter through its parameter service, then waits until the planner reports the new
+   model document (name and version) on ``/diagnostics``; the answer must carry that model's zones.
+   A last case with a low intent (0.1, 0.1, 0.1) shows the interpreter's clarification request.
+3. Stops every node with SIGINT (SIGKILL after a deadline) and checks each exited with code 0 and
+   printed no traceback.
+
+Network: importing this module sets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and drops
+``ROS_STATIC_PEERS`` in its own environment before rclpy is imported (as ``test/conftest.py`` does), so
+no DDS traffic leaves the loopback interface. The domain id is ``ROS_DOMAIN_ID`` when set, else one derived
+from the process id; the nodes inherit both.
+
+Exit codes: 0 every case answered and every node exited 0; 1 a node did not come up, a case was not
+answered as expected, or a node did not shut down cleanly; 2 bad arguments; 130 interrupted (SIGINT or
+SIGTERM; the nodes are stopped first).
+"""
+
+from __future__ import annotations
+
+import os
+
+_REQUESTED_RANGE = os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE')
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # before rclpy is imported anywhere
+os.environ.pop('ROS_STATIC_PEERS', None)
+
+import argparse  # noqa: E402
+import signal  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from collections.abc import Callable, Sequence  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+from pathlib import Path  # noqa: E402
+from types import FrameType  # noqa: E402
+
+import rclpy  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
+from rclpy.signals import SignalHandlerOptions  # noqa: E402
+from std_msgs.msg import String  # noqa: E402
+
+from .core.errors import GraspIntentError  # noqa: E402
+from .core.resources import config_dir  # noqa: E402
+from .paper_tables import CASES  # noqa: E402
+from .ros.conversions import ModelDocument, model_from_msg  # noqa: E402
+from .ros.qos import input_qos, latched_qos  # noqa: E402
+from .send_intent import IntentSender, NoGrasp, format_grasp  # noqa: E402
+
+__all__ = ['NODES', 'CLARIFICATION_CASE', 'DemoError', 'main']
+
+NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
+"""The node modules the demo starts, in start order."""
+
+CLARIFICATION_CASE = ('Clarification: low intent', (0.1, 0.1, 0.1))
+"""Sent last: P(no task) = 0.729 >= the default threshold 0.5, so the interpreter asks for clarification."""
+
+STOP_TIMEOUT = 10.0
+"""Seconds a node gets to exit after SIGINT before it is SIGKILLed."""
+
+DOMAIN_CHECK = 1.5
+"""Seconds the demo looks for other nodes on its domain before it starts its own."""
+
+_PACKAGE_PARENT = Path(__file__).resolve().parents[1]
+
+
+class DemoError(RuntimeError):
+    """The chain did not behave as the demo expects; the message says which node and why."""
+
+
+class _Interrupted(Exception):
+    """SIGTERM (or SIGINT) arrived: stop the nodes and exit 130."""
+
+
+def _interrupt(signum: int, frame: FrameType | None) -> None:
+    raise _Interrupted(signal.Signals(signum).name)
+
+
+def _domain_id() -> int:
+    """ROS_DOMAIN_ID if set (must be 0..101 for LOCALHOST discovery), else 10..89 from the process id."""
+    value = os.environ.get('ROS_DOMAIN_ID', '').strip()
+    if not value:
+        return 10 + os.getpid() % 80
+    if not value.isdigit() or int(value) > 101:
+        raise DemoError(f'ROS_DOMAIN_ID must be an integer in 0..101, got {value!r}')
+    return int(value)
+
+
+# ------------------------------------------------------------------------------------------ processes
+@dataclass
+class _NodeProcess:
+    """One node process; its output goes to files so that no pipe can fill up and block it."""
+
+    name: str
+    popen: subprocess.Popen[bytes]
+    stderr_path: Path
+
+    @classmethod
+    def start(cls, name: str, ros_args: Sequence[str], env: dict[str, str], log_dir: Path) -> _NodeProcess:
+        cmd = [sys.executable, '-m', f'grasp_intent_ros.{name}', '--ros-args', *ros_args]
+        stderr_path = log_dir / f'{name}.err'
+        with (log_dir / f'{name}.out').open('wb') as out, stderr_path.open('wb') as err:
+            popen = subprocess.Popen(cmd, env=env, stdout=out, stderr=err, stdin=subprocess.DEVNULL)
+        return cls(name, popen, stderr_path)
+
+    def stderr_tail(self, lines: int = 15) -> str:
+        try:
+            text = self.stderr_path.read_text(errors='replace')
+        except OSError as exc:
+            return f'(stderr unreadable: {exc})'
+        tail = text.strip().splitlines()[-lines:]
+        return '\n'.join(f'    | {line}' for line in tail) if tail else '    | (empty)'
+
+    def stop(self, deadline: float) -> str:
+        """Wait for the exit (SIGINT already sent) until ``deadline`` (monotonic), then SIGKILL.
+
+        Returns '' for a clean exit (code 0, no traceback), else the problem.
+        """
+        try:
+            self.popen.wait(max(0.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            self.popen.kill()
+            self.popen.wait()
+            return f'{self.name} (pid {self.popen.pid}) ignored SIGINT for {STOP_TIMEOUT:g} s and was killed'
+        code = self.popen.returncode
+        if code != 0:
+            return f'{self.name} (pid {self.popen.pid}) exited with code {code}:\n{self.stderr_tail()}'
+        if 'Traceback' in self.stderr_path.read_text(errors='replace'):
+            return f'{self.name} (pid {self.popen.pid}) printed a traceback:\n{self.stderr_tail()}'
+        return ''
+
+
+def _start_nodes(nodes: dict[str, _NodeProcess], models_dir: Path | None, env: dict[str, str],
+                 log_dir: Path) -> None:
+    """Start every node of NODES into ``nodes`` (filled as they start, so a signal between two starts
+    still finds the earlier ones to stop)."""
+    try:
+        config: Path | None = config_dir()
+    except FileNotFoundError:
+        config = None
+    for name in NODES:
+        ros_args: list[str] = []
+        if config is not None and (config / f'{name}.yaml').is_file():
+            ros_args += ['--params-file', str(config / f'{name}.yaml')]
+        if name == 'model_server' and models_dir is not None:
+            ros_args += ['-p', f'models_dir:={models_dir}']
+        nodes[name] = _NodeProcess.start(name, ros_args, env, log_dir)
+
+
+def _stop_nodes(nodes: dict[str, _NodeProcess]) -> list[str]:
+    """SIGINT every node still running, wait for all (SIGKILL after STOP_TIMEOUT); the problems found."""
+    for proc in nodes.values():
+        if proc.popen.poll() is None:
+            proc.popen.send_signal(signal.SIGINT)
+    deadline = time.monotonic() + STOP_TIMEOUT
+    return [problem for problem in (proc.stop(deadline) for proc in nodes.values()) if problem]
+
+
+# ------------------------------------------------------------------------------------------ the ROS side
+class _ChainObserver(Node):
+    """What the demo watches besides the answers: model/active, /diagnostics, the intent topics' graph,
+    clarification requests, and the model server's parameter client."""
+
+    def __init__(self) -> None:
+        super().__init__('grasp_intent_demo')
+        self.models: list[ModelDocument] = []
+        self.clarifications: list[String] = []
+        self.statuses: dict[str, dict[str, str]] = {}
+        self.parameters = AsyncParameterClient(self, 'model_server')
+        self.create_subscription(String, 'model/active', self._on_model, latched_qos())
+        self.create_subscription(String, 'intent/clarification', self.clarifications.append, input_qos())
+        self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, 50)
+
+    def _on_model(self, msg: String) -> None:
+        try:
+            self.models.append(model_from_msg(msg))
+        except GraspIntentError as exc:
+            self.get_logger().warning(f'ignored a malformed model/active: {exc}')
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            self.statuses[status.name] = {kv.key: kv.value for kv in status.values}
+
+    def status(self, suffix: str) -> dict[str, str] | None:
+        """Values of the last status whose name ends with ``suffix`` (e.g. 'grasp_planner: planning')."""
+        return next((values for name, values in self.statuses.items() if name.endswith(suffix)), None)
+
+
+class _Demo:
+    """The running chain seen from the demo: node processes, the sender, the observer."""
+
+    def __init__(self, nodes: dict[str, _NodeProcess], timeout: float) -> None:
+        self.nodes = nodes
+        self.timeout = timeout
+        self.sender = IntentSender('grasp_intent_demo_sender')
+        self.observer = _ChainObserver()
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.sender)
+        self.executor.add_node(self.observer)
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.sender.destroy_node()
+        self.observer.destroy_node()
+
+    def _check_alive(self) -> None:
+        for proc in self.nodes.values():
+            code = proc.popen.poll()
+            if code is not None:
+                raise DemoError(f'{proc.name} exited with code {code}; its stderr ends with:\n'
+                                f'{proc.stderr_tail()}')
+
+    def _spin_until(self, predicate: Callable[[], object], timeout: float | None = None) -> bool:
+        """Spin until ``predicate()`` holds (True) or ``timeout`` (default ``self.timeout``) seconds pass
+        (False); DemoError as soon as a node process has exited."""
+        deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
+        while not predicate():
+            self._check_alive()
+            remaining = deadline - time.monotonic()
+            if remaining <= 0.0:
+                return bool(predicate())
+            self.executor.spin_once(timeout_sec=min(remaining, 0.05))
+        return True
+
+    def _active(self) -> ModelDocument | None:
+        return self.observer.models[-1] if self.observer.models else None
+
+    def _planner_model(self) -> str:
+        status = self.observer.status('grasp_planner: planning')
+        return '' if status is None else status.get('model', '')
+
+    def check_domain_unused(self, domain_id: int) -> None:
+        """DemoError if other nodes show up on the domain within DOMAIN_CHECK seconds: the demo would talk
+        to them (another run's model_server answers set_parameters just as well). Evidence, not proof:
+        discovery on loopback normally takes well under a second."""
+        own = {self.sender.get_name(), self.observer.get_name()}
+
+        def others() -> list[str]:
+            return sorted(f'{ns.rstrip("/")}/{name}'
+                          for name, ns in self.observer.get_node_names_and_namespaces() if name not in own)
+
+        if self._spin_until(others, DOMAIN_CHECK):
+            raise DemoError(f'ROS_DOMAIN_ID={domain_id} is in use by {", ".join(others())}; '
+                            f'set ROS_DOMAIN_ID to a free domain (0..101)')
+
+    def wait_until_up(self) -> None:
+        """Wait until every node is up; DemoError naming those that are not, with their stderr."""
+        obs = self.observer
+        missing: dict[str, Callable[[], str]] = {
+            'intent_interpreter': lambda: (
+                'no /diagnostics from it' if obs.status('intent_interpreter: intent') is None else
+                'nobody subscribes to intent/w' if obs.count_subscribers('intent/w') == 0 else ''),
+            'model_server': lambda: (
+                'no model/active received' if self._active() is None else
+                'its parameter services are not ready' if not obs.parameters.services_are_ready() else ''),
+            'grasp_planner': lambda: (
+                'no /diagnostics from it' if obs.status('grasp_planner: planning') is None else
+                'it reports no model received' if not self._planner_model() else ''),
+        }
+        if self._spin_until(lambda: not any(why() for why in missing.values())):
+            return
+        down = [f'{name} did not come up within {self.timeout:g} s ({why()}); its stderr ends with:\n'
+                f'{self.nodes[name].stderr_tail()}' for name, why in missing.items() if why()]
+        raise DemoError('\n'.join(down))
+
+    def switch_model(self, name: str) -> ModelDocument:
+        """Make ``name`` the active model (parameter service) and wait until the planner has it."""
+        active = self._active()
+        assert active is not None
+        if active.name != name:
+            request = [Parameter('model', Parameter.Type.STRING, name)]
+            future = self.observer.parameters.set_parameters(request)
+            if not self._spin_until(future.done):
+                raise DemoError(f'model_server did not answer set_parameters(model={name!r}) within '
+                                f'{self.timeout:g} s')
+            result = future.result().results[0]
+            if not result.successful:
+                raise DemoError(f'model_server rejected model {name!r}: {result.reason}')
+            if not self._spin_until(lambda: (doc := self._active()) is not None and doc.name == name):
+                raise DemoError(f'model_server accepted model {name!r} but published no such model/active')
+            active = self._active()
+            assert active is not None
+        expected = f'{active.name} (version {active.version},'
+        if not self._spin_until(lambda: self._planner_model().startswith(expected)):
+            raise DemoError(f'grasp_planner did not report model {active.name!r} version {active.version} '
+                            f'within {self.timeout:g} s (it reports {self._planner_model()!r}); its stderr '
+                            f'ends with:\n{self.nodes["grasp_planner"].stderr_tail()}')
+        return active
+
+    def run_case(self, title: str, w: Sequence[float], model: str | None) -> None:
+        """Send w (on ``model``, if given) and print the answer; DemoError if it is not the expected one."""
+        doc = self.switch_model(model) if model is not None else None
+        where = (f'model {doc.name} ({len(doc.model.zones)} zones)' if doc is not None
+                 else 'no model involved (the interpreter answers)')
+        print(f'  {where}, w = {tuple(w)}')
+        n_clarifications = len(self.observer.clarifications)
+        start = time.monotonic()
+        try:
+            answer = self.sender.send(w, self.executor, timeout=self.timeout)
+        except NoGrasp as exc:
+            asked = lambda: len(self.observer.clarifications) > n_clarifications  # noqa: E731
+            if doc is None and self._spin_until(asked, timeout=2.0):  # the sender may have heard it first
+                print(f'    no grasp: the intent interpreter asks for clarification: '
+                      f'{self.observer.clarifications[-1].data}\n')
+                return
+            self._check_alive()
+            raise DemoError(f'case {title!r}, w = {tuple(w)}: {exc}') from None
+        if doc is None:
+            raise DemoError(f'case {title!r}: expected a clarification request, got a grasp:\n'
+                            f'{format_grasp(answer)}')
+        if answer.posterior.zone_labels != doc.model.zone_labels:
+            raise DemoError(f'case {title!r}: the grasp has zones {",".join(answer.posterior.zone_labels)}, '
+                            f'model {doc.name} has {",".join(doc.model.zone_labels)}')
+        print('    ' + format_grasp(answer).replace('\n', '\n    '))
+        print(f'    answered in {time.monotonic() - start:.2f} s\n')
+
+
+def _run(models_dir: Path | None, timeout: float) -> int:
+    domain_id = _domain_id()
+    if _REQUESTED_RANGE not in (None, '', 'LOCALHOST'):
+        print(f'demo: ROS_AUTOMATIC_DISCOVERY_RANGE={_REQUESTED_RANGE} overridden with LOCALHOST',
+              file=sys.stderr)
+    os.environ['ROS_DOMAIN_ID'] = str(domain_id)
+    env = {**os.environ, 'PYTHONUNBUFFERED': '1', 'RCUTILS_LOGGING_BUFFERED_STREAM': '0',
+           'PYTHONPATH': os.pathsep.join(p for p in (str(_PACKAGE_PARENT), os.environ.get('PYTHONPATH'))
+                                         if p)}
+    start = time.monotonic()
+    nodes: dict[str, _NodeProcess] = {}
+    code = 1
+    with tempfile.TemporaryDirectory(prefix='grasp_intent_demo_') as log_dir:
+        demo: _Demo | None = None
+        try:
+            rclpy.init(domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
+            demo = _Demo(nodes, timeout)
+            demo.check_domain_unused(domain_id)
+            _start_nodes(nodes, models_dir, env, Path(log_dir))
+            print(f'ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; started '
+                  + ', '.join(f'{p.name} (pid {p.popen.pid})' for p in nodes.values()), flush=True)
+            demo.wait_until_up()
+            print(f'all nodes up after {time.monotonic() - start:.1f} s\n', flush=True)
+            for title, w, models in CASES:
+                print(title)
+                for name in models:
+                    demo.run_case(title, w, name)
+            print(CLARIFICATION_CASE[0])
+            demo.run_case(*CLARIFICATION_CASE, None)
+            code = 0
+        except DemoError as exc:
+            print(f'demo: {exc}', file=sys.stderr)
+        except (_Interrupted, KeyboardInterrupt):
+            print('demo: interrupted, stopping the nodes', file=sys.stderr)
+            code = 130
+        finally:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)  # the nodes are stopped once, completely
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
+            if demo is not None:
+                demo.close()
+            rclpy.try_shutdown()
+            problems = _stop_nodes(nodes)
+    for problem in problems:  # after a failure, one line each: the failure was reported with its stderr
+        print(f'demo: {problem if code == 0 else problem.splitlines()[0]}', file=sys.stderr)
+    if problems and code == 0:
+        code = 1
+    stopped = f'nodes stopped ({"cleanly" if not problems else "with problems"}); ' if nodes else ''
+    print(f'{stopped}demo {"done" if code == 0 else "failed"} in {time.monotonic() - start:.1f} s', flush=True)
+    return code
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point; returns the exit code (see the module docstring)."""
+    parser = argparse.ArgumentParser(prog='python -m grasp_intent_ros.demo', description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('--models-dir', type=Path, default=None,
+                        help="directory of the trained models (default: the package's config/models)")
+    parser.add_argument('--timeout', type=float, default=30.0,
+                        help='seconds to wait for the nodes to come up, and for each answer (default 30)')
+    args = parser.parse_args(argv)
+    if not args.timeout > 0.0:
+        parser.error('--timeout must be positive')
+    if args.models_dir is not None and not args.models_dir.is_dir():
+        parser.error(f'--models-dir {str(args.models_dir)!r} is not a directory')
+    signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        return _run(None if args.models_dir is None else args.models_dir.resolve(), args.timeout)
+    except DemoError as exc:
+        print(f'demo: {exc}', file=sys.stderr)
+        return 1
+    except _Interrupted:
+        return 130
+
+
+if __name__ == '__main__':
+    sys.exit(main())

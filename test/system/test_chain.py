@@ -1,0 +1,441 @@
+"""The full chain as three real processes (interpreter, model server, grasp planner) over loopback DDS.
+
+The test side is the in-process ``ros`` harness (private Context on the test's domain id) with an
+:class:`~grasp_intent_ros.send_intent.IntentSender`, whose answer to a w is the first plan (pose, joint
+targets, posterior of equal stamps) stamped after the send. The models are the shipped
+config/models, copied once per module so that the nodes and the expected answers read the same files.
+Expected answers come from the core library with the planner node's options (config/grasp_planner.yaml)
+and robot constraint (IK seeded from HOME_Q, ``ik_restarts`` restarts, restart seed 0); a node's first
+plan on a model has no warm start, so its features are the core's to 1e-9 (measured: bit-identical).
+Nothing sleeps: every wait polls with a deadline.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from diagnostic_msgs.msg import DiagnosticStatus
+from numpy.testing import assert_allclose
+from rcl_interfaces.srv import GetParameters, SetParameters
+from rclpy.parameter import Parameter
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
+
+from grasp_intent_ros.core import planner
+from grasp_intent_ros.core.features import FINGERS
+from grasp_intent_ros.core.intent import all_zones, interpret, restrict
+from grasp_intent_ros.core.kinematics import (ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics,
+                                              features_to_obj_T_ee, pose_to_matrix)
+from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.paper_tables import CASES
+from grasp_intent_ros.ros.conversions import model_from_msg, msg_to_array
+from grasp_intent_ros.ros.qos import latched_qos
+from grasp_intent_ros.ros.robot import (GraspPosterior, pose_msg_to_matrix, posterior_from_msg,
+                                        stamped_array_from_msg)
+from grasp_intent_ros.send_intent import GraspAnswer, IntentSender
+
+REPO = Path(__file__).resolve().parents[2]
+STARTUP = 30.0
+"""Seconds for processes to start and discover each other (imports, DDS) on a loaded 2-core machine."""
+REMATCH = 30.0
+"""Seconds for DDS to match a restarted process (the dead one stays matched for about 20 s)."""
+WARN = DiagnosticStatus.WARN
+W_TWO = (0.9, 0.9, 0.1)
+W_AMBIGUOUS = (0.9, 0.1, 0.9)
+NEEDED_MODELS = ('cup_7zone', 'cup_5zone', 'cup_4zone', 'flashlight_7zone')
+
+
+# ---------------------------------------------------------------------------------------------- fixtures
+@pytest.fixture(scope='module')
+def models(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, GraspModel]]:
+    """(models_dir, models): a copy of the shipped models plus ``broken.yaml`` (not a model)."""
+    source = REPO / 'config' / 'models'
+    missing = [name for name in NEEDED_MODELS if not (source / f'{name}.yaml').is_file()]
+    if missing:
+        pytest.fail(f'the shipped models {missing} are missing from {source} '
+                    '(python -m grasp_intent_ros.generate_data)')
+    directory = tmp_path_factory.mktemp('chain_models')
+    for name in NEEDED_MODELS:
+        shutil.copy(source / f'{name}.yaml', directory / f'{name}.yaml')
+    (directory / 'broken.yaml').write_text('format_version: 1\nname: broken\n')
+    return directory, {name: GraspModel.load(directory / f'{name}.yaml') for name in NEEDED_MODELS}
+
+
+@pytest.fixture(scope='module')
+def kinematics() -> MicoKinematics:
+    return MicoKinematics()
+
+
+def _planner_parameters() -> dict[str, Any]:
+    """The grasp planner's parameters from the file the processes are started with."""
+    params = yaml.safe_load((REPO / 'config' / 'grasp_planner.yaml').read_text())
+    return dict(params['/**/grasp_planner']['ros__parameters'])
+
+
+def _planner_object_pose() -> np.ndarray:
+    values = _planner_parameters()
+    return pose_to_matrix(values['object_position'], values['object_orientation'])
+
+
+def core_plan(model: GraspModel, w: tuple[float, ...], kin: MicoKinematics) -> planner.PlanResult:
+    """The core library's plan for w on ``model`` with the planner node's options and robot constraint."""
+    options = _planner_parameters()
+    v = restrict(interpret(w).v, all_zones(len(w)), model.zones)
+    base_T_obj = _planner_object_pose()
+
+    def reachable(x: np.ndarray) -> bool:
+        return kin.ik(base_T_obj @ features_to_obj_T_ee(x), HOME_Q, restarts=options['ik_restarts']).success
+
+    return planner.plan(model, v, method=options['method'], n_starts=options['n_starts'], accept=reachable)
+
+
+def _ns(stamp: Any) -> int:
+    return int(stamp.sec) * 10**9 + int(stamp.nanosec)
+
+
+class Chain:
+    """The three node processes and what the test side sees of them."""
+
+    def __init__(self, ros: Any, launch: Any, models_dir: Path) -> None:
+        self.ros, self.launch, self.models_dir = ros, launch, models_dir
+        self.statuses = ros.diagnostics()
+        self.active = ros.subscribe(String, 'model/active', latched_qos())
+        self.posteriors: list[GraspPosterior] = []
+        self.features: dict[int, np.ndarray] = {}
+        ros.node.create_subscription(Float64MultiArray, 'grasp/posterior',
+                                     lambda m: self.posteriors.append(posterior_from_msg(m)), 10)
+        ros.node.create_subscription(Float64MultiArray, 'grasp/features', self._on_features, 10)
+        self.sender = ros.add(IntentSender('test_sender', context=ros.context))
+        self.set_client = ros.node.create_client(SetParameters, 'model_server/set_parameters')
+        self.get_client = ros.node.create_client(GetParameters, 'model_server/get_parameters')
+        self.procs: dict[str, Any] = {}
+        self._alone_checked = False
+        for name in ('intent_interpreter', 'model_server', 'grasp_planner'):
+            self.start(name)
+
+    def _on_features(self, msg: Float64MultiArray) -> None:
+        stamp, _, x = stamped_array_from_msg(msg, what='features')
+        self.features[_ns(stamp)] = x
+
+    def start(self, name: str, *ros_args: str) -> Any:
+        args = ['--params-file', str(REPO / 'config' / f'{name}.yaml'), *ros_args]
+        if name == 'model_server':
+            args += ['-p', f'models_dir:={self.models_dir}']
+        self.procs[name] = self.launch.start(name, *args)
+        return self.procs[name]
+
+    def assert_running(self) -> None:
+        for name, proc in self.procs.items():
+            assert proc.popen.poll() is None, f'{name} exited with {proc.popen.returncode}:\n{proc.stderr()}'
+
+    def send(self, w: tuple[float, ...], timeout: float = STARTUP) -> GraspAnswer:
+        """The chain's answer to w (IntentSender republishes until answered). The first time, also checks
+        that no foreign node shares the test's domain (a run that ignores the domain claims would answer
+        in place of ours)."""
+        answer = self.sender.send(w, self.ros.executor, timeout=timeout)
+        if not self._alone_checked:
+            names = Counter(name for name, _ in self.ros.node.get_node_names_and_namespaces())
+            foreign = names - Counter(('grasp_planner', 'intent_interpreter', 'model_server', 'test_probe',
+                                       'test_sender'))
+            assert not foreign, f'domain {self.ros.domain_id} is shared: {sorted(names.elements())}'
+            self._alone_checked = True
+        return answer
+
+    def x_of(self, answer: GraspAnswer) -> np.ndarray:
+        """Features x published with the answer's plan."""
+        stamp = _ns(answer.posterior.stamp)
+        assert self.ros.wait_for(lambda: stamp in self.features), 'no grasp/features with the plan\'s stamp'
+        return self.features[stamp]
+
+    def set_model(self, name: str) -> Any:
+        """SetParameters(model=name) on the model server; its SetParametersResult."""
+        assert self.ros.wait_for(self.set_client.service_is_ready, STARTUP)
+        future = self.set_client.call_async(SetParameters.Request(
+            parameters=[Parameter('model', value=name).to_parameter_msg()]))
+        assert self.ros.wait_for(future.done, STARTUP)
+        return future.result().results[0]
+
+    def get_model(self) -> str:
+        assert self.ros.wait_for(self.get_client.service_is_ready, STARTUP)
+        future = self.get_client.call_async(GetParameters.Request(names=['model']))
+        assert self.ros.wait_for(future.done, STARTUP)
+        return future.result().values[0].string_value
+
+    def status(self, suffix: str) -> Any:
+        return next((s for s in reversed(self.statuses) if s.name.endswith(suffix)), None)
+
+    def rejected_count(self, suffix: str) -> int:
+        status = self.status(suffix)
+        return 0 if status is None else int({kv.key: kv.value for kv in status.values}['messages rejected'])
+
+
+@pytest.fixture
+def chain(ros: Any, launch: Any, models: tuple[Path, dict[str, GraspModel]]) -> Chain:
+    return Chain(ros, launch, models[0])
+
+
+def _assert_fk_reproduces_pose(answer: GraspAnswer, kin: MicoKinematics) -> np.ndarray:
+    """Joint targets: arm then finger names; FK of the arm joints is the published pose (1 mm, 0.01 rad)."""
+    assert tuple(answer.joints.name) == ARM_JOINTS + FINGER_JOINTS
+    q = np.array(answer.joints.position[:6])
+    assert np.all(q >= kin.lower) and np.all(q <= kin.upper), f'joint targets {q} outside the limits'
+    base_T_ee = pose_msg_to_matrix(answer.pose, frame_id=BASE_FRAME)
+    fk = kin.fk(q)
+    assert np.linalg.norm(fk[:3, 3] - base_T_ee[:3, 3]) <= 1e-3
+    cos_angle = (np.trace(fk[:3, :3].T @ base_T_ee[:3, :3]) - 1.0) / 2.0
+    assert math.acos(min(1.0, max(-1.0, cos_angle))) <= 0.01
+    return base_T_ee
+
+
+# ---------------------------------------------------------------------------------------------- (a)
+def test_w_in_v_pose_joints_and_posterior_out_as_the_core_computes(chain, models, kinematics):
+    model = models[1]['cup_7zone']
+    answer = chain.send(W_TWO)
+    assert answer.v_labels == ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
+    assert_allclose(answer.v, interpret(W_TWO).v, rtol=0, atol=1e-12)
+
+    expected = core_plan(model, W_TWO, kinematics)
+    post = answer.posterior
+    assert (post.zone_labels, post.task_names) == (model.zone_labels, model.task_names)
+    assert_allclose(chain.x_of(answer), expected.x, rtol=0, atol=1e-9)  # first plan: no warm start
+    assert_allclose(post.p, expected.posterior, rtol=0, atol=1e-4)
+    assert_allclose(post.w, expected.w, rtol=0, atol=1e-4)
+    base_T_ee = _assert_fk_reproduces_pose(answer, kinematics)
+    assert_allclose(base_T_ee, _planner_object_pose() @ features_to_obj_T_ee(expected.x), rtol=0, atol=1e-6)
+    assert_allclose(answer.joints.position[6:], expected.x[FINGERS], rtol=0, atol=1e-12)
+
+    # a second w: the node warm-starts from its last plan, so compare what the plan achieves
+    answer = chain.send(W_AMBIGUOUS)
+    expected = core_plan(model, W_AMBIGUOUS, kinematics)
+    assert_allclose(answer.posterior.p, expected.posterior, rtol=0, atol=1e-4)
+    assert_allclose(answer.posterior.w, expected.w, rtol=0, atol=1e-4)
+    _assert_fk_reproduces_pose(answer, kinematics)
+    chain.assert_running()
+
+
+# ---------------------------------------------------------------------------------------------- (b)
+def _bad(data: list[float], label: str = '') -> Float64MultiArray:
+    msg = Float64MultiArray(data=data)
+    if label:
+        msg.layout.dim = [MultiArrayDimension(label=label, size=len(data), stride=len(data))]
+    return msg
+
+
+BAD_W = [
+    ('wrong length', _bad([0.5, 0.5]), 'w must have 3 entries (one per task), got 2'),
+    ('NaN', _bad([0.5, math.nan, 0.5]), 'w contains NaN or infinity (first at index 1: nan)'),
+    ('Inf', _bad([0.5, 0.5, math.inf]), 'w contains NaN or infinity (first at index 2: inf)'),
+    ('above 1', _bad([1.5, 0.5, 0.5]), 'must lie in [0, 1], got [1.5, 0.5, 0.5]'),
+    ('below 0', _bad([0.5, -0.25, 0.5]), 'must lie in [0, 1], got [0.5, -0.25, 0.5]'),
+    ('empty', _bad([]), 'w is empty'),
+    ('oversized', _bad([0.5] * 100_000), 'w is oversized: 100000 values'),
+]
+BAD_V = [
+    ('wrong length', _bad([0.5, 0.5]), 'v must have 7 entries'),
+    ('NaN', _bad([0.5, math.nan, 0.5, 0, 0, 0, 0]), 'v contains NaN or infinity (first at index 1: nan)'),
+    ('Inf', _bad([0.5, 0.5, 0, 0, 0, 0, math.inf]), 'v contains NaN or infinity (first at index 6: inf)'),
+    ('outside [0, 1]', _bad([1.5, -0.5, 0, 0, 0, 0, 0]), 'v must be non-negative and sum to 1 (within 1e-6)'),
+    ('not summing to 1', _bad([0.5] * 7), 'sum 3.5'),
+    ('empty', _bad([]), 'v is empty'),
+    ('oversized', _bad([0.0] * 100_000), 'v is oversized: 100000 values'),
+    ('unknown zone labels', _bad([1.0, 0, 0, 0, 0, 0, 0], 'A,B,C,D,E,F,G'), "unknown zone 'A'"),
+]
+
+
+def _model_doc(body: str, *, sha: str | None = None) -> String:
+    digest = sha or hashlib.sha256(body.encode()).hexdigest()
+    return String(data=f'# model_name: broken\n# model_version: 1\n# model_sha256: {digest}\n{body}')
+
+
+BAD_MODEL = [
+    ('no header', String(data='not a model document'), 'lacks the header lines'),
+    ('hash mismatch', _model_doc('format_version: 1\n', sha='0' * 64), 'is corrupted: sha256'),
+    ('invalid YAML', _model_doc('a: [1, 2\n'), 'not valid YAML'),
+    ('not a model', _model_doc('format_version: 1\nname: broken\n'), "lacks field 'task_names'"),
+]
+BAD_X = [
+    ('wrong length', _bad([0.1, 0.2, 0.3]), 'x must have shape (10,)'),
+    ('NaN', _bad([0.0] * 9 + [math.nan]), 'x contains NaN or infinity (first at index 9: nan)'),
+    ('empty', _bad([]), 'x is empty'),
+    ('oversized', _bad([0.0] * 2000), 'x is oversized: 2000 values'),
+]
+
+
+def _reject_all(chain: Chain, publisher: Any, cases: list[tuple[str, Any, str]], status_suffix: str) -> None:
+    """Send each bad message until ``status_suffix`` reports a WARN rejection with the expected reason."""
+    for what, msg, reason in cases:
+        count = chain.rejected_count(status_suffix)
+
+        def reported(count: int = count, reason: str = reason) -> bool:
+            status = chain.status(status_suffix)
+            return (status is not None and status.level == WARN and reason in status.message
+                    and chain.rejected_count(status_suffix) > count)
+
+        assert chain.ros.publish_until(publisher, msg, reported, timeout=10.0, period=1.0), (
+            f'{status_suffix}: no WARN naming {reason!r} for {what}; last: {chain.status(status_suffix)}')
+    chain.assert_running()
+
+
+def test_bad_input_is_rejected_with_a_named_reason_and_every_node_keeps_serving(chain, models):
+    ros = chain.ros
+    cup7 = models[1]['cup_7zone']
+    chain.send(W_TWO)  # the chain is up
+    valid_v = [interpret(W_TWO).v, interpret(W_AMBIGUOUS).v]
+
+    # the interpreter: bad w, then a valid one; it published no v for the bad ones
+    v_msgs = ros.subscribe(Float64MultiArray, 'intent/v')
+    _reject_all(chain, ros.publisher(Float64MultiArray, 'intent/w'), BAD_W, 'intent_interpreter: intent')
+    answer = chain.send(W_AMBIGUOUS)
+    assert_allclose(answer.v, valid_v[1], rtol=0, atol=1e-12)
+    assert v_msgs and all(any(np.allclose(msg_to_array(m), v, rtol=0, atol=1e-12) for v in valid_v)
+                          for m in v_msgs), 'the interpreter published a v for bad input'
+
+    # the planner: bad v and malformed model documents; the model server: bad feature vectors
+    bad_from = ros.node.get_clock().now().nanoseconds  # any plan of the resent valid w is out by now
+    _reject_all(chain, ros.publisher(Float64MultiArray, 'intent/v'), BAD_V, 'grasp_planner: inputs')
+    model_pub = ros.publisher(String, 'model/active', latched_qos())
+    _reject_all(chain, model_pub, BAD_MODEL, 'grasp_planner: inputs')
+    ros.node.destroy_publisher(model_pub)
+    query = ros.publisher(Float64MultiArray, 'model/query')
+    _reject_all(chain, query, BAD_X, 'model_server: model')
+    assert not [p for p in chain.posteriors if bad_from <= _ns(p.stamp)], 'a plan was published for bad input'
+
+    # every node answers a valid input; the malformed documents did not replace the model
+    answer = chain.send(W_TWO)
+    assert answer.posterior.zone_labels == cup7.zone_labels
+    assert_allclose(answer.v, valid_v[0], rtol=0, atol=1e-12)
+    posteriors = ros.subscribe(Float64MultiArray, 'model/posterior')
+    x = cup7.means[3]
+    assert ros.publish_until(query, Float64MultiArray(data=list(x)), lambda: posteriors, timeout=10.0)
+    assert_allclose(msg_to_array(posteriors[-1]), cup7.posterior(x), rtol=0, atol=1e-12)
+    for suffix in ('intent_interpreter: intent', 'grasp_planner: inputs', 'model_server: model'):
+        assert ros.wait_for(lambda s=suffix: chain.status(s).level == DiagnosticStatus.OK, 5.0), \
+            chain.status(suffix)
+    chain.assert_running()
+
+
+# ---------------------------------------------------------------------------------------------- (c)
+def test_switching_the_model_at_run_time_changes_the_plan_and_unknown_models_are_rejected(chain, models,
+                                                                                          kinematics):
+    ros = chain.ros
+    cup5 = models[1]['cup_5zone']
+    first = chain.send(W_AMBIGUOUS)
+    x7 = chain.x_of(first)
+    assert first.posterior.zone_labels == models[1]['cup_7zone'].zone_labels
+
+    switched_at = ros.node.get_clock().now().nanoseconds
+    result = chain.set_model('cup_5zone')
+    assert result.successful, result.reason
+    # the planner replans the last v on the new model by itself
+    assert ros.wait_for(lambda: any(p.zone_labels == cup5.zone_labels and _ns(p.stamp) > switched_at
+                                    for p in chain.posteriors), STARTUP)
+    replanned = next(p for p in chain.posteriors if p.zone_labels == cup5.zone_labels)
+    stamp = _ns(replanned.stamp)
+    assert ros.wait_for(lambda: stamp in chain.features)
+    x5 = chain.features[stamp]
+    assert np.linalg.norm(x5 - x7) > 1e-3, 'the plan did not change with the model'
+    expected = core_plan(cup5, W_AMBIGUOUS, kinematics)  # first plan on this model: no warm start
+    assert_allclose(x5, expected.x, rtol=0, atol=1e-9)
+    assert_allclose(replanned.p, expected.posterior, rtol=0, atol=1e-4)
+    assert model_from_msg(chain.active[-1]).name == 'cup_5zone'
+
+    n_docs = len(chain.active)
+    for name, reason in (('no_such_model', "unknown model 'no_such_model'"),
+                         ('broken', "lacks field 'task_names'")):
+        result = chain.set_model(name)
+        assert not result.successful and reason in result.reason, result.reason
+    assert chain.get_model() == 'cup_5zone'
+    answer = chain.send(W_TWO)  # still planned on cup_5zone
+    assert answer.posterior.zone_labels == cup5.zone_labels
+    assert len(chain.active) == n_docs and model_from_msg(chain.active[-1]).name == 'cup_5zone'
+    chain.assert_running()
+
+
+# ---------------------------------------------------------------------------------------------- (d)
+def test_sigkilled_model_server_and_interpreter_are_restarted_without_restarting_the_others(chain, models):
+    ros = chain.ros
+    cup5 = models[1]['cup_5zone']
+    chain.send(W_AMBIGUOUS)
+    planner_pid = chain.procs['grasp_planner'].pid
+    interpreter_pid = chain.procs['intent_interpreter'].pid
+
+    assert chain.procs['model_server'].stop(signal.SIGKILL) == -signal.SIGKILL
+    killed_at = ros.node.get_clock().now().nanoseconds
+    chain.start('model_server', '-p', 'model:=cup_5zone')
+    # the planner receives the new server's latched model and replans the last v on it
+    assert ros.wait_for(lambda: any(p.zone_labels == cup5.zone_labels and _ns(p.stamp) > killed_at
+                                    for p in chain.posteriors), REMATCH), \
+        'the planner did not re-receive model/active'
+    assert chain.send(W_TWO, timeout=REMATCH).posterior.zone_labels == cup5.zone_labels
+
+    assert chain.procs['intent_interpreter'].stop(signal.SIGKILL) == -signal.SIGKILL
+    chain.start('intent_interpreter')
+    answer = chain.send(W_AMBIGUOUS, timeout=REMATCH)
+    assert answer.posterior.zone_labels == cup5.zone_labels
+    assert_allclose(answer.v, interpret(W_AMBIGUOUS).v, rtol=0, atol=1e-12)
+    assert chain.procs['intent_interpreter'].pid != interpreter_pid
+    assert [p.module for p in chain.launch.processes] == [  # the planner was never restarted
+        'intent_interpreter', 'model_server', 'grasp_planner', 'model_server', 'intent_interpreter']
+    assert chain.procs['grasp_planner'].pid == planner_pid
+    chain.assert_running()
+
+
+# ---------------------------------------------------------------------------------------------- (e)
+DEMO_DEADLINE = 120.0
+
+
+def _is_node_process(pid: int) -> bool:
+    try:
+        return b'grasp_intent_ros.' in Path(f'/proc/{pid}/cmdline').read_bytes()
+    except OSError:
+        return False
+
+
+def test_the_demo_runs_to_completion_and_leaves_no_process(domain_id, tmp_path):
+    env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': str(domain_id)}
+    env.pop('ROS_STATIC_PEERS', None)
+    out_path, err_path = tmp_path / 'demo.out', tmp_path / 'demo.err'
+    with out_path.open('wb') as out, err_path.open('wb') as err:
+        demo = subprocess.Popen([sys.executable, '-m', 'grasp_intent_ros.demo', '--timeout', '30'], cwd=REPO,
+                                env=env, stdout=out, stderr=err, stdin=subprocess.DEVNULL)
+    read = lambda: out_path.read_text(errors='replace')  # noqa: E731
+    def node_pids() -> list[int]:  # the demo's first line names them
+        return [int(p) for p in re.findall(r'\(pid (\d+)\)', read().partition('\n')[0])]
+
+    try:
+        code = demo.wait(DEMO_DEADLINE)
+    except subprocess.TimeoutExpired:
+        demo.send_signal(signal.SIGINT)  # the demo stops its nodes
+        try:
+            demo.wait(30.0)
+        except subprocess.TimeoutExpired:
+            demo.kill()
+            demo.wait()
+        for pid in node_pids():
+            if _is_node_process(pid):
+                os.kill(pid, signal.SIGKILL)
+        pytest.fail(f'the demo did not finish within {DEMO_DEADLINE:g} s:\n{read()[-3000:]}\n'
+                    f'{err_path.read_text()}')
+    stdout, stderr = read(), err_path.read_text(errors='replace')
+    assert code == 0, f'demo exited with {code}:\n{stdout[-3000:]}\n{stderr}'
+    assert 'Traceback' not in stderr, stderr
+    assert len(node_pids()) == 3
+    assert not [pid for pid in node_pids() if _is_node_process(pid)], 'a node outlived the demo'
+    for title, w, names in CASES:
+        for name in names:
+            assert f'model {name} (' in stdout and f'w = {w}' in stdout
+    assert stdout.count('joint targets') == sum(len(names) for _, _, names in CASES)
+    assert 'asks for clarification: P(no task) = 0.7290' in stdout
+    assert 'nodes stopped (cleanly)' in stdout
