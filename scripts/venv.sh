@@ -10,7 +10,13 @@ fi
 stamp="$repo/.venv/.installed"
 want="$(cat "$repo/setup.py" "$repo/package.xml" | sha256sum | cut -d' ' -f1)"
 if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
-    "$repo/.venv/bin/python" -m pip install --quiet --upgrade pip >/dev/null
-    "$repo/.venv/bin/python" -m pip install --quiet -e "$repo[ros,test]"
+    log="$repo/.venv/pip-install.log"
+    echo "installing grasp_intent_ros and its dependencies into $repo/.venv (log: $log)" >&2
+    if ! { "$repo/.venv/bin/python" -m pip install --upgrade pip \
+           && "$repo/.venv/bin/python" -m pip install -e "$repo[ros,test]"; } >"$log" 2>&1; then
+        tail -n 40 "$log" >&2
+        echo "pip install failed; full log: $log" >&2
+        exit 1
+    fi
     echo "$want" > "$stamp"
 fi
