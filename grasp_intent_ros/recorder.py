@@ -279,17 +279,21 @@ class Recorder(Node):
         self._counts[topic] = 0
         self._recorded[topic] = (msgtype, qos)
         self._diagnostics.set_value(f'topic {topic}', 0)
-        self._topic_subs[topic] = self.create_subscription(
-            msg_class, topic, self._diagnostics.guard(functools.partial(self._on_message, topic)),
+        on_message = self._diagnostics.guard(functools.partial(self._on_message, topic))
+        self._topic_subs[topic] = self.create_subscription(  # two parameters: rclpy passes MessageInfo
+            msg_class, topic, lambda data, info: on_message((data, info)),
             _subscription_qos(qos, self._depth), raw=True)
         self.get_logger().info(f'recording {topic} ({msgtype}, {qos.reliability}, {qos.durability})')
 
     # ------------------------------------------------------------------ writing
-    def _on_message(self, topic: str, data: bytes) -> None:
+    def _on_message(self, topic: str, received: tuple[bytes, Mapping[str, int]]) -> None:
+        data, info = received
         if self._error is not None:
             self._received_after_error += 1
             return
-        stamp_ns = self.get_clock().now().nanoseconds
+        # the middleware's receive time, not the callback's: an input and a fast answer taken in one
+        # executor wait keep their order of arrival
+        stamp_ns = int(info.get('received_timestamp', 0)) or self.get_clock().now().nanoseconds
         try:
             self._bag.write(topic, stamp_ns, data)
         except BagWriteError as exc:

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Final, Literal
 
 from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
+from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, TypesysError, get_typestore
 
@@ -39,6 +40,8 @@ class SessionWriter:
     Args:
         path: Bag directory to create; it must not exist. Its parent directories are created.
         typestore: Message types used for schemas and :meth:`write_message`; default: ROS 2 Jazzy.
+        compress: Compress the MCAP chunks with zstd (MCAP's own storage-level compression, which
+            ``ros2 bag`` and the ``mcap`` reader decode transparently); default True.
 
     Raises:
         BagWriteError: ``path`` exists, or the directory/storage file cannot be created.
@@ -49,7 +52,8 @@ class SessionWriter:
         ...     bag.write('/intent', stamp_ns, cdr_bytes)
     """
 
-    def __init__(self, path: str | os.PathLike[str], *, typestore: Typestore | None = None) -> None:
+    def __init__(self, path: str | os.PathLike[str], *, typestore: Typestore | None = None,
+                 compress: bool = True) -> None:
         self._path = Path(path)
         self._typestore = typestore if typestore is not None else get_typestore(Stores.ROS2_JAZZY)
         self._lock = threading.Lock()
@@ -61,6 +65,8 @@ class SessionWriter:
             raise BagWriteError(msg, path=self._path)
         try:
             self._writer = Writer(self._path, version=9, storage_plugin=StoragePlugin.MCAP)
+            if compress:
+                self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
             self._writer.open()
         except WriterError as exc:
             raise BagWriteError(f'cannot write bag {self._path}: {exc}', path=self._path) from exc
