@@ -1,0 +1,619 @@
+"""Replay a recorded session into a live node suite and, with ``--check``, compare its answers.
+
+Run: ``python -m grasp_intent_ros.replay BAG [--rate R | --fast] [--check] [--start-suite]``
+     ``[--timeout S] [--models-dir DIR] [--max-diffs N]``
+
+What is replayed
+    The recorded inputs ``intent/w``, ``object/pose`` and ``joint_states``, published again byte for byte
+    (bad inputs included), and the model switches: a recorded ``model/active`` with another name (or
+    content) is reproduced by setting the model server's ``model`` parameter through its parameter
+    service at that point. Before the first input the live model is set to the session's initial one.
+Pace
+    Default: the recorded pace (``--rate R`` scales it: 2 = twice as fast). ``--fast``: each input as soon
+    as the system has answered the previous one. ``--check`` always waits for the answer to an input
+    (or ``--timeout`` seconds) before sending the next, so inputs and outputs pair one to one.
+Check (``--check``)
+    The live answer to each input is compared with the recorded one
+    (:func:`grasp_intent_ros.bag.session.compare_step`): v within 1e-9, P and reconstructed w within 1e-4,
+    end-effector pose within 1 mm and 0.01 rad, joint targets within 1e-3 rad, clarifications and
+    rejections (WARN diagnostics: node, level, reason) identical, nothing missing, nothing extra.
+    Differences are printed one per line (input #, its description, topic, field, recorded vs live), for
+    the first ``--max-diffs`` differing messages; exit code 1. All equal: one summary line, exit code 0.
+Suite (``--start-suite``)
+    Starts ``intent_interpreter``, ``model_server`` (with the session's initial model and ``--models-dir``)
+    and ``grasp_planner`` as ``python -m`` processes with the package's config files, in the session's
+    namespace, with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and this process's ROS_DOMAIN_ID; they are
+    stopped by PID (SIGTERM, then SIGKILL) at the end. The planner warm-starts from its previous plan and
+    keeps the last object pose and joint state, so exact answers need a suite whose history is the
+    recording's: a fresh one.
+Network
+    ROS_AUTOMATIC_DISCOVERY_RANGE defaults to LOCALHOST when unset (always with ``--start-suite``).
+Exit codes
+    0 replayed (and, with --check, everything matched); 1 a check difference; 2 the bag cannot be used,
+    the system did not come up, or a suite process died; 130 interrupted (SIGINT/SIGTERM; a started suite
+    is stopped all the same).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.task import Future
+from rcl_interfaces.srv import SetParameters
+from std_msgs.msg import Float64MultiArray, String
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import JointState
+from diagnostic_msgs.msg import DiagnosticArray
+from trajectory_msgs.msg import JointTrajectory
+
+from .bag.errors import BagError
+from .bag.session import (DIAGNOSTICS_TOPIC, INPUT_TOPICS, MODEL_TOPIC, MSGTYPES, OUTPUT_TOPICS, Difference,
+                          ModelHeader, Output, RejectionTracker, Session, SessionError, Step, Tolerances, answered,
+                          compare_step, decode, diverged, load_session, output_of)
+from .core.resources import config_dir
+from .ros.qos import input_qos, latched_qos, output_qos
+
+__all__ = ['SessionClient', 'Suite', 'ReplayOptions', 'ReplayResult', 'ReplayError', 'Replayer', 'await_answer',
+           'SUITE', 'main']
+
+SUITE = ('intent_interpreter', 'model_server', 'grasp_planner')
+"""The node modules ``--start-suite`` runs, each with ``config/<module>.yaml``."""
+SUITE_SETTLE_S = 3.0
+"""With --start-suite: seconds every node must have been visible before the first input (see
+:meth:`SessionClient.settled`)."""
+STOP_TIMEOUT = 10.0
+"""Seconds a suite process gets to exit after SIGTERM before SIGKILL."""
+_CLASSES: dict[str, Any] = {
+    'intent/w': Float64MultiArray, 'object/pose': PoseStamped, 'joint_states': JointState,
+    'model/active': String, 'intent/v': Float64MultiArray, 'intent/clarification': String,
+    'grasp/pose': PoseStamped, 'grasp/joint_targets': JointState, 'grasp/trajectory': JointTrajectory,
+    'grasp/posterior': Float64MultiArray, 'grasp/features': Float64MultiArray,
+}
+
+
+# ---------------------------------------------------------------------------------------- the suite
+class Suite:
+    """The three node processes, started on construction, stopped (by PID) by :meth:`stop`.
+
+    Args:
+        domain_id: ROS_DOMAIN_ID of every process (discovery is always LOCALHOST).
+        model: Initial value of the model server's ``model`` parameter (None: its config file's).
+        models_dir: The model server's ``models_dir`` (None: the package's config/models).
+        namespace: '' or e.g. '/robot1' (``-r __ns:=``).
+        log_dir: Where each process's stdout/stderr go (files, so no pipe can block a node); default a
+            new temporary directory (:meth:`remove_logs` deletes it).
+    """
+
+    def __init__(self, *, domain_id: int, model: str | None = None, models_dir: str | os.PathLike[str] | None = None,
+                 namespace: str = '', log_dir: str | os.PathLike[str] | None = None) -> None:
+        self._own_log_dir = log_dir is None
+        self.log_dir = Path(log_dir) if log_dir is not None else Path(tempfile.mkdtemp(prefix='replay_suite_'))
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': str(domain_id),
+               'PYTHONUNBUFFERED': '1', 'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
+        env.pop('ROS_STATIC_PEERS', None)
+        config = config_dir()
+        self.processes: dict[str, subprocess.Popen[bytes]] = {}
+        try:
+            for module in SUITE:
+                ros_args = ['--params-file', str(config / f'{module}.yaml')]
+                if namespace:
+                    ros_args += ['-r', f'__ns:={namespace}']
+                if module == 'model_server':
+                    if model is not None:
+                        ros_args += ['-p', f'model:={model}']
+                    if models_dir is not None:
+                        ros_args += ['-p', f'models_dir:={Path(models_dir).resolve()}']
+                cmd = [sys.executable, '-m', f'grasp_intent_ros.{module}', '--ros-args', *ros_args]
+                with (self.log_dir / f'{module}.out').open('wb') as out, \
+                        (self.log_dir / f'{module}.err').open('wb') as err:
+                    self.processes[module] = subprocess.Popen(cmd, env=env, stdout=out, stderr=err,
+                                                              stdin=subprocess.DEVNULL)
+        except BaseException:
+            self.stop()
+            raise
+
+    def died(self) -> str:
+        """'' while every process runs; else which one exited, with its code and the end of its stderr."""
+        for module, proc in self.processes.items():
+            code = proc.poll()
+            if code is not None:
+                tail = (self.log_dir / f'{module}.err').read_text(errors='replace')[-1500:]
+                return f'{module} (pid {proc.pid}) exited with code {code}:\n{tail}'
+        return ''
+
+    def stop(self) -> list[str]:
+        """SIGTERM each process still running (by PID), SIGKILL after :data:`STOP_TIMEOUT`; the problems
+        (non-zero exit codes)."""
+        for proc in self.processes.values():
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
+        problems = []
+        for module, proc in self.processes.items():
+            try:
+                code = proc.wait(STOP_TIMEOUT)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                code = proc.wait()
+            if code != 0:
+                problems.append(f'{module} (pid {proc.pid}) exited with code {code}; log in {self.log_dir}')
+        return problems
+
+    def remove_logs(self) -> None:
+        """Delete the log directory if this suite created it (a temporary one); after :meth:`stop`."""
+        if self._own_log_dir:
+            shutil.rmtree(self.log_dir, ignore_errors=True)
+
+    def __enter__(self) -> Suite:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+
+# ---------------------------------------------------------------------------------------- the client
+class SessionClient(Node):
+    """Publishes session inputs, collects the live outputs as :class:`~grasp_intent_ros.bag.session.Output`
+    (serialized, decoded like the recorded ones), sets the model server's ``model`` parameter.
+
+    Args:
+        model_server: Name of the model server node, relative to this node's namespace.
+        node_name: This node's name; ``kwargs`` go to ``rclpy.node.Node`` (``context``, ``namespace``).
+    """
+
+    def __init__(self, *, model_server: str = 'model_server', node_name: str = 'replay', **kwargs: Any) -> None:
+        super().__init__(node_name, **kwargs)
+        self.outputs: list[Output] = []
+        """Live outputs in arrival order (model/active documents and rejections included)."""
+        self.model: ModelHeader | None = None
+        """The newest live model document."""
+        self.statuses: set[str] = set()
+        """Names of the diagnostic statuses seen."""
+        self.diagnostics_received = 0
+        """Number of /diagnostics messages received."""
+        self.last_status: dict[str, str] = {}
+        """Per diagnostic status name, its latest message and values, for error reports."""
+        self._tracker = RejectionTracker()
+        self._first_seen: dict[str, float] = {}
+        self._input_pubs = {topic: self.create_publisher(_CLASSES[topic], topic, output_qos())
+                            for topic in INPUT_TOPICS}
+        self._output_subs = {
+            topic: self.create_subscription(_CLASSES[topic], topic, self._receiver(topic), input_qos(100), raw=True)
+            for topic in OUTPUT_TOPICS}
+        self._output_subs[MODEL_TOPIC] = self.create_subscription(
+            String, MODEL_TOPIC, self._receiver(MODEL_TOPIC), latched_qos(), raw=True)
+        self._diag_sub = self.create_subscription(DiagnosticArray, DIAGNOSTICS_TOPIC, self._on_diagnostics,
+                                                  input_qos(100), raw=True)
+        self._param_client = self.create_client(SetParameters, f'{model_server}/set_parameters')
+
+    def _now_ns(self) -> int:
+        return self.get_clock().now().nanoseconds
+
+    def _receiver(self, topic: str) -> Callable[[bytes], None]:
+        def receive(cdr: bytes) -> None:
+            out = output_of(topic, self._now_ns(), cdr)  # never raises
+            if isinstance(out.value, ModelHeader):
+                self.model = out.value
+            self.outputs.append(out)
+        return receive
+
+    def _on_diagnostics(self, cdr: bytes) -> None:
+        try:
+            msg = decode(MSGTYPES[DIAGNOSTICS_TOPIC], cdr)
+        except SessionError:
+            return
+        self.diagnostics_received += 1
+        for status in msg.status:
+            self.last_status[str(status.name)] = (
+                f'{status.message} ({", ".join(f"{kv.key}: {kv.value}" for kv in status.values)})')
+        self.statuses.update(str(s.name) for s in msg.status)
+        now = self._now_ns()
+        self.outputs.extend(Output(DIAGNOSTICS_TOPIC, now, r) for r in self._tracker.update(msg))
+
+    def publish(self, topic: str, message: bytes | Any) -> None:
+        """Publish on an input topic (relative name) a message object or its CDR bytes."""
+        self._input_pubs[topic].publish(message)
+
+    def set_model(self, name: str) -> Future:
+        """Ask the model server to activate ``name``; the future's result is a SetParameters response."""
+        request = SetParameters.Request(parameters=[Parameter('model', value=name).to_parameter_msg()])
+        return self._param_client.call_async(request)
+
+    def settled(self, seconds: float) -> bool:
+        """Whether every node in the graph has been visible to this node for at least ``seconds``.
+
+        Nodes started together discover each other through periodic announcements (Fast DDS: every 3 s),
+        so two suite nodes may still miss each other when both are visible here; after one announcement
+        period every pair has met, and a first output between them is no longer lost.
+        """
+        now = time.monotonic()
+        for name, namespace in self.get_node_names_and_namespaces():
+            self._first_seen.setdefault(f'{namespace.rstrip("/")}/{name}', now)
+        return all(now - t >= seconds for t in self._first_seen.values())
+
+    def missing(self, *, need_parameters: bool) -> list[str]:
+        """What the live system still lacks to be replayed into ([] when ready): a model document,
+        matched subscribers of the inputs, matched publishers of the outputs, a status from every
+        /diagnostics publisher, the parameter service."""
+        lacking = []
+        if self.model is None:
+            lacking.append(f'no {MODEL_TOPIC} received')
+        lacking += [f'no subscriber on {t}' for t, p in self._input_pubs.items() if p.get_subscription_count() == 0]
+        lacking += [f'no publisher on {t}' for t, s in self._output_subs.items() if s.get_publisher_count() == 0]
+        publishers = self._diag_sub.get_publisher_count()
+        if publishers == 0 or len(self.statuses) < publishers:
+            lacking.append(f'{len(self.statuses)} diagnostic statuses from {publishers} /diagnostics publishers')
+        if need_parameters and not self._param_client.service_is_ready():
+            lacking.append(f'no parameter service {self._param_client.srv_name}')
+        return lacking
+
+
+# ---------------------------------------------------------------------------------------- replaying
+def await_answer(spin: Callable[[], None], outputs: list[Output], mark: int, step: Step, *,
+                 timeout_s: float, quiet_s: float = 0.25, settle_s: float = 0.02,
+                 future: Future | None = None) -> tuple[list[Output], str]:
+    """Spin until the answer to ``step`` (sent when ``outputs`` had ``mark`` entries) is complete.
+
+    Complete: every recorded output topic has as many live messages as recorded and nothing new came for
+    ``settle_s``; or the answer diverges (an unrecorded message) and nothing new came for 0.5 s; or, for a
+    step recorded without outputs, nothing came for ``quiet_s``; or ``timeout_s`` passed. ``future`` (a
+    SetParameters call) must be done too; a refused parameter ends the wait.
+
+    Returns:
+        (the live outputs since ``mark``, '' | 'timeout' | 'rejected: <reason>')
+    """
+    start = last_change = time.monotonic()
+    seen = 0
+    while True:
+        spin()
+        now = time.monotonic()
+        live = outputs[mark:]
+        if len(live) != seen:
+            seen, last_change = len(live), now
+        if future is not None and future.done():
+            result = future.result().results[0]
+            if not result.successful:
+                return live, f'rejected: {result.reason}'
+            future = None
+        quiet = now - last_change
+        if future is None:
+            if step.expected:
+                if answered(step, live) and (quiet >= settle_s or diverged(step, live)):
+                    return live, ''
+                if diverged(step, live) and quiet >= 0.5:
+                    return live, ''
+            elif quiet >= quiet_s:
+                return live, ''
+        if now - start >= timeout_s:
+            return live, 'timeout'
+
+
+@dataclass(frozen=True)
+class ReplayOptions:
+    """How to replay.
+
+    Attributes:
+        rate: Recorded pace multiplier (> 0); ignored with ``fast``.
+        fast: Send each input once the previous one was answered, without waiting for its recorded time.
+        check: Wait for every answer and compare it with the recording.
+        timeout_s: Longest wait for one answer (s).
+        startup_timeout_s: Longest wait for the live system to be ready (s).
+        settle_s: Once ready, how long every node must have been visible before the first input (s):
+            one discovery announcement period (3 s) for a suite started together with the replay, so its
+            nodes have met each other; 0 for a system that was running already.
+        quiet_s: For an input recorded without any answer: how long nothing must arrive (s).
+        max_failed_inputs: Stop after this many inputs with differences (0: never stop early).
+        tolerances: Of the comparison.
+    """
+
+    rate: float = 1.0
+    fast: bool = False
+    check: bool = False
+    timeout_s: float = 10.0
+    startup_timeout_s: float = 60.0
+    settle_s: float = 0.0
+    quiet_s: float = 0.25
+    max_failed_inputs: int = 5
+    tolerances: Tolerances = field(default_factory=Tolerances)
+
+
+@dataclass
+class ReplayResult:
+    """What a replay did: inputs sent, outputs received, differences (with --check), timings (s)."""
+
+    inputs_sent: int = 0
+    outputs_received: int = 0
+    differences: list[Difference] = field(default_factory=list)
+    timed_out: list[int] = field(default_factory=list)
+    stopped_early: bool = False
+    ready_s: float = 0.0
+    replay_s: float = 0.0
+
+    @property
+    def failures(self) -> list[Difference]:
+        """The differences that fail a check (notes excluded)."""
+        return [d for d in self.differences if d.fatal]
+
+
+class ReplayError(RuntimeError):
+    """The live system did not come up or could not be put into the session's initial state."""
+
+
+class Replayer:
+    """Replays one session through a :class:`SessionClient` spun by ``executor`` in the calling thread.
+
+    Args:
+        session: The recorded session.
+        client: Added to ``executor`` by the caller.
+        executor: Spun with ``spin_once`` while waiting.
+        options: See :class:`ReplayOptions`.
+        alive: Called while waiting; a non-empty return (e.g. a suite process died) aborts with ReplayError.
+    """
+
+    def __init__(self, session: Session, client: SessionClient, executor: SingleThreadedExecutor,
+                 options: ReplayOptions, *, alive: Callable[[], str] = lambda: '') -> None:
+        self.session, self.client, self.executor, self.options = session, client, executor, options
+        self._alive = alive
+
+    def _spin(self, seconds: float = 0.005) -> None:
+        self.executor.spin_once(timeout_sec=seconds)
+        if problem := self._alive():
+            raise ReplayError(problem)
+
+    def _wait(self, predicate: Callable[[], bool], timeout: float) -> bool:
+        deadline = time.monotonic() + timeout
+        while not predicate():
+            if time.monotonic() >= deadline:
+                return predicate()
+            self._spin(min(0.05, max(0.0, deadline - time.monotonic())))
+        return True
+
+    def prepare(self) -> list[Difference]:
+        """Wait until the live system is ready and runs the session's initial model.
+
+        Returns notes (a model with the recorded name but other content). Raises ReplayError.
+        """
+        need_parameters = any(s.model is not None for s in self.session.steps) or self.session.initial_model is not None
+        missing = lambda: self.client.missing(need_parameters=need_parameters)  # noqa: E731
+        if not self._wait(lambda: not missing() and self.client.settled(self.options.settle_s),
+                          self.options.startup_timeout_s):
+            raise ReplayError(f'the live system is not ready after {self.options.startup_timeout_s:g} s: '
+                              f'{"; ".join(missing()) or "nodes still appearing"}')
+        initial = self.session.initial_model
+        notes = []
+        if initial is not None and self.client.model is not None and self.client.model.name != initial.name:
+            self._activate(initial.name)
+            self._quiet(0.5)  # a running planner replans its current v for the new model: not an answer
+        if initial is not None and self.client.model is not None and self.client.model.sha256 != initial.sha256:
+            notes.append(Difference(0, 'initial model', MODEL_TOPIC, 'model content', f'sha256 {initial.sha256[:12]}',
+                                    f'sha256 {self.client.model.sha256[:12]} (same name, different model)', False))
+        return notes
+
+    def _quiet(self, seconds: float) -> None:
+        """Spin until no output arrived for ``seconds`` (at most the answer timeout)."""
+        last = [len(self.client.outputs), time.monotonic()]
+
+        def quiet() -> bool:
+            if len(self.client.outputs) != last[0]:
+                last[:] = [len(self.client.outputs), time.monotonic()]
+            return time.monotonic() - last[1] >= seconds
+
+        self._wait(quiet, self.options.timeout_s)
+
+    def _activate(self, name: str) -> None:
+        future = self.client.set_model(name)
+        if not self._wait(future.done, self.options.timeout_s):
+            raise ReplayError(f'no answer from the parameter service when setting model {name!r}')
+        result = future.result().results[0]
+        if not result.successful:
+            raise ReplayError(f'the model server rejected model {name!r}: {result.reason}')
+        if not self._wait(lambda: self.client.model is not None and self.client.model.name == name,
+                          self.options.timeout_s):
+            raise ReplayError(f'model {name!r} was accepted but no {MODEL_TOPIC} for it arrived')
+
+    def _send(self, step: Step) -> Future | None:
+        if step.model is not None:
+            return self.client.set_model(step.model)
+        self.client.publish(step.topic, step.cdr)
+        return None
+
+    def _await_answer(self, step: Step, mark: int, future: Future | None) -> tuple[list[Output], list[Difference]]:
+        live, problem = await_answer(self._spin, self.client.outputs, mark, step, future=future,
+                                     timeout_s=self.options.timeout_s, quiet_s=self.options.quiet_s)
+        if not problem:
+            return live, []
+        if problem == 'timeout':
+            return live, [Difference(step.index, step.description, '(answer)', 'timeout',
+                                     f'{len(step.expected)} output(s)',
+                                     f'{len(live)} output(s) within {self.options.timeout_s:g} s', False)]
+        return live, [Difference(step.index, step.description, MODEL_TOPIC, 'parameter model',
+                                 f'{step.model!r} accepted', problem)]
+
+    def run(self) -> ReplayResult:
+        """Replay every step; compare with --check. Raises ReplayError (system not ready, suite died)."""
+        result = ReplayResult()
+        started = time.monotonic()
+        result.differences += self.prepare()
+        result.ready_s = time.monotonic() - started
+        paced_by_answers = self.options.check or self.options.fast
+        steps = self.session.steps
+        t_first = steps[0].t_ns
+        begin = time.monotonic()
+        failed_inputs = 0
+        first_mark = mark = len(self.client.outputs)
+        for step in steps:
+            if not self.options.fast:
+                send_at = begin + 1e-9 * (step.t_ns - t_first) / self.options.rate
+                self._wait(lambda: time.monotonic() >= send_at, max(0.0, send_at - time.monotonic()) + 1.0)
+            mark = len(self.client.outputs)
+            future = self._send(step)
+            result.inputs_sent += 1
+            if not paced_by_answers:
+                continue
+            live, problems = self._await_answer(step, mark, future)
+            if any(d.field == 'timeout' for d in problems):
+                result.timed_out.append(step.index)
+                statuses = '\n'.join(f'  {name}: {text}' for name, text in sorted(self.client.last_status.items()))
+                print(f'replay: input #{step.index} got {len(live)} of {len(step.expected)} recorded outputs '
+                      f'within {self.options.timeout_s:g} s; latest node statuses:\n{statuses}', file=sys.stderr)
+            if self.options.check:
+                diffs = problems + compare_step(step, live, self.options.tolerances)
+                result.differences += diffs
+                if any(d.fatal for d in diffs):
+                    failed_inputs += 1
+                    if failed_inputs >= self.options.max_failed_inputs > 0:
+                        result.stopped_early = step is not steps[-1]
+                        break
+        if not paced_by_answers:  # let the last answer arrive
+            self._wait(lambda: answered(steps[-1], self.client.outputs[mark:]), self.options.timeout_s)
+        result.replay_s = time.monotonic() - begin
+        result.outputs_received = len(self.client.outputs) - first_mark
+        return result
+
+
+# ---------------------------------------------------------------------------------------- CLI
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog='python -m grasp_intent_ros.replay', description=__doc__.split('\n\n')[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('bag', type=Path, help='session bag directory (rosbag2, MCAP)')
+    pace = parser.add_mutually_exclusive_group()
+    pace.add_argument('--rate', type=float, default=1.0, help='recorded pace multiplier (default 1)')
+    pace.add_argument('--fast', action='store_true', help='send each input once the previous one was answered')
+    parser.add_argument('--check', action='store_true', help='compare the live answers with the recorded ones')
+    parser.add_argument('--start-suite', action='store_true',
+                        help='start the three nodes as processes (LOCALHOST, this ROS_DOMAIN_ID) and stop them at the end')
+    parser.add_argument('--timeout', type=float, default=10.0, metavar='S',
+                        help='longest wait for one answer, s (default 10)')
+    parser.add_argument('--startup-timeout', type=float, default=60.0, metavar='S',
+                        help='longest wait for the live system to be ready, s (default 60)')
+    parser.add_argument('--models-dir', type=Path, default=None, metavar='DIR',
+                        help="with --start-suite: the model server's models_dir (default config/models)")
+    parser.add_argument('--model-server', default='model_server', metavar='NAME',
+                        help='model server node name, relative to the session namespace (default model_server)')
+    parser.add_argument('--max-diffs', type=int, default=10, metavar='N',
+                        help='differing messages printed, up to 2 fields each (default 10)')
+    parser.add_argument('--max-failed-inputs', type=int, default=5, metavar='N',
+                        help='stop after N inputs with differences; 0: never (default 5)')
+    return parser
+
+
+def _report(session: Session, options: ReplayOptions, result: ReplayResult, max_diffs: int) -> int:
+    name = session.path
+    notes = [d for d in result.differences if not d.fatal]
+    for note in notes[:max_diffs]:
+        print(str(note))
+    if not options.check:
+        print(f'replay: {name}: {result.inputs_sent} inputs published in {result.replay_s:.2f} s '
+              f'({"as fast as answered" if options.fast else f"recorded pace x {options.rate:g}"}); '
+              f'{result.outputs_received} outputs received')
+        return 0
+    failures = result.failures
+    if not failures:
+        print(f'replay --check OK: {name}: {result.inputs_sent} inputs, {session.n_outputs} recorded outputs '
+              f'matched live (v, P, w, pose, joints, clarifications, rejections) in {result.replay_s:.2f} s '
+              f'(system ready after {result.ready_s:.2f} s)')
+        return 0
+    failed_inputs = sorted({d.step for d in failures})
+    first = failures[0]
+    print(f'replay --check FAILED: {name}: {len(failures)} difference(s) in {len(failed_inputs)} of '
+          f'{result.inputs_sent} inputs replayed ({len(session.steps)} recorded)'
+          f'{", stopped early" if result.stopped_early else ""}; first differing message: input '
+          f'#{first.step}, {first.topic}')
+    for line in _diff_lines(failures, max_diffs):
+        print(f'  {line}')
+    return 1
+
+
+def _diff_lines(failures: Sequence[Difference], max_messages: int, fields_per_message: int = 2) -> list[str]:
+    """One line per difference, for the first ``max_messages`` differing messages (input, topic), at most
+    ``fields_per_message`` fields each; the last line of a message says how many more fields differ."""
+    groups: dict[tuple[int, str], list[Difference]] = {}
+    for diff in failures:
+        groups.setdefault((diff.step, diff.topic), []).append(diff)
+    lines = []
+    for diffs in list(groups.values())[:max_messages]:
+        shown = [str(d) for d in diffs[:fields_per_message]]
+        if len(diffs) > fields_per_message:
+            shown[-1] += f' (and {len(diffs) - fields_per_message} more field(s) of this message)'
+        lines += shown
+    if len(groups) > max_messages:
+        lines.append(f'... and {len(groups) - max_messages} more differing message(s)')
+    return lines
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point; returns the exit code (see the module docstring)."""
+    args = _parser().parse_args(argv)
+    if not args.rate > 0.0 or not args.timeout > 0.0:
+        _parser().error('--rate and --timeout must be > 0')
+    if args.models_dir is not None and not args.start_suite:
+        _parser().error('--models-dir needs --start-suite')
+    try:
+        session = load_session(args.bag)
+    except BagError as exc:
+        print(f'replay: error: {exc}', file=sys.stderr)
+        return 2
+    options = ReplayOptions(rate=args.rate, fast=args.fast, check=args.check, timeout_s=args.timeout,
+                            startup_timeout_s=args.startup_timeout, max_failed_inputs=args.max_failed_inputs,
+                            settle_s=SUITE_SETTLE_S if args.start_suite else 0.0)
+    if args.start_suite:
+        os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    domain_id = int(os.environ.get('ROS_DOMAIN_ID', '0') or 0)
+
+    suite: Suite | None = None
+    context = Context()  # rclpy's SIGINT/SIGTERM handlers shut it down: exit code 130, suite stopped
+    rclpy.init(context=context, domain_id=domain_id, args=[])
+    executor = SingleThreadedExecutor(context=context)
+    client: SessionClient | None = None
+    code = 2
+    try:
+        if args.start_suite:
+            initial = session.initial_model.name if session.initial_model is not None else None
+            suite = Suite(domain_id=domain_id, model=initial, models_dir=args.models_dir,
+                          namespace=session.namespace)
+        client = SessionClient(model_server=args.model_server, context=context,
+                               namespace=session.namespace or '/')
+        executor.add_node(client)
+        replayer = Replayer(session, client, executor, options, alive=suite.died if suite else lambda: '')
+        result = replayer.run()
+        code = _report(session, options, result, args.max_diffs)
+    except ReplayError as exc:
+        print(f'replay: error: {exc}', file=sys.stderr)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        code = 130
+    finally:
+        executor.shutdown()
+        if client is not None:
+            client.destroy_node()
+        rclpy.try_shutdown(context=context)
+        if suite is not None:
+            problems = suite.stop()
+            for problem in problems:
+                print(f'replay: warning: {problem}', file=sys.stderr)
+            if code in (0, 1) and not problems:  # the logs tell nothing about a difference in the answers
+                suite.remove_logs()
+            else:
+                print(f'replay: the suite\'s logs are in {suite.log_dir}', file=sys.stderr)
+    return code
+
+
+if __name__ == '__main__':
+    sys.exit(main())

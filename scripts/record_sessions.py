@@ -1,0 +1,365 @@
+#!/usr/bin/env python3
+"""Regenerate the session bags in bags/ by recording real runs of the node suite.
+
+    .venv/bin/python scripts/record_sessions.py [--out bags] [--only NAME ...] [--models-dir DIR]
+
+For each session: start the three nodes as ``python -m`` processes (:class:`grasp_intent_ros.replay.Suite`,
+ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, ROS_DOMAIN_ID from the environment, default 27), record with the
+in-process :class:`grasp_intent_ros.recorder.Recorder` (own executor and thread), drive the inputs one at a
+time, each sent once the previous one was answered and the recorder has written the answer, stop the nodes
+(by PID), then
+compact the bag (:func:`grasp_intent_ros.bag.session.compact_session`: of /diagnostics only the
+rejections are kept) into ``<out>/<name>``, replacing the previous one.
+
+Every input declares the answer it must get ('v', 'plan', 'clarification', 'rejection', 'model' or none);
+a different answer stops the script with what arrived instead. Finally the bag is read back
+(:func:`grasp_intent_ros.bag.session.load_session`) and must pair into exactly the inputs sent, each with
+the outputs the driver saw live, equal within the replay tolerances (else it is recorded again, up to
+ATTEMPTS times: see :class:`PairingError`).
+
+Takes about a minute for the five sessions on 2 cores.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import shutil
+import sys
+import tempfile
+import threading
+import time
+from collections import Counter
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # before any ROS context exists
+os.environ.setdefault('ROS_DOMAIN_ID', '27')
+sys.setswitchinterval(5e-4)  # the recorder thread gets the GIL soon after its wait returns
+
+import rclpy  # noqa: E402
+from rclpy.context import Context  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from geometry_msgs.msg import PoseStamped  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension  # noqa: E402
+
+from grasp_intent_ros.bag.session import (DIAGNOSTICS_TOPIC, MODEL_TOPIC, PLAN_TOPICS, Joints, Output,  # noqa: E402
+                                          Step, Undecodable, compact_session, compare_step, load_session,
+                                          summarize)
+from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q  # noqa: E402
+from grasp_intent_ros.recorder import Recorder  # noqa: E402
+from grasp_intent_ros.replay import SUITE_SETTLE_S, SessionClient, Suite, await_answer  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+RECORDED = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'intent/v', 'intent/clarification',
+            *PLAN_TOPICS, DIAGNOSTICS_TOPIC)
+"""Topics recorded: inputs, the model, the compared outputs, diagnostics (compacted to rejections).
+Markers, model/ambiguity and model/posterior are left out to keep the bags small."""
+ANSWERS: dict[str, tuple[str, ...]] = {
+    'v': ('intent/v',), 'clarification': ('intent/clarification',), 'plan': PLAN_TOPICS,
+    'rejection': (DIAGNOSTICS_TOPIC,), 'model': (MODEL_TOPIC,)}
+"""Answer kinds -> the output topics (one message each) that make them up."""
+ANSWER_TIMEOUT = 30.0
+STARTUP_TIMEOUT = 60.0
+ATTEMPTS = 3
+"""Recordings of one session before giving up on a clean pairing (see :class:`PairingError`)."""
+GAP = 0.05
+"""Seconds between an answer written to the bag and the next input (stragglers land before it)."""
+
+
+# ------------------------------------------------------------------------------------- inputs
+@dataclass(frozen=True)
+class Send:
+    """One input and the answer it must get.
+
+    ``topic``: 'intent/w', 'object/pose', 'joint_states', or 'model' (then ``message`` is the model name);
+    ``message`` may be a callable of the driver's latest outputs (e.g. joint states = the last targets).
+    """
+
+    topic: str
+    message: Any
+    expect: tuple[str, ...]
+
+
+def w(*values: float, layout: int | None = None) -> Float64MultiArray:
+    """intent/w; ``layout`` adds one dimension of that size (a wrong size makes a malformed layout)."""
+    msg = Float64MultiArray(data=[float(v) for v in values])
+    if layout is not None:
+        msg.layout.dim.append(MultiArrayDimension(label='', size=layout, stride=layout))
+    return msg
+
+
+def pose(x: float, y: float, z: float, yaw: float = 0.0, *, q: Sequence[float] | None = None,
+         frame_id: str = BASE_FRAME) -> PoseStamped:
+    """object/pose: object frame at (x, y, z) m in ``frame_id``, turned by ``yaw`` about +z (or quaternion q)."""
+    msg = PoseStamped()
+    msg.header.frame_id = frame_id
+    msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = x, y, z
+    qx, qy, qz, qw = q if q is not None else (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
+    msg.pose.orientation.x, msg.pose.orientation.y, msg.pose.orientation.z, msg.pose.orientation.w = qx, qy, qz, qw
+    return msg
+
+
+def joints(positions: Iterable[float], names: Sequence[str] = ARM_JOINTS) -> JointState:
+    return JointState(name=list(names), position=[float(p) for p in positions])
+
+
+def follow_last_targets(outputs: Sequence[Output]) -> JointState:
+    """The arm reached the last planned grasp: joint_states = the last grasp/joint_targets."""
+    last = next(o.value for o in reversed(outputs) if o.topic == 'grasp/joint_targets')
+    assert isinstance(last, Joints)
+    return joints(last.positions, last.names)
+
+
+PLAN = ('v', 'plan')
+# The cup stands with its handle towards the arm (the planner's default pose); yaw turns it about +z.
+CUP_HANDLE_TO_ARM = math.pi
+SESSIONS: dict[str, tuple[str, list[Send]]] = {
+    # The paper's intent cases (Tables II/III: one, two, three likely tasks; Table IV's (0.9, 0.1, 0.9)),
+    # and the remaining single/double-task cases, on the cup 7-zone model.
+    'cup_paper_cases': ('cup_7zone', [
+        Send('joint_states', joints(HOME_Q), ()),
+        Send('intent/w', w(0.9, 0.1, 0.1), PLAN),
+        Send('intent/w', w(0.9, 0.9, 0.1), PLAN),
+        Send('intent/w', w(0.9, 0.9, 0.9), PLAN),
+        Send('intent/w', w(0.9, 0.1, 0.9), PLAN),
+        Send('intent/w', w(0.1, 0.9, 0.1), PLAN),
+        Send('intent/w', w(0.1, 0.1, 0.9), PLAN),
+        Send('intent/w', w(0.1, 0.9, 0.9), PLAN),
+    ]),
+    # Table IV/V: the same ambiguous intent on the 7, 5 and 4-zone models, switched at run time
+    # (each switch replans the current v).
+    'model_ambiguity': ('cup_7zone', [
+        Send('joint_states', joints(HOME_Q), ()),
+        Send('intent/w', w(0.9, 0.1, 0.9), PLAN),
+        Send('model', 'cup_5zone', ('model', 'plan')),
+        Send('model', 'cup_4zone', ('model', 'plan')),
+        Send('intent/w', w(0.9, 0.1, 0.9), PLAN),
+    ]),
+    # Table VI's object: a flashlight lying on the table, the paper's cases.
+    'flashlight': ('flashlight_7zone', [
+        Send('object/pose', pose(0.35, -0.25, 0.0, yaw=math.pi / 2), ()),
+        Send('joint_states', joints(HOME_Q), ()),
+        Send('intent/w', w(0.9, 0.1, 0.1), PLAN),
+        Send('intent/w', w(0.1, 0.9, 0.1), PLAN),
+        Send('intent/w', w(0.1, 0.1, 0.9), PLAN),
+        Send('intent/w', w(0.9, 0.9, 0.1), PLAN),
+        Send('intent/w', w(0.9, 0.1, 0.9), PLAN),
+    ]),
+    # Every kind of bad input, and a clarification, between valid ones: each bad input gets a WARN
+    # rejection and nothing else, and the chain keeps serving.
+    'bad_inputs': ('cup_7zone', [
+        Send('intent/w', w(0.9, 0.9, 0.1), PLAN),
+        Send('intent/w', w(0.5, math.nan, 0.5), ('rejection',)),
+        Send('intent/w', w(0.9, math.inf, 0.1), ('rejection',)),
+        Send('intent/w', w(0.9, 0.9), ('rejection',)),
+        Send('intent/w', w(1.2, 0.5, 0.5), ('rejection',)),
+        Send('intent/w', w(), ('rejection',)),
+        Send('intent/w', w(*[0.5] * 11), ('rejection',)),
+        Send('intent/w', w(0.9, 0.9, 0.1, layout=5), ('rejection',)),
+        Send('intent/w', w(0.1, 0.1, 0.1), ('clarification',)),
+        Send('intent/w', w(0.9, 0.1, 0.1), PLAN),
+        Send('object/pose', pose(0.3, -0.3, 0.0, q=(0.0, 0.0, 0.9, 0.0)), ('rejection',)),
+        Send('object/pose', pose(0.3, -0.3, 0.0, CUP_HANDLE_TO_ARM, frame_id='world'), ('rejection',)),
+        Send('object/pose', pose(0.3, math.nan, 0.0, CUP_HANDLE_TO_ARM), ('rejection',)),
+        Send('joint_states', JointState(name=list(ARM_JOINTS), position=[0.0] * 5), ('rejection',)),
+        Send('joint_states', joints([*HOME_Q[:5], math.nan]), ('rejection',)),
+        Send('intent/w', w(0.1, 0.9, 0.9), PLAN),
+    ]),
+    # The object moves between plans; after each plan the arm reaches the planned joint targets
+    # (joint_states), which seed the next IK.
+    'moving_object': ('cup_7zone', [
+        Send('joint_states', joints(HOME_Q), ()),
+        Send('intent/w', w(0.9, 0.9, 0.1), PLAN),
+        *[send for k in range(5) for send in (
+            Send('joint_states', follow_last_targets, ()),
+            Send('object/pose', pose(0.28 + 0.03 * k, -0.34 + 0.05 * k, 0.0, CUP_HANDLE_TO_ARM - 0.15 * k), ('plan',)),
+        )],
+        Send('intent/w', w(0.9, 0.1, 0.9), PLAN),
+    ]),
+}
+
+
+# ------------------------------------------------------------------------------------- driver
+class RecordingError(RuntimeError):
+    """A session could not be recorded as declared."""
+
+
+class PairingError(RecordingError):
+    """The bag does not pair into the inputs and answers seen live: the recorder took an answer before
+    its input (both ready in one wait of its executor; it stamps messages when its callback runs).
+    Rare; the session is recorded again."""
+
+
+class Driver:
+    """Drives one recording: spins the client's executor here; the recorder spins in its own thread."""
+
+    def __init__(self, client: SessionClient, recorder: Recorder, executor: SingleThreadedExecutor,
+                 suite: Suite) -> None:
+        self.client, self.recorder, self.executor, self.suite = client, recorder, executor, suite
+        self.observed: list[list[Output]] = []
+        """Per input sent, the outputs the client saw for it."""
+        self._inputs_sent: Counter[str] = Counter()
+
+    def spin(self) -> None:
+        self.executor.spin_once(timeout_sec=0.005)
+        if problem := self.suite.died():
+            raise RecordingError(problem)
+
+    def spin_until(self, predicate: Callable[[], bool], timeout: float, what: Callable[[], str]) -> None:
+        deadline = time.monotonic() + timeout
+        while not predicate():
+            if time.monotonic() >= deadline:
+                raise RecordingError(f'timed out after {timeout:g} s waiting for {what()}')
+            self.spin()
+
+    def written(self, topic: str) -> int:
+        """Messages the recorder has written on ``topic`` (relative or absolute name)."""
+        return self.recorder.counts.get(topic if topic.startswith('/') else f'/{topic}', 0)
+
+    def wait_ready(self) -> None:
+        missing = lambda: self.client.missing(need_parameters=True)  # noqa: E731
+        self.spin_until(lambda: not missing() and self.client.settled(SUITE_SETTLE_S), STARTUP_TIMEOUT,
+                        lambda: 'the suite: ' + ('; '.join(missing()) or 'nodes still appearing'))
+        wanted = {t if t.startswith('/') else f'/{t}' for t in RECORDED}
+        self.spin_until(lambda: wanted <= set(self.recorder.recorded_topics), STARTUP_TIMEOUT,
+                        lambda: f'the recorder to subscribe to {sorted(wanted - set(self.recorder.recorded_topics))}')
+        # The recorder has the latched model and has been receiving from every /diagnostics publisher
+        # for a while (its other subscriptions were made in the same discovery passes).
+        base, publishers = self.written(DIAGNOSTICS_TOPIC), len(self.client.statuses)
+        self.spin_until(lambda: self.written(DIAGNOSTICS_TOPIC) >= base + 2 * publishers
+                        and self.written(MODEL_TOPIC) >= 1, STARTUP_TIMEOUT, lambda: 'the recorder')
+
+    def send(self, index: int, send: Send) -> None:
+        """Send one input, wait for the declared answer, then for the recorder to have written it."""
+        mark = len(self.client.outputs)
+        diagnostics = (self.written(DIAGNOSTICS_TOPIC), self.client.diagnostics_received)
+        future = None
+        if send.topic == 'model':
+            future = self.client.set_model(send.message)
+        else:
+            message = send.message(self.client.outputs) if callable(send.message) else send.message
+            self.client.publish(send.topic, message)
+            self._inputs_sent[send.topic] += 1
+        expected = tuple(Output(topic, 0, Undecodable('expected')) for kind in send.expect for topic in ANSWERS[kind])
+        step = Step(index, send.topic, 0, '', b'', expected, send.topic)
+        live, problem = await_answer(self.spin, self.client.outputs, mark, step, future=future,
+                                     timeout_s=ANSWER_TIMEOUT, quiet_s=0.3)
+        got, want = Counter(o.topic for o in live), Counter(o.topic for o in expected)
+        if problem or got != want:
+            raise RecordingError(f'input #{index} ({send.topic} {send.message if send.topic == "model" else ""}): '
+                                 f'{problem or "unexpected answer"}: expected {dict(want)}, got {dict(got)}: '
+                                 + '; '.join(f'{o.topic}: {summarize(o.value)}' for o in live))
+        totals = Counter(o.topic for o in self.client.outputs if o.topic != DIAGNOSTICS_TOPIC)
+        self.spin_until(
+            lambda: all(self.written(t) >= n for t, n in totals.items())
+            and all(self.written(t) >= n for t, n in self._inputs_sent.items())
+            and self.written(DIAGNOSTICS_TOPIC) - diagnostics[0] >= self.client.diagnostics_received - diagnostics[1],
+            ANSWER_TIMEOUT, lambda: f'the recorder to write the answer to input #{index}')
+        until = time.monotonic() + GAP
+        self.spin_until(lambda: time.monotonic() >= until, GAP + 1.0, lambda: 'the gap')
+        self.observed.append(list(self.client.outputs[mark:]))
+
+
+def record(name: str, model: str, sends: list[Send], out_dir: Path, models_dir: Path | None,
+           domain_id: int) -> Path:
+    """Record one session into ``out_dir/name`` (replaced); returns the bag path.
+
+    The recorder spins in its own executor and thread, idle in its wait while an input goes out, so it
+    takes (and timestamps) the input in a wait of its own, before the answer, which comes from another
+    process, can be ready. (In one executor shared with the driver, an input and a fast answer such as
+    a rejection can become ready in the same wait, and then the executor takes them in subscription
+    order, /diagnostics first.)
+    """
+    work = Path(tempfile.mkdtemp(prefix=f'record_{name}_'))
+    raw_bag = work / 'raw'
+    suite = Suite(domain_id=domain_id, model=model, models_dir=models_dir, log_dir=work / 'logs')
+    context = Context()
+    rclpy.init(context=context, domain_id=domain_id, args=[])
+    executor = SingleThreadedExecutor(context=context)
+    recorder_executor = SingleThreadedExecutor(context=context)
+    recorder_thread: threading.Thread | None = None
+    client: SessionClient | None = None
+    recorder: Recorder | None = None
+    driver: Driver | None = None
+    try:
+        client = SessionClient(context=context, node_name='session_driver')
+        executor.add_node(client)
+        recorder = Recorder(raw_bag, topics=RECORDED, discovery_period=1.0, context=context)
+        recorder_executor.add_node(recorder)
+        recorder_thread = threading.Thread(target=recorder_executor.spin, name='recorder', daemon=True)
+        recorder_thread.start()
+        driver = Driver(client, recorder, executor, suite)
+        driver.wait_ready()
+        for index, send in enumerate(sends, start=1):
+            driver.send(index, send)
+    finally:
+        recorder_executor.shutdown()
+        if recorder_thread is not None:
+            recorder_thread.join()
+        if recorder is not None:
+            print(recorder.summary())
+            recorder.destroy_node()  # closes the bag
+        executor.shutdown()
+        if client is not None:
+            client.destroy_node()
+        rclpy.try_shutdown(context=context)
+        problems = suite.stop()
+    if problems:
+        raise RecordingError('; '.join(problems))
+    target = out_dir / name
+    if target.exists():
+        shutil.rmtree(target)
+    counts = compact_session(raw_bag, target)
+    shutil.rmtree(work)
+    verify(target, sends, driver.observed)
+    size = sum(f.stat().st_size for f in target.iterdir())
+    print(f'{target}: {len(sends)} inputs, {sum(counts.values())} messages, {size / 1024:.1f} KiB '
+          f'({", ".join(f"{t} {n}" for t, n in sorted(counts.items()))})')
+    return target
+
+
+def verify(bag: Path, sends: list[Send], observed: list[list[Output]]) -> None:
+    """The bag pairs into exactly the inputs sent, each with what the driver saw live."""
+    session = load_session(bag)
+    if len(session.steps) != len(sends):
+        raise PairingError(f'{bag}: {len(session.steps)} steps paired, {len(sends)} inputs sent')
+    for step, send, live in zip(session.steps, sends, observed):
+        topic = MODEL_TOPIC if send.topic == 'model' else send.topic
+        if step.topic != topic:
+            raise PairingError(f'{bag}: input #{step.index} is {step.topic}, {topic} was sent')
+        diffs = [d for d in compare_step(step, live) if d.fatal]
+        if diffs:
+            raise PairingError(f'{bag}: the bag does not pair as recorded live: ' + '; '.join(map(str, diffs[:5])))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('--out', type=Path, default=REPO / 'bags', help='where the bags go (default bags/)')
+    parser.add_argument('--only', nargs='+', choices=sorted(SESSIONS), help='record only these sessions')
+    parser.add_argument('--models-dir', type=Path, default=None, help='models (default config/models)')
+    args = parser.parse_args(argv)
+    domain_id = int(os.environ['ROS_DOMAIN_ID'])
+    args.out.mkdir(parents=True, exist_ok=True)
+    for name in args.only or SESSIONS:
+        model, sends = SESSIONS[name]
+        for attempt in range(1, ATTEMPTS + 1):
+            try:
+                record(name, model, sends, args.out, args.models_dir, domain_id)
+                break
+            except PairingError as exc:
+                print(f'record_sessions: {name}, attempt {attempt} of {ATTEMPTS}: {exc}', file=sys.stderr)
+            except RecordingError as exc:
+                print(f'record_sessions: {name}: {exc}', file=sys.stderr)
+                return 1
+        else:
+            return 1
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

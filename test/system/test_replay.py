@@ -1,0 +1,100 @@
+"""Every recorded session in bags/ replayed with ``--check`` against the current code, and a perturbed
+model caught by the check (what CI runs: scripts/test.sh).
+
+Each replay is the real command, ``python -m grasp_intent_ros.replay BAG --check --fast --start-suite``: it
+starts the three nodes as processes on this test's domain id (LOCALHOST discovery) and stops them by PID.
+A replay takes about 10 s on 2 cores (about 7 s of it for the suite to start and its nodes to meet).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import shutil
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from grasp_intent_ros.bag.session import load_session
+from grasp_intent_ros.core.model import GraspModel
+
+REPO = Path(__file__).resolve().parents[2]
+BAGS = REPO / 'bags'
+REQUIRED = ('bad_inputs', 'cup_paper_cases', 'flashlight', 'model_ambiguity', 'moving_object')
+"""The sessions bags/ must hold (scripts/record_sessions.py records them)."""
+RUN_TIMEOUT = 120.0
+"""Seconds one replay command may take before it is stopped (SIGTERM, then SIGKILL)."""
+
+
+def bag_dirs() -> list[Path]:
+    return sorted(p for p in BAGS.iterdir() if (p / 'metadata.yaml').is_file()) if BAGS.is_dir() else []
+
+
+def replay(bag: Path, domain_id: int, *extra: str) -> subprocess.CompletedProcess[str]:
+    """Run the replay command; stop it by PID (SIGTERM: it stops its suite) if it overruns."""
+    env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': str(domain_id),
+           'PYTHONUNBUFFERED': '1'}
+    env.pop('ROS_STATIC_PEERS', None)
+    cmd = [sys.executable, '-m', 'grasp_intent_ros.replay', str(bag), '--check', '--fast', '--start-suite', *extra]
+    proc = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = proc.communicate(timeout=RUN_TIMEOUT)
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            out, err = proc.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            out, err = proc.communicate()
+        pytest.fail(f'replay of {bag.name} did not finish within {RUN_TIMEOUT:g} s:\n{out}\n{err}')
+    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
+
+
+def test_bags_hold_the_required_sessions() -> None:
+    names = [p.name for p in bag_dirs()]
+    assert set(REQUIRED) <= set(names), f'bags/ lacks {sorted(set(REQUIRED) - set(names))}'
+    for bag in bag_dirs():
+        session = load_session(bag)
+        size = sum(f.stat().st_size for f in bag.iterdir())
+        assert session.steps and session.initial_model is not None
+        assert size < 512 * 1024, f'{bag.name} is {size / 1024:.0f} KiB'
+
+
+@pytest.mark.parametrize('bag', bag_dirs(), ids=lambda p: p.name)
+def test_replay_of_each_bag_passes_the_check(bag: Path, domain_id: int) -> None:
+    result = replay(bag, domain_id)
+    assert result.returncode == 0, f'{result.stdout}\n{result.stderr}'
+    summary = result.stdout.strip().splitlines()[-1]
+    n_inputs = len(load_session(bag).steps)
+    assert summary.startswith(f'replay --check OK: {bag}: {n_inputs} inputs'), result.stdout
+    assert 'Traceback' not in result.stderr, result.stderr
+
+
+def test_a_perturbed_model_fails_the_check_and_names_the_first_differing_message(
+        domain_id: int, tmp_path: Path) -> None:
+    models_dir = tmp_path / 'models'
+    shutil.copytree(REPO / 'config' / 'models', models_dir)
+    model = GraspModel.load(models_dir / 'cup_7zone.yaml')
+    means = model.means.copy()
+    means[0, 0] += 0.02  # zone U: palm_x 2 cm further out (about two standard deviations)
+    dataclasses.replace(model, means=means).save(models_dir / 'cup_7zone.yaml')
+
+    bag = BAGS / 'cup_paper_cases'
+    result = replay(bag, domain_id, '--models-dir', str(models_dir), '--max-failed-inputs', '1')
+
+    assert result.returncode == 1, f'{result.stdout}\n{result.stderr}'
+    lines = result.stdout.splitlines()
+    # the model's content differs under the same name: a note, not the failure
+    assert any(line.startswith('note: input #0 (initial model): model/active model content') for line in lines)
+    # input #1 sets the joint state (no answer); #2, w = (0.9, 0.1, 0.1), is planned on the moved zone: the
+    # planner still matches P to v, but with another grasp
+    header = next(line for line in lines if line.startswith('replay --check FAILED'))
+    first_message = header.rpartition('first differing message: ')[2]
+    assert first_message in ('input #2, grasp/posterior', 'input #2, grasp/pose'), result.stdout
+    first = next(line for line in lines if line.startswith('  input #'))
+    topic = first_message.partition(', ')[2]
+    assert first.startswith(f'  input #2 (intent/w [0.9, 0.1, 0.1]): {topic} '), result.stdout
+    assert ': recorded ' in first and ', live ' in first
