@@ -1,0 +1,573 @@
+"""Session report: PNG figures and a markdown summary of a recorded session bag.
+
+Run: ``python -m grasp_intent_ros.report BAG --out DIR``
+
+Reads the bag with :mod:`grasp_intent_ros.bag` (no rclpy, matplotlib's Agg renderer) and writes to DIR:
+
+``intent_cases[_k].png``
+    Per intent message, the target v over all zones (``intent/v``) next to the posterior P(zone | x) of
+    the grasp planned for it (``grasp/posterior``): the paper's Tables II/IV as bars, one subplot per case.
+``w_over_time.png``
+    Input w (``intent/w``) and the w reconstructed from each planned grasp's posterior, per task, over
+    the session time (s).
+``kl_matrices.png``
+    KL(task i || task j) of every model activated during the session (``model/active``, else
+    ``model/ambiguity``), as annotated heat maps.
+``grasps_3d.png``
+    Each planned grasp (``grasp/features``, object frame): palm centre, approach arrow, the three fingers
+    closed as planned, next to the object drawn as a cylinder.
+``summary.md``
+    Messages per topic, plans, clarifications, rejections (from ``/diagnostics``), planning time, the
+    figures written and those skipped for lack of data.
+
+Topics are found by name suffix (``/robot1/intent/v`` is ``intent/v``), so namespaced sessions work.
+Exit code 2 with a one-line message when the bag is missing or unreadable.
+
+Message layouts read (as the nodes publish them)
+------------------------------------------------
+``intent/v``        1-D, ``dim[0].label`` = comma-joined zone labels ("U,T,H,UT,UH,TH,UTH").
+``grasp/posterior`` shape (1, K + m) as :func:`grasp_intent_ros.ros.robot.posterior_to_msg` writes it:
+                    dim[0] the stamp axis ("stamp=<sec>.<nanosec>"), dim[1] labelled "<zones>|<tasks>"
+                    ("U,T,UT,TH,UTH|usage,transfer,handover"): P over the model's K zones, then the
+                    reconstructed w. Parsed here by :func:`parse_posterior` (``ros.robot`` imports rclpy).
+``grasp/features``  shape (1, d), the same stamp axis, dim[1] labelled with the feature names
+                    (:data:`~grasp_intent_ros.core.features.MICO_3F`); 1-D or unlabelled: by position.
+``model/active``    std_msgs/String, the model document (header lines, then GraspModel YAML).
+``model/ambiguity`` 2-D (m, m) KL matrix, both dims labelled with the task names.
+``/diagnostics``    rejections: :class:`grasp_intent_ros.bag.session.RejectionTracker`; planning time: the
+                    planner's 'last planning time [ms]' whenever its 'plans' count grew.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+import sys
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+from numpy.typing import NDArray
+
+from .bag import BagError, TopicInfo, read_messages, topics_info
+from .bag.session import Rejection, RejectionTracker, SessionError, detect_namespace
+from .core import ambiguity
+from .core.errors import GraspIntentError
+from .core.features import FINGER_CLOSED, FINGERS, MICO_3F, ROLL
+from .core.intent import default_task_names, zone_label
+from .core.kinematics import features_to_obj_T_ee
+from .core.model import GraspModel
+from .ros.conversions import model_from_msg, msg_labels, msg_to_array, split_labels
+
+__all__ = ['Posterior', 'Session', 'parse_posterior', 'load_session', 'write_report', 'main',
+           'OBJECT_RADIUS', 'OBJECT_HEIGHT', 'CASES_PER_FIGURE', 'MAX_CASE_FIGURES', 'MAX_GRASPS']
+
+OBJECT_RADIUS = 0.04
+"""Radius of the cylinder drawn for the object (m); the bag does not carry the object's shape."""
+OBJECT_HEIGHT = 0.10
+"""Height of that cylinder (m), standing on the object frame's origin along +z."""
+CASES_PER_FIGURE = 12
+MAX_CASE_FIGURES = 4
+MAX_GRASPS = 12
+"""At most this many grasps are drawn in 3-D (spread evenly over the session)."""
+_FINGER_LENGTH = 0.05  # m, drawn finger length
+_PALM_HALF_WIDTH = 0.025  # m
+_APPROACH_ARROW = 0.06  # m
+_WRIST = 0.08  # m, drawn wrist stub behind the palm
+_V_COLOR, _P_COLOR = 'tab:blue', 'tab:orange'
+
+TOPICS = {'w': 'intent/w', 'v': 'intent/v', 'clarification': 'intent/clarification',
+          'model': 'model/active', 'ambiguity': 'model/ambiguity', 'posterior': 'grasp/posterior',
+          'features': 'grasp/features', 'diagnostics': '/diagnostics'}
+"""Topic suffixes the report reads, by role."""
+
+
+@dataclass(frozen=True)
+class Posterior:
+    """One ``grasp/posterior`` message: P over the model's zones and the reconstructed w."""
+
+    zones: tuple[str, ...]
+    p: NDArray[np.float64]
+    tasks: tuple[str, ...]
+    w: NDArray[np.float64]
+
+
+def _stamped_values(msg: Any, what: str) -> tuple[NDArray[np.float64], str]:
+    """Values, shape (n,), and the label of the values axis of a (1, n) stamped array (or a 1-D one)."""
+    values = msg_to_array(msg, ndim=None, what=what)
+    if values.ndim == 2 and values.shape[0] == 1:
+        return values[0], str(msg.layout.dim[1].label)
+    if values.ndim == 1:
+        return values, str(msg.layout.dim[0].label) if msg.layout.dim else ''
+    raise GraspIntentError(f'{what} must have shape (1, n) or (n,), got {values.shape}')
+
+
+def parse_posterior(msg: Any) -> Posterior:
+    """Split a ``grasp/posterior`` Float64MultiArray (layout in the module docstring).
+
+    Raises:
+        GraspIntentError: Wrong shape, NaN/Inf, or a values label other than "<zones>|<tasks>" naming
+            all values.
+    """
+    values, label = _stamped_values(msg, 'grasp/posterior')
+    zones_part, bar, tasks_part = label.partition('|')
+    zones, tasks = split_labels(zones_part), split_labels(tasks_part)
+    if not bar or not zones or not tasks or len(zones) + len(tasks) != values.size:
+        raise GraspIntentError(f'grasp/posterior label must be "<zones>|<tasks>" naming all {values.size} '
+                               f'values, got {label!r}')
+    return Posterior(zones, values[:len(zones)], tasks, values[len(zones):])
+
+
+@dataclass
+class Session:
+    """What the report needs from one bag; times are ns since the epoch (receive time)."""
+
+    path: Path
+    topics: dict[str, TopicInfo]
+    roles: dict[str, str]  # role -> topic name found in the bag
+    start_ns: int = 0
+    end_ns: int = 0
+    w: list[tuple[int, NDArray[np.float64]]] = field(default_factory=list)
+    v: list[tuple[int, NDArray[np.float64], tuple[str, ...]]] = field(default_factory=list)
+    clarifications: list[tuple[int, str]] = field(default_factory=list)
+    posteriors: list[tuple[int, Posterior]] = field(default_factory=list)
+    features: list[tuple[int, NDArray[np.float64]]] = field(default_factory=list)
+    models: list[tuple[int, str, GraspModel]] = field(default_factory=list)
+    kl: list[tuple[int, str, tuple[str, ...], NDArray[np.float64]]] = field(default_factory=list)
+    rejections: list[tuple[int, Rejection]] = field(default_factory=list)
+    planning_ms: list[float] = field(default_factory=list)
+    tracker: RejectionTracker = field(default_factory=RejectionTracker)
+    plan_counts: dict[str, str] = field(default_factory=dict)  # status name -> last 'plans' value
+    malformed: Counter[str] = field(default_factory=Counter)
+    notes: list[str] = field(default_factory=list)
+
+    def seconds(self, stamp_ns: int) -> float:
+        """Session time (s) of a receive time."""
+        return (stamp_ns - self.start_ns) * 1e-9
+
+    def task_names(self, m: int) -> tuple[str, ...]:
+        """Names of m tasks: from a posterior's w labels, else the last model, else the defaults."""
+        for _, post in self.posteriors:
+            if len(post.tasks) == m:
+                return post.tasks
+        for _, _, model in reversed(self.models):
+            if len(model.task_names) == m:
+                return model.task_names
+        return default_task_names(m)
+
+
+def _find_topics(topics: dict[str, TopicInfo]) -> tuple[dict[str, str], list[str]]:
+    """Role -> topic name in the session's namespace (:func:`~grasp_intent_ros.bag.session.detect_namespace`)."""
+    notes = []
+    try:
+        namespace = detect_namespace(topics)
+    except SessionError as exc:
+        namespace = ''
+        notes.append(f'session namespace not detected ({exc}); the root namespace is reported')
+    roles = {}
+    for role, relative in TOPICS.items():
+        name = relative if relative.startswith('/') else f'{namespace}/{relative}'
+        if name in topics:
+            roles[role] = name
+    return roles, notes
+
+
+def load_session(path: Path) -> Session:
+    """Read the messages the report uses.
+
+    Raises:
+        BagError: The bag is missing or cannot be read.
+    """
+    topics = topics_info(path)
+    roles, notes = _find_topics(topics)
+    session = Session(path=path, topics=topics, roles=roles, notes=notes)
+    by_topic = {topic: role for role, topic in roles.items()}
+    first = None
+    last = 0
+    for message in read_messages(path):
+        first = message.timestamp_ns if first is None else first
+        last = message.timestamp_ns
+        role = by_topic.get(message.topic)
+        if role is None:
+            continue
+        try:
+            _take(session, role, message.timestamp_ns, message.decode())
+        except (GraspIntentError, BagError, ValueError, IndexError, AttributeError):
+            session.malformed[message.topic] += 1
+    session.start_ns, session.end_ns = first or 0, last
+    return session
+
+
+def _take(session: Session, role: str, stamp: int, msg: Any) -> None:
+    """File one decoded message; raises for a malformed one."""
+    if role == 'w':
+        session.w.append((stamp, msg_to_array(msg, what='w')))
+    elif role == 'v':
+        labels = msg_labels(msg)
+        values = msg_to_array(msg, what='v')
+        zones = labels[0] if labels and len(labels[0]) == values.size else ()
+        session.v.append((stamp, values, zones))
+    elif role == 'clarification':
+        session.clarifications.append((stamp, str(msg.data)))
+    elif role == 'posterior':
+        session.posteriors.append((stamp, parse_posterior(msg)))
+    elif role == 'features':
+        x, label = _stamped_values(msg, 'grasp/features')
+        names = split_labels(label)
+        if set(MICO_3F.names) <= set(names) and len(names) == x.size:
+            x = x[[names.index(n) for n in MICO_3F.names]]
+        elif x.size != MICO_3F.dim:
+            raise GraspIntentError(f'grasp/features must have {MICO_3F.dim} values, got {x.size}')
+        session.features.append((stamp, x))
+    elif role == 'model':
+        try:
+            doc = model_from_msg(msg)
+            name, model = f'{doc.name} (version {doc.version})', doc.model
+        except GraspIntentError:  # no (or another) header: the YAML alone
+            model = GraspModel.from_yaml(msg.data)
+            name = model.name or 'model'
+        if not session.models or session.models[-1][2].to_yaml() != model.to_yaml():
+            session.models.append((stamp, name, model))
+    elif role == 'ambiguity':
+        kl = msg_to_array(msg, ndim=2, what='model/ambiguity')
+        labels = msg_labels(msg)
+        tasks = labels[0] if labels and len(labels[0]) == kl.shape[0] else default_task_names(kl.shape[0])
+        if not session.kl or not np.array_equal(session.kl[-1][3], kl):
+            session.kl.append((stamp, f'model/ambiguity #{len(session.kl) + 1}', tuple(tasks), kl))
+    elif role == 'diagnostics':
+        session.rejections.extend((stamp, r) for r in session.tracker.update(msg))
+        for status in msg.status:
+            _sample_planning_time(session, status)
+
+
+def _sample_planning_time(session: Session, status: Any) -> None:
+    """Record the planner's 'last planning time [ms]' each time a status shows a new 'plans' count."""
+    values = {str(kv.key): str(kv.value) for kv in status.values}
+    plans, value = values.get('plans'), values.get('last planning time [ms]')
+    if plans is None or not value or session.plan_counts.get(status.name) == plans:
+        return
+    session.plan_counts[status.name] = plans
+    try:
+        session.planning_ms.append(float(value))
+    except ValueError:
+        pass
+
+
+# ---------------------------------------------------------------------------------------------- figures
+def _tasks_legend(tasks: Sequence[str]) -> str:
+    return ', '.join(f'{zone_label(1 << i, tasks)} = {t}' for i, t in enumerate(tasks))
+
+
+def _grid(n: int, cols: int = 3) -> tuple[int, int]:
+    cols = min(cols, n)
+    return math.ceil(n / cols), cols
+
+
+def _answer(session: Session, stamp: int, until: int | None) -> Posterior | None:
+    """The first posterior received after ``stamp`` and before ``until``: the plan answering a v."""
+    for t, post in session.posteriors:
+        if t >= stamp and (until is None or t < until):
+            return post
+    return None
+
+
+def _input_w(session: Session, stamp: int) -> NDArray[np.float64] | None:
+    """The last w received at or before ``stamp``."""
+    found = None
+    for t, w in session.w:
+        if t > stamp:
+            break
+        found = w
+    return found
+
+
+def plot_intent_cases(session: Session, out: Path) -> list[str]:
+    """Figures (a); returns the file names written."""
+    cases = session.v[:CASES_PER_FIGURE * MAX_CASE_FIGURES]
+    if len(session.v) > len(cases):
+        session.notes.append(f'intent cases: the first {len(cases)} of {len(session.v)} are drawn')
+    written = []
+    for start in range(0, len(cases), CASES_PER_FIGURE):
+        chunk = cases[start:start + CASES_PER_FIGURE]
+        rows, cols = _grid(len(chunk))
+        fig = Figure(figsize=(max(10.0, 5.2 * cols), 3.6 * rows + 1.2), layout='constrained')
+        m = None
+        for i, (stamp, v, zones) in enumerate(chunk):
+            index = start + i
+            until = session.v[index + 1][0] if index + 1 < len(session.v) else None
+            post = _answer(session, stamp, until)
+            m = int(round(math.log2(v.size + 1)))
+            zones = zones or tuple(str(k + 1) for k in range(v.size))
+            ax = fig.add_subplot(rows, cols, i + 1)
+            x = np.arange(v.size)
+            ax.bar(x - 0.2, v, 0.4, color=_V_COLOR)
+            if post is not None:
+                p_by_zone = dict(zip(post.zones, post.p))
+                p = np.array([p_by_zone.get(z, np.nan) for z in zones])
+                ax.bar(x + 0.2, np.nan_to_num(p), 0.4, color=_P_COLOR)
+                for k in np.flatnonzero(np.isnan(p)):
+                    ax.text(x[k] + 0.2, 0.02, 'not in\nmodel', ha='center', va='bottom', fontsize=6,
+                            rotation=90, color='0.4')
+            ax.set_xticks(x, zones)
+            ax.set_ylim(0.0, 1.05)
+            ax.set_xlabel('zone')
+            ax.set_ylabel('probability')
+            w = _input_w(session, stamp)
+            w_text = 'w = (' + ', '.join(f'{val:.2f}' for val in w) + ')' if w is not None else 'w not recorded'
+            plan_text = '' if post is not None else ' (no plan recorded)'
+            ax.set_title(f'case {index + 1} at {session.seconds(stamp):.1f} s: {w_text}{plan_text}', fontsize=9)
+            ax.grid(axis='y', alpha=0.3)
+        fig.legend(handles=[Patch(color=_V_COLOR, label='target v (intent/v)'),
+                            Patch(color=_P_COLOR, label='posterior P(zone | x) of the planned grasp (grasp/posterior)')],
+                   loc='outside lower center', ncols=2, fontsize=9, frameon=False)
+        tasks = session.task_names(m or 1)
+        fig.suptitle('Target v from the intent interpreter vs posterior P of the planned grasp, per intent '
+                     f'message\nzones: {_tasks_legend(tasks)}', fontsize=11)
+        name = 'intent_cases.png' if start == 0 else f'intent_cases_{start // CASES_PER_FIGURE + 1}.png'
+        fig.savefig(out / name, dpi=100)
+        written.append(name)
+    return written
+
+
+def plot_w_over_time(session: Session, out: Path) -> list[str]:
+    """Figure (b)."""
+    m_values = {w.size for _, w in session.w} | {post.w.size for _, post in session.posteriors}
+    m = max(m_values)
+    tasks = session.task_names(m)
+    fig = Figure(figsize=(12, 4.8), layout='constrained')
+    ax = fig.add_subplot()
+    colors = [f'C{i}' for i in range(m)]
+    for i, task in enumerate(tasks):
+        inputs = [(session.seconds(t), w[i]) for t, w in session.w if w.size == m]
+        recon = [(session.seconds(t), post.w[i]) for t, post in session.posteriors if post.w.size == m]
+        if inputs:
+            ax.plot(*zip(*inputs), 'o-', color=colors[i], drawstyle='steps-post', markersize=4,
+                    label=f'{task}: input w')
+        if recon:
+            ax.plot(*zip(*recon), 'x', color=colors[i], markersize=8, markeredgewidth=2,
+                    label=f'{task}: reconstructed w (one per plan)')
+    for k, (t, _) in enumerate(session.clarifications):
+        ax.axvline(session.seconds(t), color='0.5', linestyle=':',
+                   label='clarification requested (no plan)' if k == 0 else None)
+    ax.set_xlabel('session time (s)')
+    ax.set_ylabel('task probability')
+    ax.set_ylim(-0.03, 1.03)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc='upper left', bbox_to_anchor=(1.01, 1.0))
+    ax.set_title('Input task probabilities w (intent/w) and w reconstructed from each planned grasp '
+                 '(grasp/posterior)', fontsize=10)
+    fig.savefig(out / 'w_over_time.png', dpi=100)
+    return ['w_over_time.png']
+
+
+def plot_kl(session: Session, out: Path) -> list[str]:
+    """Figure (c): one heat map per distinct model (model/active), else per model/ambiguity matrix."""
+    if session.models:
+        mats = [(name, f'{len(model.zones)} zones', model.task_names, ambiguity.kl_matrix(model))
+                for _, name, model in session.models]
+    else:
+        mats = [(name, 'from model/ambiguity', tasks, kl) for _, name, tasks, kl in session.kl]
+    if len(mats) > 6:
+        session.notes.append(f'KL matrices: the first 6 of {len(mats)} models are drawn')
+        mats = mats[:6]
+    rows, cols = _grid(len(mats))
+    fig = Figure(figsize=(max(5.6, 4.8 * cols), 4.2 * rows + 0.8), layout='constrained')
+    for i, (name, detail, tasks, kl) in enumerate(mats):
+        ax = fig.add_subplot(rows, cols, i + 1)
+        image = ax.imshow(kl, cmap='viridis')
+        high = float(np.nanmax(kl)) if kl.size else 0.0
+        for r in range(kl.shape[0]):
+            for c in range(kl.shape[1]):
+                ax.text(c, r, f'{kl[r, c]:.2f}', ha='center', va='center', fontsize=9,
+                        color='black' if kl[r, c] > 0.6 * high else 'white')
+        ax.set_xticks(range(len(tasks)), tasks)
+        ax.set_yticks(range(len(tasks)), tasks)
+        ax.set_xlabel('task j (compared population)')
+        ax.set_ylabel('task i (true population)')
+        ax.set_title(f'{name}, {detail}', fontsize=10)
+        fig.colorbar(image, ax=ax, shrink=0.8, label='KL(i ‖ j) (nats)')
+    fig.suptitle('Task ambiguity of the active model(s):\nKL divergence between principal-task grasp '
+                 'distributions', fontsize=11)
+    fig.savefig(out / 'kl_matrices.png', dpi=100)
+    return ['kl_matrices.png']
+
+
+def _draw_grasp(ax: Any, x: NDArray[np.float64]) -> None:
+    """The object cylinder and the hand of grasp ``x`` (object frame, m), posed by
+    :func:`~grasp_intent_ros.core.kinematics.features_to_obj_T_ee`: EE origin at the palm centre, EE z =
+    approach, finger 1 (thumb) towards EE +x, fingers 2 and 3 at -x, +-y; each finger is drawn as one
+    link bent towards the hand axis by its closure."""
+    obj_T_ee = features_to_obj_T_ee(x)
+    palm, (ee_x, ee_y, ee_z) = obj_T_ee[:3, 3], obj_T_ee[:3, :3].T
+    theta, height = np.meshgrid(np.linspace(0, 2 * math.pi, 40), np.array([0.0, OBJECT_HEIGHT]))
+    ax.plot_surface(OBJECT_RADIUS * np.cos(theta), OBJECT_RADIUS * np.sin(theta), height, color='0.6',
+                    alpha=0.35, linewidth=0)
+    ax.scatter(*palm, color='tab:red', s=30, label='palm centre')
+    ax.plot(*np.c_[palm - _WRIST * ee_z, palm], color='0.3', linewidth=4, label='wrist')
+    ax.quiver(*palm, *(_APPROACH_ARROW * ee_z), color='tab:red', arrow_length_ratio=0.25, label='approach')
+    bases = [palm + _PALM_HALF_WIDTH * ee_x,
+             palm - _PALM_HALF_WIDTH * ee_x + 0.02 * ee_y,
+             palm - _PALM_HALF_WIDTH * ee_x - 0.02 * ee_y]
+    inward = [-ee_x, ee_x, ee_x]
+    for k, (base, towards_axis, closure) in enumerate(zip(bases, inward, x[FINGERS])):
+        c = float(np.clip(closure, 0.0, FINGER_CLOSED))
+        tip = base + _FINGER_LENGTH * (math.cos(c) * ee_z + math.sin(c) * towards_axis)
+        ax.plot(*np.c_[palm, base, tip], color='tab:blue', linewidth=2,
+                label='fingers (closed as planned)' if k == 0 else None)
+        ax.text(*tip, str(k + 1), fontsize=7, color='tab:blue')
+
+
+def plot_grasps(session: Session, out: Path) -> list[str]:
+    """Figure (d)."""
+    n = len(session.features)
+    picks = np.unique(np.linspace(0, n - 1, min(n, MAX_GRASPS)).round().astype(int))
+    if n > len(picks):
+        session.notes.append(f'3-D grasps: {len(picks)} of {n} plans are drawn, spread over the session')
+    rows, cols = _grid(len(picks))
+    # 3-D axes do not take part in constrained layout: margins in inches, set by hand
+    width, height = 4.6 * cols, 4.6 * rows + 1.0
+    fig = Figure(figsize=(width, height))
+    fig.subplots_adjust(left=0.0, right=1.0, bottom=0.7 / height, top=1.0 - 1.0 / height, wspace=0.05,
+                        hspace=0.25)
+    for i, index in enumerate(picks):
+        stamp, x = session.features[index]
+        ax = fig.add_subplot(rows, cols, i + 1, projection='3d')
+        _draw_grasp(ax, x)
+        post = _nearest_posterior(session, stamp)
+        top = ''
+        if post is not None:
+            k = int(np.argmax(post.p))
+            top = f'\ntop zone {post.zones[k]} (P = {post.p[k]:.2f})'
+        fingers = ', '.join(f'{c:.2f}' for c in x[FINGERS])
+        ax.set_title(f'plan {index + 1} at {session.seconds(stamp):.1f} s{top}\n'
+                     f'roll {x[ROLL]:.2f} rad, fingers {fingers} rad', fontsize=8)
+        span = 0.13
+        centre = np.array([0.0, 0.0, OBJECT_HEIGHT / 2])
+        for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
+            setter(c - span, c + span)
+        ax.set_box_aspect((1, 1, 1), zoom=0.92)
+        ax.set_xlabel('x (m)', fontsize=7)
+        ax.set_ylabel('y (m)', fontsize=7)
+        ax.set_zlabel('z (m)', fontsize=7)
+        ax.tick_params(labelsize=6)
+        if i == 0:
+            fig.legend(*ax.get_legend_handles_labels(), loc='lower center', ncols=5, fontsize=8,
+                       frameon=False)
+    fig.suptitle('Planned grasps in the object frame (grasp/features)\nobject drawn as a '
+                 f'{100 * OBJECT_RADIUS:.0f} cm radius, {100 * OBJECT_HEIGHT:.0f} cm tall cylinder on the '
+                 f'frame origin; finger closure 0 = open, {FINGER_CLOSED} rad = closed', fontsize=10,
+                 y=1.0 - 0.1 / height, va='top')
+    fig.savefig(out / 'grasps_3d.png', dpi=100)
+    return ['grasps_3d.png']
+
+
+def _nearest_posterior(session: Session, stamp: int, tolerance_ns: int = 1_000_000_000) -> Posterior | None:
+    best = min(session.posteriors, key=lambda tp: abs(tp[0] - stamp), default=None)
+    return best[1] if best is not None and abs(best[0] - stamp) <= tolerance_ns else None
+
+
+# ---------------------------------------------------------------------------------------------- summary
+def write_summary(session: Session, out: Path, figures: list[str], skipped: list[str]) -> None:
+    duration = session.seconds(session.end_ns) if session.end_ns else 0.0
+    total = sum(info.count for info in session.topics.values())
+    lines = [f'# Session report: {session.path.name}', '',
+             f'- bag: `{session.path}`',
+             f'- duration: {duration:.1f} s, {total} messages on {len(session.topics)} topics', '',
+             '## Messages per topic', '', '| topic | type | messages |', '|---|---|---:|']
+    lines += [f'| {topic} | {info.msgtype} | {info.count} |' for topic, info in sorted(session.topics.items())]
+    per_node = Counter(r.status for _, r in session.rejections)
+    reasons = list(dict.fromkeys(r.reason or f'(level {r.level}, no reason given)' for _, r in session.rejections))
+    times = session.planning_ms
+    plans = len(session.features) or (session.topics[session.roles['posterior']].count
+                                       if 'posterior' in session.roles else 0)
+    lines += ['', '## Session', '',
+              f'- intent messages (w): {len(session.w)}; target vectors (v): {len(session.v)}',
+              f'- plans: {plans}',
+              f'- clarifications: {len(session.clarifications)}']
+    lines += [f'  - {session.seconds(t):.1f} s: {reason}' for t, reason in session.clarifications[:10]]
+    lines.append(f'- rejections (from /diagnostics): {len(session.rejections)}')
+    lines += [f'  - {name}: {n}' for name, n in sorted(per_node.items())]
+    lines += [f'  - reason: {reason}' for reason in reasons[:10]]
+    if times:
+        lines.append(f'- planning time: {len(times)} plans reported, mean {statistics.fmean(times):.1f} ms, '
+                     f'median {statistics.median(times):.1f} ms, max {max(times):.1f} ms')
+    else:
+        lines.append("- planning time: not in this bag (no planner status with 'last planning time [ms]')")
+    if session.models:
+        lines.append('- models: ' + ', '.join(f'{name} at {session.seconds(t):.1f} s ({len(m.zones)} zones)'
+                                               for t, name, m in session.models))
+    if session.malformed:
+        lines.append('- malformed messages skipped: ' + ', '.join(
+            f'{topic} {n}' for topic, n in sorted(session.malformed.items())))
+    lines += ['', '## Figures', '']
+    lines += [f'- [{name}]({name})' for name in figures] or ['- none']
+    lines += [f'- skipped: {reason}' for reason in skipped]
+    if session.notes:
+        lines += ['', '## Notes', ''] + [f'- {note}' for note in session.notes]
+    (out / 'summary.md').write_text('\n'.join(lines) + '\n')
+
+
+def write_report(bag: Path, out: Path) -> tuple[list[str], list[str]]:
+    """Write the figures and summary.md for ``bag`` into ``out`` (created).
+
+    Returns:
+        (figure file names written, reasons for figures skipped).
+
+    Raises:
+        BagError: The bag is missing or cannot be read.
+        OSError: ``out`` cannot be created or written.
+    """
+    session = load_session(bag)
+    out.mkdir(parents=True, exist_ok=True)
+    figures: list[str] = []
+    skipped: list[str] = []
+    plots = [
+        ('intent cases (v and P bars)', bool(session.v), 'no intent/v messages', plot_intent_cases),
+        ('w over time', bool(session.w or session.posteriors), 'no intent/w or grasp/posterior messages',
+         plot_w_over_time),
+        ('KL heat maps', bool(session.models or session.kl), 'no model/active or model/ambiguity messages',
+         plot_kl),
+        ('3-D grasps', bool(session.features), 'no grasp/features messages', plot_grasps),
+    ]
+    for title, available, reason, plot in plots:
+        if available:
+            figures += plot(session, out)
+        else:
+            skipped.append(f'{title}: {reason}')
+    if session.v and not session.posteriors:
+        skipped.append('P bars in the intent cases: no grasp/posterior messages')
+    write_summary(session, out, figures, skipped)
+    return figures, skipped
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point; returns the exit code (0, or 2 for a missing/invalid bag or unwritable output)."""
+    parser = argparse.ArgumentParser(prog='python -m grasp_intent_ros.report',
+                                     description='Figures and a markdown summary of a recorded session bag.')
+    parser.add_argument('bag', type=Path, help='rosbag2 directory (with metadata.yaml) written by the recorder')
+    parser.add_argument('--out', type=Path, required=True, help='output directory (created)')
+    options = parser.parse_args(argv)
+    if not options.bag.is_dir() or not (options.bag / 'metadata.yaml').is_file():
+        print(f'report: error: {options.bag} is not a rosbag2 directory (no metadata.yaml)', file=sys.stderr)
+        return 2
+    try:
+        figures, skipped = write_report(options.bag, options.out)
+    except BagError as exc:
+        print(f'report: error: invalid bag {options.bag}: {exc}', file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f'report: error: cannot write the report to {options.out}: {exc}', file=sys.stderr)
+        return 2
+    print(f'report: {len(figures)} figures and summary.md in {options.out}'
+          + (f' ({len(skipped)} skipped, see summary.md)' if skipped else ''))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
