@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .cli import report_user_errors
 from .core import ambiguity
-from .core.errors import GraspIntentError
 from .core.intent import zone_labels
 from .core.model import GraspModel
 from .core.resources import config_dir
@@ -60,12 +60,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument('models', nargs='*', type=Path, help='model YAML files (default: the cup models)')
     args = parser.parse_args(argv)
     paths = args.models or [config_dir() / 'models' / f'{n}.yaml' for n in DEFAULT_MODELS]
-    try:
-        print(format_reports([GraspModel.load(p) for p in paths]))
-    except (GraspIntentError, OSError) as exc:
-        print(f'error: {exc}', file=sys.stderr)
-        return 2
-    return 0
+    return report_user_errors(lambda: print(format_reports([GraspModel.load(p) for p in paths])))
 
 
 if __name__ == '__main__':

@@ -16,9 +16,9 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from .cli import report_user_errors
 from .core import demos as demo_rules
 from .core.data import save_csv
-from .core.errors import GraspIntentError
 from .core.intent import all_zones, zone_labels
 from .core.resources import config_dir
 from .train import summary, train
@@ -55,7 +55,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help='model directory for --train (default <config>/models)')
     args = parser.parse_args(argv)
     names = list(demo_rules.OBJECTS) if args.object == 'all' else [args.object]
-    try:
+
+    def body() -> None:
         data_dir = args.out if args.out is not None else config_dir() / 'data'
         for name in names:
             rules = demo_rules.OBJECTS[name]
@@ -75,10 +76,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                                                out=models_dir / f'{name}_{structure}.yaml')
                     print(summary(model, demos))
                     print(f'  wrote {path}')
-    except (GraspIntentError, OSError) as exc:
-        print(f'error: {exc}', file=sys.stderr)
-        return 2
-    return 0
+
+    return report_user_errors(body)
 
 
 if __name__ == '__main__':

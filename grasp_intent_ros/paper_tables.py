@@ -13,6 +13,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from .cli import report_user_errors
 from .core import intent, planner
 from .core.errors import GraspIntentError
 from .core.model import GraspModel
@@ -53,7 +54,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument('--method', choices=('slsqp', 'trust-constr'), default='slsqp')
     args = parser.parse_args(argv)
     models_dir = args.models_dir or config_dir() / 'models'
-    try:
+
+    def body() -> None:
         models = {p.stem: GraspModel.load(p) for p in sorted(models_dir.glob('*.yaml'))}
         for title, w, names in CASES:
             print(title)
@@ -62,10 +64,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                     raise GraspIntentError(f'model {name!r} not found in {models_dir}')
                 print_case(models[name], w, args.method)
             print()
-    except (GraspIntentError, OSError) as exc:
-        print(f'error: {exc}', file=sys.stderr)
-        return 2
-    return 0
+
+    return report_user_errors(body)
 
 if __name__ == '__main__':
     sys.exit(main())

@@ -20,8 +20,9 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from .cli import report_user_errors
 from .core.data import Demonstrations, load_csv
-from .core.errors import GraspIntentError, ModelError
+from .core.errors import DataError, ModelError
 from .core.intent import zone_labels
 from .core.model import DEFAULT_RIDGE, ZONE_STRUCTURES, GraspModel, structure_zones
 from .core.resources import config_dir
@@ -110,17 +111,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument('--ridge', type=float, default=DEFAULT_RIDGE,
                         help=f'covariance ridge as a fraction of each feature range (default {DEFAULT_RIDGE})')
     args = parser.parse_args(argv)
-    try:
-        model, demos, path = train(args.csv, args.zones, name=args.name, out=args.out, ridge=args.ridge)
-    except (GraspIntentError, OSError) as exc:
-        print(f'error: {exc}', file=sys.stderr)
-        return 2
-    except (UnicodeDecodeError, csv.Error) as exc:
-        print(f'error: {args.csv}: not a readable CSV file ({exc})', file=sys.stderr)
-        return 2
-    print(summary(model, demos))
-    print(f'  wrote {path}')
-    return 0
+
+    def body() -> None:
+        try:
+            model, demos, path = train(args.csv, args.zones, name=args.name, out=args.out, ridge=args.ridge)
+        except (UnicodeDecodeError, csv.Error) as exc:
+            raise DataError(f'{args.csv}: not a readable CSV file ({exc})') from None
+        print(summary(model, demos))
+        print(f'  wrote {path}')
+
+    return report_user_errors(body)
 
 
 if __name__ == '__main__':
