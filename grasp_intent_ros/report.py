@@ -29,7 +29,8 @@ Message layouts read (as the nodes publish them)
 ``grasp/posterior`` shape (1, K + m) as :func:`grasp_intent_ros.ros.robot.posterior_to_msg` writes it:
                     dim[0] the stamp axis ("stamp=<sec>.<nanosec>"), dim[1] labelled "<zones>|<tasks>"
                     ("U,T,UT,TH,UTH|usage,transfer,handover"): P over the model's K zones, then the
-                    reconstructed w. Parsed here by :func:`parse_posterior` (``ros.robot`` imports rclpy).
+                    reconstructed w. Parsed by :func:`parse_posterior` with the rclpy-free parsers of
+                    :mod:`grasp_intent_ros.ros.conversions` (``ros.robot`` imports rclpy).
 ``grasp/features``  shape (1, d), the same stamp axis, dim[1] labelled with the feature names
                     (:data:`~grasp_intent_ros.core.features.MICO_3F`); 1-D or unlabelled: by position.
 ``model/active``    std_msgs/String, the model document (header lines, then GraspModel YAML).
@@ -63,7 +64,8 @@ from .core.features import FINGER_CLOSED, FINGERS, MICO_3F, ROLL
 from .core.intent import default_task_names, zone_label
 from .core.kinematics import features_to_obj_T_ee
 from .core.model import GraspModel
-from .ros.conversions import model_from_msg, msg_labels, msg_to_array, split_labels
+from .ros.conversions import (model_from_msg, msg_labels, msg_to_array, split_labels, split_posterior,
+                              stamped_values)
 
 __all__ = ['Posterior', 'Session', 'parse_posterior', 'load_session', 'write_report', 'main',
            'OBJECT_RADIUS', 'OBJECT_HEIGHT', 'CASES_PER_FIGURE', 'MAX_CASE_FIGURES', 'MAX_GRASPS']
@@ -98,30 +100,15 @@ class Posterior:
     w: NDArray[np.float64]
 
 
-def _stamped_values(msg: Any, what: str) -> tuple[NDArray[np.float64], str]:
-    """Values, shape (n,), and the label of the values axis of a (1, n) stamped array (or a 1-D one)."""
-    values = msg_to_array(msg, ndim=None, what=what)
-    if values.ndim == 2 and values.shape[0] == 1:
-        return values[0], str(msg.layout.dim[1].label)
-    if values.ndim == 1:
-        return values, str(msg.layout.dim[0].label) if msg.layout.dim else ''
-    raise GraspIntentError(f'{what} must have shape (1, n) or (n,), got {values.shape}')
-
-
 def parse_posterior(msg: Any) -> Posterior:
     """Split a ``grasp/posterior`` Float64MultiArray (layout in the module docstring).
 
     Raises:
-        GraspIntentError: Wrong shape, NaN/Inf, or a values label other than "<zones>|<tasks>" naming
-            all values.
+        GraspIntentError: Wrong shape, NaN/Inf, a malformed stamp label, or a values label other than
+            "<zones>|<tasks>" naming all values.
     """
-    values, label = _stamped_values(msg, 'grasp/posterior')
-    zones_part, bar, tasks_part = label.partition('|')
-    zones, tasks = split_labels(zones_part), split_labels(tasks_part)
-    if not bar or not zones or not tasks or len(zones) + len(tasks) != values.size:
-        raise GraspIntentError(f'grasp/posterior label must be "<zones>|<tasks>" naming all {values.size} '
-                               f'values, got {label!r}')
-    return Posterior(zones, values[:len(zones)], tasks, values[len(zones):])
+    values, label, _ = stamped_values(msg, what='grasp/posterior', require_stamp=False)
+    return Posterior(*split_posterior(values, label))
 
 
 @dataclass
@@ -218,7 +205,7 @@ def _take(session: Session, role: str, stamp: int, msg: Any) -> None:
     elif role == 'posterior':
         session.posteriors.append((stamp, parse_posterior(msg)))
     elif role == 'features':
-        x, label = _stamped_values(msg, 'grasp/features')
+        x, label, _ = stamped_values(msg, what='grasp/features', require_stamp=False)
         names = split_labels(label)
         if set(MICO_3F.names) <= set(names) and len(names) == x.size:
             x = x[[names.index(n) for n in MICO_3F.names]]

@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -50,6 +49,8 @@ from numpy.typing import NDArray
 from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, TypesysError, get_typestore
 
+from ..core.errors import ModelFormatError
+from ..core.model import ModelHeader, parse_model_document
 from .errors import BagError
 from .qos import QosSpec
 from .reader import read_messages, topics_info
@@ -119,8 +120,6 @@ MSGTYPES: Final[Mapping[str, str]] = {
 
 _WARN: Final = 1
 _LEVELS: Final = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}
-_MODEL_HEADER: Final = re.compile(r'# model_name: (?P<name>[^\n]*)\n# model_version: (?P<version>[0-9]+)\n'
-                                  r'# model_sha256: (?P<sha>[0-9a-f]{64})\n')
 
 
 class SessionError(BagError):
@@ -167,15 +166,6 @@ class Trajectory:
     joint_names: tuple[str, ...]
     positions: NDArray[np.float64]
     times_s: NDArray[np.float64]
-
-
-@dataclass(frozen=True)
-class ModelHeader:
-    """The header of a ``model/active`` document: model name, activation count, content hash."""
-
-    name: str
-    version: int
-    sha256: str
 
 
 @dataclass(frozen=True)
@@ -248,16 +238,16 @@ def _level(level: Any) -> int:
 
 
 def model_header(text: str) -> ModelHeader:
-    """The header lines of a model document (see :mod:`grasp_intent_ros.ros.conversions`).
+    """The header lines of a model document (:func:`~grasp_intent_ros.core.model.parse_model_document`);
+    the body is neither hashed nor parsed.
 
     Raises:
         SessionError: The three header lines are missing or malformed.
     """
-    match = _MODEL_HEADER.match(text)
-    if match is None:
-        raise SessionError('model document lacks the header lines "# model_name", "# model_version", '
-                           '"# model_sha256"')
-    return ModelHeader(match['name'], int(match['version']), match['sha'])
+    try:
+        return parse_model_document(text, check_sha256=False)[0]
+    except ModelFormatError as exc:
+        raise SessionError(str(exc)) from None
 
 
 def reduce_message(topic: str, msg: Any) -> Value:

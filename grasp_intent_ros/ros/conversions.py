@@ -1,4 +1,4 @@
-"""Messages <-> core types: labelled Float64MultiArray <-> numpy, and the versioned model document.
+"""Messages <-> core types: labelled Float64MultiArray <-> numpy, stamped arrays, the model document.
 
 Labelled arrays
 ---------------
@@ -10,27 +10,37 @@ number of values spanned by one step along the previous axis (ROS convention: ``
 total count). A message without dimensions (what ``ros2 topic pub "{data: [...]}"`` sends) is a flat
 vector.
 
+Stamped arrays
+--------------
+std_msgs/Float64MultiArray has no header. An output array that must be paired with stamped outputs of
+the same computation gets a leading axis of size 1 whose label is the stamp,
+``"stamp=<sec>.<nanosec, 9 digits>"``; the second axis holds the values, labelled with their names.
+The layout is then ``dim[0] = (label "stamp=...", size 1, stride n)``, ``dim[1] = (names, size n,
+stride n)``, and the data are the n values (written by
+:func:`grasp_intent_ros.ros.robot.stamped_array_to_msg`, read by :func:`stamped_values`).
+
+Grasp posterior (``grasp/posterior``)
+-------------------------------------
+A stamped array whose n = K + m values are P(zone | x) over the model's K zones followed by the m
+principal-task probabilities w reconstructed from P. The values' label is the comma-joined zone labels,
+``|``, the comma-joined task names: ``"U,T,H,UT,UH,TH,UTH|usage,transfer,handover"``
+(:func:`split_posterior`).
+
+The readers here take any object with ``.layout.dim[i].label``/``.size``, ``.layout.data_offset`` and
+``.data``: rclpy messages and rosbags-decoded ones alike.
+
 Model document (``model/active``, std_msgs/String)
 --------------------------------------------------
-Three header lines, then the YAML of :meth:`GraspModel.to_yaml`::
-
-    # model_name: cup_7zone
-    # model_version: 3
-    # model_sha256: <sha256 of the YAML text that follows, hex>
-    <GraspModel YAML>
-
-The header lines are YAML comments, so ``GraspModel.from_yaml(msg.data)`` also reads the whole
-text. ``model_version`` counts activations in one model server (1 = the first model it published);
-it restarts at 1 when the server restarts. ``model_sha256`` identifies the content: a consumer that
-must know whether the model changed compares (name, sha256); to order documents from one server it
-compares versions.
+The text of :func:`grasp_intent_ros.core.model.model_document`: three header lines (model name, version,
+sha256 of the YAML that follows), then the YAML of :meth:`GraspModel.to_yaml`. ``model_version`` counts
+activations in one model server (1 = the first model it published); it restarts at 1 when the server
+restarts. ``model_sha256`` identifies the content: a consumer that must know whether the model changed
+compares (name, sha256); to order documents from one server it compares versions.
 """
 
 from __future__ import annotations
 
 import array
-import hashlib
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -38,8 +48,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
-from ..core.errors import GraspIntentError, ModelFormatError
-from ..core.model import GraspModel
+from ..core.errors import GraspIntentError
+from ..core.model import GraspModel, model_document, parse_model_document
 
 __all__ = [
     'MAX_ARRAY_SIZE',
@@ -48,6 +58,8 @@ __all__ = [
     'array_to_msg',
     'msg_to_array',
     'msg_labels',
+    'stamped_values',
+    'split_posterior',
     'ModelDocument',
     'model_to_msg',
     'model_from_msg',
@@ -156,6 +168,67 @@ def msg_labels(msg: Float64MultiArray) -> tuple[tuple[str, ...], ...]:
     return tuple(split_labels(d.label) for d in msg.layout.dim)
 
 
+def _parse_stamp_label(label: str) -> tuple[int, int]:
+    sec, dot, nanosec = label.removeprefix('stamp=').partition('.')
+    if not label.startswith('stamp=') or not dot or not sec.isdigit() or not nanosec.isdigit() \
+            or len(nanosec) != 9:
+        raise GraspIntentError(f'expected a stamp label "stamp=<sec>.<9-digit nanosec>", got {label!r}')
+    return int(sec), int(nanosec)
+
+
+def stamped_values(msg: Float64MultiArray, *, max_size: int = MAX_ARRAY_SIZE, what: str = 'array',
+                   require_stamp: bool = True
+                   ) -> tuple[NDArray[np.float64], str, tuple[int, int] | None]:
+    """Values, values label and stamp of a stamped array (layout in the module docstring).
+
+    Parameters
+    ----------
+    msg : Float64MultiArray (or a rosbags-decoded one)
+    max_size, what
+        As for :func:`msg_to_array`.
+    require_stamp : bool
+        False also accepts a 1-D array (its ``dim[0]`` label, '' without dimensions; stamp None).
+
+    Returns
+    -------
+    values : ndarray, shape (n,)
+    label : str
+        Label of the values axis.
+    stamp : (sec, nanosec) or None
+
+    Raises
+    ------
+    GraspIntentError
+        If the layout is not (stamp axis of size 1, values axis), the stamp label is malformed, or
+        the values are malformed (see :func:`msg_to_array`).
+    """
+    arr = msg_to_array(msg, max_size=max_size, ndim=2 if require_stamp else None, what=what)
+    if arr.ndim == 1:
+        return arr, str(msg.layout.dim[0].label) if msg.layout.dim else '', None
+    if arr.ndim != 2:
+        raise GraspIntentError(f'{what} must have shape (1, n) or (n,), got {arr.shape}')
+    if arr.shape[0] != 1:
+        raise GraspIntentError(f'{what}: the stamp axis must have size 1, got shape {arr.shape}')
+    return arr[0], str(msg.layout.dim[1].label), _parse_stamp_label(str(msg.layout.dim[0].label))
+
+
+def split_posterior(values: NDArray[np.float64], label: str, *, what: str = 'grasp/posterior'
+                    ) -> tuple[tuple[str, ...], NDArray[np.float64], tuple[str, ...], NDArray[np.float64]]:
+    """(zone labels (K,), P shape (K,), task names (m,), w shape (m,)) of the values of a grasp posterior.
+
+    Raises
+    ------
+    GraspIntentError
+        If ``label`` is not "<zones>|<tasks>" naming all ``values``.
+    """
+    zones_part, bar, tasks_part = label.partition('|')
+    zones, tasks = split_labels(zones_part), split_labels(tasks_part)
+    if not bar or not zones or not tasks or len(zones) + len(tasks) != values.size:
+        raise GraspIntentError(f'{what} label must be "<zones>|<tasks>" naming all {values.size} values, '
+                               f'got {label!r}')
+    return zones, values[:len(zones)], tasks, values[len(zones):]
+
+
 @dataclass(frozen=True)
 class ModelDocument:
     """A model as published on ``model/active``: the model plus its name, version and content hash."""
@@ -166,21 +239,16 @@ class ModelDocument:
     model: GraspModel
 
 
-_HEADER = re.compile(r'# model_name: (?P<name>[^\n]*)\n# model_version: (?P<version>[0-9]+)\n'
-                     r'# model_sha256: (?P<sha>[0-9a-f]{64})\n')
-
-
 def model_to_msg(model: GraspModel, *, name: str, version: int) -> String:
-    """The model document (see module docstring) for ``model`` as a std_msgs/String."""
-    if '\n' in name or version < 1:
-        raise ValueError('name must be one line and version >= 1')
-    body = model.to_yaml()
-    sha = hashlib.sha256(body.encode()).hexdigest()
-    return String(data=f'# model_name: {name}\n# model_version: {version}\n# model_sha256: {sha}\n{body}')
+    """The model document (:func:`~grasp_intent_ros.core.model.model_document`) as a std_msgs/String.
+
+    Raises ValueError if ``name`` spans several lines or ``version < 1``.
+    """
+    return String(data=model_document(model, name=name, version=version))
 
 
 def model_from_msg(msg: String) -> ModelDocument:
-    """Parse a model document.
+    """Parse a model document (:func:`~grasp_intent_ros.core.model.parse_model_document`).
 
     Raises
     ------
@@ -188,16 +256,6 @@ def model_from_msg(msg: String) -> ModelDocument:
         If the header is missing or malformed, the hash does not match the YAML, or the YAML is not a
         valid model (the reason from :meth:`GraspModel.from_yaml`).
     """
-    header = _HEADER.match(msg.data)
-    if header is None:
-        raise ModelFormatError('model document lacks the header lines "# model_name: ...", '
-                               '"# model_version: <n>", "# model_sha256: <hex>"')
-    body = msg.data[header.end():]
-    sha = hashlib.sha256(body.encode()).hexdigest()
-    if sha != header['sha']:
-        raise ModelFormatError(f'model document is corrupted: sha256 {sha} does not match the header')
-    version = int(header['version'])
-    if version < 1:
-        raise ModelFormatError(f'model_version must be >= 1, got {version}')
-    return ModelDocument(name=header['name'], version=version, sha256=sha,
+    header, body = parse_model_document(msg.data)
+    return ModelDocument(name=header.name, version=header.version, sha256=header.sha256,
                          model=GraspModel.from_yaml(body))

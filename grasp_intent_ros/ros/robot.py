@@ -7,20 +7,12 @@ pose_to_matrix` / :func:`~grasp_intent_ros.core.kinematics.matrix_to_pose`. Ther
 must already be in the expected frame. Incoming quaternions must have unit norm within
 :data:`QUATERNION_NORM_TOL` (they are then normalised); anything else is a malformed message.
 
-Stamped arrays
---------------
-std_msgs/Float64MultiArray has no header. An output array that must be paired with stamped outputs of
-the same computation gets a leading axis of size 1 whose label is the stamp,
-``"stamp=<sec>.<nanosec, 9 digits>"``; the second axis holds the values, labelled with their names.
-The layout is then ``dim[0] = (label "stamp=...", size 1, stride n)``, ``dim[1] = (names, size n,
-stride n)``, and the data are the n values. Read such arrays with :func:`stamped_array_from_msg`.
-
-Grasp posterior (``grasp/posterior``)
--------------------------------------
-A stamped array (above) whose n = K + m values are P(zone | x) over the model's K zones followed by
-the m principal-task probabilities w reconstructed from P. The values' label is the comma-joined zone
-labels, ``|``, the comma-joined task names: ``"U,T,H,UT,UH,TH,UTH|usage,transfer,handover"``.
-:func:`posterior_from_msg` splits it into a :class:`GraspPosterior`.
+Stamped arrays and the grasp posterior
+--------------------------------------
+Both layouts are described in :mod:`grasp_intent_ros.ros.conversions`, which holds their one parser
+(``stamped_values``, ``split_posterior``). :func:`stamped_array_to_msg` and :func:`posterior_to_msg`
+write them; :func:`stamped_array_from_msg` and :func:`posterior_from_msg` read them, with the stamp as a
+``builtin_interfaces/Time``.
 
 Markers
 -------
@@ -46,9 +38,9 @@ from std_msgs.msg import ColorRGBA, Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..core.errors import GraspIntentError, KinematicsError
+from ..core.errors import KinematicsError
 from ..core.kinematics import matrix_to_pose, pose_to_matrix
-from .conversions import MAX_ARRAY_SIZE, array_to_msg, join_labels, msg_to_array, split_labels
+from .conversions import MAX_ARRAY_SIZE, array_to_msg, join_labels, split_posterior, stamped_values
 
 __all__ = [
     'QUATERNION_NORM_TOL',
@@ -200,16 +192,8 @@ def stamp_label(stamp: Time) -> str:
     return f'stamp={int(stamp.sec)}.{int(stamp.nanosec):09d}'
 
 
-def _parse_stamp_label(label: str) -> Time:
-    sec, dot, nanosec = label.removeprefix('stamp=').partition('.')
-    if not label.startswith('stamp=') or not dot or not sec.isdigit() or not nanosec.isdigit() \
-            or len(nanosec) != 9:
-        raise GraspIntentError(f'expected a stamp label "stamp=<sec>.<9-digit nanosec>", got {label!r}')
-    return Time(sec=int(sec), nanosec=int(nanosec))
-
-
 def stamped_array_to_msg(values: ArrayLike, labels: str | Sequence[str], *, stamp: Time) -> Float64MultiArray:
-    """A 1-D array as a stamped Float64MultiArray (layout in the module docstring).
+    """A 1-D array as a stamped Float64MultiArray (layout in :mod:`grasp_intent_ros.ros.conversions`).
 
     ``labels``: the value names (one per value) or a ready label string.
     """
@@ -228,10 +212,9 @@ def stamped_array_from_msg(msg: Float64MultiArray, *, max_size: int = MAX_ARRAY_
     GraspIntentError
         If the layout is not (stamp axis of size 1, values axis) or the values are malformed.
     """
-    arr = msg_to_array(msg, max_size=max_size, ndim=2, what=what)
-    if arr.shape[0] != 1:
-        raise GraspIntentError(f'{what}: the stamp axis must have size 1, got shape {arr.shape}')
-    return _parse_stamp_label(msg.layout.dim[0].label), msg.layout.dim[1].label, arr[0]
+    values, label, stamp = stamped_values(msg, max_size=max_size, what=what)
+    assert stamp is not None  # require_stamp=True
+    return Time(sec=stamp[0], nanosec=stamp[1]), label, values
 
 
 @dataclass(frozen=True)
@@ -259,7 +242,7 @@ class GraspPosterior:
 
 def posterior_to_msg(p: ArrayLike, w: ArrayLike, zone_labels: Sequence[str], task_names: Sequence[str], *,
                      stamp: Time) -> Float64MultiArray:
-    """The ``grasp/posterior`` message (layout in the module docstring)."""
+    """The ``grasp/posterior`` message (layout in :mod:`grasp_intent_ros.ros.conversions`)."""
     p_arr, w_arr = np.asarray(p, dtype=np.float64), np.asarray(w, dtype=np.float64)
     if p_arr.shape != (len(zone_labels),) or w_arr.shape != (len(task_names),):
         raise ValueError(f'p {p_arr.shape} / w {w_arr.shape} do not match {len(zone_labels)} zones / '
@@ -271,13 +254,8 @@ def posterior_to_msg(p: ArrayLike, w: ArrayLike, zone_labels: Sequence[str], tas
 def posterior_from_msg(msg: Float64MultiArray) -> GraspPosterior:
     """Parse a ``grasp/posterior`` message. Raises GraspIntentError for another layout."""
     stamp, label, values = stamped_array_from_msg(msg, what='posterior')
-    zones_part, bar, tasks_part = label.partition('|')
-    zones, tasks = split_labels(zones_part), split_labels(tasks_part)
-    if not bar or len(zones) + len(tasks) != values.size or not zones or not tasks:
-        raise GraspIntentError(f'posterior label {label!r} must be "<zones>|<tasks>" naming all '
-                               f'{values.size} values')
-    return GraspPosterior(stamp=stamp, zone_labels=zones, p=values[:len(zones)], task_names=tasks,
-                          w=values[len(zones):])
+    zones, p, tasks, w = split_posterior(values, label, what='posterior')
+    return GraspPosterior(stamp=stamp, zone_labels=zones, p=p, task_names=tasks, w=w)
 
 
 def zone_summary(zone_labels: Sequence[str], p: ArrayLike, *, top: int = 3) -> str:

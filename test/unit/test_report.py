@@ -23,7 +23,7 @@ from grasp_intent_ros.bag import QosSpec, SessionWriter
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import interpret, reconstruct_w
 from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.ros.conversions import model_to_msg
+from grasp_intent_ros.ros.conversions import model_to_msg, stamped_values
 
 T0 = 1_700_000_000_000_000_000  # ns
 S = 1_000_000_000  # ns per s
@@ -154,6 +154,16 @@ def test_posterior_layout_is_split_into_p_and_w(store, toy_model) -> None:
     for bad in ('U,T,H,UT,UH,TH,UTH,usage,transfer,handover', 'U,T,H|usage,transfer,handover', ''):
         with pytest.raises(ValueError, match='grasp/posterior label'):
             report.parse_posterior(stamped(store, np.r_[p, w], bad, T0))
+
+
+def test_stamped_values_reads_rosbags_messages(store) -> None:
+    values, label, stamp = stamped_values(stamped(store, [0.25, 0.75], 'a,b', T0 + 34))
+    np.testing.assert_array_equal(values, [0.25, 0.75])
+    assert (label, stamp) == ('a,b', (T0 // S, 34))
+    bad = stamped(store, [0.25, 0.75], 'a,b', T0)
+    bad.layout.dim[0].label = 'stamp=12.34'
+    with pytest.raises(ValueError, match='9-digit nanosec'):
+        stamped_values(bad)
 
 
 def test_bag_lacking_topics_skips_figures_and_says_so(store, toy_model, tmp_path: Path) -> None:
