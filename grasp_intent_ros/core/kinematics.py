@@ -547,6 +547,8 @@ def obj_T_ee_to_features(obj_T_ee: ArrayLike, fingers: ArrayLike) -> NDArray[np.
     roll_R = _min_rotation_from_down(approach).T @ obj_R_ee @ _R_TOP  # = R_z(roll); R_TOP is involutive
     roll = math.atan2(float(roll_R[1, 0]), float(roll_R[0, 0]))
     roll = (roll - _ROLL_MIN) % _TWO_PI + _ROLL_MIN
+    if roll >= _ROLL_MIN + _TWO_PI:  # a tiny negative offset wraps to exactly 2 pi in floating point
+        roll -= _TWO_PI
     x = np.empty(MICO_3F.dim)
     x[PALM] = T[:3, 3]
     x[APPROACH] = approach

@@ -14,6 +14,7 @@ import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -154,11 +155,11 @@ def test_process_exits_nonzero_with_an_error_when_the_bag_cannot_be_written(ros,
     bag = tmp_path / 'session'
     proc = start_recorder(bag, preexec_fn=_limit_file_size)
     assert ros.wait_for(lambda: w_pub.get_subscription_count() >= 1, timeout=STARTUP), proc.output()
-    big = Float64MultiArray(data=[0.5] * 2000)  # 16 kB: the chunk fills after ~65 messages
+    rng = np.random.default_rng(0)
 
     def publish_until_exit() -> bool:
-        for _ in range(10):
-            w_pub.publish(big)
+        for _ in range(10):  # 16 kB of random doubles each, incompressible: a chunk fills after ~65
+            w_pub.publish(Float64MultiArray(data=rng.random(2000).tolist()))
         return proc.popen.poll() is not None
 
     assert ros.wait_for(publish_until_exit, timeout=20.0), proc.output()

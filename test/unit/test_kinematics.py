@@ -348,3 +348,11 @@ def test_core_kinematics_does_not_import_rclpy() -> None:
 def test_ee_frame_name(kin: MicoKinematics) -> None:
     assert kin.model.existFrame(EE_FRAME)
 
+
+
+def test_roll_at_the_lower_bound_stays_in_range() -> None:
+    # found by hypothesis: a roll of exactly -pi/2 came back as 3 pi/2 (floating-point wrap)
+    x = np.array([0.0, 0.0, 0.0, 0.0, 0.4970674496590066, 0.11519049771686585, -math.pi / 2, 0.0, 0.0, 0.0])
+    back = obj_T_ee_to_features(features_to_obj_T_ee(x), x[FINGERS])
+    assert -math.pi / 2 <= back[ROLL] < 3 * math.pi / 2
+    assert abs(math.remainder(back[ROLL] + math.pi / 2, 2 * math.pi)) < 1e-9
