@@ -6,7 +6,9 @@ targets, posterior of equal stamps) stamped after the send. The models are the s
 config/models, copied once per module so that the nodes and the expected answers read the same files.
 Expected answers come from the core library with the planner node's options (config/grasp_planner.yaml)
 and robot constraint (IK seeded from HOME_Q, ``ik_restarts`` restarts, restart seed 0); a node's first
-plan on a model has no warm start, so its features are the core's to 1e-9 (measured: bit-identical).
+plan on a model has no warm start, so its features match the core's (usually bit-identical; asserted to
+1e-6, since the optimum is flat when P matches v exactly, so a second plan that warm-starts from the
+first, e.g. after the sender repeated a w that was not lost after all, moves x by ~1e-7).
 Nothing sleeps: every wait polls with a deadline.
 """
 
@@ -209,7 +211,7 @@ def test_w_in_v_pose_joints_and_posterior_out_as_the_core_computes(chain, models
     expected = core_plan(model, W_TWO, kinematics)
     post = answer.posterior
     assert (post.zone_labels, post.task_names) == (model.zone_labels, model.task_names)
-    assert_allclose(chain.x_of(answer), expected.x, rtol=0, atol=1e-9)  # first plan: no warm start
+    assert_allclose(chain.x_of(answer), expected.x, rtol=0, atol=1e-6)  # see the module docstring
     assert_allclose(post.p, expected.posterior, rtol=0, atol=1e-4)
     assert_allclose(post.w, expected.w, rtol=0, atol=1e-4)
     base_T_ee = _assert_fk_reproduces_pose(answer, kinematics)
@@ -347,7 +349,7 @@ def test_switching_the_model_at_run_time_changes_the_plan_and_unknown_models_are
     x5 = chain.features[stamp]
     assert np.linalg.norm(x5 - x7) > 1e-3, 'the plan did not change with the model'
     expected = core_plan(cup5, W_AMBIGUOUS, kinematics)  # first plan on this model: no warm start
-    assert_allclose(x5, expected.x, rtol=0, atol=1e-9)
+    assert_allclose(x5, expected.x, rtol=0, atol=1e-6)
     assert_allclose(replanned.p, expected.posterior, rtol=0, atol=1e-4)
     assert model_from_msg(chain.active[-1]).name == 'cup_5zone'
 
