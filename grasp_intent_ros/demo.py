@@ -38,12 +38,10 @@ os.environ.pop('ROS_STATIC_PEERS', None)
 
 import argparse  # noqa: E402
 import signal  # noqa: E402
-import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Callable, Sequence  # noqa: E402
-from dataclasses import dataclass  # noqa: E402
 from pathlib import Path  # noqa: E402
 from types import FrameType  # noqa: E402
 
@@ -59,6 +57,7 @@ from std_msgs.msg import String  # noqa: E402
 from .core.errors import GraspIntentError  # noqa: E402
 from .core.resources import config_dir  # noqa: E402
 from .paper_tables import CASES  # noqa: E402
+from .processes import STOP_TIMEOUT, NodeProcess, node_environment  # noqa: E402
 from .ros.conversions import ModelDocument, model_from_msg  # noqa: E402
 from .ros.qos import input_qos, latched_qos  # noqa: E402
 from .send_intent import IntentSender, NoGrasp, format_grasp  # noqa: E402
@@ -70,9 +69,6 @@ NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
 
 CLARIFICATION_CASE = ('Clarification: low intent', (0.1, 0.1, 0.1))
 """Sent last: P(no task) = 0.729 >= the default threshold 0.5, so the interpreter asks for clarification."""
-
-STOP_TIMEOUT = 10.0
-"""Seconds a node gets to exit after SIGINT before it is SIGKILLed."""
 
 DOMAIN_CHECK = 1.5
 """Seconds the demo looks for other nodes on its domain before it starts its own."""
@@ -103,50 +99,7 @@ def _domain_id() -> int:
 
 
 # ------------------------------------------------------------------------------------------ processes
-@dataclass
-class _NodeProcess:
-    """One node process; its output goes to files so that no pipe can fill up and block it."""
-
-    name: str
-    popen: subprocess.Popen[bytes]
-    stderr_path: Path
-
-    @classmethod
-    def start(cls, name: str, ros_args: Sequence[str], env: dict[str, str], log_dir: Path) -> _NodeProcess:
-        cmd = [sys.executable, '-m', f'grasp_intent_ros.{name}', '--ros-args', *ros_args]
-        stderr_path = log_dir / f'{name}.err'
-        with (log_dir / f'{name}.out').open('wb') as out, stderr_path.open('wb') as err:
-            popen = subprocess.Popen(cmd, env=env, stdout=out, stderr=err, stdin=subprocess.DEVNULL)
-        return cls(name, popen, stderr_path)
-
-    def stderr_tail(self, lines: int = 15) -> str:
-        try:
-            text = self.stderr_path.read_text(errors='replace')
-        except OSError as exc:
-            return f'(stderr unreadable: {exc})'
-        tail = text.strip().splitlines()[-lines:]
-        return '\n'.join(f'    | {line}' for line in tail) if tail else '    | (empty)'
-
-    def stop(self, deadline: float) -> str:
-        """Wait for the exit (SIGINT already sent) until ``deadline`` (monotonic), then SIGKILL.
-
-        Returns '' for a clean exit (code 0, no traceback), else the problem.
-        """
-        try:
-            self.popen.wait(max(0.0, deadline - time.monotonic()))
-        except subprocess.TimeoutExpired:
-            self.popen.kill()
-            self.popen.wait()
-            return f'{self.name} (pid {self.popen.pid}) ignored SIGINT for {STOP_TIMEOUT:g} s and was killed'
-        code = self.popen.returncode
-        if code != 0:
-            return f'{self.name} (pid {self.popen.pid}) exited with code {code}:\n{self.stderr_tail()}'
-        if 'Traceback' in self.stderr_path.read_text(errors='replace'):
-            return f'{self.name} (pid {self.popen.pid}) printed a traceback:\n{self.stderr_tail()}'
-        return ''
-
-
-def _start_nodes(nodes: dict[str, _NodeProcess], models_dir: Path | None, env: dict[str, str],
+def _start_nodes(nodes: dict[str, NodeProcess], models_dir: Path | None, env: dict[str, str],
                  log_dir: Path) -> None:
     """Start every node of NODES into ``nodes`` (filled as they start, so a signal between two starts
     still finds the earlier ones to stop)."""
@@ -160,16 +113,21 @@ def _start_nodes(nodes: dict[str, _NodeProcess], models_dir: Path | None, env: d
             ros_args += ['--params-file', str(config / f'{name}.yaml')]
         if name == 'model_server' and models_dir is not None:
             ros_args += ['-p', f'models_dir:={models_dir}']
-        nodes[name] = _NodeProcess.start(name, ros_args, env, log_dir)
+        nodes[name] = NodeProcess.start(name, ros_args, env=env, log_dir=log_dir)
 
 
-def _stop_nodes(nodes: dict[str, _NodeProcess]) -> list[str]:
-    """SIGINT every node still running, wait for all (SIGKILL after STOP_TIMEOUT); the problems found."""
+def _stop_nodes(nodes: dict[str, NodeProcess]) -> list[str]:
+    """SIGINT every node still running, wait for all against one deadline (SIGKILL after STOP_TIMEOUT); the
+    problems found (non-zero exit, traceback, killed), each with the end of its stderr."""
     for proc in nodes.values():
-        if proc.popen.poll() is None:
-            proc.popen.send_signal(signal.SIGINT)
+        proc.send_signal(signal.SIGINT)
     deadline = time.monotonic() + STOP_TIMEOUT
-    return [problem for problem in (proc.stop(deadline) for proc in nodes.values()) if problem]
+    problems = []
+    for proc in nodes.values():
+        proc.wait(max(0.0, deadline - time.monotonic()))
+        if problem := proc.problem():
+            problems.append(f'{problem}:\n{proc.stderr_tail()}')
+    return problems
 
 
 # ------------------------------------------------------------------------------------------ the ROS side
@@ -205,7 +163,7 @@ class _ChainObserver(Node):
 class _Demo:
     """The running chain seen from the demo: node processes, the sender, the observer."""
 
-    def __init__(self, nodes: dict[str, _NodeProcess], timeout: float) -> None:
+    def __init__(self, nodes: dict[str, NodeProcess], timeout: float) -> None:
         self.nodes = nodes
         self.timeout = timeout
         self.sender = IntentSender('grasp_intent_demo_sender')
@@ -221,9 +179,9 @@ class _Demo:
 
     def _check_alive(self) -> None:
         for proc in self.nodes.values():
-            code = proc.popen.poll()
+            code = proc.poll()
             if code is not None:
-                raise DemoError(f'{proc.name} exited with code {code}; its stderr ends with:\n'
+                raise DemoError(f'{proc.module} exited with code {code}; its stderr ends with:\n'
                                 f'{proc.stderr_tail()}')
 
     def _spin_until(self, predicate: Callable[[], object], timeout: float | None = None) -> bool:
@@ -336,12 +294,10 @@ def _run(models_dir: Path | None, timeout: float) -> int:
     if _REQUESTED_RANGE not in (None, '', 'LOCALHOST'):
         print(f'demo: ROS_AUTOMATIC_DISCOVERY_RANGE={_REQUESTED_RANGE} overridden with LOCALHOST',
               file=sys.stderr)
-    os.environ['ROS_DOMAIN_ID'] = str(domain_id)
-    env = {**os.environ, 'PYTHONUNBUFFERED': '1', 'RCUTILS_LOGGING_BUFFERED_STREAM': '0',
-           'PYTHONPATH': os.pathsep.join(p for p in (str(_PACKAGE_PARENT), os.environ.get('PYTHONPATH'))
-                                         if p)}
+    env = node_environment(domain_id)
+    env['PYTHONPATH'] = os.pathsep.join(p for p in (str(_PACKAGE_PARENT), os.environ.get('PYTHONPATH')) if p)
     start = time.monotonic()
-    nodes: dict[str, _NodeProcess] = {}
+    nodes: dict[str, NodeProcess] = {}
     code = 1
     with tempfile.TemporaryDirectory(prefix='grasp_intent_demo_') as log_dir:
         demo: _Demo | None = None
@@ -351,7 +307,7 @@ def _run(models_dir: Path | None, timeout: float) -> int:
             demo.check_domain_unused(domain_id)
             _start_nodes(nodes, models_dir, env, Path(log_dir))
             print(f'ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; started '
-                  + ', '.join(f'{p.name} (pid {p.popen.pid})' for p in nodes.values()), flush=True)
+                  + ', '.join(f'{p.module} (pid {p.pid})' for p in nodes.values()), flush=True)
             demo.wait_until_up()
             print(f'all nodes up after {time.monotonic() - start:.1f} s\n', flush=True)
             for title, w, models in CASES:

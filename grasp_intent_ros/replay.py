@@ -40,7 +40,6 @@ import argparse
 import os
 import shutil
 import signal
-import subprocess
 import sys
 import tempfile
 import time
@@ -67,6 +66,7 @@ from .bag.session import (DIAGNOSTICS_TOPIC, INPUT_TOPICS, MODEL_TOPIC, MSGTYPES
                           ModelHeader, Output, RejectionTracker, Session, SessionError, Step, Tolerances, answered,
                           compare_step, decode, diverged, load_session, output_of)
 from .core.resources import config_dir
+from .processes import STOP_TIMEOUT, NodeProcess, node_environment
 from .ros.qos import input_qos, latched_qos, output_qos
 
 __all__ = ['SessionClient', 'Suite', 'ReplayOptions', 'ReplayResult', 'ReplayError', 'Replayer', 'await_answer',
@@ -77,8 +77,6 @@ SUITE = ('intent_interpreter', 'model_server', 'grasp_planner')
 SUITE_SETTLE_S = 3.0
 """With --start-suite: seconds every node must have been visible before the first input (see
 :meth:`SessionClient.settled`)."""
-STOP_TIMEOUT = 10.0
-"""Seconds a suite process gets to exit after SIGTERM before SIGKILL."""
 _CLASSES: dict[str, Any] = {
     'intent/w': Float64MultiArray, 'object/pose': PoseStamped, 'joint_states': JointState,
     'model/active': String, 'intent/v': Float64MultiArray, 'intent/clarification': String,
@@ -105,11 +103,9 @@ class Suite:
         self._own_log_dir = log_dir is None
         self.log_dir = Path(log_dir) if log_dir is not None else Path(tempfile.mkdtemp(prefix='replay_suite_'))
         self.log_dir.mkdir(parents=True, exist_ok=True)
-        env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': str(domain_id),
-               'PYTHONUNBUFFERED': '1', 'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
-        env.pop('ROS_STATIC_PEERS', None)
+        env = node_environment(domain_id)
         config = config_dir()
-        self.processes: dict[str, subprocess.Popen[bytes]] = {}
+        self.processes: dict[str, NodeProcess] = {}
         try:
             for module in SUITE:
                 ros_args = ['--params-file', str(config / f'{module}.yaml')]
@@ -120,11 +116,7 @@ class Suite:
                         ros_args += ['-p', f'model:={model}']
                     if models_dir is not None:
                         ros_args += ['-p', f'models_dir:={Path(models_dir).resolve()}']
-                cmd = [sys.executable, '-m', f'grasp_intent_ros.{module}', '--ros-args', *ros_args]
-                with (self.log_dir / f'{module}.out').open('wb') as out, \
-                        (self.log_dir / f'{module}.err').open('wb') as err:
-                    self.processes[module] = subprocess.Popen(cmd, env=env, stdout=out, stderr=err,
-                                                              stdin=subprocess.DEVNULL)
+                self.processes[module] = NodeProcess.start(module, ros_args, env=env, log_dir=self.log_dir)
         except BaseException:
             self.stop()
             raise
@@ -134,25 +126,19 @@ class Suite:
         for module, proc in self.processes.items():
             code = proc.poll()
             if code is not None:
-                tail = (self.log_dir / f'{module}.err').read_text(errors='replace')[-1500:]
-                return f'{module} (pid {proc.pid}) exited with code {code}:\n{tail}'
+                return f'{module} (pid {proc.pid}) exited with code {code}:\n{proc.stderr_tail()}'
         return ''
 
     def stop(self) -> list[str]:
-        """SIGTERM each process still running (by PID), SIGKILL after :data:`STOP_TIMEOUT`; the problems
-        (non-zero exit codes)."""
+        """SIGTERM each process still running (by PID), SIGKILL after
+        :data:`~grasp_intent_ros.processes.STOP_TIMEOUT`; the problems (non-zero exit, traceback, killed)."""
         for proc in self.processes.values():
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGTERM)
+            proc.send_signal(signal.SIGTERM)
         problems = []
-        for module, proc in self.processes.items():
-            try:
-                code = proc.wait(STOP_TIMEOUT)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                code = proc.wait()
-            if code != 0:
-                problems.append(f'{module} (pid {proc.pid}) exited with code {code}; log in {self.log_dir}')
+        for proc in self.processes.values():
+            proc.wait(STOP_TIMEOUT)
+            if problem := proc.problem():
+                problems.append(f'{problem}; log in {self.log_dir}')
         return problems
 
     def remove_logs(self) -> None:

@@ -8,53 +8,15 @@ SIGKILL and the test errors); only processes started here are ever signalled, by
 
 from __future__ import annotations
 
-import os
 import signal
-import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+from grasp_intent_ros.processes import NodeProcess, node_environment
+
 REPO = Path(__file__).resolve().parents[2]
-STOP_TIMEOUT = 10.0
-"""Seconds a node gets to exit after SIGTERM/SIGINT before it is SIGKILLed."""
-
-
-class NodeProcess:
-    """One node process; stdout and stderr go to files (no pipe can fill up and block the node)."""
-
-    def __init__(self, module: str, ros_args: list[str], env: dict[str, str], log_dir: Path,
-                 index: int) -> None:
-        self.module = module
-        self.stdout_path = log_dir / f'{index:02d}_{module}.out'
-        self.stderr_path = log_dir / f'{index:02d}_{module}.err'
-        cmd = [sys.executable, '-m', f'grasp_intent_ros.{module}']
-        if ros_args:
-            cmd += ['--ros-args', *ros_args]
-        with self.stdout_path.open('wb') as out, self.stderr_path.open('wb') as err:
-            self.popen = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=out, stderr=err,
-                                          stdin=subprocess.DEVNULL)
-
-    @property
-    def pid(self) -> int:
-        return self.popen.pid
-
-    def stderr(self) -> str:
-        return self.stderr_path.read_text(errors='replace')
-
-    def stop(self, sig: int = signal.SIGTERM, timeout: float = STOP_TIMEOUT) -> int:
-        """Send ``sig`` (unless already exited), wait up to ``timeout`` s, then SIGKILL. Returns the exit code
-        (negative: killed by that signal)."""
-        if self.popen.poll() is None:
-            self.popen.send_signal(sig)
-            try:
-                self.popen.wait(timeout)
-            except subprocess.TimeoutExpired:
-                self.popen.kill()
-                self.popen.wait()
-        return self.popen.returncode
 
 
 class Launcher:
@@ -64,30 +26,24 @@ class Launcher:
         self.domain_id = domain_id
         self.log_dir = log_dir
         self.processes: list[NodeProcess] = []
-        self.env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
-                    'ROS_DOMAIN_ID': str(domain_id), 'PYTHONUNBUFFERED': '1',
-                    'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}  # keep the log of a SIGKILLed node
-        self.env.pop('ROS_STATIC_PEERS', None)
+        self.env = node_environment(domain_id)
 
     def start(self, module: str, *ros_args: str) -> NodeProcess:
-        """``python -m grasp_intent_ros.<module> --ros-args <ros_args>``."""
-        proc = NodeProcess(module, list(ros_args), self.env, self.log_dir, len(self.processes))
+        """``python -m grasp_intent_ros.<module> --ros-args <ros_args>``, in the repository."""
+        proc = NodeProcess.start(module, ros_args, env=self.env, log_dir=self.log_dir,
+                                 prefix=f'{len(self.processes):02d}_', cwd=REPO)
         self.processes.append(proc)
         return proc
 
     def stop_all(self) -> list[str]:
-        """SIGTERM every process still running; the problems found (non-zero exit, traceback)."""
+        """SIGTERM every process still running; the problems found (non-zero exit, traceback, killed)."""
         problems = []
         for proc in self.processes:
-            if proc.popen.poll() is not None:
+            if proc.poll() is not None:
                 continue
-            code = proc.stop(signal.SIGTERM)
-            if code != 0:
-                problems.append(f'{proc.module} (pid {proc.pid}) exited with {code} on SIGTERM:\n'
-                                f'{proc.stderr()[-2000:]}')
-            elif 'Traceback' in proc.stderr():
-                problems.append(f'{proc.module} (pid {proc.pid}) printed a traceback:\n'
-                                f'{proc.stderr()[-2000:]}')
+            proc.stop(signal.SIGTERM)
+            if problem := proc.problem():
+                problems.append(f'{problem}:\n{proc.stderr_tail(40)}')
         return problems
 
 

@@ -6,10 +6,8 @@ Only the recorder processes started here are ever signalled, by PID.
 
 from __future__ import annotations
 
-import os
 import resource
 import signal
-import subprocess
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -21,6 +19,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_msgs.msg import Float64MultiArray, String
 
 from grasp_intent_ros.bag import QosSpec, read_messages, read_messages_mcap, topics_info
+from grasp_intent_ros.processes import NodeProcess, node_environment
 from grasp_intent_ros.ros.qos import latched_qos
 
 REPO = Path(__file__).resolve().parents[2]
@@ -34,34 +33,25 @@ DEEP_RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=N, reliability
                            durability=DurabilityPolicy.VOLATILE)
 
 
-class RecorderProcess:
+class RecorderProcess(NodeProcess):
     """``python -m grasp_intent_ros.recorder BAG --ros-args -r __ns:=/robot1``; output to files."""
 
     def __init__(self, bag: Path, domain_id: int, log_dir: Path,
                  preexec_fn: Callable[[], None] | None = None) -> None:
-        env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': str(domain_id),
-               'PYTHONUNBUFFERED': '1', 'PYTHONDONTWRITEBYTECODE': '1'}
-        env.pop('ROS_STATIC_PEERS', None)
-        self.stdout_path, self.stderr_path = log_dir / 'recorder.out', log_dir / 'recorder.err'
-        cmd = [sys.executable, '-m', 'grasp_intent_ros.recorder', str(bag), '--discovery-period', '0.2',
-               '--ros-args', '-r', f'__ns:={NS}']
-        with self.stdout_path.open('wb') as out, self.stderr_path.open('wb') as err:
-            self.popen = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=out, stderr=err,
-                                          stdin=subprocess.DEVNULL, preexec_fn=preexec_fn)
+        command = [sys.executable, '-m', 'grasp_intent_ros.recorder', str(bag), '--discovery-period', '0.2',
+                   '--ros-args', '-r', f'__ns:={NS}']
+        super().__init__(command, module='recorder', env=node_environment(domain_id), log_dir=log_dir,
+                         cwd=REPO, preexec_fn=preexec_fn)
 
-    def stop(self, sig: int, timeout: float = 10.0) -> int:
-        """Send ``sig`` to this PID (unless it exited) and wait; SIGKILL after ``timeout`` s."""
-        if self.popen.poll() is None:
-            self.popen.send_signal(sig)
-        try:
-            return self.popen.wait(timeout)
-        except subprocess.TimeoutExpired:
-            self.popen.kill()
-            self.popen.wait()
-            pytest.fail(f'recorder (pid {self.popen.pid}) did not exit within {timeout} s of signal {sig}')
+    def stop(self, sig: signal.Signals = signal.SIGTERM, timeout: float = 10.0) -> int:
+        """Send ``sig`` to this PID (unless it exited) and wait; SIGKILL after ``timeout`` s fails the test."""
+        code = super().stop(sig, timeout)
+        if self._killed:
+            pytest.fail(f'recorder (pid {self.pid}) did not exit within {timeout} s of signal {sig}')
+        return code
 
     def output(self) -> tuple[str, str]:
-        return self.stdout_path.read_text(errors='replace'), self.stderr_path.read_text(errors='replace')
+        return self.stdout_path.read_text(errors='replace'), self.stderr()
 
 
 @pytest.fixture

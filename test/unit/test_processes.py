@@ -1,0 +1,64 @@
+"""grasp_intent_ros.processes on plain ``python -c`` processes (no ROS node is started)."""
+
+from __future__ import annotations
+
+import signal
+import sys
+from pathlib import Path
+
+import pytest
+
+from grasp_intent_ros.processes import NodeProcess, node_environment
+
+SLEEPER = 'import time; time.sleep(60)'
+
+
+def run(tmp_path: Path, code: str) -> NodeProcess:
+    """``python -c <code>`` as process 'probe', its logs in ``tmp_path``."""
+    return NodeProcess([sys.executable, '-c', code], module='probe', env=node_environment(97), log_dir=tmp_path)
+
+
+def test_node_environment_is_loopback_only_and_unbuffered() -> None:
+    base = {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET', 'ROS_STATIC_PEERS': '10.0.0.1', 'HOME': '/home/x'}
+    env = node_environment(42, base)
+    assert env == {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': '42', 'HOME': '/home/x',
+                   'PYTHONUNBUFFERED': '1', 'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
+    assert base['ROS_STATIC_PEERS'] == '10.0.0.1'  # not modified
+
+
+def test_clean_exit_and_log_files(tmp_path: Path) -> None:
+    proc = NodeProcess([sys.executable, '-c', 'import sys; print("out"); print("err", file=sys.stderr)'],
+                       module='probe', env=node_environment(97), log_dir=tmp_path, prefix='03_')
+    assert proc.wait(10.0) == 0
+    assert proc.problem() == ''
+    assert (tmp_path / '03_probe.out').read_text() == 'out\n'
+    assert proc.stderr() == 'err\n'
+    assert proc.stderr_tail() == '    | err'
+
+
+def test_stop_by_signal_reports_the_exit_code(tmp_path: Path) -> None:
+    proc = run(tmp_path, SLEEPER)
+    assert proc.poll() is None
+    with pytest.raises(RuntimeError, match='still running'):
+        proc.problem()
+    assert proc.stop(signal.SIGTERM) == -signal.SIGTERM
+    assert proc.problem() == f'probe (pid {proc.pid}) exited with code {-signal.SIGTERM}'
+    assert proc.stop() == -signal.SIGTERM  # exited: no signal is sent
+
+
+def test_traceback_is_a_problem(tmp_path: Path) -> None:
+    proc = run(tmp_path, 'import sys\ntry:\n    1 / 0\nexcept ZeroDivisionError:\n'
+                         '    import traceback; traceback.print_exc(); sys.exit(0)')
+    assert proc.wait(10.0) == 0
+    assert proc.problem() == f'probe (pid {proc.pid}) printed a traceback'
+    assert 'ZeroDivisionError' in proc.stderr_tail(1)
+
+
+def test_sigkill_after_the_deadline(tmp_path: Path) -> None:
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})  # inherited: the child never sees SIGTERM
+    try:
+        proc = run(tmp_path, SLEEPER)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    assert proc.stop(signal.SIGTERM, timeout=0.5) == -signal.SIGKILL
+    assert proc.problem() == f'probe (pid {proc.pid}) did not exit after SIGTERM and was killed'
