@@ -70,8 +70,8 @@ from .core import planner
 from .core.errors import InvalidIntentError, ModelError, PlanningError
 from .core.features import FINGERS, MICO_3F
 from .core.intent import MAX_TASKS, all_zones, parse_zones, restrict, zone_labels
-from .core.kinematics import (ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, IkResult,
-                              MicoKinematics, features_to_obj_T_ee, pose_to_matrix)
+from .core.kinematics import (ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics,
+                              Reachability, features_to_obj_T_ee, pose_to_matrix)
 from .ros.conversions import ModelDocument, model_from_msg, msg_labels, msg_to_array
 from .ros.diagnostics import OK, NodeDiagnostics
 from .ros.params import ParameterError, ParamSpec, declare_parameters
@@ -293,18 +293,7 @@ class GraspPlanner(Node):
         if v is None:
             raise InvalidIntentError(f'clarification needed: v gives no probability to the zones '
                                      f'{",".join(model.zone_labels)} of model {doc.name!r}')
-        q_seed = HOME_Q if inputs.q_arm is None else inputs.q_arm
-        answers: dict[bytes, IkResult] = {}
-        ik_seconds = 0.0
-
-        def reachable(x: NDArray[np.float64]) -> bool:
-            nonlocal ik_seconds
-            start = time.perf_counter()
-            answer = self._kin.ik(base_T_obj @ features_to_obj_T_ee(x), q_seed,
-                                  restarts=self._params['ik_restarts'])
-            ik_seconds += time.perf_counter() - start
-            answers[x.tobytes()] = answer
-            return answer.success
+        reachable = Reachability(self._kin, base_T_obj, inputs.q_arm, restarts=self._params['ik_restarts'])
 
         self._counts['plans'] += 1
         key = (doc.name, doc.sha256)
@@ -312,13 +301,13 @@ class GraspPlanner(Node):
         result = planner.plan(model, v, method=self._params['method'], n_starts=self._params['n_starts'],
                               warm_start=warm, accept=reachable)
         self._plan_diag.set_value('last planning time [ms]', f'{1e3 * result.wall_time_s:.3f}')
-        self._plan_diag.set_value('last IK time [ms]', f'{1e3 * ik_seconds:.3f}')
+        self._plan_diag.set_value('last IK time [ms]', f'{1e3 * reachable.seconds:.3f}')
         self._plan_diag.set_value('last plan status', result.message)
         n = len(result.candidates)
         if result.status == 'rejected':
             self._counts['no reachable grasp'] += 1
             self._plan_diag.set_value('last plan reachability', f'none of {n} candidates reachable')
-            closest = min(answers.values(), key=lambda a: a.pos_error_m)
+            closest = min(reachable.answers.values(), key=lambda a: a.pos_error_m)
             raise PlanningError(
                 f'no reachable grasp: IK failed for all {n} candidates with the object at '
                 f'{np.round(base_T_obj[:3, 3], 3).tolist()} m ({np.linalg.norm(base_T_obj[:3, 3]):.2f} m from '
@@ -336,7 +325,7 @@ class GraspPlanner(Node):
         if self._stop.is_set():
             return
         try:
-            self._publish(inputs, doc, result, answers[result.x.tobytes()].q)
+            self._publish(inputs, doc, result, reachable.answer(result.x).q)
         except Exception:
             if self.context.ok():
                 raise

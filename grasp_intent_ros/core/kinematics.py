@@ -67,6 +67,7 @@ from __future__ import annotations
 
 import math
 import os
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -81,6 +82,7 @@ from .resources import config_dir
 
 __all__ = [
     'MAX_REACH',
+    'Reachability',
     'ARM_JOINTS',
     'FINGER_JOINTS',
     'BASE_FRAME',
@@ -592,3 +594,47 @@ def matrix_to_pose(T: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float6
     if xyzw[3] < 0.0:
         xyzw = -xyzw
     return M[:3, 3].copy(), xyzw
+
+
+class Reachability:
+    """The MICO's reachability as a robot constraint for :func:`grasp_intent_ros.core.planner.plan`
+    (``accept=``): grasp features x are reachable when IK of ``base_T_obj @ features_to_obj_T_ee(x)``
+    converges from ``q_seed`` (then random restarts).
+
+    Every IK answer is kept, so the accepted candidate's joint angles are not solved twice.
+
+    Parameters
+    ----------
+    kin : MicoKinematics
+    base_T_obj : array_like, shape (4, 4)
+        Object pose in the base frame.
+    q_seed : array_like, shape (6,), optional
+        IK seed and branch reference (rad), e.g. the latest joint reading; :data:`HOME_Q` if None.
+    restarts : int
+        Random IK restarts after the seeded attempt fails.
+    """
+
+    def __init__(self, kin: MicoKinematics, base_T_obj: ArrayLike, q_seed: ArrayLike | None = None, *,
+                 restarts: int = 8) -> None:
+        self.kin = kin
+        self.base_T_obj = _as_transform(base_T_obj, 'base_T_obj')
+        self.q_seed = np.array(HOME_Q) if q_seed is None else kin._check_q(q_seed, 'q_seed')
+        self.restarts = restarts
+        self.answers: dict[bytes, IkResult] = {}
+        """IK answer per candidate (key: ``x.tobytes()``)."""
+        self.seconds = 0.0
+        """Time spent in IK so far (s)."""
+
+    def answer(self, x: NDArray[np.float64]) -> IkResult:
+        """The IK answer for features x (solved on first use)."""
+        key = np.asarray(x, dtype=np.float64).tobytes()
+        if key not in self.answers:
+            start = time.perf_counter()
+            self.answers[key] = self.kin.ik(self.base_T_obj @ features_to_obj_T_ee(x), self.q_seed,
+                                            restarts=self.restarts)
+            self.seconds += time.perf_counter() - start
+        return self.answers[key]
+
+    def __call__(self, x: NDArray[np.float64]) -> bool:
+        """Whether the arm reaches the grasp x."""
+        return self.answer(x).success

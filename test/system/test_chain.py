@@ -39,7 +39,7 @@ from grasp_intent_ros.core import planner
 from grasp_intent_ros.core.features import FINGERS
 from grasp_intent_ros.core.intent import all_zones, interpret, restrict
 from grasp_intent_ros.core.kinematics import (ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics,
-                                              features_to_obj_T_ee, pose_to_matrix)
+                                              Reachability, features_to_obj_T_ee, pose_to_matrix)
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.paper_tables import CASES
 from grasp_intent_ros.ros.conversions import model_from_msg, msg_to_array
@@ -97,8 +97,7 @@ def core_plan(model: GraspModel, w: tuple[float, ...], kin: MicoKinematics) -> p
     v = restrict(interpret(w).v, all_zones(len(w)), model.zones)
     base_T_obj = _planner_object_pose()
 
-    def reachable(x: np.ndarray) -> bool:
-        return kin.ik(base_T_obj @ features_to_obj_T_ee(x), HOME_Q, restarts=options['ik_restarts']).success
+    reachable = Reachability(kin, base_T_obj, HOME_Q, restarts=options['ik_restarts'])
 
     return planner.plan(model, v, method=options['method'], n_starts=options['n_starts'], accept=reachable)
 

@@ -356,3 +356,17 @@ def test_roll_at_the_lower_bound_stays_in_range() -> None:
     back = obj_T_ee_to_features(features_to_obj_T_ee(x), x[FINGERS])
     assert -math.pi / 2 <= back[ROLL] < 3 * math.pi / 2
     assert abs(math.remainder(back[ROLL] + math.pi / 2, 2 * math.pi)) < 1e-9
+
+
+def test_reachability_constraint_caches_ik_answers(kin: MicoKinematics) -> None:
+    from grasp_intent_ros.core.kinematics import Reachability, obj_T_ee_to_features
+    base_T_obj = np.eye(4)
+    base_T_ee = kin.fk(HOME_Q)  # reachable: the home pose, as a grasp of an object at the base origin
+    x = obj_T_ee_to_features(base_T_ee, np.zeros(3))
+    reach = Reachability(kin, base_T_obj)
+    assert reach(x)
+    first = reach.answer(x)
+    assert reach.answer(x) is first and len(reach.answers) == 1 and reach.seconds > 0.0
+    far = base_T_obj.copy()
+    far[:3, 3] = (2.0, 0.0, 0.0)
+    assert not Reachability(kin, far)(x)
