@@ -142,7 +142,7 @@ SESSIONS: dict[str, tuple[str, list[Send]]] = {
     ]),
     # Table VI's object: a flashlight lying on the table, the paper's cases.
     'flashlight': ('flashlight_7zone', [
-        Send('object/pose', pose(0.35, -0.25, 0.0, yaw=math.pi / 2), ()),
+        Send('object/pose', pose(0.35, -0.25, 0.0, yaw=math.pi), ()),  # the body's -y side towards the arm
         Send('joint_states', joints(HOME_Q), ()),
         Send('intent/w', w(0.9, 0.1, 0.1), PLAN),
         Send('intent/w', w(0.1, 0.9, 0.1), PLAN),

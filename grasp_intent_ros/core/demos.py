@@ -26,8 +26,8 @@ Angles used by the rules
   0 = parallel to the table, pi/2 = straight down from above.
 - Azimuth of the palm: atan2(palm_y, palm_x) (rad); 0 = the cup's handle side.
 - Roll: the feature itself, compared with 0 (usual grasp) or pi (wrist turned by 180 degrees) modulo
-  2 pi. The thumb (finger 1) points along the projection of +z onto the plane normal to the approach
-  when roll = 0, turned by roll about the approach (:func:`thumb_direction`).
+  2 pi. The thumb (finger 1) points along the end effector's x axis of
+  :func:`grasp_intent_ros.core.kinematics.features_to_obj_T_ee` (:func:`thumb_direction`).
 - A finger is *closed* when its closure is at least :data:`CLOSED` rad.
 
 Rules (one line each; the thresholds are fields of :class:`Cup` / :class:`Flashlight`)
@@ -74,6 +74,7 @@ from .data import Demonstrations
 from .errors import DataError, InvalidFeaturesError
 from .features import APPROACH, FINGERS, MICO_3F, PALM, ROLL, FeatureSpace
 from .intent import DEFAULT_TASKS, all_zones, zone_label
+from .kinematics import features_to_obj_T_ee
 
 __all__ = [
     'CLOSED',
@@ -171,20 +172,12 @@ def roll_offset(x: ArrayLike, target: float) -> float:
 
 
 def thumb_direction(x: ArrayLike) -> NDArray[np.float64]:
-    """Unit direction of the thumb (finger 1) in the object frame, shape (3,).
-
-    At roll 0 the thumb points along the projection of +z onto the plane normal to the approach
-    (features.py: "thumb side towards +z"); roll turns it about the approach. For an approach exactly
-    along z the projection vanishes and +x is projected instead.
+    """Unit direction of the thumb (finger 1) in the object frame, shape (3,): the end effector's x axis
+    of :func:`grasp_intent_ros.core.kinematics.features_to_obj_T_ee`, so that the rules judge the hand
+    the robot will actually form. For an approach from above, roll is then the thumb's heading in the
+    table plane: roll 0 points it along +x, pi/2 along +y.
     """
-    arr = _features(x)
-    a = arr[APPROACH] / np.linalg.norm(arr[APPROACH])
-    ref = np.array([0.0, 0.0, 1.0]) - a[2] * a
-    if np.linalg.norm(ref) < 1e-9:
-        ref = np.array([1.0, 0.0, 0.0]) - a[0] * a
-    ref /= np.linalg.norm(ref)
-    roll = float(arr[ROLL])
-    out: NDArray[np.float64] = math.cos(roll) * ref + math.sin(roll) * np.cross(a, ref)
+    out: NDArray[np.float64] = features_to_obj_T_ee(_features(x))[:3, 0].copy()
     return out
 
 
@@ -519,25 +512,31 @@ CUP_PROTOTYPES: dict[int, tuple[Prototype, ...]] = {
 # Flashlight aim points: top of the body (z = 0.04) and its -y side (y = -0.02, z = 0.02).
 _F_CLOSED = (1.20, 1.20, 1.20)
 _FROM_MINUS_Y, _FROM_PLUS_Y = -90 * _DEG, 90 * _DEG
+_THUMB_Y = math.pi / 2
+"""Roll that heads the thumb along +y (onto the switch) for a grasp from above."""
+_THUMB_Y_TURNED = 2.45
+"""Roll inside both the thumb-at-the-switch band (thumb . y = 0.64 >= 0.5) and the wrist-turned band
+(|roll - pi| = 0.69 <= 0.8): usage and handover at once."""
 
 FLASHLIGHT_PROTOTYPES: dict[int, tuple[Prototype, ...]] = {
-    # Usage: from above over the switch, thumb on it: tilted from -y with the thumb up (roll 0), or
-    # from +y with the wrist turned and the palm pressed on the body.
-    _U: (Prototype((0.050, 0.0, 0.040), _FROM_MINUS_Y, 75 * _DEG, 0.030, 0.0, _F_CLOSED),
-         Prototype((0.045, 0.0, 0.040), _FROM_PLUS_Y, 75 * _DEG, 0.010, math.pi, _F_CLOSED)),
+    # Usage: from above over the switch, the thumb heading +y onto it (roll pi/2): tilted from -y, or
+    # from +y with the palm pressed on the body.
+    _U: (Prototype((0.050, 0.0, 0.040), _FROM_MINUS_Y, 75 * _DEG, 0.030, _THUMB_Y, _F_CLOSED),
+         Prototype((0.045, 0.0, 0.040), _FROM_PLUS_Y, 75 * _DEG, 0.010, _THUMB_Y, _F_CLOSED)),
     # Transfer: from the side just behind the centre of mass, palm on the body; roll free.
     _T: (Prototype((-0.015, -0.020, 0.020), _FROM_MINUS_Y, 20 * _DEG, 0.020, 0.0, _F_CLOSED),
          Prototype((-0.015, -0.020, 0.020), _FROM_MINUS_Y, 20 * _DEG, 0.020, math.pi, _F_CLOSED)),
     # Handover: from the side at the head, wrist turned, palm off the body; the tail is left free.
     _H: (Prototype((0.085, -0.020, 0.020), _FROM_MINUS_Y, 20 * _DEG, 0.035, math.pi, _F_CLOSED),),
     # Usage and transfer: from above between switch and centre of mass, palm pressed on the body.
-    _U | _T: (Prototype((0.020, 0.0, 0.040), _FROM_PLUS_Y, 75 * _DEG, 0.010, math.pi, _F_CLOSED),),
+    _U | _T: (Prototype((0.020, 0.0, 0.040), _FROM_PLUS_Y, 75 * _DEG, 0.010, _THUMB_Y, _F_CLOSED),),
     # Usage and handover: from above over the switch, wrist turned, palm off the body.
-    _U | _H: (Prototype((0.050, 0.0, 0.040), _FROM_PLUS_Y, 75 * _DEG, 0.030, math.pi, _F_CLOSED),),
+    _U | _H: (Prototype((0.050, 0.0, 0.040), _FROM_PLUS_Y, 75 * _DEG, 0.030, _THUMB_Y_TURNED, _F_CLOSED),),
     # Transfer and handover: from the side just ahead of the centre of mass, wrist turned.
     _T | _H: (Prototype((0.025, -0.020, 0.020), _FROM_MINUS_Y, 20 * _DEG, 0.022, math.pi, _F_CLOSED),),
     # All: from above just ahead of the centre of mass, wrist turned, palm lightly on the body.
-    _U | _T | _H: (Prototype((0.025, 0.0, 0.040), _FROM_PLUS_Y, 75 * _DEG, 0.022, math.pi, _F_CLOSED),),
+    _U | _T | _H: (Prototype((0.025, 0.0, 0.040), _FROM_PLUS_Y, 75 * _DEG, 0.022, _THUMB_Y_TURNED,
+                             _F_CLOSED),),
 }
 """Flashlight prototype grasps per task set."""
 

@@ -92,16 +92,20 @@ def test_roll_helpers() -> None:
     assert demos.wrist_turned(with_values(x, roll=math.pi - 0.9), tolerance=1.0)
 
 
-def test_thumb_direction() -> None:
+def test_thumb_direction_is_the_end_effector_x_axis() -> None:
+    from grasp_intent_ros.core.kinematics import features_to_obj_T_ee
     side = grasp((0, 0, 0), 0, 0, 0.05, 0.0, F_CLOSED)  # horizontal approach along -x
-    assert_allclose(demos.thumb_direction(side), (0, 0, 1), atol=1e-12)  # roll 0: thumb up
-    assert_allclose(demos.thumb_direction(with_values(side, roll=math.pi)), (0, 0, -1), atol=1e-12)
-    t = demos.thumb_direction(with_values(side, roll=math.pi / 2))
-    assert_allclose(abs(t[1]), 1.0, atol=1e-12)  # a quarter turn: thumb sideways
-    tilted = grasp((0, 0, 0), -90, 75, 0.05, 0.0, F_CLOSED)  # from above, tilted from -y
-    assert demos.thumb_direction(tilted)[1] > 0.9
-    vertical = with_values(side, approach_x=0.0, approach_z=-1.0)  # degenerate: +x is projected
+    for roll in np.linspace(-math.pi / 2, 3 * math.pi / 2, 9):
+        x = with_values(side, roll=roll)
+        assert_allclose(demos.thumb_direction(x), features_to_obj_T_ee(x)[:3, 0], atol=1e-12)
+        assert abs(demos.thumb_direction(x) @ x[3:6]) < 1e-12  # at right angles to the approach
+    # kinematics: a horizontal approach (ax, ay, 0) at roll 0 has the thumb along (ay^2, -ax ay, ax)
+    assert_allclose(demos.thumb_direction(side), (0, 0, -1), atol=1e-12)
+    vertical = with_values(side, approach_x=0.0, approach_z=-1.0)  # from above: roll is the heading
     assert_allclose(demos.thumb_direction(vertical), (1, 0, 0), atol=1e-12)
+    assert_allclose(demos.thumb_direction(with_values(vertical, roll=math.pi / 2)), (0, 1, 0), atol=1e-12)
+    tilted = grasp((0, 0, 0), -90, 75, 0.05, math.pi / 2, F_CLOSED)  # from above, tilted from -y
+    assert demos.thumb_direction(tilted)[1] > 0.9
 
 
 def test_palm_to_body() -> None:
@@ -120,7 +124,7 @@ Change = Callable[[np.ndarray], np.ndarray]
 CUP_USAGE = grasp((0.055, 0, 0.04), 0, 20, 0.03, 0.0, F_CLOSED)
 CUP_TRANSFER = grasp((0, 0, 0.10), 0, 80, 0.015, 0.0, F_CLOSED)
 CUP_HANDOVER = grasp((0.055, 0, 0.04), 0, 25, 0.03, math.pi, (1.2, 1.2, 0.6))
-LIGHT_USAGE = grasp((0.05, 0, 0.04), -90, 75, 0.03, 0.0, F_CLOSED)
+LIGHT_USAGE = grasp((0.05, 0, 0.04), -90, 75, 0.03, math.pi / 2, F_CLOSED)  # thumb heading +y
 LIGHT_TRANSFER = grasp((-0.01, -0.02, 0.02), -90, 20, 0.02, 0.0, F_CLOSED)
 LIGHT_HANDOVER = grasp((0.085, -0.02, 0.02), -90, 20, 0.035, math.pi, F_CLOSED)
 
@@ -146,7 +150,7 @@ RULE_CASES: list[tuple[demos.ObjectRules, int, np.ndarray, dict[str, Change]]] =
     (demos.FLASHLIGHT_RULES, 0, LIGHT_USAGE, {
         'from above': lambda x: with_approach(x, -90, 40),
         'over the switch': lambda x: with_values(x, palm_x=0.09),
-        'thumb at the switch': lambda x: with_values(x, roll=math.pi),
+        'thumb at the switch': lambda x: with_values(x, roll=-math.pi / 2),  # thumb heading -y
     }),
     (demos.FLASHLIGHT_RULES, 1, LIGHT_TRANSFER, {
         'balanced': lambda x: with_values(x, palm_x=0.06),
