@@ -58,7 +58,8 @@ from .core.errors import GraspIntentError  # noqa: E402
 from .core.resources import config_dir  # noqa: E402
 from .paper_tables import CASES  # noqa: E402
 from .processes import STOP_TIMEOUT, NodeProcess, node_environment  # noqa: E402
-from .ros.conversions import ModelDocument, model_from_msg  # noqa: E402
+from .ros.conversions import model_from_msg  # noqa: E402
+from .protocol import ModelDocument
 from .ros.qos import input_qos, latched_qos  # noqa: E402
 from .send_intent import IntentSender, NoGrasp, format_grasp  # noqa: E402
 

@@ -25,7 +25,9 @@ from std_msgs.msg import Float64MultiArray, String
 from .core.errors import InvalidIntentError
 from .core.intent import (DEFAULT_CLARIFICATION_THRESHOLD, DEFAULT_TASKS, MAX_TASKS, NeedsClarification,
                           all_zones, interpret, validate_w, zone_labels)
-from .ros.conversions import array_to_msg, msg_to_array
+from . import protocol as topics
+from .ros.conversions import array_to_msg
+from .protocol import msg_to_array
 from .ros.diagnostics import NodeDiagnostics
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, output_qos
@@ -68,9 +70,9 @@ class IntentInterpreter(Node):
         self._diagnostics = NodeDiagnostics(self, 'intent')
         self._params = declare_parameters(self, PARAMETERS, on_change=self._configure)
         self._configure(self._params)
-        self._v_pub = self.create_publisher(Float64MultiArray, 'intent/v', output_qos())
-        self._clarification_pub = self.create_publisher(String, 'intent/clarification', output_qos())
-        self._w_sub = self.create_subscription(Float64MultiArray, 'intent/w',
+        self._v_pub = self.create_publisher(Float64MultiArray, topics.INTENT_V, output_qos())
+        self._clarification_pub = self.create_publisher(String, topics.INTENT_CLARIFICATION, output_qos())
+        self._w_sub = self.create_subscription(Float64MultiArray, topics.INTENT_W,
                                                self._diagnostics.guard(self._on_w), input_qos())
 
     def _configure(self, changed: Mapping[str, Any]) -> None:

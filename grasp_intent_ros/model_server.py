@@ -24,23 +24,23 @@ Parameters
 from __future__ import annotations
 
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
 from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray, String
 
 from .core import ambiguity
-from .core.errors import InvalidFeaturesError, ModelError, ModelFormatError
-from .core.model import GraspModel
-from .core.resources import config_dir
-from .ros.conversions import array_to_msg, model_to_msg, msg_to_array
+from .core.errors import InvalidFeaturesError
+from .core.registry import ModelFiles
+from . import protocol as topics
+from .ros.conversions import array_to_msg, model_to_msg
+from .protocol import msg_to_array
 from .ros.diagnostics import NodeDiagnostics
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, latched_qos, output_qos
 from .ros.run import run_node
 
-__all__ = ['ModelServer', 'ModelFiles', 'PARAMETERS', 'MAX_FEATURES', 'main']
+__all__ = ['ModelServer', 'PARAMETERS', 'MAX_FEATURES', 'main']
 
 MAX_FEATURES = 1024
 """Largest feature vector accepted on model/query (values)."""
@@ -54,43 +54,6 @@ PARAMETERS = (
 )
 
 
-class ModelFiles:
-    """The model YAML files of one directory, loaded on demand and cached by modification time."""
-
-    def __init__(self, directory: Path) -> None:
-        self.directory = directory
-        self._cache: dict[str, tuple[int, GraspModel]] = {}
-
-    def names(self) -> tuple[str, ...]:
-        """Stems of the ``*.yaml`` files, sorted."""
-        return tuple(sorted(p.stem for p in self.directory.glob('*.yaml') if p.is_file()))
-
-    def load(self, name: str) -> GraspModel:
-        """The model stored as ``<name>.yaml``.
-
-        Raises
-        ------
-        ModelError
-            If there is no such model (the reason lists the known names).
-        ModelFormatError
-            If the file is not a valid model document.
-        """
-        known = self.names()
-        if name not in known:
-            raise ModelError(f'unknown model {name!r} in {self.directory}; known: '
-                             f'{", ".join(known) or "none"}')
-        path = self.directory / f'{name}.yaml'
-        mtime = path.stat().st_mtime_ns
-        cached = self._cache.get(name)
-        if cached is None or cached[0] != mtime:
-            try:
-                cached = (mtime, GraspModel.load(path))
-            except ModelFormatError as exc:
-                raise ModelFormatError(f'{path}: {exc}') from None
-            self._cache[name] = cached
-        return cached[1]
-
-
 class ModelServer(Node):
     """Publishes the active model and its ambiguity (latched) and answers posterior queries."""
 
@@ -99,25 +62,19 @@ class ModelServer(Node):
         self._diagnostics = NodeDiagnostics(self, 'model')
         self._files: ModelFiles | None = None
         self._version = 0
-        self._active_pub = self.create_publisher(String, 'model/active', latched_qos())
-        self._kl_pub = self.create_publisher(Float64MultiArray, 'model/ambiguity', latched_qos())
-        self._sym_pub = self.create_publisher(Float64MultiArray, 'model/ambiguity/symmetric', latched_qos())
-        self._pinsker_pub = self.create_publisher(Float64MultiArray, 'model/ambiguity/pinsker', latched_qos())
-        self._posterior_pub = self.create_publisher(Float64MultiArray, 'model/posterior', output_qos())
+        self._active_pub = self.create_publisher(String, topics.MODEL_ACTIVE, latched_qos())
+        self._kl_pub = self.create_publisher(Float64MultiArray, topics.MODEL_AMBIGUITY, latched_qos())
+        self._sym_pub = self.create_publisher(Float64MultiArray, topics.MODEL_AMBIGUITY_SYMMETRIC, latched_qos())
+        self._pinsker_pub = self.create_publisher(Float64MultiArray, topics.MODEL_AMBIGUITY_PINSKER, latched_qos())
+        self._posterior_pub = self.create_publisher(Float64MultiArray, topics.MODEL_POSTERIOR, output_qos())
         self._params = declare_parameters(self, PARAMETERS, check=self._check, on_change=self._activate)
         self._activate(self._params)
-        self._query_sub = self.create_subscription(Float64MultiArray, 'model/query',
+        self._query_sub = self.create_subscription(Float64MultiArray, topics.MODEL_QUERY,
                                                    self._diagnostics.guard(self._on_query), input_qos())
 
     def _model_files(self, models_dir: str) -> ModelFiles:
         if self._files is None:
-            try:
-                directory = Path(models_dir).expanduser() if models_dir else config_dir() / 'models'
-            except FileNotFoundError as exc:
-                raise ModelError(str(exc)) from None
-            if not directory.is_dir():
-                raise ModelError(f'models_dir {str(directory)!r} is not a directory')
-            self._files = ModelFiles(directory)
+            self._files = ModelFiles.at(models_dir)
         return self._files
 
     def _check(self, values: Mapping[str, Any]) -> None:

@@ -45,7 +45,8 @@ from rclpy.utilities import remove_ros_args
 from rosbags.typesys import Stores, get_typestore
 
 from .bag import BagWriteError, QosSpec, SessionWriter
-from .ros.diagnostics import ERROR, WARN, NodeDiagnostics
+from .protocol import ERROR, WARN
+from .ros.diagnostics import NodeDiagnostics
 from .ros.run import run_node
 
 __all__ = ['Recorder', 'TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'offered_qos', 'main']

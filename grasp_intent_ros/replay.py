@@ -55,18 +55,16 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.task import Future
 from rcl_interfaces.srv import SetParameters
-from std_msgs.msg import Float64MultiArray, String
-from geometry_msgs.msg import PoseStamped
-from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 from diagnostic_msgs.msg import DiagnosticArray
-from trajectory_msgs.msg import JointTrajectory
 
 from .bag.errors import BagError
-from .bag.session import (DIAGNOSTICS_TOPIC, INPUT_TOPICS, MODEL_TOPIC, MSGTYPES, OUTPUT_TOPICS, Difference,
-                          ModelHeader, Output, RejectionTracker, Session, SessionError, Step, Tolerances, answered,
+from .bag.session import (Difference, Output, RejectionTracker, Session, SessionError, Step, Tolerances, answered,
                           compare_step, decode, diverged, load_session, output_of)
+from .protocol import DIAGNOSTICS, INPUT_TOPICS, MODEL_ACTIVE, MSGTYPES, OUTPUT_TOPICS, ModelHeader
 from .core.resources import config_dir
 from .processes import STOP_TIMEOUT, NodeProcess, node_environment
+from .ros.conversions import message_class
 from .ros.qos import input_qos, latched_qos, output_qos
 
 __all__ = ['SessionClient', 'Suite', 'ReplayOptions', 'ReplayResult', 'ReplayError', 'Replayer', 'await_answer',
@@ -77,12 +75,6 @@ SUITE = ('intent_interpreter', 'model_server', 'grasp_planner')
 SUITE_SETTLE_S = 3.0
 """With --start-suite: seconds every node must have been visible before the first input (see
 :meth:`SessionClient.settled`)."""
-_CLASSES: dict[str, Any] = {
-    'intent/w': Float64MultiArray, 'object/pose': PoseStamped, 'joint_states': JointState,
-    'model/active': String, 'intent/v': Float64MultiArray, 'intent/clarification': String,
-    'grasp/pose': PoseStamped, 'grasp/joint_targets': JointState, 'grasp/trajectory': JointTrajectory,
-    'grasp/posterior': Float64MultiArray, 'grasp/features': Float64MultiArray,
-}
 
 
 # ---------------------------------------------------------------------------------------- the suite
@@ -177,14 +169,14 @@ class SessionClient(Node):
         """Per diagnostic status name, its latest message and values, for error reports."""
         self._tracker = RejectionTracker()
         self._first_seen: dict[str, float] = {}
-        self._input_pubs = {topic: self.create_publisher(_CLASSES[topic], topic, output_qos())
+        self._input_pubs = {topic: self.create_publisher(message_class(topic), topic, output_qos())
                             for topic in INPUT_TOPICS}
         self._output_subs = {
-            topic: self.create_subscription(_CLASSES[topic], topic, self._receiver(topic), input_qos(100), raw=True)
+            topic: self.create_subscription(message_class(topic), topic, self._receiver(topic), input_qos(100), raw=True)
             for topic in OUTPUT_TOPICS}
-        self._output_subs[MODEL_TOPIC] = self.create_subscription(
-            String, MODEL_TOPIC, self._receiver(MODEL_TOPIC), latched_qos(), raw=True)
-        self._diag_sub = self.create_subscription(DiagnosticArray, DIAGNOSTICS_TOPIC, self._on_diagnostics,
+        self._output_subs[MODEL_ACTIVE] = self.create_subscription(
+            String, MODEL_ACTIVE, self._receiver(MODEL_ACTIVE), latched_qos(), raw=True)
+        self._diag_sub = self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics,
                                                   input_qos(100), raw=True)
         self._param_client = self.create_client(SetParameters, f'{model_server}/set_parameters')
 
@@ -201,7 +193,7 @@ class SessionClient(Node):
 
     def _on_diagnostics(self, cdr: bytes) -> None:
         try:
-            msg = decode(MSGTYPES[DIAGNOSTICS_TOPIC], cdr)
+            msg = decode(MSGTYPES[DIAGNOSTICS], cdr)
         except SessionError:
             return
         self.diagnostics_received += 1
@@ -210,7 +202,7 @@ class SessionClient(Node):
                 f'{status.message} ({", ".join(f"{kv.key}: {kv.value}" for kv in status.values)})')
         self.statuses.update(str(s.name) for s in msg.status)
         now = self._now_ns()
-        self.outputs.extend(Output(DIAGNOSTICS_TOPIC, now, r) for r in self._tracker.update(msg))
+        self.outputs.extend(Output(DIAGNOSTICS, now, r) for r in self._tracker.update(msg))
 
     def publish(self, topic: str, message: bytes | Any) -> None:
         """Publish on an input topic (relative name) a message object or its CDR bytes."""
@@ -239,7 +231,7 @@ class SessionClient(Node):
         /diagnostics publisher, the parameter service."""
         lacking = []
         if self.model is None:
-            lacking.append(f'no {MODEL_TOPIC} received')
+            lacking.append(f'no {MODEL_ACTIVE} received')
         lacking += [f'no subscriber on {t}' for t, p in self._input_pubs.items() if p.get_subscription_count() == 0]
         lacking += [f'no publisher on {t}' for t, s in self._output_subs.items() if s.get_publisher_count() == 0]
         publishers = self._diag_sub.get_publisher_count()
@@ -387,7 +379,7 @@ class Replayer:
             self._activate(initial.name)
             self._quiet(0.5)  # a running planner replans its current v for the new model: not an answer
         if initial is not None and self.client.model is not None and self.client.model.sha256 != initial.sha256:
-            notes.append(Difference(0, 'initial model', MODEL_TOPIC, 'model content', f'sha256 {initial.sha256[:12]}',
+            notes.append(Difference(0, 'initial model', MODEL_ACTIVE, 'model content', f'sha256 {initial.sha256[:12]}',
                                     f'sha256 {self.client.model.sha256[:12]} (same name, different model)', False))
         return notes
 
@@ -411,7 +403,7 @@ class Replayer:
             raise ReplayError(f'the model server rejected model {name!r}: {result.reason}')
         if not self._wait(lambda: self.client.model is not None and self.client.model.name == name,
                           self.options.timeout_s):
-            raise ReplayError(f'model {name!r} was accepted but no {MODEL_TOPIC} for it arrived')
+            raise ReplayError(f'model {name!r} was accepted but no {MODEL_ACTIVE} for it arrived')
 
     def _send(self, step: Step) -> Future | None:
         if step.model is not None:
@@ -428,7 +420,7 @@ class Replayer:
             return live, [Difference(step.index, step.description, '(answer)', 'timeout',
                                      f'{len(step.expected)} output(s)',
                                      f'{len(live)} output(s) within {self.options.timeout_s:g} s', False)]
-        return live, [Difference(step.index, step.description, MODEL_TOPIC, 'parameter model',
+        return live, [Difference(step.index, step.description, MODEL_ACTIVE, 'parameter model',
                                  f'{step.model!r} accepted', problem)]
 
     def run(self) -> ReplayResult:

@@ -62,12 +62,13 @@ from .core import ambiguity
 from .core.errors import GraspIntentError
 from .core.features import FINGER_CLOSED, FINGERS, MICO_3F, ROLL
 from .core.intent import default_task_names, zone_label
-from .core.kinematics import features_to_obj_T_ee
+from .core.frames import features_to_obj_T_ee, finger_segments
 from .core.model import GraspModel
-from .ros.conversions import (model_from_msg, msg_labels, msg_to_array, split_labels, split_posterior,
-                              stamped_values)
+from . import protocol as topics
+from .protocol import (Posterior, Stamp, msg_labels, msg_to_array, read_model_document, read_posterior, split_labels,
+                       stamped_values)
 
-__all__ = ['Posterior', 'Session', 'parse_posterior', 'load_session', 'write_report', 'main',
+__all__ = ['ROLES', 'Session', 'load_session', 'write_report', 'main',
            'OBJECT_RADIUS', 'OBJECT_HEIGHT', 'CASES_PER_FIGURE', 'MAX_CASE_FIGURES', 'MAX_GRASPS']
 
 OBJECT_RADIUS = 0.04
@@ -78,37 +79,14 @@ CASES_PER_FIGURE = 12
 MAX_CASE_FIGURES = 4
 MAX_GRASPS = 12
 """At most this many grasps are drawn in 3-D (spread evenly over the session)."""
-_FINGER_LENGTH = 0.05  # m, drawn finger length
-_PALM_HALF_WIDTH = 0.025  # m
 _APPROACH_ARROW = 0.06  # m
 _WRIST = 0.08  # m, drawn wrist stub behind the palm
 _V_COLOR, _P_COLOR = 'tab:blue', 'tab:orange'
 
-TOPICS = {'w': 'intent/w', 'v': 'intent/v', 'clarification': 'intent/clarification',
-          'model': 'model/active', 'ambiguity': 'model/ambiguity', 'posterior': 'grasp/posterior',
-          'features': 'grasp/features', 'diagnostics': '/diagnostics'}
-"""Topic suffixes the report reads, by role."""
-
-
-@dataclass(frozen=True)
-class Posterior:
-    """One ``grasp/posterior`` message: P over the model's zones and the reconstructed w."""
-
-    zones: tuple[str, ...]
-    p: NDArray[np.float64]
-    tasks: tuple[str, ...]
-    w: NDArray[np.float64]
-
-
-def parse_posterior(msg: Any) -> Posterior:
-    """Split a ``grasp/posterior`` Float64MultiArray (layout in the module docstring).
-
-    Raises:
-        GraspIntentError: Wrong shape, NaN/Inf, a malformed stamp label, or a values label other than
-            "<zones>|<tasks>" naming all values.
-    """
-    values, label, _ = stamped_values(msg, what='grasp/posterior', require_stamp=False)
-    return Posterior(*split_posterior(values, label))
+ROLES = {'w': topics.INTENT_W, 'v': topics.INTENT_V, 'clarification': topics.INTENT_CLARIFICATION,
+         'model': topics.MODEL_ACTIVE, 'ambiguity': topics.MODEL_AMBIGUITY, 'posterior': topics.GRASP_POSTERIOR,
+         'features': topics.GRASP_FEATURES, 'diagnostics': topics.DIAGNOSTICS}
+"""Topics the report reads, by role."""
 
 
 @dataclass
@@ -123,7 +101,7 @@ class Session:
     w: list[tuple[int, NDArray[np.float64]]] = field(default_factory=list)
     v: list[tuple[int, NDArray[np.float64], tuple[str, ...]]] = field(default_factory=list)
     clarifications: list[tuple[int, str]] = field(default_factory=list)
-    posteriors: list[tuple[int, Posterior]] = field(default_factory=list)
+    posteriors: list[tuple[int, Posterior[Stamp | None]]] = field(default_factory=list)
     features: list[tuple[int, NDArray[np.float64]]] = field(default_factory=list)
     models: list[tuple[int, str, GraspModel]] = field(default_factory=list)
     kl: list[tuple[int, str, tuple[str, ...], NDArray[np.float64]]] = field(default_factory=list)
@@ -141,8 +119,8 @@ class Session:
     def task_names(self, m: int) -> tuple[str, ...]:
         """Names of m tasks: from a posterior's w labels, else the last model, else the defaults."""
         for _, post in self.posteriors:
-            if len(post.tasks) == m:
-                return post.tasks
+            if len(post.task_names) == m:
+                return post.task_names
         for _, _, model in reversed(self.models):
             if len(model.task_names) == m:
                 return model.task_names
@@ -158,7 +136,7 @@ def _find_topics(topics: dict[str, TopicInfo]) -> tuple[dict[str, str], list[str
         namespace = ''
         notes.append(f'session namespace not detected ({exc}); the root namespace is reported')
     roles = {}
-    for role, relative in TOPICS.items():
+    for role, relative in ROLES.items():
         name = relative if relative.startswith('/') else f'{namespace}/{relative}'
         if name in topics:
             roles[role] = name
@@ -203,7 +181,7 @@ def _take(session: Session, role: str, stamp: int, msg: Any) -> None:
     elif role == 'clarification':
         session.clarifications.append((stamp, str(msg.data)))
     elif role == 'posterior':
-        session.posteriors.append((stamp, parse_posterior(msg)))
+        session.posteriors.append((stamp, read_posterior(msg)))
     elif role == 'features':
         x, label, _ = stamped_values(msg, what='grasp/features', require_stamp=False)
         names = split_labels(label)
@@ -214,7 +192,7 @@ def _take(session: Session, role: str, stamp: int, msg: Any) -> None:
         session.features.append((stamp, x))
     elif role == 'model':
         try:
-            doc = model_from_msg(msg)
+            doc = read_model_document(msg.data)
             name, model = f'{doc.name} (version {doc.version})', doc.model
         except GraspIntentError:  # no (or another) header: the YAML alone
             model = GraspModel.from_yaml(msg.data)
@@ -235,8 +213,8 @@ def _take(session: Session, role: str, stamp: int, msg: Any) -> None:
 
 def _sample_planning_time(session: Session, status: Any) -> None:
     """Record the planner's 'last planning time [ms]' each time a status shows a new 'plans' count."""
-    values = {str(kv.key): str(kv.value) for kv in status.values}
-    plans, value = values.get('plans'), values.get('last planning time [ms]')
+    values = topics.status_values(status)
+    plans, value = values.get(topics.KEY_PLANS), values.get(topics.KEY_PLANNING_TIME)
     if plans is None or not value or session.plan_counts.get(status.name) == plans:
         return
     session.plan_counts[status.name] = plans
@@ -256,7 +234,7 @@ def _grid(n: int, cols: int = 3) -> tuple[int, int]:
     return math.ceil(n / cols), cols
 
 
-def _answer(session: Session, stamp: int, until: int | None) -> Posterior | None:
+def _answer(session: Session, stamp: int, until: int | None) -> Posterior[Stamp | None] | None:
     """The first posterior received after ``stamp`` and before ``until``: the plan answering a v."""
     for t, post in session.posteriors:
         if t >= stamp and (until is None or t < until):
@@ -295,7 +273,7 @@ def plot_intent_cases(session: Session, out: Path) -> list[str]:
             x = np.arange(v.size)
             ax.bar(x - 0.2, v, 0.4, color=_V_COLOR)
             if post is not None:
-                p_by_zone = dict(zip(post.zones, post.p))
+                p_by_zone = dict(zip(post.zone_labels, post.p))
                 p = np.array([p_by_zone.get(z, np.nan) for z in zones])
                 ax.bar(x + 0.2, np.nan_to_num(p), 0.4, color=_P_COLOR)
                 for k in np.flatnonzero(np.isnan(p)):
@@ -388,23 +366,18 @@ def plot_kl(session: Session, out: Path) -> list[str]:
 def _draw_grasp(ax: Any, x: NDArray[np.float64]) -> None:
     """The object cylinder and the hand of grasp ``x`` (object frame, m), posed by
     :func:`~grasp_intent_ros.core.kinematics.features_to_obj_T_ee`: EE origin at the palm centre, EE z =
-    approach, finger 1 (thumb) towards EE +x, fingers 2 and 3 at -x, +-y; each finger is drawn as one
-    link bent towards the hand axis by its closure."""
+    approach, and the fingers of :func:`~grasp_intent_ros.core.frames.finger_segments` (as the RViz
+    markers draw them)."""
     obj_T_ee = features_to_obj_T_ee(x)
-    palm, (ee_x, ee_y, ee_z) = obj_T_ee[:3, 3], obj_T_ee[:3, :3].T
+    palm, ee_z = obj_T_ee[:3, 3], obj_T_ee[:3, 2]
     theta, height = np.meshgrid(np.linspace(0, 2 * math.pi, 40), np.array([0.0, OBJECT_HEIGHT]))
     ax.plot_surface(OBJECT_RADIUS * np.cos(theta), OBJECT_RADIUS * np.sin(theta), height, color='0.6',
                     alpha=0.35, linewidth=0)
     ax.scatter(*palm, color='tab:red', s=30, label='palm centre')
     ax.plot(*np.c_[palm - _WRIST * ee_z, palm], color='0.3', linewidth=4, label='wrist')
     ax.quiver(*palm, *(_APPROACH_ARROW * ee_z), color='tab:red', arrow_length_ratio=0.25, label='approach')
-    bases = [palm + _PALM_HALF_WIDTH * ee_x,
-             palm - _PALM_HALF_WIDTH * ee_x + 0.02 * ee_y,
-             palm - _PALM_HALF_WIDTH * ee_x - 0.02 * ee_y]
-    inward = [-ee_x, ee_x, ee_x]
-    for k, (base, towards_axis, closure) in enumerate(zip(bases, inward, x[FINGERS])):
-        c = float(np.clip(closure, 0.0, FINGER_CLOSED))
-        tip = base + _FINGER_LENGTH * (math.cos(c) * ee_z + math.sin(c) * towards_axis)
+    for k, (base_ee, tip_ee) in enumerate(finger_segments(x[FINGERS])):
+        base, tip = (obj_T_ee[:3, :3] @ p + palm for p in (base_ee, tip_ee))
         ax.plot(*np.c_[palm, base, tip], color='tab:blue', linewidth=2,
                 label='fingers (closed as planned)' if k == 0 else None)
         ax.text(*tip, str(k + 1), fontsize=7, color='tab:blue')
@@ -430,7 +403,7 @@ def plot_grasps(session: Session, out: Path) -> list[str]:
         top = ''
         if post is not None:
             k = int(np.argmax(post.p))
-            top = f'\ntop zone {post.zones[k]} (P = {post.p[k]:.2f})'
+            top = f'\ntop zone {post.zone_labels[k]} (P = {post.p[k]:.2f})'
         fingers = ', '.join(f'{c:.2f}' for c in x[FINGERS])
         ax.set_title(f'plan {index + 1} at {session.seconds(stamp):.1f} s{top}\n'
                      f'roll {x[ROLL]:.2f} rad, fingers {fingers} rad', fontsize=8)
@@ -454,7 +427,7 @@ def plot_grasps(session: Session, out: Path) -> list[str]:
     return ['grasps_3d.png']
 
 
-def _nearest_posterior(session: Session, stamp: int, tolerance_ns: int = 1_000_000_000) -> Posterior | None:
+def _nearest_posterior(session: Session, stamp: int, tolerance_ns: int = 1_000_000_000) -> Posterior[Stamp | None] | None:
     best = min(session.posteriors, key=lambda tp: abs(tp[0] - stamp), default=None)
     return best[1] if best is not None and abs(best[0] - stamp) <= tolerance_ns else None
 

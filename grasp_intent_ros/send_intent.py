@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 import rclpy
+from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from numpy.typing import ArrayLike, NDArray
@@ -34,9 +35,10 @@ from std_msgs.msg import Float64MultiArray, String
 
 from .core.errors import GraspIntentError
 from .core.intent import validate_w
-from .ros.conversions import msg_labels, msg_to_array
+from .protocol import msg_labels, msg_to_array
 from .ros.qos import input_qos, output_qos
-from .ros.robot import GraspPosterior, posterior_from_msg
+from .protocol import Posterior
+from .ros.conversions import posterior_from_msg
 
 __all__ = ['GraspAnswer', 'NoGrasp', 'IntentSender', 'format_grasp', 'main']
 
@@ -55,7 +57,7 @@ class GraspAnswer:
         The intent that was sent.
     v_labels, v : tuple of str and ndarray, or None
         The last target vector seen on ``intent/v`` (None if none was seen).
-    posterior : GraspPosterior
+    posterior : Posterior
     pose : geometry_msgs/PoseStamped
         End-effector pose.
     joints : sensor_msgs/JointState
@@ -65,7 +67,7 @@ class GraspAnswer:
     w: NDArray[np.float64]
     v_labels: tuple[str, ...] | None
     v: NDArray[np.float64] | None
-    posterior: GraspPosterior
+    posterior: Posterior[Time]
     pose: PoseStamped
     joints: JointState
 
@@ -107,7 +109,7 @@ class IntentSender(Node):
         self._clarifications: list[String] = []
         self._poses: dict[int, PoseStamped] = {}
         self._joints: dict[int, JointState] = {}
-        self._posteriors: dict[int, GraspPosterior] = {}
+        self._posteriors: dict[int, Posterior[Time]] = {}
         self._planner_warning = ''
         qos = input_qos()
         self.create_subscription(Float64MultiArray, 'intent/v', self._v.append, qos)

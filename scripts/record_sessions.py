@@ -47,21 +47,21 @@ from geometry_msgs.msg import PoseStamped  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension  # noqa: E402
 
-from grasp_intent_ros.bag.session import (DIAGNOSTICS_TOPIC, MODEL_TOPIC, PLAN_TOPICS, Joints, Output,  # noqa: E402
-                                          Step, Undecodable, compact_session, compare_step, load_session,
-                                          summarize)
+from grasp_intent_ros.protocol import DIAGNOSTICS, MODEL_ACTIVE, PLAN_TOPICS  # noqa: E402
+from grasp_intent_ros.bag.session import (Joints, Output, Step, Undecodable, compact_session,  # noqa: E402
+                                          compare_step, load_session, summarize)
 from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q  # noqa: E402
 from grasp_intent_ros.recorder import Recorder  # noqa: E402
 from grasp_intent_ros.replay import SUITE_SETTLE_S, SessionClient, Suite, await_answer  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 RECORDED = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'intent/v', 'intent/clarification',
-            *PLAN_TOPICS, DIAGNOSTICS_TOPIC)
+            *PLAN_TOPICS, DIAGNOSTICS)
 """Topics recorded: inputs, the model, the compared outputs, diagnostics (compacted to rejections).
 Markers, model/ambiguity and model/posterior are left out to keep the bags small."""
 ANSWERS: dict[str, tuple[str, ...]] = {
     'v': ('intent/v',), 'clarification': ('intent/clarification',), 'plan': PLAN_TOPICS,
-    'rejection': (DIAGNOSTICS_TOPIC,), 'model': (MODEL_TOPIC,)}
+    'rejection': (DIAGNOSTICS,), 'model': (MODEL_ACTIVE,)}
 """Answer kinds -> the output topics (one message each) that make them up."""
 ANSWER_TIMEOUT = 30.0
 STARTUP_TIMEOUT = 60.0
@@ -230,14 +230,14 @@ class Driver:
                         lambda: f'the recorder to subscribe to {sorted(wanted - set(self.recorder.recorded_topics))}')
         # The recorder has the latched model and has been receiving from every /diagnostics publisher
         # for a while (its other subscriptions were made in the same discovery passes).
-        base, publishers = self.written(DIAGNOSTICS_TOPIC), len(self.client.statuses)
-        self.spin_until(lambda: self.written(DIAGNOSTICS_TOPIC) >= base + 2 * publishers
-                        and self.written(MODEL_TOPIC) >= 1, STARTUP_TIMEOUT, lambda: 'the recorder')
+        base, publishers = self.written(DIAGNOSTICS), len(self.client.statuses)
+        self.spin_until(lambda: self.written(DIAGNOSTICS) >= base + 2 * publishers
+                        and self.written(MODEL_ACTIVE) >= 1, STARTUP_TIMEOUT, lambda: 'the recorder')
 
     def send(self, index: int, send: Send) -> None:
         """Send one input, wait for the declared answer, then for the recorder to have written it."""
         mark = len(self.client.outputs)
-        diagnostics = (self.written(DIAGNOSTICS_TOPIC), self.client.diagnostics_received)
+        diagnostics = (self.written(DIAGNOSTICS), self.client.diagnostics_received)
         future = None
         if send.topic == 'model':
             future = self.client.set_model(send.message)
@@ -254,11 +254,11 @@ class Driver:
             raise RecordingError(f'input #{index} ({send.topic} {send.message if send.topic == "model" else ""}): '
                                  f'{problem or "unexpected answer"}: expected {dict(want)}, got {dict(got)}: '
                                  + '; '.join(f'{o.topic}: {summarize(o.value)}' for o in live))
-        totals = Counter(o.topic for o in self.client.outputs if o.topic != DIAGNOSTICS_TOPIC)
+        totals = Counter(o.topic for o in self.client.outputs if o.topic != DIAGNOSTICS)
         self.spin_until(
             lambda: all(self.written(t) >= n for t, n in totals.items())
             and all(self.written(t) >= n for t, n in self._inputs_sent.items())
-            and self.written(DIAGNOSTICS_TOPIC) - diagnostics[0] >= self.client.diagnostics_received - diagnostics[1],
+            and self.written(DIAGNOSTICS) - diagnostics[0] >= self.client.diagnostics_received - diagnostics[1],
             ANSWER_TIMEOUT, lambda: f'the recorder to write the answer to input #{index}')
         until = time.monotonic() + GAP
         self.spin_until(lambda: time.monotonic() >= until, GAP + 1.0, lambda: 'the gap')
@@ -329,7 +329,7 @@ def verify(bag: Path, sends: list[Send], observed: list[list[Output]]) -> None:
     if len(session.steps) != len(sends):
         raise PairingError(f'{bag}: {len(session.steps)} steps paired, {len(sends)} inputs sent')
     for step, send, live in zip(session.steps, sends, observed):
-        topic = MODEL_TOPIC if send.topic == 'model' else send.topic
+        topic = MODEL_ACTIVE if send.topic == 'model' else send.topic
         if step.topic != topic:
             raise PairingError(f'{bag}: input #{step.index} is {step.topic}, {topic} was sent')
         diffs = [d for d in compare_step(step, live) if d.fatal]

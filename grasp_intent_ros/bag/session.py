@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 import os
 from collections import defaultdict
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -49,27 +49,22 @@ from numpy.typing import NDArray
 from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, TypesysError, get_typestore
 
-from ..core.errors import ModelFormatError
-from ..core.model import ModelHeader, parse_model_document
+from ..core.errors import GraspIntentError, ModelFormatError
+from ..protocol import (DIAGNOSTICS, INPUT_TOPICS, KEY_LAST_ERROR, KEY_REJECTED, LEVEL_NAMES, MODEL_ACTIVE,
+                        MSGTYPES, OUTPUT_TOPICS, ModelHeader, level_value, parse_model_document, split_labels,
+                        split_posterior, status_values)
 from .errors import BagError
 from .qos import QosSpec
 from .reader import read_messages, topics_info
 from .writer import SessionWriter
 
 __all__ = [
-    'INPUT_TOPICS',
-    'MODEL_TOPIC',
-    'OUTPUT_TOPICS',
-    'PLAN_TOPICS',
-    'DIAGNOSTICS_TOPIC',
-    'MSGTYPES',
     'SessionError',
     'Vector',
     'Text',
     'Pose',
     'Joints',
     'Trajectory',
-    'ModelHeader',
     'Rejection',
     'Undecodable',
     'Output',
@@ -92,35 +87,6 @@ __all__ = [
     'diverged',
     'compact_session',
 ]
-
-INPUT_TOPICS: Final = ('intent/w', 'object/pose', 'joint_states')
-"""Inputs a replay publishes again (relative names)."""
-MODEL_TOPIC: Final = 'model/active'
-PLAN_TOPICS: Final = ('grasp/pose', 'grasp/joint_targets', 'grasp/trajectory', 'grasp/posterior',
-                      'grasp/features')
-"""The outputs of one plan (all carry the same stamp)."""
-OUTPUT_TOPICS: Final = ('intent/v', 'intent/clarification', *PLAN_TOPICS)
-"""Outputs compared by a replay (relative names), besides ``model/active`` and rejections."""
-DIAGNOSTICS_TOPIC: Final = '/diagnostics'
-MSGTYPES: Final[Mapping[str, str]] = {
-    'intent/w': 'std_msgs/msg/Float64MultiArray',
-    'object/pose': 'geometry_msgs/msg/PoseStamped',
-    'joint_states': 'sensor_msgs/msg/JointState',
-    'model/active': 'std_msgs/msg/String',
-    'intent/v': 'std_msgs/msg/Float64MultiArray',
-    'intent/clarification': 'std_msgs/msg/String',
-    'grasp/pose': 'geometry_msgs/msg/PoseStamped',
-    'grasp/joint_targets': 'sensor_msgs/msg/JointState',
-    'grasp/trajectory': 'trajectory_msgs/msg/JointTrajectory',
-    'grasp/posterior': 'std_msgs/msg/Float64MultiArray',
-    'grasp/features': 'std_msgs/msg/Float64MultiArray',
-    DIAGNOSTICS_TOPIC: 'diagnostic_msgs/msg/DiagnosticArray',
-}
-"""Message type of every topic a session uses, by relative name (``/diagnostics`` is absolute)."""
-
-_WARN: Final = 1
-_LEVELS: Final = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}
-
 
 class SessionError(BagError):
     """A bag is not a usable session (no inputs, a malformed model document, mixed namespaces, ...)."""
@@ -233,10 +199,6 @@ def decode(msgtype: str, cdr: bytes) -> Any:
         raise SessionError(f'cannot decode {msgtype}: {exc}') from exc
 
 
-def _level(level: Any) -> int:
-    return level[0] if isinstance(level, (bytes, bytearray)) else int(level)
-
-
 def model_header(text: str) -> ModelHeader:
     """The header lines of a model document (:func:`~grasp_intent_ros.core.model.parse_model_document`);
     the body is neither hashed nor parsed.
@@ -258,14 +220,14 @@ def reduce_message(topic: str, msg: Any) -> Value:
             (e.g. a model document without its header).
     """
     msgtype = MSGTYPES.get(topic)
-    if msgtype is None or topic == DIAGNOSTICS_TOPIC:
+    if msgtype is None or topic == DIAGNOSTICS:
         raise SessionError(f'{topic!r} is not a session input or output topic')
     kind = msgtype.rsplit('/', 1)[1]
     if kind == 'Float64MultiArray':
         return Vector(tuple(str(d.label) for d in msg.layout.dim),
                       np.asarray(msg.data, dtype=np.float64)[int(msg.layout.data_offset):].copy())
     if kind == 'String':
-        return model_header(msg.data) if topic == MODEL_TOPIC else Text(str(msg.data))
+        return model_header(msg.data) if topic == MODEL_ACTIVE else Text(str(msg.data))
     if kind == 'PoseStamped':
         p, q = msg.pose.position, msg.pose.orientation
         return Pose(str(msg.header.frame_id), np.array([p.x, p.y, p.z], dtype=np.float64),
@@ -304,21 +266,21 @@ class RejectionTracker:
         """The rejections that ``msg`` (a decoded DiagnosticArray) reports for the first time."""
         events = []
         for status in msg.status:
-            values = {str(kv.key): str(kv.value) for kv in status.values}
+            values = status_values(status)
             try:
-                count = int(values.get('messages rejected', ''))
+                count = int(values.get(KEY_REJECTED, ''))
             except ValueError:
                 continue
             previous = self._rejected.get(status.name, 0)
             self._rejected[status.name] = count
             if count > previous:
-                events.append(Rejection(str(status.name), _level(status.level), values.get('last error', '')))
+                events.append(Rejection(str(status.name), level_value(status.level), values.get(KEY_LAST_ERROR, '')))
         return events
 
     def update_cdr(self, cdr: bytes) -> list[Rejection]:
         """:meth:`update` for a serialized DiagnosticArray; an undecodable one reports nothing."""
         try:
-            return self.update(decode(MSGTYPES[DIAGNOSTICS_TOPIC], cdr))
+            return self.update(decode(MSGTYPES[DIAGNOSTICS], cdr))
         except SessionError:
             return []
 
@@ -339,7 +301,7 @@ def _describe_input(topic: str, msgtype: str, cdr: bytes) -> str:
                     f'{q.w:.3g}) in {msg.header.frame_id!r}')
         if topic == 'joint_states':
             return f'joint_states ({len(msg.name)} names, {len(msg.position)} positions)'
-        if topic == MODEL_TOPIC:
+        if topic == MODEL_ACTIVE:
             return f'model switch to {model_header(msg.data).name}'
     except (SessionError, AttributeError, TypeError, ValueError) as exc:
         return f'{topic} <undecodable: {exc}>'
@@ -372,7 +334,7 @@ class Step:
     @property
     def model(self) -> str | None:
         """The model a model-switch step activates; None for other steps."""
-        if self.topic != MODEL_TOPIC or not self.expected:
+        if self.topic != MODEL_ACTIVE or not self.expected:
             return None
         header = self.expected[0].value
         return header.name if isinstance(header, ModelHeader) else None
@@ -407,7 +369,7 @@ class Session:
         return 1e-9 * (self.steps[-1].t_ns - self.steps[0].t_ns) if self.steps else 0.0
 
 
-_KNOWN_RELATIVE: Final = (*INPUT_TOPICS, MODEL_TOPIC, *OUTPUT_TOPICS)
+_KNOWN_RELATIVE: Final = (*INPUT_TOPICS, MODEL_ACTIVE, *OUTPUT_TOPICS)
 
 
 def detect_namespace(topics: Iterable[str]) -> str:
@@ -456,15 +418,15 @@ def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '') -> tup
         outputs.clear()
 
     for msg in messages:
-        if msg.topic == DIAGNOSTICS_TOPIC:
-            events = [Output(DIAGNOSTICS_TOPIC, msg.timestamp_ns, r) for r in tracker.update_cdr(msg.cdr)]
+        if msg.topic == DIAGNOSTICS:
+            events = [Output(DIAGNOSTICS, msg.timestamp_ns, r) for r in tracker.update_cdr(msg.cdr)]
             (outputs if pending is not None else unpaired).extend(events)
             continue
         if not msg.topic.startswith(prefix):
             continue
         rel = msg.topic[len(prefix):]
-        if rel in INPUT_TOPICS or rel == MODEL_TOPIC:
-            if rel == MODEL_TOPIC:
+        if rel in INPUT_TOPICS or rel == MODEL_ACTIVE:
+            if rel == MODEL_ACTIVE:
                 try:
                     header = model_header(decode(msg.msgtype, msg.cdr).data)
                 except SessionError as exc:
@@ -478,7 +440,7 @@ def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '') -> tup
             close()
             pending = Step(len(steps) + 1, rel, msg.timestamp_ns, msg.msgtype, bytes(msg.cdr), (),
                            _describe_input(rel, msg.msgtype, msg.cdr))
-            if rel == MODEL_TOPIC:
+            if rel == MODEL_ACTIVE:
                 outputs.append(Output(rel, msg.timestamp_ns, header))
         elif rel in OUTPUT_TOPICS:
             (outputs if pending is not None else unpaired).append(output_of(rel, msg.timestamp_ns, msg.cdr))
@@ -573,7 +535,7 @@ def summarize(value: Value) -> str:
     if isinstance(value, ModelHeader):
         return f'model {value.name!r} (sha256 {value.sha256[:12]})'
     if isinstance(value, Rejection):
-        return f'{_LEVELS.get(value.level, value.level)} from {value.status!r}: {value.reason!r}'
+        return f'{LEVEL_NAMES.get(value.level, value.level)} from {value.status!r}: {value.reason!r}'
     return f'<undecodable: {value.reason}>'
 
 
@@ -588,13 +550,13 @@ def _beyond(diff: float, tol: float) -> str:
 def _value_labels(vector: Vector, n: int) -> tuple[str, ...]:
     """Names of a vector's entries: from the last dimension label (a leading stamp axis is skipped);
     a posterior's '<zones>|<tasks>' label gives 'P[zone]' and 'w[task]'."""
-    labels = [label for label in vector.labels if not label.startswith('stamp=')]
+    labels = _stripped_labels(vector)
     label = labels[-1] if labels else ''
-    zones, bar, tasks = label.partition('|')
-    if bar:
-        names = [f'P[{z}]' for z in zones.split(',')] + [f'w[{t}]' for t in tasks.split(',')]
-    else:
-        names = [f'[{z}]' for z in label.split(',')] if label else []
+    try:
+        zones, _, tasks, _ = split_posterior(vector.data, label)
+        names = [f'P[{z}]' for z in zones] + [f'w[{t}]' for t in tasks]
+    except GraspIntentError:  # not a posterior: one name per entry
+        names = [f'[{z}]' for z in split_labels(label)]
     return tuple(names) if len(names) == n else tuple(f'[{i}]' for i in range(n))
 
 
@@ -706,13 +668,13 @@ def _by_topic(outputs: Iterable[Output]) -> dict[str, list[Output]]:
     groups: dict[str, list[Output]] = defaultdict(list)
     for out in outputs:
         groups[out.topic].append(out)
-    if DIAGNOSTICS_TOPIC in groups:  # rejections from different nodes: order by node, then arrival
-        groups[DIAGNOSTICS_TOPIC].sort(key=lambda o: o.value.status if isinstance(o.value, Rejection) else '')
+    if DIAGNOSTICS in groups:  # rejections from different nodes: order by node, then arrival
+        groups[DIAGNOSTICS].sort(key=lambda o: o.value.status if isinstance(o.value, Rejection) else '')
     return groups
 
 
 _TOPIC_ORDER: Final = {topic: k for k, topic in enumerate((
-    MODEL_TOPIC, 'intent/v', 'intent/clarification', DIAGNOSTICS_TOPIC, 'grasp/posterior', 'grasp/pose',
+    MODEL_ACTIVE, 'intent/v', 'intent/clarification', DIAGNOSTICS, 'grasp/posterior', 'grasp/pose',
     'grasp/joint_targets', 'grasp/trajectory', 'grasp/features'))}
 """Order in which a step's differences are listed: the cause first, the most telling outputs next."""
 
@@ -785,7 +747,7 @@ def compact_session(src: str | os.PathLike[str], dst: str | os.PathLike[str], *,
         for msg in read_messages(src):
             if msg.topic in dropped:
                 continue
-            if msg.topic == DIAGNOSTICS_TOPIC and not tracker.update_cdr(msg.cdr):
+            if msg.topic == DIAGNOSTICS and not tracker.update_cdr(msg.cdr):
                 continue
             if msg.topic not in counts:
                 qos = infos[msg.topic].qos

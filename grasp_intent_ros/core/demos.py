@@ -27,7 +27,7 @@ Angles used by the rules
 - Azimuth of the palm: atan2(palm_y, palm_x) (rad); 0 = the cup's handle side.
 - Roll: the feature itself, compared with 0 (usual grasp) or pi (wrist turned by 180 degrees) modulo
   2 pi. The thumb (finger 1) points along the end effector's x axis of
-  :func:`grasp_intent_ros.core.kinematics.features_to_obj_T_ee` (:func:`thumb_direction`).
+  :func:`grasp_intent_ros.core.frames.features_to_obj_T_ee` (:func:`thumb_direction`).
 - A finger is *closed* when its closure is at least :data:`CLOSED` rad.
 
 Rules (one line each; the thresholds are fields of :class:`Cup` / :class:`Flashlight`)
@@ -74,7 +74,7 @@ from .data import Demonstrations
 from .errors import DataError, InvalidFeaturesError
 from .features import APPROACH, FINGERS, MICO_3F, PALM, ROLL, FeatureSpace
 from .intent import DEFAULT_TASKS, all_zones, zone_label
-from .kinematics import features_to_obj_T_ee
+from .frames import features_to_obj_T_ee
 
 __all__ = [
     'CLOSED',
@@ -173,7 +173,7 @@ def roll_offset(x: ArrayLike, target: float) -> float:
 
 def thumb_direction(x: ArrayLike) -> NDArray[np.float64]:
     """Unit direction of the thumb (finger 1) in the object frame, shape (3,): the end effector's x axis
-    of :func:`grasp_intent_ros.core.kinematics.features_to_obj_T_ee`, so that the rules judge the hand
+    of :func:`grasp_intent_ros.core.frames.features_to_obj_T_ee`, so that the rules judge the hand
     the robot will actually form. For an approach from above, roll is then the thumb's heading in the
     table plane: roll 0 points it along +x, pi/2 along +y.
     """

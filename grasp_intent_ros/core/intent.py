@@ -27,6 +27,8 @@ __all__ = [
     'zone_label',
     'zone_labels',
     'parse_zones',
+    'match_zones',
+    'validate_v',
     'default_task_names',
     'validate_w',
     'event_probabilities',
@@ -95,6 +97,61 @@ def parse_zones(labels: Sequence[str], task_names: Sequence[str]) -> tuple[int, 
                 f'unknown zone {label!r} for tasks {list(task_names)}; known: {", ".join(known)}')
         out.append(known[label])
     return tuple(out)
+
+
+def match_zones(n_values: int, labels: Sequence[str] | None, task_names: Sequence[str]) -> tuple[int, ...]:
+    """Zone bitmasks of the entries of a target vector v over all zones of ``task_names``.
+
+    Parameters
+    ----------
+    n_values : int
+        Length of v.
+    labels : sequence of str or None
+        v's zone labels, in v's order; None means the core zone order (:func:`all_zones`).
+    task_names : sequence of str
+        The tasks of the model v is meant for.
+
+    Returns
+    -------
+    tuple of int, length ``n_values``
+        In label (or core) order.
+
+    Raises
+    ------
+    InvalidIntentError
+        If v does not name each zone of the tasks exactly once (or, unlabelled, has another length).
+    """
+    expected = all_zones(len(task_names))
+    if labels is None:
+        if n_values != len(expected):
+            raise InvalidIntentError(f'v must have {len(expected)} entries (all zones of the model\'s '
+                                     f'{len(task_names)} tasks), got {n_values}')
+        return expected
+    try:
+        zones = parse_zones(labels, task_names)
+    except InvalidIntentError as exc:
+        raise InvalidIntentError(f'v labels do not match the model\'s {len(task_names)} tasks: {exc}') from None
+    if sorted(zones) != sorted(expected):
+        raise InvalidIntentError(f'v labels {",".join(labels)} must name each of the {len(expected)} zones of '
+                                 f'the model\'s tasks once ({",".join(zone_labels(expected, task_names))})')
+    return zones
+
+
+def validate_v(v: ArrayLike, labels: Sequence[str] | None = None) -> NDArray[np.float64]:
+    """A target vector as received: finite, non-negative, summing to 1 within 1e-6, one label per entry.
+
+    Raises
+    ------
+    InvalidIntentError
+        Otherwise, with the reason.
+    """
+    arr = np.asarray(v, dtype=np.float64)
+    if arr.ndim != 1 or not np.all(np.isfinite(arr)) or np.any(arr < 0.0) or abs(float(arr.sum()) - 1.0) > 1e-6:
+        raise InvalidIntentError(f'v must be non-negative and sum to 1 (within 1e-6); sum '
+                                 f'{float(arr.sum()):.9g}, min {float(arr.min()) if arr.size else math.nan:.6g}')
+    if labels is not None and len(labels) != arr.size:
+        raise InvalidIntentError(f'v has {arr.size} values but its label names {len(labels)} zones')
+    return arr
 
 
 def validate_w(w: ArrayLike, m: int | None = None) -> NDArray[np.float64]:

@@ -13,8 +13,6 @@ in log space and is differentiated analytically.
 
 from __future__ import annotations
 
-import hashlib
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,9 +30,6 @@ from .intent import all_zones, parse_zones, zone_labels
 __all__ = [
     'GraspModel',
     'Gaussian',
-    'ModelHeader',
-    'model_document',
-    'parse_model_document',
     'ZONE_STRUCTURES',
     'DEFAULT_RIDGE',
     'FORMAT_VERSION',
@@ -443,66 +438,3 @@ class GraspModel:
         """Read a model saved by :meth:`save`. Raises FileNotFoundError or ModelFormatError."""
         return cls.from_yaml(Path(path).read_text())
 
-
-# ---------------------------------------------------------------------- the versioned model document
-@dataclass(frozen=True)
-class ModelHeader:
-    """The header of a model document: model name, version (activation count, >= 1), sha256 (hex) of the
-    YAML body."""
-
-    name: str
-    version: int
-    sha256: str
-
-
-_HEADER = re.compile(r'# model_name: (?P<name>[^\n]*)\n# model_version: (?P<version>[0-9]+)\n'
-                     r'# model_sha256: (?P<sha>[0-9a-f]{64})\n')
-
-
-def model_document(model: GraspModel, *, name: str, version: int) -> str:
-    """The versioned model document: three header lines, then :meth:`GraspModel.to_yaml`::
-
-        # model_name: cup_7zone
-        # model_version: 3
-        # model_sha256: <sha256 of the YAML text that follows, hex>
-        <GraspModel YAML>
-
-    The header lines are YAML comments, so :meth:`GraspModel.from_yaml` also reads the whole text.
-
-    Raises
-    ------
-    ValueError
-        If ``name`` spans several lines or ``version < 1``.
-    """
-    if '\n' in name or version < 1:
-        raise ValueError('name must be one line and version >= 1')
-    body = model.to_yaml()
-    sha = hashlib.sha256(body.encode()).hexdigest()
-    return f'# model_name: {name}\n# model_version: {version}\n# model_sha256: {sha}\n{body}'
-
-
-def parse_model_document(text: str, *, check_sha256: bool = True) -> tuple[ModelHeader, str]:
-    """Split a document written by :func:`model_document` into its header and YAML body.
-
-    The body is not parsed (see :meth:`GraspModel.from_yaml`). ``check_sha256=False`` reads the header
-    alone, without hashing the body.
-
-    Raises
-    ------
-    ModelFormatError
-        If the header lines are missing or malformed, ``model_version < 1``, or (when checked) the
-        body's sha256 differs from the header's.
-    """
-    header = _HEADER.match(text)
-    if header is None:
-        raise ModelFormatError('model document lacks the header lines "# model_name: ...", '
-                               '"# model_version: <n>", "# model_sha256: <hex>"')
-    body = text[header.end():]
-    if check_sha256:
-        sha = hashlib.sha256(body.encode()).hexdigest()
-        if sha != header['sha']:
-            raise ModelFormatError(f'model document is corrupted: sha256 {sha} does not match the header')
-    version = int(header['version'])
-    if version < 1:
-        raise ModelFormatError(f'model_version must be >= 1, got {version}')
-    return ModelHeader(header['name'], version, header['sha']), body

@@ -19,26 +19,19 @@ import threading
 import time
 import traceback
 from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
 from ..core.errors import GraspIntentError
+from ..protocol import (DIAGNOSTICS, ERROR, KEY_LAST_ERROR, KEY_PROCESSING_TIME, KEY_RECEIVED, KEY_REJECTED, OK,
+                        WARN, level_value, status_name)
 from .qos import output_qos
 
-__all__ = ['NodeDiagnostics', 'OK', 'WARN', 'ERROR', 'STALE', 'DIAGNOSTICS_TOPIC']
-
-OK, WARN, ERROR, STALE = (DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR,
-                          DiagnosticStatus.STALE)
-DIAGNOSTICS_TOPIC = '/diagnostics'
+__all__ = ['NodeDiagnostics']
 
 M = TypeVar('M')
-
-
-def _level(level: Any) -> int:
-    """DiagnosticStatus levels are bytes of length 1 in rclpy; compare them as ints."""
-    return level[0] if isinstance(level, (bytes, bytearray)) else int(level)
 
 
 class NodeDiagnostics:
@@ -57,26 +50,26 @@ class NodeDiagnostics:
 
     def __init__(self, node: Node, component: str, *, period: float = 1.0, hardware_id: str = '') -> None:
         self._node = node
-        self.name = f'{node.get_fully_qualified_name()}: {component}'
+        self.name = status_name(node.get_fully_qualified_name(), component)
         self._hardware_id = hardware_id
         self._lock = threading.Lock()
         self._received = 0
         self._rejected = 0
         self._last_error = ''
         self._last_seconds: float | None = None
-        self._outcome_level: int = _level(OK)
+        self._outcome_level: int = level_value(OK)
         self._outcome_message = 'waiting for input'
-        self._state_level: int = _level(OK)
+        self._state_level: int = level_value(OK)
         self._state_message = ''
         self._values: dict[str, str] = {}
-        self._publisher = node.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, output_qos())
+        self._publisher = node.create_publisher(DiagnosticArray, DIAGNOSTICS, output_qos())
         self._timer = node.create_timer(period, self.publish)
 
     # ---------------------------------------------------------------- recording
     def set_state(self, level: bytes | int, message: str) -> None:
         """A standing condition of the node (e.g. ERROR 'no model'); OK with '' clears it."""
         with self._lock:
-            self._state_level, self._state_message = _level(level), message
+            self._state_level, self._state_message = level_value(level), message
 
     def set_value(self, key: str, value: object) -> None:
         """An extra key/value shown in every status (e.g. the active model)."""
@@ -87,15 +80,15 @@ class NodeDiagnostics:
         """An input was processed in ``seconds`` (wall time)."""
         with self._lock:
             self._last_seconds = seconds
-            self._outcome_level, self._outcome_message = _level(OK), 'ok'
+            self._outcome_level, self._outcome_message = level_value(OK), 'ok'
 
     def rejected(self, reason: str, *, level: bytes | int = WARN) -> None:
         """An input was rejected: count it, log it and publish a WARN (or ``level``) status now."""
         with self._lock:
             self._rejected += 1
             self._last_error = reason
-            self._outcome_level, self._outcome_message = _level(level), f'rejected input: {reason}'
-        if _level(level) >= _level(ERROR):
+            self._outcome_level, self._outcome_message = level_value(level), f'rejected input: {reason}'
+        if level_value(level) >= level_value(ERROR):
             self._node.get_logger().error(f'{self.name}: {reason}')
         else:
             self._node.get_logger().warning(f'rejected input: {reason}')
@@ -135,10 +128,10 @@ class NodeDiagnostics:
                 if self._state_message:
                     message = f'{message}; {self._state_message}'
             values = {
-                'messages received': str(self._received),
-                'messages rejected': str(self._rejected),
-                'last error': self._last_error,
-                'last processing time [ms]': ('' if self._last_seconds is None
+                KEY_RECEIVED: str(self._received),
+                KEY_REJECTED: str(self._rejected),
+                KEY_LAST_ERROR: self._last_error,
+                KEY_PROCESSING_TIME: ('' if self._last_seconds is None
                                               else f'{1e3 * self._last_seconds:.3f}'),
                 **self._values,
             }

@@ -18,6 +18,7 @@ Read current values from the returned :class:`Parameters` mapping (a dict lookup
 from __future__ import annotations
 
 import array
+import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -27,10 +28,27 @@ from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescr
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-__all__ = ['ParamSpec', 'Parameters', 'ParameterError', 'declare_parameters']
+__all__ = ['ParamSpec', 'Parameters', 'ParameterError', 'declare_parameters', 'one_of', 'finite_vector']
 
 Validator = Callable[[Any], object]
 """Called with a proposed value; raises ValueError (e.g. a core GraspIntentError) with the reason."""
+
+
+def one_of(choices: Sequence[str]) -> Validator:
+    """A validator accepting only ``choices``."""
+    def check(value: str) -> None:
+        if value not in choices:
+            raise ValueError(f'must be one of {", ".join(choices)}; got {value!r}')
+    return check
+
+
+def finite_vector(n: int, meaning: str, *, positive: bool = False) -> Validator:
+    """A validator of ``n`` finite (and, with ``positive``, > 0) numbers; ``meaning`` ends the reason."""
+    def check(value: Sequence[float]) -> None:
+        if len(value) != n or not all(math.isfinite(v) and (v > 0.0 or not positive) for v in value):
+            kind = 'positive' if positive else 'finite'
+            raise ValueError(f'must be {n} {kind} numbers ({meaning}), got {list(value)}')
+    return check
 
 
 class ParameterError(ValueError):

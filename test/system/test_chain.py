@@ -38,14 +38,16 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 from grasp_intent_ros.core import planner
 from grasp_intent_ros.core.features import FINGERS
 from grasp_intent_ros.core.intent import all_zones, interpret, restrict
-from grasp_intent_ros.core.kinematics import (ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics,
-                                              Reachability, features_to_obj_T_ee, pose_to_matrix)
+from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.paper_tables import CASES
-from grasp_intent_ros.ros.conversions import model_from_msg, msg_to_array
+from grasp_intent_ros.ros.conversions import model_from_msg
+from grasp_intent_ros.protocol import msg_to_array
 from grasp_intent_ros.ros.qos import latched_qos
-from grasp_intent_ros.ros.robot import (GraspPosterior, pose_msg_to_matrix, posterior_from_msg,
-                                        stamped_array_from_msg)
+from grasp_intent_ros.ros.robot import pose_msg_to_matrix
+from grasp_intent_ros.protocol import Posterior
+from grasp_intent_ros.ros.conversions import posterior_from_msg, stamped_array_from_msg
 from grasp_intent_ros.send_intent import GraspAnswer, IntentSender
 
 REPO = Path(__file__).resolve().parents[2]
@@ -113,7 +115,7 @@ class Chain:
         self.ros, self.launch, self.models_dir = ros, launch, models_dir
         self.statuses = ros.diagnostics()
         self.active = ros.subscribe(String, 'model/active', latched_qos())
-        self.posteriors: list[GraspPosterior] = []
+        self.posteriors: list[Posterior[Any]] = []
         self.features: dict[int, np.ndarray] = {}
         ros.node.create_subscription(Float64MultiArray, 'grasp/posterior',
                                      lambda m: self.posteriors.append(posterior_from_msg(m)), 10)

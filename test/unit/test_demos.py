@@ -93,7 +93,7 @@ def test_roll_helpers() -> None:
 
 
 def test_thumb_direction_is_the_end_effector_x_axis() -> None:
-    from grasp_intent_ros.core.kinematics import features_to_obj_T_ee
+    from grasp_intent_ros.core.frames import features_to_obj_T_ee
     side = grasp((0, 0, 0), 0, 0, 0.05, 0.0, F_CLOSED)  # horizontal approach along -x
     for roll in np.linspace(-math.pi / 2, 3 * math.pi / 2, 9):
         x = with_values(side, roll=roll)

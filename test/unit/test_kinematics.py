@@ -25,11 +25,8 @@ from grasp_intent_ros.core.kinematics import (
     HOME_Q,
     MicoKinematics,
     default_urdf_path,
-    features_to_obj_T_ee,
-    matrix_to_pose,
-    obj_T_ee_to_features,
-    pose_to_matrix,
 )
+from grasp_intent_ros.core.frames import features_to_obj_T_ee, matrix_to_pose, obj_T_ee_to_features, pose_to_matrix
 
 WIDE = (0, 3, 4, 5)
 
@@ -359,7 +356,7 @@ def test_roll_at_the_lower_bound_stays_in_range() -> None:
 
 
 def test_reachability_constraint_caches_ik_answers(kin: MicoKinematics) -> None:
-    from grasp_intent_ros.core.kinematics import Reachability, obj_T_ee_to_features
+    from grasp_intent_ros.core.kinematics import Reachability
     base_T_obj = np.eye(4)
     base_T_ee = kin.fk(HOME_Q)  # reachable: the home pose, as a grasp of an object at the base origin
     x = obj_T_ee_to_features(base_T_ee, np.zeros(3))

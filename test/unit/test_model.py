@@ -13,8 +13,8 @@ from grasp_intent_ros.core.errors import (DataError, InvalidFeaturesError, Model
                                           ModelFormatError)
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import DEFAULT_TASKS
-from grasp_intent_ros.core.model import (GraspModel, ModelHeader, model_document, parse_model_document,
-                                         structure_zones)
+from grasp_intent_ros.core.model import GraspModel, structure_zones
+from grasp_intent_ros.protocol import ModelHeader, model_document, parse_model_document
 
 from .conftest import synthetic_demos
 

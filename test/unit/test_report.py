@@ -23,7 +23,7 @@ from grasp_intent_ros.bag import QosSpec, SessionWriter
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import interpret, reconstruct_w
 from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.ros.conversions import model_to_msg, stamped_values
+from grasp_intent_ros.protocol import model_document, read_posterior, stamped_values
 
 T0 = 1_700_000_000_000_000_000  # ns
 S = 1_000_000_000  # ns per s
@@ -79,7 +79,7 @@ def write_session_bag(store: Any, path: Path, model: GraspModel, *, planner: boo
             bag.add_topic(f'{NS}/grasp/posterior', F64MA, qos=QosSpec())
             bag.add_topic(f'{NS}/grasp/features', F64MA, qos=QosSpec())
             bag.add_topic('/diagnostics', DIAG_T, qos=QosSpec())
-            doc = model_to_msg(model, name='toy_7zone', version=1).data
+            doc = model_document(model, name='toy_7zone', version=1)
             bag.write_message(f'{NS}/model/active', T0, store.types[STRING](data=doc))
             bag.write_message('/diagnostics', T0 + 1, status(store, 0, '/robot1/grasp_planner: planning',
                                                              'waiting for intent/v', {'plans': '0'}))
@@ -147,13 +147,13 @@ def test_posterior_layout_is_split_into_p_and_w(store, toy_model) -> None:
     p = toy_model.posterior(toy_model.means[0])
     w = reconstruct_w(p, toy_model.zones, 3)
     label = f'{",".join(toy_model.zone_labels)}|{",".join(toy_model.task_names)}'
-    post = report.parse_posterior(stamped(store, np.r_[p, w], label, T0))
-    assert post.zones == toy_model.zone_labels and post.tasks == toy_model.task_names
+    post = read_posterior(stamped(store, np.r_[p, w], label, T0))
+    assert post.zone_labels == toy_model.zone_labels and post.task_names == toy_model.task_names
     np.testing.assert_array_equal(post.p, p)
     np.testing.assert_array_equal(post.w, w)
     for bad in ('U,T,H,UT,UH,TH,UTH,usage,transfer,handover', 'U,T,H|usage,transfer,handover', ''):
         with pytest.raises(ValueError, match='grasp/posterior label'):
-            report.parse_posterior(stamped(store, np.r_[p, w], bad, T0))
+            read_posterior(stamped(store, np.r_[p, w], bad, T0))
 
 
 def test_stamped_values_reads_rosbags_messages(store) -> None:

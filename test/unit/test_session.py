@@ -14,13 +14,10 @@ import pytest
 from rosbags.typesys import Stores, get_typestore
 
 from grasp_intent_ros.bag import QosSpec, SessionWriter, read_messages, topics_info
+from grasp_intent_ros.protocol import DIAGNOSTICS, MSGTYPES, PLAN_TOPICS, ModelHeader
 from grasp_intent_ros.bag.session import (
-    DIAGNOSTICS_TOPIC,
-    MSGTYPES,
-    PLAN_TOPICS,
     Difference,
     Joints,
-    ModelHeader,
     Output,
     Pose,
     Rejection,
@@ -150,17 +147,17 @@ def session_messages() -> list[tuple[str, Any]]:
     repeated model document, a moved object; periodic diagnostics in between."""
     interp = '/intent_interpreter: intent'
     return [
-        (DIAGNOSTICS_TOPIC, diagnostics(interp, received=0, rejected=0, level=0)),
+        (DIAGNOSTICS, diagnostics(interp, received=0, rejected=0, level=0)),
         ('intent/v', v_msg([1 / 7] * 7)),                        # before any input: unpaired
         ('model/active', model_doc('cup_7zone')),                  # initial model
         ('joint_states', joint_msg(Q[:6], ARM[:6])),               # 1: no answer
         ('intent/w', f64([0.9, 0.9, 0.1])),                        # 2: v + plan
         ('intent/v', v_msg(P)),
         *plan(),
-        (DIAGNOSTICS_TOPIC, diagnostics(interp, received=1, rejected=0, level=0)),  # periodic: no event
+        (DIAGNOSTICS, diagnostics(interp, received=1, rejected=0, level=0)),  # periodic: no event
         ('intent/w', f64([0.5, math.nan, 0.5])),                   # 3: rejection
-        (DIAGNOSTICS_TOPIC, diagnostics(interp, received=2, rejected=1, reason='w contains NaN')),
-        (DIAGNOSTICS_TOPIC, diagnostics(interp, received=2, rejected=1, reason='w contains NaN')),  # repeat
+        (DIAGNOSTICS, diagnostics(interp, received=2, rejected=1, reason='w contains NaN')),
+        (DIAGNOSTICS, diagnostics(interp, received=2, rejected=1, reason='w contains NaN')),  # repeat
         ('intent/w', f64([0.1, 0.1, 0.1])),                        # 4: clarification
         ('intent/clarification', text('P(no task) = 0.729 >= 0.5')),
         ('model/active', model_doc('cup_5zone', SHA_B, 2)),        # 5: model switch + plan
@@ -195,7 +192,7 @@ def test_each_input_is_paired_with_the_outputs_that_follow_it(session_bag: Path)
     assert [sorted(o.topic for o in s.expected) for s in session.steps] == [
         [],
         sorted(['intent/v', *PLAN_TOPICS]),
-        [DIAGNOSTICS_TOPIC],
+        [DIAGNOSTICS],
         ['intent/clarification'],
         sorted(['model/active', *PLAN_TOPICS]),
         sorted(PLAN_TOPICS),
@@ -373,14 +370,14 @@ def test_clarifications_and_rejections_must_be_identical(session_bag: Path) -> N
     assert compare_step(steps[3], outputs([('intent/clarification', text('P(no task) = 0.729 >= 0.5'))])) == []
     diffs = compare_step(steps[3], outputs([('intent/clarification', text('P(no task) = 0.73 >= 0.5'))]))
     assert [d.field for d in diffs] == ['text']
-    same = Output(DIAGNOSTICS_TOPIC, 0, Rejection('/intent_interpreter: intent', 1, 'w contains NaN'))
+    same = Output(DIAGNOSTICS, 0, Rejection('/intent_interpreter: intent', 1, 'w contains NaN'))
     assert compare_step(steps[2], [same]) == []
-    other = Output(DIAGNOSTICS_TOPIC, 0, Rejection('/intent_interpreter: intent', 1, 'w is empty'))
+    other = Output(DIAGNOSTICS, 0, Rejection('/intent_interpreter: intent', 1, 'w is empty'))
     diffs = compare_step(steps[2], [other])
     assert [d.field for d in diffs] == ['rejection'] and "'w is empty'" in diffs[0].live
     # a rejection instead of a plan
     diffs = compare_step(steps[5], [other])
-    assert {d.topic for d in diffs} == {*PLAN_TOPICS, DIAGNOSTICS_TOPIC}
+    assert {d.topic for d in diffs} == {*PLAN_TOPICS, DIAGNOSTICS}
 
 
 def test_model_name_must_match_and_other_content_is_a_note(session_bag: Path) -> None:
@@ -423,10 +420,10 @@ def test_compaction_keeps_only_rejections_of_the_diagnostics(session_bag: Path, 
 
     original = [m for m in read_messages(session_bag) if m.topic != '/grasp/markers']
     kept = list(read_messages(tmp_path / 'compact'))
-    assert counts[DIAGNOSTICS_TOPIC] == 1 and '/grasp/markers' not in counts
+    assert counts[DIAGNOSTICS] == 1 and '/grasp/markers' not in counts
     assert sum(counts.values()) == len(kept) == len(original) - 3  # 2 periodic statuses and 1 repeat dropped
-    others = [(m.topic, m.timestamp_ns, m.cdr) for m in original if m.topic != DIAGNOSTICS_TOPIC]
-    assert [(m.topic, m.timestamp_ns, m.cdr) for m in kept if m.topic != DIAGNOSTICS_TOPIC] == others
+    others = [(m.topic, m.timestamp_ns, m.cdr) for m in original if m.topic != DIAGNOSTICS]
+    assert [(m.topic, m.timestamp_ns, m.cdr) for m in kept if m.topic != DIAGNOSTICS] == others
     assert topics_info(tmp_path / 'compact')['/model/active'].qos == (QosSpec('reliable', 'transient_local', 0),)
     before, after = load_session(session_bag), load_session(tmp_path / 'compact')
     assert [[(o.topic, o.t_ns) for o in s.expected] for s in before.steps] == \

@@ -1,0 +1,257 @@
+r"""Grasp-frame maths: grasp features <-> end-effector pose, poses <-> 4x4 transforms, the drawn gripper.
+
+Frames and units as in :mod:`grasp_intent_ros.core.kinematics` (``a_T_b`` maps coordinates in ``b`` to
+coordinates in ``a``; metres, radians).
+
+Grasp features -> end-effector pose
+-----------------------------------
+A grasp feature vector ``x`` (shape (10,), see :mod:`~grasp_intent_ros.core.features`) holds the palm
+centre ``p = x[PALM]`` (m, object frame), the approach ``a = x[APPROACH]`` and the roll ``r = x[ROLL]``
+(rad); the finger closures ``x[FINGERS]`` do not affect the pose. :func:`features_to_obj_T_ee` returns
+
+.. math::
+
+    {}^{obj}T_{ee} = \begin{pmatrix} R_{min}(\hat a)\, R_z(r)\, R_{top} & p \\ 0 & 1 \end{pmatrix},
+    \qquad \hat a = a / \lVert a \rVert,
+
+* ``R_top = diag(1, -1, -1)``: the top-down grasp with roll 0 (EE z = -z_obj, EE x = +x_obj);
+* ``R_z(r)``: rotation by r about the object's z axis, applied to ``R_top``. Since EE z = -z_obj there,
+  r is a rotation by -r about the EE's own z axis: ``R_z(r) R_top = R_top R_z(-r)``;
+* ``R_min(a)``: the smallest rotation taking the downward direction (0, 0, -1) to ``a`` (Rodrigues, about
+  the horizontal axis (0, 0, -1) x a). It is undefined only for ``a = +z`` (approach from below the
+  table); there ``R_min = R_x(pi)`` by definition, and it is discontinuous next to ``+z``.
+
+Hence the EE origin is the palm centre ``p`` and the EE z axis equals ``a``. For a horizontal approach
+``a = (ax, ay, 0)`` with roll 0 the thumb (EE x) points along ``(ay^2, -ax ay, ax)``: up for an approach
+along +x_obj, horizontal (+x_obj) for an approach along +-y_obj.
+
+:func:`obj_T_ee_to_features` inverts this: ``a`` = EE z axis, and r is wrapped into
+``[MICO_3F.lower[ROLL], MICO_3F.lower[ROLL] + 2 pi)`` = [-pi/2, 3pi/2).
+Drawn gripper
+-------------
+:func:`finger_segments` is the schematic of the three fingers that the RViz markers and the session
+report both draw (base on a circle around the approach axis, bent inwards by the closure; not the finger
+kinematics).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import InvalidFeaturesError, KinematicsError
+from .features import APPROACH, FINGERS, MICO_3F, PALM, ROLL
+
+__all__ = [
+    'check_vector',
+    'check_transform',
+    'features_to_obj_T_ee',
+    'obj_T_ee_to_features',
+    'pose_to_matrix',
+    'matrix_to_pose',
+    'finger_segments',
+    'FINGER_LENGTH',
+]
+
+_TWO_PI = 2.0 * math.pi
+_R_TOP = np.diag([1.0, -1.0, -1.0])
+_ROLL_MIN = float(MICO_3F.lower[ROLL])
+
+FINGER_LENGTH = 0.08
+"""Length of a drawn finger (m)."""
+_FINGER_BASE_RADIUS = 0.03
+_FINGER_ANGLES = (0.0, math.radians(140.6), -math.radians(140.6))
+"""Azimuth of fingers 1 (thumb, +x of the EE frame), 2 and 3 around the approach axis (rad)."""
+_FINGER_SPLAY = 0.35
+"""Outward tilt of an open finger (rad); closure c tilts it inwards by c - splay."""
+
+
+def check_vector(value: ArrayLike, n: int, what: str) -> NDArray[np.float64]:
+    """A finite vector of shape (n,). Raises KinematicsError naming ``what``."""
+    try:
+        vec = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise KinematicsError(f'{what} must be numeric: {exc}') from None
+    if vec.shape != (n,):
+        raise KinematicsError(f'{what} must have shape ({n},), got {vec.shape}')
+    if not np.all(np.isfinite(vec)):
+        raise KinematicsError(f'{what} must be finite, got {vec}')
+    return vec
+
+
+def check_transform(value: ArrayLike, what: str, *, tol: float = 1e-6) -> NDArray[np.float64]:
+    """A validated 4x4 rigid transform; its rotation is projected onto SO(3) (deviations < tol allowed)."""
+    try:
+        T = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise KinematicsError(f'{what} must be numeric: {exc}') from None
+    if T.shape != (4, 4):
+        raise KinematicsError(f'{what} must have shape (4, 4), got {T.shape}')
+    if not np.all(np.isfinite(T)):
+        raise KinematicsError(f'{what} must be finite')
+    if not np.allclose(T[3], (0.0, 0.0, 0.0, 1.0), atol=tol):
+        raise KinematicsError(f'{what} must have last row (0, 0, 0, 1), got {T[3]}')
+    R = T[:3, :3]
+    if not np.allclose(R.T @ R, np.eye(3), atol=tol) or np.linalg.det(R) <= 0.0:
+        raise KinematicsError(f'{what} rotation is not a rotation matrix (tolerance {tol})')
+    u, _, vt = np.linalg.svd(R)
+    T[:3, :3] = u @ vt
+    T[3] = (0.0, 0.0, 0.0, 1.0)
+    return T
+
+
+# -- grasp features <-> end-effector pose -------------------------------------------------------------
+
+def _min_rotation_from_down(a_hat: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The smallest rotation taking (0, 0, -1) to the unit vector a_hat; R_x(pi) for a_hat = +z."""
+    ax, ay, az = (float(v) for v in a_hat)
+    s2 = ax * ax + ay * ay
+    if s2 == 0.0 and az > 0.0:
+        return np.diag([1.0, -1.0, -1.0])
+    # Rodrigues with w = (0, 0, -1) x a = (ay, -ax, 0), cos = -az: R = -az I + [w]x + w w^T / (1 - az).
+    # 1 - az is computed as s2 / (1 + az) when az > 0 to avoid cancellation near +z.
+    h = (1.0 + az) / s2 if az > 0.0 else 1.0 / (1.0 - az)
+    w = np.array([ay, -ax, 0.0])
+    w_cross = np.array([[0.0, 0.0, -ax], [0.0, 0.0, -ay], [ax, ay, 0.0]])
+    r_min: NDArray[np.float64] = -az * np.eye(3) + w_cross + h * np.outer(w, w)
+    return r_min
+
+
+def _rot_z(angle: float) -> NDArray[np.float64]:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def features_to_obj_T_ee(x: ArrayLike) -> NDArray[np.float64]:
+    """End-effector pose ``obj_T_ee`` of a grasp feature vector (convention in the module docstring).
+
+    Parameters
+    ----------
+    x : array_like, shape (10,)
+        Grasp features (:data:`~grasp_intent_ros.core.features.MICO_3F` layout); the approach need not be
+        normalised, the finger closures are ignored.
+
+    Returns
+    -------
+    ndarray, shape (4, 4)
+
+    Raises
+    ------
+    InvalidFeaturesError
+        If ``x`` has the wrong shape, non-finite entries, or a zero approach vector.
+    """
+    try:
+        vec = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InvalidFeaturesError(f'x must be numeric: {exc}') from None
+    if vec.shape != (MICO_3F.dim,):
+        raise InvalidFeaturesError(f'x must have shape ({MICO_3F.dim},), got {vec.shape}')
+    if not np.all(np.isfinite(vec)):
+        raise InvalidFeaturesError(f'x must be finite, got {vec}')
+    approach = vec[APPROACH]
+    norm = float(np.linalg.norm(approach))
+    if norm < 1e-9:
+        raise InvalidFeaturesError(f'approach vector x[3:6] must be non-zero, got {approach}')
+    obj_T_ee = np.eye(4)
+    obj_T_ee[:3, :3] = _min_rotation_from_down(approach / norm) @ _rot_z(float(vec[ROLL])) @ _R_TOP
+    obj_T_ee[:3, 3] = vec[PALM]
+    return obj_T_ee
+
+
+def obj_T_ee_to_features(obj_T_ee: ArrayLike, fingers: ArrayLike) -> NDArray[np.float64]:
+    """Grasp feature vector of an end-effector pose and finger closures (inverse of features_to_obj_T_ee).
+
+    Parameters
+    ----------
+    obj_T_ee : array_like, shape (4, 4)
+        End-effector pose in the object frame.
+    fingers : array_like, shape (3,)
+        Finger closures (rad), copied to ``x[7:10]`` unchanged.
+
+    Returns
+    -------
+    ndarray, shape (10,)
+        Unit approach, roll wrapped into [-pi/2, 3pi/2).
+
+    Raises
+    ------
+    KinematicsError
+        If ``obj_T_ee`` is not a rigid 4x4 transform.
+    InvalidFeaturesError
+        If ``fingers`` is not a finite vector of shape (3,).
+    """
+    T = check_transform(obj_T_ee, 'obj_T_ee')
+    try:
+        closures = check_vector(fingers, 3, 'fingers')
+    except KinematicsError as exc:
+        raise InvalidFeaturesError(str(exc)) from None
+    obj_R_ee = T[:3, :3]
+    approach = obj_R_ee[:, 2]
+    roll_R = _min_rotation_from_down(approach).T @ obj_R_ee @ _R_TOP  # = R_z(roll); R_TOP is involutive
+    roll = math.atan2(float(roll_R[1, 0]), float(roll_R[0, 0]))
+    roll = (roll - _ROLL_MIN) % _TWO_PI + _ROLL_MIN
+    if roll >= _ROLL_MIN + _TWO_PI:  # a tiny negative offset wraps to exactly 2 pi in floating point
+        roll -= _TWO_PI
+    x = np.empty(MICO_3F.dim)
+    x[PALM] = T[:3, 3]
+    x[APPROACH] = approach
+    x[ROLL] = roll
+    x[FINGERS] = closures
+    return x
+
+
+# -- poses ----------------------------------------------------------------------------------------------
+
+def pose_to_matrix(position: ArrayLike, quat_xyzw: ArrayLike) -> NDArray[np.float64]:
+    """4x4 transform of a position (m) and a quaternion in ROS order (x, y, z, w), normalised here.
+
+    Raises
+    ------
+    KinematicsError
+        On wrong shapes, non-finite values, or a zero quaternion.
+    """
+    p = check_vector(position, 3, 'position')
+    xyzw = check_vector(quat_xyzw, 4, 'quat_xyzw')
+    norm = float(np.linalg.norm(xyzw))
+    if norm < 1e-12:
+        raise KinematicsError('quat_xyzw must be non-zero')
+    x, y, z, w = xyzw / norm
+    T = np.eye(4)
+    T[:3, :3] = pin.Quaternion(w, x, y, z).toRotationMatrix()  # Pinocchio takes w first
+    T[:3, 3] = p
+    return T
+
+
+def matrix_to_pose(T: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Position (m) and unit quaternion (x, y, z, w) with w >= 0 of a 4x4 rigid transform.
+
+    Raises
+    ------
+    KinematicsError
+        If ``T`` is not a rigid 4x4 transform.
+    """
+    M = check_transform(T, 'T')
+    xyzw = np.array(pin.Quaternion(M[:3, :3]).coeffs(), dtype=np.float64)  # coeffs() is (x, y, z, w)
+    if xyzw[3] < 0.0:
+        xyzw = -xyzw
+    return M[:3, 3].copy(), xyzw
+
+
+def finger_segments(closures: ArrayLike) -> NDArray[np.float64]:
+    """Base and tip of each drawn finger in the EE frame (m), for closures (rad, 0 open .. 1.51 closed).
+
+    Returns
+    -------
+    ndarray, shape (3, 2, 3)
+        ``[finger, (base, tip), xyz]``.
+    """
+    out = np.empty((3, 2, 3))
+    for k, (azimuth, closure) in enumerate(zip(_FINGER_ANGLES, np.asarray(closures, dtype=np.float64))):
+        radial = np.array([math.cos(azimuth), math.sin(azimuth), 0.0])
+        tilt = float(closure) - _FINGER_SPLAY
+        out[k, 0] = _FINGER_BASE_RADIUS * radial
+        out[k, 1] = out[k, 0] + FINGER_LENGTH * (math.cos(tilt) * np.array([0.0, 0.0, 1.0]) - math.sin(tilt) * radial)
+    return out

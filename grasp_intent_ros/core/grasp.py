@@ -1,0 +1,171 @@
+"""The grasp policy of the planner node, ROS-free: target vector + model + object pose -> one MICO grasp.
+
+:func:`plan_grasp` restricts v to the model's zones, plans (paper Algorithm 1,
+:func:`grasp_intent_ros.core.planner.plan`) with the MICO's reachability as the robot constraint, falls back
+to the best reachable candidate when the best grasp is unreachable, and turns the plan into what a robot
+executes: the end-effector pose ``base_T_ee``, the arm and finger joint targets, and the time the move
+takes at the arm's velocity limits.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from . import planner
+from .errors import InvalidIntentError, ModelError
+from .features import FINGERS, MICO_3F
+from .frames import features_to_obj_T_ee
+from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
+from .intent import restrict
+from .model import GraspModel
+
+__all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'PlanOutcome', 'Grasp', 'NoReachableGrasp', 'check_mico_model',
+           'trajectory_duration', 'plan_grasp']
+
+MIN_TRAJECTORY_TIME = 0.1
+"""Shortest time to reach the grasp (s); controllers reject a trajectory point at 0."""
+JOINT_NAMES: tuple[str, ...] = ARM_JOINTS + FINGER_JOINTS
+"""Names of :attr:`Grasp.positions`: the six arm joints, then the three fingers."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class PlanOutcome:
+    """What every grasp plan reports.
+
+    Attributes
+    ----------
+    result : planner.PlanResult
+        The plan; its ``x`` is the best reachable candidate (status ``'rejected'`` when none is).
+    note : str
+        The reachability outcome in words.
+    ik_seconds : float
+        Time spent in IK (s).
+    """
+
+    result: planner.PlanResult
+    note: str
+    ik_seconds: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class NoReachableGrasp(PlanOutcome):
+    """IK failed for every candidate: nothing to execute. ``reason`` says why, with the object position
+    and the closest IK attempt."""
+
+    reason: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class Grasp(PlanOutcome):
+    """A planned, reachable grasp and what the arm does for it.
+
+    Attributes
+    ----------
+    base_T_ee : ndarray, shape (4, 4)
+        End-effector pose in the base frame.
+    positions : ndarray, shape (9,)
+        Joint targets in :data:`JOINT_NAMES` order (rad): IK on the 2 pi branch nearest the seed, then
+        the planned finger closures.
+    duration_s : float
+        Time to reach them from the seed at the arm's velocity limits, at least :data:`MIN_TRAJECTORY_TIME`.
+    fallback : bool
+        True when the best grasp was unreachable and a lower-ranked candidate is published.
+    """
+
+    base_T_ee: NDArray[np.float64]
+    positions: NDArray[np.float64]
+    duration_s: float
+    fallback: bool
+
+
+def check_mico_model(model: GraspModel, name: str) -> None:
+    """Raise ModelError unless ``model`` uses the MICO 3-finger features (the ones mapped to a pose)."""
+    if model.feature_names != MICO_3F.names:
+        raise ModelError(f'model {name!r} has features {list(model.feature_names)}; this planner '
+                         f'maps the MICO 3-finger features {list(MICO_3F.names)} to a pose')
+
+
+def trajectory_duration(q_from: ArrayLike, q_to: ArrayLike, velocity_limits: ArrayLike, *,
+                        min_duration: float = 0.0) -> float:
+    """Shortest time (s) to move every joint from ``q_from`` to ``q_to`` at its velocity limit (rad/s).
+
+    max_i |q_to_i - q_from_i| / v_i, but at least ``min_duration``. All arrays shape (n,), limits > 0.
+
+    Raises
+    ------
+    ValueError
+        For limits that are not positive or of another shape.
+    """
+    delta = np.abs(np.asarray(q_to, dtype=np.float64) - np.asarray(q_from, dtype=np.float64))
+    limits = np.asarray(velocity_limits, dtype=np.float64)
+    if delta.shape != limits.shape or not np.all(limits > 0.0):
+        raise ValueError(f'need positive velocity limits of shape {delta.shape}, got {limits.tolist()}')
+    return max(float(np.max(delta / limits)) if delta.size else 0.0, float(min_duration))
+
+
+def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_obj: NDArray[np.float64],
+               kin: MicoKinematics, *, name: str = 'model', q_arm: NDArray[np.float64] | None = None,
+               method: planner.Method = 'lm', n_starts: int = 3, ik_restarts: int = 8,
+               warm_start: NDArray[np.float64] | None = None) -> Grasp | NoReachableGrasp:
+    """Plan the grasp for target ``v`` over ``zones`` on ``model`` with the object at ``base_T_obj``.
+
+    Parameters
+    ----------
+    model : GraspModel
+        MICO 3-finger features (:func:`check_mico_model`).
+    v : array_like, shape (len(zones),)
+        Target over ``zones`` (e.g. all zones of the model's tasks, :func:`~.intent.match_zones`).
+    zones : tuple of int
+        Must cover the model's zones.
+    base_T_obj : ndarray, shape (4, 4)
+        Object pose in the base frame.
+    kin : MicoKinematics
+    name : str
+        The model's name, for messages.
+    q_arm : ndarray, shape (6,), optional
+        Latest arm joint reading (rad): seeds IK and starts the trajectory; :data:`HOME_Q` if None.
+    method, n_starts, warm_start
+        As for :func:`grasp_intent_ros.core.planner.plan`.
+    ik_restarts : int
+        Random IK restarts after the seeded attempt fails.
+
+    Returns
+    -------
+    Grasp or NoReachableGrasp
+
+    Raises
+    ------
+    InvalidIntentError
+        When v gives the model's zones no probability (clarification needed), or v does not match
+        ``zones``.
+    """
+    v_model = restrict(v, zones, model.zones)
+    if v_model is None:
+        raise InvalidIntentError(f'clarification needed: v gives no probability to the zones '
+                                 f'{",".join(model.zone_labels)} of model {name!r}')
+    reachable = Reachability(kin, base_T_obj, q_arm, restarts=ik_restarts)
+    result = planner.plan(model, v_model, method=method, n_starts=n_starts, warm_start=warm_start,
+                          accept=reachable)
+    n = len(result.candidates)
+    if result.status == 'rejected':
+        closest = min(reachable.answers.values(), key=lambda a: a.pos_error_m)
+        position = base_T_obj[:3, 3]
+        reason = (f'no reachable grasp: IK failed for all {n} candidates with the object at '
+                  f'{np.round(position, 3).tolist()} m ({np.linalg.norm(position):.2f} m from the base); '
+                  f'closest: {closest.message}')
+        return NoReachableGrasp(result=result, note=f'none of {n} candidates reachable',
+                                ik_seconds=reachable.seconds, reason=reason)
+    if result.rejected:
+        note = (f'best grasp unreachable: published candidate {result.rejected + 1} of {n} (objective '
+                f'{result.objective:.3g}, best {result.candidates[0].objective:.3g})')
+    else:
+        note = f'best of {n} candidates reachable'
+    q = reachable.answer(result.x).q
+    duration = trajectory_duration(HOME_Q if q_arm is None else q_arm, q, kin.velocity_limits,
+                                   min_duration=MIN_TRAJECTORY_TIME)
+    return Grasp(result=result, note=note, ik_seconds=reachable.seconds,
+                 base_T_ee=base_T_obj @ features_to_obj_T_ee(result.x), positions=np.concatenate([q, result.x[FINGERS]]), duration_s=duration,
+                 fallback=bool(result.rejected))

@@ -1,0 +1,70 @@
+"""The trained models of one directory: listed, loaded on demand, cached by modification time."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .errors import ModelError, ModelFormatError
+from .model import GraspModel
+from .resources import config_dir
+
+__all__ = ['ModelFiles']
+
+
+class ModelFiles:
+    """The model YAML files (``<name>.yaml``) of one directory.
+
+    Parameters
+    ----------
+    directory : Path
+    """
+
+    def __init__(self, directory: Path) -> None:
+        self.directory = directory
+        self._cache: dict[str, tuple[int, GraspModel]] = {}
+
+    @classmethod
+    def at(cls, models_dir: str) -> ModelFiles:
+        """The models of ``models_dir`` ('' means the package's ``config/models``).
+
+        Raises
+        ------
+        ModelError
+            If the directory does not exist (or the package's config directory cannot be found).
+        """
+        try:
+            directory = Path(models_dir).expanduser() if models_dir else config_dir() / 'models'
+        except FileNotFoundError as exc:
+            raise ModelError(str(exc)) from None
+        if not directory.is_dir():
+            raise ModelError(f'models_dir {str(directory)!r} is not a directory')
+        return cls(directory)
+
+    def names(self) -> tuple[str, ...]:
+        """Stems of the ``*.yaml`` files, sorted."""
+        return tuple(sorted(p.stem for p in self.directory.glob('*.yaml') if p.is_file()))
+
+    def load(self, name: str) -> GraspModel:
+        """The model stored as ``<name>.yaml``.
+
+        Raises
+        ------
+        ModelError
+            If there is no such model (the reason lists the known names).
+        ModelFormatError
+            If the file is not a valid model document.
+        """
+        known = self.names()
+        if name not in known:
+            raise ModelError(f'unknown model {name!r} in {self.directory}; known: '
+                             f'{", ".join(known) or "none"}')
+        path = self.directory / f'{name}.yaml'
+        mtime = path.stat().st_mtime_ns
+        cached = self._cache.get(name)
+        if cached is None or cached[0] != mtime:
+            try:
+                cached = (mtime, GraspModel.load(path))
+            except ModelFormatError as exc:
+                raise ModelFormatError(f'{path}: {exc}') from None
+            self._cache[name] = cached
+        return cached[1]

@@ -1,0 +1,482 @@
+"""The node suite's wire formats, once: topics and their message types, array layouts, the model document,
+diagnostics keys and levels.
+
+ROS-free: the writers return plain values and the readers take any object with the message's fields
+(rclpy messages and rosbags-decoded ones alike), so :mod:`grasp_intent_ros.ros`, the session tools, the
+report and the tests all read and write through this module. Never imports rclpy or
+:mod:`grasp_intent_ros.ros`.
+
+Topics
+------
+:data:`MSGTYPES` maps every topic of the suite (relative names; ``/diagnostics`` is absolute) to its
+message type. :data:`INPUT_TOPICS` are the inputs a replay publishes again, :data:`PLAN_TOPICS` the
+outputs of one plan (one stamp), :data:`OUTPUT_TOPICS` the outputs a replay compares.
+
+Labelled arrays (std_msgs/Float64MultiArray)
+--------------------------------------------
+An n-D array is published row-major with one ``MultiArrayDimension`` per axis. Each dimension's
+``label`` names the entries along that axis, joined by commas: a vector over the 7 zones of three tasks
+has one dimension labelled ``"U,T,H,UT,UH,TH,UTH"``; a task-by-task matrix has two dimensions, each
+labelled ``"usage,transfer,handover"`` (axis 0 = rows). ``size`` is the axis length and ``stride`` the
+number of values spanned by one step along the previous axis (ROS convention: ``dim[0].stride`` is the
+total count). A message without dimensions (what ``ros2 topic pub "{data: [...]}"`` sends) is a flat
+vector. :func:`array_layout` writes the dimensions, :func:`msg_to_array` reads the values.
+
+Stamped arrays
+--------------
+std_msgs/Float64MultiArray has no header. An output array that must be paired with stamped outputs of
+the same computation gets a leading axis of size 1 whose label is the stamp,
+``"stamp=<sec>.<nanosec, 9 digits>"`` (:func:`stamp_label`); the second axis holds the values, labelled
+with their names: ``dim[0] = (label "stamp=...", size 1, stride n)``, ``dim[1] = (names, size n,
+stride n)``, and the data are the n values (read by :func:`stamped_values`).
+
+Grasp posterior (``grasp/posterior``)
+-------------------------------------
+A stamped array whose n = K + m values are P(zone | x) over the model's K zones followed by the m
+principal-task probabilities w reconstructed from P. The values' label is the comma-joined zone labels,
+``|``, the comma-joined task names: ``"U,T,H,UT,UH,TH,UTH|usage,transfer,handover"``
+(:func:`posterior_label`, :func:`read_posterior`).
+
+Model document (``model/active``, std_msgs/String)
+--------------------------------------------------
+Three header lines (model name, version, sha256 of the YAML that follows), then the YAML of
+:meth:`~grasp_intent_ros.core.model.GraspModel.to_yaml` (:func:`model_document`). ``model_version``
+counts activations in one model server (1 = the first model it published); it restarts at 1 when the
+server restarts. ``model_sha256`` identifies the content: a consumer that must know whether the model
+changed compares (name, sha256); to order documents from one server it compares versions.
+
+Diagnostics (``/diagnostics``, diagnostic_msgs/DiagnosticArray)
+---------------------------------------------------------------
+Each node component publishes one status named ``"<node fully-qualified name>: <component>"`` whose
+values carry the keys ``KEY_*`` below; levels are :data:`OK`, :data:`WARN`, :data:`ERROR`, :data:`STALE`
+(rclpy gives them as a 1-byte ``bytes``: :func:`level_value`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Final, Generic, NamedTuple, TypeVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .core.errors import GraspIntentError, ModelFormatError
+from .core.model import GraspModel
+
+__all__ = [
+    'INTENT_W', 'INTENT_V', 'INTENT_CLARIFICATION', 'MODEL_ACTIVE', 'MODEL_AMBIGUITY',
+    'MODEL_AMBIGUITY_SYMMETRIC', 'MODEL_AMBIGUITY_PINSKER', 'MODEL_QUERY', 'MODEL_POSTERIOR',
+    'OBJECT_POSE', 'JOINT_STATES', 'GRASP_POSE', 'GRASP_JOINT_TARGETS', 'GRASP_TRAJECTORY',
+    'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'DIAGNOSTICS',
+    'MSGTYPES', 'INPUT_TOPICS', 'PLAN_TOPICS', 'OUTPUT_TOPICS',
+    'MAX_ARRAY_SIZE', 'join_labels', 'split_labels', 'array_layout', 'msg_to_array', 'msg_labels',
+    'Stamp', 'stamp_label', 'stamped_values', 'posterior_label', 'split_posterior', 'Posterior',
+    'read_posterior',
+    'ModelHeader', 'ModelDocument', 'model_document', 'parse_model_document', 'read_model_document',
+    'OK', 'WARN', 'ERROR', 'STALE', 'LEVEL_NAMES', 'level_value', 'status_name', 'status_values',
+    'KEY_RECEIVED', 'KEY_REJECTED', 'KEY_LAST_ERROR', 'KEY_PROCESSING_TIME', 'KEY_PLANS',
+    'KEY_PLANNING_TIME', 'KEY_MODEL',
+]
+
+# ------------------------------------------------------------------------------------------ topics
+INTENT_W: Final = 'intent/w'
+INTENT_V: Final = 'intent/v'
+INTENT_CLARIFICATION: Final = 'intent/clarification'
+MODEL_ACTIVE: Final = 'model/active'
+MODEL_AMBIGUITY: Final = 'model/ambiguity'
+MODEL_AMBIGUITY_SYMMETRIC: Final = 'model/ambiguity/symmetric'
+MODEL_AMBIGUITY_PINSKER: Final = 'model/ambiguity/pinsker'
+MODEL_QUERY: Final = 'model/query'
+MODEL_POSTERIOR: Final = 'model/posterior'
+OBJECT_POSE: Final = 'object/pose'
+JOINT_STATES: Final = 'joint_states'
+GRASP_POSE: Final = 'grasp/pose'
+GRASP_JOINT_TARGETS: Final = 'grasp/joint_targets'
+GRASP_TRAJECTORY: Final = 'grasp/trajectory'
+GRASP_POSTERIOR: Final = 'grasp/posterior'
+GRASP_FEATURES: Final = 'grasp/features'
+GRASP_MARKERS: Final = 'grasp/markers'
+DIAGNOSTICS: Final = '/diagnostics'
+
+_F64MA, _STRING = 'std_msgs/msg/Float64MultiArray', 'std_msgs/msg/String'
+MSGTYPES: Final[Mapping[str, str]] = {
+    INTENT_W: _F64MA,
+    INTENT_V: _F64MA,
+    INTENT_CLARIFICATION: _STRING,
+    MODEL_ACTIVE: _STRING,
+    MODEL_AMBIGUITY: _F64MA,
+    MODEL_AMBIGUITY_SYMMETRIC: _F64MA,
+    MODEL_AMBIGUITY_PINSKER: _F64MA,
+    MODEL_QUERY: _F64MA,
+    MODEL_POSTERIOR: _F64MA,
+    OBJECT_POSE: 'geometry_msgs/msg/PoseStamped',
+    JOINT_STATES: 'sensor_msgs/msg/JointState',
+    GRASP_POSE: 'geometry_msgs/msg/PoseStamped',
+    GRASP_JOINT_TARGETS: 'sensor_msgs/msg/JointState',
+    GRASP_TRAJECTORY: 'trajectory_msgs/msg/JointTrajectory',
+    GRASP_POSTERIOR: _F64MA,
+    GRASP_FEATURES: _F64MA,
+    GRASP_MARKERS: 'visualization_msgs/msg/MarkerArray',
+    DIAGNOSTICS: 'diagnostic_msgs/msg/DiagnosticArray',
+}
+"""Message type of every topic of the suite, by relative name (``/diagnostics`` is absolute)."""
+
+INPUT_TOPICS: Final = (INTENT_W, OBJECT_POSE, JOINT_STATES)
+"""Inputs a replay publishes again (relative names)."""
+PLAN_TOPICS: Final = (GRASP_POSE, GRASP_JOINT_TARGETS, GRASP_TRAJECTORY, GRASP_POSTERIOR, GRASP_FEATURES)
+"""The outputs of one plan (all carry the same stamp)."""
+OUTPUT_TOPICS: Final = (INTENT_V, INTENT_CLARIFICATION, *PLAN_TOPICS)
+"""Outputs compared by a replay (relative names), besides ``model/active`` and rejections."""
+
+# ------------------------------------------------------------------------------------------ arrays
+MAX_ARRAY_SIZE: Final = 65536
+"""Default limit on the number of values accepted from an incoming array."""
+
+
+def join_labels(names: Sequence[str]) -> str:
+    """Comma-joined label of one dimension.
+
+    Raises
+    ------
+    ValueError
+        For a name containing a comma.
+    """
+    bad = [n for n in names if ',' in n]
+    if bad:
+        raise ValueError(f'labels must not contain commas: {bad}')
+    return ','.join(names)
+
+
+def split_labels(label: str) -> tuple[str, ...]:
+    """Inverse of :func:`join_labels` ('' -> ())."""
+    return tuple(label.split(',')) if label else ()
+
+
+def array_layout(shape: Sequence[int], labels: Sequence[str | Sequence[str]]) -> list[tuple[str, int, int]]:
+    """The dimensions ``(label, size, stride)`` of a row-major array of ``shape``.
+
+    Parameters
+    ----------
+    shape : sequence of int, length k
+    labels : sequence of length k
+        Per axis, the entry names (a sequence of n_i strings, joined with commas) or a ready label
+        string (used as is).
+
+    Raises
+    ------
+    ValueError
+        If the number of labels differs from the number of axes, or a name list has the wrong length.
+    """
+    if len(labels) != len(shape):
+        raise ValueError(f'{len(labels)} labels for an array with {len(shape)} axes')
+    dims = []
+    stride = int(np.prod(shape))
+    for size, label in zip(shape, labels):
+        if not isinstance(label, str):
+            if len(label) != size:
+                raise ValueError(f'{len(label)} names for an axis of size {size}')
+            label = join_labels(label)
+        dims.append((label, int(size), stride))
+        stride = stride // size if size else 0
+    return dims
+
+
+def msg_to_array(msg: Any, *, max_size: int = MAX_ARRAY_SIZE, ndim: int | None = 1,
+                 error: type[GraspIntentError] = GraspIntentError, what: str = 'array'
+                 ) -> NDArray[np.float64]:
+    """Validated values of an incoming Float64MultiArray, shaped by its layout.
+
+    Parameters
+    ----------
+    msg : Float64MultiArray
+        Or any object with ``.layout.dim[i].size``, ``.layout.data_offset`` and ``.data``.
+    max_size : int
+        Largest number of values accepted.
+    ndim : int or None
+        Required number of axes (a message without dimensions counts as 1-D); None accepts any.
+    error : subclass of GraspIntentError
+        Raised for every problem, e.g. InvalidIntentError for w, InvalidFeaturesError for x.
+    what : str
+        Name of the quantity in error messages ('w', 'x').
+
+    Returns
+    -------
+    ndarray, shape given by ``layout.dim`` sizes (or (n,) without dimensions)
+
+    Raises
+    ------
+    error
+        If the array is empty, holds more than ``max_size`` values, has a layout inconsistent with
+        its data, has the wrong number of axes, or holds a NaN or infinity.
+    """
+    offset = int(msg.layout.data_offset)
+    n = len(msg.data) - offset
+    if n <= 0:
+        raise error(f'{what} is empty')
+    if n > max_size:
+        raise error(f'{what} is oversized: {n} values, the limit is {max_size}')
+    dims = msg.layout.dim
+    shape = tuple(int(d.size) for d in dims) if dims else (n,)
+    if int(np.prod(shape)) != n:
+        raise error(f'{what} has a malformed layout: dimension sizes {list(shape)} do not match '
+                    f'{n} values')
+    if ndim is not None and len(shape) != ndim:
+        raise error(f'{what} must have {ndim} dimension(s), got {len(shape)}')
+    arr = np.array(msg.data, dtype=np.float64)[offset:]  # array.array: read through the buffer protocol
+    if not np.all(np.isfinite(arr)):
+        bad = int(np.flatnonzero(~np.isfinite(arr))[0])
+        raise error(f'{what} contains NaN or infinity (first at index {bad}: {arr[bad]})')
+    return arr.reshape(shape)
+
+
+def msg_labels(msg: Any) -> tuple[tuple[str, ...], ...]:
+    """Entry names per axis of a Float64MultiArray, from the dimension labels."""
+    return tuple(split_labels(str(d.label)) for d in msg.layout.dim)
+
+
+class Stamp(NamedTuple):
+    """A ``builtin_interfaces/Time`` as plain integers (also compares equal to ``(sec, nanosec)``)."""
+
+    sec: int
+    nanosec: int
+
+
+def stamp_label(stamp: Any) -> str:
+    """``"stamp=<sec>.<nanosec>"`` with 9 nanosecond digits, of anything with ``.sec`` and ``.nanosec``."""
+    return f'stamp={int(stamp.sec)}.{int(stamp.nanosec):09d}'
+
+
+def _parse_stamp_label(label: str) -> Stamp:
+    sec, dot, nanosec = label.removeprefix('stamp=').partition('.')
+    if not label.startswith('stamp=') or not dot or not sec.isdigit() or not nanosec.isdigit() \
+            or len(nanosec) != 9:
+        raise GraspIntentError(f'expected a stamp label "stamp=<sec>.<9-digit nanosec>", got {label!r}')
+    return Stamp(int(sec), int(nanosec))
+
+
+def stamped_values(msg: Any, *, max_size: int = MAX_ARRAY_SIZE, what: str = 'array',
+                   require_stamp: bool = True) -> tuple[NDArray[np.float64], str, Stamp | None]:
+    """Values, values label and stamp of a stamped array (layout in the module docstring).
+
+    Parameters
+    ----------
+    msg : Float64MultiArray (or a rosbags-decoded one)
+    max_size, what
+        As for :func:`msg_to_array`.
+    require_stamp : bool
+        False also accepts a 1-D array (its ``dim[0]`` label, '' without dimensions; stamp None).
+
+    Returns
+    -------
+    values : ndarray, shape (n,)
+    label : str
+        Label of the values axis.
+    stamp : Stamp or None
+
+    Raises
+    ------
+    GraspIntentError
+        If the layout is not (stamp axis of size 1, values axis), the stamp label is malformed, or
+        the values are malformed (see :func:`msg_to_array`).
+    """
+    arr = msg_to_array(msg, max_size=max_size, ndim=2 if require_stamp else None, what=what)
+    if arr.ndim == 1:
+        return arr, str(msg.layout.dim[0].label) if msg.layout.dim else '', None
+    if arr.ndim != 2:
+        raise GraspIntentError(f'{what} must have shape (1, n) or (n,), got {arr.shape}')
+    if arr.shape[0] != 1:
+        raise GraspIntentError(f'{what}: the stamp axis must have size 1, got shape {arr.shape}')
+    return arr[0], str(msg.layout.dim[1].label), _parse_stamp_label(str(msg.layout.dim[0].label))
+
+
+def posterior_label(zone_labels: Sequence[str], task_names: Sequence[str]) -> str:
+    """The values label of a grasp posterior: ``"<zones>|<tasks>"``. Raises ValueError for a comma in a name."""
+    return f'{join_labels(zone_labels)}|{join_labels(task_names)}'
+
+
+def split_posterior(values: NDArray[np.float64], label: str, *, what: str = 'grasp/posterior'
+                    ) -> tuple[tuple[str, ...], NDArray[np.float64], tuple[str, ...], NDArray[np.float64]]:
+    """(zone labels (K,), P shape (K,), task names (m,), w shape (m,)) of the values of a grasp posterior.
+
+    Raises
+    ------
+    GraspIntentError
+        If ``label`` is not "<zones>|<tasks>" naming all ``values``.
+    """
+    zones_part, bar, tasks_part = label.partition('|')
+    zones, tasks = split_labels(zones_part), split_labels(tasks_part)
+    if not bar or not zones or not tasks or len(zones) + len(tasks) != values.size:
+        raise GraspIntentError(f'{what} label must be "<zones>|<tasks>" naming all {values.size} values, '
+                               f'got {label!r}')
+    return zones, values[:len(zones)], tasks, values[len(zones):]
+
+
+S = TypeVar('S')
+
+
+@dataclass(frozen=True)
+class Posterior(Generic[S]):
+    """The content of ``grasp/posterior``.
+
+    Attributes
+    ----------
+    stamp : S
+        Stamp of the plan (:class:`Stamp`, None for an unstamped array, or a ``builtin_interfaces/Time``
+        from :func:`grasp_intent_ros.ros.robot.posterior_from_msg`).
+    zone_labels : tuple of str, length K
+    p : ndarray, shape (K,)
+        P(zone | x) of the planned grasp.
+    task_names : tuple of str, length m
+    w : ndarray, shape (m,)
+        Principal-task probabilities reconstructed from p.
+    """
+
+    stamp: S
+    zone_labels: tuple[str, ...]
+    p: NDArray[np.float64]
+    task_names: tuple[str, ...]
+    w: NDArray[np.float64]
+
+
+def read_posterior(msg: Any, *, require_stamp: bool = False, what: str = 'grasp/posterior'
+                   ) -> Posterior[Stamp | None]:
+    """Parse a ``grasp/posterior`` Float64MultiArray (layout in the module docstring).
+
+    Raises
+    ------
+    GraspIntentError
+        Wrong shape, NaN/Inf, a malformed stamp label, or a values label other than "<zones>|<tasks>"
+        naming all values.
+    """
+    values, label, stamp = stamped_values(msg, what=what, require_stamp=require_stamp)
+    zones, p, tasks, w = split_posterior(values, label, what=what)
+    return Posterior(stamp, zones, p, tasks, w)
+
+
+# ------------------------------------------------------------------------------------------ model document
+@dataclass(frozen=True)
+class ModelHeader:
+    """The header of a model document.
+
+    Attributes
+    ----------
+    name : str
+        The model's name (the model server's ``model`` parameter).
+    version : int
+        Activation count in the publishing model server, >= 1.
+    sha256 : str
+        Hex digest of the YAML body.
+    """
+
+    name: str
+    version: int
+    sha256: str
+
+
+@dataclass(frozen=True)
+class ModelDocument(ModelHeader):
+    """A model as published on ``model/active``: its header (name, version, content hash) and the model."""
+
+    model: GraspModel
+
+
+_HEADER = re.compile(r'# model_name: (?P<name>[^\n]*)\n# model_version: (?P<version>[0-9]+)\n'
+                     r'# model_sha256: (?P<sha>[0-9a-f]{64})\n')
+
+
+def model_document(model: GraspModel, *, name: str, version: int) -> str:
+    """The versioned model document: three header lines, then :meth:`GraspModel.to_yaml`::
+
+        # model_name: cup_7zone
+        # model_version: 3
+        # model_sha256: <sha256 of the YAML text that follows, hex>
+        <GraspModel YAML>
+
+    The header lines are YAML comments, so :meth:`GraspModel.from_yaml` also reads the whole text.
+
+    Raises
+    ------
+    ValueError
+        If ``name`` spans several lines or ``version < 1``.
+    """
+    if '\n' in name or version < 1:
+        raise ValueError('name must be one line and version >= 1')
+    body = model.to_yaml()
+    sha = hashlib.sha256(body.encode()).hexdigest()
+    return f'# model_name: {name}\n# model_version: {version}\n# model_sha256: {sha}\n{body}'
+
+
+def parse_model_document(text: str, *, check_sha256: bool = True) -> tuple[ModelHeader, str]:
+    """Split a document written by :func:`model_document` into its header and YAML body.
+
+    The body is not parsed (see :func:`read_model_document`). ``check_sha256=False`` reads the header
+    alone, without hashing the body.
+
+    Raises
+    ------
+    ModelFormatError
+        If the header lines are missing or malformed, ``model_version < 1``, or (when checked) the
+        body's sha256 differs from the header's.
+    """
+    header = _HEADER.match(text)
+    if header is None:
+        raise ModelFormatError('model document lacks the header lines "# model_name: ...", '
+                               '"# model_version: <n>", "# model_sha256: <hex>"')
+    body = text[header.end():]
+    if check_sha256:
+        sha = hashlib.sha256(body.encode()).hexdigest()
+        if sha != header['sha']:
+            raise ModelFormatError(f'model document is corrupted: sha256 {sha} does not match the header')
+    version = int(header['version'])
+    if version < 1:
+        raise ModelFormatError(f'model_version must be >= 1, got {version}')
+    return ModelHeader(header['name'], version, header['sha']), body
+
+
+def read_model_document(text: str) -> ModelDocument:
+    """Parse a whole model document: header checked, body read by :meth:`GraspModel.from_yaml`.
+
+    Raises
+    ------
+    ModelFormatError
+        If the header is missing or malformed, the hash does not match the YAML, or the YAML is not a
+        valid model.
+    """
+    header, body = parse_model_document(text)
+    return ModelDocument(header.name, header.version, header.sha256, GraspModel.from_yaml(body))
+
+
+# ------------------------------------------------------------------------------------------ diagnostics
+OK: Final = 0
+WARN: Final = 1
+ERROR: Final = 2
+STALE: Final = 3
+LEVEL_NAMES: Final[Mapping[int, str]] = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR', STALE: 'STALE'}
+
+KEY_RECEIVED: Final = 'messages received'
+KEY_REJECTED: Final = 'messages rejected'
+KEY_LAST_ERROR: Final = 'last error'
+KEY_PROCESSING_TIME: Final = 'last processing time [ms]'
+KEY_PLANS: Final = 'plans'
+"""The planner's count of plans made."""
+KEY_PLANNING_TIME: Final = 'last planning time [ms]'
+KEY_MODEL: Final = 'model'
+"""The planner's model: ``"<name> (version <n>, zones <labels>)"``."""
+
+
+def level_value(level: Any) -> int:
+    """A DiagnosticStatus level as an int (rclpy gives a 1-byte ``bytes``, rosbags an int)."""
+    return level[0] if isinstance(level, (bytes, bytearray)) else int(level)
+
+
+def status_name(node: str, component: str) -> str:
+    """The status name of a node component: ``"<node fully-qualified name>: <component>"``."""
+    return f'{node}: {component}'
+
+
+def status_values(status: Any) -> dict[str, str]:
+    """The key/value pairs of a DiagnosticStatus as a dict."""
+    return {str(kv.key): str(kv.value) for kv in status.values}

@@ -1,0 +1,104 @@
+"""A latest-only worker: callbacks store the newest inputs, one thread handles the newest snapshot.
+
+The node's executor thread never blocks on a long computation (a plan), and the thread never works
+through a backlog: inputs that arrive while it is busy replace each other, and it takes the newest
+snapshot when it is free again. Nothing here knows messages: it is rclpy's threading idiom, written once.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Callable
+from typing import Generic, TypeVar
+
+__all__ = ['LatestOnlyWorker']
+
+T = TypeVar('T')
+
+
+class LatestOnlyWorker(Generic[T]):
+    """Holds the newest inputs ``T`` (immutable) and hands them to ``handle`` in a thread of its own.
+
+    Parameters
+    ----------
+    initial : T
+        The inputs before any update.
+    handle : callable
+        ``handle(snapshot)`` runs in the worker thread. It must not raise (wrap it, e.g. with
+        ``NodeDiagnostics.guard``).
+    ready : callable
+        ``ready(snapshot) -> bool``, checked first in the worker thread: False when the snapshot cannot
+        be handled yet (an input is still missing); it is offered again after the next triggering update.
+    name : str
+        Thread name.
+    min_period : callable
+        Seconds that must pass between the starts of two handled snapshots (read before each).
+    """
+
+    def __init__(self, initial: T, handle: Callable[[T], object], *, name: str,
+                 ready: Callable[[T], bool] = lambda _: True,
+                 min_period: Callable[[], float] = lambda: 0.0) -> None:
+        self._lock = threading.Lock()
+        self._latest = initial
+        self._version = 0
+        self._handle, self._ready = handle, ready
+        self._min_period = min_period
+        self._wake, self._stop = threading.Event(), threading.Event()
+        self.superseded = 0
+        """Triggering updates never handled because a newer one replaced them."""
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    @property
+    def latest(self) -> T:
+        """The newest inputs."""
+        with self._lock:
+            return self._latest
+
+    def update(self, change: Callable[[T], T], *, trigger: bool = True) -> None:
+        """Replace the inputs by ``change(latest)`` atomically; with ``trigger`` they call for handling."""
+        with self._lock:
+            self._latest = change(self._latest)
+            if trigger:
+                self._version += 1
+        if trigger:
+            self._wake.set()
+
+    def stop_soon(self) -> None:
+        """Ask the thread to stop after its current snapshot (safe from any thread and a signal handler)."""
+        self._stop.set()
+        self._wake.set()
+
+    def stop(self) -> None:
+        """Stop the thread and wait for it (unless called from it)."""
+        self.stop_soon()
+        if self._thread.is_alive() and threading.current_thread() is not self._thread:
+            self._thread.join()
+
+    @property
+    def stopping(self) -> bool:
+        """Whether a stop was asked for."""
+        return self._stop.is_set()
+
+    def _run(self) -> None:
+        handled = 0
+        last_start = -math.inf
+        while not self._stop.is_set():
+            self._wake.wait()
+            wait = last_start + self._min_period() - time.monotonic()
+            if wait > 0.0 and self._stop.wait(wait):
+                break
+            self._wake.clear()
+            if self._stop.is_set():
+                break
+            with self._lock:
+                snapshot, version = self._latest, self._version
+            if version == handled:
+                continue
+            if not self._ready(snapshot):
+                continue
+            self.superseded += max(0, version - handled - 1)
+            handled, last_start = version, time.monotonic()
+            self._handle(snapshot)
