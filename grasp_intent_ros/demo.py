@@ -18,10 +18,11 @@ Run: ``python -m grasp_intent_ros.demo [--models-dir DIR] [--timeout S]`` (``scr
 3. Stops every node with SIGINT (SIGKILL after a deadline) and checks each exited with code 0 and
    printed no traceback.
 
-Network: importing this module sets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and drops
-``ROS_STATIC_PEERS`` in its own environment before rclpy is imported (as ``test/conftest.py`` does), so
-no DDS traffic leaves the loopback interface. The domain id is ``ROS_DOMAIN_ID`` when set, else one derived
-from the process id; the nodes inherit both.
+Network: :func:`main` sets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and drops ``ROS_STATIC_PEERS`` in
+its own environment before it initialises rclpy, and the nodes get the same
+(:class:`~grasp_intent_ros.processes.NodeSuite`), so no DDS traffic leaves the loopback interface. The
+domain id is ``ROS_DOMAIN_ID`` when set, else one derived from the process id
+(:func:`~grasp_intent_ros.processes.domain_id_from_environment`).
 
 Exit codes: 0 every case answered and every node exited 0; 1 a node did not come up, a case was not
 answered as expected, or a node did not shut down cleanly; 2 bad arguments; 130 interrupted (SIGINT or
@@ -30,43 +31,34 @@ SIGTERM; the nodes are stopped first).
 
 from __future__ import annotations
 
+import argparse
 import os
+import signal
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from types import FrameType
 
-_REQUESTED_RANGE = os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE')
-os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # before rclpy is imported anywhere
-os.environ.pop('ROS_STATIC_PEERS', None)
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+from rclpy.signals import SignalHandlerOptions
+from std_msgs.msg import String
 
-import argparse  # noqa: E402
-import signal  # noqa: E402
-import sys  # noqa: E402
-import tempfile  # noqa: E402
-import time  # noqa: E402
-from collections.abc import Callable, Sequence  # noqa: E402
-from pathlib import Path  # noqa: E402
-from types import FrameType  # noqa: E402
-
-import rclpy  # noqa: E402
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.node import Node  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
-from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
-from rclpy.signals import SignalHandlerOptions  # noqa: E402
-from std_msgs.msg import String  # noqa: E402
-
-from .core.errors import GraspIntentError  # noqa: E402
-from .core.resources import config_dir  # noqa: E402
-from .paper_tables import CASES  # noqa: E402
-from .processes import STOP_TIMEOUT, NodeProcess, node_environment  # noqa: E402
-from .ros.conversions import model_from_msg  # noqa: E402
+from .core.errors import GraspIntentError
+from .paper_tables import CASES
+from .processes import (NodeSuite, SuiteError, domain_id_from_environment,
+                        use_loopback_discovery)
+from .ros.conversions import model_from_msg
 from .protocol import ModelDocument
-from .ros.qos import input_qos, latched_qos  # noqa: E402
-from .send_intent import IntentSender, NoGrasp, format_grasp  # noqa: E402
+from .ros.qos import input_qos, latched_qos
+from .send_intent import IntentSender, NoGrasp, format_grasp
 
-__all__ = ['NODES', 'CLARIFICATION_CASE', 'DemoError', 'main']
-
-NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
-"""The node modules the demo starts, in start order."""
+__all__ = ['CLARIFICATION_CASE', 'DemoError', 'main']
 
 CLARIFICATION_CASE = ('Clarification: low intent', (0.1, 0.1, 0.1))
 """Sent last: P(no task) = 0.729 >= the default threshold 0.5, so the interpreter asks for clarification."""
@@ -87,48 +79,6 @@ class _Interrupted(Exception):
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
     raise _Interrupted(signal.Signals(signum).name)
-
-
-def _domain_id() -> int:
-    """ROS_DOMAIN_ID if set (must be 0..101 for LOCALHOST discovery), else 10..89 from the process id."""
-    value = os.environ.get('ROS_DOMAIN_ID', '').strip()
-    if not value:
-        return 10 + os.getpid() % 80
-    if not value.isdigit() or int(value) > 101:
-        raise DemoError(f'ROS_DOMAIN_ID must be an integer in 0..101, got {value!r}')
-    return int(value)
-
-
-# ------------------------------------------------------------------------------------------ processes
-def _start_nodes(nodes: dict[str, NodeProcess], models_dir: Path | None, env: dict[str, str],
-                 log_dir: Path) -> None:
-    """Start every node of NODES into ``nodes`` (filled as they start, so a signal between two starts
-    still finds the earlier ones to stop)."""
-    try:
-        config: Path | None = config_dir()
-    except FileNotFoundError:
-        config = None
-    for name in NODES:
-        ros_args: list[str] = []
-        if config is not None and (config / f'{name}.yaml').is_file():
-            ros_args += ['--params-file', str(config / f'{name}.yaml')]
-        if name == 'model_server' and models_dir is not None:
-            ros_args += ['-p', f'models_dir:={models_dir}']
-        nodes[name] = NodeProcess.start(name, ros_args, env=env, log_dir=log_dir)
-
-
-def _stop_nodes(nodes: dict[str, NodeProcess]) -> list[str]:
-    """SIGINT every node still running, wait for all against one deadline (SIGKILL after STOP_TIMEOUT); the
-    problems found (non-zero exit, traceback, killed), each with the end of its stderr."""
-    for proc in nodes.values():
-        proc.send_signal(signal.SIGINT)
-    deadline = time.monotonic() + STOP_TIMEOUT
-    problems = []
-    for proc in nodes.values():
-        proc.wait(max(0.0, deadline - time.monotonic()))
-        if problem := proc.problem():
-            problems.append(f'{problem}:\n{proc.stderr_tail()}')
-    return problems
 
 
 # ------------------------------------------------------------------------------------------ the ROS side
@@ -164,8 +114,8 @@ class _ChainObserver(Node):
 class _Demo:
     """The running chain seen from the demo: node processes, the sender, the observer."""
 
-    def __init__(self, nodes: dict[str, NodeProcess], timeout: float) -> None:
-        self.nodes = nodes
+    def __init__(self, suite: NodeSuite, timeout: float) -> None:
+        self.suite = suite
         self.timeout = timeout
         self.sender = IntentSender('grasp_intent_demo_sender')
         self.observer = _ChainObserver()
@@ -179,11 +129,8 @@ class _Demo:
         self.observer.destroy_node()
 
     def _check_alive(self) -> None:
-        for proc in self.nodes.values():
-            code = proc.poll()
-            if code is not None:
-                raise DemoError(f'{proc.module} exited with code {code}; its stderr ends with:\n'
-                                f'{proc.stderr_tail()}')
+        if problem := self.suite.died():
+            raise DemoError(problem)
 
     def _spin_until(self, predicate: Callable[[], object], timeout: float | None = None) -> bool:
         """Spin until ``predicate()`` holds (True) or ``timeout`` (default ``self.timeout``) seconds pass
@@ -232,11 +179,14 @@ class _Demo:
                 'no /diagnostics from it' if obs.status('grasp_planner: planning') is None else
                 'it reports no model received' if not self._planner_model() else ''),
         }
-        if self._spin_until(lambda: not any(why() for why in missing.values())):
-            return
-        down = [f'{name} did not come up within {self.timeout:g} s ({why()}); its stderr ends with:\n'
-                f'{self.nodes[name].stderr_tail()}' for name, why in missing.items() if why()]
-        raise DemoError('\n'.join(down))
+        try:
+            down = self.suite.wait_ready(lambda: {name: why for name, check in missing.items() if (why := check())},
+                                         lambda seconds: self.executor.spin_once(timeout_sec=seconds), self.timeout)
+        except SuiteError as exc:
+            raise DemoError(str(exc)) from None
+        if down:
+            raise DemoError('\n'.join(f'{name} did not come up within {self.timeout:g} s ({why}); its stderr ends '
+                                      f'with:\n{self.suite.node(name).stderr_tail()}' for name, why in down.items()))
 
     def switch_model(self, name: str) -> ModelDocument:
         """Make ``name`` the active model (parameter service) and wait until the planner has it."""
@@ -259,7 +209,7 @@ class _Demo:
         if not self._spin_until(lambda: self._planner_model().startswith(expected)):
             raise DemoError(f'grasp_planner did not report model {active.name!r} version {active.version} '
                             f'within {self.timeout:g} s (it reports {self._planner_model()!r}); its stderr '
-                            f'ends with:\n{self.nodes["grasp_planner"].stderr_tail()}')
+                            f'ends with:\n{self.suite.node("grasp_planner").stderr_tail()}')
         return active
 
     def run_case(self, title: str, w: Sequence[float], model: str | None) -> None:
@@ -291,50 +241,50 @@ class _Demo:
 
 
 def _run(models_dir: Path | None, timeout: float) -> int:
-    domain_id = _domain_id()
-    if _REQUESTED_RANGE not in (None, '', 'LOCALHOST'):
-        print(f'demo: ROS_AUTOMATIC_DISCOVERY_RANGE={_REQUESTED_RANGE} overridden with LOCALHOST',
+    domain_id = domain_id_from_environment()
+    requested_range = use_loopback_discovery()  # before rclpy.init: this process's participant too
+    if requested_range not in (None, '', 'LOCALHOST'):
+        print(f'demo: ROS_AUTOMATIC_DISCOVERY_RANGE={requested_range} overridden with LOCALHOST',
               file=sys.stderr)
-    env = node_environment(domain_id)
-    env['PYTHONPATH'] = os.pathsep.join(p for p in (str(_PACKAGE_PARENT), os.environ.get('PYTHONPATH')) if p)
+    pythonpath = os.pathsep.join(p for p in (str(_PACKAGE_PARENT), os.environ.get('PYTHONPATH')) if p)
     start = time.monotonic()
-    nodes: dict[str, NodeProcess] = {}
     code = 1
-    with tempfile.TemporaryDirectory(prefix='grasp_intent_demo_') as log_dir:
-        demo: _Demo | None = None
-        try:
-            rclpy.init(domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
-            demo = _Demo(nodes, timeout)
-            demo.check_domain_unused(domain_id)
-            _start_nodes(nodes, models_dir, env, Path(log_dir))
-            print(f'ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; started '
-                  + ', '.join(f'{p.module} (pid {p.pid})' for p in nodes.values()), flush=True)
-            demo.wait_until_up()
-            print(f'all nodes up after {time.monotonic() - start:.1f} s\n', flush=True)
-            for title, w, models in CASES:
-                print(title)
-                for name in models:
-                    demo.run_case(title, w, name)
-            print(CLARIFICATION_CASE[0])
-            demo.run_case(*CLARIFICATION_CASE, None)
-            code = 0
-        except DemoError as exc:
-            print(f'demo: {exc}', file=sys.stderr)
-        except (_Interrupted, KeyboardInterrupt):
-            print('demo: interrupted, stopping the nodes', file=sys.stderr)
-            code = 130
-        finally:
-            signal.signal(signal.SIGINT, signal.SIG_IGN)  # the nodes are stopped once, completely
-            signal.signal(signal.SIGTERM, signal.SIG_IGN)
-            if demo is not None:
-                demo.close()
-            rclpy.try_shutdown()
-            problems = _stop_nodes(nodes)
+    suite = NodeSuite(domain_id, env={'PYTHONPATH': pythonpath})
+    demo: _Demo | None = None
+    try:
+        rclpy.init(domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
+        demo = _Demo(suite, timeout)
+        demo.check_domain_unused(domain_id)
+        suite.start_nodes(models_dir=models_dir)
+        print(f'ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; started '
+              + ', '.join(f'{p.module} (pid {p.pid})' for p in suite.processes), flush=True)
+        demo.wait_until_up()
+        print(f'all nodes up after {time.monotonic() - start:.1f} s\n', flush=True)
+        for title, w, models in CASES:
+            print(title)
+            for name in models:
+                demo.run_case(title, w, name)
+        print(CLARIFICATION_CASE[0])
+        demo.run_case(*CLARIFICATION_CASE, None)
+        code = 0
+    except DemoError as exc:
+        print(f'demo: {exc}', file=sys.stderr)
+    except (_Interrupted, KeyboardInterrupt):
+        print('demo: interrupted, stopping the nodes', file=sys.stderr)
+        code = 130
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # the nodes are stopped once, completely
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        if demo is not None:
+            demo.close()
+        rclpy.try_shutdown()
+        problems = suite.stop(signal.SIGINT)
+        suite.remove_logs()
     for problem in problems:  # after a failure, one line each: the failure was reported with its stderr
         print(f'demo: {problem if code == 0 else problem.splitlines()[0]}', file=sys.stderr)
     if problems and code == 0:
         code = 1
-    stopped = f'nodes stopped ({"cleanly" if not problems else "with problems"}); ' if nodes else ''
+    stopped = f'nodes stopped ({"cleanly" if not problems else "with problems"}); ' if suite.processes else ''
     print(f'{stopped}demo {"done" if code == 0 else "failed"} in {time.monotonic() - start:.1f} s', flush=True)
     return code
 
@@ -355,7 +305,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, _interrupt)
     try:
         return _run(None if args.models_dir is None else args.models_dir.resolve(), args.timeout)
-    except DemoError as exc:
+    except (DemoError, SuiteError) as exc:
         print(f'demo: {exc}', file=sys.stderr)
         return 1
     except _Interrupted:

@@ -1,13 +1,21 @@
-"""Node processes: ``python -m grasp_intent_ros.<module> --ros-args ...`` started, watched and stopped by PID.
+"""The node suite as processes: ``python -m grasp_intent_ros.<module> --ros-args ...`` started, watched
+and stopped by PID, on one loopback-only ROS domain.
 
-Used by the demo, the replay suite (``--start-suite``, ``scripts/record_sessions.py``) and the system tests.
+One :class:`NodeSuite` serves the demo, the replay (``--start-suite``), ``scripts/record_sessions.py`` and
+the system tests.
 
+- :func:`domain_id_from_environment`: the run's ROS domain id, chosen and validated once
+  (``ROS_DOMAIN_ID`` if set, 0..101, else one derived from the process id).
+- :func:`use_loopback_discovery`: called by a tool's ``main`` before it initialises rclpy (never at
+  import), so its own participant stays on the loopback interface too.
 - :func:`node_environment`: the environment every node process gets: loopback-only discovery
   (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, no ``ROS_STATIC_PEERS``), the run's ``ROS_DOMAIN_ID``, and
   unbuffered output, so the log of a SIGKILLed node is complete.
 - :class:`NodeProcess`: stdout and stderr go to files (no pipe can fill up and block a node); it is
   signalled only by its own PID, SIGKILLed after a deadline, and judged clean on exit code 0 with no
   traceback on stderr.
+- :class:`NodeSuite`: the processes of one run: start (one node, or the three suite nodes with their
+  ``config/<node>.yaml``), wait until ready, notice a death, stop them all against one deadline.
 
 Never imports rclpy.
 """
@@ -15,16 +23,59 @@ Never imports rclpy.
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
-from collections.abc import Callable, Mapping, Sequence
+import tempfile
+import time
+from collections.abc import Callable, Collection, Mapping, MutableMapping, Sequence
 from pathlib import Path
+from types import TracebackType
 
-__all__ = ['STOP_TIMEOUT', 'NodeProcess', 'node_environment']
+from .core.resources import config_dir
+
+__all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'MAX_DOMAIN_ID', 'SuiteError', 'domain_id_from_environment',
+           'use_loopback_discovery', 'node_environment', 'NodeProcess', 'NodeSuite']
 
 STOP_TIMEOUT = 10.0
 """Seconds a node gets to exit after SIGINT/SIGTERM before it is SIGKILLed."""
+SUITE_NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
+"""The node modules of the suite, in start order."""
+MAX_DOMAIN_ID = 101
+"""Largest ROS domain id usable with LOCALHOST discovery."""
+
+
+class SuiteError(RuntimeError):
+    """The suite cannot run: a bad ROS_DOMAIN_ID, or a node process exited while it was waited for."""
+
+
+def domain_id_from_environment(environ: Mapping[str, str] | None = None, *, unset: int | None = None) -> int:
+    """The run's ROS domain id: ``ROS_DOMAIN_ID`` if set, else ``unset``, else 10..89 derived from the process
+    id (a run that starts its own nodes keeps off other runs' domains; one that joins running nodes passes
+    ``unset=0``, ROS's own default).
+
+    Raises
+    ------
+    SuiteError
+        If ``ROS_DOMAIN_ID`` is set but not an integer in 0..:data:`MAX_DOMAIN_ID`.
+    """
+    value = (os.environ if environ is None else environ).get('ROS_DOMAIN_ID', '').strip()
+    if not value:
+        return 10 + os.getpid() % 80 if unset is None else unset
+    if not value.isdigit() or int(value) > MAX_DOMAIN_ID:
+        raise SuiteError(f'ROS_DOMAIN_ID must be an integer in 0..{MAX_DOMAIN_ID}, got {value!r}')
+    return int(value)
+
+
+def use_loopback_discovery(environ: MutableMapping[str, str] | None = None) -> str | None:
+    """Set ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and drop ``ROS_STATIC_PEERS`` in ``environ`` (default
+    ``os.environ``), before this process initialises rclpy; the range it replaced (None if unset)."""
+    env = os.environ if environ is None else environ
+    previous = env.get('ROS_AUTOMATIC_DISCOVERY_RANGE')
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    env.pop('ROS_STATIC_PEERS', None)
+    return previous
 
 
 def node_environment(domain_id: int, base: Mapping[str, str] | None = None) -> dict[str, str]:
@@ -137,3 +188,161 @@ class NodeProcess:
         if 'Traceback' in self.stderr():
             return f'{who} printed a traceback'
         return ''
+
+
+class NodeSuite:
+    """The node processes of one run, all on ``domain_id`` with loopback-only discovery.
+
+    Parameters
+    ----------
+    domain_id : int
+        ROS_DOMAIN_ID of every process (0..:data:`MAX_DOMAIN_ID`).
+    log_dir : path, optional
+        Where each process's stdout/stderr go; default a new temporary directory
+        (:meth:`remove_logs` deletes it).
+    cwd : path, optional
+        Working directory of the processes (default this process's).
+    numbered_logs : bool
+        Prefix log file names with the start order (``00_``, ``01_``, ...), for a run that starts one
+        module several times.
+    env : mapping, optional
+        Extra environment variables of the processes.
+
+    Raises
+    ------
+    SuiteError
+        For a domain id outside 0..:data:`MAX_DOMAIN_ID`.
+    """
+
+    def __init__(self, domain_id: int, *, log_dir: str | os.PathLike[str] | None = None,
+                 cwd: str | os.PathLike[str] | None = None, numbered_logs: bool = False,
+                 env: Mapping[str, str] | None = None) -> None:
+        if not 0 <= domain_id <= MAX_DOMAIN_ID:
+            raise SuiteError(f'ROS domain id must be in 0..{MAX_DOMAIN_ID}, got {domain_id}')
+        self.domain_id = domain_id
+        self._own_log_dir = log_dir is None
+        self.log_dir = Path(log_dir) if log_dir is not None else Path(tempfile.mkdtemp(prefix='grasp_intent_ros_'))
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        self._cwd = None if cwd is None else Path(cwd)
+        self._numbered = numbered_logs
+        self.env = {**node_environment(domain_id), **(env or {})}
+        self.processes: list[NodeProcess] = []
+
+    def start(self, module: str, *ros_args: str) -> NodeProcess:
+        """Start ``python -m grasp_intent_ros.<module> --ros-args <ros_args>``."""
+        prefix = f'{len(self.processes):02d}_' if self._numbered else ''
+        proc = NodeProcess.start(module, ros_args, env=self.env, log_dir=self.log_dir, prefix=prefix,
+                                 cwd=self._cwd)
+        self.processes.append(proc)
+        return proc
+
+    def start_nodes(self, *, namespace: str = '', model: str | None = None,
+                    models_dir: str | os.PathLike[str] | None = None) -> None:
+        """Start :data:`SUITE_NODES`, each with its ``config/<node>.yaml`` (when the config directory is found).
+
+        Parameters
+        ----------
+        namespace : str
+            '' or e.g. '/robot1' (``-r __ns:=``).
+        model, models_dir : optional
+            The model server's initial ``model`` and its ``models_dir`` (default: its config file's).
+
+        Raises
+        ------
+        OSError
+            If a process cannot be started; those already started stay in :attr:`processes`.
+        """
+        try:
+            config: Path | None = config_dir()
+        except FileNotFoundError:
+            config = None
+        for module in SUITE_NODES:
+            ros_args: list[str] = []
+            if config is not None and (config / f'{module}.yaml').is_file():
+                ros_args += ['--params-file', str(config / f'{module}.yaml')]
+            if namespace:
+                ros_args += ['-r', f'__ns:={namespace}']
+            if module == 'model_server':
+                if model is not None:
+                    ros_args += ['-p', f'model:={model}']
+                if models_dir is not None:
+                    ros_args += ['-p', f'models_dir:={Path(models_dir).resolve()}']
+            self.start(module, *ros_args)
+
+    def node(self, module: str) -> NodeProcess:
+        """The last process started of ``module``. Raises KeyError if there is none."""
+        for proc in reversed(self.processes):
+            if proc.module == module:
+                return proc
+        raise KeyError(module)
+
+    def died(self) -> str:
+        """'' while every process runs; else which one exited, with its code and the end of its stderr."""
+        for proc in self.processes:
+            code = proc.poll()
+            if code is not None:
+                return f'{proc.module} (pid {proc.pid}) exited with code {code}; its stderr ends with:\n' \
+                       f'{proc.stderr_tail()}'
+        return ''
+
+    def wait_ready(self, missing: Callable[[], Collection[str]], spin: Callable[[float], object],
+                   timeout: float) -> Collection[str]:
+        """Call ``spin(seconds)`` until ``missing()`` is empty or ``timeout`` seconds pass.
+
+        Returns
+        -------
+        What ``missing()`` last returned: empty when the suite is ready.
+
+        Raises
+        ------
+        SuiteError
+            As soon as a process has exited (:meth:`died`).
+        """
+        deadline = time.monotonic() + timeout
+        while lacking := missing():
+            if problem := self.died():
+                raise SuiteError(problem)
+            remaining = deadline - time.monotonic()
+            if remaining <= 0.0:
+                return lacking
+            spin(min(remaining, 0.05))
+        return lacking
+
+    def stop(self, sig: signal.Signals = signal.SIGTERM, *, timeout: float = STOP_TIMEOUT, tail_lines: int = 15,
+             include_exited: bool = True) -> list[str]:
+        """Send ``sig`` to every process still running (by PID), wait for all against one deadline (SIGKILL
+        after ``timeout`` s).
+
+        Parameters
+        ----------
+        include_exited : bool
+            Also judge the processes that had exited before this call (False: only those it stops).
+
+        Returns
+        -------
+        list of str
+            The problems (non-zero exit, traceback, killed), each followed by the last ``tail_lines``
+            lines of that process's stderr (none for 0).
+        """
+        judged = [p for p in self.processes if include_exited or p.poll() is None]
+        for proc in judged:
+            proc.send_signal(sig)
+        deadline = time.monotonic() + timeout
+        problems = []
+        for proc in judged:
+            proc.wait(max(0.0, deadline - time.monotonic()))
+            if problem := proc.problem():
+                problems.append(f'{problem}:\n{proc.stderr_tail(tail_lines)}' if tail_lines else problem)
+        return problems
+
+    def remove_logs(self) -> None:
+        """Delete the log directory if this suite created it (a temporary one); after :meth:`stop`."""
+        if self._own_log_dir:
+            shutil.rmtree(self.log_dir, ignore_errors=True)
+
+    def __enter__(self) -> NodeSuite:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.stop()

@@ -22,7 +22,8 @@ Check (``--check``)
 Suite (``--start-suite``)
     Starts ``intent_interpreter``, ``model_server`` (with the session's initial model and ``--models-dir``)
     and ``grasp_planner`` as ``python -m`` processes with the package's config files, in the session's
-    namespace, with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and this process's ROS_DOMAIN_ID; they are
+    namespace (:class:`~grasp_intent_ros.processes.NodeSuite`), with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+    and this process's ROS_DOMAIN_ID (else one derived from the process id); they are
     stopped by PID (SIGTERM, then SIGKILL) at the end. The planner warm-starts from its previous plan and
     keeps the last object pose and joint state, so exact answers need a suite whose history is the
     recording's: a fresh one.
@@ -38,10 +39,7 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
-import signal
 import sys
-import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -62,87 +60,15 @@ from .bag.errors import BagError
 from .bag.session import (Difference, Output, RejectionTracker, Session, SessionError, Step, Tolerances, answered,
                           compare_step, decode, diverged, load_session, output_of)
 from .protocol import DIAGNOSTICS, INPUT_TOPICS, MODEL_ACTIVE, MSGTYPES, OUTPUT_TOPICS, ModelHeader
-from .core.resources import config_dir
-from .processes import STOP_TIMEOUT, NodeProcess, node_environment
+from .processes import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
 from .ros.conversions import message_class
 from .ros.qos import input_qos, latched_qos, output_qos
 
-__all__ = ['SessionClient', 'Suite', 'ReplayOptions', 'ReplayResult', 'ReplayError', 'Replayer', 'await_answer',
-           'SUITE', 'main']
+__all__ = ['SessionClient', 'ReplayOptions', 'ReplayResult', 'ReplayError', 'Replayer', 'await_answer', 'main']
 
-SUITE = ('intent_interpreter', 'model_server', 'grasp_planner')
-"""The node modules ``--start-suite`` runs, each with ``config/<module>.yaml``."""
 SUITE_SETTLE_S = 3.0
 """With --start-suite: seconds every node must have been visible before the first input (see
 :meth:`SessionClient.settled`)."""
-
-
-# ---------------------------------------------------------------------------------------- the suite
-class Suite:
-    """The three node processes, started on construction, stopped (by PID) by :meth:`stop`.
-
-    Args:
-        domain_id: ROS_DOMAIN_ID of every process (discovery is always LOCALHOST).
-        model: Initial value of the model server's ``model`` parameter (None: its config file's).
-        models_dir: The model server's ``models_dir`` (None: the package's config/models).
-        namespace: '' or e.g. '/robot1' (``-r __ns:=``).
-        log_dir: Where each process's stdout/stderr go (files, so no pipe can block a node); default a
-            new temporary directory (:meth:`remove_logs` deletes it).
-    """
-
-    def __init__(self, *, domain_id: int, model: str | None = None, models_dir: str | os.PathLike[str] | None = None,
-                 namespace: str = '', log_dir: str | os.PathLike[str] | None = None) -> None:
-        self._own_log_dir = log_dir is None
-        self.log_dir = Path(log_dir) if log_dir is not None else Path(tempfile.mkdtemp(prefix='replay_suite_'))
-        self.log_dir.mkdir(parents=True, exist_ok=True)
-        env = node_environment(domain_id)
-        config = config_dir()
-        self.processes: dict[str, NodeProcess] = {}
-        try:
-            for module in SUITE:
-                ros_args = ['--params-file', str(config / f'{module}.yaml')]
-                if namespace:
-                    ros_args += ['-r', f'__ns:={namespace}']
-                if module == 'model_server':
-                    if model is not None:
-                        ros_args += ['-p', f'model:={model}']
-                    if models_dir is not None:
-                        ros_args += ['-p', f'models_dir:={Path(models_dir).resolve()}']
-                self.processes[module] = NodeProcess.start(module, ros_args, env=env, log_dir=self.log_dir)
-        except BaseException:
-            self.stop()
-            raise
-
-    def died(self) -> str:
-        """'' while every process runs; else which one exited, with its code and the end of its stderr."""
-        for module, proc in self.processes.items():
-            code = proc.poll()
-            if code is not None:
-                return f'{module} (pid {proc.pid}) exited with code {code}:\n{proc.stderr_tail()}'
-        return ''
-
-    def stop(self) -> list[str]:
-        """SIGTERM each process still running (by PID), SIGKILL after
-        :data:`~grasp_intent_ros.processes.STOP_TIMEOUT`; the problems (non-zero exit, traceback, killed)."""
-        for proc in self.processes.values():
-            proc.send_signal(signal.SIGTERM)
-        problems = []
-        for proc in self.processes.values():
-            proc.wait(STOP_TIMEOUT)
-            if problem := proc.problem():
-                problems.append(f'{problem}; log in {self.log_dir}')
-        return problems
-
-    def remove_logs(self) -> None:
-        """Delete the log directory if this suite created it (a temporary one); after :meth:`stop`."""
-        if self._own_log_dir:
-            shutil.rmtree(self.log_dir, ignore_errors=True)
-
-    def __enter__(self) -> Suite:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
 
 
 # ---------------------------------------------------------------------------------------- the client
@@ -551,12 +477,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     options = ReplayOptions(rate=args.rate, fast=args.fast, check=args.check, timeout_s=args.timeout,
                             startup_timeout_s=args.startup_timeout, max_failed_inputs=args.max_failed_inputs,
                             settle_s=SUITE_SETTLE_S if args.start_suite else 0.0)
-    if args.start_suite:
-        os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    domain_id = int(os.environ.get('ROS_DOMAIN_ID', '0') or 0)
+    if args.start_suite or not os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE'):
+        use_loopback_discovery()
+    try:
+        domain_id = domain_id_from_environment(unset=None if args.start_suite else 0)
+    except SuiteError as exc:
+        print(f'replay: error: {exc}', file=sys.stderr)
+        return 2
 
-    suite: Suite | None = None
+    suite: NodeSuite | None = None
     context = Context()  # rclpy's SIGINT/SIGTERM handlers shut it down: exit code 130, suite stopped
     rclpy.init(context=context, domain_id=domain_id, args=[])
     executor = SingleThreadedExecutor(context=context)
@@ -565,8 +494,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if args.start_suite:
             initial = session.initial_model.name if session.initial_model is not None else None
-            suite = Suite(domain_id=domain_id, model=initial, models_dir=args.models_dir,
-                          namespace=session.namespace)
+            suite = NodeSuite(domain_id)
+            suite.start_nodes(model=initial, models_dir=args.models_dir, namespace=session.namespace)
         client = SessionClient(model_server=args.model_server, context=context,
                                namespace=session.namespace or '/')
         executor.add_node(client)
@@ -583,7 +512,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             client.destroy_node()
         rclpy.try_shutdown(context=context)
         if suite is not None:
-            problems = suite.stop()
+            problems = [f'{problem}; log in {suite.log_dir}' for problem in suite.stop(tail_lines=0)]
             for problem in problems:
                 print(f'replay: warning: {problem}', file=sys.stderr)
             if code in (0, 1) and not problems:  # the logs tell nothing about a difference in the answers

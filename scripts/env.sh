@@ -2,8 +2,9 @@
 # to the repository. Sets $repo and $python.
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$repo/scripts/venv.sh"
-# Network rule: ROS traffic stays on loopback, on a domain of our own (tests pick theirs per test).
+# Network rule: ROS traffic stays on loopback. The domain id is chosen by the Python side
+# (grasp_intent_ros.processes.domain_id_from_environment: ROS_DOMAIN_ID if set, else one of its own;
+# the tests claim one per test).
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
-export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$(( ($$ % 80) + 10 ))}"
 python="$repo/.venv/bin/python"
 cd "$repo"

@@ -3,8 +3,8 @@
 
     .venv/bin/python scripts/record_sessions.py [--out bags] [--only NAME ...] [--models-dir DIR]
 
-For each session: start the three nodes as ``python -m`` processes (:class:`grasp_intent_ros.replay.Suite`,
-ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, ROS_DOMAIN_ID from the environment, default 27), record with the
+For each session: start the three nodes as ``python -m`` processes (:class:`grasp_intent_ros.processes.NodeSuite`,
+ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, ROS_DOMAIN_ID from the environment, else derived from the pid), record with the
 in-process :class:`grasp_intent_ros.recorder.Recorder` (own executor and thread), drive the inputs one at a
 time, each sent once the previous one was answered and the recorder has written the answer, stop the nodes
 (by PID), then
@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import shutil
 import sys
 import tempfile
@@ -36,23 +35,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # before any ROS context exists
-os.environ.setdefault('ROS_DOMAIN_ID', '27')
-sys.setswitchinterval(5e-4)  # the recorder thread gets the GIL soon after its wait returns
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-import rclpy  # noqa: E402
-from rclpy.context import Context  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from geometry_msgs.msg import PoseStamped  # noqa: E402
-from sensor_msgs.msg import JointState  # noqa: E402
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension  # noqa: E402
-
-from grasp_intent_ros.protocol import DIAGNOSTICS, MODEL_ACTIVE, PLAN_TOPICS  # noqa: E402
-from grasp_intent_ros.bag.session import (Joints, Output, Step, Undecodable, compact_session,  # noqa: E402
+from grasp_intent_ros.protocol import DIAGNOSTICS, MODEL_ACTIVE, PLAN_TOPICS
+from grasp_intent_ros.bag.session import (Joints, Output, Step, Undecodable, compact_session,
                                           compare_step, load_session, summarize)
-from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q  # noqa: E402
-from grasp_intent_ros.recorder import Recorder  # noqa: E402
-from grasp_intent_ros.replay import SUITE_SETTLE_S, SessionClient, Suite, await_answer  # noqa: E402
+from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q
+from grasp_intent_ros.recorder import Recorder
+from grasp_intent_ros.processes import NodeSuite, domain_id_from_environment, use_loopback_discovery
+from grasp_intent_ros.replay import SUITE_SETTLE_S, SessionClient, await_answer
 
 REPO = Path(__file__).resolve().parents[1]
 RECORDED = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'intent/v', 'intent/clarification',
@@ -199,7 +195,7 @@ class Driver:
     """Drives one recording: spins the client's executor here; the recorder spins in its own thread."""
 
     def __init__(self, client: SessionClient, recorder: Recorder, executor: SingleThreadedExecutor,
-                 suite: Suite) -> None:
+                 suite: NodeSuite) -> None:
         self.client, self.recorder, self.executor, self.suite = client, recorder, executor, suite
         self.observed: list[list[Output]] = []
         """Per input sent, the outputs the client saw for it."""
@@ -277,7 +273,8 @@ def record(name: str, model: str, sends: list[Send], out_dir: Path, models_dir: 
     """
     work = Path(tempfile.mkdtemp(prefix=f'record_{name}_'))
     raw_bag = work / 'raw'
-    suite = Suite(domain_id=domain_id, model=model, models_dir=models_dir, log_dir=work / 'logs')
+    suite = NodeSuite(domain_id, log_dir=work / 'logs')
+    suite.start_nodes(model=model, models_dir=models_dir)
     context = Context()
     rclpy.init(context=context, domain_id=domain_id, args=[])
     executor = SingleThreadedExecutor(context=context)
@@ -343,7 +340,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument('--only', nargs='+', choices=sorted(SESSIONS), help='record only these sessions')
     parser.add_argument('--models-dir', type=Path, default=None, help='models (default config/models)')
     args = parser.parse_args(argv)
-    domain_id = int(os.environ['ROS_DOMAIN_ID'])
+    use_loopback_discovery()  # before any ROS context exists
+    sys.setswitchinterval(5e-4)  # the recorder thread gets the GIL soon after its wait returns
+    domain_id = domain_id_from_environment()
     args.out.mkdir(parents=True, exist_ok=True)
     for name in args.only or SESSIONS:
         model, sends = SESSIONS[name]

@@ -19,13 +19,14 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # before rclpy is imported anywhere
-os.environ.pop('ROS_STATIC_PEERS', None)
+import numpy as np
+import pytest
 
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
+from grasp_intent_ros.processes import MAX_DOMAIN_ID, use_loopback_discovery
 
-DOMAIN_IDS = range(1, 91)
+use_loopback_discovery()  # before rclpy is imported anywhere
+
+DOMAIN_IDS = range(1, MAX_DOMAIN_ID - 10)
 """Domain ids tests may use (1..90 of the safe range 0..101; 91..101 stay free for manual runs)."""
 
 _DOMAIN_LOCK_DIR = Path(tempfile.gettempdir()) / 'grasp_intent_ros_test_domains'

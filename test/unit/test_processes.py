@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from grasp_intent_ros.processes import NodeProcess, node_environment
+from grasp_intent_ros.processes import (NodeProcess, NodeSuite, SuiteError, domain_id_from_environment,
+                                        node_environment, use_loopback_discovery)
 
 SLEEPER = 'import time; time.sleep(60)'
 
@@ -62,3 +63,36 @@ def test_sigkill_after_the_deadline(tmp_path: Path) -> None:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
     assert proc.stop(signal.SIGTERM, timeout=0.5) == -signal.SIGKILL
     assert proc.problem() == f'probe (pid {proc.pid}) did not exit after SIGTERM and was killed'
+
+
+def test_domain_id_is_validated_once() -> None:
+    assert domain_id_from_environment({'ROS_DOMAIN_ID': ' 42 '}) == 42
+    assert domain_id_from_environment({'ROS_DOMAIN_ID': ''}, unset=0) == 0
+    assert 10 <= domain_id_from_environment({}) < 90
+    for bad in ('102', '-1', 'x', '4.2'):
+        with pytest.raises(SuiteError, match='0..101'):
+            domain_id_from_environment({'ROS_DOMAIN_ID': bad})
+    with pytest.raises(SuiteError, match='0..101'):
+        NodeSuite(102)
+
+
+def test_loopback_discovery_is_set_in_the_given_environment() -> None:
+    env = {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET', 'ROS_STATIC_PEERS': '10.0.0.1'}
+    assert use_loopback_discovery(env) == 'SUBNET'
+    assert env == {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST'}
+
+
+def test_suite_waits_notices_a_death_and_stops_by_pid(tmp_path: Path) -> None:
+    suite = NodeSuite(97, log_dir=tmp_path)
+    suite.processes += [run(tmp_path, SLEEPER), NodeProcess([sys.executable, '-c', 'import sys; sys.exit(3)'],
+                                                            module='quitter', env=suite.env, log_dir=tmp_path)]
+    spins: list[float] = []
+    with pytest.raises(SuiteError, match=r'quitter \(pid \d+\) exited with code 3'):
+        suite.wait_ready(lambda: ['not yet'], spins.append, 30.0)
+    assert suite.wait_ready(lambda: [], spins.append, 0.0) == []
+    assert suite.stop(include_exited=False) == [f'probe (pid {suite.processes[0].pid}) exited with code '
+                                                f'{-signal.SIGTERM}:\n    | (empty)']
+    assert suite.stop(tail_lines=0) == [f'probe (pid {suite.processes[0].pid}) exited with code {-signal.SIGTERM}',
+                                        f'quitter (pid {suite.processes[1].pid}) exited with code 3']
+    suite.remove_logs()
+    assert tmp_path.is_dir(), 'a log directory given by the caller stays'
