@@ -10,6 +10,7 @@ setup(
     name=package_name,
     version='0.1.0',
     packages=find_packages(include=[package_name, f'{package_name}.*']),
+    package_data={package_name: ['py.typed']},  # typed package (PEP 561)
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{package_name}']),
         (f'share/{package_name}', ['package.xml']),
@@ -34,7 +35,7 @@ setup(
     ],
     extras_require={
         'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-common-interfaces'],
-        'test': ['pytest>=7', 'pytest-timeout>=2', 'hypothesis>=6', 'mypy>=1.5', 'types-PyYAML'],
+        'test': ['pytest>=7', 'pytest-timeout>=2', 'hypothesis>=6', 'mypy>=1.9', 'types-PyYAML', 'ruff>=0.4'],
     },
     zip_safe=True,
     maintainer='grasp_intent_ros developers',
@@ -43,10 +44,13 @@ setup(
     license='BSD-3-Clause',
     entry_points={
         'console_scripts': [
-            f'{name} = {package_name}.{name}:main' for name in (
-                'intent_interpreter', 'model_server', 'grasp_planner', 'send_intent', 'demo',
-                'recorder', 'replay', 'report', 'generate_data', 'train', 'paper_tables',
-                'ambiguity_report')
+            f'{name} = {package_name}.{name}:main'
+            for name in ('intent_interpreter', 'model_server', 'grasp_planner')
+        ] + [
+            f'{name} = {package_name}.tools.{name}:main'
+            for name in ('send_intent', 'demo', 'recorder', 'replay', 'report', 'paper_tables', 'ambiguity_report')
+        ] + [
+            f'{name} = {package_name}.dataset.{name}:main' for name in ('generate_data', 'train')
         ],
     },
 )

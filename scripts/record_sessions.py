@@ -3,17 +3,17 @@
 
     .venv/bin/python scripts/record_sessions.py [--out bags] [--only NAME ...] [--models-dir DIR]
 
-For each session: start the three nodes as ``python -m`` processes (:class:`grasp_intent_ros.processes.NodeSuite`,
+For each session: start the three nodes as ``python -m`` processes (:class:`grasp_intent_ros.tools.suite.NodeSuite`,
 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, ROS_DOMAIN_ID from the environment, else derived from the pid), record with the
-in-process :class:`grasp_intent_ros.recorder.Recorder` (own executor and thread), drive the inputs one at a
+in-process :class:`grasp_intent_ros.tools.recorder.Recorder` (own executor and thread), drive the inputs one at a
 time, each sent once the previous one was answered and the recorder has written the answer, stop the nodes
 (by PID), then
-compact the bag (:func:`grasp_intent_ros.bag.session.compact_session`: of /diagnostics only the
+compact the bag (:func:`grasp_intent_ros.tools.session.compact_session`: of /diagnostics only the
 rejections are kept) into ``<out>/<name>``, replacing the previous one.
 
 Every input declares the answer it must get ('v', 'plan', 'clarification', 'rejection', 'model' or none);
 a different answer stops the script with what arrived instead. Finally the bag is read back
-(:func:`grasp_intent_ros.bag.session.load_session`) and must pair into exactly the inputs sent, each with
+(:func:`grasp_intent_ros.tools.session.load_session`) and must pair into exactly the inputs sent, each with
 the outputs the driver saw live, equal within the replay tolerances (else it is recorded again, up to
 ATTEMPTS times: see :class:`PairingError`).
 
@@ -43,12 +43,13 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from grasp_intent_ros.protocol import DIAGNOSTICS, MODEL_ACTIVE, PLAN_TOPICS
-from grasp_intent_ros.bag.session import (Joints, Output, Step, Undecodable, compact_session,
-                                          compare_step, load_session, summarize)
+from grasp_intent_ros.tools.session import Step, compact_session, load_session
+from grasp_intent_ros.tools.outputs import Joints, Output, Undecodable
+from grasp_intent_ros.tools.compare import compare_step, summarize
 from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q
-from grasp_intent_ros.recorder import Recorder
-from grasp_intent_ros.processes import NodeSuite, domain_id_from_environment, use_loopback_discovery
-from grasp_intent_ros.replay import SUITE_SETTLE_S, SessionClient, await_answer
+from grasp_intent_ros.tools.recorder import Recorder
+from grasp_intent_ros.tools.suite import NodeSuite, domain_id_from_environment, use_loopback_discovery
+from grasp_intent_ros.tools.replay_client import SUITE_SETTLE_S, SessionClient, await_answer
 
 REPO = Path(__file__).resolve().parents[1]
 RECORDED = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'intent/v', 'intent/clarification',

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from grasp_intent_ros.processes import MAX_DOMAIN_ID, use_loopback_discovery
+from grasp_intent_ros.tools.suite import MAX_DOMAIN_ID, use_loopback_discovery
 
 use_loopback_discovery()  # before rclpy is imported anywhere
 

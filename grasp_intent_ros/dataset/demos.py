@@ -70,11 +70,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .data import Demonstrations
-from .errors import DataError, InvalidFeaturesError
-from .features import APPROACH, FINGERS, MICO_3F, PALM, ROLL, FeatureSpace
-from .intent import DEFAULT_TASKS, all_zones, zone_label
-from .frames import features_to_obj_T_ee
+from ..core.data import Demonstrations
+from ..core.errors import DataError, InvalidFeaturesError
+from ..core.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL, FeatureSpace
+from ..core.intent import DEFAULT_TASKS, all_zones, zone_label
+from ..core.frames import features_to_obj_T_ee
 
 __all__ = [
     'CLOSED',

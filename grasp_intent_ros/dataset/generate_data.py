@@ -4,7 +4,7 @@
                                              [--out DIR] [--train [--models-out DIR]]
 
 Writes ``DIR/cup.csv`` and/or ``DIR/flashlight.csv`` (default DIR: ``<config>/data``), N demonstrations
-for each of the 7 task sets (see :mod:`grasp_intent_ros.core.demos` for the rules and prototypes).
+for each of the 7 task sets (see :mod:`grasp_intent_ros.dataset.demos` for the rules and prototypes).
 With ``--train`` it also fits the shipped models into ``<config>/models``: cup_7zone, cup_5zone,
 cup_4zone and flashlight_7zone. The same seed always gives byte-identical files.
 """
@@ -16,11 +16,11 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from .cli import report_user_errors
-from .core import demos as demo_rules
-from .core.data import save_csv
-from .core.intent import all_zones, zone_labels
-from .core.resources import config_dir
+from ..tools.cli import report_user_errors
+from . import demos as demo_rules
+from ..core.data import save_csv
+from ..core.intent import all_zones, zone_labels
+from ..core.resources import config_dir
 from .train import summary, train
 
 __all__ = ['SHIPPED_MODELS', 'COUNT_RANGE', 'DEFAULT_SEED', 'main']

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 
-from .core.errors import GraspIntentError
+from ..core.errors import GraspIntentError
 
 __all__ = ['USER_ERRORS', 'report_user_errors']
 

@@ -8,9 +8,9 @@ Run: ``python -m grasp_intent_ros.demo [--models-dir DIR] [--timeout S]`` (``scr
    the interpreter subscribes to ``intent/w`` and reports on ``/diagnostics``, the model server publishes
    ``model/active`` and offers its parameter services, the planner reports the model it received. A node
    that does not come up is named, with the end of its stderr.
-2. Sends the cases of :data:`grasp_intent_ros.paper_tables.CASES` through the running chain with
-   :class:`~grasp_intent_ros.send_intent.IntentSender` (an answer is the first plan stamped after the send)
-   and prints each with :func:`~grasp_intent_ros.send_intent.format_grasp`: v, P, reconstructed w,
+2. Sends the cases of :data:`grasp_intent_ros.tools.paper_tables.CASES` through the running chain with
+   :class:`~grasp_intent_ros.tools.send_intent.IntentSender` (an answer is the first plan stamped after the send)
+   and prints each with :func:`~grasp_intent_ros.tools.send_intent.format_grasp`: v, P, reconstructed w,
    end-effector pose, MICO joint targets. Before a case on another model it sets the model server's
    ``model`` parameter through its parameter service, then waits until the planner reports the new
    model document (name and version) on ``/diagnostics``; the answer must carry that model's zones.
@@ -20,9 +20,9 @@ Run: ``python -m grasp_intent_ros.demo [--models-dir DIR] [--timeout S]`` (``scr
 
 Network: :func:`main` sets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and drops ``ROS_STATIC_PEERS`` in
 its own environment before it initialises rclpy, and the nodes get the same
-(:class:`~grasp_intent_ros.processes.NodeSuite`), so no DDS traffic leaves the loopback interface. The
+(:class:`~grasp_intent_ros.tools.suite.NodeSuite`), so no DDS traffic leaves the loopback interface. The
 domain id is ``ROS_DOMAIN_ID`` when set, else one derived from the process id
-(:func:`~grasp_intent_ros.processes.domain_id_from_environment`).
+(:func:`~grasp_intent_ros.tools.suite.domain_id_from_environment`).
 
 Exit codes: 0 every case answered and every node exited 0; 1 a node did not come up, a case was not
 answered as expected, or a node did not shut down cleanly; 2 bad arguments; 130 interrupted (SIGINT or
@@ -49,13 +49,13 @@ from rclpy.parameter_client import AsyncParameterClient
 from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import String
 
-from .core.errors import GraspIntentError
+from ..core.errors import GraspIntentError
 from .paper_tables import CASES
-from .processes import (NodeSuite, SuiteError, domain_id_from_environment,
+from .suite import (NodeSuite, SuiteError, domain_id_from_environment,
                         use_loopback_discovery)
-from .ros.conversions import model_from_msg
-from .protocol import ModelDocument
-from .ros.qos import input_qos, latched_qos
+from ..ros.conversions import model_from_msg
+from ..protocol import ModelDocument
+from ..ros.qos import input_qos, latched_qos
 from .send_intent import IntentSender, NoGrasp, format_grasp
 
 __all__ = ['CLARIFICATION_CASE', 'DemoError', 'main']
@@ -66,7 +66,7 @@ CLARIFICATION_CASE = ('Clarification: low intent', (0.1, 0.1, 0.1))
 DOMAIN_CHECK = 1.5
 """Seconds the demo looks for other nodes on its domain before it starts its own."""
 
-_PACKAGE_PARENT = Path(__file__).resolve().parents[1]
+_PACKAGE_PARENT = Path(__file__).resolve().parents[2]
 
 
 class DemoError(RuntimeError):

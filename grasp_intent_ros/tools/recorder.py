@@ -44,10 +44,10 @@ from rclpy.topic_endpoint_info import TopicEndpointInfo
 from rclpy.utilities import remove_ros_args
 from rosbags.typesys import Stores, get_typestore
 
-from .bag import BagWriteError, QosSpec, SessionWriter
-from .protocol import ERROR, WARN
-from .ros.diagnostics import NodeDiagnostics
-from .ros.run import run_node
+from ..bag import BagWriteError, QosSpec, SessionWriter
+from ..protocol import ERROR, WARN
+from ..ros.diagnostics import NodeDiagnostics
+from ..ros.run import run_node
 
 __all__ = ['Recorder', 'TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'offered_qos', 'main']
 

@@ -23,20 +23,7 @@ Reads the bag with :mod:`grasp_intent_ros.bag` (no rclpy, matplotlib's Agg rende
 Topics are found by name suffix (``/robot1/intent/v`` is ``intent/v``), so namespaced sessions work.
 Exit code 2 with a one-line message when the bag is missing or unreadable.
 
-Message layouts read (as the nodes publish them)
-------------------------------------------------
-``intent/v``        1-D, ``dim[0].label`` = comma-joined zone labels ("U,T,H,UT,UH,TH,UTH").
-``grasp/posterior`` shape (1, K + m) as :func:`grasp_intent_ros.ros.robot.posterior_to_msg` writes it:
-                    dim[0] the stamp axis ("stamp=<sec>.<nanosec>"), dim[1] labelled "<zones>|<tasks>"
-                    ("U,T,UT,TH,UTH|usage,transfer,handover"): P over the model's K zones, then the
-                    reconstructed w. Parsed by :func:`parse_posterior` with the rclpy-free parsers of
-                    :mod:`grasp_intent_ros.ros.conversions` (``ros.robot`` imports rclpy).
-``grasp/features``  shape (1, d), the same stamp axis, dim[1] labelled with the feature names
-                    (:data:`~grasp_intent_ros.core.features.MICO_3F`); 1-D or unlabelled: by position.
-``model/active``    std_msgs/String, the model document (header lines, then GraspModel YAML).
-``model/ambiguity`` 2-D (m, m) KL matrix, both dims labelled with the task names.
-``/diagnostics``    rejections: :class:`grasp_intent_ros.bag.session.RejectionTracker`; planning time: the
-                    planner's 'last planning time [ms]' whenever its 'plans' count grew.
+What is read from the bag: :mod:`grasp_intent_ros.tools.report_data`.
 """
 
 from __future__ import annotations
@@ -47,7 +34,6 @@ import statistics
 import sys
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -56,19 +42,15 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from numpy.typing import NDArray
 
-from .bag import BagError, TopicInfo, read_messages, topics_info
-from .bag.session import Rejection, RejectionTracker, SessionError, detect_namespace
-from .core import ambiguity
-from .core.errors import GraspIntentError
-from .core.features import FINGER_CLOSED, FINGERS, MICO_3F, ROLL
-from .core.intent import default_task_names, zone_label
-from .core.frames import features_to_obj_T_ee, finger_segments
-from .core.model import GraspModel
-from . import protocol as topics
-from .protocol import (Posterior, Stamp, msg_labels, msg_to_array, read_model_document, read_posterior, split_labels,
-                       stamped_values)
+from ..bag import BagError
+from ..core import ambiguity
+from ..core.features import FINGER_CLOSED, FINGERS, ROLL
+from ..core.intent import zone_label
+from ..core.frames import features_to_obj_T_ee, finger_segments
+from ..protocol import Posterior, Stamp
+from .report_data import Session, load_session
 
-__all__ = ['ROLES', 'Session', 'load_session', 'write_report', 'main',
+__all__ = ['write_report', 'main',
            'OBJECT_RADIUS', 'OBJECT_HEIGHT', 'CASES_PER_FIGURE', 'MAX_CASE_FIGURES', 'MAX_GRASPS']
 
 OBJECT_RADIUS = 0.04
@@ -83,148 +65,6 @@ _APPROACH_ARROW = 0.06  # m
 _WRIST = 0.08  # m, drawn wrist stub behind the palm
 _V_COLOR, _P_COLOR = 'tab:blue', 'tab:orange'
 
-ROLES = {'w': topics.INTENT_W, 'v': topics.INTENT_V, 'clarification': topics.INTENT_CLARIFICATION,
-         'model': topics.MODEL_ACTIVE, 'ambiguity': topics.MODEL_AMBIGUITY, 'posterior': topics.GRASP_POSTERIOR,
-         'features': topics.GRASP_FEATURES, 'diagnostics': topics.DIAGNOSTICS}
-"""Topics the report reads, by role."""
-
-
-@dataclass
-class Session:
-    """What the report needs from one bag; times are ns since the epoch (receive time)."""
-
-    path: Path
-    topics: dict[str, TopicInfo]
-    roles: dict[str, str]  # role -> topic name found in the bag
-    start_ns: int = 0
-    end_ns: int = 0
-    w: list[tuple[int, NDArray[np.float64]]] = field(default_factory=list)
-    v: list[tuple[int, NDArray[np.float64], tuple[str, ...]]] = field(default_factory=list)
-    clarifications: list[tuple[int, str]] = field(default_factory=list)
-    posteriors: list[tuple[int, Posterior[Stamp | None]]] = field(default_factory=list)
-    features: list[tuple[int, NDArray[np.float64]]] = field(default_factory=list)
-    models: list[tuple[int, str, GraspModel]] = field(default_factory=list)
-    kl: list[tuple[int, str, tuple[str, ...], NDArray[np.float64]]] = field(default_factory=list)
-    rejections: list[tuple[int, Rejection]] = field(default_factory=list)
-    planning_ms: list[float] = field(default_factory=list)
-    tracker: RejectionTracker = field(default_factory=RejectionTracker)
-    plan_counts: dict[str, str] = field(default_factory=dict)  # status name -> last 'plans' value
-    malformed: Counter[str] = field(default_factory=Counter)
-    notes: list[str] = field(default_factory=list)
-
-    def seconds(self, stamp_ns: int) -> float:
-        """Session time (s) of a receive time."""
-        return (stamp_ns - self.start_ns) * 1e-9
-
-    def task_names(self, m: int) -> tuple[str, ...]:
-        """Names of m tasks: from a posterior's w labels, else the last model, else the defaults."""
-        for _, post in self.posteriors:
-            if len(post.task_names) == m:
-                return post.task_names
-        for _, _, model in reversed(self.models):
-            if len(model.task_names) == m:
-                return model.task_names
-        return default_task_names(m)
-
-
-def _find_topics(topics: dict[str, TopicInfo]) -> tuple[dict[str, str], list[str]]:
-    """Role -> topic name in the session's namespace (:func:`~grasp_intent_ros.bag.session.detect_namespace`)."""
-    notes = []
-    try:
-        namespace = detect_namespace(topics)
-    except SessionError as exc:
-        namespace = ''
-        notes.append(f'session namespace not detected ({exc}); the root namespace is reported')
-    roles = {}
-    for role, relative in ROLES.items():
-        name = relative if relative.startswith('/') else f'{namespace}/{relative}'
-        if name in topics:
-            roles[role] = name
-    return roles, notes
-
-
-def load_session(path: Path) -> Session:
-    """Read the messages the report uses.
-
-    Raises:
-        BagError: The bag is missing or cannot be read.
-    """
-    topics = topics_info(path)
-    roles, notes = _find_topics(topics)
-    session = Session(path=path, topics=topics, roles=roles, notes=notes)
-    by_topic = {topic: role for role, topic in roles.items()}
-    first = None
-    last = 0
-    for message in read_messages(path):
-        first = message.timestamp_ns if first is None else first
-        last = message.timestamp_ns
-        role = by_topic.get(message.topic)
-        if role is None:
-            continue
-        try:
-            _take(session, role, message.timestamp_ns, message.decode())
-        except (GraspIntentError, BagError, ValueError, IndexError, AttributeError):
-            session.malformed[message.topic] += 1
-    session.start_ns, session.end_ns = first or 0, last
-    return session
-
-
-def _take(session: Session, role: str, stamp: int, msg: Any) -> None:
-    """File one decoded message; raises for a malformed one."""
-    if role == 'w':
-        session.w.append((stamp, msg_to_array(msg, what='w')))
-    elif role == 'v':
-        labels = msg_labels(msg)
-        values = msg_to_array(msg, what='v')
-        zones = labels[0] if labels and len(labels[0]) == values.size else ()
-        session.v.append((stamp, values, zones))
-    elif role == 'clarification':
-        session.clarifications.append((stamp, str(msg.data)))
-    elif role == 'posterior':
-        session.posteriors.append((stamp, read_posterior(msg)))
-    elif role == 'features':
-        x, label, _ = stamped_values(msg, what='grasp/features', require_stamp=False)
-        names = split_labels(label)
-        if set(MICO_3F.names) <= set(names) and len(names) == x.size:
-            x = x[[names.index(n) for n in MICO_3F.names]]
-        elif x.size != MICO_3F.dim:
-            raise GraspIntentError(f'grasp/features must have {MICO_3F.dim} values, got {x.size}')
-        session.features.append((stamp, x))
-    elif role == 'model':
-        try:
-            doc = read_model_document(msg.data)
-            name, model = f'{doc.name} (version {doc.version})', doc.model
-        except GraspIntentError:  # no (or another) header: the YAML alone
-            model = GraspModel.from_yaml(msg.data)
-            name = model.name or 'model'
-        if not session.models or session.models[-1][2].to_yaml() != model.to_yaml():
-            session.models.append((stamp, name, model))
-    elif role == 'ambiguity':
-        kl = msg_to_array(msg, ndim=2, what='model/ambiguity')
-        labels = msg_labels(msg)
-        tasks = labels[0] if labels and len(labels[0]) == kl.shape[0] else default_task_names(kl.shape[0])
-        if not session.kl or not np.array_equal(session.kl[-1][3], kl):
-            session.kl.append((stamp, f'model/ambiguity #{len(session.kl) + 1}', tuple(tasks), kl))
-    elif role == 'diagnostics':
-        session.rejections.extend((stamp, r) for r in session.tracker.update(msg))
-        for status in msg.status:
-            _sample_planning_time(session, status)
-
-
-def _sample_planning_time(session: Session, status: Any) -> None:
-    """Record the planner's 'last planning time [ms]' each time a status shows a new 'plans' count."""
-    values = topics.status_values(status)
-    plans, value = values.get(topics.KEY_PLANS), values.get(topics.KEY_PLANNING_TIME)
-    if plans is None or not value or session.plan_counts.get(status.name) == plans:
-        return
-    session.plan_counts[status.name] = plans
-    try:
-        session.planning_ms.append(float(value))
-    except ValueError:
-        pass
-
-
-# ---------------------------------------------------------------------------------------------- figures
 def _tasks_legend(tasks: Sequence[str]) -> str:
     return ', '.join(f'{zone_label(1 << i, tasks)} = {t}' for i, t in enumerate(tasks))
 

@@ -33,12 +33,12 @@ from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
-from .core.errors import GraspIntentError
-from .core.intent import validate_w
-from .protocol import msg_labels, msg_to_array
-from .ros.qos import input_qos, output_qos
-from .protocol import Posterior
-from .ros.conversions import posterior_from_msg
+from ..core.errors import GraspIntentError
+from ..core.intent import validate_w
+from ..protocol import msg_labels, msg_to_array
+from ..ros.qos import input_qos, output_qos
+from ..protocol import Posterior
+from ..ros.conversions import posterior_from_msg
 
 __all__ = ['GraspAnswer', 'NoGrasp', 'IntentSender', 'format_grasp', 'main']
 

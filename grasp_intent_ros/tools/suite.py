@@ -33,7 +33,7 @@ from collections.abc import Callable, Collection, Mapping, MutableMapping, Seque
 from pathlib import Path
 from types import TracebackType
 
-from .core.resources import config_dir
+from ..core.resources import config_dir
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'MAX_DOMAIN_ID', 'SuiteError', 'domain_id_from_environment',
            'use_loopback_discovery', 'node_environment', 'NodeProcess', 'NodeSuite']

@@ -29,7 +29,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from grasp_intent_ros.core import planner
 from grasp_intent_ros.core.data import Demonstrations
-from grasp_intent_ros.core.demos import grasp_features
+from grasp_intent_ros.dataset.demos import grasp_features
 from grasp_intent_ros.core.features import FINGERS, MICO_3F
 from grasp_intent_ros.core.intent import all_zones, interpret, restrict
 from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
@@ -486,7 +486,7 @@ def test_params_file_and_invalid_initial_parameters(ros: Any) -> None:
 
 def test_send_intent_prints_the_chain_answer(rig: Rig, model: GraspModel, kin: MicoKinematics) -> None:
     from grasp_intent_ros.intent_interpreter import IntentInterpreter
-    from grasp_intent_ros.send_intent import IntentSender, NoGrasp, format_grasp
+    from grasp_intent_ros.tools.send_intent import IntentSender, NoGrasp, format_grasp
 
     rig.ros.add(IntentInterpreter(context=rig.ros.context))
     sender = rig.ros.add(IntentSender(context=rig.ros.context))

@@ -19,7 +19,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
 from grasp_intent_ros.bag import BagWriteError, QosSpec, read_messages, read_messages_mcap, topics_info
-from grasp_intent_ros.recorder import Recorder
+from grasp_intent_ros.tools.recorder import Recorder
 from grasp_intent_ros.ros.qos import latched_qos
 
 N = 2000

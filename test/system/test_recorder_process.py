@@ -19,7 +19,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_msgs.msg import Float64MultiArray, String
 
 from grasp_intent_ros.bag import QosSpec, read_messages, read_messages_mcap, topics_info
-from grasp_intent_ros.processes import NodeProcess, node_environment
+from grasp_intent_ros.tools.suite import NodeProcess, node_environment
 from grasp_intent_ros.ros.qos import latched_qos
 
 REPO = Path(__file__).resolve().parents[2]

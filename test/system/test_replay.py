@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from grasp_intent_ros.bag.session import load_session
+from grasp_intent_ros.tools.session import load_session
 from grasp_intent_ros.core.model import GraspModel
 
 REPO = Path(__file__).resolve().parents[2]

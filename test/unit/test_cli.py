@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from grasp_intent_ros import ambiguity_report, paper_tables
+from grasp_intent_ros.tools import ambiguity_report, paper_tables
 
 
 def test_paper_tables_prints_every_case(capsys: pytest.CaptureFixture[str]) -> None:

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from grasp_intent_ros import generate_data, train
-from grasp_intent_ros.core import demos
+from grasp_intent_ros.dataset import generate_data, train
+from grasp_intent_ros.dataset import demos
 from grasp_intent_ros.core.data import Demonstrations, load_csv, save_csv
 from grasp_intent_ros.core.errors import DataError, InvalidFeaturesError
 from grasp_intent_ros.core.features import MICO_3F

@@ -18,7 +18,7 @@ import pytest
 from matplotlib.image import imread
 from rosbags.typesys import Stores, get_typestore
 
-from grasp_intent_ros import report
+from grasp_intent_ros.tools import report
 from grasp_intent_ros.bag import QosSpec, SessionWriter
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import interpret, reconstruct_w
@@ -205,5 +205,5 @@ def test_missing_or_invalid_bag_exits_2(tmp_path: Path, capsys) -> None:
 
 
 def test_report_does_not_import_rclpy() -> None:
-    code = 'import sys, grasp_intent_ros.report; sys.exit("rclpy" in sys.modules)'
+    code = 'import sys, grasp_intent_ros.tools.report; sys.exit("rclpy" in sys.modules)'
     assert subprocess.run([sys.executable, '-c', code], timeout=60).returncode == 0

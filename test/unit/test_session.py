@@ -1,4 +1,4 @@
-"""grasp_intent_ros.bag.session: pairing a recorded session's inputs with their outputs, and the comparison
+"""grasp_intent_ros.tools.session: pairing a recorded session's inputs with their outputs, and the comparison
 of live outputs with recorded ones at the replay tolerances. Bags are written in tmp_path; no rclpy.
 """
 
@@ -15,30 +15,10 @@ from rosbags.typesys import Stores, get_typestore
 
 from grasp_intent_ros.bag import QosSpec, SessionWriter, read_messages, topics_info
 from grasp_intent_ros.protocol import DIAGNOSTICS, MSGTYPES, PLAN_TOPICS, ModelHeader
-from grasp_intent_ros.bag.session import (
-    Difference,
-    Joints,
-    Output,
-    Pose,
-    Rejection,
-    RejectionTracker,
-    SessionError,
-    Step,
-    Text,
-    Tolerances,
-    Trajectory,
-    Undecodable,
-    Vector,
-    answered,
-    compact_session,
-    compare_step,
-    decode,
-    detect_namespace,
-    diverged,
-    load_session,
-    output_of,
-    pair_messages,
-)
+from grasp_intent_ros.tools.session import Step, compact_session, detect_namespace, load_session, pair_messages
+from grasp_intent_ros.tools.outputs import (Joints, Output, Pose, Rejection, RejectionTracker, SessionError, Text,
+                                           Trajectory, Undecodable, Vector, decode, output_of)
+from grasp_intent_ros.tools.compare import Difference, Tolerances, answered, compare_step, diverged
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 T = STORE.types
@@ -431,7 +411,7 @@ def test_compaction_keeps_only_rejections_of_the_diagnostics(session_bag: Path, 
 
 
 def test_reduced_values_of_every_kind_render_on_one_line() -> None:
-    from grasp_intent_ros.bag.session import summarize
+    from grasp_intent_ros.tools.compare import summarize
 
     values = [Vector(('a',), np.arange(12.0)), Text('x'), Pose('f', np.zeros(3), np.array([0, 0, 0, 1.0])),
               Joints(('j',), np.zeros(1)), Trajectory(('j',), np.zeros((1, 1)), np.zeros(1)),

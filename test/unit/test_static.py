@@ -20,6 +20,6 @@ def test_mypy_strict_on_core_and_bag() -> None:
 
 def test_core_and_bag_do_not_import_rclpy() -> None:
     code = ('import sys, grasp_intent_ros.core as c, grasp_intent_ros.bag\n'
-            'from grasp_intent_ros.core import ambiguity, data, demos, intent, kinematics, model, planner\n'
+            'from grasp_intent_ros.core import ambiguity, data, intent, kinematics, model, planner\n'
             'assert "rclpy" not in sys.modules, "rclpy imported"\n')
     subprocess.run([sys.executable, '-c', code], cwd=REPO, check=True, timeout=120)

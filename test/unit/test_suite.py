@@ -1,4 +1,4 @@
-"""grasp_intent_ros.processes on plain ``python -c`` processes (no ROS node is started)."""
+"""grasp_intent_ros.tools.suite on plain ``python -c`` processes (no ROS node is started)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from grasp_intent_ros.processes import (NodeProcess, NodeSuite, SuiteError, domain_id_from_environment,
+from grasp_intent_ros.tools.suite import (NodeProcess, NodeSuite, SuiteError, domain_id_from_environment,
                                         node_environment, use_loopback_discovery)
 
 SLEEPER = 'import time; time.sleep(60)'
