@@ -1,4 +1,4 @@
-"""Latest-only benchmark of the grasp planner node (issue 3): prints figures, asserts nothing.
+r"""Latest-only benchmark of the grasp planner node (issue 3): prints figures, asserts nothing.
 
 An in-process GraspPlanner (its own rclpy Context) gets the cup 7-zone model and then a new target
 vector v every 10 ms for 10 s (seeded random w, interpreted over all zones; ``--stream walk``: a random
@@ -52,12 +52,12 @@ def main() -> None:
     domain_id = int(os.environ.get('ROS_DOMAIN_ID', '88'))
 
     import rclpy  # after the network check
+    from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray, String
-    from diagnostic_msgs.msg import DiagnosticArray
 
     from grasp_intent_ros.core import intent
     from grasp_intent_ros.core.model import GraspModel

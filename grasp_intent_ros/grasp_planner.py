@@ -42,10 +42,10 @@ from visualization_msgs.msg import MarkerArray
 from . import protocol as topics
 from .core import planner
 from .core.errors import InvalidIntentError, PlanningError
+from .core.frames import pose_to_matrix
 from .core.grasp import NoReachableGrasp, check_mico_model, plan_grasp
 from .core.intent import MAX_TASKS, match_zones, validate_v
 from .core.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
-from .core.frames import pose_to_matrix
 from .protocol import KEY_MODEL, KEY_PLANNING_TIME, KEY_PLANS, OK, ModelDocument, msg_labels, msg_to_array
 from .ros.conversions import model_from_msg
 from .ros.diagnostics import NodeDiagnostics

@@ -22,12 +22,20 @@ from typing import Any
 from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray, String
 
-from .core.errors import InvalidIntentError
-from .core.intent import (DEFAULT_CLARIFICATION_THRESHOLD, DEFAULT_TASKS, MAX_TASKS, NeedsClarification,
-                          all_zones, interpret, validate_w, zone_labels)
 from . import protocol as topics
-from .ros.conversions import array_to_msg
+from .core.errors import InvalidIntentError
+from .core.intent import (
+    DEFAULT_CLARIFICATION_THRESHOLD,
+    DEFAULT_TASKS,
+    MAX_TASKS,
+    NeedsClarification,
+    all_zones,
+    interpret,
+    validate_w,
+    zone_labels,
+)
 from .protocol import msg_to_array
+from .ros.conversions import array_to_msg
 from .ros.diagnostics import NodeDiagnostics
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, output_qos

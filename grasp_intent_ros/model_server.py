@@ -29,12 +29,12 @@ from typing import Any
 from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray, String
 
+from . import protocol as topics
 from .core import ambiguity
 from .core.errors import InvalidFeaturesError
 from .core.registry import ModelFiles
-from . import protocol as topics
-from .ros.conversions import array_to_msg, model_to_msg
 from .protocol import msg_to_array
+from .ros.conversions import array_to_msg, model_to_msg
 from .ros.diagnostics import NodeDiagnostics
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, latched_qos, output_qos

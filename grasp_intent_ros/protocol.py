@@ -1,5 +1,6 @@
-"""The node suite's wire formats, once: topics and their message types, array layouts, the model document,
-diagnostics keys and levels.
+"""The node suite's wire formats, once.
+
+Topics and their message types, array layouts, the model document, diagnostics keys and levels.
 
 ROS-free: the writers return plain values and the readers take any object with the message's fields
 (rclpy messages and rosbags-decoded ones alike), so :mod:`grasp_intent_ros.ros`, the session tools, the
@@ -388,7 +389,9 @@ _HEADER = re.compile(r'# model_name: (?P<name>[^\n]*)\n# model_version: (?P<vers
 
 
 def model_document(model: GraspModel, *, name: str, version: int) -> str:
-    """The versioned model document: three header lines, then :meth:`GraspModel.to_yaml`::
+    """The versioned model document: three header lines, then :meth:`GraspModel.to_yaml`.
+
+    ::
 
         # model_name: cup_7zone
         # model_version: 3

@@ -36,20 +36,20 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
+from geometry_msgs.msg import PoseStamped
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
-from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from grasp_intent_ros.protocol import DIAGNOSTICS, MODEL_ACTIVE, PLAN_TOPICS
-from grasp_intent_ros.tools.session import Step, compact_session, load_session
-from grasp_intent_ros.tools.outputs import Joints, Output, Undecodable
-from grasp_intent_ros.tools.compare import compare_step, summarize
 from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q
+from grasp_intent_ros.protocol import DIAGNOSTICS, MODEL_ACTIVE, PLAN_TOPICS
+from grasp_intent_ros.tools.compare import compare_step, summarize
+from grasp_intent_ros.tools.outputs import Joints, Output, Undecodable
 from grasp_intent_ros.tools.recorder import Recorder
-from grasp_intent_ros.tools.suite import NodeSuite, domain_id_from_environment, use_loopback_discovery
 from grasp_intent_ros.tools.replay_client import SUITE_SETTLE_S, SessionClient, await_answer
+from grasp_intent_ros.tools.session import Step, compact_session, load_session
+from grasp_intent_ros.tools.suite import NodeSuite, domain_id_from_environment, use_loopback_discovery
 
 REPO = Path(__file__).resolve().parents[1]
 RECORDED = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'intent/v', 'intent/clarification',
@@ -187,9 +187,11 @@ class RecordingError(RuntimeError):
 
 
 class PairingError(RecordingError):
-    """The bag does not pair into the inputs and answers seen live: the recorder took an answer before
-    its input (both ready in one wait of its executor; it stamps messages when its callback runs).
-    Rare; the session is recorded again."""
+    """The bag does not pair into the inputs and answers seen live.
+
+    The recorder took an answer before its input (both ready in one wait of its executor; it stamps messages when
+    its callback runs). Rare; the session is recorded again.
+    """
 
 
 class Driver:

@@ -167,8 +167,7 @@ def ros(domain_id: int) -> Iterator[RosHarness]:
 
 def find_status(statuses: list[Any], name_suffix: str, *, level: bytes | None = None,
                 text: str = '') -> Any:
-    """The last status whose name ends with ``name_suffix``, at ``level`` if given, whose message
-    contains ``text``; None if there is none."""
+    """The last status named ``*name_suffix``, at ``level`` if given, with ``text`` in its message; or None."""
     for status in reversed(statuses):
         if (status.name.endswith(name_suffix) and (level is None or status.level == level)
                 and text in status.message):
@@ -187,9 +186,12 @@ TASKS = ('usage', 'transfer', 'handover')
 
 
 def train_tiny_models(directory: Path, *, seed: int = 7, per_set: int = 12) -> dict[str, Any]:
-    """Seeded Gaussian demonstrations around a different mean per task set; fits a 7-zone and a 5-zone
+    """Tiny trained models in ``directory``, returned by name.
+
+    Seeded Gaussian demonstrations around a different mean per task set; fits a 7-zone and a 5-zone
     model saved as ``cup_7zone.yaml`` and ``cup_5zone.yaml`` in ``directory`` (tiny stand-ins for the
-    real models), plus ``broken.yaml`` (not a model). Returns the models by name."""
+    real models), plus ``broken.yaml`` (not a model). Returns the models by name.
+    """
     from grasp_intent_ros.core.data import Demonstrations
     from grasp_intent_ros.core.features import APPROACH, MICO_3F
     from grasp_intent_ros.core.model import GraspModel, structure_zones

@@ -1,5 +1,7 @@
-"""rosbag2 sessions: write with :class:`SessionWriter`, read with :func:`read_messages` (rosbags) or
-:func:`read_messages_mcap` (mcap), summarise with :func:`topics_info`.
+"""rosbag2 sessions: write, read, summarise.
+
+Write with :class:`SessionWriter`, read with :func:`read_messages` (rosbags) or :func:`read_messages_mcap`
+(mcap), summarise with :func:`topics_info`.
 
 Bags are rosbag2 directories (metadata.yaml version 9, MCAP storage, CDR messages, ros2msg schemas,
 offered QoS per topic), as ``ros2 bag info/play`` in ROS 2 Jazzy expects. This package imports

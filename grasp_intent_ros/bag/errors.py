@@ -1,5 +1,6 @@
-"""The bag layer's exception types; all derive from
-:class:`~grasp_intent_ros.core.errors.GraspIntentError`.
+"""The bag layer's exception types.
+
+All derive from :class:`~grasp_intent_ros.core.errors.GraspIntentError`.
 """
 
 from __future__ import annotations
@@ -22,9 +23,12 @@ class BagError(GraspIntentError):
 class BagWriteError(BagError):
     """A session bag cannot be created or written (path exists, disk full, unknown topic, ...).
 
-    Attributes:
-        path: The bag directory concerned, or None if there is none.
-        messages_written: How many messages the writer had accepted before the failure.
+    Attributes
+    ----------
+    path
+        The bag directory concerned, or None if there is none.
+    messages_written
+        How many messages the writer had accepted before the failure.
     """
 
     def __init__(self, message: str, *, path: Path | None = None, messages_written: int = 0) -> None:

@@ -34,14 +34,20 @@ class QosSpec:
     recorded reliability/durability and uses its own history. Deadline, lifespan and liveliness are
     written as unspecified (the rmw defaults) and not read back.
 
-    Attributes:
-        reliability: 'reliable' or 'best_effort'.
-        durability: 'volatile' or 'transient_local'.
-        depth: Keep-last history depth (messages), >= 1; 0 means history not known, which is what
-            ``ros2 bag record`` stores (publisher history is not visible through discovery).
+    Attributes
+    ----------
+    reliability
+        'reliable' or 'best_effort'.
+    durability
+        'volatile' or 'transient_local'.
+    depth
+        Keep-last history depth (messages), >= 1; 0 means history not known, which is what
+        ``ros2 bag record`` stores (publisher history is not visible through discovery).
 
-    Raises:
-        BagError: A field is outside the values above.
+    Raises
+    ------
+    BagError
+        A field is outside the values above.
     """
 
     reliability: Reliability = 'reliable'
@@ -86,9 +92,11 @@ def decode_qos(qos: Qos) -> QosSpec:
     History other than keep_last (unknown, system_default, keep_all) gives depth 0: history does not
     affect compatibility and ``ros2 bag play`` replaces it.
 
-    Raises:
-        BagReadError: Reliability or durability is not one a publisher can offer on a live topic
-            (system_default, best_available, unknown).
+    Raises
+    ------
+    BagReadError
+        Reliability or durability is not one a publisher can offer on a live topic
+        (system_default, best_available, unknown).
     """
     reliability = next((k for k, v in _RELIABILITY.items() if v == qos.reliability), None)
     durability = next((k for k, v in _DURABILITY.items() if v == qos.durability), None)

@@ -39,11 +39,16 @@ __all__ = [
 class BagMessage:
     """One message as stored: its topic, type, receive time and CDR bytes.
 
-    Attributes:
-        topic: Topic name.
-        msgtype: Message type, e.g. 'geometry_msgs/msg/PoseStamped'.
-        timestamp_ns: Receive (log) time, ns since the epoch.
-        cdr: Serialized message, CDR with encapsulation header.
+    Attributes
+    ----------
+    topic
+        Topic name.
+    msgtype
+        Message type, e.g. 'geometry_msgs/msg/PoseStamped'.
+    timestamp_ns
+        Receive (log) time, ns since the epoch.
+    cdr
+        Serialized message, CDR with encapsulation header.
     """
 
     topic: str
@@ -55,8 +60,10 @@ class BagMessage:
     def decode(self) -> object:
         """Deserialize :attr:`cdr` into a rosbags message object (decoded anew on each call).
 
-        Raises:
-            BagReadError: The bytes are not a valid ``msgtype`` message.
+        Raises
+        ------
+        BagReadError
+            The bytes are not a valid ``msgtype`` message.
         """
         try:
             return self._typestore.deserialize_cdr(self.cdr, self.msgtype)
@@ -69,10 +76,14 @@ class BagMessage:
 class TopicInfo:
     """What a bag holds on one topic.
 
-    Attributes:
-        msgtype: Message type.
-        count: Number of messages.
-        qos: Offered QoS profiles recorded for the topic (one per recorded publisher).
+    Attributes
+    ----------
+    msgtype
+        Message type.
+    count
+        Number of messages.
+    qos
+        Offered QoS profiles recorded for the topic (one per recorded publisher).
     """
 
     msgtype: str
@@ -84,11 +95,16 @@ class TopicInfo:
 class McapMessage:
     """One message as read by the ``mcap`` library, independently of rosbags.
 
-    Attributes:
-        topic: Channel topic.
-        schema_name: Schema name, i.e. the message type, e.g. 'std_msgs/msg/String'.
-        log_time_ns: Log (receive) time, ns since the epoch.
-        decoded: The ``mcap_ros2`` dynamic message object (fields as attributes).
+    Attributes
+    ----------
+    topic
+        Channel topic.
+    schema_name
+        Schema name, i.e. the message type, e.g. 'std_msgs/msg/String'.
+    log_time_ns
+        Log (receive) time, ns since the epoch.
+    decoded
+        The ``mcap_ros2`` dynamic message object (fields as attributes).
     """
 
     topic: str
@@ -105,17 +121,24 @@ def read_messages(
 ) -> Iterator[BagMessage]:
     """Iterate over a rosbag2 bag's messages in timestamp order, with rosbags.
 
-    Args:
-        path: Bag directory (with metadata.yaml).
-        topics: Only these topics; None for all.
-        typestore: Types for :meth:`BagMessage.decode`; default ROS 2 Jazzy, extended with any type
-            the bag defines that the store lacks.
+    Parameters
+    ----------
+    path
+        Bag directory (with metadata.yaml).
+    topics
+        Only these topics; None for all.
+    typestore
+        Types for :meth:`BagMessage.decode`; default ROS 2 Jazzy, extended with any type
+        the bag defines that the store lacks.
 
-    Yields:
+    Yields
+    ------
         :class:`BagMessage`, timestamps non-decreasing.
 
-    Raises:
-        BagReadError: On first iteration, if the bag is missing/malformed or a topic is not in it.
+    Raises
+    ------
+    BagReadError
+        On first iteration, if the bag is missing/malformed or a topic is not in it.
     """
     bag_path = Path(path)
     store = typestore if typestore is not None else get_typestore(Stores.ROS2_JAZZY)
@@ -132,9 +155,11 @@ def read_messages(
 def topics_info(path: str | os.PathLike[str]) -> dict[str, TopicInfo]:
     """Summarise a rosbag2 bag per topic: type, message count, offered QoS.
 
-    Raises:
-        BagReadError: The bag is missing/malformed, a topic has two types, or a recorded QoS has a
-            reliability/durability outside :class:`QosSpec`.
+    Raises
+    ------
+    BagReadError
+        The bag is missing/malformed, a topic has two types, or a recorded QoS has a
+        reliability/durability outside :class:`QosSpec`.
     """
     bag_path = Path(path)
     try:
@@ -171,15 +196,21 @@ def read_messages_mcap(
 
     Independent of rosbags and metadata.yaml: decodes with the schemas stored in the MCAP files.
 
-    Args:
-        path: Bag directory (all ``*.mcap`` in it, merged by log time) or one .mcap file.
-        topics: Only these topics; None for all.
+    Parameters
+    ----------
+    path
+        Bag directory (all ``*.mcap`` in it, merged by log time) or one .mcap file.
+    topics
+        Only these topics; None for all.
 
-    Yields:
+    Yields
+    ------
         :class:`McapMessage`, log times non-decreasing.
 
-    Raises:
-        BagReadError: On first iteration, if there is no .mcap file or a file cannot be read/decoded.
+    Raises
+    ------
+    BagReadError
+        On first iteration, if there is no .mcap file or a file cannot be read/decoded.
     """
     bag_path = Path(path)
     files = sorted(bag_path.glob('*.mcap')) if bag_path.is_dir() else [bag_path]

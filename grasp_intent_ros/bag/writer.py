@@ -37,14 +37,20 @@ class SessionWriter:
     that what was recorded before an error stays readable. Writes are serialised by a lock, so one
     writer can be fed from several executor threads.
 
-    Args:
-        path: Bag directory to create; it must not exist. Its parent directories are created.
-        typestore: Message types used for schemas and :meth:`write_message`; default: ROS 2 Jazzy.
-        compress: Compress the MCAP chunks with zstd (MCAP's own storage-level compression, which
-            ``ros2 bag`` and the ``mcap`` reader decode transparently); default True.
+    Parameters
+    ----------
+    path
+        Bag directory to create; it must not exist. Its parent directories are created.
+    typestore
+        Message types used for schemas and :meth:`write_message`; default: ROS 2 Jazzy.
+    compress
+        Compress the MCAP chunks with zstd (MCAP's own storage-level compression, which
+        ``ros2 bag`` and the ``mcap`` reader decode transparently); default True.
 
-    Raises:
-        BagWriteError: ``path`` exists, or the directory/storage file cannot be created.
+    Raises
+    ------
+    BagWriteError
+        ``path`` exists, or the directory/storage file cannot be created.
 
     Example:
         >>> with SessionWriter(tmp / 'session') as bag:  # doctest: +SKIP
@@ -98,13 +104,19 @@ class SessionWriter:
     def add_topic(self, topic: str, msgtype: str, *, qos: QosSpec) -> None:
         """Declare a topic before writing to it.
 
-        Args:
-            topic: Fully qualified topic name, e.g. '/grasp_intent/intent'.
-            msgtype: Message type in the typestore, e.g. 'std_msgs/msg/Float64MultiArray'.
-            qos: The QoS the publisher offered; stored as the topic's ``offered_qos_profiles``.
+        Parameters
+        ----------
+        topic
+            Fully qualified topic name, e.g. '/grasp_intent/intent'.
+        msgtype
+            Message type in the typestore, e.g. 'std_msgs/msg/Float64MultiArray'.
+        qos
+            The QoS the publisher offered; stored as the topic's ``offered_qos_profiles``.
 
-        Raises:
-            BagWriteError: Writer closed, topic malformed or already added, msgtype unknown.
+        Raises
+        ------
+        BagWriteError
+            Writer closed, topic malformed or already added, msgtype unknown.
         """
         with self._lock:
             self._check_open()
@@ -130,14 +142,20 @@ class SessionWriter:
     def write(self, topic: str, timestamp_ns: int, cdr: bytes | memoryview) -> None:
         """Write one already serialized message (CDR with its 4-byte encapsulation header).
 
-        Args:
-            topic: A topic given to :meth:`add_topic`.
-            timestamp_ns: Receive time, ns since the epoch, in [0, 2**63).
-            cdr: The serialized message, e.g. from an rclpy subscription with ``raw=True``.
+        Parameters
+        ----------
+        topic
+            A topic given to :meth:`add_topic`.
+        timestamp_ns
+            Receive time, ns since the epoch, in [0, 2**63).
+        cdr
+            The serialized message, e.g. from an rclpy subscription with ``raw=True``.
 
-        Raises:
-            BagWriteError: Writer closed, topic unknown, bad timestamp or data, or an OS error
-                (e.g. ENOSPC); after an OS error the writer is closed and the bag is incomplete.
+        Raises
+        ------
+        BagWriteError
+            Writer closed, topic unknown, bad timestamp or data, or an OS error
+            (e.g. ENOSPC); after an OS error the writer is closed and the bag is incomplete.
         """
         with self._lock:
             self._write_locked(topic, timestamp_ns, cdr)
@@ -145,9 +163,11 @@ class SessionWriter:
     def write_message(self, topic: str, timestamp_ns: int, msg: object) -> None:
         """Serialize a rosbags message object of the topic's type to CDR and write it.
 
-        Raises:
-            BagWriteError: As :meth:`write`, or the message is not of the topic's type or cannot be
-                serialized (e.g. a primitive array that is not a numpy array).
+        Raises
+        ------
+        BagWriteError
+            As :meth:`write`, or the message is not of the topic's type or cannot be
+            serialized (e.g. a primitive array that is not a numpy array).
         """
         with self._lock:
             self._check_open()
@@ -166,8 +186,10 @@ class SessionWriter:
     def close(self) -> None:
         """Finish the bag: write the MCAP summary and metadata.yaml. Idempotent.
 
-        Raises:
-            BagWriteError: An OS error while finishing (e.g. ENOSPC); the bag is then incomplete.
+        Raises
+        ------
+        BagWriteError
+            An OS error while finishing (e.g. ENOSPC); the bag is then incomplete.
         """
         with self._lock:
             if self._closed:

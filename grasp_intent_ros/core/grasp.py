@@ -18,8 +18,8 @@ from . import planner
 from .errors import InvalidIntentError, ModelError
 from .features import FINGERS, MICO_3F
 from .frames import features_to_obj_T_ee
-from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
 from .intent import restrict
+from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
 from .model import GraspModel
 
 __all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'PlanOutcome', 'Grasp', 'NoReachableGrasp', 'check_mico_model',
@@ -52,8 +52,10 @@ class PlanOutcome:
 
 @dataclass(frozen=True, kw_only=True)
 class NoReachableGrasp(PlanOutcome):
-    """IK failed for every candidate: nothing to execute. ``reason`` says why, with the object position
-    and the closest IK attempt."""
+    """IK failed for every candidate: nothing to execute.
+
+    ``reason`` says why, with the object position and the closest IK attempt.
+    """
 
     reason: str
 
@@ -167,5 +169,6 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     duration = trajectory_duration(HOME_Q if q_arm is None else q_arm, q, kin.velocity_limits,
                                    min_duration=MIN_TRAJECTORY_TIME)
     return Grasp(result=result, note=note, ik_seconds=reachable.seconds,
-                 base_T_ee=base_T_obj @ features_to_obj_T_ee(result.x), positions=np.concatenate([q, result.x[FINGERS]]), duration_s=duration,
+                 base_T_ee=base_T_obj @ features_to_obj_T_ee(result.x),
+                 positions=np.concatenate([q, result.x[FINGERS]]), duration_s=duration,
                  fallback=bool(result.rejected))

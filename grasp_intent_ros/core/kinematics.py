@@ -399,8 +399,9 @@ class MicoKinematics:
 
 
 class Reachability:
-    """The MICO's reachability as a robot constraint for :func:`grasp_intent_ros.core.planner.plan`
-    (``accept=``): grasp features x are reachable when IK of ``base_T_obj @ features_to_obj_T_ee(x)``
+    """The MICO's reachability as a robot constraint for :func:`grasp_intent_ros.core.planner.plan`.
+
+    Passed as ``accept=``: grasp features x are reachable when IK of ``base_T_obj @ features_to_obj_T_ee(x)``
     converges from ``q_seed`` (then random restarts).
 
     Every IK answer is kept, so the accepted candidate's joint angles are not solved twice.

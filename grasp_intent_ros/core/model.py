@@ -55,8 +55,10 @@ _LOG_2PI = float(np.log(2.0 * np.pi))
 
 
 def structure_zones(structure: str | Sequence[str], task_names: Sequence[str]) -> tuple[int, ...]:
-    """Zone bitmasks of a named structure ('7zone', '5zone', '4zone') or of a list of zone labels,
-    in core order (number of tasks, bitmask)."""
+    """Zone bitmasks of a named structure ('7zone', '5zone', '4zone') or of a list of zone labels.
+
+    In core order (number of tasks, bitmask).
+    """
     labels = ZONE_STRUCTURES.get(structure, None) if isinstance(structure, str) else tuple(structure)
     if labels is None:
         raise ModelError(f'unknown zone structure {structure!r}; known: {", ".join(ZONE_STRUCTURES)} '
@@ -292,14 +294,14 @@ class GraspModel:
 
     def _log_joint_and_score(self, arr: NDArray[np.float64]) -> tuple[NDArray[np.float64],
                                                                       NDArray[np.float64]]:
-        """log P(x|k) + log P(k), shape (N, K), and g_k = d log P(x|k)/dx, shape (N, K, d)."""
+        """Log P(x|k) + log P(k), shape (N, K), and g_k = d log P(x|k)/dx, shape (N, K, d)."""
         n, K, d = arr.shape[0], len(self.zones), self.features.dim
         g = (self._prec_mean - arr @ self._prec_stack.T).reshape(n, K, d)  # -Sigma_k^-1 (x - mu_k)
         diff = arr[:, None, :] - self.means[None, :, :]
         return self._log_norm + 0.5 * np.sum(diff * g, axis=2), g
 
     def log_joint(self, x: ArrayLike) -> NDArray[np.float64]:
-        """log P(x|k) + log P(k), shape (K,) for x of shape (d,), or (N, K) for (N, d)."""
+        """Log P(x|k) + log P(k), shape (K,) for x of shape (d,), or (N, K) for (N, d)."""
         arr, single = self._check_x(x)
         out = self._log_joint_and_score(arr)[0]
         return out[0] if single else out

@@ -1,5 +1,6 @@
-"""The data-set side: demonstrations generated from documented rules, training, regenerating the shipped
-data and models. Not the method (:mod:`grasp_intent_ros.core` never imports this package).
+"""The data-set side: demonstrations from documented rules, training, the shipped data and models.
+
+Not the method (:mod:`grasp_intent_ros.core` never imports this package).
 
 Modules
 -------

@@ -73,8 +73,8 @@ from numpy.typing import ArrayLike, NDArray
 from ..core.data import Demonstrations
 from ..core.errors import DataError, InvalidFeaturesError
 from ..core.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL, FeatureSpace
-from ..core.intent import DEFAULT_TASKS, all_zones, zone_label
 from ..core.frames import features_to_obj_T_ee
+from ..core.intent import DEFAULT_TASKS, all_zones, zone_label
 
 __all__ = [
     'CLOSED',
@@ -172,9 +172,10 @@ def roll_offset(x: ArrayLike, target: float) -> float:
 
 
 def thumb_direction(x: ArrayLike) -> NDArray[np.float64]:
-    """Unit direction of the thumb (finger 1) in the object frame, shape (3,): the end effector's x axis
-    of :func:`grasp_intent_ros.core.frames.features_to_obj_T_ee`, so that the rules judge the hand
-    the robot will actually form. For an approach from above, roll is then the thumb's heading in the
+    """Unit direction of the thumb (finger 1) in the object frame, shape (3,).
+
+    The end effector's x axis of :func:`grasp_intent_ros.core.frames.features_to_obj_T_ee`, so that the rules judge
+    the hand the robot will actually form. For an approach from above, roll is then the thumb's heading in the
     table plane: roll 0 points it along +x, pi/2 along +y.
     """
     out: NDArray[np.float64] = features_to_obj_T_ee(_features(x))[:3, 0].copy()

@@ -16,11 +16,11 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..tools.cli import report_user_errors
-from . import demos as demo_rules
 from ..core.data import save_csv
 from ..core.intent import all_zones, zone_labels
 from ..core.resources import config_dir
+from ..tools.cli import report_user_errors
+from . import demos as demo_rules
 from .train import summary, train
 
 __all__ = ['SHIPPED_MODELS', 'COUNT_RANGE', 'DEFAULT_SEED', 'main']

@@ -20,12 +20,12 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..tools.cli import report_user_errors
 from ..core.data import Demonstrations, load_csv
 from ..core.errors import DataError, ModelError
 from ..core.intent import zone_labels
 from ..core.model import DEFAULT_RIDGE, ZONE_STRUCTURES, GraspModel, structure_zones
 from ..core.resources import config_dir
+from ..tools.cli import report_user_errors
 
 __all__ = ['parse_zones_option', 'default_model_name', 'train', 'summary', 'main']
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import array
 import importlib
-from typing import Any
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -18,8 +18,19 @@ from numpy.typing import ArrayLike, NDArray
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
 from ..core.model import GraspModel
-from ..protocol import (MAX_ARRAY_SIZE, MSGTYPES, ModelDocument, Posterior, array_layout, model_document, posterior_label,
-                        read_model_document, read_posterior, stamp_label, stamped_values)
+from ..protocol import (
+    MAX_ARRAY_SIZE,
+    MSGTYPES,
+    ModelDocument,
+    Posterior,
+    array_layout,
+    model_document,
+    posterior_label,
+    read_model_document,
+    read_posterior,
+    stamp_label,
+    stamped_values,
+)
 
 __all__ = ['message_class', 'array_to_msg', 'stamped_array_to_msg', 'stamped_array_from_msg', 'posterior_to_msg',
            'posterior_from_msg', 'model_to_msg', 'model_from_msg']
@@ -38,8 +49,10 @@ def message_class(topic: str) -> Any:
 
 
 def array_to_msg(values: ArrayLike, labels: Sequence[str | Sequence[str]]) -> Float64MultiArray:
-    """A labelled Float64MultiArray of ``values`` (``labels`` and errors as for
-    :func:`grasp_intent_ros.protocol.array_layout`)."""
+    """A labelled Float64MultiArray of ``values``.
+
+    ``labels`` and errors as for :func:`grasp_intent_ros.protocol.array_layout`.
+    """
     arr = np.ascontiguousarray(values, dtype=np.float64)
     msg = Float64MultiArray()
     msg.layout.dim = [MultiArrayDimension(label=label, size=size, stride=stride)

@@ -25,8 +25,18 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
 from ..core.errors import GraspIntentError
-from ..protocol import (DIAGNOSTICS, ERROR, KEY_LAST_ERROR, KEY_PROCESSING_TIME, KEY_RECEIVED, KEY_REJECTED, OK,
-                        WARN, level_value, status_name)
+from ..protocol import (
+    DIAGNOSTICS,
+    ERROR,
+    KEY_LAST_ERROR,
+    KEY_PROCESSING_TIME,
+    KEY_RECEIVED,
+    KEY_REJECTED,
+    OK,
+    WARN,
+    level_value,
+    status_name,
+)
 from .qos import output_qos
 
 __all__ = ['NodeDiagnostics']

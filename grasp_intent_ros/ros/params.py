@@ -23,8 +23,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
-                                SetParametersResult)
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -88,7 +87,7 @@ class ParamSpec:
 
     def param_type(self) -> Parameter.Type:
         """The declared type: ``type`` if given, else inferred from the default."""
-        inferred = Parameter.Type.from_parameter_value(_to_rclpy(self.default))
+        inferred: Parameter.Type = Parameter.Type.from_parameter_value(_to_rclpy(self.default))
         if self.type is None:
             return inferred
         if _is_sequence(self.default) and len(self.default) == 0:

@@ -133,8 +133,7 @@ def joint_state_msg(names: Sequence[str], positions: ArrayLike, *, stamp: Time) 
 
 def joint_trajectory_msg(names: Sequence[str], positions: ArrayLike, duration: float, *,
                          stamp: Time, frame_id: str = '') -> JointTrajectory:
-    """A JointTrajectory with one point: ``positions`` (rad), zero velocities, reached after
-    ``duration`` seconds."""
+    """A JointTrajectory with one point: ``positions`` (rad), zero velocities, after ``duration`` s."""
     values = np.asarray(positions, dtype=np.float64)
     if values.shape != (len(names),):
         raise ValueError(f'{len(names)} names but positions of shape {values.shape}')

@@ -9,7 +9,8 @@ whose KeyboardInterrupt would end the spin while rclpy's signal thread is still 
 executor's guard condition, which is then destroyed under it: a use-after-free, seen as a segfault on
 about one SIGINT in five. Ignored at the Python level, SIGINT ends the spin as SIGTERM does. The
 executor (:class:`ShutdownSafeExecutor`) also turns the RCLError of a shutdown that lands between two
-rclpy steps into the normal ExternalShutdownException. A signal that arrives while the node is being built (its rcl calls then fail
+rclpy steps into the normal ExternalShutdownException. A signal that arrives while the node is being built
+(its rcl calls then fail
 on the shut-down context) also exits 0; one that arrives before ``rclpy.init`` (during imports) gets
 Python's default handling. A configuration error found while the node is built (a parameter rejected by
 its descriptor or validator, a missing model) is logged and ends the process with exit code 1.
@@ -37,8 +38,9 @@ STARTUP_ERRORS: tuple[type[Exception], ...] = (ParameterError, ParameterExceptio
 
 
 class ShutdownSafeExecutor(SingleThreadedExecutor):
-    """A SingleThreadedExecutor whose spin ends with ExternalShutdownException, never an RCLError, when
-    the context is shut down under it.
+    """A SingleThreadedExecutor whose spin ends with ExternalShutdownException when shut down under it.
+
+    Never with an RCLError.
 
     rclpy 7.1 checks ``context.ok()`` and then builds the next wait set; a signal handled in between
     (rclpy's signal thread shuts the context down) makes ``WaitSet()`` raise RCLError ("the given

@@ -1,5 +1,7 @@
-"""Tools around the nodes: the node suite as processes, the demo, sending intents, recording, replaying
-and reporting sessions, the paper's tables.
+"""Tools around the nodes.
+
+The node suite as processes, the demo, sending intents, recording, replaying and reporting sessions, the
+paper's tables.
 
 Modules
 -------

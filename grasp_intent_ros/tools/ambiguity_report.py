@@ -16,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import report_user_errors
 from ..core import ambiguity
 from ..core.intent import zone_labels
 from ..core.model import GraspModel
 from ..core.resources import config_dir
+from .cli import report_user_errors
 
 DEFAULT_MODELS = ('cup_7zone', 'cup_5zone', 'cup_4zone')
 

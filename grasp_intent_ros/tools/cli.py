@@ -15,8 +15,10 @@ USER_ERRORS: tuple[type[Exception], ...] = (GraspIntentError, OSError)
 
 def report_user_errors(body: Callable[[], object], *, prog: str = '',
                        errors: tuple[type[Exception], ...] = USER_ERRORS) -> int:
-    """Run ``body``; return 0, or print ``[prog: ]error: <message>`` to stderr and return 2 when it
-    raises one of ``errors``. Any other exception (a bug) propagates with its traceback."""
+    """Run ``body``; 0, or 2 after ``[prog: ]error: <message>`` on stderr when it raises one of ``errors``.
+
+    Any other exception (a bug) propagates with its traceback.
+    """
     try:
         body()
     except errors as exc:

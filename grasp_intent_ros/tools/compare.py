@@ -21,8 +21,8 @@ from numpy.typing import NDArray
 
 from ..core.errors import GraspIntentError
 from ..protocol import DIAGNOSTICS, LEVEL_NAMES, MODEL_ACTIVE, ModelHeader, split_labels, split_posterior
-from .session import Step
 from .outputs import Joints, Output, Pose, Rejection, Text, Trajectory, Undecodable, Value, Vector
+from .session import Step
 
 __all__ = ['Tolerances', 'Difference', 'summarize', 'compare_step', 'answered', 'diverged']
 
@@ -31,14 +31,21 @@ __all__ = ['Tolerances', 'Difference', 'summarize', 'compare_step', 'answered', 
 class Tolerances:
     """Largest accepted |recorded - live| per quantity (absolute).
 
-    Attributes:
-        v: Target vector entries.
-        posterior: P(zone | x) and reconstructed w entries.
-        position_m: End-effector position (Euclidean distance, m); also palm features.
-        angle_rad: End-effector orientation (rotation angle between the two, rad); also approach and
-            roll features.
-        joint_rad: Joint targets and trajectory positions (rad); also finger features.
-        duration_s: Trajectory time from start (s).
+    Attributes
+    ----------
+    v
+        Target vector entries.
+    posterior
+        P(zone | x) and reconstructed w entries.
+    position_m
+        End-effector position (Euclidean distance, m); also palm features.
+    angle_rad
+        End-effector orientation (rotation angle between the two, rad); also approach and
+        roll features.
+    joint_rad
+        Joint targets and trajectory positions (rad); also finger features.
+    duration_s
+        Trajectory time from start (s).
     """
 
     v: float = 1e-9
@@ -53,14 +60,22 @@ class Tolerances:
 class Difference:
     """One difference between a recorded and a live output.
 
-    Attributes:
-        step: Input number (1-based) whose answer differs.
-        input: The input's description.
-        topic: Output topic (relative) or '/diagnostics'.
-        field: What differs, e.g. 'P[UT]', 'position', 'message'.
-        recorded: The recorded value, formatted.
-        live: The live value, formatted.
-        fatal: False for a note that does not fail a check (a model's content differs).
+    Attributes
+    ----------
+    step
+        Input number (1-based) whose answer differs.
+    input
+        The input's description.
+    topic
+        Output topic (relative) or '/diagnostics'.
+    field
+        What differs, e.g. 'P[UT]', 'position', 'message'.
+    recorded
+        The recorded value, formatted.
+    live
+        The live value, formatted.
+    fatal
+        False for a note that does not fail a check (a model's content differs).
     """
 
     step: int
@@ -106,8 +121,10 @@ def _beyond(diff: float, tol: float) -> str:
 
 
 def _value_labels(vector: Vector, n: int) -> tuple[str, ...]:
-    """Names of a vector's entries: from the last dimension label (a leading stamp axis is skipped);
-    a posterior's '<zones>|<tasks>' label gives 'P[zone]' and 'w[task]'."""
+    """Names of a vector's entries, from the last dimension label (a leading stamp axis is skipped).
+
+    A posterior's '<zones>|<tasks>' label gives 'P[zone]' and 'w[task]'.
+    """
     labels = _stripped_labels(vector)
     label = labels[-1] if labels else ''
     try:

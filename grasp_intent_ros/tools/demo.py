@@ -50,13 +50,12 @@ from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import String
 
 from ..core.errors import GraspIntentError
-from .paper_tables import CASES
-from .suite import (NodeSuite, SuiteError, domain_id_from_environment,
-                        use_loopback_discovery)
-from ..ros.conversions import model_from_msg
 from ..protocol import ModelDocument
+from ..ros.conversions import model_from_msg
 from ..ros.qos import input_qos, latched_qos
+from .paper_tables import CASES
 from .send_intent import IntentSender, NoGrasp, format_grasp
+from .suite import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
 
 __all__ = ['CLARIFICATION_CASE', 'DemoError', 'main']
 
@@ -83,8 +82,11 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
 
 # ------------------------------------------------------------------------------------------ the ROS side
 class _ChainObserver(Node):
-    """What the demo watches besides the answers: model/active, /diagnostics, the intent topics' graph,
-    clarification requests, and the model server's parameter client."""
+    """What the demo watches besides the answers.
+
+    model/active, /diagnostics, the intent topics' graph, clarification requests, and the model server's
+    parameter client.
+    """
 
     def __init__(self) -> None:
         super().__init__('grasp_intent_demo')
@@ -133,8 +135,10 @@ class _Demo:
             raise DemoError(problem)
 
     def _spin_until(self, predicate: Callable[[], object], timeout: float | None = None) -> bool:
-        """Spin until ``predicate()`` holds (True) or ``timeout`` (default ``self.timeout``) seconds pass
-        (False); DemoError as soon as a node process has exited."""
+        """Spin until ``predicate()`` holds (True) or ``timeout`` (default ``self.timeout``) s pass (False).
+
+        DemoError as soon as a node process has exited.
+        """
         deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
         while not predicate():
             self._check_alive()
@@ -152,9 +156,11 @@ class _Demo:
         return '' if status is None else status.get('model', '')
 
     def check_domain_unused(self, domain_id: int) -> None:
-        """DemoError if other nodes show up on the domain within DOMAIN_CHECK seconds: the demo would talk
-        to them (another run's model_server answers set_parameters just as well). Evidence, not proof:
-        discovery on loopback normally takes well under a second."""
+        """DemoError if other nodes show up on the domain within DOMAIN_CHECK seconds.
+
+        The demo would talk to them (another run's model_server answers set_parameters just as well). Evidence, not
+        proof: discovery on loopback normally takes well under a second.
+        """
         own = {self.sender.get_name(), self.observer.get_name()}
 
         def others() -> list[str]:

@@ -1,6 +1,7 @@
-"""Messages of the suite read into comparable values (ROS-free): decoded CDR, reduced per topic, rejections
-told apart from periodic diagnostics. A replay reads the recorded and the live messages through the same
-code (:func:`output_of`).
+"""Messages of the suite read into comparable values (ROS-free).
+
+Decoded CDR, reduced per topic, rejections told apart from periodic diagnostics. A replay reads the recorded and
+the live messages through the same code (:func:`output_of`).
 """
 
 from __future__ import annotations
@@ -14,10 +15,19 @@ from numpy.typing import NDArray
 from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, TypesysError, get_typestore
 
-from ..core.errors import ModelFormatError
-from ..protocol import (DIAGNOSTICS, KEY_LAST_ERROR, KEY_REJECTED, MODEL_ACTIVE,
-                        MSGTYPES, ModelHeader, level_value, parse_model_document, status_values)
 from ..bag.errors import BagError
+from ..core.errors import ModelFormatError
+from ..protocol import (
+    DIAGNOSTICS,
+    KEY_LAST_ERROR,
+    KEY_REJECTED,
+    MODEL_ACTIVE,
+    MSGTYPES,
+    ModelHeader,
+    level_value,
+    parse_model_document,
+    status_values,
+)
 
 __all__ = [
     'SessionError',
@@ -107,10 +117,14 @@ Value = Vector | Text | Pose | Joints | Trajectory | ModelHeader | Rejection | U
 class Output:
     """One output message (or rejection) of the system.
 
-    Attributes:
-        topic: Relative topic name ('intent/v', 'model/active', ...) or '/diagnostics'.
-        t_ns: Receive time, ns since the epoch.
-        value: The reduced message.
+    Attributes
+    ----------
+    topic
+        Relative topic name ('intent/v', 'model/active', ...) or '/diagnostics'.
+    t_ns
+        Receive time, ns since the epoch.
+    value
+        The reduced message.
     """
 
     topic: str
@@ -140,8 +154,10 @@ def _typestore() -> Any:
 def decode(msgtype: str, cdr: bytes) -> Any:
     """Deserialize CDR bytes (with encapsulation header) into a rosbags message of ``msgtype``.
 
-    Raises:
-        SessionError: The bytes are not a valid message of that type.
+    Raises
+    ------
+    SessionError
+        The bytes are not a valid message of that type.
     """
     try:
         return _typestore().deserialize_cdr(cdr, msgtype)
@@ -150,11 +166,14 @@ def decode(msgtype: str, cdr: bytes) -> Any:
 
 
 def model_header(text: str) -> ModelHeader:
-    """The header lines of a model document (:func:`~grasp_intent_ros.core.model.parse_model_document`);
-    the body is neither hashed nor parsed.
+    """The header lines of a model document (:func:`~grasp_intent_ros.protocol.parse_model_document`).
 
-    Raises:
-        SessionError: The three header lines are missing or malformed.
+    The body is neither hashed nor parsed.
+
+    Raises
+    ------
+    SessionError
+        The three header lines are missing or malformed.
     """
     try:
         return parse_model_document(text, check_sha256=False)[0]
@@ -165,9 +184,11 @@ def model_header(text: str) -> ModelHeader:
 def reduce_message(topic: str, msg: Any) -> Value:
     """The comparable content of a decoded message on a session topic (relative name).
 
-    Raises:
-        SessionError: ``topic`` is not a session input/output topic, or the message is malformed
-            (e.g. a model document without its header).
+    Raises
+    ------
+    SessionError
+        ``topic`` is not a session input/output topic, or the message is malformed
+        (e.g. a model document without its header).
     """
     msgtype = MSGTYPES.get(topic)
     if msgtype is None or topic == DIAGNOSTICS:
@@ -193,8 +214,10 @@ def reduce_message(topic: str, msg: Any) -> Value:
 
 
 def output_of(topic: str, t_ns: int, cdr: bytes) -> Output:
-    """An :class:`Output` from serialized bytes on a session topic (relative name, not /diagnostics);
-    a message that cannot be decoded becomes an :class:`Undecodable` value (never raises)."""
+    """An :class:`Output` from serialized bytes on a session topic (relative name, not /diagnostics).
+
+    A message that cannot be decoded becomes an :class:`Undecodable` value (never raises).
+    """
     try:
         value: Value = reduce_message(topic, decode(MSGTYPES[topic], cdr))
     except (SessionError, KeyError, AttributeError, TypeError, ValueError) as exc:

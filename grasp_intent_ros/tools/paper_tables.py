@@ -13,11 +13,11 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from .cli import report_user_errors
 from ..core import intent, planner
 from ..core.errors import GraspIntentError
 from ..core.model import GraspModel
 from ..core.resources import config_dir
+from .cli import report_user_errors
 
 CASES: list[tuple[str, tuple[float, float, float], tuple[str, ...]]] = [
     ('Tables II/III: inference ambiguity, single task', (0.9, 0.1, 0.1), ('cup_7zone',)),

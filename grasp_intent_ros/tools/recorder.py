@@ -69,8 +69,10 @@ class TopicSelection:
     def resolve(cls, node: Node, patterns: Iterable[str]) -> TopicSelection:
         """Resolve ``patterns`` (relative names are expanded and remapped against ``node``).
 
-        Raises:
-            ValueError: A pattern is empty or not a valid topic name.
+        Raises
+        ------
+        ValueError
+            A pattern is empty or not a valid topic name.
         """
         names, prefixes = set(), []
         for pattern in patterns:
@@ -99,8 +101,10 @@ def offered_qos(publishers: Sequence[TopicEndpointInfo]) -> QosSpec:
     Reliable / transient local only if every publisher offers it, so the subscription matches all of
     them. Depth 0: publisher history is not visible through discovery.
 
-    Raises:
-        ValueError: ``publishers`` is empty.
+    Raises
+    ------
+    ValueError
+        ``publishers`` is empty.
     """
     if not publishers:
         raise ValueError('a topic without publishers has no offered QoS')
@@ -128,20 +132,31 @@ def _message_class(msgtype: str) -> Any:
 class Recorder(Node):
     """Records the selected topics, serialized, into a new rosbag2 MCAP bag at ``out_dir``.
 
-    Args:
-        out_dir: Bag directory to create; it must not exist.
-        topics: Topic names/prefixes, see :data:`DEFAULT_TOPICS`.
-        qos_overrides: Topic (as in ``topics``, relative or absolute) -> QoS to subscribe with and
-            record, instead of the discovered offered QoS.
-        depth: Keep-last depth of each subscription (messages).
-        discovery_period: Seconds between looks at the ROS graph for new topics.
-        on_failure: Called once with the :class:`BagWriteError` after a write error stopped the
-            recording (``main`` shuts the context down with it); default: nothing more.
-        node_name: Node name; ``kwargs`` go to ``rclpy.node.Node`` (e.g. ``context``, ``namespace``).
+    Parameters
+    ----------
+    out_dir
+        Bag directory to create; it must not exist.
+    topics
+        Topic names/prefixes, see :data:`DEFAULT_TOPICS`.
+    qos_overrides
+        Topic (as in ``topics``, relative or absolute) -> QoS to subscribe with and
+        record, instead of the discovered offered QoS.
+    depth
+        Keep-last depth of each subscription (messages).
+    discovery_period
+        Seconds between looks at the ROS graph for new topics.
+    on_failure
+        Called once with the :class:`BagWriteError` after a write error stopped the
+        recording (``main`` shuts the context down with it); default: nothing more.
+    node_name
+        Node name; ``kwargs`` go to ``rclpy.node.Node`` (e.g. ``context``, ``namespace``).
 
-    Raises:
-        BagWriteError: ``out_dir`` exists or cannot be created.
-        ValueError: A topic pattern is invalid, or depth/discovery_period is not positive.
+    Raises
+    ------
+    BagWriteError
+        ``out_dir`` exists or cannot be created.
+    ValueError
+        A topic pattern is invalid, or depth/discovery_period is not positive.
 
     The bag is finished by :meth:`close`, which :meth:`destroy_node` calls.
     """
@@ -239,8 +254,10 @@ class Recorder(Node):
                 self._subscribe(topic, types[0], self._overrides.get(topic) or offered_qos(publishers))
 
     def _check_late_publishers(self, topic: str) -> None:
-        """Warn (once per topic) about a publisher that appeared after the subscription and offers a
-        weaker QoS than it requests (best effort / volatile): DDS connects nothing, its messages are lost."""
+        """Warn (once per topic) about a late publisher offering a weaker QoS than the subscription requests.
+
+        Best effort or volatile: DDS connects nothing, its messages are lost.
+        """
         if topic in self._qos_warned:
             return
         try:

@@ -49,7 +49,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
 from ..bag.errors import BagError
 from .compare import Difference
-from .replay_client import (SUITE_SETTLE_S, ReplayError, ReplayOptions, Replayer, ReplayResult, SessionClient)
+from .replay_client import SUITE_SETTLE_S, Replayer, ReplayError, ReplayOptions, ReplayResult, SessionClient
 from .session import Session, load_session
 from .suite import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
 
@@ -65,7 +65,8 @@ def _parser() -> argparse.ArgumentParser:
     pace.add_argument('--fast', action='store_true', help='send each input once the previous one was answered')
     parser.add_argument('--check', action='store_true', help='compare the live answers with the recorded ones')
     parser.add_argument('--start-suite', action='store_true',
-                        help='start the three nodes as processes (LOCALHOST, this ROS_DOMAIN_ID) and stop them at the end')
+                        help='start the three nodes as processes (LOCALHOST, this ROS_DOMAIN_ID) and stop them at '
+                             'the end')
     parser.add_argument('--timeout', type=float, default=10.0, metavar='S',
                         help='longest wait for one answer, s (default 10)')
     parser.add_argument('--startup-timeout', type=float, default=60.0, metavar='S',
@@ -109,8 +110,10 @@ def _report(session: Session, options: ReplayOptions, result: ReplayResult, max_
 
 
 def _diff_lines(failures: Sequence[Difference], max_messages: int, fields_per_message: int = 2) -> list[str]:
-    """One line per difference, for the first ``max_messages`` differing messages (input, topic), at most
-    ``fields_per_message`` fields each; the last line of a message says how many more fields differ."""
+    """One line per difference, for the first ``max_messages`` differing messages (input, topic).
+
+    At most ``fields_per_message`` fields each; the last line of a message says how many more fields differ.
+    """
     groups: dict[tuple[int, str], list[Difference]] = {}
     for diff in failures:
         groups.setdefault((diff.step, diff.topic), []).append(diff)

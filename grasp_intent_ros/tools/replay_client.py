@@ -1,6 +1,7 @@
-"""The replay's rclpy side: a client node that publishes a session's inputs and collects the live outputs,
-and the engine that paces the inputs and checks each answer (:mod:`.compare`). The command line is
-:mod:`grasp_intent_ros.tools.replay`.
+"""The replay's rclpy side: its client node and its engine.
+
+The client node publishes a session's inputs and collects the live outputs; the engine that paces the inputs and
+checks each answer (:mod:`.compare`). The command line is :mod:`grasp_intent_ros.tools.replay`.
 """
 
 from __future__ import annotations
@@ -11,21 +12,20 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.srv import SetParameters
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.task import Future
-from rcl_interfaces.srv import SetParameters
 from std_msgs.msg import String
-from diagnostic_msgs.msg import DiagnosticArray
 
-from .session import Session, Step
-
-from .outputs import Output, RejectionTracker, SessionError, decode, output_of
-from .compare import Difference, Tolerances, answered, compare_step, diverged
 from ..protocol import DIAGNOSTICS, INPUT_TOPICS, MODEL_ACTIVE, MSGTYPES, OUTPUT_TOPICS, ModelHeader
 from ..ros.conversions import message_class
 from ..ros.qos import input_qos, latched_qos, output_qos
+from .compare import Difference, Tolerances, answered, compare_step, diverged
+from .outputs import Output, RejectionTracker, SessionError, decode, output_of
+from .session import Session, Step
 
 __all__ = ['SUITE_SETTLE_S', 'SessionClient', 'ReplayOptions', 'ReplayResult', 'ReplayError', 'Replayer',
            'await_answer']
@@ -37,12 +37,16 @@ SUITE_SETTLE_S = 3.0
 
 # ---------------------------------------------------------------------------------------- the client
 class SessionClient(Node):
-    """Publishes session inputs, collects the live outputs as :class:`~grasp_intent_ros.tools.session.Output`
-    (serialized, decoded like the recorded ones), sets the model server's ``model`` parameter.
+    """Publishes session inputs, collects the live outputs, sets the model server's ``model`` parameter.
 
-    Args:
-        model_server: Name of the model server node, relative to this node's namespace.
-        node_name: This node's name; ``kwargs`` go to ``rclpy.node.Node`` (``context``, ``namespace``).
+    Outputs are :class:`~grasp_intent_ros.tools.outputs.Output` (serialized, decoded like the recorded ones).
+
+    Parameters
+    ----------
+    model_server
+        Name of the model server node, relative to this node's namespace.
+    node_name
+        This node's name; ``kwargs`` go to ``rclpy.node.Node`` (``context``, ``namespace``).
     """
 
     def __init__(self, *, model_server: str = 'model_server', node_name: str = 'replay', **kwargs: Any) -> None:
@@ -62,7 +66,8 @@ class SessionClient(Node):
         self._input_pubs = {topic: self.create_publisher(message_class(topic), topic, output_qos())
                             for topic in INPUT_TOPICS}
         self._output_subs = {
-            topic: self.create_subscription(message_class(topic), topic, self._receiver(topic), input_qos(100), raw=True)
+            topic: self.create_subscription(message_class(topic), topic, self._receiver(topic), input_qos(100),
+                                            raw=True)
             for topic in OUTPUT_TOPICS}
         self._output_subs[MODEL_ACTIVE] = self.create_subscription(
             String, MODEL_ACTIVE, self._receiver(MODEL_ACTIVE), latched_qos(), raw=True)
@@ -116,9 +121,12 @@ class SessionClient(Node):
         return all(now - t >= seconds for t in self._first_seen.values())
 
     def missing(self, *, need_parameters: bool) -> list[str]:
-        """What the live system still lacks to be replayed into ([] when ready): a model document,
+        """What the live system still lacks to be replayed into ([] when ready).
+
+        A model document,
         matched subscribers of the inputs, matched publishers of the outputs, a status from every
-        /diagnostics publisher, the parameter service."""
+        /diagnostics publisher, the parameter service.
+        """
         lacking = []
         if self.model is None:
             lacking.append(f'no {MODEL_ACTIVE} received')
@@ -143,7 +151,8 @@ def await_answer(spin: Callable[[], None], outputs: list[Output], mark: int, ste
     step recorded without outputs, nothing came for ``quiet_s``; or ``timeout_s`` passed. ``future`` (a
     SetParameters call) must be done too; a refused parameter ends the wait.
 
-    Returns:
+    Returns
+    -------
         (the live outputs since ``mark``, '' | 'timeout' | 'rejected: <reason>')
     """
     start = last_change = time.monotonic()
@@ -176,18 +185,28 @@ def await_answer(spin: Callable[[], None], outputs: list[Output], mark: int, ste
 class ReplayOptions:
     """How to replay.
 
-    Attributes:
-        rate: Recorded pace multiplier (> 0); ignored with ``fast``.
-        fast: Send each input once the previous one was answered, without waiting for its recorded time.
-        check: Wait for every answer and compare it with the recording.
-        timeout_s: Longest wait for one answer (s).
-        startup_timeout_s: Longest wait for the live system to be ready (s).
-        settle_s: Once ready, how long every node must have been visible before the first input (s):
-            one discovery announcement period (3 s) for a suite started together with the replay, so its
-            nodes have met each other; 0 for a system that was running already.
-        quiet_s: For an input recorded without any answer: how long nothing must arrive (s).
-        max_failed_inputs: Stop after this many inputs with differences (0: never stop early).
-        tolerances: Of the comparison.
+    Attributes
+    ----------
+    rate
+        Recorded pace multiplier (> 0); ignored with ``fast``.
+    fast
+        Send each input once the previous one was answered, without waiting for its recorded time.
+    check
+        Wait for every answer and compare it with the recording.
+    timeout_s
+        Longest wait for one answer (s).
+    startup_timeout_s
+        Longest wait for the live system to be ready (s).
+    settle_s
+        Once ready, how long every node must have been visible before the first input (s):
+        one discovery announcement period (3 s) for a suite started together with the replay, so its
+        nodes have met each other; 0 for a system that was running already.
+    quiet_s
+        For an input recorded without any answer: how long nothing must arrive (s).
+    max_failed_inputs
+        Stop after this many inputs with differences (0: never stop early).
+    tolerances
+        Of the comparison.
     """
 
     rate: float = 1.0
@@ -226,12 +245,18 @@ class ReplayError(RuntimeError):
 class Replayer:
     """Replays one session through a :class:`SessionClient` spun by ``executor`` in the calling thread.
 
-    Args:
-        session: The recorded session.
-        client: Added to ``executor`` by the caller.
-        executor: Spun with ``spin_once`` while waiting.
-        options: See :class:`ReplayOptions`.
-        alive: Called while waiting; a non-empty return (e.g. a suite process died) aborts with ReplayError.
+    Parameters
+    ----------
+    session
+        The recorded session.
+    client
+        Added to ``executor`` by the caller.
+    executor
+        Spun with ``spin_once`` while waiting.
+    options
+        See :class:`ReplayOptions`.
+    alive
+        Called while waiting; a non-empty return (e.g. a suite process died) aborts with ReplayError.
     """
 
     def __init__(self, session: Session, client: SessionClient, executor: SingleThreadedExecutor,

@@ -45,8 +45,8 @@ from numpy.typing import NDArray
 from ..bag import BagError
 from ..core import ambiguity
 from ..core.features import FINGER_CLOSED, FINGERS, ROLL
-from ..core.intent import zone_label
 from ..core.frames import features_to_obj_T_ee, finger_segments
+from ..core.intent import zone_label
 from ..protocol import Posterior, Stamp
 from .report_data import Session, load_session
 
@@ -129,7 +129,8 @@ def plot_intent_cases(session: Session, out: Path) -> list[str]:
             ax.set_title(f'case {index + 1} at {session.seconds(stamp):.1f} s: {w_text}{plan_text}', fontsize=9)
             ax.grid(axis='y', alpha=0.3)
         fig.legend(handles=[Patch(color=_V_COLOR, label='target v (intent/v)'),
-                            Patch(color=_P_COLOR, label='posterior P(zone | x) of the planned grasp (grasp/posterior)')],
+                            Patch(color=_P_COLOR,
+                                  label='posterior P(zone | x) of the planned grasp (grasp/posterior)')],
                    loc='outside lower center', ncols=2, fontsize=9, frameon=False)
         tasks = session.task_names(m or 1)
         fig.suptitle('Target v from the intent interpreter vs posterior P of the planned grasp, per intent '
@@ -204,10 +205,12 @@ def plot_kl(session: Session, out: Path) -> list[str]:
 
 
 def _draw_grasp(ax: Any, x: NDArray[np.float64]) -> None:
-    """The object cylinder and the hand of grasp ``x`` (object frame, m), posed by
-    :func:`~grasp_intent_ros.core.kinematics.features_to_obj_T_ee`: EE origin at the palm centre, EE z =
+    """The object cylinder and the hand of grasp ``x`` (object frame, m).
+
+    Posed by :func:`~grasp_intent_ros.core.frames.features_to_obj_T_ee`: EE origin at the palm centre, EE z =
     approach, and the fingers of :func:`~grasp_intent_ros.core.frames.finger_segments` (as the RViz
-    markers draw them)."""
+    markers draw them).
+    """
     obj_T_ee = features_to_obj_T_ee(x)
     palm, ee_z = obj_T_ee[:3, 3], obj_T_ee[:3, 2]
     theta, height = np.meshgrid(np.linspace(0, 2 * math.pi, 40), np.array([0.0, OBJECT_HEIGHT]))
@@ -267,7 +270,8 @@ def plot_grasps(session: Session, out: Path) -> list[str]:
     return ['grasps_3d.png']
 
 
-def _nearest_posterior(session: Session, stamp: int, tolerance_ns: int = 1_000_000_000) -> Posterior[Stamp | None] | None:
+def _nearest_posterior(session: Session, stamp: int,
+                       tolerance_ns: int = 1_000_000_000) -> Posterior[Stamp | None] | None:
     best = min(session.posteriors, key=lambda tp: abs(tp[0] - stamp), default=None)
     return best[1] if best is not None and abs(best[0] - stamp) <= tolerance_ns else None
 
@@ -316,12 +320,16 @@ def write_summary(session: Session, out: Path, figures: list[str], skipped: list
 def write_report(bag: Path, out: Path) -> tuple[list[str], list[str]]:
     """Write the figures and summary.md for ``bag`` into ``out`` (created).
 
-    Returns:
+    Returns
+    -------
         (figure file names written, reasons for figures skipped).
 
-    Raises:
-        BagError: The bag is missing or cannot be read.
-        OSError: ``out`` cannot be created or written.
+    Raises
+    ------
+    BagError
+        The bag is missing or cannot be read.
+    OSError
+        ``out`` cannot be created or written.
     """
     session = load_session(bag)
     out.mkdir(parents=True, exist_ok=True)

@@ -32,10 +32,18 @@ from ..core.errors import GraspIntentError
 from ..core.features import MICO_3F
 from ..core.intent import default_task_names
 from ..core.model import GraspModel
-from ..protocol import (Posterior, Stamp, msg_labels, msg_to_array, read_model_document, read_posterior, split_labels,
-                        stamped_values)
-from .session import detect_namespace
+from ..protocol import (
+    Posterior,
+    Stamp,
+    msg_labels,
+    msg_to_array,
+    read_model_document,
+    read_posterior,
+    split_labels,
+    stamped_values,
+)
 from .outputs import Rejection, RejectionTracker, SessionError
+from .session import detect_namespace
 
 __all__ = ['ROLES', 'Session', 'load_session']
 
@@ -102,8 +110,10 @@ def _find_topics(topics: dict[str, TopicInfo]) -> tuple[dict[str, str], list[str
 def load_session(path: Path) -> Session:
     """Read the messages the report uses.
 
-    Raises:
-        BagError: The bag is missing or cannot be read.
+    Raises
+    ------
+    BagError
+        The bag is missing or cannot be read.
     """
     topics = topics_info(path)
     roles, notes = _find_topics(topics)

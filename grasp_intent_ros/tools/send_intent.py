@@ -35,10 +35,9 @@ from std_msgs.msg import Float64MultiArray, String
 
 from ..core.errors import GraspIntentError
 from ..core.intent import validate_w
-from ..protocol import msg_labels, msg_to_array
-from ..ros.qos import input_qos, output_qos
-from ..protocol import Posterior
+from ..protocol import Posterior, msg_labels, msg_to_array
 from ..ros.conversions import posterior_from_msg
+from ..ros.qos import input_qos, output_qos
 
 __all__ = ['GraspAnswer', 'NoGrasp', 'IntentSender', 'format_grasp', 'main']
 

@@ -32,14 +32,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Final
 
-
-from ..protocol import (DIAGNOSTICS, INPUT_TOPICS, MODEL_ACTIVE,
-                        OUTPUT_TOPICS, ModelHeader)
 from ..bag.qos import QosSpec
 from ..bag.reader import read_messages, topics_info
 from ..bag.writer import SessionWriter
+from ..protocol import DIAGNOSTICS, INPUT_TOPICS, MODEL_ACTIVE, OUTPUT_TOPICS, ModelHeader
+from .outputs import Output, RawMessage, RejectionTracker, SessionError, decode, model_header, output_of
 
-from .outputs import (Output, RawMessage, RejectionTracker, SessionError, decode, model_header, output_of)
 __all__ = [
     'Step',
     'Session',
@@ -76,15 +74,23 @@ def _describe_input(topic: str, msgtype: str, cdr: bytes) -> str:
 class Step:
     """One input of a session and the outputs recorded for it.
 
-    Attributes:
-        index: Input number, 1-based.
-        topic: 'intent/w', 'object/pose', 'joint_states', or 'model/active' for a model switch.
-        t_ns: Receive time of the input, ns.
-        msgtype: Its message type.
-        cdr: The serialized input, published again by a replay (for a model switch: the document).
-        expected: The outputs received after it and before the next input; for a model switch the
-            first is the new ``model/active`` document itself.
-        description: One line for humans, e.g. 'intent/w [0.9, 0.1, 0.1]'.
+    Attributes
+    ----------
+    index
+        Input number, 1-based.
+    topic
+        'intent/w', 'object/pose', 'joint_states', or 'model/active' for a model switch.
+    t_ns
+        Receive time of the input, ns.
+    msgtype
+        Its message type.
+    cdr
+        The serialized input, published again by a replay (for a model switch: the document).
+    expected
+        The outputs received after it and before the next input; for a model switch the
+        first is the new ``model/active`` document itself.
+    description
+        One line for humans, e.g. 'intent/w [0.9, 0.1, 0.1]'.
     """
 
     index: int
@@ -108,12 +114,18 @@ class Step:
 class Session:
     """A session bag split into steps.
 
-    Attributes:
-        path: The bag directory.
-        namespace: Namespace of the session topics ('' for the root namespace, else e.g. '/robot1').
-        initial_model: The first model document of the session (None if it has none).
-        steps: The inputs in order with their outputs.
-        unpaired: Outputs received before the first input (not compared).
+    Attributes
+    ----------
+    path
+        The bag directory.
+    namespace
+        Namespace of the session topics ('' for the root namespace, else e.g. '/robot1').
+    initial_model
+        The first model document of the session (None if it has none).
+    steps
+        The inputs in order with their outputs.
+    unpaired
+        Outputs received before the first input (not compared).
     """
 
     path: Path
@@ -139,8 +151,10 @@ _KNOWN_RELATIVE: Final = (*INPUT_TOPICS, MODEL_ACTIVE, *OUTPUT_TOPICS)
 def detect_namespace(topics: Iterable[str]) -> str:
     """The namespace of the session topics among ``topics`` ('' for root, e.g. '/robot1').
 
-    Raises:
-        SessionError: No session topic, or session topics in several namespaces.
+    Raises
+    ------
+    SessionError
+        No session topic, or session topics in several namespaces.
     """
     found = set()
     for topic in topics:
@@ -158,13 +172,18 @@ def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '') -> tup
         ModelHeader | None, tuple[Step, ...], tuple[Output, ...]]:
     """Split time-ordered messages into (initial model, steps, outputs before the first input).
 
-    Args:
-        messages: Messages in receive-time order (e.g. :func:`~grasp_intent_ros.bag.read_messages`);
-            topics outside the session's (in ``namespace``) are ignored.
-        namespace: '' or e.g. '/robot1'.
+    Parameters
+    ----------
+    messages
+        Messages in receive-time order (e.g. :func:`~grasp_intent_ros.bag.read_messages`);
+        topics outside the session's (in ``namespace``) are ignored.
+    namespace
+        '' or e.g. '/robot1'.
 
-    Raises:
-        SessionError: An input or model document cannot be decoded.
+    Raises
+    ------
+    SessionError
+        An input or model document cannot be decoded.
     """
     prefix = f'{namespace}/'
     tracker = RejectionTracker()
@@ -215,13 +234,19 @@ def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '') -> tup
 def load_session(path: str | os.PathLike[str], *, namespace: str | None = None) -> Session:
     """Read a session bag and pair its inputs with their outputs.
 
-    Args:
-        path: The bag directory.
-        namespace: Namespace of the session topics; None detects it from the bag's topics.
+    Parameters
+    ----------
+    path
+        The bag directory.
+    namespace
+        Namespace of the session topics; None detects it from the bag's topics.
 
-    Raises:
-        BagReadError: The bag cannot be read.
-        SessionError: The bag has no session topics or no inputs, or a model document is malformed.
+    Raises
+    ------
+    BagReadError
+        The bag cannot be read.
+    SessionError
+        The bag has no session topics or no inputs, or a model document is malformed.
     """
     bag = Path(path)
     infos = topics_info(bag)
@@ -242,12 +267,16 @@ def compact_session(src: str | os.PathLike[str], dst: str | os.PathLike[str], *,
     timestamps, offered QoS); topics in ``drop_topics`` (absolute names) and topics left without
     messages are left out.
 
-    Returns:
+    Returns
+    -------
         Messages written per topic.
 
-    Raises:
-        BagReadError: ``src`` cannot be read.
-        BagWriteError: ``dst`` exists or cannot be written.
+    Raises
+    ------
+    BagReadError
+        ``src`` cannot be read.
+    BagWriteError
+        ``dst`` exists or cannot be written.
     """
     infos = topics_info(src)
     dropped = set(drop_topics)

@@ -1,5 +1,6 @@
-"""The node suite as processes: ``python -m grasp_intent_ros.<module> --ros-args ...`` started, watched
-and stopped by PID, on one loopback-only ROS domain.
+"""The node suite as processes on one loopback-only ROS domain.
+
+``python -m grasp_intent_ros.<module> --ros-args ...`` started, watched and stopped by PID.
 
 One :class:`NodeSuite` serves the demo, the replay (``--start-suite``), ``scripts/record_sessions.py`` and
 the system tests.
@@ -51,9 +52,10 @@ class SuiteError(RuntimeError):
 
 
 def domain_id_from_environment(environ: Mapping[str, str] | None = None, *, unset: int | None = None) -> int:
-    """The run's ROS domain id: ``ROS_DOMAIN_ID`` if set, else ``unset``, else 10..89 derived from the process
-    id (a run that starts its own nodes keeps off other runs' domains; one that joins running nodes passes
-    ``unset=0``, ROS's own default).
+    """The run's ROS domain id: ``ROS_DOMAIN_ID`` if set, else ``unset``, else 10..89 from the process id.
+
+    A run that starts its own nodes keeps off other runs' domains; one that joins running nodes passes
+    ``unset=0``, ROS's own default.
 
     Raises
     ------
@@ -69,8 +71,11 @@ def domain_id_from_environment(environ: Mapping[str, str] | None = None, *, unse
 
 
 def use_loopback_discovery(environ: MutableMapping[str, str] | None = None) -> str | None:
-    """Set ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and drop ``ROS_STATIC_PEERS`` in ``environ`` (default
-    ``os.environ``), before this process initialises rclpy; the range it replaced (None if unset)."""
+    """Set ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and drop ``ROS_STATIC_PEERS``; the range replaced.
+
+    In ``environ`` (default ``os.environ``), before this process initialises rclpy. Returns the range it
+    replaced (None if unset).
+    """
     env = os.environ if environ is None else environ
     previous = env.get('ROS_AUTOMATIC_DISCOVERY_RANGE')
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
@@ -81,11 +86,15 @@ def use_loopback_discovery(environ: MutableMapping[str, str] | None = None) -> s
 def node_environment(domain_id: int, base: Mapping[str, str] | None = None) -> dict[str, str]:
     """The environment of a node process on ``domain_id``.
 
-    Args:
-        domain_id: ROS_DOMAIN_ID (0..101 for LOCALHOST discovery).
-        base: Environment to start from (default ``os.environ``); not modified.
+    Parameters
+    ----------
+    domain_id
+        ROS_DOMAIN_ID (0..101 for LOCALHOST discovery).
+    base
+        Environment to start from (default ``os.environ``); not modified.
 
-    Returns:
+    Returns
+    -------
         ``base`` with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, ROS_DOMAIN_ID, PYTHONUNBUFFERED=1 and
         RCUTILS_LOGGING_BUFFERED_STREAM=0 set and ROS_STATIC_PEERS removed.
     """
@@ -98,14 +107,22 @@ def node_environment(domain_id: int, base: Mapping[str, str] | None = None) -> d
 class NodeProcess:
     """One process, started on construction, its output in ``<log_dir>/<prefix><module>.out`` and ``.err``.
 
-    Args:
-        command: The command line (:meth:`start` builds the one of a node module).
-        module: Name of the process in log file names and messages (the node module's).
-        env: Its whole environment (see :func:`node_environment`).
-        log_dir: Existing directory for the two log files.
-        prefix: Prepended to the log file names (e.g. ``'00_'``).
-        cwd: Its working directory (default this process's).
-        preexec_fn: Run in the child before the command (e.g. to set a resource limit).
+    Parameters
+    ----------
+    command
+        The command line (:meth:`start` builds the one of a node module).
+    module
+        Name of the process in log file names and messages (the node module's).
+    env
+        Its whole environment (see :func:`node_environment`).
+    log_dir
+        Existing directory for the two log files.
+    prefix
+        Prepended to the log file names (e.g. ``'00_'``).
+    cwd
+        Its working directory (default this process's).
+    preexec_fn
+        Run in the child before the command (e.g. to set a resource limit).
     """
 
     def __init__(self, command: Sequence[str], *, module: str, env: Mapping[str, str], log_dir: Path,
@@ -173,8 +190,10 @@ class NodeProcess:
     def problem(self) -> str:
         """After the exit: '' when clean (code 0, no 'Traceback' on stderr), else one line saying why not.
 
-        Raises:
-            RuntimeError: The process is still running.
+        Raises
+        ------
+        RuntimeError
+            The process is still running.
         """
         code = self.popen.poll()
         if code is None:
@@ -310,8 +329,9 @@ class NodeSuite:
 
     def stop(self, sig: signal.Signals = signal.SIGTERM, *, timeout: float = STOP_TIMEOUT, tail_lines: int = 15,
              include_exited: bool = True) -> list[str]:
-        """Send ``sig`` to every process still running (by PID), wait for all against one deadline (SIGKILL
-        after ``timeout`` s).
+        """Send ``sig`` to every process still running (by PID), wait for all against one deadline.
+
+        SIGKILL after ``timeout`` s.
 
         Parameters
         ----------

@@ -29,19 +29,24 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from grasp_intent_ros.core import planner
 from grasp_intent_ros.core.data import Demonstrations
-from grasp_intent_ros.dataset.demos import grasp_features
 from grasp_intent_ros.core.features import FINGERS, MICO_3F
-from grasp_intent_ros.core.intent import all_zones, interpret, restrict
 from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.core.grasp import MIN_TRAJECTORY_TIME
+from grasp_intent_ros.core.intent import all_zones, interpret, restrict
 from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
 from grasp_intent_ros.core.model import GraspModel, structure_zones
+from grasp_intent_ros.dataset.demos import grasp_features
 from grasp_intent_ros.grasp_planner import PARAMETERS, GraspPlanner
-from grasp_intent_ros.ros.conversions import array_to_msg, model_from_msg, model_to_msg
+from grasp_intent_ros.ros.conversions import (
+    array_to_msg,
+    model_from_msg,
+    model_to_msg,
+    posterior_from_msg,
+    stamped_array_from_msg,
+)
 from grasp_intent_ros.ros.params import ParameterError
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import matrix_to_pose_msg, pose_msg_to_matrix
-from grasp_intent_ros.ros.conversions import posterior_from_msg, stamped_array_from_msg
 
 REPO = Path(__file__).resolve().parents[2]
 TASKS = ('usage', 'transfer', 'handover')
@@ -81,8 +86,11 @@ def reachable_tiny_models(per_set: int = 10, seed: int = 3) -> dict[str, GraspMo
 
 
 def as_published(model: GraspModel) -> GraspModel:
-    """The model as the node reads it from model/active (the document rounds demonstrations to 1e-6,
-    which moves the planner's starts: compare with the core on this copy)."""
+    """The model as the node reads it from model/active.
+
+    The document rounds demonstrations to 1e-6, which moves the planner's starts: compare with the core on
+    this copy.
+    """
     return model_from_msg(model_to_msg(model, name=model.name, version=1)).model
 
 
@@ -117,7 +125,7 @@ def ns(stamp: Time) -> int:
 
 
 def v_msg(values: Any, label: str | None = LABELS_7) -> Float64MultiArray:
-    """v as the interpreter sends it (labelled), or raw data as ``ros2 topic pub`` does (label None)."""
+    """V as the interpreter sends it (labelled), or raw data as ``ros2 topic pub`` does (label None)."""
     if label is None:
         return Float64MultiArray(data=[float(x) for x in values])
     return array_to_msg(np.asarray(values, dtype=np.float64), [label])
@@ -505,8 +513,8 @@ def test_send_intent_prints_the_chain_answer(rig: Rig, model: GraspModel, kin: M
 
 def test_robot_conversions_reject_malformed_messages() -> None:
     from grasp_intent_ros.core.errors import GraspIntentError, KinematicsError
-    from grasp_intent_ros.ros.robot import joint_positions
     from grasp_intent_ros.ros.conversions import posterior_to_msg
+    from grasp_intent_ros.ros.robot import joint_positions
 
     stamp = Time(sec=12, nanosec=34)
     msg = posterior_to_msg([0.25, 0.75], [0.5], ('U', 'T'), ('usage',), stamp=stamp)

@@ -15,8 +15,8 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
 from grasp_intent_ros.core.intent import interpret
 from grasp_intent_ros.intent_interpreter import IntentInterpreter
-from grasp_intent_ros.ros.conversions import array_to_msg
 from grasp_intent_ros.protocol import msg_labels, msg_to_array
+from grasp_intent_ros.ros.conversions import array_to_msg
 from grasp_intent_ros.ros.params import ParameterError
 
 REPO = Path(__file__).resolve().parents[2]

@@ -15,8 +15,8 @@ from grasp_intent_ros.core import ambiguity
 from grasp_intent_ros.core.errors import ModelFormatError
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.model_server import ModelServer
-from grasp_intent_ros.ros.conversions import model_from_msg, model_to_msg
 from grasp_intent_ros.protocol import msg_labels, msg_to_array
+from grasp_intent_ros.ros.conversions import model_from_msg, model_to_msg
 from grasp_intent_ros.ros.params import ParameterError
 from grasp_intent_ros.ros.qos import latched_qos
 

@@ -19,8 +19,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
 from grasp_intent_ros.bag import BagWriteError, QosSpec, read_messages, read_messages_mcap, topics_info
-from grasp_intent_ros.tools.recorder import Recorder
 from grasp_intent_ros.ros.qos import latched_qos
+from grasp_intent_ros.tools.recorder import Recorder
 
 N = 2000
 PERIOD = 1e-3  # s: 1 kHz

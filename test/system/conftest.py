@@ -22,8 +22,10 @@ REPO = Path(__file__).resolve().parents[2]
 
 @pytest.fixture
 def launch(domain_id: int, tmp_path: Path) -> Iterator[NodeSuite]:
-    """A :class:`NodeSuite` on the test's domain id, run in the repository, logs numbered in ``tmp_path``;
-    stops its processes at teardown and asserts a clean exit (code 0, no traceback) on SIGTERM."""
+    """A :class:`NodeSuite` on the test's domain id, run in the repository, logs numbered in ``tmp_path``.
+
+    Stops its processes at teardown and asserts a clean exit (code 0, no traceback) on SIGTERM.
+    """
     suite = NodeSuite(domain_id, log_dir=tmp_path, cwd=REPO, numbered_logs=True)
     try:
         yield suite

@@ -37,17 +37,15 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
 from grasp_intent_ros.core import planner
 from grasp_intent_ros.core.features import FINGERS
-from grasp_intent_ros.core.intent import all_zones, interpret, restrict
 from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.core.intent import all_zones, interpret, restrict
 from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
 from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.tools.paper_tables import CASES
-from grasp_intent_ros.ros.conversions import model_from_msg
-from grasp_intent_ros.protocol import msg_to_array
+from grasp_intent_ros.protocol import Posterior, msg_to_array
+from grasp_intent_ros.ros.conversions import model_from_msg, posterior_from_msg, stamped_array_from_msg
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import pose_msg_to_matrix
-from grasp_intent_ros.protocol import Posterior
-from grasp_intent_ros.ros.conversions import posterior_from_msg, stamped_array_from_msg
+from grasp_intent_ros.tools.paper_tables import CASES
 from grasp_intent_ros.tools.send_intent import GraspAnswer, IntentSender
 
 REPO = Path(__file__).resolve().parents[2]
@@ -144,9 +142,11 @@ class Chain:
             assert proc.popen.poll() is None, f'{name} exited with {proc.popen.returncode}:\n{proc.stderr()}'
 
     def send(self, w: tuple[float, ...], timeout: float = STARTUP) -> GraspAnswer:
-        """The chain's answer to w (IntentSender republishes until answered). The first time, also checks
-        that no foreign node shares the test's domain (a run that ignores the domain claims would answer
-        in place of ours)."""
+        """The chain's answer to w (IntentSender republishes until answered).
+
+        The first time, also checks that no foreign node shares the test's domain (a run that ignores the domain
+        claims would answer in place of ours).
+        """
         answer = self.sender.send(w, self.ros.executor, timeout=timeout)
         if not self._alone_checked:
             names = Counter(name for name, _ in self.ros.node.get_node_names_and_namespaces())

@@ -14,8 +14,8 @@ from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, String
 
 from grasp_intent_ros.core.intent import interpret
-from grasp_intent_ros.ros.conversions import model_from_msg
 from grasp_intent_ros.protocol import msg_to_array
+from grasp_intent_ros.ros.conversions import model_from_msg
 from grasp_intent_ros.ros.qos import latched_qos
 
 REPO = Path(__file__).resolve().parents[2]

@@ -1,5 +1,6 @@
-"""The recorder as a real ``python -m grasp_intent_ros.recorder`` process, fed over loopback DDS by the
-in-process probe (``ros`` fixture of test/conftest.py, whose domain id the process shares).
+"""The recorder as a real ``python -m grasp_intent_ros.recorder`` process.
+
+Fed over loopback DDS by the in-process probe (``ros`` fixture of test/conftest.py, whose domain id the process shares).
 
 Only the recorder processes started here are ever signalled, by PID.
 """
@@ -19,8 +20,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_msgs.msg import Float64MultiArray, String
 
 from grasp_intent_ros.bag import QosSpec, read_messages, read_messages_mcap, topics_info
-from grasp_intent_ros.tools.suite import NodeProcess, node_environment
 from grasp_intent_ros.ros.qos import latched_qos
+from grasp_intent_ros.tools.suite import NodeProcess, node_environment
 
 REPO = Path(__file__).resolve().parents[2]
 STARTUP = 20.0

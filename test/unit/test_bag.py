@@ -24,8 +24,8 @@ from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 
 from grasp_intent_ros.bag import (
-    BagMessage,
     BagError,
+    BagMessage,
     BagReadError,
     BagWriteError,
     QosSpec,

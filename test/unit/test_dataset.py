@@ -11,14 +11,13 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from grasp_intent_ros.dataset import generate_data, train
-from grasp_intent_ros.dataset import demos
 from grasp_intent_ros.core.data import Demonstrations, load_csv, save_csv
 from grasp_intent_ros.core.errors import DataError, InvalidFeaturesError
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import all_zones, parse_zones
 from grasp_intent_ros.core.model import GraspModel, structure_zones
 from grasp_intent_ros.core.resources import config_dir
+from grasp_intent_ros.dataset import demos, generate_data, train
 
 DEG = math.pi / 180.0
 CUP, LIGHT = demos.CUP, demos.FLASHLIGHT
@@ -31,14 +30,14 @@ def grasp(aim: tuple[float, float, float], azimuth_deg: float, elevation_deg: fl
 
 
 def with_approach(x: np.ndarray, azimuth_deg: float, elevation_deg: float) -> np.ndarray:
-    """x with only the approach direction replaced."""
+    """X with only the approach direction replaced."""
     y = x.copy()
     y[3:6] = demos.grasp_features((0, 0, 0), azimuth_deg * DEG, elevation_deg * DEG, 0.0, 0.0, (0, 0, 0))[3:6]
     return y
 
 
 def with_values(x: np.ndarray, **changes: float | tuple[float, ...]) -> np.ndarray:
-    """x with named features (or groups 'palm', 'fingers') replaced."""
+    """X with named features (or groups 'palm', 'fingers') replaced."""
     y = x.copy()
     for name, value in changes.items():
         if name == 'palm':

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from grasp_intent_ros.core import resources
 from grasp_intent_ros.core.errors import InvalidFeaturesError, KinematicsError
 from grasp_intent_ros.core.features import APPROACH, FINGER_CLOSED, FINGERS, PALM, ROLL
+from grasp_intent_ros.core.frames import features_to_obj_T_ee, matrix_to_pose, obj_T_ee_to_features, pose_to_matrix
 from grasp_intent_ros.core.kinematics import (
     ARM_JOINTS,
     EE_FRAME,
@@ -26,7 +27,6 @@ from grasp_intent_ros.core.kinematics import (
     MicoKinematics,
     default_urdf_path,
 )
-from grasp_intent_ros.core.frames import features_to_obj_T_ee, matrix_to_pose, obj_T_ee_to_features, pose_to_matrix
 
 WIDE = (0, 3, 4, 5)
 

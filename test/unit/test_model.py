@@ -9,8 +9,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from grasp_intent_ros.core.data import Demonstrations, load_csv, save_csv
-from grasp_intent_ros.core.errors import (DataError, InvalidFeaturesError, ModelError,
-                                          ModelFormatError)
+from grasp_intent_ros.core.errors import DataError, InvalidFeaturesError, ModelError, ModelFormatError
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import DEFAULT_TASKS
 from grasp_intent_ros.core.model import GraspModel, structure_zones

@@ -18,12 +18,12 @@ import pytest
 from matplotlib.image import imread
 from rosbags.typesys import Stores, get_typestore
 
-from grasp_intent_ros.tools import report
 from grasp_intent_ros.bag import QosSpec, SessionWriter
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import interpret, reconstruct_w
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.protocol import model_document, read_posterior, stamped_values
+from grasp_intent_ros.tools import report
 
 T0 = 1_700_000_000_000_000_000  # ns
 S = 1_000_000_000  # ns per s
@@ -67,8 +67,10 @@ def status(store: Any, level: int, name: str, message: str, values: dict[str, st
 
 
 def write_session_bag(store: Any, path: Path, model: GraspModel, *, planner: bool = True) -> None:
-    """The node suite's outputs for CASES and one clarification, 1 s apart; ``planner=False`` leaves
-    out model and grasp topics (a bag lacking topics)."""
+    """The node suite's outputs for CASES and one clarification, 1 s apart.
+
+    ``planner=False`` leaves out model and grasp topics (a bag lacking topics).
+    """
     zones = ','.join(model.zone_labels)
     with SessionWriter(path, typestore=store) as bag:
         bag.add_topic(f'{NS}/intent/w', F64MA, qos=QosSpec())

@@ -1,5 +1,7 @@
-"""grasp_intent_ros.tools.session: pairing a recorded session's inputs with their outputs, and the comparison
-of live outputs with recorded ones at the replay tolerances. Bags are written in tmp_path; no rclpy.
+"""Session pairing and comparison (grasp_intent_ros.tools.outputs, session, compare).
+
+Pairing a recorded session's inputs with their outputs, and the comparison of live outputs with recorded ones at
+the replay tolerances. Bags are written in tmp_path; no rclpy.
 """
 
 from __future__ import annotations
@@ -15,10 +17,22 @@ from rosbags.typesys import Stores, get_typestore
 
 from grasp_intent_ros.bag import QosSpec, SessionWriter, read_messages, topics_info
 from grasp_intent_ros.protocol import DIAGNOSTICS, MSGTYPES, PLAN_TOPICS, ModelHeader
-from grasp_intent_ros.tools.session import Step, compact_session, detect_namespace, load_session, pair_messages
-from grasp_intent_ros.tools.outputs import (Joints, Output, Pose, Rejection, RejectionTracker, SessionError, Text,
-                                           Trajectory, Undecodable, Vector, decode, output_of)
 from grasp_intent_ros.tools.compare import Difference, Tolerances, answered, compare_step, diverged
+from grasp_intent_ros.tools.outputs import (
+    Joints,
+    Output,
+    Pose,
+    Rejection,
+    RejectionTracker,
+    SessionError,
+    Text,
+    Trajectory,
+    Undecodable,
+    Vector,
+    decode,
+    output_of,
+)
+from grasp_intent_ros.tools.session import Step, compact_session, detect_namespace, load_session, pair_messages
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 T = STORE.types
@@ -68,7 +82,8 @@ def model_doc(name: str, sha: str = SHA_A, version: int = 1) -> Any:
 
 def pose_msg(position: tuple[float, float, float], q: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0),
              frame: str = 'm1n6s300_link_base') -> Any:
-    pose = T['geometry_msgs/msg/Pose'](position=T['geometry_msgs/msg/Point'](x=position[0], y=position[1], z=position[2]),
+    point = T['geometry_msgs/msg/Point'](x=position[0], y=position[1], z=position[2])
+    pose = T['geometry_msgs/msg/Pose'](position=point,
                                        orientation=T['geometry_msgs/msg/Quaternion'](x=q[0], y=q[1], z=q[2], w=q[3]))
     return T['geometry_msgs/msg/PoseStamped'](header=header(frame), pose=pose)
 
@@ -123,8 +138,11 @@ def write_bag(path: Path, messages: list[tuple[str, Any]], *, namespace: str = '
 
 
 def session_messages() -> list[tuple[str, Any]]:
-    """A session: initial model, joint state, a planned w, a rejected w, a clarification, a model switch, a
-    repeated model document, a moved object; periodic diagnostics in between."""
+    """A session with an input of every kind.
+
+    Initial model, joint state, a planned w, a rejected w, a clarification, a model switch, a repeated model
+    document, a moved object; periodic diagnostics in between.
+    """
     interp = '/intent_interpreter: intent'
     return [
         (DIAGNOSTICS, diagnostics(interp, received=0, rejected=0, level=0)),
@@ -303,7 +321,8 @@ CASES: list[tuple[str, Callable[[float], dict[str, Any]], float, str]] = [
 
 
 @pytest.mark.parametrize(('what', 'perturbed', 'tol', 'field'), CASES, ids=[c[0] for c in CASES])
-def test_each_quantity_is_compared_at_its_tolerance(plan_step: Step, what: str, perturbed: Callable[[float], dict[str, Any]],
+def test_each_quantity_is_compared_at_its_tolerance(plan_step: Step, what: str,
+                                                    perturbed: Callable[[float], dict[str, Any]],
                                                     tol: float, field: str) -> None:
     assert compare_step(plan_step, live_plan(**perturbed(0.8 * tol))) == []
     diffs = compare_step(plan_step, live_plan(**perturbed(1.5 * tol)))

@@ -8,8 +8,14 @@ from pathlib import Path
 
 import pytest
 
-from grasp_intent_ros.tools.suite import (NodeProcess, NodeSuite, SuiteError, domain_id_from_environment,
-                                        node_environment, use_loopback_discovery)
+from grasp_intent_ros.tools.suite import (
+    NodeProcess,
+    NodeSuite,
+    SuiteError,
+    domain_id_from_environment,
+    node_environment,
+    use_loopback_discovery,
+)
 
 SLEEPER = 'import time; time.sleep(60)'
 
