@@ -1,6 +1,9 @@
 """The bag layer's exception types.
 
-All derive from :class:`~grasp_intent_ros.core.errors.GraspIntentError`.
+A bag that cannot be read is bad input: :class:`BagReadError` is a
+:class:`~grasp_intent_ros.core.errors.GraspIntentError` (a ValueError). A bag that cannot be written (the
+directory exists, the disk is full) is not: :class:`BagWriteError` is no ValueError, so a handler of bad
+arguments never takes it for one.
 """
 
 from __future__ import annotations
@@ -16,8 +19,8 @@ __all__ = [
 ]
 
 
-class BagError(GraspIntentError):
-    """Base class: a rosbag2 session cannot be written or read as asked."""
+class BagError(Exception):
+    """Base class: a rosbag2 session cannot be written or read as asked (also: a malformed QosSpec)."""
 
 
 class BagWriteError(BagError):
@@ -37,5 +40,5 @@ class BagWriteError(BagError):
         self.messages_written = messages_written
 
 
-class BagReadError(BagError):
+class BagReadError(BagError, GraspIntentError):
     """A bag cannot be read: missing or malformed metadata/storage, unknown topic, undecodable message."""

@@ -10,7 +10,6 @@ from __future__ import annotations
 import csv
 import hashlib
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,7 +20,7 @@ from .errors import DataError
 from .features import MICO_3F, FeatureSpace
 from .intent import MAX_TASKS
 
-__all__ = ['Demonstrations', 'load_csv', 'save_csv', 'task_set_mask']
+__all__ = ['Demonstrations', 'load_csv', 'save_csv']
 
 
 @dataclass(frozen=True)
@@ -139,11 +138,3 @@ def load_csv(path: str | Path, *, features: FeatureSpace = MICO_3F) -> Demonstra
         if sets[n] == 0:
             raise DataError(f'{path}:{line}: the demonstration satisfies no task')
     return Demonstrations(x, sets, task_names, features)
-
-
-def task_set_mask(task_names: Sequence[str], satisfied: Sequence[str]) -> int:
-    """Bitmask of the named tasks (helper for building data sets by task name)."""
-    unknown = set(satisfied) - set(task_names)
-    if unknown:
-        raise DataError(f'unknown tasks {sorted(unknown)}; known: {list(task_names)}')
-    return sum(1 << task_names.index(t) for t in satisfied)

@@ -1,5 +1,8 @@
 """The rclpy layer: the one place that knows both ROS messages and :mod:`grasp_intent_ros.core`.
 
+The wire formats themselves are defined ROS-free in :mod:`grasp_intent_ros.protocol`; this layer builds and
+reads the rclpy objects.
+
 Modules
 -------
 run
@@ -8,15 +11,24 @@ qos
     QoS profiles: input (compatible with ``ros2 topic pub``), output, latched.
 params
     Parameters declared from a table of :class:`~grasp_intent_ros.ros.params.ParamSpec`, validated
-    together on every change and never half-applied.
-conversions
-    Float64MultiArray <-> numpy with labelled dimensions (validated, raising the core's errors);
-    the versioned model document carried by std_msgs/String.
+    together on every change and never half-applied; common validators.
 diagnostics
     ``NodeDiagnostics``: counters, last error and timing of a node, published on ``/diagnostics``,
     and ``guard`` for subscription callbacks that must never raise.
+worker
+    ``LatestOnlyWorker``: callbacks store the newest inputs, one thread handles the newest snapshot.
+conversions
+    Labelled and stamped Float64MultiArray, the grasp posterior, the model document on std_msgs/String,
+    the message class of a suite topic.
+robot
+    PoseStamped <-> 4x4 transforms, joint states, joint trajectories.
+markers
+    RViz markers of a planned grasp.
+grasp
+    The messages of one planned grasp (:class:`grasp_intent_ros.core.grasp.Grasp`).
 
-Importing this package imports rclpy; :mod:`grasp_intent_ros.core` never does.
+Importing this package imports no submodule; each submodule imports rclpy or the message packages, and
+:mod:`grasp_intent_ros.core` never does.
 """
 
-__all__ = ['conversions', 'diagnostics', 'params', 'qos', 'run']
+__all__ = ['conversions', 'diagnostics', 'grasp', 'markers', 'params', 'qos', 'robot', 'run', 'worker']

@@ -27,10 +27,12 @@ def input_qos(depth: int = DEFAULT_DEPTH) -> QoSProfile:
 
 
 def output_qos(depth: int = DEFAULT_DEPTH) -> QoSProfile:
-    """Reliable, volatile, keep-last ``depth``: matches both reliable and best-effort subscribers."""
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
-                      reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE,
-                      liveliness=LivelinessPolicy.AUTOMATIC)
+    """The :func:`input_qos` profile, offered by publishers.
+
+    A reliable, volatile publisher matches both reliable and best-effort subscribers, so inputs and outputs
+    share one profile; the two names say which side of a topic a profile is for.
+    """
+    return input_qos(depth)
 
 
 def latched_qos() -> QoSProfile:

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, TypesysError, get_typestore
 
-from ..bag.errors import BagError
+from ..bag.errors import BagReadError
 from ..core.errors import ModelFormatError
 from ..protocol import (
     DIAGNOSTICS,
@@ -48,7 +48,7 @@ __all__ = [
 ]
 
 
-class SessionError(BagError):
+class SessionError(BagReadError):
     """A bag is not a usable session (no inputs, a malformed model document, mixed namespaces, ...)."""
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from ..core import intent, planner
@@ -27,15 +27,15 @@ CASES: list[tuple[str, tuple[float, float, float], tuple[str, ...]]] = [
     ('Table VI: object ambiguity', (0.9, 0.1, 0.1), ('cup_7zone', 'flashlight_7zone')),
 ]
 
-def _fmt(values: Sequence[float]) -> str:
+def _fmt(values: Iterable[float]) -> str:
     return ' '.join(f'{v:7.4f}' for v in values)
 
 def print_case(model: GraspModel, w: Sequence[float], method: planner.Method) -> None:
     """Print v, P, reconstructed w and the objective for one model and one w."""
     r = intent.interpret(w, model.zones)
     print(f'  model {model.name} ({len(model.zones)} zones), w = {tuple(w)}')
-    if r.v is None:
-        print(f'    needs clarification: {r.reason}')  # type: ignore[union-attr]
+    if isinstance(r, intent.NeedsClarification):
+        print(f'    needs clarification: {r.reason}')
         return
     res = planner.plan(model, r.v, method=method)
     print(f'    {"zone":6s} {"target v":>9s} {"final P":>9s}')

@@ -398,6 +398,9 @@ def main(args: list[str] | None = None) -> None:
             recorder = Recorder(options.out_dir, topics=options.topics, depth=options.depth,
                                 discovery_period=options.discovery_period,
                                 on_failure=lambda _exc: rclpy.try_shutdown())  # run_node's context
+        except BagWriteError as exc:  # e.g. the bag directory exists already
+            print(f'recorder: error: {exc}', file=sys.stderr)
+            raise SystemExit(1) from None
         except ValueError as exc:  # a bad --topics entry
             print(f'recorder: error: {exc}', file=sys.stderr)
             raise SystemExit(2) from None

@@ -163,3 +163,12 @@ def test_process_exits_nonzero_with_an_error_when_the_bag_cannot_be_written(ros,
     assert str(bag) in error_lines[0] and 'File too large' in error_lines[0]
     assert 'messages had been written' in error_lines[0]
     assert 'FAILED' in stdout.strip().splitlines()[-1]
+
+
+def test_an_existing_bag_directory_exits_1_with_the_reason(ros, start_recorder, tmp_path) -> None:
+    bag = tmp_path / 'session'
+    bag.mkdir()
+    proc = start_recorder(bag)
+    assert proc.popen.wait(STARTUP) == 1, proc.output()
+    stderr = proc.output()[1]
+    assert 'exists already' in stderr and 'Traceback' not in stderr, stderr
