@@ -2,22 +2,17 @@
 
 Run: ``python -m grasp_intent_ros.grasp_planner [--ros-args --params-file config/grasp_planner.yaml]``
 
-Topics (relative; ``-r __ns:=/robot1`` moves them; formats in :mod:`grasp_intent_ros.protocol`)
-    in   ``intent/v`` (over all zones of the model's tasks, labelled, else in core order),
-         ``model/active`` (latched), ``object/pose`` (in ``m1n6s300_link_base``; default from the
-         ``object_*`` parameters), ``joint_states`` (seeds IK and times the trajectory)
+Topics (relative; formats in :mod:`grasp_intent_ros.protocol`)
+    in   ``intent/v`` (all zones of the model's tasks), ``model/active`` (latched), ``object/pose`` (in
+         ``m1n6s300_link_base``; default: the ``object_*`` parameters), ``joint_states`` (IK seed)
     out  ``grasp/pose``, ``grasp/joint_targets``, ``grasp/trajectory``, ``grasp/posterior``,
-         ``grasp/features``, ``grasp/markers`` (:func:`grasp_intent_ros.ros.grasp.grasp_messages`), all
-         stamped with the node-clock time at which the plan's newest input (v, model, object pose) arrived;
-         ``/diagnostics``: ``<node>: inputs`` (received / rejected and why), ``<node>: planning`` (plans,
-         planning time, reachability counts)
+         ``grasp/features``, ``grasp/markers`` (:func:`grasp_intent_ros.ros.grasp.grasp_messages`), stamped
+         with the arrival time of the plan's newest input; ``/diagnostics`` (``inputs``, ``planning``)
 
 Behaviour
     Callbacks validate and store the newest inputs; a :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker`
-    plans the newest snapshot with :func:`grasp_intent_ros.core.grasp.plan_grasp` (v restricted to the
-    model's zones, IK reachability, fallback to the best reachable candidate, trajectory timing) and never
-    works through a backlog. v without probability on the model's zones, or no reachable candidate:
-    nothing is published and the diagnostics say why. Plans of the same model warm-start from the last.
+    plans the newest snapshot (never a backlog) with :func:`grasp_intent_ros.core.grasp.plan_grasp`, warm-
+    started from the last plan of the same model; no plan for it: nothing is published, diagnostics say why.
 
 Parameters: see :data:`PARAMETERS` and ``config/grasp_planner.yaml``.
 """
@@ -36,30 +31,25 @@ from rclpy.node import Node
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
-from trajectory_msgs.msg import JointTrajectory
-from visualization_msgs.msg import MarkerArray
 
 from . import protocol as topics
 from .core import planner
-from .core.errors import InvalidIntentError, PlanningError
+from .core.errors import PlanningError
 from .core.frames import pose_to_matrix
-from .core.grasp import NoReachableGrasp, check_mico_model, plan_grasp
-from .core.intent import MAX_TASKS, match_zones, validate_v
+from .core.grasp import OUTCOMES, NoReachableGrasp, check_mico_model, plan_grasp
+from .core.intent import match_zones
 from .core.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
-from .protocol import KEY_MODEL, KEY_PLANNING_TIME, KEY_PLANS, OK, ModelDocument, msg_labels, msg_to_array
-from .ros.conversions import model_from_msg
+from .protocol import KEY_MODEL, KEY_PLANNING_TIME, KEY_PLANS, OK, ModelDocument
+from .ros.conversions import message_class, model_from_msg, target_from_msg
 from .ros.diagnostics import NodeDiagnostics
 from .ros.grasp import grasp_messages
 from .ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
 from .ros.qos import input_qos, latched_qos, output_qos
 from .ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
-from .ros.run import run_node
+from .ros.run import publish_all, run_node
 from .ros.worker import LatestOnlyWorker
 
 __all__ = ['GraspPlanner', 'PARAMETERS', 'main']
-
-_MAX_ZONES = (1 << MAX_TASKS) - 1
-
 
 _METHODS: tuple[str, ...] = typing.get_args(planner.Method)
 
@@ -101,22 +91,17 @@ class GraspPlanner(Node):
 
     def __init__(self, node_name: str = 'grasp_planner', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
-        self._inputs_diag = NodeDiagnostics(self, 'inputs')
-        self._plan_diag = NodeDiagnostics(self, 'planning')
+        self._inputs_diag, self._plan_diag = NodeDiagnostics(self, 'inputs'), NodeDiagnostics(self, 'planning')
         self._params = declare_parameters(self, PARAMETERS, on_change=self._on_parameters)
         try:
             self._kin = MicoKinematics(self._params['urdf_path'] or None)
         except FileNotFoundError as exc:
             raise ParameterError(f'urdf_path: {exc}') from None
         self._warm: tuple[tuple[str, str], NDArray[np.float64]] | None = None
-        self._counts = dict.fromkeys((KEY_PLANS, 'best grasp reachable', 'fallback to a reachable candidate',
-                                      'no reachable grasp'), 0)
+        self._counts = dict.fromkeys((KEY_PLANS, *OUTCOMES), 0)
         self._plan_diag.set_state(OK, f'waiting for {topics.MODEL_ACTIVE} and {topics.INTENT_V}')
-        out = output_qos()
-        self._pubs = {topic: self.create_publisher(cls, topic, out) for topic, cls in (
-            (topics.GRASP_POSE, PoseStamped), (topics.GRASP_JOINT_TARGETS, JointState),
-            (topics.GRASP_TRAJECTORY, JointTrajectory), (topics.GRASP_POSTERIOR, Float64MultiArray),
-            (topics.GRASP_FEATURES, Float64MultiArray), (topics.GRASP_MARKERS, MarkerArray))}
+        self._pubs = {topic: self.create_publisher(message_class(topic), topic, output_qos())
+                      for topic in (*topics.PLAN_TOPICS, topics.GRASP_MARKERS)}
         self._worker = LatestOnlyWorker(_Inputs(base_T_obj=self._object_pose_from_parameters()),
                                         self._plan_diag.guard(self._plan), ready=self._ready,
                                         name=f'{node_name}_planning',
@@ -124,30 +109,26 @@ class GraspPlanner(Node):
         # SIGINT/SIGTERM shut the context down before destroy_node runs: stop planning at once
         self.context.on_shutdown(self._worker.stop_soon)
         guard, latest = self._inputs_diag.guard, input_qos(depth=1)
-        self._subs = [
-            self.create_subscription(Float64MultiArray, topics.INTENT_V, guard(self._on_v), latest),
-            self.create_subscription(String, topics.MODEL_ACTIVE, guard(self._on_model), latched_qos()),
-            self.create_subscription(PoseStamped, topics.OBJECT_POSE, guard(self._on_object_pose), latest),
-            # not keep-last 1: arm and finger states may come from different publishers
-            self.create_subscription(JointState, topics.JOINT_STATES, guard(self._on_joint_state), input_qos()),
-        ]
+        self.create_subscription(Float64MultiArray, topics.INTENT_V, guard(self._on_v), latest)
+        self.create_subscription(String, topics.MODEL_ACTIVE, guard(self._on_model), latched_qos())
+        self.create_subscription(PoseStamped, topics.OBJECT_POSE, guard(self._on_object_pose), latest)
+        # not keep-last 1: arm and finger states may come from different publishers
+        self.create_subscription(JointState, topics.JOINT_STATES, guard(self._on_joint_state), input_qos())
 
     def destroy_node(self) -> None:
         """Stop the planning thread (after its current plan), then destroy the node."""
         self._worker.stop()
         super().destroy_node()
 
-    # ---------------------------------------------------------------- inputs (executor thread)
+    # inputs, in the executor thread
     def _update(self, trigger: bool = True, **changes: Any) -> None:
         if trigger:
             changes['stamp'] = self.get_clock().now()
         self._worker.update(lambda inputs: replace(inputs, **changes), trigger=trigger)
 
     def _on_v(self, msg: Float64MultiArray) -> None:
-        labels = msg_labels(msg)[0] if msg.layout.dim and msg.layout.dim[0].label else None
-        v = validate_v(msg_to_array(msg, max_size=_MAX_ZONES, error=InvalidIntentError, what='v'), labels)
-        model = self._worker.latest.model
-        if model is not None:
+        v, labels = target_from_msg(msg)
+        if (model := self._worker.latest.model) is not None:
             match_zones(v.size, labels, model.model.task_names)
         self._update(v=v, v_labels=labels)
 
@@ -164,8 +145,7 @@ class GraspPlanner(Node):
         self._update(base_T_obj=pose_msg_to_matrix(msg, frame_id=BASE_FRAME))
 
     def _on_joint_state(self, msg: JointState) -> None:
-        q = joint_positions(msg, ARM_JOINTS)
-        if q is not None:
+        if (q := joint_positions(msg, ARM_JOINTS)) is not None:
             self._update(trigger=False, q_arm=q)
 
     def _object_pose_from_parameters(self) -> NDArray[np.float64]:
@@ -175,7 +155,7 @@ class GraspPlanner(Node):
         if {'object_position', 'object_orientation'} & set(changed):
             self._update(base_T_obj=self._object_pose_from_parameters())
 
-    # ---------------------------------------------------------------- planning thread
+    # the planning thread
     def _ready(self, inputs: _Inputs) -> bool:
         missing = [t for t, x in ((topics.MODEL_ACTIVE, inputs.model), (topics.INTENT_V, inputs.v)) if x is None]
         self._plan_diag.set_state(OK, f'waiting for {" and ".join(missing)}' if missing else '')
@@ -190,15 +170,12 @@ class GraspPlanner(Node):
                            inputs.base_T_obj, self._kin, name=doc.name, q_arm=inputs.q_arm, warm_start=warm,
                            method=self._params['method'], n_starts=self._params['n_starts'],
                            ik_restarts=self._params['ik_restarts'])
-        outcome = ('no reachable grasp' if isinstance(grasp, NoReachableGrasp)
-                   else 'fallback to a reachable candidate' if grasp.fallback else 'best grasp reachable')
         self._counts[KEY_PLANS] += 1
-        self._counts[outcome] += 1
-        for name, value in {KEY_PLANNING_TIME: f'{1e3 * grasp.result.wall_time_s:.3f}',
-                            'last IK time [ms]': f'{1e3 * grasp.ik_seconds:.3f}',
-                            'last plan status': grasp.result.message, 'last plan reachability': grasp.note,
-                            **self._counts}.items():
-            self._plan_diag.set_value(name, value)
+        self._counts[grasp.outcome] += 1
+        self._plan_diag.set_values({KEY_PLANNING_TIME: f'{1e3 * grasp.result.wall_time_s:.3f}',
+                                    'last IK time [ms]': f'{1e3 * grasp.ik_seconds:.3f}',
+                                    'last plan status': grasp.result.message, 'last plan reachability': grasp.note,
+                                    **self._counts})
         if isinstance(grasp, NoReachableGrasp):
             raise PlanningError(grasp.reason)
         if grasp.fallback:
@@ -207,15 +184,8 @@ class GraspPlanner(Node):
         if self._worker.stopping:
             return
         assert inputs.stamp is not None  # set by every update that calls for a plan
-        messages = grasp_messages(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
-                                  object_size=self._params['object_marker_size'])
-        try:
-            for topic, msg in messages.items():
-                self._pubs[topic].publish(msg)
-        except Exception:
-            if self.context.ok():
-                raise
-            # the context was shut down (a signal) between the check above and a publish: nothing to send to
+        publish_all(self, self._pubs, grasp_messages(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
+                                                     object_size=self._params['object_marker_size']))
 
 
 def main(args: list[str] | None = None) -> None:

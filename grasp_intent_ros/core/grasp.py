@@ -22,13 +22,15 @@ from .intent import restrict
 from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
 from .model import GraspModel
 
-__all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'PlanOutcome', 'Grasp', 'NoReachableGrasp', 'check_mico_model',
-           'trajectory_duration', 'plan_grasp']
+__all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'OUTCOMES', 'PlanOutcome', 'Grasp', 'NoReachableGrasp',
+           'check_mico_model', 'trajectory_duration', 'plan_grasp']
 
 MIN_TRAJECTORY_TIME = 0.1
 """Shortest time to reach the grasp (s); controllers reject a trajectory point at 0."""
 JOINT_NAMES: tuple[str, ...] = ARM_JOINTS + FINGER_JOINTS
 """Names of :attr:`Grasp.positions`: the six arm joints, then the three fingers."""
+OUTCOMES = ('best grasp reachable', 'fallback to a reachable candidate', 'no reachable grasp')
+"""The reachability outcomes of a plan (:attr:`PlanOutcome.outcome`)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -48,6 +50,13 @@ class PlanOutcome:
     result: planner.PlanResult
     note: str
     ik_seconds: float
+
+    @property
+    def outcome(self) -> str:
+        """Which of :data:`OUTCOMES` this is."""
+        if isinstance(self, Grasp):
+            return OUTCOMES[1] if self.fallback else OUTCOMES[0]
+        return OUTCOMES[2]
 
 
 @dataclass(frozen=True, kw_only=True)

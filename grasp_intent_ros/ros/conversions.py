@@ -17,6 +17,8 @@ from builtin_interfaces.msg import Time
 from numpy.typing import ArrayLike, NDArray
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
+from ..core.errors import InvalidIntentError
+from ..core.intent import MAX_TASKS, validate_v
 from ..core.model import GraspModel
 from ..protocol import (
     MAX_ARRAY_SIZE,
@@ -25,6 +27,8 @@ from ..protocol import (
     Posterior,
     array_layout,
     model_document,
+    msg_labels,
+    msg_to_array,
     posterior_label,
     read_model_document,
     read_posterior,
@@ -32,8 +36,8 @@ from ..protocol import (
     stamped_values,
 )
 
-__all__ = ['message_class', 'array_to_msg', 'stamped_array_to_msg', 'stamped_array_from_msg', 'posterior_to_msg',
-           'posterior_from_msg', 'model_to_msg', 'model_from_msg']
+__all__ = ['message_class', 'array_to_msg', 'target_from_msg', 'stamped_array_to_msg', 'stamped_array_from_msg',
+           'posterior_to_msg', 'posterior_from_msg', 'model_to_msg', 'model_from_msg']
 
 
 def message_class(topic: str) -> Any:
@@ -107,6 +111,20 @@ def posterior_from_msg(msg: Float64MultiArray) -> Posterior[Time]:
     return Posterior(Time(sec=post.stamp.sec, nanosec=post.stamp.nanosec), post.zone_labels, post.p,
                      post.task_names, post.w)
 
+
+
+def target_from_msg(msg: Float64MultiArray) -> tuple[NDArray[np.float64], tuple[str, ...] | None]:
+    """A target vector v from ``intent/v``: its values and zone labels (None without a label).
+
+    Raises
+    ------
+    InvalidIntentError
+        For a malformed array, or a v that is not a probability vector naming each value once
+        (:func:`grasp_intent_ros.core.intent.validate_v`).
+    """
+    labels = msg_labels(msg)[0] if msg.layout.dim and msg.layout.dim[0].label else None
+    values = msg_to_array(msg, max_size=(1 << MAX_TASKS) - 1, error=InvalidIntentError, what='v')
+    return validate_v(values, labels), labels
 
 
 def model_to_msg(model: GraspModel, *, name: str, version: int) -> String:

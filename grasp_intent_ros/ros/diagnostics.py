@@ -18,7 +18,7 @@ import functools
 import threading
 import time
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TypeVar
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -83,8 +83,12 @@ class NodeDiagnostics:
 
     def set_value(self, key: str, value: object) -> None:
         """An extra key/value shown in every status (e.g. the active model)."""
+        self.set_values({key: value})
+
+    def set_values(self, values: Mapping[str, object]) -> None:
+        """Several extra key/values at once (:meth:`set_value`)."""
         with self._lock:
-            self._values[key] = str(value)
+            self._values.update((key, str(value)) for key, value in values.items())
 
     def processed(self, seconds: float) -> None:
         """An input was processed in ``seconds`` (wall time)."""

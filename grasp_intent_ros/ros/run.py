@@ -20,18 +20,20 @@ from __future__ import annotations
 
 import signal
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 import rclpy
 import rclpy.logging
 from rclpy.exceptions import ParameterException
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 
 from ..core.errors import GraspIntentError
 from .params import ParameterError
 
-__all__ = ['run_node', 'STARTUP_ERRORS', 'ShutdownSafeExecutor']
+__all__ = ['run_node', 'publish_all', 'STARTUP_ERRORS', 'ShutdownSafeExecutor']
 
 STARTUP_ERRORS: tuple[type[Exception], ...] = (ParameterError, ParameterException, GraspIntentError)
 """Errors a node constructor raises for bad configuration: reported in one line, exit code 1."""
@@ -104,3 +106,17 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+
+
+def publish_all(node: Node, publishers: Mapping[str, Publisher], messages: Mapping[str, Any]) -> None:
+    """Publish each message on the publisher of its topic, from a thread of the node's own.
+
+    A signal may shut the context down between two publishes: the rest is then dropped silently (there is
+    nobody to send to); any other failure propagates.
+    """
+    try:
+        for topic, msg in messages.items():
+            publishers[topic].publish(msg)
+    except Exception:
+        if node.context.ok():
+            raise
