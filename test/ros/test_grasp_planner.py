@@ -509,25 +509,3 @@ def test_send_intent_prints_the_chain_answer(rig: Rig, model: GraspModel, kin: M
     assert all(name in text for name in ARM_JOINTS + FINGER_JOINTS)
     with pytest.raises(NoGrasp, match='clarification'):
         sender.send((0.1, 0.1, 0.1), rig.ros.executor, timeout=10.0)
-
-
-def test_robot_conversions_reject_malformed_messages() -> None:
-    from grasp_intent_ros.core.errors import GraspIntentError, KinematicsError
-    from grasp_intent_ros.ros.conversions import posterior_to_msg
-    from grasp_intent_ros.ros.robot import joint_positions
-
-    stamp = Time(sec=12, nanosec=34)
-    msg = posterior_to_msg([0.25, 0.75], [0.5], ('U', 'T'), ('usage',), stamp=stamp)
-    assert [(d.label, d.size, d.stride) for d in msg.layout.dim] == [('stamp=12.000000034', 1, 3), ('U,T|usage', 3, 3)]
-    parsed = posterior_from_msg(msg)
-    assert (parsed.stamp, parsed.zone_labels, parsed.task_names) == (stamp, ('U', 'T'), ('usage',))
-    assert_allclose(np.concatenate([parsed.p, parsed.w]), [0.25, 0.75, 0.5])
-    msg.layout.dim[1].label = 'U,T,usage'
-    with pytest.raises(GraspIntentError, match='<zones>|<tasks>'):
-        posterior_from_msg(msg)
-    with pytest.raises(GraspIntentError, match='2 dimension'):
-        posterior_from_msg(v_msg([0.5, 0.5], 'U,T'))
-    assert joint_positions(JointState(name=['a', 'b'], position=[1.0, 2.0]), ['b']) == pytest.approx([2.0])
-    assert joint_positions(JointState(name=['a'], position=[1.0]), ['a', 'b']) is None
-    with pytest.raises(KinematicsError, match='duplicate'):
-        joint_positions(JointState(name=['a', 'a'], position=[1.0, 2.0]), ['a'])

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import math
 
 import pytest
@@ -12,11 +11,10 @@ from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, String
 
 from grasp_intent_ros.core import ambiguity
-from grasp_intent_ros.core.errors import ModelFormatError
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.model_server import ModelServer
 from grasp_intent_ros.protocol import msg_labels, msg_to_array
-from grasp_intent_ros.ros.conversions import model_from_msg, model_to_msg
+from grasp_intent_ros.ros.conversions import model_from_msg
 from grasp_intent_ros.ros.params import ParameterError
 from grasp_intent_ros.ros.qos import latched_qos
 
@@ -137,20 +135,3 @@ def test_unknown_initial_model_fails_construction(ros, tiny_models):
     with pytest.raises(ParameterError, match='known: broken, cup_5zone, cup_7zone'):
         ModelServer(context=ros.context, parameter_overrides=[
             Parameter('models_dir', value=str(tiny_models[0])), Parameter('model', value='mug')])
-
-
-def test_model_document_parsing_rejects_malformed_documents(tiny_models):
-    model = tiny_models[1]['cup_5zone']
-    text = model_to_msg(model, name='cup_5zone', version=4).data
-    doc = model_from_msg(String(data=text))
-    assert (doc.name, doc.version) == ('cup_5zone', 4)
-    assert_same_model(doc.model, model)
-    with pytest.raises(ModelFormatError, match='header'):
-        model_from_msg(String(data=model.to_yaml()))
-    with pytest.raises(ModelFormatError, match='corrupted'):
-        model_from_msg(String(data=text.replace('prior: 0.', 'prior: 1.', 1)))
-    header = text.split('\n')[:2]
-    body = 'zones: [U\n'
-    header.append(f'# model_sha256: {hashlib.sha256(body.encode()).hexdigest()}')
-    with pytest.raises(ModelFormatError, match='not valid YAML'):
-        model_from_msg(String(data='\n'.join(header) + '\n' + body))

@@ -1,0 +1,93 @@
+"""grasp_intent_ros.ros.conversions: rclpy messages built from, and read through, the protocol's layouts."""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+import pytest
+from builtin_interfaces.msg import Time
+from numpy.testing import assert_allclose
+from std_msgs.msg import Float64MultiArray, String
+
+from grasp_intent_ros import protocol
+from grasp_intent_ros.core.errors import GraspIntentError, InvalidIntentError, ModelFormatError
+from grasp_intent_ros.ros.conversions import (
+    array_to_msg,
+    message_class,
+    model_from_msg,
+    model_to_msg,
+    posterior_from_msg,
+    posterior_to_msg,
+    stamped_array_from_msg,
+    stamped_array_to_msg,
+    target_from_msg,
+)
+
+
+def test_every_suite_topic_has_its_message_class() -> None:
+    for topic, msgtype in protocol.MSGTYPES.items():
+        cls = message_class(topic)
+        package, _, name = msgtype.split('/')
+        assert (cls.__module__.split('.')[0], cls.__name__) == (package, name), topic
+    with pytest.raises(KeyError):
+        message_class('intent/typo')
+
+
+def test_labelled_array_round_trip() -> None:
+    kl = np.arange(6.0).reshape(2, 3)
+    msg = array_to_msg(kl, [('a', 'b'), 'x,y,z'])
+    assert [(d.label, d.size, d.stride) for d in msg.layout.dim] == [('a,b', 2, 6), ('x,y,z', 3, 3)]
+    assert_allclose(protocol.msg_to_array(msg, ndim=2), kl)
+    assert protocol.msg_labels(msg) == (('a', 'b'), ('x', 'y', 'z'))
+    with pytest.raises(ValueError, match='2 labels for an array with 1 axes'):
+        array_to_msg([1.0], ['a', 'b'])
+
+
+def test_target_vector_is_validated_where_it_is_read() -> None:
+    v, labels = target_from_msg(array_to_msg([0.25, 0.75, 0.0], ['U,T,UT']))
+    assert labels == ('U', 'T', 'UT') and v.tolist() == [0.25, 0.75, 0.0]
+    v, labels = target_from_msg(Float64MultiArray(data=[0.5, 0.5, 0.0]))
+    assert labels is None and v.size == 3
+    with pytest.raises(InvalidIntentError, match='sum to 1'):
+        target_from_msg(Float64MultiArray(data=[0.5, 0.6, 0.0]))
+    with pytest.raises(InvalidIntentError, match='label names 2 zones'):
+        target_from_msg(array_to_msg([0.25, 0.75, 0.0], ['U,T']))
+    with pytest.raises(InvalidIntentError, match='oversized'):
+        target_from_msg(Float64MultiArray(data=[1.0] + [0.0] * 1023))
+
+
+def test_stamped_array_and_posterior_round_trip() -> None:
+    stamp = Time(sec=12, nanosec=34)
+    back = stamped_array_from_msg(stamped_array_to_msg([1.0, 2.0], ['a', 'b'], stamp=stamp))
+    assert (back[0], back[1], back[2].tolist()) == (stamp, 'a,b', [1.0, 2.0])
+    msg = posterior_to_msg([0.25, 0.75], [0.5], ('U', 'T'), ('usage',), stamp=stamp)
+    assert [(d.label, d.size, d.stride) for d in msg.layout.dim] == [('stamp=12.000000034', 1, 3), ('U,T|usage', 3, 3)]
+    parsed = posterior_from_msg(msg)
+    assert (parsed.stamp, parsed.zone_labels, parsed.task_names) == (stamp, ('U', 'T'), ('usage',))
+    assert_allclose(np.concatenate([parsed.p, parsed.w]), [0.25, 0.75, 0.5])
+    msg.layout.dim[1].label = 'U,T,usage'
+    with pytest.raises(GraspIntentError, match='<zones>|<tasks>'):
+        posterior_from_msg(msg)
+    with pytest.raises(GraspIntentError, match='2 dimension'):
+        posterior_from_msg(array_to_msg([0.5, 0.5], ['U,T']))
+    with pytest.raises(ValueError, match='do not match'):
+        posterior_to_msg([0.25, 0.75], [0.5, 0.5], ('U', 'T'), ('usage',), stamp=stamp)
+
+
+def test_model_document_parsing_rejects_malformed_documents(tiny_models):
+    model = tiny_models[1]['cup_5zone']
+    text = model_to_msg(model, name='cup_5zone', version=4).data
+    doc = model_from_msg(String(data=text))
+    assert (doc.name, doc.version) == ('cup_5zone', 4)
+    assert doc.model.zones == model.zones and doc.model.task_names == model.task_names
+    assert_allclose(doc.model.means, model.means, atol=1e-12)
+    with pytest.raises(ModelFormatError, match='header'):
+        model_from_msg(String(data=model.to_yaml()))
+    with pytest.raises(ModelFormatError, match='corrupted'):
+        model_from_msg(String(data=text.replace('prior: 0.', 'prior: 1.', 1)))
+    header = text.split('\n')[:2]
+    body = 'zones: [U\n'
+    header.append(f'# model_sha256: {hashlib.sha256(body.encode()).hexdigest()}')
+    with pytest.raises(ModelFormatError, match='not valid YAML'):
+        model_from_msg(String(data='\n'.join(header) + '\n' + body))

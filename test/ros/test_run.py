@@ -1,0 +1,56 @@
+"""grasp_intent_ros.ros.run: the node run idiom (a process per case: run_node initialises rclpy itself)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import rclpy
+from rclpy.executors import ExternalShutdownException
+
+from grasp_intent_ros.ros.run import ShutdownSafeExecutor, publish_all
+from grasp_intent_ros.tools.suite import node_environment
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def test_a_configuration_error_exits_1_with_one_line(domain_id: int) -> None:
+    code = ('from grasp_intent_ros.ros.params import ParameterError\n'
+            'from grasp_intent_ros.ros.run import run_node\n'
+            'def build():\n'
+            '    raise ParameterError("model: unknown model \'mug\'")\n'
+            'run_node(build, [])\n')
+    result = subprocess.run([sys.executable, '-c', code], cwd=REPO, env=node_environment(domain_id),
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 1, result.stderr
+    assert "cannot start: model: unknown model 'mug'" in result.stderr and 'Traceback' not in result.stderr
+
+
+def test_spin_on_a_shut_down_context_ends_like_a_shutdown(ros) -> None:
+    context = rclpy.context.Context()
+    rclpy.init(context=context, domain_id=ros.domain_id)
+    executor = ShutdownSafeExecutor(context=context)
+    node = rclpy.create_node('run_probe', context=context)
+    executor.add_node(node)
+    rclpy.shutdown(context=context)
+    with pytest.raises(ExternalShutdownException):
+        executor.spin_once(timeout_sec=0.1)
+    executor.shutdown()
+    node.destroy_node()
+
+
+def test_publish_all_drops_messages_only_after_a_shutdown(ros) -> None:
+    class Failing:
+        def publish(self, msg: object) -> None:
+            raise RuntimeError('publisher gone')
+
+    with pytest.raises(RuntimeError, match='publisher gone'):
+        publish_all(ros.node, {'t': Failing()}, {'t': object()})
+    context = rclpy.context.Context()
+    rclpy.init(context=context, domain_id=ros.domain_id)
+    node = rclpy.create_node('run_probe', context=context)
+    rclpy.shutdown(context=context)
+    publish_all(node, {'t': Failing()}, {'t': object()})
+    node.destroy_node()
