@@ -120,3 +120,24 @@ def test_restrict_equals_interpreting_for_the_model(structure: str) -> None:
     assert intent.restrict(v_u_only, intent.all_zones(3), structure_zones('4zone', TASKS)) is None
     with pytest.raises(InvalidIntentError):
         intent.restrict([0.5, 0.5], intent.all_zones(3), zones)
+
+
+def test_v_zones_match_the_model_tasks_by_label_or_core_order() -> None:
+    tasks = ('usage', 'transfer', 'handover')
+    assert intent.match_zones(7, None, tasks) == intent.all_zones(3)
+    assert intent.match_zones(3, ['UT', 'U', 'T'], ('usage', 'transfer')) == (3, 1, 2)
+    with pytest.raises(InvalidIntentError, match=r"v must have 7 entries \(all zones of the model's 3 tasks\)"):
+        intent.match_zones(3, None, tasks)
+    with pytest.raises(InvalidIntentError, match="v labels do not match the model's 3 tasks"):
+        intent.match_zones(3, ['U', 'T', 'X'], tasks)
+    with pytest.raises(InvalidIntentError, match='must name each of the 3 zones'):
+        intent.match_zones(3, ['U', 'U', 'T'], ('usage', 'transfer'))
+
+
+def test_v_as_received_is_a_probability_vector() -> None:
+    assert intent.validate_v([0.25, 0.75], ('U', 'T')).tolist() == [0.25, 0.75]
+    for bad in ([0.5, 0.6], [-0.5, 1.5], [np.nan, 1.0]):
+        with pytest.raises(InvalidIntentError, match=r'non-negative and sum to 1 \(within 1e-6\)'):
+            intent.validate_v(bad)
+    with pytest.raises(InvalidIntentError, match='2 values but its label names 3 zones'):
+        intent.validate_v([0.5, 0.5], ('U', 'T', 'UT'))

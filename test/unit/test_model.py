@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
-
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -13,7 +11,6 @@ from grasp_intent_ros.core.errors import DataError, InvalidFeaturesError, ModelE
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import DEFAULT_TASKS
 from grasp_intent_ros.core.model import GraspModel, structure_zones
-from grasp_intent_ros.protocol import ModelHeader, model_document, parse_model_document
 
 from .conftest import synthetic_demos
 
@@ -149,29 +146,3 @@ def test_csv_round_trip_and_errors(tmp_path, demos: Demonstrations) -> None:  # 
     bad.write_text('a,b,c\n1,2,3\n')
     with pytest.raises(DataError, match='first 10 columns'):
         load_csv(bad)
-
-
-def test_model_document_round_trip(toy_model: GraspModel) -> None:
-    text = model_document(toy_model, name='cup_7zone', version=3)
-    body = toy_model.to_yaml()
-    sha = hashlib.sha256(body.encode()).hexdigest()
-    assert text == f'# model_name: cup_7zone\n# model_version: 3\n# model_sha256: {sha}\n{body}'
-    assert parse_model_document(text) == (ModelHeader('cup_7zone', 3, sha), body)
-    assert GraspModel.from_yaml(text).to_yaml() == body  # the header lines are YAML comments
-    for name, version in (('two\nlines', 1), ('m', 0)):
-        with pytest.raises(ValueError, match='one line'):
-            model_document(toy_model, name=name, version=version)
-
-
-def test_malformed_model_documents_raise(toy_model: GraspModel) -> None:
-    text = model_document(toy_model, name='m', version=1)
-    with pytest.raises(ModelFormatError, match='lacks the header lines'):
-        parse_model_document(toy_model.to_yaml())
-    with pytest.raises(ModelFormatError, match='lacks the header lines'):
-        parse_model_document(text.replace('# model_version: 1', '# model_version: one'))
-    corrupted = text.replace('prior: 0.', 'prior: 1.', 1)
-    with pytest.raises(ModelFormatError, match='corrupted'):
-        parse_model_document(corrupted)
-    assert parse_model_document(corrupted, check_sha256=False)[0] == parse_model_document(text)[0]
-    with pytest.raises(ModelFormatError, match='model_version must be >= 1'):
-        parse_model_document(text.replace('# model_version: 1', '# model_version: 0'))

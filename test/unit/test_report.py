@@ -22,7 +22,7 @@ from grasp_intent_ros.bag import QosSpec, SessionWriter
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import interpret, reconstruct_w
 from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.protocol import model_document, read_posterior, stamped_values
+from grasp_intent_ros.protocol import model_document
 from grasp_intent_ros.tools import report
 
 T0 = 1_700_000_000_000_000_000  # ns
@@ -143,29 +143,6 @@ def test_report_writes_figures_and_summary(store, toy_model, tmp_path: Path, cap
         assert line in summary, f'{line!r} not in\n{summary}'
     assert 'P(no task) = 0.7290' in summary
     assert 'skipped' not in summary
-
-
-def test_posterior_layout_is_split_into_p_and_w(store, toy_model) -> None:
-    p = toy_model.posterior(toy_model.means[0])
-    w = reconstruct_w(p, toy_model.zones, 3)
-    label = f'{",".join(toy_model.zone_labels)}|{",".join(toy_model.task_names)}'
-    post = read_posterior(stamped(store, np.r_[p, w], label, T0))
-    assert post.zone_labels == toy_model.zone_labels and post.task_names == toy_model.task_names
-    np.testing.assert_array_equal(post.p, p)
-    np.testing.assert_array_equal(post.w, w)
-    for bad in ('U,T,H,UT,UH,TH,UTH,usage,transfer,handover', 'U,T,H|usage,transfer,handover', ''):
-        with pytest.raises(ValueError, match='grasp/posterior label'):
-            read_posterior(stamped(store, np.r_[p, w], bad, T0))
-
-
-def test_stamped_values_reads_rosbags_messages(store) -> None:
-    values, label, stamp = stamped_values(stamped(store, [0.25, 0.75], 'a,b', T0 + 34))
-    np.testing.assert_array_equal(values, [0.25, 0.75])
-    assert (label, stamp) == ('a,b', (T0 // S, 34))
-    bad = stamped(store, [0.25, 0.75], 'a,b', T0)
-    bad.layout.dim[0].label = 'stamp=12.34'
-    with pytest.raises(ValueError, match='9-digit nanosec'):
-        stamped_values(bad)
 
 
 def test_bag_lacking_topics_skips_figures_and_says_so(store, toy_model, tmp_path: Path) -> None:

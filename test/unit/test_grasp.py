@@ -1,0 +1,81 @@
+"""grasp_intent_ros.core.grasp: the planner node's policy without ROS."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from grasp_intent_ros.core import intent, planner
+from grasp_intent_ros.core.errors import InvalidIntentError, ModelError
+from grasp_intent_ros.core.features import FINGERS
+from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.core.grasp import (
+    MIN_TRAJECTORY_TIME,
+    OUTCOMES,
+    Grasp,
+    NoReachableGrasp,
+    check_mico_model,
+    plan_grasp,
+    trajectory_duration,
+)
+from grasp_intent_ros.core.kinematics import HOME_Q, MicoKinematics, Reachability
+from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.core.resources import config_dir
+
+W = (0.9, 0.9, 0.1)
+BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+
+
+@pytest.fixture(scope='module')
+def cup() -> GraspModel:
+    return GraspModel.load(config_dir() / 'models' / 'cup_7zone.yaml')
+
+
+@pytest.fixture(scope='module')
+def kin() -> MicoKinematics:
+    return MicoKinematics()
+
+
+def test_reachable_grasp_is_the_core_plan_with_its_pose_joints_and_timing(cup, kin) -> None:
+    v = intent.interpret(W).v
+    grasp = plan_grasp(cup, v, intent.all_zones(3), BASE_T_OBJ, kin, name='cup_7zone')
+    assert isinstance(grasp, Grasp) and grasp.outcome == OUTCOMES[0] and not grasp.fallback
+    expected = planner.plan(cup, intent.restrict(v, intent.all_zones(3), cup.zones),
+                            accept=Reachability(kin, BASE_T_OBJ))
+    assert_allclose(grasp.result.x, expected.x, atol=1e-9)
+    assert_allclose(grasp.base_T_ee, BASE_T_OBJ @ features_to_obj_T_ee(grasp.result.x), atol=1e-12)
+    assert_allclose(kin.fk(grasp.positions[:6]), grasp.base_T_ee, atol=1e-4)
+    assert_allclose(grasp.positions[6:], grasp.result.x[FINGERS])
+    assert grasp.duration_s == pytest.approx(
+        max(MIN_TRAJECTORY_TIME, trajectory_duration(HOME_Q, grasp.positions[:6], kin.velocity_limits)))
+    assert grasp.note == f'best of {len(grasp.result.candidates)} candidates reachable'
+
+
+def test_unreachable_object_gives_no_grasp_and_says_why(cup, kin) -> None:
+    far = BASE_T_OBJ.copy()
+    far[:3, 3] = (2.0, 0.0, 0.0)
+    grasp = plan_grasp(cup, intent.interpret(W).v, intent.all_zones(3), far, kin, ik_restarts=0)
+    assert isinstance(grasp, NoReachableGrasp) and grasp.outcome == OUTCOMES[2]
+    assert grasp.reason.startswith('no reachable grasp: IK failed for all') and '[2.0, 0.0, 0.0] m' in grasp.reason
+
+
+def test_v_without_probability_on_the_model_zones_needs_clarification(kin) -> None:
+    cup4 = GraspModel.load(config_dir() / 'models' / 'cup_4zone.yaml')
+    only_h = np.zeros(7)
+    only_h[2] = 1.0  # 'H' is no zone of the 4-zone model
+    with pytest.raises(InvalidIntentError, match="clarification needed: .* of model 'cup_4zone'"):
+        plan_grasp(cup4, only_h, intent.all_zones(3), BASE_T_OBJ, kin, name='cup_4zone')
+
+
+def test_timing_and_model_checks(cup) -> None:
+    assert trajectory_duration([0.0, 0.0], [1.0, -3.0], [2.0, 1.0]) == 3.0
+    assert trajectory_duration([0.0], [0.01], [1.0], min_duration=0.1) == 0.1
+    with pytest.raises(ValueError, match='positive velocity limits'):
+        trajectory_duration([0.0], [1.0], [0.0])
+    check_mico_model(cup, 'cup_7zone')
+    document = cup.to_document()
+    document['features'] = [{**f, 'name': f'f{i}'} for i, f in enumerate(document['features'])]
+    other = GraspModel.from_document(document)
+    with pytest.raises(ModelError, match="model 'other' has features"):
+        check_mico_model(other, 'other')

@@ -1,0 +1,38 @@
+"""grasp_intent_ros.core.registry: the model files of one directory."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from grasp_intent_ros.core.errors import ModelError, ModelFormatError
+from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.core.registry import ModelFiles
+
+
+def test_models_are_listed_loaded_and_reloaded_when_changed(tmp_path: Path, toy_model: GraspModel) -> None:
+    toy_model.save(tmp_path / 'toy.yaml')
+    (tmp_path / 'notes.txt').write_text('not a model')
+    files = ModelFiles.at(str(tmp_path))
+    assert files.names() == ('toy',)
+    first = files.load('toy')
+    assert files.load('toy') is first, 'cached while the file is unchanged'
+    (tmp_path / 'toy.yaml').write_text(toy_model.to_yaml())
+    stat = (tmp_path / 'toy.yaml').stat()
+    os.utime(tmp_path / 'toy.yaml', ns=(stat.st_atime_ns, stat.st_mtime_ns + 1_000_000))
+    assert files.load('toy') is not first, 'a changed file is read again'
+
+
+def test_unknown_malformed_and_missing(tmp_path: Path, toy_model: GraspModel) -> None:
+    toy_model.save(tmp_path / 'toy.yaml')
+    (tmp_path / 'broken.yaml').write_text('format_version: 1\nname: broken\n')
+    files = ModelFiles(tmp_path)
+    with pytest.raises(ModelError, match="unknown model 'mug' in .*; known: broken, toy"):
+        files.load('mug')
+    with pytest.raises(ModelFormatError, match='broken.yaml: '):
+        files.load('broken')
+    with pytest.raises(ModelError, match='is not a directory'):
+        ModelFiles.at(str(tmp_path / 'nowhere'))
+    assert ModelFiles.at('').directory.name == 'models'  # the package's config/models
