@@ -17,24 +17,30 @@ not name one grasp. The planner therefore answers a stated problem:
    standard deviation over the demonstrations).
 3. **Exact match.** When every v_k > 0, P(x) = v is written as the log-odds equations
    log(pi_k N_k(x)) - log(pi_r N_r(x)) = log(v_k / v_r), k != r (r the top-v zone); they are quadratic in
-   x, so their gradients do not vanish in a Gaussian's tail. From each start an SQP iteration (minimum
-   distance Gauss-Newton steps on the linearised equations, bounds and body as an active set, an
-   exact-penalty merit with a second-order correction) converges to a point of X that satisfies the
-   equations and is locally nearest to x_ref (first-order KKT point of min dist s.t. P = v).
-4. **Least squares.** When no start reaches an exact match (some v_k = 0, or v is outside what the
-   model can attain in X), f is minimised from every start and every SQP end point with a projected
-   Levenberg-Marquardt iteration.
-5. **Choice.** Let f* be the lowest f found. The candidates with f <= f* + max(1e-12, 1e-6 f*) are
+   x, so their gradients do not vanish in a Gaussian's tail. A start is projected onto them by
+   minimum-distance Gauss-Newton steps (each the shortest step, in the scaled metric, that solves the
+   linearised equations; damped, with bounds and body as an active set). From a start near the
+   matches this ends at the nearest match, up to second order in the distance; from farther away,
+   at the match this deterministic path reaches.
+4. **Search, nearest first.** The reference itself is projected first: when it reaches a match (and
+   ``accept`` takes it), that is the answer. Otherwise the other starts are projected, and the
+   matches found are chosen from (rule 6).
+5. **Least squares.** When no start reaches an acceptable match (some v_k = 0, or v is outside what
+   the model can attain in X), f is minimised from every start and every projection's end point with
+   a projected Levenberg-Marquardt iteration (end points within 1e-8 of a match are projected onto
+   the matches).
+6. **Choice.** Let f* be the lowest f found. The candidates with f <= f* + max(1e-12, 1e-6 f*) are
    the matches; the planner returns the one nearest to x_ref, and among matches whose distances are
    within 1e-6 of the nearest, the first in start order. Ties are never left to float noise. The
-   ``accept`` hook (e.g. IK reachability) sees the candidates in this order, then the others by f.
+   ``accept`` hook (e.g. IK reachability) is asked about candidates in this order (then the others
+   by f) and the first it takes is returned.
 
-Starts, in order: x_ref; Algorithm 1's start; the next best demonstrations of the ``top_zones`` most
-likely zones (``n_starts`` in all); then, for a plan without a warm start, the zone means and the
-demonstrations with the lowest f (screened by one vectorised evaluation over all of them). A warm
-start whose own local solution matches v is returned without the wider search, so a smoothly moving
-intent moves the grasp smoothly; when the previous solution branch stops matching v the wider search
-runs and the grasp may jump.
+Starts, in order: x_ref; Algorithm 1's start (when x_ref is a warm start); the next best
+demonstrations of the ``top_zones`` most likely zones (``n_starts`` demonstrations in all); then the
+zone means and demonstrations nearest to P = v (screened by one vectorised evaluation over all of
+them). With the previous plan as x_ref, a smoothly moving intent moves the grasp smoothly: the
+previous match is projected onto the new equations. When that branch stops matching v, the wider
+search runs and the grasp may jump.
 
 The paper's solvers stay available: ``method='slsqp'`` (SQP) and ``'trust-constr'`` (interior point)
 minimise f from the demonstration starts (scipy), with the same choice rule.
@@ -555,6 +561,8 @@ def _match_message(converged: bool) -> str:
 
 def _choose(candidates: list[Candidate]) -> list[Candidate]:
     """The module docstring's choice order, duplicates (scaled distance < 1e-9 apart) dropped."""
+    if not candidates:
+        return []
     f = np.array([c.objective for c in candidates])
     best = float(f.min())
     matches = f <= best + max(MATCH_TOL, F_RTOL * best)
@@ -644,21 +652,34 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
                 for i in range(xs.shape[0])]
 
     found: list[Candidate] = []
-    if method == 'lm':
-        def exact(cands: list[Candidate]) -> list[Candidate]:
-            return [c for c in cands if c.success and c.objective <= MATCH_TOL]
+    turned_down: list[Candidate] = []
 
+    def choose(cands: list[Candidate]) -> Candidate | None:
+        """The first candidate in choice order that ``accept`` takes (asking each candidate once)."""
+        for cand in _choose(cands):
+            if any(cand is c for c in turned_down):
+                continue
+            if accept is None or accept(cand.x):
+                return cand
+            turned_down.append(cand)
+        return None
+
+    def exact(cands: list[Candidate]) -> list[Candidate]:
+        return [c for c in cands if c.success and c.objective <= MATCH_TOL]
+
+    chosen: Candidate | None = None
+    if method == 'lm':
         wide = _unique_rows(np.concatenate([starts, feas.project(search_starts(model, v_arr))]))
         if np.all(v_arr > 0.0):  # otherwise P = v is impossible: P_k > 0 everywhere
             projection = _LogOddsProjection(model, v_arr, feas)
-            if warm_start is not None:  # the previous solution's branch alone, when it still matches v
-                xs, ok, its = projection.run(starts[:1])
-                found = candidates_from(xs, starts[:1], ok, its, 0, _match_message)
-                wide = wide[1:]
-            if not exact(found):
-                xs, ok, its = projection.run(wide)
-                found += candidates_from(xs, wide, ok, its, len(found), _match_message)
-        if not exact(found):  # least squares from every start and every projection's end point
+            xs, ok, its = projection.run(wide[:1])  # the reference's own projection first
+            found = candidates_from(xs, wide[:1], ok, its, 0, _match_message)
+            chosen = choose(exact(found))
+            if chosen is None and wide.shape[0] > 1:
+                xs, ok, its = projection.run(wide[1:])
+                found += candidates_from(xs, wide[1:], ok, its, 1, _match_message)
+                chosen = choose(exact(found))
+        if chosen is None:  # least squares from every start and every projection's end point
             origins = _unique_rows(np.concatenate([wide, *([np.stack([c.x for c in found])] if found else [])]))
             xs, ok, its = _refine_lm(model, v_arr, origins, feas)
             r = v_arr - model.posterior(xs)
@@ -673,15 +694,17 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
             x1, ok1, text, it = _refine_scipy(model, v_arr, s0, method, gradient, extra_constraints, feas)
             found += candidates_from(x1[None, :], s0[None, :], np.array([ok1]), np.array([it]), i,
                                      lambda _, said=text: said)
+    if chosen is None:
+        chosen = choose(found)
     ranked = _choose(found)
-    chosen, rejected, status = ranked[0], 0, 'ok'
-    if accept is not None:
-        for rejected, cand in enumerate(ranked):
-            if accept(cand.x):
-                chosen = cand
-                break
-        else:
-            chosen, rejected, status = ranked[0], len(ranked), 'rejected'
+    if chosen is None:
+        chosen, status = ranked[0], 'rejected'
+        ranked = turned_down + [c for c in ranked if not any(c is t for t in turned_down)]
+    else:
+        status = 'ok'
+        rest = [c for c in ranked if c is not chosen and not any(c is t for t in turned_down)]
+        ranked = turned_down + [chosen] + rest
+    rejected = len(turned_down)
     if status == 'ok' and not chosen.success:
         status = 'solver_failed'
     message = {'ok': f'planned ({chosen.message})', 'solver_failed': f'not converged: {chosen.message}',

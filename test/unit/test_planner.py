@@ -117,9 +117,18 @@ def test_accept_hook_takes_the_first_acceptable_candidate_in_choice_order(toy_mo
     v = _v((0.9, 0.9, 0.1))
     first = planner.plan(toy_model, v)
     best = first.candidates[0].x
-    res = planner.plan(toy_model, v, accept=lambda x: not np.allclose(x, best))
-    assert res.rejected >= 1 and not np.allclose(res.x, best)
-    assert_allclose(res.x, first.candidates[res.rejected].x)
+    asked: list[np.ndarray] = []
+
+    def not_best(x: np.ndarray) -> bool:
+        asked.append(x)
+        return not np.allclose(x, best)
+
+    res = planner.plan(toy_model, v, accept=not_best)
+    assert res.rejected == 1 and not np.allclose(res.x, best)
+    assert_allclose(res.candidates[0].x, best)
+    assert_allclose(res.candidates[res.rejected].x, res.x)
+    assert len(asked) == 2  # each candidate asked once, in choice order, until one is taken
+    assert res.exact == first.exact
     none = planner.plan(toy_model, v, accept=lambda x: False)
     assert none.status == 'rejected' and not none.success
     assert none.rejected == len(none.candidates)
