@@ -152,7 +152,7 @@ def speed(n: int, seed: int) -> None:
         warm, previous = [], None
         for v in walk_targets(model, n, seed):
             t0 = time.perf_counter()
-            previous = planner.plan(model, v, warm_start=None if previous is None else previous.x).x
+            previous = planner.plan(model, v, warm_start=previous).x
             warm.append(1e3 * (time.perf_counter() - t0))
         print(f'  {name:17s} fresh     {percentiles(fresh)}  (baseline {percentiles(base)}; median ratio '
               f'{np.median(base) / np.median(fresh):.2f}x)')

@@ -111,8 +111,8 @@ def _check_size(value: Sequence[float]) -> None:
 
 
 PARAMETERS = (
-    ParamSpec('method', 'lm', "Planner refinement: 'lm' (vectorised Levenberg-Marquardt, fastest), 'slsqp' "
-              "(SQP) or 'trust-constr' (interior point).", validator=_check_method,
+    ParamSpec('method', 'lm', "Planner method: 'lm' (default: exact matches by log-odds projection, else "
+              "least squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=_check_method,
               constraints=f'one of {", ".join(_METHODS)}'),
     ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
     ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),
