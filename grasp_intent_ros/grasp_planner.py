@@ -54,8 +54,8 @@ __all__ = ['GraspPlanner', 'PARAMETERS', 'main']
 _METHODS: tuple[str, ...] = typing.get_args(planner.Method)
 
 PARAMETERS = (
-    ParamSpec('method', 'lm', "Planner refinement: 'lm' (vectorised Levenberg-Marquardt, fastest), 'slsqp' "
-              "(SQP) or 'trust-constr' (interior point).", validator=one_of(_METHODS),
+    ParamSpec('method', 'lm', "Planner method: 'lm' (default: exact matches by log-odds projection, else "
+              "least squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(_METHODS),
               constraints=f'one of {", ".join(_METHODS)}'),
     ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
     ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),

@@ -22,6 +22,7 @@ import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
 
+from .body import ObjectBody
 from .data import Demonstrations
 from .errors import InvalidFeaturesError, ModelError, ModelFormatError
 from .features import FeatureSpace
@@ -129,6 +130,11 @@ class GraspModel:
         Task-set bitmask of each training demonstration.
     data_hash : str
         sha256 of the training data set.
+    body : ObjectBody or None
+        The object's solid body: the planner keeps the palm centre outside it (see core.body).
+    feature_scale : ndarray, shape (d,)
+        Spread of each feature over the demonstrations (standard deviation, at least 1e-3 of the
+        feature's bound range): the unit of the planner's distance between grasps.
     """
 
     name: str
@@ -146,6 +152,8 @@ class GraspModel:
     demo_sets: NDArray[np.int64]
     data_hash: str = ''
     ridge: float = DEFAULT_RIDGE
+    body: ObjectBody | None = None
+    feature_scale: NDArray[np.float64] = field(init=False, repr=False)
     _precisions: NDArray[np.float64] = field(init=False, repr=False)
     _log_norm: NDArray[np.float64] = field(init=False, repr=False)
     _prec_stack: NDArray[np.float64] = field(init=False, repr=False)
@@ -204,6 +212,8 @@ class GraspModel:
         object.__setattr__(self, 'demo_x', demo_x)
         object.__setattr__(self, 'demo_sets', demo_sets)
         object.__setattr__(self, 'demo_posterior', self.posterior(demo_x))
+        floor = 1e-3 * (self.features.upper - self.features.lower)
+        object.__setattr__(self, 'feature_scale', np.maximum(demo_x.std(axis=0), floor))
 
     # ------------------------------------------------------------------ properties
     @property
@@ -229,7 +239,7 @@ class GraspModel:
     # ------------------------------------------------------------------ training
     @classmethod
     def fit(cls, demos: Demonstrations, zones: Sequence[int] | None = None, *, name: str = '',
-            ridge: float = DEFAULT_RIDGE) -> GraspModel:
+            ridge: float = DEFAULT_RIDGE, body: ObjectBody | None = None) -> GraspModel:
         """Train a model with inclusive labeling.
 
         Parameters
@@ -239,6 +249,8 @@ class GraspModel:
             Zone bitmasks; default all 2^m - 1 zones.
         ridge : float
             Covariance ridge as a fraction of each feature's bound range.
+        body : ObjectBody, optional
+            The object's body, kept with the model for the planner.
 
         Raises
         ------
@@ -275,7 +287,7 @@ class GraspModel:
                    task_covariances=np.stack([g.cov for g in tasks]),
                    task_counts=np.array([g.count for g in tasks]),
                    demo_x=kept.x, demo_sets=kept.task_sets,
-                   data_hash=kept.sha256(), ridge=ridge)
+                   data_hash=kept.sha256(), ridge=ridge, body=body)
 
     # ------------------------------------------------------------------ inference
     def _check_x(self, x: ArrayLike) -> tuple[NDArray[np.float64], bool]:
@@ -350,6 +362,7 @@ class GraspModel:
                          for n, u, lo, hi in zip(self.features.names, self.features.units,
                                                  self.features.lower, self.features.upper)],
             'approach_features': list(self.features.approach_range),
+            **({'body': self.body.to_document()} if self.body is not None else {}),
             'ridge': float(self.ridge),
             'data_hash': self.data_hash,
             'zone_models': [{'zone': label, 'count': int(n), 'prior': float(p),
@@ -412,7 +425,8 @@ class GraspModel:
                        demo_x=np.asarray([dm['x'] for dm in doc['demonstrations']], dtype=np.float64),
                        demo_sets=np.asarray(parse_zones([str(dm['tasks']) for dm in doc['demonstrations']],
                                                         task_names), dtype=np.int64),
-                       data_hash=str(doc.get('data_hash', '')), ridge=float(doc.get('ridge', DEFAULT_RIDGE)))
+                       data_hash=str(doc.get('data_hash', '')), ridge=float(doc.get('ridge', DEFAULT_RIDGE)),
+                       body=ObjectBody.from_document(doc['body']) if doc.get('body') is not None else None)
         except ModelFormatError:
             raise
         except KeyError as exc:

@@ -1,22 +1,49 @@
-"""Intent-uncertainty-aware grasp planning (paper Algorithm 1).
+"""Intent-uncertainty-aware grasp planning (paper Algorithm 1), as a well-posed problem.
 
-Given a model and a target vector v over its zones, find grasp features x that make the model's
-posterior P(k|x) match v:
+Given a model and a target vector v over its zones, the planner looks for grasp features x whose zone
+posterior P(k|x) matches v. The feasible set X is
 
-    minimise   f(x) = 1/2 sum_k (v_k - P_k(x))^2
-    subject to lower <= x <= upper,   |approach(x)| = 1
+    lower <= x <= upper,   |approach(x)| = 1,   distance(palm(x), body) >= margin
 
-with the analytic gradient  grad f = -J(x)^T (v - P(x)),  J = dP/dx.
+(the last only when the model carries the object's body, see :mod:`grasp_intent_ros.core.body`).
+The paper's objective is f(x) = 1/2 sum_k (v_k - P_k(x))^2. With K zones and d = 10 features, P(x) = v
+is K - 1 equations in 9 free unknowns, so exact matches form a manifold and "the minimiser of f" does
+not name one grasp. The planner therefore answers a stated problem:
 
-The search starts from the training demonstration of the top-v zone with the lowest objective
-(Algorithm 1) and, for robustness, from a few more of the best demonstrations of the top zones and
-from a warm start (e.g. the previous solution during teleoperation). Each start is refined with SQP
-(scipy SLSQP) or an interior-point / trust-region method (scipy trust-constr), as in the paper, or
-with ``method='lm'`` (the default): a projected Levenberg-Marquardt iteration written here because it
-refines every start at once with vectorised numpy (one posterior/Jacobian evaluation per iteration for
-all starts) and converges in few iterations on this small least-squares problem, which suits
-replanning at teleoperation rates. Candidates are ranked by objective; an optional ``accept`` hook
-(e.g. "the arm can reach this grasp") filters them.
+1. **Reference.** x_ref is the warm start when one is given (the previous plan, during
+   teleoperation), else Algorithm 1's start: the demonstration of the top-v zone with the lowest f
+   (v compared at 1e-9 and f at 1e-12 relative; ties go to the first zone and demonstration).
+2. **Distance.** dist(x) = |(x - x_ref) / s|, with s the model's ``feature_scale`` (each feature's
+   standard deviation over the demonstrations).
+3. **Exact match.** When every v_k > 0, P(x) = v is written as the log-odds equations
+   log(pi_k N_k(x)) - log(pi_r N_r(x)) = log(v_k / v_r), k != r (r the top-v zone); they are quadratic in
+   x, so their gradients do not vanish in a Gaussian's tail. A start is projected onto them by
+   minimum-distance Gauss-Newton steps (each the shortest step, in the scaled metric, that solves the
+   linearised equations; damped, with bounds and body as an active set). From a start near the
+   matches this ends at the nearest match, up to second order in the distance; from farther away,
+   at the match this deterministic path reaches.
+4. **Search, nearest first.** The reference itself is projected first: when it reaches a match (and
+   ``accept`` takes it), that is the answer. Otherwise the other starts are projected, and the
+   matches found are chosen from (rule 6).
+5. **Least squares.** When no start reaches an acceptable match (some v_k = 0, or v is outside what
+   the model can attain in X), f is minimised from every start and every projection's end point with
+   a projected Levenberg-Marquardt iteration (end points within 1e-8 of a match are projected onto
+   the matches).
+6. **Choice.** Let f* be the lowest f found. The candidates with f <= f* + max(1e-12, 1e-6 f*) are
+   the matches; the planner returns the one nearest to x_ref, and among matches whose distances are
+   within 1e-6 of the nearest, the first in start order. Ties are never left to float noise. The
+   ``accept`` hook (e.g. IK reachability) is asked about candidates in this order (then the others
+   by f) and the first it takes is returned.
+
+Starts, in order: x_ref; Algorithm 1's start (when x_ref is a warm start); the next best
+demonstrations of the ``top_zones`` most likely zones (``n_starts`` demonstrations in all); then the
+zone means and demonstrations nearest to P = v (screened by one vectorised evaluation over all of
+them). With the previous plan as x_ref, a smoothly moving intent moves the grasp smoothly: the
+previous match is projected onto the new equations. When that branch stops matching v, the wider
+search runs and the grasp may jump.
+
+The paper's solvers stay available: ``method='slsqp'`` (SQP) and ``'trust-constr'`` (interior point)
+minimise f from the demonstration starts (scipy), with the same choice rule.
 """
 
 from __future__ import annotations
@@ -32,6 +59,7 @@ from scipy.optimize import (  # type: ignore[import-untyped]
     Bounds, NonlinearConstraint, OptimizeResult, minimize)
 
 from .errors import PlanningError
+from .features import PALM
 from .intent import reconstruct_w
 from .model import GraspModel
 
@@ -40,21 +68,38 @@ __all__ = [
     'PlanResult',
     'Method',
     'Gradient',
+    'MATCH_TOL',
+    'DISTANCE_TOL',
     'objective',
     'objective_and_gradient',
+    'zone_order',
     'select_starts',
+    'search_starts',
     'plan',
+    'reference_search',
 ]
 
 Method = Literal['slsqp', 'trust-constr', 'lm']
 Gradient = Literal['analytic', '2-point']
 
+MATCH_TOL = 1e-12
+"""f within this of the best found (or 1e-6 relative, whichever is larger) counts as a match."""
+F_RTOL = 1e-6
+DISTANCE_TOL = 1e-6
+"""Scaled distances to the reference within this of the nearest are a tie, broken by start order."""
+
 _FTOL = 1e-10
 _MAXITER = 200
-_TC_MAXITER = 500
-_LM_MAXITER = 100
-_LM_FTOL = 1e-10   # stop a start when one accepted step improves f by less than this (relative to 1 + f)
-_LM_FSTOP = 1e-14  # stop every start once one reaches this objective (a match to ~1e-7 per zone)
+_TC_MAXITER = 1500
+_LM_MAXITER = 300
+_LM_FTOL = 1e-7      # a start has converged when an accepted step improves f by less than this * f + 1e-15
+_GN_MAXITER = 60
+_GN_DAMPING = 1e-3   # ridge of the minimum-norm steps, relative to the residual's norm
+_GN_STALL = 12       # iterations in which a start must halve its log-odds residual to go on
+_GN_HTOL = 1e-11     # log-odds residual (nats) below which the equations hold
+_GN_STEPTOL = 1e-9   # scaled step below which a start has converged
+_POLISH = 1e-8      # a least-squares end point this close to a match is projected onto the matches
+_SCREEN = 6          # extra screened starts (demonstrations and zone means) for a fresh plan
 
 
 @dataclass(frozen=True)
@@ -66,11 +111,17 @@ class Candidate:
     x : ndarray, shape (d,)
     posterior : ndarray, shape (K,)
     objective : float
+        f(x) = 1/2 |v - P(x)|^2.
+    distance : float
+        Scaled distance |(x - x_ref) / s| to the plan's reference.
     start : ndarray, shape (d,)
         Where the refinement began.
     start_objective : float
+    start_index : int
+        Position of the start in the plan's start order (ties are broken by it).
     success : bool
-        The solver's own verdict.
+        The refinement converged (a KKT point or a stationary point of f), not stopped by its
+        iteration limit.
     message : str
     iterations : int
     """
@@ -78,8 +129,10 @@ class Candidate:
     x: NDArray[np.float64]
     posterior: NDArray[np.float64]
     objective: float
+    distance: float
     start: NDArray[np.float64]
     start_objective: float
+    start_index: int
     success: bool
     message: str
     iterations: int
@@ -92,34 +145,39 @@ class PlanResult:
     Attributes
     ----------
     x : ndarray, shape (d,)
-        Planned grasp features (best accepted candidate).
+        Planned grasp features (the chosen candidate, see the module docstring).
     posterior : ndarray, shape (K,)
         P(k|x) over the model's zones.
     w : ndarray, shape (m,)
         Principal-task probabilities reconstructed from the posterior.
     objective : float
         1/2 |v - P(x)|^2.
+    exact : bool
+        The objective is at most :data:`MATCH_TOL`: P matches v.
+    reference : ndarray, shape (d,)
+        x_ref, the grasp the answer is nearest to.
     success : bool
-        A candidate was accepted and its solver reported success (or it stayed at its start, which is
-        then optimal among the tried starts).
+        status == 'ok'.
     status : str
-        'ok', 'solver_failed' (best candidate not converged) or 'rejected' (no candidate passed ``accept``;
-        x is then the best rejected one).
+        'ok' (the chosen candidate's refinement converged), 'solver_failed' (it stopped at its
+        iteration limit) or 'rejected' (no candidate passed ``accept``; x is then the first ranked).
     message : str
     iterations : int
         Solver iterations summed over all starts.
     wall_time_s : float
     method : str
     candidates : tuple of Candidate
-        Every refined start, best objective first.
+        Every distinct refined start, in the choice order.
     rejected : int
-        How many better candidates ``accept`` turned down before the chosen one.
+        How many candidates ``accept`` turned down before the chosen one.
     """
 
     x: NDArray[np.float64]
     posterior: NDArray[np.float64]
     w: NDArray[np.float64]
     objective: float
+    exact: bool
+    reference: NDArray[np.float64]
     success: bool
     status: str
     message: str
@@ -159,40 +217,277 @@ def objective_and_gradient(model: GraspModel, v: NDArray[np.float64],
     return 0.5 * float(r @ r), -(jac.T @ r)
 
 
+def _rank_by_f(f: NDArray[np.float64]) -> NDArray[np.intp]:
+    """Indices sorted by f quantised to 1e-12 relative, then by index: float noise cannot reorder."""
+    q = np.floor(f / (MATCH_TOL * (1.0 + np.abs(f))))
+    return np.lexsort((np.arange(f.size), q))
+
+
+def zone_order(v: NDArray[np.float64]) -> NDArray[np.intp]:
+    """Zones from the most to the least likely; v compared at 1e-9, ties in zone order (never noise)."""
+    return np.lexsort((np.arange(v.size), -np.floor(v * 1e9)))
+
+
 def select_starts(model: GraspModel, v: NDArray[np.float64], n_starts: int = 3,
                   top_zones: int = 2) -> NDArray[np.float64]:
-    """Starting points: the demonstration of the top-v zone with the lowest objective first, then the
-    next best demonstrations of the ``top_zones`` most likely zones, shape (<= n_starts, d).
+    """Algorithm 1's starts: the demonstration of the top-v zone with the lowest objective first, then
+    the next best demonstrations of the ``top_zones`` most likely zones, shape (<= n_starts, d).
 
-    A demonstration belongs to zone k when its task set contains k (inclusive labeling).
+    A demonstration belongs to zone k when its task set contains k (inclusive labeling). Objectives
+    are compared at 1e-12 relative, then by demonstration order.
     """
-    order = np.argsort(-v, kind='stable')[:max(1, top_zones)]
+    order = zone_order(v)[:max(1, top_zones)]
     r = v[None, :] - model.demo_posterior
     f = 0.5 * np.einsum('nk,nk->n', r, r)
+    ranked = _rank_by_f(f)
+    rank_of = np.empty_like(ranked)
+    rank_of[ranked] = np.arange(ranked.size)
 
     def members(zone: int) -> NDArray[np.intp]:
         idx = np.flatnonzero((model.demo_sets & zone) == zone)
-        return idx[np.argsort(f[idx], kind='stable')]
+        return idx[np.argsort(rank_of[idx], kind='stable')]
 
     first = members(model.zones[int(order[0])])
     pool = np.unique(np.concatenate([members(model.zones[int(k)]) for k in order]))
     if first.size == 0:  # no demonstration in the top zone: start from the best one overall
-        first = np.argsort(f, kind='stable')[:1]
-    rest = [int(i) for i in pool[np.argsort(f[pool], kind='stable')] if i != first[0]]
+        first = ranked[:1]
+    rest = [int(i) for i in pool[np.argsort(rank_of[pool], kind='stable')] if i != first[0]]
     starts = [int(first[0]), *rest[:n_starts - 1]]
     out: NDArray[np.float64] = model.demo_x[np.asarray(starts)]
     return out
 
 
-def _refine(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.float64], method: Method,
-            gradient: Gradient, extra_constraints: Sequence[Any]) -> Candidate:
+def search_starts(model: GraspModel, v: NDArray[np.float64], count: int = _SCREEN) -> NDArray[np.float64]:
+    """The wider search's extra starts among the zone means and demonstrations, shape (count, d).
+
+    One vectorised evaluation screens them: with every v_k > 0, by the spread of the log-odds
+    residuals, max_k q_k - min_k q_k with q_k = log(pi_k N_k(x)) - log v_k (zero exactly where P = v);
+    otherwise by f.
+    """
+    pool = np.concatenate([model.means, model.demo_x])
+    if np.all(v > 0.0):
+        q = model.log_joint(pool) - np.log(v)
+        score = q.max(axis=1) - q.min(axis=1)
+    else:
+        r = v[None, :] - model.posterior(pool)
+        score = 0.5 * np.einsum('nk,nk->n', r, r)
+    out: NDArray[np.float64] = pool[_rank_by_f(score)[:count]]
+    return out
+
+
+class _Feasible:
+    """Projection onto the feasible set X and the scaled distance to the reference."""
+
+    def __init__(self, model: GraspModel, x_ref: NDArray[np.float64]) -> None:
+        self.model = model
+        self.lower, self.upper = model.lower, model.upper
+        self.a = model.features.approach
+        self.body = model.body
+        self.scale = model.feature_scale
+        self.x_ref = x_ref
+
+    def project(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Clip to the bounds, normalise the approach, push the palm out of the body (N, d)."""
+        out = np.clip(x, self.lower, self.upper)
+        norm = np.linalg.norm(out[:, self.a], axis=1, keepdims=True)
+        out[:, self.a] = np.where(norm > 1e-12, out[:, self.a] / np.maximum(norm, 1e-12),
+                                  np.eye(out.shape[1])[self.a.start + 2, self.a])
+        if self.body is not None:
+            out[:, PALM] = np.clip(self.body.push_out(out[:, PALM]), self.lower[PALM], self.upper[PALM])
+        return out
+
+    def distance(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """|(x - x_ref) / s| per row."""
+        out: NDArray[np.float64] = np.linalg.norm((x - self.x_ref) / self.scale, axis=-1)
+        return out
+
+
+def _min_norm_step(A: NDArray[np.float64], e: NDArray[np.float64], fixed: NDArray[np.bool_] | None,
+                   dfix: NDArray[np.float64] | None, active: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """The shortest dy with e + A dy = 0 on the active rows and dy = dfix where fixed, shape (N, d).
+
+    Rows are equilibrated (unit length); a ridge of 1e-14 + 1e-3 |e| (Levenberg-Marquardt damping)
+    keeps dependent rows solvable and the step insensitive to last-bit differences.
+    """
+    A = A * active[:, :, None]
+    norm = np.sqrt(np.einsum('nmd,nmd->nm', A, A))
+    norm = np.where(norm > 1e-300, norm, 1.0)
+    A = A / norm[:, :, None]
+    e = e * active / norm
+    if fixed is not None and dfix is not None:
+        e = e + np.einsum('nmd,nd->nm', A, dfix)
+        A = A * ~fixed[:, None, :]
+    gram = np.matmul(A, np.swapaxes(A, 1, 2))
+    idx = np.arange(gram.shape[1])
+    # Levenberg-Marquardt damping proportional to the residual: nearly dependent rows (far from the
+    # means) cannot amplify last-bit differences, and the convergence near a solution stays quadratic
+    damping = _GN_DAMPING * np.sqrt(np.einsum('nm,nm->n', e, e))
+    gram[:, idx, idx] += (1e-14 + damping)[:, None] + ~active
+    z = np.linalg.solve(gram, -e[:, :, None])
+    dy: NDArray[np.float64] = np.matmul(np.swapaxes(A, 1, 2), z)[:, :, 0]
+    if fixed is not None and dfix is not None:
+        dy = dy + dfix
+    return dy
+
+
+class _LogOddsProjection:
+    """Minimum-distance Gauss-Newton projection of starts onto the exact matches, vectorised over starts.
+
+    The equations, in scaled coordinates y = x / s: the K - 1 log-odds equations, the unit approach,
+    and (when the model has a body) the body clearance, active only when a step would cross it.
+    Bounds are held by an active set. Each iteration takes the shortest step (in the scaled metric)
+    that solves the linearised equations, shortened to a trust radius until the 1-norm of the
+    log-odds residual falls. Near a solution the steps converge quadratically, to the match that is
+    nearest to the start up to second order in the distance. A start has converged when the residual
+    is below 1e-11 nats after a step of less than 1e-9 (scaled); it stops without a match when its
+    residual has not halved in 12 iterations, or after 60.
+    """
+
+    def __init__(self, model: GraspModel, v: NDArray[np.float64], feas: _Feasible) -> None:
+        K, d = len(model.zones), model.features.dim
+        self.model, self.feas, self.d = model, feas, d
+        self.r = int(zone_order(v)[0])
+        self.others = np.array([k for k in range(K) if k != self.r], dtype=np.intp)
+        self.b = np.log(v[self.others]) - np.log(v[self.r])
+        self.n_eq = K - 1
+        self.body = model.body
+        self.n_rows = self.n_eq + 1 + (1 if self.body is not None else 0)
+        self.bounded = np.ones(d, dtype=bool)
+        self.bounded[feas.a] = False  # a unit vector never leaves [-1, 1]
+        self.eye = np.eye(d)
+
+    def evaluate(self, x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Residuals e (N, rows) and their Jacobian in scaled coordinates A (N, rows, d)."""
+        n_eq, s, a = self.n_eq, self.feas.scale, self.feas.a
+        lj, g = self.model._log_joint_and_score(x)
+        e = np.zeros((x.shape[0], self.n_rows))
+        A = np.zeros((x.shape[0], self.n_rows, self.d))
+        e[:, :n_eq] = lj[:, self.others] - lj[:, self.r:self.r + 1] - self.b
+        A[:, :n_eq] = (g[:, self.others] - g[:, self.r:self.r + 1]) * s
+        e[:, n_eq] = np.sum(x[:, a] ** 2, axis=1) - 1.0
+        A[:, n_eq, a] = 2.0 * x[:, a] * s[a]
+        if self.body is not None:
+            sd, normal = self.body.distance(x[:, PALM])
+            e[:, n_eq + 1] = sd - self.body.margin
+            A[:, n_eq + 1, PALM] = normal * s[PALM]
+        return e, A
+
+    def step(self, x: NDArray[np.float64], e: NDArray[np.float64], A: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The shortest scaled step solving the linearised equations, bounds and body held, shape (N, d)."""
+        n, d, n_eq = x.shape[0], self.d, self.n_eq
+        s, lower, upper = self.feas.scale, self.feas.lower, self.feas.upper
+        active = np.ones((n, self.n_rows), dtype=bool)
+        if self.body is not None:
+            active[:, n_eq + 1] = False
+        dy = _min_norm_step(A, e, None, None, active)
+        pred = x + dy * s
+        out_low, out_high = self.bounded & (pred < lower), self.bounded & (pred > upper)
+        fixed = out_low | out_high
+        resolve = fixed.any(axis=1)
+        if self.body is not None:
+            hits = e[:, n_eq + 1] + np.einsum('nd,nd->n', A[:, n_eq + 1], dy) < 0.0
+            active[:, n_eq + 1] = hits
+            resolve |= hits
+        if resolve.any():
+            dfix = np.where(out_low, (lower - x) / s, np.where(out_high, (upper - x) / s, 0.0))
+            dy[resolve] = _min_norm_step(A[resolve], e[resolve], fixed[resolve], dfix[resolve], active[resolve])
+        return dy
+
+    def run(self, starts: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
+        """End points (N, d), whether each converged with the equations met, iterations per start."""
+        feas, s, n_eq = self.feas, self.feas.scale, self.n_eq
+        x = feas.project(starts.astype(np.float64, copy=True))
+        n = x.shape[0]
+        e, A = self.evaluate(x)
+        l1 = np.sum(np.abs(e[:, :n_eq]), axis=1)
+        radius = np.full(n, 1.0)
+        done = np.zeros(n, dtype=bool)
+        converged = np.zeros(n, dtype=bool)
+        iterations = np.zeros(n, dtype=np.int64)
+        checkpoint = l1.copy()
+        for it in range(1, _GN_MAXITER + 1):
+            if it % _GN_STALL == 0:  # a start that has not halved its residual in _GN_STALL iterations stalls
+                stalled = ~done & (l1 > 0.5 * checkpoint)
+                done |= stalled
+                checkpoint = l1.copy()
+            idx = np.flatnonzero(~done)
+            if idx.size == 0:
+                break
+            xi = x[idx]
+            dy = self.step(xi, e[idx], A[idx])
+            size = np.linalg.norm(dy, axis=1)
+            t = np.minimum(1.0, radius[idx] / np.maximum(size, 1e-300))
+            x_try = feas.project(xi + (t[:, None] * dy) * s)
+            e_try, A_try = self.evaluate(x_try)
+            l1_try = np.sum(np.abs(e_try[:, :n_eq]), axis=1)
+            iterations[idx] += 1
+            ok = l1_try < l1[idx]
+            fin = (np.max(np.abs(e_try[:, :n_eq]), axis=1) <= _GN_HTOL) & (t * size <= _GN_STEPTOL)
+            ok |= fin
+            acc = idx[ok]
+            x[acc], e[acc], A[acc], l1[acc] = x_try[ok], e_try[ok], A_try[ok], l1_try[ok]
+            converged[idx[fin]] = done[idx[fin]] = True
+            radius[idx] = np.where(ok, np.minimum(2.0 * np.maximum(radius[idx], t * size), 4.0),
+                                   0.25 * np.minimum(radius[idx], t * size))
+            done[idx[radius[idx] < 1e-12]] = True
+        return x, converged, iterations
+
+
+def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.float64],
+               feas: _Feasible) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
+    """Projected Levenberg-Marquardt on r(x) = v - P(x), all starts at once (shape (N, d)).
+
+    Each iteration solves (J^T J + lam diag(J^T J) + eps I) dx = J^T r per start, with J restricted to
+    the free variables (a variable on a bound whose gradient points outwards is held) and, for the
+    approach, to the sphere's tangent plane; the step is then projected onto X. A step is taken only
+    when it lowers f (lam shrinks), else lam grows. A start has converged when an accepted step gains
+    less than 1e-7 f + 1e-15 or no step lowers f any more (stationary to machine precision); one that
+    reaches the iteration limit (300) has not.
+    """
     lower, upper = model.lower, model.upper
     a = model.features.approach
-    x_start = np.clip(x0, lower, upper)
-    norm = np.linalg.norm(x_start[a])
-    if norm > 0:
-        x_start[a] = x_start[a] / norm
-    f0 = float(objective(model, v, x_start))
+    n, d = starts.shape
+    eye = np.eye(d)
+    x = feas.project(starts.astype(np.float64, copy=True))
+    p, jac = model.posterior_jacobian(x, check=False)
+    r = v - p
+    f = 0.5 * np.sum(r * r, axis=1)
+    lam = np.full(n, 1e-3)
+    done = np.zeros(n, dtype=bool)
+    iterations = np.zeros(n, dtype=np.int64)
+    for _ in range(_LM_MAXITER):
+        if done.all():
+            break
+        ax = x[:, a]
+        jt = jac.copy()
+        jt[:, :, a] -= np.matmul(np.matmul(jac[:, :, a], ax[:, :, None]), ax[:, None, :])
+        grad = -np.matmul(r[:, None, :], jt)[:, 0, :]  # (n, d), gradient of f
+        held = ((x <= lower) & (grad > 0.0)) | ((x >= upper) & (grad < 0.0))
+        jt = np.where(held[:, None, :], 0.0, jt)
+        h = np.matmul(np.swapaxes(jt, 1, 2), jt)
+        diag = np.einsum('nii->ni', h)
+        system = h + (lam[:, None] * diag + 1e-12)[:, :, None] * eye
+        step = np.linalg.solve(system, -np.where(held, 0.0, grad)[:, :, None])[:, :, 0]
+        x_new = feas.project(x + step)
+        p_new, jac_new = model.posterior_jacobian(x_new, check=False)
+        r_new = v - p_new
+        f_new = 0.5 * np.sum(r_new * r_new, axis=1)
+        better = (f_new < f) & ~done
+        small = better & (f - f_new < _LM_FTOL * f + 1e-15)
+        x[better], p[better], jac[better], r[better] = x_new[better], p_new[better], jac_new[better], r_new[better]
+        f = np.where(better, f_new, f)
+        lam = np.where(done, lam, np.where(better, lam / 3.0, lam * 4.0))
+        iterations += ~done
+        done |= small | (lam > 1e10)
+    return x, done, iterations
+
+
+def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.float64], method: Method,
+                  gradient: Gradient, extra_constraints: Sequence[Any],
+                  feas: _Feasible) -> tuple[NDArray[np.float64], bool, str, int]:
+    lower, upper = model.lower, model.upper
+    a = model.features.approach
+    x_start = x0
 
     def fun_grad(x: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
         return objective_and_gradient(model, v, np.clip(x, lower, upper))
@@ -200,8 +495,6 @@ def _refine(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.float64], 
     def fun_only(x: NDArray[np.float64]) -> float:
         return float(objective(model, v, np.clip(x, lower, upper)))
 
-    if gradient not in ('analytic', '2-point'):
-        raise PlanningError(f"gradient must be 'analytic' or '2-point', got {gradient!r}")
     fun: Any = fun_grad if gradient == 'analytic' else fun_only
     jac: Any = True if gradient == 'analytic' else '2-point'
 
@@ -217,98 +510,82 @@ def _refine(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.float64], 
         j[0, a] = 2.0 * x[a]
         return j
 
+    body = model.body
+
+    def clear(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        assert body is not None
+        return body.distance(x[None, PALM])[0] - body.margin
+
+    def clear_jac(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        assert body is not None
+        j = np.zeros((1, x.size))
+        j[0, PALM] = body.distance(x[None, PALM])[1][0]
+        return j
+
     res: OptimizeResult
     if method == 'slsqp':
-        cons = [{'type': 'eq', 'fun': unit, 'jac': unit_jac}, *extra_constraints]
+        cons: list[Any] = [{'type': 'eq', 'fun': unit, 'jac': unit_jac}, *extra_constraints]
+        if body is not None:
+            cons.append({'type': 'ineq', 'fun': clear, 'jac': clear_jac})
         res = minimize(fun, x_start, jac=jac, method='SLSQP', bounds=Bounds(lower, upper),
                        constraints=cons, options={'ftol': _FTOL, 'maxiter': _MAXITER})
-    elif method == 'trust-constr':
+    else:
         def unit_hess(x: NDArray[np.float64], lam: NDArray[np.float64]) -> NDArray[np.float64]:
             h = np.zeros((x.size, x.size))
             h[a, a] = 2.0 * lam[0] * np.eye(a.stop - a.start)
             return h
 
-        cons2 = [NonlinearConstraint(unit, 0.0, 0.0, jac=unit_jac, hess=unit_hess), *extra_constraints]
+        cons2: list[Any] = [NonlinearConstraint(unit, 0.0, 0.0, jac=unit_jac, hess=unit_hess),
+                            *extra_constraints]
+        if body is not None:
+            cons2.append(NonlinearConstraint(clear, 0.0, np.inf, jac=clear_jac))
         res = minimize(fun, x_start, jac=jac, method='trust-constr', bounds=Bounds(lower, upper),
                        constraints=cons2, hess=gauss_newton,
                        options={'gtol': 1e-12, 'xtol': 1e-12, 'maxiter': _TC_MAXITER, 'initial_tr_radius': 0.1})
-    else:
-        raise PlanningError(f"method must be 'slsqp', 'trust-constr' or 'lm', got {method!r}")
-    x = np.clip(np.asarray(res.x, dtype=np.float64), lower, upper)
-    n = np.linalg.norm(x[a])
-    if n > 0:
-        x[a] = x[a] / n
-    f = float(objective(model, v, x))
-    if not f <= f0:  # never end worse than the start
-        x, f = x_start, f0
-    return Candidate(x=x, posterior=model.posterior(x), objective=f, start=x_start, start_objective=f0,
-                     success=bool(res.success), message=str(res.message),
-                     iterations=int(getattr(res, 'nit', 0) or 0))
+    x = feas.project(np.asarray(res.x, dtype=np.float64)[None, :])[0]
+    if not float(objective(model, v, x)) <= float(objective(model, v, x_start)):  # never worse than the start
+        x = x_start
+    return x, bool(res.success), str(res.message), int(getattr(res, 'nit', 0) or 0)
 
 
-def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.float64]) -> list[Candidate]:
-    """Projected Levenberg-Marquardt on r(x) = v - P(x), all starts at once (shape (N, d)).
+def _unique_rows(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The rows of x without exact repeats, in their first order."""
+    keep = [i for i in range(x.shape[0]) if not any(np.array_equal(x[i], x[j]) for j in range(i))]
+    out: NDArray[np.float64] = x[keep]
+    return out
 
-    Each iteration solves (J^T J + lam diag(J^T J) + eps I) dx = J^T r per start, with J restricted to
-    the free variables (a variable on a bound whose gradient points outwards is held) and, for the
-    approach, to the sphere's tangent plane; the step is then projected back onto the box and the unit
-    sphere. A step is taken only when it lowers f (lam shrinks), else lam grows.
-    """
-    lower, upper = model.lower, model.upper
-    a = model.features.approach
-    n, d = starts.shape
-    eye = np.eye(d)
 
-    def project(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        x = np.clip(x, lower, upper)
-        x[:, a] /= np.linalg.norm(x[:, a], axis=1, keepdims=True)
-        return x
+def _match_message(converged: bool) -> str:
+    return 'exact match' if converged else 'no exact match from this start'
 
-    x = project(starts.astype(np.float64, copy=True))
-    x0 = x.copy()
-    p, jac = model.posterior_jacobian(x, check=False)
-    r = v - p
-    f = 0.5 * np.sum(r * r, axis=1)
-    f0 = f.copy()
-    lam = np.full(n, 1e-3)
-    done = np.zeros(n, dtype=bool)
-    iterations = np.zeros(n, dtype=np.int64)
-    for _ in range(_LM_MAXITER):
-        # tangent plane of the unit approach: J <- J (I - a a^T) on the approach columns
-        ax = x[:, a]
-        jt = jac.copy()
-        jt[:, :, a] -= np.matmul(np.matmul(jac[:, :, a], ax[:, :, None]), ax[:, None, :])
-        grad = -np.matmul(r[:, None, :], jt)[:, 0, :]  # (n, d), gradient of f
-        held = ((x <= lower) & (grad > 0.0)) | ((x >= upper) & (grad < 0.0))
-        jt = np.where(held[:, None, :], 0.0, jt)
-        h = np.matmul(np.swapaxes(jt, 1, 2), jt)
-        diag = np.einsum('nii->ni', h)
-        system = h + (lam[:, None] * diag + 1e-12)[:, :, None] * eye
-        step = np.linalg.solve(system, -np.where(held, 0.0, grad)[:, :, None])[:, :, 0]
-        x_new = project(x + step)
-        p_new, jac_new = model.posterior_jacobian(x_new, check=False)
-        r_new = v - p_new
-        f_new = 0.5 * np.sum(r_new * r_new, axis=1)
-        better = (f_new < f) & ~done
-        converged = better & (f - f_new < _LM_FTOL * (1.0 + f))
-        x[better], p[better], jac[better], r[better] = x_new[better], p_new[better], jac_new[better], r_new[better]
-        f = np.where(better, f_new, f)
-        lam = np.where(better, lam / 3.0, lam * 4.0)
-        iterations += ~done
-        done |= converged | (lam > 1e10)
-        if done.all() or f.min() < _LM_FSTOP:
-            break
-    return [Candidate(x=x[i], posterior=p[i], objective=float(f[i]), start=x0[i], start_objective=float(f0[i]),
-                      success=True, message='converged' if done[i] else 'stopped: another start matched v',
-                      iterations=int(iterations[i]))
-            for i in range(n)]
+
+def _choose(candidates: list[Candidate]) -> list[Candidate]:
+    """The module docstring's choice order, duplicates (scaled distance < 1e-9 apart) dropped."""
+    if not candidates:
+        return []
+    f = np.array([c.objective for c in candidates])
+    best = float(f.min())
+    matches = f <= best + max(MATCH_TOL, F_RTOL * best)
+    pool = [c for c, ok in zip(candidates, matches) if ok]
+    ordered: list[Candidate] = []
+    while pool:  # nearest first; distances within DISTANCE_TOL of it tie, broken by start order
+        nearest = min(c.distance for c in pool)
+        pick = min(range(len(pool)),
+                   key=lambda i: (pool[i].distance > nearest + DISTANCE_TOL, pool[i].start_index))
+        ordered.append(pool.pop(pick))
+    rest = [candidates[int(i)] for i in _rank_by_f(f) if not matches[int(i)]]
+    out: list[Candidate] = []
+    for cand in ordered + rest:
+        if not any(float(np.linalg.norm((cand.x - o.x) / np.maximum(np.abs(o.x), 1.0))) < 1e-9 for o in out):
+            out.append(cand)
+    return out
 
 
 def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gradient = 'analytic',
          n_starts: int = 3, top_zones: int = 2, warm_start: ArrayLike | None = None,
          accept: Callable[[NDArray[np.float64]], bool] | None = None,
          extra_constraints: Sequence[Any] = ()) -> PlanResult:
-    """Plan grasp features whose zone posterior matches v.
+    """Plan the grasp nearest to the reference among those whose posterior matches v (module docstring).
 
     Parameters
     ----------
@@ -316,8 +593,9 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
     v : array_like, shape (K,)
         Target vector over the model's zones (see :func:`grasp_intent_ros.core.intent.interpret`).
     method : {'lm', 'slsqp', 'trust-constr'}
-        The vectorised projected Levenberg-Marquardt refinement (default; fastest; analytic gradient
-        only, no ``extra_constraints``), SQP, or interior point / trust region.
+        ``'lm'`` (default): the exact-match SQP, then projected Levenberg-Marquardt least squares when
+        no exact match is found. ``'slsqp'`` and ``'trust-constr'``: the paper's solvers on f from the
+        demonstration starts.
     gradient : {'analytic', '2-point'}
         Analytic gradient (default) or scipy's finite differences (the paper's baseline).
     n_starts : int >= 1
@@ -325,12 +603,12 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
     top_zones : int >= 1
         How many of the most likely zones supply starts.
     warm_start : array_like, shape (d,), optional
-        An extra start tried first (e.g. the previous plan).
+        The reference and first start (e.g. the previous plan).
     accept : callable x -> bool, optional
-        Robot constraint that cannot be written as a smooth function (e.g. IK reachability): the best
-        candidate it accepts is returned.
+        Robot constraint that cannot be written as a smooth function (e.g. IK reachability): the first
+        candidate in the choice order it accepts is returned.
     extra_constraints : sequence
-        More smooth constraints in the form the chosen scipy method takes.
+        More smooth constraints in the form the chosen scipy method takes (not with ``'lm'``).
 
     Raises
     ------
@@ -341,35 +619,124 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
     v_arr = _check_v(model, v)
     if n_starts < 1 or top_zones < 1:
         raise PlanningError('n_starts and top_zones must be at least 1')
-    starts = list(select_starts(model, v_arr, n_starts, top_zones))
+    if method not in ('lm', 'slsqp', 'trust-constr'):
+        raise PlanningError(f"method must be 'slsqp', 'trust-constr' or 'lm', got {method!r}")
+    if gradient not in ('analytic', '2-point'):
+        raise PlanningError(f"gradient must be 'analytic' or '2-point', got {gradient!r}")
+    if method == 'lm' and (gradient != 'analytic' or extra_constraints):
+        raise PlanningError("method 'lm' takes the analytic gradient and no extra_constraints")
+    demo_starts = select_starts(model, v_arr, n_starts, top_zones)
     if warm_start is not None:
         ws = np.asarray(warm_start, dtype=np.float64)
         if ws.shape != (model.features.dim,) or not np.all(np.isfinite(ws)):
             raise PlanningError(f'warm_start must be a finite vector of shape ({model.features.dim},)')
-        starts.insert(0, ws)
-    if method == 'lm':
-        if gradient != 'analytic' or extra_constraints:
-            raise PlanningError("method 'lm' takes the analytic gradient and no extra_constraints")
-        refined = _refine_lm(model, v_arr, np.asarray(starts))
+        starts = np.concatenate([ws[None, :], demo_starts])
     else:
-        refined = [_refine(model, v_arr, s, method, gradient, extra_constraints) for s in starts]
-    candidates = sorted(refined, key=lambda c: c.objective)
-    chosen, rejected = candidates[0], 0
-    status = 'ok'
-    if accept is not None:
-        for rejected, cand in enumerate(candidates):
-            if accept(cand.x):
-                chosen = cand
-                break
-        else:
-            rejected, status = len(candidates), 'rejected'
+        starts = demo_starts
+    x_ref = _Feasible(model, np.zeros(model.features.dim)).project(starts[:1])[0]
+    feas = _Feasible(model, x_ref)
+    starts = feas.project(starts)
+    f_start = np.asarray(objective(model, v_arr, starts))
+
+    def candidates_from(xs: NDArray[np.float64], origin: NDArray[np.float64], ok: NDArray[np.bool_],
+                        its: NDArray[np.int64], first_index: int, message: Callable[..., str],
+                        ) -> list[Candidate]:
+        post = model.posterior(xs)
+        r = v_arr - post
+        f = 0.5 * np.sum(r * r, axis=1)
+        f_origin = np.asarray(objective(model, v_arr, origin))
+        dist = feas.distance(xs)
+        return [Candidate(x=xs[i], posterior=post[i], objective=float(f[i]), distance=float(dist[i]),
+                          start=origin[i], start_objective=float(f_origin[i]), start_index=first_index + i,
+                          success=bool(ok[i]), message=message(bool(ok[i])), iterations=int(its[i]))
+                for i in range(xs.shape[0])]
+
+    found: list[Candidate] = []
+    turned_down: list[Candidate] = []
+
+    def choose(cands: list[Candidate]) -> Candidate | None:
+        """The first candidate in choice order that ``accept`` takes (asking each candidate once)."""
+        for cand in _choose(cands):
+            if any(cand is c for c in turned_down):
+                continue
+            if accept is None or accept(cand.x):
+                return cand
+            turned_down.append(cand)
+        return None
+
+    def exact(cands: list[Candidate]) -> list[Candidate]:
+        return [c for c in cands if c.success and c.objective <= MATCH_TOL]
+
+    chosen: Candidate | None = None
+    if method == 'lm':
+        wide = _unique_rows(np.concatenate([starts, feas.project(search_starts(model, v_arr))]))
+        if np.all(v_arr > 0.0):  # otherwise P = v is impossible: P_k > 0 everywhere
+            projection = _LogOddsProjection(model, v_arr, feas)
+            xs, ok, its = projection.run(wide[:1])  # the reference's own projection first
+            found = candidates_from(xs, wide[:1], ok, its, 0, _match_message)
+            chosen = choose(exact(found))
+            if chosen is None and wide.shape[0] > 1:
+                xs, ok, its = projection.run(wide[1:])
+                found += candidates_from(xs, wide[1:], ok, its, 1, _match_message)
+                chosen = choose(exact(found))
+        if chosen is None:  # least squares from every start and every projection's end point
+            origins = _unique_rows(np.concatenate([wide, *([np.stack([c.x for c in found])] if found else [])]))
+            xs, ok, its = _refine_lm(model, v_arr, origins, feas)
+            r = v_arr - model.posterior(xs)
+            near = 0.5 * np.sum(r * r, axis=1) <= _POLISH
+            if near.any() and np.all(v_arr > 0.0):  # least squares found the matches: project onto them
+                xs_p, ok_p, its_p = _LogOddsProjection(model, v_arr, feas).run(xs[near])
+                xs[near], ok[near], its[near] = xs_p, ok_p, its[near] + its_p
+            found += candidates_from(xs, origins, ok, its, len(found),
+                                     lambda c: 'least squares: converged' if c else 'least squares: iteration limit')
+    else:
+        for i, s0 in enumerate(starts):
+            x1, ok1, text, it = _refine_scipy(model, v_arr, s0, method, gradient, extra_constraints, feas)
+            found += candidates_from(x1[None, :], s0[None, :], np.array([ok1]), np.array([it]), i,
+                                     lambda _, said=text: said)
+    if chosen is None:
+        chosen = choose(found)
+    ranked = _choose(found)
+    if chosen is None:
+        chosen, status = ranked[0], 'rejected'
+        ranked = turned_down + [c for c in ranked if not any(c is t for t in turned_down)]
+    else:
+        status = 'ok'
+        rest = [c for c in ranked if c is not chosen and not any(c is t for t in turned_down)]
+        ranked = turned_down + [chosen] + rest
+    rejected = len(turned_down)
     if status == 'ok' and not chosen.success:
         status = 'solver_failed'
-    message = {'ok': 'planned', 'solver_failed': f'solver: {chosen.message}',
-               'rejected': f'all {len(candidates)} candidates rejected by the robot constraint'}[status]
+    message = {'ok': f'planned ({chosen.message})', 'solver_failed': f'not converged: {chosen.message}',
+               'rejected': f'all {len(ranked)} candidates rejected by the robot constraint'}[status]
     return PlanResult(x=chosen.x, posterior=chosen.posterior,
                       w=reconstruct_w(chosen.posterior, model.zones, len(model.task_names)),
-                      objective=chosen.objective, success=status == 'ok', status=status,
-                      message=message, iterations=sum(c.iterations for c in candidates),
-                      wall_time_s=time.perf_counter() - t0, method=method,
-                      candidates=tuple(candidates), rejected=rejected)
+                      objective=chosen.objective, exact=chosen.objective <= MATCH_TOL, reference=x_ref,
+                      success=status == 'ok', status=status, message=message,
+                      iterations=sum(c.iterations for c in found), wall_time_s=time.perf_counter() - t0,
+                      method=method, candidates=tuple(ranked), rejected=rejected)
+
+
+def reference_search(model: GraspModel, v: ArrayLike, *, n_starts: int = 60, seed: int = 0) -> float:
+    """The lowest f a slow multi-start SLSQP search reaches: an oracle for checking :func:`plan`.
+
+    Starts: every zone mean, then seeded uniform random points in the bounds, ``n_starts`` in all,
+    each projected onto X; each is refined with SLSQP (analytic gradient, bounds, unit approach,
+    body clearance) and the result projected onto X again.
+
+    Returns
+    -------
+    float
+        The lowest objective over all starts.
+    """
+    v_arr = _check_v(model, v)
+    rng = np.random.default_rng(seed)
+    starts = list(model.means[:n_starts])
+    while len(starts) < n_starts:
+        starts.append(rng.uniform(model.lower, model.upper))
+    feas = _Feasible(model, np.zeros(model.features.dim))
+    best = np.inf
+    for start in feas.project(np.asarray(starts)):
+        x = _refine_scipy(model, v_arr, start, 'slsqp', 'analytic', (), feas)[0]
+        best = min(best, float(objective(model, v_arr, x)))
+    return best

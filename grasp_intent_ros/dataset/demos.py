@@ -70,6 +70,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.body import Cylinder, ObjectBody
 from ..core.data import Demonstrations
 from ..core.errors import DataError, InvalidFeaturesError
 from ..core.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL, FeatureSpace
@@ -218,6 +219,11 @@ class Cup:
     turned_roll_tolerance: float = TURNED_ROLL_TOLERANCE
     """Handover: |roll - pi| at most this counts as the wrist turned by about 180 degrees."""
 
+    def body(self) -> ObjectBody:
+        """The solid body the planner keeps the palm centre out of (the handle is a loop, not solid)."""
+        return ObjectBody((Cylinder(centre=np.array([0.0, 0.0, 0.5 * self.height]), axis=np.array([0.0, 0.0, 1.0]),
+                                    radius=self.radius, length=self.height),))
+
     def palm_to_body(self, x: ArrayLike) -> float:
         """Distance (m) from the palm centre to the cup's body (solid cylinder, handle excluded)."""
         p = _features(x)[PALM]
@@ -293,6 +299,11 @@ class Flashlight:
     """Handover: palm_x at least this leaves the tail half free for the receiver."""
     turned_roll_tolerance: float = TURNED_ROLL_TOLERANCE
     """Handover: |roll - pi| at most this counts as the wrist turned by about 180 degrees."""
+
+    def body(self) -> ObjectBody:
+        """The solid body the planner keeps the palm centre out of."""
+        return ObjectBody((Cylinder(centre=np.array([0.0, 0.0, self.radius]), axis=np.array([1.0, 0.0, 0.0]),
+                                    radius=self.radius, length=self.length),))
 
     def palm_to_body(self, x: ArrayLike) -> float:
         """Distance (m) from the palm centre to the body (solid cylinder along x, axis at z = radius)."""
@@ -416,6 +427,8 @@ class ObjectRules:
         Prototype grasps per task set (bitmask), one per demonstration style (people demonstrate the
         same task set in different ways); every non-empty task set has at least one.
     noise : Noise
+    body : ObjectBody or None
+        The object's solid body, stored with the models trained on these demonstrations.
     """
 
     name: str
@@ -423,6 +436,7 @@ class ObjectRules:
     rules: tuple[TaskRule, ...]
     prototypes: Mapping[int, tuple[Prototype, ...]]
     noise: Noise = field(default_factory=Noise)
+    body: ObjectBody | None = None
 
     def label(self, x: ArrayLike) -> int:
         """Bitmask of the tasks whose rule x satisfies (0: none)."""
@@ -542,12 +556,12 @@ FLASHLIGHT_PROTOTYPES: dict[int, tuple[Prototype, ...]] = {
 """Flashlight prototype grasps per task set."""
 
 CUP_RULES = ObjectRules(name='cup', task_names=DEFAULT_TASKS, rules=cup_rules(CUP),
-                        prototypes=CUP_PROTOTYPES, noise=DEMO_NOISE)
+                        prototypes=CUP_PROTOTYPES, noise=DEMO_NOISE, body=CUP.body())
 """Cup rules and prototypes (tasks usage = drinking, transfer, handover)."""
 
 FLASHLIGHT_RULES = ObjectRules(name='flashlight', task_names=DEFAULT_TASKS,
                                rules=flashlight_rules(FLASHLIGHT), prototypes=FLASHLIGHT_PROTOTYPES,
-                               noise=DEMO_NOISE)
+                               noise=DEMO_NOISE, body=FLASHLIGHT.body())
 """Flashlight rules and prototypes (tasks usage = shining light on a workspace, transfer, handover)."""
 
 OBJECTS: dict[str, ObjectRules] = {'cup': CUP_RULES, 'flashlight': FLASHLIGHT_RULES}

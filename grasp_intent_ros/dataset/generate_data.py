@@ -73,7 +73,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             for name in names:
                 for structure in SHIPPED_MODELS[name]:
                     model, demos, path = train(data_dir / f'{name}.csv', structure,
-                                               out=models_dir / f'{name}_{structure}.yaml')
+                                               out=models_dir / f'{name}_{structure}.yaml',
+                                               body=demo_rules.OBJECTS[name].body)
                     print(summary(model, demos))
                     print(f'  wrote {path}')
 

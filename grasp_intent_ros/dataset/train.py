@@ -1,7 +1,7 @@
 """Train a multi-task grasp model from demonstrations in CSV (no ROS needed).
 
     python -m grasp_intent_ros.train CSV --zones 7zone|5zone|4zone|U,T,UT,...
-                                     [--name NAME] [--out PATH] [--ridge R]
+                                     [--name NAME] [--out PATH] [--ridge R] [--body BODY.yaml]
 
 CSV is any file in the format of :mod:`grasp_intent_ros.core.data` (the 10 MICO features, then one 0/1
 column per task), e.g. demonstrations recorded on your own robot. ``--zones`` names a structure of the
@@ -10,6 +10,10 @@ as '1+3' when the initials are not unique). The model is written as YAML, by def
 ``<config>/models/NAME.yaml`` with NAME = ``<csv stem>_<zones>``. Prints the demonstrations per zone
 and the hash of the training data. Exit status 2, with the reason, for a bad CSV, an unknown zone or a
 zone without demonstrations.
+
+``--body`` names a YAML file describing the object's solid body (a ``body:`` mapping of cylinders and
+boxes in the object frame, see :mod:`grasp_intent_ros.core.body`); it is stored in the model and the
+planner keeps the palm centre outside it.
 """
 
 from __future__ import annotations
@@ -20,14 +24,17 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+import yaml
+
+from ..core.body import ObjectBody
 from ..core.data import Demonstrations, load_csv
-from ..core.errors import DataError, ModelError
+from ..core.errors import DataError, ModelError, ModelFormatError
 from ..core.intent import zone_labels
 from ..core.model import DEFAULT_RIDGE, ZONE_STRUCTURES, GraspModel, structure_zones
 from ..core.resources import config_dir
 from ..tools.cli import report_user_errors
 
-__all__ = ['parse_zones_option', 'default_model_name', 'train', 'summary', 'main']
+__all__ = ['parse_zones_option', 'default_model_name', 'load_body', 'train', 'summary', 'main']
 
 
 def parse_zones_option(spec: str, task_names: Sequence[str]) -> tuple[int, ...]:
@@ -54,8 +61,27 @@ def default_model_name(csv_path: str | Path, spec: str) -> str:
     return f'{Path(csv_path).stem}_{suffix}'
 
 
+def load_body(path: str | Path) -> ObjectBody:
+    """Read an object body from YAML: a ``body:`` mapping (or the mapping itself) of primitives.
+
+    Raises
+    ------
+    ModelFormatError
+        For invalid YAML or a malformed body.
+    OSError
+        If the file cannot be read.
+    """
+    try:
+        doc = yaml.safe_load(Path(path).read_text())
+    except yaml.YAMLError as exc:
+        raise ModelFormatError(f'{path}: not valid YAML ({exc})') from None
+    if isinstance(doc, dict) and 'body' in doc:
+        doc = doc['body']
+    return ObjectBody.from_document(doc)
+
+
 def train(csv_path: str | Path, zones: str, *, name: str | None = None, out: str | Path | None = None,
-          ridge: float = DEFAULT_RIDGE) -> tuple[GraspModel, Demonstrations, Path]:
+          ridge: float = DEFAULT_RIDGE, body: ObjectBody | None = None) -> tuple[GraspModel, Demonstrations, Path]:
     """Load demonstrations, fit a model with inclusive labeling and save it as YAML.
 
     Returns
@@ -78,7 +104,7 @@ def train(csv_path: str | Path, zones: str, *, name: str | None = None, out: str
     demos = load_csv(csv_path)
     zone_masks = parse_zones_option(zones, demos.task_names)
     model_name = name or default_model_name(csv_path, zones)
-    model = GraspModel.fit(demos, zone_masks, name=model_name, ridge=ridge)
+    model = GraspModel.fit(demos, zone_masks, name=model_name, ridge=ridge, body=body)
     path = Path(out) if out is not None else config_dir() / 'models' / f'{model_name}.yaml'
     model.save(path)
     return model, demos, path
@@ -110,11 +136,15 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help='output YAML (default: <config>/models/NAME.yaml)')
     parser.add_argument('--ridge', type=float, default=DEFAULT_RIDGE,
                         help=f'covariance ridge as a fraction of each feature range (default {DEFAULT_RIDGE})')
+    parser.add_argument('--body', type=Path, default=None,
+                        help="YAML file with the object's solid body (cylinders, boxes; see core.body)")
     args = parser.parse_args(argv)
 
     def body() -> None:
+        solid = load_body(args.body) if args.body is not None else None
         try:
-            model, demos, path = train(args.csv, args.zones, name=args.name, out=args.out, ridge=args.ridge)
+            model, demos, path = train(args.csv, args.zones, name=args.name, out=args.out, ridge=args.ridge,
+                                       body=solid)
         except (UnicodeDecodeError, csv.Error) as exc:
             raise DataError(f'{args.csv}: not a readable CSV file ({exc})') from None
         print(summary(model, demos))

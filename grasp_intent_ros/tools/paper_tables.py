@@ -1,9 +1,10 @@
 """Print, for our models, what the paper's Tables II, III, IV and VI show.
 
-    python -m grasp_intent_ros.paper_tables [--models-dir DIR] [--method slsqp|trust-constr]
+    python -m grasp_intent_ros.paper_tables [--models-dir DIR] [--method lm|slsqp|trust-constr]
 
 For each case: the target vector v, the planned posterior P and the reconstructed w, with the
-objective 1/2 |v - P|^2. No ROS is needed.
+objective 1/2 |v - P|^2. The default method is the planner's default (what the demo and the planner
+node use); slsqp and trust-constr are the paper's solvers. No ROS is needed.
 """
 
 from __future__ import annotations
@@ -51,7 +52,8 @@ def print_case(model: GraspModel, w: Sequence[float], method: planner.Method) ->
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--models-dir', type=Path, default=None)
-    parser.add_argument('--method', choices=('slsqp', 'trust-constr'), default='slsqp')
+    parser.add_argument('--method', choices=('lm', 'slsqp', 'trust-constr'), default='lm',
+                        help="planner method (default 'lm', the planner's default)")
     args = parser.parse_args(argv)
     models_dir = args.models_dir or config_dir() / 'models'
 

@@ -440,16 +440,25 @@ def test_unreachable_best_grasp_falls_back_to_reachable_candidate(make_rig: Call
                                                                    kin: MicoKinematics) -> None:
     model = tiny['cup_5zone']
     rng = np.random.default_rng(0)
-    for _ in range(40):  # a v whose best candidate the arm cannot reach (found with the core planner)
-        v = interpret(rng.uniform(0.0, 1.0, 3)).v
-        if v is not None and (expected := core_plan(kin, model, v)).rejected and expected.status != 'rejected':
-            break
+    # a v and an object pose whose best candidate the arm cannot reach (found with the core planner);
+    # the best candidate is the match nearest to a demonstration, so the object sits near the arm's reach
+    for base_T_obj in (DEFAULT_POSE, *(pose_to_matrix((x, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+                                       for x in (0.45, 0.55, 0.6))):
+        for _ in range(20):
+            v = interpret(rng.uniform(0.0, 1.0, 3)).v
+            if v is not None and (expected := core_plan(kin, model, v, base_T_obj)).rejected \
+                    and expected.status != 'rejected':
+                break
+        else:
+            continue
+        break
     else:
         pytest.fail('no v with an unreachable best grasp found')
-    rig = make_rig(model)
+    rig = make_rig(model, parameter_overrides=[
+        Parameter('object_position', value=[float(c) for c in base_T_obj[:3, 3]])])
     plan = rig.request(v_msg(v))
     assert_allclose(plan.x, expected.x, atol=1e-6)
-    assert expected.objective > expected.candidates[0].objective
+    assert expected.rejected >= 1 and not np.allclose(expected.x, expected.candidates[0].x)
 
     def fallback_reported() -> list[dict[str, str]]:
         values = [{kv.key: kv.value for kv in s.values} for s in rig.statuses if s.name.endswith('planning')]

@@ -1,5 +1,6 @@
-"""Every recorded session in bags/ replayed with ``--check`` against the current code, and a perturbed
-model caught by the check (what CI runs: scripts/test.sh).
+"""Every recorded session in bags/ replayed with ``--check`` against the current code.
+
+And a perturbed model caught by the check (what CI runs: scripts/test.sh).
 
 Each replay is the real command, ``python -m grasp_intent_ros.replay BAG --check --fast --start-suite``: it
 starts the three nodes as processes on this test's domain id (LOCALHOST discovery) and stops them by PID.
@@ -18,8 +19,8 @@ from pathlib import Path
 
 import pytest
 
-from grasp_intent_ros.tools.session import load_session
 from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.tools.session import load_session
 
 REPO = Path(__file__).resolve().parents[2]
 BAGS = REPO / 'bags'

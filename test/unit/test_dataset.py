@@ -1,4 +1,4 @@
-"""Rule-based demonstration generators (core/demos.py) and the generate_data / train CLIs."""
+"""Rule-based demonstration generators (dataset/demos.py) and the generate_data / train CLIs."""
 
 from __future__ import annotations
 
