@@ -76,14 +76,8 @@ class BagMessage:
 class TopicInfo:
     """What a bag holds on one topic.
 
-    Attributes
-    ----------
-    msgtype
-        Message type.
-    count
-        Number of messages.
-    qos
-        Offered QoS profiles recorded for the topic (one per recorded publisher).
+    Its message type ``msgtype``, the ``count`` of messages, and the offered ``qos`` profiles recorded for
+    it (one per recorded publisher).
     """
 
     msgtype: str
@@ -95,16 +89,10 @@ class TopicInfo:
 class McapMessage:
     """One message as read by the ``mcap`` library, independently of rosbags.
 
-    Attributes
-    ----------
-    topic
-        Channel topic.
-    schema_name
-        Schema name, i.e. the message type, e.g. 'std_msgs/msg/String'.
-    log_time_ns
-        Log (receive) time, ns since the epoch.
-    decoded
-        The ``mcap_ros2`` dynamic message object (fields as attributes).
+    The fields of :class:`BagMessage` under the mcap library's names: the channel ``topic``, the
+    ``schema_name`` (the message type, e.g. 'std_msgs/msg/String'), the log (receive) time ``log_time_ns``
+    in ns since the epoch, and instead of the bytes the ``mcap_ros2`` dynamic message object ``decoded``
+    (fields as attributes).
     """
 
     topic: str

@@ -420,6 +420,7 @@ class ObjectRules:
     Attributes
     ----------
     name : str
+        The object, e.g. 'cup'; the data set's file stem.
     task_names : tuple of str, length m
     rules : tuple of TaskRule, length m
         One rule per task, in task order.
