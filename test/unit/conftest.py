@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,9 @@ from grasp_intent_ros.core.data import Demonstrations
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import DEFAULT_TASKS, all_zones
 from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.tools.session import Step, load_session
+
+from .sessions import session_messages, write_bag
 
 
 def synthetic_demos(seed: int = 0, per_set: int = 40, spread: float = 0.12) -> Demonstrations:
@@ -35,3 +40,15 @@ def demos() -> Demonstrations:
 @pytest.fixture(scope='session')
 def toy_model(demos: Demonstrations) -> GraspModel:
     return GraspModel.fit(demos, name='toy')
+
+
+@pytest.fixture
+def session_bag(tmp_path: Path) -> Path:
+    """A recorded session with an input of every kind (:func:`.sessions.session_messages`)."""
+    return write_bag(tmp_path / 'session', session_messages())
+
+
+@pytest.fixture(scope='module')
+def plan_step(tmp_path_factory: pytest.TempPathFactory) -> Step:
+    """The step of that session whose input was answered by a plan."""
+    return load_session(write_bag(tmp_path_factory.mktemp('s') / 'plan', session_messages())).steps[1]
