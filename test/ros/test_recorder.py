@@ -18,9 +18,10 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
-from grasp_intent_ros.bag import BagWriteError, QosSpec, read_messages, read_messages_mcap, topics_info
+from grasp_intent_ros.bag import BagWriteError, QosSpec, read_messages, topics_info
 from grasp_intent_ros.recorder import Recorder
 from grasp_intent_ros.ros.qos import latched_qos
+from mcap_check import read_messages_mcap
 
 N = 2000
 PERIOD = 1e-3  # s: 1 kHz

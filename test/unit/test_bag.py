@@ -34,10 +34,10 @@ from grasp_intent_ros.bag import (
     decode_qos,
     encode_qos,
     read_messages,
-    read_messages_mcap,
     topics_info,
 )
 from grasp_intent_ros.core.errors import GraspIntentError
+from mcap_check import read_messages_mcap
 
 T0_NS = 1_700_000_000_000_000_000  # a realistic epoch time, ns
 INTENT, POSE, STATUS = '/grasp_intent/intent', '/grasp_intent/target_pose', '/grasp_intent/status'
