@@ -117,10 +117,9 @@ class IntentInterpreter(Node):
         result = interpret(w, self._zones, clarification_threshold=self._params['clarification_threshold'],
                            support=self._support)
         if isinstance(result, NeedsClarification):
-            reason = f'{result.reason} (w = {w.tolist()}'
-            if self._model is not None and self._support is not None:
-                reason += f'; model {self._model.name}: zones {",".join(self._model.model.zone_labels)}'
-            reason += ')'
+            reason = result.reason
+            if result.p_none < self._params['clarification_threshold'] and self._model is not None:
+                reason += f' (model {self._model.name}: zones {",".join(self._model.model.zone_labels)})'
             self._clarification_pub.publish(String(data=reason))
             self._clarifications += 1
             self._diagnostics.set_value('clarifications', self._clarifications)
