@@ -14,7 +14,7 @@ Recording
     volatile if they differ; transient local for latched topics, so the last ``model/active`` is
     recorded even when it was published before the recorder started), keep-last ``--depth``. As
     ``ros2 bag record`` does, the bag's ``offered_qos_profiles`` hold each publisher's QoS as discovery
-    shows it (:func:`~grasp_intent_ros.ros.qos.offered_qos_spec`: history unknown, the durations and
+    shows it (:func:`offered_qos_spec`: history unknown, the durations and
     liveliness the publisher offers).
 Diagnostics
     ``/diagnostics`` status ``<node>: recorder``: messages received, 'messages written' in total and
@@ -39,7 +39,7 @@ from typing import Any
 
 import rclpy
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.subscription import Subscription
 from rclpy.topic_endpoint_info import TopicEndpointInfo
 from rclpy.utilities import remove_ros_args
@@ -47,10 +47,10 @@ from rosbags.typesys import Stores, get_typestore
 
 from .bag import BagWriteError, QosSpec, SessionWriter
 from .ros.diagnostics import ERROR, WARN, NodeDiagnostics
-from .ros.qos import offered_qos_spec
 from .ros.run import run_node
 
-__all__ = ['Recorder', 'TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'offered_qos', 'request_qos', 'main']
+__all__ = ['Recorder', 'TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'offered_qos_spec', 'offered_qos',
+           'request_qos', 'main']
 
 DEFAULT_TOPICS = ('intent/', 'model/', 'grasp/', 'object/', 'joint_states', '/diagnostics')
 """Recorded by default: relative to the recorder's namespace; a trailing '/' selects a whole subtree."""
@@ -92,6 +92,35 @@ class TopicSelection:
     def matches(self, topic: str) -> bool:
         """Whether a fully qualified topic name is selected."""
         return topic in self.names or topic.startswith(self.prefixes)
+
+
+_LIVELINESS = {LivelinessPolicy.AUTOMATIC: 'automatic', LivelinessPolicy.MANUAL_BY_TOPIC: 'manual_by_topic'}
+_INFINITE_NS = 2**63 - 1
+
+
+def _duration_ns(duration: object) -> int | None:
+    """ns of a QoS duration; None for infinite (RMW_DURATION_INFINITE) or unspecified (0: the default)."""
+    ns = int(getattr(duration, 'nanoseconds'))
+    return None if ns <= 0 or ns >= _INFINITE_NS else ns
+
+
+def offered_qos_spec(profile: QoSProfile) -> QosSpec:
+    """What a publisher offers (``TopicEndpointInfo.qos_profile`` from discovery) as a bag records it.
+
+    ``ros2 bag record`` stores exactly this profile per publisher: discovery shows no history (history
+    unknown, depth 0) and the durations the middleware resolved (infinite for a publisher that sets
+    none, with automatic liveliness). Reliability or durability that no live publisher offers
+    (system default, best available, unknown) are recorded as best effort / volatile, the offers every
+    subscriber can match.
+    """
+    depth = int(profile.depth) if profile.history == HistoryPolicy.KEEP_LAST and profile.depth > 0 else 0
+    return QosSpec(
+        'reliable' if profile.reliability == ReliabilityPolicy.RELIABLE else 'best_effort',
+        'transient_local' if profile.durability == DurabilityPolicy.TRANSIENT_LOCAL else 'volatile',
+        depth,
+        _LIVELINESS.get(profile.liveliness, 'system_default'),  # type: ignore[arg-type]
+        _duration_ns(profile.deadline), _duration_ns(profile.lifespan),
+        _duration_ns(profile.liveliness_lease_duration))
 
 
 def offered_qos(publishers: Sequence[TopicEndpointInfo]) -> tuple[QosSpec, ...]:
