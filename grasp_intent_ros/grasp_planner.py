@@ -18,7 +18,7 @@ Topics (relative; ``-r __ns:=/robot1`` moves them)
     out  ``grasp/trajectory``      trajectory_msgs/JointTrajectory, one point with the same joints, zero
                                    velocities, time_from_start = slowest arm joint at its velocity limit
                                    from the latest joint state (HOME_Q before the first one), >= 0.1 s;
-                                   its stamp is the plan's (milliseconds in the past when it arrives)
+                                   header stamp zero: "start now" (the trajectory_msgs convention)
     out  ``grasp/posterior``       std_msgs/Float64MultiArray, shape (1, K + m): P(zone | x) over the
                                    model's K zones, then the reconstructed w. dim[0] (size 1) is labelled
                                    "stamp=<sec>.<nanosec>", dim[1] "<zones>|<tasks>", e.g.
@@ -28,19 +28,24 @@ Topics (relative; ``-r __ns:=/robot1`` moves them)
                                    the feature names (:func:`~grasp_intent_ros.ros.robot.stamped_array_from_msg`)
     out  ``grasp/markers``         visualization_msgs/MarkerArray: object cylinder, approach arrow, fingers,
                                    top zones
+    out  ``intent/clarification``  std_msgs/String, the reason, when the newest intent cannot be served:
+                                   v gives no zone of the active model any probability, or no candidate
+                                   grasp is reachable; one message per intent (v) and model
     out  ``/diagnostics``          ``<node>: inputs`` (messages received / rejected and why) and
                                    ``<node>: planning`` (plans, last planning time, reachability counts)
-Every output of one plan carries the same stamp: the node-clock time at which the newest input of the
-plan (v, model or object pose) arrived.
+Every output of one plan but the trajectory carries the same stamp: the node-clock time at which the
+newest input of the plan (v, model or object pose) arrived. The trajectory's stamp is zero ("start
+now"); it is published right after the joint targets of the same plan.
 
 Behaviour
     Latest-only: callbacks validate and store the newest inputs and wake a planning thread, which plans
     the newest snapshot and never works through a backlog (input QoS keep-last 1). v is restricted to the
     model's zones (:func:`~grasp_intent_ros.core.intent.restrict`); when it gives them no probability the
-    node publishes nothing and reports that clarification is needed. Reachability is the planner's robot
+    node publishes no grasp but a clarification request. Reachability is the planner's robot
     constraint: a candidate is accepted when IK of ``base_T_obj @ features_to_obj_T_ee(x)`` converges
     (seed: latest joint state, else HOME_Q; random restarts); the best reachable candidate is published
-    and a fallback is reported; with none reachable nothing is published and the reason is reported.
+    and a fallback is reported; with none reachable no grasp is published but a clarification request
+    with the reason. ``last plan status`` in the diagnostics says what the newest plan led to.
     Plans of the same model warm-start from the previous solution.
 
 Parameters: see :data:`PARAMETERS` and ``config/grasp_planner.yaml``.
@@ -67,13 +72,13 @@ from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 from .core import planner
-from .core.errors import InvalidIntentError, ModelError, PlanningError
+from .core.errors import InvalidIntentError, ModelError
 from .core.features import FINGERS, MICO_3F
 from .core.intent import MAX_TASKS, all_zones, parse_zones, restrict, zone_labels
 from .core.kinematics import (ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics,
                               Reachability, features_to_obj_T_ee, pose_to_matrix)
 from .ros.conversions import ModelDocument, model_from_msg, msg_labels, msg_to_array
-from .ros.diagnostics import OK, NodeDiagnostics
+from .ros.diagnostics import OK, WARN, NodeDiagnostics
 from .ros.params import ParameterError, ParamSpec, declare_parameters
 from .ros.qos import input_qos, latched_qos, output_qos
 from .ros.robot import (check_unit_quaternion, grasp_markers, joint_positions, joint_state_msg,
@@ -138,6 +143,7 @@ class _Inputs:
     model: ModelDocument | None = None
     v: NDArray[np.float64] | None = None
     v_labels: tuple[str, ...] | None = None
+    v_seq: int = 0
     base_T_obj: NDArray[np.float64] | None = None
     q_arm: NDArray[np.float64] | None = None
     stamp: Time | None = None
@@ -179,7 +185,8 @@ class GraspPlanner(Node):
         self._wake, self._stop = threading.Event(), threading.Event()
         self._warm: tuple[tuple[str, str], NDArray[np.float64]] | None = None
         self._counts = dict.fromkeys(('plans', 'best grasp reachable', 'fallback to a reachable candidate',
-                                      'no reachable grasp', 'inputs superseded'), 0)
+                                      'no reachable grasp', 'clarifications requested', 'inputs superseded'), 0)
+        self._clarified: tuple[int, tuple[str, str]] | None = None  # (v_seq, model) last clarified
         self._plan_diag.set_state(OK, 'waiting for model/active and intent/v')
         out = output_qos()
         self._pose_pub = self.create_publisher(PoseStamped, 'grasp/pose', out)
@@ -188,6 +195,7 @@ class GraspPlanner(Node):
         self._posterior_pub = self.create_publisher(Float64MultiArray, 'grasp/posterior', out)
         self._features_pub = self.create_publisher(Float64MultiArray, 'grasp/features', out)
         self._markers_pub = self.create_publisher(MarkerArray, 'grasp/markers', out)
+        self._clarification_pub = self.create_publisher(String, 'intent/clarification', out)
         guard, latest = self._inputs_diag.guard, input_qos(depth=1)
         self._subs = [
             self.create_subscription(Float64MultiArray, 'intent/v', guard(self._on_v), latest),
@@ -229,7 +237,7 @@ class GraspPlanner(Node):
         model = self._inputs.model
         if model is not None:
             _v_zones(v, labels, model.model.task_names)
-        self._update(v=v, v_labels=labels)
+        self._update(v=v, v_labels=labels, v_seq=self._inputs.v_seq + 1)
 
     def _on_model(self, msg: String) -> None:
         doc = model_from_msg(msg)
@@ -291,8 +299,9 @@ class GraspPlanner(Node):
         model = doc.model
         v = restrict(inputs.v, _v_zones(inputs.v, inputs.v_labels, model.task_names), model.zones)
         if v is None:
-            raise InvalidIntentError(f'clarification needed: v gives no probability to the zones '
-                                     f'{",".join(model.zone_labels)} of model {doc.name!r}')
+            self._clarify(inputs, f'v gives no probability to the zones {",".join(model.zone_labels)} of '
+                                  f'model {doc.name!r}')
+            return
         reachable = Reachability(self._kin, base_T_obj, inputs.q_arm, restarts=self._params['ik_restarts'])
 
         self._counts['plans'] += 1
@@ -302,16 +311,17 @@ class GraspPlanner(Node):
                               warm_start=warm, accept=reachable)
         self._plan_diag.set_value('last planning time [ms]', f'{1e3 * result.wall_time_s:.3f}')
         self._plan_diag.set_value('last IK time [ms]', f'{1e3 * reachable.seconds:.3f}')
-        self._plan_diag.set_value('last plan status', result.message)
         n = len(result.candidates)
         if result.status == 'rejected':
             self._counts['no reachable grasp'] += 1
             self._plan_diag.set_value('last plan reachability', f'none of {n} candidates reachable')
             closest = min(reachable.answers.values(), key=lambda a: a.pos_error_m)
-            raise PlanningError(
-                f'no reachable grasp: IK failed for all {n} candidates with the object at '
-                f'{np.round(base_T_obj[:3, 3], 3).tolist()} m ({np.linalg.norm(base_T_obj[:3, 3]):.2f} m from '
-                f'the base); closest: {closest.message}')
+            self._clarify(inputs, f'no reachable grasp: IK failed for all {n} candidates with the object at '
+                                  f'{np.round(base_T_obj[:3, 3], 3).tolist()} m '
+                                  f'({np.linalg.norm(base_T_obj[:3, 3]):.2f} m from the base); closest: '
+                                  f'{closest.message}')
+            return
+        self._plan_diag.set_value('last plan status', f'grasp published ({result.message})')
         if result.rejected:
             self._counts['fallback to a reachable candidate'] += 1
             note = (f'best grasp unreachable: published candidate {result.rejected + 1} of {n} (objective '
@@ -331,6 +341,24 @@ class GraspPlanner(Node):
                 raise
             # the context was shut down (a signal) between the check above and a publish: nothing to send to
 
+    def _clarify(self, inputs: _Inputs, reason: str) -> None:
+        """The newest intent cannot be served: ask for clarification (once per intent and model), and say
+        so in the diagnostics (WARN until a grasp is published again)."""
+        assert inputs.model is not None
+        self._plan_diag.set_value('last plan status', f'clarification requested: {reason}')
+        self._plan_diag.note(f'clarification requested: {reason}', level=WARN)
+        intent = (inputs.v_seq, (inputs.model.name, inputs.model.sha256))
+        if intent == self._clarified or self._stop.is_set():
+            return  # e.g. the object moved but the intent is the same: asked already
+        self._clarified = intent
+        self._counts['clarifications requested'] += 1
+        self.get_logger().warning(f'clarification requested: {reason}')
+        try:
+            self._clarification_pub.publish(String(data=reason))
+        except Exception:
+            if self.context.ok():
+                raise
+
     def _publish(self, inputs: _Inputs, doc: ModelDocument, result: planner.PlanResult,
                  q: NDArray[np.float64]) -> None:
         assert inputs.stamp is not None and inputs.base_T_obj is not None
@@ -344,7 +372,7 @@ class GraspPlanner(Node):
         self._features_pub.publish(stamped_array_to_msg(result.x, model.feature_names, stamp=stamp))
         self._pose_pub.publish(matrix_to_pose_msg(base_T_ee, frame_id=BASE_FRAME, stamp=stamp))
         self._joints_pub.publish(joint_state_msg(names, positions, stamp=stamp))
-        self._trajectory_pub.publish(joint_trajectory_msg(names, positions, duration, stamp=stamp))
+        self._trajectory_pub.publish(joint_trajectory_msg(names, positions, duration))  # stamp 0: start now
         text = f'{doc.name}\n{zone_summary(model.zone_labels, result.posterior)}'
         self._markers_pub.publish(grasp_markers(inputs.base_T_obj, base_T_ee, result.x[FINGERS], text,
                                                 frame_id=BASE_FRAME, stamp=stamp,

@@ -5,10 +5,17 @@ Run: ``python -m grasp_intent_ros.intent_interpreter``
 
 Topics (relative; ``-r __ns:=/robot1`` moves them)
     in   ``intent/w``              std_msgs/Float64MultiArray, m values in [0, 1], one per task
+    in   ``model/active``          std_msgs/String, latched: the active model document (its zones)
     out  ``intent/v``              std_msgs/Float64MultiArray, 2^m - 1 values in core zone order,
                                    one dimension labelled with the zone labels ("U,T,H,UT,UH,TH,UTH")
     out  ``intent/clarification``  std_msgs/String, the reason, instead of v when P(no task) >= threshold
-    out  ``/diagnostics``
+                                   or when w gives no zone of the active model any probability
+    out  ``/diagnostics``          ``<node>: intent``: counts, the active model, the last outcome
+
+Where the model's zones are known: v is published over all 2^m - 1 zones (so any model of the same
+tasks can use it, and the planner renormalises it over its model's zones, eq. 4); the interpreter
+follows the latched ``model/active`` only to decide whether the intent can be served at all. A model
+whose task names differ from ``task_names`` is not used for that (diagnostics say so).
 Parameters
     ``task_names`` (string[], default usage, transfer, handover): names of the m tasks in w's order
     ``clarification_threshold`` (float in (0, 1], default 0.5)
@@ -24,11 +31,11 @@ from std_msgs.msg import Float64MultiArray, String
 
 from .core.errors import InvalidIntentError
 from .core.intent import (DEFAULT_CLARIFICATION_THRESHOLD, DEFAULT_TASKS, MAX_TASKS, NeedsClarification,
-                          all_zones, interpret, validate_w, zone_labels)
-from .ros.conversions import array_to_msg, msg_to_array
-from .ros.diagnostics import NodeDiagnostics
+                          all_zones, interpret, support_zones, validate_w, zone_labels)
+from .ros.conversions import ModelDocument, array_to_msg, model_from_msg, msg_to_array
+from .ros.diagnostics import OK, NodeDiagnostics
 from .ros.params import ParamSpec, declare_parameters
-from .ros.qos import input_qos, output_qos
+from .ros.qos import input_qos, latched_qos, output_qos
 from .ros.run import run_node
 
 __all__ = ['IntentInterpreter', 'PARAMETERS', 'main']
@@ -67,11 +74,17 @@ class IntentInterpreter(Node):
         super().__init__(node_name, **kwargs)
         self._diagnostics = NodeDiagnostics(self, 'intent')
         self._params = declare_parameters(self, PARAMETERS, on_change=self._configure)
-        self._configure(self._params)
         self._v_pub = self.create_publisher(Float64MultiArray, 'intent/v', output_qos())
         self._clarification_pub = self.create_publisher(String, 'intent/clarification', output_qos())
+        self._model: ModelDocument | None = None
+        self._clarifications = 0
+        self._diagnostics.set_value('clarifications', 0)
+        self._diagnostics.set_value('last outcome', '')
+        self._configure(self._params)
         self._w_sub = self.create_subscription(Float64MultiArray, 'intent/w',
                                                self._diagnostics.guard(self._on_w), input_qos())
+        self._model_sub = self.create_subscription(String, 'model/active',
+                                                   self._diagnostics.guard(self._on_model), latched_qos())
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
         task_names = self._params['task_names']
@@ -79,16 +92,42 @@ class IntentInterpreter(Node):
         self._labels = zone_labels(self._zones, task_names)
         self._diagnostics.set_value('tasks', ','.join(task_names))
         self._diagnostics.set_value('clarification threshold', self._params['clarification_threshold'])
+        self._use_model(self._model)
+
+    def _use_model(self, doc: ModelDocument | None) -> None:
+        """Follow the active model: its zones decide whether an intent can be served."""
+        self._model = doc
+        self._support = None if doc is None else support_zones(
+            self._params['task_names'], doc.model.task_names, doc.model.zones)
+        if doc is None:
+            text = 'none yet (all zones)'
+        elif self._support is None:
+            text = (f'{doc.name}: its tasks {",".join(doc.model.task_names)} differ from task_names; '
+                    'not used (all zones)')
+        else:
+            text = f'{doc.name} (zones {",".join(doc.model.zone_labels)})'
+        self._diagnostics.set_value('active model', text)
+
+    def _on_model(self, msg: String) -> None:
+        self._use_model(model_from_msg(msg))
 
     def _on_w(self, msg: Float64MultiArray) -> None:
         w = validate_w(msg_to_array(msg, max_size=MAX_TASKS, error=InvalidIntentError, what='w'),
                        len(self._params['task_names']))
-        result = interpret(w, self._zones,
-                           clarification_threshold=self._params['clarification_threshold'])
+        result = interpret(w, self._zones, clarification_threshold=self._params['clarification_threshold'],
+                           support=self._support)
         if isinstance(result, NeedsClarification):
-            self._clarification_pub.publish(String(data=result.reason))
+            reason = result.reason
+            if result.p_none < self._params['clarification_threshold'] and self._model is not None:
+                reason += f' (model {self._model.name}: zones {",".join(self._model.model.zone_labels)})'
+            self._clarification_pub.publish(String(data=reason))
+            self._clarifications += 1
+            self._diagnostics.set_value('clarifications', self._clarifications)
+            self._diagnostics.set_value('last outcome', f'clarification requested: {reason}')
+            self._diagnostics.note(f'clarification requested: {reason}', level=OK)
         else:
             self._v_pub.publish(array_to_msg(result.v, [self._labels]))
+            self._diagnostics.set_value('last outcome', 'v published')
 
 
 def main(args: list[str] | None = None) -> None:

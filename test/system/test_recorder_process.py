@@ -18,9 +18,10 @@ import yaml
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, String
 
-from grasp_intent_ros.bag import QosSpec, read_messages, read_messages_mcap, topics_info
+from grasp_intent_ros.bag import QosSpec, read_messages, topics_info
 from grasp_intent_ros.processes import NodeProcess, node_environment
 from grasp_intent_ros.ros.qos import latched_qos
+from mcap_check import read_messages_mcap
 
 REPO = Path(__file__).resolve().parents[2]
 STARTUP = 20.0
