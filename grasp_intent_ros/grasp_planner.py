@@ -7,14 +7,15 @@ Topics (relative; formats in :mod:`grasp_intent_ros.protocol`)
          ``m1n6s300_link_base``; default: the ``object_*`` parameters), ``joint_states`` (IK seed)
     out  ``grasp/pose``, ``grasp/joint_targets``, ``grasp/trajectory``, ``grasp/posterior``,
          ``grasp/features``, ``grasp/markers`` (:func:`grasp_intent_ros.ros.grasp.grasp_messages`), stamped
-         with the arrival time of the plan's newest input; ``/diagnostics`` (``inputs``, ``planning``)
+         with the arrival time of the plan's newest input (the trajectory: zero, "start now");
+         ``intent/clarification`` (once per intent and model) when v fits no model zone or no grasp is
+         reachable; ``/diagnostics`` (``inputs``, ``planning``: ``last plan status`` says what happened)
 
 Behaviour
-    Callbacks validate and store the newest inputs; a :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker`
-    plans the newest snapshot (never a backlog) with :func:`grasp_intent_ros.core.grasp.plan_grasp`, warm-
-    started from the last plan of the same model; no plan for it: nothing is published, diagnostics say why.
+    A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs (never a backlog) with
+    :func:`grasp_intent_ros.core.grasp.plan_grasp`, warm-started from the last plan of the same model.
 
-Parameters: see :data:`PARAMETERS` and ``config/grasp_planner.yaml``.
+Parameters: :data:`PARAMETERS`, ``config/grasp_planner.yaml``.
 """
 
 from __future__ import annotations
@@ -34,12 +35,12 @@ from std_msgs.msg import Float64MultiArray, String
 
 from . import protocol as topics
 from .core import planner
-from .core.errors import PlanningError
 from .core.frames import pose_to_matrix
-from .core.grasp import OUTCOMES, NoReachableGrasp, check_mico_model, plan_grasp
+from .core.grasp import OUTCOMES, NoModelZone, NoReachableGrasp, check_mico_model, plan_grasp
 from .core.intent import match_zones
 from .core.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
-from .protocol import KEY_MODEL, KEY_PLANNING_TIME, KEY_PLANS, OK, ModelDocument
+from .protocol import KEY_MODEL, KEY_PLANNING_TIME, KEY_PLANS, OK, WARN, ModelDocument
+from .ros.clarification import ClarificationRequests
 from .ros.conversions import message_class, model_from_msg, target_from_msg
 from .ros.diagnostics import NodeDiagnostics
 from .ros.grasp import grasp_messages
@@ -81,6 +82,7 @@ class _Inputs:
     model: ModelDocument | None = None
     v: NDArray[np.float64] | None = None
     v_labels: tuple[str, ...] | None = None
+    v_seq: int = 0
     base_T_obj: NDArray[np.float64] | None = None
     q_arm: NDArray[np.float64] | None = None
     stamp: Time | None = None
@@ -99,12 +101,14 @@ class GraspPlanner(Node):
             raise ParameterError(f'urdf_path: {exc}') from None
         self._warm: tuple[tuple[str, str], NDArray[np.float64]] | None = None
         self._counts = dict.fromkeys((KEY_PLANS, *OUTCOMES), 0)
+        self._clarifications = ClarificationRequests(self, self._plan_diag, count_key='clarifications requested',
+                                                     outcome_key='last plan status', level=WARN, log=True)
         self._plan_diag.set_state(OK, f'waiting for {topics.MODEL_ACTIVE} and {topics.INTENT_V}')
         self._pubs = {topic: self.create_publisher(message_class(topic), topic, output_qos())
                       for topic in (*topics.PLAN_TOPICS, topics.GRASP_MARKERS)}
-        self._worker = LatestOnlyWorker(_Inputs(base_T_obj=self._object_pose_from_parameters()),
-                                        self._plan_diag.guard(self._plan), ready=self._ready,
-                                        name=f'{node_name}_planning',
+        base_T_obj = pose_to_matrix(self._params['object_position'], self._params['object_orientation'])
+        self._worker = LatestOnlyWorker(_Inputs(base_T_obj=base_T_obj), self._plan_diag.guard(self._plan),
+                                        ready=self._ready, name=f'{node_name}_planning',
                                         min_period=lambda: float(self._params['min_replan_period']))
         # SIGINT/SIGTERM shut the context down before destroy_node runs: stop planning at once
         self.context.on_shutdown(self._worker.stop_soon)
@@ -120,7 +124,6 @@ class GraspPlanner(Node):
         self._worker.stop()
         super().destroy_node()
 
-    # inputs, in the executor thread
     def _update(self, trigger: bool = True, **changes: Any) -> None:
         if trigger:
             changes['stamp'] = self.get_clock().now()
@@ -130,7 +133,7 @@ class GraspPlanner(Node):
         v, labels = target_from_msg(msg)
         if (model := self._worker.latest.model) is not None:
             match_zones(v.size, labels, model.model.task_names)
-        self._update(v=v, v_labels=labels)
+        self._update(v=v, v_labels=labels, v_seq=self._worker.latest.v_seq + 1)
 
     def _on_model(self, msg: String) -> None:
         doc = model_from_msg(msg)
@@ -148,44 +151,40 @@ class GraspPlanner(Node):
         if (q := joint_positions(msg, ARM_JOINTS)) is not None:
             self._update(trigger=False, q_arm=q)
 
-    def _object_pose_from_parameters(self) -> NDArray[np.float64]:
-        return pose_to_matrix(self._params['object_position'], self._params['object_orientation'])
-
     def _on_parameters(self, changed: Mapping[str, Any]) -> None:
         if {'object_position', 'object_orientation'} & set(changed):
-            self._update(base_T_obj=self._object_pose_from_parameters())
+            self._update(base_T_obj=pose_to_matrix(self._params['object_position'],
+                                                   self._params['object_orientation']))
 
-    # the planning thread
     def _ready(self, inputs: _Inputs) -> bool:
         missing = [t for t, x in ((topics.MODEL_ACTIVE, inputs.model), (topics.INTENT_V, inputs.v)) if x is None]
         self._plan_diag.set_state(OK, f'waiting for {" and ".join(missing)}' if missing else '')
         return not missing
 
     def _plan(self, inputs: _Inputs) -> None:
-        assert inputs.model is not None and inputs.v is not None and inputs.base_T_obj is not None
+        assert inputs.model and inputs.v is not None and inputs.base_T_obj is not None and inputs.stamp
         doc, key = inputs.model, (inputs.model.name, inputs.model.sha256)
-        self._plan_diag.set_value('inputs superseded', self._worker.superseded)
         warm = self._warm[1] if self._warm is not None and self._warm[0] == key else None
         grasp = plan_grasp(doc.model, inputs.v, match_zones(inputs.v.size, inputs.v_labels, doc.model.task_names),
                            inputs.base_T_obj, self._kin, name=doc.name, q_arm=inputs.q_arm, warm_start=warm,
                            method=self._params['method'], n_starts=self._params['n_starts'],
                            ik_restarts=self._params['ik_restarts'])
-        self._counts[KEY_PLANS] += 1
-        self._counts[grasp.outcome] += 1
-        self._plan_diag.set_values({KEY_PLANNING_TIME: f'{1e3 * grasp.result.wall_time_s:.3f}',
-                                    'last IK time [ms]': f'{1e3 * grasp.ik_seconds:.3f}',
-                                    'last plan status': grasp.result.message, 'last plan reachability': grasp.note,
-                                    **self._counts})
-        if isinstance(grasp, NoReachableGrasp):
-            raise PlanningError(grasp.reason)
+        if not isinstance(grasp, NoModelZone):
+            self._counts[KEY_PLANS] += 1
+            self._counts[grasp.outcome] += 1
+            self._plan_diag.set_values({KEY_PLANNING_TIME: f'{1e3 * grasp.result.wall_time_s:.3f}',
+                                        'last IK time [ms]': f'{1e3 * grasp.ik_seconds:.3f}',
+                                        'last plan reachability': grasp.note, **self._counts})
+        self._plan_diag.set_value('inputs superseded', self._worker.superseded)
+        if isinstance(grasp, (NoModelZone, NoReachableGrasp)):
+            return self._clarifications.request(grasp.reason, once_for=(inputs.v_seq, key))
+        self._plan_diag.set_value('last plan status', f'grasp published ({grasp.result.message})')
         if grasp.fallback:
             self.get_logger().warning(grasp.note, throttle_duration_sec=5.0)
         self._warm = (key, grasp.result.x)
-        if self._worker.stopping:
-            return
-        assert inputs.stamp is not None  # set by every update that calls for a plan
-        publish_all(self, self._pubs, grasp_messages(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
-                                                     object_size=self._params['object_marker_size']))
+        if not self._worker.stopping:
+            publish_all(self, self._pubs, grasp_messages(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
+                                                         object_size=self._params['object_marker_size']))
 
 
 def main(args: list[str] | None = None) -> None:

@@ -5,11 +5,19 @@ Run: ``python -m grasp_intent_ros.intent_interpreter``
 
 Topics (relative; ``-r __ns:=/robot1`` moves them)
     in   ``intent/w``              std_msgs/Float64MultiArray, m values in [0, 1], one per task
+    in   ``model/active``          std_msgs/String, latched: the active model document (its zones)
     out  ``intent/v``              std_msgs/Float64MultiArray, 2^m - 1 values in core zone order,
                                    one dimension labelled with the zone labels ("U,T,H,UT,UH,TH,UTH")
     out  ``intent/clarification``  std_msgs/String, the reason, instead of v when P(no task) >= threshold
-    out  ``/diagnostics``
-Parameters
+                                   or when w gives no zone of the active model any probability
+    out  ``/diagnostics``          ``<node>: intent``: counts, the active model, the last outcome
+
+Where the model's zones are known: v is published over all 2^m - 1 zones (so any model of the same
+tasks can use it, and the planner renormalises it over its model's zones, eq. 4); the interpreter
+follows the latched ``model/active`` only to decide whether the intent can be served at all. A model
+whose task names differ from ``task_names`` is not used for that (diagnostics say so).
+
+ROS parameters
     ``task_names`` (string[], default usage, transfer, handover): names of the m tasks in w's order
     ``clarification_threshold`` (float in (0, 1], default 0.5)
 """
@@ -31,14 +39,16 @@ from .core.intent import (
     NeedsClarification,
     all_zones,
     interpret,
+    support_zones,
     validate_w,
     zone_labels,
 )
-from .protocol import msg_to_array
-from .ros.conversions import array_to_msg
+from .protocol import ModelDocument, msg_to_array
+from .ros.clarification import ClarificationRequests
+from .ros.conversions import array_to_msg, model_from_msg
 from .ros.diagnostics import NodeDiagnostics
 from .ros.params import ParamSpec, declare_parameters
-from .ros.qos import input_qos, output_qos
+from .ros.qos import input_qos, latched_qos, output_qos
 from .ros.run import run_node
 
 __all__ = ['IntentInterpreter', 'PARAMETERS', 'main']
@@ -77,11 +87,16 @@ class IntentInterpreter(Node):
         super().__init__(node_name, **kwargs)
         self._diagnostics = NodeDiagnostics(self, 'intent')
         self._params = declare_parameters(self, PARAMETERS, on_change=self._configure)
-        self._configure(self._params)
         self._v_pub = self.create_publisher(Float64MultiArray, topics.INTENT_V, output_qos())
-        self._clarification_pub = self.create_publisher(String, topics.INTENT_CLARIFICATION, output_qos())
+        self._clarifications = ClarificationRequests(self, self._diagnostics, count_key='clarifications',
+                                                     outcome_key='last outcome')
+        self._model: ModelDocument | None = None
+        self._diagnostics.set_value('last outcome', '')
+        self._configure(self._params)
         self._w_sub = self.create_subscription(Float64MultiArray, topics.INTENT_W,
                                                self._diagnostics.guard(self._on_w), input_qos())
+        self._model_sub = self.create_subscription(String, topics.MODEL_ACTIVE,
+                                                   self._diagnostics.guard(self._on_model), latched_qos())
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
         task_names = self._params['task_names']
@@ -89,16 +104,38 @@ class IntentInterpreter(Node):
         self._labels = zone_labels(self._zones, task_names)
         self._diagnostics.set_value('tasks', ','.join(task_names))
         self._diagnostics.set_value('clarification threshold', self._params['clarification_threshold'])
+        self._use_model(self._model)
+
+    def _use_model(self, doc: ModelDocument | None) -> None:
+        """Follow the active model: its zones decide whether an intent can be served."""
+        self._model = doc
+        self._support = None if doc is None else support_zones(
+            self._params['task_names'], doc.model.task_names, doc.model.zones)
+        if doc is None:
+            text = 'none yet (all zones)'
+        elif self._support is None:
+            text = (f'{doc.name}: its tasks {",".join(doc.model.task_names)} differ from task_names; '
+                    'not used (all zones)')
+        else:
+            text = f'{doc.name} (zones {",".join(doc.model.zone_labels)})'
+        self._diagnostics.set_value('active model', text)
+
+    def _on_model(self, msg: String) -> None:
+        self._use_model(model_from_msg(msg))
 
     def _on_w(self, msg: Float64MultiArray) -> None:
         w = validate_w(msg_to_array(msg, max_size=MAX_TASKS, error=InvalidIntentError, what='w'),
                        len(self._params['task_names']))
-        result = interpret(w, self._zones,
-                           clarification_threshold=self._params['clarification_threshold'])
+        result = interpret(w, self._zones, clarification_threshold=self._params['clarification_threshold'],
+                           support=self._support)
         if isinstance(result, NeedsClarification):
-            self._clarification_pub.publish(String(data=result.reason))
+            reason = result.reason
+            if result.p_none < self._params['clarification_threshold'] and self._model is not None:
+                reason += f' (model {self._model.name}: zones {",".join(self._model.model.zone_labels)})'
+            self._clarifications.request(reason)
         else:
             self._v_pub.publish(array_to_msg(result.v, [self._labels]))
+            self._diagnostics.set_value('last outcome', 'v published')
 
 
 def main(args: list[str] | None = None) -> None:

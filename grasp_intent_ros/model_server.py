@@ -18,14 +18,18 @@ Topics (relative; ``-r __ns:=/robot1`` moves them)
 Parameters
     ``model`` (string, default cup_7zone): active model, the stem of a YAML file in the models
     directory; changeable at run time; an unknown or malformed model is rejected with the reason.
+    Its descriptor's ``additional_constraints`` (``ros2 param describe /model_server model``) list the
+    models in the directory, read anew at every describe, so a model trained into it appears at once.
     ``models_dir`` (string, read-only, default '' = <config_dir()>/models).
 """
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from typing import Any
 
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray, String
 
@@ -76,6 +80,16 @@ class ModelServer(Node):
         if self._files is None:
             self._files = ModelFiles.at(models_dir)
         return self._files
+
+    def describe_parameter(self, name: str) -> ParameterDescriptor:
+        """The declared descriptor; for ``model`` with the models available now as its constraints."""
+        descriptor = super().describe_parameter(name)
+        if name != 'model' or self._files is None:
+            return descriptor
+        described = copy.copy(descriptor)
+        described.additional_constraints = (f'one of {", ".join(self._files.names()) or "(none)"}: the *.yaml '
+                                            f'files in {self._files.directory}')
+        return described
 
     def _check(self, values: Mapping[str, Any]) -> None:
         self._model_files(values['models_dir']).load(values['model'])

@@ -1,16 +1,15 @@
 """rosbag2 sessions: write, read, summarise.
 
-Write with :class:`SessionWriter`, read with :func:`read_messages` (rosbags) or :func:`read_messages_mcap`
-(mcap), summarise with :func:`topics_info`.
+Write with :class:`SessionWriter`, read with :func:`read_messages`, summarise with :func:`topics_info`.
 
 Bags are rosbag2 directories (metadata.yaml version 9, MCAP storage, CDR messages, ros2msg schemas,
 offered QoS per topic), as ``ros2 bag info/play`` in ROS 2 Jazzy expects. This package imports
-rosbags and mcap only, never rclpy.
+rosbags only, never rclpy.
 """
 
 from .errors import BagError, BagReadError, BagWriteError
 from .qos import Durability, QosSpec, Reliability, decode_qos, encode_qos
-from .reader import BagMessage, McapMessage, TopicInfo, read_messages, read_messages_mcap, topics_info
+from .reader import BagMessage, TopicInfo, read_messages, topics_info
 from .writer import SessionWriter
 
 __all__ = [
@@ -23,10 +22,8 @@ __all__ = [
     'decode_qos',
     'encode_qos',
     'BagMessage',
-    'McapMessage',
     'TopicInfo',
     'read_messages',
-    'read_messages_mcap',
     'topics_info',
     'SessionWriter',
 ]

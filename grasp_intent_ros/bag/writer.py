@@ -1,16 +1,32 @@
-"""Writing a session to a rosbag2 directory (metadata.yaml v9, MCAP storage, CDR messages)."""
+"""Writing a session to a rosbag2 directory as rosbag2 in ROS 2 Jazzy writes one.
+
+metadata.yaml v9, MCAP storage, CDR messages.
+
+rosbags writes the rosbag2 layout; two details differ from what ``ros2 bag record`` on Jazzy writes and
+are set here as rosbag2 does (ros2/rosbag2, jazzy):
+
+- ``ros_distro``: rosbag2 stores ``$ROS_DISTRO`` in metadata.yaml and in the MCAP ``rosbag2`` metadata
+  record; rosbags stores 'rosbags'. These bags hold ROS 2 Jazzy types: ``jazzy``.
+- MCAP channel metadata: rosbag2_storage_mcap's ``create_topic`` writes two entries per channel,
+  ``offered_qos_profiles`` (the YAML list of profiles) and ``topic_type_hash`` (the RIHS01 type hash), so
+  a reader of the .mcap alone sees the type hashes; rosbags writes only the first.
+"""
 
 from __future__ import annotations
 
 import operator
 import os
+import re
 import struct
 import threading
+from collections.abc import Sequence
 from contextlib import suppress
+from io import BytesIO
 from pathlib import Path
-from typing import TYPE_CHECKING, Final, Literal
+from typing import TYPE_CHECKING, Final, Literal, cast
 
-from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
+from rosbags.interfaces import ConnectionExtRosbag2
+from rosbags.rosbag2 import StoragePlugin, Writer, WriterError, storage_mcap
 from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, TypesysError, get_typestore
@@ -19,14 +35,57 @@ from .errors import BagWriteError
 from .qos import QosSpec, encode_qos
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
     from types import TracebackType
 
     from rosbags.interfaces import Connection
     from rosbags.typesys.store import Typestore
 
-__all__ = ['SessionWriter']
+__all__ = ['SessionWriter', 'ROS_DISTRO']
 
 _MAX_TIMESTAMP_NS: Final = 2**63 - 1
+ROS_DISTRO: Final = 'jazzy'
+"""``ros_distro`` of the bags written here (their message types are ROS 2 Jazzy's)."""
+_ROSBAGS_DISTRO_LINE: Final = re.compile(r'^(\s*ros_distro:) rosbags$', re.MULTILINE)
+
+
+def _set_ros_distro(metadata_yaml: str) -> str:
+    """The metadata YAML with ``ros_distro: jazzy`` in place of rosbags' ``ros_distro: rosbags``."""
+    text, count = _ROSBAGS_DISTRO_LINE.subn(rf'\1 {ROS_DISTRO}', metadata_yaml)
+    if count != 1:
+        msg = f'expected one "ros_distro: rosbags" line in the metadata rosbags wrote, found {count}'
+        raise WriterError(msg)
+    return text
+
+
+class _McapStorage(storage_mcap.McapWriter):
+    """rosbags' MCAP storage with the channel metadata and ros_distro of rosbag2's (Jazzy)."""
+
+    def add_connection(self, connection: Connection, offered_qos_profiles: str) -> None:
+        metadata = BytesIO()
+        for key, value in (('offered_qos_profiles', offered_qos_profiles), ('topic_type_hash', connection.digest)):
+            storage_mcap.write_string(metadata, key)
+            storage_mcap.write_string(metadata, value)
+        ext = cast('ConnectionExtRosbag2', connection.ext)
+        self.channels.append(storage_mcap.Channel(connection.id, connection.msgtype, connection.topic,
+                                                  ext.serialization_format, metadata.getvalue()))
+        self.channel_stats[connection.id] = 0
+        storage_mcap.write_channel(self.chunk.bio, self.channels[-1], self.schemas)
+
+    def close(self, version: int, metadata: str) -> None:
+        super().close(version, _set_ros_distro(metadata))
+
+
+class _Writer(Writer):
+    """rosbags' rosbag2 writer with :class:`_McapStorage` and ``ros_distro: jazzy`` in metadata.yaml."""
+
+    STORAGE_PLUGINS: Mapping[StoragePlugin, type[storage_mcap.McapWriter]] = {
+        StoragePlugin.MCAP: _McapStorage,
+    }
+
+    def close(self) -> None:
+        super().close()
+        self.metapath.write_text(_set_ros_distro(self.metapath.read_text('utf8')), 'utf8')
 
 
 class SessionWriter:
@@ -70,7 +129,7 @@ class SessionWriter:
             msg = f'cannot write bag {self._path}: it exists already (a session bag is never overwritten)'
             raise BagWriteError(msg, path=self._path)
         try:
-            self._writer = Writer(self._path, version=9, storage_plugin=StoragePlugin.MCAP)
+            self._writer = _Writer(self._path, version=9, storage_plugin=StoragePlugin.MCAP)
             if compress:
                 self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
             self._writer.open()
@@ -101,7 +160,7 @@ class SessionWriter:
         """A copy of the added topics: topic name -> message type."""
         return {topic: conn.msgtype for topic, conn in self._connections.items()}
 
-    def add_topic(self, topic: str, msgtype: str, *, qos: QosSpec) -> None:
+    def add_topic(self, topic: str, msgtype: str, *, qos: QosSpec | Sequence[QosSpec]) -> None:
         """Declare a topic before writing to it.
 
         Parameters
@@ -111,7 +170,8 @@ class SessionWriter:
         msgtype
             Message type in the typestore, e.g. 'std_msgs/msg/Float64MultiArray'.
         qos
-            The QoS the publisher offered; stored as the topic's ``offered_qos_profiles``.
+            The QoS each publisher offered (one spec, or one per publisher, as ``ros2 bag
+            record`` stores them); stored as the topic's ``offered_qos_profiles``.
 
         Raises
         ------
@@ -126,14 +186,15 @@ class SessionWriter:
                 raise self._error(f'topic {topic!r} was already added')
             if msgtype not in self._typestore.fielddefs:
                 raise self._error(f'message type {msgtype!r} of topic {topic!r} is not in the typestore')
-            if not isinstance(qos, QosSpec):
-                raise self._error(f'qos must be a QosSpec, got {type(qos).__name__}')
+            profiles = (qos,) if isinstance(qos, QosSpec) else tuple(qos)
+            if not all(isinstance(q, QosSpec) for q in profiles):
+                raise self._error(f'qos must be a QosSpec or a sequence of them, got {qos!r}')
             try:
                 conn = self._writer.add_connection(
                     topic,
                     msgtype,
                     typestore=self._typestore,
-                    offered_qos_profiles=[encode_qos(qos)],
+                    offered_qos_profiles=[encode_qos(q) for q in profiles],
                 )
             except (WriterError, TypesysError) as exc:
                 raise self._error(f'cannot add topic {topic!r}: {exc}') from exc
@@ -199,6 +260,8 @@ class SessionWriter:
                 self._writer.close()
             except OSError as exc:
                 raise self._failed('closing', exc) from exc
+            except WriterError as exc:
+                raise self._error(f'closing bag {self._path} failed: {exc}') from exc
 
     def __enter__(self) -> SessionWriter:
         return self

@@ -15,14 +15,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import planner
-from .errors import InvalidIntentError, ModelError
+from .errors import ModelError
 from .features import FINGERS, MICO_3F
 from .frames import features_to_obj_T_ee
 from .intent import restrict
 from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
 from .model import GraspModel
 
-__all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'OUTCOMES', 'PlanOutcome', 'Grasp', 'NoReachableGrasp',
+__all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'OUTCOMES', 'NoModelZone', 'PlanOutcome', 'Grasp', 'NoReachableGrasp',
            'check_mico_model', 'trajectory_duration', 'plan_grasp']
 
 MIN_TRAJECTORY_TIME = 0.1
@@ -31,6 +31,19 @@ JOINT_NAMES: tuple[str, ...] = ARM_JOINTS + FINGER_JOINTS
 """Names of :attr:`Grasp.positions`: the six arm joints, then the three fingers."""
 OUTCOMES = ('best grasp reachable', 'fallback to a reachable candidate', 'no reachable grasp')
 """The reachability outcomes of a plan (:attr:`PlanOutcome.outcome`)."""
+
+
+@dataclass(frozen=True)
+class NoModelZone:
+    """v gives no zone of the model any probability: nothing to plan, the operator must clarify.
+
+    Attributes
+    ----------
+    reason : str
+        Which zones of which model v leaves out.
+    """
+
+    reason: str
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -120,7 +133,7 @@ def trajectory_duration(q_from: ArrayLike, q_to: ArrayLike, velocity_limits: Arr
 def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_obj: NDArray[np.float64],
                kin: MicoKinematics, *, name: str = 'model', q_arm: NDArray[np.float64] | None = None,
                method: planner.Method = 'lm', n_starts: int = 3, ik_restarts: int = 8,
-               warm_start: NDArray[np.float64] | None = None) -> Grasp | NoReachableGrasp:
+               warm_start: NDArray[np.float64] | None = None) -> Grasp | NoReachableGrasp | NoModelZone:
     """Plan the grasp for target ``v`` over ``zones`` on ``model`` with the object at ``base_T_obj``.
 
     Parameters
@@ -145,18 +158,17 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
 
     Returns
     -------
-    Grasp or NoReachableGrasp
+    Grasp, NoReachableGrasp or NoModelZone
+        The last two ask the operator for clarification.
 
     Raises
     ------
     InvalidIntentError
-        When v gives the model's zones no probability (clarification needed), or v does not match
-        ``zones``.
+        When v does not match ``zones``.
     """
     v_model = restrict(v, zones, model.zones)
     if v_model is None:
-        raise InvalidIntentError(f'clarification needed: v gives no probability to the zones '
-                                 f'{",".join(model.zone_labels)} of model {name!r}')
+        return NoModelZone(f'v gives no probability to the zones {",".join(model.zone_labels)} of model {name!r}')
     reachable = Reachability(kin, base_T_obj, q_arm, restarts=ik_restarts)
     result = planner.plan(model, v_model, method=method, n_starts=n_starts, warm_start=warm_start,
                           accept=reachable)

@@ -35,6 +35,7 @@ __all__ = [
     'interpret',
     'reconstruct_w',
     'restrict',
+    'support_zones',
 ]
 
 MAX_TASKS = 10
@@ -241,6 +242,7 @@ class NeedsClarification(IntentResult):
 
 def interpret(w: ArrayLike, zones: Sequence[int] | None = None, *,
               clarification_threshold: float = DEFAULT_CLARIFICATION_THRESHOLD,
+              support: Sequence[int] | None = None,
               ) -> Interpretation | NeedsClarification:
     """Turn task probabilities into a target vector over a model's zones.
 
@@ -252,15 +254,23 @@ def interpret(w: ArrayLike, zones: Sequence[int] | None = None, *,
         The model's zones (bitmasks over the m tasks). Default: all 2^m - 1 zones in core order.
     clarification_threshold : float in (0, 1]
         Ask for clarification when P(no task) >= this value.
+    support : sequence of int, optional
+        The zones of the model that will serve the intent, when v is expressed over more zones than the
+        model has (the ROS interpreter publishes v over all zones; the planner renormalises it over its
+        model's zones with :func:`restrict`). Ask for clarification when u gives none of them any
+        probability, i.e. when ``restrict(v, zones, support)`` would be None. Default: ``zones``.
 
     Returns
     -------
     Interpretation or NeedsClarification
+        Reasons, in the order checked: P(no task) too high; no zone of ``support`` (or ``zones``)
+        with non-zero probability.
 
     Raises
     ------
     InvalidIntentError
-        For a malformed w, zones that are not non-empty subsets of m tasks, or a threshold outside (0, 1].
+        For a malformed w, zones (or support) that are not non-empty subsets of m tasks, or a threshold
+        outside (0, 1].
     """
     w_arr = validate_w(w)
     m = w_arr.size
@@ -268,26 +278,33 @@ def interpret(w: ArrayLike, zones: Sequence[int] | None = None, *,
             and 0.0 < float(clarification_threshold) <= 1.0):
         raise InvalidIntentError(
             f'clarification_threshold must lie in (0, 1], got {clarification_threshold!r}')
-    zone_tuple = all_zones(m) if zones is None else tuple(int(z) for z in zones)
-    if not zone_tuple:
-        raise InvalidIntentError('zones must not be empty')
-    bad = [z for z in zone_tuple if not 0 < z < (1 << m)]
-    if bad:
-        raise InvalidIntentError(f'zones {bad} are not non-empty subsets of {m} tasks')
-    if len(set(zone_tuple)) != len(zone_tuple):
-        raise InvalidIntentError(f'zones contain duplicates: {list(zone_tuple)}')
+    zone_tuple = _check_zones(all_zones(m) if zones is None else zones, m, 'zones')
+    support_tuple = zone_tuple if support is None else _check_zones(support, m, 'support')
     u = event_probabilities(w_arr)
     p_none = float(u[0])
     if p_none >= float(clarification_threshold):
         return NeedsClarification(w=w_arr, u=u, zones=zone_tuple, p_none=p_none,
                                   reason=f'P(no task) = {p_none:.4f} >= threshold '
                                          f'{float(clarification_threshold):.4f}')
+    supported = float(u[np.asarray(support_tuple)].sum())
     u_zones = u[np.asarray(zone_tuple)]
     total = float(u_zones.sum())
-    if not total > 0.0 or not math.isfinite(total):
+    if not (supported > 0.0 and total > 0.0 and math.isfinite(total)):
         return NeedsClarification(w=w_arr, u=u, zones=zone_tuple, p_none=p_none,
                                   reason='no zone of the model has non-zero probability under this w')
     return Interpretation(w=w_arr, u=u, zones=zone_tuple, p_none=p_none, v=u_zones / total)
+
+
+def _check_zones(zones: Sequence[int], m: int, what: str) -> tuple[int, ...]:
+    zone_tuple = tuple(int(z) for z in zones)
+    if not zone_tuple:
+        raise InvalidIntentError(f'{what} must not be empty')
+    bad = [z for z in zone_tuple if not 0 < z < (1 << m)]
+    if bad:
+        raise InvalidIntentError(f'{what} {bad} are not non-empty subsets of {m} tasks')
+    if len(set(zone_tuple)) != len(zone_tuple):
+        raise InvalidIntentError(f'{what} contain duplicates: {list(zone_tuple)}')
+    return zone_tuple
 
 
 def reconstruct_w(p: ArrayLike, zones: Sequence[int], m: int) -> NDArray[np.float64]:
@@ -352,3 +369,15 @@ def restrict(v: ArrayLike, zones: Sequence[int], model_zones: Sequence[int]) -> 
         return None
     out: NDArray[np.float64] = sub / total
     return out
+
+
+def support_zones(task_names: Sequence[str], model_task_names: Sequence[str],
+                  model_zones: Sequence[int]) -> tuple[int, ...] | None:
+    """A model's zones as zones over ``task_names``, for :func:`interpret`'s ``support``.
+
+    Zones are bitmasks over task indices, so they carry over only when the model has the same tasks in
+    the same order; returns None otherwise (the model cannot tell which intents it serves).
+    """
+    if tuple(task_names) != tuple(model_task_names):
+        return None
+    return tuple(int(z) for z in model_zones)

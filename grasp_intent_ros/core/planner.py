@@ -28,7 +28,9 @@ not name one grasp. The planner therefore answers a stated problem:
 5. **Least squares.** When no start reaches an acceptable match (some v_k = 0, or v is outside what
    the model can attain in X), f is minimised from every start and every projection's end point with
    a projected Levenberg-Marquardt iteration (end points within 1e-8 of a match are projected onto
-   the matches).
+   the matches). Least-squares valleys can be nearly flat: there the end point is where the damped
+   iteration stops, a deterministic function of the input that the ridge keeps insensitive to the
+   last bits in all but rare cases (see the benchmark's stability section).
 6. **Choice.** Let f* be the lowest f found. The candidates with f <= f* + max(1e-12, 1e-6 f*) are
    the matches; the planner returns the one nearest to x_ref, and among matches whose distances are
    within 1e-6 of the nearest, the first in start order. Ties are never left to float noise. The
@@ -92,6 +94,7 @@ _FTOL = 1e-10
 _MAXITER = 200
 _TC_MAXITER = 1500
 _LM_MAXITER = 300
+_LM_RIDGE = 1e-7     # ridge of the least-squares steps, relative to the largest curvature
 _LM_FTOL = 1e-7      # a start has converged when an accepted step improves f by less than this * f + 1e-15
 _GN_MAXITER = 60
 _GN_DAMPING = 1e-3   # ridge of the minimum-norm steps, relative to the residual's norm
@@ -219,13 +222,13 @@ def objective_and_gradient(model: GraspModel, v: NDArray[np.float64],
 
 def _rank_by_f(f: NDArray[np.float64]) -> NDArray[np.intp]:
     """Indices sorted by f quantised to 1e-12 relative, then by index: float noise cannot reorder."""
-    q = np.floor(f / (MATCH_TOL * (1.0 + np.abs(f))))
+    q = np.rint(f / (MATCH_TOL * (1.0 + np.abs(f))))
     return np.lexsort((np.arange(f.size), q))
 
 
 def zone_order(v: NDArray[np.float64]) -> NDArray[np.intp]:
     """Zones from the most to the least likely; v compared at 1e-9, ties in zone order (never noise)."""
-    return np.lexsort((np.arange(v.size), -np.floor(v * 1e9)))
+    return np.lexsort((np.arange(v.size), -np.rint(v * 1e9)))
 
 
 def select_starts(model: GraspModel, v: NDArray[np.float64], n_starts: int = 3,
@@ -437,7 +440,8 @@ def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.flo
                feas: _Feasible) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
     """Projected Levenberg-Marquardt on r(x) = v - P(x), all starts at once (shape (N, d)).
 
-    Each iteration solves (J^T J + lam diag(J^T J) + eps I) dx = J^T r per start, with J restricted to
+    Each iteration solves (J^T J + lam diag(J^T J) + eps I) dx = J^T r per start (eps = 1e-7 times the
+    largest curvature, so that nearly flat directions cannot amplify last-bit differences), with J restricted to
     the free variables (a variable on a bound whose gradient points outwards is held) and, for the
     approach, to the sphere's tangent plane; the step is then projected onto X. A step is taken only
     when it lowers f (lam shrinks), else lam grows. A start has converged when an accepted step gains
@@ -466,7 +470,8 @@ def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.flo
         jt = np.where(held[:, None, :], 0.0, jt)
         h = np.matmul(np.swapaxes(jt, 1, 2), jt)
         diag = np.einsum('nii->ni', h)
-        system = h + (lam[:, None] * diag + 1e-12)[:, :, None] * eye
+        ridge = _LM_RIDGE * np.max(diag, axis=1, keepdims=True) + 1e-12
+        system = h + (lam[:, None] * diag + ridge)[:, :, None] * eye
         step = np.linalg.solve(system, -np.where(held, 0.0, grad)[:, :, None])[:, :, 0]
         x_new = feas.project(x + step)
         p_new, jac_new = model.posterior_jacobian(x_new, check=False)
@@ -669,13 +674,16 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
 
     chosen: Candidate | None = None
     if method == 'lm':
-        wide = _unique_rows(np.concatenate([starts, feas.project(search_starts(model, v_arr))]))
-        if np.all(v_arr > 0.0):  # otherwise P = v is impossible: P_k > 0 everywhere
+        possible = bool(np.all(v_arr > 0.0))  # else P = v is impossible: P_k > 0 everywhere
+        if possible:
             projection = _LogOddsProjection(model, v_arr, feas)
-            xs, ok, its = projection.run(wide[:1])  # the reference's own projection first
-            found = candidates_from(xs, wide[:1], ok, its, 0, _match_message)
+            xs, ok, its = projection.run(starts[:1])  # the reference's own projection first
+            found = candidates_from(xs, starts[:1], ok, its, 0, _match_message)
             chosen = choose(exact(found))
-            if chosen is None and wide.shape[0] > 1:
+        wide = starts
+        if chosen is None:  # the wider search (its first row is the reference again)
+            wide = _unique_rows(np.concatenate([starts, feas.project(search_starts(model, v_arr))]))
+            if possible and wide.shape[0] > 1:
                 xs, ok, its = projection.run(wide[1:])
                 found += candidates_from(xs, wide[1:], ok, its, 1, _match_message)
                 chosen = choose(exact(found))
@@ -684,7 +692,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
             xs, ok, its = _refine_lm(model, v_arr, origins, feas)
             r = v_arr - model.posterior(xs)
             near = 0.5 * np.sum(r * r, axis=1) <= _POLISH
-            if near.any() and np.all(v_arr > 0.0):  # least squares found the matches: project onto them
+            if near.any() and possible:  # least squares found the matches: project onto them
                 xs_p, ok_p, its_p = _LogOddsProjection(model, v_arr, feas).run(xs[near])
                 xs[near], ok[near], its[near] = xs_p, ok_p, its[near] + its_p
             found += candidates_from(xs, origins, ok, its, len(found),

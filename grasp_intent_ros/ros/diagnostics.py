@@ -3,8 +3,9 @@
 One :class:`NodeDiagnostics` per node component counts the messages received and rejected, keeps the
 last error and the last processing time, and publishes one DiagnosticStatus named
 ``<node fully-qualified name>: <component>`` every ``period`` seconds and at once when an input is
-rejected. Levels: OK while the last input was processed; WARN after a rejected input (message = the
-reason) until an input is processed again; ERROR after an unexpected exception, or whatever
+rejected. Levels: OK while the last input was processed (message 'ok', or what the callback reported with
+:meth:`NodeDiagnostics.note`, e.g. a clarification request, at the level it gave); WARN after a rejected
+input (message = the reason) until an input is processed again; ERROR after an unexpected exception, or whatever
 :meth:`NodeDiagnostics.set_state` asks for (the worse of the two wins).
 
 :meth:`NodeDiagnostics.guard` wraps a subscription callback so that no exception escapes it: a
@@ -69,6 +70,7 @@ class NodeDiagnostics:
         self._last_seconds: float | None = None
         self._outcome_level: int = level_value(OK)
         self._outcome_message = 'waiting for input'
+        self._note: tuple[int, str] | None = None
         self._state_level: int = level_value(OK)
         self._state_message = ''
         self._values: dict[str, str] = {}
@@ -90,11 +92,23 @@ class NodeDiagnostics:
         with self._lock:
             self._values.update((key, str(value)) for key, value in values.items())
 
-    def processed(self, seconds: float) -> None:
-        """An input was processed in ``seconds`` (wall time)."""
+    def note(self, message: str, *, level: bytes | int = OK) -> None:
+        """What the input being processed led to, when it is more than 'ok'.
+
+        E.g. 'clarification requested: <reason>': the status message, at ``level``, published at once when
+        :meth:`processed` is called.
+        """
         with self._lock:
+            self._note = (level_value(level), message)
+
+    def processed(self, seconds: float) -> None:
+        """An input was processed in ``seconds`` (wall time); the status shows 'ok' or the last note."""
+        with self._lock:
+            note, self._note = self._note, None
             self._last_seconds = seconds
-            self._outcome_level, self._outcome_message = level_value(OK), 'ok'
+            self._outcome_level, self._outcome_message = note or (level_value(OK), 'ok')
+        if note is not None:
+            self.publish()  # at once, as for a rejection
 
     def rejected(self, reason: str, *, level: bytes | int = WARN) -> None:
         """An input was rejected: count it, log it and publish a WARN (or ``level``) status now."""
@@ -120,6 +134,7 @@ class NodeDiagnostics:
             start = time.perf_counter()
             with self._lock:
                 self._received += 1
+                self._note = None
             try:
                 callback(msg)
             except GraspIntentError as exc:

@@ -1,4 +1,8 @@
-"""The messages of one planned grasp (:class:`grasp_intent_ros.core.grasp.Grasp`), all with one stamp."""
+"""The messages of one planned grasp (:class:`grasp_intent_ros.core.grasp.Grasp`).
+
+All carry the plan's stamp but the trajectory, stamped zero ("start now", the trajectory_msgs convention)
+and ordered right after the joint targets of its plan.
+"""
 
 from __future__ import annotations
 
@@ -32,7 +36,7 @@ def grasp_messages(grasp: Grasp, doc: ModelDocument, base_T_obj: NDArray[np.floa
     base_T_obj : ndarray, shape (4, 4)
         Object pose in :data:`~grasp_intent_ros.core.kinematics.BASE_FRAME`.
     stamp : builtin_interfaces/Time
-        The stamp of every output.
+        The stamp of every output but the trajectory.
     object_size : (diameter, height)
         Of the object marker (m).
     """
@@ -44,7 +48,7 @@ def grasp_messages(grasp: Grasp, doc: ModelDocument, base_T_obj: NDArray[np.floa
         topics.GRASP_FEATURES: stamped_array_to_msg(x, model.feature_names, stamp=stamp),
         topics.GRASP_POSE: matrix_to_pose_msg(grasp.base_T_ee, frame_id=BASE_FRAME, stamp=stamp),
         topics.GRASP_JOINT_TARGETS: joint_state_msg(JOINT_NAMES, grasp.positions, stamp=stamp),
-        topics.GRASP_TRAJECTORY: joint_trajectory_msg(JOINT_NAMES, grasp.positions, grasp.duration_s, stamp=stamp),
+        topics.GRASP_TRAJECTORY: joint_trajectory_msg(JOINT_NAMES, grasp.positions, grasp.duration_s),
         topics.GRASP_MARKERS: grasp_markers(base_T_obj, grasp.base_T_ee, x[FINGERS], text, frame_id=BASE_FRAME,
                                             stamp=stamp, object_size=object_size),
     }

@@ -132,13 +132,17 @@ def joint_state_msg(names: Sequence[str], positions: ArrayLike, *, stamp: Time) 
 
 
 def joint_trajectory_msg(names: Sequence[str], positions: ArrayLike, duration: float, *,
-                         stamp: Time, frame_id: str = '') -> JointTrajectory:
-    """A JointTrajectory with one point: ``positions`` (rad), zero velocities, after ``duration`` s."""
+                         stamp: Time | None = None, frame_id: str = '') -> JointTrajectory:
+    """A JointTrajectory with one point: ``positions`` (rad), zero velocities, after ``duration`` s.
+
+    ``stamp`` defaults to zero, which trajectory controllers (trajectory_msgs convention) read as
+    "start now"; a plan stamp, milliseconds in the past on arrival, would make them skip ahead.
+    """
     values = np.asarray(positions, dtype=np.float64)
     if values.shape != (len(names),):
         raise ValueError(f'{len(names)} names but positions of shape {values.shape}')
     msg = JointTrajectory(joint_names=list(names))
-    msg.header.stamp = stamp
+    msg.header.stamp = Time() if stamp is None else stamp
     msg.header.frame_id = frame_id
     msg.points = [JointTrajectoryPoint(positions=[float(v) for v in values], velocities=[0.0] * len(names),
                                        time_from_start=Duration(seconds=float(duration)).to_msg())]

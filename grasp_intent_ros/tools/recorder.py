@@ -12,9 +12,10 @@ Recording
     :class:`~grasp_intent_ros.bag.SessionWriter`, stamped with the receive time (node clock, ns).
     Each topic is subscribed with the reliability and durability its publishers offer (best effort /
     volatile if they differ; transient local for latched topics, so the last ``model/active`` is
-    recorded even when it was published before the recorder started), keep-last ``--depth``; that
-    offered QoS (depth 0: history not visible through discovery, as ``ros2 bag record`` stores it) is
-    written into the bag's metadata.
+    recorded even when it was published before the recorder started), keep-last ``--depth``. As
+    ``ros2 bag record`` does, the bag's ``offered_qos_profiles`` hold each publisher's QoS as discovery
+    shows it (:func:`offered_qos_spec`: history unknown, the durations and
+    liveliness the publisher offers).
 Diagnostics
     ``/diagnostics`` status ``<node>: recorder``: messages received, 'messages written' in total and
     per topic ('topic /intent/w': n), ERROR with the reason once a write failed.
@@ -38,7 +39,7 @@ from typing import Any
 
 import rclpy
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.subscription import Subscription
 from rclpy.topic_endpoint_info import TopicEndpointInfo
 from rclpy.utilities import remove_ros_args
@@ -49,7 +50,8 @@ from ..protocol import ERROR, WARN
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.run import run_node
 
-__all__ = ['Recorder', 'TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'offered_qos', 'main']
+__all__ = ['Recorder', 'TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'offered_qos_spec', 'offered_qos',
+           'request_qos', 'main']
 
 DEFAULT_TOPICS = ('intent/', 'model/', 'grasp/', 'object/', 'joint_states', '/diagnostics')
 """Recorded by default: relative to the recorder's namespace; a trailing '/' selects a whole subtree."""
@@ -95,23 +97,58 @@ class TopicSelection:
         return topic in self.names or topic.startswith(self.prefixes)
 
 
-def offered_qos(publishers: Sequence[TopicEndpointInfo]) -> QosSpec:
-    """The QoS to record (and subscribe with) for a topic's publishers.
+_LIVELINESS = {LivelinessPolicy.AUTOMATIC: 'automatic', LivelinessPolicy.MANUAL_BY_TOPIC: 'manual_by_topic'}
+_INFINITE_NS = 2**63 - 1
 
-    Reliable / transient local only if every publisher offers it, so the subscription matches all of
-    them. Depth 0: publisher history is not visible through discovery.
+
+def _duration_ns(duration: object) -> int | None:
+    """Nanoseconds of a QoS duration; None for infinite (RMW_DURATION_INFINITE) or unspecified (0: default)."""
+    ns = int(getattr(duration, 'nanoseconds'))
+    return None if ns <= 0 or ns >= _INFINITE_NS else ns
+
+
+def offered_qos_spec(profile: QoSProfile) -> QosSpec:
+    """What a publisher offers (``TopicEndpointInfo.qos_profile`` from discovery) as a bag records it.
+
+    ``ros2 bag record`` stores exactly this profile per publisher: discovery shows no history (history
+    unknown, depth 0) and the durations the middleware resolved (infinite for a publisher that sets
+    none, with automatic liveliness). Reliability or durability that no live publisher offers
+    (system default, best available, unknown) are recorded as best effort / volatile, the offers every
+    subscriber can match.
+    """
+    depth = int(profile.depth) if profile.history == HistoryPolicy.KEEP_LAST and profile.depth > 0 else 0
+    return QosSpec(
+        'reliable' if profile.reliability == ReliabilityPolicy.RELIABLE else 'best_effort',
+        'transient_local' if profile.durability == DurabilityPolicy.TRANSIENT_LOCAL else 'volatile',
+        depth,
+        _LIVELINESS.get(profile.liveliness, 'system_default'),  # type: ignore[arg-type]
+        _duration_ns(profile.deadline), _duration_ns(profile.lifespan),
+        _duration_ns(profile.liveliness_lease_duration))
+
+
+def offered_qos(publishers: Sequence[TopicEndpointInfo]) -> tuple[QosSpec, ...]:
+    """The QoS each of a topic's publishers offers, as recorded.
+
+    ``ros2 bag record``'s ``offered_qos_profiles``: one profile per publisher.
+    """
+    return tuple(offered_qos_spec(p.qos_profile) for p in publishers)
+
+
+def request_qos(offered: Sequence[QosSpec]) -> QosSpec:
+    """The QoS to subscribe with to publishers offering ``offered`` (rosbag2's adapt_request_to_offers).
+
+    Reliable / transient local only if every publisher offers it, so the subscription matches all of them.
 
     Raises
     ------
     ValueError
-        ``publishers`` is empty.
+        ``offered`` is empty.
     """
-    if not publishers:
+    if not offered:
         raise ValueError('a topic without publishers has no offered QoS')
-    reliable = all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in publishers)
-    latched = all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers)
-    return QosSpec('reliable' if reliable else 'best_effort',
-                   'transient_local' if latched else 'volatile', 0)
+    reliable = all(q.reliability == 'reliable' for q in offered)
+    latched = all(q.durability == 'transient_local' for q in offered)
+    return QosSpec('reliable' if reliable else 'best_effort', 'transient_local' if latched else 'volatile', 0)
 
 
 def _subscription_qos(spec: QosSpec, depth: int) -> QoSProfile:
@@ -180,7 +217,7 @@ class Recorder(Node):
         self._depth = depth
         self._on_failure = on_failure
         self._topic_subs: dict[str, Subscription] = {}
-        self._recorded: dict[str, tuple[str, QosSpec]] = {}
+        self._recorded: dict[str, tuple[str, QosSpec]] = {}  # topic -> (type, subscribed QoS)
         self._skipped: set[str] = set()
         self._qos_warned: set[str] = set()
         self._counts: dict[str, int] = {}
@@ -207,7 +244,7 @@ class Recorder(Node):
 
     @property
     def recorded_topics(self) -> dict[str, tuple[str, QosSpec]]:
-        """A copy of the subscribed topics: name -> (message type, recorded QoS)."""
+        """A copy of the subscribed topics: name -> (message type, QoS subscribed with)."""
         return dict(self._recorded)
 
     @property
@@ -251,7 +288,9 @@ class Recorder(Node):
                 self.get_logger().warning(f'cannot query the publishers of {topic}: {exc}')
                 continue
             if publishers:  # a topic seen only through its subscribers waits for a publisher
-                self._subscribe(topic, types[0], self._overrides.get(topic) or offered_qos(publishers))
+                override = self._overrides.get(topic)
+                offered = (override,) if override is not None else offered_qos(publishers)
+                self._subscribe(topic, types[0], override or request_qos(offered), offered)
 
     def _check_late_publishers(self, topic: str) -> None:
         """Warn (once per topic) about a late publisher offering a weaker QoS than the subscription requests.
@@ -266,7 +305,7 @@ class Recorder(Node):
             return
         if not publishers:
             return
-        offered, subscribed = offered_qos(publishers), self._recorded[topic][1]
+        offered, subscribed = request_qos(offered_qos(publishers)), self._recorded[topic][1]
         if ((subscribed.reliability, offered.reliability) == ('reliable', 'best_effort')
                 or (subscribed.durability, offered.durability) == ('transient_local', 'volatile')):
             self._qos_warned.add(topic)
@@ -280,7 +319,7 @@ class Recorder(Node):
         self._skipped.add(topic)
         self.get_logger().warning(f'not recording {topic}: {reason}')
 
-    def _subscribe(self, topic: str, msgtype: str, qos: QosSpec) -> None:
+    def _subscribe(self, topic: str, msgtype: str, qos: QosSpec, offered: Sequence[QosSpec]) -> None:
         if msgtype not in self._typestore.fielddefs:
             self._skip(topic, f'type {msgtype} is not a ROS 2 Jazzy standard type known to the bag writer')
             return
@@ -290,7 +329,7 @@ class Recorder(Node):
             self._skip(topic, f'type {msgtype} cannot be imported: {exc}')
             return
         try:
-            self._bag.add_topic(topic, msgtype, qos=qos)
+            self._bag.add_topic(topic, msgtype, qos=offered)
         except BagWriteError as exc:
             self._fail(exc)
             return

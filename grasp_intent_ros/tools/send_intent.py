@@ -120,6 +120,11 @@ class IntentSender(Node):
         self.create_subscription(Float64MultiArray, 'grasp/posterior', self._on_posterior, qos)
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, 50)
 
+    @property
+    def clarifications(self) -> tuple[str, ...]:
+        """Every clarification request received so far (the reasons), oldest first."""
+        return tuple(m.data for m in self._clarifications)
+
     def _on_posterior(self, msg: Float64MultiArray) -> None:
         try:
             posterior = posterior_from_msg(msg)
@@ -156,7 +161,7 @@ class IntentSender(Node):
         while (stamp := self._answer(sent_after)) is None:
             now = time.monotonic()
             if len(self._clarifications) > n_clarifications:
-                raise NoGrasp(f'the intent interpreter asks for clarification: {self._clarifications[-1].data}')
+                raise NoGrasp(f'the chain asks for clarification: {self._clarifications[-1].data}')
             if now >= deadline:
                 raise NoGrasp(self._timeout_reason(timeout, heard_v=len(self._v) > n_v))
             if now >= next_send:

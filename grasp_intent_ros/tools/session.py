@@ -290,7 +290,7 @@ def compact_session(src: str | os.PathLike[str], dst: str | os.PathLike[str], *,
                 continue
             if msg.topic not in counts:
                 qos = infos[msg.topic].qos
-                writer.add_topic(msg.topic, msg.msgtype, qos=qos[0] if qos else QosSpec())
+                writer.add_topic(msg.topic, msg.msgtype, qos=qos or QosSpec())
                 counts[msg.topic] = 0
             writer.write(msg.topic, msg.timestamp_ns, msg.cdr)
             counts[msg.topic] += 1

@@ -31,8 +31,11 @@ def test_every_output_of_one_plan_carries_its_stamp() -> None:
     assert set(messages) == {*protocol.PLAN_TOPICS, protocol.GRASP_MARKERS}
     assert posterior_from_msg(messages[protocol.GRASP_POSTERIOR]).stamp == stamp
     assert stamped_array_from_msg(messages[protocol.GRASP_FEATURES])[0] == stamp
-    for topic in (protocol.GRASP_POSE, protocol.GRASP_JOINT_TARGETS, protocol.GRASP_TRAJECTORY):
+    for topic in (protocol.GRASP_POSE, protocol.GRASP_JOINT_TARGETS):
         assert messages[topic].header.stamp == stamp, topic
+    assert messages[protocol.GRASP_TRAJECTORY].header.stamp == Time(), 'zero: start now'
+    topics = list(messages)
+    assert topics.index(protocol.GRASP_TRAJECTORY) == topics.index(protocol.GRASP_JOINT_TARGETS) + 1
     assert all(m.header.stamp == stamp for m in messages[protocol.GRASP_MARKERS].markers)
     assert_allclose(pose_msg_to_matrix(messages[protocol.GRASP_POSE], frame_id=BASE_FRAME), grasp.base_T_ee,
                     atol=1e-9)

@@ -181,17 +181,29 @@ class Grasps:
     def count(self) -> int:
         return sum(len(msgs) for msgs in self.received.values())
 
+    def _stamps(self, key: str) -> list[int]:
+        """The plan stamp of each message received on one output.
+
+        The trajectory's own stamp is zero
+        ("start now"): it is published right after the joint targets of its plan, so the i-th trajectory
+        belongs to the plan of the i-th joint targets.
+        """
+        if key == 'trajectory':
+            assert all(ns(m.header.stamp) == 0 for m in self.received[key]), 'trajectory stamp is not zero'
+            return [self._stamp('joints', m) for m in self.received['joints'][:len(self.received[key])]]
+        return [self._stamp(key, m) for m in self.received[key]]
+
     def plans(self, after: int = -1) -> list[Plan]:
         """Complete plans (all six outputs) with a stamp > ``after``, oldest first."""
         by_stamp: dict[int, dict[str, Any]] = {}
         for key, msgs in self.received.items():
-            for msg in msgs:
-                by_stamp.setdefault(self._stamp(key, msg), {})[key] = msg
+            for stamp, msg in zip(self._stamps(key), msgs):
+                by_stamp.setdefault(stamp, {})[key] = msg
         return [Plan(stamp, **{k: (posterior_from_msg(v) if k == 'posterior' else v) for k, v in out.items()})
                 for stamp, out in sorted(by_stamp.items()) if stamp > after and len(out) == len(TOPICS)]
 
     def stamps_after(self, after: int) -> list[int]:
-        return [s for key, msgs in self.received.items() for s in (self._stamp(key, m) for m in msgs) if s > after]
+        return [s for key in self.received for s in self._stamps(key) if s > after]
 
 
 @dataclass
@@ -246,6 +258,10 @@ def assert_fk_reproduces_pose(kin: MicoKinematics, plan: Plan) -> None:
     assert math.acos(min(1.0, max(-1.0, cos))) < 0.01
 
 
+def values_of(status: Any) -> dict[str, str]:
+    return {kv.key: kv.value for kv in status.values}
+
+
 # ---------------------------------------------------------------------------------- tests
 def test_v_in_grasp_out_equals_core(rig: Rig, model: GraspModel, kin: MicoKinematics) -> None:
     v = interpret(W_GOOD).v
@@ -266,7 +282,9 @@ def test_v_in_grasp_out_equals_core(rig: Rig, model: GraspModel, kin: MicoKinema
     assert list(plan.joints.name) == list(ARM_JOINTS + FINGER_JOINTS)
     assert_fk_reproduces_pose(kin, plan)
     assert_allclose(plan.joints.position[6:], plan.x[FINGERS], atol=1e-12)
-    # trajectory: one point, same joints, time from the velocity limits (from Home: no joint state yet)
+    # trajectory: one point, same joints, time from the velocity limits (from Home: no joint state yet);
+    # its stamp is zero ("start now"), the other outputs carry the plan stamp
+    assert ns(plan.trajectory.header.stamp) == 0 < plan.stamp == ns(plan.joints.header.stamp)
     assert list(plan.trajectory.joint_names) == list(plan.joints.name)
     (point,) = plan.trajectory.points
     assert_allclose(point.positions, plan.joints.position, atol=1e-12)
@@ -299,13 +317,23 @@ def test_object_pose_change_moves_the_grasp(rig: Rig, kin: MicoKinematics) -> No
 
 
 def test_unreachable_object_publishes_no_targets_and_says_why(rig: Rig) -> None:
+    clarifications = rig.ros.subscribe(String, 'intent/clarification')
     rig.request(v_msg(interpret(W_GOOD).v))
     start = rig.now()
     assert rig.ros.publish_until(rig.pose_pub, pose_msg((3.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0)),
                                  rig.warn('no reachable grasp'), timeout=10.0, period=1.0)
     status = rig.warn('no reachable grasp')()[-1]
     assert status.name.endswith('grasp_planner: planning')
+    assert status.message.startswith('clarification requested: no reachable grasp')
     assert 'IK failed for all' in status.message and '3.00 m from the base' in status.message
+    values = {kv.key: kv.value for kv in status.values}
+    assert values['last plan status'].startswith('clarification requested: no reachable grasp')
+    assert rig.ros.wait_for(lambda: clarifications)
+    # one clarification for the intent, however often the (unreachable) object pose is re-sent
+    rig.ros.publish_until(rig.pose_pub, pose_msg((3.0, 0.01, 0.0), (0.0, 0.0, 1.0, 0.0)),
+                          lambda: int(values_of(rig.warn('no reachable grasp')()[-1])['plans']) >= 3, period=0.5)
+    assert [m.data.split(':')[0] for m in clarifications] == ['no reachable grasp']
+    assert 'IK failed for all' in clarifications[0].data
     assert rig.grasps.stamps_after(start) == []
     # back within reach: served again
     rig.request(pose_msg((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0)), rig.pose_pub)
@@ -422,9 +450,14 @@ def test_clarification_needed_and_model_switch(make_rig: Callable[..., Rig], tin
                                                kin: MicoKinematics) -> None:
     five, seven = tiny['cup_5zone'], tiny['cup_7zone']
     rig = make_rig(five)
+    clarifications = rig.ros.subscribe(String, 'intent/clarification')
     h_only = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0])  # no zone of the 5-zone model is possible
-    assert rig.ros.publish_until(rig.v_pub, v_msg(h_only), rig.warn('clarification needed'), period=0.5)
-    assert 'U,T,UT,TH,UTH' in rig.warn('clarification needed')()[-1].message
+    assert rig.ros.publish_until(rig.v_pub, v_msg(h_only), rig.warn('clarification requested'), period=0.5)
+    status = rig.warn('clarification requested')()[-1]
+    assert 'U,T,UT,TH,UTH' in status.message
+    assert values_of(status)['last plan status'] == status.message
+    assert rig.ros.wait_for(lambda: clarifications)
+    assert all('no probability to the zones U,T,UT,TH,UTH' in m.data for m in clarifications)
     v = interpret(W_GOOD).v
     plan = rig.request(v_msg(v))
     assert plan.posterior.zone_labels == ('U', 'T', 'UT', 'TH', 'UTH')

@@ -168,3 +168,51 @@ def test_invalid_initial_parameters_fail_construction(ros):
     with pytest.raises(InvalidParameterValueException):
         IntentInterpreter(context=ros.context,
                           parameter_overrides=[Parameter('clarification_threshold', value=2.0)])
+
+
+def _model_doc(name: str) -> String:
+    from grasp_intent_ros.core.model import GraspModel
+    from grasp_intent_ros.ros.conversions import model_to_msg
+    return model_to_msg(GraspModel.load(REPO / 'config' / 'models' / f'{name}.yaml'), name=name, version=1)
+
+
+def test_active_model_zones_decide_whether_the_intent_can_be_served(ros, interpreter):
+    from grasp_intent_ros.ros.qos import latched_qos
+    node, w_pub, v_msgs, clarifications = interpreter
+    statuses = ros.diagnostics()
+    model_pub = ros.publisher(String, 'model/active', latched_qos())
+    model_pub.publish(_model_doc('cup_4zone'))  # zones T, UT, TH, UTH: none without transfer
+    values = lambda s: {kv.key: kv.value for kv in s.values}  # noqa: E731
+    assert ros.wait_for(lambda: any('cup_4zone' in values(s).get('active model', '') for s in statuses))
+    # usage only: P(no task) = 0.1 is below the threshold, but no zone of cup_4zone is possible
+    assert ros.publish_until(w_pub, w_msg([0.9, 0.0, 0.0]), lambda: clarifications)
+    assert ros.wait_for(lambda: any(s.message.startswith('clarification requested') for s in statuses))
+    (msg,) = clarifications
+    assert 'no zone of the model has non-zero probability' in msg.data and 'cup_4zone' in msg.data
+    assert 'T,UT,TH,UTH' in msg.data and v_msgs == []
+    status = [s for s in statuses if s.message.startswith('clarification requested')][-1]
+    assert status.level == DiagnosticStatus.OK and values(status)['clarifications'] == '1'
+    assert values(status)['last outcome'] == f'clarification requested: {msg.data}'
+    # with transfer possible the same model serves it: v over all zones, as before
+    assert ros.publish_until(w_pub, w_msg([0.9, 0.9, 0.1]), lambda: v_msgs)
+    assert_allclose(msg_to_array(v_msgs[-1]), interpret([0.9, 0.9, 0.1]).v, atol=1e-12)
+    assert len(clarifications) == 1
+    # the 7-zone model has a "U only" zone: the first w is served once it is active
+    model_pub.publish(_model_doc('cup_7zone'))
+    assert ros.wait_for(lambda: any('cup_7zone' in values(s).get('active model', '') for s in statuses))
+    n_v = len(v_msgs)
+    assert ros.publish_until(w_pub, w_msg([0.9, 0.0, 0.0]), lambda: len(v_msgs) > n_v)
+    assert len(clarifications) == 1
+
+
+def test_model_of_other_tasks_is_not_used(ros, interpreter):
+    from grasp_intent_ros.ros.qos import latched_qos
+    node, w_pub, v_msgs, clarifications = interpreter
+    assert node.set_parameters([Parameter('task_names', value=['grasp', 'lift', 'give'])])[0].successful
+    statuses = ros.diagnostics()
+    ros.publisher(String, 'model/active', latched_qos()).publish(_model_doc('cup_4zone'))
+    values = lambda s: {kv.key: kv.value for kv in s.values}  # noqa: E731
+    assert ros.wait_for(lambda: any('differ from task_names' in values(s).get('active model', '')
+                                    for s in statuses))
+    assert ros.publish_until(w_pub, w_msg([0.9, 0.0, 0.0]), lambda: v_msgs)
+    assert clarifications == []

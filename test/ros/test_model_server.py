@@ -135,3 +135,33 @@ def test_unknown_initial_model_fails_construction(ros, tiny_models):
     with pytest.raises(ParameterError, match='known: broken, cup_5zone, cup_7zone'):
         ModelServer(context=ros.context, parameter_overrides=[
             Parameter('models_dir', value=str(tiny_models[0])), Parameter('model', value='mug')])
+
+
+def test_describe_lists_the_available_models_and_follows_the_directory(ros, tiny_models, tmp_path):
+    """What ``ros2 param describe /model_server model`` shows.
+
+    Through the node's describe_parameters service: the models in models_dir, read anew at every call.
+    """
+    import shutil
+
+    from rcl_interfaces.srv import DescribeParameters
+    source, _ = tiny_models
+    for name in ('cup_7zone', 'cup_5zone'):
+        shutil.copy(source / f'{name}.yaml', tmp_path / f'{name}.yaml')
+    ros.add(ModelServer(context=ros.context, parameter_overrides=[Parameter('models_dir', value=str(tmp_path))]))
+    client = ros.node.create_client(DescribeParameters, 'model_server/describe_parameters')
+    assert ros.wait_for(client.service_is_ready, timeout=10.0)
+
+    def describe() -> str:
+        future = client.call_async(DescribeParameters.Request(names=['model', 'models_dir']))
+        assert ros.wait_for(future.done, timeout=10.0)
+        model, models_dir = future.result().descriptors
+        assert models_dir.read_only and 'models_dir' in models_dir.name
+        assert model.name == 'model' and 'stem of a model YAML' in model.description
+        return model.additional_constraints
+
+    assert describe() == f'one of cup_5zone, cup_7zone: the *.yaml files in {tmp_path}'
+    shutil.copy(source / 'cup_5zone.yaml', tmp_path / 'cup_4zone.yaml')  # a model trained meanwhile
+    assert describe().startswith('one of cup_4zone, cup_5zone, cup_7zone:')
+    (tmp_path / 'cup_5zone.yaml').unlink()
+    assert describe().startswith('one of cup_4zone, cup_7zone:')

@@ -15,10 +15,11 @@ import rosbags.rosbag2
 import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
+from mcap_check import read_messages_mcap
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
-from grasp_intent_ros.bag import BagWriteError, QosSpec, read_messages, read_messages_mcap, topics_info
+from grasp_intent_ros.bag import BagWriteError, QosSpec, read_messages, topics_info
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.tools.recorder import Recorder
 
@@ -149,6 +150,52 @@ def test_existing_bag_is_never_overwritten(ros, tmp_path: Path) -> None:
     (tmp_path / 'taken').mkdir()
     with pytest.raises(BagWriteError, match='exists already'):
         Recorder(tmp_path / 'taken', context=ros.context)
+
+
+def test_recorded_qos_and_type_hashes_are_what_publishers_offer(ros, tmp_path: Path) -> None:
+    """As ``ros2 bag record`` (Jazzy): one offered profile per publisher, as discovery shows it.
+
+    History
+    unknown, depth 0, the publisher's deadline, lifespan, liveliness and lease; infinite when it sets none),
+    and each MCAP channel's topic_type_hash is the hash rclpy reports for the live publishers.
+    """
+    from mcap.reader import make_reader
+    from rclpy.duration import Duration
+    from rclpy.qos import LivelinessPolicy
+    timed = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=3, reliability=ReliabilityPolicy.RELIABLE,
+                       deadline=Duration(seconds=0.5), lifespan=Duration(seconds=2.0),
+                       liveliness=LivelinessPolicy.MANUAL_BY_TOPIC, liveliness_lease_duration=Duration(seconds=1.5))
+    timed_pub = ros.publisher(String, f'{NS}/object/label', timed)
+    plain_pubs = [ros.publisher(Float64MultiArray, W, DEEP_RELIABLE), ros.publisher(Float64MultiArray, W, BEST_EFFORT)]
+    recorder = ros.add(Recorder(tmp_path / 'q', context=ros.context, namespace=NS, discovery_period=0.1,
+                                topics=['object/', 'intent/']))
+    assert ros.wait_for(lambda: {f'{NS}/object/label', W} <= set(recorder.recorded_topics), timeout=10.0)
+    # mixed reliability: subscribed best effort, so that both publishers are heard
+    assert recorder.recorded_topics[W][1] == QosSpec('best_effort', 'volatile', 0)
+    assert ros.publish_until(timed_pub, String(data='cup'), lambda: recorder.counts[f'{NS}/object/label'] >= 1)
+    hashes = {t: str(ros.node.get_publishers_info_by_topic(t)[0].topic_type_hash) for t in (f'{NS}/object/label', W)}
+    ros.remove(recorder)
+    info = topics_info(tmp_path / 'q')
+    assert info[f'{NS}/object/label'].qos == (QosSpec('reliable', 'volatile', 0, 'manual_by_topic', 500_000_000,
+                                                      2_000_000_000, 1_500_000_000),)
+    assert sorted(info[W].qos, key=lambda q: q.reliability) == [QosSpec('best_effort', 'volatile', 0),
+                                                                QosSpec('reliable', 'volatile', 0)]
+    meta = yaml.safe_load((tmp_path / 'q' / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert meta['ros_distro'] == 'jazzy'
+    (label,) = [t['topic_metadata'] for t in meta['topics_with_message_count']
+                if t['topic_metadata']['name'] == f'{NS}/object/label']
+    (profile,) = label['offered_qos_profiles']
+    assert (profile['history'], profile['depth'], profile['liveliness']) == ('unknown', 0, 'manual_by_topic')
+    assert profile['deadline'] == {'sec': 0, 'nsec': 500_000_000}
+    assert profile['lifespan'] == {'sec': 2, 'nsec': 0}
+    assert profile['liveliness_lease_duration'] == {'sec': 1, 'nsec': 500_000_000}
+    (mcap_file,) = (tmp_path / 'q').glob('*.mcap')
+    with mcap_file.open('rb') as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    assert {c.topic: c.metadata['topic_type_hash'] for c in summary.channels.values() if c.topic in hashes} == hashes
+    assert all(h.startswith('RIHS01_') for h in hashes.values())
+    del plain_pubs
 
 
 def test_qos_override_and_explicit_topics(ros, tmp_path: Path) -> None:

@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
 from numpy.testing import assert_allclose
 from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.parameter import Parameter
@@ -44,7 +45,7 @@ from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.protocol import Posterior, msg_to_array
 from grasp_intent_ros.ros.conversions import model_from_msg, posterior_from_msg, stamped_array_from_msg
 from grasp_intent_ros.ros.qos import latched_qos
-from grasp_intent_ros.ros.robot import pose_msg_to_matrix
+from grasp_intent_ros.ros.robot import matrix_to_pose_msg, pose_msg_to_matrix
 from grasp_intent_ros.tools.paper_tables import CASES
 from grasp_intent_ros.tools.send_intent import GraspAnswer, IntentSender
 
@@ -363,6 +364,50 @@ def test_switching_the_model_at_run_time_changes_the_plan_and_unknown_models_are
     answer = chain.send(W_TWO)  # still planned on cup_5zone
     assert answer.posterior.zone_labels == cup5.zone_labels
     assert len(chain.active) == n_docs and model_from_msg(chain.active[-1]).name == 'cup_5zone'
+    chain.assert_running()
+
+
+# ---------------------------------------------------------------------------------------------- (c2)
+def test_intents_the_system_cannot_serve_get_one_clarification_each(chain, models):
+    """Intents that cannot be served get one clarification each.
+
+    cup_4zone has no "usage only" zone, so w = (0.9, 0, 0) cannot be served although P(no task) = 0.1; an
+    object out of reach cannot be grasped for any intent. Each such intent gets one message on
+    intent/clarification with the reason, and the nodes' status fields say what happened last.
+    """
+    ros = chain.ros
+    clarifications = ros.subscribe(String, 'intent/clarification')
+    values = lambda status: {kv.key: kv.value for kv in status.values}  # noqa: E731
+    assert chain.set_model('cup_4zone').successful
+    interpreter_knows = lambda: (s := chain.status('intent_interpreter: intent')) is not None and \
+        values(s)['active model'].startswith('cup_4zone')  # noqa: E731
+    assert ros.wait_for(interpreter_knows, STARTUP), 'the interpreter did not follow model/active'
+    w_pub = ros.publisher(Float64MultiArray, 'intent/w')
+    assert ros.wait_for(lambda: w_pub.get_subscription_count() >= 1, STARTUP)
+    # one w, published until its clarification arrives (the first message after matching may be lost)
+    assert ros.publish_until(w_pub, Float64MultiArray(data=[0.9, 0.0, 0.0]), lambda: clarifications,
+                             timeout=STARTUP, period=2.0)
+    assert 'no zone of the model has non-zero probability' in clarifications[0].data
+    assert 'cup_4zone: zones T,UT,TH,UTH' in clarifications[0].data
+    assert ros.wait_for(lambda: values(chain.status('intent_interpreter: intent'))['last outcome'].startswith(
+        'clarification requested: no zone of the model'))
+    # the chain still serves an intent the model can serve; still one clarification for the first
+    assert ros.wait_for(lambda: len(chain.sender.clarifications) == 1)  # not taken as the next answer
+    answer = chain.send(W_TWO)
+    assert answer.posterior.zone_labels == models[1]['cup_4zone'].zone_labels
+    assert len(clarifications) == 1, [m.data for m in clarifications]
+    assert ros.wait_for(lambda: values(chain.status('intent_interpreter: intent'))['last outcome'] == 'v published')
+
+    # no reachable grasp: the object 3 m away; the planner re-plans the last intent for the new pose
+    pose_pub = ros.publisher(PoseStamped, 'object/pose')
+    far = matrix_to_pose_msg(pose_to_matrix((3.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0)), frame_id=BASE_FRAME,
+                             stamp=ros.node.get_clock().now().to_msg())
+    assert ros.publish_until(pose_pub, far, lambda: len(clarifications) == 2, timeout=STARTUP, period=2.0)
+    assert clarifications[1].data.startswith('no reachable grasp: IK failed for all')
+    planning = lambda: chain.status('grasp_planner: planning')  # noqa: E731
+    assert ros.wait_for(lambda: planning().level == WARN and values(planning()).get(
+        'last plan status', '').startswith('clarification requested: no reachable grasp'))
+    assert planning().message.startswith('clarification requested: no reachable grasp')
     chain.assert_running()
 
 

@@ -16,10 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from mcap_check import read_messages_mcap
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, String
 
-from grasp_intent_ros.bag import QosSpec, read_messages, read_messages_mcap, topics_info
+from grasp_intent_ros.bag import QosSpec, read_messages, topics_info
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.tools.suite import NodeProcess, node_environment
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import errno
 import math
 import pathlib
+import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -18,6 +19,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from mcap.reader import make_reader
+from mcap_check import read_messages_mcap
 from numpy.testing import assert_array_equal
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosbags.typesys import Stores, get_typestore
@@ -34,7 +36,6 @@ from grasp_intent_ros.bag import (
     decode_qos,
     encode_qos,
     read_messages,
-    read_messages_mcap,
     topics_info,
 )
 from grasp_intent_ros.core.errors import GraspIntentError
@@ -43,6 +44,8 @@ T0_NS = 1_700_000_000_000_000_000  # a realistic epoch time, ns
 INTENT, POSE, STATUS = '/grasp_intent/intent', '/grasp_intent/target_pose', '/grasp_intent/status'
 F64MA, POSE_T = 'std_msgs/msg/Float64MultiArray', 'geometry_msgs/msg/PoseStamped'
 STRING = 'std_msgs/msg/String'
+STRING_RIHS01 = 'RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18'
+"""std_msgs/msg/String's type hash in ROS 2 Jazzy, as rclpy reports it for a live publisher."""
 QOS = {
     INTENT: QosSpec('best_effort', 'volatile', 5),
     POSE: QosSpec('reliable', 'volatile', 10),
@@ -201,19 +204,42 @@ def test_mcap_channels_carry_v9_qos_and_ros2msg_schemas(session: Session) -> Non
         schema = summary.schemas[channel.schema_id]
         assert (schema.name, schema.encoding) == (BUILDERS[topic][0], 'ros2msg')
         assert channel.message_encoding == 'cdr'
+        # rosbag2_storage_mcap (jazzy) create_topic: exactly these two entries per channel
+        assert set(channel.metadata) == {'offered_qos_profiles', 'topic_type_hash'}
+        assert re.fullmatch(r'RIHS01_[0-9a-f]{64}', channel.metadata['topic_type_hash'])
         (profile,) = yaml.safe_load(channel.metadata['offered_qos_profiles'])
-        spec = QOS[topic]
-        assert profile['history'] == 'keep_last' and profile['depth'] == spec.depth
-        assert (profile['reliability'], profile['durability']) == (spec.reliability, spec.durability)
-        assert profile['deadline'] == profile['lifespan'] == {'sec': 0, 'nsec': 0}
+        assert_rosbag2_profile(profile, QOS[topic])
         assert summary.statistics is not None
         assert summary.statistics.channel_message_counts[channel.id] == 40
+
+
+def assert_rosbag2_profile(profile: dict[str, Any], spec: QosSpec) -> None:
+    """One offered QoS profile as rosbag2_storage's qos.cpp (jazzy) encodes it for metadata version 9.
+
+    rmw policy names, rmw_time_t durations with RMW_DURATION_INFINITE = {9223372036 s, 854775807 ns}.
+    """
+    assert set(profile) == {'history', 'depth', 'reliability', 'durability', 'deadline', 'lifespan', 'liveliness',
+                            'liveliness_lease_duration', 'avoid_ros_namespace_conventions'}
+    assert (profile['history'], profile['depth']) == (('keep_last', spec.depth) if spec.depth else ('unknown', 0))
+    assert (profile['reliability'], profile['durability']) == (spec.reliability, spec.durability)
+    assert profile['liveliness'] == 'automatic'
+    infinite = {'sec': 9223372036, 'nsec': 854775807}
+    assert profile['deadline'] == profile['lifespan'] == profile['liveliness_lease_duration'] == infinite
+    assert profile['avoid_ros_namespace_conventions'] is False
 
 
 def test_metadata_yaml_is_rosbag2_v9_mcap(session: Session) -> None:
     path, written = session
     info = yaml.safe_load((path / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     assert info['version'] == 9
+    assert info['ros_distro'] == 'jazzy'  # what rosbag2 writes on Jazzy ($ROS_DISTRO), not 'rosbags'
+    # the MCAP file carries the same metadata (record 'rosbag2', as rosbag2_storage_mcap reads it)
+    (mcap_file,) = path.glob('*.mcap')
+    with mcap_file.open('rb') as f:
+        records = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+    embedded = yaml.safe_load(records['rosbag2']['serialized_metadata'])
+    assert embedded['ros_distro'] == 'jazzy' and embedded['version'] == 9
+    assert embedded['topics_with_message_count'] == info['topics_with_message_count']
     assert info['storage_identifier'] == 'mcap'
     assert info['relative_file_paths'] == ['session.mcap']
     assert (path / 'session.mcap').is_file()
@@ -226,10 +252,16 @@ def test_metadata_yaml_is_rosbag2_v9_mcap(session: Session) -> None:
         meta = entry['topic_metadata']
         assert entry['message_count'] == 40
         assert (meta['type'], meta['serialization_format']) == (BUILDERS[topic][0], 'cdr')
-        assert meta['type_description_hash'].startswith('RIHS01_')
+        assert re.fullmatch(r'RIHS01_[0-9a-f]{64}', meta['type_description_hash'])
         (profile,) = meta['offered_qos_profiles']  # v9: a list of mappings with string enums
-        assert profile['reliability'] == QOS[topic].reliability
-        assert profile['durability'] == QOS[topic].durability
+        assert_rosbag2_profile(profile, QOS[topic])
+    # the channel hash equals the metadata's, and the one rosidl gives std_msgs/String (as rclpy reports it)
+    with mcap_file.open('rb') as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    hashes = {c.topic: c.metadata['topic_type_hash'] for c in summary.channels.values()}
+    assert hashes == {t: e['topic_metadata']['type_description_hash'] for t, e in topics.items()}
+    assert hashes[STATUS] == STRING_RIHS01
 
 
 def test_5000_messages_all_found_in_order_by_both_readers(tmp_path: Path, store: Typestore) -> None:
@@ -406,9 +438,20 @@ def test_qos_spec_validates_and_round_trips() -> None:
     for bad in ({'reliability': 'sometimes'}, {'durability': 'persistent'}, {'depth': -1}, {'depth': 2.0}):
         with pytest.raises(BagError):
             QosSpec(**bad)
-    for spec in (QosSpec(), QosSpec('best_effort', 'transient_local', 1), QosSpec(depth=0)):
+    for bad in ({'liveliness': 'manual_by_node'}, {'deadline_ns': 0}, {'lifespan_ns': -1},
+                {'liveliness_lease_ns': 2**63 - 1}, {'deadline_ns': 1.5}):
+        with pytest.raises(BagError):
+            QosSpec(**bad)
+    for spec in (QosSpec(), QosSpec('best_effort', 'transient_local', 1), QosSpec(depth=0),
+                 QosSpec(liveliness='manual_by_topic', deadline_ns=100_000_000, lifespan_ns=2_500_000_000,
+                         liveliness_lease_ns=10**18)):
         assert decode_qos(encode_qos(spec)) == spec
     assert encode_qos(QosSpec(depth=0)).history == QosHistory.UNKNOWN  # as `ros2 bag record` stores it
+    # a publisher without deadline, lifespan or lease offers them infinite, with automatic liveliness
+    qos = encode_qos(QosSpec())
+    assert qos.deadline == qos.lifespan == qos.liveliness_lease_duration == QosTime(9223372036, 854775807)
+    assert qos.liveliness == QosLiveliness.AUTOMATIC
+    assert encode_qos(QosSpec(deadline_ns=2_500_000_000)).deadline == QosTime(2, 500_000_000)
 
 
 def test_decode_qos_of_foreign_profiles() -> None:
@@ -416,6 +459,10 @@ def test_decode_qos_of_foreign_profiles() -> None:
     keep_all = Qos(QosHistory.KEEP_ALL, 0, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL, inf, inf,
                    QosLiveliness.AUTOMATIC, inf, False)
     assert decode_qos(keep_all) == QosSpec('reliable', 'transient_local', 0)
+    # unspecified (0, the rmw default) and Foxy's infinities read as infinite, as rosbag2's qos.cpp does
+    for legacy in (QosTime(0, 0), QosTime(0x7FFFFFFF, 0xFFFFFFFF), QosTime(0x7FFFFFFF, 0x7FFFFFFF)):
+        assert decode_qos(keep_all._replace(deadline=legacy, liveliness=QosLiveliness.SYSTEM_DEFAULT)) == QosSpec(
+            'reliable', 'transient_local', 0, 'system_default')
     with pytest.raises(BagReadError, match='system_default'):
         decode_qos(keep_all._replace(reliability=QosReliability.SYSTEM_DEFAULT))
 

@@ -14,6 +14,7 @@ from grasp_intent_ros.core.grasp import (
     MIN_TRAJECTORY_TIME,
     OUTCOMES,
     Grasp,
+    NoModelZone,
     NoReachableGrasp,
     check_mico_model,
     plan_grasp,
@@ -60,12 +61,14 @@ def test_unreachable_object_gives_no_grasp_and_says_why(cup, kin) -> None:
     assert grasp.reason.startswith('no reachable grasp: IK failed for all') and '[2.0, 0.0, 0.0] m' in grasp.reason
 
 
-def test_v_without_probability_on_the_model_zones_needs_clarification(kin) -> None:
+def test_v_without_probability_on_the_model_zones_is_no_plan(kin) -> None:
     cup4 = GraspModel.load(config_dir() / 'models' / 'cup_4zone.yaml')
     only_h = np.zeros(7)
     only_h[2] = 1.0  # 'H' is no zone of the 4-zone model
-    with pytest.raises(InvalidIntentError, match="clarification needed: .* of model 'cup_4zone'"):
-        plan_grasp(cup4, only_h, intent.all_zones(3), BASE_T_OBJ, kin, name='cup_4zone')
+    outcome = plan_grasp(cup4, only_h, intent.all_zones(3), BASE_T_OBJ, kin, name='cup_4zone')
+    assert outcome == NoModelZone("v gives no probability to the zones T,UT,TH,UTH of model 'cup_4zone'")
+    with pytest.raises(InvalidIntentError, match='v must be a finite, non-negative vector with 7 entries'):
+        plan_grasp(cup4, only_h[:3], intent.all_zones(3), BASE_T_OBJ, kin)
 
 
 def test_timing_and_model_checks(cup) -> None:

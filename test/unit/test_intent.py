@@ -141,3 +141,24 @@ def test_v_as_received_is_a_probability_vector() -> None:
             intent.validate_v(bad)
     with pytest.raises(InvalidIntentError, match='2 values but its label names 3 zones'):
         intent.validate_v([0.5, 0.5], ('U', 'T', 'UT'))
+
+
+def test_support_asks_for_clarification_when_no_model_zone_is_possible() -> None:
+    from grasp_intent_ros.core.intent import DEFAULT_TASKS, all_zones, interpret, parse_zones, restrict, support_zones
+    four = parse_zones(['T', 'UT', 'TH', 'UTH'], DEFAULT_TASKS)
+    # usage only: P(no task) = 0.1, yet no zone of the 4-zone model has probability
+    r = interpret([0.9, 0.0, 0.0], support=four)
+    assert r.needs_clarification and r.v is None and 'no zone of the model' in r.reason
+    assert r.p_none == pytest.approx(0.1, abs=1e-15)
+    # v stays over all zones when the model can serve the intent, and agrees with restrict()
+    w = [0.9, 0.9, 0.1]
+    r = interpret(w, support=four)
+    assert not r.needs_clarification and r.zones == all_zones(3)
+    assert_allclose(r.v, interpret(w).v, rtol=0, atol=0)
+    assert_allclose(restrict(r.v, r.zones, four), interpret(w, four).v, rtol=0, atol=1e-15)
+    # P(no task) is checked first
+    assert 'P(no task)' in interpret([0.1, 0.1, 0.1], support=four).reason
+    with pytest.raises(InvalidIntentError, match='support'):
+        interpret(w, support=[8])
+    assert support_zones(DEFAULT_TASKS, DEFAULT_TASKS, four) == four
+    assert support_zones(('a', 'b', 'c'), DEFAULT_TASKS, four) is None
