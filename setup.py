@@ -6,6 +6,21 @@ from setuptools import find_packages, setup
 
 package_name = 'grasp_intent_ros'
 
+CONSOLE_SCRIPTS = {  # script name -> module (python -m grasp_intent_ros.<name> works for each too)
+    'intent_interpreter': 'intent_interpreter',
+    'model_server': 'model_server',
+    'grasp_planner': 'grasp_planner',
+    'send_intent': 'tools.send_intent',
+    'demo': 'tools.demo',
+    'recorder': 'tools.recorder',
+    'replay': 'tools.replay',
+    'report': 'tools.report',
+    'paper_tables': 'tools.paper_tables',
+    'ambiguity_report': 'tools.ambiguity_report',
+    'generate_data': 'dataset.generate_data',
+    'train': 'dataset.train',
+}
+
 setup(
     name=package_name,
     version='0.1.0',
@@ -42,14 +57,6 @@ setup(
     description='Intent-uncertainty-aware shared-control grasp planning for the Kinova MICO (ROS 2 Jazzy).',
     license='BSD-3-Clause',
     entry_points={
-        'console_scripts': [
-            f'{name} = {package_name}.{name}:main'
-            for name in ('intent_interpreter', 'model_server', 'grasp_planner')
-        ] + [
-            f'{name} = {package_name}.tools.{name}:main'
-            for name in ('send_intent', 'demo', 'recorder', 'replay', 'report', 'paper_tables', 'ambiguity_report')
-        ] + [
-            f'{name} = {package_name}.dataset.{name}:main' for name in ('generate_data', 'train')
-        ],
+        'console_scripts': [f'{name} = {package_name}.{module}:main' for name, module in CONSOLE_SCRIPTS.items()],
     },
 )

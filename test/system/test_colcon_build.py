@@ -32,11 +32,12 @@ pytestmark = pytest.mark.skipif(
 
 
 def entry_points() -> set[str]:
-    """The console script names setup.py declares."""
+    """The console script names setup.py declares (the keys of its CONSOLE_SCRIPTS)."""
     tree = ast.parse((REPO / 'setup.py').read_text())
-    names = next(n for n in ast.walk(tree) if isinstance(n, ast.Tuple)
-                 and any(isinstance(e, ast.Constant) and e.value == 'intent_interpreter' for e in n.elts))
-    return {e.value for e in names.elts if isinstance(e, ast.Constant)}
+    table = next(n.value for n in ast.walk(tree) if isinstance(n, ast.Assign)
+                 and any(isinstance(t, ast.Name) and t.id == 'CONSOLE_SCRIPTS' for t in n.targets))
+    assert isinstance(table, ast.Dict)
+    return {k.value for k in table.keys if isinstance(k, ast.Constant)}
 
 
 @pytest.fixture(scope='module')
