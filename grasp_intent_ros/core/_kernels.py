@@ -91,13 +91,9 @@ def _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, length
 
 
 @njit(cache=True)
-def _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1,  # type: ignore[no-untyped-def]
-              kinds, centres, axes, perps, radii, lengths, halfs, margin):
-    """Residuals e (rows,) and their Jacobian in scaled coordinates A (rows, d)."""
+def _log_joint_score(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
+    """log(pi_k N_k(x)) (K,) and its gradient -Sigma_k^-1 (x - mu_k) (K, d)."""
     K, d = means.shape
-    n_eq = K - 1
-    has_body = kinds.shape[0] > 0
-    rows = n_eq + 1 + (1 if has_body else 0)
     lj = np.empty(K)
     g = np.empty((K, d))
     for k in range(K):
@@ -105,6 +101,18 @@ def _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1,  # type: ig
         gk = -(prec[k] @ diff)
         g[k] = gk
         lj[k] = log_norm[k] + 0.5 * np.sum(diff * gk)
+    return lj, g
+
+
+@njit(cache=True)
+def _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1,  # type: ignore[no-untyped-def]
+              kinds, centres, axes, perps, radii, lengths, halfs, margin):
+    """Residuals e (rows,) and their Jacobian in scaled coordinates A (rows, d)."""
+    K, d = means.shape
+    n_eq = K - 1
+    has_body = kinds.shape[0] > 0
+    rows = n_eq + 1 + (1 if has_body else 0)
+    lj, g = _log_joint_score(x, means, prec, log_norm)
     e = np.zeros(rows)
     A = np.zeros((rows, d))
     for i in range(n_eq):
@@ -253,13 +261,7 @@ def project(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArr
 def _posterior_jacobian(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
     """P(k|x) (K,) and dP/dx (K, d)."""
     K, d = means.shape
-    lj = np.empty(K)
-    g = np.empty((K, d))
-    for k in range(K):
-        diff = x - means[k]
-        gk = -(prec[k] @ diff)
-        g[k] = gk
-        lj[k] = log_norm[k] + 0.5 * np.sum(diff * gk)
+    lj, g = _log_joint_score(x, means, prec, log_norm)
     p = np.exp(lj - np.max(lj))
     p /= np.sum(p)
     g_mean = p @ g
