@@ -443,7 +443,7 @@ def _unique_rows(x: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def _match_message(converged: bool) -> str:
-    return 'exact match' if converged else 'no exact match from this start'
+    return 'exact match' if converged else 'projection stopped before matching v (stalled or iteration limit)'
 
 
 def _choose(candidates: list[Candidate]) -> list[Candidate]:
