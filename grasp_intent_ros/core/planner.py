@@ -512,18 +512,21 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
         raise PlanningError(f"gradient must be 'analytic' or '2-point', got {gradient!r}")
     if method == 'lm' and (gradient != 'analytic' or extra_constraints):
         raise PlanningError("method 'lm' takes the analytic gradient and no extra_constraints")
-    demo_starts = select_starts(model, v_arr, n_starts, top_zones)
     if warm_start is not None:
         ws = np.asarray(warm_start, dtype=np.float64)
         if ws.shape != (model.features.dim,) or not np.all(np.isfinite(ws)):
             raise PlanningError(f'warm_start must be a finite vector of shape ({model.features.dim},)')
-        starts = np.concatenate([ws[None, :], demo_starts])
+        first = ws[None, :]
     else:
-        starts = demo_starts
-    x_ref = _Feasible(model, np.zeros(model.features.dim)).project(starts[:1])[0]
+        first = select_starts(model, v_arr, 1, top_zones)  # Algorithm 1's start
+    x_ref = _Feasible(model, np.zeros(model.features.dim)).project(first)[0]
     feas = _Feasible(model, x_ref)
-    starts = feas.project(starts)
-    f_start = np.asarray(objective(model, v_arr, starts))
+
+    def all_starts() -> NDArray[np.float64]:
+        """x_ref, then the demonstration starts (built only when the search goes beyond x_ref)."""
+        demo = feas.project(select_starts(model, v_arr, n_starts, top_zones))
+        out: NDArray[np.float64] = np.concatenate([x_ref[None, :], demo if warm_start is not None else demo[1:]])
+        return out
 
     def candidates_from(xs: NDArray[np.float64], origin: NDArray[np.float64], ok: NDArray[np.bool_],
                         its: NDArray[np.int64], first_index: int, message: Callable[..., str],
@@ -559,12 +562,11 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
         possible = bool(np.all(v_arr > 0.0))  # else P = v is impossible: P_k > 0 everywhere
         if possible:
             projection = _LogOddsProjection(model, v_arr, feas)
-            xs, ok, its = projection.run(starts[:1])  # the reference's own projection first
-            found = candidates_from(xs, starts[:1], ok, its, 0, _match_message)
+            xs, ok, its = projection.run(x_ref[None, :])  # the reference's own projection first
+            found = candidates_from(xs, x_ref[None, :], ok, its, 0, _match_message)
             chosen = choose(exact(found))
-        wide = starts
         if chosen is None:  # the wider search (its first row is the reference again)
-            wide = _unique_rows(np.concatenate([starts, feas.project(search_starts(model, v_arr))]))
+            wide = _unique_rows(np.concatenate([all_starts(), feas.project(search_starts(model, v_arr))]))
             if possible and wide.shape[0] > 1:
                 xs, ok, its = projection.run(wide[1:])
                 found += candidates_from(xs, wide[1:], ok, its, 1, _match_message)
@@ -580,7 +582,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
             found += candidates_from(xs, origins, ok, its, len(found),
                                      lambda c: 'least squares: converged' if c else 'least squares: iteration limit')
     else:
-        for i, s0 in enumerate(starts):
+        for i, s0 in enumerate(all_starts()):
             x1, ok1, text, it = _refine_scipy(model, v_arr, s0, method, gradient, extra_constraints, feas)
             found += candidates_from(x1[None, :], s0[None, :], np.array([ok1]), np.array([it]), i,
                                      lambda _, said=text: said)
