@@ -41,6 +41,7 @@ setup(
     install_requires=[
         'numpy>=1.24',
         'scipy>=1.10',
+        'numba>=0.60',
         'pyyaml>=6',
         'pin>=2.7',
         'rosbags>=0.10',

@@ -20,3 +20,6 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
     fi
     echo "$want" > "$stamp"
 fi
+# Compile the planner's numba kernels now (cached next to the source; a no-op when the cache is fresh),
+# so that no node pays for compilation on its first plan.
+"$repo/.venv/bin/python" -m grasp_intent_ros.core._kernels

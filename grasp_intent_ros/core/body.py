@@ -64,7 +64,8 @@ class Cylinder:
     axis: NDArray[np.float64]
     radius: float
     length: float
-    _perp: NDArray[np.float64] = field(init=False, repr=False)
+    perpendicular: NDArray[np.float64] = field(init=False, repr=False)
+    """A fixed unit vector perpendicular to the axis: the radial direction of points on the axis."""
 
     def __post_init__(self) -> None:
         axis = _vec3(self.axis, 'cylinder axis')
@@ -76,7 +77,7 @@ class Cylinder:
         object.__setattr__(self, 'radius', _positive(self.radius, 'cylinder radius'))
         object.__setattr__(self, 'length', _positive(self.length, 'cylinder length'))
         perp = np.cross(self.axis, [1.0, 0.0, 0.0] if abs(self.axis[0]) < 0.9 else [0.0, 1.0, 0.0])
-        object.__setattr__(self, '_perp', perp / np.linalg.norm(perp))
+        object.__setattr__(self, 'perpendicular', perp / np.linalg.norm(perp))
 
     def distance(self, p: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Signed distance of points p (N, 3) to the surface (< 0 inside) and its gradient (N, 3)."""
@@ -85,7 +86,7 @@ class Cylinder:
         radial = rel - t[:, None] * self.axis
         rho = np.sqrt(np.einsum('ni,ni->n', radial, radial))
         # radial unit vector; on the axis itself a fixed perpendicular (never noise)
-        e_r = np.where(rho[:, None] > 1e-12, radial / np.maximum(rho, 1e-12)[:, None], self._perp)
+        e_r = np.where(rho[:, None] > 1e-12, radial / np.maximum(rho, 1e-12)[:, None], self.perpendicular)
         e_t = np.where(t[:, None] < 0.0, -self.axis, self.axis)
         dr, dt = rho - self.radius, np.abs(t) - 0.5 * self.length
         out_r, out_t = np.maximum(dr, 0.0), np.maximum(dt, 0.0)

@@ -60,6 +60,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import (  # type: ignore[import-untyped]
     Bounds, NonlinearConstraint, OptimizeResult, minimize)
 
+from ._kernels import least_squares, project
+from .body import Box, Cylinder
 from .errors import PlanningError
 from .features import PALM
 from .intent import reconstruct_w
@@ -305,140 +307,54 @@ class _Feasible:
         return out
 
 
-def _min_norm_step(A: NDArray[np.float64], e: NDArray[np.float64], fixed: NDArray[np.bool_] | None,
-                   dfix: NDArray[np.float64] | None, active: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """The shortest dy with e + A dy = 0 on the active rows and dy = dfix where fixed, shape (N, d).
-
-    Rows are equilibrated (unit length); a ridge of 1e-14 + 1e-3 |e| (Levenberg-Marquardt damping)
-    keeps dependent rows solvable and the step insensitive to last-bit differences.
-    """
-    A = A * active[:, :, None]
-    norm = np.sqrt(np.einsum('nmd,nmd->nm', A, A))
-    norm = np.where(norm > 1e-300, norm, 1.0)
-    A = A / norm[:, :, None]
-    e = e * active / norm
-    if fixed is not None and dfix is not None:
-        e = e + np.einsum('nmd,nd->nm', A, dfix)
-        A = A * ~fixed[:, None, :]
-    gram = np.matmul(A, np.swapaxes(A, 1, 2))
-    idx = np.arange(gram.shape[1])
-    # Levenberg-Marquardt damping proportional to the residual: nearly dependent rows (far from the
-    # means) cannot amplify last-bit differences, and the convergence near a solution stays quadratic
-    damping = _GN_DAMPING * np.sqrt(np.einsum('nm,nm->n', e, e))
-    gram[:, idx, idx] += (1e-14 + damping)[:, None] + ~active
-    z = np.linalg.solve(gram, -e[:, :, None])
-    dy: NDArray[np.float64] = np.matmul(np.swapaxes(A, 1, 2), z)[:, :, 0]
-    if fixed is not None and dfix is not None:
-        dy = dy + dfix
-    return dy
-
-
 class _LogOddsProjection:
-    """Minimum-distance Gauss-Newton projection of starts onto the exact matches, vectorised over starts.
+    """Minimum-distance Gauss-Newton projection of starts onto the exact matches (compiled: ``_kernels``).
 
     The equations, in scaled coordinates y = x / s: the K - 1 log-odds equations, the unit approach,
     and (when the model has a body) the body clearance, active only when a step would cross it.
     Bounds are held by an active set. Each iteration takes the shortest step (in the scaled metric)
-    that solves the linearised equations, shortened to a trust radius until the 1-norm of the
-    log-odds residual falls. Near a solution the steps converge quadratically, to the match that is
-    nearest to the start up to second order in the distance. A start has converged when the residual
-    is below 1e-11 nats after a step of less than 1e-9 (scaled); it stops without a match when its
-    residual has not halved in 12 iterations, or after 60.
+    that solves the linearised equations (rows of unit length, a ridge of 1e-14 + 1e-3 |e| so that
+    nearly dependent rows cannot amplify last-bit differences), shortened to a trust radius until the
+    1-norm of the log-odds residual falls. Near a solution the steps converge quadratically, to the
+    match that is nearest to the start up to second order in the distance. A start has converged when
+    the residual is below 1e-11 nats after a step of less than 1e-9 (scaled); it stops without a match
+    when its residual has not halved in 12 iterations, or after 60.
     """
 
     def __init__(self, model: GraspModel, v: NDArray[np.float64], feas: _Feasible) -> None:
-        K, d = len(model.zones), model.features.dim
-        self.model, self.feas, self.d = model, feas, d
+        K = len(model.zones)
+        self.model, self.feas = model, feas
         self.r = int(zone_order(v)[0])
-        self.others = np.array([k for k in range(K) if k != self.r], dtype=np.intp)
+        self.others = np.array([k for k in range(K) if k != self.r], dtype=np.int64)
         self.b = np.log(v[self.others]) - np.log(v[self.r])
-        self.n_eq = K - 1
-        self.body = model.body
-        self.n_rows = self.n_eq + 1 + (1 if self.body is not None else 0)
-        self.bounded = np.ones(d, dtype=bool)
-        self.bounded[feas.a] = False  # a unit vector never leaves [-1, 1]
-        self.eye = np.eye(d)
-
-    def evaluate(self, x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Residuals e (N, rows) and their Jacobian in scaled coordinates A (N, rows, d)."""
-        n_eq, s, a = self.n_eq, self.feas.scale, self.feas.a
-        lj, g = self.model._log_joint_and_score(x)
-        e = np.zeros((x.shape[0], self.n_rows))
-        A = np.zeros((x.shape[0], self.n_rows, self.d))
-        e[:, :n_eq] = lj[:, self.others] - lj[:, self.r:self.r + 1] - self.b
-        A[:, :n_eq] = (g[:, self.others] - g[:, self.r:self.r + 1]) * s
-        e[:, n_eq] = np.sum(x[:, a] ** 2, axis=1) - 1.0
-        A[:, n_eq, a] = 2.0 * x[:, a] * s[a]
-        if self.body is not None:
-            sd, normal = self.body.distance(x[:, PALM])
-            e[:, n_eq + 1] = sd - self.body.margin
-            A[:, n_eq + 1, PALM] = normal * s[PALM]
-        return e, A
-
-    def step(self, x: NDArray[np.float64], e: NDArray[np.float64], A: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The shortest scaled step solving the linearised equations, bounds and body held, shape (N, d)."""
-        n, d, n_eq = x.shape[0], self.d, self.n_eq
-        s, lower, upper = self.feas.scale, self.feas.lower, self.feas.upper
-        active = np.ones((n, self.n_rows), dtype=bool)
-        if self.body is not None:
-            active[:, n_eq + 1] = False
-        dy = _min_norm_step(A, e, None, None, active)
-        pred = x + dy * s
-        out_low, out_high = self.bounded & (pred < lower), self.bounded & (pred > upper)
-        fixed = out_low | out_high
-        resolve = fixed.any(axis=1)
-        if self.body is not None:
-            hits = e[:, n_eq + 1] + np.einsum('nd,nd->n', A[:, n_eq + 1], dy) < 0.0
-            active[:, n_eq + 1] = hits
-            resolve |= hits
-        if resolve.any():
-            dfix = np.where(out_low, (lower - x) / s, np.where(out_high, (upper - x) / s, 0.0))
-            dy[resolve] = _min_norm_step(A[resolve], e[resolve], fixed[resolve], dfix[resolve], active[resolve])
-        return dy
 
     def run(self, starts: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
         """End points (N, d), whether each converged with the equations met, iterations per start."""
-        feas, s, n_eq = self.feas, self.feas.scale, self.n_eq
-        x = feas.project(starts.astype(np.float64, copy=True))
-        n = x.shape[0]
-        e, A = self.evaluate(x)
-        l1 = np.sum(np.abs(e[:, :n_eq]), axis=1)
-        radius = np.full(n, 1.0)
-        done = np.zeros(n, dtype=bool)
-        converged = np.zeros(n, dtype=bool)
-        iterations = np.zeros(n, dtype=np.int64)
-        checkpoint = l1.copy()
-        for it in range(1, _GN_MAXITER + 1):
-            if it % _GN_STALL == 0:  # a start that has not halved its residual in _GN_STALL iterations stalls
-                stalled = ~done & (l1 > 0.5 * checkpoint)
-                done |= stalled
-                checkpoint = l1.copy()
-            idx = np.flatnonzero(~done)
-            if idx.size == 0:
-                break
-            xi = x[idx]
-            dy = self.step(xi, e[idx], A[idx])
-            size = np.linalg.norm(dy, axis=1)
-            t = np.minimum(1.0, radius[idx] / np.maximum(size, 1e-300))
-            x_try = feas.project(xi + (t[:, None] * dy) * s)
-            e_try, A_try = self.evaluate(x_try)
-            l1_try = np.sum(np.abs(e_try[:, :n_eq]), axis=1)
-            iterations[idx] += 1
-            ok = l1_try < l1[idx]
-            fin = (np.max(np.abs(e_try[:, :n_eq]), axis=1) <= _GN_HTOL) & (t * size <= _GN_STEPTOL)
-            ok |= fin
-            acc = idx[ok]
-            x[acc], e[acc], A[acc], l1[acc] = x_try[ok], e_try[ok], A_try[ok], l1_try[ok]
-            converged[idx[fin]] = done[idx[fin]] = True
-            radius[idx] = np.where(ok, np.minimum(2.0 * np.maximum(radius[idx], t * size), 4.0),
-                                   0.25 * np.minimum(radius[idx], t * size))
-            done[idx[radius[idx] < 1e-12]] = True
-        return x, converged, iterations
+        model, feas = self.model, self.feas
+        return project(starts, model.means, model._precisions, model._log_norm, self.others, self.r, self.b,
+                       feas.scale, feas.lower, feas.upper, feas.a.start, feas.a.stop, _body_arrays(model),
+                       maxiter=_GN_MAXITER, stall=_GN_STALL, damping=_GN_DAMPING, htol=_GN_HTOL,
+                       steptol=_GN_STEPTOL)
+
+
+def _body_arrays(model: GraspModel) -> tuple[Any, ...]:
+    """The body's primitives as the compiled kernels take them (see :mod:`._kernels`), and the margin."""
+    prims = model.body.primitives if model.body is not None else ()
+    cylinders = [p if isinstance(p, Cylinder) else None for p in prims]
+    kinds = np.array([0 if c is not None else 1 for c in cylinders], dtype=np.int64)
+    centres = np.array([p.centre for p in prims], dtype=np.float64).reshape(-1, 3)
+    axes = np.array([c.axis if c is not None else np.zeros(3) for c in cylinders]).reshape(-1, 3)
+    perps = np.array([c.perpendicular if c is not None else np.zeros(3) for c in cylinders]).reshape(-1, 3)
+    radii = np.array([c.radius if c is not None else 0.0 for c in cylinders], dtype=np.float64)
+    lengths = np.array([c.length if c is not None else 0.0 for c in cylinders], dtype=np.float64)
+    halfs = np.array([p.half_extents if isinstance(p, Box) else np.zeros(3) for p in prims]).reshape(-1, 3)
+    margin = model.body.margin if model.body is not None else 0.0
+    return kinds, centres, axes, perps, radii, lengths, halfs, margin
 
 
 def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.float64],
                feas: _Feasible) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
-    """Projected Levenberg-Marquardt on r(x) = v - P(x), all starts at once (shape (N, d)).
+    """Projected Levenberg-Marquardt on r(x) = v - P(x), every start (shape (N, d); compiled: ``_kernels``).
 
     Each iteration solves (J^T J + lam diag(J^T J) + eps I) dx = J^T r per start (eps = 1e-7 times the
     largest curvature, so that nearly flat directions cannot amplify last-bit differences), with J restricted to
@@ -448,43 +364,9 @@ def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.flo
     less than 1e-7 f + 1e-15 or no step lowers f any more (stationary to machine precision); one that
     reaches the iteration limit (300) has not.
     """
-    lower, upper = model.lower, model.upper
-    a = model.features.approach
-    n, d = starts.shape
-    eye = np.eye(d)
-    x = feas.project(starts.astype(np.float64, copy=True))
-    p, jac = model.posterior_jacobian(x, check=False)
-    r = v - p
-    f = 0.5 * np.sum(r * r, axis=1)
-    lam = np.full(n, 1e-3)
-    done = np.zeros(n, dtype=bool)
-    iterations = np.zeros(n, dtype=np.int64)
-    for _ in range(_LM_MAXITER):
-        if done.all():
-            break
-        ax = x[:, a]
-        jt = jac.copy()
-        jt[:, :, a] -= np.matmul(np.matmul(jac[:, :, a], ax[:, :, None]), ax[:, None, :])
-        grad = -np.matmul(r[:, None, :], jt)[:, 0, :]  # (n, d), gradient of f
-        held = ((x <= lower) & (grad > 0.0)) | ((x >= upper) & (grad < 0.0))
-        jt = np.where(held[:, None, :], 0.0, jt)
-        h = np.matmul(np.swapaxes(jt, 1, 2), jt)
-        diag = np.einsum('nii->ni', h)
-        ridge = _LM_RIDGE * np.max(diag, axis=1, keepdims=True) + 1e-12
-        system = h + (lam[:, None] * diag + ridge)[:, :, None] * eye
-        step = np.linalg.solve(system, -np.where(held, 0.0, grad)[:, :, None])[:, :, 0]
-        x_new = feas.project(x + step)
-        p_new, jac_new = model.posterior_jacobian(x_new, check=False)
-        r_new = v - p_new
-        f_new = 0.5 * np.sum(r_new * r_new, axis=1)
-        better = (f_new < f) & ~done
-        small = better & (f - f_new < _LM_FTOL * f + 1e-15)
-        x[better], p[better], jac[better], r[better] = x_new[better], p_new[better], jac_new[better], r_new[better]
-        f = np.where(better, f_new, f)
-        lam = np.where(done, lam, np.where(better, lam / 3.0, lam * 4.0))
-        iterations += ~done
-        done |= small | (lam > 1e10)
-    return x, done, iterations
+    return least_squares(starts, v, model.means, model._precisions, model._log_norm, feas.lower, feas.upper,
+                         feas.a.start, feas.a.stop, _body_arrays(model), maxiter=_LM_MAXITER, ftol=_LM_FTOL,
+                         ridge=_LM_RIDGE)
 
 
 def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.float64], method: Method,
@@ -561,7 +443,7 @@ def _unique_rows(x: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def _match_message(converged: bool) -> str:
-    return 'exact match' if converged else 'no exact match from this start'
+    return 'exact match' if converged else 'projection stopped before matching v (stalled or iteration limit)'
 
 
 def _choose(candidates: list[Candidate]) -> list[Candidate]:
@@ -630,18 +512,21 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
         raise PlanningError(f"gradient must be 'analytic' or '2-point', got {gradient!r}")
     if method == 'lm' and (gradient != 'analytic' or extra_constraints):
         raise PlanningError("method 'lm' takes the analytic gradient and no extra_constraints")
-    demo_starts = select_starts(model, v_arr, n_starts, top_zones)
     if warm_start is not None:
         ws = np.asarray(warm_start, dtype=np.float64)
         if ws.shape != (model.features.dim,) or not np.all(np.isfinite(ws)):
             raise PlanningError(f'warm_start must be a finite vector of shape ({model.features.dim},)')
-        starts = np.concatenate([ws[None, :], demo_starts])
+        first = ws[None, :]
     else:
-        starts = demo_starts
-    x_ref = _Feasible(model, np.zeros(model.features.dim)).project(starts[:1])[0]
+        first = select_starts(model, v_arr, 1, top_zones)  # Algorithm 1's start
+    x_ref = _Feasible(model, np.zeros(model.features.dim)).project(first)[0]
     feas = _Feasible(model, x_ref)
-    starts = feas.project(starts)
-    f_start = np.asarray(objective(model, v_arr, starts))
+
+    def all_starts() -> NDArray[np.float64]:
+        """x_ref, then the demonstration starts (built only when the search goes beyond x_ref)."""
+        demo = feas.project(select_starts(model, v_arr, n_starts, top_zones))
+        out: NDArray[np.float64] = np.concatenate([x_ref[None, :], demo if warm_start is not None else demo[1:]])
+        return out
 
     def candidates_from(xs: NDArray[np.float64], origin: NDArray[np.float64], ok: NDArray[np.bool_],
                         its: NDArray[np.int64], first_index: int, message: Callable[..., str],
@@ -677,12 +562,11 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
         possible = bool(np.all(v_arr > 0.0))  # else P = v is impossible: P_k > 0 everywhere
         if possible:
             projection = _LogOddsProjection(model, v_arr, feas)
-            xs, ok, its = projection.run(starts[:1])  # the reference's own projection first
-            found = candidates_from(xs, starts[:1], ok, its, 0, _match_message)
+            xs, ok, its = projection.run(x_ref[None, :])  # the reference's own projection first
+            found = candidates_from(xs, x_ref[None, :], ok, its, 0, _match_message)
             chosen = choose(exact(found))
-        wide = starts
         if chosen is None:  # the wider search (its first row is the reference again)
-            wide = _unique_rows(np.concatenate([starts, feas.project(search_starts(model, v_arr))]))
+            wide = _unique_rows(np.concatenate([all_starts(), feas.project(search_starts(model, v_arr))]))
             if possible and wide.shape[0] > 1:
                 xs, ok, its = projection.run(wide[1:])
                 found += candidates_from(xs, wide[1:], ok, its, 1, _match_message)
@@ -698,7 +582,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
             found += candidates_from(xs, origins, ok, its, len(found),
                                      lambda c: 'least squares: converged' if c else 'least squares: iteration limit')
     else:
-        for i, s0 in enumerate(starts):
+        for i, s0 in enumerate(all_starts()):
             x1, ok1, text, it = _refine_scipy(model, v_arr, s0, method, gradient, extra_constraints, feas)
             found += candidates_from(x1[None, :], s0[None, :], np.array([ok1]), np.array([it]), i,
                                      lambda _, said=text: said)
@@ -748,3 +632,4 @@ def reference_search(model: GraspModel, v: ArrayLike, *, n_starts: int = 60, see
         x = _refine_scipy(model, v_arr, start, 'slsqp', 'analytic', (), feas)[0]
         best = min(best, float(objective(model, v_arr, x)))
     return best
+

@@ -20,6 +20,7 @@ KEYS_FILE = REPO / 'test' / 'data' / 'rosdep_keys_jazzy.txt'
 THIRD_PARTY = {
     'numpy': ('python3-numpy', 'numpy'),
     'scipy': ('python3-scipy', 'scipy'),
+    'numba': ('python3-numba', 'numba'),
     'yaml': ('python3-yaml', 'pyyaml'),
     'matplotlib': ('python3-matplotlib', 'matplotlib'),
     'pinocchio': ('pinocchio', 'pin'),

@@ -215,8 +215,8 @@ def test_last_bit_perturbations_of_v_give_the_same_grasp(shipped: dict[str, Gras
         return
     a = planner.plan(model, r.v)
     b = planner.plan(model, _perturbed(r.v, seed))
-    if not (a.success and b.success):  # stopped at an iteration limit: said in the status, no claim here
-        assert 'iteration limit' in a.message + b.message
+    if not (a.success and b.success):  # stopped before converging: said in the status, no claim here
+        assert 'solver_failed' in (a.status, b.status)
         return
     assert a.exact == b.exact, (a.message, b.message)
     if a.exact:  # a match: the same grasp

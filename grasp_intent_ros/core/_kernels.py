@@ -1,0 +1,357 @@
+"""Compiled inner loops of the planner (numba), one start at a time: the log-odds projection and the
+projected Levenberg-Marquardt least squares.
+
+The algorithms are stated in :class:`grasp_intent_ros.core.planner._LogOddsProjection` and
+:func:`grasp_intent_ros.core.planner._refine_lm`; this module only runs them without numpy's per-call overhead (an iteration is ~10^3 flops, so that overhead, not the
+arithmetic, was the cost). Compiled code is cached next to this file (``cache=True``); the first call
+in a fresh installation compiles it (a few seconds).
+
+Body primitives are passed as arrays: ``kinds`` (0 cylinder, 1 box), ``centres``, ``axes`` and
+``perps`` (cylinders: unit axis and a fixed unit perpendicular), ``radii``, ``lengths`` (cylinders),
+``halfs`` (boxes: half extents); no primitive at all means no body.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+__all__ = ['project', 'least_squares', 'warm_up']
+
+
+@njit(cache=True)
+def _distance(p, kinds, centres, axes, perps, radii, lengths, halfs):  # type: ignore[no-untyped-def]
+    """Signed distance of p (3,) to the union of primitives (first on ties) and its unit gradient."""
+    best = np.inf
+    grad = np.zeros(3)
+    for m in range(kinds.shape[0]):
+        g = np.zeros(3)
+        rel = p - centres[m]
+        if kinds[m] == 0:
+            axis = axes[m]
+            t = rel[0] * axis[0] + rel[1] * axis[1] + rel[2] * axis[2]
+            radial = rel - t * axis
+            rho = math.sqrt(radial[0] ** 2 + radial[1] ** 2 + radial[2] ** 2)
+            e_r = radial / max(rho, 1e-12) if rho > 1e-12 else perps[m].copy()
+            e_t = -axis if t < 0.0 else axis.copy()
+            dr = rho - radii[m]
+            dt = abs(t) - 0.5 * lengths[m]
+            out_r, out_t = max(dr, 0.0), max(dt, 0.0)
+            outside = math.hypot(out_r, out_t)
+            if outside > 0.0:
+                sd = outside
+                g = (out_r / outside) * e_r + (out_t / outside) * e_t
+            else:
+                sd = max(dr, dt)
+                g = e_r if dr >= dt else e_t
+        else:
+            q = np.abs(rel) - halfs[m]
+            sign = np.where(rel < 0.0, -1.0, 1.0)
+            out = np.maximum(q, 0.0)
+            outside = math.sqrt(out[0] ** 2 + out[1] ** 2 + out[2] ** 2)
+            if q[0] > 0.0 or q[1] > 0.0 or q[2] > 0.0:
+                sd = outside
+                g = sign * out / max(outside, 1e-300)
+            else:
+                face = int(np.argmax(q))
+                sd = q[face]
+                g[face] = sign[face]
+        if sd < best:
+            best = sd
+            grad = g
+    return best, grad
+
+
+@njit(cache=True)
+def _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs,  # type: ignore[no-untyped-def]
+             margin):
+    """Clip to the bounds, normalise the approach, push the palm out of the body (in place)."""
+    for i in range(x.size):
+        x[i] = min(max(x[i], lower[i]), upper[i])
+    norm = math.sqrt(np.sum(x[a0:a1] ** 2))
+    if norm > 1e-12:
+        x[a0:a1] /= max(norm, 1e-12)
+    else:
+        x[a0:a1] = 0.0
+        x[a0 + 2] = 1.0
+    if kinds.shape[0] > 0:
+        p = x[0:3].copy()
+        for _ in range(4):
+            sd, grad = _distance(p, kinds, centres, axes, perps, radii, lengths, halfs)
+            if sd >= margin:
+                break
+            p += (margin - sd) * grad
+        for i in range(3):
+            x[i] = min(max(p[i], lower[i]), upper[i])
+    return x
+
+
+@njit(cache=True)
+def _log_joint_score(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
+    """log(pi_k N_k(x)) (K,) and its gradient -Sigma_k^-1 (x - mu_k) (K, d)."""
+    K, d = means.shape
+    lj = np.empty(K)
+    g = np.empty((K, d))
+    for k in range(K):
+        diff = x - means[k]
+        gk = -(prec[k] @ diff)
+        g[k] = gk
+        lj[k] = log_norm[k] + 0.5 * np.sum(diff * gk)
+    return lj, g
+
+
+@njit(cache=True)
+def _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1,  # type: ignore[no-untyped-def]
+              kinds, centres, axes, perps, radii, lengths, halfs, margin):
+    """Residuals e (rows,) and their Jacobian in scaled coordinates A (rows, d)."""
+    K, d = means.shape
+    n_eq = K - 1
+    has_body = kinds.shape[0] > 0
+    rows = n_eq + 1 + (1 if has_body else 0)
+    lj, g = _log_joint_score(x, means, prec, log_norm)
+    e = np.zeros(rows)
+    A = np.zeros((rows, d))
+    for i in range(n_eq):
+        k = others[i]
+        e[i] = lj[k] - lj[r] - b[i]
+        A[i] = (g[k] - g[r]) * scale
+    e[n_eq] = np.sum(x[a0:a1] ** 2) - 1.0
+    for j in range(a0, a1):
+        A[n_eq, j] = 2.0 * x[j] * scale[j]
+    if has_body:
+        sd, normal = _distance(x[0:3].copy(), kinds, centres, axes, perps, radii, lengths, halfs)
+        e[n_eq + 1] = sd - margin
+        for j in range(3):
+            A[n_eq + 1, j] = normal[j] * scale[j]
+    return e, A
+
+
+@njit(cache=True)
+def _min_norm(A, e, fixed, dfix, active, damping):  # type: ignore[no-untyped-def]
+    """The shortest dy with e + A dy = 0 on the active rows and dy = dfix where fixed."""
+    rows, d = A.shape
+    An = A.copy()
+    en = e.copy()
+    for i in range(rows):
+        if not active[i]:
+            An[i] = 0.0
+            en[i] = 0.0
+        norm = math.sqrt(np.sum(An[i] ** 2))
+        if not norm > 1e-300:
+            norm = 1.0
+        An[i] /= norm
+        en[i] /= norm
+    en = en + An @ dfix
+    for j in range(d):
+        if fixed[j]:
+            An[:, j] = 0.0
+    gram = An @ An.T
+    ridge = 1e-14 + damping * math.sqrt(np.sum(en ** 2))
+    for i in range(rows):
+        gram[i, i] += ridge + (0.0 if active[i] else 1.0)
+    z = np.linalg.solve(gram, -en)
+    return An.T @ z + dfix
+
+
+@njit(cache=True)
+def _step(x, e, A, scale, lower, upper, bounded, has_body, damping):  # type: ignore[no-untyped-def]
+    """The shortest scaled step solving the linearised equations, bounds and body held."""
+    rows, d = A.shape
+    n_eq = rows - 1 - (1 if has_body else 0)
+    active = np.ones(rows, dtype=np.bool_)
+    if has_body:
+        active[n_eq + 1] = False
+    fixed = np.zeros(d, dtype=np.bool_)
+    zero = np.zeros(d)
+    dy = _min_norm(A, e, fixed, zero, active, damping)
+    resolve = False
+    dfix = np.zeros(d)
+    for j in range(d):
+        pred = x[j] + dy[j] * scale[j]
+        if bounded[j] and pred < lower[j]:
+            fixed[j] = True
+            dfix[j] = (lower[j] - x[j]) / scale[j]
+            resolve = True
+        elif bounded[j] and pred > upper[j]:
+            fixed[j] = True
+            dfix[j] = (upper[j] - x[j]) / scale[j]
+            resolve = True
+    if has_body and e[n_eq + 1] + np.sum(A[n_eq + 1] * dy) < 0.0:
+        active[n_eq + 1] = True
+        resolve = True
+    if resolve:
+        dy = _min_norm(A, e, fixed, dfix, active, damping)
+    return dy
+
+
+@njit(cache=True)
+def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArray[np.float64],  # type: ignore[no-untyped-def]
+                   log_norm: NDArray[np.float64], others: NDArray[np.int64], r: int, b: NDArray[np.float64],
+                   scale: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray[np.float64],
+                   a0: int, a1: int, kinds: NDArray[np.int64], centres: NDArray[np.float64],
+                   axes: NDArray[np.float64], perps: NDArray[np.float64], radii: NDArray[np.float64],
+                   lengths: NDArray[np.float64], halfs: NDArray[np.float64], margin: float,
+                   maxiter: int, stall: int, damping: float, htol: float, steptol: float):
+    """Project every start (N, d); returns end points (N, d), converged (N,), iterations (N,)."""
+    n, d = starts.shape
+    K = means.shape[0]
+    n_eq = K - 1
+    has_body = kinds.shape[0] > 0
+    bounded = np.ones(d, dtype=np.bool_)
+    bounded[a0:a1] = False  # a unit vector never leaves [-1, 1]
+    out = np.empty((n, d))
+    converged = np.zeros(n, dtype=np.bool_)
+    iterations = np.zeros(n, dtype=np.int64)
+    for s in range(n):
+        x = _project(starts[s].copy(), lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
+                     halfs, margin)
+        e, A = _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1, kinds, centres, axes, perps,
+                         radii, lengths, halfs, margin)
+        l1 = np.sum(np.abs(e[:n_eq]))
+        checkpoint = l1
+        radius = 1.0
+        for it in range(1, maxiter + 1):
+            if it % stall == 0:  # a start that has not halved its residual in `stall` iterations stalls
+                if l1 > 0.5 * checkpoint:
+                    break
+                checkpoint = l1
+            dy = _step(x, e, A, scale, lower, upper, bounded, has_body, damping)
+            size = math.sqrt(np.sum(dy ** 2))
+            t = min(1.0, radius / max(size, 1e-300))
+            x_try = _project(x + (t * dy) * scale, lower, upper, a0, a1, kinds, centres, axes, perps, radii,
+                             lengths, halfs, margin)
+            e_try, A_try = _evaluate(x_try, means, prec, log_norm, others, r, b, scale, a0, a1, kinds, centres,
+                                     axes, perps, radii, lengths, halfs, margin)
+            l1_try = np.sum(np.abs(e_try[:n_eq]))
+            iterations[s] += 1
+            fin = np.max(np.abs(e_try[:n_eq])) <= htol and t * size <= steptol
+            ok = l1_try < l1 or fin
+            if ok:
+                x, e, A, l1 = x_try, e_try, A_try, l1_try
+            if fin:
+                converged[s] = True
+                break
+            radius = min(2.0 * max(radius, t * size), 4.0) if ok else 0.25 * min(radius, t * size)
+            if radius < 1e-12:
+                break
+        out[s] = x
+    return out, converged, iterations
+
+
+def project(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArray[np.float64],
+            log_norm: NDArray[np.float64], others: NDArray[np.int64], r: int, b: NDArray[np.float64],
+            scale: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray[np.float64], a0: int, a1: int,
+            body: tuple[Any, ...], *, maxiter: int, stall: int, damping: float, htol: float,
+            steptol: float) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
+    """Project every start (N, d) onto the log-odds equations: end points, converged (N,), iterations (N,).
+
+    ``body`` is ``(kinds, centres, axes, perps, radii, lengths, halfs, margin)`` (module docstring).
+    """
+    out: tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]] = _project_starts(
+        np.ascontiguousarray(starts, dtype=np.float64), means, prec, log_norm, others, r, b, scale, lower,
+        upper, a0, a1, *body, maxiter, stall, damping, htol, steptol)  # type: ignore[call-arg]
+    return out
+
+
+@njit(cache=True)
+def _posterior_jacobian(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
+    """P(k|x) (K,) and dP/dx (K, d)."""
+    K, d = means.shape
+    lj, g = _log_joint_score(x, means, prec, log_norm)
+    p = np.exp(lj - np.max(lj))
+    p /= np.sum(p)
+    g_mean = p @ g
+    jac = np.empty((K, d))
+    for k in range(K):
+        jac[k] = p[k] * (g[k] - g_mean)
+    return p, jac
+
+
+@njit(cache=True)
+def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # type: ignore[no-untyped-def]
+                   kinds, centres, axes, perps, radii, lengths, halfs, margin, maxiter, ftol, ridge_rel):
+    """Projected Levenberg-Marquardt on v - P(x) from every start (see planner._refine_lm)."""
+    n, d = starts.shape
+    out = np.empty((n, d))
+    converged = np.zeros(n, dtype=np.bool_)
+    iterations = np.zeros(n, dtype=np.int64)
+    for s in range(n):
+        x = _project(starts[s].copy(), lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
+                     halfs, margin)
+        p, jac = _posterior_jacobian(x, means, prec, log_norm)
+        r = v - p
+        f = 0.5 * np.sum(r * r)
+        lam = 1e-3
+        done = False
+        for _ in range(maxiter):
+            ax = x[a0:a1].copy()
+            jt = jac.copy()
+            proj = np.ascontiguousarray(jac[:, a0:a1]) @ ax
+            for k in range(jt.shape[0]):
+                jt[k, a0:a1] -= proj[k] * ax
+            grad = -(r @ jt)
+            held = np.zeros(d, dtype=np.bool_)
+            for j in range(d):
+                held[j] = (x[j] <= lower[j] and grad[j] > 0.0) or (x[j] >= upper[j] and grad[j] < 0.0)
+                if held[j]:
+                    jt[:, j] = 0.0
+                    grad[j] = 0.0
+            h = jt.T @ jt
+            diag = np.diag(h).copy()
+            ridge = ridge_rel * np.max(diag) + 1e-12
+            system = h + np.diag(lam * diag + ridge)
+            step = np.linalg.solve(system, -grad)
+            x_new = _project(x + step, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs,
+                             margin)
+            p_new, jac_new = _posterior_jacobian(x_new, means, prec, log_norm)
+            r_new = v - p_new
+            f_new = 0.5 * np.sum(r_new * r_new)
+            better = f_new < f
+            small = better and (f - f_new < ftol * f + 1e-15)
+            if better:
+                x, p, jac, r, f = x_new, p_new, jac_new, r_new, f_new
+                lam = lam / 3.0
+            else:
+                lam = lam * 4.0
+            iterations[s] += 1
+            if small or lam > 1e10:
+                done = True
+                break
+        out[s] = x
+        converged[s] = done
+    return out, converged, iterations
+
+
+def least_squares(starts: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.float64],
+                  prec: NDArray[np.float64], log_norm: NDArray[np.float64], lower: NDArray[np.float64],
+                  upper: NDArray[np.float64], a0: int, a1: int, body: tuple[Any, ...], *, maxiter: int,
+                  ftol: float, ridge: float) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
+    """Projected Levenberg-Marquardt on v - P(x) from every start (N, d): end points, converged, iterations."""
+    out: tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]] = _least_squares(
+        np.ascontiguousarray(starts, dtype=np.float64), v, means, prec, log_norm, lower, upper, a0, a1, *body,
+        maxiter, ftol, ridge)  # type: ignore[call-arg]
+    return out
+
+
+def warm_up() -> None:
+    """Compile (or load from the cache) every kernel on a tiny problem with the planner's argument types.
+
+    ``scripts/venv.sh`` calls it at set-up time, so that no node pays for compilation on its first plan.
+    """
+    d = 10
+    cylinder = (np.zeros(1, dtype=np.int64), np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]),
+                np.array([[1.0, 0.0, 0.0]]), np.ones(1), np.ones(1), np.zeros((1, 3)), 0.001)
+    for body in (cylinder, (np.ones(1, dtype=np.int64), *cylinder[1:6], np.ones((1, 3)), 0.001)):
+        project(np.full((1, d), 0.5), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
+                np.ones(1, dtype=np.int64), 0, np.zeros(1), np.ones(d), -np.ones(d), np.ones(d), 3, 6, body,
+                maxiter=2, stall=12, damping=1e-3, htol=1e-11, steptol=1e-9)
+        least_squares(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2),
+                      np.zeros(2), -np.ones(d), np.ones(d), 3, 6, body, maxiter=2, ftol=1e-7, ridge=1e-7)
+
+
+if __name__ == '__main__':
+    warm_up()
