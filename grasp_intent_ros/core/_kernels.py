@@ -1,10 +1,11 @@
-"""Compiled inner loops of the planner (numba), one start at a time: the log-odds projection and the
-projected Levenberg-Marquardt least squares.
+"""Compiled inner loops of the planner (numba): the log-odds projection and the least squares.
 
-The algorithms are stated in :class:`grasp_intent_ros.core.planner._LogOddsProjection` and
-:func:`grasp_intent_ros.core.planner._refine_lm`; this module only runs them without numpy's per-call overhead (an iteration is ~10^3 flops, so that overhead, not the
-arithmetic, was the cost). Compiled code is cached next to this file (``cache=True``); the first call
-in a fresh installation compiles it (a few seconds).
+Both run one start at a time. The algorithms are stated in
+:class:`grasp_intent_ros.core.planner._LogOddsProjection` and :func:`grasp_intent_ros.core.planner._refine_lm`;
+this module only runs them without numpy's per-call overhead (an iteration is ~10^3 flops, so that
+overhead, not the arithmetic, was the cost). Compiled code is cached next to this file
+(``cache=True``); the first call in a fresh installation compiles it (about 30 s; ``scripts/venv.sh``
+does it at set-up time).
 
 Body primitives are passed as arrays: ``kinds`` (0 cylinder, 1 box), ``centres``, ``axes`` and
 ``perps`` (cylinders: unit axis and a fixed unit perpendicular), ``radii``, ``lengths`` (cylinders),
@@ -189,6 +190,12 @@ def _step(x, e, A, scale, lower, upper, bounded, has_body, damping):  # type: ig
 
 
 @njit(cache=True)
+def _results(n, d):  # type: ignore[no-untyped-def]
+    """End points (n, d), converged (n,) and iterations (n,) of n starts, to be filled in."""
+    return np.empty((n, d)), np.zeros(n, dtype=np.bool_), np.zeros(n, dtype=np.int64)
+
+
+@njit(cache=True)
 def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArray[np.float64],  # type: ignore[no-untyped-def]
                    log_norm: NDArray[np.float64], others: NDArray[np.int64], r: int, b: NDArray[np.float64],
                    scale: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray[np.float64],
@@ -203,9 +210,7 @@ def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], pre
     has_body = kinds.shape[0] > 0
     bounded = np.ones(d, dtype=np.bool_)
     bounded[a0:a1] = False  # a unit vector never leaves [-1, 1]
-    out = np.empty((n, d))
-    converged = np.zeros(n, dtype=np.bool_)
-    iterations = np.zeros(n, dtype=np.int64)
+    out, converged, iterations = _results(n, d)
     for s in range(n):
         x = _project(starts[s].copy(), lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
                      halfs, margin)
@@ -276,9 +281,7 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
                    kinds, centres, axes, perps, radii, lengths, halfs, margin, maxiter, ftol, ridge_rel):
     """Projected Levenberg-Marquardt on v - P(x) from every start (see planner._refine_lm)."""
     n, d = starts.shape
-    out = np.empty((n, d))
-    converged = np.zeros(n, dtype=np.bool_)
-    iterations = np.zeros(n, dtype=np.int64)
+    out, converged, iterations = _results(n, d)
     for s in range(n):
         x = _project(starts[s].copy(), lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
                      halfs, margin)

@@ -57,8 +57,7 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import (  # type: ignore[import-untyped]
-    Bounds, NonlinearConstraint, OptimizeResult, minimize)
+from scipy.optimize import Bounds, NonlinearConstraint, OptimizeResult, minimize  # type: ignore[import-untyped]
 
 from ._kernels import least_squares, project
 from .body import Box, Cylinder
@@ -145,27 +144,21 @@ class Candidate:
 
 @dataclass(frozen=True)
 class PlanResult:
-    """Outcome of :func:`plan`.
+    """Outcome of :func:`plan`: the chosen candidate and what led to it.
 
     Attributes
     ----------
-    x : ndarray, shape (d,)
-        Planned grasp features (the chosen candidate, see the module docstring).
-    posterior : ndarray, shape (K,)
-        P(k|x) over the model's zones.
+    chosen : Candidate
+        The answer (see the module docstring); ``x``, ``posterior`` and ``objective`` are its.
     w : ndarray, shape (m,)
         Principal-task probabilities reconstructed from the posterior.
-    objective : float
-        1/2 |v - P(x)|^2.
     exact : bool
         The objective is at most :data:`MATCH_TOL`: P matches v.
     reference : ndarray, shape (d,)
         x_ref, the grasp the answer is nearest to.
-    success : bool
-        status == 'ok'.
     status : str
-        'ok' (the chosen candidate's refinement converged), 'solver_failed' (it stopped at its
-        iteration limit) or 'rejected' (no candidate passed ``accept``; x is then the first ranked).
+        'ok' (the chosen candidate's refinement converged), 'solver_failed' (it stopped before
+        converging) or 'rejected' (no candidate passed ``accept``; x is then the first ranked).
     message : str
     iterations : int
         Solver iterations summed over all starts.
@@ -177,13 +170,10 @@ class PlanResult:
         How many candidates ``accept`` turned down before the chosen one.
     """
 
-    x: NDArray[np.float64]
-    posterior: NDArray[np.float64]
+    chosen: Candidate
     w: NDArray[np.float64]
-    objective: float
     exact: bool
     reference: NDArray[np.float64]
-    success: bool
     status: str
     message: str
     iterations: int
@@ -191,6 +181,26 @@ class PlanResult:
     method: str
     candidates: tuple[Candidate, ...]
     rejected: int
+
+    @property
+    def x(self) -> NDArray[np.float64]:
+        """Planned grasp features, shape (d,)."""
+        return self.chosen.x
+
+    @property
+    def posterior(self) -> NDArray[np.float64]:
+        """P(k|x) over the model's zones, shape (K,)."""
+        return self.chosen.posterior
+
+    @property
+    def objective(self) -> float:
+        """1/2 |v - P(x)|^2."""
+        return self.chosen.objective
+
+    @property
+    def success(self) -> bool:
+        """True when the status is 'ok'."""
+        return self.status == 'ok'
 
 
 def _check_v(model: GraspModel, v: ArrayLike) -> NDArray[np.float64]:
@@ -235,11 +245,12 @@ def zone_order(v: NDArray[np.float64]) -> NDArray[np.intp]:
 
 def select_starts(model: GraspModel, v: NDArray[np.float64], n_starts: int = 3,
                   top_zones: int = 2) -> NDArray[np.float64]:
-    """Algorithm 1's starts: the demonstration of the top-v zone with the lowest objective first, then
-    the next best demonstrations of the ``top_zones`` most likely zones, shape (<= n_starts, d).
+    """Algorithm 1's starts, shape (<= n_starts, d).
 
-    A demonstration belongs to zone k when its task set contains k (inclusive labeling). Objectives
-    are compared at 1e-12 relative, then by demonstration order.
+    The demonstration of the top-v zone with the lowest objective first, then the next best
+    demonstrations of the ``top_zones`` most likely zones. A demonstration belongs to zone k when its
+    task set contains k (inclusive labeling). Objectives are compared at 1e-12 relative, then by
+    demonstration order.
     """
     order = zone_order(v)[:max(1, top_zones)]
     r = v[None, :] - model.demo_posterior
@@ -601,13 +612,10 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
         status = 'solver_failed'
     message = {'ok': f'planned ({chosen.message})', 'solver_failed': f'not converged: {chosen.message}',
                'rejected': f'all {len(ranked)} candidates rejected by the robot constraint'}[status]
-    return PlanResult(x=chosen.x, posterior=chosen.posterior,
-                      w=reconstruct_w(chosen.posterior, model.zones, len(model.task_names)),
-                      objective=chosen.objective, exact=chosen.objective <= MATCH_TOL, reference=x_ref,
-                      success=status == 'ok', status=status, message=message,
+    return PlanResult(chosen=chosen, w=reconstruct_w(chosen.posterior, model.zones, len(model.task_names)),
+                      exact=chosen.objective <= MATCH_TOL, reference=x_ref, status=status, message=message,
                       iterations=sum(c.iterations for c in found), wall_time_s=time.perf_counter() - t0,
                       method=method, candidates=tuple(ranked), rejected=rejected)
-
 
 def reference_search(model: GraspModel, v: ArrayLike, *, n_starts: int = 60, seed: int = 0) -> float:
     """The lowest f a slow multi-start SLSQP search reaches: an oracle for checking :func:`plan`.

@@ -1,5 +1,7 @@
-"""Planner: a well-posed answer (exact where possible, nearest to the reference, never float noise),
-feasible and plausible grasps, honest status; every task, every model, random and perturbed intents.
+"""Planner: a well-posed answer, feasible and plausible grasps, honest status.
+
+Exact where possible, nearest to the reference, never decided by float noise; tested over every task,
+every model, random and perturbed intents.
 
 Stability under last-bit perturbations is asserted for converged plans: for the grasp where P matches
 v, and for the objective where only least squares is possible (a nearly flat least-squares valley need
