@@ -44,7 +44,7 @@ def load(name: str) -> GraspModel:
 
 
 def random_targets(model: GraspModel, n: int, seed: int) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """n (w, v) pairs from independent uniform w; clarification cases redrawn."""
+    """N (w, v) pairs from independent uniform w; clarification cases redrawn."""
     rng = np.random.default_rng(seed)
     count = 0
     while count < n:
@@ -56,7 +56,7 @@ def random_targets(model: GraspModel, n: int, seed: int) -> Iterator[tuple[np.nd
 
 
 def walk_targets(model: GraspModel, n: int, seed: int) -> list[np.ndarray]:
-    """n target vectors from a random walk of w (steps N(0, 0.01), kept in [0.02, 0.98])."""
+    """N target vectors from a random walk of w (steps N(0, 0.01), kept in [0.02, 0.98])."""
     rng = np.random.default_rng(seed)
     w = np.array([0.9, 0.5, 0.2])
     out: list[np.ndarray] = []
