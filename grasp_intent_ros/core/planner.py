@@ -292,15 +292,14 @@ def search_starts(model: GraspModel, v: NDArray[np.float64], count: int = _SCREE
 
 
 class _Feasible:
-    """Projection onto the feasible set X and the scaled distance to the reference."""
+    """Projection onto the feasible set X and the scaled distance between grasps."""
 
-    def __init__(self, model: GraspModel, x_ref: NDArray[np.float64]) -> None:
+    def __init__(self, model: GraspModel) -> None:
         self.model = model
         self.lower, self.upper = model.lower, model.upper
         self.a = model.features.approach
         self.body = model.body
         self.scale = model.feature_scale
-        self.x_ref = x_ref
 
     def project(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """Clip to the bounds, normalise the approach, push the palm out of the body (N, d)."""
@@ -312,9 +311,9 @@ class _Feasible:
             out[:, PALM] = np.clip(self.body.push_out(out[:, PALM]), self.lower[PALM], self.upper[PALM])
         return out
 
-    def distance(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+    def distance(self, x: NDArray[np.float64], x_ref: NDArray[np.float64]) -> NDArray[np.float64]:
         """|(x - x_ref) / s| per row."""
-        out: NDArray[np.float64] = np.linalg.norm((x - self.x_ref) / self.scale, axis=-1)
+        out: NDArray[np.float64] = np.linalg.norm((x - x_ref) / self.scale, axis=-1)
         return out
 
 
@@ -530,8 +529,8 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
         first = ws[None, :]
     else:
         first = select_starts(model, v_arr, 1, top_zones)  # Algorithm 1's start
-    x_ref = _Feasible(model, np.zeros(model.features.dim)).project(first)[0]
-    feas = _Feasible(model, x_ref)
+    feas = _Feasible(model)
+    x_ref = feas.project(first)[0]
 
     def all_starts() -> NDArray[np.float64]:
         """x_ref, then the demonstration starts (built only when the search goes beyond x_ref)."""
@@ -546,7 +545,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
         r = v_arr - post
         f = 0.5 * np.sum(r * r, axis=1)
         f_origin = np.asarray(objective(model, v_arr, origin))
-        dist = feas.distance(xs)
+        dist = feas.distance(xs, x_ref)
         return [Candidate(x=xs[i], posterior=post[i], objective=float(f[i]), distance=float(dist[i]),
                           start=origin[i], start_objective=float(f_origin[i]), start_index=first_index + i,
                           success=bool(ok[i]), message=message(bool(ok[i])), iterations=int(its[i]))
@@ -555,9 +554,9 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
     found: list[Candidate] = []
     turned_down: list[Candidate] = []
 
-    def choose(cands: list[Candidate]) -> Candidate | None:
-        """The first candidate in choice order that ``accept`` takes (asking each candidate once)."""
-        for cand in _choose(cands):
+    def choose(ranked: list[Candidate]) -> Candidate | None:
+        """The first of ``ranked`` (in choice order) that ``accept`` takes, asking each candidate once."""
+        for cand in ranked:
             if any(cand is c for c in turned_down):
                 continue
             if accept is None or accept(cand.x):
@@ -575,20 +574,20 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
             projection = _LogOddsProjection(model, v_arr, feas)
             xs, ok, its = projection.run(x_ref[None, :])  # the reference's own projection first
             found = candidates_from(xs, x_ref[None, :], ok, its, 0, _match_message)
-            chosen = choose(exact(found))
+            chosen = choose(_choose(exact(found)))
         if chosen is None:  # the wider search (its first row is the reference again)
             wide = _unique_rows(np.concatenate([all_starts(), feas.project(search_starts(model, v_arr))]))
             if possible and wide.shape[0] > 1:
                 xs, ok, its = projection.run(wide[1:])
                 found += candidates_from(xs, wide[1:], ok, its, 1, _match_message)
-                chosen = choose(exact(found))
+                chosen = choose(_choose(exact(found)))
         if chosen is None:  # least squares from every start and every projection's end point
             origins = _unique_rows(np.concatenate([wide, *([np.stack([c.x for c in found])] if found else [])]))
             xs, ok, its = _refine_lm(model, v_arr, origins, feas)
             r = v_arr - model.posterior(xs)
             near = 0.5 * np.sum(r * r, axis=1) <= _POLISH
             if near.any() and possible:  # least squares found the matches: project onto them
-                xs_p, ok_p, its_p = _LogOddsProjection(model, v_arr, feas).run(xs[near])
+                xs_p, ok_p, its_p = projection.run(xs[near])
                 xs[near], ok[near], its[near] = xs_p, ok_p, its[near] + its_p
             found += candidates_from(xs, origins, ok, its, len(found),
                                      lambda c: 'least squares: converged' if c else 'least squares: iteration limit')
@@ -597,9 +596,9 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
             x1, ok1, text, it = _refine_scipy(model, v_arr, s0, method, gradient, extra_constraints, feas)
             found += candidates_from(x1[None, :], s0[None, :], np.array([ok1]), np.array([it]), i,
                                      lambda _, said=text: said)
-    if chosen is None:
-        chosen = choose(found)
     ranked = _choose(found)
+    if chosen is None:
+        chosen = choose(ranked)
     if chosen is None:
         chosen, status = ranked[0], 'rejected'
         ranked = turned_down + [c for c in ranked if not any(c is t for t in turned_down)]
@@ -634,7 +633,7 @@ def reference_search(model: GraspModel, v: ArrayLike, *, n_starts: int = 60, see
     starts = list(model.means[:n_starts])
     while len(starts) < n_starts:
         starts.append(rng.uniform(model.lower, model.upper))
-    feas = _Feasible(model, np.zeros(model.features.dim))
+    feas = _Feasible(model)
     best = np.inf
     for start in feas.project(np.asarray(starts)):
         x = _refine_scipy(model, v_arr, start, 'slsqp', 'analytic', (), feas)[0]
