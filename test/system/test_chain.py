@@ -42,7 +42,7 @@ from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.core.intent import all_zones, interpret, restrict
 from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
 from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.protocol import Posterior, msg_to_array
+from grasp_intent_ros.protocol import KEY_MODEL, Posterior, msg_to_array
 from grasp_intent_ros.ros.conversions import model_from_msg, posterior_from_msg, stamped_array_from_msg
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import matrix_to_pose_msg, pose_msg_to_matrix
@@ -393,6 +393,9 @@ def test_intents_the_system_cannot_serve_get_one_clarification_each(chain, model
         'clarification requested: no zone of the model'))
     # the chain still serves an intent the model can serve; still one clarification for the first
     assert ros.wait_for(lambda: len(chain.sender.clarifications) == 1)  # not taken as the next answer
+    planner_knows = lambda: (s := chain.status('grasp_planner: planning')) is not None and \
+        values(s).get(KEY_MODEL, '').startswith('cup_4zone')  # noqa: E731
+    assert ros.wait_for(planner_knows, STARTUP), 'the planner did not follow model/active'
     answer = chain.send(W_TWO)
     assert answer.posterior.zone_labels == models[1]['cup_4zone'].zone_labels
     assert len(clarifications) == 1, [m.data for m in clarifications]
