@@ -14,6 +14,8 @@ Topics (relative; formats in :mod:`grasp_intent_ros.protocol`)
 Behaviour
     A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs (never a backlog) with
     :func:`grasp_intent_ros.core.grasp.plan_grasp`, warm-started from the last plan of the same model.
+    A new ``model/active`` is read in a thread of its own (:class:`~grasp_intent_ros.ros.model_follower.
+    ModelFollower`) and swapped in whole; until then planning goes on with the current model.
 
 Parameters: :data:`PARAMETERS`, ``config/grasp_planner.yaml``.
 """
@@ -31,7 +33,7 @@ from numpy.typing import NDArray
 from rclpy.node import Node
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray, String
+from std_msgs.msg import Float64MultiArray
 
 from . import protocol as topics
 from .core import planner
@@ -41,11 +43,12 @@ from .core.intent import match_zones
 from .core.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
 from .protocol import KEY_MODEL, KEY_PLANNING_TIME, KEY_PLANS, OK, WARN, ModelDocument
 from .ros.clarification import ClarificationRequests
-from .ros.conversions import message_class, model_from_msg, target_from_msg
+from .ros.conversions import message_class, target_from_msg
 from .ros.diagnostics import NodeDiagnostics
 from .ros.grasp import grasp_messages
+from .ros.model_follower import ModelFollower
 from .ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
-from .ros.qos import input_qos, latched_qos, output_qos
+from .ros.qos import input_qos, output_qos
 from .ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 from .ros.run import publish_all, run_node
 from .ros.worker import LatestOnlyWorker
@@ -114,13 +117,14 @@ class GraspPlanner(Node):
         self.context.on_shutdown(self._worker.stop_soon)
         guard, latest = self._inputs_diag.guard, input_qos(depth=1)
         self.create_subscription(Float64MultiArray, topics.INTENT_V, guard(self._on_v), latest)
-        self.create_subscription(String, topics.MODEL_ACTIVE, guard(self._on_model), latched_qos())
+        self._models = ModelFollower(self, self._inputs_diag, self._use_model, name=f'{node_name}_model')
         self.create_subscription(PoseStamped, topics.OBJECT_POSE, guard(self._on_object_pose), latest)
         # not keep-last 1: arm and finger states may come from different publishers
         self.create_subscription(JointState, topics.JOINT_STATES, guard(self._on_joint_state), input_qos())
 
     def destroy_node(self) -> None:
-        """Stop the planning thread (after its current plan), then destroy the node."""
+        """Stop the planning and model threads (after their current work), then destroy the node."""
+        self._models.stop()
         self._worker.stop()
         super().destroy_node()
 
@@ -135,8 +139,7 @@ class GraspPlanner(Node):
             match_zones(v.size, labels, model.model.task_names)
         self._update(v=v, v_labels=labels, v_seq=self._worker.latest.v_seq + 1)
 
-    def _on_model(self, msg: String) -> None:
-        doc = model_from_msg(msg)
+    def _use_model(self, doc: ModelDocument) -> None:  # in the model follower's thread: planning goes on
         check_mico_model(doc.model, doc.name)
         previous = self._worker.latest.model
         same = previous is not None and (previous.name, previous.sha256) == (doc.name, doc.sha256)

@@ -24,11 +24,12 @@ ROS parameters
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 from rclpy.node import Node
-from std_msgs.msg import Float64MultiArray, String
+from std_msgs.msg import Float64MultiArray
 
 from . import protocol as topics
 from .core.errors import InvalidIntentError
@@ -45,10 +46,11 @@ from .core.intent import (
 )
 from .protocol import ModelDocument, msg_to_array
 from .ros.clarification import ClarificationRequests
-from .ros.conversions import array_to_msg, model_from_msg
+from .ros.conversions import array_to_msg
 from .ros.diagnostics import NodeDiagnostics
+from .ros.model_follower import ModelFollower
 from .ros.params import ParamSpec, declare_parameters
-from .ros.qos import input_qos, latched_qos, output_qos
+from .ros.qos import input_qos, output_qos
 from .ros.run import run_node
 
 __all__ = ['IntentInterpreter', 'PARAMETERS', 'main']
@@ -90,13 +92,19 @@ class IntentInterpreter(Node):
         self._v_pub = self.create_publisher(Float64MultiArray, topics.INTENT_V, output_qos())
         self._clarifications = ClarificationRequests(self, self._diagnostics, count_key='clarifications',
                                                      outcome_key='last outcome')
-        self._model: ModelDocument | None = None
+        self._model_lock = threading.RLock()
+        self._model: tuple[ModelDocument | None, tuple[int, ...] | None] = (None, None)
+        """The active model and the zones of task_names it supports, swapped together."""
         self._diagnostics.set_value('last outcome', '')
         self._configure(self._params)
         self._w_sub = self.create_subscription(Float64MultiArray, topics.INTENT_W,
                                                self._diagnostics.guard(self._on_w), input_qos())
-        self._model_sub = self.create_subscription(String, topics.MODEL_ACTIVE,
-                                                   self._diagnostics.guard(self._on_model), latched_qos())
+        self._models = ModelFollower(self, self._diagnostics, self._use_model, name=f'{node_name}_model')
+
+    def destroy_node(self) -> None:
+        """Stop the model thread (after the document it is reading), then destroy the node."""
+        self._models.stop()
+        super().destroy_node()
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
         task_names = self._params['task_names']
@@ -104,34 +112,37 @@ class IntentInterpreter(Node):
         self._labels = zone_labels(self._zones, task_names)
         self._diagnostics.set_value('tasks', ','.join(task_names))
         self._diagnostics.set_value('clarification threshold', self._params['clarification_threshold'])
-        self._use_model(self._model)
+        with self._model_lock:  # the model follower's thread may swap in a model meanwhile
+            self._use_model(self._model[0])
 
     def _use_model(self, doc: ModelDocument | None) -> None:
-        """Follow the active model: its zones decide whether an intent can be served."""
-        self._model = doc
-        self._support = None if doc is None else support_zones(
-            self._params['task_names'], doc.model.task_names, doc.model.zones)
-        if doc is None:
-            text = 'none yet (all zones)'
-        elif self._support is None:
-            text = (f'{doc.name}: its tasks {",".join(doc.model.task_names)} differ from task_names; '
-                    'not used (all zones)')
-        else:
-            text = f'{doc.name} (zones {",".join(doc.model.zone_labels)})'
-        self._diagnostics.set_value('active model', text)
+        """Follow the active model: its zones decide whether an intent can be served.
 
-    def _on_model(self, msg: String) -> None:
-        self._use_model(model_from_msg(msg))
+        Called in the model follower's thread for a new model and on the executor for new parameters.
+        """
+        with self._model_lock:  # task_names may change on the executor meanwhile
+            support = None if doc is None else support_zones(
+                self._params['task_names'], doc.model.task_names, doc.model.zones)
+            self._model = (doc, support)
+            if doc is None:
+                text = 'none yet (all zones)'
+            elif support is None:
+                text = (f'{doc.name}: its tasks {",".join(doc.model.task_names)} differ from task_names; '
+                        'not used (all zones)')
+            else:
+                text = f'{doc.name} (zones {",".join(doc.model.zone_labels)})'
+            self._diagnostics.set_value('active model', text)
 
     def _on_w(self, msg: Float64MultiArray) -> None:
         w = validate_w(msg_to_array(msg, max_size=MAX_TASKS, error=InvalidIntentError, what='w'),
                        len(self._params['task_names']))
+        doc, support = self._model
         result = interpret(w, self._zones, clarification_threshold=self._params['clarification_threshold'],
-                           support=self._support)
+                           support=support)
         if isinstance(result, NeedsClarification):
             reason = result.reason
-            if result.p_none < self._params['clarification_threshold'] and self._model is not None:
-                reason += f' (model {self._model.name}: zones {",".join(self._model.model.zone_labels)})'
+            if result.p_none < self._params['clarification_threshold'] and doc is not None:
+                reason += f' (model {doc.name}: zones {",".join(doc.model.zone_labels)})'
             self._clarifications.request(reason)
         else:
             self._v_pub.publish(array_to_msg(result.v, [self._labels]))

@@ -45,6 +45,9 @@ Three header lines (model name, version, sha256 of the YAML that follows), then 
 counts activations in one model server (1 = the first model it published); it restarts at 1 when the
 server restarts. ``model_sha256`` identifies the content: a consumer that must know whether the model
 changed compares (name, sha256); to order documents from one server it compares versions.
+A document holds at most :data:`~grasp_intent_ros.core.model.MAX_DOCUMENT_CHARS` characters (checked on
+the raw text before the header is matched or the body hashed) and its YAML no alias (``*name``): readers
+reject both (:meth:`~grasp_intent_ros.core.model.GraspModel.from_yaml`).
 
 Diagnostics (``/diagnostics``, diagnostic_msgs/DiagnosticArray)
 ---------------------------------------------------------------
@@ -65,7 +68,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .core.errors import GraspIntentError, ModelFormatError
-from .core.model import GraspModel
+from .core.model import GraspModel, check_document_size
 
 __all__ = [
     'INTENT_W', 'INTENT_V', 'INTENT_CLARIFICATION', 'MODEL_ACTIVE', 'MODEL_AMBIGUITY',
@@ -421,9 +424,11 @@ def parse_model_document(text: str, *, check_sha256: bool = True) -> tuple[Model
     Raises
     ------
     ModelFormatError
-        If the header lines are missing or malformed, ``model_version < 1``, or (when checked) the
+        If the text is oversized (:data:`~grasp_intent_ros.core.model.MAX_DOCUMENT_CHARS`, checked
+        first), the header lines are missing or malformed, ``model_version < 1``, or (when checked) the
         body's sha256 differs from the header's.
     """
+    check_document_size(text)
     header = _HEADER.match(text)
     if header is None:
         raise ModelFormatError('model document lacks the header lines "# model_name: ...", '
@@ -439,17 +444,22 @@ def parse_model_document(text: str, *, check_sha256: bool = True) -> tuple[Model
     return ModelHeader(header['name'], version, header['sha']), body
 
 
-def read_model_document(text: str) -> ModelDocument:
+def read_model_document(text: str, *, previous: ModelDocument | None = None) -> ModelDocument:
     """Parse a whole model document: header checked, body read by :meth:`GraspModel.from_yaml`.
+
+    When ``previous`` has the same name and sha256 as ``text`` (a model re-latched, e.g. by a restarted
+    model server), its model is reused: the body is hashed, not parsed again.
 
     Raises
     ------
     ModelFormatError
-        If the header is missing or malformed, the hash does not match the YAML, or the YAML is not a
-        valid model.
+        If the text is oversized, the header is missing or malformed, the hash does not match the YAML,
+        or the YAML is not a valid model (an alias or too deep a nesting included).
     """
     header, body = parse_model_document(text)
-    return ModelDocument(header.name, header.version, header.sha256, GraspModel.from_yaml(body))
+    same = previous is not None and (previous.name, previous.sha256) == (header.name, header.sha256)
+    model = previous.model if previous is not None and same else GraspModel.from_yaml(body)
+    return ModelDocument(header.name, header.version, header.sha256, model)
 
 
 # ------------------------------------------------------------------------------------------ diagnostics

@@ -10,6 +10,7 @@ rclpy is imported lazily inside the fixtures: test/unit never imports it.
 from __future__ import annotations
 
 import fcntl
+import hashlib
 import itertools
 import os
 import tempfile
@@ -221,3 +222,32 @@ def tiny_models(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[st
     """(models_dir, {name: GraspModel}) with cup_7zone, cup_5zone and a malformed broken.yaml."""
     directory = tmp_path_factory.mktemp('models')
     return directory, train_tiny_models(directory)
+
+
+@pytest.fixture(scope='session')
+def weaponised_model_documents() -> Callable[..., dict[str, tuple[str, str]]]:
+    """``make(model, name='cup_7zone', version=2)``: documents built to stall or crash a reader, by kind.
+
+    Each is (document text with a valid header and hash, the reason a reader rejects it with); ``model``
+    (a GraspModel) makes the rest of the document valid.
+    """
+    return _weaponised_model_documents
+
+
+def _weaponised_model_documents(model: Any, *, name: str = 'cup_7zone', version: int = 2
+                                ) -> dict[str, tuple[str, str]]:
+    from grasp_intent_ros.core.model import MAX_DOCUMENT_CHARS
+
+    def document(body: str) -> str:
+        sha = hashlib.sha256(body.encode()).hexdigest()
+        return f'# model_name: {name}\n# model_version: {version}\n# model_sha256: {sha}\n{body}'
+
+    # "billion laughs": 10^9 strings once expanded, as the data_hash of an otherwise valid model
+    laughs = ''.join(f'\nl{i}: &l{i} [{", ".join([f"*l{i - 1}"] * 10)}]' for i in range(1, 10))
+    bomb = model.to_yaml().replace('\nzones:', f'\nl0: &l0 [{", ".join(["lol"] * 10)}]{laughs}\nzones:', 1)
+    return {
+        'alias bomb': (document(bomb.replace('data_hash:', 'data_hash: *l9\nx:', 1)),
+                       'aliases (*name) are not allowed'),
+        'nested too deeply': (document('[' * 100_000), 'nested too deeply'),
+        'oversized': (document(model.to_yaml() + '#' * MAX_DOCUMENT_CHARS), 'oversized'),
+    }

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
+from yaml.composer import Composer, ComposerError
 
 from .body import ObjectBody
 from .data import Demonstrations
@@ -34,6 +35,8 @@ __all__ = [
     'ZONE_STRUCTURES',
     'DEFAULT_RIDGE',
     'FORMAT_VERSION',
+    'MAX_DOCUMENT_CHARS',
+    'check_document_size',
     'fit_gaussian',
     'structure_zones',
 ]
@@ -52,7 +55,43 @@ ZONE_STRUCTURES: dict[str, tuple[str, ...]] = {
 """The paper's zone structures for three tasks (Fig. 5), by zone label: all zones; no "H only" and
 no "U and H only" (handover implies transfer); and also no "U only" (every grasp transfers)."""
 
+MAX_DOCUMENT_CHARS = 1 << 20
+"""Largest model document read (YAML text, any header lines included), in characters: about 9 times the
+shipped 7-zone models (116 kB). Checked on the raw text before any parsing."""
+
 _LOG_2PI = float(np.log(2.0 * np.pi))
+
+
+def check_document_size(text: str) -> None:
+    """Reject a model document longer than :data:`MAX_DOCUMENT_CHARS` (a length check, no parsing).
+
+    Raises
+    ------
+    ModelFormatError
+        If ``text`` is oversized.
+    """
+    if len(text) > MAX_DOCUMENT_CHARS:
+        raise ModelFormatError(f'model document is oversized: more than {MAX_DOCUMENT_CHARS} characters '
+                               f'({len(text)} read)')
+
+
+class _DocumentLoader(Composer, yaml.CSafeLoader):
+    """libyaml's parser (C) under PyYAML's composer and safe constructor; aliases rejected.
+
+    A model document never needs an alias; rejecting them where nodes are composed means a document
+    cannot expand while it is read ("billion laughs"). The composer is PyYAML's Python one, not
+    libyaml's: that one recurses in C without a depth limit (100,000 nested "[" crash the process),
+    this one stops with a RecursionError.
+    """
+
+    def __init__(self, stream: str) -> None:
+        yaml.CSafeLoader.__init__(self, stream)
+        Composer.__init__(self)
+
+    def compose_node(self, parent: yaml.Node | None, index: int) -> yaml.Node | None:
+        if self.check_event(yaml.AliasEvent):
+            raise ComposerError('aliases (*name) are not allowed in a model document')
+        return super().compose_node(parent, index)
 
 
 def structure_zones(structure: str | Sequence[str], task_names: Sequence[str]) -> tuple[int, ...]:
@@ -321,7 +360,16 @@ class GraspModel:
     def posterior(self, x: ArrayLike) -> NDArray[np.float64]:
         """Zone posterior P(k|x) (eq. 2): shape (K,) for x of shape (d,), or (N, K) for (N, d).
 
-        Computed in log space (log-sum-exp), so it stays finite and normalised far from every mean.
+        Computed in log space (log-sum-exp), so it stays finite and normalised far from every mean, as
+        long as the log-likelihoods are finite floats: roughly while every |x_i - mu_i| stays below 1e150
+        times the feature's spread. A finite x farther out (e.g. 1e308) overflows them; it is rejected
+        rather than answered with NaN.
+
+        Raises
+        ------
+        InvalidFeaturesError
+            For x of the wrong shape, with NaN or infinity, or so far from every zone that its
+            log-likelihoods overflow.
         """
         return self.posterior_jacobian(x)[0]
 
@@ -336,14 +384,20 @@ class GraspModel:
         p : ndarray, shape (K,) or (N, K)
         dp_dx : ndarray, shape (K, d) or (N, K, d)
 
-        ``check=False`` skips input validation (for solvers that only pass finite float arrays).
+        ``check=False`` skips input validation (for solvers that only pass finite float arrays within
+        the feature bounds). Raises InvalidFeaturesError as :meth:`posterior` when checking.
         """
         if check:
             arr, single = self._check_x(x)
+            with np.errstate(over='ignore', invalid='ignore'):  # an overflow is reported below
+                lj, g = self._log_joint_and_score(arr)
+            if not np.all(np.isfinite(lj)):
+                raise InvalidFeaturesError('x is too far from every zone for a finite posterior: its '
+                                           'log-likelihoods overflow (is it in the features\' units?)')
         else:
             arr = x if np.ndim(x) == 2 else np.reshape(x, (1, -1))  # type: ignore[assignment]
             single = np.ndim(x) == 1
-        lj, g = self._log_joint_and_score(arr)
+            lj, g = self._log_joint_and_score(arr)
         p = np.exp(lj - lj.max(axis=1, keepdims=True))
         p /= p.sum(axis=1, keepdims=True)
         g_mean = np.matmul(p[:, None, :], g)  # (N, 1, d)
@@ -436,11 +490,23 @@ class GraspModel:
 
     @classmethod
     def from_yaml(cls, text: str) -> GraspModel:
-        """Parse a model from YAML text. Raises ModelFormatError for bad YAML or a bad document."""
+        """Parse a model from YAML text, safely: size-capped, no aliases, no unbounded nesting.
+
+        Raises
+        ------
+        ModelFormatError
+            For a text longer than :data:`MAX_DOCUMENT_CHARS` (before parsing), invalid YAML, an alias,
+            nesting too deep for the parser, or a document that is not a valid model.
+        """
+        check_document_size(text)
         try:
-            doc = yaml.safe_load(text)
+            doc = yaml.load(text, Loader=_DocumentLoader)
         except yaml.YAMLError as exc:
             raise ModelFormatError(f'model document is not valid YAML: {exc}') from None
+        except RecursionError:
+            raise ModelFormatError('model document is nested too deeply') from None
+        except ValueError as exc:  # e.g. an integer of more than 4300 digits
+            raise ModelFormatError(f'model document holds a malformed value: {exc}') from None
         return cls.from_document(doc)
 
     def save(self, path: str | Path) -> None:
@@ -451,6 +517,10 @@ class GraspModel:
 
     @classmethod
     def load(cls, path: str | Path) -> GraspModel:
-        """Read a model saved by :meth:`save`. Raises FileNotFoundError or ModelFormatError."""
-        return cls.from_yaml(Path(path).read_text())
+        """Read a model saved by :meth:`save`. Raises FileNotFoundError or ModelFormatError.
+
+        Reads at most one character more than :data:`MAX_DOCUMENT_CHARS` (enough to reject the file).
+        """
+        with Path(path).open() as file:
+            return cls.from_yaml(file.read(MAX_DOCUMENT_CHARS + 1))
 

@@ -17,7 +17,7 @@ from builtin_interfaces.msg import Time
 from numpy.typing import ArrayLike, NDArray
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
-from ..core.errors import InvalidIntentError
+from ..core.errors import GraspIntentError, InvalidIntentError
 from ..core.intent import MAX_TASKS, validate_v
 from ..core.model import GraspModel
 from ..protocol import (
@@ -53,11 +53,20 @@ def message_class(topic: str) -> Any:
 
 
 def array_to_msg(values: ArrayLike, labels: Sequence[str | Sequence[str]]) -> Float64MultiArray:
-    """A labelled Float64MultiArray of ``values``.
+    """A labelled Float64MultiArray of ``values``: the one place the suite's arrays become messages.
 
-    ``labels`` and errors as for :func:`grasp_intent_ros.protocol.array_layout`.
+    ``labels`` and their errors as for :func:`grasp_intent_ros.protocol.array_layout`.
+
+    Raises
+    ------
+    GraspIntentError
+        If a value is NaN or infinite: a node never publishes one as a result (its guard reports the
+        rejection on ``/diagnostics`` and nothing of that output is published).
     """
     arr = np.ascontiguousarray(values, dtype=np.float64)
+    if not np.all(np.isfinite(arr)):
+        raise GraspIntentError(f'not published: {int(np.count_nonzero(~np.isfinite(arr)))} of {arr.size} '
+                               f'output values are NaN or infinite')
     msg = Float64MultiArray()
     msg.layout.dim = [MultiArrayDimension(label=label, size=size, stride=stride)
                       for label, size, stride in array_layout(arr.shape, labels)]

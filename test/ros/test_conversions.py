@@ -44,6 +44,15 @@ def test_labelled_array_round_trip() -> None:
         array_to_msg([1.0], ['a', 'b'])
 
 
+@pytest.mark.parametrize('bad', [np.nan, np.inf, -np.inf])
+def test_no_array_with_nan_or_infinity_becomes_a_message(bad: float) -> None:
+    with pytest.raises(GraspIntentError, match='not published: 1 of 2 output values are NaN or infinite'):
+        array_to_msg([0.5, bad], ['U,T'])
+    for p, w in (([0.5, bad], [0.5, 0.5]), ([0.5, 0.5], [bad, 1.0])):
+        with pytest.raises(GraspIntentError, match='not published: 1 of 4 output values'):
+            posterior_to_msg(p, w, ['U', 'T'], ['a', 'b'], stamp=Time(sec=1))
+
+
 def test_target_vector_is_validated_where_it_is_read() -> None:
     v, labels = target_from_msg(array_to_msg([0.25, 0.75, 0.0], ['U,T,UT']))
     assert labels == ('U', 'T', 'UT') and v.tolist() == [0.25, 0.75, 0.0]

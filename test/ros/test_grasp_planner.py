@@ -9,6 +9,7 @@ reachability constraint the node uses (IK seeded from Home, 8 restarts, seed 0).
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -37,6 +38,8 @@ from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOIN
 from grasp_intent_ros.core.model import GraspModel, structure_zones
 from grasp_intent_ros.dataset.demos import grasp_features
 from grasp_intent_ros.grasp_planner import PARAMETERS, GraspPlanner
+from grasp_intent_ros.protocol import read_model_document
+from grasp_intent_ros.ros import model_follower
 from grasp_intent_ros.ros.conversions import (
     array_to_msg,
     model_from_msg,
@@ -125,10 +128,17 @@ def ns(stamp: Time) -> int:
 
 
 def v_msg(values: Any, label: str | None = LABELS_7) -> Float64MultiArray:
-    """V as the interpreter sends it (labelled), or raw data as ``ros2 topic pub`` does (label None)."""
+    """V as the interpreter sends it (labelled), or raw data as ``ros2 topic pub`` does (label None).
+
+    Any values, NaN included: the layout of :func:`array_to_msg` (which refuses to write a NaN) is filled
+    with them.
+    """
+    data = [float(x) for x in values]
     if label is None:
-        return Float64MultiArray(data=[float(x) for x in values])
-    return array_to_msg(np.asarray(values, dtype=np.float64), [label])
+        return Float64MultiArray(data=data)
+    msg = array_to_msg(np.zeros(len(data)), [label])
+    msg.data = data
+    return msg
 
 
 def pose_msg(position: Any, xyzw: Any, frame_id: str = BASE_FRAME) -> PoseStamped:
@@ -432,11 +442,23 @@ BAD_INPUTS: dict[str, tuple[str, Callable[[GraspModel], Any], str]] = {
 @pytest.mark.parametrize('kind', list(BAD_INPUTS))
 def test_bad_input_warns_and_node_keeps_serving(rig: Rig, model: GraspModel, kind: str) -> None:
     topic, make_msg, reason = BAD_INPUTS[kind]
+    assert_rejected_and_serving(rig, model, topic, make_msg(model), reason)
+
+
+@pytest.mark.parametrize('kind', ['alias bomb', 'nested too deeply', 'oversized'])
+def test_weaponised_model_document_is_rejected_and_the_model_kept(
+        rig: Rig, model: GraspModel, kind: str, weaponised_model_documents: Callable[..., Any]) -> None:
+    text, reason = weaponised_model_documents(model)[kind]
+    assert_rejected_and_serving(rig, model, 'model', String(data=text), reason)
+
+
+def assert_rejected_and_serving(rig: Rig, model: GraspModel, topic: str, msg: Any, reason: str) -> None:
+    """``msg`` on ``topic`` is rejected (a WARN naming ``reason``, counted) and the node plans with ``model``."""
     if topic == 'model':  # the node must hold the good model before the bad one replaces it on the latched topic
         rig.request(v_msg(interpret(W_GOOD).v))
     publisher = {'v': rig.v_pub, 'model': rig.model_pub, 'pose': rig.pose_pub, 'joints': rig.joints_pub}[topic]
     start = rig.now()
-    assert rig.ros.publish_until(publisher, make_msg(model), rig.warn(reason), timeout=5.0, period=0.5), \
+    assert rig.ros.publish_until(publisher, msg, rig.warn(reason), timeout=5.0, period=0.5), \
         f'no WARN diagnostic naming {reason!r}'
     status = rig.warn(reason)()[-1]
     values = {kv.key: kv.value for kv in status.values}
@@ -466,6 +488,31 @@ def test_clarification_needed_and_model_switch(make_rig: Callable[..., Rig], tin
     switched = rig.request(model_to_msg(seven, name='cup_7zone', version=2), rig.model_pub)
     assert switched.posterior.zone_labels == tuple(LABELS_7.split(','))
     assert_allclose(switched.x, core_plan(kin, seven, v).x, atol=1e-6)
+
+
+def test_planning_goes_on_with_the_current_model_while_a_new_one_is_read(
+        make_rig: Callable[..., Rig], tiny: dict[str, GraspModel], monkeypatch: pytest.MonkeyPatch) -> None:
+    five, seven = tiny['cup_5zone'], tiny['cup_7zone']
+    rig = make_rig(five)
+    v = interpret(W_GOOD).v
+    assert rig.request(v_msg(v)).posterior.zone_labels == five.zone_labels
+    reading, release = threading.Event(), threading.Event()
+
+    def held(text: str, **kwargs: Any) -> Any:  # the real reader, held until the test releases it
+        reading.set()
+        release.wait(timeout=30.0)
+        return read_model_document(text, **kwargs)
+
+    monkeypatch.setattr(model_follower, 'read_model_document', held)
+    rig.model_pub.publish(model_to_msg(seven, name='cup_7zone', version=2))
+    assert rig.ros.wait_for(reading.is_set), 'the new model document never reached the reader'
+    # while the 7-zone model is being read, new intents are planned with the 5-zone model
+    for w in ((0.2, 0.9, 0.9), (0.9, 0.9, 0.9)):
+        assert rig.request(v_msg(interpret(w).v)).posterior.zone_labels == five.zone_labels
+    start = rig.now()
+    release.set()  # swapped in whole: the current v is planned again with the new model
+    assert rig.ros.wait_for(lambda: rig.grasps.plans(start), timeout=10.0)
+    assert all(p.posterior.zone_labels == seven.zone_labels for p in rig.grasps.plans(start))
 
 
 def test_unreachable_best_grasp_falls_back_to_reachable_candidate(make_rig: Callable[..., Rig],

@@ -216,3 +216,24 @@ def test_model_of_other_tasks_is_not_used(ros, interpreter):
                                     for s in statuses))
     assert ros.publish_until(w_pub, w_msg([0.9, 0.0, 0.0]), lambda: v_msgs)
     assert clarifications == []
+
+
+@pytest.mark.parametrize('kind', ['alias bomb', 'nested too deeply', 'oversized'])
+def test_weaponised_model_document_is_rejected_and_the_model_kept(ros, interpreter, weaponised_model_documents,
+                                                                   kind):
+    from grasp_intent_ros.core.model import GraspModel
+    from grasp_intent_ros.ros.qos import latched_qos
+    node, w_pub, v_msgs, clarifications = interpreter
+    statuses = ros.diagnostics()
+    model_pub = ros.publisher(String, 'model/active', latched_qos())
+    model_pub.publish(_model_doc('cup_4zone'))
+    values = lambda s: {kv.key: kv.value for kv in s.values}  # noqa: E731
+    assert ros.wait_for(lambda: any('cup_4zone' in values(s).get('active model', '') for s in statuses))
+    text, reason = weaponised_model_documents(GraspModel.load(REPO / 'config' / 'models' / 'cup_7zone.yaml'))[kind]
+    model_pub.publish(String(data=text))
+    assert ros.wait_for(lambda: [s for s in statuses if s.level == DiagnosticStatus.WARN and reason in s.message])
+    status = [s for s in statuses if reason in s.message][-1]
+    assert values(status)['messages rejected'] == '1' and 'cup_4zone' in values(status)['active model']
+    # still the 4-zone model: usage alone cannot be served
+    assert ros.publish_until(w_pub, w_msg([0.9, 0.0, 0.0]), lambda: clarifications)
+    assert 'cup_4zone' in clarifications[-1].data and v_msgs == []

@@ -76,6 +76,7 @@ BAD_X = {
     'Inf': ([-math.inf] + [0.1] * 9, 'NaN or infinity'),
     'empty': ([], 'x is empty'),
     'oversized': ([0.1] * 5000, 'oversized'),
+    'finite but too far for a finite posterior': ([1e308] * 10, 'too far from every zone'),
 }
 
 

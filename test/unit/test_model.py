@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import yaml
 from numpy.testing import assert_allclose
 
 from grasp_intent_ros.core.data import Demonstrations, load_csv, save_csv
 from grasp_intent_ros.core.errors import DataError, InvalidFeaturesError, ModelError, ModelFormatError
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import DEFAULT_TASKS
-from grasp_intent_ros.core.model import GraspModel, structure_zones
+from grasp_intent_ros.core.model import MAX_DOCUMENT_CHARS, GraspModel, structure_zones
+from grasp_intent_ros.core.resources import config_dir
 
 from .conftest import synthetic_demos
 
@@ -47,6 +49,16 @@ def test_posterior_is_normalised_and_stable_far_away(toy_model: GraspModel) -> N
     p_far = toy_model.posterior(far)
     assert np.all(np.isfinite(p_far)) and p_far.sum() == pytest.approx(1.0)
     assert_allclose(toy_model.posterior(x[0]), p[0], atol=1e-15)
+
+
+def test_x_too_far_for_a_finite_posterior_is_rejected_not_nan(toy_model: GraspModel) -> None:
+    p = toy_model.posterior(np.full(MICO_3F.dim, 1e100))  # far, but the log-likelihoods are finite
+    assert np.all(np.isfinite(p)) and p.sum() == pytest.approx(1.0)
+    for x in (np.full(MICO_3F.dim, 1e308), np.r_[np.zeros(9), -1e200]):
+        with pytest.raises(InvalidFeaturesError, match='too far from every zone'):
+            toy_model.posterior(x)
+        with pytest.raises(InvalidFeaturesError, match='too far from every zone'):
+            toy_model.posterior_jacobian(np.stack([toy_model.means[0], x]))
 
 
 def test_analytic_jacobian_matches_finite_differences(toy_model: GraspModel) -> None:
@@ -125,6 +137,49 @@ def test_bad_yaml_and_bad_x(toy_model: GraspModel) -> None:
         toy_model.posterior(np.zeros(3))
     with pytest.raises(InvalidFeaturesError):
         toy_model.posterior(np.full(10, np.nan))
+
+
+def test_shipped_models_read_as_pyyaml_reads_them() -> None:
+    for path in sorted((config_dir() / 'models').glob('*.yaml')):
+        reference = GraspModel.from_document(yaml.safe_load(path.read_text()))
+        assert GraspModel.load(path).to_yaml() == reference.to_yaml(), path.name
+
+
+def test_aliases_are_rejected_before_anything_expands(toy_model: GraspModel) -> None:
+    text = toy_model.to_yaml()
+    names = '\n'.join(f'- {t}' for t in toy_model.task_names)
+    assert f'task_names:\n{names}\n' in text
+    one_alias = text.replace(f'task_names:\n{names}\n', 'task_names: *tasks\n').replace(
+        'format_version: 1\n', f'format_version: 1\ntasks: &tasks\n{names}\n')
+    with pytest.raises(ModelFormatError, match='aliases'):
+        GraspModel.from_yaml(one_alias)
+    # "billion laughs": 10^9 items once expanded, 1 kB of text
+    laughs = ['a0: &a0 [x, x, x, x, x, x, x, x, x, x]']
+    laughs += [f'a{i}: &a{i} [{", ".join([f"*a{i - 1}"] * 10)}]' for i in range(1, 10)]
+    with pytest.raises(ModelFormatError, match='aliases'):
+        GraspModel.from_yaml('\n'.join(laughs))
+
+
+@pytest.mark.parametrize('text', ['[' * 100_000, '- ' * 100_000, '{a: ' * 100_000])
+def test_nesting_too_deep_is_rejected_without_crashing(text: str) -> None:
+    """The C composer of libyaml would recurse without a limit here and crash the process."""
+    with pytest.raises(ModelFormatError, match='nested too deeply'):
+        GraspModel.from_yaml(text)
+
+
+def test_oversized_documents_are_rejected_before_parsing(tmp_path, toy_model: GraspModel) -> None:  # type: ignore[no-untyped-def]
+    text = toy_model.to_yaml()
+    padded = text + '#' * (MAX_DOCUMENT_CHARS - len(text) - 1) + '\n'  # a valid model of the largest size
+    assert len(padded) == MAX_DOCUMENT_CHARS
+    assert GraspModel.from_yaml(padded).to_yaml() == text
+    with pytest.raises(ModelFormatError, match=f'oversized: more than {MAX_DOCUMENT_CHARS} characters'):
+        GraspModel.from_yaml(padded + '\n')
+    path = tmp_path / 'big.yaml'
+    path.write_text(padded + '#' * MAX_DOCUMENT_CHARS)
+    with pytest.raises(ModelFormatError, match='oversized'):
+        GraspModel.load(path)
+    with pytest.raises(ModelFormatError, match='malformed value'):
+        GraspModel.from_yaml('format_version: ' + '9' * 5000)
 
 
 def test_csv_round_trip_and_errors(tmp_path, demos: Demonstrations) -> None:  # type: ignore[no-untyped-def]

@@ -16,7 +16,7 @@ import pytest
 from grasp_intent_ros import protocol
 from grasp_intent_ros.core.errors import InvalidFeaturesError, ModelFormatError
 from grasp_intent_ros.core.intent import reconstruct_w
-from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.core.model import MAX_DOCUMENT_CHARS, GraspModel
 from grasp_intent_ros.protocol import (
     ModelHeader,
     model_document,
@@ -127,3 +127,20 @@ def test_whole_document_is_read_into_a_model(toy_model: GraspModel) -> None:
     doc = read_model_document(model_document(toy_model, name='toy', version=2))
     assert (doc.name, doc.version) == ('toy', 2) and isinstance(doc, ModelHeader)
     assert doc.model.to_yaml() == toy_model.to_yaml()
+    again = read_model_document(model_document(toy_model, name='toy', version=3), previous=doc)
+    assert (again.version, again.sha256) == (3, doc.sha256) and again.model is doc.model  # not parsed again
+    renamed = read_model_document(model_document(toy_model, name='toy2', version=4), previous=doc)
+    assert renamed.model is not doc.model and renamed.model.to_yaml() == toy_model.to_yaml()
+    with pytest.raises(ModelFormatError, match='corrupted'):  # the reuse still checks the hash
+        read_model_document(model_document(toy_model, name='toy', version=5).replace('prior: 0.', 'prior: 1.', 1),
+                            previous=doc)
+
+
+def test_oversized_document_is_rejected_before_the_header_is_read(toy_model: GraspModel) -> None:
+    text = model_document(toy_model, name='toy', version=1)
+    oversized = text + '#' * (MAX_DOCUMENT_CHARS + 1 - len(text))
+    for reader in (parse_model_document, read_model_document):
+        with pytest.raises(ModelFormatError, match='oversized'):
+            reader(oversized)
+        with pytest.raises(ModelFormatError, match='oversized'):
+            reader('no header' + ' ' * MAX_DOCUMENT_CHARS)
