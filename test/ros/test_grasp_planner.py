@@ -8,7 +8,9 @@ reachability constraint the node uses (IK seeded from Home, 8 restarts, seed 0).
 
 from __future__ import annotations
 
+import gc
 import math
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -497,8 +499,11 @@ def test_planning_goes_on_with_the_current_model_while_a_new_one_is_read(
     v = interpret(W_GOOD).v
     assert rig.request(v_msg(v)).posterior.zone_labels == five.zone_labels
     reading, release = threading.Event(), threading.Event()
+    during: list[tuple[bool, float]] = []
+    before = (gc.isenabled(), sys.getswitchinterval())
 
     def held(text: str, **kwargs: Any) -> Any:  # the real reader, held until the test releases it
+        during.append((gc.isenabled(), sys.getswitchinterval()))
         reading.set()
         release.wait(timeout=30.0)
         return read_model_document(text, **kwargs)
@@ -513,6 +518,11 @@ def test_planning_goes_on_with_the_current_model_while_a_new_one_is_read(
     release.set()  # swapped in whole: the current v is planned again with the new model
     assert rig.ros.wait_for(lambda: rig.grasps.plans(start), timeout=10.0)
     assert all(p.posterior.zone_labels == seven.zone_labels for p in rig.grasps.plans(start))
+    # while reading: no cyclic garbage collection, a short GIL switch interval; restored afterwards
+    assert during == [(False, model_follower.READ_SWITCH_INTERVAL)]
+    assert (gc.isenabled(), sys.getswitchinterval()) == before
+    assert rig.ros.wait_for(lambda: [s for s in rig.statuses if float(values_of(s).get('last model read time [ms]',
+                                                                                       '0')) > 0.0])
 
 
 def test_unreachable_best_grasp_falls_back_to_reachable_candidate(make_rig: Callable[..., Rig],
