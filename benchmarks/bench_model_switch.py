@@ -17,7 +17,7 @@ Printed, with the load average before and after:
 ``--source DIR`` runs the planner from another source tree (e.g. ``git archive <commit> | tar -x -C
 DIR``) for a before/after comparison in one sitting.
 
-Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; the domain is
+Network rule: it sets ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST for itself and the planner; the domain is
 ROS_DOMAIN_ID (default 93).
 
     ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=93 \\
@@ -57,12 +57,12 @@ def main() -> None:
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--source', default=None, help='run the planner from this source tree (PYTHONPATH)')
     args = parser.parse_args()
-    if os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE') != 'LOCALHOST':
-        sys.exit('bench_model_switch: set ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST (and a ROS_DOMAIN_ID of '
-                 'your own): DDS discovery must stay on the loopback interface')
-    domain_id = int(os.environ.get('ROS_DOMAIN_ID', '93'))
+    from grasp_intent_ros.tools.suite import NodeSuite, domain_id_from_environment, use_loopback_discovery
 
-    import rclpy  # after the network check
+    use_loopback_discovery()  # this process's participant too, before rclpy is imported
+    domain_id = domain_id_from_environment(unset=93)
+
+    import rclpy
     import yaml
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
@@ -74,7 +74,6 @@ def main() -> None:
     from grasp_intent_ros.protocol import parse_model_document, read_model_document, read_posterior
     from grasp_intent_ros.ros.conversions import array_to_msg, model_to_msg
     from grasp_intent_ros.ros.qos import input_qos, latched_qos
-    from grasp_intent_ros.tools.suite import NodeSuite
 
     load_before = os.getloadavg()
     models = {name: GraspModel.load(config_dir() / 'models' / f'{name}.yaml') for name in args.models}
