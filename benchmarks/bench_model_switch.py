@@ -14,6 +14,11 @@ Printed, with the load average before and after:
   machine without a switch, for comparison);
 - the time from publishing a switch to the first answer with the new model's zones.
 
+- in this process, without ROS: the largest gap between warm-started plans of a planning thread while
+  another thread reads documents, plainly and inside the follower's
+  :func:`~grasp_intent_ros.ros.model_follower.yielding_reader` (no garbage collection, 0.5 ms GIL switch
+  interval), beside the same thread with no reading.
+
 ``--source DIR`` runs the planner from another source tree (e.g. ``git archive <commit> | tar -x -C
 DIR``) for a before/after comparison in one sitting.
 
@@ -47,6 +52,32 @@ def median_seconds(func: object, repeat: int) -> float:
     return statistics.median(times)
 
 
+def plan_gaps_while(read: object, model: object, seconds: float = 0.6) -> float:
+    """Largest gap (ms) between warm-started plans in a thread while ``read()`` runs (None: sleep ``seconds``)."""
+    from grasp_intent_ros.core import intent, planner
+
+    v = intent.interpret([0.9, 0.9, 0.1]).v
+    x0 = planner.plan(model, v).x  # type: ignore[arg-type]
+    stop, stamps = threading.Event(), [time.perf_counter()]
+
+    def plan_loop() -> None:
+        while not stop.is_set():
+            planner.plan(model, v, warm_start=x0)  # type: ignore[arg-type]
+            stamps.append(time.perf_counter())
+
+    thread = threading.Thread(target=plan_loop)
+    thread.start()
+    time.sleep(0.1)
+    first = len(stamps)
+    if read is None:
+        time.sleep(seconds)
+    else:
+        read()  # type: ignore[operator]
+    stop.set()
+    thread.join()
+    return float(1e3 * np.diff(stamps[first - 1:]).max())
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--models', nargs=2, default=('cup_7zone', 'cup_5zone'),
@@ -73,6 +104,7 @@ def main() -> None:
     from grasp_intent_ros.core.resources import config_dir
     from grasp_intent_ros.protocol import parse_model_document, read_model_document, read_posterior
     from grasp_intent_ros.ros.conversions import array_to_msg, model_to_msg
+    from grasp_intent_ros.ros.model_follower import yielding_reader
     from grasp_intent_ros.ros.qos import input_qos, latched_qos
 
     load_before = os.getloadavg()
@@ -84,6 +116,23 @@ def main() -> None:
         old = median_seconds(lambda: GraspModel.from_document(yaml.safe_load(body)), 3)
         print(f'read {name} ({len(text) / 1e3:.0f} kB): {1e3 * new:.0f} ms (pure-Python safe_load: '
               f'{1e3 * old:.0f} ms, {old / new:.1f}x)')
+
+    text = documents[args.models[0]]
+    model = models[args.models[0]]
+
+    def read_twice() -> None:
+        for _ in range(2):
+            read_model_document(text)
+
+    def read_twice_yielding() -> None:
+        for _ in range(2):
+            with yielding_reader():
+                read_model_document(text)
+
+    for _ in range(3):
+        print(f'in-process, largest gap between warm-started plans: no reading {plan_gaps_while(None, model):.1f} ms, '
+              f'reading {args.models[0]} twice: plainly {plan_gaps_while(read_twice, model):.1f} ms, '
+              f'as the follower does {plan_gaps_while(read_twice_yielding, model):.1f} ms')
 
     rng = np.random.default_rng(args.seed)
     m = 3

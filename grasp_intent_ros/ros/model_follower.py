@@ -36,7 +36,7 @@ from .diagnostics import NodeDiagnostics
 from .qos import latched_qos
 from .worker import LatestOnlyWorker
 
-__all__ = ['ModelFollower', 'READ_SWITCH_INTERVAL']
+__all__ = ['ModelFollower', 'READ_SWITCH_INTERVAL', 'yielding_reader']
 
 READ_SWITCH_INTERVAL = 5e-4
 """The GIL switch interval while a document is read, s (Python's default: 5e-3)."""
@@ -45,8 +45,11 @@ _reading = threading.Lock()
 
 
 @contextmanager
-def _yielding_reader() -> Iterator[None]:
-    """No cyclic garbage collection and a short GIL switch interval, restored afterwards."""
+def yielding_reader() -> Iterator[None]:
+    """While in it: no cyclic garbage collection and a GIL switch interval of :data:`READ_SWITCH_INTERVAL`.
+
+    Both are restored on exit. One reader at a time per process (the settings are process-wide).
+    """
     with _reading:
         interval, collecting = sys.getswitchinterval(), gc.isenabled()
         gc.disable()
@@ -93,7 +96,7 @@ class ModelFollower:
         assert text is not None  # ready() holds back the initial None
         self._diagnostics.set_value('model documents superseded', self._worker.superseded)
         start = time.perf_counter()
-        with _yielding_reader():
+        with yielding_reader():
             doc = read_model_document(text, previous=self.current)  # checks the size first
         self._diagnostics.set_value('last model read time [ms]', f'{1e3 * (time.perf_counter() - start):.1f}')
         self._use(doc)
