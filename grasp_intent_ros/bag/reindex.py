@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO, Final
 
 from rosbags.interfaces import MessageDefinitionFormat
-from rosbags.rosbag2 import ReaderError, storage_mcap
+from rosbags.rosbag2 import storage_mcap
 from rosbags.typesys import Stores, get_typestore
 
 from .errors import BagReadError, BagWriteError
@@ -169,8 +169,8 @@ def _chunk_records(content: bytes) -> list[_Record]:
     compressed = _sized(bio, 8)
     try:
         raw = storage_mcap.decompress(compressed, compression, size, crc)
-    except (ReaderError, ValueError, RuntimeError) as exc:  # zstd/lz4 errors are ValueError/RuntimeError kinds
-        raise _Corrupt(f'chunk cannot be decompressed: {exc}') from None
+    except Exception as exc:  # noqa: BLE001 - ReaderError, or the zstd/lz4 library's own error type
+        raise _Corrupt(f'chunk cannot be decompressed: {type(exc).__name__}: {exc}') from None
     inner = BytesIO(raw)
     records = [(opcode, data) for _, opcode, data in _records(inner, len(raw))]
     if inner.tell() != len(raw):
