@@ -12,17 +12,17 @@ Recording
     :class:`~grasp_intent_ros.bag.SessionWriter`, stamped with the middleware's receive time (ns). The
     executor thread only puts them on a queue; a writer thread (:class:`~grasp_intent_ros.bag.QueuedWriter`)
     writes and compresses, so a slow disk or a chunk being compressed never delays a subscription.
-Crash safety
-    A chunk is closed and handed to the operating system once its first message is ``--flush-period``
-    seconds old (default 1 s), also when no further message arrives: a SIGKILLed recorder loses at most
-    that much. ``python -m grasp_intent_ros.reindex BAG`` then rebuilds the MCAP summary and
-    metadata.yaml from the complete chunks (the original file is kept as ``.mcap.broken``).
     Each topic is subscribed with the reliability and durability its publishers offer (best effort /
     volatile if they differ; transient local for latched topics, so the last ``model/active`` is
     recorded even when it was published before the recorder started), keep-last ``--depth``. As
     ``ros2 bag record`` does, the bag's ``offered_qos_profiles`` hold each publisher's QoS as discovery
     shows it (:func:`offered_qos_spec`: history unknown, the durations and
     liveliness the publisher offers).
+Crash safety
+    A chunk is closed and handed to the operating system once its first message is ``--flush-period``
+    seconds old (default 1 s), also when no further message arrives: a SIGKILLed recorder loses at most
+    that much. ``python -m grasp_intent_ros.reindex BAG`` then rebuilds the MCAP summary and
+    metadata.yaml from the complete chunks (the original file is kept as ``.mcap.broken``).
 Diagnostics
     ``/diagnostics`` status ``<node>: recorder``: 'messages received', 'messages written' in total and
     per topic ('topic /intent/w': n), the 'writer queue' and its 'writer queue peak' (messages received,
@@ -354,14 +354,15 @@ class Recorder(Node):
             return
         self._recorded[topic] = (msgtype, qos)
         self._diagnostics.set_value(f'topic {topic}', 0)
+        on_message = self._diagnostics.guard(functools.partial(self._on_message, topic))
         self._topic_subs[topic] = self.create_subscription(  # two parameters: rclpy passes MessageInfo
-            msg_class, topic, functools.partial(self._on_message, topic),
+            msg_class, topic, lambda data, info: on_message((data, info)),
             _subscription_qos(qos, self._depth), raw=True,
             event_callbacks=SubscriptionEventCallbacks(message_lost=functools.partial(self._on_lost, topic)))
         self.get_logger().info(f'recording {topic} ({msgtype}, {qos.reliability}, {qos.durability})')
 
     # ------------------------------------------------------------------ writing
-    def _on_message(self, topic: str, data: bytes, info: Mapping[str, int]) -> None:
+    def _on_message(self, topic: str, received: tuple[bytes, Mapping[str, int]]) -> None:
         """The whole work on the executor thread: stamp and enqueue, then drain the subscription's queue.
 
         rclpy's executor builds a wait set and a task for every message it hands over, which at
@@ -369,6 +370,7 @@ class Recorder(Node):
         messages already waiting on the same subscription itself (at most ``depth``, so other topics
         keep their turn), as rclpy's executor does (``handle.take_message``).
         """
+        data, info = received
         put, now = self._writer.put, self.get_clock().now
         # the middleware's receive time, not the callback's: an input and a fast answer taken in one
         # executor wait keep their order of arrival
