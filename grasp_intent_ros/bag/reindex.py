@@ -195,7 +195,10 @@ def _storage_file(bag: Path) -> Path:
     files = sorted(p for p in bag.glob('*.mcap') if p.is_file())
     if len(files) != 1:
         found = ', '.join(p.name for p in files) or 'none'
-        raise BagReadError(f'cannot reindex {bag}: expected one .mcap file, found {found}')
+        originals = sorted(p.name for p in bag.glob(f'*.mcap{BROKEN_SUFFIX}'))
+        hint = (f' ({", ".join(originals)}: the original of an interrupted repair? rename it back to '
+                'repair again)' if originals and not files else '')
+        raise BagReadError(f'cannot reindex {bag}: expected one .mcap file, found {found}{hint}')
     return files[0]
 
 

@@ -680,6 +680,9 @@ def test_reindex_errors_are_clear_and_change_nothing(
     with pytest.raises(BagReadError, match='exists'):
         reindex(bag)
     assert (bag / 'twice.mcap').stat().st_size == ends[2][0] + 5
+    (bag / 'twice.mcap').unlink()  # as if a repair had been killed between its two renames
+    with pytest.raises(BagReadError, match='found none .twice.mcap.broken: the original of an interrupted'):
+        reindex(bag)
 
 
 def test_reindex_stops_at_a_corrupt_chunk_and_keeps_what_precedes_it(
