@@ -13,6 +13,7 @@ CONSOLE_SCRIPTS = {  # script name -> module (python -m grasp_intent_ros.<name> 
     'send_intent': 'tools.send_intent',
     'demo': 'tools.demo',
     'recorder': 'tools.recorder',
+    'reindex': 'tools.reindex',
     'replay': 'tools.replay',
     'report': 'tools.report',
     'paper_tables': 'tools.paper_tables',

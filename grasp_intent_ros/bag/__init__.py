@@ -1,6 +1,7 @@
 """rosbag2 sessions: write, read, summarise.
 
-Write with :class:`SessionWriter`, read with :func:`read_messages`, summarise with :func:`topics_info`.
+Write with :class:`SessionWriter`, read with :func:`read_messages`, summarise with :func:`topics_info`,
+repair a killed recording with :func:`reindex`.
 
 Bags are rosbag2 directories (metadata.yaml version 9, MCAP storage, CDR messages, ros2msg schemas,
 offered QoS per topic), as ``ros2 bag info/play`` in ROS 2 Jazzy expects. This package imports
@@ -9,8 +10,10 @@ rosbags only, never rclpy.
 
 from .errors import BagError, BagReadError, BagWriteError
 from .qos import Durability, QosSpec, Reliability, decode_qos, encode_qos
+from .queued import QueuedWriter
 from .reader import BagMessage, TopicInfo, read_messages, topics_info
-from .writer import SessionWriter
+from .reindex import BROKEN_SUFFIX, ReindexResult, reindex
+from .writer import DEFAULT_FLUSH_PERIOD, SessionWriter
 
 __all__ = [
     'BagError',
@@ -26,4 +29,9 @@ __all__ = [
     'read_messages',
     'topics_info',
     'SessionWriter',
+    'QueuedWriter',
+    'DEFAULT_FLUSH_PERIOD',
+    'ReindexResult',
+    'reindex',
+    'BROKEN_SUFFIX',
 ]

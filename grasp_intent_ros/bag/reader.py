@@ -24,6 +24,7 @@ __all__ = [
     'BagMessage',
     'TopicInfo',
     'read_messages',
+    'register_type',
     'topics_info',
 ]
 
@@ -164,11 +165,22 @@ def _select(conns: list[Connection], topics: Collection[str] | None, bag_path: P
 def _register_missing_types(store: Typestore, conns: list[Connection], bag_path: Path) -> None:
     """Add to ``store`` the bag's own definitions of message types it lacks."""
     for conn in conns:
-        if conn.msgtype in store.fielddefs:
-            continue
-        if conn.msgdef.format != MessageDefinitionFormat.MSG:
-            raise BagReadError(f'bag {bag_path}: type {conn.msgtype!r} is unknown and has no .msg definition')
-        try:
-            store.register(get_types_from_msg(conn.msgdef.data, conn.msgtype))
-        except TypesysError as exc:
-            raise BagReadError(f'bag {bag_path}: cannot register type {conn.msgtype!r}: {exc}') from exc
+        if conn.msgtype not in store.fielddefs:
+            register_type(store, conn.msgtype, conn.msgdef.format, conn.msgdef.data, bag_path)
+
+
+def register_type(store: Typestore, msgtype: str, fmt: MessageDefinitionFormat, definition: str,
+                  bag_path: Path) -> None:
+    """Add ``msgtype`` to ``store`` from a bag's own definition of it (.msg format, dependencies included).
+
+    Raises
+    ------
+    BagReadError
+        The definition is not in .msg format or does not parse.
+    """
+    if fmt != MessageDefinitionFormat.MSG:
+        raise BagReadError(f'bag {bag_path}: type {msgtype!r} is unknown and has no .msg definition')
+    try:
+        store.register(get_types_from_msg(definition, msgtype))
+    except TypesysError as exc:
+        raise BagReadError(f'bag {bag_path}: cannot register type {msgtype!r}: {exc}') from exc

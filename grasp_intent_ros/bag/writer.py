@@ -10,6 +10,13 @@ are set here as rosbag2 does (ros2/rosbag2, jazzy):
 - MCAP channel metadata: rosbag2_storage_mcap's ``create_topic`` writes two entries per channel,
   ``offered_qos_profiles`` (the YAML list of profiles) and ``topic_type_hash`` (the RIHS01 type hash), so
   a reader of the .mcap alone sees the type hashes; rosbags writes only the first.
+
+Crash safety, as rosbag2's MCAP storage has it: rosbags closes a chunk only when it exceeds 1 MiB and keeps
+even the file header in Python's buffer. Here the header is flushed when the bag is created, every closed
+chunk is pushed to the operating system at once, and a chunk is closed when its first message is
+``flush_period`` seconds old (:meth:`SessionWriter.write`, :meth:`SessionWriter.flush_if_due`). A killed
+process then loses at most the last ``flush_period`` seconds; :func:`~grasp_intent_ros.bag.reindex` makes
+the rest a complete bag again.
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ import os
 import re
 import struct
 import threading
+import time
 from collections.abc import Sequence
 from contextlib import suppress
 from io import BytesIO
@@ -41,11 +49,13 @@ if TYPE_CHECKING:
     from rosbags.interfaces import Connection
     from rosbags.typesys.store import Typestore
 
-__all__ = ['SessionWriter', 'ROS_DISTRO']
+__all__ = ['SessionWriter', 'ROS_DISTRO', 'DEFAULT_FLUSH_PERIOD']
 
 _MAX_TIMESTAMP_NS: Final = 2**63 - 1
 ROS_DISTRO: Final = 'jazzy'
 """``ros_distro`` of the bags written here (their message types are ROS 2 Jazzy's)."""
+DEFAULT_FLUSH_PERIOD: Final = 1.0
+"""Seconds after which a recorded message is on disk (its chunk closed and handed to the operating system)."""
 _ROSBAGS_DISTRO_LINE: Final = re.compile(r'^(\s*ros_distro:) rosbags$', re.MULTILINE)
 
 
@@ -59,7 +69,33 @@ def _set_ros_distro(metadata_yaml: str) -> str:
 
 
 class _McapStorage(storage_mcap.McapWriter):
-    """rosbags' MCAP storage with the channel metadata and ros_distro of rosbag2's (Jazzy)."""
+    """rosbags' MCAP storage with the channel metadata and ros_distro of rosbag2's (Jazzy), flushed.
+
+    The header is in the file once the storage exists, and every closed chunk is handed to the operating
+    system at once (a SIGKILL then loses no closed chunk). :attr:`open_since` is the monotonic time (s) of
+    the first message of the open chunk, None while it holds none.
+    """
+
+    def __init__(self, path: Path, compression: CompressionMode) -> None:
+        super().__init__(path, compression)
+        self.open_since: float | None = None
+        self.bio.flush()
+
+    def write(self, connection: Connection, timestamp: int, data: bytes | memoryview) -> None:
+        if self.open_since is None:
+            self.open_since = time.monotonic()
+        super().write(connection, timestamp, data)  # closes the chunk when it exceeds 1 MiB
+
+    def close_chunk(self) -> None:
+        super().close_chunk()
+        self.open_since = None
+        self.bio.flush()
+
+    def flush(self) -> None:
+        """Close the open chunk if it holds a message, and hand the file's buffer to the operating system."""
+        if self.open_since is not None:
+            self.close_chunk()
+        self.bio.flush()
 
     def add_connection(self, connection: Connection, offered_qos_profiles: str) -> None:
         metadata = BytesIO()
@@ -105,11 +141,17 @@ class SessionWriter:
     compress
         Compress the MCAP chunks with zstd (MCAP's own storage-level compression, which
         ``ros2 bag`` and the ``mcap`` reader decode transparently); default True.
+    flush_period
+        Seconds after which a chunk's first message is on disk: :meth:`write` and
+        :meth:`flush_if_due` close the open chunk (and hand it to the operating system) once its
+        first message is that old. Default 1.0; None closes chunks by size (1 MiB) only.
 
     Raises
     ------
     BagWriteError
         ``path`` exists, or the directory/storage file cannot be created.
+    ValueError
+        ``flush_period`` is not None and not positive.
 
     Example:
         >>> with SessionWriter(tmp / 'session') as bag:  # doctest: +SKIP
@@ -118,7 +160,10 @@ class SessionWriter:
     """
 
     def __init__(self, path: str | os.PathLike[str], *, typestore: Typestore | None = None,
-                 compress: bool = True) -> None:
+                 compress: bool = True, flush_period: float | None = DEFAULT_FLUSH_PERIOD) -> None:
+        if flush_period is not None and not flush_period > 0.0:
+            raise ValueError(f'flush_period must be None or > 0 s, got {flush_period!r}')
+        self._flush_period = flush_period
         self._path = Path(path)
         self._typestore = typestore if typestore is not None else get_typestore(Stores.ROS2_JAZZY)
         self._lock = threading.Lock()
@@ -154,6 +199,14 @@ class SessionWriter:
     def closed(self) -> bool:
         """True once :meth:`close` ran or a write failed."""
         return self._closed
+
+    @property
+    def seconds_to_flush(self) -> float | None:
+        """Seconds until the open chunk is due (<= 0: due now); None if it holds no message or no period."""
+        storage = self._storage
+        if self._flush_period is None or storage is None or storage.open_since is None:
+            return None
+        return storage.open_since + self._flush_period - time.monotonic()
 
     @property
     def topics(self) -> dict[str, str]:
@@ -244,6 +297,35 @@ class SessionWriter:
                 raise self._error(f'cannot serialize {conn.msgtype!r} for topic {topic!r}: {exc}') from exc
             self._write_locked(topic, timestamp_ns, cdr)
 
+    def flush(self) -> None:
+        """Close the open chunk (if it holds a message) and hand everything written to the operating system.
+
+        What was flushed survives a SIGKILL of this process (not a power loss: no fsync); a bag left
+        without its summary by a kill is made whole by :func:`~grasp_intent_ros.bag.reindex`.
+
+        Raises
+        ------
+        BagWriteError
+            The writer is closed, or an OS error (e.g. ENOSPC); after an OS error the writer is closed.
+        """
+        with self._lock:
+            self._flush_locked()
+
+    def flush_if_due(self) -> bool:
+        """:meth:`flush` if the open chunk's first message is ``flush_period`` s old; whether it flushed.
+
+        Raises
+        ------
+        BagWriteError
+            As :meth:`flush`.
+        """
+        with self._lock:
+            due = self.seconds_to_flush
+            if due is None or due > 0.0:
+                return False
+            self._flush_locked()
+            return True
+
     def close(self) -> None:
         """Finish the bag: write the MCAP summary and metadata.yaml. Idempotent.
 
@@ -298,6 +380,22 @@ class SessionWriter:
         except OSError as exc:
             raise self._failed('writing', exc) from exc
         self._count += 1
+        due = self.seconds_to_flush
+        if due is not None and due <= 0.0:
+            self._flush_locked()
+
+    def _flush_locked(self) -> None:
+        self._check_open()
+        storage = self._storage
+        assert storage is not None  # open
+        try:
+            storage.flush()
+        except OSError as exc:
+            raise self._failed('flushing', exc) from exc
+
+    @property
+    def _storage(self) -> _McapStorage | None:
+        return cast('_McapStorage | None', self._writer.storage)
 
     def _connection(self, topic: str) -> Connection:
         try:

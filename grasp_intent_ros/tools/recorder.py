@@ -8,17 +8,27 @@ Topics
     /diagnostics``. Matching topics are discovered every ``--discovery-period`` seconds, so nodes may
     start before or after the recorder.
 Recording
-    Messages are taken serialized (``raw=True``) and written unchanged with
-    :class:`~grasp_intent_ros.bag.SessionWriter`, stamped with the receive time (node clock, ns).
+    Messages are taken serialized (``raw=True``, never decoded) and written unchanged with
+    :class:`~grasp_intent_ros.bag.SessionWriter`, stamped with the middleware's receive time (ns). The
+    executor thread only puts them on a queue; a writer thread (:class:`~grasp_intent_ros.bag.QueuedWriter`)
+    writes and compresses, so a slow disk or a chunk being compressed never delays a subscription.
     Each topic is subscribed with the reliability and durability its publishers offer (best effort /
     volatile if they differ; transient local for latched topics, so the last ``model/active`` is
     recorded even when it was published before the recorder started), keep-last ``--depth``. As
     ``ros2 bag record`` does, the bag's ``offered_qos_profiles`` hold each publisher's QoS as discovery
     shows it (:func:`offered_qos_spec`: history unknown, the durations and
     liveliness the publisher offers).
+Crash safety
+    A chunk is closed and handed to the operating system once its first message is ``--flush-period``
+    seconds old (default 1 s), also when no further message arrives: a SIGKILLed recorder loses at most
+    that much. ``python -m grasp_intent_ros.reindex BAG`` then rebuilds the MCAP summary and
+    metadata.yaml from the complete chunks (the original file is kept as ``.mcap.broken``).
 Diagnostics
-    ``/diagnostics`` status ``<node>: recorder``: messages received, 'messages written' in total and
-    per topic ('topic /intent/w': n), ERROR with the reason once a write failed.
+    ``/diagnostics`` status ``<node>: recorder``: 'messages received', 'messages written' in total and
+    per topic ('topic /intent/w': n), the 'writer queue' and its 'writer queue peak' (messages received,
+    not yet written), 'messages lost' (the middleware's message-lost events: a reliable publisher whose
+    history dropped messages before the recorder had them, a best-effort gap) with a WARN naming the
+    topics, ERROR with the reason once a write failed.
 Ending
     SIGINT/SIGTERM: the bag is closed (MCAP summary, metadata.yaml), a one-line summary printed, exit 0.
     A write error (e.g. disk full): an ERROR log naming the bag and the number of messages written,
@@ -38,6 +48,7 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
+from rclpy.event_handler import QoSMessageLostInfo, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.subscription import Subscription
@@ -45,7 +56,7 @@ from rclpy.topic_endpoint_info import TopicEndpointInfo
 from rclpy.utilities import remove_ros_args
 from rosbags.typesys import Stores, get_typestore
 
-from ..bag import BagWriteError, QosSpec, SessionWriter
+from ..bag import DEFAULT_FLUSH_PERIOD, BagWriteError, QosSpec, QueuedWriter, SessionWriter
 from ..protocol import ERROR, WARN
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.run import run_node
@@ -182,6 +193,8 @@ class Recorder(Node):
         Keep-last depth of each subscription (messages).
     discovery_period
         Seconds between looks at the ROS graph for new topics.
+    flush_period
+        Seconds after which a received message is on disk (its chunk closed and flushed).
     on_failure
         Called once with the :class:`BagWriteError` after a write error stopped the
         recording (``main`` shuts the context down with it); default: nothing more.
@@ -193,39 +206,43 @@ class Recorder(Node):
     BagWriteError
         ``out_dir`` exists or cannot be created.
     ValueError
-        A topic pattern is invalid, or depth/discovery_period is not positive.
+        A topic pattern is invalid, or depth/discovery_period/flush_period is not positive.
 
     The bag is finished by :meth:`close`, which :meth:`destroy_node` calls.
     """
 
     def __init__(self, out_dir: str | os.PathLike[str], *, topics: Iterable[str] = DEFAULT_TOPICS,
                  qos_overrides: Mapping[str, QosSpec] | None = None, depth: int = DEFAULT_DEPTH,
-                 discovery_period: float = 0.5,
+                 discovery_period: float = 0.5, flush_period: float = DEFAULT_FLUSH_PERIOD,
                  on_failure: Callable[[BagWriteError], object] | None = None,
                  node_name: str = 'recorder', **kwargs: Any) -> None:
-        if depth < 1 or not discovery_period > 0.0:
-            raise ValueError(f'depth must be >= 1 and discovery_period > 0, got {depth}, {discovery_period}')
+        if depth < 1 or not discovery_period > 0.0 or not flush_period > 0.0:
+            raise ValueError('depth must be >= 1, discovery_period and flush_period > 0, got '
+                             f'{depth}, {discovery_period}, {flush_period}')
         super().__init__(node_name, **kwargs)
         self._typestore = get_typestore(Stores.ROS2_JAZZY)
         try:
             self._selection = TopicSelection.resolve(self, topics)
             self._overrides = {self.resolve_topic_name(t): q for t, q in (qos_overrides or {}).items()}
-            self._bag = SessionWriter(out_dir, typestore=self._typestore)  # last: no empty bag left behind
+            self._bag = SessionWriter(out_dir, typestore=self._typestore,  # last: no empty bag left behind
+                                      flush_period=flush_period)
         except BaseException:
             Node.destroy_node(self)
             raise
+        self._writer = QueuedWriter(self._bag)  # its write errors are taken up by _report_counts
         self._depth = depth
         self._on_failure = on_failure
         self._topic_subs: dict[str, Subscription] = {}
         self._recorded: dict[str, tuple[str, QosSpec]] = {}  # topic -> (type, subscribed QoS)
         self._skipped: set[str] = set()
         self._qos_warned: set[str] = set()
-        self._counts: dict[str, int] = {}
+        self._received = 0
+        self._lost: dict[str, int] = {}
         self._error: BagWriteError | None = None
-        self._received_after_error = 0
         self._diagnostics = NodeDiagnostics(self, 'recorder')
         self._diagnostics.set_value('bag', self._bag.path)
-        self._diagnostics.set_value('messages written', 0)
+        self._report_counts()
+        self._report_timer = self.create_timer(0.5, self._report_counts)
         self._timer = self.create_timer(discovery_period, self.discover)
         self.get_logger().info(f'recording to {self._bag.path}: '
                                f'{", ".join(sorted(self._selection.names | set(self._selection.prefixes)))}')
@@ -239,8 +256,9 @@ class Recorder(Node):
 
     @property
     def counts(self) -> dict[str, int]:
-        """A copy of the messages written per topic."""
-        return dict(self._counts)
+        """Messages written per recorded topic (a new dict)."""
+        written = self._writer.counts
+        return {topic: written.get(topic, 0) for topic in self._recorded}
 
     @property
     def recorded_topics(self) -> dict[str, tuple[str, QosSpec]]:
@@ -254,13 +272,14 @@ class Recorder(Node):
 
     def summary(self) -> str:
         """One line: messages per topic, and the error if the recording failed."""
-        per_topic = ', '.join(f'{t} {n}' for t, n in sorted(self._counts.items())) or 'no topics'
-        line = (f'recorder: {sum(self._counts.values())} messages on {len(self._counts)} topics '
+        counts = self.counts
+        per_topic = ', '.join(f'{t} {n}' for t, n in sorted(counts.items())) or 'no topics'
+        line = (f'recorder: {sum(counts.values())} messages on {len(counts)} topics '
                 f'in {self._bag.path} ({per_topic})')
         if self._error is not None:
             line += f'; FAILED: {self._error}'
-            if self._received_after_error:
-                line += f'; {self._received_after_error} messages received after the error not recorded'
+            if self._writer.dropped:
+                line += f'; {self._writer.dropped} messages received after the error not recorded'
         return line
 
     # ------------------------------------------------------------------ discovery
@@ -333,36 +352,58 @@ class Recorder(Node):
         except BagWriteError as exc:
             self._fail(exc)
             return
-        self._counts[topic] = 0
         self._recorded[topic] = (msgtype, qos)
         self._diagnostics.set_value(f'topic {topic}', 0)
         on_message = self._diagnostics.guard(functools.partial(self._on_message, topic))
         self._topic_subs[topic] = self.create_subscription(  # two parameters: rclpy passes MessageInfo
             msg_class, topic, lambda data, info: on_message((data, info)),
-            _subscription_qos(qos, self._depth), raw=True)
+            _subscription_qos(qos, self._depth), raw=True,
+            event_callbacks=SubscriptionEventCallbacks(message_lost=functools.partial(self._on_lost, topic)))
         self.get_logger().info(f'recording {topic} ({msgtype}, {qos.reliability}, {qos.durability})')
 
     # ------------------------------------------------------------------ writing
     def _on_message(self, topic: str, received: tuple[bytes, Mapping[str, int]]) -> None:
+        """The whole work on the executor thread: stamp and enqueue, then drain the subscription's queue.
+
+        rclpy's executor builds a wait set and a task for every message it hands over, which at
+        a few kHz costs more than a loaded machine's share of a core; so the callback takes the
+        messages already waiting on the same subscription itself (at most ``depth``, so other topics
+        keep their turn), as rclpy's executor does (``handle.take_message``).
+        """
         data, info = received
-        if self._error is not None:
-            self._received_after_error += 1
-            return
+        put, now = self._writer.put, self.get_clock().now
         # the middleware's receive time, not the callback's: an input and a fast answer taken in one
         # executor wait keep their order of arrival
-        stamp_ns = int(info.get('received_timestamp', 0)) or self.get_clock().now().nanoseconds
-        try:
-            self._bag.write(topic, stamp_ns, data)
-        except BagWriteError as exc:
-            self._fail(exc)
-        except Exception as exc:  # noqa: BLE001 - never let a callback raise; never drop silently
-            self._fail(BagWriteError(f'cannot write {topic} to bag {self._bag.path}: '
-                                     f'{type(exc).__name__}: {exc}', path=self._bag.path,
-                                     messages_written=self._bag.message_count))
-        else:
-            count = self._counts[topic] = self._counts[topic] + 1
-            self._diagnostics.set_value(f'topic {topic}', count)
-            self._diagnostics.set_value('messages written', self._bag.message_count)
+        put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data)
+        taken = 1
+        subscription = self._topic_subs.get(topic)
+        if subscription is not None:
+            with subscription.handle:
+                while taken < self._depth:
+                    message = subscription.handle.take_message(subscription.msg_type, True)
+                    if message is None:
+                        break
+                    data, info = message
+                    put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data)
+                    taken += 1
+        self._received += taken
+
+    def _on_lost(self, topic: str, info: QoSMessageLostInfo) -> None:
+        """The middleware reports messages that never reached the subscription: count them, WARN."""
+        self._lost[topic] = self._lost.get(topic, 0) + int(info.total_count_change)
+        lost = ', '.join(f'{t} {n}' for t, n in sorted(self._lost.items()))
+        self._diagnostics.set_state(WARN, f'messages lost before they reached the recorder: {lost}')
+
+    def _report_counts(self) -> None:
+        """Copy the writer's counts into the diagnostics (published every second); take up a write error."""
+        if self._writer.error is not None and self._error is None:
+            self._fail(self._writer.error)
+        written = self._writer.counts
+        self._diagnostics.set_values({
+            'messages received': self._received, 'messages written': self._bag.message_count,
+            'writer queue': self._writer.queued, 'writer queue peak': self._writer.peak,
+            'messages lost': sum(self._lost.values()),
+            **{f'topic {topic}': written.get(topic, 0) for topic in self._recorded}})
 
     def _fail(self, exc: BagWriteError) -> None:
         """Stop recording after a write error: report it, unsubscribe, call ``on_failure``."""
@@ -378,7 +419,7 @@ class Recorder(Node):
         for subscription in self._topic_subs.values():
             self.destroy_subscription(subscription)
         try:
-            self._bag.close()
+            self._writer.close()
         except BagWriteError as close_exc:
             self.get_logger().error(f'closing the bag after the error failed too: {close_exc}')
         if self._on_failure is not None:
@@ -388,17 +429,20 @@ class Recorder(Node):
                 self.get_logger().error(f'on_failure callback raised {type(cb_exc).__name__}: {cb_exc}')
 
     def close(self) -> None:
-        """Stop discovery and finish the bag (MCAP summary, metadata.yaml). Idempotent.
+        """Stop discovery, write what is queued and finish the bag (MCAP summary, metadata.yaml). Idempotent.
 
         A failure while finishing is logged and kept in :attr:`error`.
         """
         self._timer.cancel()
+        self._report_timer.cancel()
         try:
-            self._bag.close()
+            self._writer.close()
+            failure = self._writer.error  # e.g. writing the last queued messages failed
         except BagWriteError as exc:
-            if self._error is None:
-                self._error = exc
-                self.get_logger().error(f'closing bag {self._bag.path} failed: {exc}')
+            failure = exc
+        if failure is not None and self._error is None:
+            self._error = failure
+            self.get_logger().error(f'finishing bag {self._bag.path} failed: {failure}')
 
     def destroy_node(self) -> None:
         """Close the bag, then destroy the node."""
@@ -418,6 +462,10 @@ def _parser() -> argparse.ArgumentParser:
                         help=f'keep-last depth of each subscription (default {DEFAULT_DEPTH})')
     parser.add_argument('--discovery-period', type=float, default=0.5,
                         help='seconds between looks for new topics (default 0.5)')
+    parser.add_argument('--flush-period', type=float, default=DEFAULT_FLUSH_PERIOD,
+                        help='seconds after which a message is on disk, so that a killed recorder loses at '
+                             f'most this much (default {DEFAULT_FLUSH_PERIOD:g}; repair with '
+                             'python -m grasp_intent_ros.reindex)')
     return parser
 
 
@@ -428,14 +476,14 @@ def main(args: list[str] | None = None) -> None:
     """
     argv = list(sys.argv if args is None else args)
     options = _parser().parse_args(remove_ros_args(argv)[1:])
-    if options.depth < 1 or not options.discovery_period > 0.0:
-        _parser().error('--depth must be >= 1 and --discovery-period > 0')
+    if options.depth < 1 or not options.discovery_period > 0.0 or not options.flush_period > 0.0:
+        _parser().error('--depth must be >= 1, --discovery-period and --flush-period > 0')
     built: list[Recorder] = []
 
     def build() -> Recorder:
         try:
             recorder = Recorder(options.out_dir, topics=options.topics, depth=options.depth,
-                                discovery_period=options.discovery_period,
+                                discovery_period=options.discovery_period, flush_period=options.flush_period,
                                 on_failure=lambda _exc: rclpy.try_shutdown())  # run_node's context
         except BagWriteError as exc:  # e.g. the bag directory exists already
             print(f'recorder: error: {exc}', file=sys.stderr)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import resource
 import signal
+import subprocess
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -39,9 +40,9 @@ class RecorderProcess(NodeProcess):
     """``python -m grasp_intent_ros.recorder BAG --ros-args -r __ns:=/robot1``; output to files."""
 
     def __init__(self, bag: Path, domain_id: int, log_dir: Path,
-                 preexec_fn: Callable[[], None] | None = None) -> None:
+                 preexec_fn: Callable[[], None] | None = None, flush_period: float = 1.0) -> None:
         command = [sys.executable, '-m', 'grasp_intent_ros.recorder', str(bag), '--discovery-period', '0.2',
-                   '--ros-args', '-r', f'__ns:={NS}']
+                   '--flush-period', str(flush_period), '--ros-args', '-r', f'__ns:={NS}']
         super().__init__(command, module='recorder', env=node_environment(domain_id), log_dir=log_dir,
                          cwd=REPO, preexec_fn=preexec_fn)
 
@@ -81,6 +82,21 @@ def recorder_count(statuses: list, key: str) -> int:
     return -1
 
 
+def publish_w(ros, publisher, seqs: range) -> list[int]:
+    """Publish w = (seq, 0.5, 0.5) for each of ``seqs`` from a 1 kHz timer; returns the live list of those sent."""
+    sent: list[int] = []
+
+    def tick() -> None:
+        if len(sent) < len(seqs):
+            publisher.publish(Float64MultiArray(data=[float(seqs[len(sent)]), 0.5, 0.5]))
+            sent.append(seqs[len(sent)])
+        else:
+            timer.cancel()
+
+    timer = ros.node.create_timer(1e-3, tick)
+    return sent
+
+
 def test_process_records_2000_messages_at_1khz_and_closes_on_sigint(ros, start_recorder, tmp_path) -> None:
     model_pub = ros.publisher(String, MODEL, latched_qos())
     model_pub.publish(String(data=MODEL_DOC))  # latched, published before the recorder starts
@@ -91,16 +107,7 @@ def test_process_records_2000_messages_at_1khz_and_closes_on_sigint(ros, start_r
     assert ros.wait_for(lambda: w_pub.get_subscription_count() >= 1 and recorder_count(statuses, f'topic {MODEL}') == 1,
                         timeout=STARTUP), proc.output()
 
-    sent: list[int] = []
-
-    def tick() -> None:
-        if len(sent) < N:
-            w_pub.publish(Float64MultiArray(data=[float(len(sent)), 0.5, 0.5]))
-            sent.append(len(sent))
-        else:
-            timer.cancel()
-
-    timer = ros.node.create_timer(1e-3, tick)  # 1 kHz
+    sent = publish_w(ros, w_pub, range(N))
     assert ros.wait_for(lambda: len(sent) == N, timeout=20.0)
     # the recorder reports what it wrote on /diagnostics (1 Hz): wait until it has all, then SIGINT
     assert ros.wait_for(lambda: recorder_count(statuses, f'topic {W}') == N, timeout=10.0), \
@@ -173,3 +180,43 @@ def test_an_existing_bag_directory_exits_1_with_the_reason(ros, start_recorder, 
     assert proc.popen.wait(STARTUP) == 1, proc.output()
     stderr = proc.output()[1]
     assert 'exists already' in stderr and 'Traceback' not in stderr, stderr
+
+
+def test_sigkill_then_reindex_recovers_every_message_flushed_before_the_kill(ros, start_recorder, tmp_path) -> None:
+    """The recorder is SIGKILLed while w arrives at 1 kHz; reindex gives back every w flushed before.
+
+    Batch A (500 w) is published, the recorder reports it written, and the .mcap grows after that
+    (a chunk holding all of A was closed and flushed: --flush-period 0.5). Batch B follows and the
+    recorder is killed in its middle. The repaired bag holds w 0..k-1 for some k >= 500, exact and in
+    order, in both readers; the original file is kept as .mcap.broken.
+    """
+    w_pub = ros.publisher(Float64MultiArray, W, DEEP_RELIABLE)
+    statuses = ros.diagnostics()
+    bag = tmp_path / 'killed'
+    proc = start_recorder(bag, flush_period=0.5)
+    assert ros.wait_for(lambda: w_pub.get_subscription_count() >= 1, timeout=STARTUP), proc.output()
+    mcap = bag / 'killed.mcap'
+    batch = 500
+    sent = publish_w(ros, w_pub, range(batch))
+    assert ros.wait_for(lambda: len(sent) == batch and recorder_count(statuses, f'topic {W}') == batch,
+                        timeout=20.0), (recorder_count(statuses, f'topic {W}'), proc.output())
+    size = mcap.stat().st_size
+    assert ros.wait_for(lambda: mcap.stat().st_size > size, timeout=10.0), 'no chunk was flushed'
+    more = publish_w(ros, w_pub, range(batch, 2 * batch))
+    assert ros.wait_for(lambda: len(more) >= batch // 2, timeout=10.0)
+    assert proc.stop(signal.SIGKILL) == -signal.SIGKILL
+    assert not (bag / 'metadata.yaml').exists()
+
+    repair = subprocess.run([sys.executable, '-m', 'grasp_intent_ros.reindex', str(bag)], cwd=REPO,
+                            capture_output=True, text=True, timeout=60)
+    assert repair.returncode == 0, repair.stdout + repair.stderr
+    assert 'recovered' in repair.stdout and 'killed.mcap.broken' in repair.stdout, repair.stdout
+    assert (bag / 'killed.mcap.broken').is_file()
+    recovered = [m.decode() for m in read_messages(bag, topics=[W])]
+    k = len(recovered)
+    assert batch <= k <= batch + len(more)
+    assert [list(m.data) for m in recovered] == [[float(seq), 0.5, 0.5] for seq in range(k)]
+    assert [list(m.decoded.data) for m in read_messages_mcap(bag, topics=[W])] == [
+        [float(seq), 0.5, 0.5] for seq in range(k)]
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert meta['message_count'] == sum(i.count for i in topics_info(bag).values()) >= k

@@ -9,6 +9,7 @@ import errno
 import math
 import pathlib
 import re
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -26,16 +27,20 @@ from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 
 from grasp_intent_ros.bag import (
+    BROKEN_SUFFIX,
     BagError,
     BagMessage,
     BagReadError,
     BagWriteError,
     QosSpec,
+    QueuedWriter,
+    ReindexResult,
     SessionWriter,
     TopicInfo,
     decode_qos,
     encode_qos,
     read_messages,
+    reindex,
     topics_info,
 )
 from grasp_intent_ros.core.errors import GraspIntentError
@@ -344,6 +349,9 @@ class _DiskFull:
     def tell(self) -> int:
         return int(self._raw.tell())
 
+    def flush(self) -> None:
+        self._raw.flush()
+
     def close(self) -> None:
         self._raw.close()
 
@@ -478,3 +486,214 @@ def test_reader_errors(tmp_path: Path, session: Session) -> None:
         topics_info(tmp_path / 'missing')
     with pytest.raises(BagReadError, match='no .mcap'):
         next(read_messages_mcap(tmp_path))
+
+
+# -- crash safety: flushing, the writer thread, reindex -------------------------------------------------------
+
+def wait_until(condition: Callable[[], bool], timeout: float = 10.0) -> bool:
+    """Poll ``condition`` until it holds or ``timeout`` s pass (a condition wait, not a sleep)."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+    return True
+
+
+def mcap_file(bag: Path) -> Path:
+    (path,) = bag.glob('*.mcap')
+    return path
+
+
+def test_header_is_on_disk_at_once_and_flush_writes_the_open_chunk(tmp_path: Path, store: Typestore) -> None:
+    bag = SessionWriter(tmp_path / 'b', typestore=store, flush_period=None)
+    assert mcap_file(tmp_path / 'b').read_bytes().startswith(b'\x89MCAP0\r\n\x01')
+    bag.add_topic('/s', STRING, qos=QosSpec())
+    size = mcap_file(tmp_path / 'b').stat().st_size
+    bag.write_message('/s', T0_NS, status_msg(store, 0))
+    assert bag.seconds_to_flush is None  # no period: chunks close by size only
+    assert mcap_file(tmp_path / 'b').stat().st_size == size  # buffered in the open chunk
+    bag.flush()
+    assert mcap_file(tmp_path / 'b').stat().st_size > size
+    bag.close()
+    with pytest.raises(BagWriteError, match='closed'):
+        bag.flush()
+    with pytest.raises(ValueError, match='flush_period'):
+        SessionWriter(tmp_path / 'c', flush_period=0.0)
+
+
+def test_a_chunk_is_flushed_once_its_first_message_is_flush_period_old(tmp_path: Path, store: Typestore) -> None:
+    bag = SessionWriter(tmp_path / 'b', typestore=store, flush_period=0.05)
+    bag.add_topic('/s', STRING, qos=QosSpec())
+    assert bag.seconds_to_flush is None and not bag.flush_if_due()  # nothing to flush
+    size = mcap_file(tmp_path / 'b').stat().st_size
+    bag.write_message('/s', T0_NS, status_msg(store, 0))
+    due = bag.seconds_to_flush
+    assert due is not None and 0.0 < due <= 0.05
+    assert wait_until(bag.flush_if_due, timeout=5.0)
+    assert bag.seconds_to_flush is None and mcap_file(tmp_path / 'b').stat().st_size > size
+    # write() itself flushes a chunk that is due
+    bag.write_message('/s', T0_NS + 1, status_msg(store, 1))
+    size = mcap_file(tmp_path / 'b').stat().st_size
+    assert wait_until(lambda: (bag.seconds_to_flush or 0.0) <= 0.0, timeout=5.0)
+    bag.write_message('/s', T0_NS + 2, status_msg(store, 2))
+    assert bag.seconds_to_flush is None and mcap_file(tmp_path / 'b').stat().st_size > size
+    bag.close()
+    assert [m.decode().data for m in read_messages(tmp_path / 'b')] == [  # type: ignore[attr-defined]
+        status_msg(store, i).data for i in range(3)]
+
+
+def test_queued_writer_writes_in_order_and_flushes_when_idle(tmp_path: Path, store: Typestore) -> None:
+    bag = SessionWriter(tmp_path / 'b', typestore=store, flush_period=0.05)
+    bag.add_topic('/s', STRING, qos=QosSpec())
+    bag.add_topic(INTENT, F64MA, qos=QosSpec())
+    writer = QueuedWriter(bag)
+    cdr = [bytes(store.serialize_cdr(status_msg(store, i), STRING)) for i in range(300)]
+    for i, data in enumerate(cdr):
+        writer.put('/s', T0_NS + i, data)
+    writer.put(INTENT, T0_NS + 300, bytes(store.serialize_cdr(intent_msg(store, 7), F64MA)))
+    assert 1 <= writer.peak <= 301
+    size_before = mcap_file(tmp_path / 'b').stat().st_size
+    # no further message: the writer thread flushes the open chunk on its own
+    assert wait_until(lambda: writer.counts == {'/s': 300, INTENT: 1}
+                      and mcap_file(tmp_path / 'b').stat().st_size > size_before and bag.seconds_to_flush is None)
+    assert writer.queued == 0 and writer.error is None and writer.dropped == 0
+    writer.close()
+    writer.close()  # idempotent
+    writer.put('/s', T0_NS, cdr[0])
+    assert writer.dropped == 1 and bag.closed
+    got = list(read_messages(tmp_path / 'b'))
+    assert [seq_of(m.topic, decoded(m)) for m in got] == [*range(300), 7]
+
+
+def test_queued_writer_stops_at_a_write_error_and_reports_it_once(
+    tmp_path: Path, store: Typestore, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _fill_disk_after(monkeypatch, budget=4096)
+    bag = SessionWriter(tmp_path / 'full', typestore=store, flush_period=None)
+    bag.add_topic('/big', F64MA, qos=QosSpec())
+    layout = store.types['std_msgs/msg/MultiArrayLayout'](dim=[], data_offset=0)
+    noise = np.random.default_rng(0).random(10_000)  # 80 kB that zstd cannot shrink
+    big = bytes(store.serialize_cdr(store.types[F64MA](layout=layout, data=noise), F64MA))
+    errors: list[BagWriteError] = []
+    writer = QueuedWriter(bag, on_error=errors.append)
+    for i in range(40):  # the first 1 MiB chunk cannot be written
+        writer.put('/big', T0_NS + i, big)
+    assert wait_until(lambda: writer.error is not None and writer.counts.get('/big', 0) + writer.dropped == 40)
+    assert errors == [writer.error] and 'No space left on device' in str(writer.error)
+    assert 0 < writer.counts['/big'] < 40
+    writer.close()  # the writer is closed already: no second error
+
+
+def truncated_copy(source: Path, tmp_path: Path, name: str, size: int) -> Path:
+    """A bag directory ``name`` holding the first ``size`` bytes of ``source``'s .mcap and no metadata.yaml."""
+    bag = tmp_path / name
+    bag.mkdir()
+    (bag / f'{name}.mcap').write_bytes(mcap_file(source).read_bytes()[:size])
+    return bag
+
+
+@pytest.fixture(scope='module')
+def chunked(tmp_path_factory: pytest.TempPathFactory, store: Typestore) -> tuple[Path, list[tuple[int, int]]]:
+    """A complete bag of 5 explicitly flushed chunks, 30 messages each; its (chunk end offset, messages before)."""
+    path = tmp_path_factory.mktemp('chunked') / 'chunked'
+    with SessionWriter(path, typestore=store, flush_period=None) as bag:
+        for topic, (msgtype, _) in BUILDERS.items():
+            bag.add_topic(topic, msgtype, qos=QOS[topic])
+        for seq in range(50):
+            for k, (topic, (_, build)) in enumerate(BUILDERS.items()):
+                bag.write_message(topic, T0_NS + 3 * seq + k, build(store, seq))
+            if seq % 10 == 9:
+                bag.flush()
+    with mcap_file(path).open('rb') as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None and len(summary.chunk_indexes) == 5
+    ends = [(c.chunk_start_offset + c.chunk_length, 30 * (i + 1)) for i, c in enumerate(summary.chunk_indexes)]
+    return path, ends
+
+
+def test_reindex_of_a_truncated_file_recovers_every_complete_chunk(
+    tmp_path: Path, store: Typestore, chunked: tuple[Path, list[tuple[int, int]]]
+) -> None:
+    """Cut at ~30 offsets (at and just before every chunk's end, in the header, a spread): never a crash.
+
+    (~0.3 s each: rosbags' YAML dump of the metadata dominates.)
+    """
+    source, ends = chunked
+    size = mcap_file(source).stat().st_size
+    offsets = sorted({*range(0, size + 1, max(1, size // 12)), *(e + d for e, _ in ends for d in (-1, 0)),
+                      8, 9, 60, size - 1})
+    everything = [(m.topic, m.timestamp_ns, seq_of(m.topic, decoded(m))) for m in read_messages(source)]
+    for offset in offsets:
+        bag = truncated_copy(source, tmp_path, f'cut{offset}', offset)
+        expected = max((n for end, n in ends if end <= offset), default=0)
+        try:
+            result = reindex(bag, typestore=store)
+        except BagReadError as exc:  # only a file without a complete header cannot be repaired
+            assert offset < 60 and ('MCAP magic' in str(exc) or 'header' in str(exc)), (offset, exc)
+            assert (bag / f'cut{offset}.mcap').stat().st_size == offset  # untouched
+            continue
+        assert result.repaired and result.messages == expected, (offset, result)
+        got = [(m.topic, m.timestamp_ns, seq_of(m.topic, decoded(m))) for m in read_messages(bag, typestore=store)]
+        assert got == everything[:expected], offset
+        assert (bag / f'cut{offset}.mcap{BROKEN_SUFFIX}').read_bytes() == mcap_file(source).read_bytes()[:offset]
+        if expected:
+            assert [(m.topic, m.log_time_ns) for m in read_messages_mcap(bag)] == [t[:2] for t in got]
+            info = topics_info(bag)
+            assert {t: (i.msgtype, i.count, i.qos) for t, i in info.items()} == {
+                t: (BUILDERS[t][0], expected // 3, (QOS[t],)) for t in BUILDERS}
+            meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+            assert meta['message_count'] == expected
+            assert meta['starting_time']['nanoseconds_since_epoch'] == T0_NS
+            assert meta['duration']['nanoseconds'] == got[-1][1] - T0_NS
+
+
+def test_reindex_leaves_a_complete_bag_alone_and_rebuilds_a_missing_metadata(
+    tmp_path: Path, chunked: tuple[Path, list[tuple[int, int]]]
+) -> None:
+    source, ends = chunked
+    assert reindex(source) == ReindexResult(source, repaired=False)
+    assert 'nothing to do' in reindex(source).summary()
+    whole = truncated_copy(source, tmp_path, 'whole', mcap_file(source).stat().st_size)  # no metadata.yaml
+    result = reindex(whole)
+    assert (result.messages, result.chunks, result.discarded_bytes, result.stopped) == (150, 5, 0, 'end of data')
+    assert topics_info(whole)[INTENT].count == 50
+    assert not reindex(whole).repaired  # complete now
+
+
+def test_reindex_errors_are_clear_and_change_nothing(
+    tmp_path: Path, chunked: tuple[Path, list[tuple[int, int]]]
+) -> None:
+    source, ends = chunked
+    with pytest.raises(BagReadError, match='not a directory'):
+        reindex(tmp_path / 'missing')
+    (tmp_path / 'empty').mkdir()
+    with pytest.raises(BagReadError, match='expected one .mcap file, found none'):
+        reindex(tmp_path / 'empty')
+    junk = tmp_path / 'junk'
+    junk.mkdir()
+    (junk / 'junk.mcap').write_bytes(b'not an mcap file at all')
+    with pytest.raises(BagReadError, match='MCAP magic'):
+        reindex(junk)
+    assert sorted(p.name for p in junk.iterdir()) == ['junk.mcap']
+    bag = truncated_copy(source, tmp_path, 'twice', ends[2][0] + 5)
+    (bag / 'twice.mcap.broken').write_bytes(b'an earlier original')
+    with pytest.raises(BagReadError, match='exists'):
+        reindex(bag)
+    assert (bag / 'twice.mcap').stat().st_size == ends[2][0] + 5
+    (bag / 'twice.mcap').unlink()  # as if a repair had been killed between its two renames
+    with pytest.raises(BagReadError, match='found none .twice.mcap.broken: the original of an interrupted'):
+        reindex(bag)
+
+
+def test_reindex_stops_at_a_corrupt_chunk_and_keeps_what_precedes_it(
+    tmp_path: Path, chunked: tuple[Path, list[tuple[int, int]]]
+) -> None:
+    source, ends = chunked
+    data = bytearray(mcap_file(source).read_bytes())
+    data[ends[3][0] - 20] ^= 0xFF  # inside the compressed data of chunk 4
+    bag = tmp_path / 'flipped'
+    bag.mkdir()
+    (bag / 'flipped.mcap').write_bytes(bytes(data[:ends[4][0]]))
+    result = reindex(bag)
+    assert result.messages == ends[2][1] and 'corrupt' in result.stopped, result
+    assert len(list(read_messages(bag))) == ends[2][1]
