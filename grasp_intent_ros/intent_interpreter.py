@@ -47,6 +47,7 @@ from .protocol import ModelDocument, msg_to_array
 from .ros.clarification import ClarificationRequests
 from .ros.conversions import array_to_msg, model_from_msg
 from .ros.diagnostics import NodeDiagnostics
+from .ros.inputs import subscribe_input
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, latched_qos, output_qos
 from .ros.run import run_node
@@ -93,10 +94,9 @@ class IntentInterpreter(Node):
         self._model: ModelDocument | None = None
         self._diagnostics.set_value('last outcome', '')
         self._configure(self._params)
-        self._w_sub = self.create_subscription(Float64MultiArray, topics.INTENT_W,
-                                               self._diagnostics.guard(self._on_w), input_qos())
-        self._model_sub = self.create_subscription(String, topics.MODEL_ACTIVE,
-                                                   self._diagnostics.guard(self._on_model), latched_qos())
+        self._w_sub = subscribe_input(self, topics.INTENT_W, self._on_w, input_qos(), self._diagnostics)
+        self._model_sub = subscribe_input(self, topics.MODEL_ACTIVE, self._on_model, latched_qos(),
+                                          self._diagnostics)
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
         task_names = self._params['task_names']
