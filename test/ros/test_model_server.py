@@ -76,6 +76,8 @@ BAD_X = {
     'Inf': ([-math.inf] + [0.1] * 9, 'NaN or infinity'),
     'empty': ([], 'x is empty'),
     'oversized': ([0.1] * 5000, 'oversized'),
+    'oversized message': ([0.1] * 10_000, 'model/query: oversized message'),
+    '1e308': ([1e308] * 10, 'no finite posterior'),
 }
 
 
