@@ -310,9 +310,9 @@ class Fuzzer:
             assert answered, f'{case!r}: accepted input not answered within {timeout} s'
         assert self.count(case.topic) == rejected_before, f'{case!r}: an accepted input was rejected'
 
-    def received(self) -> dict[str, int]:
-        """``messages received`` per component as last reported."""
-        return {self.component(t): self.count(t, protocol.KEY_RECEIVED) for t in TOPICS}
+    def publish(self, topic: str, msg: Any) -> None:
+        """Publish ``msg`` (a message or serialized bytes) on ``topic`` without waiting for a verdict."""
+        self._pubs[topic].publish(msg)
 
 
 def _type(topic: str) -> Any:
