@@ -13,6 +13,12 @@ Topics
 message type. :data:`INPUT_TOPICS` are the inputs a replay publishes again, :data:`PLAN_TOPICS` the
 outputs of one plan (one stamp), :data:`OUTPUT_TOPICS` the outputs a replay compares.
 
+Input caps
+----------
+:data:`MAX_MESSAGE_BYTES` caps the serialized size of a message on each input topic (checked before the
+message is decoded, :func:`check_message_size`); :data:`MAX_JOINTS` and :data:`MAX_NAME_LENGTH` bound a
+joint state's names (:func:`check_names`), :data:`MAX_FEATURES` a feature vector.
+
 Labelled arrays (std_msgs/Float64MultiArray)
 --------------------------------------------
 An n-D array is published row-major with one ``MultiArrayDimension`` per axis. Each dimension's
