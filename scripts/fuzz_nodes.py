@@ -9,8 +9,8 @@ r"""Fuzz the three nodes as processes and measure their memory under oversized m
    duplicated 5,000-character names for the planner, a w and a feature vector with a huge dimension
    label for the interpreter and the model server), published serialized.
    They go out to the three nodes together, in windows smaller than the nodes' input queues, each once
-   the nodes have counted the last (or after 0.5 s: under load DDS repairs a lost fragment only at its
-   next heartbeat, seconds later), so few are dropped by a keep-last queue. Prints per node the
+   the nodes have counted the last (or after ``--window-wait`` s: under load DDS repairs a lost fragment
+   only at its next heartbeat, seconds later), so few are dropped by a keep-last queue. Prints per node the
    messages its diagnostics count as received and rejected and its RSS before / after; then the answer
    to a valid w, and whether every node still has its PID.
 
@@ -49,6 +49,9 @@ def main() -> None:
     parser.add_argument('--cases', type=int, default=12_000, help='fuzz cases (0: skip the fuzz)')
     parser.add_argument('--oversized', type=int, default=100_000, help='oversized messages per node (0: skip)')
     parser.add_argument('--oversized-bytes', type=int, default=500_000, help='size of each oversized message')
+    parser.add_argument('--window-wait', type=float, default=0.5,
+                        help='seconds to wait for a window of oversized messages to be counted (0: do not wait, '
+                             'publish as fast as possible and let the keep-last queues drop what they must)')
     parser.add_argument('--nodes-from', type=Path, default=None, help='run the nodes from this checkout')
     args = parser.parse_args()
     if os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE') != 'LOCALHOST' or 'ROS_DOMAIN_ID' not in os.environ:
@@ -170,12 +173,14 @@ def run(args: argparse.Namespace, suite: Any, probe: Any, wait_for: Callable[[Ca
                 for _ in range(window):
                     fuzzer.publish(topic, data)
             # under load DDS repairs a lost fragment at the next heartbeat (seconds): go on after a while
-            stalls += not wait_for(lambda: all(fuzzer.count(t) >= rejected0[t] + sent for t in oversized), 0.5)
+            stalls += not wait_for(lambda: all(fuzzer.count(t) >= rejected0[t] + sent for t in oversized),
+                                   args.window_wait)
         elapsed = time.monotonic() - start
         wait_for(lambda: False, 2.5)  # the nodes catch up; then a periodic status with the final counts
         after = rss()
         print(f'{3 * args.oversized} messages ({3 * args.oversized * k / 1e9:.1f} GB) in {elapsed:.1f} s; '
-              f'{stalls} of {-(-args.oversized // WINDOW)} windows not counted within 0.5 s; load average '
+              f'{stalls} of {-(-args.oversized // WINDOW)} windows not counted within {args.window_wait} s; '
+              f'load average '
               f'{os.getloadavg()[0]:.2f}')
         for topic, (module, _) in oversized.items():
             print(f'{module:18} {topic:14} sent {args.oversized}; {fuzzer.component(topic)}: received '
