@@ -4,9 +4,9 @@ Used by the fuzz system test (test/system/test_fuzz.py, a few thousand cases) an
 (10,000+ cases and the oversized-message memory check).
 
 A :class:`Case` is one message for one topic of one *family* (NaN/Inf, 1e308, -0.0, empty and 5,000-element
-arrays, bogus layouts and offsets, bad quaternions and frames, length mismatches, oversized strings and name
-lists, absurd joint positions and object poses, undecodable bytes) and says whether the node must reject
-it: most must be, a few are edge cases a node must accept (a w or v with -0.0 entries, a joint state
+arrays, bogus layouts and offsets, bad quaternions and frames, length mismatches, duplicate names, oversized
+strings and name lists, absurd joint positions and object poses, undecodable bytes) and says whether the
+node must reject it: most must be, a few are edge cases a node must accept (a w or v with -0.0 entries, a joint state
 without arm joints). :class:`Fuzzer` publishes cases one at a time and waits for each verdict (the
 rejection on ``/diagnostics``, published at once, or the answer to an accepted input), so it counts every
 rejection exactly and loses no message to a keep-last queue.
@@ -44,8 +44,8 @@ COMPONENTS = {
 """The diagnostics component (status name after the node namespace) that counts each input topic."""
 TOPICS = tuple(COMPONENTS)
 FAMILIES = ('NaN/Inf', '1e308', '-0.0', 'empty array', '5000-element array', 'bogus layout', 'bogus offset',
-            'bad quaternion', 'bad frame', 'length mismatch', 'oversized strings', 'absurd joint positions',
-            'absurd object pose', 'undecodable bytes')
+            'bad quaternion', 'bad frame', 'length mismatch', 'duplicate names', 'oversized strings',
+            'absurd joint positions', 'absurd object pose', 'undecodable bytes')
 """The families of malformed input (the names :attr:`Case.family` takes)."""
 N_TASKS, N_ZONES, N_FEATURES = 3, 7, 10
 
@@ -203,7 +203,7 @@ def joint_cases() -> st.SearchStrategy[Case]:
         st.just(Case('empty array', topic, joint_msg([], []), rejected=False)),
         st.integers(7, LONG).map(lambda k: Case('5000-element array', topic, joint_msg(arm, [0.5] * k))),
         st.integers(0, 5).map(lambda k: Case('length mismatch', topic, joint_msg(arm, home[:k]))),
-        st.integers(0, 5).map(lambda i: Case('length mismatch', topic, joint_msg(arm + [arm[i]], [*home, 0.0]))),
+        st.integers(0, 5).map(lambda i: Case('duplicate names', topic, joint_msg(arm + [arm[i]], [*home, 0.0]))),
         st.tuples(st.integers(1, 100), st.integers(protocol.MAX_NAME_LENGTH + 1, 600)).map(
             lambda t: Case('oversized strings', topic, joint_msg(['j' * t[1]] * t[0], [0.0] * t[0]))),
         st.integers(20, 120).map(lambda k: Case('oversized strings', topic,
