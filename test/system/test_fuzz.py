@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, Phase, given, settings
 from grasp_intent_ros import protocol
 from grasp_intent_ros.tools.suite import SUITE_NODES
 
-STARTUP = 30.0
+STARTUP = 60.0
 """Seconds the suite gets to start and plan the first w on a loaded 2-core machine."""
 EXAMPLES = 2000
 
