@@ -38,14 +38,23 @@ from std_msgs.msg import Float64MultiArray
 from . import protocol as topics
 from .core import planner
 from .core.frames import pose_to_matrix
-from .core.grasp import OUTCOMES, NoModelZone, NoReachableGrasp, check_mico_model, plan_grasp
+from .core.grasp import (
+    OUTCOMES,
+    NoModelZone,
+    NoReachableGrasp,
+    check_grasp,
+    check_mico_model,
+    check_workspace,
+    plan_grasp,
+)
 from .core.intent import match_zones
-from .core.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
+from .core.kinematics import ARM_JOINTS, BASE_FRAME, JOINT_LIMIT_MARGIN, MicoKinematics
 from .protocol import KEY_MODEL, KEY_PLANNING_TIME, KEY_PLANS, OK, WARN, ModelDocument
 from .ros.clarification import ClarificationRequests
 from .ros.conversions import message_class, target_from_msg
 from .ros.diagnostics import NodeDiagnostics
 from .ros.grasp import grasp_messages
+from .ros.inputs import subscribe_input
 from .ros.model_follower import ModelFollower
 from .ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
 from .ros.qos import input_qos, output_qos
@@ -70,6 +79,10 @@ PARAMETERS = (
               'Object pose orientation: unit quaternion (x, y, z, w) in m1n6s300_link_base. The default '
               'turns the cup handle (+x of the object) towards the arm.', validator=check_unit_quaternion,
               constraints='unit norm within 1e-3'),
+    ParamSpec('workspace_radius', 1.5,
+              'Largest distance (m) of an object position from the m1n6s300_link_base origin: a pose on '
+              'object/pose or object_position farther away is rejected (the arm reaches about 1 m).',
+              range=(0.1, 100.0)),
     ParamSpec('object_marker_size', (0.08, 0.10), 'Diameter and height of the object marker, m.',
               validator=finite_vector(2, 'diameter, height in m', positive=True)),
     ParamSpec('min_replan_period', 0.0, 'Least time between the starts of two plans, s (0: plan at once).',
@@ -91,13 +104,18 @@ class _Inputs:
     stamp: Time | None = None
 
 
+def _check_workspace(values: Mapping[str, Any]) -> None:
+    """The parameters' object position must lie within their workspace radius."""
+    check_workspace(values['object_position'], values['workspace_radius'], what='object_position')
+
+
 class GraspPlanner(Node):
     """Plans a MICO grasp for the newest v, model and object pose. ``kwargs`` go to ``rclpy.node.Node``."""
 
     def __init__(self, node_name: str = 'grasp_planner', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._inputs_diag, self._plan_diag = NodeDiagnostics(self, 'inputs'), NodeDiagnostics(self, 'planning')
-        self._params = declare_parameters(self, PARAMETERS, on_change=self._on_parameters)
+        self._params = declare_parameters(self, PARAMETERS, check=_check_workspace, on_change=self._on_parameters)
         try:
             self._kin = MicoKinematics(self._params['urdf_path'] or None)
         except FileNotFoundError as exc:
@@ -115,12 +133,12 @@ class GraspPlanner(Node):
                                         min_period=lambda: float(self._params['min_replan_period']))
         # SIGINT/SIGTERM shut the context down before destroy_node runs: stop planning at once
         self.context.on_shutdown(self._worker.stop_soon)
-        guard, latest = self._inputs_diag.guard, input_qos(depth=1)
-        self.create_subscription(Float64MultiArray, topics.INTENT_V, guard(self._on_v), latest)
+        diag, latest = self._inputs_diag, input_qos(depth=1)
+        subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag)
         self._models = ModelFollower(self, self._inputs_diag, self._use_model, name=f'{node_name}_model')
-        self.create_subscription(PoseStamped, topics.OBJECT_POSE, guard(self._on_object_pose), latest)
+        subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, latest, diag)
         # not keep-last 1: arm and finger states may come from different publishers
-        self.create_subscription(JointState, topics.JOINT_STATES, guard(self._on_joint_state), input_qos())
+        subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), diag)
 
     def destroy_node(self) -> None:
         """Stop the planning and model threads (after their current work), then destroy the node."""
@@ -148,10 +166,13 @@ class GraspPlanner(Node):
                                              f'{",".join(doc.model.zone_labels)})')
 
     def _on_object_pose(self, msg: PoseStamped) -> None:
-        self._update(base_T_obj=pose_msg_to_matrix(msg, frame_id=BASE_FRAME))
+        base_T_obj = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
+        check_workspace(base_T_obj[:3, 3], self._params['workspace_radius'])
+        self._update(base_T_obj=base_T_obj)
 
     def _on_joint_state(self, msg: JointState) -> None:
         if (q := joint_positions(msg, ARM_JOINTS)) is not None:
+            self._kin.check_limits(q, margin=JOINT_LIMIT_MARGIN, what='joint state')
             self._update(trigger=False, q_arm=q)
 
     def _on_parameters(self, changed: Mapping[str, Any]) -> None:
@@ -181,13 +202,18 @@ class GraspPlanner(Node):
         self._plan_diag.set_value('inputs superseded', self._worker.superseded)
         if isinstance(grasp, (NoModelZone, NoReachableGrasp)):
             return self._clarifications.request(grasp.reason, once_for=(inputs.v_seq, key))
+        try:  # all outputs or none: every message built and checked before the first is published
+            check_grasp(grasp, self._kin)
+            messages = grasp_messages(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
+                                      object_size=self._params['object_marker_size'])
+        except (ValueError, OverflowError) as exc:
+            return self._clarifications.request(f'no grasp published: {exc}', once_for=(inputs.v_seq, key))
+        self._warm = (key, grasp.result.x)
         self._plan_diag.set_value('last plan status', f'grasp published ({grasp.result.message})')
         if grasp.fallback:
             self.get_logger().warning(grasp.note, throttle_duration_sec=5.0)
-        self._warm = (key, grasp.result.x)
         if not self._worker.stopping:
-            publish_all(self, self._pubs, grasp_messages(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
-                                                         object_size=self._params['object_marker_size']))
+            publish_all(self, self._pubs, messages)
 
 
 def main(args: list[str] | None = None) -> None:

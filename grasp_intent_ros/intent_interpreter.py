@@ -48,6 +48,7 @@ from .protocol import ModelDocument, msg_to_array
 from .ros.clarification import ClarificationRequests
 from .ros.conversions import array_to_msg
 from .ros.diagnostics import NodeDiagnostics
+from .ros.inputs import subscribe_input
 from .ros.model_follower import ModelFollower
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, output_qos
@@ -97,8 +98,7 @@ class IntentInterpreter(Node):
         """The active model and the zones of task_names it supports, swapped together."""
         self._diagnostics.set_value('last outcome', '')
         self._configure(self._params)
-        self._w_sub = self.create_subscription(Float64MultiArray, topics.INTENT_W,
-                                               self._diagnostics.guard(self._on_w), input_qos())
+        self._w_sub = subscribe_input(self, topics.INTENT_W, self._on_w, input_qos(), self._diagnostics)
         self._models = ModelFollower(self, self._diagnostics, self._use_model, name=f'{node_name}_model')
 
     def destroy_node(self) -> None:

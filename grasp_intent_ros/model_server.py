@@ -37,17 +37,15 @@ from . import protocol as topics
 from .core import ambiguity
 from .core.errors import InvalidFeaturesError
 from .core.registry import ModelFiles
-from .protocol import msg_to_array
+from .protocol import MAX_FEATURES, msg_to_array
 from .ros.conversions import array_to_msg, model_to_msg
 from .ros.diagnostics import NodeDiagnostics
+from .ros.inputs import subscribe_input
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, latched_qos, output_qos
 from .ros.run import run_node
 
 __all__ = ['ModelServer', 'PARAMETERS', 'MAX_FEATURES', 'main']
-
-MAX_FEATURES = 1024
-"""Largest feature vector accepted on model/query (values)."""
 
 PARAMETERS = (
     ParamSpec('model', 'cup_7zone',
@@ -73,8 +71,7 @@ class ModelServer(Node):
         self._posterior_pub = self.create_publisher(Float64MultiArray, topics.MODEL_POSTERIOR, output_qos())
         self._params = declare_parameters(self, PARAMETERS, check=self._check, on_change=self._activate)
         self._activate(self._params)
-        self._query_sub = self.create_subscription(Float64MultiArray, topics.MODEL_QUERY,
-                                                   self._diagnostics.guard(self._on_query), input_qos())
+        self._query_sub = subscribe_input(self, topics.MODEL_QUERY, self._on_query, input_qos(), self._diagnostics)
 
     def _model_files(self, models_dir: str) -> ModelFiles:
         if self._files is None:
@@ -113,7 +110,8 @@ class ModelServer(Node):
 
     def _on_query(self, msg: Float64MultiArray) -> None:
         x = msg_to_array(msg, max_size=MAX_FEATURES, error=InvalidFeaturesError, what='x')
-        self._posterior_pub.publish(array_to_msg(self._model.posterior(x), [self._model.zone_labels]))
+        posterior = self._model.posterior(x)  # raises for an x too far out for a finite posterior
+        self._posterior_pub.publish(array_to_msg(posterior, [self._model.zone_labels]))
 
 
 def main(args: list[str] | None = None) -> None:

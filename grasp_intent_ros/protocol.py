@@ -13,6 +13,12 @@ Topics
 message type. :data:`INPUT_TOPICS` are the inputs a replay publishes again, :data:`PLAN_TOPICS` the
 outputs of one plan (one stamp), :data:`OUTPUT_TOPICS` the outputs a replay compares.
 
+Input caps
+----------
+:data:`MAX_MESSAGE_BYTES` caps the serialized size of a message on each input topic (checked before the
+message is decoded, :func:`check_message_size`); :data:`MAX_JOINTS` and :data:`MAX_NAME_LENGTH` bound a
+joint state's names (:func:`check_names`), :data:`MAX_FEATURES` a feature vector.
+
 Labelled arrays (std_msgs/Float64MultiArray)
 --------------------------------------------
 An n-D array is published row-major with one ``MultiArrayDimension`` per axis. Each dimension's
@@ -68,7 +74,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .core.errors import GraspIntentError, ModelFormatError
-from .core.model import GraspModel, check_document_size
+from .core.model import MAX_DOCUMENT_CHARS, GraspModel, check_document_size
 
 __all__ = [
     'INTENT_W', 'INTENT_V', 'INTENT_CLARIFICATION', 'MODEL_ACTIVE', 'MODEL_AMBIGUITY',
@@ -76,7 +82,8 @@ __all__ = [
     'OBJECT_POSE', 'JOINT_STATES', 'GRASP_POSE', 'GRASP_JOINT_TARGETS', 'GRASP_TRAJECTORY',
     'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'DIAGNOSTICS',
     'MSGTYPES', 'INPUT_TOPICS', 'PLAN_TOPICS', 'OUTPUT_TOPICS',
-    'MAX_ARRAY_SIZE', 'join_labels', 'split_labels', 'array_layout', 'msg_to_array', 'msg_labels',
+    'MAX_ARRAY_SIZE', 'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size',
+    'check_names', 'join_labels', 'split_labels', 'array_layout', 'msg_to_array', 'msg_labels',
     'Stamp', 'stamp_label', 'stamped_values', 'posterior_label', 'split_posterior', 'Posterior',
     'read_posterior',
     'ModelHeader', 'ModelDocument', 'model_document', 'parse_model_document', 'read_model_document',
@@ -134,6 +141,59 @@ PLAN_TOPICS: Final = (GRASP_POSE, GRASP_JOINT_TARGETS, GRASP_TRAJECTORY, GRASP_P
 """The outputs of one plan (all carry the same stamp)."""
 OUTPUT_TOPICS: Final = (INTENT_V, INTENT_CLARIFICATION, *PLAN_TOPICS)
 """Outputs compared by a replay (relative names), besides ``model/active`` and rejections."""
+
+# ------------------------------------------------------------------------------------------ input caps
+MAX_NAME_LENGTH: Final = 256
+"""Longest accepted name (characters): a joint name, a frame id."""
+MAX_JOINTS: Final = 64
+"""Most joints accepted in one ``joint_states`` message."""
+MAX_FEATURES: Final = 1024
+"""Largest feature vector accepted on ``model/query`` (values)."""
+
+MAX_MESSAGE_BYTES: Final[Mapping[str, int]] = {
+    INTENT_W: 16 << 10,        # 10 tasks; labels of up to 10 task names
+    INTENT_V: 64 << 10,        # 1023 zones and their labels
+    MODEL_QUERY: 64 << 10,     # MAX_FEATURES values and their labels
+    OBJECT_POSE: 4 << 10,      # a pose and a frame id of MAX_NAME_LENGTH
+    JOINT_STATES: 64 << 10,    # MAX_JOINTS names of MAX_NAME_LENGTH, positions, velocities, efforts
+    MODEL_ACTIVE: 4 * MAX_DOCUMENT_CHARS + 64,  # a document of at most MAX_DOCUMENT_CHARS UTF-8 characters
+}
+"""Largest serialized (CDR) message accepted on each input topic, bytes.
+
+A node reads its inputs serialized and rejects a larger message before decoding it (so an oversized
+message never becomes Python objects); each cap leaves ample room for the largest valid message.
+"""
+
+
+def check_message_size(topic: str, size: int) -> None:
+    """Reject a serialized message of ``size`` bytes larger than the cap of ``topic``.
+
+    Raises
+    ------
+    GraspIntentError
+        If ``size`` exceeds :data:`MAX_MESSAGE_BYTES` ``[topic]``.
+    KeyError
+        For a topic without a cap (not an input of the suite).
+    """
+    cap = MAX_MESSAGE_BYTES[topic]
+    if size > cap:
+        raise GraspIntentError(f'{topic}: oversized message of {size} bytes, the limit is {cap} bytes')
+
+
+def check_names(names: Sequence[str], *, max_count: int, what: str) -> None:
+    """At most ``max_count`` names of at most :data:`MAX_NAME_LENGTH` characters each.
+
+    Raises
+    ------
+    GraspIntentError
+        Naming the count or the first name that is too long (abbreviated).
+    """
+    if len(names) > max_count:
+        raise GraspIntentError(f'{what}: {len(names)} names, the limit is {max_count}')
+    for i, name in enumerate(names):
+        if len(name) > MAX_NAME_LENGTH:
+            raise GraspIntentError(f'{what}: name {i} has {len(name)} characters, the limit is '
+                                   f'{MAX_NAME_LENGTH} ({name[:40]!r}...)')
 
 # ------------------------------------------------------------------------------------------ arrays
 MAX_ARRAY_SIZE: Final = 65536

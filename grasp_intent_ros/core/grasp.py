@@ -15,15 +15,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import planner
-from .errors import ModelError
+from .errors import KinematicsError, ModelError, PlanningError
 from .features import FINGERS, MICO_3F
 from .frames import features_to_obj_T_ee
 from .intent import restrict
-from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
+from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 from .model import GraspModel
 
 __all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'OUTCOMES', 'NoModelZone', 'PlanOutcome', 'Grasp', 'NoReachableGrasp',
-           'check_mico_model', 'trajectory_duration', 'plan_grasp']
+           'check_mico_model', 'check_workspace', 'check_grasp', 'trajectory_duration', 'plan_grasp']
 
 MIN_TRAJECTORY_TIME = 0.1
 """Shortest time to reach the grasp (s); controllers reject a trajectory point at 0."""
@@ -110,6 +110,60 @@ def check_mico_model(model: GraspModel, name: str) -> None:
     if model.feature_names != MICO_3F.names:
         raise ModelError(f'model {name!r} has features {list(model.feature_names)}; this planner '
                          f'maps the MICO 3-finger features {list(MICO_3F.names)} to a pose')
+
+
+def check_workspace(position: ArrayLike, radius: float, *, what: str = 'object position') -> NDArray[np.float64]:
+    """``position`` (m, shape (3,)) when it is finite and at most ``radius`` m from the base origin.
+
+    Raises
+    ------
+    KinematicsError
+        For a non-finite position or one farther than ``radius``.
+    """
+    p = np.asarray(position, dtype=np.float64)
+    if p.shape != (3,) or not np.all(np.isfinite(p)):
+        raise KinematicsError(f'{what} must be 3 finite numbers (m), got {p.tolist()}')
+    with np.errstate(over='ignore', invalid='ignore'):  # 1e308 m away: the distance is inf
+        distance = float(np.linalg.norm(p))
+        if not distance <= radius:
+            raise KinematicsError(f'{what} {[float(f"{c:.4g}") for c in p]} m is {distance:.4g} m from the base, '
+                                  f'outside the workspace radius {radius:g} m')
+    return p
+
+
+def check_grasp(grasp: Grasp, kin: MicoKinematics, *, pos_tol: float = 1e-3, rot_tol: float = 1e-2) -> None:
+    """Check a grasp before anything of it is published: every number finite and physically sound.
+
+    The plan's features, posterior and reconstructed w are finite, the arm joint targets lie within the
+    joint limits and reach ``base_T_ee`` (forward kinematics within ``pos_tol`` m and ``rot_tol`` rad), and
+    the trajectory time is at most the time of the longest possible move (every joint across its whole
+    range, from a reading :data:`~.kinematics.JOINT_LIMIT_MARGIN` outside it).
+
+    Raises
+    ------
+    PlanningError
+        Saying which check failed.
+    """
+    result = grasp.result
+    for what, values in (('features', result.x), ('posterior', result.posterior), ('reconstructed w', result.w),
+                         ('end-effector pose', grasp.base_T_ee), ('joint targets', grasp.positions)):
+        if not np.all(np.isfinite(values)):
+            raise PlanningError(f'the plan\'s {what} are not finite: {np.asarray(values).tolist()}')
+    q = grasp.positions[:len(ARM_JOINTS)]
+    try:
+        kin.check_limits(q, what='arm joint targets')
+    except KinematicsError as exc:
+        raise PlanningError(str(exc)) from None
+    ee_T_fk = np.linalg.inv(grasp.base_T_ee) @ kin.fk(q)
+    pos_err = float(np.linalg.norm(ee_T_fk[:3, 3]))
+    rot_err = float(np.arccos(np.clip(0.5 * (np.trace(ee_T_fk[:3, :3]) - 1.0), -1.0, 1.0)))
+    if not (pos_err <= pos_tol and rot_err <= rot_tol):
+        raise PlanningError(f'the arm joint targets miss the planned end-effector pose by {1e3 * pos_err:.3g} mm '
+                            f'and {rot_err:.3g} rad')
+    longest = float(np.max((kin.upper - kin.lower + 2.0 * JOINT_LIMIT_MARGIN) / kin.velocity_limits))
+    if not MIN_TRAJECTORY_TIME <= grasp.duration_s <= longest:
+        raise PlanningError(f'trajectory time {grasp.duration_s:.6g} s outside [{MIN_TRAJECTORY_TIME:g}, '
+                            f'{longest:.4g}] s')
 
 
 def trajectory_duration(q_from: ArrayLike, q_to: ArrayLike, velocity_limits: ArrayLike, *,

@@ -60,6 +60,7 @@ from .resources import config_dir
 
 __all__ = [
     'MAX_REACH',
+    'JOINT_LIMIT_MARGIN',
     'Reachability',
     'ARM_JOINTS',
     'FINGER_JOINTS',
@@ -92,6 +93,10 @@ MAX_REACH = 0.7285
 """Upper bound on the distance from :data:`_SHOULDER` to the EE origin (m): the sum of the link lengths
 D2 + D3 + D4 + D5 + D6 + e2; FK of 20,000 random joint vectors reaches at most 0.708 m. IK answers a
 target beyond it at once instead of spending its restarts."""
+
+JOINT_LIMIT_MARGIN = 0.1
+"""How far (rad) a joint reading may lie outside the joint limits (sensor noise, a controller's overshoot)
+and still be used as an IK seed: :meth:`MicoKinematics.check_limits`."""
 
 _WIDE_JOINTS = np.array([True, False, False, True, True, True])
 """Joints without end stops on the robot (1, 4, 5, 6): IK answers are wrapped by 2 pi towards the seed."""
@@ -238,6 +243,23 @@ class MicoKinematics:
         pin.forwardKinematics(self.model, data, q)
         world_M_ee = pin.updateFramePlacement(self.model, data, self._ee_id)
         return np.array((self._base_M_world * world_M_ee).homogeneous)
+
+    def check_limits(self, q: ArrayLike, *, margin: float = 0.0, what: str = 'q') -> NDArray[np.float64]:
+        """``q`` as an array of shape (6,), when every joint lies within its limits widened by ``margin`` (rad).
+
+        Raises
+        ------
+        KinematicsError
+            If ``q`` is not a finite vector of shape (6,), or naming the joints outside
+            ``[lower - margin, upper + margin]``.
+        """
+        q = self._check_q(q, what)
+        outside = (q < self.lower - margin) | (q > self.upper + margin)
+        if np.any(outside):
+            bad = ', '.join(f'{name} = {value:.6g}' for name, value, out in zip(self.joint_names, q, outside)
+                            if out)
+            raise KinematicsError(f'{what} outside the joint limits (margin {margin:g} rad): {bad} rad')
+        return q
 
     # -- inverse kinematics ---------------------------------------------------------------------------
 

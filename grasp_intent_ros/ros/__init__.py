@@ -15,6 +15,9 @@ params
 diagnostics
     ``NodeDiagnostics``: counters, last error and timing of a node, published on ``/diagnostics``,
     and ``guard`` for subscription callbacks that must never raise.
+inputs
+    ``subscribe_input``: every input subscription; a message over its topic's size cap is rejected before
+    it is decoded.
 worker
     ``LatestOnlyWorker``: callbacks store the newest inputs, one thread handles the newest snapshot.
 conversions
@@ -31,4 +34,4 @@ Importing this package imports no submodule; each submodule imports rclpy or the
 :mod:`grasp_intent_ros.core` never does.
 """
 
-__all__ = ['conversions', 'diagnostics', 'grasp', 'markers', 'params', 'qos', 'robot', 'run', 'worker']
+__all__ = ['conversions', 'diagnostics', 'grasp', 'inputs', 'markers', 'params', 'qos', 'robot', 'run', 'worker']

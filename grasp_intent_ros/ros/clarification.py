@@ -14,7 +14,7 @@ from rclpy.node import Node
 from std_msgs.msg import String
 
 from .. import protocol
-from .diagnostics import NodeDiagnostics
+from .diagnostics import NodeDiagnostics, cap_text
 from .qos import output_qos
 from .run import publish_all
 
@@ -63,5 +63,5 @@ class ClarificationRequests:
         self.count += 1
         self._diagnostics.set_value(self._count_key, self.count)
         if self._log:
-            self._node.get_logger().warning(message)
+            self._node.get_logger().warning(cap_text(message))
         publish_all(self._node, self._publishers, {protocol.INTENT_CLARIFICATION: String(data=reason)})

@@ -11,6 +11,9 @@ input (message = the reason) until an input is processed again; ERROR after an u
 :meth:`NodeDiagnostics.guard` wraps a subscription callback so that no exception escapes it: a
 :class:`~grasp_intent_ros.core.errors.GraspIntentError` (bad input) is a rejection, anything else an
 internal error logged with its traceback; either way the node keeps serving.
+
+Every text a status or a log line takes from outside (a reason, a value, a traceback) is capped at
+:data:`MAX_TEXT` characters (:func:`cap_text`), so a rejected 500 kB message is never echoed whole.
 """
 
 from __future__ import annotations
@@ -40,9 +43,22 @@ from ..protocol import (
 )
 from .qos import output_qos
 
-__all__ = ['NodeDiagnostics']
+__all__ = ['NodeDiagnostics', 'MAX_TEXT', 'cap_text']
 
 M = TypeVar('M')
+
+MAX_TEXT = 1024
+"""Longest text (characters) a status message, a status value or a diagnostics log line carries."""
+
+
+def cap_text(text: str, limit: int = MAX_TEXT) -> str:
+    """``text`` if at most ``limit`` characters, else its start and end around ``[... n characters ...]``."""
+    if len(text) <= limit:
+        return text
+    marker = f' [... {len(text)} characters in all ...] '
+    keep = max(limit - len(marker), 0)
+    head = keep - keep // 4
+    return f'{text[:head]}{marker}{text[len(text) - (keep - head):]}'
 
 
 class NodeDiagnostics:
@@ -81,7 +97,7 @@ class NodeDiagnostics:
     def set_state(self, level: bytes | int, message: str) -> None:
         """A standing condition of the node (e.g. ERROR 'no model'); OK with '' clears it."""
         with self._lock:
-            self._state_level, self._state_message = level_value(level), message
+            self._state_level, self._state_message = level_value(level), cap_text(message)
 
     def set_value(self, key: str, value: object) -> None:
         """An extra key/value shown in every status (e.g. the active model)."""
@@ -90,7 +106,7 @@ class NodeDiagnostics:
     def set_values(self, values: Mapping[str, object]) -> None:
         """Several extra key/values at once (:meth:`set_value`)."""
         with self._lock:
-            self._values.update((key, str(value)) for key, value in values.items())
+            self._values.update((key, cap_text(str(value))) for key, value in values.items())
 
     def note(self, message: str, *, level: bytes | int = OK) -> None:
         """What the input being processed led to, when it is more than 'ok'.
@@ -99,7 +115,7 @@ class NodeDiagnostics:
         :meth:`processed` is called.
         """
         with self._lock:
-            self._note = (level_value(level), message)
+            self._note = (level_value(level), cap_text(message))
 
     def processed(self, seconds: float) -> None:
         """An input was processed in ``seconds`` (wall time); the status shows 'ok' or the last note."""
@@ -112,6 +128,7 @@ class NodeDiagnostics:
 
     def rejected(self, reason: str, *, level: bytes | int = WARN) -> None:
         """An input was rejected: count it, log it and publish a WARN (or ``level``) status now."""
+        reason = cap_text(reason)
         with self._lock:
             self._rejected += 1
             self._last_error = reason
@@ -122,25 +139,26 @@ class NodeDiagnostics:
             self._node.get_logger().warning(f'rejected input: {reason}')
         self.publish()
 
-    def guard(self, callback: Callable[[M], object]) -> Callable[[M], None]:
+    def guard(self, callback: Callable[[M], object], *, counts_received: bool = True) -> Callable[[M], None]:
         """Wrap a subscription callback: count, time, and turn every exception into a rejection.
 
         A GraspIntentError (the core's bad-input errors, or raised by the conversions) is a WARN
         rejection with its message as the reason; any other exception is an ERROR rejection with its
-        traceback logged. Nothing escapes.
+        traceback logged. Nothing escapes. ``counts_received=False`` is for the second stage of an input
+        that its subscription's guard has counted already (e.g. a model document read on a thread).
         """
         @functools.wraps(callback)
         def guarded(msg: M) -> None:
             start = time.perf_counter()
             with self._lock:
-                self._received += 1
+                self._received += counts_received
                 self._note = None
             try:
                 callback(msg)
             except GraspIntentError as exc:
                 self.rejected(str(exc))
             except Exception as exc:  # noqa: BLE001 - an exception escaping a callback kills the node
-                self._node.get_logger().error(traceback.format_exc())
+                self._node.get_logger().error(cap_text(traceback.format_exc(), 4 * MAX_TEXT))
                 self.rejected(f'internal error: {type(exc).__name__}: {exc}', level=ERROR)
             else:
                 self.processed(time.perf_counter() - start)

@@ -33,6 +33,7 @@ from std_msgs.msg import String
 
 from ..protocol import MODEL_ACTIVE, ModelDocument, read_model_document
 from .diagnostics import NodeDiagnostics
+from .inputs import subscribe_input
 from .qos import latched_qos
 from .worker import LatestOnlyWorker
 
@@ -84,9 +85,11 @@ class ModelFollower:
         self.current: ModelDocument | None = None
         """The last document ``use`` accepted."""
         self._worker: LatestOnlyWorker[str | None] = LatestOnlyWorker(
-            None, diagnostics.guard(self._read), ready=lambda text: text is not None, name=name)
+            None, diagnostics.guard(self._read, counts_received=False), ready=lambda text: text is not None,
+            name=name)
         node.context.on_shutdown(self._worker.stop_soon)
-        self.subscription = node.create_subscription(String, MODEL_ACTIVE, self._on_document, latched_qos())
+        # counted and size-checked on arrival (subscribe_input); a document that fails to read is a rejection
+        self.subscription = subscribe_input(node, MODEL_ACTIVE, self._on_document, latched_qos(), diagnostics)
 
     def _on_document(self, msg: String) -> None:
         text = msg.data  # stored as is: the executor thread does no work on a document

@@ -11,6 +11,7 @@ must already be in the expected frame. Incoming quaternions must have unit norm 
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Sequence
 
 import numpy as np
@@ -23,6 +24,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from ..core.errors import KinematicsError
 from ..core.frames import matrix_to_pose, pose_to_matrix
+from ..protocol import MAX_JOINTS, MAX_NAME_LENGTH, check_names
 
 __all__ = [
     'QUATERNION_NORM_TOL',
@@ -73,7 +75,7 @@ def pose_msg_to_matrix(msg: PoseStamped, *, frame_id: str,
     """
     if msg.header.frame_id != frame_id:
         raise KinematicsError(f'pose must be given in frame {frame_id!r} (no TF lookup), '
-                              f'got frame_id {msg.header.frame_id!r}')
+                              f'got frame_id {msg.header.frame_id[:MAX_NAME_LENGTH]!r}')
     p, o = msg.pose.position, msg.pose.orientation
     position = np.array([p.x, p.y, p.z], dtype=np.float64)
     if not np.all(np.isfinite(position)):
@@ -106,12 +108,17 @@ def joint_positions(msg: JointState, names: Sequence[str]) -> NDArray[np.float64
     KinematicsError
         If the message has duplicate names, a different number of names and positions, or a wanted
         position that is NaN or infinite.
+    GraspIntentError
+        For more than :data:`~grasp_intent_ros.protocol.MAX_JOINTS` names or a name longer than
+        :data:`~grasp_intent_ros.protocol.MAX_NAME_LENGTH`.
     """
+    check_names(msg.name, max_count=MAX_JOINTS, what='joint state')
     if len(msg.position) != len(msg.name):
         raise KinematicsError(f'joint state has {len(msg.name)} names but {len(msg.position)} positions')
     index = {name: i for i, name in enumerate(msg.name)}
     if len(index) != len(msg.name):
-        raise KinematicsError(f'joint state has duplicate names: {list(msg.name)}')
+        duplicates = sorted(name for name, count in Counter(msg.name).items() if count > 1)
+        raise KinematicsError(f'joint state has duplicate names: {duplicates}')
     if any(name not in index for name in names):
         return None
     q = np.array([msg.position[index[name]] for name in names], dtype=np.float64)

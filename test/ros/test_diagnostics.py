@@ -7,7 +7,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 
 from grasp_intent_ros import protocol
 from grasp_intent_ros.core.errors import InvalidIntentError
-from grasp_intent_ros.ros.diagnostics import NodeDiagnostics
+from grasp_intent_ros.ros.diagnostics import MAX_TEXT, NodeDiagnostics, cap_text
 
 
 def test_guard_turns_exceptions_into_rejections_and_counts(ros) -> None:
@@ -53,3 +53,24 @@ def test_state_and_values_join_the_status(ros) -> None:
     assert protocol.status_values(status)['plans'] == '2'
     diag.set_state(protocol.ERROR, 'no model')
     assert (protocol.level_value(diag.status().level), diag.status().message) == (protocol.ERROR, 'no model')
+
+
+def test_texts_are_capped(ros) -> None:
+    assert cap_text('short') == 'short'
+    long = 'a' * 400_000 + 'END'
+    capped = cap_text(long)
+    assert len(capped) <= MAX_TEXT and capped.startswith('aaa') and capped.endswith('END')
+    assert '400003 characters in all' in capped
+    probe = ros.add(rclpy.create_node('diag_cap_probe', context=ros.context))
+    diag = NodeDiagnostics(probe, 'inputs')
+
+    def echo(names: list[str]) -> None:  # a reason that quotes a 500 kB input
+        raise InvalidIntentError(f'bad names: {names}')
+
+    diag.guard(echo)(['x' * 5000] * 100)
+    diag.set_value('model', long)
+    status = diag.status()
+    values = protocol.status_values(status)
+    assert len(status.message) <= MAX_TEXT + len('rejected input: ')
+    assert len(values[protocol.KEY_LAST_ERROR]) <= MAX_TEXT and len(values['model']) <= MAX_TEXT
+    assert values[protocol.KEY_REJECTED] == '1'

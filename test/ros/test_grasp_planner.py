@@ -8,6 +8,7 @@ reachability constraint the node uses (IK seeded from Home, 8 restarts, seed 0).
 
 from __future__ import annotations
 
+import dataclasses
 import gc
 import math
 import sys
@@ -332,17 +333,17 @@ def test_unreachable_object_publishes_no_targets_and_says_why(rig: Rig) -> None:
     clarifications = rig.ros.subscribe(String, 'intent/clarification')
     rig.request(v_msg(interpret(W_GOOD).v))
     start = rig.now()
-    assert rig.ros.publish_until(rig.pose_pub, pose_msg((3.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0)),
+    assert rig.ros.publish_until(rig.pose_pub, pose_msg((1.2, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0)),
                                  rig.warn('no reachable grasp'), timeout=10.0, period=1.0)
     status = rig.warn('no reachable grasp')()[-1]
     assert status.name.endswith('grasp_planner: planning')
     assert status.message.startswith('clarification requested: no reachable grasp')
-    assert 'IK failed for all' in status.message and '3.00 m from the base' in status.message
+    assert 'IK failed for all' in status.message and '1.20 m from the base' in status.message
     values = {kv.key: kv.value for kv in status.values}
     assert values['last plan status'].startswith('clarification requested: no reachable grasp')
     assert rig.ros.wait_for(lambda: clarifications)
     # one clarification for the intent, however often the (unreachable) object pose is re-sent
-    rig.ros.publish_until(rig.pose_pub, pose_msg((3.0, 0.01, 0.0), (0.0, 0.0, 1.0, 0.0)),
+    rig.ros.publish_until(rig.pose_pub, pose_msg((1.2, 0.01, 0.0), (0.0, 0.0, 1.0, 0.0)),
                           lambda: int(values_of(rig.warn('no reachable grasp')()[-1])['plans']) >= 3, period=0.5)
     assert [m.data.split(':')[0] for m in clarifications] == ['no reachable grasp']
     assert 'IK failed for all' in clarifications[0].data
@@ -438,6 +439,19 @@ BAD_INPUTS: dict[str, tuple[str, Callable[[GraspModel], Any], str]] = {
                          'NaN or infinity for'),
     'joint_states length': ('joints', lambda m: JointState(name=list(ARM_JOINTS), position=[1.0] * 5),
                             'names but 5 positions'),
+    'v oversized message': ('v', lambda m: v_msg([1e-4] * 10_000, None), 'intent/v: oversized message'),
+    'pose far away': ('pose', lambda m: pose_msg((1e6, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0)),
+                      'outside the workspace radius 1.5 m'),
+    'pose 1e308': ('pose', lambda m: pose_msg((0.3, -1e308, 0.0), (0.0, 0.0, 1.0, 0.0)), 'outside the workspace'),
+    'pose oversized frame id': ('pose', lambda m: pose_msg((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0), 'f' * 5000),
+                                'object/pose: oversized message'),
+    'joint_states absurd positions': ('joints', lambda m: JointState(
+        name=list(ARM_JOINTS), position=[float(q) for q in HOME_Q + (1e6, 0.0, 0.0, 0.0, 0.0, 0.0)]),
+        'joint state outside the joint limits (margin 0.1 rad): m1n6s300_joint_1 = 1e+06 rad'),
+    'joint_states long names': ('joints', lambda m: JointState(name=['j' * 5000] * 10, position=[0.0] * 10),
+                                'name 0 has 5000 characters'),
+    'joint_states oversized': ('joints', lambda m: JointState(name=['j' * 5000] * 100, position=[0.0] * 100),
+                               'joint_states: oversized message'),
 }
 
 
@@ -468,6 +482,32 @@ def assert_rejected_and_serving(rig: Rig, model: GraspModel, topic: str, msg: An
     assert rig.grasps.stamps_after(start) == [], 'something was published for a bad input'
     plan = rig.request(v_msg(interpret((0.2, 0.9, 0.9)).v))
     assert plan.posterior.zone_labels == model.zone_labels
+
+
+def test_a_plan_failing_its_checks_publishes_nothing_and_asks(rig: Rig, kin: MicoKinematics,
+                                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    from grasp_intent_ros import grasp_planner
+
+    rig.request(v_msg(interpret(W_GOOD).v))
+    clarifications = rig.ros.subscribe(String, 'intent/clarification')
+    real_plan_grasp = grasp_planner.plan_grasp
+
+    def beyond_the_limits(*args: Any, **kwargs: Any) -> Any:  # the issue's IK seed Home + 1e14, at the output
+        grasp = real_plan_grasp(*args, **kwargs)
+        positions = grasp.positions.copy()
+        positions[0] += 1e14
+        return dataclasses.replace(grasp, positions=positions)
+
+    monkeypatch.setattr(grasp_planner, 'plan_grasp', beyond_the_limits)
+    start = rig.now()
+    reason = 'no grasp published: arm joint targets outside the joint limits'
+    assert rig.ros.publish_until(rig.v_pub, v_msg(interpret((0.2, 0.9, 0.9)).v), lambda: clarifications,
+                                 timeout=10.0, period=1.0)
+    assert [m.data.split(' (')[0] for m in clarifications] == [reason]
+    assert rig.ros.wait_for(rig.warn(f'clarification requested: {reason}'))
+    assert rig.grasps.stamps_after(start) == [], 'part of a failed plan was published'
+    monkeypatch.setattr(grasp_planner, 'plan_grasp', real_plan_grasp)
+    assert_fk_reproduces_pose(kin, rig.request(v_msg(interpret(W_GOOD).v)))  # all six outputs again
 
 
 def test_clarification_needed_and_model_switch(make_rig: Callable[..., Rig], tiny: dict[str, GraspModel],
@@ -565,6 +605,8 @@ def test_parameters_are_validated_and_object_pose_parameters_replan(rig: Rig) ->
                                 ('object_orientation', [0.0, 0.0, 0.0, 2.0], 'unit norm'),
                                 ('object_position', [0.3, 0.0], '3 finite numbers'),
                                 ('object_marker_size', [0.08, -0.1], 'positive'),
+                                ('object_position', [1e6, 0.0, 0.0], 'outside the workspace radius 1.5 m'),
+                                ('workspace_radius', 0.2, 'outside the workspace radius 0.2 m'),
                                 ('urdf_path', '/tmp/x.urdf', 'read-only')):
         result = node.set_parameters([Parameter(name, value=value)])[0]
         assert not result.successful and reason in result.reason, (name, result.reason)

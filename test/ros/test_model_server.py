@@ -77,6 +77,7 @@ BAD_X = {
     'empty': ([], 'x is empty'),
     'oversized': ([0.1] * 5000, 'oversized'),
     'finite but too far for a finite posterior': ([1e308] * 10, 'too far from every zone'),
+    'oversized message': ([0.1] * 10_000, 'model/query: oversized message'),
 }
 
 

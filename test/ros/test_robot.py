@@ -10,7 +10,7 @@ from builtin_interfaces.msg import Time
 from numpy.testing import assert_allclose
 from sensor_msgs.msg import JointState
 
-from grasp_intent_ros.core.errors import KinematicsError
+from grasp_intent_ros.core.errors import GraspIntentError, KinematicsError
 from grasp_intent_ros.core.frames import pose_to_matrix
 from grasp_intent_ros.ros.robot import (
     check_unit_quaternion,
@@ -48,8 +48,12 @@ def test_unit_quaternion_check() -> None:
 def test_joint_states_in_any_order() -> None:
     assert joint_positions(JointState(name=['a', 'b'], position=[1.0, 2.0]), ['b']) == pytest.approx([2.0])
     assert joint_positions(JointState(name=['a'], position=[1.0]), ['a', 'b']) is None
-    with pytest.raises(KinematicsError, match='duplicate'):
-        joint_positions(JointState(name=['a', 'a'], position=[1.0, 2.0]), ['a'])
+    with pytest.raises(KinematicsError, match=r"duplicate names: \['a'\]$"):
+        joint_positions(JointState(name=['a', 'a', 'b'], position=[1.0, 2.0, 3.0]), ['a'])
+    with pytest.raises(GraspIntentError, match='65 names, the limit is 64'):
+        joint_positions(JointState(name=[f'j{i}' for i in range(65)], position=[0.0] * 65), ['j0'])
+    with pytest.raises(GraspIntentError, match='name 0 has 300 characters'):
+        joint_positions(JointState(name=['a' * 300], position=[0.0]), ['a'])
     with pytest.raises(KinematicsError, match='2 names but 1 positions'):
         joint_positions(JointState(name=['a', 'b'], position=[1.0]), ['a'])
     with pytest.raises(KinematicsError, match='finite'):

@@ -244,7 +244,7 @@ BAD_W = [
     ('above 1', _bad([1.5, 0.5, 0.5]), 'must lie in [0, 1], got [1.5, 0.5, 0.5]'),
     ('below 0', _bad([0.5, -0.25, 0.5]), 'must lie in [0, 1], got [0.5, -0.25, 0.5]'),
     ('empty', _bad([]), 'w is empty'),
-    ('oversized', _bad([0.5] * 100_000), 'w is oversized: 100000 values'),
+    ('oversized', _bad([0.5] * 100_000), 'intent/w: oversized message of 8000'),
 ]
 BAD_V = [
     ('wrong length', _bad([0.5, 0.5]), 'v must have 7 entries'),
@@ -253,7 +253,7 @@ BAD_V = [
     ('outside [0, 1]', _bad([1.5, -0.5, 0, 0, 0, 0, 0]), 'v must be non-negative and sum to 1 (within 1e-6)'),
     ('not summing to 1', _bad([0.5] * 7), 'sum 3.5'),
     ('empty', _bad([]), 'v is empty'),
-    ('oversized', _bad([0.0] * 100_000), 'v is oversized: 100000 values'),
+    ('oversized', _bad([0.0] * 100_000), 'intent/v: oversized message of 8000'),
     ('unknown zone labels', _bad([1.0, 0, 0, 0, 0, 0, 0], 'A,B,C,D,E,F,G'), "unknown zone 'A'"),
 ]
 
@@ -401,9 +401,10 @@ def test_intents_the_system_cannot_serve_get_one_clarification_each(chain, model
     assert len(clarifications) == 1, [m.data for m in clarifications]
     assert ros.wait_for(lambda: values(chain.status('intent_interpreter: intent'))['last outcome'] == 'v published')
 
-    # no reachable grasp: the object 3 m away; the planner re-plans the last intent for the new pose
+    # no reachable grasp: the object 1.2 m away (within the workspace radius, beyond reach); the planner
+    # re-plans the last intent for the new pose
     pose_pub = ros.publisher(PoseStamped, 'object/pose')
-    far = matrix_to_pose_msg(pose_to_matrix((3.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0)), frame_id=BASE_FRAME,
+    far = matrix_to_pose_msg(pose_to_matrix((1.2, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0)), frame_id=BASE_FRAME,
                              stamp=ros.node.get_clock().now().to_msg())
     assert ros.publish_until(pose_pub, far, lambda: len(clarifications) == 2, timeout=STARTUP, period=2.0)
     assert clarifications[1].data.startswith('no reachable grasp: IK failed for all')

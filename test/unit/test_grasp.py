@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
 from grasp_intent_ros.core import intent, planner
-from grasp_intent_ros.core.errors import InvalidIntentError, ModelError
+from grasp_intent_ros.core.errors import InvalidIntentError, KinematicsError, ModelError, PlanningError
 from grasp_intent_ros.core.features import FINGERS
 from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.core.grasp import (
@@ -16,11 +18,13 @@ from grasp_intent_ros.core.grasp import (
     Grasp,
     NoModelZone,
     NoReachableGrasp,
+    check_grasp,
     check_mico_model,
+    check_workspace,
     plan_grasp,
     trajectory_duration,
 )
-from grasp_intent_ros.core.kinematics import HOME_Q, MicoKinematics, Reachability
+from grasp_intent_ros.core.kinematics import HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.core.resources import config_dir
 
@@ -82,3 +86,40 @@ def test_timing_and_model_checks(cup) -> None:
     other = GraspModel.from_document(document)
     with pytest.raises(ModelError, match="model 'other' has features"):
         check_mico_model(other, 'other')
+
+
+def test_check_grasp_passes_a_plan_and_names_what_is_wrong_with_a_corrupted_one(cup, kin) -> None:
+    grasp = plan_grasp(cup, intent.interpret(W).v, intent.all_zones(3), BASE_T_OBJ, kin, name='cup_7zone')
+    assert isinstance(grasp, Grasp)
+    check_grasp(grasp, kin)
+    q = grasp.positions.copy()
+    far = q.copy()
+    far[0] += 1e14  # the issue's seed Home + 1e14: joint targets beyond the limits
+    branch = q.copy()
+    branch[1] = kin.lower[1] + 0.01  # within the limits, but another pose
+    nan_w = dataclasses.replace(grasp.result, w=np.full_like(grasp.result.w, np.nan))
+    for corrupted, reason in ((dataclasses.replace(grasp, positions=far), 'outside the joint limits'),
+                              (dataclasses.replace(grasp, positions=branch), 'miss the planned end-effector pose'),
+                              (dataclasses.replace(grasp, duration_s=1_591_546.0), 'trajectory time'),
+                              (dataclasses.replace(grasp, duration_s=-5.0), 'trajectory time'),
+                              (dataclasses.replace(grasp, result=nan_w), "reconstructed w are not finite")):
+        with pytest.raises(PlanningError, match=reason):
+            check_grasp(corrupted, kin)
+
+
+def test_joint_limits_with_a_margin_and_the_workspace_radius(kin) -> None:
+    assert_allclose(kin.check_limits(HOME_Q), HOME_Q)
+    edge = kin.upper.copy()
+    edge[1] += 0.5 * JOINT_LIMIT_MARGIN
+    kin.check_limits(edge, margin=JOINT_LIMIT_MARGIN)
+    with pytest.raises(KinematicsError, match='m1n6s300_joint_2'):
+        kin.check_limits(edge)
+    for x in (1e6, 2e9, 1e10, 1e14, 1e308):
+        with pytest.raises(KinematicsError, match=r'joint state outside the joint limits .*m1n6s300_joint_1 = '):
+            kin.check_limits(HOME_Q + np.array([x, 0, 0, 0, 0, 0]), margin=JOINT_LIMIT_MARGIN, what='joint state')
+    assert_allclose(check_workspace([0.3, -0.3, -0.0], 1.5), [0.3, -0.3, 0.0])
+    for position in ([1e6, 0.0, 0.0], [0.0, 0.0, -1e308], [1.1, 1.1, 0.0]):
+        with pytest.raises(KinematicsError, match='outside the workspace radius 1.5 m'):
+            check_workspace(position, 1.5)
+    with pytest.raises(KinematicsError, match='3 finite numbers'):
+        check_workspace([np.inf, 0.0, 0.0], 1.5)

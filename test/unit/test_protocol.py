@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from grasp_intent_ros import protocol
-from grasp_intent_ros.core.errors import InvalidFeaturesError, ModelFormatError
+from grasp_intent_ros.core.errors import GraspIntentError, InvalidFeaturesError, ModelFormatError
 from grasp_intent_ros.core.intent import reconstruct_w
 from grasp_intent_ros.core.model import MAX_DOCUMENT_CHARS, GraspModel
 from grasp_intent_ros.protocol import (
@@ -144,3 +144,18 @@ def test_oversized_document_is_rejected_before_the_header_is_read(toy_model: Gra
             reader(oversized)
         with pytest.raises(ModelFormatError, match='oversized'):
             reader('no header' + ' ' * MAX_DOCUMENT_CHARS)
+
+
+def test_message_size_caps_and_name_bounds() -> None:
+    for topic, cap in protocol.MAX_MESSAGE_BYTES.items():
+        assert topic in protocol.MSGTYPES
+        protocol.check_message_size(topic, cap)
+        with pytest.raises(GraspIntentError, match=f'{topic}: oversized message of {cap + 1} bytes'):
+            protocol.check_message_size(topic, cap + 1)
+    with pytest.raises(KeyError):
+        protocol.check_message_size(protocol.GRASP_POSE, 1)
+    protocol.check_names(['a' * protocol.MAX_NAME_LENGTH] * 3, max_count=3, what='joint state')
+    with pytest.raises(GraspIntentError, match='joint state: 4 names, the limit is 3'):
+        protocol.check_names(['a'] * 4, max_count=3, what='joint state')
+    with pytest.raises(GraspIntentError, match='name 1 has 5000 characters'):
+        protocol.check_names(['a', 'b' * 5000], max_count=3, what='joint state')

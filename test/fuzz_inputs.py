@@ -1,0 +1,326 @@
+"""Malformed inputs for every input topic of the suite, as hypothesis strategies, and a driver that counts them.
+
+Used by the fuzz system test (test/system/test_fuzz.py, a few thousand cases) and by ``scripts/fuzz_nodes.py``
+(10,000+ cases and the oversized-message memory check).
+
+A :class:`Case` is one message for one topic of one *family* (NaN/Inf, 1e308, -0.0, empty and 5,000-element
+arrays, bogus layouts and offsets, bad quaternions and frames, length mismatches, duplicate names, oversized
+strings and name lists, absurd joint positions and object poses, undecodable bytes) and says whether the
+node must reject it: most must be, a few are edge cases a node must accept (a w or v with -0.0 entries, a joint state
+without arm joints). :class:`Fuzzer` publishes cases one at a time and waits for each verdict (the
+rejection on ``/diagnostics``, published at once, or the answer to an accepted input), so it counts every
+rejection exactly and loses no message to a keep-last queue.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped
+from hypothesis import strategies as st
+from rclpy.node import Node
+from rclpy.serialization import serialize_message
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+from grasp_intent_ros import protocol
+from grasp_intent_ros.core.intent import interpret
+from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q
+from grasp_intent_ros.ros.qos import input_qos
+
+COMPONENTS = {
+    protocol.INTENT_W: 'intent_interpreter: intent',
+    protocol.INTENT_V: 'grasp_planner: inputs',
+    protocol.OBJECT_POSE: 'grasp_planner: inputs',
+    protocol.JOINT_STATES: 'grasp_planner: inputs',
+    protocol.MODEL_QUERY: 'model_server: model',
+}
+"""The diagnostics component (status name after the node namespace) that counts each input topic."""
+TOPICS = tuple(COMPONENTS)
+FAMILIES = ('NaN/Inf', '1e308', '-0.0', 'empty array', '5000-element array', 'bogus layout', 'bogus offset',
+            'bad quaternion', 'bad frame', 'length mismatch', 'duplicate names', 'oversized strings',
+            'absurd joint positions', 'absurd object pose', 'undecodable bytes')
+"""The families of malformed input (the names :attr:`Case.family` takes)."""
+N_TASKS, N_ZONES, N_FEATURES = 3, 7, 10
+
+
+@dataclass(frozen=True)
+class Case:
+    """One fuzz message: ``msg`` (a message object, or bytes published serialized) for ``topic``."""
+
+    family: str
+    topic: str
+    msg: Any
+    rejected: bool = True
+
+    def __repr__(self) -> str:  # hypothesis prints failing cases: keep 500 kB messages out of the report
+        text = repr(self.msg)
+        return f'Case({self.family!r}, {self.topic!r}, rejected={self.rejected}, msg={text[:300]}...)'
+
+
+# ------------------------------------------------------------------------------------------ messages
+def array_msg(values: Any, dims: tuple[tuple[str, int, int], ...] = (), offset: int = 0) -> Float64MultiArray:
+    msg = Float64MultiArray(data=[float(v) for v in values])
+    msg.layout.dim = [MultiArrayDimension(label=label, size=size, stride=stride) for label, size, stride in dims]
+    msg.layout.data_offset = offset
+    return msg
+
+
+def pose_msg(position: Any, xyzw: Any, frame_id: str = BASE_FRAME) -> PoseStamped:
+    msg = PoseStamped()
+    msg.header.frame_id = frame_id
+    p, o = msg.pose.position, msg.pose.orientation
+    p.x, p.y, p.z = (float(c) for c in position)
+    o.x, o.y, o.z, o.w = (float(c) for c in xyzw)
+    return msg
+
+
+def joint_msg(names: Any, positions: Any) -> JointState:
+    return JointState(name=list(names), position=[float(q) for q in positions])
+
+
+OBJECT_XYZW = (0.0, 0.0, 1.0, 0.0)
+OBJECT_POSITION = (0.3, -0.3, 0.0)
+LONG = 5000
+"""Characters of an oversized string."""
+
+nonfinite = st.sampled_from([math.nan, math.inf, -math.inf])
+absurd = st.one_of(st.sampled_from([1e308, -1e308, 1.7976931348623157e308, 1e6, -1e6, 2e9, 1e10, 1e14]),
+                   st.floats(min_value=1e6, max_value=1e308).flatmap(lambda x: st.sampled_from([x, -x])))
+unit = st.floats(min_value=0.0, max_value=1.0)
+
+
+def _replace_one(values: list[float], bad: st.SearchStrategy[float]) -> st.SearchStrategy[list[float]]:
+    return st.tuples(st.integers(0, len(values) - 1), bad).map(
+        lambda ib: [ib[1] if i == ib[0] else v for i, v in enumerate(values)])
+
+
+def _arrays(topic: str, valid: st.SearchStrategy[list[float]], n: int, *,
+            out_of_range: st.SearchStrategy[float] | None) -> st.SearchStrategy[Case]:
+    """The families every Float64MultiArray input shares; ``valid`` draws a valid value list of length ``n``.
+
+    ``out_of_range`` draws a value that makes a valid list invalid (None: no such value, family left out).
+    """
+    def case(family: str) -> Callable[[Any], Case]:
+        return lambda msg: Case(family, topic, msg)
+
+    big = max(protocol.MAX_MESSAGE_BYTES[topic] // 8 + 8, LONG)
+    out = [] if out_of_range is None else [
+        valid.flatmap(lambda vs: _replace_one(vs, out_of_range)).map(array_msg).map(case('1e308'))]
+    return st.one_of(
+        *out,
+        valid.flatmap(lambda vs: _replace_one(vs, nonfinite)).map(array_msg).map(case('NaN/Inf')),
+        st.just(array_msg([])).map(case('empty array')),
+        valid.flatmap(lambda vs: st.integers(len(vs), 2**32 - 1).map(lambda off: array_msg(vs, offset=off)))
+        .map(case('bogus offset')),
+        st.tuples(valid, st.integers(0, 2**32 - 1).filter(lambda size: size != n), st.integers(0, 2**32 - 1))
+        .map(lambda t: array_msg(t[0], (('', t[1], t[2]),))).map(case('bogus layout')),
+        valid.map(lambda vs: array_msg(vs, (('', 1, n), ('', n, n)))).map(case('bogus layout')),
+        st.tuples(unit, st.sampled_from([LONG, big])).map(lambda t: array_msg([t[0]] * t[1]))
+        .map(case('5000-element array')),
+        st.integers(1, 40).filter(lambda k: k != n).map(lambda k: array_msg([1.0 / k] * k))
+        .map(case('length mismatch')),
+        st.tuples(valid, st.integers(protocol.MAX_MESSAGE_BYTES[topic], 2 * protocol.MAX_MESSAGE_BYTES[topic]))
+        .map(lambda t: array_msg(t[0], (('x' * t[1], n, n),))).map(case('oversized strings')),
+    )
+
+
+def w_cases() -> st.SearchStrategy[Case]:
+    valid = st.lists(unit, min_size=N_TASKS, max_size=N_TASKS)
+    out_of_range = st.one_of(absurd, st.floats(min_value=1.0, max_value=1e300, exclude_min=True),
+                             st.floats(max_value=-1e-300))
+    negzero = valid.flatmap(lambda vs: _replace_one(vs, st.just(-0.0)))
+    return st.one_of(_arrays(protocol.INTENT_W, valid, N_TASKS, out_of_range=out_of_range),
+                     negzero.map(lambda vs: Case('-0.0', protocol.INTENT_W, array_msg(vs), rejected=False)))
+
+
+def _v(w: list[float]) -> list[float]:
+    result = interpret(w)
+    return list(result.v) if result.v is not None else [1.0] + [0.0] * (N_ZONES - 1)
+
+
+def v_cases() -> st.SearchStrategy[Case]:
+    valid = st.lists(st.floats(0.05, 1.0), min_size=N_TASKS, max_size=N_TASKS).map(_v)
+    one_hot = st.integers(0, N_ZONES - 1).map(lambda k: [1.0 if i == k else -0.0 for i in range(N_ZONES)])
+    return st.one_of(_arrays(protocol.INTENT_V, valid, N_ZONES, out_of_range=absurd),
+                     one_hot.map(lambda vs: Case('-0.0', protocol.INTENT_V, array_msg(vs), rejected=False)))
+
+
+def query_cases() -> st.SearchStrategy[Case]:
+    valid = st.lists(st.floats(-1.0, 1.0), min_size=N_FEATURES, max_size=N_FEATURES)
+    huge = st.sampled_from([1e308, -1e308, 1.7976931348623157e308])  # one huge feature may still give a finite P
+    return st.one_of(
+        _arrays(protocol.MODEL_QUERY, valid, N_FEATURES, out_of_range=None),
+        huge.map(lambda x: Case('1e308', protocol.MODEL_QUERY, array_msg([x] * N_FEATURES))))
+
+
+def pose_cases() -> st.SearchStrategy[Case]:
+    topic = protocol.OBJECT_POSE
+    finite = st.floats(-1.0, 1.0)
+    far = st.tuples(st.integers(0, 2), absurd).map(
+        lambda t: [t[1] if i == t[0] else OBJECT_POSITION[i] for i in range(3)])
+    unit_q = st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4).filter(
+        lambda q: np.linalg.norm(q) > 0.1).map(lambda q: list(np.asarray(q) / np.linalg.norm(q)))
+    scale = st.one_of(st.floats(0.0, 0.99), st.floats(1.01, 1e6))
+    return st.one_of(
+        st.tuples(st.integers(0, 6), nonfinite).map(lambda t: [*OBJECT_POSITION, *OBJECT_XYZW][:t[0]] + [t[1]]
+                                                    + [*OBJECT_POSITION, *OBJECT_XYZW][t[0] + 1:])
+        .map(lambda vs: Case('NaN/Inf', topic, pose_msg(vs[:3], vs[3:]))),
+        far.map(lambda p: Case('absurd object pose', topic, pose_msg(p, OBJECT_XYZW))),
+        st.tuples(unit_q, scale).map(lambda t: Case('bad quaternion', topic,
+                                                    pose_msg(OBJECT_POSITION, np.asarray(t[0]) * t[1]))),
+        st.text(max_size=60).filter(lambda f: f != BASE_FRAME).map(
+            lambda f: Case('bad frame', topic, pose_msg(OBJECT_POSITION, OBJECT_XYZW, f))),
+        st.integers(protocol.MAX_MESSAGE_BYTES[topic], 4 * protocol.MAX_MESSAGE_BYTES[topic]).map(
+            lambda k: Case('oversized strings', topic, pose_msg(OBJECT_POSITION, OBJECT_XYZW, 'f' * k))),
+        st.tuples(finite, finite).map(lambda t: Case('-0.0', topic, pose_msg((0.3 + 0.02 * t[0], -0.3 + 0.02 * t[1],
+                                                                              -0.0), (-0.0, -0.0, 1.0, -0.0)),
+                                                     rejected=False)),
+    )
+
+
+_JUST_OUTSIDE = [(1, math.radians(50) - 0.15), (1, math.radians(310) + 0.15), (2, math.radians(35) - 0.15),
+                 (2, math.radians(325) + 0.15), (0, 4 * math.pi + 0.15), (5, -4 * math.pi - 0.15)]
+"""(joint index, reading) 0.15 rad outside a joint limit, beyond the planner's 0.1 rad margin."""
+
+
+def joint_cases() -> st.SearchStrategy[Case]:
+    topic = protocol.JOINT_STATES
+    arm = list(ARM_JOINTS)
+    home = [float(q) for q in HOME_Q]
+    return st.one_of(
+        _replace_one(home, nonfinite).map(lambda q: Case('NaN/Inf', topic, joint_msg(arm, q))),
+        _replace_one([0.0] * 6, absurd).map(lambda x: Case('absurd joint positions', topic,
+                                                           joint_msg(arm, np.add(home, x)))),
+        st.sampled_from(_JUST_OUTSIDE).map(lambda jq: Case('absurd joint positions', topic, joint_msg(
+            arm, [jq[1] if j == jq[0] else q for j, q in enumerate(home)]))),
+        st.just(Case('empty array', topic, joint_msg([], []), rejected=False)),
+        st.integers(7, LONG).map(lambda k: Case('5000-element array', topic, joint_msg(arm, [0.5] * k))),
+        st.integers(0, 5).map(lambda k: Case('length mismatch', topic, joint_msg(arm, home[:k]))),
+        st.integers(0, 5).map(lambda i: Case('duplicate names', topic, joint_msg(arm + [arm[i]], [*home, 0.0]))),
+        st.tuples(st.integers(1, 100), st.integers(protocol.MAX_NAME_LENGTH + 1, 600)).map(
+            lambda t: Case('oversized strings', topic, joint_msg(['j' * t[1]] * t[0], [0.0] * t[0]))),
+        st.integers(20, 120).map(lambda k: Case('oversized strings', topic,
+                                                joint_msg(['m1n6s300_joint_1' + 'x' * LONG] * k, [0.0] * k))),
+        st.integers(protocol.MAX_JOINTS + 1, 500).map(
+            lambda k: Case('oversized strings', topic, joint_msg([f'j{i}' for i in range(k)], [0.0] * k))),
+        st.just(Case('-0.0', topic, joint_msg(list(FINGER_JOINTS), [-0.0] * 3), rejected=False)),
+        st.binary(min_size=1, max_size=64).map(lambda b: Case('undecodable bytes', topic, _CDR_HEADER + b))
+        .filter(_undecodable),
+    )
+
+
+_CDR_HEADER = b'\x00\x01\x00\x00'
+"""The encapsulation header of little-endian CDR, which every serialized message starts with."""
+
+
+def _undecodable(case: Case) -> bool:
+    from rclpy.serialization import deserialize_message
+
+    try:
+        deserialize_message(case.msg, JointState)
+    except Exception:  # noqa: BLE001 - what the node's decoder raises for it
+        return True
+    return False
+
+
+def cases() -> st.SearchStrategy[Case]:
+    """A case of any family on any input topic."""
+    return st.one_of(w_cases(), v_cases(), pose_cases(), joint_cases(), query_cases())
+
+
+# ------------------------------------------------------------------------------------------ driver
+def valid_w() -> Float64MultiArray:
+    return array_msg([0.9, 0.9, 0.1])
+
+
+class Fuzzer:
+    """Publishes cases from a probe node and follows each node component's verdicts on /diagnostics.
+
+    Parameters
+    ----------
+    node : Node
+        The probe (its executor is spun by ``wait_for``).
+    wait_for : callable
+        ``wait_for(predicate, timeout) -> bool``: spin until the predicate holds.
+    namespace : str
+        Of the nodes ('' or e.g. '/robot1').
+    """
+
+    def __init__(self, node: Node, wait_for: Callable[[Callable[[], object], float], bool],
+                 namespace: str = '') -> None:
+        self._wait_for = wait_for
+        self._ns = namespace
+        self.latest: dict[str, dict[str, str]] = {}
+        """The last status values per component name."""
+        self.sent: Counter[tuple[str, str]] = Counter()
+        """Messages sent per (topic, family)."""
+        self.rejected: Counter[tuple[str, str]] = Counter()
+        """Rejections counted per (topic, family)."""
+        self.answers: Counter[str] = Counter()
+        """Answers seen: outputs by topic, and the planner's clarification notes on /diagnostics."""
+        self._pubs = {topic: node.create_publisher(_type(topic), topic, input_qos()) for topic in TOPICS}
+        node.create_subscription(DiagnosticArray, protocol.DIAGNOSTICS, self._on_diagnostics, 1000)
+        for topic in (protocol.INTENT_V, protocol.INTENT_CLARIFICATION, protocol.GRASP_POSE):
+            node.create_subscription(_type(topic), topic, lambda msg, t=topic: self.answers.update([t]), 100)
+
+    def component(self, topic: str) -> str:
+        return f'{self._ns}/{COMPONENTS[topic]}'
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            self.latest[status.name] = protocol.status_values(status)
+            if status.name.endswith(': planning') and status.message.startswith('clarification requested'):
+                self.answers.update(['planning note'])
+
+    def count(self, topic: str, key: str = protocol.KEY_REJECTED) -> int:
+        """The value of ``key`` in the last status of the component that reads ``topic`` (-1: none yet)."""
+        return int(self.latest.get(self.component(topic), {}).get(key, '-1'))
+
+    def send(self, case: Case, timeout: float = 10.0) -> None:
+        """Publish ``case`` and wait for its verdict.
+
+        Raises
+        ------
+        AssertionError
+            If a rejected case is not counted as exactly one rejection within ``timeout``, or an accepted one
+            is not answered (v or a clarification for w; a plan for v and object poses) or is rejected.
+        """
+        rejected_before = self.count(case.topic)
+        self.sent[(case.topic, case.family)] += 1
+        if case.rejected:
+            self._pubs[case.topic].publish(case.msg)
+            counted = self._wait_for(lambda: self.count(case.topic) > rejected_before, timeout)
+            assert counted, f'{case!r}: no rejection counted by {self.component(case.topic)} within {timeout} s'
+            assert self.count(case.topic) == rejected_before + 1, f'{case!r}: counted as several rejections'
+            self.rejected[(case.topic, case.family)] += 1
+            return
+        keys = ((protocol.INTENT_V, protocol.INTENT_CLARIFICATION) if case.topic == protocol.INTENT_W else
+                (protocol.GRASP_POSE, protocol.INTENT_CLARIFICATION, 'planning note'))
+        before = sum(self.answers[k] for k in keys)
+        self._pubs[case.topic].publish(case.msg)
+        if case.topic != protocol.JOINT_STATES:  # a joint state is stored, not answered
+            answered = self._wait_for(lambda: sum(self.answers[k] for k in keys) > before, timeout)
+            assert answered, f'{case!r}: accepted input not answered within {timeout} s'
+        assert self.count(case.topic) == rejected_before, f'{case!r}: an accepted input was rejected'
+
+    def publish(self, topic: str, msg: Any) -> None:
+        """Publish ``msg`` (a message or serialized bytes) on ``topic`` without waiting for a verdict."""
+        self._pubs[topic].publish(msg)
+
+
+def _type(topic: str) -> Any:
+    from grasp_intent_ros.ros.conversions import message_class
+
+    return message_class(topic)
+
+
+def serialized(msg: Any) -> bytes:
+    """``msg`` serialized (published as is, so a stream of big messages costs the sender no encoding)."""
+    return serialize_message(msg)

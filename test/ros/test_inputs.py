@@ -1,0 +1,56 @@
+"""grasp_intent_ros.ros.inputs: input subscriptions that reject oversized messages before decoding them."""
+
+from __future__ import annotations
+
+import pytest
+import rclpy
+from rclpy.serialization import serialize_message
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+from grasp_intent_ros import protocol
+from grasp_intent_ros.ros.diagnostics import NodeDiagnostics
+from grasp_intent_ros.ros.inputs import subscribe_input
+from grasp_intent_ros.ros.qos import input_qos
+
+
+def w_with_label(label: str) -> Float64MultiArray:
+    msg = Float64MultiArray(data=[0.5, 0.5, 0.5])
+    msg.layout.dim = [MultiArrayDimension(label=label, size=3, stride=3)]
+    return msg
+
+
+def test_oversized_and_undecodable_messages_are_rejected_and_the_rest_decoded(ros) -> None:
+    node = ros.add(rclpy.create_node('inputs_probe', context=ros.context))
+    diag = NodeDiagnostics(node, 'inputs')
+    received: list[Float64MultiArray] = []
+    subscribe_input(node, protocol.INTENT_W, received.append, input_qos(), diag)
+    pub = ros.publisher(Float64MultiArray, protocol.INTENT_W)
+
+    def counts() -> tuple[str, str]:
+        values = protocol.status_values(diag.status())
+        return values[protocol.KEY_RECEIVED], values[protocol.KEY_REJECTED]
+
+    cap = protocol.MAX_MESSAGE_BYTES[protocol.INTENT_W]
+    size = {n: len(serialize_message(w_with_label('x' * n))) for n in range(cap - 100, cap)}
+    at_cap = w_with_label('x' * max(n for n, k in size.items() if k <= cap))  # CDR pads: the largest that fits
+    over = w_with_label('x' * min(n for n, k in size.items() if k > cap))
+    over_size = len(serialize_message(over))
+    assert cap - 8 < len(serialize_message(at_cap)) <= cap < over_size
+    assert ros.publish_until(pub, at_cap, lambda: received)  # the first after discovery may be lost
+    assert received[0].layout.dim[0].label == at_cap.layout.dim[0].label and list(received[0].data) == [0.5] * 3
+    n_received, _ = counts()
+
+    pub.publish(over)
+    assert ros.wait_for(lambda: counts() == (str(int(n_received) + 1), '1'))
+    assert diag.status().message == (f'rejected input: {protocol.INTENT_W}: oversized message of {over_size} bytes, '
+                                     f'the limit is {cap} bytes')
+    pub.publish(b'\x00\x01\x00\x00\xff\xff\xff\x7f')  # a CDR sequence length of 2^31 and no data
+    assert ros.wait_for(lambda: counts() == (str(int(n_received) + 2), '2'))
+    assert 'intent/w: undecodable message' in diag.status().message
+    assert len(received) == int(n_received)  # neither reached the callback
+
+
+def test_a_topic_without_a_cap_is_refused(ros) -> None:
+    node = ros.add(rclpy.create_node('inputs_probe', context=ros.context))
+    with pytest.raises(KeyError, match='not an input topic with a size cap'):
+        subscribe_input(node, protocol.GRASP_POSE, print, input_qos(), NodeDiagnostics(node, 'inputs'))
