@@ -26,11 +26,17 @@ not name one grasp. The planner therefore answers a stated problem:
    ``accept`` takes it), that is the answer. Otherwise the other starts are projected, and the
    matches found are chosen from (rule 6).
 5. **Least squares.** When no start reaches an acceptable match (some v_k = 0, or v is outside what
-   the model can attain in X), f is minimised from every start and every projection's end point with
-   a projected Levenberg-Marquardt iteration (end points within 1e-8 of a match are projected onto
-   the matches). Least-squares valleys can be nearly flat: there the end point is where the damped
-   iteration stops, a deterministic function of the input that the ridge keeps insensitive to the
-   last bits in all but rare cases (see the benchmark's stability section).
+   the model can attain in X), f is minimised from every start and every projection's end point:
+   first (every v_k > 0) by Gauss-Newton on the weighted log residuals v_k (log v_k - log P_k(x)),
+   which equal v - P to first order near a match but, unlike P, keep their gradients in a Gaussian's
+   tail (so long, flat valleys are crossed in a few steps); then by a damped, projected Newton
+   iteration on f itself (Gauss-Newton plus the curvature of P, so that it converges fast where the
+   residual stays large), a few iterations from every start and then, from the 6 lowest, to
+   convergence. Bounds, the unit approach and the body's surface are held as an active set (end
+   points within 1e-8 of a match are projected onto the matches). Least-squares valleys can be
+   nearly flat: there the end point is where the iteration stops, a deterministic function of the
+   input that is insensitive to the last bits in most but not all cases (see the benchmark's
+   stability section).
 6. **Choice.** Let f* be the lowest f found. The candidates with f <= f* + max(1e-12, 1e-6 f*) are
    the matches; the planner returns the one nearest to x_ref, and among matches whose distances are
    within 1e-6 of the nearest, the first in start order. Ties are never left to float noise. The
@@ -59,8 +65,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import Bounds, NonlinearConstraint, OptimizeResult, minimize  # type: ignore[import-untyped]
 
-from ._kernels import least_squares, project
-from .body import Box, Cylinder
+from ._kernels import feasible, least_squares, project, score
 from .errors import PlanningError
 from .features import PALM
 from .intent import reconstruct_w
@@ -94,7 +99,10 @@ DISTANCE_TOL = 1e-6
 _FTOL = 1e-10
 _MAXITER = 200
 _TC_MAXITER = 1500
-_LM_MAXITER = 300
+_LM_MAXITER = 2000
+_LM_SCOUT = 40       # least-squares iterations of every start before the best are carried on
+_LM_KEEP = 6         # the starts carried on to _LM_MAXITER iterations (the lowest f after _LM_SCOUT)
+_LOG_MAXITER = 100   # Gauss-Newton iterations on the weighted log residuals before the least squares
 _LM_RIDGE = 1e-7     # ridge of the least-squares steps, relative to the largest curvature
 _LM_FTOL = 1e-7      # a start has converged when an accepted step improves f by less than this * f + 1e-15
 _GN_MAXITER = 60
@@ -292,29 +300,20 @@ def search_starts(model: GraspModel, v: NDArray[np.float64], count: int = _SCREE
 
 
 class _Feasible:
-    """Projection onto the feasible set X and the scaled distance between grasps."""
+    """Projection onto the feasible set X (compiled: ``_kernels``) and the scale of the distance between grasps."""
 
     def __init__(self, model: GraspModel) -> None:
         self.model = model
         self.lower, self.upper = model.lower, model.upper
         self.a = model.features.approach
-        self.body = model.body
         self.scale = model.feature_scale
+        self.body = model.body.kernel_arrays if model.body is not None else (
+            np.zeros(0, dtype=np.int64), *np.zeros((3, 0, 3)), *np.zeros((2, 0)), np.zeros((0, 3)), 0.0)
+        """The body as the compiled kernels take it (no primitive at all: no body)."""
 
     def project(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """Clip to the bounds, normalise the approach, push the palm out of the body (N, d)."""
-        out = np.clip(x, self.lower, self.upper)
-        norm = np.linalg.norm(out[:, self.a], axis=1, keepdims=True)
-        out[:, self.a] = np.where(norm > 1e-12, out[:, self.a] / np.maximum(norm, 1e-12),
-                                  np.eye(out.shape[1])[self.a.start + 2, self.a])
-        if self.body is not None:
-            out[:, PALM] = np.clip(self.body.push_out(out[:, PALM]), self.lower[PALM], self.upper[PALM])
-        return out
-
-    def distance(self, x: NDArray[np.float64], x_ref: NDArray[np.float64]) -> NDArray[np.float64]:
-        """|(x - x_ref) / s| per row."""
-        out: NDArray[np.float64] = np.linalg.norm((x - x_ref) / self.scale, axis=-1)
-        return out
+        return feasible(x, self.lower, self.upper, self.a.start, self.a.stop, self.body)
 
 
 class _LogOddsProjection:
@@ -342,41 +341,41 @@ class _LogOddsProjection:
         """End points (N, d), whether each converged with the equations met, iterations per start."""
         model, feas = self.model, self.feas
         return project(starts, model.means, model._precisions, model._log_norm, self.others, self.r, self.b,
-                       feas.scale, feas.lower, feas.upper, feas.a.start, feas.a.stop, _body_arrays(model),
+                       feas.scale, feas.lower, feas.upper, feas.a.start, feas.a.stop, feas.body,
                        maxiter=_GN_MAXITER, stall=_GN_STALL, damping=_GN_DAMPING, htol=_GN_HTOL,
                        steptol=_GN_STEPTOL)
 
 
-def _body_arrays(model: GraspModel) -> tuple[Any, ...]:
-    """The body's primitives as the compiled kernels take them (see :mod:`._kernels`), and the margin."""
-    prims = model.body.primitives if model.body is not None else ()
-    cylinders = [p if isinstance(p, Cylinder) else None for p in prims]
-    kinds = np.array([0 if c is not None else 1 for c in cylinders], dtype=np.int64)
-    centres = np.array([p.centre for p in prims], dtype=np.float64).reshape(-1, 3)
-    axes = np.array([c.axis if c is not None else np.zeros(3) for c in cylinders]).reshape(-1, 3)
-    perps = np.array([c.perpendicular if c is not None else np.zeros(3) for c in cylinders]).reshape(-1, 3)
-    radii = np.array([c.radius if c is not None else 0.0 for c in cylinders], dtype=np.float64)
-    lengths = np.array([c.length if c is not None else 0.0 for c in cylinders], dtype=np.float64)
-    halfs = np.array([p.half_extents if isinstance(p, Box) else np.zeros(3) for p in prims]).reshape(-1, 3)
-    margin = model.body.margin if model.body is not None else 0.0
-    return kinds, centres, axes, perps, radii, lengths, halfs, margin
-
-
 def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.float64],
                feas: _Feasible) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
-    """Projected Levenberg-Marquardt on r(x) = v - P(x), every start (shape (N, d); compiled: ``_kernels``).
+    """Least squares on r(x) = v - P(x) from every start (shape (N, d); compiled: ``_kernels``).
 
-    Each iteration solves (J^T J + lam diag(J^T J) + eps I) dx = J^T r per start (eps = 1e-7 times the
-    largest curvature, so that nearly flat directions cannot amplify last-bit differences), with J restricted to
-    the free variables (a variable on a bound whose gradient points outwards is held) and, for the
-    approach, to the sphere's tangent plane; the step is then projected onto X. A step is taken only
-    when it lowers f (lam shrinks), else lam grows. A start has converged when an accepted step gains
-    less than 1e-7 f + 1e-15 or no step lowers f any more (stationary to machine precision); one that
-    reaches the iteration limit (300) has not.
+    Stages: (every v_k > 0) 100 Gauss-Newton iterations on the weighted log residuals
+    v_k (log v_k - log P_k); 40 damped Newton iterations on f from every end point; then the 6 with the
+    lowest f (ranked at 1e-12 relative, then start order) carried on to 2000 iterations in all.
+    A Newton iteration solves (H + lam diag(J^T J) + eps I) dx = -grad f, H = J^T J - sum_k r_k
+    d^2 P_k (eps = 1e-7 times the largest diag(J^T J)), on the free variables (a variable on a bound whose
+    gradient points outwards is held), on the sphere's tangent plane for the approach (with the sphere's
+    curvature) and, when the palm is on the body's surface and f falls inwards, on the surface's tangent
+    plane; the step is then projected onto X. A step that is not a descent direction or does not lower f
+    is retried with a larger lam. A start has converged when an accepted step gains less than
+    1e-7 f + 1e-15 or no step lowers f any more; one that reaches the iteration limit has not.
     """
-    return least_squares(starts, v, model.means, model._precisions, model._log_norm, feas.lower, feas.upper,
-                         feas.a.start, feas.a.stop, _body_arrays(model), maxiter=_LM_MAXITER, ftol=_LM_FTOL,
-                         ridge=_LM_RIDGE)
+    args = (v, model.means, model._precisions, model._log_norm, feas.lower, feas.upper, feas.a.start, feas.a.stop,
+            feas.body)
+    if np.all(v > 0.0):
+        starts, _, its_log = least_squares(starts, *args, maxiter=_LOG_MAXITER, ftol=_LM_FTOL, ridge=_LM_RIDGE,
+                                           logodds=True)
+    xs, ok, its = least_squares(starts, *args, maxiter=_LM_SCOUT, ftol=_LM_FTOL, ridge=_LM_RIDGE)
+    if np.all(v > 0.0):
+        its += its_log
+    f = score(xs, v, model.means, model._precisions, model._log_norm, xs[0], feas.scale)[1]
+    go_on = np.array([i for i in _rank_by_f(f)[:_LM_KEEP] if not ok[i]], dtype=np.intp)
+    if go_on.size:
+        xs[go_on], ok[go_on], more = least_squares(xs[go_on], *args, maxiter=_LM_MAXITER - _LM_SCOUT,
+                                                   ftol=_LM_FTOL, ridge=_LM_RIDGE)
+        its[go_on] += more
+    return xs, ok, its
 
 
 def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.float64], method: Method,
@@ -447,8 +446,8 @@ def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.floa
 
 def _unique_rows(x: NDArray[np.float64]) -> NDArray[np.float64]:
     """The rows of x without exact repeats, in their first order."""
-    keep = [i for i in range(x.shape[0]) if not any(np.array_equal(x[i], x[j]) for j in range(i))]
-    out: NDArray[np.float64] = x[keep]
+    first = np.unique(x, axis=0, return_index=True)[1]
+    out: NDArray[np.float64] = x[np.sort(first)]
     return out
 
 
@@ -458,8 +457,8 @@ def _match_message(converged: bool) -> str:
 
 def _choose(candidates: list[Candidate]) -> list[Candidate]:
     """The module docstring's choice order, duplicates (scaled distance < 1e-9 apart) dropped."""
-    if not candidates:
-        return []
+    if len(candidates) <= 1:
+        return list(candidates)
     f = np.array([c.objective for c in candidates])
     best = float(f.min())
     matches = f <= best + max(MATCH_TOL, F_RTOL * best)
@@ -472,8 +471,11 @@ def _choose(candidates: list[Candidate]) -> list[Candidate]:
         ordered.append(pool.pop(pick))
     rest = [candidates[int(i)] for i in _rank_by_f(f) if not matches[int(i)]]
     out: list[Candidate] = []
+    kept = np.empty((len(candidates), candidates[0].x.size))
     for cand in ordered + rest:
-        if not any(float(np.linalg.norm((cand.x - o.x) / np.maximum(np.abs(o.x), 1.0))) < 1e-9 for o in out):
+        rel = (cand.x - kept[:len(out)]) / np.maximum(np.abs(kept[:len(out)]), 1.0)
+        if not np.any(np.einsum('ij,ij->i', rel, rel) < 1e-18):
+            kept[len(out)] = cand.x
             out.append(cand)
     return out
 
@@ -541,11 +543,8 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
     def candidates_from(xs: NDArray[np.float64], origin: NDArray[np.float64], ok: NDArray[np.bool_],
                         its: NDArray[np.int64], first_index: int, message: Callable[..., str],
                         ) -> list[Candidate]:
-        post = model.posterior(xs)
-        r = v_arr - post
-        f = 0.5 * np.sum(r * r, axis=1)
-        f_origin = np.asarray(objective(model, v_arr, origin))
-        dist = feas.distance(xs, x_ref)
+        post, f, dist = score(xs, v_arr, model.means, model._precisions, model._log_norm, x_ref, feas.scale)
+        f_origin = score(origin, v_arr, model.means, model._precisions, model._log_norm, x_ref, feas.scale)[1]
         return [Candidate(x=xs[i], posterior=post[i], objective=float(f[i]), distance=float(dist[i]),
                           start=origin[i], start_objective=float(f_origin[i]), start_index=first_index + i,
                           success=bool(ok[i]), message=message(bool(ok[i])), iterations=int(its[i]))
