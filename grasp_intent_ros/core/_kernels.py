@@ -281,39 +281,6 @@ def project(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArr
 
 
 @njit(cache=True)
-def _posterior_jacobian(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
-    """P(k|x) (K,), dP/dx (K, d) and the log-density gradients g (K, d)."""
-    K, d = means.shape
-    lj, g = _log_joint_score(x, means, prec, log_norm)
-    p = np.exp(lj - np.max(lj))
-    p /= np.sum(p)
-    g_mean = p @ g
-    jac = np.empty((K, d))
-    for k in range(K):
-        jac[k] = p[k] * (g[k] - g_mean)
-    return p, jac, g
-
-
-@njit(cache=True)
-def _curvature(p, r, g, prec):  # type: ignore[no-untyped-def]
-    """-sum_k r_k d^2 P_k / dx^2 (d, d): the second-order term of f's Hessian that Gauss-Newton drops.
-
-    With u_k = g_k - sum_j P_j g_j, H_k = -Sigma_k^-1 and C = sum_j P_j u_j u_j^T:
-    d^2 P_k = P_k (u_k u_k^T + H_k - sum_j P_j H_j - C).
-    """
-    K, d = g.shape
-    u = g - p @ g
-    c = p * r
-    total = np.sum(c)
-    out = np.zeros((d, d))
-    for k in range(K):
-        # c_k (u_k u_k^T + H_k) - total * P_k (H_k + u_k u_k^T)
-        wk = c[k] - total * p[k]
-        out += wk * (np.outer(u[k], u[k]) - prec[k])
-    return -out
-
-
-@njit(cache=True)
 def _score(xs, v, means, prec, log_norm, x_ref, scale):  # type: ignore[no-untyped-def]
     """Posterior (N, K), objective 1/2 |v - P|^2 (N,) and scaled distance to x_ref (N,) of every row."""
     n = xs.shape[0]
@@ -341,104 +308,64 @@ def score(xs: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.flo
 
 
 @njit(cache=True)
-def _residuals(x, v, means, prec, log_norm, logodds):  # type: ignore[no-untyped-def]
-    """P (K,), the residuals r (K,) = target - value, the value's Jacobian (K, d), and g (K, d).
-
-    Plain: r = v - P. ``logodds``: r_k = v_k (log v_k - log P_k), whose gradient v_k (g_k - sum_j P_j g_j)
-    does not vanish in a Gaussian's tail; near a match it is v - P to first order.
-    """
-    p, jac, g = _posterior_jacobian(x, means, prec, log_norm)
-    if not logodds:
-        return p, jac, g, v - p
-    K = v.size
+def _posterior_jacobian(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
+    """P(k|x) (K,) and dP/dx (K, d)."""
+    K, d = means.shape
+    lj, g = _log_joint_score(x, means, prec, log_norm)
+    p = np.exp(lj - np.max(lj))
+    p /= np.sum(p)
     g_mean = p @ g
-    lj = _log_joint_score(x, means, prec, log_norm)[0]
-    top = np.max(lj)
-    log_p = lj - (top + math.log(np.sum(np.exp(lj - top))))
-    r = np.empty(K)
-    jac_l = np.empty_like(jac)
+    jac = np.empty((K, d))
     for k in range(K):
-        r[k] = v[k] * (math.log(v[k]) - log_p[k])
-        jac_l[k] = v[k] * (g[k] - g_mean)
-    return p, jac_l, g, r
+        jac[k] = p[k] * (g[k] - g_mean)
+    return p, jac
 
 
 @njit(cache=True)
 def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # type: ignore[no-untyped-def]
-                   kinds, centres, axes, perps, radii, lengths, halfs, margin, maxiter, ftol, ridge_rel, logodds):
-    """Projected, damped Newton on f = 1/2 |v - P(x)|^2 from every start (see planner._refine_lm).
-
-    With ``logodds``, Gauss-Newton on the residuals v_k (log v_k - log P_k(x)) instead (every v_k > 0).
-    """
+                   kinds, centres, axes, perps, radii, lengths, halfs, margin, maxiter, ftol, ridge_rel):
+    """Projected Levenberg-Marquardt on v - P(x) from every start (see planner._refine_lm)."""
     n, d = starts.shape
     out, converged, iterations = _results(n, d)
     for s in range(n):
         x = _project(starts[s].copy(), lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
                      halfs, margin)
-        p, jac, g, r = _residuals(x, v, means, prec, log_norm, logodds)
+        p, jac = _posterior_jacobian(x, means, prec, log_norm)
+        r = v - p
         f = 0.5 * np.sum(r * r)
         lam = 1e-3
         done = False
-        fresh = True
         for _ in range(maxiter):
-            if fresh:  # gradient and Hessian on the feasible set's tangent space at x
-                ax = x[a0:a1].copy()
-                grad_full = -(r @ jac)
-                hess = jac.T @ jac if logodds else jac.T @ jac + _curvature(p, r, g, prec)
-                tangent = np.eye(d)
-                for i in range(a0, a1):
-                    for j in range(a0, a1):
-                        tangent[i, j] -= ax[i - a0] * ax[j - a0]
-                if kinds.shape[0] > 0:  # palm on the body, f falling inwards: slide along the surface
-                    sd, normal = _distance(x[0:3].copy(), kinds, centres, axes, perps, radii, lengths, halfs)
-                    if sd <= margin + 1e-9 and np.sum(normal * grad_full[0:3]) > 0.0:
-                        for i in range(3):
-                            for j in range(3):
-                                tangent[i, j] -= normal[i] * normal[j]
-                grad = tangent @ grad_full
-                hess = tangent @ hess @ tangent
-                radial = np.sum(ax * grad_full[a0:a1])
-                for i in range(a0, a1):  # the sphere's curvature
-                    for j in range(a0, a1):
-                        hess[i, j] -= radial * tangent[i, j]
-                jt = jac @ tangent
-                held = np.zeros(d, dtype=np.bool_)
-                for j in range(d):
-                    held[j] = (x[j] <= lower[j] and grad[j] > 0.0) or (x[j] >= upper[j] and grad[j] < 0.0)
-                    if held[j]:
-                        hess[:, j] = 0.0
-                        hess[j, :] = 0.0
-                        jt[:, j] = 0.0
-                        grad[j] = 0.0
-                diag = np.zeros(d)
-                for j in range(d):
-                    diag[j] = np.sum(jt[:, j] ** 2)
-                ridge = ridge_rel * np.max(diag) + 1e-12
-                fresh = False
-            system = hess + np.diag(lam * diag + ridge)
+            ax = x[a0:a1].copy()
+            jt = jac.copy()
+            proj = np.ascontiguousarray(jac[:, a0:a1]) @ ax
+            for k in range(jt.shape[0]):
+                jt[k, a0:a1] -= proj[k] * ax
+            grad = -(r @ jt)
+            held = np.zeros(d, dtype=np.bool_)
             for j in range(d):
+                held[j] = (x[j] <= lower[j] and grad[j] > 0.0) or (x[j] >= upper[j] and grad[j] < 0.0)
                 if held[j]:
-                    system[j, j] = 1.0
+                    jt[:, j] = 0.0
+                    grad[j] = 0.0
+            h = jt.T @ jt
+            diag = np.diag(h).copy()
+            ridge = ridge_rel * np.max(diag) + 1e-12
+            system = h + np.diag(lam * diag + ridge)
             step = np.linalg.solve(system, -grad)
-            iterations[s] += 1
-            if not np.sum(step * grad) < 0.0:  # not a descent direction: damp more
-                lam = lam * 4.0
-                if lam > 1e10:
-                    done = True
-                    break
-                continue
             x_new = _project(x + step, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs,
                              margin)
-            p_new, jac_new, g_new, r_new = _residuals(x_new, v, means, prec, log_norm, logodds)
+            p_new, jac_new = _posterior_jacobian(x_new, means, prec, log_norm)
+            r_new = v - p_new
             f_new = 0.5 * np.sum(r_new * r_new)
             better = f_new < f
             small = better and (f - f_new < ftol * f + 1e-15)
             if better:
-                x, p, jac, g, r, f = x_new, p_new, jac_new, g_new, r_new, f_new
+                x, p, jac, r, f = x_new, p_new, jac_new, r_new, f_new
                 lam = lam / 3.0
-                fresh = True
             else:
                 lam = lam * 4.0
+            iterations[s] += 1
             if small or lam > 1e10:
                 done = True
                 break
@@ -450,12 +377,11 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
 def least_squares(starts: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.float64],
                   prec: NDArray[np.float64], log_norm: NDArray[np.float64], lower: NDArray[np.float64],
                   upper: NDArray[np.float64], a0: int, a1: int, body: tuple[Any, ...], *, maxiter: int,
-                  ftol: float, ridge: float, logodds: bool = False,
-                  ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
-    """Least squares from every start (N, d) (see ``_least_squares``): end points, converged, iterations."""
+                  ftol: float, ridge: float) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
+    """Projected Levenberg-Marquardt on v - P(x) from every start (N, d): end points, converged, iterations."""
     out: tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]] = _least_squares(
         np.ascontiguousarray(starts, dtype=np.float64), v, means, prec, log_norm, lower, upper, a0, a1, *body,
-        maxiter, ftol, ridge, logodds)  # type: ignore[call-arg]
+        maxiter, ftol, ridge)  # type: ignore[call-arg]
     return out
 
 

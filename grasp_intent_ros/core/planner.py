@@ -26,17 +26,11 @@ not name one grasp. The planner therefore answers a stated problem:
    ``accept`` takes it), that is the answer. Otherwise the other starts are projected, and the
    matches found are chosen from (rule 6).
 5. **Least squares.** When no start reaches an acceptable match (some v_k = 0, or v is outside what
-   the model can attain in X), f is minimised from every start and every projection's end point:
-   first (every v_k > 0) by Gauss-Newton on the weighted log residuals v_k (log v_k - log P_k(x)),
-   which equal v - P to first order near a match but, unlike P, keep their gradients in a Gaussian's
-   tail (so long, flat valleys are crossed in a few steps); then by a damped, projected Newton
-   iteration on f itself (Gauss-Newton plus the curvature of P, so that it converges fast where the
-   residual stays large), a few iterations from every start and then, from the 6 lowest, to
-   convergence. Bounds, the unit approach and the body's surface are held as an active set (end
-   points within 1e-8 of a match are projected onto the matches). Least-squares valleys can be
-   nearly flat: there the end point is where the iteration stops, a deterministic function of the
-   input that is insensitive to the last bits in most but not all cases (see the benchmark's
-   stability section).
+   the model can attain in X), f is minimised from every start and every projection's end point with
+   a projected Levenberg-Marquardt iteration (end points within 1e-8 of a match are projected onto
+   the matches). Least-squares valleys can be nearly flat: there the end point is where the damped
+   iteration stops, a deterministic function of the input that the ridge keeps insensitive to the
+   last bits in all but rare cases (see the benchmark's stability section).
 6. **Choice.** Let f* be the lowest f found. The candidates with f <= f* + max(1e-12, 1e-6 f*) are
    the matches; the planner returns the one nearest to x_ref, and among matches whose distances are
    within 1e-6 of the nearest, the first in start order. Ties are never left to float noise. The
@@ -99,10 +93,7 @@ DISTANCE_TOL = 1e-6
 _FTOL = 1e-10
 _MAXITER = 200
 _TC_MAXITER = 1500
-_LM_MAXITER = 2000
-_LM_SCOUT = 40       # least-squares iterations of every start before the best are carried on
-_LM_KEEP = 6         # the starts carried on to _LM_MAXITER iterations (the lowest f after _LM_SCOUT)
-_LOG_MAXITER = 100   # Gauss-Newton iterations on the weighted log residuals before the least squares
+_LM_MAXITER = 300
 _LM_RIDGE = 1e-7     # ridge of the least-squares steps, relative to the largest curvature
 _LM_FTOL = 1e-7      # a start has converged when an accepted step improves f by less than this * f + 1e-15
 _GN_MAXITER = 60
@@ -348,34 +339,19 @@ class _LogOddsProjection:
 
 def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.float64],
                feas: _Feasible) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
-    """Least squares on r(x) = v - P(x) from every start (shape (N, d); compiled: ``_kernels``).
+    """Projected Levenberg-Marquardt on r(x) = v - P(x), every start (shape (N, d); compiled: ``_kernels``).
 
-    Stages: (every v_k > 0) 100 Gauss-Newton iterations on the weighted log residuals
-    v_k (log v_k - log P_k); 40 damped Newton iterations on f from every end point; then the 6 with the
-    lowest f (ranked at 1e-12 relative, then start order) carried on to 2000 iterations in all.
-    A Newton iteration solves (H + lam diag(J^T J) + eps I) dx = -grad f, H = J^T J - sum_k r_k
-    d^2 P_k (eps = 1e-7 times the largest diag(J^T J)), on the free variables (a variable on a bound whose
-    gradient points outwards is held), on the sphere's tangent plane for the approach (with the sphere's
-    curvature) and, when the palm is on the body's surface and f falls inwards, on the surface's tangent
-    plane; the step is then projected onto X. A step that is not a descent direction or does not lower f
-    is retried with a larger lam. A start has converged when an accepted step gains less than
-    1e-7 f + 1e-15 or no step lowers f any more; one that reaches the iteration limit has not.
+    Each iteration solves (J^T J + lam diag(J^T J) + eps I) dx = J^T r per start (eps = 1e-7 times the
+    largest curvature, so that nearly flat directions cannot amplify last-bit differences), with J restricted to
+    the free variables (a variable on a bound whose gradient points outwards is held) and, for the
+    approach, to the sphere's tangent plane; the step is then projected onto X. A step is taken only
+    when it lowers f (lam shrinks), else lam grows. A start has converged when an accepted step gains
+    less than 1e-7 f + 1e-15 or no step lowers f any more (stationary to machine precision); one that
+    reaches the iteration limit (300) has not.
     """
-    args = (v, model.means, model._precisions, model._log_norm, feas.lower, feas.upper, feas.a.start, feas.a.stop,
-            feas.body)
-    if np.all(v > 0.0):
-        starts, _, its_log = least_squares(starts, *args, maxiter=_LOG_MAXITER, ftol=_LM_FTOL, ridge=_LM_RIDGE,
-                                           logodds=True)
-    xs, ok, its = least_squares(starts, *args, maxiter=_LM_SCOUT, ftol=_LM_FTOL, ridge=_LM_RIDGE)
-    if np.all(v > 0.0):
-        its += its_log
-    f = score(xs, v, model.means, model._precisions, model._log_norm, xs[0], feas.scale)[1]
-    go_on = np.array([i for i in _rank_by_f(f)[:_LM_KEEP] if not ok[i]], dtype=np.intp)
-    if go_on.size:
-        xs[go_on], ok[go_on], more = least_squares(xs[go_on], *args, maxiter=_LM_MAXITER - _LM_SCOUT,
-                                                   ftol=_LM_FTOL, ridge=_LM_RIDGE)
-        its[go_on] += more
-    return xs, ok, its
+    return least_squares(starts, v, model.means, model._precisions, model._log_norm, feas.lower, feas.upper,
+                         feas.a.start, feas.a.stop, feas.body, maxiter=_LM_MAXITER, ftol=_LM_FTOL,
+                         ridge=_LM_RIDGE)
 
 
 def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.float64], method: Method,
