@@ -23,6 +23,7 @@ The optimality section runs 60 SLSQP refinements per w: about 1-2 s per w on a 2
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from collections.abc import Iterator
 
@@ -169,16 +170,13 @@ def main() -> None:
     args = parser.parse_args()
     sections = {int(s) for s in args.sections.split(',') if s.strip()}
     print(f'bench_planner: n={args.n}, walk={args.walk}, seed={args.seed}')
-    if 1 in sections:
-        optimality(args.n, args.seed, args.reference_starts)
-    if 2 in sections:
-        stability(args.n, args.seed)
-    if 3 in sections:
-        continuity(args.walk, args.seed)
-    if 4 in sections:
-        plausibility(args.n, args.seed)
-    if 5 in sections:
-        speed(args.n, args.seed)
+    runs = {1: lambda: optimality(args.n, args.seed, args.reference_starts), 2: lambda: stability(args.n, args.seed),
+            3: lambda: continuity(args.walk, args.seed), 4: lambda: plausibility(args.n, args.seed),
+            5: lambda: speed(args.n, args.seed)}
+    for number, run in runs.items():
+        if number in sections:
+            run()
+            print('  load average (1, 5, 15 min) after this section: ' + ', '.join(f'{a:.2f}' for a in os.getloadavg()))
 
 
 if __name__ == '__main__':

@@ -1,6 +1,6 @@
-"""Compiled inner loops of the planner (numba): the log-odds projection and the least squares.
+"""Compiled inner loops of the planner (numba): the log-odds projection, the least squares, the feasible set.
 
-Both run one start at a time. The algorithms are stated in
+The solvers run one start at a time. The algorithms are stated in
 :class:`grasp_intent_ros.core.planner._LogOddsProjection` and :func:`grasp_intent_ros.core.planner._refine_lm`;
 this module only runs them without numpy's per-call overhead (an iteration is ~10^3 flops, so that
 overhead, not the arithmetic, was the cost). Compiled code is cached next to this file
@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ['project', 'least_squares', 'warm_up']
+__all__ = ['project', 'least_squares', 'feasible', 'score', 'warm_up']
 
 
 @njit(cache=True)
@@ -89,6 +89,24 @@ def _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, length
         for i in range(3):
             x[i] = min(max(p[i], lower[i]), upper[i])
     return x
+
+
+@njit(cache=True)
+def _project_rows(xs, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs,  # type: ignore[no-untyped-def]
+                  margin):
+    """Every row of xs (N, d) projected onto the feasible set (a new array)."""
+    out = xs.copy()
+    for s in range(out.shape[0]):
+        _project(out[s], lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
+    return out
+
+
+def feasible(xs: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray[np.float64], a0: int, a1: int,
+             body: tuple[Any, ...]) -> NDArray[np.float64]:
+    """Rows of xs (N, d) clipped to the bounds, approach normalised, palm pushed out of the body."""
+    out: NDArray[np.float64] = _project_rows(np.ascontiguousarray(xs, dtype=np.float64), lower, upper, a0, a1,
+                                             *body)
+    return out
 
 
 @njit(cache=True)
@@ -263,6 +281,33 @@ def project(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArr
 
 
 @njit(cache=True)
+def _score(xs, v, means, prec, log_norm, x_ref, scale):  # type: ignore[no-untyped-def]
+    """Posterior (N, K), objective 1/2 |v - P|^2 (N,) and scaled distance to x_ref (N,) of every row."""
+    n = xs.shape[0]
+    K = means.shape[0]
+    post = np.empty((n, K))
+    f = np.empty(n)
+    dist = np.empty(n)
+    for s in range(n):
+        lj = _log_joint_score(xs[s], means, prec, log_norm)[0]
+        p = np.exp(lj - np.max(lj))
+        p /= np.sum(p)
+        post[s] = p
+        f[s] = 0.5 * np.sum((v - p) ** 2)
+        dist[s] = math.sqrt(np.sum(((xs[s] - x_ref) / scale) ** 2))
+    return post, f, dist
+
+
+def score(xs: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.float64], prec: NDArray[np.float64],
+          log_norm: NDArray[np.float64], x_ref: NDArray[np.float64], scale: NDArray[np.float64],
+          ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Posterior (N, K), objective (N,) and scaled distance |(x - x_ref) / s| (N,) of every row of xs."""
+    out: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] = _score(
+        np.ascontiguousarray(xs, dtype=np.float64), v, means, prec, log_norm, x_ref, scale)
+    return out
+
+
+@njit(cache=True)
 def _posterior_jacobian(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
     """P(k|x) (K,) and dP/dx (K, d)."""
     K, d = means.shape
@@ -354,6 +399,9 @@ def warm_up() -> None:
                 maxiter=2, stall=12, damping=1e-3, htol=1e-11, steptol=1e-9)
         least_squares(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2),
                       np.zeros(2), -np.ones(d), np.ones(d), 3, 6, body, maxiter=2, ftol=1e-7, ridge=1e-7)
+        feasible(np.full((1, d), 0.5), -np.ones(d), np.ones(d), 3, 6, body)
+    score(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
+          np.zeros(d), np.ones(d))
 
 
 if __name__ == '__main__':

@@ -23,6 +23,7 @@ In a model document (see :meth:`ObjectBody.to_document`)::
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, Union
 
 import numpy as np
@@ -198,6 +199,25 @@ class ObjectBody:
                 break
             out[short] += (self.margin - sd[short])[:, None] * grad[short]
         return out
+
+    @cached_property
+    def kernel_arrays(self) -> tuple[Any, ...]:
+        """The primitives as the planner's compiled kernels take them, then the margin (built once).
+
+        ``(kinds, centres, axes, perps, radii, lengths, halfs, margin)``: ``kinds`` 0 for a cylinder, 1
+        for a box; ``axes``/``perps``/``radii``/``lengths`` are the cylinders' (zero for a box),
+        ``halfs`` the boxes' half extents (zero for a cylinder).
+        """
+        cylinders = [p if isinstance(p, Cylinder) else None for p in self.primitives]
+        return (np.array([0 if c is not None else 1 for c in cylinders], dtype=np.int64),
+                np.array([p.centre for p in self.primitives], dtype=np.float64).reshape(-1, 3),
+                np.array([c.axis if c is not None else np.zeros(3) for c in cylinders]).reshape(-1, 3),
+                np.array([c.perpendicular if c is not None else np.zeros(3) for c in cylinders]).reshape(-1, 3),
+                np.array([c.radius if c is not None else 0.0 for c in cylinders], dtype=np.float64),
+                np.array([c.length if c is not None else 0.0 for c in cylinders], dtype=np.float64),
+                np.array([p.half_extents if isinstance(p, Box) else np.zeros(3)
+                          for p in self.primitives]).reshape(-1, 3),
+                float(self.margin))
 
     def to_document(self) -> dict[str, Any]:
         """YAML-ready mapping: ``{margin, primitives: [...]}``."""

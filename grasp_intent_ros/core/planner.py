@@ -59,8 +59,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import Bounds, NonlinearConstraint, OptimizeResult, minimize  # type: ignore[import-untyped]
 
-from ._kernels import least_squares, project
-from .body import Box, Cylinder
+from ._kernels import feasible, least_squares, project, score
 from .errors import PlanningError
 from .features import PALM
 from .intent import reconstruct_w
@@ -292,29 +291,20 @@ def search_starts(model: GraspModel, v: NDArray[np.float64], count: int = _SCREE
 
 
 class _Feasible:
-    """Projection onto the feasible set X and the scaled distance between grasps."""
+    """Projection onto the feasible set X (compiled: ``_kernels``) and the scale of the distance between grasps."""
 
     def __init__(self, model: GraspModel) -> None:
         self.model = model
         self.lower, self.upper = model.lower, model.upper
         self.a = model.features.approach
-        self.body = model.body
         self.scale = model.feature_scale
+        self.body = model.body.kernel_arrays if model.body is not None else (
+            np.zeros(0, dtype=np.int64), *np.zeros((3, 0, 3)), *np.zeros((2, 0)), np.zeros((0, 3)), 0.0)
+        """The body as the compiled kernels take it (no primitive at all: no body)."""
 
     def project(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """Clip to the bounds, normalise the approach, push the palm out of the body (N, d)."""
-        out = np.clip(x, self.lower, self.upper)
-        norm = np.linalg.norm(out[:, self.a], axis=1, keepdims=True)
-        out[:, self.a] = np.where(norm > 1e-12, out[:, self.a] / np.maximum(norm, 1e-12),
-                                  np.eye(out.shape[1])[self.a.start + 2, self.a])
-        if self.body is not None:
-            out[:, PALM] = np.clip(self.body.push_out(out[:, PALM]), self.lower[PALM], self.upper[PALM])
-        return out
-
-    def distance(self, x: NDArray[np.float64], x_ref: NDArray[np.float64]) -> NDArray[np.float64]:
-        """|(x - x_ref) / s| per row."""
-        out: NDArray[np.float64] = np.linalg.norm((x - x_ref) / self.scale, axis=-1)
-        return out
+        return feasible(x, self.lower, self.upper, self.a.start, self.a.stop, self.body)
 
 
 class _LogOddsProjection:
@@ -342,24 +332,9 @@ class _LogOddsProjection:
         """End points (N, d), whether each converged with the equations met, iterations per start."""
         model, feas = self.model, self.feas
         return project(starts, model.means, model._precisions, model._log_norm, self.others, self.r, self.b,
-                       feas.scale, feas.lower, feas.upper, feas.a.start, feas.a.stop, _body_arrays(model),
+                       feas.scale, feas.lower, feas.upper, feas.a.start, feas.a.stop, feas.body,
                        maxiter=_GN_MAXITER, stall=_GN_STALL, damping=_GN_DAMPING, htol=_GN_HTOL,
                        steptol=_GN_STEPTOL)
-
-
-def _body_arrays(model: GraspModel) -> tuple[Any, ...]:
-    """The body's primitives as the compiled kernels take them (see :mod:`._kernels`), and the margin."""
-    prims = model.body.primitives if model.body is not None else ()
-    cylinders = [p if isinstance(p, Cylinder) else None for p in prims]
-    kinds = np.array([0 if c is not None else 1 for c in cylinders], dtype=np.int64)
-    centres = np.array([p.centre for p in prims], dtype=np.float64).reshape(-1, 3)
-    axes = np.array([c.axis if c is not None else np.zeros(3) for c in cylinders]).reshape(-1, 3)
-    perps = np.array([c.perpendicular if c is not None else np.zeros(3) for c in cylinders]).reshape(-1, 3)
-    radii = np.array([c.radius if c is not None else 0.0 for c in cylinders], dtype=np.float64)
-    lengths = np.array([c.length if c is not None else 0.0 for c in cylinders], dtype=np.float64)
-    halfs = np.array([p.half_extents if isinstance(p, Box) else np.zeros(3) for p in prims]).reshape(-1, 3)
-    margin = model.body.margin if model.body is not None else 0.0
-    return kinds, centres, axes, perps, radii, lengths, halfs, margin
 
 
 def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.float64],
@@ -375,7 +350,7 @@ def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.flo
     reaches the iteration limit (300) has not.
     """
     return least_squares(starts, v, model.means, model._precisions, model._log_norm, feas.lower, feas.upper,
-                         feas.a.start, feas.a.stop, _body_arrays(model), maxiter=_LM_MAXITER, ftol=_LM_FTOL,
+                         feas.a.start, feas.a.stop, feas.body, maxiter=_LM_MAXITER, ftol=_LM_FTOL,
                          ridge=_LM_RIDGE)
 
 
@@ -447,8 +422,8 @@ def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.floa
 
 def _unique_rows(x: NDArray[np.float64]) -> NDArray[np.float64]:
     """The rows of x without exact repeats, in their first order."""
-    keep = [i for i in range(x.shape[0]) if not any(np.array_equal(x[i], x[j]) for j in range(i))]
-    out: NDArray[np.float64] = x[keep]
+    first = np.unique(x, axis=0, return_index=True)[1]
+    out: NDArray[np.float64] = x[np.sort(first)]
     return out
 
 
@@ -458,8 +433,8 @@ def _match_message(converged: bool) -> str:
 
 def _choose(candidates: list[Candidate]) -> list[Candidate]:
     """The module docstring's choice order, duplicates (scaled distance < 1e-9 apart) dropped."""
-    if not candidates:
-        return []
+    if len(candidates) <= 1:
+        return list(candidates)
     f = np.array([c.objective for c in candidates])
     best = float(f.min())
     matches = f <= best + max(MATCH_TOL, F_RTOL * best)
@@ -472,8 +447,11 @@ def _choose(candidates: list[Candidate]) -> list[Candidate]:
         ordered.append(pool.pop(pick))
     rest = [candidates[int(i)] for i in _rank_by_f(f) if not matches[int(i)]]
     out: list[Candidate] = []
+    kept = np.empty((len(candidates), candidates[0].x.size))
     for cand in ordered + rest:
-        if not any(float(np.linalg.norm((cand.x - o.x) / np.maximum(np.abs(o.x), 1.0))) < 1e-9 for o in out):
+        rel = (cand.x - kept[:len(out)]) / np.maximum(np.abs(kept[:len(out)]), 1.0)
+        if not np.any(np.einsum('ij,ij->i', rel, rel) < 1e-18):
+            kept[len(out)] = cand.x
             out.append(cand)
     return out
 
@@ -541,11 +519,8 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
     def candidates_from(xs: NDArray[np.float64], origin: NDArray[np.float64], ok: NDArray[np.bool_],
                         its: NDArray[np.int64], first_index: int, message: Callable[..., str],
                         ) -> list[Candidate]:
-        post = model.posterior(xs)
-        r = v_arr - post
-        f = 0.5 * np.sum(r * r, axis=1)
-        f_origin = np.asarray(objective(model, v_arr, origin))
-        dist = feas.distance(xs, x_ref)
+        post, f, dist = score(xs, v_arr, model.means, model._precisions, model._log_norm, x_ref, feas.scale)
+        f_origin = score(origin, v_arr, model.means, model._precisions, model._log_norm, x_ref, feas.scale)[1]
         return [Candidate(x=xs[i], posterior=post[i], objective=float(f[i]), distance=float(dist[i]),
                           start=origin[i], start_objective=float(f_origin[i]), start_index=first_index + i,
                           success=bool(ok[i]), message=message(bool(ok[i])), iterations=int(its[i]))

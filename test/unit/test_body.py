@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
+from grasp_intent_ros.core._kernels import feasible
 from grasp_intent_ros.core.body import Box, Cylinder, ObjectBody
 from grasp_intent_ros.core.errors import ModelFormatError
 from grasp_intent_ros.dataset.demos import CUP, FLASHLIGHT
@@ -67,6 +68,17 @@ def test_push_out_reaches_the_margin_and_leaves_clear_points(p: np.ndarray) -> N
     assert body.distance(out)[0][0] >= body.margin - 1e-12
     if body.distance(p[None, :])[0][0] >= body.margin:
         assert_allclose(out[0], p)
+
+
+@settings(max_examples=200, deadline=None)
+@given(p=points)
+def test_the_planners_compiled_projection_pushes_out_like_push_out(p: np.ndarray) -> None:
+    """kernel_arrays carry the body to the compiled kernels: the same push-out as ObjectBody's own."""
+    body = ObjectBody((CUP_BODY.primitives[0], BOX), margin=0.002)
+    x = np.concatenate([p, [0.0, 0.0, 1.0], np.zeros(4)])[None, :]
+    out = feasible(x, np.full(10, -1.0), np.full(10, 1.0), 3, 6, body.kernel_arrays)
+    assert_allclose(out[0, :3], body.push_out(p[None, :])[0], atol=1e-12)
+    assert_allclose(out[0, 3:], x[0, 3:])
 
 
 def test_document_round_trip_and_errors() -> None:
