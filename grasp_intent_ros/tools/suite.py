@@ -257,7 +257,7 @@ class NodeSuite:
 
     def start_nodes(self, *, namespace: str = '', model: str | None = None,
                     models_dir: str | os.PathLike[str] | None = None) -> None:
-        """Start :data:`SUITE_NODES`, each with its ``config/<node>.yaml`` (when the config directory is found).
+        """Start :data:`SUITE_NODES`, each with :meth:`node_args` (its ``config/<node>.yaml`` when found).
 
         Parameters
         ----------
@@ -271,22 +271,28 @@ class NodeSuite:
         OSError
             If a process cannot be started; those already started stay in :attr:`processes`.
         """
+        for module in SUITE_NODES:
+            self.start(module, *self.node_args(module, namespace=namespace, model=model, models_dir=models_dir))
+
+    @staticmethod
+    def node_args(module: str, *, namespace: str = '', model: str | None = None,
+                  models_dir: str | os.PathLike[str] | None = None) -> list[str]:
+        """The ``--ros-args`` of a suite node (as :meth:`start_nodes` gives them), e.g. to restart it."""
         try:
             config: Path | None = config_dir()
         except FileNotFoundError:
             config = None
-        for module in SUITE_NODES:
-            ros_args: list[str] = []
-            if config is not None and (config / f'{module}.yaml').is_file():
-                ros_args += ['--params-file', str(config / f'{module}.yaml')]
-            if namespace:
-                ros_args += ['-r', f'__ns:={namespace}']
-            if module == 'model_server':
-                if model is not None:
-                    ros_args += ['-p', f'model:={model}']
-                if models_dir is not None:
-                    ros_args += ['-p', f'models_dir:={Path(models_dir).resolve()}']
-            self.start(module, *ros_args)
+        ros_args: list[str] = []
+        if config is not None and (config / f'{module}.yaml').is_file():
+            ros_args += ['--params-file', str(config / f'{module}.yaml')]
+        if namespace:
+            ros_args += ['-r', f'__ns:={namespace}']
+        if module == 'model_server':
+            if model is not None:
+                ros_args += ['-p', f'model:={model}']
+            if models_dir is not None:
+                ros_args += ['-p', f'models_dir:={Path(models_dir).resolve()}']
+        return ros_args
 
     def node(self, module: str) -> NodeProcess:
         """The last process started of ``module``. Raises KeyError if there is none."""
