@@ -6,8 +6,9 @@ Topics (relative; formats in :mod:`grasp_intent_ros.protocol`)
     in   ``intent/v`` (all zones of the model's tasks), ``model/active`` (latched), ``object/pose`` (in
          ``m1n6s300_link_base``; default: the ``object_*`` parameters), ``joint_states`` (IK seed)
     out  ``grasp/pose``, ``grasp/joint_targets``, ``grasp/trajectory``, ``grasp/posterior``,
-         ``grasp/features``, ``grasp/markers`` (:func:`grasp_intent_ros.ros.grasp.grasp_messages`), stamped
-         with the arrival time of the plan's newest input (the trajectory: zero, "start now");
+         ``grasp/features``, ``grasp/markers`` (:func:`grasp_intent_ros.ros.grasp.grasp_messages`; markers at
+         most every ``markers_period`` s), stamped with the arrival time of the plan's newest input (the
+         trajectory: zero, "start now");
          ``intent/clarification`` (once per intent and model) when v fits no model zone or no grasp is
          reachable; ``/diagnostics`` (``inputs``, ``planning``: ``last plan status`` says what happened)
 
@@ -20,6 +21,9 @@ Parameters: :data:`PARAMETERS`, ``config/grasp_planner.yaml``.
 
 from __future__ import annotations
 
+import math
+import sys
+import time
 import typing
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -50,7 +54,7 @@ from .ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matri
 from .ros.run import publish_all, run_node
 from .ros.worker import LatestOnlyWorker
 
-__all__ = ['GraspPlanner', 'PARAMETERS', 'main']
+__all__ = ['GraspPlanner', 'PARAMETERS', 'GIL_SWITCH_INTERVAL', 'main']
 
 _METHODS: tuple[str, ...] = typing.get_args(planner.Method)
 
@@ -70,6 +74,9 @@ PARAMETERS = (
     ParamSpec('object_marker_size', (0.08, 0.10), 'Diameter and height of the object marker, m.',
               validator=finite_vector(2, 'diameter, height in m', positive=True)),
     ParamSpec('min_replan_period', 0.0, 'Least time between the starts of two plans, s (0: plan at once).',
+              range=(0.0, 10.0)),
+    ParamSpec('markers_period', 0.1, 'Least time between two grasp/markers messages, s (0: with every plan). '
+              'Markers are for RViz and cost as much to build as the other outputs together.',
               range=(0.0, 10.0)),
     ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
 )
@@ -100,6 +107,7 @@ class GraspPlanner(Node):
         except FileNotFoundError as exc:
             raise ParameterError(f'urdf_path: {exc}') from None
         self._warm: tuple[tuple[str, str], NDArray[np.float64]] | None = None
+        self._markers_due = -math.inf  # time.monotonic() from which the next plan publishes markers
         self._counts = dict.fromkeys((KEY_PLANS, *OUTCOMES), 0)
         self._clarifications = ClarificationRequests(self, self._plan_diag, count_key='clarifications requested',
                                                      outcome_key='last plan status', level=WARN, log=True)
@@ -112,8 +120,8 @@ class GraspPlanner(Node):
                                         min_period=lambda: float(self._params['min_replan_period']))
         # SIGINT/SIGTERM shut the context down before destroy_node runs: stop planning at once
         self.context.on_shutdown(self._worker.stop_soon)
-        guard, latest = self._inputs_diag.guard, input_qos(depth=1)
-        self.create_subscription(Float64MultiArray, topics.INTENT_V, guard(self._on_v), latest)
+        guard, dropped, latest = self._inputs_diag.guard, self._inputs_diag.count_dropped, input_qos(depth=1)
+        self.create_subscription(Float64MultiArray, topics.INTENT_V, dropped(guard(self._on_v)), latest)
         self.create_subscription(String, topics.MODEL_ACTIVE, guard(self._on_model), latched_qos())
         self.create_subscription(PoseStamped, topics.OBJECT_POSE, guard(self._on_object_pose), latest)
         # not keep-last 1: arm and finger states may come from different publishers
@@ -182,13 +190,27 @@ class GraspPlanner(Node):
         if grasp.fallback:
             self.get_logger().warning(grasp.note, throttle_duration_sec=5.0)
         self._warm = (key, grasp.result.x)
-        if not self._worker.stopping:
-            publish_all(self, self._pubs, grasp_messages(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
-                                                         object_size=self._params['object_marker_size']))
+        if self._worker.stopping:
+            return
+        now = time.monotonic()
+        markers = now >= self._markers_due
+        if markers:
+            self._markers_due = now + float(self._params['markers_period'])
+        publish_all(self, self._pubs, grasp_messages(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
+                                                     object_size=self._params['object_marker_size'], markers=markers))
+
+
+GIL_SWITCH_INTERVAL = 0.0005
+"""Seconds (Python's default: 0.005) the planning thread may hold the GIL while the executor thread waits.
+
+The executor takes the GIL several times per message; with the default a message waited up to 5 ms per
+take behind a plan in progress.
+"""
 
 
 def main(args: list[str] | None = None) -> None:
-    """Entry point: run the node until SIGINT/SIGTERM."""
+    """Entry point: run the node until SIGINT/SIGTERM (with :data:`GIL_SWITCH_INTERVAL`)."""
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL)
     run_node(GraspPlanner, args)
 
 
