@@ -211,6 +211,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.relay:
         return relay(args.relay)
+    from grasp_intent_ros.protocol import KEY_DROPPED, KEY_PLANS, KEY_RECEIVED
     domain_id = loopback_domain('bench_latency')
     n, fast_n = int(round(args.duration * args.rate)), int(round(args.fast_duration * args.fast_rate))
     floor = floor_phase(domain_id, n, 1.0 / args.rate)
@@ -236,8 +237,7 @@ def main() -> None:
           f'{percentiles(fast["latency"])}; {share(fast)} (target >= 99%) [{fast["load"][0]} -> '
           f'{fast["load"][1]}]')
     for name, values in sorted(statuses.items()):
-        shown = {k: v for k, v in values.items() if k in ('received', 'rejected', 'inputs lost', 'inputs superseded',
-                                                           'plans')}
+        shown = {k: v for k, v in values.items() if k in (KEY_RECEIVED, KEY_DROPPED, 'inputs superseded', KEY_PLANS)}
         if shown:
             print(f'  diagnostics {name}: ' + ', '.join(f'{k} {v}' for k, v in shown.items()))
 

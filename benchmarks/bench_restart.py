@@ -67,7 +67,7 @@ def main() -> None:
     v_index: dict[tuple[float, ...], int] = {}
     sent: list[int] = []
 
-    suite = NodeSuite(domain_id, cwd=REPO)
+    suite = NodeSuite(domain_id, cwd=REPO, numbered_logs=True)
     suite.start_nodes()
     probe = Probe(domain_id)
     stop = threading.Event()
@@ -128,7 +128,7 @@ def main() -> None:
     finally:
         stop.set()
         probe.close()
-        problems = suite.stop()
+        problems = suite.stop(include_exited=False)
         suite.remove_logs()
     print(f'restart after SIGKILL -> serving again, {args.trials} trials per node, w at 100 Hz throughout; '
           f'domain {domain_id} [{load_before} -> {load_after}]')

@@ -39,6 +39,7 @@ from std_msgs.msg import Float64MultiArray, String
 
 from . import protocol as topics
 from .core import planner
+from .core._kernels import warm_up
 from .core.frames import pose_to_matrix
 from .core.grasp import OUTCOMES, NoModelZone, NoReachableGrasp, check_mico_model, plan_grasp
 from .core.intent import match_zones
@@ -126,6 +127,12 @@ class GraspPlanner(Node):
         self.create_subscription(PoseStamped, topics.OBJECT_POSE, guard(self._on_object_pose), latest)
         # not keep-last 1: arm and finger states may come from different publishers
         self.create_subscription(JointState, topics.JOINT_STATES, guard(self._on_joint_state), input_qos())
+
+    def _load_kernels(self) -> None:
+        try:
+            warm_up()
+        except Exception as exc:  # noqa: BLE001 - then the first plan loads them, and reports what fails
+            self.get_logger().warning(f'compiled planner kernels not loaded ahead: {exc}')
 
     def destroy_node(self) -> None:
         """Stop the planning thread (after its current plan), then destroy the node."""
