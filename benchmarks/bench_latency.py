@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 import bisect
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -112,8 +113,8 @@ def floor_phase(domain_id: int, n: int, period: float) -> dict[str, Any]:
             'n': n, 'load': (load_before, load_after)}
 
 
-def chain_phase(domain_id: int, n: int, period: float, fast_n: int, fast_period: float, seed: int
-                ) -> tuple[dict[str, Any], dict[str, Any], dict[str, dict[str, str]]]:
+def chain_phase(domain_id: int, n: int, period: float, fast_n: int, fast_period: float, seed: int,
+                code: Path | None = None) -> tuple[dict[str, Any], dict[str, Any], dict[str, dict[str, str]]]:
     """The suite's w -> grasp/pose figures at ``period``, then the interpreter's w -> v at ``fast_period``."""
     from diagnostic_msgs.msg import DiagnosticArray
     from geometry_msgs.msg import PoseStamped
@@ -137,7 +138,7 @@ def chain_phase(domain_id: int, n: int, period: float, fast_n: int, fast_period:
         v_index.setdefault(key(result.v), i)
     msgs = [Float64MultiArray(data=[float(x) for x in w]) for w in ws + fast_ws]
 
-    suite = NodeSuite(domain_id, cwd=REPO)
+    suite = NodeSuite(domain_id, cwd=code or REPO, env={'PYTHONPATH': str(code)} if code else None)
     suite.start_nodes()
     probe = Probe(domain_id)
     try:
@@ -207,6 +208,9 @@ def main() -> None:
     parser.add_argument('--fast-rate', type=float, default=1000.0, help='w per second (interpreter phase)')
     parser.add_argument('--fast-duration', type=float, default=10.0, help='seconds (interpreter phase)')
     parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--code', type=Path, default=None,
+                        help='run the suite nodes from this source tree instead (e.g. an export of main, to '
+                             'compare before/after in one sitting; its kernels compiled there first)')
     parser.add_argument('--relay', choices=('first', 'second'), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.relay:
@@ -215,13 +219,14 @@ def main() -> None:
     domain_id = loopback_domain('bench_latency')
     n, fast_n = int(round(args.duration * args.rate)), int(round(args.fast_duration * args.fast_rate))
     floor = floor_phase(domain_id, n, 1.0 / args.rate)
-    chain, fast, statuses = chain_phase(domain_id, n, 1.0 / args.rate, fast_n, 1.0 / args.fast_rate, args.seed)
+    chain, fast, statuses = chain_phase(domain_id, n, 1.0 / args.rate, fast_n, 1.0 / args.fast_rate, args.seed,
+                                        args.code.resolve() if args.code else None)
 
     def share(r: dict[str, Any]) -> str:
         return f'{r["answered"]:,} of {r["n"]:,} w answered ({100.0 * r["answered"] / r["n"]:.1f}%)'
 
     fl, ch = np.asarray(floor['latency']), np.asarray(chain['latency'])
-    print(f'{n:,} w at {args.rate:g} Hz per phase; domain {domain_id}')
+    print(f'{n:,} w at {args.rate:g} Hz per phase; domain {domain_id}; nodes from {args.code or REPO}')
     print(f'floor (2 relays) w -> pose: {percentiles(fl)}; {share(floor)} [{floor["load"][0]} -> '
           f'{floor["load"][1]}]')
     print(f'chain w -> grasp/pose:      {percentiles(ch)}; {share(chain)} [{chain["load"][0]} -> '

@@ -210,8 +210,8 @@ class GraspPlanner(Node):
 GIL_SWITCH_INTERVAL = 0.0005
 """Seconds (Python's default: 0.005) the planning thread may hold the GIL while the executor thread waits.
 
-The executor takes the GIL several times per message; with the default a message waited up to 5 ms per
-take behind a plan in progress.
+The executor thread needs the GIL several times per message; with the default it could wait up to 5 ms
+each time behind a plan in progress, so a new v waited while the planner started on an older one.
 """
 
 
