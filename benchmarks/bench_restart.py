@@ -25,22 +25,26 @@ every process it starts gets both.
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 from _bench import REPO, Probe, loopback_domain, paced, uptime, walk
 
 
-def import_seconds(module: str, repeats: int = 3) -> float:
+def import_seconds(module: str, code: Path | None = None, repeats: int = 3) -> float:
     """Median wall time of ``python -c 'import grasp_intent_ros.<module>'`` in a fresh interpreter (s)."""
     times = []
+    env = {**os.environ, 'PYTHONPATH': str(code)} if code else None
     for _ in range(repeats):
         start = time.monotonic()
-        subprocess.run([sys.executable, '-c', f'import grasp_intent_ros.{module}'], check=True, cwd=REPO)
+        subprocess.run([sys.executable, '-c', f'import grasp_intent_ros.{module}'], check=True, cwd=code or REPO,
+                       env=env)
         times.append(time.monotonic() - start)
     return float(np.median(times))
 
@@ -51,6 +55,9 @@ def main() -> None:
     parser.add_argument('--gap', type=float, default=3.0, help='seconds between an answer and the next kill')
     parser.add_argument('--timeout', type=float, default=30.0, help='seconds to wait for an answer')
     parser.add_argument('--nodes', nargs='+', default=['intent_interpreter', 'grasp_planner', 'model_server'])
+    parser.add_argument('--code', type=Path, default=None,
+                        help='run the nodes from this source tree instead (e.g. an export of main, its kernels '
+                             'compiled there first), to compare before/after in one sitting')
     args = parser.parse_args()
     domain_id = loopback_domain('bench_restart')
 
@@ -61,13 +68,15 @@ def main() -> None:
     from grasp_intent_ros.ros.qos import input_qos, latched_qos, output_qos
     from grasp_intent_ros.tools.suite import NodeSuite
 
-    imports = {module: import_seconds(module) for module in args.nodes}
+    code = args.code.resolve() if args.code else None
+    imports = {module: import_seconds(module, code) for module in args.nodes}
     n = 10**6  # more w than any run sends
     ws = walk(n, seed=0)
     v_index: dict[tuple[float, ...], int] = {}
     sent: list[int] = []
 
-    suite = NodeSuite(domain_id, cwd=REPO, numbered_logs=True)
+    suite = NodeSuite(domain_id, cwd=code or REPO, numbered_logs=True,
+                      env={'PYTHONPATH': str(code)} if code else None)
     suite.start_nodes()
     probe = Probe(domain_id)
     stop = threading.Event()
@@ -131,7 +140,8 @@ def main() -> None:
         problems = suite.stop(include_exited=False)
         suite.remove_logs()
     print(f'restart after SIGKILL -> serving again, {args.trials} trials per node, w at 100 Hz throughout; '
-          f'domain {domain_id} [{load_before} -> {load_after}]')
+          f'domain {domain_id}; nodes from {code or REPO}; Fast DDS profile '
+          f'{suite.env.get("FASTRTPS_DEFAULT_PROFILES_FILE", "none")} [{load_before} -> {load_after}]')
     what = {'intent_interpreter': 'v for a fresh w', 'grasp_planner': 'grasp/pose for a fresh v',
             'model_server': 'model/active re-latched'}
     for module, times in results.items():
