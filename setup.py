@@ -30,7 +30,7 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{package_name}']),
         (f'share/{package_name}', ['package.xml']),
-        (f'share/{package_name}/config', glob('config/*.yaml') + glob('config/*.urdf')),
+        (f'share/{package_name}/config', glob('config/*.yaml') + glob('config/*.urdf') + glob('config/*.xml')),
         (f'share/{package_name}/config/models', glob('config/models/*.yaml')),
         (f'share/{package_name}/config/data', glob('config/data/*.csv')),
     ] + [

@@ -6,8 +6,9 @@ Topics (relative; formats in :mod:`grasp_intent_ros.protocol`)
     in   ``intent/v`` (all zones of the model's tasks), ``model/active`` (latched), ``object/pose`` (in
          ``m1n6s300_link_base``; default: the ``object_*`` parameters), ``joint_states`` (IK seed)
     out  ``grasp/pose``, ``grasp/joint_targets``, ``grasp/trajectory``, ``grasp/posterior``,
-         ``grasp/features``, ``grasp/markers`` (:func:`grasp_intent_ros.ros.grasp.grasp_messages`), stamped
-         with the arrival time of the plan's newest input (the trajectory: zero, "start now");
+         ``grasp/features``, ``grasp/markers`` (:func:`grasp_intent_ros.ros.grasp.grasp_messages`; markers at
+         most every ``markers_period`` s), stamped with the arrival time of the plan's newest input (the
+         trajectory: zero, "start now");
          ``intent/clarification`` (once per intent and model) when v fits no model zone or no grasp is
          reachable; ``/diagnostics`` (``inputs``, ``planning``: ``last plan status`` says what happened)
 
@@ -22,6 +23,9 @@ Parameters: :data:`PARAMETERS`, ``config/grasp_planner.yaml``.
 
 from __future__ import annotations
 
+import math
+import sys
+import time
 import typing
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -37,6 +41,7 @@ from std_msgs.msg import Float64MultiArray
 
 from . import protocol as topics
 from .core import planner
+from .core._kernels import warm_up
 from .core.frames import pose_to_matrix
 from .core.grasp import (
     OUTCOMES,
@@ -62,7 +67,7 @@ from .ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matri
 from .ros.run import publish_all, run_node
 from .ros.worker import LatestOnlyWorker
 
-__all__ = ['GraspPlanner', 'PARAMETERS', 'main']
+__all__ = ['GraspPlanner', 'PARAMETERS', 'GIL_SWITCH_INTERVAL', 'main']
 
 _METHODS: tuple[str, ...] = typing.get_args(planner.Method)
 
@@ -86,6 +91,9 @@ PARAMETERS = (
     ParamSpec('object_marker_size', (0.08, 0.10), 'Diameter and height of the object marker, m.',
               validator=finite_vector(2, 'diameter, height in m', positive=True)),
     ParamSpec('min_replan_period', 0.0, 'Least time between the starts of two plans, s (0: plan at once).',
+              range=(0.0, 10.0)),
+    ParamSpec('markers_period', 0.1, 'Least time between two grasp/markers messages, s (0: with every plan). '
+              'Markers are for RViz and cost as much to build as the other outputs together.',
               range=(0.0, 10.0)),
     ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
 )
@@ -121,6 +129,7 @@ class GraspPlanner(Node):
         except FileNotFoundError as exc:
             raise ParameterError(f'urdf_path: {exc}') from None
         self._warm: tuple[tuple[str, str], NDArray[np.float64]] | None = None
+        self._markers_due = -math.inf  # time.monotonic() from which the next plan publishes markers
         self._counts = dict.fromkeys((KEY_PLANS, *OUTCOMES), 0)
         self._clarifications = ClarificationRequests(self, self._plan_diag, count_key='clarifications requested',
                                                      outcome_key='last plan status', level=WARN, log=True)
@@ -134,11 +143,17 @@ class GraspPlanner(Node):
         # SIGINT/SIGTERM shut the context down before destroy_node runs: stop planning at once
         self.context.on_shutdown(self._worker.stop_soon)
         diag, latest = self._inputs_diag, input_qos(depth=1)
-        subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag)
+        subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag, count_dropped=True)
         self._models = ModelFollower(self, self._inputs_diag, self._use_model, name=f'{node_name}_model')
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, latest, diag)
         # not keep-last 1: arm and finger states may come from different publishers
         subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), diag)
+
+    def _load_kernels(self) -> None:
+        try:
+            warm_up()
+        except Exception as exc:  # noqa: BLE001 - then the first plan loads them, and reports what fails
+            self.get_logger().warning(f'compiled planner kernels not loaded ahead: {exc}')
 
     def destroy_node(self) -> None:
         """Stop the planning and model threads (after their current work), then destroy the node."""
@@ -204,20 +219,33 @@ class GraspPlanner(Node):
             return self._clarifications.request(grasp.reason, once_for=(inputs.v_seq, key))
         try:  # all outputs or none: every message built and checked before the first is published
             check_grasp(grasp, self._kin)
+            markers = time.monotonic() >= self._markers_due
             messages = grasp_messages(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
-                                      object_size=self._params['object_marker_size'])
+                                      object_size=self._params['object_marker_size'], markers=markers)
         except (ValueError, OverflowError) as exc:
             return self._clarifications.request(f'no grasp published: {exc}', once_for=(inputs.v_seq, key))
         self._warm = (key, grasp.result.x)
         self._plan_diag.set_value('last plan status', f'grasp published ({grasp.result.message})')
         if grasp.fallback:
             self.get_logger().warning(grasp.note, throttle_duration_sec=5.0)
-        if not self._worker.stopping:
-            publish_all(self, self._pubs, messages)
+        if self._worker.stopping:
+            return
+        if markers:
+            self._markers_due = time.monotonic() + float(self._params['markers_period'])
+        publish_all(self, self._pubs, messages)
+
+
+GIL_SWITCH_INTERVAL = 0.0005
+"""Seconds (Python's default: 0.005) the planning thread may hold the GIL while the executor thread waits.
+
+The executor thread needs the GIL several times per message; with the default it could wait up to 5 ms
+each time behind a plan in progress, so a new v waited while the planner started on an older one.
+"""
 
 
 def main(args: list[str] | None = None) -> None:
-    """Entry point: run the node until SIGINT/SIGTERM."""
+    """Entry point: run the node until SIGINT/SIGTERM (with :data:`GIL_SWITCH_INTERVAL`)."""
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL)
     run_node(GraspPlanner, args)
 
 

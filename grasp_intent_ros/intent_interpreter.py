@@ -10,7 +10,8 @@ Topics (relative; ``-r __ns:=/robot1`` moves them)
                                    one dimension labelled with the zone labels ("U,T,H,UT,UH,TH,UTH")
     out  ``intent/clarification``  std_msgs/String, the reason, instead of v when P(no task) >= threshold
                                    or when w gives no zone of the active model any probability
-    out  ``/diagnostics``          ``<node>: intent``: counts, the active model, the last outcome
+    out  ``/diagnostics``          ``<node>: intent``: counts (w dropped from a full input queue too), the
+                                   active model, the last outcome
 
 Where the model's zones are known: v is published over all 2^m - 1 zones (so any model of the same
 tasks can use it, and the planner renormalises it over its model's zones, eq. 4); the interpreter
@@ -98,7 +99,8 @@ class IntentInterpreter(Node):
         """The active model and the zones of task_names it supports, swapped together."""
         self._diagnostics.set_value('last outcome', '')
         self._configure(self._params)
-        self._w_sub = subscribe_input(self, topics.INTENT_W, self._on_w, input_qos(), self._diagnostics)
+        self._w_sub = subscribe_input(self, topics.INTENT_W, self._on_w, input_qos(), self._diagnostics,
+                                      count_dropped=True)
         self._models = ModelFollower(self, self._diagnostics, self._use_model, name=f'{node_name}_model')
 
     def destroy_node(self) -> None:

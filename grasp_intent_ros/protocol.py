@@ -88,7 +88,7 @@ __all__ = [
     'read_posterior',
     'ModelHeader', 'ModelDocument', 'model_document', 'parse_model_document', 'read_model_document',
     'OK', 'WARN', 'ERROR', 'STALE', 'LEVEL_NAMES', 'level_value', 'status_name', 'status_values',
-    'KEY_RECEIVED', 'KEY_REJECTED', 'KEY_LAST_ERROR', 'KEY_PROCESSING_TIME', 'KEY_PLANS',
+    'KEY_RECEIVED', 'KEY_REJECTED', 'KEY_LAST_ERROR', 'KEY_PROCESSING_TIME', 'KEY_DROPPED', 'KEY_PLANS',
     'KEY_PLANNING_TIME', 'KEY_MODEL',
 ]
 
@@ -533,6 +533,8 @@ KEY_RECEIVED: Final = 'messages received'
 KEY_REJECTED: Final = 'messages rejected'
 KEY_LAST_ERROR: Final = 'last error'
 KEY_PROCESSING_TIME: Final = 'last processing time [ms]'
+KEY_DROPPED: Final = 'messages dropped'
+"""Messages of the tracked inputs the node never took: gaps in their publishers' sequence numbers."""
 KEY_PLANS: Final = 'plans'
 """The planner's count of plans made."""
 KEY_PLANNING_TIME: Final = 'last planning time [ms]'

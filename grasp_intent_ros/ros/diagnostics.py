@@ -11,6 +11,8 @@ input (message = the reason) until an input is processed again; ERROR after an u
 :meth:`NodeDiagnostics.guard` wraps a subscription callback so that no exception escapes it: a
 :class:`~grasp_intent_ros.core.errors.GraspIntentError` (bad input) is a rejection, anything else an
 internal error logged with its traceback; either way the node keeps serving.
+:meth:`NodeDiagnostics.count_dropped` wraps one so that the messages the node never took (replaced in a
+full keep-last input queue, or lost) are counted, from the gaps in the publisher's sequence numbers.
 
 Every text a status or a log line takes from outside (a reason, a value, a traceback) is capped at
 :data:`MAX_TEXT` characters (:func:`cap_text`), so a rejected 500 kB message is never echoed whole.
@@ -22,8 +24,9 @@ import functools
 import threading
 import time
 import traceback
+import typing
 from collections.abc import Callable, Mapping
-from typing import TypeVar
+from typing import Any, TypeVar
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
@@ -32,6 +35,7 @@ from ..core.errors import GraspIntentError
 from ..protocol import (
     DIAGNOSTICS,
     ERROR,
+    KEY_DROPPED,
     KEY_LAST_ERROR,
     KEY_PROCESSING_TIME,
     KEY_RECEIVED,
@@ -82,6 +86,7 @@ class NodeDiagnostics:
         self._lock = threading.Lock()
         self._received = 0
         self._rejected = 0
+        self._dropped: int | None = None  # None until an input is tracked (count_dropped)
         self._last_error = ''
         self._last_seconds: float | None = None
         self._outcome_level: int = level_value(OK)
@@ -164,6 +169,32 @@ class NodeDiagnostics:
                 self.processed(time.perf_counter() - start)
         return guarded
 
+    def count_dropped(self, callback: Callable[[M], object]) -> Callable[[M], None]:
+        """Wrap a subscription callback so that the messages it never got are counted (``messages dropped``).
+
+        The wrapped callback takes the message info too (rclpy passes it to a two-argument callback): a jump
+        in its ``publication_sequence_number`` is the number of messages of that publisher that were
+        replaced in the full keep-last input queue or lost before the node took them. One publisher per
+        topic is assumed: a sequence number at or below the last one (a restarted or another publisher)
+        starts counting afresh, so a topic with several interleaved publishers overcounts. Middlewares
+        without sequence numbers (0 or None) count nothing.
+        """
+        last = 0
+        with self._lock:
+            self._dropped = self._dropped or 0
+
+        def counted(msg: M, info: Mapping[str, Any]) -> None:
+            nonlocal last
+            seq = info.get('publication_sequence_number')
+            if isinstance(seq, int) and seq > 0:
+                if last and seq > last + 1:
+                    with self._lock:
+                        self._dropped = (self._dropped or 0) + seq - last - 1
+                last = seq
+            callback(msg)
+        # rclpy inspects the signature and passes the message info; its annotation names only Callable[[M], None]
+        return typing.cast(Callable[[M], None], counted)
+
     # ---------------------------------------------------------------- reporting
     def status(self) -> DiagnosticStatus:
         """The current DiagnosticStatus."""
@@ -180,6 +211,7 @@ class NodeDiagnostics:
                 KEY_LAST_ERROR: self._last_error,
                 KEY_PROCESSING_TIME: ('' if self._last_seconds is None
                                               else f'{1e3 * self._last_seconds:.3f}'),
+                **({} if self._dropped is None else {KEY_DROPPED: str(self._dropped)}),
                 **self._values,
             }
         return DiagnosticStatus(level=bytes([level]), name=self.name, message=message,

@@ -25,8 +25,8 @@ __all__ = ['grasp_messages']
 
 
 def grasp_messages(grasp: Grasp, doc: ModelDocument, base_T_obj: NDArray[np.float64], *, stamp: Time,
-                   object_size: tuple[float, float]) -> dict[str, Any]:
-    """The plan's outputs by topic (:data:`grasp_intent_ros.protocol.PLAN_TOPICS` and ``grasp/markers``).
+                   object_size: tuple[float, float], markers: bool = True) -> dict[str, Any]:
+    """The plan's outputs by topic (:data:`grasp_intent_ros.protocol.PLAN_TOPICS`, and ``grasp/markers``).
 
     Parameters
     ----------
@@ -39,16 +39,20 @@ def grasp_messages(grasp: Grasp, doc: ModelDocument, base_T_obj: NDArray[np.floa
         The stamp of every output but the trajectory.
     object_size : (diameter, height)
         Of the object marker (m).
+    markers : bool
+        Whether to build ``grasp/markers`` too.
     """
     model, x = doc.model, grasp.result.x
-    text = f'{doc.name}\n{zone_summary(model.zone_labels, grasp.result.posterior)}'
-    return {
+    messages: dict[str, Any] = {
         topics.GRASP_POSTERIOR: posterior_to_msg(grasp.result.posterior, grasp.result.w, model.zone_labels,
                                                  model.task_names, stamp=stamp),
         topics.GRASP_FEATURES: stamped_array_to_msg(x, model.feature_names, stamp=stamp),
         topics.GRASP_POSE: matrix_to_pose_msg(grasp.base_T_ee, frame_id=BASE_FRAME, stamp=stamp),
         topics.GRASP_JOINT_TARGETS: joint_state_msg(JOINT_NAMES, grasp.positions, stamp=stamp),
         topics.GRASP_TRAJECTORY: joint_trajectory_msg(JOINT_NAMES, grasp.positions, grasp.duration_s),
-        topics.GRASP_MARKERS: grasp_markers(base_T_obj, grasp.base_T_ee, x[FINGERS], text, frame_id=BASE_FRAME,
-                                            stamp=stamp, object_size=object_size),
     }
+    if markers:
+        text = f'{doc.name}\n{zone_summary(model.zone_labels, grasp.result.posterior)}'
+        messages[topics.GRASP_MARKERS] = grasp_markers(base_T_obj, grasp.base_T_ee, x[FINGERS], text,
+                                                       frame_id=BASE_FRAME, stamp=stamp, object_size=object_size)
+    return messages

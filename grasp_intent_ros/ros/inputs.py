@@ -27,7 +27,7 @@ __all__ = ['subscribe_input']
 
 
 def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], qos: QoSProfile,
-                    diagnostics: NodeDiagnostics) -> Subscription:
+                    diagnostics: NodeDiagnostics, *, count_dropped: bool = False) -> Subscription:
     """Subscribe ``callback`` to the suite input ``topic``, size-checked before decoding and guarded.
 
     Parameters
@@ -40,6 +40,8 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
     qos : QoSProfile
     diagnostics : NodeDiagnostics
         Counts every message received and every rejection (:meth:`NodeDiagnostics.guard`).
+    count_dropped : bool
+        Also count the messages the node never took (:meth:`NodeDiagnostics.count_dropped`).
 
     Raises
     ------
@@ -59,4 +61,6 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
         callback(msg)
 
     on_serialized.__name__ = getattr(callback, '__name__', 'on_message')
-    return node.create_subscription(msg_type, topic, diagnostics.guard(on_serialized), qos, raw=True)
+    guarded = diagnostics.guard(on_serialized)
+    return node.create_subscription(msg_type, topic, diagnostics.count_dropped(guarded) if count_dropped else guarded,
+                                    qos, raw=True)

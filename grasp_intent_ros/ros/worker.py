@@ -35,16 +35,21 @@ class LatestOnlyWorker(Generic[T]):
         Thread name.
     min_period : callable
         Seconds that must pass between the starts of two handled snapshots (read before each).
+    prepare : callable, optional
+        Run once in the worker thread before it handles anything (e.g. loading compiled code), so that the
+        work overlaps with what the node waits for at start (discovery, its first inputs). It must not raise.
     """
 
     def __init__(self, initial: T, handle: Callable[[T], object], *, name: str,
                  ready: Callable[[T], bool] = lambda _: True,
-                 min_period: Callable[[], float] = lambda: 0.0) -> None:
+                 min_period: Callable[[], float] = lambda: 0.0,
+                 prepare: Callable[[], object] | None = None) -> None:
         self._lock = threading.Lock()
         self._latest = initial
         self._version = 0
         self._handle, self._ready = handle, ready
         self._min_period = min_period
+        self._prepare = prepare
         self._wake, self._stop = threading.Event(), threading.Event()
         self.superseded = 0
         """Triggering updates never handled because a newer one replaced them."""
@@ -83,6 +88,8 @@ class LatestOnlyWorker(Generic[T]):
         return self._stop.is_set()
 
     def _run(self) -> None:
+        if self._prepare is not None:
+            self._prepare()
         handled = 0
         last_start = -math.inf
         while not self._stop.is_set():

@@ -74,3 +74,42 @@ def test_texts_are_capped(ros) -> None:
     assert len(status.message) <= MAX_TEXT + len('rejected input: ')
     assert len(values[protocol.KEY_LAST_ERROR]) <= MAX_TEXT and len(values['model']) <= MAX_TEXT
     assert values[protocol.KEY_REJECTED] == '1'
+def test_count_dropped_from_sequence_gaps(ros) -> None:
+    probe = ros.add(rclpy.create_node('diag_probe', context=ros.context))
+    diag = NodeDiagnostics(probe, 'intent')
+    assert protocol.KEY_DROPPED not in protocol.status_values(diag.status()), 'no input tracked yet'
+    seen: list[int] = []
+    counted = diag.count_dropped(diag.guard(seen.append))
+    for seq in (1, 2, 5, 6, 10):  # 3, 4 and 7..9 never taken
+        counted(seq, {'publication_sequence_number': seq})
+    assert seen == [1, 2, 5, 6, 10]
+    assert protocol.status_values(diag.status())[protocol.KEY_DROPPED] == '5'
+    counted(1, {'publication_sequence_number': 1})  # a restarted publisher starts afresh
+    counted(3, {'publication_sequence_number': 3})
+    counted(4, {'publication_sequence_number': None})  # a middleware without sequence numbers
+    assert protocol.status_values(diag.status())[protocol.KEY_DROPPED] == '6'
+    assert protocol.status_values(diag.status())[protocol.KEY_RECEIVED] == '8'
+
+
+def test_dropped_messages_of_a_full_queue_are_counted(ros) -> None:
+    """A subscription with keep-last 1 that is not spun while 20 messages arrive takes only the last."""
+    from std_msgs.msg import Float64MultiArray
+
+    from grasp_intent_ros.ros.qos import input_qos, output_qos
+    sink = ros.add(rclpy.create_node('diag_sink', context=ros.context))
+    diag = NodeDiagnostics(sink, 'intent')
+    taken: list[float] = []
+    sink.create_subscription(Float64MultiArray, 'drops', diag.count_dropped(diag.guard(
+        lambda m: taken.append(m.data[0]))), input_qos(depth=1))
+    pub = ros.publisher(Float64MultiArray, 'drops', output_qos())
+    assert ros.wait_for(lambda: pub.get_subscription_count() > 0)
+    pub.publish(Float64MultiArray(data=[0.0]))
+    assert ros.wait_for(lambda: taken == [0.0])
+    ros.executor.remove_node(sink)  # not spun: the queue keeps the newest message only
+    for i in range(1, 21):
+        pub.publish(Float64MultiArray(data=[float(i)]))
+    ros.executor.add_node(sink)
+    assert ros.wait_for(lambda: taken[-1] == 20.0)
+    values = protocol.status_values(diag.status())
+    assert values[protocol.KEY_DROPPED] == str(20 - (len(taken) - 1)), (taken, values)
+    assert int(values[protocol.KEY_DROPPED]) >= 1

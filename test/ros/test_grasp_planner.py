@@ -247,6 +247,8 @@ class Rig:
 @pytest.fixture
 def make_rig(ros: Any) -> Callable[..., Rig]:
     def make(model: GraspModel | None, **node_kwargs: Any) -> Rig:
+        # markers with every plan, so that every plan is complete (test_markers_period checks the period)
+        node_kwargs.setdefault('parameter_overrides', [Parameter('markers_period', value=0.0)])
         statuses = ros.diagnostics()
         node = ros.add(GraspPlanner(context=ros.context, **node_kwargs))
         rig = Rig(ros, node, Grasps(ros), statuses, ros.publisher(Float64MultiArray, 'intent/v'),
@@ -657,3 +659,15 @@ def test_send_intent_prints_the_chain_answer(rig: Rig, model: GraspModel, kin: M
     assert all(name in text for name in ARM_JOINTS + FINGER_JOINTS)
     with pytest.raises(NoGrasp, match='clarification'):
         sender.send((0.1, 0.1, 0.1), rig.ros.executor, timeout=10.0)
+
+
+def test_markers_period(make_rig: Callable[..., Rig], model: GraspModel) -> None:
+    rig = make_rig(model, parameter_overrides=[Parameter('markers_period', value=5.0)])
+    first = rig.request(v_msg(interpret(W_GOOD).v))  # the first plan draws its markers
+    assert len(first.markers.markers) == 4
+    start = rig.now()
+    rig.v_pub.publish(v_msg(interpret((0.9, 0.2, 0.1)).v))
+    joints = rig.grasps.received['joints']
+    assert rig.ros.wait_for(lambda: [m for m in joints if ns(m.header.stamp) > start], timeout=10.0)
+    assert len(joints) >= 2
+    assert len(rig.grasps.received['markers']) == 1, 'markers again within markers_period'

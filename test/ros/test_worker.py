@@ -57,3 +57,23 @@ def test_not_ready_snapshots_wait_for_the_next_update_and_min_period_spaces_them
         assert starts[1] - starts[0] >= 0.2
     finally:
         worker.stop()
+
+
+def test_prepare_runs_once_in_the_thread_before_anything_is_handled() -> None:
+    order: list[tuple[str, str]] = []
+    prepared = threading.Event()
+
+    def prepare() -> None:
+        order.append(('prepare', threading.current_thread().name))
+        prepared.wait(5.0)
+
+    worker = LatestOnlyWorker(0, lambda v: order.append((f'handle {v}', threading.current_thread().name)),
+                              name='test_worker', prepare=prepare)
+    try:
+        worker.update(lambda _: 1)  # arrives while the thread prepares: handled after
+        assert wait(lambda: bool(order))
+        prepared.set()
+        assert wait(lambda: len(order) == 2), order
+        assert order == [('prepare', 'test_worker'), ('handle 1', 'test_worker')]
+    finally:
+        worker.stop()

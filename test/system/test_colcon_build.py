@@ -68,7 +68,7 @@ def test_install_tree_has_the_package_manifest_marker_config_models_and_bags(ins
     assert (share / 'package.xml').read_bytes() == (REPO / 'package.xml').read_bytes()
     marker = install / 'share' / 'ament_index' / 'resource_index' / 'packages' / PACKAGE
     assert marker.is_file(), 'no ament resource marker: ros2 pkg / get_package_share_directory cannot find it'
-    for pattern in ('*.yaml', '*.urdf', 'models/*.yaml', 'data/*.csv'):
+    for pattern in ('*.yaml', '*.urdf', '*.xml', 'models/*.yaml', 'data/*.csv'):
         shipped = sorted(p.relative_to(REPO / 'config') for p in (REPO / 'config').glob(pattern))
         assert shipped, pattern
         assert sorted(p.relative_to(share / 'config') for p in (share / 'config').glob(pattern)) == shipped

@@ -8,7 +8,9 @@ from pathlib import Path
 
 import pytest
 
+from grasp_intent_ros.core.resources import config_dir
 from grasp_intent_ros.tools.suite import (
+    FASTDDS_PROFILE,
     NodeProcess,
     NodeSuite,
     SuiteError,
@@ -29,8 +31,26 @@ def test_node_environment_is_loopback_only_and_unbuffered() -> None:
     base = {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET', 'ROS_STATIC_PEERS': '10.0.0.1', 'HOME': '/home/x'}
     env = node_environment(42, base)
     assert env == {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': '42', 'HOME': '/home/x',
-                   'PYTHONUNBUFFERED': '1', 'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
+                   'PYTHONUNBUFFERED': '1', 'RCUTILS_LOGGING_BUFFERED_STREAM': '0',
+                   'FASTRTPS_DEFAULT_PROFILES_FILE': str(config_dir() / FASTDDS_PROFILE)}
     assert base['ROS_STATIC_PEERS'] == '10.0.0.1'  # not modified
+    assert node_environment(42, {**base, 'FASTRTPS_DEFAULT_PROFILES_FILE': 'mine.xml'})[
+        'FASTRTPS_DEFAULT_PROFILES_FILE'] == 'mine.xml', "the user's own profile is kept"
+
+
+def test_fastdds_profile_sets_announcement_timing_only() -> None:
+    """The profile may change discovery timing, never transports, peers or locators (LOCALHOST decides those)."""
+    import xml.etree.ElementTree as ET
+    ns = {'p': 'http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles'}
+    root = ET.parse(config_dir() / FASTDDS_PROFILE).getroot()
+    participants = root.findall('p:participant', ns)
+    assert len(participants) == 1 and participants[0].get('is_default_profile') == 'true'
+    assert [child.tag.split('}')[1] for child in root] == ['participant']
+    discovery = participants[0].find('p:rtps/p:builtin/p:discovery_config', ns)
+    assert discovery is not None
+    assert sorted(child.tag.split('}')[1] for child in discovery) == ['initialAnnouncements', 'leaseAnnouncement']
+    assert [child.tag.split('}')[1] for child in participants[0].find('p:rtps/p:builtin', ns)] == ['discovery_config']
+    assert [child.tag.split('}')[1] for child in participants[0].find('p:rtps', ns)] == ['builtin']
 
 
 def test_clean_exit_and_log_files(tmp_path: Path) -> None:
