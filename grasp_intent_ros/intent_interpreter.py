@@ -55,7 +55,10 @@ from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, output_qos
 from .ros.run import run_node
 
-__all__ = ['IntentInterpreter', 'PARAMETERS', 'main']
+__all__ = ['IntentInterpreter', 'PARAMETERS', 'W_QUEUE_DEPTH', 'main']
+
+W_QUEUE_DEPTH = 100
+"""Keep-last depth of the ``intent/w`` subscription: 0.1 s of w at 1 kHz."""
 
 
 def check_task_names(names: Sequence[str]) -> None:
@@ -99,8 +102,9 @@ class IntentInterpreter(Node):
         """The active model and the zones of task_names it supports, swapped together."""
         self._diagnostics.set_value('last outcome', '')
         self._configure(self._params)
-        self._w_sub = subscribe_input(self, topics.INTENT_W, self._on_w, input_qos(), self._diagnostics,
-                                      count_dropped=True)
+        # every w is answered: a deeper queue than the default and the waiting ones taken in batches
+        self._w_sub = subscribe_input(self, topics.INTENT_W, self._on_w, input_qos(depth=W_QUEUE_DEPTH),
+                                      self._diagnostics, count_dropped=True, take_waiting=True)
         self._models = ModelFollower(self, self._diagnostics, self._use_model, name=f'{node_name}_model')
 
     def destroy_node(self) -> None:

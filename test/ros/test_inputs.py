@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import pytest
 import rclpy
 from rclpy.serialization import serialize_message
@@ -54,3 +56,38 @@ def test_a_topic_without_a_cap_is_refused(ros) -> None:
     node = ros.add(rclpy.create_node('inputs_probe', context=ros.context))
     with pytest.raises(KeyError, match='not an input topic with a size cap'):
         subscribe_input(node, protocol.GRASP_POSE, print, input_qos(), NodeDiagnostics(node, 'inputs'))
+
+
+def test_take_waiting_handles_a_burst_in_order_in_few_executor_wake_ups(ros) -> None:
+    from rclpy.executors import SingleThreadedExecutor
+
+    sink = rclpy.create_node('inputs_sink', context=ros.context)  # spun here, by its own executor
+    executor = SingleThreadedExecutor(context=ros.context)
+    executor.add_node(sink)
+    try:
+        diag = NodeDiagnostics(sink, 'inputs')
+        taken: list[float] = []
+        subscribe_input(sink, protocol.INTENT_W, lambda m: taken.append(m.data[0]), input_qos(depth=50), diag,
+                        count_dropped=True, take_waiting=True)
+        witness: list[float] = []
+        ros.node.create_subscription(Float64MultiArray, protocol.INTENT_W, lambda m: witness.append(m.data[0]),
+                                     input_qos(depth=50))
+        pub = ros.publisher(Float64MultiArray, protocol.INTENT_W)
+        assert ros.wait_for(lambda: pub.get_subscription_count() == 2)
+        for i in range(30):
+            pub.publish(Float64MultiArray(data=[float(i)]))
+        assert ros.wait_for(lambda: len(witness) == 30)  # delivered over loopback (to the sink too, by now)
+        wake_ups = 0
+        deadline = time.monotonic() + 10.0
+        while len(taken) < 30 and time.monotonic() < deadline:
+            before = len(taken)
+            executor.spin_once(timeout_sec=0.05)
+            wake_ups += len(taken) > before
+        assert taken == [float(i) for i in range(30)]
+        assert wake_ups <= 3, f'{wake_ups} executor wake-ups for 30 waiting messages (one each without take_waiting)'
+        values = protocol.status_values(diag.status())
+        assert (values[protocol.KEY_RECEIVED], values[protocol.KEY_DROPPED]) == ('30', '0')
+    finally:
+        executor.remove_node(sink)
+        sink.destroy_node()
+        executor.shutdown()
