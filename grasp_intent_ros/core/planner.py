@@ -53,17 +53,19 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import Bounds, NonlinearConstraint, OptimizeResult, minimize  # type: ignore[import-untyped]
 
 from ._kernels import feasible, least_squares, project, score
 from .errors import PlanningError
 from .features import PALM
 from .intent import reconstruct_w
 from .model import GraspModel
+
+if TYPE_CHECKING:
+    from scipy.optimize import OptimizeResult  # type: ignore[import-untyped]
 
 __all__ = [
     'Candidate',
@@ -393,6 +395,9 @@ def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.floa
         j = np.zeros((1, x.size))
         j[0, PALM] = body.distance(x[None, PALM])[1][0]
         return j
+
+    # imported here: scipy.optimize is 0.4-0.6 s of a planner node's start-up, and only these methods use it
+    from scipy.optimize import Bounds, NonlinearConstraint, minimize
 
     res: OptimizeResult
     if method == 'slsqp':
