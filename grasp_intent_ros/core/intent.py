@@ -186,7 +186,11 @@ def event_probabilities(w: ArrayLike) -> NDArray[np.float64]:
 
     u[Y] = prod_{i in Y} w_i * prod_{j not in Y} (1 - w_j); u[0] is the "no task" event.
     """
-    w_arr = validate_w(w)
+    return _event_probabilities(validate_w(w))
+
+
+def _event_probabilities(w_arr: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`event_probabilities` of a w already checked by :func:`validate_w`."""
     m = w_arr.size
     masks = np.arange(1 << m)
     bits = (masks[:, None] >> np.arange(m)[None, :]) & 1  # (2^m, m)
@@ -280,7 +284,7 @@ def interpret(w: ArrayLike, zones: Sequence[int] | None = None, *,
             f'clarification_threshold must lie in (0, 1], got {clarification_threshold!r}')
     zone_tuple = _check_zones(all_zones(m) if zones is None else zones, m, 'zones')
     support_tuple = zone_tuple if support is None else _check_zones(support, m, 'support')
-    u = event_probabilities(w_arr)
+    u = _event_probabilities(w_arr)  # w checked above, once
     p_none = float(u[0])
     if p_none >= float(clarification_threshold):
         return NeedsClarification(w=w_arr, u=u, zones=zone_tuple, p_none=p_none,
