@@ -10,7 +10,7 @@ rejection (a WARN with the size and the cap) like any other bad input.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any, cast
 
 from rclpy.node import Node
@@ -23,7 +23,7 @@ from ..protocol import MAX_MESSAGE_BYTES, check_message_size
 from .conversions import message_class
 from .diagnostics import NodeDiagnostics
 
-__all__ = ['subscribe_input']
+__all__ = ['subscribe_input', 'waiting_messages']
 
 
 def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], qos: QoSProfile,
@@ -77,12 +77,22 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
 
     def on_message(data: bytes, info: Mapping[str, Any]) -> None:  # two parameters: rclpy passes the info
         handle(data, info)
-        for _ in range(qos.depth - 1):
-            with subscription.handle:
-                waiting = subscription.handle.take_message(msg_type, True)
-            if waiting is None:
-                break
+        for waiting in waiting_messages(subscription, qos.depth - 1):
             handle(*waiting)
 
     subscription = node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], on_message), qos, raw=True)
     return subscription
+
+
+def waiting_messages(subscription: Subscription, limit: int) -> Iterator[tuple[bytes, Mapping[str, Any]]]:
+    """Up to ``limit`` messages already waiting on the raw ``subscription``, in order, with their info.
+
+    Taken as rclpy's executor takes them (``handle.take_message``), so that a callback can handle a burst
+    in one executor wake-up instead of one wake-up (a wait set and a task) per message.
+    """
+    for _ in range(limit):
+        with subscription.handle:
+            waiting = subscription.handle.take_message(subscription.msg_type, True)
+        if waiting is None:
+            return
+        yield waiting

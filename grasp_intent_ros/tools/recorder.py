@@ -59,6 +59,7 @@ from rosbags.typesys import Stores, get_typestore
 from ..bag import DEFAULT_FLUSH_PERIOD, BagWriteError, QosSpec, QueuedWriter, SessionWriter
 from ..protocol import ERROR, WARN
 from ..ros.diagnostics import NodeDiagnostics
+from ..ros.inputs import waiting_messages
 from ..ros.run import run_node
 
 __all__ = ['Recorder', 'TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'offered_qos_spec', 'offered_qos',
@@ -378,14 +379,9 @@ class Recorder(Node):
         taken = 1
         subscription = self._topic_subs.get(topic)
         if subscription is not None:
-            with subscription.handle:
-                while taken < self._depth:
-                    message = subscription.handle.take_message(subscription.msg_type, True)
-                    if message is None:
-                        break
-                    data, info = message
-                    put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data)
-                    taken += 1
+            for data, info in waiting_messages(subscription, self._depth - 1):
+                put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data)
+                taken += 1
         self._received += taken
 
     def _on_lost(self, topic: str, info: QoSMessageLostInfo) -> None:
