@@ -37,6 +37,8 @@ __all__ = [
     'FORMAT_VERSION',
     'MAX_DOCUMENT_CHARS',
     'check_document_size',
+    'parse_document',
+    'read_document',
     'fit_gaussian',
     'structure_zones',
 ]
@@ -92,6 +94,40 @@ class _DocumentLoader(Composer, yaml.CSafeLoader):
         if self.check_event(yaml.AliasEvent):
             raise ComposerError('aliases (*name) are not allowed in a model document')
         return super().compose_node(parent, index)
+
+
+def parse_document(text: str) -> Any:
+    """Parse a YAML document of this project (a model, an object body) safely.
+
+    Size-capped (:data:`MAX_DOCUMENT_CHARS`, checked before parsing), no aliases, no unbounded nesting.
+
+    Raises
+    ------
+    ModelFormatError
+        For an oversized text, invalid YAML, an alias, nesting too deep for the parser, or a malformed
+        scalar.
+    """
+    check_document_size(text)
+    try:
+        return yaml.load(text, Loader=_DocumentLoader)
+    except yaml.YAMLError as exc:
+        raise ModelFormatError(f'model document is not valid YAML: {exc}') from None
+    except RecursionError:
+        raise ModelFormatError('model document is nested too deeply') from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise ModelFormatError(f'model document holds a malformed value: {exc}') from None
+
+
+def read_document(path: str | Path) -> str:
+    """A document file's text, at most one character more than :data:`MAX_DOCUMENT_CHARS` (enough to reject it).
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read.
+    """
+    with Path(path).open() as file:
+        return file.read(MAX_DOCUMENT_CHARS + 1)
 
 
 def structure_zones(structure: str | Sequence[str], task_names: Sequence[str]) -> tuple[int, ...]:
@@ -490,24 +526,14 @@ class GraspModel:
 
     @classmethod
     def from_yaml(cls, text: str) -> GraspModel:
-        """Parse a model from YAML text, safely: size-capped, no aliases, no unbounded nesting.
+        """Parse a model from YAML text, safely (see :func:`parse_document`).
 
         Raises
         ------
         ModelFormatError
-            For a text longer than :data:`MAX_DOCUMENT_CHARS` (before parsing), invalid YAML, an alias,
-            nesting too deep for the parser, or a document that is not a valid model.
+            For a text :func:`parse_document` rejects, or a document that is not a valid model.
         """
-        check_document_size(text)
-        try:
-            doc = yaml.load(text, Loader=_DocumentLoader)
-        except yaml.YAMLError as exc:
-            raise ModelFormatError(f'model document is not valid YAML: {exc}') from None
-        except RecursionError:
-            raise ModelFormatError('model document is nested too deeply') from None
-        except ValueError as exc:  # e.g. an integer of more than 4300 digits
-            raise ModelFormatError(f'model document holds a malformed value: {exc}') from None
-        return cls.from_document(doc)
+        return cls.from_document(parse_document(text))
 
     def save(self, path: str | Path) -> None:
         """Write the model as a YAML file."""
@@ -521,6 +547,5 @@ class GraspModel:
 
         Reads at most one character more than :data:`MAX_DOCUMENT_CHARS` (enough to reject the file).
         """
-        with Path(path).open() as file:
-            return cls.from_yaml(file.read(MAX_DOCUMENT_CHARS + 1))
+        return cls.from_yaml(read_document(path))
 

@@ -24,13 +24,11 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-import yaml
-
 from ..core.body import ObjectBody
 from ..core.data import Demonstrations, load_csv
 from ..core.errors import DataError, ModelError, ModelFormatError
 from ..core.intent import zone_labels
-from ..core.model import DEFAULT_RIDGE, ZONE_STRUCTURES, GraspModel, structure_zones
+from ..core.model import DEFAULT_RIDGE, ZONE_STRUCTURES, GraspModel, parse_document, read_document, structure_zones
 from ..core.resources import config_dir
 from ..tools.cli import report_user_errors
 
@@ -64,6 +62,8 @@ def default_model_name(csv_path: str | Path, spec: str) -> str:
 def load_body(path: str | Path) -> ObjectBody:
     """Read an object body from YAML: a ``body:`` mapping (or the mapping itself) of primitives.
 
+    Read as safely as a model document (:func:`grasp_intent_ros.core.model.parse_document`).
+
     Raises
     ------
     ModelFormatError
@@ -72,9 +72,9 @@ def load_body(path: str | Path) -> ObjectBody:
         If the file cannot be read.
     """
     try:
-        doc = yaml.safe_load(Path(path).read_text())
-    except yaml.YAMLError as exc:
-        raise ModelFormatError(f'{path}: not valid YAML ({exc})') from None
+        doc = parse_document(read_document(path))
+    except ModelFormatError as exc:
+        raise ModelFormatError(f'{path}: {exc}') from None
     if isinstance(doc, dict) and 'body' in doc:
         doc = doc['body']
     return ObjectBody.from_document(doc)

@@ -9,13 +9,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from numpy.testing import assert_allclose, assert_array_equal
 
 from grasp_intent_ros.core.data import Demonstrations, load_csv, save_csv
 from grasp_intent_ros.core.errors import DataError, InvalidFeaturesError
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import all_zones, parse_zones
-from grasp_intent_ros.core.model import GraspModel, structure_zones
+from grasp_intent_ros.core.model import MAX_DOCUMENT_CHARS, GraspModel, structure_zones
 from grasp_intent_ros.core.resources import config_dir
 from grasp_intent_ros.dataset import demos, generate_data, train
 
@@ -341,3 +342,25 @@ def test_train_cli_missing_or_binary_file(tmp_path: Path, capsys: pytest.Capture
     (tmp_path / 'bin.csv').write_bytes(b'\xff\xfe\x00\x81')
     assert train.main([str(tmp_path / 'bin.csv'), '--zones', '7zone']) == 2
     assert capsys.readouterr().err.startswith('error: ')
+
+
+def test_train_cli_body_is_read_like_a_model_document(tiny_csv: Path, tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    body = CUP.body()
+    good = tmp_path / 'body.yaml'
+    good.write_text(yaml.safe_dump({'body': body.to_document()}))
+    out = tmp_path / 'm.yaml'
+    assert train.main([str(tiny_csv), '--zones', '7zone', '--out', str(out), '--body', str(good)]) == 0
+    loaded = GraspModel.load(out).body
+    assert loaded is not None and loaded.to_document() == body.to_document()
+    bomb = tmp_path / 'bomb.yaml'
+    bomb.write_text('a: &a [x, x]\nb: &b [*a, *a]\nbody: [*b, *b]\n')
+    huge = tmp_path / 'huge.yaml'
+    huge.write_text('#' * (MAX_DOCUMENT_CHARS + 10))
+    for path, message in ((bomb, 'aliases'), (huge, 'oversized')):
+        capsys.readouterr()
+        assert train.main([str(tiny_csv), '--zones', '7zone', '--out', str(tmp_path / 'x.yaml'),
+                           '--body', str(path)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith('error: ') and str(path) in err and message in err
+        assert not (tmp_path / 'x.yaml').exists()
