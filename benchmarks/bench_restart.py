@@ -15,6 +15,12 @@ process's start):
 Also printed: each node module's import time (a fresh ``python -c 'import ...'``, median of 3) and the
 load average.
 
+The probe stands for the suite's clients (the source of w, a recorder). A restarted node learns of a running
+participant from that participant's periodic announcement whenever the first exchange is missed
+(config/fastdds_loopback.xml says why), so the clients' own Fast DDS timing enters the figures: the probe
+uses the nodes' profile (``--client suite``, as the project's tools do) or Fast DDS's defaults
+(``--client fastdds-defaults``: an announcement every 3 s).
+
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set;
 every process it starts gets both.
 
@@ -55,6 +61,8 @@ def main() -> None:
     parser.add_argument('--gap', type=float, default=3.0, help='seconds between an answer and the next kill')
     parser.add_argument('--timeout', type=float, default=30.0, help='seconds to wait for an answer')
     parser.add_argument('--nodes', nargs='+', default=['intent_interpreter', 'grasp_planner', 'model_server'])
+    parser.add_argument('--client', choices=('suite', 'fastdds-defaults'), default='suite',
+                        help="the probe's Fast DDS discovery timing: the nodes' profile or Fast DDS's defaults")
     parser.add_argument('--code', type=Path, default=None,
                         help='run the nodes from this source tree instead (e.g. an export of main, its kernels '
                              'compiled there first), to compare before/after in one sitting')
@@ -78,6 +86,11 @@ def main() -> None:
     suite = NodeSuite(domain_id, cwd=code or REPO, numbered_logs=True,
                       env={'PYTHONPATH': str(code)} if code else None)
     suite.start_nodes()
+    profile = suite.env.get('FASTRTPS_DEFAULT_PROFILES_FILE') if args.client == 'suite' else None
+    if profile:  # before this process's first participant
+        os.environ['FASTRTPS_DEFAULT_PROFILES_FILE'] = profile
+    else:
+        os.environ.pop('FASTRTPS_DEFAULT_PROFILES_FILE', None)
     probe = Probe(domain_id)
     stop = threading.Event()
     pub = probe.node.create_publisher(Float64MultiArray, 'intent/w', output_qos())
@@ -141,7 +154,8 @@ def main() -> None:
         suite.remove_logs()
     print(f'restart after SIGKILL -> serving again, {args.trials} trials per node, w at 100 Hz throughout; '
           f'domain {domain_id}; nodes from {code or REPO}; Fast DDS profile '
-          f'{suite.env.get("FASTRTPS_DEFAULT_PROFILES_FILE", "none")} [{load_before} -> {load_after}]')
+          f'{suite.env.get("FASTRTPS_DEFAULT_PROFILES_FILE", "none")}, the probe\'s '
+          f'{os.environ.get("FASTRTPS_DEFAULT_PROFILES_FILE") or "Fast DDS defaults"} [{load_before} -> {load_after}]')
     what = {'intent_interpreter': 'v for a fresh w', 'grasp_planner': 'grasp/pose for a fresh v',
             'model_server': 'model/active re-latched'}
     for module, times in results.items():
