@@ -12,8 +12,9 @@ process's start):
 - model_server: ``model/active`` received again (the probe's subscription is latched, so the new server's
   publication arrives as a new message), and whether grasps kept coming meanwhile.
 
-Also printed: each node module's import time (a fresh ``python -c 'import ...'``, median of 3) and the
-load average.
+Also printed: the CPU time (user + system) the new process had used when it served again, which the load
+on a shared machine changes much less than the wall time; each node module's import time (a fresh
+``python -c 'import ...'``, median of 3) and the load average.
 
 The probe stands for the suite's clients (the source of w, a recorder). A restarted node learns of a running
 participant from that participant's periodic announcement whenever the first exchange is missed
@@ -40,7 +41,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _bench import REPO, Probe, loopback_domain, paced, uptime, walk
+from _bench import REPO, Probe, cpu_seconds, loopback_domain, paced, uptime, walk
 
 
 def import_seconds(module: str, code: Path | None = None, repeats: int = 3) -> float:
@@ -111,6 +112,7 @@ def main() -> None:
         except StopIteration:
             pass
     results: dict[str, list[float]] = {}
+    cpu: dict[str, list[float]] = {}
     gaps: list[float] = []
     try:
         vs = probe.record(Float64MultiArray, 'intent/v', input_qos(100_000),
@@ -124,7 +126,7 @@ def main() -> None:
             sys.exit(f'bench_restart: the suite did not answer within 60 s\n{suite.died()}')
         load_before = uptime()
         for module in args.nodes:
-            results[module] = []
+            results[module], cpu[module] = [], []
             for _ in range(args.trials):
                 time.sleep(args.gap)
                 proc = suite.node(module)
@@ -132,7 +134,7 @@ def main() -> None:
                 proc.wait(10.0)
                 counts = len(vs), len(poses), len(models)
                 t0 = time.time_ns()
-                suite.start(module, *suite.node_args(module))
+                new = suite.start(module, *suite.node_args(module))
 
                 def answered() -> int | None:
                     if module == 'intent_interpreter':
@@ -143,6 +145,7 @@ def main() -> None:
                 probe.wait_for(lambda: answered() is not None, args.timeout)
                 t = answered()
                 results[module].append(np.inf if t is None else (t - t0) * 1e-9)
+                cpu[module].append(cpu_seconds(new.pid))
                 if module == 'model_server':  # did grasps keep coming while the server was away?
                     times = [t0] + [t for t, _ in poses[counts[1]:] if t > t0] + [time.time_ns()]
                     gaps.append(max(np.diff(times)) * 1e-9)
@@ -160,7 +163,8 @@ def main() -> None:
             'model_server': 'model/active re-latched'}
     for module, times in results.items():
         print(f'  {module:19s} {what[module]:24s} median {np.median(times):.2f} s (target <= 2 s); '
-              f'trials {", ".join(f"{t:.2f}" for t in times)} s; import {imports[module]:.2f} s')
+              f'trials {", ".join(f"{t:.2f}" for t in times)} s; CPU used by then: median '
+              f'{np.median(cpu[module]):.2f} s; import {imports[module]:.2f} s')
     if gaps:
         print(f'  while the model server restarted, the longest gap between grasps was {max(gaps):.2f} s')
     if problems:
