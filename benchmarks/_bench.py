@@ -50,6 +50,12 @@ def percentiles(values_ms: list[float] | np.ndarray) -> str:
     return f'median {np.median(a):.1f} ms, p99 {np.percentile(a, 99):.1f} ms, max {a.max():.1f} ms'
 
 
+def cpu_seconds(pid: int) -> float:
+    """CPU time (user + system, s) process ``pid`` has used so far, from /proc."""
+    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')  # utime, stime (fields 14, 15)
+
+
 def rss_mb(pid: int) -> float:
     """Resident set size of process ``pid`` (MB), from /proc."""
     for line in Path(f'/proc/{pid}/status').read_text().splitlines():

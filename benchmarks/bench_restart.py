@@ -12,8 +12,15 @@ process's start):
 - model_server: ``model/active`` received again (the probe's subscription is latched, so the new server's
   publication arrives as a new message), and whether grasps kept coming meanwhile.
 
-Also printed: each node module's import time (a fresh ``python -c 'import ...'``, median of 3) and the
-load average.
+Also printed: the CPU time (user + system) the new process had used when it served again, which the load
+on a shared machine changes much less than the wall time; each node module's import time (a fresh
+``python -c 'import ...'``, median of 3) and the load average.
+
+The probe stands for the suite's clients (the source of w, a recorder). A restarted node learns of a running
+participant from that participant's periodic announcement whenever the first exchange is missed
+(config/fastdds_loopback.xml says why), so the clients' own Fast DDS timing enters the figures: the probe
+uses the nodes' profile (``--client suite``, as the project's tools do) or Fast DDS's defaults
+(``--client fastdds-defaults``: an announcement every 3 s).
 
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set;
 every process it starts gets both.
@@ -34,7 +41,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _bench import REPO, Probe, loopback_domain, paced, uptime, walk
+from _bench import REPO, Probe, cpu_seconds, loopback_domain, paced, uptime, walk
 
 
 def import_seconds(module: str, code: Path | None = None, repeats: int = 3) -> float:
@@ -55,6 +62,8 @@ def main() -> None:
     parser.add_argument('--gap', type=float, default=3.0, help='seconds between an answer and the next kill')
     parser.add_argument('--timeout', type=float, default=30.0, help='seconds to wait for an answer')
     parser.add_argument('--nodes', nargs='+', default=['intent_interpreter', 'grasp_planner', 'model_server'])
+    parser.add_argument('--client', choices=('suite', 'fastdds-defaults'), default='suite',
+                        help="the probe's Fast DDS discovery timing: the nodes' profile or Fast DDS's defaults")
     parser.add_argument('--code', type=Path, default=None,
                         help='run the nodes from this source tree instead (e.g. an export of main, its kernels '
                              'compiled there first), to compare before/after in one sitting')
@@ -78,6 +87,11 @@ def main() -> None:
     suite = NodeSuite(domain_id, cwd=code or REPO, numbered_logs=True,
                       env={'PYTHONPATH': str(code)} if code else None)
     suite.start_nodes()
+    profile = suite.env.get('FASTRTPS_DEFAULT_PROFILES_FILE') if args.client == 'suite' else None
+    if profile:  # before this process's first participant
+        os.environ['FASTRTPS_DEFAULT_PROFILES_FILE'] = profile
+    else:
+        os.environ.pop('FASTRTPS_DEFAULT_PROFILES_FILE', None)
     probe = Probe(domain_id)
     stop = threading.Event()
     pub = probe.node.create_publisher(Float64MultiArray, 'intent/w', output_qos())
@@ -98,6 +112,7 @@ def main() -> None:
         except StopIteration:
             pass
     results: dict[str, list[float]] = {}
+    cpu: dict[str, list[float]] = {}
     gaps: list[float] = []
     try:
         vs = probe.record(Float64MultiArray, 'intent/v', input_qos(100_000),
@@ -111,7 +126,7 @@ def main() -> None:
             sys.exit(f'bench_restart: the suite did not answer within 60 s\n{suite.died()}')
         load_before = uptime()
         for module in args.nodes:
-            results[module] = []
+            results[module], cpu[module] = [], []
             for _ in range(args.trials):
                 time.sleep(args.gap)
                 proc = suite.node(module)
@@ -119,7 +134,7 @@ def main() -> None:
                 proc.wait(10.0)
                 counts = len(vs), len(poses), len(models)
                 t0 = time.time_ns()
-                suite.start(module, *suite.node_args(module))
+                new = suite.start(module, *suite.node_args(module))
 
                 def answered() -> int | None:
                     if module == 'intent_interpreter':
@@ -130,6 +145,7 @@ def main() -> None:
                 probe.wait_for(lambda: answered() is not None, args.timeout)
                 t = answered()
                 results[module].append(np.inf if t is None else (t - t0) * 1e-9)
+                cpu[module].append(cpu_seconds(new.pid))
                 if module == 'model_server':  # did grasps keep coming while the server was away?
                     times = [t0] + [t for t, _ in poses[counts[1]:] if t > t0] + [time.time_ns()]
                     gaps.append(max(np.diff(times)) * 1e-9)
@@ -141,12 +157,14 @@ def main() -> None:
         suite.remove_logs()
     print(f'restart after SIGKILL -> serving again, {args.trials} trials per node, w at 100 Hz throughout; '
           f'domain {domain_id}; nodes from {code or REPO}; Fast DDS profile '
-          f'{suite.env.get("FASTRTPS_DEFAULT_PROFILES_FILE", "none")} [{load_before} -> {load_after}]')
+          f'{suite.env.get("FASTRTPS_DEFAULT_PROFILES_FILE", "none")}, the probe\'s '
+          f'{os.environ.get("FASTRTPS_DEFAULT_PROFILES_FILE") or "Fast DDS defaults"} [{load_before} -> {load_after}]')
     what = {'intent_interpreter': 'v for a fresh w', 'grasp_planner': 'grasp/pose for a fresh v',
             'model_server': 'model/active re-latched'}
     for module, times in results.items():
         print(f'  {module:19s} {what[module]:24s} median {np.median(times):.2f} s (target <= 2 s); '
-              f'trials {", ".join(f"{t:.2f}" for t in times)} s; import {imports[module]:.2f} s')
+              f'trials {", ".join(f"{t:.2f}" for t in times)} s; CPU used by then: median '
+              f'{np.median(cpu[module]):.2f} s; import {imports[module]:.2f} s')
     if gaps:
         print(f'  while the model server restarted, the longest gap between grasps was {max(gaps):.2f} s')
     if problems:

@@ -17,6 +17,8 @@ Behaviour
     :func:`grasp_intent_ros.core.grasp.plan_grasp`, warm-started from the last plan of the same model.
     A new ``model/active`` is read in a thread of its own (:class:`~grasp_intent_ros.ros.model_follower.
     ModelFollower`) and swapped in whole; until then planning goes on with the current model.
+    At start the planning thread first loads the compiled kernels (``compiled kernels load time [ms]`` in
+    the ``planning`` diagnostics), while the node discovers its peers and waits for its first inputs.
 
 Parameters: :data:`PARAMETERS`, ``config/grasp_planner.yaml``.
 """
@@ -54,7 +56,7 @@ from .core.grasp import (
 )
 from .core.intent import match_zones
 from .core.kinematics import ARM_JOINTS, BASE_FRAME, JOINT_LIMIT_MARGIN, MicoKinematics
-from .protocol import KEY_MODEL, KEY_PLANNING_TIME, KEY_PLANS, OK, WARN, ModelDocument
+from .protocol import KEY_KERNELS_LOAD_TIME, KEY_MODEL, KEY_PLANNING_TIME, KEY_PLANS, OK, WARN, ModelDocument
 from .ros.clarification import ClarificationRequests
 from .ros.conversions import message_class, target_from_msg
 from .ros.diagnostics import NodeDiagnostics
@@ -139,7 +141,8 @@ class GraspPlanner(Node):
         base_T_obj = pose_to_matrix(self._params['object_position'], self._params['object_orientation'])
         self._worker = LatestOnlyWorker(_Inputs(base_T_obj=base_T_obj), self._plan_diag.guard(self._plan),
                                         ready=self._ready, name=f'{node_name}_planning',
-                                        min_period=lambda: float(self._params['min_replan_period']))
+                                        min_period=lambda: float(self._params['min_replan_period']),
+                                        prepare=self._load_kernels)
         # SIGINT/SIGTERM shut the context down before destroy_node runs: stop planning at once
         self.context.on_shutdown(self._worker.stop_soon)
         diag, latest = self._inputs_diag, input_qos(depth=1)
@@ -149,11 +152,14 @@ class GraspPlanner(Node):
         # not keep-last 1: arm and finger states may come from different publishers
         subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), diag)
 
-    def _load_kernels(self) -> None:
+    def _load_kernels(self) -> None:  # in the planning thread at start: overlaps discovery and model/active
+        start = time.perf_counter()
         try:
             warm_up()
         except Exception as exc:  # noqa: BLE001 - then the first plan loads them, and reports what fails
             self.get_logger().warning(f'compiled planner kernels not loaded ahead: {exc}')
+            return
+        self._plan_diag.set_value(KEY_KERNELS_LOAD_TIME, f'{1e3 * (time.perf_counter() - start):.0f}')
 
     def destroy_node(self) -> None:
         """Stop the planning and model threads (after their current work), then destroy the node."""

@@ -41,7 +41,7 @@ from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOIN
 from grasp_intent_ros.core.model import GraspModel, structure_zones
 from grasp_intent_ros.dataset.demos import grasp_features
 from grasp_intent_ros.grasp_planner import PARAMETERS, GraspPlanner
-from grasp_intent_ros.protocol import read_model_document
+from grasp_intent_ros.protocol import KEY_KERNELS_LOAD_TIME, read_model_document
 from grasp_intent_ros.ros import model_follower
 from grasp_intent_ros.ros.conversions import (
     array_to_msg,
@@ -671,3 +671,12 @@ def test_markers_period(make_rig: Callable[..., Rig], model: GraspModel) -> None
     assert rig.ros.wait_for(lambda: [m for m in joints if ns(m.header.stamp) > start], timeout=10.0)
     assert len(joints) >= 2
     assert len(rig.grasps.received['markers']) == 1, 'markers again within markers_period'
+
+
+def test_compiled_kernels_load_at_start_before_any_input(make_rig: Callable[..., Rig]) -> None:
+    """The planning thread loads the kernels while the node waits for its first inputs, not on the first plan."""
+    rig = make_rig(None)
+    loaded = lambda: [s for s in rig.statuses if KEY_KERNELS_LOAD_TIME in values_of(s)]  # noqa: E731
+    assert rig.ros.wait_for(loaded, timeout=30.0), 'no kernel load time in the planning diagnostics'
+    assert float(values_of(loaded()[0])[KEY_KERNELS_LOAD_TIME]) >= 0.0
+    assert not rig.grasps.count(), 'nothing planned: no model and no v were sent'

@@ -105,7 +105,11 @@ def test_domain_id_is_validated_once() -> None:
 def test_loopback_discovery_is_set_in_the_given_environment() -> None:
     env = {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET', 'ROS_STATIC_PEERS': '10.0.0.1'}
     assert use_loopback_discovery(env) == 'SUBNET'
-    assert env == {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST'}
+    assert env == {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+                   'FASTRTPS_DEFAULT_PROFILES_FILE': str(config_dir() / FASTDDS_PROFILE)}
+    mine = {'FASTRTPS_DEFAULT_PROFILES_FILE': 'mine.xml'}
+    assert use_loopback_discovery(mine) is None
+    assert mine == {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'FASTRTPS_DEFAULT_PROFILES_FILE': 'mine.xml'}
 
 
 def test_suite_waits_notices_a_death_and_stops_by_pid(tmp_path: Path) -> None:
