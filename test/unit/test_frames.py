@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import ctypes
 import math
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from native_memory import growth_over, malloc_in_use
 from numpy.testing import assert_allclose
 
 from grasp_intent_ros.core.errors import InvalidFeaturesError, KinematicsError
@@ -99,27 +99,12 @@ def test_pose_matrix_round_trip() -> None:
         pose_to_matrix((0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
 
 
-class _MallInfo2(ctypes.Structure):
-    _fields_ = [(name, ctypes.c_size_t) for name in (
-        'arena', 'ordblks', 'smblks', 'hblks', 'hblkhd', 'usmblks', 'fsmblks', 'uordblks', 'fordblks', 'keepcost')]
-
-
-_mallinfo2 = getattr(ctypes.CDLL(None), 'mallinfo2', None)  # glibc >= 2.33
-if _mallinfo2 is not None:
-    _mallinfo2.restype = _MallInfo2
-
-
-@pytest.mark.skipif(_mallinfo2 is None, reason='needs glibc mallinfo2')
+@pytest.mark.skipif(malloc_in_use() is None, reason='needs glibc mallinfo2')
 def test_pose_from_matrix_holds_no_native_memory() -> None:
-    # the planner converts a pose per plan: pin.Quaternion(R) leaked 80 bytes of malloc per call (1.6 MB here)
-    assert _mallinfo2 is not None
+    # the planner converts a pose per plan: pin.Quaternion(R) leaked 80 bytes of malloc per call (400 kB here)
     T = pose_to_matrix((0.3, -0.3, 0.1), (0.0, 0.0, 1.0, 0.0))
-    for _ in range(1_000):
-        matrix_to_pose(T)
-    before = _mallinfo2().uordblks
-    for _ in range(20_000):
-        matrix_to_pose(T)
-    assert _mallinfo2().uordblks - before < 100_000
+    growth = growth_over(lambda _: matrix_to_pose(T), 5_000, warm_up=500)
+    assert growth is not None and growth < 100_000
 
 
 def test_roll_at_the_lower_bound_stays_in_range() -> None:
