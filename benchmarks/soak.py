@@ -27,7 +27,6 @@ from _bench import REPO, Probe, loopback_domain, paced, rss_mb, uptime, walk
 MODELS = ('cup_7zone', 'cup_5zone', 'cup_4zone', 'flashlight_7zone')
 
 
-
 def growth(history: dict[str, list[float]], minute: int) -> str:
     """Each node's RSS growth from the end of ``minute`` (1-based) to the last minute."""
     return ', '.join(f'{m} {100.0 * (h[-1] - h[minute - 1]) / h[minute - 1]:+.1f}% ({h[minute - 1]:.1f} -> '

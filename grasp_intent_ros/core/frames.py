@@ -234,8 +234,8 @@ def matrix_to_pose(T: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float6
         If ``T`` is not a rigid 4x4 transform.
     """
     M = check_transform(T, 'T')
-    # Not pin.Quaternion(M[:3, :3]): eigenpy (3.13) leaks the 80-byte copy it makes of a C-ordered 3x3
-    # array for that constructor, once per call, which grew the planner by 0.4-0.7 MB a minute (issue 10).
+    # Not pin.Quaternion(M[:3, :3]): eigenpy (3.13) never frees the copy it makes of a C-ordered 3x3 array
+    # for that constructor (80 bytes of malloc per call), which grew the planner by up to 0.7 MB a minute.
     xyz_quat = np.array(pin.SE3ToXYZQUAT(pin.SE3(M)), dtype=np.float64)  # (x, y, z, qx, qy, qz, qw)
     xyzw = xyz_quat[3:]
     if xyzw[3] < 0.0:
