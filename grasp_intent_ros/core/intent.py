@@ -52,6 +52,7 @@ def _check_m(m: int) -> None:
         raise InvalidIntentError(f'number of tasks must be 1..{MAX_TASKS}, got {m}')
 
 
+@functools.lru_cache(maxsize=MAX_TASKS)
 def all_zones(m: int) -> tuple[int, ...]:
     """All 2^m - 1 non-empty task subsets as bitmasks, ordered by (number of tasks, bitmask)."""
     _check_m(m)
@@ -124,6 +125,11 @@ def match_zones(n_values: int, labels: Sequence[str] | None, task_names: Sequenc
     InvalidIntentError
         If v does not name each zone of the tasks exactly once (or, unlabelled, has another length).
     """
+    return _match_zones(n_values, None if labels is None else tuple(labels), tuple(task_names))
+
+
+@functools.lru_cache(maxsize=64)  # a planner matches the same labels to the same model for every v
+def _match_zones(n_values: int, labels: tuple[str, ...] | None, task_names: tuple[str, ...]) -> tuple[int, ...]:
     expected = all_zones(len(task_names))
     if labels is None:
         if n_values != len(expected):
