@@ -39,17 +39,17 @@ from .core.intent import (
     DEFAULT_TASKS,
     MAX_TASKS,
     NeedsClarification,
+    ZoneInterpreter,
     all_zones,
-    interpret,
     support_zones,
     validate_w,
     zone_labels,
 )
-from .protocol import ModelDocument, msg_to_array
+from .protocol import ModelDocument, msg_to_array, serialized_vector
 from .ros.clarification import ClarificationRequests
-from .ros.conversions import array_to_msg
+from .ros.conversions import SerializedArrays
 from .ros.diagnostics import NodeDiagnostics
-from .ros.inputs import subscribe_input
+from .ros.inputs import decode_input, subscribe_input
 from .ros.model_follower import ModelFollower
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, output_qos
@@ -98,13 +98,14 @@ class IntentInterpreter(Node):
         self._clarifications = ClarificationRequests(self, self._diagnostics, count_key='clarifications',
                                                      outcome_key='last outcome')
         self._model_lock = threading.RLock()
-        self._model: tuple[ModelDocument | None, tuple[int, ...] | None] = (None, None)
-        """The active model and the zones of task_names it supports, swapped together."""
+        self._model: tuple[ModelDocument | None, ZoneInterpreter] | None = None
+        """The active model and the interpretation of w with the zones it supports, swapped together."""
         self._diagnostics.set_value('last outcome', '')
         self._configure(self._params)
-        # every w is answered: a deeper queue than the default and the waiting ones taken in batches
+        # every w is answered: a deeper queue than the default, the waiting ones taken in batches, and each
+        # read from its serialized bytes (a flat w, as publishers send it, never becomes a message)
         self._w_sub = subscribe_input(self, topics.INTENT_W, self._on_w, input_qos(depth=W_QUEUE_DEPTH),
-                                      self._diagnostics, count_dropped=True, take_waiting=True)
+                                      self._diagnostics, count_dropped=True, take_waiting=True, serialized=True)
         self._models = ModelFollower(self, self._diagnostics, self._use_model, name=f'{node_name}_model')
 
     def destroy_node(self) -> None:
@@ -115,11 +116,11 @@ class IntentInterpreter(Node):
     def _configure(self, changed: Mapping[str, Any]) -> None:
         task_names = self._params['task_names']
         self._zones = all_zones(len(task_names))
-        self._labels = zone_labels(self._zones, task_names)
+        self._v_messages = SerializedArrays((len(self._zones),), [zone_labels(self._zones, task_names)])
         self._diagnostics.set_value('tasks', ','.join(task_names))
         self._diagnostics.set_value('clarification threshold', self._params['clarification_threshold'])
         with self._model_lock:  # the model follower's thread may swap in a model meanwhile
-            self._use_model(self._model[0])
+            self._use_model(None if self._model is None else self._model[0])
 
     def _use_model(self, doc: ModelDocument | None) -> None:
         """Follow the active model: its zones decide whether an intent can be served.
@@ -129,7 +130,9 @@ class IntentInterpreter(Node):
         with self._model_lock:  # task_names may change on the executor meanwhile
             support = None if doc is None else support_zones(
                 self._params['task_names'], doc.model.task_names, doc.model.zones)
-            self._model = (doc, support)
+            self._model = (doc, ZoneInterpreter(
+                len(self._params['task_names']), self._zones, support=support,
+                clarification_threshold=self._params['clarification_threshold']))
             if doc is None:
                 text = 'none yet (all zones)'
             elif support is None:
@@ -139,19 +142,21 @@ class IntentInterpreter(Node):
                 text = f'{doc.name} (zones {",".join(doc.model.zone_labels)})'
             self._diagnostics.set_value('active model', text)
 
-    def _on_w(self, msg: Float64MultiArray) -> None:
-        w = validate_w(msg_to_array(msg, max_size=MAX_TASKS, error=InvalidIntentError, what='w'),
-                       len(self._params['task_names']))
-        doc, support = self._model
-        result = interpret(w, self._zones, clarification_threshold=self._params['clarification_threshold'],
-                           support=support)
+    def _on_w(self, data: bytes) -> None:
+        w = serialized_vector(data, max_size=MAX_TASKS, error=InvalidIntentError, what='w')
+        if w is None:  # not a flat vector: read it as a message (every layout, the same checks)
+            w = msg_to_array(decode_input(topics.INTENT_W, data), max_size=MAX_TASKS, error=InvalidIntentError,
+                             what='w')
+        assert self._model is not None  # set in __init__
+        doc, interpreter = self._model
+        result = interpreter.interpret_checked(validate_w(w, interpreter.m))
         if isinstance(result, NeedsClarification):
             reason = result.reason
-            if result.p_none < self._params['clarification_threshold'] and doc is not None:
+            if result.p_none < interpreter.clarification_threshold and doc is not None:
                 reason += f' (model {doc.name}: zones {",".join(doc.model.zone_labels)})'
             self._clarifications.request(reason)
         else:
-            self._v_pub.publish(array_to_msg(result.v, [self._labels]))
+            self._v_pub.publish(self._v_messages.serialize(result.v))
             self._diagnostics.set_value('last outcome', 'v published')
 
 

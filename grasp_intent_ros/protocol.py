@@ -27,7 +27,9 @@ has one dimension labelled ``"U,T,H,UT,UH,TH,UTH"``; a task-by-task matrix has t
 labelled ``"usage,transfer,handover"`` (axis 0 = rows). ``size`` is the axis length and ``stride`` the
 number of values spanned by one step along the previous axis (ROS convention: ``dim[0].stride`` is the
 total count). A message without dimensions (what ``ros2 topic pub "{data: [...]}"`` sends) is a flat
-vector. :func:`array_layout` writes the dimensions, :func:`msg_to_array` reads the values.
+vector. :func:`array_layout` writes the dimensions, :func:`msg_to_array` reads the values;
+:func:`serialized_vector` reads such a flat vector straight from its serialized (CDR) bytes, without
+building a message (the interpreter's 1 kHz input).
 
 Stamped arrays
 --------------
@@ -66,6 +68,7 @@ from __future__ import annotations
 
 import hashlib
 import re
+import struct
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Final, Generic, NamedTuple, TypeVar
@@ -83,7 +86,8 @@ __all__ = [
     'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'DIAGNOSTICS',
     'MSGTYPES', 'INPUT_TOPICS', 'PLAN_TOPICS', 'OUTPUT_TOPICS',
     'MAX_ARRAY_SIZE', 'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size',
-    'check_names', 'join_labels', 'split_labels', 'array_layout', 'msg_to_array', 'msg_labels',
+    'check_names', 'join_labels', 'split_labels', 'array_layout', 'msg_to_array', 'serialized_vector',
+    'msg_labels',
     'Stamp', 'stamp_label', 'stamped_values', 'posterior_label', 'split_posterior', 'Posterior',
     'read_posterior',
     'ModelHeader', 'ModelDocument', 'model_document', 'parse_model_document', 'read_model_document',
@@ -278,10 +282,7 @@ def msg_to_array(msg: Any, *, max_size: int = MAX_ARRAY_SIZE, ndim: int | None =
     """
     offset = int(msg.layout.data_offset)
     n = len(msg.data) - offset
-    if n <= 0:
-        raise error(f'{what} is empty')
-    if n > max_size:
-        raise error(f'{what} is oversized: {n} values, the limit is {max_size}')
+    _check_size(n, max_size, error, what)
     dims = msg.layout.dim
     shape = tuple(int(d.size) for d in dims) if dims else (n,)
     if int(np.prod(shape)) != n:
@@ -290,10 +291,67 @@ def msg_to_array(msg: Any, *, max_size: int = MAX_ARRAY_SIZE, ndim: int | None =
     if ndim is not None and len(shape) != ndim:
         raise error(f'{what} must have {ndim} dimension(s), got {len(shape)}')
     arr = np.array(msg.data, dtype=np.float64)[offset:]  # array.array: read through the buffer protocol
-    if not np.all(np.isfinite(arr)):
+    _check_finite(arr, error, what)
+    return arr.reshape(shape)
+
+
+def _check_size(n: int, max_size: int, error: type[GraspIntentError], what: str) -> None:
+    if n <= 0:
+        raise error(f'{what} is empty')
+    if n > max_size:
+        raise error(f'{what} is oversized: {n} values, the limit is {max_size}')
+
+
+def _check_finite(arr: NDArray[np.float64], error: type[GraspIntentError], what: str) -> None:
+    if not np.isfinite(arr).all():
         bad = int(np.flatnonzero(~np.isfinite(arr))[0])
         raise error(f'{what} contains NaN or infinity (first at index {bad}: {arr[bad]})')
-    return arr.reshape(shape)
+
+
+_CDR_LE = b'\x00\x01'
+"""Encapsulation id of little-endian plain CDR, the first two bytes of a serialized ROS 2 message."""
+_FLAT_VECTOR = struct.Struct('<III')
+"""After the 4-byte encapsulation header: dimension count, data_offset, number of values."""
+
+
+def serialized_vector(data: bytes, *, max_size: int = MAX_ARRAY_SIZE,
+                      error: type[GraspIntentError] = GraspIntentError, what: str = 'array'
+                      ) -> NDArray[np.float64] | None:
+    """The values of a serialized flat Float64MultiArray, read in place; None for any other layout.
+
+    A flat vector (no dimensions, ``data_offset`` 0, at least one value) in little-endian CDR is: the
+    encapsulation header (4 bytes), the dimension count 0, ``data_offset`` 0 and the value count n (uint32
+    each), 4 bytes of padding (doubles align to 8 from the end of the header), n doubles. Its values are
+    exactly those of :func:`msg_to_array` on the decoded message, with the same checks.
+
+    Parameters
+    ----------
+    data : bytes
+        A serialized std_msgs/Float64MultiArray.
+    max_size, error, what
+        As for :func:`msg_to_array`.
+
+    Returns
+    -------
+    ndarray, shape (n,), read-only, or None
+        None when ``data`` is not a flat vector in little-endian CDR (dimensions, an offset, no value,
+        another encoding, or a length that does not match n): decode the message and use
+        :func:`msg_to_array` instead, which reads and checks every layout.
+
+    Raises
+    ------
+    error
+        If the vector holds more than ``max_size`` values, or a NaN or infinity.
+    """
+    if len(data) < 28 or data[:2] != _CDR_LE:  # 28: header, three counts, padding, one value
+        return None
+    dims, offset, n = _FLAT_VECTOR.unpack_from(data, 4)
+    if dims or offset or n == 0 or len(data) != 20 + 8 * n:
+        return None
+    _check_size(n, max_size, error, what)
+    arr: NDArray[np.float64] = np.frombuffer(data, dtype='<f8', count=n, offset=20)
+    _check_finite(arr, error, what)
+    return arr
 
 
 def msg_labels(msg: Any) -> tuple[tuple[str, ...], ...]:

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 __all__ = ['project', 'least_squares', 'feasible', 'score', 'warm_up']
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _distance(p, kinds, centres, axes, perps, radii, lengths, halfs):  # type: ignore[no-untyped-def]
     """Signed distance of p (3,) to the union of primitives (first on ties) and its unit gradient."""
     best = np.inf
@@ -67,7 +67,7 @@ def _distance(p, kinds, centres, axes, perps, radii, lengths, halfs):  # type: i
     return best, grad
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs,  # type: ignore[no-untyped-def]
              margin):
     """Clip to the bounds, normalise the approach, push the palm out of the body (in place)."""
@@ -91,7 +91,7 @@ def _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, length
     return x
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _project_rows(xs, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs,  # type: ignore[no-untyped-def]
                   margin):
     """Every row of xs (N, d) projected onto the feasible set (a new array)."""
@@ -109,7 +109,7 @@ def feasible(xs: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _log_joint_score(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
     """log(pi_k N_k(x)) (K,) and its gradient -Sigma_k^-1 (x - mu_k) (K, d)."""
     K, d = means.shape
@@ -123,7 +123,7 @@ def _log_joint_score(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
     return lj, g
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1,  # type: ignore[no-untyped-def]
               kinds, centres, axes, perps, radii, lengths, halfs, margin):
     """Residuals e (rows,) and their Jacobian in scaled coordinates A (rows, d)."""
@@ -149,7 +149,7 @@ def _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1,  # type: ig
     return e, A
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _min_norm(A, e, fixed, dfix, active, damping):  # type: ignore[no-untyped-def]
     """The shortest dy with e + A dy = 0 on the active rows and dy = dfix where fixed."""
     rows, d = A.shape
@@ -176,7 +176,7 @@ def _min_norm(A, e, fixed, dfix, active, damping):  # type: ignore[no-untyped-de
     return An.T @ z + dfix
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _step(x, e, A, scale, lower, upper, bounded, has_body, damping):  # type: ignore[no-untyped-def]
     """The shortest scaled step solving the linearised equations, bounds and body held."""
     rows, d = A.shape
@@ -207,13 +207,13 @@ def _step(x, e, A, scale, lower, upper, bounded, has_body, damping):  # type: ig
     return dy
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _results(n, d):  # type: ignore[no-untyped-def]
     """End points (n, d), converged (n,) and iterations (n,) of n starts, to be filled in."""
     return np.empty((n, d)), np.zeros(n, dtype=np.bool_), np.zeros(n, dtype=np.int64)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArray[np.float64],  # type: ignore[no-untyped-def]
                    log_norm: NDArray[np.float64], others: NDArray[np.int64], r: int, b: NDArray[np.float64],
                    scale: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray[np.float64],
@@ -280,7 +280,7 @@ def project(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArr
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _score(xs, v, means, prec, log_norm, x_ref, scale):  # type: ignore[no-untyped-def]
     """Posterior (N, K), objective 1/2 |v - P|^2 (N,) and scaled distance to x_ref (N,) of every row."""
     n = xs.shape[0]
@@ -307,7 +307,7 @@ def score(xs: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.flo
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _posterior_jacobian(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
     """P(k|x) (K,) and dP/dx (K, d)."""
     K, d = means.shape
@@ -321,7 +321,7 @@ def _posterior_jacobian(x, means, prec, log_norm):  # type: ignore[no-untyped-de
     return p, jac
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # type: ignore[no-untyped-def]
                    kinds, centres, axes, perps, radii, lengths, halfs, margin, maxiter, ftol, ridge_rel):
     """Projected Levenberg-Marquardt on v - P(x) from every start (see planner._refine_lm)."""

@@ -7,6 +7,7 @@ task i is satisfied). Zones are ordered by (number of tasks, bitmask): for m = 3
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -23,6 +24,7 @@ __all__ = [
     'Interpretation',
     'NeedsClarification',
     'IntentResult',
+    'ZoneInterpreter',
     'all_zones',
     'zone_label',
     'zone_labels',
@@ -50,6 +52,7 @@ def _check_m(m: int) -> None:
         raise InvalidIntentError(f'number of tasks must be 1..{MAX_TASKS}, got {m}')
 
 
+@functools.lru_cache(maxsize=MAX_TASKS)
 def all_zones(m: int) -> tuple[int, ...]:
     """All 2^m - 1 non-empty task subsets as bitmasks, ordered by (number of tasks, bitmask)."""
     _check_m(m)
@@ -122,6 +125,11 @@ def match_zones(n_values: int, labels: Sequence[str] | None, task_names: Sequenc
     InvalidIntentError
         If v does not name each zone of the tasks exactly once (or, unlabelled, has another length).
     """
+    return _match_zones(n_values, None if labels is None else tuple(labels), tuple(task_names))
+
+
+@functools.lru_cache(maxsize=64)  # a planner matches the same labels to the same model for every v
+def _match_zones(n_values: int, labels: tuple[str, ...] | None, task_names: tuple[str, ...]) -> tuple[int, ...]:
     expected = all_zones(len(task_names))
     if labels is None:
         if n_values != len(expected):
@@ -174,9 +182,9 @@ def validate_w(w: ArrayLike, m: int | None = None) -> NDArray[np.float64]:
         raise InvalidIntentError(f'w must have {m} entries (one per task), got {arr.size}')
     if arr.size > MAX_TASKS:
         raise InvalidIntentError(f'w has {arr.size} entries; at most {MAX_TASKS} tasks are supported')
-    if not np.all(np.isfinite(arr)):
-        raise InvalidIntentError(f'w must be finite, got {arr.tolist()}')
-    if np.any(arr < 0.0) or np.any(arr > 1.0):
+    if not (arr.min() >= 0.0 and arr.max() <= 1.0):  # NaN fails too: one test for the valid w
+        if not np.all(np.isfinite(arr)):
+            raise InvalidIntentError(f'w must be finite, got {arr.tolist()}')
         raise InvalidIntentError(f'every entry of w must lie in [0, 1], got {arr.tolist()}')
     return arr
 
@@ -189,13 +197,18 @@ def event_probabilities(w: ArrayLike) -> NDArray[np.float64]:
     return _event_probabilities(validate_w(w))
 
 
+@functools.lru_cache(maxsize=MAX_TASKS)
+def _event_table(m: int) -> NDArray[np.bool_]:
+    """Whether event Y (row, bitmask) includes task i (column): shape (2^m, m), read-only."""
+    masks = np.arange(1 << m)
+    table: NDArray[np.bool_] = ((masks[:, None] >> np.arange(m)[None, :]) & 1) == 1
+    table.flags.writeable = False
+    return table
+
+
 def _event_probabilities(w_arr: NDArray[np.float64]) -> NDArray[np.float64]:
     """:func:`event_probabilities` of a w already checked by :func:`validate_w`."""
-    m = w_arr.size
-    masks = np.arange(1 << m)
-    bits = (masks[:, None] >> np.arange(m)[None, :]) & 1  # (2^m, m)
-    factors = np.where(bits == 1, w_arr[None, :], 1.0 - w_arr[None, :])
-    u: NDArray[np.float64] = np.prod(factors, axis=1)
+    u: NDArray[np.float64] = np.where(_event_table(w_arr.size), w_arr, 1.0 - w_arr).prod(axis=1)
     return u
 
 
@@ -277,26 +290,64 @@ def interpret(w: ArrayLike, zones: Sequence[int] | None = None, *,
         outside (0, 1].
     """
     w_arr = validate_w(w)
-    m = w_arr.size
-    if not (isinstance(clarification_threshold, (int, float, np.floating))
-            and 0.0 < float(clarification_threshold) <= 1.0):
-        raise InvalidIntentError(
-            f'clarification_threshold must lie in (0, 1], got {clarification_threshold!r}')
-    zone_tuple = _check_zones(all_zones(m) if zones is None else zones, m, 'zones')
-    support_tuple = zone_tuple if support is None else _check_zones(support, m, 'support')
-    u = _event_probabilities(w_arr)  # w checked above, once
-    p_none = float(u[0])
-    if p_none >= float(clarification_threshold):
-        return NeedsClarification(w=w_arr, u=u, zones=zone_tuple, p_none=p_none,
-                                  reason=f'P(no task) = {p_none:.4f} >= threshold '
-                                         f'{float(clarification_threshold):.4f}')
-    supported = float(u[np.asarray(support_tuple)].sum())
-    u_zones = u[np.asarray(zone_tuple)]
-    total = float(u_zones.sum())
-    if not (supported > 0.0 and total > 0.0 and math.isfinite(total)):
-        return NeedsClarification(w=w_arr, u=u, zones=zone_tuple, p_none=p_none,
-                                  reason='no zone of the model has non-zero probability under this w')
-    return Interpretation(w=w_arr, u=u, zones=zone_tuple, p_none=p_none, v=u_zones / total)
+    return ZoneInterpreter(w_arr.size, zones, clarification_threshold=clarification_threshold,
+                           support=support).interpret_checked(w_arr)
+
+
+class ZoneInterpreter:
+    """:func:`interpret` for one number of tasks, zone set, support and threshold, checked once.
+
+    For a stream of w (the ROS interpreter): the zones, support and threshold are checked when it is built,
+    and each call checks only w. ``ZoneInterpreter(m, zones, ...)(w)`` equals
+    ``interpret(w, zones, ...)`` for every w of m entries.
+
+    Parameters
+    ----------
+    m : int
+        Number of tasks (entries of w).
+    zones, clarification_threshold, support
+        As for :func:`interpret`.
+
+    Raises
+    ------
+    InvalidIntentError
+        As :func:`interpret` does for the zones, the support and the threshold, and for m outside
+        1..MAX_TASKS.
+    """
+
+    def __init__(self, m: int, zones: Sequence[int] | None = None, *,
+                 clarification_threshold: float = DEFAULT_CLARIFICATION_THRESHOLD,
+                 support: Sequence[int] | None = None) -> None:
+        if not (isinstance(clarification_threshold, (int, float, np.floating))
+                and 0.0 < float(clarification_threshold) <= 1.0):
+            raise InvalidIntentError(
+                f'clarification_threshold must lie in (0, 1], got {clarification_threshold!r}')
+        _check_m(m)
+        self.m = m
+        self.zones = _check_zones(all_zones(m) if zones is None else zones, m, 'zones')
+        self.support = self.zones if support is None else _check_zones(support, m, 'support')
+        self.clarification_threshold = float(clarification_threshold)
+        self._zone_index, self._support_index = np.asarray(self.zones), np.asarray(self.support)
+
+    def __call__(self, w: ArrayLike) -> Interpretation | NeedsClarification:
+        """:func:`interpret` of ``w``. Raises InvalidIntentError for a malformed w or one of another length."""
+        return self.interpret_checked(validate_w(w, self.m))
+
+    def interpret_checked(self, w_arr: NDArray[np.float64]) -> Interpretation | NeedsClarification:
+        """:meth:`__call__` of a w already checked by :func:`validate_w` (m entries)."""
+        u = _event_probabilities(w_arr)
+        p_none = float(u[0])
+        if p_none >= self.clarification_threshold:
+            return NeedsClarification(w=w_arr, u=u, zones=self.zones, p_none=p_none,
+                                      reason=f'P(no task) = {p_none:.4f} >= threshold '
+                                             f'{self.clarification_threshold:.4f}')
+        supported = float(u[self._support_index].sum())
+        u_zones = u[self._zone_index]
+        total = float(u_zones.sum())
+        if not (supported > 0.0 and total > 0.0 and math.isfinite(total)):
+            return NeedsClarification(w=w_arr, u=u, zones=self.zones, p_none=p_none,
+                                      reason='no zone of the model has non-zero probability under this w')
+        return Interpretation(w=w_arr, u=u, zones=self.zones, p_none=p_none, v=u_zones / total)
 
 
 def _check_zones(zones: Sequence[int], m: int, what: str) -> tuple[int, ...]:

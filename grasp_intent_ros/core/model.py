@@ -13,6 +13,7 @@ in log space and is differentiated analytically.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -306,7 +307,7 @@ class GraspModel:
         """Upper feature bounds, shape (d,)."""
         return self.features.upper
 
-    @property
+    @functools.cached_property
     def zone_labels(self) -> tuple[str, ...]:
         """Short zone labels ('U', 'UT', ...) in zone order."""
         return zone_labels(self.zones, self.task_names)

@@ -43,13 +43,13 @@ def grasp_messages(grasp: Grasp, doc: ModelDocument, base_T_obj: NDArray[np.floa
         Whether to build ``grasp/markers`` too.
     """
     model, x = doc.model, grasp.result.x
-    messages: dict[str, Any] = {
-        topics.GRASP_POSTERIOR: posterior_to_msg(grasp.result.posterior, grasp.result.w, model.zone_labels,
-                                                 model.task_names, stamp=stamp),
-        topics.GRASP_FEATURES: stamped_array_to_msg(x, model.feature_names, stamp=stamp),
+    messages: dict[str, Any] = {  # PLAN_TOPICS order: the pose (what teleoperation waits on) first
         topics.GRASP_POSE: matrix_to_pose_msg(grasp.base_T_ee, frame_id=BASE_FRAME, stamp=stamp),
         topics.GRASP_JOINT_TARGETS: joint_state_msg(JOINT_NAMES, grasp.positions, stamp=stamp),
         topics.GRASP_TRAJECTORY: joint_trajectory_msg(JOINT_NAMES, grasp.positions, grasp.duration_s),
+        topics.GRASP_POSTERIOR: posterior_to_msg(grasp.result.posterior, grasp.result.w, model.zone_labels,
+                                                 model.task_names, stamp=stamp),
+        topics.GRASP_FEATURES: stamped_array_to_msg(x, model.feature_names, stamp=stamp),
     }
     if markers:
         text = f'{doc.name}\n{zone_summary(model.zone_labels, grasp.result.posterior)}'

@@ -23,12 +23,26 @@ from ..protocol import MAX_MESSAGE_BYTES, check_message_size
 from .conversions import message_class
 from .diagnostics import NodeDiagnostics
 
-__all__ = ['subscribe_input', 'waiting_messages']
+__all__ = ['subscribe_input', 'decode_input', 'waiting_messages']
+
+
+def decode_input(topic: str, data: bytes) -> Any:
+    """The message of the suite input ``topic`` serialized in ``data`` (its size already checked).
+
+    Raises
+    ------
+    GraspIntentError
+        If rclpy cannot decode it.
+    """
+    try:
+        return deserialize_message(data, message_class(topic))
+    except Exception as exc:  # noqa: BLE001 - a message rclpy cannot decode is bad input
+        raise GraspIntentError(f'{topic}: undecodable message: {type(exc).__name__}: {exc}') from None
 
 
 def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], qos: QoSProfile,
                     diagnostics: NodeDiagnostics, *, count_dropped: bool = False,
-                    take_waiting: bool = False) -> Subscription:
+                    take_waiting: bool = False, serialized: bool = False) -> Subscription:
     """Subscribe ``callback`` to the suite input ``topic``, size-checked before decoding and guarded.
 
     Parameters
@@ -49,6 +63,9 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
         task for every message it hands over, which costs more than most callbacks: a node that must
         answer every message of a fast stream (the interpreter's ``intent/w`` at 1 kHz) takes them in
         batches instead, as rclpy's executor itself does (``handle.take_message``).
+    serialized : bool
+        Hand ``callback`` the size-checked serialized bytes instead of the decoded message; it decodes
+        them itself (e.g. :func:`grasp_intent_ros.protocol.serialized_vector`, else :func:`decode_input`).
 
     Raises
     ------
@@ -61,11 +78,7 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
 
     def on_serialized(data: bytes) -> None:
         check_message_size(topic, len(data))
-        try:
-            msg = deserialize_message(data, msg_type)
-        except Exception as exc:  # noqa: BLE001 - a message rclpy cannot decode is bad input
-            raise GraspIntentError(f'{topic}: undecodable message: {type(exc).__name__}: {exc}') from None
-        callback(msg)
+        callback(data if serialized else decode_input(topic, data))
 
     on_serialized.__name__ = getattr(callback, '__name__', 'on_message')
     guarded = diagnostics.guard(on_serialized)

@@ -8,11 +8,13 @@ import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
 from numpy.testing import assert_allclose
-from std_msgs.msg import Float64MultiArray, String
+from rclpy.serialization import deserialize_message, serialize_message
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
 from grasp_intent_ros import protocol
 from grasp_intent_ros.core.errors import GraspIntentError, InvalidIntentError, ModelFormatError
 from grasp_intent_ros.ros.conversions import (
+    SerializedArrays,
     array_to_msg,
     message_class,
     model_from_msg,
@@ -51,6 +53,46 @@ def test_no_array_with_nan_or_infinity_becomes_a_message(bad: float) -> None:
     for p, w in (([0.5, bad], [0.5, 0.5]), ([0.5, 0.5], [bad, 1.0])):
         with pytest.raises(GraspIntentError, match='not published: 1 of 4 output values'):
             posterior_to_msg(p, w, ['U', 'T'], ['a', 'b'], stamp=Time(sec=1))
+
+
+@pytest.mark.parametrize('values', [[0.25], [0.9, 0.9, 0.1], list(np.linspace(0.0, 1.0, 10)), [-1e308, 5e-324, 1e308]])
+def test_a_flat_vector_is_read_from_its_serialized_bytes_as_from_the_message(values: list[float]) -> None:
+    data = serialize_message(Float64MultiArray(data=values))
+    got = protocol.serialized_vector(data, max_size=10)
+    assert got is not None
+    assert_allclose(got, protocol.msg_to_array(deserialize_message(data, Float64MultiArray), max_size=10), rtol=0)
+    with pytest.raises(InvalidIntentError, match=f'w is oversized: {len(values)} values, the limit is 0'):
+        protocol.serialized_vector(data, max_size=0, error=InvalidIntentError, what='w')
+
+
+def test_only_a_flat_vector_is_read_from_serialized_bytes() -> None:
+    """Any other layout is left to the message decoder (None), and bad values are rejected as msg_to_array does."""
+    dims = Float64MultiArray(data=[0.5, 0.5])
+    dims.layout.dim = [MultiArrayDimension(label='a,b', size=2, stride=2)]
+    offset = Float64MultiArray(data=[0.0, 0.5])
+    offset.layout.data_offset = 1
+    for msg in (dims, offset, Float64MultiArray()):
+        assert protocol.serialized_vector(serialize_message(msg)) is None
+    data = serialize_message(Float64MultiArray(data=[0.5, 0.5]))
+    for other in (data[:-1], data + bytes(8), b'\x00\x00' + data[2:], data[:20]):  # truncated, long, big-endian
+        assert protocol.serialized_vector(other) is None
+    for bad in (np.nan, np.inf):
+        data = serialize_message(Float64MultiArray(data=[0.5, bad]))
+        with pytest.raises(InvalidIntentError, match='w contains NaN or infinity \\(first at index 1'):
+            protocol.serialized_vector(data, error=InvalidIntentError, what='w')
+
+
+def test_serialized_arrays_decode_as_array_to_msg() -> None:
+    labels = ['U,T,H,UT,UH,TH,UTH']
+    arrays = SerializedArrays((7,), labels)
+    values = np.random.default_rng(0).dirichlet(np.ones(7))
+    msg, expected = deserialize_message(arrays.serialize(values), Float64MultiArray), array_to_msg(values, labels)
+    assert msg.layout == expected.layout
+    assert_allclose(msg.data, values, rtol=0)
+    with pytest.raises(GraspIntentError, match='not published: 1 of 7 output values are NaN or infinite'):
+        arrays.serialize(np.r_[values[:6], np.nan])
+    with pytest.raises(ValueError, match='shape'):
+        arrays.serialize(values[:6])
 
 
 def test_target_vector_is_validated_where_it_is_read() -> None:

@@ -49,6 +49,18 @@ def test_v_equals_core_and_is_labelled(ros, interpreter, w):
     assert clarifications == []
 
 
+def test_w_with_a_layout_is_read_as_a_message(ros, interpreter):
+    """A w that is not a flat vector (dimensions, a data offset) is decoded as a message and answered alike."""
+    _, w_pub, v_msgs, _ = interpreter
+    w = [0.2, 0.7, 0.95]
+    offset = w_msg([0.0, *w])
+    offset.layout.data_offset = 1
+    for msg in (array_to_msg(w, ['usage,transfer,handover']), offset):
+        v_msgs.clear()
+        assert ros.publish_until(w_pub, msg, lambda: v_msgs), 'no intent/v received'
+        assert_allclose(msg_to_array(v_msgs[-1]), interpret(w).v, rtol=0, atol=1e-12)
+
+
 def test_clarification_instead_of_v(ros, interpreter):
     node, w_pub, v_msgs, clarifications = interpreter
     w = [0.1, 0.1, 0.1]  # P(no task) = 0.729

@@ -93,6 +93,40 @@ def test_wrong_length_and_bad_options() -> None:
         intent.parse_zones(['UX'], TASKS)
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(0.0, 1.0), min_size=1, max_size=6), st.integers(0, 2**31), st.floats(0.05, 1.0))
+def test_zone_interpreter_equals_interpret(w: list[float], seed: int, threshold: float) -> None:
+    m = len(w)
+    rng = np.random.default_rng(seed)
+    zones = tuple(int(z) for z in rng.permutation(np.arange(1, 1 << m))[:rng.integers(1, 1 << m)])
+    support = zones[:rng.integers(1, len(zones) + 1)]
+    expected = intent.interpret(w, zones, clarification_threshold=threshold, support=support)
+    got = intent.ZoneInterpreter(m, zones, clarification_threshold=threshold, support=support)(w)
+    assert type(got) is type(expected)
+    assert (got.zones, got.p_none) == (expected.zones, expected.p_none)
+    assert_allclose(got.u, expected.u, rtol=0, atol=0)
+    if isinstance(expected, intent.NeedsClarification):
+        assert isinstance(got, intent.NeedsClarification) and got.reason == expected.reason
+    else:
+        assert_allclose(got.v, expected.v, rtol=0, atol=0)
+
+
+def test_zone_interpreter_checks_its_options_once_and_w_every_time() -> None:
+    with pytest.raises(InvalidIntentError, match='threshold'):
+        intent.ZoneInterpreter(3, clarification_threshold=1.5)
+    with pytest.raises(InvalidIntentError, match='not non-empty subsets'):
+        intent.ZoneInterpreter(2, zones=[4])
+    with pytest.raises(InvalidIntentError, match='number of tasks'):
+        intent.ZoneInterpreter(11, zones=[1])
+    interpreter = intent.ZoneInterpreter(3)
+    with pytest.raises(InvalidIntentError, match='3 entries'):
+        interpreter([0.5, 0.5])
+    for bad, reason in (([0.5, np.nan, 0.5], 'finite'), ([0.5, -np.inf, 0.5], 'finite'),
+                        ([0.5, 1.01, 0.5], r'\[0, 1\]')):
+        with pytest.raises(InvalidIntentError, match=reason):
+            interpreter(bad)
+
+
 def test_reconstruct_w_from_posterior() -> None:
     zones = intent.all_zones(3)
     p = np.zeros(7)
