@@ -53,7 +53,7 @@ from .ros.inputs import decode_input, subscribe_input
 from .ros.model_follower import ModelFollower
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, output_qos
-from .ros.run import run_node
+from .ros.run import publish_all, run_node
 
 __all__ = ['IntentInterpreter', 'PARAMETERS', 'W_QUEUE_DEPTH', 'main']
 
@@ -94,7 +94,7 @@ class IntentInterpreter(Node):
         super().__init__(node_name, **kwargs)
         self._diagnostics = NodeDiagnostics(self, 'intent')
         self._params = declare_parameters(self, PARAMETERS, on_change=self._configure)
-        self._v_pub = self.create_publisher(Float64MultiArray, topics.INTENT_V, output_qos())
+        self._pubs = {topics.INTENT_V: self.create_publisher(Float64MultiArray, topics.INTENT_V, output_qos())}
         self._clarifications = ClarificationRequests(self, self._diagnostics, count_key='clarifications',
                                                      outcome_key='last outcome')
         self._model_lock = threading.RLock()
@@ -156,7 +156,7 @@ class IntentInterpreter(Node):
                 reason += f' (model {doc.name}: zones {",".join(doc.model.zone_labels)})'
             self._clarifications.request(reason)
         else:
-            self._v_pub.publish(self._v_messages.serialize(result.v))
+            publish_all(self, self._pubs, {topics.INTENT_V: self._v_messages.serialize(result.v)})
             self._diagnostics.set_value('last outcome', 'v published')
 
 

@@ -43,7 +43,7 @@ from .ros.diagnostics import NodeDiagnostics
 from .ros.inputs import subscribe_input
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, latched_qos, output_qos
-from .ros.run import run_node
+from .ros.run import publish_all, run_node
 
 __all__ = ['ModelServer', 'PARAMETERS', 'MAX_FEATURES', 'main']
 
@@ -64,11 +64,12 @@ class ModelServer(Node):
         self._diagnostics = NodeDiagnostics(self, 'model')
         self._files: ModelFiles | None = None
         self._version = 0
-        self._active_pub = self.create_publisher(String, topics.MODEL_ACTIVE, latched_qos())
-        self._kl_pub = self.create_publisher(Float64MultiArray, topics.MODEL_AMBIGUITY, latched_qos())
-        self._sym_pub = self.create_publisher(Float64MultiArray, topics.MODEL_AMBIGUITY_SYMMETRIC, latched_qos())
-        self._pinsker_pub = self.create_publisher(Float64MultiArray, topics.MODEL_AMBIGUITY_PINSKER, latched_qos())
-        self._posterior_pub = self.create_publisher(Float64MultiArray, topics.MODEL_POSTERIOR, output_qos())
+        self._pubs = {topic: self.create_publisher(kind, topic, latched_qos())
+                      for topic, kind in ((topics.MODEL_ACTIVE, String), (topics.MODEL_AMBIGUITY, Float64MultiArray),
+                                          (topics.MODEL_AMBIGUITY_SYMMETRIC, Float64MultiArray),
+                                          (topics.MODEL_AMBIGUITY_PINSKER, Float64MultiArray))}
+        self._pubs[topics.MODEL_POSTERIOR] = self.create_publisher(Float64MultiArray, topics.MODEL_POSTERIOR,
+                                                                   output_qos())
         self._params = declare_parameters(self, PARAMETERS, check=self._check, on_change=self._activate)
         self._activate(self._params)
         self._query_sub = subscribe_input(self, topics.MODEL_QUERY, self._on_query, input_qos(), self._diagnostics)
@@ -98,10 +99,10 @@ class ModelServer(Node):
         self._version += 1
         self._model = model
         tasks = [model.task_names, model.task_names]
-        self._active_pub.publish(model_to_msg(model, name=name, version=self._version))
-        self._kl_pub.publish(array_to_msg(report.kl, tasks))
-        self._sym_pub.publish(array_to_msg(report.symmetric, tasks))
-        self._pinsker_pub.publish(array_to_msg(report.pinsker, tasks))
+        publish_all(self, self._pubs, {topics.MODEL_ACTIVE: model_to_msg(model, name=name, version=self._version),
+                                       topics.MODEL_AMBIGUITY: array_to_msg(report.kl, tasks),
+                                       topics.MODEL_AMBIGUITY_SYMMETRIC: array_to_msg(report.symmetric, tasks),
+                                       topics.MODEL_AMBIGUITY_PINSKER: array_to_msg(report.pinsker, tasks)})
         self._diagnostics.set_value('active model', name)
         self._diagnostics.set_value('model version', self._version)
         self._diagnostics.set_value('zones', ','.join(model.zone_labels))
@@ -111,7 +112,7 @@ class ModelServer(Node):
     def _on_query(self, msg: Float64MultiArray) -> None:
         x = msg_to_array(msg, max_size=MAX_FEATURES, error=InvalidFeaturesError, what='x')
         posterior = self._model.posterior(x)  # raises for an x too far out for a finite posterior
-        self._posterior_pub.publish(array_to_msg(posterior, [self._model.zone_labels]))
+        publish_all(self, self._pubs, {topics.MODEL_POSTERIOR: array_to_msg(posterior, [self._model.zone_labels])})
 
 
 def main(args: list[str] | None = None) -> None:
