@@ -21,6 +21,7 @@ Every text a status or a log line takes from outside (a reason, a value, a trace
 from __future__ import annotations
 
 import functools
+import math
 import threading
 import time
 import traceback
@@ -47,12 +48,16 @@ from ..protocol import (
 )
 from .qos import output_qos
 
-__all__ = ['NodeDiagnostics', 'MAX_TEXT', 'cap_text']
+__all__ = ['NodeDiagnostics', 'MAX_TEXT', 'LOG_PERIOD', 'cap_text']
 
 M = TypeVar('M')
 
 MAX_TEXT = 1024
 """Longest text (characters) a status message, a status value or a diagnostics log line carries."""
+
+LOG_PERIOD = 1.0
+"""Seconds: at most one log line of rejected input per level (WARN, ERROR) and node component in this
+time; a flood of bad messages does not flood the log (every rejection is still counted on /diagnostics)."""
 
 
 def cap_text(text: str, limit: int = MAX_TEXT) -> str:
@@ -92,6 +97,8 @@ class NodeDiagnostics:
         self._outcome_level: int = level_value(OK)
         self._outcome_message = 'waiting for input'
         self._note: tuple[int, str] | None = None
+        self._logged: dict[bool, tuple[float, int]] = {False: (-math.inf, 0), True: (-math.inf, 0)}
+        """Per level (error or not): when a rejection was last logged, and how many were not logged since."""
         self._state_level: int = level_value(OK)
         self._state_message = ''
         self._values: dict[str, str] = {}
@@ -131,18 +138,38 @@ class NodeDiagnostics:
         if note is not None:
             self.publish()  # at once, as for a rejection
 
-    def rejected(self, reason: str, *, level: bytes | int = WARN) -> None:
-        """An input was rejected: count it, log it and publish a WARN (or ``level``) status now."""
+    def rejected(self, reason: str, *, level: bytes | int = WARN, detail: str = '') -> None:
+        """An input was rejected: count it, log it and publish a WARN (or ``level``) status now.
+
+        ``detail`` (e.g. a traceback) follows the log line. Log lines are throttled (:data:`LOG_PERIOD`).
+        """
         reason = cap_text(reason)
         with self._lock:
             self._rejected += 1
             self._last_error = reason
             self._outcome_level, self._outcome_message = level_value(level), f'rejected input: {reason}'
-        if level_value(level) >= level_value(ERROR):
-            self._node.get_logger().error(f'{self.name}: {reason}')
-        else:
-            self._node.get_logger().warning(f'rejected input: {reason}')
+        error = level_value(level) >= level_value(ERROR)
+        line = self._log_line(error, f'{self.name}: {reason}' if error else f'rejected input: {reason}')
+        if line is not None and error:  # one call site per severity (rclpy's logger requires it)
+            self._node.get_logger().error(f'{line}\n{detail}' if detail else line)
+        elif line is not None:
+            self._node.get_logger().warning(f'{line}\n{detail}' if detail else line)
         self.publish()
+
+    def _log_line(self, error: bool, text: str) -> str | None:
+        """``text`` when a line of its level may be logged now (one per :data:`LOG_PERIOD` s), else None.
+
+        The rejections a throttled level did not log are counted into its next line; /diagnostics counts
+        every one.
+        """
+        now = time.monotonic()
+        with self._lock:
+            last, skipped = self._logged[error]
+            if now - last < LOG_PERIOD:
+                self._logged[error] = (last, skipped + 1)
+                return None
+            self._logged[error] = (now, 0)
+        return text if not skipped else f'{text} ({skipped} more since the last such line, not logged)'
 
     def guard(self, callback: Callable[[M], object], *, counts_received: bool = True) -> Callable[[M], None]:
         """Wrap a subscription callback: count, time, and turn every exception into a rejection.
@@ -163,8 +190,8 @@ class NodeDiagnostics:
             except GraspIntentError as exc:
                 self.rejected(str(exc))
             except Exception as exc:  # noqa: BLE001 - an exception escaping a callback kills the node
-                self._node.get_logger().error(cap_text(traceback.format_exc(), 4 * MAX_TEXT))
-                self.rejected(f'internal error: {type(exc).__name__}: {exc}', level=ERROR)
+                self.rejected(f'internal error: {type(exc).__name__}: {exc}', level=ERROR,
+                              detail=cap_text(traceback.format_exc(), 4 * MAX_TEXT))
             else:
                 self.processed(time.perf_counter() - start)
         return guarded

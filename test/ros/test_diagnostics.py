@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import time
+from types import SimpleNamespace
+
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 
 from grasp_intent_ros import protocol
 from grasp_intent_ros.core.errors import InvalidIntentError
+from grasp_intent_ros.ros import diagnostics
 from grasp_intent_ros.ros.diagnostics import MAX_TEXT, NodeDiagnostics, cap_text
 
 
@@ -113,3 +117,20 @@ def test_dropped_messages_of_a_full_queue_are_counted(ros) -> None:
     values = protocol.status_values(diag.status())
     assert values[protocol.KEY_DROPPED] == str(20 - (len(taken) - 1)), (taken, values)
     assert int(values[protocol.KEY_DROPPED]) >= 1
+
+
+def test_rejection_log_lines_are_throttled_but_every_rejection_counts(ros, capfd, monkeypatch) -> None:
+    probe = ros.add(rclpy.create_node('diag_flood', context=ros.context))
+    diag = NodeDiagnostics(probe, 'intent', period=10.0)
+    now = [100.0]
+    monkeypatch.setattr(diagnostics, 'time', SimpleNamespace(monotonic=lambda: now[0], perf_counter=time.perf_counter))
+    for i in range(5):
+        diag.rejected(f'bad w {i}')
+    diag.rejected('a bug', level=protocol.ERROR, detail='Traceback: here')
+    now[0] += diagnostics.LOG_PERIOD
+    diag.rejected('bad w 5')
+    assert protocol.status_values(diag.status())[protocol.KEY_REJECTED] == '7'
+    err = capfd.readouterr().err
+    assert 'bad w 0' in err and 'a bug' in err and 'Traceback: here' in err
+    assert not any(f'bad w {i}' in err for i in range(1, 5))
+    assert 'bad w 5 (4 more since the last such line, not logged)' in err
