@@ -8,6 +8,7 @@ only builds the rclpy message objects from them. Readers need no message class: 
 from __future__ import annotations
 
 import array
+import functools
 import importlib
 from collections.abc import Sequence
 from typing import Any
@@ -37,10 +38,17 @@ from ..protocol import (
     stamped_values,
 )
 
-__all__ = ['message_class', 'array_to_msg', 'SerializedArrays', 'target_from_msg', 'stamped_array_to_msg',
+__all__ = ['type_class', 'message_class', 'array_to_msg', 'SerializedArrays', 'target_from_msg', 'stamped_array_to_msg',
            'stamped_array_from_msg', 'posterior_to_msg', 'posterior_from_msg', 'model_to_msg', 'model_from_msg']
 
 
+def type_class(msgtype: str) -> Any:
+    """The rclpy message class of a type name 'pkg/msg/Name'. Raises ImportError, AttributeError, ValueError."""
+    package, kind, name = msgtype.split('/')
+    return getattr(importlib.import_module(f'{package}.{kind}'), name)
+
+
+@functools.lru_cache(maxsize=None)  # per message on the nodes' inputs (ros.inputs.decode_input)
 def message_class(topic: str) -> Any:
     """The rclpy message class of a suite topic (:data:`grasp_intent_ros.protocol.MSGTYPES`).
 
@@ -49,8 +57,7 @@ def message_class(topic: str) -> Any:
     KeyError
         For a topic that is not the suite's.
     """
-    package, _, name = MSGTYPES[topic].split('/')
-    return getattr(importlib.import_module(f'{package}.msg'), name)
+    return type_class(MSGTYPES[topic])
 
 
 def array_to_msg(values: ArrayLike, labels: Sequence[str | Sequence[str]]) -> Float64MultiArray:

@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import argparse
 import functools
-import importlib
 import os
 import sys
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -58,6 +57,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from ..bag import DEFAULT_FLUSH_PERIOD, BagWriteError, QosSpec, QueuedWriter, SessionWriter
 from ..protocol import ERROR, WARN
+from ..ros.conversions import type_class
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import waiting_messages
 from ..ros.run import run_node
@@ -170,12 +170,6 @@ def _subscription_qos(spec: QosSpec, depth: int) -> QoSProfile:
                      else ReliabilityPolicy.BEST_EFFORT),
         durability=(DurabilityPolicy.TRANSIENT_LOCAL if spec.durability == 'transient_local'
                     else DurabilityPolicy.VOLATILE))
-
-
-def _message_class(msgtype: str) -> Any:
-    """The rclpy message class of 'pkg/msg/Name'. Raises ImportError/AttributeError/ValueError."""
-    package, kind, name = msgtype.split('/')
-    return getattr(importlib.import_module(f'{package}.{kind}'), name)
 
 
 class Recorder(Node):
@@ -344,7 +338,7 @@ class Recorder(Node):
             self._skip(topic, f'type {msgtype} is not a ROS 2 Jazzy standard type known to the bag writer')
             return
         try:
-            msg_class = _message_class(msgtype)
+            msg_class = type_class(msgtype)
         except (ImportError, AttributeError, ValueError) as exc:
             self._skip(topic, f'type {msgtype} cannot be imported: {exc}')
             return

@@ -89,20 +89,15 @@ def use_loopback_discovery(environ: MutableMapping[str, str] | None = None) -> s
     previous = env.get('ROS_AUTOMATIC_DISCOVERY_RANGE')
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     env.pop('ROS_STATIC_PEERS', None)
-    _use_discovery_profile(env)
-    return previous
-
-
-def _use_discovery_profile(env: MutableMapping[str, str]) -> None:
-    """Set FASTRTPS_DEFAULT_PROFILES_FILE to :data:`FASTDDS_PROFILE` unless ``env`` sets it (or there is none)."""
     if 'FASTRTPS_DEFAULT_PROFILES_FILE' in env:
-        return
+        return previous
     try:
         profile = config_dir() / FASTDDS_PROFILE
     except FileNotFoundError:
-        return
+        return previous
     if profile.is_file():
         env['FASTRTPS_DEFAULT_PROFILES_FILE'] = str(profile)
+    return previous
 
 
 def node_environment(domain_id: int, base: Mapping[str, str] | None = None) -> dict[str, str]:
@@ -121,10 +116,9 @@ def node_environment(domain_id: int, base: Mapping[str, str] | None = None) -> d
         RCUTILS_LOGGING_BUFFERED_STREAM=0 set and ROS_STATIC_PEERS removed; FASTRTPS_DEFAULT_PROFILES_FILE
         is the config directory's :data:`FASTDDS_PROFILE` unless ``base`` sets it (or there is none).
     """
-    env = {**(os.environ if base is None else base), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
-           'ROS_DOMAIN_ID': str(domain_id), 'PYTHONUNBUFFERED': '1', 'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
-    env.pop('ROS_STATIC_PEERS', None)
-    _use_discovery_profile(env)
+    env = {**(os.environ if base is None else base), 'ROS_DOMAIN_ID': str(domain_id), 'PYTHONUNBUFFERED': '1',
+           'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
+    use_loopback_discovery(env)
     return env
 
 
