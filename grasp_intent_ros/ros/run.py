@@ -14,11 +14,20 @@ rclpy steps into the normal ExternalShutdownException. A signal that arrives whi
 on the shut-down context) also exits 0; one that arrives before ``rclpy.init`` (during imports) gets
 Python's default handling. A configuration error found while the node is built (a parameter rejected by
 its descriptor or validator, a missing model) is logged and ends the process with exit code 1.
+
+A node's shutdown (executor, node and context, after the spin has ended) that has not finished
+:data:`SHUTDOWN_GRACE` seconds later (a rare hang, seen under load and once in a full test run, cause not
+yet found) is ended by a watchdog: it logs an
+ERROR, writes every thread's stack to stderr (``faulthandler``) and exits with code 0, so that a stop
+request always ends the node and leaves the evidence in its log.
 """
 
 from __future__ import annotations
 
+import faulthandler
+import os
 import signal
+import sys
 import threading
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -33,10 +42,27 @@ from rclpy.publisher import Publisher
 from ..core.errors import GraspIntentError
 from .params import ParameterError
 
-__all__ = ['run_node', 'publish_all', 'STARTUP_ERRORS', 'ShutdownSafeExecutor']
+__all__ = ['run_node', 'publish_all', 'STARTUP_ERRORS', 'SHUTDOWN_GRACE', 'ShutdownSafeExecutor']
 
 STARTUP_ERRORS: tuple[type[Exception], ...] = (ParameterError, ParameterException, GraspIntentError)
 """Errors a node constructor raises for bad configuration: reported in one line, exit code 1."""
+
+SHUTDOWN_GRACE = 5.0
+"""Seconds a node's shutdown may take after its spin has ended before the watchdog ends the process."""
+
+
+def _arm_shutdown_watchdog(grace: float) -> None:
+    """End the process ``grace`` s from now unless it has exited (daemon timer thread)."""
+    def expire() -> None:
+        rclpy.logging.get_logger('grasp_intent_ros').error(
+            f'shutdown not finished {grace:g} s after the stop request: exiting now; the threads follow')
+        faulthandler.dump_traceback(file=sys.stderr, all_threads=True)
+        sys.stderr.flush()
+        os._exit(0)
+
+    timer = threading.Timer(grace, expire)
+    timer.daemon = True
+    timer.start()
 
 
 class ShutdownSafeExecutor(SingleThreadedExecutor):
@@ -59,7 +85,8 @@ class ShutdownSafeExecutor(SingleThreadedExecutor):
 
 
 def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None, *,
-             executor_factory: Callable[[], Executor] | None = None) -> None:
+             executor_factory: Callable[[], Executor] | None = None,
+             shutdown_grace: float | None = SHUTDOWN_GRACE) -> None:
     """Initialise rclpy, build a node and spin it until shutdown.
 
     Parameters
@@ -72,6 +99,9 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
     executor_factory : callable, optional
         Builds the executor, e.g. ``rclpy.executors.MultiThreadedExecutor`` for a node whose
         callbacks must run concurrently; default a :class:`ShutdownSafeExecutor`.
+    shutdown_grace : float or None
+        Seconds the shutdown may take before the watchdog ends the process (module docstring); None: no
+        watchdog (e.g. a recorder, whose closing writes must not be cut short).
 
     Raises
     ------
@@ -101,6 +131,8 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        if shutdown_grace is not None:
+            _arm_shutdown_watchdog(shutdown_grace)
         if executor is not None:
             executor.shutdown()
         if node is not None:

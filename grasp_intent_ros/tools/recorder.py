@@ -484,7 +484,7 @@ def main(args: list[str] | None = None) -> None:
         built.append(recorder)
         return recorder
 
-    run_node(build, argv)
+    run_node(build, argv, shutdown_grace=None)  # closing a bag may take longer: never cut short
     if built:
         recorder = built[0]
         print(recorder.summary(), flush=True)

@@ -54,3 +54,28 @@ def test_publish_all_drops_messages_only_after_a_shutdown(ros) -> None:
     rclpy.shutdown(context=context)
     publish_all(node, {'t': Failing()}, {'t': object()})
     node.destroy_node()
+
+
+def test_a_hung_shutdown_is_ended_by_the_watchdog_with_the_threads_stacks(domain_id: int) -> None:
+    code = ('import sys, threading\n'
+            'from rclpy.node import Node\n'
+            'from grasp_intent_ros.ros import run\n'
+            'class Stuck(Node):\n'
+            '    def __init__(self):\n'
+            '        super().__init__("stuck")\n'
+            '        self.create_timer(0.05, lambda: print("up", flush=True))\n'
+            '    def destroy_node(self):\n'
+            '        threading.Event().wait()  # a shutdown that never finishes\n'
+            'run.run_node(Stuck, [], shutdown_grace=0.5)\n')
+    proc = subprocess.Popen([sys.executable, '-c', code], cwd=REPO, env=node_environment(domain_id),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout is not None and proc.stdout.readline() == 'up\n'  # spinning: now ask it to stop
+        proc.terminate()
+        assert proc.wait(timeout=30) == 0
+    finally:
+        proc.kill()
+        proc.wait()
+    err = proc.stderr.read() if proc.stderr is not None else ''
+    assert 'shutdown not finished 0.5 s after the stop request' in err
+    assert 'in destroy_node' in err  # the stuck thread's stack, from faulthandler
