@@ -16,6 +16,7 @@ Sections (all seeded; ``--n`` random w per model, 500 by default, as issue 7 sta
    SLSQP, finite differences) on the same w, with the ratio.
 
     python benchmarks/bench_planner.py [--n 500] [--seed 0] [--sections 1,2,3,4,5] [--reference-starts 60]
+        [--models cup_7zone,flashlight_7zone]
 
 The optimality section runs 60 SLSQP refinements per w: about 1-2 s per w on a 2-core machine.
 """
@@ -73,9 +74,9 @@ def percentiles(ms: list[float]) -> str:
     return f'median {np.median(ms):7.3f} ms, p99 {np.percentile(ms, 99):7.3f} ms'
 
 
-def optimality(n: int, seed: int, reference_starts: int) -> None:
+def optimality(n: int, seed: int, reference_starts: int, models: tuple[str, ...] = MODELS) -> None:
     print(f'1. optimality: planner vs {reference_starts}-start SLSQP search; within max(1e-9, 1%) counts as met')
-    for name in MODELS:
+    for name in models:
         model = load(name)
         sets = [('random', [v for _, v in random_targets(model, n, seed)])]
         if name in SEVEN:
@@ -167,10 +168,14 @@ def main() -> None:
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--sections', default='1,2,3,4,5', help='comma-separated section numbers')
     parser.add_argument('--reference-starts', type=int, default=60)
+    parser.add_argument('--models', default=','.join(MODELS),
+                        help='comma-separated models for the optimality section (default: all four)')
     args = parser.parse_args()
     sections = {int(s) for s in args.sections.split(',') if s.strip()}
     print(f'bench_planner: n={args.n}, walk={args.walk}, seed={args.seed}')
-    runs = {1: lambda: optimality(args.n, args.seed, args.reference_starts), 2: lambda: stability(args.n, args.seed),
+    models = tuple(m for m in args.models.split(',') if m)
+    runs = {1: lambda: optimality(args.n, args.seed, args.reference_starts, models),
+            2: lambda: stability(args.n, args.seed),
             3: lambda: continuity(args.walk, args.seed), 4: lambda: plausibility(args.n, args.seed),
             5: lambda: speed(args.n, args.seed)}
     for number, run in runs.items():

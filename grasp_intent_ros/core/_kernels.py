@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ['project', 'least_squares', 'feasible', 'score', 'warm_up']
+__all__ = ['project', 'least_squares', 'newton_least_squares', 'feasible', 'score', 'warm_up']
 
 
 @njit(cache=True, nogil=True)
@@ -308,17 +308,20 @@ def score(xs: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.flo
 
 
 @njit(cache=True, nogil=True)
-def _posterior_jacobian(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
-    """P(k|x) (K,) and dP/dx (K, d)."""
-    K, d = means.shape
+def _posterior_scores(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
+    """P(k|x) (K,) and the gradients of log P(k|x), u_k = g_k - sum_j P_j g_j (K, d)."""
     lj, g = _log_joint_score(x, means, prec, log_norm)
     p = np.exp(lj - np.max(lj))
     p /= np.sum(p)
-    g_mean = p @ g
-    jac = np.empty((K, d))
-    for k in range(K):
-        jac[k] = p[k] * (g[k] - g_mean)
-    return p, jac
+    u = g - p @ g
+    return p, u
+
+
+@njit(cache=True, nogil=True)
+def _posterior_jacobian(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
+    """P(k|x) (K,) and dP/dx (K, d)."""
+    p, u = _posterior_scores(x, means, prec, log_norm)
+    return p, p[:, None] * u
 
 
 @njit(cache=True, nogil=True)
@@ -374,6 +377,150 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
     return out, converged, iterations
 
 
+@njit(cache=True, nogil=True)
+def _posterior_hessian(x, means, prec, log_norm, v):  # type: ignore[no-untyped-def]
+    """P(k|x) (K,), dP/dx (K, d) and the Hessian of f = 1/2 |v - P|^2 (d, d)."""
+    K, d = means.shape
+    p, u = _posterior_scores(x, means, prec, log_norm)
+    jac = p[:, None] * u
+    c = p - v
+    h = jac.T @ jac
+    s = np.sum(c * p)
+    for k in range(K):
+        # sum_k c_k d2P_k = sum_k c_k p_k (u_k u_k^T - Lambda_k) + s (Lambda_bar - C),
+        # Lambda_bar = sum_j p_j Lambda_j, C = sum_j p_j u_j u_j^T
+        a = c[k] * p[k] - s * p[k]
+        uk = u[k]
+        for i in range(d):
+            for j in range(d):
+                h[i, j] += a * uk[i] * uk[j] + (s * p[k] - c[k] * p[k]) * prec[k, i, j]
+    return p, jac, h
+
+
+@njit(cache=True, nogil=True)
+def _cholesky_solve(m, b):  # type: ignore[no-untyped-def]
+    """Solve m z = b for a symmetric m by Cholesky; (z, True), or (b, False) when m is not positive definite."""
+    n = b.size
+    low = np.zeros((n, n))
+    for j in range(n):
+        acc = m[j, j]
+        for q in range(j):
+            acc -= low[j, q] * low[j, q]
+        if not acc > 0.0:
+            return b.copy(), False
+        low[j, j] = math.sqrt(acc)
+        for i in range(j + 1, n):
+            acc = m[i, j]
+            for q in range(j):
+                acc -= low[i, q] * low[j, q]
+            low[i, j] = acc / low[j, j]
+    z = b.copy()
+    for i in range(n):
+        for q in range(i):
+            z[i] -= low[i, q] * z[q]
+        z[i] /= low[i, i]
+    for i in range(n - 1, -1, -1):
+        for q in range(i + 1, n):
+            z[i] -= low[q, i] * z[q]
+        z[i] /= low[i, i]
+    return z, True
+
+
+@njit(cache=True, nogil=True)
+def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale, a0, a1,  # type: ignore[no-untyped-def]
+                          kinds, centres, axes, perps, radii, lengths, halfs, margin, maxiter, steptol, ridge_rel):
+    """Projected trust-region Newton on f = 1/2 |v - P(x)|^2 from every start (see planner._refine_lm)."""
+    n, d = starts.shape
+    out, converged, iterations = _results(n, d)
+    sc = scale.copy()
+    sc[a0:a1] = math.sqrt(np.mean(scale[a0:a1] ** 2))
+    for s in range(n):
+        x = _project(starts[s].copy(), lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
+                     halfs, margin)
+        p, jac, hess = _posterior_hessian(x, means, prec, log_norm, v)
+        r = v - p
+        f = 0.5 * np.sum(r * r)
+        lam = -1.0
+        done = False
+        fresh = True
+        for _ in range(maxiter):
+            iterations[s] += 1
+            if fresh:
+                # on the sphere's tangent plane (Lagrangian Hessian: H - (a . grad_a f) I there), then in
+                # scaled coordinates y = x / sc (sc uniform over the approach, so the tangent plane is the same)
+                gx = -(r @ jac)
+                ax = x[a0:a1].copy()
+                tang = np.eye(d)
+                for i in range(a0, a1):
+                    for j in range(a0, a1):
+                        tang[i, j] -= ax[i - a0] * ax[j - a0]
+                radial = np.sum(gx[a0:a1] * ax)
+                h = tang @ hess @ tang
+                for i in range(a0, a1):
+                    for j in range(a0, a1):
+                        h[i, j] -= radial * tang[i, j]
+                grad = (tang @ gx) * sc
+                h = h * np.outer(sc, sc)
+                held = np.zeros(d, dtype=np.bool_)
+                for j in range(d):
+                    if a0 <= j < a1:
+                        continue  # a unit vector never leaves [-1, 1]
+                    held[j] = (x[j] <= lower[j] and grad[j] > 0.0) or (x[j] >= upper[j] and grad[j] < 0.0)
+                    if held[j]:
+                        grad[j] = 0.0
+                        h[j, :] = 0.0
+                        h[:, j] = 0.0
+                top = 0.0
+                for j in range(d):
+                    top = max(top, abs(h[j, j]))
+                ridge = ridge_rel * top + 1e-300
+                if lam < 0.0:
+                    lam = 1e-3 * top
+                fresh = False
+            system = h.copy()
+            for j in range(d):
+                system[j, j] += lam + ridge + (1.0 if held[j] else 0.0)
+            step, pd = _cholesky_solve(system, -grad)
+            if not pd:
+                lam = max(4.0 * lam, 1e-12 * top + 1e-300)
+                continue
+            step[held] = 0.0
+            predicted = -(np.sum(grad * step) + 0.5 * np.sum(step * (h @ step)))
+            x_new = _project(x + step * sc, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
+                             halfs, margin)
+            size = math.sqrt(np.sum(step * step))
+            p_new, jac_new, hess_new = _posterior_hessian(x_new, means, prec, log_norm, v)
+            r_new = v - p_new
+            f_new = 0.5 * np.sum(r_new * r_new)
+            if f_new < f:
+                x, p, jac, hess, r, f = x_new, p_new, jac_new, hess_new, r_new, f_new
+                lam = lam / 3.0
+                fresh = True
+                if size <= steptol or (predicted <= 1e-15 * f and lam <= 1e-4 * top):
+                    done = True
+                    break
+            else:
+                if size <= steptol or not predicted > 1e-16 * f:  # no step lowers f: stationary to machine precision
+                    done = True
+                    break
+                lam = max(4.0 * lam, 1e-12 * top + 1e-300)
+        out[s] = x
+        converged[s] = done
+    return out, converged, iterations
+
+
+def newton_least_squares(starts: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.float64],
+                         prec: NDArray[np.float64], log_norm: NDArray[np.float64], lower: NDArray[np.float64],
+                         upper: NDArray[np.float64], scale: NDArray[np.float64], a0: int, a1: int,
+                         body: tuple[Any, ...], *, maxiter: int, steptol: float,
+                         ridge: float) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
+    """Projected trust-region Newton on v - P(x) from every start (N, d): end points, converged, iterations."""
+    out: tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]] = _newton_least_squares(
+        np.ascontiguousarray(starts, dtype=np.float64), v, means, prec, log_norm, lower, upper, scale, a0, a1,
+        *body, maxiter, steptol, ridge)  # type: ignore[call-arg]
+    return out
+
+
 def least_squares(starts: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.float64],
                   prec: NDArray[np.float64], log_norm: NDArray[np.float64], lower: NDArray[np.float64],
                   upper: NDArray[np.float64], a0: int, a1: int, body: tuple[Any, ...], *, maxiter: int,
@@ -399,6 +546,9 @@ def warm_up() -> None:
                 maxiter=2, stall=12, damping=1e-3, htol=1e-11, steptol=1e-9)
         least_squares(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2),
                       np.zeros(2), -np.ones(d), np.ones(d), 3, 6, body, maxiter=2, ftol=1e-7, ridge=1e-7)
+        newton_least_squares(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)),
+                             np.stack([np.eye(d)] * 2), np.zeros(2), -np.ones(d), np.ones(d), np.ones(d), 3, 6, body,
+                             maxiter=2, steptol=1e-10, ridge=1e-7)
         feasible(np.full((1, d), 0.5), -np.ones(d), np.ones(d), 3, 6, body)
     score(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
           np.zeros(d), np.ones(d))

@@ -27,10 +27,14 @@ not name one grasp. The planner therefore answers a stated problem:
    matches found are chosen from (rule 6).
 5. **Least squares.** When no start reaches an acceptable match (some v_k = 0, or v is outside what
    the model can attain in X), f is minimised from every start and every projection's end point with
-   a projected Levenberg-Marquardt iteration (end points within 1e-8 of a match are projected onto
-   the matches). Least-squares valleys can be nearly flat: there the end point is where the damped
-   iteration stops, a deterministic function of the input that the ridge keeps insensitive to the
-   last bits in all but rare cases (see the benchmark's stability section).
+   a projected Levenberg-Marquardt iteration; the three best end points by f then go on with a
+   projected trust-region Newton iteration on f's exact Hessian (which keeps the curvature that the
+   Levenberg-Marquardt steps leave out: that of a nearly flat valley), and its end point replaces
+   theirs where it converges. End points within 1e-8 of a match are then projected onto the
+   matches (kept where the projection converges). Least-squares valleys can be nearly flat and
+   long: where neither iteration converges, the end point is where the damped iteration stopped, a
+   deterministic function of the input whose last bits can move it along the valley in rare cases
+   (see the benchmark's stability section).
 6. **Choice.** Let f* be the lowest f found. The candidates with f <= f* + max(1e-12, 1e-6 f*) are
    the matches; the planner returns the one nearest to x_ref, and among matches whose distances are
    within 1e-6 of the nearest, the first in start order. Ties are never left to float noise. The
@@ -58,7 +62,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._kernels import feasible, least_squares, project, score
+from ._kernels import feasible, least_squares, newton_least_squares, project, score
 from .errors import PlanningError
 from .features import PALM
 from .intent import reconstruct_w
@@ -98,6 +102,9 @@ _TC_MAXITER = 1500
 _LM_MAXITER = 300
 _LM_RIDGE = 1e-7     # ridge of the least-squares steps, relative to the largest curvature
 _LM_FTOL = 1e-7      # a start has converged when an accepted step improves f by less than this * f + 1e-15
+_NEWTON_POLISH = 3   # least-squares end points (the best by f) refined further with Newton's method
+_NEWTON_MAXITER = 400
+_NEWTON_STEPTOL = 1e-10
 _GN_MAXITER = 60
 _GN_DAMPING = 1e-3   # ridge of the minimum-norm steps, relative to the residual's norm
 _GN_STALL = 12       # iterations in which a start must halve its log-odds residual to go on
@@ -356,6 +363,24 @@ def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.flo
                          ridge=_LM_RIDGE)
 
 
+def _refine_newton(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.float64],
+                   feas: _Feasible) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
+    """Projected trust-region Newton on f with its exact Hessian, every start (shape (N, d); compiled: ``_kernels``).
+
+    The Hessian J^T J + sum_k (P_k - v_k) d2P_k keeps the curvature that the least-squares steps leave
+    out, which is what a nearly flat valley has. Each iteration solves (H + lam I + eps I) dy = -g in
+    scaled coordinates (the approach's three scales replaced by their root mean square, so that the
+    sphere's tangent plane is the same in both), with H the Lagrangian Hessian on the sphere's tangent
+    plane and variables on a bound held as in :func:`_refine_lm`; a step is taken only when it lowers
+    f (lam shrinks), else lam grows (also while H + lam I is not positive definite). A start has
+    converged after a step of less than 1e-10 (scaled), or when the predicted gain is below 1e-15 f
+    with lam negligible, or when no step lowers f any more; one that reaches 400 iterations has not.
+    """
+    return newton_least_squares(starts, v, model.means, model._precisions, model._log_norm, feas.lower,
+                                feas.upper, feas.scale, feas.a.start, feas.a.stop, feas.body,
+                                maxiter=_NEWTON_MAXITER, steptol=_NEWTON_STEPTOL, ridge=_LM_RIDGE)
+
+
 def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.float64], method: Method,
                   gradient: Gradient, extra_constraints: Sequence[Any],
                   feas: _Feasible) -> tuple[NDArray[np.float64], bool, str, int]:
@@ -565,10 +590,17 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
             origins = _unique_rows(np.concatenate([wide, *([np.stack([c.x for c in found])] if found else [])]))
             xs, ok, its = _refine_lm(model, v_arr, origins, feas)
             r = v_arr - model.posterior(xs)
-            near = 0.5 * np.sum(r * r, axis=1) <= _POLISH
-            if near.any() and possible:  # least squares found the matches: project onto them
+            best = _rank_by_f(0.5 * np.sum(r * r, axis=1))[:_NEWTON_POLISH]
+            xs_n, ok_n, its_n = _refine_newton(model, v_arr, xs[best], feas)  # kept where it converges
+            xs[best[ok_n]] = xs_n[ok_n]
+            ok[best] |= ok_n
+            its[best] += its_n
+            r = v_arr - model.posterior(xs)
+            near = np.flatnonzero(0.5 * np.sum(r * r, axis=1) <= _POLISH)
+            if near.size and possible:  # least squares found the matches: project onto them where it converges
                 xs_p, ok_p, its_p = projection.run(xs[near])
-                xs[near], ok[near], its[near] = xs_p, ok_p, its[near] + its_p
+                xs[near[ok_p]] = xs_p[ok_p]
+                its[near] += its_p
             found += candidates_from(xs, origins, ok, its, len(found),
                                      lambda c: 'least squares: converged' if c else 'least squares: iteration limit')
     else:
