@@ -13,7 +13,7 @@ the system tests.
 - :func:`node_environment`: the environment every node process gets: loopback-only discovery
   (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, no ``ROS_STATIC_PEERS``), the run's ``ROS_DOMAIN_ID``,
   unbuffered output, so the log of a SIGKILLed node is complete, and the Fast DDS discovery timing of
-  ``config/fastdds_loopback.xml`` (:data:`FASTDDS_PROFILE`).
+  ``config/fastdds_loopback.xml`` (:data:`FASTDDS_PROFILE`; it also puts user data on UDP 127.0.0.1).
 - :class:`NodeProcess`: stdout and stderr go to files (no pipe can fill up and block a node); it is
   signalled only by its own PID, SIGKILLed after a deadline, and judged clean on exit code 0 with no
   traceback on stderr.
@@ -48,10 +48,12 @@ SUITE_NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
 MAX_DOMAIN_ID = 101
 """Largest ROS domain id usable with LOCALHOST discovery."""
 FASTDDS_PROFILE = 'fastdds_loopback.xml'
-"""Fast DDS profile in the config directory: a participant announces itself every 0.1 s, not 3 s.
+"""Fast DDS profile in the config directory: user data over UDP on 127.0.0.1, announcements every 0.1 s.
 
-So a node restarted after a SIGKILL finds its peers sooner (it learns of a peer from the peer's announcement);
-which interfaces discovery uses still comes from ROS_AUTOMATIC_DISCOVERY_RANGE (the file's comment says more).
+So a node restarted after a SIGKILL serves again sooner: its peers reach it at once (over shared memory they
+kept writing into the killed process's port for up to a few seconds), and it learns of a peer from the peer's
+announcement within 0.1 s, not 3 s. Which interfaces discovery uses still comes from
+ROS_AUTOMATIC_DISCOVERY_RANGE (the file's comment says more).
 """
 
 

@@ -38,8 +38,12 @@ def test_node_environment_is_loopback_only_and_unbuffered() -> None:
         'FASTRTPS_DEFAULT_PROFILES_FILE'] == 'mine.xml', "the user's own profile is kept"
 
 
-def test_fastdds_profile_sets_announcement_timing_only() -> None:
-    """The profile may change discovery timing, never transports, peers or locators (LOCALHOST decides those)."""
+def test_fastdds_profile_sets_timing_and_loopback_data_locators_only() -> None:
+    """The profile changes discovery timing and puts user data on UDP 127.0.0.1; never transports or peers.
+
+    Which interfaces and peers discovery uses stays with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; the one
+    locator the profile sets is the loopback address (the file's comment says why).
+    """
     import xml.etree.ElementTree as ET
     ns = {'p': 'http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles'}
     root = ET.parse(config_dir() / FASTDDS_PROFILE).getroot()
@@ -50,7 +54,11 @@ def test_fastdds_profile_sets_announcement_timing_only() -> None:
     assert discovery is not None
     assert sorted(child.tag.split('}')[1] for child in discovery) == ['initialAnnouncements', 'leaseAnnouncement']
     assert [child.tag.split('}')[1] for child in participants[0].find('p:rtps/p:builtin', ns)] == ['discovery_config']
-    assert [child.tag.split('}')[1] for child in participants[0].find('p:rtps', ns)] == ['builtin']
+    rtps = participants[0].find('p:rtps', ns)
+    assert [child.tag.split('}')[1] for child in rtps] == ['defaultUnicastLocatorList', 'builtin']
+    locators = rtps.findall('p:defaultUnicastLocatorList/p:locator', ns)
+    assert [[(child.tag.split('}')[1], [(a.tag.split('}')[1], a.text) for a in child]) for child in locator]
+            for locator in locators] == [[('udpv4', [('address', '127.0.0.1')])]]
 
 
 def test_clean_exit_and_log_files(tmp_path: Path) -> None:
