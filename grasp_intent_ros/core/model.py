@@ -14,7 +14,7 @@ in log space and is differentiated analytically.
 from __future__ import annotations
 
 import functools
-from collections.abc import Hashable, Sequence
+from collections.abc import Hashable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -149,6 +149,55 @@ def _construct_events(loader: Any) -> Any:  # Any: the stubs type neither libyam
         raise ComposerError('expected a single document in the stream', None, 'but found another document',
                             loader.peek_event().start_mark)
     return value
+
+
+_REPRESENTER = yaml.representer.SafeRepresenter(default_flow_style=False, sort_keys=False)
+_RESOLVER: Any = yaml.resolver.Resolver()  # Any: the stubs leave resolve() untyped
+
+
+def _document_events(data: Any) -> Iterator[yaml.Event]:
+    """The events PyYAML's safe dumper serializes ``data`` to, one at a time.
+
+    ``data``: plain dicts (with scalar keys), lists and scalars.
+
+    ``yaml.dump`` first represents the whole document as a node tree (3 MB of Python objects for a 7-zone
+    model) and then serializes it; these are the same events (block style, keys in order, each scalar
+    represented by ``SafeRepresenter`` and tagged implicitly as the serializer does), without the tree.
+    """
+    yield yaml.StreamStartEvent()
+    yield yaml.DocumentStartEvent(explicit=False)
+    stack: list[Iterator[Any]] = [iter((data,))]
+    while stack:
+        item: Any = next(stack[-1], _NO_KEY)
+        if item is _NO_KEY:  # the end of a collection (or, last, of the document)
+            ended = stack.pop()
+            if stack:
+                yield yaml.MappingEndEvent() if isinstance(ended, _Pairs) else yaml.SequenceEndEvent()
+            continue
+        for value in (item if isinstance(stack[-1], _Pairs) else (item,)):
+            if isinstance(value, dict):
+                yield yaml.MappingStartEvent(None, _MAPPING_TAG, True, flow_style=False)
+                stack.append(_Pairs(value.items()))
+            elif isinstance(value, list):
+                yield yaml.SequenceStartEvent(None, _SEQUENCE_TAG, True, flow_style=False)
+                stack.append(iter(value))
+            else:
+                node: Any = _REPRESENTER.represent_data(value)  # a ScalarNode
+                implicit = (node.tag == _RESOLVER.resolve(yaml.ScalarNode, node.value, (True, False)),
+                            node.tag == _RESOLVER.resolve(yaml.ScalarNode, node.value, (False, True)))
+                yield yaml.ScalarEvent(None, node.tag, implicit, node.value, style=node.style)
+    yield yaml.DocumentEndEvent(explicit=False)
+    yield yaml.StreamEndEvent()
+
+
+class _Pairs(Iterator[tuple[Any, Any]]):
+    """A mapping's items being written (a key and its value each)."""
+
+    def __init__(self, items: Iterable[tuple[Any, Any]]) -> None:
+        self._items = iter(items)
+
+    def __next__(self) -> tuple[Any, Any]:
+        return next(self._items)
 
 
 def parse_document(text: str) -> Any:
@@ -532,12 +581,14 @@ class GraspModel:
     def to_yaml(self) -> str:
         """The model document as YAML text.
 
-        Written by libyaml's emitter (``CSafeDumper``): the same text as PyYAML's pure-Python ``safe_dump``,
-        3-4 times sooner (the model server writes a document at start and at every switch).
+        Written by libyaml's emitter (``CSafeDumper``) from :func:`_document_events`, without a node tree: the
+        same text as PyYAML's pure-Python ``safe_dump``, 3-4 times sooner (the model server writes a document
+        at start and at every switch).
         """
         header = (f'# grasp_intent_ros multi-task grasp model {self.name!r}: one normal per zone\n'
                   f'# (inclusive labeling). Units per feature below; covariances in those units squared.\n')
-        return header + yaml.dump(self.to_document(), Dumper=yaml.CSafeDumper, sort_keys=False, width=120)
+        body: str = yaml.emit(_document_events(self.to_document()), Dumper=yaml.CSafeDumper, width=120)
+        return header + body
 
     @classmethod
     def from_document(cls, doc: Any) -> GraspModel:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import tracemalloc
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -213,6 +214,22 @@ def test_documents_are_written_as_pyyaml_writes_them(toy_model: GraspModel) -> N
         text = model.to_yaml()
         body = yaml.safe_dump(model.to_document(), sort_keys=False, width=120)
         assert text.endswith(body) and text.count('\n') == body.count('\n') + 2, model.name
+
+
+def _traced_peak(call: Callable[[], object]) -> int:
+    tracemalloc.start()
+    try:
+        call()
+        return tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+def test_writing_a_document_holds_little_more_than_the_document() -> None:
+    """No node tree: yaml.dump represented a 7-zone model as 3 MB of Python objects before writing it."""
+    model = GraspModel.load(config_dir() / 'models' / 'cup_7zone.yaml')
+    document = _traced_peak(model.to_document)  # the plain lists and dicts the text is written from
+    assert _traced_peak(model.to_yaml) < 2 * document, document
 
 
 def test_aliases_are_rejected_before_anything_expands(toy_model: GraspModel) -> None:
