@@ -43,7 +43,7 @@ from .ros.diagnostics import NodeDiagnostics
 from .ros.inputs import subscribe_input
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, latched_qos, output_qos
-from .ros.run import publish_all, run_node
+from .ros.run import publish_all, release_free_memory, run_node
 
 __all__ = ['ModelServer', 'PARAMETERS', 'MAX_FEATURES', 'main']
 
@@ -108,6 +108,7 @@ class ModelServer(Node):
         self._diagnostics.set_value('zones', ','.join(model.zone_labels))
         self.get_logger().info(f'active model {name!r} (version {self._version}, '
                                f'zones {",".join(model.zone_labels)})')
+        release_free_memory()  # what the loading and the document's writing freed
 
     def _on_query(self, msg: Float64MultiArray) -> None:
         x = msg_to_array(msg, max_size=MAX_FEATURES, error=InvalidFeaturesError, what='x')

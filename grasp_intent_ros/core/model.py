@@ -14,7 +14,7 @@ in log space and is differentiated analytically.
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
+from collections.abc import Hashable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -22,7 +22,8 @@ from typing import Any
 import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
-from yaml.composer import Composer, ComposerError
+from yaml.composer import ComposerError
+from yaml.constructor import ConstructorError
 
 from .body import ObjectBody
 from .data import Demonstrations
@@ -37,6 +38,7 @@ __all__ = [
     'DEFAULT_RIDGE',
     'FORMAT_VERSION',
     'MAX_DOCUMENT_CHARS',
+    'MAX_DOCUMENT_DEPTH',
     'check_document_size',
     'parse_document',
     'read_document',
@@ -62,6 +64,9 @@ MAX_DOCUMENT_CHARS = 1 << 20
 """Largest model document read (YAML text, any header lines included), in characters: about 9 times the
 shipped 7-zone models (116 kB). Checked on the raw text before any parsing."""
 
+MAX_DOCUMENT_DEPTH = 32
+"""Deepest nesting of sequences and mappings in a document read (a model document nests 4 deep)."""
+
 _LOG_2PI = float(np.log(2.0 * np.pi))
 
 
@@ -78,45 +83,148 @@ def check_document_size(text: str) -> None:
                                f'({len(text)} read)')
 
 
-class _DocumentLoader(Composer, yaml.CSafeLoader):
-    """libyaml's parser (C) under PyYAML's composer and safe constructor; aliases rejected.
+_SEQUENCE_TAG, _MAPPING_TAG = 'tag:yaml.org,2002:seq', 'tag:yaml.org,2002:map'
+_NO_KEY = object()  # a mapping under construction that waits for its next key
 
-    A model document never needs an alias; rejecting them where nodes are composed means a document
-    cannot expand while it is read ("billion laughs"). The composer is PyYAML's Python one, not
-    libyaml's: that one recurses in C without a depth limit (100,000 nested "[" crash the process),
-    this one stops with a RecursionError.
+
+def _construct_events(loader: Any) -> Any:  # Any: the stubs type neither libyaml's marks nor resolve()
+    """The one document of ``loader``'s event stream, built event by event with its safe constructors.
+
+    PyYAML's own loaders compose the whole document into a node tree first (a node, its attributes and
+    two marks per scalar, about 4 MB for a 116 kB model document) and only then construct it: that
+    transient is what a node's first reading of a model left behind as new pymalloc arenas, pinned by
+    the few objects that outlived it. Here each scalar is resolved and constructed as soon as the C
+    parser reports it (with PyYAML's resolver and ``SafeConstructor``, so every scalar reads as
+    ``yaml.safe_load`` reads it); only the document's own lists and dicts are ever held (peak 0.6 MB
+    for that document). Collections are built on an explicit stack, so nesting is bounded
+    (:data:`MAX_DOCUMENT_DEPTH`) without recursion. Raises yaml.YAMLError (aliases, a tag other than a
+    plain sequence, mapping or safe scalar, an unhashable key, several documents), ModelFormatError
+    (nesting too deep).
     """
-
-    def __init__(self, stream: str) -> None:
-        yaml.CSafeLoader.__init__(self, stream)
-        Composer.__init__(self)
-
-    def compose_node(self, parent: yaml.Node | None, index: int) -> yaml.Node | None:
-        if self.check_event(yaml.AliasEvent):
+    loader.get_event()  # StreamStartEvent
+    if loader.check_event(yaml.StreamEndEvent):
+        return None
+    loader.get_event()  # DocumentStartEvent
+    stack: list[tuple[list[Any] | dict[Any, Any], Any]] = []  # open collections, each with its pending key
+    while True:
+        event = loader.get_event()
+        start, end = event.start_mark, event.end_mark  # libyaml's marks, for the messages
+        if isinstance(event, yaml.ScalarEvent):
+            tag = event.tag if event.tag not in (None, '!') else loader.resolve(yaml.ScalarNode, event.value,
+                                                                                  event.implicit)
+            construct = loader.yaml_constructors.get(tag, loader.yaml_constructors[None])  # None: unknown tag
+            value = construct(loader, yaml.ScalarNode(tag, event.value, start, end, style=event.style))
+        elif isinstance(event, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
+            sequence = isinstance(event, yaml.SequenceStartEvent)
+            tag = event.tag if event.tag not in (None, '!') else loader.resolve(
+                yaml.SequenceNode if sequence else yaml.MappingNode, None, event.implicit)
+            if tag != (_SEQUENCE_TAG if sequence else _MAPPING_TAG):
+                raise ConstructorError(None, None, f'the tag {tag!r} is not allowed in a model document',
+                                       start)
+            if len(stack) >= MAX_DOCUMENT_DEPTH:
+                raise ModelFormatError(f'model document is nested too deeply (more than {MAX_DOCUMENT_DEPTH} '
+                                       'levels)')
+            stack.append(([] if sequence else {}, _NO_KEY))
+            continue
+        elif isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
+            value = stack.pop()[0]
+        elif isinstance(event, yaml.AliasEvent):
             raise ComposerError('aliases (*name) are not allowed in a model document')
-        return super().compose_node(parent, index)
+        else:  # the parser reports nothing else inside a document
+            raise ComposerError(f'unexpected {type(event).__name__} in a model document')
+        if not stack:
+            break
+        container, key = stack[-1]
+        if isinstance(container, list):
+            container.append(value)
+        elif key is _NO_KEY:
+            if not isinstance(value, Hashable):
+                raise ConstructorError('while constructing a mapping', None, 'found an unhashable key', start)
+            stack[-1] = (container, value)
+        else:
+            container[key] = value
+            stack[-1] = (container, _NO_KEY)
+    loader.get_event()  # DocumentEndEvent
+    if not loader.check_event(yaml.StreamEndEvent):
+        raise ComposerError('expected a single document in the stream', None, 'but found another document',
+                            loader.peek_event().start_mark)
+    return value
+
+
+_REPRESENTER = yaml.representer.SafeRepresenter(default_flow_style=False, sort_keys=False)
+_RESOLVER: Any = yaml.resolver.Resolver()  # Any: the stubs leave resolve() untyped
+
+
+def _document_events(data: Any) -> Iterator[yaml.Event]:
+    """The events PyYAML's safe dumper serializes ``data`` to, one at a time.
+
+    ``data``: plain dicts (with scalar keys), lists and scalars.
+
+    ``yaml.dump`` first represents the whole document as a node tree (3 MB of Python objects for a 7-zone
+    model) and then serializes it; these are the same events (block style, keys in order, each scalar
+    represented by ``SafeRepresenter`` and tagged implicitly as the serializer does), without the tree.
+    """
+    yield yaml.StreamStartEvent()
+    yield yaml.DocumentStartEvent(explicit=False)
+    stack: list[Iterator[Any]] = [iter((data,))]
+    while stack:
+        item: Any = next(stack[-1], _NO_KEY)
+        if item is _NO_KEY:  # the end of a collection (or, last, of the document)
+            ended = stack.pop()
+            if stack:
+                yield yaml.MappingEndEvent() if isinstance(ended, _Pairs) else yaml.SequenceEndEvent()
+            continue
+        for value in (item if isinstance(stack[-1], _Pairs) else (item,)):
+            if isinstance(value, dict):
+                yield yaml.MappingStartEvent(None, _MAPPING_TAG, True, flow_style=False)
+                stack.append(_Pairs(value.items()))
+            elif isinstance(value, list):
+                yield yaml.SequenceStartEvent(None, _SEQUENCE_TAG, True, flow_style=False)
+                stack.append(iter(value))
+            else:
+                node: Any = _REPRESENTER.represent_data(value)  # a ScalarNode
+                implicit = (node.tag == _RESOLVER.resolve(yaml.ScalarNode, node.value, (True, False)),
+                            node.tag == _RESOLVER.resolve(yaml.ScalarNode, node.value, (False, True)))
+                yield yaml.ScalarEvent(None, node.tag, implicit, node.value, style=node.style)
+    yield yaml.DocumentEndEvent(explicit=False)
+    yield yaml.StreamEndEvent()
+
+
+class _Pairs(Iterator[tuple[Any, Any]]):
+    """A mapping's items being written (a key and its value each)."""
+
+    def __init__(self, items: Iterable[tuple[Any, Any]]) -> None:
+        self._items = iter(items)
+
+    def __next__(self) -> tuple[Any, Any]:
+        return next(self._items)
 
 
 def parse_document(text: str) -> Any:
     """Parse a YAML document of this project (a model, an object body) safely.
 
-    Size-capped (:data:`MAX_DOCUMENT_CHARS`, checked before parsing), no aliases, no unbounded nesting.
+    Size-capped (:data:`MAX_DOCUMENT_CHARS`, checked before parsing), no aliases, nesting at most
+    :data:`MAX_DOCUMENT_DEPTH` collections deep; scalars read as ``yaml.safe_load`` reads them, by
+    libyaml's parser (C) and PyYAML's safe constructor, without a node tree (see :func:`_construct_events`).
 
     Raises
     ------
     ModelFormatError
-        For an oversized text, invalid YAML, an alias, nesting too deep for the parser, or a malformed
-        scalar.
+        For an oversized text, invalid YAML, an alias, a merge key (``<<``), nesting too deep, or a
+        malformed scalar.
     """
     check_document_size(text)
+    loader = yaml.CSafeLoader(text)
     try:
-        return yaml.load(text, Loader=_DocumentLoader)
+        return _construct_events(loader)
+    except ModelFormatError:
+        raise
     except yaml.YAMLError as exc:
         raise ModelFormatError(f'model document is not valid YAML: {exc}') from None
-    except RecursionError:
-        raise ModelFormatError('model document is nested too deeply') from None
     except ValueError as exc:  # e.g. an integer of more than 4300 digits
         raise ModelFormatError(f'model document holds a malformed value: {exc}') from None
+    finally:
+        loader.dispose()
 
 
 def read_document(path: str | Path) -> str:
@@ -473,12 +581,14 @@ class GraspModel:
     def to_yaml(self) -> str:
         """The model document as YAML text.
 
-        Written by libyaml's emitter (``CSafeDumper``): the same text as PyYAML's pure-Python ``safe_dump``,
-        3-4 times sooner (the model server writes a document at start and at every switch).
+        Written by libyaml's emitter (``CSafeDumper``) from :func:`_document_events`, without a node tree: the
+        same text as PyYAML's pure-Python ``safe_dump``, 3-4 times sooner (the model server writes a document
+        at start and at every switch).
         """
         header = (f'# grasp_intent_ros multi-task grasp model {self.name!r}: one normal per zone\n'
                   f'# (inclusive labeling). Units per feature below; covariances in those units squared.\n')
-        return header + yaml.dump(self.to_document(), Dumper=yaml.CSafeDumper, sort_keys=False, width=120)
+        body: str = yaml.emit(_document_events(self.to_document()), Dumper=yaml.CSafeDumper, width=120)
+        return header + body
 
     @classmethod
     def from_document(cls, doc: Any) -> GraspModel:

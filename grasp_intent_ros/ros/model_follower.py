@@ -35,6 +35,7 @@ from ..protocol import MODEL_ACTIVE, ModelDocument, read_model_document
 from .diagnostics import NodeDiagnostics
 from .inputs import subscribe_input
 from .qos import latched_qos
+from .run import release_free_memory
 from .worker import LatestOnlyWorker
 
 __all__ = ['ModelFollower', 'READ_SWITCH_INTERVAL', 'yielding_reader']
@@ -104,6 +105,7 @@ class ModelFollower:
         self._diagnostics.set_value('last model read time [ms]', f'{1e3 * (time.perf_counter() - start):.1f}')
         self._use(doc)
         self.current = doc
+        release_free_memory()  # what the reading freed (see release_free_memory)
 
     def stop(self) -> None:
         """Stop the reading thread (after the document it is reading)."""

@@ -24,6 +24,7 @@ request always ends the node and leaves the evidence in its log.
 
 from __future__ import annotations
 
+import ctypes
 import faulthandler
 import os
 import signal
@@ -42,7 +43,8 @@ from rclpy.publisher import Publisher
 from ..core.errors import GraspIntentError
 from .params import ParameterError
 
-__all__ = ['run_node', 'publish_all', 'STARTUP_ERRORS', 'SHUTDOWN_GRACE', 'ShutdownSafeExecutor']
+__all__ = ['run_node', 'publish_all', 'release_free_memory', 'STARTUP_ERRORS', 'SHUTDOWN_GRACE',
+           'ShutdownSafeExecutor']
 
 STARTUP_ERRORS: tuple[type[Exception], ...] = (ParameterError, ParameterException, GraspIntentError)
 """Errors a node constructor raises for bad configuration: reported in one line, exit code 1."""
@@ -82,6 +84,21 @@ class ShutdownSafeExecutor(SingleThreadedExecutor):
             if self.context.ok():
                 raise
             raise ExternalShutdownException() from None
+
+
+_malloc_trim = getattr(ctypes.CDLL(None), 'malloc_trim', None)  # glibc only
+if _malloc_trim is not None:
+    _malloc_trim.argtypes, _malloc_trim.restype = [ctypes.c_size_t], ctypes.c_int
+
+
+def release_free_memory() -> bool:
+    """Return the pages malloc holds free to the system (glibc's ``malloc_trim(0)``, every arena).
+
+    For after a rare, allocation-heavy step such as a model switch: its numpy temporaries of a few hundred
+    kB come from the heap once glibc's mmap threshold has risen past them, and the pages they leave free
+    stay resident otherwise. False where there is no ``malloc_trim`` (not glibc) or nothing was returned.
+    """
+    return _malloc_trim is not None and bool(_malloc_trim(0))
 
 
 def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None, *,

@@ -10,7 +10,7 @@ import pytest
 import rclpy
 from rclpy.executors import ExternalShutdownException
 
-from grasp_intent_ros.ros.run import ShutdownSafeExecutor, publish_all
+from grasp_intent_ros.ros.run import ShutdownSafeExecutor, publish_all, release_free_memory
 from grasp_intent_ros.tools.suite import node_environment
 
 REPO = Path(__file__).resolve().parents[2]
@@ -79,3 +79,22 @@ def test_a_hung_shutdown_is_ended_by_the_watchdog_with_the_threads_stacks(domain
     err = proc.stderr.read() if proc.stderr is not None else ''
     assert 'shutdown not finished 0.5 s after the stop request' in err
     assert 'in destroy_node' in err  # the stuck thread's stack, from faulthandler
+
+
+def _resident_anonymous_bytes() -> int:
+    for line in Path('/proc/self/status').read_text().splitlines():
+        if line.startswith('RssAnon:'):
+            return int(line.split()[1]) * 1024
+    raise AssertionError('no RssAnon in /proc/self/status')
+
+
+@pytest.mark.skipif(not Path('/proc/self/status').exists(), reason='reads the resident set from /proc')
+def test_release_free_memory_returns_the_pages_malloc_kept() -> None:
+    """Blocks freed between kept ones stay resident in malloc's heap until trimmed."""
+    blocks = [bytes(4000) for _ in range(20_000)]  # 80 MB from malloc (each over pymalloc's 512 bytes)
+    kept = blocks[1::50]  # one in 50 stays: the heap cannot shrink from its top
+    del blocks
+    before = _resident_anonymous_bytes()
+    assert release_free_memory()
+    released = before - _resident_anonymous_bytes()
+    assert len(kept) == 400 and released > 40 << 20, released

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import tracemalloc
+from collections.abc import Callable
+
 import numpy as np
 import pytest
 import yaml
@@ -11,7 +14,14 @@ from grasp_intent_ros.core.data import Demonstrations, load_csv, save_csv
 from grasp_intent_ros.core.errors import DataError, InvalidFeaturesError, ModelError, ModelFormatError
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import DEFAULT_TASKS
-from grasp_intent_ros.core.model import MAX_DOCUMENT_CHARS, GraspModel, structure_zones
+from grasp_intent_ros.core.model import (
+    MAX_DOCUMENT_CHARS,
+    MAX_DOCUMENT_DEPTH,
+    ZONE_STRUCTURES,
+    GraspModel,
+    parse_document,
+    structure_zones,
+)
 from grasp_intent_ros.core.resources import config_dir
 
 from .conftest import synthetic_demos
@@ -145,12 +155,81 @@ def test_shipped_models_read_as_pyyaml_reads_them() -> None:
         assert GraspModel.load(path).to_yaml() == reference.to_yaml(), path.name
 
 
+SCALARS = ('- 1\n- -2.5e-3\n- .inf\n- .nan\n- null\n- ~\n- true\n- No\n- 0x1F\n- 0o17\n- 1_000\n- 2001-12-14\n'
+           '- !!binary aGVsbG8=\n- "quoted: x"\n- !!str 3\n- !!float 1\n- \'<<\'\n- plain text\n- ""\n- []\n- {}')
+
+
+@pytest.mark.parametrize('text', [SCALARS, '', '# only a comment\n', '---\n...\n', 'a', '{a: 1, b: [1, {c: d}], 3: x, '
+                                  'null: y, 1.5: z}', 'a: 1\na: 2', '!!map {a: 1}', '! x'])
+def test_documents_read_as_pyyaml_safe_load_reads_them(text: str) -> None:
+    assert repr(parse_document(text)) == repr(yaml.safe_load(text))  # repr: nan != nan
+
+
+def test_shipped_model_documents_read_as_pyyaml_safe_load_reads_them() -> None:
+    for path in sorted((config_dir() / 'models').glob('*.yaml')):
+        text = path.read_text()
+        assert parse_document(text) == yaml.safe_load(text), path.name
+
+
+@pytest.mark.parametrize(('text', 'reason'), [
+    ('<<: {a: 1}\nb: 2', 'could not determine a constructor'),  # merge keys: safe_load merges them
+    ('a: !!set {x, y}', "tag 'tag:yaml.org,2002:set' is not allowed"),
+    ('a: !!omap [{x: 1}]', "tag 'tag:yaml.org,2002:omap' is not allowed"),
+    ('a: !!python/object:os.system x', 'could not determine a constructor'),
+    ('? [1, 2]\n: x', 'unhashable key'),
+    ('--- 1\n--- 2', 'expected a single document'),
+    ('a: [1', 'while parsing a flow sequence'),
+])
+def test_documents_beyond_plain_data_are_rejected(text: str, reason: str) -> None:
+    with pytest.raises(ModelFormatError, match=reason):
+        parse_document(text)
+
+
+def test_nesting_is_bounded() -> None:
+    assert parse_document('[' * MAX_DOCUMENT_DEPTH + ']' * MAX_DOCUMENT_DEPTH) is not None
+    with pytest.raises(ModelFormatError, match=f'nested too deeply \\(more than {MAX_DOCUMENT_DEPTH} levels'):
+        parse_document('[' * (MAX_DOCUMENT_DEPTH + 1) + ']' * (MAX_DOCUMENT_DEPTH + 1))
+
+
+def test_reading_a_document_holds_little_more_than_the_document() -> None:
+    """No node tree: the peak is the document's own lists and dicts.
+
+    PyYAML's composer held about 4 MB of Python objects for a 7-zone model, which a node's first reading
+    of a model left behind as pymalloc arenas (RSS steps in the soak).
+    """
+    text = (config_dir() / 'models' / 'cup_7zone.yaml').read_text()
+    tracemalloc.start()
+    try:
+        doc = parse_document(text)
+        kept, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert doc['zones'] == list(ZONE_STRUCTURES['7zone'])
+    assert peak < 1.5 * kept and peak < (1 << 20), (kept, peak)
+
+
 def test_documents_are_written_as_pyyaml_writes_them(toy_model: GraspModel) -> None:
     """The libyaml emitter gives PyYAML's text, so a document (and its hash) does not depend on the writer."""
     for model in (toy_model, GraspModel.load(config_dir() / 'models' / 'cup_7zone.yaml')):  # the latter: a body
         text = model.to_yaml()
         body = yaml.safe_dump(model.to_document(), sort_keys=False, width=120)
         assert text.endswith(body) and text.count('\n') == body.count('\n') + 2, model.name
+
+
+def _traced_peak(call: Callable[[], object]) -> int:
+    tracemalloc.start()
+    try:
+        call()
+        return tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+def test_writing_a_document_holds_little_more_than_the_document() -> None:
+    """No node tree: yaml.dump represented a 7-zone model as 3 MB of Python objects before writing it."""
+    model = GraspModel.load(config_dir() / 'models' / 'cup_7zone.yaml')
+    document = _traced_peak(model.to_document)  # the plain lists and dicts the text is written from
+    assert _traced_peak(model.to_yaml) < 2 * document, document
 
 
 def test_aliases_are_rejected_before_anything_expands(toy_model: GraspModel) -> None:

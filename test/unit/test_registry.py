@@ -9,7 +9,7 @@ import pytest
 
 from grasp_intent_ros.core.errors import ModelError, ModelFormatError
 from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.core.registry import ModelFiles
+from grasp_intent_ros.core.registry import CACHED_MODELS, ModelFiles
 
 
 def test_models_are_listed_loaded_and_reloaded_when_changed(tmp_path: Path, toy_model: GraspModel) -> None:
@@ -36,3 +36,15 @@ def test_unknown_malformed_and_missing(tmp_path: Path, toy_model: GraspModel) ->
     with pytest.raises(ModelError, match='is not a directory'):
         ModelFiles.at(str(tmp_path / 'nowhere'))
     assert ModelFiles.at('').directory.name == 'models'  # the package's config/models
+
+
+def test_only_the_most_recently_used_models_stay_loaded(tmp_path: Path, toy_model: GraspModel) -> None:
+    names = [f'toy{i}' for i in range(CACHED_MODELS + 1)]
+    for name in names:
+        toy_model.save(tmp_path / f'{name}.yaml')
+    files = ModelFiles(tmp_path)
+    first = {name: files.load(name) for name in names}  # names[0] is dropped by the last load
+    assert all(files.load(name) is first[name] for name in names[1:]), 'the recent ones are kept'
+    assert files.load(names[0]) is not first[names[0]], 'the least recently used one is read again'
+    assert files.load(names[-1]) is first[names[-1]]
+    assert files.load(names[1]) is not first[names[1]], 'names[1] was the least recently used one'
