@@ -15,11 +15,15 @@ on the shut-down context) also exits 0; one that arrives before ``rclpy.init`` (
 Python's default handling. A configuration error found while the node is built (a parameter rejected by
 its descriptor or validator, a missing model) is logged and ends the process with exit code 1.
 
-A node's shutdown (executor, node and context, after the spin has ended) that has not finished
-:data:`SHUTDOWN_GRACE` seconds later (a rare hang, seen under load and once in a full test run, cause not
-yet found) is ended by a watchdog: it logs an
-ERROR, writes every thread's stack to stderr (``faulthandler``) and exits with code 0, so that a stop
-request always ends the node and leaves the evidence in its log.
+A stop request that has not ended the process :data:`SHUTDOWN_GRACE` seconds later is ended by a
+watchdog: it logs an ERROR, writes every thread's stack to stderr (``faulthandler``) and exits with code
+0, so that a stop request always ends the node and leaves the evidence in its log. This covers a hung
+shutdown (executor, node and context, after the spin has ended) and a spin that a signal did not end (a
+rare hang, seen under load, and at the end of a system test in 2 of the last 3 fresh-clone test runs, with
+the model server's spin not ended and no output at all: cause not yet found). The stop request is seen by
+a daemon thread that polls the context every 50 ms (rclpy's signal handling shuts the context down from
+C, without Python's shutdown callbacks). Two seconds later still, ``faulthandler``'s own timer (a C
+thread, which needs no GIL) writes the stacks and exits with code 1, for a hang that holds the GIL.
 """
 
 from __future__ import annotations
@@ -50,11 +54,26 @@ STARTUP_ERRORS: tuple[type[Exception], ...] = (ParameterError, ParameterExceptio
 """Errors a node constructor raises for bad configuration: reported in one line, exit code 1."""
 
 SHUTDOWN_GRACE = 5.0
-"""Seconds a node's shutdown may take after its spin has ended before the watchdog ends the process."""
+"""Seconds a stop request may take to end a node before the watchdog ends the process."""
+
+_STOP_POLL = 0.05
+"""Seconds between two looks at the context by the watchdog's thread."""
+
+
+def _watch_for_stop(context: Any, grace: float, spin_ended: threading.Event) -> None:
+    """Arm the watchdog when ``context`` is shut down or the spin has ended (daemon thread)."""
+    def watch() -> None:
+        while context.ok() and not spin_ended.wait(_STOP_POLL):
+            pass
+        _arm_shutdown_watchdog(grace)
+
+    threading.Thread(target=watch, name='stop watchdog', daemon=True).start()
 
 
 def _arm_shutdown_watchdog(grace: float) -> None:
-    """End the process ``grace`` s from now unless it has exited (daemon timer thread)."""
+    """End the process ``grace`` s from now unless it has exited (daemon timer thread; a C timer 2 s later)."""
+    faulthandler.dump_traceback_later(grace + 2.0, exit=True, file=sys.stderr)
+
     def expire() -> None:
         rclpy.logging.get_logger('grasp_intent_ros').error(
             f'shutdown not finished {grace:g} s after the stop request: exiting now; the threads follow')
@@ -117,8 +136,8 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
         Builds the executor, e.g. ``rclpy.executors.MultiThreadedExecutor`` for a node whose
         callbacks must run concurrently; default a :class:`ShutdownSafeExecutor`.
     shutdown_grace : float or None
-        Seconds the shutdown may take before the watchdog ends the process (module docstring); None: no
-        watchdog (e.g. a recorder, whose closing writes must not be cut short).
+        Seconds a stop request may take to end the process before the watchdog ends it (module
+        docstring); None: no watchdog (e.g. a recorder, whose closing writes must not be cut short).
 
     Raises
     ------
@@ -130,6 +149,9 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
     rclpy.init(args=None if args is None else list(args))
     node: Node | None = None
     executor: Executor | None = None
+    spin_ended = threading.Event()
+    if shutdown_grace is not None:
+        _watch_for_stop(rclpy.get_default_context(), shutdown_grace, spin_ended)
     try:
         executor = ShutdownSafeExecutor() if executor_factory is None else executor_factory()
         try:
@@ -148,8 +170,7 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        if shutdown_grace is not None:
-            _arm_shutdown_watchdog(shutdown_grace)
+        spin_ended.set()
         if executor is not None:
             executor.shutdown()
         if node is not None:

@@ -56,16 +56,16 @@ def test_publish_all_drops_messages_only_after_a_shutdown(ros) -> None:
     node.destroy_node()
 
 
-def test_a_hung_shutdown_is_ended_by_the_watchdog_with_the_threads_stacks(domain_id: int) -> None:
+def _stopped_by_the_watchdog(domain_id: int, node_body: str) -> str:
+    """Run a node (``node_body``: its class body after the timer) with a 0.5 s grace, SIGTERM it; its stderr."""
     code = ('import sys, threading\n'
             'from rclpy.node import Node\n'
             'from grasp_intent_ros.ros import run\n'
             'class Stuck(Node):\n'
             '    def __init__(self):\n'
             '        super().__init__("stuck")\n'
-            '        self.create_timer(0.05, lambda: print("up", flush=True))\n'
-            '    def destroy_node(self):\n'
-            '        threading.Event().wait()  # a shutdown that never finishes\n'
+            '        self.create_timer(0.05, self.tick)\n'
+            f'{node_body}'
             'run.run_node(Stuck, [], shutdown_grace=0.5)\n')
     proc = subprocess.Popen([sys.executable, '-c', code], cwd=REPO, env=node_environment(domain_id),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -78,7 +78,22 @@ def test_a_hung_shutdown_is_ended_by_the_watchdog_with_the_threads_stacks(domain
         proc.wait()
     err = proc.stderr.read() if proc.stderr is not None else ''
     assert 'shutdown not finished 0.5 s after the stop request' in err
+    return err
+
+
+def test_a_hung_shutdown_is_ended_by_the_watchdog_with_the_threads_stacks(domain_id: int) -> None:
+    err = _stopped_by_the_watchdog(domain_id, '    def tick(self):\n'
+                                              '        print("up", flush=True)\n'
+                                              '    def destroy_node(self):\n'
+                                              '        threading.Event().wait()  # a shutdown that never finishes\n')
     assert 'in destroy_node' in err  # the stuck thread's stack, from faulthandler
+
+
+def test_a_spin_the_signal_does_not_end_is_ended_by_the_watchdog(domain_id: int) -> None:
+    err = _stopped_by_the_watchdog(domain_id, '    def tick(self):\n'
+                                              '        print("up", flush=True)\n'
+                                              '        threading.Event().wait()  # a callback that never returns\n')
+    assert 'in tick' in err
 
 
 def _resident_anonymous_bytes() -> int:
