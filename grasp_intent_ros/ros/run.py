@@ -24,6 +24,7 @@ the model server's spin not ended and no output at all: cause not yet found). Th
 a daemon thread that polls the context every 50 ms (rclpy's signal handling shuts the context down from
 C, without Python's shutdown callbacks). Two seconds later still, ``faulthandler``'s own timer (a C
 thread, which needs no GIL) writes the stacks and exits with code 1, for a hang that holds the GIL.
+Once run_node has returned (the shutdown finished), both are disarmed and the process is left alone.
 """
 
 from __future__ import annotations
@@ -60,30 +61,49 @@ _STOP_POLL = 0.05
 """Seconds between two looks at the context by the watchdog's thread."""
 
 
-def _watch_for_stop(context: Any, grace: float, spin_ended: threading.Event) -> None:
-    """Arm the watchdog when ``context`` is shut down or the spin has ended (daemon thread)."""
-    def watch() -> None:
-        while context.ok() and not spin_ended.wait(_STOP_POLL):
+class _StopWatchdog:
+    """Ends the process ``grace`` s after a stop request unless the shutdown has finished (module docstring).
+
+    A daemon thread waits until ``context`` is shut down or the spin has ended (:meth:`spin_ended`), then
+    arms a timer (ERROR, every thread's stack, exit code 0) and faulthandler's C timer 2 s later (stacks,
+    exit code 1). :meth:`finished` disarms both: once run_node's shutdown is done the process is left alone.
+    """
+
+    def __init__(self, context: Any, grace: float) -> None:
+        self._grace = grace
+        self._spin_ended = threading.Event()
+        self._lock = threading.Lock()
+        self._finished = False
+        self._timer: threading.Timer | None = None
+        threading.Thread(target=self._watch, args=(context,), name='stop watchdog', daemon=True).start()
+
+    def spin_ended(self) -> None:
+        self._spin_ended.set()
+
+    def finished(self) -> None:
+        with self._lock:
+            self._finished = True
+            if self._timer is not None:
+                self._timer.cancel()
+                faulthandler.cancel_dump_traceback_later()
+
+    def _watch(self, context: Any) -> None:
+        while context.ok() and not self._spin_ended.wait(_STOP_POLL):
             pass
-        _arm_shutdown_watchdog(grace)
+        with self._lock:
+            if self._finished:
+                return
+            faulthandler.dump_traceback_later(self._grace + 2.0, exit=True, file=sys.stderr)
+            self._timer = threading.Timer(self._grace, self._expire)
+            self._timer.daemon = True
+            self._timer.start()
 
-    threading.Thread(target=watch, name='stop watchdog', daemon=True).start()
-
-
-def _arm_shutdown_watchdog(grace: float) -> None:
-    """End the process ``grace`` s from now unless it has exited (daemon timer thread; a C timer 2 s later)."""
-    faulthandler.dump_traceback_later(grace + 2.0, exit=True, file=sys.stderr)
-
-    def expire() -> None:
+    def _expire(self) -> None:
         rclpy.logging.get_logger('grasp_intent_ros').error(
-            f'shutdown not finished {grace:g} s after the stop request: exiting now; the threads follow')
+            f'shutdown not finished {self._grace:g} s after the stop request: exiting now; the threads follow')
         faulthandler.dump_traceback(file=sys.stderr, all_threads=True)
         sys.stderr.flush()
         os._exit(0)
-
-    timer = threading.Timer(grace, expire)
-    timer.daemon = True
-    timer.start()
 
 
 class ShutdownSafeExecutor(SingleThreadedExecutor):
@@ -149,9 +169,7 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
     rclpy.init(args=None if args is None else list(args))
     node: Node | None = None
     executor: Executor | None = None
-    spin_ended = threading.Event()
-    if shutdown_grace is not None:
-        _watch_for_stop(rclpy.get_default_context(), shutdown_grace, spin_ended)
+    watchdog = None if shutdown_grace is None else _StopWatchdog(rclpy.get_default_context(), shutdown_grace)
     try:
         executor = ShutdownSafeExecutor() if executor_factory is None else executor_factory()
         try:
@@ -170,12 +188,15 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        spin_ended.set()
+        if watchdog is not None:
+            watchdog.spin_ended()
         if executor is not None:
             executor.shutdown()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+        if watchdog is not None:
+            watchdog.finished()
 
 
 def publish_all(node: Node, publishers: Mapping[str, Publisher], messages: Mapping[str, Any]) -> None:

@@ -16,14 +16,19 @@ from grasp_intent_ros.tools.suite import node_environment
 REPO = Path(__file__).resolve().parents[2]
 
 
+def _run_script(domain_id: int, code: str) -> subprocess.CompletedProcess[str]:
+    """``python -c code`` in the repository on the test's loopback domain, to its end (60 s at most)."""
+    return subprocess.run([sys.executable, '-c', code], cwd=REPO, env=node_environment(domain_id),
+                          capture_output=True, text=True, timeout=60)
+
+
 def test_a_configuration_error_exits_1_with_one_line(domain_id: int) -> None:
     code = ('from grasp_intent_ros.ros.params import ParameterError\n'
             'from grasp_intent_ros.ros.run import run_node\n'
             'def build():\n'
             '    raise ParameterError("model: unknown model \'mug\'")\n'
             'run_node(build, [])\n')
-    result = subprocess.run([sys.executable, '-c', code], cwd=REPO, env=node_environment(domain_id),
-                            capture_output=True, text=True, timeout=60)
+    result = _run_script(domain_id, code)
     assert result.returncode == 1, result.stderr
     assert "cannot start: model: unknown model 'mug'" in result.stderr and 'Traceback' not in result.stderr
 
@@ -94,6 +99,24 @@ def test_a_spin_the_signal_does_not_end_is_ended_by_the_watchdog(domain_id: int)
                                               '        print("up", flush=True)\n'
                                               '        threading.Event().wait()  # a callback that never returns\n')
     assert 'in tick' in err
+
+
+def test_the_watchdog_leaves_a_process_alone_once_the_shutdown_has_finished(domain_id: int) -> None:
+    """run_node has returned: the process goes on past the grace (and faulthandler's later timer)."""
+    code = ('import time\n'
+            'import rclpy\n'
+            'from rclpy.node import Node\n'
+            'from grasp_intent_ros.ros import run\n'
+            'class Done(Node):\n'
+            '    def __init__(self):\n'
+            '        super().__init__("done")\n'
+            '        self.create_timer(0.05, rclpy.shutdown)\n'
+            'run.run_node(Done, [], shutdown_grace=0.2)\n'
+            'time.sleep(3.0)  # beyond the grace and the C timer 2 s after it\n'
+            'print("still here", flush=True)\n')
+    proc = _run_script(domain_id, code)
+    assert proc.returncode == 0 and proc.stdout == 'still here\n', proc.stderr
+    assert 'shutdown not finished' not in proc.stderr
 
 
 def _resident_anonymous_bytes() -> int:
