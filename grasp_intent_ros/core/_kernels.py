@@ -1,4 +1,6 @@
-"""Compiled inner loops of the planner (numba): the log-odds projection, the least squares, the feasible set.
+"""Compiled inner loops (numba): the planner's log-odds projection, least squares and feasible set; the IK.
+
+The IK is :meth:`grasp_intent_ros.core.kinematics.MicoKinematics.ik`'s descent (:func:`ik_descent`).
 
 The solvers run one start at a time. The algorithms are stated in
 :class:`grasp_intent_ros.core.planner._LogOddsProjection` and :func:`grasp_intent_ros.core.planner._refine_lm`;
@@ -21,7 +23,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ['project', 'least_squares', 'newton_least_squares', 'feasible', 'score', 'warm_up']
+__all__ = ['project', 'least_squares', 'newton_least_squares', 'feasible', 'score', 'ik_descent', 'warm_up']
 
 
 @njit(cache=True, nogil=True)
@@ -532,6 +534,198 @@ def least_squares(starts: NDArray[np.float64], v: NDArray[np.float64], means: ND
     return out
 
 
+# -- inverse kinematics of a serial chain of revolute joints (MicoKinematics.ik) ---------------------------
+
+
+@njit(cache=True, nogil=True)
+def _rotate(R, v):  # type: ignore[no-untyped-def]
+    """R v for a 3x3 R (written out: a BLAS call costs more than the arithmetic at this size)."""
+    out = np.empty(3)
+    for i in range(3):
+        out[i] = R[i, 0] * v[0] + R[i, 1] * v[1] + R[i, 2] * v[2]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _rotate_back(R, v):  # type: ignore[no-untyped-def]
+    """R^T v for a 3x3 R."""
+    out = np.empty(3)
+    for i in range(3):
+        out[i] = R[0, i] * v[0] + R[1, i] * v[1] + R[2, i] * v[2]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _compose(A, B):  # type: ignore[no-untyped-def]
+    """A B for 3x3 matrices."""
+    out = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _cross(a, b):  # type: ignore[no-untyped-def]
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+@njit(cache=True, nogil=True)
+def _axis_rotation(axis, angle):  # type: ignore[no-untyped-def]
+    """Rodrigues: the rotation by ``angle`` about the unit ``axis``."""
+    s, c = math.sin(angle), math.cos(angle)
+    x, y, z = axis[0], axis[1], axis[2]
+    t = 1.0 - c
+    return np.array([[c + t * x * x, t * x * y - s * z, t * x * z + s * y],
+                     [t * x * y + s * z, c + t * y * y, t * y * z - s * x],
+                     [t * x * z - s * y, t * y * z + s * x, c + t * z * z]])
+
+
+@njit(cache=True, nogil=True)
+def _chain_fk(q, rots, trans, axes, tip_rot, tip_trans, origins, zs):  # type: ignore[no-untyped-def]
+    """World pose (R, p) of the tip; fills each joint's world origin and axis into ``origins``, ``zs``.
+
+    Joint i sits at placement (rots[i], trans[i]) in joint i - 1's frame (the world for i = 0) and turns
+    by q[i] about ``axes[i]`` (its own frame); the tip sits at (tip_rot, tip_trans) in the last joint's frame.
+    """
+    R = np.eye(3)
+    p = np.zeros(3)
+    for i in range(q.size):
+        p = p + _rotate(R, trans[i])
+        R = _compose(R, rots[i])
+        origins[i] = p
+        zs[i] = _rotate(R, axes[i])
+        R = _compose(R, _axis_rotation(axes[i], q[i]))
+    return _compose(R, tip_rot), p + _rotate(R, tip_trans)
+
+
+@njit(cache=True, nogil=True)
+def _log3(E):  # type: ignore[no-untyped-def]
+    """Rotation vector phi of a rotation matrix E (exp([phi]x) = E, |phi| <= pi), accurate near 0 and pi."""
+    w = 0.5 * np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])  # sin(theta) n
+    s = math.sqrt(np.sum(w * w))
+    c = 0.5 * (E[0, 0] + E[1, 1] + E[2, 2] - 1.0)
+    theta = math.atan2(s, c)
+    if theta < 1e-8:
+        return w
+    if math.pi - theta > 1e-3:
+        return w * (theta / s)
+    # near pi: the axis from the symmetric part, n n^T = (sym(E) - c I) / (1 - c); its sign from w
+    k = 0
+    for i in range(1, 3):
+        if E[i, i] > E[k, k]:
+            k = i
+    n = np.empty(3)
+    for i in range(3):
+        n[i] = 0.5 * (E[i, k] + E[k, i]) - (c if i == k else 0.0)
+    n /= math.sqrt(np.sum(n * n))
+    if np.sum(n * w) < 0.0:
+        n = -n
+    return theta * n
+
+
+@njit(cache=True, nogil=True)
+def _ik_residual(q, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, origins, zs):  # type: ignore[no-untyped-def]
+    """Error e = (R^T (p_t - p), log3(R^T R_t)) of the tip pose (R, p) against the target, in the tip frame."""
+    R, p = _chain_fk(q, rots, trans, axes, tip_rot, tip_trans, origins, zs)
+    e = np.empty(6)
+    e[:3] = _rotate_back(R, p_t - p)
+    Rt = R.T.copy()
+    e[3:] = _log3(_compose(Rt, R_t))
+    return e, R, p
+
+
+@njit(cache=True, nogil=True)
+def _ik_jacobian(e, R, p, origins, zs):  # type: ignore[no-untyped-def]
+    """de/dq, with joint i's twist in the tip frame (v_i, w_i): -(w_i x e_p) - v_i and -Jl^-1(phi) w_i.
+
+    A turn dq of joint i moves the tip by R (v_i, w_i) dq, so R^T changes by -[w_i]x R^T dq: e_p by
+    -(w_i x e_p + v_i) dq and R^T R_t by exp(-[w_i]x dq) from the left, i.e. phi by -Jl^-1(phi) w_i dq with
+    Jl^-1(phi) = I - [phi]x / 2 + (1 / theta^2 - cot(theta / 2) / (2 theta)) [phi]x^2, the inverse left
+    Jacobian of SO(3).
+    """
+    n = zs.shape[0]
+    phi = e[3:]
+    theta = math.sqrt(np.sum(phi * phi))
+    if theta < 1e-4:
+        c2 = 1.0 / 12.0 + theta * theta / 720.0
+    else:
+        c2 = 1.0 / (theta * theta) - math.cos(0.5 * theta) / (2.0 * theta * math.sin(0.5 * theta))
+    J = np.empty((6, n))
+    for i in range(n):
+        w = _rotate_back(R, zs[i])
+        v = _rotate_back(R, _cross(zs[i], p - origins[i]))
+        J[:3, i] = -_cross(w, e[:3]) - v
+        pw = _cross(phi, w)
+        J[3:, i] = -(w - 0.5 * pw + c2 * _cross(phi, pw))
+    return J
+
+
+_IK_SOLVED = 1e-10
+"""Position (m) and rotation (rad) errors below which an IK descent has reached its solution."""
+
+
+@njit(cache=True, nogil=True)
+def _ik_descent(q, lower, upper, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, max_iter):  # type: ignore[no-untyped-def]
+    """One Levenberg-Marquardt descent of the tip onto the target pose (R_t, p_t) from q, within the limits.
+
+    Minimises |e(q)|^2 (:func:`_ik_residual`): each iteration solves (J^T J + lam I) s = -J^T e, shortens s
+    to a largest joint step of 0.5 rad, clips q + s to the limits and takes it when |e|^2 falls (lam / 5,
+    at least 1e-9), else lam * 10. It stops at the solution (both errors below 1e-10 m and 1e-10 rad, so
+    that the answer is the solution this path reaches, not wherever the errors first fell within the
+    caller's tolerances: about one more iteration, the convergence being quadratic there), after
+    ``max_iter`` iterations, or when lam passes 1e6 (no descent left: a local minimum, a joint limit, or
+    errors at rounding level). Returns (q, position error |e_p| (m), rotation error |phi| (rad), iterations).
+    """
+    n = q.size
+    origins = np.empty((n, 3))
+    zs = np.empty((n, 3))
+    e, R, p = _ik_residual(q, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, origins, zs)
+    cost = np.sum(e * e)
+    J = _ik_jacobian(e, R, p, origins, zs)
+    damping = 1e-3
+    iterations = 0
+    while True:
+        pos_err = math.sqrt(np.sum(e[:3] * e[:3]))
+        rot_err = math.sqrt(np.sum(e[3:] * e[3:]))
+        if (pos_err <= _IK_SOLVED and rot_err <= _IK_SOLVED) or iterations >= max_iter:
+            return q, pos_err, rot_err, iterations
+        iterations += 1
+        system = np.empty((n, n))
+        grad = np.zeros(n)
+        for i in range(n):
+            for j in range(n):
+                system[i, j] = np.sum(J[:, i] * J[:, j])
+            system[i, i] += damping
+            grad[i] = np.sum(J[:, i] * e)
+        step, _ = _cholesky_solve(system, -grad)
+        longest = np.max(np.abs(step))
+        if longest > 0.5:
+            step *= 0.5 / longest
+        q_try = np.minimum(np.maximum(q + step, lower), upper)
+        o_try = np.empty((n, 3))
+        z_try = np.empty((n, 3))
+        e_try, R_try, p_try = _ik_residual(q_try, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, o_try, z_try)
+        cost_try = np.sum(e_try * e_try)
+        if cost_try < cost:
+            q, e, cost = q_try, e_try, cost_try
+            J = _ik_jacobian(e, R_try, p_try, o_try, z_try)
+            damping = max(damping * 0.2, 1e-9)
+        else:
+            damping *= 10.0
+            if damping > 1e6:
+                return q, pos_err, rot_err, iterations
+
+
+def ik_descent(q: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray[np.float64],
+               chain: tuple[NDArray[np.float64], ...], R_t: NDArray[np.float64], p_t: NDArray[np.float64],
+               max_iter: int) -> tuple[NDArray[np.float64], float, float, int]:
+    """:func:`_ik_descent` on ``chain`` = (rots, trans, axes, tip_rot, tip_trans) (:func:`_chain_fk`)."""
+    out: tuple[NDArray[np.float64], float, float, int] = _ik_descent(
+        np.ascontiguousarray(q, dtype=np.float64), lower, upper, *chain, R_t, p_t, max_iter)  # type: ignore[call-arg]
+    return out
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) every kernel on a tiny problem with the planner's argument types.
 
@@ -552,6 +746,10 @@ def warm_up() -> None:
         feasible(np.full((1, d), 0.5), -np.ones(d), np.ones(d), 3, 6, body)
     score(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
           np.zeros(d), np.ones(d))
+    eye = np.eye(3)
+    ik_descent(np.zeros(2), -np.ones(2), np.ones(2), (np.stack([eye, eye]), np.zeros((2, 3)),
+               np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]]), eye, np.array([1.0, 0.0, 0.0])), eye,
+               np.array([0.0, 1.0, 0.0]), 2)
 
 
 if __name__ == '__main__':

@@ -54,6 +54,7 @@ import numpy as np
 import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
 from numpy.typing import ArrayLike, NDArray
 
+from ._kernels import ik_descent
 from .errors import KinematicsError
 from .frames import check_transform, check_vector, features_to_obj_T_ee
 from .resources import config_dir
@@ -97,6 +98,9 @@ target beyond it at once instead of spending its restarts."""
 JOINT_LIMIT_MARGIN = 0.1
 """How far (rad) a joint reading may lie outside the joint limits (sensor noise, a controller's overshoot)
 and still be used as an IK seed: :meth:`MicoKinematics.check_limits`."""
+
+IK_POS_TOL, IK_ROT_TOL, IK_MAX_ITER = 1e-4, 1e-3, 100
+"""IK's default success tolerances (m, rad) and iterations per attempt (:meth:`MicoKinematics.ik`)."""
 
 _WIDE_JOINTS = np.array([True, False, False, True, True, True])
 """Joints without end stops on the robot (1, 4, 5, 6): IK answers are wrapped by 2 pi towards the seed."""
@@ -146,6 +150,39 @@ class IkResult:
     iterations: int
     attempts: int
     message: str
+
+
+def _chain_arrays(model: Any, tip_frame: int) -> tuple[NDArray[np.float64], ...]:
+    """The serial chain of 1-dof revolute joints of a Pinocchio model, as the compiled IK takes it.
+
+    Returns each joint's placement in its parent's frame (rotations (n, 3, 3), translations (n, 3)), its
+    axis in its own frame (n, 3; read from the joint's motion subspace, which must be a pure rotation),
+    and the tip frame's placement in the last joint's frame (3, 3) and (3,).
+
+    Raises
+    ------
+    KinematicsError
+        If a joint is not revolute or the joints do not form one chain from the world to the tip.
+    """
+    n = model.njoints - 1
+    data = model.createData()
+    q0 = pin.neutral(model)
+    pin.computeJointJacobians(model, data, q0)
+    axes = np.empty((n, 3))
+    for jid in range(1, n + 1):
+        if model.parents[jid] != jid - 1 or model.nqs[jid] != 1 or model.idx_vs[jid] != jid - 1:
+            raise KinematicsError(f'joint {model.names[jid]!r} is not the next 1-dof joint of a serial chain')
+        twist = np.array(pin.getJointJacobian(model, data, jid, pin.LOCAL))[:, jid - 1]
+        if not (np.allclose(twist[:3], 0.0, atol=1e-12) and abs(np.linalg.norm(twist[3:]) - 1.0) < 1e-12):
+            raise KinematicsError(f'joint {model.names[jid]!r} is not a revolute joint about an axis through '
+                                  'its origin')
+        axes[jid - 1] = twist[3:]
+    tip = model.frames[tip_frame]
+    if tip.parentJoint != n:
+        raise KinematicsError(f'frame {tip.name!r} is not fixed to the last joint')
+    rots = np.stack([np.array(model.jointPlacements[jid].rotation) for jid in range(1, n + 1)])
+    trans = np.stack([np.array(model.jointPlacements[jid].translation) for jid in range(1, n + 1)])
+    return rots, trans, axes, np.array(tip.placement.rotation), np.array(tip.placement.translation)
 
 
 class MicoKinematics:
@@ -214,7 +251,8 @@ class MicoKinematics:
             arr.setflags(write=False)
         self._ee_id: int = model.getFrameId(EE_FRAME)
         self._base_M_world = model.frames[base_id].placement.inverse()
-        self._world_M_base = model.frames[base_id].placement
+        self._world_T_base = np.array(model.frames[base_id].placement.homogeneous)
+        self._chain = _chain_arrays(model, self._ee_id)
 
     # -- forward kinematics ---------------------------------------------------------------------------
 
@@ -273,8 +311,10 @@ class MicoKinematics:
         KinematicsError
             If either argument is not a finite vector of shape (6,).
         """
-        q = self._check_q(q).copy()
-        q_ref = self._check_q(q_ref, 'q_ref')
+        return self._nearest_branch(self._check_q(q), self._check_q(q_ref, 'q_ref'))
+
+    def _nearest_branch(self, q: NDArray[np.float64], q_ref: NDArray[np.float64]) -> NDArray[np.float64]:
+        q = q.copy()
         wide = _WIDE_JOINTS
         q[wide] += _TWO_PI * np.round((q_ref[wide] - q[wide]) / _TWO_PI)
         above = wide & (q > self.upper)
@@ -294,16 +334,20 @@ class MicoKinematics:
         return np.clip(q, self.lower, self.upper)
 
     def ik(self, base_T_ee_target: ArrayLike, q_seed: ArrayLike | None = None, *, restarts: int = 8,
-           pos_tol: float = 1e-4, rot_tol: float = 1e-3, max_iter: int = 100,
+           pos_tol: float = IK_POS_TOL, rot_tol: float = IK_ROT_TOL, max_iter: int = IK_MAX_ITER,
            rng: np.random.Generator | int | None = None) -> IkResult:
         """Joint angles that put the EE at ``base_T_ee_target``.
 
-        Levenberg-Marquardt (damped least squares with adaptive damping and step acceptance) on the
-        Pinocchio ``log6`` error of the EE frame expressed in the EE (LOCAL) frame, iterates clipped to the
-        joint limits. The first attempt starts from ``q_seed``; if it fails, up to ``restarts`` further
-        attempts start from random joint angles (joints 2, 3 uniform within limits, the others uniform in
-        seed +- pi). The answer is wrapped per joint to the 2 pi branch nearest ``q_seed``
-        (:meth:`nearest_branch`). Never raises for an unreachable target: ``success`` is then False.
+        Levenberg-Marquardt (damped least squares with adaptive damping and step acceptance) on the EE
+        pose error in the EE frame, e = (R^T (p_t - p), log3(R^T R_t)), iterates clipped to the joint
+        limits, run to the solution (errors below 1e-10; :func:`grasp_intent_ros.core._kernels.ik_descent`,
+        compiled, on the joint chain read from the Pinocchio model), so that the answer does not depend on
+        where the errors first fell within the tolerances. An attempt succeeds when its position error
+        |e_p| and rotation error |log3| are within ``pos_tol`` and ``rot_tol``. The first attempt starts
+        from ``q_seed``; if it fails, up to ``restarts`` further attempts start from random joint angles
+        (joints 2, 3 uniform within limits, the others uniform in seed +- pi). The answer is wrapped per
+        joint to the 2 pi branch nearest ``q_seed`` (:meth:`nearest_branch`). Never raises for an
+        unreachable target: ``success`` is then False.
 
         Parameters
         ----------
@@ -336,28 +380,33 @@ class MicoKinematics:
             raise KinematicsError(
                 f'need restarts >= 0, max_iter >= 1, tolerances > 0; got {restarts}, {max_iter}, '
                 f'{pos_tol}, {rot_tol}')
-        generator = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(
-            0 if rng is None else rng)
+        return self._ik(base_T_target, q_ref, restarts, pos_tol, rot_tol, max_iter, rng)
 
+    def _ik(self, base_T_target: NDArray[np.float64], q_ref: NDArray[np.float64], restarts: int, pos_tol: float,
+            rot_tol: float, max_iter: int, rng: np.random.Generator | int | None) -> IkResult:
+        """:meth:`ik` on arguments already checked (``base_T_target`` a rigid transform)."""
+        generator = rng if isinstance(rng, np.random.Generator) else None  # made at the first restart
         shoulder_to_target = float(np.linalg.norm(base_T_target[:3, 3] - _SHOULDER))
         if shoulder_to_target > MAX_REACH + pos_tol:
             return IkResult(q=q_ref.copy(), success=False, pos_error_m=shoulder_to_target - MAX_REACH,
                             rot_error_rad=math.nan, iterations=0, attempts=0,
                             message=f'target {shoulder_to_target:.3f} m from the shoulder, beyond the arm\'s '
                                     f'reach of {MAX_REACH:.3f} m')
-        world_M_target = self._world_M_base * pin.SE3(base_T_target[:3, :3], base_T_target[:3, 3])
-        data = self.model.createData()
+        world_T_target = self._world_T_base @ base_T_target
+        R_t, p_t = np.ascontiguousarray(world_T_target[:3, :3]), np.ascontiguousarray(world_T_target[:3, 3])
         q_start = self._into_limits(q_ref)
         best: tuple[float, NDArray[np.float64], float, float] | None = None
         iterations = 0
         for attempt in range(restarts + 1):
             if attempt > 0:
+                if generator is None:
+                    generator = np.random.default_rng(0 if rng is None else rng)
                 q_start = generator.uniform(self.lower, self.upper)
                 wide = _WIDE_JOINTS
                 q_start[wide] = q_ref[wide] + generator.uniform(-math.pi, math.pi, int(wide.sum()))
                 q_start = self._into_limits(q_start)
-            q, pos_err, rot_err, used = self._solve(data, world_M_target, q_start, max_iter, pos_tol,
-                                                    rot_tol)
+            q, pos_err, rot_err, used = ik_descent(q_start, self.lower, self.upper, self._chain, R_t, p_t,
+                                                   max_iter)
             iterations += used
             score = pos_err / pos_tol + rot_err / rot_tol
             if best is None or score < best[0]:
@@ -370,54 +419,9 @@ class MicoKinematics:
         message = (f'{"converged" if success else "did not converge"} after {attempt + 1} attempt(s), '
                    f'{iterations} iterations: position error {pos_err:.3g} m (tol {pos_tol:g}), '
                    f'rotation error {rot_err:.3g} rad (tol {rot_tol:g})')
-        return IkResult(q=self.nearest_branch(q, q_ref), success=success, pos_error_m=pos_err,
+        return IkResult(q=self._nearest_branch(q, q_ref), success=success, pos_error_m=pos_err,
                         rot_error_rad=rot_err, iterations=iterations, attempts=attempt + 1,
                         message=message)
-
-    def _solve(self, data: Any, world_M_target: Any, q: NDArray[np.float64], max_iter: int,
-               pos_tol: float, rot_tol: float) -> tuple[NDArray[np.float64], float, float, int]:
-        """One Levenberg-Marquardt descent from q; returns (q, pos_err, rot_err, iterations)."""
-        model, ee_id = self.model, self._ee_id
-        lower, upper = self.lower, self.upper
-        eye = np.eye(6)
-
-        def residual(q_: NDArray[np.float64]) -> tuple[Any, NDArray[np.float64]]:
-            pin.forwardKinematics(model, data, q_)
-            world_M_ee = pin.updateFramePlacement(model, data, ee_id)
-            ee_M_target = world_M_ee.actInv(world_M_target)
-            return ee_M_target, np.asarray(pin.log6(ee_M_target).vector)
-
-        def jacobian(ee_M_target: Any) -> NDArray[np.float64]:
-            pin.computeJointJacobians(model, data)  # uses the placements of the last residual() call
-            ee_J = pin.getFrameJacobian(model, data, ee_id, pin.LOCAL)
-            return np.asarray(-pin.Jlog6(ee_M_target.inverse()) @ ee_J)
-
-        ee_M_target, err = residual(q)
-        cost = float(err @ err)
-        J = jacobian(ee_M_target)
-        damping = 1e-3
-        iterations = 0
-        while True:
-            pos_err = float(np.linalg.norm(ee_M_target.translation))
-            rot_err = float(np.linalg.norm(err[3:]))
-            if (pos_err <= pos_tol and rot_err <= rot_tol) or iterations >= max_iter:
-                return q, pos_err, rot_err, iterations
-            iterations += 1
-            step = -np.linalg.solve(J.T @ J + damping * eye, J.T @ err)
-            longest = float(np.max(np.abs(step)))
-            if longest > 0.5:
-                step *= 0.5 / longest
-            q_try = np.clip(q + step, lower, upper)
-            ee_M_try, err_try = residual(q_try)
-            cost_try = float(err_try @ err_try)
-            if cost_try < cost:
-                q, ee_M_target, err, cost = q_try, ee_M_try, err_try, cost_try
-                J = jacobian(ee_M_target)
-                damping = max(damping * 0.2, 1e-9)
-            else:
-                damping *= 10.0
-                if damping > 1e6:  # no descent direction left: a local minimum or a joint limit
-                    return q, pos_err, rot_err, iterations
 
 
 class Reachability:
@@ -444,6 +448,8 @@ class Reachability:
         self.kin = kin
         self.base_T_obj = check_transform(base_T_obj, 'base_T_obj')
         self.q_seed = np.array(HOME_Q) if q_seed is None else kin._check_q(q_seed, 'q_seed')
+        if restarts < 0:
+            raise KinematicsError(f'need restarts >= 0, got {restarts}')
         self.restarts = restarts
         self.answers: dict[bytes, IkResult] = {}
         """IK answer per candidate (key: ``x.tobytes()``)."""
@@ -455,8 +461,8 @@ class Reachability:
         key = np.asarray(x, dtype=np.float64).tobytes()
         if key not in self.answers:
             start = time.perf_counter()
-            self.answers[key] = self.kin.ik(self.base_T_obj @ features_to_obj_T_ee(x), self.q_seed,
-                                            restarts=self.restarts)
+            self.answers[key] = self.kin._ik(self.base_T_obj @ features_to_obj_T_ee(x), self.q_seed,
+                                             self.restarts, IK_POS_TOL, IK_ROT_TOL, IK_MAX_ITER, None)
             self.seconds += time.perf_counter() - start
         return self.answers[key]
 

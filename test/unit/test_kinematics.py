@@ -14,6 +14,7 @@ from numpy.testing import assert_allclose
 from numpy.typing import NDArray
 
 from grasp_intent_ros.core import resources
+from grasp_intent_ros.core._kernels import _chain_fk, _ik_jacobian, _ik_residual, _log3
 from grasp_intent_ros.core.errors import KinematicsError
 from grasp_intent_ros.core.features import APPROACH, FINGER_CLOSED
 from grasp_intent_ros.core.frames import features_to_obj_T_ee, obj_T_ee_to_features, pose_to_matrix
@@ -119,6 +120,55 @@ def test_fk_rejects_bad_q(kin: MicoKinematics) -> None:
 
 # -- inverse kinematics -----------------------------------------------------------------------------
 
+def test_compiled_chain_fk_matches_pinocchio(kin: MicoKinematics) -> None:
+    """The compiled IK's chain (read from the Pinocchio model) gives Pinocchio's FK: the IK works on the URDF."""
+    rng = np.random.default_rng(7)
+    origins, zs = np.empty((6, 3)), np.empty((6, 3))
+    for _ in range(50):
+        q = random_q(kin, rng)
+        R, p = _chain_fk(q, *kin._chain, origins, zs)
+        assert_allclose(kin._world_T_base[:3, :3] @ kin.fk(q)[:3, :3], R, atol=1e-12)
+        assert_allclose(kin._world_T_base[:3, :3] @ kin.fk(q)[:3, 3] + kin._world_T_base[:3, 3], p, atol=1e-12)
+
+
+@pytest.mark.parametrize('angle', [0.0, 1e-9, 1e-5, 0.3, 2.0, math.pi - 2e-3, math.pi - 1e-6, math.pi])
+def test_log3_matches_pinocchio(angle: float) -> None:
+    """The rotation vector, also within 1e-3 of pi where the kernel takes the axis from the symmetric part."""
+    rng = np.random.default_rng(int(angle * 1e6))
+    for _ in range(5):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        R = pin.exp3(angle * axis)
+        phi = _log3(np.ascontiguousarray(R))
+        assert_allclose(pin.exp3(phi), R, atol=1e-12)
+        assert float(np.linalg.norm(phi)) == pytest.approx(angle, abs=1e-9)
+        if angle < math.pi - 1e-6:  # at pi, phi and -phi are the same rotation
+            assert_allclose(phi, np.asarray(pin.log3(R)), atol=1e-9)
+
+
+def test_ik_jacobian_matches_central_differences(kin: MicoKinematics) -> None:
+    """de/dq of the compiled IK against central differences (1e-6 relative), rotation errors up to 3 rad."""
+    rng = np.random.default_rng(8)
+    origins, zs = np.empty((6, 3)), np.empty((6, 3))
+    for _ in range(20):
+        q_target, q = random_q(kin, rng), random_q(kin, rng)
+        W = kin._world_T_base @ kin.fk(q_target)
+        R_t, p_t = np.ascontiguousarray(W[:3, :3]), np.ascontiguousarray(W[:3, 3])
+        e, R, p = _ik_residual(q, *kin._chain, R_t, p_t, origins, zs)
+        if np.linalg.norm(e[3:]) > 3.0:  # log3 is not differentiable at pi
+            continue
+        J = _ik_jacobian(e, R, p, origins, zs)
+        h = 1e-6
+        numeric = np.empty((6, 6))
+        for i in range(6):
+            dq = np.zeros(6)
+            dq[i] = h
+            plus = _ik_residual(q + dq, *kin._chain, R_t, p_t, origins.copy(), zs.copy())[0]
+            minus = _ik_residual(q - dq, *kin._chain, R_t, p_t, origins.copy(), zs.copy())[0]
+            numeric[:, i] = (plus - minus) / (2 * h)
+        assert_allclose(J, numeric, rtol=1e-6, atol=1e-7)
+
+
 def test_ik_round_trip_from_home(kin: MicoKinematics) -> None:
     rng = np.random.default_rng(1)
     n, successes = 100, 0
@@ -133,6 +183,20 @@ def test_ik_round_trip_from_home(kin: MicoKinematics) -> None:
             assert pos <= 1e-4 and rot <= 1e-3, res.message
             assert res.pos_error_m == pytest.approx(pos, abs=1e-9)
     assert successes / n >= 0.95
+
+
+def test_ik_runs_to_the_solution_so_last_bits_do_not_move_it(kin: MicoKinematics) -> None:
+    """Not the first point within tolerance: the seed moved by 1e-12 gives the same joints within 1e-8 rad."""
+    rng = np.random.default_rng(3)
+    for _ in range(40):
+        base_T_target = kin.fk(random_q(kin, rng))
+        res = kin.ik(base_T_target, HOME_Q)
+        if not res.success:
+            continue
+        nudged = kin.ik(base_T_target, HOME_Q * (1.0 + 1e-12 * rng.standard_normal(6)))
+        assert nudged.success
+        assert res.pos_error_m <= 1e-10 and res.rot_error_rad <= 1e-10, res.message
+        assert_allclose(nudged.q, res.q, atol=1e-8)
 
 
 def test_ik_near_seed_is_fast_and_exact(kin: MicoKinematics) -> None:
