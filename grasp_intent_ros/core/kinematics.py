@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -189,8 +190,8 @@ class MicoKinematics:
     """Forward and inverse kinematics of the MICO arm from the project URDF (Pinocchio).
 
     The Pinocchio model (arm joints only; the fingers are locked open since they do not move the EE)
-    is built once and never modified; every call allocates its own ``pinocchio.Data``, so one instance
-    can serve several threads.
+    is built once and never modified; each thread has its own ``pinocchio.Data`` (made at its first
+    :meth:`fk`), so one instance can serve several threads.
 
     Parameters
     ----------
@@ -253,6 +254,7 @@ class MicoKinematics:
         self._base_M_world = model.frames[base_id].placement.inverse()
         self._world_T_base = np.array(model.frames[base_id].placement.homogeneous)
         self._chain = _chain_arrays(model, self._ee_id)
+        self._data = threading.local()  # a pinocchio.Data per thread, made at its first fk()
 
     # -- forward kinematics ---------------------------------------------------------------------------
 
@@ -277,7 +279,9 @@ class MicoKinematics:
             If ``q`` is not a finite vector of shape (6,).
         """
         q = self._check_q(q)
-        data = self.model.createData()
+        data = getattr(self._data, 'data', None)
+        if data is None:
+            data = self._data.data = self.model.createData()
         pin.forwardKinematics(self.model, data, q)
         world_M_ee = pin.updateFramePlacement(self.model, data, self._ee_id)
         return np.array((self._base_M_world * world_M_ee).homogeneous)
