@@ -747,7 +747,10 @@ def warm_up() -> None:
     score(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
           np.zeros(d), np.ones(d))
     eye = np.eye(3)
-    ik_descent(np.zeros(2), -np.ones(2), np.ones(2), (np.stack([eye, eye]), np.zeros((2, 3)),
+    limits = -np.ones(2), np.ones(2)
+    for limit in limits:  # MicoKinematics's joint limits are read-only arrays, a type of their own to numba
+        limit.setflags(write=False)
+    ik_descent(np.zeros(2), *limits, (np.stack([eye, eye]), np.zeros((2, 3)),
                np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]]), eye, np.array([1.0, 0.0, 0.0])), eye,
                np.array([0.0, 1.0, 0.0]), 2)
 

@@ -183,7 +183,9 @@ def _chain_arrays(model: Any, tip_frame: int) -> tuple[NDArray[np.float64], ...]
         raise KinematicsError(f'frame {tip.name!r} is not fixed to the last joint')
     rots = np.stack([np.array(model.jointPlacements[jid].rotation) for jid in range(1, n + 1)])
     trans = np.stack([np.array(model.jointPlacements[jid].translation) for jid in range(1, n + 1)])
-    return rots, trans, axes, np.array(tip.placement.rotation), np.array(tip.placement.translation)
+    # C order throughout (Pinocchio hands out Fortran-ordered matrices): the types the kernels are warmed up with
+    return tuple(np.ascontiguousarray(a) for a in (rots, trans, axes, tip.placement.rotation,
+                                                   tip.placement.translation))
 
 
 class MicoKinematics:

@@ -14,7 +14,7 @@ from numpy.testing import assert_allclose
 from numpy.typing import NDArray
 
 from grasp_intent_ros.core import resources
-from grasp_intent_ros.core._kernels import _chain_fk, _ik_jacobian, _ik_residual, _log3
+from grasp_intent_ros.core._kernels import _chain_fk, _ik_descent, _ik_jacobian, _ik_residual, _log3, warm_up
 from grasp_intent_ros.core.errors import KinematicsError
 from grasp_intent_ros.core.features import APPROACH, FINGER_CLOSED
 from grasp_intent_ros.core.frames import features_to_obj_T_ee, obj_T_ee_to_features, pose_to_matrix
@@ -24,6 +24,7 @@ from grasp_intent_ros.core.kinematics import (
     FINGER_JOINTS,
     HOME_Q,
     MicoKinematics,
+    Reachability,
     default_urdf_path,
 )
 
@@ -129,6 +130,16 @@ def test_compiled_chain_fk_matches_pinocchio(kin: MicoKinematics) -> None:
         R, p = _chain_fk(q, *kin._chain, origins, zs)
         assert_allclose(kin._world_T_base[:3, :3] @ kin.fk(q)[:3, :3], R, atol=1e-12)
         assert_allclose(kin._world_T_base[:3, :3] @ kin.fk(q)[:3, 3] + kin._world_T_base[:3, 3], p, atol=1e-12)
+
+
+def test_ik_kernel_warmed_up_with_the_types_ik_uses(kin: MicoKinematics) -> None:
+    """After warm_up, IK compiles nothing more: a node that loaded its kernels at start never compiles in a plan."""
+    warm_up()
+    before = len(_ik_descent.signatures)
+    kin.ik(kin.fk(HOME_Q + 0.2), HOME_Q)
+    x = np.array([0.0, 0.0, 0.1, 0.0, 0.0, -1.0, 0.0, 0.5, 0.5, 0.5])  # palm 10 cm above, approach down
+    Reachability(kin, pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 0.0, 1.0)))(x)
+    assert len(_ik_descent.signatures) == before
 
 
 @pytest.mark.parametrize('angle', [0.0, 1e-9, 1e-5, 0.3, 2.0, math.pi - 2e-3, math.pi - 1e-6, math.pi])
