@@ -25,6 +25,11 @@ Parameters: :data:`PARAMETERS`, ``config/grasp_planner.yaml``.
 
 from __future__ import annotations
 
+from .ros import startup
+
+if __name__ == '__main__':  # a node process: before the imports below (grasp_intent_ros.ros.startup)
+    startup.begin()
+
 import math
 import sys
 import time
@@ -159,6 +164,8 @@ class GraspPlanner(Node):
         except Exception as exc:  # noqa: BLE001 - then the first plan loads them, and reports what fails
             self.get_logger().warning(f'compiled planner kernels not loaded ahead: {exc}')
             return
+        finally:
+            startup.end()  # the node's code is loaded
         self._plan_diag.set_value(KEY_KERNELS_LOAD_TIME, f'{1e3 * (time.perf_counter() - start):.0f}')
 
     def destroy_node(self) -> None:
@@ -250,7 +257,8 @@ each time behind a plan in progress, so a new v waited while the planner started
 
 
 def main(args: list[str] | None = None) -> None:
-    """Entry point: run the node until SIGINT/SIGTERM (with :data:`GIL_SWITCH_INTERVAL`)."""
+    """Entry point: run the node until SIGINT/SIGTERM (with :data:`GIL_SWITCH_INTERVAL`, :mod:`.ros.startup`)."""
+    startup.begin()
     sys.setswitchinterval(GIL_SWITCH_INTERVAL)
     run_node(GraspPlanner, args)
 
