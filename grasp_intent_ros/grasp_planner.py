@@ -18,7 +18,9 @@ Behaviour
     A new ``model/active`` is read in a thread of its own (:class:`~grasp_intent_ros.ros.model_follower.
     ModelFollower`) and swapped in whole; until then planning goes on with the current model.
     At start the planning thread first loads the compiled kernels (``compiled kernels load time [ms]`` in
-    the ``planning`` diagnostics), while the node discovers its peers and waits for its first inputs.
+    the ``planning`` diagnostics), while the node discovers its peers and waits for its first inputs. As
+    a process of its own, the planner runs without cyclic garbage collection until then and with OpenBLAS
+    single-threaded (:mod:`grasp_intent_ros.ros.startup`: less CPU before its first answer after a restart).
 
 Parameters: :data:`PARAMETERS`, ``config/grasp_planner.yaml``.
 """
