@@ -11,6 +11,8 @@ process's start only:
   :func:`end` then moves everything alive into the permanent generation (``gc.freeze``) and turns the
   collector on: later collections never traverse the startup objects (a full collection right after
   the start took 0.11-0.19 s, with them frozen under 0.1 ms), at the cost of keeping that startup garbage.
+  Reference counting still frees a frozen object (e.g. the first model, once replaced); only a reference
+  cycle among them is never collected.
 - OpenBLAS runs single-threaded, unless ``OPENBLAS_NUM_THREADS`` is set already (read when numpy and
   scipy load it): each of the two OpenBLAS libraries (numpy's and scipy's) otherwise starts worker threads
   (one on a 2-core machine), each spinning for about 50 ms of CPU as it starts, while the planner's
