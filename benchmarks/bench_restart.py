@@ -66,7 +66,9 @@ def main() -> None:
                         help="the probe's Fast DDS discovery timing: the nodes' profile or Fast DDS's defaults")
     parser.add_argument('--code', type=Path, default=None,
                         help='run the nodes from this source tree instead (e.g. an export of main, its kernels '
-                             'compiled there first), to compare before/after in one sitting')
+                             'compiled there first; byte-compile it too, as scripts/venv.sh does, or its nodes '
+                             'compile their modules at every start under PYTHONDONTWRITEBYTECODE=1), to compare '
+                             'before/after in one sitting')
     args = parser.parse_args()
     domain_id = loopback_domain('bench_restart')
 

@@ -18,12 +18,19 @@ Behaviour
     A new ``model/active`` is read in a thread of its own (:class:`~grasp_intent_ros.ros.model_follower.
     ModelFollower`) and swapped in whole; until then planning goes on with the current model.
     At start the planning thread first loads the compiled kernels (``compiled kernels load time [ms]`` in
-    the ``planning`` diagnostics), while the node discovers its peers and waits for its first inputs.
+    the ``planning`` diagnostics), while the node discovers its peers and waits for its first inputs. As
+    a process of its own, the planner runs without cyclic garbage collection until then and with OpenBLAS
+    single-threaded (:mod:`grasp_intent_ros.ros.startup`: less CPU before its first answer after a restart).
 
 Parameters: :data:`PARAMETERS`, ``config/grasp_planner.yaml``.
 """
 
 from __future__ import annotations
+
+from .ros import startup
+
+if __name__ == '__main__':  # a node process: before the imports below (grasp_intent_ros.ros.startup)
+    startup.begin()
 
 import math
 import sys
@@ -159,6 +166,8 @@ class GraspPlanner(Node):
         except Exception as exc:  # noqa: BLE001 - then the first plan loads them, and reports what fails
             self.get_logger().warning(f'compiled planner kernels not loaded ahead: {exc}')
             return
+        finally:
+            startup.end()  # the node's code is loaded
         self._plan_diag.set_value(KEY_KERNELS_LOAD_TIME, f'{1e3 * (time.perf_counter() - start):.0f}')
 
     def destroy_node(self) -> None:
@@ -250,7 +259,8 @@ each time behind a plan in progress, so a new v waited while the planner started
 
 
 def main(args: list[str] | None = None) -> None:
-    """Entry point: run the node until SIGINT/SIGTERM (with :data:`GIL_SWITCH_INTERVAL`)."""
+    """Entry point: run the node until SIGINT/SIGTERM (with :data:`GIL_SWITCH_INTERVAL`, :mod:`.ros.startup`)."""
+    startup.begin()
     sys.setswitchinterval(GIL_SWITCH_INTERVAL)
     run_node(GraspPlanner, args)
 

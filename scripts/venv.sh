@@ -23,3 +23,7 @@ fi
 # Compile the planner's numba kernels now (cached next to the source; a no-op when the cache is fresh),
 # so that no node pays for compilation on its first plan.
 "$repo/.venv/bin/python" -m grasp_intent_ros.core._kernels
+# Byte-compile the package's modules (a no-op for those unchanged). The editable install leaves that to
+# the first import, which writes nothing under PYTHONDONTWRITEBYTECODE=1: then every node process compiled
+# its modules from source again at start (0.08 s of CPU in the planner's restart).
+"$repo/.venv/bin/python" -m compileall -q "$repo/grasp_intent_ros"

@@ -7,6 +7,9 @@ Modules
 -------
 run
     ``run_node``: the Jazzy init / spin / shutdown idiom, written once (SIGINT and SIGTERM exit 0).
+startup
+    A node process's start made cheaper (no cyclic garbage collection until its code is loaded, OpenBLAS
+    single-threaded); imports neither rclpy nor numpy.
 qos
     QoS profiles: input (compatible with ``ros2 topic pub``), output, latched.
 params
@@ -30,8 +33,9 @@ markers
 grasp
     The messages of one planned grasp (:class:`grasp_intent_ros.core.grasp.Grasp`).
 
-Importing this package imports no submodule; each submodule imports rclpy or the message packages, and
-:mod:`grasp_intent_ros.core` never does.
+Importing this package imports no submodule; each submodule but ``startup`` imports rclpy or the message
+packages, and :mod:`grasp_intent_ros.core` never does.
 """
 
-__all__ = ['conversions', 'diagnostics', 'grasp', 'inputs', 'markers', 'params', 'qos', 'robot', 'run', 'worker']
+__all__ = ['conversions', 'diagnostics', 'grasp', 'inputs', 'markers', 'params', 'qos', 'robot', 'run', 'startup',
+           'worker']

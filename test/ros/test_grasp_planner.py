@@ -674,9 +674,15 @@ def test_markers_period(make_rig: Callable[..., Rig], model: GraspModel) -> None
 
 
 def test_compiled_kernels_load_at_start_before_any_input(make_rig: Callable[..., Rig]) -> None:
-    """The planning thread loads the kernels while the node waits for its first inputs, not on the first plan."""
+    """The planning thread loads the kernels while the node waits for its first inputs, not on the first plan.
+
+    Loading them ends a node process's start (:mod:`grasp_intent_ros.ros.startup`), which leaves the
+    garbage collector of a process that did not begin one (this test's) as it was.
+    """
+    frozen, collecting = gc.get_freeze_count(), gc.isenabled()
     rig = make_rig(None)
     loaded = lambda: [s for s in rig.statuses if KEY_KERNELS_LOAD_TIME in values_of(s)]  # noqa: E731
     assert rig.ros.wait_for(loaded, timeout=30.0), 'no kernel load time in the planning diagnostics'
     assert float(values_of(loaded()[0])[KEY_KERNELS_LOAD_TIME]) >= 0.0
     assert not rig.grasps.count(), 'nothing planned: no model and no v were sent'
+    assert (gc.get_freeze_count(), gc.isenabled()) == (frozen, collecting)

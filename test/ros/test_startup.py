@@ -1,0 +1,73 @@
+"""grasp_intent_ros.ros.startup: a node process's start (a process per case: the settings are process-wide)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from grasp_intent_ros.tools.suite import node_environment
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _run(code: str, env: dict[str, str] | None = None) -> None:
+    """``python -c code`` in the repository; the code asserts, the test fails on its traceback."""
+    result = subprocess.run([sys.executable, '-c', code], cwd=REPO, env=env, capture_output=True, text=True,
+                            timeout=120)
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+def _without_openblas_setting() -> dict[str, str]:
+    return {k: v for k, v in os.environ.items() if k != 'OPENBLAS_NUM_THREADS'}
+
+
+def test_begin_pauses_the_collector_until_end_freezes_the_startup_objects() -> None:
+    _run('import gc, os\n'
+         'from grasp_intent_ros.ros import startup\n'
+         'startup.begin()\n'
+         'startup.begin()  # again, as main() does after the module did\n'
+         'assert not gc.isenabled() and os.environ["OPENBLAS_NUM_THREADS"] == "1"\n'
+         'import numpy\n'
+         'assert os.listdir("/proc/self/task") == [str(os.getpid())], "OpenBLAS started worker threads"\n'
+         'startup.end()\n'
+         'assert gc.isenabled() and gc.get_freeze_count() > 1000, gc.get_freeze_count()\n'
+         'frozen = gc.get_freeze_count()\n'
+         'startup.end()\n'
+         'assert gc.get_freeze_count() == frozen, "a second end froze again"\n', env=_without_openblas_setting())
+
+
+def test_an_openblas_setting_is_kept() -> None:
+    _run('import os\n'
+         'from grasp_intent_ros.ros import startup\n'
+         'startup.begin()\n'
+         'assert os.environ["OPENBLAS_NUM_THREADS"] == "2"\n', env={**os.environ, 'OPENBLAS_NUM_THREADS': '2'})
+
+
+def test_end_without_begin_leaves_the_collector_alone() -> None:
+    _run('import gc\n'
+         'from grasp_intent_ros.ros import startup\n'
+         'startup.end()\n'
+         'assert gc.isenabled() and gc.get_freeze_count() == 0\n'
+         'gc.disable()  # a caller that turned it off itself keeps it off\n'
+         'startup.begin()\n'
+         'startup.end()\n'
+         'assert not gc.isenabled() and gc.get_freeze_count() == 0\n')
+
+
+def test_the_planner_process_collects_again_once_its_kernels_are_loaded(domain_id: int) -> None:
+    """As ``python -m grasp_intent_ros.grasp_planner`` does: begin before the imports, end in the planning thread."""
+    _run('from grasp_intent_ros.ros import startup\n'
+         'startup.begin()\n'
+         'import gc, time\n'
+         'import rclpy\n'
+         'from grasp_intent_ros.grasp_planner import GraspPlanner\n'
+         'rclpy.init()\n'
+         'node = GraspPlanner()\n'
+         'deadline = time.monotonic() + 30.0\n'
+         'while not gc.isenabled() and time.monotonic() < deadline:\n'
+         '    rclpy.spin_once(node, timeout_sec=0.05)\n'
+         'assert gc.isenabled() and gc.get_freeze_count() > 1000, "the collector was not turned on again"\n'
+         'node.destroy_node()\n'
+         'rclpy.shutdown()\n', env=node_environment(domain_id))
