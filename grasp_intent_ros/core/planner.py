@@ -600,6 +600,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
             if near.size and possible:  # least squares found the matches: project onto them where it converges
                 xs_p, ok_p, its_p = projection.run(xs[near])
                 xs[near[ok_p]] = xs_p[ok_p]
+                ok[near[ok_p]] = True  # a converged projection is a converged answer
                 its[near] += its_p
             found += candidates_from(xs, origins, ok, its, len(found),
                                      lambda c: 'least squares: converged' if c else 'least squares: iteration limit')
