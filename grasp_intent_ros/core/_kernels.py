@@ -23,6 +23,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+_ON_SURFACE = 1e-12  # a palm within this (m) of the body's surface is on it
+
 __all__ = ['project', 'least_squares', 'newton_least_squares', 'feasible', 'score', 'ik_descent', 'warm_up']
 
 
@@ -109,6 +111,60 @@ def feasible(xs: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray
     out: NDArray[np.float64] = _project_rows(np.ascontiguousarray(xs, dtype=np.float64), lower, upper, a0, a1,
                                              *body)
     return out
+
+
+@njit(cache=True, nogil=True)
+def _distance_hessian(p, kinds, centres, axes, perps, radii, lengths, halfs):  # type: ignore[no-untyped-def]
+    """Hessian (3, 3) of the signed distance at p, the nearest primitive's curvature.
+
+    A cylinder's side is curved; flat faces, and the edges' small share of the surface, count as flat.
+    """
+    best = np.inf
+    hess = np.zeros((3, 3))
+    for m in range(kinds.shape[0]):
+        sd = _distance(p, kinds[m:m + 1], centres[m:m + 1], axes[m:m + 1], perps[m:m + 1], radii[m:m + 1],
+                       lengths[m:m + 1], halfs[m:m + 1])[0]
+        if sd < best:
+            best = sd
+            hess = np.zeros((3, 3))
+            if kinds[m] == 0:
+                axis = axes[m]
+                rel = p - centres[m]
+                t = rel[0] * axis[0] + rel[1] * axis[1] + rel[2] * axis[2]
+                radial = rel - t * axis
+                rho = math.sqrt(radial[0] ** 2 + radial[1] ** 2 + radial[2] ** 2)
+                if rho > 1e-12 and abs(t) <= 0.5 * lengths[m] and rho - radii[m] >= abs(t) - 0.5 * lengths[m]:
+                    e_r = radial / rho
+                    hess = (np.eye(3) - np.outer(axis, axis) - np.outer(e_r, e_r)) / rho
+    return hess
+
+
+@njit(cache=True, nogil=True)
+def _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin):  # type: ignore[no-untyped-def]
+    """Whether the body holds the palm, and the surface's unit normal there (3,).
+
+    It does when the palm is on the surface (margin included) and grad (of f, shape (d,)) points out of
+    it, i.e. f would fall inside the body.
+    """
+    if kinds.shape[0] == 0:
+        return False, np.zeros(3)
+    sd, normal = _distance(x[0:3].copy(), kinds, centres, axes, perps, radii, lengths, halfs)
+    held = sd - margin <= _ON_SURFACE and grad[0] * normal[0] + grad[1] * normal[1] + grad[2] * normal[2] > 0.0
+    return held, normal
+
+
+@njit(cache=True, nogil=True)
+def _onto_surface(x, lower, kinds, centres, axes, perps, radii, lengths, halfs, margin, upper):  # type: ignore[no-untyped-def]
+    """Move the palm of x (in place) onto the body's surface (margin included), within the bounds."""
+    p = x[0:3].copy()
+    for _ in range(4):
+        sd, grad = _distance(p, kinds, centres, axes, perps, radii, lengths, halfs)
+        if abs(sd - margin) <= 1e-15:
+            break
+        p += (margin - sd) * grad
+    for i in range(3):
+        x[i] = min(max(p[i], lower[i]), upper[i])
+    return x
 
 
 @njit(cache=True, nogil=True)
@@ -347,6 +403,12 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
             for k in range(jt.shape[0]):
                 jt[k, a0:a1] -= proj[k] * ax
             grad = -(r @ jt)
+            on_body, normal = _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin)
+            if on_body:  # on the body's surface, f falling inside: steps on the surface's tangent plane
+                proj = np.ascontiguousarray(jt[:, 0:3]) @ normal
+                for k in range(jt.shape[0]):
+                    jt[k, 0:3] -= proj[k] * normal
+                grad = -(r @ jt)
             held = np.zeros(d, dtype=np.bool_)
             for j in range(d):
                 held[j] = (x[j] <= lower[j] and grad[j] > 0.0) or (x[j] >= upper[j] and grad[j] < 0.0)
@@ -360,6 +422,8 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
             step = np.linalg.solve(system, -grad)
             x_new = _project(x + step, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs,
                              margin)
+            if on_body:
+                _onto_surface(x_new, lower, kinds, centres, axes, perps, radii, lengths, halfs, margin, upper)
             p_new, jac_new = _posterior_jacobian(x_new, means, prec, log_norm)
             r_new = v - p_new
             f_new = 0.5 * np.sum(r_new * r_new)
@@ -451,18 +515,32 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
                 # on the sphere's tangent plane (Lagrangian Hessian: H - (a . grad_a f) I there), then in
                 # scaled coordinates y = x / sc (sc uniform over the approach, so the tangent plane is the same)
                 gx = -(r @ jac)
+                on_body, normal = _body_hold(x, gx, kinds, centres, axes, perps, radii, lengths, halfs, margin)
+                hess_l = hess
+                if on_body:  # the Lagrangian's Hessian on the body's surface: minus mu times the surface's curvature
+                    hess_l = hess.copy()
+                    mu = np.sum(gx[0:3] * normal)
+                    hess_l[0:3, 0:3] -= mu * _distance_hessian(x[0:3].copy(), kinds, centres, axes, perps, radii,
+                                                               lengths, halfs)
                 ax = x[a0:a1].copy()
                 tang = np.eye(d)
                 for i in range(a0, a1):
                     for j in range(a0, a1):
                         tang[i, j] -= ax[i - a0] * ax[j - a0]
                 radial = np.sum(gx[a0:a1] * ax)
-                h = tang @ hess @ tang
+                h = tang @ hess_l @ tang
                 for i in range(a0, a1):
                     for j in range(a0, a1):
                         h[i, j] -= radial * tang[i, j]
                 grad = (tang @ gx) * sc
                 h = h * np.outer(sc, sc)
+                if on_body:  # and on the surface's tangent plane, in scaled coordinates
+                    ns = normal * sc[0:3]
+                    ns /= math.sqrt(np.sum(ns * ns))
+                    tb = np.eye(d)
+                    tb[0:3, 0:3] -= np.outer(ns, ns)
+                    h = tb @ h @ tb
+                    grad = tb @ grad
                 held = np.zeros(d, dtype=np.bool_)
                 for j in range(d):
                     if a0 <= j < a1:
@@ -490,6 +568,8 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
             predicted = -(np.sum(grad * step) + 0.5 * np.sum(step * (h @ step)))
             x_new = _project(x + step * sc, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
                              halfs, margin)
+            if on_body:
+                _onto_surface(x_new, lower, kinds, centres, axes, perps, radii, lengths, halfs, margin, upper)
             size = math.sqrt(np.sum(step * step))
             p_new, jac_new, hess_new = _posterior_hessian(x_new, means, prec, log_norm, v)
             r_new = v - p_new

@@ -30,11 +30,15 @@ not name one grasp. The planner therefore answers a stated problem:
    a projected Levenberg-Marquardt iteration; the three best end points by f then go on with a
    projected trust-region Newton iteration on f's exact Hessian (which keeps the curvature that the
    Levenberg-Marquardt steps leave out: that of a nearly flat valley), and its end point replaces
-   theirs where it converges. End points within 1e-8 of a match are then projected onto the
-   matches (kept where the projection converges). Least-squares valleys can be nearly flat and
-   long: where neither iteration converges, the end point is where the damped iteration stopped, a
-   deterministic function of the input whose last bits can move it along the valley in rare cases
-   (see the benchmark's stability section).
+   theirs where it converges. Both hold the bounds, the unit approach and the body as an active set:
+   a palm on the body's surface whose objective would fall inside the body moves on the surface
+   (steps on its tangent plane, then back onto it; Newton adds the surface's curvature times its
+   multiplier to the Hessian). Most flashlight least-squares answers lie on its body. End points
+   within 1e-8 of a match are then projected onto the matches (kept, and counted converged, where
+   the projection converges). Least-squares valleys can be nearly flat and long: where neither
+   iteration converges, the end point is where the damped iteration stopped, a deterministic
+   function of the input whose last bits can move it along the valley in rare cases (see the
+   benchmark's stability section).
 6. **Choice.** Let f* be the lowest f found. The candidates with f <= f* + max(1e-12, 1e-6 f*) are
    the matches; the planner returns the one nearest to x_ref, and among matches whose distances are
    within 1e-6 of the nearest, the first in start order. Ties are never left to float noise. The
@@ -328,6 +332,17 @@ class _LogOddsProjection:
     match that is nearest to the start up to second order in the distance. A start has converged when
     the residual is below 1e-11 nats after a step of less than 1e-9 (scaled); it stops without a match
     when its residual has not halved in 12 iterations, or after 60.
+
+    Why a start stalls (flashlight, measured): where the projection of x_ref stops short of an existing
+    match, the normalised Jacobian's smallest singular value is about 3e-3 (the homotopy path nears a
+    fold), and the ridge, larger than its square, turns the step into one that no longer lowers the
+    residual's 1-norm, so the trust radius collapses (no bound is active in 16 of the 20 that stall
+    even without the stall rule, and the body is 1-3 cm away in all). Without the
+    stall rule (400 iterations) 27 instead of 10 of 48 such starts converge, without the ridge too 30,
+    but the long paths are not stable: their end points move under a 1e-12 change of v (6-13 in 100).
+    A path-following continuation in the right-hand side (Gauss-Newton corrector, adaptive step)
+    reached 25 of the 48, stopping where the path meets such a fold. The short, damped paths are
+    kept; the wider search finds the other matches.
     """
 
     def __init__(self, model: GraspModel, v: NDArray[np.float64], feas: _Feasible) -> None:
@@ -353,7 +368,9 @@ def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.flo
     Each iteration solves (J^T J + lam diag(J^T J) + eps I) dx = J^T r per start (eps = 1e-7 times the
     largest curvature, so that nearly flat directions cannot amplify last-bit differences), with J restricted to
     the free variables (a variable on a bound whose gradient points outwards is held) and, for the
-    approach, to the sphere's tangent plane; the step is then projected onto X. A step is taken only
+    approach, to the sphere's tangent plane; with the palm on the body's surface and the gradient
+    pointing out of it (f falls inside), the palm's columns are restricted to the surface's tangent
+    plane too. The step is then projected onto X (and such a palm back onto the surface). A step is taken only
     when it lowers f (lam shrinks), else lam grows. A start has converged when an accepted step gains
     less than 1e-7 f + 1e-15 or no step lowers f any more (stationary to machine precision); one that
     reaches the iteration limit (300) has not.
@@ -371,7 +388,9 @@ def _refine_newton(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np
     out, which is what a nearly flat valley has. Each iteration solves (H + lam I + eps I) dy = -g in
     scaled coordinates (the approach's three scales replaced by their root mean square, so that the
     sphere's tangent plane is the same in both), with H the Lagrangian Hessian on the sphere's tangent
-    plane and variables on a bound held as in :func:`_refine_lm`; a step is taken only when it lowers
+    plane and variables on a bound held as in :func:`_refine_lm`; a palm held on the body's surface
+    (as there) moves on its tangent plane (in scaled coordinates) with the Lagrangian's curvature
+    -mu d2(distance), mu = n . grad_palm f, added to H; a step is taken only when it lowers
     f (lam shrinks), else lam grows (also while H + lam I is not positive definite). A start has
     converged after a step of less than 1e-10 (scaled), or when the predicted gain is below 1e-15 f
     with lam negligible, or when no step lowers f any more; one that reaches 400 iterations has not.
@@ -600,6 +619,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
             if near.size and possible:  # least squares found the matches: project onto them where it converges
                 xs_p, ok_p, its_p = projection.run(xs[near])
                 xs[near[ok_p]] = xs_p[ok_p]
+                ok[near[ok_p]] = True  # a converged projection is a converged answer
                 its[near] += its_p
             found += candidates_from(xs, origins, ok, its, len(found),
                                      lambda c: 'least squares: converged' if c else 'least squares: iteration limit')
