@@ -94,10 +94,10 @@ def optimality(n: int, seed: int, reference_starts: int, models: tuple[str, ...]
                   f'the search in {better}, largest excess {worst:.2e}; status {statuses}')
 
 
-def stability(n: int, seed: int) -> None:
+def stability(n: int, seed: int, models: tuple[str, ...]) -> None:
     print('2. stability: v perturbed by 1e-12 (relative); same grasp = palm within 1e-6 m, approach within 1e-6')
     rng = np.random.default_rng(seed + 1)
-    for name in SEVEN:
+    for name in (m for m in SEVEN if m in models):
         model = load(name)
         same = 0
         for _, v in random_targets(model, n, seed):
@@ -107,9 +107,9 @@ def stability(n: int, seed: int) -> None:
         print(f'  {name:17s} same grasp in {same}/{n} ({100 * same / n:.2f}%)')
 
 
-def continuity(steps: int, seed: int) -> None:
+def continuity(steps: int, seed: int, models: tuple[str, ...]) -> None:
     print(f'3. continuity: random walk of w, {steps} steps, warm-started; jump = palm > 20 mm or approach > 0.3 rad')
-    for name in SEVEN:
+    for name in (m for m in SEVEN if m in models):
         model = load(name)
         previous, jumps, branch_held = None, 0, 0
         for v in walk_targets(model, steps, seed):
@@ -126,9 +126,9 @@ def continuity(steps: int, seed: int) -> None:
               f'{branch_held} of them while the previous branch still matched v')
 
 
-def plausibility(n: int, seed: int) -> None:
+def plausibility(n: int, seed: int, models: tuple[str, ...]) -> None:
     print('4. plausibility: planned grasps with the palm centre inside the object body (margin included)')
-    for name in SEVEN:
+    for name in (m for m in SEVEN if m in models):
         model = load(name)
         assert model.body is not None
         inside = sum(model.body.distance(planner.plan(model, v).x[None, :3])[0][0] < model.body.margin - 1e-9
@@ -136,9 +136,9 @@ def plausibility(n: int, seed: int) -> None:
         print(f'  {name:17s} {inside}/{n} inside')
 
 
-def speed(n: int, seed: int) -> None:
+def speed(n: int, seed: int, models: tuple[str, ...]) -> None:
     print('5. speed: wall time per plan (this process, this machine)')
-    for name in SEVEN:
+    for name in (m for m in SEVEN if m in models):
         model = load(name)
         targets = [v for _, v in random_targets(model, n, seed)]
         planner.plan(model, targets[0])
@@ -169,15 +169,15 @@ def main() -> None:
     parser.add_argument('--sections', default='1,2,3,4,5', help='comma-separated section numbers')
     parser.add_argument('--reference-starts', type=int, default=60)
     parser.add_argument('--models', default=','.join(MODELS),
-                        help='comma-separated models for the optimality section (default: all four)')
+                        help='comma-separated models (default: all four; sections 2-5 run the 7-zone ones among them)')
     args = parser.parse_args()
     sections = {int(s) for s in args.sections.split(',') if s.strip()}
     print(f'bench_planner: n={args.n}, walk={args.walk}, seed={args.seed}')
     models = tuple(m for m in args.models.split(',') if m)
     runs = {1: lambda: optimality(args.n, args.seed, args.reference_starts, models),
-            2: lambda: stability(args.n, args.seed),
-            3: lambda: continuity(args.walk, args.seed), 4: lambda: plausibility(args.n, args.seed),
-            5: lambda: speed(args.n, args.seed)}
+            2: lambda: stability(args.n, args.seed, models),
+            3: lambda: continuity(args.walk, args.seed, models), 4: lambda: plausibility(args.n, args.seed, models),
+            5: lambda: speed(args.n, args.seed, models)}
     for number, run in runs.items():
         if number in sections:
             run()
