@@ -15,16 +15,23 @@ on the shut-down context) also exits 0; one that arrives before ``rclpy.init`` (
 Python's default handling. A configuration error found while the node is built (a parameter rejected by
 its descriptor or validator, a missing model) is logged and ends the process with exit code 1.
 
+rclpy's signal handling has a race that this module closes. Its C++ signal thread first triggers the
+executors' signal guard conditions and then shuts the contexts down (``rcl_shutdown``, without Python's
+shutdown callbacks; rclpy 7.1.6's ``_rclpy_pybind11`` calls them in that order after its ``sem_wait``). An
+executor that wakes up in between sees its context still valid, finds no work and waits again, and nothing
+wakes it for the shutdown: its spin ends only at the node's next timer or message, or never in a node with
+neither (reproduced with real SIGTERMs: 7 of 230 timer-less nodes still blocked in ``rcl_wait`` 3 s later,
+load 2.4-4.4; the suite's nodes have a 1 Hz diagnostics timer, which ends such a wait within a second). So a
+daemon thread, :class:`_StopWatcher`, polls the context every 50 ms and wakes the executor (its guard
+condition) once the context is shut down.
+
 A stop request that has not ended the process :data:`SHUTDOWN_GRACE` seconds later is ended by a
-watchdog: it logs an ERROR, writes every thread's stack to stderr (``faulthandler``) and exits with code
-0, so that a stop request always ends the node and leaves the evidence in its log. This covers a hung
-shutdown (executor, node and context, after the spin has ended) and a spin that a signal did not end (a
-rare hang, seen under load, and at the end of a system test in 2 of the last 3 fresh-clone test runs, with
-the model server's spin not ended and no output at all: cause not yet found). The stop request is seen by
-a daemon thread that polls the context every 50 ms (rclpy's signal handling shuts the context down from
-C, without Python's shutdown callbacks). Two seconds later still, ``faulthandler``'s own timer (a C
-thread, which needs no GIL) writes the stacks and exits with code 1, for a hang that holds the GIL.
-Once run_node has returned (the shutdown finished), both are disarmed and the process is left alone.
+watchdog (the same thread arms it): it logs an ERROR, writes every thread's stack to stderr
+(``faulthandler``) and exits with code 0, so that a stop request always ends the node and leaves the
+evidence in its log. This covers a hung shutdown (executor, node and context, after the spin has ended)
+and a spin that a stop did not end. Two seconds later still, ``faulthandler``'s own timer (a C thread,
+which needs no GIL) writes the stacks and exits with code 1, for a hang that holds the GIL. Once run_node
+has returned (the shutdown finished), both are disarmed and the process is left alone.
 """
 
 from __future__ import annotations
@@ -58,27 +65,31 @@ SHUTDOWN_GRACE = 5.0
 """Seconds a stop request may take to end a node before the watchdog ends the process."""
 
 _STOP_POLL = 0.05
-"""Seconds between two looks at the context by the watchdog's thread."""
+"""Seconds between two looks at the context by the stop watcher's thread."""
 
 
-class _StopWatchdog:
-    """Ends the process ``grace`` s after a stop request unless the shutdown has finished (module docstring).
+class _StopWatcher:
+    """Wakes the executor for a stop request and, with a ``grace``, ends the process if the shutdown hangs.
 
-    A daemon thread waits until ``context`` is shut down or the spin has ended (:meth:`spin_ended`), then
-    arms a timer (ERROR, every thread's stack, exit code 0) and faulthandler's C timer 2 s later (stacks,
-    exit code 1). :meth:`finished` disarms both: once run_node's shutdown is done the process is left alone.
+    A daemon thread waits until ``context`` is shut down or the spin has ended (:meth:`spin_ended`). Then,
+    unless the spin has ended, it calls ``wake`` (the executor's ``wake``: rclpy's signal thread may have
+    woken the executor before it shut the context down; module docstring). With a ``grace`` it also arms a
+    timer (ERROR, every thread's stack, exit code 0) and faulthandler's C timer 2 s later (stacks, exit code
+    1). :meth:`finished` disarms both: once run_node's shutdown is done the process is left alone.
     """
 
-    def __init__(self, context: Any, grace: float) -> None:
-        self._grace = grace
+    def __init__(self, context: Any, wake: Callable[[], None], grace: float | None) -> None:
+        self._wake, self._grace = wake, grace
         self._spin_ended = threading.Event()
         self._lock = threading.Lock()
         self._finished = False
         self._timer: threading.Timer | None = None
-        threading.Thread(target=self._watch, args=(context,), name='stop watchdog', daemon=True).start()
+        threading.Thread(target=self._watch, args=(context,), name='stop watcher', daemon=True).start()
 
     def spin_ended(self) -> None:
-        self._spin_ended.set()
+        """The spin is over: the executor is not woken any more (it may be shut down once this returns)."""
+        with self._lock:
+            self._spin_ended.set()
 
     def finished(self) -> None:
         with self._lock:
@@ -91,7 +102,9 @@ class _StopWatchdog:
         while context.ok() and not self._spin_ended.wait(_STOP_POLL):
             pass
         with self._lock:
-            if self._finished:
+            if not self._spin_ended.is_set():
+                self._wake()
+            if self._finished or self._grace is None:
                 return
             faulthandler.dump_traceback_later(self._grace + 2.0, exit=True, file=sys.stderr)
             self._timer = threading.Timer(self._grace, self._expire)
@@ -169,9 +182,10 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
     rclpy.init(args=None if args is None else list(args))
     node: Node | None = None
     executor: Executor | None = None
-    watchdog = None if shutdown_grace is None else _StopWatchdog(rclpy.get_default_context(), shutdown_grace)
+    watcher: _StopWatcher | None = None
     try:
         executor = ShutdownSafeExecutor() if executor_factory is None else executor_factory()
+        watcher = _StopWatcher(rclpy.get_default_context(), executor.wake, shutdown_grace)
         try:
             node = node_factory()
         except STARTUP_ERRORS as exc:
@@ -188,15 +202,15 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        if watchdog is not None:
-            watchdog.spin_ended()
+        if watcher is not None:
+            watcher.spin_ended()
         if executor is not None:
             executor.shutdown()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
-        if watchdog is not None:
-            watchdog.finished()
+        if watcher is not None:
+            watcher.finished()
 
 
 def publish_all(node: Node, publishers: Mapping[str, Publisher], messages: Mapping[str, Any]) -> None:

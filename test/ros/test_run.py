@@ -101,6 +101,43 @@ def test_a_spin_the_signal_does_not_end_is_ended_by_the_watchdog(domain_id: int)
     assert 'in tick' in err
 
 
+@pytest.mark.parametrize('grace', [5.0, None], ids=['with watchdog', 'without watchdog'])
+def test_a_shutdown_after_the_executor_was_woken_still_ends_the_spin(domain_id: int, grace: float | None) -> None:
+    """The signal thread of rclpy wakes the executor and then shuts the context down, from C.
+
+    An executor that woke in between saw its context valid and waits again. Here that state is made at
+    will: the context is shut down (as rclpy's signal thread does it, without Python's shutdown callbacks)
+    once the executor is blocked in rcl_wait, in a node with no timer and no traffic. run_node must still
+    return, at once, without the watchdog.
+    """
+    code = ('import linecache, os, sys, threading, time\n'
+            'from rclpy.node import Node\n'
+            'from grasp_intent_ros.ros import run\n'
+            'def waiting(thread):  # its innermost Python frame is the executor\'s call of rcl_wait\n'
+            '    frame = sys._current_frames().get(thread.ident)\n'
+            '    line = "" if frame is None else linecache.getline(frame.f_code.co_filename, frame.f_lineno)\n'
+            '    return line.strip().startswith("wait_set.wait(")\n'
+            'class Quiet(Node):  # no timer, no traffic: nothing else wakes its executor\n'
+            '    def __init__(self):\n'
+            '        super().__init__("quiet")\n'
+            '        spinner = threading.current_thread()\n'
+            '        threading.Thread(target=self.stop, args=(spinner,), daemon=True).start()\n'
+            '    def stop(self, spinner):\n'
+            '        deadline = time.monotonic() + 30.0\n'
+            '        while not waiting(spinner):\n'
+            '            if time.monotonic() > deadline:\n'
+            '                print("the executor never waited", flush=True)\n'
+            '                os._exit(2)\n'
+            '            threading.Event().wait(0.005)\n'
+            '        print("stopping", flush=True)\n'
+            '        self.context.handle.shutdown()  # rcl_shutdown, as rclpy\'s signal thread calls it\n'
+            f'run.run_node(Quiet, [], shutdown_grace={grace})\n'
+            'print("returned", flush=True)\n')
+    result = _run_script(domain_id, code)  # the old code: ended by the watchdog 5 s later, or never (timeout)
+    assert result.stdout == 'stopping\nreturned\n' and result.returncode == 0, (result.stdout, result.stderr)
+    assert 'shutdown not finished' not in result.stderr
+
+
 def test_the_watchdog_leaves_a_process_alone_once_the_shutdown_has_finished(domain_id: int) -> None:
     """run_node has returned: the process goes on past the grace (and faulthandler's later timer)."""
     code = ('import time\n'
