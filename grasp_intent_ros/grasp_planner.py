@@ -73,7 +73,7 @@ from .ros.model_follower import ModelFollower
 from .ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
 from .ros.qos import input_qos, output_qos
 from .ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
-from .ros.run import publish_all, run_node
+from .ros.run import guard_exit, publish_all, run_node
 from .ros.worker import LatestOnlyWorker
 
 __all__ = ['GraspPlanner', 'PARAMETERS', 'GIL_SWITCH_INTERVAL', 'main']
@@ -263,6 +263,7 @@ def main(args: list[str] | None = None) -> None:
     startup.begin()
     sys.setswitchinterval(GIL_SWITCH_INTERVAL)
     run_node(GraspPlanner, args)
+    guard_exit()  # the interpreter's exit too must end, or leave the stacks
 
 
 if __name__ == '__main__':

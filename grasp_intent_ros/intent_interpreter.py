@@ -53,7 +53,7 @@ from .ros.inputs import decode_input, subscribe_input
 from .ros.model_follower import ModelFollower
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, output_qos
-from .ros.run import publish_all, run_node
+from .ros.run import guard_exit, publish_all, run_node
 
 __all__ = ['IntentInterpreter', 'PARAMETERS', 'W_QUEUE_DEPTH', 'main']
 
@@ -163,6 +163,7 @@ class IntentInterpreter(Node):
 def main(args: list[str] | None = None) -> None:
     """Entry point: run the node until SIGINT/SIGTERM."""
     run_node(IntentInterpreter, args)
+    guard_exit()  # the interpreter's exit too must end, or leave the stacks
 
 
 if __name__ == '__main__':

@@ -43,7 +43,7 @@ from .ros.diagnostics import NodeDiagnostics
 from .ros.inputs import subscribe_input
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, latched_qos, output_qos
-from .ros.run import publish_all, release_free_memory, run_node
+from .ros.run import guard_exit, publish_all, release_free_memory, run_node
 
 __all__ = ['ModelServer', 'PARAMETERS', 'MAX_FEATURES', 'main']
 
@@ -119,6 +119,7 @@ class ModelServer(Node):
 def main(args: list[str] | None = None) -> None:
     """Entry point: run the node until SIGINT/SIGTERM."""
     run_node(ModelServer, args)
+    guard_exit()  # the interpreter's exit too must end, or leave the stacks
 
 
 if __name__ == '__main__':

@@ -31,7 +31,10 @@ watchdog (the same thread arms it): it logs an ERROR, writes every thread's stac
 evidence in its log. This covers a hung shutdown (executor, node and context, after the spin has ended)
 and a spin that a stop did not end. Two seconds later still, ``faulthandler``'s own timer (a C thread,
 which needs no GIL) writes the stacks and exits with code 1, for a hang that holds the GIL. Once run_node
-has returned (the shutdown finished), both are disarmed and the process is left alone.
+has returned (the shutdown finished), both are disarmed and the process is left alone. A node process's
+``main`` then calls :func:`guard_exit`: the interpreter's own exit (atexit handlers, threads, the
+middleware's destructors) gets the same grace, after which faulthandler writes the stacks and exits with
+code 1, so that no hang, not even one after the node's shutdown, passes without output.
 """
 
 from __future__ import annotations
@@ -55,7 +58,7 @@ from rclpy.publisher import Publisher
 from ..core.errors import GraspIntentError
 from .params import ParameterError
 
-__all__ = ['run_node', 'publish_all', 'release_free_memory', 'STARTUP_ERRORS', 'SHUTDOWN_GRACE',
+__all__ = ['run_node', 'guard_exit', 'publish_all', 'release_free_memory', 'STARTUP_ERRORS', 'SHUTDOWN_GRACE',
            'ShutdownSafeExecutor']
 
 STARTUP_ERRORS: tuple[type[Exception], ...] = (ParameterError, ParameterException, GraspIntentError)
@@ -211,6 +214,15 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
         rclpy.try_shutdown()
         if watcher is not None:
             watcher.finished()
+
+
+def guard_exit(grace: float = SHUTDOWN_GRACE) -> None:
+    """For a node process's ``main`` once :func:`run_node` has returned: the process must end within ``grace`` s.
+
+    Else faulthandler writes every thread's stack to stderr and exits with code 1 (module docstring).
+    Not for a process that goes on working after its node (e.g. a test): it would be ended.
+    """
+    faulthandler.dump_traceback_later(grace, exit=True, file=sys.stderr)
 
 
 def publish_all(node: Node, publishers: Mapping[str, Publisher], messages: Mapping[str, Any]) -> None:

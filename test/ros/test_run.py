@@ -156,6 +156,41 @@ def test_the_watchdog_leaves_a_process_alone_once_the_shutdown_has_finished(doma
     assert 'shutdown not finished' not in proc.stderr
 
 
+def test_guard_exit_ends_a_process_whose_exit_hangs_after_run_node_with_the_stacks(domain_id: int) -> None:
+    """A hang in the interpreter's exit (here a thread that never ends) is ended with code 1 and its stack."""
+    code = ('import threading\n'
+            'import rclpy\n'
+            'from rclpy.node import Node\n'
+            'from grasp_intent_ros.ros import run\n'
+            'class Done(Node):\n'
+            '    def __init__(self):\n'
+            '        super().__init__("done")\n'
+            '        self.create_timer(0.05, rclpy.shutdown)\n'
+            'def stuck_at_exit():\n'
+            '    threading.Event().wait()\n'
+            'run.run_node(Done, [], shutdown_grace=0.5)\n'
+            'threading.Thread(target=stuck_at_exit).start()  # not a daemon: the exit waits for it\n'
+            'run.guard_exit(0.5)\n'
+            'print("returned", flush=True)\n')
+    result = _run_script(domain_id, code)
+    assert result.stdout == 'returned\n' and result.returncode == 1, (result.stdout, result.stderr)
+    assert 'in stuck_at_exit' in result.stderr
+
+
+def test_guard_exit_leaves_a_process_that_ends_alone(domain_id: int) -> None:
+    code = ('import rclpy\n'
+            'from rclpy.node import Node\n'
+            'from grasp_intent_ros.ros import run\n'
+            'class Done(Node):\n'
+            '    def __init__(self):\n'
+            '        super().__init__("done")\n'
+            '        self.create_timer(0.05, rclpy.shutdown)\n'
+            'run.run_node(Done, [], shutdown_grace=0.5)\n'
+            'run.guard_exit(0.5)\n')
+    result = _run_script(domain_id, code)
+    assert result.returncode == 0 and 'Timeout' not in result.stderr, result.stderr
+
+
 def _resident_anonymous_bytes() -> int:
     for line in Path('/proc/self/status').read_text().splitlines():
         if line.startswith('RssAnon:'):
