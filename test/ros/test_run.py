@@ -138,16 +138,18 @@ def test_a_shutdown_after_the_executor_was_woken_still_ends_the_spin(domain_id: 
     assert 'shutdown not finished' not in result.stderr
 
 
+_DONE_NODE = ('import rclpy\n'
+              'from rclpy.node import Node\n'
+              'from grasp_intent_ros.ros import run\n'
+              'class Done(Node):  # shuts itself down at once\n'
+              '    def __init__(self):\n'
+              '        super().__init__("done")\n'
+              '        self.create_timer(0.05, rclpy.shutdown)\n')
+
+
 def test_the_watchdog_leaves_a_process_alone_once_the_shutdown_has_finished(domain_id: int) -> None:
     """run_node has returned: the process goes on past the grace (and faulthandler's later timer)."""
-    code = ('import time\n'
-            'import rclpy\n'
-            'from rclpy.node import Node\n'
-            'from grasp_intent_ros.ros import run\n'
-            'class Done(Node):\n'
-            '    def __init__(self):\n'
-            '        super().__init__("done")\n'
-            '        self.create_timer(0.05, rclpy.shutdown)\n'
+    code = ('import time\n' + _DONE_NODE +
             'run.run_node(Done, [], shutdown_grace=0.2)\n'
             'time.sleep(3.0)  # beyond the grace and the C timer 2 s after it\n'
             'print("still here", flush=True)\n')
@@ -158,14 +160,7 @@ def test_the_watchdog_leaves_a_process_alone_once_the_shutdown_has_finished(doma
 
 def test_guard_exit_ends_a_process_whose_exit_hangs_after_run_node_with_the_stacks(domain_id: int) -> None:
     """A hang in the interpreter's exit (here a thread that never ends) is ended with code 1 and its stack."""
-    code = ('import threading\n'
-            'import rclpy\n'
-            'from rclpy.node import Node\n'
-            'from grasp_intent_ros.ros import run\n'
-            'class Done(Node):\n'
-            '    def __init__(self):\n'
-            '        super().__init__("done")\n'
-            '        self.create_timer(0.05, rclpy.shutdown)\n'
+    code = ('import threading\n' + _DONE_NODE +
             'def stuck_at_exit():\n'
             '    threading.Event().wait()\n'
             'run.run_node(Done, [], shutdown_grace=0.5)\n'
@@ -178,16 +173,7 @@ def test_guard_exit_ends_a_process_whose_exit_hangs_after_run_node_with_the_stac
 
 
 def test_guard_exit_leaves_a_process_that_ends_alone(domain_id: int) -> None:
-    code = ('import rclpy\n'
-            'from rclpy.node import Node\n'
-            'from grasp_intent_ros.ros import run\n'
-            'class Done(Node):\n'
-            '    def __init__(self):\n'
-            '        super().__init__("done")\n'
-            '        self.create_timer(0.05, rclpy.shutdown)\n'
-            'run.run_node(Done, [], shutdown_grace=0.5)\n'
-            'run.guard_exit(0.5)\n')
-    result = _run_script(domain_id, code)
+    result = _run_script(domain_id, _DONE_NODE + 'run.run_node(Done, [], shutdown_grace=0.5)\nrun.guard_exit(0.5)\n')
     assert result.returncode == 0 and 'Timeout' not in result.stderr, result.stderr
 
 
