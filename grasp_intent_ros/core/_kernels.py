@@ -278,8 +278,9 @@ def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], pre
                    a0: int, a1: int, kinds: NDArray[np.int64], centres: NDArray[np.float64],
                    axes: NDArray[np.float64], perps: NDArray[np.float64], radii: NDArray[np.float64],
                    lengths: NDArray[np.float64], halfs: NDArray[np.float64], margin: float,
-                   maxiter: int, stall: int, damping: float, htol: float, steptol: float):
-    """Project every start (N, d); returns end points (N, d), converged (N,), iterations (N,)."""
+                   maxiter: int, stall: int, damping: float, htol: float, steptol: float,
+                   b_final: NDArray[np.float64]):
+    """Project every start (N, d) onto b, then onto b_final; end points (N, d), converged (N,), iterations (N,)."""
     n, d = starts.shape
     K = means.shape[0]
     n_eq = K - 1
@@ -295,7 +296,13 @@ def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], pre
         l1 = np.sum(np.abs(e[:n_eq]))
         checkpoint = l1
         radius = 1.0
-        for it in range(1, maxiter + 1):
+        target = b
+        final = True  # no second phase when b_final is b
+        for i in range(n_eq):
+            final = final and b[i] == b_final[i]
+        it = 0
+        while it < maxiter:
+            it += 1
             if it % stall == 0:  # a start that has not halved its residual in `stall` iterations stalls
                 if l1 > 0.5 * checkpoint:
                     break
@@ -305,17 +312,25 @@ def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], pre
             t = min(1.0, radius / max(size, 1e-300))
             x_try = _project(x + (t * dy) * scale, lower, upper, a0, a1, kinds, centres, axes, perps, radii,
                              lengths, halfs, margin)
-            e_try, A_try = _evaluate(x_try, means, prec, log_norm, others, r, b, scale, a0, a1, kinds, centres,
-                                     axes, perps, radii, lengths, halfs, margin)
+            e_try, A_try = _evaluate(x_try, means, prec, log_norm, others, r, target, scale, a0, a1, kinds,
+                                     centres, axes, perps, radii, lengths, halfs, margin)
             l1_try = np.sum(np.abs(e_try[:n_eq]))
             iterations[s] += 1
             fin = np.max(np.abs(e_try[:n_eq])) <= htol and t * size <= steptol
             ok = l1_try < l1 or fin
             if ok:
                 x, e, A, l1 = x_try, e_try, A_try, l1_try
-            if fin:
+            if fin and final:
                 converged[s] = True
                 break
+            if fin:  # on the path's targets: the same steps onto b_final, with an iteration budget of their own
+                final = True
+                target = b_final
+                e[:n_eq] += b - b_final
+                l1 = np.sum(np.abs(e[:n_eq]))
+                checkpoint = l1
+                it = 0
+                continue
             radius = min(2.0 * max(radius, t * size), 4.0) if ok else 0.25 * min(radius, t * size)
             if radius < 1e-12:
                 break
@@ -327,14 +342,18 @@ def project(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArr
             log_norm: NDArray[np.float64], others: NDArray[np.int64], r: int, b: NDArray[np.float64],
             scale: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray[np.float64], a0: int, a1: int,
             body: tuple[Any, ...], *, maxiter: int, stall: int, damping: float, htol: float,
-            steptol: float) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
+            steptol: float, b_final: NDArray[np.float64] | None = None,
+            ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
     """Project every start (N, d) onto the log-odds equations: end points, converged (N,), iterations (N,).
 
-    ``body`` is ``(kinds, centres, axes, perps, radii, lengths, halfs, margin)`` (module docstring).
+    ``body`` is ``(kinds, centres, axes, perps, radii, lengths, halfs, margin)`` (module docstring). With
+    ``b_final``, a start that converges onto the right-hand sides ``b`` goes on to ``b_final`` (with a budget
+    of ``maxiter`` iterations of its own) and has converged when it meets them.
     """
     out: tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]] = _project_starts(
         np.ascontiguousarray(starts, dtype=np.float64), means, prec, log_norm, others, r, b, scale, lower,
-        upper, a0, a1, *body, maxiter, stall, damping, htol, steptol)  # type: ignore[call-arg]
+        upper, a0, a1, *body, maxiter, stall, damping, htol, steptol,
+        b if b_final is None else b_final)  # type: ignore[call-arg]
     return out
 
 

@@ -304,6 +304,25 @@ def test_last_bit_perturbations_of_v_give_the_same_grasp(shipped: dict[str, Gras
         assert b.objective == pytest.approx(a.objective, rel=1e-4), (a.message, b.message)
 
 
+W_LONG_PATH = (0.08374032389677899, 0.3230536931058179, 0.9275588094659627)
+"""Flashlight: the chosen match is reached by a ~60-iteration damped projection whose accept/reject decisions
+amplified a 1e-12 change of v to a 1e-4 move of the grasp before the targets were rounded for the path."""
+
+
+def test_a_long_projection_path_is_not_steered_by_the_last_bits_of_v(shipped: dict[str, GraspModel]) -> None:
+    model = shipped['flashlight_7zone']
+    v = _v(W_LONG_PATH, model)
+    a = planner.plan(model, v)
+    assert a.exact and a.success, a.message
+    log_odds = np.log(a.posterior) - np.log(v)  # the exact targets are met, not only the rounded ones
+    assert np.ptp(log_odds) <= 2e-11
+    for seed in range(1, 5):
+        b = planner.plan(model, _perturbed(v, seed))
+        assert b.exact and b.success, b.message
+        assert np.abs(a.x[:3] - b.x[:3]).max() <= STABLE_PALM_M, seed
+        assert np.abs(a.x[3:6] - b.x[3:6]).max() <= STABLE_APPROACH, seed
+
+
 @pytest.mark.parametrize('name', ['cup_7zone', 'flashlight_7zone'])
 @settings(max_examples=60, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
