@@ -154,7 +154,7 @@ def _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, marg
 
 
 @njit(cache=True, nogil=True)
-def _onto_surface(x, lower, kinds, centres, axes, perps, radii, lengths, halfs, margin, upper):  # type: ignore[no-untyped-def]
+def _onto_surface(x, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin):  # type: ignore[no-untyped-def]
     """Move the palm of x (in place) onto the body's surface (margin included), within the bounds."""
     p = x[0:3].copy()
     for _ in range(4):
@@ -442,7 +442,7 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
             x_new = _project(x + step, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs,
                              margin)
             if on_body:
-                _onto_surface(x_new, lower, kinds, centres, axes, perps, radii, lengths, halfs, margin, upper)
+                _onto_surface(x_new, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin)
             p_new, jac_new = _posterior_jacobian(x_new, means, prec, log_norm)
             r_new = v - p_new
             f_new = 0.5 * np.sum(r_new * r_new)
@@ -588,7 +588,7 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
             x_new = _project(x + step * sc, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
                              halfs, margin)
             if on_body:
-                _onto_surface(x_new, lower, kinds, centres, axes, perps, radii, lengths, halfs, margin, upper)
+                _onto_surface(x_new, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin)
             size = math.sqrt(np.sum(step * step))
             p_new, jac_new, hess_new = _posterior_hessian(x_new, means, prec, log_norm, v)
             r_new = v - p_new
