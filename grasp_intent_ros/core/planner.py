@@ -29,7 +29,7 @@ not name one grasp. The planner therefore answers a stated problem:
    ``accept`` takes it), that is the answer. Otherwise the other starts are projected, and the
    matches found are chosen from (rule 6).
 5. **Least squares.** When no start reaches an acceptable match (some v_k = 0, or v is outside what
-   the model can attain in X), f is minimised from every start and every projection's end point with
+   the model can attain in X), f is minimised from every start and every zone mean with
    a projected Levenberg-Marquardt iteration; the three best end points by f then go on with a
    projected trust-region Newton iteration on f's exact Hessian (which keeps the curvature that the
    Levenberg-Marquardt steps leave out: that of a nearly flat valley), and its end point replaces
@@ -41,7 +41,10 @@ not name one grasp. The planner therefore answers a stated problem:
    the projection converges). Least-squares valleys can be nearly flat and long: where neither
    iteration converges, the end point is where the damped iteration stopped, a deterministic
    function of the input whose last bits can move it along the valley in rare cases (see the
-   benchmark's stability section).
+   benchmark's stability section). Both iterations take their paths to v rounded to 1e-9, for the
+   projection's reason (class ``_LogOddsProjection``): a long path can amplify a difference in its
+   input (a flashlight LM path multiplied a 1e-12 change of v by about 10 per iteration, to 3e-3 at
+   the match it then reached); f, the choice and the projection onto the matches use v exactly.
 6. **Choice.** Let f* be the lowest f found. The candidates with f <= f* + max(1e-12, 1e-6 f*) are
    the matches; the planner returns the one nearest to x_ref, and among matches whose distances are
    within 1e-6 of the nearest, the first in start order. Ties are never left to float noise. The
@@ -109,6 +112,7 @@ _TC_MAXITER = 1500
 _LM_MAXITER = 300
 _LM_RIDGE = 1e-7     # ridge of the least-squares steps, relative to the largest curvature
 _LM_FTOL = 1e-7      # a start has converged when an accepted step improves f by less than this * f + 1e-15
+_LS_QUANTUM = 1e-9    # v is rounded to this for the least squares' paths (class _LogOddsProjection's reason)
 _NEWTON_POLISH = 3   # least-squares end points (the best by f) refined further with Newton's method
 _NEWTON_MAXITER = 400
 _NEWTON_STEPTOL = 1e-10
@@ -624,12 +628,13 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
                 xs, ok, its = projection.run(wide[1:])
                 found += candidates_from(xs, wide[1:], ok, its, 1, _match_message)
                 chosen = choose(_choose(exact(found)))
-        if chosen is None:  # least squares from every start and every projection's end point
-            origins = _unique_rows(np.concatenate([wide, *([np.stack([c.x for c in found])] if found else [])]))
-            xs, ok, its = _refine_lm(model, v_arr, origins, feas)
-            r = v_arr - model.posterior(xs)
+        if chosen is None:  # least squares from every start and every zone mean
+            origins = _unique_rows(np.concatenate([wide, feas.project(model.means)]))
+            v_path = np.rint(v_arr / _LS_QUANTUM) * _LS_QUANTUM
+            xs, ok, its = _refine_lm(model, v_path, origins, feas)
+            r = v_path - model.posterior(xs)
             best = _rank_by_f(0.5 * np.sum(r * r, axis=1))[:_NEWTON_POLISH]
-            xs_n, ok_n, its_n = _refine_newton(model, v_arr, xs[best], feas)  # kept where it converges
+            xs_n, ok_n, its_n = _refine_newton(model, v_path, xs[best], feas)  # kept where it converges
             xs[best[ok_n]] = xs_n[ok_n]
             ok[best] |= ok_n
             its[best] += its_n
