@@ -416,6 +416,16 @@ class GraspModel:
         return self.features.upper
 
     @functools.cached_property
+    def start_pool(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """The zone means and then the demonstrations (N, d), their log joints (N, K) and posteriors (N, K).
+
+        The planner screens these as starts (:func:`grasp_intent_ros.core.planner.search_starts`); they
+        do not depend on v, so they are evaluated once per model.
+        """
+        pool = np.concatenate([self.means, self.demo_x])
+        return pool, self.log_joint(pool), self.posterior(pool)
+
+    @functools.cached_property
     def zone_labels(self) -> tuple[str, ...]:
         """Short zone labels ('U', 'UT', ...) in zone order."""
         return zone_labels(self.zones, self.task_names)

@@ -274,22 +274,14 @@ def select_starts(model: GraspModel, v: NDArray[np.float64], n_starts: int = 3,
     """
     order = zone_order(v)[:max(1, top_zones)]
     r = v[None, :] - model.demo_posterior
-    f = 0.5 * np.einsum('nk,nk->n', r, r)
-    ranked = _rank_by_f(f)
-    rank_of = np.empty_like(ranked)
-    rank_of[ranked] = np.arange(ranked.size)
-
-    def members(zone: int) -> NDArray[np.intp]:
-        idx = np.flatnonzero((model.demo_sets & zone) == zone)
-        return idx[np.argsort(rank_of[idx], kind='stable')]
-
-    first = members(model.zones[int(order[0])])
-    pool = np.unique(np.concatenate([members(model.zones[int(k)]) for k in order]))
+    ranked = _rank_by_f(0.5 * np.einsum('nk,nk->n', r, r))
+    zones = np.asarray(model.zones)[order]
+    member = (model.demo_sets[ranked, None] & zones[None, :]) == zones[None, :]  # in rank order
+    first = ranked[member[:, 0]][:1]
     if first.size == 0:  # no demonstration in the top zone: start from the best one overall
         first = ranked[:1]
-    rest = [int(i) for i in pool[np.argsort(rank_of[pool], kind='stable')] if i != first[0]]
-    starts = [int(first[0]), *rest[:n_starts - 1]]
-    out: NDArray[np.float64] = model.demo_x[np.asarray(starts)]
+    rest = ranked[member.any(axis=1) & (ranked != first[0])]
+    out: NDArray[np.float64] = model.demo_x[np.concatenate([first, rest[:n_starts - 1]])]
     return out
 
 
@@ -300,12 +292,12 @@ def search_starts(model: GraspModel, v: NDArray[np.float64], count: int = _SCREE
     residuals, max_k q_k - min_k q_k with q_k = log(pi_k N_k(x)) - log v_k (zero exactly where P = v);
     otherwise by f.
     """
-    pool = np.concatenate([model.means, model.demo_x])
+    pool, log_joint, posterior = model.start_pool
     if np.all(v > 0.0):
-        q = model.log_joint(pool) - np.log(v)
+        q = log_joint - np.log(v)
         score = q.max(axis=1) - q.min(axis=1)
     else:
-        r = v[None, :] - model.posterior(pool)
+        r = v[None, :] - posterior
         score = 0.5 * np.einsum('nk,nk->n', r, r)
     out: NDArray[np.float64] = pool[_rank_by_f(score)[:count]]
     return out
@@ -508,24 +500,26 @@ def _choose(candidates: list[Candidate]) -> list[Candidate]:
     if len(candidates) <= 1:
         return list(candidates)
     f = np.array([c.objective for c in candidates])
+    dist = np.array([c.distance for c in candidates])
+    start = np.array([c.start_index for c in candidates])
     best = float(f.min())
     matches = f <= best + max(MATCH_TOL, F_RTOL * best)
-    pool = [c for c, ok in zip(candidates, matches) if ok]
-    ordered: list[Candidate] = []
-    while pool:  # nearest first; distances within DISTANCE_TOL of it tie, broken by start order
-        nearest = min(c.distance for c in pool)
-        pick = min(range(len(pool)),
-                   key=lambda i: (pool[i].distance > nearest + DISTANCE_TOL, pool[i].start_index))
-        ordered.append(pool.pop(pick))
-    rest = [candidates[int(i)] for i in _rank_by_f(f) if not matches[int(i)]]
-    out: list[Candidate] = []
-    kept = np.empty((len(candidates), candidates[0].x.size))
-    for cand in ordered + rest:
-        rel = (cand.x - kept[:len(out)]) / np.maximum(np.abs(kept[:len(out)]), 1.0)
-        if not np.any(np.einsum('ij,ij->i', rel, rel) < 1e-18):
-            kept[len(out)] = cand.x
-            out.append(cand)
-    return out
+    pool = np.flatnonzero(matches)
+    ordered: list[int] = []
+    while pool.size:  # nearest first; distances within DISTANCE_TOL of it tie, broken by start order
+        far = dist[pool] > dist[pool].min() + DISTANCE_TOL
+        pick = int(np.lexsort((start[pool], far))[0])
+        ordered.append(int(pool[pick]))
+        pool = np.delete(pool, pick)
+    order = ordered + [int(i) for i in _rank_by_f(f) if not matches[int(i)]]
+    x = np.stack([candidates[i].x for i in order])
+    rel = (x[:, None, :] - x[None, :, :]) / np.maximum(np.abs(x[None, :, :]), 1.0)
+    same = np.einsum('ijk,ijk->ij', rel, rel) < 1e-18  # same[i, j]: i repeats j
+    kept: list[int] = []
+    for i in range(len(order)):
+        if not same[i, kept].any():
+            kept.append(i)
+    return [candidates[order[i]] for i in kept]
 
 
 def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gradient = 'analytic',
