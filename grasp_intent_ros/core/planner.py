@@ -37,8 +37,8 @@ not name one grasp. The planner therefore answers a stated problem:
    a palm on the body's surface whose objective would fall inside the body moves on the surface
    (steps on its tangent plane, then back onto it; Newton adds the surface's curvature times its
    multiplier to the Hessian). Most flashlight least-squares answers lie on its body. End points
-   within 1e-8 of a match are then projected onto the matches (kept, and counted converged, where
-   the projection converges). Least-squares valleys can be nearly flat and long: where neither
+   within 1e-8 of a match are then projected onto the matches (kept, counted converged and labelled
+   'exact match (least squares, then projected)', where the projection converges). Least-squares valleys can be nearly flat and long: where neither
    iteration converges, the end point is where the damped iteration stopped, a deterministic
    function of the input whose last bits can move it along the valley in rare cases (see the
    benchmark's stability section). Both iterations take their paths to v rounded to 1e-9, for the
@@ -583,13 +583,14 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
         return out
 
     def candidates_from(xs: NDArray[np.float64], origin: NDArray[np.float64], ok: NDArray[np.bool_],
-                        its: NDArray[np.int64], first_index: int, message: Callable[..., str],
+                        its: NDArray[np.int64], first_index: int, message: Callable[[int, bool], str],
                         ) -> list[Candidate]:
+        """Scored candidates of the end points xs (N, d); ``message(i, converged)`` says how row i ended."""
         post, f, dist = score(xs, v_arr, model.means, model._precisions, model._log_norm, x_ref, feas.scale)
         f_origin = score(origin, v_arr, model.means, model._precisions, model._log_norm, x_ref, feas.scale)[1]
         return [Candidate(x=xs[i], posterior=post[i], objective=float(f[i]), distance=float(dist[i]),
                           start=origin[i], start_objective=float(f_origin[i]), start_index=first_index + i,
-                          success=bool(ok[i]), message=message(bool(ok[i])), iterations=int(its[i]))
+                          success=bool(ok[i]), message=message(i, bool(ok[i])), iterations=int(its[i]))
                 for i in range(xs.shape[0])]
 
     found: list[Candidate] = []
@@ -614,13 +615,13 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
         if possible:
             projection = _LogOddsProjection(model, v_arr, feas)
             xs, ok, its = projection.run(x_ref[None, :])  # the reference's own projection first
-            found = candidates_from(xs, x_ref[None, :], ok, its, 0, _match_message)
+            found = candidates_from(xs, x_ref[None, :], ok, its, 0, lambda _, c: _match_message(c))
             chosen = choose(_choose(exact(found)))
         if chosen is None:  # the wider search (its first row is the reference again)
             wide = _unique_rows(np.concatenate([all_starts(), feas.project(search_starts(model, v_arr))]))
             if possible and wide.shape[0] > 1:
                 xs, ok, its = projection.run(wide[1:])
-                found += candidates_from(xs, wide[1:], ok, its, 1, _match_message)
+                found += candidates_from(xs, wide[1:], ok, its, 1, lambda _, c: _match_message(c))
                 chosen = choose(_choose(exact(found)))
         if chosen is None:  # least squares from every start and every zone mean
             origins = _unique_rows(np.concatenate([wide, feas.project(model.means)]))
@@ -634,18 +635,22 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
             its[best] += its_n
             r = v_arr - model.posterior(xs)
             near = np.flatnonzero(0.5 * np.sum(r * r, axis=1) <= _POLISH)
+            projected = np.zeros(xs.shape[0], dtype=np.bool_)
             if near.size and possible:  # least squares found the matches: project onto them where it converges
                 xs_p, ok_p, its_p = projection.run(xs[near])
                 xs[near[ok_p]] = xs_p[ok_p]
                 ok[near[ok_p]] = True  # a converged projection is a converged answer
+                projected[near[ok_p]] = True
                 its[near] += its_p
-            found += candidates_from(xs, origins, ok, its, len(found),
-                                     lambda c: 'least squares: converged' if c else 'least squares: iteration limit')
+            found += candidates_from(
+                xs, origins, ok, its, len(found),
+                lambda i, c: ('exact match (least squares, then projected)' if projected[i]
+                              else 'least squares: converged' if c else 'least squares: iteration limit'))
     else:
         for i, s0 in enumerate(all_starts()):
             x1, ok1, text, it = _refine_scipy(model, v_arr, s0, method, gradient, extra_constraints, feas)
             found += candidates_from(x1[None, :], s0[None, :], np.array([ok1]), np.array([it]), i,
-                                     lambda _, said=text: said)
+                                     lambda _, __: text)  # called at once, in this iteration
     ranked = _choose(found)
     if chosen is None:
         chosen = choose(ranked)

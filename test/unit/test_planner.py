@@ -157,6 +157,19 @@ def test_status_tells_an_iteration_limit_from_convergence(shipped: dict[str, Gra
     assert 'iteration limit' in res.message
 
 
+def test_a_match_found_by_the_least_squares_says_so(shipped: dict[str, GraspModel]) -> None:
+    """Cup, w = (0.7, 0.9, 0.05): no start's projection matches v; a least-squares end point, projected, does.
+
+    The answer is an exact match, converged, and its message says how it was found (it said
+    'least squares: converged').
+    """
+    model = shipped['cup_7zone']
+    v = _v((0.7, 0.9, 0.05), model)
+    res = planner.plan(model, v)
+    assert res.exact and res.status == 'ok'
+    assert res.chosen.message == 'exact match (least squares, then projected)'
+
+
 def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, GraspModel]) -> None:
     """The Newton stage's exact Hessian of f against central differences of the analytic gradient (1e-5 relative)."""
     from grasp_intent_ros.core._kernels import _posterior_hessian
