@@ -38,7 +38,8 @@ not name one grasp. The planner therefore answers a stated problem:
    (steps on its tangent plane, then back onto it; Newton adds the surface's curvature times its
    multiplier to the Hessian). Most flashlight least-squares answers lie on its body. End points
    within 1e-8 of a match are then projected onto the matches (kept, counted converged and labelled
-   'exact match (least squares, then projected)', where the projection converges). Least-squares valleys can be nearly flat and long: where neither
+   'exact match (least squares, then projected)', where the projection converges). Least-squares
+   valleys can be nearly flat and long: where neither
    iteration converges, the end point is where the damped iteration stopped, a deterministic
    function of the input whose last bits can move it along the valley in rare cases (see the
    benchmark's stability section). Both iterations take their paths to v rounded to 1e-9, for the
