@@ -416,6 +416,13 @@ class GraspModel:
         return self.features.upper
 
     @functools.cached_property
+    def zone_members(self) -> NDArray[np.bool_]:
+        """Whether demonstration n belongs to zone k (inclusive labeling: its task set contains the zone's), (K, N)."""
+        zones = np.asarray(self.zones, dtype=np.int64)
+        out: NDArray[np.bool_] = (self.demo_sets[None, :] & zones[:, None]) == zones[:, None]
+        return out
+
+    @functools.cached_property
     def start_pool(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """The zone means and then the demonstrations (N, d), their log joints (N, K) and posteriors (N, K).
 

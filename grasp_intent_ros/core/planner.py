@@ -276,8 +276,7 @@ def select_starts(model: GraspModel, v: NDArray[np.float64], n_starts: int = 3,
     order = zone_order(v)[:max(1, top_zones)]
     r = v[None, :] - model.demo_posterior
     ranked = _rank_by_f(0.5 * np.einsum('nk,nk->n', r, r))
-    zones = np.asarray(model.zones)[order]
-    member = (model.demo_sets[ranked, None] & zones[None, :]) == zones[None, :]  # in rank order
+    member = model.zone_members[order][:, ranked].T  # in rank order
     first = ranked[member[:, 0]][:1]
     if first.size == 0:  # no demonstration in the top zone: start from the best one overall
         first = ranked[:1]
@@ -567,21 +566,23 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
         raise PlanningError(f"gradient must be 'analytic' or '2-point', got {gradient!r}")
     if method == 'lm' and (gradient != 'analytic' or extra_constraints):
         raise PlanningError("method 'lm' takes the analytic gradient and no extra_constraints")
+    demo: NDArray[np.float64] | None = None  # the demonstration starts, Algorithm 1's first
     if warm_start is not None:
         ws = np.asarray(warm_start, dtype=np.float64)
         if ws.shape != (model.features.dim,) or not np.all(np.isfinite(ws)):
             raise PlanningError(f'warm_start must be a finite vector of shape ({model.features.dim},)')
         first = ws[None, :]
     else:
-        first = select_starts(model, v_arr, 1, top_zones)  # Algorithm 1's start
+        demo = select_starts(model, v_arr, n_starts, top_zones)
+        first = demo[:1]  # Algorithm 1's start
     feas = _Feasible(model)
     x_ref = feas.project(first)[0]
 
     def all_starts() -> NDArray[np.float64]:
-        """x_ref, then the demonstration starts (built only when the search goes beyond x_ref)."""
-        demo = feas.project(select_starts(model, v_arr, n_starts, top_zones))
-        out: NDArray[np.float64] = np.concatenate([x_ref[None, :], demo if warm_start is not None else demo[1:]])
-        return out
+        """x_ref, then the demonstration starts (with a warm start, selected only when the search goes beyond x_ref)."""
+        if demo is None:
+            return np.concatenate([x_ref[None, :], feas.project(select_starts(model, v_arr, n_starts, top_zones))])
+        return np.concatenate([x_ref[None, :], feas.project(demo[1:])])
 
     def candidates_from(xs: NDArray[np.float64], origin: NDArray[np.float64], ok: NDArray[np.bool_],
                         its: NDArray[np.int64], first_index: int, message: Callable[[int, bool], str],
