@@ -167,7 +167,10 @@ def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, 
             v = rng.dirichlet(np.ones(len(model.zones)))
             i, j = rng.choice(len(model.zones), 2, replace=False)
             x = 0.5 * (model.means[i] + model.means[j])  # between two zones, where P varies
-            hess = _posterior_hessian(x, model.means, model._precisions, model._log_norm, v)[2]
+            K, d = model.means.shape
+            hess = np.empty((d, d))
+            _posterior_hessian(x, model.means, model._precisions, model._log_norm, v, np.empty(K), np.empty((K, d)),
+                               np.empty((K, d)), hess)
             step = 1e-6 * model.feature_scale
             numeric = np.stack([(planner.objective_and_gradient(model, v, x + h)[1]
                                  - planner.objective_and_gradient(model, v, x - h)[1]) / (2.0 * h[i])
@@ -205,7 +208,8 @@ def test_body_surface_curvature_matches_finite_differences(shipped: dict[str, Gr
     for p in (np.array([0.03, 0.0, 0.041]), np.array([0.03, 0.012, 0.035]), np.array([-0.05, -0.02, 0.0]),
               np.array([0.12, 0.005, 0.03])):
         step = 1e-7
-        numeric = np.stack([(_distance(p + h, *arrays)[1] - _distance(p - h, *arrays)[1]) / (2.0 * step)
+        numeric = np.stack([(np.array(_distance(p + h, *arrays)[1:]) - np.array(_distance(p - h, *arrays)[1:]))
+                            / (2.0 * step)
                             for h in np.eye(3) * step])
         hess = _distance_hessian(p, *arrays)
         assert_allclose(hess, numeric, rtol=0.0, atol=1e-6 * max(np.abs(numeric).max(), 1.0))
