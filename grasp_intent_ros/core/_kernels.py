@@ -837,50 +837,27 @@ def least_squares(starts: NDArray[np.float64], v: NDArray[np.float64], means: ND
 
 
 # -- inverse kinematics of a serial chain of revolute joints (MicoKinematics.ik) ---------------------------
+# 3-vectors and 3x3 products are written out (a BLAS call, or a temporary array, costs more than the
+# arithmetic at this size).
 
 
 @njit(cache=True, nogil=True)
-def _rotate(R, v):  # type: ignore[no-untyped-def]
-    """R v for a 3x3 R (written out: a BLAS call costs more than the arithmetic at this size)."""
-    out = np.empty(3)
-    for i in range(3):
-        out[i] = R[i, 0] * v[0] + R[i, 1] * v[1] + R[i, 2] * v[2]
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _rotate_back(R, v):  # type: ignore[no-untyped-def]
-    """R^T v for a 3x3 R."""
-    out = np.empty(3)
-    for i in range(3):
-        out[i] = R[0, i] * v[0] + R[1, i] * v[1] + R[2, i] * v[2]
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _compose(A, B):  # type: ignore[no-untyped-def]
-    """A B for 3x3 matrices."""
-    out = np.empty((3, 3))
+def _compose(A, B, out):  # type: ignore[no-untyped-def]
+    """Fills out with A B for 3x3 matrices (out is neither)."""
     for i in range(3):
         for j in range(3):
             out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
-    return out
 
 
 @njit(cache=True, nogil=True)
-def _cross(a, b):  # type: ignore[no-untyped-def]
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
-@njit(cache=True, nogil=True)
-def _axis_rotation(axis, angle):  # type: ignore[no-untyped-def]
-    """Rodrigues: the rotation by ``angle`` about the unit ``axis``."""
+def _axis_rotation(axis, angle, out):  # type: ignore[no-untyped-def]
+    """Fills out with the rotation by ``angle`` about the unit ``axis`` (Rodrigues)."""
     s, c = math.sin(angle), math.cos(angle)
     x, y, z = axis[0], axis[1], axis[2]
     t = 1.0 - c
-    return np.array([[c + t * x * x, t * x * y - s * z, t * x * z + s * y],
-                     [t * x * y + s * z, c + t * y * y, t * y * z - s * x],
-                     [t * x * z - s * y, t * y * z + s * x, c + t * z * z]])
+    out[0, 0], out[0, 1], out[0, 2] = c + t * x * x, t * x * y - s * z, t * x * z + s * y
+    out[1, 0], out[1, 1], out[1, 2] = t * x * y + s * z, c + t * y * y, t * y * z - s * x
+    out[2, 0], out[2, 1], out[2, 2] = t * x * z - s * y, t * y * z + s * x, c + t * z * z
 
 
 @njit(cache=True, nogil=True)
@@ -892,13 +869,20 @@ def _chain_fk(q, rots, trans, axes, tip_rot, tip_trans, origins, zs):  # type: i
     """
     R = np.eye(3)
     p = np.zeros(3)
+    M, T = np.empty((3, 3)), np.empty((3, 3))
     for i in range(q.size):
-        p = p + _rotate(R, trans[i])
-        R = _compose(R, rots[i])
+        for r in range(3):
+            p[r] += R[r, 0] * trans[i, 0] + R[r, 1] * trans[i, 1] + R[r, 2] * trans[i, 2]
+        _compose(R, rots[i], M)
         origins[i] = p
-        zs[i] = _rotate(R, axes[i])
-        R = _compose(R, _axis_rotation(axes[i], q[i]))
-    return _compose(R, tip_rot), p + _rotate(R, tip_trans)
+        for r in range(3):
+            zs[i, r] = M[r, 0] * axes[i, 0] + M[r, 1] * axes[i, 1] + M[r, 2] * axes[i, 2]
+        _axis_rotation(axes[i], q[i], T)
+        _compose(M, T, R)
+    for r in range(3):
+        p[r] += R[r, 0] * tip_trans[0] + R[r, 1] * tip_trans[1] + R[r, 2] * tip_trans[2]
+    _compose(R, tip_rot, M)
+    return M, p
 
 
 @njit(cache=True, nogil=True)
@@ -931,9 +915,13 @@ def _ik_residual(q, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, origins, zs
     """Error e = (R^T (p_t - p), log3(R^T R_t)) of the tip pose (R, p) against the target, in the tip frame."""
     R, p = _chain_fk(q, rots, trans, axes, tip_rot, tip_trans, origins, zs)
     e = np.empty(6)
-    e[:3] = _rotate_back(R, p_t - p)
-    Rt = R.T.copy()
-    e[3:] = _log3(_compose(Rt, R_t))
+    d0, d1, d2 = p_t[0] - p[0], p_t[1] - p[1], p_t[2] - p[2]
+    E = np.empty((3, 3))
+    for i in range(3):
+        e[i] = R[0, i] * d0 + R[1, i] * d1 + R[2, i] * d2
+        for j in range(3):
+            E[i, j] = R[0, i] * R_t[0, j] + R[1, i] * R_t[1, j] + R[2, i] * R_t[2, j]
+    e[3:] = _log3(E)
     return e, R, p
 
 
@@ -947,19 +935,27 @@ def _ik_jacobian(e, R, p, origins, zs):  # type: ignore[no-untyped-def]
     Jacobian of SO(3).
     """
     n = zs.shape[0]
-    phi = e[3:]
-    theta = math.sqrt(np.sum(phi * phi))
+    e0, e1, e2, f0, f1, f2 = e[0], e[1], e[2], e[3], e[4], e[5]  # f = phi
+    theta = math.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
     if theta < 1e-4:
         c2 = 1.0 / 12.0 + theta * theta / 720.0
     else:
         c2 = 1.0 / (theta * theta) - math.cos(0.5 * theta) / (2.0 * theta * math.sin(0.5 * theta))
     J = np.empty((6, n))
     for i in range(n):
-        w = _rotate_back(R, zs[i])
-        v = _rotate_back(R, _cross(zs[i], p - origins[i]))
-        J[:3, i] = -_cross(w, e[:3]) - v
-        pw = _cross(phi, w)
-        J[3:, i] = -(w - 0.5 * pw + c2 * _cross(phi, pw))
+        z0, z1, z2 = zs[i, 0], zs[i, 1], zs[i, 2]
+        w0 = R[0, 0] * z0 + R[1, 0] * z1 + R[2, 0] * z2  # w = R^T z
+        w1 = R[0, 1] * z0 + R[1, 1] * z1 + R[2, 1] * z2
+        w2 = R[0, 2] * z0 + R[1, 2] * z1 + R[2, 2] * z2
+        r0, r1, r2 = p[0] - origins[i, 0], p[1] - origins[i, 1], p[2] - origins[i, 2]
+        c0, c1, c2_ = z1 * r2 - z2 * r1, z2 * r0 - z0 * r2, z0 * r1 - z1 * r0  # z x (p - o)
+        J[0, i] = -(w1 * e2 - w2 * e1) - (R[0, 0] * c0 + R[1, 0] * c1 + R[2, 0] * c2_)
+        J[1, i] = -(w2 * e0 - w0 * e2) - (R[0, 1] * c0 + R[1, 1] * c1 + R[2, 1] * c2_)
+        J[2, i] = -(w0 * e1 - w1 * e0) - (R[0, 2] * c0 + R[1, 2] * c1 + R[2, 2] * c2_)
+        pw0, pw1, pw2 = f1 * w2 - f2 * w1, f2 * w0 - f0 * w2, f0 * w1 - f1 * w0  # phi x w
+        J[3, i] = -(w0 - 0.5 * pw0 + c2 * (f1 * pw2 - f2 * pw1))
+        J[4, i] = -(w1 - 0.5 * pw1 + c2 * (f2 * pw0 - f0 * pw2))
+        J[5, i] = -(w2 - 0.5 * pw2 + c2 * (f0 * pw1 - f1 * pw0))
     return J
 
 
@@ -980,39 +976,49 @@ def _ik_descent(q, lower, upper, rots, trans, axes, tip_rot, tip_trans, R_t, p_t
     errors at rounding level). Returns (q, position error |e_p| (m), rotation error |phi| (rad), iterations).
     """
     n = q.size
-    origins = np.empty((n, 3))
-    zs = np.empty((n, 3))
+    q = q.copy()  # the iterate (its buffer swaps with q_try's): the caller's q is left as it is
+    origins, zs = np.empty((n, 3)), np.empty((n, 3))
+    q_try, step = np.empty(n), np.empty(n)
+    system, low = np.empty((n, n)), np.empty((n, n))
     e, R, p = _ik_residual(q, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, origins, zs)
     cost = np.sum(e * e)
     J = _ik_jacobian(e, R, p, origins, zs)
     damping = 1e-3
     iterations = 0
     while True:
-        pos_err = math.sqrt(np.sum(e[:3] * e[:3]))
-        rot_err = math.sqrt(np.sum(e[3:] * e[3:]))
+        pos_err = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+        rot_err = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
         if (pos_err <= _IK_SOLVED and rot_err <= _IK_SOLVED) or iterations >= max_iter:
             return q, pos_err, rot_err, iterations
         iterations += 1
-        system = np.empty((n, n))
-        grad = np.zeros(n)
         for i in range(n):
             for j in range(n):
-                system[i, j] = np.sum(J[:, i] * J[:, j])
+                acc = 0.0
+                for k in range(6):
+                    acc += J[k, i] * J[k, j]
+                system[i, j] = acc
             system[i, i] += damping
-            grad[i] = np.sum(J[:, i] * e)
-        step = -grad
-        _cholesky_solve(system, step, step, np.empty((n, n)))
-        longest = np.max(np.abs(step))
+            acc = 0.0
+            for k in range(6):
+                acc += J[k, i] * e[k]
+            step[i] = -acc  # -J^T e
+        _cholesky_solve(system, step, step, low)  # (should rounding make it indefinite, the step stays -J^T e)
+        longest = 0.0
+        for i in range(n):
+            if abs(step[i]) > longest or step[i] != step[i]:  # NaN propagates, as in np.max
+                longest = abs(step[i])
         if longest > 0.5:
-            step *= 0.5 / longest
-        q_try = np.minimum(np.maximum(q + step, lower), upper)
-        o_try = np.empty((n, 3))
-        z_try = np.empty((n, 3))
-        e_try, R_try, p_try = _ik_residual(q_try, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, o_try, z_try)
+            shorten = 0.5 / longest
+            for i in range(n):
+                step[i] *= shorten
+        for i in range(n):
+            q_try[i] = min(max(q[i] + step[i], lower[i]), upper[i])
+        e_try, R_try, p_try = _ik_residual(q_try, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, origins, zs)
         cost_try = np.sum(e_try * e_try)
         if cost_try < cost:
-            q, e, cost = q_try, e_try, cost_try
-            J = _ik_jacobian(e, R_try, p_try, o_try, z_try)
+            q, q_try = q_try, q
+            e, cost = e_try, cost_try
+            J = _ik_jacobian(e, R_try, p_try, origins, zs)
             damping = max(damping * 0.2, 1e-9)
         else:
             damping *= 10.0
