@@ -583,7 +583,7 @@ def _residual(v, p, r):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _descent(r, jac, grad):  # type: ignore[no-untyped-def]
+def _gradient(r, jac, grad):  # type: ignore[no-untyped-def]
     """Fills grad (d,) with the gradient -r^T jac of f = 1/2 |r|^2 (r (K,), jac = dP/dx (K, d))."""
     for j in range(grad.size):
         acc = 0.0
@@ -616,12 +616,12 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
             jt[:] = jac
             for k in range(K):
                 _on_plane(jt[k], a0, x[a0:a1])
-            _descent(r, jt, grad)
+            _gradient(r, jt, grad)
             on_body = _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin, normal)
             if on_body:  # on the body's surface, f falling inside: steps on the surface's tangent plane
                 for k in range(K):
                     _on_plane(jt[k], 0, normal)
-                _descent(r, jt, grad)
+                _gradient(r, jt, grad)
             for j in range(d):
                 held[j] = (x[j] <= lower[j] and grad[j] > 0.0) or (x[j] >= upper[j] and grad[j] < 0.0)
                 if held[j]:
@@ -719,7 +719,7 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
             if fresh:
                 # on the sphere's tangent plane (Lagrangian Hessian: H - (a . grad_a f) I there), then in
                 # scaled coordinates y = x / sc (sc uniform over the approach, so the tangent plane is the same)
-                _descent(r, jac, grad)  # the gradient in x, until it is taken to the tangent plane
+                _gradient(r, jac, grad)  # the gradient in x, until it is taken to the tangent plane
                 on_body = _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin, normal)
                 h[:] = hess
                 if on_body:  # the Lagrangian's Hessian on the body's surface: minus mu times the surface's curvature

@@ -178,6 +178,26 @@ def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, 
             assert_allclose(hess, numeric, rtol=0.0, atol=1e-5 * np.abs(hess).max())
 
 
+def test_spd_solve_falls_back_to_lu_where_cholesky_fails() -> None:
+    """The kernels' solve of their ridged SPD systems: Cholesky, else LU, else LU's error.
+
+    A symmetric matrix that is not positive definite (as rounding can leave a system whose ridge is below
+    the rounding of its entries) is still solved; NaN raises, as np.linalg.solve does.
+    """
+    from grasp_intent_ros.core._kernels import _spd_solve
+    rng = np.random.default_rng(5)
+    J = rng.standard_normal((7, 10))
+    b = rng.standard_normal(10)
+    indefinite = np.diag(np.r_[-1.0, np.ones(9)]) + 0.1 * (J.T @ J)
+    assert np.linalg.eigvalsh(indefinite).min() < 0.0
+    for m in (J.T @ J + 1e-7 * np.eye(10), indefinite):
+        z = np.empty(10)
+        _spd_solve(m, b, z, np.empty((10, 10)))
+        assert_allclose(m @ z, b, atol=1e-8 * np.abs(b).max() * np.linalg.cond(m))
+    with pytest.raises(np.linalg.LinAlgError):
+        _spd_solve(np.full((10, 10), np.nan), b, np.empty(10), np.empty((10, 10)))
+
+
 def test_newton_converges_where_least_squares_steps_run_out(shipped: dict[str, GraspModel],
                                                            monkeypatch: pytest.MonkeyPatch) -> None:
     """Newton converges where the Levenberg-Marquardt steps stop at their limit.
