@@ -5,7 +5,9 @@ The IK is :meth:`grasp_intent_ros.core.kinematics.MicoKinematics.ik`'s descent (
 The solvers run one start at a time. The algorithms are stated in
 :class:`grasp_intent_ros.core.planner._LogOddsProjection` and :func:`grasp_intent_ros.core.planner._refine_lm`;
 this module only runs them without numpy's per-call overhead (an iteration is ~10^3 flops, so that
-overhead, not the arithmetic, was the cost). Compiled code is cached next to this file
+overhead, not the arithmetic, was the cost): the iterations work in arrays allocated once per call and
+write their small products and solves as loops (a BLAS or LAPACK call, or a temporary array, costs more
+than the arithmetic at these sizes). Compiled code is cached next to this file
 (``cache=True``); the first call in a fresh installation compiles it (about 30 s; ``scripts/venv.sh``
 does it at set-up time).
 
@@ -29,46 +31,73 @@ __all__ = ['project', 'least_squares', 'newton_least_squares', 'feasible', 'scor
 
 
 @njit(cache=True, nogil=True)
-def _distance(p, kinds, centres, axes, perps, radii, lengths, halfs):  # type: ignore[no-untyped-def]
-    """Signed distance of p (3,) to the union of primitives (first on ties) and its unit gradient."""
-    best = np.inf
-    grad = np.zeros(3)
-    for m in range(kinds.shape[0]):
-        g = np.zeros(3)
-        rel = p - centres[m]
-        if kinds[m] == 0:
-            axis = axes[m]
-            t = rel[0] * axis[0] + rel[1] * axis[1] + rel[2] * axis[2]
-            radial = rel - t * axis
-            rho = math.sqrt(radial[0] ** 2 + radial[1] ** 2 + radial[2] ** 2)
-            e_r = radial / max(rho, 1e-12) if rho > 1e-12 else perps[m].copy()
-            e_t = -axis if t < 0.0 else axis.copy()
-            dr = rho - radii[m]
-            dt = abs(t) - 0.5 * lengths[m]
-            out_r, out_t = max(dr, 0.0), max(dt, 0.0)
-            outside = math.hypot(out_r, out_t)
-            if outside > 0.0:
-                sd = outside
-                g = (out_r / outside) * e_r + (out_t / outside) * e_t
-            else:
-                sd = max(dr, dt)
-                g = e_r if dr >= dt else e_t
+def _primitive_distance(p, m, kinds, centres, axes, perps, radii, lengths, halfs):  # type: ignore[no-untyped-def]
+    """Signed distance of p (its first three entries) to primitive m and its unit gradient: (sd, g0, g1, g2)."""
+    r0, r1, r2 = p[0] - centres[m, 0], p[1] - centres[m, 1], p[2] - centres[m, 2]
+    if kinds[m] == 0:
+        ax, ay, az = axes[m, 0], axes[m, 1], axes[m, 2]
+        t = r0 * ax + r1 * ay + r2 * az
+        q0, q1, q2 = r0 - t * ax, r1 - t * ay, r2 - t * az
+        rho = math.sqrt(q0 ** 2 + q1 ** 2 + q2 ** 2)
+        if rho > 1e-12:
+            er0, er1, er2 = q0 / rho, q1 / rho, q2 / rho
         else:
-            q = np.abs(rel) - halfs[m]
-            sign = np.where(rel < 0.0, -1.0, 1.0)
-            out = np.maximum(q, 0.0)
-            outside = math.sqrt(out[0] ** 2 + out[1] ** 2 + out[2] ** 2)
-            if q[0] > 0.0 or q[1] > 0.0 or q[2] > 0.0:
-                sd = outside
-                g = sign * out / max(outside, 1e-300)
-            else:
-                face = int(np.argmax(q))
-                sd = q[face]
-                g[face] = sign[face]
+            er0, er1, er2 = perps[m, 0], perps[m, 1], perps[m, 2]
+        et0, et1, et2 = (-ax, -ay, -az) if t < 0.0 else (ax, ay, az)
+        dr = rho - radii[m]
+        dt = abs(t) - 0.5 * lengths[m]
+        out_r, out_t = max(dr, 0.0), max(dt, 0.0)
+        outside = math.hypot(out_r, out_t)
+        if outside > 0.0:
+            wr, wt = out_r / outside, out_t / outside
+            return outside, wr * er0 + wt * et0, wr * er1 + wt * et1, wr * er2 + wt * et2
+        if dr >= dt:
+            return max(dr, dt), er0, er1, er2
+        return max(dr, dt), et0, et1, et2
+    q0, q1, q2 = abs(r0) - halfs[m, 0], abs(r1) - halfs[m, 1], abs(r2) - halfs[m, 2]
+    s0, s1, s2 = (-1.0 if r0 < 0.0 else 1.0), (-1.0 if r1 < 0.0 else 1.0), (-1.0 if r2 < 0.0 else 1.0)
+    if q0 > 0.0 or q1 > 0.0 or q2 > 0.0:
+        o0, o1, o2 = max(q0, 0.0), max(q1, 0.0), max(q2, 0.0)
+        outside = math.sqrt(o0 ** 2 + o1 ** 2 + o2 ** 2)
+        den = max(outside, 1e-300)
+        return outside, s0 * o0 / den, s1 * o1 / den, s2 * o2 / den
+    if q0 >= q1 and q0 >= q2:  # the nearest face (the first on ties)
+        return q0, s0, 0.0, 0.0
+    if q1 >= q2:
+        return q1, 0.0, s1, 0.0
+    return q2, 0.0, 0.0, s2
+
+
+@njit(cache=True, nogil=True)
+def _distance(p, kinds, centres, axes, perps, radii, lengths, halfs):  # type: ignore[no-untyped-def]
+    """Signed distance of p (its first three entries) to the union of primitives and its unit gradient.
+
+    Returns (sd, g0, g1, g2), of the first primitive on ties.
+    """
+    best, b0, b1, b2 = np.inf, 0.0, 0.0, 0.0
+    for m in range(kinds.shape[0]):
+        sd, g0, g1, g2 = _primitive_distance(p, m, kinds, centres, axes, perps, radii, lengths, halfs)
         if sd < best:
-            best = sd
-            grad = g
-    return best, grad
+            best, b0, b1, b2 = sd, g0, g1, g2
+    return best, b0, b1, b2
+
+
+@njit(cache=True, nogil=True)
+def _push_out(x, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin, tol):  # type: ignore[no-untyped-def]
+    """Move the palm x[0:3] (in place) along the distance's gradient, then clip it to the bounds.
+
+    Up to 4 moves, until its distance is within tol of the margin (tol < 0: until it is at least the margin).
+    """
+    for _ in range(4):
+        sd, g0, g1, g2 = _distance(x, kinds, centres, axes, perps, radii, lengths, halfs)
+        if (sd >= margin) if tol < 0.0 else (abs(sd - margin) <= tol):
+            break
+        c = margin - sd
+        x[0] += c * g0
+        x[1] += c * g1
+        x[2] += c * g2
+    for i in range(3):
+        x[i] = min(max(x[i], lower[i]), upper[i])
 
 
 @njit(cache=True, nogil=True)
@@ -77,21 +106,18 @@ def _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, length
     """Clip to the bounds, normalise the approach, push the palm out of the body (in place)."""
     for i in range(x.size):
         x[i] = min(max(x[i], lower[i]), upper[i])
-    norm = math.sqrt(np.sum(x[a0:a1] ** 2))
+    acc = 0.0
+    for i in range(a0, a1):
+        acc += x[i] ** 2
+    norm = math.sqrt(acc)
     if norm > 1e-12:
-        x[a0:a1] /= max(norm, 1e-12)
+        for i in range(a0, a1):
+            x[i] /= norm
     else:
         x[a0:a1] = 0.0
         x[a0 + 2] = 1.0
     if kinds.shape[0] > 0:
-        p = x[0:3].copy()
-        for _ in range(4):
-            sd, grad = _distance(p, kinds, centres, axes, perps, radii, lengths, halfs)
-            if sd >= margin:
-                break
-            p += (margin - sd) * grad
-        for i in range(3):
-            x[i] = min(max(p[i], lower[i]), upper[i])
+        _push_out(x, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin, -1.0)
     return x
 
 
@@ -122,8 +148,7 @@ def _distance_hessian(p, kinds, centres, axes, perps, radii, lengths, halfs):  #
     best = np.inf
     hess = np.zeros((3, 3))
     for m in range(kinds.shape[0]):
-        sd = _distance(p, kinds[m:m + 1], centres[m:m + 1], axes[m:m + 1], perps[m:m + 1], radii[m:m + 1],
-                       lengths[m:m + 1], halfs[m:m + 1])[0]
+        sd = _primitive_distance(p, m, kinds, centres, axes, perps, radii, lengths, halfs)[0]
         if sd < best:
             best = sd
             hess = np.zeros((3, 3))
@@ -140,113 +165,207 @@ def _distance_hessian(p, kinds, centres, axes, perps, radii, lengths, halfs):  #
 
 
 @njit(cache=True, nogil=True)
-def _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin):  # type: ignore[no-untyped-def]
-    """Whether the body holds the palm, and the surface's unit normal there (3,).
+def _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin, normal):  # type: ignore[no-untyped-def]
+    """Whether the body holds the palm; fills ``normal`` (3,) with the surface's unit normal there (if any body).
 
     It does when the palm is on the surface (margin included) and grad (of f, shape (d,)) points out of
     it, i.e. f would fall inside the body.
     """
     if kinds.shape[0] == 0:
-        return False, np.zeros(3)
-    sd, normal = _distance(x[0:3].copy(), kinds, centres, axes, perps, radii, lengths, halfs)
-    held = sd - margin <= _ON_SURFACE and grad[0] * normal[0] + grad[1] * normal[1] + grad[2] * normal[2] > 0.0
-    return held, normal
+        return False
+    sd, normal[0], normal[1], normal[2] = _distance(x, kinds, centres, axes, perps, radii, lengths, halfs)
+    return sd - margin <= _ON_SURFACE and grad[0] * normal[0] + grad[1] * normal[1] + grad[2] * normal[2] > 0.0
 
 
 @njit(cache=True, nogil=True)
 def _onto_surface(x, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin):  # type: ignore[no-untyped-def]
     """Move the palm of x (in place) onto the body's surface (margin included), within the bounds."""
-    p = x[0:3].copy()
-    for _ in range(4):
-        sd, grad = _distance(p, kinds, centres, axes, perps, radii, lengths, halfs)
-        if abs(sd - margin) <= 1e-15:
-            break
-        p += (margin - sd) * grad
-    for i in range(3):
-        x[i] = min(max(p[i], lower[i]), upper[i])
+    _push_out(x, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin, 1e-15)
     return x
 
 
 @njit(cache=True, nogil=True)
-def _log_joint_score(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
-    """log(pi_k N_k(x)) (K,) and its gradient -Sigma_k^-1 (x - mu_k) (K, d)."""
+def _on_plane(g, lo, a):  # type: ignore[no-untyped-def]
+    """Set g <- (I - a a^T) g on the entries lo, ..., lo + len(a) - 1 of g (in place; a a unit vector)."""
+    c = 0.0
+    for i in range(a.size):
+        c += g[lo + i] * a[i]
+    for i in range(a.size):
+        g[lo + i] -= c * a[i]
+
+
+@njit(cache=True, nogil=True)
+def _on_plane_both(h, lo, a):  # type: ignore[no-untyped-def]
+    """Set h <- T h T (in place) for a square h, T = I - a a^T on the block lo, ..., lo + len(a) - 1, I elsewhere."""
+    d = h.shape[0]
+    for i in range(d):
+        _on_plane(h[i], lo, a)
+    for j in range(d):
+        c = 0.0
+        for i in range(a.size):
+            c += h[lo + i, j] * a[i]
+        for i in range(a.size):
+            h[lo + i, j] -= c * a[i]
+
+
+@njit(cache=True, nogil=True)
+def _log_joint_score(x, means, prec, log_norm, lj, g):  # type: ignore[no-untyped-def]
+    """Fills lj (K,) with log(pi_k N_k(x)) and g (K, d) with its gradient -Sigma_k^-1 (x - mu_k)."""
     K, d = means.shape
-    lj = np.empty(K)
-    g = np.empty((K, d))
     for k in range(K):
-        diff = x - means[k]
-        gk = -(prec[k] @ diff)
-        g[k] = gk
-        lj[k] = log_norm[k] + 0.5 * np.sum(diff * gk)
-    return lj, g
+        q = 0.0
+        for i in range(d):
+            acc = 0.0
+            for j in range(d):
+                acc += prec[k, i, j] * (x[j] - means[k, j])
+            g[k, i] = -acc
+            q += (x[i] - means[k, i]) * g[k, i]
+        lj[k] = log_norm[k] + 0.5 * q
 
 
 @njit(cache=True, nogil=True)
 def _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1,  # type: ignore[no-untyped-def]
-              kinds, centres, axes, perps, radii, lengths, halfs, margin):
-    """Residuals e (rows,) and their Jacobian in scaled coordinates A (rows, d)."""
+              kinds, centres, axes, perps, radii, lengths, halfs, margin, e, A, lj, g):
+    """Fills the residuals e (rows,) and their Jacobian in scaled coordinates A (rows, d); lj (K,), g (K, d) work."""
     K, d = means.shape
     n_eq = K - 1
-    has_body = kinds.shape[0] > 0
-    rows = n_eq + 1 + (1 if has_body else 0)
-    lj, g = _log_joint_score(x, means, prec, log_norm)
-    e = np.zeros(rows)
-    A = np.zeros((rows, d))
+    _log_joint_score(x, means, prec, log_norm, lj, g)
     for i in range(n_eq):
         k = others[i]
         e[i] = lj[k] - lj[r] - b[i]
-        A[i] = (g[k] - g[r]) * scale
-    e[n_eq] = np.sum(x[a0:a1] ** 2) - 1.0
+        for j in range(d):
+            A[i, j] = (g[k, j] - g[r, j]) * scale[j]
+    acc = 0.0
+    for j in range(a0, a1):
+        acc += x[j] ** 2
+    e[n_eq] = acc - 1.0
+    A[n_eq] = 0.0
     for j in range(a0, a1):
         A[n_eq, j] = 2.0 * x[j] * scale[j]
-    if has_body:
-        sd, normal = _distance(x[0:3].copy(), kinds, centres, axes, perps, radii, lengths, halfs)
+    if kinds.shape[0] > 0:
+        sd, n0, n1, n2 = _distance(x, kinds, centres, axes, perps, radii, lengths, halfs)
         e[n_eq + 1] = sd - margin
-        for j in range(3):
-            A[n_eq + 1, j] = normal[j] * scale[j]
-    return e, A
+        A[n_eq + 1] = 0.0
+        A[n_eq + 1, 0] = n0 * scale[0]
+        A[n_eq + 1, 1] = n1 * scale[1]
+        A[n_eq + 1, 2] = n2 * scale[2]
 
 
 @njit(cache=True, nogil=True)
-def _min_norm(A, e, fixed, dfix, active, damping):  # type: ignore[no-untyped-def]
-    """The shortest dy with e + A dy = 0 on the active rows and dy = dfix where fixed."""
+def _cholesky_solve(m, b, z, low):  # type: ignore[no-untyped-def]
+    """Solve m z = b for a symmetric m (its lower triangle) by Cholesky into z (which may be b); low (n, n) is work.
+
+    Returns whether m is positive definite; when it is not, z is b.
+    """
+    n = b.size
+    for j in range(n):
+        acc = m[j, j]
+        for q in range(j):
+            acc -= low[j, q] * low[j, q]
+        if not acc > 0.0:
+            z[:] = b
+            return False
+        low[j, j] = math.sqrt(acc)
+        for i in range(j + 1, n):
+            acc = m[i, j]
+            for q in range(j):
+                acc -= low[i, q] * low[j, q]
+            low[i, j] = acc / low[j, j]
+    z[:] = b
+    for i in range(n):
+        for q in range(i):
+            z[i] -= low[i, q] * z[q]
+        z[i] /= low[i, i]
+    for i in range(n - 1, -1, -1):
+        for q in range(i + 1, n):
+            z[i] -= low[q, i] * z[q]
+        z[i] /= low[i, i]
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _spd_solve(m, b, z, low):  # type: ignore[no-untyped-def]
+    """Solve m z = b into z (which may be b) for a symmetric m that a ridge makes positive definite.
+
+    By Cholesky (:func:`_cholesky_solve`, low its work); where rounding defeats it (the ridge below the
+    rounding of m), or m holds NaN, by LU (``np.linalg.solve``, which raises on NaN and on a singular m).
+    """
+    if not _cholesky_solve(m, b, z, low):
+        z[:] = np.linalg.solve(m, b)
+
+
+@njit(cache=True, nogil=True)
+def _gram(J, out):  # type: ignore[no-untyped-def]
+    """Fills out (n, n) with J^T J for J (m, n)."""
+    m, n = J.shape
+    for i in range(n):
+        for j in range(i + 1):
+            acc = 0.0
+            for k in range(m):
+                acc += J[k, i] * J[k, j]
+            out[i, j] = acc
+            out[j, i] = acc
+
+
+@njit(cache=True, nogil=True)
+def _min_norm(A, e, fixed, dfix, active, damping, dy, work):  # type: ignore[no-untyped-def]
+    """Fills dy with the shortest dy with e + A dy = 0 on the active rows and dy = dfix where fixed.
+
+    ``work`` is (Ant (d, rows): the rows of unit length, transposed; en (rows,), gram (rows, rows), z (rows,),
+    low (rows, rows)).
+    """
+    Ant, en, gram, z, low = work
     rows, d = A.shape
-    An = A.copy()
-    en = e.copy()
     for i in range(rows):
-        if not active[i]:
-            An[i] = 0.0
-            en[i] = 0.0
-        norm = math.sqrt(np.sum(An[i] ** 2))
+        acc = 0.0
+        for j in range(d):
+            Ant[j, i] = A[i, j] if active[i] else 0.0
+            acc += Ant[j, i] ** 2
+        en[i] = e[i] if active[i] else 0.0
+        norm = math.sqrt(acc)
         if not norm > 1e-300:
             norm = 1.0
-        An[i] /= norm
+        for j in range(d):
+            Ant[j, i] /= norm
         en[i] /= norm
-    en = en + An @ dfix
+    acc = 0.0
+    for i in range(rows):
+        shift = 0.0
+        for j in range(d):
+            shift += Ant[j, i] * dfix[j]
+        en[i] = en[i] + shift
+        acc += en[i] ** 2
     for j in range(d):
         if fixed[j]:
-            An[:, j] = 0.0
-    gram = An @ An.T
-    ridge = 1e-14 + damping * math.sqrt(np.sum(en ** 2))
+            Ant[j] = 0.0
+    ridge = 1e-14 + damping * math.sqrt(acc)
+    _gram(Ant, gram)
     for i in range(rows):
         gram[i, i] += ridge + (0.0 if active[i] else 1.0)
-    z = np.linalg.solve(gram, -en)
-    return An.T @ z + dfix
+        en[i] = -en[i]
+    _spd_solve(gram, en, z, low)
+    for j in range(d):
+        acc = 0.0
+        for i in range(rows):
+            acc += Ant[j, i] * z[i]
+        dy[j] = acc + dfix[j]
 
 
 @njit(cache=True, nogil=True)
-def _step(x, e, A, scale, lower, upper, bounded, has_body, damping):  # type: ignore[no-untyped-def]
-    """The shortest scaled step solving the linearised equations, bounds and body held."""
+def _step(x, e, A, scale, lower, upper, bounded, has_body, damping, dy, fixed, dfix, active, work):  # type: ignore[no-untyped-def]
+    """Fills dy with the shortest scaled step solving the linearised equations, bounds and body held.
+
+    fixed (d,), dfix (d,), active (rows,) and work (:func:`_min_norm`) are work arrays.
+    """
     rows, d = A.shape
     n_eq = rows - 1 - (1 if has_body else 0)
-    active = np.ones(rows, dtype=np.bool_)
+    active[:] = True
     if has_body:
         active[n_eq + 1] = False
-    fixed = np.zeros(d, dtype=np.bool_)
-    zero = np.zeros(d)
-    dy = _min_norm(A, e, fixed, zero, active, damping)
+    fixed[:] = False
+    dfix[:] = 0.0
+    _min_norm(A, e, fixed, dfix, active, damping, dy, work)
     resolve = False
-    dfix = np.zeros(d)
     for j in range(d):
         pred = x[j] + dy[j] * scale[j]
         if bounded[j] and pred < lower[j]:
@@ -257,18 +376,34 @@ def _step(x, e, A, scale, lower, upper, bounded, has_body, damping):  # type: ig
             fixed[j] = True
             dfix[j] = (upper[j] - x[j]) / scale[j]
             resolve = True
-    if has_body and e[n_eq + 1] + np.sum(A[n_eq + 1] * dy) < 0.0:
-        active[n_eq + 1] = True
-        resolve = True
+    if has_body:
+        acc = 0.0
+        for j in range(d):
+            acc += A[n_eq + 1, j] * dy[j]
+        if e[n_eq + 1] + acc < 0.0:
+            active[n_eq + 1] = True
+            resolve = True
     if resolve:
-        dy = _min_norm(A, e, fixed, dfix, active, damping)
-    return dy
+        _min_norm(A, e, fixed, dfix, active, damping, dy, work)
 
 
 @njit(cache=True, nogil=True)
 def _results(n, d):  # type: ignore[no-untyped-def]
     """End points (n, d), converged (n,) and iterations (n,) of n starts, to be filled in."""
     return np.empty((n, d)), np.zeros(n, dtype=np.bool_), np.zeros(n, dtype=np.int64)
+
+
+@njit(cache=True, nogil=True)
+def _l1_max(e, n):  # type: ignore[no-untyped-def]
+    """The 1-norm and the largest magnitude of e[:n]."""
+    l1 = 0.0
+    top = 0.0
+    for i in range(n):
+        a = abs(e[i])
+        l1 += a
+        if a > top or a != a:  # NaN propagates, as in np.max
+            top = a
+    return l1, top
 
 
 @njit(cache=True, nogil=True)
@@ -285,15 +420,22 @@ def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], pre
     K = means.shape[0]
     n_eq = K - 1
     has_body = kinds.shape[0] > 0
+    rows = n_eq + 1 + (1 if has_body else 0)
     bounded = np.ones(d, dtype=np.bool_)
     bounded[a0:a1] = False  # a unit vector never leaves [-1, 1]
     out, converged, iterations = _results(n, d)
+    # every iteration works in these (an iteration is ~10^3 flops: allocating them each time cost more)
+    x, x_try, dy, dfix = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
+    e, e_try, A, A_try = np.empty(rows), np.empty(rows), np.empty((rows, d)), np.empty((rows, d))
+    lj, g = np.empty(K), np.empty((K, d))
+    fixed, active = np.empty(d, dtype=np.bool_), np.empty(rows, dtype=np.bool_)
+    work = (np.empty((d, rows)), np.empty(rows), np.empty((rows, rows)), np.empty(rows), np.empty((rows, rows)))
     for s in range(n):
-        x = _project(starts[s].copy(), lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
-                     halfs, margin)
-        e, A = _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1, kinds, centres, axes, perps,
-                         radii, lengths, halfs, margin)
-        l1 = np.sum(np.abs(e[:n_eq]))
+        x[:] = starts[s]
+        _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
+        _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1, kinds, centres, axes, perps,
+                  radii, lengths, halfs, margin, e, A, lj, g)
+        l1 = _l1_max(e, n_eq)[0]
         checkpoint = l1
         radius = 1.0
         target = b
@@ -307,27 +449,35 @@ def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], pre
                 if l1 > 0.5 * checkpoint:
                     break
                 checkpoint = l1
-            dy = _step(x, e, A, scale, lower, upper, bounded, has_body, damping)
-            size = math.sqrt(np.sum(dy ** 2))
+            _step(x, e, A, scale, lower, upper, bounded, has_body, damping, dy, fixed, dfix, active, work)
+            acc = 0.0
+            for j in range(d):
+                acc += dy[j] ** 2
+            size = math.sqrt(acc)
             t = min(1.0, radius / max(size, 1e-300))
-            x_try = _project(x + (t * dy) * scale, lower, upper, a0, a1, kinds, centres, axes, perps, radii,
-                             lengths, halfs, margin)
-            e_try, A_try = _evaluate(x_try, means, prec, log_norm, others, r, target, scale, a0, a1, kinds,
-                                     centres, axes, perps, radii, lengths, halfs, margin)
-            l1_try = np.sum(np.abs(e_try[:n_eq]))
+            for j in range(d):
+                x_try[j] = x[j] + (t * dy[j]) * scale[j]
+            _project(x_try, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
+            _evaluate(x_try, means, prec, log_norm, others, r, target, scale, a0, a1, kinds, centres, axes, perps,
+                      radii, lengths, halfs, margin, e_try, A_try, lj, g)
+            l1_try, top = _l1_max(e_try, n_eq)
             iterations[s] += 1
-            fin = np.max(np.abs(e_try[:n_eq])) <= htol and t * size <= steptol
+            fin = top <= htol and t * size <= steptol
             ok = l1_try < l1 or fin
             if ok:
-                x, e, A, l1 = x_try, e_try, A_try, l1_try
+                x, x_try = x_try, x
+                e, e_try = e_try, e
+                A, A_try = A_try, A
+                l1 = l1_try
             if fin and final:
                 converged[s] = True
                 break
             if fin:  # on the path's targets: the same steps onto b_final, with an iteration budget of their own
                 final = True
                 target = b_final
-                e[:n_eq] += b - b_final
-                l1 = np.sum(np.abs(e[:n_eq]))
+                for i in range(n_eq):
+                    e[i] += b[i] - b_final[i]
+                l1 = _l1_max(e, n_eq)[0]
                 checkpoint = l1
                 it = 0
                 continue
@@ -357,21 +507,27 @@ def project(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArr
     return out
 
 
+
 @njit(cache=True, nogil=True)
 def _score(xs, v, means, prec, log_norm, x_ref, scale):  # type: ignore[no-untyped-def]
     """Posterior (N, K), objective 1/2 |v - P|^2 (N,) and scaled distance to x_ref (N,) of every row."""
-    n = xs.shape[0]
+    n, d = xs.shape
     K = means.shape[0]
     post = np.empty((n, K))
     f = np.empty(n)
     dist = np.empty(n)
+    u = np.empty((K, d))
     for s in range(n):
-        lj = _log_joint_score(xs[s], means, prec, log_norm)[0]
-        p = np.exp(lj - np.max(lj))
-        p /= np.sum(p)
-        post[s] = p
-        f[s] = 0.5 * np.sum((v - p) ** 2)
-        dist[s] = math.sqrt(np.sum(((xs[s] - x_ref) / scale) ** 2))
+        p = post[s]
+        _posterior_scores(xs[s], means, prec, log_norm, p, u)
+        acc = 0.0
+        for k in range(K):
+            acc += (v[k] - p[k]) ** 2
+        f[s] = 0.5 * acc
+        acc = 0.0
+        for j in range(d):
+            acc += ((xs[s, j] - x_ref[j]) / scale[j]) ** 2
+        dist[s] = math.sqrt(acc)
     return post, f, dist
 
 
@@ -385,20 +541,55 @@ def score(xs: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.flo
 
 
 @njit(cache=True, nogil=True)
-def _posterior_scores(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
-    """P(k|x) (K,) and the gradients of log P(k|x), u_k = g_k - sum_j P_j g_j (K, d)."""
-    lj, g = _log_joint_score(x, means, prec, log_norm)
-    p = np.exp(lj - np.max(lj))
-    p /= np.sum(p)
-    u = g - p @ g
-    return p, u
+def _posterior_scores(x, means, prec, log_norm, p, u):  # type: ignore[no-untyped-def]
+    """Fills p (K,) with P(k|x) and u (K, d) with the gradients of log P(k|x), u_k = g_k - sum_j P_j g_j."""
+    K, d = u.shape
+    _log_joint_score(x, means, prec, log_norm, p, u)
+    top = p[0]
+    for k in range(1, K):
+        if p[k] > top or p[k] != p[k]:  # NaN propagates, as in np.max
+            top = p[k]
+    total = 0.0
+    for k in range(K):
+        p[k] = math.exp(p[k] - top)
+        total += p[k]
+    for k in range(K):
+        p[k] /= total
+    for i in range(d):
+        mean = 0.0
+        for k in range(K):
+            mean += p[k] * u[k, i]
+        for k in range(K):
+            u[k, i] -= mean
 
 
 @njit(cache=True, nogil=True)
-def _posterior_jacobian(x, means, prec, log_norm):  # type: ignore[no-untyped-def]
-    """P(k|x) (K,) and dP/dx (K, d)."""
-    p, u = _posterior_scores(x, means, prec, log_norm)
-    return p, p[:, None] * u
+def _posterior_jacobian(x, means, prec, log_norm, p, jac):  # type: ignore[no-untyped-def]
+    """Fills p (K,) with P(k|x) and jac (K, d) with dP/dx."""
+    _posterior_scores(x, means, prec, log_norm, p, jac)
+    for k in range(p.size):
+        for i in range(jac.shape[1]):
+            jac[k, i] *= p[k]
+
+
+@njit(cache=True, nogil=True)
+def _residual(v, p, r):  # type: ignore[no-untyped-def]
+    """Fills r with v - p; returns f = 1/2 |r|^2."""
+    acc = 0.0
+    for k in range(v.size):
+        r[k] = v[k] - p[k]
+        acc += r[k] * r[k]
+    return 0.5 * acc
+
+
+@njit(cache=True, nogil=True)
+def _gradient(r, jac, grad):  # type: ignore[no-untyped-def]
+    """Fills grad (d,) with the gradient -r^T jac of f = 1/2 |r|^2 (r (K,), jac = dP/dx (K, d))."""
+    for j in range(grad.size):
+        acc = 0.0
+        for k in range(r.size):
+            acc += r[k] * jac[k, j]
+        grad[j] = -acc
 
 
 @njit(cache=True, nogil=True)
@@ -406,50 +597,60 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
                    kinds, centres, axes, perps, radii, lengths, halfs, margin, maxiter, ftol, ridge_rel):
     """Projected Levenberg-Marquardt on v - P(x) from every start (see planner._refine_lm)."""
     n, d = starts.shape
+    K = means.shape[0]
     out, converged, iterations = _results(n, d)
+    # every iteration works in these (an iteration is ~10^3 flops: allocating them each time cost more)
+    x, x_new, grad, step = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
+    p, p_new, r, r_new = np.empty(K), np.empty(K), np.empty(K), np.empty(K)
+    jac, jac_new, jt = np.empty((K, d)), np.empty((K, d)), np.empty((K, d))
+    system, low = np.empty((d, d)), np.empty((d, d))
+    held, normal = np.empty(d, dtype=np.bool_), np.empty(3)
     for s in range(n):
-        x = _project(starts[s].copy(), lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
-                     halfs, margin)
-        p, jac = _posterior_jacobian(x, means, prec, log_norm)
-        r = v - p
-        f = 0.5 * np.sum(r * r)
+        x[:] = starts[s]
+        _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
+        _posterior_jacobian(x, means, prec, log_norm, p, jac)
+        f = _residual(v, p, r)
         lam = 1e-3
         done = False
         for _ in range(maxiter):
-            ax = x[a0:a1].copy()
-            jt = jac.copy()
-            proj = np.ascontiguousarray(jac[:, a0:a1]) @ ax
-            for k in range(jt.shape[0]):
-                jt[k, a0:a1] -= proj[k] * ax
-            grad = -(r @ jt)
-            on_body, normal = _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin)
+            jt[:] = jac
+            for k in range(K):
+                _on_plane(jt[k], a0, x[a0:a1])
+            _gradient(r, jt, grad)
+            on_body = _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin, normal)
             if on_body:  # on the body's surface, f falling inside: steps on the surface's tangent plane
-                proj = np.ascontiguousarray(jt[:, 0:3]) @ normal
-                for k in range(jt.shape[0]):
-                    jt[k, 0:3] -= proj[k] * normal
-                grad = -(r @ jt)
-            held = np.zeros(d, dtype=np.bool_)
+                for k in range(K):
+                    _on_plane(jt[k], 0, normal)
+                _gradient(r, jt, grad)
             for j in range(d):
                 held[j] = (x[j] <= lower[j] and grad[j] > 0.0) or (x[j] >= upper[j] and grad[j] < 0.0)
                 if held[j]:
                     jt[:, j] = 0.0
                     grad[j] = 0.0
-            h = jt.T @ jt
-            diag = np.diag(h).copy()
-            ridge = ridge_rel * np.max(diag) + 1e-12
-            system = h + np.diag(lam * diag + ridge)
-            step = np.linalg.solve(system, -grad)
-            x_new = _project(x + step, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs,
-                             margin)
+            _gram(jt, system)  # system = jt^T jt + diag(lam diag(jt^T jt) + ridge)
+            top = 0.0
+            for j in range(d):
+                top = max(top, system[j, j])
+            ridge = ridge_rel * top + 1e-12
+            for j in range(d):
+                system[j, j] += lam * system[j, j] + ridge
+                step[j] = -grad[j]
+            _spd_solve(system, step, step, low)
+            for j in range(d):
+                x_new[j] = x[j] + step[j]
+            _project(x_new, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
             if on_body:
                 _onto_surface(x_new, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-            p_new, jac_new = _posterior_jacobian(x_new, means, prec, log_norm)
-            r_new = v - p_new
-            f_new = 0.5 * np.sum(r_new * r_new)
+            _posterior_jacobian(x_new, means, prec, log_norm, p_new, jac_new)
+            f_new = _residual(v, p_new, r_new)
             better = f_new < f
             small = better and (f - f_new < ftol * f + 1e-15)
             if better:
-                x, p, jac, r, f = x_new, p_new, jac_new, r_new, f_new
+                x, x_new = x_new, x
+                p, p_new = p_new, p
+                jac, jac_new = jac_new, jac
+                r, r_new = r_new, r
+                f = f_new
                 lam = lam / 3.0
             else:
                 lam = lam * 4.0
@@ -463,52 +664,28 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
 
 
 @njit(cache=True, nogil=True)
-def _posterior_hessian(x, means, prec, log_norm, v):  # type: ignore[no-untyped-def]
-    """P(k|x) (K,), dP/dx (K, d) and the Hessian of f = 1/2 |v - P|^2 (d, d)."""
+def _posterior_hessian(x, means, prec, log_norm, v, p, u, jac, h):  # type: ignore[no-untyped-def]
+    """Fills p (K,) with P(k|x), jac (K, d) with dP/dx and h (d, d) with the Hessian of f = 1/2 |v - P|^2.
+
+    u (K, d) is work (it ends holding the gradients of log P(k|x)).
+    """
     K, d = means.shape
-    p, u = _posterior_scores(x, means, prec, log_norm)
-    jac = p[:, None] * u
-    c = p - v
-    h = jac.T @ jac
-    s = np.sum(c * p)
+    _posterior_scores(x, means, prec, log_norm, p, u)
+    s = 0.0
     for k in range(K):
-        # sum_k c_k d2P_k = sum_k c_k p_k (u_k u_k^T - Lambda_k) + s (Lambda_bar - C),
+        s += (p[k] - v[k]) * p[k]
+        for i in range(d):
+            jac[k, i] = p[k] * u[k, i]
+    _gram(jac, h)
+    for k in range(K):
+        # sum_k c_k d2P_k = sum_k c_k p_k (u_k u_k^T - Lambda_k) + s (Lambda_bar - C), c = p - v,
         # Lambda_bar = sum_j p_j Lambda_j, C = sum_j p_j u_j u_j^T
-        a = c[k] * p[k] - s * p[k]
-        uk = u[k]
+        c = p[k] - v[k]
+        a = c * p[k] - s * p[k]
+        b = s * p[k] - c * p[k]
         for i in range(d):
             for j in range(d):
-                h[i, j] += a * uk[i] * uk[j] + (s * p[k] - c[k] * p[k]) * prec[k, i, j]
-    return p, jac, h
-
-
-@njit(cache=True, nogil=True)
-def _cholesky_solve(m, b):  # type: ignore[no-untyped-def]
-    """Solve m z = b for a symmetric m by Cholesky; (z, True), or (b, False) when m is not positive definite."""
-    n = b.size
-    low = np.zeros((n, n))
-    for j in range(n):
-        acc = m[j, j]
-        for q in range(j):
-            acc -= low[j, q] * low[j, q]
-        if not acc > 0.0:
-            return b.copy(), False
-        low[j, j] = math.sqrt(acc)
-        for i in range(j + 1, n):
-            acc = m[i, j]
-            for q in range(j):
-                acc -= low[i, q] * low[j, q]
-            low[i, j] = acc / low[j, j]
-    z = b.copy()
-    for i in range(n):
-        for q in range(i):
-            z[i] -= low[i, q] * z[q]
-        z[i] /= low[i, i]
-    for i in range(n - 1, -1, -1):
-        for q in range(i + 1, n):
-            z[i] -= low[q, i] * z[q]
-        z[i] /= low[i, i]
-    return z, True
+                h[i, j] += a * u[k, i] * u[k, j] + b * prec[k, i, j]
 
 
 @njit(cache=True, nogil=True)
@@ -516,55 +693,65 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
                           kinds, centres, axes, perps, radii, lengths, halfs, margin, maxiter, steptol, ridge_rel):
     """Projected trust-region Newton on f = 1/2 |v - P(x)|^2 from every start (see planner._refine_lm)."""
     n, d = starts.shape
+    K = means.shape[0]
     out, converged, iterations = _results(n, d)
     sc = scale.copy()
     sc[a0:a1] = math.sqrt(np.mean(scale[a0:a1] ** 2))
+    # every iteration works in these (an iteration is ~10^3 flops: allocating them each time cost more)
+    x, x_new, grad, step = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
+    p, p_new, r, r_new = np.empty(K), np.empty(K), np.empty(K), np.empty(K)
+    jac, jac_new, u = np.empty((K, d)), np.empty((K, d)), np.empty((K, d))
+    hess, hess_new, h = np.empty((d, d)), np.empty((d, d)), np.empty((d, d))
+    system, low = np.empty((d, d)), np.empty((d, d))
+    held, normal, ns = np.empty(d, dtype=np.bool_), np.empty(3), np.empty(3)
     for s in range(n):
-        x = _project(starts[s].copy(), lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
-                     halfs, margin)
-        p, jac, hess = _posterior_hessian(x, means, prec, log_norm, v)
-        r = v - p
-        f = 0.5 * np.sum(r * r)
+        x[:] = starts[s]
+        _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
+        _posterior_hessian(x, means, prec, log_norm, v, p, u, jac, hess)
+        f = _residual(v, p, r)
         lam = -1.0
         done = False
         fresh = True
+        on_body = False
+        top = ridge = 0.0
         for _ in range(maxiter):
             iterations[s] += 1
             if fresh:
                 # on the sphere's tangent plane (Lagrangian Hessian: H - (a . grad_a f) I there), then in
                 # scaled coordinates y = x / sc (sc uniform over the approach, so the tangent plane is the same)
-                gx = -(r @ jac)
-                on_body, normal = _body_hold(x, gx, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-                hess_l = hess
+                _gradient(r, jac, grad)  # the gradient in x, until it is taken to the tangent plane
+                on_body = _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin, normal)
+                h[:] = hess
                 if on_body:  # the Lagrangian's Hessian on the body's surface: minus mu times the surface's curvature
-                    hess_l = hess.copy()
-                    mu = np.sum(gx[0:3] * normal)
-                    hess_l[0:3, 0:3] -= mu * _distance_hessian(x[0:3].copy(), kinds, centres, axes, perps, radii,
-                                                               lengths, halfs)
-                ax = x[a0:a1].copy()
-                tang = np.eye(d)
+                    mu = grad[0] * normal[0] + grad[1] * normal[1] + grad[2] * normal[2]
+                    h[0:3, 0:3] -= mu * _distance_hessian(x[0:3].copy(), kinds, centres, axes, perps, radii,
+                                                          lengths, halfs)
+                ax = x[a0:a1]
+                radial = 0.0
+                for i in range(a1 - a0):
+                    radial += grad[a0 + i] * ax[i]
+                _on_plane_both(h, a0, ax)
                 for i in range(a0, a1):
                     for j in range(a0, a1):
-                        tang[i, j] -= ax[i - a0] * ax[j - a0]
-                radial = np.sum(gx[a0:a1] * ax)
-                h = tang @ hess_l @ tang
-                for i in range(a0, a1):
-                    for j in range(a0, a1):
-                        h[i, j] -= radial * tang[i, j]
-                grad = (tang @ gx) * sc
-                h = h * np.outer(sc, sc)
+                        h[i, j] -= radial * ((1.0 if i == j else 0.0) - ax[i - a0] * ax[j - a0])
+                _on_plane(grad, a0, ax)
+                for i in range(d):
+                    grad[i] *= sc[i]
+                    for j in range(d):
+                        h[i, j] = h[i, j] * (sc[i] * sc[j])
                 if on_body:  # and on the surface's tangent plane, in scaled coordinates
-                    ns = normal * sc[0:3]
-                    ns /= math.sqrt(np.sum(ns * ns))
-                    tb = np.eye(d)
-                    tb[0:3, 0:3] -= np.outer(ns, ns)
-                    h = tb @ h @ tb
-                    grad = tb @ grad
-                held = np.zeros(d, dtype=np.bool_)
+                    acc = 0.0
+                    for i in range(3):
+                        ns[i] = normal[i] * sc[i]
+                        acc += ns[i] * ns[i]
+                    norm = math.sqrt(acc)
+                    for i in range(3):
+                        ns[i] /= norm
+                    _on_plane_both(h, 0, ns)
+                    _on_plane(grad, 0, ns)
                 for j in range(d):
-                    if a0 <= j < a1:
-                        continue  # a unit vector never leaves [-1, 1]
-                    held[j] = (x[j] <= lower[j] and grad[j] > 0.0) or (x[j] >= upper[j] and grad[j] < 0.0)
+                    held[j] = (not a0 <= j < a1  # a unit vector never leaves [-1, 1]
+                               and ((x[j] <= lower[j] and grad[j] > 0.0) or (x[j] >= upper[j] and grad[j] < 0.0)))
                     if held[j]:
                         grad[j] = 0.0
                         h[j, :] = 0.0
@@ -576,25 +763,41 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
                 if lam < 0.0:
                     lam = 1e-3 * top
                 fresh = False
-            system = h.copy()
+            system[:] = h
             for j in range(d):
                 system[j, j] += lam + ridge + (1.0 if held[j] else 0.0)
-            step, pd = _cholesky_solve(system, -grad)
-            if not pd:
+                step[j] = -grad[j]
+            if not _cholesky_solve(system, step, step, low):
                 lam = max(4.0 * lam, 1e-12 * top + 1e-300)
                 continue
-            step[held] = 0.0
-            predicted = -(np.sum(grad * step) + 0.5 * np.sum(step * (h @ step)))
-            x_new = _project(x + step * sc, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
-                             halfs, margin)
+            gain = 0.0
+            curve = 0.0
+            size = 0.0
+            for i in range(d):
+                if held[i]:
+                    step[i] = 0.0
+            for i in range(d):
+                hs = 0.0
+                for j in range(d):
+                    hs += h[i, j] * step[j]
+                gain += grad[i] * step[i]
+                curve += step[i] * hs
+                size += step[i] * step[i]
+                x_new[i] = x[i] + step[i] * sc[i]
+            predicted = -(gain + 0.5 * curve)
+            size = math.sqrt(size)
+            _project(x_new, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
             if on_body:
                 _onto_surface(x_new, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-            size = math.sqrt(np.sum(step * step))
-            p_new, jac_new, hess_new = _posterior_hessian(x_new, means, prec, log_norm, v)
-            r_new = v - p_new
-            f_new = 0.5 * np.sum(r_new * r_new)
+            _posterior_hessian(x_new, means, prec, log_norm, v, p_new, u, jac_new, hess_new)
+            f_new = _residual(v, p_new, r_new)
             if f_new < f:
-                x, p, jac, hess, r, f = x_new, p_new, jac_new, hess_new, r_new, f_new
+                x, x_new = x_new, x
+                p, p_new = p_new, p
+                jac, jac_new = jac_new, jac
+                hess, hess_new = hess_new, hess
+                r, r_new = r_new, r
+                f = f_new
                 lam = lam / 3.0
                 fresh = True
                 if size <= steptol or (predicted <= 1e-15 * f and lam <= 1e-4 * top):
@@ -634,50 +837,27 @@ def least_squares(starts: NDArray[np.float64], v: NDArray[np.float64], means: ND
 
 
 # -- inverse kinematics of a serial chain of revolute joints (MicoKinematics.ik) ---------------------------
+# 3-vectors and 3x3 products are written out (a BLAS call, or a temporary array, costs more than the
+# arithmetic at this size).
 
 
 @njit(cache=True, nogil=True)
-def _rotate(R, v):  # type: ignore[no-untyped-def]
-    """R v for a 3x3 R (written out: a BLAS call costs more than the arithmetic at this size)."""
-    out = np.empty(3)
-    for i in range(3):
-        out[i] = R[i, 0] * v[0] + R[i, 1] * v[1] + R[i, 2] * v[2]
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _rotate_back(R, v):  # type: ignore[no-untyped-def]
-    """R^T v for a 3x3 R."""
-    out = np.empty(3)
-    for i in range(3):
-        out[i] = R[0, i] * v[0] + R[1, i] * v[1] + R[2, i] * v[2]
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _compose(A, B):  # type: ignore[no-untyped-def]
-    """A B for 3x3 matrices."""
-    out = np.empty((3, 3))
+def _compose(A, B, out):  # type: ignore[no-untyped-def]
+    """Fills out with A B for 3x3 matrices (out is neither)."""
     for i in range(3):
         for j in range(3):
             out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
-    return out
 
 
 @njit(cache=True, nogil=True)
-def _cross(a, b):  # type: ignore[no-untyped-def]
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
-@njit(cache=True, nogil=True)
-def _axis_rotation(axis, angle):  # type: ignore[no-untyped-def]
-    """Rodrigues: the rotation by ``angle`` about the unit ``axis``."""
+def _axis_rotation(axis, angle, out):  # type: ignore[no-untyped-def]
+    """Fills out with the rotation by ``angle`` about the unit ``axis`` (Rodrigues)."""
     s, c = math.sin(angle), math.cos(angle)
     x, y, z = axis[0], axis[1], axis[2]
     t = 1.0 - c
-    return np.array([[c + t * x * x, t * x * y - s * z, t * x * z + s * y],
-                     [t * x * y + s * z, c + t * y * y, t * y * z - s * x],
-                     [t * x * z - s * y, t * y * z + s * x, c + t * z * z]])
+    out[0, 0], out[0, 1], out[0, 2] = c + t * x * x, t * x * y - s * z, t * x * z + s * y
+    out[1, 0], out[1, 1], out[1, 2] = t * x * y + s * z, c + t * y * y, t * y * z - s * x
+    out[2, 0], out[2, 1], out[2, 2] = t * x * z - s * y, t * y * z + s * x, c + t * z * z
 
 
 @njit(cache=True, nogil=True)
@@ -689,13 +869,20 @@ def _chain_fk(q, rots, trans, axes, tip_rot, tip_trans, origins, zs):  # type: i
     """
     R = np.eye(3)
     p = np.zeros(3)
+    M, T = np.empty((3, 3)), np.empty((3, 3))
     for i in range(q.size):
-        p = p + _rotate(R, trans[i])
-        R = _compose(R, rots[i])
+        for r in range(3):
+            p[r] += R[r, 0] * trans[i, 0] + R[r, 1] * trans[i, 1] + R[r, 2] * trans[i, 2]
+        _compose(R, rots[i], M)
         origins[i] = p
-        zs[i] = _rotate(R, axes[i])
-        R = _compose(R, _axis_rotation(axes[i], q[i]))
-    return _compose(R, tip_rot), p + _rotate(R, tip_trans)
+        for r in range(3):
+            zs[i, r] = M[r, 0] * axes[i, 0] + M[r, 1] * axes[i, 1] + M[r, 2] * axes[i, 2]
+        _axis_rotation(axes[i], q[i], T)
+        _compose(M, T, R)
+    for r in range(3):
+        p[r] += R[r, 0] * tip_trans[0] + R[r, 1] * tip_trans[1] + R[r, 2] * tip_trans[2]
+    _compose(R, tip_rot, M)
+    return M, p
 
 
 @njit(cache=True, nogil=True)
@@ -728,9 +915,13 @@ def _ik_residual(q, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, origins, zs
     """Error e = (R^T (p_t - p), log3(R^T R_t)) of the tip pose (R, p) against the target, in the tip frame."""
     R, p = _chain_fk(q, rots, trans, axes, tip_rot, tip_trans, origins, zs)
     e = np.empty(6)
-    e[:3] = _rotate_back(R, p_t - p)
-    Rt = R.T.copy()
-    e[3:] = _log3(_compose(Rt, R_t))
+    d0, d1, d2 = p_t[0] - p[0], p_t[1] - p[1], p_t[2] - p[2]
+    E = np.empty((3, 3))
+    for i in range(3):
+        e[i] = R[0, i] * d0 + R[1, i] * d1 + R[2, i] * d2
+        for j in range(3):
+            E[i, j] = R[0, i] * R_t[0, j] + R[1, i] * R_t[1, j] + R[2, i] * R_t[2, j]
+    e[3:] = _log3(E)
     return e, R, p
 
 
@@ -744,19 +935,27 @@ def _ik_jacobian(e, R, p, origins, zs):  # type: ignore[no-untyped-def]
     Jacobian of SO(3).
     """
     n = zs.shape[0]
-    phi = e[3:]
-    theta = math.sqrt(np.sum(phi * phi))
+    e0, e1, e2, f0, f1, f2 = e[0], e[1], e[2], e[3], e[4], e[5]  # f = phi
+    theta = math.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
     if theta < 1e-4:
         c2 = 1.0 / 12.0 + theta * theta / 720.0
     else:
         c2 = 1.0 / (theta * theta) - math.cos(0.5 * theta) / (2.0 * theta * math.sin(0.5 * theta))
     J = np.empty((6, n))
     for i in range(n):
-        w = _rotate_back(R, zs[i])
-        v = _rotate_back(R, _cross(zs[i], p - origins[i]))
-        J[:3, i] = -_cross(w, e[:3]) - v
-        pw = _cross(phi, w)
-        J[3:, i] = -(w - 0.5 * pw + c2 * _cross(phi, pw))
+        z0, z1, z2 = zs[i, 0], zs[i, 1], zs[i, 2]
+        w0 = R[0, 0] * z0 + R[1, 0] * z1 + R[2, 0] * z2  # w = R^T z
+        w1 = R[0, 1] * z0 + R[1, 1] * z1 + R[2, 1] * z2
+        w2 = R[0, 2] * z0 + R[1, 2] * z1 + R[2, 2] * z2
+        r0, r1, r2 = p[0] - origins[i, 0], p[1] - origins[i, 1], p[2] - origins[i, 2]
+        c0, c1, c2_ = z1 * r2 - z2 * r1, z2 * r0 - z0 * r2, z0 * r1 - z1 * r0  # z x (p - o)
+        J[0, i] = -(w1 * e2 - w2 * e1) - (R[0, 0] * c0 + R[1, 0] * c1 + R[2, 0] * c2_)
+        J[1, i] = -(w2 * e0 - w0 * e2) - (R[0, 1] * c0 + R[1, 1] * c1 + R[2, 1] * c2_)
+        J[2, i] = -(w0 * e1 - w1 * e0) - (R[0, 2] * c0 + R[1, 2] * c1 + R[2, 2] * c2_)
+        pw0, pw1, pw2 = f1 * w2 - f2 * w1, f2 * w0 - f0 * w2, f0 * w1 - f1 * w0  # phi x w
+        J[3, i] = -(w0 - 0.5 * pw0 + c2 * (f1 * pw2 - f2 * pw1))
+        J[4, i] = -(w1 - 0.5 * pw1 + c2 * (f2 * pw0 - f0 * pw2))
+        J[5, i] = -(w2 - 0.5 * pw2 + c2 * (f0 * pw1 - f1 * pw0))
     return J
 
 
@@ -777,38 +976,49 @@ def _ik_descent(q, lower, upper, rots, trans, axes, tip_rot, tip_trans, R_t, p_t
     errors at rounding level). Returns (q, position error |e_p| (m), rotation error |phi| (rad), iterations).
     """
     n = q.size
-    origins = np.empty((n, 3))
-    zs = np.empty((n, 3))
+    q = q.copy()  # the iterate (its buffer swaps with q_try's): the caller's q is left as it is
+    origins, zs = np.empty((n, 3)), np.empty((n, 3))
+    q_try, step = np.empty(n), np.empty(n)
+    system, low = np.empty((n, n)), np.empty((n, n))
     e, R, p = _ik_residual(q, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, origins, zs)
     cost = np.sum(e * e)
     J = _ik_jacobian(e, R, p, origins, zs)
     damping = 1e-3
     iterations = 0
     while True:
-        pos_err = math.sqrt(np.sum(e[:3] * e[:3]))
-        rot_err = math.sqrt(np.sum(e[3:] * e[3:]))
+        pos_err = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+        rot_err = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
         if (pos_err <= _IK_SOLVED and rot_err <= _IK_SOLVED) or iterations >= max_iter:
             return q, pos_err, rot_err, iterations
         iterations += 1
-        system = np.empty((n, n))
-        grad = np.zeros(n)
         for i in range(n):
             for j in range(n):
-                system[i, j] = np.sum(J[:, i] * J[:, j])
+                acc = 0.0
+                for k in range(6):
+                    acc += J[k, i] * J[k, j]
+                system[i, j] = acc
             system[i, i] += damping
-            grad[i] = np.sum(J[:, i] * e)
-        step, _ = _cholesky_solve(system, -grad)
-        longest = np.max(np.abs(step))
+            acc = 0.0
+            for k in range(6):
+                acc += J[k, i] * e[k]
+            step[i] = -acc  # -J^T e
+        _cholesky_solve(system, step, step, low)  # (should rounding make it indefinite, the step stays -J^T e)
+        longest = 0.0
+        for i in range(n):
+            if abs(step[i]) > longest or step[i] != step[i]:  # NaN propagates, as in np.max
+                longest = abs(step[i])
         if longest > 0.5:
-            step *= 0.5 / longest
-        q_try = np.minimum(np.maximum(q + step, lower), upper)
-        o_try = np.empty((n, 3))
-        z_try = np.empty((n, 3))
-        e_try, R_try, p_try = _ik_residual(q_try, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, o_try, z_try)
+            shorten = 0.5 / longest
+            for i in range(n):
+                step[i] *= shorten
+        for i in range(n):
+            q_try[i] = min(max(q[i] + step[i], lower[i]), upper[i])
+        e_try, R_try, p_try = _ik_residual(q_try, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, origins, zs)
         cost_try = np.sum(e_try * e_try)
         if cost_try < cost:
-            q, e, cost = q_try, e_try, cost_try
-            J = _ik_jacobian(e, R_try, p_try, o_try, z_try)
+            q, q_try = q_try, q
+            e, cost = e_try, cost_try
+            J = _ik_jacobian(e, R_try, p_try, origins, zs)
             damping = max(damping * 0.2, 1e-9)
         else:
             damping *= 10.0

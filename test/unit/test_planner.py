@@ -180,12 +180,35 @@ def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, 
             v = rng.dirichlet(np.ones(len(model.zones)))
             i, j = rng.choice(len(model.zones), 2, replace=False)
             x = 0.5 * (model.means[i] + model.means[j])  # between two zones, where P varies
-            hess = _posterior_hessian(x, model.means, model._precisions, model._log_norm, v)[2]
+            K, d = model.means.shape
+            hess = np.empty((d, d))
+            _posterior_hessian(x, model.means, model._precisions, model._log_norm, v, np.empty(K), np.empty((K, d)),
+                               np.empty((K, d)), hess)
             step = 1e-6 * model.feature_scale
             numeric = np.stack([(planner.objective_and_gradient(model, v, x + h)[1]
                                  - planner.objective_and_gradient(model, v, x - h)[1]) / (2.0 * h[i])
                                 for i, h in enumerate(np.diag(step))])
             assert_allclose(hess, numeric, rtol=0.0, atol=1e-5 * np.abs(hess).max())
+
+
+def test_spd_solve_falls_back_to_lu_where_cholesky_fails() -> None:
+    """The kernels' solve of their ridged SPD systems: Cholesky, else LU, else LU's error.
+
+    A symmetric matrix that is not positive definite (as rounding can leave a system whose ridge is below
+    the rounding of its entries) is still solved; NaN raises, as np.linalg.solve does.
+    """
+    from grasp_intent_ros.core._kernels import _spd_solve
+    rng = np.random.default_rng(5)
+    J = rng.standard_normal((7, 10))
+    b = rng.standard_normal(10)
+    indefinite = np.diag(np.r_[-1.0, np.ones(9)]) + 0.1 * (J.T @ J)
+    assert np.linalg.eigvalsh(indefinite).min() < 0.0
+    for m in (J.T @ J + 1e-7 * np.eye(10), indefinite):
+        z = np.empty(10)
+        _spd_solve(m, b, z, np.empty((10, 10)))
+        assert_allclose(m @ z, b, atol=1e-8 * np.abs(b).max() * np.linalg.cond(m))
+    with pytest.raises(np.linalg.LinAlgError):
+        _spd_solve(np.full((10, 10), np.nan), b, np.empty(10), np.empty((10, 10)))
 
 
 def test_newton_converges_where_least_squares_steps_run_out(shipped: dict[str, GraspModel],
@@ -218,7 +241,8 @@ def test_body_surface_curvature_matches_finite_differences(shipped: dict[str, Gr
     for p in (np.array([0.03, 0.0, 0.041]), np.array([0.03, 0.012, 0.035]), np.array([-0.05, -0.02, 0.0]),
               np.array([0.12, 0.005, 0.03])):
         step = 1e-7
-        numeric = np.stack([(_distance(p + h, *arrays)[1] - _distance(p - h, *arrays)[1]) / (2.0 * step)
+        numeric = np.stack([(np.array(_distance(p + h, *arrays)[1:]) - np.array(_distance(p - h, *arrays)[1:]))
+                            / (2.0 * step)
                             for h in np.eye(3) * step])
         hess = _distance_hessian(p, *arrays)
         assert_allclose(hess, numeric, rtol=0.0, atol=1e-6 * max(np.abs(numeric).max(), 1.0))
