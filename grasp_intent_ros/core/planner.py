@@ -485,9 +485,10 @@ def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.floa
 
 
 def _unique_rows(x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The rows of x without exact repeats, in their first order."""
-    first = np.unique(x, axis=0, return_index=True)[1]
-    out: NDArray[np.float64] = x[np.sort(first)]
+    """The rows of x without exact repeats, in their first order (-0.0 and 0.0 are the same)."""
+    seen: set[bytes] = set()
+    keep = [i for i, row in enumerate(x + 0.0) if not ((key := row.tobytes()) in seen or seen.add(key))]
+    out: NDArray[np.float64] = x[keep]
     return out
 
 
@@ -499,25 +500,25 @@ def _choose(candidates: list[Candidate]) -> list[Candidate]:
     """The module docstring's choice order, duplicates (scaled distance < 1e-9 apart) dropped."""
     if len(candidates) <= 1:
         return list(candidates)
-    f = np.array([c.objective for c in candidates])
-    dist = np.array([c.distance for c in candidates])
-    start = np.array([c.start_index for c in candidates])
-    best = float(f.min())
-    matches = f <= best + max(MATCH_TOL, F_RTOL * best)
-    pool = np.flatnonzero(matches)
-    ordered: list[int] = []
-    while pool.size:  # nearest first; distances within DISTANCE_TOL of it tie, broken by start order
-        far = dist[pool] > dist[pool].min() + DISTANCE_TOL
-        pick = int(np.lexsort((start[pool], far))[0])
-        ordered.append(int(pool[pick]))
-        pool = np.delete(pool, pick)
-    order = ordered + [int(i) for i in _rank_by_f(f) if not matches[int(i)]]
+    f = [c.objective for c in candidates]
+    dist = [c.distance for c in candidates]
+    best = min(f)
+    matches = [i for i, fi in enumerate(f) if fi <= best + max(MATCH_TOL, F_RTOL * best)]
+    order: list[int] = []
+    pool = list(matches)
+    while pool:  # nearest first; distances within DISTANCE_TOL of it tie, broken by start order
+        nearest = min(dist[i] for i in pool)
+        pick = min(pool, key=lambda i: (dist[i] > nearest + DISTANCE_TOL, candidates[i].start_index))
+        order.append(pick)
+        pool.remove(pick)
+    is_match = set(matches)
+    order += [int(i) for i in _rank_by_f(np.array(f)) if int(i) not in is_match]
     x = np.stack([candidates[i].x for i in order])
     rel = (x[:, None, :] - x[None, :, :]) / np.maximum(np.abs(x[None, :, :]), 1.0)
-    same = np.einsum('ijk,ijk->ij', rel, rel) < 1e-18  # same[i, j]: i repeats j
+    same = (np.einsum('ijk,ijk->ij', rel, rel) < 1e-18).tolist()  # same[i][j]: i repeats j
     kept: list[int] = []
-    for i in range(len(order)):
-        if not same[i, kept].any():
+    for i, row in enumerate(same):
+        if not any(row[j] for j in kept):
             kept.append(i)
     return [candidates[order[i]] for i in kept]
 
