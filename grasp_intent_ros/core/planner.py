@@ -486,9 +486,10 @@ def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.floa
 
 def _unique_rows(x: NDArray[np.float64]) -> NDArray[np.float64]:
     """The rows of x without exact repeats, in their first order (-0.0 and 0.0 are the same)."""
-    seen: set[bytes] = set()
-    keep = [i for i, row in enumerate(x + 0.0) if not ((key := row.tobytes()) in seen or seen.add(key))]
-    out: NDArray[np.float64] = x[keep]
+    first: dict[bytes, int] = {}
+    for i, row in enumerate(x + 0.0):
+        first.setdefault(row.tobytes(), i)
+    out: NDArray[np.float64] = x[sorted(first.values())]
     return out
 
 
