@@ -45,18 +45,22 @@ class LatestOnlyWorker(Generic[T]):
     prepare : callable, optional
         Run once in the worker thread before it handles anything (e.g. loading compiled code), so that the
         work overlaps with what the node waits for at start (discovery, its first inputs). It must not raise.
+    after_first : callable, optional
+        Run once in the worker thread right after it handled its first snapshot (e.g. loading what that one
+        did not need), so that the first answer does not wait for it. It must not raise.
     """
 
     def __init__(self, initial: T, handle: Callable[[T], object], *, name: str,
                  ready: Callable[[T], bool] = lambda _: True,
                  min_period: Callable[[], float] = lambda: 0.0,
-                 prepare: Callable[[], object] | None = None) -> None:
+                 prepare: Callable[[], object] | None = None,
+                 after_first: Callable[[], object] | None = None) -> None:
         self._lock = threading.Lock()
         self._latest = initial
         self._version = 0
         self._handle, self._ready = handle, ready
         self._min_period = min_period
-        self._prepare = prepare
+        self._prepare, self._after_first = prepare, after_first
         self._wake, self._stop = threading.Event(), threading.Event()
         self._idle = False  # the thread waits on _wake
         self.superseded = 0
@@ -126,3 +130,6 @@ class LatestOnlyWorker(Generic[T]):
             self.superseded += max(0, version - handled - 1)
             handled, last_start = version, time.monotonic()
             self._handle(snapshot)
+            if self._after_first is not None:
+                self._after_first()
+                self._after_first = None

@@ -110,3 +110,20 @@ def test_an_update_hands_an_idle_thread_the_gil_and_a_busy_one_nothing(monkeypat
         assert wait(lambda: handled == [2, 3] and worker.idle), handled
     finally:
         worker.stop()
+
+
+def test_after_first_runs_once_in_the_thread_after_the_first_handled_snapshot() -> None:
+    order: list[tuple[str, str]] = []
+    worker = LatestOnlyWorker(0, lambda v: order.append((f'handle {v}', threading.current_thread().name)),
+                              name='test_worker', ready=lambda value: value >= 2,
+                              after_first=lambda: order.append(('after first', threading.current_thread().name)))
+    try:
+        worker.update(lambda _: 1)  # not ready: not handled, so not yet the first
+        assert wait(lambda: worker.idle)
+        assert order == []
+        for value in (2, 3):
+            worker.update(lambda _, value=value: value)
+            assert wait(lambda: len(order) == value), order
+    finally:
+        worker.stop()
+    assert order == [('handle 2', 'test_worker'), ('after first', 'test_worker'), ('handle 3', 'test_worker')]
