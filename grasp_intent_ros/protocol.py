@@ -93,7 +93,7 @@ __all__ = [
     'ModelHeader', 'ModelDocument', 'model_document', 'parse_model_document', 'read_model_document',
     'OK', 'WARN', 'ERROR', 'STALE', 'LEVEL_NAMES', 'level_value', 'status_name', 'status_values',
     'KEY_RECEIVED', 'KEY_REJECTED', 'KEY_LAST_ERROR', 'KEY_PROCESSING_TIME', 'KEY_DROPPED', 'KEY_PLANS',
-    'KEY_PLANNING_TIME', 'KEY_MODEL', 'KEY_KERNELS_LOAD_TIME',
+    'KEY_PLANNING_TIME', 'KEY_MODEL', 'KEY_KERNELS_LOAD_TIME', 'KEY_KERNELS_LATE_LOAD_TIME',
 ]
 
 # ------------------------------------------------------------------------------------------ topics
@@ -599,7 +599,11 @@ KEY_PLANNING_TIME: Final = 'last planning time [ms]'
 KEY_MODEL: Final = 'model'
 """The planner's model: ``"<name> (version <n>, zones <labels>)"``."""
 KEY_KERNELS_LOAD_TIME: Final = 'compiled kernels load time [ms]'
-"""How long the planner's planning thread took at start to load its compiled kernels (before any input)."""
+"""How long the planner's planning thread took at start to load numba's CPU target and the IK kernel
+(before any input; the first plan loads the kernels it uses)."""
+KEY_KERNELS_LATE_LOAD_TIME: Final = 'compiled kernels loaded after the first plan [ms]'
+"""How long the planner's planning thread took, right after its first plan, to load the compiled kernels
+that plan did not use."""
 
 
 def level_value(level: Any) -> int:

@@ -17,7 +17,6 @@ from numpy.typing import ArrayLike, NDArray
 from . import planner
 from .errors import KinematicsError, ModelError, PlanningError
 from .features import FINGERS, MICO_3F
-from .frames import features_to_obj_T_ee
 from .intent import restrict
 from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 from .model import GraspModel
@@ -244,6 +243,6 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     duration = trajectory_duration(HOME_Q if q_arm is None else q_arm, q, kin.velocity_limits,
                                    min_duration=MIN_TRAJECTORY_TIME)
     return Grasp(result=result, note=note, ik_seconds=reachable.seconds,
-                 base_T_ee=base_T_obj @ features_to_obj_T_ee(result.x),
+                 base_T_ee=reachable.target(result.x),
                  positions=np.concatenate([q, result.x[FINGERS]]), duration_s=duration,
                  fallback=bool(result.rejected))

@@ -436,7 +436,8 @@ class Reachability:
     Passed as ``accept=``: grasp features x are reachable when IK of ``base_T_obj @ features_to_obj_T_ee(x)``
     converges from ``q_seed`` (then random restarts).
 
-    Every IK answer is kept, so the accepted candidate's joint angles are not solved twice.
+    Every IK answer and its target pose are kept, so the accepted candidate's joint angles and pose are not
+    computed twice.
 
     Parameters
     ----------
@@ -459,16 +460,25 @@ class Reachability:
         self.restarts = restarts
         self.answers: dict[bytes, IkResult] = {}
         """IK answer per candidate (key: ``x.tobytes()``)."""
+        self._targets: dict[bytes, NDArray[np.float64]] = {}
         self.seconds = 0.0
         """Time spent in IK so far (s)."""
+
+    def target(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``base_T_ee`` of features x, shape (4, 4): the pose IK solves for (computed on first use; read-only)."""
+        key = np.asarray(x, dtype=np.float64).tobytes()
+        if (base_T_ee := self._targets.get(key)) is None:
+            base_T_ee = self._targets[key] = self.base_T_obj @ features_to_obj_T_ee(x)
+            base_T_ee.flags.writeable = False
+        return base_T_ee
 
     def answer(self, x: NDArray[np.float64]) -> IkResult:
         """The IK answer for features x (solved on first use)."""
         key = np.asarray(x, dtype=np.float64).tobytes()
         if key not in self.answers:
             start = time.perf_counter()
-            self.answers[key] = self.kin._ik(self.base_T_obj @ features_to_obj_T_ee(x), self.q_seed,
-                                             self.restarts, IK_POS_TOL, IK_ROT_TOL, IK_MAX_ITER, None)
+            self.answers[key] = self.kin._ik(self.target(x), self.q_seed, self.restarts, IK_POS_TOL, IK_ROT_TOL,
+                                             IK_MAX_ITER, None)
             self.seconds += time.perf_counter() - start
         return self.answers[key]
 

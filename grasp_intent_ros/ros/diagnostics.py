@@ -135,8 +135,9 @@ class NodeDiagnostics:
             note, self._note = self._note, None
             self._last_seconds = seconds
             self._outcome_level, self._outcome_message = note or (level_value(OK), 'ok')
-        if note is not None:
-            self.publish()  # at once, as for a rejection
+            status = self._status() if note is not None else None
+        if status is not None:
+            self._publish(status)  # at once, as for a rejection
 
     def rejected(self, reason: str, *, level: bytes | int = WARN, detail: str = '') -> None:
         """An input was rejected: count it, log it and publish a WARN (or ``level``) status now.
@@ -148,13 +149,14 @@ class NodeDiagnostics:
             self._rejected += 1
             self._last_error = reason
             self._outcome_level, self._outcome_message = level_value(level), f'rejected input: {reason}'
+            status = self._status()  # as of this rejection: another thread may process an input meanwhile
         error = level_value(level) >= level_value(ERROR)
         line = self._log_line(error, f'{self.name}: {reason}' if error else f'rejected input: {reason}')
         if line is not None and error:  # one call site per severity (rclpy's logger requires it)
             self._node.get_logger().error(f'{line}\n{detail}' if detail else line)
         elif line is not None:
             self._node.get_logger().warning(f'{line}\n{detail}' if detail else line)
-        self.publish()
+        self._publish(status)
 
     def _log_line(self, error: bool, text: str) -> str | None:
         """``text`` when a line of its level may be logged now (one per :data:`LOG_PERIOD` s), else None.
@@ -226,29 +228,35 @@ class NodeDiagnostics:
     def status(self) -> DiagnosticStatus:
         """The current DiagnosticStatus."""
         with self._lock:
-            if self._state_level > self._outcome_level and self._state_message:
-                level, message = self._state_level, self._state_message
-            else:
-                level, message = self._outcome_level, self._outcome_message
-                if self._state_message:
-                    message = f'{message}; {self._state_message}'
-            values = {
-                KEY_RECEIVED: str(self._received),
-                KEY_REJECTED: str(self._rejected),
-                KEY_LAST_ERROR: self._last_error,
-                KEY_PROCESSING_TIME: ('' if self._last_seconds is None
-                                              else f'{1e3 * self._last_seconds:.3f}'),
-                **({} if self._dropped is None else {KEY_DROPPED: str(self._dropped)}),
-                **self._values,
-            }
+            return self._status()
+
+    def _status(self) -> DiagnosticStatus:  # with the lock held
+        if self._state_level > self._outcome_level and self._state_message:
+            level, message = self._state_level, self._state_message
+        else:
+            level, message = self._outcome_level, self._outcome_message
+            if self._state_message:
+                message = f'{message}; {self._state_message}'
+        values = {
+            KEY_RECEIVED: str(self._received),
+            KEY_REJECTED: str(self._rejected),
+            KEY_LAST_ERROR: self._last_error,
+            KEY_PROCESSING_TIME: '' if self._last_seconds is None else f'{1e3 * self._last_seconds:.3f}',
+            **({} if self._dropped is None else {KEY_DROPPED: str(self._dropped)}),
+            **self._values,
+        }
         return DiagnosticStatus(level=bytes([level]), name=self.name, message=message,
                                 hardware_id=self._hardware_id,
                                 values=[KeyValue(key=k, value=v) for k, v in values.items()])
 
     def publish(self) -> None:
         """Publish the current status now."""
+        self._publish(None)
+
+    def _publish(self, status: DiagnosticStatus | None) -> None:
+        """Publish ``status`` (None: the current one)."""
         try:
-            msg = DiagnosticArray(status=[self.status()])
+            msg = DiagnosticArray(status=[self.status() if status is None else status])
             msg.header.stamp = self._node.get_clock().now().to_msg()
             self._publisher.publish(msg)
         except Exception as exc:  # noqa: BLE001 - e.g. during shutdown; never raise from a timer

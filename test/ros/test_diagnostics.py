@@ -134,3 +134,24 @@ def test_rejection_log_lines_are_throttled_but_every_rejection_counts(ros, capfd
     assert 'bad w 0' in err and 'a bug' in err and 'Traceback: here' in err
     assert not any(f'bad w {i}' in err for i in range(1, 5))
     assert 'bad w 5 (4 more since the last such line, not logged)' in err
+
+
+def test_a_rejection_is_published_as_it_was_when_another_thread_processes_an_input_meanwhile(ros) -> None:
+    """The status a rejection publishes at once is that rejection's, not what another thread set since.
+
+    E.g. a model follower's thread rejects a document while the executor thread's guard finishes the
+    message that handed it over (one NodeDiagnostics for both): its WARN must still go out.
+    """
+    probe = ros.add(rclpy.create_node('diag_probe', context=ros.context))
+    statuses = ros.diagnostics()
+    diag = NodeDiagnostics(probe, 'model', period=100.0)
+    log_line = diag._log_line
+
+    def processed_meanwhile(error: bool, text: str) -> str | None:  # between the rejection and its publication
+        diag.processed(0.001)
+        return log_line(error, text)
+    diag._log_line = processed_meanwhile  # type: ignore[method-assign]
+    diag.rejected('model document is oversized')
+    assert protocol.level_value(diag.status().level) == protocol.OK  # the input processed since
+    assert ros.wait_for(lambda: [s for s in statuses if s.level == DiagnosticStatus.WARN
+                                 and s.message == 'rejected input: model document is oversized'])

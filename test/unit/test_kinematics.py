@@ -349,6 +349,10 @@ def test_reachability_constraint_caches_ik_answers(kin: MicoKinematics) -> None:
     assert reach(x)
     first = reach.answer(x)
     assert reach.answer(x) is first and len(reach.answers) == 1 and reach.seconds > 0.0
+    target = reach.target(x)  # the pose IK solved, kept for the grasp's pose (plan_grasp)
+    assert reach.target(x.copy()) is target and not target.flags.writeable
+    assert_allclose(target, base_T_obj @ features_to_obj_T_ee(x), atol=1e-15)
+    assert_allclose(kin.fk(first.q), target, atol=1e-4)
     far = base_T_obj.copy()
     far[:3, 3] = (2.0, 0.0, 0.0)
     assert not Reachability(kin, far)(x)
