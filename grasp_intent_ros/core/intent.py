@@ -376,13 +376,22 @@ def reconstruct_w(p: ArrayLike, zones: Sequence[int], m: int) -> NDArray[np.floa
     -------
     ndarray, shape (m,) or (N, m)
     """
-    _check_m(m)
     p_arr = np.asarray(p, dtype=np.float64)
+    membership = _task_membership(tuple(int(z) for z in zones), m)
+    if p_arr.shape[-1] != membership.shape[0]:
+        raise InvalidIntentError(f'p has {p_arr.shape[-1]} entries but there are {membership.shape[0]} zones')
+    out: NDArray[np.float64] = p_arr @ membership
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _task_membership(zones: tuple[int, ...], m: int) -> NDArray[np.float64]:
+    """(K, m) read-only: 1 where zone k contains task i (computed once per zone structure)."""
+    _check_m(m)
     zone_arr = np.asarray(zones, dtype=np.int64)
-    if p_arr.shape[-1] != zone_arr.size:
-        raise InvalidIntentError(f'p has {p_arr.shape[-1]} entries but there are {zone_arr.size} zones')
-    membership = ((zone_arr[:, None] >> np.arange(m)[None, :]) & 1).astype(np.float64)  # (K, m)
-    return p_arr @ membership
+    membership = ((zone_arr[:, None] >> np.arange(m)[None, :]) & 1).astype(np.float64)
+    membership.flags.writeable = False
+    return membership
 
 
 def restrict(v: ArrayLike, zones: Sequence[int], model_zones: Sequence[int]) -> NDArray[np.float64] | None:

@@ -65,6 +65,7 @@ minimise f from the demonstration starts (scipy), with the same choice rule.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -233,7 +234,8 @@ def _check_v(model: GraspModel, v: ArrayLike) -> NDArray[np.float64]:
     if arr.shape != (K,):
         raise PlanningError(f'v must have one entry per model zone ({K}: {",".join(model.zone_labels)}), '
                             f'got shape {arr.shape}')
-    if not np.all(np.isfinite(arr)) or np.any(arr < 0.0) or abs(arr.sum() - 1.0) > 1e-6:
+    total = float(arr.sum())  # not finite when an entry is not (or the entries overflow: then no probabilities either)
+    if not math.isfinite(total) or float(arr.min()) < 0.0 or abs(total - 1.0) > 1e-6:
         raise PlanningError(f'v must be a probability vector (finite, >= 0, sum 1), got {arr.tolist()}')
     return arr
 
@@ -253,10 +255,31 @@ def objective_and_gradient(model: GraspModel, v: NDArray[np.float64],
     return 0.5 * float(r @ r), -(jac.T @ r)
 
 
+def _rank_keys(f: NDArray[np.float64]) -> NDArray[np.int64]:
+    """One integer per entry whose order is f quantised to 1e-12 relative, then the index.
+
+    |f| / (1 + |f|) < 1, so the quantised value is below 1e12 and the key, value * N + index, fits an
+    int64 for N < 9e6 entries: keys are distinct, and float noise below the quantum cannot reorder them.
+    """
+    q = np.rint(f / (MATCH_TOL * (1.0 + np.abs(f))))
+    q[np.isnan(q)] = 1.0 / MATCH_TOL  # a NaN (or infinite) f ranks after every finite one
+    keys: NDArray[np.int64] = q.astype(np.int64) * f.size + np.arange(f.size, dtype=np.int64)
+    return keys
+
+
 def _rank_by_f(f: NDArray[np.float64]) -> NDArray[np.intp]:
     """Indices sorted by f quantised to 1e-12 relative, then by index: float noise cannot reorder."""
-    q = np.rint(f / (MATCH_TOL * (1.0 + np.abs(f))))
-    return np.lexsort((np.arange(f.size), q))
+    return np.argsort(_rank_keys(f))
+
+
+def _first_ranked(keys: NDArray[np.int64], count: int) -> NDArray[np.intp]:
+    """The indices of the ``count`` smallest keys, in key order (all of them when there are fewer)."""
+    if count <= 0:
+        return np.zeros(0, dtype=np.intp)
+    if count < keys.size:
+        part = np.argpartition(keys, count - 1)[:count]
+        return part[np.argsort(keys[part])]
+    return np.argsort(keys)
 
 
 def zone_order(v: NDArray[np.float64]) -> NDArray[np.intp]:
@@ -275,13 +298,15 @@ def select_starts(model: GraspModel, v: NDArray[np.float64], n_starts: int = 3,
     """
     order = zone_order(v)[:max(1, top_zones)]
     r = v[None, :] - model.demo_posterior
-    ranked = _rank_by_f(0.5 * np.einsum('nk,nk->n', r, r))
-    member = model.zone_members[order][:, ranked].T  # in rank order
-    first = ranked[member[:, 0]][:1]
-    if first.size == 0:  # no demonstration in the top zone: start from the best one overall
-        first = ranked[:1]
-    rest = ranked[member.any(axis=1) & (ranked != first[0])]
-    out: NDArray[np.float64] = model.demo_x[np.concatenate([first, rest[:n_starts - 1]])]
+    keys = _rank_keys(0.5 * np.einsum('nk,nk->n', r, r))
+    member = model.zone_members[order]
+    top = np.flatnonzero(member[0])
+    # no demonstration in the top zone: start from the best one overall
+    first = int(top[np.argmin(keys[top])]) if top.size else int(np.argmin(keys))
+    rest = np.flatnonzero(member.any(axis=0))
+    rest = rest[rest != first]
+    rest = rest[_first_ranked(keys[rest], n_starts - 1)]
+    out: NDArray[np.float64] = model.demo_x[np.concatenate([[first], rest])]
     return out
 
 
@@ -292,14 +317,14 @@ def search_starts(model: GraspModel, v: NDArray[np.float64], count: int = _SCREE
     residuals, max_k q_k - min_k q_k with q_k = log(pi_k N_k(x)) - log v_k (zero exactly where P = v);
     otherwise by f.
     """
-    pool, log_joint, posterior = model.start_pool
-    if np.all(v > 0.0):
-        q = log_joint - np.log(v)
-        score = q.max(axis=1) - q.min(axis=1)
+    pool, log_joint_t, posterior = model.start_pool
+    if float(v.min()) > 0.0:
+        q = log_joint_t - np.log(v)[:, None]  # (K, N)
+        score = q.max(axis=0) - q.min(axis=0)
     else:
         r = v[None, :] - posterior
         score = 0.5 * np.einsum('nk,nk->n', r, r)
-    out: NDArray[np.float64] = pool[_rank_by_f(score)[:count]]
+    out: NDArray[np.float64] = pool[_first_ranked(_rank_keys(score), count)]
     return out
 
 
@@ -355,10 +380,9 @@ class _LogOddsProjection:
     """
 
     def __init__(self, model: GraspModel, v: NDArray[np.float64], feas: _Feasible) -> None:
-        K = len(model.zones)
         self.model, self.feas = model, feas
-        self.r = int(zone_order(v)[0])
-        self.others = np.array([k for k in range(K) if k != self.r], dtype=np.int64)
+        self.r = int(np.argmax(np.rint(v * 1e9)))  # zone_order(v)[0]: the first of the largest at 1e-9
+        self.others = np.delete(np.arange(len(model.zones), dtype=np.int64), self.r)
         self.b = np.log(v[self.others]) - np.log(v[self.r])
         self.b_path = np.rint(self.b / _GN_QUANTUM) * _GN_QUANTUM
         """The targets the long path is taken to: v's last bits cannot steer it (class docstring)."""
@@ -512,14 +536,17 @@ def _choose(candidates: list[Candidate]) -> list[Candidate]:
         pick = min(pool, key=lambda i: (dist[i] > nearest + DISTANCE_TOL, candidates[i].start_index))
         order.append(pick)
         pool.remove(pick)
-    is_match = set(matches)
-    order += [int(i) for i in _rank_by_f(np.array(f)) if int(i) not in is_match]
-    x = np.stack([candidates[i].x for i in order])
+    if len(matches) < len(candidates):
+        is_match = set(matches)
+        order += [i for i in _rank_by_f(np.array(f)).tolist() if i not in is_match]
+    x = np.array([candidates[i].x for i in order])
     rel = (x[:, None, :] - x[None, :, :]) / np.maximum(np.abs(x[None, :, :]), 1.0)
-    same = (np.einsum('ijk,ijk->ij', rel, rel) < 1e-18).tolist()  # same[i][j]: i repeats j
+    same = np.einsum('ijk,ijk->ij', rel, rel) < 1e-18  # same[i, j]: i repeats j
+    index = np.arange(len(order))
+    repeats = (same & (index[:, None] > index[None, :])).any(axis=1).tolist()  # i repeats an earlier row
     kept: list[int] = []
-    for i, row in enumerate(same):
-        if not any(row[j] for j in kept):
+    for i, rep in enumerate(repeats):
+        if not rep or not same[i, kept].any():
             kept.append(i)
     return [candidates[order[i]] for i in kept]
 
@@ -590,12 +617,20 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
                         its: NDArray[np.int64], first_index: int, message: Callable[[int, bool], str],
                         ) -> list[Candidate]:
         """Scored candidates of the end points xs (N, d); ``message(i, converged)`` says how row i ended."""
-        post, f, dist = score(xs, v_arr, model.means, model._precisions, model._log_norm, x_ref, feas.scale)
-        f_origin = score(origin, v_arr, model.means, model._precisions, model._log_norm, x_ref, feas.scale)[1]
+        n = xs.shape[0]
+        post, f, dist = score(np.concatenate([xs, origin]), v_arr, model.means, model._precisions, model._log_norm,
+                              x_ref, feas.scale)
+        f_origin = f[n:]
         return [Candidate(x=xs[i], posterior=post[i], objective=float(f[i]), distance=float(dist[i]),
                           start=origin[i], start_objective=float(f_origin[i]), start_index=first_index + i,
                           success=bool(ok[i]), message=message(i, bool(ok[i])), iterations=int(its[i]))
-                for i in range(xs.shape[0])]
+                for i in range(n)]
+
+    def objective_of(xs: NDArray[np.float64], target: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The objective f of every row of xs against ``target`` (compiled)."""
+        f: NDArray[np.float64] = score(xs, target, model.means, model._precisions, model._log_norm, x_ref,
+                                       feas.scale)[1]
+        return f
 
     found: list[Candidate] = []
     turned_down: list[Candidate] = []
@@ -615,7 +650,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
 
     chosen: Candidate | None = None
     if method == 'lm':
-        possible = bool(np.all(v_arr > 0.0))  # else P = v is impossible: P_k > 0 everywhere
+        possible = float(v_arr.min()) > 0.0  # else P = v is impossible: P_k > 0 everywhere
         if possible:
             projection = _LogOddsProjection(model, v_arr, feas)
             xs, ok, its = projection.run(x_ref[None, :])  # the reference's own projection first
@@ -631,14 +666,12 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
             origins = _unique_rows(np.concatenate([wide, feas.project(model.means)]))
             v_path = np.rint(v_arr / _LS_QUANTUM) * _LS_QUANTUM
             xs, ok, its = _refine_lm(model, v_path, origins, feas)
-            r = v_path - model.posterior(xs)
-            best = _rank_by_f(0.5 * np.sum(r * r, axis=1))[:_NEWTON_POLISH]
+            best = _first_ranked(_rank_keys(objective_of(xs, v_path)), _NEWTON_POLISH)
             xs_n, ok_n, its_n = _refine_newton(model, v_path, xs[best], feas)  # kept where it converges
             xs[best[ok_n]] = xs_n[ok_n]
             ok[best] |= ok_n
             its[best] += its_n
-            r = v_arr - model.posterior(xs)
-            near = np.flatnonzero(0.5 * np.sum(r * r, axis=1) <= _POLISH)
+            near = np.flatnonzero(objective_of(xs, v_arr) <= _POLISH)
             projected = np.zeros(xs.shape[0], dtype=np.bool_)
             if near.size and possible:  # least squares found the matches: project onto them where it converges
                 xs_p, ok_p, its_p = projection.run(xs[near])
