@@ -262,7 +262,7 @@ def _rank_keys(f: NDArray[np.float64]) -> NDArray[np.int64]:
     int64 for N < 9e6 entries: keys are distinct, and float noise below the quantum cannot reorder them.
     """
     q = np.rint(f / (MATCH_TOL * (1.0 + np.abs(f))))
-    q[np.isnan(q)] = 1.0 / MATCH_TOL  # a NaN (or infinite) f ranks after every finite one
+    q[np.isnan(q)] = 1.0 / MATCH_TOL  # a NaN f ranks after every number
     keys: NDArray[np.int64] = q.astype(np.int64) * f.size + np.arange(f.size, dtype=np.int64)
     return keys
 

@@ -113,6 +113,16 @@ def test_the_choice_rule_tolerance_then_distance_then_start_order() -> None:
     assert [c.start_index for c in order] == [0, 1, 2]
 
 
+def test_ranking_quantises_f_then_takes_the_index_and_puts_nan_last() -> None:
+    f = np.array([3e-3, 1e-20, np.nan, 2e-3, 1e-14, 2e-3 * (1 + 1e-13), 5.0, 0.5])
+    order = planner._rank_by_f(f).tolist()
+    # 1e-20 and 1e-14 are both 0 at the quantum (index order); 2e-3 and its 1e-13 relative neighbour tie
+    assert order == [1, 4, 3, 5, 0, 7, 6, 2]
+    keys = planner._rank_keys(f)
+    for count in range(len(f) + 2):
+        assert planner._first_ranked(keys, count).tolist() == order[:count]
+
+
 def test_warm_start_on_a_match_is_its_own_answer(toy_model: GraspModel) -> None:
     v = _v((0.9, 0.9, 0.1))
     first = planner.plan(toy_model, v)
