@@ -30,10 +30,14 @@ not name one grasp. The planner therefore answers a stated problem:
    matches found are chosen from (rule 6).
 5. **Least squares.** When no start reaches an acceptable match (some v_k = 0, or v is outside what
    the model can attain in X), f is minimised from every start and every zone mean with
-   a projected Levenberg-Marquardt iteration; the three best end points by f then go on with a
-   projected trust-region Newton iteration on f's exact Hessian (which keeps the curvature that the
-   Levenberg-Marquardt steps leave out: that of a nearly flat valley), and its end point replaces
-   theirs where it converges. Both hold the bounds, the unit approach and the body as an active set:
+   a projected Levenberg-Marquardt iteration: 100 iterations each, then only the three that have not
+   converged with the lowest f go on, to 300 (the others stop there, labelled so). The three best
+   end points by f then go on with a projected trust-region Newton iteration on f's exact Hessian
+   (which keeps the curvature that the Levenberg-Marquardt steps leave out: that of a nearly flat
+   valley): 50 iterations each, then the best one that has not converged goes on, to 400; its end
+   point replaces theirs where it converges. Both selections rank f at 1e-12 relative, then by start
+   order, on paths taken to the rounded v (below), so the last bits of v cannot change them. Both
+   iterations hold the bounds, the unit approach and the body as an active set:
    a palm on the body's surface whose objective would fall inside the body moves on the surface
    (steps on its tangent plane, then back onto it; Newton adds the surface's curvature times its
    multiplier to the Hessian). Most flashlight least-squares answers lie on its body. End points
@@ -112,11 +116,15 @@ _FTOL = 1e-10
 _MAXITER = 200
 _TC_MAXITER = 1500
 _LM_MAXITER = 300
+_LM_RACE = 100       # iterations every least-squares start gets; then only the _LM_KEEP best unconverged go on
+_LM_KEEP = 3
 _LM_RIDGE = 1e-7     # ridge of the least-squares steps, relative to the largest curvature
 _LM_FTOL = 1e-7      # a start has converged when an accepted step improves f by less than this * f + 1e-15
 _LS_QUANTUM = 1e-9    # v is rounded to this for the least squares' paths (class _LogOddsProjection's reason)
 _NEWTON_POLISH = 3   # least-squares end points (the best by f) refined further with Newton's method
 _NEWTON_MAXITER = 400
+_NEWTON_RACE = 50    # Newton iterations each of those gets; then only the _NEWTON_KEEP best unconverged go on
+_NEWTON_KEEP = 1
 _NEWTON_STEPTOL = 1e-10
 _GN_MAXITER = 60
 _GN_DAMPING = 1e-3   # ridge of the minimum-norm steps, relative to the residual's norm
@@ -400,8 +408,8 @@ class _LogOddsProjection:
                        steptol=_GN_STEPTOL, b_final=self.b)
 
 
-def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.float64],
-               feas: _Feasible) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
+def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.float64], feas: _Feasible,
+               maxiter: int = _LM_MAXITER) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
     """Projected Levenberg-Marquardt on r(x) = v - P(x), every start (shape (N, d); compiled: ``_kernels``).
 
     Each iteration solves (J^T J + lam diag(J^T J) + eps I) dx = J^T r per start (eps = 1e-7 times the
@@ -412,15 +420,17 @@ def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.flo
     plane too. The step is then projected onto X (and such a palm back onto the surface). A step is taken only
     when it lowers f (lam shrinks), else lam grows. A start has converged when an accepted step gains
     less than 1e-7 f + 1e-15 or no step lowers f any more (stationary to machine precision); one that
-    reaches the iteration limit (300) has not.
+    reaches ``maxiter`` has not. The path does not depend on ``maxiter``: stopping at 100 and going on
+    from there for 200 more (with the damping started afresh) is a path of its own, taken the same way
+    on every run.
     """
     return least_squares(starts, v, model.means, model._precisions, model._log_norm, feas.lower, feas.upper,
-                         feas.a.start, feas.a.stop, feas.body, maxiter=_LM_MAXITER, ftol=_LM_FTOL,
+                         feas.a.start, feas.a.stop, feas.body, maxiter=maxiter, ftol=_LM_FTOL,
                          ridge=_LM_RIDGE)
 
 
-def _refine_newton(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.float64],
-                   feas: _Feasible) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
+def _refine_newton(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.float64], feas: _Feasible,
+                   maxiter: int = _NEWTON_MAXITER) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
     """Projected trust-region Newton on f with its exact Hessian, every start (shape (N, d); compiled: ``_kernels``).
 
     The Hessian J^T J + sum_k (P_k - v_k) d2P_k keeps the curvature that the least-squares steps leave
@@ -432,11 +442,11 @@ def _refine_newton(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np
     -mu d2(distance), mu = n . grad_palm f, added to H; a step is taken only when it lowers
     f (lam shrinks), else lam grows (also while H + lam I is not positive definite). A start has
     converged after a step of less than 1e-10 (scaled), or when the predicted gain is below 1e-15 f
-    with lam negligible, or when no step lowers f any more; one that reaches 400 iterations has not.
+    with lam negligible, or when no step lowers f any more; one that reaches ``maxiter`` has not.
     """
     return newton_least_squares(starts, v, model.means, model._precisions, model._log_norm, feas.lower,
                                 feas.upper, feas.scale, feas.a.start, feas.a.stop, feas.body,
-                                maxiter=_NEWTON_MAXITER, steptol=_NEWTON_STEPTOL, ridge=_LM_RIDGE)
+                                maxiter=maxiter, steptol=_NEWTON_STEPTOL, ridge=_LM_RIDGE)
 
 
 def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.float64], method: Method,
@@ -632,6 +642,14 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
                                        feas.scale)[1]
         return f
 
+    def leaders(xs: NDArray[np.float64], ok: NDArray[np.bool_], target: NDArray[np.float64],
+                count: int) -> NDArray[np.intp]:
+        """The ``count`` rows of xs that have not converged with the lowest f (rank keys: never noise)."""
+        going = np.flatnonzero(~ok)
+        if going.size == 0:
+            return going
+        return going[_first_ranked(_rank_keys(objective_of(xs[going], target)), count)]
+
     found: list[Candidate] = []
     turned_down: list[Candidate] = []
 
@@ -665,11 +683,23 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
         if chosen is None:  # least squares from every start and every zone mean
             origins = _unique_rows(np.concatenate([wide, feas.project(model.means)]))
             v_path = np.rint(v_arr / _LS_QUANTUM) * _LS_QUANTUM
-            xs, ok, its = _refine_lm(model, v_path, origins, feas)
+            xs, ok, its = _refine_lm(model, v_path, origins, feas, _LM_RACE)
+            ahead = leaders(xs, ok, v_path, _LM_KEEP)  # the others stop here
+            left_behind = ~ok
+            left_behind[ahead] = False
+            if ahead.size:
+                xs[ahead], ok[ahead], more = _refine_lm(model, v_path, xs[ahead], feas, _LM_MAXITER - _LM_RACE)
+                its[ahead] += more
             best = _first_ranked(_rank_keys(objective_of(xs, v_path)), _NEWTON_POLISH)
-            xs_n, ok_n, its_n = _refine_newton(model, v_path, xs[best], feas)  # kept where it converges
-            xs[best[ok_n]] = xs_n[ok_n]
+            xs_n, ok_n, its_n = _refine_newton(model, v_path, xs[best], feas, _NEWTON_RACE)
+            ahead = leaders(xs_n, ok_n, v_path, _NEWTON_KEEP)
+            if ahead.size:
+                xs_n[ahead], ok_n[ahead], more = _refine_newton(model, v_path, xs_n[ahead], feas,
+                                                                _NEWTON_MAXITER - _NEWTON_RACE)
+                its_n[ahead] += more
+            xs[best[ok_n]] = xs_n[ok_n]  # kept where it converges
             ok[best] |= ok_n
+            left_behind[best[ok_n]] = False
             its[best] += its_n
             near = np.flatnonzero(objective_of(xs, v_arr) <= _POLISH)
             projected = np.zeros(xs.shape[0], dtype=np.bool_)
@@ -682,7 +712,9 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
             found += candidates_from(
                 xs, origins, ok, its, len(found),
                 lambda i, c: ('exact match (least squares, then projected)' if projected[i]
-                              else 'least squares: converged' if c else 'least squares: iteration limit'))
+                              else 'least squares: converged' if c
+                              else f'least squares: left at {_LM_RACE} iterations, behind {_LM_KEEP} others'
+                              if left_behind[i] else 'least squares: iteration limit'))
     else:
         for i, s0 in enumerate(all_starts()):
             x1, ok1, text, it = _refine_scipy(model, v_arr, s0, method, gradient, extra_constraints, feas)

@@ -160,11 +160,14 @@ def test_status_tells_an_iteration_limit_from_convergence(shipped: dict[str, Gra
     v = _v((0.1, 0.9, 0.1), model)
     assert planner.plan(model, v).status == 'ok'
     monkeypatch.setattr(planner, '_GN_MAXITER', 1)
-    monkeypatch.setattr(planner, '_LM_MAXITER', 1)
-    monkeypatch.setattr(planner, '_NEWTON_MAXITER', 1)
+    for name in ('_LM_RACE', '_LM_MAXITER', '_NEWTON_RACE', '_NEWTON_MAXITER'):
+        monkeypatch.setattr(planner, name, 1)
     res = planner.plan(model, v)
     assert res.status == 'solver_failed' and not res.success
     assert 'iteration limit' in res.message
+    # the starts that the best few left behind say so (and are not counted converged either)
+    behind = [c for c in res.candidates if 'left at 1 iterations, behind 3 others' in c.message]
+    assert behind and not any(c.success for c in behind)
 
 
 def test_a_match_found_by_the_least_squares_says_so(shipped: dict[str, GraspModel]) -> None:
