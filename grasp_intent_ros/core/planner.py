@@ -449,6 +449,62 @@ def _refine_newton(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np
                                 maxiter=maxiter, steptol=_NEWTON_STEPTOL, ridge=_LM_RIDGE)
 
 
+def _least_squares(model: GraspModel, v: NDArray[np.float64], origins: NDArray[np.float64], feas: _Feasible,
+                   projection: _LogOddsProjection | None,
+                   ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64], list[str]]:
+    """Rule 5 of the module docstring: end points (N, d), converged, iterations and a label per origin.
+
+    Levenberg-Marquardt from every origin for ``_LM_RACE`` iterations, then the ``_LM_KEEP`` best
+    unconverged on to ``_LM_MAXITER``; the ``_NEWTON_POLISH`` best end points go on with Newton
+    (``_NEWTON_RACE`` iterations each, then the ``_NEWTON_KEEP`` best unconverged to ``_NEWTON_MAXITER``;
+    kept where it converges); end points within ``_POLISH`` of a match are projected onto the matches
+    (with ``projection``, when P = v is possible; kept where that converges).
+    """
+    v_path = np.rint(v / _LS_QUANTUM) * _LS_QUANTUM
+
+    def f_of(xs: NDArray[np.float64], target: NDArray[np.float64]) -> NDArray[np.float64]:
+        f: NDArray[np.float64] = score(xs, target, model.means, model._precisions, model._log_norm, origins[0],
+                                       feas.scale)[1]
+        return f
+
+    def leaders(xs: NDArray[np.float64], ok: NDArray[np.bool_], count: int) -> NDArray[np.intp]:
+        """The ``count`` rows that have not converged with the lowest f on v's path (rank keys: never noise)."""
+        going = np.flatnonzero(~ok)
+        return going[_first_ranked(_rank_keys(f_of(xs[going], v_path)), count)] if going.size else going
+
+    xs, ok, its = _refine_lm(model, v_path, origins, feas, _LM_RACE)
+    ahead = leaders(xs, ok, _LM_KEEP)  # the others stop here
+    left_behind = ~ok
+    left_behind[ahead] = False
+    if ahead.size:
+        xs[ahead], ok[ahead], more = _refine_lm(model, v_path, xs[ahead], feas, _LM_MAXITER - _LM_RACE)
+        its[ahead] += more
+    best = _first_ranked(_rank_keys(f_of(xs, v_path)), _NEWTON_POLISH)
+    xs_n, ok_n, its_n = _refine_newton(model, v_path, xs[best], feas, _NEWTON_RACE)
+    ahead = leaders(xs_n, ok_n, _NEWTON_KEEP)
+    if ahead.size:
+        xs_n[ahead], ok_n[ahead], more = _refine_newton(model, v_path, xs_n[ahead], feas,
+                                                        _NEWTON_MAXITER - _NEWTON_RACE)
+        its_n[ahead] += more
+    xs[best[ok_n]] = xs_n[ok_n]  # kept where it converges
+    ok[best] |= ok_n
+    left_behind[best[ok_n]] = False
+    its[best] += its_n
+    projected = np.zeros(xs.shape[0], dtype=np.bool_)
+    near = np.flatnonzero(f_of(xs, v) <= _POLISH)
+    if near.size and projection is not None:  # least squares found the matches: project onto them
+        xs_p, ok_p, its_p = projection.run(xs[near])
+        xs[near[ok_p]] = xs_p[ok_p]
+        ok[near[ok_p]] = True  # a converged projection is a converged answer
+        projected[near[ok_p]] = True
+        its[near] += its_p
+    labels = ['exact match (least squares, then projected)' if projected[i]
+              else 'least squares: converged' if ok[i]
+              else f'least squares: left at {_LM_RACE} iterations, behind {_LM_KEEP} others' if left_behind[i]
+              else 'least squares: iteration limit' for i in range(xs.shape[0])]
+    return xs, ok, its, labels
+
+
 def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.float64], method: Method,
                   gradient: Gradient, extra_constraints: Sequence[Any],
                   feas: _Feasible) -> tuple[NDArray[np.float64], bool, str, int]:
@@ -636,20 +692,6 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
                           success=bool(ok[i]), message=message(i, bool(ok[i])), iterations=int(its[i]))
                 for i in range(n)]
 
-    def objective_of(xs: NDArray[np.float64], target: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The objective f of every row of xs against ``target`` (compiled)."""
-        f: NDArray[np.float64] = score(xs, target, model.means, model._precisions, model._log_norm, x_ref,
-                                       feas.scale)[1]
-        return f
-
-    def leaders(xs: NDArray[np.float64], ok: NDArray[np.bool_], target: NDArray[np.float64],
-                count: int) -> NDArray[np.intp]:
-        """The ``count`` rows of xs that have not converged with the lowest f (rank keys: never noise)."""
-        going = np.flatnonzero(~ok)
-        if going.size == 0:
-            return going
-        return going[_first_ranked(_rank_keys(objective_of(xs[going], target)), count)]
-
     found: list[Candidate] = []
     turned_down: list[Candidate] = []
 
@@ -668,53 +710,22 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
 
     chosen: Candidate | None = None
     if method == 'lm':
-        possible = float(v_arr.min()) > 0.0  # else P = v is impossible: P_k > 0 everywhere
-        if possible:
-            projection = _LogOddsProjection(model, v_arr, feas)
+        # P = v is impossible when some v_k = 0 (P_k > 0 everywhere): then there is nothing to project onto
+        projection = _LogOddsProjection(model, v_arr, feas) if float(v_arr.min()) > 0.0 else None
+        if projection is not None:
             xs, ok, its = projection.run(x_ref[None, :])  # the reference's own projection first
             found = candidates_from(xs, x_ref[None, :], ok, its, 0, lambda _, c: _match_message(c))
             chosen = choose(_choose(exact(found)))
         if chosen is None:  # the wider search (its first row is the reference again)
             wide = _unique_rows(np.concatenate([all_starts(), feas.project(search_starts(model, v_arr))]))
-            if possible and wide.shape[0] > 1:
+            if projection is not None and wide.shape[0] > 1:
                 xs, ok, its = projection.run(wide[1:])
                 found += candidates_from(xs, wide[1:], ok, its, 1, lambda _, c: _match_message(c))
                 chosen = choose(_choose(exact(found)))
         if chosen is None:  # least squares from every start and every zone mean
             origins = _unique_rows(np.concatenate([wide, feas.project(model.means)]))
-            v_path = np.rint(v_arr / _LS_QUANTUM) * _LS_QUANTUM
-            xs, ok, its = _refine_lm(model, v_path, origins, feas, _LM_RACE)
-            ahead = leaders(xs, ok, v_path, _LM_KEEP)  # the others stop here
-            left_behind = ~ok
-            left_behind[ahead] = False
-            if ahead.size:
-                xs[ahead], ok[ahead], more = _refine_lm(model, v_path, xs[ahead], feas, _LM_MAXITER - _LM_RACE)
-                its[ahead] += more
-            best = _first_ranked(_rank_keys(objective_of(xs, v_path)), _NEWTON_POLISH)
-            xs_n, ok_n, its_n = _refine_newton(model, v_path, xs[best], feas, _NEWTON_RACE)
-            ahead = leaders(xs_n, ok_n, v_path, _NEWTON_KEEP)
-            if ahead.size:
-                xs_n[ahead], ok_n[ahead], more = _refine_newton(model, v_path, xs_n[ahead], feas,
-                                                                _NEWTON_MAXITER - _NEWTON_RACE)
-                its_n[ahead] += more
-            xs[best[ok_n]] = xs_n[ok_n]  # kept where it converges
-            ok[best] |= ok_n
-            left_behind[best[ok_n]] = False
-            its[best] += its_n
-            near = np.flatnonzero(objective_of(xs, v_arr) <= _POLISH)
-            projected = np.zeros(xs.shape[0], dtype=np.bool_)
-            if near.size and possible:  # least squares found the matches: project onto them where it converges
-                xs_p, ok_p, its_p = projection.run(xs[near])
-                xs[near[ok_p]] = xs_p[ok_p]
-                ok[near[ok_p]] = True  # a converged projection is a converged answer
-                projected[near[ok_p]] = True
-                its[near] += its_p
-            found += candidates_from(
-                xs, origins, ok, its, len(found),
-                lambda i, c: ('exact match (least squares, then projected)' if projected[i]
-                              else 'least squares: converged' if c
-                              else f'least squares: left at {_LM_RACE} iterations, behind {_LM_KEEP} others'
-                              if left_behind[i] else 'least squares: iteration limit'))
+            xs, ok, its, labels = _least_squares(model, v_arr, origins, feas, projection)
+            found += candidates_from(xs, origins, ok, its, len(found), lambda i, _: labels[i])
     else:
         for i, s0 in enumerate(all_starts()):
             x1, ok1, text, it = _refine_scipy(model, v_arr, s0, method, gradient, extra_constraints, feas)
