@@ -16,6 +16,11 @@ Also printed: the CPU time (user + system) the new process had used when it serv
 on a shared machine changes much less than the wall time; each node module's import time (a fresh
 ``python -c 'import ...'``, median of 3) and the load average.
 
+``--compare DIR`` measures a before/after pair in one run: the restarts alternate between the nodes of this
+tree (or ``--code``'s) and those of ``DIR`` (e.g. a clone of main with its venv.sh run), trial by trial, so
+that both see the same load and the machine's drift (its speed varied by more than half between sittings
+minutes apart) falls on both; each is printed with the per-pair differences of its wall and CPU times.
+
 The probe stands for the suite's clients (the source of w, a recorder). A restarted node learns of a running
 participant from that participant's periodic announcement whenever the first exchange is missed
 (config/fastdds_loopback.xml says why), so the clients' own Fast DDS timing enters the figures: the probe
@@ -26,7 +31,8 @@ Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and 
 every process it starts gets both.
 
     ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=99 \
-        .venv/bin/python benchmarks/bench_restart.py [--trials 5] [--gap 3] [--nodes grasp_planner ...]
+        .venv/bin/python benchmarks/bench_restart.py [--trials 5] [--gap 3] [--nodes grasp_planner ...] \
+        [--code DIR] [--compare DIR]
 """
 
 from __future__ import annotations
@@ -69,6 +75,9 @@ def main() -> None:
                              'compiled there first; byte-compile it too, as scripts/venv.sh does, or its nodes '
                              'compile their modules at every start under PYTHONDONTWRITEBYTECODE=1), to compare '
                              'before/after in one sitting')
+    parser.add_argument('--compare', type=Path, default=None,
+                        help='restart the nodes alternately from this source tree (prepared as for --code) and '
+                             'from this one (or --code): --trials restarts of each, interleaved')
     args = parser.parse_args()
     domain_id = loopback_domain('bench_restart')
 
@@ -77,10 +86,11 @@ def main() -> None:
 
     from grasp_intent_ros.core import intent
     from grasp_intent_ros.ros.qos import input_qos, latched_qos, output_qos
-    from grasp_intent_ros.tools.suite import NodeSuite
+    from grasp_intent_ros.tools.suite import NodeProcess, NodeSuite
 
     code = args.code.resolve() if args.code else None
-    imports = {module: import_seconds(module, code) for module in args.nodes}
+    trees: list[Path | None] = [code] if args.compare is None else [code, args.compare.resolve()]
+    imports = {(module, tree): import_seconds(module, tree) for module in args.nodes for tree in trees}
     n = 10**6  # more w than any run sends
     ws = walk(n, seed=0)
     v_index: dict[tuple[float, ...], int] = {}
@@ -113,8 +123,8 @@ def main() -> None:
             paced(n, 0.01, send)
         except StopIteration:
             pass
-    results: dict[str, list[float]] = {}
-    cpu: dict[str, list[float]] = {}
+    results: dict[tuple[str, Path | None], list[float]] = {}
+    cpu: dict[tuple[str, Path | None], list[float]] = {}
     gaps: list[float] = []
     try:
         vs = probe.record(Float64MultiArray, 'intent/v', input_qos(100_000),
@@ -128,15 +138,22 @@ def main() -> None:
             sys.exit(f'bench_restart: the suite did not answer within 60 s\n{suite.died()}')
         load_before = uptime()
         for module in args.nodes:
-            results[module], cpu[module] = [], []
-            for _ in range(args.trials):
+            for tree in trees:
+                results[module, tree], cpu[module, tree] = [], []
+            for trial in range(args.trials * len(trees)):
+                tree = trees[trial % len(trees)]
                 time.sleep(args.gap)
                 proc = suite.node(module)
                 proc.send_signal(signal.SIGKILL)
                 proc.wait(10.0)
                 counts = len(vs), len(poses), len(models)
                 t0 = time.time_ns()
-                new = suite.start(module, *suite.node_args(module))
+                if tree == code:
+                    new = suite.start(module, *suite.node_args(module))
+                else:  # as suite.start does, from the other tree
+                    new = NodeProcess.start(module, suite.node_args(module), env={**suite.env, 'PYTHONPATH': str(tree)},
+                                            log_dir=suite.log_dir, prefix=f'{len(suite.processes):02d}_', cwd=tree)
+                    suite.processes.append(new)
 
                 def answered() -> int | None:
                     if module == 'intent_interpreter':
@@ -146,8 +163,8 @@ def main() -> None:
                     return next((t for t, _ in models[counts[2]:]), None)
                 probe.wait_for(lambda: answered() is not None, args.timeout)
                 t = answered()
-                results[module].append(np.inf if t is None else (t - t0) * 1e-9)
-                cpu[module].append(cpu_seconds(new.pid))
+                results[module, tree].append(np.inf if t is None else (t - t0) * 1e-9)
+                cpu[module, tree].append(cpu_seconds(new.pid))
                 if module == 'model_server':  # did grasps keep coming while the server was away?
                     times = [t0] + [t for t, _ in poses[counts[1]:] if t > t0] + [time.time_ns()]
                     gaps.append(max(np.diff(times)) * 1e-9)
@@ -158,15 +175,24 @@ def main() -> None:
         problems = suite.stop(include_exited=False)
         suite.remove_logs()
     print(f'restart after SIGKILL -> serving again, {args.trials} trials per node, w at 100 Hz throughout; '
-          f'domain {domain_id}; nodes from {code or REPO}; Fast DDS profile '
+          f'domain {domain_id}; nodes from {code or REPO}'
+          f'{f" and, alternately, {trees[1]}" if len(trees) > 1 else ""}; Fast DDS profile '
           f'{suite.env.get("FASTRTPS_DEFAULT_PROFILES_FILE", "none")}, the probe\'s '
           f'{os.environ.get("FASTRTPS_DEFAULT_PROFILES_FILE") or "Fast DDS defaults"} [{load_before} -> {load_after}]')
     what = {'intent_interpreter': 'v for a fresh w', 'grasp_planner': 'grasp/pose for a fresh v',
             'model_server': 'model/active re-latched'}
-    for module, times in results.items():
+    for (module, tree), times in results.items():
+        source = f' [{tree or REPO}]' if len(trees) > 1 else ''
         print(f'  {module:19s} {what[module]:24s} median {np.median(times):.2f} s (target <= 2 s); '
               f'trials {", ".join(f"{t:.2f}" for t in times)} s; CPU used by then: median '
-              f'{np.median(cpu[module]):.2f} s; import {imports[module]:.2f} s')
+              f'{np.median(cpu[module, tree]):.2f} s; import {imports[module, tree]:.2f} s{source}')
+        if tree != trees[0]:  # the pairs: this tree's trial minus the compared tree's trial just after it
+            walls = np.subtract(results[module, trees[0]], times)
+            cpus = np.subtract(cpu[module, trees[0]], cpu[module, tree])
+            print(f'  {"":19s} {"pairs, first - second":24s} wall median {np.median(walls):+.2f} s '
+                  f'({", ".join(f"{d:+.2f}" for d in walls)}); CPU median {np.median(cpus):+.2f} s '
+                  f'({", ".join(f"{d:+.2f}" for d in cpus)}); first faster in {int(np.sum(walls < 0))} of '
+                  f'{walls.size}, less CPU in {int(np.sum(cpus < 0))}')
     if gaps:
         print(f'  while the model server restarted, the longest gap between grasps was {max(gaps):.2f} s')
     if problems:

@@ -165,6 +165,20 @@ def test_documents_read_as_pyyaml_safe_load_reads_them(text: str) -> None:
     assert repr(parse_document(text)) == repr(yaml.safe_load(text))  # repr: nan != nan
 
 
+DECIMALS = ('1.5', '-0.0', '+2.', '0.25e-07', '1.5E+3', '-7.0e+999', '1.5e3', '1e-3', '.5', '-.5', '1_0.5', '0x1F',
+            '1:30.5', '"1.5"', "'2.5'", '!!str 1.5', '! 1.5', '!!float 2.5', '1.5.5', '1.5 x', '12', '-1.5')
+
+
+@pytest.mark.parametrize('scalar', DECIMALS)
+def test_decimal_like_scalars_read_as_pyyaml_safe_load_reads_them(scalar: str) -> None:
+    """The plain-decimal shortcut (``_PLAIN_DECIMAL``) and what it must leave to the resolver: the same values."""
+    for text in (f'- {scalar}\n', f'[{scalar}]', f'a: {scalar}\n'):
+        ours, theirs = parse_document(text), yaml.safe_load(text)
+        assert repr(ours) == repr(theirs), text  # repr: the type, and -0.0 apart from 0.0
+        assert [type(x) for x in (ours if isinstance(ours, list) else ours.values())] == \
+            [type(x) for x in (theirs if isinstance(theirs, list) else theirs.values())], text
+
+
 def test_shipped_model_documents_read_as_pyyaml_safe_load_reads_them() -> None:
     for path in sorted((config_dir() / 'models').glob('*.yaml')):
         text = path.read_text()
