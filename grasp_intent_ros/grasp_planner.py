@@ -84,7 +84,7 @@ from .ros.grasp import grasp_messages
 from .ros.inputs import subscribe_input
 from .ros.model_follower import ModelFollower
 from .ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
-from .ros.qos import input_qos, output_qos
+from .ros.qos import input_qos, output_events, output_qos
 from .ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 from .ros.run import guard_exit, publish_all, run_node
 from .ros.worker import LatestOnlyWorker
@@ -156,7 +156,8 @@ class GraspPlanner(Node):
         self._clarifications = ClarificationRequests(self, self._plan_diag, count_key='clarifications requested',
                                                      outcome_key='last plan status', level=WARN, log=True)
         self._plan_diag.set_state(OK, f'waiting for {topics.MODEL_ACTIVE} and {topics.INTENT_V}')
-        self._pubs = {topic: self.create_publisher(message_class(topic), topic, output_qos())
+        self._pubs = {topic: self.create_publisher(message_class(topic), topic, output_qos(),
+                                                   event_callbacks=output_events())
                       for topic in (*topics.PLAN_TOPICS, topics.GRASP_MARKERS)}
         base_T_obj = pose_to_matrix(self._params['object_position'], self._params['object_orientation'])
         self._worker = LatestOnlyWorker(_Inputs(base_T_obj=base_T_obj), self._plan_diag.guard(self._plan),
