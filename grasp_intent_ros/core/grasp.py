@@ -189,11 +189,13 @@ def trajectory_duration(q_from: ArrayLike, q_to: ArrayLike, velocity_limits: Arr
     ValueError
         For limits that are not positive or of another shape.
     """
-    delta = np.abs(np.asarray(q_to, dtype=np.float64) - np.asarray(q_from, dtype=np.float64))
+    start, end = np.asarray(q_from, dtype=np.float64), np.asarray(q_to, dtype=np.float64)
     limits = np.asarray(velocity_limits, dtype=np.float64)
-    if delta.shape != limits.shape or not np.all(limits > 0.0):
-        raise ValueError(f'need positive velocity limits of shape {delta.shape}, got {limits.tolist()}')
-    return max(float(np.max(delta / limits)) if delta.size else 0.0, float(min_duration))
+    if start.shape != limits.shape or end.shape != limits.shape or not np.all(limits > 0.0):
+        raise ValueError(f'need positive velocity limits of shape {end.shape}, got {limits.tolist()}')
+    # per joint in Python floats (once per plan, where numpy's machinery costs more than the arithmetic)
+    return max(max((abs(b - a) / v for a, b, v in zip(start.tolist(), end.tolist(), limits.tolist())), default=0.0),
+               float(min_duration))
 
 
 def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_obj: NDArray[np.float64],

@@ -16,10 +16,10 @@ from collections import Counter
 from collections.abc import Sequence
 
 import numpy as np
+from builtin_interfaces.msg import Duration as DurationMsg
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped
 from numpy.typing import ArrayLike, NDArray
-from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -158,6 +158,7 @@ def joint_trajectory_msg(names: Sequence[str], positions: ArrayLike, duration: f
     msg.header.frame_id = frame_id
     point = JointTrajectoryPoint(positions=_float64_array(names, positions),
                                  velocities=array.array('d', bytes(8 * len(names))))
-    point.time_from_start = Duration(seconds=float(duration)).to_msg()
+    sec, nanosec = divmod(int(float(duration) * 1e9), 10**9)  # as rclpy's Duration(seconds=...).to_msg()
+    point.time_from_start = DurationMsg(sec=sec, nanosec=nanosec)
     msg.points = [point]
     return msg
