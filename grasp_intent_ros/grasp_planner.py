@@ -36,6 +36,7 @@ from .ros import startup
 if __name__ == '__main__':  # a node process: before the imports below (grasp_intent_ros.ros.startup)
     startup.begin()
 
+import functools
 import math
 import sys
 import time
@@ -50,7 +51,6 @@ from numpy.typing import NDArray
 from rclpy.node import Node
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
 
 from . import protocol as topics
 from .core import planner
@@ -58,6 +58,7 @@ from .core._kernels import warm_up
 from .core.frames import pose_to_matrix
 from .core.grasp import (
     OUTCOMES,
+    Grasp,
     NoModelZone,
     NoReachableGrasp,
     check_grasp,
@@ -78,13 +79,13 @@ from .protocol import (
     ModelDocument,
 )
 from .ros.clarification import ClarificationRequests
-from .ros.conversions import message_class, target_from_msg
+from .ros.conversions import SerializedTargets, message_class
 from .ros.diagnostics import NodeDiagnostics
 from .ros.grasp import grasp_messages
-from .ros.inputs import subscribe_input
+from .ros.inputs import decode_input, subscribe_input
 from .ros.model_follower import ModelFollower
 from .ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
-from .ros.qos import input_qos, output_qos
+from .ros.qos import input_qos, output_events, output_qos
 from .ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 from .ros.run import guard_exit, publish_all, run_node
 from .ros.worker import LatestOnlyWorker
@@ -156,7 +157,8 @@ class GraspPlanner(Node):
         self._clarifications = ClarificationRequests(self, self._plan_diag, count_key='clarifications requested',
                                                      outcome_key='last plan status', level=WARN, log=True)
         self._plan_diag.set_state(OK, f'waiting for {topics.MODEL_ACTIVE} and {topics.INTENT_V}')
-        self._pubs = {topic: self.create_publisher(message_class(topic), topic, output_qos())
+        self._pubs = {topic: self.create_publisher(message_class(topic), topic, output_qos(),
+                                                   event_callbacks=output_events())
                       for topic in (*topics.PLAN_TOPICS, topics.GRASP_MARKERS)}
         base_T_obj = pose_to_matrix(self._params['object_position'], self._params['object_orientation'])
         self._worker = LatestOnlyWorker(_Inputs(base_T_obj=base_T_obj), self._plan_diag.guard(self._plan),
@@ -166,7 +168,8 @@ class GraspPlanner(Node):
         # SIGINT/SIGTERM shut the context down before destroy_node runs: stop planning at once
         self.context.on_shutdown(self._worker.stop_soon)
         diag, latest = self._inputs_diag, input_qos(depth=1)
-        subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag, count_dropped=True)
+        self._targets = SerializedTargets(functools.partial(decode_input, topics.INTENT_V))
+        subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag, count_dropped=True, serialized=True)
         self._models = ModelFollower(self, self._inputs_diag, self._use_model, name=f'{node_name}_model')
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, latest, diag)
         # not keep-last 1: arm and finger states may come from different publishers
@@ -203,8 +206,8 @@ class GraspPlanner(Node):
             changes['stamp'] = self.get_clock().now()
         self._worker.update(lambda inputs: replace(inputs, **changes), trigger=trigger)
 
-    def _on_v(self, msg: Float64MultiArray) -> None:
-        v, labels = target_from_msg(msg)
+    def _on_v(self, data: bytes) -> None:
+        v, labels = self._targets(data)
         if (model := self._worker.latest.model) is not None:
             match_zones(v.size, labels, model.model.task_names)
         self._update(v=v, v_labels=labels, v_seq=self._worker.latest.v_seq + 1)
@@ -245,31 +248,46 @@ class GraspPlanner(Node):
                            inputs.base_T_obj, self._kin, name=doc.name, q_arm=inputs.q_arm, warm_start=warm,
                            method=self._params['method'], n_starts=self._params['n_starts'],
                            ik_restarts=self._params['ik_restarts'])
-        if not isinstance(grasp, NoModelZone):
-            self._counts[KEY_PLANS] += 1
-            self._counts[grasp.outcome] += 1
-            self._plan_diag.set_values({KEY_PLANNING_TIME: f'{1e3 * grasp.result.wall_time_s:.3f}',
-                                        'last IK time [ms]': f'{1e3 * grasp.ik_seconds:.3f}',
-                                        'last plan reachability': grasp.note, **self._counts})
-        self._plan_diag.set_value('inputs superseded', self._worker.superseded)
+        try:
+            status = self._publish_grasp(grasp, inputs, key)
+        finally:  # the diagnostics after the outputs, off their path
+            if not isinstance(grasp, NoModelZone):
+                self._counts[KEY_PLANS] += 1
+                self._counts[grasp.outcome] += 1
+                self._plan_diag.set_values({KEY_PLANNING_TIME: f'{1e3 * grasp.result.wall_time_s:.3f}',
+                                            'last IK time [ms]': f'{1e3 * grasp.ik_seconds:.3f}',
+                                            'last plan reachability': grasp.note, **self._counts})
+            self._plan_diag.set_value('inputs superseded', self._worker.superseded)
+        if status is not None:
+            self._plan_diag.set_value('last plan status', status)
+        if isinstance(grasp, Grasp) and grasp.fallback:
+            self.get_logger().warning(grasp.note, throttle_duration_sec=5.0)
+
+    def _publish_grasp(self, grasp: Grasp | NoReachableGrasp | NoModelZone, inputs: _Inputs,
+                       key: tuple[str, str]) -> str | None:
+        """Publish a grasp's outputs or ask for clarification; the plan's status when published, else None.
+
+        All outputs or none: every message is built and checked before the first is published.
+        """
+        assert inputs.model and inputs.base_T_obj is not None and inputs.stamp
         if isinstance(grasp, (NoModelZone, NoReachableGrasp)):
-            return self._clarifications.request(grasp.reason, once_for=(inputs.v_seq, key))
-        try:  # all outputs or none: every message built and checked before the first is published
+            self._clarifications.request(grasp.reason, once_for=(inputs.v_seq, key))
+            return None
+        try:
             check_grasp(grasp, self._kin)
             markers = time.monotonic() >= self._markers_due
-            messages = grasp_messages(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
+            messages = grasp_messages(grasp, inputs.model, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
                                       object_size=self._params['object_marker_size'], markers=markers)
         except (ValueError, OverflowError) as exc:
-            return self._clarifications.request(f'no grasp published: {exc}', once_for=(inputs.v_seq, key))
+            self._clarifications.request(f'no grasp published: {exc}', once_for=(inputs.v_seq, key))
+            return None
         self._warm = (key, grasp.result.x)
-        self._plan_diag.set_value('last plan status', f'grasp published ({grasp.result.message})')
-        if grasp.fallback:
-            self.get_logger().warning(grasp.note, throttle_duration_sec=5.0)
         if self._worker.stopping:
-            return
+            return None
         if markers:
             self._markers_due = time.monotonic() + float(self._params['markers_period'])
         publish_all(self, self._pubs, messages)
+        return f'grasp published ({grasp.result.message})'
 
 
 GIL_SWITCH_INTERVAL = 0.0005

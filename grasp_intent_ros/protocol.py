@@ -71,7 +71,7 @@ import re
 import struct
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Final, Generic, NamedTuple, TypeVar
+from typing import Any, Final, Generic, NamedTuple, TypeVar, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -87,7 +87,7 @@ __all__ = [
     'MSGTYPES', 'INPUT_TOPICS', 'PLAN_TOPICS', 'OUTPUT_TOPICS',
     'MAX_ARRAY_SIZE', 'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size',
     'check_names', 'join_labels', 'split_labels', 'array_layout', 'msg_to_array', 'serialized_vector',
-    'msg_labels',
+    'RepeatedLayout', 'msg_labels',
     'Stamp', 'stamp_label', 'stamped_values', 'posterior_label', 'split_posterior', 'Posterior',
     'read_posterior',
     'ModelHeader', 'ModelDocument', 'model_document', 'parse_model_document', 'read_model_document',
@@ -352,6 +352,54 @@ def serialized_vector(data: bytes, *, max_size: int = MAX_ARRAY_SIZE,
     arr: NDArray[np.float64] = np.frombuffer(data, dtype='<f8', count=n, offset=20)
     _check_finite(arr, error, what)
     return arr
+
+
+L = TypeVar('L')
+
+
+class RepeatedLayout(Generic[L]):
+    """The values of serialized 1-D Float64MultiArrays whose layout repeats, read in place.
+
+    A stream from one publisher (the interpreter's ``intent/v``) repeats the same layout (dimension, label,
+    ``data_offset``) with every message; only the values change. After :meth:`learn` has seen one message
+    decoded, :meth:`read` takes the values of every later message whose bytes before its values are the same,
+    with what was decoded from them (``info``, e.g. the labels), instead of decoding the message again. Equal
+    bytes decode to the same layout; a message whose padding bytes differ (CDR leaves them uninitialised) is
+    merely decoded again. The values are checked as :func:`msg_to_array` checks those of a message of the
+    learnt layout (finite; its size and shape were checked when it was learnt).
+    """
+
+    def __init__(self) -> None:
+        self._head = b''
+        self._n = 0
+        self._info: L | None = None
+
+    def read(self, data: bytes, *, error: type[GraspIntentError] = GraspIntentError, what: str = 'array'
+             ) -> tuple[NDArray[np.float64], L] | None:
+        """(values, shape (n,), read-only; the learnt ``info``) if ``data`` has the learnt layout, else None.
+
+        Raises
+        ------
+        error
+            If a value is NaN or infinite (as :func:`msg_to_array`, ``what`` naming the values).
+        """
+        n, head = self._n, self._head
+        if n and len(data) == len(head) + 8 * n and data.startswith(head):
+            values: NDArray[np.float64] = np.frombuffer(data, dtype='<f8', count=n, offset=len(head))
+            _check_finite(values, error, what)
+            return values, cast(L, self._info)  # learnt with the layout
+        return None
+
+    def learn(self, data: bytes, values: NDArray[np.float64], info: L) -> None:
+        """Learn the layout of ``data``, whose decoded values are ``values`` (shape (n,)), with ``info``.
+
+        Only when the values are the last 8 n bytes of ``data``, little-endian CDR, as rclpy writes them;
+        else :meth:`read` keeps returning None for such messages.
+        """
+        n = values.size
+        if values.ndim == 1 and 0 < 8 * n < len(data) and data[:2] == _CDR_LE and np.array_equal(
+                np.frombuffer(data, dtype='<f8', count=n, offset=len(data) - 8 * n), values):
+            self._head, self._n, self._info = data[:len(data) - 8 * n], n, info
 
 
 def msg_labels(msg: Any) -> tuple[tuple[str, ...], ...]:

@@ -48,6 +48,7 @@ from .features import APPROACH, FINGERS, MICO_3F, PALM, ROLL
 __all__ = [
     'check_vector',
     'check_transform',
+    'ORTHONORMAL_TOL',
     'features_to_obj_T_ee',
     'obj_T_ee_to_features',
     'pose_to_matrix',
@@ -82,56 +83,59 @@ def check_vector(value: ArrayLike, n: int, what: str) -> NDArray[np.float64]:
     return vec
 
 
-_LAST_ROW, _EYE3 = np.array([0.0, 0.0, 0.0, 1.0]), np.eye(3)
-_LAST_ROW.flags.writeable = _EYE3.flags.writeable = False
-
-
-def _allclose(a: NDArray[np.float64], b: NDArray[np.float64], atol: float) -> bool:
-    """``np.allclose(a, b, atol=atol)`` for finite arrays, without its NaN and broadcasting handling (10x faster)."""
-    return bool((np.abs(a - b) <= atol + 1e-5 * np.abs(b)).all())
+ORTHONORMAL_TOL = 1e-12
+"""Largest entry of ``|R^T R - I|`` for which :func:`check_transform` keeps a rotation as it is."""
 
 
 def check_transform(value: ArrayLike, what: str, *, tol: float = 1e-6) -> NDArray[np.float64]:
-    """A validated 4x4 rigid transform; its rotation is projected onto SO(3) (deviations < tol allowed)."""
+    """A validated 4x4 rigid transform; its rotation is projected onto SO(3) (deviations < tol allowed).
+
+    The tolerance test is ``np.allclose(R.T @ R, I, atol=tol)`` (and ``det R > 0``), the last row's
+    ``np.allclose(T[3], (0, 0, 0, 1), atol=tol)``. A rotation already orthonormal within
+    :data:`ORTHONORMAL_TOL` (one built from a unit quaternion or composed of such, off by rounding only) is
+    returned as given: the projection (SVD) would move it by as little. The tests run on Python floats:
+    a planner checks three transforms per plan, each right after the thread was idle, when numpy's
+    machinery for a 4x4 array costs several times its warm time.
+    """
     try:
         T = np.array(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise KinematicsError(f'{what} must be numeric: {exc}') from None
     if T.shape != (4, 4):
         raise KinematicsError(f'{what} must have shape (4, 4), got {T.shape}')
-    if not np.all(np.isfinite(T)):
+    (a, b, c, _), (d, e, f, _), (g, h, i, _), last = rows = T.tolist()
+    if not all(math.isfinite(v) for row in rows for v in row):
         raise KinematicsError(f'{what} must be finite')
-    if not _allclose(T[3], _LAST_ROW, tol):
+    if not (abs(last[0]) <= tol and abs(last[1]) <= tol and abs(last[2]) <= tol and abs(last[3] - 1.0) <= tol + 1e-5):
         raise KinematicsError(f'{what} must have last row (0, 0, 0, 1), got {T[3]}')
-    R = T[:3, :3]
-    if not _allclose(R.T @ R, _EYE3, tol) or np.linalg.det(R) <= 0.0:
+    # R^T R: the columns' dot products
+    off = max(abs(a * b + d * e + g * h), abs(a * c + d * f + g * i), abs(b * c + e * f + h * i))
+    diag = max(abs(a * a + d * d + g * g - 1.0), abs(b * b + e * e + h * h - 1.0), abs(c * c + f * f + i * i - 1.0))
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    if not (off <= tol and diag <= tol + 1e-5 and det > 0.0):
         raise KinematicsError(f'{what} rotation is not a rotation matrix (tolerance {tol})')
-    u, _, vt = np.linalg.svd(R)
-    T[:3, :3] = u @ vt
+    if max(off, diag) > ORTHONORMAL_TOL:
+        u, _, vt = np.linalg.svd(T[:3, :3])
+        T[:3, :3] = u @ vt
     T[3] = (0.0, 0.0, 0.0, 1.0)
     return T
 
 
 # -- grasp features <-> end-effector pose -------------------------------------------------------------
 
-def _min_rotation_from_down(a_hat: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The smallest rotation taking (0, 0, -1) to the unit vector a_hat; R_x(pi) for a_hat = +z."""
-    ax, ay, az = (float(v) for v in a_hat)
+_Rows = tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float]]
+
+
+def _min_rotation_from_down(ax: float, ay: float, az: float) -> _Rows:
+    """The smallest rotation (rows) taking (0, 0, -1) to the unit vector a; R_x(pi) for a = +z."""
     s2 = ax * ax + ay * ay
     if s2 == 0.0 and az > 0.0:
-        return np.diag([1.0, -1.0, -1.0])
+        return (1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, -1.0)
     # Rodrigues with w = (0, 0, -1) x a = (ay, -ax, 0), cos = -az: R = -az I + [w]x + w w^T / (1 - az).
     # 1 - az is computed as s2 / (1 + az) when az > 0 to avoid cancellation near +z.
     h = (1.0 + az) / s2 if az > 0.0 else 1.0 / (1.0 - az)
-    w = np.array([ay, -ax, 0.0])
-    w_cross = np.array([[0.0, 0.0, -ax], [0.0, 0.0, -ay], [ax, ay, 0.0]])
-    r_min: NDArray[np.float64] = -az * np.eye(3) + w_cross + h * np.outer(w, w)
-    return r_min
-
-
-def _rot_z(angle: float) -> NDArray[np.float64]:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    hxy = -h * ax * ay
+    return (-az + h * ay * ay, hxy, -ax), (hxy, -az + h * ax * ax, -ay), (ax, ay, -az)
 
 
 def features_to_obj_T_ee(x: ArrayLike) -> NDArray[np.float64]:
@@ -158,16 +162,22 @@ def features_to_obj_T_ee(x: ArrayLike) -> NDArray[np.float64]:
         raise InvalidFeaturesError(f'x must be numeric: {exc}') from None
     if vec.shape != (MICO_3F.dim,):
         raise InvalidFeaturesError(f'x must have shape ({MICO_3F.dim},), got {vec.shape}')
-    if not np.all(np.isfinite(vec)):
+    values = vec.tolist()
+    if not all(math.isfinite(v) for v in values):
         raise InvalidFeaturesError(f'x must be finite, got {vec}')
-    approach = vec[APPROACH]
-    norm = float(np.linalg.norm(approach))
+    ax, ay, az = values[APPROACH]
+    norm = math.sqrt(ax * ax + ay * ay + az * az)
     if norm < 1e-9:
-        raise InvalidFeaturesError(f'approach vector x[3:6] must be non-zero, got {approach}')
-    obj_T_ee = np.eye(4)
-    obj_T_ee[:3, :3] = _min_rotation_from_down(approach / norm) @ _rot_z(float(vec[ROLL])) @ _R_TOP
-    obj_T_ee[:3, 3] = vec[PALM]
-    return obj_T_ee
+        raise InvalidFeaturesError(f'approach vector x[3:6] must be non-zero, got {vec[APPROACH]}')
+    # R_min(a_hat) R_z(roll) R_top, R_z(roll) R_top = ((c, s, 0), (s, -c, 0), (0, 0, -1)); Python floats
+    # (numpy's machinery for 3x3 products costs more than the arithmetic, several times over in a planner)
+    c, s = math.cos(values[ROLL]), math.sin(values[ROLL])
+    px, py, pz = values[PALM]
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = _min_rotation_from_down(ax / norm, ay / norm, az / norm)
+    return np.array([[r00 * c + r01 * s, r00 * s - r01 * c, -r02, px],
+                     [r10 * c + r11 * s, r10 * s - r11 * c, -r12, py],
+                     [r20 * c + r21 * s, r20 * s - r21 * c, -r22, pz],
+                     [0.0, 0.0, 0.0, 1.0]])
 
 
 def obj_T_ee_to_features(obj_T_ee: ArrayLike, fingers: ArrayLike) -> NDArray[np.float64]:
@@ -199,7 +209,8 @@ def obj_T_ee_to_features(obj_T_ee: ArrayLike, fingers: ArrayLike) -> NDArray[np.
         raise InvalidFeaturesError(str(exc)) from None
     obj_R_ee = T[:3, :3]
     approach = obj_R_ee[:, 2]
-    roll_R = _min_rotation_from_down(approach).T @ obj_R_ee @ _R_TOP  # = R_z(roll); R_TOP is involutive
+    r_min = np.array(_min_rotation_from_down(*approach.tolist()))
+    roll_R = r_min.T @ obj_R_ee @ _R_TOP  # = R_z(roll); R_TOP is involutive
     roll = math.atan2(float(roll_R[1, 0]), float(roll_R[0, 0]))
     roll = (roll - _ROLL_MIN) % _TWO_PI + _ROLL_MIN
     if roll >= _ROLL_MIN + _TWO_PI:  # a tiny negative offset wraps to exactly 2 pi in floating point
@@ -243,13 +254,24 @@ def matrix_to_pose(T: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float6
         If ``T`` is not a rigid 4x4 transform.
     """
     M = check_transform(T, 'T')
-    # Not pin.Quaternion(M[:3, :3]): eigenpy (3.13) never frees the copy it makes of a C-ordered 3x3 array
-    # for that constructor (80 bytes of malloc per call), which grew the planner by up to 0.7 MB a minute.
-    xyz_quat = np.array(pin.SE3ToXYZQUAT(pin.SE3(M)), dtype=np.float64)  # (x, y, z, qx, qy, qz, qw)
-    xyzw = xyz_quat[3:]
-    if xyzw[3] < 0.0:
-        xyzw = -xyzw
-    return xyz_quat[:3], xyzw
+    (a, b, c, px), (d, e, f, py), (g, h, i, pz), _ = M.tolist()
+    # Shepperd's method (as Eigen's Quaternion from a rotation matrix) in Python floats: the planner converts
+    # one pose per plan, and numpy's or Pinocchio's machinery for it costs more than the arithmetic.
+    trace = a + e + i
+    if trace > 0.0:
+        t = 2.0 * math.sqrt(trace + 1.0)
+        x, y, z, w = (h - f) / t, (c - g) / t, (d - b) / t, 0.25 * t
+    elif a >= e and a >= i:
+        t = 2.0 * math.sqrt(1.0 + a - e - i)
+        x, y, z, w = 0.25 * t, (b + d) / t, (c + g) / t, (h - f) / t
+    elif e >= i:
+        t = 2.0 * math.sqrt(1.0 + e - a - i)
+        x, y, z, w = (b + d) / t, 0.25 * t, (f + h) / t, (c - g) / t
+    else:
+        t = 2.0 * math.sqrt(1.0 + i - a - e)
+        x, y, z, w = (c + g) / t, (f + h) / t, 0.25 * t, (d - b) / t
+    xyzw = np.array([-x, -y, -z, -w] if w < 0.0 else [x, y, z, w])
+    return np.array([px, py, pz]), xyzw
 
 
 def finger_segments(closures: ArrayLike) -> NDArray[np.float64]:

@@ -9,6 +9,8 @@ takes at the arm's velocity limits.
 
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -146,23 +148,34 @@ def check_grasp(grasp: Grasp, kin: MicoKinematics, *, pos_tol: float = 1e-3, rot
     result = grasp.result
     for what, values in (('features', result.x), ('posterior', result.posterior), ('reconstructed w', result.w),
                          ('end-effector pose', grasp.base_T_ee), ('joint targets', grasp.positions)):
-        if not np.all(np.isfinite(values)):
+        if not np.isfinite(values).all():
             raise PlanningError(f'the plan\'s {what} are not finite: {np.asarray(values).tolist()}')
     q = grasp.positions[:len(ARM_JOINTS)]
     try:
         kin.check_limits(q, what='arm joint targets')
     except KinematicsError as exc:
         raise PlanningError(str(exc)) from None
-    ee_T_fk = np.linalg.inv(grasp.base_T_ee) @ kin.fk(q)
-    pos_err = float(np.linalg.norm(ee_T_fk[:3, 3]))
-    rot_err = float(np.arccos(np.clip(0.5 * (np.trace(ee_T_fk[:3, :3]) - 1.0), -1.0, 1.0)))
+    # ee_T_fk = inv(base_T_ee) @ base_T_fk for a rigid base_T_ee: R_ee^T (p_fk - p_ee) and R_ee^T R_fk
+    base_T_fk, base_T_ee = kin.fk(q), grasp.base_T_ee
+    pos_err = float(np.linalg.norm(base_T_fk[:3, 3] - base_T_ee[:3, 3]))
+    trace = float(np.vdot(base_T_ee[:3, :3], base_T_fk[:3, :3]))  # trace(R_ee^T R_fk)
+    rot_err = math.acos(min(1.0, max(-1.0, 0.5 * (trace - 1.0))))
     if not (pos_err <= pos_tol and rot_err <= rot_tol):
         raise PlanningError(f'the arm joint targets miss the planned end-effector pose by {1e3 * pos_err:.3g} mm '
                             f'and {rot_err:.3g} rad')
-    longest = float(np.max((kin.upper - kin.lower + 2.0 * JOINT_LIMIT_MARGIN) / kin.velocity_limits))
+    longest = _longest_move(kin)
     if not MIN_TRAJECTORY_TIME <= grasp.duration_s <= longest:
         raise PlanningError(f'trajectory time {grasp.duration_s:.6g} s outside [{MIN_TRAJECTORY_TIME:g}, '
                             f'{longest:.4g}] s')
+
+
+@functools.lru_cache(maxsize=8)
+def _longest_move(kin: MicoKinematics) -> float:
+    """Seconds of the longest possible move (cached: a kinematics object's limits do not change).
+
+    Every joint across its whole range, from a reading :data:`~.kinematics.JOINT_LIMIT_MARGIN` outside it.
+    """
+    return float(np.max((kin.upper - kin.lower + 2.0 * JOINT_LIMIT_MARGIN) / kin.velocity_limits))
 
 
 def trajectory_duration(q_from: ArrayLike, q_to: ArrayLike, velocity_limits: ArrayLike, *,
@@ -176,11 +189,13 @@ def trajectory_duration(q_from: ArrayLike, q_to: ArrayLike, velocity_limits: Arr
     ValueError
         For limits that are not positive or of another shape.
     """
-    delta = np.abs(np.asarray(q_to, dtype=np.float64) - np.asarray(q_from, dtype=np.float64))
+    start, end = np.asarray(q_from, dtype=np.float64), np.asarray(q_to, dtype=np.float64)
     limits = np.asarray(velocity_limits, dtype=np.float64)
-    if delta.shape != limits.shape or not np.all(limits > 0.0):
-        raise ValueError(f'need positive velocity limits of shape {delta.shape}, got {limits.tolist()}')
-    return max(float(np.max(delta / limits)) if delta.size else 0.0, float(min_duration))
+    if start.shape != limits.shape or end.shape != limits.shape or not np.all(limits > 0.0):
+        raise ValueError(f'need positive velocity limits of shape {end.shape}, got {limits.tolist()}')
+    # per joint in Python floats (once per plan, where numpy's machinery costs more than the arithmetic)
+    return max(max((abs(b - a) / v for a, b, v in zip(start.tolist(), end.tolist(), limits.tolist())), default=0.0),
+               float(min_duration))
 
 
 def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_obj: NDArray[np.float64],

@@ -252,6 +252,9 @@ class MicoKinematics:
         self.velocity_limits: NDArray[np.float64] = np.array(model.velocityLimit, dtype=np.float64)
         for arr in (self.lower, self.upper, self.velocity_limits):
             arr.setflags(write=False)
+        self._lower, self._upper = self.lower.tolist(), self.upper.tolist()  # for per-joint Python arithmetic
+        self._wide = tuple(int(j) for j in np.flatnonzero(_WIDE_JOINTS))
+        self._wide_full_turn = tuple(j for j in self._wide if self._upper[j] - self._lower[j] >= _TWO_PI)
         self._ee_id: int = model.getFrameId(EE_FRAME)
         self._base_M_world = model.frames[base_id].placement.inverse()
         self._world_T_base = np.array(model.frames[base_id].placement.homogeneous)
@@ -320,24 +323,27 @@ class MicoKinematics:
         return self._nearest_branch(self._check_q(q), self._check_q(q_ref, 'q_ref'))
 
     def _nearest_branch(self, q: NDArray[np.float64], q_ref: NDArray[np.float64]) -> NDArray[np.float64]:
-        q = q.copy()
-        wide = _WIDE_JOINTS
-        q[wide] += _TWO_PI * np.round((q_ref[wide] - q[wide]) / _TWO_PI)
-        above = wide & (q > self.upper)
-        q[above] -= _TWO_PI * np.ceil((q[above] - self.upper[above]) / _TWO_PI)
-        below = wide & (q < self.lower)
-        q[below] += _TWO_PI * np.ceil((self.lower[below] - q[below]) / _TWO_PI)
-        return q
+        # per joint in Python floats: numpy's masked updates of six values cost more (run once per plan)
+        out, refs = q.tolist(), q_ref.tolist()
+        for j in self._wide:
+            ref, lo, hi = refs[j], self._lower[j], self._upper[j]
+            value = out[j] + _TWO_PI * round((ref - out[j]) / _TWO_PI)
+            if value > hi:
+                value -= _TWO_PI * math.ceil((value - hi) / _TWO_PI)
+            if value < lo:
+                value += _TWO_PI * math.ceil((lo - value) / _TWO_PI)
+            out[j] = value
+        return np.array(out)
 
     def _into_limits(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
         """Wide joints wrapped by 2 pi into the limits (pose kept), then everything clipped."""
-        q = q.copy()
-        wide = _WIDE_JOINTS
-        span = self.upper - self.lower
-        inside = (q - self.lower) % _TWO_PI + self.lower
-        move = wide & ((q < self.lower) | (q > self.upper)) & (span >= _TWO_PI)
-        q[move] = inside[move]
-        return np.clip(q, self.lower, self.upper)
+        out = q.tolist()
+        for j in self._wide_full_turn:
+            lo, hi = self._lower[j], self._upper[j]
+            if out[j] < lo or out[j] > hi:
+                out[j] = (out[j] - lo) % _TWO_PI + lo
+        clipped: NDArray[np.float64] = np.clip(out, self.lower, self.upper)
+        return clipped
 
     def ik(self, base_T_ee_target: ArrayLike, q_seed: ArrayLike | None = None, *, restarts: int = 8,
            pos_tol: float = IK_POS_TOL, rot_tol: float = IK_ROT_TOL, max_iter: int = IK_MAX_ITER,

@@ -15,7 +15,7 @@ from std_msgs.msg import String
 
 from .. import protocol
 from .diagnostics import NodeDiagnostics, cap_text
-from .qos import output_qos
+from .qos import output_events, output_qos
 from .run import publish_all
 
 __all__ = ['ClarificationRequests']
@@ -43,7 +43,7 @@ class ClarificationRequests:
         self._node, self._diagnostics = node, diagnostics
         self._count_key, self._outcome_key, self._level, self._log = count_key, outcome_key, level, log
         self._publishers = {protocol.INTENT_CLARIFICATION: node.create_publisher(
-            String, protocol.INTENT_CLARIFICATION, output_qos())}
+            String, protocol.INTENT_CLARIFICATION, output_qos(), event_callbacks=output_events())}
         self._asked: Hashable = None
         self.count = 0
         """Requests published so far."""

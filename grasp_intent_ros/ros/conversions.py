@@ -10,7 +10,7 @@ from __future__ import annotations
 import array
 import functools
 import importlib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -27,6 +27,7 @@ from ..protocol import (
     MSGTYPES,
     ModelDocument,
     Posterior,
+    RepeatedLayout,
     array_layout,
     model_document,
     msg_labels,
@@ -38,7 +39,8 @@ from ..protocol import (
     stamped_values,
 )
 
-__all__ = ['type_class', 'message_class', 'array_to_msg', 'SerializedArrays', 'target_from_msg', 'stamped_array_to_msg',
+__all__ = ['type_class', 'message_class', 'array_to_msg', 'SerializedArrays', 'target_from_msg', 'SerializedTargets',
+           'stamped_array_to_msg',
            'stamped_array_from_msg', 'posterior_to_msg', 'posterior_from_msg', 'model_to_msg', 'model_from_msg']
 
 
@@ -191,6 +193,34 @@ def target_from_msg(msg: Float64MultiArray) -> tuple[NDArray[np.float64], tuple[
     labels = msg_labels(msg)[0] if msg.layout.dim and msg.layout.dim[0].label else None
     values = msg_to_array(msg, max_size=(1 << MAX_TASKS) - 1, error=InvalidIntentError, what='v')
     return validate_v(values, labels), labels
+
+
+class SerializedTargets:
+    """:func:`target_from_msg` of serialized ``intent/v`` messages, each layout decoded once.
+
+    An ``intent/v`` stream repeats its layout (the zone labels) message after message: a message with the
+    bytes of the last decoded layout is read in place (:class:`grasp_intent_ros.protocol.RepeatedLayout`)
+    and its values checked as :func:`target_from_msg` checks them; any other message is decoded by
+    ``decode`` and read by :func:`target_from_msg`. The same v, labels and errors either way.
+
+    Parameters
+    ----------
+    decode : callable
+        ``decode(data) -> Float64MultiArray`` (e.g. :func:`grasp_intent_ros.ros.inputs.decode_input`).
+    """
+
+    def __init__(self, decode: Callable[[bytes], Float64MultiArray]) -> None:
+        self._decode = decode
+        self._layout: RepeatedLayout[tuple[str, ...] | None] = RepeatedLayout()
+
+    def __call__(self, data: bytes) -> tuple[NDArray[np.float64], tuple[str, ...] | None]:
+        """(v, zone labels or None) of a serialized ``intent/v``. Raises as :func:`target_from_msg` and ``decode``."""
+        if (known := self._layout.read(data, error=InvalidIntentError, what='v')) is not None:
+            values, labels = known  # a layout target_from_msg read: its size and labels fit
+            return validate_v(values, labels), labels
+        v, labels = target_from_msg(self._decode(data))
+        self._layout.learn(data, v, labels)
+        return v, labels
 
 
 def model_to_msg(model: GraspModel, *, name: str, version: int) -> String:

@@ -22,6 +22,7 @@ from ..core.errors import GraspIntentError
 from ..protocol import MAX_MESSAGE_BYTES, check_message_size
 from .conversions import message_class
 from .diagnostics import NodeDiagnostics
+from .qos import input_events
 
 __all__ = ['subscribe_input', 'decode_input', 'waiting_messages']
 
@@ -85,15 +86,18 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
     # rclpy passes the message info to a callback of two parameters (its annotation names one)
     handle = cast(Callable[[bytes, Mapping[str, Any]], None], diagnostics.count_dropped(guarded)) if count_dropped \
         else (lambda data, _info: guarded(data))
+    events = input_events(node.get_logger(), topic)
     if not take_waiting:
-        return node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], handle), qos, raw=True)
+        return node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], handle), qos, raw=True,
+                                        event_callbacks=events)
 
     def on_message(data: bytes, info: Mapping[str, Any]) -> None:  # two parameters: rclpy passes the info
         handle(data, info)
         for waiting in waiting_messages(subscription, qos.depth - 1):
             handle(*waiting)
 
-    subscription = node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], on_message), qos, raw=True)
+    subscription = node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], on_message), qos, raw=True,
+                                            event_callbacks=events)
     return subscription
 
 

@@ -10,15 +10,16 @@ must already be in the expected frame. Incoming quaternions must have unit norm 
 
 from __future__ import annotations
 
+import array
 import math
 from collections import Counter
 from collections.abc import Sequence
 
 import numpy as np
+from builtin_interfaces.msg import Duration as DurationMsg
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion
+from geometry_msgs.msg import PoseStamped
 from numpy.typing import ArrayLike, NDArray
-from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -89,9 +90,9 @@ def matrix_to_pose_msg(frame_T_pose: ArrayLike, *, frame_id: str, stamp: Time) -
     msg = PoseStamped()
     msg.header.frame_id = frame_id
     msg.header.stamp = stamp
-    msg.pose = Pose(position=Point(x=float(position[0]), y=float(position[1]), z=float(position[2])),
-                    orientation=Quaternion(x=float(xyzw[0]), y=float(xyzw[1]), z=float(xyzw[2]),
-                                           w=float(xyzw[3])))
+    point, quaternion = msg.pose.position, msg.pose.orientation  # filled in place: no objects built to copy
+    point.x, point.y, point.z = position.tolist()
+    quaternion.x, quaternion.y, quaternion.z, quaternion.w = xyzw.tolist()
     return msg
 
 
@@ -130,12 +131,19 @@ def joint_positions(msg: JointState, names: Sequence[str]) -> NDArray[np.float64
 
 def joint_state_msg(names: Sequence[str], positions: ArrayLike, *, stamp: Time) -> JointState:
     """A JointState with names and positions (rad) only."""
-    values = np.asarray(positions, dtype=np.float64)
-    if values.shape != (len(names),):
-        raise ValueError(f'{len(names)} names but positions of shape {values.shape}')
-    msg = JointState(name=list(names), position=[float(v) for v in values])
+    msg = JointState(name=list(names), position=_float64_array(names, positions))
     msg.header.stamp = stamp
     return msg
+
+
+def _float64_array(names: Sequence[str], positions: ArrayLike) -> array.array[float]:
+    """``positions`` (one per name) as the ``array.array('d')`` a message stores (taken as it is, unchecked)."""
+    values = np.ascontiguousarray(positions, dtype=np.float64)
+    if values.shape != (len(names),):
+        raise ValueError(f'{len(names)} names but positions of shape {values.shape}')
+    data = array.array('d')
+    data.frombytes(values.tobytes())
+    return data
 
 
 def joint_trajectory_msg(names: Sequence[str], positions: ArrayLike, duration: float, *,
@@ -145,12 +153,12 @@ def joint_trajectory_msg(names: Sequence[str], positions: ArrayLike, duration: f
     ``stamp`` defaults to zero, which trajectory controllers (trajectory_msgs convention) read as
     "start now"; a plan stamp, milliseconds in the past on arrival, would make them skip ahead.
     """
-    values = np.asarray(positions, dtype=np.float64)
-    if values.shape != (len(names),):
-        raise ValueError(f'{len(names)} names but positions of shape {values.shape}')
     msg = JointTrajectory(joint_names=list(names))
     msg.header.stamp = Time() if stamp is None else stamp
     msg.header.frame_id = frame_id
-    msg.points = [JointTrajectoryPoint(positions=[float(v) for v in values], velocities=[0.0] * len(names),
-                                       time_from_start=Duration(seconds=float(duration)).to_msg())]
+    point = JointTrajectoryPoint(positions=_float64_array(names, positions),
+                                 velocities=array.array('d', bytes(8 * len(names))))
+    sec, nanosec = divmod(int(float(duration) * 1e9), 10**9)  # as rclpy's Duration(seconds=...).to_msg()
+    point.time_from_start = DurationMsg(sec=sec, nanosec=nanosec)
+    msg.points = [point]
     return msg

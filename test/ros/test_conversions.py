@@ -15,6 +15,7 @@ from grasp_intent_ros import protocol
 from grasp_intent_ros.core.errors import GraspIntentError, InvalidIntentError, ModelFormatError
 from grasp_intent_ros.ros.conversions import (
     SerializedArrays,
+    SerializedTargets,
     array_to_msg,
     message_class,
     model_from_msg,
@@ -106,6 +107,34 @@ def test_target_vector_is_validated_where_it_is_read() -> None:
         target_from_msg(array_to_msg([0.25, 0.75, 0.0], ['U,T']))
     with pytest.raises(InvalidIntentError, match='oversized'):
         target_from_msg(Float64MultiArray(data=[1.0] + [0.0] * 1023))
+
+
+def test_serialized_targets_read_a_repeated_layout_in_place_with_the_same_checks() -> None:
+    decoded: list[bytes] = []
+
+    def decode(data: bytes) -> Float64MultiArray:
+        decoded.append(data)
+        return deserialize_message(data, Float64MultiArray)
+    targets = SerializedTargets(decode)
+    labels = ['U,T,H,UT,UH,TH,UTH']
+    stream = SerializedArrays((7,), labels)  # as the interpreter publishes v
+    rng = np.random.default_rng(2)
+    for k in range(5):
+        data = stream.serialize(rng.dirichlet(np.ones(7)))
+        v, names = targets(data)
+        assert (v.tolist(), names) == (lambda t: (t[0].tolist(), t[1]))(target_from_msg(decode(data)))
+    assert len(decoded) == 1 + 5, 'the layout decoded once (and once per comparison above)'
+    other = [(serialize_message(array_to_msg([0.25, 0.75, 0.0], ['U,T,UT'])), ('U', 'T', 'UT')),
+             (serialize_message(Float64MultiArray(data=[0.5, 0.5, 0.0])), None)]
+    for data, expected in other * 2:  # another layout: decoded, then learnt
+        assert targets(data)[1] == expected
+    assert targets(stream.serialize(np.full(7, 1 / 7)))[1] == tuple('U,T,H,UT,UH,TH,UTH'.split(','))
+    for bad, reason in (([0.5, 0.6, 0, 0, 0, 0, 0], 'sum to 1'), ([1.5, -0.5, 0, 0, 0, 0, 0], 'non-negative'),
+                        ([np.nan, 1.0, 0, 0, 0, 0, 0], 'NaN or infinity')):  # the checks of target_from_msg
+        data = stream.serialize(np.zeros(7))[:-56] + np.array(bad, dtype='<f8').tobytes()
+        for read in (targets, lambda d: target_from_msg(deserialize_message(d, Float64MultiArray))):
+            with pytest.raises(InvalidIntentError, match=reason):
+                read(data)
 
 
 def test_stamped_array_and_posterior_round_trip() -> None:

@@ -661,6 +661,16 @@ def test_send_intent_prints_the_chain_answer(rig: Rig, model: GraspModel, kin: M
         sender.send((0.1, 0.1, 0.1), rig.ros.executor, timeout=10.0)
 
 
+def test_outputs_carry_no_event_handlers_and_the_inputs_one(rig: Rig) -> None:
+    """The executor walks every event handler at every wake-up: none on the outputs (ros.qos.output_events)."""
+    outputs = {pub.topic_name: pub for pub in rig.node.publishers if pub.topic_name != '/parameter_events'}
+    assert {'/grasp/pose', '/grasp/joint_targets', '/grasp/markers', '/intent/clarification', '/diagnostics'} \
+        <= set(outputs)
+    assert all(not pub.event_handlers for pub in outputs.values())
+    assert all(len(sub.event_handlers) == 1 for sub in rig.node.subscriptions), 'the incompatible-QoS warning'
+    assert len(list(rig.node.waitables)) == len(list(rig.node.subscriptions)) + 2  # + /parameter_events' two
+
+
 def test_markers_period(make_rig: Callable[..., Rig], model: GraspModel) -> None:
     rig = make_rig(model, parameter_overrides=[Parameter('markers_period', value=5.0)])
     first = rig.request(v_msg(interpret(W_GOOD).v))  # the first plan draws its markers

@@ -6,6 +6,7 @@ import time
 
 import pytest
 import rclpy
+from rclpy.qos import ReliabilityPolicy
 from rclpy.serialization import serialize_message
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
@@ -91,3 +92,15 @@ def test_take_waiting_handles_a_burst_in_order_in_few_executor_wake_ups(ros) -> 
         executor.remove_node(sink)
         sink.destroy_node()
         executor.shutdown()
+
+
+def test_a_publisher_with_incompatible_qos_is_named_in_the_log(ros, capfd) -> None:
+    node = ros.add(rclpy.create_node('inputs_probe', context=ros.context))
+    subscribe_input(node, protocol.INTENT_W, print, input_qos(), NodeDiagnostics(node, 'inputs'))
+    best_effort = input_qos()
+    best_effort.reliability = ReliabilityPolicy.BEST_EFFORT  # the subscription asks for reliable
+    ros.publisher(Float64MultiArray, protocol.INTENT_W, best_effort)
+    err: list[str] = []
+    assert ros.wait_for(lambda: err.append(capfd.readouterr().err) or 'incompatible QoS' in ''.join(err), 10.0)
+    assert ("New publisher discovered on topic 'intent/w', offering incompatible QoS. No messages will be received "
+            'from it. Last incompatible policy: RELIABILITY') in ''.join(err)

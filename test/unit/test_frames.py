@@ -15,6 +15,8 @@ from grasp_intent_ros.core.errors import InvalidFeaturesError, KinematicsError
 from grasp_intent_ros.core.features import APPROACH, FINGER_CLOSED, FINGERS, PALM, ROLL
 from grasp_intent_ros.core.frames import (
     FINGER_LENGTH,
+    ORTHONORMAL_TOL,
+    check_transform,
     features_to_obj_T_ee,
     finger_segments,
     matrix_to_pose,
@@ -105,6 +107,27 @@ def test_pose_from_matrix_holds_no_native_memory() -> None:
     T = pose_to_matrix((0.3, -0.3, 0.1), (0.0, 0.0, 1.0, 0.0))
     growth = growth_over(lambda _: matrix_to_pose(T), 5_000, warm_up=500)
     assert growth is not None and growth < 100_000
+
+
+def test_check_transform_projects_a_rotation_unless_it_is_orthonormal_already() -> None:
+    T = pose_to_matrix((0.1, -0.2, 0.3), (0.1, 0.7, -0.2, 0.6))  # orthonormal up to rounding
+    assert np.abs(T[:3, :3].T @ T[:3, :3] - np.eye(3)).max() <= ORTHONORMAL_TOL
+    assert np.array_equal(check_transform(T, 'T'), T), 'kept as it is: nothing to project'
+    rng = np.random.default_rng(1)
+    for deviation in (1e-10, 1e-8, 5e-7):  # within check_transform's tolerance of 1e-6
+        skewed = T.copy()
+        skewed[:3, :3] += deviation * rng.uniform(-1.0, 1.0, (3, 3))
+        R = check_transform(skewed, 'skewed')[:3, :3]
+        assert_allclose(R.T @ R, np.eye(3), rtol=0, atol=1e-14)  # onto SO(3) ...
+        u, _, vt = np.linalg.svd(skewed[:3, :3])
+        assert_allclose(R, u @ vt, rtol=0, atol=1e-15)  # ... the nearest rotation
+    assert_allclose(check_transform(T + 1e-9 * np.eye(4)[3], 'T')[3], [0.0, 0.0, 0.0, 1.0], rtol=0, atol=0)
+    bad = (('shape', np.eye(3)), ('finite', np.full((4, 4), np.nan)), ('last row', T + 0.1 * np.eye(4)[[3, 3, 3, 3]]),
+           ('not a rotation matrix', T @ np.diag([1.0, 1.0, 1.0 + 1e-5, 1.0])),  # stretched beyond 1e-6
+           ('not a rotation matrix', T @ np.diag([1.0, 1.0, -1.0, 1.0])))  # a reflection
+    for reason, value in bad:
+        with pytest.raises(KinematicsError, match=reason):
+            check_transform(value, 'T')
 
 
 def test_roll_at_the_lower_bound_stays_in_range() -> None:

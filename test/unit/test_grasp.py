@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -105,6 +106,21 @@ def test_check_grasp_passes_a_plan_and_names_what_is_wrong_with_a_corrupted_one(
                               (dataclasses.replace(grasp, result=nan_w), "reconstructed w are not finite")):
         with pytest.raises(PlanningError, match=reason):
             check_grasp(corrupted, kin)
+
+
+def test_check_grasp_measures_the_pose_error_within_its_tolerances(cup, kin) -> None:
+    """The FK check's errors: position (m) and rotation angle (rad) of the pose against the targets' FK."""
+    grasp = plan_grasp(cup, intent.interpret(W).v, intent.all_zones(3), BASE_T_OBJ, kin, name='cup_7zone')
+    assert isinstance(grasp, Grasp)
+
+    def moved(angle: float, shift: float) -> Grasp:  # the pose turned about its own z axis, shifted along x
+        ee_T_moved = pose_to_matrix((shift, 0.0, 0.0), (0.0, 0.0, math.sin(angle / 2), math.cos(angle / 2)))
+        return dataclasses.replace(grasp, base_T_ee=grasp.base_T_ee @ ee_T_moved)
+    for angle, shift in ((0.009, 0.0), (0.0, 0.0009), (-0.009, 0.0009)):  # within 1e-2 rad and 1 mm
+        check_grasp(moved(angle, shift), kin)
+    for angle, shift, error in ((0.011, 0.0, '0.011 rad'), (0.0, 0.0011, '1.1 mm'), (math.pi, 0.0, '3.14 rad')):
+        with pytest.raises(PlanningError, match=f'miss the planned end-effector pose by .*{error}'):
+            check_grasp(moved(angle, shift), kin)
 
 
 def test_joint_limits_with_a_margin_and_the_workspace_radius(kin) -> None:

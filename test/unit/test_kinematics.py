@@ -245,6 +245,21 @@ def test_nearest_branch(kin: MicoKinematics) -> None:
     assert_allclose(kin.fk(out), kin.fk(q), atol=1e-12)
 
 
+def test_nearest_branch_is_the_nearest_whole_turn_within_the_limits(kin: MicoKinematics) -> None:
+    rng = np.random.default_rng(11)
+    wide = [0, 3, 4, 5]
+    for _ in range(300):
+        q, ref = rng.uniform(-20.0, 20.0, 6), rng.uniform(-20.0, 20.0, 6)
+        out = kin.nearest_branch(q, ref)
+        assert_allclose(out[[1, 2]], q[[1, 2]], rtol=0, atol=0)  # joints with end stops: as given
+        turns = (out[wide] - q[wide]) / (2 * math.pi)
+        assert_allclose(turns, np.round(turns), rtol=0, atol=1e-9)  # the pose is kept
+        nearest = q[wide] + 2 * math.pi * np.round((ref[wide] - q[wide]) / (2 * math.pi))
+        inside = (kin.lower[wide] <= nearest) & (nearest <= kin.upper[wide])
+        assert_allclose(out[wide][inside], nearest[inside], rtol=0, atol=1e-12)
+        assert np.all((kin.lower[wide] <= out[wide]) & (out[wide] <= kin.upper[wide]))
+
+
 def test_ik_reproducible(kin: MicoKinematics) -> None:
     q_true = random_q(kin, np.random.default_rng(3))
     target = kin.fk(q_true)

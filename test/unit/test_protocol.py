@@ -159,3 +159,20 @@ def test_message_size_caps_and_name_bounds() -> None:
         protocol.check_names(['a'] * 4, max_count=3, what='joint state')
     with pytest.raises(GraspIntentError, match='name 1 has 5000 characters'):
         protocol.check_names(['a', 'b' * 5000], max_count=3, what='joint state')
+
+
+def test_repeated_layout_reads_only_the_bytes_it_learnt() -> None:
+    layout: protocol.RepeatedLayout[str] = protocol.RepeatedLayout()
+    head = b'\x00\x01\x00\x00' + bytes(range(20))  # little-endian CDR, then a layout's bytes
+    values = np.array([0.25, 0.75])
+    assert layout.read(head + values.tobytes()) is None, 'nothing learnt yet'
+    layout.learn(head + values.astype('>f8').tobytes(), values, 'big-endian values')  # not as rclpy writes
+    layout.learn(b'\x00\x00\x00\x00' + head[4:] + values.tobytes(), values, 'big-endian CDR')
+    assert layout.read(head + values.tobytes()) is None, 'neither learnt'
+    layout.learn(head + values.tobytes(), values, 'labels')
+    read = layout.read(head + np.array([0.5, 0.5]).tobytes())
+    assert read is not None and read[0].tolist() == [0.5, 0.5] and read[1] == 'labels'
+    for other in (head[:-1] + b'\xff' + values.tobytes(), head + values.tobytes() + bytes(8), head + bytes(8)):
+        assert layout.read(other) is None, 'another layout or length'
+    with pytest.raises(InvalidFeaturesError, match='x contains NaN or infinity'):
+        layout.read(head + np.array([np.inf, 0.5]).tobytes(), error=InvalidFeaturesError, what='x')
