@@ -389,7 +389,7 @@ class _LogOddsProjection:
 
     def __init__(self, model: GraspModel, v: NDArray[np.float64], feas: _Feasible) -> None:
         self.model, self.feas = model, feas
-        self.r = int(np.argmax(np.rint(v * 1e9)))  # zone_order(v)[0]: the first of the largest at 1e-9
+        self.r = int(zone_order(v)[0])
         self.others = np.delete(np.arange(len(model.zones), dtype=np.int64), self.r)
         self.b = np.log(v[self.others]) - np.log(v[self.r])
         self.b_path = np.rint(self.b / _GN_QUANTUM) * _GN_QUANTUM
