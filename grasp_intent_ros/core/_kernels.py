@@ -27,7 +27,8 @@ from numpy.typing import NDArray
 
 _ON_SURFACE = 1e-12  # a palm within this (m) of the body's surface is on it
 
-__all__ = ['project', 'least_squares', 'newton_least_squares', 'feasible', 'score', 'ik_descent', 'warm_up']
+__all__ = ['project', 'least_squares', 'newton_least_squares', 'feasible', 'score', 'rank_keys',
+           'select_demonstrations', 'ik_descent', 'warm_up']
 
 
 @njit(cache=True, nogil=True)
@@ -537,6 +538,87 @@ def score(xs: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.flo
     """Posterior (N, K), objective (N,) and scaled distance |(x - x_ref) / s| (N,) of every row of xs."""
     out: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] = _score(
         np.ascontiguousarray(xs, dtype=np.float64), v, means, prec, log_norm, x_ref, scale)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _rank_key(f, index, n, tol):  # type: ignore[no-untyped-def]
+    """The rank key of entry ``index`` of n (see :func:`rank_keys`)."""
+    q = 1.0 / tol if f != f else np.rint(f / (tol * (1.0 + abs(f))))
+    return np.int64(q) * n + index
+
+
+@njit(cache=True, nogil=True)
+def _rank_keys(f, tol):  # type: ignore[no-untyped-def]
+    n = f.size
+    keys = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        keys[i] = _rank_key(f[i], i, n, tol)
+    return keys
+
+
+def rank_keys(f: NDArray[np.float64], tol: float) -> NDArray[np.int64]:
+    """One integer per entry of f (N,) whose order is f quantised to ``tol`` relative, then the index.
+
+    The quantised value is rint(f / (tol (1 + |f|))), with a NaN f after every number (as 1 / tol); for f >= 0
+    it is below 1 / tol, so the key, value * N + index, fits an int64 for N < 9e6 entries at tol = 1e-12: keys
+    are distinct, and float noise below the quantum cannot reorder them.
+    """
+    out: NDArray[np.int64] = _rank_keys(np.ascontiguousarray(f, dtype=np.float64), tol)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _select_demonstrations(posterior, v, members, zones, rest_count, tol):  # type: ignore[no-untyped-def]
+    n, K = posterior.shape
+    keys = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        acc = 0.0
+        for k in range(K):
+            acc += (v[k] - posterior[i, k]) ** 2
+        keys[i] = _rank_key(0.5 * acc, i, n, tol)
+    first = -1
+    for i in range(n):  # the best of the first zone's demonstrations
+        if members[zones[0], i] and (first < 0 or keys[i] < keys[first]):
+            first = i
+    if first < 0:  # none: the best overall
+        first = 0
+        for i in range(1, n):
+            if keys[i] < keys[first]:
+                first = i
+    out = np.empty(1 + rest_count, dtype=np.int64)
+    out[0] = first
+    m = 0  # out[1:1 + m] holds the best m so far, in key order
+    for i in range(n):
+        if i == first or rest_count == 0:
+            continue
+        member = False
+        for z in range(zones.size):
+            member = member or members[zones[z], i]
+        if not member or (m == rest_count and keys[i] >= keys[out[m]]):
+            continue
+        if m < rest_count:
+            m += 1
+        j = m  # insert i at its rank among out[1:1 + m], the worst (if all were full) dropped
+        while j > 1 and keys[out[j - 1]] > keys[i]:
+            out[j] = out[j - 1]
+            j -= 1
+        out[j] = i
+    return out[:1 + m]
+
+
+def select_demonstrations(posterior: NDArray[np.float64], v: NDArray[np.float64], members: NDArray[np.bool_],
+                          zones: NDArray[np.int64], rest_count: int, tol: float) -> NDArray[np.int64]:
+    """Algorithm 1's demonstrations: indices, the first zone's best first, then up to ``rest_count`` more.
+
+    f = 1/2 |v - P|^2 of every demonstration (posteriors (N, K)) is ranked by :func:`rank_keys` (``tol``).
+    The first index is the best demonstration of zone ``zones[0]`` (``members`` (K, N): demonstration n
+    belongs to zone k), or the best overall when that zone has none; then the best ``rest_count`` of
+    the others that belong to any of ``zones``, in rank order.
+    """
+    out: NDArray[np.int64] = _select_demonstrations(
+        np.ascontiguousarray(posterior, dtype=np.float64), np.ascontiguousarray(v, dtype=np.float64),
+        np.ascontiguousarray(members, dtype=np.bool_), np.ascontiguousarray(zones, dtype=np.int64), rest_count, tol)
     return out
 
 
@@ -1055,6 +1137,9 @@ def warm_up() -> None:
         feasible(np.full((1, d), 0.5), -np.ones(d), np.ones(d), 3, 6, body)
     score(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
           np.zeros(d), np.ones(d))
+    rank_keys(np.ones(2), 1e-12)
+    select_demonstrations(np.full((2, 2), 0.5), np.array([0.5, 0.5]), np.ones((2, 2), dtype=np.bool_),
+                          np.zeros(1, dtype=np.int64), 1, 1e-12)
     eye = np.eye(3)
     limits = -np.ones(2), np.ones(2)
     for limit in limits:  # MicoKinematics's joint limits are read-only arrays, a type of their own to numba

@@ -78,7 +78,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._kernels import feasible, least_squares, newton_least_squares, project, score
+from ._kernels import feasible, least_squares, newton_least_squares, project, rank_keys, score, select_demonstrations
 from .errors import PlanningError
 from .features import PALM
 from .intent import reconstruct_w
@@ -264,15 +264,8 @@ def objective_and_gradient(model: GraspModel, v: NDArray[np.float64],
 
 
 def _rank_keys(f: NDArray[np.float64]) -> NDArray[np.int64]:
-    """One integer per entry whose order is f quantised to 1e-12 relative, then the index.
-
-    |f| / (1 + |f|) < 1, so the quantised value is below 1e12 and the key, value * N + index, fits an
-    int64 for N < 9e6 entries: keys are distinct, and float noise below the quantum cannot reorder them.
-    """
-    q = np.rint(f / (MATCH_TOL * (1.0 + np.abs(f))))
-    q[np.isnan(q)] = 1.0 / MATCH_TOL  # a NaN f ranks after every number
-    keys: NDArray[np.int64] = q.astype(np.int64) * f.size + np.arange(f.size, dtype=np.int64)
-    return keys
+    """One integer per entry whose order is f quantised to 1e-12 relative, then the index (``_kernels.rank_keys``)."""
+    return rank_keys(f, MATCH_TOL)
 
 
 def _rank_by_f(f: NDArray[np.float64]) -> NDArray[np.intp]:
@@ -301,20 +294,13 @@ def select_starts(model: GraspModel, v: NDArray[np.float64], n_starts: int = 3,
 
     The demonstration of the top-v zone with the lowest objective first, then the next best
     demonstrations of the ``top_zones`` most likely zones. A demonstration belongs to zone k when its
-    task set contains k (inclusive labeling). Objectives are compared at 1e-12 relative, then by
-    demonstration order.
+    task set contains k (inclusive labeling); when the top zone has none, the best demonstration overall
+    comes first. Objectives are compared at 1e-12 relative, then by demonstration order (compiled:
+    ``_kernels.select_demonstrations``).
     """
-    order = zone_order(v)[:max(1, top_zones)]
-    r = v[None, :] - model.demo_posterior
-    keys = _rank_keys(0.5 * np.einsum('nk,nk->n', r, r))
-    member = model.zone_members[order]
-    top = np.flatnonzero(member[0])
-    # no demonstration in the top zone: start from the best one overall
-    first = int(top[np.argmin(keys[top])]) if top.size else int(np.argmin(keys))
-    rest = np.flatnonzero(member.any(axis=0))
-    rest = rest[rest != first]
-    rest = rest[_first_ranked(keys[rest], n_starts - 1)]
-    out: NDArray[np.float64] = model.demo_x[np.concatenate([[first], rest])]
+    index = select_demonstrations(model.demo_posterior, v, model.zone_members, zone_order(v)[:max(1, top_zones)],
+                                  n_starts - 1, MATCH_TOL)
+    out: NDArray[np.float64] = model.demo_x[index]
     return out
 
 

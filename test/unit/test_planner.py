@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from grasp_intent_ros.core import intent, planner
+from grasp_intent_ros.core import _kernels, intent, planner
 from grasp_intent_ros.core.errors import PlanningError
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.core.resources import config_dir
@@ -82,6 +82,29 @@ def test_first_start_is_the_best_demonstration_of_the_top_zone(toy_model: GraspM
     f = [planner.objective(toy_model, v, x) for x in toy_model.demo_x[members]]
     assert_allclose(start, toy_model.demo_x[members][int(np.argmin(f))])
     assert np.argmax(v) == ut
+
+
+@settings(max_examples=200, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**31), n=st.integers(1, 40), n_starts=st.integers(1, 6), top_zones=st.integers(1, 4),
+       ties=st.booleans())
+def test_demonstration_starts_follow_their_stated_rule(seed: int, n: int, n_starts: int, top_zones: int,
+                                                       ties: bool) -> None:
+    """The compiled selection against the rule written out: the top zone's best, then the best of the top zones."""
+    rng = np.random.default_rng(seed)
+    K = 4
+    posterior = rng.dirichlet(np.ones(K), size=n)
+    if ties:  # repeated demonstrations: equal f, decided by demonstration order
+        posterior[rng.integers(0, n, size=n)] = posterior[0]
+    members = rng.random((K, n)) < 0.4
+    v = rng.dirichlet(np.ones(K))
+    zones = planner.zone_order(v)[:top_zones]
+    f = [0.5 * sum((v[k] - posterior[i, k]) ** 2 for k in range(K)) for i in range(n)]  # summed in order
+    rank = {i: (round(f[i] / (1e-12 * (1 + f[i]))), i) for i in range(n)}
+    top = [i for i in range(n) if members[zones[0], i]]
+    first = min(top or range(n), key=rank.__getitem__)
+    rest = sorted((i for i in range(n) if i != first and members[zones, i].any()), key=rank.__getitem__)
+    got = _kernels.select_demonstrations(posterior, v, members, zones, n_starts - 1, planner.MATCH_TOL)
+    assert got.tolist() == [first] + rest[:n_starts - 1]
 
 
 def test_analytic_gradient_of_the_objective(toy_model: GraspModel) -> None:
