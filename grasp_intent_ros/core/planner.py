@@ -234,8 +234,8 @@ class PlanResult:
 
 
 def _check_v(model: GraspModel, v: ArrayLike) -> NDArray[np.float64]:
-    try:
-        arr = np.asarray(v, dtype=np.float64)
+    try:  # a copy: a read-only v (e.g. read in place from a message) would be another type to the compiled kernels
+        arr = np.array(v, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise PlanningError(f'v must be numeric: {exc}') from None
     K = len(model.zones)
