@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 _ON_SURFACE = 1e-12  # a palm within this (m) of the body's surface is on it
 
 __all__ = ['project', 'least_squares', 'newton_least_squares', 'feasible', 'score', 'rank_keys',
-           'select_demonstrations', 'ik_descent', 'warm_up']
+           'select_demonstrations', 'distinct', 'ik_descent', 'warm_up']
 
 
 @njit(cache=True, nogil=True)
@@ -623,6 +623,34 @@ def select_demonstrations(posterior: NDArray[np.float64], v: NDArray[np.float64]
 
 
 @njit(cache=True, nogil=True)
+def _distinct(x, tol):  # type: ignore[no-untyped-def]
+    n, d = x.shape
+    keep = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        repeat = False
+        for j in range(i):
+            if keep[j]:
+                acc = 0.0
+                for k in range(d):
+                    r = (x[i, k] - x[j, k]) / max(abs(x[j, k]), 1.0)
+                    acc += r * r
+                if acc < tol:
+                    repeat = True
+                    break
+        keep[i] = not repeat
+    return keep
+
+
+def distinct(x: NDArray[np.float64], tol: float) -> NDArray[np.bool_]:
+    """Whether each row of x (N, d) is kept: not within ``tol`` (squared, relative) of an earlier kept row.
+
+    Row i repeats row j when sum_k ((x_ik - x_jk) / max(|x_jk|, 1))^2 < tol.
+    """
+    out: NDArray[np.bool_] = _distinct(np.ascontiguousarray(x, dtype=np.float64), tol)
+    return out
+
+
+@njit(cache=True, nogil=True)
 def _posterior_scores(x, means, prec, log_norm, p, u):  # type: ignore[no-untyped-def]
     """Fills p (K,) with P(k|x) and u (K, d) with the gradients of log P(k|x), u_k = g_k - sum_j P_j g_j."""
     K, d = u.shape
@@ -1138,6 +1166,7 @@ def warm_up() -> None:
     score(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
           np.zeros(d), np.ones(d))
     rank_keys(np.ones(2), 1e-12)
+    distinct(np.ones((2, d)), 1e-18)
     select_demonstrations(np.full((2, 2), 0.5), np.array([0.5, 0.5]), np.ones((2, 2), dtype=np.bool_),
                           np.zeros(1, dtype=np.int64), 1, 1e-12)
     eye = np.eye(3)

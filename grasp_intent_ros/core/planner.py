@@ -78,7 +78,16 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._kernels import feasible, least_squares, newton_least_squares, project, rank_keys, score, select_demonstrations
+from ._kernels import (
+    distinct,
+    feasible,
+    least_squares,
+    newton_least_squares,
+    project,
+    rank_keys,
+    score,
+    select_demonstrations,
+)
 from .errors import PlanningError
 from .features import PALM
 from .intent import reconstruct_w
@@ -574,7 +583,7 @@ def _match_message(converged: bool) -> str:
 
 
 def _choose(candidates: list[Candidate]) -> list[Candidate]:
-    """The module docstring's choice order, duplicates (scaled distance < 1e-9 apart) dropped."""
+    """The module docstring's choice order; a candidate within 1e-9 (relative) of an earlier one is dropped."""
     if len(candidates) <= 1:
         return list(candidates)
     f = [c.objective for c in candidates]
@@ -591,16 +600,8 @@ def _choose(candidates: list[Candidate]) -> list[Candidate]:
     if len(matches) < len(candidates):
         is_match = set(matches)
         order += [i for i in _rank_by_f(np.array(f)).tolist() if i not in is_match]
-    x = np.array([candidates[i].x for i in order])
-    rel = (x[:, None, :] - x[None, :, :]) / np.maximum(np.abs(x[None, :, :]), 1.0)
-    same = np.einsum('ijk,ijk->ij', rel, rel) < 1e-18  # same[i, j]: i repeats j
-    index = np.arange(len(order))
-    repeats = (same & (index[:, None] > index[None, :])).any(axis=1).tolist()  # i repeats an earlier row
-    kept: list[int] = []
-    for i, rep in enumerate(repeats):
-        if not rep or not same[i, kept].any():
-            kept.append(i)
-    return [candidates[order[i]] for i in kept]
+    keep = distinct(np.array([candidates[i].x for i in order]), 1e-18).tolist()
+    return [candidates[i] for i, k in zip(order, keep) if k]
 
 
 def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gradient = 'analytic',
