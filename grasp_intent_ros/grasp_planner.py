@@ -15,8 +15,6 @@ Topics (relative; formats in :mod:`grasp_intent_ros.protocol`)
 Behaviour
     A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs (never a backlog) with
     :func:`grasp_intent_ros.core.grasp.plan_grasp`, warm-started from the last plan of the same model.
-    After handing a v to the planning thread, the executor waits (at most :data:`PLAN_YIELD`) until that
-    plan is published before it waits for more input, so that its own Python does not run inside the plan.
     A new ``model/active`` is read in a thread of its own (:class:`~grasp_intent_ros.ros.model_follower.
     ModelFollower`) and swapped in whole; until then planning goes on with the current model.
     At start the planning thread first loads numba's CPU target and the IK kernel, which every plan uses
@@ -92,7 +90,7 @@ from .ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matri
 from .ros.run import guard_exit, publish_all, run_node
 from .ros.worker import LatestOnlyWorker
 
-__all__ = ['GraspPlanner', 'PARAMETERS', 'GIL_SWITCH_INTERVAL', 'PLAN_YIELD', 'main']
+__all__ = ['GraspPlanner', 'PARAMETERS', 'GIL_SWITCH_INTERVAL', 'main']
 
 _METHODS: tuple[str, ...] = typing.get_args(planner.Method)
 
@@ -122,19 +120,6 @@ PARAMETERS = (
               range=(0.0, 10.0)),
     ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
 )
-
-
-PLAN_YIELD = 0.005
-"""Seconds the executor thread waits, after a v, for the planning thread to have handled it (published).
-
-Meanwhile the executor holds no GIL: without the wait it would take the GIL back at each switch interval
-(:data:`GIL_SWITCH_INTERVAL`) to wait for more input, which in rclpy 7.1 costs two wait sets built in
-Python per v (:mod:`grasp_intent_ros.ros.worker`), all of it inside the plan's time. A plan that takes
-longer lets the executor go on after this time: the node's other inputs, its parameters and a stop wait
-at most this long behind a plan; a v that arrives meanwhile replaces the one waiting in the keep-last 1
-queue (``messages dropped`` in the ``inputs`` diagnostics, where the planning thread would have superseded
-it).
-"""
 
 
 @dataclass(frozen=True)
@@ -184,8 +169,7 @@ class GraspPlanner(Node):
         self.context.on_shutdown(self._worker.stop_soon)
         diag, latest = self._inputs_diag, input_qos(depth=1)
         self._targets = SerializedTargets(functools.partial(decode_input, topics.INTENT_V))
-        subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag, count_dropped=True, serialized=True,
-                        then=functools.partial(self._worker.wait_handled, PLAN_YIELD))
+        subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag, count_dropped=True, serialized=True)
         self._models = ModelFollower(self, self._inputs_diag, self._use_model, name=f'{node_name}_model')
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, latest, diag)
         # not keep-last 1: arm and finger states may come from different publishers

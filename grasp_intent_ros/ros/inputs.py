@@ -43,8 +43,7 @@ def decode_input(topic: str, data: bytes) -> Any:
 
 def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], qos: QoSProfile,
                     diagnostics: NodeDiagnostics, *, count_dropped: bool = False,
-                    take_waiting: bool = False, serialized: bool = False,
-                    then: Callable[[], object] | None = None) -> Subscription:
+                    take_waiting: bool = False, serialized: bool = False) -> Subscription:
     """Subscribe ``callback`` to the suite input ``topic``, size-checked before decoding and guarded.
 
     Parameters
@@ -68,10 +67,6 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
     serialized : bool
         Hand ``callback`` the size-checked serialized bytes instead of the decoded message; it decodes
         them itself (e.g. :func:`grasp_intent_ros.protocol.serialized_vector`, else :func:`decode_input`).
-    then : callable, optional
-        Called after each message's callback and its diagnostics, outside their timing (e.g. to let a
-        worker thread run on what the callback handed it: :meth:`~grasp_intent_ros.ros.worker.
-        LatestOnlyWorker.wait_handled`). It must not raise.
 
     Raises
     ------
@@ -91,12 +86,6 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
     # rclpy passes the message info to a callback of two parameters (its annotation names one)
     handle = cast(Callable[[bytes, Mapping[str, Any]], None], diagnostics.count_dropped(guarded)) if count_dropped \
         else (lambda data, _info: guarded(data))
-    if then is not None:
-        handle_only = handle
-
-        def handle(data: bytes, info: Mapping[str, Any]) -> None:
-            handle_only(data, info)
-            then()
     events = input_events(node.get_logger(), topic)
     if not take_waiting:
         return node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], handle), qos, raw=True,

@@ -10,12 +10,6 @@ itself: an rclpy executor thread does so only when it blocks in its next wait, a
 set (a few hundred microseconds of Python), or when the switch interval forces it (``sys.getswitchinterval``,
 the planner's 0.5 ms). Measured alone (a subscription callback waking a worker in a node process, load
 3.6-5.9): 0.41-0.47 ms from the update to the thread running, 0.05-0.06 ms with the hand-over.
-
-Yielding to the handler: after the hand-over, the updating thread (an rclpy executor) would take the GIL
-back at the next switch interval to finish its callback and wait for more input, which in rclpy 7.1 builds
-two wait sets in Python (the executor's own guard condition, triggered by each callback, ends the first
-wait at once), all of it interleaved with the handling. :meth:`LatestOnlyWorker.wait_handled` lets it
-wait instead, for at most a bounded time, until the thread has handled the update.
 """
 
 from __future__ import annotations
@@ -69,8 +63,6 @@ class LatestOnlyWorker(Generic[T]):
         self._prepare, self._after_first = prepare, after_first
         self._wake, self._stop = threading.Event(), threading.Event()
         self._idle = False  # the thread waits on _wake
-        self._finished = 0  # the version of the last snapshot the thread handled or passed over
-        self._done = threading.Condition(self._lock)
         self.superseded = 0
         """Triggering updates never handled because a newer one replaced them."""
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
@@ -92,16 +84,6 @@ class LatestOnlyWorker(Generic[T]):
             self._wake.set()
             if self._idle:  # hand it the GIL now (module docstring); a busy thread takes the update later
                 time.sleep(0)
-
-    def wait_handled(self, timeout: float) -> bool:
-        """Wait until the thread has handled (or passed over) every triggering update so far; whether it has.
-
-        At most ``timeout`` s, and not once a stop was asked for. It releases the GIL meanwhile, so the
-        thread's handling runs without the caller taking it back at each switch interval. A stop request
-        ends the wait only at its ``timeout`` (:meth:`stop_soon` takes no lock: it may run in a signal handler).
-        """
-        with self._done:
-            return self._done.wait_for(lambda: self._finished >= self._version or self._stop.is_set(), timeout)
 
     def stop_soon(self) -> None:
         """Ask the thread to stop after its current snapshot (safe from any thread and a signal handler)."""
@@ -141,14 +123,13 @@ class LatestOnlyWorker(Generic[T]):
                 break
             with self._lock:
                 snapshot, version = self._latest, self._version
-            handling = version != handled and self._ready(snapshot)
-            if handling:
-                self.superseded += max(0, version - handled - 1)
-                handled, last_start = version, time.monotonic()
-                self._handle(snapshot)
-            with self._done:
-                self._finished = version
-                self._done.notify_all()
-            if handling and self._after_first is not None:
+            if version == handled:
+                continue
+            if not self._ready(snapshot):
+                continue
+            self.superseded += max(0, version - handled - 1)
+            handled, last_start = version, time.monotonic()
+            self._handle(snapshot)
+            if self._after_first is not None:
                 self._after_first()
                 self._after_first = None

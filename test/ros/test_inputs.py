@@ -11,7 +11,6 @@ from rclpy.serialization import serialize_message
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from grasp_intent_ros import protocol
-from grasp_intent_ros.core.errors import GraspIntentError
 from grasp_intent_ros.ros.diagnostics import NodeDiagnostics
 from grasp_intent_ros.ros.inputs import subscribe_input
 from grasp_intent_ros.ros.qos import input_qos
@@ -106,26 +105,3 @@ def test_a_publisher_with_incompatible_qos_is_named_in_the_log(ros, capfd) -> No
     expected = ("New publisher discovered on topic 'intent/w', offering incompatible QoS. No messages will be "
                 'received from it. Last incompatible policy: RELIABILITY')
     assert ros.wait_for(lambda: err.append(capfd.readouterr().err) or expected in ''.join(err), 10.0), ''.join(err)
-
-
-def test_then_runs_after_each_message_and_its_diagnostics_even_a_rejected_one(ros) -> None:
-    node = ros.add(rclpy.create_node('inputs_probe', context=ros.context))
-    diag = NodeDiagnostics(node, 'inputs')
-    received: list[float] = []
-    seen_by_then: list[tuple[int, str]] = []  # (callbacks so far, messages counted so far) when then() ran
-
-    def take(msg: Float64MultiArray) -> None:
-        if msg.data[0] < 0.0:
-            raise GraspIntentError('negative')
-        received.append(msg.data[0])
-
-    subscribe_input(node, protocol.INTENT_W, take, input_qos(), diag, count_dropped=True,
-                    then=lambda: seen_by_then.append(
-                        (len(received), protocol.status_values(diag.status())[protocol.KEY_RECEIVED])))
-    pub = ros.publisher(Float64MultiArray, protocol.INTENT_W)
-    assert ros.publish_until(pub, Float64MultiArray(data=[1.0]), lambda: received)
-    pub.publish(Float64MultiArray(data=[-1.0]))  # rejected by the callback: then() still runs, after the count
-    assert ros.wait_for(lambda: len(seen_by_then) == int(protocol.status_values(diag.status())[protocol.KEY_RECEIVED])
-                        and protocol.status_values(diag.status())[protocol.KEY_REJECTED] == '1')
-    assert [counted for _, counted in seen_by_then] == [str(i + 1) for i in range(len(seen_by_then))]
-    assert [taken for taken, _ in seen_by_then] == [*range(1, len(received) + 1), len(received)]

@@ -127,29 +127,3 @@ def test_after_first_runs_once_in_the_thread_after_the_first_handled_snapshot() 
     finally:
         worker.stop()
     assert order == [('handle 2', 'test_worker'), ('after first', 'test_worker'), ('handle 3', 'test_worker')]
-
-
-def test_wait_handled_waits_for_the_handling_at_most_its_timeout() -> None:
-    busy, release, handled, handle = blocking_handler()
-    worker = LatestOnlyWorker(0, handle, name='test_worker', ready=lambda value: value != 5)
-    try:
-        assert worker.wait_handled(0.0)  # nothing asked for
-        worker.update(lambda _: 1)
-        assert busy.wait(5.0)
-        start = time.monotonic()
-        assert not worker.wait_handled(0.05)  # still handling 1: the wait ends at its timeout
-        assert time.monotonic() - start >= 0.05
-        release.set()
-        assert worker.wait_handled(5.0) and handled == [1]
-        worker.update(lambda _: 5)  # not ready: passed over, which ends the wait too
-        assert worker.wait_handled(5.0) and handled == [1]
-        worker.update(lambda _: 6)
-        assert worker.wait_handled(5.0) and handled == [1, 6]
-        worker.stop_soon()
-        worker.update(lambda _: 7)  # never handled: after a stop the wait does not wait for it
-        start = time.monotonic()
-        assert worker.wait_handled(5.0) and time.monotonic() - start < 1.0
-        worker.stop()
-        assert handled == [1, 6]
-    finally:
-        worker.stop()
