@@ -126,6 +126,7 @@ def run(args: argparse.Namespace, suite: Any, probe: Any, wait_for: Callable[[Ca
     w_pub.publish(valid_w())
     answer('at start')
     wait_for(lambda: all(fuzzer.component(t) in fuzzer.latest for t in COMPONENTS), 5.0)
+    fuzzer.settle()  # the w published until then and their answers are all in
     print(f'load average at start: {os.getloadavg()}')
 
     if args.cases:

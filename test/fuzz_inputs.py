@@ -26,11 +26,12 @@ from geometry_msgs.msg import PoseStamped
 from hypothesis import strategies as st
 from rclpy.node import Node
 from rclpy.serialization import serialize_message
+from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from grasp_intent_ros import protocol
-from grasp_intent_ros.core.intent import interpret
+from grasp_intent_ros.core.intent import DEFAULT_TASKS, all_zones, interpret, zone_labels
 from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q
 from grasp_intent_ros.ros.qos import input_qos
 
@@ -240,8 +241,38 @@ def valid_w() -> Float64MultiArray:
     return array_msg([0.9, 0.9, 0.1])
 
 
+INTERPRETER_V_LABEL = ','.join(zone_labels(all_zones(N_TASKS), DEFAULT_TASKS))
+"""The label of the one dimension of the interpreter's v (the fuzzed v never carry it)."""
+SETTLE_W = (0.9, 0.1, 0.9)
+"""The w :meth:`Fuzzer.settle` sends (a v other than that of :func:`valid_w`, and a grasp)."""
+INTERPRETER_CLARIFICATIONS = 'clarifications'
+"""Status value: the interpreter's clarification requests so far."""
+PLANNING = 'grasp_planner: planning'
+"""The planner's diagnostics component for its plans."""
+PLANNER_CLARIFICATIONS = 'clarifications requested'
+"""Status value: the planner's clarification requests so far (one per v and model at most)."""
+
+
 class Fuzzer:
-    """Publishes cases from a probe node and follows each node component's verdicts on /diagnostics.
+    """Publishes cases from a probe node and follows each node's verdicts on /diagnostics and its outputs.
+
+    Every verdict is attributed to its case exactly, so that no earlier case's answer can stand for a later
+    one and nothing a case set off is still on its way when the next is sent. That matters beyond the
+    counts: the planner reads ``intent/v`` keep-last 1, so a fuzzed v sent while the interpreter's answer
+    to an accepted w was still on its way could be replaced by that answer in the planner's queue and
+    never be counted (33 of 300 NaN v sent 0-4 ms after a valid w were never counted, load 7; none of 500
+    sent once the interpreter's v had arrived). Hence:
+
+    - a rejection is the reading node's ``messages rejected`` count, which only grows (the largest value
+      seen is used: a periodic status may arrive after a newer one published from another thread);
+    - the interpreter's answer is a v it published (its zone-labelled layout and writer sequence number:
+      the probe's own fuzzed v are echoed to it too) or its ``clarifications`` count;
+    - the planner's answer is a grasp stamped after the case was sent (the stamp is the arrival of the
+      plan's newest input), its ``clarifications requested`` count, or, for a clarification it had
+      already requested for the same v (asked once per v), its ``plans`` count with the status saying so.
+
+    An accepted w that the interpreter answers with a v is finished only when the planner has answered
+    that v too. Call :meth:`settle` once the nodes answer, before the first case.
 
     Parameters
     ----------
@@ -259,38 +290,62 @@ class Fuzzer:
         self._ns = namespace
         self.latest: dict[str, dict[str, str]] = {}
         """The last status values per component name."""
+        self._messages: dict[str, str] = {}
+        """The last status message per component name."""
+        self._counts: dict[tuple[str, str], int] = {}
+        """The largest value seen per (component name, counter key)."""
         self.sent: Counter[tuple[str, str]] = Counter()
         """Messages sent per (topic, family)."""
         self.rejected: Counter[tuple[str, str]] = Counter()
         """Rejections counted per (topic, family)."""
-        self.answers: Counter[str] = Counter()
-        """Answers seen: outputs by topic, and the planner's clarification notes on /diagnostics."""
+        self.v_seq = 0
+        """Writer sequence number of the newest v the interpreter published (0: none seen)."""
+        self._v_ns, self._v_data = 0, np.zeros(0)
+        """Publication time (ns) and values of that v."""
+        self.grasp_ns = 0
+        """Stamp (ns) of the newest grasp/pose."""
         self._pubs = {topic: node.create_publisher(_type(topic), topic, input_qos()) for topic in TOPICS}
+        self._clock = node.get_clock()
         node.create_subscription(DiagnosticArray, protocol.DIAGNOSTICS, self._on_diagnostics, 1000)
-        for topic in (protocol.INTENT_V, protocol.INTENT_CLARIFICATION, protocol.GRASP_POSE):
-            node.create_subscription(_type(topic), topic, lambda msg, t=topic: self.answers.update([t]), 100)
+        node.create_subscription(_type(protocol.INTENT_V), protocol.INTENT_V, self._on_v, 100)
+        node.create_subscription(PoseStamped, protocol.GRASP_POSE, self._on_grasp, 100)
 
     def component(self, topic: str) -> str:
         return f'{self._ns}/{COMPONENTS[topic]}'
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
-            self.latest[status.name] = protocol.status_values(status)
-            if status.name.endswith(': planning') and status.message.startswith('clarification requested'):
-                self.answers.update(['planning note'])
+            values = protocol.status_values(status)
+            self.latest[status.name] = values
+            self._messages[status.name] = status.message
+            for key, value in values.items():
+                if value.isdigit():
+                    self._counts[(status.name, key)] = max(int(value), self._counts.get((status.name, key), 0))
+
+    def _on_v(self, msg: Any, info: dict[str, Any]) -> None:
+        seq = int(info['publication_sequence_number'])
+        if [dim.label for dim in msg.layout.dim] == [INTERPRETER_V_LABEL] and seq > self.v_seq:  # not an echo
+            self.v_seq, self._v_ns, self._v_data = seq, int(info['source_timestamp']), np.asarray(msg.data)
+
+    def _on_grasp(self, msg: PoseStamped) -> None:
+        self.grasp_ns = max(self.grasp_ns, Time.from_msg(msg.header.stamp).nanoseconds)
 
     def count(self, topic: str, key: str = protocol.KEY_REJECTED) -> int:
-        """The value of ``key`` in the last status of the component that reads ``topic`` (-1: none yet)."""
-        return int(self.latest.get(self.component(topic), {}).get(key, '-1'))
+        """The largest value of ``key`` seen in the statuses of the component that reads ``topic`` (-1: none)."""
+        return self._counts.get((self.component(topic), key), -1)
+
+    def _planning(self, key: str) -> int:
+        return self._counts.get((f'{self._ns}/{PLANNING}', key), 0)
 
     def send(self, case: Case, timeout: float = 10.0) -> None:
-        """Publish ``case`` and wait for its verdict.
+        """Publish ``case`` and wait for its verdict (see the class docstring).
 
         Raises
         ------
         AssertionError
             If a rejected case is not counted as exactly one rejection within ``timeout``, or an accepted one
-            is not answered (v or a clarification for w; a plan for v and object poses) or is rejected.
+            is not answered within ``timeout`` (w: by the interpreter, and a v it published by the planner;
+            v and object poses: by the planner) or is rejected.
         """
         rejected_before = self.count(case.topic)
         self.sent[(case.topic, case.family)] += 1
@@ -301,14 +356,58 @@ class Fuzzer:
             assert self.count(case.topic) == rejected_before + 1, f'{case!r}: counted as several rejections'
             self.rejected[(case.topic, case.family)] += 1
             return
-        keys = ((protocol.INTENT_V, protocol.INTENT_CLARIFICATION) if case.topic == protocol.INTENT_W else
-                (protocol.GRASP_POSE, protocol.INTENT_CLARIFICATION, 'planning note'))
-        before = sum(self.answers[k] for k in keys)
-        self._pubs[case.topic].publish(case.msg)
-        if case.topic != protocol.JOINT_STATES:  # a joint state is stored, not answered
-            answered = self._wait_for(lambda: sum(self.answers[k] for k in keys) > before, timeout)
-            assert answered, f'{case!r}: accepted input not answered within {timeout} s'
+        if case.topic == protocol.INTENT_W:
+            self.answer_w(case.msg, timeout, what=repr(case))
+        elif case.topic == protocol.JOINT_STATES:  # a joint state is stored, not answered
+            self._pubs[case.topic].publish(case.msg)
+        else:
+            self._planner_answers(lambda: self._pubs[case.topic].publish(case.msg), timeout, what=repr(case))
         assert self.count(case.topic) == rejected_before, f'{case!r}: an accepted input was rejected'
+
+    def answer_w(self, msg: Any, timeout: float = 10.0, *, what: str = 'w', v: Any = None) -> None:
+        """Publish the w ``msg``; wait for the interpreter's answer and the planner's answer to a v.
+
+        ``v``: the answer must be a v with these values (the interpreter publishes in order: every v
+        it published before has arrived too). Raises AssertionError as :meth:`send`.
+        """
+        seq, asked = self.v_seq, self.count(protocol.INTENT_W, INTERPRETER_CLARIFICATIONS)
+        if v is None:
+            answered = lambda: self.v_seq > seq or self.count(protocol.INTENT_W, INTERPRETER_CLARIFICATIONS) > asked  # noqa: E731
+        else:
+            answered = lambda: self.v_seq > seq and np.allclose(self._v_data, v, rtol=0, atol=1e-12)  # noqa: E731
+        planner = self._planner_counts()
+        self._pubs[protocol.INTENT_W].publish(msg)
+        assert self._wait_for(answered, timeout), f'{what}: accepted input not answered within {timeout} s'
+        if self.v_seq > seq:  # the planner takes it after its publication
+            planned = self._planner_answered(planner, self._v_ns)
+            assert self._wait_for(planned, timeout), f'{what}: its v not answered by the planner within {timeout} s'
+
+    def _planner_answers(self, publish: Callable[[], object], timeout: float, *, what: str) -> None:
+        planned = self._planner_answered(self._planner_counts(), self._clock.now().nanoseconds)
+        publish()
+        assert self._wait_for(planned, timeout), f'{what}: accepted input not answered within {timeout} s'
+
+    def _planner_counts(self) -> tuple[int, int]:
+        return self._planning(PLANNER_CLARIFICATIONS), self._planning(protocol.KEY_PLANS)
+
+    def _planner_answered(self, counts: tuple[int, int], sent_ns: int) -> Callable[[], bool]:
+        """A predicate: the planner has answered an input sent at ``sent_ns`` (ns) or later.
+
+        ``counts``: :meth:`_planner_counts` before it was sent.
+        """
+        asked, plans = counts
+        planning = f'{self._ns}/{PLANNING}'
+        return lambda: (self.grasp_ns >= sent_ns or self._planning(PLANNER_CLARIFICATIONS) > asked
+                        or (self._planning(protocol.KEY_PLANS) > plans
+                            and self._messages.get(planning, '').startswith('clarification requested')))
+
+    def settle(self, timeout: float = 10.0) -> None:
+        """Wait until nothing sent before is still on its way (e.g. the w published until the nodes answered).
+
+        Sends one more w, :data:`SETTLE_W`, whose v differs from that of :func:`valid_w`: once it has
+        arrived, so has every v the interpreter published before it; then the planner's answer to it.
+        """
+        self.answer_w(array_msg(SETTLE_W), timeout, what='w ' + str(SETTLE_W), v=_v(list(SETTLE_W)))
 
     def publish(self, topic: str, msg: Any) -> None:
         """Publish ``msg`` (a message or serialized bytes) on ``topic`` without waiting for a verdict."""
