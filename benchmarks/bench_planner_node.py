@@ -55,6 +55,8 @@ def main() -> None:
                         help='independent random w (default) or a teleoperation-like random walk of w '
                              '(each entry moves by N(0, 0.01) per message)')
     parser.add_argument('--method', default=None, help="the node's method parameter (default: its config file's)")
+    parser.add_argument('--param', action='append', default=[], metavar='NAME:=VALUE',
+                        help="another of the node's parameters (repeatable), e.g. planning_threads:=1")
     parser.add_argument('--code', type=Path, default=None,
                         help='run the planner node from this source tree instead (before/after in one sitting; '
                              'its kernels compiled there first)')
@@ -92,7 +94,8 @@ def main() -> None:
 
     code = args.code.resolve() if args.code else None
     suite = NodeSuite(domain_id, cwd=code or REPO, env={'PYTHONPATH': str(code)} if code else None)
-    ros_args = NodeSuite.node_args('grasp_planner') + ([] if args.method is None else ['-p', f'method:={args.method}'])
+    params = ([] if args.method is None else [f'method:={args.method}']) + args.param
+    ros_args = NodeSuite.node_args('grasp_planner') + [arg for param in params for arg in ('-p', param)]
     planner = suite.start('grasp_planner', *ros_args)
     probe = Probe(domain_id)
     try:
@@ -142,7 +145,8 @@ def main() -> None:
         return f'median {np.median(values):.1f} ms over {values.size} samples' if values.size else 'n/a'
 
     print(f'planner process from {code or REPO}; model {path} ({len(model.zones)} zones); {n} v messages, one '
-          f'every {1e3 * args.period:.0f} ms for {took:.1f} s ({args.stream} w stream); domain {domain_id}')
+          f'every {1e3 * args.period:.0f} ms for {took:.1f} s ({args.stream} w stream); domain {domain_id}'
+          + (f'; parameters {" ".join(params)}' if params else ''))
     print(f'plans answering the burst: {len(pairs)} ({answered} distinct v); '
           f'node: {last.get(KEY_PLANS, "?")} plans in all, {last.get("inputs superseded", "?")} inputs superseded')
     print(f'latency v -> grasp/joint_targets: {percentiles(latency_ms)}')
