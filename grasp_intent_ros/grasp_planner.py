@@ -85,7 +85,7 @@ from .ros.grasp import grasp_messages
 from .ros.inputs import decode_input, subscribe_input
 from .ros.model_follower import ModelFollower
 from .ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
-from .ros.qos import input_qos, output_events, output_qos
+from .ros.qos import input_qos, output_publisher
 from .ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 from .ros.run import guard_exit, publish_all, run_node
 from .ros.worker import LatestOnlyWorker
@@ -157,8 +157,7 @@ class GraspPlanner(Node):
         self._clarifications = ClarificationRequests(self, self._plan_diag, count_key='clarifications requested',
                                                      outcome_key='last plan status', level=WARN, log=True)
         self._plan_diag.set_state(OK, f'waiting for {topics.MODEL_ACTIVE} and {topics.INTENT_V}')
-        self._pubs = {topic: self.create_publisher(message_class(topic), topic, output_qos(),
-                                                   event_callbacks=output_events())
+        self._pubs = {topic: output_publisher(self, message_class(topic), topic)
                       for topic in (*topics.PLAN_TOPICS, topics.GRASP_MARKERS)}
         base_T_obj = pose_to_matrix(self._params['object_position'], self._params['object_orientation'])
         self._worker = LatestOnlyWorker(_Inputs(base_T_obj=base_T_obj), self._plan_diag.guard(self._plan),

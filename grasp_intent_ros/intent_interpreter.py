@@ -52,7 +52,7 @@ from .ros.diagnostics import NodeDiagnostics
 from .ros.inputs import decode_input, subscribe_input
 from .ros.model_follower import ModelFollower
 from .ros.params import ParamSpec, declare_parameters
-from .ros.qos import input_qos, output_events, output_qos
+from .ros.qos import input_qos, output_publisher
 from .ros.run import guard_exit, publish_all, run_node
 
 __all__ = ['IntentInterpreter', 'PARAMETERS', 'W_QUEUE_DEPTH', 'main']
@@ -94,8 +94,7 @@ class IntentInterpreter(Node):
         super().__init__(node_name, **kwargs)
         self._diagnostics = NodeDiagnostics(self, 'intent')
         self._params = declare_parameters(self, PARAMETERS, on_change=self._configure)
-        self._pubs = {topics.INTENT_V: self.create_publisher(Float64MultiArray, topics.INTENT_V, output_qos(),
-                                                          event_callbacks=output_events())}
+        self._pubs = {topics.INTENT_V: output_publisher(self, Float64MultiArray, topics.INTENT_V)}
         self._clarifications = ClarificationRequests(self, self._diagnostics, count_key='clarifications',
                                                      outcome_key='last outcome')
         self._model_lock = threading.RLock()

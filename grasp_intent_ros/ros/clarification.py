@@ -15,7 +15,7 @@ from std_msgs.msg import String
 
 from .. import protocol
 from .diagnostics import NodeDiagnostics, cap_text
-from .qos import output_events, output_qos
+from .qos import output_publisher
 from .run import publish_all
 
 __all__ = ['ClarificationRequests']
@@ -42,8 +42,8 @@ class ClarificationRequests:
                  level: int = protocol.OK, log: bool = False) -> None:
         self._node, self._diagnostics = node, diagnostics
         self._count_key, self._outcome_key, self._level, self._log = count_key, outcome_key, level, log
-        self._publishers = {protocol.INTENT_CLARIFICATION: node.create_publisher(
-            String, protocol.INTENT_CLARIFICATION, output_qos(), event_callbacks=output_events())}
+        topic = protocol.INTENT_CLARIFICATION
+        self._publishers = {topic: output_publisher(node, String, topic)}
         self._asked: Hashable = None
         self.count = 0
         """Requests published so far."""

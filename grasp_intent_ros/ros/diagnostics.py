@@ -46,7 +46,7 @@ from ..protocol import (
     level_value,
     status_name,
 )
-from .qos import output_events, output_qos
+from .qos import output_publisher
 
 __all__ = ['NodeDiagnostics', 'MAX_TEXT', 'LOG_PERIOD', 'cap_text']
 
@@ -102,8 +102,7 @@ class NodeDiagnostics:
         self._state_level: int = level_value(OK)
         self._state_message = ''
         self._values: dict[str, str] = {}
-        self._publisher = node.create_publisher(DiagnosticArray, DIAGNOSTICS, output_qos(),
-                                                 event_callbacks=output_events())
+        self._publisher = output_publisher(node, DiagnosticArray, DIAGNOSTICS)
         self._timer = node.create_timer(period, self.publish)
 
     # ---------------------------------------------------------------- recording

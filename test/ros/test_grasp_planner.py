@@ -662,7 +662,7 @@ def test_send_intent_prints_the_chain_answer(rig: Rig, model: GraspModel, kin: M
 
 
 def test_outputs_carry_no_event_handlers_and_the_inputs_one(rig: Rig) -> None:
-    """The executor walks every event handler at every wake-up: none on the outputs (ros.qos.output_events)."""
+    """The executor walks every event handler at every wake-up: none on the outputs (ros.qos.output_publisher)."""
     outputs = {pub.topic_name: pub for pub in rig.node.publishers if pub.topic_name != '/parameter_events'}
     assert {'/grasp/pose', '/grasp/joint_targets', '/grasp/markers', '/intent/clarification', '/diagnostics'} \
         <= set(outputs)
