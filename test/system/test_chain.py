@@ -298,9 +298,13 @@ def test_bad_input_is_rejected_with_a_named_reason_and_every_node_keeps_serving(
     chain.send(W_TWO)  # the chain is up
     valid_v = [interpret(W_TWO).v, interpret(W_AMBIGUOUS).v]
 
-    # the interpreter: bad w, then a valid one; it published no v for the bad ones
+    # the interpreter: bad w, then a valid one; it published no v for the bad ones. The probe hears a v before
+    # the bad w go out: a v subscription not yet matched would hear nothing and prove nothing.
     v_msgs = ros.subscribe(Float64MultiArray, 'intent/v')
-    _reject_all(chain, ros.publisher(Float64MultiArray, 'intent/w'), BAD_W, 'intent_interpreter: intent')
+    w_pub = ros.publisher(Float64MultiArray, 'intent/w')
+    assert ros.publish_until(w_pub, Float64MultiArray(data=list(W_TWO)), lambda: v_msgs, timeout=STARTUP), \
+        'the probe heard no intent/v'
+    _reject_all(chain, w_pub, BAD_W, 'intent_interpreter: intent')
     answer = chain.send(W_AMBIGUOUS)
     assert_allclose(answer.v, valid_v[1], rtol=0, atol=1e-12)
     assert v_msgs and all(any(np.allclose(msg_to_array(m), v, rtol=0, atol=1e-12) for v in valid_v)
