@@ -14,7 +14,10 @@ Topics (relative; formats in :mod:`grasp_intent_ros.protocol`)
 
 Behaviour
     A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs (never a backlog) with
-    :func:`grasp_intent_ros.core.grasp.plan_grasp`, warm-started from the last plan of the same model.
+    :func:`grasp_intent_ros.core.grasp.plan_grasp`, warm-started from the last plan of the same model. Its
+    thread takes ``intent/v`` itself (the executor thread handles the other inputs, parameters and timers):
+    a v is planned in the thread that received it, and while a plan runs the newest v waits in the
+    keep-last-1 queue (an older one it replaces is counted in ``messages dropped``).
     A new ``model/active`` is read in a thread of its own (:class:`~grasp_intent_ros.ros.model_follower.
     ModelFollower`) and swapped in whole; until then planning goes on with the current model.
     At start the planning thread first loads numba's CPU target and the IK kernel, which every plan uses
@@ -163,12 +166,15 @@ class GraspPlanner(Node):
         self._worker = LatestOnlyWorker(_Inputs(base_T_obj=base_T_obj), self._plan_diag.guard(self._plan),
                                         ready=self._ready, name=f'{node_name}_planning',
                                         min_period=lambda: float(self._params['min_replan_period']),
-                                        prepare=self._load_kernels, after_first=self._load_other_kernels)
+                                        prepare=self._load_kernels, after_first=self._load_other_kernels,
+                                        context=self.context)
         # SIGINT/SIGTERM shut the context down before destroy_node runs: stop planning at once
         self.context.on_shutdown(self._worker.stop_soon)
         diag, latest = self._inputs_diag, input_qos(depth=1)
         self._targets = SerializedTargets(functools.partial(decode_input, topics.INTENT_V))
-        subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag, count_dropped=True, serialized=True)
+        # v is taken in the planning thread: no hand-over, and the executor thread sleeps through the v stream
+        self._worker.take(subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag, count_dropped=True,
+                                          serialized=True, callback_group=self._worker.callback_group))
         self._models = ModelFollower(self, self._inputs_diag, self._use_model, name=f'{node_name}_model')
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, latest, diag)
         # not keep-last 1: arm and finger states may come from different publishers
@@ -205,7 +211,7 @@ class GraspPlanner(Node):
             changes['stamp'] = self.get_clock().now()
         self._worker.update(lambda inputs: replace(inputs, **changes), trigger=trigger)
 
-    def _on_v(self, data: bytes) -> None:
+    def _on_v(self, data: bytes) -> None:  # in the planning thread (LatestOnlyWorker.take)
         v, labels = self._targets(data)
         if (model := self._worker.latest.model) is not None:
             match_zones(v.size, labels, model.model.task_names)

@@ -22,7 +22,8 @@ inputs
     ``subscribe_input``: every input subscription; a message over its topic's size cap is rejected before
     it is decoded.
 worker
-    ``LatestOnlyWorker``: callbacks store the newest inputs, one thread handles the newest snapshot.
+    ``LatestOnlyWorker``: callbacks store the newest inputs, one thread handles the newest snapshot (and
+    can take a subscription's messages itself, off the executor).
 conversions
     Labelled and stamped Float64MultiArray, the grasp posterior, the model document on std_msgs/String,
     the message class of a suite topic.

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Mapping
 from typing import Any, cast
 
+from rclpy.callback_groups import CallbackGroup
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message
@@ -43,7 +44,8 @@ def decode_input(topic: str, data: bytes) -> Any:
 
 def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], qos: QoSProfile,
                     diagnostics: NodeDiagnostics, *, count_dropped: bool = False,
-                    take_waiting: bool = False, serialized: bool = False) -> Subscription:
+                    take_waiting: bool = False, serialized: bool = False,
+                    callback_group: CallbackGroup | None = None) -> Subscription:
     """Subscribe ``callback`` to the suite input ``topic``, size-checked before decoding and guarded.
 
     Parameters
@@ -67,6 +69,10 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
     serialized : bool
         Hand ``callback`` the size-checked serialized bytes instead of the decoded message; it decodes
         them itself (e.g. :func:`grasp_intent_ros.protocol.serialized_vector`, else :func:`decode_input`).
+    callback_group : CallbackGroup, optional
+        The subscription's group (default: the node's), e.g. a worker's that takes it
+        (:meth:`grasp_intent_ros.ros.worker.LatestOnlyWorker.take`; the subscription's callback takes the
+        message and its info).
 
     Raises
     ------
@@ -89,7 +95,7 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
     events = input_events(node.get_logger(), topic)
     if not take_waiting:
         return node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], handle), qos, raw=True,
-                                        event_callbacks=events)
+                                        event_callbacks=events, callback_group=callback_group)
 
     def on_message(data: bytes, info: Mapping[str, Any]) -> None:  # two parameters: rclpy passes the info
         handle(data, info)
@@ -97,7 +103,7 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
             handle(*waiting)
 
     subscription = node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], on_message), qos, raw=True,
-                                            event_callbacks=events)
+                                            event_callbacks=events, callback_group=callback_group)
     return subscription
 
 

@@ -2,7 +2,7 @@
 
 The node's executor thread never blocks on a long computation (a plan), and the thread never works
 through a backlog: inputs that arrive while it is busy replace each other, and it takes the newest
-snapshot when it is free again. Nothing here knows messages: it is rclpy's threading idiom, written once.
+snapshot when it is free again. Nothing here knows message types: it is rclpy's threading idiom, written once.
 
 The hand-over: an update that finds the thread idle also hands it the GIL at once (``time.sleep(0)``
 releases it). Otherwise the woken thread waits for the GIL until the updating thread gives it up by
@@ -10,6 +10,15 @@ itself: an rclpy executor thread does so only when it blocks in its next wait, a
 set (a few hundred microseconds of Python), or when the switch interval forces it (``sys.getswitchinterval``,
 the planner's 0.5 ms). Measured alone (a subscription callback waking a worker in a node process, load
 3.6-5.9): 0.41-0.47 ms from the update to the thread running, 0.05-0.06 ms with the hand-over.
+
+Taken subscriptions: a worker built with an rclpy ``context`` can take a subscription's messages in its own
+thread (:meth:`LatestOnlyWorker.take`) instead of the node's executor. Its thread then waits in an rclpy
+wait set (the subscriptions it takes and a guard condition that updates trigger), as
+``rclpy.wait_for_message`` does, and runs their callbacks itself: the input that triggers the work reaches
+it without a hand-over between threads, and the node's executor thread, which would otherwise wake for
+every such message, build its wait sets in Python and contend for the GIL with the work, stays asleep.
+Such a subscription is created in the worker's :attr:`~LatestOnlyWorker.callback_group`, which no executor
+runs; the worker's thread also runs the subscription's QoS event handlers.
 """
 
 from __future__ import annotations
@@ -18,11 +27,127 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from typing import Generic, TypeVar
+from contextlib import ExitStack
+from typing import Any, Generic, TypeVar, cast
+
+from rclpy.callback_groups import CallbackGroup
+from rclpy.context import Context
+from rclpy.event_handler import EventHandler
+from rclpy.exceptions import InvalidHandle
+from rclpy.guard_condition import GuardCondition
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+from rclpy.subscription import Subscription
 
 __all__ = ['LatestOnlyWorker']
 
 T = TypeVar('T')
+
+
+class _TakenByWorker(CallbackGroup):
+    """A callback group that no executor runs: a worker's thread waits on its entities (:meth:`LatestOnlyWorker.take`).
+
+    That includes the subscriptions' QoS event handlers: an executor that waited on those alone would wake at
+    every message of their subscription (Fast DDS shares one status condition between a reader and its
+    events) and find nothing to do, over and over (seen: the executor thread at 100% CPU).
+    """
+
+    def can_execute(self, entity: Any) -> bool:
+        return False
+
+    def beginning_execution(self, entity: Any) -> bool:
+        return False
+
+    def ending_execution(self, entity: Any) -> None:
+        pass
+
+
+class _EventWait:
+    """The worker thread waits on a ``threading.Event`` (a worker without ROS)."""
+
+    def __init__(self) -> None:
+        self._event = threading.Event()
+
+    def wake(self) -> None:
+        self._event.set()
+
+    def wait(self, timeout: float | None) -> bool:
+        self._event.wait(timeout)
+        self._event.clear()
+        return True
+
+    def close(self) -> None:
+        pass
+
+
+class _WaitSetWait:
+    """The worker thread waits in an rclpy wait set: a guard condition (:meth:`wake`) and the taken subscriptions.
+
+    After the wait, every message waiting on a ready subscription is taken (as rclpy's executor takes them)
+    and handed to the subscription's callback, with its message info, in the worker's thread; so is every
+    QoS event of the subscriptions' event handlers (e.g. an incompatible publisher's warning). Once the
+    context is shut down (a signal does so without waking anyone), :meth:`wait` returns False: the thread ends.
+    """
+
+    def __init__(self, context: Context) -> None:
+        self._context = context
+        self._guard = GuardCondition(None, None, context=context)
+        self._closed = False
+        self.subscriptions: list[Subscription] = []
+
+    def wake(self) -> None:
+        try:
+            self._guard.trigger()
+        except InvalidHandle:  # closed: a stop request may come after it (a context's shutdown callbacks)
+            pass
+
+    def wait(self, timeout: float | None) -> bool:
+        try:
+            self._wait(timeout)
+        except Exception:  # noqa: BLE001 - rcl refuses a wait set or a take on a context shut down meanwhile
+            if self._context.ok():
+                raise
+        return self._context.ok()
+
+    def _wait(self, timeout: float | None) -> None:
+        subscriptions = tuple(self.subscriptions)
+        # rclpy annotates event_handlers as one EventHandler; it is a list of them
+        events: list[EventHandler] = [handler for subscription in subscriptions
+                                      for handler in cast(list[EventHandler], subscription.event_handlers)]
+        context = self._context.handle
+        if context is None:  # not initialised or destroyed: nothing to wait for
+            raise RuntimeError(f'{self._context} has no rcl context')
+        with ExitStack() as handles:
+            handles.enter_context(context)
+            handles.enter_context(self._guard.handle)
+            for subscription in subscriptions:
+                handles.enter_context(subscription.handle)
+            for handler in events:
+                handles.enter_context(handler)
+            wait_set = _rclpy.WaitSet(len(subscriptions), 1, 0, 0, 0,
+                                      sum(handler.get_num_entities().num_events for handler in events),
+                                      context)
+            wait_set.clear_entities()
+            for subscription in subscriptions:
+                wait_set.add_subscription(subscription.handle)
+            for handler in events:
+                handler.add_to_wait_set(wait_set)
+            wait_set.add_guard_condition(self._guard.handle)
+            wait_set.wait(-1 if timeout is None else round(timeout * 1e9))
+            ready = wait_set.get_ready_entities('subscription')
+            for handler in events:
+                if handler.is_ready(wait_set) and (event := handler.take_data()):
+                    handler.callback(event)
+            for subscription in subscriptions:
+                if subscription.handle.pointer in ready:
+                    while (taken := subscription.handle.take_message(subscription.msg_type,
+                                                                     subscription.raw)) is not None:
+                        subscription.callback(*taken)
+
+    def close(self) -> None:
+        if not self._closed:
+            self._closed = True
+            self._guard.destroy()
+            self.subscriptions.clear()
 
 
 class LatestOnlyWorker(Generic[T]):
@@ -48,25 +173,51 @@ class LatestOnlyWorker(Generic[T]):
     after_first : callable, optional
         Run once in the worker thread right after it handled its first snapshot (e.g. loading what that one
         did not need), so that the first answer does not wait for it. It must not raise.
+    context : rclpy Context, optional
+        The node's context: the thread then waits in an rclpy wait set and can take subscriptions
+        (:meth:`take`); without one it waits on a ``threading.Event``.
     """
 
     def __init__(self, initial: T, handle: Callable[[T], object], *, name: str,
                  ready: Callable[[T], bool] = lambda _: True,
                  min_period: Callable[[], float] = lambda: 0.0,
                  prepare: Callable[[], object] | None = None,
-                 after_first: Callable[[], object] | None = None) -> None:
+                 after_first: Callable[[], object] | None = None,
+                 context: Context | None = None) -> None:
         self._lock = threading.Lock()
         self._latest = initial
         self._version = 0
         self._handle, self._ready = handle, ready
         self._min_period = min_period
         self._prepare, self._after_first = prepare, after_first
-        self._wake, self._stop = threading.Event(), threading.Event()
-        self._idle = False  # the thread waits on _wake
+        self._stop = threading.Event()
+        self._wait: _EventWait | _WaitSetWait = _EventWait() if context is None else _WaitSetWait(context)
+        self._group = None if context is None else _TakenByWorker()
+        self._idle = False  # the thread waits for an update
         self.superseded = 0
         """Triggering updates never handled because a newer one replaced them."""
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
+
+    @property
+    def callback_group(self) -> CallbackGroup:
+        """The callback group of the subscriptions this worker takes (:meth:`take`); only with a context."""
+        if self._group is None:
+            raise ValueError(f'{self._thread.name}: a worker without an rclpy context takes no subscriptions')
+        return self._group
+
+    def take(self, subscription: Subscription) -> None:
+        """Take ``subscription``'s messages in this worker's thread: its callback runs there, with the message info.
+
+        The subscription must have been created in :attr:`callback_group` (no executor takes it then) with a
+        callback of two parameters (message, info). A callback that calls :meth:`update` has its update
+        handled in the same wake-up, without a hand-over.
+        """
+        if subscription.callback_group is not self.callback_group:
+            raise ValueError(f'{subscription.topic_name}: not created in the worker\'s callback group')
+        assert isinstance(self._wait, _WaitSetWait)
+        self._wait.subscriptions.append(subscription)
+        self._wait.wake()
 
     @property
     def latest(self) -> T:
@@ -80,21 +231,22 @@ class LatestOnlyWorker(Generic[T]):
             self._latest = change(self._latest)
             if trigger:
                 self._version += 1
-        if trigger:
-            self._wake.set()
+        if trigger and threading.current_thread() is not self._thread:  # the thread itself looks after waking
+            self._wait.wake()
             if self._idle:  # hand it the GIL now (module docstring); a busy thread takes the update later
                 time.sleep(0)
 
     def stop_soon(self) -> None:
         """Ask the thread to stop after its current snapshot (safe from any thread and a signal handler)."""
         self._stop.set()
-        self._wake.set()
+        self._wait.wake()
 
     def stop(self) -> None:
-        """Stop the thread and wait for it (unless called from it)."""
+        """Stop the thread and wait for it (unless called from it); then release its guard condition, if any."""
         self.stop_soon()
-        if self._thread.is_alive() and threading.current_thread() is not self._thread:
+        if threading.current_thread() is not self._thread:
             self._thread.join()
+            self._wait.close()
 
     @property
     def idle(self) -> bool:
@@ -113,13 +265,14 @@ class LatestOnlyWorker(Generic[T]):
         last_start = -math.inf
         while not self._stop.is_set():
             self._idle = True
-            self._wake.wait()
+            waited = self._wait.wait(None)
             self._idle = False
             wait = last_start + self._min_period() - time.monotonic()
-            if wait > 0.0 and self._stop.wait(wait):
-                break
-            self._wake.clear()
-            if self._stop.is_set():
+            if waited and wait > 0.0:
+                if self._stop.wait(wait):
+                    break
+                waited = self._wait.wait(0.0)  # take what arrived meanwhile
+            if self._stop.is_set() or not waited:
                 break
             with self._lock:
                 snapshot, version = self._latest, self._version

@@ -127,3 +127,75 @@ def test_after_first_runs_once_in_the_thread_after_the_first_handled_snapshot() 
     finally:
         worker.stop()
     assert order == [('handle 2', 'test_worker'), ('after first', 'test_worker'), ('handle 3', 'test_worker')]
+
+
+# ------------------------------------------------------------ a worker that takes a subscription (ROS)
+def test_a_taken_subscription_is_handled_in_the_worker_thread_and_the_executor_stays_asleep(ros, capfd) -> None:
+    """Its messages reach the callback in the worker's thread, whose update is handled in the same wake-up.
+
+    The node's executor never wakes for them. Before the worker also waited on the subscription's QoS event
+    handler, the executor waited on that handler alone, woke at every message (Fast DDS shares one status
+    condition between a reader and its events) and found nothing to do, over and over: its thread used all
+    the CPU of the spin below while the messages waited. The bound is a quarter of that spin, far above an
+    idle executor's cost.
+    """
+    import rclpy
+    from rclpy.qos import ReliabilityPolicy
+    from std_msgs.msg import Float64MultiArray
+
+    from grasp_intent_ros.ros.qos import input_qos
+
+    node = ros.add(rclpy.create_node('worker_probe', context=ros.context))
+    handled: list[tuple[int, str]] = []
+    release = threading.Event()
+    release.set()
+
+    def handle(value: int) -> None:
+        release.wait(10.0)
+        handled.append((value, threading.current_thread().name))
+
+    worker = LatestOnlyWorker(0, handle, name='test_worker', context=ros.context)
+    received: list[str] = []
+
+    def on_message(msg: Float64MultiArray, info: object) -> None:
+        received.append(threading.current_thread().name)
+        worker.update(lambda v: v + 1)
+
+    try:
+        with pytest.raises(ValueError, match='callback group'):
+            worker.take(node.create_subscription(Float64MultiArray, 'other', on_message, input_qos()))
+        worker.take(node.create_subscription(Float64MultiArray, 'taken', on_message, input_qos(depth=100),
+                                             callback_group=worker.callback_group))
+        pub = ros.publisher(Float64MultiArray, 'taken')
+        assert ros.wait_for(lambda: pub.get_subscription_count() == 1, 10.0)
+        for _ in range(20):
+            pub.publish(Float64MultiArray(data=[1.0]))
+        assert wait(lambda: len(received) == 20 and handled and handled[-1][0] == 20), (received, handled)
+        assert set(received) == {'test_worker'} and {name for _, name in handled} == {'test_worker'}
+
+        # messages wait unread while the worker is busy; the executor spins for 0.5 s meanwhile
+        release.clear()
+        pub.publish(Float64MultiArray(data=[1.0]))
+        assert wait(lambda: len(received) == 21)  # the worker handles it and blocks
+        for _ in range(5):
+            pub.publish(Float64MultiArray(data=[1.0]))
+        cpu, end = time.thread_time(), time.monotonic() + 0.5
+        while (left := end - time.monotonic()) > 0.0:
+            ros.executor.spin_once(timeout_sec=left)
+        spent = time.thread_time() - cpu
+        release.set()
+        assert wait(lambda: len(received) == 26 and handled[-1][0] == 26), (len(received), handled[-1])
+        assert spent < 0.125, f'the executor thread used {spent:.3f} s of CPU: it woke for the taken subscription'
+
+        # the subscription's incompatible-QoS warning comes from the worker's thread
+        best_effort = input_qos()
+        best_effort.reliability = ReliabilityPolicy.BEST_EFFORT
+        worker.take(node.create_subscription(Float64MultiArray, 'strict', on_message, input_qos(),
+                                             callback_group=worker.callback_group))
+        ros.publisher(Float64MultiArray, 'strict', best_effort)
+        err: list[str] = []
+        expected = "New publisher discovered on topic 'strict', offering incompatible QoS"  # rclpy's default handler
+        assert wait(lambda: err.append(capfd.readouterr().err) or expected in ''.join(err), 10.0), err
+    finally:
+        worker.stop()
+    worker.stop_soon()  # after the stop (as a context's shutdown callback may): nothing happens
