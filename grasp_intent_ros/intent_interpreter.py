@@ -18,6 +18,10 @@ tasks can use it, and the planner renormalises it over its model's zones, eq. 4)
 follows the latched ``model/active`` only to decide whether the intent can be served at all. A model
 whose task names differ from ``task_names`` is not used for that (diagnostics say so).
 
+Every w is answered, in order: a thread of its own (:class:`~grasp_intent_ros.ros.worker.InputThread`)
+takes all waiting w (up to 100) at each wake-up, off the executor, which handles the parameters, the
+arrival of model documents and the diagnostics timer.
+
 ROS parameters
     ``task_names`` (string[], default usage, transfer, handover): names of the m tasks in w's order
     ``clarification_threshold`` (float in (0, 1], default 0.5)
@@ -54,6 +58,7 @@ from .ros.model_follower import ModelFollower
 from .ros.params import ParamSpec, declare_parameters
 from .ros.qos import input_qos, output_publisher
 from .ros.run import guard_exit, publish_all, run_node
+from .ros.worker import InputThread
 
 __all__ = ['IntentInterpreter', 'PARAMETERS', 'W_QUEUE_DEPTH', 'main']
 
@@ -102,25 +107,31 @@ class IntentInterpreter(Node):
         """The active model and the interpretation of w with the zones it supports, swapped together."""
         self._diagnostics.set_value('last outcome', '')
         self._configure(self._params)
-        # every w is answered: a deeper queue than the default, the waiting ones taken in batches, and each
-        # read from its serialized bytes (a flat w, as publishers send it, never becomes a message)
+        # every w is answered: a deeper queue than the default, taken off the executor by a thread of its own
+        # (every waiting w in each wake-up), and each read from its serialized bytes (a flat w, as publishers
+        # send it, never becomes a message)
+        self._inputs = InputThread(self.context, name=f'{node_name}_w')
+        self.context.on_shutdown(self._inputs.stop_soon)
         self._w_sub = subscribe_input(self, topics.INTENT_W, self._on_w, input_qos(depth=W_QUEUE_DEPTH),
-                                      self._diagnostics, count_dropped=True, take_waiting=True, serialized=True)
+                                      self._diagnostics, count_dropped=True, serialized=True,
+                                      callback_group=self._inputs.callback_group)
+        self._inputs.take(self._w_sub)
         self._models = ModelFollower(self, self._diagnostics, self._use_model, name=f'{node_name}_model')
 
     def destroy_node(self) -> None:
-        """Stop the model thread (after the document it is reading), then destroy the node."""
+        """Stop the w and model threads (after the w or the document at hand), then destroy the node."""
+        self._inputs.stop()
         self._models.stop()
         super().destroy_node()
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
         task_names = self._params['task_names']
-        self._zones = all_zones(len(task_names))
-        self._v_messages = SerializedArrays((len(self._zones),), [zone_labels(self._zones, task_names)])
+        with self._model_lock:  # the w and model threads read and swap these meanwhile
+            self._zones = all_zones(len(task_names))
+            self._v_messages = SerializedArrays((len(self._zones),), [zone_labels(self._zones, task_names)])
+            self._use_model(None if self._model is None else self._model[0])
         self._diagnostics.set_value('tasks', ','.join(task_names))
         self._diagnostics.set_value('clarification threshold', self._params['clarification_threshold'])
-        with self._model_lock:  # the model follower's thread may swap in a model meanwhile
-            self._use_model(None if self._model is None else self._model[0])
 
     def _use_model(self, doc: ModelDocument | None) -> None:
         """Follow the active model: its zones decide whether an intent can be served.
@@ -142,13 +153,14 @@ class IntentInterpreter(Node):
                 text = f'{doc.name} (zones {",".join(doc.model.zone_labels)})'
             self._diagnostics.set_value('active model', text)
 
-    def _on_w(self, data: bytes) -> None:
+    def _on_w(self, data: bytes) -> None:  # in the w thread
         w = serialized_vector(data, max_size=MAX_TASKS, error=InvalidIntentError, what='w')
         if w is None:  # not a flat vector: read it as a message (every layout, the same checks)
             w = msg_to_array(decode_input(topics.INTENT_W, data), max_size=MAX_TASKS, error=InvalidIntentError,
                              what='w')
-        assert self._model is not None  # set in __init__
-        doc, interpreter = self._model
+        with self._model_lock:  # the model, its interpretation and v's layout of one configuration
+            assert self._model is not None  # set in __init__
+            (doc, interpreter), v_messages = self._model, self._v_messages
         result = interpreter.interpret_checked(validate_w(w, interpreter.m))
         if isinstance(result, NeedsClarification):
             reason = result.reason
@@ -156,7 +168,7 @@ class IntentInterpreter(Node):
                 reason += f' (model {doc.name}: zones {",".join(doc.model.zone_labels)})'
             self._clarifications.request(reason)
         else:
-            publish_all(self, self._pubs, {topics.INTENT_V: self._v_messages.serialize(result.v)})
+            publish_all(self, self._pubs, {topics.INTENT_V: v_messages.serialize(result.v)})
             self._diagnostics.set_value('last outcome', 'v published')
 
 

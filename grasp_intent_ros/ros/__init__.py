@@ -23,7 +23,8 @@ inputs
     it is decoded.
 worker
     ``LatestOnlyWorker``: callbacks store the newest inputs, one thread handles the newest snapshot (and
-    can take a subscription's messages itself, off the executor).
+    can take a subscription's messages itself, off the executor); ``InputThread``: a thread that takes an
+    input's every message off the executor.
 conversions
     Labelled and stamped Float64MultiArray, the grasp posterior, the model document on std_msgs/String,
     the message class of a suite topic.

@@ -43,8 +43,7 @@ def decode_input(topic: str, data: bytes) -> Any:
 
 
 def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], qos: QoSProfile,
-                    diagnostics: NodeDiagnostics, *, count_dropped: bool = False,
-                    take_waiting: bool = False, serialized: bool = False,
+                    diagnostics: NodeDiagnostics, *, count_dropped: bool = False, serialized: bool = False,
                     callback_group: CallbackGroup | None = None) -> Subscription:
     """Subscribe ``callback`` to the suite input ``topic``, size-checked before decoding and guarded.
 
@@ -60,19 +59,13 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
         Counts every message received and every rejection (:meth:`NodeDiagnostics.guard`).
     count_dropped : bool
         Also count the messages the node never took (:meth:`NodeDiagnostics.count_dropped`).
-    take_waiting : bool
-        After each message, also handle the messages already waiting on the subscription (at most the
-        queue depth), in order, in the same executor wake-up. rclpy's executor builds a wait set and a
-        task for every message it hands over, which costs more than most callbacks: a node that must
-        answer every message of a fast stream (the interpreter's ``intent/w`` at 1 kHz) takes them in
-        batches instead, as rclpy's executor itself does (``handle.take_message``).
     serialized : bool
         Hand ``callback`` the size-checked serialized bytes instead of the decoded message; it decodes
         them itself (e.g. :func:`grasp_intent_ros.protocol.serialized_vector`, else :func:`decode_input`).
     callback_group : CallbackGroup, optional
-        The subscription's group (default: the node's), e.g. a worker's that takes it
-        (:meth:`grasp_intent_ros.ros.worker.LatestOnlyWorker.take`; the subscription's callback takes the
-        message and its info).
+        The subscription's group (default: the node's), e.g. that of a thread that takes it off the executor
+        (:class:`grasp_intent_ros.ros.worker.InputThread`, :meth:`~grasp_intent_ros.ros.worker.
+        LatestOnlyWorker.take`; the subscription's callback takes the message and its info).
 
     Raises
     ------
@@ -92,19 +85,9 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
     # rclpy passes the message info to a callback of two parameters (its annotation names one)
     handle = cast(Callable[[bytes, Mapping[str, Any]], None], diagnostics.count_dropped(guarded)) if count_dropped \
         else (lambda data, _info: guarded(data))
-    events = input_events(node.get_logger(), topic)
-    if not take_waiting:
-        return node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], handle), qos, raw=True,
-                                        event_callbacks=events, callback_group=callback_group)
-
-    def on_message(data: bytes, info: Mapping[str, Any]) -> None:  # two parameters: rclpy passes the info
-        handle(data, info)
-        for waiting in waiting_messages(subscription, qos.depth - 1):
-            handle(*waiting)
-
-    subscription = node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], on_message), qos, raw=True,
-                                            event_callbacks=events, callback_group=callback_group)
-    return subscription
+    return node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], handle), qos, raw=True,
+                                    event_callbacks=input_events(node.get_logger(), topic),
+                                    callback_group=callback_group)
 
 
 def waiting_messages(subscription: Subscription, limit: int) -> Iterator[tuple[bytes, Mapping[str, Any]]]:

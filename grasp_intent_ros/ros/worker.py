@@ -1,4 +1,6 @@
-"""A latest-only worker: callbacks store the newest inputs, one thread handles the newest snapshot.
+"""Work off the node's executor: a latest-only worker, and an input thread that answers every message.
+
+Latest-only worker: callbacks store the newest inputs, one thread handles the newest snapshot.
 
 The node's executor thread never blocks on a long computation (a plan), and the thread never works
 through a backlog: inputs that arrive while it is busy replace each other, and it takes the newest
@@ -12,7 +14,8 @@ the planner's 0.5 ms). Measured alone (a subscription callback waking a worker i
 3.6-5.9): 0.41-0.47 ms from the update to the thread running, 0.05-0.06 ms with the hand-over.
 
 Taken subscriptions: a worker built with an rclpy ``context`` can take a subscription's messages in its own
-thread (:meth:`LatestOnlyWorker.take`) instead of the node's executor. Its thread then waits in an rclpy
+thread (:meth:`LatestOnlyWorker.take`) instead of the node's executor; an :class:`InputThread` does only
+that, for an input whose every message must be answered. The thread then waits in an rclpy
 wait set (the subscriptions it takes and a guard condition that updates trigger), as
 ``rclpy.wait_for_message`` does, and runs their callbacks itself: the input that triggers the work reaches
 it without a hand-over between threads, and the node's executor thread, which would otherwise wake for
@@ -38,7 +41,7 @@ from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.subscription import Subscription
 
-__all__ = ['LatestOnlyWorker']
+__all__ = ['LatestOnlyWorker', 'InputThread']
 
 T = TypeVar('T')
 
@@ -88,11 +91,18 @@ class _WaitSetWait:
     context is shut down (a signal does so without waking anyone), :meth:`wait` returns False: the thread ends.
     """
 
-    def __init__(self, context: Context) -> None:
-        self._context = context
+    def __init__(self, context: Context, name: str) -> None:
+        self._context, self._name = context, name
         self._guard = GuardCondition(None, None, context=context)
         self._closed = False
+        self.callback_group = _TakenByWorker()
         self.subscriptions: list[Subscription] = []
+
+    def take(self, subscription: Subscription) -> None:
+        if subscription.callback_group is not self.callback_group:
+            raise ValueError(f'{subscription.topic_name}: not created in the callback group of {self._name}')
+        self.subscriptions.append(subscription)
+        self.wake()
 
     def wake(self) -> None:
         try:
@@ -191,8 +201,7 @@ class LatestOnlyWorker(Generic[T]):
         self._min_period = min_period
         self._prepare, self._after_first = prepare, after_first
         self._stop = threading.Event()
-        self._wait: _EventWait | _WaitSetWait = _EventWait() if context is None else _WaitSetWait(context)
-        self._group = None if context is None else _TakenByWorker()
+        self._wait: _EventWait | _WaitSetWait = _EventWait() if context is None else _WaitSetWait(context, name)
         self._idle = False  # the thread waits for an update
         self.superseded = 0
         """Triggering updates never handled because a newer one replaced them."""
@@ -202,9 +211,7 @@ class LatestOnlyWorker(Generic[T]):
     @property
     def callback_group(self) -> CallbackGroup:
         """The callback group of the subscriptions this worker takes (:meth:`take`); only with a context."""
-        if self._group is None:
-            raise ValueError(f'{self._thread.name}: a worker without an rclpy context takes no subscriptions')
-        return self._group
+        return self._taking().callback_group
 
     def take(self, subscription: Subscription) -> None:
         """Take ``subscription``'s messages in this worker's thread: its callback runs there, with the message info.
@@ -213,11 +220,12 @@ class LatestOnlyWorker(Generic[T]):
         callback of two parameters (message, info). A callback that calls :meth:`update` has its update
         handled in the same wake-up, without a hand-over.
         """
-        if subscription.callback_group is not self.callback_group:
-            raise ValueError(f'{subscription.topic_name}: not created in the worker\'s callback group')
-        assert isinstance(self._wait, _WaitSetWait)
-        self._wait.subscriptions.append(subscription)
-        self._wait.wake()
+        self._taking().take(subscription)
+
+    def _taking(self) -> _WaitSetWait:
+        if not isinstance(self._wait, _WaitSetWait):
+            raise ValueError(f'{self._thread.name}: a worker without an rclpy context takes no subscriptions')
+        return self._wait
 
     @property
     def latest(self) -> T:
@@ -286,3 +294,55 @@ class LatestOnlyWorker(Generic[T]):
             if self._after_first is not None:
                 self._after_first()
                 self._after_first = None
+
+
+class InputThread:
+    """A thread of its own that takes subscriptions' messages and runs their callbacks, off the node's executor.
+
+    For a node that must answer every message of a fast input: its executor would wake for each message (or
+    batch), build its wait sets in Python and contend for the GIL; this thread waits in one small wait set
+    and runs the callbacks (module docstring, "Taken subscriptions"). Every waiting message is taken in
+    order in each wake-up. The callbacks must not raise (wrap them, e.g. with ``NodeDiagnostics.guard``),
+    and they run concurrently with the node's executor: what they share with its callbacks needs a lock.
+
+    Parameters
+    ----------
+    context : rclpy Context
+        The node's context. The thread ends when it is shut down, or on :meth:`stop`.
+    name : str
+        Thread name.
+    """
+
+    def __init__(self, context: Context, *, name: str) -> None:
+        self._wait = _WaitSetWait(context, name)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    @property
+    def callback_group(self) -> CallbackGroup:
+        """The callback group of the subscriptions this thread takes (:meth:`take`)."""
+        return self._wait.callback_group
+
+    def take(self, subscription: Subscription) -> None:
+        """Take ``subscription``'s messages in this thread.
+
+        It must have been created in :attr:`callback_group`, with a callback of two parameters (message, info).
+        """
+        self._wait.take(subscription)
+
+    def stop_soon(self) -> None:
+        """Ask the thread to stop after the messages it is handling (safe from any thread and a signal handler)."""
+        self._stop.set()
+        self._wait.wake()
+
+    def stop(self) -> None:
+        """Stop the thread and wait for it (unless called from it); then release its guard condition."""
+        self.stop_soon()
+        if threading.current_thread() is not self._thread:
+            self._thread.join()
+            self._wait.close()
+
+    def _run(self) -> None:
+        while not self._stop.is_set() and self._wait.wait(None):
+            pass

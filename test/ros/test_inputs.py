@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import pytest
 import rclpy
 from rclpy.qos import ReliabilityPolicy
@@ -59,39 +57,30 @@ def test_a_topic_without_a_cap_is_refused(ros) -> None:
         subscribe_input(node, protocol.GRASP_POSE, print, input_qos(), NodeDiagnostics(node, 'inputs'))
 
 
-def test_take_waiting_handles_a_burst_in_order_in_few_executor_wake_ups(ros) -> None:
-    from rclpy.executors import SingleThreadedExecutor
+def test_an_input_thread_takes_a_burst_in_order_counted_and_off_the_executor(ros) -> None:
+    import threading
 
-    sink = rclpy.create_node('inputs_sink', context=ros.context)  # spun here, by its own executor
-    executor = SingleThreadedExecutor(context=ros.context)
-    executor.add_node(sink)
+    from grasp_intent_ros.ros.worker import InputThread
+
+    sink = ros.add(rclpy.create_node('inputs_sink', context=ros.context))
+    inputs = InputThread(ros.context, name='test_inputs')
     try:
         diag = NodeDiagnostics(sink, 'inputs')
-        taken: list[float] = []
-        subscribe_input(sink, protocol.INTENT_W, lambda m: taken.append(m.data[0]), input_qos(depth=50), diag,
-                        count_dropped=True, take_waiting=True)
-        witness: list[float] = []
-        ros.node.create_subscription(Float64MultiArray, protocol.INTENT_W, lambda m: witness.append(m.data[0]),
-                                     input_qos(depth=50))
+        taken: list[tuple[float, str]] = []
+        inputs.take(subscribe_input(sink, protocol.INTENT_W,
+                                    lambda m: taken.append((m.data[0], threading.current_thread().name)),
+                                    input_qos(depth=50), diag, count_dropped=True,
+                                    callback_group=inputs.callback_group))
         pub = ros.publisher(Float64MultiArray, protocol.INTENT_W)
-        assert ros.wait_for(lambda: pub.get_subscription_count() == 2)
+        assert ros.wait_for(lambda: pub.get_subscription_count() == 1)
         for i in range(30):
             pub.publish(Float64MultiArray(data=[float(i)]))
-        assert ros.wait_for(lambda: len(witness) == 30)  # delivered over loopback (to the sink too, by now)
-        wake_ups = 0
-        deadline = time.monotonic() + 10.0
-        while len(taken) < 30 and time.monotonic() < deadline:
-            before = len(taken)
-            executor.spin_once(timeout_sec=0.05)
-            wake_ups += len(taken) > before
-        assert taken == [float(i) for i in range(30)]
-        assert wake_ups <= 3, f'{wake_ups} executor wake-ups for 30 waiting messages (one each without take_waiting)'
+        assert ros.wait_for(lambda: len(taken) == 30, 10.0), taken
+        assert taken == [(float(i), 'test_inputs') for i in range(30)]
         values = protocol.status_values(diag.status())
         assert (values[protocol.KEY_RECEIVED], values[protocol.KEY_DROPPED]) == ('30', '0')
     finally:
-        executor.remove_node(sink)
-        sink.destroy_node()
-        executor.shutdown()
+        inputs.stop()
 
 
 def test_a_publisher_with_incompatible_qos_is_named_in_the_log(ros, capfd) -> None:
