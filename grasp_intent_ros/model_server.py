@@ -42,7 +42,7 @@ from .ros.conversions import array_to_msg, model_to_msg
 from .ros.diagnostics import NodeDiagnostics
 from .ros.inputs import subscribe_input
 from .ros.params import ParamSpec, declare_parameters
-from .ros.qos import input_qos, latched_qos, output_qos
+from .ros.qos import input_qos, latched_qos, output_publisher
 from .ros.run import guard_exit, publish_all, release_free_memory, run_node
 
 __all__ = ['ModelServer', 'PARAMETERS', 'MAX_FEATURES', 'main']
@@ -64,12 +64,11 @@ class ModelServer(Node):
         self._diagnostics = NodeDiagnostics(self, 'model')
         self._files: ModelFiles | None = None
         self._version = 0
-        self._pubs = {topic: self.create_publisher(kind, topic, latched_qos())
+        self._pubs = {topic: output_publisher(self, kind, topic, latched_qos())
                       for topic, kind in ((topics.MODEL_ACTIVE, String), (topics.MODEL_AMBIGUITY, Float64MultiArray),
                                           (topics.MODEL_AMBIGUITY_SYMMETRIC, Float64MultiArray),
                                           (topics.MODEL_AMBIGUITY_PINSKER, Float64MultiArray))}
-        self._pubs[topics.MODEL_POSTERIOR] = self.create_publisher(Float64MultiArray, topics.MODEL_POSTERIOR,
-                                                                   output_qos())
+        self._pubs[topics.MODEL_POSTERIOR] = output_publisher(self, Float64MultiArray, topics.MODEL_POSTERIOR)
         self._params = declare_parameters(self, PARAMETERS, check=self._check, on_change=self._activate)
         self._activate(self._params)
         self._query_sub = subscribe_input(self, topics.MODEL_QUERY, self._on_query, input_qos(), self._diagnostics)

@@ -62,8 +62,8 @@ def latched_qos() -> QoSProfile:
                       liveliness=LivelinessPolicy.AUTOMATIC)
 
 
-def output_publisher(node: Node, msg_type: Any, topic: str) -> Publisher:
-    """A publisher of one of the node's outputs: :func:`output_qos`, no QoS event handlers (rclpy's defaults only log).
+def output_publisher(node: Node, msg_type: Any, topic: str, qos: QoSProfile | None = None) -> Publisher:
+    """A publisher of one of the node's outputs: ``qos`` (default :func:`output_qos`), no QoS event handlers.
 
     rclpy gives every publisher two default event handlers (incompatible QoS, incompatible type) that
     only log a warning, and its executor walks each one in Python at every wake-up, whatever woke it: in
@@ -73,7 +73,7 @@ def output_publisher(node: Node, msg_type: Any, topic: str) -> Publisher:
     there), which is where its missing messages show; the nodes' input subscriptions keep that warning
     (:func:`input_events`).
     """
-    return node.create_publisher(msg_type, topic, output_qos(),
+    return node.create_publisher(msg_type, topic, output_qos() if qos is None else qos,
                                  event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
 
 

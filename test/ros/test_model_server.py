@@ -167,3 +167,15 @@ def test_describe_lists_the_available_models_and_follows_the_directory(ros, tiny
     assert describe().startswith('one of cup_4zone, cup_5zone, cup_7zone:')
     (tmp_path / 'cup_5zone.yaml').unlink()
     assert describe().startswith('one of cup_4zone, cup_7zone:')
+
+
+def test_outputs_carry_no_event_handlers(server):
+    """As every node's outputs (ros.qos.output_publisher): the latched ones keep their transient-local QoS."""
+    from rclpy.qos import DurabilityPolicy
+
+    outputs = {pub.topic_name: pub for pub in server.publishers if pub.topic_name != '/parameter_events'}
+    latched_topics = {'/model/active', '/model/ambiguity', '/model/ambiguity/symmetric', '/model/ambiguity/pinsker'}
+    assert latched_topics | {'/model/posterior', '/diagnostics'} <= set(outputs)
+    assert all(not pub.event_handlers for pub in outputs.values())
+    assert all((pub.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL) == (topic in latched_topics)
+               for topic, pub in outputs.items())
