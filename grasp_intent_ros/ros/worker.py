@@ -160,7 +160,55 @@ class _WaitSetWait:
             self.subscriptions.clear()
 
 
-class LatestOnlyWorker(Generic[T]):
+class _OffExecutorThread:
+    """What the module's threads share: the thread, its wait (an Event or an rclpy wait set), stopping."""
+
+    def __init__(self, wait: _EventWait | _WaitSetWait, name: str) -> None:
+        self._wait = wait
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    @property
+    def callback_group(self) -> CallbackGroup:
+        """The callback group of the subscriptions this thread takes (:meth:`take`); only with a context."""
+        return self._taking().callback_group
+
+    def take(self, subscription: Subscription) -> None:
+        """Take ``subscription``'s messages in this thread: its callback runs there, with the message info.
+
+        The subscription must have been created in :attr:`callback_group` (no executor takes it then) with a
+        callback of two parameters (message, info).
+        """
+        self._taking().take(subscription)
+
+    def _taking(self) -> _WaitSetWait:
+        if not isinstance(self._wait, _WaitSetWait):
+            raise ValueError(f'{self._thread.name}: a thread without an rclpy context takes no subscriptions')
+        return self._wait
+
+    def stop_soon(self) -> None:
+        """Ask the thread to stop after its current work (safe from any thread and a signal handler)."""
+        self._stop.set()
+        self._wait.wake()
+
+    def stop(self) -> None:
+        """Stop the thread and wait for it (unless called from it); then release its guard condition, if any."""
+        self.stop_soon()
+        if threading.current_thread() is not self._thread:
+            self._thread.join()
+            self._wait.close()
+
+    @property
+    def stopping(self) -> bool:
+        """Whether a stop was asked for."""
+        return self._stop.is_set()
+
+    def _run(self) -> None:
+        raise NotImplementedError
+
+
+class LatestOnlyWorker(_OffExecutorThread, Generic[T]):
     """Holds the newest inputs ``T`` (immutable) and hands them to ``handle`` in a thread of its own.
 
     Parameters
@@ -200,32 +248,11 @@ class LatestOnlyWorker(Generic[T]):
         self._handle, self._ready = handle, ready
         self._min_period = min_period
         self._prepare, self._after_first = prepare, after_first
-        self._stop = threading.Event()
-        self._wait: _EventWait | _WaitSetWait = _EventWait() if context is None else _WaitSetWait(context, name)
         self._idle = False  # the thread waits for an update
         self.superseded = 0
         """Triggering updates never handled because a newer one replaced them."""
-        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
-        self._thread.start()
-
-    @property
-    def callback_group(self) -> CallbackGroup:
-        """The callback group of the subscriptions this worker takes (:meth:`take`); only with a context."""
-        return self._taking().callback_group
-
-    def take(self, subscription: Subscription) -> None:
-        """Take ``subscription``'s messages in this worker's thread: its callback runs there, with the message info.
-
-        The subscription must have been created in :attr:`callback_group` (no executor takes it then) with a
-        callback of two parameters (message, info). A callback that calls :meth:`update` has its update
-        handled in the same wake-up, without a hand-over.
-        """
-        self._taking().take(subscription)
-
-    def _taking(self) -> _WaitSetWait:
-        if not isinstance(self._wait, _WaitSetWait):
-            raise ValueError(f'{self._thread.name}: a worker without an rclpy context takes no subscriptions')
-        return self._wait
+        # a subscription's callback that calls update() (in this thread) has it handled in the same wake-up
+        super().__init__(_EventWait() if context is None else _WaitSetWait(context, name), name)
 
     @property
     def latest(self) -> T:
@@ -244,27 +271,10 @@ class LatestOnlyWorker(Generic[T]):
             if self._idle:  # hand it the GIL now (module docstring); a busy thread takes the update later
                 time.sleep(0)
 
-    def stop_soon(self) -> None:
-        """Ask the thread to stop after its current snapshot (safe from any thread and a signal handler)."""
-        self._stop.set()
-        self._wait.wake()
-
-    def stop(self) -> None:
-        """Stop the thread and wait for it (unless called from it); then release its guard condition, if any."""
-        self.stop_soon()
-        if threading.current_thread() is not self._thread:
-            self._thread.join()
-            self._wait.close()
-
     @property
     def idle(self) -> bool:
         """Whether the thread waits for a triggering update (its preparation done, nothing being handled)."""
         return self._idle
-
-    @property
-    def stopping(self) -> bool:
-        """Whether a stop was asked for."""
-        return self._stop.is_set()
 
     def _run(self) -> None:
         if self._prepare is not None:
@@ -296,7 +306,7 @@ class LatestOnlyWorker(Generic[T]):
                 self._after_first = None
 
 
-class InputThread:
+class InputThread(_OffExecutorThread):
     """A thread of its own that takes subscriptions' messages and runs their callbacks, off the node's executor.
 
     For a node that must answer every message of a fast input: its executor would wake for each message (or
@@ -314,34 +324,7 @@ class InputThread:
     """
 
     def __init__(self, context: Context, *, name: str) -> None:
-        self._wait = _WaitSetWait(context, name)
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
-        self._thread.start()
-
-    @property
-    def callback_group(self) -> CallbackGroup:
-        """The callback group of the subscriptions this thread takes (:meth:`take`)."""
-        return self._wait.callback_group
-
-    def take(self, subscription: Subscription) -> None:
-        """Take ``subscription``'s messages in this thread.
-
-        It must have been created in :attr:`callback_group`, with a callback of two parameters (message, info).
-        """
-        self._wait.take(subscription)
-
-    def stop_soon(self) -> None:
-        """Ask the thread to stop after the messages it is handling (safe from any thread and a signal handler)."""
-        self._stop.set()
-        self._wait.wake()
-
-    def stop(self) -> None:
-        """Stop the thread and wait for it (unless called from it); then release its guard condition."""
-        self.stop_soon()
-        if threading.current_thread() is not self._thread:
-            self._thread.join()
-            self._wait.close()
+        super().__init__(_WaitSetWait(context, name), name)
 
     def _run(self) -> None:
         while not self._stop.is_set() and self._wait.wait(None):
