@@ -41,6 +41,8 @@ from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.subscription import Subscription
 
+from .inputs import waiting_messages
+
 __all__ = ['LatestOnlyWorker', 'InputThread']
 
 T = TypeVar('T')
@@ -85,7 +87,8 @@ class _EventWait:
 class _WaitSetWait:
     """The worker thread waits in an rclpy wait set: a guard condition (:meth:`wake`) and the taken subscriptions.
 
-    After the wait, every message waiting on a ready subscription is taken (as rclpy's executor takes them)
+    After the wait, the messages waiting on a ready subscription (up to its queue depth) are taken
+    (:func:`~grasp_intent_ros.ros.inputs.waiting_messages`, as rclpy's executor takes them)
     and handed to the subscription's callback, with its message info, in the worker's thread; so is every
     QoS event of the subscriptions' event handlers (e.g. an incompatible publisher's warning). Once the
     context is shut down (a signal does so without waking anyone), :meth:`wait` returns False: the thread ends.
@@ -147,10 +150,9 @@ class _WaitSetWait:
             for handler in events:
                 if handler.is_ready(wait_set) and (event := handler.take_data()):
                     handler.callback(event)
-            for subscription in subscriptions:
+            for subscription in subscriptions:  # at most a queue's depth each: a fast stream cannot hold the thread
                 if subscription.handle.pointer in ready:
-                    while (taken := subscription.handle.take_message(subscription.msg_type,
-                                                                     subscription.raw)) is not None:
+                    for taken in waiting_messages(subscription, subscription.qos_profile.depth):
                         subscription.callback(*taken)
 
     def close(self) -> None:
@@ -311,9 +313,10 @@ class InputThread(_OffExecutorThread):
 
     For a node that must answer every message of a fast input: its executor would wake for each message (or
     batch), build its wait sets in Python and contend for the GIL; this thread waits in one small wait set
-    and runs the callbacks (module docstring, "Taken subscriptions"). Every waiting message is taken in
-    order in each wake-up. The callbacks must not raise (wrap them, e.g. with ``NodeDiagnostics.guard``),
-    and they run concurrently with the node's executor: what they share with its callbacks needs a lock.
+    and runs the callbacks (module docstring, "Taken subscriptions"). The waiting messages are taken in
+    order, up to the queue's depth per wake-up. The callbacks must not raise (wrap them, e.g. with
+    ``NodeDiagnostics.guard``), and they run concurrently with the node's executor: what they share with its
+    callbacks needs a lock.
 
     Parameters
     ----------
