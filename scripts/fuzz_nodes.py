@@ -9,8 +9,9 @@ r"""Fuzz the three nodes as processes and measure their memory under oversized m
    duplicated 5,000-character names for the planner, a w and a feature vector with a huge dimension
    label for the interpreter and the model server), published serialized.
    They go out to the three nodes together, in windows smaller than the nodes' input queues, each once
-   the nodes have counted the last (or after ``--window-wait`` s: under load DDS repairs a lost fragment
-   only at its next heartbeat, seconds later), so few are dropped by a keep-last queue. Prints per node the
+   every node has counted the previous window's messages (or after ``--window-wait`` s: under load DDS
+   repairs a lost fragment only at its next heartbeat, seconds later; a message lost stalls only its own
+   window), so few are dropped by a keep-last queue. Prints per node the
    messages its diagnostics count as received and rejected and its RSS before / after; then the answer
    to a valid w, and whether every node still has its PID.
 
@@ -170,11 +171,13 @@ def run(args: argparse.Namespace, suite: Any, probe: Any, wait_for: Callable[[Ca
         while sent < args.oversized:  # a window fits each node's queue
             window = min(WINDOW, args.oversized - sent)
             sent += window
+            counted = {t: fuzzer.count(t) for t in oversized}
             for topic, (_, data) in oversized.items():
                 for _ in range(window):
                     fuzzer.publish(topic, data)
-            # under load DDS repairs a lost fragment at the next heartbeat (seconds): go on after a while
-            stalls += not wait_for(lambda: all(fuzzer.count(t) >= rejected0[t] + sent for t in oversized),
+            # under load DDS repairs a lost fragment at the next heartbeat (seconds): go on after a while. Each
+            # window waits for its own messages only, so a message lost before stalls no later window
+            stalls += not wait_for(lambda: all(fuzzer.count(t) >= counted[t] + window for t in oversized),
                                    args.window_wait)
         elapsed = time.monotonic() - start
         wait_for(lambda: False, 2.5)  # the nodes catch up; then a periodic status with the final counts
