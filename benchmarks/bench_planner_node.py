@@ -7,8 +7,10 @@ helpers bench_latency.py uses) runs in this process. The probe publishes the cup
 all zones; ``--stream walk``: a random walk of w, as from a smooth intent estimate during
 teleoperation), faster than the node can plan at times. Printed: how many plans it made for how many
 messages, the latency from publishing a v to the middleware's receipt of the grasp/joint_targets that
-answer it (median, p99, max), the in-node planning and IK times (sampled from its diagnostics), the
-largest backlog, the planner process's CPU time during the burst, and the load average.
+answer it (median, p99, max) and its three parts (v's hop to the node, the node's own time from its receipt
+of v to the publication of the answer, the answer's hop back), the in-node planning and IK times (sampled
+from its diagnostics), the largest backlog, the planner process's CPU time during the burst, and the load
+average.
 
 Why a process, not an in-process node (the method up to this revision, which is in git's history): the
 in-process node shared its process, executor and GIL with the probe, so the probe's own publishing and its
@@ -134,6 +136,11 @@ def main() -> None:
     burst = [answer for answer in answers if answer[1] >= sent[0]]
     pairs = [(received, bisect.bisect_right(sent, stamp) - 1) for received, stamp, _ in burst]
     latency_ms = [(received - sent[i]) * 1e-6 for received, i in pairs]
+    # the same answers in three parts: v's hop in (to the planner's receipt, the answer's stamp), the node
+    # (to the middleware's publication of grasp/joint_targets), the hop out (to the probe's receipt)
+    parts = {'hop in': [(stamp - sent[i]) * 1e-6 for (_, i), (_, stamp, _) in zip(pairs, burst)],
+             'node': [(published - stamp) * 1e-6 for _, stamp, published in burst],
+             'hop out': [(received - published) * 1e-6 for received, _, published in burst]}
     stamps = np.array([stamp for _, stamp, _ in burst])
     # inputs the node already held when answer k went out, yet answered after the next plan (k + 1)
     backlog = [int(np.sum(stamps[k + 2:] < published)) for k, (_, _, published) in enumerate(burst)]
@@ -150,6 +157,7 @@ def main() -> None:
     print(f'plans answering the burst: {len(pairs)} ({answered} distinct v); '
           f'node: {last.get(KEY_PLANS, "?")} plans in all, {last.get("inputs superseded", "?")} inputs superseded')
     print(f'latency v -> grasp/joint_targets: {percentiles(latency_ms)}')
+    print('  of which ' + '; '.join(f'{part} {percentiles(ms)}' for part, ms in parts.items()))
     print(f'in-node planning time (incl. IK): {sampled("last planning time [ms]")}; '
           f'IK time: {sampled("last IK time [ms]")}')
     print(f'answer to the last v: {"yes" if pairs and pairs[-1][1] == n - 1 else "no"}; '
