@@ -210,27 +210,29 @@ def _on_plane_both(h, lo, a):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _log_joint_score(x, means, prec, log_norm, lj, g):  # type: ignore[no-untyped-def]
-    """Fills lj (K,) with log(pi_k N_k(x)) and g (K, d) with its gradient -Sigma_k^-1 (x - mu_k)."""
+def _log_joint_score(x, means, prec, log_norm, lj, g, diff):  # type: ignore[no-untyped-def]
+    """Fills lj (K,) with log(pi_k N_k(x)) and g (K, d) with its gradient -Sigma_k^-1 (x - mu_k); diff (d,) is work."""
     K, d = means.shape
     for k in range(K):
+        for j in range(d):
+            diff[j] = x[j] - means[k, j]
         q = 0.0
         for i in range(d):
             acc = 0.0
             for j in range(d):
-                acc += prec[k, i, j] * (x[j] - means[k, j])
+                acc += prec[k, i, j] * diff[j]
             g[k, i] = -acc
-            q += (x[i] - means[k, i]) * g[k, i]
+            q += diff[i] * g[k, i]
         lj[k] = log_norm[k] + 0.5 * q
 
 
 @njit(cache=True, nogil=True)
 def _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1,  # type: ignore[no-untyped-def]
-              kinds, centres, axes, perps, radii, lengths, halfs, margin, e, A, lj, g):
+              kinds, centres, axes, perps, radii, lengths, halfs, margin, e, A, lj, g, diff):
     """Fills the residuals e (rows,) and their Jacobian in scaled coordinates A (rows, d); lj (K,), g (K, d) work."""
     K, d = means.shape
     n_eq = K - 1
-    _log_joint_score(x, means, prec, log_norm, lj, g)
+    _log_joint_score(x, means, prec, log_norm, lj, g, diff)
     for i in range(n_eq):
         k = others[i]
         e[i] = lj[k] - lj[r] - b[i]
@@ -428,14 +430,14 @@ def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], pre
     # every iteration works in these (an iteration is ~10^3 flops: allocating them each time cost more)
     x, x_try, dy, dfix = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
     e, e_try, A, A_try = np.empty(rows), np.empty(rows), np.empty((rows, d)), np.empty((rows, d))
-    lj, g = np.empty(K), np.empty((K, d))
+    lj, g, diff = np.empty(K), np.empty((K, d)), np.empty(d)
     fixed, active = np.empty(d, dtype=np.bool_), np.empty(rows, dtype=np.bool_)
     work = (np.empty((d, rows)), np.empty(rows), np.empty((rows, rows)), np.empty(rows), np.empty((rows, rows)))
     for s in range(n):
         x[:] = starts[s]
         _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
         _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1, kinds, centres, axes, perps,
-                  radii, lengths, halfs, margin, e, A, lj, g)
+                  radii, lengths, halfs, margin, e, A, lj, g, diff)
         l1 = _l1_max(e, n_eq)[0]
         checkpoint = l1
         radius = 1.0
@@ -444,23 +446,27 @@ def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], pre
         for i in range(n_eq):
             final = final and b[i] == b_final[i]
         it = 0
+        fresh = True
+        size = 0.0
         while it < maxiter:
             it += 1
             if it % stall == 0:  # a start that has not halved its residual in `stall` iterations stalls
                 if l1 > 0.5 * checkpoint:
                     break
                 checkpoint = l1
-            _step(x, e, A, scale, lower, upper, bounded, has_body, damping, dy, fixed, dfix, active, work)
-            acc = 0.0
-            for j in range(d):
-                acc += dy[j] ** 2
-            size = math.sqrt(acc)
+            if fresh:  # a new x or new targets: a new step (kept while shorter tries of it are rejected)
+                _step(x, e, A, scale, lower, upper, bounded, has_body, damping, dy, fixed, dfix, active, work)
+                acc = 0.0
+                for j in range(d):
+                    acc += dy[j] ** 2
+                size = math.sqrt(acc)
+                fresh = False
             t = min(1.0, radius / max(size, 1e-300))
             for j in range(d):
                 x_try[j] = x[j] + (t * dy[j]) * scale[j]
             _project(x_try, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
             _evaluate(x_try, means, prec, log_norm, others, r, target, scale, a0, a1, kinds, centres, axes, perps,
-                      radii, lengths, halfs, margin, e_try, A_try, lj, g)
+                      radii, lengths, halfs, margin, e_try, A_try, lj, g, diff)
             l1_try, top = _l1_max(e_try, n_eq)
             iterations[s] += 1
             fin = top <= htol and t * size <= steptol
@@ -470,6 +476,7 @@ def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], pre
                 e, e_try = e_try, e
                 A, A_try = A_try, A
                 l1 = l1_try
+                fresh = True
             if fin and final:
                 converged[s] = True
                 break
@@ -481,6 +488,7 @@ def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], pre
                 l1 = _l1_max(e, n_eq)[0]
                 checkpoint = l1
                 it = 0
+                fresh = True
                 continue
             radius = min(2.0 * max(radius, t * size), 4.0) if ok else 0.25 * min(radius, t * size)
             if radius < 1e-12:
@@ -517,10 +525,10 @@ def _score(xs, v, means, prec, log_norm, x_ref, scale):  # type: ignore[no-untyp
     post = np.empty((n, K))
     f = np.empty(n)
     dist = np.empty(n)
-    u = np.empty((K, d))
+    u, diff = np.empty((K, d)), np.empty(d)
     for s in range(n):
         p = post[s]
-        _posterior_scores(xs[s], means, prec, log_norm, p, u)
+        _posterior_scores(xs[s], means, prec, log_norm, p, u, diff)
         acc = 0.0
         for k in range(K):
             acc += (v[k] - p[k]) ** 2
@@ -651,10 +659,10 @@ def distinct(x: NDArray[np.float64], tol: float) -> NDArray[np.bool_]:
 
 
 @njit(cache=True, nogil=True)
-def _posterior_scores(x, means, prec, log_norm, p, u):  # type: ignore[no-untyped-def]
+def _posterior_scores(x, means, prec, log_norm, p, u, diff):  # type: ignore[no-untyped-def]
     """Fills p (K,) with P(k|x) and u (K, d) with the gradients of log P(k|x), u_k = g_k - sum_j P_j g_j."""
     K, d = u.shape
-    _log_joint_score(x, means, prec, log_norm, p, u)
+    _log_joint_score(x, means, prec, log_norm, p, u, diff)
     top = p[0]
     for k in range(1, K):
         if p[k] > top or p[k] != p[k]:  # NaN propagates, as in np.max
@@ -674,9 +682,9 @@ def _posterior_scores(x, means, prec, log_norm, p, u):  # type: ignore[no-untype
 
 
 @njit(cache=True, nogil=True)
-def _posterior_jacobian(x, means, prec, log_norm, p, jac):  # type: ignore[no-untyped-def]
+def _posterior_jacobian(x, means, prec, log_norm, p, jac, diff):  # type: ignore[no-untyped-def]
     """Fills p (K,) with P(k|x) and jac (K, d) with dP/dx."""
-    _posterior_scores(x, means, prec, log_norm, p, jac)
+    _posterior_scores(x, means, prec, log_norm, p, jac, diff)
     for k in range(p.size):
         for i in range(jac.shape[1]):
             jac[k, i] *= p[k]
@@ -712,36 +720,42 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
     # every iteration works in these (an iteration is ~10^3 flops: allocating them each time cost more)
     x, x_new, grad, step = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
     p, p_new, r, r_new = np.empty(K), np.empty(K), np.empty(K), np.empty(K)
-    jac, jac_new, jt = np.empty((K, d)), np.empty((K, d)), np.empty((K, d))
-    system, low = np.empty((d, d)), np.empty((d, d))
+    jac, jac_new, jt, diff = np.empty((K, d)), np.empty((K, d)), np.empty((K, d)), np.empty(d)
+    gram, system, low = np.empty((d, d)), np.empty((d, d)), np.empty((d, d))
     held, normal = np.empty(d, dtype=np.bool_), np.empty(3)
     for s in range(n):
         x[:] = starts[s]
         _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-        _posterior_jacobian(x, means, prec, log_norm, p, jac)
+        _posterior_jacobian(x, means, prec, log_norm, p, jac, diff)
         f = _residual(v, p, r)
         lam = 1e-3
         done = False
+        fresh = True
+        on_body = False
+        ridge = 0.0
         for _ in range(maxiter):
-            jt[:] = jac
-            for k in range(K):
-                _on_plane(jt[k], a0, x[a0:a1])
-            _gradient(r, jt, grad)
-            on_body = _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin, normal)
-            if on_body:  # on the body's surface, f falling inside: steps on the surface's tangent plane
+            if fresh:  # a new x: its restricted Jacobian, gradient and Gram matrix (kept while steps are rejected)
+                jt[:] = jac
                 for k in range(K):
-                    _on_plane(jt[k], 0, normal)
+                    _on_plane(jt[k], a0, x[a0:a1])
                 _gradient(r, jt, grad)
-            for j in range(d):
-                held[j] = (x[j] <= lower[j] and grad[j] > 0.0) or (x[j] >= upper[j] and grad[j] < 0.0)
-                if held[j]:
-                    jt[:, j] = 0.0
-                    grad[j] = 0.0
-            _gram(jt, system)  # system = jt^T jt + diag(lam diag(jt^T jt) + ridge)
-            top = 0.0
-            for j in range(d):
-                top = max(top, system[j, j])
-            ridge = ridge_rel * top + 1e-12
+                on_body = _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin, normal)
+                if on_body:  # on the body's surface, f falling inside: steps on the surface's tangent plane
+                    for k in range(K):
+                        _on_plane(jt[k], 0, normal)
+                    _gradient(r, jt, grad)
+                for j in range(d):
+                    held[j] = (x[j] <= lower[j] and grad[j] > 0.0) or (x[j] >= upper[j] and grad[j] < 0.0)
+                    if held[j]:
+                        jt[:, j] = 0.0
+                        grad[j] = 0.0
+                _gram(jt, gram)
+                top = 0.0
+                for j in range(d):
+                    top = max(top, gram[j, j])
+                ridge = ridge_rel * top + 1e-12
+                fresh = False
+            system[:] = gram  # system = jt^T jt + diag(lam diag(jt^T jt) + ridge)
             for j in range(d):
                 system[j, j] += lam * system[j, j] + ridge
                 step[j] = -grad[j]
@@ -751,7 +765,7 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
             _project(x_new, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
             if on_body:
                 _onto_surface(x_new, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-            _posterior_jacobian(x_new, means, prec, log_norm, p_new, jac_new)
+            _posterior_jacobian(x_new, means, prec, log_norm, p_new, jac_new, diff)
             f_new = _residual(v, p_new, r_new)
             better = f_new < f
             small = better and (f - f_new < ftol * f + 1e-15)
@@ -762,6 +776,7 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
                 r, r_new = r_new, r
                 f = f_new
                 lam = lam / 3.0
+                fresh = True
             else:
                 lam = lam * 4.0
             iterations[s] += 1
@@ -774,13 +789,13 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
 
 
 @njit(cache=True, nogil=True)
-def _posterior_hessian(x, means, prec, log_norm, v, p, u, jac, h):  # type: ignore[no-untyped-def]
+def _posterior_hessian(x, means, prec, log_norm, v, p, u, jac, h, diff):  # type: ignore[no-untyped-def]
     """Fills p (K,) with P(k|x), jac (K, d) with dP/dx and h (d, d) with the Hessian of f = 1/2 |v - P|^2.
 
-    u (K, d) is work (it ends holding the gradients of log P(k|x)).
+    u (K, d) and diff (d,) are work (u ends holding the gradients of log P(k|x)).
     """
     K, d = means.shape
-    _posterior_scores(x, means, prec, log_norm, p, u)
+    _posterior_scores(x, means, prec, log_norm, p, u, diff)
     s = 0.0
     for k in range(K):
         s += (p[k] - v[k]) * p[k]
@@ -810,14 +825,14 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
     # every iteration works in these (an iteration is ~10^3 flops: allocating them each time cost more)
     x, x_new, grad, step = np.empty(d), np.empty(d), np.empty(d), np.empty(d)
     p, p_new, r, r_new = np.empty(K), np.empty(K), np.empty(K), np.empty(K)
-    jac, jac_new, u = np.empty((K, d)), np.empty((K, d)), np.empty((K, d))
+    jac, jac_new, u, diff = np.empty((K, d)), np.empty((K, d)), np.empty((K, d)), np.empty(d)
     hess, hess_new, h = np.empty((d, d)), np.empty((d, d)), np.empty((d, d))
     system, low = np.empty((d, d)), np.empty((d, d))
     held, normal, ns = np.empty(d, dtype=np.bool_), np.empty(3), np.empty(3)
     for s in range(n):
         x[:] = starts[s]
         _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-        _posterior_hessian(x, means, prec, log_norm, v, p, u, jac, hess)
+        _posterior_hessian(x, means, prec, log_norm, v, p, u, jac, hess, diff)
         f = _residual(v, p, r)
         lam = -1.0
         done = False
@@ -899,7 +914,7 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
             _project(x_new, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
             if on_body:
                 _onto_surface(x_new, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-            _posterior_hessian(x_new, means, prec, log_norm, v, p_new, u, jac_new, hess_new)
+            _posterior_hessian(x_new, means, prec, log_norm, v, p_new, u, jac_new, hess_new, diff)
             f_new = _residual(v, p_new, r_new)
             if f_new < f:
                 x, x_new = x_new, x

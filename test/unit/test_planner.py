@@ -219,7 +219,7 @@ def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, 
             K, d = model.means.shape
             hess = np.empty((d, d))
             _posterior_hessian(x, model.means, model._precisions, model._log_norm, v, np.empty(K), np.empty((K, d)),
-                               np.empty((K, d)), hess)
+                               np.empty((K, d)), hess, np.empty(d))
             step = 1e-6 * model.feature_scale
             numeric = np.stack([(planner.objective_and_gradient(model, v, x + h)[1]
                                  - planner.objective_and_gradient(model, v, x - h)[1]) / (2.0 * h[i])
