@@ -668,8 +668,18 @@ def distinct(x: NDArray[np.float64], tol: float) -> NDArray[np.bool_]:
 @njit(cache=True, nogil=True)
 def _posterior_scores(x, means, prec, log_norm, p, u, diff):  # type: ignore[no-untyped-def]
     """Fills p (K,) with P(k|x) and u (K, d) with the gradients of log P(k|x), u_k = g_k - sum_j P_j g_j."""
-    K, d = u.shape
-    _log_joint_score(x, means, prec, log_norm, p, u, diff)
+    _posterior_and_scores(x, means, prec, log_norm, p, u, diff)
+    _centre_scores(p, u)
+
+
+@njit(cache=True, nogil=True)
+def _posterior_and_scores(x, means, prec, log_norm, p, g, diff):  # type: ignore[no-untyped-def]
+    """Fills p (K,) with P(k|x) and g (K, d) with the gradients of log(pi_k N_k(x)); diff (d,) is work.
+
+    :func:`_centre_scores` turns g into the gradients of log P(k|x), :func:`_scores_to_jacobian` into dP/dx.
+    """
+    K = p.size
+    _log_joint_score(x, means, prec, log_norm, p, g, diff)
     top = p[0]
     for k in range(1, K):
         if p[k] > top or p[k] != p[k]:  # NaN propagates, as in np.max
@@ -680,6 +690,12 @@ def _posterior_scores(x, means, prec, log_norm, p, u, diff):  # type: ignore[no-
         total += p[k]
     for k in range(K):
         p[k] /= total
+
+
+@njit(cache=True, nogil=True)
+def _centre_scores(p, u):  # type: ignore[no-untyped-def]
+    """u_k <- u_k - sum_j P_j u_j (in place): the gradients of log(pi_k N_k) to those of log P(k|x)."""
+    K, d = u.shape
     for i in range(d):
         mean = 0.0
         for k in range(K):
@@ -691,7 +707,14 @@ def _posterior_scores(x, means, prec, log_norm, p, u, diff):  # type: ignore[no-
 @njit(cache=True, nogil=True)
 def _posterior_jacobian(x, means, prec, log_norm, p, jac, diff):  # type: ignore[no-untyped-def]
     """Fills p (K,) with P(k|x) and jac (K, d) with dP/dx."""
-    _posterior_scores(x, means, prec, log_norm, p, jac, diff)
+    _posterior_and_scores(x, means, prec, log_norm, p, jac, diff)
+    _scores_to_jacobian(p, jac)
+
+
+@njit(cache=True, nogil=True)
+def _scores_to_jacobian(p, jac):  # type: ignore[no-untyped-def]
+    """Turns jac (K, d), the gradients of log(pi_k N_k(x)), into dP/dx in place (p = P(k|x))."""
+    _centre_scores(p, jac)
     for k in range(p.size):
         for i in range(jac.shape[1]):
             jac[k, i] *= p[k]
@@ -772,11 +795,12 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
             _project(x_new, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
             if on_body:
                 _onto_surface(x_new, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-            _posterior_jacobian(x_new, means, prec, log_norm, p_new, jac_new, diff)
+            _posterior_and_scores(x_new, means, prec, log_norm, p_new, jac_new, diff)  # dP/dx only if taken
             f_new = _residual(v, p_new, r_new)
             better = f_new < f
             small = better and (f - f_new < ftol * f + 1e-15)
             if better:
+                _scores_to_jacobian(p_new, jac_new)
                 x, x_new = x_new, x
                 p, p_new = p_new, p
                 jac, jac_new = jac_new, jac
