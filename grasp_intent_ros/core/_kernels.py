@@ -825,8 +825,19 @@ def _posterior_hessian(x, means, prec, log_norm, v, p, u, jac, h, diff):  # type
 
     u (K, d) and diff (d,) are work (u ends holding the gradients of log P(k|x)).
     """
-    K, d = means.shape
-    _posterior_scores(x, means, prec, log_norm, p, u, diff)
+    _posterior_and_scores(x, means, prec, log_norm, p, u, diff)
+    _scores_to_hessian(prec, v, p, u, jac, h)
+
+
+@njit(cache=True, nogil=True)
+def _scores_to_hessian(prec, v, p, u, jac, h):  # type: ignore[no-untyped-def]
+    """Fills jac (K, d) with dP/dx and h (d, d) with the Hessian of f = 1/2 |v - P|^2.
+
+    From p = P(k|x) and u (K, d) holding the gradients of log(pi_k N_k(x)) (:func:`_posterior_and_scores`);
+    u ends holding those of log P(k|x).
+    """
+    K, d = u.shape
+    _centre_scores(p, u)
     s = 0.0
     for k in range(K):
         s += (p[k] - v[k]) * p[k]
@@ -945,9 +956,10 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
             _project(x_new, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
             if on_body:
                 _onto_surface(x_new, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-            _posterior_hessian(x_new, means, prec, log_norm, v, p_new, u, jac_new, hess_new, diff)
+            _posterior_and_scores(x_new, means, prec, log_norm, p_new, u, diff)  # the Hessian only if taken
             f_new = _residual(v, p_new, r_new)
             if f_new < f:
+                _scores_to_hessian(prec, v, p_new, u, jac_new, hess_new)
                 x, x_new = x_new, x
                 p, p_new = p_new, p
                 jac, jac_new = jac_new, jac
