@@ -227,6 +227,43 @@ def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, 
             assert_allclose(hess, numeric, rtol=0.0, atol=1e-5 * np.abs(hess).max())
 
 
+def test_kernel_sums_run_in_their_stated_order() -> None:
+    """The unrolled kernel loops give, bit for bit, each sum taken term by term in index order.
+
+    The recorded bags' answers rest on the kernels' arithmetic; an unrolled loop must not reorder a sum
+    (shapes with and without a remainder of the unrolling).
+    """
+    from grasp_intent_ros.core._kernels import _gram, _log_joint_score
+    rng = np.random.default_rng(6)
+    for m, n in ((7, 10), (8, 7), (3, 1), (2, 4)):
+        J = rng.standard_normal((m, n))
+        out = np.empty((n, n))
+        _gram(J, out)
+        for i in range(n):
+            for j in range(n):
+                acc = 0.0
+                for k in range(m):
+                    acc += float(J[k, i]) * float(J[k, j])
+                assert out[i, j] == acc
+    for K, d in ((7, 10), (4, 7), (2, 3)):
+        means = rng.standard_normal((K, d))
+        prec = rng.standard_normal((K, d, d))
+        log_norm = rng.standard_normal(K)
+        x = rng.standard_normal(d)
+        lj, g = np.empty(K), np.empty((K, d))
+        _log_joint_score(x, means, prec, log_norm, lj, g, np.empty(d))
+        for k in range(K):
+            diff = [float(x[j] - means[k, j]) for j in range(d)]
+            q = 0.0
+            for i in range(d):
+                acc = 0.0
+                for j in range(d):
+                    acc += float(prec[k, i, j]) * diff[j]
+                assert g[k, i] == -acc
+                q += diff[i] * -acc
+            assert lj[k] == float(log_norm[k]) + 0.5 * q
+
+
 def test_spd_solve_falls_back_to_lu_where_cholesky_fails() -> None:
     """The kernels' solve of their ridged SPD systems: Cholesky, else LU, else LU's error.
 
