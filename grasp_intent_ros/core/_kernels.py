@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 _ON_SURFACE = 1e-12  # a palm within this (m) of the body's surface is on it
 
-__all__ = ['project', 'least_squares', 'newton_least_squares', 'feasible', 'score', 'rank_keys',
+__all__ = ['project', 'least_squares', 'newton_least_squares', 'feasible', 'score', 'rank_keys', 'first_ranked',
            'select_demonstrations', 'distinct', 'ik_descent', 'warm_up']
 
 
@@ -608,6 +608,35 @@ def rank_keys(f: NDArray[np.float64], tol: float) -> NDArray[np.int64]:
 
 
 @njit(cache=True, nogil=True)
+def _first_ranked(f, tol, count):  # type: ignore[no-untyped-def]
+    n = f.size
+    keys = _rank_keys(f, tol)
+    count = max(0, min(count, n))
+    out = np.empty(count, dtype=np.int64)
+    m = 0  # out[:m] holds the best m so far, in key order
+    for i in range(n):
+        if m == count and (count == 0 or keys[i] >= keys[out[m - 1]]):
+            continue
+        if m < count:
+            m += 1
+        j = m - 1  # insert i at its rank among out[:m], the worst (if all were full) dropped
+        while j > 0 and keys[out[j - 1]] > keys[i]:
+            out[j] = out[j - 1]
+            j -= 1
+        out[j] = i
+    return out
+
+
+def first_ranked(f: NDArray[np.float64], tol: float, count: int) -> NDArray[np.int64]:
+    """The indices of the ``count`` entries of f (N,) first by :func:`rank_keys` (``tol``), in that order.
+
+    All N of them, sorted, when count >= N; none when count <= 0.
+    """
+    out: NDArray[np.int64] = _first_ranked(np.ascontiguousarray(f, dtype=np.float64), tol, count)
+    return out
+
+
+@njit(cache=True, nogil=True)
 def _select_demonstrations(posterior, v, members, zones, rest_count, tol):  # type: ignore[no-untyped-def]
     n, K = posterior.shape
     keys = np.empty(n, dtype=np.int64)
@@ -673,7 +702,7 @@ def _distinct(x, tol):  # type: ignore[no-untyped-def]
                 for k in range(d):
                     r = (x[i, k] - x[j, k]) / max(abs(x[j, k]), 1.0)
                     acc += r * r
-                if acc < tol:
+                if acc < tol or acc == 0.0:
                     repeat = True
                     break
         keep[i] = not repeat
@@ -683,7 +712,8 @@ def _distinct(x, tol):  # type: ignore[no-untyped-def]
 def distinct(x: NDArray[np.float64], tol: float) -> NDArray[np.bool_]:
     """Whether each row of x (N, d) is kept: not within ``tol`` (squared, relative) of an earlier kept row.
 
-    Row i repeats row j when sum_k ((x_ik - x_jk) / max(|x_jk|, 1))^2 < tol.
+    Row i repeats row j when sum_k ((x_ik - x_jk) / max(|x_jk|, 1))^2 < tol, or is 0 (an exact repeat: with
+    tol = 0 only those; -0.0 equals 0.0, and a row holding NaN or an infinity repeats no row).
     """
     out: NDArray[np.bool_] = _distinct(np.ascontiguousarray(x, dtype=np.float64), tol)
     return out
@@ -1248,6 +1278,7 @@ def warm_up() -> None:
     score(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
           np.zeros(d), np.ones(d))
     rank_keys(np.ones(2), 1e-12)
+    first_ranked(np.ones(2), 1e-12, 1)
     distinct(np.ones((2, d)), 1e-18)
     select_demonstrations(np.full((2, 2), 0.5), np.array([0.5, 0.5]), np.ones((2, 2), dtype=np.bool_),
                           np.zeros(1, dtype=np.int64), 1, 1e-12)

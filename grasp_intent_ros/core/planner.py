@@ -81,6 +81,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._kernels import (
     distinct,
     feasible,
+    first_ranked,
     least_squares,
     newton_least_squares,
     project,
@@ -282,14 +283,9 @@ def _rank_by_f(f: NDArray[np.float64]) -> NDArray[np.intp]:
     return np.argsort(_rank_keys(f))
 
 
-def _first_ranked(keys: NDArray[np.int64], count: int) -> NDArray[np.intp]:
-    """The indices of the ``count`` smallest keys, in key order (all of them when there are fewer)."""
-    if count <= 0:
-        return np.zeros(0, dtype=np.intp)
-    if count < keys.size:
-        part = np.argpartition(keys, count - 1)[:count]
-        return part[np.argsort(keys[part])]
-    return np.argsort(keys)
+def _first_by_f(f: NDArray[np.float64], count: int) -> NDArray[np.int64]:
+    """The indices of the ``count`` entries first by :func:`_rank_keys`, in that order (``_kernels.first_ranked``)."""
+    return first_ranked(f, MATCH_TOL, count)
 
 
 def zone_order(v: NDArray[np.float64]) -> NDArray[np.intp]:
@@ -327,7 +323,7 @@ def search_starts(model: GraspModel, v: NDArray[np.float64], count: int = _SCREE
     else:
         r = v[None, :] - posterior
         score = 0.5 * np.einsum('nk,nk->n', r, r)
-    out: NDArray[np.float64] = pool[_first_ranked(_rank_keys(score), count)]
+    out: NDArray[np.float64] = pool[_first_by_f(score, count)]
     return out
 
 
@@ -465,7 +461,7 @@ def _least_squares(model: GraspModel, v: NDArray[np.float64], origins: NDArray[n
     def leaders(xs: NDArray[np.float64], ok: NDArray[np.bool_], count: int) -> NDArray[np.intp]:
         """The ``count`` rows that have not converged with the lowest f on v's path (rank keys: never noise)."""
         going = np.flatnonzero(~ok)
-        return going[_first_ranked(_rank_keys(f_of(xs[going], v_path)), count)] if going.size else going
+        return going[_first_by_f(f_of(xs[going], v_path), count)] if going.size else going
 
     xs, ok, its = _refine_lm(model, v_path, origins, feas, _LM_RACE)
     ahead = leaders(xs, ok, _LM_KEEP)  # the others stop here
@@ -474,7 +470,7 @@ def _least_squares(model: GraspModel, v: NDArray[np.float64], origins: NDArray[n
     if ahead.size:
         xs[ahead], ok[ahead], more = _refine_lm(model, v_path, xs[ahead], feas, _LM_MAXITER - _LM_RACE)
         its[ahead] += more
-    best = _first_ranked(_rank_keys(f_of(xs, v_path)), _NEWTON_POLISH)
+    best = _first_by_f(f_of(xs, v_path), _NEWTON_POLISH)
     xs_n, ok_n, its_n = _refine_newton(model, v_path, xs[best], feas, _NEWTON_RACE)
     ahead = leaders(xs_n, ok_n, _NEWTON_KEEP)
     if ahead.size:
@@ -570,11 +566,8 @@ def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.floa
 
 
 def _unique_rows(x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The rows of x without exact repeats, in their first order (-0.0 and 0.0 are the same)."""
-    first: dict[bytes, int] = {}
-    for i, row in enumerate(x + 0.0):
-        first.setdefault(row.tobytes(), i)
-    out: NDArray[np.float64] = x[sorted(first.values())]
+    """The rows of x without exact repeats, in their first order (-0.0 and 0.0 are the same; compiled)."""
+    out: NDArray[np.float64] = x[distinct(x, 0.0)]
     return out
 
 

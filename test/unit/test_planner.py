@@ -141,9 +141,18 @@ def test_ranking_quantises_f_then_takes_the_index_and_puts_nan_last() -> None:
     order = planner._rank_by_f(f).tolist()
     # 1e-20 and 1e-14 are both 0 at the quantum (index order); 2e-3 and its 1e-13 relative neighbour tie
     assert order == [1, 4, 3, 5, 0, 7, 6, 2]
-    keys = planner._rank_keys(f)
-    for count in range(len(f) + 2):
-        assert planner._first_ranked(keys, count).tolist() == order[:count]
+    for count in range(-1, len(f) + 2):
+        assert planner._first_by_f(f, count).tolist() == order[:max(count, 0)]
+    rng = np.random.default_rng(7)
+    for n in (1, 6, 40, 600):  # ties at the quantum as well as distinct values
+        f = np.round(rng.exponential(1e-3, n), 5) * (1.0 + 1e-14 * rng.standard_normal(n))
+        for count in (1, 3, 6, n):
+            assert planner._first_by_f(f, count).tolist() == planner._rank_by_f(f)[:count].tolist()
+
+
+def test_unique_rows_drop_exact_repeats_only() -> None:
+    x = np.array([[0.0, 1.0], [-0.0, 1.0], [1.0, 2.0], [0.0, 1.0], [1.0, np.nextafter(2.0, 3.0)], [1.0, 2.0]])
+    assert planner._unique_rows(x).tolist() == [[0.0, 1.0], [1.0, 2.0], [1.0, np.nextafter(2.0, 3.0)]]
 
 
 def test_warm_start_on_a_match_is_its_own_answer(toy_model: GraspModel) -> None:
