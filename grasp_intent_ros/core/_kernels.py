@@ -32,14 +32,22 @@ __all__ = ['project', 'least_squares', 'newton_least_squares', 'feasible', 'scor
 
 
 @njit(cache=True, nogil=True)
-def _primitive_distance(p, m, kinds, centres, axes, perps, radii, lengths, halfs):  # type: ignore[no-untyped-def]
-    """Signed distance of p (its first three entries) to primitive m and its unit gradient: (sd, g0, g1, g2)."""
+def _primitive_distance(p, m, kinds, centres, axes, perps, radii, lengths, halfs, normal):  # type: ignore[no-untyped-def]
+    """Signed distance of p (its first three entries) to primitive m and its unit gradient: (sd, g0, g1, g2).
+
+    Without ``normal`` only the distance is asked for: the same value, with g = 0 where g would cost divisions.
+    """
     r0, r1, r2 = p[0] - centres[m, 0], p[1] - centres[m, 1], p[2] - centres[m, 2]
     if kinds[m] == 0:
         ax, ay, az = axes[m, 0], axes[m, 1], axes[m, 2]
         t = r0 * ax + r1 * ay + r2 * az
         q0, q1, q2 = r0 - t * ax, r1 - t * ay, r2 - t * az
         rho = math.sqrt(q0 ** 2 + q1 ** 2 + q2 ** 2)
+        if not normal:
+            dr = rho - radii[m]
+            dt = abs(t) - 0.5 * lengths[m]
+            outside = math.hypot(max(dr, 0.0), max(dt, 0.0))
+            return (outside if outside > 0.0 else max(dr, dt)), 0.0, 0.0, 0.0
         if rho > 1e-12:
             er0, er1, er2 = q0 / rho, q1 / rho, q2 / rho
         else:
@@ -60,6 +68,8 @@ def _primitive_distance(p, m, kinds, centres, axes, perps, radii, lengths, halfs
     if q0 > 0.0 or q1 > 0.0 or q2 > 0.0:
         o0, o1, o2 = max(q0, 0.0), max(q1, 0.0), max(q2, 0.0)
         outside = math.sqrt(o0 ** 2 + o1 ** 2 + o2 ** 2)
+        if not normal:
+            return outside, 0.0, 0.0, 0.0
         den = max(outside, 1e-300)
         return outside, s0 * o0 / den, s1 * o1 / den, s2 * o2 / den
     if q0 >= q1 and q0 >= q2:  # the nearest face (the first on ties)
@@ -70,14 +80,14 @@ def _primitive_distance(p, m, kinds, centres, axes, perps, radii, lengths, halfs
 
 
 @njit(cache=True, nogil=True)
-def _distance(p, kinds, centres, axes, perps, radii, lengths, halfs):  # type: ignore[no-untyped-def]
+def _distance(p, kinds, centres, axes, perps, radii, lengths, halfs, normal):  # type: ignore[no-untyped-def]
     """Signed distance of p (its first three entries) to the union of primitives and its unit gradient.
 
-    Returns (sd, g0, g1, g2), of the first primitive on ties.
+    Returns (sd, g0, g1, g2), of the first primitive on ties; without ``normal`` only sd is meaningful.
     """
     best, b0, b1, b2 = np.inf, 0.0, 0.0, 0.0
     for m in range(kinds.shape[0]):
-        sd, g0, g1, g2 = _primitive_distance(p, m, kinds, centres, axes, perps, radii, lengths, halfs)
+        sd, g0, g1, g2 = _primitive_distance(p, m, kinds, centres, axes, perps, radii, lengths, halfs, normal)
         if sd < best:
             best, b0, b1, b2 = sd, g0, g1, g2
     return best, b0, b1, b2
@@ -90,9 +100,10 @@ def _push_out(x, lower, upper, kinds, centres, axes, perps, radii, lengths, half
     Up to 4 moves, until its distance is within tol of the margin (tol < 0: until it is at least the margin).
     """
     for _ in range(4):
-        sd, g0, g1, g2 = _distance(x, kinds, centres, axes, perps, radii, lengths, halfs)
+        sd = _distance(x, kinds, centres, axes, perps, radii, lengths, halfs, False)[0]
         if (sd >= margin) if tol < 0.0 else (abs(sd - margin) <= tol):
             break
+        sd, g0, g1, g2 = _distance(x, kinds, centres, axes, perps, radii, lengths, halfs, True)
         c = margin - sd
         x[0] += c * g0
         x[1] += c * g1
@@ -149,7 +160,7 @@ def _distance_hessian(p, kinds, centres, axes, perps, radii, lengths, halfs):  #
     best = np.inf
     hess = np.zeros((3, 3))
     for m in range(kinds.shape[0]):
-        sd = _primitive_distance(p, m, kinds, centres, axes, perps, radii, lengths, halfs)[0]
+        sd = _primitive_distance(p, m, kinds, centres, axes, perps, radii, lengths, halfs, False)[0]
         if sd < best:
             best = sd
             hess = np.zeros((3, 3))
@@ -167,14 +178,16 @@ def _distance_hessian(p, kinds, centres, axes, perps, radii, lengths, halfs):  #
 
 @njit(cache=True, nogil=True)
 def _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin, normal):  # type: ignore[no-untyped-def]
-    """Whether the body holds the palm; fills ``normal`` (3,) with the surface's unit normal there (if any body).
+    """Whether the body holds the palm; fills ``normal`` (3,) with the surface's unit normal there when it may.
 
     It does when the palm is on the surface (margin included) and grad (of f, shape (d,)) points out of
     it, i.e. f would fall inside the body.
     """
     if kinds.shape[0] == 0:
         return False
-    sd, normal[0], normal[1], normal[2] = _distance(x, kinds, centres, axes, perps, radii, lengths, halfs)
+    if not _distance(x, kinds, centres, axes, perps, radii, lengths, halfs, False)[0] - margin <= _ON_SURFACE:
+        return False  # off the surface: no normal needed
+    sd, normal[0], normal[1], normal[2] = _distance(x, kinds, centres, axes, perps, radii, lengths, halfs, True)
     return sd - margin <= _ON_SURFACE and grad[0] * normal[0] + grad[1] * normal[1] + grad[2] * normal[2] > 0.0
 
 
@@ -261,7 +274,7 @@ def _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1,  # type: ig
     for j in range(a0, a1):
         A[n_eq, j] = 2.0 * x[j] * scale[j]
     if kinds.shape[0] > 0:
-        sd, n0, n1, n2 = _distance(x, kinds, centres, axes, perps, radii, lengths, halfs)
+        sd, n0, n1, n2 = _distance(x, kinds, centres, axes, perps, radii, lengths, halfs, True)
         e[n_eq + 1] = sd - margin
         A[n_eq + 1] = 0.0
         A[n_eq + 1, 0] = n0 * scale[0]

@@ -236,6 +236,19 @@ def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, 
             assert_allclose(hess, numeric, rtol=0.0, atol=1e-5 * np.abs(hess).max())
 
 
+def test_the_distance_alone_is_the_distance_with_its_gradient(shipped: dict[str, GraspModel]) -> None:
+    """The kernels' distance without the gradient (where only the distance decides) is the same number."""
+    from grasp_intent_ros.core._kernels import _distance
+    body = shipped['cup_7zone'].body
+    assert body is not None
+    cylinder = body.kernel_arrays[:7]
+    box = (np.ones(1, dtype=np.int64), np.array([[0.01, 0.0, 0.02]]), *cylinder[2:6], np.array([[0.03, 0.02, 0.05]]))
+    rng = np.random.default_rng(8)
+    for arrays in (cylinder, box):
+        for p in rng.normal(0.0, 0.06, (2000, 3)):
+            assert _distance(p, *arrays, False)[0] == _distance(p, *arrays, True)[0]
+
+
 def test_kernel_sums_run_in_their_stated_order() -> None:
     """The unrolled kernel loops give, bit for bit, each sum taken term by term in index order.
 
@@ -323,8 +336,8 @@ def test_body_surface_curvature_matches_finite_differences(shipped: dict[str, Gr
     for p in (np.array([0.03, 0.0, 0.041]), np.array([0.03, 0.012, 0.035]), np.array([-0.05, -0.02, 0.0]),
               np.array([0.12, 0.005, 0.03])):
         step = 1e-7
-        numeric = np.stack([(np.array(_distance(p + h, *arrays)[1:]) - np.array(_distance(p - h, *arrays)[1:]))
-                            / (2.0 * step)
+        numeric = np.stack([(np.array(_distance(p + h, *arrays, True)[1:])
+                             - np.array(_distance(p - h, *arrays, True)[1:])) / (2.0 * step)
                             for h in np.eye(3) * step])
         hess = _distance_hessian(p, *arrays)
         assert_allclose(hess, numeric, rtol=0.0, atol=1e-6 * max(np.abs(numeric).max(), 1.0))
