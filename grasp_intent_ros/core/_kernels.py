@@ -621,22 +621,30 @@ def rank_keys(f: NDArray[np.float64], tol: float) -> NDArray[np.int64]:
 
 
 @njit(cache=True, nogil=True)
+def _keep_best(best, m, keys, i):  # type: ignore[no-untyped-def]
+    """Offer index i to best[:m], the best m indices so far in key order (at most best.size): returns the new m.
+
+    i is inserted at its rank; when best is full, the worst is dropped (or i, when it is no better).
+    """
+    if m == best.size and (m == 0 or keys[i] >= keys[best[m - 1]]):
+        return m
+    if m < best.size:
+        m += 1
+    j = m - 1
+    while j > 0 and keys[best[j - 1]] > keys[i]:
+        best[j] = best[j - 1]
+        j -= 1
+    best[j] = i
+    return m
+
+
+@njit(cache=True, nogil=True)
 def _first_ranked(f, tol, count):  # type: ignore[no-untyped-def]
-    n = f.size
     keys = _rank_keys(f, tol)
-    count = max(0, min(count, n))
-    out = np.empty(count, dtype=np.int64)
-    m = 0  # out[:m] holds the best m so far, in key order
-    for i in range(n):
-        if m == count and (count == 0 or keys[i] >= keys[out[m - 1]]):
-            continue
-        if m < count:
-            m += 1
-        j = m - 1  # insert i at its rank among out[:m], the worst (if all were full) dropped
-        while j > 0 and keys[out[j - 1]] > keys[i]:
-            out[j] = out[j - 1]
-            j -= 1
-        out[j] = i
+    out = np.empty(max(0, min(count, f.size)), dtype=np.int64)
+    m = 0
+    for i in range(f.size):
+        m = _keep_best(out, m, keys, i)
     return out
 
 
@@ -669,22 +677,16 @@ def _select_demonstrations(posterior, v, members, zones, rest_count, tol):  # ty
                 first = i
     out = np.empty(1 + rest_count, dtype=np.int64)
     out[0] = first
-    m = 0  # out[1:1 + m] holds the best m so far, in key order
+    rest = out[1:]
+    m = 0  # rest[:m] holds the best m so far, in key order
     for i in range(n):
-        if i == first or rest_count == 0:
+        if i == first:
             continue
         member = False
         for z in range(zones.size):
             member = member or members[zones[z], i]
-        if not member or (m == rest_count and keys[i] >= keys[out[m]]):
-            continue
-        if m < rest_count:
-            m += 1
-        j = m  # insert i at its rank among out[1:1 + m], the worst (if all were full) dropped
-        while j > 1 and keys[out[j - 1]] > keys[i]:
-            out[j] = out[j - 1]
-            j -= 1
-        out[j] = i
+        if member:
+            m = _keep_best(rest, m, keys, i)
     return out[:1 + m]
 
 
