@@ -747,8 +747,14 @@ def _posterior_and_scores(x, means, prec, log_norm, p, g, diff):  # type: ignore
 
     :func:`_centre_scores` turns g into the gradients of log P(k|x), :func:`_scores_to_jacobian` into dP/dx.
     """
-    K = p.size
     _log_joint_score(x, means, prec, log_norm, p, g, diff)
+    _normalise(p)
+
+
+@njit(cache=True, nogil=True)
+def _normalise(p):  # type: ignore[no-untyped-def]
+    """Turns log joints p (K,) into the posterior in place: exp(p_k - max p) / sum_j exp(p_j - max p)."""
+    K = p.size
     top = p[0]
     for k in range(1, K):
         if p[k] > top or p[k] != p[k]:  # NaN propagates, as in np.max
@@ -759,6 +765,28 @@ def _posterior_and_scores(x, means, prec, log_norm, p, g, diff):  # type: ignore
         total += p[k]
     for k in range(K):
         p[k] /= total
+
+
+@njit(cache=True, nogil=True)
+def _log_joints(xs, means, prec, log_norm):  # type: ignore[no-untyped-def]
+    n = xs.shape[0]
+    K, d = means.shape
+    lj, post = np.empty((n, K)), np.empty((n, K))
+    g, diff = np.empty((K, d)), np.empty(d)
+    for s in range(n):
+        _log_joint_score(xs[s], means, prec, log_norm, lj[s], g, diff)
+        post[s] = lj[s]
+        _normalise(post[s])
+    return lj, post
+
+
+def log_joints(xs: NDArray[np.float64], means: NDArray[np.float64], prec: NDArray[np.float64],
+               log_norm: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """log(pi_k N_k(x)) and P(k|x) of every row of xs (N, d), each (N, K), with the iterations' own arithmetic."""
+    lj: NDArray[np.float64]
+    post: NDArray[np.float64]
+    lj, post = _log_joints(np.ascontiguousarray(xs, dtype=np.float64), means, prec, log_norm)
+    return lj, post
 
 
 @njit(cache=True, nogil=True)
@@ -1292,6 +1320,7 @@ def warm_up() -> None:
         feasible(np.full((1, d), 0.5), -np.ones(d), np.ones(d), 3, 6, body)
     score(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
           np.zeros(d), np.ones(d))
+    log_joints(np.full((1, d), 0.5), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2))
     rank_keys(np.ones(2), 1e-12)
     first_ranked(np.ones(2), 1e-12, 1)
     distinct(np.ones((2, d)), 1e-18)

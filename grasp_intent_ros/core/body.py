@@ -22,6 +22,7 @@ In a model document (see :meth:`ObjectBody.to_document`)::
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Union
@@ -47,6 +48,12 @@ def _vec3(value: Any, what: str) -> NDArray[np.float64]:
     return arr
 
 
+def _norm3(v: NDArray[np.float64]) -> float:
+    """|v| with its sum in a fixed order (np.linalg.norm takes BLAS's dot, whose order depends on the CPU)."""
+    x, y, z = v.tolist()
+    return math.sqrt(x * x + y * y + z * z)
+
+
 def _positive(value: Any, what: str) -> float:
     try:
         out = float(value)
@@ -70,7 +77,7 @@ class Cylinder:
 
     def __post_init__(self) -> None:
         axis = _vec3(self.axis, 'cylinder axis')
-        norm = float(np.linalg.norm(axis))
+        norm = _norm3(axis)
         if norm < 1e-9:
             raise ModelFormatError('cylinder axis must be non-zero')
         object.__setattr__(self, 'centre', _vec3(self.centre, 'cylinder centre'))
@@ -78,7 +85,7 @@ class Cylinder:
         object.__setattr__(self, 'radius', _positive(self.radius, 'cylinder radius'))
         object.__setattr__(self, 'length', _positive(self.length, 'cylinder length'))
         perp = np.cross(self.axis, [1.0, 0.0, 0.0] if abs(self.axis[0]) < 0.9 else [0.0, 1.0, 0.0])
-        object.__setattr__(self, 'perpendicular', perp / np.linalg.norm(perp))
+        object.__setattr__(self, 'perpendicular', perp / _norm3(perp))
 
     def distance(self, p: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Signed distance of points p (N, 3) to the surface (< 0 inside) and its gradient (N, 3)."""

@@ -14,6 +14,7 @@ in log space and is differentiated analytically.
 from __future__ import annotations
 
 import functools
+import math
 import re
 from collections.abc import Hashable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -68,7 +69,54 @@ shipped 7-zone models (116 kB). Checked on the raw text before any parsing."""
 MAX_DOCUMENT_DEPTH = 32
 """Deepest nesting of sequences and mappings in a document read (a model document nests 4 deep)."""
 
-_LOG_2PI = float(np.log(2.0 * np.pi))
+_LOG_2PI = math.log(2.0 * math.pi)
+
+
+def _precisions_and_log_norms(covs: NDArray[np.float64], priors: NDArray[np.float64],
+                              ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Each zone's precision Sigma_k^-1, shape (K, d, d), and log(pi_k) - 1/2 log det(2 pi Sigma_k), shape (K,).
+
+    Cholesky factor L (from the lower triangle), its inverse by forward substitution and
+    Sigma^-1 = L^-T L^-1, in plain floating point with every sum in a fixed order: no BLAS or LAPACK, whose
+    kernels sum in an order (and use fused multiply-adds) according to the CPU, so that the model, and every
+    plan computed from it, has the same bits on every machine. Sigma^-1 is exactly symmetric (one sum per
+    pair). Raises ModelFormatError for a covariance that is not positive definite.
+    """
+    K, d = covs.shape[0], covs.shape[1]
+    precisions, log_norm = np.empty((K, d, d)), np.empty(K)
+    for k in range(K):
+        a = covs[k].tolist()
+        low = [[0.0] * d for _ in range(d)]
+        for i in range(d):
+            for j in range(i + 1):
+                acc = a[i][j]
+                for m in range(j):
+                    acc -= low[i][m] * low[j][m]
+                if i > j:
+                    low[i][j] = acc / low[j][j]
+                elif acc > 0.0:  # also False for NaN
+                    low[i][i] = math.sqrt(acc)
+                else:
+                    raise ModelFormatError('every zone covariance must be symmetric positive definite')
+        inv = [[0.0] * d for _ in range(d)]  # L^-1, lower triangular
+        for c in range(d):
+            inv[c][c] = 1.0 / low[c][c]
+            for i in range(c + 1, d):
+                acc = 0.0
+                for m in range(c, i):
+                    acc -= low[i][m] * inv[m][c]
+                inv[i][c] = acc / low[i][i]
+        for i in range(d):
+            for j in range(i, d):
+                acc = 0.0
+                for m in range(j, d):
+                    acc += inv[m][i] * inv[m][j]
+                precisions[k, i, j] = precisions[k, j, i] = acc
+        log_det = 0.0
+        for i in range(d):
+            log_det += math.log(low[i][i])
+        log_norm[k] = -0.5 * (d * _LOG_2PI + 2.0 * log_det) + math.log(float(priors[k]))
+    return precisions, log_norm
 
 
 def check_document_size(text: str) -> None:
@@ -354,8 +402,6 @@ class GraspModel:
     _log_norm: NDArray[np.float64] = field(init=False, repr=False)
     _prec_stack: NDArray[np.float64] = field(init=False, repr=False)
     _prec_mean: NDArray[np.float64] = field(init=False, repr=False)
-    demo_posterior: NDArray[np.float64] = field(init=False, repr=False)
-    """Posterior of every training demonstration, shape (N, K) (computed once, for start selection)."""
 
     def __post_init__(self) -> None:
         K, d, m = len(self.zones), self.features.dim, len(self.task_names)
@@ -371,17 +417,9 @@ class GraspModel:
         priors = _as_matrix(self.priors, (K,), 'priors')
         if np.any(priors <= 0.0) or abs(priors.sum() - 1.0) > 1e-6:
             raise ModelFormatError(f'priors must be positive and sum to 1, got {priors.tolist()}')
-        try:
-            chol = np.linalg.cholesky(covs)
-        except np.linalg.LinAlgError:
-            raise ModelFormatError('every zone covariance must be symmetric positive definite') from None
+        precisions, log_norm = _precisions_and_log_norms(covs, priors)
         if not np.allclose(covs, np.swapaxes(covs, 1, 2), atol=1e-12):
             raise ModelFormatError('every zone covariance must be symmetric')
-        eye = np.broadcast_to(np.eye(d), (K, d, d))
-        chol_inv = np.linalg.solve(chol, eye)
-        precisions = np.swapaxes(chol_inv, 1, 2) @ chol_inv
-        log_det = 2.0 * np.log(np.diagonal(chol, axis1=1, axis2=2)).sum(axis=1)
-        log_norm = -0.5 * (d * _LOG_2PI + log_det) + np.log(priors)
         object.__setattr__(self, 'means', means)
         object.__setattr__(self, 'covariances', covs)
         object.__setattr__(self, 'priors', priors)
@@ -390,7 +428,6 @@ class GraspModel:
         object.__setattr__(self, 'task_covariances',
                            _as_matrix(self.task_covariances, (m, d, d), 'task_covariances'))
         object.__setattr__(self, 'task_counts', np.asarray(self.task_counts, dtype=np.int64))
-        precisions = 0.5 * (precisions + np.swapaxes(precisions, 1, 2))
         object.__setattr__(self, '_precisions', precisions)
         # Stacked for one matrix product per evaluation: g = prec_mean - x @ prec_stack.T, shape (N, K*d)
         object.__setattr__(self, '_prec_stack', precisions.reshape(K * d, d))
@@ -407,7 +444,6 @@ class GraspModel:
                                    'one per demonstration')
         object.__setattr__(self, 'demo_x', demo_x)
         object.__setattr__(self, 'demo_sets', demo_sets)
-        object.__setattr__(self, 'demo_posterior', self.posterior(demo_x))
         floor = 1e-3 * (self.features.upper - self.features.lower)
         object.__setattr__(self, 'feature_scale', np.maximum(demo_x.std(axis=0), floor))
 
@@ -435,16 +471,29 @@ class GraspModel:
         return out
 
     @functools.cached_property
+    def demo_posterior(self) -> NDArray[np.float64]:
+        """Posterior of every training demonstration, shape (N, K) (computed once, for start selection).
+
+        By the planner's compiled kernels, as :attr:`start_pool`'s.
+        """
+        return self.start_pool[2][len(self.zones):]
+
+    @functools.cached_property
     def start_pool(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """The zone means and then the demonstrations (N, d), their log joints transposed (K, N) and posteriors (N, K).
 
         The planner screens these as starts (:func:`grasp_intent_ros.core.planner.search_starts`); they
-        do not depend on v, so they are evaluated once per model. The log joints are stored zone by zone:
-        the screen's maximum and minimum over the zones are then elementwise over K rows of N (numpy's
-        reduction over a last axis of length K costs about 8 times as much).
+        do not depend on v, so they are evaluated once per model. They are evaluated by the planner's
+        compiled kernels (``_kernels.log_joints``: every sum in a fixed order), not by numpy's matrix
+        products, whose BLAS kernels sum in an order that depends on the CPU: the planner's choices among
+        them must not depend on the machine. The log joints are stored zone by zone: the screen's maximum
+        and minimum over the zones are then elementwise over K rows of N (numpy's reduction over a last
+        axis of length K costs about 8 times as much).
         """
+        from ._kernels import log_joints  # here: numba is the planner's, not every model reader's, import
         pool = np.concatenate([self.means, self.demo_x])
-        return pool, np.ascontiguousarray(self.log_joint(pool).T), self.posterior(pool)
+        lj, post = log_joints(pool, self.means, self._precisions, self._log_norm)
+        return pool, np.ascontiguousarray(lj.T), post
 
     @functools.cached_property
     def zone_labels(self) -> tuple[str, ...]:

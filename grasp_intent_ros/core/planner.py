@@ -63,6 +63,11 @@ them). With the previous plan as x_ref, a smoothly moving intent moves the grasp
 previous match is projected onto the new equations. When that branch stops matching v, the wider
 search runs and the grasp may jump.
 
+Machine independence: none of the above goes through BLAS or LAPACK (their kernels sum in an order chosen
+for the CPU). The model's precisions, the screens' log joints and posteriors (``GraspModel.start_pool``)
+and every iteration sum in a fixed order and take ``exp`` and ``log`` from the C library, so a plan has
+the same bits under any BLAS.
+
 The paper's solvers stay available: ``method='slsqp'`` (SQP) and ``'trust-constr'`` (interior point)
 minimise f from the demonstration starts (scipy), with the same choice rule.
 """
@@ -288,6 +293,11 @@ def _first_by_f(f: NDArray[np.float64], count: int) -> NDArray[np.int64]:
     return first_ranked(f, MATCH_TOL, count)
 
 
+def _log(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Natural logs by the C library's log, as the compiled kernels take them (numpy has vectorised logs of its own)."""
+    return np.array([math.log(t) for t in values.tolist()])
+
+
 def zone_order(v: NDArray[np.float64]) -> NDArray[np.intp]:
     """Zones from the most to the least likely; v compared at 1e-9, ties in zone order (never noise)."""
     return np.lexsort((np.arange(v.size), -np.rint(v * 1e9)))
@@ -318,11 +328,14 @@ def search_starts(model: GraspModel, v: NDArray[np.float64], count: int = _SCREE
     """
     pool, log_joint_t, posterior = model.start_pool
     if float(v.min()) > 0.0:
-        q = log_joint_t - np.log(v)[:, None]  # (K, N)
+        q = log_joint_t - _log(v)[:, None]  # (K, N)
         score = q.max(axis=0) - q.min(axis=0)
     else:
         r = v[None, :] - posterior
-        score = 0.5 * np.einsum('nk,nk->n', r, r)
+        score = r[:, 0] * r[:, 0]
+        for k in range(1, v.size):  # term by term, in zone order (einsum sums in an order of its own)
+            score += r[:, k] * r[:, k]
+        score *= 0.5
     out: NDArray[np.float64] = pool[_first_by_f(score, count)]
     return out
 
@@ -382,7 +395,7 @@ class _LogOddsProjection:
         self.model, self.feas = model, feas
         self.r = int(zone_order(v)[0])
         self.others = np.delete(np.arange(len(model.zones), dtype=np.int64), self.r)
-        self.b = np.log(v[self.others]) - np.log(v[self.r])
+        self.b = _log(v[self.others]) - math.log(v[self.r])
         self.b_path = np.rint(self.b / _GN_QUANTUM) * _GN_QUANTUM
         """The targets the long path is taken to: v's last bits cannot steer it (class docstring)."""
 

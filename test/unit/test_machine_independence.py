@@ -1,0 +1,92 @@
+"""The planner's answers do not depend on the machine's BLAS: the same bits under another CPU's OpenBLAS kernels.
+
+numpy's matrix products and factorisations run OpenBLAS kernels chosen for the CPU, and they sum in
+orders of their own. The model's precisions and normalisers, the planner's screens and its kernels are
+written out with every sum in a fixed order, so a plan is a function of its input bit for bit. The first
+test runs the same plans, and the MICO grasps made of them, in processes whose OpenBLAS takes the
+kernels of another CPU (``OPENBLAS_CORETYPE``) and compares the bits.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from grasp_intent_ros.core.errors import ModelFormatError
+from grasp_intent_ros.core.model import _precisions_and_log_norms
+
+PROBE = r'''
+import hashlib
+import numpy as np
+from grasp_intent_ros.core import intent, planner
+from grasp_intent_ros.core.frames import pose_to_matrix
+from grasp_intent_ros.core.grasp import Grasp, plan_grasp
+from grasp_intent_ros.core.kinematics import MicoKinematics
+from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.core.resources import config_dir
+
+plans, blas = hashlib.sha256(), hashlib.sha256()
+kin, base_T_obj = MicoKinematics(), pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+rng = np.random.default_rng(3)
+for name in ('cup_7zone', 'flashlight_7zone'):
+    model = GraspModel.load(config_dir() / 'models' / f'{name}.yaml')
+    for array in (model._precisions, model._log_norm, *model.start_pool[1:], model.feature_scale):
+        plans.update(np.ascontiguousarray(array).tobytes())
+    blas.update((np.linalg.inv(model.covariances) @ model.covariances).tobytes())  # numpy's own BLAS
+    previous = None
+    for w in rng.uniform(0.0, 1.0, (40, 3)):  # fresh plans, then each warm-started from the one before
+        v = intent.interpret(w, model.zones).v
+        if v is not None:
+            plans.update(planner.plan(model, v).x.tobytes())
+            previous = planner.plan(model, v, warm_start=previous).x
+            plans.update(previous.tobytes())
+    for w in rng.uniform(0.0, 1.0, (10, 3)):  # what a bag records: the MICO's pose and joint targets
+        v = intent.interpret(w).v
+        grasp = None if v is None else plan_grasp(model, v, intent.all_zones(3), base_T_obj, kin, name=name)
+        if isinstance(grasp, Grasp):
+            plans.update(grasp.base_T_ee.tobytes() + grasp.positions.tobytes() + repr(grasp.duration_s).encode())
+print(plans.hexdigest(), blas.hexdigest())
+'''
+
+
+def _run_probe(coretype: str | None) -> tuple[str, str]:
+    env = dict(os.environ)
+    env.pop('OPENBLAS_CORETYPE', None)
+    if coretype is not None:
+        env['OPENBLAS_CORETYPE'] = coretype
+    done = subprocess.run([sys.executable, '-c', PROBE], env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    plans, blas = done.stdout.split()
+    return plans, blas
+
+
+def test_plans_have_the_same_bits_under_another_cpus_blas_kernels() -> None:
+    own, own_blas = _run_probe(None)
+    other, other_blas = _run_probe('Prescott')  # the SSE3 kernels: run on every x86-64 CPU
+    if own_blas == other_blas:
+        pytest.skip("OPENBLAS_CORETYPE changed nothing in numpy's own BLAS here: nothing to compare")
+    assert other == own
+
+
+def test_precisions_and_normalisers_are_those_of_the_covariances() -> None:
+    rng = np.random.default_rng(0)
+    a = rng.standard_normal((3, 10, 10))
+    covs = a @ np.swapaxes(a, 1, 2) + 0.1 * np.eye(10)
+    priors = np.array([0.2, 0.3, 0.5])
+    prec, log_norm = _precisions_and_log_norms(covs, priors)
+    assert np.array_equal(prec, np.swapaxes(prec, 1, 2))  # exactly symmetric
+    assert_allclose(prec @ covs, np.broadcast_to(np.eye(10), covs.shape), atol=1e-10)
+    expected = [np.log(p) - 0.5 * np.linalg.slogdet(2.0 * np.pi * c)[1] for p, c in zip(priors, covs)]
+    assert_allclose(log_norm, expected, rtol=1e-13)
+
+
+@pytest.mark.parametrize('cov', [-np.eye(4), np.diag([1.0, 1.0, 0.0, 1.0]), np.full((4, 4), np.nan),
+                                 np.array([[1.0, 2.0], [2.0, 1.0]])])
+def test_a_covariance_that_is_not_positive_definite_is_refused(cov: np.ndarray) -> None:
+    with pytest.raises(ModelFormatError, match='positive definite'):
+        _precisions_and_log_norms(cov[None], np.ones(1))
