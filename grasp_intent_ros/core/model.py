@@ -80,7 +80,8 @@ def _precisions_and_log_norms(covs: NDArray[np.float64], priors: NDArray[np.floa
     Sigma^-1 = L^-T L^-1, in plain floating point with every sum in a fixed order: no BLAS or LAPACK, whose
     kernels sum in an order (and use fused multiply-adds) according to the CPU, so that the model, and every
     plan computed from it, has the same bits on every machine. Sigma^-1 is exactly symmetric (one sum per
-    pair). Raises ModelFormatError for a covariance that is not positive definite.
+    pair). Raises ModelFormatError for a covariance that is not positive definite, or whose inverse
+    overflows.
     """
     K, d = covs.shape[0], covs.shape[1]
     precisions, log_norm = np.empty((K, d, d)), np.empty(K)
@@ -116,6 +117,8 @@ def _precisions_and_log_norms(covs: NDArray[np.float64], priors: NDArray[np.floa
         for i in range(d):
             log_det += math.log(low[i][i])
         log_norm[k] = -0.5 * (d * _LOG_2PI + 2.0 * log_det) + math.log(float(priors[k]))
+    if not (np.all(np.isfinite(precisions)) and np.all(np.isfinite(log_norm))):
+        raise ModelFormatError('a zone covariance is too close to singular: its inverse overflows')
     return precisions, log_norm
 
 

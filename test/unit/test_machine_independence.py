@@ -13,12 +13,7 @@ import os
 import subprocess
 import sys
 
-import numpy as np
 import pytest
-from numpy.testing import assert_allclose
-
-from grasp_intent_ros.core.errors import ModelFormatError
-from grasp_intent_ros.core.model import _precisions_and_log_norms
 
 PROBE = r'''
 import hashlib
@@ -71,22 +66,3 @@ def test_plans_have_the_same_bits_under_another_cpus_blas_kernels() -> None:
     if own_blas == other_blas:
         pytest.skip("OPENBLAS_CORETYPE changed nothing in numpy's own BLAS here: nothing to compare")
     assert other == own
-
-
-def test_precisions_and_normalisers_are_those_of_the_covariances() -> None:
-    rng = np.random.default_rng(0)
-    a = rng.standard_normal((3, 10, 10))
-    covs = a @ np.swapaxes(a, 1, 2) + 0.1 * np.eye(10)
-    priors = np.array([0.2, 0.3, 0.5])
-    prec, log_norm = _precisions_and_log_norms(covs, priors)
-    assert np.array_equal(prec, np.swapaxes(prec, 1, 2))  # exactly symmetric
-    assert_allclose(prec @ covs, np.broadcast_to(np.eye(10), covs.shape), atol=1e-10)
-    expected = [np.log(p) - 0.5 * np.linalg.slogdet(2.0 * np.pi * c)[1] for p, c in zip(priors, covs)]
-    assert_allclose(log_norm, expected, rtol=1e-13)
-
-
-@pytest.mark.parametrize('cov', [-np.eye(4), np.diag([1.0, 1.0, 0.0, 1.0]), np.full((4, 4), np.nan),
-                                 np.array([[1.0, 2.0], [2.0, 1.0]])])
-def test_a_covariance_that_is_not_positive_definite_is_refused(cov: np.ndarray) -> None:
-    with pytest.raises(ModelFormatError, match='positive definite'):
-        _precisions_and_log_norms(cov[None], np.ones(1))

@@ -19,6 +19,7 @@ from grasp_intent_ros.core.model import (
     MAX_DOCUMENT_DEPTH,
     ZONE_STRUCTURES,
     GraspModel,
+    _precisions_and_log_norms,
     parse_document,
     structure_zones,
 )
@@ -302,3 +303,27 @@ def test_csv_round_trip_and_errors(tmp_path, demos: Demonstrations) -> None:  # 
     bad.write_text('a,b,c\n1,2,3\n')
     with pytest.raises(DataError, match='first 10 columns'):
         load_csv(bad)
+
+
+def test_precisions_and_normalisers_are_those_of_the_covariances() -> None:
+    rng = np.random.default_rng(0)
+    a = rng.standard_normal((3, 10, 10))
+    covs = a @ np.swapaxes(a, 1, 2) + 0.1 * np.eye(10)
+    priors = np.array([0.2, 0.3, 0.5])
+    prec, log_norm = _precisions_and_log_norms(covs, priors)
+    assert np.array_equal(prec, np.swapaxes(prec, 1, 2))  # exactly symmetric
+    assert_allclose(prec @ covs, np.broadcast_to(np.eye(10), covs.shape), atol=1e-10)
+    expected = [np.log(p) - 0.5 * np.linalg.slogdet(2.0 * np.pi * c)[1] for p, c in zip(priors, covs)]
+    assert_allclose(log_norm, expected, rtol=1e-13)
+
+
+@pytest.mark.parametrize('cov', [-np.eye(4), np.diag([1.0, 1.0, 0.0, 1.0]), np.full((4, 4), np.nan),
+                                 np.array([[1.0, 2.0], [2.0, 1.0]])])
+def test_a_covariance_that_is_not_positive_definite_is_refused(cov: np.ndarray) -> None:
+    with pytest.raises(ModelFormatError, match='positive definite'):
+        _precisions_and_log_norms(cov[None], np.ones(1))
+
+
+def test_a_covariance_whose_inverse_overflows_is_refused() -> None:
+    with pytest.raises(ModelFormatError, match='too close to singular'):
+        _precisions_and_log_norms(np.diag([1.0, 1e-310, 1.0])[None], np.ones(1))
