@@ -28,19 +28,19 @@ from grasp_intent_ros.core.resources import config_dir
 plans, blas = hashlib.sha256(), hashlib.sha256()
 kin, base_T_obj = MicoKinematics(), pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 rng = np.random.default_rng(3)
-for name in ('cup_7zone', 'flashlight_7zone'):
+for name in ('cup_7zone', 'flashlight_7zone', 'cup_5zone', 'cup_4zone'):
     model = GraspModel.load(config_dir() / 'models' / f'{name}.yaml')
     for array in (model._precisions, model._log_norm, *model.start_pool[1:], model.feature_scale):
         plans.update(np.ascontiguousarray(array).tobytes())
     blas.update((np.linalg.inv(model.covariances) @ model.covariances).tobytes())  # numpy's own BLAS
     previous = None
-    for w in rng.uniform(0.0, 1.0, (40, 3)):  # fresh plans, then each warm-started from the one before
+    for w in rng.uniform(0.0, 1.0, (30, 3)):  # fresh plans, then each warm-started from the one before
         v = intent.interpret(w, model.zones).v
         if v is not None:
             plans.update(planner.plan(model, v).x.tobytes())
             previous = planner.plan(model, v, warm_start=previous).x
             plans.update(previous.tobytes())
-    for w in rng.uniform(0.0, 1.0, (10, 3)):  # what a bag records: the MICO's pose and joint targets
+    for w in rng.uniform(0.0, 1.0, (6, 3)):  # what a bag records: the MICO's pose and joint targets
         v = intent.interpret(w).v
         grasp = None if v is None else plan_grasp(model, v, intent.all_zones(3), base_T_obj, kin, name=name)
         if isinstance(grasp, Grasp):
