@@ -887,6 +887,18 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
                 system[j, j] += lam * system[j, j] + ridge
                 step[j] = -grad[j]
             _spd_solve(system, step, step, low)
+            again = False
+            for j in range(d):  # a free variable on a bound whose step leaves it: held too, and solved again
+                if (not held[j] and not a0 <= j < a1
+                        and ((x[j] <= lower[j] and step[j] < 0.0) or (x[j] >= upper[j] and step[j] > 0.0))):
+                    held[j] = True
+                    jt[:, j] = 0.0
+                    grad[j] = 0.0
+                    again = True
+            if again:  # counted as an iteration, as every solve is
+                _gram(jt, gram)
+                iterations[s] += 1
+                continue
             for j in range(d):
                 x_new[j] = x[j] + step[j]
             _project(x_new, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
@@ -1033,6 +1045,17 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
                 step[j] = -grad[j]
             if not _cholesky_solve(system, step, step, low):
                 lam = max(4.0 * lam, 1e-12 * top + 1e-300)
+                continue
+            again = False
+            for i in range(d):  # a free variable on a bound whose step leaves it: held too, and solved again
+                if (not held[i] and not a0 <= i < a1
+                        and ((x[i] <= lower[i] and step[i] < 0.0) or (x[i] >= upper[i] and step[i] > 0.0))):
+                    held[i] = True
+                    grad[i] = 0.0
+                    h[i, :] = 0.0
+                    h[:, i] = 0.0
+                    again = True
+            if again:
                 continue
             gain = 0.0
             curve = 0.0

@@ -418,8 +418,10 @@ def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.flo
 
     Each iteration solves (J^T J + lam diag(J^T J) + eps I) dx = J^T r per start (eps = 1e-7 times the
     largest curvature, so that nearly flat directions cannot amplify last-bit differences), with J restricted to
-    the free variables (a variable on a bound whose gradient points outwards is held) and, for the
-    approach, to the sphere's tangent plane; with the palm on the body's surface and the gradient
+    the free variables (a variable on a bound is held when its gradient points outwards, or when the
+    solved step would take it out: the step is then solved again without it, so that a step along a
+    bound is not clipped into one the system did not solve for) and, for the approach, to the sphere's
+    tangent plane; with the palm on the body's surface and the gradient
     pointing out of it (f falls inside), the palm's columns are restricted to the surface's tangent
     plane too. The step is then projected onto X (and such a palm back onto the surface). A step is taken only
     when it lowers f (lam shrinks), else lam grows. A start has converged when an accepted step gains
