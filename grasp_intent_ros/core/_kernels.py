@@ -838,6 +838,21 @@ def _gradient(r, jac, grad):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
+def _hold_leaving(x, step, held, lower, upper, a0, a1):  # type: ignore[no-untyped-def]
+    """Holds (in ``held``) every free variable on a bound whose step would leave it; whether there was one.
+
+    The approach's entries are left alone: a unit vector never leaves [-1, 1].
+    """
+    more = False
+    for j in range(x.size):
+        if (not held[j] and not a0 <= j < a1
+                and ((x[j] <= lower[j] and step[j] < 0.0) or (x[j] >= upper[j] and step[j] > 0.0))):
+            held[j] = True
+            more = True
+    return more
+
+
+@njit(cache=True, nogil=True)
 def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # type: ignore[no-untyped-def]
                    kinds, centres, axes, perps, radii, lengths, halfs, margin, maxiter, ftol, ridge_rel):
     """Projected Levenberg-Marquardt on v - P(x) from every start (see planner._refine_lm)."""
@@ -887,15 +902,11 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
                 system[j, j] += lam * system[j, j] + ridge
                 step[j] = -grad[j]
             _spd_solve(system, step, step, low)
-            again = False
-            for j in range(d):  # a free variable on a bound whose step leaves it: held too, and solved again
-                if (not held[j] and not a0 <= j < a1
-                        and ((x[j] <= lower[j] and step[j] < 0.0) or (x[j] >= upper[j] and step[j] > 0.0))):
-                    held[j] = True
-                    jt[:, j] = 0.0
-                    grad[j] = 0.0
-                    again = True
-            if again:  # counted as an iteration, as every solve is
+            if _hold_leaving(x, step, held, lower, upper, a0, a1):  # solved again, counted as an iteration
+                for j in range(d):
+                    if held[j]:
+                        jt[:, j] = 0.0
+                        grad[j] = 0.0
                 _gram(jt, gram)
                 iterations[s] += 1
                 continue
@@ -1046,16 +1057,12 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
             if not _cholesky_solve(system, step, step, low):
                 lam = max(4.0 * lam, 1e-12 * top + 1e-300)
                 continue
-            again = False
-            for i in range(d):  # a free variable on a bound whose step leaves it: held too, and solved again
-                if (not held[i] and not a0 <= i < a1
-                        and ((x[i] <= lower[i] and step[i] < 0.0) or (x[i] >= upper[i] and step[i] > 0.0))):
-                    held[i] = True
-                    grad[i] = 0.0
-                    h[i, :] = 0.0
-                    h[:, i] = 0.0
-                    again = True
-            if again:
+            if _hold_leaving(x, step, held, lower, upper, a0, a1):  # solved again
+                for i in range(d):
+                    if held[i]:
+                        grad[i] = 0.0
+                        h[i, :] = 0.0
+                        h[:, i] = 0.0
                 continue
             gain = 0.0
             curve = 0.0
