@@ -152,28 +152,31 @@ def feasible(xs: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray
 
 
 @njit(cache=True, nogil=True)
-def _distance_hessian(p, kinds, centres, axes, perps, radii, lengths, halfs):  # type: ignore[no-untyped-def]
-    """Hessian (3, 3) of the signed distance at p, the nearest primitive's curvature.
+def _distance_hessian(p, kinds, centres, axes, perps, radii, lengths, halfs, hess):  # type: ignore[no-untyped-def]
+    """Fills hess (3, 3) with the signed distance's Hessian at p[:3], the nearest primitive's curvature.
 
-    A cylinder's side is curved; flat faces, and the edges' small share of the surface, count as flat.
+    A cylinder's side is curved, (I - a a^T - e e^T) / rho with a its axis, e the radial unit vector and rho
+    the radius at p; flat faces, and the edges' small share of the surface, count as flat. (Written out:
+    building it from small arrays cost ten times the arithmetic.)
     """
     best = np.inf
-    hess = np.zeros((3, 3))
     for m in range(kinds.shape[0]):
         sd = _primitive_distance(p, m, kinds, centres, axes, perps, radii, lengths, halfs, False)[0]
         if sd < best:
             best = sd
-            hess = np.zeros((3, 3))
+            hess[:] = 0.0
             if kinds[m] == 0:
-                axis = axes[m]
-                rel = p - centres[m]
-                t = rel[0] * axis[0] + rel[1] * axis[1] + rel[2] * axis[2]
-                radial = rel - t * axis
-                rho = math.sqrt(radial[0] ** 2 + radial[1] ** 2 + radial[2] ** 2)
+                a0, a1, a2 = axes[m, 0], axes[m, 1], axes[m, 2]
+                r0, r1, r2 = p[0] - centres[m, 0], p[1] - centres[m, 1], p[2] - centres[m, 2]
+                t = r0 * a0 + r1 * a1 + r2 * a2
+                q0, q1, q2 = r0 - t * a0, r1 - t * a1, r2 - t * a2
+                rho = math.sqrt(q0 ** 2 + q1 ** 2 + q2 ** 2)
                 if rho > 1e-12 and abs(t) <= 0.5 * lengths[m] and rho - radii[m] >= abs(t) - 0.5 * lengths[m]:
-                    e_r = radial / rho
-                    hess = (np.eye(3) - np.outer(axis, axis) - np.outer(e_r, e_r)) / rho
-    return hess
+                    a = (a0, a1, a2)
+                    e = (q0 / rho, q1 / rho, q2 / rho)
+                    for i in range(3):
+                        for j in range(3):
+                            hess[i, j] = (((1.0 if i == j else 0.0) - a[i] * a[j]) - e[i] * e[j]) / rho
 
 
 @njit(cache=True, nogil=True)
@@ -989,7 +992,7 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
     p, p_new, r, r_new = np.empty(K), np.empty(K), np.empty(K), np.empty(K)
     jac, jac_new, u, diff = np.empty((K, d)), np.empty((K, d)), np.empty((K, d)), np.empty(d)
     hess, hess_new, h = np.empty((d, d)), np.empty((d, d)), np.empty((d, d))
-    system, low = np.empty((d, d)), np.empty((d, d))
+    system, low, curvature = np.empty((d, d)), np.empty((d, d)), np.empty((3, 3))
     held, normal, ns = np.empty(d, dtype=np.bool_), np.empty(3), np.empty(3)
     for s in range(n):
         x[:] = starts[s]
@@ -1011,8 +1014,10 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
                 h[:] = hess
                 if on_body:  # the Lagrangian's Hessian on the body's surface: minus mu times the surface's curvature
                     mu = grad[0] * normal[0] + grad[1] * normal[1] + grad[2] * normal[2]
-                    h[0:3, 0:3] -= mu * _distance_hessian(x[0:3].copy(), kinds, centres, axes, perps, radii,
-                                                          lengths, halfs)
+                    _distance_hessian(x, kinds, centres, axes, perps, radii, lengths, halfs, curvature)
+                    for i in range(3):
+                        for j in range(3):
+                            h[i, j] -= mu * curvature[i, j]
                 ax = x[a0:a1]
                 radial = 0.0
                 for i in range(a1 - a0):
