@@ -36,8 +36,9 @@ not name one grasp. The planner therefore answers a stated problem:
    (which keeps the curvature that the Levenberg-Marquardt steps leave out: that of a nearly flat
    valley): 50 iterations each, then the better one that has not converged goes on, to 400; its end
    point replaces theirs where it converges. **Open fingers**: when the best of these end points has
-   f > 1e-7 (|v - P| > 4.5e-4: no match), the best screened start (below) with one finger open (at
-   its lower bound; one start per finger not already open) starts a last round: 50
+   f > 1e-7 (|v - P| > 4.5e-4: no match) and the model has the MICO's finger features, the best
+   screened start (below) with one finger open (at its lower bound; one start per finger not already
+   open) starts a last round: 50
    Levenberg-Marquardt iterations, then the same Newton polish of its two best. A finger's bounds split
    the least squares into separate local minima (the finger open or closed), and the other origins,
    whose fingers sit near the demonstrations' closure, rarely reach the open ones (flashlight, 1,100
@@ -103,7 +104,7 @@ from ._kernels import (
     select_demonstrations,
 )
 from .errors import PlanningError
-from .features import FINGERS, PALM
+from .features import FINGERS, MICO_3F, PALM
 from .intent import reconstruct_w
 from .model import GraspModel
 
@@ -474,11 +475,11 @@ def _least_squares(model: GraspModel, v: NDArray[np.float64], origins: NDArray[n
     Levenberg-Marquardt from every origin for ``_LM_RACE`` iterations, then the ``_LM_KEEP`` best
     unconverged on to ``_LM_MAXITER``; the ``_NEWTON_POLISH`` best end points go on with Newton
     (``_NEWTON_RACE`` iterations each, then the ``_NEWTON_KEEP`` best unconverged to ``_NEWTON_MAXITER``;
-    kept where it converges). When the best of them has f above ``_OPEN_F``, ``screened`` (the best
-    screened start) with each finger open starts a last round: Levenberg-Marquardt for ``_OPEN_LM``
-    iterations, then the same Newton polish; its rows and origins follow ``origins``'. End points within
-    ``_POLISH`` of a match are projected onto the matches (with ``projection``, when P = v is possible;
-    kept where that converges).
+    kept where it converges). When the best of them has f above ``_OPEN_F`` (and the model's features
+    include the MICO's fingers), ``screened`` (the best screened start) with each finger open starts a
+    last round: Levenberg-Marquardt for ``_OPEN_LM`` iterations, then the same Newton polish; its rows and
+    origins follow ``origins``'. End points within ``_POLISH`` of a match are projected onto the matches
+    (with ``projection``, when P = v is possible; kept where that converges).
     """
     v_path = np.rint(v / _LS_QUANTUM) * _LS_QUANTUM
 
@@ -517,7 +518,8 @@ def _least_squares(model: GraspModel, v: NDArray[np.float64], origins: NDArray[n
         its[ahead] += more
     for i in polish(xs, ok, its).tolist():
         left[i] = ''
-    if float(f_of(xs, v_path).min()) > _OPEN_F:  # clearly no match among them: the fingers' other minima
+    mico_fingers = model.features.names[FINGERS] == MICO_3F.names[FINGERS]  # other feature spaces: no round
+    if mico_fingers and float(f_of(xs, v_path).min()) > _OPEN_F:  # clearly no match: the fingers' other minima
         fingers = [j for j in range(FINGERS.start, FINGERS.stop) if screened[j] != model.lower[j]]
         if fingers:
             opened = np.repeat(screened[None, :], len(fingers), axis=0)

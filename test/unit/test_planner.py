@@ -22,8 +22,9 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from grasp_intent_ros.core import _kernels, intent, planner
+from grasp_intent_ros.core.data import Demonstrations
 from grasp_intent_ros.core.errors import PlanningError
-from grasp_intent_ros.core.features import FINGERS
+from grasp_intent_ros.core.features import FINGERS, MICO_3F, FeatureSpace
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.core.resources import config_dir
 
@@ -404,6 +405,20 @@ def test_least_squares_find_the_minima_with_a_finger_open(shipped: dict[str, Gra
     assert res.objective <= 1.01 * planner.reference_search(model, v, n_starts=60)
     opened = res.chosen.start[FINGERS] == model.lower[FINGERS]
     assert opened.sum() == 1
+
+
+def test_a_model_without_the_mico_fingers_plans_without_the_open_finger_round(demos: Demonstrations) -> None:
+    """A model over the first seven MICO features (palm, approach, roll) runs the least squares without fingers.
+
+    The open-finger round opened features 7-9 of every model; with seven features it raised IndexError.
+    """
+    features = FeatureSpace(names=MICO_3F.names[:7], units=MICO_3F.units[:7], lower=MICO_3F.lower[:7],
+                            upper=MICO_3F.upper[:7])
+    model = GraspModel.fit(Demonstrations(demos.x[:, :7], demos.task_sets, demos.task_names, features))
+    res = planner.plan(model, _v((0.51, 0.95, 0.14), model))  # no match: the least squares, f 2.9e-3
+    assert res.status == 'ok' and res.chosen.message.startswith('least squares')
+    assert res.x.shape == (7,) and res.objective > planner._OPEN_F
+    assert not any('finger opened' in c.message for c in res.candidates)
 
 
 def test_bad_inputs_raise(toy_model: GraspModel) -> None:
