@@ -28,37 +28,34 @@ not name one grasp. The planner therefore answers a stated problem:
 4. **Search, nearest first.** The reference itself is projected first: when it reaches a match (and
    ``accept`` takes it), that is the answer. Otherwise the other starts are projected, and the
    matches found are chosen from (rule 6).
-5. **Least squares.** When no start reaches an acceptable match (some v_k = 0, or v is outside what
-   the model can attain in X), f is minimised from every start and every zone mean with
-   a projected Levenberg-Marquardt iteration: 100 iterations each, then only the three that have not
-   converged with the lowest f go on, to 200 (the others stop there, labelled so). The two best
-   end points by f then go on with a projected trust-region Newton iteration on f's exact Hessian
-   (which keeps the curvature that the Levenberg-Marquardt steps leave out: that of a nearly flat
-   valley): 50 iterations each, then the better one that has not converged goes on, to 400; its end
-   point replaces theirs where it converges. **Open fingers**: when the best of these end points has
-   f > 1e-7 (|v - P| > 4.5e-4: no match) and the model has the MICO's finger features, the best
-   screened start (below) with one finger open (at its lower bound; one start per finger not already
-   open) starts a last round: 50
-   Levenberg-Marquardt iterations, then the same Newton polish of its two best. A finger's bounds split
-   the least squares into separate local minima (the finger open or closed), and the other origins,
-   whose fingers sit near the demonstrations' closure, rarely reach the open ones (flashlight, 1,100
-   random w on three seeds: 1,093 -> 1,098 within 1% of the 60-start search). Near-matches (f <= 1e-7)
-   skip the round: they are the slowest plans, and with them in it the counts were the same. All
-   selections rank f at 1e-12 relative, then by start order, on paths taken to the rounded v (below),
-   so the last bits of v cannot change them. Both
-   iterations hold the bounds, the unit approach and the body as an active set:
-   a palm on the body's surface whose objective would fall inside the body moves on the surface
-   (steps on its tangent plane, then back onto it; Newton adds the surface's curvature times its
-   multiplier to the Hessian). Most flashlight least-squares answers lie on its body. End points
-   within 1e-8 of a match are then projected onto the matches (kept, counted converged and labelled
-   'exact match (least squares, then projected)', where the projection converges). Least-squares
-   valleys can be nearly flat and long: where neither
-   iteration converges, the end point is where the damped iteration stopped, a deterministic
-   function of the input whose last bits can move it along the valley in rare cases (see the
-   benchmark's stability section). Both iterations take their paths to v rounded to 1e-9, for the
-   projection's reason (class ``_LogOddsProjection``): a long path can amplify a difference in its
-   input (a flashlight LM path multiplied a 1e-12 change of v by about 10 per iteration, to 3e-3 at
-   the match it then reached); f, the choice and the projection onto the matches use v exactly.
+5. **Least squares.** When no start reaches an acceptable match (some v_k = 0, or v is outside what the
+   model can attain in X), f is minimised from every start and every zone mean with a projected
+   Levenberg-Marquardt iteration: 100 iterations each, then only the three that have not converged with
+   the lowest f go on, to 200 (the others stop there, labelled so). The two best end points by f then go
+   on with a projected trust-region Newton iteration on f's exact Hessian (which keeps the curvature that
+   the Levenberg-Marquardt steps leave out: that of a nearly flat valley): 50 iterations each, then the
+   better one that has not converged goes on, to 400; its end point replaces theirs where it converges.
+   **Open fingers**: when the best of these end points has f > 1e-7 (|v - P| > 4.5e-4: no match) and the
+   model has the MICO's finger features, the best screened start (below) with one finger open (at its
+   lower bound; one start per finger not already open) starts a last round: 50 Levenberg-Marquardt
+   iterations, then the same Newton polish of its two best. A finger's bounds split the least squares
+   into separate local minima (the finger open or closed), and the other origins, whose fingers sit near
+   the demonstrations' closure, rarely reach the open ones (flashlight, 1,100 random w on three seeds:
+   1,093 -> 1,098 within 1% of the 60-start search). Near-matches (f <= 1e-7) skip the round: they are
+   the slowest plans, and with them in it the counts were the same. All selections rank f at 1e-12
+   relative, then by start order, on paths taken to the rounded v (below), so the last bits of v cannot
+   change them. Both iterations hold the bounds, the unit approach and the body as an active set: a palm
+   on the body's surface whose objective would fall inside the body moves on the surface (steps on its
+   tangent plane, then back onto it; Newton adds the surface's curvature times its multiplier to the
+   Hessian). Most flashlight least-squares answers lie on its body. End points within 1e-8 of a match are
+   then projected onto the matches (kept, counted converged and labelled 'exact match (least squares,
+   then projected)', where the projection converges). Least-squares valleys can be nearly flat and long:
+   where neither iteration converges, the end point is where the damped iteration stopped, a
+   deterministic function of the input whose last bits can move it along the valley in rare cases (see
+   the benchmark's stability section). Both iterations take their paths to v rounded to 1e-9, for the
+   projection's reason (class ``_LogOddsProjection``): a long path can amplify a difference in its input
+   (a flashlight LM path multiplied a 1e-12 change of v by about 10 per iteration, to 3e-3 at the match
+   it then reached); f, the choice and the projection onto the matches use v exactly.
 6. **Choice.** Let f* be the lowest f found. The candidates with f <= f* + max(1e-12, 1e-6 f*) are
    the matches; the planner returns the one nearest to x_ref, and among matches whose distances are
    within 1e-6 of the nearest, the first in start order. Ties are never left to float noise. The
