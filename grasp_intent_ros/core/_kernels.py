@@ -3,13 +3,14 @@
 The IK is :meth:`grasp_intent_ros.core.kinematics.MicoKinematics.ik`'s descent (:func:`ik_descent`).
 
 The solvers run one start at a time. The algorithms are stated in
-:class:`grasp_intent_ros.core.planner._LogOddsProjection` and :func:`grasp_intent_ros.core.planner._refine_lm`;
-this module only runs them without numpy's per-call overhead (an iteration is ~10^3 flops, so that
-overhead, not the arithmetic, was the cost): the iterations work in arrays allocated once per call and
-write their small products and solves as loops (a BLAS or LAPACK call, or a temporary array, costs more
-than the arithmetic at these sizes). Compiled code is cached next to this file
-(``cache=True``); the first call in a fresh installation compiles it (about 30 s; ``scripts/venv.sh``
-does it at set-up time).
+:class:`grasp_intent_ros.core.planner._LogOddsProjection` and in :func:`_least_squares` and
+:func:`_newton_least_squares` below; the planner's least squares (its rule 5) runs in one call,
+:func:`least_squares_rounds`. This module only runs them without numpy's per-call overhead (an
+iteration is ~10^3 flops, so that overhead, not the arithmetic, was the cost): the iterations work in
+arrays allocated once per call and write their small products and solves as loops (a BLAS or LAPACK
+call, or a temporary array, costs more than the arithmetic at these sizes). Compiled code is cached
+next to this file (``cache=True``); the first call in a fresh installation compiles it (about 30 s;
+``scripts/venv.sh`` does it at set-up time).
 
 Body primitives are passed as arrays: ``kinds`` (0 cylinder, 1 box), ``centres``, ``axes`` and
 ``perps`` (cylinders: unit axis and a fixed unit perpendicular), ``radii``, ``lengths`` (cylinders),
@@ -27,7 +28,7 @@ from numpy.typing import NDArray
 
 _ON_SURFACE = 1e-12  # a palm within this (m) of the body's surface is on it
 
-__all__ = ['project', 'least_squares', 'newton_least_squares', 'feasible', 'score', 'rank_keys', 'first_ranked',
+__all__ = ['project', 'least_squares_rounds', 'feasible', 'score', 'screen', 'choice_order',
            'select_demonstrations', 'distinct', 'ik_descent', 'warm_up']
 
 
@@ -598,29 +599,24 @@ def score(xs: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.flo
 
 @njit(cache=True, nogil=True)
 def _rank_key(f, index, n, tol):  # type: ignore[no-untyped-def]
-    """The rank key of entry ``index`` of n (see :func:`rank_keys`)."""
+    """The rank key of entry ``index`` of n (see :func:`_rank_keys`)."""
     q = 1.0 / tol if f != f else np.rint(f / (tol * (1.0 + abs(f))))
     return np.int64(q) * n + index
 
 
 @njit(cache=True, nogil=True)
 def _rank_keys(f, tol):  # type: ignore[no-untyped-def]
-    n = f.size
-    keys = np.empty(n, dtype=np.int64)
-    for i in range(n):
-        keys[i] = _rank_key(f[i], i, n, tol)
-    return keys
-
-
-def rank_keys(f: NDArray[np.float64], tol: float) -> NDArray[np.int64]:
     """One integer per entry of f (N,) whose order is f quantised to ``tol`` relative, then the index.
 
     The quantised value is rint(f / (tol (1 + |f|))), with a NaN f after every number (as 1 / tol); for f >= 0
     it is below 1 / tol, so the key, value * N + index, fits an int64 for N < 9e6 entries at tol = 1e-12: keys
     are distinct, and float noise below the quantum cannot reorder them.
     """
-    out: NDArray[np.int64] = _rank_keys(np.ascontiguousarray(f, dtype=np.float64), tol)
-    return out
+    n = f.size
+    keys = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        keys[i] = _rank_key(f[i], i, n, tol)
+    return keys
 
 
 @njit(cache=True, nogil=True)
@@ -643,6 +639,10 @@ def _keep_best(best, m, keys, i):  # type: ignore[no-untyped-def]
 
 @njit(cache=True, nogil=True)
 def _first_ranked(f, tol, count):  # type: ignore[no-untyped-def]
+    """The indices of the ``count`` entries of f (N,) first by :func:`_rank_keys` (``tol``), in that order.
+
+    All N of them, sorted, when count >= N; none when count <= 0.
+    """
     keys = _rank_keys(f, tol)
     out = np.empty(max(0, min(count, f.size)), dtype=np.int64)
     m = 0
@@ -651,12 +651,37 @@ def _first_ranked(f, tol, count):  # type: ignore[no-untyped-def]
     return out
 
 
-def first_ranked(f: NDArray[np.float64], tol: float, count: int) -> NDArray[np.int64]:
-    """The indices of the ``count`` entries of f (N,) first by :func:`rank_keys` (``tol``), in that order.
+@njit(cache=True, nogil=True)
+def _screen(log_joint_t, log_v, posterior, v, count, tol):  # type: ignore[no-untyped-def]
+    K, n = log_joint_t.shape
+    score = np.empty(n)
+    for i in range(n):
+        if log_v.size:
+            top = low = log_joint_t[0, i] - log_v[0]
+            for k in range(1, K):
+                q = log_joint_t[k, i] - log_v[k]
+                if q > top or q != q:  # NaN propagates, as in np.max
+                    top = q
+                if q < low or q != q:
+                    low = q
+            score[i] = top - low
+        else:
+            acc = (v[0] - posterior[i, 0]) * (v[0] - posterior[i, 0])
+            for k in range(1, K):
+                acc += (v[k] - posterior[i, k]) * (v[k] - posterior[i, k])
+            score[i] = acc * 0.5
+    return _first_ranked(score, tol, count)
 
-    All N of them, sorted, when count >= N; none when count <= 0.
+
+def screen(log_joint_t: NDArray[np.float64], log_v: NDArray[np.float64], posterior: NDArray[np.float64],
+           v: NDArray[np.float64], count: int, tol: float) -> NDArray[np.int64]:
+    """The ``count`` best of N candidate starts by the planner's screen (``planner.search_starts``): indices.
+
+    With log v given (K,), the score of start i is max_k q_k - min_k q_k, q_k = log_joint_t[k, i] - log v_k
+    (log joints (K, N)); with an empty ``log_v``, 1/2 |v - posterior[i]|^2 (posteriors (N, K)), summed in zone
+    order. Ranked by :func:`_rank_keys` at ``tol``.
     """
-    out: NDArray[np.int64] = _first_ranked(np.ascontiguousarray(f, dtype=np.float64), tol, count)
+    out: NDArray[np.int64] = _screen(log_joint_t, log_v, posterior, v, count, tol)
     return out
 
 
@@ -697,7 +722,7 @@ def select_demonstrations(posterior: NDArray[np.float64], v: NDArray[np.float64]
                           zones: NDArray[np.int64], rest_count: int, tol: float) -> NDArray[np.int64]:
     """Algorithm 1's demonstrations: indices, the first zone's best first, then up to ``rest_count`` more.
 
-    f = 1/2 |v - P|^2 of every demonstration (posteriors (N, K)) is ranked by :func:`rank_keys` (``tol``).
+    f = 1/2 |v - P|^2 of every demonstration (posteriors (N, K)) is ranked by :func:`_rank_keys` (``tol``).
     The first index is the best demonstration of zone ``zones[0]`` (``members`` (K, N): demonstration n
     belongs to zone k), or the best overall when that zone has none; then the best ``rest_count`` of
     the others that belong to any of ``zones``, in rank order.
@@ -734,6 +759,65 @@ def distinct(x: NDArray[np.float64], tol: float) -> NDArray[np.bool_]:
     tol = 0 only those; -0.0 equals 0.0, and a row holding NaN or an infinity repeats no row).
     """
     out: NDArray[np.bool_] = _distinct(np.ascontiguousarray(x, dtype=np.float64), tol)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _choice_order(f, dist, start, xs, match_tol, f_rtol, dist_tol, same_tol):  # type: ignore[no-untyped-def]
+    n = f.size
+    best = f[0]
+    for i in range(1, n):  # the first lowest (as Python's min)
+        if f[i] < best:
+            best = f[i]
+    slack = f_rtol * best
+    if not slack > match_tol:
+        slack = match_tol
+    pool = np.empty(n, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        if f[i] <= best + slack:
+            pool[m] = i
+            m += 1
+    matched = np.zeros(n, dtype=np.bool_)
+    for i in range(m):
+        matched[pool[i]] = True
+    order = np.empty(n, dtype=np.int64)
+    count = 0
+    while m:  # nearest first; distances within dist_tol of it tie, broken by start order
+        nearest = dist[pool[0]]
+        for i in range(1, m):
+            if dist[pool[i]] < nearest:
+                nearest = dist[pool[i]]
+        pick = -1  # the nearest itself is never farther, so one is picked
+        for i in range(m):
+            far = dist[pool[i]] > nearest + dist_tol
+            if not far and (pick < 0 or start[pool[i]] < start[pool[pick]]):
+                pick = i
+        order[count] = pool[pick]
+        count += 1
+        for i in range(pick, m - 1):
+            pool[i] = pool[i + 1]
+        m -= 1
+    for i in np.argsort(_rank_keys(f, match_tol)):
+        if not matched[i]:
+            order[count] = i
+            count += 1
+    keep = _distinct(_rows(xs, order), same_tol)
+    return order[keep]
+
+
+def choice_order(f: NDArray[np.float64], dist: NDArray[np.float64], start: NDArray[np.int64],
+                 xs: NDArray[np.float64], match_tol: float, f_rtol: float, dist_tol: float,
+                 same_tol: float) -> NDArray[np.int64]:
+    """The planner's choice order (its rule 6): indices into the candidates.
+
+    The candidates have objectives f (N,), distances dist (N,), start indices start (N,) and end points
+    xs (N, d). The matches (f <= f* + max(match_tol, f_rtol f*), f* the lowest f) nearest first, distances within
+    ``dist_tol`` of the nearest tying, broken by the lower start index; then the others by :func:`_rank_keys`
+    of f (``match_tol``). A row within ``same_tol`` of an earlier one (:func:`distinct`) is dropped.
+    """
+    out: NDArray[np.int64] = _choice_order(f, dist, start, np.ascontiguousarray(xs, dtype=np.float64), match_tol,
+                                           f_rtol, dist_tol, same_tol)
     return out
 
 
@@ -858,7 +942,22 @@ def _hold_leaving(x, step, held, lower, upper, a0, a1):  # type: ignore[no-untyp
 @njit(cache=True, nogil=True)
 def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # type: ignore[no-untyped-def]
                    kinds, centres, axes, perps, radii, lengths, halfs, margin, maxiter, ftol, ridge_rel):
-    """Projected Levenberg-Marquardt on v - P(x) from every start (see planner._refine_lm)."""
+    """Projected Levenberg-Marquardt on r(x) = v - P(x) from every start (N, d): end points, converged, iterations.
+
+    Each iteration solves (J^T J + lam diag(J^T J) + eps I) dx = J^T r per start (eps = 1e-7 times the
+    largest curvature, so that nearly flat directions cannot amplify last-bit differences), with J restricted to
+    the free variables (a variable on a bound is held when its gradient points outwards, or when the
+    solved step would take it out: the step is then solved again without it, so that a step along a
+    bound is not clipped into one the system did not solve for) and, for the approach, to the sphere's
+    tangent plane; with the palm on the body's surface and the gradient
+    pointing out of it (f falls inside), the palm's columns are restricted to the surface's tangent
+    plane too. The step is then projected onto X (and such a palm back onto the surface). A step is taken only
+    when it lowers f (lam shrinks), else lam grows. A start has converged when an accepted step gains
+    less than 1e-7 f + 1e-15 or no step lowers f any more (stationary to machine precision); one that
+    reaches ``maxiter`` has not. The path does not depend on ``maxiter``: stopping at 100 and going on
+    from there for 200 more (with the damping started afresh) is a path of its own, taken the same way
+    on every run.
+    """
     n, d = starts.shape
     K = means.shape[0]
     out, converged, iterations = _results(n, d)
@@ -981,7 +1080,20 @@ def _scores_to_hessian(prec, v, p, u, jac, h):  # type: ignore[no-untyped-def]
 @njit(cache=True, nogil=True)
 def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale, a0, a1,  # type: ignore[no-untyped-def]
                           kinds, centres, axes, perps, radii, lengths, halfs, margin, maxiter, steptol, ridge_rel):
-    """Projected trust-region Newton on f = 1/2 |v - P(x)|^2 from every start (see planner._refine_lm)."""
+    """Projected trust-region Newton on f = 1/2 |v - P(x)|^2 with its exact Hessian from every start (N, d).
+
+    The Hessian J^T J + sum_k (P_k - v_k) d2P_k keeps the curvature that the least-squares steps leave
+    out, which is what a nearly flat valley has. Each iteration solves (H + lam I + eps I) dy = -g in
+    scaled coordinates (the approach's three scales replaced by their root mean square, so that the
+    sphere's tangent plane is the same in both), with H the Lagrangian Hessian on the sphere's tangent
+    plane and variables on a bound held as in :func:`_least_squares`; a palm held on the body's surface
+    (as there) moves on its tangent plane (in scaled coordinates) with the Lagrangian's curvature
+    -mu d2(distance), mu = n . grad_palm f, added to H; a step is taken only when it lowers
+    f (lam shrinks), else lam grows (also while H + lam I is not positive definite). A start has
+    converged after a step of less than 1e-10 (scaled), or when the predicted gain is below 1e-15 f
+    with lam negligible, or when no step lowers f any more; one that reaches ``maxiter`` has not.
+    Returns end points, converged and iterations, as :func:`_least_squares` does.
+    """
     n, d = starts.shape
     K = means.shape[0]
     out, converged, iterations = _results(n, d)
@@ -1113,26 +1225,187 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
     return out, converged, iterations
 
 
-def newton_least_squares(starts: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.float64],
-                         prec: NDArray[np.float64], log_norm: NDArray[np.float64], lower: NDArray[np.float64],
-                         upper: NDArray[np.float64], scale: NDArray[np.float64], a0: int, a1: int,
-                         body: tuple[Any, ...], *, maxiter: int, steptol: float,
-                         ridge: float) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
-    """Projected trust-region Newton on v - P(x) from every start (N, d): end points, converged, iterations."""
-    out: tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]] = _newton_least_squares(
-        np.ascontiguousarray(starts, dtype=np.float64), v, means, prec, log_norm, lower, upper, scale, a0, a1,
-        *body, maxiter, steptol, ridge)  # type: ignore[call-arg]
+@njit(cache=True, nogil=True)
+def _objectives(xs, v, means, prec, log_norm):  # type: ignore[no-untyped-def]
+    """The objective 1/2 |v - P|^2 of every row of xs (N, d), summed as :func:`_score` sums it."""
+    n, d = xs.shape
+    K = means.shape[0]
+    f = np.empty(n)
+    p, u, diff = np.empty(K), np.empty((K, d)), np.empty(d)
+    for s in range(n):
+        _posterior_and_scores(xs[s], means, prec, log_norm, p, u, diff)
+        acc = 0.0
+        for k in range(K):
+            acc += (v[k] - p[k]) ** 2
+        f[s] = 0.5 * acc
+    return f
+
+
+@njit(cache=True, nogil=True)
+def _rows(xs, index):  # type: ignore[no-untyped-def]
+    """xs[index] (a new array)."""
+    out = np.empty((index.size, xs.shape[1]))
+    for i in range(index.size):
+        out[i] = xs[index[i]]
     return out
 
 
-def least_squares(starts: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.float64],
-                  prec: NDArray[np.float64], log_norm: NDArray[np.float64], lower: NDArray[np.float64],
-                  upper: NDArray[np.float64], a0: int, a1: int, body: tuple[Any, ...], *, maxiter: int,
-                  ftol: float, ridge: float) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
-    """Projected Levenberg-Marquardt on v - P(x) from every start (N, d): end points, converged, iterations."""
-    out: tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]] = _least_squares(
-        np.ascontiguousarray(starts, dtype=np.float64), v, means, prec, log_norm, lower, upper, a0, a1, *body,
-        maxiter, ftol, ridge)  # type: ignore[call-arg]
+@njit(cache=True, nogil=True)
+def _unconverged_first(xs, ok, v, means, prec, log_norm, count, tol):  # type: ignore[no-untyped-def]
+    """The ``count`` rows of xs that have not converged (``ok`` False) with the lowest f, in rank-key order."""
+    going = np.empty(ok.size, dtype=np.int64)
+    m = 0
+    for i in range(ok.size):
+        if not ok[i]:
+            going[m] = i
+            m += 1
+    going = going[:m]
+    return going[_first_ranked(_objectives(_rows(xs, going), v, means, prec, log_norm), tol, count)]
+
+
+@njit(cache=True, nogil=True)
+def _newton_polish(xs, ok, its, left, v, means, prec, log_norm, lower, upper, scale, a0, a1,  # type: ignore[no-untyped-def]
+                   kinds, centres, axes, perps, radii, lengths, halfs, margin, polish, race, keep, maxiter,
+                   steptol, ridge_rel, tol):
+    """Newton from the ``polish`` rows of xs with the lowest f, in place where it converges.
+
+    ``race`` iterations each, then the ``keep`` best unconverged on to ``maxiter``; ``ok``, ``its`` and
+    ``left`` (cleared where it converges) are updated too.
+    """
+    best = _first_ranked(_objectives(xs, v, means, prec, log_norm), tol, polish)
+    xs_n, ok_n, its_n = _newton_least_squares(_rows(xs, best), v, means, prec, log_norm, lower, upper, scale, a0,
+                                              a1, kinds, centres, axes, perps, radii, lengths, halfs, margin, race,
+                                              steptol, ridge_rel)
+    ahead = _unconverged_first(xs_n, ok_n, v, means, prec, log_norm, keep, tol)
+    if ahead.size:
+        xs_a, ok_a, more = _newton_least_squares(_rows(xs_n, ahead), v, means, prec, log_norm, lower, upper, scale,
+                                                 a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin,
+                                                 maxiter - race, steptol, ridge_rel)
+        for i in range(ahead.size):
+            xs_n[ahead[i]] = xs_a[i]
+            ok_n[ahead[i]] = ok_a[i]
+            its_n[ahead[i]] += more[i]
+    for i in range(best.size):
+        if ok_n[i]:
+            xs[best[i]] = xs_n[i]
+            ok[best[i]] = True
+            left[best[i]] = 0
+        its[best[i]] += its_n[i]
+
+
+@njit(cache=True, nogil=True)
+def _least_squares_rounds(origins, v, v_path, means, prec, log_norm, lower, upper, scale, a0, a1,  # type: ignore[no-untyped-def]
+                          kinds, centres, axes, perps, radii, lengths, halfs, margin,
+                          lm_race, lm_keep, lm_maxiter, lm_ftol, ridge_rel,
+                          polish, newton_race, newton_keep, newton_maxiter, newton_steptol,
+                          screened, f0, f1, open_f, open_lm,
+                          others, r, b_path, b, near_f, gn_maxiter, gn_stall, gn_damping, gn_htol, gn_steptol, tol):
+    """The planner's least squares (:func:`least_squares_rounds`)."""
+    d = origins.shape[1]
+    xs, ok, its = _least_squares(origins, v_path, means, prec, log_norm, lower, upper, a0, a1, kinds, centres,
+                                 axes, perps, radii, lengths, halfs, margin, lm_race, lm_ftol, ridge_rel)
+    left = _unless(ok, 1)  # 1: left behind the race's leaders
+    ahead = _unconverged_first(xs, ok, v_path, means, prec, log_norm, lm_keep, tol)
+    if ahead.size:
+        xs_a, ok_a, more = _least_squares(_rows(xs, ahead), v_path, means, prec, log_norm, lower, upper, a0, a1,
+                                          kinds, centres, axes, perps, radii, lengths, halfs, margin,
+                                          lm_maxiter - lm_race, lm_ftol, ridge_rel)
+        for i in range(ahead.size):
+            xs[ahead[i]] = xs_a[i]
+            ok[ahead[i]] = ok_a[i]
+            its[ahead[i]] += more[i]
+            left[ahead[i]] = 0
+    _newton_polish(xs, ok, its, left, v_path, means, prec, log_norm, lower, upper, scale, a0, a1, kinds, centres,
+                   axes, perps, radii, lengths, halfs, margin, polish, newton_race, newton_keep, newton_maxiter,
+                   newton_steptol, ridge_rel, tol)
+    f = _objectives(xs, v_path, means, prec, log_norm)
+    lowest = f[0]
+    for i in range(1, f.size):
+        if f[i] < lowest or f[i] != f[i]:  # NaN propagates, as in np.min
+            lowest = f[i]
+    fingers = np.empty(max(0, f1 - f0), dtype=np.int64)
+    m = 0
+    for j in range(f0, f1):
+        if screened[j] != lower[j]:
+            fingers[m] = j
+            m += 1
+    if lowest > open_f and m > 0:  # clearly no match: the fingers' other minima
+        opened = np.empty((m, d))
+        for i in range(m):
+            opened[i] = screened
+            opened[i, fingers[i]] = lower[fingers[i]]  # one finger open in each
+        starts = _project_rows(opened, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs,
+                               margin)
+        xs_o, ok_o, its_o = _least_squares(starts, v_path, means, prec, log_norm, lower, upper, a0, a1, kinds,
+                                           centres, axes, perps, radii, lengths, halfs, margin, open_lm, lm_ftol,
+                                           ridge_rel)
+        left_o = _unless(ok_o, 2)  # 2: an opened start left behind the polished ones
+        _newton_polish(xs_o, ok_o, its_o, left_o, v_path, means, prec, log_norm, lower, upper, scale, a0, a1, kinds,
+                       centres, axes, perps, radii, lengths, halfs, margin, polish, newton_race, newton_keep,
+                       newton_maxiter, newton_steptol, ridge_rel, tol)
+        xs, ok, its = np.concatenate((xs, xs_o)), np.concatenate((ok, ok_o)), np.concatenate((its, its_o))
+        left, origins = np.concatenate((left, left_o)), np.concatenate((origins, starts))
+    if others.size:  # P = v is possible: end points within near_f of a match are projected onto the matches
+        f = _objectives(xs, v, means, prec, log_norm)
+        near = np.empty(f.size, dtype=np.int64)
+        m = 0
+        for i in range(f.size):
+            if f[i] <= near_f:
+                near[m] = i
+                m += 1
+        near = near[:m]
+        if m:
+            xs_p, ok_p, its_p = _project_starts(_rows(xs, near), means, prec, log_norm, others, r, b_path, scale,
+                                                lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
+                                                halfs, margin, gn_maxiter, gn_stall, gn_damping, gn_htol, gn_steptol,
+                                                b)
+            for i in range(m):
+                if ok_p[i]:  # a converged projection is a converged answer
+                    xs[near[i]] = xs_p[i]
+                    ok[near[i]] = True
+                    left[near[i]] = 3  # 3: projected onto the matches
+                its[near[i]] += its_p[i]
+    return xs, ok, its, left, origins
+
+
+@njit(cache=True, nogil=True)
+def _unless(ok, code):  # type: ignore[no-untyped-def]
+    """int8 codes: 0 where ok, else ``code``."""
+    out = np.zeros(ok.size, dtype=np.int8)
+    for i in range(ok.size):
+        if not ok[i]:
+            out[i] = code
+    return out
+
+
+def least_squares_rounds(origins: NDArray[np.float64], v: NDArray[np.float64], v_path: NDArray[np.float64],
+                         means: NDArray[np.float64], prec: NDArray[np.float64], log_norm: NDArray[np.float64],
+                         lower: NDArray[np.float64], upper: NDArray[np.float64], scale: NDArray[np.float64],
+                         a0: int, a1: int, body: tuple[Any, ...], *, lm: tuple[int, int, int, float, float],
+                         newton: tuple[int, int, int, int, float], screened: NDArray[np.float64],
+                         fingers: tuple[int, int], open_f: float, open_lm: int,
+                         equations: tuple[NDArray[np.int64], int, NDArray[np.float64], NDArray[np.float64]],
+                         near_f: float, gn: tuple[int, int, float, float, float], tol: float,
+                         ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64], NDArray[np.int8],
+                                    NDArray[np.float64]]:
+    """The planner's least squares (rule 5 of :mod:`grasp_intent_ros.core.planner`) in one compiled call.
+
+    Levenberg-Marquardt (``lm`` = race iterations, leaders kept, their iteration limit, ftol, ridge) from every
+    origin (N, d) on ``v_path``, then Newton (``newton`` = end points polished, race iterations, leaders kept,
+    their iteration limit, step tolerance) from the best end points; when the lowest f is above ``open_f``,
+    the open-finger round from ``screened`` (features ``fingers`` = (start, stop); an empty range: no round);
+    then, with log-odds ``equations`` (others, r, path targets, exact targets; no others: no projection),
+    the end points with f (on v) within ``near_f`` are projected onto the matches (``gn`` = iteration limit,
+    stall, damping, residual and step tolerances). Rows are ranked by :func:`_rank_keys` at ``tol``.
+
+    Returns end points, converged, iterations, how each row ended (0: as ``converged`` says; 1: left
+    behind the race's leaders; 2: an opened start left behind the polished ones; 3: projected onto the
+    matches) and the origin of each row.
+    """
+    out: tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64], NDArray[np.int8],
+               NDArray[np.float64]] = _least_squares_rounds(
+        np.ascontiguousarray(origins, dtype=np.float64), v, v_path, means, prec, log_norm, lower, upper, scale, a0,
+        a1, *body, *lm, *newton, screened, *fingers, open_f, open_lm, *equations, near_f, *gn, tol)  # type: ignore[call-arg]
     return out
 
 
@@ -1347,18 +1620,20 @@ def warm_up() -> None:
         project(np.full((1, d), 0.5), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
                 np.ones(1, dtype=np.int64), 0, np.zeros(1), np.ones(d), -np.ones(d), np.ones(d), 3, 6, body,
                 maxiter=2, stall=12, damping=1e-3, htol=1e-11, steptol=1e-9)
-        least_squares(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2),
-                      np.zeros(2), -np.ones(d), np.ones(d), 3, 6, body, maxiter=2, ftol=1e-7, ridge=1e-7)
-        newton_least_squares(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)),
-                             np.stack([np.eye(d)] * 2), np.zeros(2), -np.ones(d), np.ones(d), np.ones(d), 3, 6, body,
-                             maxiter=2, steptol=1e-10, ridge=1e-7)
+        v = np.array([0.5, 0.5])
+        least_squares_rounds(np.full((1, d), 0.5), v, v, np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
+                             -np.ones(d), np.ones(d), np.ones(d), 3, 6, body, lm=(2, 1, 3, 1e-7, 1e-7),
+                             newton=(1, 2, 1, 3, 1e-10), screened=np.full(d, 0.5), fingers=(7, 10), open_f=-1.0,
+                             open_lm=2, equations=(np.ones(1, dtype=np.int64), 0, np.zeros(1), np.zeros(1)),
+                             near_f=1.0, gn=(2, 12, 1e-3, 1e-11, 1e-9), tol=1e-12)
         feasible(np.full((1, d), 0.5), -np.ones(d), np.ones(d), 3, 6, body)
     score(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
           np.zeros(d), np.ones(d))
     log_joints(np.full((1, d), 0.5), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2))
-    rank_keys(np.ones(2), 1e-12)
-    first_ranked(np.ones(2), 1e-12, 1)
+    for log_v in (np.zeros(2), np.zeros(0)):
+        screen(np.zeros((2, 3)), log_v, np.full((3, 2), 0.5), np.array([0.5, 0.5]), 1, 1e-12)
     distinct(np.ones((2, d)), 1e-18)
+    choice_order(np.ones(2), np.ones(2), np.arange(2), np.ones((2, d)), 1e-12, 1e-6, 1e-6, 1e-18)
     select_demonstrations(np.full((2, 2), 0.5), np.array([0.5, 0.5]), np.ones((2, 2), dtype=np.bool_),
                           np.zeros(1, dtype=np.int64), 1, 1e-12)
     eye = np.eye(3)

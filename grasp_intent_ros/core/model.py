@@ -489,9 +489,8 @@ class GraspModel:
         do not depend on v, so they are evaluated once per model. They are evaluated by the planner's
         compiled kernels (``_kernels.log_joints``: every sum in a fixed order), not by numpy's matrix
         products, whose BLAS kernels sum in an order that depends on the CPU: the planner's choices among
-        them must not depend on the machine. The log joints are stored zone by zone: the screen's maximum
-        and minimum over the zones are then elementwise over K rows of N (numpy's reduction over a last
-        axis of length K costs about 8 times as much).
+        them must not depend on the machine. The log joints are stored zone by zone, (K, N), as the screen
+        (``_kernels.screen``) takes them.
         """
         from ._kernels import log_joints  # here: numba is the planner's, not every model reader's, import
         pool = np.concatenate([self.means, self.demo_x])

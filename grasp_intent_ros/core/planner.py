@@ -84,20 +84,19 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._kernels import (
+    choice_order,
     distinct,
     feasible,
-    first_ranked,
-    least_squares,
-    newton_least_squares,
+    least_squares_rounds,
     project,
-    rank_keys,
     score,
+    screen,
     select_demonstrations,
 )
 from .errors import PlanningError
@@ -157,11 +156,12 @@ _POLISH = 1e-8      # a least-squares end point this close to a match is project
 _OPEN_F = 1e-7       # f of the least squares' best above which the open-finger round runs (rule 5)
 _OPEN_LM = 50        # Levenberg-Marquardt iterations of the open-finger starts (rule 5)
 _SCREEN = 6          # extra screened starts (demonstrations and zone means) for a fresh plan
+_NO_LOGS = np.zeros(0)  # search_starts' screen by f
+_NO_EQUATIONS = (np.zeros(0, dtype=np.int64), 0, np.zeros(0), np.zeros(0))  # P = v impossible: nothing to project onto
 
 
-@dataclass(frozen=True)
-class Candidate:
-    """One refined start.
+class Candidate(NamedTuple):
+    """One refined start (immutable; a named tuple, as a plan makes some 30 of them: 0.4 us each, 1.5 as a dataclass).
 
     Attributes
     ----------
@@ -286,21 +286,6 @@ def objective_and_gradient(model: GraspModel, v: NDArray[np.float64],
     return 0.5 * float(r @ r), -(jac.T @ r)
 
 
-def _rank_keys(f: NDArray[np.float64]) -> NDArray[np.int64]:
-    """One integer per entry whose order is f quantised to 1e-12 relative, then the index (``_kernels.rank_keys``)."""
-    return rank_keys(f, MATCH_TOL)
-
-
-def _rank_by_f(f: NDArray[np.float64]) -> NDArray[np.intp]:
-    """Indices sorted by f quantised to 1e-12 relative, then by index: float noise cannot reorder."""
-    return np.argsort(_rank_keys(f))
-
-
-def _first_by_f(f: NDArray[np.float64], count: int) -> NDArray[np.int64]:
-    """The indices of the ``count`` entries first by :func:`_rank_keys`, in that order (``_kernels.first_ranked``)."""
-    return first_ranked(f, MATCH_TOL, count)
-
-
 def _log(values: NDArray[np.float64]) -> NDArray[np.float64]:
     """Natural logs by the C library's log, as the compiled kernels take them (numpy has vectorised logs of its own)."""
     return np.array([math.log(t) for t in values.tolist()])
@@ -330,21 +315,13 @@ def select_starts(model: GraspModel, v: NDArray[np.float64], n_starts: int = 3,
 def search_starts(model: GraspModel, v: NDArray[np.float64], count: int = _SCREEN) -> NDArray[np.float64]:
     """The wider search's extra starts among the zone means and demonstrations, shape (count, d).
 
-    One vectorised evaluation screens them: with every v_k > 0, by the spread of the log-odds
+    One compiled pass screens them (``_kernels.screen``): with every v_k > 0, by the spread of the log-odds
     residuals, max_k q_k - min_k q_k with q_k = log(pi_k N_k(x)) - log v_k (zero exactly where P = v);
-    otherwise by f.
+    otherwise by f. The first ``count`` by the screen at 1e-12 relative, then in pool order.
     """
     pool, log_joint_t, posterior = model.start_pool
-    if float(v.min()) > 0.0:
-        q = log_joint_t - _log(v)[:, None]  # (K, N)
-        score = q.max(axis=0) - q.min(axis=0)
-    else:
-        r = v[None, :] - posterior
-        score = r[:, 0] * r[:, 0]
-        for k in range(1, v.size):  # term by term, in zone order (einsum sums in an order of its own)
-            score += r[:, k] * r[:, k]
-        score *= 0.5
-    out: NDArray[np.float64] = pool[_first_by_f(score, count)]
+    log_v = _log(v) if float(v.min()) > 0.0 else _NO_LOGS
+    out: NDArray[np.float64] = pool[screen(log_joint_t, log_v, posterior, v, count, MATCH_TOL)]
     return out
 
 
@@ -406,6 +383,8 @@ class _LogOddsProjection:
         self.b = _log(v[self.others]) - math.log(v[self.r])
         self.b_path = np.rint(self.b / _GN_QUANTUM) * _GN_QUANTUM
         """The targets the long path is taken to: v's last bits cannot steer it (class docstring)."""
+        self.equations = self.others, self.r, self.b_path, self.b
+        """As ``_kernels.least_squares_rounds`` takes them."""
 
     def run(self, starts: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
         """End points (N, d), whether each converged with the equations met, iterations per start.
@@ -418,49 +397,6 @@ class _LogOddsProjection:
                        feas.scale, feas.lower, feas.upper, feas.a.start, feas.a.stop, feas.body,
                        maxiter=_GN_MAXITER, stall=_GN_STALL, damping=_GN_DAMPING, htol=_GN_HTOL,
                        steptol=_GN_STEPTOL, b_final=self.b)
-
-
-def _refine_lm(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.float64], feas: _Feasible,
-               maxiter: int = _LM_MAXITER) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
-    """Projected Levenberg-Marquardt on r(x) = v - P(x), every start (shape (N, d); compiled: ``_kernels``).
-
-    Each iteration solves (J^T J + lam diag(J^T J) + eps I) dx = J^T r per start (eps = 1e-7 times the
-    largest curvature, so that nearly flat directions cannot amplify last-bit differences), with J restricted to
-    the free variables (a variable on a bound is held when its gradient points outwards, or when the
-    solved step would take it out: the step is then solved again without it, so that a step along a
-    bound is not clipped into one the system did not solve for) and, for the approach, to the sphere's
-    tangent plane; with the palm on the body's surface and the gradient
-    pointing out of it (f falls inside), the palm's columns are restricted to the surface's tangent
-    plane too. The step is then projected onto X (and such a palm back onto the surface). A step is taken only
-    when it lowers f (lam shrinks), else lam grows. A start has converged when an accepted step gains
-    less than 1e-7 f + 1e-15 or no step lowers f any more (stationary to machine precision); one that
-    reaches ``maxiter`` has not. The path does not depend on ``maxiter``: stopping at 100 and going on
-    from there for 200 more (with the damping started afresh) is a path of its own, taken the same way
-    on every run.
-    """
-    return least_squares(starts, v, model.means, model._precisions, model._log_norm, feas.lower, feas.upper,
-                         feas.a.start, feas.a.stop, feas.body, maxiter=maxiter, ftol=_LM_FTOL,
-                         ridge=_LM_RIDGE)
-
-
-def _refine_newton(model: GraspModel, v: NDArray[np.float64], starts: NDArray[np.float64], feas: _Feasible,
-                   maxiter: int = _NEWTON_MAXITER) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
-    """Projected trust-region Newton on f with its exact Hessian, every start (shape (N, d); compiled: ``_kernels``).
-
-    The Hessian J^T J + sum_k (P_k - v_k) d2P_k keeps the curvature that the least-squares steps leave
-    out, which is what a nearly flat valley has. Each iteration solves (H + lam I + eps I) dy = -g in
-    scaled coordinates (the approach's three scales replaced by their root mean square, so that the
-    sphere's tangent plane is the same in both), with H the Lagrangian Hessian on the sphere's tangent
-    plane and variables on a bound held as in :func:`_refine_lm`; a palm held on the body's surface
-    (as there) moves on its tangent plane (in scaled coordinates) with the Lagrangian's curvature
-    -mu d2(distance), mu = n . grad_palm f, added to H; a step is taken only when it lowers
-    f (lam shrinks), else lam grows (also while H + lam I is not positive definite). A start has
-    converged after a step of less than 1e-10 (scaled), or when the predicted gain is below 1e-15 f
-    with lam negligible, or when no step lowers f any more; one that reaches ``maxiter`` has not.
-    """
-    return newton_least_squares(starts, v, model.means, model._precisions, model._log_norm, feas.lower,
-                                feas.upper, feas.scale, feas.a.start, feas.a.stop, feas.body,
-                                maxiter=maxiter, steptol=_NEWTON_STEPTOL, ridge=_LM_RIDGE)
 
 
 def _least_squares(model: GraspModel, v: NDArray[np.float64], origins: NDArray[np.float64], feas: _Feasible,
@@ -479,68 +415,21 @@ def _least_squares(model: GraspModel, v: NDArray[np.float64], origins: NDArray[n
     (with ``projection``, when P = v is possible; kept where that converges).
     """
     v_path = np.rint(v / _LS_QUANTUM) * _LS_QUANTUM
-
-    def f_of(xs: NDArray[np.float64], target: NDArray[np.float64]) -> NDArray[np.float64]:
-        f: NDArray[np.float64] = score(xs, target, model.means, model._precisions, model._log_norm, origins[0],
-                                       feas.scale)[1]
-        return f
-
-    def leaders(xs: NDArray[np.float64], ok: NDArray[np.bool_], count: int) -> NDArray[np.intp]:
-        """The ``count`` rows that have not converged with the lowest f on v's path (rank keys: never noise)."""
-        going = np.flatnonzero(~ok)
-        return going[_first_by_f(f_of(xs[going], v_path), count)] if going.size else going
-
-    def polish(xs: NDArray[np.float64], ok: NDArray[np.bool_], its: NDArray[np.int64]) -> NDArray[np.intp]:
-        """Newton from the ``_NEWTON_POLISH`` best rows (in place, kept where it converges); which rows converged."""
-        best = _first_by_f(f_of(xs, v_path), _NEWTON_POLISH)
-        xs_n, ok_n, its_n = _refine_newton(model, v_path, xs[best], feas, _NEWTON_RACE)
-        ahead = leaders(xs_n, ok_n, _NEWTON_KEEP)
-        if ahead.size:
-            xs_n[ahead], ok_n[ahead], more = _refine_newton(model, v_path, xs_n[ahead], feas,
-                                                            _NEWTON_MAXITER - _NEWTON_RACE)
-            its_n[ahead] += more
-        xs[best[ok_n]] = xs_n[ok_n]
-        ok[best] |= ok_n
-        its[best] += its_n
-        return best[ok_n]
-
-    xs, ok, its = _refine_lm(model, v_path, origins, feas, _LM_RACE)
-    ahead = leaders(xs, ok, _LM_KEEP)  # the others stop here
-    left = [f'left at {_LM_RACE} iterations, behind {_LM_KEEP} others' if not converged else ''
-            for converged in ok.tolist()]
-    for i in ahead.tolist():
-        left[i] = ''
-    if ahead.size:
-        xs[ahead], ok[ahead], more = _refine_lm(model, v_path, xs[ahead], feas, _LM_MAXITER - _LM_RACE)
-        its[ahead] += more
-    for i in polish(xs, ok, its).tolist():
-        left[i] = ''
     mico_fingers = model.features.names[FINGERS] == MICO_3F.names[FINGERS]  # other feature spaces: no round
-    if mico_fingers and float(f_of(xs, v_path).min()) > _OPEN_F:  # clearly no match: the fingers' other minima
-        fingers = [j for j in range(FINGERS.start, FINGERS.stop) if screened[j] != model.lower[j]]
-        if fingers:
-            opened = np.repeat(screened[None, :], len(fingers), axis=0)
-            opened[np.arange(len(fingers)), fingers] = model.lower[fingers]  # one finger open in each
-            starts = feas.project(opened)
-            xs_o, ok_o, its_o = _refine_lm(model, v_path, starts, feas, _OPEN_LM)
-            left_o = [f'a finger opened, left at {_OPEN_LM} iterations, behind {_NEWTON_POLISH} others'
-                      if not converged else '' for converged in ok_o.tolist()]
-            for i in polish(xs_o, ok_o, its_o).tolist():
-                left_o[i] = ''
-            xs, ok, its = np.concatenate([xs, xs_o]), np.concatenate([ok, ok_o]), np.concatenate([its, its_o])
-            origins, left = np.concatenate([origins, starts]), left + left_o
-    projected = np.zeros(xs.shape[0], dtype=np.bool_)
-    near = np.flatnonzero(f_of(xs, v) <= _POLISH)
-    if near.size and projection is not None:  # least squares found the matches: project onto them
-        xs_p, ok_p, its_p = projection.run(xs[near])
-        xs[near[ok_p]] = xs_p[ok_p]
-        ok[near[ok_p]] = True  # a converged projection is a converged answer
-        projected[near[ok_p]] = True
-        its[near] += its_p
-    labels = ['exact match (least squares, then projected)' if projected[i]
-              else 'least squares: converged' if ok[i]
-              else f'least squares: {left[i]}' if left[i]
-              else 'least squares: iteration limit' for i in range(xs.shape[0])]
+    equations = projection.equations if projection is not None else _NO_EQUATIONS
+    xs, ok, its, ends, origins = least_squares_rounds(
+        origins, v, v_path, model.means, model._precisions, model._log_norm, feas.lower, feas.upper, feas.scale,
+        feas.a.start, feas.a.stop, feas.body, lm=(_LM_RACE, _LM_KEEP, _LM_MAXITER, _LM_FTOL, _LM_RIDGE),
+        newton=(_NEWTON_POLISH, _NEWTON_RACE, _NEWTON_KEEP, _NEWTON_MAXITER, _NEWTON_STEPTOL), screened=screened,
+        fingers=(FINGERS.start, FINGERS.stop) if mico_fingers else (0, 0), open_f=_OPEN_F, open_lm=_OPEN_LM,
+        equations=equations, near_f=_POLISH, gn=(_GN_MAXITER, _GN_STALL, _GN_DAMPING, _GN_HTOL, _GN_STEPTOL),
+        tol=MATCH_TOL)
+    ended = ('least squares: iteration limit',
+             f'least squares: left at {_LM_RACE} iterations, behind {_LM_KEEP} others',
+             f'least squares: a finger opened, left at {_OPEN_LM} iterations, behind {_NEWTON_POLISH} others',
+             'exact match (least squares, then projected)')
+    labels = [ended[e] if e or not converged else 'least squares: converged'
+              for e, converged in zip(ends.tolist(), ok.tolist())]
     return xs, ok, its, labels, origins
 
 
@@ -627,22 +516,10 @@ def _choose(candidates: list[Candidate]) -> list[Candidate]:
     """The module docstring's choice order; a candidate within 1e-9 (relative) of an earlier one is dropped."""
     if len(candidates) <= 1:
         return list(candidates)
-    f = [c.objective for c in candidates]
-    dist = [c.distance for c in candidates]
-    best = min(f)
-    matches = [i for i, fi in enumerate(f) if fi <= best + max(MATCH_TOL, F_RTOL * best)]
-    order: list[int] = []
-    pool = list(matches)
-    while pool:  # nearest first; distances within DISTANCE_TOL of it tie, broken by start order
-        nearest = min(dist[i] for i in pool)
-        pick = min(pool, key=lambda i: (dist[i] > nearest + DISTANCE_TOL, candidates[i].start_index))
-        order.append(pick)
-        pool.remove(pick)
-    if len(matches) < len(candidates):
-        is_match = set(matches)
-        order += [i for i in _rank_by_f(np.array(f)).tolist() if i not in is_match]
-    keep = distinct(np.array([candidates[i].x for i in order]), 1e-18).tolist()
-    return [candidates[i] for i, k in zip(order, keep) if k]
+    columns = list(zip(*candidates))  # Candidate's fields, in its order
+    order = choice_order(np.array(columns[2]), np.array(columns[3]), np.array(columns[6]), np.array(columns[0]),
+                         MATCH_TOL, F_RTOL, DISTANCE_TOL, 1e-18)
+    return [candidates[i] for i in order.tolist()]
 
 
 def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gradient = 'analytic',
@@ -714,11 +591,10 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
         n = xs.shape[0]
         post, f, dist = score(np.concatenate([xs, origin]), v_arr, model.means, model._precisions, model._log_norm,
                               x_ref, feas.scale)
-        f_origin = f[n:]
-        return [Candidate(x=xs[i], posterior=post[i], objective=float(f[i]), distance=float(dist[i]),
-                          start=origin[i], start_objective=float(f_origin[i]), start_index=first_index + i,
-                          success=bool(ok[i]), message=message(i, bool(ok[i])), iterations=int(its[i]))
-                for i in range(n)]
+        f_all = f.tolist()
+        return [Candidate(x, p, fi, di, x0, f0, first_index + i, converged, message(i, converged), it)
+                for i, (x, p, fi, di, x0, f0, converged, it) in enumerate(zip(
+                    xs, post[:n], f_all[:n], dist[:n].tolist(), origin, f_all[n:], ok.tolist(), its.tolist()))]
 
     found: list[Candidate] = []
     turned_down: list[Candidate] = []

@@ -140,16 +140,17 @@ def test_the_choice_rule_tolerance_then_distance_then_start_order() -> None:
 
 def test_ranking_quantises_f_then_takes_the_index_and_puts_nan_last() -> None:
     f = np.array([3e-3, 1e-20, np.nan, 2e-3, 1e-14, 2e-3 * (1 + 1e-13), 5.0, 0.5])
-    order = planner._rank_by_f(f).tolist()
+    order = np.argsort(_kernels._rank_keys(f, planner.MATCH_TOL)).tolist()
     # 1e-20 and 1e-14 are both 0 at the quantum (index order); 2e-3 and its 1e-13 relative neighbour tie
     assert order == [1, 4, 3, 5, 0, 7, 6, 2]
     for count in range(-1, len(f) + 2):
-        assert planner._first_by_f(f, count).tolist() == order[:max(count, 0)]
+        assert _kernels._first_ranked(f, planner.MATCH_TOL, count).tolist() == order[:max(count, 0)]
     rng = np.random.default_rng(7)
     for n in (1, 6, 40, 600):  # ties at the quantum as well as distinct values
         f = np.round(rng.exponential(1e-3, n), 5) * (1.0 + 1e-14 * rng.standard_normal(n))
+        ranked = np.argsort(_kernels._rank_keys(f, planner.MATCH_TOL)).tolist()
         for count in (1, 3, 6, n):
-            assert planner._first_by_f(f, count).tolist() == planner._rank_by_f(f)[:count].tolist()
+            assert _kernels._first_ranked(f, planner.MATCH_TOL, count).tolist() == ranked[:count]
 
 
 def test_unique_rows_drop_exact_repeats_only() -> None:
