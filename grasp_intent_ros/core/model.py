@@ -30,7 +30,7 @@ from yaml.constructor import ConstructorError
 from .body import ObjectBody
 from .data import Demonstrations
 from .errors import InvalidFeaturesError, ModelError, ModelFormatError
-from .features import FeatureSpace
+from .features import MICO_3F, PALM, FeatureSpace
 from .intent import all_zones, parse_zones, zone_labels
 
 __all__ = [
@@ -378,7 +378,8 @@ class GraspModel:
     data_hash : str
         sha256 of the training data set.
     body : ObjectBody or None
-        The object's solid body: the planner keeps the palm centre outside it (see core.body).
+        The object's solid body: the planner keeps the palm centre outside it (see core.body). With a
+        body, the first three features must be the palm centre (``palm_x``, ``palm_y``, ``palm_z``).
     feature_scale : ndarray, shape (d,)
         Spread of each feature over the demonstrations (standard deviation, at least 1e-3 of the
         feature's bound range): the unit of the planner's distance between grasps.
@@ -415,6 +416,9 @@ class GraspModel:
                 raise ModelFormatError(f'zone {z} is not a non-empty subset of {m} tasks')
         if len(set(self.zones)) != K:
             raise ModelFormatError('zones contain duplicates')
+        if self.body is not None and self.features.names[PALM] != MICO_3F.names[PALM]:
+            raise ModelFormatError(f'a model with a body needs the palm centre as its first three features '
+                                   f'{MICO_3F.names[PALM]} (the body keeps it out), got {self.features.names[:3]}')
         means = _as_matrix(self.means, (K, d), 'means')
         covs = _as_matrix(self.covariances, (K, d, d), 'covariances')
         priors = _as_matrix(self.priors, (K,), 'priors')

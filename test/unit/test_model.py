@@ -139,6 +139,16 @@ def test_malformed_documents_raise(toy_model: GraspModel, mutate, match) -> None
         GraspModel.from_document(doc)
 
 
+def test_a_body_needs_the_palm_centre_as_the_first_features() -> None:
+    doc = GraspModel.load(config_dir() / 'models' / 'cup_7zone.yaml').to_document()
+    assert GraspModel.from_document(doc).body is not None
+    doc['features'][0]['name'] = 'wrist_x'
+    with pytest.raises(ModelFormatError, match=r"palm centre as its first three features .*'wrist_x'"):
+        GraspModel.from_document(doc)
+    del doc['body']
+    assert GraspModel.from_document(doc).features.names[0] == 'wrist_x'
+
+
 def test_bad_yaml_and_bad_x(toy_model: GraspModel) -> None:
     with pytest.raises(ModelFormatError):
         GraspModel.from_yaml('zones: [unclosed')
