@@ -138,6 +138,66 @@ def test_the_choice_rule_tolerance_then_distance_then_start_order() -> None:
     assert [c.start_index for c in order] == [0, 1, 2]
 
 
+def _choice_rule(f: list[float], dist: list[float], start: list[int], xs: np.ndarray) -> list[int]:
+    """Rule 6 as the module docstring states it, in plain Python: the oracle for the compiled choice order."""
+    best = min(f)
+    matches = [i for i, fi in enumerate(f) if fi <= best + max(planner.MATCH_TOL, planner.F_RTOL * best)]
+    order, pool = [], list(matches)
+    while pool:
+        nearest = min(dist[i] for i in pool)
+        pick = min(pool, key=lambda i: (dist[i] > nearest + planner.DISTANCE_TOL, start[i]))
+        order.append(pick)
+        pool.remove(pick)
+    ranked = np.argsort(_kernels._rank_keys(np.array(f), planner.MATCH_TOL)).tolist()
+    order += [i for i in ranked if i not in matches]
+    kept: list[int] = []
+    for i in order:  # a row within 1e-18 (squared, relative) of an earlier kept one is dropped
+        if not any(np.sum(((xs[i] - xs[j]) / np.maximum(np.abs(xs[j]), 1.0)) ** 2) < 1e-18 for j in kept):
+            kept.append(i)
+    return kept
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(data=st.data(), n=st.integers(2, 12))
+def test_the_compiled_choice_order_is_the_rule(data: st.DataObject, n: int) -> None:
+    """Objectives and distances drawn around ties at the tolerances, repeated grasps included."""
+    base_f = data.draw(st.sampled_from([0.0, 1e-20, 1e-13, 2e-3, 0.5]))
+    f = [base_f * data.draw(st.sampled_from([1.0, 1 + 1e-7, 1 + 1e-5, 3.0])) + data.draw(st.sampled_from(
+        [0.0, 5e-13, 2e-12])) for _ in range(n)]
+    dist = [data.draw(st.sampled_from([0.5, 1.0, 1.0 + 4e-7, 1.0 + 2e-6, 3.0])) for _ in range(n)]
+    start = data.draw(st.permutations(list(range(n))))
+    xs = np.array([[float(data.draw(st.integers(0, 3))), 1.0] for _ in range(n)])
+    cands = [planner.Candidate(x=xs[i], posterior=np.ones(1), objective=f[i], distance=dist[i], start=xs[i],
+                               start_objective=f[i], start_index=start[i], success=True, message='', iterations=1)
+             for i in range(n)]
+    assert [c.start_index for c in planner._choose(cands)] == [start[i] for i in _choice_rule(f, dist, start, xs)]
+
+
+@pytest.mark.parametrize('name', ['cup_7zone', 'flashlight_7zone'])
+def test_the_compiled_screen_is_the_log_odds_spread_or_f(name: str) -> None:
+    model = GraspModel.load(config_dir() / 'models' / f'{name}.yaml')
+    pool, log_joint_t, posterior = model.start_pool
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        v = rng.dirichlet(np.ones(len(model.zones)))
+        if rng.random() < 0.5:
+            v[rng.integers(len(v))] = 0.0
+            v /= v.sum()
+        if v.min() > 0.0:
+            q = log_joint_t - planner._log(v)[:, None]
+            score = q.max(axis=0) - q.min(axis=0)
+        else:
+            score = 0.5 * np.sum((v[None, :] - posterior) ** 2, axis=1)
+        expected = np.argsort(_kernels._rank_keys(score, planner.MATCH_TOL))[:planner._SCREEN]
+        got = _kernels.screen(log_joint_t, planner._log(v) if v.min() > 0.0 else np.zeros(0), posterior, v,
+                              planner._SCREEN, planner.MATCH_TOL)
+        if v.min() > 0.0:  # the same arithmetic: the same order
+            assert got.tolist() == expected.tolist()
+        else:  # numpy sums the squares in an order of its own: the same starts up to ties at 1e-12
+            assert_allclose(score[got], score[expected], rtol=1e-12, atol=1e-300)
+        assert_allclose(planner.search_starts(model, v), pool[got])
+
+
 def test_ranking_quantises_f_then_takes_the_index_and_puts_nan_last() -> None:
     f = np.array([3e-3, 1e-20, np.nan, 2e-3, 1e-14, 2e-3 * (1 + 1e-13), 5.0, 0.5])
     order = np.argsort(_kernels._rank_keys(f, planner.MATCH_TOL)).tolist()
