@@ -173,16 +173,24 @@ def test_the_compiled_choice_order_is_the_rule(data: st.DataObject, n: int) -> N
     assert [c.start_index for c in planner._choose(cands)] == [start[i] for i in _choice_rule(f, dist, start, xs)]
 
 
-@pytest.mark.parametrize('name', ['cup_7zone', 'flashlight_7zone'])
-def test_the_compiled_screen_is_the_log_odds_spread_or_f(name: str) -> None:
-    model = GraspModel.load(config_dir() / 'models' / f'{name}.yaml')
-    pool, log_joint_t, posterior = model.start_pool
-    rng = np.random.default_rng(3)
-    for _ in range(50):
+def _random_vs(model: GraspModel, n: int, seed: int, zero_share: float) -> list[np.ndarray]:
+    """Seeded random v over the model's zones (n of them), about ``zero_share`` with one zone at 0."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
         v = rng.dirichlet(np.ones(len(model.zones)))
-        if rng.random() < 0.5:
+        if rng.random() < zero_share:
             v[rng.integers(len(v))] = 0.0
             v /= v.sum()
+        out.append(v)
+    return out
+
+
+@pytest.mark.parametrize('name', ['cup_7zone', 'flashlight_7zone'])
+def test_the_compiled_screen_is_the_log_odds_spread_or_f(shipped: dict[str, GraspModel], name: str) -> None:
+    model = shipped[name]
+    pool, log_joint_t, posterior = model.start_pool
+    for v in _random_vs(model, 50, 3, 0.5):
         if v.min() > 0.0:
             q = log_joint_t - planner._log(v)[:, None]
             score = q.max(axis=0) - q.min(axis=0)
@@ -466,6 +474,95 @@ def test_least_squares_find_the_minima_with_a_finger_open(shipped: dict[str, Gra
     assert res.objective <= 1.01 * planner.reference_search(model, v, n_starts=60)
     opened = res.chosen.start[FINGERS] == model.lower[FINGERS]
     assert opened.sum() == 1
+
+
+def _rule_5(model: GraspModel, v: np.ndarray, origins: np.ndarray, screened: np.ndarray,
+            projection: planner._LogOddsProjection | None) -> tuple[np.ndarray, ...]:
+    """Rule 5 as the module docstring states it, driven from Python over the compiled iterations: the oracle."""
+    feas = planner._Feasible(model)
+    body = feas.body
+    v_path = np.rint(v / planner._LS_QUANTUM) * planner._LS_QUANTUM
+    consts = (model.means, model._precisions, model._log_norm)
+
+    def f_of(xs: np.ndarray, target: np.ndarray) -> np.ndarray:
+        return _kernels.score(xs, target, *consts, xs[0], feas.scale)[1] if len(xs) else np.zeros(0)
+
+    def first(f: np.ndarray, count: int) -> np.ndarray:
+        return np.argsort(_kernels._rank_keys(f, planner.MATCH_TOL))[:count]
+
+    def lm(starts: np.ndarray, maxiter: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return _kernels._least_squares(np.ascontiguousarray(starts), v_path, *consts, feas.lower, feas.upper,
+                                       feas.a.start, feas.a.stop, *body, maxiter, planner._LM_FTOL,
+                                       planner._LM_RIDGE)
+
+    def newton(starts: np.ndarray, maxiter: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return _kernels._newton_least_squares(np.ascontiguousarray(starts), v_path, *consts, feas.lower,
+                                              feas.upper, feas.scale, feas.a.start, feas.a.stop, *body, maxiter,
+                                              planner._NEWTON_STEPTOL, planner._LM_RIDGE)
+
+    def polish(xs: np.ndarray, ok: np.ndarray, its: np.ndarray, left: np.ndarray) -> None:
+        best = first(f_of(xs, v_path), planner._NEWTON_POLISH)
+        xs_n, ok_n, its_n = newton(xs[best], planner._NEWTON_RACE)
+        going = np.flatnonzero(~ok_n)
+        ahead = going[first(f_of(xs_n[going], v_path), planner._NEWTON_KEEP)]
+        if ahead.size:
+            xs_n[ahead], ok_n[ahead], more = newton(xs_n[ahead], planner._NEWTON_MAXITER - planner._NEWTON_RACE)
+            its_n[ahead] += more
+        xs[best[ok_n]] = xs_n[ok_n]
+        ok[best] |= ok_n
+        its[best] += its_n
+        left[best[ok_n]] = 0
+
+    xs, ok, its = lm(origins, planner._LM_RACE)
+    left = np.where(ok, 0, 1)
+    going = np.flatnonzero(~ok)
+    ahead = going[first(f_of(xs[going], v_path), planner._LM_KEEP)]
+    if ahead.size:
+        xs[ahead], ok[ahead], more = lm(xs[ahead], planner._LM_MAXITER - planner._LM_RACE)
+        its[ahead] += more
+        left[ahead] = 0
+    polish(xs, ok, its, left)
+    fingers = [j for j in range(FINGERS.start, FINGERS.stop) if screened[j] != model.lower[j]]
+    if f_of(xs, v_path).min() > planner._OPEN_F and fingers:
+        opened = np.repeat(screened[None, :], len(fingers), axis=0)
+        opened[np.arange(len(fingers)), fingers] = model.lower[fingers]
+        starts = feas.project(opened)
+        xs_o, ok_o, its_o = lm(starts, planner._OPEN_LM)
+        left_o = np.where(ok_o, 0, 2)
+        polish(xs_o, ok_o, its_o, left_o)
+        xs, ok, its = np.concatenate([xs, xs_o]), np.concatenate([ok, ok_o]), np.concatenate([its, its_o])
+        left, origins = np.concatenate([left, left_o]), np.concatenate([origins, starts])
+    near = np.flatnonzero(f_of(xs, v) <= planner._POLISH)
+    if near.size and projection is not None:
+        xs_p, ok_p, its_p = projection.run(xs[near])
+        xs[near[ok_p]] = xs_p[ok_p]
+        ok[near[ok_p]] = True
+        left[near[ok_p]] = 3
+        its[near] += its_p
+    return xs, ok, its, left, origins
+
+
+@pytest.mark.parametrize('name', ['cup_7zone', 'flashlight_7zone'])
+def test_the_compiled_least_squares_is_rule_5(shipped: dict[str, GraspModel], name: str) -> None:
+    """Rule 5 compiled and driven from Python give the same bits.
+
+    End points, convergence, iterations, endings and origins, over random v (a quarter with a zone at 0),
+    from the origins a fresh plan would use.
+    """
+    model = shipped[name]
+    feas = planner._Feasible(model)
+    for v in _random_vs(model, 12, 11, 0.25):
+        projection = planner._LogOddsProjection(model, v, feas) if v.min() > 0.0 else None
+        screened = feas.project(planner.search_starts(model, v))
+        origins = planner._unique_rows(np.concatenate([feas.project(planner.select_starts(model, v)), screened,
+                                                       feas.project(model.means)]))
+        got = planner._least_squares(model, v, origins, feas, projection, screened[0])
+        expected = _rule_5(model, v, origins, screened[0], projection)
+        for a, b in zip(got[:3] + got[4:], expected[:3] + expected[4:]):
+            assert np.array_equal(a, b)
+        endings = [planner._endings()[e] if e or not c else 'least squares: converged'
+                   for e, c in zip(expected[3].tolist(), expected[1].tolist())]
+        assert got[3] == endings
 
 
 def test_a_model_without_the_mico_fingers_plans_without_the_open_finger_round(demos: Demonstrations) -> None:
