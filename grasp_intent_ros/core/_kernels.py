@@ -566,6 +566,16 @@ def project(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArr
 
 
 @njit(cache=True, nogil=True)
+def _objective(x, v, means, prec, log_norm, p, u, diff):  # type: ignore[no-untyped-def]
+    """The objective 1/2 |v - P(x)|^2, summed in zone order; fills p (K,) with P(x) (u, diff: work)."""
+    _posterior_and_scores(x, means, prec, log_norm, p, u, diff)
+    acc = 0.0
+    for k in range(v.size):
+        acc += (v[k] - p[k]) ** 2
+    return 0.5 * acc
+
+
+@njit(cache=True, nogil=True)
 def _score(xs, v, means, prec, log_norm, x_ref, scale):  # type: ignore[no-untyped-def]
     """Posterior (N, K), objective 1/2 |v - P|^2 (N,) and scaled distance to x_ref (N,) of every row."""
     n, d = xs.shape
@@ -575,12 +585,7 @@ def _score(xs, v, means, prec, log_norm, x_ref, scale):  # type: ignore[no-untyp
     dist = np.empty(n)
     u, diff = np.empty((K, d)), np.empty(d)
     for s in range(n):
-        p = post[s]
-        _posterior_scores(xs[s], means, prec, log_norm, p, u, diff)
-        acc = 0.0
-        for k in range(K):
-            acc += (v[k] - p[k]) ** 2
-        f[s] = 0.5 * acc
+        f[s] = _objective(xs[s], v, means, prec, log_norm, post[s], u, diff)
         acc = 0.0
         for j in range(d):
             acc += ((xs[s, j] - x_ref[j]) / scale[j]) ** 2
@@ -819,13 +824,6 @@ def choice_order(f: NDArray[np.float64], dist: NDArray[np.float64], start: NDArr
     out: NDArray[np.int64] = _choice_order(f, dist, start, np.ascontiguousarray(xs, dtype=np.float64), match_tol,
                                            f_rtol, dist_tol, same_tol)
     return out
-
-
-@njit(cache=True, nogil=True)
-def _posterior_scores(x, means, prec, log_norm, p, u, diff):  # type: ignore[no-untyped-def]
-    """Fills p (K,) with P(k|x) and u (K, d) with the gradients of log P(k|x), u_k = g_k - sum_j P_j g_j."""
-    _posterior_and_scores(x, means, prec, log_norm, p, u, diff)
-    _centre_scores(p, u)
 
 
 @njit(cache=True, nogil=True)
@@ -1227,17 +1225,13 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
 
 @njit(cache=True, nogil=True)
 def _objectives(xs, v, means, prec, log_norm):  # type: ignore[no-untyped-def]
-    """The objective 1/2 |v - P|^2 of every row of xs (N, d), summed as :func:`_score` sums it."""
+    """The objective 1/2 |v - P|^2 of every row of xs (N, d), as :func:`_score` computes it."""
     n, d = xs.shape
     K = means.shape[0]
     f = np.empty(n)
     p, u, diff = np.empty(K), np.empty((K, d)), np.empty(d)
     for s in range(n):
-        _posterior_and_scores(xs[s], means, prec, log_norm, p, u, diff)
-        acc = 0.0
-        for k in range(K):
-            acc += (v[k] - p[k]) ** 2
-        f[s] = 0.5 * acc
+        f[s] = _objective(xs[s], v, means, prec, log_norm, p, u, diff)
     return f
 
 

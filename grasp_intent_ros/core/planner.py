@@ -521,8 +521,8 @@ def _choose(candidates: list[Candidate]) -> list[Candidate]:
     """The module docstring's choice order; a candidate within 1e-9 (relative) of an earlier one is dropped."""
     if len(candidates) <= 1:
         return list(candidates)
-    columns = list(zip(*candidates))  # Candidate's fields, in its order
-    order = choice_order(np.array(columns[2]), np.array(columns[3]), np.array(columns[6]), np.array(columns[0]),
+    order = choice_order(np.array([c.objective for c in candidates]), np.array([c.distance for c in candidates]),
+                         np.array([c.start_index for c in candidates]), np.array([c.x for c in candidates]),
                          MATCH_TOL, F_RTOL, DISTANCE_TOL, 1e-18)
     return [candidates[i] for i in order.tolist()]
 
