@@ -8,17 +8,21 @@ Sections (all seeded; ``--n`` random w per model, 500 by default, as issue 7 sta
    every zone mean, then seeded random points). Within max(1e-9, 1%) of the reference, or better.
 2. **Stability.** The same w with v perturbed by 1e-12 (relative): the same grasp (palm within 1e-6 m,
    approach within 1e-6) on both 7-zone models.
-3. **Continuity.** A random walk of w (steps N(0, 0.01) per task, 2,000 steps, warm-started from the
-   previous plan): the share of steps where the grasp jumps (palm > 20 mm or approach > 0.3 rad), and
-   how many of those came while the previous solution's branch still matched v.
+3. **Continuity.** ``--walks`` random walks of w (steps N(0, 0.01) per task, 2,000 steps each, seeds
+   ``--seed`` on, warm-started from the previous plan): the share of steps where the grasp jumps (palm
+   > 20 mm or approach > 0.3 rad), and how many of those came while the previous solution's branch
+   still matched v. Walks differ in how long they stay where no grasp matches v (flashlight: 238-966
+   of 2,000 steps), where most jumps are.
 4. **Plausibility.** Planned grasps with the palm centre inside the object's body, per object.
-5. **Speed.** Fresh plans and the warm-started stream, and the paper-faithful baseline (one start,
-   SLSQP, finite differences) on the same w in a pass of its own, with the ratio. (Interleaved with the
-   planner's plans, the baseline's 70-900 ms of scipy per plan evicted the planner's caches before each
-   fresh plan: flashlight median 1.6 against 1.1 ms on the same code.)
+5. **Speed.** Fresh plans and warm-started streams, and the paper-faithful baseline (one start,
+   SLSQP, finite differences) on the same w in a pass of its own, with the ratio. The streams are
+   ``--walks`` random walks of n steps (seeds ``--seed`` on), each timed and then pooled: a single walk
+   stays in one region of w, and how many of its steps have no exact match sets its cost. (Interleaved
+   with the planner's plans, the baseline's 70-900 ms of scipy per plan evicted the planner's caches
+   before each fresh plan: flashlight median 1.6 against 1.1 ms on the same code.)
 
     python benchmarks/bench_planner.py [--n 500] [--seed 0] [--sections 1,2,3,4,5] [--reference-starts 60]
-        [--models cup_7zone,flashlight_7zone]
+        [--walks 5] [--models cup_7zone,flashlight_7zone]
 
 The optimality section runs 60 SLSQP refinements per w: about 1-2 s per w on a 2-core machine.
 """
@@ -109,23 +113,31 @@ def stability(n: int, seed: int, models: tuple[str, ...]) -> None:
         print(f'  {name:17s} same grasp in {same}/{n} ({100 * same / n:.2f}%)')
 
 
-def continuity(steps: int, seed: int, models: tuple[str, ...]) -> None:
-    print(f'3. continuity: random walk of w, {steps} steps, warm-started; jump = palm > 20 mm or approach > 0.3 rad')
+def continuity(steps: int, seed: int, walks: int, models: tuple[str, ...]) -> None:
+    print(f'3. continuity: {walks} random walks of w (seeds {seed}-{seed + walks - 1}), {steps} steps each, '
+          'warm-started; jump = palm > 20 mm or approach > 0.3 rad')
     for name in (m for m in SEVEN if m in models):
         model = load(name)
-        previous, jumps, branch_held = None, 0, 0
-        for v in walk_targets(model, steps, seed):
-            res = planner.plan(model, v, warm_start=None if previous is None else previous.x)
-            if previous is not None:
-                palm = np.linalg.norm(res.x[:3] - previous.x[:3])
-                angle = np.arccos(np.clip(res.x[3:6] @ previous.x[3:6], -1.0, 1.0))
-                if palm > 0.02 or angle > 0.3:
-                    jumps += 1
-                    # the warm start's own projection is candidate 0 when it matched v
-                    branch_held += res.candidates[0].start_index == 0 and res.exact
-            previous = res
-        print(f'  {name:17s} jumps in {jumps}/{steps - 1} steps ({100 * jumps / (steps - 1):.2f}%), '
-              f'{branch_held} of them while the previous branch still matched v')
+        total = 0
+        for walk_seed in range(seed, seed + walks):
+            previous, jumps, branch_held, inexact = None, 0, 0, 0
+            for v in walk_targets(model, steps, walk_seed):
+                res = planner.plan(model, v, warm_start=None if previous is None else previous.x)
+                inexact += not res.exact
+                if previous is not None:
+                    palm = np.linalg.norm(res.x[:3] - previous.x[:3])
+                    angle = np.arccos(np.clip(res.x[3:6] @ previous.x[3:6], -1.0, 1.0))
+                    if palm > 0.02 or angle > 0.3:
+                        jumps += 1
+                        # the warm start's own projection is candidate 0 when it matched v
+                        branch_held += res.candidates[0].start_index == 0 and res.exact
+                previous = res
+            total += jumps
+            print(f'  {name:17s} seed {walk_seed}: jumps in {jumps}/{steps - 1} steps '
+                  f'({100 * jumps / (steps - 1):.2f}%), {branch_held} of them while the previous branch still '
+                  f'matched v; {inexact} steps with no exact match')
+        print(f'  {name:17s} all {walks} walks: jumps in {total}/{walks * (steps - 1)} steps '
+              f'({100 * total / (walks * (steps - 1)):.2f}%)')
 
 
 def plausibility(n: int, seed: int, models: tuple[str, ...]) -> None:
@@ -138,7 +150,7 @@ def plausibility(n: int, seed: int, models: tuple[str, ...]) -> None:
         print(f'  {name:17s} {inside}/{n} inside')
 
 
-def speed(n: int, seed: int, models: tuple[str, ...]) -> None:
+def speed(n: int, seed: int, walks: int, models: tuple[str, ...]) -> None:
     print('5. speed: wall time per plan (this process, this machine); the baseline on the same w, after the planner')
     for name in (m for m in SEVEN if m in models):
         model = load(name)
@@ -153,14 +165,20 @@ def speed(n: int, seed: int, models: tuple[str, ...]) -> None:
             t0 = time.perf_counter()
             planner.plan(model, v, **BASELINE)  # type: ignore[arg-type]
             base.append(1e3 * (time.perf_counter() - t0))
-        warm, previous = [], None
-        for v in walk_targets(model, n, seed):
-            t0 = time.perf_counter()
-            previous = planner.plan(model, v, warm_start=previous).x
-            warm.append(1e3 * (time.perf_counter() - t0))
         print(f'  {name:17s} fresh     {percentiles(fresh)}  (baseline {percentiles(base)}; median ratio '
               f'{np.median(base) / np.median(fresh):.2f}x)')
-        print(f'  {name:17s} warm walk {percentiles(warm)}')
+        pooled: list[float] = []
+        for walk_seed in range(seed, seed + walks):  # one walk is one region of w: seed 0's spends 44 of 500 steps
+            warm, previous, inexact = [], None, 0       # where no grasp matches v, seed 3's 296
+            for v in walk_targets(model, n, walk_seed):
+                t0 = time.perf_counter()
+                res = planner.plan(model, v, warm_start=previous)
+                warm.append(1e3 * (time.perf_counter() - t0))
+                previous, inexact = res.x, inexact + (not res.exact)
+            pooled += warm
+            print(f'  {name:17s} warm walk {percentiles(warm)}  (seed {walk_seed}: {inexact}/{n} steps with no '
+                  'exact match)')
+        print(f'  {name:17s} warm, all {walks} walks {percentiles(pooled)}')
 
 
 def main() -> None:
@@ -168,6 +186,9 @@ def main() -> None:
     parser.add_argument('--n', type=int, default=500, help='random w per model (default 500)')
     parser.add_argument('--walk', type=int, default=2000, help='random-walk steps (default 2000)')
     parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--walks', type=int, default=5,
+                        help='random walks of w, seeds --seed on (default 5): section 3 walks --walk steps '
+                             'each, section 5 times --n steps each')
     parser.add_argument('--sections', default='1,2,3,4,5', help='comma-separated section numbers')
     parser.add_argument('--reference-starts', type=int, default=60)
     parser.add_argument('--models', default=','.join(MODELS),
@@ -178,8 +199,9 @@ def main() -> None:
     models = tuple(m for m in args.models.split(',') if m)
     runs = {1: lambda: optimality(args.n, args.seed, args.reference_starts, models),
             2: lambda: stability(args.n, args.seed, models),
-            3: lambda: continuity(args.walk, args.seed, models), 4: lambda: plausibility(args.n, args.seed, models),
-            5: lambda: speed(args.n, args.seed, models)}
+            3: lambda: continuity(args.walk, args.seed, args.walks, models),
+            4: lambda: plausibility(args.n, args.seed, models),
+            5: lambda: speed(args.n, args.seed, args.walks, models)}
     for number, run in runs.items():
         if number in sections:
             run()
