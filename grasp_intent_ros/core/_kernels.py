@@ -768,7 +768,7 @@ def distinct(x: NDArray[np.float64], tol: float) -> NDArray[np.bool_]:
 
 
 @njit(cache=True, nogil=True)
-def _choice_order(f, dist, start, xs, match_tol, f_rtol, dist_tol, same_tol):  # type: ignore[no-untyped-def]
+def _choice_order(f, dist, start, xs, converged, match_tol, f_rtol, band, dist_tol, same_tol):  # type: ignore[no-untyped-def]
     n = f.size
     best = f[0]
     for i in range(1, n):  # the first lowest (as Python's min)
@@ -777,10 +777,13 @@ def _choice_order(f, dist, start, xs, match_tol, f_rtol, dist_tol, same_tol):  #
     slack = f_rtol * best
     if not slack > match_tol:
         slack = match_tol
+    wide = slack  # no exact match: converged candidates whose residual |v - P| is within ``band`` of the best's
+    if band > 0.0 and best > match_tol:
+        wide = max(slack, 0.5 * (math.sqrt(2.0 * best) + band) ** 2 - best)
     pool = np.empty(n, dtype=np.int64)
     m = 0
     for i in range(n):
-        if f[i] <= best + slack:
+        if f[i] <= best + slack or (converged[i] and f[i] <= best + wide):
             pool[m] = i
             m += 1
     matched = np.zeros(n, dtype=np.bool_)
@@ -812,17 +815,19 @@ def _choice_order(f, dist, start, xs, match_tol, f_rtol, dist_tol, same_tol):  #
 
 
 def choice_order(f: NDArray[np.float64], dist: NDArray[np.float64], start: NDArray[np.int64],
-                 xs: NDArray[np.float64], match_tol: float, f_rtol: float, dist_tol: float,
-                 same_tol: float) -> NDArray[np.int64]:
+                 xs: NDArray[np.float64], converged: NDArray[np.bool_], match_tol: float, f_rtol: float, band: float,
+                 dist_tol: float, same_tol: float) -> NDArray[np.int64]:
     """The planner's choice order (its rule 6): indices into the candidates.
 
-    The candidates have objectives f (N,), distances dist (N,), start indices start (N,) and end points
-    xs (N, d). The matches (f <= f* + max(match_tol, f_rtol f*), f* the lowest f) nearest first, distances within
-    ``dist_tol`` of the nearest tying, broken by the lower start index; then the others by :func:`_rank_keys`
-    of f (``match_tol``). A row within ``same_tol`` of an earlier one (:func:`distinct`) is dropped.
+    The candidates have objectives f (N,), distances dist (N,), start indices start (N,), end points xs (N, d)
+    and whether each converged (N,). The matches are those with f <= f* + max(match_tol, f_rtol f*), f* the
+    lowest f, and, when f* > match_tol (no exact match) and ``band`` > 0, the converged ones whose residual
+    sqrt(2 f) is within ``band`` of sqrt(2 f*). The matches come nearest first, distances within ``dist_tol``
+    of the nearest tying, broken by the lower start index; then the others by :func:`_rank_keys` of f
+    (``match_tol``). A row within ``same_tol`` of an earlier one (:func:`distinct`) is dropped.
     """
-    out: NDArray[np.int64] = _choice_order(f, dist, start, np.ascontiguousarray(xs, dtype=np.float64), match_tol,
-                                           f_rtol, dist_tol, same_tol)
+    out: NDArray[np.int64] = _choice_order(f, dist, start, np.ascontiguousarray(xs, dtype=np.float64), converged,
+                                           match_tol, f_rtol, band, dist_tol, same_tol)
     return out
 
 
@@ -1627,7 +1632,8 @@ def warm_up() -> None:
     for log_v in (np.zeros(2), np.zeros(0)):
         screen(np.zeros((2, 3)), log_v, np.full((3, 2), 0.5), np.array([0.5, 0.5]), 1, 1e-12)
     distinct(np.ones((2, d)), 1e-18)
-    choice_order(np.ones(2), np.ones(2), np.arange(2), np.ones((2, d)), 1e-12, 1e-6, 1e-6, 1e-18)
+    choice_order(np.ones(2), np.ones(2), np.arange(2), np.ones((2, d)), np.ones(2, dtype=np.bool_), 1e-12, 1e-6, 3e-3,
+                 1e-6, 1e-18)
     select_demonstrations(np.full((2, 2), 0.5), np.array([0.5, 0.5]), np.ones((2, 2), dtype=np.bool_),
                           np.zeros(1, dtype=np.int64), 1, 1e-12)
     eye = np.eye(3)
