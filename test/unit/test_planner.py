@@ -190,6 +190,19 @@ def test_a_warm_stream_does_not_flip_between_near_equal_minima(shipped: dict[str
     assert len(_walk_jumps(model, 140, 1)) >= 4
 
 
+def test_only_a_warm_plan_has_the_band(shipped: dict[str, GraspModel], monkeypatch: pytest.MonkeyPatch) -> None:
+    """A fresh plan ignores WARM_BAND bit for bit; a warm one from the same reference takes the nearest in it."""
+    model = shipped['flashlight_7zone']
+    v = _v((0.51, 0.95, 0.14), model)  # no exact match: the least squares
+    fresh = planner.plan(model, v)
+    assert not fresh.exact
+    monkeypatch.setattr(planner, 'WARM_BAND', 1.0)  # every converged candidate ties
+    assert planner.plan(model, v).x.tobytes() == fresh.x.tobytes()
+    wide = planner.plan(model, v, warm_start=fresh.reference)
+    nearest = min((c for c in wide.candidates if c.success), key=lambda c: c.distance)
+    assert wide.chosen.distance == nearest.distance < fresh.chosen.distance
+
+
 def _choice_rule(f: list[float], dist: list[float], start: list[int], xs: np.ndarray, converged: list[bool],
                  band: float) -> list[int]:
     """Rule 6 as the module docstring states it, in plain Python: the oracle for the compiled choice order."""
