@@ -566,13 +566,19 @@ def project(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArr
 
 
 @njit(cache=True, nogil=True)
-def _objective(x, v, means, prec, log_norm, p, u, diff):  # type: ignore[no-untyped-def]
-    """The objective 1/2 |v - P(x)|^2, summed in zone order; fills p (K,) with P(x) (u, diff: work)."""
-    _posterior_and_scores(x, means, prec, log_norm, p, u, diff)
+def _half_square(v, p):  # type: ignore[no-untyped-def]
+    """1/2 |v - p|^2, summed in zone order (every objective of the planner is summed so)."""
     acc = 0.0
     for k in range(v.size):
         acc += (v[k] - p[k]) ** 2
     return 0.5 * acc
+
+
+@njit(cache=True, nogil=True)
+def _objective(x, v, means, prec, log_norm, p, u, diff):  # type: ignore[no-untyped-def]
+    """The objective 1/2 |v - P(x)|^2 (:func:`_half_square`); fills p (K,) with P(x) (u, diff: work)."""
+    _posterior_and_scores(x, means, prec, log_norm, p, u, diff)
+    return _half_square(v, p)
 
 
 @njit(cache=True, nogil=True)
@@ -671,10 +677,7 @@ def _screen(log_joint_t, log_v, posterior, v, count, tol):  # type: ignore[no-un
                     low = q
             score[i] = top - low
         else:
-            acc = (v[0] - posterior[i, 0]) * (v[0] - posterior[i, 0])
-            for k in range(1, K):
-                acc += (v[k] - posterior[i, k]) * (v[k] - posterior[i, k])
-            score[i] = acc * 0.5
+            score[i] = _half_square(v, posterior[i])
     return _first_ranked(score, tol, count)
 
 
@@ -692,13 +695,10 @@ def screen(log_joint_t: NDArray[np.float64], log_v: NDArray[np.float64], posteri
 
 @njit(cache=True, nogil=True)
 def _select_demonstrations(posterior, v, members, zones, rest_count, tol):  # type: ignore[no-untyped-def]
-    n, K = posterior.shape
+    n = posterior.shape[0]
     keys = np.empty(n, dtype=np.int64)
     for i in range(n):
-        acc = 0.0
-        for k in range(K):
-            acc += (v[k] - posterior[i, k]) ** 2
-        keys[i] = _rank_key(0.5 * acc, i, n, tol)
+        keys[i] = _rank_key(_half_square(v, posterior[i]), i, n, tol)
     first = -1
     for i in range(n):  # the best of the first zone's demonstrations
         if members[zones[0], i] and (first < 0 or keys[i] < keys[first]):
@@ -810,7 +810,7 @@ def _choice_order(f, dist, start, xs, converged, match_tol, f_rtol, band, dist_t
         if not matched[i]:
             order[count] = i
             count += 1
-    keep = _distinct(_rows(xs, order), same_tol)
+    keep = _distinct(xs[order], same_tol)
     return order[keep]
 
 
@@ -1241,15 +1241,6 @@ def _objectives(xs, v, means, prec, log_norm):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _rows(xs, index):  # type: ignore[no-untyped-def]
-    """xs[index] (a new array)."""
-    out = np.empty((index.size, xs.shape[1]))
-    for i in range(index.size):
-        out[i] = xs[index[i]]
-    return out
-
-
-@njit(cache=True, nogil=True)
 def _unconverged_first(xs, ok, v, means, prec, log_norm, count, tol):  # type: ignore[no-untyped-def]
     """The ``count`` rows of xs that have not converged (``ok`` False) with the lowest f, in rank-key order."""
     going = np.empty(ok.size, dtype=np.int64)
@@ -1259,7 +1250,7 @@ def _unconverged_first(xs, ok, v, means, prec, log_norm, count, tol):  # type: i
             going[m] = i
             m += 1
     going = going[:m]
-    return going[_first_ranked(_objectives(_rows(xs, going), v, means, prec, log_norm), tol, count)]
+    return going[_first_ranked(_objectives(xs[going], v, means, prec, log_norm), tol, count)]
 
 
 @njit(cache=True, nogil=True)
@@ -1272,12 +1263,12 @@ def _newton_polish(xs, ok, its, left, v, means, prec, log_norm, lower, upper, sc
     ``left`` (cleared where it converges) are updated too.
     """
     best = _first_ranked(_objectives(xs, v, means, prec, log_norm), tol, polish)
-    xs_n, ok_n, its_n = _newton_least_squares(_rows(xs, best), v, means, prec, log_norm, lower, upper, scale, a0,
+    xs_n, ok_n, its_n = _newton_least_squares(xs[best], v, means, prec, log_norm, lower, upper, scale, a0,
                                               a1, kinds, centres, axes, perps, radii, lengths, halfs, margin, race,
                                               steptol, ridge_rel)
     ahead = _unconverged_first(xs_n, ok_n, v, means, prec, log_norm, keep, tol)
     if ahead.size:
-        xs_a, ok_a, more = _newton_least_squares(_rows(xs_n, ahead), v, means, prec, log_norm, lower, upper, scale,
+        xs_a, ok_a, more = _newton_least_squares(xs_n[ahead], v, means, prec, log_norm, lower, upper, scale,
                                                  a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin,
                                                  maxiter - race, steptol, ridge_rel)
         for i in range(ahead.size):
@@ -1306,7 +1297,7 @@ def _least_squares_rounds(origins, v, v_path, means, prec, log_norm, lower, uppe
     left = _unless(ok, 1)  # 1: left behind the race's leaders
     ahead = _unconverged_first(xs, ok, v_path, means, prec, log_norm, lm_keep, tol)
     if ahead.size:
-        xs_a, ok_a, more = _least_squares(_rows(xs, ahead), v_path, means, prec, log_norm, lower, upper, a0, a1,
+        xs_a, ok_a, more = _least_squares(xs[ahead], v_path, means, prec, log_norm, lower, upper, a0, a1,
                                           kinds, centres, axes, perps, radii, lengths, halfs, margin,
                                           lm_maxiter - lm_race, lm_ftol, ridge_rel)
         for i in range(ahead.size):
@@ -1354,7 +1345,7 @@ def _least_squares_rounds(origins, v, v_path, means, prec, log_norm, lower, uppe
                 m += 1
         near = near[:m]
         if m:
-            xs_p, ok_p, its_p = _project_starts(_rows(xs, near), means, prec, log_norm, others, r, b_path, scale,
+            xs_p, ok_p, its_p = _project_starts(xs[near], means, prec, log_norm, others, r, b_path, scale,
                                                 lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
                                                 halfs, margin, gn_maxiter, gn_stall, gn_damping, gn_htol, gn_steptol,
                                                 b)
