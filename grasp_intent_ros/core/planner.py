@@ -441,18 +441,16 @@ def _least_squares(model: GraspModel, v: NDArray[np.float64], origins: NDArray[n
         fingers=(FINGERS.start, FINGERS.stop) if mico_fingers else (0, 0), open_f=_OPEN_F, open_lm=_OPEN_LM,
         equations=equations, near_f=_POLISH, gn=(_GN_MAXITER, _GN_STALL, _GN_DAMPING, _GN_HTOL, _GN_STEPTOL),
         tol=MATCH_TOL)
-    ended = _endings()
-    labels = [ended[e] if e or not converged else 'least squares: converged'
-              for e, converged in zip(ends.tolist(), ok.tolist())]
-    return xs, ok, its, labels, origins
+    return xs, ok, its, _labels(ends, ok), origins
 
 
-def _endings() -> tuple[str, str, str, str]:
-    """The least squares' labels by ``_kernels.least_squares_rounds``' endings (0: unconverged, at the limit)."""
-    return ('least squares: iteration limit',
-            f'least squares: left at {_LM_RACE} iterations, behind {_LM_KEEP} others',
-            f'least squares: a finger opened, left at {_OPEN_LM} iterations, behind {_NEWTON_POLISH} others',
-            'exact match (least squares, then projected)')
+def _labels(ends: NDArray[np.int8], converged: NDArray[np.bool_]) -> list[str]:
+    """The least squares' candidate messages from ``_kernels.least_squares_rounds``' endings and convergence."""
+    ended = ('least squares: iteration limit',
+             f'least squares: left at {_LM_RACE} iterations, behind {_LM_KEEP} others',
+             f'least squares: a finger opened, left at {_OPEN_LM} iterations, behind {_NEWTON_POLISH} others',
+             'exact match (least squares, then projected)')
+    return [ended[e] if e or not c else 'least squares: converged' for e, c in zip(ends.tolist(), converged.tolist())]
 
 
 def _refine_scipy(model: GraspModel, v: NDArray[np.float64], x0: NDArray[np.float64], method: Method,
