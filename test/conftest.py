@@ -228,7 +228,8 @@ def tiny_models(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[st
 def weaponised_model_documents() -> Callable[..., dict[str, tuple[str, str]]]:
     """``make(model, name='cup_7zone', version=2)``: documents built to stall or crash a reader, by kind.
 
-    Each is (document text with a valid header and hash, the reason a reader rejects it with); ``model``
+    Each is (document text with a valid header and hash, the reason a reader rejects it with:
+    ``ModelFormatError.reason``, which the diagnostic's message contains); ``model``
     (a GraspModel) makes the rest of the document valid.
     """
     return _weaponised_model_documents
@@ -236,7 +237,7 @@ def weaponised_model_documents() -> Callable[..., dict[str, tuple[str, str]]]:
 
 def _weaponised_model_documents(model: Any, *, name: str = 'cup_7zone', version: int = 2
                                 ) -> dict[str, tuple[str, str]]:
-    from grasp_intent_ros.core.model import MAX_DOCUMENT_CHARS
+    from grasp_intent_ros.core.model import ALIAS, MAX_DOCUMENT_CHARS, OVERSIZED, TOO_DEEP
 
     def document(body: str) -> str:
         sha = hashlib.sha256(body.encode()).hexdigest()
@@ -246,8 +247,7 @@ def _weaponised_model_documents(model: Any, *, name: str = 'cup_7zone', version:
     laughs = ''.join(f'\nl{i}: &l{i} [{", ".join([f"*l{i - 1}"] * 10)}]' for i in range(1, 10))
     bomb = model.to_yaml().replace('\nzones:', f'\nl0: &l0 [{", ".join(["lol"] * 10)}]{laughs}\nzones:', 1)
     return {
-        'alias bomb': (document(bomb.replace('data_hash:', 'data_hash: *l9\nx:', 1)),
-                       'aliases (*name) are not allowed'),
-        'nested too deeply': (document('[' * 100_000), 'nested too deeply'),
-        'oversized': (document(model.to_yaml() + '#' * MAX_DOCUMENT_CHARS), 'oversized'),
+        'alias bomb': (document(bomb.replace('data_hash:', 'data_hash: *l9\nx:', 1)), ALIAS),
+        'nested too deeply': (document('[' * 100_000), TOO_DEEP),
+        'oversized': (document(model.to_yaml() + '#' * MAX_DOCUMENT_CHARS), OVERSIZED),
     }

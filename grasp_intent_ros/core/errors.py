@@ -29,7 +29,16 @@ class ModelError(GraspIntentError):
 
 
 class ModelFormatError(ModelError):
-    """A saved model document is malformed (missing field, wrong shape, non-positive-definite covariance)."""
+    """A saved model document is malformed (missing field, wrong shape, non-positive-definite covariance).
+
+    ``reason`` is the project's own name for what stopped a document's reader, whichever layer stopped it
+    (libyaml's parser or this package): one of ``core.model.DOCUMENT_REASONS``, which the message also
+    contains; None for a problem with a field of a parsed document (the message names the field).
+    """
+
+    def __init__(self, message: str, *, reason: str | None = None) -> None:
+        super().__init__(message)
+        self.reason = reason
 
 
 class DataError(GraspIntentError):

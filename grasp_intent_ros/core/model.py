@@ -41,6 +41,12 @@ __all__ = [
     'FORMAT_VERSION',
     'MAX_DOCUMENT_CHARS',
     'MAX_DOCUMENT_DEPTH',
+    'DOCUMENT_REASONS',
+    'OVERSIZED',
+    'NOT_YAML',
+    'ALIAS',
+    'TOO_DEEP',
+    'MALFORMED_VALUE',
     'check_document_size',
     'parse_document',
     'read_document',
@@ -68,6 +74,13 @@ shipped 7-zone models (116 kB). Checked on the raw text before any parsing."""
 
 MAX_DOCUMENT_DEPTH = 32
 """Deepest nesting of sequences and mappings in a document read (a model document nests 4 deep)."""
+
+OVERSIZED, NOT_YAML, ALIAS, TOO_DEEP, MALFORMED_VALUE = (
+    'oversized', 'not valid YAML', 'alias', 'nested too deeply', 'malformed value')
+DOCUMENT_REASONS = (OVERSIZED, NOT_YAML, ALIAS, TOO_DEEP, MALFORMED_VALUE)
+"""The reasons :func:`parse_document` rejects a document for (``ModelFormatError.reason``), in the project's
+own words: the same reason whichever layer stops the document first (libyaml's scanner limits flow nesting
+itself, at a depth that depends on its version)."""
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -131,8 +144,8 @@ def check_document_size(text: str) -> None:
         If ``text`` is oversized.
     """
     if len(text) > MAX_DOCUMENT_CHARS:
-        raise ModelFormatError(f'model document is oversized: more than {MAX_DOCUMENT_CHARS} characters '
-                               f'({len(text)} read)')
+        raise ModelFormatError(f'model document is {OVERSIZED}: more than {MAX_DOCUMENT_CHARS} characters '
+                               f'({len(text)} read)', reason=OVERSIZED)
 
 
 _SEQUENCE_TAG, _MAPPING_TAG = 'tag:yaml.org,2002:seq', 'tag:yaml.org,2002:map'
@@ -159,7 +172,7 @@ def _construct_events(loader: Any) -> Any:  # Any: the stubs type neither libyam
     for that document). Collections are built on an explicit stack, so nesting is bounded
     (:data:`MAX_DOCUMENT_DEPTH`) without recursion. Raises yaml.YAMLError (aliases, a tag other than a
     plain sequence, mapping or safe scalar, an unhashable key, several documents), ModelFormatError
-    (nesting too deep).
+    (nesting too deep, an alias).
     """
     loader.get_event()  # StreamStartEvent
     if loader.check_event(yaml.StreamEndEvent):
@@ -185,14 +198,13 @@ def _construct_events(loader: Any) -> Any:  # Any: the stubs type neither libyam
                 raise ConstructorError(None, None, f'the tag {tag!r} is not allowed in a model document',
                                        start)
             if len(stack) >= MAX_DOCUMENT_DEPTH:
-                raise ModelFormatError(f'model document is nested too deeply (more than {MAX_DOCUMENT_DEPTH} '
-                                       'levels)')
+                raise _too_deep()
             stack.append(([] if sequence else {}, _NO_KEY))
             continue
         elif isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
             value = stack.pop()[0]
         elif isinstance(event, yaml.AliasEvent):
-            raise ComposerError('aliases (*name) are not allowed in a model document')
+            raise ModelFormatError(f'model document holds an {ALIAS} (*name): aliases are not allowed', reason=ALIAS)
         else:  # the parser reports nothing else inside a document
             raise ComposerError(f'unexpected {type(event).__name__} in a model document')
         if not stack:
@@ -283,11 +295,26 @@ def parse_document(text: str) -> Any:
     except ModelFormatError:
         raise
     except yaml.YAMLError as exc:
-        raise ModelFormatError(f'model document is not valid YAML: {exc}') from None
+        mark = getattr(exc, 'problem_mark', None)
+        if mark is not None and _flow_depth(text[:mark.index]) > MAX_DOCUMENT_DEPTH:
+            raise _too_deep() from None  # libyaml's scanner stopped the nesting before this reader did
+        raise ModelFormatError(f'model document is {NOT_YAML}: {exc}', reason=NOT_YAML) from None
     except ValueError as exc:  # e.g. an integer of more than 4300 digits
-        raise ModelFormatError(f'model document holds a malformed value: {exc}') from None
+        raise ModelFormatError(f'model document holds a {MALFORMED_VALUE}: {exc}', reason=MALFORMED_VALUE) from None
     finally:
         loader.dispose()
+
+
+def _too_deep() -> ModelFormatError:
+    return ModelFormatError(f'model document is {TOO_DEEP} (more than {MAX_DOCUMENT_DEPTH} levels)', reason=TOO_DEEP)
+
+
+def _flow_depth(prefix: str) -> int:
+    """Flow collections (``[``, ``{``) opened and not yet closed in ``prefix``.
+
+    Brackets inside quoted scalars count too: this only names why a parse that already failed stopped.
+    """
+    return prefix.count('[') + prefix.count('{') - prefix.count(']') - prefix.count('}')
 
 
 def read_document(path: str | Path) -> str:

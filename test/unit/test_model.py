@@ -15,8 +15,11 @@ from grasp_intent_ros.core.errors import DataError, InvalidFeaturesError, ModelE
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import DEFAULT_TASKS
 from grasp_intent_ros.core.model import (
+    ALIAS,
     MAX_DOCUMENT_CHARS,
     MAX_DOCUMENT_DEPTH,
+    NOT_YAML,
+    TOO_DEEP,
     ZONE_STRUCTURES,
     GraspModel,
     _precisions_and_log_norms,
@@ -196,24 +199,28 @@ def test_shipped_model_documents_read_as_pyyaml_safe_load_reads_them() -> None:
         assert parse_document(text) == yaml.safe_load(text), path.name
 
 
-@pytest.mark.parametrize(('text', 'reason'), [
-    ('<<: {a: 1}\nb: 2', 'could not determine a constructor'),  # merge keys: safe_load merges them
-    ('a: !!set {x, y}', "tag 'tag:yaml.org,2002:set' is not allowed"),
-    ('a: !!omap [{x: 1}]', "tag 'tag:yaml.org,2002:omap' is not allowed"),
-    ('a: !!python/object:os.system x', 'could not determine a constructor'),
-    ('? [1, 2]\n: x', 'unhashable key'),
-    ('--- 1\n--- 2', 'expected a single document'),
-    ('a: [1', 'while parsing a flow sequence'),
+@pytest.mark.parametrize('text', [
+    '<<: {a: 1}\nb: 2',  # merge keys: safe_load merges them
+    'a: !!set {x, y}',
+    'a: !!omap [{x: 1}]',
+    'a: !!python/object:os.system x',
+    '? [1, 2]\n: x',  # an unhashable key
+    '--- 1\n--- 2',  # several documents
+    'a: [1',
 ])
-def test_documents_beyond_plain_data_are_rejected(text: str, reason: str) -> None:
-    with pytest.raises(ModelFormatError, match=reason):
+def test_documents_beyond_plain_data_are_rejected(text: str) -> None:
+    with pytest.raises(ModelFormatError) as err:
         parse_document(text)
+    assert err.value.reason == NOT_YAML
 
 
 def test_nesting_is_bounded() -> None:
     assert parse_document('[' * MAX_DOCUMENT_DEPTH + ']' * MAX_DOCUMENT_DEPTH) is not None
-    with pytest.raises(ModelFormatError, match=f'nested too deeply \\(more than {MAX_DOCUMENT_DEPTH} levels'):
-        parse_document('[' * (MAX_DOCUMENT_DEPTH + 1) + ']' * (MAX_DOCUMENT_DEPTH + 1))
+    for deep in ('[' * (MAX_DOCUMENT_DEPTH + 1) + ']' * (MAX_DOCUMENT_DEPTH + 1),
+                 'a:\n' + ''.join('  ' * i + 'b:\n' for i in range(1, MAX_DOCUMENT_DEPTH + 1)) + '  ' * 33 + '- 1\n'):
+        with pytest.raises(ModelFormatError) as err:
+            parse_document(deep)
+        assert err.value.reason == TOO_DEEP and f'more than {MAX_DOCUMENT_DEPTH} levels' in str(err.value)
 
 
 def test_reading_a_document_holds_little_more_than_the_document() -> None:
@@ -263,20 +270,27 @@ def test_aliases_are_rejected_before_anything_expands(toy_model: GraspModel) -> 
     assert f'task_names:\n{names}\n' in text
     one_alias = text.replace(f'task_names:\n{names}\n', 'task_names: *tasks\n').replace(
         'format_version: 1\n', f'format_version: 1\ntasks: &tasks\n{names}\n')
-    with pytest.raises(ModelFormatError, match='aliases'):
+    with pytest.raises(ModelFormatError) as err:
         GraspModel.from_yaml(one_alias)
+    assert err.value.reason == ALIAS
     # "billion laughs": 10^9 items once expanded, 1 kB of text
     laughs = ['a0: &a0 [x, x, x, x, x, x, x, x, x, x]']
     laughs += [f'a{i}: &a{i} [{", ".join([f"*a{i - 1}"] * 10)}]' for i in range(1, 10)]
-    with pytest.raises(ModelFormatError, match='aliases'):
+    with pytest.raises(ModelFormatError) as err:
         GraspModel.from_yaml('\n'.join(laughs))
+    assert err.value.reason == ALIAS
 
 
-@pytest.mark.parametrize('text', ['[' * 100_000, '- ' * 100_000, '{a: ' * 100_000])
+@pytest.mark.parametrize('text', ['[' * 100_000, '- ' * 100_000, '{a: ' * 100_000, '[' * 40 + '"' + ']' * 5])
 def test_nesting_too_deep_is_rejected_without_crashing(text: str) -> None:
-    """The C composer of libyaml would recurse without a limit here and crash the process."""
-    with pytest.raises(ModelFormatError, match='nested too deeply'):
+    """The C composer of libyaml would recurse without a limit here and crash the process.
+
+    The reason is the same whichever layer stops the document: this reader's depth limit, or libyaml's own
+    (its scanner stops flow nesting at a depth of its version's choosing, before this reader sees the events).
+    """
+    with pytest.raises(ModelFormatError) as err:
         GraspModel.from_yaml(text)
+    assert err.value.reason == TOO_DEEP
 
 
 def test_oversized_documents_are_rejected_before_parsing(tmp_path, toy_model: GraspModel) -> None:  # type: ignore[no-untyped-def]
