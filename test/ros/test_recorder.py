@@ -8,6 +8,7 @@ QoS (transient local for a latched String published before the recorder existed)
 from __future__ import annotations
 
 import errno
+import os
 from pathlib import Path
 
 import pytest
@@ -136,7 +137,7 @@ def test_write_error_stops_recording_reports_and_calls_on_failure(ros, tmp_path:
     assert len(failures) == 1
     error = recorder.error
     assert error is failures[0] and error.path == tmp_path / 'full' and error.messages_written == 5
-    assert 'No space left on device' in str(error) and '5 messages had been written' in str(error)
+    assert os.strerror(errno.ENOSPC) in str(error) and '5 messages had been written' in str(error)
     assert recorder.counts[W] == 5
     assert 'FAILED' in recorder.summary()
     assert ros.wait_for(lambda: [s for s in statuses if s.name == f'{NS}/recorder: recorder'
