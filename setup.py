@@ -50,8 +50,8 @@ setup(
     ],
     extras_require={
         'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-common-interfaces'],
-        'test': ['pytest>=7', 'pytest-timeout>=2', 'hypothesis>=6', 'mypy>=1.9', 'types-PyYAML', 'ruff>=0.4',
-                 'mcap-ros2-support>=0.5', 'colcon-core>=0.15', 'colcon-ros>=0.4'],
+        'test': ['pytest>=7', 'pytest-timeout>=2', 'hypothesis>=6', 'packaging>=23', 'mypy>=1.9', 'types-PyYAML',
+                 'ruff>=0.4', 'mcap-ros2-support>=0.5', 'colcon-core>=0.15', 'colcon-ros>=0.4'],
     },
     zip_safe=True,
     maintainer='grasp_intent_ros developers',

@@ -1,29 +1,57 @@
 #!/usr/bin/env bash
-# Create (or refresh) the repository's venv in .venv and install the package with its extras.
-# Idempotent: a second run reuses the venv and only installs what changed.
+# Create (or refresh) a venv of the repository and install the package into it.
+#
+#   scripts/venv.sh            .venv: exactly the locked versions of requirements/lock.txt (hashes checked),
+#                              then the package itself, editable
+#   scripts/venv.sh --latest   .venv-latest: the newest versions setup.py allows (the drift run), and a list
+#                              of what differs from the lock
+#
+# Safe to run twice: .venv is synced again only when requirements/, setup.py or package.xml changed. The
+# installer is uv, itself pinned with hashes in requirements/uv.txt and installed into the venv by pip.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 py="${PYTHON:-python3}"
-if [ ! -x "$repo/.venv/bin/python" ]; then
-    "$py" -m venv "$repo/.venv"
+latest=false
+[ "${1:-}" = --latest ] && latest=true
+venv="$repo/.venv"
+$latest && venv="$repo/.venv-latest"
+
+if ! "$py" -c 'import sys; sys.exit(sys.version_info < (3, 11))'; then
+    echo "$py is Python $("$py" -c 'import platform; print(platform.python_version())'); the locked venv needs" \
+         "3.11 or newer: PYTHON=python3.12 $0" >&2
+    exit 1
 fi
-stamp="$repo/.venv/.installed"
-want="$(cat "$repo/setup.py" "$repo/package.xml" | sha256sum | cut -d' ' -f1)"
-if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
-    log="$repo/.venv/pip-install.log"
-    echo "installing grasp_intent_ros and its dependencies into $repo/.venv (log: $log)" >&2
-    if ! { "$repo/.venv/bin/python" -m pip install --upgrade pip \
-           && "$repo/.venv/bin/python" -m pip install -e "$repo[ros,test]"; } >"$log" 2>&1; then
-        tail -n 40 "$log" >&2
-        echo "pip install failed; full log: $log" >&2
-        exit 1
-    fi
+[ -x "$venv/bin/python" ] || "$py" -m venv "$venv"
+uv="$venv/bin/uv"
+want="$(cat "$repo"/requirements/*.txt "$repo/setup.py" "$repo/package.xml" | sha256sum | cut -d' ' -f1)"
+stamp="$venv/.installed"
+if $latest || [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
+    log="$venv/install.log"
+    echo "installing grasp_intent_ros and its dependencies into $venv (log: $log)" >&2
+    {
+        "$venv/bin/python" -m pip install --require-hashes --no-deps -r "$repo/requirements/uv.txt"
+        if $latest; then
+            "$uv" pip install --python "$venv/bin/python" --compile-bytecode --upgrade "setuptools>=70"
+            "$uv" pip install --python "$venv/bin/python" --compile-bytecode --upgrade -e "$repo[ros,test]"
+        else
+            # install, not sync: the ROS wheels bring distributions of their own (rclpy, std_msgs, ...) that
+            # no lock names, and a sync would remove them as extraneous
+            "$uv" pip install --python "$venv/bin/python" --compile-bytecode --require-hashes --no-deps \
+                -r "$repo/requirements/lock.txt"
+            "$uv" pip install --python "$venv/bin/python" --no-deps --no-build-isolation -e "$repo"
+        fi
+    } >"$log" 2>&1 || { tail -n 40 "$log" >&2; echo "install failed; full log: $log" >&2; exit 1; }
     echo "$want" > "$stamp"
+fi
+if $latest; then  # what the drift run tests beyond the lock
+    normalise() { sed -E 's/[-_.]+/-/g' | tr 'A-Z' 'a-z' | sort; }
+    "$uv" pip freeze --python "$venv/bin/python" --exclude-editable | normalise > "$venv/versions.txt"
+    grep -E '^[A-Za-z0-9]' "$repo/requirements/lock.txt" | cut -d' ' -f1 | normalise > "$venv/locked.txt"
+    echo "not as locked in $venv:" $(comm -13 "$venv/locked.txt" "$venv/versions.txt") >&2
 fi
 # Compile the planner's numba kernels now (cached next to the source; a no-op when the cache is fresh),
 # so that no node pays for compilation on its first plan.
-"$repo/.venv/bin/python" -m grasp_intent_ros.core._kernels
-# Byte-compile the package's modules (a no-op for those unchanged). The editable install leaves that to
-# the first import, which writes nothing under PYTHONDONTWRITEBYTECODE=1: then every node process compiled
-# its modules from source again at start (0.08 s of CPU in the planner's restart).
-"$repo/.venv/bin/python" -m compileall -q "$repo/grasp_intent_ros"
+"$venv/bin/python" -m grasp_intent_ros.core._kernels
+# Byte-compile the package's own modules (an editable install leaves them to the first import, which writes
+# nothing under PYTHONDONTWRITEBYTECODE=1, and each node process would compile them again).
+"$venv/bin/python" -m compileall -q "$repo/grasp_intent_ros"

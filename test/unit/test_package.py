@@ -27,6 +27,7 @@ THIRD_PARTY = {
     'rosbags': ('python3-rosbags-pip', 'rosbags'),
     'pytest': ('python3-pytest', 'pytest'),
     'hypothesis': ('python3-hypothesis', 'hypothesis'),
+    'packaging': ('python3-packaging', 'packaging'),
     'mcap': ('mcap-ros2-support', 'mcap-ros2-support'),
     'mcap_ros2': ('mcap-ros2-support', 'mcap-ros2-support'),
 }
