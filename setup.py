@@ -41,12 +41,13 @@ setup(
         'pyyaml>=6',
         'pin>=2.7',
         'rosbags>=0.10',
+        'mcap-ros2-support>=0.5',  # brings mcap (bag/reindex.py); mcap-ros2-support is the rosdep key that does
         'matplotlib>=3.7',
     ],
     extras_require={
         'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-common-interfaces'],
         'test': ['pytest>=7', 'pytest-timeout>=2', 'hypothesis>=6', 'mypy>=1.9', 'types-PyYAML', 'ruff>=0.4',
-                 'mcap-ros2-support>=0.5', 'colcon-core>=0.15', 'colcon-ros>=0.4'],
+                 'colcon-core>=0.15', 'colcon-ros>=0.4'],
     },
     zip_safe=True,
     maintainer='grasp_intent_ros developers',
