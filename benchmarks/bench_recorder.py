@@ -1,4 +1,4 @@
-r"""Recorder under load (issue 10): suite + recorder as processes, w at 1 kHz; prints figures, asserts nothing.
+r"""Recorder under load: suite + recorder as processes, w at 1 kHz; prints figures, asserts nothing.
 
 Starts the three suite nodes (:meth:`~grasp_intent_ros.tools.suite.NodeSuite.start_nodes`) and
 ``python -m grasp_intent_ros recorder BAG`` as processes, then publishes ``intent/w`` from this process

@@ -6,8 +6,8 @@ A copy of the package sources is built with ``colcon build`` into a temporary wo
 install tree is checked: package.xml and the ament resource marker (what ``ros2 pkg`` and
 ``get_package_share_directory`` find), config, models, data and the recorded bags in the share
 directory, one console script per command of ``grasp_intent_ros/commands.py`` in ``lib/grasp_intent_ros``
-(where ``ros2 run`` looks), and the installed package finding its config through the ament index. Skipped, with the reason,
-only where colcon is not installed (the ``test`` extra installs it).
+(where ``ros2 run`` looks), and the installed package finding its config through the ament index. Skipped,
+with the reason, only where colcon is not installed (the ``test`` extra installs it).
 """
 
 from __future__ import annotations
