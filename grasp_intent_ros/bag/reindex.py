@@ -2,10 +2,11 @@
 
 A recorder that is SIGKILLed (or loses power) leaves an .mcap file without its summary and footer, possibly
 ending inside a record, and no metadata.yaml: no reader opens it. :func:`reindex` reads the file's records
-in order, keeps every complete chunk (and every complete record outside chunks), stops at the first
-truncated or corrupt one, and writes the recovered schemas, channels (topic, type, offered QoS) and
-messages, in file order with their log times, as a complete bag with :class:`SessionWriter`: MCAP with
-summary and footer, metadata.yaml with the true counts, start and duration.
+in order with mcap's ``StreamReader`` (which reads a cut file up to the cut), keeps every complete chunk
+(decompressed and CRC-checked whole before any of its messages is kept) and every complete record outside
+chunks, stops at the first truncated or corrupt one, and writes the recovered schemas, channels (topic,
+type, offered QoS) and messages, in file order with their log times, as a complete bag with
+:class:`SessionWriter`: MCAP with summary and footer, metadata.yaml with the true counts, start and duration.
 
 Files: the repaired bag replaces ``<bag>/<name>.mcap`` (``<name>`` is the directory's name, as the writer
 names it) and ``<bag>/metadata.yaml``; the original file is never deleted: it is renamed to
@@ -270,6 +271,6 @@ def _rebuild(records: Iterator[McapRecord], stream: io.BufferedReader, rebuilder
                 inner = [record]
             for each in inner:
                 rebuilder.apply(each)
-        except _Corrupt as exc:
+        except (_Corrupt, UnicodeDecodeError) as exc:  # a schema's definition that is not UTF-8
             return chunks, f'corrupt record at byte {offset}: {exc}', size - offset
         chunks += isinstance(record, Chunk)
