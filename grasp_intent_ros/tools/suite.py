@@ -19,8 +19,8 @@ One :class:`NodeSuite` serves the suite command (:func:`main`: ``python -m grasp
   signalled only by its own PID, SIGKILLed after a deadline, and judged clean on exit code 0 with no
   traceback on stderr.
 - :class:`NodeSuite`: the processes of one run: start (one node, or the three suite nodes with their
-  ``config/<node>.yaml``), wait until ready, notice a death, stop them all against one deadline.
-
+  ``config/<node>.yaml``, and :data:`OPTIONAL_NODES` on request), wait until ready, notice a death, stop
+  them all against one deadline.
 - :func:`main`: the suite command: start the nodes, copy their output to stdout with each line prefixed
   by ``[node]``, stop them all on Ctrl-C (SIGINT) or SIGTERM; exit code 0 when every node stopped cleanly,
   1 when one died or did not stop cleanly, 2 for bad arguments.
@@ -45,8 +45,8 @@ from types import TracebackType
 from ..core.resources import config_dir
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'OPTIONAL_NODES', 'MAX_DOMAIN_ID', 'FASTDDS_PROFILE', 'SuiteError',
-           'domain_id_from_environment', 'use_loopback_discovery', 'node_environment', 'NodeProcess', 'NodeSuite',
-           'main']
+           'domain_id_from_environment', 'use_loopback_discovery', 'node_environment', 'optional_nodes',
+           'NodeProcess', 'NodeSuite', 'main']
 
 STOP_TIMEOUT = 10.0
 """Seconds a node gets to exit after SIGINT/SIGTERM before it is SIGKILLed."""
@@ -240,6 +240,19 @@ class NodeProcess:
         return ''
 
 
+def optional_nodes(names: Sequence[str]) -> tuple[str, ...]:
+    """``names``, each checked against :data:`OPTIONAL_NODES`.
+
+    Raises
+    ------
+    SuiteError
+        Naming the unknown ones and the optional nodes there are.
+    """
+    if unknown := [name for name in names if name not in OPTIONAL_NODES]:
+        raise SuiteError(f'no optional node {", ".join(unknown)}; there are: {", ".join(OPTIONAL_NODES) or "none"}')
+    return tuple(names)
+
+
 class NodeSuite:
     """The node processes of one run, all on ``domain_id`` with loopback-only discovery.
 
@@ -310,9 +323,7 @@ class NodeSuite:
         OSError
             If a process cannot be started; those already started stay in :attr:`processes`.
         """
-        if unknown := [name for name in extra if name not in OPTIONAL_NODES]:
-            raise SuiteError(f'no optional node {", ".join(unknown)}; there are: {", ".join(OPTIONAL_NODES) or "none"}')
-        for module in (*SUITE_NODES, *extra):
+        for module in (*SUITE_NODES, *optional_nodes(extra)):
             self.start(module, *self.node_args(module, namespace=namespace, model=model, models_dir=models_dir,
                                                params_files=params_files))
 
@@ -469,9 +480,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f'--namespace must be absolute, e.g. /{args.namespace}')
     if missing := [str(path) for path in args.params_file if not path.is_file()]:
         parser.error(f'no parameters file {", ".join(missing)}')
-    if unknown := [name for name in args.extra if name not in OPTIONAL_NODES]:
-        parser.error(f'--with {", ".join(unknown)}: optional nodes are {", ".join(OPTIONAL_NODES) or "none"}')
     try:
+        extra = optional_nodes(args.extra)
         domain_id = args.domain_id if args.domain_id is not None else domain_id_from_environment(unset=0)
         suite = NodeSuite(domain_id, log_dir=args.log_dir)
     except SuiteError as exc:
@@ -482,7 +492,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     echo = _Echo(suite)
     died = ''
     try:
-        suite.start_nodes(namespace=args.namespace, params_files=args.params_file, extra=args.extra)
+        suite.start_nodes(namespace=args.namespace, params_files=args.params_file, extra=extra)
         print(f'suite: ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, namespace '
               f'{args.namespace or "/"}; started ' + ', '.join(f'{p.module} (pid {p.pid})' for p in suite.processes)
               + '; Ctrl-C stops them', flush=True)

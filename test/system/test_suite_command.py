@@ -83,7 +83,7 @@ def test_a_node_that_dies_stops_the_suite_with_exit_code_1(domain_id: int, tmp_p
 def test_bad_arguments_exit_2_before_anything_starts(tmp_path: Path) -> None:
     for args, reason in ((['--namespace', 'robot1'], 'must be absolute'),
                          (['--params-file', str(tmp_path / 'missing.yaml')], 'no parameters file'),
-                         (['--with', 'no_such_node'], '--with no_such_node'),
+                         (['--with', 'no_such_node'], 'no optional node no_such_node'),
                          (['--domain-id', '300'], '0..101')):
         result = subprocess.run([sys.executable, '-m', 'grasp_intent_ros', 'suite', *args], cwd=tmp_path,
                                 capture_output=True, text=True, timeout=60)
