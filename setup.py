@@ -1,26 +1,21 @@
 """ament_python / pip packaging for grasp_intent_ros."""
 import os
+import runpy
+import sys
 from glob import glob
 
 from setuptools import find_packages, setup
 
 package_name = 'grasp_intent_ros'
 
-CONSOLE_SCRIPTS = {  # script name -> module (python -m grasp_intent_ros.<name> works for each too)
-    'intent_interpreter': 'intent_interpreter',
-    'model_server': 'model_server',
-    'grasp_planner': 'grasp_planner',
-    'send_intent': 'tools.send_intent',
-    'demo': 'tools.demo',
-    'recorder': 'tools.recorder',
-    'reindex': 'tools.reindex',
-    'replay': 'tools.replay',
-    'report': 'tools.report',
-    'paper_tables': 'tools.paper_tables',
-    'ambiguity_report': 'tools.ambiguity_report',
-    'generate_data': 'dataset.generate_data',
-    'train': 'dataset.train',
-}
+# The commands (grasp_intent_ros/commands.py, read without importing the package).
+_commands = runpy.run_path(os.path.join(os.path.dirname(os.path.realpath(__file__)), package_name, 'commands.py'))
+# colcon builds with setuptools' own `install` or `develop` command, whose scripts setup.cfg puts into
+# lib/grasp_intent_ros: where `ros2 run grasp_intent_ros <name>` looks and no shell's PATH does, so one
+# script per command. pip builds a wheel, whose scripts land in the user's bin/: there one script,
+# grasp-intent-ros <name>, so that no generic name (demo, train, report) shadows another program.
+CONSOLE_SCRIPTS = (_commands['COMMANDS'] if {'install', 'develop'} & set(sys.argv[1:])
+                   else {_commands['SCRIPT']: '__main__'})
 
 setup(
     name=package_name,
@@ -46,12 +41,13 @@ setup(
         'pyyaml>=6',
         'pin>=2.7',
         'rosbags>=0.10',
+        'mcap-ros2-support>=0.5',  # brings mcap (bag/reindex.py); mcap-ros2-support is the rosdep key that does
         'matplotlib>=3.7',
     ],
     extras_require={
         'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-common-interfaces'],
         'test': ['pytest>=7', 'pytest-timeout>=2', 'hypothesis>=6', 'packaging>=23', 'mypy>=1.9', 'types-PyYAML',
-                 'ruff>=0.4', 'mcap-ros2-support>=0.5', 'colcon-core>=0.15', 'colcon-ros>=0.4'],
+                 'ruff>=0.4', 'colcon-core>=0.15', 'colcon-ros>=0.4'],
     },
     zip_safe=True,
     maintainer='grasp_intent_ros developers',

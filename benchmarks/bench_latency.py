@@ -1,4 +1,4 @@
-r"""End-to-end latency and throughput of the node chain beside the middleware floor, in one run (issue 10).
+r"""End-to-end latency and throughput of the node chain beside the middleware floor, in one run.
 
 Three phases, one after the other on the same domain (prints figures, asserts nothing):
 

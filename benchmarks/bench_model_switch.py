@@ -1,4 +1,4 @@
-r"""Model switches under a stream of intents (issue 10): prints figures, asserts nothing.
+r"""Model switches under a stream of intents: prints figures, asserts nothing.
 
 A grasp planner process gets a new target vector v every 10 ms (a random walk of w, as from a smooth
 intent estimate) while ``model/active`` switches between two models every second, for 20 s. A model

@@ -1,7 +1,7 @@
-r"""Recorder under load (issue 10): suite + recorder as processes, w at 1 kHz; prints figures, asserts nothing.
+r"""Recorder under load: suite + recorder as processes, w at 1 kHz; prints figures, asserts nothing.
 
 Starts the three suite nodes (:meth:`~grasp_intent_ros.tools.suite.NodeSuite.start_nodes`) and
-``python -m grasp_intent_ros.recorder BAG`` as processes, then publishes ``intent/w`` from this process
+``python -m grasp_intent_ros recorder BAG`` as processes, then publishes ``intent/w`` from this process
 at ``--rate`` Hz for ``--duration`` s (each w carries its sequence number in ``data[0]``; a paced
 publishing thread, reliable keep-last ``--pub-depth``, the profile of the suite's own publishers). The
 interpreter answers every w and the planner plans, so the recorder records the suite's outputs as well.
@@ -71,7 +71,7 @@ def main() -> None:
     suite = NodeSuite(domain_id, log_dir=work / 'logs', cwd=REPO)
     if not args.no_suite:
         suite.start_nodes()
-    recorder = NodeProcess([sys.executable, '-m', 'grasp_intent_ros.recorder', str(bag)], module='recorder',
+    recorder = NodeProcess([sys.executable, '-m', 'grasp_intent_ros', 'recorder', str(bag)], module='recorder',
                            env=suite.env, log_dir=suite.log_dir, cwd=args.recorder_source.resolve())
     suite.processes.append(recorder)
 

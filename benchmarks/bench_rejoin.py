@@ -1,4 +1,4 @@
-r"""How soon a subscriber SIGKILLed and restarted beside a running publisher receives data again (issue 10).
+r"""How soon a subscriber SIGKILLed and restarted beside a running publisher receives data again.
 
 The bare form of a node restart, without the suite: one publisher process (100 Hz, the nodes' output QoS)
 runs throughout; a subscriber process (the nodes' input QoS) is started ``--trials`` times, each time

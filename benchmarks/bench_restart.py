@@ -1,4 +1,4 @@
-r"""Restart after SIGKILL: how soon a restarted node serves again (issue 10). Prints figures, asserts nothing.
+r"""Restart after SIGKILL: how soon a restarted node serves again. Prints figures, asserts nothing.
 
 The three suite nodes run as ``python -m`` processes; a probe publishes a random walk of w on
 ``intent/w`` at 100 Hz throughout. Each node in turn is SIGKILLed (by its PID) and started again with the

@@ -1,4 +1,4 @@
-r"""Stop on SIGTERM: how long each node takes to exit, and whether any hangs (issue 10). Prints figures.
+r"""Stop on SIGTERM: how long each node takes to exit, and whether any hangs. Prints figures.
 
 Each node in turn (``--nodes``, default the three suite nodes) is started ``--cycles`` times as a
 ``python -m`` process with its config file, one process at a time; once it serves (its status on

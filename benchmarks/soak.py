@@ -1,4 +1,4 @@
-r"""Memory soak of the node suite (issue 10): RSS per node per minute under 100 Hz w and model switches.
+r"""Memory soak of the node suite: RSS per node per minute under 100 Hz w and model switches.
 
 The three suite nodes run as ``python -m`` processes. A probe publishes a random walk of w on
 ``intent/w`` at ``--rate`` Hz (default 100) for ``--minutes`` minutes (default 30), moves the object on

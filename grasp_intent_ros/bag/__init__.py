@@ -1,7 +1,7 @@
 """rosbag2 sessions: write, read, summarise.
 
 Write with :class:`SessionWriter`, read with :func:`read_messages`, summarise with :func:`topics_info`,
-repair a killed recording with :func:`reindex`.
+repair a killed recording with :func:`reindex`; every module starts from :func:`jazzy_typestore`.
 
 Bags are rosbag2 directories (metadata.yaml version 9, MCAP storage, CDR messages, ros2msg schemas,
 offered QoS per topic), as ``ros2 bag info/play`` in ROS 2 Jazzy expects. This package imports
@@ -13,6 +13,7 @@ from .qos import Durability, QosSpec, Reliability, decode_qos, encode_qos
 from .queued import QueuedWriter
 from .reader import BagMessage, TopicInfo, read_messages, topics_info
 from .reindex import BROKEN_SUFFIX, ReindexResult, reindex
+from .types import jazzy_typestore
 from .writer import DEFAULT_FLUSH_PERIOD, SessionWriter
 
 __all__ = [
@@ -34,4 +35,5 @@ __all__ = [
     'ReindexResult',
     'reindex',
     'BROKEN_SUFFIX',
+    'jazzy_typestore',
 ]

@@ -11,10 +11,11 @@ from typing import TYPE_CHECKING
 from rosbags.interfaces import ConnectionExtRosbag2, MessageDefinitionFormat
 from rosbags.rosbag2 import Reader, ReaderError
 from rosbags.serde import SerdeError
-from rosbags.typesys import Stores, TypesysError, get_types_from_msg, get_typestore
+from rosbags.typesys import TypesysError, get_types_from_msg
 
 from .errors import BagReadError
 from .qos import QosSpec, decode_qos
+from .types import jazzy_typestore
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection
@@ -107,7 +108,7 @@ def read_messages(
         On first iteration, if the bag is missing/malformed or a topic is not in it.
     """
     bag_path = Path(path)
-    store = typestore if typestore is not None else get_typestore(Stores.ROS2_JAZZY)
+    store = typestore if typestore is not None else jazzy_typestore()
     try:
         with Reader(bag_path) as reader:
             conns = _select(reader.connections, topics, bag_path)

@@ -2,10 +2,11 @@
 
 A recorder that is SIGKILLed (or loses power) leaves an .mcap file without its summary and footer, possibly
 ending inside a record, and no metadata.yaml: no reader opens it. :func:`reindex` reads the file's records
-in order, keeps every complete chunk (and every complete record outside chunks), stops at the first
-truncated or corrupt one, and writes the recovered schemas, channels (topic, type, offered QoS) and
-messages, in file order with their log times, as a complete bag with :class:`SessionWriter`: MCAP with
-summary and footer, metadata.yaml with the true counts, start and duration.
+in order with mcap's ``StreamReader`` (which reads a cut file up to the cut), keeps every complete chunk
+(decompressed and CRC-checked whole before any of its messages is kept) and every complete record outside
+chunks, stops at the first truncated or corrupt one, and writes the recovered schemas, channels (topic,
+type, offered QoS) and messages, in file order with their log times, as a complete bag with
+:class:`SessionWriter`: MCAP with summary and footer, metadata.yaml with the true counts, start and duration.
 
 Files: the repaired bag replaces ``<bag>/<name>.mcap`` (``<name>`` is the directory's name, as the writer
 names it) and ``<bag>/metadata.yaml``; the original file is never deleted: it is renamed to
@@ -16,25 +17,28 @@ so an interrupted repair leaves the original readable by a second repair.
 
 from __future__ import annotations
 
+import io
 import os
 import shutil
-import struct
-from collections.abc import Iterator
 from dataclasses import dataclass, field
-from io import BytesIO
 from pathlib import Path
-from typing import TYPE_CHECKING, BinaryIO, Final
+from typing import TYPE_CHECKING, Final
 
+from mcap.exceptions import EndOfFile, InvalidMagic, McapError
+from mcap.records import Channel, Chunk, DataEnd, Footer, Header, McapRecord, Message, Schema
+from mcap.stream_reader import StreamReader, breakup_chunk
 from rosbags.interfaces import MessageDefinitionFormat
-from rosbags.rosbag2 import storage_mcap
-from rosbags.typesys import Stores, get_typestore
+from rosbags.rosbag2.metadata import parse_qos
 
 from .errors import BagReadError, BagWriteError
 from .qos import decode_qos
 from .reader import register_type
+from .types import jazzy_typestore
 from .writer import SessionWriter
 
 if TYPE_CHECKING:
+    from collections.abc import Iterator
+
     from rosbags.typesys.store import Typestore
 
 __all__ = ['ReindexResult', 'reindex', 'BROKEN_SUFFIX']
@@ -43,11 +47,6 @@ MAGIC: Final = b'\x89MCAP0\r\n'
 BROKEN_SUFFIX: Final = '.broken'
 """Appended to the name of the original .mcap file that :func:`reindex` replaced (kept next to it)."""
 _WORK_DIR: Final = '.reindex'
-_OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK, _OP_DATA_END = (
-    0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x0F)
-_RECORD_HEAD: Final = struct.Struct('<BQ')
-_MESSAGE_HEAD: Final = struct.Struct('<HIQQ')  # channel id, sequence, log time, publish time
-_CHUNK_HEAD: Final = struct.Struct('<QQQI')  # start, end, uncompressed size, crc
 _SCHEMA_FORMATS: Final = {'ros2msg': MessageDefinitionFormat.MSG, 'ros2idl': MessageDefinitionFormat.IDL}
 
 
@@ -96,86 +95,23 @@ class ReindexResult:
 
 
 class _Corrupt(Exception):
-    """A complete record whose contents cannot be parsed."""
+    """A complete record whose contents cannot be used."""
 
 
-@dataclass(frozen=True)
-class _Schema:
-    id: int
-    name: str
-    encoding: str
-    data: str
+class _WholeReads(io.BufferedReader):
+    """A file whose ``read(n)`` returns n bytes or raises mcap's EndOfFile.
 
-
-@dataclass(frozen=True)
-class _Channel:
-    id: int
-    topic: str
-    schema_id: int
-    metadata: bytes
-
-
-@dataclass(frozen=True)
-class _Message:
-    channel_id: int
-    log_time: int
-    data: bytes
-
-
-_Record = tuple[int, bytes]  # opcode, content
-
-
-def _string(bio: BytesIO) -> str:
-    return _sized(bio, 4).decode()
-
-
-def _sized(bio: BytesIO, width: int) -> bytes:
-    raw = bio.read(width)
-    if len(raw) != width:
-        raise _Corrupt('field cut short')
-    size = int.from_bytes(raw, 'little')
-    data = bio.read(size)
-    if len(data) != size:
-        raise _Corrupt('field longer than its record')
-    return data
-
-
-def _records(stream: BinaryIO | BytesIO, end: int | None = None) -> Iterator[tuple[int, int, bytes]]:
-    """(offset, opcode, content) of each complete record until ``end`` or the end of the data.
-
-    Stops silently at a truncated record (the caller compares offsets to know).
+    mcap's record readers raise EndOfFile only when a read returns nothing: a field cut by the end of a
+    killed recording would come back short and pass for a whole one.
     """
-    while end is None or stream.tell() < end:
-        offset = stream.tell()
-        head = stream.read(_RECORD_HEAD.size)
-        if len(head) < _RECORD_HEAD.size:
-            stream.seek(offset)
-            return
-        opcode, length = _RECORD_HEAD.unpack(head)
-        content = stream.read(length) if length <= 1 << 40 else b''
-        if len(content) != length:
-            stream.seek(offset)
-            return
-        yield offset, opcode, content
 
-
-def _chunk_records(content: bytes) -> list[_Record]:
-    """The records inside a chunk record's content. Raises _Corrupt."""
-    if len(content) < _CHUNK_HEAD.size:
-        raise _Corrupt('chunk header cut short')
-    bio = BytesIO(content)
-    _, _, size, crc = _CHUNK_HEAD.unpack(bio.read(_CHUNK_HEAD.size))
-    compression = _string(bio)
-    compressed = _sized(bio, 8)
-    try:
-        raw = storage_mcap.decompress(compressed, compression, size, crc)
-    except Exception as exc:  # noqa: BLE001 - ReaderError, or the zstd/lz4 library's own error type
-        raise _Corrupt(f'chunk cannot be decompressed: {type(exc).__name__}: {exc}') from None
-    inner = BytesIO(raw)
-    records = [(opcode, data) for _, opcode, data in _records(inner, len(raw))]
-    if inner.tell() != len(raw):
-        raise _Corrupt('chunk ends inside a record')
-    return records
+    def read(self, size: int | None = -1) -> bytes:
+        if size is None or size < 0:
+            raise _Corrupt('a record shorter than its own fields')
+        data = super().read(size)
+        if len(data) < size:
+            raise EndOfFile
+        return data
 
 
 def _is_complete(mcap: Path, metadata: Path) -> bool:
@@ -209,45 +145,27 @@ class _Rebuilder:
         self.writer = writer
         self.typestore = typestore
         self.bag = bag
-        self.schemas: dict[int, _Schema] = {}
+        self.schemas: dict[int, Schema] = {}
         self.topics: dict[int, str] = {}  # channel id -> topic written
         self.counts: dict[str, int] = {}
 
-    @staticmethod
-    def parse(opcode: int, content: bytes) -> _Schema | _Channel | _Message | None:
-        """A schema, channel or message record, parsed (not yet applied); None for other records."""
-        bio = BytesIO(content)
-        if opcode in (_OP_SCHEMA, _OP_CHANNEL):
-            head = bio.read(2)
-            if len(head) != 2:
-                raise _Corrupt('record cut short')
-            record_id = int.from_bytes(head, 'little')
-            if opcode == _OP_SCHEMA:
-                return _Schema(record_id, _string(bio), _string(bio), _sized(bio, 4).decode())
-            schema_id = int.from_bytes(bio.read(2), 'little')
-            topic, _encoding = _string(bio), _string(bio)
-            return _Channel(record_id, topic, schema_id, _sized(bio, 4))
-        if opcode == _OP_MESSAGE:
-            if len(content) < _MESSAGE_HEAD.size:
-                raise _Corrupt('message record cut short')
-            channel_id, _, log_time, _ = _MESSAGE_HEAD.unpack_from(content)
-            return _Message(channel_id, log_time, content[_MESSAGE_HEAD.size:])
-        return None
+    def apply(self, record: McapRecord) -> None:
+        """Write a schema, channel or message to the new bag (other records carry nothing to keep).
 
-    def apply(self, record: _Schema | _Channel | _Message) -> None:
-        """Write a parsed record to the new bag. Raises _Corrupt for a record that contradicts the file."""
-        if isinstance(record, _Schema):
+        Raises _Corrupt for a record that contradicts the file.
+        """
+        if isinstance(record, Schema):
             self.schemas[record.id] = record
-        elif isinstance(record, _Channel):
+        elif isinstance(record, Channel):
             self._add_channel(record)
-        else:
+        elif isinstance(record, Message):
             topic = self.topics.get(record.channel_id)
             if topic is None:
                 raise _Corrupt(f'message on channel {record.channel_id}, which no earlier record defines')
             self.writer.write(topic, record.log_time, record.data)
             self.counts[topic] += 1
 
-    def _add_channel(self, channel: _Channel) -> None:
+    def _add_channel(self, channel: Channel) -> None:
         if channel.id in self.topics:
             return
         schema = self.schemas.get(channel.schema_id)
@@ -255,9 +173,9 @@ class _Rebuilder:
             raise _Corrupt(f'channel {channel.topic!r} refers to schema {channel.schema_id}, which is not defined')
         if schema.name not in self.typestore.fielddefs:
             fmt = _SCHEMA_FORMATS.get(schema.encoding, MessageDefinitionFormat.NONE)
-            register_type(self.typestore, schema.name, fmt, schema.data, self.bag)
+            register_type(self.typestore, schema.name, fmt, schema.data.decode(), self.bag)
         try:
-            qos = [decode_qos(q) for q in storage_mcap.get_qos(channel.metadata)]
+            qos = [decode_qos(q) for q in parse_qos(channel.metadata.get('offered_qos_profiles', '[]'))]
         except (BagReadError, ValueError, KeyError, TypeError) as exc:
             raise _Corrupt(f'offered QoS of {channel.topic!r} unreadable: {exc}') from None
         self.writer.add_topic(channel.topic, schema.name, qos=qos)
@@ -298,17 +216,26 @@ def reindex(path: str | os.PathLike[str], *, typestore: Typestore | None = None)
         raise BagReadError(f'cannot reindex {bag}: {broken} exists (the original of an earlier repair?); '
                            'move it away first')
     work = bag / _WORK_DIR
-    store = typestore if typestore is not None else get_typestore(Stores.ROS2_JAZZY)
-    with mcap.open('rb') as stream:
-        if stream.read(len(MAGIC)) != MAGIC:
+    store = typestore if typestore is not None else jazzy_typestore()
+    size = mcap.stat().st_size
+    with _WholeReads(io.FileIO(mcap, 'rb')) as stream:
+        # the file's own size bounds a record's length: a corrupt length is not read as 4 GiB
+        records = StreamReader(stream, emit_chunks=True, record_size_limit=size).records
+        try:
+            header = next(records)
+        except InvalidMagic:
+            raise BagReadError(f'cannot reindex {bag}: {mcap.name} does not start with the MCAP magic') from None
+        except (McapError, _Corrupt, ValueError):
+            header = None
+        if stream.tell() < len(MAGIC):
             raise BagReadError(f'cannot reindex {bag}: {mcap.name} does not start with the MCAP magic')
-        first = next(_records(stream), None)
-        if first is None or first[1] != _OP_HEADER:
+        if not isinstance(header, Header):
             raise BagReadError(f'cannot reindex {bag}: {mcap.name} has no complete MCAP header record')
         shutil.rmtree(work, ignore_errors=True)  # an interrupted earlier repair's leftovers: ours
         try:
             with SessionWriter(work / bag.name, typestore=store, flush_period=None) as writer:
-                result = _rebuild(stream, _Rebuilder(writer, store, bag), bag)
+                rebuilder = _Rebuilder(writer, store, bag)
+                chunks, stopped, discarded = _rebuild(records, stream, rebuilder, size)
         except BagWriteError:
             shutil.rmtree(work, ignore_errors=True)
             raise
@@ -317,38 +244,33 @@ def reindex(path: str | os.PathLike[str], *, typestore: Typestore | None = None)
     (repaired_dir / f'{bag.name}.mcap').replace(bag / f'{bag.name}.mcap')
     (repaired_dir / 'metadata.yaml').replace(metadata)
     shutil.rmtree(work, ignore_errors=True)
-    return ReindexResult(bag, True, result.topics, result.chunks, result.discarded_bytes, result.stopped, broken)
+    return ReindexResult(bag, True, dict(rebuilder.counts), chunks, discarded, stopped, broken)
 
 
-def _rebuild(stream: BinaryIO, rebuilder: _Rebuilder, bag: Path) -> ReindexResult:
-    """Apply every complete record after the header; the counts and why it stopped."""
-    chunks, stopped = 0, ''
-    for offset, opcode, content in _records(stream):
-        if opcode in (_OP_DATA_END, _OP_FOOTER):
-            stopped = 'end of data'
-            break
+def _rebuild(records: Iterator[McapRecord], stream: io.BufferedReader, rebuilder: _Rebuilder,
+             size: int) -> tuple[int, str, int]:
+    """Apply every complete record after the header: (complete chunks, why it stopped, bytes discarded)."""
+    chunks = 0
+    while True:
+        offset = stream.tell()
         try:
-            if opcode == _OP_CHUNK:
-                parsed = [rebuilder.parse(op, data) for op, data in _chunk_records(content)]
+            record = next(records)
+        except EndOfFile:  # cut inside this record, or at its start
+            return chunks, 'end of file' if offset == size else f'record cut short at byte {offset}', size - offset
+        except (McapError, _Corrupt, ValueError) as exc:  # ValueError: e.g. a string that is not UTF-8
+            return chunks, f'corrupt record at byte {offset}: {exc}', size - offset
+        if isinstance(record, (DataEnd, Footer)):  # the rest is the summary section and footer
+            return chunks, 'end of data', 0
+        try:
+            if isinstance(record, Chunk):
+                try:  # all of a chunk's records or none: decompressed and checked before any is applied
+                    inner = breakup_chunk(record, validate_crc=True)
+                except Exception as exc:  # noqa: BLE001 - mcap's errors, or the zstd/lz4 library's own type
+                    raise _Corrupt(f'chunk unreadable: {type(exc).__name__}: {exc}') from None
             else:
-                parsed = [rebuilder.parse(opcode, content)]
-            for record in parsed:
-                if record is not None:
-                    rebuilder.apply(record)
-        except _Corrupt as exc:
-            stream.seek(offset)
-            stopped = f'corrupt record (opcode 0x{opcode:02x}) at byte {offset}: {exc}'
-            break
-        except UnicodeDecodeError:
-            stream.seek(offset)
-            stopped = f'corrupt record (opcode 0x{opcode:02x}) at byte {offset}: a string is not UTF-8'
-            break
-        chunks += opcode == _OP_CHUNK
-    end = stream.tell()
-    stream.seek(0, os.SEEK_END)
-    size = stream.tell()
-    if stopped == 'end of data':  # the rest is the summary section and footer: no data lost
-        return ReindexResult(bag, True, dict(rebuilder.counts), chunks, 0, stopped)
-    if not stopped:
-        stopped = 'end of file' if end == size else f'record cut short at byte {end}'
-    return ReindexResult(bag, True, dict(rebuilder.counts), chunks, size - end, stopped)
+                inner = [record]
+            for each in inner:
+                rebuilder.apply(each)
+        except (_Corrupt, UnicodeDecodeError) as exc:  # a schema's definition that is not UTF-8
+            return chunks, f'corrupt record at byte {offset}: {exc}', size - offset
+        chunks += isinstance(record, Chunk)

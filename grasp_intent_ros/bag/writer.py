@@ -37,10 +37,11 @@ from rosbags.interfaces import ConnectionExtRosbag2
 from rosbags.rosbag2 import StoragePlugin, Writer, WriterError, storage_mcap
 from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 from rosbags.serde import SerdeError
-from rosbags.typesys import Stores, TypesysError, get_typestore
+from rosbags.typesys import TypesysError
 
 from .errors import BagWriteError
 from .qos import QosSpec, encode_qos
+from .types import jazzy_typestore
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
@@ -165,7 +166,7 @@ class SessionWriter:
             raise ValueError(f'flush_period must be None or > 0 s, got {flush_period!r}')
         self._flush_period = flush_period
         self._path = Path(path)
-        self._typestore = typestore if typestore is not None else get_typestore(Stores.ROS2_JAZZY)
+        self._typestore = typestore if typestore is not None else jazzy_typestore()
         self._lock = threading.Lock()
         self._connections: dict[str, Connection] = {}
         self._count = 0

@@ -151,11 +151,11 @@ def check_document_size(text: str) -> None:
 _SEQUENCE_TAG, _MAPPING_TAG = 'tag:yaml.org,2002:seq', 'tag:yaml.org,2002:map'
 _PLAIN_DECIMAL = re.compile(r'[-+]?[0-9]+\.[0-9]*(?:[eE][-+][0-9]+)?')
 """Plain scalars of this form (digits, a point, digits, a signed exponent: the numbers of a model document as
-the safe dumper writes them, 6,737 of its 8,579 scalars) resolve to floats (PyYAML's float pattern, which
-its resolver tries first for these first characters, with no ``_`` and no ``:``), and ``SafeConstructor``
-reads them as ``float()`` does: :func:`_construct_events` reads them so, without the resolver's and the
-constructor's Python. A 7-zone document: 39 -> 24 ms of CPU (medians of 40 alternated readings, load 1.5),
-of which libyaml's events take about 20 ms; the planner reads one before its first answer."""
+the safe dumper writes them, most of its scalars) resolve to floats (PyYAML's float pattern, which its
+resolver tries first for these first characters, with no ``_`` and no ``:``), and ``SafeConstructor`` reads
+them as ``float()`` does: :func:`_construct_events` reads them so, without the resolver's and the
+constructor's Python, which would otherwise take most of a document's reading time (the planner reads one
+before its first answer)."""
 _NO_KEY = object()  # a mapping under construction that waits for its next key
 
 

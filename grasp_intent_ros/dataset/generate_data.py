@@ -1,6 +1,6 @@
 """Generate the rule-based demonstration sets (and optionally the shipped models). No ROS needed.
 
-    python -m grasp_intent_ros.generate_data [--object cup|flashlight|all] [--count N] [--seed S]
+    python -m grasp_intent_ros generate_data [--object cup|flashlight|all] [--count N] [--seed S]
                                              [--out DIR] [--train [--models-out DIR]]
 
 Writes ``DIR/cup.csv`` and/or ``DIR/flashlight.csv`` (default DIR: ``<config>/data``), N demonstrations

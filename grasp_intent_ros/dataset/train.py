@@ -1,6 +1,6 @@
 """Train a multi-task grasp model from demonstrations in CSV (no ROS needed).
 
-    python -m grasp_intent_ros.train CSV --zones 7zone|5zone|4zone|U,T,UT,...
+    python -m grasp_intent_ros train CSV --zones 7zone|5zone|4zone|U,T,UT,...
                                      [--name NAME] [--out PATH] [--ridge R] [--body BODY.yaml]
 
 CSV is any file in the format of :mod:`grasp_intent_ros.core.data` (the 10 MICO features, then one 0/1

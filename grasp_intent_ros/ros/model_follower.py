@@ -11,11 +11,11 @@ count them as ``model documents superseded`` and show the ``last model read time
 
 A thread of its own is not enough under the GIL. Reading a document allocates some 100,000 objects,
 enough to set off a full garbage collection, which in a process with numba, scipy and pinocchio loaded
-holds the GIL for 100-300 ms; and a planning thread that releases the GIL in every numpy and LAPACK call
-waits up to the switch interval (5 ms) to get it back, each time. So while a document is read the
-cyclic garbage collector is off (what the reading allocates is freed by reference counting) and the
-switch interval is 0.5 ms: on the 2-core machine at load 5.5, the largest gap between two warm-started
-plans during a read fell from 126-286 ms to 23-29 ms. Both are process-wide settings; one lock
+holds the GIL for a few hundred milliseconds; and a planning thread that releases the GIL in every numpy
+and LAPACK call waits up to the switch interval (5 ms by default) to get it back, each time. So while a
+document is read the cyclic garbage collector is off (what the reading allocates is freed by reference
+counting) and the switch interval is 0.5 ms, which keeps the planner's answers flowing during a read
+(docs/measurements.md, "Model switches"). Both are process-wide settings; one lock
 serialises the reads of all followers in a process, so each restores what it found.
 """
 

@@ -172,11 +172,6 @@ class Parameters(Mapping[str, Any]):
     def __len__(self) -> int:
         return len(self._values)
 
-    @property
-    def specs(self) -> Mapping[str, ParamSpec]:
-        """The specs by name."""
-        return self._specs
-
     def validate(self, proposed: Mapping[str, Any], changed: Mapping[str, Any]) -> str:
         """Reasons why ``proposed`` (all values, ``changed`` among them) is invalid; '' when valid.
 

@@ -67,8 +67,8 @@ def output_publisher(node: Node, msg_type: Any, topic: str, qos: QoSProfile | No
 
     rclpy gives every publisher two default event handlers (incompatible QoS, incompatible type) that
     only log a warning, and its executor walks each one in Python at every wake-up, whatever woke it: in
-    the planner, with its eight output publishers, they were 16 of the 28 waitables and about half of
-    the executor's CPU per wake-up (286 -> 142 us, ``spin_once(timeout_sec=0)`` with nothing ready).
+    the planner, with its eight output publishers, they would be more than half of its waitables and about
+    half of the executor's CPU per wake-up.
     A subscriber with an incompatible request still gets the event on its side (rclpy and rclcpp log it
     there), which is where its missing messages show; the nodes' input subscriptions keep that warning
     (:func:`input_events`).
@@ -82,9 +82,7 @@ def input_events(logger: RcutilsLogger, topic: str) -> SubscriptionEventCallback
 
     The warning (logged by the node, as rclpy's default handler words it) says why a publisher's messages
     never arrive. rclpy's second default handler, for a publisher of another message type, is left out:
-    each handler is one more entity the executor walks in Python at every wake-up (:func:`output_publisher`;
-    the planner's ``spin_once`` with nothing ready took 137 us of CPU without any input handler, 205 us with
-    both defaults, load 2.5).
+    each handler is one more entity the executor walks in Python at every wake-up (:func:`output_publisher`).
     """
     def warn(event: QoSRequestedIncompatibleQoSInfo) -> None:
         logger.warning(f"New publisher discovered on topic '{topic}', offering incompatible QoS. No messages "

@@ -20,8 +20,8 @@ executors' signal guard conditions and then shuts the contexts down (``rcl_shutd
 shutdown callbacks; rclpy 7.1.6's ``_rclpy_pybind11`` calls them in that order after its ``sem_wait``). An
 executor that wakes up in between sees its context still valid, finds no work and waits again, and nothing
 wakes it for the shutdown: its spin ends only at the node's next timer or message, or never in a node with
-neither (reproduced with real SIGTERMs: 7 of 230 timer-less nodes still blocked in ``rcl_wait`` 3 s later,
-load 2.4-4.4; the suite's nodes have a 1 Hz diagnostics timer, which ends such a wait within a second). So a
+neither (reproduced with real SIGTERMs on timer-less nodes, some of them still blocked in ``rcl_wait``
+seconds later; the suite's nodes have a 1 Hz diagnostics timer, which ends such a wait within a second). So a
 daemon thread, :class:`_StopWatcher`, polls the context every 50 ms and wakes the executor (its guard
 condition) once the context is shut down.
 

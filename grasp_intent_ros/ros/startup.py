@@ -1,4 +1,4 @@
-"""A node process's start made cheaper: the CPU a restarted node spends before its first answer (issue 10).
+"""A node process's start made cheaper: the CPU a restarted node spends before its first answer.
 
 A restarted planner is CPU-bound until its first grasp (imports, numba's CPU target, the cached kernels,
 nearly all of it under one GIL), so what it does not have to do shortens its restart. Two things, for the
@@ -6,16 +6,16 @@ process's start only:
 
 - The cyclic garbage collector is off (:func:`begin`) until the node's code is loaded (:func:`end`).
   Importing numba, scipy, pinocchio and rclpy and loading the compiled kernels creates some 200,000
-  objects, of which about 1,100 become cyclic garbage (0.3 MB), and the collector runs some 300 times
-  meanwhile (0.14-0.22 s of the 1.2-1.3 s of CPU this takes in the planner, measured).
+  objects, of which a small part becomes cyclic garbage, and the collector would run hundreds of times
+  meanwhile, a sizeable share of the CPU the planner's start takes.
   :func:`end` then moves everything alive into the permanent generation (``gc.freeze``) and turns the
-  collector on: later collections never traverse the startup objects (a full collection right after
-  the start took 0.11-0.19 s, with them frozen under 0.1 ms), at the cost of keeping that startup garbage.
+  collector on: later collections never traverse the startup objects (so a full collection soon after the
+  start is cheap), at the cost of keeping that startup garbage.
   Reference counting still frees a frozen object (e.g. the first model, once replaced); only a reference
   cycle among them is never collected.
 - OpenBLAS runs single-threaded, unless ``OPENBLAS_NUM_THREADS`` is set already (read when numpy and
   scipy load it): each of the two OpenBLAS libraries (numpy's and scipy's) otherwise starts worker threads
-  (one on a 2-core machine), each spinning for about 50 ms of CPU as it starts, while the planner's
+  (one on a 2-core machine), each spinning on the CPU for a while as it starts, while the planner's
   matrices (at most 10 x 10) are far below the size at which OpenBLAS would hand work to a second thread.
 
 :func:`begin` must run before the node's module imports numpy to have its full effect: a node module calls

@@ -1,6 +1,6 @@
 """Print model ambiguity (paper Table V) for several models side by side.
 
-    python -m grasp_intent_ros.ambiguity_report [MODEL.yaml ...]
+    python -m grasp_intent_ros ambiguity_report [MODEL.yaml ...]
 
 Default: the cup 7-, 5- and 4-zone models. For each model: the nonsymmetric KL matrix (row = true
 population, column = inference), the symmetric matrix, Pinsker bounds on the statistical distance and

@@ -1,6 +1,6 @@
 """The README's main command: the three nodes as separate processes, the paper's intent cases through them.
 
-Run: ``python -m grasp_intent_ros.demo [--models-dir DIR] [--timeout S]`` (``scripts/demo.sh`` does this)
+Run: ``python -m grasp_intent_ros demo [--models-dir DIR] [--timeout S]`` (``scripts/demo.sh`` does this)
 
 1. Refuses a domain on which other nodes show up within :data:`DOMAIN_CHECK` seconds, then starts
    ``intent_interpreter``, ``model_server`` and ``grasp_planner`` as ``python -m`` processes (with
@@ -297,7 +297,7 @@ def _run(models_dir: Path | None, timeout: float) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit code (see the module docstring)."""
-    parser = argparse.ArgumentParser(prog='python -m grasp_intent_ros.demo', description=__doc__,
+    parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--models-dir', type=Path, default=None,
                         help="directory of the trained models (default: the package's config/models)")

@@ -13,9 +13,10 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 from rosbags.serde import SerdeError
-from rosbags.typesys import Stores, TypesysError, get_typestore
+from rosbags.typesys import TypesysError
 
 from ..bag.errors import BagReadError
+from ..bag.types import jazzy_typestore
 from ..core.errors import ModelFormatError
 from ..protocol import (
     DIAGNOSTICS,
@@ -148,7 +149,7 @@ class RawMessage(Protocol):
 # ------------------------------------------------------------------------------ decoding
 @lru_cache(maxsize=1)
 def _typestore() -> Any:
-    return get_typestore(Stores.ROS2_JAZZY)
+    return jazzy_typestore()
 
 
 def decode(msgtype: str, cdr: bytes) -> Any:

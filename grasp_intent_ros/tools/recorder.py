@@ -1,6 +1,6 @@
 """Session recorder: the node suite's topics -> one rosbag2 MCAP bag (what ``ros2 bag record`` would write).
 
-Run: ``python -m grasp_intent_ros.recorder OUT_DIR [--topics T ...] [--ros-args -r __ns:=/robot1]``
+Run: ``python -m grasp_intent_ros recorder OUT_DIR [--topics T ...] [--ros-args -r __ns:=/robot1]``
 
 Topics
     ``--topics`` takes topic names relative to the recorder's namespace (or absolute); a name ending
@@ -21,7 +21,7 @@ Recording
 Crash safety
     A chunk is closed and handed to the operating system once its first message is ``--flush-period``
     seconds old (default 1 s), also when no further message arrives: a SIGKILLed recorder loses at most
-    that much. ``python -m grasp_intent_ros.reindex BAG`` then rebuilds the MCAP summary and
+    that much. ``python -m grasp_intent_ros reindex BAG`` then rebuilds the MCAP summary and
     metadata.yaml from the complete chunks (the original file is kept as ``.mcap.broken``).
 Diagnostics
     ``/diagnostics`` status ``<node>: recorder``: 'messages received', 'messages written' in total and
@@ -53,9 +53,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProf
 from rclpy.subscription import Subscription
 from rclpy.topic_endpoint_info import TopicEndpointInfo
 from rclpy.utilities import remove_ros_args
-from rosbags.typesys import Stores, get_typestore
 
-from ..bag import DEFAULT_FLUSH_PERIOD, BagWriteError, QosSpec, QueuedWriter, SessionWriter
+from ..bag import DEFAULT_FLUSH_PERIOD, BagWriteError, QosSpec, QueuedWriter, SessionWriter, jazzy_typestore
 from ..protocol import ERROR, WARN
 from ..ros.conversions import type_class
 from ..ros.diagnostics import NodeDiagnostics
@@ -215,7 +214,7 @@ class Recorder(Node):
             raise ValueError('depth must be >= 1, discovery_period and flush_period > 0, got '
                              f'{depth}, {discovery_period}, {flush_period}')
         super().__init__(node_name, **kwargs)
-        self._typestore = get_typestore(Stores.ROS2_JAZZY)
+        self._typestore = jazzy_typestore()
         try:
             self._selection = TopicSelection.resolve(self, topics)
             self._overrides = {self.resolve_topic_name(t): q for t, q in (qos_overrides or {}).items()}
@@ -442,7 +441,6 @@ class Recorder(Node):
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog='python -m grasp_intent_ros.recorder',
         description='Record the node suite\'s topics into a rosbag2 MCAP bag until SIGINT/SIGTERM.')
     parser.add_argument('out_dir', type=Path, help='bag directory to create (must not exist)')
     parser.add_argument('--topics', nargs='+', metavar='T', default=list(DEFAULT_TOPICS),
@@ -455,7 +453,7 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument('--flush-period', type=float, default=DEFAULT_FLUSH_PERIOD,
                         help='seconds after which a message is on disk, so that a killed recorder loses at '
                              f'most this much (default {DEFAULT_FLUSH_PERIOD:g}; repair with '
-                             'python -m grasp_intent_ros.reindex)')
+                             'python -m grasp_intent_ros reindex)')
     return parser
 
 

@@ -1,4 +1,4 @@
-"""Repair session bags left by a killed recorder: ``python -m grasp_intent_ros.reindex BAG [BAG ...]``.
+"""Repair session bags left by a killed recorder: ``python -m grasp_intent_ros reindex BAG [BAG ...]``.
 
 What ``ros2 bag reindex`` does, for this package's MCAP bags (:func:`grasp_intent_ros.bag.reindex`): every
 complete chunk of the .mcap file is kept, the rest (at most the recorder's last flush period) is
@@ -25,7 +25,6 @@ __all__ = ['main']
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit code (0, or 2 if any bag could not be repaired)."""
     parser = argparse.ArgumentParser(
-        prog='python -m grasp_intent_ros.reindex',
         description='Rebuild the MCAP summary and metadata.yaml of bags whose recorder was killed '
                     '(the original .mcap is kept as .mcap.broken).')
     parser.add_argument('bags', type=Path, nargs='+', metavar='BAG', help='rosbag2 directory with one .mcap file')

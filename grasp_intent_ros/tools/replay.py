@@ -1,6 +1,6 @@
 """Replay a recorded session into a live node suite and, with ``--check``, compare its answers.
 
-Run: ``python -m grasp_intent_ros.replay BAG [--rate R | --fast] [--check] [--start-suite]``
+Run: ``python -m grasp_intent_ros replay BAG [--rate R | --fast] [--check] [--start-suite]``
      ``[--timeout S] [--models-dir DIR] [--max-diffs N]``
 
 What is replayed
@@ -57,7 +57,7 @@ __all__ = ['main']
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog='python -m grasp_intent_ros.replay', description=__doc__.split('\n\n')[0],
+        description=__doc__.split('\n\n')[0],
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('bag', type=Path, help='session bag directory (rosbag2, MCAP)')
     pace = parser.add_mutually_exclusive_group()

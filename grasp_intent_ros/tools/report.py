@@ -1,6 +1,6 @@
 """Session report: PNG figures and a markdown summary of a recorded session bag.
 
-Run: ``python -m grasp_intent_ros.report BAG --out DIR``
+Run: ``python -m grasp_intent_ros report BAG --out DIR``
 
 Reads the bag with :mod:`grasp_intent_ros.bag` (no rclpy, matplotlib's Agg renderer) and writes to DIR:
 
@@ -356,8 +356,7 @@ def write_report(bag: Path, out: Path) -> tuple[list[str], list[str]]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit code (0, or 2 for a missing/invalid bag or unwritable output)."""
-    parser = argparse.ArgumentParser(prog='python -m grasp_intent_ros.report',
-                                     description='Figures and a markdown summary of a recorded session bag.')
+    parser = argparse.ArgumentParser(description='Figures and a markdown summary of a recorded session bag.')
     parser.add_argument('bag', type=Path, help='rosbag2 directory (with metadata.yaml) written by the recorder')
     parser.add_argument('--out', type=Path, required=True, help='output directory (created)')
     options = parser.parse_args(argv)

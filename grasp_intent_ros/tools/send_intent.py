@@ -1,6 +1,6 @@
 """Send one intent w to the node chain and print the grasp it answers with (a ``ros2 topic pub`` stand-in).
 
-Run: ``python -m grasp_intent_ros.send_intent 0.9 0.9 0.1 [--timeout 10] [--ros-args -r __ns:=/robot1]``
+Run: ``python -m grasp_intent_ros send_intent 0.9 0.9 0.1 [--timeout 10] [--ros-args -r __ns:=/robot1]``
 
 Publishes w on ``intent/w``, again every 0.5 s until answered (the first message after discovery can be
 lost), and waits for the chain's answer: ``grasp/pose``, ``grasp/joint_targets`` and ``grasp/posterior``
@@ -187,8 +187,7 @@ class IntentSender(Node):
 def main(args: Sequence[str] | None = None) -> None:
     """Entry point: send one w, print the grasp, exit 0 (1 on clarification or timeout)."""
     argv = list(sys.argv if args is None else ['send_intent', *args])
-    parser = argparse.ArgumentParser(prog='python -m grasp_intent_ros.send_intent',
-                                     description='Publish one intent w on intent/w and print the grasp.')
+    parser = argparse.ArgumentParser(description='Publish one intent w on intent/w and print the grasp.')
     parser.add_argument('w', type=float, nargs='+', help='probability of each task, in [0, 1]')
     parser.add_argument('--timeout', type=float, default=10.0, help='seconds to wait for the answer')
     options = parser.parse_args(remove_ros_args(argv)[1:])

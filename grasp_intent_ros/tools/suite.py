@@ -2,8 +2,9 @@
 
 ``python -m grasp_intent_ros.<module> --ros-args ...`` started, watched and stopped by PID.
 
-One :class:`NodeSuite` serves the demo, the replay (``--start-suite``), ``scripts/record_sessions.py`` and
-the system tests.
+One :class:`NodeSuite` serves the suite command (:func:`main`: ``python -m grasp_intent_ros suite``,
+``ros2 run grasp_intent_ros suite``), the demo, the replay (``--start-suite``),
+``scripts/record_sessions.py`` and the system tests.
 
 - :func:`domain_id_from_environment`: the run's ROS domain id, chosen and validated once
   (``ROS_DOMAIN_ID`` if set, 0..101, else one derived from the process id).
@@ -18,13 +19,18 @@ the system tests.
   signalled only by its own PID, SIGKILLed after a deadline, and judged clean on exit code 0 with no
   traceback on stderr.
 - :class:`NodeSuite`: the processes of one run: start (one node, or the three suite nodes with their
-  ``config/<node>.yaml``), wait until ready, notice a death, stop them all against one deadline.
+  ``config/<node>.yaml``, and :data:`OPTIONAL_NODES` on request), wait until ready, notice a death, stop
+  them all against one deadline.
+- :func:`main`: the suite command: start the nodes, copy their output to stdout with each line prefixed
+  by ``[node]``, stop them all on Ctrl-C (SIGINT) or SIGTERM; exit code 0 when every node stopped cleanly,
+  1 when one died or did not stop cleanly, 2 for bad arguments.
 
 Never imports rclpy.
 """
 
 from __future__ import annotations
 
+import argparse
 import os
 import shutil
 import signal
@@ -38,13 +44,18 @@ from types import TracebackType
 
 from ..core.resources import config_dir
 
-__all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'MAX_DOMAIN_ID', 'FASTDDS_PROFILE', 'SuiteError',
-           'domain_id_from_environment', 'use_loopback_discovery', 'node_environment', 'NodeProcess', 'NodeSuite']
+__all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'OPTIONAL_NODES', 'MAX_DOMAIN_ID', 'FASTDDS_PROFILE', 'SuiteError',
+           'domain_id_from_environment', 'use_loopback_discovery', 'node_environment', 'optional_nodes',
+           'NodeProcess', 'NodeSuite', 'main']
 
 STOP_TIMEOUT = 10.0
 """Seconds a node gets to exit after SIGINT/SIGTERM before it is SIGKILLed."""
 SUITE_NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
 """The node modules of the suite, in start order."""
+OPTIONAL_NODES: tuple[str, ...] = ()
+"""Node modules started only on request, after :data:`SUITE_NODES`: ``suite --with NAME``,
+:meth:`NodeSuite.start_nodes`'s ``extra``. Each is ``python -m grasp_intent_ros.<name>`` with its
+``config/<name>.yaml`` when there is one, like the suite's own nodes."""
 MAX_DOMAIN_ID = 101
 """Largest ROS domain id usable with LOCALHOST discovery."""
 FASTDDS_PROFILE = 'fastdds_loopback.xml'
@@ -229,6 +240,19 @@ class NodeProcess:
         return ''
 
 
+def optional_nodes(names: Sequence[str]) -> tuple[str, ...]:
+    """``names``, each checked against :data:`OPTIONAL_NODES`.
+
+    Raises
+    ------
+    SuiteError
+        Naming the unknown ones and the optional nodes there are.
+    """
+    if unknown := [name for name in names if name not in OPTIONAL_NODES]:
+        raise SuiteError(f'no optional node {", ".join(unknown)}; there are: {", ".join(OPTIONAL_NODES) or "none"}')
+    return tuple(names)
+
+
 class NodeSuite:
     """The node processes of one run, all on ``domain_id`` with loopback-only discovery.
 
@@ -276,8 +300,9 @@ class NodeSuite:
         return proc
 
     def start_nodes(self, *, namespace: str = '', model: str | None = None,
-                    models_dir: str | os.PathLike[str] | None = None) -> None:
-        """Start :data:`SUITE_NODES`, each with :meth:`node_args` (its ``config/<node>.yaml`` when found).
+                    models_dir: str | os.PathLike[str] | None = None,
+                    params_files: Sequence[str | os.PathLike[str]] = (), extra: Sequence[str] = ()) -> None:
+        """Start :data:`SUITE_NODES`, then ``extra``, each with :meth:`node_args`.
 
         Parameters
         ----------
@@ -285,18 +310,27 @@ class NodeSuite:
             '' or e.g. '/robot1' (``-r __ns:=``).
         model, models_dir : optional
             The model server's initial ``model`` and its ``models_dir`` (default: its config file's).
+        params_files : sequence of paths
+            ROS parameters files given to every node after its own ``config/<node>.yaml``; the node-name
+            keys in a file pick what each node reads, and a later file wins.
+        extra : sequence of str
+            Names from :data:`OPTIONAL_NODES`, started after the suite's own nodes.
 
         Raises
         ------
+        SuiteError
+            For a name in ``extra`` that is not in :data:`OPTIONAL_NODES`, before anything is started.
         OSError
             If a process cannot be started; those already started stay in :attr:`processes`.
         """
-        for module in SUITE_NODES:
-            self.start(module, *self.node_args(module, namespace=namespace, model=model, models_dir=models_dir))
+        for module in (*SUITE_NODES, *optional_nodes(extra)):
+            self.start(module, *self.node_args(module, namespace=namespace, model=model, models_dir=models_dir,
+                                               params_files=params_files))
 
     @staticmethod
     def node_args(module: str, *, namespace: str = '', model: str | None = None,
-                  models_dir: str | os.PathLike[str] | None = None) -> list[str]:
+                  models_dir: str | os.PathLike[str] | None = None,
+                  params_files: Sequence[str | os.PathLike[str]] = ()) -> list[str]:
         """The ``--ros-args`` of a suite node (as :meth:`start_nodes` gives them), e.g. to restart it."""
         try:
             config: Path | None = config_dir()
@@ -305,6 +339,8 @@ class NodeSuite:
         ros_args: list[str] = []
         if config is not None and (config / f'{module}.yaml').is_file():
             ros_args += ['--params-file', str(config / f'{module}.yaml')]
+        for path in params_files:
+            ros_args += ['--params-file', str(Path(path).resolve())]
         if namespace:
             ros_args += ['-r', f'__ns:={namespace}']
         if module == 'model_server':
@@ -392,3 +428,91 @@ class NodeSuite:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
         self.stop()
+
+
+class _Echo:
+    """Copies the lines the processes wrote to their log files to stdout, each prefixed with ``[module]``."""
+
+    def __init__(self, suite: NodeSuite) -> None:
+        self._suite = suite
+        self._done: dict[Path, int] = {}  # bytes of each log file already copied (or held as a partial line)
+        self._partial: dict[Path, bytes] = {}
+
+    def copy(self, *, final: bool = False) -> None:
+        """Copy every complete new line; with ``final``, also each file's last line without a newline."""
+        for proc in self._suite.processes:
+            for path in (proc.stdout_path, proc.stderr_path):
+                try:
+                    with path.open('rb') as log:
+                        log.seek(self._done.get(path, 0))
+                        data = log.read()
+                except OSError:
+                    continue
+                self._done[path] = self._done.get(path, 0) + len(data)
+                lines = (self._partial.pop(path, b'') + data).split(b'\n')
+                last = lines.pop()
+                if final and last:
+                    lines.append(last)
+                elif last:
+                    self._partial[path] = last
+                for line in lines:
+                    print(f'[{proc.module}] {line.decode(errors="replace")}')
+        sys.stdout.flush()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The suite command (see the module docstring); returns the exit code."""
+    parser = argparse.ArgumentParser(
+        description='Start the node suite (intent_interpreter, model_server, grasp_planner) as processes on '
+                    'loopback-only discovery, each with its config/<node>.yaml; Ctrl-C stops them all.')
+    parser.add_argument('--namespace', default='', metavar='NS', help='every node in this namespace, e.g. /robot1')
+    parser.add_argument('--domain-id', type=int, metavar='ID',
+                        help=f'ROS_DOMAIN_ID of the nodes, 0..{MAX_DOMAIN_ID} (default: $ROS_DOMAIN_ID, else 0)')
+    parser.add_argument('--params-file', action='append', default=[], type=Path, metavar='FILE',
+                        help='a ROS parameters file for every node, after its config/<node>.yaml (its node-name '
+                             'keys pick what each reads); repeatable, a later file wins')
+    parser.add_argument('--with', dest='extra', action='append', default=[], metavar='NAME',
+                        help=f'also start this node (optional nodes: {", ".join(OPTIONAL_NODES) or "none"})')
+    parser.add_argument('--log-dir', type=Path, metavar='DIR',
+                        help="keep each node's stdout and stderr in DIR (default: a temporary directory, deleted)")
+    args = parser.parse_args(argv)
+    if args.namespace and not args.namespace.startswith('/'):
+        parser.error(f'--namespace must be absolute, e.g. /{args.namespace}')
+    if missing := [str(path) for path in args.params_file if not path.is_file()]:
+        parser.error(f'no parameters file {", ".join(missing)}')
+    try:
+        extra = optional_nodes(args.extra)
+        domain_id = args.domain_id if args.domain_id is not None else domain_id_from_environment(unset=0)
+        suite = NodeSuite(domain_id, log_dir=args.log_dir)
+    except SuiteError as exc:
+        parser.error(str(exc))
+    stop_requested: list[int] = []
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda signum, _frame: stop_requested.append(signum))
+    echo = _Echo(suite)
+    died = ''
+    try:
+        suite.start_nodes(namespace=args.namespace, params_files=args.params_file, extra=extra)
+        print(f'suite: ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, namespace '
+              f'{args.namespace or "/"}; started ' + ', '.join(f'{p.module} (pid {p.pid})' for p in suite.processes)
+              + '; Ctrl-C stops them', flush=True)
+        while not stop_requested and not died:
+            time.sleep(0.1)  # a signal handler only appends: the loop looks 10 times a second
+            echo.copy()
+            if died := suite.died().split(';', 1)[0]:
+                print(f'suite: {died}; stopping the others', file=sys.stderr, flush=True)
+    finally:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)  # the nodes are stopped once, completely
+        problems = suite.stop(signal.SIGINT, tail_lines=0)
+        echo.copy(final=True)
+        if args.log_dir is None:
+            suite.remove_logs()
+    for problem in problems:
+        print(f'suite: {problem}', file=sys.stderr)
+    print(f'suite: stopped {"with problems" if problems else "cleanly"}', flush=True)
+    return 1 if problems or died else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

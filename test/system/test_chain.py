@@ -68,7 +68,7 @@ def models(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, Gr
     missing = [name for name in NEEDED_MODELS if not (source / f'{name}.yaml').is_file()]
     if missing:
         pytest.fail(f'the shipped models {missing} are missing from {source} '
-                    '(python -m grasp_intent_ros.generate_data)')
+                    '(python -m grasp_intent_ros generate_data)')
     directory = tmp_path_factory.mktemp('chain_models')
     for name in NEEDED_MODELS:
         shutil.copy(source / f'{name}.yaml', directory / f'{name}.yaml')
@@ -483,7 +483,7 @@ def test_the_demo_runs_to_completion_and_leaves_no_process(domain_id, tmp_path):
     env.pop('ROS_STATIC_PEERS', None)
     out_path, err_path = tmp_path / 'demo.out', tmp_path / 'demo.err'
     with out_path.open('wb') as out, err_path.open('wb') as err:
-        demo = subprocess.Popen([sys.executable, '-m', 'grasp_intent_ros.demo', '--timeout', '30'], cwd=REPO,
+        demo = subprocess.Popen([sys.executable, '-m', 'grasp_intent_ros', 'demo', '--timeout', '30'], cwd=REPO,
                                 env=env, stdout=out, stderr=err, stdin=subprocess.DEVNULL)
     read = lambda: out_path.read_text(errors='replace')  # noqa: E731
     def node_pids() -> list[int]:  # the demo's first line names them

@@ -5,14 +5,13 @@ colcon-core + colcon-ros, as on a ROS machine.
 A copy of the package sources is built with ``colcon build`` into a temporary workspace, then the
 install tree is checked: package.xml and the ament resource marker (what ``ros2 pkg`` and
 ``get_package_share_directory`` find), config, models, data and the recorded bags in the share
-directory, one console script per setup.py entry point in ``lib/grasp_intent_ros`` (where ``ros2 run``
-looks), and the installed package finding its config through the ament index. Skipped, with the reason,
-only where colcon is not installed (the ``test`` extra installs it).
+directory, one console script per command of ``grasp_intent_ros/commands.py`` in ``lib/grasp_intent_ros``
+(where ``ros2 run`` looks), and the installed package finding its config through the ament index. Skipped,
+with the reason, only where colcon is not installed (the ``test`` extra installs it).
 """
 
 from __future__ import annotations
 
-import ast
 import importlib.util
 import os
 import shutil
@@ -21,6 +20,8 @@ import sys
 from pathlib import Path
 
 import pytest
+
+from grasp_intent_ros.commands import COMMANDS
 
 REPO = Path(__file__).resolve().parents[2]
 PACKAGE = 'grasp_intent_ros'
@@ -32,12 +33,8 @@ pytestmark = pytest.mark.skipif(
 
 
 def entry_points() -> set[str]:
-    """The console script names setup.py declares (the keys of its CONSOLE_SCRIPTS)."""
-    tree = ast.parse((REPO / 'setup.py').read_text())
-    table = next(n.value for n in ast.walk(tree) if isinstance(n, ast.Assign)
-                 and any(isinstance(t, ast.Name) and t.id == 'CONSOLE_SCRIPTS' for t in n.targets))
-    assert isinstance(table, ast.Dict)
-    return {k.value for k in table.keys if isinstance(k, ast.Constant)}
+    """The command names, one script each in a colcon install."""
+    return set(COMMANDS)
 
 
 @pytest.fixture(scope='module')

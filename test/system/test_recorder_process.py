@@ -1,4 +1,4 @@
-"""The recorder as a real ``python -m grasp_intent_ros.recorder`` process.
+"""The recorder as a real ``python -m grasp_intent_ros recorder`` process.
 
 Fed over loopback DDS by the in-process probe (``ros`` fixture of test/conftest.py, whose domain id the process shares).
 
@@ -37,11 +37,11 @@ DEEP_RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=N, reliability
 
 
 class RecorderProcess(NodeProcess):
-    """``python -m grasp_intent_ros.recorder BAG --ros-args -r __ns:=/robot1``; output to files."""
+    """``python -m grasp_intent_ros recorder BAG --ros-args -r __ns:=/robot1``; output to files."""
 
     def __init__(self, bag: Path, domain_id: int, log_dir: Path,
                  preexec_fn: Callable[[], None] | None = None, flush_period: float = 1.0) -> None:
-        command = [sys.executable, '-m', 'grasp_intent_ros.recorder', str(bag), '--discovery-period', '0.2',
+        command = [sys.executable, '-m', 'grasp_intent_ros', 'recorder', str(bag), '--discovery-period', '0.2',
                    '--flush-period', str(flush_period), '--ros-args', '-r', f'__ns:={NS}']
         super().__init__(command, module='recorder', env=node_environment(domain_id), log_dir=log_dir,
                          cwd=REPO, preexec_fn=preexec_fn)
@@ -207,7 +207,7 @@ def test_sigkill_then_reindex_recovers_every_message_flushed_before_the_kill(ros
     assert proc.stop(signal.SIGKILL) == -signal.SIGKILL
     assert not (bag / 'metadata.yaml').exists()
 
-    repair = subprocess.run([sys.executable, '-m', 'grasp_intent_ros.reindex', str(bag)], cwd=REPO,
+    repair = subprocess.run([sys.executable, '-m', 'grasp_intent_ros', 'reindex', str(bag)], cwd=REPO,
                             capture_output=True, text=True, timeout=60)
     assert repair.returncode == 0, repair.stdout + repair.stderr
     assert 'recovered' in repair.stdout and 'killed.mcap.broken' in repair.stdout, repair.stdout

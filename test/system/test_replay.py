@@ -2,7 +2,7 @@
 
 And a perturbed model caught by the check (what CI runs: scripts/test.sh).
 
-Each replay is the real command, ``python -m grasp_intent_ros.replay BAG --check --fast --start-suite``: it
+Each replay is the real command, ``python -m grasp_intent_ros replay BAG --check --fast --start-suite``: it
 starts the three nodes as processes on this test's domain id (LOCALHOST discovery) and stops them by PID.
 A replay takes about 10 s on 2 cores (about 7 s of it for the suite to start and its nodes to meet).
 """
@@ -39,7 +39,7 @@ def replay(bag: Path, domain_id: int, *extra: str) -> subprocess.CompletedProces
     env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': str(domain_id),
            'PYTHONUNBUFFERED': '1'}
     env.pop('ROS_STATIC_PEERS', None)
-    cmd = [sys.executable, '-m', 'grasp_intent_ros.replay', str(bag), '--check', '--fast', '--start-suite', *extra]
+    cmd = [sys.executable, '-m', 'grasp_intent_ros', 'replay', str(bag), '--check', '--fast', '--start-suite', *extra]
     proc = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         out, err = proc.communicate(timeout=RUN_TIMEOUT)

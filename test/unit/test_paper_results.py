@@ -5,7 +5,7 @@ three-task intent, reconstructing every w_i within 0.1. Object ambiguity (Table 
 model does the same for usage. Model ambiguity (Table V): from 7 to 5 zones the transfer / handover
 divergences fall (handover now implies transfer) while usage / handover rise (the usage-and-handover
 zone is gone). If one of these fails after regenerating the data, fix the rules and prototypes in
-core/demos.py, not this test.
+dataset/demos.py, not this test.
 """
 
 from __future__ import annotations

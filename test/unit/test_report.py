@@ -1,4 +1,4 @@
-"""grasp_intent_ros.report on a synthetic session bag written in tmp_path (no rclpy).
+"""grasp_intent_ros.tools.report on a synthetic session bag written in tmp_path (no rclpy).
 
 The bag holds what the node suite publishes (layouts as in the report's module docstring, i.e. as the
 nodes write them): intent/w without layout, labelled intent/v, a clarification, the model document of a

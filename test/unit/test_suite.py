@@ -134,3 +134,26 @@ def test_suite_waits_notices_a_death_and_stops_by_pid(tmp_path: Path) -> None:
                                         f'quitter (pid {suite.processes[1].pid}) exited with code 3']
     suite.remove_logs()
     assert tmp_path.is_dir(), 'a log directory given by the caller stays'
+
+
+def test_optional_nodes_start_on_request_after_the_suite_with_every_params_file(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``suite --with NAME`` for any entry of OPTIONAL_NODES; no process is started (``start`` recorded)."""
+    import grasp_intent_ros.tools.suite as suite_module
+
+    monkeypatch.setattr(suite_module, 'OPTIONAL_NODES', ('viewer_like',))
+    started: list[tuple[str, tuple[str, ...]]] = []
+    monkeypatch.setattr(NodeSuite, 'start', lambda self, module, *args: started.append((module, args)))
+    mine = tmp_path / 'mine.yaml'
+    suite = NodeSuite(97, log_dir=tmp_path)
+    suite.start_nodes(namespace='/r1', params_files=[mine], extra=['viewer_like'])
+    assert [m for m, _ in started] == [*suite_module.SUITE_NODES, 'viewer_like']
+    for module, args in started:
+        files = [args[i + 1] for i, a in enumerate(args) if a == '--params-file']
+        own = config_dir() / f'{module}.yaml'
+        assert files == ([str(own)] if own.is_file() else []) + [str(mine.resolve())], (module, args)
+        assert ('-r', '__ns:=/r1') == args[args.index('-r'):args.index('-r') + 2]
+    started.clear()
+    with pytest.raises(SuiteError, match="no optional node nope; there are: viewer_like"):
+        suite.start_nodes(extra=['nope'])
+    assert not started

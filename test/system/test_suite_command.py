@@ -1,0 +1,91 @@
+"""The suite command as a user runs it: ``python -m grasp_intent_ros suite ...`` in a terminal, then Ctrl-C.
+
+The command runs in a session of its own, and Ctrl-C is what a terminal sends: SIGINT to the whole
+foreground process group (the command and its node processes alike). Only that process group, which
+this test started, is signalled.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+from std_msgs.msg import Float64MultiArray
+
+from grasp_intent_ros.protocol import read_posterior
+
+REPO = Path(__file__).resolve().parents[2]
+STARTUP = 30.0
+"""Seconds for the suite to start and answer (imports, DDS discovery) on a loaded 2-core machine."""
+STOP = 20.0
+"""Seconds for the command to stop every node and exit after Ctrl-C."""
+
+
+def alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def test_one_command_starts_the_suite_with_a_namespace_and_params_file_and_ctrl_c_stops_it(
+        ros, domain_id: int, tmp_path: Path) -> None:
+    params = tmp_path / 'mine.yaml'
+    params.write_text('/**/model_server:\n  ros__parameters:\n    model: cup_5zone\n')
+    out = (tmp_path / 'suite.out').open('w+')
+    command = [sys.executable, '-m', 'grasp_intent_ros', 'suite', '--namespace', '/robot7', '--domain-id',
+               str(domain_id), '--params-file', str(params), '--log-dir', str(tmp_path / 'logs')]
+    suite = subprocess.Popen(command, cwd=tmp_path, stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+    try:
+        posteriors = ros.subscribe(Float64MultiArray, '/robot7/grasp/posterior')
+        w_pub = ros.publisher(Float64MultiArray, '/robot7/intent/w')
+        assert ros.publish_until(w_pub, Float64MultiArray(data=[0.9, 0.9, 0.1]), lambda: posteriors,
+                                 timeout=STARTUP, period=0.5), (tmp_path / 'suite.out').read_text()
+        answer = read_posterior(posteriors[-1])
+        assert answer.zone_labels == ('U', 'T', 'UT', 'TH', 'UTH')  # cup_5zone: the params file was read
+        first = (tmp_path / 'suite.out').read_text().splitlines()[0]
+        pids = {m: int(p) for m, p in re.findall(r'(\w+) \(pid (\d+)\)', first)}
+        assert set(pids) == {'intent_interpreter', 'model_server', 'grasp_planner'}, first
+        assert f'ROS_DOMAIN_ID={domain_id}' in first and 'namespace /robot7' in first
+
+        os.killpg(suite.pid, signal.SIGINT)  # Ctrl-C
+        assert suite.wait(STOP) == 0, (tmp_path / 'suite.out').read_text()
+    finally:
+        if suite.poll() is None:
+            os.killpg(suite.pid, signal.SIGKILL)
+            suite.wait()
+    text = (tmp_path / 'suite.out').read_text()
+    assert text.rstrip().endswith('suite: stopped cleanly'), text
+    assert "[model_server] [INFO]" in text and "active model 'cup_5zone'" in text, text  # the nodes' output
+    assert 'Traceback' not in text, text
+    assert not [m for m, pid in pids.items() if alive(pid)], 'a node outlived the suite command'
+    assert sorted(p.name for p in (tmp_path / 'logs').iterdir()) == sorted(
+        f'{m}.{ext}' for m in pids for ext in ('out', 'err'))
+
+
+def test_a_node_that_dies_stops_the_suite_with_exit_code_1(domain_id: int, tmp_path: Path) -> None:
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('/**/model_server:\n  ros__parameters:\n    model: no_such_model\n')
+    result = subprocess.run([sys.executable, '-m', 'grasp_intent_ros', 'suite', '--domain-id', str(domain_id),
+                             '--params-file', str(bad)], cwd=tmp_path, capture_output=True, text=True,
+                            timeout=STARTUP + STOP)
+    assert result.returncode == 1, result
+    assert re.search(r'model_server \(pid \d+\) exited with code 1; stopping the others', result.stderr), result
+    assert 'no_such_model' in result.stdout, result  # the node's own reason, echoed
+    assert result.stdout.rstrip().endswith('suite: stopped with problems'), result
+
+
+def test_bad_arguments_exit_2_before_anything_starts(tmp_path: Path) -> None:
+    for args, reason in ((['--namespace', 'robot1'], 'must be absolute'),
+                         (['--params-file', str(tmp_path / 'missing.yaml')], 'no parameters file'),
+                         (['--with', 'no_such_node'], 'no optional node no_such_node'),
+                         (['--domain-id', '300'], '0..101')):
+        result = subprocess.run([sys.executable, '-m', 'grasp_intent_ros', 'suite', *args], cwd=tmp_path,
+                                capture_output=True, text=True, timeout=60)
+        assert result.returncode == 2 and reason in result.stderr, (args, result)
+        assert 'started' not in result.stdout, (args, result)

@@ -1,0 +1,29 @@
+"""Every examples/*.py runs as a user runs it (``python examples/<name>.py``), and says what it should."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def run(script: str, *args: str) -> str:
+    result = subprocess.run([sys.executable, str(REPO / 'examples' / script), *args], cwd=REPO / 'examples',
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    return result.stdout
+
+
+def test_every_example_is_covered_here() -> None:
+    assert sorted(p.name for p in (REPO / 'examples').glob('*.py')) == ['plan_a_grasp.py']
+
+
+def test_plan_a_grasp_matches_the_target_and_asks_for_clarification_when_no_task_is_likely() -> None:
+    lines = {line.split()[0]: line for line in run('plan_a_grasp.py').splitlines() if line.strip()}
+    target = lines['target'].split()[2:]
+    assert len(target) == 7 and lines['posterior'].split()[2:] == target  # P = v to the printed digits
+    assert lines['status'].startswith('status ok, exact match True')
+    assert len([k for k in lines if k in ('usage', 'transfer', 'handover')]) == 3  # the KL matrix's rows
+    assert 'clarification needed' in run('plan_a_grasp.py', '0.1', '0.1', '0.1')
