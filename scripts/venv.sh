@@ -43,11 +43,12 @@ if $latest || [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
     } >"$log" 2>&1 || { tail -n 40 "$log" >&2; echo "install failed; full log: $log" >&2; exit 1; }
     echo "$want" > "$stamp"
 fi
-if $latest; then  # what the drift run tests beyond the lock
-    normalise() { sed -E 's/[-_.]+/-/g' | tr 'A-Z' 'a-z' | sort; }
-    "$uv" pip freeze --python "$venv/bin/python" --exclude-editable | normalise > "$venv/versions.txt"
-    grep -E '^[A-Za-z0-9]' "$repo/requirements/lock.txt" | cut -d' ' -f1 | normalise > "$venv/locked.txt"
-    echo "not as locked in $venv:" $(comm -13 "$venv/locked.txt" "$venv/versions.txt") >&2
+if $latest; then  # what the drift run tests beyond the lock: each locked package whose version moved
+    pins() { awk -F'==' '{n = tolower($1); gsub(/[-_.]+/, "-", n); print n "=" $2}' | sort -t= -k1,1; }
+    echo "moved since the lock (locked -> installed in $venv):" >&2
+    join -t= <(grep -E '^[A-Za-z0-9]' "$repo/requirements/lock.txt" | cut -d' ' -f1 | pins) \
+             <("$uv" pip freeze --quiet --python "$venv/bin/python" --exclude-editable | pins) \
+        | awk -F= '$2 != $3 {print "  " $1 " " $2 " -> " $3; n++} END {if (!n) print "  nothing"}' >&2
 fi
 # Compile the planner's numba kernels now (cached next to the source; a no-op when the cache is fresh),
 # so that no node pays for compilation on its first plan.
