@@ -6,8 +6,8 @@
 #   scripts/venv.sh --latest   .venv-latest: the newest versions setup.py allows (the drift run), and a list
 #                              of what differs from the lock
 #
-# Safe to run twice: .venv is synced again only when requirements/, setup.py or package.xml changed. The
-# installer is uv, itself pinned with hashes in requirements/uv.txt and installed into the venv by pip.
+# Safe to run twice: .venv is installed again only when requirements/, setup.py, package.xml or this script
+# changed. The installer is uv, itself pinned with hashes in requirements/uv.txt and installed by pip.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 py="${PYTHON:-python3}"
@@ -23,7 +23,7 @@ if ! "$py" -c 'import sys; sys.exit(sys.version_info < (3, 11))'; then
 fi
 [ -x "$venv/bin/python" ] || "$py" -m venv "$venv"
 uv="$venv/bin/uv"
-want="$(cat "$repo"/requirements/*.txt "$repo/setup.py" "$repo/package.xml" | sha256sum | cut -d' ' -f1)"
+want="$(cat "$repo"/requirements/*.txt "$repo/setup.py" "$repo/package.xml" "${BASH_SOURCE[0]}" | sha256sum | cut -d' ' -f1)"
 stamp="$venv/.installed"
 if $latest || [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
     log="$venv/install.log"
@@ -31,15 +31,16 @@ if $latest || [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
     {
         "$venv/bin/python" -m pip install --require-hashes --no-deps -r "$repo/requirements/uv.txt"
         if $latest; then
-            "$uv" pip install --python "$venv/bin/python" --compile-bytecode --upgrade "setuptools>=70"
-            "$uv" pip install --python "$venv/bin/python" --compile-bytecode --upgrade -e "$repo[ros,test]"
-        else
-            # install, not sync: the ROS wheels bring distributions of their own (rclpy, std_msgs, ...) that
+            "$uv" pip install --python "$venv/bin/python" --compile-bytecode --upgrade -r "$repo/setup.py" \
+                --all-extras
+        else  # install, not sync: the ROS wheels bring distributions of their own (rclpy, std_msgs, ...) that
             # no lock names, and a sync would remove them as extraneous
             "$uv" pip install --python "$venv/bin/python" --compile-bytecode --require-hashes --no-deps \
                 -r "$repo/requirements/lock.txt"
-            "$uv" pip install --python "$venv/bin/python" --no-deps --no-build-isolation -e "$repo"
         fi
+        # the package itself, its metadata built afresh each time (its entry points follow setup.py)
+        "$uv" pip install --python "$venv/bin/python" --no-deps --no-build-isolation --reinstall --no-cache \
+            -e "$repo"
     } >"$log" 2>&1 || { tail -n 40 "$log" >&2; echo "install failed; full log: $log" >&2; exit 1; }
     echo "$want" > "$stamp"
 fi
