@@ -2,28 +2,15 @@
 
 SIGINT and SIGTERM both end the process with exit code 0 and no traceback: rclpy's own signal
 handlers (installed by ``rclpy.init`` for both signals) shut the context down, the executor raises
-``ExternalShutdownException``, and the node is destroyed before ``rclpy.try_shutdown``.
-
-Python's own SIGINT handling is switched off first. rclpy 7.1 chains its SIGINT handler to Python's,
-whose KeyboardInterrupt would end the spin while rclpy's signal thread is still triggering the
-executor's guard condition, which is then destroyed under it: a use-after-free, seen as a segfault on
-about one SIGINT in five. Ignored at the Python level, SIGINT ends the spin as SIGTERM does. The
-executor (:class:`ShutdownSafeExecutor`) also turns the RCLError of a shutdown that lands between two
-rclpy steps into the normal ExternalShutdownException. A signal that arrives while the node is being built
-(its rcl calls then fail
-on the shut-down context) also exits 0; one that arrives before ``rclpy.init`` (during imports) gets
-Python's default handling. A configuration error found while the node is built (a parameter rejected by
-its descriptor or validator, a missing model) is logged and ends the process with exit code 1.
-
-rclpy's signal handling has a race that this module closes. Its C++ signal thread first triggers the
-executors' signal guard conditions and then shuts the contexts down (``rcl_shutdown``, without Python's
-shutdown callbacks; rclpy 7.1.6's ``_rclpy_pybind11`` calls them in that order after its ``sem_wait``). An
-executor that wakes up in between sees its context still valid, finds no work and waits again, and nothing
-wakes it for the shutdown: its spin ends only at the node's next timer or message, or never in a node with
-neither (reproduced with real SIGTERMs on timer-less nodes, some of them still blocked in ``rcl_wait``
-seconds later; the suite's nodes have a 1 Hz diagnostics timer, which ends such a wait within a second). So a
-daemon thread, :class:`_StopWatcher`, polls the context every 50 ms and wakes the executor (its guard
-condition) once the context is shut down.
+``ExternalShutdownException``, and the node is destroyed before ``rclpy.try_shutdown``. The three gaps of
+rclpy 7.1 on that path (Python's KeyboardInterrupt racing rclpy's signal thread, a shutdown between two
+executor steps, the signal thread waking the executor before it shuts the context down) are closed by
+:mod:`grasp_intent_ros.ros.compat` (items 1 to 3); for the third, the stop watcher of this module polls the
+context and wakes the executor once it is shut down. A signal that arrives while the node is being built
+(its rcl calls then fail on the shut-down context) also exits 0; one that arrives before ``rclpy.init``
+(during imports) gets Python's default handling. A configuration error found while the node is built (a
+parameter rejected by its descriptor or validator, a missing model) is logged and ends the process with
+exit code 1.
 
 A stop request that has not ended the process :data:`SHUTDOWN_GRACE` seconds later is ended by a
 watchdog (the same thread arms it): it logs an ERROR, writes every thread's stack to stderr
@@ -42,7 +29,6 @@ from __future__ import annotations
 import ctypes
 import faulthandler
 import os
-import signal
 import sys
 import threading
 from collections.abc import Callable, Mapping, Sequence
@@ -51,15 +37,15 @@ from typing import Any
 import rclpy
 import rclpy.logging
 from rclpy.exceptions import ParameterException
-from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 
 from ..core.errors import GraspIntentError
+from .compat import ShutdownSafeExecutor, ignore_python_sigint
 from .params import ParameterError
 
-__all__ = ['run_node', 'guard_exit', 'publish_all', 'release_free_memory', 'STARTUP_ERRORS', 'SHUTDOWN_GRACE',
-           'ShutdownSafeExecutor']
+__all__ = ['run_node', 'guard_exit', 'publish_all', 'release_free_memory', 'STARTUP_ERRORS', 'SHUTDOWN_GRACE']
 
 STARTUP_ERRORS: tuple[type[Exception], ...] = (ParameterError, ParameterException, GraspIntentError)
 """Errors a node constructor raises for bad configuration: reported in one line, exit code 1."""
@@ -122,25 +108,6 @@ class _StopWatcher:
         os._exit(0)
 
 
-class ShutdownSafeExecutor(SingleThreadedExecutor):
-    """A SingleThreadedExecutor whose spin ends with ExternalShutdownException when shut down under it.
-
-    Never with an RCLError.
-
-    rclpy 7.1 checks ``context.ok()`` and then builds the next wait set; a signal handled in between
-    (rclpy's signal thread shuts the context down) makes ``WaitSet()`` raise RCLError ("the given
-    context is not valid"), which would otherwise surface as a traceback with exit code 1.
-    """
-
-    def spin_once(self, timeout_sec: float | None = None) -> None:
-        try:
-            super().spin_once(timeout_sec)
-        except RuntimeError:  # rclpy's RCLError derives from RuntimeError
-            if self.context.ok():
-                raise
-            raise ExternalShutdownException() from None
-
-
 _malloc_trim = getattr(ctypes.CDLL(None), 'malloc_trim', None)  # glibc only
 if _malloc_trim is not None:
     _malloc_trim.argtypes, _malloc_trim.restype = [ctypes.c_size_t], ctypes.c_int
@@ -180,8 +147,7 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
     SystemExit
         With code 1 when the node cannot be built because of its configuration.
     """
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGINT, signal.SIG_IGN)  # see the module docstring
+    ignore_python_sigint()
     rclpy.init(args=None if args is None else list(args))
     node: Node | None = None
     executor: Executor | None = None
