@@ -30,7 +30,7 @@ ROS parameters
 from __future__ import annotations
 
 import threading
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
 from rclpy.node import Node
@@ -40,7 +40,6 @@ from . import protocol as topics
 from .core.errors import InvalidIntentError
 from .core.intent import (
     DEFAULT_CLARIFICATION_THRESHOLD,
-    DEFAULT_TASKS,
     MAX_TASKS,
     NeedsClarification,
     ZoneInterpreter,
@@ -54,8 +53,8 @@ from .ros.clarification import ClarificationRequests
 from .ros.conversions import SerializedArrays
 from .ros.diagnostics import NodeDiagnostics
 from .ros.inputs import decode_input, subscribe_input
-from .ros.model_follower import ModelFollower
-from .ros.params import ParamSpec, declare_parameters
+from .ros.model_follower import ModelFollower, served_models
+from .ros.params import TASK_NAMES, ParamSpec, declare_parameters
 from .ros.qos import input_qos, output_publisher
 from .ros.run import guard_exit, publish_all, run_node
 from .ros.worker import InputThread
@@ -66,16 +65,6 @@ W_QUEUE_DEPTH = 100
 """Keep-last depth of the ``intent/w`` subscription: 0.1 s of w at 1 kHz."""
 
 
-def check_task_names(names: Sequence[str]) -> None:
-    """1..MAX_TASKS unique, non-empty names without commas. Raises InvalidIntentError."""
-    all_zones(len(names))
-    if any(not n or ',' in n or n != n.strip() for n in names):
-        raise InvalidIntentError(f'task names must be non-empty, without commas or surrounding spaces: '
-                                 f'{list(names)}')
-    if len(set(names)) != len(names):
-        raise InvalidIntentError(f'task names must be unique: {list(names)}')
-
-
 def check_threshold(value: float) -> None:
     """The threshold must be > 0 (the upper bound 1 is enforced by the descriptor's range)."""
     if not value > 0.0:
@@ -83,9 +72,7 @@ def check_threshold(value: float) -> None:
 
 
 PARAMETERS = (
-    ParamSpec('task_names', DEFAULT_TASKS,
-              'Names of the m principal tasks, in the order of the entries of w (m = expected length of w).',
-              validator=check_task_names, constraints=f'1..{MAX_TASKS} unique names without commas'),
+    TASK_NAMES,
     ParamSpec('clarification_threshold', DEFAULT_CLARIFICATION_THRESHOLD,
               'Ask for clarification instead of publishing v when P(no task) >= this probability.',
               range=(0.0, 1.0), validator=check_threshold, constraints='in (0, 1]'),
@@ -106,6 +93,9 @@ class IntentInterpreter(Node):
         self._model: tuple[ModelDocument | None, ZoneInterpreter] | None = None
         """The active model and the interpretation of w with the zones it supports, swapped together."""
         self._diagnostics.set_value('last outcome', '')
+        # no document is read before the node spins: _configure below sets up what _use_model needs first
+        self._models = ModelFollower(self, self._diagnostics, self._use_model, name=f'{node_name}_model',
+                                     requires=lambda: served_models(self._params['task_names']))
         self._configure(self._params)
         # every w is answered: a deeper queue than the default, taken off the executor by a thread of its own
         # (every waiting w in each wake-up), and each read from its serialized bytes (a flat w, as publishers
@@ -116,7 +106,6 @@ class IntentInterpreter(Node):
                                       self._diagnostics, count_dropped=True, serialized=True,
                                       callback_group=self._inputs.callback_group)
         self._inputs.take(self._w_sub)
-        self._models = ModelFollower(self, self._diagnostics, self._use_model, name=f'{node_name}_model')
 
     def destroy_node(self) -> None:
         """Stop the w and model threads (after the w or the document at hand), then destroy the node."""
@@ -127,11 +116,14 @@ class IntentInterpreter(Node):
     def _configure(self, changed: Mapping[str, Any]) -> None:
         task_names = self._params['task_names']
         with self._model_lock:  # the w and model threads read and swap these meanwhile
+            first = self._model is None
             self._zones = all_zones(len(task_names))
             self._v_messages = SerializedArrays((len(self._zones),), [zone_labels(self._zones, task_names)])
             self._use_model(None if self._model is None else self._model[0])
         self._diagnostics.set_value('tasks', ','.join(task_names))
         self._diagnostics.set_value('clarification threshold', self._params['clarification_threshold'])
+        if not first and 'task_names' in changed:
+            self._models.recheck()  # the model is served for other tasks, or now one refused is
 
     def _use_model(self, doc: ModelDocument | None) -> None:
         """Follow the active model: its zones decide whether an intent can be served.
@@ -144,7 +136,9 @@ class IntentInterpreter(Node):
             self._model = (doc, ZoneInterpreter(
                 len(self._params['task_names']), self._zones, support=support,
                 clarification_threshold=self._params['clarification_threshold']))
-            if doc is None:
+            if doc is None and self._models.refused:
+                text = f'none: {self._models.refused}'
+            elif doc is None:
                 text = 'none yet (all zones)'
             elif support is None:
                 text = (f'{doc.name}: its tasks {",".join(doc.model.task_names)} differ from task_names; '
@@ -161,6 +155,9 @@ class IntentInterpreter(Node):
         with self._model_lock:  # the model, its interpretation and v's layout of one configuration
             assert self._model is not None  # set in __init__
             (doc, interpreter), v_messages = self._model, self._v_messages
+        if doc is None and (refused := self._models.refused):  # no model, and the newest was refused
+            self._clarifications.request(f'cannot serve: {refused}')
+            return
         result = interpreter.interpret_checked(validate_w(w, interpreter.m))
         if isinstance(result, NeedsClarification):
             reason = result.reason
