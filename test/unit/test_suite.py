@@ -41,7 +41,7 @@ def test_node_environment_is_loopback_only_and_unbuffered() -> None:
 
 
 def test_fastdds_profile_sets_timing_loopback_data_locators_and_payload_memory_only() -> None:
-    """The profile changes discovery timing, puts user data on UDP 127.0.0.1 and frees payloads; never transports or peers.
+    """The profile sets discovery timing, user data on UDP 127.0.0.1, payload memory; never transports or peers.
 
     Which interfaces and peers discovery uses stays with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; the one
     locator the profile sets is the loopback address (the file's comment says why). Readers and writers
