@@ -237,7 +237,7 @@ def test_a_model_of_other_tasks_is_refused_and_every_intent_is_clarified_until_o
     assert node.set_parameters([Parameter('task_names', value=['usage', 'transfer', 'handover'])])[0].successful
     assert ros.wait_for(lambda: values(node._diagnostics.status())['active model'].startswith('cup_4zone'))
     assert ros.publish_until(w_pub, w_msg([0.9, 0.9, 0.1]), lambda: v_msgs)
-    assert node._diagnostics.status().level == DiagnosticStatus.OK
+    assert ros.wait_for(lambda: node._diagnostics.status().level == DiagnosticStatus.OK)
 
 
 @pytest.mark.parametrize('kind', ['alias bomb', 'nested too deeply', 'oversized'])
