@@ -13,8 +13,10 @@ A valid model the node cannot serve (:func:`served_models`: another robot's feat
 node's ``task_names``) is refused by its declaration, before its arrays are parsed or anything is built: the
 node keeps the model it has. While it has none because a document was refused, the suite cannot serve an
 intent: :attr:`ModelFollower.refused` says why, the node asks for clarification with that reason, and the
-diagnostics component is at ERROR (WARN while a refused document leaves the node serving its previous
-model). :meth:`ModelFollower.recheck` reads the newest document again when the requirements change.
+diagnostics component is at ERROR. A refusal that leaves the node serving its previous model is a rejected
+input (WARN until the next input is processed); the status value :data:`KEY_REFUSED` keeps the reason and the
+model still served until a document is accepted. :meth:`ModelFollower.recheck` reads the newest document
+again when the requirements change.
 
 A thread of its own is not enough under the GIL. Reading a document allocates some 100,000 objects,
 enough to set off a full garbage collection, which in a process with numba, scipy and pinocchio loaded
@@ -41,19 +43,22 @@ from std_msgs.msg import String
 from ..core.errors import GraspIntentError
 from ..core.features import MICO_3F
 from ..core.model import ModelRequirements
-from ..protocol import ERROR, MODEL_ACTIVE, OK, WARN, ModelDocument, read_model_document
+from ..protocol import ERROR, MODEL_ACTIVE, OK, ModelDocument, read_model_document
 from .diagnostics import NodeDiagnostics
 from .inputs import subscribe_input
 from .qos import latched_qos
 from .run import release_free_memory
 from .worker import LatestOnlyWorker
 
-__all__ = ['ModelFollower', 'READ_SWITCH_INTERVAL', 'served_models', 'yielding_reader']
+__all__ = ['ModelFollower', 'KEY_REFUSED', 'READ_SWITCH_INTERVAL', 'served_models', 'yielding_reader']
 
 READ_SWITCH_INTERVAL = 5e-4
 """The GIL switch interval while a document is read, s (Python's default: 5e-3)."""
 
 _reading = threading.Lock()
+
+KEY_REFUSED = 'model document refused'
+"""Status value: why the newest ``model/active`` document was refused, and the model still served ('' if none was)."""
 
 
 def served_models(task_names: Sequence[str]) -> ModelRequirements:
@@ -144,6 +149,7 @@ class ModelFollower:
             self._diagnostics.set_value('last model read time [ms]', f'{1e3 * (time.perf_counter() - start):.1f}')
         self.current, self.refused = doc, ''
         self._diagnostics.set_state(OK, '')
+        self._diagnostics.set_value(KEY_REFUSED, '')
         release_free_memory()  # what the reading freed (see release_free_memory)
 
     def _refuse(self, reason: str) -> None:
@@ -156,9 +162,10 @@ class ModelFollower:
         self.refused = f'{MODEL_ACTIVE}: {reason}'
         if self.current is None:
             self._diagnostics.set_state(ERROR, f'cannot serve: {self.refused}')
+            self._diagnostics.set_value(KEY_REFUSED, self.refused)
             self._use(None)
         else:
-            self._diagnostics.set_state(WARN, f'{self.refused}; still serving with model {self.current.name!r}')
+            self._diagnostics.set_value(KEY_REFUSED, f'{self.refused}; still serving with model {self.current.name!r}')
 
     def stop(self) -> None:
         """Stop the reading thread (after the document it is reading)."""

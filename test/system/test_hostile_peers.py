@@ -28,6 +28,7 @@ from grasp_intent_ros.core.features import APPROACH, MICO_3F
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.protocol import status_values
 from grasp_intent_ros.ros.conversions import model_to_msg
+from grasp_intent_ros.ros.model_follower import KEY_REFUSED
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.tools.send_intent import IntentSender, NoGrasp
 
@@ -96,8 +97,9 @@ def test_a_model_the_suite_cannot_serve_is_refused_and_every_intent_it_leaves_un
     refused = "model/active: model 'ten_tasks' refused: its tasks [a, b, c, d, e, f, g, h, i, j] are not the " \
               'task_names [usage, transfer, handover]'
     for node, component in (('intent_interpreter', 'intent'), ('grasp_planner', 'inputs')):
-        assert ros.wait_for(lambda n=node, c=component: at(DiagnosticStatus.WARN, n, c, f'{refused}; still serving '
-                                                           "with model 'cup_7zone'"), STARTUP), status(node, component)
+        assert ros.wait_for(lambda n=node, c=component: at(DiagnosticStatus.WARN, n, c, refused[len('model/active: '):])
+                            and status_values(status(n, c))[KEY_REFUSED] == f"{refused}; still serving with model "
+                            "'cup_7zone'", STARTUP), status(node, component)
     answer = sender.send((0.9, 0.1, 0.9), ros.executor, timeout=STARTUP)
     assert answer.posterior.zone_labels == ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH') and not clarifications
 
