@@ -6,7 +6,8 @@ probe publishes ``--count`` messages of ``--mbytes`` MB (default 100 of 64 MB), 
 in turn: intent/w, intent/v, model/active (read by the interpreter and the planner), object/pose,
 joint_states, model/query. Each is far over its topic's cap and rejected by its size; the next is sent once
 the reading node's diagnostics count the one before (or after ``--wait`` s: bounded). Printed per node: RSS
-(VmRSS) before, after (``--settle`` s after the last message) and its peak (VmHWM), with the load average;
+(VmRSS) before, after (once the nodes have counted every message, or 120 s, and ``--settle`` s more) and its
+peak (VmHWM), with the load average;
 then whether every smaller valid input is still answered: a w (a grasp), a feature vector on model/query (a
 posterior), an object pose (a new grasp), a model document on model/active (a grasp on that model).
 
@@ -142,15 +143,20 @@ def run(args: argparse.Namespace, suite: Any, probe: Probe, pids: dict[str, int]
     print(f'{uptime()}; {args.count} messages of {args.mbytes:g} MB on each of {len(readers)} inputs')
     before = {m: rss_mb(pid) for m, pid in pids.items()}
     start, late = time.monotonic(), 0
+    expected = {component: counts.get(component, 0) for component in readers.values()}
     for topic, component in readers.items():
+        expected[component] += args.count
         for _ in range(args.count):
             n = counts.get(component, 0)
             pubs[topic].publish(messages[topic])
             late += not probe.wait_for(lambda n=n, c=component: counts.get(c, 0) > n, args.wait)
     elapsed = time.monotonic() - start
+    # every message taken (a node may still be working through its queue), then a quiet interval
+    drained = probe.wait_for(lambda: all(counts.get(c, 0) >= n for c, n in expected.items()), 120.0)
     probe.wait_for(lambda: False, args.settle)
     after = {m: rss_mb(pid) for m, pid in pids.items()}
-    print(f'sent in {elapsed:.0f} s ({late} not counted within {args.wait:g} s); {uptime()}')
+    print(f'sent in {elapsed:.0f} s ({late} not counted within {args.wait:g} s); every message counted: {drained}; '
+          f'{uptime()}')
     for m, pid in pids.items():
         print(f'RSS {m}: {before[m]:.1f} -> {after[m]:.1f} MB ({100 * (after[m] / before[m] - 1):+.1f}%), '
               f'peak {peak_mb(pid):.1f} MB')
