@@ -10,7 +10,8 @@ Topics (relative; formats in :mod:`grasp_intent_ros.protocol`)
          most every ``markers_period`` s), stamped with the arrival time of the plan's newest input (the
          trajectory: zero, "start now");
          ``intent/clarification`` (once per intent and model) when v fits no model zone or no grasp is
-         reachable; ``/diagnostics`` (``inputs``, ``planning``: ``last plan status`` says what happened)
+         reachable, and for each v while the planner has no model the suite serves because the newest was
+         refused; ``/diagnostics`` (``inputs``, ``planning``: ``last plan status`` says what happened)
 
 Behaviour
     A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs (never a backlog) with
@@ -19,7 +20,10 @@ Behaviour
     a v is planned in the thread that received it, and while a plan runs the newest v waits in the
     keep-last-1 queue (an older one it replaces is counted in ``messages dropped``).
     A new ``model/active`` is read in a thread of its own (:class:`~grasp_intent_ros.ros.model_follower.
-    ModelFollower`) and swapped in whole; until then planning goes on with the current model.
+    ModelFollower`) and swapped in whole; until then planning goes on with the current model. A model the
+    suite does not serve (:func:`~grasp_intent_ros.ros.model_follower.served_models`: tasks other than
+    ``task_names``, features other than the MICO's) is refused before it is built, and the current one kept;
+    with none, the ``inputs`` status is ERROR.
     At start the planning thread first loads numba's CPU target and the IK kernel, which every plan uses
     (``compiled kernels load time [ms]`` in the ``planning`` diagnostics), while the node discovers its
     peers and waits for its first inputs; the first plan loads the planner kernels it uses, and the

@@ -8,22 +8,28 @@ Topics (relative; ``-r __ns:=/robot1`` moves them)
     in   ``model/active``          std_msgs/String, latched: the active model document (its zones)
     out  ``intent/v``              std_msgs/Float64MultiArray, 2^m - 1 values in core zone order,
                                    one dimension labelled with the zone labels ("U,T,H,UT,UH,TH,UTH")
-    out  ``intent/clarification``  std_msgs/String, the reason, instead of v when P(no task) >= threshold
-                                   or when w gives no zone of the active model any probability
+    out  ``intent/clarification``  std_msgs/String, the reason, instead of v when P(no task) >= threshold,
+                                   when w gives no zone of the active model any probability, or when the
+                                   node has no model the suite serves because the newest was refused
     out  ``/diagnostics``          ``<node>: intent``: counts (w dropped from a full input queue too), the
                                    active model, the last outcome
 
 Where the model's zones are known: v is published over all 2^m - 1 zones (so any model of the same
 tasks can use it, and the planner renormalises it over its model's zones, eq. 4); the interpreter
-follows the latched ``model/active`` only to decide whether the intent can be served at all. A model
-whose task names differ from ``task_names`` is not used for that (diagnostics say so).
+follows the latched ``model/active`` only to decide whether the intent can be served at all. A model the
+suite does not serve (:func:`~grasp_intent_ros.ros.model_follower.served_models`: tasks other than
+``task_names``, another robot's features) is refused before it is built and the current one kept; with
+none, every w is answered with a clarification giving the reason, and the status is ERROR
+(:class:`~grasp_intent_ros.ros.model_follower.ModelFollower`). Before any document, v is published over all
+zones.
 
 Every w is answered, in order: a thread of its own (:class:`~grasp_intent_ros.ros.worker.InputThread`)
 takes all waiting w (up to 100) at each wake-up, off the executor, which handles the parameters, the
 arrival of model documents and the diagnostics timer.
 
 ROS parameters
-    ``task_names`` (string[], default usage, transfer, handover): names of the m tasks in w's order
+    ``task_names`` (string[], default usage, transfer, handover): names of the m tasks in w's order, the same
+    list on every node of the suite (:data:`~grasp_intent_ros.ros.params.TASK_NAMES`)
     ``clarification_threshold`` (float in (0, 1], default 0.5)
 """
 
