@@ -10,7 +10,8 @@ Topics (relative; formats in :mod:`grasp_intent_ros.protocol`)
          most every ``markers_period`` s), stamped with the arrival time of the plan's newest input (the
          trajectory: zero, "start now");
          ``intent/clarification`` (once per intent and model) when v fits no model zone or no grasp is
-         reachable; ``/diagnostics`` (``inputs``, ``planning``: ``last plan status`` says what happened)
+         reachable, and for each v while the planner has no model the suite serves because the newest was
+         refused; ``/diagnostics`` (``inputs``, ``planning``: ``last plan status`` says what happened)
 
 Behaviour
     A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs (never a backlog) with
@@ -19,7 +20,10 @@ Behaviour
     a v is planned in the thread that received it, and while a plan runs the newest v waits in the
     keep-last-1 queue (an older one it replaces is counted in ``messages dropped``).
     A new ``model/active`` is read in a thread of its own (:class:`~grasp_intent_ros.ros.model_follower.
-    ModelFollower`) and swapped in whole; until then planning goes on with the current model.
+    ModelFollower`) and swapped in whole; until then planning goes on with the current model. A model the
+    suite does not serve (:func:`~grasp_intent_ros.ros.model_follower.served_models`: tasks other than
+    ``task_names``, features other than the MICO's) is refused before it is built, and the current one kept;
+    with none, the ``inputs`` status is ERROR.
     At start the planning thread first loads numba's CPU target and the IK kernel, which every plan uses
     (``compiled kernels load time [ms]`` in the ``planning`` diagnostics), while the node discovers its
     peers and waits for its first inputs; the first plan loads the planner kernels it uses, and the
@@ -65,7 +69,6 @@ from .core.grasp import (
     NoModelZone,
     NoReachableGrasp,
     check_grasp,
-    check_mico_model,
     check_workspace,
     plan_grasp,
 )
@@ -86,8 +89,8 @@ from .ros.conversions import SerializedTargets, message_class
 from .ros.diagnostics import NodeDiagnostics
 from .ros.grasp import grasp_messages
 from .ros.inputs import decode_input, subscribe_input
-from .ros.model_follower import ModelFollower
-from .ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
+from .ros.model_follower import ModelFollower, served_models
+from .ros.params import TASK_NAMES, ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
 from .ros.qos import input_qos, output_publisher
 from .ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 from .ros.run import guard_exit, publish_all, run_node
@@ -122,6 +125,7 @@ PARAMETERS = (
               'Markers are for RViz and cost as much to build as the other outputs together.',
               range=(0.0, 10.0)),
     ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
+    TASK_NAMES,
 )
 
 
@@ -175,7 +179,8 @@ class GraspPlanner(Node):
         # v is taken in the planning thread: no hand-over, and the executor thread sleeps through the v stream
         self._worker.take(subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag, count_dropped=True,
                                           serialized=True, callback_group=self._worker.callback_group))
-        self._models = ModelFollower(self, self._inputs_diag, self._use_model, name=f'{node_name}_model')
+        self._models = ModelFollower(self, self._inputs_diag, self._use_model, name=f'{node_name}_model',
+                                     requires=lambda: served_models(self._params['task_names']))
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, latest, diag)
         # not keep-last 1: arm and finger states may come from different publishers
         subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), diag)
@@ -216,14 +221,15 @@ class GraspPlanner(Node):
         if (model := self._worker.latest.model) is not None:
             match_zones(v.size, labels, model.model.task_names)
         self._update(v=v, v_labels=labels, v_seq=self._worker.latest.v_seq + 1)
+        if model is None and (refused := self._models.refused):  # no model, and the newest was refused
+            self._clarifications.request(f'cannot serve: {refused}')
 
-    def _use_model(self, doc: ModelDocument) -> None:  # in the model follower's thread: planning goes on
-        check_mico_model(doc.model, doc.name)
+    def _use_model(self, doc: ModelDocument | None) -> None:  # in the model follower's thread: planning goes on
         previous = self._worker.latest.model
-        same = previous is not None and (previous.name, previous.sha256) == (doc.name, doc.sha256)
-        self._update(trigger=not same, model=doc)
-        self._plan_diag.set_value(KEY_MODEL, f'{doc.name} (version {doc.version}, zones '
-                                             f'{",".join(doc.model.zone_labels)})')
+        new = doc is not None and (previous is None or (previous.name, previous.sha256) != (doc.name, doc.sha256))
+        self._update(trigger=new, model=doc)  # None: recheck() refused the model; nothing to plan with
+        self._plan_diag.set_value(KEY_MODEL, 'none' if doc is None else f'{doc.name} (version {doc.version}, '
+                                  f'zones {",".join(doc.model.zone_labels)})')
 
     def _on_object_pose(self, msg: PoseStamped) -> None:
         base_T_obj = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
@@ -236,6 +242,8 @@ class GraspPlanner(Node):
             self._update(trigger=False, q_arm=q)
 
     def _on_parameters(self, changed: Mapping[str, Any]) -> None:
+        if 'task_names' in changed:
+            self._models.recheck()  # the model is served for other tasks, or now one refused is
         if {'object_position', 'object_orientation'} & set(changed):
             self._update(base_T_obj=pose_to_matrix(self._params['object_position'],
                                                    self._params['object_orientation']))

@@ -8,29 +8,35 @@ Topics (relative; ``-r __ns:=/robot1`` moves them)
     in   ``model/active``          std_msgs/String, latched: the active model document (its zones)
     out  ``intent/v``              std_msgs/Float64MultiArray, 2^m - 1 values in core zone order,
                                    one dimension labelled with the zone labels ("U,T,H,UT,UH,TH,UTH")
-    out  ``intent/clarification``  std_msgs/String, the reason, instead of v when P(no task) >= threshold
-                                   or when w gives no zone of the active model any probability
+    out  ``intent/clarification``  std_msgs/String, the reason, instead of v when P(no task) >= threshold,
+                                   when w gives no zone of the active model any probability, or when the
+                                   node has no model the suite serves because the newest was refused
     out  ``/diagnostics``          ``<node>: intent``: counts (w dropped from a full input queue too), the
                                    active model, the last outcome
 
 Where the model's zones are known: v is published over all 2^m - 1 zones (so any model of the same
 tasks can use it, and the planner renormalises it over its model's zones, eq. 4); the interpreter
-follows the latched ``model/active`` only to decide whether the intent can be served at all. A model
-whose task names differ from ``task_names`` is not used for that (diagnostics say so).
+follows the latched ``model/active`` only to decide whether the intent can be served at all. A model the
+suite does not serve (:func:`~grasp_intent_ros.ros.model_follower.served_models`: tasks other than
+``task_names``, another robot's features) is refused before it is built and the current one kept; with
+none, every w is answered with a clarification giving the reason, and the status is ERROR
+(:class:`~grasp_intent_ros.ros.model_follower.ModelFollower`). Before any document, v is published over all
+zones.
 
 Every w is answered, in order: a thread of its own (:class:`~grasp_intent_ros.ros.worker.InputThread`)
 takes all waiting w (up to 100) at each wake-up, off the executor, which handles the parameters, the
 arrival of model documents and the diagnostics timer.
 
 ROS parameters
-    ``task_names`` (string[], default usage, transfer, handover): names of the m tasks in w's order
+    ``task_names`` (string[], default usage, transfer, handover): names of the m tasks in w's order, the same
+    list on every node of the suite (:data:`~grasp_intent_ros.ros.params.TASK_NAMES`)
     ``clarification_threshold`` (float in (0, 1], default 0.5)
 """
 
 from __future__ import annotations
 
 import threading
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
 from rclpy.node import Node
@@ -40,7 +46,6 @@ from . import protocol as topics
 from .core.errors import InvalidIntentError
 from .core.intent import (
     DEFAULT_CLARIFICATION_THRESHOLD,
-    DEFAULT_TASKS,
     MAX_TASKS,
     NeedsClarification,
     ZoneInterpreter,
@@ -54,8 +59,8 @@ from .ros.clarification import ClarificationRequests
 from .ros.conversions import SerializedArrays
 from .ros.diagnostics import NodeDiagnostics
 from .ros.inputs import decode_input, subscribe_input
-from .ros.model_follower import ModelFollower
-from .ros.params import ParamSpec, declare_parameters
+from .ros.model_follower import ModelFollower, served_models
+from .ros.params import TASK_NAMES, ParamSpec, declare_parameters
 from .ros.qos import input_qos, output_publisher
 from .ros.run import guard_exit, publish_all, run_node
 from .ros.worker import InputThread
@@ -66,16 +71,6 @@ W_QUEUE_DEPTH = 100
 """Keep-last depth of the ``intent/w`` subscription: 0.1 s of w at 1 kHz."""
 
 
-def check_task_names(names: Sequence[str]) -> None:
-    """1..MAX_TASKS unique, non-empty names without commas. Raises InvalidIntentError."""
-    all_zones(len(names))
-    if any(not n or ',' in n or n != n.strip() for n in names):
-        raise InvalidIntentError(f'task names must be non-empty, without commas or surrounding spaces: '
-                                 f'{list(names)}')
-    if len(set(names)) != len(names):
-        raise InvalidIntentError(f'task names must be unique: {list(names)}')
-
-
 def check_threshold(value: float) -> None:
     """The threshold must be > 0 (the upper bound 1 is enforced by the descriptor's range)."""
     if not value > 0.0:
@@ -83,9 +78,7 @@ def check_threshold(value: float) -> None:
 
 
 PARAMETERS = (
-    ParamSpec('task_names', DEFAULT_TASKS,
-              'Names of the m principal tasks, in the order of the entries of w (m = expected length of w).',
-              validator=check_task_names, constraints=f'1..{MAX_TASKS} unique names without commas'),
+    TASK_NAMES,
     ParamSpec('clarification_threshold', DEFAULT_CLARIFICATION_THRESHOLD,
               'Ask for clarification instead of publishing v when P(no task) >= this probability.',
               range=(0.0, 1.0), validator=check_threshold, constraints='in (0, 1]'),
@@ -106,6 +99,9 @@ class IntentInterpreter(Node):
         self._model: tuple[ModelDocument | None, ZoneInterpreter] | None = None
         """The active model and the interpretation of w with the zones it supports, swapped together."""
         self._diagnostics.set_value('last outcome', '')
+        # no document is read before the node spins: _configure below sets up what _use_model needs first
+        self._models = ModelFollower(self, self._diagnostics, self._use_model, name=f'{node_name}_model',
+                                     requires=lambda: served_models(self._params['task_names']))
         self._configure(self._params)
         # every w is answered: a deeper queue than the default, taken off the executor by a thread of its own
         # (every waiting w in each wake-up), and each read from its serialized bytes (a flat w, as publishers
@@ -116,7 +112,6 @@ class IntentInterpreter(Node):
                                       self._diagnostics, count_dropped=True, serialized=True,
                                       callback_group=self._inputs.callback_group)
         self._inputs.take(self._w_sub)
-        self._models = ModelFollower(self, self._diagnostics, self._use_model, name=f'{node_name}_model')
 
     def destroy_node(self) -> None:
         """Stop the w and model threads (after the w or the document at hand), then destroy the node."""
@@ -127,11 +122,14 @@ class IntentInterpreter(Node):
     def _configure(self, changed: Mapping[str, Any]) -> None:
         task_names = self._params['task_names']
         with self._model_lock:  # the w and model threads read and swap these meanwhile
+            first = self._model is None
             self._zones = all_zones(len(task_names))
             self._v_messages = SerializedArrays((len(self._zones),), [zone_labels(self._zones, task_names)])
             self._use_model(None if self._model is None else self._model[0])
         self._diagnostics.set_value('tasks', ','.join(task_names))
         self._diagnostics.set_value('clarification threshold', self._params['clarification_threshold'])
+        if not first and 'task_names' in changed:
+            self._models.recheck()  # the model is served for other tasks, or now one refused is
 
     def _use_model(self, doc: ModelDocument | None) -> None:
         """Follow the active model: its zones decide whether an intent can be served.
@@ -144,7 +142,9 @@ class IntentInterpreter(Node):
             self._model = (doc, ZoneInterpreter(
                 len(self._params['task_names']), self._zones, support=support,
                 clarification_threshold=self._params['clarification_threshold']))
-            if doc is None:
+            if doc is None and self._models.refused:
+                text = f'none: {self._models.refused}'
+            elif doc is None:
                 text = 'none yet (all zones)'
             elif support is None:
                 text = (f'{doc.name}: its tasks {",".join(doc.model.task_names)} differ from task_names; '
@@ -161,6 +161,9 @@ class IntentInterpreter(Node):
         with self._model_lock:  # the model, its interpretation and v's layout of one configuration
             assert self._model is not None  # set in __init__
             (doc, interpreter), v_messages = self._model, self._v_messages
+        if doc is None and (refused := self._models.refused):  # no model, and the newest was refused
+            self._clarifications.request(f'cannot serve: {refused}')
+            return
         result = interpreter.interpret_checked(validate_w(w, interpreter.m))
         if isinstance(result, NeedsClarification):
             reason = result.reason

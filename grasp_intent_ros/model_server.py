@@ -21,6 +21,10 @@ Parameters
     Its descriptor's ``additional_constraints`` (``ros2 param describe /model_server model``) list the
     models in the directory, read anew at every describe, so a model trained into it appears at once.
     ``models_dir`` (string, read-only, default '' = <config_dir()>/models).
+    ``task_names`` (string[], default usage, transfer, handover): the suite's tasks. Only a model the suite
+    serves is published (:func:`~grasp_intent_ros.ros.model_follower.served_models`: these tasks, the MICO
+    3-finger features); another is refused like a malformed one, with the reason, and a change of
+    ``task_names`` that the active model does not fit is refused too.
 """
 
 from __future__ import annotations
@@ -41,7 +45,8 @@ from .protocol import MAX_FEATURES, msg_to_array
 from .ros.conversions import array_to_msg, model_to_msg
 from .ros.diagnostics import NodeDiagnostics
 from .ros.inputs import subscribe_input
-from .ros.params import ParamSpec, declare_parameters
+from .ros.model_follower import served_models
+from .ros.params import TASK_NAMES, ParamSpec, declare_parameters
 from .ros.qos import input_qos, latched_qos, output_publisher
 from .ros.run import guard_exit, publish_all, release_free_memory, run_node
 
@@ -53,6 +58,7 @@ PARAMETERS = (
     ParamSpec('models_dir', '',
               "Directory of the trained models (*.yaml); '' means the package's config/models.",
               read_only=True),
+    TASK_NAMES,
 )
 
 
@@ -89,11 +95,14 @@ class ModelServer(Node):
         return described
 
     def _check(self, values: Mapping[str, Any]) -> None:
-        self._model_files(values['models_dir']).load(values['model'])
+        self._model_files(values['models_dir']).load(values['model'], requires=served_models(values['task_names']))
 
     def _activate(self, changed: Mapping[str, Any]) -> None:
+        if set(changed) == {'task_names'}:
+            return  # the active model fits them (_check): nothing to publish again
         name = self._params['model']
-        model = self._model_files(self._params['models_dir']).load(name)
+        model = self._model_files(self._params['models_dir']).load(name,
+                                                                   requires=served_models(self._params['task_names']))
         report = ambiguity.report(model)
         self._version += 1
         self._model = model

@@ -76,8 +76,8 @@ from typing import Any, Final, Generic, NamedTuple, TypeVar, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from .core.errors import GraspIntentError, ModelFormatError
-from .core.model import MAX_DOCUMENT_CHARS, GraspModel, check_document_size
+from .core.errors import GraspIntentError, ModelError, ModelFormatError
+from .core.model import MAX_DOCUMENT_CHARS, GraspModel, ModelRequirements, check_document_size
 
 __all__ = [
     'INTENT_W', 'INTENT_V', 'INTENT_CLARIFICATION', 'MODEL_ACTIVE', 'MODEL_AMBIGUITY',
@@ -610,21 +610,35 @@ def parse_model_document(text: str, *, check_sha256: bool = True) -> tuple[Model
     return ModelHeader(header['name'], version, header['sha']), body
 
 
-def read_model_document(text: str, *, previous: ModelDocument | None = None) -> ModelDocument:
+def read_model_document(text: str, *, previous: ModelDocument | None = None,
+                        requires: ModelRequirements | None = None) -> ModelDocument:
     """Parse a whole model document: header checked, body read by :meth:`GraspModel.from_yaml`.
 
     When ``previous`` has the same name and sha256 as ``text`` (a model re-latched, e.g. by a restarted
-    model server), its model is reused: the body is hashed, not parsed again.
+    model server), its model is reused: the body is hashed, not parsed again. ``requires`` refuses a valid
+    model the reader cannot serve, by its declaration, before the document's arrays are parsed.
 
     Raises
     ------
+    ModelError
+        If ``requires`` refuses the model (the message names the model).
     ModelFormatError
         If the text is oversized, the header is missing or malformed, the hash does not match the YAML,
         or the YAML is not a valid model (an alias or too deep a nesting included).
     """
     header, body = parse_model_document(text)
     same = previous is not None and (previous.name, previous.sha256) == (header.name, header.sha256)
-    model = previous.model if previous is not None and same else GraspModel.from_yaml(body)
+    try:
+        if previous is not None and same:
+            model = previous.model
+            if requires is not None:
+                requires.check(model.task_names, model.feature_names)
+        else:
+            model = GraspModel.from_yaml(body, requires=requires)
+    except ModelFormatError:
+        raise
+    except ModelError as exc:
+        raise ModelError(f'model {header.name[:64]!r} refused: {exc}') from None
     return ModelDocument(header.name, header.version, header.sha256, model)
 
 

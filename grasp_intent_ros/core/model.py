@@ -16,7 +16,8 @@ from __future__ import annotations
 import functools
 import math
 import re
-from collections.abc import Hashable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Hashable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,9 +30,9 @@ from yaml.constructor import ConstructorError
 
 from .body import ObjectBody
 from .data import Demonstrations
-from .errors import InvalidFeaturesError, ModelError, ModelFormatError
+from .errors import GraspIntentError, InvalidFeaturesError, ModelError, ModelFormatError
 from .features import MICO_3F, PALM, FeatureSpace
-from .intent import all_zones, parse_zones, zone_labels
+from .intent import MAX_TASKS, all_zones, parse_zones, zone_labels
 
 __all__ = [
     'GraspModel',
@@ -47,6 +48,9 @@ __all__ = [
     'ALIAS',
     'TOO_DEEP',
     'MALFORMED_VALUE',
+    'MAX_FEATURE_DIM',
+    'DECLARATION_FIELDS',
+    'ModelRequirements',
     'check_document_size',
     'parse_document',
     'read_document',
@@ -81,6 +85,53 @@ DOCUMENT_REASONS = (OVERSIZED, NOT_YAML, ALIAS, TOO_DEEP, MALFORMED_VALUE)
 """The reasons :func:`parse_document` rejects a document for (``ModelFormatError.reason``), in the project's
 own words: the same reason whichever layer stops the document first (libyaml's scanner limits flow nesting
 itself, at a depth that depends on its version)."""
+
+MAX_FEATURE_DIM = 64
+"""Most grasp features a model document may declare (the MICO's space has 10). Building a model costs
+K d^3 / 3 steps of pure-Python Cholesky (exact sums, no BLAS, see :func:`_precisions_and_log_norms`); within
+:data:`MAX_DOCUMENT_CHARS` this bound keeps that under about a second."""
+
+DECLARATION_FIELDS = ('format_version', 'task_names', 'zones', 'features', 'approach_features')
+"""The fields that declare a model's shape. A document states them before its arrays (``zone_models``,
+``task_models``, ``demonstrations``), as :meth:`GraspModel.to_document` writes them, so that a reader checks
+them (and a reader's :class:`ModelRequirements`) before it parses the bulk of the document."""
+_ARRAY_FIELDS = frozenset({'zone_models', 'task_models', 'demonstrations'})
+
+
+@dataclass(frozen=True)
+class ModelRequirements:
+    """What a reader requires of the models it will serve, checked on a document's declaration.
+
+    Attributes
+    ----------
+    task_names : tuple of str or None
+        The tasks, in order (e.g. the suite's ``task_names``, the meaning of w's entries); None: any.
+    feature_names : tuple of str or None
+        The grasp features, in order (e.g. the robot's feature space); None: any.
+    """
+
+    task_names: tuple[str, ...] | None = None
+    feature_names: tuple[str, ...] | None = None
+
+    def check(self, task_names: Sequence[str], feature_names: Sequence[str]) -> None:
+        """Raise ModelError unless a model of these tasks and features meets the requirements.
+
+        Raises
+        ------
+        ModelError
+            Naming what differs: a valid model the reader cannot serve.
+        """
+        if self.task_names is not None and tuple(task_names) != self.task_names:
+            raise ModelError(f'its tasks {_listed(task_names)} are not the task_names {_listed(self.task_names)}')
+        if self.feature_names is not None and tuple(feature_names) != self.feature_names:
+            raise ModelError(f'its features {_listed(feature_names)} are not the robot\'s '
+                             f'{_listed(self.feature_names)}')
+
+
+def _listed(names: Sequence[str], limit: int = 12) -> str:
+    """``names`` as ``[a, b, ...]``, at most ``limit`` of them (a hostile document may declare thousands)."""
+    shown = ', '.join(str(n)[:64] for n in list(names)[:limit])
+    return f'[{shown}{f", ... ({len(names)} in all)" if len(names) > limit else ""}]'
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -159,7 +210,8 @@ before its first answer)."""
 _NO_KEY = object()  # a mapping under construction that waits for its next key
 
 
-def _construct_events(loader: Any) -> Any:  # Any: the stubs type neither libyaml's marks nor resolve()
+def _construct_events(loader: Any, on_key: Callable[[Any, dict[Any, Any]], object] | None = None
+                      ) -> Any:  # Any: the stubs type neither libyaml's marks nor resolve()
     """The one document of ``loader``'s event stream, built event by event with its safe constructors.
 
     PyYAML's own loaders compose the whole document into a node tree first (a node, its attributes and
@@ -172,7 +224,8 @@ def _construct_events(loader: Any) -> Any:  # Any: the stubs type neither libyam
     for that document). Collections are built on an explicit stack, so nesting is bounded
     (:data:`MAX_DOCUMENT_DEPTH`) without recursion. Raises yaml.YAMLError (aliases, a tag other than a
     plain sequence, mapping or safe scalar, an unhashable key, several documents), ModelFormatError
-    (nesting too deep, an alias).
+    (nesting too deep, an alias). ``on_key(key, mapping)`` is called as each key of a top-level mapping is read,
+    with the fields before it complete: it may raise to stop reading there.
     """
     loader.get_event()  # StreamStartEvent
     if loader.check_event(yaml.StreamEndEvent):
@@ -216,6 +269,8 @@ def _construct_events(loader: Any) -> Any:  # Any: the stubs type neither libyam
             if not isinstance(value, Hashable):
                 raise ConstructorError('while constructing a mapping', None, 'found an unhashable key', start)
             stack[-1] = (container, value)
+            if on_key is not None and len(stack) == 1:
+                on_key(value, container)
         else:
             container[key] = value
             stack[-1] = (container, _NO_KEY)
@@ -275,12 +330,15 @@ class _Pairs(Iterator[tuple[Any, Any]]):
         return next(self._items)
 
 
-def parse_document(text: str) -> Any:
+def parse_document(text: str, *, on_key: Callable[[Any, dict[Any, Any]], object] | None = None) -> Any:
     """Parse a YAML document of this project (a model, an object body) safely.
 
     Size-capped (:data:`MAX_DOCUMENT_CHARS`, checked before parsing), no aliases, nesting at most
     :data:`MAX_DOCUMENT_DEPTH` collections deep; scalars read as ``yaml.safe_load`` reads them, by
     libyaml's parser (C) and PyYAML's safe constructor, without a node tree (see :func:`_construct_events`).
+    ``on_key(key, mapping)`` sees each key of a top-level mapping as it is read, with the fields before it
+    (e.g. to refuse a document by its declaration before its arrays are parsed); a GraspIntentError it
+    raises ends the parse and propagates.
 
     Raises
     ------
@@ -291,8 +349,8 @@ def parse_document(text: str) -> Any:
     check_document_size(text)
     loader = yaml.CSafeLoader(text)
     try:
-        return _construct_events(loader)
-    except ModelFormatError:
+        return _construct_events(loader, on_key)
+    except GraspIntentError:
         raise
     except yaml.YAMLError as exc:
         mark = getattr(exc, 'problem_mark', None)
@@ -365,6 +423,85 @@ def fit_gaussian(x: NDArray[np.float64], ridge_var: NDArray[np.float64]) -> Gaus
     diff = x - mean
     cov = diff.T @ diff / x.shape[0] + np.diag(ridge_var)
     return Gaussian(mean, 0.5 * (cov + cov.T), int(x.shape[0]))
+
+
+def _declaration(doc: Any, requires: ModelRequirements | None) -> tuple[tuple[str, ...], tuple[int, ...], FeatureSpace]:
+    """The tasks, zones and feature space a model document declares, checked without reading any array.
+
+    Raises ModelError (``requires`` refuses the model), ModelFormatError, or KeyError, TypeError, ValueError
+    for :meth:`GraspModel.from_document` to name.
+    """
+    if not isinstance(doc, dict):
+        raise ModelFormatError('a model document must be a mapping')
+    version = doc['format_version']
+    if version != FORMAT_VERSION:
+        raise ModelFormatError(f'unsupported model format_version {str(version)[:32]!r} '
+                               f'(this code reads {FORMAT_VERSION})')
+    names, feats, labels = doc['task_names'], doc['features'], doc['zones']
+    if not isinstance(names, list) or not 1 <= len(names) <= MAX_TASKS:
+        raise ModelFormatError(f'task_names must list 1 to {MAX_TASKS} tasks, got {_count(names)}')
+    task_names = tuple(str(t) for t in names)
+    if len(set(task_names)) != len(task_names):
+        raise ModelFormatError(f'task_names must be unique, got {_listed(task_names)}')
+    if not isinstance(feats, list) or not 1 <= len(feats) <= MAX_FEATURE_DIM:
+        raise ModelFormatError(f'features must list 1 to {MAX_FEATURE_DIM} features, got {_count(feats)}')
+    feature_names = tuple(str(f['name']) for f in feats)
+    if requires is not None:
+        requires.check(task_names, feature_names)
+    if not isinstance(labels, list) or not 1 <= len(labels) < 1 << len(task_names):
+        raise ModelFormatError(f'zones must list 1 to {(1 << len(task_names)) - 1} zones of the '
+                               f'{len(task_names)} tasks, got {_count(labels)}')
+    zones = parse_zones([str(z) for z in labels], task_names)
+    a0, a1 = (int(v) for v in doc['approach_features'])
+    features = FeatureSpace(names=feature_names, units=tuple(str(f['unit']) for f in feats),
+                            lower=np.array([float(f['lower']) for f in feats]),
+                            upper=np.array([float(f['upper']) for f in feats]), approach_range=(a0, a1))
+    return task_names, zones, features
+
+
+@contextmanager
+def _named_errors() -> Iterator[None]:
+    """Reading a model document's fields: a missing field or a malformed value becomes a ModelFormatError."""
+    try:
+        yield
+    except ModelError:
+        raise
+    except KeyError as exc:
+        raise ModelFormatError(f'model document lacks field {exc}') from None
+    except (TypeError, ValueError, IndexError) as exc:
+        raise ModelFormatError(f'malformed model document: {exc}') from None
+
+
+def _count(value: Any) -> str:
+    return f'{len(value)}' if isinstance(value, list) else f'a {type(value).__name__}'
+
+
+def _check_array_lengths(doc: dict[Any, Any], n_zones: int, dim: int, n_tasks: int) -> None:
+    """Every array of a model document has the length its declaration gives it (lengths only, nothing converted).
+
+    Raises ModelFormatError naming the first that does not, or KeyError, TypeError for
+    :meth:`GraspModel.from_document` to name.
+    """
+    for field_name, count, per in (('zone_models', n_zones, 'zone'), ('task_models', n_tasks, 'task')):
+        entries = doc[field_name]
+        if not isinstance(entries, list) or len(entries) != count:
+            raise ModelFormatError(f'{field_name} must list {count} entries (one per {per}), got {_count(entries)}')
+        for i, entry in enumerate(entries):
+            _check_length(entry['mean'], dim, f'{field_name}[{i}].mean')
+            rows = entry['covariance']
+            _check_length(rows, dim, f'{field_name}[{i}].covariance')
+            for j, row in enumerate(rows):
+                _check_length(row, dim, f'{field_name}[{i}].covariance[{j}]')
+    demos = doc['demonstrations']
+    if not isinstance(demos, list) or not demos:
+        raise ModelFormatError(f'demonstrations must list at least one demonstration, got {_count(demos)}')
+    for i, demo in enumerate(demos):
+        _check_length(demo['x'], dim, f'demonstrations[{i}].x')
+
+
+def _check_length(value: Any, n: int, what: str) -> None:
+    if not isinstance(value, list) or len(value) != n:
+        raise ModelFormatError(f'{what} must have {n} values (one per feature), got {_count(value)}')
 
 
 def _as_matrix(a: Any, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
@@ -704,30 +841,24 @@ class GraspModel:
         return header + body
 
     @classmethod
-    def from_document(cls, doc: Any) -> GraspModel:
+    def from_document(cls, doc: Any, *, requires: ModelRequirements | None = None) -> GraspModel:
         """Build a model from a mapping produced by :meth:`to_document`.
+
+        The cheap checks come first: the declaration (:data:`DECLARATION_FIELDS`: at most
+        :data:`~.intent.MAX_TASKS` tasks and :data:`MAX_FEATURE_DIM` features, zones of those tasks) and
+        ``requires``, then the length of every array; only then are the arrays converted and the covariances
+        factored (:func:`_precisions_and_log_norms`, the expensive step).
 
         Raises
         ------
+        ModelError
+            For a valid model ``requires`` refuses, saying what differs.
         ModelFormatError
             Naming the first missing or malformed field.
         """
-        if not isinstance(doc, dict):
-            raise ModelFormatError('a model document must be a mapping')
-        try:
-            version = doc['format_version']
-            if version != FORMAT_VERSION:
-                raise ModelFormatError(f'unsupported model format_version {version!r} '
-                                       f'(this code reads {FORMAT_VERSION})')
-            task_names = tuple(str(t) for t in doc['task_names'])
-            feats = doc['features']
-            a0, a1 = (int(v) for v in doc['approach_features'])
-            features = FeatureSpace(names=tuple(str(f['name']) for f in feats),
-                                    units=tuple(str(f['unit']) for f in feats),
-                                    lower=np.array([float(f['lower']) for f in feats]),
-                                    upper=np.array([float(f['upper']) for f in feats]),
-                                    approach_range=(a0, a1))
-            zones = parse_zones([str(z) for z in doc['zones']], task_names)
+        with _named_errors():
+            task_names, zones, features = _declaration(doc, requires)
+            _check_array_lengths(doc, len(zones), features.dim, len(task_names))
             zm, tm = doc['zone_models'], doc['task_models']
             if [str(z['zone']) for z in zm] != [str(z) for z in doc['zones']]:
                 raise ModelFormatError('zone_models must list the zones in the order of "zones"')
@@ -745,23 +876,30 @@ class GraspModel:
                                                         task_names), dtype=np.int64),
                        data_hash=str(doc.get('data_hash', '')), ridge=float(doc.get('ridge', DEFAULT_RIDGE)),
                        body=ObjectBody.from_document(doc['body']) if doc.get('body') is not None else None)
-        except ModelFormatError:
-            raise
-        except KeyError as exc:
-            raise ModelFormatError(f'model document lacks field {exc}') from None
-        except (TypeError, ValueError, IndexError) as exc:
-            raise ModelFormatError(f'malformed model document: {exc}') from None
 
     @classmethod
-    def from_yaml(cls, text: str) -> GraspModel:
+    def from_yaml(cls, text: str, *, requires: ModelRequirements | None = None) -> GraspModel:
         """Parse a model from YAML text, safely (see :func:`parse_document`).
+
+        The declaration is checked (:meth:`from_document`, with ``requires``) as soon as the parser reaches the
+        first array field: a document refused for what it declares is refused before its arrays are parsed,
+        and one whose arrays come before its declaration is refused (:data:`DECLARATION_FIELDS`).
 
         Raises
         ------
+        ModelError
+            For a valid model ``requires`` refuses.
         ModelFormatError
             For a text :func:`parse_document` rejects, or a document that is not a valid model.
         """
-        return cls.from_document(parse_document(text))
+        def declared_first(key: Any, fields: dict[Any, Any]) -> None:
+            if key in _ARRAY_FIELDS and not _ARRAY_FIELDS & fields.keys():  # the first array field
+                if missing := [f for f in DECLARATION_FIELDS if f not in fields]:
+                    raise ModelFormatError(f'model document lists {key!r} before declaring {", ".join(missing)} '
+                                           f'(the fields {", ".join(DECLARATION_FIELDS)} come first)')
+                with _named_errors():
+                    _declaration(fields, requires)
+        return cls.from_document(parse_document(text, on_key=declared_first), requires=requires)
 
     def save(self, path: str | Path) -> None:
         """Write the model as a YAML file."""
@@ -770,10 +908,10 @@ class GraspModel:
         path.write_text(self.to_yaml())
 
     @classmethod
-    def load(cls, path: str | Path) -> GraspModel:
-        """Read a model saved by :meth:`save`. Raises FileNotFoundError or ModelFormatError.
+    def load(cls, path: str | Path, *, requires: ModelRequirements | None = None) -> GraspModel:
+        """Read a model saved by :meth:`save`. Raises FileNotFoundError, ModelFormatError or (``requires``) ModelError.
 
         Reads at most one character more than :data:`MAX_DOCUMENT_CHARS` (enough to reject the file).
         """
-        return cls.from_yaml(read_document(path))
+        return cls.from_yaml(read_document(path), requires=requires)
 

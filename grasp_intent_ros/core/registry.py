@@ -6,7 +6,7 @@ from collections import OrderedDict
 from pathlib import Path
 
 from .errors import ModelError, ModelFormatError
-from .model import GraspModel
+from .model import GraspModel, ModelRequirements
 from .resources import config_dir
 
 __all__ = ['ModelFiles', 'CACHED_MODELS']
@@ -51,13 +51,13 @@ class ModelFiles:
         """Stems of the ``*.yaml`` files, sorted."""
         return tuple(sorted(p.stem for p in self.directory.glob('*.yaml') if p.is_file()))
 
-    def load(self, name: str) -> GraspModel:
+    def load(self, name: str, *, requires: ModelRequirements | None = None) -> GraspModel:
         """The model stored as ``<name>.yaml``: the cached one while its file is unchanged (:data:`CACHED_MODELS`).
 
         Raises
         ------
         ModelError
-            If there is no such model (the reason lists the known names).
+            If there is no such model (the reason lists the known names), or ``requires`` refuses it.
         ModelFormatError
             If the file is not a valid model document.
         """
@@ -68,11 +68,16 @@ class ModelFiles:
         path = self.directory / f'{name}.yaml'
         mtime = path.stat().st_mtime_ns
         cached = self._cache.get(name)
-        if cached is None or cached[0] != mtime:
-            try:
-                cached = (mtime, GraspModel.load(path))
-            except ModelFormatError as exc:
-                raise ModelFormatError(f'{path}: {exc}') from None
+        try:
+            if cached is None or cached[0] != mtime:
+                cached = (mtime, GraspModel.load(path, requires=requires))
+            elif requires is not None:
+                requires.check(cached[1].task_names, cached[1].feature_names)
+        except ModelFormatError as exc:
+            raise ModelFormatError(f'{path}: {exc}') from None
+        except ModelError as exc:
+            raise ModelError(f'model {name!r} refused: {exc}') from None
+        if cached is not self._cache.get(name):
             self._cache[name] = cached
             while len(self._cache) > CACHED_MODELS:
                 self._cache.popitem(last=False)

@@ -9,6 +9,15 @@ then the node keeps serving with the model it has; a document that fails to read
 that arrive while one is being read replace each other (only the newest model matters): the diagnostics
 count them as ``model documents superseded`` and show the ``last model read time [ms]``.
 
+A valid model the node cannot serve (:func:`served_models`: another robot's features, tasks other than the
+node's ``task_names``) is refused by its declaration, before its arrays are parsed or anything is built: the
+node keeps the model it has. While it has none because a document was refused, the suite cannot serve an
+intent: :attr:`ModelFollower.refused` says why, the node asks for clarification with that reason, and the
+diagnostics component is at ERROR. A refusal that leaves the node serving its previous model is a rejected
+input (WARN until the next input is processed); the status value :data:`KEY_REFUSED` keeps the reason and the
+model still served until a document is accepted. :meth:`ModelFollower.recheck` reads the newest document
+again when the requirements change.
+
 A thread of its own is not enough under the GIL. Reading a document allocates some 100,000 objects,
 enough to set off a full garbage collection, which in a process with numba, scipy and pinocchio loaded
 holds the GIL for a few hundred milliseconds; and a planning thread that releases the GIL in every numpy
@@ -25,25 +34,40 @@ import gc
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 
 from rclpy.node import Node
 from std_msgs.msg import String
 
-from ..protocol import MODEL_ACTIVE, ModelDocument, read_model_document
+from ..core.errors import GraspIntentError
+from ..core.features import MICO_3F
+from ..core.model import ModelRequirements
+from ..protocol import ERROR, MODEL_ACTIVE, OK, ModelDocument, read_model_document
 from .diagnostics import NodeDiagnostics
 from .inputs import subscribe_input
 from .qos import latched_qos
 from .run import release_free_memory
 from .worker import LatestOnlyWorker
 
-__all__ = ['ModelFollower', 'READ_SWITCH_INTERVAL', 'yielding_reader']
+__all__ = ['ModelFollower', 'KEY_REFUSED', 'READ_SWITCH_INTERVAL', 'served_models', 'yielding_reader']
 
 READ_SWITCH_INTERVAL = 5e-4
 """The GIL switch interval while a document is read, s (Python's default: 5e-3)."""
 
 _reading = threading.Lock()
+
+KEY_REFUSED = 'model document refused'
+"""Status value: why the newest ``model/active`` document was refused, and the model still served ('' if none was)."""
+
+
+def served_models(task_names: Sequence[str]) -> ModelRequirements:
+    """The models the suite serves: the MICO 3-finger features (the planner maps them to a pose) and ``task_names``.
+
+    One rule for every node, so that the model server publishes, and the interpreter and the planner
+    activate, the same models.
+    """
+    return ModelRequirements(task_names=tuple(task_names), feature_names=MICO_3F.names)
 
 
 @contextmanager
@@ -75,16 +99,23 @@ class ModelFollower:
         Counts the documents read and rejected (oversized, malformed, or refused by ``use``).
     use : callable
         ``use(document)``, called in the follower's thread with each new document read completely; it
-        raises a GraspIntentError to refuse the model (then the node keeps its current one).
+        raises a GraspIntentError to refuse the model (then the node keeps its current one). With
+        ``None`` when a document is refused and the node has no model it serves (:attr:`refused` says why).
+    requires : callable
+        ``requires()``: the node's :class:`~grasp_intent_ros.core.model.ModelRequirements` now (e.g.
+        :func:`served_models` of its ``task_names``), read for every document.
     name : str
         Name of the thread.
     """
 
-    def __init__(self, node: Node, diagnostics: NodeDiagnostics, use: Callable[[ModelDocument], object], *,
-                 name: str) -> None:
-        self._diagnostics, self._use = diagnostics, use
+    def __init__(self, node: Node, diagnostics: NodeDiagnostics, use: Callable[[ModelDocument | None], object], *,
+                 requires: Callable[[], ModelRequirements], name: str) -> None:
+        self._diagnostics, self._use, self._requires = diagnostics, use, requires
         self.current: ModelDocument | None = None
-        """The last document ``use`` accepted."""
+        """The last document ``use`` accepted (None after :meth:`recheck` refused it)."""
+        self.refused = ''
+        """Why the newest document was refused ('' if it was not): while :attr:`current` is None, why the
+        node cannot serve."""
         self._worker: LatestOnlyWorker[str | None] = LatestOnlyWorker(
             None, diagnostics.guard(self._read, counts_received=False), ready=lambda text: text is not None,
             name=name)
@@ -96,16 +127,45 @@ class ModelFollower:
         text = msg.data  # stored as is: the executor thread does no work on a document
         self._worker.update(lambda _: text)
 
+    def recheck(self) -> None:
+        """Read the newest document again (in the follower's thread): the node's requirements changed.
+
+        A current model they refuse is dropped (``use(None)``); a refused document they accept is used.
+        """
+        self._worker.update(lambda text: text)
+
     def _read(self, text: str | None) -> None:
         assert text is not None  # ready() holds back the initial None
         self._diagnostics.set_value('model documents superseded', self._worker.superseded)
         start = time.perf_counter()
-        with yielding_reader():
-            doc = read_model_document(text, previous=self.current)  # checks the size first
-        self._diagnostics.set_value('last model read time [ms]', f'{1e3 * (time.perf_counter() - start):.1f}')
-        self._use(doc)
-        self.current = doc
+        try:
+            with yielding_reader():  # the size first, then the header, the declaration, the arrays
+                doc = read_model_document(text, previous=self.current, requires=self._requires())
+            self._use(doc)
+        except GraspIntentError as exc:
+            self._refuse(str(exc))
+            raise
+        finally:
+            self._diagnostics.set_value('last model read time [ms]', f'{1e3 * (time.perf_counter() - start):.1f}')
+        self.current, self.refused = doc, ''
+        self._diagnostics.set_state(OK, '')
+        self._diagnostics.set_value(KEY_REFUSED, '')
         release_free_memory()  # what the reading freed (see release_free_memory)
+
+    def _refuse(self, reason: str) -> None:
+        """The newest document is refused: keep the current model while the requirements (maybe changed) serve it."""
+        if self.current is not None:
+            try:
+                self._requires().check(self.current.model.task_names, self.current.model.feature_names)
+            except GraspIntentError:
+                self.current = None
+        self.refused = f'{MODEL_ACTIVE}: {reason}'
+        if self.current is None:
+            self._diagnostics.set_state(ERROR, f'cannot serve: {self.refused}')
+            self._diagnostics.set_value(KEY_REFUSED, self.refused)
+            self._use(None)
+        else:
+            self._diagnostics.set_value(KEY_REFUSED, f'{self.refused}; still serving with model {self.current.name!r}')
 
     def stop(self) -> None:
         """Stop the reading thread (after the document it is reading)."""

@@ -27,7 +27,11 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-__all__ = ['ParamSpec', 'Parameters', 'ParameterError', 'declare_parameters', 'one_of', 'finite_vector']
+from ..core.errors import InvalidIntentError
+from ..core.intent import DEFAULT_TASKS, MAX_TASKS, all_zones
+
+__all__ = ['ParamSpec', 'Parameters', 'ParameterError', 'declare_parameters', 'one_of', 'finite_vector',
+           'check_task_names', 'TASK_NAMES']
 
 Validator = Callable[[Any], object]
 """Called with a proposed value; raises ValueError (e.g. a core GraspIntentError) with the reason."""
@@ -115,6 +119,24 @@ class ParamSpec:
             constraints = constraints or f'in [{low}, {high}]'
         desc.additional_constraints = constraints
         return desc
+
+
+def check_task_names(names: Sequence[str]) -> None:
+    """1..MAX_TASKS unique, non-empty names without commas. Raises InvalidIntentError."""
+    all_zones(len(names))
+    if any(not n or ',' in n or n != n.strip() for n in names):
+        raise InvalidIntentError(f'task names must be non-empty, without commas or surrounding spaces: '
+                                 f'{list(names)}')
+    if len(set(names)) != len(names):
+        raise InvalidIntentError(f'task names must be unique: {list(names)}')
+
+
+TASK_NAMES = ParamSpec(
+    'task_names', DEFAULT_TASKS,
+    'Names of the m principal tasks, in the order of the entries of w (m = expected length of w). The same '
+    'list on every node of the suite: a model of other tasks is refused.',
+    validator=check_task_names, constraints=f'1..{MAX_TASKS} unique names without commas')
+"""The suite's tasks: the interpreter reads w by them; every node serves only models of these tasks."""
 
 
 def _is_sequence(value: Any) -> bool:

@@ -59,7 +59,8 @@ OPTIONAL_NODES: tuple[str, ...] = ()
 MAX_DOMAIN_ID = 101
 """Largest ROS domain id usable with LOCALHOST discovery."""
 FASTDDS_PROFILE = 'fastdds_loopback.xml'
-"""Fast DDS profile in the config directory: user data over UDP on 127.0.0.1, announcements every 0.1 s.
+"""Fast DDS profile in the config directory: user data over UDP on 127.0.0.1, announcements every 0.1 s, and
+sample payloads held only while a sample is (so a peer's huge message does not leave its size in memory).
 
 So a node restarted after a SIGKILL serves again sooner: its peers reach it at once (over shared memory they
 kept writing into the killed process's port for up to a few seconds), and it learns of a peer from the peer's
@@ -95,8 +96,9 @@ def use_loopback_discovery(environ: MutableMapping[str, str] | None = None) -> s
     """Set ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and drop ``ROS_STATIC_PEERS``; the range replaced.
 
     In ``environ`` (default ``os.environ``), before this process initialises rclpy. Also sets the suite's
-    Fast DDS profile (:data:`FASTDDS_PROFILE`) unless FASTRTPS_DEFAULT_PROFILES_FILE is set. Returns the
-    range it replaced (None if unset).
+    Fast DDS profile (:data:`FASTDDS_PROFILE`) unless FASTRTPS_DEFAULT_PROFILES_FILE is set, and with it
+    RMW_FASTRTPS_USE_QOS_FROM_XML=1, without which rmw_fastrtps ignores the profile's history memory policy
+    (the profile's comment says why it matters). Returns the range it replaced (None if unset).
     """
     env = os.environ if environ is None else environ
     previous = env.get('ROS_AUTOMATIC_DISCOVERY_RANGE')
@@ -110,6 +112,7 @@ def use_loopback_discovery(environ: MutableMapping[str, str] | None = None) -> s
         return previous
     if profile.is_file():
         env['FASTRTPS_DEFAULT_PROFILES_FILE'] = str(profile)
+        env['RMW_FASTRTPS_USE_QOS_FROM_XML'] = '1'
     return previous
 
 
@@ -127,7 +130,8 @@ def node_environment(domain_id: int, base: Mapping[str, str] | None = None) -> d
     -------
         ``base`` with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, ROS_DOMAIN_ID, PYTHONUNBUFFERED=1 and
         RCUTILS_LOGGING_BUFFERED_STREAM=0 set and ROS_STATIC_PEERS removed; FASTRTPS_DEFAULT_PROFILES_FILE
-        is the config directory's :data:`FASTDDS_PROFILE` unless ``base`` sets it (or there is none).
+        is the config directory's :data:`FASTDDS_PROFILE` (and RMW_FASTRTPS_USE_QOS_FROM_XML=1) unless
+        ``base`` sets it (or there is none).
     """
     env = {**(os.environ if base is None else base), 'ROS_DOMAIN_ID': str(domain_id), 'PYTHONUNBUFFERED': '1',
            'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}

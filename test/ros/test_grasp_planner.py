@@ -540,6 +540,39 @@ def test_clarification_needed_and_model_switch(make_rig: Callable[..., Rig], tin
     assert_allclose(switched.x, core_plan(kin, seven, v).x, atol=1e-6)
 
 
+def test_a_model_the_suite_cannot_serve_is_refused_and_every_v_clarified_until_one_is_served(
+        make_rig: Callable[..., Rig], model: GraspModel) -> None:
+    doc = model.to_document()
+    doc['task_names'] = ['use', 'throw', 'hold']  # the same zone labels, other tasks
+    other = GraspModel.from_document(doc)
+    rig = make_rig(None)
+    clarifications = rig.ros.subscribe(String, 'intent/clarification')
+    rig.model_pub.publish(model_to_msg(other, name='other_tasks', version=1))
+    refused = ("model/active: model 'other_tasks' refused: its tasks [use, throw, hold] are not the task_names "
+               '[usage, transfer, handover]')
+    error = lambda text: lambda: [s for s in rig.statuses if s.level == DiagnosticStatus.ERROR  # noqa: E731
+                                  and s.message == f'cannot serve: {text}']
+    assert rig.ros.wait_for(error(refused), 10.0), [s.message for s in rig.statuses]
+    start = rig.now()
+    for n in (1, 2):  # each v: one clarification with the reason, no plan
+        assert rig.ros.publish_until(rig.v_pub, v_msg(interpret(W_GOOD).v), lambda n=n: len(clarifications) >= n,
+                                     timeout=10.0)
+    assert [m.data for m in clarifications[:2]] == [f'cannot serve: {refused}'] * 2
+    assert rig.grasps.stamps_after(start) == []
+    # a served model: the last v is planned, the ERROR clears
+    plan = rig.request(model_to_msg(model, name='cup', version=2), rig.model_pub)
+    assert plan.posterior.zone_labels == model.zone_labels
+    assert rig.ros.wait_for(lambda: rig.node._inputs_diag.status().level != DiagnosticStatus.ERROR)
+    # the suite's tasks change: the latched model is read again and refused, so nothing is left to plan with
+    assert rig.node.set_parameters([Parameter('task_names', value=['use', 'throw', 'hold'])])[0].successful
+    assert rig.ros.wait_for(error("model/active: model 'cup' refused: its tasks [usage, transfer, handover] are "
+                                  'not the task_names [use, throw, hold]'), 10.0)
+    n = len(clarifications)
+    assert rig.ros.publish_until(rig.v_pub, v_msg(interpret(W_GOOD).v), lambda: len(clarifications) > n,
+                                 timeout=10.0)
+    assert clarifications[-1].data.startswith("cannot serve: model/active: model 'cup' refused")
+
+
 def test_planning_goes_on_with_the_current_model_while_a_new_one_is_read(
         make_rig: Callable[..., Rig], tiny: dict[str, GraspModel], monkeypatch: pytest.MonkeyPatch) -> None:
     five, seven = tiny['cup_5zone'], tiny['cup_7zone']

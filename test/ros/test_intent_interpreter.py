@@ -217,17 +217,27 @@ def test_active_model_zones_decide_whether_the_intent_can_be_served(ros, interpr
     assert len(clarifications) == 1
 
 
-def test_model_of_other_tasks_is_not_used(ros, interpreter):
+def test_a_model_of_other_tasks_is_refused_and_every_intent_is_clarified_until_one_is_served(ros, interpreter):
     from grasp_intent_ros.ros.qos import latched_qos
     node, w_pub, v_msgs, clarifications = interpreter
     assert node.set_parameters([Parameter('task_names', value=['grasp', 'lift', 'give'])])[0].successful
     statuses = ros.diagnostics()
     ros.publisher(String, 'model/active', latched_qos()).publish(_model_doc('cup_4zone'))
+    refused = "model/active: model 'cup_4zone' refused: its tasks [usage, transfer, handover] are not the " \
+              'task_names [grasp, lift, give]'
     values = lambda s: {kv.key: kv.value for kv in s.values}  # noqa: E731
-    assert ros.wait_for(lambda: any('differ from task_names' in values(s).get('active model', '')
-                                    for s in statuses))
-    assert ros.publish_until(w_pub, w_msg([0.9, 0.0, 0.0]), lambda: v_msgs)
-    assert clarifications == []
+    assert ros.wait_for(lambda: any(s.level == DiagnosticStatus.ERROR and s.message == f'cannot serve: {refused}'
+                                    for s in statuses)), [s.message for s in statuses]
+    # every w gets one clarification with the reason, and no v
+    for n in (1, 2):
+        assert ros.publish_until(w_pub, w_msg([0.9, 0.9, 0.1]), lambda n=n: len(clarifications) >= n)
+    assert [m.data for m in clarifications[:2]] == [f'cannot serve: {refused}'] * 2 and v_msgs == []
+    assert values(statuses[-1])['active model'] == f'none: {refused}'
+    # the suite's tasks again: the latched model is read again and served, the status recovers
+    assert node.set_parameters([Parameter('task_names', value=['usage', 'transfer', 'handover'])])[0].successful
+    assert ros.wait_for(lambda: values(node._diagnostics.status())['active model'].startswith('cup_4zone'))
+    assert ros.publish_until(w_pub, w_msg([0.9, 0.9, 0.1]), lambda: v_msgs)
+    assert ros.wait_for(lambda: node._diagnostics.status().level == DiagnosticStatus.OK)
 
 
 @pytest.mark.parametrize('kind', ['alias bomb', 'nested too deeply', 'oversized'])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -137,6 +138,32 @@ def test_unknown_initial_model_fails_construction(ros, tiny_models):
     with pytest.raises(ParameterError, match='known: broken, cup_5zone, cup_7zone'):
         ModelServer(context=ros.context, parameter_overrides=[
             Parameter('models_dir', value=str(tiny_models[0])), Parameter('model', value='mug')])
+
+
+def test_a_model_the_suite_cannot_serve_is_never_published(ros, tiny_models, tmp_path):
+    """A model of other tasks is refused at start and on a change; task_names and the model change together."""
+    cup = tiny_models[1]['cup_7zone']
+    doc = cup.to_document()
+    doc['task_names'] = ['use', 'throw', 'hold']  # the same zone labels, other tasks
+    GraspModel.from_document(doc).save(tmp_path / 'other_tasks.yaml')
+    cup.save(tmp_path / 'cup_7zone.yaml')
+    refused = ("model 'other_tasks' refused: its tasks [use, throw, hold] are not the task_names "
+               '[usage, transfer, handover]')
+    with pytest.raises(ParameterError, match=re.escape(refused)):
+        ModelServer(context=ros.context, parameter_overrides=[
+            Parameter('models_dir', value=str(tmp_path)), Parameter('model', value='other_tasks')])
+    server = ros.add(ModelServer(context=ros.context, parameter_overrides=[
+        Parameter('models_dir', value=str(tmp_path))]))
+    active = latched(ros, String, 'model/active')
+    assert ros.wait_for(lambda: active)
+    result = server.set_parameters([Parameter('model', value='other_tasks')])[0]
+    assert not result.successful and refused in result.reason
+    result = server.set_parameters([Parameter('task_names', value=['use', 'throw', 'hold'])])[0]
+    assert not result.successful and "model 'cup_7zone' refused" in result.reason, 'the active model must fit'
+    assert server.set_parameters_atomically([Parameter('task_names', value=['use', 'throw', 'hold']),
+                                             Parameter('model', value='other_tasks')]).successful
+    assert ros.wait_for(lambda: len(active) > 1)
+    assert [model_from_msg(m).name for m in active] == ['cup_7zone', 'other_tasks']
 
 
 def test_describe_lists_the_available_models_and_follows_the_directory(ros, tiny_models, tmp_path):

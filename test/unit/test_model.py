@@ -10,6 +10,7 @@ import pytest
 import yaml
 from numpy.testing import assert_allclose
 
+from grasp_intent_ros.core import model as model_module
 from grasp_intent_ros.core.data import Demonstrations, load_csv, save_csv
 from grasp_intent_ros.core.errors import DataError, InvalidFeaturesError, ModelError, ModelFormatError
 from grasp_intent_ros.core.features import MICO_3F
@@ -18,10 +19,12 @@ from grasp_intent_ros.core.model import (
     ALIAS,
     MAX_DOCUMENT_CHARS,
     MAX_DOCUMENT_DEPTH,
+    MAX_FEATURE_DIM,
     NOT_YAML,
     TOO_DEEP,
     ZONE_STRUCTURES,
     GraspModel,
+    ModelRequirements,
     _precisions_and_log_norms,
     parse_document,
     structure_zones,
@@ -130,7 +133,7 @@ def test_yaml_round_trip(tmp_path, toy_model: GraspModel) -> None:  # type: igno
 @pytest.mark.parametrize(('mutate', 'match'), [
     (lambda d: d.pop('zone_models'), 'lacks field'),
     (lambda d: d.__setitem__('format_version', 99), 'format_version'),
-    (lambda d: d['zone_models'][0].__setitem__('mean', [0.0]), 'shape'),
+    (lambda d: d['zone_models'][0].__setitem__('mean', [0.0]), r'zone_models\[0\].mean must have 10 values'),
     (lambda d: d['zone_models'][0].__setitem__('covariance', (-np.eye(10)).tolist()), 'positive definite'),
     (lambda d: d['zone_models'][1].__setitem__('prior', 5.0), 'priors'),
     (lambda d: d.__setitem__('zones', ['U', 'X']), 'unknown zone'),
@@ -351,3 +354,73 @@ def test_a_covariance_that_is_not_positive_definite_is_refused(cov: np.ndarray) 
 def test_a_covariance_whose_inverse_overflows_is_refused() -> None:
     with pytest.raises(ModelFormatError, match='too close to singular'):
         _precisions_and_log_norms(np.diag([1.0, 1e-310, 1.0])[None], np.ones(1))
+
+
+# ---------------------------------------------------------------------------------------------- cheap checks first
+SERVED = ModelRequirements(task_names=DEFAULT_TASKS, feature_names=MICO_3F.names)
+UNPARSABLE_TAIL = 'zzz: [unclosed\n'
+"""Invalid YAML after a document's arrays: a reader that reports it, rather than the declaration, read them all."""
+
+
+def _text(doc: dict) -> str:  # type: ignore[type-arg]
+    return yaml.safe_dump(doc, sort_keys=False)
+
+
+@pytest.fixture
+def no_model_built(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Building a model (the covariances' Cholesky, the expensive step) fails the test."""
+    def built(*_: object) -> None:
+        raise AssertionError('the model was built')
+    monkeypatch.setattr(model_module, '_precisions_and_log_norms', built)
+
+
+@pytest.mark.parametrize(('mutate', 'error', 'reason'), [
+    (lambda d: d.__setitem__('task_names', [f'task{i}' for i in range(10)]), ModelError,
+     r'its tasks \[task0, task1, .*\] are not the task_names \[usage, transfer, handover\]'),
+    (lambda d: d['features'][0].__setitem__('name', 'wrist_x'), ModelError, "its features .* are not the robot's"),
+    (lambda d: d.__setitem__('features', [dict(f) for f in d['features'] * 48]), ModelFormatError,
+     f'features must list 1 to {MAX_FEATURE_DIM} features, got 480'),
+    (lambda d: d.__setitem__('task_names', [f't{i}' for i in range(11)]), ModelFormatError,
+     'task_names must list 1 to 10 tasks, got 11'),
+    (lambda d: d.__setitem__('zones', d['zones'] + ['U']), ModelFormatError, 'zones must list 1 to 7 zones'),
+    (lambda d: d.__setitem__('format_version', 2), ModelFormatError, 'unsupported model format_version'),
+])
+def test_a_document_is_refused_by_its_declaration_before_its_arrays_are_parsed(
+        toy_model: GraspModel, no_model_built: None, mutate, error, reason) -> None:  # type: ignore[no-untyped-def]
+    """A document is refused by what it declares, before its arrays are parsed and before any model is built.
+
+    Timing-free: the arrays are followed by invalid YAML, so a refusal that names the declaration was made
+    before the parser got there; and building a model fails the test (``no_model_built``).
+    """
+    doc = toy_model.to_document()
+    mutate(doc)
+    with pytest.raises(error, match=reason):
+        GraspModel.from_yaml(_text(doc) + UNPARSABLE_TAIL, requires=SERVED)
+
+
+def test_the_declaration_must_come_before_the_arrays(toy_model: GraspModel, no_model_built: None) -> None:
+    doc = toy_model.to_document()
+    arrays_first = {'zone_models': doc.pop('zone_models'), **doc}
+    with pytest.raises(ModelFormatError, match="lists 'zone_models' before declaring format_version, task_names"):
+        GraspModel.from_yaml(_text(arrays_first) + UNPARSABLE_TAIL)
+
+
+@pytest.mark.parametrize(('mutate', 'reason'), [
+    (lambda d: d['demonstrations'][-1].__setitem__('x', [0.0] * 11),
+     r'demonstrations\[\d+\].x must have 10 values \(one per feature\), got 11'),
+    (lambda d: d['task_models'][2]['covariance'][9].append(0.0), r'task_models\[2\].covariance\[9\] must have 10'),
+    (lambda d: d['zone_models'].pop(), 'zone_models must list 7 entries'),
+    (lambda d: d.__setitem__('demonstrations', []), 'demonstrations must list at least one'),
+])
+def test_arrays_of_the_wrong_size_are_refused_before_the_model_is_built(
+        toy_model: GraspModel, no_model_built: None, mutate, reason) -> None:  # type: ignore[no-untyped-def]
+    doc = toy_model.to_document()
+    mutate(doc)
+    with pytest.raises(ModelFormatError, match=reason):
+        GraspModel.from_yaml(_text(doc), requires=SERVED)
+
+
+def test_a_served_model_reads_as_without_requirements(toy_model: GraspModel) -> None:
+    text = toy_model.to_yaml()
+    assert GraspModel.from_yaml(text, requires=SERVED).to_yaml() == text
+    assert GraspModel.from_yaml(text, requires=ModelRequirements()).to_yaml() == text

@@ -32,24 +32,32 @@ def test_node_environment_is_loopback_only_and_unbuffered() -> None:
     env = node_environment(42, base)
     assert env == {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': '42', 'HOME': '/home/x',
                    'PYTHONUNBUFFERED': '1', 'RCUTILS_LOGGING_BUFFERED_STREAM': '0',
-                   'FASTRTPS_DEFAULT_PROFILES_FILE': str(config_dir() / FASTDDS_PROFILE)}
+                   'FASTRTPS_DEFAULT_PROFILES_FILE': str(config_dir() / FASTDDS_PROFILE),
+                   'RMW_FASTRTPS_USE_QOS_FROM_XML': '1'}
     assert base['ROS_STATIC_PEERS'] == '10.0.0.1'  # not modified
-    assert node_environment(42, {**base, 'FASTRTPS_DEFAULT_PROFILES_FILE': 'mine.xml'})[
-        'FASTRTPS_DEFAULT_PROFILES_FILE'] == 'mine.xml', "the user's own profile is kept"
+    mine = node_environment(42, {**base, 'FASTRTPS_DEFAULT_PROFILES_FILE': 'mine.xml'})
+    assert mine['FASTRTPS_DEFAULT_PROFILES_FILE'] == 'mine.xml', "the user's own profile is kept"
+    assert 'RMW_FASTRTPS_USE_QOS_FROM_XML' not in mine, 'and rmw_fastrtps uses it as the user chose'
 
 
-def test_fastdds_profile_sets_timing_and_loopback_data_locators_only() -> None:
-    """The profile changes discovery timing and puts user data on UDP 127.0.0.1; never transports or peers.
+def test_fastdds_profile_sets_timing_loopback_data_locators_and_payload_memory_only() -> None:
+    """The profile sets discovery timing, user data on UDP 127.0.0.1, payload memory; never transports or peers.
 
     Which interfaces and peers discovery uses stays with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; the one
-    locator the profile sets is the loopback address (the file's comment says why).
+    locator the profile sets is the loopback address (the file's comment says why). Readers and writers
+    hold a payload only while its sample is held (DYNAMIC), without data sharing.
     """
     import xml.etree.ElementTree as ET
     ns = {'p': 'http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles'}
     root = ET.parse(config_dir() / FASTDDS_PROFILE).getroot()
     participants = root.findall('p:participant', ns)
     assert len(participants) == 1 and participants[0].get('is_default_profile') == 'true'
-    assert [child.tag.split('}')[1] for child in root] == ['participant']
+    assert [child.tag.split('}')[1] for child in root] == ['participant', 'data_writer', 'data_reader']
+    for endpoint in root.findall('p:data_writer', ns) + root.findall('p:data_reader', ns):
+        assert endpoint.get('is_default_profile') == 'true'
+        assert [(child.tag.split('}')[1], (child.text or '').strip()) for child in endpoint] == [
+            ('historyMemoryPolicy', 'DYNAMIC'), ('qos', '')]
+        assert endpoint.find('p:qos/p:data_sharing/p:kind', ns).text == 'OFF'
     discovery = participants[0].find('p:rtps/p:builtin/p:discovery_config', ns)
     assert discovery is not None
     assert sorted(child.tag.split('}')[1] for child in discovery) == ['initialAnnouncements', 'leaseAnnouncement']
@@ -114,7 +122,8 @@ def test_loopback_discovery_is_set_in_the_given_environment() -> None:
     env = {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET', 'ROS_STATIC_PEERS': '10.0.0.1'}
     assert use_loopback_discovery(env) == 'SUBNET'
     assert env == {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
-                   'FASTRTPS_DEFAULT_PROFILES_FILE': str(config_dir() / FASTDDS_PROFILE)}
+                   'FASTRTPS_DEFAULT_PROFILES_FILE': str(config_dir() / FASTDDS_PROFILE),
+                   'RMW_FASTRTPS_USE_QOS_FROM_XML': '1'}
     mine = {'FASTRTPS_DEFAULT_PROFILES_FILE': 'mine.xml'}
     assert use_loopback_discovery(mine) is None
     assert mine == {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'FASTRTPS_DEFAULT_PROFILES_FILE': 'mine.xml'}
