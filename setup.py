@@ -10,6 +10,7 @@ CONSOLE_SCRIPTS = {  # script name -> module (python -m grasp_intent_ros.<name> 
     'intent_interpreter': 'intent_interpreter',
     'model_server': 'model_server',
     'grasp_planner': 'grasp_planner',
+    'viewer': 'viewer',
     'send_intent': 'tools.send_intent',
     'demo': 'tools.demo',
     'recorder': 'tools.recorder',
@@ -50,8 +51,10 @@ setup(
     ],
     extras_require={
         'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-common-interfaces'],
+        # the browser viewer (python -m grasp_intent_ros.viewer); viser has no rosdep key (package.xml says so)
+        'viewer': ['viser>=1.1'],
         'test': ['pytest>=7', 'pytest-timeout>=2', 'hypothesis>=6', 'mypy>=1.9', 'types-PyYAML', 'ruff>=0.4',
-                 'mcap-ros2-support>=0.5', 'colcon-core>=0.15', 'colcon-ros>=0.4'],
+                 'mcap-ros2-support>=0.5', 'colcon-core>=0.15', 'colcon-ros>=0.4', 'viser>=1.1'],
     },
     zip_safe=True,
     maintainer='grasp_intent_ros developers',

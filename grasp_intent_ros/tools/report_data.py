@@ -29,7 +29,6 @@ from numpy.typing import NDArray
 from .. import protocol as topics
 from ..bag import BagError, TopicInfo, read_messages, topics_info
 from ..core.errors import GraspIntentError
-from ..core.features import MICO_3F
 from ..core.intent import default_task_names
 from ..core.model import GraspModel
 from ..protocol import (
@@ -37,10 +36,9 @@ from ..protocol import (
     Stamp,
     msg_labels,
     msg_to_array,
+    read_features,
     read_model_document,
     read_posterior,
-    split_labels,
-    stamped_values,
 )
 from .outputs import Rejection, RejectionTracker, SessionError
 from .session import detect_namespace
@@ -149,13 +147,7 @@ def _take(session: Session, role: str, stamp: int, msg: Any) -> None:
     elif role == 'posterior':
         session.posteriors.append((stamp, read_posterior(msg)))
     elif role == 'features':
-        x, label, _ = stamped_values(msg, what='grasp/features', require_stamp=False)
-        names = split_labels(label)
-        if set(MICO_3F.names) <= set(names) and len(names) == x.size:
-            x = x[[names.index(n) for n in MICO_3F.names]]
-        elif x.size != MICO_3F.dim:
-            raise GraspIntentError(f'grasp/features must have {MICO_3F.dim} values, got {x.size}')
-        session.features.append((stamp, x))
+        session.features.append((stamp, read_features(msg)[0]))
     elif role == 'model':
         try:
             doc = read_model_document(msg.data)
