@@ -17,6 +17,7 @@ CONSOLE_SCRIPTS = {  # script name -> module (python -m grasp_intent_ros.<name> 
     'reindex': 'tools.reindex',
     'replay': 'tools.replay',
     'report': 'tools.report',
+    'playback': 'tools.playback',
     'paper_tables': 'tools.paper_tables',
     'ambiguity_report': 'tools.ambiguity_report',
     'generate_data': 'dataset.generate_data',

@@ -13,7 +13,7 @@ of the grasp in the object frame (``grasp/features``), when both carry the same 
 The tasks a planned grasp serves are judged by the rules of the object
 (:data:`grasp_intent_ros.dataset.demos.OBJECTS`) when the active model is known to be of that object:
 its name is the object's name or starts with ``<object>_`` (``cup_7zone``), and its task names are the
-rules' (:func:`served_tasks`).
+rules' (:func:`~grasp_intent_ros.scene.plan.served_tasks`).
 """
 
 from __future__ import annotations
@@ -27,10 +27,7 @@ from numpy.typing import NDArray
 
 from .. import protocol as topics
 from ..core.errors import GraspIntentError
-from ..core.features import MICO_3F
-from ..core.frames import features_to_obj_T_ee
 from ..core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS
-from ..dataset.demos import OBJECTS
 from ..protocol import (
     ModelDocument,
     Posterior,
@@ -42,9 +39,10 @@ from ..protocol import (
     read_posterior,
 )
 from ..ros.robot import joint_positions, pose_msg_to_matrix
+from .plan import plan_object_pose, served_tasks
 
 __all__ = ['OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA', 'VIEWER_TOPICS', 'SceneState', 'apply',
-           'served_tasks', 'plan_status']
+           'plan_status']
 
 OPERATOR_TWIST: Final = 'operator/twist'
 """The operator's command (geometry_msgs/TwistStamped), published by the assistance node's operator input."""
@@ -76,8 +74,8 @@ class SceneState:
     ----------
     q_live, fingers_live : ndarray, shape (6,) and (3,)
         ``joint_states``: arm joint angles and finger closures (rad).
-    q_target, fingers_target : ndarray, shape (6,) and (3,)
-        ``grasp/joint_targets`` of the newest plan.
+    q_target, fingers_target, targets_stamp : ndarray, shape (6,) and (3,), Stamp
+        ``grasp/joint_targets`` of the newest plan, and its stamp.
     base_T_obj : ndarray, shape (4, 4)
         The newest ``object/pose``, in the base frame.
     plan_T_obj : ndarray, shape (4, 4)
@@ -106,6 +104,7 @@ class SceneState:
     fingers_live: NDArray[np.float64] | None = None
     q_target: NDArray[np.float64] | None = None
     fingers_target: NDArray[np.float64] | None = None
+    targets_stamp: Stamp | None = None
     base_T_obj: NDArray[np.float64] | None = None
     plan_T_obj: NDArray[np.float64] | None = None
     model: ModelDocument | None = None
@@ -129,24 +128,19 @@ class SceneState:
         return self.base_T_obj if self.base_T_obj is not None else self.plan_T_obj
 
     @property
+    def plan_stamp(self) -> Stamp | None:
+        """The stamp of the newest plan once its pose, joint targets, features and posterior have all arrived."""
+        stamp = self.ee_stamp
+        complete = stamp is not None and self.posterior is not None and \
+            stamp == self.targets_stamp == self.x_stamp == self.posterior.stamp
+        return stamp if complete else None
+
+    @property
     def served(self) -> tuple[str, ...] | None:
         """The tasks the planned grasp serves by its object's rules; None when they are not known."""
         if self.x is None or self.model is None:
             return None
         return served_tasks(self.model.name, self.model.model.task_names, self.x)
-
-
-def served_tasks(model_name: str, task_names: tuple[str, ...], x: NDArray[np.float64]) -> tuple[str, ...] | None:
-    """The tasks whose rule grasp ``x`` satisfies, by the rules of the model's object; None if not known.
-
-    The object is the one of :data:`~grasp_intent_ros.dataset.demos.OBJECTS` whose name is ``model_name`` or
-    its prefix before ``_``, with the same task names (module docstring).
-    """
-    rules = OBJECTS.get(model_name) or OBJECTS.get(model_name.partition('_')[0])
-    if rules is None or rules.task_names != task_names or x.size != MICO_3F.dim:
-        return None
-    mask = rules.label(x)
-    return tuple(name for i, name in enumerate(task_names) if mask >> i & 1)
 
 
 def plan_status(msg: Any) -> str | None:
@@ -175,7 +169,7 @@ def _with_plan_object(state: SceneState) -> SceneState:
     """``plan_T_obj`` from a pose and features of the same plan (same stamp)."""
     if state.base_T_ee is None or state.x is None or state.ee_stamp != state.x_stamp:
         return state
-    return replace(state, plan_T_obj=state.base_T_ee @ np.linalg.inv(features_to_obj_T_ee(state.x)))
+    return replace(state, plan_T_obj=plan_object_pose(state.base_T_ee, state.x))
 
 
 def apply(state: SceneState, topic: str, msg: Any) -> SceneState:
@@ -193,7 +187,7 @@ def apply(state: SceneState, topic: str, msg: Any) -> SceneState:
                            fingers_live=state.fingers_live if fingers is None else fingers)
         if q is None:
             raise GraspIntentError(f'{topic} lacks the arm joints {ARM_JOINTS}')
-        return replace(state, q_target=q, fingers_target=fingers)
+        return replace(state, q_target=q, fingers_target=fingers, targets_stamp=_stamp(msg.header))
     if topic == topics.OBJECT_POSE:
         return replace(state, base_T_obj=pose_msg_to_matrix(msg, frame_id=BASE_FRAME))
     if topic == topics.MODEL_ACTIVE:

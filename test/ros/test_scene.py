@@ -29,13 +29,15 @@ from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.scene.geometry import ArmModel, body_shapes
 from grasp_intent_ros.scene.page import ScenePage
 from grasp_intent_ros.scene.panel import panel_html
+from grasp_intent_ros.scene.plan import served_tasks
 from grasp_intent_ros.scene.state import (
     ASSISTANCE_ALPHA,
     OPERATOR_TWIST,
     SceneState,
     apply,
-    served_tasks,
 )
+from grasp_intent_ros.tools.playback import load_timeline
+from grasp_intent_ros.tools.report_data import load_session
 
 REPO = Path(__file__).resolve().parents[2]
 STAMP = Time(sec=12, nanosec=345)
@@ -177,3 +179,24 @@ def test_the_page_is_served_on_loopback_and_draws_any_state(arm: ArmModel, cup: 
         assert 'UTH' in page._panel.content and 't = 1.0 s' in page._panel.content
     finally:
         page.stop()
+
+
+# ------------------------------------------------------------------------------------------ playback
+def test_a_session_s_timeline_holds_each_plan_complete_at_its_time() -> None:
+    bag = REPO / 'bags' / 'cup_paper_cases'
+    timeline = load_timeline(bag)
+    posteriors = [post for _, post in load_session(bag).posteriors]  # the report's own reading
+    assert len(timeline.plans) == len(posteriors) and not timeline.unreadable
+    for k, (t_ns, post) in enumerate(zip(timeline.plans, posteriors), start=1):
+        seconds = (t_ns - timeline.start) * 1e-9
+        state = timeline.at(seconds)
+        assert state.plan_stamp == post.stamp and timeline.plan_index(seconds) == k
+        assert_allclose(state.posterior.p, post.p, rtol=0, atol=0)
+        assert state.q_target is not None and state.object_pose is not None
+    assert timeline.at(-1.0) == SceneState() and timeline.plan_index(-1.0) == 0
+    assert timeline.at(timeline.duration) is timeline.states[-1]
+
+
+def test_unreadable_messages_of_a_session_are_skipped_and_counted() -> None:
+    timeline = load_timeline(REPO / 'bags' / 'bad_inputs')
+    assert sum(timeline.unreadable.values()) > 0 and len(timeline.plans) > 0

@@ -14,6 +14,9 @@ from __future__ import annotations
 import io
 import os
 import re
+import signal
+import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -28,8 +31,11 @@ from websockets.typing import Subprotocol
 
 from grasp_intent_ros.core.kinematics import ARM_JOINTS, HOME_Q
 from grasp_intent_ros.ros.robot import joint_state_msg
+from grasp_intent_ros.tools.report_data import load_session
 from grasp_intent_ros.tools.send_intent import IntentSender
+from grasp_intent_ros.tools.suite import NodeProcess
 
+REPO = Path(__file__).resolve().parents[2]
 TWO_TASK_CUP = (0.9, 0.9, 0.1)
 """The demo's 'inference ambiguity, two tasks' case on cup_7zone (usage and transfer)."""
 STARTUP = 90.0
@@ -127,3 +133,45 @@ def test_the_viewer_keeps_serving_after_100_browser_connections(ros, launch) -> 
         text, _ = wait_for_page(ros, page, ['waiting for the suite'], STARTUP)
     assert 'waiting for the suite' in text
     assert launch.died() == ''
+
+
+def test_a_recorded_session_is_played_back_plan_by_plan(tmp_path: Path) -> None:
+    """The playback page of a shipped session jumps from plan to plan, showing each plan's P."""
+    bag = REPO / 'bags' / 'cup_paper_cases'
+    posteriors = [post for _, post in load_session(bag).posteriors]  # read by the report's code, not playback's
+    proc = NodeProcess([sys.executable, '-m', 'grasp_intent_ros.playback', str(bag), '--port', '0'],
+                       module='playback', env=os.environ, log_dir=tmp_path, cwd=REPO)
+    try:
+        url = wait_for_line(proc.stdout_path, re.compile(r'on (http://127\.0\.0\.1:\d+)'), proc, STARTUP)
+        with Chromium(chromium_path() or '') as browser:
+            page = browser.open(url)
+            wait_for_text(page, f'plan 0 of {len(posteriors)}', STARTUP)
+            for k, post in enumerate(posteriors[:3], start=1):
+                page.evaluate('[...document.querySelectorAll("button")].find(b => b.innerText.includes("next plan"))'
+                              '.click()')
+                text = wait_for_text(page, f'plan {k} of {len(posteriors)}', STARTUP)
+                for label, p in zip(post.zone_labels, post.p):
+                    assert re.search(rf'(^|\n){re.escape(label)}\s+(\d\.\d\d|–)\s+{p:.2f}\s', text), (label, text)
+    finally:
+        proc.stop(signal.SIGINT)
+    assert proc.problem() == '', proc.stderr()
+
+
+def wait_for_line(path: Path, pattern: re.Pattern[str], proc: NodeProcess, timeout: float) -> str:
+    """The first group of ``pattern`` once it appears in the file at ``path`` (written by ``proc``)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if match := pattern.search(path.read_text()):
+            return match.group(1)
+        assert proc.poll() is None, f'{proc.module} exited: {proc.stderr()}'
+        time.sleep(0.05)  # another process writes the file: no event to wait on
+    raise AssertionError(f'{pattern.pattern!r} not in {path} within {timeout} s: {path.read_text()}')
+
+
+def wait_for_text(page: Page, words: str, timeout: float) -> str:
+    """The page's text once it contains ``words``."""
+    deadline = time.monotonic() + timeout
+    while (text := page.text()) and words not in text or not text:
+        assert time.monotonic() < deadline, f'{words!r} not on the page within {timeout} s:\n{text}'
+        time.sleep(0.05)  # the browser updates the page: polled over the DevTools protocol
+    return text
