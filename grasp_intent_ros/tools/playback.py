@@ -139,7 +139,8 @@ class _Player:
         now = float(self.slider.value)
         targets = [t for t in plans if t > now + 1e-6] if direction > 0 else [t for t in plans if t < now - 1e-6]
         if targets:
-            self.slider.value = min(targets) if direction > 0 else max(targets)  # its on_update draws it
+            # its on_update draws it (viser declares the setter, which mypy does not see through the generic handle)
+            self.slider.value = min(targets) if direction > 0 else max(targets)  # type: ignore[misc]
 
     def _draw(self, seconds: float) -> None:
         timeline = self.timeline

@@ -23,6 +23,7 @@ THIRD_PARTY = {
     'numba': ('python3-numba', 'numba'),
     'yaml': ('python3-yaml', 'pyyaml'),
     'matplotlib': ('python3-matplotlib', 'matplotlib'),
+    'mpl_toolkits': ('python3-matplotlib', 'matplotlib'),  # mplot3d ships with matplotlib
     'pinocchio': ('pinocchio', 'pin'),
     'rosbags': ('python3-rosbags-pip', 'rosbags'),
     'pytest': ('python3-pytest', 'pytest'),
