@@ -7,10 +7,10 @@ phase. Phases cycle through ``alone``, ``viewer`` and ``browser`` (``--rounds`` 
 change of the machine's load falls on all three): in a ``viewer`` phase the viewer node runs
 (``python -m grasp_intent_ros.viewer``, a process, subscribed to everything the planner publishes) and draws,
 with no browser; in a ``browser`` phase a headless Chromium page is open on it too, so the viewer sends its
-frames and the browser renders them (software WebGL) on the same machine. Printed per phase and pooled per condition: the latency from publishing a
-v to the probe's receipt of the grasp/joint_targets that answers it (the answer is the output whose stamp lies
-between the publication of v_i and of v_{i+1}), plans made, the planner's and the viewer's CPU, the viewer's
-frames drawn; and the load average.
+frames and the browser renders them (software WebGL) on the same machine. Printed per phase and pooled per
+condition: the latency from publishing a v to the probe's receipt of the grasp/joint_targets that answers it
+(the answer is the output whose stamp lies between the publication of v_i and of v_{i+1}), plans made, the
+planner's and the viewer's CPU, the viewer's frames drawn; and the load average.
 
 Part 2: a Chromium page opens the viewer, waits until the page shows it (the panel's text), and closes, 100
 times. Printed: seconds per cycle, the viewer's RSS and thread count before and after, its
@@ -38,7 +38,6 @@ from _bench import REPO, Probe, cpu_seconds, loopback_domain, paced, percentiles
 
 sys.path.insert(0, str(REPO / 'test'))
 from cdp import INSTALL, Chromium, chromium_path  # noqa: E402 - the tests' DevTools client
-
 
 CONDITIONS = ('alone', 'viewer', 'browser')
 """Part 1's conditions: the planner alone; with the viewer node; with the viewer node and a browser page on it."""
