@@ -52,7 +52,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--period', type=float, default=0.01, help='seconds between two v messages')
     parser.add_argument('--duration', type=float, default=10.0, help='seconds of publishing per phase')
-    parser.add_argument('--rounds', type=int, default=2, help='phases of each condition, alternating')
+    parser.add_argument('--rounds', type=int, default=2, help='phases of each condition, interleaved (0: part 2 only)')
     parser.add_argument('--connections', type=int, default=100, help='browser connections of part 2')
     parser.add_argument('--seed', type=int, default=0)
     args = parser.parse_args()
@@ -143,12 +143,12 @@ def main() -> None:
                                                          f'drawn ({frames / took:.1f}/s)' if frames else ''),
                   flush=True)
         load_after = uptime()
-        for condition in CONDITIONS:
+        for condition in CONDITIONS if phases else ():
             pooled = [ms for c, latency, *_ in phases if c == condition for ms in latency]
             plans = sum(p for c, _, p, *_ in phases if c == condition)
             print(f'pooled {condition:7s}: {plans} plans; latency {percentiles(pooled)}')
-        print(f'[{load_before} -> {load_after}]')
-
+        if phases:
+            print(f'[{load_before} -> {load_after}]')
         connections(args.connections, suite, probe, viewer_status, browser_path, v_pub, messages[0], answers)
     finally:
         probe.close()
@@ -181,6 +181,7 @@ def connections(count: int, suite: Any, probe: Probe, viewer_status: dict[str, s
             page.close()
         took = time.monotonic() - start
         probe.wait_for(lambda: viewer_status.get('browsers connected') == '0', 10.0)
+        connected = viewer_status.get('browsers connected')
         after_rss, after_threads = rss_mb(viewer.pid), threads(viewer.pid)
         answers.clear()
         v_pub.publish(v_msg)
@@ -189,7 +190,7 @@ def connections(count: int, suite: Any, probe: Probe, viewer_status: dict[str, s
         served = probe.wait_for(lambda: 'P(zone | x)' in page.text(), 60.0, poll=0.1)
     print(f'{count} pages opened and closed in {took:.1f} s ({took / count:.2f} s each), {shown} showed the viewer; '
           f'viewer RSS {rss:.0f} -> {after_rss:.0f} MB, threads {nthreads} -> {after_threads}; browsers connected '
-          f'after: {viewer_status.get("browsers connected")}; a last page shows the next plan: '
+          f'after the last close: {connected}; a last page shows the next plan: '
           f'{"yes" if served else "no"}; viewer running: {"yes" if viewer.poll() is None else "no"}')
     print(f'[{load_before} -> {uptime()}]')
 
