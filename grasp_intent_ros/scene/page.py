@@ -14,12 +14,14 @@ The scene (three.js, in the base frame ``m1n6s300_link_base``, +z up):
 
 :meth:`ScenePage.show` sends only what changed since the last call, in one batch. It is called from one
 thread at a time (the caller's renderer); viser serves every browser from its own threads and sends a
-browser that connects the whole current scene.
+browser that connects the whole current scene. viser's share button, which would open a tunnel from its
+public relay to the page, is hidden and its request refused: the page is served on ``host`` alone.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -79,14 +81,20 @@ class ScenePage:
     """
 
     def __init__(self, arm: ArmModel, *, host: str = DEFAULT_HOST, port: int = 8080, title: str = '') -> None:
-        logging.getLogger('websockets').setLevel(logging.ERROR)  # a browser closing mid-handshake is routine
+        # a browser that opens a connection and drops it before the handshake (a preconnect, a closed tab) is
+        # routine: websockets logs it as an error with a traceback, which would read as the process failing
+        logging.getLogger('websockets').setLevel(logging.CRITICAL)
         self.server = viser.ViserServer(host=host, port=port, label=title or None, verbose=False)
+        # viser's share button asks its public relay for a tunnel to this page: never (this machine only)
+        self.server.gui.configure_theme(show_share_button=False)
+        self.server.request_share_url = self._refuse_share_url  # type: ignore[method-assign]
         self._arm = arm
         scene = self.server.scene
         scene.set_up_direction('+z')
         scene.add_grid('/floor', width=1.6, height=1.6, cell_size=0.1, position=(0.3, 0.0, 0.0))
         scene.add_frame('/base', axes_length=0.1, axes_radius=0.004)
-        self.server.initial_camera.position = (0.95, -1.0, 0.6)
+        self.server.initial_camera.fov = math.radians(40.0)
+        self.server.initial_camera.position = (1.1, -1.2, 0.75)
         self.server.initial_camera.look_at = (0.2, -0.2, 0.2)
         shapes = arm.shapes(np.zeros(6))
         self._live = [self._add_shape(f'/arm/{s.name}', s, _rgb(s.rgba), None) for s in shapes]
@@ -100,6 +108,11 @@ class ScenePage:
         self._shown_time = ''
         self._body_key: tuple[str, str] | None = None
         self._body_pose: NDArray[np.float64] | None = None
+
+    @staticmethod
+    def _refuse_share_url(verbose: bool = True) -> None:
+        """What a browser's request for a public share URL gets: none (the page stays on ``host``)."""
+        logging.getLogger(__name__).warning('a browser asked for a public share URL of the page: refused')
 
     @property
     def port(self) -> int:

@@ -162,6 +162,7 @@ def test_the_page_is_served_on_loopback_and_draws_any_state(arm: ArmModel, cup: 
     page = ScenePage(arm, port=0)
     try:
         assert page.server.get_host() == '127.0.0.1'
+        assert page.server.request_share_url() is None  # no tunnel from viser's public relay
         with socket.create_connection(('127.0.0.1', page.port), timeout=5):
             pass
         x = prototype_x(0b011)
