@@ -13,7 +13,8 @@ condition: the latency from publishing a v to the probe's receipt of the grasp/j
 planner's and the viewer's CPU, the viewer's frames drawn; and the load average.
 
 Part 2: a Chromium page opens the viewer, waits until the page shows it (the panel's text), and closes, 100
-times. Printed: seconds per cycle, the viewer's RSS and thread count before and after, its
+times. Printed: seconds per cycle, the viewer's RSS and thread count before and after (and its RSS every 25
+pages), its
 ``browsers connected`` after the last close, and whether a last page still shows the newest plan's P.
 
 Needs Debian's chromium (``apt-get install -y chromium``). Network rule: refuses to run unless
@@ -175,10 +176,13 @@ def connections(count: int, suite: Any, probe: Probe, viewer_status: dict[str, s
         rss, nthreads = rss_mb(viewer.pid), threads(viewer.pid)
         start = time.monotonic()
         shown = 0
-        for _ in range(count):
+        series = [f'{rss:.0f}']
+        for k in range(count):
             page = browser.open(url)
             shown += probe.wait_for(lambda: 'grasp_intent_ros' in page.text(), 30.0, poll=0.05)
             page.close()
+            if (k + 1) % 25 == 0:
+                series.append(f'{rss_mb(viewer.pid):.0f}')
         took = time.monotonic() - start
         probe.wait_for(lambda: viewer_status.get('browsers connected') == '0', 10.0)
         connected = viewer_status.get('browsers connected')
@@ -192,6 +196,7 @@ def connections(count: int, suite: Any, probe: Probe, viewer_status: dict[str, s
           f'viewer RSS {rss:.0f} -> {after_rss:.0f} MB, threads {nthreads} -> {after_threads}; browsers connected '
           f'after the last close: {connected}; a last page shows the next plan: '
           f'{"yes" if served else "no"}; viewer running: {"yes" if viewer.poll() is None else "no"}')
+    print(f'viewer RSS every 25 pages (MB): {" ".join(series)}')
     print(f'[{load_before} -> {uptime()}]')
 
 
