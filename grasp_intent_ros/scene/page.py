@@ -26,8 +26,13 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-import viser
 from numpy.typing import NDArray
+
+try:
+    import viser
+except ModuleNotFoundError as exc:  # the optional extra
+    raise ModuleNotFoundError(f"the viewer needs viser ({exc}): pip install 'grasp_intent_ros[viewer]'",
+                              name=exc.name) from None
 
 from ..core.frames import finger_segments, matrix_to_pose
 from .geometry import ArmModel, Shape, body_shapes
