@@ -94,7 +94,7 @@ __all__ = [
     'ModelHeader', 'ModelDocument', 'model_document', 'parse_model_document', 'read_model_document',
     'OK', 'WARN', 'ERROR', 'STALE', 'LEVEL_NAMES', 'level_value', 'status_name', 'status_values',
     'KEY_RECEIVED', 'KEY_REJECTED', 'KEY_LAST_ERROR', 'KEY_PROCESSING_TIME', 'KEY_DROPPED', 'KEY_PLANS',
-    'KEY_PLANNING_TIME', 'KEY_MODEL', 'KEY_KERNELS_LOAD_TIME', 'KEY_KERNELS_LATE_LOAD_TIME',
+    'KEY_PLANNING_TIME', 'KEY_PLAN_STATUS', 'KEY_MODEL', 'KEY_KERNELS_LOAD_TIME', 'KEY_KERNELS_LATE_LOAD_TIME',
 ]
 
 # ------------------------------------------------------------------------------------------ topics
@@ -665,6 +665,8 @@ KEY_DROPPED: Final = 'messages dropped'
 KEY_PLANS: Final = 'plans'
 """The planner's count of plans made."""
 KEY_PLANNING_TIME: Final = 'last planning time [ms]'
+KEY_PLAN_STATUS: Final = 'last plan status'
+"""What the planner's last plan led to (``grasp published (...)``, ``clarification requested: ...``)."""
 KEY_MODEL: Final = 'model'
 """The planner's model: ``"<name> (version <n>, zones <labels>)"``."""
 KEY_KERNELS_LOAD_TIME: Final = 'compiled kernels load time [ms]'

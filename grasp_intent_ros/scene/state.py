@@ -62,9 +62,6 @@ VIEWER_TOPICS: Final[Mapping[str, str]] = {
 }
 """Every topic the viewer follows (relative names; ``/diagnostics`` absolute) and its message type."""
 
-PLAN_STATUS_KEY: Final = 'last plan status'
-"""The planner's ``planning`` diagnostics key saying what its last plan led to."""
-
 
 @dataclass(frozen=True)
 class SceneState:
@@ -147,7 +144,7 @@ def plan_status(msg: Any) -> str | None:
     """The planner's ``last plan status`` in a DiagnosticArray, else None."""
     for status in msg.status:
         if str(status.name).endswith(': planning'):
-            value = topics.status_values(status).get(PLAN_STATUS_KEY)
+            value = topics.status_values(status).get(topics.KEY_PLAN_STATUS)
             if value is not None:
                 return value
     return None
