@@ -46,8 +46,10 @@ setup(
     ],
     extras_require={
         'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-common-interfaces'],
+        # the browser viewer (python -m grasp_intent_ros viewer); viser has no rosdep key (package.xml says so)
+        'viewer': ['viser>=1.1'],
         'test': ['pytest>=7', 'pytest-timeout>=2', 'hypothesis>=6', 'packaging>=23', 'mypy>=1.9', 'types-PyYAML',
-                 'ruff>=0.4', 'colcon-core>=0.15', 'colcon-ros>=0.4'],
+                 'ruff>=0.4', 'colcon-core>=0.15', 'colcon-ros>=0.4', 'viser>=1.1'],
     },
     zip_safe=True,
     maintainer='grasp_intent_ros developers',

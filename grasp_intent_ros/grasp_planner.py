@@ -78,6 +78,7 @@ from .protocol import (
     KEY_KERNELS_LATE_LOAD_TIME,
     KEY_KERNELS_LOAD_TIME,
     KEY_MODEL,
+    KEY_PLAN_STATUS,
     KEY_PLANNING_TIME,
     KEY_PLANS,
     OK,
@@ -162,7 +163,7 @@ class GraspPlanner(Node):
         self._markers_due = -math.inf  # time.monotonic() from which the next plan publishes markers
         self._counts = dict.fromkeys((KEY_PLANS, *OUTCOMES), 0)
         self._clarifications = ClarificationRequests(self, self._plan_diag, count_key='clarifications requested',
-                                                     outcome_key='last plan status', level=WARN, log=True)
+                                                     outcome_key=KEY_PLAN_STATUS, level=WARN, log=True)
         self._plan_diag.set_state(OK, f'waiting for {topics.MODEL_ACTIVE} and {topics.INTENT_V}')
         self._pubs = {topic: output_publisher(self, message_class(topic), topic)
                       for topic in (*topics.PLAN_TOPICS, topics.GRASP_MARKERS)}
@@ -272,7 +273,7 @@ class GraspPlanner(Node):
                                             'last plan reachability': grasp.note, **self._counts})
             self._plan_diag.set_value('inputs superseded', self._worker.superseded)
         if status is not None:
-            self._plan_diag.set_value('last plan status', status)
+            self._plan_diag.set_value(KEY_PLAN_STATUS, status)
         if isinstance(grasp, Grasp) and grasp.fallback:
             self.get_logger().warning(grasp.note, throttle_duration_sec=5.0)
 

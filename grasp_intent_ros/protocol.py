@@ -77,6 +77,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .core.errors import GraspIntentError, ModelError, ModelFormatError
+from .core.features import MICO_3F
 from .core.model import MAX_DOCUMENT_CHARS, GraspModel, ModelRequirements, check_document_size
 
 __all__ = [
@@ -89,11 +90,11 @@ __all__ = [
     'check_names', 'join_labels', 'split_labels', 'array_layout', 'msg_to_array', 'serialized_vector',
     'RepeatedLayout', 'msg_labels',
     'Stamp', 'stamp_label', 'stamped_values', 'posterior_label', 'split_posterior', 'Posterior',
-    'read_posterior',
+    'read_posterior', 'read_features',
     'ModelHeader', 'ModelDocument', 'model_document', 'parse_model_document', 'read_model_document',
     'OK', 'WARN', 'ERROR', 'STALE', 'LEVEL_NAMES', 'level_value', 'status_name', 'status_values',
     'KEY_RECEIVED', 'KEY_REJECTED', 'KEY_LAST_ERROR', 'KEY_PROCESSING_TIME', 'KEY_DROPPED', 'KEY_PLANS',
-    'KEY_PLANNING_TIME', 'KEY_MODEL', 'KEY_KERNELS_LOAD_TIME', 'KEY_KERNELS_LATE_LOAD_TIME',
+    'KEY_PLANNING_TIME', 'KEY_PLAN_STATUS', 'KEY_MODEL', 'KEY_KERNELS_LOAD_TIME', 'KEY_KERNELS_LATE_LOAD_TIME',
 ]
 
 # ------------------------------------------------------------------------------------------ topics
@@ -526,6 +527,26 @@ def read_posterior(msg: Any, *, require_stamp: bool = False, what: str = 'grasp/
     return Posterior(stamp, zones, p, tasks, w)
 
 
+def read_features(msg: Any, *, what: str = 'grasp/features') -> tuple[NDArray[np.float64], Stamp | None]:
+    """(x, stamp) of a ``grasp/features`` array: x in :data:`~grasp_intent_ros.core.features.MICO_3F` order.
+
+    The values are reordered by their labels when these name every feature; unlabelled (or 1-D) values are
+    taken by position. The stamp is None for an unstamped array.
+
+    Raises
+    ------
+    GraspIntentError
+        Malformed values (see :func:`stamped_values`), or not :data:`MICO_3F.dim` values when unlabelled.
+    """
+    x, label, stamp = stamped_values(msg, what=what, require_stamp=False)
+    names = split_labels(label)
+    if set(MICO_3F.names) <= set(names) and len(names) == x.size:
+        x = x[[names.index(n) for n in MICO_3F.names]]
+    elif x.size != MICO_3F.dim:
+        raise GraspIntentError(f'{what} must have {MICO_3F.dim} values, got {x.size}')
+    return x, stamp
+
+
 # ------------------------------------------------------------------------------------------ model document
 @dataclass(frozen=True)
 class ModelHeader:
@@ -658,6 +679,8 @@ KEY_DROPPED: Final = 'messages dropped'
 KEY_PLANS: Final = 'plans'
 """The planner's count of plans made."""
 KEY_PLANNING_TIME: Final = 'last planning time [ms]'
+KEY_PLAN_STATUS: Final = 'last plan status'
+"""What the planner's last plan led to (``grasp published (...)``, ``clarification requested: ...``)."""
 KEY_MODEL: Final = 'model'
 """The planner's model: ``"<name> (version <n>, zones <labels>)"``."""
 KEY_KERNELS_LOAD_TIME: Final = 'compiled kernels load time [ms]'

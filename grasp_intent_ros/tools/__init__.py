@@ -13,6 +13,8 @@ replay_client, replay
     The replay's rclpy client and engine; its command line.
 report_data, report
     A session bag loaded for the report (ROS-free); the figures and summary, and the command line.
+playback
+    A session bag in the viewer's page, with a time slider (the ``viewer`` extra).
 recorder, send_intent, demo
     Record a session bag; send one intent and print the grasp; the README's demo.
 paper_tables, ambiguity_report, cli

@@ -16,6 +16,11 @@ Reads the bag with :mod:`grasp_intent_ros.bag` (no rclpy, matplotlib's Agg rende
 ``grasps_3d.png``
     Each planned grasp (``grasp/features``, object frame): palm centre, approach arrow, the three fingers
     closed as planned, next to the object drawn as a cylinder.
+``grasp_scene_<k>.png``
+    Each planned grasp (plan k of the session; at most :data:`MAX_GRASPS`, spread over the session) in the
+    scene the viewer shows: the arm at ``grasp/joint_targets``, the active model's body at the object pose
+    the plan implies, the grasp frame and fingers, the top zone and the tasks the grasp serves by the
+    object's rules.
 ``summary.md``
     Messages per topic, plans, clarifications, rejections (from ``/diagnostics``), planning time, the
     figures written and those skipped for lack of data.
@@ -40,6 +45,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from numpy.typing import NDArray
 
 from ..bag import BagError
@@ -47,7 +53,10 @@ from ..core import ambiguity
 from ..core.features import FINGER_CLOSED, FINGERS, ROLL
 from ..core.frames import features_to_obj_T_ee, finger_segments
 from ..core.intent import zone_label
+from ..core.model import GraspModel
 from ..protocol import Posterior, Stamp
+from ..scene.geometry import ArmModel, Shape, body_shapes
+from ..scene.plan import plan_object_pose, served_tasks
 from .report_data import Session, load_session
 
 __all__ = ['write_report', 'main',
@@ -270,6 +279,86 @@ def plot_grasps(session: Session, out: Path) -> list[str]:
     return ['grasps_3d.png']
 
 
+def _draw_shape(ax: Any, shape: Shape, *, alpha: float = 1.0, color: Any = None) -> None:
+    """A posed box or cylinder (:class:`~grasp_intent_ros.scene.geometry.Shape`) on 3-D axes."""
+    base_T = shape.base_T_shape
+    face = color if color is not None else shape.rgba[:3]
+    if shape.kind == 'cylinder':
+        r, _, length = shape.size
+        theta, h = np.meshgrid(np.linspace(0.0, 2.0 * math.pi, 16), np.array([-0.5, 0.5]) * length)
+        local = np.stack([r * np.cos(theta), r * np.sin(theta), h])
+        pts = np.einsum('ij,jkl->ikl', base_T[:3, :3], local) + base_T[:3, 3, None, None]
+        ax.plot_surface(pts[0], pts[1], pts[2], color=face, alpha=alpha, linewidth=0, shade=True)
+        return
+    half = np.array(shape.size) / 2.0
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
+    world = corners @ base_T[:3, :3].T + base_T[:3, 3]
+    faces = [[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]]
+    ax.add_collection3d(Poly3DCollection([world[f] for f in faces], facecolor=face, alpha=alpha, linewidth=0))
+
+
+def _scene_model(session: Session, received: int) -> tuple[str, GraspModel] | None:
+    """The model active when a plan was received (the last one activated before it)."""
+    active = [(name, model) for t, name, model in session.models if t <= received]
+    return (active[-1][1].name or active[-1][0], active[-1][1]) if active else None
+
+
+def plot_grasp_scenes(session: Session, out: Path) -> list[str]:
+    """Figure (e): one image per planned grasp, the scene the viewer shows.
+
+    The arm at the plan's joint targets (the URDF's visual model), the object's body (the active model's) at
+    the pose the plan implies (:func:`~grasp_intent_ros.scene.plan.plan_object_pose`), the grasp frame and the
+    fingers, titled with the top zone and the tasks the grasp serves by the object's rules.
+    """
+    plans = [(stamp, r) for stamp, r in session.plans.items() if {'base_T_ee', 'q', 'x'} <= set(r)]
+    picks = np.unique(np.linspace(0, len(plans) - 1, min(len(plans), MAX_GRASPS)).round().astype(int))
+    if len(plans) > len(picks):
+        session.notes.append(f'grasp scenes: {len(picks)} of {len(plans)} plans are drawn, spread over the session')
+    arm = ArmModel()
+    names = []
+    for index in picks:
+        stamp, record = plans[index]
+        base_T_ee, q, x = record['base_T_ee'], record['q'], record['x']
+        fig = Figure(figsize=(6.4, 5.6))
+        ax = fig.add_subplot(projection='3d')
+        for shape in arm.shapes(q[:6], q[6:]):
+            _draw_shape(ax, shape, alpha=0.9)
+        base_T_obj = plan_object_pose(base_T_ee, x)
+        found = _scene_model(session, record['received'])
+        served = None
+        if found is not None and found[1].body is not None:
+            for shape in body_shapes(found[1].body, base_T_obj):
+                _draw_shape(ax, shape, alpha=0.5)
+            served = served_tasks(found[0], found[1].task_names, x)
+        for k, axis in enumerate(('tab:red', 'tab:green', 'tab:blue')):
+            ax.plot(*np.c_[base_T_ee[:3, 3], base_T_ee[:3, 3] + 0.06 * base_T_ee[:3, k]], color=axis, linewidth=2)
+        for base_ee, tip_ee in finger_segments(q[6:]):
+            ax.plot(*np.c_[base_T_ee[:3, :3] @ base_ee + base_T_ee[:3, 3], base_T_ee[:3, :3] @ tip_ee
+                           + base_T_ee[:3, 3]], color='tab:orange', linewidth=3)
+        centre = 0.5 * (base_T_obj[:3, 3] + np.array([0.0, 0.0, 0.3]))
+        for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
+            setter(c - 0.4, c + 0.4)
+        ax.set_box_aspect((1, 1, 1))
+        ax.view_init(elev=25, azim=-50)
+        ax.set_xlabel('x (m)', fontsize=7)
+        ax.set_ylabel('y (m)', fontsize=7)
+        ax.set_zlabel('z (m)', fontsize=7)
+        ax.tick_params(labelsize=6)
+        post = record.get('posterior')
+        top = ''
+        if post is not None:
+            k = int(np.argmax(post.p))
+            top = f', top zone {post.zone_labels[k]} (P = {post.p[k]:.2f})'
+        serves = 'not known (no rules for this model\'s object)' if served is None else ', '.join(served) or 'none'
+        model_name = found[0] if found is not None else 'no model/active'
+        ax.set_title(f'plan {index + 1} at {session.seconds(record["received"]):.1f} s, {model_name}{top}\n'
+                     f'serves (object rules): {serves}\nstamp {stamp.sec}.{stamp.nanosec:09d}', fontsize=9)
+        name = f'grasp_scene_{index + 1:02d}.png'
+        fig.savefig(out / name, dpi=90)
+        names.append(name)
+    return names
+
+
 def _nearest_posterior(session: Session, stamp: int,
                        tolerance_ns: int = 1_000_000_000) -> Posterior[Stamp | None] | None:
     best = min(session.posteriors, key=lambda tp: abs(tp[0] - stamp), default=None)
@@ -342,6 +431,8 @@ def write_report(bag: Path, out: Path) -> tuple[list[str], list[str]]:
         ('KL heat maps', bool(session.models or session.kl), 'no model/active or model/ambiguity messages',
          plot_kl),
         ('3-D grasps', bool(session.features), 'no grasp/features messages', plot_grasps),
+        ('grasp scenes', any({'base_T_ee', 'q', 'x'} <= set(r) for r in session.plans.values()),
+         'no plan with grasp/pose, grasp/joint_targets and grasp/features of one stamp', plot_grasp_scenes),
     ]
     for title, available, reason, plot in plots:
         if available:

@@ -12,6 +12,9 @@ Message layouts read (as the nodes publish them)
                     (:data:`~grasp_intent_ros.core.features.MICO_3F`); 1-D or unlabelled: by position.
 ``model/active``    std_msgs/String, the model document (header lines, then GraspModel YAML).
 ``model/ambiguity`` 2-D (m, m) KL matrix, both dims labelled with the task names.
+``grasp/pose``, ``grasp/joint_targets``: with ``grasp/features`` and ``grasp/posterior``, gathered by their
+                    stamp into :attr:`Session.plans` (one record per plan: ``base_T_ee``, ``q`` (arm then
+                    finger positions), ``x``, ``posterior``, and ``received``: the last receive time).
 ``/diagnostics``    rejections: :class:`grasp_intent_ros.tools.session.RejectionTracker`; planning time: the
                     planner's 'last planning time [ms]' whenever its 'plans' count grew.
 """
@@ -29,18 +32,18 @@ from numpy.typing import NDArray
 from .. import protocol as topics
 from ..bag import BagError, TopicInfo, read_messages, topics_info
 from ..core.errors import GraspIntentError
-from ..core.features import MICO_3F
+from ..core.frames import pose_to_matrix
 from ..core.intent import default_task_names
+from ..core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS
 from ..core.model import GraspModel
 from ..protocol import (
     Posterior,
     Stamp,
     msg_labels,
     msg_to_array,
+    read_features,
     read_model_document,
     read_posterior,
-    split_labels,
-    stamped_values,
 )
 from .outputs import Rejection, RejectionTracker, SessionError
 from .session import detect_namespace
@@ -49,7 +52,8 @@ __all__ = ['ROLES', 'Session', 'load_session']
 
 ROLES = {'w': topics.INTENT_W, 'v': topics.INTENT_V, 'clarification': topics.INTENT_CLARIFICATION,
          'model': topics.MODEL_ACTIVE, 'ambiguity': topics.MODEL_AMBIGUITY, 'posterior': topics.GRASP_POSTERIOR,
-         'features': topics.GRASP_FEATURES, 'diagnostics': topics.DIAGNOSTICS}
+         'features': topics.GRASP_FEATURES, 'diagnostics': topics.DIAGNOSTICS, 'pose': topics.GRASP_POSE,
+         'joint_targets': topics.GRASP_JOINT_TARGETS}
 """Topics the report reads, by role."""
 
 
@@ -67,6 +71,7 @@ class Session:
     clarifications: list[tuple[int, str]] = field(default_factory=list)
     posteriors: list[tuple[int, Posterior[Stamp | None]]] = field(default_factory=list)
     features: list[tuple[int, NDArray[np.float64]]] = field(default_factory=list)
+    plans: dict[Stamp, dict[str, Any]] = field(default_factory=dict)
     models: list[tuple[int, str, GraspModel]] = field(default_factory=list)
     kl: list[tuple[int, str, tuple[str, ...], NDArray[np.float64]]] = field(default_factory=list)
     rejections: list[tuple[int, Rejection]] = field(default_factory=list)
@@ -147,15 +152,21 @@ def _take(session: Session, role: str, stamp: int, msg: Any) -> None:
     elif role == 'clarification':
         session.clarifications.append((stamp, str(msg.data)))
     elif role == 'posterior':
-        session.posteriors.append((stamp, read_posterior(msg)))
+        post = read_posterior(msg)
+        session.posteriors.append((stamp, post))
+        _plan_part(session, post.stamp, stamp, 'posterior', post)
     elif role == 'features':
-        x, label, _ = stamped_values(msg, what='grasp/features', require_stamp=False)
-        names = split_labels(label)
-        if set(MICO_3F.names) <= set(names) and len(names) == x.size:
-            x = x[[names.index(n) for n in MICO_3F.names]]
-        elif x.size != MICO_3F.dim:
-            raise GraspIntentError(f'grasp/features must have {MICO_3F.dim} values, got {x.size}')
+        x, plan = read_features(msg)
         session.features.append((stamp, x))
+        _plan_part(session, plan, stamp, 'x', x)
+    elif role == 'pose':
+        _plan_part(session, _header_stamp(msg), stamp, 'base_T_ee', _pose_matrix(msg))
+    elif role == 'joint_targets':
+        index = dict(zip(msg.name, msg.position))
+        if len(index) != len(msg.name) or len(msg.name) != len(msg.position):
+            raise GraspIntentError('grasp/joint_targets: duplicate names or names and positions differ in number')
+        q = np.array([index[name] for name in (*ARM_JOINTS, *FINGER_JOINTS)], dtype=np.float64)  # KeyError: malformed
+        _plan_part(session, _header_stamp(msg), stamp, 'q', q)
     elif role == 'model':
         try:
             doc = read_model_document(msg.data)
@@ -175,6 +186,29 @@ def _take(session: Session, role: str, stamp: int, msg: Any) -> None:
         session.rejections.extend((stamp, r) for r in session.tracker.update(msg))
         for status in msg.status:
             _sample_planning_time(session, status)
+
+
+def _header_stamp(msg: Any) -> Stamp:
+    return Stamp(int(msg.header.stamp.sec), int(msg.header.stamp.nanosec))
+
+
+def _pose_matrix(msg: Any) -> NDArray[np.float64]:
+    """``base_T_pose`` of a PoseStamped in the arm's base frame (as the planner publishes ``grasp/pose``).
+
+    Raises GraspIntentError for another frame or a pose that is not finite or has a zero quaternion.
+    """
+    if msg.header.frame_id != BASE_FRAME:
+        raise GraspIntentError(f'pose in frame {str(msg.header.frame_id)[:64]!r}, not {BASE_FRAME}')
+    p, o = msg.pose.position, msg.pose.orientation
+    return pose_to_matrix([p.x, p.y, p.z], [o.x, o.y, o.z, o.w])
+
+
+def _plan_part(session: Session, plan: Stamp | None, received: int, part: str, value: Any) -> None:
+    """File one output of the plan stamped ``plan`` (outputs without a stamp belong to no plan)."""
+    if plan is not None:
+        record = session.plans.setdefault(plan, {})
+        record[part] = value
+        record['received'] = max(received, record.get('received', received))
 
 
 def _sample_planning_time(session: Session, status: Any) -> None:

@@ -52,7 +52,7 @@ STOP_TIMEOUT = 10.0
 """Seconds a node gets to exit after SIGINT/SIGTERM before it is SIGKILLed."""
 SUITE_NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
 """The node modules of the suite, in start order."""
-OPTIONAL_NODES: tuple[str, ...] = ()
+OPTIONAL_NODES: tuple[str, ...] = ('viewer',)
 """Node modules started only on request, after :data:`SUITE_NODES`: ``suite --with NAME``,
 :meth:`NodeSuite.start_nodes`'s ``extra``. Each is ``python -m grasp_intent_ros.<name>`` with its
 ``config/<name>.yaml`` when there is one, like the suite's own nodes."""

@@ -23,6 +23,7 @@ THIRD_PARTY = {
     'numba': ('python3-numba', 'numba'),
     'yaml': ('python3-yaml', 'pyyaml'),
     'matplotlib': ('python3-matplotlib', 'matplotlib'),
+    'mpl_toolkits': ('python3-matplotlib', 'matplotlib'),  # mplot3d ships with matplotlib
     'pinocchio': ('pinocchio', 'pin'),
     'rosbags': ('python3-rosbags-pip', 'rosbags'),
     'pytest': ('python3-pytest', 'pytest'),
@@ -30,7 +31,11 @@ THIRD_PARTY = {
     'packaging': ('python3-packaging', 'packaging'),
     'mcap': ('mcap-ros2-support', 'mcap-ros2-support'),
     'mcap_ros2': ('mcap-ros2-support', 'mcap-ros2-support'),
+    'websockets': ('python3-websockets', 'websockets'),
 }
+PIP_ONLY_OPTIONAL = {'viser': 'viewer'}
+"""Modules without a rosdep key that only an optional feature imports -> the setup.py extra that installs them
+(package.xml can declare no key for them; it says so in a comment)."""
 
 
 def valid_keys() -> set[str]:
@@ -64,7 +69,7 @@ def required_keys(modules: dict[str, set[Path]], keys: set[str], local: set[str]
     """Rosdep key per imported module; fails for a module that is neither stdlib, local, ROS nor mapped."""
     out = {}
     for module, where in sorted(modules.items()):
-        if module in sys.stdlib_module_names or module in local:
+        if module in sys.stdlib_module_names or module in local or module in PIP_ONLY_OPTIONAL:
             continue
         if module in THIRD_PARTY:
             out[module] = THIRD_PARTY[module][0]
@@ -103,7 +108,7 @@ def test_runtime_imports_are_exec_depends_and_nothing_more() -> None:
 
 def test_test_imports_are_declared() -> None:
     keys = valid_keys()
-    local = {'grasp_intent_ros', 'mcap_check', 'fuzz_inputs', 'native_memory', 'conftest'}
+    local = {'grasp_intent_ros', 'mcap_check', 'fuzz_inputs', 'native_memory', 'conftest', 'cdp'}
     needed = required_keys(imported_modules(REPO / 'test'), keys, local)
     declared = set(dependencies(('depend', 'exec_depend', 'test_depend')))
     missing = {m: k for m, k in needed.items() if k not in declared}
@@ -118,3 +123,12 @@ def test_setup_py_install_requires_matches_the_third_party_exec_depends() -> Non
     exec_depends = set(dependencies(('depend', 'exec_depend')))
     expected = {pip for key, pip in THIRD_PARTY.values() if key in exec_depends}
     assert pip_names == expected, f'setup.py install_requires {sorted(pip_names)} != package.xml {sorted(expected)}'
+
+
+def test_pip_only_modules_are_in_their_setup_py_extra() -> None:
+    tree = ast.parse((REPO / 'setup.py').read_text())
+    call = next(n for n in ast.walk(tree) if isinstance(n, ast.Call) and getattr(n.func, 'id', '') == 'setup')
+    extras = next(ast.literal_eval(k.value) for k in call.keywords if k.arg == 'extras_require')
+    for module, extra in PIP_ONLY_OPTIONAL.items():
+        names = {re.split(r'[<>=!~ \[]', r, maxsplit=1)[0].lower() for r in extras.get(extra, [])}
+        assert module in names, f'{module} is imported but not in the setup.py extra {extra!r}: {extras.get(extra)}'

@@ -2,8 +2,8 @@
 
 The bag holds what the node suite publishes (layouts as in the report's module docstring, i.e. as the
 nodes write them): intent/w without layout, labelled intent/v, a clarification, the model document of a
-model fitted here, stamped grasp/posterior ("<zones>|<tasks>") and grasp/features, and /diagnostics
-with one rejection and the planner's planning times.
+model fitted here, stamped grasp/posterior ("<zones>|<tasks>"), grasp/features, grasp/pose and
+grasp/joint_targets, and /diagnostics with one rejection and the planner's planning times.
 """
 
 from __future__ import annotations
@@ -19,8 +19,10 @@ from matplotlib.image import imread
 from rosbags.typesys import Stores, get_typestore
 
 from grasp_intent_ros.bag import QosSpec, SessionWriter
-from grasp_intent_ros.core.features import MICO_3F
+from grasp_intent_ros.core.features import FINGERS, MICO_3F
+from grasp_intent_ros.core.frames import matrix_to_pose
 from grasp_intent_ros.core.intent import interpret, reconstruct_w
+from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.protocol import model_document
 from grasp_intent_ros.tools import report
@@ -29,6 +31,7 @@ T0 = 1_700_000_000_000_000_000  # ns
 S = 1_000_000_000  # ns per s
 NS = '/robot1'
 F64MA, STRING, DIAG_T = 'std_msgs/msg/Float64MultiArray', 'std_msgs/msg/String', 'diagnostic_msgs/msg/DiagnosticArray'
+POSE_T, JOINTS_T = 'geometry_msgs/msg/PoseStamped', 'sensor_msgs/msg/JointState'
 CASES = [(0.9, 0.9, 0.1), (1.0, 0.0, 0.0), (0.9, 0.1, 0.9)]
 CLARIFY = (0.1, 0.1, 0.1)
 LATCHED = QosSpec('reliable', 'transient_local', 1)
@@ -66,6 +69,24 @@ def status(store: Any, level: int, name: str, message: str, values: dict[str, st
     return t[DIAG_T](header=header, status=[st])
 
 
+def header(store: Any, stamp_ns: int, frame_id: str = '') -> Any:
+    t = store.types
+    return t['std_msgs/msg/Header'](stamp=t['builtin_interfaces/msg/Time'](sec=stamp_ns // S, nanosec=stamp_ns % S),
+                                    frame_id=frame_id)
+
+
+def plan_pose_and_targets(store: Any, x: np.ndarray, stamp_ns: int) -> tuple[Any, Any]:
+    """grasp/pose and grasp/joint_targets of a plan with the arm at HOME_Q grasping x (an object it implies)."""
+    t = store.types
+    position, xyzw = matrix_to_pose(MicoKinematics().fk(HOME_Q))
+    pose = t[POSE_T](header=header(store, stamp_ns, BASE_FRAME), pose=t['geometry_msgs/msg/Pose'](
+        position=t['geometry_msgs/msg/Point'](x=position[0], y=position[1], z=position[2]),
+        orientation=t['geometry_msgs/msg/Quaternion'](x=xyzw[0], y=xyzw[1], z=xyzw[2], w=xyzw[3])))
+    joints = t[JOINTS_T](header=header(store, stamp_ns), name=[*ARM_JOINTS, *FINGER_JOINTS],
+                         position=np.r_[HOME_Q, x[FINGERS]], velocity=np.array([]), effort=np.array([]))
+    return pose, joints
+
+
 def write_session_bag(store: Any, path: Path, model: GraspModel, *, planner: bool = True) -> None:
     """The node suite's outputs for CASES and one clarification, 1 s apart.
 
@@ -80,6 +101,8 @@ def write_session_bag(store: Any, path: Path, model: GraspModel, *, planner: boo
             bag.add_topic(f'{NS}/model/active', STRING, qos=LATCHED)
             bag.add_topic(f'{NS}/grasp/posterior', F64MA, qos=QosSpec())
             bag.add_topic(f'{NS}/grasp/features', F64MA, qos=QosSpec())
+            bag.add_topic(f'{NS}/grasp/pose', POSE_T, qos=QosSpec())
+            bag.add_topic(f'{NS}/grasp/joint_targets', JOINTS_T, qos=QosSpec())
             bag.add_topic('/diagnostics', DIAG_T, qos=QosSpec())
             doc = model_document(model, name='toy_7zone', version=1)
             bag.write_message(f'{NS}/model/active', T0, store.types[STRING](data=doc))
@@ -102,6 +125,9 @@ def write_session_bag(store: Any, path: Path, model: GraspModel, *, planner: boo
             plan_ns = t + 50_000_000
             bag.write_message(f'{NS}/grasp/posterior', plan_ns, stamped(store, np.r_[p, w_rec], label, t))
             bag.write_message(f'{NS}/grasp/features', plan_ns, stamped(store, x, ','.join(MICO_3F.names), t))
+            pose, joints = plan_pose_and_targets(store, x, t)
+            bag.write_message(f'{NS}/grasp/pose', plan_ns, pose)
+            bag.write_message(f'{NS}/grasp/joint_targets', plan_ns, joints)
             for repeat in (0, 1):  # the periodic status repeats the last planning time: one sample
                 bag.write_message('/diagnostics', plan_ns + repeat + 1, status(
                     store, 0, '/robot1/grasp_planner: planning', 'ok',
@@ -128,8 +154,9 @@ def test_report_writes_figures_and_summary(store, toy_model, tmp_path: Path, cap
     bag, out = tmp_path / 'session', tmp_path / 'report'
     write_session_bag(store, bag, toy_model)
     assert report.main([str(bag), '--out', str(out)]) == 0
-    assert 'report: 4 figures' in capsys.readouterr().out
-    for name in ('intent_cases.png', 'w_over_time.png', 'kl_matrices.png', 'grasps_3d.png'):
+    assert 'report: 7 figures' in capsys.readouterr().out
+    scenes = [f'grasp_scene_{k:02d}.png' for k in (1, 2, 3)]
+    for name in ('intent_cases.png', 'w_over_time.png', 'kl_matrices.png', 'grasps_3d.png', *scenes):
         assert_png(out / name)
     summary = (out / 'summary.md').read_text()
     for line in (f'| {NS}/intent/w | {F64MA} | 4 |', f'| {NS}/intent/v | {F64MA} | 3 |',
@@ -139,7 +166,8 @@ def test_report_writes_figures_and_summary(store, toy_model, tmp_path: Path, cap
                  '  - reason: w contains NaN or infinity (first at index 1: nan)',
                  '- planning time: 3 plans reported, mean 50.0 ms, median 50.0 ms, max 60.0 ms',
                  '- models: toy_7zone (version 1) at 0.0 s (7 zones)',
-                 '- [intent_cases.png](intent_cases.png)', '- [grasps_3d.png](grasps_3d.png)'):
+                 '- [intent_cases.png](intent_cases.png)', '- [grasps_3d.png](grasps_3d.png)',
+                 *(f'- [{name}]({name})' for name in scenes)):
         assert line in summary, f'{line!r} not in\n{summary}'
     assert 'P(no task) = 0.7290' in summary
     assert 'skipped' not in summary

@@ -7,7 +7,7 @@ Import rules (the layers of the README's layout):
 - ``core`` is the method: it imports nothing of rclpy or the ROS message packages, ``ros``, ``bag``,
   ``protocol``, ``tools``, ``dataset`` or the nodes;
 - ``bag`` and ``protocol`` import no rclpy and no ROS message package, and nothing of ``ros``;
-- the nodes import nothing of ``bag``.
+- the nodes (the viewer too) and ``scene`` import nothing of ``bag``.
 They are read from the source (every ``import`` and ``from ... import``, relative ones resolved), so a rule is
 broken by a late import inside a function too.
 
@@ -29,13 +29,13 @@ from grasp_intent_ros.tools.suite import SUITE_NODES
 
 REPO = Path(__file__).resolve().parents[2]
 PACKAGE = 'grasp_intent_ros'
-NODES = tuple(f'{PACKAGE}.{n}' for n in SUITE_NODES)
+NODES = (*(f'{PACKAGE}.{n}' for n in SUITE_NODES), f'{PACKAGE}.viewer')
 ROS = re.compile(r'^(rclpy|rcl_interfaces|builtin_interfaces|[a-z_]+_msgs|[a-z_]+_srvs)(\.|$)')
 RULES: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...] = (
     ((f'{PACKAGE}.core',), (f'{PACKAGE}.ros', f'{PACKAGE}.bag', f'{PACKAGE}.protocol', f'{PACKAGE}.tools',
                              f'{PACKAGE}.dataset', *NODES)),
     ((f'{PACKAGE}.bag', f'{PACKAGE}.protocol'), (f'{PACKAGE}.ros',)),
-    (NODES, (f'{PACKAGE}.bag',)),
+    ((*NODES, f'{PACKAGE}.scene'), (f'{PACKAGE}.bag',)),
 )
 """(modules the rule is about, what they must not import); core, bag and protocol import no ROS package."""
 ROS_FREE = (f'{PACKAGE}.core', f'{PACKAGE}.bag', f'{PACKAGE}.protocol')
@@ -116,8 +116,9 @@ def test_ros_free_layers_load_without_rclpy() -> None:
 
 
 def test_mypy_strict() -> None:
-    """Mypy --strict (setup.cfg) on the typed layers: core, bag, protocol, ros and the nodes."""
+    """Mypy --strict (setup.cfg) on the typed layers: core, bag, protocol, ros, scene and the nodes."""
     paths = ['grasp_intent_ros/core', 'grasp_intent_ros/bag', 'grasp_intent_ros/protocol.py', 'grasp_intent_ros/ros',
+             'grasp_intent_ros/scene',
              *(f'grasp_intent_ros/{node.rpartition(".")[2]}.py' for node in NODES)]
     result = subprocess.run([sys.executable, '-m', 'mypy', '--strict', '--follow-imports=silent', *paths],
                             cwd=REPO, capture_output=True, text=True, timeout=600)

@@ -1,0 +1,220 @@
+"""What the viewer shows, as one immutable value updated message by message (live and from a bag alike).
+
+:class:`SceneState` holds the newest content of every topic the viewer follows (:data:`VIEWER_TOPICS`);
+:func:`apply` returns the state after one message. Messages are read through their fields only
+(:mod:`grasp_intent_ros.protocol`, :mod:`grasp_intent_ros.ros.robot`), so an rclpy message of the live
+viewer and a rosbags-decoded one of a session's playback give the same state. A message that cannot be
+read raises a :class:`~grasp_intent_ros.core.errors.GraspIntentError` and leaves the state as it was.
+
+The object's pose is the newest ``object/pose``; before one arrives (the planner then plans at its
+``object_*`` parameters) it is the pose the newest plan implies: ``grasp/pose`` composed with the inverse
+of the grasp in the object frame (``grasp/features``), when both carry the same stamp.
+
+The tasks a planned grasp serves are judged by the rules of the object
+(:data:`grasp_intent_ros.dataset.demos.OBJECTS`) when the active model is known to be of that object:
+its name is the object's name or starts with ``<object>_`` (``cup_7zone``), and its task names are the
+rules' (:func:`~grasp_intent_ros.scene.plan.served_tasks`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any, Final
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .. import protocol as topics
+from ..core.errors import GraspIntentError
+from ..core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS
+from ..protocol import (
+    ModelDocument,
+    Posterior,
+    Stamp,
+    msg_labels,
+    msg_to_array,
+    read_features,
+    read_model_document,
+    read_posterior,
+)
+from ..ros.robot import joint_positions, pose_msg_to_matrix
+from .plan import plan_object_pose, served_tasks
+
+__all__ = ['OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA', 'VIEWER_TOPICS', 'SceneState', 'apply',
+           'plan_status']
+
+OPERATOR_TWIST: Final = 'operator/twist'
+"""The operator's command (geometry_msgs/TwistStamped), published by the assistance node's operator input."""
+ASSISTANCE_TWIST: Final = 'assistance/twist'
+"""The blended command sent to the arm (geometry_msgs/TwistStamped)."""
+ASSISTANCE_ALPHA: Final = 'assistance/alpha'
+"""The blending weight of the assistance (std_msgs/Float64): 0 operator only .. 1 assistance only."""
+
+VIEWER_TOPICS: Final[Mapping[str, str]] = {
+    **{t: topics.MSGTYPES[t] for t in (topics.JOINT_STATES, topics.GRASP_JOINT_TARGETS, topics.OBJECT_POSE,
+                                       topics.MODEL_ACTIVE, topics.GRASP_POSE, topics.GRASP_FEATURES,
+                                       topics.GRASP_POSTERIOR, topics.INTENT_W, topics.INTENT_V,
+                                       topics.INTENT_CLARIFICATION, topics.DIAGNOSTICS)},
+    OPERATOR_TWIST: 'geometry_msgs/msg/TwistStamped',
+    ASSISTANCE_TWIST: 'geometry_msgs/msg/TwistStamped',
+    ASSISTANCE_ALPHA: 'std_msgs/msg/Float64',
+}
+"""Every topic the viewer follows (relative names; ``/diagnostics`` absolute) and its message type."""
+
+
+@dataclass(frozen=True)
+class SceneState:
+    """The newest content of each viewer topic; None (or '') until it arrives.
+
+    Attributes
+    ----------
+    q_live, fingers_live : ndarray, shape (6,) and (3,)
+        ``joint_states``: arm joint angles and finger closures (rad).
+    q_target, fingers_target, targets_stamp : ndarray, shape (6,) and (3,), Stamp
+        ``grasp/joint_targets`` of the newest plan, and its stamp.
+    base_T_obj : ndarray, shape (4, 4)
+        The newest ``object/pose``, in the base frame.
+    plan_T_obj : ndarray, shape (4, 4)
+        The object pose the newest plan implies (module docstring).
+    model : ModelDocument
+        ``model/active``.
+    base_T_ee, ee_stamp : ndarray, shape (4, 4), Stamp
+        ``grasp/pose`` and its stamp.
+    x, x_stamp : ndarray, shape (d,), Stamp
+        ``grasp/features`` (in :data:`~grasp_intent_ros.core.features.MICO_3F` order) and its stamp.
+    posterior : Posterior
+        ``grasp/posterior``: P over the model's zones and the w reconstructed from it.
+    w, v, v_labels
+        ``intent/w``; ``intent/v`` and its zone labels.
+    clarification : str
+        The newest ``intent/clarification``; cleared by the next plan.
+    plan_status : str
+        The planner's ``last plan status`` (``/diagnostics``).
+    operator_twist, assistance_twist : ndarray, shape (6,)
+        (vx, vy, vz, wx, wy, wz) in m/s and rad/s.
+    alpha : float
+        ``assistance/alpha``.
+    """
+
+    q_live: NDArray[np.float64] | None = None
+    fingers_live: NDArray[np.float64] | None = None
+    q_target: NDArray[np.float64] | None = None
+    fingers_target: NDArray[np.float64] | None = None
+    targets_stamp: Stamp | None = None
+    base_T_obj: NDArray[np.float64] | None = None
+    plan_T_obj: NDArray[np.float64] | None = None
+    model: ModelDocument | None = None
+    base_T_ee: NDArray[np.float64] | None = None
+    ee_stamp: Stamp | None = None
+    x: NDArray[np.float64] | None = None
+    x_stamp: Stamp | None = None
+    posterior: Posterior[Stamp | None] | None = None
+    w: NDArray[np.float64] | None = None
+    v: NDArray[np.float64] | None = None
+    v_labels: tuple[str, ...] = ()
+    clarification: str = ''
+    plan_status: str = ''
+    operator_twist: NDArray[np.float64] | None = None
+    assistance_twist: NDArray[np.float64] | None = None
+    alpha: float | None = None
+
+    @property
+    def object_pose(self) -> NDArray[np.float64] | None:
+        """``base_T_obj`` when one arrived, else ``plan_T_obj``."""
+        return self.base_T_obj if self.base_T_obj is not None else self.plan_T_obj
+
+    @property
+    def plan_stamp(self) -> Stamp | None:
+        """The stamp of the newest plan once its pose, joint targets, features and posterior have all arrived."""
+        stamp = self.ee_stamp
+        complete = stamp is not None and self.posterior is not None and \
+            stamp == self.targets_stamp == self.x_stamp == self.posterior.stamp
+        return stamp if complete else None
+
+    @property
+    def served(self) -> tuple[str, ...] | None:
+        """The tasks the planned grasp serves by its object's rules; None when they are not known."""
+        if self.x is None or self.model is None:
+            return None
+        return served_tasks(self.model.name, self.model.model.task_names, self.x)
+
+
+def plan_status(msg: Any) -> str | None:
+    """The planner's ``last plan status`` in a DiagnosticArray, else None."""
+    for status in msg.status:
+        if str(status.name).endswith(': planning'):
+            value = topics.status_values(status).get(topics.KEY_PLAN_STATUS)
+            if value is not None:
+                return value
+    return None
+
+
+def _stamp(header: Any) -> Stamp:
+    return Stamp(int(header.stamp.sec), int(header.stamp.nanosec))
+
+
+def _twist(msg: Any) -> NDArray[np.float64]:
+    lin, ang = msg.twist.linear, msg.twist.angular
+    values = np.array([lin.x, lin.y, lin.z, ang.x, ang.y, ang.z], dtype=np.float64)
+    if not np.all(np.isfinite(values)):
+        raise GraspIntentError(f'twist must be finite, got {values.tolist()}')
+    return values
+
+
+def _with_plan_object(state: SceneState) -> SceneState:
+    """``plan_T_obj`` from a pose and features of the same plan (same stamp)."""
+    if state.base_T_ee is None or state.x is None or state.ee_stamp != state.x_stamp:
+        return state
+    return replace(state, plan_T_obj=plan_object_pose(state.base_T_ee, state.x))
+
+
+def apply(state: SceneState, topic: str, msg: Any) -> SceneState:
+    """The state after ``msg`` on ``topic`` (a key of :data:`VIEWER_TOPICS`); unchanged for another topic.
+
+    Raises
+    ------
+    GraspIntentError
+        For a message that cannot be read (its reason); ``state`` is then still the valid one.
+    """
+    if topic in (topics.JOINT_STATES, topics.GRASP_JOINT_TARGETS):
+        q, fingers = joint_positions(msg, ARM_JOINTS), joint_positions(msg, FINGER_JOINTS)
+        if topic == topics.JOINT_STATES:
+            return replace(state, q_live=state.q_live if q is None else q,
+                           fingers_live=state.fingers_live if fingers is None else fingers)
+        if q is None:
+            raise GraspIntentError(f'{topic} lacks the arm joints {ARM_JOINTS}')
+        return replace(state, q_target=q, fingers_target=fingers, targets_stamp=_stamp(msg.header))
+    if topic == topics.OBJECT_POSE:
+        return replace(state, base_T_obj=pose_msg_to_matrix(msg, frame_id=BASE_FRAME))
+    if topic == topics.MODEL_ACTIVE:
+        return replace(state, model=read_model_document(str(msg.data), previous=state.model))
+    if topic == topics.GRASP_POSE:
+        pose = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
+        return _with_plan_object(replace(state, base_T_ee=pose, ee_stamp=_stamp(msg.header), clarification=''))
+    if topic == topics.GRASP_FEATURES:
+        x, stamp = read_features(msg)
+        return _with_plan_object(replace(state, x=x, x_stamp=stamp))
+    if topic == topics.GRASP_POSTERIOR:
+        return replace(state, posterior=read_posterior(msg))
+    if topic == topics.INTENT_W:
+        return replace(state, w=msg_to_array(msg, what='w'))
+    if topic == topics.INTENT_V:
+        v = msg_to_array(msg, what='v')
+        labels = msg_labels(msg)
+        return replace(state, v=v, v_labels=labels[0] if labels and len(labels[0]) == v.size else ())
+    if topic == topics.INTENT_CLARIFICATION:
+        return replace(state, clarification=str(msg.data))
+    if topic == topics.DIAGNOSTICS:
+        status = plan_status(msg)
+        return state if status is None else replace(state, plan_status=status)
+    if topic == OPERATOR_TWIST:
+        return replace(state, operator_twist=_twist(msg))
+    if topic == ASSISTANCE_TWIST:
+        return replace(state, assistance_twist=_twist(msg))
+    if topic == ASSISTANCE_ALPHA:
+        alpha = float(msg.data)
+        if not np.isfinite(alpha):
+            raise GraspIntentError(f'{ASSISTANCE_ALPHA} must be finite, got {alpha}')
+        return replace(state, alpha=alpha)
+    return state

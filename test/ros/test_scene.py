@@ -1,0 +1,203 @@
+"""The viewer's scene: posed primitives, the state built from messages, the panel and the page (no browser).
+
+In test/ros because the state reads rclpy messages (through :mod:`grasp_intent_ros.ros.robot`); nothing
+here creates a node.
+"""
+
+from __future__ import annotations
+
+import socket
+from pathlib import Path
+
+import numpy as np
+import pytest
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import TwistStamped
+from numpy.testing import assert_allclose
+from std_msgs.msg import Float64, String
+
+from grasp_intent_ros import protocol as topics
+from grasp_intent_ros.core.errors import GraspIntentError
+from grasp_intent_ros.core.features import FINGERS, MICO_3F
+from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
+from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.dataset.demos import CUP_PROTOTYPES, CUP_RULES, grasp_features
+from grasp_intent_ros.ros.conversions import model_to_msg, posterior_to_msg, stamped_array_to_msg
+from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
+from grasp_intent_ros.scene.geometry import ArmModel, body_shapes
+from grasp_intent_ros.scene.page import ScenePage
+from grasp_intent_ros.scene.panel import panel_html
+from grasp_intent_ros.scene.plan import served_tasks
+from grasp_intent_ros.scene.state import (
+    ASSISTANCE_ALPHA,
+    OPERATOR_TWIST,
+    SceneState,
+    apply,
+)
+from grasp_intent_ros.tools.playback import load_timeline
+from grasp_intent_ros.tools.report_data import load_session
+
+REPO = Path(__file__).resolve().parents[2]
+STAMP = Time(sec=12, nanosec=345)
+
+
+@pytest.fixture(scope='module')
+def arm() -> ArmModel:
+    return ArmModel()
+
+
+@pytest.fixture(scope='module')
+def cup() -> GraspModel:
+    return GraspModel.load(REPO / 'config' / 'models' / 'cup_7zone.yaml')
+
+
+def prototype_x(task_set: int) -> np.ndarray:
+    proto = CUP_PROTOTYPES[task_set][0]
+    return grasp_features(proto.aim, proto.azimuth, proto.elevation, proto.standoff, proto.roll, proto.closures)
+
+
+# ------------------------------------------------------------------------------------------ geometry
+def test_the_arm_is_drawn_where_the_planner_s_kinematics_put_it(arm: ArmModel) -> None:
+    kin = MicoKinematics()
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        q = rng.uniform(kin.lower, kin.upper)
+        assert_allclose(arm.ee_pose(q), kin.fk(q), atol=1e-12)
+    shapes = arm.shapes(HOME_Q)
+    assert len(shapes) == 18 and {s.kind for s in shapes} == {'box', 'cylinder'}
+    base = next(s for s in shapes if s.name.startswith('m1n6s300_link_base'))
+    assert_allclose(base.base_T_shape[:3, 3], [0.0, 0.0, 0.05], atol=1e-12)  # the URDF's visual origin
+    assert base.size == pytest.approx((0.05, 0.05, 0.10))
+
+
+def test_fingers_close_as_told_and_the_arm_does_not_move(arm: ArmModel) -> None:
+    open_, closed = arm.shapes(HOME_Q, [0.0, 0.0, 0.0]), arm.shapes(HOME_Q, [1.2, 1.2, 1.2])
+    for a, b in zip(open_, closed):
+        moved = not np.allclose(a.base_T_shape, b.base_T_shape, atol=1e-9)
+        assert moved == ('finger' in a.name), a.name
+    with pytest.raises(GraspIntentError):
+        arm.shapes([np.nan] * 6)
+
+
+def test_the_cup_s_body_stands_on_the_object_frame(cup: GraspModel) -> None:
+    assert cup.body is not None
+    base_T_obj = pose_to_matrix([0.3, -0.3, 0.0], [0.0, 0.0, 1.0, 0.0])
+    (shape,) = body_shapes(cup.body, base_T_obj)
+    assert shape.kind == 'cylinder' and shape.size == pytest.approx((0.04, 0.04, 0.10))
+    assert_allclose(shape.base_T_shape[:3, 3], [0.3, -0.3, 0.05], atol=1e-12)
+    assert_allclose(shape.base_T_shape[:3, 2], [0.0, 0.0, 1.0], atol=1e-12)
+
+
+# ------------------------------------------------------------------------------------------ state
+def test_a_plan_s_messages_give_the_arm_targets_grasp_and_the_object_pose_it_implies(cup: GraspModel) -> None:
+    base_T_obj = pose_to_matrix([0.3, -0.3, 0.0], [0.0, 0.0, 1.0, 0.0])
+    x = prototype_x(0b011)
+    base_T_ee = base_T_obj @ features_to_obj_T_ee(x)
+    state = apply(SceneState(), topics.MODEL_ACTIVE, model_to_msg(cup, name='cup_7zone', version=2))
+    state = apply(state, topics.GRASP_POSE, matrix_to_pose_msg(base_T_ee, frame_id=BASE_FRAME, stamp=STAMP))
+    assert state.object_pose is None  # the features of that plan have not arrived
+    state = apply(state, topics.GRASP_FEATURES, stamped_array_to_msg(x, list(MICO_3F.names), stamp=STAMP))
+    assert state.object_pose is not None
+    assert_allclose(state.object_pose, base_T_obj, atol=1e-9)
+    targets = joint_state_msg(ARM_JOINTS + FINGER_JOINTS, [*HOME_Q, *x[FINGERS]], stamp=STAMP)
+    state = apply(state, topics.GRASP_JOINT_TARGETS, targets)
+    assert_allclose(state.q_target, HOME_Q)
+    assert_allclose(state.fingers_target, x[FINGERS])
+    assert state.served == tuple(n for i, n in enumerate(cup.task_names) if CUP_RULES.label(x) >> i & 1)
+    assert state.model is not None and state.model.version == 2
+
+
+def test_joint_states_from_two_publishers_fill_arm_and_fingers() -> None:
+    state = apply(SceneState(), topics.JOINT_STATES, joint_state_msg(ARM_JOINTS, HOME_Q, stamp=STAMP))
+    state = apply(state, topics.JOINT_STATES, joint_state_msg(FINGER_JOINTS, [0.1, 0.2, 0.3], stamp=STAMP))
+    assert_allclose(state.q_live, HOME_Q)
+    assert_allclose(state.fingers_live, [0.1, 0.2, 0.3])
+
+
+def test_bad_messages_raise_and_leave_the_state_as_it_was() -> None:
+    state = apply(SceneState(), OPERATOR_TWIST, TwistStamped())
+    bad_pose = matrix_to_pose_msg(np.eye(4), frame_id='world', stamp=STAMP)
+    bad_alpha = Float64(data=float('nan'))
+    bad_targets = joint_state_msg(FINGER_JOINTS, [0.0, 0.0, 0.0], stamp=STAMP)
+    for topic, msg in ((topics.OBJECT_POSE, bad_pose), (ASSISTANCE_ALPHA, bad_alpha),
+                       (topics.GRASP_JOINT_TARGETS, bad_targets), (topics.MODEL_ACTIVE, String(data='no model'))):
+        with pytest.raises(GraspIntentError):
+            apply(state, topic, msg)
+    assert state.operator_twist is not None and not state.operator_twist.any()
+
+
+def test_the_plan_status_is_the_planner_s_and_others_are_ignored() -> None:
+    def array(name: str, key: str, value: str) -> DiagnosticArray:
+        return DiagnosticArray(status=[DiagnosticStatus(name=name, values=[KeyValue(key=key, value=value)])])
+    state = apply(SceneState(), topics.DIAGNOSTICS, array('/grasp_planner: planning', 'last plan status', 'ok'))
+    state = apply(state, topics.DIAGNOSTICS, array('/intent_interpreter: intent', 'last plan status', 'other'))
+    assert state.plan_status == 'ok'
+
+
+def test_tasks_are_served_by_the_object_s_rules_only_when_the_object_is_known() -> None:
+    x = prototype_x(0b001)
+    tasks = CUP_RULES.task_names
+    expected = tuple(n for i, n in enumerate(tasks) if CUP_RULES.label(x) >> i & 1)
+    assert served_tasks('cup_7zone', tasks, x) == served_tasks('cup', tasks, x) == expected
+    assert served_tasks('mug_7zone', tasks, x) is None
+    assert served_tasks('cup_7zone', ('a', 'b', 'c'), x) is None
+
+
+# ------------------------------------------------------------------------------------------ panel and page
+def test_the_panel_names_every_zone_with_v_and_p_and_escapes_text(cup: GraspModel) -> None:
+    p = np.linspace(0.0, 0.6, 7)
+    state = SceneState(posterior=topics.Posterior(None, cup.zone_labels, p, cup.task_names, np.array([.9, .8, .1])),
+                       v=p + 0.35, v_labels=cup.zone_labels, clarification='<b>which task?</b>')
+    html = panel_html(state)
+    for label, v_k, p_k in zip(cup.zone_labels, p + 0.35, p):
+        row = html[html.index(f'>{label}<'):]
+        assert row.index(f'{v_k:.2f}') < row.index(f'{p_k:.2f}') < row.index('</tr>')
+    assert '&lt;b&gt;which task?&lt;/b&gt;' in html and '<b>which task?</b>' not in html
+    assert 'waiting for the suite' in panel_html(SceneState())
+
+
+def test_the_page_is_served_on_loopback_and_draws_any_state(arm: ArmModel, cup: GraspModel) -> None:
+    page = ScenePage(arm, port=0)
+    try:
+        assert page.server.get_host() == '127.0.0.1'
+        assert page.server.request_share_url() is None  # no tunnel from viser's public relay
+        with socket.create_connection(('127.0.0.1', page.port), timeout=5):
+            pass
+        x = prototype_x(0b011)
+        state = apply(SceneState(), topics.MODEL_ACTIVE, model_to_msg(cup, name='cup_7zone', version=1))
+        page.show(state)
+        state = apply(state, topics.JOINT_STATES, joint_state_msg(ARM_JOINTS, HOME_Q, stamp=STAMP))
+        state = apply(state, topics.GRASP_POSTERIOR, posterior_to_msg(np.full(7, 1 / 7), [.5, .5, .5],
+                                                                      cup.zone_labels, cup.task_names, stamp=STAMP))
+        state = apply(state, topics.GRASP_POSE, matrix_to_pose_msg(features_to_obj_T_ee(x), frame_id=BASE_FRAME,
+                                                                   stamp=STAMP))
+        state = apply(state, topics.GRASP_FEATURES, stamped_array_to_msg(x, list(MICO_3F.names), stamp=STAMP))
+        state = apply(state, OPERATOR_TWIST, TwistStamped())
+        page.show(state)
+        page.show(state, time_text='t = 1.0 s')
+        assert 'UTH' in page._panel.content and 't = 1.0 s' in page._panel.content
+    finally:
+        page.stop()
+
+
+# ------------------------------------------------------------------------------------------ playback
+def test_a_session_s_timeline_holds_each_plan_complete_at_its_time() -> None:
+    bag = REPO / 'bags' / 'cup_paper_cases'
+    timeline = load_timeline(bag)
+    posteriors = [post for _, post in load_session(bag).posteriors]  # the report's own reading
+    assert len(timeline.plans) == len(posteriors) and not timeline.unreadable
+    for k, (t_ns, post) in enumerate(zip(timeline.plans, posteriors), start=1):
+        seconds = (t_ns - timeline.start) * 1e-9
+        state = timeline.at(seconds)
+        assert state.plan_stamp == post.stamp and timeline.plan_index(seconds) == k
+        assert_allclose(state.posterior.p, post.p, rtol=0, atol=0)
+        assert state.q_target is not None and state.object_pose is not None
+    assert timeline.at(-1.0) == SceneState() and timeline.plan_index(-1.0) == 0
+    assert timeline.at(timeline.duration) is timeline.states[-1]
+
+
+def test_unreadable_messages_of_a_session_are_skipped_and_counted() -> None:
+    timeline = load_timeline(REPO / 'bags' / 'bad_inputs')
+    assert sum(timeline.unreadable.values()) > 0 and len(timeline.plans) > 0
