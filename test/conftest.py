@@ -23,12 +23,12 @@ from typing import Any
 import numpy as np
 import pytest
 
-from grasp_intent_ros.tools.suite import MAX_DOMAIN_ID, use_loopback_discovery
+from grasp_intent_ros.tools.suite import TEST_DOMAIN_IDS, use_loopback_discovery
 
 use_loopback_discovery()  # before rclpy is imported anywhere
 
-DOMAIN_IDS = range(1, MAX_DOMAIN_ID - 10)
-"""Domain ids tests may use (1..90 of the safe range 0..101; 91..101 stay free for manual runs)."""
+DOMAIN_IDS = TEST_DOMAIN_IDS
+"""Domain ids tests may use (1..90 of the safe range 0..101; 91..101 stay free for other runs)."""
 
 _DOMAIN_LOCK_DIR = Path(tempfile.gettempdir()) / 'grasp_intent_ros_test_domains'
 _domain_counter = itertools.count()

@@ -44,7 +44,8 @@ from types import TracebackType
 
 from ..core.resources import config_dir
 
-__all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'OPTIONAL_NODES', 'MAX_DOMAIN_ID', 'FASTDDS_PROFILE', 'SuiteError',
+__all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'OPTIONAL_NODES', 'MAX_DOMAIN_ID', 'TEST_DOMAIN_IDS', 'RUN_DOMAIN_IDS',
+           'FASTDDS_PROFILE', 'SuiteError',
            'domain_id_from_environment', 'use_loopback_discovery', 'node_environment', 'optional_nodes',
            'NodeProcess', 'NodeSuite', 'main']
 
@@ -58,6 +59,10 @@ OPTIONAL_NODES: tuple[str, ...] = ('viewer',)
 ``config/<name>.yaml`` when there is one, like the suite's own nodes."""
 MAX_DOMAIN_ID = 101
 """Largest ROS domain id usable with LOCALHOST discovery."""
+TEST_DOMAIN_IDS = range(1, MAX_DOMAIN_ID - 10)
+"""The domain ids the tests claim, one per test (1..90); runs that choose their own use the rest."""
+RUN_DOMAIN_IDS = range(MAX_DOMAIN_ID - 10, MAX_DOMAIN_ID + 1)
+"""The domain ids a run without ``ROS_DOMAIN_ID`` picks from (91..101): never one a test may hold."""
 FASTDDS_PROFILE = 'fastdds_loopback.xml'
 """Fast DDS profile in the config directory: user data over UDP on 127.0.0.1, announcements every 0.1 s, and
 sample payloads held only while a sample is (so a peer's huge message does not leave its size in memory).
@@ -74,7 +79,10 @@ class SuiteError(RuntimeError):
 
 
 def domain_id_from_environment(environ: Mapping[str, str] | None = None, *, unset: int | None = None) -> int:
-    """The run's ROS domain id: ``ROS_DOMAIN_ID`` if set, else ``unset``, else 10..89 from the process id.
+    """The run's ROS domain id: ``ROS_DOMAIN_ID`` if set, else ``unset``, else one of :data:`RUN_DOMAIN_IDS`.
+
+    The last is chosen by the process id, so two runs may share one (set ``ROS_DOMAIN_ID`` to be sure), but
+    a run never lands on a domain a test holds.
 
     A run that starts its own nodes keeps off other runs' domains; one that joins running nodes passes
     ``unset=0``, ROS's own default.
@@ -86,7 +94,7 @@ def domain_id_from_environment(environ: Mapping[str, str] | None = None, *, unse
     """
     value = (os.environ if environ is None else environ).get('ROS_DOMAIN_ID', '').strip()
     if not value:
-        return 10 + os.getpid() % 80 if unset is None else unset
+        return RUN_DOMAIN_IDS[os.getpid() % len(RUN_DOMAIN_IDS)] if unset is None else unset
     if not value.isdigit() or int(value) > MAX_DOMAIN_ID:
         raise SuiteError(f'ROS_DOMAIN_ID must be an integer in 0..{MAX_DOMAIN_ID}, got {value!r}')
     return int(value)

@@ -11,6 +11,8 @@ import pytest
 from grasp_intent_ros.core.resources import config_dir
 from grasp_intent_ros.tools.suite import (
     FASTDDS_PROFILE,
+    RUN_DOMAIN_IDS,
+    TEST_DOMAIN_IDS,
     NodeProcess,
     NodeSuite,
     SuiteError,
@@ -110,7 +112,7 @@ def test_sigkill_after_the_deadline(tmp_path: Path) -> None:
 def test_domain_id_is_validated_once() -> None:
     assert domain_id_from_environment({'ROS_DOMAIN_ID': ' 42 '}) == 42
     assert domain_id_from_environment({'ROS_DOMAIN_ID': ''}, unset=0) == 0
-    assert 10 <= domain_id_from_environment({}) < 90
+    assert domain_id_from_environment({}) in RUN_DOMAIN_IDS and not set(RUN_DOMAIN_IDS) & set(TEST_DOMAIN_IDS)
     for bad in ('102', '-1', 'x', '4.2'):
         with pytest.raises(SuiteError, match='0..101'):
             domain_id_from_environment({'ROS_DOMAIN_ID': bad})
