@@ -1,6 +1,6 @@
 """A session bag loaded for the report: what each topic of the suite says, by role (ROS-free).
 
-Topics are found in the session's namespace (:func:`~grasp_intent_ros.tools.session.detect_namespace`), so
+Topics are found in the session's namespace (:func:`~grasp_intent_ros.sessions.pairing.detect_namespace`), so
 namespaced sessions work. A message that cannot be read is counted as malformed, never raised.
 
 Message layouts read (as the nodes publish them)
@@ -12,7 +12,7 @@ Message layouts read (as the nodes publish them)
                     (:data:`~grasp_intent_ros.core.features.MICO_3F`); 1-D or unlabelled: by position.
 ``model/active``    std_msgs/String, the model document (header lines, then GraspModel YAML).
 ``model/ambiguity`` 2-D (m, m) KL matrix, both dims labelled with the task names.
-``/diagnostics``    rejections: :class:`grasp_intent_ros.tools.session.RejectionTracker`; planning time: the
+``/diagnostics``    rejections: :class:`grasp_intent_ros.sessions.outputs.RejectionTracker`; planning time: the
                     planner's 'last planning time [ms]' whenever its 'plans' count grew.
 """
 
@@ -43,9 +43,9 @@ from ..protocol import (
     stamped_values,
 )
 from .outputs import Rejection, RejectionTracker, SessionError
-from .session import detect_namespace
+from .pairing import detect_namespace
 
-__all__ = ['ROLES', 'Session', 'load_session']
+__all__ = ['ROLES', 'ReportData', 'load_report_data']
 
 ROLES = {'w': topics.INTENT_W, 'v': topics.INTENT_V, 'clarification': topics.INTENT_CLARIFICATION,
          'model': topics.MODEL_ACTIVE, 'ambiguity': topics.MODEL_AMBIGUITY, 'posterior': topics.GRASP_POSTERIOR,
@@ -54,7 +54,7 @@ ROLES = {'w': topics.INTENT_W, 'v': topics.INTENT_V, 'clarification': topics.INT
 
 
 @dataclass
-class Session:
+class ReportData:
     """What the report needs from one bag; times are ns since the epoch (receive time)."""
 
     path: Path
@@ -92,7 +92,7 @@ class Session:
 
 
 def _find_topics(topics: dict[str, TopicInfo]) -> tuple[dict[str, str], list[str]]:
-    """Role -> topic name in the session's namespace (:func:`~grasp_intent_ros.tools.session.detect_namespace`)."""
+    """Role -> topic name in the session's namespace (:func:`~grasp_intent_ros.sessions.pairing.detect_namespace`)."""
     notes = []
     try:
         namespace = detect_namespace(topics)
@@ -107,7 +107,7 @@ def _find_topics(topics: dict[str, TopicInfo]) -> tuple[dict[str, str], list[str
     return roles, notes
 
 
-def load_session(path: Path) -> Session:
+def load_report_data(path: Path) -> ReportData:
     """Read the messages the report uses.
 
     Raises
@@ -117,7 +117,7 @@ def load_session(path: Path) -> Session:
     """
     topics = topics_info(path)
     roles, notes = _find_topics(topics)
-    session = Session(path=path, topics=topics, roles=roles, notes=notes)
+    session = ReportData(path=path, topics=topics, roles=roles, notes=notes)
     by_topic = {topic: role for role, topic in roles.items()}
     first = None
     last = 0
@@ -135,7 +135,7 @@ def load_session(path: Path) -> Session:
     return session
 
 
-def _take(session: Session, role: str, stamp: int, msg: Any) -> None:
+def _take(session: ReportData, role: str, stamp: int, msg: Any) -> None:
     """File one decoded message; raises for a malformed one."""
     if role == 'w':
         session.w.append((stamp, msg_to_array(msg, what='w')))
@@ -177,7 +177,7 @@ def _take(session: Session, role: str, stamp: int, msg: Any) -> None:
             _sample_planning_time(session, status)
 
 
-def _sample_planning_time(session: Session, status: Any) -> None:
+def _sample_planning_time(session: ReportData, status: Any) -> None:
     """Record the planner's 'last planning time [ms]' each time a status shows a new 'plans' count."""
     values = topics.status_values(status)
     plans, value = values.get(topics.KEY_PLANS), values.get(topics.KEY_PLANNING_TIME)
