@@ -57,7 +57,6 @@ from sensor_msgs.msg import JointState
 
 from . import protocol as topics
 from .core import planner
-from .core._kernels import warm_up
 from .core.frames import pose_to_matrix
 from .core.grasp import (
     OUTCOMES,
@@ -70,6 +69,7 @@ from .core.grasp import (
     plan_grasp,
 )
 from .core.intent import match_zones
+from .core.kernels import warm_up
 from .core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
 from .protocol import (
     KEY_KERNELS_LATE_LOAD_TIME,
