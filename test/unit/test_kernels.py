@@ -27,6 +27,10 @@ def test_every_kernel_cache_is_dropped_when_any_kernel_source_changes(tmp_path: 
     (cache / 'rounds.f-1.py311.nbi').write_bytes(b'')
     _drop_stale_caches(tmp_path)  # the same sources: kept
     assert cached() == ['rounds.f-1.py311.nbi']
+    (cache / 'rounds.f-1.py311.nbi').write_bytes(b'')
+    (tmp_path / '__init__.py').write_text('"""Compiles nothing."""\n')
+    _drop_stale_caches(tmp_path)
+    assert cached() == ['rounds.f-1.py311.nbi']
     (tmp_path / 'geometry.py').write_text('y = 2\n')  # another module's source
     _drop_stale_caches(tmp_path)
     assert cached() == []

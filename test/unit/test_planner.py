@@ -27,6 +27,7 @@ from grasp_intent_ros.core.data import Demonstrations
 from grasp_intent_ros.core.errors import PlanningError
 from grasp_intent_ros.core.features import FINGERS, MICO_3F, FeatureSpace
 from grasp_intent_ros.core.kernels import least_squares, selection
+from grasp_intent_ros.core.kernels.types import Body, Mixture
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.core.resources import config_dir
 
@@ -362,6 +363,7 @@ def test_a_match_found_by_the_least_squares_says_so(shipped: dict[str, GraspMode
 def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, GraspModel]) -> None:
     """The Newton stage's exact Hessian of f against central differences of the analytic gradient (1e-5 relative)."""
     from grasp_intent_ros.core.kernels.posterior import _posterior_hessian
+    from grasp_intent_ros.core.kernels.types import Mixture
     rng = np.random.default_rng(3)
     for name in ('cup_7zone', 'flashlight_7zone'):
         model = shipped[name]
@@ -371,8 +373,8 @@ def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, 
             x = 0.5 * (model.means[i] + model.means[j])  # between two zones, where P varies
             K, d = model.means.shape
             hess = np.empty((d, d))
-            _posterior_hessian(x, model.means, model._precisions, model._log_norm, v, np.empty(K), np.empty((K, d)),
-                               np.empty((K, d)), hess, np.empty(d))
+            _posterior_hessian(x, Mixture(model.means, model._precisions, model._log_norm), v, np.empty(K),
+                               np.empty((K, d)), np.empty((K, d)), hess, np.empty(d))
             step = 1e-6 * model.feature_scale
             numeric = np.stack([(planner.objective_and_gradient(model, v, x + h)[1]
                                  - planner.objective_and_gradient(model, v, x - h)[1]) / (2.0 * h[i])
@@ -383,14 +385,16 @@ def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, 
 def test_the_distance_alone_is_the_distance_with_its_gradient(shipped: dict[str, GraspModel]) -> None:
     """The kernels' distance without the gradient (where only the distance decides) is the same number."""
     from grasp_intent_ros.core.kernels.geometry import _distance
+    from grasp_intent_ros.core.kernels.types import Body
     body = shipped['cup_7zone'].body
     assert body is not None
-    cylinder = body.kernel_arrays[:7]
-    box = (np.ones(1, dtype=np.int64), np.array([[0.01, 0.0, 0.02]]), *cylinder[2:6], np.array([[0.03, 0.02, 0.05]]))
+    cylinder = Body(*body.kernel_arrays)
+    box = cylinder._replace(kinds=np.ones(1, dtype=np.int64), centres=np.array([[0.01, 0.0, 0.02]]),
+                            halfs=np.array([[0.03, 0.02, 0.05]]))
     rng = np.random.default_rng(8)
     for arrays in (cylinder, box):
         for p in rng.normal(0.0, 0.06, (2000, 3)):
-            assert _distance(p, *arrays, False)[0] == _distance(p, *arrays, True)[0]
+            assert _distance(p, arrays, False)[0] == _distance(p, arrays, True)[0]
 
 
 def test_kernel_sums_run_in_their_stated_order() -> None:
@@ -401,6 +405,7 @@ def test_kernel_sums_run_in_their_stated_order() -> None:
     """
     from grasp_intent_ros.core.kernels.linalg import _gram
     from grasp_intent_ros.core.kernels.posterior import _log_joint_score
+    from grasp_intent_ros.core.kernels.types import Mixture
     rng = np.random.default_rng(6)
     for m, n in ((7, 10), (8, 7), (3, 1), (2, 4)):
         J = rng.standard_normal((m, n))
@@ -418,7 +423,7 @@ def test_kernel_sums_run_in_their_stated_order() -> None:
         log_norm = rng.standard_normal(K)
         x = rng.standard_normal(d)
         lj, g = np.empty(K), np.empty((K, d))
-        _log_joint_score(x, means, prec, log_norm, lj, g, np.empty(d))
+        _log_joint_score(x, Mixture(means, prec, log_norm), lj, g, np.empty(d))
         for k in range(K):
             diff = [float(x[j] - means[k, j]) for j in range(d)]
             q = 0.0
@@ -475,17 +480,18 @@ def test_body_surface_curvature_matches_finite_differences(shipped: dict[str, Gr
     gradient (1e-6 relative).
     """
     from grasp_intent_ros.core.kernels.geometry import _distance, _distance_hessian
+    from grasp_intent_ros.core.kernels.types import Body
     body = shipped['flashlight_7zone'].body
     assert body is not None
-    arrays = body.kernel_arrays[:7]
+    arrays = Body(*body.kernel_arrays)
     for p in (np.array([0.03, 0.0, 0.041]), np.array([0.03, 0.012, 0.035]), np.array([-0.05, -0.02, 0.0]),
               np.array([0.12, 0.005, 0.03])):
         step = 1e-7
-        numeric = np.stack([(np.array(_distance(p + h, *arrays, True)[1:])
-                             - np.array(_distance(p - h, *arrays, True)[1:])) / (2.0 * step)
+        numeric = np.stack([(np.array(_distance(p + h, arrays, True)[1:])
+                             - np.array(_distance(p - h, arrays, True)[1:])) / (2.0 * step)
                             for h in np.eye(3) * step])
         hess = np.full((3, 3), np.nan)
-        _distance_hessian(p, *arrays, hess)
+        _distance_hessian(p, arrays, hess)
         assert_allclose(hess, numeric, rtol=0.0, atol=1e-6 * max(np.abs(numeric).max(), 1.0))
         assert_allclose(hess, hess.T, atol=1e-12)
 
@@ -554,9 +560,10 @@ def _rule_5(model: GraspModel, v: np.ndarray, origins: np.ndarray, screened: np.
             projection: planner._LogOddsProjection | None) -> tuple[np.ndarray, ...]:
     """Rule 5 as the module docstring states it, driven from Python over the compiled iterations: the oracle."""
     feas = planner._Feasible(model)
-    body = feas.body
+    body = Body(*feas.body)
     v_path = np.rint(v / planner._LS_QUANTUM) * planner._LS_QUANTUM
     consts = (model.means, model._precisions, model._log_norm)
+    mixture = Mixture(*consts)
 
     def f_of(xs: np.ndarray, target: np.ndarray) -> np.ndarray:
         return kernels.score(xs, target, *consts, xs[0], feas.scale)[1] if len(xs) else np.zeros(0)
@@ -565,14 +572,14 @@ def _rule_5(model: GraspModel, v: np.ndarray, origins: np.ndarray, screened: np.
         return np.argsort(selection._rank_keys(f, planner.MATCH_TOL))[:count]
 
     def lm(starts: np.ndarray, maxiter: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        return least_squares._least_squares(np.ascontiguousarray(starts), v_path, *consts, feas.lower, feas.upper,
-                                       feas.a.start, feas.a.stop, *body, maxiter, planner._LM_FTOL,
-                                       planner._LM_RIDGE)
+        return least_squares._least_squares(np.ascontiguousarray(starts), v_path, mixture, feas.lower, feas.upper,
+                                            feas.a.start, feas.a.stop, body, maxiter, planner._LM_FTOL,
+                                            planner._LM_RIDGE)
 
     def newton(starts: np.ndarray, maxiter: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        return least_squares._newton_least_squares(np.ascontiguousarray(starts), v_path, *consts, feas.lower,
-                                              feas.upper, feas.scale, feas.a.start, feas.a.stop, *body, maxiter,
-                                              planner._NEWTON_STEPTOL, planner._LM_RIDGE)
+        return least_squares._newton_least_squares(np.ascontiguousarray(starts), v_path, mixture, feas.lower,
+                                                   feas.upper, feas.scale, feas.a.start, feas.a.stop, body, maxiter,
+                                                   planner._NEWTON_STEPTOL, planner._LM_RIDGE)
 
     def polish(xs: np.ndarray, ok: np.ndarray, its: np.ndarray, left: np.ndarray) -> None:
         best = first(f_of(xs, v_path), planner._NEWTON_POLISH)

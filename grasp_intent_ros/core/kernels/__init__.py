@@ -10,12 +10,16 @@ least_squares  Levenberg-Marquardt and Newton on 1/2 |v - P(x)|^2 over X
 rounds         the planner's least squares (its rule 5) in one call
 selection      ranking, screening and choosing candidates without float-noise ties
 ik             the MICO's inverse kinematics (:meth:`grasp_intent_ros.core.kinematics.MicoKinematics.ik`)
+types          the shared arrays as typed tuples: the body (:class:`~.types.Body`), the model's Gaussians
+               (:class:`~.types.Mixture`)
 
 The algorithms are stated where they are used (:mod:`grasp_intent_ros.core.planner`) and in the solvers'
 docstrings; these modules only run them without numpy's per-call overhead (an iteration is ~10^3 flops,
 so that overhead, not the arithmetic, is the cost): the iterations work in arrays allocated once per call
 and write their small products and solves as loops. The public functions below take and return numpy
-arrays and are typed; the compiled ones (leading underscore) are typed by numba from their arguments.
+arrays and are typed; the compiled ones (leading underscore) are typed by numba from their arguments
+(setup.cfg says why mypy does not ask them for annotations) and pass the body and the model's Gaussians
+on as one :class:`~.types.Body` and one :class:`~.types.Mixture`.
 
 Compiled code is cached next to the modules (``cache=True``); the first call in a fresh installation
 compiles it, which ``python -m grasp_intent_ros.core.kernels`` (:func:`warm_up`) does ahead of time.
@@ -34,10 +38,12 @@ import numpy as np
 def _drop_stale_caches(directory: Path) -> None:
     """Remove numba's cache files of ``directory``'s modules unless they were compiled from its current sources.
 
-    The sources' SHA-256 is kept in ``__pycache__/kernels.sources.sha256``, next to the cache files. A
-    directory that cannot be written (a read-only installation, whose sources do not change) is left alone.
+    The sources are the modules but ``__init__`` and ``__main__`` (which compile nothing); their SHA-256 is
+    kept in ``__pycache__/kernels.sources.sha256``, next to the cache files. A directory that cannot be
+    written (a read-only installation, whose sources do not change) is left alone.
     """
-    digest = hashlib.sha256(b''.join(p.read_bytes() for p in sorted(directory.glob('*.py')))).hexdigest()
+    sources = sorted(p for p in directory.glob('*.py') if p.name not in ('__init__.py', '__main__.py'))
+    digest = hashlib.sha256(b''.join(p.read_bytes() for p in sources)).hexdigest()
     cache = directory / '__pycache__'
     stamp = cache / 'kernels.sources.sha256'
     try:

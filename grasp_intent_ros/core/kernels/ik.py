@@ -19,7 +19,7 @@ __all__ = ['ik_descent']
 
 
 @njit(cache=True, nogil=True)
-def _compose(A, B, out):  # type: ignore[no-untyped-def]
+def _compose(A, B, out):
     """Fills out with A B for 3x3 matrices (out is neither)."""
     for i in range(3):
         for j in range(3):
@@ -27,7 +27,7 @@ def _compose(A, B, out):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _axis_rotation(axis, angle, out):  # type: ignore[no-untyped-def]
+def _axis_rotation(axis, angle, out):
     """Fills out with the rotation by ``angle`` about the unit ``axis`` (Rodrigues)."""
     s, c = math.sin(angle), math.cos(angle)
     x, y, z = axis[0], axis[1], axis[2]
@@ -38,7 +38,7 @@ def _axis_rotation(axis, angle, out):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _chain_fk(q, rots, trans, axes, tip_rot, tip_trans, origins, zs):  # type: ignore[no-untyped-def]
+def _chain_fk(q, rots, trans, axes, tip_rot, tip_trans, origins, zs):
     """World pose (R, p) of the tip; fills each joint's world origin and axis into ``origins``, ``zs``.
 
     Joint i sits at placement (rots[i], trans[i]) in joint i - 1's frame (the world for i = 0) and turns
@@ -63,7 +63,7 @@ def _chain_fk(q, rots, trans, axes, tip_rot, tip_trans, origins, zs):  # type: i
 
 
 @njit(cache=True, nogil=True)
-def _log3(E):  # type: ignore[no-untyped-def]
+def _log3(E):
     """Rotation vector phi of a rotation matrix E (exp([phi]x) = E, |phi| <= pi), accurate near 0 and pi."""
     w = 0.5 * np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])  # sin(theta) n
     s = math.sqrt(np.sum(w * w))
@@ -88,7 +88,7 @@ def _log3(E):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _ik_residual(q, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, origins, zs):  # type: ignore[no-untyped-def]
+def _ik_residual(q, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, origins, zs):
     """Error e = (R^T (p_t - p), log3(R^T R_t)) of the tip pose (R, p) against the target, in the tip frame."""
     R, p = _chain_fk(q, rots, trans, axes, tip_rot, tip_trans, origins, zs)
     e = np.empty(6)
@@ -103,7 +103,7 @@ def _ik_residual(q, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, origins, zs
 
 
 @njit(cache=True, nogil=True)
-def _ik_jacobian(e, R, p, origins, zs):  # type: ignore[no-untyped-def]
+def _ik_jacobian(e, R, p, origins, zs):
     """de/dq, with joint i's twist in the tip frame (v_i, w_i): -(w_i x e_p) - v_i and -Jl^-1(phi) w_i.
 
     A turn dq of joint i moves the tip by R (v_i, w_i) dq, so R^T changes by -[w_i]x R^T dq: e_p by
@@ -141,7 +141,7 @@ _IK_SOLVED = 1e-10
 
 
 @njit(cache=True, nogil=True)
-def _ik_descent(q, lower, upper, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, max_iter):  # type: ignore[no-untyped-def]
+def _ik_descent(q, lower, upper, rots, trans, axes, tip_rot, tip_trans, R_t, p_t, max_iter):
     """One Levenberg-Marquardt descent of the tip onto the target pose (R_t, p_t) from q, within the limits.
 
     Minimises |e(q)|^2 (:func:`_ik_residual`): each iteration solves (J^T J + lam I) s = -J^T e, shortens s

@@ -24,7 +24,7 @@ from .posterior import (
 
 
 @njit(cache=True, nogil=True)
-def _residual(v, p, r):  # type: ignore[no-untyped-def]
+def _residual(v, p, r):
     """Fills r with v - p; returns f = 1/2 |r|^2."""
     acc = 0.0
     for k in range(v.size):
@@ -34,7 +34,7 @@ def _residual(v, p, r):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _gradient(r, jac, grad):  # type: ignore[no-untyped-def]
+def _gradient(r, jac, grad):
     """Fills grad (d,) with the gradient -r^T jac of f = 1/2 |r|^2 (r (K,), jac = dP/dx (K, d))."""
     for j in range(grad.size):
         acc = 0.0
@@ -44,7 +44,7 @@ def _gradient(r, jac, grad):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _hold_leaving(x, step, held, lower, upper, a0, a1):  # type: ignore[no-untyped-def]
+def _hold_leaving(x, step, held, lower, upper, a0, a1):
     """Holds (in ``held``) every free variable on a bound whose step would leave it; whether there was one.
 
     The approach's entries are left alone: a unit vector never leaves [-1, 1].
@@ -59,8 +59,7 @@ def _hold_leaving(x, step, held, lower, upper, a0, a1):  # type: ignore[no-untyp
 
 
 @njit(cache=True, nogil=True)
-def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # type: ignore[no-untyped-def]
-                   kinds, centres, axes, perps, radii, lengths, halfs, margin, maxiter, ftol, ridge_rel):
+def _least_squares(starts, v, mixture, lower, upper, a0, a1, body, maxiter, ftol, ridge_rel):
     """Projected Levenberg-Marquardt on r(x) = v - P(x) from every start (N, d): end points, converged, iterations.
 
     Each iteration solves (J^T J + lam diag(J^T J) + eps I) dx = J^T r per start (eps = 1e-7 times the
@@ -77,6 +76,7 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
     from there for 200 more (with the damping started afresh) is a path of its own, taken the same way
     on every run.
     """
+    means, prec, log_norm = mixture
     n, d = starts.shape
     K = means.shape[0]
     out, converged, iterations = _results(n, d)
@@ -88,8 +88,8 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
     held, normal = np.empty(d, dtype=np.bool_), np.empty(3)
     for s in range(n):
         x[:] = starts[s]
-        _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-        _posterior_jacobian(x, means, prec, log_norm, p, jac, diff)
+        _project(x, lower, upper, a0, a1, body)
+        _posterior_jacobian(x, mixture, p, jac, diff)
         f = _residual(v, p, r)
         lam = 1e-3
         done = False
@@ -102,7 +102,7 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
                 for k in range(K):
                     _on_plane(jt[k], a0, x[a0:a1])
                 _gradient(r, jt, grad)
-                on_body = _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin, normal)
+                on_body = _body_hold(x, grad, body, normal)
                 if on_body:  # on the body's surface, f falling inside: steps on the surface's tangent plane
                     for k in range(K):
                         _on_plane(jt[k], 0, normal)
@@ -133,10 +133,10 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
                 continue
             for j in range(d):
                 x_new[j] = x[j] + step[j]
-            _project(x_new, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
+            _project(x_new, lower, upper, a0, a1, body)
             if on_body:
-                _onto_surface(x_new, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-            _posterior_and_scores(x_new, means, prec, log_norm, p_new, jac_new, diff)  # dP/dx only if taken
+                _onto_surface(x_new, lower, upper, body)
+            _posterior_and_scores(x_new, mixture, p_new, jac_new, diff)  # dP/dx only if taken
             f_new = _residual(v, p_new, r_new)
             better = f_new < f
             small = better and (f - f_new < ftol * f + 1e-15)
@@ -161,8 +161,7 @@ def _least_squares(starts, v, means, prec, log_norm, lower, upper, a0, a1,  # ty
 
 
 @njit(cache=True, nogil=True)
-def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale, a0, a1,  # type: ignore[no-untyped-def]
-                          kinds, centres, axes, perps, radii, lengths, halfs, margin, maxiter, steptol, ridge_rel):
+def _newton_least_squares(starts, v, mixture, lower, upper, scale, a0, a1, body, maxiter, steptol, ridge_rel):
     """Projected trust-region Newton on f = 1/2 |v - P(x)|^2 with its exact Hessian from every start (N, d).
 
     The Hessian J^T J + sum_k (P_k - v_k) d2P_k keeps the curvature that the least-squares steps leave
@@ -177,6 +176,7 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
     with lam negligible, or when no step lowers f any more; one that reaches ``maxiter`` has not.
     Returns end points, converged and iterations, as :func:`_least_squares` does.
     """
+    means, prec, log_norm = mixture
     n, d = starts.shape
     K = means.shape[0]
     out, converged, iterations = _results(n, d)
@@ -191,8 +191,8 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
     held, normal, ns = np.empty(d, dtype=np.bool_), np.empty(3), np.empty(3)
     for s in range(n):
         x[:] = starts[s]
-        _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-        _posterior_hessian(x, means, prec, log_norm, v, p, u, jac, hess, diff)
+        _project(x, lower, upper, a0, a1, body)
+        _posterior_hessian(x, mixture, v, p, u, jac, hess, diff)
         f = _residual(v, p, r)
         lam = -1.0
         done = False
@@ -205,11 +205,11 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
                 # on the sphere's tangent plane (Lagrangian Hessian: H - (a . grad_a f) I there), then in
                 # scaled coordinates y = x / sc (sc uniform over the approach, so the tangent plane is the same)
                 _gradient(r, jac, grad)  # the gradient in x, until it is taken to the tangent plane
-                on_body = _body_hold(x, grad, kinds, centres, axes, perps, radii, lengths, halfs, margin, normal)
+                on_body = _body_hold(x, grad, body, normal)
                 h[:] = hess
                 if on_body:  # the Lagrangian's Hessian on the body's surface: minus mu times the surface's curvature
                     mu = grad[0] * normal[0] + grad[1] * normal[1] + grad[2] * normal[2]
-                    _distance_hessian(x, kinds, centres, axes, perps, radii, lengths, halfs, curvature)
+                    _distance_hessian(x, body, curvature)
                     for i in range(3):
                         for j in range(3):
                             h[i, j] -= mu * curvature[i, j]
@@ -280,10 +280,10 @@ def _newton_least_squares(starts, v, means, prec, log_norm, lower, upper, scale,
                 x_new[i] = x[i] + step[i] * sc[i]
             predicted = -(gain + 0.5 * curve)
             size = math.sqrt(size)
-            _project(x_new, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
+            _project(x_new, lower, upper, a0, a1, body)
             if on_body:
-                _onto_surface(x_new, lower, upper, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-            _posterior_and_scores(x_new, means, prec, log_norm, p_new, u, diff)  # the Hessian only if taken
+                _onto_surface(x_new, lower, upper, body)
+            _posterior_and_scores(x_new, mixture, p_new, u, diff)  # the Hessian only if taken
             f_new = _residual(v, p_new, r_new)
             if f_new < f:
                 _scores_to_hessian(prec, v, p_new, u, jac_new, hess_new)

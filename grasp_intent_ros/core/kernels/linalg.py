@@ -15,7 +15,7 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
-def _cholesky_solve(m, b, z, low):  # type: ignore[no-untyped-def]
+def _cholesky_solve(m, b, z, low):
     """Solve m z = b for a symmetric m (its lower triangle) by Cholesky into z (which may be b); low (n, n) is work.
 
     Returns whether m is positive definite; when it is not, z is b. (Rows are taken once as views and each
@@ -54,7 +54,7 @@ def _cholesky_solve(m, b, z, low):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _spd_solve(m, b, z, low):  # type: ignore[no-untyped-def]
+def _spd_solve(m, b, z, low):
     """Solve m z = b into z (which may be b) for a symmetric m that a ridge makes positive definite.
 
     By Cholesky (:func:`_cholesky_solve`, low its work); where rounding defeats it (the ridge below the
@@ -65,7 +65,7 @@ def _spd_solve(m, b, z, low):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _gram(J, out):  # type: ignore[no-untyped-def]
+def _gram(J, out):
     """Fills out (n, n) with J^T J for J (m, n)."""
     m, n = J.shape
     for i in range(n):
@@ -87,7 +87,7 @@ def _gram(J, out):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _min_norm(A, e, fixed, dfix, active, damping, dy, work):  # type: ignore[no-untyped-def]
+def _min_norm(A, e, fixed, dfix, active, damping, dy, work):
     """Fills dy with the shortest dy with e + A dy = 0 on the active rows and dy = dfix where fixed.
 
     ``work`` is (Ant (d, rows): the rows of unit length, transposed; en (rows,), gram (rows, rows), z (rows,),
@@ -131,13 +131,13 @@ def _min_norm(A, e, fixed, dfix, active, damping, dy, work):  # type: ignore[no-
 
 
 @njit(cache=True, nogil=True)
-def _results(n, d):  # type: ignore[no-untyped-def]
+def _results(n, d):
     """End points (n, d), converged (n,) and iterations (n,) of n starts, to be filled in."""
     return np.empty((n, d)), np.zeros(n, dtype=np.bool_), np.zeros(n, dtype=np.int64)
 
 
 @njit(cache=True, nogil=True)
-def _l1_max(e, n):  # type: ignore[no-untyped-def]
+def _l1_max(e, n):
     """The 1-norm and the largest magnitude of e[:n]."""
     l1 = 0.0
     top = 0.0

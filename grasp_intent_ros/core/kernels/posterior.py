@@ -1,10 +1,10 @@
 """The model's posterior P(k|x) over its K zones and the planner's objective, with their derivatives.
 
-The model is K Gaussians over grasps x (d,): ``means`` (K, d), precision matrices ``prec`` (K, d, d) and
-``log_norm`` (K,) = log(pi_k) + the Gaussian's log normaliser, so that log(pi_k N_k(x)) = log_norm[k] -
-1/2 (x - mu_k)^T Lambda_k (x - mu_k). P(k|x) is the softmax of those log joints. The objective is
-f(x) = 1/2 |v - P(x)|^2 for a target vector v (K,), summed in zone order; its gradient is -(v - P)^T
-dP/dx and its Hessian J^T J + sum_k (P_k - v_k) d2P_k.
+The model is K Gaussians over grasps x (d,), a :class:`~.types.Mixture`: ``means`` (K, d), precision
+matrices ``prec`` (K, d, d) and ``log_norm`` (K,) = log(pi_k) + the Gaussian's log normaliser, so that
+log(pi_k N_k(x)) = log_norm[k] - 1/2 (x - mu_k)^T Lambda_k (x - mu_k). P(k|x) is the softmax of those
+log joints. The objective is f(x) = 1/2 |v - P(x)|^2 for a target vector v (K,), summed in zone order;
+its gradient is -(v - P)^T dP/dx and its Hessian J^T J + sum_k (P_k - v_k) d2P_k.
 """
 
 from __future__ import annotations
@@ -16,13 +16,15 @@ from numba import njit
 from numpy.typing import NDArray
 
 from .linalg import _gram
+from .types import Mixture
 
 __all__ = ['log_joints', 'score']
 
 
 @njit(cache=True, nogil=True)
-def _log_joint_score(x, means, prec, log_norm, lj, g, diff):  # type: ignore[no-untyped-def]
+def _log_joint_score(x, mixture, lj, g, diff):
     """Fills lj (K,) with log(pi_k N_k(x)) and g (K, d) with its gradient -Sigma_k^-1 (x - mu_k); diff (d,) is work."""
+    means, prec, log_norm = mixture
     K, d = means.shape
     for k in range(K):
         for j in range(d):
@@ -53,17 +55,17 @@ def _log_joint_score(x, means, prec, log_norm, lj, g, diff):  # type: ignore[no-
 
 
 @njit(cache=True, nogil=True)
-def _posterior_and_scores(x, means, prec, log_norm, p, g, diff):  # type: ignore[no-untyped-def]
+def _posterior_and_scores(x, mixture, p, g, diff):
     """Fills p (K,) with P(k|x) and g (K, d) with the gradients of log(pi_k N_k(x)); diff (d,) is work.
 
     :func:`_centre_scores` turns g into the gradients of log P(k|x), :func:`_scores_to_jacobian` into dP/dx.
     """
-    _log_joint_score(x, means, prec, log_norm, p, g, diff)
+    _log_joint_score(x, mixture, p, g, diff)
     _normalise(p)
 
 
 @njit(cache=True, nogil=True)
-def _normalise(p):  # type: ignore[no-untyped-def]
+def _normalise(p):
     """Turns log joints p (K,) into the posterior in place: exp(p_k - max p) / sum_j exp(p_j - max p)."""
     K = p.size
     top = p[0]
@@ -79,13 +81,14 @@ def _normalise(p):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _log_joints(xs, means, prec, log_norm):  # type: ignore[no-untyped-def]
+def _log_joints(xs, mixture):
+    means, prec, log_norm = mixture
     n = xs.shape[0]
     K, d = means.shape
     lj, post = np.empty((n, K)), np.empty((n, K))
     g, diff = np.empty((K, d)), np.empty(d)
     for s in range(n):
-        _log_joint_score(xs[s], means, prec, log_norm, lj[s], g, diff)
+        _log_joint_score(xs[s], mixture, lj[s], g, diff)
         post[s] = lj[s]
         _normalise(post[s])
     return lj, post
@@ -96,12 +99,12 @@ def log_joints(xs: NDArray[np.float64], means: NDArray[np.float64], prec: NDArra
     """log(pi_k N_k(x)) and P(k|x) of every row of xs (N, d), each (N, K), with the iterations' own arithmetic."""
     lj: NDArray[np.float64]
     post: NDArray[np.float64]
-    lj, post = _log_joints(np.ascontiguousarray(xs, dtype=np.float64), means, prec, log_norm)
+    lj, post = _log_joints(np.ascontiguousarray(xs, dtype=np.float64), Mixture(means, prec, log_norm))
     return lj, post
 
 
 @njit(cache=True, nogil=True)
-def _centre_scores(p, u):  # type: ignore[no-untyped-def]
+def _centre_scores(p, u):
     """u_k <- u_k - sum_j P_j u_j (in place): the gradients of log(pi_k N_k) to those of log P(k|x)."""
     K, d = u.shape
     for i in range(d):
@@ -113,14 +116,14 @@ def _centre_scores(p, u):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _posterior_jacobian(x, means, prec, log_norm, p, jac, diff):  # type: ignore[no-untyped-def]
+def _posterior_jacobian(x, mixture, p, jac, diff):
     """Fills p (K,) with P(k|x) and jac (K, d) with dP/dx."""
-    _posterior_and_scores(x, means, prec, log_norm, p, jac, diff)
+    _posterior_and_scores(x, mixture, p, jac, diff)
     _scores_to_jacobian(p, jac)
 
 
 @njit(cache=True, nogil=True)
-def _scores_to_jacobian(p, jac):  # type: ignore[no-untyped-def]
+def _scores_to_jacobian(p, jac):
     """Turns jac (K, d), the gradients of log(pi_k N_k(x)), into dP/dx in place (p = P(k|x))."""
     _centre_scores(p, jac)
     for k in range(p.size):
@@ -129,17 +132,18 @@ def _scores_to_jacobian(p, jac):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _posterior_hessian(x, means, prec, log_norm, v, p, u, jac, h, diff):  # type: ignore[no-untyped-def]
+def _posterior_hessian(x, mixture, v, p, u, jac, h, diff):
     """Fills p (K,) with P(k|x), jac (K, d) with dP/dx and h (d, d) with the Hessian of f = 1/2 |v - P|^2.
 
     u (K, d) and diff (d,) are work (u ends holding the gradients of log P(k|x)).
     """
-    _posterior_and_scores(x, means, prec, log_norm, p, u, diff)
+    means, prec, log_norm = mixture
+    _posterior_and_scores(x, mixture, p, u, diff)
     _scores_to_hessian(prec, v, p, u, jac, h)
 
 
 @njit(cache=True, nogil=True)
-def _scores_to_hessian(prec, v, p, u, jac, h):  # type: ignore[no-untyped-def]
+def _scores_to_hessian(prec, v, p, u, jac, h):
     """Fills jac (K, d) with dP/dx and h (d, d) with the Hessian of f = 1/2 |v - P|^2.
 
     From p = P(k|x) and u (K, d) holding the gradients of log(pi_k N_k(x)) (:func:`_posterior_and_scores`);
@@ -165,7 +169,7 @@ def _scores_to_hessian(prec, v, p, u, jac, h):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _half_square(v, p):  # type: ignore[no-untyped-def]
+def _half_square(v, p):
     """1/2 |v - p|^2, summed in zone order (every objective of the planner is summed so)."""
     acc = 0.0
     for k in range(v.size):
@@ -174,15 +178,16 @@ def _half_square(v, p):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _objective(x, v, means, prec, log_norm, p, u, diff):  # type: ignore[no-untyped-def]
+def _objective(x, v, mixture, p, u, diff):
     """The objective 1/2 |v - P(x)|^2 (:func:`_half_square`); fills p (K,) with P(x) (u, diff: work)."""
-    _posterior_and_scores(x, means, prec, log_norm, p, u, diff)
+    _posterior_and_scores(x, mixture, p, u, diff)
     return _half_square(v, p)
 
 
 @njit(cache=True, nogil=True)
-def _score(xs, v, means, prec, log_norm, x_ref, scale):  # type: ignore[no-untyped-def]
+def _score(xs, v, mixture, x_ref, scale):
     """Posterior (N, K), objective 1/2 |v - P|^2 (N,) and scaled distance to x_ref (N,) of every row."""
+    means, prec, log_norm = mixture
     n, d = xs.shape
     K = means.shape[0]
     post = np.empty((n, K))
@@ -190,7 +195,7 @@ def _score(xs, v, means, prec, log_norm, x_ref, scale):  # type: ignore[no-untyp
     dist = np.empty(n)
     u, diff = np.empty((K, d)), np.empty(d)
     for s in range(n):
-        f[s] = _objective(xs[s], v, means, prec, log_norm, post[s], u, diff)
+        f[s] = _objective(xs[s], v, mixture, post[s], u, diff)
         acc = 0.0
         for j in range(d):
             acc += ((xs[s, j] - x_ref[j]) / scale[j]) ** 2
@@ -203,17 +208,18 @@ def score(xs: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.flo
           ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Posterior (N, K), objective (N,) and scaled distance |(x - x_ref) / s| (N,) of every row of xs."""
     out: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] = _score(
-        np.ascontiguousarray(xs, dtype=np.float64), v, means, prec, log_norm, x_ref, scale)
+        np.ascontiguousarray(xs, dtype=np.float64), v, Mixture(means, prec, log_norm), x_ref, scale)
     return out
 
 
 @njit(cache=True, nogil=True)
-def _objectives(xs, v, means, prec, log_norm):  # type: ignore[no-untyped-def]
+def _objectives(xs, v, mixture):
     """The objective 1/2 |v - P|^2 of every row of xs (N, d), as :func:`_score` computes it."""
+    means, prec, log_norm = mixture
     n, d = xs.shape
     K = means.shape[0]
     f = np.empty(n)
     p, u, diff = np.empty(K), np.empty((K, d)), np.empty(d)
     for s in range(n):
-        f[s] = _objective(xs[s], v, means, prec, log_norm, p, u, diff)
+        f[s] = _objective(xs[s], v, mixture, p, u, diff)
     return f

@@ -18,17 +18,19 @@ from numpy.typing import NDArray
 from .geometry import _distance, _project
 from .linalg import _l1_max, _min_norm, _results
 from .posterior import _log_joint_score
+from .types import Body, Mixture
 
 __all__ = ['project']
 
 
 @njit(cache=True, nogil=True)
-def _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1,  # type: ignore[no-untyped-def]
-              kinds, centres, axes, perps, radii, lengths, halfs, margin, e, A, lj, g, diff):
+def _evaluate(x, mixture, others, r, b, scale, a0, a1, body, e, A, lj, g, diff):
     """Fills the residuals e (rows,) and their Jacobian in scaled coordinates A (rows, d); lj (K,), g (K, d) work."""
+    kinds, centres, axes, perps, radii, lengths, halfs, margin = body
+    means, prec, log_norm = mixture
     K, d = means.shape
     n_eq = K - 1
-    _log_joint_score(x, means, prec, log_norm, lj, g, diff)
+    _log_joint_score(x, mixture, lj, g, diff)
     for i in range(n_eq):
         k = others[i]
         e[i] = lj[k] - lj[r] - b[i]
@@ -42,7 +44,7 @@ def _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1,  # type: ig
     for j in range(a0, a1):
         A[n_eq, j] = 2.0 * x[j] * scale[j]
     if kinds.shape[0] > 0:
-        sd, n0, n1, n2 = _distance(x, kinds, centres, axes, perps, radii, lengths, halfs, True)
+        sd, n0, n1, n2 = _distance(x, body, True)
         e[n_eq + 1] = sd - margin
         A[n_eq + 1] = 0.0
         A[n_eq + 1, 0] = n0 * scale[0]
@@ -51,7 +53,7 @@ def _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1,  # type: ig
 
 
 @njit(cache=True, nogil=True)
-def _step(x, e, A, scale, lower, upper, bounded, has_body, damping, dy, fixed, dfix, active, work):  # type: ignore[no-untyped-def]
+def _step(x, e, A, scale, lower, upper, bounded, has_body, damping, dy, fixed, dfix, active, work):
     """Fills dy with the shortest scaled step solving the linearised equations, bounds and body held.
 
     fixed (d,), dfix (d,), active (rows,) and work (:func:`_min_norm`) are work arrays.
@@ -87,15 +89,11 @@ def _step(x, e, A, scale, lower, upper, bounded, has_body, damping, dy, fixed, d
 
 
 @njit(cache=True, nogil=True)
-def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArray[np.float64],  # type: ignore[no-untyped-def]
-                   log_norm: NDArray[np.float64], others: NDArray[np.int64], r: int, b: NDArray[np.float64],
-                   scale: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray[np.float64],
-                   a0: int, a1: int, kinds: NDArray[np.int64], centres: NDArray[np.float64],
-                   axes: NDArray[np.float64], perps: NDArray[np.float64], radii: NDArray[np.float64],
-                   lengths: NDArray[np.float64], halfs: NDArray[np.float64], margin: float,
-                   maxiter: int, stall: int, damping: float, htol: float, steptol: float,
-                   b_final: NDArray[np.float64]):
+def _project_starts(starts, mixture, others, r, b, scale, lower, upper, a0, a1, body, maxiter, stall, damping, htol,
+                    steptol, b_final):
     """Project every start (N, d) onto b, then onto b_final; end points (N, d), converged (N,), iterations (N,)."""
+    kinds, centres, axes, perps, radii, lengths, halfs, margin = body
+    means, prec, log_norm = mixture
     n, d = starts.shape
     K = means.shape[0]
     n_eq = K - 1
@@ -112,9 +110,8 @@ def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], pre
     work = (np.empty((d, rows)), np.empty(rows), np.empty((rows, rows)), np.empty(rows), np.empty((rows, rows)))
     for s in range(n):
         x[:] = starts[s]
-        _project(x, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-        _evaluate(x, means, prec, log_norm, others, r, b, scale, a0, a1, kinds, centres, axes, perps,
-                  radii, lengths, halfs, margin, e, A, lj, g, diff)
+        _project(x, lower, upper, a0, a1, body)
+        _evaluate(x, mixture, others, r, b, scale, a0, a1, body, e, A, lj, g, diff)
         l1 = _l1_max(e, n_eq)[0]
         checkpoint = l1
         radius = 1.0
@@ -141,9 +138,8 @@ def _project_starts(starts: NDArray[np.float64], means: NDArray[np.float64], pre
             t = min(1.0, radius / max(size, 1e-300))
             for j in range(d):
                 x_try[j] = x[j] + (t * dy[j]) * scale[j]
-            _project(x_try, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin)
-            _evaluate(x_try, means, prec, log_norm, others, r, target, scale, a0, a1, kinds, centres, axes, perps,
-                      radii, lengths, halfs, margin, e_try, A_try, lj, g, diff)
+            _project(x_try, lower, upper, a0, a1, body)
+            _evaluate(x_try, mixture, others, r, target, scale, a0, a1, body, e_try, A_try, lj, g, diff)
             l1_try, top = _l1_max(e_try, n_eq)
             iterations[s] += 1
             fin = top <= htol and t * size <= steptol
@@ -182,12 +178,11 @@ def project(starts: NDArray[np.float64], means: NDArray[np.float64], prec: NDArr
             ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
     """Project every start (N, d) onto the log-odds equations: end points, converged (N,), iterations (N,).
 
-    ``body`` is ``(kinds, centres, axes, perps, radii, lengths, halfs, margin)`` (module docstring). With
+    ``body`` is ``(kinds, centres, axes, perps, radii, lengths, halfs, margin)`` (:class:`~.types.Body`). With
     ``b_final``, a start that converges onto the right-hand sides ``b`` goes on to ``b_final`` (with a budget
     of ``maxiter`` iterations of its own) and has converged when it meets them.
     """
     out: tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]] = _project_starts(
-        np.ascontiguousarray(starts, dtype=np.float64), means, prec, log_norm, others, r, b, scale, lower,
-        upper, a0, a1, *body, maxiter, stall, damping, htol, steptol,
-        b if b_final is None else b_final)  # type: ignore[call-arg]
+        np.ascontiguousarray(starts, dtype=np.float64), Mixture(means, prec, log_norm), others, r, b, scale, lower,
+        upper, a0, a1, Body(*body), maxiter, stall, damping, htol, steptol, b if b_final is None else b_final)
     return out

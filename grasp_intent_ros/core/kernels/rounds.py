@@ -18,12 +18,13 @@ from .least_squares import _least_squares, _newton_least_squares
 from .posterior import _objectives
 from .projection import _project_starts
 from .selection import _first_ranked
+from .types import Body, Mixture
 
 __all__ = ['least_squares_rounds']
 
 
 @njit(cache=True, nogil=True)
-def _unconverged_first(xs, ok, v, means, prec, log_norm, count, tol):  # type: ignore[no-untyped-def]
+def _unconverged_first(xs, ok, v, mixture, count, tol):
     """The ``count`` rows of xs that have not converged (``ok`` False) with the lowest f, in rank-key order."""
     going = np.empty(ok.size, dtype=np.int64)
     m = 0
@@ -32,26 +33,23 @@ def _unconverged_first(xs, ok, v, means, prec, log_norm, count, tol):  # type: i
             going[m] = i
             m += 1
     going = going[:m]
-    return going[_first_ranked(_objectives(xs[going], v, means, prec, log_norm), tol, count)]
+    return going[_first_ranked(_objectives(xs[going], v, mixture), tol, count)]
 
 
 @njit(cache=True, nogil=True)
-def _newton_polish(xs, ok, its, left, v, means, prec, log_norm, lower, upper, scale, a0, a1,  # type: ignore[no-untyped-def]
-                   kinds, centres, axes, perps, radii, lengths, halfs, margin, polish, race, keep, maxiter,
+def _newton_polish(xs, ok, its, left, v, mixture, lower, upper, scale, a0, a1, body, polish, race, keep, maxiter,
                    steptol, ridge_rel, tol):
     """Newton from the ``polish`` rows of xs with the lowest f, in place where it converges.
 
     ``race`` iterations each, then the ``keep`` best unconverged on to ``maxiter``; ``ok``, ``its`` and
     ``left`` (cleared where it converges) are updated too.
     """
-    best = _first_ranked(_objectives(xs, v, means, prec, log_norm), tol, polish)
-    xs_n, ok_n, its_n = _newton_least_squares(xs[best], v, means, prec, log_norm, lower, upper, scale, a0,
-                                              a1, kinds, centres, axes, perps, radii, lengths, halfs, margin, race,
+    best = _first_ranked(_objectives(xs, v, mixture), tol, polish)
+    xs_n, ok_n, its_n = _newton_least_squares(xs[best], v, mixture, lower, upper, scale, a0, a1, body, race,
                                               steptol, ridge_rel)
-    ahead = _unconverged_first(xs_n, ok_n, v, means, prec, log_norm, keep, tol)
+    ahead = _unconverged_first(xs_n, ok_n, v, mixture, keep, tol)
     if ahead.size:
-        xs_a, ok_a, more = _newton_least_squares(xs_n[ahead], v, means, prec, log_norm, lower, upper, scale,
-                                                 a0, a1, kinds, centres, axes, perps, radii, lengths, halfs, margin,
+        xs_a, ok_a, more = _newton_least_squares(xs_n[ahead], v, mixture, lower, upper, scale, a0, a1, body,
                                                  maxiter - race, steptol, ridge_rel)
         for i in range(ahead.size):
             xs_n[ahead[i]] = xs_a[i]
@@ -66,31 +64,29 @@ def _newton_polish(xs, ok, its, left, v, means, prec, log_norm, lower, upper, sc
 
 
 @njit(cache=True, nogil=True)
-def _least_squares_rounds(origins, v, v_path, means, prec, log_norm, lower, upper, scale, a0, a1,  # type: ignore[no-untyped-def]
-                          kinds, centres, axes, perps, radii, lengths, halfs, margin,
-                          lm_race, lm_keep, lm_maxiter, lm_ftol, ridge_rel,
-                          polish, newton_race, newton_keep, newton_maxiter, newton_steptol,
-                          screened, f0, f1, open_f, open_lm,
-                          others, r, b_path, b, near_f, gn_maxiter, gn_stall, gn_damping, gn_htol, gn_steptol, tol):
+def _least_squares_rounds(origins, v, v_path, mixture, lower, upper, scale, a0, a1, body, lm, newton, screened,
+                          finger_range, open_f, open_lm, equations, near_f, gn, tol):
     """The planner's least squares (:func:`least_squares_rounds`)."""
+    lm_race, lm_keep, lm_maxiter, lm_ftol, ridge_rel = lm
+    polish, newton_race, newton_keep, newton_maxiter, newton_steptol = newton
+    f0, f1 = finger_range
+    others, r, b_path, b = equations
+    gn_maxiter, gn_stall, gn_damping, gn_htol, gn_steptol = gn
     d = origins.shape[1]
-    xs, ok, its = _least_squares(origins, v_path, means, prec, log_norm, lower, upper, a0, a1, kinds, centres,
-                                 axes, perps, radii, lengths, halfs, margin, lm_race, lm_ftol, ridge_rel)
+    xs, ok, its = _least_squares(origins, v_path, mixture, lower, upper, a0, a1, body, lm_race, lm_ftol, ridge_rel)
     left = _unless(ok, 1)  # 1: left behind the race's leaders
-    ahead = _unconverged_first(xs, ok, v_path, means, prec, log_norm, lm_keep, tol)
+    ahead = _unconverged_first(xs, ok, v_path, mixture, lm_keep, tol)
     if ahead.size:
-        xs_a, ok_a, more = _least_squares(xs[ahead], v_path, means, prec, log_norm, lower, upper, a0, a1,
-                                          kinds, centres, axes, perps, radii, lengths, halfs, margin,
+        xs_a, ok_a, more = _least_squares(xs[ahead], v_path, mixture, lower, upper, a0, a1, body,
                                           lm_maxiter - lm_race, lm_ftol, ridge_rel)
         for i in range(ahead.size):
             xs[ahead[i]] = xs_a[i]
             ok[ahead[i]] = ok_a[i]
             its[ahead[i]] += more[i]
             left[ahead[i]] = 0
-    _newton_polish(xs, ok, its, left, v_path, means, prec, log_norm, lower, upper, scale, a0, a1, kinds, centres,
-                   axes, perps, radii, lengths, halfs, margin, polish, newton_race, newton_keep, newton_maxiter,
-                   newton_steptol, ridge_rel, tol)
-    f = _objectives(xs, v_path, means, prec, log_norm)
+    _newton_polish(xs, ok, its, left, v_path, mixture, lower, upper, scale, a0, a1, body, polish, newton_race,
+                   newton_keep, newton_maxiter, newton_steptol, ridge_rel, tol)
+    f = _objectives(xs, v_path, mixture)
     lowest = f[0]
     for i in range(1, f.size):
         if f[i] < lowest or f[i] != f[i]:  # NaN propagates, as in np.min
@@ -106,19 +102,16 @@ def _least_squares_rounds(origins, v, v_path, means, prec, log_norm, lower, uppe
         for i in range(m):
             opened[i] = screened
             opened[i, fingers[i]] = lower[fingers[i]]  # one finger open in each
-        starts = _project_rows(opened, lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths, halfs,
-                               margin)
-        xs_o, ok_o, its_o = _least_squares(starts, v_path, means, prec, log_norm, lower, upper, a0, a1, kinds,
-                                           centres, axes, perps, radii, lengths, halfs, margin, open_lm, lm_ftol,
+        starts = _project_rows(opened, lower, upper, a0, a1, body)
+        xs_o, ok_o, its_o = _least_squares(starts, v_path, mixture, lower, upper, a0, a1, body, open_lm, lm_ftol,
                                            ridge_rel)
         left_o = _unless(ok_o, 2)  # 2: an opened start left behind the polished ones
-        _newton_polish(xs_o, ok_o, its_o, left_o, v_path, means, prec, log_norm, lower, upper, scale, a0, a1, kinds,
-                       centres, axes, perps, radii, lengths, halfs, margin, polish, newton_race, newton_keep,
-                       newton_maxiter, newton_steptol, ridge_rel, tol)
+        _newton_polish(xs_o, ok_o, its_o, left_o, v_path, mixture, lower, upper, scale, a0, a1, body, polish,
+                       newton_race, newton_keep, newton_maxiter, newton_steptol, ridge_rel, tol)
         xs, ok, its = np.concatenate((xs, xs_o)), np.concatenate((ok, ok_o)), np.concatenate((its, its_o))
         left, origins = np.concatenate((left, left_o)), np.concatenate((origins, starts))
     if others.size:  # P = v is possible: end points within near_f of a match are projected onto the matches
-        f = _objectives(xs, v, means, prec, log_norm)
+        f = _objectives(xs, v, mixture)
         near = np.empty(f.size, dtype=np.int64)
         m = 0
         for i in range(f.size):
@@ -127,10 +120,8 @@ def _least_squares_rounds(origins, v, v_path, means, prec, log_norm, lower, uppe
                 m += 1
         near = near[:m]
         if m:
-            xs_p, ok_p, its_p = _project_starts(xs[near], means, prec, log_norm, others, r, b_path, scale,
-                                                lower, upper, a0, a1, kinds, centres, axes, perps, radii, lengths,
-                                                halfs, margin, gn_maxiter, gn_stall, gn_damping, gn_htol, gn_steptol,
-                                                b)
+            xs_p, ok_p, its_p = _project_starts(xs[near], mixture, others, r, b_path, scale, lower, upper, a0, a1,
+                                                body, gn_maxiter, gn_stall, gn_damping, gn_htol, gn_steptol, b)
             for i in range(m):
                 if ok_p[i]:  # a converged projection is a converged answer
                     xs[near[i]] = xs_p[i]
@@ -141,7 +132,7 @@ def _least_squares_rounds(origins, v, v_path, means, prec, log_norm, lower, uppe
 
 
 @njit(cache=True, nogil=True)
-def _unless(ok, code):  # type: ignore[no-untyped-def]
+def _unless(ok, code):
     """int8 codes: 0 where ok, else ``code``."""
     out = np.zeros(ok.size, dtype=np.int8)
     for i in range(ok.size):
@@ -176,6 +167,6 @@ def least_squares_rounds(origins: NDArray[np.float64], v: NDArray[np.float64], v
     """
     out: tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64], NDArray[np.int8],
                NDArray[np.float64]] = _least_squares_rounds(
-        np.ascontiguousarray(origins, dtype=np.float64), v, v_path, means, prec, log_norm, lower, upper, scale, a0,
-        a1, *body, *lm, *newton, screened, *fingers, open_f, open_lm, *equations, near_f, *gn, tol)  # type: ignore[call-arg]
+        np.ascontiguousarray(origins, dtype=np.float64), v, v_path, Mixture(means, prec, log_norm), lower, upper,
+        scale, a0, a1, Body(*body), lm, newton, screened, fingers, open_f, open_lm, equations, near_f, gn, tol)
     return out

@@ -18,14 +18,14 @@ __all__ = ['screen', 'select_demonstrations', 'distinct', 'choice_order']
 
 
 @njit(cache=True, nogil=True)
-def _rank_key(f, index, n, tol):  # type: ignore[no-untyped-def]
+def _rank_key(f, index, n, tol):
     """The rank key of entry ``index`` of n (see :func:`_rank_keys`)."""
     q = 1.0 / tol if f != f else np.rint(f / (tol * (1.0 + abs(f))))
     return np.int64(q) * n + index
 
 
 @njit(cache=True, nogil=True)
-def _rank_keys(f, tol):  # type: ignore[no-untyped-def]
+def _rank_keys(f, tol):
     """One integer per entry of f (N,) whose order is f quantised to ``tol`` relative, then the index.
 
     The quantised value is rint(f / (tol (1 + |f|))), with a NaN f after every number (as 1 / tol); for f >= 0
@@ -40,7 +40,7 @@ def _rank_keys(f, tol):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _keep_best(best, m, keys, i):  # type: ignore[no-untyped-def]
+def _keep_best(best, m, keys, i):
     """Offer index i to best[:m], the best m indices so far in key order (at most best.size): returns the new m.
 
     i is inserted at its rank; when best is full, the worst is dropped (or i, when it is no better).
@@ -58,7 +58,7 @@ def _keep_best(best, m, keys, i):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _first_ranked(f, tol, count):  # type: ignore[no-untyped-def]
+def _first_ranked(f, tol, count):
     """The indices of the ``count`` entries of f (N,) first by :func:`_rank_keys` (``tol``), in that order.
 
     All N of them, sorted, when count >= N; none when count <= 0.
@@ -72,7 +72,7 @@ def _first_ranked(f, tol, count):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, nogil=True)
-def _screen(log_joint_t, log_v, posterior, v, count, tol):  # type: ignore[no-untyped-def]
+def _screen(log_joint_t, log_v, posterior, v, count, tol):
     K, n = log_joint_t.shape
     score = np.empty(n)
     for i in range(n):
@@ -103,7 +103,7 @@ def screen(log_joint_t: NDArray[np.float64], log_v: NDArray[np.float64], posteri
 
 
 @njit(cache=True, nogil=True)
-def _select_demonstrations(posterior, v, members, zones, rest_count, tol):  # type: ignore[no-untyped-def]
+def _select_demonstrations(posterior, v, members, zones, rest_count, tol):
     n = posterior.shape[0]
     keys = np.empty(n, dtype=np.int64)
     for i in range(n):
@@ -148,7 +148,7 @@ def select_demonstrations(posterior: NDArray[np.float64], v: NDArray[np.float64]
 
 
 @njit(cache=True, nogil=True)
-def _distinct(x, tol):  # type: ignore[no-untyped-def]
+def _distinct(x, tol):
     n, d = x.shape
     keep = np.zeros(n, dtype=np.bool_)
     for i in range(n):
@@ -177,7 +177,7 @@ def distinct(x: NDArray[np.float64], tol: float) -> NDArray[np.bool_]:
 
 
 @njit(cache=True, nogil=True)
-def _choice_order(f, dist, start, xs, converged, match_tol, f_rtol, band, dist_tol, same_tol):  # type: ignore[no-untyped-def]
+def _choice_order(f, dist, start, xs, converged, match_tol, f_rtol, band, dist_tol, same_tol):
     n = f.size
     best = f[0]
     for i in range(1, n):  # the first lowest (as Python's min)
