@@ -10,7 +10,7 @@ rejection (a WARN with the size and the cap) like any other bad input.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, cast
 
 from rclpy.callback_groups import CallbackGroup
@@ -25,7 +25,7 @@ from .conversions import message_class
 from .diagnostics import NodeDiagnostics
 from .qos import input_events
 
-__all__ = ['subscribe_input', 'decode_input', 'waiting_messages']
+__all__ = ['subscribe_input', 'decode_input']
 
 
 def decode_input(topic: str, data: bytes) -> Any:
@@ -89,16 +89,3 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
                                     event_callbacks=input_events(node.get_logger(), topic),
                                     callback_group=callback_group)
 
-
-def waiting_messages(subscription: Subscription, limit: int) -> Iterator[tuple[bytes, Mapping[str, Any]]]:
-    """Up to ``limit`` messages already waiting on the raw ``subscription``, in order, with their info.
-
-    Taken as rclpy's executor takes them (``handle.take_message``), so that a callback can handle a burst
-    in one executor wake-up instead of one wake-up (a wait set and a task) per message.
-    """
-    for _ in range(limit):
-        with subscription.handle:
-            waiting = subscription.handle.take_message(subscription.msg_type, True)
-        if waiting is None:
-            return
-        yield waiting

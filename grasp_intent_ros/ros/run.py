@@ -4,29 +4,17 @@ SIGINT and SIGTERM both end the process with exit code 0 and no traceback: rclpy
 handlers (installed by ``rclpy.init`` for both signals) shut the context down, the executor raises
 ``ExternalShutdownException``, and the node is destroyed before ``rclpy.try_shutdown``.
 
-Python's own SIGINT handling is switched off first. rclpy 7.1 chains its SIGINT handler to Python's,
-whose KeyboardInterrupt would end the spin while rclpy's signal thread is still triggering the
-executor's guard condition, which is then destroyed under it: a use-after-free, seen as a segfault on
-about one SIGINT in five. Ignored at the Python level, SIGINT ends the spin as SIGTERM does. The
-executor (:class:`ShutdownSafeExecutor`) also turns the RCLError of a shutdown that lands between two
-rclpy steps into the normal ExternalShutdownException. A signal that arrives while the node is being built
-(its rcl calls then fail
-on the shut-down context) also exits 0; one that arrives before ``rclpy.init`` (during imports) gets
-Python's default handling. A configuration error found while the node is built (a parameter rejected by
-its descriptor or validator, a missing model) is logged and ends the process with exit code 1.
-
-rclpy's signal handling has a race that this module closes. Its C++ signal thread first triggers the
-executors' signal guard conditions and then shuts the contexts down (``rcl_shutdown``, without Python's
-shutdown callbacks; rclpy 7.1.6's ``_rclpy_pybind11`` calls them in that order after its ``sem_wait``). An
-executor that wakes up in between sees its context still valid, finds no work and waits again, and nothing
-wakes it for the shutdown: its spin ends only at the node's next timer or message, or never in a node with
-neither (reproduced with real SIGTERMs on timer-less nodes, some of them still blocked in ``rcl_wait``
-seconds later; the suite's nodes have a 1 Hz diagnostics timer, which ends such a wait within a second). So a
-daemon thread, :class:`_StopWatcher`, polls the context every 50 ms and wakes the executor (its guard
-condition) once the context is shut down.
+Python's own SIGINT handling is switched off first, the executor is a
+:class:`~grasp_intent_ros.ros.compat.ShutdownSafeExecutor` and a
+:class:`~grasp_intent_ros.ros.compat.StopWatcher` wakes it for a stop request: three workarounds of
+rclpy 7.1's signal handling (:mod:`grasp_intent_ros.ros.compat` says what each works around). A signal
+that arrives while the node is being built (its rcl calls then fail on the shut-down context) also exits
+0; one that arrives before ``rclpy.init`` (during imports) gets Python's default handling. A
+configuration error found while the node is built (a parameter rejected by its descriptor or validator,
+a missing model) is logged and ends the process with exit code 1.
 
 A stop request that has not ended the process :data:`SHUTDOWN_GRACE` seconds later is ended by a
-watchdog (the same thread arms it): it logs an ERROR, writes every thread's stack to stderr
+watchdog (the stop watcher's thread arms it): it logs an ERROR, writes every thread's stack to stderr
 (``faulthandler``) and exits with code 0, so that a stop request always ends the node and leaves the
 evidence in its log. This covers a hung shutdown (executor, node and context, after the spin has ended)
 and a spin that a stop did not end. Two seconds later still, ``faulthandler``'s own timer (a C thread,
@@ -41,105 +29,28 @@ from __future__ import annotations
 
 import ctypes
 import faulthandler
-import os
-import signal
 import sys
-import threading
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import rclpy
 import rclpy.logging
 from rclpy.exceptions import ParameterException
-from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 
 from ..core.errors import GraspIntentError
+from .compat import ShutdownSafeExecutor, StopWatcher, ignore_python_sigint
 from .params import ParameterError
 
-__all__ = ['run_node', 'guard_exit', 'publish_all', 'release_free_memory', 'STARTUP_ERRORS', 'SHUTDOWN_GRACE',
-           'ShutdownSafeExecutor']
+__all__ = ['run_node', 'guard_exit', 'publish_all', 'release_free_memory', 'STARTUP_ERRORS', 'SHUTDOWN_GRACE']
 
 STARTUP_ERRORS: tuple[type[Exception], ...] = (ParameterError, ParameterException, GraspIntentError)
 """Errors a node constructor raises for bad configuration: reported in one line, exit code 1."""
 
 SHUTDOWN_GRACE = 5.0
 """Seconds a stop request may take to end a node before the watchdog ends the process."""
-
-_STOP_POLL = 0.05
-"""Seconds between two looks at the context by the stop watcher's thread."""
-
-
-class _StopWatcher:
-    """Wakes the executor for a stop request and, with a ``grace``, ends the process if the shutdown hangs.
-
-    A daemon thread waits until ``context`` is shut down or the spin has ended (:meth:`spin_ended`). Then,
-    unless the spin has ended, it calls ``wake`` (the executor's ``wake``: rclpy's signal thread may have
-    woken the executor before it shut the context down; module docstring). With a ``grace`` it also arms a
-    timer (ERROR, every thread's stack, exit code 0) and faulthandler's C timer 2 s later (stacks, exit code
-    1). :meth:`finished` disarms both: once run_node's shutdown is done the process is left alone.
-    """
-
-    def __init__(self, context: Any, wake: Callable[[], None], grace: float | None) -> None:
-        self._wake, self._grace = wake, grace
-        self._spin_ended = threading.Event()
-        self._lock = threading.Lock()
-        self._finished = False
-        self._timer: threading.Timer | None = None
-        threading.Thread(target=self._watch, args=(context,), name='stop watcher', daemon=True).start()
-
-    def spin_ended(self) -> None:
-        """The spin is over: the executor is not woken any more (it may be shut down once this returns)."""
-        with self._lock:
-            self._spin_ended.set()
-
-    def finished(self) -> None:
-        with self._lock:
-            self._finished = True
-            if self._timer is not None:
-                self._timer.cancel()
-                faulthandler.cancel_dump_traceback_later()
-
-    def _watch(self, context: Any) -> None:
-        while context.ok() and not self._spin_ended.wait(_STOP_POLL):
-            pass
-        with self._lock:
-            if not self._spin_ended.is_set():
-                self._wake()
-            if self._finished or self._grace is None:
-                return
-            faulthandler.dump_traceback_later(self._grace + 2.0, exit=True, file=sys.stderr)
-            self._timer = threading.Timer(self._grace, self._expire)
-            self._timer.daemon = True
-            self._timer.start()
-
-    def _expire(self) -> None:
-        rclpy.logging.get_logger('grasp_intent_ros').error(
-            f'shutdown not finished {self._grace:g} s after the stop request: exiting now; the threads follow')
-        faulthandler.dump_traceback(file=sys.stderr, all_threads=True)
-        sys.stderr.flush()
-        os._exit(0)
-
-
-class ShutdownSafeExecutor(SingleThreadedExecutor):
-    """A SingleThreadedExecutor whose spin ends with ExternalShutdownException when shut down under it.
-
-    Never with an RCLError.
-
-    rclpy 7.1 checks ``context.ok()`` and then builds the next wait set; a signal handled in between
-    (rclpy's signal thread shuts the context down) makes ``WaitSet()`` raise RCLError ("the given
-    context is not valid"), which would otherwise surface as a traceback with exit code 1.
-    """
-
-    def spin_once(self, timeout_sec: float | None = None) -> None:
-        try:
-            super().spin_once(timeout_sec)
-        except RuntimeError:  # rclpy's RCLError derives from RuntimeError
-            if self.context.ok():
-                raise
-            raise ExternalShutdownException() from None
-
 
 _malloc_trim = getattr(ctypes.CDLL(None), 'malloc_trim', None)  # glibc only
 if _malloc_trim is not None:
@@ -180,15 +91,14 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
     SystemExit
         With code 1 when the node cannot be built because of its configuration.
     """
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGINT, signal.SIG_IGN)  # see the module docstring
+    ignore_python_sigint()
     rclpy.init(args=None if args is None else list(args))
     node: Node | None = None
     executor: Executor | None = None
-    watcher: _StopWatcher | None = None
+    watcher: StopWatcher | None = None
     try:
         executor = ShutdownSafeExecutor() if executor_factory is None else executor_factory()
-        watcher = _StopWatcher(rclpy.get_default_context(), executor.wake, shutdown_grace)
+        watcher = StopWatcher(rclpy.get_default_context(), executor.wake, shutdown_grace)
         try:
             node = node_factory()
         except STARTUP_ERRORS as exc:

@@ -37,10 +37,9 @@ from rclpy.context import Context
 from rclpy.event_handler import EventHandler
 from rclpy.exceptions import InvalidHandle
 from rclpy.guard_condition import GuardCondition
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.subscription import Subscription
 
-from .inputs import waiting_messages
+from .compat import new_wait_set, waiting_messages
 
 __all__ = ['LatestOnlyWorker', 'InputThread']
 
@@ -87,7 +86,7 @@ class _WaitSetWait:
     """The worker thread waits in an rclpy wait set: a guard condition (:meth:`wake`) and the taken subscriptions.
 
     After the wait, the messages waiting on a ready subscription (up to its queue depth) are taken
-    (:func:`~grasp_intent_ros.ros.inputs.waiting_messages`, as rclpy's executor takes them)
+    (:func:`~grasp_intent_ros.ros.compat.waiting_messages`, as rclpy's executor takes them)
     and handed to the subscription's callback, with its message info, in the worker's thread; so is every
     QoS event of the subscriptions' event handlers (e.g. an incompatible publisher's warning). Once the
     context is shut down (a signal does so without waking anyone), :meth:`wait` returns False: the thread ends.
@@ -135,9 +134,8 @@ class _WaitSetWait:
                 handles.enter_context(subscription.handle)
             for handler in events:
                 handles.enter_context(handler)
-            wait_set = _rclpy.WaitSet(len(subscriptions), 1, 0, 0, 0,
-                                      sum(handler.get_num_entities().num_events for handler in events),
-                                      context)
+            wait_set = new_wait_set(len(subscriptions), 1,
+                                    sum(handler.get_num_entities().num_events for handler in events), context)
             wait_set.clear_entities()
             for subscription in subscriptions:
                 wait_set.add_subscription(subscription.handle)

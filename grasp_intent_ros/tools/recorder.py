@@ -56,9 +56,9 @@ from rclpy.utilities import remove_ros_args
 
 from ..bag import DEFAULT_FLUSH_PERIOD, BagWriteError, QosSpec, QueuedWriter, SessionWriter, jazzy_typestore
 from ..protocol import ERROR, WARN
+from ..ros.compat import waiting_messages
 from ..ros.conversions import type_class
 from ..ros.diagnostics import NodeDiagnostics
-from ..ros.inputs import waiting_messages
 from ..ros.run import run_node
 
 __all__ = ['Recorder', 'TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'offered_qos_spec', 'offered_qos',

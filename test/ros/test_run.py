@@ -10,7 +10,8 @@ import pytest
 import rclpy
 from rclpy.executors import ExternalShutdownException
 
-from grasp_intent_ros.ros.run import ShutdownSafeExecutor, publish_all, release_free_memory
+from grasp_intent_ros.ros.compat import ShutdownSafeExecutor
+from grasp_intent_ros.ros.run import publish_all, release_free_memory
 from grasp_intent_ros.tools.suite import node_environment
 
 REPO = Path(__file__).resolve().parents[2]
