@@ -6,7 +6,7 @@ Topics (relative; formats in :mod:`grasp_intent_ros.protocol`)
     in   ``intent/v`` (all zones of the model's tasks), ``model/active`` (latched), ``object/pose`` (in
          ``m1n6s300_link_base``; default: the ``object_*`` parameters), ``joint_states`` (IK seed)
     out  ``grasp/pose``, ``grasp/joint_targets``, ``grasp/trajectory``, ``grasp/posterior``,
-         ``grasp/features``, ``grasp/markers`` (:func:`grasp_intent_ros.ros.grasp.grasp_messages`; markers at
+         ``grasp/features``, ``grasp/markers`` (:func:`grasp_intent_ros.ros.grasp_messages.grasp_messages`; markers at
          most every ``markers_period`` s), stamped with the arrival time of the plan's newest input (the
          trajectory: zero, "start now");
          ``intent/clarification`` (once per intent and model) when v fits no model zone or no grasp is
@@ -61,7 +61,6 @@ from sensor_msgs.msg import JointState
 
 from . import protocol as topics
 from .core import planner
-from .core._kernels import warm_up
 from .core.frames import pose_to_matrix
 from .core.grasp import (
     OUTCOMES,
@@ -73,6 +72,7 @@ from .core.grasp import (
     plan_grasp,
 )
 from .core.intent import match_zones
+from .core.kernels import warm_up
 from .core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
 from .protocol import (
     KEY_KERNELS_LATE_LOAD_TIME,
@@ -88,7 +88,7 @@ from .protocol import (
 from .ros.clarification import ClarificationRequests
 from .ros.conversions import SerializedTargets, message_class
 from .ros.diagnostics import NodeDiagnostics
-from .ros.grasp import grasp_messages
+from .ros.grasp_messages import grasp_messages
 from .ros.inputs import decode_input, subscribe_input
 from .ros.model_follower import ModelFollower, served_models
 from .ros.params import TASK_NAMES, ParameterError, ParamSpec, declare_parameters, finite_vector, one_of

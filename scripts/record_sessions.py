@@ -8,12 +8,12 @@ ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, ROS_DOMAIN_ID from the environment, els
 in-process :class:`grasp_intent_ros.tools.recorder.Recorder` (own executor and thread), drive the inputs one at a
 time, each sent once the previous one was answered and the recorder has written the answer, stop the nodes
 (by PID), then
-compact the bag (:func:`grasp_intent_ros.tools.session.compact_session`: of /diagnostics only the
+compact the bag (:func:`grasp_intent_ros.sessions.pairing.compact_session`: of /diagnostics only the
 rejections are kept) into ``<out>/<name>``, replacing the previous one.
 
 Every input declares the answer it must get ('v', 'plan', 'clarification', 'rejection', 'model' or none);
 a different answer stops the script with what arrived instead. Finally the bag is read back
-(:func:`grasp_intent_ros.tools.session.load_session`) and must pair into exactly the inputs sent, each with
+(:func:`grasp_intent_ros.sessions.pairing.load_paired_session`) and must pair into exactly the inputs sent, each with
 the outputs the driver saw live, equal within the replay tolerances (else it is recorded again, up to
 ATTEMPTS times: see :class:`PairingError`).
 
@@ -44,11 +44,11 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q
 from grasp_intent_ros.protocol import DIAGNOSTICS, MODEL_ACTIVE, PLAN_TOPICS
-from grasp_intent_ros.tools.compare import compare_step, summarize
-from grasp_intent_ros.tools.outputs import Joints, Output, Undecodable
+from grasp_intent_ros.sessions.compare import compare_step, summarize
+from grasp_intent_ros.sessions.outputs import Joints, Output, Undecodable
+from grasp_intent_ros.sessions.pairing import Step, compact_session, load_paired_session
 from grasp_intent_ros.tools.recorder import Recorder
 from grasp_intent_ros.tools.replay_client import SUITE_SETTLE_S, SessionClient, await_answer
-from grasp_intent_ros.tools.session import Step, compact_session, load_session
 from grasp_intent_ros.tools.suite import NodeSuite, domain_id_from_environment, use_loopback_discovery
 
 REPO = Path(__file__).resolve().parents[1]
@@ -325,7 +325,7 @@ def record(name: str, model: str, sends: list[Send], out_dir: Path, models_dir: 
 
 def verify(bag: Path, sends: list[Send], observed: list[list[Output]]) -> None:
     """The bag pairs into exactly the inputs sent, each with what the driver saw live."""
-    session = load_session(bag)
+    session = load_paired_session(bag)
     if len(session.steps) != len(sends):
         raise PairingError(f'{bag}: {len(session.steps)} steps paired, {len(sends)} inputs sent')
     for step, send, live in zip(session.steps, sends, observed):

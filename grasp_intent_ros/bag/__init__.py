@@ -9,10 +9,10 @@ rosbags only, never rclpy.
 """
 
 from .errors import BagError, BagReadError, BagWriteError
-from .qos import Durability, QosSpec, Reliability, decode_qos, encode_qos
+from .offered_qos import Durability, QosSpec, Reliability, decode_qos, encode_qos
 from .queued import QueuedWriter
 from .reader import BagMessage, TopicInfo, read_messages, topics_info
-from .reindex import BROKEN_SUFFIX, ReindexResult, reindex
+from .repair import BROKEN_SUFFIX, ReindexResult, reindex
 from .types import jazzy_typestore
 from .writer import DEFAULT_FLUSH_PERIOD, SessionWriter
 

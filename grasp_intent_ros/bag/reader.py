@@ -14,7 +14,7 @@ from rosbags.serde import SerdeError
 from rosbags.typesys import TypesysError, get_types_from_msg
 
 from .errors import BagReadError
-from .qos import QosSpec, decode_qos
+from .offered_qos import QosSpec, decode_qos
 from .types import jazzy_typestore
 
 if TYPE_CHECKING:

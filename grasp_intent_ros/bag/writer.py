@@ -40,7 +40,7 @@ from rosbags.serde import SerdeError
 from rosbags.typesys import TypesysError
 
 from .errors import BagWriteError
-from .qos import QosSpec, encode_qos
+from .offered_qos import QosSpec, encode_qos
 from .types import jazzy_typestore
 
 if TYPE_CHECKING:

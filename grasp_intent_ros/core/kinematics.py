@@ -55,9 +55,9 @@ import numpy as np
 import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
 from numpy.typing import ArrayLike, NDArray
 
-from ._kernels import ik_descent
 from .errors import KinematicsError
 from .frames import check_transform, check_vector, features_to_obj_T_ee
+from .kernels import ik_descent
 from .resources import config_dir
 
 __all__ = [
@@ -352,7 +352,7 @@ class MicoKinematics:
 
         Levenberg-Marquardt (damped least squares with adaptive damping and step acceptance) on the EE
         pose error in the EE frame, e = (R^T (p_t - p), log3(R^T R_t)), iterates clipped to the joint
-        limits, run to the solution (errors below 1e-10; :func:`grasp_intent_ros.core._kernels.ik_descent`,
+        limits, run to the solution (errors below 1e-10; :func:`grasp_intent_ros.core.kernels.ik_descent`,
         compiled, on the joint chain read from the Pinocchio model), so that the answer does not depend on
         where the errors first fell within the tolerances. An attempt succeeds when its position error
         |e_p| and rotation error |log3| are within ``pos_tol`` and ``rot_tol``. The first attempt starts

@@ -655,12 +655,12 @@ class GraspModel:
 
         The planner screens these as starts (:func:`grasp_intent_ros.core.planner.search_starts`); they
         do not depend on v, so they are evaluated once per model. They are evaluated by the planner's
-        compiled kernels (``_kernels.log_joints``: every sum in a fixed order), not by numpy's matrix
+        compiled kernels (``kernels.log_joints``: every sum in a fixed order), not by numpy's matrix
         products, whose BLAS kernels sum in an order that depends on the CPU: the planner's choices among
         them must not depend on the machine. The log joints are stored zone by zone, (K, N), as the screen
-        (``_kernels.screen``) takes them.
+        (``kernels.screen``) takes them.
         """
-        from ._kernels import log_joints  # here: numba is the planner's, not every model reader's, import
+        from .kernels import log_joints  # here: numba is the planner's, not every model reader's, import
         pool = np.concatenate([self.means, self.demo_x])
         lj, post = log_joints(pool, self.means, self._precisions, self._log_norm)
         return pool, np.ascontiguousarray(lj.T), post

@@ -102,7 +102,10 @@ from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._kernels import (
+from .errors import PlanningError
+from .features import FINGERS, MICO_3F, PALM
+from .intent import reconstruct_w
+from .kernels import (
     choice_order,
     distinct,
     feasible,
@@ -112,9 +115,6 @@ from ._kernels import (
     screen,
     select_demonstrations,
 )
-from .errors import PlanningError
-from .features import FINGERS, MICO_3F, PALM
-from .intent import reconstruct_w
 from .model import GraspModel
 
 if TYPE_CHECKING:
@@ -321,7 +321,7 @@ def select_starts(model: GraspModel, v: NDArray[np.float64], n_starts: int = 3,
     demonstrations of the ``top_zones`` most likely zones. A demonstration belongs to zone k when its
     task set contains k (inclusive labeling); when the top zone has none, the best demonstration overall
     comes first. Objectives are compared at 1e-12 relative, then by demonstration order (compiled:
-    ``_kernels.select_demonstrations``).
+    ``kernels.select_demonstrations``).
     """
     index = select_demonstrations(model.demo_posterior, v, model.zone_members, zone_order(v)[:max(1, top_zones)],
                                   n_starts - 1, MATCH_TOL)
@@ -332,7 +332,7 @@ def select_starts(model: GraspModel, v: NDArray[np.float64], n_starts: int = 3,
 def search_starts(model: GraspModel, v: NDArray[np.float64], count: int = _SCREEN) -> NDArray[np.float64]:
     """The wider search's extra starts among the zone means and demonstrations, shape (count, d).
 
-    One compiled pass screens them (``_kernels.screen``): with every v_k > 0, by the spread of the log-odds
+    One compiled pass screens them (``kernels.screen``): with every v_k > 0, by the spread of the log-odds
     residuals, max_k q_k - min_k q_k with q_k = log(pi_k N_k(x)) - log v_k (zero exactly where P = v);
     otherwise by f. The first ``count`` by the screen at 1e-12 relative, then in pool order.
     """
@@ -343,7 +343,7 @@ def search_starts(model: GraspModel, v: NDArray[np.float64], count: int = _SCREE
 
 
 class _Feasible:
-    """Projection onto the feasible set X (compiled: ``_kernels``) and the scale of the distance between grasps."""
+    """Projection onto the feasible set X (compiled: :mod:`.kernels`) and the scale of the distance between grasps."""
 
     def __init__(self, model: GraspModel) -> None:
         self.model = model
@@ -360,7 +360,7 @@ class _Feasible:
 
 
 class _LogOddsProjection:
-    """Minimum-distance Gauss-Newton projection of starts onto the exact matches (compiled: ``_kernels``).
+    """Minimum-distance Gauss-Newton projection of starts onto the exact matches (compiled: :mod:`.kernels`).
 
     The equations, in scaled coordinates y = x / s: the K - 1 log-odds equations, the unit approach,
     and (when the model has a body) the body clearance, active only when a step would cross it.
@@ -401,7 +401,7 @@ class _LogOddsProjection:
         self.b_path = np.rint(self.b / _GN_QUANTUM) * _GN_QUANTUM
         """The targets the long path is taken to: v's last bits cannot steer it (class docstring)."""
         self.equations = self.others, self.r, self.b_path, self.b
-        """As ``_kernels.least_squares_rounds`` takes them."""
+        """As ``kernels.least_squares_rounds`` takes them."""
 
     def run(self, starts: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64]]:
         """End points (N, d), whether each converged with the equations met, iterations per start.
@@ -445,7 +445,7 @@ def _least_squares(model: GraspModel, v: NDArray[np.float64], origins: NDArray[n
 
 
 def _labels(ends: NDArray[np.int8], converged: NDArray[np.bool_]) -> list[str]:
-    """The least squares' candidate messages from ``_kernels.least_squares_rounds``' endings and convergence."""
+    """The least squares' candidate messages from ``kernels.least_squares_rounds``' endings and convergence."""
     ended = ('least squares: iteration limit',
              f'least squares: left at {_LM_RACE} iterations, behind {_LM_KEEP} others',
              f'least squares: a finger opened, left at {_OPEN_LM} iterations, behind {_NEWTON_POLISH} others',

@@ -32,12 +32,15 @@ robot
     PoseStamped <-> 4x4 transforms, joint states, joint trajectories.
 markers
     RViz markers of a planned grasp.
-grasp
+grasp_messages
     The messages of one planned grasp (:class:`grasp_intent_ros.core.grasp.Grasp`).
+compat
+    Every workaround of rclpy internals, each naming the rclpy it works around (a test fails when rclpy
+    changes, so that they are checked again).
 
 Importing this package imports no submodule; each submodule but ``startup`` imports rclpy or the message
 packages, and :mod:`grasp_intent_ros.core` never does.
 """
 
-__all__ = ['conversions', 'diagnostics', 'grasp', 'inputs', 'markers', 'params', 'qos', 'robot', 'run', 'startup',
-           'worker']
+__all__ = ['compat', 'conversions', 'diagnostics', 'grasp_messages', 'inputs', 'markers', 'params', 'qos', 'robot',
+           'run', 'startup', 'worker']

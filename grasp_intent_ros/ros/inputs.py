@@ -88,3 +88,4 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
     return node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], handle), qos, raw=True,
                                     event_callbacks=input_events(node.get_logger(), topic),
                                     callback_group=callback_group)
+

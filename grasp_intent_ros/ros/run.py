@@ -2,18 +2,19 @@
 
 SIGINT and SIGTERM both end the process with exit code 0 and no traceback: rclpy's own signal
 handlers (installed by ``rclpy.init`` for both signals) shut the context down, the executor raises
-``ExternalShutdownException``, and the node is destroyed before ``rclpy.try_shutdown``. The three gaps of
-rclpy 7.1 on that path (Python's KeyboardInterrupt racing rclpy's signal thread, a shutdown between two
-executor steps, the signal thread waking the executor before it shuts the context down) are closed by
-:mod:`grasp_intent_ros.ros.compat` (items 1 to 3); for the third, the stop watcher of this module polls the
-context and wakes the executor once it is shut down. A signal that arrives while the node is being built
-(its rcl calls then fail on the shut-down context) also exits 0; one that arrives before ``rclpy.init``
-(during imports) gets Python's default handling. A configuration error found while the node is built (a
-parameter rejected by its descriptor or validator, a missing model) is logged and ends the process with
-exit code 1.
+``ExternalShutdownException``, and the node is destroyed before ``rclpy.try_shutdown``.
+
+Python's own SIGINT handling is switched off first, the executor is a
+:class:`~grasp_intent_ros.ros.compat.ShutdownSafeExecutor` and a
+:class:`~grasp_intent_ros.ros.compat.StopWatcher` wakes it for a stop request: three workarounds of
+rclpy 7.1's signal handling (:mod:`grasp_intent_ros.ros.compat` says what each works around). A signal
+that arrives while the node is being built (its rcl calls then fail on the shut-down context) also exits
+0; one that arrives before ``rclpy.init`` (during imports) gets Python's default handling. A
+configuration error found while the node is built (a parameter rejected by its descriptor or validator,
+a missing model) is logged and ends the process with exit code 1.
 
 A stop request that has not ended the process :data:`SHUTDOWN_GRACE` seconds later is ended by a
-watchdog (the same thread arms it): it logs an ERROR, writes every thread's stack to stderr
+watchdog (the stop watcher's thread arms it): it logs an ERROR, writes every thread's stack to stderr
 (``faulthandler``) and exits with code 0, so that a stop request always ends the node and leaves the
 evidence in its log. This covers a hung shutdown (executor, node and context, after the spin has ended)
 and a spin that a stop did not end. Two seconds later still, ``faulthandler``'s own timer (a C thread,
@@ -28,9 +29,7 @@ from __future__ import annotations
 
 import ctypes
 import faulthandler
-import os
 import sys
-import threading
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -42,7 +41,7 @@ from rclpy.node import Node
 from rclpy.publisher import Publisher
 
 from ..core.errors import GraspIntentError
-from .compat import ShutdownSafeExecutor, ignore_python_sigint
+from .compat import ShutdownSafeExecutor, StopWatcher, ignore_python_sigint
 from .params import ParameterError
 
 __all__ = ['run_node', 'guard_exit', 'publish_all', 'release_free_memory', 'STARTUP_ERRORS', 'SHUTDOWN_GRACE']
@@ -52,61 +51,6 @@ STARTUP_ERRORS: tuple[type[Exception], ...] = (ParameterError, ParameterExceptio
 
 SHUTDOWN_GRACE = 5.0
 """Seconds a stop request may take to end a node before the watchdog ends the process."""
-
-_STOP_POLL = 0.05
-"""Seconds between two looks at the context by the stop watcher's thread."""
-
-
-class _StopWatcher:
-    """Wakes the executor for a stop request and, with a ``grace``, ends the process if the shutdown hangs.
-
-    A daemon thread waits until ``context`` is shut down or the spin has ended (:meth:`spin_ended`). Then,
-    unless the spin has ended, it calls ``wake`` (the executor's ``wake``: rclpy's signal thread may have
-    woken the executor before it shut the context down; module docstring). With a ``grace`` it also arms a
-    timer (ERROR, every thread's stack, exit code 0) and faulthandler's C timer 2 s later (stacks, exit code
-    1). :meth:`finished` disarms both: once run_node's shutdown is done the process is left alone.
-    """
-
-    def __init__(self, context: Any, wake: Callable[[], None], grace: float | None) -> None:
-        self._wake, self._grace = wake, grace
-        self._spin_ended = threading.Event()
-        self._lock = threading.Lock()
-        self._finished = False
-        self._timer: threading.Timer | None = None
-        threading.Thread(target=self._watch, args=(context,), name='stop watcher', daemon=True).start()
-
-    def spin_ended(self) -> None:
-        """The spin is over: the executor is not woken any more (it may be shut down once this returns)."""
-        with self._lock:
-            self._spin_ended.set()
-
-    def finished(self) -> None:
-        with self._lock:
-            self._finished = True
-            if self._timer is not None:
-                self._timer.cancel()
-                faulthandler.cancel_dump_traceback_later()
-
-    def _watch(self, context: Any) -> None:
-        while context.ok() and not self._spin_ended.wait(_STOP_POLL):
-            pass
-        with self._lock:
-            if not self._spin_ended.is_set():
-                self._wake()
-            if self._finished or self._grace is None:
-                return
-            faulthandler.dump_traceback_later(self._grace + 2.0, exit=True, file=sys.stderr)
-            self._timer = threading.Timer(self._grace, self._expire)
-            self._timer.daemon = True
-            self._timer.start()
-
-    def _expire(self) -> None:
-        rclpy.logging.get_logger('grasp_intent_ros').error(
-            f'shutdown not finished {self._grace:g} s after the stop request: exiting now; the threads follow')
-        faulthandler.dump_traceback(file=sys.stderr, all_threads=True)
-        sys.stderr.flush()
-        os._exit(0)
-
 
 _malloc_trim = getattr(ctypes.CDLL(None), 'malloc_trim', None)  # glibc only
 if _malloc_trim is not None:
@@ -151,10 +95,10 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
     rclpy.init(args=None if args is None else list(args))
     node: Node | None = None
     executor: Executor | None = None
-    watcher: _StopWatcher | None = None
+    watcher: StopWatcher | None = None
     try:
         executor = ShutdownSafeExecutor() if executor_factory is None else executor_factory()
-        watcher = _StopWatcher(rclpy.get_default_context(), executor.wake, shutdown_grace)
+        watcher = StopWatcher(rclpy.get_default_context(), executor.wake, shutdown_grace)
         try:
             node = node_factory()
         except STARTUP_ERRORS as exc:

@@ -29,15 +29,17 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from typing import Any, Generic, TypeVar
+from contextlib import ExitStack
+from typing import Any, Generic, TypeVar, cast
 
 from rclpy.callback_groups import CallbackGroup
 from rclpy.context import Context
+from rclpy.event_handler import EventHandler
 from rclpy.exceptions import InvalidHandle
 from rclpy.guard_condition import GuardCondition
 from rclpy.subscription import Subscription
 
-from .compat import wait_and_dispatch
+from .compat import new_wait_set, waiting_messages
 
 __all__ = ['LatestOnlyWorker', 'InputThread']
 
@@ -83,10 +85,10 @@ class _EventWait:
 class _WaitSetWait:
     """The worker thread waits in an rclpy wait set: a guard condition (:meth:`wake`) and the taken subscriptions.
 
-    After the wait, the messages waiting on a ready subscription (up to its queue depth) are handed to the
-    subscription's callback, with its message info, in the worker's thread; so is every QoS event of the
-    subscriptions' event handlers (e.g. an incompatible publisher's warning): :func:`~grasp_intent_ros.ros.
-    compat.wait_and_dispatch`. Once the
+    After the wait, the messages waiting on a ready subscription (up to its queue depth) are taken
+    (:func:`~grasp_intent_ros.ros.compat.waiting_messages`, as rclpy's executor takes them)
+    and handed to the subscription's callback, with its message info, in the worker's thread; so is every
+    QoS event of the subscriptions' event handlers (e.g. an incompatible publisher's warning). Once the
     context is shut down (a signal does so without waking anyone), :meth:`wait` returns False: the thread ends.
     """
 
@@ -118,7 +120,37 @@ class _WaitSetWait:
         return self._context.ok()
 
     def _wait(self, timeout: float | None) -> None:
-        wait_and_dispatch(self._context, self._guard, tuple(self.subscriptions), timeout)
+        subscriptions = tuple(self.subscriptions)
+        # rclpy annotates event_handlers as one EventHandler; it is a list of them
+        events: list[EventHandler] = [handler for subscription in subscriptions
+                                      for handler in cast(list[EventHandler], subscription.event_handlers)]
+        context = self._context.handle
+        if context is None:  # not initialised or destroyed: nothing to wait for
+            raise RuntimeError(f'{self._context} has no rcl context')
+        with ExitStack() as handles:
+            handles.enter_context(context)
+            handles.enter_context(self._guard.handle)
+            for subscription in subscriptions:
+                handles.enter_context(subscription.handle)
+            for handler in events:
+                handles.enter_context(handler)
+            wait_set = new_wait_set(len(subscriptions), 1,
+                                    sum(handler.get_num_entities().num_events for handler in events), context)
+            wait_set.clear_entities()
+            for subscription in subscriptions:
+                wait_set.add_subscription(subscription.handle)
+            for handler in events:
+                handler.add_to_wait_set(wait_set)
+            wait_set.add_guard_condition(self._guard.handle)
+            wait_set.wait(-1 if timeout is None else round(timeout * 1e9))
+            ready = wait_set.get_ready_entities('subscription')
+            for handler in events:
+                if handler.is_ready(wait_set) and (event := handler.take_data()):
+                    handler.callback(event)
+            for subscription in subscriptions:  # at most a queue's depth each: a fast stream cannot hold the thread
+                if subscription.handle.pointer in ready:
+                    for taken in waiting_messages(subscription, subscription.qos_profile.depth):
+                        subscription.callback(*taken)
 
     def close(self) -> None:
         if not self._closed:

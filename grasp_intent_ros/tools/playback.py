@@ -8,7 +8,7 @@ session's time (receive time, s from the first message) and buttons that jump to
 (:attr:`Timeline.plans`). At a time t the page shows the state after every message received up to t
 (:class:`Timeline`, built once with :func:`grasp_intent_ros.scene.state.apply`), so each grasp is seen with
 the intent, posterior and arm of its moment. A message that cannot be read is skipped and counted (shown on
-the page). Topics are found in the session's namespace (:func:`~grasp_intent_ros.tools.session.
+the page). Topics are found in the session's namespace (:func:`~grasp_intent_ros.sessions.pairing.
 detect_namespace`).
 
 Exit codes: 0 stopped by SIGINT/SIGTERM; 2 the bag is missing or unreadable, or the page cannot be served.
@@ -34,8 +34,8 @@ from ..ros.worker import LatestOnlyWorker
 from ..scene.geometry import ArmModel
 from ..scene.page import DEFAULT_HOST, ScenePage
 from ..scene.state import VIEWER_TOPICS, SceneState, apply
-from .outputs import SessionError
-from .session import detect_namespace
+from ..sessions.outputs import SessionError
+from ..sessions.pairing import detect_namespace
 
 __all__ = ['Timeline', 'load_timeline', 'main']
 

@@ -56,7 +56,7 @@ from rclpy.utilities import remove_ros_args
 
 from ..bag import DEFAULT_FLUSH_PERIOD, BagWriteError, QosSpec, QueuedWriter, SessionWriter, jazzy_typestore
 from ..protocol import ERROR, WARN
-from ..ros.compat import take_waiting
+from ..ros.compat import waiting_messages
 from ..ros.conversions import type_class
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.run import run_node
@@ -372,7 +372,7 @@ class Recorder(Node):
         taken = 1
         subscription = self._topic_subs.get(topic)
         if subscription is not None:
-            for data, info in take_waiting(subscription, self._depth - 1):
+            for data, info in waiting_messages(subscription, self._depth - 1):
                 put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data)
                 taken += 1
         self._received += taken

@@ -14,7 +14,7 @@ Pace
     (or ``--timeout`` seconds) before sending the next, so inputs and outputs pair one to one.
 Check (``--check``)
     The live answer to each input is compared with the recorded one
-    (:func:`grasp_intent_ros.tools.session.compare_step`): v within 1e-9, P and reconstructed w within 1e-4,
+    (:func:`grasp_intent_ros.sessions.compare.compare_step`): v within 1e-9, P and reconstructed w within 1e-4,
     end-effector pose within 1 mm and 0.01 rad, joint targets within 1e-3 rad, clarifications and
     rejections (WARN diagnostics: node, level, reason) identical, nothing missing, nothing extra.
     Differences are printed one per line (input #, its description, topic, field, recorded vs live), for
@@ -48,9 +48,9 @@ from rclpy.context import Context
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
 from ..bag.errors import BagError
-from .compare import Difference
+from ..sessions.compare import Difference
+from ..sessions.pairing import PairedSession, load_paired_session
 from .replay_client import SUITE_SETTLE_S, Replayer, ReplayError, ReplayOptions, ReplayResult, SessionClient
-from .session import Session, load_session
 from .suite import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
 
 __all__ = ['main']
@@ -82,7 +82,7 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _report(session: Session, options: ReplayOptions, result: ReplayResult, max_diffs: int) -> int:
+def _report(session: PairedSession, options: ReplayOptions, result: ReplayResult, max_diffs: int) -> int:
     name = session.path
     notes = [d for d in result.differences if not d.fatal]
     for note in notes[:max_diffs]:
@@ -136,7 +136,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.models_dir is not None and not args.start_suite:
         _parser().error('--models-dir needs --start-suite')
     try:
-        session = load_session(args.bag)
+        session = load_paired_session(args.bag)
     except BagError as exc:
         print(f'replay: error: {exc}', file=sys.stderr)
         return 2

@@ -23,9 +23,9 @@ from std_msgs.msg import String
 from ..protocol import DIAGNOSTICS, INPUT_TOPICS, MODEL_ACTIVE, MSGTYPES, OUTPUT_TOPICS, ModelHeader
 from ..ros.conversions import message_class
 from ..ros.qos import input_qos, latched_qos, output_qos
-from .compare import Difference, Tolerances, answered, compare_step, diverged
-from .outputs import Output, RejectionTracker, SessionError, decode, output_of
-from .session import Session, Step
+from ..sessions.compare import Difference, Tolerances, answered, compare_step, diverged
+from ..sessions.outputs import Output, RejectionTracker, SessionError, decode, output_of
+from ..sessions.pairing import PairedSession, Step
 
 __all__ = ['SUITE_SETTLE_S', 'SessionClient', 'ReplayOptions', 'ReplayResult', 'ReplayError', 'Replayer',
            'await_answer']
@@ -39,7 +39,7 @@ SUITE_SETTLE_S = 3.0
 class SessionClient(Node):
     """Publishes session inputs, collects the live outputs, sets the model server's ``model`` parameter.
 
-    Outputs are :class:`~grasp_intent_ros.tools.outputs.Output` (serialized, decoded like the recorded ones).
+    Outputs are :class:`~grasp_intent_ros.sessions.outputs.Output` (serialized, decoded like the recorded ones).
 
     Parameters
     ----------
@@ -259,7 +259,7 @@ class Replayer:
         Called while waiting; a non-empty return (e.g. a suite process died) aborts with ReplayError.
     """
 
-    def __init__(self, session: Session, client: SessionClient, executor: SingleThreadedExecutor,
+    def __init__(self, session: PairedSession, client: SessionClient, executor: SingleThreadedExecutor,
                  options: ReplayOptions, *, alive: Callable[[], str] = lambda: '') -> None:
         self.session, self.client, self.executor, self.options = session, client, executor, options
         self._alive = alive

@@ -28,7 +28,7 @@ Reads the bag with :mod:`grasp_intent_ros.bag` (no rclpy, matplotlib's Agg rende
 Topics are found by name suffix (``/robot1/intent/v`` is ``intent/v``), so namespaced sessions work.
 Exit code 2 with a one-line message when the bag is missing or unreadable.
 
-What is read from the bag: :mod:`grasp_intent_ros.tools.report_data`.
+What is read from the bag: :mod:`grasp_intent_ros.sessions.report_data`.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ from ..core.model import GraspModel
 from ..protocol import Posterior, Stamp
 from ..scene.geometry import ArmModel, Shape, body_shapes
 from ..scene.plan import plan_object_pose, served_tasks
-from .report_data import Session, load_session
+from ..sessions.report_data import ReportData, load_report_data
 
 __all__ = ['write_report', 'main',
            'OBJECT_RADIUS', 'OBJECT_HEIGHT', 'CASES_PER_FIGURE', 'MAX_CASE_FIGURES', 'MAX_GRASPS']
@@ -83,7 +83,7 @@ def _grid(n: int, cols: int = 3) -> tuple[int, int]:
     return math.ceil(n / cols), cols
 
 
-def _answer(session: Session, stamp: int, until: int | None) -> Posterior[Stamp | None] | None:
+def _answer(session: ReportData, stamp: int, until: int | None) -> Posterior[Stamp | None] | None:
     """The first posterior received after ``stamp`` and before ``until``: the plan answering a v."""
     for t, post in session.posteriors:
         if t >= stamp and (until is None or t < until):
@@ -91,7 +91,7 @@ def _answer(session: Session, stamp: int, until: int | None) -> Posterior[Stamp 
     return None
 
 
-def _input_w(session: Session, stamp: int) -> NDArray[np.float64] | None:
+def _input_w(session: ReportData, stamp: int) -> NDArray[np.float64] | None:
     """The last w received at or before ``stamp``."""
     found = None
     for t, w in session.w:
@@ -101,7 +101,7 @@ def _input_w(session: Session, stamp: int) -> NDArray[np.float64] | None:
     return found
 
 
-def plot_intent_cases(session: Session, out: Path) -> list[str]:
+def plot_intent_cases(session: ReportData, out: Path) -> list[str]:
     """Figures (a); returns the file names written."""
     cases = session.v[:CASES_PER_FIGURE * MAX_CASE_FIGURES]
     if len(session.v) > len(cases):
@@ -150,7 +150,7 @@ def plot_intent_cases(session: Session, out: Path) -> list[str]:
     return written
 
 
-def plot_w_over_time(session: Session, out: Path) -> list[str]:
+def plot_w_over_time(session: ReportData, out: Path) -> list[str]:
     """Figure (b)."""
     m_values = {w.size for _, w in session.w} | {post.w.size for _, post in session.posteriors}
     m = max(m_values)
@@ -181,7 +181,7 @@ def plot_w_over_time(session: Session, out: Path) -> list[str]:
     return ['w_over_time.png']
 
 
-def plot_kl(session: Session, out: Path) -> list[str]:
+def plot_kl(session: ReportData, out: Path) -> list[str]:
     """Figure (c): one heat map per distinct model (model/active), else per model/ambiguity matrix."""
     if session.models:
         mats = [(name, f'{len(model.zones)} zones', model.task_names, ambiguity.kl_matrix(model))
@@ -235,7 +235,7 @@ def _draw_grasp(ax: Any, x: NDArray[np.float64]) -> None:
         ax.text(*tip, str(k + 1), fontsize=7, color='tab:blue')
 
 
-def plot_grasps(session: Session, out: Path) -> list[str]:
+def plot_grasps(session: ReportData, out: Path) -> list[str]:
     """Figure (d)."""
     n = len(session.features)
     picks = np.unique(np.linspace(0, n - 1, min(n, MAX_GRASPS)).round().astype(int))
@@ -297,13 +297,13 @@ def _draw_shape(ax: Any, shape: Shape, *, alpha: float = 1.0, color: Any = None)
     ax.add_collection3d(Poly3DCollection([world[f] for f in faces], facecolor=face, alpha=alpha, linewidth=0))
 
 
-def _scene_model(session: Session, received: int) -> tuple[str, GraspModel] | None:
+def _scene_model(session: ReportData, received: int) -> tuple[str, GraspModel] | None:
     """The model active when a plan was received (the last one activated before it)."""
     active = [(name, model) for t, name, model in session.models if t <= received]
     return (active[-1][1].name or active[-1][0], active[-1][1]) if active else None
 
 
-def plot_grasp_scenes(session: Session, out: Path) -> list[str]:
+def plot_grasp_scenes(session: ReportData, out: Path) -> list[str]:
     """Figure (e): one image per planned grasp, the scene the viewer shows.
 
     The arm at the plan's joint targets (the URDF's visual model), the object's body (the active model's) at
@@ -359,14 +359,14 @@ def plot_grasp_scenes(session: Session, out: Path) -> list[str]:
     return names
 
 
-def _nearest_posterior(session: Session, stamp: int,
+def _nearest_posterior(session: ReportData, stamp: int,
                        tolerance_ns: int = 1_000_000_000) -> Posterior[Stamp | None] | None:
     best = min(session.posteriors, key=lambda tp: abs(tp[0] - stamp), default=None)
     return best[1] if best is not None and abs(best[0] - stamp) <= tolerance_ns else None
 
 
 # ---------------------------------------------------------------------------------------------- summary
-def write_summary(session: Session, out: Path, figures: list[str], skipped: list[str]) -> None:
+def write_summary(session: ReportData, out: Path, figures: list[str], skipped: list[str]) -> None:
     duration = session.seconds(session.end_ns) if session.end_ns else 0.0
     total = sum(info.count for info in session.topics.values())
     lines = [f'# Session report: {session.path.name}', '',
@@ -420,7 +420,7 @@ def write_report(bag: Path, out: Path) -> tuple[list[str], list[str]]:
     OSError
         ``out`` cannot be created or written.
     """
-    session = load_session(bag)
+    session = load_report_data(bag)
     out.mkdir(parents=True, exist_ok=True)
     figures: list[str] = []
     skipped: list[str] = []

@@ -36,8 +36,8 @@ from grasp_intent_ros.scene.state import (
     SceneState,
     apply,
 )
+from grasp_intent_ros.sessions.report_data import load_report_data
 from grasp_intent_ros.tools.playback import load_timeline
-from grasp_intent_ros.tools.report_data import load_session
 
 REPO = Path(__file__).resolve().parents[2]
 STAMP = Time(sec=12, nanosec=345)
@@ -186,7 +186,7 @@ def test_the_page_is_served_on_loopback_and_draws_any_state(arm: ArmModel, cup: 
 def test_a_session_s_timeline_holds_each_plan_complete_at_its_time() -> None:
     bag = REPO / 'bags' / 'cup_paper_cases'
     timeline = load_timeline(bag)
-    posteriors = [post for _, post in load_session(bag).posteriors]  # the report's own reading
+    posteriors = [post for _, post in load_report_data(bag).posteriors]  # the report's own reading
     assert len(timeline.plans) == len(posteriors) and not timeline.unreadable
     for k, (t_ns, post) in enumerate(zip(timeline.plans, posteriors), start=1):
         seconds = (t_ns - timeline.start) * 1e-9

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.tools.session import load_session
+from grasp_intent_ros.sessions.pairing import load_paired_session
 
 REPO = Path(__file__).resolve().parents[2]
 BAGS = REPO / 'bags'
@@ -58,7 +58,7 @@ def test_bags_hold_the_required_sessions() -> None:
     names = [p.name for p in bag_dirs()]
     assert set(REQUIRED) <= set(names), f'bags/ lacks {sorted(set(REQUIRED) - set(names))}'
     for bag in bag_dirs():
-        session = load_session(bag)
+        session = load_paired_session(bag)
         size = sum(f.stat().st_size for f in bag.iterdir())
         assert session.steps and session.initial_model is not None
         assert size < 512 * 1024, f'{bag.name} is {size / 1024:.0f} KiB'
@@ -69,7 +69,7 @@ def test_replay_of_each_bag_passes_the_check(bag: Path, domain_id: int) -> None:
     result = replay(bag, domain_id)
     assert result.returncode == 0, f'{result.stdout}\n{result.stderr}'
     summary = result.stdout.strip().splitlines()[-1]
-    n_inputs = len(load_session(bag).steps)
+    n_inputs = len(load_paired_session(bag).steps)
     assert summary.startswith(f'replay --check OK: {bag}: {n_inputs} inputs'), result.stdout
     assert 'Traceback' not in result.stderr, result.stderr
 

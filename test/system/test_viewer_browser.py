@@ -31,7 +31,7 @@ from websockets.typing import Subprotocol
 
 from grasp_intent_ros.core.kinematics import ARM_JOINTS, HOME_Q
 from grasp_intent_ros.ros.robot import joint_state_msg
-from grasp_intent_ros.tools.report_data import load_session
+from grasp_intent_ros.sessions.report_data import load_report_data
 from grasp_intent_ros.tools.send_intent import IntentSender
 from grasp_intent_ros.tools.suite import NodeProcess
 
@@ -138,7 +138,7 @@ def test_the_viewer_keeps_serving_after_100_browser_connections(ros, launch) -> 
 def test_a_recorded_session_is_played_back_plan_by_plan(tmp_path: Path) -> None:
     """The playback page of a shipped session jumps from plan to plan, showing each plan's P."""
     bag = REPO / 'bags' / 'cup_paper_cases'
-    posteriors = [post for _, post in load_session(bag).posteriors]  # read by the report's code, not playback's
+    posteriors = [post for _, post in load_report_data(bag).posteriors]  # read by the report's code, not playback's
     proc = NodeProcess([sys.executable, '-m', 'grasp_intent_ros', 'playback', str(bag), '--port', '0'],
                        module='playback', env=os.environ, log_dir=tmp_path, cwd=REPO)
     try:

@@ -11,7 +11,7 @@ from grasp_intent_ros.core.data import Demonstrations
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import DEFAULT_TASKS, all_zones
 from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.tools.session import Step, load_session
+from grasp_intent_ros.sessions.pairing import Step, load_paired_session
 
 from .sessions import session_messages, write_bag
 
@@ -51,4 +51,4 @@ def session_bag(tmp_path: Path) -> Path:
 @pytest.fixture(scope='module')
 def plan_step(tmp_path_factory: pytest.TempPathFactory) -> Step:
     """The step of that session whose input was answered by a plan."""
-    return load_session(write_bag(tmp_path_factory.mktemp('s') / 'plan', session_messages())).steps[1]
+    return load_paired_session(write_bag(tmp_path_factory.mktemp('s') / 'plan', session_messages())).steps[1]

@@ -14,7 +14,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from grasp_intent_ros.bag import QosSpec, SessionWriter
 from grasp_intent_ros.protocol import DIAGNOSTICS, MSGTYPES
-from grasp_intent_ros.tools.outputs import (
+from grasp_intent_ros.sessions.outputs import (
     Output,
     output_of,
 )

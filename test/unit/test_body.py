@@ -8,9 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from grasp_intent_ros.core._kernels import feasible
 from grasp_intent_ros.core.body import Box, Cylinder, ObjectBody
 from grasp_intent_ros.core.errors import ModelFormatError
+from grasp_intent_ros.core.kernels import feasible
 from grasp_intent_ros.dataset.demos import CUP, FLASHLIGHT
 
 CUP_BODY = CUP.body()

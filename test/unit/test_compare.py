@@ -1,4 +1,4 @@
-"""grasp_intent_ros.tools.compare: recorded vs live answers at the replay tolerances."""
+"""grasp_intent_ros.sessions.compare: recorded vs live answers at the replay tolerances."""
 
 from __future__ import annotations
 
@@ -10,14 +10,14 @@ from typing import Any
 import pytest
 
 from grasp_intent_ros.protocol import DIAGNOSTICS, PLAN_TOPICS
-from grasp_intent_ros.tools.compare import Difference, Tolerances, answered, compare_step, diverged
-from grasp_intent_ros.tools.outputs import (
+from grasp_intent_ros.sessions.compare import Difference, Tolerances, answered, compare_step, diverged
+from grasp_intent_ros.sessions.outputs import (
     Output,
     Rejection,
     Undecodable,
     output_of,
 )
-from grasp_intent_ros.tools.session import Step, load_session
+from grasp_intent_ros.sessions.pairing import Step, load_paired_session
 
 from .sessions import (
     ARM,
@@ -112,7 +112,7 @@ def test_differences_list_the_cause_first_and_read_well(plan_step: Step) -> None
 
 
 def test_clarifications_and_rejections_must_be_identical(session_bag: Path) -> None:
-    steps = load_session(session_bag).steps
+    steps = load_paired_session(session_bag).steps
     assert compare_step(steps[3], outputs([('intent/clarification', text('P(no task) = 0.729 >= 0.5'))])) == []
     diffs = compare_step(steps[3], outputs([('intent/clarification', text('P(no task) = 0.73 >= 0.5'))]))
     assert [d.field for d in diffs] == ['text']
@@ -127,7 +127,7 @@ def test_clarifications_and_rejections_must_be_identical(session_bag: Path) -> N
 
 
 def test_model_name_must_match_and_other_content_is_a_note(session_bag: Path) -> None:
-    step = load_session(session_bag).steps[4]
+    step = load_paired_session(session_bag).steps[4]
     answer = [o for o in step.expected if o.topic != 'model/active']
     assert compare_step(step, outputs([('model/active', model_doc('cup_5zone', SHA_B, 7))]) + answer) == []
     notes = compare_step(step, outputs([('model/active', model_doc('cup_5zone', SHA_A))]) + answer)

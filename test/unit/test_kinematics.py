@@ -14,10 +14,11 @@ from numpy.testing import assert_allclose
 from numpy.typing import NDArray
 
 from grasp_intent_ros.core import resources
-from grasp_intent_ros.core._kernels import _chain_fk, _ik_descent, _ik_jacobian, _ik_residual, _log3, warm_up
 from grasp_intent_ros.core.errors import KinematicsError
 from grasp_intent_ros.core.features import APPROACH, FINGER_CLOSED
 from grasp_intent_ros.core.frames import features_to_obj_T_ee, obj_T_ee_to_features, pose_to_matrix
+from grasp_intent_ros.core.kernels import warm_up
+from grasp_intent_ros.core.kernels.ik import _chain_fk, _ik_descent, _ik_jacobian, _ik_residual, _log3
 from grasp_intent_ros.core.kinematics import (
     ARM_JOINTS,
     EE_FRAME,

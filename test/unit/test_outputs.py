@@ -1,11 +1,11 @@
-"""grasp_intent_ros.tools.outputs: messages read into comparable values; rejections from diagnostics."""
+"""grasp_intent_ros.sessions.outputs: messages read into comparable values; rejections from diagnostics."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from grasp_intent_ros.protocol import ModelHeader
-from grasp_intent_ros.tools.outputs import (
+from grasp_intent_ros.sessions.outputs import (
     Joints,
     Pose,
     Rejection,
@@ -43,7 +43,7 @@ def test_rejection_tracker_reports_each_rejection_once() -> None:
 
 
 def test_reduced_values_of_every_kind_render_on_one_line() -> None:
-    from grasp_intent_ros.tools.compare import summarize
+    from grasp_intent_ros.sessions.compare import summarize
 
     values = [Vector(('a',), np.arange(12.0)), Text('x'), Pose('f', np.zeros(3), np.array([0, 0, 0, 1.0])),
               Joints(('j',), np.zeros(1)), Trajectory(('j',), np.zeros((1, 1)), np.zeros(1)),

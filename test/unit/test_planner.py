@@ -22,10 +22,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from grasp_intent_ros.core import _kernels, intent, planner
+from grasp_intent_ros.core import intent, kernels, planner
 from grasp_intent_ros.core.data import Demonstrations
 from grasp_intent_ros.core.errors import PlanningError
 from grasp_intent_ros.core.features import FINGERS, MICO_3F, FeatureSpace
+from grasp_intent_ros.core.kernels import least_squares, selection
+from grasp_intent_ros.core.kernels.types import Body, Mixture
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.core.resources import config_dir
 
@@ -106,7 +108,7 @@ def test_demonstration_starts_follow_their_stated_rule(seed: int, n: int, n_star
     top = [i for i in range(n) if members[zones[0], i]]
     first = min(top or range(n), key=rank.__getitem__)
     rest = sorted((i for i in range(n) if i != first and members[zones, i].any()), key=rank.__getitem__)
-    got = _kernels.select_demonstrations(posterior, v, members, zones, n_starts - 1, planner.MATCH_TOL)
+    got = kernels.select_demonstrations(posterior, v, members, zones, n_starts - 1, planner.MATCH_TOL)
     assert got.tolist() == [first] + rest[:n_starts - 1]
 
 
@@ -215,7 +217,7 @@ def _choice_rule(f: list[float], dist: list[float], start: list[int], xs: np.nda
         pick = min(pool, key=lambda i: (dist[i] > nearest + planner.DISTANCE_TOL, start[i]))
         order.append(pick)
         pool.remove(pick)
-    ranked = np.argsort(_kernels._rank_keys(np.array(f), planner.MATCH_TOL)).tolist()
+    ranked = np.argsort(selection._rank_keys(np.array(f), planner.MATCH_TOL)).tolist()
     order += [i for i in ranked if i not in matches]
     kept: list[int] = []
     for i in order:  # a row within 1e-18 (squared, relative) of an earlier kept one is dropped
@@ -268,8 +270,8 @@ def test_the_compiled_screen_is_the_log_odds_spread_or_f(shipped: dict[str, Gras
             score = q.max(axis=0) - q.min(axis=0)
         else:
             score = 0.5 * np.sum((v[None, :] - posterior) ** 2, axis=1)
-        expected = np.argsort(_kernels._rank_keys(score, planner.MATCH_TOL))[:planner._SCREEN]
-        got = _kernels.screen(log_joint_t, planner._log(v) if v.min() > 0.0 else np.zeros(0), posterior, v,
+        expected = np.argsort(selection._rank_keys(score, planner.MATCH_TOL))[:planner._SCREEN]
+        got = kernels.screen(log_joint_t, planner._log(v) if v.min() > 0.0 else np.zeros(0), posterior, v,
                               planner._SCREEN, planner.MATCH_TOL)
         if v.min() > 0.0:  # the same arithmetic: the same order
             assert got.tolist() == expected.tolist()
@@ -280,17 +282,17 @@ def test_the_compiled_screen_is_the_log_odds_spread_or_f(shipped: dict[str, Gras
 
 def test_ranking_quantises_f_then_takes_the_index_and_puts_nan_last() -> None:
     f = np.array([3e-3, 1e-20, np.nan, 2e-3, 1e-14, 2e-3 * (1 + 1e-13), 5.0, 0.5])
-    order = np.argsort(_kernels._rank_keys(f, planner.MATCH_TOL)).tolist()
+    order = np.argsort(selection._rank_keys(f, planner.MATCH_TOL)).tolist()
     # 1e-20 and 1e-14 are both 0 at the quantum (index order); 2e-3 and its 1e-13 relative neighbour tie
     assert order == [1, 4, 3, 5, 0, 7, 6, 2]
     for count in range(-1, len(f) + 2):
-        assert _kernels._first_ranked(f, planner.MATCH_TOL, count).tolist() == order[:max(count, 0)]
+        assert selection._first_ranked(f, planner.MATCH_TOL, count).tolist() == order[:max(count, 0)]
     rng = np.random.default_rng(7)
     for n in (1, 6, 40, 600):  # ties at the quantum as well as distinct values
         f = np.round(rng.exponential(1e-3, n), 5) * (1.0 + 1e-14 * rng.standard_normal(n))
-        ranked = np.argsort(_kernels._rank_keys(f, planner.MATCH_TOL)).tolist()
+        ranked = np.argsort(selection._rank_keys(f, planner.MATCH_TOL)).tolist()
         for count in (1, 3, 6, n):
-            assert _kernels._first_ranked(f, planner.MATCH_TOL, count).tolist() == ranked[:count]
+            assert selection._first_ranked(f, planner.MATCH_TOL, count).tolist() == ranked[:count]
 
 
 def test_unique_rows_drop_exact_repeats_only() -> None:
@@ -360,7 +362,8 @@ def test_a_match_found_by_the_least_squares_says_so(shipped: dict[str, GraspMode
 
 def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, GraspModel]) -> None:
     """The Newton stage's exact Hessian of f against central differences of the analytic gradient (1e-5 relative)."""
-    from grasp_intent_ros.core._kernels import _posterior_hessian
+    from grasp_intent_ros.core.kernels.posterior import _posterior_hessian
+    from grasp_intent_ros.core.kernels.types import Mixture
     rng = np.random.default_rng(3)
     for name in ('cup_7zone', 'flashlight_7zone'):
         model = shipped[name]
@@ -370,8 +373,8 @@ def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, 
             x = 0.5 * (model.means[i] + model.means[j])  # between two zones, where P varies
             K, d = model.means.shape
             hess = np.empty((d, d))
-            _posterior_hessian(x, model.means, model._precisions, model._log_norm, v, np.empty(K), np.empty((K, d)),
-                               np.empty((K, d)), hess, np.empty(d))
+            _posterior_hessian(x, Mixture(model.means, model._precisions, model._log_norm), v, np.empty(K),
+                               np.empty((K, d)), np.empty((K, d)), hess, np.empty(d))
             step = 1e-6 * model.feature_scale
             numeric = np.stack([(planner.objective_and_gradient(model, v, x + h)[1]
                                  - planner.objective_and_gradient(model, v, x - h)[1]) / (2.0 * h[i])
@@ -381,15 +384,17 @@ def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, 
 
 def test_the_distance_alone_is_the_distance_with_its_gradient(shipped: dict[str, GraspModel]) -> None:
     """The kernels' distance without the gradient (where only the distance decides) is the same number."""
-    from grasp_intent_ros.core._kernels import _distance
+    from grasp_intent_ros.core.kernels.geometry import _distance
+    from grasp_intent_ros.core.kernels.types import Body
     body = shipped['cup_7zone'].body
     assert body is not None
-    cylinder = body.kernel_arrays[:7]
-    box = (np.ones(1, dtype=np.int64), np.array([[0.01, 0.0, 0.02]]), *cylinder[2:6], np.array([[0.03, 0.02, 0.05]]))
+    cylinder = Body(*body.kernel_arrays)
+    box = cylinder._replace(kinds=np.ones(1, dtype=np.int64), centres=np.array([[0.01, 0.0, 0.02]]),
+                            halfs=np.array([[0.03, 0.02, 0.05]]))
     rng = np.random.default_rng(8)
     for arrays in (cylinder, box):
         for p in rng.normal(0.0, 0.06, (2000, 3)):
-            assert _distance(p, *arrays, False)[0] == _distance(p, *arrays, True)[0]
+            assert _distance(p, arrays, False)[0] == _distance(p, arrays, True)[0]
 
 
 def test_kernel_sums_run_in_their_stated_order() -> None:
@@ -398,7 +403,9 @@ def test_kernel_sums_run_in_their_stated_order() -> None:
     The recorded bags' answers rest on the kernels' arithmetic; an unrolled loop must not reorder a sum
     (shapes with and without a remainder of the unrolling).
     """
-    from grasp_intent_ros.core._kernels import _gram, _log_joint_score
+    from grasp_intent_ros.core.kernels.linalg import _gram
+    from grasp_intent_ros.core.kernels.posterior import _log_joint_score
+    from grasp_intent_ros.core.kernels.types import Mixture
     rng = np.random.default_rng(6)
     for m, n in ((7, 10), (8, 7), (3, 1), (2, 4)):
         J = rng.standard_normal((m, n))
@@ -416,7 +423,7 @@ def test_kernel_sums_run_in_their_stated_order() -> None:
         log_norm = rng.standard_normal(K)
         x = rng.standard_normal(d)
         lj, g = np.empty(K), np.empty((K, d))
-        _log_joint_score(x, means, prec, log_norm, lj, g, np.empty(d))
+        _log_joint_score(x, Mixture(means, prec, log_norm), lj, g, np.empty(d))
         for k in range(K):
             diff = [float(x[j] - means[k, j]) for j in range(d)]
             q = 0.0
@@ -435,7 +442,7 @@ def test_spd_solve_falls_back_to_lu_where_cholesky_fails() -> None:
     A symmetric matrix that is not positive definite (as rounding can leave a system whose ridge is below
     the rounding of its entries) is still solved; NaN raises, as np.linalg.solve does.
     """
-    from grasp_intent_ros.core._kernels import _spd_solve
+    from grasp_intent_ros.core.kernels.linalg import _spd_solve
     rng = np.random.default_rng(5)
     J = rng.standard_normal((7, 10))
     b = rng.standard_normal(10)
@@ -472,18 +479,19 @@ def test_body_surface_curvature_matches_finite_differences(shipped: dict[str, Gr
     On the cylinder's side and beyond its cap (flat), against central differences of the distance's
     gradient (1e-6 relative).
     """
-    from grasp_intent_ros.core._kernels import _distance, _distance_hessian
+    from grasp_intent_ros.core.kernels.geometry import _distance, _distance_hessian
+    from grasp_intent_ros.core.kernels.types import Body
     body = shipped['flashlight_7zone'].body
     assert body is not None
-    arrays = body.kernel_arrays[:7]
+    arrays = Body(*body.kernel_arrays)
     for p in (np.array([0.03, 0.0, 0.041]), np.array([0.03, 0.012, 0.035]), np.array([-0.05, -0.02, 0.0]),
               np.array([0.12, 0.005, 0.03])):
         step = 1e-7
-        numeric = np.stack([(np.array(_distance(p + h, *arrays, True)[1:])
-                             - np.array(_distance(p - h, *arrays, True)[1:])) / (2.0 * step)
+        numeric = np.stack([(np.array(_distance(p + h, arrays, True)[1:])
+                             - np.array(_distance(p - h, arrays, True)[1:])) / (2.0 * step)
                             for h in np.eye(3) * step])
         hess = np.full((3, 3), np.nan)
-        _distance_hessian(p, *arrays, hess)
+        _distance_hessian(p, arrays, hess)
         assert_allclose(hess, numeric, rtol=0.0, atol=1e-6 * max(np.abs(numeric).max(), 1.0))
         assert_allclose(hess, hess.T, atol=1e-12)
 
@@ -552,25 +560,26 @@ def _rule_5(model: GraspModel, v: np.ndarray, origins: np.ndarray, screened: np.
             projection: planner._LogOddsProjection | None) -> tuple[np.ndarray, ...]:
     """Rule 5 as the module docstring states it, driven from Python over the compiled iterations: the oracle."""
     feas = planner._Feasible(model)
-    body = feas.body
+    body = Body(*feas.body)
     v_path = np.rint(v / planner._LS_QUANTUM) * planner._LS_QUANTUM
     consts = (model.means, model._precisions, model._log_norm)
+    mixture = Mixture(*consts)
 
     def f_of(xs: np.ndarray, target: np.ndarray) -> np.ndarray:
-        return _kernels.score(xs, target, *consts, xs[0], feas.scale)[1] if len(xs) else np.zeros(0)
+        return kernels.score(xs, target, *consts, xs[0], feas.scale)[1] if len(xs) else np.zeros(0)
 
     def first(f: np.ndarray, count: int) -> np.ndarray:
-        return np.argsort(_kernels._rank_keys(f, planner.MATCH_TOL))[:count]
+        return np.argsort(selection._rank_keys(f, planner.MATCH_TOL))[:count]
 
     def lm(starts: np.ndarray, maxiter: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        return _kernels._least_squares(np.ascontiguousarray(starts), v_path, *consts, feas.lower, feas.upper,
-                                       feas.a.start, feas.a.stop, *body, maxiter, planner._LM_FTOL,
-                                       planner._LM_RIDGE)
+        return least_squares._least_squares(np.ascontiguousarray(starts), v_path, mixture, feas.lower, feas.upper,
+                                            feas.a.start, feas.a.stop, body, maxiter, planner._LM_FTOL,
+                                            planner._LM_RIDGE)
 
     def newton(starts: np.ndarray, maxiter: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        return _kernels._newton_least_squares(np.ascontiguousarray(starts), v_path, *consts, feas.lower,
-                                              feas.upper, feas.scale, feas.a.start, feas.a.stop, *body, maxiter,
-                                              planner._NEWTON_STEPTOL, planner._LM_RIDGE)
+        return least_squares._newton_least_squares(np.ascontiguousarray(starts), v_path, mixture, feas.lower,
+                                                   feas.upper, feas.scale, feas.a.start, feas.a.stop, body, maxiter,
+                                                   planner._NEWTON_STEPTOL, planner._LM_RIDGE)
 
     def polish(xs: np.ndarray, ok: np.ndarray, its: np.ndarray, left: np.ndarray) -> None:
         best = first(f_of(xs, v_path), planner._NEWTON_POLISH)

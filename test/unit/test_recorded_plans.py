@@ -23,9 +23,9 @@ from grasp_intent_ros.core.intent import parse_zones, restrict
 from grasp_intent_ros.core.kinematics import ARM_JOINTS, MicoKinematics, Reachability
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.core.resources import config_dir
-from grasp_intent_ros.tools.compare import Tolerances
-from grasp_intent_ros.tools.outputs import Pose, Vector, decode
-from grasp_intent_ros.tools.session import load_session
+from grasp_intent_ros.sessions.compare import Tolerances
+from grasp_intent_ros.sessions.outputs import Pose, Vector, decode
+from grasp_intent_ros.sessions.pairing import load_paired_session
 
 REPO = Path(__file__).resolve().parents[2]
 BAGS = sorted(p for p in (REPO / 'bags').iterdir() if (p / 'metadata.yaml').is_file())
@@ -51,7 +51,7 @@ def kin() -> MicoKinematics:
 @pytest.mark.parametrize('bag', BAGS, ids=[p.name for p in BAGS])
 def test_every_recorded_plan_is_planned_again_with_v_perturbed_at_the_last_bits(bag: Path,
                                                                                   kin: MicoKinematics) -> None:
-    session = load_session(bag)
+    session = load_paired_session(bag)
     assert session.initial_model is not None
     models = {name: GraspModel.load(config_dir() / 'models' / f'{name}.yaml')
               for name in ('cup_7zone', 'cup_5zone', 'cup_4zone', 'flashlight_7zone')}

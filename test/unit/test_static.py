@@ -5,9 +5,11 @@ docstrings).
 
 Import rules (the layers of the README's layout):
 - ``core`` is the method: it imports nothing of rclpy or the ROS message packages, ``ros``, ``bag``,
-  ``protocol``, ``tools``, ``dataset`` or the nodes;
-- ``bag`` and ``protocol`` import no rclpy and no ROS message package, and nothing of ``ros``;
-- the nodes (the viewer too) and ``scene`` import nothing of ``bag``.
+  ``protocol``, ``sessions``, ``tools``, ``dataset`` or the nodes;
+- ``bag`` and ``protocol`` import no rclpy and no ROS message package, and nothing of ``ros`` or ``sessions``;
+- ``sessions`` (the session analysis) imports no rclpy and no ROS message package; of the package only
+  ``core``, ``bag`` and ``protocol`` (nothing of ``ros``, ``tools``, ``dataset`` or the nodes);
+- the nodes (the viewer too) and ``scene`` import nothing of ``bag`` or ``sessions``.
 They are read from the source (every ``import`` and ``from ... import``, relative ones resolved), so a rule is
 broken by a late import inside a function too.
 
@@ -32,13 +34,14 @@ PACKAGE = 'grasp_intent_ros'
 NODES = (*(f'{PACKAGE}.{n}' for n in SUITE_NODES), f'{PACKAGE}.viewer')
 ROS = re.compile(r'^(rclpy|rcl_interfaces|builtin_interfaces|[a-z_]+_msgs|[a-z_]+_srvs)(\.|$)')
 RULES: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...] = (
-    ((f'{PACKAGE}.core',), (f'{PACKAGE}.ros', f'{PACKAGE}.bag', f'{PACKAGE}.protocol', f'{PACKAGE}.tools',
-                             f'{PACKAGE}.dataset', *NODES)),
-    ((f'{PACKAGE}.bag', f'{PACKAGE}.protocol'), (f'{PACKAGE}.ros',)),
-    ((*NODES, f'{PACKAGE}.scene'), (f'{PACKAGE}.bag',)),
+    ((f'{PACKAGE}.core',), (f'{PACKAGE}.ros', f'{PACKAGE}.bag', f'{PACKAGE}.protocol', f'{PACKAGE}.sessions',
+                             f'{PACKAGE}.tools', f'{PACKAGE}.dataset', *NODES)),
+    ((f'{PACKAGE}.bag', f'{PACKAGE}.protocol'), (f'{PACKAGE}.ros', f'{PACKAGE}.sessions')),
+    ((f'{PACKAGE}.sessions',), (f'{PACKAGE}.ros', f'{PACKAGE}.tools', f'{PACKAGE}.dataset', *NODES)),
+    ((*NODES, f'{PACKAGE}.scene'), (f'{PACKAGE}.bag', f'{PACKAGE}.sessions')),
 )
-"""(modules the rule is about, what they must not import); core, bag and protocol import no ROS package."""
-ROS_FREE = (f'{PACKAGE}.core', f'{PACKAGE}.bag', f'{PACKAGE}.protocol')
+"""(modules the rule is about, what they must not import); ROS_FREE import no ROS package."""
+ROS_FREE = (f'{PACKAGE}.core', f'{PACKAGE}.bag', f'{PACKAGE}.protocol', f'{PACKAGE}.sessions')
 
 
 def module_name(path: Path, root: Path) -> str:
@@ -85,13 +88,15 @@ def test_import_rules_hold() -> None:
 
 def test_import_rules_catch_a_broken_rule(tmp_path: Path) -> None:
     package = tmp_path / PACKAGE
-    for sub in ('core', 'bag', 'ros'):
+    for sub in ('core', 'bag', 'ros', 'sessions'):
         (package / sub).mkdir(parents=True)
         (package / sub / '__init__.py').write_text('')
     (package / '__init__.py').write_text('')
     (package / 'core' / 'model.py').write_text('def f():\n    from ..ros import conversions\n    import rclpy\n')
     (package / 'bag' / 'writer.py').write_text('from std_msgs.msg import String\nfrom ..ros.qos import input_qos\n')
     (package / 'protocol.py').write_text('from .core import model\n')
+    (package / 'sessions' / 'pairing.py').write_text('from ..bag import reader\nfrom ..tools import replay\n'
+                                                     'import rclpy.node\n')
     (package / 'grasp_planner.py').write_text('from .bag import writer\nfrom . import protocol\n')
     assert violations(tmp_path) == [
         f'{PACKAGE}.bag.writer imports {PACKAGE}.ros.qos',
@@ -103,22 +108,27 @@ def test_import_rules_catch_a_broken_rule(tmp_path: Path) -> None:
         f'{PACKAGE}.core.model imports rclpy',
         f'{PACKAGE}.grasp_planner imports {PACKAGE}.bag',
         f'{PACKAGE}.grasp_planner imports {PACKAGE}.bag.writer',
+        f'{PACKAGE}.sessions.pairing imports {PACKAGE}.tools',
+        f'{PACKAGE}.sessions.pairing imports {PACKAGE}.tools.replay',
+        f'{PACKAGE}.sessions.pairing imports rclpy.node',
     ]
 
 
 def test_ros_free_layers_load_without_rclpy() -> None:
     code = ('import sys, importlib, pkgutil\n'
             'import grasp_intent_ros.core as c, grasp_intent_ros.bag, grasp_intent_ros.protocol\n'
-            'for m in pkgutil.iter_modules(c.__path__): importlib.import_module(f"grasp_intent_ros.core.{m.name}")\n'
-            'import grasp_intent_ros.tools.session, grasp_intent_ros.tools.compare, grasp_intent_ros.tools.report\n'
+            'import grasp_intent_ros.sessions as s\n'
+            'for p in (c, s):\n'
+            '    for m in pkgutil.iter_modules(p.__path__): importlib.import_module(f"{p.__name__}.{m.name}")\n'
+            'import grasp_intent_ros.tools.report\n'
             'assert "rclpy" not in sys.modules, "rclpy imported"\n')
     subprocess.run([sys.executable, '-c', code], cwd=REPO, check=True, timeout=120)
 
 
 def test_mypy_strict() -> None:
-    """Mypy --strict (setup.cfg) on the typed layers: core, bag, protocol, ros, scene and the nodes."""
-    paths = ['grasp_intent_ros/core', 'grasp_intent_ros/bag', 'grasp_intent_ros/protocol.py', 'grasp_intent_ros/ros',
-             'grasp_intent_ros/scene',
+    """Mypy --strict (setup.cfg) on the typed layers: core, bag, protocol, sessions, ros, scene and the nodes."""
+    paths = ['grasp_intent_ros/core', 'grasp_intent_ros/bag', 'grasp_intent_ros/protocol.py',
+             'grasp_intent_ros/sessions', 'grasp_intent_ros/ros', 'grasp_intent_ros/scene',
              *(f'grasp_intent_ros/{node.rpartition(".")[2]}.py' for node in NODES)]
     result = subprocess.run([sys.executable, '-m', 'mypy', '--strict', '--follow-imports=silent', *paths],
                             cwd=REPO, capture_output=True, text=True, timeout=600)

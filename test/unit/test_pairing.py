@@ -1,4 +1,4 @@
-"""grasp_intent_ros.tools.session: a recorded session paired into inputs and their outputs; compaction."""
+"""grasp_intent_ros.sessions.pairing: a recorded session paired into inputs and their outputs; compaction."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from grasp_intent_ros.bag import QosSpec, read_messages, topics_info
 from grasp_intent_ros.protocol import DIAGNOSTICS, PLAN_TOPICS, ModelHeader
-from grasp_intent_ros.tools.outputs import (
+from grasp_intent_ros.sessions.outputs import (
     Joints,
     Pose,
     Rejection,
@@ -19,7 +19,7 @@ from grasp_intent_ros.tools.outputs import (
     Vector,
     decode,
 )
-from grasp_intent_ros.tools.session import compact_session, detect_namespace, load_session, pair_messages
+from grasp_intent_ros.sessions.pairing import compact_session, detect_namespace, load_paired_session, pair_messages
 
 from .sessions import (
     ARM,
@@ -39,7 +39,7 @@ from .sessions import (
 
 # ---------------------------------------------------------------- pairing
 def test_each_input_is_paired_with_the_outputs_that_follow_it(session_bag: Path) -> None:
-    session = load_session(session_bag)
+    session = load_paired_session(session_bag)
 
     assert session.namespace == ''
     assert session.initial_model == ModelHeader('cup_7zone', 1, SHA_A)
@@ -70,7 +70,7 @@ def test_each_input_is_paired_with_the_outputs_that_follow_it(session_bag: Path)
 
 
 def test_the_reduced_outputs_carry_what_is_compared(session_bag: Path) -> None:
-    step = load_session(session_bag).steps[1]
+    step = load_paired_session(session_bag).steps[1]
     values = {o.topic: o.value for o in step.expected}
     assert isinstance(values['intent/v'], Vector) and values['intent/v'].labels == (ZONES,)
     np.testing.assert_array_equal(values['intent/v'].data, P)
@@ -88,7 +88,7 @@ def test_the_reduced_outputs_carry_what_is_compared(session_bag: Path) -> None:
 
 def test_namespace_is_detected_and_other_namespaces_are_rejected(tmp_path: Path) -> None:
     bag = write_bag(tmp_path / 'ns', session_messages(), namespace='/robot1')
-    session = load_session(bag)
+    session = load_paired_session(bag)
     assert session.namespace == '/robot1' and len(session.steps) == 6
     assert detect_namespace(['/rosout', '/a/b/intent/w', '/a/b/grasp/pose']) == '/a/b'
     with pytest.raises(SessionError, match='several namespaces'):
@@ -100,14 +100,14 @@ def test_namespace_is_detected_and_other_namespaces_are_rejected(tmp_path: Path)
 def test_a_bag_without_inputs_is_not_a_session(tmp_path: Path) -> None:
     bag = write_bag(tmp_path / 'outputs_only', [('model/active', model_doc('cup_7zone')), ('intent/v', v_msg(P))])
     with pytest.raises(SessionError, match='no inputs'):
-        load_session(bag)
+        load_paired_session(bag)
 
 
 def test_a_malformed_model_document_is_a_session_error(tmp_path: Path) -> None:
     bag = write_bag(tmp_path / 'bad_model', [('model/active', text('name: cup_7zone\n')),
                                              ('intent/w', f64([0.9, 0.9, 0.1]))])
     with pytest.raises(SessionError, match='header lines'):
-        load_session(bag)
+        load_paired_session(bag)
 
 
 def test_pair_messages_accepts_any_message_stream() -> None:
@@ -134,6 +134,6 @@ def test_compaction_keeps_only_rejections_of_the_diagnostics(session_bag: Path, 
     others = [(m.topic, m.timestamp_ns, m.cdr) for m in original if m.topic != DIAGNOSTICS]
     assert [(m.topic, m.timestamp_ns, m.cdr) for m in kept if m.topic != DIAGNOSTICS] == others
     assert topics_info(tmp_path / 'compact')['/model/active'].qos == (QosSpec('reliable', 'transient_local', 0),)
-    before, after = load_session(session_bag), load_session(tmp_path / 'compact')
+    before, after = load_paired_session(session_bag), load_paired_session(tmp_path / 'compact')
     assert [[(o.topic, o.t_ns) for o in s.expected] for s in before.steps] == \
         [[(o.topic, o.t_ns) for o in s.expected] for s in after.steps]

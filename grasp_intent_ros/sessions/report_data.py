@@ -1,6 +1,6 @@
 """A session bag loaded for the report: what each topic of the suite says, by role (ROS-free).
 
-Topics are found in the session's namespace (:func:`~grasp_intent_ros.tools.session.detect_namespace`), so
+Topics are found in the session's namespace (:func:`~grasp_intent_ros.sessions.pairing.detect_namespace`), so
 namespaced sessions work. A message that cannot be read is counted as malformed, never raised.
 
 Message layouts read (as the nodes publish them)
@@ -13,9 +13,9 @@ Message layouts read (as the nodes publish them)
 ``model/active``    std_msgs/String, the model document (header lines, then GraspModel YAML).
 ``model/ambiguity`` 2-D (m, m) KL matrix, both dims labelled with the task names.
 ``grasp/pose``, ``grasp/joint_targets``: with ``grasp/features`` and ``grasp/posterior``, gathered by their
-                    stamp into :attr:`Session.plans` (one record per plan: ``base_T_ee``, ``q`` (arm then
+                    stamp into :attr:`ReportData.plans` (one record per plan: ``base_T_ee``, ``q`` (arm then
                     finger positions), ``x``, ``posterior``, and ``received``: the last receive time).
-``/diagnostics``    rejections: :class:`grasp_intent_ros.tools.session.RejectionTracker`; planning time: the
+``/diagnostics``    rejections: :class:`grasp_intent_ros.sessions.outputs.RejectionTracker`; planning time: the
                     planner's 'last planning time [ms]' whenever its 'plans' count grew.
 """
 
@@ -46,9 +46,9 @@ from ..protocol import (
     read_posterior,
 )
 from .outputs import Rejection, RejectionTracker, SessionError
-from .session import detect_namespace
+from .pairing import detect_namespace
 
-__all__ = ['ROLES', 'Session', 'load_session']
+__all__ = ['ROLES', 'ReportData', 'load_report_data']
 
 ROLES = {'w': topics.INTENT_W, 'v': topics.INTENT_V, 'clarification': topics.INTENT_CLARIFICATION,
          'model': topics.MODEL_ACTIVE, 'ambiguity': topics.MODEL_AMBIGUITY, 'posterior': topics.GRASP_POSTERIOR,
@@ -58,7 +58,7 @@ ROLES = {'w': topics.INTENT_W, 'v': topics.INTENT_V, 'clarification': topics.INT
 
 
 @dataclass
-class Session:
+class ReportData:
     """What the report needs from one bag; times are ns since the epoch (receive time)."""
 
     path: Path
@@ -97,7 +97,7 @@ class Session:
 
 
 def _find_topics(topics: dict[str, TopicInfo]) -> tuple[dict[str, str], list[str]]:
-    """Role -> topic name in the session's namespace (:func:`~grasp_intent_ros.tools.session.detect_namespace`)."""
+    """Role -> topic name in the session's namespace (:func:`~grasp_intent_ros.sessions.pairing.detect_namespace`)."""
     notes = []
     try:
         namespace = detect_namespace(topics)
@@ -112,7 +112,7 @@ def _find_topics(topics: dict[str, TopicInfo]) -> tuple[dict[str, str], list[str
     return roles, notes
 
 
-def load_session(path: Path) -> Session:
+def load_report_data(path: Path) -> ReportData:
     """Read the messages the report uses.
 
     Raises
@@ -122,7 +122,7 @@ def load_session(path: Path) -> Session:
     """
     topics = topics_info(path)
     roles, notes = _find_topics(topics)
-    session = Session(path=path, topics=topics, roles=roles, notes=notes)
+    session = ReportData(path=path, topics=topics, roles=roles, notes=notes)
     by_topic = {topic: role for role, topic in roles.items()}
     first = None
     last = 0
@@ -140,7 +140,7 @@ def load_session(path: Path) -> Session:
     return session
 
 
-def _take(session: Session, role: str, stamp: int, msg: Any) -> None:
+def _take(session: ReportData, role: str, stamp: int, msg: Any) -> None:
     """File one decoded message; raises for a malformed one."""
     if role == 'w':
         session.w.append((stamp, msg_to_array(msg, what='w')))
@@ -203,7 +203,7 @@ def _pose_matrix(msg: Any) -> NDArray[np.float64]:
     return pose_to_matrix([p.x, p.y, p.z], [o.x, o.y, o.z, o.w])
 
 
-def _plan_part(session: Session, plan: Stamp | None, received: int, part: str, value: Any) -> None:
+def _plan_part(session: ReportData, plan: Stamp | None, received: int, part: str, value: Any) -> None:
     """File one output of the plan stamped ``plan`` (outputs without a stamp belong to no plan)."""
     if plan is not None:
         record = session.plans.setdefault(plan, {})
@@ -211,7 +211,7 @@ def _plan_part(session: Session, plan: Stamp | None, received: int, part: str, v
         record['received'] = max(received, record.get('received', received))
 
 
-def _sample_planning_time(session: Session, status: Any) -> None:
+def _sample_planning_time(session: ReportData, status: Any) -> None:
     """Record the planner's 'last planning time [ms]' each time a status shows a new 'plans' count."""
     values = topics.status_values(status)
     plans, value = values.get(topics.KEY_PLANS), values.get(topics.KEY_PLANNING_TIME)

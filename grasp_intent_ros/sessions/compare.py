@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from ..core.errors import GraspIntentError
 from ..protocol import DIAGNOSTICS, LEVEL_NAMES, MODEL_ACTIVE, ModelHeader, split_labels, split_posterior
 from .outputs import Joints, Output, Pose, Rejection, Text, Trajectory, Undecodable, Value, Vector
-from .session import Step
+from .pairing import Step
 
 __all__ = ['Tolerances', 'Difference', 'summarize', 'compare_step', 'answered', 'diverged']
 

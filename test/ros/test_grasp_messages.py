@@ -1,4 +1,4 @@
-"""grasp_intent_ros.ros.grasp: the messages of one planned grasp."""
+"""grasp_intent_ros.ros.grasp_messages: the messages of one planned grasp."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.core.resources import config_dir
 from grasp_intent_ros.protocol import ModelDocument
 from grasp_intent_ros.ros.conversions import posterior_from_msg, stamped_array_from_msg
-from grasp_intent_ros.ros.grasp import grasp_messages
+from grasp_intent_ros.ros.grasp_messages import grasp_messages
 from grasp_intent_ros.ros.robot import pose_msg_to_matrix
 
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))

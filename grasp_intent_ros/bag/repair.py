@@ -31,7 +31,7 @@ from rosbags.interfaces import MessageDefinitionFormat
 from rosbags.rosbag2.metadata import parse_qos
 
 from .errors import BagReadError, BagWriteError
-from .qos import decode_qos
+from .offered_qos import decode_qos
 from .reader import register_type
 from .types import jazzy_typestore
 from .writer import SessionWriter

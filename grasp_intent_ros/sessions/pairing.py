@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Final
 
-from ..bag.qos import QosSpec
+from ..bag.offered_qos import QosSpec
 from ..bag.reader import read_messages, topics_info
 from ..bag.writer import SessionWriter
 from ..protocol import DIAGNOSTICS, INPUT_TOPICS, MODEL_ACTIVE, OUTPUT_TOPICS, ModelHeader
@@ -40,10 +40,10 @@ from .outputs import Output, RawMessage, RejectionTracker, SessionError, decode,
 
 __all__ = [
     'Step',
-    'Session',
+    'PairedSession',
     'detect_namespace',
     'pair_messages',
-    'load_session',
+    'load_paired_session',
     'compact_session',
 ]
 
@@ -111,7 +111,7 @@ class Step:
 
 
 @dataclass(frozen=True)
-class Session:
+class PairedSession:
     """A session bag split into steps.
 
     Attributes
@@ -231,7 +231,7 @@ def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '') -> tup
     return initial, tuple(steps), tuple(unpaired)
 
 
-def load_session(path: str | os.PathLike[str], *, namespace: str | None = None) -> Session:
+def load_paired_session(path: str | os.PathLike[str], *, namespace: str | None = None) -> PairedSession:
     """Read a session bag and pair its inputs with their outputs.
 
     Parameters
@@ -254,7 +254,7 @@ def load_session(path: str | os.PathLike[str], *, namespace: str | None = None) 
     initial, steps, unpaired = pair_messages(read_messages(bag), namespace=ns)
     if not steps:
         raise SessionError(f'bag {bag} holds no inputs ({", ".join(INPUT_TOPICS)} or model switches)')
-    return Session(bag, ns, initial, steps, unpaired)
+    return PairedSession(bag, ns, initial, steps, unpaired)
 
 
 # ------------------------------------------------------------------------------ compaction
