@@ -127,19 +127,21 @@ def continuity(steps: int, seed: int, walks: int, models: tuple[str, ...], metho
           'warm-started; jump = palm > 20 mm or approach > 0.3 rad')
     if method == 'task':
         print(f'   and against a fresh plan at every step: the stream\'s expected success E (by the model) below the '
-              f'fresh plan\'s by more than the band {serving.BAND}, and the fit f of both')
+              f'fresh plan\'s by more than the band {serving.BAND}, its residual |v - P| above the fresh one\'s by '
+              f'more than the band {serving.KEEP_BAND}, and the fit f of both')
     for name in (m for m in SEVEN if m in models):
         model = load(name)
         total = 0
         for walk_seed in range(seed, seed + walks):
             previous, jumps, branch_held, inexact = None, 0, 0, 0
-            worse, f_warm, f_fresh = 0, [], []
+            worse, unfit, f_warm, f_fresh = 0, 0, [], []
             for v in walk_targets(model, steps, walk_seed):
                 res = planner.plan(model, v, warm_start=None if previous is None else previous.x, method=method)
                 inexact += not res.exact
                 if method == 'task':
                     fresh = planner.plan(model, v, method=method)
                     worse += expected_success(model, v, res) < expected_success(model, v, fresh) - serving.BAND
+                    unfit += np.sqrt(2.0 * res.objective) > np.sqrt(2.0 * fresh.objective) + serving.KEEP_BAND
                     f_warm.append(res.objective)
                     f_fresh.append(fresh.objective)
                 if previous is not None:
@@ -151,7 +153,7 @@ def continuity(steps: int, seed: int, walks: int, models: tuple[str, ...], metho
                         branch_held += method == 'lm' and res.candidates[0].start_index == 0 and res.exact
                 previous = res
             total += jumps
-            detail = (f'E below the fresh plan\'s by more than the band in {worse} steps; mean f {np.mean(f_warm):.3e} '
+            detail = (f'outside the bands in {worse} (E) and {unfit} (fit) steps; mean f {np.mean(f_warm):.3e} '
                       f'(fresh {np.mean(f_fresh):.3e})' if method == 'task' else
                       f'{branch_held} of them while the previous branch still matched v; {inexact} steps with no '
                       'exact match')

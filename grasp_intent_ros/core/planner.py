@@ -11,14 +11,13 @@ first it takes is returned, status 'rejected' when it takes none). The feasible 
 (the last only when the model carries the object's body, see :mod:`grasp_intent_ros.core.body`).
 
 **method='task' (the default): serve the likely tasks.** The answer is the labelled demonstration, in X,
-that serves v's top zone, is read by the model (argmax_k P(k|x)) as doing only likely tasks (the top zone's,
-and tasks whose probability, read from v, is at least ``tau``), and has the highest expected task success
-under v (v's mass on the zones its task set contains); ties go to the paper's fit 1/2 |v - P|^2, then to
-the reference, then to demonstration order. A warm start keeps its demonstration while it still ranks first
-within a band of expected success (:data:`grasp_intent_ros.core.serving.BAND`), and tasks it is read as
-doing stay likely down to ``tau - hysteresis``. The rules and reasons are
-:mod:`grasp_intent_ros.core.serving`'s. P(x) does not match v in general; the price in fit is reported by
-the benchmarks.
+that serves v's top zone, does (by its label) and is read by the model (argmax_k P(k|x)) as doing only
+likely tasks (the top zone's, and tasks whose probability, read from v, is at least ``tau``), and has the
+highest expected task success under v (v's mass on the zones its task set contains); ties go to the paper's
+fit 1/2 |v - P|^2, then to the reference, then to demonstration order. A warm start keeps its demonstration
+while it stays within stated bands of the best expected success and fit, and tasks it is read as doing stay
+likely down to ``tau - hysteresis``. The rules and reasons are :mod:`grasp_intent_ros.core.serving`'s.
+P(x) does not match v in general: the price in fit is the benchmarks' to report.
 
 **method='lm' (the paper's planner): match P to v.** The paper's objective is
 f(x) = 1/2 sum_k (v_k - P_k(x))^2. With K zones and d = 10 features, P(x) = v is K - 1 equations in 9 free
@@ -116,7 +115,7 @@ from .errors import PlanningError
 from .features import FINGERS, MICO_3F, PALM
 from .intent import reconstruct_w, zone_label
 from .model import GraspModel
-from .serving import HYSTERESIS, TAU, rank
+from .serving import HYSTERESIS, TAU, Faithful, rank
 
 if TYPE_CHECKING:
     from scipy.optimize import OptimizeResult  # type: ignore[import-untyped]
@@ -554,7 +553,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
          n_starts: int = 3, top_zones: int = 2, warm_start: ArrayLike | None = None,
          accept: Callable[[NDArray[np.float64]], bool] | None = None,
          extra_constraints: Sequence[Any] = (), tau: float = TAU, hysteresis: float = HYSTERESIS,
-         strict: bool = False) -> PlanResult:
+         faithful: Faithful = 'label') -> PlanResult:
     """Plan a grasp for target v (module docstring): by default the demonstration that serves the likely tasks.
 
     Parameters
@@ -584,8 +583,9 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
         ``'task'``: the probability at which a task beyond the top zone is likely (:data:`.serving.TAU`).
     hysteresis : float in [0, 1]
         ``'task'``, warm start: tasks the previous grasp is read as doing stay likely down to tau - hysteresis.
-    strict : bool
-        ``'task'``: the demonstration must also do (by its label) no task outside the likely ones.
+    faithful : {'label', 'reading'}
+        ``'task'``: what must hold no task outside the likely ones: the demonstration's label (the tasks it
+        does) and the model's reading of it (default), or only the reading.
 
     Raises
     ------
@@ -616,7 +616,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
     feas = _Feasible(model)
     x_ref = feas.project(first)[0]
     if method == 'task':
-        return _serve(model, v_arr, x_ref, feas, warm_start is not None, accept, tau, hysteresis, strict, t0)
+        return _serve(model, v_arr, x_ref, feas, warm_start is not None, accept, tau, hysteresis, faithful, t0)
     band = WARM_BAND if warm_start is not None else 0.0  # rule 6: a stream keeps its branch within the band
 
     def all_starts() -> NDArray[np.float64]:
@@ -698,11 +698,11 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
                       method=method, candidates=tuple(ranked), rejected=rejected)
 
 def _serve(model: GraspModel, v: NDArray[np.float64], x_ref: NDArray[np.float64], feas: _Feasible, warm: bool,
-           accept: Callable[[NDArray[np.float64]], bool] | None, tau: float, hysteresis: float, strict: bool,
+           accept: Callable[[NDArray[np.float64]], bool] | None, tau: float, hysteresis: float, faithful: Faithful,
            t0: float) -> PlanResult:
     """Method 'task': the first demonstration of :func:`grasp_intent_ros.core.serving.rank` that ``accept`` takes."""
     ranking = rank(model, v, int(zone_order(v)[0]), x_ref, feas.lower, feas.upper, feas.a, feas.body, tau=tau,
-                   hysteresis=hysteresis, warm=warm, strict=strict)
+                   hysteresis=hysteresis, warm=warm, faithful=faithful)
     names = model.task_names
     likely = zone_label(ranking.likely, names)
     top = zone_label(ranking.top, names)

@@ -20,22 +20,31 @@ Candidates are the demonstrations whose palm is outside the body (with its margi
 feasible set (unit approach). They are ranked by, in order:
 
 1. serves z* (S_n contains z*);
-2. faithful: S_n within A and its reading within A (the grasp does, and reads as doing, only likely tasks);
+2. faithful: its reading within A and (``faithful='label'``, the default) S_n within A: the grasp does, and
+   reads as doing, only likely tasks (with ``faithful='reading'`` only the reading counts, and a
+   demonstration that does unlikely tasks but that the model reads as the top zone may be chosen: the
+   highest expected success, at the price of grasps that serve every task whatever the intent);
 3. E_n, highest first (quantised to 1e-9);
 4. fresh plan: the paper's fit f_n = 1/2 |v - P(x_n)|^2, lowest first (quantised to 1e-9), then the scaled
-   distance to the reference (quantised to 1e-6); warm plan: the scaled distance to the warm start first,
-   then f_n;
+   distance to the reference (quantised to 1e-6); warm plan: see below;
 5. demonstration order.
 
 The first candidate is the answer; the ``accept`` hook (IK reachability) is asked in this order.
 
-**A stream keeps its branch** (warm start): while the previous grasp's demonstration still ranks in the top
-tier (same set, faithful, same E), it is kept exactly (distance 0), so the grasp moves only when the task
-set it should serve changes, and then to the nearest demonstration of the new set. When the warm start is a
-demonstration, the tasks it serves beyond z* stay in A down to w_i >= tau - ``hysteresis`` (a band against
-chattering where w_i crosses tau); a task joins A at tau in both fresh and warm plans, so a warm answer's E
-is never below a fresh one's and its set differs from the fresh one's only by tasks with tau - hysteresis
-<= w_i < tau.
+**A stream keeps its branch** (warm start, the previous plan). Three bands, each against the grasp going
+back and forth between two answers of nearly the same merit while the intent moves a little:
+
+- *likely set*: when the warm start is a demonstration, the tasks the model reads it as doing stay in A
+  down to w_i >= tau - ``hysteresis`` (tasks join A at tau, in fresh and warm plans alike);
+- *expected success*: in the best tier, the candidates whose E is within ``band`` of the best tie with it;
+- *fit*: among those, the candidates whose residual |v - P| = sqrt(2 f) is within ``fit_band`` of the
+  group's best (the previous grasp's demonstration: within ``keep_band``) come first, then by the scaled
+  distance to the warm start, then by f.
+
+So the previous grasp is kept exactly while it stays within the bands, and otherwise the nearest
+demonstration within them is taken. Against a fresh plan for the same v (same tier), a stream's answer has
+E at most ``band`` lower and a residual at most ``keep_band`` higher, and does a task the fresh plan leaves
+out only when its w_i is within ``hysteresis`` below tau.
 
 Every quantity is computed by the planner's compiled kernels in a fixed order (``_kernels.score``) or
 elementwise, so the choice has the same bits on any machine.
@@ -44,6 +53,7 @@ elementwise, so the choice has the same bits on any machine.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -51,14 +61,20 @@ from numpy.typing import NDArray
 from ._kernels import feasible, score
 from .model import GraspModel
 
-__all__ = ['TAU', 'HYSTERESIS', 'BAND', 'Ranking', 'likely_tasks', 'rank']
+__all__ = ['TAU', 'HYSTERESIS', 'BAND', 'FIT_BAND', 'KEEP_BAND', 'Faithful', 'Ranking', 'likely_tasks', 'rank']
 
+Faithful = Literal['label', 'reading']
+"""What must hold no unlikely task: the demonstration's label and the model's reading of it, or the reading only."""
 TAU = 0.3
 """A task outside the top zone is served when its probability is at least this (see the module docstring)."""
 HYSTERESIS = 0.05
 """With a warm start, a task the previous grasp serves stays in the likely set down to TAU - HYSTERESIS."""
 BAND = 0.05
 """With a warm start, candidates whose expected success E is within this of the best one's tie with it."""
+FIT_BAND = 0.1
+"""With a warm start, candidates of the top group whose residual |v - P| is within this of its best one's tie."""
+KEEP_BAND = 0.3
+"""With a warm start, the previous grasp's demonstration ties while its residual is within this of the best."""
 _E_QUANTUM = 1e-9
 _F_QUANTUM = 1e-9
 _D_QUANTUM = 1e-6
@@ -130,8 +146,9 @@ def _quantised(values: NDArray[np.float64], quantum: float) -> NDArray[np.float6
 
 def rank(model: GraspModel, v: NDArray[np.float64], top: int, reference: NDArray[np.float64],
          lower: NDArray[np.float64], upper: NDArray[np.float64], approach: slice, body: tuple[object, ...],
-         *, tau: float = TAU, hysteresis: float = HYSTERESIS, warm: bool = False, strict: bool = False,
-         band: float = BAND) -> Ranking:
+         *, tau: float = TAU, hysteresis: float = HYSTERESIS, warm: bool = False, faithful: Faithful = 'label',
+         band: float = BAND, fit_band: float = FIT_BAND,
+         keep_band: float = KEEP_BAND) -> Ranking:
     """Rank the demonstrations (module docstring) for target v with top zone index ``top``.
 
     ``reference`` is Algorithm 1's start (fresh) or the warm start (``warm``); ``lower``, ``upper``,
@@ -152,13 +169,13 @@ def rank(model: GraspModel, v: NDArray[np.float64], top: int, reference: NDArray
     likely = likely_tasks(model, v, top, tau, keep, hysteresis)
     z_top = int(zones[top])
     serves = (sets & z_top) == z_top
-    faithful = (reading & ~likely) == 0  # the model reads it as doing only likely tasks
-    if strict:
-        faithful &= (sets & ~likely) == 0  # and it does only likely tasks
+    read_faithfully = (reading & ~likely) == 0  # the model reads it as doing only likely tasks
+    if faithful == 'label':
+        read_faithfully &= (sets & ~likely) == 0  # and it does only likely tasks
     expected = np.zeros(sets.size)
     for k, z in enumerate(model.zones):  # zone by zone, in zone order: the same sum on any machine
         expected += np.where((sets & z) == z, v[k], 0.0)
-    tier = np.where(serves, np.where(faithful, 0, 1), 2).astype(np.int64)
+    tier = np.where(serves, np.where(read_faithfully, 0, 1), 2).astype(np.int64)
     expected_key = _quantised(expected, _E_QUANTUM)
     if warm and band > 0.0:  # the best tier's candidates within the band of its best E tie with it
         best_tier = int(tier[~inside].min())
@@ -166,7 +183,15 @@ def rank(model: GraspModel, v: NDArray[np.float64], top: int, reference: NDArray
         best = float(expected[tied].max())
         expected_key[tied & (expected >= best - band)] = _quantised(np.array([best]), _E_QUANTUM)[0]
     fit_key, dist_key = _quantised(f, _F_QUANTUM), _quantised(dist, _D_QUANTUM)
-    secondary = (fit_key, dist_key) if warm else (dist_key, fit_key)
+    outside_band = np.zeros(sets.size, dtype=np.int64)
+    if warm:  # within the top group, residuals within fit_band of the best tie, then go by distance
+        top_group = (tier == tier[~inside].min()) & ~inside
+        top_group &= expected_key == expected_key[top_group].max()
+        residual = np.sqrt(2.0 * f)
+        limit = np.full(sets.size, float(residual[top_group].min()) + fit_band)
+        limit[dist <= _ON_DEMO] += keep_band - fit_band  # the previous grasp itself keeps a wider band
+        outside_band[top_group & (residual > limit)] = 1
+    secondary = (fit_key, dist_key, outside_band) if warm else (dist_key, fit_key)
     # np.lexsort: the last key is the primary one
     order = np.lexsort((np.arange(sets.size), *secondary, -expected_key, tier))
     order = order[~inside[order]]

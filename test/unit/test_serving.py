@@ -1,10 +1,10 @@
 """The default planner (method 'task', core/serving.py): grasps that serve the operator's likely tasks.
 
 The judge is the object's rules (dataset.demos.OBJECTS, Table I), which the planner never sees: every
-plan must serve v's top zone, never serve no task, and read faithfully (the tasks of argmax P(x) are the
-top zone's or have w_i >= 0.25). Asserted on the paper's 14 cases (7 per 7-zone model) and on a few hundred
-derandomised w; then the choice rule against a plain-Python oracle, the stream's branch, and stability
-under last-bit changes of v.
+plan must serve v's top zone, never serve no task, and be faithful: neither the tasks it does (by the
+rules) nor the model's reading of it (argmax P(x)) include a task outside the top zone with w_i < 0.25.
+Asserted on the paper's 14 cases (7 per 7-zone model) and on 300 derandomised w; then the choice rule
+against a plain-Python oracle, the stream's branch, and stability under last-bit changes of v.
 """
 
 from __future__ import annotations
@@ -54,6 +54,7 @@ def assert_serves(model: GraspModel, w: np.ndarray, x: np.ndarray) -> None:
     assert label & top == top, f'{model.name} w={w.tolist()}: serves {label:03b}, not the top zone {top:03b}'
     assert label != 0
     assert reading & ~wanted == 0, f'{model.name} w={w.tolist()}: reads as {reading:03b}, wanted {wanted:03b}'
+    assert label & ~wanted == 0, f'{model.name} w={w.tolist()}: does {label:03b}, wanted {wanted:03b}'
     assert model.body is not None and model.body.distance(x[None, :3])[0][0] >= model.body.margin - 1e-9
 
 
@@ -79,7 +80,7 @@ def test_random_intents_serve_the_top_zone_faithfully(w: tuple[float, ...], name
 
 
 def oracle(model: GraspModel, v: np.ndarray, reference: np.ndarray, warm: bool, tau: float = serving.TAU,
-           strict: bool = False) -> int:
+           faithful: str = 'label') -> int:
     """The module docstring's choice in plain Python (no warm band, no hysteresis): the chosen demonstration."""
     zones = model.zones
     top = zones[int(planner.zone_order(v)[0])]
@@ -97,8 +98,8 @@ def oracle(model: GraspModel, v: np.ndarray, reference: np.ndarray, warm: bool, 
             continue  # palm inside the body
         p = model.posterior(x)
         reading = zones[int(np.argmax(p))]
-        faithful = reading & ~likely == 0 and (not strict or s & ~likely == 0)
-        tier = 0 if s & top == top and faithful else 1 if s & top == top else 2
+        ok = reading & ~likely == 0 and (faithful == 'reading' or s & ~likely == 0)
+        tier = 0 if s & top == top and ok else 1 if s & top == top else 2
         e = sum(vk for vk, z in zip(v.tolist(), zones) if s & z == z)
         f = 0.5 * float(np.sum((v - p) ** 2))
         d = float(np.linalg.norm((x - reference) / model.feature_scale))
@@ -110,15 +111,16 @@ def oracle(model: GraspModel, v: np.ndarray, reference: np.ndarray, warm: bool, 
 
 
 @settings(max_examples=60, deadline=None, derandomize=True)
-@given(w=st.tuples(*[st.floats(0.02, 0.98)] * 3), name=st.sampled_from(SEVEN), strict=st.booleans(),
+@given(w=st.tuples(*[st.floats(0.02, 0.98)] * 3), name=st.sampled_from(SEVEN),
+       faithful=st.sampled_from(['label', 'reading']),
        tau=st.sampled_from([0.0, 0.2, 0.3, 0.5, 1.0]))
-def test_the_choice_is_the_stated_rule(w: tuple[float, ...], name: str, strict: bool, tau: float) -> None:
+def test_the_choice_is_the_stated_rule(w: tuple[float, ...], name: str, faithful: str, tau: float) -> None:
     model = shipped()[name]
     r = intent.interpret(w, model.zones)
     if r.v is None:
         return
-    res = planner.plan(model, r.v, tau=tau, strict=strict)
-    assert res.chosen.start_index == oracle(model, r.v, res.reference, False, tau, strict)
+    res = planner.plan(model, r.v, tau=tau, faithful=faithful)  # type: ignore[arg-type]
+    assert res.chosen.start_index == oracle(model, r.v, res.reference, False, tau, faithful)
 
 
 def test_a_likely_task_joins_the_top_zone_at_tau(models: dict[str, GraspModel]) -> None:
@@ -145,6 +147,7 @@ def test_a_stream_keeps_its_demonstration_while_it_still_ranks_first(models: dic
     e = lambda res: sum(vk for vk, z in zip(v.tolist(), model.zones)  # noqa: E731
                         if model.demo_sets[res.chosen.start_index] & z == z)
     assert e(warm) >= e(fresh) - serving.BAND
+    assert math.sqrt(2.0 * warm.objective) <= math.sqrt(2.0 * fresh.objective) + serving.KEEP_BAND
 
 
 @pytest.mark.parametrize('name', SEVEN)
@@ -170,10 +173,19 @@ def test_accept_takes_the_next_candidate_in_the_choice_order(models: dict[str, G
     assert none.status == 'rejected' and none.rejected == len(none.candidates)
 
 
-def test_strict_plans_do_only_likely_tasks(models: dict[str, GraspModel]) -> None:
+def test_plans_faithful_by_reading_only_may_do_unlikely_tasks(models: dict[str, GraspModel]) -> None:
+    """Only the reading must be faithful: the cup's U case gets a demonstration that does every task (read as U)."""
+    model = models['cup_7zone']
+    w = np.array((0.9, 0.1, 0.1))
+    res = planner.plan(model, intent.interpret(w, model.zones).v, faithful='reading')
+    label, top, reading, wanted = judge(model, w, res.x)
+    assert label == 0b111 and reading & ~wanted == 0
+
+
+def test_plans_do_only_likely_tasks(models: dict[str, GraspModel]) -> None:
     for name, model in models.items():
         for w in CASES:
-            res = planner.plan(model, intent.interpret(w, model.zones).v, strict=True)
+            res = planner.plan(model, intent.interpret(w, model.zones).v)
             label, top, _, wanted = judge(model, np.array(w), res.x)
             assert label & top == top and label & ~wanted == 0, (name, w, label)
 
