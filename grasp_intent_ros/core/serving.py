@@ -34,17 +34,18 @@ The first candidate is the answer; the ``accept`` hook (IK reachability) is aske
 **A stream keeps its branch** (warm start, the previous plan). Three bands, each against the grasp going
 back and forth between two answers of nearly the same merit while the intent moves a little:
 
-- *likely set*: when the warm start is a demonstration, the tasks the model reads it as doing stay in A
-  down to w_i >= tau - ``hysteresis`` (tasks join A at tau, in fresh and warm plans alike);
+- *likely set*: when the warm start is a demonstration, the tasks the model reads it as doing (and, with
+  ``faithful='label'``, the tasks it does) stay in A down to w_i >= tau - ``hysteresis`` (tasks join A at
+  tau, in fresh and warm plans alike);
 - *expected success*: in the best tier, the candidates whose E is within ``band`` of the best tie with it;
 - *fit*: among those, the candidates whose residual |v - P| = sqrt(2 f) is within ``fit_band`` of the
   group's best (the previous grasp's demonstration: within ``keep_band``) come first, then by the scaled
   distance to the warm start, then by f.
 
 So the previous grasp is kept exactly while it stays within the bands, and otherwise the nearest
-demonstration within them is taken. Against a fresh plan for the same v (same tier), a stream's answer has
-E at most ``band`` lower and a residual at most ``keep_band`` higher, and does a task the fresh plan leaves
-out only when its w_i is within ``hysteresis`` below tau.
+demonstration within them is taken. Against a fresh plan for the same v with the same likely set and tier,
+a stream's answer has E at most ``band`` lower and a residual at most ``keep_band`` higher; the likely sets
+differ only by tasks with w_i within ``hysteresis`` below tau.
 
 Every quantity is computed by the planner's compiled kernels in a fixed order (``_kernels.score``) or
 elementwise, so the choice has the same bits on any machine.
@@ -165,7 +166,8 @@ def rank(model: GraspModel, v: NDArray[np.float64], top: int, reference: NDArray
     reading = zones[np.argmax(posterior, axis=1)]
     keep = 0
     if warm and dist.size and float(dist.min()) <= _ON_DEMO:
-        keep = int(reading[int(np.argmin(dist))])
+        n = int(np.argmin(dist))
+        keep = int(reading[n]) | (int(sets[n]) if faithful == 'label' else 0)
     likely = likely_tasks(model, v, top, tau, keep, hysteresis)
     z_top = int(zones[top])
     serves = (sets & z_top) == z_top
