@@ -2,6 +2,9 @@
 
 Sections (all seeded; ``--n`` random w per model, 500 by default, as issue 7 states them):
 
+Sections 2-5 measure ``--method`` (default: the planner's default, ``'task'``); section 1 the paper's planner
+(``'lm'``), whose objective it checks. Task success: bench_task_success.py.
+
 1. **Optimality.** For every shipped model, n random w (uniform in [0, 1]^3; w asking for clarification
    are redrawn) and, on both 7-zone models, the 7 cases (every task alone, every pair, all three): the
    planner's objective against :func:`grasp_intent_ros.core.planner.reference_search` (60-start SLSQP:
@@ -36,7 +39,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from grasp_intent_ros.core import intent, planner
+from grasp_intent_ros.core import intent, planner, serving
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.core.resources import config_dir
 
@@ -90,7 +93,7 @@ def optimality(n: int, seed: int, reference_starts: int, models: tuple[str, ...]
         for label, targets in sets:
             met, better, worst, statuses = 0, 0, 0.0, {}
             for v in targets:
-                res = planner.plan(model, v)
+                res = planner.plan(model, v, method='lm')
                 ref = planner.reference_search(model, v, n_starts=reference_starts)
                 met += res.objective <= max(1e-9, 1.01 * ref)
                 better += res.objective < ref - 1e-12
@@ -100,7 +103,7 @@ def optimality(n: int, seed: int, reference_starts: int, models: tuple[str, ...]
                   f'the search in {better}, largest excess {worst:.2e}; status {statuses}')
 
 
-def stability(n: int, seed: int, models: tuple[str, ...]) -> None:
+def stability(n: int, seed: int, models: tuple[str, ...], method: planner.Method) -> None:
     print('2. stability: v perturbed by 1e-12 (relative); same grasp = palm within 1e-6 m, approach within 1e-6')
     rng = np.random.default_rng(seed + 1)
     for name in (m for m in SEVEN if m in models):
@@ -108,58 +111,78 @@ def stability(n: int, seed: int, models: tuple[str, ...]) -> None:
         same = 0
         for _, v in random_targets(model, n, seed):
             vp = v * (1.0 + 1e-12 * rng.standard_normal(v.size))
-            a, b = planner.plan(model, v), planner.plan(model, vp / vp.sum())
+            a, b = planner.plan(model, v, method=method), planner.plan(model, vp / vp.sum(), method=method)
             same += (np.abs(a.x[:3] - b.x[:3]).max() <= 1e-6) and (np.abs(a.x[3:6] - b.x[3:6]).max() <= 1e-6)
         print(f'  {name:17s} same grasp in {same}/{n} ({100 * same / n:.2f}%)')
 
 
-def continuity(steps: int, seed: int, walks: int, models: tuple[str, ...]) -> None:
+def expected_success(model: GraspModel, v: np.ndarray, res: planner.PlanResult) -> float:
+    """The model's expected success of a 'task' plan: v's mass on the zones its demonstration serves."""
+    task_set = int(model.demo_sets[res.chosen.start_index])
+    return sum(vk for vk, z in zip(v.tolist(), model.zones) if task_set & z == z)
+
+
+def continuity(steps: int, seed: int, walks: int, models: tuple[str, ...], method: planner.Method) -> None:
     print(f'3. continuity: {walks} random walks of w (seeds {seed}-{seed + walks - 1}), {steps} steps each, '
           'warm-started; jump = palm > 20 mm or approach > 0.3 rad')
+    if method == 'task':
+        print(f'   and against a fresh plan at every step: the stream\'s expected success E (by the model) below the '
+              f'fresh plan\'s by more than the band {serving.BAND}, its residual |v - P| above the fresh one\'s by '
+              f'more than the band {serving.KEEP_BAND}, and the fit f of both')
     for name in (m for m in SEVEN if m in models):
         model = load(name)
         total = 0
         for walk_seed in range(seed, seed + walks):
             previous, jumps, branch_held, inexact = None, 0, 0, 0
+            worse, unfit, f_warm, f_fresh = 0, 0, [], []
             for v in walk_targets(model, steps, walk_seed):
-                res = planner.plan(model, v, warm_start=None if previous is None else previous.x)
+                res = planner.plan(model, v, warm_start=None if previous is None else previous.x, method=method)
                 inexact += not res.exact
+                if method == 'task':
+                    fresh = planner.plan(model, v, method=method)
+                    worse += expected_success(model, v, res) < expected_success(model, v, fresh) - serving.BAND
+                    unfit += np.sqrt(2.0 * res.objective) > np.sqrt(2.0 * fresh.objective) + serving.KEEP_BAND
+                    f_warm.append(res.objective)
+                    f_fresh.append(fresh.objective)
                 if previous is not None:
                     palm = np.linalg.norm(res.x[:3] - previous.x[:3])
                     angle = np.arccos(np.clip(res.x[3:6] @ previous.x[3:6], -1.0, 1.0))
                     if palm > 0.02 or angle > 0.3:
                         jumps += 1
                         # the warm start's own projection is candidate 0 when it matched v
-                        branch_held += res.candidates[0].start_index == 0 and res.exact
+                        branch_held += method == 'lm' and res.candidates[0].start_index == 0 and res.exact
                 previous = res
             total += jumps
+            detail = (f'outside the bands in {worse} (E) and {unfit} (fit) steps; mean f {np.mean(f_warm):.3e} '
+                      f'(fresh {np.mean(f_fresh):.3e})' if method == 'task' else
+                      f'{branch_held} of them while the previous branch still matched v; {inexact} steps with no '
+                      'exact match')
             print(f'  {name:17s} seed {walk_seed}: jumps in {jumps}/{steps - 1} steps '
-                  f'({100 * jumps / (steps - 1):.2f}%), {branch_held} of them while the previous branch still '
-                  f'matched v; {inexact} steps with no exact match')
+                  f'({100 * jumps / (steps - 1):.2f}%); {detail}')
         print(f'  {name:17s} all {walks} walks: jumps in {total}/{walks * (steps - 1)} steps '
               f'({100 * total / (walks * (steps - 1)):.2f}%)')
 
 
-def plausibility(n: int, seed: int, models: tuple[str, ...]) -> None:
+def plausibility(n: int, seed: int, models: tuple[str, ...], method: planner.Method) -> None:
     print('4. plausibility: planned grasps with the palm centre inside the object body (margin included)')
     for name in (m for m in SEVEN if m in models):
         model = load(name)
         assert model.body is not None
-        inside = sum(model.body.distance(planner.plan(model, v).x[None, :3])[0][0] < model.body.margin - 1e-9
-                     for _, v in random_targets(model, n, seed + 2))
+        xs = np.array([planner.plan(model, v, method=method).x for _, v in random_targets(model, n, seed + 2)])
+        inside = int(np.sum(model.body.distance(xs[:, :3])[0] < model.body.margin - 1e-9))
         print(f'  {name:17s} {inside}/{n} inside')
 
 
-def speed(n: int, seed: int, walks: int, models: tuple[str, ...]) -> None:
+def speed(n: int, seed: int, walks: int, models: tuple[str, ...], method: planner.Method) -> None:
     print('5. speed: wall time per plan (this process, this machine); the baseline on the same w, after the planner')
     for name in (m for m in SEVEN if m in models):
         model = load(name)
         targets = [v for _, v in random_targets(model, n, seed)]
-        planner.plan(model, targets[0])
+        planner.plan(model, targets[0], method=method)
         fresh, base = [], []
         for v in targets:
             t0 = time.perf_counter()
-            planner.plan(model, v)
+            planner.plan(model, v, method=method)
             fresh.append(1e3 * (time.perf_counter() - t0))
         for v in targets:  # a pass of its own: 70-900 ms of scipy per plan would evict the planner's caches
             t0 = time.perf_counter()
@@ -172,7 +195,7 @@ def speed(n: int, seed: int, walks: int, models: tuple[str, ...]) -> None:
             warm, previous, inexact = [], None, 0       # where no grasp matches v, seed 3's 296
             for v in walk_targets(model, n, walk_seed):
                 t0 = time.perf_counter()
-                res = planner.plan(model, v, warm_start=previous)
+                res = planner.plan(model, v, warm_start=previous, method=method)
                 warm.append(1e3 * (time.perf_counter() - t0))
                 previous, inexact = res.x, inexact + (not res.exact)
             pooled += warm
@@ -191,17 +214,20 @@ def main() -> None:
                              'each, section 5 times --n steps each')
     parser.add_argument('--sections', default='1,2,3,4,5', help='comma-separated section numbers')
     parser.add_argument('--reference-starts', type=int, default=60)
+    parser.add_argument('--method', default=planner.DEFAULT_METHOD, choices=('task', 'lm'),
+                        help="method of sections 2-5 (default: the planner's default); section 1 checks 'lm', the "
+                             "paper's planner, whose objective it is")
     parser.add_argument('--models', default=','.join(MODELS),
                         help='comma-separated models (default: all four; sections 2-5 run the 7-zone ones among them)')
     args = parser.parse_args()
     sections = {int(s) for s in args.sections.split(',') if s.strip()}
-    print(f'bench_planner: n={args.n}, walk={args.walk}, seed={args.seed}')
+    print(f'bench_planner: n={args.n}, walk={args.walk}, seed={args.seed}, method {args.method} (section 1: lm)')
     models = tuple(m for m in args.models.split(',') if m)
     runs = {1: lambda: optimality(args.n, args.seed, args.reference_starts, models),
-            2: lambda: stability(args.n, args.seed, models),
-            3: lambda: continuity(args.walk, args.seed, args.walks, models),
-            4: lambda: plausibility(args.n, args.seed, models),
-            5: lambda: speed(args.n, args.seed, args.walks, models)}
+            2: lambda: stability(args.n, args.seed, models, args.method),
+            3: lambda: continuity(args.walk, args.seed, args.walks, models, args.method),
+            4: lambda: plausibility(args.n, args.seed, models, args.method),
+            5: lambda: speed(args.n, args.seed, args.walks, models, args.method)}
     for number, run in runs.items():
         if number in sections:
             run()

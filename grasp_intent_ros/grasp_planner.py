@@ -102,8 +102,9 @@ __all__ = ['GraspPlanner', 'PARAMETERS', 'GIL_SWITCH_INTERVAL', 'main']
 _METHODS: tuple[str, ...] = typing.get_args(planner.Method)
 
 PARAMETERS = (
-    ParamSpec('method', 'lm', "Planner method: 'lm' (default: exact matches by log-odds projection, else "
-              "least squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(_METHODS),
+    ParamSpec('method', planner.DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
+              "likely tasks, docs/planner.md), or the paper's 'lm' (P = v by log-odds projection, else least "
+              "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(_METHODS),
               constraints=f'one of {", ".join(_METHODS)}'),
     ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
     ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),

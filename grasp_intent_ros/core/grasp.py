@@ -200,7 +200,7 @@ def trajectory_duration(q_from: ArrayLike, q_to: ArrayLike, velocity_limits: Arr
 
 def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_obj: NDArray[np.float64],
                kin: MicoKinematics, *, name: str = 'model', q_arm: NDArray[np.float64] | None = None,
-               method: planner.Method = 'lm', n_starts: int = 3, ik_restarts: int = 8,
+               method: planner.Method = planner.DEFAULT_METHOD, n_starts: int = 3, ik_restarts: int = 8,
                warm_start: NDArray[np.float64] | None = None) -> Grasp | NoReachableGrasp | NoModelZone:
     """Plan the grasp for target ``v`` over ``zones`` on ``model`` with the object at ``base_T_obj``.
 

@@ -1,94 +1,93 @@
-"""Intent-uncertainty-aware grasp planning (paper Algorithm 1), as a well-posed problem.
+"""Grasp planning under intent uncertainty: a grasp for a target vector v over a model's zones.
 
-Given a model and a target vector v over its zones, the planner looks for grasp features x whose zone
-posterior P(k|x) matches v. The feasible set X is
+Two methods answer two stated problems (docs/planner.md puts them side by side with the figures that
+decided the default). Both take a model and v (K entries, a probability vector over the model's zones,
+e.g. :func:`grasp_intent_ros.core.intent.interpret`), optionally a warm start (the previous plan of a
+stream) and an ``accept`` hook (e.g. IK reachability, asked about candidates in the choice order; the
+first it takes is returned, status 'rejected' when it takes none). The feasible set X is
 
     lower <= x <= upper,   |approach(x)| = 1,   distance(palm(x), body) >= margin
 
 (the last only when the model carries the object's body, see :mod:`grasp_intent_ros.core.body`).
-The paper's objective is f(x) = 1/2 sum_k (v_k - P_k(x))^2. With K zones and d = 10 features, P(x) = v
-is K - 1 equations in 9 free unknowns, so exact matches form a manifold and "the minimiser of f" does
-not name one grasp. The planner therefore answers a stated problem:
 
-1. **Reference.** x_ref is the warm start when one is given (the previous plan, during
-   teleoperation), else Algorithm 1's start: the demonstration of the top-v zone with the lowest f
-   (v compared at 1e-9 and f at 1e-12 relative; ties go to the first zone and demonstration).
-2. **Distance.** dist(x) = |(x - x_ref) / s|, with s the model's ``feature_scale`` (each feature's
-   standard deviation over the demonstrations).
+**method='task' (the default): serve the likely tasks.** The answer is the labelled demonstration, in X,
+that serves v's top zone, does (by its label) and is read by the model (argmax_k P(k|x)) as doing only
+likely tasks (the top zone's, and tasks whose probability, read from v, is at least ``tau``), and has the
+highest expected task success under v (v's mass on the zones its task set contains); ties go to the paper's
+fit 1/2 |v - P|^2, then to the reference, then to demonstration order. A warm start keeps its demonstration
+while it stays within stated bands of the best expected success and fit, and tasks it is read as doing stay
+likely down to ``tau - hysteresis``. The rules and reasons are :mod:`grasp_intent_ros.core.serving`'s.
+P(x) does not match v in general: the price in fit is the benchmarks' to report.
+
+**method='lm' (the paper's planner): match P to v.** The paper's objective is
+f(x) = 1/2 sum_k (v_k - P_k(x))^2. With K zones and d = 10 features, P(x) = v is K - 1 equations in 9 free
+unknowns, so exact matches form a manifold and "the minimiser of f" does not name one grasp. The planner
+answers this problem:
+
+1. **Reference.** x_ref is the warm start when one is given, else Algorithm 1's start: the demonstration of
+   the top-v zone with the lowest f (v compared at 1e-9 and f at 1e-12 relative; ties go to the first zone
+   and demonstration).
+2. **Distance.** dist(x) = |(x - x_ref) / s|, with s the model's ``feature_scale`` (each feature's standard
+   deviation over the demonstrations).
 3. **Exact match.** When every v_k > 0, P(x) = v is written as the log-odds equations
    log(pi_k N_k(x)) - log(pi_r N_r(x)) = log(v_k / v_r), k != r (r the top-v zone); they are quadratic in
    x, so their gradients do not vanish in a Gaussian's tail. A start is projected onto them by
    minimum-distance Gauss-Newton steps (each the shortest step, in the scaled metric, that solves the
-   linearised equations; damped, with bounds and body as an active set). From a start near the
-   matches this ends at the nearest match, up to second order in the distance; from farther away,
-   at the match this deterministic path reaches. The path is taken to the right-hand sides rounded to
-   1e-9 nats, and its end point is then projected onto the exact ones (one or two steps from 1e-9
-   away): a long damped path amplifies any difference in its input, so the last bits of v must not
-   steer it (they moved a flashlight match by 1e-4 after 60 iterations).
+   linearised equations; damped, with bounds and body as an active set; class ``_LogOddsProjection``).
+   From a start near the matches this ends at the nearest match, up to second order in the distance; from
+   farther away, at the match this deterministic path reaches. The path is taken to the right-hand sides
+   rounded to 1e-9 nats and its end point then projected onto the exact ones, so that the last bits of v
+   cannot steer a long damped path (which amplifies any difference in its input).
 4. **Search, nearest first.** The reference itself is projected first: when it reaches a match (and
-   ``accept`` takes it), that is the answer. Otherwise the other starts are projected, and the
-   matches found are chosen from (rule 6).
+   ``accept`` takes it), that is the answer. Otherwise the other starts are projected, and the matches
+   found are chosen from (rule 6).
 5. **Least squares.** When no start reaches an acceptable match (some v_k = 0, or v is outside what the
    model can attain in X), f is minimised from every start and every zone mean with a projected
-   Levenberg-Marquardt iteration: 100 iterations each, then only the three that have not converged with
-   the lowest f go on, to 200 (the others stop there, labelled so). The two best end points by f then go
-   on with a projected trust-region Newton iteration on f's exact Hessian (which keeps the curvature that
-   the Levenberg-Marquardt steps leave out: that of a nearly flat valley): 50 iterations each, then the
-   better one that has not converged goes on, to 400; its end point replaces theirs where it converges.
-   **Open fingers**: when the best of these end points has f > 1e-7 (|v - P| > 4.5e-4: no match) and the
-   model has the MICO's finger features, the best screened start (below) with one finger open (at its
-   lower bound; one start per finger not already open) starts a last round: 50 Levenberg-Marquardt
-   iterations, then the same Newton polish of its two best. A finger's bounds split the least squares
-   into separate local minima (the finger open or closed), and the other origins, whose fingers sit near
-   the demonstrations' closure, rarely reach the open ones (flashlight, 1,100 random w on three seeds:
-   1,093 -> 1,098 within 1% of the 60-start search). Near-matches (f <= 1e-7) skip the round: they are
-   the slowest plans, and with them in it the counts were the same. All selections rank f at 1e-12
-   relative, then by start order, on paths taken to the rounded v (below), so the last bits of v cannot
-   change them. Both iterations hold the bounds, the unit approach and the body as an active set: a palm
-   on the body's surface whose objective would fall inside the body moves on the surface (steps on its
-   tangent plane, then back onto it; Newton adds the surface's curvature times its multiplier to the
-   Hessian). Most flashlight least-squares answers lie on its body. End points within 1e-8 of a match are
-   then projected onto the matches (kept, counted converged and labelled 'exact match (least squares,
-   then projected)', where the projection converges). Least-squares valleys can be nearly flat and long:
-   where neither iteration converges, the end point is where the damped iteration stopped, a
-   deterministic function of the input whose last bits can move it along the valley in rare cases (see
-   the benchmark's stability section). Both iterations take their paths to v rounded to 1e-9, for the
-   projection's reason (class ``_LogOddsProjection``): a long path can amplify a difference in its input
-   (a flashlight LM path multiplied a 1e-12 change of v by about 10 per iteration, to 3e-3 at the match
-   it then reached); f, the choice and the projection onto the matches use v exactly.
-6. **Choice.** Let f* be the lowest f found. The candidates with f <= f* + max(1e-12, 1e-6 f*) are
-   the matches; the planner returns the one nearest to x_ref, and among matches whose distances are
-   within 1e-6 of the nearest, the first in start order. Ties are never left to float noise. The
-   ``accept`` hook (e.g. IK reachability) is asked about candidates in this order (then the others
-   by f) and the first it takes is returned.
+   Levenberg-Marquardt iteration: 100 iterations each, then only the three unconverged with the lowest f go
+   on, to 200 (the others stop there, labelled so). The two best end points by f go on with a projected
+   trust-region Newton iteration on f's exact Hessian (which keeps the curvature of a nearly flat valley
+   that the Levenberg-Marquardt steps leave out): 50 iterations each, then the better unconverged one to
+   400; its end point replaces theirs where it converges. **Open fingers**: when the best end point has
+   f > 1e-7 (no match) and the model has the MICO's finger features, the best screened start with one
+   finger open (at its lower bound; one start per finger not already open) starts a last round: 50
+   Levenberg-Marquardt iterations, then the same Newton polish of its two best. A finger's bounds split
+   the least squares into separate local minima (finger open or closed) that the other origins, whose
+   fingers sit near the demonstrations' closure, rarely reach. All selections rank f at 1e-12 relative,
+   then by start order. Both iterations hold the bounds, the unit approach and the body as an active set:
+   a palm on the body's surface whose objective would fall inside the body moves on the surface (steps on
+   its tangent plane, then back onto it; Newton adds the surface's curvature times its multiplier to the
+   Hessian). End points within 1e-8 of a match are projected onto the matches (kept, counted converged
+   and labelled 'exact match (least squares, then projected)', where the projection converges). Where
+   neither iteration converges in a nearly flat valley, the end point is where the damped iteration
+   stopped: a deterministic function of the input whose last bits can move it along the valley in rare
+   cases. Both iterations take their paths to v rounded to 1e-9, for rule 3's reason; f, the choice and
+   the projection onto the matches use v exactly.
+6. **Choice.** Let f* be the lowest f found. The candidates with f <= f* + max(1e-12, 1e-6 f*) are the
+   matches; the planner returns the one nearest to x_ref, and among matches whose distances are within
+   1e-6 of the nearest, the first in start order. Ties are never left to float noise. ``accept`` is asked
+   about candidates in this order (then the others by f).
    **A stream keeps its branch.** With a warm start and no exact match (f* > 1e-12), the converged
    candidates whose residual |v - P| = sqrt(2 f) is within ``WARM_BAND`` = 3e-3 of the best one's are
-   matches too, so the nearest of them to the previous plan is returned. Where v asks what the model
-   cannot quite give, two or more local minima of f often lie within a fraction of a percent of each
-   other in posterior, and which is lowest changes from one step of the intent to the next: with no band
-   the flashlight's grasp went 40-50 mm back and forth between two of them (benchmark walks of 2,000
-   steps, seeds 0-4: 1, 72, 38, 10 and 17 jumps; with the band 0, 10, 0, 2 and 4: at each of seed 1's
-   ten, the minimum nearest to the previous plan had fallen more than the band behind the best, or its
-   path had stopped unconverged). A warm answer's residual is at most 3e-3 above the best found, a fifth
-   of what v moves in one step of that walk (median |dv| 0.0135). A candidate stopped at an iteration
-   limit is no branch to keep, so only converged ones join (with them all, 617 instead of 273 of those
-   10,000 warm plans ended `solver_failed`; converged only, 65). A fresh plan has no branch: band 0.
+   matches too, so the nearest of them to the previous plan is returned: where v asks what the model
+   cannot quite give, local minima of f within a fraction of a percent of each other change rank from one
+   step of the intent to the next, and without the band the grasp would alternate between them. A
+   candidate stopped at an iteration limit is no branch to keep, so only converged ones join. A fresh plan
+   has no band.
 
-Starts, in order: x_ref; Algorithm 1's start (when x_ref is a warm start); the next best
-demonstrations of the ``top_zones`` most likely zones (``n_starts`` demonstrations in all); then the
-zone means and demonstrations nearest to P = v (screened by one vectorised evaluation over all of
-them); the least squares add every zone mean, then the open-finger starts. With the previous plan
-as x_ref, a smoothly moving intent moves the grasp smoothly: the previous match is projected onto
-the new equations. When that branch stops matching v, the wider search runs and the grasp may jump;
-where no grasp matches v, it jumps when the nearest minimum falls more than the band behind the best.
+Starts, in order: x_ref; Algorithm 1's start (when x_ref is a warm start); the next best demonstrations of
+the ``top_zones`` most likely zones (``n_starts`` demonstrations in all); then the zone means and
+demonstrations nearest to P = v (screened by one vectorised evaluation over all of them); the least
+squares add every zone mean, then the open-finger starts. With the previous plan as x_ref, a smoothly
+moving intent moves the grasp smoothly while the previous match's branch still matches v; otherwise the
+wider search runs and the grasp may jump.
 
-Machine independence: none of the above goes through BLAS or LAPACK (their kernels sum in an order chosen
-for the CPU). The model's precisions, the screens' log joints and posteriors (``GraspModel.start_pool``)
-and every iteration sum in a fixed order and take ``exp`` and ``log`` from the C library, so a plan has
-the same bits under any BLAS.
+The paper's solvers stay available too: ``method='slsqp'`` (SQP) and ``'trust-constr'`` (interior point)
+minimise f from the demonstration starts (scipy), with rule 6's choice.
 
-The paper's solvers stay available: ``method='slsqp'`` (SQP) and ``'trust-constr'`` (interior point)
-minimise f from the demonstration starts (scipy), with the same choice rule.
+Machine independence (every method): nothing goes through BLAS or LAPACK (their kernels sum in an order
+chosen for the CPU). The model's precisions, the screens' log joints and posteriors
+(``GraspModel.start_pool``), the demonstrations' scores and every iteration sum in a fixed order and take
+``exp`` and ``log`` from the C library, so a plan has the same bits under any BLAS.
 """
 
 from __future__ import annotations
@@ -104,7 +103,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import PlanningError
 from .features import FINGERS, MICO_3F, PALM
-from .intent import reconstruct_w
+from .intent import reconstruct_w, zone_label
 from .kernels import (
     choice_order,
     distinct,
@@ -116,6 +115,7 @@ from .kernels import (
     select_demonstrations,
 )
 from .model import GraspModel
+from .serving import HYSTERESIS, TAU, Faithful, rank
 
 if TYPE_CHECKING:
     from scipy.optimize import OptimizeResult  # type: ignore[import-untyped]
@@ -124,6 +124,7 @@ __all__ = [
     'Candidate',
     'PlanResult',
     'Method',
+    'DEFAULT_METHOD',
     'Gradient',
     'MATCH_TOL',
     'DISTANCE_TOL',
@@ -137,7 +138,9 @@ __all__ = [
     'reference_search',
 ]
 
-Method = Literal['slsqp', 'trust-constr', 'lm']
+Method = Literal['task', 'lm', 'slsqp', 'trust-constr']
+DEFAULT_METHOD: Method = 'task'
+"""The method :func:`plan` uses unless told otherwise (the planner node's default too)."""
 Gradient = Literal['analytic', '2-point']
 
 MATCH_TOL = 1e-12
@@ -173,6 +176,7 @@ _POLISH = 1e-8      # a least-squares end point this close to a match is project
 _OPEN_F = 1e-7       # f of the least squares' best above which the open-finger round runs (rule 5)
 _OPEN_LM = 50        # Levenberg-Marquardt iterations of the open-finger starts (rule 5)
 _SCREEN = 6          # extra screened starts (demonstrations and zone means) for a fresh plan
+_TASK_CANDIDATES = 32  # method 'task': the best demonstrations offered to ``accept``, in the choice order
 _NO_LOGS = np.zeros(0)  # search_starts' screen by f
 _NO_EQUATIONS = (np.zeros(0, dtype=np.int64), 0, np.zeros(0), np.zeros(0))  # P = v impossible: nothing to project onto
 
@@ -545,34 +549,43 @@ def _choose(candidates: list[Candidate], band: float) -> list[Candidate]:
     return [candidates[i] for i in order.tolist()]
 
 
-def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gradient = 'analytic',
+def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gradient: Gradient = 'analytic',
          n_starts: int = 3, top_zones: int = 2, warm_start: ArrayLike | None = None,
          accept: Callable[[NDArray[np.float64]], bool] | None = None,
-         extra_constraints: Sequence[Any] = ()) -> PlanResult:
-    """Plan the grasp nearest to the reference among those whose posterior matches v (module docstring).
+         extra_constraints: Sequence[Any] = (), tau: float = TAU, hysteresis: float = HYSTERESIS,
+         faithful: Faithful = 'label') -> PlanResult:
+    """Plan a grasp for target v (module docstring): by default the demonstration that serves the likely tasks.
 
     Parameters
     ----------
     model : GraspModel
     v : array_like, shape (K,)
         Target vector over the model's zones (see :func:`grasp_intent_ros.core.intent.interpret`).
-    method : {'lm', 'slsqp', 'trust-constr'}
-        ``'lm'`` (default): the exact-match SQP, then projected Levenberg-Marquardt least squares when
-        no exact match is found. ``'slsqp'`` and ``'trust-constr'``: the paper's solvers on f from the
-        demonstration starts.
+    method : {'task', 'lm', 'slsqp', 'trust-constr'}
+        ``'task'`` (default, :data:`DEFAULT_METHOD`): serve the likely tasks (:mod:`.serving`). The paper's
+        planner: ``'lm'``, the exact match by log-odds projection, then projected Levenberg-Marquardt least
+        squares when no exact match is found; ``'slsqp'`` and ``'trust-constr'``, the paper's solvers on f
+        from the demonstration starts.
     gradient : {'analytic', '2-point'}
-        Analytic gradient (default) or scipy's finite differences (the paper's baseline).
+        Analytic gradient (default) or scipy's finite differences (the paper's baseline; scipy methods only).
     n_starts : int >= 1
-        Demonstrations to start from (see :func:`select_starts`).
+        Demonstrations to start from (see :func:`select_starts`; not used by ``'task'``).
     top_zones : int >= 1
-        How many of the most likely zones supply starts.
+        How many of the most likely zones supply starts (not used by ``'task'``).
     warm_start : array_like, shape (d,), optional
         The reference and first start (e.g. the previous plan).
     accept : callable x -> bool, optional
         Robot constraint that cannot be written as a smooth function (e.g. IK reachability): the first
         candidate in the choice order it accepts is returned.
     extra_constraints : sequence
-        More smooth constraints in the form the chosen scipy method takes (not with ``'lm'``).
+        More smooth constraints in the form the chosen scipy method takes (not with ``'task'`` or ``'lm'``).
+    tau : float in [0, 1]
+        ``'task'``: the probability at which a task beyond the top zone is likely (:data:`.serving.TAU`).
+    hysteresis : float in [0, 1]
+        ``'task'``, warm start: tasks the previous grasp is read as doing stay likely down to tau - hysteresis.
+    faithful : {'label', 'reading'}
+        ``'task'``: what must hold no task outside the likely ones: the demonstration's label (the tasks it
+        does) and the model's reading of it (default), or only the reading.
 
     Raises
     ------
@@ -583,12 +596,14 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
     v_arr = _check_v(model, v)
     if n_starts < 1 or top_zones < 1:
         raise PlanningError('n_starts and top_zones must be at least 1')
-    if method not in ('lm', 'slsqp', 'trust-constr'):
-        raise PlanningError(f"method must be 'slsqp', 'trust-constr' or 'lm', got {method!r}")
+    if method not in ('task', 'lm', 'slsqp', 'trust-constr'):
+        raise PlanningError(f"method must be 'task', 'lm', 'slsqp' or 'trust-constr', got {method!r}")
+    if not (0.0 <= tau <= 1.0 and 0.0 <= hysteresis <= 1.0):
+        raise PlanningError(f'tau and hysteresis must lie in [0, 1], got {tau!r} and {hysteresis!r}')
     if gradient not in ('analytic', '2-point'):
         raise PlanningError(f"gradient must be 'analytic' or '2-point', got {gradient!r}")
-    if method == 'lm' and (gradient != 'analytic' or extra_constraints):
-        raise PlanningError("method 'lm' takes the analytic gradient and no extra_constraints")
+    if method in ('task', 'lm') and (gradient != 'analytic' or extra_constraints):
+        raise PlanningError(f"method {method!r} takes the analytic gradient and no extra_constraints")
     demo: NDArray[np.float64] | None = None  # the demonstration starts, Algorithm 1's first
     if warm_start is not None:
         ws = np.asarray(warm_start, dtype=np.float64)
@@ -600,6 +615,8 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
         first = demo[:1]  # Algorithm 1's start
     feas = _Feasible(model)
     x_ref = feas.project(first)[0]
+    if method == 'task':
+        return _serve(model, v_arr, x_ref, feas, warm_start is not None, accept, tau, hysteresis, faithful, t0)
     band = WARM_BAND if warm_start is not None else 0.0  # rule 6: a stream keeps its branch within the band
 
     def all_starts() -> NDArray[np.float64]:
@@ -679,6 +696,43 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = 'lm', gradient: Gr
                       exact=chosen.objective <= MATCH_TOL, reference=x_ref, status=status, message=message,
                       iterations=sum(c.iterations for c in found), wall_time_s=time.perf_counter() - t0,
                       method=method, candidates=tuple(ranked), rejected=rejected)
+
+def _serve(model: GraspModel, v: NDArray[np.float64], x_ref: NDArray[np.float64], feas: _Feasible, warm: bool,
+           accept: Callable[[NDArray[np.float64]], bool] | None, tau: float, hysteresis: float, faithful: Faithful,
+           t0: float) -> PlanResult:
+    """Method 'task': the first demonstration of :func:`grasp_intent_ros.core.serving.rank` that ``accept`` takes."""
+    ranking = rank(model, v, int(zone_order(v)[0]), x_ref, feas.lower, feas.upper, feas.a, feas.body, tau=tau,
+                   hysteresis=hysteresis, warm=warm, faithful=faithful)
+    names = model.task_names
+    likely = zone_label(ranking.likely, names)
+    top = zone_label(ranking.top, names)
+    tiers = (f'serves the likely tasks {likely}', f'serves the top zone {top}, reads as a task outside {likely}',
+             f'misses the top zone {top}')
+    sets = model.demo_sets
+    n = min(_TASK_CANDIDATES, ranking.order.size)
+    candidates = tuple(
+        Candidate(x, p, f, d, x, f, i, True, f'demonstration {i} ({zone_label(int(sets[i]), names)}): {tiers[t]}', 0)
+        for x, p, f, d, i, t in zip(ranking.x[:n], ranking.posterior[:n], ranking.objective[:n].tolist(),
+                                    ranking.distance[:n].tolist(), ranking.order[:n].tolist(),
+                                    ranking.tier[:n].tolist()))
+    if not candidates:
+        raise PlanningError(f'model {model.name!r} has no demonstration outside its body to plan from')
+    rejected = 0
+    chosen = None
+    for cand in candidates:
+        if accept is None or accept(cand.x):
+            chosen = cand
+            break
+        rejected += 1
+    status = 'ok' if chosen is not None else 'rejected'
+    chosen = chosen if chosen is not None else candidates[0]
+    message = f'planned ({chosen.message})' if status == 'ok' else \
+        f'all {len(candidates)} candidates rejected by the robot constraint'
+    return PlanResult(chosen=chosen, w=reconstruct_w(chosen.posterior, model.zones, len(names)),
+                      exact=chosen.objective <= MATCH_TOL, reference=x_ref, status=status, message=message,
+                      iterations=0, wall_time_s=time.perf_counter() - t0, method='task', candidates=candidates,
+                      rejected=rejected)
+
 
 def reference_search(model: GraspModel, v: ArrayLike, *, n_starts: int = 60, seed: int = 0) -> float:
     """The lowest f a slow multi-start SLSQP search reaches: an oracle for checking :func:`plan`.

@@ -15,6 +15,10 @@ Run: ``python -m grasp_intent_ros demo [--models-dir DIR] [--timeout S]`` (``scr
    ``model`` parameter through its parameter service, then waits until the planner reports the new
    model document (name and version) on ``/diagnostics``; the answer must carry that model's zones.
    A last case with a low intent (0.1, 0.1, 0.1) shows the interpreter's clarification request.
+   Below each grasp it prints which tasks the grasp serves by the object's rules (Table I,
+   :data:`grasp_intent_ros.dataset.demos.OBJECTS`, the judge the planner never sees): the features are
+   recovered from the published end-effector pose, the finger targets and the planner's object pose (its
+   ``object_position`` and ``object_orientation`` parameters, read once through its parameter service).
 3. Stops every node with SIGINT (SIGKILL after a deadline) and checks each exited with code 0 and
    printed no traceback.
 
@@ -40,6 +44,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import FrameType
 
+import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import SingleThreadedExecutor
@@ -50,11 +55,15 @@ from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import String
 
 from ..core.errors import GraspIntentError
+from ..core.features import FINGERS
+from ..core.frames import obj_T_ee_to_features, pose_to_matrix
+from ..core.intent import zone_label
+from ..dataset.demos import OBJECTS
 from ..protocol import ModelDocument
 from ..ros.conversions import model_from_msg
 from ..ros.qos import input_qos, latched_qos
 from .paper_tables import CASES
-from .send_intent import IntentSender, NoGrasp, format_grasp
+from .send_intent import GraspAnswer, IntentSender, NoGrasp, format_grasp
 from .suite import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
 
 __all__ = ['CLARIFICATION_CASE', 'DemoError', 'main']
@@ -80,6 +89,28 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
     raise _Interrupted(signal.Signals(signum).name)
 
 
+def served_tasks(model_name: str, task_names: Sequence[str], base_T_obj: np.ndarray, answer: GraspAnswer) -> str:
+    """Which tasks the answered grasp serves by its object's rules, e.g. 'usage, transfer (UT)', or why unknown.
+
+    The grasp features are recovered from the answer's end-effector pose (in the base frame), ``base_T_obj``
+    and the finger targets (the last three joint targets).
+    """
+    rules = next((r for name, r in OBJECTS.items() if model_name.startswith(name)), None)
+    if rules is None:
+        return f'unknown (no rules for model {model_name!r})'
+    p, o = answer.pose.pose.position, answer.pose.pose.orientation
+    base_T_ee = pose_to_matrix((p.x, p.y, p.z), (o.x, o.y, o.z, o.w))
+    fingers = np.asarray(answer.joints.position, dtype=np.float64)[-(FINGERS.stop - FINGERS.start):]
+    x = obj_T_ee_to_features(np.linalg.inv(base_T_obj) @ base_T_ee, fingers)
+    label = rules.label(x)
+    if not label:
+        failed = '; '.join(f'{task}: {", ".join(n for n, ok in checks.items() if not ok)}'
+                           for task, checks in rules.explain(x).items())
+        return f'no task (failed: {failed})'
+    names = ', '.join(n for i, n in enumerate(task_names) if label >> i & 1)
+    return f'{names} ({zone_label(label, task_names)})'
+
+
 # ------------------------------------------------------------------------------------------ the ROS side
 class _ChainObserver(Node):
     """What the demo watches besides the answers.
@@ -94,6 +125,7 @@ class _ChainObserver(Node):
         self.clarifications: list[String] = []
         self.statuses: dict[str, dict[str, str]] = {}
         self.parameters = AsyncParameterClient(self, 'model_server')
+        self.planner_parameters = AsyncParameterClient(self, 'grasp_planner')
         self.create_subscription(String, 'model/active', self._on_model, latched_qos())
         self.create_subscription(String, 'intent/clarification', self.clarifications.append, input_qos())
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, 50)
@@ -124,6 +156,7 @@ class _Demo:
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.sender)
         self.executor.add_node(self.observer)
+        self.base_T_obj: np.ndarray | None = None
 
     def close(self) -> None:
         self.executor.shutdown()
@@ -194,6 +227,17 @@ class _Demo:
             raise DemoError('\n'.join(f'{name} did not come up within {self.timeout:g} s ({why}); its stderr ends '
                                       f'with:\n{self.suite.node(name).stderr_tail()}' for name, why in down.items()))
 
+    def object_pose(self) -> np.ndarray:
+        """base_T_obj, from the planner's object_position and object_orientation parameters."""
+        client = self.observer.planner_parameters
+        if not self._spin_until(client.services_are_ready):
+            raise DemoError(f'grasp_planner offered no parameter services within {self.timeout:g} s')
+        future = client.get_parameters(['object_position', 'object_orientation'])
+        if not self._spin_until(future.done):
+            raise DemoError(f'grasp_planner did not answer get_parameters within {self.timeout:g} s')
+        position, orientation = (list(value.double_array_value) for value in future.result().values)
+        return pose_to_matrix(position, orientation)
+
     def switch_model(self, name: str) -> ModelDocument:
         """Make ``name`` the active model (parameter service) and wait until the planner has it."""
         active = self._active()
@@ -243,6 +287,9 @@ class _Demo:
             raise DemoError(f'case {title!r}: the grasp has zones {",".join(answer.posterior.zone_labels)}, '
                             f'model {doc.name} has {",".join(doc.model.zone_labels)}')
         print('    ' + format_grasp(answer).replace('\n', '\n    '))
+        if self.base_T_obj is None:
+            self.base_T_obj = self.object_pose()
+        print(f'    {"serves (rules)":<18}{served_tasks(doc.name, doc.model.task_names, self.base_T_obj, answer)}')
         print(f'    answered in {time.monotonic() - start:.2f} s\n')
 
 

@@ -3,8 +3,11 @@
     python -m grasp_intent_ros paper_tables [--models-dir DIR] [--method lm|slsqp|trust-constr]
 
 For each case: the target vector v, the planned posterior P and the reconstructed w, with the
-objective 1/2 |v - P|^2. The default method is the planner's default (what the demo and the planner
-node use); slsqp and trust-constr are the paper's solvers. No ROS is needed.
+objective 1/2 |v - P|^2, and which tasks the grasp serves by the object's rules (Table I,
+:data:`grasp_intent_ros.dataset.demos.OBJECTS`). The tables are the paper's, so the default method is the
+paper's planner, ``lm`` (P matched to v; slsqp and trust-constr are the paper's solvers); ``--method task``
+shows the planner's default (what the demo and the planner node use: grasps that serve the likely tasks,
+docs/planner.md), whose P does not match v. No ROS is needed.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from ..core import intent, planner
 from ..core.errors import GraspIntentError
 from ..core.model import GraspModel
 from ..core.resources import config_dir
+from ..dataset.demos import OBJECTS
 from .cli import report_user_errors
 
 CASES: list[tuple[str, tuple[float, float, float], tuple[str, ...]]] = [
@@ -48,12 +52,17 @@ def print_case(model: GraspModel, w: Sequence[float], method: planner.Method) ->
     print(f'    objective {res.objective:.3e}  ({res.status}, {res.iterations} iterations, '
           f'{res.wall_time_s * 1e3:.1f} ms)')
     print(f'    features x = [{_fmt(res.x)}]')
+    rules = next((r for name, r in OBJECTS.items() if model.name.startswith(name)), None)
+    if rules is not None:
+        label = rules.label(res.x)
+        print(f'    serves (rules): {intent.zone_label(label, model.task_names) if label else "no task"}')
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--models-dir', type=Path, default=None)
-    parser.add_argument('--method', choices=('lm', 'slsqp', 'trust-constr'), default='lm',
-                        help="planner method (default 'lm', the planner's default)")
+    parser.add_argument('--method', choices=('lm', 'slsqp', 'trust-constr', 'task'), default='lm',
+                        help="planner method (default 'lm', the paper's planner, which these tables reproduce; "
+                             "'task' is the planner node's default)")
     args = parser.parse_args(argv)
     models_dir = args.models_dir or config_dir() / 'models'
 

@@ -92,7 +92,8 @@ def _planner_object_pose() -> np.ndarray:
     return pose_to_matrix(values['object_position'], values['object_orientation'])
 
 
-def core_plan(model: GraspModel, w: tuple[float, ...], kin: MicoKinematics) -> planner.PlanResult:
+def core_plan(model: GraspModel, w: tuple[float, ...], kin: MicoKinematics,
+              warm_start: np.ndarray | None = None) -> planner.PlanResult:
     """The core library's plan for w on ``model`` with the planner node's options and robot constraint."""
     options = _planner_parameters()
     v = restrict(interpret(w).v, all_zones(len(w)), model.zones)
@@ -100,7 +101,8 @@ def core_plan(model: GraspModel, w: tuple[float, ...], kin: MicoKinematics) -> p
 
     reachable = Reachability(kin, base_T_obj, HOME_Q, restarts=options['ik_restarts'])
 
-    return planner.plan(model, v, method=options['method'], n_starts=options['n_starts'], accept=reachable)
+    return planner.plan(model, v, method=options['method'], n_starts=options['n_starts'], accept=reachable,
+                        warm_start=warm_start)
 
 
 def _ns(stamp: Any) -> int:
@@ -220,9 +222,10 @@ def test_w_in_v_pose_joints_and_posterior_out_as_the_core_computes(chain, models
     assert_allclose(base_T_ee, _planner_object_pose() @ features_to_obj_T_ee(expected.x), rtol=0, atol=1e-6)
     assert_allclose(answer.joints.position[6:], chain.x_of(answer)[FINGERS], rtol=0, atol=1e-12)  # closures as planned
 
-    # a second w: the node warm-starts from its last plan, so compare what the plan achieves
+    # a second w: the node warm-starts from its last plan (as published, within 1e-6 of the core's)
+    previous = chain.x_of(answer)
     answer = chain.send(W_AMBIGUOUS)
-    expected = core_plan(model, W_AMBIGUOUS, kinematics)
+    expected = core_plan(model, W_AMBIGUOUS, kinematics, warm_start=previous)
     assert_allclose(answer.posterior.p, expected.posterior, rtol=0, atol=1e-4)
     assert_allclose(answer.posterior.w, expected.w, rtol=0, atol=1e-4)
     _assert_fk_reproduces_pose(answer, kinematics)

@@ -1,4 +1,4 @@
-"""Planner: a well-posed answer, feasible and plausible grasps, honest status.
+"""The paper's planner (method 'lm'): a well-posed answer, feasible and plausible grasps, honest status.
 
 Exact where possible, nearest to the reference, never decided by float noise; tested over every task,
 every model, random and perturbed intents.
@@ -34,6 +34,13 @@ from grasp_intent_ros.core.resources import config_dir
 CASES = [(0.9, 0.1, 0.1), (0.1, 0.9, 0.1), (0.1, 0.1, 0.9), (0.9, 0.9, 0.1), (0.9, 0.1, 0.9), (0.1, 0.9, 0.9),
          (0.9, 0.9, 0.9)]
 """Every task alone, every pair, all three (the issue's 7 cases)."""
+
+
+
+def plan_lm(model: GraspModel, v: np.ndarray, **options: object) -> planner.PlanResult:
+    """The paper's planner (method 'lm'), the subject of this module; the default method is test_serving's."""
+    return planner.plan(model, v, method='lm', **options)  # type: ignore[arg-type]
+
 
 SHIPPED = ('cup_7zone', 'cup_5zone', 'cup_4zone', 'flashlight_7zone')
 STABLE_PALM_M = 1e-6
@@ -171,7 +178,7 @@ def _walk_jumps(model: GraspModel, steps: int, seed: int) -> list[int]:
         v = intent.interpret(w, model.zones).v
         if v is None:
             continue
-        x = planner.plan(model, v, warm_start=previous).x
+        x = plan_lm(model, v, warm_start=previous).x
         if previous is not None and (np.linalg.norm(x[:3] - previous[:3]) > 0.02
                                      or x[3:6] @ previous[3:6] < math.cos(0.3)):
             jumps.append(step)
@@ -196,11 +203,11 @@ def test_only_a_warm_plan_has_the_band(shipped: dict[str, GraspModel], monkeypat
     """A fresh plan ignores WARM_BAND bit for bit; a warm one from the same reference takes the nearest in it."""
     model = shipped['flashlight_7zone']
     v = _v((0.51, 0.95, 0.14), model)  # no exact match: the least squares
-    fresh = planner.plan(model, v)
+    fresh = plan_lm(model, v)
     assert not fresh.exact
     monkeypatch.setattr(planner, 'WARM_BAND', 1.0)  # every converged candidate ties
-    assert planner.plan(model, v).x.tobytes() == fresh.x.tobytes()
-    wide = planner.plan(model, v, warm_start=fresh.reference)
+    assert plan_lm(model, v).x.tobytes() == fresh.x.tobytes()
+    wide = plan_lm(model, v, warm_start=fresh.reference)
     nearest = min((c for c in wide.candidates if c.success), key=lambda c: c.distance)
     assert wide.chosen.distance == nearest.distance < fresh.chosen.distance
 
@@ -302,9 +309,9 @@ def test_unique_rows_drop_exact_repeats_only() -> None:
 
 def test_warm_start_on_a_match_is_its_own_answer(toy_model: GraspModel) -> None:
     v = _v((0.9, 0.9, 0.1))
-    first = planner.plan(toy_model, v)
+    first = plan_lm(toy_model, v)
     assert first.exact, first.message
-    again = planner.plan(toy_model, v, warm_start=first.x)
+    again = plan_lm(toy_model, v, warm_start=first.x)
     assert_allclose(again.reference, first.x)
     assert_allclose(again.x, first.x, atol=1e-9)
     assert again.candidates[0].distance < 1e-8
@@ -312,7 +319,7 @@ def test_warm_start_on_a_match_is_its_own_answer(toy_model: GraspModel) -> None:
 
 def test_accept_hook_takes_the_first_acceptable_candidate_in_choice_order(toy_model: GraspModel) -> None:
     v = _v((0.9, 0.9, 0.1))
-    first = planner.plan(toy_model, v)
+    first = plan_lm(toy_model, v)
     best = first.candidates[0].x
     asked: list[np.ndarray] = []
 
@@ -320,13 +327,13 @@ def test_accept_hook_takes_the_first_acceptable_candidate_in_choice_order(toy_mo
         asked.append(x)
         return not np.allclose(x, best)
 
-    res = planner.plan(toy_model, v, accept=not_best)
+    res = plan_lm(toy_model, v, accept=not_best)
     assert res.rejected == 1 and not np.allclose(res.x, best)
     assert_allclose(res.candidates[0].x, best)
     assert_allclose(res.candidates[res.rejected].x, res.x)
     assert len(asked) == 2  # each candidate asked once, in choice order, until one is taken
     assert res.exact == first.exact
-    none = planner.plan(toy_model, v, accept=lambda x: False)
+    none = plan_lm(toy_model, v, accept=lambda x: False)
     assert none.status == 'rejected' and not none.success
     assert none.rejected == len(none.candidates)
 
@@ -335,11 +342,11 @@ def test_status_tells_an_iteration_limit_from_convergence(shipped: dict[str, Gra
                                                           monkeypatch: pytest.MonkeyPatch) -> None:
     model = shipped['cup_7zone']
     v = _v((0.1, 0.9, 0.1), model)
-    assert planner.plan(model, v).status == 'ok'
+    assert plan_lm(model, v).status == 'ok'
     monkeypatch.setattr(planner, '_GN_MAXITER', 1)
     for name in ('_LM_RACE', '_LM_MAXITER', '_NEWTON_RACE', '_NEWTON_MAXITER', '_OPEN_LM'):
         monkeypatch.setattr(planner, name, 1)
-    res = planner.plan(model, v)
+    res = plan_lm(model, v)
     assert res.status == 'solver_failed' and not res.success
     assert 'iteration limit' in res.message
     # the starts that the best few left behind say so (and are not counted converged either)
@@ -355,7 +362,7 @@ def test_a_match_found_by_the_least_squares_says_so(shipped: dict[str, GraspMode
     """
     model = shipped['cup_7zone']
     v = _v((0.7, 0.9, 0.05), model)
-    res = planner.plan(model, v)
+    res = plan_lm(model, v)
     assert res.exact and res.status == 'ok'
     assert res.chosen.message == 'exact match (least squares, then projected)'
 
@@ -465,10 +472,10 @@ def test_newton_converges_where_least_squares_steps_run_out(shipped: dict[str, G
     """
     model = shipped['flashlight_7zone']
     v = _v((0.05, 0.8, 0.3), model)
-    res = planner.plan(model, v)
+    res = plan_lm(model, v)
     assert not res.exact and res.status == 'ok' and res.chosen.message == 'least squares: converged'
     monkeypatch.setattr(planner, '_NEWTON_POLISH', 0)
-    steps_only = planner.plan(model, v)
+    steps_only = plan_lm(model, v)
     assert steps_only.status == 'solver_failed'
     assert res.objective <= steps_only.objective * (1.0 + 1e-12)
 
@@ -510,7 +517,7 @@ def test_least_squares_with_the_palm_on_the_body_converge_as_well_as_a_60_start_
     model = shipped['flashlight_7zone']
     assert model.body is not None
     v = _v(w, model)
-    res = planner.plan(model, v)
+    res = plan_lm(model, v)
     assert res.status == 'ok' and not res.exact, res.message
     assert abs(model.body.distance(res.x[None, :3])[0][0] - model.body.margin) <= 1e-9
     assert res.objective <= 1.01 * planner.reference_search(model, v, n_starts=60)
@@ -532,7 +539,7 @@ def test_least_squares_along_a_bound_do_as_well_as_a_60_start_search(shipped: di
     """
     model = shipped[name]
     v = _v(w, model)
-    res = planner.plan(model, v)
+    res = plan_lm(model, v)
     assert res.objective <= 1.01 * planner.reference_search(model, v, n_starts=60)
 
 
@@ -549,7 +556,7 @@ def test_least_squares_find_the_minima_with_a_finger_open(shipped: dict[str, Gra
     """
     model = shipped['flashlight_7zone']
     v = _v(w, model)
-    res = planner.plan(model, v)
+    res = plan_lm(model, v)
     assert not res.exact and res.status == 'ok'
     assert res.objective <= 1.01 * planner.reference_search(model, v, n_starts=60)
     opened = res.chosen.start[FINGERS] == model.lower[FINGERS]
@@ -652,7 +659,7 @@ def test_a_model_without_the_mico_fingers_plans_without_the_open_finger_round(de
     features = FeatureSpace(names=MICO_3F.names[:7], units=MICO_3F.units[:7], lower=MICO_3F.lower[:7],
                             upper=MICO_3F.upper[:7])
     model = GraspModel.fit(Demonstrations(demos.x[:, :7], demos.task_sets, demos.task_names, features))
-    res = planner.plan(model, _v((0.51, 0.95, 0.14), model))  # no match: the least squares, f 2.9e-3
+    res = plan_lm(model, _v((0.51, 0.95, 0.14), model))  # no match: the least squares, f 2.9e-3
     assert res.status == 'ok' and res.chosen.message.startswith('least squares')
     assert res.x.shape == (7,) and res.objective > planner._OPEN_F
     assert not any('finger opened' in c.message for c in res.candidates)
@@ -660,15 +667,15 @@ def test_a_model_without_the_mico_fingers_plans_without_the_open_finger_round(de
 
 def test_bad_inputs_raise(toy_model: GraspModel) -> None:
     with pytest.raises(PlanningError, match='one entry per model zone'):
-        planner.plan(toy_model, np.ones(3) / 3)
+        plan_lm(toy_model, np.ones(3) / 3)
     with pytest.raises(PlanningError, match='probability vector'):
-        planner.plan(toy_model, np.full(7, 0.5))
+        plan_lm(toy_model, np.full(7, 0.5))
     with pytest.raises(PlanningError, match='method'):
         planner.plan(toy_model, _v((0.9, 0.1, 0.1)), method='newton')  # type: ignore[arg-type]
     with pytest.raises(PlanningError, match="'lm' takes the analytic gradient"):
-        planner.plan(toy_model, _v((0.9, 0.1, 0.1)), gradient='2-point')
+        plan_lm(toy_model, _v((0.9, 0.1, 0.1)), gradient='2-point')
     with pytest.raises(PlanningError, match='warm_start'):
-        planner.plan(toy_model, _v((0.9, 0.1, 0.1)), warm_start=np.zeros(3))
+        plan_lm(toy_model, _v((0.9, 0.1, 0.1)), warm_start=np.zeros(3))
 
 
 @pytest.mark.slow
@@ -679,7 +686,7 @@ def test_every_task_and_combination_matches_v_as_well_as_a_60_start_search(
     """Within max(1e-9, 1%) of a 60-start SLSQP search (zone means, then seeded random points)."""
     model = shipped[name]
     v = _v(w, model)
-    res = planner.plan(model, v)
+    res = plan_lm(model, v)
     best = planner.reference_search(model, v, n_starts=60)
     assert res.objective <= max(1e-9, 1.01 * best), (res.objective, best, res.message)
     assert res.success, res.message
@@ -693,7 +700,7 @@ def test_every_shipped_model_plans_feasible_grasps_for_every_case(shipped: dict[
         r = intent.interpret(w, model.zones)
         if r.v is None:  # e.g. usage alone on the 4-zone model, which has no zone for it
             continue
-        res = planner.plan(model, r.v)
+        res = plan_lm(model, r.v)
         assert_feasible(model, res.x)
         assert res.objective <= planner.objective(model, r.v, res.reference) + planner.MATCH_TOL
 
@@ -717,8 +724,8 @@ def test_last_bit_perturbations_of_v_give_the_same_grasp(shipped: dict[str, Gras
     r = intent.interpret(w, model.zones)
     if r.v is None:
         return
-    a = planner.plan(model, r.v)
-    b = planner.plan(model, _perturbed(r.v, seed))
+    a = plan_lm(model, r.v)
+    b = plan_lm(model, _perturbed(r.v, seed))
     if not (a.success and b.success):  # stopped before converging: said in the status, no claim here
         assert 'solver_failed' in (a.status, b.status)
         return
@@ -738,12 +745,12 @@ amplified a 1e-12 change of v to a 1e-4 move of the grasp before the targets wer
 def test_a_long_projection_path_is_not_steered_by_the_last_bits_of_v(shipped: dict[str, GraspModel]) -> None:
     model = shipped['flashlight_7zone']
     v = _v(W_LONG_PATH, model)
-    a = planner.plan(model, v)
+    a = plan_lm(model, v)
     assert a.exact and a.success, a.message
     log_odds = np.log(a.posterior) - np.log(v)  # the exact targets are met, not only the rounded ones
     assert np.ptp(log_odds) <= 2e-11
     for seed in range(1, 5):
-        b = planner.plan(model, _perturbed(v, seed))
+        b = plan_lm(model, _perturbed(v, seed))
         assert b.exact and b.success, b.message
         assert np.abs(a.x[:3] - b.x[:3]).max() <= STABLE_PALM_M, seed
         assert np.abs(a.x[3:6] - b.x[3:6]).max() <= STABLE_APPROACH, seed
@@ -760,13 +767,13 @@ def test_the_palm_never_enters_the_object(shipped: dict[str, GraspModel], name: 
     r = intent.interpret(w, model.zones)
     if r.v is None:
         return
-    for cand in planner.plan(model, r.v).candidates:
+    for cand in plan_lm(model, r.v).candidates:
         assert model.body.distance(cand.x[None, :3])[0][0] >= model.body.margin - 1e-9
 
 
 def test_a_model_without_a_body_is_unconstrained(shipped: dict[str, GraspModel]) -> None:
     model = dataclasses.replace(shipped['cup_7zone'], body=None)
-    res = planner.plan(model, _v((0.9, 0.9, 0.1), model))
+    res = plan_lm(model, _v((0.9, 0.9, 0.1), model))
     assert res.exact and res.success
 
 
