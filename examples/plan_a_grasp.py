@@ -23,12 +23,19 @@ def main(w: list[float]) -> None:
         return
     print('target v   ', ' '.join(f'{p:6.3f}' for p in result.v))
 
-    # the grasp x (10 features) whose posterior P(zone | x) matches v, nearest to the reference grasp
+    # the default planner: the demonstrated grasp that serves v's most likely zone, does only likely tasks
+    # (w >= 0.3) and has the highest expected task success; P is the model's reading of it
     res = planner.plan(model, result.v)
     print('posterior P', ' '.join(f'{p:6.3f}' for p in res.posterior))
-    print(f'status {res.status}, exact match {res.exact}, reconstructed w {np.round(res.w, 3).tolist()}')
+    print(f'status {res.status}, reads as {model.zone_labels[int(np.argmax(res.posterior))]}, '
+          f'reconstructed w {np.round(res.w, 3).tolist()}')
     for name, value, unit in zip(model.features.names, res.x, model.features.units, strict=True):
         print(f'  {name:12s} {value:+.4f} {unit}')
+
+    # the paper's planner (Algorithm 1): the grasp whose posterior P(zone | x) matches v, nearest the reference
+    paper = planner.plan(model, result.v, method='lm')
+    print('paper-P    ', ' '.join(f'{p:6.3f}' for p in paper.posterior))
+    print(f'paper-status {paper.status}, exact match {paper.exact}')
 
     # model ambiguity (paper eqs. 5-8): KL(task i || task j) between the tasks' grasp distributions
     kl = ambiguity.kl_matrix(model)

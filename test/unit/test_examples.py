@@ -20,10 +20,14 @@ def test_every_example_is_covered_here() -> None:
     assert sorted(p.name for p in (REPO / 'examples').glob('*.py')) == ['plan_a_grasp.py']
 
 
-def test_plan_a_grasp_matches_the_target_and_asks_for_clarification_when_no_task_is_likely() -> None:
+def test_plan_a_grasp_serves_the_likely_tasks_and_asks_for_clarification_when_no_task_is_likely() -> None:
     lines = {line.split()[0]: line for line in run('plan_a_grasp.py').splitlines() if line.strip()}
     target = lines['target'].split()[2:]
-    assert len(target) == 7 and lines['posterior'].split()[2:] == target  # P = v to the printed digits
-    assert lines['status'].startswith('status ok, exact match True')
+    assert len(target) == 7 and len(lines['posterior'].split()[2:]) == 7
+    # w = (0.9, 0.9, 0.1): the default's grasp reads as doing only usage and/or transfer
+    assert lines['status'].startswith('status ok, reads as ') and lines['status'].split()[4].rstrip(',') in (
+        'U', 'T', 'UT')
+    assert lines['paper-P'].split()[1:] == target  # the paper's planner: P = v to the printed digits
+    assert lines['paper-status'].startswith('paper-status ok, exact match True')
     assert len([k for k in lines if k in ('usage', 'transfer', 'handover')]) == 3  # the KL matrix's rows
     assert 'clarification needed' in run('plan_a_grasp.py', '0.1', '0.1', '0.1')
