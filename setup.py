@@ -10,6 +10,8 @@ CONSOLE_SCRIPTS = {  # script name -> module (python -m grasp_intent_ros.<name> 
     'intent_interpreter': 'intent_interpreter',
     'model_server': 'model_server',
     'grasp_planner': 'grasp_planner',
+    'assistance': 'assistance',
+    'mock_arm': 'mock_arm',
     'send_intent': 'tools.send_intent',
     'demo': 'tools.demo',
     'recorder': 'tools.recorder',

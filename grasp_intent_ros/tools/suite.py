@@ -18,7 +18,8 @@ the system tests.
   signalled only by its own PID, SIGKILLed after a deadline, and judged clean on exit code 0 with no
   traceback on stderr.
 - :class:`NodeSuite`: the processes of one run: start (one node, or the three suite nodes with their
-  ``config/<node>.yaml``), wait until ready, notice a death, stop them all against one deadline.
+  ``config/<node>.yaml``, and when asked the shared-control nodes, :data:`SHARED_CONTROL_NODES`), wait until
+  ready, notice a death, stop them all against one deadline.
 
 Never imports rclpy.
 """
@@ -37,14 +38,22 @@ from pathlib import Path
 from types import TracebackType
 
 from ..core.resources import config_dir
+from ..protocol import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
 
-__all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'MAX_DOMAIN_ID', 'FASTDDS_PROFILE', 'SuiteError',
-           'domain_id_from_environment', 'use_loopback_discovery', 'node_environment', 'NodeProcess', 'NodeSuite']
+__all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID', 'FASTDDS_PROFILE',
+           'SuiteError', 'domain_id_from_environment', 'use_loopback_discovery', 'node_environment', 'NodeProcess',
+           'NodeSuite']
 
 STOP_TIMEOUT = 10.0
 """Seconds a node gets to exit after SIGINT/SIGTERM before it is SIGKILLed."""
 SUITE_NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
 """The node modules of the suite, in start order."""
+SHARED_CONTROL_NODES = ('mock_arm', 'assistance')
+"""The shared-control loop's nodes, started after :data:`SUITE_NODES` when asked (``shared_control=True``)."""
+REMAPPINGS: Mapping[str, tuple[str, ...]] = {
+    'mock_arm': (f'{ARM_TRAJECTORY_COMMAND}:={GRASP_TRAJECTORY}', f'{ARM_TWIST_COMMAND}:={ASSISTANCE_TWIST}'),
+}
+"""Each node's remappings in the suite: the mock arm executes the planner's trajectory and the blended twist."""
 MAX_DOMAIN_ID = 101
 """Largest ROS domain id usable with LOCALHOST discovery."""
 FASTDDS_PROFILE = 'fastdds_loopback.xml'
@@ -276,7 +285,7 @@ class NodeSuite:
         return proc
 
     def start_nodes(self, *, namespace: str = '', model: str | None = None,
-                    models_dir: str | os.PathLike[str] | None = None) -> None:
+                    models_dir: str | os.PathLike[str] | None = None, shared_control: bool = False) -> None:
         """Start :data:`SUITE_NODES`, each with :meth:`node_args` (its ``config/<node>.yaml`` when found).
 
         Parameters
@@ -285,13 +294,15 @@ class NodeSuite:
             '' or e.g. '/robot1' (``-r __ns:=``).
         model, models_dir : optional
             The model server's initial ``model`` and its ``models_dir`` (default: its config file's).
+        shared_control : bool
+            Also start :data:`SHARED_CONTROL_NODES` (the mock arm and the assistance), after the others.
 
         Raises
         ------
         OSError
             If a process cannot be started; those already started stay in :attr:`processes`.
         """
-        for module in SUITE_NODES:
+        for module in SUITE_NODES + (SHARED_CONTROL_NODES if shared_control else ()):
             self.start(module, *self.node_args(module, namespace=namespace, model=model, models_dir=models_dir))
 
     @staticmethod
@@ -307,6 +318,8 @@ class NodeSuite:
             ros_args += ['--params-file', str(config / f'{module}.yaml')]
         if namespace:
             ros_args += ['-r', f'__ns:={namespace}']
+        for remapping in REMAPPINGS.get(module, ()):
+            ros_args += ['-r', remapping]
         if module == 'model_server':
             if model is not None:
                 ros_args += ['-p', f'model:={model}']

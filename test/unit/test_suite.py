@@ -134,3 +134,11 @@ def test_suite_waits_notices_a_death_and_stops_by_pid(tmp_path: Path) -> None:
                                         f'quitter (pid {suite.processes[1].pid}) exited with code 3']
     suite.remove_logs()
     assert tmp_path.is_dir(), 'a log directory given by the caller stays'
+
+
+def test_the_shared_control_nodes_get_their_config_and_the_suite_remappings() -> None:
+    args = NodeSuite.node_args('mock_arm', namespace='/robot1')
+    assert args[:2] == ['--params-file', str(config_dir() / 'mock_arm.yaml')]
+    assert args[2:] == ['-r', '__ns:=/robot1', '-r', 'arm_controller/joint_trajectory:=grasp/trajectory',
+                        '-r', 'servo/delta_twist_cmds:=assistance/twist']
+    assert NodeSuite.node_args('assistance') == ['--params-file', str(config_dir() / 'assistance.yaml')]
