@@ -71,6 +71,10 @@ PARAMETERS = (
     ParamSpec('robot_max_linear', _DEFAULTS.robot_max_linear, "Robot twist's speed limit, m/s.", range=_POSITIVE),
     ParamSpec('robot_max_angular', _DEFAULTS.robot_max_angular, "Robot twist's angular speed limit, rad/s.",
               range=_POSITIVE),
+    ParamSpec('deadband_linear', _DEFAULTS.deadband_linear, "'confidence': operator speed (m/s) from which an "
+              "operator steering against the robot's twist lowers alpha.", range=(0.0, 10.0)),
+    ParamSpec('deadband_angular', _DEFAULTS.deadband_angular, "'confidence': the same for the operator's angular "
+              'speed, rad/s.', range=(0.0, 10.0)),
     ParamSpec('operator_timeout', _DEFAULTS.operator_timeout, 'Operator twist age (s) from which the output is '
               'the zero twist (MoveIt Servo: incoming_command_timeout).', range=(0.001, 10.0)),
     ParamSpec('max_linear', 0.2, 'Output speed limit, m/s.', range=_POSITIVE),

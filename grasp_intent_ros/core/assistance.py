@@ -29,8 +29,14 @@ Arbitration (:func:`arbitration`): alpha from the intent's confidence
   planned grasp's posterior P over the model's zones and v restricted to those zones and renormalised
   (1 when the plan matches v exactly, less for a compromise or a fallback grasp).
 
+and, while the robot's twist is known, times the operator's agreement with it, o (:func:`operator_agreement`):
+(1 + cos theta) / 2 of the angle theta between the operator's and the robot's twist, for the linear and
+the angular part the operator moves beyond a deadband (the smaller of the two), 1 when the operator moves
+neither. An operator who steers against the robot takes the control back (alpha -> 0 as theta -> pi): the
+operator's input is evidence against the planned grasp (Dragan & Srinivasa's confidence in the prediction).
+
 ``'blend'`` (ADA's baseline): alpha = alpha_max when v's top zone leads the second by at least
-``margin``, else 0. ``'none'``: alpha = 0 (direct teleoperation).
+``margin``, else 0. ``'none'``: alpha = 0 (direct teleoperation). Neither looks at the operator's input.
 Whatever the rule, alpha is 0 without a valid grasp, while a clarification is pending, or without the
 arm's joint state: :class:`Assistance` decides that.
 
@@ -53,7 +59,8 @@ import numpy as np
 import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ['Arbitration', 'ARBITRATIONS', 'concentration', 'plan_agreement', 'arbitration', 'pose_error',
+__all__ = ['Arbitration', 'ARBITRATIONS', 'concentration', 'plan_agreement', 'arbitration', 'operator_agreement',
+           'pose_error',
            'pre_grasp', 'assistance_target', 'robot_twist', 'blend', 'clip_norm', 'TwistLimiter', 'AssistanceConfig',
            'Command', 'Assistance']
 
@@ -121,6 +128,25 @@ def arbitration(rule: Arbitration, v: ArrayLike, agreement: float, *, alpha_max:
     return alpha_max * ramp * min(max(agreement, 0.0), 1.0)
 
 
+def operator_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64], *, deadband_linear: float,
+                       deadband_angular: float) -> float:
+    """O in [0, 1]: (1 + cos theta) / 2 of the operator's and the robot's twist (module docstring).
+
+    Per part (linear, angular) that the operator moves faster than its deadband (m/s, rad/s), theta the
+    angle between the two parts (a robot part of zero: cos theta = 0); the smaller o of the parts, 1 when
+    the operator moves neither part beyond its deadband.
+    """
+    agreement = 1.0
+    for part, deadband in ((slice(0, 3), deadband_linear), (slice(3, 6), deadband_angular)):
+        if _norm(operator[part]) <= deadband:
+            continue
+        h, r = clip_norm(operator[part], 1.0), clip_norm(robot[part], 1.0)  # no overflow in the products
+        h_norm, r_norm = float(np.linalg.norm(h)), float(np.linalg.norm(r))
+        cos = float(h @ r) / (h_norm * r_norm) if r_norm > 0.0 else 0.0
+        agreement = min(agreement, 0.5 * (1.0 + min(max(cos, -1.0), 1.0)))
+    return agreement
+
+
 def pose_error(base_T_ee: NDArray[np.float64], base_T_target: NDArray[np.float64]) -> NDArray[np.float64]:
     """(p_t - p, log3(R_t R^T)), shape (6,): the target's offset (m) and rotation vector (rad), base frame."""
     dp = base_T_target[:3, 3] - base_T_ee[:3, 3]
@@ -148,6 +174,12 @@ def assistance_target(base_T_ee: NDArray[np.float64], base_T_grasp: NDArray[np.f
     if along <= 0.0 and lateral <= corridor_radius and angle <= corridor_angle:
         return base_T_grasp, 'grasp'
     return pre_grasp(base_T_grasp, standoff), 'pre-grasp'
+
+
+def _norm(x: NDArray[np.float64]) -> float:
+    """|x|, without overflow for any finite ``x`` (inf when it exceeds the float range)."""
+    size = float(np.max(np.abs(x)))
+    return size * float(np.linalg.norm(x / size)) if size > 0.0 else 0.0
 
 
 def clip_norm(x: NDArray[np.float64], limit: float) -> NDArray[np.float64]:
@@ -229,6 +261,8 @@ class AssistanceConfig:
         Of :func:`assistance_target`.
     gain_linear, gain_angular, robot_max_linear, robot_max_angular
         Of :func:`robot_twist` (1/s, 1/s, m/s, rad/s).
+    deadband_linear, deadband_angular : float
+        Of :func:`operator_agreement` ('confidence' only), m/s and rad/s.
     operator_timeout : float
         An operator twist older than this gives the zero twist.
     """
@@ -245,6 +279,8 @@ class AssistanceConfig:
     gain_angular: float = 2.0
     robot_max_linear: float = 0.15
     robot_max_angular: float = 0.8
+    deadband_linear: float = 0.01
+    deadband_angular: float = 0.05
     operator_timeout: float = 0.1
 
 
@@ -342,4 +378,7 @@ class Assistance:
                                               corridor_radius=cfg.corridor_radius, corridor_angle=cfg.corridor_angle)
             robot = robot_twist(self.base_T_ee, target, gain_linear=cfg.gain_linear, gain_angular=cfg.gain_angular,
                                 max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)
+            if cfg.arbitration == 'confidence':
+                alpha *= operator_agreement(self._operator[0], robot, deadband_linear=cfg.deadband_linear,
+                                            deadband_angular=cfg.deadband_angular)
         return Command(self.limiter.limit(blend(alpha, robot, self._operator[0]), dt), alpha, phase)

@@ -15,6 +15,7 @@ from grasp_intent_ros.core.assistance import (
     arbitration,
     assistance_target,
     concentration,
+    operator_agreement,
     plan_agreement,
     pose_error,
     pre_grasp,
@@ -120,9 +121,9 @@ def test_the_blend_and_the_safety_rules() -> None:
     human = np.array([0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
     assistance.set_operator(human, now=0.0)
     command = assistance.command(0.01)
-    assert command.alpha == pytest.approx(0.9) and command.phase == 'grasp'
+    assert command.alpha == pytest.approx(0.45) and command.phase == 'grasp'  # at right angles: o = 1/2
     robot = np.array([0.0, 0.0, -0.15, 0.0, 0.0, 0.0])  # 0.2 m above the grasp: gain 2, limited to 0.15
-    assert_allclose(command.twist, 0.9 * robot + 0.1 * human, atol=1e-12)
+    assert_allclose(command.twist, 0.45 * robot + 0.55 * human, atol=1e-12)
     # a stale operator input: the zero twist as soon as it is older than the timeout
     assert np.any(assistance.command(0.1).twist)
     stale = assistance.command(0.1 + 1e-6)
@@ -134,6 +135,7 @@ def test_the_blend_and_the_safety_rules() -> None:
     assert command.alpha == 0.0 and command.phase == 'clarification pending'
     assert_allclose(command.twist, human, atol=0)
     assistance.set_grasp(GRASP)
+    assistance.set_operator(np.zeros(6), now=1.02)
     assert assistance.command(1.02).alpha == pytest.approx(0.9)
 
 
@@ -145,3 +147,25 @@ def test_no_assistance_without_a_grasp_or_a_hand(missing: str, phase: str) -> No
     command = assistance.command(0.01)
     assert command.alpha == 0.0 and command.phase == phase and not np.any(command.twist)
     assert make_assistance(arbitration='none').alpha() == (0.0, 'direct teleoperation')
+
+
+def test_operator_agreement_lets_the_operator_take_the_control_back() -> None:
+    kw = dict(deadband_linear=0.01, deadband_angular=0.05)
+    robot = np.array([0.1, 0.0, 0.0, 0.0, 0.0, 0.5])
+    assert operator_agreement(np.zeros(6), robot, **kw) == 1.0  # holding still
+    assert operator_agreement(np.r_[0.005, 0, 0, 0, 0, 0], -robot, **kw) == 1.0  # within the deadband
+    assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, 0], robot, **kw) == pytest.approx(1.0)
+    assert operator_agreement(np.r_[0, 0.05, 0, 0, 0, 0], robot, **kw) == pytest.approx(0.5)  # at right angles
+    assert operator_agreement(np.r_[-0.05, 0, 0, 0, 0, 0], robot, **kw) == pytest.approx(0.0)  # against it
+    assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, -0.2], robot, **kw) == pytest.approx(0.0)  # the worse part
+    assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, 0], np.zeros(6), **kw) == 0.5
+    assert operator_agreement(np.r_[1e308, -1e308, 0, 0, 0, 0], robot, **kw) == pytest.approx(0.5 * (1 + 0.5**0.5))
+    # in the blend: the operator steering away from the grasp gets alpha 0 and full control
+    assistance = make_assistance()
+    away = np.array([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])  # the grasp is below the hand: the robot goes down
+    assistance.set_operator(away, now=0.0)
+    command = assistance.command(0.01)
+    assert command.alpha == pytest.approx(0.0) and command.twist[2] > 0.0
+    blend = make_assistance(arbitration='blend')  # ADA's baseline does not listen
+    blend.set_operator(away, now=0.0)
+    assert blend.command(0.01).alpha == pytest.approx(0.9)
