@@ -130,7 +130,7 @@ def arbitration(rule: Arbitration, v: ArrayLike, agreement: float, *, alpha_max:
 
 def operator_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64], *, deadband_linear: float,
                        deadband_angular: float) -> float:
-    """O in [0, 1]: (1 + cos theta) / 2 of the operator's and the robot's twist (module docstring).
+    """The agreement o in [0, 1]: (1 + cos theta) / 2 of the operator's and the robot's twist (module docstring).
 
     Per part (linear, angular) that the operator moves faster than its deadband (m/s, rad/s), theta the
     angle between the two parts (a robot part of zero: cos theta = 0); the smaller o of the parts, 1 when
