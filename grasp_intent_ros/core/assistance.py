@@ -293,7 +293,8 @@ class Command:
     twist : ndarray, shape (6,)
         The blended, limited twist (base frame).
     alpha : float
-        The arbitration weight it was blended with (0 when there was nothing to assist).
+        The arbitration weight it was blended with (0 when there was nothing to assist, and for the stop of a
+        stale operator input).
     phase : str
         'pre-grasp' or 'grasp' (what the robot's twist aims at), or why there is no assistance.
     """
@@ -368,7 +369,7 @@ class Assistance:
         self._last_output = now
         alpha, phase = self.alpha()
         if not self.operator_fresh(now):
-            return Command(self.limiter.stop(), alpha, 'operator input stale')
+            return Command(self.limiter.stop(), 0.0, 'operator input stale')
         assert self._operator is not None
         robot = np.zeros(6)
         if alpha > 0.0:

@@ -127,7 +127,7 @@ def test_the_blend_and_the_safety_rules() -> None:
     # a stale operator input: the zero twist as soon as it is older than the timeout
     assert np.any(assistance.command(0.1).twist)
     stale = assistance.command(0.1 + 1e-6)
-    assert not np.any(stale.twist) and stale.phase == 'operator input stale'
+    assert not np.any(stale.twist) and stale.phase == 'operator input stale' and stale.alpha == 0.0
     # a clarification pending: alpha 0 (the operator alone) until the next grasp
     assistance.set_operator(human, now=1.0)
     assistance.clarification()
