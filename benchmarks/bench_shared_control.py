@@ -220,7 +220,7 @@ class Loop:
     def send_w(self, w: np.ndarray) -> None:
         self.w_pub.publish(self._w_type(data=[float(x) for x in w]))
 
-    def call(self, client: Any, request: Any, timeout: float = 10.0) -> Any:
+    def call(self, client: Any, request: Any, timeout: float = 30.0) -> Any:
         if not client.wait_for_service(timeout_sec=timeout):
             sys.exit(f'bench_shared_control: service {client.srv_name} not available')
         future = client.call_async(request)
@@ -265,9 +265,9 @@ def run_operator(loop: Loop, op: Operator, intent: Intent, own_goal: np.ndarray,
     """Run one operator until success or ``timeout``; fills ``run``."""
     task_set = intent.task_set
     first_plan = len(loop.plans)
-    loop.send_w(intent.w(0.0, rng))  # the intent before the motion: wait for its plan
-    if not loop.probe.wait_for(lambda: len(loop.plans) > first_plan, 10.0):
-        sys.exit('bench_shared_control: no plan for the first w')
+    w_first = intent.w(0.0, rng)  # the intent before the motion: wait for its plan (sent again each second)
+    if not loop.probe.wait_for(lambda: len(loop.plans) > first_plan or loop.send_w(w_first), 60.0, poll=1.0):
+        sys.exit('bench_shared_control: no plan for the first w within 60 s')
     mode, switching_until = 'translate', -math.inf
     noise = np.zeros(6)
     decay = math.exp(-PERIOD / op.noise_tau)
@@ -376,7 +376,7 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int, op: Operator
         print(f'[{name}] latency phase ({args.latency_seconds:g} s), {uptime()}', flush=True)
         latency = latency_phase(loop, args.latency_seconds)
         latency['load'] = uptime()
-        for i in range(args.operators):
+        for i in args.only or range(args.operators):
             order = CONDITIONS[i % 3:] + CONDITIONS[:i % 3]
             for condition in order:
                 rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), i])
@@ -429,6 +429,8 @@ def main() -> None:
     parser.add_argument('--timeout', type=float, default=25.0, help='seconds an operator gets')
     parser.add_argument('--latency-seconds', type=float, default=20.0)
     parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--only', type=int, nargs='+', metavar='I', help='run only these operators (e.g. to look '
+                        'into one); their seeds are those of the full run')
     parser.add_argument('--json', help='write every run and the summaries here')
     args = parser.parse_args()
     if args.quick:

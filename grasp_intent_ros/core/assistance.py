@@ -29,11 +29,15 @@ Arbitration (:func:`arbitration`): alpha from the intent's confidence
   planned grasp's posterior P over the model's zones and v restricted to those zones and renormalised
   (1 when the plan matches v exactly, less for a compromise or a fallback grasp).
 
-and, while the robot's twist is known, times the operator's agreement with it, o (:func:`operator_agreement`):
-(1 + cos theta) / 2 of the angle theta between the operator's and the robot's twist, for the linear and
-the angular part the operator moves beyond a deadband (the smaller of the two), 1 when the operator moves
-neither. An operator who steers against the robot takes the control back (alpha -> 0 as theta -> pi): the
-operator's input is evidence against the planned grasp (Dragan & Srinivasa's confidence in the prediction).
+and times the operator's agreement with the robot, o: the smaller of the linear and the angular agreement,
+each (1 + cos theta) / 2 of the angle theta between the operator's and the robot's part
+(:func:`operator_agreement`), as last measured while the operator moved that part faster than its
+deadband (1 before; :class:`Assistance` holds them, and forgets them when the planned grasp moves by more
+than the corridor's radius or angle). An operator who steers against the robot takes the control back
+(alpha -> 0 as theta -> pi): the operator's input is evidence against the planned grasp (Dragan &
+Srinivasa's confidence in the prediction). The agreement is held so that the control stays with an
+operator who then works the other part (a joystick's other mode) or lets go, until the operator moves
+along with the robot again.
 
 ``'blend'`` (ADA's baseline): alpha = alpha_max when v's top zone leads the second by at least
 ``margin``, else 0. ``'none'``: alpha = 0 (direct teleoperation). Neither looks at the operator's input.
@@ -129,22 +133,21 @@ def arbitration(rule: Arbitration, v: ArrayLike, agreement: float, *, alpha_max:
 
 
 def operator_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64], *, deadband_linear: float,
-                       deadband_angular: float) -> float:
-    """The agreement o in [0, 1]: (1 + cos theta) / 2 of the operator's and the robot's twist (module docstring).
+                       deadband_angular: float) -> tuple[float | None, float | None]:
+    """The operator's agreement with the robot per part (linear, angular): (1 + cos theta) / 2, in [0, 1].
 
-    Per part (linear, angular) that the operator moves faster than its deadband (m/s, rad/s), theta the
-    angle between the two parts (a robot part of zero: cos theta = 0); the smaller o of the parts, 1 when
-    the operator moves neither part beyond its deadband.
+    theta is the angle between the operator's and the robot's part; None (no evidence) for a part that
+    either twist moves no faster than its deadband (m/s, rad/s).
     """
-    agreement = 1.0
+    parts: list[float | None] = []
     for part, deadband in ((slice(0, 3), deadband_linear), (slice(3, 6), deadband_angular)):
-        if _norm(operator[part]) <= deadband:
+        if _norm(operator[part]) <= deadband or _norm(robot[part]) <= deadband:
+            parts.append(None)
             continue
         h, r = clip_norm(operator[part], 1.0), clip_norm(robot[part], 1.0)  # no overflow in the products
-        h_norm, r_norm = float(np.linalg.norm(h)), float(np.linalg.norm(r))
-        cos = float(h @ r) / (h_norm * r_norm) if r_norm > 0.0 else 0.0
-        agreement = min(agreement, 0.5 * (1.0 + min(max(cos, -1.0), 1.0)))
-    return agreement
+        cos = float(h @ r) / (float(np.linalg.norm(h)) * float(np.linalg.norm(r)))
+        parts.append(0.5 * (1.0 + min(max(cos, -1.0), 1.0)))
+    return parts[0], parts[1]
 
 
 def pose_error(base_T_ee: NDArray[np.float64], base_T_target: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -315,13 +318,24 @@ class Assistance:
         self.base_T_grasp: NDArray[np.float64] | None = None
         self.base_T_ee: NDArray[np.float64] | None = None
         self.clarification_pending = False
+        self.agreement = (1.0, 1.0)
+        """The operator's held agreement with the robot, linear and angular (module docstring)."""
         self._posterior: tuple[NDArray[np.float64], tuple[str, ...]] | None = None
         self._v: tuple[NDArray[np.float64], tuple[str, ...]] | None = None
         self._operator: tuple[NDArray[np.float64], float] | None = None
         self._last_output: float | None = None
 
     def set_grasp(self, base_T_grasp: NDArray[np.float64]) -> None:
-        """A new planned grasp: valid from now on, and it answers any clarification pending."""
+        """A new planned grasp: valid from now on, and it answers any clarification pending.
+
+        A grasp that moved by more than the corridor's radius or angle is a new proposal: the operator's held
+        agreement (module docstring) starts afresh.
+        """
+        if self.base_T_grasp is not None:
+            error = pose_error(self.base_T_grasp, base_T_grasp)
+            if (float(np.linalg.norm(error[:3])) > self.config.corridor_radius
+                    or float(np.linalg.norm(error[3:])) > self.config.corridor_angle):
+                self.agreement = (1.0, 1.0)
         self.base_T_grasp, self.clarification_pending = base_T_grasp, False
 
     def set_posterior(self, posterior: NDArray[np.float64], zone_labels: Sequence[str]) -> None:
@@ -380,6 +394,9 @@ class Assistance:
             robot = robot_twist(self.base_T_ee, target, gain_linear=cfg.gain_linear, gain_angular=cfg.gain_angular,
                                 max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)
             if cfg.arbitration == 'confidence':
-                alpha *= operator_agreement(self._operator[0], robot, deadband_linear=cfg.deadband_linear,
-                                            deadband_angular=cfg.deadband_angular)
+                measured = operator_agreement(self._operator[0], robot, deadband_linear=cfg.deadband_linear,
+                                              deadband_angular=cfg.deadband_angular)
+                linear, angular = (held if fresh is None else fresh for fresh, held in zip(measured, self.agreement))
+                self.agreement = (linear, angular)
+                alpha *= min(linear, angular)
         return Command(self.limiter.limit(blend(alpha, robot, self._operator[0]), dt), alpha, phase)

@@ -134,9 +134,9 @@ def test_the_blend_and_the_safety_rules() -> None:
     command = assistance.command(1.01)
     assert command.alpha == 0.0 and command.phase == 'clarification pending'
     assert_allclose(command.twist, human, atol=0)
-    assistance.set_grasp(GRASP)
+    assistance.set_grasp(GRASP)  # the same grasp: the operator's sideways motion (o = 1/2) is remembered
     assistance.set_operator(np.zeros(6), now=1.02)
-    assert assistance.command(1.02).alpha == pytest.approx(0.9)
+    assert assistance.command(1.02).alpha == pytest.approx(0.45)
 
 
 @pytest.mark.parametrize('missing, phase', [('base_T_grasp', 'no grasp'), ('base_T_ee', 'no joint state')])
@@ -152,20 +152,42 @@ def test_no_assistance_without_a_grasp_or_a_hand(missing: str, phase: str) -> No
 def test_operator_agreement_lets_the_operator_take_the_control_back() -> None:
     kw = dict(deadband_linear=0.01, deadband_angular=0.05)
     robot = np.array([0.1, 0.0, 0.0, 0.0, 0.0, 0.5])
-    assert operator_agreement(np.zeros(6), robot, **kw) == 1.0  # holding still
-    assert operator_agreement(np.r_[0.005, 0, 0, 0, 0, 0], -robot, **kw) == 1.0  # within the deadband
-    assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, 0], robot, **kw) == pytest.approx(1.0)
-    assert operator_agreement(np.r_[0, 0.05, 0, 0, 0, 0], robot, **kw) == pytest.approx(0.5)  # at right angles
-    assert operator_agreement(np.r_[-0.05, 0, 0, 0, 0, 0], robot, **kw) == pytest.approx(0.0)  # against it
-    assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, -0.2], robot, **kw) == pytest.approx(0.0)  # the worse part
-    assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, 0], np.zeros(6), **kw) == 0.5
-    assert operator_agreement(np.r_[1e308, -1e308, 0, 0, 0, 0], robot, **kw) == pytest.approx(0.5 * (1 + 0.5**0.5))
-    # in the blend: the operator steering away from the grasp gets alpha 0 and full control
+    assert operator_agreement(np.zeros(6), robot, **kw) == (None, None)  # holding still: no evidence
+    assert operator_agreement(np.r_[0.005, 0, 0, 0, 0, 0], -robot, **kw) == (None, None)  # within the deadband
+    assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, 0], robot, **kw) == (pytest.approx(1.0), None)
+    assert operator_agreement(np.r_[0, 0.05, 0, 0, 0, 0], robot, **kw)[0] == pytest.approx(0.5)  # at right angles
+    assert operator_agreement(np.r_[-0.05, 0, 0, 0, 0, 0], robot, **kw)[0] == pytest.approx(0.0)  # against it
+    assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, -0.2], robot, **kw) == (pytest.approx(1.0), pytest.approx(0.0))
+    assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, 0], np.zeros(6), **kw) == (None, None)  # the robot holds
+    assert operator_agreement(np.r_[1e308, -1e308, 0, 0, 0, 0], robot, **kw)[0] == pytest.approx(0.5 * (1 + 0.5**0.5))
+
+
+def test_the_operator_who_steered_against_the_robot_keeps_the_control() -> None:
     assistance = make_assistance()
     away = np.array([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])  # the grasp is below the hand: the robot goes down
     assistance.set_operator(away, now=0.0)
     command = assistance.command(0.01)
     assert command.alpha == pytest.approx(0.0) and command.twist[2] > 0.0
+    # then rotating only (a joystick's other mode), or letting go: the linear disagreement is held
+    assistance.set_operator(np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.2]), now=0.02)
+    assert assistance.command(0.03).alpha == pytest.approx(0.0)
+    assistance.set_operator(np.zeros(6), now=0.04)
+    assert assistance.command(0.05).alpha == pytest.approx(0.0)
+    # moving along with the robot again gives it back
+    assistance.set_operator(np.array([0.0, 0.0, -0.05, 0.0, 0.0, 0.0]), now=0.06)
+    assert assistance.command(0.07).alpha == pytest.approx(0.9)
+    # a grasp that moves by more than the corridor is a new proposal: the agreement starts afresh
+    assistance.set_operator(away, now=0.08)
+    assistance.command(0.09)
+    assert assistance.agreement[0] == pytest.approx(0.0)
+    jitter = GRASP.copy()
+    jitter[0, 3] += 0.005
+    assistance.set_grasp(jitter)
+    assert assistance.agreement[0] == pytest.approx(0.0)  # the same grasp, replanned
+    moved = GRASP.copy()
+    moved[0, 3] += 0.05
+    assistance.set_grasp(moved)
+    assert assistance.agreement == (1.0, 1.0)
     blend = make_assistance(arbitration='blend')  # ADA's baseline does not listen
     blend.set_operator(away, now=0.0)
     assert blend.command(0.01).alpha == pytest.approx(0.9)
