@@ -249,7 +249,7 @@ class Loop:
         return None
 
     def hand_at(self, t: float) -> np.ndarray | None:
-        for received, base_T in reversed(self.hands):
+        for received, base_T in reversed(tuple(self.hands)):  # a copy: the executor thread appends meanwhile
             if received <= t:
                 return base_T
         return None
