@@ -56,7 +56,7 @@ from typing import Any
 import numpy as np
 from _bench import REPO, Probe, loopback_domain, uptime
 
-from grasp_intent_ros.core.assistance import pose_error
+from grasp_intent_ros.core.assistance import clip_norm, pose_error
 from grasp_intent_ros.core.data import load_csv
 from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.core.grasp import Grasp, plan_grasp
@@ -302,9 +302,9 @@ def run_operator(loop: Loop, op: Operator, intent: Intent, own_goal: np.ndarray,
             if wanted != mode:
                 mode, switching_until = wanted, now + op.switch_time
             elif mode == 'translate':
-                command[:3] = _clip(op.gain * error[:3], op.max_linear) + noise[:3]
+                command[:3] = clip_norm(op.gain * error[:3], op.max_linear) + noise[:3]
             else:
-                command[3:] = _clip(op.gain * error[3:], op.max_angular) + noise[3:]
+                command[3:] = clip_norm(op.gain * error[3:], op.max_angular) + noise[3:]
         loop.twist_pub.publish(loop.twist(command))
         run.effort_linear += float(np.linalg.norm(command[:3])) * PERIOD
         run.effort_angular += float(np.linalg.norm(command[3:])) * PERIOD
@@ -322,11 +322,6 @@ def run_operator(loop: Loop, op: Operator, intent: Intent, own_goal: np.ndarray,
         if plan is not None and plan[1] & task_set != task_set:
             run.wrong_pull += alpha * min(t - previous, 2 * PERIOD)
         previous = t
-
-
-def _clip(x: np.ndarray, limit: float) -> np.ndarray:
-    norm = float(np.linalg.norm(x))
-    return x * (limit / norm) if norm > limit else x
 
 
 def latency_phase(loop: Loop, seconds: float) -> dict[str, float]:

@@ -110,7 +110,6 @@ class AssistanceNode(Node):
             raise ParameterError(f'urdf_path: {exc}') from None
         self._assist = Assistance(AssistanceConfig(), TwistLimiter(1.0, 1.0, 1.0, 1.0))
         self._configure(self._params)
-        self._q: np.ndarray | None = None
         self._last_output = -float('inf')
         self._outputs = 0
         self._pubs = {topics.ASSISTANCE_TWIST: output_publisher(self, TwistStamped, topics.ASSISTANCE_TWIST),
