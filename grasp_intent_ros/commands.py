@@ -17,6 +17,8 @@ COMMANDS = {
     'model_server': 'model_server',
     'grasp_planner': 'grasp_planner',
     'viewer': 'viewer',
+    'assistance': 'assistance',
+    'mock_arm': 'mock_arm',
     'suite': 'tools.suite',
     'send_intent': 'tools.send_intent',
     'demo': 'tools.demo',

@@ -84,8 +84,9 @@ __all__ = [
     'INTENT_W', 'INTENT_V', 'INTENT_CLARIFICATION', 'MODEL_ACTIVE', 'MODEL_AMBIGUITY',
     'MODEL_AMBIGUITY_SYMMETRIC', 'MODEL_AMBIGUITY_PINSKER', 'MODEL_QUERY', 'MODEL_POSTERIOR',
     'OBJECT_POSE', 'JOINT_STATES', 'GRASP_POSE', 'GRASP_JOINT_TARGETS', 'GRASP_TRAJECTORY',
-    'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'DIAGNOSTICS',
-    'MSGTYPES', 'INPUT_TOPICS', 'PLAN_TOPICS', 'OUTPUT_TOPICS',
+    'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA',
+    'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS',
+    'MSGTYPES', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS', 'PLAN_TOPICS', 'OUTPUT_TOPICS',
     'MAX_ARRAY_SIZE', 'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size',
     'check_names', 'join_labels', 'split_labels', 'array_layout', 'msg_to_array', 'serialized_vector',
     'RepeatedLayout', 'msg_labels',
@@ -116,6 +117,16 @@ GRASP_POSTERIOR: Final = 'grasp/posterior'
 GRASP_FEATURES: Final = 'grasp/features'
 GRASP_MARKERS: Final = 'grasp/markers'
 DIAGNOSTICS: Final = '/diagnostics'
+OPERATOR_TWIST: Final = 'operator/twist'
+"""The operator's twist (e.g. a spacemouse or joystick teleop), the assistance node's input."""
+ASSISTANCE_TWIST: Final = 'assistance/twist'
+"""The blended twist, for a servo (remap it to e.g. ``/servo_node/delta_twist_cmds``)."""
+ASSISTANCE_ALPHA: Final = 'assistance/alpha'
+"""The arbitration weight of each blended twist."""
+ARM_TRAJECTORY_COMMAND: Final = 'arm_controller/joint_trajectory'
+"""The mock arm's trajectory input (a joint_trajectory_controller's topic); the suite remaps it to grasp/trajectory."""
+ARM_TWIST_COMMAND: Final = 'servo/delta_twist_cmds'
+"""The mock arm's twist input (MoveIt Servo's topic); the suite remaps it to assistance/twist."""
 
 _F64MA, _STRING = 'std_msgs/msg/Float64MultiArray', 'std_msgs/msg/String'
 MSGTYPES: Final[Mapping[str, str]] = {
@@ -137,6 +148,11 @@ MSGTYPES: Final[Mapping[str, str]] = {
     GRASP_FEATURES: _F64MA,
     GRASP_MARKERS: 'visualization_msgs/msg/MarkerArray',
     DIAGNOSTICS: 'diagnostic_msgs/msg/DiagnosticArray',
+    OPERATOR_TWIST: 'geometry_msgs/msg/TwistStamped',
+    ASSISTANCE_TWIST: 'geometry_msgs/msg/TwistStamped',
+    ASSISTANCE_ALPHA: 'std_msgs/msg/Float64',
+    ARM_TRAJECTORY_COMMAND: 'trajectory_msgs/msg/JointTrajectory',
+    ARM_TWIST_COMMAND: 'geometry_msgs/msg/TwistStamped',
 }
 """Message type of every topic of the suite, by relative name (``/diagnostics`` is absolute)."""
 
@@ -146,6 +162,8 @@ PLAN_TOPICS: Final = (GRASP_POSE, GRASP_JOINT_TARGETS, GRASP_TRAJECTORY, GRASP_P
 """The outputs of one plan (all carry the same stamp)."""
 OUTPUT_TOPICS: Final = (INTENT_V, INTENT_CLARIFICATION, *PLAN_TOPICS)
 """Outputs compared by a replay (relative names), besides ``model/active`` and rejections."""
+SHARED_CONTROL_TOPICS: Final = (OPERATOR_TWIST, ASSISTANCE_TWIST, ASSISTANCE_ALPHA)
+"""The shared-control loop's topics (the assistance node's input and outputs), recorded with the suite's."""
 
 # ------------------------------------------------------------------------------------------ input caps
 MAX_NAME_LENGTH: Final = 256
@@ -162,6 +180,12 @@ MAX_MESSAGE_BYTES: Final[Mapping[str, int]] = {
     OBJECT_POSE: 4 << 10,      # a pose and a frame id of MAX_NAME_LENGTH
     JOINT_STATES: 64 << 10,    # MAX_JOINTS names of MAX_NAME_LENGTH, positions, velocities, efforts
     MODEL_ACTIVE: 4 * MAX_DOCUMENT_CHARS + 64,  # a document of at most MAX_DOCUMENT_CHARS UTF-8 characters
+    INTENT_CLARIFICATION: 64 << 10,  # a reason naming a model's zones
+    GRASP_POSE: 4 << 10,       # as OBJECT_POSE
+    GRASP_POSTERIOR: 64 << 10,  # 1023 zones, 10 tasks and their labels
+    OPERATOR_TWIST: 4 << 10,   # a twist and a frame id of MAX_NAME_LENGTH
+    ARM_TWIST_COMMAND: 4 << 10,
+    ARM_TRAJECTORY_COMMAND: 1 << 20,  # e.g. 4,000 points of 9 joints with positions, velocities, accelerations
 }
 """Largest serialized (CDR) message accepted on each input topic, bytes.
 

@@ -9,6 +9,7 @@ __all__ = [
     'DataError',
     'PlanningError',
     'KinematicsError',
+    'CommandError',
 ]
 
 
@@ -51,3 +52,7 @@ class PlanningError(GraspIntentError):
 
 class KinematicsError(GraspIntentError):
     """A kinematic query cannot be answered (unknown frame, bad joint vector, unreachable target)."""
+
+
+class CommandError(GraspIntentError):
+    """A command to the arm (a joint trajectory, a twist) that a controller rejects."""

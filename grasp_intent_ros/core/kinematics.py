@@ -259,7 +259,7 @@ class MicoKinematics:
         self._base_M_world = model.frames[base_id].placement.inverse()
         self._world_T_base = np.array(model.frames[base_id].placement.homogeneous)
         self._chain = _chain_arrays(model, self._ee_id)
-        self._data = threading.local()  # a pinocchio.Data per thread, made at its first fk()
+        self._data = threading.local()  # a pinocchio.Data per thread, made at its first use
 
     # -- forward kinematics ---------------------------------------------------------------------------
 
@@ -284,12 +284,42 @@ class MicoKinematics:
             If ``q`` is not a finite vector of shape (6,).
         """
         q = self._check_q(q)
-        data = getattr(self._data, 'data', None)
-        if data is None:
-            data = self._data.data = self.model.createData()
+        data = self._thread_data()
         pin.forwardKinematics(self.model, data, q)
         world_M_ee = pin.updateFramePlacement(self.model, data, self._ee_id)
         return np.array((self._base_M_world * world_M_ee).homogeneous)
+
+    def jacobian(self, q: ArrayLike) -> NDArray[np.float64]:
+        """Geometric Jacobian of the end effector in the base frame at joint angles ``q``.
+
+        ``J @ qd`` is the EE twist for joint speeds ``qd``: rows 0-2 the linear velocity of the EE origin,
+        rows 3-5 the angular velocity, both in base-frame coordinates (m/s, rad/s per rad/s).
+
+        Parameters
+        ----------
+        q : array_like, shape (6,)
+
+        Returns
+        -------
+        ndarray, shape (6, 6)
+
+        Raises
+        ------
+        KinematicsError
+            If ``q`` is not a finite vector of shape (6,).
+        """
+        q = self._check_q(q)
+        world_J = pin.computeFrameJacobian(self.model, self._thread_data(), q, self._ee_id,
+                                           pin.LOCAL_WORLD_ALIGNED)
+        base_R_world = self._base_M_world.rotation
+        return np.vstack([base_R_world @ world_J[:3], base_R_world @ world_J[3:]])
+
+    def _thread_data(self) -> Any:
+        """This thread's ``pinocchio.Data`` (made at its first use)."""
+        data = getattr(self._data, 'data', None)
+        if data is None:
+            data = self._data.data = self.model.createData()
+        return data
 
     def check_limits(self, q: ArrayLike, *, margin: float = 0.0, what: str = 'q') -> NDArray[np.float64]:
         """``q`` as an array of shape (6,), when every joint lies within its limits widened by ``margin`` (rad).

@@ -28,8 +28,11 @@ from .qos import input_events
 __all__ = ['subscribe_input', 'decode_input']
 
 
-def decode_input(topic: str, data: bytes) -> Any:
+def decode_input(topic: str, data: bytes, msg_type: Any = None) -> Any:
     """The message of the suite input ``topic`` serialized in ``data`` (its size already checked).
+
+    ``msg_type`` (default: the topic's, :data:`~grasp_intent_ros.protocol.MSGTYPES`) is for an input that
+    takes another type by configuration (e.g. a plain Twist for a TwistStamped).
 
     Raises
     ------
@@ -37,14 +40,14 @@ def decode_input(topic: str, data: bytes) -> Any:
         If rclpy cannot decode it.
     """
     try:
-        return deserialize_message(data, message_class(topic))
+        return deserialize_message(data, message_class(topic) if msg_type is None else msg_type)
     except Exception as exc:  # noqa: BLE001 - a message rclpy cannot decode is bad input
         raise GraspIntentError(f'{topic}: undecodable message: {type(exc).__name__}: {exc}') from None
 
 
 def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], qos: QoSProfile,
                     diagnostics: NodeDiagnostics, *, count_dropped: bool = False, serialized: bool = False,
-                    callback_group: CallbackGroup | None = None) -> Subscription:
+                    callback_group: CallbackGroup | None = None, msg_type: Any = None) -> Subscription:
     """Subscribe ``callback`` to the suite input ``topic``, size-checked before decoding and guarded.
 
     Parameters
@@ -66,19 +69,21 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
         The subscription's group (default: the node's), e.g. that of a thread that takes it off the executor
         (:class:`grasp_intent_ros.ros.worker.InputThread`, :meth:`~grasp_intent_ros.ros.worker.
         LatestOnlyWorker.take`; the subscription's callback takes the message and its info).
+    msg_type : message class, optional
+        Instead of the topic's own type (:func:`decode_input`); the topic's size cap still applies.
 
     Raises
     ------
     KeyError
         For a topic without a cap.
     """
-    msg_type = message_class(topic)
+    msg_type = message_class(topic) if msg_type is None else msg_type
     if topic not in MAX_MESSAGE_BYTES:
         raise KeyError(f'{topic!r} is not an input topic with a size cap')
 
     def on_serialized(data: bytes) -> None:
         check_message_size(topic, len(data))
-        callback(data if serialized else decode_input(topic, data))
+        callback(data if serialized else decode_input(topic, data, msg_type))
 
     on_serialized.__name__ = getattr(callback, '__name__', 'on_message')
     guarded = diagnostics.guard(on_serialized)

@@ -15,6 +15,8 @@ Message layouts read (as the nodes publish them)
 ``grasp/pose``, ``grasp/joint_targets``: with ``grasp/features`` and ``grasp/posterior``, gathered by their
                     stamp into :attr:`ReportData.plans` (one record per plan: ``base_T_ee``, ``q`` (arm then
                     finger positions), ``x``, ``posterior``, and ``received``: the last receive time).
+``operator/twist``, ``assistance/twist`` (geometry_msgs/TwistStamped), ``assistance/alpha`` (std_msgs/Float64):
+                    the shared-control loop, as (linear x, y, z, angular x, y, z) and alpha.
 ``/diagnostics``    rejections: :class:`grasp_intent_ros.sessions.outputs.RejectionTracker`; planning time: the
                     planner's 'last planning time [ms]' whenever its 'plans' count grew.
 """
@@ -53,7 +55,8 @@ __all__ = ['ROLES', 'ReportData', 'load_report_data']
 ROLES = {'w': topics.INTENT_W, 'v': topics.INTENT_V, 'clarification': topics.INTENT_CLARIFICATION,
          'model': topics.MODEL_ACTIVE, 'ambiguity': topics.MODEL_AMBIGUITY, 'posterior': topics.GRASP_POSTERIOR,
          'features': topics.GRASP_FEATURES, 'diagnostics': topics.DIAGNOSTICS, 'pose': topics.GRASP_POSE,
-         'joint_targets': topics.GRASP_JOINT_TARGETS}
+         'joint_targets': topics.GRASP_JOINT_TARGETS,
+         'operator': topics.OPERATOR_TWIST, 'blended': topics.ASSISTANCE_TWIST, 'alpha': topics.ASSISTANCE_ALPHA}
 """Topics the report reads, by role."""
 
 
@@ -76,6 +79,9 @@ class ReportData:
     kl: list[tuple[int, str, tuple[str, ...], NDArray[np.float64]]] = field(default_factory=list)
     rejections: list[tuple[int, Rejection]] = field(default_factory=list)
     planning_ms: list[float] = field(default_factory=list)
+    twists: dict[str, list[tuple[int, NDArray[np.float64]]]] = field(
+        default_factory=lambda: {'operator': [], 'blended': []})
+    alpha: list[tuple[int, float]] = field(default_factory=list)
     tracker: RejectionTracker = field(default_factory=RejectionTracker)
     plan_counts: dict[str, str] = field(default_factory=dict)  # status name -> last 'plans' value
     malformed: Counter[str] = field(default_factory=Counter)
@@ -182,6 +188,12 @@ def _take(session: ReportData, role: str, stamp: int, msg: Any) -> None:
         tasks = labels[0] if labels and len(labels[0]) == kl.shape[0] else default_task_names(kl.shape[0])
         if not session.kl or not np.array_equal(session.kl[-1][3], kl):
             session.kl.append((stamp, f'model/ambiguity #{len(session.kl) + 1}', tuple(tasks), kl))
+    elif role in ('operator', 'blended'):
+        t = msg.twist
+        session.twists[role].append((stamp, np.array([t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y,
+                                                      t.angular.z], dtype=np.float64)))
+    elif role == 'alpha':
+        session.alpha.append((stamp, float(msg.data)))
     elif role == 'diagnostics':
         session.rejections.extend((stamp, r) for r in session.tracker.update(msg))
         for status in msg.status:

@@ -5,8 +5,9 @@ Run: ``python -m grasp_intent_ros recorder OUT_DIR [--topics T ...] [--ros-args 
 Topics
     ``--topics`` takes topic names relative to the recorder's namespace (or absolute); a name ending
     in ``/`` selects every topic under it. Default: ``intent/ model/ grasp/ object/ joint_states
-    /diagnostics``. Matching topics are discovered every ``--discovery-period`` seconds, so nodes may
-    start before or after the recorder.
+    operator/ assistance/ /diagnostics`` (the shared-control loop's twists and alpha included). Matching
+    topics are discovered every ``--discovery-period`` seconds, so nodes may start before or after the
+    recorder.
 Recording
     Messages are taken serialized (``raw=True``, never decoded) and written unchanged with
     :class:`~grasp_intent_ros.bag.SessionWriter`, stamped with the middleware's receive time (ns). The
@@ -64,7 +65,7 @@ from ..ros.run import run_node
 __all__ = ['Recorder', 'TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'offered_qos_spec', 'offered_qos',
            'request_qos', 'main']
 
-DEFAULT_TOPICS = ('intent/', 'model/', 'grasp/', 'object/', 'joint_states', '/diagnostics')
+DEFAULT_TOPICS = ('intent/', 'model/', 'grasp/', 'object/', 'joint_states', 'operator/', 'assistance/', '/diagnostics')
 """Recorded by default: relative to the recorder's namespace; a trailing '/' selects a whole subtree."""
 
 DEFAULT_DEPTH = 1000

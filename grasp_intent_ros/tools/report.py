@@ -21,6 +21,10 @@ Reads the bag with :mod:`grasp_intent_ros.bag` (no rclpy, matplotlib's Agg rende
     scene the viewer shows: the arm at ``grasp/joint_targets``, the active model's body at the object pose
     the plan implies, the grasp frame and fingers, the top zone and the tasks the grasp serves by the
     object's rules.
+``shared_control.png`` (a session with any of its topics)
+    The shared-control loop: speeds (linear, angular) of the operator's twist (``operator/twist``) and the
+    blended twist (``assistance/twist``), and the arbitration weight alpha (``assistance/alpha``), over the
+    session time (s).
 ``summary.md``
     Messages per topic, plans, clarifications, rejections (from ``/diagnostics``), planning time, the
     figures written and those skipped for lack of data.
@@ -179,6 +183,39 @@ def plot_w_over_time(session: ReportData, out: Path) -> list[str]:
                  '(grasp/posterior)', fontsize=10)
     fig.savefig(out / 'w_over_time.png', dpi=100)
     return ['w_over_time.png']
+
+
+def plot_shared_control(session: ReportData, out: Path) -> list[str]:
+    """The shared-control figure: the operator's and the blended twist's speeds, and alpha, over time."""
+    fig = Figure(figsize=(12, 5.5), layout='constrained')
+    speed, weight = fig.subplots(2, 1, sharex=True, height_ratios=(2, 1))
+    for role, color, name in (('operator', 'C0', 'operator (operator/twist)'),
+                              ('blended', 'C3', 'blended (assistance/twist)')):
+        samples = session.twists[role]
+        if samples:
+            t = [session.seconds(stamp) for stamp, _ in samples]
+            speed.plot(t, [float(np.linalg.norm(x[:3])) for _, x in samples], color=color,
+                       label=f'{name}: |linear| m/s')
+            speed.plot(t, [float(np.linalg.norm(x[3:])) for _, x in samples], color=color, linestyle=':',
+                       label=f'{name}: |angular| rad/s')
+    speed.set_ylabel('speed')
+    speed.grid(alpha=0.3)
+    speed.legend(fontsize=8, loc='upper left', bbox_to_anchor=(1.01, 1.0))
+    speed.set_title('Shared control: the operator\'s and the blended twist, and the arbitration weight alpha',
+                    fontsize=10)
+    if session.alpha:
+        weight.plot([session.seconds(stamp) for stamp, _ in session.alpha], [a for _, a in session.alpha], color='C2',
+                    drawstyle='steps-post', label='alpha (assistance/alpha)')
+    for k, (t, _) in enumerate(session.clarifications):
+        weight.axvline(session.seconds(t), color='0.5', linestyle=':',
+                       label='clarification requested' if k == 0 else None)
+    weight.set_ylim(-0.03, 1.03)
+    weight.set_ylabel('alpha')
+    weight.set_xlabel('session time (s)')
+    weight.grid(alpha=0.3)
+    weight.legend(fontsize=8, loc='upper left', bbox_to_anchor=(1.01, 1.0))
+    fig.savefig(out / 'shared_control.png', dpi=100)
+    return ['shared_control.png']
 
 
 def plot_kl(session: ReportData, out: Path) -> list[str]:
@@ -434,6 +471,9 @@ def write_report(bag: Path, out: Path) -> tuple[list[str], list[str]]:
         ('grasp scenes', any({'base_T_ee', 'q', 'x'} <= set(r) for r in session.plans.values()),
          'no plan with grasp/pose, grasp/joint_targets and grasp/features of one stamp', plot_grasp_scenes),
     ]
+    if {'operator', 'blended', 'alpha'} & set(session.roles):  # a session of the shared-control loop
+        plots.append(('shared control', bool(session.alpha or session.twists['operator'] or session.twists['blended']),
+                      'no operator/twist, assistance/twist or assistance/alpha messages', plot_shared_control))
     for title, available, reason, plot in plots:
         if available:
             figures += plot(session, out)

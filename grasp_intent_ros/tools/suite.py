@@ -19,7 +19,8 @@ One :class:`NodeSuite` serves the suite command (:func:`main`: ``python -m grasp
   signalled only by its own PID, SIGKILLed after a deadline, and judged clean on exit code 0 with no
   traceback on stderr.
 - :class:`NodeSuite`: the processes of one run: start (one node, or the three suite nodes with their
-  ``config/<node>.yaml``, and :data:`OPTIONAL_NODES` on request), wait until ready, notice a death, stop
+  ``config/<node>.yaml``, and :data:`OPTIONAL_NODES` on request: the shared-control loop's
+  :data:`SHARED_CONTROL_NODES`, the viewer), wait until ready, notice a death, stop
   them all against one deadline.
 - :func:`main`: the suite command: start the nodes, copy their output to stdout with each line prefixed
   by ``[node]``, stop them all on Ctrl-C (SIGINT) or SIGTERM; exit code 0 when every node stopped cleanly,
@@ -43,20 +44,26 @@ from pathlib import Path
 from types import TracebackType
 
 from ..core.resources import config_dir
+from ..protocol import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
 
-__all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'OPTIONAL_NODES', 'MAX_DOMAIN_ID', 'TEST_DOMAIN_IDS', 'RUN_DOMAIN_IDS',
-           'FASTDDS_PROFILE', 'SuiteError',
-           'domain_id_from_environment', 'use_loopback_discovery', 'node_environment', 'optional_nodes',
-           'NodeProcess', 'NodeSuite', 'main']
+__all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
+           'TEST_DOMAIN_IDS', 'RUN_DOMAIN_IDS', 'FASTDDS_PROFILE', 'SuiteError', 'domain_id_from_environment',
+           'use_loopback_discovery', 'node_environment', 'optional_nodes', 'NodeProcess', 'NodeSuite', 'main']
 
 STOP_TIMEOUT = 10.0
 """Seconds a node gets to exit after SIGINT/SIGTERM before it is SIGKILLed."""
 SUITE_NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
 """The node modules of the suite, in start order."""
-OPTIONAL_NODES: tuple[str, ...] = ('viewer',)
+SHARED_CONTROL_NODES = ('mock_arm', 'assistance')
+"""The shared-control loop's nodes: the mock MICO and the assistance (``suite --shared-control``)."""
+OPTIONAL_NODES: tuple[str, ...] = (*SHARED_CONTROL_NODES, 'viewer')
 """Node modules started only on request, after :data:`SUITE_NODES`: ``suite --with NAME``,
 :meth:`NodeSuite.start_nodes`'s ``extra``. Each is ``python -m grasp_intent_ros.<name>`` with its
 ``config/<name>.yaml`` when there is one, like the suite's own nodes."""
+REMAPPINGS: Mapping[str, tuple[str, ...]] = {
+    'mock_arm': (f'{ARM_TRAJECTORY_COMMAND}:={GRASP_TRAJECTORY}', f'{ARM_TWIST_COMMAND}:={ASSISTANCE_TWIST}'),
+}
+"""Each node's remappings in the suite: the mock arm executes the planner's trajectory and the blended twist."""
 MAX_DOMAIN_ID = 101
 """Largest ROS domain id usable with LOCALHOST discovery."""
 TEST_DOMAIN_IDS = range(1, MAX_DOMAIN_ID - 10)
@@ -313,7 +320,8 @@ class NodeSuite:
 
     def start_nodes(self, *, namespace: str = '', model: str | None = None,
                     models_dir: str | os.PathLike[str] | None = None,
-                    params_files: Sequence[str | os.PathLike[str]] = (), extra: Sequence[str] = ()) -> None:
+                    params_files: Sequence[str | os.PathLike[str]] = (), extra: Sequence[str] = (),
+                    shared_control: bool = False) -> None:
         """Start :data:`SUITE_NODES`, then ``extra``, each with :meth:`node_args`.
 
         Parameters
@@ -327,6 +335,8 @@ class NodeSuite:
             keys in a file pick what each node reads, and a later file wins.
         extra : sequence of str
             Names from :data:`OPTIONAL_NODES`, started after the suite's own nodes.
+        shared_control : bool
+            Also start :data:`SHARED_CONTROL_NODES` (the mock arm and the assistance), before ``extra``.
 
         Raises
         ------
@@ -335,7 +345,8 @@ class NodeSuite:
         OSError
             If a process cannot be started; those already started stay in :attr:`processes`.
         """
-        for module in (*SUITE_NODES, *optional_nodes(extra)):
+        wanted = (*(SHARED_CONTROL_NODES if shared_control else ()), *extra)
+        for module in (*SUITE_NODES, *optional_nodes(tuple(dict.fromkeys(wanted)))):
             self.start(module, *self.node_args(module, namespace=namespace, model=model, models_dir=models_dir,
                                                params_files=params_files))
 
@@ -355,6 +366,8 @@ class NodeSuite:
             ros_args += ['--params-file', str(Path(path).resolve())]
         if namespace:
             ros_args += ['-r', f'__ns:={namespace}']
+        for remapping in REMAPPINGS.get(module, ()):
+            ros_args += ['-r', remapping]
         if module == 'model_server':
             if model is not None:
                 ros_args += ['-p', f'model:={model}']
@@ -485,6 +498,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                              'keys pick what each reads); repeatable, a later file wins')
     parser.add_argument('--with', dest='extra', action='append', default=[], metavar='NAME',
                         help=f'also start this node (optional nodes: {", ".join(OPTIONAL_NODES) or "none"})')
+    parser.add_argument('--shared-control', action='store_true',
+                        help=f'also start the shared-control loop: {" and ".join(SHARED_CONTROL_NODES)}')
     parser.add_argument('--log-dir', type=Path, metavar='DIR',
                         help="keep each node's stdout and stderr in DIR (default: a temporary directory, deleted)")
     args = parser.parse_args(argv)
@@ -504,7 +519,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     echo = _Echo(suite)
     died = ''
     try:
-        suite.start_nodes(namespace=args.namespace, params_files=args.params_file, extra=extra)
+        suite.start_nodes(namespace=args.namespace, params_files=args.params_file, extra=extra,
+                          shared_control=args.shared_control)
         print(f'suite: ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, namespace '
               f'{args.namespace or "/"}; started ' + ', '.join(f'{p.module} (pid {p.pid})' for p in suite.processes)
               + '; Ctrl-C stops them', flush=True)

@@ -153,7 +153,7 @@ def test_message_size_caps_and_name_bounds() -> None:
         with pytest.raises(GraspIntentError, match=f'{topic}: oversized message of {cap + 1} bytes'):
             protocol.check_message_size(topic, cap + 1)
     with pytest.raises(KeyError):
-        protocol.check_message_size(protocol.GRASP_POSE, 1)
+        protocol.check_message_size(protocol.GRASP_MARKERS, 1)
     protocol.check_names(['a' * protocol.MAX_NAME_LENGTH] * 3, max_count=3, what='joint state')
     with pytest.raises(GraspIntentError, match='joint state: 4 names, the limit is 3'):
         protocol.check_names(['a'] * 4, max_count=3, what='joint state')

@@ -188,6 +188,34 @@ def test_bag_lacking_topics_skips_figures_and_says_so(store, toy_model, tmp_path
     assert '- plans: 0' in summary and '- clarifications: 0' in summary
 
 
+def test_the_shared_control_loop_is_drawn(store, tmp_path: Path) -> None:
+    bag, out = tmp_path / 'shared', tmp_path / 'report'
+    t = store.types
+    twist_t = 'geometry_msgs/msg/TwistStamped'
+
+    def twist(vx: float, wz: float) -> Any:
+        header = t['std_msgs/msg/Header'](stamp=t['builtin_interfaces/msg/Time'](sec=0, nanosec=0),
+                                         frame_id='m1n6s300_link_base')
+        return t[twist_t](header=header, twist=t['geometry_msgs/msg/Twist'](
+            linear=t['geometry_msgs/msg/Vector3'](x=vx, y=0.0, z=0.0),
+            angular=t['geometry_msgs/msg/Vector3'](x=0.0, y=0.0, z=wz)))
+
+    with SessionWriter(bag, typestore=store) as writer:
+        for topic, msgtype in (('/operator/twist', twist_t), ('/assistance/twist', twist_t),
+                               ('/assistance/alpha', 'std_msgs/msg/Float64')):
+            writer.add_topic(topic, msgtype, qos=QosSpec())
+        for k in range(200):
+            alpha = min(k / 100, 0.9)
+            now = T0 + k * 10_000_000
+            writer.write_message('/operator/twist', now, twist(0.1, 0.0))
+            writer.write_message('/assistance/twist', now + 1, twist((1 - alpha) * 0.1, alpha * 0.5))
+            writer.write_message('/assistance/alpha', now + 2, t['std_msgs/msg/Float64'](data=alpha))
+    assert report.main([str(bag), '--out', str(out)]) == 0
+    assert_png(out / 'shared_control.png')
+    summary = (out / 'summary.md').read_text()
+    assert '- [shared_control.png](shared_control.png)' in summary and '| /assistance/alpha |' in summary
+
+
 def test_malformed_messages_are_counted_not_fatal(store, toy_model, tmp_path: Path) -> None:
     bag, out = tmp_path / 'bad', tmp_path / 'report'
     with SessionWriter(bag, typestore=store) as writer:

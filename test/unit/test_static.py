@@ -27,11 +27,11 @@ import sys
 from collections.abc import Iterator
 from pathlib import Path
 
-from grasp_intent_ros.tools.suite import SUITE_NODES
+from grasp_intent_ros.tools.suite import SHARED_CONTROL_NODES, SUITE_NODES
 
 REPO = Path(__file__).resolve().parents[2]
 PACKAGE = 'grasp_intent_ros'
-NODES = (*(f'{PACKAGE}.{n}' for n in SUITE_NODES), f'{PACKAGE}.viewer')
+NODES = (*(f'{PACKAGE}.{n}' for n in SUITE_NODES + SHARED_CONTROL_NODES), f'{PACKAGE}.viewer')
 ROS = re.compile(r'^(rclpy|rcl_interfaces|builtin_interfaces|[a-z_]+_msgs|[a-z_]+_srvs)(\.|$)')
 RULES: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...] = (
     ((f'{PACKAGE}.core',), (f'{PACKAGE}.ros', f'{PACKAGE}.bag', f'{PACKAGE}.protocol', f'{PACKAGE}.sessions',

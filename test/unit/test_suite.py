@@ -168,3 +168,11 @@ def test_optional_nodes_start_on_request_after_the_suite_with_every_params_file(
     with pytest.raises(SuiteError, match="no optional node nope; there are: viewer_like"):
         suite.start_nodes(extra=['nope'])
     assert not started
+
+
+def test_the_shared_control_nodes_get_their_config_and_the_suite_remappings() -> None:
+    args = NodeSuite.node_args('mock_arm', namespace='/robot1')
+    assert args[:2] == ['--params-file', str(config_dir() / 'mock_arm.yaml')]
+    assert args[2:] == ['-r', '__ns:=/robot1', '-r', 'arm_controller/joint_trajectory:=grasp/trajectory',
+                        '-r', 'servo/delta_twist_cmds:=assistance/twist']
+    assert NodeSuite.node_args('assistance') == ['--params-file', str(config_dir() / 'assistance.yaml')]

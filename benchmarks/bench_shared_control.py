@@ -1,0 +1,462 @@
+r"""Closed-loop shared control without hardware: scripted operators, five real node processes (issue 30).
+
+The interpreter, model server, planner, mock arm and assistance run as ``python -m`` processes over
+loopback (:meth:`~grasp_intent_ros.tools.suite.NodeSuite.start_nodes` with ``shared_control=True``); this
+process is the operator (a probe node). Each seeded operator is run three times, in a rotating order, one
+per condition, switched by the assistance node's ``arbitration`` parameter: ``none`` (direct
+teleoperation, alpha = 0), ``blend`` (ADA's baseline: alpha_max when v's top zone leads by ``margin``) and
+``confidence`` (the suite's). Between two runs the mock arm is reset to Home (``mock_arm/reset``). Prints
+figures, asserts nothing; ``--json`` keeps every run.
+
+The scripted operator (a stated, simple model)
+----------------------------------------------
+- **Intent.** A prior w0 ~ U(0.2, 0.8)^3 over (usage, transfer, handover); the true task set S is drawn
+  from it (task i with probability w0_i, redrawn until not empty). The intent inference's w sharpens
+  linearly from w0 to the certain w_S (0.95 for the tasks of S, 0.05 for the others) over T ~ U(1.5, 4) s,
+  with N(0, (0.08 (1 - s))^2) noise per task (s the sharpening's progress, w clipped to [0.02, 0.98]),
+  published at 10 Hz on ``intent/w``.
+- **Goal.** The grasp the planner shows (``grasp/pose``, judged by ``grasp/features``) when it serves S
+  (the data set's task rules, :data:`grasp_intent_ros.dataset.demos.CUP_RULES` / ``FLASHLIGHT_RULES``: every
+  task of S satisfied), else the operator's own grasp for S: the planner's grasp for w_S planned offline
+  from Home, or, when that does not serve S, the reachable demonstration of the data set that serves S
+  nearest to it.
+- **Device.** A joystick with two modes, as in ADA's studies: translation (3 axes) or rotation (3 axes),
+  never both; switching costs 0.5 s of no input. The operator translates until within 3 cm of the goal,
+  then rotates until within 0.05 rad, then translates again (back to translation whenever the hand is
+  more than 6 cm away). Proportional command (gain 1.5 /s) limited to 0.12 m/s and 0.6 rad/s, plus
+  Ornstein-Uhlenbeck noise (time constant 0.3 s; 0.01 m/s, 0.05 rad/s) on the active mode; the hand and the
+  shown grasp are perceived 0.25 s late. Twists at 100 Hz on ``operator/twist`` in the base frame.
+
+Figures per object and condition (the same seeded operators): success (the hand within 1 cm and 0.1 rad of a
+grasp that serves S, the operator's or the shown one, within ``--timeout`` s), time to grasp (median of the
+successful runs, and over all runs with a failure counted as the timeout), operator effort (integral of
+|operator twist|, linear m and angular rad), wrong-task pulls (the integral of alpha over the time the shown
+grasp did not serve S, and how many operators met any), mean alpha. A latency phase first (``arbitration``
+none, 100 Hz operator twists carrying a sequence number in ``angular.z``): the blended twist's rate and the
+latency from the operator's publish to the blended twist's receipt (the middleware's receive time).
+
+Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set.
+
+    ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=97 \
+        .venv/bin/python benchmarks/bench_shared_control.py [--quick] [--operators 50] [--json runs.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import threading
+import time
+from collections import deque
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+from _bench import REPO, Probe, loopback_domain, uptime
+
+from grasp_intent_ros.core.assistance import clip_norm, pose_error
+from grasp_intent_ros.core.data import load_csv
+from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.core.grasp import Grasp, plan_grasp
+from grasp_intent_ros.core.intent import all_zones, interpret
+from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.core.registry import ModelFiles
+from grasp_intent_ros.core.resources import config_dir
+from grasp_intent_ros.dataset.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRules
+
+OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
+CONDITIONS = ('none', 'blend', 'confidence')
+BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+"""The planner's default object pose (config/grasp_planner.yaml)."""
+PERIOD = 0.01
+W_EVERY = 10
+"""Operator ticks per w (10 Hz)."""
+REACH_POS, REACH_ROT = 0.01, 0.1
+
+
+@dataclass(frozen=True)
+class Operator:
+    """The scripted operator's constants (module docstring)."""
+
+    max_linear: float = 0.12
+    max_angular: float = 0.6
+    gain: float = 1.5
+    reaction: float = 0.25
+    noise_linear: float = 0.01
+    noise_angular: float = 0.05
+    noise_tau: float = 0.3
+    switch_time: float = 0.5
+    translate_until: float = 0.03
+    rotate_until: float = 0.05
+    back_to_translation: float = 0.06
+
+
+@dataclass
+class Intent:
+    """One operator's intent: prior w0, true task set S (bitmask), sharpening time."""
+
+    w0: np.ndarray
+    task_set: int
+    sharpen: float
+
+    def w(self, t: float, rng: np.random.Generator) -> np.ndarray:
+        s = min(max(t / self.sharpen, 0.0), 1.0)
+        certain = np.array([0.95 if self.task_set >> i & 1 else 0.05 for i in range(3)])
+        w = (1.0 - s) * self.w0 + s * certain + rng.normal(0.0, 0.08 * (1.0 - s), 3)
+        return np.clip(w, 0.02, 0.98)
+
+
+def draw_intent(rng: np.random.Generator) -> Intent:
+    w0 = rng.uniform(0.2, 0.8, 3)
+    task_set = 0
+    while not task_set:
+        task_set = sum(1 << i for i in range(3) if rng.uniform() < w0[i])
+    return Intent(w0, task_set, float(rng.uniform(1.5, 4.0)))
+
+
+def own_goals(model_name: str, rules: ObjectRules, kin: MicoKinematics) -> dict[int, np.ndarray]:
+    """The operator's own grasp (base_T_ee) per task set (module docstring)."""
+    model = ModelFiles(config_dir() / 'models').load(model_name)
+    demos = load_csv(config_dir() / 'data' / f'{rules.name}.csv')
+    goals = {}
+    for task_set in range(1, 8):
+        w = np.array([0.95 if task_set >> i & 1 else 0.05 for i in range(3)])
+        grasp = plan_grasp(model, interpret(w).v, all_zones(3), BASE_T_OBJ, kin)
+        assert isinstance(grasp, Grasp), grasp
+        if rules.label(grasp.result.x) & task_set == task_set:
+            goals[task_set] = grasp.base_T_ee
+            continue
+        best = None
+        for x in demos.x:
+            if rules.label(x) & task_set != task_set:
+                continue
+            base_T_ee = BASE_T_OBJ @ features_to_obj_T_ee(x)
+            error = pose_error(grasp.base_T_ee, base_T_ee)
+            score = float(np.linalg.norm(error[:3]) + 0.1 * np.linalg.norm(error[3:]))
+            if (best is None or score < best[0]) and kin.ik(base_T_ee, HOME_Q).success:
+                best = (score, base_T_ee)
+        assert best is not None, f'no reachable demonstration serves task set {task_set}'
+        goals[task_set] = best[1]
+    return goals
+
+
+@dataclass
+class Run:
+    """The figures of one operator under one condition."""
+
+    object: str
+    operator: int
+    condition: str
+    task_set: int
+    success: bool = False
+    time_to_grasp: float = math.nan
+    effort_linear: float = 0.0
+    effort_angular: float = 0.0
+    wrong_pull: float = 0.0
+    alpha_mean: float = 0.0
+    alpha_samples: int = field(default=0, repr=False)
+
+
+class Loop:
+    """The probe side: subscriptions, the operator's publishers, the service clients."""
+
+    def __init__(self, probe: Probe, kin: MicoKinematics, rules: ObjectRules) -> None:
+        from geometry_msgs.msg import PoseStamped, TwistStamped
+        from rcl_interfaces.srv import SetParameters
+        from sensor_msgs.msg import JointState
+        from std_msgs.msg import Float64, Float64MultiArray
+        from std_srvs.srv import Trigger
+
+        from grasp_intent_ros.protocol import stamped_values
+        from grasp_intent_ros.ros.qos import input_qos, output_qos
+        from grasp_intent_ros.ros.robot import joint_positions, pose_msg_to_matrix
+
+        self.probe, self.kin, self.rules = probe, kin, rules
+        node = probe.node
+        self.hands: deque[tuple[float, np.ndarray]] = deque(maxlen=200)  # (monotonic, base_T_ee)
+        self.plans: list[tuple[float, np.ndarray, int]] = []  # (monotonic, base_T_grasp, task label)
+        self.alphas: list[tuple[float, float]] = []
+        self.outputs: list[tuple[int, float]] = []  # (receive ns, angular.z)
+        self._poses: dict[tuple[int, int], np.ndarray] = {}
+        self._lock = threading.Lock()
+
+        def on_joints(msg: Any) -> None:
+            q = joint_positions(msg, ARM_JOINTS)
+            if q is not None:
+                self.hands.append((time.monotonic(), kin.fk(q)))
+
+        def on_pose(msg: Any) -> None:
+            self._poses[(msg.header.stamp.sec, msg.header.stamp.nanosec)] = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
+
+        def on_features(msg: Any) -> None:
+            x, _, stamp = stamped_values(msg)
+            base_T = self._poses.pop((stamp.sec, stamp.nanosec), None) if stamp is not None else None
+            if base_T is not None:
+                with self._lock:
+                    self.plans.append((time.monotonic(), base_T, rules.label(x)))
+
+        node.create_subscription(JointState, 'joint_states', on_joints, input_qos(100))
+        node.create_subscription(PoseStamped, 'grasp/pose', on_pose, input_qos(100))
+        node.create_subscription(Float64MultiArray, 'grasp/features', on_features, input_qos(100))
+        node.create_subscription(Float64, 'assistance/alpha', lambda m: self.alphas.append(
+            (time.monotonic(), m.data)), input_qos(1000))
+        node.create_subscription(TwistStamped, 'assistance/twist', lambda m, info: self.outputs.append(
+            (info['received_timestamp'], m.twist.angular.z)), input_qos(1000))
+        self.twist_pub = node.create_publisher(TwistStamped, 'operator/twist', output_qos())
+        self.w_pub = node.create_publisher(Float64MultiArray, 'intent/w', output_qos())
+        self._set_params = node.create_client(SetParameters, 'assistance/set_parameters')
+        self._reset = node.create_client(Trigger, 'mock_arm/reset')
+        self._twist_type, self._w_type, self._trigger = TwistStamped, Float64MultiArray, Trigger
+
+    def twist(self, values: np.ndarray) -> Any:
+        msg = self._twist_type()
+        msg.header.frame_id = BASE_FRAME
+        t = msg.twist
+        t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z = (float(v) for v in values)
+        return msg
+
+    def send_w(self, w: np.ndarray) -> None:
+        self.w_pub.publish(self._w_type(data=[float(x) for x in w]))
+
+    def call(self, client: Any, request: Any, timeout: float = 30.0) -> Any:
+        if not client.wait_for_service(timeout_sec=timeout):
+            sys.exit(f'bench_shared_control: service {client.srv_name} not available')
+        future = client.call_async(request)
+        if not self.probe.wait_for(future.done, timeout):
+            sys.exit(f'bench_shared_control: no answer from {client.srv_name}')
+        return future.result()
+
+    def set_arbitration(self, rule: str) -> None:
+        from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+        from rcl_interfaces.srv import SetParameters
+
+        value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=rule)
+        result = self.call(self._set_params, SetParameters.Request(parameters=[Parameter(name='arbitration',
+                                                                                          value=value)]))
+        assert result.results[0].successful, result.results[0].reason
+
+    def reset_arm(self) -> None:
+        assert self.call(self._reset, self._trigger.Request()).success
+
+    def plan_at(self, t: float) -> tuple[np.ndarray, int] | None:
+        """The last plan received by monotonic time ``t``: (base_T_grasp, task label)."""
+        with self._lock:
+            for received, base_T, label in reversed(self.plans):
+                if received <= t:
+                    return base_T, label
+        return None
+
+    def hand_at(self, t: float) -> np.ndarray | None:
+        for received, base_T in reversed(tuple(self.hands)):  # a copy: the executor thread appends meanwhile
+            if received <= t:
+                return base_T
+        return None
+
+
+def reached(hand: np.ndarray, goal: np.ndarray) -> bool:
+    error = pose_error(hand, goal)
+    return bool(np.linalg.norm(error[:3]) <= REACH_POS and np.linalg.norm(error[3:]) <= REACH_ROT)
+
+
+def run_operator(loop: Loop, op: Operator, intent: Intent, own_goal: np.ndarray, rng: np.random.Generator,
+                 timeout: float, run: Run) -> None:
+    """Run one operator until success or ``timeout``; fills ``run``."""
+    task_set = intent.task_set
+    first_plan = len(loop.plans)
+    w_first = intent.w(0.0, rng)  # the intent before the motion: wait for its plan (sent again each second)
+    if not loop.probe.wait_for(lambda: len(loop.plans) > first_plan or loop.send_w(w_first), 60.0, poll=1.0):
+        sys.exit('bench_shared_control: no plan for the first w within 60 s')
+    mode, switching_until = 'translate', -math.inf
+    noise = np.zeros(6)
+    decay = math.exp(-PERIOD / op.noise_tau)
+    scale = math.sqrt(1.0 - decay**2)
+    alpha_from = len(loop.alphas)
+    start = time.monotonic()
+    tick = 0
+    while True:
+        now = time.monotonic()
+        t = now - start
+        if tick % W_EVERY == 0:
+            loop.send_w(intent.w(t, rng))
+        hand_now, plan_now = loop.hand_at(now), loop.plan_at(now)
+        serving_now = plan_now is not None and plan_now[1] & task_set == task_set
+        if hand_now is not None and (reached(hand_now, own_goal) or (serving_now and reached(hand_now, plan_now[0]))):
+            run.success, run.time_to_grasp = True, t
+            break
+        if t >= timeout:
+            break
+        seen, plan_seen = loop.hand_at(now - op.reaction), loop.plan_at(now - op.reaction)
+        goal = plan_seen[0] if plan_seen is not None and plan_seen[1] & task_set == task_set else own_goal
+        command = np.zeros(6)
+        noise = decay * noise + scale * rng.normal(0.0, 1.0, 6) * np.r_[[op.noise_linear] * 3, [op.noise_angular] * 3]
+        if seen is not None and now >= switching_until:
+            error = pose_error(seen, goal)
+            distance, angle = np.linalg.norm(error[:3]), np.linalg.norm(error[3:])
+            wanted = mode
+            if mode == 'translate' and distance < op.translate_until and angle > op.rotate_until:
+                wanted = 'rotate'
+            elif mode == 'rotate' and (angle < 0.6 * op.rotate_until or distance > op.back_to_translation):
+                wanted = 'translate'
+            if wanted != mode:
+                mode, switching_until = wanted, now + op.switch_time
+            elif mode == 'translate':
+                command[:3] = clip_norm(op.gain * error[:3], op.max_linear) + noise[:3]
+            else:
+                command[3:] = clip_norm(op.gain * error[3:], op.max_angular) + noise[3:]
+        loop.twist_pub.publish(loop.twist(command))
+        run.effort_linear += float(np.linalg.norm(command[:3])) * PERIOD
+        run.effort_angular += float(np.linalg.norm(command[3:])) * PERIOD
+        tick += 1
+        delay = start + tick * PERIOD - time.monotonic()
+        if delay > 0.0:
+            time.sleep(delay)
+    end = time.monotonic()
+    samples = [(t, a) for t, a in loop.alphas[alpha_from:] if start <= t <= end]
+    run.alpha_samples = len(samples)
+    run.alpha_mean = float(np.mean([a for _, a in samples])) if samples else 0.0
+    previous = start
+    for t, alpha in samples:
+        plan = loop.plan_at(t)
+        if plan is not None and plan[1] & task_set != task_set:
+            run.wrong_pull += alpha * min(t - previous, 2 * PERIOD)
+        previous = t
+
+
+def latency_phase(loop: Loop, seconds: float) -> dict[str, float]:
+    """Operator twists at 100 Hz with arbitration none: the blended rate and the twist -> twist latency."""
+    loop.set_arbitration('none')
+    loop.outputs.clear()
+    sent: list[int] = []
+    start = time.monotonic()
+    n = int(seconds / PERIOD)
+    for i in range(n):
+        delay = start + i * PERIOD - time.monotonic()
+        if delay > 0.0:
+            time.sleep(delay)
+        msg = loop.twist(np.r_[0.0, 0.0, 0.0, 0.0, 0.0, (i + 1) * 1e-6])
+        sent.append(time.time_ns())
+        loop.twist_pub.publish(msg)
+    loop.probe.wait_for(lambda: False, 0.2)
+    outputs = list(loop.outputs)
+    first: dict[int, int] = {}
+    for received, value in outputs:
+        seq = round(value * 1e6)
+        if 1 <= seq <= n and seq not in first:
+            first[seq] = received
+    latency = np.array([(first[s] - sent[s - 1]) * 1e-6 for s in sorted(first)])
+    window = [r for r, _ in outputs if sent[0] <= r <= sent[-1]]
+    rate = (len(window) - 1) / ((window[-1] - window[0]) * 1e-9) if len(window) > 1 else 0.0
+    return {'twists': n, 'answered': len(first), 'rate_hz': rate, 'median_ms': float(np.median(latency)),
+            'p99_ms': float(np.percentile(latency, 99)), 'max_ms': float(latency.max())}
+
+
+def run_object(name: str, args: argparse.Namespace, domain_id: int, op: Operator) -> tuple[list[Run], dict[str, float]]:
+    from grasp_intent_ros.tools.suite import NodeSuite
+
+    model_name, rules = OBJECTS[name]
+    kin = MicoKinematics()
+    goals = own_goals(model_name, rules, kin)
+    suite = NodeSuite(domain_id, cwd=REPO)
+    suite.start_nodes(model=model_name, shared_control=True)
+    probe = Probe(domain_id, 'bench_operator')
+    runs: list[Run] = []
+    try:
+        loop = Loop(probe, kin, rules)
+        warm = np.array([0.9, 0.1, 0.1])
+        if not probe.wait_for(lambda: (loop.plans and loop.hands and loop.alphas) or loop.send_w(warm), 90.0,
+                              poll=0.5):
+            sys.exit(f'bench_shared_control: the suite did not answer within 90 s\n{suite.died()}')
+        print(f'[{name}] latency phase ({args.latency_seconds:g} s), {uptime()}', flush=True)
+        latency = latency_phase(loop, args.latency_seconds)
+        latency['load'] = uptime()
+        for i in args.only or range(args.operators):
+            order = CONDITIONS[i % 3:] + CONDITIONS[:i % 3]
+            for condition in order:
+                rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), i])
+                intent = draw_intent(rng)
+                loop.set_arbitration(condition)
+                loop.reset_arm()
+                run = Run(name, i, condition, intent.task_set)
+                run_operator(loop, op, intent, goals[intent.task_set], rng, args.timeout, run)
+                runs.append(run)
+                print(f'[{name}] operator {i:3d} {condition:10s} S={intent.task_set} success={run.success!s:5s} '
+                      f't={run.time_to_grasp:6.2f} s wrong pull {run.wrong_pull:5.2f} s alpha {run.alpha_mean:.2f}',
+                      flush=True)
+            if problem := suite.died():
+                sys.exit(f'bench_shared_control: {problem}')
+    finally:
+        probe.close()
+        problems = suite.stop()
+        suite.remove_logs()
+    if problems:
+        print('\n'.join(problems), file=sys.stderr)
+    return runs, latency
+
+
+def summary(runs: list[Run], timeout: float) -> dict[str, dict[str, float]]:
+    out: dict[str, dict[str, float]] = {}
+    for condition in CONDITIONS:
+        mine = [r for r in runs if r.condition == condition]
+        if not mine:
+            continue
+        ok = [r.time_to_grasp for r in mine if r.success]
+        censored = [r.time_to_grasp if r.success else timeout for r in mine]
+        out[condition] = {
+            'n': len(mine), 'success': sum(r.success for r in mine) / len(mine),
+            'median_ttg_success': float(np.median(ok)) if ok else math.nan,
+            'median_ttg_all': float(np.median(censored)),
+            'effort_linear': float(np.median([r.effort_linear for r in mine])),
+            'effort_angular': float(np.median([r.effort_angular for r in mine])),
+            'wrong_pull_total': float(sum(r.wrong_pull for r in mine)),
+            'wrong_pull_operators': sum(r.wrong_pull > 0.0 for r in mine),
+            'alpha_mean': float(np.mean([r.alpha_mean for r in mine])),
+        }
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--operators', type=int, default=50, help='seeded operators per object')
+    parser.add_argument('--quick', action='store_true', help='3 operators per object, a 5 s latency phase')
+    parser.add_argument('--objects', nargs='+', default=list(OBJECTS), choices=list(OBJECTS))
+    parser.add_argument('--timeout', type=float, default=25.0, help='seconds an operator gets')
+    parser.add_argument('--latency-seconds', type=float, default=20.0)
+    parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--only', type=int, nargs='+', metavar='I', help='run only these operators (e.g. to look '
+                        'into one); their seeds are those of the full run')
+    parser.add_argument('--json', help='write every run and the summaries here')
+    args = parser.parse_args()
+    if args.quick:
+        args.operators, args.latency_seconds = 3, 5.0
+    domain_id = loopback_domain('bench_shared_control')
+    op = Operator()
+    print(f'bench_shared_control: {args.operators} operators per object, {", ".join(args.objects)}; {uptime()}',
+          flush=True)
+    report: dict[str, Any] = {'operator': asdict(op), 'objects': {}}
+    for name in args.objects:
+        runs, latency = run_object(name, args, domain_id, op)
+        table = summary(runs, args.timeout)
+        report['objects'][name] = {'latency': latency, 'summary': table, 'runs': [asdict(r) for r in runs]}
+        print(f'\n[{name}] blended twist: {latency["rate_hz"]:.1f} Hz, operator -> blended latency median '
+              f'{latency["median_ms"]:.2f} ms, p99 {latency["p99_ms"]:.2f} ms, max {latency["max_ms"]:.2f} ms '
+              f'({latency["answered"]}/{latency["twists"]} answered; {latency["load"]})')
+        print(f'{"condition":12s} {"n":>3s} {"success":>8s} {"TTG med ok":>11s} {"TTG med all":>12s} '
+              f'{"effort m":>9s} {"effort rad":>10s} {"wrong pull s":>13s} {"operators":>9s} {"alpha":>6s}')
+        for condition, row in table.items():
+            print(f'{condition:12s} {row["n"]:3.0f} {row["success"]:8.2f} {row["median_ttg_success"]:11.2f} '
+                  f'{row["median_ttg_all"]:12.2f} {row["effort_linear"]:9.3f} {row["effort_angular"]:10.3f} '
+                  f'{row["wrong_pull_total"]:13.2f} {row["wrong_pull_operators"]:9.0f} {row["alpha_mean"]:6.2f}')
+        if 'none' in table and 'confidence' in table:
+            ratio = table['confidence']['median_ttg_all'] / table['none']['median_ttg_all']
+            print(f'confidence / direct median time to grasp (failures at the timeout): {ratio:.2f} '
+                  f'({100 * (1 - ratio):.0f}% lower)', flush=True)
+    print(f'done; {uptime()}')
+    if args.json:
+        with open(args.json, 'w') as f:
+            json.dump(report, f, indent=1, default=float)
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,150 @@
+"""In-process tests of the assistance node (private Context per test, see test/conftest.py)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
+from numpy.testing import assert_allclose
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64, String
+
+from grasp_intent_ros import protocol
+from grasp_intent_ros.assistance import AssistanceNode
+from grasp_intent_ros.core.frames import pose_to_matrix
+from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.ros.conversions import array_to_msg, posterior_to_msg
+from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
+
+LABELS = ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
+TASKS = ('usage', 'transfer', 'handover')
+
+
+def twist_msg(linear=(0.0, 0.0, 0.0), angular=(0.0, 0.0, 0.0), frame=BASE_FRAME) -> TwistStamped:
+    msg = TwistStamped()
+    msg.header.frame_id = frame
+    (msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z) = linear
+    (msg.twist.angular.x, msg.twist.angular.y, msg.twist.angular.z) = angular
+    return msg
+
+
+def as_array(msg: TwistStamped) -> np.ndarray:
+    t = msg.twist
+    return np.array([t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z])
+
+
+class Loop:
+    """The assistance node with a probe feeding it a hand at Home, a grasp below it, a certain v."""
+
+    def __init__(self, ros, operator_type=TwistStamped, **params) -> None:
+        overrides = [Parameter(k, value=v) for k, v in params.items()]
+        self.node = ros.add(AssistanceNode(context=ros.context, parameter_overrides=overrides))
+        self.ros = ros
+        self.twists = ros.subscribe(TwistStamped, protocol.ASSISTANCE_TWIST)
+        self.alphas = ros.subscribe(Float64, protocol.ASSISTANCE_ALPHA)
+        self.operator = ros.publisher(operator_type, protocol.OPERATOR_TWIST)
+        self.pubs = {topic: ros.publisher(type_, topic) for topic, type_ in (
+            (protocol.JOINT_STATES, JointState), (protocol.GRASP_POSE, PoseStamped),
+            (protocol.GRASP_POSTERIOR, type(array_to_msg([1.0], [['a']]))),
+            (protocol.INTENT_V, type(array_to_msg([1.0], [['a']]))),
+            (protocol.INTENT_CLARIFICATION, String))}
+        self.hand = MicoKinematics().fk(HOME_Q)
+        self.grasp = self.hand.copy()
+        self.grasp[:3, 3] += 0.2 * self.hand[:3, 2]  # 0.2 m ahead along the approach axis: in the corridor
+
+    def feed(self, v=np.eye(7)[0]) -> None:
+        stamp = self.ros.node.get_clock().now().to_msg()
+        messages = {
+            protocol.JOINT_STATES: joint_state_msg(ARM_JOINTS, HOME_Q, stamp=stamp),
+            protocol.GRASP_POSE: matrix_to_pose_msg(self.grasp, frame_id=BASE_FRAME, stamp=stamp),
+            protocol.GRASP_POSTERIOR: posterior_to_msg(v, np.array([1.0, 0.0, 0.0]), LABELS, TASKS, stamp=stamp),
+            protocol.INTENT_V: array_to_msg(v, [LABELS]),
+        }
+        for topic, msg in messages.items():
+            self.pubs[topic].publish(msg)
+
+    def assisted(self) -> bool:
+        return bool(self.alphas) and self.alphas[-1].data > 0.5
+
+
+def test_the_blend_pulls_toward_the_grasp_and_alpha_drops_while_clarifying(ros) -> None:
+    loop = Loop(ros)
+    assert ros.wait_for(lambda: loop.alphas, 10.0)  # the timer's output, before any operator input
+    assert loop.alphas[-1].data == 0.0 and not np.any(as_array(loop.twists[-1]))
+    deadline = time.monotonic() + 10.0
+    while not loop.assisted() and time.monotonic() < deadline:
+        loop.feed()
+        loop.operator.publish(twist_msg())
+        ros.wait_for(lambda: False, 0.02)
+    assert loop.assisted(), 'no assistance after the grasp, v and the joint state'
+    assert loop.alphas[-1].data == pytest.approx(0.9)
+    # held still by the operator: the robot's part moves the hand down toward the grasp (acceleration-limited)
+    for _ in range(30):
+        loop.operator.publish(twist_msg())
+        ros.wait_for(lambda: False, 0.01)
+    twist = as_array(loop.twists[-1])
+    assert np.linalg.norm(twist[:3]) > 0.05 and not np.any(np.abs(twist[3:]) > 1e-9)
+    assert_allclose(twist[:3] / np.linalg.norm(twist[:3]), loop.hand[:3, 2], atol=1e-9)  # straight at the grasp
+    # a clarification: alpha 0 at once, the output the operator's alone
+    count = len(loop.alphas)
+    loop.pubs[protocol.INTENT_CLARIFICATION].publish(String(data='which task?'))
+    assert ros.wait_for(lambda: len(loop.alphas) > count and loop.alphas[-1].data == 0.0, 5.0)
+    for _ in range(20):  # no assistance for as long as it is pending
+        loop.operator.publish(twist_msg(linear=(0.02, 0.0, 0.0)))
+        ros.wait_for(lambda: False, 0.01)
+        assert loop.alphas[-1].data == 0.0
+    assert_allclose(as_array(loop.twists[-1]), [0.02, 0, 0, 0, 0, 0], atol=1e-12)
+    loop.feed()  # the next grasp answers it
+    assert ros.wait_for(lambda: loop.alphas[-1].data > 0.5, 5.0)
+
+
+def test_a_stale_operator_input_gives_the_zero_twist_within_the_timeout(ros) -> None:
+    loop = Loop(ros, operator_timeout=0.1)
+    moving = twist_msg(linear=(0.05, 0.0, 0.0))
+    assert ros.publish_until(loop.operator, moving, lambda: loop.twists and loop.twists[-1].twist.linear.x > 0.0,
+                             10.0, period=0.01)
+    while loop.twists[-1].twist.linear.x < 0.049:  # up to speed (acceleration-limited)
+        loop.operator.publish(moving)
+        ros.wait_for(lambda: False, 0.01)
+    last_input = time.monotonic()
+    count = len(loop.twists)
+    assert ros.wait_for(lambda: len(loop.twists) > count and not np.any(as_array(loop.twists[-1])), 1.0)
+    stopped_after = time.monotonic() - last_input
+    assert stopped_after < 0.1 + 0.05  # the timeout plus one output period and this thread's latency
+    count = len(loop.twists)
+    assert ros.wait_for(lambda: len(loop.twists) >= count + 10, 2.0)  # and the zero twist goes on at 100 Hz
+    assert not any(np.any(as_array(m)) for m in loop.twists[count:])
+
+
+def test_a_plain_twist_source_in_the_hand_frame(ros) -> None:
+    loop = Loop(ros, Twist, operator_message_type='Twist', operator_frame='m1n6s300_end_effector')
+    msg = Twist()
+    msg.linear.z = 0.01  # along the hand axis
+    assert ros.publish_until(loop.pubs[protocol.JOINT_STATES], joint_state_msg(
+        ARM_JOINTS, HOME_Q, stamp=ros.node.get_clock().now().to_msg()), lambda: loop.node._assist.base_T_ee is not None)
+    assert ros.publish_until(loop.operator, msg, lambda: loop.twists and np.any(as_array(loop.twists[-1])), 10.0,
+                             period=0.01)
+    for _ in range(20):
+        loop.operator.publish(msg)
+        ros.wait_for(lambda: False, 0.01)
+    assert_allclose(as_array(loop.twists[-1])[:3], 0.01 * loop.hand[:3, 2], atol=1e-9)
+
+
+def test_bad_inputs_are_rejected_and_the_node_serves_on(ros, status_finder) -> None:
+    loop = Loop(ros)
+    statuses = ros.diagnostics()
+    warn = bytes([protocol.WARN])
+    for bad, reason in ((twist_msg(linear=(float('nan'), 0.0, 0.0)), 'finite'),
+                        (twist_msg(frame='map'), 'no TF')):
+        assert ros.publish_until(loop.operator, bad, lambda r=reason: status_finder(
+            statuses, ': assistance', level=warn, text=r), 10.0)
+    bad_pose = matrix_to_pose_msg(pose_to_matrix((0.3, -0.3, 0.1), (0.0, 0.0, 0.0, 1.0)), frame_id='map',
+                                  stamp=ros.node.get_clock().now().to_msg())
+    assert ros.publish_until(loop.pubs[protocol.GRASP_POSE], bad_pose,
+                             lambda: status_finder(statuses, ': assistance', level=warn, text='no TF'), 10.0)
+    count = len(loop.twists)
+    loop.operator.publish(twist_msg(linear=(0.01, 0.0, 0.0)))
+    assert ros.wait_for(lambda: len(loop.twists) > count + 5, 5.0)

@@ -1,0 +1,79 @@
+"""In-process tests of the mock MICO node (private Context per test, see test/conftest.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+from builtin_interfaces.msg import Duration
+from geometry_msgs.msg import TwistStamped
+from numpy.testing import assert_allclose
+from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from grasp_intent_ros import protocol
+from grasp_intent_ros.core.grasp import JOINT_NAMES
+from grasp_intent_ros.core.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.mock_arm import MockArmNode
+
+Q0 = np.r_[HOME_Q, 0.0, 0.0, 0.0]
+END = Q0 + np.r_[0.2, -0.1, 0.15, 0.3, -0.2, 0.1, 0.9, 0.9, 0.7]
+
+
+def trajectory(names, points) -> JointTrajectory:
+    msg = JointTrajectory(joint_names=list(names))
+    for t, positions in points:
+        sec, nanosec = divmod(int(t * 1e9), 10**9)
+        msg.points.append(JointTrajectoryPoint(positions=list(positions), time_from_start=Duration(sec=sec,
+                                                                                                  nanosec=nanosec)))
+    return msg
+
+
+def latest_positions(states: list[JointState]) -> np.ndarray:
+    msg = states[-1]
+    index = {name: i for i, name in enumerate(msg.name)}
+    return np.array([msg.position[index[name]] for name in JOINT_NAMES])
+
+
+def test_the_arm_follows_a_trajectory_and_rejects_bad_ones(ros, status_finder) -> None:
+    ros.add(MockArmNode(context=ros.context))
+    states = ros.subscribe(JointState, protocol.JOINT_STATES)
+    statuses = ros.diagnostics()
+    assert ros.wait_for(lambda: states, 10.0)
+    assert list(states[-1].name) == list(JOINT_NAMES)
+    assert_allclose(latest_positions(states), Q0, atol=0)
+    pub = ros.publisher(JointTrajectory, protocol.ARM_TRAJECTORY_COMMAND)
+    for bad, reason in (
+            (trajectory([*JOINT_NAMES[:8], 'elbow'], [(1.0, END)]), 'does not have'),
+            (trajectory(JOINT_NAMES, [(1.0, END), (1.0, END)]), 'strictly increasing')):
+        warned = lambda r=reason: status_finder(statuses, ': arm', level=bytes([protocol.WARN]), text=r)  # noqa: E731
+        assert ros.publish_until(pub, bad, warned, 10.0)
+    assert_allclose(latest_positions(states), Q0, atol=0)  # nothing moved
+    duration = 1.0
+    assert ros.publish_until(pub, trajectory(JOINT_NAMES, [(0.5, (Q0 + END) / 2), (duration, END)]),
+                      lambda: np.any(latest_positions(states) != Q0), 10.0)
+    assert ros.wait_for(lambda: np.allclose(latest_positions(states), END, atol=1e-3, rtol=0), 15.0)
+    assert_allclose(latest_positions(states), END, atol=1e-3)
+
+
+def test_twists_move_the_hand_until_they_stop_and_reset(ros) -> None:
+    ros.add(MockArmNode(context=ros.context))
+    states = ros.subscribe(JointState, protocol.JOINT_STATES)
+    kin = MicoKinematics()
+    assert ros.wait_for(lambda: states, 10.0)
+    start = kin.fk(latest_positions(states)[:6])
+    pub = ros.publisher(TwistStamped, protocol.ARM_TWIST_COMMAND)
+    twist = TwistStamped()
+    twist.header.frame_id = BASE_FRAME
+    twist.twist.linear.z = 0.05
+    assert ros.publish_until(pub, twist, lambda: kin.fk(latest_positions(states)[:6])[2, 3] > start[2, 3] + 0.01,
+                      10.0, period=0.02)
+    hand = kin.fk(latest_positions(states)[:6])
+    assert_allclose(hand[:2, 3], start[:2, 3], atol=1e-3)  # straight up
+    stopped = len(states)
+    assert ros.wait_for(lambda: len(states) > stopped + 30, 5.0)  # 0.3 s without a twist: at rest
+    assert not np.any(np.asarray(states[-1].velocity))
+    client = ros.node.create_client(Trigger, 'mock_arm/reset')
+    assert client.wait_for_service(timeout_sec=5.0)
+    future = client.call_async(Trigger.Request())
+    assert ros.wait_for(future.done, 5.0) and future.result().success
+    assert ros.wait_for(lambda: np.array_equal(latest_positions(states), Q0), 5.0)
