@@ -67,17 +67,20 @@ values carry the keys ``KEY_*`` below; levels are :data:`OK`, :data:`WARN`, :dat
 from __future__ import annotations
 
 import hashlib
+import math
 import re
 import struct
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Final, Generic, NamedTuple, TypeVar, cast
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from .core.errors import GraspIntentError, ModelError, ModelFormatError
+from .core.errors import GraspIntentError, KinematicsError, ModelError, ModelFormatError
 from .core.features import MICO_3F
+from .core.frames import pose_to_matrix
 from .core.model import MAX_DOCUMENT_CHARS, GraspModel, ModelRequirements, check_document_size
 
 __all__ = [
@@ -92,6 +95,7 @@ __all__ = [
     'RepeatedLayout', 'msg_labels',
     'Stamp', 'stamp_label', 'stamped_values', 'posterior_label', 'split_posterior', 'Posterior',
     'read_posterior', 'read_features',
+    'QUATERNION_NORM_TOL', 'check_unit_quaternion', 'pose_msg_to_matrix', 'joint_positions',
     'ModelHeader', 'ModelDocument', 'model_document', 'parse_model_document', 'read_model_document',
     'OK', 'WARN', 'ERROR', 'STALE', 'LEVEL_NAMES', 'level_value', 'status_name', 'status_values',
     'KEY_RECEIVED', 'KEY_REJECTED', 'KEY_LAST_ERROR', 'KEY_PROCESSING_TIME', 'KEY_DROPPED', 'KEY_PLANS',
@@ -728,3 +732,85 @@ def status_name(node: str, component: str) -> str:
 def status_values(status: Any) -> dict[str, str]:
     """The key/value pairs of a DiagnosticStatus as a dict."""
     return {str(kv.key): str(kv.value) for kv in status.values}
+
+
+# --- robot-side messages read as values (ROS-free: attribute access only; also on rosbags' message classes) ---
+
+QUATERNION_NORM_TOL = 1e-3
+"""Largest accepted deviation of an incoming quaternion's norm from 1."""
+
+
+def check_unit_quaternion(xyzw: ArrayLike, *, tol: float = QUATERNION_NORM_TOL) -> NDArray[np.float64]:
+    """A finite quaternion (x, y, z, w) of unit norm within ``tol``, as an array of shape (4,).
+
+    Raises
+    ------
+    KinematicsError
+        For a wrong shape, a NaN or infinity, or a norm further than ``tol`` from 1.
+    """
+    try:
+        q = np.asarray(xyzw, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise KinematicsError(f'quaternion must be numeric: {exc}') from None
+    if q.shape != (4,):
+        raise KinematicsError(f'quaternion must have 4 entries (x, y, z, w), got shape {q.shape}')
+    if not np.all(np.isfinite(q)):
+        raise KinematicsError(f'quaternion must be finite, got {q.tolist()}')
+    norm = float(np.linalg.norm(q))
+    if abs(norm - 1.0) > tol:
+        raise KinematicsError(f'quaternion must have unit norm (within {tol:g}), got norm {norm:.6g} '
+                              f'for (x, y, z, w) = {q.tolist()}')
+    return q
+
+
+def pose_msg_to_matrix(msg: Any, *, frame_id: str,
+                       quat_tol: float = QUATERNION_NORM_TOL) -> NDArray[np.float64]:
+    """``frame_T_pose``, shape (4, 4), of a geometry_msgs/PoseStamped given in ``frame_id`` (no TF lookup).
+
+    Raises
+    ------
+    KinematicsError
+        If the header names another frame, the position is not finite, or the quaternion is not a
+        unit quaternion (see :func:`check_unit_quaternion`).
+    """
+    if msg.header.frame_id != frame_id:
+        raise KinematicsError(f'pose must be given in frame {frame_id!r} (no TF lookup), '
+                              f'got frame_id {msg.header.frame_id[:MAX_NAME_LENGTH]!r}')
+    p, o = msg.pose.position, msg.pose.orientation
+    position = np.array([p.x, p.y, p.z], dtype=np.float64)
+    if not np.all(np.isfinite(position)):
+        raise KinematicsError(f'pose position must be finite, got {position.tolist()}')
+    return pose_to_matrix(position, check_unit_quaternion([o.x, o.y, o.z, o.w], tol=quat_tol))
+
+
+def joint_positions(msg: Any, names: Sequence[str]) -> NDArray[np.float64] | None:
+    """Positions of ``names`` (in that order) from a sensor_msgs/JointState whose names may come in any order.
+
+    Returns
+    -------
+    ndarray, shape (len(names),), or None when the message lacks one of ``names`` (e.g. a
+    finger-only message from another publisher).
+
+    Raises
+    ------
+    KinematicsError
+        If the message has duplicate names, a different number of names and positions, or a wanted
+        position that is NaN or infinite.
+    GraspIntentError
+        For more than :data:`~grasp_intent_ros.protocol.MAX_JOINTS` names or a name longer than
+        :data:`~grasp_intent_ros.protocol.MAX_NAME_LENGTH`.
+    """
+    check_names(msg.name, max_count=MAX_JOINTS, what='joint state')
+    if len(msg.position) != len(msg.name):
+        raise KinematicsError(f'joint state has {len(msg.name)} names but {len(msg.position)} positions')
+    index = {name: i for i, name in enumerate(msg.name)}
+    if len(index) != len(msg.name):
+        duplicates = sorted(name for name, count in Counter(msg.name).items() if count > 1)
+        raise KinematicsError(f'joint state has duplicate names: {duplicates}')
+    if any(name not in index for name in names):
+        return None
+    q = np.array([msg.position[index[name]] for name in names], dtype=np.float64)
+    if not np.all(np.isfinite(q)):
+        bad = [name for name, value in zip(names, q) if not math.isfinite(value)]
+        raise KinematicsError(f'joint state positions must be finite; NaN or infinity for {bad}')
+    return q

@@ -34,15 +34,16 @@ from numpy.typing import NDArray
 from .. import protocol as topics
 from ..bag import BagError, TopicInfo, read_messages, topics_info
 from ..core.errors import GraspIntentError
-from ..core.frames import pose_to_matrix
 from ..core.intent import default_task_names
 from ..core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS
 from ..core.model import GraspModel
 from ..protocol import (
     Posterior,
     Stamp,
+    joint_positions,
     msg_labels,
     msg_to_array,
+    pose_msg_to_matrix,
     read_features,
     read_model_document,
     read_posterior,
@@ -166,12 +167,11 @@ def _take(session: ReportData, role: str, stamp: int, msg: Any) -> None:
         session.features.append((stamp, x))
         _plan_part(session, plan, stamp, 'x', x)
     elif role == 'pose':
-        _plan_part(session, _header_stamp(msg), stamp, 'base_T_ee', _pose_matrix(msg))
+        _plan_part(session, _header_stamp(msg), stamp, 'base_T_ee', pose_msg_to_matrix(msg, frame_id=BASE_FRAME))
     elif role == 'joint_targets':
-        index = dict(zip(msg.name, msg.position))
-        if len(index) != len(msg.name) or len(msg.name) != len(msg.position):
-            raise GraspIntentError('grasp/joint_targets: duplicate names or names and positions differ in number')
-        q = np.array([index[name] for name in (*ARM_JOINTS, *FINGER_JOINTS)], dtype=np.float64)  # KeyError: malformed
+        q = joint_positions(msg, (*ARM_JOINTS, *FINGER_JOINTS))
+        if q is None:
+            raise GraspIntentError('grasp/joint_targets lacks a joint of the MICO')
         _plan_part(session, _header_stamp(msg), stamp, 'q', q)
     elif role == 'model':
         try:
@@ -202,17 +202,6 @@ def _take(session: ReportData, role: str, stamp: int, msg: Any) -> None:
 
 def _header_stamp(msg: Any) -> Stamp:
     return Stamp(int(msg.header.stamp.sec), int(msg.header.stamp.nanosec))
-
-
-def _pose_matrix(msg: Any) -> NDArray[np.float64]:
-    """``base_T_pose`` of a PoseStamped in the arm's base frame (as the planner publishes ``grasp/pose``).
-
-    Raises GraspIntentError for another frame or a pose that is not finite or has a zero quaternion.
-    """
-    if msg.header.frame_id != BASE_FRAME:
-        raise GraspIntentError(f'pose in frame {str(msg.header.frame_id)[:64]!r}, not {BASE_FRAME}')
-    p, o = msg.pose.position, msg.pose.orientation
-    return pose_to_matrix([p.x, p.y, p.z], [o.x, o.y, o.z, o.w])
 
 
 def _plan_part(session: ReportData, plan: Stamp | None, received: int, part: str, value: Any) -> None:
