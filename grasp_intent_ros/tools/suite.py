@@ -15,16 +15,23 @@ One :class:`NodeSuite` serves the suite command (:func:`main`: ``python -m grasp
   (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, no ``ROS_STATIC_PEERS``), the run's ``ROS_DOMAIN_ID``,
   unbuffered output, so the log of a SIGKILLed node is complete, and the Fast DDS discovery timing of
   ``config/fastdds_loopback.xml`` (:data:`FASTDDS_PROFILE`; it also puts user data on UDP 127.0.0.1).
-- :class:`NodeProcess`: stdout and stderr go to files (no pipe can fill up and block a node); it is
-  signalled only by its own PID, SIGKILLed after a deadline, and judged clean on exit code 0 with no
+- :class:`NodeProcess`: stdout and stderr go to files (no pipe can fill up and block a node); it runs in a
+  session of its own, so it is signalled only by its own PID (a terminal's Ctrl-C reaches the command that
+  started it, never the node directly), SIGKILLed after a deadline, and judged clean on exit code 0 with no
   traceback on stderr.
+- Nodes are stopped one at a time, the last started first (:meth:`NodeSuite.stop`). Stopped together,
+  two nodes can end in a livelock of the middleware: rmw_fastrtps destroys a process's DDS participant with
+  its last node, first calling ``DomainParticipant::set_listener(nullptr)``, which in Fast DDS 2.14.5 as
+  built in the Jazzy wheels spins forever, holding the listener's mutex and the GIL, when a discovery
+  callback is running at that instant, i.e. when a peer's endpoints are coming or going: the peer's own
+  shutdown (docs/nodes.md, "Shutdown"). A node stopped while its peers are steady meets no such callback.
 - :class:`NodeSuite`: the processes of one run: start (one node, or the three suite nodes with their
   ``config/<node>.yaml``, and :data:`OPTIONAL_NODES` on request: the shared-control loop's
   :data:`SHARED_CONTROL_NODES`, the viewer), wait until ready, notice a death, stop
-  them all against one deadline.
+  them all.
 - :func:`main`: the suite command: start the nodes, copy their output to stdout with each line prefixed
-  by ``[node]``, stop them all on Ctrl-C (SIGINT) or SIGTERM; exit code 0 when every node stopped cleanly,
-  1 when one died or did not stop cleanly, 2 for bad arguments.
+  by ``[node]``, stop them all on Ctrl-C (SIGINT), SIGTERM or SIGHUP (its terminal closed); exit code 0
+  when every node stopped cleanly, 1 when one died or did not stop cleanly, 2 for bad arguments.
 
 Never imports rclpy.
 """
@@ -50,6 +57,8 @@ __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODE
            'TEST_DOMAIN_IDS', 'RUN_DOMAIN_IDS', 'FASTDDS_PROFILE', 'SuiteError', 'domain_id_from_environment',
            'use_loopback_discovery', 'node_environment', 'optional_nodes', 'NodeProcess', 'NodeSuite', 'main']
 
+_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+"""The signals on which the suite command stops its nodes (they, in sessions of their own, get none of them)."""
 STOP_TIMEOUT = 10.0
 """Seconds a node gets to exit after SIGINT/SIGTERM before it is SIGKILLed."""
 SUITE_NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
@@ -171,13 +180,10 @@ class NodeProcess:
         Prepended to the log file names (e.g. ``'00_'``).
     cwd
         Its working directory (default this process's).
-    preexec_fn
-        Run in the child before the command (e.g. to set a resource limit).
     """
 
     def __init__(self, command: Sequence[str], *, module: str, env: Mapping[str, str], log_dir: Path,
-                 prefix: str = '', cwd: Path | None = None,
-                 preexec_fn: Callable[[], None] | None = None) -> None:
+                 prefix: str = '', cwd: Path | None = None) -> None:
         self.module = module
         self.stdout_path = log_dir / f'{prefix}{module}.out'
         self.stderr_path = log_dir / f'{prefix}{module}.err'
@@ -185,7 +191,7 @@ class NodeProcess:
         self._killed = False
         with self.stdout_path.open('wb') as out, self.stderr_path.open('wb') as err:
             self.popen = subprocess.Popen(list(command), cwd=cwd, env=dict(env), stdout=out, stderr=err,
-                                          stdin=subprocess.DEVNULL, preexec_fn=preexec_fn)
+                                          stdin=subprocess.DEVNULL, start_new_session=True)
 
     @classmethod
     def start(cls, module: str, ros_args: Sequence[str] = (), *, env: Mapping[str, str], log_dir: Path,
@@ -416,9 +422,10 @@ class NodeSuite:
 
     def stop(self, sig: signal.Signals = signal.SIGTERM, *, timeout: float = STOP_TIMEOUT, tail_lines: int = 15,
              include_exited: bool = True) -> list[str]:
-        """Send ``sig`` to every process still running (by PID), wait for all against one deadline.
+        """Stop every process still running, one at a time, the last started first: ``sig`` by PID, then wait.
 
-        SIGKILL after ``timeout`` s.
+        Each gets ``timeout`` s before SIGKILL. One at a time, because nodes stopped together can livelock in
+        the middleware (module docstring).
 
         Parameters
         ----------
@@ -432,12 +439,10 @@ class NodeSuite:
             lines of that process's stderr (none for 0).
         """
         judged = [p for p in self.processes if include_exited or p.poll() is None]
-        for proc in judged:
-            proc.send_signal(sig)
-        deadline = time.monotonic() + timeout
+        for proc in reversed(judged):
+            proc.stop(sig, timeout)
         problems = []
         for proc in judged:
-            proc.wait(max(0.0, deadline - time.monotonic()))
             if problem := proc.problem():
                 problems.append(f'{problem}:\n{proc.stderr_tail(tail_lines)}' if tail_lines else problem)
         return problems
@@ -514,7 +519,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SuiteError as exc:
         parser.error(str(exc))
     stop_requested: list[int] = []
-    for sig in (signal.SIGINT, signal.SIGTERM):
+    for sig in _STOP_SIGNALS:
         signal.signal(sig, lambda signum, _frame: stop_requested.append(signum))
     echo = _Echo(suite)
     died = ''
@@ -530,7 +535,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             if died := suite.died().split(';', 1)[0]:
                 print(f'suite: {died}; stopping the others', file=sys.stderr, flush=True)
     finally:
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in _STOP_SIGNALS:
             signal.signal(sig, signal.SIG_IGN)  # the nodes are stopped once, completely
         problems = suite.stop(signal.SIGINT, tail_lines=0)
         echo.copy(final=True)

@@ -1,8 +1,8 @@
 """The suite command as a user runs it: ``python -m grasp_intent_ros suite ...`` in a terminal, then Ctrl-C.
 
 The command runs in a session of its own, and Ctrl-C is what a terminal sends: SIGINT to the whole
-foreground process group (the command and its node processes alike). Only that process group, which
-this test started, is signalled.
+foreground process group. The node processes are in sessions of their own, so only the command gets it,
+and it stops them one at a time. Only that process group, which this test started, is signalled.
 """
 
 from __future__ import annotations

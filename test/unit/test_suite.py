@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import signal
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -145,6 +146,33 @@ def test_suite_waits_notices_a_death_and_stops_by_pid(tmp_path: Path) -> None:
                                         f'quitter (pid {suite.processes[1].pid}) exited with code 3']
     suite.remove_logs()
     assert tmp_path.is_dir(), 'a log directory given by the caller stays'
+
+
+def test_nodes_stop_one_at_a_time_the_last_started_first_each_in_a_session_of_its_own(tmp_path: Path) -> None:
+    """Each writes to one shared file (appends are ordered) when it gets SIGTERM and just before it exits."""
+    journal = tmp_path / 'journal'
+    code = ('import os, signal, sys, time\n'
+            'name = sys.argv[1]\n'
+            'def note(what):\n'
+            '    with open({journal!r}, "a") as f:\n'
+            '        f.write(f"{{name}} {{what}}\\n")\n'
+            'def stop(*_):\n'
+            '    note("signalled"); time.sleep(0.2); note("exits"); sys.exit(0)\n'
+            'signal.signal(signal.SIGTERM, stop)\n'
+            'note(f"session {{os.getsid(0) == os.getpid()}}")\n'
+            'while True:\n'
+            '    time.sleep(1)\n').format(journal=str(journal))
+    suite = NodeSuite(97, log_dir=tmp_path)
+    for name in ('first', 'second', 'third'):
+        suite.processes.append(NodeProcess([sys.executable, '-c', code, name], module=name, env=suite.env,
+                                           log_dir=tmp_path))
+    assert suite.wait_ready(lambda: [] if journal.is_file() and len(journal.read_text().splitlines()) == 3
+                            else ['not yet'], lambda seconds: time.sleep(seconds), 30.0) == []
+    assert suite.stop() == []
+    lines = journal.read_text().splitlines()
+    assert sorted(lines[:3]) == ['first session True', 'second session True', 'third session True']
+    assert lines[3:] == ['third signalled', 'third exits', 'second signalled', 'second exits', 'first signalled',
+                         'first exits']
 
 
 def test_optional_nodes_start_on_request_after_the_suite_with_every_params_file(
