@@ -62,6 +62,9 @@ Diagnostics (``/diagnostics``, diagnostic_msgs/DiagnosticArray)
 Each node component publishes one status named ``"<node fully-qualified name>: <component>"`` whose
 values carry the keys ``KEY_*`` below; levels are :data:`OK`, :data:`WARN`, :data:`ERROR`, :data:`STALE`
 (rclpy gives them as a 1-byte ``bytes``: :func:`level_value`).
+
+One module by design: every wire format once, in the order of this specification, so that a change to one
+is read beside the others it must agree with (each section below is short).
 """
 
 from __future__ import annotations

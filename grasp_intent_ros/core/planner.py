@@ -88,6 +88,9 @@ Machine independence (every method): nothing goes through BLAS or LAPACK (their 
 chosen for the CPU). The model's precisions, the screens' log joints and posteriors
 (``GraspModel.start_pool``), the demonstrations' scores and every iteration sum in a fixed order and take
 ``exp`` and ``log`` from the C library, so a plan has the same bits under any BLAS.
+
+One module: :func:`plan` and the rules above are one contract over its methods; the compiled inner loops
+are :mod:`grasp_intent_ros.core.kernels`', the task method's ranking :mod:`grasp_intent_ros.core.serving`'s.
 """
 
 from __future__ import annotations
