@@ -1,4 +1,4 @@
-"""What the process benchmarks (bench_latency, bench_restart, soak) share: the network rule, a probe node, w.
+"""What the process benchmarks share: the network rule, a probe node, w, the planner primed, the teardown.
 
 Not a benchmark itself. The probe is an rclpy node in a private Context, spun by an executor in a thread
 of its own; callbacks record the middleware's receive time of each message (``received_timestamp`` of
@@ -11,7 +11,8 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -108,6 +109,44 @@ class Probe:
         self._thread.join()
         self.node.destroy_node()
         self._rclpy.try_shutdown(context=self.context)
+
+
+@contextmanager
+def stopped_after(suite: Any, probe: Probe) -> Iterator[None]:
+    """The body, then the probe closed, the suite stopped and its logs removed, also after an error.
+
+    After a body that ended normally, the problems the stop found (a node that did not exit cleanly) go to
+    stderr.
+    """
+    try:
+        yield
+    finally:
+        probe.close()
+        problems = suite.stop()
+        suite.remove_logs()
+    if problems:
+        print('\n'.join(problems), file=sys.stderr)
+
+
+def prime_planner(name: str, probe: Probe, suite: Any, model: Any, model_name: str, messages: Sequence[Any],
+                  answers: Sequence[object]) -> Any:
+    """Publish ``model`` on model/active and v until the planner answers (into ``answers``); the v publisher.
+
+    Exits (naming ``name``, the benchmark) when the planner has not answered within 60 s; then waits one more
+    second, while the planner loads the kernels its first plan did not use.
+    """
+    from std_msgs.msg import Float64MultiArray, String
+
+    from grasp_intent_ros.ros.conversions import model_to_msg
+    from grasp_intent_ros.ros.qos import latched_qos, output_qos
+
+    model_pub = probe.node.create_publisher(String, 'model/active', latched_qos())
+    v_pub = probe.node.create_publisher(Float64MultiArray, 'intent/v', output_qos())
+    model_pub.publish(model_to_msg(model, name=model_name, version=1))
+    if not probe.wait_for(lambda: answers or v_pub.publish(messages[-1]), 60.0, poll=0.2):
+        sys.exit(f'{name}: the planner did not answer within 60 s\n{suite.died()}')
+    probe.wait_for(lambda: False, 1.0)  # the kernels the first plan did not use load after it
+    return v_pub
 
 
 def paced(n: int, period: float, send: Callable[[int], None]) -> float:

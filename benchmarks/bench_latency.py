@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _bench import REPO, Probe, loopback_domain, paced, percentiles, uptime, walk
+from _bench import REPO, Probe, loopback_domain, paced, percentiles, stopped_after, uptime, walk
 
 FLOOR_W, FLOOR_V, FLOOR_POSE = 'floor/w', 'floor/v', 'floor/pose'
 
@@ -141,7 +141,7 @@ def chain_phase(domain_id: int, n: int, period: float, fast_n: int, fast_period:
     suite = NodeSuite(domain_id, cwd=code or REPO, env={'PYTHONPATH': str(code)} if code else None)
     suite.start_nodes()
     probe = Probe(domain_id)
-    try:
+    with stopped_after(suite, probe):
         statuses: dict[str, dict[str, str]] = {}
         probe.node.create_subscription(DiagnosticArray, '/diagnostics', lambda m: statuses.update(
             (s.name, status_values(s)) for s in m.status), 100)
@@ -175,12 +175,6 @@ def chain_phase(domain_id: int, n: int, period: float, fast_n: int, fast_period:
         fast_got = [(t, i) for t, i in vs if i >= n]
         fast = {'latency': [(t - sent[i]) * 1e-6 for t, i in fast_got], 'answered': len({i for _, i in fast_got}),
                 'n': fast_n, 'took': took, 'load': (load_before, uptime())}
-    finally:
-        probe.close()
-        problems = suite.stop()
-        suite.remove_logs()
-    if problems:
-        print('\n'.join(problems), file=sys.stderr)
     return chain, fast, statuses
 
 

@@ -44,7 +44,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from _bench import REPO, Probe, cpu_seconds, loopback_domain, paced, percentiles, uptime
+from _bench import REPO, Probe, cpu_seconds, loopback_domain, paced, percentiles, prime_planner, stopped_after, uptime
 
 
 def main() -> None:
@@ -67,14 +67,13 @@ def main() -> None:
 
     from diagnostic_msgs.msg import DiagnosticArray
     from sensor_msgs.msg import JointState
-    from std_msgs.msg import Float64MultiArray, String
 
     from grasp_intent_ros.core import intent
     from grasp_intent_ros.core.model import GraspModel
     from grasp_intent_ros.core.resources import config_dir
     from grasp_intent_ros.protocol import KEY_PLANS, status_values
-    from grasp_intent_ros.ros.conversions import array_to_msg, model_to_msg
-    from grasp_intent_ros.ros.qos import input_qos, latched_qos, output_qos
+    from grasp_intent_ros.ros.conversions import array_to_msg
+    from grasp_intent_ros.ros.qos import input_qos
     from grasp_intent_ros.tools.suite import NodeSuite
 
     path = Path(args.model) if args.model else config_dir() / 'models' / 'cup_7zone.yaml'
@@ -100,7 +99,7 @@ def main() -> None:
     ros_args = NodeSuite.node_args('grasp_planner') + [arg for param in params for arg in ('-p', param)]
     planner = suite.start('grasp_planner', *ros_args)
     probe = Probe(domain_id)
-    try:
+    with stopped_after(suite, probe):
         answers: list[tuple[int, int, int]] = []  # (received ns, stamp ns, published ns)
         probe.node.create_subscription(JointState, 'grasp/joint_targets', lambda msg, info: answers.append(
             (info['received_timestamp'], msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec,
@@ -108,12 +107,7 @@ def main() -> None:
         samples: list[dict[str, str]] = []
         probe.node.create_subscription(DiagnosticArray, '/diagnostics', lambda msg: samples.extend(
             status_values(s) for s in msg.status if s.name.endswith('planning')), 100)
-        model_pub = probe.node.create_publisher(String, 'model/active', latched_qos())
-        v_pub = probe.node.create_publisher(Float64MultiArray, 'intent/v', output_qos())
-        model_pub.publish(model_to_msg(model, name=path.stem, version=1))
-        if not probe.wait_for(lambda: answers or v_pub.publish(messages[-1]), 60.0, poll=0.2):
-            sys.exit(f'bench_planner_node: the planner did not answer within 60 s\n{suite.died()}')
-        probe.wait_for(lambda: False, 1.0)  # the kernels the first plan did not use load after it
+        v_pub = prime_planner('bench_planner_node', probe, suite, model, path.stem, messages, answers)
         answers.clear()
         sent = [0] * n
 
@@ -126,12 +120,6 @@ def main() -> None:
         cpu = cpu_seconds(planner.pid) - cpu_before
         load_after = uptime()
         probe.wait_for(lambda: False, 1.5)  # late answers would be a backlog; one more diagnostics period
-    finally:
-        probe.close()
-        problems = suite.stop()
-        suite.remove_logs()
-    if problems:
-        print('\n'.join(problems), file=sys.stderr)
 
     burst = [answer for answer in answers if answer[1] >= sent[0]]
     pairs = [(received, bisect.bisect_right(sent, stamp) - 1) for received, stamp, _ in burst]

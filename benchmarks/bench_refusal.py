@@ -31,7 +31,8 @@ from _bench import REPO, uptime
 
 from grasp_intent_ros.core.errors import GraspIntentError
 from grasp_intent_ros.core.intent import DEFAULT_TASKS, all_zones, zone_labels
-from grasp_intent_ros.core.model import MAX_DOCUMENT_CHARS, GraspModel
+from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.core.safe_yaml import MAX_DOCUMENT_CHARS
 from grasp_intent_ros.protocol import read_model_document
 from grasp_intent_ros.ros.model_follower import served_models, yielding_reader
 

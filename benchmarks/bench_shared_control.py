@@ -54,7 +54,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
-from _bench import REPO, Probe, loopback_domain, uptime
+from _bench import REPO, Probe, loopback_domain, stopped_after, uptime
 
 from grasp_intent_ros.core.assistance import clip_norm, pose_error
 from grasp_intent_ros.core.data import load_csv
@@ -362,7 +362,7 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int, op: Operator
     suite.start_nodes(model=model_name, shared_control=True)
     probe = Probe(domain_id, 'bench_operator')
     runs: list[Run] = []
-    try:
+    with stopped_after(suite, probe):
         loop = Loop(probe, kin, rules)
         warm = np.array([0.9, 0.1, 0.1])
         if not probe.wait_for(lambda: (loop.plans and loop.hands and loop.alphas) or loop.send_w(warm), 90.0,
@@ -386,12 +386,6 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int, op: Operator
                       flush=True)
             if problem := suite.died():
                 sys.exit(f'bench_shared_control: {problem}')
-    finally:
-        probe.close()
-        problems = suite.stop()
-        suite.remove_logs()
-    if problems:
-        print('\n'.join(problems), file=sys.stderr)
     return runs, latency
 
 

@@ -35,7 +35,18 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _bench import REPO, Probe, cpu_seconds, loopback_domain, paced, percentiles, rss_mb, uptime
+from _bench import (
+    REPO,
+    Probe,
+    cpu_seconds,
+    loopback_domain,
+    paced,
+    percentiles,
+    prime_planner,
+    rss_mb,
+    stopped_after,
+    uptime,
+)
 
 sys.path.insert(0, str(REPO / 'test'))
 from cdp import INSTALL, Chromium, chromium_path  # noqa: E402 - the tests' DevTools client
@@ -64,14 +75,13 @@ def main() -> None:
 
     from diagnostic_msgs.msg import DiagnosticArray
     from sensor_msgs.msg import JointState
-    from std_msgs.msg import Float64MultiArray, String
 
     from grasp_intent_ros.core import intent
     from grasp_intent_ros.core.model import GraspModel
     from grasp_intent_ros.core.resources import config_dir
     from grasp_intent_ros.protocol import status_values
-    from grasp_intent_ros.ros.conversions import array_to_msg, model_to_msg
-    from grasp_intent_ros.ros.qos import input_qos, latched_qos, output_qos
+    from grasp_intent_ros.ros.conversions import array_to_msg
+    from grasp_intent_ros.ros.qos import input_qos
     from grasp_intent_ros.tools.suite import NodeSuite
 
     path = config_dir() / 'models' / 'cup_7zone.yaml'
@@ -89,7 +99,7 @@ def main() -> None:
     planner = suite.start('grasp_planner', *NodeSuite.node_args('grasp_planner'))
     probe = Probe(domain_id)
     phases: list[tuple[str, list[float], int, float, float, int]] = []
-    try:
+    with stopped_after(suite, probe):
         answers: list[tuple[int, int]] = []  # (received ns, stamp ns)
         probe.node.create_subscription(JointState, 'grasp/joint_targets', lambda msg, info: answers.append(
             (info['received_timestamp'], msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec)),
@@ -97,12 +107,7 @@ def main() -> None:
         viewer_status: dict[str, str] = {}
         probe.node.create_subscription(DiagnosticArray, '/diagnostics', lambda msg: viewer_status.update(
             *(status_values(s) for s in msg.status if s.name.endswith('viewer: viewer'))), 100)
-        model_pub = probe.node.create_publisher(String, 'model/active', latched_qos())
-        v_pub = probe.node.create_publisher(Float64MultiArray, 'intent/v', output_qos())
-        model_pub.publish(model_to_msg(model, name=path.stem, version=1))
-        if not probe.wait_for(lambda: answers or v_pub.publish(messages[-1]), 60.0, poll=0.2):
-            sys.exit(f'bench_viewer: the planner did not answer within 60 s\n{suite.died()}')
-        probe.wait_for(lambda: False, 1.0)  # the kernels the first plan did not use load after it
+        v_pub = prime_planner('bench_viewer', probe, suite, model, path.stem, messages, answers)
         load_before = uptime()
         for phase in [c for _ in range(args.rounds) for c in CONDITIONS]:
             viewer = browser = None
@@ -151,12 +156,6 @@ def main() -> None:
         if phases:
             print(f'[{load_before} -> {load_after}]')
         connections(args.connections, suite, probe, viewer_status, browser_path, v_pub, messages[0], answers)
-    finally:
-        probe.close()
-        problems = suite.stop()
-        suite.remove_logs()
-    if problems:
-        print('\n'.join(problems), file=sys.stderr)
 
 
 def connections(count: int, suite: Any, probe: Probe, viewer_status: dict[str, str], browser_path: str,

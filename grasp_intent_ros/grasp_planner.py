@@ -1,39 +1,18 @@
-"""Grasp planner node: target vector v + active model + object pose -> MICO grasp (paper Algorithm 1).
+"""Grasp planner node: target vector v + active model + object pose -> MICO grasp (docs/planner.md).
 
 Run: ``python -m grasp_intent_ros.grasp_planner [--ros-args --params-file config/grasp_planner.yaml]``
 
-Topics (relative; formats in :mod:`grasp_intent_ros.protocol`)
-    in   ``intent/v`` (all zones of the model's tasks), ``model/active`` (latched), ``object/pose`` (in
-         ``m1n6s300_link_base``; default: the ``object_*`` parameters), ``joint_states`` (IK seed)
-    out  ``grasp/pose``, ``grasp/joint_targets``, ``grasp/trajectory``, ``grasp/posterior``,
-         ``grasp/features``, ``grasp/markers`` (:func:`grasp_intent_ros.ros.grasp_messages.grasp_messages`; markers at
-         most every ``markers_period`` s), stamped with the arrival time of the plan's newest input (the
-         trajectory: zero, "start now");
-         ``intent/clarification`` (once per intent and model) when v fits no model zone or no grasp is
-         reachable, and for each v while the planner has no model the suite serves because the newest was
-         refused; ``/diagnostics`` (``inputs``, ``planning``: ``last plan status`` says what happened)
+Topics (relative; formats in :mod:`grasp_intent_ros.protocol`; each in docs/nodes.md)
+    in   ``intent/v``, ``model/active`` (latched), ``object/pose`` (default: the ``object_*`` parameters),
+         ``joint_states`` (IK seed)
+    out  ``grasp/*`` (:class:`~grasp_intent_ros.ros.grasp_messages.GraspOutputs`: all or none), else
+         ``intent/clarification`` with the reason; ``/diagnostics`` (``inputs``, ``planning``)
 
-Behaviour
-    A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs (never a backlog) with
-    :func:`grasp_intent_ros.core.grasp.plan_grasp`, warm-started from the last plan of the same model. Its
-    thread takes ``intent/v`` itself (the executor thread handles the other inputs, parameters and timers):
-    a v is planned in the thread that received it, and while a plan runs the newest v waits in the
-    keep-last-1 queue (an older one it replaces is counted in ``messages dropped``).
-    A new ``model/active`` is read in a thread of its own (:class:`~grasp_intent_ros.ros.model_follower.
-    ModelFollower`) and swapped in whole; until then planning goes on with the current model. A model the
-    suite does not serve (:func:`~grasp_intent_ros.ros.model_follower.served_models`: tasks other than
-    ``task_names``, features other than the MICO's) is refused before it is built, and the current one kept;
-    with none, the ``inputs`` status is ERROR.
-    At start the planning thread first loads numba's CPU target and the IK kernel, which every plan uses
-    (``compiled kernels load time [ms]`` in the ``planning`` diagnostics), while the node discovers its
-    peers and waits for its first inputs; the first plan loads the planner kernels it uses, and the
-    others (e.g. least squares after an exact match) are loaded right after it (``compiled kernels loaded
-    after the first plan [ms]``): a restarted planner answers sooner, its second plan waits for them once.
-    As a process of its own, the planner runs without cyclic garbage collection until its start-up
-    loading is done and with OpenBLAS single-threaded (:mod:`grasp_intent_ros.ros.startup`: less CPU
-    before its first answer after a restart).
-
-Parameters: :data:`PARAMETERS`, ``config/grasp_planner.yaml``.
+A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs, never a backlog, with
+:func:`grasp_intent_ros.core.grasp.plan_grasp`, warm-started from the last plan of the same model; its
+thread takes ``intent/v`` itself. A :class:`~grasp_intent_ros.ros.model_follower.ModelFollower` reads each
+new ``model/active`` in a thread of its own; :mod:`grasp_intent_ros.ros.startup` tunes the process and
+loads the compiled kernels ahead (docs/nodes.md, "The planner node"). Parameters: :data:`PARAMETERS`.
 """
 
 from __future__ import annotations
@@ -44,11 +23,7 @@ if __name__ == '__main__':  # a node process: before the imports below (grasp_in
     startup.begin()
 
 import functools
-import math
-import sys
-import time
-import typing
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -62,50 +37,28 @@ from sensor_msgs.msg import JointState
 from . import protocol as topics
 from .core import planner
 from .core.frames import pose_to_matrix
-from .core.grasp import (
-    OUTCOMES,
-    Grasp,
-    NoModelZone,
-    NoReachableGrasp,
-    check_grasp,
-    check_workspace,
-    plan_grasp,
-)
+from .core.grasp import check_workspace, plan_grasp
 from .core.intent import match_zones
-from .core.kernels import warm_up
 from .core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
-from .protocol import (
-    KEY_KERNELS_LATE_LOAD_TIME,
-    KEY_KERNELS_LOAD_TIME,
-    KEY_MODEL,
-    KEY_PLAN_STATUS,
-    KEY_PLANNING_TIME,
-    KEY_PLANS,
-    OK,
-    WARN,
-    ModelDocument,
-)
+from .protocol import KEY_MODEL, KEY_PLAN_STATUS, OK, WARN, ModelDocument
 from .ros.clarification import ClarificationRequests
-from .ros.conversions import SerializedTargets, message_class
+from .ros.conversions import SerializedTargets
 from .ros.diagnostics import NodeDiagnostics
-from .ros.grasp_messages import grasp_messages
+from .ros.grasp_messages import GraspOutputs
 from .ros.inputs import decode_input, subscribe_input
 from .ros.model_follower import ModelFollower, served_models
 from .ros.params import TASK_NAMES, ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
-from .ros.qos import input_qos, output_publisher
+from .ros.qos import input_qos
 from .ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
-from .ros.run import guard_exit, publish_all, run_node
 from .ros.worker import LatestOnlyWorker
 
-__all__ = ['GraspPlanner', 'PARAMETERS', 'GIL_SWITCH_INTERVAL', 'main']
-
-_METHODS: tuple[str, ...] = typing.get_args(planner.Method)
+__all__ = ['GraspPlanner', 'PARAMETERS', 'main']
 
 PARAMETERS = (
     ParamSpec('method', planner.DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
               "likely tasks, docs/planner.md), or the paper's 'lm' (P = v by log-odds projection, else least "
-              "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(_METHODS),
-              constraints=f'one of {", ".join(_METHODS)}'),
+              "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(planner.METHODS),
+              constraints=f'one of {", ".join(planner.METHODS)}'),
     ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
     ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),
     ParamSpec('object_position', (0.3, -0.3, 0.0),
@@ -144,35 +97,33 @@ class _Inputs:
     stamp: Time | None = None
 
 
-def _check_workspace(values: Mapping[str, Any]) -> None:
-    """The parameters' object position must lie within their workspace radius."""
-    check_workspace(values['object_position'], values['workspace_radius'], what='object_position')
-
-
 class GraspPlanner(Node):
     """Plans a MICO grasp for the newest v, model and object pose. ``kwargs`` go to ``rclpy.node.Node``."""
 
     def __init__(self, node_name: str = 'grasp_planner', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._inputs_diag, self._plan_diag = NodeDiagnostics(self, 'inputs'), NodeDiagnostics(self, 'planning')
-        self._params = declare_parameters(self, PARAMETERS, check=_check_workspace, on_change=self._on_parameters)
+        self._params = declare_parameters(self, PARAMETERS, on_change=self._on_parameters, check=lambda values:
+                                          check_workspace(values['object_position'], values['workspace_radius'],
+                                                          what='object_position'))
         try:
             self._kin = MicoKinematics(self._params['urdf_path'] or None)
         except FileNotFoundError as exc:
             raise ParameterError(f'urdf_path: {exc}') from None
         self._warm: tuple[tuple[str, str], NDArray[np.float64]] | None = None
-        self._markers_due = -math.inf  # time.monotonic() from which the next plan publishes markers
-        self._counts = dict.fromkeys((KEY_PLANS, *OUTCOMES), 0)
         self._clarifications = ClarificationRequests(self, self._plan_diag, count_key='clarifications requested',
                                                      outcome_key=KEY_PLAN_STATUS, level=WARN, log=True)
         self._plan_diag.set_state(OK, f'waiting for {topics.MODEL_ACTIVE} and {topics.INTENT_V}')
-        self._pubs = {topic: output_publisher(self, message_class(topic), topic)
-                      for topic in (*topics.PLAN_TOPICS, topics.GRASP_MARKERS)}
+        self._outputs = GraspOutputs(self, self._kin, self._plan_diag, self._clarifications,
+                                     object_size=lambda: self._params['object_marker_size'],
+                                     markers_period=lambda: float(self._params['markers_period']))
+        kernels = startup.KernelWarmUp(lambda: self._kin.ik(self._kin.fk(HOME_Q), HOME_Q, restarts=0),
+                                       report=self._plan_diag.set_value, warn=self.get_logger().warning)
         base_T_obj = pose_to_matrix(self._params['object_position'], self._params['object_orientation'])
         self._worker = LatestOnlyWorker(_Inputs(base_T_obj=base_T_obj), self._plan_diag.guard(self._plan),
                                         ready=self._ready, name=f'{node_name}_planning',
                                         min_period=lambda: float(self._params['min_replan_period']),
-                                        prepare=self._load_kernels, after_first=self._load_other_kernels,
+                                        prepare=kernels.at_start, after_first=kernels.after_first,
                                         context=self.context)
         # SIGINT/SIGTERM shut the context down before destroy_node runs: stop planning at once
         self.context.on_shutdown(self._worker.stop_soon)
@@ -186,26 +137,6 @@ class GraspPlanner(Node):
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, latest, diag)
         # not keep-last 1: arm and finger states may come from different publishers
         subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), diag)
-
-    def _load_kernels(self) -> None:  # in the planning thread at start: overlaps discovery and model/active
-        """Load numba's CPU target and the IK kernel, by one IK of the arm's home pose (every plan runs IK)."""
-        try:
-            self._timed_load(KEY_KERNELS_LOAD_TIME, lambda: self._kin.ik(self._kin.fk(HOME_Q), HOME_Q, restarts=0))
-        finally:
-            startup.end()  # the node's code is loaded
-
-    def _load_other_kernels(self) -> None:  # in the planning thread, right after the first plan
-        """Load the kernels the first plan did not use (loaded ones cost nothing)."""
-        self._timed_load(KEY_KERNELS_LATE_LOAD_TIME, warm_up)
-
-    def _timed_load(self, key: str, load: Callable[[], object]) -> None:
-        start = time.perf_counter()
-        try:
-            load()
-        except Exception as exc:  # noqa: BLE001 - then a plan loads them, and reports what fails
-            self.get_logger().warning(f'compiled planner kernels not loaded ahead: {exc}')
-            return
-        self._plan_diag.set_value(key, f'{1e3 * (time.perf_counter() - start):.0f}')
 
     def destroy_node(self) -> None:
         """Stop the planning and model threads (after their current work), then destroy the node."""
@@ -264,61 +195,16 @@ class GraspPlanner(Node):
                            method=self._params['method'], n_starts=self._params['n_starts'],
                            ik_restarts=self._params['ik_restarts'])
         try:
-            status = self._publish_grasp(grasp, inputs, key)
+            if (checked := self._outputs.send(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
+                                              once_for=(inputs.v_seq, key), stopping=lambda: self._worker.stopping)):
+                self._warm = (key, checked.result.x)
         finally:  # the diagnostics after the outputs, off their path
-            if not isinstance(grasp, NoModelZone):
-                self._counts[KEY_PLANS] += 1
-                self._counts[grasp.outcome] += 1
-                self._plan_diag.set_values({KEY_PLANNING_TIME: f'{1e3 * grasp.result.wall_time_s:.3f}',
-                                            'last IK time [ms]': f'{1e3 * grasp.ik_seconds:.3f}',
-                                            'last plan reachability': grasp.note, **self._counts})
             self._plan_diag.set_value('inputs superseded', self._worker.superseded)
-        if status is not None:
-            self._plan_diag.set_value(KEY_PLAN_STATUS, status)
-        if isinstance(grasp, Grasp) and grasp.fallback:
-            self.get_logger().warning(grasp.note, throttle_duration_sec=5.0)
-
-    def _publish_grasp(self, grasp: Grasp | NoReachableGrasp | NoModelZone, inputs: _Inputs,
-                       key: tuple[str, str]) -> str | None:
-        """Publish a grasp's outputs or ask for clarification; the plan's status when published, else None.
-
-        All outputs or none: every message is built and checked before the first is published.
-        """
-        assert inputs.model and inputs.base_T_obj is not None and inputs.stamp
-        if isinstance(grasp, (NoModelZone, NoReachableGrasp)):
-            self._clarifications.request(grasp.reason, once_for=(inputs.v_seq, key))
-            return None
-        try:
-            check_grasp(grasp, self._kin)
-            markers = time.monotonic() >= self._markers_due
-            messages = grasp_messages(grasp, inputs.model, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
-                                      object_size=self._params['object_marker_size'], markers=markers)
-        except (ValueError, OverflowError) as exc:
-            self._clarifications.request(f'no grasp published: {exc}', once_for=(inputs.v_seq, key))
-            return None
-        self._warm = (key, grasp.result.x)
-        if self._worker.stopping:
-            return None
-        if markers:
-            self._markers_due = time.monotonic() + float(self._params['markers_period'])
-        publish_all(self, self._pubs, messages)
-        return f'grasp published ({grasp.result.message})'
-
-
-GIL_SWITCH_INTERVAL = 0.0005
-"""Seconds (Python's default: 0.005) the planning thread may hold the GIL while the executor thread waits.
-
-The executor thread needs the GIL several times per message; with the default it could wait up to 5 ms
-each time behind a plan in progress, so a new v waited while the planner started on an older one.
-"""
 
 
 def main(args: list[str] | None = None) -> None:
-    """Entry point: run the node until SIGINT/SIGTERM (with :data:`GIL_SWITCH_INTERVAL`, :mod:`.ros.startup`)."""
-    startup.begin()
-    sys.setswitchinterval(GIL_SWITCH_INTERVAL)
-    run_node(GraspPlanner, args)
-    guard_exit()  # the interpreter's exit too must end, or leave the stacks
+    """Entry point: run the node until SIGINT/SIGTERM, in a process tuned by :func:`.ros.startup.run`."""
+    startup.run(GraspPlanner, args)
 
 
 if __name__ == '__main__':

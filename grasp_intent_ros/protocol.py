@@ -53,7 +53,7 @@ Three header lines (model name, version, sha256 of the YAML that follows), then 
 counts activations in one model server (1 = the first model it published); it restarts at 1 when the
 server restarts. ``model_sha256`` identifies the content: a consumer that must know whether the model
 changed compares (name, sha256); to order documents from one server it compares versions.
-A document holds at most :data:`~grasp_intent_ros.core.model.MAX_DOCUMENT_CHARS` characters (checked on
+A document holds at most :data:`~grasp_intent_ros.core.safe_yaml.MAX_DOCUMENT_CHARS` characters (checked on
 the raw text before the header is matched or the body hashed) and its YAML no alias (``*name``): readers
 reject both (:meth:`~grasp_intent_ros.core.model.GraspModel.from_yaml`).
 
@@ -62,6 +62,9 @@ Diagnostics (``/diagnostics``, diagnostic_msgs/DiagnosticArray)
 Each node component publishes one status named ``"<node fully-qualified name>: <component>"`` whose
 values carry the keys ``KEY_*`` below; levels are :data:`OK`, :data:`WARN`, :data:`ERROR`, :data:`STALE`
 (rclpy gives them as a 1-byte ``bytes``: :func:`level_value`).
+
+One module by design: every wire format once, in the order of this specification, so that a change to one
+is read beside the others it must agree with (each section below is short).
 """
 
 from __future__ import annotations
@@ -81,7 +84,8 @@ from numpy.typing import ArrayLike, NDArray
 from .core.errors import GraspIntentError, KinematicsError, ModelError, ModelFormatError
 from .core.features import MICO_3F
 from .core.frames import pose_to_matrix
-from .core.model import MAX_DOCUMENT_CHARS, GraspModel, ModelRequirements, check_document_size
+from .core.model import GraspModel, ModelRequirements
+from .core.safe_yaml import MAX_DOCUMENT_CHARS, check_document_size
 
 __all__ = [
     'INTENT_W', 'INTENT_V', 'INTENT_CLARIFICATION', 'MODEL_ACTIVE', 'MODEL_AMBIGUITY',
@@ -639,7 +643,7 @@ def parse_model_document(text: str, *, check_sha256: bool = True) -> tuple[Model
     Raises
     ------
     ModelFormatError
-        If the text is oversized (:data:`~grasp_intent_ros.core.model.MAX_DOCUMENT_CHARS`, checked
+        If the text is oversized (:data:`~grasp_intent_ros.core.safe_yaml.MAX_DOCUMENT_CHARS`, checked
         first), the header lines are missing or malformed, ``model_version < 1``, or (when checked) the
         body's sha256 differs from the header's.
     """

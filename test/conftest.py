@@ -237,7 +237,7 @@ def weaponised_model_documents() -> Callable[..., dict[str, tuple[str, str]]]:
 
 def _weaponised_model_documents(model: Any, *, name: str = 'cup_7zone', version: int = 2
                                 ) -> dict[str, tuple[str, str]]:
-    from grasp_intent_ros.core.model import ALIAS, MAX_DOCUMENT_CHARS, OVERSIZED, TOO_DEEP
+    from grasp_intent_ros.core.safe_yaml import ALIAS, MAX_DOCUMENT_CHARS, OVERSIZED, TOO_DEEP
 
     def document(body: str) -> str:
         sha = hashlib.sha256(body.encode()).hexdigest()

@@ -11,7 +11,7 @@ import importlib
 from types import ModuleType
 
 __all__ = ['ambiguity', 'arm', 'assistance', 'body', 'data', 'errors', 'features', 'frames', 'grasp', 'intent',
-           'kinematics', 'model', 'planner', 'registry', 'resources']
+           'kinematics', 'model', 'planner', 'registry', 'resources', 'safe_yaml']
 
 
 def __getattr__(name: str) -> ModuleType:

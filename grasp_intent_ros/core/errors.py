@@ -33,7 +33,7 @@ class ModelFormatError(ModelError):
     """A saved model document is malformed (missing field, wrong shape, non-positive-definite covariance).
 
     ``reason`` is the project's own name for what stopped a document's reader, whichever layer stopped it
-    (libyaml's parser or this package): one of ``core.model.DOCUMENT_REASONS``, which the message also
+    (libyaml's parser or this package): one of ``core.safe_yaml.DOCUMENT_REASONS``, which the message also
     contains; None for a problem with a field of a parsed document (the message names the field).
     """
 

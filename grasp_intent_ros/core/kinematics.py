@@ -39,6 +39,8 @@ i  a (m)  d (m)                     alpha    s    o
 turn without end stops on the robot; the URDF gives them +-4 pi limits so that Pinocchio keeps one plain
 angle per joint. Joint 2 is limited to [50, 310] deg and joint 3 to [35, 325] deg.
 
+One module: the DH table, forward kinematics and IK share the arm's model and limits; the IK's compiled
+descent is :mod:`grasp_intent_ros.core.kernels.ik`'s.
 """
 
 from __future__ import annotations

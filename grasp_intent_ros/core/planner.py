@@ -88,6 +88,9 @@ Machine independence (every method): nothing goes through BLAS or LAPACK (their 
 chosen for the CPU). The model's precisions, the screens' log joints and posteriors
 (``GraspModel.start_pool``), the demonstrations' scores and every iteration sum in a fixed order and take
 ``exp`` and ``log`` from the C library, so a plan has the same bits under any BLAS.
+
+One module: :func:`plan` and the rules above are one contract over its methods; the compiled inner loops
+are :mod:`grasp_intent_ros.core.kernels`', the task method's ranking :mod:`grasp_intent_ros.core.serving`'s.
 """
 
 from __future__ import annotations
@@ -96,7 +99,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -124,6 +127,7 @@ __all__ = [
     'Candidate',
     'PlanResult',
     'Method',
+    'METHODS',
     'DEFAULT_METHOD',
     'Gradient',
     'MATCH_TOL',
@@ -139,6 +143,8 @@ __all__ = [
 ]
 
 Method = Literal['task', 'lm', 'slsqp', 'trust-constr']
+METHODS: tuple[Method, ...] = get_args(Method)
+"""Every :data:`Method`, in order."""
 DEFAULT_METHOD: Method = 'task'
 """The method :func:`plan` uses unless told otherwise (the planner node's default too)."""
 Gradient = Literal['analytic', '2-point']
@@ -596,7 +602,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
     v_arr = _check_v(model, v)
     if n_starts < 1 or top_zones < 1:
         raise PlanningError('n_starts and top_zones must be at least 1')
-    if method not in ('task', 'lm', 'slsqp', 'trust-constr'):
+    if method not in METHODS:
         raise PlanningError(f"method must be 'task', 'lm', 'slsqp' or 'trust-constr', got {method!r}")
     if not (0.0 <= tau <= 1.0 and 0.0 <= hysteresis <= 1.0):
         raise PlanningError(f'tau and hysteresis must lie in [0, 1], got {tau!r} and {hysteresis!r}')

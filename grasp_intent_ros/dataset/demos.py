@@ -59,6 +59,9 @@ per task set; a demonstration draws a style uniformly, then perturbs every param
 thumb-up and with the wrist turned (only the handover rule asks for the turn); the grasps that serve
 two tasks sit in the threshold bands between the single-task ones. This keeps the zones of a model
 distinguishable but overlapping, which is what lets the planner blend them (paper Tables II-VI).
+
+One module: the objects' geometry, their rules and the prototypes sampled against them are one
+specification (the paper's Table I), read together.
 """
 
 from __future__ import annotations

@@ -28,8 +28,9 @@ from ..core.body import ObjectBody
 from ..core.data import Demonstrations, load_csv
 from ..core.errors import DataError, ModelError, ModelFormatError
 from ..core.intent import zone_labels
-from ..core.model import DEFAULT_RIDGE, ZONE_STRUCTURES, GraspModel, parse_document, read_document, structure_zones
+from ..core.model import DEFAULT_RIDGE, ZONE_STRUCTURES, GraspModel, structure_zones
 from ..core.resources import config_dir
+from ..core.safe_yaml import parse_document, read_document
 from ..tools.cli import report_user_errors
 
 __all__ = ['parse_zones_option', 'default_model_name', 'load_body', 'train', 'summary', 'main']
@@ -62,7 +63,7 @@ def default_model_name(csv_path: str | Path, spec: str) -> str:
 def load_body(path: str | Path) -> ObjectBody:
     """Read an object body from YAML: a ``body:`` mapping (or the mapping itself) of primitives.
 
-    Read as safely as a model document (:func:`grasp_intent_ros.core.model.parse_document`).
+    Read as safely as a model document (:func:`grasp_intent_ros.core.safe_yaml.parse_document`).
 
     Raises
     ------

@@ -8,8 +8,9 @@ Modules
 run
     ``run_node``: the Jazzy init / spin / shutdown idiom, written once (SIGINT and SIGTERM exit 0).
 startup
-    A node process's start made cheaper (no cyclic garbage collection until its code is loaded, OpenBLAS
-    single-threaded); imports neither rclpy nor numpy.
+    A node process tuned for a fast start and quick answers (``run``: no cyclic garbage collection until its
+    code is loaded, OpenBLAS single-threaded, a short GIL switch interval; ``KernelWarmUp``: the compiled
+    kernels loaded ahead); imports neither rclpy nor numpy.
 qos
     QoS profiles: input (compatible with ``ros2 topic pub``), output, latched.
 params
@@ -33,7 +34,8 @@ robot
 markers
     RViz markers of a planned grasp.
 grasp_messages
-    The messages of one planned grasp (:class:`grasp_intent_ros.core.grasp.Grasp`).
+    The messages of one planned grasp (:class:`grasp_intent_ros.core.grasp.Grasp`); ``GraspOutputs``, the
+    planner's output stage (all or none, else a clarification request).
 compat
     Every workaround of rclpy internals, each naming the rclpy it works around (a test fails when rclpy
     changes, so that they are checked again).

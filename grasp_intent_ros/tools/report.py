@@ -32,7 +32,8 @@ Reads the bag with :mod:`grasp_intent_ros.bag` (no rclpy, matplotlib's Agg rende
 Topics are found by name suffix (``/robot1/intent/v`` is ``intent/v``), so namespaced sessions work.
 Exit code 2 with a one-line message when the bag is missing or unreadable.
 
-What is read from the bag: :mod:`grasp_intent_ros.sessions.report_data`.
+What is read from the bag: :mod:`grasp_intent_ros.sessions.report_data`. One module: one short function
+per figure above, and the summary that lists them.
 """
 
 from __future__ import annotations

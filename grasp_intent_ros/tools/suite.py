@@ -33,7 +33,8 @@ One :class:`NodeSuite` serves the suite command (:func:`main`: ``python -m grasp
   by ``[node]``, stop them all on Ctrl-C (SIGINT), SIGTERM or SIGHUP (its terminal closed); exit code 0
   when every node stopped cleanly, 1 when one died or did not stop cleanly, 2 for bad arguments.
 
-Never imports rclpy.
+Never imports rclpy. One module: the processes, the environment they share and the command that runs
+them are one job, starting the suite.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""grasp_intent_ros.ros.startup: a node process's start (a process per case: the settings are process-wide)."""
+"""grasp_intent_ros.ros.startup: a node process's start (a process per case where the settings are process-wide)."""
 
 from __future__ import annotations
 
@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from grasp_intent_ros.protocol import KEY_KERNELS_LATE_LOAD_TIME, KEY_KERNELS_LOAD_TIME
+from grasp_intent_ros.ros import startup
 from grasp_intent_ros.tools.suite import node_environment
 
 REPO = Path(__file__).resolve().parents[2]
@@ -71,3 +73,33 @@ def test_the_planner_process_collects_again_once_its_kernels_are_loaded(domain_i
          'assert gc.isenabled() and gc.get_freeze_count() > 1000, "the collector was not turned on again"\n'
          'node.destroy_node()\n'
          'rclpy.shutdown()\n', env=node_environment(domain_id))
+
+
+def test_run_tunes_the_process_before_the_node_is_built(domain_id: int) -> None:
+    code = ('import gc, sys\n'
+            'from grasp_intent_ros.ros import startup\n'
+            'from grasp_intent_ros.ros.params import ParameterError\n'
+            'def node():\n'
+            '    assert sys.getswitchinterval() == startup.GIL_SWITCH_INTERVAL and not gc.isenabled()\n'
+            '    raise ParameterError("tuned")\n'
+            'startup.run(node, [])\n')
+    result = subprocess.run([sys.executable, '-c', code], cwd=REPO, env=node_environment(domain_id),
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 1 and 'cannot start: tuned' in result.stdout + result.stderr, result.stderr
+
+
+def test_kernel_warm_up_reports_each_load_and_warns_of_one_that_failed() -> None:
+    reports: list[tuple[str, float]] = []
+    warnings: list[str] = []
+
+    def failing() -> None:
+        raise RuntimeError('no CPU target')
+
+    startup.KernelWarmUp(failing, report=lambda k, v: reports.append((k, float(v))), warn=warnings.append).at_start()
+    assert reports == [] and warnings == ['compiled planner kernels not loaded ahead: no CPU target']
+    warm_up = startup.KernelWarmUp(lambda: None, report=lambda k, v: reports.append((k, float(v))),
+                                   warn=warnings.append)
+    warm_up.at_start()
+    warm_up.after_first()
+    assert [key for key, _ in reports] == [KEY_KERNELS_LOAD_TIME, KEY_KERNELS_LATE_LOAD_TIME]
+    assert all(ms >= 0.0 for _, ms in reports) and len(warnings) == 1

@@ -16,8 +16,9 @@ from grasp_intent_ros.core.data import Demonstrations, load_csv, save_csv
 from grasp_intent_ros.core.errors import DataError, InvalidFeaturesError
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import all_zones, parse_zones
-from grasp_intent_ros.core.model import MAX_DOCUMENT_CHARS, GraspModel, structure_zones
+from grasp_intent_ros.core.model import GraspModel, structure_zones
 from grasp_intent_ros.core.resources import config_dir
+from grasp_intent_ros.core.safe_yaml import MAX_DOCUMENT_CHARS
 from grasp_intent_ros.dataset import demos, generate_data, train
 
 DEG = math.pi / 180.0

@@ -16,20 +16,22 @@ from grasp_intent_ros.core.errors import DataError, InvalidFeaturesError, ModelE
 from grasp_intent_ros.core.features import MICO_3F
 from grasp_intent_ros.core.intent import DEFAULT_TASKS
 from grasp_intent_ros.core.model import (
-    ALIAS,
-    MAX_DOCUMENT_CHARS,
-    MAX_DOCUMENT_DEPTH,
     MAX_FEATURE_DIM,
-    NOT_YAML,
-    TOO_DEEP,
     ZONE_STRUCTURES,
     GraspModel,
     ModelRequirements,
     _precisions_and_log_norms,
-    parse_document,
     structure_zones,
 )
 from grasp_intent_ros.core.resources import config_dir
+from grasp_intent_ros.core.safe_yaml import (
+    ALIAS,
+    MAX_DOCUMENT_CHARS,
+    MAX_DOCUMENT_DEPTH,
+    NOT_YAML,
+    TOO_DEEP,
+    parse_document,
+)
 
 from .conftest import synthetic_demos
 

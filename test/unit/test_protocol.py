@@ -16,7 +16,8 @@ import pytest
 from grasp_intent_ros import protocol
 from grasp_intent_ros.core.errors import GraspIntentError, InvalidFeaturesError, ModelFormatError
 from grasp_intent_ros.core.intent import reconstruct_w
-from grasp_intent_ros.core.model import MAX_DOCUMENT_CHARS, GraspModel
+from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.core.safe_yaml import MAX_DOCUMENT_CHARS
 from grasp_intent_ros.protocol import (
     ModelHeader,
     model_document,
