@@ -181,10 +181,13 @@ class NodeProcess:
         Prepended to the log file names (e.g. ``'00_'``).
     cwd
         Its working directory (default this process's).
+    preexec_fn
+        Run in the child before the command (e.g. to set a resource limit).
     """
 
     def __init__(self, command: Sequence[str], *, module: str, env: Mapping[str, str], log_dir: Path,
-                 prefix: str = '', cwd: Path | None = None) -> None:
+                 prefix: str = '', cwd: Path | None = None,
+                 preexec_fn: Callable[[], None] | None = None) -> None:
         self.module = module
         self.stdout_path = log_dir / f'{prefix}{module}.out'
         self.stderr_path = log_dir / f'{prefix}{module}.err'
@@ -192,7 +195,8 @@ class NodeProcess:
         self._killed = False
         with self.stdout_path.open('wb') as out, self.stderr_path.open('wb') as err:
             self.popen = subprocess.Popen(list(command), cwd=cwd, env=dict(env), stdout=out, stderr=err,
-                                          stdin=subprocess.DEVNULL, start_new_session=True)
+                                          stdin=subprocess.DEVNULL, preexec_fn=preexec_fn,
+                                          start_new_session=True)
 
     @classmethod
     def start(cls, module: str, ros_args: Sequence[str] = (), *, env: Mapping[str, str], log_dir: Path,
