@@ -38,13 +38,18 @@ Arbitration (:func:`arbitration`): alpha from the intent's confidence
   planned grasp's posterior P over the model's zones and v restricted to those zones and renormalised
   (1 when the plan matches v exactly, less for a compromise or a fallback grasp).
 
-and times the operator's agreement with the robot, o: the smaller of the linear and the angular agreement,
-each (1 + cos theta) / 2 of the angle theta between the operator's and the robot's part
+and times the operator's agreement with the planned grasp, o: the smaller of the linear and the angular
+agreement, each (1 + cos theta) / 2 of the angle theta between the operator's part and the same part of
+the pose error toward the grasp itself, ``(k_lin (p_g - p), k_ang log3(R_g R^T))``
 (:func:`operator_agreement`), as last measured while the operator moved that part faster than its
 deadband (1 before; :class:`Assistance` holds them, and forgets them when the planned grasp moves by more
 than the corridor's radius or angle). An operator who steers against the robot takes the control back
 (alpha -> 0 as theta -> pi): the operator's input is evidence against the planned grasp (Dragan &
-Srinivasa's confidence in the prediction). The agreement is held so that the control stays with an
+Srinivasa's confidence in the prediction). It is measured against the grasp, not against the robot's
+twist: the pre-grasp and the joint-space path are the robot's way to the grasp, not a different proposal,
+so an operator who heads straight for the grasp agrees with it (measured against the robot's twist, the
+straight approach and the robot's detour disagree and the two pull against each other). The agreement is
+held so that the control stays with an
 operator who then works the other part (a joystick's other mode) or lets go, until the operator moves
 along with the robot again.
 
@@ -52,6 +57,11 @@ along with the robot again.
 ``margin``, else 0. ``'none'``: alpha = 0 (direct teleoperation). Neither looks at the operator's input.
 Whatever the rule, alpha is 0 without a valid grasp, while a clarification is pending, or without the
 arm's joint state: :class:`Assistance` decides that.
+
+alpha is therefore in [0, alpha_max] for every rule: 0 means the operator's twist alone, alpha_max (< 1 by
+default) the most the robot ever gets, so the operator always keeps 1 - alpha_max of the command and can
+steer against any proposal. Under 'confidence' alpha reaches alpha_max * a (a the plan agreement above)
+once v is concentrated (c >= c_high) and the operator's last motion of each part was toward the grasp.
 
 Limits (:class:`TwistLimiter`)
 ------------------------------
@@ -441,7 +451,9 @@ class Assistance:
                                               corridor_radius=cfg.corridor_radius, corridor_angle=cfg.corridor_angle)
             robot = self._robot_twist(target, phase)
             if cfg.arbitration == 'confidence':
-                measured = operator_agreement(self._operator[0], robot, deadband_linear=cfg.deadband_linear,
+                error = pose_error(self.base_T_ee, self.base_T_grasp)  # toward the proposal, the grasp itself
+                goal = np.concatenate([cfg.gain_linear * error[:3], cfg.gain_angular * error[3:]])
+                measured = operator_agreement(self._operator[0], goal, deadband_linear=cfg.deadband_linear,
                                               deadband_angular=cfg.deadband_angular)
                 linear, angular = (held if fresh is None else fresh for fresh, held in zip(measured, self.agreement))
                 self.agreement = (linear, angular)

@@ -196,6 +196,17 @@ def test_the_operator_who_steered_against_the_robot_keeps_the_control() -> None:
     assert blend.command(0.01).alpha == pytest.approx(0.9)
 
 
+def test_the_operator_agrees_with_the_grasp_not_with_the_robots_way_to_it() -> None:
+    assistance = make_assistance()
+    assistance.base_T_ee = pose_to_matrix((0.4, -0.3, 0.05), (1.0, 0.0, 0.0, 0.0))  # beside the grasp
+    straight = np.array([-0.05, 0.0, 0.0, 0.0, 0.0, 0.0])  # straight at the grasp, not via the pre-grasp
+    assistance.set_operator(straight, now=0.0)
+    command = assistance.command(0.01)
+    assert command.phase == 'pre-grasp' and command.alpha == pytest.approx(0.9, abs=1e-12)  # o = 1
+    assistance.set_operator(-straight, now=0.02)  # away from the grasp
+    assert assistance.command(0.03).alpha == pytest.approx(0.0, abs=1e-12)
+
+
 def test_the_joint_space_twist_is_the_hands_motion_under_the_joint_motion() -> None:
     kin = MicoKinematics()
     q = np.radians([244.0, 233.0, 62.0, 192.0, 50.0, 125.0])
