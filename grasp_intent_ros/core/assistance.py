@@ -26,7 +26,9 @@ Either way each part is scaled down to its speed limit. Why joint space: the Car
 hand along the straight rotation to the target, which for many of the MICO's grasps runs the wrist (joint
 5) through 0 or pi, a singularity; there a servo's damped least squares cannot make the motion asked for
 and the arm settles in the singular configuration, short of the grasp. The joint-space twist lies in the
-range of J, so the servo can follow it, and following it the joints go straight to q_t.
+range of J, so the servo can follow it, and following it the joints go straight to q_t. Its price: the
+hand's path curves and the hand turns on the way (the image of a straight joint-space line); near the
+target it agrees with the Cartesian error to first order.
 
 Arbitration (:func:`arbitration`): alpha from the intent's confidence
 ---------------------------------------------------------------------
@@ -49,9 +51,8 @@ Srinivasa's confidence in the prediction). It is measured against the grasp, not
 twist: the pre-grasp and the joint-space path are the robot's way to the grasp, not a different proposal,
 so an operator who heads straight for the grasp agrees with it (measured against the robot's twist, the
 straight approach and the robot's detour disagree and the two pull against each other). The agreement is
-held so that the control stays with an
-operator who then works the other part (a joystick's other mode) or lets go, until the operator moves
-along with the robot again.
+held so that the control stays with an operator who then works the other part (a joystick's other mode)
+or lets go, until the operator moves toward the grasp again.
 
 ``'blend'`` (ADA's baseline): alpha = alpha_max when v's top zone leads the second by at least
 ``margin``, else 0. ``'none'``: alpha = 0 (direct teleoperation). Neither looks at the operator's input.
