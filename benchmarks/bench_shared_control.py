@@ -19,7 +19,9 @@ The scripted operator (a stated, simple model)
   (the data set's task rules, :data:`grasp_intent_ros.dataset.demos.CUP_RULES` / ``FLASHLIGHT_RULES``: every
   task of S satisfied), else the operator's own grasp for S: the planner's grasp for w_S planned offline
   from Home, or, when that does not serve S, the reachable demonstration of the data set that serves S
-  nearest to it.
+  nearest to it. The rule is the same under the three conditions (the shown grasp is on the screen
+  whatever alpha is): an operator who sees a grasp that serves the task takes it, and the robot's
+  assistance never decides which goal the operator pursues.
 - **Device.** A joystick with two modes, as in ADA's studies: translation (3 axes) or rotation (3 axes),
   never both; switching costs 0.5 s of no input. The operator translates until within 3 cm of the goal,
   then rotates until within 0.05 rad, then translates again (back to translation whenever the hand is

@@ -71,6 +71,8 @@ PARAMETERS = (
     ParamSpec('robot_max_linear', _DEFAULTS.robot_max_linear, "Robot twist's speed limit, m/s.", range=_POSITIVE),
     ParamSpec('robot_max_angular', _DEFAULTS.robot_max_angular, "Robot twist's angular speed limit, rad/s.",
               range=_POSITIVE),
+    ParamSpec('gain_joint', _DEFAULTS.gain_joint, "Robot twist's joint-space gain toward the target's IK, 1/s.",
+              range=_POSITIVE),
     ParamSpec('deadband_linear', _DEFAULTS.deadband_linear, "'confidence': operator speed (m/s) from which an "
               "operator steering against the robot's twist lowers alpha.", range=(0.0, 10.0)),
     ParamSpec('deadband_angular', _DEFAULTS.deadband_angular, "'confidence': the same for the operator's angular "
@@ -108,7 +110,7 @@ class AssistanceNode(Node):
             self._kin = MicoKinematics(self._params['urdf_path'] or None)
         except FileNotFoundError as exc:
             raise ParameterError(f'urdf_path: {exc}') from None
-        self._assist = Assistance(AssistanceConfig(), TwistLimiter(1.0, 1.0, 1.0, 1.0))
+        self._assist = Assistance(AssistanceConfig(), TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin)
         self._configure(self._params)
         self._last_output = -float('inf')
         self._outputs = 0
@@ -154,7 +156,7 @@ class AssistanceNode(Node):
 
     def _on_joint_state(self, msg: JointState) -> None:
         if (q := joint_positions(msg, ARM_JOINTS)) is not None:
-            self._assist.base_T_ee = self._kin.fk(q)
+            self._assist.set_joints(q)
 
     def _on_grasp(self, msg: PoseStamped) -> None:
         self._assist.set_grasp(pose_msg_to_matrix(msg, frame_id=BASE_FRAME))

@@ -16,8 +16,19 @@ Toward the pre-grasp (the grasp pose moved back by ``standoff`` along its approa
 until the hand is in the approach corridor, then toward the grasp (:func:`assistance_target`): the hand
 is in the corridor when it is within ``corridor_radius`` of the grasp, or behind it (along the approach
 axis) within ``corridor_radius`` of that axis and within ``corridor_angle`` of the grasp's orientation.
-The twist is proportional to the pose error, ``(k_lin (p_t - p), k_ang log3(R_t R^T))`` (the rotation
-vector in the base frame), each part scaled down to its speed limit.
+With the arm's kinematics (:class:`Assistance` given a :class:`~.kinematics.MicoKinematics`), the twist is
+the end effector's motion while the joints move straight toward the target's inverse kinematics q_t
+(solved from the current joints q without random restarts, on the 2 pi branch nearest them, once per
+target and planned grasp), ``J(q) k_q (q_t - q)`` (:func:`joint_space_twist`); without the kinematics, or
+when the target has no IK solution from q, it is proportional to the pose error,
+``(k_lin (p_t - p), k_ang log3(R_t R^T))`` (the rotation vector in the base frame, :func:`robot_twist`).
+Either way each part is scaled down to its speed limit. Why joint space: the Cartesian twist turns the
+hand along the straight rotation to the target, which for many of the MICO's grasps runs the wrist (joint
+5) through 0 or pi, a singularity; there a servo's damped least squares cannot make the motion asked for
+and the arm settles in the singular configuration, short of the grasp. The joint-space twist lies in the
+range of J, so the servo can follow it, and following it the joints go straight to q_t. Its price: the
+hand's path curves and the hand turns on the way (the image of a straight joint-space line); near the
+target it agrees with the Cartesian error to first order.
 
 Arbitration (:func:`arbitration`): alpha from the intent's confidence
 ---------------------------------------------------------------------
@@ -29,20 +40,29 @@ Arbitration (:func:`arbitration`): alpha from the intent's confidence
   planned grasp's posterior P over the model's zones and v restricted to those zones and renormalised
   (1 when the plan matches v exactly, less for a compromise or a fallback grasp).
 
-and times the operator's agreement with the robot, o: the smaller of the linear and the angular agreement,
-each (1 + cos theta) / 2 of the angle theta between the operator's and the robot's part
+and times the operator's agreement with the planned grasp, o: the smaller of the linear and the angular
+agreement, each (1 + cos theta) / 2 of the angle theta between the operator's part and the same part of
+the pose error toward the grasp itself, ``(k_lin (p_g - p), k_ang log3(R_g R^T))``
 (:func:`operator_agreement`), as last measured while the operator moved that part faster than its
 deadband (1 before; :class:`Assistance` holds them, and forgets them when the planned grasp moves by more
 than the corridor's radius or angle). An operator who steers against the robot takes the control back
 (alpha -> 0 as theta -> pi): the operator's input is evidence against the planned grasp (Dragan &
-Srinivasa's confidence in the prediction). The agreement is held so that the control stays with an
-operator who then works the other part (a joystick's other mode) or lets go, until the operator moves
-along with the robot again.
+Srinivasa's confidence in the prediction). It is measured against the grasp, not against the robot's
+twist: the pre-grasp and the joint-space path are the robot's way to the grasp, not a different proposal,
+so an operator who heads straight for the grasp agrees with it (measured against the robot's twist, the
+straight approach and the robot's detour disagree and the two pull against each other). The agreement is
+held so that the control stays with an operator who then works the other part (a joystick's other mode)
+or lets go, until the operator moves toward the grasp again.
 
 ``'blend'`` (ADA's baseline): alpha = alpha_max when v's top zone leads the second by at least
 ``margin``, else 0. ``'none'``: alpha = 0 (direct teleoperation). Neither looks at the operator's input.
 Whatever the rule, alpha is 0 without a valid grasp, while a clarification is pending, or without the
 arm's joint state: :class:`Assistance` decides that.
+
+alpha is therefore in [0, alpha_max] for every rule: 0 means the operator's twist alone, alpha_max (< 1 by
+default) the most the robot ever gets, so the operator always keeps 1 - alpha_max of the command and can
+steer against any proposal. Under 'confidence' alpha reaches alpha_max * a (a the plan agreement above)
+once v is concentrated (c >= c_high) and the operator's last motion of each part was toward the grasp.
 
 Limits (:class:`TwistLimiter`)
 ------------------------------
@@ -63,9 +83,12 @@ import numpy as np
 import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
 from numpy.typing import ArrayLike, NDArray
 
+from .kinematics import MicoKinematics
+
 __all__ = ['Arbitration', 'ARBITRATIONS', 'concentration', 'plan_agreement', 'arbitration', 'operator_agreement',
            'pose_error',
-           'pre_grasp', 'assistance_target', 'robot_twist', 'blend', 'clip_norm', 'TwistLimiter', 'AssistanceConfig',
+           'pre_grasp', 'assistance_target', 'robot_twist', 'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter',
+           'AssistanceConfig',
            'Command', 'Assistance']
 
 Arbitration = Literal['confidence', 'blend', 'none']
@@ -203,6 +226,26 @@ def robot_twist(base_T_ee: NDArray[np.float64], base_T_target: NDArray[np.float6
                            clip_norm(gain_angular * error[3:], max_angular)])
 
 
+def joint_space_twist(jacobian: NDArray[np.float64], q: NDArray[np.float64], q_target: NDArray[np.float64], *,
+                      gain: float, max_linear: float, max_angular: float) -> NDArray[np.float64]:
+    """The EE twist ``J(q) gain (q_target - q)``, each part within its speed limit; shape (6,).
+
+    Parameters
+    ----------
+    jacobian : ndarray, shape (6, 6)
+        The geometric Jacobian at ``q`` (:meth:`~.kinematics.MicoKinematics.jacobian`: linear rows m/rad,
+        angular rows rad/rad, base frame).
+    q, q_target : ndarray, shape (6,)
+        Joint angles now and at the target (rad), ``q_target`` on the 2 pi branch nearest ``q``.
+    gain : float
+        1/s.
+    max_linear, max_angular : float
+        m/s, rad/s.
+    """
+    twist = jacobian @ (gain * (q_target - q))
+    return np.concatenate([clip_norm(twist[:3], max_linear), clip_norm(twist[3:], max_angular)])
+
+
 def blend(alpha: float, robot: NDArray[np.float64], operator: NDArray[np.float64]) -> NDArray[np.float64]:
     """The blended twist alpha * robot + (1 - alpha) * operator."""
     return alpha * robot + (1.0 - alpha) * operator
@@ -263,7 +306,9 @@ class AssistanceConfig:
     standoff, corridor_radius, corridor_angle
         Of :func:`assistance_target`.
     gain_linear, gain_angular, robot_max_linear, robot_max_angular
-        Of :func:`robot_twist` (1/s, 1/s, m/s, rad/s).
+        Of :func:`robot_twist` (1/s, 1/s, m/s, rad/s); the speed limits also bound :func:`joint_space_twist`.
+    gain_joint : float
+        Of :func:`joint_space_twist` (1/s).
     deadband_linear, deadband_angular : float
         Of :func:`operator_agreement` ('confidence' only), m/s and rad/s.
     operator_timeout : float
@@ -282,6 +327,7 @@ class AssistanceConfig:
     gain_angular: float = 2.0
     robot_max_linear: float = 0.15
     robot_max_angular: float = 0.8
+    gain_joint: float = 2.0
     deadband_linear: float = 0.01
     deadband_angular: float = 0.05
     operator_timeout: float = 0.1
@@ -311,12 +357,18 @@ class Assistance:
     """The newest inputs of the shared-control loop and the command they give (module docstring).
 
     Times are seconds of one clock (the node's). Inputs are assumed checked (finite, rigid transforms).
+    With ``kin`` the arm's state comes from :meth:`set_joints` and the robot's twist is joint-space
+    (module docstring); without it, from ``base_T_ee`` and the twist is Cartesian.
     """
 
-    def __init__(self, config: AssistanceConfig, limiter: TwistLimiter) -> None:
-        self.config, self.limiter = config, limiter
+    def __init__(self, config: AssistanceConfig, limiter: TwistLimiter, kin: MicoKinematics | None = None) -> None:
+        self.config, self.limiter, self.kin = config, limiter, kin
         self.base_T_grasp: NDArray[np.float64] | None = None
         self.base_T_ee: NDArray[np.float64] | None = None
+        self.q: NDArray[np.float64] | None = None
+        self._jacobian: NDArray[np.float64] | None = None
+        self._q_targets: dict[str, NDArray[np.float64] | None] = {}
+        """IK of the grasp and the pre-grasp (None: none found), by phase, for the current grasp."""
         self.clarification_pending = False
         self.agreement = (1.0, 1.0)
         """The operator's held agreement with the robot, linear and angular (module docstring)."""
@@ -337,6 +389,13 @@ class Assistance:
                     or float(np.linalg.norm(error[3:])) > self.config.corridor_angle):
                 self.agreement = (1.0, 1.0)
         self.base_T_grasp, self.clarification_pending = base_T_grasp, False
+        self._q_targets = {}
+
+    def set_joints(self, q: NDArray[np.float64]) -> None:
+        """The arm's joint angles (rad, shape (6,)): the hand's pose and the Jacobian there (needs ``kin``)."""
+        if self.kin is None:
+            raise ValueError('set_joints needs the kinematics (Assistance(..., kin=...))')
+        self.q, self.base_T_ee, self._jacobian = q, self.kin.fk(q), self.kin.jacobian(q)
 
     def set_posterior(self, posterior: NDArray[np.float64], zone_labels: Sequence[str]) -> None:
         """The planned grasp's posterior over the model's zones (the latest is used with the latest grasp)."""
@@ -391,12 +450,28 @@ class Assistance:
             cfg = self.config
             target, phase = assistance_target(self.base_T_ee, self.base_T_grasp, standoff=cfg.standoff,
                                               corridor_radius=cfg.corridor_radius, corridor_angle=cfg.corridor_angle)
-            robot = robot_twist(self.base_T_ee, target, gain_linear=cfg.gain_linear, gain_angular=cfg.gain_angular,
-                                max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)
+            robot = self._robot_twist(target, phase)
             if cfg.arbitration == 'confidence':
-                measured = operator_agreement(self._operator[0], robot, deadband_linear=cfg.deadband_linear,
+                error = pose_error(self.base_T_ee, self.base_T_grasp)  # toward the proposal, the grasp itself
+                goal = np.concatenate([cfg.gain_linear * error[:3], cfg.gain_angular * error[3:]])
+                measured = operator_agreement(self._operator[0], goal, deadband_linear=cfg.deadband_linear,
                                               deadband_angular=cfg.deadband_angular)
                 linear, angular = (held if fresh is None else fresh for fresh, held in zip(measured, self.agreement))
                 self.agreement = (linear, angular)
                 alpha *= min(linear, angular)
         return Command(self.limiter.limit(blend(alpha, robot, self._operator[0]), dt), alpha, phase)
+
+    def _robot_twist(self, base_T_target: NDArray[np.float64], phase: str) -> NDArray[np.float64]:
+        """The robot's twist toward ``base_T_target`` (the grasp or the pre-grasp, ``phase``): module docstring."""
+        cfg = self.config
+        if self.kin is not None and self.q is not None and self._jacobian is not None:
+            if phase not in self._q_targets:
+                ik = self.kin.ik(base_T_target, self.q, restarts=0)  # the solution the joints descend to
+                self._q_targets[phase] = ik.q if ik.success else None
+            q_target = self._q_targets[phase]
+            if q_target is not None:
+                return joint_space_twist(self._jacobian, self.q, q_target, gain=cfg.gain_joint,
+                                         max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)
+        assert self.base_T_ee is not None
+        return robot_twist(self.base_T_ee, base_T_target, gain_linear=cfg.gain_linear, gain_angular=cfg.gain_angular,
+                           max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)

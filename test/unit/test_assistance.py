@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
+from grasp_intent_ros.core.arm import MockArm, TwistCommand
 from grasp_intent_ros.core.assistance import (
     Assistance,
     AssistanceConfig,
@@ -15,6 +16,7 @@ from grasp_intent_ros.core.assistance import (
     arbitration,
     assistance_target,
     concentration,
+    joint_space_twist,
     operator_agreement,
     plan_agreement,
     pose_error,
@@ -22,6 +24,7 @@ from grasp_intent_ros.core.assistance import (
     robot_twist,
 )
 from grasp_intent_ros.core.frames import pose_to_matrix
+from grasp_intent_ros.core.kinematics import BASE_FRAME, MicoKinematics
 
 LABELS = ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
 GRASP = pose_to_matrix((0.3, -0.3, 0.05), (1.0, 0.0, 0.0, 0.0))  # approach (EE z) straight down
@@ -191,3 +194,65 @@ def test_the_operator_who_steered_against_the_robot_keeps_the_control() -> None:
     blend = make_assistance(arbitration='blend')  # ADA's baseline does not listen
     blend.set_operator(away, now=0.0)
     assert blend.command(0.01).alpha == pytest.approx(0.9)
+
+
+def test_the_operator_agrees_with_the_grasp_not_with_the_robots_way_to_it() -> None:
+    assistance = make_assistance()
+    assistance.base_T_ee = pose_to_matrix((0.4, -0.3, 0.05), (1.0, 0.0, 0.0, 0.0))  # beside the grasp
+    straight = np.array([-0.05, 0.0, 0.0, 0.0, 0.0, 0.0])  # straight at the grasp, not via the pre-grasp
+    assistance.set_operator(straight, now=0.0)
+    command = assistance.command(0.01)
+    assert command.phase == 'pre-grasp' and command.alpha == pytest.approx(0.9, abs=1e-12)  # o = 1
+    assistance.set_operator(-straight, now=0.02)  # away from the grasp
+    assert assistance.command(0.03).alpha == pytest.approx(0.0, abs=1e-12)
+
+
+def test_the_joint_space_twist_is_the_hands_motion_under_the_joint_motion() -> None:
+    kin = MicoKinematics()
+    q = np.radians([244.0, 233.0, 62.0, 192.0, 50.0, 125.0])
+    step = np.radians([1.0, -2.0, 0.5, 3.0, -1.0, 2.0]) * 1e-2
+    jacobian = kin.jacobian(q)
+    assert_allclose(joint_space_twist(jacobian, q, q + step, gain=2.0, max_linear=0.15, max_angular=0.8),
+                    jacobian @ (2.0 * step), atol=1e-15)
+    far = joint_space_twist(jacobian, q, q + 100 * step, gain=2.0, max_linear=0.01, max_angular=0.02)
+    assert np.linalg.norm(far[:3]) == pytest.approx(0.01, abs=1e-15)
+    assert np.linalg.norm(far[3:]) == pytest.approx(0.02, abs=1e-15)
+    assert_allclose(far[:3] / 0.01, (jacobian @ step)[:3] / np.linalg.norm((jacobian @ step)[:3]), atol=1e-12)
+
+
+def _unit(q: tuple[float, ...]) -> tuple[float, ...]:
+    return tuple(np.asarray(q) / np.linalg.norm(q))
+
+
+TRANSFER_GRASP = pose_to_matrix((0.3002, -0.2918, 0.1061), _unit((0.9772, -0.1969, 0.0776, -0.0196)))
+"""A cup grasp for transfer (the benchmark's, rounded): the Cartesian twist to it turns the MICO's wrist into a
+singularity (joint 5 near 0) from the configuration below."""
+
+
+@pytest.mark.parametrize('with_kinematics, reaches', [(True, True), (False, False)])
+def test_the_robot_twist_in_joint_space_keeps_the_arm_out_of_the_wrist_singularity(with_kinematics: bool,
+                                                                                    reaches: bool) -> None:
+    # the hand 1 cm from the grasp, 0.5 rad misoriented, the arm well conditioned (sigma_min 0.076): turning the
+    # hand by a Cartesian twist leads the damped servo into the wrist singularity, where it settles 22 cm away;
+    # the joint-space twist turns the joints straight to the grasp's IK
+    kin = MicoKinematics()
+    arm = MockArm(kin, np.r_[np.radians([244.0, 233.0, 62.0, 192.0, 50.0, 125.0]), 0.0, 0.0, 0.0])
+    assistance = Assistance(AssistanceConfig(), TwistLimiter(0.2, 1.0, 1.0, 5.0), kin if with_kinematics else None)
+    assistance.set_grasp(TRANSFER_GRASP)
+    assistance.set_v(np.eye(7)[1], LABELS)
+    assistance.set_posterior(np.eye(7)[1], LABELS)
+    for tick in range(1000):  # 10 s of 100 Hz outputs; the operator holds still (alpha 0.9)
+        now = 0.01 * tick
+        if with_kinematics:
+            assistance.set_joints(arm.q[:6].copy())
+        else:
+            assistance.base_T_ee = kin.fk(arm.q[:6])
+        assistance.set_operator(np.zeros(6), now)
+        command = assistance.command(now)
+        assert command.alpha == pytest.approx(0.9, abs=1e-12)
+        arm.command_twist(TwistCommand(command.twist[:3], command.twist[3:], BASE_FRAME), now)
+        arm.step(now + 0.01, 0.01)
+    error = pose_error(kin.fk(arm.q[:6]), TRANSFER_GRASP)
+    assert (np.linalg.norm(error[:3]) <= 1e-3 and np.linalg.norm(error[3:]) <= 1e-2) == reaches
+    if not reaches:
+        assert np.linalg.norm(error[:3]) > 0.1  # the documented trap: held in the singularity, far from the grasp
