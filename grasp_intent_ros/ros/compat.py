@@ -94,7 +94,10 @@ class StopWatcher:
     unless the spin has ended, it calls ``wake`` (the executor's ``wake``: rclpy's signal thread may have
     woken the executor before it shut the context down: workaround 3 above). With a ``grace`` it also arms a
     timer (ERROR, every thread's stack, exit code 0) and faulthandler's C timer 2 s later (stacks, exit code
-    1). :meth:`finished` disarms both: once run_node's shutdown is done the process is left alone.
+    1). :meth:`spin_ended` arms faulthandler's timer itself too, from the caller's thread, before the
+    teardown: a teardown that holds the GIL from its start (the middleware's shutdown livelock, docs/nodes.md)
+    would keep this thread from ever arming anything. :meth:`finished` disarms both: once run_node's shutdown
+    is done the process is left alone.
     """
 
     def __init__(self, context: Any, wake: Callable[[], None], grace: float | None) -> None:
@@ -106,15 +109,21 @@ class StopWatcher:
         threading.Thread(target=self._watch, args=(context,), name='stop watcher', daemon=True).start()
 
     def spin_ended(self) -> None:
-        """The spin is over: the executor is not woken any more (it may be shut down once this returns)."""
+        """The spin is over: the executor is not woken any more (it may be shut down once this returns).
+
+        With a ``grace``, faulthandler's timer is armed now: the teardown that follows must end within it.
+        """
         with self._lock:
             self._spin_ended.set()
+            if self._grace is not None and not self._finished:
+                faulthandler.dump_traceback_later(self._grace + 2.0, exit=True, file=sys.stderr)
 
     def finished(self) -> None:
         with self._lock:
             self._finished = True
             if self._timer is not None:
                 self._timer.cancel()
+            if self._grace is not None:
                 faulthandler.cancel_dump_traceback_later()
 
     def _watch(self, context: Any) -> None:

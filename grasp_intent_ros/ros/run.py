@@ -18,7 +18,9 @@ watchdog (the stop watcher's thread arms it): it logs an ERROR, writes every thr
 (``faulthandler``) and exits with code 0, so that a stop request always ends the node and leaves the
 evidence in its log. This covers a hung shutdown (executor, node and context, after the spin has ended)
 and a spin that a stop did not end. Two seconds later still, ``faulthandler``'s own timer (a C thread,
-which needs no GIL) writes the stacks and exits with code 1, for a hang that holds the GIL. Once run_node
+which needs no GIL) writes the stacks and exits with code 1, for a hang that holds the GIL (it is armed again
+from the main thread when the spin ends, before the teardown, which may hold the GIL from its start: the
+middleware's shutdown livelock of docs/nodes.md). Once run_node
 has returned (the shutdown finished), both are disarmed and the process is left alone. A node process's
 ``main`` then calls :func:`guard_exit`: the interpreter's own exit (atexit handlers, threads, the
 middleware's destructors) gets the same grace, after which faulthandler writes the stacks and exits with

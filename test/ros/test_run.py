@@ -95,6 +95,37 @@ def test_a_hung_shutdown_is_ended_by_the_watchdog_with_the_threads_stacks(domain
     assert 'in destroy_node' in err  # the stuck thread's stack, from faulthandler
 
 
+def test_a_teardown_that_holds_the_gil_from_its_start_is_ended_by_faulthandler_with_the_stacks(domain_id: int) -> None:
+    """The middleware's shutdown livelock (docs/nodes.md) spins in C++ holding the GIL from the first call.
+
+    Here destroy_node calls libc's sleep through ctypes.PyDLL, which keeps the GIL: no Python thread runs
+    again, so only the faulthandler timer armed when the spin ended can end the process (exit 1, stacks).
+    """
+    code = ('import ctypes\n'
+            'from rclpy.node import Node\n'
+            'from grasp_intent_ros.ros import run\n'
+            'class Stuck(Node):\n'
+            '    def __init__(self):\n'
+            '        super().__init__("stuck")\n'
+            '        self.create_timer(0.05, self.tick)\n'
+            '    def tick(self):\n'
+            '        print("up", flush=True)\n'
+            '    def destroy_node(self):\n'
+            '        ctypes.PyDLL(None).sleep(3600)  # holds the GIL\n'
+            'run.run_node(Stuck, [], shutdown_grace=0.5)\n')
+    proc = subprocess.Popen([sys.executable, '-c', code], cwd=REPO, env=node_environment(domain_id),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout is not None and proc.stdout.readline() == 'up\n'
+        proc.terminate()
+        assert proc.wait(timeout=30) == 1
+    finally:
+        proc.kill()
+        proc.wait()
+    err = proc.stderr.read() if proc.stderr is not None else ''
+    assert 'Timeout (' in err and 'in destroy_node' in err, err
+
+
 def test_a_spin_the_signal_does_not_end_is_ended_by_the_watchdog(domain_id: int) -> None:
     err = _stopped_by_the_watchdog(domain_id, '    def tick(self):\n'
                                               '        print("up", flush=True)\n'
