@@ -62,9 +62,12 @@ def test_publish_all_drops_messages_only_after_a_shutdown(ros) -> None:
     node.destroy_node()
 
 
-def _stopped_by_the_watchdog(domain_id: int, node_body: str) -> str:
-    """Run a node (``node_body``: its class body after the timer) with a 0.5 s grace, SIGTERM it; its stderr."""
-    code = ('import sys, threading\n'
+def _stuck(domain_id: int, node_body: str, exit_code: int) -> str:
+    """Run a node (``node_body``: its class body after the timer) with a 0.5 s grace, SIGTERM it; its stderr.
+
+    The process must end by itself with ``exit_code``.
+    """
+    code = ('import ctypes, sys, threading\n'
             'from rclpy.node import Node\n'
             'from grasp_intent_ros.ros import run\n'
             'class Stuck(Node):\n'
@@ -78,11 +81,16 @@ def _stopped_by_the_watchdog(domain_id: int, node_body: str) -> str:
     try:
         assert proc.stdout is not None and proc.stdout.readline() == 'up\n'  # spinning: now ask it to stop
         proc.terminate()
-        assert proc.wait(timeout=30) == 0
+        assert proc.wait(timeout=30) == exit_code
     finally:
         proc.kill()
         proc.wait()
-    err = proc.stderr.read() if proc.stderr is not None else ''
+    return proc.stderr.read() if proc.stderr is not None else ''
+
+
+def _stopped_by_the_watchdog(domain_id: int, node_body: str) -> str:
+    """:func:`_stuck` ended by the watchdog: exit code 0, its ERROR; the stderr."""
+    err = _stuck(domain_id, node_body, 0)
     assert 'shutdown not finished 0.5 s after the stop request' in err
     return err
 
@@ -101,28 +109,10 @@ def test_a_teardown_that_holds_the_gil_from_its_start_is_ended_by_faulthandler_w
     Here destroy_node calls libc's sleep through ctypes.PyDLL, which keeps the GIL: no Python thread runs
     again, so only the faulthandler timer armed when the spin ended can end the process (exit 1, stacks).
     """
-    code = ('import ctypes\n'
-            'from rclpy.node import Node\n'
-            'from grasp_intent_ros.ros import run\n'
-            'class Stuck(Node):\n'
-            '    def __init__(self):\n'
-            '        super().__init__("stuck")\n'
-            '        self.create_timer(0.05, self.tick)\n'
-            '    def tick(self):\n'
-            '        print("up", flush=True)\n'
-            '    def destroy_node(self):\n'
-            '        ctypes.PyDLL(None).sleep(3600)  # holds the GIL\n'
-            'run.run_node(Stuck, [], shutdown_grace=0.5)\n')
-    proc = subprocess.Popen([sys.executable, '-c', code], cwd=REPO, env=node_environment(domain_id),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        assert proc.stdout is not None and proc.stdout.readline() == 'up\n'
-        proc.terminate()
-        assert proc.wait(timeout=30) == 1
-    finally:
-        proc.kill()
-        proc.wait()
-    err = proc.stderr.read() if proc.stderr is not None else ''
+    err = _stuck(domain_id, '    def tick(self):\n'
+                            '        print("up", flush=True)\n'
+                            '    def destroy_node(self):\n'
+                            '        ctypes.PyDLL(None).sleep(3600)  # holds the GIL\n', 1)
     assert 'Timeout (' in err and 'in destroy_node' in err, err
 
 
