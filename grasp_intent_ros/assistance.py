@@ -52,13 +52,13 @@ _DEFAULTS = AssistanceConfig()
 _POSITIVE = (1e-6, 100.0)
 PARAMETERS = (
     ParamSpec('arbitration', _DEFAULTS.arbitration, "alpha's rule: 'confidence' (from v's concentration and the "
-              "plan's agreement), 'blend' (alpha_max when v's top zone leads by margin) or 'none' (alpha = 0).",
+              "plan's expected success), 'blend' (alpha_max when v's top zone leads by margin) or 'none' (alpha = 0).",
               validator=one_of(ARBITRATIONS), constraints=f'one of {", ".join(ARBITRATIONS)}'),
     ParamSpec('alpha_max', _DEFAULTS.alpha_max, 'Largest alpha (the operator keeps 1 - alpha_max).',
               range=(0.0, 1.0)),
     ParamSpec('c_low', _DEFAULTS.c_low, "Concentration of v below which 'confidence' gives alpha 0.", range=(0.0, 1.0)),
     ParamSpec('c_high', _DEFAULTS.c_high, "Concentration of v from which 'confidence' gives alpha_max "
-              '(times the plan agreement); > c_low.', range=(0.0, 1.0)),
+              "(times the plan's expected success); > c_low.", range=(0.0, 1.0)),
     ParamSpec('margin', _DEFAULTS.margin, "'blend': lead of v's top zone over the second (of the total).",
               range=(0.0, 1.0)),
     ParamSpec('standoff', _DEFAULTS.standoff, 'Pre-grasp distance behind the grasp along its approach axis, m.',
@@ -163,7 +163,7 @@ class AssistanceNode(Node):
 
     def _on_posterior(self, msg: Any) -> None:
         posterior = read_posterior(msg)
-        self._assist.set_posterior(posterior.p, posterior.zone_labels)
+        self._assist.set_posterior(posterior.p, posterior.zone_labels, posterior.task_names)
 
     def _on_v(self, msg: Any) -> None:
         v = msg_to_array(msg, what='v')

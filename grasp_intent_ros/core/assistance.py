@@ -36,9 +36,11 @@ Arbitration (:func:`arbitration`): alpha from the intent's confidence
 
 - c = 1 - H(v) / ln K, the concentration of the target vector v over its K zones (0 for a uniform v, 1
   for a single zone; H the Shannon entropy), and ramp(c) = clip((c - c_low) / (c_high - c_low), 0, 1);
-- a = 1 - TV(P, v_model), the plan's agreement: one minus the total-variation distance between the
-  planned grasp's posterior P over the model's zones and v restricted to those zones and renormalised
-  (1 when the plan matches v exactly, less for a compromise or a fallback grasp).
+- a = E, the planned grasp's expected task success under v (:func:`plan_success`): v's share on the zones
+  whose tasks are all among those of the grasp's reading, the zone of largest posterior P. It is the
+  probability, under the intent, that the grasp serves the operator's task set, and the quantity the
+  default planner ranks its candidates by; the posterior's fit to v would distrust the grasps that give
+  up fit to serve the likely tasks.
 
 and times the operator's agreement with the planned grasp, o: the smaller of the linear and the angular
 agreement, each (1 + cos theta) / 2 of the angle theta between the operator's part and the same part of
@@ -61,7 +63,7 @@ arm's joint state: :class:`Assistance` decides that.
 
 alpha is therefore in [0, alpha_max] for every rule: 0 means the operator's twist alone, alpha_max (< 1 by
 default) the most the robot ever gets, so the operator always keeps 1 - alpha_max of the command and can
-steer against any proposal. Under 'confidence' alpha reaches alpha_max * a (a the plan agreement above)
+steer against any proposal. Under 'confidence' alpha reaches alpha_max * a (a the plan's expected success above)
 once v is concentrated (c >= c_high) and the operator's last motion of each part was toward the grasp.
 
 Limits (:class:`TwistLimiter`)
@@ -83,9 +85,11 @@ import numpy as np
 import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
 from numpy.typing import ArrayLike, NDArray
 
+from .errors import InvalidIntentError
+from .intent import parse_zones
 from .kinematics import MicoKinematics
 
-__all__ = ['Arbitration', 'ARBITRATIONS', 'concentration', 'plan_agreement', 'arbitration', 'operator_agreement',
+__all__ = ['Arbitration', 'ARBITRATIONS', 'concentration', 'plan_success', 'arbitration', 'operator_agreement',
            'pose_error',
            'pre_grasp', 'assistance_target', 'robot_twist', 'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter',
            'AssistanceConfig',
@@ -113,20 +117,26 @@ def concentration(v: ArrayLike) -> float:
     return float(min(max(1.0 + np.sum(nz * np.log(nz)) / math.log(p.size), 0.0), 1.0))
 
 
-def plan_agreement(posterior: ArrayLike, zone_labels: Sequence[str], v: ArrayLike, v_labels: Sequence[str]) -> float:
-    """1 - TV(P, v_model): P over the model's zones against v restricted to them (by label) and renormalised.
+def plan_success(posterior: ArrayLike, zone_labels: Sequence[str], task_names: Sequence[str], v: ArrayLike,
+                 v_labels: Sequence[str]) -> float:
+    """The planned grasp's expected task success under v: v's share on the zones its reading contains.
 
-    0 when v gives the model's zones no probability or lacks one of their labels.
+    The reading is the zone of largest P (the first of equal ones, in the model's zone order); a zone k is
+    served when its tasks are among the reading's. This is core.serving's expected success E of a
+    demonstration, with the grasp's reading as its task set. 0 when a label is not a zone of ``task_names``
+    or v sums to 0.
     """
-    values = dict(zip(v_labels, np.asarray(v, dtype=np.float64).tolist()))
-    if any(label not in values for label in zone_labels):
+    try:
+        zones = parse_zones(zone_labels, task_names)
+        v_zones = parse_zones(v_labels, task_names)
+    except InvalidIntentError:
         return 0.0
-    v_model = np.array([values[label] for label in zone_labels])
-    total = float(v_model.sum())
-    if not total > 0.0:
+    values = np.asarray(v, dtype=np.float64)
+    total = float(values.sum())
+    if not total > 0.0 or len(v_zones) != values.size:
         return 0.0
-    p = np.asarray(posterior, dtype=np.float64)
-    return float(max(0.0, 1.0 - 0.5 * np.abs(p / p.sum() - v_model / total).sum()))
+    reading = zones[int(np.argmax(np.asarray(posterior, dtype=np.float64)))]
+    return float(sum(value for zone, value in zip(v_zones, values.tolist()) if zone & reading == zone) / total)
 
 
 def arbitration(rule: Arbitration, v: ArrayLike, agreement: float, *, alpha_max: float, c_low: float,
@@ -138,7 +148,7 @@ def arbitration(rule: Arbitration, v: ArrayLike, agreement: float, *, alpha_max:
     rule : 'confidence', 'blend' or 'none'
     v : array_like, shape (K,)
     agreement : float in [0, 1]
-        :func:`plan_agreement`.
+        The plan's expected success, :func:`plan_success`.
     alpha_max : float in [0, 1]
     c_low, c_high : float, 0 <= c_low < c_high <= 1
         The concentration ramp of 'confidence'.
@@ -372,7 +382,7 @@ class Assistance:
         self.clarification_pending = False
         self.agreement = (1.0, 1.0)
         """The operator's held agreement with the robot, linear and angular (module docstring)."""
-        self._posterior: tuple[NDArray[np.float64], tuple[str, ...]] | None = None
+        self._posterior: tuple[NDArray[np.float64], tuple[str, ...], tuple[str, ...]] | None = None
         self._v: tuple[NDArray[np.float64], tuple[str, ...]] | None = None
         self._operator: tuple[NDArray[np.float64], float] | None = None
         self._last_output: float | None = None
@@ -397,9 +407,10 @@ class Assistance:
             raise ValueError('set_joints needs the kinematics (Assistance(..., kin=...))')
         self.q, self.base_T_ee, self._jacobian = q, self.kin.fk(q), self.kin.jacobian(q)
 
-    def set_posterior(self, posterior: NDArray[np.float64], zone_labels: Sequence[str]) -> None:
-        """The planned grasp's posterior over the model's zones (the latest is used with the latest grasp)."""
-        self._posterior = (posterior, tuple(zone_labels))
+    def set_posterior(self, posterior: NDArray[np.float64], zone_labels: Sequence[str],
+                      task_names: Sequence[str]) -> None:
+        """The planned grasp's posterior over the model's zones of ``task_names`` (the latest is used)."""
+        self._posterior = (posterior, tuple(zone_labels), tuple(task_names))
 
     def set_v(self, v: NDArray[np.float64], labels: Sequence[str]) -> None:
         """The newest target vector v over the zones ``labels``."""
@@ -431,7 +442,7 @@ class Assistance:
         if self._v is None:
             return 0.0, 'no intent'
         v, labels = self._v
-        agreement = 0.0 if self._posterior is None else plan_agreement(*self._posterior, v, labels)
+        agreement = 0.0 if self._posterior is None else plan_success(*self._posterior, v, labels)
         alpha = arbitration(cfg.arbitration, v, agreement, alpha_max=cfg.alpha_max, c_low=cfg.c_low,
                             c_high=cfg.c_high, margin=cfg.margin)
         return alpha, 'assisting'

@@ -18,7 +18,7 @@ from grasp_intent_ros.core.assistance import (
     concentration,
     joint_space_twist,
     operator_agreement,
-    plan_agreement,
+    plan_success,
     pose_error,
     pre_grasp,
     robot_twist,
@@ -27,6 +27,7 @@ from grasp_intent_ros.core.frames import pose_to_matrix
 from grasp_intent_ros.core.kinematics import BASE_FRAME, MicoKinematics
 
 LABELS = ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
+TASKS = ('usage', 'transfer', 'handover')
 GRASP = pose_to_matrix((0.3, -0.3, 0.05), (1.0, 0.0, 0.0, 0.0))  # approach (EE z) straight down
 ARGS = dict(alpha_max=0.9, c_low=0.2, c_high=0.7, margin=0.2)
 
@@ -41,14 +42,16 @@ def test_concentration_runs_from_uniform_to_one_zone() -> None:
         concentration([0.0, 0.0])
 
 
-def test_plan_agreement_is_one_minus_total_variation_over_the_model_zones() -> None:
-    v = np.array([0.5, 0.1, 0.1, 0.1, 0.1, 0.05, 0.05])
-    model = ('U', 'T', 'UT', 'UTH')  # a 4-zone model: v restricted to its zones and renormalised
-    v_model = np.array([0.5, 0.1, 0.1, 0.05]) / 0.75
-    assert plan_agreement(v_model, model, v, LABELS) == pytest.approx(1.0, abs=1e-15)
-    p = np.array([1.0, 0.0, 0.0, 0.0])
-    assert plan_agreement(p, model, v, LABELS) == pytest.approx(1.0 - 0.5 * np.abs(p - v_model).sum(), abs=1e-15)
-    assert plan_agreement(p, ('U', 'X'), v, LABELS) == 0.0  # a zone v does not name
+def test_plan_success_is_v_on_the_zones_the_grasp_s_reading_contains() -> None:
+    v = np.array([0.5, 0.1, 0.1, 0.1, 0.1, 0.05, 0.05])  # over LABELS: U, T, H, UT, UH, TH, UTH
+    model = ('U', 'T', 'UT', 'UTH')  # a 4-zone model: its posterior names only these
+    assert plan_success([0.1, 0.1, 0.7, 0.1], model, TASKS, v, LABELS) == pytest.approx(0.7, abs=1e-15)  # U+T+UT
+    assert plan_success([0.0, 0.0, 0.0, 1.0], model, TASKS, v, LABELS) == pytest.approx(1.0, abs=1e-15)  # all
+    assert plan_success([0.4, 0.4, 0.1, 0.1], model, TASKS, v, LABELS) == pytest.approx(0.5, abs=1e-15)  # U: first max
+    # it does not look at the fit: a posterior far from v, reading the zone v favours, is fully trusted
+    assert plan_success([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.7], LABELS, TASKS, v, LABELS) == pytest.approx(1.0, abs=1e-15)
+    assert plan_success([1.0, 0.0], ('U', 'X'), TASKS, v, LABELS) == 0.0  # a label that is not a zone of the tasks
+    assert plan_success([1.0], ('U',), TASKS, np.zeros(7), LABELS) == 0.0
 
 
 def test_arbitration_rules() -> None:
@@ -115,7 +118,7 @@ def make_assistance(**config: object) -> Assistance:
     assistance.base_T_ee = pose_to_matrix((0.3, -0.3, 0.25), (1.0, 0.0, 0.0, 0.0))
     assistance.set_grasp(GRASP)
     assistance.set_v(np.eye(7)[0], LABELS)
-    assistance.set_posterior(np.eye(7)[0], LABELS)
+    assistance.set_posterior(np.eye(7)[0], LABELS, TASKS)
     return assistance
 
 
@@ -240,7 +243,7 @@ def test_the_robot_twist_in_joint_space_keeps_the_arm_out_of_the_wrist_singulari
     assistance = Assistance(AssistanceConfig(), TwistLimiter(0.2, 1.0, 1.0, 5.0), kin if with_kinematics else None)
     assistance.set_grasp(TRANSFER_GRASP)
     assistance.set_v(np.eye(7)[1], LABELS)
-    assistance.set_posterior(np.eye(7)[1], LABELS)
+    assistance.set_posterior(np.eye(7)[1], LABELS, TASKS)
     for tick in range(1000):  # 10 s of 100 Hz outputs; the operator holds still (alpha 0.9)
         now = 0.01 * tick
         if with_kinematics:
