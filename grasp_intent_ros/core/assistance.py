@@ -88,6 +88,7 @@ from numpy.typing import ArrayLike, NDArray
 from .errors import InvalidIntentError
 from .intent import parse_zones
 from .kinematics import MicoKinematics
+from .serving import expected_success
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'concentration', 'plan_success', 'arbitration', 'operator_agreement',
            'pose_error',
@@ -122,9 +123,9 @@ def plan_success(posterior: ArrayLike, zone_labels: Sequence[str], task_names: S
     """The planned grasp's expected task success under v: v's share on the zones its reading contains.
 
     The reading is the zone of largest P (the first of equal ones, in the model's zone order); a zone k is
-    served when its tasks are among the reading's. This is core.serving's expected success E of a
-    demonstration, with the grasp's reading as its task set. 0 when a label is not a zone of ``task_names``
-    or v sums to 0.
+    served when its tasks are among the reading's. This is the expected success E of a demonstration
+    (:func:`~grasp_intent_ros.core.serving.expected_success`), with the grasp's reading as its task set.
+    0 when a label is not a zone of ``task_names`` or v sums to 0.
     """
     try:
         zones = parse_zones(zone_labels, task_names)
@@ -136,7 +137,7 @@ def plan_success(posterior: ArrayLike, zone_labels: Sequence[str], task_names: S
     if not total > 0.0 or len(v_zones) != values.size:
         return 0.0
     reading = zones[int(np.argmax(np.asarray(posterior, dtype=np.float64)))]
-    return float(sum(value for zone, value in zip(v_zones, values.tolist()) if zone & reading == zone) / total)
+    return float(expected_success(np.array([reading], dtype=np.int64), v_zones, values / total)[0])
 
 
 def arbitration(rule: Arbitration, v: ArrayLike, agreement: float, *, alpha_max: float, c_low: float,

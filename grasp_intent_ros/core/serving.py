@@ -53,6 +53,7 @@ elementwise, so the choice has the same bits on any machine.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -62,7 +63,8 @@ from numpy.typing import NDArray
 from .kernels import feasible, score
 from .model import GraspModel
 
-__all__ = ['TAU', 'HYSTERESIS', 'BAND', 'FIT_BAND', 'KEEP_BAND', 'Faithful', 'Ranking', 'likely_tasks', 'rank']
+__all__ = ['TAU', 'HYSTERESIS', 'BAND', 'FIT_BAND', 'KEEP_BAND', 'Faithful', 'Ranking', 'likely_tasks',
+           'expected_success', 'rank']
 
 Faithful = Literal['label', 'reading']
 """What must hold no unlikely task: the demonstration's label and the model's reading of it, or the reading only."""
@@ -140,6 +142,17 @@ def likely_tasks(model: GraspModel, v: NDArray[np.float64], top: int, tau: float
     return likely
 
 
+def expected_success(sets: NDArray[np.int64], zones: Sequence[int], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """E of each task set in ``sets`` (bitmasks): the sum of ``v[k]`` over the zones ``zones[k]`` it contains.
+
+    Summed zone by zone in the given order, so the same on any machine.
+    """
+    expected = np.zeros(np.shape(sets))
+    for k, z in enumerate(zones):
+        expected += np.where((sets & z) == z, v[k], 0.0)
+    return expected
+
+
 def _quantised(values: NDArray[np.float64], quantum: float) -> NDArray[np.float64]:
     out: NDArray[np.float64] = np.rint(values / quantum)
     return out
@@ -174,9 +187,7 @@ def rank(model: GraspModel, v: NDArray[np.float64], top: int, reference: NDArray
     read_faithfully = (reading & ~likely) == 0  # the model reads it as doing only likely tasks
     if faithful == 'label':
         read_faithfully &= (sets & ~likely) == 0  # and it does only likely tasks
-    expected = np.zeros(sets.size)
-    for k, z in enumerate(model.zones):  # zone by zone, in zone order: the same sum on any machine
-        expected += np.where((sets & z) == z, v[k], 0.0)
+    expected = expected_success(sets, model.zones, v)
     tier = np.where(serves, np.where(read_faithfully, 0, 1), 2).astype(np.int64)
     expected_key = _quantised(expected, _E_QUANTUM)
     if warm and band > 0.0:  # the best tier's candidates within the band of its best E tie with it
