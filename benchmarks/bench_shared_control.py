@@ -37,6 +37,10 @@ grasp did not serve S, and how many operators met any), mean alpha. A latency ph
 none, 100 Hz operator twists carrying a sequence number in ``angular.z``): the blended twist's rate and the
 latency from the operator's publish to the blended twist's receipt (the middleware's receive time).
 
+``--record BAG`` runs no benchmark: it records one operator (the first of ``--only``, of the first of
+``--objects``) under ``confidence`` as a closed-loop session bag, holding still for 2 s after the grasp
+(:func:`record_session`); bags/shared_control_cup is ``--objects cup --only 0 --record``.
+
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set.
 
     ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=97 \
@@ -48,11 +52,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shutil
 import sys
+import tempfile
 import threading
 import time
 from collections import deque
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -391,6 +398,73 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int, op: Operator
     return runs, latency
 
 
+RECORDED_TOPICS = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'intent/v', 'intent/clarification',
+                   'grasp/pose', 'grasp/joint_targets', 'grasp/posterior', 'operator/twist', 'assistance/twist',
+                   'assistance/alpha', '/diagnostics')
+"""What ``--record`` records: what a closed-loop replay sends and compares, and the report's shared-control plot."""
+HOLD_S = 2.0
+"""Seconds a recorded operator holds still (zero twists) after reaching the grasp, letting the loop settle."""
+
+
+def record_session(name: str, index: int, out: Path, args: argparse.Namespace, domain_id: int, op: Operator) -> None:
+    """Record operator ``index`` of object ``name`` under ``confidence`` into the session bag ``out`` (replaced).
+
+    A fresh suite (a replay starts one too), the recorder in the probe's context on an executor and thread of
+    its own, no warm-up: the session's first w is the planner's first. After success (or the timeout) the
+    operator holds still for :data:`HOLD_S`; then the bag is compacted (of /diagnostics only the rejections).
+    """
+    from rclpy.executors import SingleThreadedExecutor
+
+    from grasp_intent_ros.sessions.pairing import compact_session
+    from grasp_intent_ros.tools.recorder import Recorder
+    from grasp_intent_ros.tools.suite import NodeSuite
+
+    model_name, rules = OBJECTS[name]
+    kin = MicoKinematics()
+    goals = own_goals(model_name, rules, kin)
+    work = Path(tempfile.mkdtemp(prefix='record_closed_loop_'))
+    suite = NodeSuite(domain_id, cwd=REPO, log_dir=work / 'logs')
+    suite.start_nodes(model=model_name, shared_control=True)
+    probe = Probe(domain_id, 'bench_operator')
+    recorder = Recorder(work / 'raw', topics=RECORDED_TOPICS, discovery_period=0.5, context=probe.context)
+    executor = SingleThreadedExecutor(context=probe.context)
+    executor.add_node(recorder)
+    thread = threading.Thread(target=executor.spin, name='recorder', daemon=True)
+    thread.start()
+    rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), index])
+    intent = draw_intent(rng)
+    run = Run(name, index, 'confidence', intent.task_set)
+    with stopped_after(suite, probe):
+        try:
+            loop = Loop(probe, kin, rules)
+            needed = {recorder.resolve_topic_name(t) for t in RECORDED_TOPICS
+                      if t not in ('object/pose', 'intent/clarification')}  # nobody publishes these here
+            if not probe.wait_for(lambda: loop.hands and loop.alphas and needed <= set(recorder.recorded_topics),
+                                  90.0, poll=0.1):
+                sys.exit(f'bench_shared_control: the suite or the recorder not ready within 90 s; recorded '
+                         f'{sorted(recorder.recorded_topics)}\n{suite.died()}')
+            loop.set_arbitration('confidence')
+            run_operator(loop, op, intent, goals[intent.task_set], rng, args.timeout, run)
+            still = loop.twist(np.zeros(6))
+            end = time.monotonic() + HOLD_S
+            while time.monotonic() < end:
+                loop.twist_pub.publish(still)
+                time.sleep(PERIOD)
+            probe.wait_for(lambda: False, 0.5)  # the last messages reach the recorder
+        finally:
+            executor.shutdown()  # before the probe's context is shut down
+            thread.join()
+            print(recorder.summary())
+            recorder.destroy_node()  # closes the bag
+    if out.exists():
+        shutil.rmtree(out)
+    counts = compact_session(work / 'raw', out)
+    shutil.rmtree(work)
+    size = sum(f.stat().st_size for f in out.iterdir())
+    print(f'{out}: operator {index} of {name}, task set {intent.task_set}, success {run.success} after '
+          f'{run.time_to_grasp:.2f} s, {sum(counts.values())} messages, {size / 1024:.1f} KiB')
+
+
 def summary(runs: list[Run], timeout: float) -> dict[str, dict[str, float]]:
     out: dict[str, dict[str, float]] = {}
     for condition in CONDITIONS:
@@ -423,7 +497,14 @@ def main() -> None:
     parser.add_argument('--only', type=int, nargs='+', metavar='I', help='run only these operators (e.g. to look '
                         'into one); their seeds are those of the full run')
     parser.add_argument('--json', help='write every run and the summaries here')
+    parser.add_argument('--record', type=Path, metavar='BAG',
+                        help='instead of the benchmark: record the first --only operator (default 0) of the first '
+                             'object under confidence as a closed-loop session bag (replaced), e.g. for bags/')
     args = parser.parse_args()
+    if args.record is not None:
+        record_session(args.objects[0], (args.only or [0])[0], args.record, args,
+                       loopback_domain('bench_shared_control'), Operator())
+        return
     if args.quick:
         args.operators, args.latency_seconds = 3, 5.0
     domain_id = loopback_domain('bench_shared_control')

@@ -42,6 +42,7 @@ __all__ = [
     'Step',
     'PairedSession',
     'detect_namespace',
+    'ModelSwitches',
     'pair_messages',
     'load_paired_session',
     'compact_session',
@@ -168,6 +169,32 @@ def detect_namespace(topics: Iterable[str]) -> str:
     return found.pop()
 
 
+class ModelSwitches:
+    """Follows a session's ``model/active`` documents (module docstring: the first is the initial model)."""
+
+    def __init__(self) -> None:
+        self.initial: ModelHeader | None = None
+        """The first document's header."""
+        self._current: ModelHeader | None = None
+
+    def take(self, msg: RawMessage) -> ModelHeader | None:
+        """The document's header when it switches the model; None for the first document or an exact repeat.
+
+        Raises SessionError for a malformed document.
+        """
+        try:
+            header = model_header(decode(msg.msgtype, msg.cdr).data)
+        except SessionError as exc:
+            raise SessionError(f'model document at {msg.timestamp_ns} ns: {exc}') from None
+        if self._current is None:
+            self.initial = self._current = header
+            return None
+        if (header.name, header.sha256) == (self._current.name, self._current.sha256):
+            return None
+        self._current = header
+        return header
+
+
 def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '') -> tuple[
         ModelHeader | None, tuple[Step, ...], tuple[Output, ...]]:
     """Split time-ordered messages into (initial model, steps, outputs before the first input).
@@ -187,8 +214,7 @@ def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '') -> tup
     """
     prefix = f'{namespace}/'
     tracker = RejectionTracker()
-    initial: ModelHeader | None = None
-    current: ModelHeader | None = None
+    models = ModelSwitches()
     steps: list[Step] = []
     pending: Step | None = None
     outputs: list[Output] = []
@@ -209,26 +235,18 @@ def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '') -> tup
             continue
         rel = msg.topic[len(prefix):]
         if rel in INPUT_TOPICS or rel == MODEL_ACTIVE:
-            if rel == MODEL_ACTIVE:
-                try:
-                    header = model_header(decode(msg.msgtype, msg.cdr).data)
-                except SessionError as exc:
-                    raise SessionError(f'model document at {msg.timestamp_ns} ns: {exc}') from None
-                if current is None:
-                    initial = current = header
-                    continue
-                if (header.name, header.sha256) == (current.name, current.sha256):
-                    continue
-                current = header
+            header = models.take(msg) if rel == MODEL_ACTIVE else None
+            if rel == MODEL_ACTIVE and header is None:
+                continue
             close()
             pending = Step(len(steps) + 1, rel, msg.timestamp_ns, msg.msgtype, bytes(msg.cdr), (),
                            _describe_input(rel, msg.msgtype, msg.cdr))
-            if rel == MODEL_ACTIVE:
+            if header is not None:
                 outputs.append(Output(rel, msg.timestamp_ns, header))
         elif rel in OUTPUT_TOPICS:
             (outputs if pending is not None else unpaired).append(output_of(rel, msg.timestamp_ns, msg.cdr))
     close()
-    return initial, tuple(steps), tuple(unpaired)
+    return models.initial, tuple(steps), tuple(unpaired)
 
 
 def load_paired_session(path: str | os.PathLike[str], *, namespace: str | None = None) -> PairedSession:

@@ -8,6 +8,11 @@ What is replayed
     (bad inputs included), and the model switches: a recorded ``model/active`` with another name (or
     content) is reproduced by setting the model server's ``model`` parameter through its parameter
     service at that point. Before the first input the live model is set to the session's initial one.
+Closed-loop sessions
+    A session with operator twists is replayed as a closed loop (:mod:`grasp_intent_ros.sessions.closed_loop`):
+    w, object poses, model switches and operator twists at the recorded pace (``--fast`` and ``--rate`` are
+    refused), never the arm's joint states; ``--start-suite`` adds the assistance and the mock arm; ``--check``
+    compares the outcome (start, last grasp, where the hand ends), not each message.
 Pace
     Default: the recorded pace (``--rate R`` scales it: 2 = twice as fast). ``--fast``: each input as soon
     as the system has answered the previous one. ``--check`` always waits for the answer to an input
@@ -21,7 +26,8 @@ Check (``--check``)
     the first ``--max-diffs`` differing messages; exit code 1. All equal: one summary line, exit code 0.
 Suite (``--start-suite``)
     Starts ``intent_interpreter``, ``model_server`` (with the session's initial model and ``--models-dir``)
-    and ``grasp_planner`` as ``python -m`` processes with the package's config files, in the session's
+    and ``grasp_planner`` (for a closed-loop session also ``mock_arm`` and ``assistance``) as ``python -m``
+    processes with the package's config files, in the session's
     namespace (:class:`~grasp_intent_ros.tools.suite.NodeSuite`), with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
     and this process's ROS_DOMAIN_ID (else one derived from the process id); they are
     stopped by PID (SIGTERM, then SIGKILL) at the end. The planner warm-starts from its previous plan and
@@ -48,9 +54,27 @@ from rclpy.context import Context
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
 from ..bag.errors import BagError
+from ..core.kinematics import MicoKinematics
+from ..sessions.closed_loop import (
+    ClosedLoopSession,
+    Trace,
+    compare_outcomes,
+    describe,
+    is_closed_loop,
+    load_closed_loop,
+    outcome,
+)
 from ..sessions.compare import Difference
 from ..sessions.pairing import PairedSession, load_paired_session
-from .replay_client import SUITE_SETTLE_S, Replayer, ReplayError, ReplayOptions, ReplayResult, SessionClient
+from .replay_client import (
+    SUITE_SETTLE_S,
+    ClosedLoopReplayer,
+    Replayer,
+    ReplayError,
+    ReplayOptions,
+    ReplayResult,
+    SessionClient,
+)
 from .suite import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
 
 __all__ = ['main']
@@ -65,8 +89,8 @@ def _parser() -> argparse.ArgumentParser:
     pace.add_argument('--fast', action='store_true', help='send each input once the previous one was answered')
     parser.add_argument('--check', action='store_true', help='compare the live answers with the recorded ones')
     parser.add_argument('--start-suite', action='store_true',
-                        help='start the three nodes as processes (LOCALHOST, this ROS_DOMAIN_ID) and stop them at '
-                             'the end')
+                        help='start the three nodes (a closed-loop session: five, with the assistance and the mock '
+                             'arm) as processes (LOCALHOST, this ROS_DOMAIN_ID) and stop them at the end')
     parser.add_argument('--timeout', type=float, default=10.0, metavar='S',
                         help='longest wait for one answer, s (default 10)')
     parser.add_argument('--startup-timeout', type=float, default=60.0, metavar='S',
@@ -109,6 +133,31 @@ def _report(session: PairedSession, options: ReplayOptions, result: ReplayResult
     return 1
 
 
+def _report_closed_loop(session: ClosedLoopSession, options: ReplayOptions, result: ReplayResult,
+                        live: Trace) -> int:
+    kin = MicoKinematics()
+    recorded_outcome, live_outcome = outcome(session.trace, kin), outcome(live, kin)
+    for note in result.differences:
+        print(str(note))
+    print(f'  recorded: {describe(recorded_outcome)}')
+    print(f'  live:     {describe(live_outcome)}')
+    stopped = '' if not result.timed_out else f'; the arm still moved {options.timeout_s:g} s after the last input'
+    head = (f'{session.path}: closed loop, {result.inputs_sent} inputs at the recorded pace in {result.replay_s:.2f} s '
+            f'(system ready after {result.ready_s:.2f} s){stopped}')
+    if not options.check:
+        print(f'replay: {head}')
+        return 0
+    problems = compare_outcomes(recorded_outcome, live_outcome)
+    if not problems:
+        print(f'replay --check OK: {head}; the live loop planned the recorded last grasp and ended where the '
+              'recorded one did')
+        return 0
+    print(f'replay --check FAILED: {head}')
+    for problem in problems:
+        print(f'  {problem}')
+    return 1
+
+
 def _diff_lines(failures: Sequence[Difference], max_messages: int, fields_per_message: int = 2) -> list[str]:
     """One line per difference, for the first ``max_messages`` differing messages (input, topic).
 
@@ -136,9 +185,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.models_dir is not None and not args.start_suite:
         _parser().error('--models-dir needs --start-suite')
     try:
-        session = load_paired_session(args.bag)
+        closed_loop = is_closed_loop(args.bag)
+        session: PairedSession | ClosedLoopSession = (load_closed_loop(args.bag) if closed_loop
+                                                      else load_paired_session(args.bag))
     except BagError as exc:
         print(f'replay: error: {exc}', file=sys.stderr)
+        return 2
+    if closed_loop and (args.fast or args.rate != 1.0):
+        print(f'replay: error: {args.bag} is a closed-loop session (it holds operator twists): it is replayed at '
+              'the recorded pace only, because the operator\'s twists answered the arm\'s motion at that pace; '
+              'drop --fast and --rate', file=sys.stderr)
         return 2
     options = ReplayOptions(rate=args.rate, fast=args.fast, check=args.check, timeout_s=args.timeout,
                             startup_timeout_s=args.startup_timeout, max_failed_inputs=args.max_failed_inputs,
@@ -161,13 +217,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.start_suite:
             initial = session.initial_model.name if session.initial_model is not None else None
             suite = NodeSuite(domain_id)
-            suite.start_nodes(model=initial, models_dir=args.models_dir, namespace=session.namespace)
-        client = SessionClient(model_server=args.model_server, context=context,
+            suite.start_nodes(model=initial, models_dir=args.models_dir, namespace=session.namespace,
+                              shared_control=closed_loop)
+        client = SessionClient(model_server=args.model_server, context=context, closed_loop=closed_loop,
                                namespace=session.namespace or '/')
         executor.add_node(client)
-        replayer = Replayer(session, client, executor, options, alive=suite.died if suite else lambda: '')
-        result = replayer.run()
-        code = _report(session, options, result, args.max_diffs)
+        alive = suite.died if suite else lambda: ''
+        if isinstance(session, ClosedLoopSession):
+            result = ClosedLoopReplayer(session, client, executor, options, alive=alive).run()
+            code = _report_closed_loop(session, options, result, client.tracer.trace())
+        else:
+            result = Replayer(session, client, executor, options, alive=alive).run()
+            code = _report(session, options, result, args.max_diffs)
     except ReplayError as exc:
         print(f'replay: error: {exc}', file=sys.stderr)
     except (KeyboardInterrupt, ExternalShutdownException):

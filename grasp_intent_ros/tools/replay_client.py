@@ -12,6 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.srv import SetParameters
 from rclpy.executors import SingleThreadedExecutor
@@ -20,15 +21,26 @@ from rclpy.parameter import Parameter
 from rclpy.task import Future
 from std_msgs.msg import String
 
-from ..protocol import DIAGNOSTICS, INPUT_TOPICS, MODEL_ACTIVE, MSGTYPES, OUTPUT_TOPICS, ModelHeader
+from ..protocol import (
+    ASSISTANCE_ALPHA,
+    ASSISTANCE_TWIST,
+    DIAGNOSTICS,
+    INPUT_TOPICS,
+    JOINT_STATES,
+    MODEL_ACTIVE,
+    MSGTYPES,
+    OUTPUT_TOPICS,
+    ModelHeader,
+)
 from ..ros.conversions import message_class
 from ..ros.qos import input_qos, latched_qos, output_qos
+from ..sessions.closed_loop import REPLAYED, ClosedLoopSession, Tracer
 from ..sessions.compare import Difference, Tolerances, answered, compare_step, diverged
 from ..sessions.outputs import Output, RejectionTracker, SessionError, decode, output_of
 from ..sessions.pairing import PairedSession, Step
 
 __all__ = ['SUITE_SETTLE_S', 'SessionClient', 'ReplayOptions', 'ReplayResult', 'ReplayError', 'Replayer',
-           'await_answer']
+           'ClosedLoopReplayer', 'await_answer']
 
 SUITE_SETTLE_S = 3.0
 """With --start-suite: seconds every node must have been visible before the first input (see
@@ -49,8 +61,13 @@ class SessionClient(Node):
         This node's name; ``kwargs`` go to ``rclpy.node.Node`` (``context``, ``namespace``).
     """
 
-    def __init__(self, *, model_server: str = 'model_server', node_name: str = 'replay', **kwargs: Any) -> None:
+    def __init__(self, *, model_server: str = 'model_server', node_name: str = 'replay', closed_loop: bool = False,
+                 **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
+        self.closed_loop = closed_loop
+        """Whether this client replays a closed-loop session (:mod:`grasp_intent_ros.sessions.closed_loop`)."""
+        self.tracer = Tracer()
+        """With ``closed_loop``: the live loop's joint states, grasps, alphas and blended twists."""
         self.outputs: list[Output] = []
         """Live outputs in arrival order (model/active documents and rejections included)."""
         self.model: ModelHeader | None = None
@@ -64,7 +81,11 @@ class SessionClient(Node):
         self._tracker = RejectionTracker()
         self._first_seen: dict[str, float] = {}
         self._input_pubs = {topic: self.create_publisher(message_class(topic), topic, output_qos())
-                            for topic in INPUT_TOPICS}
+                            for topic in (REPLAYED if closed_loop else INPUT_TOPICS)}
+        self._loop_subs = {
+            topic: self.create_subscription(message_class(topic), topic, self._tracer_receiver(topic), input_qos(1000),
+                                            raw=True)
+            for topic in ((JOINT_STATES, ASSISTANCE_TWIST, ASSISTANCE_ALPHA) if closed_loop else ())}
         self._output_subs = {
             topic: self.create_subscription(message_class(topic), topic, self._receiver(topic), input_qos(100),
                                             raw=True)
@@ -81,10 +102,15 @@ class SessionClient(Node):
     def _receiver(self, topic: str) -> Callable[[bytes], None]:
         def receive(cdr: bytes) -> None:
             out = output_of(topic, self._now_ns(), cdr)  # never raises
+            if self.closed_loop:
+                self.tracer.add(topic, out.t_ns, cdr)
             if isinstance(out.value, ModelHeader):
                 self.model = out.value
             self.outputs.append(out)
         return receive
+
+    def _tracer_receiver(self, topic: str) -> Callable[[bytes], None]:
+        return lambda cdr: self.tracer.add(topic, self._now_ns(), cdr)
 
     def _on_diagnostics(self, cdr: bytes) -> None:
         try:
@@ -131,7 +157,8 @@ class SessionClient(Node):
         if self.model is None:
             lacking.append(f'no {MODEL_ACTIVE} received')
         lacking += [f'no subscriber on {t}' for t, p in self._input_pubs.items() if p.get_subscription_count() == 0]
-        lacking += [f'no publisher on {t}' for t, s in self._output_subs.items() if s.get_publisher_count() == 0]
+        lacking += [f'no publisher on {t}' for t, s in (*self._output_subs.items(), *self._loop_subs.items())
+                    if s.get_publisher_count() == 0]
         publishers = self._diag_sub.get_publisher_count()
         if publishers == 0 or len(self.statuses) < publishers:
             lacking.append(f'{len(self.statuses)} diagnostic statuses from {publishers} /diagnostics publishers')
@@ -282,7 +309,7 @@ class Replayer:
 
         Returns notes (a model with the recorded name but other content). Raises ReplayError.
         """
-        need_parameters = any(s.model is not None for s in self.session.steps) or self.session.initial_model is not None
+        need_parameters = self._needs_parameters()
         missing = lambda: self.client.missing(need_parameters=need_parameters)  # noqa: E731
         if not self._wait(lambda: not missing() and self.client.settled(self.options.settle_s),
                           self.options.startup_timeout_s):
@@ -297,6 +324,9 @@ class Replayer:
             notes.append(Difference(0, 'initial model', MODEL_ACTIVE, 'model content', f'sha256 {initial.sha256[:12]}',
                                     f'sha256 {self.client.model.sha256[:12]} (same name, different model)', False))
         return notes
+
+    def _needs_parameters(self) -> bool:
+        return any(s.model is not None for s in self.session.steps) or self.session.initial_model is not None
 
     def _quiet(self, seconds: float) -> None:
         """Spin until no output arrived for ``seconds`` (at most the answer timeout)."""
@@ -380,3 +410,59 @@ class Replayer:
         return result
 
 
+
+
+class ClosedLoopReplayer(Replayer):
+    """Replays a closed-loop session (:mod:`grasp_intent_ros.sessions.closed_loop`) at its recorded pace.
+
+    The live system must run the assistance and an arm (the suite with ``shared_control``), with the arm where
+    the recording's started. The client must have been made with ``closed_loop=True``. :meth:`run` sends every
+    message at its recorded time after the first, then waits until the arm has stopped (no joint moved by more
+    than 1e-6 rad over :data:`STOPPED_S`, once the operator's last twist is older than :data:`STOPPED_S`), at most
+    ``options.timeout_s``.
+    """
+
+    session: ClosedLoopSession  # type: ignore[assignment]
+
+    STOPPED_S = 0.3
+    """Seconds without arm motion that end the replay: the assistance stops 0.1 s after the operator's last twist
+    (operator_timeout) and the mock arm 0.1 s after the last blended twist (command_timeout)."""
+
+    def _needs_parameters(self) -> bool:
+        return self.session.initial_model is not None or any(s.model is not None for s in self.session.sends)
+
+    def run(self) -> ReplayResult:
+        """Send every message, wait for the arm to stop; raises ReplayError (system not ready, suite died)."""
+        result = ReplayResult()
+        started = time.monotonic()
+        result.differences += self.prepare()
+        result.ready_s = time.monotonic() - started
+        if not self._wait(lambda: bool(self.client.tracer.trace().joints), self.options.startup_timeout_s):
+            raise ReplayError('no joint state from the live arm')
+        self.client.tracer.restart()
+        sends = self.session.sends
+        begin = time.monotonic()
+        for send in sends:
+            send_at = begin + 1e-9 * (send.t_ns - sends[0].t_ns)
+            self._wait(lambda: time.monotonic() >= send_at, max(0.0, send_at - time.monotonic()) + 1.0)
+            if send.model is not None:
+                self.client.set_model(send.model)  # not awaited: the recorded operator did not wait either
+            else:
+                self.client.publish(send.topic, send.cdr)
+                self.client.tracer.add(send.topic, self.client.get_clock().now().nanoseconds, send.cdr)
+            result.inputs_sent += 1
+        last_send = time.monotonic()
+        if not self._wait(lambda: time.monotonic() - last_send >= self.STOPPED_S and self._arm_stopped(),
+                          self.options.timeout_s):
+            result.timed_out.append(len(sends))
+        result.replay_s = time.monotonic() - begin
+        result.outputs_received = len(self.client.outputs)
+        return result
+
+    def _arm_stopped(self) -> bool:
+        joints = self.client.tracer.trace().joints
+        if not joints:
+            return False
+        since = joints[-1][0] - int(self.STOPPED_S * 1e9)
+        recent = [q for t, q in joints if t >= since]
+        return len(recent) > 1 and all(float(np.max(np.abs(q - recent[-1]))) <= 1e-6 for q in recent)

@@ -5,6 +5,9 @@ And a perturbed model caught by the check (what CI runs: scripts/test.sh).
 Each replay is the real command, ``python -m grasp_intent_ros replay BAG --check --fast --start-suite``: it
 starts the three nodes as processes on this test's domain id (LOCALHOST discovery) and stops them by PID.
 A replay takes about 10 s on 2 cores (about 7 s of it for the suite to start and its nodes to meet).
+A closed-loop session (operator twists: bags/shared_control_cup) is replayed at its recorded pace into the
+suite with the assistance and the mock arm (no ``--fast``), as recorded and with its operator twists and w
+perturbed at the last bits (1e-12 relative), which shows its check does not depend on the machine.
 """
 
 from __future__ import annotations
@@ -17,29 +20,37 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from grasp_intent_ros.bag import QosSpec, SessionWriter, jazzy_typestore, read_messages, topics_info
+from grasp_intent_ros.core.kinematics import MicoKinematics
 from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.sessions.closed_loop import is_closed_loop, load_closed_loop, outcome
 from grasp_intent_ros.sessions.pairing import load_paired_session
 
 REPO = Path(__file__).resolve().parents[2]
 BAGS = REPO / 'bags'
-REQUIRED = ('bad_inputs', 'cup_paper_cases', 'flashlight', 'model_ambiguity', 'moving_object')
-"""The sessions bags/ must hold (scripts/record_sessions.py records them)."""
+REQUIRED = ('bad_inputs', 'cup_paper_cases', 'flashlight', 'model_ambiguity', 'moving_object', 'shared_control_cup')
+"""The sessions bags/ must hold (scripts/record_sessions.py records them; the closed-loop shared_control_cup is
+recorded by ``benchmarks/bench_shared_control.py --record``)."""
 RUN_TIMEOUT = 120.0
 """Seconds one replay command may take before it is stopped (SIGTERM, then SIGKILL)."""
 
 
-def bag_dirs() -> list[Path]:
-    return sorted(p for p in BAGS.iterdir() if (p / 'metadata.yaml').is_file()) if BAGS.is_dir() else []
+def bag_dirs(*, closed_loop: bool | None = None) -> list[Path]:
+    """The session bags; only the closed-loop ones (True) or only the others (False)."""
+    bags = sorted(p for p in BAGS.iterdir() if (p / 'metadata.yaml').is_file()) if BAGS.is_dir() else []
+    return [p for p in bags if closed_loop is None or is_closed_loop(p) == closed_loop]
 
 
-def replay(bag: Path, domain_id: int, *extra: str) -> subprocess.CompletedProcess[str]:
+def replay(bag: Path, domain_id: int, *extra: str, fast: bool = True) -> subprocess.CompletedProcess[str]:
     """Run the replay command; stop it by PID (SIGTERM: it stops its suite) if it overruns."""
     env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': str(domain_id),
            'PYTHONUNBUFFERED': '1'}
     env.pop('ROS_STATIC_PEERS', None)
-    cmd = [sys.executable, '-m', 'grasp_intent_ros', 'replay', str(bag), '--check', '--fast', '--start-suite', *extra]
+    cmd = [sys.executable, '-m', 'grasp_intent_ros', 'replay', str(bag), '--check', *(['--fast'] if fast else []),
+           '--start-suite', *extra]
     proc = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         out, err = proc.communicate(timeout=RUN_TIMEOUT)
@@ -64,7 +75,7 @@ def test_bags_hold_the_required_sessions() -> None:
         assert size < 512 * 1024, f'{bag.name} is {size / 1024:.0f} KiB'
 
 
-@pytest.mark.parametrize('bag', bag_dirs(), ids=lambda p: p.name)
+@pytest.mark.parametrize('bag', bag_dirs(closed_loop=False), ids=lambda p: p.name)
 def test_replay_of_each_bag_passes_the_check(bag: Path, domain_id: int) -> None:
     result = replay(bag, domain_id)
     assert result.returncode == 0, f'{result.stdout}\n{result.stderr}'
@@ -72,6 +83,49 @@ def test_replay_of_each_bag_passes_the_check(bag: Path, domain_id: int) -> None:
     n_inputs = len(load_paired_session(bag).steps)
     assert summary.startswith(f'replay --check OK: {bag}: {n_inputs} inputs'), result.stdout
     assert 'Traceback' not in result.stderr, result.stderr
+
+
+def perturbed_copy(bag: Path, out: Path, relative: float = 1e-12) -> Path:
+    """``bag`` with every operator twist and w scaled by 1 + N(0, relative) per value (seeded); else unchanged."""
+    rng = np.random.default_rng(0)
+    store = jazzy_typestore()
+    with SessionWriter(out) as writer:
+        for topic, info in topics_info(bag).items():
+            writer.add_topic(topic, info.msgtype, qos=info.qos[0] if info.qos else QosSpec())
+        for msg in read_messages(bag):
+            cdr = bytes(msg.cdr)
+            if msg.topic.endswith('/operator/twist'):
+                twist = store.deserialize_cdr(cdr, msg.msgtype)
+                for part in (twist.twist.linear, twist.twist.angular):
+                    part.x, part.y, part.z = (c * (1.0 + relative * rng.standard_normal()) for c in (part.x, part.y,
+                                                                                                      part.z))
+                cdr = bytes(store.serialize_cdr(twist, msg.msgtype))
+            elif msg.topic.endswith('/intent/w'):
+                w = store.deserialize_cdr(cdr, msg.msgtype)
+                w.data = w.data * (1.0 + relative * rng.standard_normal(w.data.size))
+                cdr = bytes(store.serialize_cdr(w, msg.msgtype))
+            writer.write(msg.topic, msg.timestamp_ns, cdr)
+    return out
+
+
+@pytest.mark.parametrize('perturbed', [False, True], ids=['as recorded', 'inputs perturbed by 1e-12'])
+@pytest.mark.parametrize('bag', bag_dirs(closed_loop=True), ids=lambda p: p.name)
+def test_a_closed_loop_session_replayed_plans_the_recorded_grasp_and_ends_there(
+        bag: Path, perturbed: bool, domain_id: int, tmp_path: Path) -> None:
+    session = load_closed_loop(bag)
+    assert outcome(session.trace, MicoKinematics()).ends_at_grasp  # else the check would only compare the grasp
+    played = perturbed_copy(bag, tmp_path / bag.name) if perturbed else bag
+    result = replay(played, domain_id, fast=False)
+    assert result.returncode == 0, f'{result.stdout}\n{result.stderr}'
+    summary = result.stdout.strip().splitlines()[-1]
+    assert summary.startswith(f'replay --check OK: {played}: closed loop, {len(session.sends)} inputs'), result.stdout
+    assert 'Traceback' not in result.stderr, result.stderr
+
+
+def test_a_closed_loop_session_is_refused_at_another_pace(domain_id: int) -> None:
+    (bag,) = bag_dirs(closed_loop=True)
+    result = replay(bag, domain_id)  # --fast
+    assert result.returncode == 2 and 'closed-loop session' in result.stderr, result.stderr
 
 
 def test_a_perturbed_model_fails_the_check_and_names_the_first_differing_message(

@@ -5,6 +5,8 @@ plans it (the recorded v over the model's zones, the previous plan of the same m
 IK reachability seeded from the latest joint state), with v perturbed at the last bits (1e-12
 relative). The grasp must match the recording within the replay's tolerances. The object pose is read
 off the recording itself (base_T_obj = base_T_ee @ inv(obj_T_ee(x))), so the test needs no ROS.
+Closed-loop sessions are left out: their joint states are the arm's, and test/system/test_replay.py replays
+them with the inputs perturbed at the last bits instead.
 """
 
 from __future__ import annotations
@@ -23,12 +25,13 @@ from grasp_intent_ros.core.intent import parse_zones, restrict
 from grasp_intent_ros.core.kinematics import ARM_JOINTS, MicoKinematics, Reachability
 from grasp_intent_ros.core.model import GraspModel
 from grasp_intent_ros.core.resources import config_dir
+from grasp_intent_ros.sessions.closed_loop import is_closed_loop
 from grasp_intent_ros.sessions.compare import Tolerances
 from grasp_intent_ros.sessions.outputs import Pose, Vector, decode
 from grasp_intent_ros.sessions.pairing import load_paired_session
 
 REPO = Path(__file__).resolve().parents[2]
-BAGS = sorted(p for p in (REPO / 'bags').iterdir() if (p / 'metadata.yaml').is_file())
+BAGS = sorted(p for p in (REPO / 'bags').iterdir() if (p / 'metadata.yaml').is_file() and not is_closed_loop(p))
 PARAMS = yaml.safe_load((config_dir() / 'grasp_planner.yaml').read_text())['/**/grasp_planner']['ros__parameters']
 TOL = Tolerances()
 

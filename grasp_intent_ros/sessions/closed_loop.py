@@ -1,0 +1,304 @@
+"""Closed-loop sessions: teleoperation recorded with the assistance and an arm in the loop (ROS-free).
+
+A session is *closed-loop* when it holds operator twists (``operator/twist``). Its ``joint_states`` are then
+the arm's answer to the blended twist, not inputs: a replay cannot publish them again without fighting the
+live arm, and the blended twist depends on the arm, on the planner's grasps and on the time between
+messages (the operator timeout, the acceleration limits), all on the wall clock. So a closed-loop session is
+replayed as the operator lived it: its ``intent/w``, ``object/pose``, model switches and operator twists go
+out at the recorded pace into a live suite with the assistance and an arm, and what is compared is the
+*outcome*, which the loop itself makes robust to timing:
+
+- the last grasp planned (v and w depend on nothing but the inputs, so it must be the recorded one, within
+  the replay's pose tolerances);
+- where the hand ends: within :data:`REACH_POS` and :data:`REACH_ROT` of that grasp when the recorded hand
+  ended there (the benchmark's "reached");
+- the arm's first joint state (the live arm must start where the recorded one did).
+
+Times to reach the grasp and mean alpha are reported side by side, not compared: they are wall-clock figures.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Final
+
+import numpy as np
+import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
+from numpy.typing import NDArray
+
+from ..bag.reader import read_messages, topics_info
+from ..core.frames import pose_to_matrix
+from ..core.kinematics import ARM_JOINTS, MicoKinematics
+from ..protocol import (
+    ASSISTANCE_ALPHA,
+    ASSISTANCE_TWIST,
+    GRASP_POSE,
+    INTENT_W,
+    JOINT_STATES,
+    MODEL_ACTIVE,
+    OBJECT_POSE,
+    OPERATOR_TWIST,
+    ModelHeader,
+)
+from .outputs import Joints, Pose, RawMessage, SessionError, decode, output_of
+from .pairing import ModelSwitches, detect_namespace
+
+__all__ = ['REACH_POS', 'REACH_ROT', 'REPLAYED', 'Send', 'Trace', 'Outcome', 'ClosedLoopSession',
+           'is_closed_loop', 'split_messages', 'load_closed_loop', 'Tracer', 'outcome', 'compare_outcomes',
+           'describe']
+
+REACH_POS: Final = 0.01
+"""The hand has reached a grasp within this distance (m) ..."""
+REACH_ROT: Final = 0.1
+"""... and this rotation (rad): the closed-loop benchmark's success."""
+START_TOLERANCE: Final = 1e-3
+"""Largest difference (rad) between the recorded and the live arm's first joint state."""
+REPLAYED: Final = (INTENT_W, OBJECT_POSE, OPERATOR_TWIST)
+"""Topics a closed-loop replay publishes again (and the model switches); ``joint_states`` is the arm's."""
+
+
+@dataclass(frozen=True)
+class Send:
+    """One message a closed-loop replay sends: at ``t_ns`` (recorded receive time), on ``topic``.
+
+    ``topic`` is one of :data:`REPLAYED` (``cdr`` the serialized message) or ``model/active`` for a
+    model switch (``model`` the name to activate, ``cdr`` empty).
+    """
+
+    t_ns: int
+    topic: str
+    cdr: bytes
+    model: str | None = None
+
+
+class Tracer:
+    """Collects what a closed loop did, from recorded or live messages on the session's topics.
+
+    Feed it with :meth:`add` (relative topic, receive time ns, CDR) and read :meth:`trace`.
+    """
+
+    def __init__(self) -> None:
+        self._joints: list[tuple[int, NDArray[np.float64]]] = []
+        self._grasps: list[tuple[int, NDArray[np.float64]]] = []
+        self._alphas: list[tuple[int, float]] = []
+        self._operator: list[int] = []
+        self._blended: list[int] = []
+
+    def restart(self) -> None:
+        """Forget everything but the newest joint state (the arm's state when a replay starts)."""
+        self._joints[:-1] = []
+        self._grasps.clear()
+        self._alphas.clear()
+        self._operator.clear()
+        self._blended.clear()
+
+    def add(self, topic: str, t_ns: int, cdr: bytes) -> None:
+        """Take one message; messages on other topics and undecodable ones are ignored."""
+        if topic == JOINT_STATES:
+            value = output_of(topic, t_ns, cdr).value
+            if isinstance(value, Joints) and (q := _arm_positions(value)) is not None:
+                self._joints.append((t_ns, q))
+        elif topic == GRASP_POSE:
+            value = output_of(topic, t_ns, cdr).value
+            if isinstance(value, Pose):
+                self._grasps.append((t_ns, pose_to_matrix(value.position, value.orientation)))
+        elif topic == ASSISTANCE_ALPHA:
+            try:
+                self._alphas.append((t_ns, float(decode('std_msgs/msg/Float64', cdr).data)))
+            except SessionError:
+                pass
+        elif topic == ASSISTANCE_TWIST:
+            self._blended.append(t_ns)
+        elif topic == OPERATOR_TWIST:
+            self._operator.append(t_ns)
+
+    def trace(self) -> Trace:
+        """What was collected so far."""
+        return Trace(tuple(self._joints), tuple(self._grasps), tuple(self._alphas), tuple(self._blended),
+                     tuple(self._operator))
+
+
+def _arm_positions(joints: Joints) -> NDArray[np.float64] | None:
+    index = {name: i for i, name in enumerate(joints.names)}
+    if not all(name in index and index[name] < joints.positions.size for name in ARM_JOINTS):
+        return None
+    q = np.array([joints.positions[index[name]] for name in ARM_JOINTS], dtype=np.float64)
+    return q if np.all(np.isfinite(q)) else None
+
+
+@dataclass(frozen=True)
+class Trace:
+    """A closed loop's messages by receive time (ns): arm joints, grasps, alphas, blended and operator twists."""
+
+    joints: tuple[tuple[int, NDArray[np.float64]], ...]
+    grasps: tuple[tuple[int, NDArray[np.float64]], ...]
+    alphas: tuple[tuple[int, float], ...]
+    blended: tuple[int, ...]
+    operator: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What a closed loop achieved.
+
+    Attributes
+    ----------
+    final_grasp
+        The last planned grasp (base_T_grasp), None without one.
+    final_hand
+        The hand's last pose (base_T_ee), None without a joint state.
+    start_q
+        The arm's first joint state (6,), None without one.
+    reached_s
+        Seconds from the first operator twist to the first joint state with the hand within
+        :data:`REACH_POS` / :data:`REACH_ROT` of ``final_grasp``; None if it never got there.
+    ends_at_grasp
+        Whether the hand's last pose is within those tolerances of ``final_grasp``.
+    alpha_mean
+        Mean of the published alphas from the first operator twist on (nan without any).
+    blended
+        Number of blended twists from the first operator twist to the last.
+    """
+
+    final_grasp: NDArray[np.float64] | None
+    final_hand: NDArray[np.float64] | None
+    start_q: NDArray[np.float64] | None
+    reached_s: float | None
+    ends_at_grasp: bool
+    alpha_mean: float
+    blended: int
+
+
+def _within(hand: NDArray[np.float64], grasp: NDArray[np.float64]) -> bool:
+    distance = float(np.linalg.norm(grasp[:3, 3] - hand[:3, 3]))
+    angle = float(np.linalg.norm(pin.log3(grasp[:3, :3] @ hand[:3, :3].T)))
+    return distance <= REACH_POS and angle <= REACH_ROT
+
+
+def outcome(trace: Trace, kin: MicoKinematics) -> Outcome:
+    """The :class:`Outcome` of a trace (forward kinematics by ``kin``)."""
+    start_ns = trace.operator[0] if trace.operator else (trace.joints[0][0] if trace.joints else 0)
+    end_ns = trace.operator[-1] if trace.operator else start_ns
+    grasp = trace.grasps[-1][1] if trace.grasps else None
+    hand = kin.fk(trace.joints[-1][1]) if trace.joints else None
+    reached = None
+    if grasp is not None:
+        for t_ns, q in trace.joints:
+            if t_ns >= start_ns and _within(kin.fk(q), grasp):
+                reached = 1e-9 * (t_ns - start_ns)
+                break
+    alphas = [a for t, a in trace.alphas if t >= start_ns]
+    return Outcome(grasp, hand, trace.joints[0][1] if trace.joints else None, reached,
+                   grasp is not None and hand is not None and _within(hand, grasp),
+                   float(np.mean(alphas)) if alphas else float('nan'),
+                   sum(start_ns <= t <= end_ns for t in trace.blended))
+
+
+def compare_outcomes(recorded: Outcome, live: Outcome, *, position_m: float = 1e-3,
+                     rotation_rad: float = 1e-2) -> list[str]:
+    """What differs between a recorded and a live outcome, one line each ([] when they agree).
+
+    The last grasp within ``position_m`` / ``rotation_rad`` (the replay's pose tolerances); the first joint
+    state within :data:`START_TOLERANCE`; a live hand at that grasp when the recorded one ended there.
+    """
+    problems = []
+    if recorded.start_q is not None and live.start_q is not None:
+        gap = float(np.max(np.abs(recorded.start_q - live.start_q)))
+        if gap > START_TOLERANCE:
+            problems.append(f'the live arm started {gap:.3g} rad from the recorded start '
+                            f'(tolerance {START_TOLERANCE:g}): start it where the recording did')
+    if recorded.final_grasp is None:
+        return problems
+    if live.final_grasp is None:
+        return [*problems, 'no grasp was planned live']
+    distance = float(np.linalg.norm(live.final_grasp[:3, 3] - recorded.final_grasp[:3, 3]))
+    angle = float(np.linalg.norm(pin.log3(live.final_grasp[:3, :3] @ recorded.final_grasp[:3, :3].T)))
+    if distance > position_m or angle > rotation_rad:
+        problems.append(f'last grasp: live {distance * 1e3:.2f} mm and {angle:.3g} rad from the recorded one '
+                        f'(tolerance {position_m * 1e3:g} mm, {rotation_rad:g} rad)')
+    if recorded.ends_at_grasp and not live.ends_at_grasp:
+        where = 'no joint state' if live.final_hand is None else (
+            f'{np.linalg.norm(live.final_hand[:3, 3] - live.final_grasp[:3, 3]) * 1e3:.1f} mm, '
+            f'{np.linalg.norm(pin.log3(live.final_grasp[:3, :3] @ live.final_hand[:3, :3].T)):.3f} rad away')
+        problems.append(f'the recorded hand ended at the grasp; the live one did not ({where}; tolerance '
+                        f'{REACH_POS * 1e3:g} mm, {REACH_ROT:g} rad)')
+    return problems
+
+
+@dataclass(frozen=True)
+class ClosedLoopSession:
+    """A closed-loop session bag read for replay.
+
+    Attributes
+    ----------
+    path, namespace, initial_model
+        As :class:`~grasp_intent_ros.sessions.pairing.PairedSession`.
+    sends
+        What a replay sends, in recorded order.
+    trace
+        What the recorded loop did.
+    """
+
+    path: Path
+    namespace: str
+    initial_model: ModelHeader | None
+    sends: tuple[Send, ...]
+    trace: Trace
+
+    @property
+    def duration_s(self) -> float:
+        """Time from the first to the last message sent (s)."""
+        return 1e-9 * (self.sends[-1].t_ns - self.sends[0].t_ns) if self.sends else 0.0
+
+
+def _relative(messages: Iterable[RawMessage], namespace: str) -> Iterable[tuple[str, RawMessage]]:
+    prefix = f'{namespace}/'
+    for msg in messages:
+        if msg.topic.startswith(prefix):
+            yield msg.topic[len(prefix):], msg
+
+
+def is_closed_loop(path: str | os.PathLike[str], *, namespace: str | None = None) -> bool:
+    """Whether the session bag at ``path`` holds operator twists (raises BagReadError / SessionError)."""
+    infos = topics_info(path)
+    ns = detect_namespace(infos) if namespace is None else namespace.rstrip('/')
+    info = infos.get(f'{ns}/{OPERATOR_TWIST}')
+    return info is not None and info.count > 0
+
+
+def split_messages(messages: Iterable[RawMessage], namespace: str = '') -> tuple[
+        ModelHeader | None, tuple[Send, ...], Trace]:
+    """Split a closed-loop session's time-ordered messages into (initial model, sends, recorded trace)."""
+    models = ModelSwitches()
+    sends: list[Send] = []
+    tracer = Tracer()
+    for rel, msg in _relative(messages, namespace):
+        if rel == MODEL_ACTIVE:
+            if (header := models.take(msg)) is not None:
+                sends.append(Send(msg.timestamp_ns, MODEL_ACTIVE, b'', header.name))
+            continue
+        if rel in REPLAYED:
+            sends.append(Send(msg.timestamp_ns, rel, bytes(msg.cdr)))
+        tracer.add(rel, msg.timestamp_ns, bytes(msg.cdr))
+    return models.initial, tuple(sends), tracer.trace()
+
+
+def load_closed_loop(path: str | os.PathLike[str], *, namespace: str | None = None) -> ClosedLoopSession:
+    """Read a closed-loop session bag (raises BagReadError, or SessionError without operator twists)."""
+    bag = Path(path)
+    ns = detect_namespace(topics_info(bag)) if namespace is None else namespace.rstrip('/')
+    initial, sends, trace = split_messages(read_messages(bag), ns)
+    if not trace.operator:
+        raise SessionError(f'bag {bag} holds no {OPERATOR_TWIST}: not a closed-loop session')
+    return ClosedLoopSession(bag, ns, initial, sends, trace)
+
+
+def describe(outcome_: Outcome) -> str:
+    """One line: reached after, ends at the grasp, mean alpha, blended twists while the operator sent."""
+    reached = 'never' if outcome_.reached_s is None else f'after {outcome_.reached_s:.2f} s'
+    return (f'hand at the last grasp {reached}, {"ends there" if outcome_.ends_at_grasp else "does not end there"}; '
+            f'mean alpha {outcome_.alpha_mean:.2f}; {outcome_.blended} blended twists while the operator sent')
+
