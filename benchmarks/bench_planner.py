@@ -122,26 +122,38 @@ def expected_success(model: GraspModel, v: np.ndarray, res: planner.PlanResult) 
     return sum(vk for vk, z in zip(v.tolist(), model.zones) if task_set & z == z)
 
 
+def kept_by_hysteresis(model: GraspModel, v: np.ndarray, res: planner.PlanResult) -> bool:
+    """Whether a stream's answer does or reads as a task outside the fresh likely set (so hysteresis kept it)."""
+    likely = serving.likely_tasks(model, v, int(planner.zone_order(v)[0]), serving.TAU, 0, serving.HYSTERESIS)
+    tasks = int(model.demo_sets[res.chosen.start_index]) | int(model.zones[int(np.argmax(res.chosen.posterior))])
+    return bool(tasks & ~likely)
+
+
 def continuity(steps: int, seed: int, walks: int, models: tuple[str, ...], method: planner.Method) -> None:
     print(f'3. continuity: {walks} random walks of w (seeds {seed}-{seed + walks - 1}), {steps} steps each, '
           'warm-started; jump = palm > 20 mm or approach > 0.3 rad')
     if method == 'task':
         print(f'   and against a fresh plan at every step: the stream\'s expected success E (by the model) below the '
               f'fresh plan\'s by more than the band {serving.BAND}, its residual |v - P| above the fresh one\'s by '
-              f'more than the band {serving.KEEP_BAND}, and the fit f of both')
+              f'more than the band {serving.KEEP_BAND} (the bands hold where the stream\'s answer lies in the fresh '
+              f'likely set; steps where it keeps a task by hysteresis, w_i within {serving.HYSTERESIS} below tau, '
+              'are counted apart), and the fit f of both')
     for name in (m for m in SEVEN if m in models):
         model = load(name)
         total = 0
         for walk_seed in range(seed, seed + walks):
             previous, jumps, branch_held, inexact = None, 0, 0, 0
-            worse, unfit, f_warm, f_fresh = 0, 0, [], []
+            worse, unfit, held, f_warm, f_fresh = 0, 0, 0, [], []
             for v in walk_targets(model, steps, walk_seed):
                 res = planner.plan(model, v, warm_start=None if previous is None else previous.x, method=method)
                 inexact += not res.exact
                 if method == 'task':
                     fresh = planner.plan(model, v, method=method)
-                    worse += expected_success(model, v, res) < expected_success(model, v, fresh) - serving.BAND
-                    unfit += np.sqrt(2.0 * res.objective) > np.sqrt(2.0 * fresh.objective) + serving.KEEP_BAND
+                    if kept_by_hysteresis(model, v, res):
+                        held += 1
+                    else:
+                        worse += expected_success(model, v, res) < expected_success(model, v, fresh) - serving.BAND
+                        unfit += np.sqrt(2.0 * res.objective) > np.sqrt(2.0 * fresh.objective) + serving.KEEP_BAND
                     f_warm.append(res.objective)
                     f_fresh.append(fresh.objective)
                 if previous is not None:
@@ -153,7 +165,8 @@ def continuity(steps: int, seed: int, walks: int, models: tuple[str, ...], metho
                         branch_held += method == 'lm' and res.candidates[0].start_index == 0 and res.exact
                 previous = res
             total += jumps
-            detail = (f'outside the bands in {worse} (E) and {unfit} (fit) steps; mean f {np.mean(f_warm):.3e} '
+            detail = (f'outside the bands in {worse} (E) and {unfit} (fit) steps, {held} steps kept a task by '
+                      f'hysteresis; mean f {np.mean(f_warm):.3e} '
                       f'(fresh {np.mean(f_fresh):.3e})' if method == 'task' else
                       f'{branch_held} of them while the previous branch still matched v; {inexact} steps with no '
                       'exact match')
