@@ -410,8 +410,6 @@ class Replayer:
         return result
 
 
-
-
 class ClosedLoopReplayer(Replayer):
     """Replays a closed-loop session (:mod:`grasp_intent_ros.sessions.closed_loop`) at its recorded pace.
 
