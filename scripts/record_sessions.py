@@ -1,6 +1,9 @@
 #!/usr/bin/env python3
 """Regenerate the session bags in bags/ by recording real runs of the node suite.
 
+All but the closed-loop bags/shared_control_cup, which ``benchmarks/bench_shared_control.py --record`` records
+(its scripted operator lives there).
+
     .venv/bin/python scripts/record_sessions.py [--out bags] [--only NAME ...] [--models-dir DIR]
 
 For each session: start the three nodes as ``python -m`` processes (:class:`grasp_intent_ros.tools.suite.NodeSuite`,
