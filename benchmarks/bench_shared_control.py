@@ -74,6 +74,7 @@ from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, Mic
 from grasp_intent_ros.core.registry import ModelFiles
 from grasp_intent_ros.core.resources import config_dir
 from grasp_intent_ros.dataset.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRules
+from grasp_intent_ros.sessions.closed_loop import reached
 
 OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 CONDITIONS = ('none', 'blend', 'confidence')
@@ -82,7 +83,6 @@ BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 PERIOD = 0.01
 W_EVERY = 10
 """Operator ticks per w (10 Hz)."""
-REACH_POS, REACH_ROT = 0.01, 0.1
 
 
 @dataclass(frozen=True)
@@ -262,11 +262,6 @@ class Loop:
             if received <= t:
                 return base_T
         return None
-
-
-def reached(hand: np.ndarray, goal: np.ndarray) -> bool:
-    error = pose_error(hand, goal)
-    return bool(np.linalg.norm(error[:3]) <= REACH_POS and np.linalg.norm(error[3:]) <= REACH_ROT)
 
 
 def run_operator(loop: Loop, op: Operator, intent: Intent, own_goal: np.ndarray, rng: np.random.Generator,

@@ -26,10 +26,10 @@ from pathlib import Path
 from typing import Final
 
 import numpy as np
-import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
 from numpy.typing import NDArray
 
 from ..bag.reader import read_messages, topics_info
+from ..core.assistance import pose_error
 from ..core.frames import pose_to_matrix
 from ..core.kinematics import ARM_JOINTS, MicoKinematics
 from ..protocol import (
@@ -39,6 +39,7 @@ from ..protocol import (
     INTENT_W,
     JOINT_STATES,
     MODEL_ACTIVE,
+    MSGTYPES,
     OBJECT_POSE,
     OPERATOR_TWIST,
     ModelHeader,
@@ -46,8 +47,8 @@ from ..protocol import (
 from .outputs import Joints, Pose, RawMessage, SessionError, decode, output_of
 from .pairing import ModelSwitches, detect_namespace
 
-__all__ = ['REACH_POS', 'REACH_ROT', 'REPLAYED', 'Send', 'Trace', 'Outcome', 'ClosedLoopSession',
-           'is_closed_loop', 'split_messages', 'load_closed_loop', 'Tracer', 'outcome', 'compare_outcomes',
+__all__ = ['REACH_POS', 'REACH_ROT', 'REPLAYED', 'Send', 'Trace', 'Outcome', 'ClosedLoopSession', 'offset',
+           'reached', 'is_closed_loop', 'split_messages', 'load_closed_loop', 'Tracer', 'outcome', 'compare_outcomes',
            'describe']
 
 REACH_POS: Final = 0.01
@@ -107,7 +108,7 @@ class Tracer:
                 self._grasps.append((t_ns, pose_to_matrix(value.position, value.orientation)))
         elif topic == ASSISTANCE_ALPHA:
             try:
-                self._alphas.append((t_ns, float(decode('std_msgs/msg/Float64', cdr).data)))
+                self._alphas.append((t_ns, float(decode(MSGTYPES[ASSISTANCE_ALPHA], cdr).data)))
             except SessionError:
                 pass
         elif topic == ASSISTANCE_TWIST:
@@ -172,9 +173,15 @@ class Outcome:
     blended: int
 
 
-def _within(hand: NDArray[np.float64], grasp: NDArray[np.float64]) -> bool:
-    distance = float(np.linalg.norm(grasp[:3, 3] - hand[:3, 3]))
-    angle = float(np.linalg.norm(pin.log3(grasp[:3, :3] @ hand[:3, :3].T)))
+def offset(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[float, float]:
+    """How far pose ``b`` is from pose ``a`` (4x4): (distance m, rotation angle rad), by :func:`pose_error`."""
+    error = pose_error(a, b)
+    return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
+
+
+def reached(hand: NDArray[np.float64], goal: NDArray[np.float64]) -> bool:
+    """Whether the hand is within :data:`REACH_POS` and :data:`REACH_ROT` of ``goal`` (the benchmark's success)."""
+    distance, angle = offset(hand, goal)
     return distance <= REACH_POS and angle <= REACH_ROT
 
 
@@ -184,15 +191,15 @@ def outcome(trace: Trace, kin: MicoKinematics) -> Outcome:
     end_ns = trace.operator[-1] if trace.operator else start_ns
     grasp = trace.grasps[-1][1] if trace.grasps else None
     hand = kin.fk(trace.joints[-1][1]) if trace.joints else None
-    reached = None
+    reached_s = None
     if grasp is not None:
         for t_ns, q in trace.joints:
-            if t_ns >= start_ns and _within(kin.fk(q), grasp):
-                reached = 1e-9 * (t_ns - start_ns)
+            if t_ns >= start_ns and reached(kin.fk(q), grasp):
+                reached_s = 1e-9 * (t_ns - start_ns)
                 break
     alphas = [a for t, a in trace.alphas if t >= start_ns]
-    return Outcome(grasp, hand, trace.joints[0][1] if trace.joints else None, reached,
-                   grasp is not None and hand is not None and _within(hand, grasp),
+    return Outcome(grasp, hand, trace.joints[0][1] if trace.joints else None, reached_s,
+                   grasp is not None and hand is not None and reached(hand, grasp),
                    float(np.mean(alphas)) if alphas else float('nan'),
                    sum(start_ns <= t <= end_ns for t in trace.blended))
 
@@ -214,15 +221,13 @@ def compare_outcomes(recorded: Outcome, live: Outcome, *, position_m: float = 1e
         return problems
     if live.final_grasp is None:
         return [*problems, 'no grasp was planned live']
-    distance = float(np.linalg.norm(live.final_grasp[:3, 3] - recorded.final_grasp[:3, 3]))
-    angle = float(np.linalg.norm(pin.log3(live.final_grasp[:3, :3] @ recorded.final_grasp[:3, :3].T)))
+    distance, angle = offset(recorded.final_grasp, live.final_grasp)
     if distance > position_m or angle > rotation_rad:
         problems.append(f'last grasp: live {distance * 1e3:.2f} mm and {angle:.3g} rad from the recorded one '
                         f'(tolerance {position_m * 1e3:g} mm, {rotation_rad:g} rad)')
     if recorded.ends_at_grasp and not live.ends_at_grasp:
-        where = 'no joint state' if live.final_hand is None else (
-            f'{np.linalg.norm(live.final_hand[:3, 3] - live.final_grasp[:3, 3]) * 1e3:.1f} mm, '
-            f'{np.linalg.norm(pin.log3(live.final_grasp[:3, :3] @ live.final_hand[:3, :3].T)):.3f} rad away')
+        where = 'no joint state' if live.final_hand is None else '{:.1f} mm, {:.3f} rad away'.format(
+            *np.multiply(offset(live.final_hand, live.final_grasp), (1e3, 1.0)))
         problems.append(f'the recorded hand ended at the grasp; the live one did not ({where}; tolerance '
                         f'{REACH_POS * 1e3:g} mm, {REACH_ROT:g} rad)')
     return problems
