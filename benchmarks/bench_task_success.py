@@ -23,20 +23,29 @@ at 0.9 against 0.1):
 - ``legible``: strict legibility, argmax P(x) = argmax v;
 - ``f`` and ``max|v-P|``: the paper's objective 1/2 |v - P|^2 (mean) and the largest deviation (mean);
 - ``density``: the grasp's mixture density sum_k pi_k N_k(x) as a percentile of the demonstrations' (median);
-- the rule conditions that failed, for the plans that miss a task of the top zone (most frequent first).
+- the rule conditions that failed, for the plans that miss a task of the top zone (most frequent first);
+- ``executed``: success of the grasp as executed, at each level of ``--noise`` (multiples of the documented
+  1x :class:`~grasp_intent_ros.core.robustness.ExecutionNoise`): the mean of S(x'; w) over ``--landings``
+  landings x' of x, the same landings (seeded) for every w and every method, judged by the rules.
+
+``ceiling`` is no planner: the best pick among the demonstrations the default planner would choose from
+without noise (those that serve v's top zone, are faithful and have the highest expected success, all
+serving the same tasks), made knowing the rules: at each noise level, the one with the highest success over
+``--landings`` other landings (a second seed, so that the pick is not fitted to the landings that judge it).
 
 Methods: ``default`` (:func:`planner.plan` as called with no method: the task-serving planner, its
 threshold tau ``--tau``), ``reading`` (the same with ``faithful='reading'``: only the model's reading of the
 demonstration must hold no unlikely task, not its label), ``paper`` (method ``'lm'``: exact P = v, else least squares),
 ``slsqp`` (the paper's run: one start, SLSQP, finite differences; slow, so on ``--slsqp-n`` of the w),
 ``start`` (Algorithm 1's start, unmoved) and ``top-only`` (the paper's planner on the one-hot v of the top
-zone). Models: the four shipped ones, and 7-zone models trained on data sets generated with each seed of
+zone), ``ceiling`` (above). Models: the four shipped ones, and 7-zone models trained on data sets generated with each seed of
 ``--data-seeds`` (the shipped data sets are seed 0), so no figure is a property of one data set.
 ``--frontier`` prints the task planner's trade-off (success, faithfulness, legibility, fit) over a range of
 thresholds.
 
     python benchmarks/bench_task_success.py [--n 500] [--seed 0] [--methods default,paper,start,top-only,slsqp]
         [--models cup_7zone,...] [--data-seeds 1,2] [--draws 20] [--slsqp-n 50] [--frontier] [--cases-only]
+        [--noise 0,1,2] [--landings 40]
 """
 
 from __future__ import annotations
@@ -53,8 +62,9 @@ import numpy as np
 from bench_planner import CASES, random_targets  # the same w as the planner benchmark's
 from numpy.typing import NDArray
 
-from grasp_intent_ros.core import intent, planner
+from grasp_intent_ros.core import intent, planner, serving
 from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.core.robustness import ExecutionNoise, perturb, standard_draws
 from grasp_intent_ros.core.resources import config_dir
 from grasp_intent_ros.dataset import demos as rules_module
 from grasp_intent_ros.dataset.demos import OBJECTS, ObjectRules
@@ -62,6 +72,8 @@ from grasp_intent_ros.dataset.demos import OBJECTS, ObjectRules
 MODELS = ('cup_7zone', 'flashlight_7zone', 'cup_5zone', 'cup_4zone')
 UNLIKELY = 0.25
 """A task with w_i below this is one the operator is unlikely to want (faithfulness)."""
+LANDING_SEED = 1000
+"""Seed of the landings that judge grasps as executed; the ceiling picks on LANDING_SEED + 1's."""
 
 Planned = Callable[[GraspModel, NDArray[np.float64]], NDArray[np.float64]]
 
@@ -122,6 +134,7 @@ class Tally:
     density: list[float] = field(default_factory=list)
     failed: Counter[str] = field(default_factory=Counter)
     ms: list[float] = field(default_factory=list)
+    executed: dict[float, list[float]] = field(default_factory=dict)
 
     def line(self) -> str:
         n = len(self.success)
@@ -131,7 +144,8 @@ class Tally:
                 f'faithful {pct(self.faithful)} (label {pct(self.does_wanted)})  legible {pct(self.legible)}  '
                 f'f {np.mean(self.f):.2e}  '
                 f'max|v-P| {np.mean(self.dev):.3f}  density pct {np.median(self.density):5.1f}  '
-                f'ms {np.median(self.ms):6.2f}')
+                f'ms {np.median(self.ms):6.2f}'
+                + ''.join(f'  executed {level:g}x {100 * np.mean(v):5.1f}%' for level, v in self.executed.items()))
 
 
 class Judge:
@@ -176,6 +190,46 @@ class Judge:
         return label
 
 
+class Landings:
+    """A grasp judged as executed: the rules' labels of its landings under one noise level, kept per grasp."""
+
+    def __init__(self, judge: Judge, level: float, count: int, seed: int) -> None:
+        self.judge = judge
+        self.noise = ExecutionNoise().scaled(level)
+        self.z = standard_draws(count, seed)
+        self._labels: dict[bytes, NDArray[np.int64]] = {}
+
+    def labels(self, x: NDArray[np.float64]) -> NDArray[np.int64]:
+        """label(x') of each landing x' of x, shape (landings,)."""
+        key = x.tobytes()
+        if key not in self._labels:
+            landed = perturb(x[None, :], self.z, self.noise, self.judge.model.features)[0]
+            self._labels[key] = np.array([self.judge.label(y) for y in landed], dtype=np.int64)
+        return self._labels[key]
+
+    def success(self, x: NDArray[np.float64], w: NDArray[np.float64]) -> float:
+        """Mean S(x'; w) over the landings x' of x."""
+        table = np.array([success(label, w) for label in range(1 << w.size)])
+        return float(table[self.labels(x)].mean())
+
+
+def ceiling_pick(model: GraspModel, v: NDArray[np.float64], w: NDArray[np.float64], picker: Landings | None
+                 ) -> NDArray[np.float64]:
+    """The module docstring's ``ceiling``: among the noise-free planner's best candidates, the best as executed.
+
+    ``picker`` judges them (other landings than the judging ones); None: the planner's own first (no noise).
+    """
+    feas = planner._Feasible(model)
+    x_ref = feas.project(planner.select_starts(model, v, 1, 1)[:1])[0]
+    ranking = serving.rank(model, v, top_zone(model, v), x_ref, feas.lower, feas.upper, feas.a, feas.body)
+    best = (ranking.tier == ranking.tier[0]) & (np.abs(ranking.expected - ranking.expected[0]) <= 1e-9)
+    xs = ranking.x[best]
+    if picker is None:
+        return xs[0]
+    scores = [picker.success(x, w) for x in xs]
+    return xs[int(np.argmax(scores))]
+
+
 def methods(tau: float | None) -> dict[str, Planned]:
     """The methods side by side (module docstring)."""
     def one_hot(model: GraspModel, v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -192,6 +246,7 @@ def methods(tau: float | None) -> dict[str, Planned]:
                                                gradient='2-point').x,
         'start': lambda model, v: planner.select_starts(model, v, 1, 1)[0],
         'top-only': one_hot,
+        'ceiling': lambda model, v: ceiling_pick(model, v, np.zeros(0), None),  # its w-dependent picks: run_model
     }
 
 
@@ -205,10 +260,12 @@ def regenerated(seed: int) -> list[GraspModel]:
 
 
 def run_model(model: GraspModel, chosen: dict[str, Planned], n: int, seed: int, draws: int, slsqp_n: int,
-              cases_only: bool) -> None:
+              cases_only: bool, levels: Sequence[float], landings: int) -> None:
     judge = Judge(model)
     targets = [] if cases_only else list(random_targets(model, n, seed))
     print(f'  {model.name} ({len(model.zones)} zones): {len(targets)} random w')
+    judges = {level: Landings(judge, level, landings, LANDING_SEED) for level in levels}
+    pickers = {level: Landings(judge, level, landings, LANDING_SEED + 1) for level in levels}
     for name, method in chosen.items():
         tally = Tally()
         rng = np.random.default_rng(seed + 7)
@@ -219,6 +276,10 @@ def run_model(model: GraspModel, chosen: dict[str, Planned], n: int, seed: int, 
             x = method(model, v)
             tally.ms.append(1e3 * (time.perf_counter() - t0))
             judge.add(tally, x, w, v, draws, rng)
+            for level, landed in judges.items():
+                if name == 'ceiling' and level > 0.0:
+                    x = ceiling_pick(model, v, w, pickers[level])
+                tally.executed.setdefault(level, []).append(landed.success(x, w))
         if tally.success:
             print(f'    {name:9s} {tally.line()}' + (f'  [{len(tally.success)} w]' if name == 'slsqp' else ''))
             if tally.failed:
@@ -272,7 +333,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--n', type=int, default=500, help='random w per model (default 500)')
     parser.add_argument('--seed', type=int, default=0, help='seed of the random w (default 0)')
-    parser.add_argument('--methods', default='default,reading,paper,slsqp,start,top-only')
+    parser.add_argument('--methods', default='default,reading,paper,slsqp,start,top-only,ceiling')
     parser.add_argument('--models', default=','.join(MODELS), help='shipped models (default: all four)')
     parser.add_argument('--data-seeds', default='1,2', help="data-set seeds of regenerated 7-zone models ('' none)")
     parser.add_argument('--draws', type=int, default=0, help='also estimate success with this many T per w')
@@ -280,7 +341,10 @@ def main() -> None:
     parser.add_argument('--tau', type=float, default=None, help="the task method's threshold (default: its own)")
     parser.add_argument('--frontier', action='store_true', help="print the task method's trade-off over tau")
     parser.add_argument('--cases-only', action='store_true', help='only the paper cases')
+    parser.add_argument('--noise', default='0,1,2', help="execution noise levels, multiples of the 1x default ('' none)")
+    parser.add_argument('--landings', type=int, default=40, help='landings per grasp at each noise level (default 40)')
     args = parser.parse_args()
+    levels = [float(s) for s in args.noise.split(',') if s.strip()]
     table = methods(args.tau)
     chosen = {name: table[name] for name in args.methods.split(',') if name}
     shipped = [GraspModel.load(config_dir() / 'models' / f'{name}.yaml') for name in args.models.split(',') if name]
@@ -291,7 +355,8 @@ def main() -> None:
         frontier(shipped + fresh, args.n, args.seed, (0.0, 0.1, 0.2, 0.25, 0.3, 0.4, 0.5, 1.0))
     else:
         for model in shipped + fresh:
-            run_model(model, chosen, args.n, args.seed, args.draws, args.slsqp_n, args.cases_only)
+            run_model(model, chosen, args.n, args.seed, args.draws, args.slsqp_n, args.cases_only, levels,
+                      args.landings)
     print(f'load average after: {", ".join(f"{a:.2f}" for a in os.getloadavg())}')
 
 

@@ -13,7 +13,10 @@ first it takes is returned, status 'rejected' when it takes none). The feasible 
 **method='task' (the default): serve the likely tasks.** The answer is the labelled demonstration, in X,
 that serves v's top zone, does (by its label) and is read by the model (argmax_k P(k|x)) as doing only
 likely tasks (the top zone's, and tasks whose probability, read from v, is at least ``tau``), and has the
-highest expected task success under v (v's mass on the zones its task set contains); ties go to the paper's
+highest expected task success under v as executed: v's mass on the zones its task set contains, each
+weighted by the estimated probability that the grasp, landing off by the execution noise ``noise``, still
+does that zone's tasks (:mod:`grasp_intent_ros.core.robustness`: estimated from the labelled demonstrations
+only, once per model and noise; ``noise=None`` plans for an exact landing); ties go to the paper's
 fit 1/2 |v - P|^2, then to the reference, then to demonstration order. A warm start keeps its demonstration
 while it stays within stated bands of the best expected success and fit, and tasks it is read as doing stay
 likely down to ``tau - hysteresis``. The rules and reasons are :mod:`grasp_intent_ros.core.serving`'s.
@@ -118,6 +121,7 @@ from .kernels import (
     select_demonstrations,
 )
 from .model import GraspModel
+from .robustness import ExecutionNoise, retention
 from .serving import HYSTERESIS, TAU, Faithful, rank
 
 if TYPE_CHECKING:
@@ -559,7 +563,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
          n_starts: int = 3, top_zones: int = 2, warm_start: ArrayLike | None = None,
          accept: Callable[[NDArray[np.float64]], bool] | None = None,
          extra_constraints: Sequence[Any] = (), tau: float = TAU, hysteresis: float = HYSTERESIS,
-         faithful: Faithful = 'label') -> PlanResult:
+         faithful: Faithful = 'label', noise: ExecutionNoise | None = ExecutionNoise()) -> PlanResult:
     """Plan a grasp for target v (module docstring): by default the demonstration that serves the likely tasks.
 
     Parameters
@@ -592,6 +596,10 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
     faithful : {'label', 'reading'}
         ``'task'``: what must hold no task outside the likely ones: the demonstration's label (the tasks it
         does) and the model's reading of it (default), or only the reading.
+    noise : ExecutionNoise or None
+        ``'task'``: where the arm lands around the plan (default: the documented 1x level); the choice
+        maximises the expected success as executed (:mod:`.robustness`). None: an exact landing. The first
+        plan for a model and noise computes the estimate (seconds); later plans reuse it.
 
     Raises
     ------
@@ -606,6 +614,8 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
         raise PlanningError(f"method must be 'task', 'lm', 'slsqp' or 'trust-constr', got {method!r}")
     if not (0.0 <= tau <= 1.0 and 0.0 <= hysteresis <= 1.0):
         raise PlanningError(f'tau and hysteresis must lie in [0, 1], got {tau!r} and {hysteresis!r}')
+    if noise is not None and not isinstance(noise, ExecutionNoise):
+        raise PlanningError(f'noise must be an ExecutionNoise or None, got {type(noise).__name__}')
     if gradient not in ('analytic', '2-point'):
         raise PlanningError(f"gradient must be 'analytic' or '2-point', got {gradient!r}")
     if method in ('task', 'lm') and (gradient != 'analytic' or extra_constraints):
@@ -622,7 +632,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
     feas = _Feasible(model)
     x_ref = feas.project(first)[0]
     if method == 'task':
-        return _serve(model, v_arr, x_ref, feas, warm_start is not None, accept, tau, hysteresis, faithful, t0)
+        return _serve(model, v_arr, x_ref, feas, warm_start is not None, accept, tau, hysteresis, faithful, noise, t0)
     band = WARM_BAND if warm_start is not None else 0.0  # rule 6: a stream keeps its branch within the band
 
     def all_starts() -> NDArray[np.float64]:
@@ -705,10 +715,11 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
 
 def _serve(model: GraspModel, v: NDArray[np.float64], x_ref: NDArray[np.float64], feas: _Feasible, warm: bool,
            accept: Callable[[NDArray[np.float64]], bool] | None, tau: float, hysteresis: float, faithful: Faithful,
-           t0: float) -> PlanResult:
+           noise: ExecutionNoise | None, t0: float) -> PlanResult:
     """Method 'task': the first demonstration of :func:`grasp_intent_ros.core.serving.rank` that ``accept`` takes."""
+    kept = None if noise is None or noise.is_zero else retention(model, noise)
     ranking = rank(model, v, int(zone_order(v)[0]), x_ref, feas.lower, feas.upper, feas.a, feas.body, tau=tau,
-                   hysteresis=hysteresis, warm=warm, faithful=faithful)
+                   hysteresis=hysteresis, warm=warm, faithful=faithful, retention=kept)
     names = model.task_names
     likely = zone_label(ranking.likely, names)
     top = zone_label(ranking.top, names)

@@ -13,7 +13,10 @@ Definitions, all from v and the model document (zone Gaussians, labelled demonst
 - The likely set A: z*, plus every task i outside it whose zone z* + i is a zone of the model and is at
   least tau / (1 - tau) times as likely as z* under v, v(z* + i) (1 - tau) >= tau v(z*) (1 - 1e-9). Under
   eq. 4, v(z* + i) / v(z*) = w_i / (1 - w_i), so for a model with every zone this is w_i >= tau.
-- The model's expected success of demonstration n: E_n = sum of v_k over the zones k contained in S_n.
+- The model's expected success of demonstration n: E_n = sum of v_k over the zones k contained in S_n; when
+  the plan accounts for execution noise (``retention`` R, :func:`grasp_intent_ros.core.robustness.retention`),
+  E_n = sum_k v_k R_nk, R_nk the estimated probability that the grasp, landing off by the noise, still does
+  every task of zone k (the expected success of the grasp as executed; R_nk = 1 within S_n without noise).
 - Its reading: the zone argmax_k P(k | x_n) (the model's posterior of the demonstration).
 
 Candidates are the demonstrations whose palm is outside the body (with its margin), projected onto the
@@ -24,7 +27,8 @@ feasible set (unit approach). They are ranked by, in order:
    reads as doing, only likely tasks (with ``faithful='reading'`` only the reading counts, and a
    demonstration that does unlikely tasks but that the model reads as the top zone may be chosen: the
    highest expected success, at the price of grasps that serve every task whatever the intent);
-3. E_n, highest first (quantised to 1e-9);
+3. E_n, highest first (quantised to 1e-9): with noise, the demonstration whose landings the labelled
+   demonstrations around it say keep its tasks;
 4. fresh plan: the paper's fit f_n = 1/2 |v - P(x_n)|^2, lowest first (quantised to 1e-9), then the scaled
    distance to the reference (quantised to 1e-6); warm plan: see below;
 5. demonstration order.
@@ -101,7 +105,7 @@ class Ranking:
     distance : ndarray, shape (M,)
         Scaled distance to the reference.
     expected : ndarray, shape (M,)
-        The model's expected success E_n.
+        The model's expected success E_n (under execution noise when the ranking was given ``retention``).
     tier : ndarray of int, shape (M,)
         0: serves z* and faithful; 1: serves z*, not faithful; 2: does not serve z*.
     top : int
@@ -153,6 +157,14 @@ def expected_success(sets: NDArray[np.int64], zones: Sequence[int], v: NDArray[n
     return expected
 
 
+def _expected_as_executed(retention: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """sum_k v_k R_nk for every demonstration n, summed zone by zone in order (the same on any machine)."""
+    expected = np.zeros(retention.shape[0])
+    for k in range(retention.shape[1]):
+        expected += v[k] * retention[:, k]
+    return expected
+
+
 def _quantised(values: NDArray[np.float64], quantum: float) -> NDArray[np.float64]:
     out: NDArray[np.float64] = np.rint(values / quantum)
     return out
@@ -161,12 +173,13 @@ def _quantised(values: NDArray[np.float64], quantum: float) -> NDArray[np.float6
 def rank(model: GraspModel, v: NDArray[np.float64], top: int, reference: NDArray[np.float64],
          lower: NDArray[np.float64], upper: NDArray[np.float64], approach: slice, body: tuple[object, ...],
          *, tau: float = TAU, hysteresis: float = HYSTERESIS, warm: bool = False, faithful: Faithful = 'label',
-         band: float = BAND, fit_band: float = FIT_BAND,
-         keep_band: float = KEEP_BAND) -> Ranking:
+         band: float = BAND, fit_band: float = FIT_BAND, keep_band: float = KEEP_BAND,
+         retention: NDArray[np.float64] | None = None) -> Ranking:
     """Rank the demonstrations (module docstring) for target v with top zone index ``top``.
 
     ``reference`` is Algorithm 1's start (fresh) or the warm start (``warm``); ``lower``, ``upper``,
-    ``approach`` and ``body`` are the feasible set as the compiled kernels take it.
+    ``approach`` and ``body`` are the feasible set as the compiled kernels take it; ``retention`` (N, K), when
+    given, turns E into the expected success under execution noise.
     """
     demo_x = model.demo_x
     xs = feasible(demo_x, lower, upper, approach.start, approach.stop, body)
@@ -187,7 +200,7 @@ def rank(model: GraspModel, v: NDArray[np.float64], top: int, reference: NDArray
     read_faithfully = (reading & ~likely) == 0  # the model reads it as doing only likely tasks
     if faithful == 'label':
         read_faithfully &= (sets & ~likely) == 0  # and it does only likely tasks
-    expected = expected_success(sets, model.zones, v)
+    expected = expected_success(sets, model.zones, v) if retention is None else _expected_as_executed(retention, v)
     tier = np.where(serves, np.where(read_faithfully, 0, 1), 2).astype(np.int64)
     expected_key = _quantised(expected, _E_QUANTUM)
     if warm and band > 0.0:  # the best tier's candidates within the band of its best E tie with it

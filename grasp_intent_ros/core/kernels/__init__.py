@@ -9,6 +9,7 @@ projection     the log-odds projection onto P(x) = v (Gauss-Newton)
 least_squares  Levenberg-Marquardt and Newton on 1/2 |v - P(x)|^2 over X
 rounds         the planner's least squares (its rule 5) in one call
 selection      ranking, screening and choosing candidates without float-noise ties
+vote           a kernel vote over labelled points and its leave-one-out loss (the robustness estimate)
 ik             the MICO's inverse kinematics (:meth:`grasp_intent_ros.core.kinematics.MicoKinematics.ik`)
 types          the shared arrays as typed tuples: the body (:class:`~.types.Body`), the model's Gaussians
                (:class:`~.types.Mixture`)
@@ -62,15 +63,16 @@ def _drop_stale_caches(directory: Path) -> None:
 
 _drop_stale_caches(Path(__file__).parent)  # before any kernel is compiled or loaded
 
-from .geometry import feasible  # noqa: E402
+from .geometry import clearance, feasible  # noqa: E402
 from .ik import ik_descent  # noqa: E402
 from .posterior import log_joints, score  # noqa: E402
 from .projection import project  # noqa: E402
 from .rounds import least_squares_rounds  # noqa: E402
 from .selection import choice_order, distinct, screen, select_demonstrations  # noqa: E402
+from .vote import loo_loss, vote  # noqa: E402
 
 __all__ = ['project', 'least_squares_rounds', 'feasible', 'score', 'log_joints', 'screen', 'choice_order',
-           'select_demonstrations', 'distinct', 'ik_descent', 'warm_up']
+           'select_demonstrations', 'distinct', 'ik_descent', 'clearance', 'vote', 'loo_loss', 'warm_up']
 
 
 def warm_up() -> None:
@@ -92,12 +94,15 @@ def warm_up() -> None:
                              open_lm=2, equations=(np.ones(1, dtype=np.int64), 0, np.zeros(1), np.zeros(1)),
                              near_f=1.0, gn=(2, 12, 1e-3, 1e-11, 1e-9), tol=1e-12)
         feasible(np.full((1, d), 0.5), -np.ones(d), np.ones(d), 3, 6, body)
+        clearance(np.zeros((1, 3)), body)
     score(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
           np.zeros(d), np.ones(d))
     log_joints(np.full((1, d), 0.5), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2))
     for log_v in (np.zeros(2), np.zeros(0)):
         screen(np.zeros((2, 3)), log_v, np.full((3, 2), 0.5), np.array([0.5, 0.5]), 1, 1e-12)
     distinct(np.ones((2, d)), 1e-18)
+    vote(np.zeros((1, d)), np.zeros(1, dtype=np.int64), np.ones((2, d)), np.ones(2), np.ones(d))
+    loo_loss(np.ones((2, d)), np.ones(2), np.ones(d))
     choice_order(np.ones(2), np.ones(2), np.arange(2), np.ones((2, d)), np.ones(2, dtype=np.bool_), 1e-12, 1e-6, 3e-3,
                  1e-6, 1e-18)
     select_demonstrations(np.full((2, 2), 0.5), np.array([0.5, 0.5]), np.ones((2, 2), dtype=np.bool_),

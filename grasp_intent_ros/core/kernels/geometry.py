@@ -146,6 +146,20 @@ def feasible(xs: NDArray[np.float64], lower: NDArray[np.float64], upper: NDArray
 
 
 @njit(cache=True, nogil=True)
+def _clearances(points, body):
+    out = np.empty(points.shape[0])
+    for i in range(points.shape[0]):
+        out[i] = _distance(points[i], body, False)[0]
+    return out
+
+
+def clearance(points: NDArray[np.float64], body: tuple[Any, ...]) -> NDArray[np.float64]:
+    """Signed distance of each point (N, 3) to the body (the primitives' union; negative inside): shape (N,)."""
+    out: NDArray[np.float64] = _clearances(np.ascontiguousarray(points, dtype=np.float64), Body(*body))
+    return out
+
+
+@njit(cache=True, nogil=True)
 def _distance_hessian(p, body, hess):
     """Fills hess (3, 3) with the signed distance's Hessian at p[:3], the nearest primitive's curvature.
 
