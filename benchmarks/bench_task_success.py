@@ -37,9 +37,9 @@ Methods: ``default`` (:func:`planner.plan` as called with no method: the task-se
 threshold tau ``--tau``), ``reading`` (the same with ``faithful='reading'``: only the model's reading of the
 demonstration must hold no unlikely task, not its label), ``paper`` (method ``'lm'``: exact P = v, else least squares),
 ``slsqp`` (the paper's run: one start, SLSQP, finite differences; slow, so on ``--slsqp-n`` of the w),
-``start`` (Algorithm 1's start, unmoved) and ``top-only`` (the paper's planner on the one-hot v of the top
-zone), ``ceiling`` (above). Models: the four shipped ones, and 7-zone models trained on data sets generated with each seed of
-``--data-seeds`` (the shipped data sets are seed 0), so no figure is a property of one data set.
+``start`` (Algorithm 1's start, unmoved), ``top-only`` (the paper's planner on the one-hot v of the top
+zone) and ``ceiling`` (above). Models: the four shipped ones, and 7-zone models trained on data sets generated
+with each seed of ``--data-seeds`` (the shipped data sets are seed 0), so no figure is a property of one data set.
 ``--frontier`` prints the task planner's trade-off (success, faithfulness, legibility, fit) over a range of
 thresholds.
 
@@ -64,8 +64,8 @@ from numpy.typing import NDArray
 
 from grasp_intent_ros.core import intent, planner, serving
 from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.core.robustness import ExecutionNoise, perturb, standard_draws
 from grasp_intent_ros.core.resources import config_dir
+from grasp_intent_ros.core.robustness import ExecutionNoise, perturb, standard_draws
 from grasp_intent_ros.dataset import demos as rules_module
 from grasp_intent_ros.dataset.demos import OBJECTS, ObjectRules
 
@@ -341,7 +341,7 @@ def main() -> None:
     parser.add_argument('--tau', type=float, default=None, help="the task method's threshold (default: its own)")
     parser.add_argument('--frontier', action='store_true', help="print the task method's trade-off over tau")
     parser.add_argument('--cases-only', action='store_true', help='only the paper cases')
-    parser.add_argument('--noise', default='0,1,2', help="execution noise levels, multiples of the 1x default ('' none)")
+    parser.add_argument('--noise', default='0,1,2', help="execution noise levels, multiples of the 1x ('' none)")
     parser.add_argument('--landings', type=int, default=40, help='landings per grasp at each noise level (default 40)')
     args = parser.parse_args()
     levels = [float(s) for s in args.noise.split(',') if s.strip()]

@@ -40,6 +40,7 @@ from .core.frames import pose_to_matrix
 from .core.grasp import check_workspace, plan_grasp
 from .core.intent import match_zones
 from .core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
+from .core.robustness import ExecutionNoise, retention
 from .protocol import KEY_MODEL, KEY_PLAN_STATUS, OK, WARN, ModelDocument
 from .ros.clarification import ClarificationRequests
 from .ros.conversions import SerializedTargets
@@ -54,11 +55,30 @@ from .ros.worker import LatestOnlyWorker
 
 __all__ = ['GraspPlanner', 'PARAMETERS', 'main']
 
+
+def _noise(value: Any) -> ExecutionNoise:
+    """The ``execution_noise`` parameter as an :class:`ExecutionNoise` (ValueError when it is not 4 numbers >= 0)."""
+    if len(value) != 4:
+        raise ValueError(f'must be 4 numbers (palm m, tilt rad, roll rad, closure rad), got {list(value)}')
+    return ExecutionNoise(*(float(v) for v in value))
+
+
+def _check_noise(value: Any) -> None:
+    _noise(value)
+
+
 PARAMETERS = (
     ParamSpec('method', planner.DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
               "likely tasks, docs/planner.md), or the paper's 'lm' (P = v by log-odds projection, else least "
               "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(planner.METHODS),
               constraints=f'one of {", ".join(planner.METHODS)}'),
+    ParamSpec('execution_noise', (ExecutionNoise().palm, ExecutionNoise().tilt, ExecutionNoise().roll,
+                                  ExecutionNoise().closure),
+              "Where the arm lands around a plan, as standard deviations: palm per axis (m), approach tilt about "
+              "each of two axes orthogonal to it (rad), wrist roll (rad), each finger closure (rad). Method 'task' "
+              "picks the grasp with the highest expected success as executed (docs/planner.md); all zero: an "
+              "exact landing. The default is the documented 1x level (5 mm, 3 deg, 3 deg, 0.10 rad).",
+              validator=_check_noise, constraints='4 finite numbers >= 0'),
     ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
     ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),
     ParamSpec('object_position', (0.3, -0.3, 0.0),
@@ -160,6 +180,8 @@ class GraspPlanner(Node):
     def _use_model(self, doc: ModelDocument | None) -> None:  # in the model follower's thread: planning goes on
         previous = self._worker.latest.model
         new = doc is not None and (previous is None or (previous.name, previous.sha256) != (doc.name, doc.sha256))
+        if new and doc is not None and self._params['method'] == 'task':  # the robustness estimate, off the plan path
+            retention(doc.model, _noise(self._params['execution_noise']))
         self._update(trigger=new, model=doc)  # None: recheck() refused the model; nothing to plan with
         self._plan_diag.set_value(KEY_MODEL, 'none' if doc is None else f'{doc.name} (version {doc.version}, '
                                   f'zones {",".join(doc.model.zone_labels)})')
@@ -193,7 +215,7 @@ class GraspPlanner(Node):
         grasp = plan_grasp(doc.model, inputs.v, match_zones(inputs.v.size, inputs.v_labels, doc.model.task_names),
                            inputs.base_T_obj, self._kin, name=doc.name, q_arm=inputs.q_arm, warm_start=warm,
                            method=self._params['method'], n_starts=self._params['n_starts'],
-                           ik_restarts=self._params['ik_restarts'])
+                           ik_restarts=self._params['ik_restarts'], noise=_noise(self._params['execution_noise']))
         try:
             if (checked := self._outputs.send(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
                                               once_for=(inputs.v_seq, key), stopping=lambda: self._worker.stopping)):

@@ -22,6 +22,7 @@ from .features import FINGERS, MICO_3F
 from .intent import restrict
 from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 from .model import GraspModel
+from .robustness import ExecutionNoise
 
 __all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'OUTCOMES', 'NoModelZone', 'PlanOutcome', 'Grasp', 'NoReachableGrasp',
            'check_mico_model', 'check_workspace', 'check_grasp', 'trajectory_duration', 'plan_grasp']
@@ -201,7 +202,8 @@ def trajectory_duration(q_from: ArrayLike, q_to: ArrayLike, velocity_limits: Arr
 def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_obj: NDArray[np.float64],
                kin: MicoKinematics, *, name: str = 'model', q_arm: NDArray[np.float64] | None = None,
                method: planner.Method = planner.DEFAULT_METHOD, n_starts: int = 3, ik_restarts: int = 8,
-               warm_start: NDArray[np.float64] | None = None) -> Grasp | NoReachableGrasp | NoModelZone:
+               warm_start: NDArray[np.float64] | None = None,
+               noise: ExecutionNoise | None = ExecutionNoise()) -> Grasp | NoReachableGrasp | NoModelZone:
     """Plan the grasp for target ``v`` over ``zones`` on ``model`` with the object at ``base_T_obj``.
 
     Parameters
@@ -219,7 +221,7 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
         The model's name, for messages.
     q_arm : ndarray, shape (6,), optional
         Latest arm joint reading (rad): seeds IK and starts the trajectory; :data:`HOME_Q` if None.
-    method, n_starts, warm_start
+    method, n_starts, warm_start, noise
         As for :func:`grasp_intent_ros.core.planner.plan`.
     ik_restarts : int
         Random IK restarts after the seeded attempt fails.
@@ -239,7 +241,7 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
         return NoModelZone(f'v gives no probability to the zones {",".join(model.zone_labels)} of model {name!r}')
     reachable = Reachability(kin, base_T_obj, q_arm, restarts=ik_restarts)
     result = planner.plan(model, v_model, method=method, n_starts=n_starts, warm_start=warm_start,
-                          accept=reachable)
+                          accept=reachable, noise=noise)
     n = len(result.candidates)
     if result.status == 'rejected':
         closest = min(reachable.answers.values(), key=lambda a: a.pos_error_m)

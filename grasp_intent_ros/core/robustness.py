@@ -164,7 +164,7 @@ def _scales(noise: ExecutionNoise, features: FeatureSpace, clearance: bool) -> N
 
 
 def _classifier_features(model: GraspModel, x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """x (M, d) with the palm's clearance from the body appended when the model has one: (M, d or d + 1)."""
+    """The rows x (M, d), with the palm's clearance from the body appended when the model has one: (M, d or d + 1)."""
     if model.body is None:
         return np.ascontiguousarray(x)
     from .kernels import clearance  # numba: the planner's import, not every model reader's

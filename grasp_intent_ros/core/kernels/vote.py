@@ -74,7 +74,7 @@ def _narrowest_first(inv_h: NDArray[np.float64], *arrays: NDArray[np.float64]) -
 
 def vote(queries: NDArray[np.float64], skip: NDArray[np.int64], data: NDArray[np.float64],
          labels: NDArray[np.float64], inv_h: NDArray[np.float64]) -> NDArray[np.float64]:
-    """q (module docstring) at each query (Q, F) over ``data`` (N, F) with 0/1 ``labels`` (N,), scales 1/h (F,).
+    """Q (module docstring) at each query (Q, F) over ``data`` (N, F) with 0/1 ``labels`` (N,), scales 1/h (F,).
 
     Query i leaves data point ``skip[i]`` out (-1: none). Returns shape (Q,), values in (0, 1).
     """
