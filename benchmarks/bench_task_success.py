@@ -1,6 +1,6 @@
 """Task-success benchmark: does the planned grasp serve the operator's task? Prints figures, asserts nothing.
 
-The judge is the object's Table I rules (:data:`grasp_intent_ros.dataset.demos.OBJECTS`, ``label(x)``): the
+The judge is the object's Table I rules (:data:`grasp_intent_ros.objects.demos.OBJECTS`, ``label(x)``): the
 planner never sees them. Operator model (the paper's own assumption): the intent inference gives w, and the
 operator's true task set T holds each task i independently with probability w_i, conditioned on T being
 non-empty. A grasp x succeeds when the rule of every task in T holds, T <= label(x), so its success is
@@ -25,7 +25,7 @@ at 0.9 against 0.1):
 - ``density``: the grasp's mixture density sum_k pi_k N_k(x) as a percentile of the demonstrations' (median);
 - the rule conditions that failed, for the plans that miss a task of the top zone (most frequent first);
 - ``executed``: success of the grasp as executed, at each level of ``--noise`` (multiples of the documented
-  1x :class:`~grasp_intent_ros.core.robustness.ExecutionNoise`): the mean of S(x'; w) over ``--landings``
+  1x :class:`~grasp_intent_ros.planning.robustness.ExecutionNoise`): the mean of S(x'; w) over ``--landings``
   landings x' of x, the same landings (seeded) for every w and every method, judged by the rules.
 
 ``ceiling`` is no planner: the best pick among the demonstrations the default planner would choose from
@@ -62,12 +62,13 @@ import numpy as np
 from bench_planner import CASES, random_targets  # the same w as the planner benchmark's
 from numpy.typing import NDArray
 
-from grasp_intent_ros.core import intent, planner, serving
-from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.core.resources import config_dir
-from grasp_intent_ros.core.robustness import ExecutionNoise, perturb, standard_draws
-from grasp_intent_ros.dataset import demos as rules_module
-from grasp_intent_ros.dataset.demos import OBJECTS, ObjectRules
+from grasp_intent_ros.method import intent
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.objects import demos as rules_module
+from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules
+from grasp_intent_ros.planning import planner, ranking
+from grasp_intent_ros.planning.robustness import ExecutionNoise, perturb, standard_draws
+from grasp_intent_ros.resources import config_dir
 
 MODELS = ('cup_7zone', 'flashlight_7zone', 'cup_5zone', 'cup_4zone')
 UNLIKELY = 0.25
@@ -221,9 +222,9 @@ def ceiling_pick(model: GraspModel, v: NDArray[np.float64], w: NDArray[np.float6
     """
     feas = planner._Feasible(model)
     x_ref = feas.project(planner.select_starts(model, v, 1, 1)[:1])[0]
-    ranking = serving.rank(model, v, top_zone(model, v), x_ref, feas.lower, feas.upper, feas.a, feas.body)
-    best = (ranking.tier == ranking.tier[0]) & (np.abs(ranking.expected - ranking.expected[0]) <= 1e-9)
-    xs = ranking.x[best]
+    ranked = ranking.rank(model, v, top_zone(model, v), x_ref, feas.lower, feas.upper, feas.a, feas.body)
+    best = (ranked.tier == ranked.tier[0]) & (np.abs(ranked.expected - ranked.expected[0]) <= 1e-9)
+    xs = ranked.x[best]
     if picker is None:
         return xs[0]
     scores = [picker.success(x, w) for x in xs]

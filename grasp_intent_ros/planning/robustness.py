@@ -1,0 +1,246 @@
+"""Execution noise: where the hand lands when the arm is told to grasp at x.
+
+A real arm never lands exactly on the plan: the object tracker, the IK and the servo each add error, and
+finger closure varies with contact. :class:`ExecutionNoise` is the model of that error, one definition for
+the planner (which plans for it) and the benchmarks (which judge grasps as executed). For a MICO grasp
+(:data:`~grasp_intent_ros.method.features.MICO_3F` layout), one landing of x is
+
+- palm centre + N(0, ``palm``^2) per axis (m);
+- the approach direction tilted by N(0, ``tilt``^2) about each of two axes orthogonal to it (rad): the
+  rotation by the vector t1 e1 + t2 e2, (a, e1, e2) orthonormal, so the tilt is isotropic about a;
+- wrist roll + N(0, ``roll``^2) (rad);
+- each finger closure + N(0, ``closure``^2) (rad), clipped to the feature bounds.
+
+A landing is written as nine standard normal numbers z (:data:`DRAW_DIM`: three palm, two tilt, one roll,
+three fingers), so that the same draws can be applied to any grasp and any noise level.
+
+**The robustness estimate** (:func:`retention`): for each labelled demonstration n and each zone k within its
+task set S_n, the probability R_nk that the grasp, executed under the noise, still does every task of zone k
+(the event the operator model's success counts: an intended task set T is served when T is within the label).
+It is estimated from the model document only (the labelled demonstrations and the object's body; never the
+rules that labelled them):
+
+1. Classifier features: the grasp's features, plus the palm's clearance from the body when the model has one
+   (:meth:`~grasp_intent_ros.method.body.ObjectBody.distance`).
+2. Per zone k, a kernel vote q_k(y) over the demonstrations, labelled 1 where their task set contains the
+   zone's (:mod:`grasp_intent_ros.kernels.vote`), with a diagonal bandwidth per feature. One vote per
+   zone, not a product of per-task votes: the tasks' rules share conditions, and a zone's demonstrations
+   say where all of its tasks hold at once.
+3. The bandwidths of zone k minimise the vote's leave-one-out log loss over the demonstrations, by a
+   coordinate search over 2^p times the noise's own scale of each feature (palm and clearance: ``palm``;
+   approach: ``tilt``; roll: ``roll``; fingers: ``closure``; a zero scale counts as 1e-3 of the feature's
+   range), p an integer in [-2, 8]: from p = 2 (4x the noise), for each feature in index order p goes up by
+   one while the loss drops by more than 1e-9 (relative), else down by one while it does; :data:`SWEEPS`
+   sweeps. Losses are compared only beyond that tolerance, so float noise never decides a step.
+4. R_nk = mean over :data:`DRAWS` fixed landings (:func:`standard_draws` of seed 0) of q_k at the landing,
+   demonstration n itself left out of the vote. A landing that gains a
+   task is not credited: R_nk = 0 for a zone outside S_n.
+
+Without noise (:attr:`ExecutionNoise.is_zero`) R_nk is 1 for every zone within S_n. The estimate does not
+depend on v: it is computed once per model and noise (some seconds) and kept with the model.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import PlanningError
+from ..method.features import APPROACH, FINGERS, PALM, ROLL, FeatureSpace
+from ..method.model import GraspModel
+
+__all__ = ['ExecutionNoise', 'DRAW_DIM', 'DRAWS', 'SWEEPS', 'standard_draws', 'perturb', 'bandwidths', 'retention']
+
+DRAW_DIM = 9
+"""Standard normal numbers per landing: palm (3), tilt (2), roll (1), fingers (3)."""
+DRAWS = 64
+"""Landings per demonstration in the robustness estimate."""
+SWEEPS = 2
+"""Sweeps of the bandwidth search over the features."""
+_START_POWER = 2  # bandwidths are the noise's scale times 2^power, power in [_LOWEST_POWER, _HIGHEST_POWER]
+_LOWEST_POWER = -2
+_HIGHEST_POWER = 8
+_LOSS_RTOL = 1e-9
+
+
+@dataclass(frozen=True)
+class ExecutionNoise:
+    """Standard deviations of one landing (module docstring); the defaults are the documented 1x level.
+
+    Attributes
+    ----------
+    palm : float >= 0
+        Palm centre, per axis (m); default 5 mm.
+    tilt : float >= 0
+        Approach direction, about each of two axes orthogonal to it (rad); default 3 degrees.
+    roll : float >= 0
+        Wrist roll (rad); default 3 degrees.
+    closure : float >= 0
+        Each finger closure (rad), clipped to its range; default 0.10 rad.
+
+    Raises
+    ------
+    PlanningError
+        A standard deviation that is negative or not finite.
+    """
+
+    palm: float = 0.005
+    tilt: float = math.radians(3.0)
+    roll: float = math.radians(3.0)
+    closure: float = 0.10
+
+    def __post_init__(self) -> None:
+        for name in ('palm', 'tilt', 'roll', 'closure'):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
+                raise PlanningError(f'execution noise {name} must be a finite number >= 0, got {value!r}')
+            object.__setattr__(self, name, float(value))
+
+    def scaled(self, factor: float) -> ExecutionNoise:
+        """Every standard deviation times ``factor`` (>= 0): the benchmarks' levels 0, 1x, 2x."""
+        return ExecutionNoise(self.palm * factor, self.tilt * factor, self.roll * factor, self.closure * factor)
+
+    @property
+    def is_zero(self) -> bool:
+        """No noise: a grasp lands where it is planned."""
+        return self.palm == 0.0 and self.tilt == 0.0 and self.roll == 0.0 and self.closure == 0.0
+
+
+def standard_draws(count: int, seed: int) -> NDArray[np.float64]:
+    """``count`` landings as standard normal numbers, shape (count, :data:`DRAW_DIM`), from ``seed``.
+
+    Rounded to 1e-6, so that they are the same numbers on any machine.
+    """
+    z = np.random.default_rng(seed).standard_normal((count, DRAW_DIM))
+    out: NDArray[np.float64] = np.round(z, 6)
+    return out
+
+
+def perturb(x: NDArray[np.float64], z: NDArray[np.float64], noise: ExecutionNoise,
+            features: FeatureSpace) -> NDArray[np.float64]:
+    """Where grasps x land under the landings z (module docstring): shape (N, D, d) for x (N, d), z (D, 9).
+
+    ``features`` gives the fingers' bounds. The approach of x must be a unit vector; elementwise
+    arithmetic only (no sums whose order a library chooses), so the same bits on any machine.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    z = np.asarray(z, dtype=np.float64)
+    out = np.repeat(x[:, None, :], z.shape[0], axis=1)
+    out[:, :, PALM] += noise.palm * z[None, :, 0:3]
+    a = x[:, APPROACH]  # (N, 3)
+    # e1: orthogonal to a and to the axis a is least aligned with (z, else x); e2 = a x e1
+    helper = np.where((np.abs(a[:, 2]) < 0.9)[:, None], np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
+    e1 = np.cross(a, helper)
+    e1 /= np.sqrt(e1[:, 0] * e1[:, 0] + e1[:, 1] * e1[:, 1] + e1[:, 2] * e1[:, 2])[:, None]
+    e2 = np.cross(a, e1)
+    t1, t2 = noise.tilt * z[None, :, 3, None], noise.tilt * z[None, :, 4, None]  # (1, D, 1)
+    angle = np.sqrt(t1 * t1 + t2 * t2)
+    sinc = np.where(angle > 0.0, np.sin(angle) / np.where(angle > 0.0, angle, 1.0), 1.0)
+    # rotating a by the vector t1 e1 + t2 e2: a cos|t| + sinc|t| (t2 e1 - t1 e2)
+    out[:, :, APPROACH] = a[:, None, :] * np.cos(angle) + sinc * (t2 * e1[:, None, :] - t1 * e2[:, None, :])
+    out[:, :, ROLL] += noise.roll * z[None, :, 5]
+    fingers = out[:, :, FINGERS] + noise.closure * z[None, :, 6:9]
+    out[:, :, FINGERS] = np.clip(fingers, features.lower[FINGERS], features.upper[FINGERS])
+    return out
+
+
+def _scales(noise: ExecutionNoise, features: FeatureSpace, clearance: bool) -> NDArray[np.float64]:
+    """The noise's own scale of each classifier feature (module docstring, step 3)."""
+    span = features.upper - features.lower
+    scale = np.empty(features.dim + (1 if clearance else 0))
+    scale[PALM] = noise.palm
+    scale[APPROACH] = noise.tilt
+    scale[ROLL] = noise.roll
+    scale[FINGERS] = noise.closure
+    floor = 1e-3 * span
+    scale[:features.dim] = np.maximum(scale[:features.dim], floor)
+    if clearance:
+        scale[-1] = max(noise.palm, float(floor[PALM].min()))
+    return scale
+
+
+def _classifier_features(model: GraspModel, x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The rows x (M, d), with the palm's clearance from the body appended when the model has one: (M, d or d + 1)."""
+    if model.body is None:
+        return np.ascontiguousarray(x)
+    from ..kernels import clearance  # numba: the planner's import, not every model reader's
+    palm_clearance = clearance(x[:, PALM], model.body.kernel_arrays).reshape(-1, 1)
+    return np.ascontiguousarray(np.concatenate([x, palm_clearance], axis=1))
+
+
+def _does(model: GraspModel, zone: int) -> NDArray[np.float64]:
+    """1 for each demonstration whose task set contains ``zone`` (bitmask), else 0: shape (N,)."""
+    out: NDArray[np.float64] = ((model.demo_sets & zone) == zone).astype(np.float64)
+    return out
+
+
+def bandwidths(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
+    """Each zone's vote bandwidths (module docstring, step 3): shape (K, F), F the classifier features."""
+    from ..kernels import loo_loss  # numba: the planner's import, not every model reader's
+    data = _classifier_features(model, model.demo_x)
+    base = _scales(noise, model.features, model.body is not None)
+    out = np.empty((len(model.zones), base.size))
+    for k, zone in enumerate(model.zones):
+        labels = _does(model, zone)
+        power = np.full(base.size, _START_POWER)
+        best = loo_loss(data, labels, 1.0 / (base * 2.0 ** power))
+        for _ in range(SWEEPS):
+            for f in range(base.size):
+                for step in (1, -1):  # widen while it helps, else narrow while it helps
+                    moved = False
+                    while _LOWEST_POWER <= power[f] + step <= _HIGHEST_POWER:
+                        trial = power.copy()
+                        trial[f] += step
+                        loss = loo_loss(data, labels, 1.0 / (base * 2.0 ** trial))
+                        if not loss < best * (1.0 - _LOSS_RTOL):
+                            break
+                        power, best, moved = trial, loss, True
+                    if moved:
+                        break
+        out[k] = base * 2.0 ** power
+    return out
+
+
+_TABLES: weakref.WeakKeyDictionary[GraspModel, dict[ExecutionNoise, NDArray[np.float64]]] = \
+    weakref.WeakKeyDictionary()
+
+
+def retention(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
+    """R (module docstring): shape (N, K), demonstration n, zone k; kept per model and noise after the first call.
+
+    Read-only; the same bits on any machine.
+    """
+    tables = _TABLES.setdefault(model, {})
+    table = tables.get(noise)
+    if table is None:
+        table = _retention(model, noise)
+        table.setflags(write=False)
+        tables[noise] = table
+    return table
+
+
+def _retention(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
+    zones = np.asarray(model.zones, dtype=np.int64)
+    within = (model.demo_sets[:, None] & zones[None, :]) == zones[None, :]  # (N, K)
+    if noise.is_zero:
+        out: NDArray[np.float64] = within.astype(np.float64)
+        return out
+    from ..kernels import vote
+    n, d = model.demo_x.shape
+    landed = perturb(model.demo_x, standard_draws(DRAWS, 0), noise, model.features).reshape(n * DRAWS, d)
+    queries = _classifier_features(model, landed)
+    data = _classifier_features(model, model.demo_x)
+    skip = np.repeat(np.arange(n, dtype=np.int64), DRAWS)
+    h = bandwidths(model, noise)
+    out = np.zeros((n, zones.size))
+    for k, zone in enumerate(model.zones):
+        q = vote(queries, skip, data, _does(model, zone), 1.0 / h[k]).reshape(n, DRAWS)
+        total = np.zeros(n)
+        for j in range(DRAWS):  # summed landing by landing: a fixed order
+            total += q[:, j]
+        out[:, k] = np.where(within[:, k], total / DRAWS, 0.0)
+    return out

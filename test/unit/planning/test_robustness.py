@@ -1,0 +1,114 @@
+"""The execution noise model and the planner's robustness estimate (planning.robustness), on hand-built demonstrations."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from grasp_intent_ros.planning import planner
+from grasp_intent_ros.method.data import Demonstrations
+from grasp_intent_ros.errors import PlanningError
+from grasp_intent_ros.method.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.planning.robustness import DRAW_DIM, ExecutionNoise, perturb, retention, standard_draws
+
+A, B, AB = 1, 2, 3
+BAND = (0.0, 0.03)  # palm_x (m) where the demonstrations do both tasks
+
+
+def _grasp(px: float, py: float, fingers: float) -> list[float]:
+    return [px, py, 0.05, 0.0, 0.0, -1.0, 0.0, fingers, fingers, fingers]
+
+
+def _slab_model() -> GraspModel:
+    """Two tasks along palm_x: A below the band, both tasks within it, B above it (2.5 mm grid, 3 rows in y)."""
+    xs, sets = [], []
+    for i, px in enumerate(round(-0.04 + 0.0025 * i, 6) for i in range(45)):
+        for j, py in enumerate((-0.004, 0.0, 0.004)):
+            xs.append(_grasp(px, py, 0.9 + 0.05 * ((i + j) % 3)))
+            sets.append(AB if BAND[0] <= px <= BAND[1] else A if px < BAND[0] else B)
+    demos = Demonstrations(np.array(xs), np.array(sets, dtype=np.int64), ('a', 'b'))
+    return GraspModel.fit(demos, name='slab')
+
+
+@pytest.fixture(scope='module')
+def slab() -> GraspModel:
+    return _slab_model()
+
+
+def test_noise_defaults_are_the_documented_1x_level() -> None:
+    noise = ExecutionNoise()
+    assert (noise.palm, noise.closure) == (0.005, 0.10)
+    assert noise.tilt == noise.roll == pytest.approx(math.radians(3.0), abs=1e-15)
+    assert noise.scaled(2.0).palm == 0.010 and noise.scaled(0.0).is_zero and not noise.is_zero
+
+
+@pytest.mark.parametrize('bad', [-1e-3, math.nan, math.inf])
+def test_noise_rejects_a_negative_or_non_finite_deviation(bad: float) -> None:
+    with pytest.raises(PlanningError, match='closure'):
+        ExecutionNoise(closure=bad)
+
+
+def test_a_landing_moves_each_part_by_its_deviation() -> None:
+    x = np.array([_grasp(0.01, 0.02, 1.45)])
+    x[0, APPROACH] = [0.6, 0.0, -0.8]
+    z = standard_draws(200, 3)
+    assert z.shape == (200, DRAW_DIM)
+    noise = ExecutionNoise(palm=0.004, tilt=0.05, roll=0.02, closure=0.2)
+    landed = perturb(x, z, noise, MICO_3F)[0]
+    np.testing.assert_allclose(landed[:, PALM] - x[0, PALM], 0.004 * z[:, 0:3], atol=1e-15)
+    np.testing.assert_allclose(landed[:, ROLL] - x[0, ROLL], 0.02 * z[:, 5], atol=1e-15)
+    np.testing.assert_allclose(np.linalg.norm(landed[:, APPROACH], axis=1), 1.0, atol=1e-12)
+    tilt = np.arccos(np.clip(landed[:, APPROACH] @ x[0, APPROACH], -1.0, 1.0))
+    np.testing.assert_allclose(tilt, 0.05 * np.hypot(z[:, 3], z[:, 4]), atol=1e-7)
+    fingers = landed[:, FINGERS]
+    assert fingers.max() <= MICO_3F.upper[7] and (fingers == MICO_3F.upper[7]).any()  # clipped at closed
+    np.testing.assert_array_equal(perturb(x, z, ExecutionNoise().scaled(0.0), MICO_3F)[0], np.repeat(x, 200, 0))
+
+
+def test_retention_is_higher_inside_a_task_sets_region_than_at_its_edge(slab: GraspModel) -> None:
+    table = retention(slab, ExecutionNoise())
+    k_ab = slab.zones.index(AB)
+    px = slab.demo_x[:, 0]
+    middle = table[(np.abs(px - 0.015) < 1e-9), k_ab]
+    edges = table[(np.abs(px - BAND[0]) < 1e-9) | (np.abs(px - BAND[1]) < 1e-9), k_ab]
+    # 5 mm of palm noise across a 30 mm band: the middle keeps both tasks nearly always, an edge about half the time
+    assert middle.min() > 0.8 and edges.max() < 0.7
+    assert middle.min() - edges.max() > 0.2
+
+
+def test_retention_credits_only_the_tasks_a_demonstration_does(slab: GraspModel) -> None:
+    table = retention(slab, ExecutionNoise())
+    within = (slab.demo_sets[:, None] & np.array(slab.zones)) == np.array(slab.zones)
+    assert np.all(table[~within] == 0.0) and np.all((table[within] > 0.0) & (table[within] < 1.0))
+    np.testing.assert_array_equal(retention(slab, ExecutionNoise().scaled(0.0)), within.astype(float))
+    assert retention(slab, ExecutionNoise()) is table  # kept per model and noise
+
+
+def test_retention_is_a_function_of_the_document(slab: GraspModel) -> None:
+    again = retention(_slab_model(), ExecutionNoise())  # another model object from the same demonstrations
+    np.testing.assert_array_equal(again, retention(slab, ExecutionNoise()))
+
+
+def test_the_planner_takes_the_demonstration_inside_the_region(slab: GraspModel) -> None:
+    v = np.zeros(len(slab.zones))
+    v[slab.zones.index(AB)], v[slab.zones.index(A)], v[slab.zones.index(B)] = 0.8, 0.1, 0.1
+    robust = planner.plan(slab, v).x
+    assert abs(robust[0] - 0.015) <= 0.006  # within the middle fifth of the band
+    exact = planner.plan(slab, v, noise=None).x
+    assert BAND[0] <= exact[0] <= BAND[1]  # without noise any demonstration of the band serves as well
+    with pytest.raises(PlanningError, match='ExecutionNoise'):
+        planner.plan(slab, v, noise=(0.005, 0.05, 0.05, 0.1))  # type: ignore[arg-type]
+
+
+def test_the_planner_never_imports_the_rules() -> None:
+    """The objects' rules (grasp_intent_ros.objects) judge plans; the planner and its node must not read them."""
+    code = ('import sys, grasp_intent_ros.planning.planner, grasp_intent_ros.planning.robustness, '
+            'grasp_intent_ros.nodes.grasp_planner; '
+            "print(sorted(m for m in sys.modules if m.startswith('grasp_intent_ros.objects')))")
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, timeout=120, check=True)
+    assert out.stdout.strip() == '[]'
