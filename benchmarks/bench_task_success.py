@@ -34,7 +34,8 @@ serving the same tasks), made knowing the rules: at each noise level, the one wi
 ``--landings`` other landings (a second seed, so that the pick is not fitted to the landings that judge it).
 
 Methods: ``default`` (:func:`planner.plan` as called with no method: the task-serving planner, its
-threshold tau ``--tau``), ``reading`` (the same with ``faithful='reading'``: only the model's reading of the
+threshold tau ``--tau``, planning for the 1x execution noise), ``exact`` (the same planning for an exact
+landing, ``noise=None``), ``reading`` (the same with ``faithful='reading'``: only the model's reading of the
 demonstration must hold no unlikely task, not its label), ``paper`` (method ``'lm'``: exact P = v, else least squares),
 ``slsqp`` (the paper's run: one start, SLSQP, finite differences; slow, so on ``--slsqp-n`` of the w),
 ``start`` (Algorithm 1's start, unmoved), ``top-only`` (the paper's planner on the one-hot v of the top
@@ -241,6 +242,7 @@ def methods(tau: float | None) -> dict[str, Planned]:
     options = {} if tau is None else {'tau': tau}
     return {
         'default': lambda model, v: planner.plan(model, v, **options).x,  # type: ignore[arg-type]
+        'exact': lambda model, v: planner.plan(model, v, noise=None, **options).x,  # type: ignore[arg-type]
         'reading': lambda model, v: planner.plan(model, v, method='task', faithful='reading', **options).x,  # type: ignore[arg-type]
         'paper': lambda model, v: planner.plan(model, v, method='lm').x,
         'slsqp': lambda model, v: planner.plan(model, v, method='slsqp', n_starts=1, top_zones=1,
