@@ -72,12 +72,12 @@ PARAMETERS = (
               "likely tasks, docs/planner.md), or the paper's 'lm' (P = v by log-odds projection, else least "
               "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(planner.METHODS),
               constraints=f'one of {", ".join(planner.METHODS)}'),
-    ParamSpec('execution_noise', (ExecutionNoise().palm, ExecutionNoise().tilt, ExecutionNoise().roll,
-                                  ExecutionNoise().closure),
+    ParamSpec('execution_noise', (0.0, 0.0, 0.0, 0.0),
               "Where the arm lands around a plan, as standard deviations: palm per axis (m), approach tilt about "
               "each of two axes orthogonal to it (rad), wrist roll (rad), each finger closure (rad). Method 'task' "
-              "picks the grasp with the highest expected success as executed (docs/planner.md); all zero: an "
-              "exact landing. The default is the documented 1x level (5 mm, 3 deg, 3 deg, 0.10 rad).",
+              "then picks the grasp with the highest expected success as executed (docs/planner.md); the "
+              "documented 1x level is [0.005, 0.0524, 0.0524, 0.1]. All zero (the node's default, as the estimate "
+              "costs seconds of CPU per model read): an exact landing.",
               validator=_check_noise, constraints='4 finite numbers >= 0'),
     ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
     ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),

@@ -41,6 +41,7 @@ from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOIN
 from grasp_intent_ros.nodes.grasp_planner import PARAMETERS, GraspPlanner
 from grasp_intent_ros.objects.demos import grasp_features
 from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning.robustness import ExecutionNoise
 from grasp_intent_ros.ros import model_follower
 from grasp_intent_ros.ros.conversions import (
     array_to_msg,
@@ -61,6 +62,7 @@ DEFAULT_POSE = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 W_GOOD = (0.9, 0.9, 0.1)
 TOPICS = ('pose', 'joints', 'trajectory', 'posterior', 'features', 'markers')
 METHOD = next(spec.default for spec in PARAMETERS if spec.name == 'method')
+NOISE = ExecutionNoise(*next(spec.default for spec in PARAMETERS if spec.name == 'execution_noise'))
 
 
 # ---------------------------------------------------------------------------------- models
@@ -121,7 +123,7 @@ def core_plan(kin: MicoKinematics, model: GraspModel, v_all: Any, base_T_obj: An
               warm_start: Any = None, q_seed: Any = HOME_Q) -> planner.PlanResult:
     """What the node computes for v over all zones: restrict, then plan with IK reachability."""
     v = restrict(v_all, all_zones(len(model.task_names)), model.zones)
-    return planner.plan(model, v, method=METHOD, warm_start=warm_start, accept=lambda x: kin.ik(
+    return planner.plan(model, v, method=METHOD, warm_start=warm_start, noise=NOISE, accept=lambda x: kin.ik(
         base_T_obj @ features_to_obj_T_ee(x), q_seed, restarts=8).success)
 
 
