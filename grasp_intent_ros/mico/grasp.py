@@ -21,8 +21,8 @@ from ..method.features import FINGERS, MICO_3F
 from ..method.intent import restrict
 from ..method.model import GraspModel
 from ..planning import planner
-from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 from ..planning.robustness import ExecutionNoise
+from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 
 __all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'OUTCOMES', 'NoModelZone', 'PlanOutcome', 'Grasp', 'NoReachableGrasp',
            'check_mico_model', 'check_workspace', 'check_grasp', 'trajectory_duration', 'plan_grasp']

@@ -1,4 +1,4 @@
-"""The execution noise model and the planner's robustness estimate (planning.robustness), on hand-built demonstrations."""
+"""The execution noise model and the robustness estimate (planning.robustness), on hand-built demonstrations."""
 
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ import sys
 import numpy as np
 import pytest
 
-from grasp_intent_ros.planning import planner
-from grasp_intent_ros.method.data import Demonstrations
 from grasp_intent_ros.errors import PlanningError
+from grasp_intent_ros.method.data import Demonstrations
 from grasp_intent_ros.method.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL
 from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.planning import planner
 from grasp_intent_ros.planning.robustness import DRAW_DIM, ExecutionNoise, perturb, retention, standard_draws
 
 A, B, AB = 1, 2, 3
