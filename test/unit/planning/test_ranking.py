@@ -23,6 +23,7 @@ from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.objects.demos import OBJECTS
 from grasp_intent_ros.planning import planner
 from grasp_intent_ros.planning import ranking as serving
+from grasp_intent_ros.planning.robustness import ExecutionNoise, retention
 from grasp_intent_ros.resources import config_dir
 
 CASES = [(0.9, 0.1, 0.1), (0.1, 0.9, 0.1), (0.1, 0.1, 0.9), (0.9, 0.9, 0.1), (0.9, 0.1, 0.9), (0.1, 0.9, 0.9),
@@ -82,8 +83,11 @@ def test_random_intents_serve_the_top_zone_faithfully(w: tuple[float, ...], name
 
 
 def oracle(model: GraspModel, v: np.ndarray, reference: np.ndarray, warm: bool, tau: float = serving.TAU,
-           faithful: str = 'label') -> int:
-    """The module docstring's choice in plain Python (no warm band, no hysteresis): the chosen demonstration."""
+           faithful: str = 'label', kept: np.ndarray | None = None) -> int:
+    """The module docstring's choice in plain Python (no warm band, no hysteresis): the chosen demonstration.
+
+    ``kept``: the robustness estimate R (N, K) the plan was made with (E = sum_k v_k R_nk), None for an exact landing.
+    """
     zones = model.zones
     top = zones[int(planner.zone_order(v)[0])]
     likely = top
@@ -102,7 +106,8 @@ def oracle(model: GraspModel, v: np.ndarray, reference: np.ndarray, warm: bool, 
         reading = zones[int(np.argmax(p))]
         ok = reading & ~likely == 0 and (faithful == 'reading' or s & ~likely == 0)
         tier = 0 if s & top == top and ok else 1 if s & top == top else 2
-        e = sum(vk for vk, z in zip(v.tolist(), zones) if s & z == z)
+        e = sum(vk for vk, z in zip(v.tolist(), zones) if s & z == z) if kept is None else \
+            sum(vk * r for vk, r in zip(v.tolist(), kept[n].tolist()))
         f = 0.5 * float(np.sum((v - p) ** 2))
         d = float(np.linalg.norm((x - reference) / model.feature_scale))
         rest = (round(d / 1e-6), round(f / 1e-9)) if warm else (round(f / 1e-9), round(d / 1e-6))
@@ -122,7 +127,10 @@ def test_the_choice_is_the_stated_rule(w: tuple[float, ...], name: str, faithful
     if r.v is None:
         return
     res = planner.plan(model, r.v, tau=tau, faithful=faithful)  # type: ignore[arg-type]
-    assert res.chosen.start_index == oracle(model, r.v, res.reference, False, tau, faithful)
+    kept = retention(model, ExecutionNoise())  # the default noise
+    assert res.chosen.start_index == oracle(model, r.v, res.reference, False, tau, faithful, kept)
+    exact = planner.plan(model, r.v, tau=tau, faithful=faithful, noise=None)  # type: ignore[arg-type]
+    assert exact.chosen.start_index == oracle(model, r.v, exact.reference, False, tau, faithful)
 
 
 def test_a_likely_task_joins_the_top_zone_at_tau(models: dict[str, GraspModel]) -> None:
