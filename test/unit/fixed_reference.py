@@ -27,9 +27,9 @@ FIXED_KERNELS = {'OPENBLAS_CORETYPE': 'Prescott', 'OPENBLAS_NUM_THREADS': '1'}
 _CHILD = r'''
 import json, sys
 import numpy as np
-from grasp_intent_ros.core import planner
-from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.core.resources import config_dir
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.planning import planner
+from grasp_intent_ros.resources import config_dir
 models = {}
 for line in sys.stdin:
     ask = json.loads(line)
