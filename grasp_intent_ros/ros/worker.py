@@ -247,6 +247,7 @@ class LatestOnlyWorker(_OffExecutorThread, Generic[T]):
         self._handle, self._ready = handle, ready
         self._min_period = min_period
         self._prepare, self._after_first = prepare, after_first
+        self._preparing = prepare is not None
         self._idle = False  # the thread waits for an update
         self.superseded = 0
         """Triggering updates never handled because a newer one replaced them."""
@@ -275,9 +276,28 @@ class LatestOnlyWorker(_OffExecutorThread, Generic[T]):
         """Whether the thread waits for a triggering update (its preparation done, nothing being handled)."""
         return self._idle
 
+    @property
+    def preparing(self) -> bool:
+        """Whether the thread still runs ``prepare``."""
+        return self._preparing
+
+    def stop(self) -> None:
+        """Stop the thread and wait for it, unless it still runs ``prepare``.
+
+        A preparation (a compile, say) cannot be cut short: the thread (a daemon) is then only asked to stop,
+        and ends with the process (:func:`grasp_intent_ros.ros.startup.run` ends a process left so at once).
+        """
+        if self._preparing:
+            self.stop_soon()
+        else:
+            super().stop()
+
     def _run(self) -> None:
         if self._prepare is not None:
-            self._prepare()
+            try:
+                self._prepare()
+            finally:
+                self._preparing = False
         handled = 0
         last_start = -math.inf
         while not self._stop.is_set():
