@@ -265,7 +265,7 @@ class NodeProcess:
             sent = self._signal_sent.name if self._signal_sent is not None else 'no signal'
             return f'{who} did not exit after {sent} and was killed'
         if code == WATCHDOG_EXIT_CODE:
-            return f'{who} did not finish stopping in time: its watchdog ended it (every thread\'s stack is in its log)'
+            return f'{who} was ended by its watchdog: its stop did not finish in time (the stacks are in its log)'
         if code != 0:
             return f'{who} exited with code {code}'
         if 'Traceback' in self.stderr():
