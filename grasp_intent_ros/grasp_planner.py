@@ -12,7 +12,8 @@ A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs
 :func:`grasp_intent_ros.core.grasp.plan_grasp`, warm-started from the last plan of the same model; its
 thread takes ``intent/v`` itself. A :class:`~grasp_intent_ros.ros.model_follower.ModelFollower` reads each
 new ``model/active`` in a thread of its own; :mod:`grasp_intent_ros.ros.startup` tunes the process and
-loads every compiled kernel before the node logs that it is ready (docs/nodes.md, "The planner node"). Parameters: :data:`PARAMETERS`.
+loads every compiled kernel before the node logs that it is ready (docs/nodes.md, "The planner node").
+Parameters: :data:`PARAMETERS`.
 """
 
 from __future__ import annotations
@@ -177,8 +178,10 @@ class GraspPlanner(Node):
             self._update(trigger=False, q_arm=q)
 
     def _check(self, values: Mapping[str, Any]) -> None:
-        """The object within the workspace; task_names the active model does not have are refused (none is
-        active while the parameters are declared)."""
+        """The object within the workspace, and task_names that the active model has.
+
+        No model is active while the parameters are declared.
+        """
         check_workspace(values['object_position'], values['workspace_radius'], what='object_position')
         if hasattr(self, '_models'):
             self._models.check(served_models(values['task_names']))

@@ -30,8 +30,11 @@ One :class:`NodeSuite` serves the suite command (:func:`main`: ``python -m grasp
   :data:`SHARED_CONTROL_NODES`, the viewer), wait until ready, notice a death, stop
   them all.
 - :func:`main`: the suite command: start the nodes, copy their output to stdout with each line prefixed
-  by ``[node]``, stop them all on Ctrl-C (SIGINT), SIGTERM or SIGHUP (its terminal closed); exit code 0
-  when every node stopped cleanly, 1 when one died or did not stop cleanly, 2 for bad arguments.
+  by ``[node]``, print ``suite: up`` once every node has logged that it is ready
+  (:func:`~grasp_intent_ros.ros.startup.is_ready_line`), stop them all on Ctrl-C (SIGINT), SIGTERM or
+  SIGHUP (its terminal closed). Its last line says whether every node stopped cleanly, else names each
+  that did not (died, killed, or ended by its watchdog); exit code 0 when every node stopped cleanly, 1
+  when one died or did not stop cleanly, 2 for bad arguments.
 
 Never imports rclpy. One module: the processes, the environment they share and the command that runs
 them are one job, starting the suite.
@@ -52,8 +55,8 @@ from pathlib import Path
 from types import TracebackType
 
 from ..core.resources import config_dir
-from ..ros.startup import WATCHDOG_EXIT_CODE, is_ready_line
 from ..protocol import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
+from ..ros.startup import WATCHDOG_EXIT_CODE, is_ready_line
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
            'TEST_DOMAIN_IDS', 'RUN_DOMAIN_IDS', 'FASTDDS_PROFILE', 'SuiteError', 'domain_id_from_environment',
@@ -476,7 +479,7 @@ class _Echo:
         self._done: dict[Path, int] = {}  # bytes of each log file already copied (or held as a partial line)
         self._partial: dict[Path, bytes] = {}
         self.ready: set[int] = set()
-        """The pids of the processes that logged that they are ready (:func:`~grasp_intent_ros.ros.startup.is_ready_line`)."""
+        """The pids of the processes that logged that they are ready (``startup.is_ready_line``)."""
 
     def copy(self, *, final: bool = False) -> None:
         """Copy every complete new line; with ``final``, also each file's last line without a newline."""

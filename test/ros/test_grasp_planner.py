@@ -41,7 +41,7 @@ from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOIN
 from grasp_intent_ros.core.model import GraspModel, structure_zones
 from grasp_intent_ros.dataset.demos import grasp_features
 from grasp_intent_ros.grasp_planner import PARAMETERS, GraspPlanner
-from grasp_intent_ros.protocol import KEY_KERNELS_LOADED_LATE, KEY_KERNELS_LOAD_TIME, read_model_document
+from grasp_intent_ros.protocol import KEY_KERNELS_LOAD_TIME, KEY_KERNELS_LOADED_LATE, read_model_document
 from grasp_intent_ros.ros import model_follower
 from grasp_intent_ros.ros.conversions import (
     array_to_msg,
