@@ -135,10 +135,10 @@ class KernelWarmUp:
     ----------
     first : callable
         Loads the node's own uses of the kernels (e.g. one IK of the arm's home pose); then
-        :func:`grasp_intent_ros.core.kernels.warm_up` loads every kernel with the planner's argument types.
+        :func:`grasp_intent_ros.kernels.warm_up` loads every kernel with the planner's argument types.
     report : callable
         ``report(key, value)`` with the milliseconds the load took, as text, under
-        :data:`~grasp_intent_ros.protocol.KEY_KERNELS_LOAD_TIME`; e.g. a
+        :data:`~grasp_intent_ros.wire.protocol.KEY_KERNELS_LOAD_TIME`; e.g. a
         :meth:`NodeDiagnostics.set_value <grasp_intent_ros.ros.diagnostics.NodeDiagnostics.set_value>`.
     warn : callable
         ``warn(text)`` for a load that failed, e.g. a logger's ``warning``.
@@ -154,8 +154,8 @@ class KernelWarmUp:
 
     def at_start(self) -> None:
         """Load every kernel, then :func:`end` (the node's code is loaded), then ``ready``: before the first answer."""
-        from ..core.kernels import loaded_signatures, warm_up
-        from ..protocol import KEY_KERNELS_LOAD_TIME
+        from ..kernels import loaded_signatures, warm_up
+        from ..wire.protocol import KEY_KERNELS_LOAD_TIME
 
         def load() -> None:
             self._first()
@@ -178,7 +178,7 @@ class KernelWarmUp:
         RuntimeError
             Before :meth:`at_start` has ended.
         """
-        from ..core.kernels import loaded_signatures
+        from ..kernels import loaded_signatures
 
         if self._loaded is None:
             raise RuntimeError('the kernels are still loading')

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from grasp_intent_ros.protocol import KEY_KERNELS_LOAD_TIME
+from grasp_intent_ros.launch.suite import node_environment
 from grasp_intent_ros.ros import startup
-from grasp_intent_ros.tools.suite import node_environment
+from grasp_intent_ros.wire.protocol import KEY_KERNELS_LOAD_TIME
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -62,12 +62,12 @@ def test_end_without_begin_leaves_the_collector_alone() -> None:
 
 
 def test_the_planner_process_collects_again_once_its_kernels_are_loaded(domain_id: int) -> None:
-    """As ``python -m grasp_intent_ros.grasp_planner`` does: begin before the imports, end in the planning thread."""
+    """As the planner node does: begin before the imports, end in the planner thread."""
     _run('from grasp_intent_ros.ros import startup\n'
          'startup.begin()\n'
          'import gc, time\n'
          'import rclpy\n'
-         'from grasp_intent_ros.grasp_planner import GraspPlanner\n'
+         'from grasp_intent_ros.nodes.grasp_planner import GraspPlanner\n'
          'rclpy.init()\n'
          'node = GraspPlanner()\n'
          'deadline = time.monotonic() + 30.0\n'
@@ -111,7 +111,7 @@ def test_kernel_warm_up_loads_every_kernel_before_ready_and_counts_the_loads_aft
     assert [key for key, _ in reports] == [KEY_KERNELS_LOAD_TIME] and reports[0][1] >= 0.0
     assert ready[1].startswith('compiled kernels loaded in ') and len(warnings) == 1
     assert warm_up.loaded_late() == 0
-    from grasp_intent_ros.core.kernels import selection
+    from grasp_intent_ros.kernels import selection
     selection._distinct(np.ones((2, 3), dtype=np.float32), 1e-18)  # new argument types: a signature compiled
     assert warm_up.loaded_late() == 1
 
