@@ -41,7 +41,6 @@ from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOIN
 from grasp_intent_ros.nodes.grasp_planner import PARAMETERS, GraspPlanner
 from grasp_intent_ros.objects.demos import grasp_features
 from grasp_intent_ros.planning import planner
-from grasp_intent_ros.wire.protocol import KEY_KERNELS_LOAD_TIME, KEY_KERNELS_LOADED_LATE, read_model_document
 from grasp_intent_ros.ros import model_follower
 from grasp_intent_ros.ros.conversions import (
     array_to_msg,
@@ -53,6 +52,7 @@ from grasp_intent_ros.ros.conversions import (
 from grasp_intent_ros.ros.params import ParameterError
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import matrix_to_pose_msg, pose_msg_to_matrix
+from grasp_intent_ros.wire.protocol import KEY_KERNELS_LOAD_TIME, KEY_KERNELS_LOADED_LATE, read_model_document
 
 REPO = Path(__file__).resolve().parents[2]
 TASKS = ('usage', 'transfer', 'handover')

@@ -22,10 +22,10 @@ from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray
 
-from grasp_intent_ros.wire.protocol import KEY_KERNELS_LOADED_LATE, read_posterior
+from grasp_intent_ros.launch.suite import NodeSuite
 from grasp_intent_ros.ros.run import SHUTDOWN_GRACE
 from grasp_intent_ros.ros.startup import WATCHDOG_EXIT_CODE
-from grasp_intent_ros.launch.suite import NodeSuite
+from grasp_intent_ros.wire.protocol import KEY_KERNELS_LOADED_LATE, read_posterior
 
 REPO = Path(__file__).resolve().parents[2]
 COMPILE = 900.0
