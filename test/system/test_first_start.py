@@ -120,7 +120,7 @@ def test_the_suite_command_says_when_a_stop_needed_the_watchdog(tmp_path: Path) 
             "print('[INFO] [0.0] [grasp_planner]: ready', flush=True)\n"
             "time.sleep(60)\n") % WATCHDOG_EXIT_CODE
     command = ("import os, signal, sys, threading\n"
-               "from grasp_intent_ros.tools import suite\n"
+               "from grasp_intent_ros.launch import suite\n"
                "def start_nodes(self, **_):\n"
                "    self.processes.append(suite.NodeProcess([sys.executable, '-c', %r], module='grasp_planner',\n"
                "                                            env=self.env, log_dir=self.log_dir))\n"
