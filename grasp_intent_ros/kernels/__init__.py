@@ -9,7 +9,7 @@ projection     the log-odds projection onto P(x) = v (Gauss-Newton)
 least_squares  Levenberg-Marquardt and Newton on 1/2 |v - P(x)|^2 over X
 rounds         the planner's least squares (its rule 5) in one call
 selection      ranking, screening and choosing candidates without float-noise ties
-vote           a kernel vote over labelled points and its leave-one-out loss (the robustness estimate)
+voting         a kernel vote over labelled points and its leave-one-out loss (the robustness estimate)
 ik             the MICO's inverse kinematics (:meth:`grasp_intent_ros.mico.kinematics.MicoKinematics.ik`)
 types          the shared arrays as typed tuples: the body (:class:`~.types.Body`), the model's Gaussians
                (:class:`~.types.Mixture`)
@@ -69,16 +69,32 @@ from .posterior import log_joints, score  # noqa: E402
 from .projection import project  # noqa: E402
 from .rounds import least_squares_rounds  # noqa: E402
 from .selection import choice_order, distinct, screen, select_demonstrations  # noqa: E402
-from .vote import loo_loss, vote  # noqa: E402
+from .voting import loo_loss, vote  # noqa: E402
 
 __all__ = ['project', 'least_squares_rounds', 'feasible', 'score', 'log_joints', 'screen', 'choice_order',
-           'select_demonstrations', 'distinct', 'ik_descent', 'clearance', 'vote', 'loo_loss', 'warm_up']
+           'select_demonstrations', 'distinct', 'ik_descent', 'clearance', 'vote', 'loo_loss', 'warm_up',
+           'loaded_signatures']
+
+
+def loaded_signatures() -> int:
+    """How many compiled signatures the kernel modules' numba functions hold now, compiled or loaded from the cache.
+
+    It grows whenever a call compiles or loads a kernel for new argument types; a caller that takes it after
+    :func:`warm_up` and again after its work learns whether that work waited on one (the count, not a time).
+    """
+    from numba.core.dispatcher import Dispatcher
+
+    from . import geometry, ik, least_squares, linalg, posterior, projection, rounds, selection, voting
+
+    return sum(len(obj.signatures) for module in (geometry, ik, least_squares, linalg, posterior, projection, rounds,
+                                                  selection, voting)
+               for obj in vars(module).values() if isinstance(obj, Dispatcher))
 
 
 def warm_up() -> None:
     """Compile (or load from the cache) every kernel on a tiny problem with the planner's argument types.
 
-    ``scripts/venv.sh`` calls it at set-up time, so that no node pays for compilation on its first plan.
+    ``scripts/venv.sh`` calls it at set-up time (the cache), and the planner node before it is ready.
     """
     d = 10
     cylinder = (np.zeros(1, dtype=np.int64), np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]),

@@ -23,7 +23,7 @@ rules that labelled them):
 1. Classifier features: the grasp's features, plus the palm's clearance from the body when the model has one
    (:meth:`~grasp_intent_ros.method.body.ObjectBody.distance`).
 2. Per zone k, a kernel vote q_k(y) over the demonstrations, labelled 1 where their task set contains the
-   zone's (:mod:`grasp_intent_ros.kernels.vote`), with a diagonal bandwidth per feature. One vote per
+   zone's (:mod:`grasp_intent_ros.kernels.voting`), with a diagonal bandwidth per feature. One vote per
    zone, not a product of per-task votes: the tasks' rules share conditions, and a zone's demonstrations
    say where all of its tasks hold at once.
 3. The bandwidths of zone k minimise the vote's leave-one-out log loss over the demonstrations, by a
