@@ -10,8 +10,8 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-__all__ = ['ambiguity', 'arm', 'assistance', 'body', 'data', 'errors', 'features', 'frames', 'grasp', 'intent',
-           'kinematics', 'model', 'planner', 'registry', 'resources', 'safe_yaml']
+__all__ = ['ambiguity', 'arm', 'assistance', 'body', 'data', 'errors', 'estimator', 'features', 'frames', 'grasp',
+           'intent', 'kinematics', 'model', 'planner', 'registry', 'resources', 'safe_yaml']
 
 
 def __getattr__(name: str) -> ModuleType:
