@@ -19,6 +19,7 @@ COMMANDS = {
     'viewer': 'viewer',
     'assistance': 'assistance',
     'mock_arm': 'mock_arm',
+    'intent_estimator': 'intent_estimator',
     'suite': 'tools.suite',
     'send_intent': 'tools.send_intent',
     'demo': 'tools.demo',
