@@ -2,15 +2,15 @@ r"""Calibration of the intent estimator on scripted reaches, ROS-free (issue 39)
 
 Each seeded operator is the shared-control benchmark's (:mod:`bench_shared_control`: its intent draw, its
 two-mode joystick with reaction delay, noise and speed limits) reaching, without assistance, on the mock
-MICO's twist mode (:class:`~grasp_intent_ros.core.arm.MockArm`, 100 Hz) for a grasp of its true task set S.
+MICO's twist mode (:class:`~grasp_intent_ros.mico.mock_arm.MockArm`, 100 Hz) for a grasp of its true task set S.
 Two goal rules (``--goals``):
 
 - ``fresh`` (default): a new grasp for S, drawn from the data set's prototypes of S with its person's noise
-  (:func:`grasp_intent_ros.dataset.demos.sample_grasp`), kept when the object's rules label it exactly S
+  (:func:`grasp_intent_ros.objects.demos.sample_grasp`), kept when the object's rules label it exactly S
   and the arm reaches it from Home: a grasp the estimator's demonstrations do not contain;
 - ``own``: the shared-control benchmark's own grasp for S (:func:`bench_shared_control.own_goals`).
 
-The estimator (:class:`~grasp_intent_ros.core.estimator.IntentEstimator`, goals: the model's reachable
+The estimator (:class:`~grasp_intent_ros.shared_control.estimator.IntentEstimator`, goals: the model's reachable
 demonstrations) gets each operator twist with the hand's pose at that tick; it never sees S, the rules or
 the operator's goal, and the operator never sees the estimator. At 25 / 50 / 75 % of the hand's path length
 (its translation, from the start to the grasp or the timeout) w is compared with S's indicator: the Brier
@@ -42,14 +42,14 @@ import numpy as np
 from _bench import uptime
 from bench_shared_control import BASE_T_OBJ, OBJECTS, PERIOD, Joystick, Operator, draw_intent, own_goals
 
-from grasp_intent_ros.core.arm import MockArm, check_twist
-from grasp_intent_ros.core.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
-from grasp_intent_ros.core.frames import features_to_obj_T_ee
-from grasp_intent_ros.core.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
-from grasp_intent_ros.core.registry import ModelFiles
-from grasp_intent_ros.core.resources import config_dir
-from grasp_intent_ros.dataset.demos import ObjectRules, sample_grasp
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee
+from grasp_intent_ros.mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.mico.mock_arm import MockArm, check_twist
+from grasp_intent_ros.objects.demos import ObjectRules, sample_grasp
+from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.sessions.closed_loop import reached
+from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
 
 FRACTIONS = (0.25, 0.5, 0.75)
 BETAS = (30.0, 100.0, 300.0, 1000.0, 3000.0)

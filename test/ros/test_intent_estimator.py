@@ -9,16 +9,16 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
-from grasp_intent_ros import protocol
-from grasp_intent_ros.core.estimator import goals_at
-from grasp_intent_ros.core.frames import pose_to_matrix
-from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
-from grasp_intent_ros.core.registry import ModelFiles
-from grasp_intent_ros.core.resources import config_dir
-from grasp_intent_ros.intent_estimator import IntentEstimatorNode
-from grasp_intent_ros.protocol import model_document
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.nodes.intent_estimator import IntentEstimatorNode
+from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
+from grasp_intent_ros.shared_control.estimator import goals_at
+from grasp_intent_ros.wire import protocol
+from grasp_intent_ros.wire.protocol import model_document
 
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 PRIOR = 4 / 7
