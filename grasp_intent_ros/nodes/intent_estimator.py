@@ -126,7 +126,6 @@ class IntentEstimatorNode(Node):
         self._config = EstimatorConfig(**{name: self._params[name] for name in _CONFIG_FIELDS})
         self._estimator: IntentEstimator | None = None
         """The estimate over the current scene's goals; None while they are prepared."""
-        self._scene_key: tuple[str, str, bytes] | None = None
         self._q: NDArray[np.float64] | None = None
         self._base_T_ee: NDArray[np.float64] | None = None
         self._last_twist: float | None = None  # node-clock time of the last operator twist
@@ -171,7 +170,7 @@ class IntentEstimatorNode(Node):
     def _use_model(self, doc: ModelDocument | None) -> None:  # in the model follower's thread
         if doc is not None:
             check_mico_model(doc.model, doc.name)
-        self._scenes.update(lambda scene: replace(scene, model=doc, q_arm=self._q_arm()))
+        self._scenes.update(lambda scene: replace(scene, model=doc, q_arm=self._q))
         if doc is None:
             self._estimator = None
             self._diag.set_state(ERROR, f'cannot serve: {self._models.refused}')
@@ -189,10 +188,7 @@ class IntentEstimatorNode(Node):
             if (float(np.linalg.norm(error[:3])) <= self._params['object_tolerance']
                     and float(np.linalg.norm(error[3:])) <= self._params['angle_tolerance']):
                 return
-        self._scenes.update(lambda scene: replace(scene, base_T_obj=base_T_obj, q_arm=self._q_arm()))
-
-    def _q_arm(self) -> NDArray[np.float64] | None:
-        return self._q
+        self._scenes.update(lambda scene: replace(scene, base_T_obj=base_T_obj, q_arm=self._q))
 
     def _prepare(self, scene: _Scene) -> None:  # in the goal thread
         assert scene.model is not None and scene.base_T_obj is not None
