@@ -31,11 +31,13 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped
 from numpy.typing import NDArray
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 
 from . import protocol as topics
 from .core import planner
+from .core.collision import HandCollision, Table
 from .core.frames import pose_to_matrix
 from .core.grasp import check_workspace, plan_grasp
 from .core.intent import match_zones
@@ -53,6 +55,12 @@ from .ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matri
 from .ros.worker import LatestOnlyWorker
 
 __all__ = ['GraspPlanner', 'PARAMETERS', 'main']
+
+
+def table_plane(value: Any) -> None:
+    """Validate ``table_plane``: empty, or 4 finite numbers with a non-zero normal (raises ValueError)."""
+    if len(value):
+        Table.in_object_frame(value, np.eye(4))
 
 PARAMETERS = (
     ParamSpec('method', planner.DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
@@ -80,6 +88,12 @@ PARAMETERS = (
               'Markers are for RViz and cost as much to build as the other outputs together.',
               range=(0.0, 10.0)),
     ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
+    ParamSpec('collision_check', False, 'Turn down grasps whose hand goes into the table or the object on the '
+              'approach (fingers open, from the pre-grasp 0.08 m behind), as unreachable ones are '
+              '(docs/planner.md, "The hand\'s clearance").'),
+    ParamSpec('table_plane', (), 'The table in m1n6s300_link_base: (nx, ny, nz, d), points with n . p >= d '
+              'above it; empty: the plane the object stands on (z = 0 of its frame).',
+              type=Parameter.Type.DOUBLE_ARRAY, validator=table_plane),
     TASK_NAMES,
 )
 
@@ -108,6 +122,7 @@ class GraspPlanner(Node):
                                                           what='object_position'))
         try:
             self._kin = MicoKinematics(self._params['urdf_path'] or None)
+            self._hand = HandCollision(self._params['urdf_path'] or None)
         except FileNotFoundError as exc:
             raise ParameterError(f'urdf_path: {exc}') from None
         self._warm: tuple[tuple[str, str], NDArray[np.float64]] | None = None
@@ -193,7 +208,9 @@ class GraspPlanner(Node):
         grasp = plan_grasp(doc.model, inputs.v, match_zones(inputs.v.size, inputs.v_labels, doc.model.task_names),
                            inputs.base_T_obj, self._kin, name=doc.name, q_arm=inputs.q_arm, warm_start=warm,
                            method=self._params['method'], n_starts=self._params['n_starts'],
-                           ik_restarts=self._params['ik_restarts'])
+                           ik_restarts=self._params['ik_restarts'],
+                           hand=self._hand if self._params['collision_check'] else None,
+                           table_plane=self._params['table_plane'] or None)
         try:
             if (checked := self._outputs.send(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
                                               once_for=(inputs.v_seq, key), stopping=lambda: self._worker.stopping)):

@@ -73,7 +73,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.body import Cylinder, ObjectBody
+from ..core.body import Box, Cylinder, ObjectBody
 from ..core.data import Demonstrations
 from ..core.errors import DataError, InvalidFeaturesError
 from ..core.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL, FeatureSpace
@@ -208,6 +208,8 @@ class Cup:
     height: float = 0.10
     handle_z: tuple[float, float] = (0.025, 0.075)
     handle_reach: float = 0.03
+    handle_bar: tuple[float, float] = (0.008, 0.012)
+    """Thickness in the loop's plane and width across it (m) of the handle's three bars."""
     rim_palm_z_max: float = 0.08
     """Usage: the palm centre at most this high leaves the rim clear for drinking."""
     bottom_palm_z_min: float = 0.05
@@ -223,9 +225,23 @@ class Cup:
     """Handover: |roll - pi| at most this counts as the wrist turned by about 180 degrees."""
 
     def body(self) -> ObjectBody:
-        """The solid body the planner keeps the palm centre out of (the handle is a loop, not solid)."""
+        """The cup's solid parts: the cylinder, and the handle loop as three bars (top, outer, bottom).
+
+        The bars leave the loop's opening free (where the usage rule wants the fingers); the top and bottom
+        bars reach half a bar into the wall, so the loop is attached.
+        """
+        thick, width = self.handle_bar
+        (z_low, z_high), outer = self.handle_z, self.radius + self.handle_reach
+        inner = self.radius - 0.5 * thick
+        half_bar = 0.5 * (outer - thick - inner)
+        bars = (Box(centre=np.array([inner + half_bar, 0.0, z_high - 0.5 * thick]),
+                    half_extents=np.array([half_bar, 0.5 * width, 0.5 * thick])),
+                Box(centre=np.array([outer - 0.5 * thick, 0.0, 0.5 * (z_low + z_high)]),
+                    half_extents=np.array([0.5 * thick, 0.5 * width, 0.5 * (z_high - z_low)])),
+                Box(centre=np.array([inner + half_bar, 0.0, z_low + 0.5 * thick]),
+                    half_extents=np.array([half_bar, 0.5 * width, 0.5 * thick])))
         return ObjectBody((Cylinder(centre=np.array([0.0, 0.0, 0.5 * self.height]), axis=np.array([0.0, 0.0, 1.0]),
-                                    radius=self.radius, length=self.height),))
+                                    radius=self.radius, length=self.height), *bars))
 
     def palm_to_body(self, x: ArrayLike) -> float:
         """Distance (m) from the palm centre to the cup's body (solid cylinder, handle excluded)."""
@@ -288,6 +304,8 @@ class Flashlight:
     radius: float = 0.02
     length: float = 0.20
     switch_x: float = 0.04
+    switch_half_extents: tuple[float, float, float] = (0.008, 0.003, 0.005)
+    """The switch, a box on the +y side at x = switch_x, axis height (m); it stands 4 mm proud of the body."""
     centre_of_mass_x: float = 0.0
     usage_min_elevation: float = math.radians(50.0)
     switch_reach: float = 0.035
@@ -304,9 +322,13 @@ class Flashlight:
     """Handover: |roll - pi| at most this counts as the wrist turned by about 180 degrees."""
 
     def body(self) -> ObjectBody:
-        """The solid body the planner keeps the palm centre out of."""
+        """The flashlight's solid parts: the cylinder and the switch on its +y side."""
+        half = np.array(self.switch_half_extents)
+        proud = 0.004
         return ObjectBody((Cylinder(centre=np.array([0.0, 0.0, self.radius]), axis=np.array([1.0, 0.0, 0.0]),
-                                    radius=self.radius, length=self.length),))
+                                    radius=self.radius, length=self.length),
+                           Box(centre=np.array([self.switch_x, self.radius + proud - half[1], self.radius]),
+                               half_extents=half)))
 
     def palm_to_body(self, x: ArrayLike) -> float:
         """Distance (m) from the palm centre to the body (solid cylinder along x, axis at z = radius)."""
