@@ -35,8 +35,17 @@ zone). Models: the four shipped ones, and 7-zone models trained on data sets gen
 ``--frontier`` prints the task planner's trade-off (success, faithfulness, legibility, fit) over a range of
 thresholds.
 
+``--physics`` (needs the ``bench`` extra, MuJoCo) runs the planner node's policy (``core.grasp.plan_grasp``, IK
+included) on the 7-zone models with the object at the suite's default pose, without and with the hand's
+collision check (``core.collision``), and has an independent judge (``judge_physics``: MuJoCo on the URDF, the
+plan's joint targets, the table plane z = 0 of the object frame and the object's body of the rules) say which
+published grasps put a hand part > 5 mm below the table with the fingers open or the wrist/palm > 2 mm into the
+object, and how many fingers meet the table while closing; with success counting a w without a grasp as 0,
+and the median planning time (the planner with the collision check as its ``accept``, IK left out).
+
     python benchmarks/bench_task_success.py [--n 500] [--seed 0] [--methods default,paper,start,top-only,slsqp]
         [--models cup_7zone,...] [--data-seeds 1,2] [--draws 20] [--slsqp-n 50] [--frontier] [--cases-only]
+        [--physics]
 """
 
 from __future__ import annotations
@@ -268,6 +277,55 @@ def frontier(models: Sequence[GraspModel], n: int, seed: int, taus: Sequence[flo
                 print(f'  {model.name:24s} {faithful:7s} tau {tau:4.2f}  {tally.line()}')
 
 
+def physics(models: Sequence[GraspModel], n: int, seed: int) -> None:
+    """Plans of the node's policy without and with the collision check, judged by MuJoCo (module docstring)."""
+    from judge_physics import PALM_LIMIT, TABLE_LIMIT, PhysicsJudge  # the bench extra: only this section needs it
+
+    from grasp_intent_ros.core.collision import CollisionFree, HandCollision
+    from grasp_intent_ros.core.frames import pose_to_matrix
+    from grasp_intent_ros.core.grasp import Grasp, plan_grasp
+    from grasp_intent_ros.core.kinematics import MicoKinematics
+
+    base_T_obj = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))  # the suite's default object pose
+    kin, hand = MicoKinematics(), HandCollision()
+    print(f'physics: plan_grasp at the default object pose, judged by MuJoCo {__import__("mujoco").__version__} '
+          f'(table > {1e3 * TABLE_LIMIT:g} mm, palm > {1e3 * PALM_LIMIT:g} mm)')
+    for model in models:
+        if len(model.zones) != 7:
+            continue
+        judge, rules = PhysicsJudge(rules_for(model).body, base_T_obj), Judge(model)
+        targets = list(random_targets(model, n, seed))
+        t0 = time.perf_counter()
+        clear = CollisionFree(hand, model.body)
+        candidates = planner.feasible_demonstrations(model)
+        screened = sum(clear(x) for x in candidates)  # once per model, as the node does: plans then look it up
+        print(f'  {model.name}: {screened} of {len(candidates)} demonstrations clear by the check '
+              f'(all checked in {time.perf_counter() - t0:.1f} s)')
+        for checked in (False, True):
+            plans = no_grasp = table = palm = collide = fingers_on_table = 0
+            scores: list[float] = []
+            ms: list[float] = []
+            for w, v in targets:
+                t1 = time.perf_counter()
+                planner.plan(model, v, accept=CollisionFree(hand, model.body) if checked else None)
+                ms.append(1e3 * (time.perf_counter() - t1))
+                grasp = plan_grasp(model, v, intent.all_zones(3), base_T_obj, kin, hand=hand if checked else None)
+                if not isinstance(grasp, Grasp):
+                    no_grasp += 1
+                    scores.append(0.0)
+                    continue
+                plans += 1
+                verdict = judge.judge(grasp.positions)
+                table += verdict.table > TABLE_LIMIT
+                palm += verdict.palm > PALM_LIMIT
+                collide += verdict.collides
+                fingers_on_table += verdict.finger_on_table > 0
+                scores.append(success(rules.label(grasp.result.x), w))
+            print(f'    {"checked" if checked else "unchecked":9s} success {100 * np.mean(scores):5.1f}%  grasps '
+                  f'{plans}/{len(targets)}  in collision {collide} (table {table}, palm {palm})  a finger meets the '
+                  f'table closing {fingers_on_table}  plan median {np.median(ms):.3f} ms')
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--n', type=int, default=500, help='random w per model (default 500)')
@@ -280,6 +338,8 @@ def main() -> None:
     parser.add_argument('--tau', type=float, default=None, help="the task method's threshold (default: its own)")
     parser.add_argument('--frontier', action='store_true', help="print the task method's trade-off over tau")
     parser.add_argument('--cases-only', action='store_true', help='only the paper cases')
+    parser.add_argument('--physics', action='store_true', help='plans with and without the collision check, '
+                        'judged by MuJoCo (the bench extra)')
     args = parser.parse_args()
     table = methods(args.tau)
     chosen = {name: table[name] for name in args.methods.split(',') if name}
@@ -287,7 +347,9 @@ def main() -> None:
     fresh = [m for s in args.data_seeds.split(',') if s.strip() for m in regenerated(int(s))]
     print(f'bench_task_success: n={args.n}, seed={args.seed}, methods {", ".join(chosen)}; '
           f'load average {", ".join(f"{a:.2f}" for a in os.getloadavg())}')
-    if args.frontier:
+    if args.physics:
+        physics(shipped + fresh, args.n, args.seed)
+    elif args.frontier:
         frontier(shipped + fresh, args.n, args.seed, (0.0, 0.1, 0.2, 0.25, 0.3, 0.4, 0.5, 1.0))
     else:
         for model in shipped + fresh:

@@ -23,9 +23,10 @@ goes more than ``table`` below the table, the palm/wrist more than ``palm`` into
 more than ``finger`` into it. A finger that meets the table while closing stops there (a MICO's fingers take
 position commands and stall at contact): reported, never a collision.
 
-The object's part of a grasp's clearance does not depend on the table nor on the object's pose: it is cached
-per body and grasp (:meth:`HandCollision.clearance` keys it by the feature vector's bytes), so a planner that
-asks about the same demonstrations again pays only the table's part, a few array operations.
+The object's part of a grasp's clearance (coal's, the costly part) does not depend on the table nor on the
+object's pose: it is cached per body and grasp (keyed by the feature vector's bytes), and the whole clearance
+per body, table and grasp, so a planner that asks about the same demonstrations again pays a dictionary look-up,
+or, after the table moved in the object's frame, the table's part (a few array operations).
 """
 
 from __future__ import annotations
@@ -321,6 +322,9 @@ class HandCollision:
         self._lock = threading.Lock()
         self._scenes: dict[ObjectBody, _Scene] = {}
         self._cache: OrderedDict[tuple[ObjectBody | None, Table, bytes], Clearance] = OrderedDict()
+        self._faults: dict[tuple[ObjectBody | None, Table, Limits, bytes], str | None] = {}
+        self._object_cache: OrderedDict[tuple[ObjectBody, bytes], tuple[float, float, NDArray[np.float64]]] = \
+            OrderedDict()
 
     # -- the hand's parts -----------------------------------------------------------------------------------
 
@@ -378,7 +382,7 @@ class HandCollision:
                                    self.shapes[2 + 2 * k].lowest(joints[k] @ self._fixed[2 + 2 * k], normal))
                         for k in range(3)])                                              # (3, G)
         palm_depth, finger_depth, object_stop = (-math.inf, -math.inf, closures) if body is None else \
-            self._object_part(obj_T_ee, closures, body)
+            self._object_part(vec, obj_T_ee, closures, body)
         stops = []
         for k in range(3):
             touches = np.flatnonzero((low[k] <= plane.offset) & (grid < closures[k]))
@@ -398,15 +402,35 @@ class HandCollision:
                 self._cache.popitem(last=False)
         return out
 
-    def _object_part(self, obj_T_ee: NDArray[np.float64], closures: NDArray[np.float64],
+    def fault(self, key: bytes, x: NDArray[np.float64], body: ObjectBody | None, table: Table,
+              limits: Limits) -> str | None:
+        """:meth:`Clearance.fault` of grasp x (``key`` its bytes), cached: a planner asks it for each candidate."""
+        entry = (body, table, limits, key)
+        with self._lock:
+            if entry in self._faults:
+                return self._faults[entry]
+        fault = self.clearance(x, body, table).fault(limits)
+        with self._lock:
+            self._faults[entry] = fault
+            while len(self._faults) > _MAX_CACHE:
+                del self._faults[next(iter(self._faults))]
+        return fault
+
+    def _object_part(self, x: NDArray[np.float64], obj_T_ee: NDArray[np.float64], closures: NDArray[np.float64],
                      body: ObjectBody) -> tuple[float, float, NDArray[np.float64]]:
         """(palm depth, open-finger depth, each finger's closure at its first touch of the object, or its closure).
 
         Along the corridor and along a finger's closure, a part at distance d > 0 from the object cannot touch
         it before it has moved d, so the next pose is that far on (conservative advancement; at most
         ``SWEEP_STEP`` apart where the part is in contact, so that the deepest pose is not skipped by more).
+        Cached per (body, x): it does not depend on the table.
         """
+        key = (body, x.tobytes())
         with self._lock:
+            hit = self._object_cache.get(key)
+            if hit is not None:
+                self._object_cache.move_to_end(key)
+                return hit
             scene = self._scenes.get(body)
             if scene is None:
                 if len(self._scenes) >= _MAX_SCENES:
@@ -436,7 +460,12 @@ class HandCollision:
                     stop[k] = c
                     break
                 c += max(d / _FINGER_REACH, 1e-4)
-        return float(depth[0]), float(depth[1:].max()), stop
+        out = (float(depth[0]), float(depth[1:].max()), stop)
+        with self._lock:
+            self._object_cache[key] = out
+            while len(self._object_cache) > _MAX_CACHE:
+                self._object_cache.popitem(last=False)
+        return out
     def _depth(self, shape: _Shape, pose: NDArray[np.float64], scene: _Scene) -> float:
         """How deep a part at ``pose`` goes into the object (m; negative: clear; -inf: far from every primitive)."""
         centre = pose[:3, 3]
@@ -467,7 +496,8 @@ class CollisionFree:
 
     def __init__(self, hand: HandCollision, body: ObjectBody | None, table: Table | None = None, *,
                  limits: Limits = LIMITS) -> None:
-        self.hand, self.body, self.table, self.limits = hand, body, table, limits
+        self.hand, self.body, self.limits = hand, body, limits
+        self.table = table if table is not None else Table()
         self.faults: dict[bytes, str] = {}
         """Why each grasp turned down is in collision."""
 
@@ -477,7 +507,8 @@ class CollisionFree:
 
     def __call__(self, x: NDArray[np.float64]) -> bool:
         """Whether the hand takes grasp x without collision."""
-        fault = self.clearance(x).fault(self.limits)
+        key = np.asarray(x, dtype=np.float64).tobytes()
+        fault = self.hand.fault(key, x, self.body, self.table, self.limits)
         if fault is not None:
-            self.faults[np.asarray(x, dtype=np.float64).tobytes()] = fault
+            self.faults[key] = fault
         return fault is None

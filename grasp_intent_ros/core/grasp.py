@@ -261,20 +261,22 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
 
     result = planner.plan(model, v_model, method=method, n_starts=n_starts, warm_start=warm_start, accept=accept)
     n = len(result.candidates)
-    colliding = '' if clear is None or not clear.faults else \
-        f'{len(clear.faults)} in collision (first: {next(iter(clear.faults.values()))}), '
+    faults = {} if clear is None else clear.faults
+    colliding = f'{len(faults)} in collision (first: {next(iter(faults.values()))}), ' if faults else ''
     if result.status == 'rejected':
         position = base_T_obj[:3, 3]
         where = (f'with the object at {np.round(position, 3).tolist()} m '
                  f'({np.linalg.norm(position):.2f} m from the base)')
-        if reachable.answers:
-            closest = min(reachable.answers.values(), key=lambda a: a.pos_error_m)
-            reason = (f'no reachable grasp: of {n} candidates {colliding}IK failed for '
-                      f'{len(reachable.answers)} {where}; closest: {closest.message}')
+        if not reachable.answers:
+            reason = (f'no grasp clear of the table and the object: all {n} candidates in collision (first: '
+                      f'{next(iter(faults.values()))}) {where}')
         else:
-            reason = f'no grasp clear of the table and the object: all {n} candidates {colliding.rstrip(", ")} {where}'
-        return NoReachableGrasp(result=result, note=f'none of {n} candidates reachable ({colliding}'
-                                f'{len(reachable.answers)} unreachable)', ik_seconds=reachable.seconds, reason=reason)
+            closest = min(reachable.answers.values(), key=lambda a: a.pos_error_m)
+            tried = f'all {n} candidates' if not faults else f'the other {len(reachable.answers)} candidates'
+            reason = (f'no reachable grasp: {colliding}IK failed for {tried} {where}; closest: {closest.message}')
+        note = f'none of {n} candidates reachable' + (f' ({colliding}{len(reachable.answers)} unreachable)'
+                                                       if faults else '')
+        return NoReachableGrasp(result=result, note=note, ik_seconds=reachable.seconds, reason=reason)
     if result.rejected:
         note = (f'best grasp unreachable: published candidate {result.rejected + 1} of {n} ({colliding}'
                 f'objective {result.objective:.3g}, best {result.candidates[0].objective:.3g})')

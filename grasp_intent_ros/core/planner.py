@@ -124,6 +124,7 @@ if TYPE_CHECKING:
     from scipy.optimize import OptimizeResult  # type: ignore[import-untyped]
 
 __all__ = [
+    'feasible_demonstrations',
     'Candidate',
     'PlanResult',
     'Method',
@@ -350,6 +351,11 @@ def search_starts(model: GraspModel, v: NDArray[np.float64], count: int = _SCREE
     log_v = _log(v) if float(v.min()) > 0.0 else _NO_LOGS
     out: NDArray[np.float64] = pool[screen(log_joint_t, log_v, posterior, v, count, MATCH_TOL)]
     return out
+
+
+def feasible_demonstrations(model: GraspModel) -> NDArray[np.float64]:
+    """The demonstrations projected onto the feasible set X (N, d): method 'task''s candidates, bit for bit."""
+    return _Feasible(model).project(model.demo_x)
 
 
 class _Feasible:
