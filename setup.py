@@ -40,9 +40,9 @@ setup(
         'numba>=0.60',
         'pyyaml>=6',
         'pin>=2.7',
-        'coal>=3',  # the hand's collision checks (core/collision.py); pin brings it too
+        'coal>=3',  # the hand's collision checks (mico/collision.py); pin brings it too
         'rosbags>=0.10',
-        'mcap-ros2-support>=0.5',  # brings mcap (bag/repair.py); mcap-ros2-support is the rosdep key that does
+        'mcap-ros2-support>=0.5',  # brings mcap (sessions/bag/repair.py); mcap-ros2-support is the rosdep key that does
         'matplotlib>=3.7',
     ],
     extras_require={

@@ -1,7 +1,7 @@
 r"""Closed-loop shared control without hardware: scripted operators, five real node processes (issue 30).
 
 The interpreter, model server, planner, mock arm and assistance run as ``python -m`` processes over
-loopback (:meth:`~grasp_intent_ros.tools.suite.NodeSuite.start_nodes` with ``shared_control=True``); this
+loopback (:meth:`~grasp_intent_ros.launch.suite.NodeSuite.start_nodes` with ``shared_control=True``); this
 process is the operator (a probe node). Each seeded operator is run three times, in a rotating order, one
 per condition, switched by the assistance node's ``arbitration`` parameter: ``none`` (direct
 teleoperation, alpha = 0), ``blend`` (ADA's baseline: alpha_max when v's top zone leads by ``margin``) and
@@ -16,7 +16,7 @@ The scripted operator (a stated, simple model)
   with N(0, (0.08 (1 - s))^2) noise per task (s the sharpening's progress, w clipped to [0.02, 0.98]),
   published at 10 Hz on ``intent/w``.
 - **Goal.** The grasp the planner shows (``grasp/pose``, judged by ``grasp/features``) when it serves S
-  (the data set's task rules, :data:`grasp_intent_ros.dataset.demos.CUP_RULES` / ``FLASHLIGHT_RULES``: every
+  (the data set's task rules, :data:`grasp_intent_ros.objects.demos.CUP_RULES` / ``FLASHLIGHT_RULES``: every
   task of S satisfied), else the operator's own grasp for S: the planner's grasp for w_S planned offline
   from Home, or, when that does not serve S, the reachable demonstration of the data set that serves S
   nearest to it. The rule is the same under the three conditions (the shown grasp is on the screen
@@ -65,16 +65,16 @@ from typing import Any
 import numpy as np
 from _bench import REPO, Probe, loopback_domain, stopped_after, uptime
 
-from grasp_intent_ros.core.assistance import clip_norm, pose_error
-from grasp_intent_ros.core.data import load_csv
-from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
-from grasp_intent_ros.core.grasp import Grasp, plan_grasp
-from grasp_intent_ros.core.intent import all_zones, interpret
-from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
-from grasp_intent_ros.core.registry import ModelFiles
-from grasp_intent_ros.core.resources import config_dir
-from grasp_intent_ros.dataset.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRules
+from grasp_intent_ros.method.data import load_csv
+from grasp_intent_ros.method.intent import all_zones, interpret
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRules
+from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.sessions.closed_loop import reached
+from grasp_intent_ros.shared_control.assistance import clip_norm, pose_error
 
 OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 CONDITIONS = ('none', 'blend', 'confidence')
@@ -178,9 +178,9 @@ class Loop:
         from std_msgs.msg import Float64, Float64MultiArray
         from std_srvs.srv import Trigger
 
-        from grasp_intent_ros.protocol import stamped_values
         from grasp_intent_ros.ros.qos import input_qos, output_qos
         from grasp_intent_ros.ros.robot import joint_positions, pose_msg_to_matrix
+        from grasp_intent_ros.wire.protocol import stamped_values
 
         self.probe, self.kin, self.rules = probe, kin, rules
         node = probe.node
@@ -357,7 +357,7 @@ def latency_phase(loop: Loop, seconds: float) -> dict[str, float]:
 
 
 def run_object(name: str, args: argparse.Namespace, domain_id: int, op: Operator) -> tuple[list[Run], dict[str, float]]:
-    from grasp_intent_ros.tools.suite import NodeSuite
+    from grasp_intent_ros.launch.suite import NodeSuite
 
     model_name, rules = OBJECTS[name]
     kin = MicoKinematics()
@@ -410,9 +410,9 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
     """
     from rclpy.executors import SingleThreadedExecutor
 
+    from grasp_intent_ros.launch.suite import NodeSuite
+    from grasp_intent_ros.nodes.recorder import Recorder
     from grasp_intent_ros.sessions.pairing import compact_session
-    from grasp_intent_ros.tools.recorder import Recorder
-    from grasp_intent_ros.tools.suite import NodeSuite
 
     model_name, rules = OBJECTS[name]
     kin = MicoKinematics()

@@ -1,6 +1,6 @@
 """Task-success benchmark: does the planned grasp serve the operator's task? Prints figures, asserts nothing.
 
-The judge is the object's Table I rules (:data:`grasp_intent_ros.dataset.demos.OBJECTS`, ``label(x)``): the
+The judge is the object's Table I rules (:data:`grasp_intent_ros.objects.demos.OBJECTS`, ``label(x)``): the
 planner never sees them. Operator model (the paper's own assumption): the intent inference gives w, and the
 operator's true task set T holds each task i independently with probability w_i, conditioned on T being
 non-empty. A grasp x succeeds when the rule of every task in T holds, T <= label(x), so its success is
@@ -35,9 +35,9 @@ zone). Models: the four shipped ones, and 7-zone models trained on data sets gen
 ``--frontier`` prints the task planner's trade-off (success, faithfulness, legibility, fit) over a range of
 thresholds.
 
-``--physics`` (needs the ``bench`` extra, MuJoCo) runs the planner node's policy (``core.grasp.plan_grasp``, IK
+``--physics`` (needs the ``bench`` extra, MuJoCo) runs the planner node's policy (``mico.grasp.plan_grasp``, IK
 included) on the 7-zone models with the object at the suite's default pose, without and with the hand's
-collision check (``core.collision``), and has an independent judge (``judge_physics``: MuJoCo on the URDF, the
+collision check (``mico.collision``), and has an independent judge (``judge_physics``: MuJoCo on the URDF, the
 plan's joint targets, the table plane z = 0 of the object frame and the object's body of the rules) say which
 published grasps put a hand part > 5 mm below the table with the fingers open or the wrist/palm > 2 mm into the
 object, and how many fingers meet the table while closing; with success counting a w without a grasp as 0,
@@ -63,11 +63,12 @@ import numpy as np
 from bench_planner import CASES, random_targets  # the same w as the planner benchmark's
 from numpy.typing import NDArray
 
-from grasp_intent_ros.core import intent, planner
-from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.core.resources import config_dir
-from grasp_intent_ros.dataset import demos as rules_module
-from grasp_intent_ros.dataset.demos import OBJECTS, ObjectRules
+from grasp_intent_ros.method import intent
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.objects import demos as rules_module
+from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules
+from grasp_intent_ros.planning import planner
+from grasp_intent_ros.resources import config_dir
 
 MODELS = ('cup_7zone', 'flashlight_7zone', 'cup_5zone', 'cup_4zone')
 UNLIKELY = 0.25
@@ -282,10 +283,10 @@ def physics(models: Sequence[GraspModel], n: int, seed: int) -> None:
     """Plans of the node's policy without and with the collision check, judged by MuJoCo (module docstring)."""
     from judge_physics import PALM_LIMIT, TABLE_LIMIT, PhysicsJudge  # the bench extra: only this section needs it
 
-    from grasp_intent_ros.core.collision import CollisionFree, HandCollision
-    from grasp_intent_ros.core.frames import pose_to_matrix
-    from grasp_intent_ros.core.grasp import Grasp, plan_grasp
-    from grasp_intent_ros.core.kinematics import MicoKinematics
+    from grasp_intent_ros.mico.collision import CollisionFree, HandCollision
+    from grasp_intent_ros.mico.frames import pose_to_matrix
+    from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+    from grasp_intent_ros.mico.kinematics import MicoKinematics
 
     base_T_obj = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))  # the suite's default object pose
     kin, hand = MicoKinematics(), HandCollision()

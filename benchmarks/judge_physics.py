@@ -1,10 +1,10 @@
 """An independent judge of a planned grasp's collisions: MuJoCo's geometry on the project's URDF.
 
-The planner's check (``grasp_intent_ros.core.collision``) poses the hand from the grasp features with its own
+The planner's check (``grasp_intent_ros.mico.collision``) poses the hand from the grasp features with its own
 frames and asks coal. This judge takes what a robot would execute instead, the plan's joint targets (IK's
 answer), and lets MuJoCo (its URDF import, forward kinematics and ``mj_geomDistance``) place the whole arm and
 measure the hand's geoms against a table plane and the object's primitives, posed from the object's body of
-the rules (``dataset.demos.OBJECTS``, the judge's own knowledge of the object). No code is shared with the
+the rules (``objects.demos.OBJECTS``, the judge's own knowledge of the object). No code is shared with the
 planner's check but the URDF.
 
 Per grasp (:meth:`PhysicsJudge.judge`), in metres (positive: into):
@@ -25,8 +25,8 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from grasp_intent_ros.core.body import Box, ObjectBody
-from grasp_intent_ros.core.kinematics import default_urdf_path
+from grasp_intent_ros.method.body import Box, ObjectBody
+from grasp_intent_ros.mico.kinematics import default_urdf_path
 
 __all__ = ['PhysicsJudge', 'Verdict', 'TABLE_LIMIT', 'PALM_LIMIT']
 

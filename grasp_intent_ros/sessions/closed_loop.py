@@ -28,11 +28,10 @@ from typing import Final
 import numpy as np
 from numpy.typing import NDArray
 
-from ..bag.reader import read_messages, topics_info
-from ..core.assistance import pose_error
-from ..core.frames import pose_to_matrix
-from ..core.kinematics import ARM_JOINTS, MicoKinematics
-from ..protocol import (
+from ..mico.frames import pose_to_matrix
+from ..mico.kinematics import ARM_JOINTS, MicoKinematics
+from ..shared_control.assistance import pose_error
+from ..wire.protocol import (
     ASSISTANCE_ALPHA,
     ASSISTANCE_TWIST,
     GRASP_POSE,
@@ -44,6 +43,7 @@ from ..protocol import (
     OPERATOR_TWIST,
     ModelHeader,
 )
+from .bag.reader import read_messages, topics_info
 from .outputs import Joints, Pose, RawMessage, SessionError, decode, output_of
 from .pairing import ModelSwitches, detect_namespace
 

@@ -12,13 +12,13 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, String
 
-from grasp_intent_ros import protocol
-from grasp_intent_ros.assistance import AssistanceNode
-from grasp_intent_ros.core.assistance import joint_space_twist
-from grasp_intent_ros.core.frames import pose_to_matrix
-from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.nodes.assistance import AssistanceNode
 from grasp_intent_ros.ros.conversions import array_to_msg, posterior_to_msg
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
+from grasp_intent_ros.shared_control.assistance import joint_space_twist
+from grasp_intent_ros.wire import protocol
 
 LABELS = ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
 TASKS = ('usage', 'transfer', 'handover')
@@ -105,7 +105,7 @@ def test_the_blend_pulls_toward_the_grasp_and_alpha_drops_while_clarifying(ros) 
 
 
 def test_a_stale_operator_input_gives_the_zero_twist_and_it_goes_on(ros) -> None:
-    """The node side; that the zero twist comes within the timeout is test/unit/test_assistance.py's (own clock)."""
+    """The node side; that the zero twist comes within the timeout is the unit test's (own clock)."""
     loop = Loop(ros, operator_timeout=0.1)
     moving = twist_msg(linear=(0.05, 0.0, 0.0))
     up_to_speed = lambda: loop.twists and loop.twists[-1].twist.linear.x >= 0.049  # noqa: E731 (acceleration-limited)
