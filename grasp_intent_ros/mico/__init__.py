@@ -1,5 +1,4 @@
-"""The Kinova MICO (3 fingers): its hand's frames, its kinematics, its hand's collisions, a grasp it can reach,
-a mock arm's dynamics.
+"""The Kinova MICO (3 fingers): frames, kinematics, the hand's collisions, a grasp it takes, a mock arm.
 
 ROS-free. Modules
 -----------------
