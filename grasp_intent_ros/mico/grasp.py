@@ -21,6 +21,7 @@ from ..method.features import FINGERS, MICO_3F
 from ..method.intent import restrict
 from ..method.model import GraspModel
 from ..planning import planner
+from ..planning.options import DEFAULT_METHOD, Method, Options
 from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 
 __all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'OUTCOMES', 'NoModelZone', 'PlanOutcome', 'Grasp', 'NoReachableGrasp',
@@ -200,7 +201,7 @@ def trajectory_duration(q_from: ArrayLike, q_to: ArrayLike, velocity_limits: Arr
 
 def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_obj: NDArray[np.float64],
                kin: MicoKinematics, *, name: str = 'model', q_arm: NDArray[np.float64] | None = None,
-               method: planner.Method = planner.DEFAULT_METHOD, n_starts: int = 3, ik_restarts: int = 8,
+               method: Method = DEFAULT_METHOD, options: Options | None = None, ik_restarts: int = 8,
                warm_start: NDArray[np.float64] | None = None) -> Grasp | NoReachableGrasp | NoModelZone:
     """Plan the grasp for target ``v`` over ``zones`` on ``model`` with the object at ``base_T_obj``.
 
@@ -219,7 +220,7 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
         The model's name, for messages.
     q_arm : ndarray, shape (6,), optional
         Latest arm joint reading (rad): seeds IK and starts the trajectory; :data:`HOME_Q` if None.
-    method, n_starts, warm_start
+    method, options, warm_start
         As for :func:`grasp_intent_ros.planning.planner.plan`.
     ik_restarts : int
         Random IK restarts after the seeded attempt fails.
@@ -238,7 +239,7 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     if v_model is None:
         return NoModelZone(f'v gives no probability to the zones {",".join(model.zone_labels)} of model {name!r}')
     reachable = Reachability(kin, base_T_obj, q_arm, restarts=ik_restarts)
-    result = planner.plan(model, v_model, method=method, n_starts=n_starts, warm_start=warm_start,
+    result = planner.plan(model, v_model, method=method, options=options, warm_start=warm_start,
                           accept=reachable)
     n = len(result.candidates)
     if result.status == 'rejected':

@@ -38,7 +38,7 @@ from ..method.intent import match_zones
 from ..mico.frames import pose_to_matrix
 from ..mico.grasp import check_workspace, plan_grasp
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
-from ..planning import planner
+from ..planning.options import DEFAULT_METHOD, METHODS, node_options
 from ..ros.clarification import ClarificationRequests
 from ..ros.conversions import SerializedTargets
 from ..ros.diagnostics import NodeDiagnostics
@@ -55,10 +55,10 @@ from ..wire.protocol import KEY_MODEL, KEY_PLAN_STATUS, OK, WARN, ModelDocument
 __all__ = ['GraspPlanner', 'PARAMETERS', 'main']
 
 PARAMETERS = (
-    ParamSpec('method', planner.DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
+    ParamSpec('method', DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
               "likely tasks, docs/planner.md), or the paper's 'lm' (P = v by log-odds projection, else least "
-              "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(planner.METHODS),
-              constraints=f'one of {", ".join(planner.METHODS)}'),
+              "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(METHODS),
+              constraints=f'one of {", ".join(METHODS)}'),
     ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
     ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),
     ParamSpec('object_position', (0.3, -0.3, 0.0),
@@ -192,7 +192,8 @@ class GraspPlanner(Node):
         warm = self._warm[1] if self._warm is not None and self._warm[0] == key else None
         grasp = plan_grasp(doc.model, inputs.v, match_zones(inputs.v.size, inputs.v_labels, doc.model.task_names),
                            inputs.base_T_obj, self._kin, name=doc.name, q_arm=inputs.q_arm, warm_start=warm,
-                           method=self._params['method'], n_starts=self._params['n_starts'],
+                           method=self._params['method'],
+                           options=node_options(self._params['method'], self._params['n_starts']),
                            ik_restarts=self._params['ik_restarts'])
         try:
             if (checked := self._outputs.send(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),

@@ -31,6 +31,7 @@ from grasp_intent_ros.method.data import Demonstrations
 from grasp_intent_ros.method.features import FINGERS, MICO_3F, FeatureSpace
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning.options import ScipyOptions
 from grasp_intent_ros.resources import config_dir
 
 CASES = [(0.9, 0.1, 0.1), (0.1, 0.9, 0.1), (0.1, 0.1, 0.9), (0.9, 0.9, 0.1), (0.9, 0.1, 0.9), (0.1, 0.9, 0.9),
@@ -39,9 +40,9 @@ CASES = [(0.9, 0.1, 0.1), (0.1, 0.9, 0.1), (0.1, 0.1, 0.9), (0.9, 0.9, 0.1), (0.
 
 
 
-def plan_lm(model: GraspModel, v: np.ndarray, **options: object) -> planner.PlanResult:
+def plan_lm(model: GraspModel, v: np.ndarray, **inputs: object) -> planner.PlanResult:
     """The paper's planner (method 'lm'), the subject of this module; the default method is test_ranking's."""
-    return planner.plan(model, v, method='lm', **options)  # type: ignore[arg-type]
+    return planner.plan(model, v, method='lm', **inputs)  # type: ignore[arg-type]
 
 
 SHIPPED = ('cup_7zone', 'cup_5zone', 'cup_4zone', 'flashlight_7zone')
@@ -674,8 +675,8 @@ def test_bad_inputs_raise(toy_model: GraspModel) -> None:
         plan_lm(toy_model, np.full(7, 0.5))
     with pytest.raises(PlanningError, match='method'):
         planner.plan(toy_model, _v((0.9, 0.1, 0.1)), method='newton')  # type: ignore[arg-type]
-    with pytest.raises(PlanningError, match="'lm' takes the analytic gradient"):
-        plan_lm(toy_model, _v((0.9, 0.1, 0.1)), gradient='2-point')
+    with pytest.raises(PlanningError, match="'lm' takes LmOptions, got ScipyOptions"):
+        plan_lm(toy_model, _v((0.9, 0.1, 0.1)), options=ScipyOptions(gradient='2-point'))
     with pytest.raises(PlanningError, match='warm_start'):
         plan_lm(toy_model, _v((0.9, 0.1, 0.1)), warm_start=np.zeros(3))
 
