@@ -84,8 +84,10 @@ wider search runs and the grasp may jump.
 The paper's solvers stay available too: ``method='slsqp'`` (SQP) and ``'trust-constr'`` (interior point)
 minimise f from the demonstration starts (scipy), with rule 6's choice.
 
-Machine independence (every method): nothing goes through BLAS or LAPACK (their kernels sum in an order
-chosen for the CPU). The model's precisions, the screens' log joints and posteriors
+Machine independence (methods 'task' and 'lm'): nothing goes through BLAS or LAPACK (their kernels sum in
+an order chosen for the CPU). The scipy methods are the exception: they take the posterior's Jacobian from
+``GraspModel.posterior_jacobian`` (numpy) and run scipy's solvers, so their last bits may differ between
+machines. The model's precisions, the screens' log joints and posteriors
 (``GraspModel.start_pool``), the demonstrations' scores and every iteration sum in a fixed order and take
 ``exp`` and ``log`` from the C library, so a plan has the same bits under any BLAS.
 
@@ -178,7 +180,7 @@ _NO_EQUATIONS = (np.zeros(0, dtype=np.int64), 0, np.zeros(0), np.zeros(0))  # P 
 
 
 class Candidate(NamedTuple):
-    """One refined start (immutable; a named tuple, as a plan makes some 30 of them: 0.4 us each, 1.5 as a dataclass).
+    """One refined start (immutable; a named tuple, built faster than a dataclass: a plan makes dozens).
 
     Attributes
     ----------
@@ -381,25 +383,12 @@ class _LogOddsProjection:
     the residual is below 1e-11 nats after a step of less than 1e-9 (scaled); it stops without a match
     when its residual has not halved in 12 iterations, or after 60.
 
-    Why a start stalls (flashlight, measured): where the projection of x_ref stops short of an existing
-    match, the normalised Jacobian's smallest singular value is about 3e-3 (the homotopy path nears a
-    fold), and the ridge, larger than its square, turns the step into one that no longer lowers the
-    residual's 1-norm, so the trust radius collapses (no bound is active in 16 of the 20 that stall
-    even without the stall rule, and the body is 1-3 cm away in all). Without the
-    stall rule (400 iterations) 27 instead of 10 of 48 such starts converge, without the ridge too 30,
-    but the long paths are not stable: their end points move under a 1e-12 change of v (6-13 in 100).
-    A path-following continuation in the right-hand side (Gauss-Newton corrector, adaptive step)
-    reached 25 of the 48, stopping where the path meets such a fold. The short, damped paths are
-    kept; the wider search finds the other matches.
-
-    Why the path is taken to rounded targets (flashlight, measured): a path that reaches its match only
-    after many rejected steps near such a fold amplifies a difference in its input by about 1.8 per
-    iteration; for one w (the benchmark's #192) a 1e-12 change of v was 1e-13 after 2 iterations, 1e-7
-    after 40 and 1e-4 at the match after 60 (both runs converged, at different points of the match
-    manifold). No iteration count was involved, so no convergence rule could fix it. With the targets
-    rounded to 1e-9 nats the path sees the same input for both runs (unless a target lies within the
-    change of a rounding boundary: odds of about 1e-3 per target, which matter only for such a path),
-    and the few local steps onto the exact targets that follow are contractions, not amplifiers.
+    Why the paths are short and damped, and taken to targets rounded to 1e-9 nats: near a fold of the
+    homotopy path the ridge turns the steps into ones that no longer lower the residual, and a long path
+    amplifies a difference in its input at every iteration; with rounded targets both runs of a perturbed
+    input see the same path, and the few local steps onto the exact targets that follow are contractions.
+    The wider search finds the matches a short path misses. The measurements behind these choices are in
+    docs/measurements.md ("The planner's log-odds projection").
     """
 
     def __init__(self, model: GraspModel, v: NDArray[np.float64], feas: _Feasible) -> None:
