@@ -86,7 +86,8 @@ def _construct_events(loader: Any, on_key: Callable[[Any, dict[Any, Any]], objec
     parser reports it (with PyYAML's resolver and ``SafeConstructor``, so every scalar reads as
     ``yaml.safe_load`` reads it; a plain decimal number (:data:`_PLAIN_DECIMAL`) directly as the float
     they would make of it); only the document's own lists and dicts are ever held. Collections are built
-    on an explicit stack, so nesting is bounded (:data:`MAX_DOCUMENT_DEPTH`) without recursion. Raises yaml.YAMLError (aliases, a tag other than a
+    on an explicit stack, so nesting is bounded (:data:`MAX_DOCUMENT_DEPTH`) without recursion. Raises
+    yaml.YAMLError (aliases, a tag other than a
     plain sequence, mapping or safe scalar, an unhashable key, several documents), ModelFormatError
     (nesting too deep, an alias). ``on_key(key, mapping)`` is called as each key of a top-level mapping is read,
     with the fields before it complete: it may raise to stop reading there.
