@@ -50,7 +50,7 @@ from ..ros.qos import input_qos
 from ..ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 from ..ros.worker import LatestOnlyWorker
 from ..wire import protocol as topics
-from ..wire.protocol import KEY_MODEL, KEY_PLAN_STATUS, OK, WARN, ModelDocument
+from ..wire.protocol import KEY_CLARIFICATIONS, KEY_MODEL, KEY_PLAN_STATUS, OK, WARN, ModelDocument
 
 __all__ = ['GraspPlanner', 'PARAMETERS', 'main']
 
@@ -111,7 +111,7 @@ class GraspPlanner(Node):
         except FileNotFoundError as exc:
             raise ParameterError(f'urdf_path: {exc}') from None
         self._warm: tuple[tuple[str, str], NDArray[np.float64]] | None = None
-        self._clarifications = ClarificationRequests(self, self._plan_diag, count_key='clarifications requested',
+        self._clarifications = ClarificationRequests(self, self._plan_diag, count_key=KEY_CLARIFICATIONS,
                                                      outcome_key=KEY_PLAN_STATUS, level=WARN, log=True)
         self._plan_diag.set_state(OK, f'waiting for {topics.MODEL_ACTIVE} and {topics.INTENT_V}')
         self._outputs = GraspOutputs(self, self._kin, self._plan_diag, self._clarifications,
