@@ -38,6 +38,7 @@ import time
 from collections.abc import Iterator
 
 import numpy as np
+from _bench import percentiles
 
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.model import GraspModel
@@ -79,10 +80,6 @@ def walk_targets(model: GraspModel, n: int, seed: int) -> list[np.ndarray]:
         if r.v is not None:
             out.append(r.v)
     return out
-
-
-def percentiles(ms: list[float]) -> str:
-    return f'median {np.median(ms):7.3f} ms, p99 {np.percentile(ms, 99):7.3f} ms'
 
 
 def optimality(n: int, seed: int, reference_starts: int, models: tuple[str, ...] = MODELS) -> None:
@@ -204,7 +201,8 @@ def speed(n: int, seed: int, walks: int, models: tuple[str, ...], method: Method
             t0 = time.perf_counter()
             planner.plan(model, v, **BASELINE)  # type: ignore[arg-type]
             base.append(1e3 * (time.perf_counter() - t0))
-        print(f'  {name:17s} fresh     {percentiles(fresh)}  (baseline {percentiles(base)}; median ratio '
+        fresh_ms, base_ms = percentiles(fresh, digits=3), percentiles(base, digits=3)
+        print(f'  {name:17s} fresh     {fresh_ms}  (baseline {base_ms}; median ratio '
               f'{np.median(base) / np.median(fresh):.2f}x)')
         pooled: list[float] = []
         for walk_seed in range(seed, seed + walks):  # one walk is one region of w: seed 0's spends 44 of 500 steps
@@ -215,9 +213,10 @@ def speed(n: int, seed: int, walks: int, models: tuple[str, ...], method: Method
                 warm.append(1e3 * (time.perf_counter() - t0))
                 previous, inexact = res.x, inexact + (not res.exact)
             pooled += warm
-            print(f'  {name:17s} warm walk {percentiles(warm)}  (seed {walk_seed}: {inexact}/{n} steps with no '
+            warm_ms = percentiles(warm, digits=3)
+            print(f'  {name:17s} warm walk {warm_ms}  (seed {walk_seed}: {inexact}/{n} steps with no '
                   'exact match)')
-        print(f'  {name:17s} warm, all {walks} walks {percentiles(pooled)}')
+        print(f'  {name:17s} warm, all {walks} walks {percentiles(pooled, digits=3)}')
 
 
 def main() -> None:
