@@ -408,7 +408,7 @@ class _LogOddsProjection:
         two steps from 1e-9 nats away, in the same compiled call).
         """
         model, feas = self.model, self.feas
-        return project(starts, model.means, model._precisions, model._log_norm, self.others, self.r, self.b_path,
+        return project(starts, model.means, model.precisions, model.log_norm, self.others, self.r, self.b_path,
                        feas.scale, feas.lower, feas.upper, feas.a.start, feas.a.stop, feas.body,
                        maxiter=_GN_MAXITER, stall=_GN_STALL, damping=_GN_DAMPING, htol=_GN_HTOL,
                        steptol=_GN_STEPTOL, b_final=self.b)
@@ -433,7 +433,7 @@ def _least_squares(model: GraspModel, v: NDArray[np.float64], origins: NDArray[n
     mico_fingers = model.features.names[FINGERS] == MICO_3F.names[FINGERS]  # other feature spaces: no round
     equations = projection.equations if projection is not None else _NO_EQUATIONS
     xs, ok, its, ends, origins = least_squares_rounds(
-        origins, v, v_path, model.means, model._precisions, model._log_norm, feas.lower, feas.upper, feas.scale,
+        origins, v, v_path, model.means, model.precisions, model.log_norm, feas.lower, feas.upper, feas.scale,
         feas.a.start, feas.a.stop, feas.body, lm=(_LM_RACE, _LM_KEEP, _LM_MAXITER, _LM_FTOL, _LM_RIDGE),
         newton=(_NEWTON_POLISH, _NEWTON_RACE, _NEWTON_KEEP, _NEWTON_MAXITER, _NEWTON_STEPTOL), screened=screened,
         fingers=(FINGERS.start, FINGERS.stop) if mico_fingers else (0, 0), open_f=_OPEN_F, open_lm=_OPEN_LM,
@@ -607,7 +607,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, op
                         ) -> list[Candidate]:
         """Scored candidates of the end points xs (N, d); ``message(i, converged)`` says how row i ended."""
         n = xs.shape[0]
-        post, f, dist = score(np.concatenate([xs, origin]), v_arr, model.means, model._precisions, model._log_norm,
+        post, f, dist = score(np.concatenate([xs, origin]), v_arr, model.means, model.precisions, model.log_norm,
                               x_ref, feas.scale)
         f_all = f.tolist()
         return [Candidate(x, p, fi, di, x0, f0, first_index + i, converged, message(i, converged), it)

@@ -383,7 +383,7 @@ def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, 
             x = 0.5 * (model.means[i] + model.means[j])  # between two zones, where P varies
             K, d = model.means.shape
             hess = np.empty((d, d))
-            _posterior_hessian(x, Mixture(model.means, model._precisions, model._log_norm), v, np.empty(K),
+            _posterior_hessian(x, Mixture(model.means, model.precisions, model.log_norm), v, np.empty(K),
                                np.empty((K, d)), np.empty((K, d)), hess, np.empty(d))
             step = 1e-6 * model.feature_scale
             numeric = np.stack([(planner.objective_and_gradient(model, v, x + h)[1]
@@ -572,7 +572,7 @@ def _rule_5(model: GraspModel, v: np.ndarray, origins: np.ndarray, screened: np.
     feas = planner._Feasible(model)
     body = Body(*feas.body)
     v_path = np.rint(v / planner._LS_QUANTUM) * planner._LS_QUANTUM
-    consts = (model.means, model._precisions, model._log_norm)
+    consts = (model.means, model.precisions, model.log_norm)
     mixture = Mixture(*consts)
 
     def f_of(xs: np.ndarray, target: np.ndarray) -> np.ndarray:
