@@ -545,10 +545,10 @@ class GraspModel:
     def posterior(self, x: ArrayLike) -> NDArray[np.float64]:
         """Zone posterior P(k|x) (eq. 2): shape (K,) for x of shape (d,), or (N, K) for (N, d).
 
-        Computed in log space (log-sum-exp) with numpy (as :meth:`log_joint`; the planner's fixed-order
-        twin is :func:`grasp_intent_ros.kernels.posterior.log_joints`), so it stays finite and normalised far
-        from every mean, as long as the log-likelihoods are finite floats: roughly while every |x_i - mu_i| stays below 1e150
-        times the feature's spread. A finite x farther out (e.g. 1e308) overflows them; it is rejected
+        Computed in log space (log-sum-exp) with numpy (as :meth:`log_joint`; the planner's fixed-order twin is
+        :func:`grasp_intent_ros.kernels.posterior.log_joints`), so it stays finite and normalised far from every
+        mean, as long as the log-likelihoods are finite floats: roughly while every |x_i - mu_i| stays below
+        1e150 times the feature's spread. A finite x farther out (e.g. 1e308) overflows them; it is rejected
         rather than answered with NaN.
 
         Raises
