@@ -56,7 +56,7 @@ from numpy.typing import NDArray
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.objects import demos as rules_module
-from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules
+from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules, object_of
 from grasp_intent_ros.planning import planner
 from grasp_intent_ros.planning.options import ScipyOptions, TaskOptions
 from grasp_intent_ros.resources import config_dir
@@ -69,10 +69,10 @@ Planned = Callable[[GraspModel, NDArray[np.float64]], NDArray[np.float64]]
 
 
 def rules_for(model: GraspModel) -> ObjectRules:
-    """The judge of a model: the rules of the object its name starts with."""
-    for name, rules in OBJECTS.items():
-        if model.name.startswith(name):
-            return rules
+    """The judge of a model: the rules of its object (:func:`~grasp_intent_ros.objects.demos.object_of`)."""
+    rules = object_of(model.name)
+    if rules is not None:
+        return rules
     raise KeyError(f'no rules for model {model.name!r} (objects: {", ".join(OBJECTS)})')
 
 

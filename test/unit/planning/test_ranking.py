@@ -1,6 +1,6 @@
 """The default planner (method 'task', planning/ranking.py): grasps that serve the operator's likely tasks.
 
-The judge is the object's rules (dataset.demos.OBJECTS, Table I), which the planner never sees: every
+The judge is the object's rules (objects.demos.object_of, Table I), which the planner never sees: every
 plan must serve v's top zone, never serve no task, and be faithful: neither the tasks it does (by the
 rules) nor the model's reading of it (argmax P(x)) include a task outside the top zone with w_i < 0.25.
 Asserted on the paper's 14 cases (7 per 7-zone model) and on 300 derandomised w; then the choice rule
@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from grasp_intent_ros.errors import PlanningError
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.model import GraspModel
-from grasp_intent_ros.objects.demos import OBJECTS
+from grasp_intent_ros.objects.demos import object_of
 from grasp_intent_ros.planning import planner, ranking
 from grasp_intent_ros.planning.options import TaskOptions
 from grasp_intent_ros.resources import config_dir
@@ -48,7 +48,9 @@ def judge(model: GraspModel, w: np.ndarray, x: np.ndarray) -> tuple[int, int, in
     top = model.zones[int(planner.zone_order(r.v)[0])]
     reading = model.zones[int(np.argmax(model.posterior(x)))]
     wanted = top | sum(1 << i for i, wi in enumerate(w.tolist()) if wi >= UNLIKELY)
-    return OBJECTS[model.name.split('_')[0]].label(x), top, reading, wanted
+    rules = object_of(model.name)
+    assert rules is not None
+    return rules.label(x), top, reading, wanted
 
 
 def assert_serves(model: GraspModel, w: np.ndarray, x: np.ndarray) -> None:
