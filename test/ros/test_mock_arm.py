@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import rclpy
 from builtin_interfaces.msg import Duration
 from geometry_msgs.msg import TwistStamped
 from numpy.testing import assert_allclose
@@ -77,3 +78,16 @@ def test_twists_move_the_hand_until_they_stop_and_reset(ros) -> None:
     future = client.call_async(Trigger.Request())
     assert ros.wait_for(future.done, 5.0) and future.result().success
     assert ros.wait_for(lambda: np.array_equal(latest_positions(states), Q0), 5.0)
+
+
+def test_a_tick_after_a_signal_ended_the_context_publishes_nothing_and_reports_no_error(ros) -> None:
+    """A signal shuts the context down while the timer ticks: joint_states is dropped, not an internal error."""
+    context = rclpy.context.Context()
+    rclpy.init(context=context, domain_id=ros.domain_id)
+    node = MockArmNode(context=context)
+    errors: list[str] = []
+    node._diag.rejected = lambda reason, **kw: errors.append(reason)  # type: ignore[method-assign]
+    rclpy.shutdown(context=context)
+    node._on_timer()
+    node.destroy_node()
+    assert errors == []
