@@ -162,7 +162,7 @@ class LatestOnlyWorker(_Taking, latest_only.LatestOnlyWorker[T]):
 
     Parameters
     ----------
-    initial, handle, name, ready, min_period, prepare, after_first
+    initial, handle, name, ready, min_period, prepare
         As for :class:`grasp_intent_ros.latest_only.LatestOnlyWorker`.
     context : rclpy Context, optional
         The node's context: the thread then waits in an rclpy wait set and can take subscriptions
@@ -173,11 +173,10 @@ class LatestOnlyWorker(_Taking, latest_only.LatestOnlyWorker[T]):
                  ready: Callable[[T], bool] = lambda _: True,
                  min_period: Callable[[], float] = lambda: 0.0,
                  prepare: Callable[[], object] | None = None,
-                 after_first: Callable[[], object] | None = None,
                  context: Context | None = None) -> None:
         # a subscription's callback that calls update() (in this thread) has it handled in the same wake-up
         super().__init__(initial, handle, name=name, ready=ready, min_period=min_period, prepare=prepare,
-                         after_first=after_first, wait=None if context is None else _WaitSetWait(context, name))
+                         wait=None if context is None else _WaitSetWait(context, name))
 
 
 class InputThread(_Taking, WorkerThread):
