@@ -57,7 +57,7 @@ import os
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from bench_planner import CASES, random_targets  # the same w as the planner benchmark's
@@ -66,8 +66,9 @@ from numpy.typing import NDArray
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.objects import demos as rules_module
-from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules
+from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules, object_of
 from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning.options import ScipyOptions, TaskOptions
 from grasp_intent_ros.resources import config_dir
 
 MODELS = ('cup_7zone', 'flashlight_7zone', 'cup_5zone', 'cup_4zone')
@@ -78,10 +79,10 @@ Planned = Callable[[GraspModel, NDArray[np.float64]], NDArray[np.float64]]
 
 
 def rules_for(model: GraspModel) -> ObjectRules:
-    """The judge of a model: the rules of the object its name starts with."""
-    for name, rules in OBJECTS.items():
-        if model.name.startswith(name):
-            return rules
+    """The judge of a model: the rules of its object (:func:`~grasp_intent_ros.objects.demos.object_of`)."""
+    rules = object_of(model.name)
+    if rules is not None:
+        return rules
     raise KeyError(f'no rules for model {model.name!r} (objects: {", ".join(OBJECTS)})')
 
 
@@ -194,13 +195,14 @@ def methods(tau: float | None) -> dict[str, Planned]:
         e[top_zone(model, v)] = 1.0
         return planner.plan(model, e, method='lm').x
 
-    options = {} if tau is None else {'tau': tau}
+    default = TaskOptions() if tau is None else TaskOptions(tau=tau)
+    reading = replace(default, faithful='reading')
     return {
-        'default': lambda model, v: planner.plan(model, v, **options).x,  # type: ignore[arg-type]
-        'reading': lambda model, v: planner.plan(model, v, method='task', faithful='reading', **options).x,  # type: ignore[arg-type]
+        'default': lambda model, v: planner.plan(model, v, options=default).x,
+        'reading': lambda model, v: planner.plan(model, v, method='task', options=reading).x,
         'paper': lambda model, v: planner.plan(model, v, method='lm').x,
-        'slsqp': lambda model, v: planner.plan(model, v, method='slsqp', n_starts=1, top_zones=1,
-                                               gradient='2-point').x,
+        'slsqp': lambda model, v: planner.plan(model, v, method='slsqp',
+                                               options=ScipyOptions(n_starts=1, top_zones=1, gradient='2-point')).x,
         'start': lambda model, v: planner.select_starts(model, v, 1, 1)[0],
         'top-only': one_hot,
     }
@@ -273,7 +275,8 @@ def frontier(models: Sequence[GraspModel], n: int, seed: int, taus: Sequence[flo
                 rng = np.random.default_rng(0)
                 for w, v in targets:
                     t0 = time.perf_counter()
-                    x = planner.plan(model, v, method='task', tau=tau, hysteresis=0.0, faithful=faithful).x
+                    x = planner.plan(model, v, method='task',
+                                     options=TaskOptions(tau=tau, hysteresis=0.0, faithful=faithful)).x
                     tally.ms.append(1e3 * (time.perf_counter() - t0))
                     judge.add(tally, x, w, v, 0, rng)
                 print(f'  {model.name:24s} {faithful:7s} tau {tau:4.2f}  {tally.line()}')

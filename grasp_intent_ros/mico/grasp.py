@@ -22,6 +22,7 @@ from ..method.features import FINGERS, MICO_3F
 from ..method.intent import restrict
 from ..method.model import GraspModel
 from ..planning import planner
+from ..planning.options import DEFAULT_METHOD, Method, Options
 from .collision import Clearance, CollisionFree, HandCollision, Table
 from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 
@@ -206,7 +207,7 @@ def trajectory_duration(q_from: ArrayLike, q_to: ArrayLike, velocity_limits: Arr
 
 def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_obj: NDArray[np.float64],
                kin: MicoKinematics, *, name: str = 'model', q_arm: NDArray[np.float64] | None = None,
-               method: planner.Method = planner.DEFAULT_METHOD, n_starts: int = 3, ik_restarts: int = 8,
+               method: Method = DEFAULT_METHOD, options: Options | None = None, ik_restarts: int = 8,
                warm_start: NDArray[np.float64] | None = None, hand: HandCollision | None = None,
                table_plane: ArrayLike | None = None) -> Grasp | NoReachableGrasp | NoModelZone:
     """Plan the grasp for target ``v`` over ``zones`` on ``model`` with the object at ``base_T_obj``.
@@ -226,7 +227,7 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
         The model's name, for messages.
     q_arm : ndarray, shape (6,), optional
         Latest arm joint reading (rad): seeds IK and starts the trajectory; :data:`HOME_Q` if None.
-    method, n_starts, warm_start
+    method, options, warm_start
         As for :func:`grasp_intent_ros.planning.planner.plan`.
     ik_restarts : int
         Random IK restarts after the seeded attempt fails.
@@ -259,7 +260,7 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     def accept(x: NDArray[np.float64]) -> bool:
         return (clear is None or clear(x)) and reachable(x)
 
-    result = planner.plan(model, v_model, method=method, n_starts=n_starts, warm_start=warm_start, accept=accept)
+    result = planner.plan(model, v_model, method=method, options=options, warm_start=warm_start, accept=accept)
     n = len(result.candidates)
     faults = {} if clear is None else clear.faults
     colliding = f'{len(faults)} in collision (first: {next(iter(faults.values()))}), ' if faults else ''

@@ -12,7 +12,8 @@ A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs
 :func:`grasp_intent_ros.mico.grasp.plan_grasp`, warm-started from the last plan of the same model; its
 thread takes ``intent/v`` itself. A :class:`~grasp_intent_ros.ros.model_follower.ModelFollower` reads each
 new ``model/active`` in a thread of its own; :mod:`grasp_intent_ros.ros.startup` tunes the process and
-loads the compiled kernels ahead (docs/nodes.md, "The planner node"). Parameters: :data:`PARAMETERS`.
+loads every compiled kernel before the node logs that it is ready (docs/nodes.md, "The planner node").
+Parameters: :data:`PARAMETERS`.
 """
 
 from __future__ import annotations
@@ -31,7 +32,6 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped
 from numpy.typing import NDArray
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 
@@ -40,7 +40,7 @@ from ..mico.collision import HandCollision, Table
 from ..mico.frames import pose_to_matrix
 from ..mico.grasp import check_workspace, plan_grasp
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
-from ..planning import planner
+from ..planning.options import DEFAULT_METHOD, METHODS, node_options
 from ..ros.clarification import ClarificationRequests
 from ..ros.conversions import SerializedTargets
 from ..ros.diagnostics import NodeDiagnostics
@@ -52,21 +52,29 @@ from ..ros.qos import input_qos
 from ..ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 from ..ros.worker import LatestOnlyWorker
 from ..wire import protocol as topics
-from ..wire.protocol import KEY_MODEL, KEY_PLAN_STATUS, OK, WARN, ModelDocument
+from ..wire.protocol import (
+    KEY_CLARIFICATIONS,
+    KEY_KERNELS_LOADED_LATE,
+    KEY_MODEL,
+    KEY_PLAN_STATUS,
+    OK,
+    WARN,
+    ModelDocument,
+)
 
 __all__ = ['GraspPlanner', 'PARAMETERS', 'main']
 
 
 def table_plane(value: Any) -> None:
-    """Validate ``table_plane``: empty, or 4 finite numbers with a non-zero normal (raises ValueError)."""
-    if len(value):
+    """Validate ``table_plane``: all zeros, or 4 finite numbers with a non-zero normal (raises ValueError)."""
+    if any(value):
         Table.in_object_frame(value, np.eye(4))
 
 PARAMETERS = (
-    ParamSpec('method', planner.DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
+    ParamSpec('method', DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
               "likely tasks, docs/planner.md), or the paper's 'lm' (P = v by log-odds projection, else least "
-              "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(planner.METHODS),
-              constraints=f'one of {", ".join(planner.METHODS)}'),
+              "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(METHODS),
+              constraints=f'one of {", ".join(METHODS)}'),
     ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
     ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),
     ParamSpec('object_position', (0.3, -0.3, 0.0),
@@ -91,9 +99,9 @@ PARAMETERS = (
     ParamSpec('collision_check', False, 'Turn down grasps whose hand goes into the table or the object on the '
               'approach (fingers open, from the pre-grasp 0.08 m behind), as unreachable ones are '
               '(docs/planner.md, "The hand\'s clearance").'),
-    ParamSpec('table_plane', (), 'The table in m1n6s300_link_base: (nx, ny, nz, d), points with n . p >= d '
-              'above it; empty: the plane the object stands on (z = 0 of its frame).',
-              type=Parameter.Type.DOUBLE_ARRAY, validator=table_plane),
+    ParamSpec('table_plane', (0.0, 0.0, 0.0, 0.0), 'The table in m1n6s300_link_base: (nx, ny, nz, d), points '
+              'with n . p >= d above it, m; all zeros: the plane the object stands on (z = 0 of its frame).',
+              validator=table_plane),
     TASK_NAMES,
 )
 
@@ -114,31 +122,33 @@ class _Inputs:
 class GraspPlanner(Node):
     """Plans a MICO grasp for the newest v, model and object pose. ``kwargs`` go to ``rclpy.node.Node``."""
 
+    announces_ready = True
+    """It logs that it is ready once its compiled kernels are loaded (:mod:`grasp_intent_ros.ros.startup`)."""
+
     def __init__(self, node_name: str = 'grasp_planner', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._inputs_diag, self._plan_diag = NodeDiagnostics(self, 'inputs'), NodeDiagnostics(self, 'planning')
-        self._params = declare_parameters(self, PARAMETERS, on_change=self._on_parameters, check=lambda values:
-                                          check_workspace(values['object_position'], values['workspace_radius'],
-                                                          what='object_position'))
+        self._params = declare_parameters(self, PARAMETERS, on_change=self._on_parameters, check=self._check)
         try:
             self._kin = MicoKinematics(self._params['urdf_path'] or None)
             self._hand = HandCollision(self._params['urdf_path'] or None)
         except FileNotFoundError as exc:
             raise ParameterError(f'urdf_path: {exc}') from None
         self._warm: tuple[tuple[str, str], NDArray[np.float64]] | None = None
-        self._clarifications = ClarificationRequests(self, self._plan_diag, count_key='clarifications requested',
+        self._clarifications = ClarificationRequests(self, self._plan_diag, count_key=KEY_CLARIFICATIONS,
                                                      outcome_key=KEY_PLAN_STATUS, level=WARN, log=True)
         self._plan_diag.set_state(OK, f'waiting for {topics.MODEL_ACTIVE} and {topics.INTENT_V}')
         self._outputs = GraspOutputs(self, self._kin, self._plan_diag, self._clarifications,
                                      object_size=lambda: self._params['object_marker_size'],
                                      markers_period=lambda: float(self._params['markers_period']))
-        kernels = startup.KernelWarmUp(lambda: self._kin.ik(self._kin.fk(HOME_Q), HOME_Q, restarts=0),
-                                       report=self._plan_diag.set_value, warn=self.get_logger().warning)
+        self._kernels = startup.KernelWarmUp(lambda: self._kin.ik(self._kin.fk(HOME_Q), HOME_Q, restarts=0),
+                                             report=self._plan_diag.set_value, warn=self.get_logger().warning,
+                                             ready=functools.partial(startup.announce_ready, self.get_logger().info))
         base_T_obj = pose_to_matrix(self._params['object_position'], self._params['object_orientation'])
         self._worker = LatestOnlyWorker(_Inputs(base_T_obj=base_T_obj), self._plan_diag.guard(self._plan),
                                         ready=self._ready, name=f'{node_name}_planning',
                                         min_period=lambda: float(self._params['min_replan_period']),
-                                        prepare=kernels.at_start, after_first=kernels.after_first,
+                                        prepare=self._kernels.at_start,
                                         context=self.context)
         # SIGINT/SIGTERM shut the context down before destroy_node runs: stop planning at once
         self.context.on_shutdown(self._worker.stop_soon)
@@ -189,6 +199,15 @@ class GraspPlanner(Node):
             self._kin.check_limits(q, margin=JOINT_LIMIT_MARGIN, what='joint state')
             self._update(trigger=False, q_arm=q)
 
+    def _check(self, values: Mapping[str, Any]) -> None:
+        """The object within the workspace, and task_names that the active model has.
+
+        No model is active while the parameters are declared.
+        """
+        check_workspace(values['object_position'], values['workspace_radius'], what='object_position')
+        if hasattr(self, '_models'):
+            self._models.check(served_models(values['task_names']))
+
     def _on_parameters(self, changed: Mapping[str, Any]) -> None:
         if 'task_names' in changed:
             self._models.recheck()  # the model is served for other tasks, or now one refused is
@@ -207,16 +226,18 @@ class GraspPlanner(Node):
         warm = self._warm[1] if self._warm is not None and self._warm[0] == key else None
         grasp = plan_grasp(doc.model, inputs.v, match_zones(inputs.v.size, inputs.v_labels, doc.model.task_names),
                            inputs.base_T_obj, self._kin, name=doc.name, q_arm=inputs.q_arm, warm_start=warm,
-                           method=self._params['method'], n_starts=self._params['n_starts'],
+                           method=self._params['method'],
+                           options=node_options(self._params['method'], self._params['n_starts']),
                            ik_restarts=self._params['ik_restarts'],
                            hand=self._hand if self._params['collision_check'] else None,
-                           table_plane=self._params['table_plane'] or None)
+                           table_plane=self._params['table_plane'] if any(self._params['table_plane']) else None)
         try:
             if (checked := self._outputs.send(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
                                               once_for=(inputs.v_seq, key), stopping=lambda: self._worker.stopping)):
                 self._warm = (key, checked.result.x)
         finally:  # the diagnostics after the outputs, off their path
             self._plan_diag.set_value('inputs superseded', self._worker.superseded)
+            self._plan_diag.set_value(KEY_KERNELS_LOADED_LATE, self._kernels.loaded_late())
 
 
 def main(args: list[str] | None = None) -> None:

@@ -98,6 +98,7 @@ __all__ = [
     'CUP_RULES',
     'FLASHLIGHT_RULES',
     'OBJECTS',
+    'object_of',
     'DEFAULT_COUNT',
     'TURNED_ROLL_TOLERANCE',
     'cup_rules',
@@ -592,6 +593,16 @@ FLASHLIGHT_RULES = ObjectRules(name='flashlight', task_names=DEFAULT_TASKS,
 
 OBJECTS: dict[str, ObjectRules] = {'cup': CUP_RULES, 'flashlight': FLASHLIGHT_RULES}
 """The objects this module can generate demonstrations for, by name."""
+
+
+def object_of(model_name: str) -> ObjectRules | None:
+    """The rules of a model's object, found by the model's name; None for no known object.
+
+    The object is the one of :data:`OBJECTS` whose name is ``model_name`` or the part of it before the first
+    ``_`` (``cup_7zone``, ``cup_7zone@seed1``: the cup). The one rule for every reader (the viewer's scene,
+    the benchmarks, the tests); the model document does not name its object.
+    """
+    return OBJECTS.get(model_name) or OBJECTS.get(model_name.partition('_')[0])
 
 
 # ---------------------------------------------------------------------------------------- sampling

@@ -17,7 +17,7 @@ from grasp_intent_ros.method.intent import interpret
 from grasp_intent_ros.nodes.intent_interpreter import IntentInterpreter
 from grasp_intent_ros.ros.conversions import array_to_msg
 from grasp_intent_ros.ros.params import ParameterError
-from grasp_intent_ros.wire.protocol import msg_labels, msg_to_array
+from grasp_intent_ros.wire.protocol import KEY_CLARIFICATIONS, msg_labels, msg_to_array
 
 REPO = Path(__file__).resolve().parents[2]
 LABELS_7 = 'U,T,H,UT,UH,TH,UTH'
@@ -203,7 +203,7 @@ def test_active_model_zones_decide_whether_the_intent_can_be_served(ros, interpr
     assert 'no zone of the model has non-zero probability' in msg.data and 'cup_4zone' in msg.data
     assert 'T,UT,TH,UTH' in msg.data and v_msgs == []
     status = [s for s in statuses if s.message.startswith('clarification requested')][-1]
-    assert status.level == DiagnosticStatus.OK and values(status)['clarifications'] == '1'
+    assert status.level == DiagnosticStatus.OK and values(status)[KEY_CLARIFICATIONS] == '1'
     assert values(status)['last outcome'] == f'clarification requested: {msg.data}'
     # with transfer possible the same model serves it: v over all zones, as before
     assert ros.publish_until(w_pub, w_msg([0.9, 0.9, 0.1]), lambda: v_msgs)
@@ -238,6 +238,20 @@ def test_a_model_of_other_tasks_is_refused_and_every_intent_is_clarified_until_o
     assert ros.wait_for(lambda: values(node._diagnostics.status())['active model'].startswith('cup_4zone'))
     assert ros.publish_until(w_pub, w_msg([0.9, 0.9, 0.1]), lambda: v_msgs)
     assert ros.wait_for(lambda: node._diagnostics.status().level == DiagnosticStatus.OK)
+
+
+def test_task_names_that_would_leave_the_model_unserved_are_refused_by_the_set(ros, interpreter):
+    """``ros2 param set /intent_interpreter task_names "[a, b, c]"``: answered by the set, with the reason."""
+    from grasp_intent_ros.ros.qos import latched_qos
+    node, w_pub, v_msgs, clarifications = interpreter
+    ros.publisher(String, 'model/active', latched_qos()).publish(_model_doc('cup_5zone'))
+    assert ros.wait_for(lambda: node._models.current is not None)
+    result = node.set_parameters([Parameter('task_names', value=['a', 'b', 'c'])])[0]
+    assert not result.successful
+    assert result.reason == ("the suite could not serve its active model 'cup_5zone': its tasks [usage, transfer, "
+                             'handover] are not the task_names [a, b, c]')
+    assert tuple(node.get_parameter('task_names').value) == ('usage', 'transfer', 'handover')
+    assert ros.publish_until(w_pub, w_msg([0.9, 0.9, 0.1]), lambda: v_msgs) and clarifications == []
 
 
 @pytest.mark.parametrize('kind', ['alias bomb', 'nested too deeply', 'oversized'])
