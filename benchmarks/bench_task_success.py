@@ -35,8 +35,18 @@ zone). Models: the four shipped ones, and 7-zone models trained on data sets gen
 ``--frontier`` prints the task planner's trade-off (success, faithfulness, legibility, fit) over a range of
 thresholds.
 
+``--physics`` (needs the ``bench`` extra, MuJoCo) runs the planner node's policy (``mico.grasp.plan_grasp``, IK
+included) on the 7-zone models with the object at the suite's default pose, without and with the hand's
+collision check (``mico.collision``), and has an independent judge (``judge_physics``: MuJoCo on the URDF, the
+plan's joint targets, the table plane z = 0 of the object frame and the object's body of the rules) say which
+published grasps put a hand part > 5 mm below the table with the fingers open or the wrist/palm > 2 mm into the
+object, and how many fingers meet the table while closing; with success counting a w without a grasp as 0,
+and the median planning time without and with the check (the planner with the check as its ``accept``, IK left
+out; the check's verdicts for the model's candidates computed once before, as a running planner keeps them).
+
     python benchmarks/bench_task_success.py [--n 500] [--seed 0] [--methods default,paper,start,top-only,slsqp]
         [--models cup_7zone,...] [--data-seeds 1,2] [--draws 20] [--slsqp-n 50] [--frontier] [--cases-only]
+        [--physics]
 """
 
 from __future__ import annotations
@@ -47,7 +57,7 @@ import os
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from bench_planner import CASES, random_targets  # the same w as the planner benchmark's
@@ -56,8 +66,9 @@ from numpy.typing import NDArray
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.objects import demos as rules_module
-from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules
+from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules, object_of
 from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning.options import ScipyOptions, TaskOptions
 from grasp_intent_ros.resources import config_dir
 
 MODELS = ('cup_7zone', 'flashlight_7zone', 'cup_5zone', 'cup_4zone')
@@ -68,10 +79,10 @@ Planned = Callable[[GraspModel, NDArray[np.float64]], NDArray[np.float64]]
 
 
 def rules_for(model: GraspModel) -> ObjectRules:
-    """The judge of a model: the rules of the object its name starts with."""
-    for name, rules in OBJECTS.items():
-        if model.name.startswith(name):
-            return rules
+    """The judge of a model: the rules of its object (:func:`~grasp_intent_ros.objects.demos.object_of`)."""
+    rules = object_of(model.name)
+    if rules is not None:
+        return rules
     raise KeyError(f'no rules for model {model.name!r} (objects: {", ".join(OBJECTS)})')
 
 
@@ -184,13 +195,14 @@ def methods(tau: float | None) -> dict[str, Planned]:
         e[top_zone(model, v)] = 1.0
         return planner.plan(model, e, method='lm').x
 
-    options = {} if tau is None else {'tau': tau}
+    default = TaskOptions() if tau is None else TaskOptions(tau=tau)
+    reading = replace(default, faithful='reading')
     return {
-        'default': lambda model, v: planner.plan(model, v, **options).x,  # type: ignore[arg-type]
-        'reading': lambda model, v: planner.plan(model, v, method='task', faithful='reading', **options).x,  # type: ignore[arg-type]
+        'default': lambda model, v: planner.plan(model, v, options=default).x,
+        'reading': lambda model, v: planner.plan(model, v, method='task', options=reading).x,
         'paper': lambda model, v: planner.plan(model, v, method='lm').x,
-        'slsqp': lambda model, v: planner.plan(model, v, method='slsqp', n_starts=1, top_zones=1,
-                                               gradient='2-point').x,
+        'slsqp': lambda model, v: planner.plan(model, v, method='slsqp',
+                                               options=ScipyOptions(n_starts=1, top_zones=1, gradient='2-point')).x,
         'start': lambda model, v: planner.select_starts(model, v, 1, 1)[0],
         'top-only': one_hot,
     }
@@ -263,10 +275,65 @@ def frontier(models: Sequence[GraspModel], n: int, seed: int, taus: Sequence[flo
                 rng = np.random.default_rng(0)
                 for w, v in targets:
                     t0 = time.perf_counter()
-                    x = planner.plan(model, v, method='task', tau=tau, hysteresis=0.0, faithful=faithful).x
+                    x = planner.plan(model, v, method='task',
+                                     options=TaskOptions(tau=tau, hysteresis=0.0, faithful=faithful)).x
                     tally.ms.append(1e3 * (time.perf_counter() - t0))
                     judge.add(tally, x, w, v, 0, rng)
                 print(f'  {model.name:24s} {faithful:7s} tau {tau:4.2f}  {tally.line()}')
+
+
+def physics(models: Sequence[GraspModel], n: int, seed: int) -> None:
+    """Plans of the node's policy without and with the collision check, judged by MuJoCo (module docstring)."""
+    from judge_physics import PALM_LIMIT, TABLE_LIMIT, PhysicsJudge  # the bench extra: only this section needs it
+
+    from grasp_intent_ros.mico.collision import CollisionFree, HandCollision
+    from grasp_intent_ros.mico.frames import pose_to_matrix
+    from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+    from grasp_intent_ros.mico.kinematics import MicoKinematics
+
+    base_T_obj = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))  # the suite's default object pose
+    kin, hand = MicoKinematics(), HandCollision()
+    print(f'physics: plan_grasp at the default object pose, judged by MuJoCo {__import__("mujoco").__version__} '
+          f'(table > {1e3 * TABLE_LIMIT:g} mm, palm > {1e3 * PALM_LIMIT:g} mm)')
+    for model in models:
+        if len(model.zones) != 7:
+            continue
+        judge, rules = PhysicsJudge(rules_for(model).body, base_T_obj), Judge(model)
+        targets = list(random_targets(model, n, seed))
+        t0 = time.perf_counter()
+        clear = CollisionFree(hand, model.body)
+        candidates = planner.feasible_demonstrations(model)
+        screened = sum(clear(x) for x in candidates)  # once per model, as the node does: plans then look it up
+        print(f'  {model.name}: {screened} of {len(candidates)} demonstrations clear by the check '
+              f'(all checked in {time.perf_counter() - t0:.1f} s)')
+        ms: dict[bool, list[float]] = {False: [], True: []}
+        for _, v in targets:  # the planner alone, without and with the check, paired (the same load)
+            for checked in (False, True):
+                t1 = time.perf_counter()
+                planner.plan(model, v, accept=CollisionFree(hand, model.body) if checked else None)
+                ms[checked].append(1e3 * (time.perf_counter() - t1))
+        ratio = np.array(ms[True]) / np.array(ms[False])
+        print(f'    plan median without / with the check {np.median(ms[False]):.3f} / {np.median(ms[True]):.3f} ms '
+              f'(paired ratio median {np.median(ratio):.2f})')
+        for checked in (False, True):
+            plans = no_grasp = table = palm = collide = fingers_on_table = 0
+            scores: list[float] = []
+            for w, v in targets:
+                grasp = plan_grasp(model, v, intent.all_zones(3), base_T_obj, kin, hand=hand if checked else None)
+                if not isinstance(grasp, Grasp):
+                    no_grasp += 1
+                    scores.append(0.0)
+                    continue
+                plans += 1
+                verdict = judge.judge(grasp.positions)
+                table += verdict.table > TABLE_LIMIT
+                palm += verdict.palm > PALM_LIMIT
+                collide += verdict.collides
+                fingers_on_table += verdict.finger_on_table > 0
+                scores.append(success(rules.label(grasp.result.x), w))
+            print(f'    {"checked" if checked else "unchecked":9s} success {100 * np.mean(scores):5.1f}%  grasps '
+                  f'{plans}/{len(targets)}  in collision {collide} (table {table}, palm {palm})  a finger meets the '
+                  f'table closing {fingers_on_table}')
 
 
 def main() -> None:
@@ -281,6 +348,8 @@ def main() -> None:
     parser.add_argument('--tau', type=float, default=None, help="the task method's threshold (default: its own)")
     parser.add_argument('--frontier', action='store_true', help="print the task method's trade-off over tau")
     parser.add_argument('--cases-only', action='store_true', help='only the paper cases')
+    parser.add_argument('--physics', action='store_true', help='plans with and without the collision check, '
+                        'judged by MuJoCo (the bench extra)')
     args = parser.parse_args()
     table = methods(args.tau)
     chosen = {name: table[name] for name in args.methods.split(',') if name}
@@ -288,7 +357,9 @@ def main() -> None:
     fresh = [m for s in args.data_seeds.split(',') if s.strip() for m in regenerated(int(s))]
     print(f'bench_task_success: n={args.n}, seed={args.seed}, methods {", ".join(chosen)}; '
           f'load average {", ".join(f"{a:.2f}" for a in os.getloadavg())}')
-    if args.frontier:
+    if args.physics:
+        physics(shipped + fresh, args.n, args.seed)
+    elif args.frontier:
         frontier(shipped + fresh, args.n, args.seed, (0.0, 0.1, 0.2, 0.25, 0.3, 0.4, 0.5, 1.0))
     else:
         for model in shipped + fresh:

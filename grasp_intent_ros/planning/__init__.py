@@ -6,6 +6,8 @@ Modules
 -------
 planner
     :func:`~grasp_intent_ros.planning.planner.plan`, every method ('task', 'lm', the scipy references).
+options
+    The methods and their typed options (one class per method; an option a method does not use is an error).
 ranking
     The demonstrations ranked by the tasks they serve (the default method 'task').
 
