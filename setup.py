@@ -65,6 +65,7 @@ setup(
         'numba>=0.60',
         'pyyaml>=6',
         'pin>=2.7',
+        'coal>=3',  # the hand's collision checks (mico/collision.py); pin brings it too
         'rosbags>=0.10',
         'mcap-ros2-support>=0.5',  # brings mcap (sessions/bag/repair.py); mcap-ros2-support is the rosdep key that does
         'matplotlib>=3.7',
@@ -73,6 +74,8 @@ setup(
         'ros': ['ros-jazzy-rclpy[fastrtps]', 'ros-jazzy-common-interfaces'],
         # the browser viewer (python -m grasp_intent_ros viewer); viser has no rosdep key (package.xml says so)
         'viewer': ['viser>=1.1'],
+        # the benchmarks' independent collision judge (benchmarks/judge_physics.py); not for the package itself
+        'bench': ['mujoco>=3.2'],
         'test': ['pytest>=7', 'pytest-timeout>=2', 'hypothesis>=6', 'packaging>=23', 'mypy>=1.9', 'types-PyYAML',
                  'ruff>=0.4', 'colcon-core>=0.15', 'colcon-ros>=0.4', 'viser>=1.1'],
     },

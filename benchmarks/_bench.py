@@ -43,12 +43,13 @@ def uptime() -> str:
     return 'load average %.2f, %.2f, %.2f' % os.getloadavg()
 
 
-def percentiles(values_ms: list[float] | np.ndarray) -> str:
-    """``median X ms, p99 Y ms, max Z ms`` (or 'no samples')."""
+def percentiles(values_ms: list[float] | np.ndarray, *, digits: int = 1) -> str:
+    """``median X ms, p99 Y ms, max Z ms`` with ``digits`` decimals (or 'no samples')."""
     a = np.asarray(values_ms, dtype=np.float64)
     if not a.size:
         return 'no samples'
-    return f'median {np.median(a):.1f} ms, p99 {np.percentile(a, 99):.1f} ms, max {a.max():.1f} ms'
+    return (f'median {np.median(a):.{digits}f} ms, p99 {np.percentile(a, 99):.{digits}f} ms, '
+            f'max {a.max():.{digits}f} ms')
 
 
 def cpu_seconds(pid: int) -> float:

@@ -38,18 +38,19 @@ import time
 from collections.abc import Iterator
 
 import numpy as np
+from _bench import percentiles
 
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.model import GraspModel
-from grasp_intent_ros.planning import planner
-from grasp_intent_ros.planning import ranking as serving
+from grasp_intent_ros.planning import planner, ranking
+from grasp_intent_ros.planning.options import DEFAULT_METHOD, Method, ScipyOptions
 from grasp_intent_ros.resources import config_dir
 
 MODELS = ('cup_7zone', 'cup_5zone', 'cup_4zone', 'flashlight_7zone')
 SEVEN = ('cup_7zone', 'flashlight_7zone')
 CASES = [(0.9, 0.1, 0.1), (0.1, 0.9, 0.1), (0.1, 0.1, 0.9), (0.9, 0.9, 0.1), (0.9, 0.1, 0.9), (0.1, 0.9, 0.9),
          (0.9, 0.9, 0.9)]
-BASELINE = {'method': 'slsqp', 'n_starts': 1, 'top_zones': 1, 'gradient': '2-point'}
+BASELINE = {'method': 'slsqp', 'options': ScipyOptions(n_starts=1, top_zones=1, gradient='2-point')}
 
 
 def load(name: str) -> GraspModel:
@@ -81,10 +82,6 @@ def walk_targets(model: GraspModel, n: int, seed: int) -> list[np.ndarray]:
     return out
 
 
-def percentiles(ms: list[float]) -> str:
-    return f'median {np.median(ms):7.3f} ms, p99 {np.percentile(ms, 99):7.3f} ms'
-
-
 def optimality(n: int, seed: int, reference_starts: int, models: tuple[str, ...] = MODELS) -> None:
     print(f'1. optimality: planner vs {reference_starts}-start SLSQP search; within max(1e-9, 1%) counts as met')
     for name in models:
@@ -105,7 +102,7 @@ def optimality(n: int, seed: int, reference_starts: int, models: tuple[str, ...]
                   f'the search in {better}, largest excess {worst:.2e}; status {statuses}')
 
 
-def stability(n: int, seed: int, models: tuple[str, ...], method: planner.Method) -> None:
+def stability(n: int, seed: int, models: tuple[str, ...], method: Method) -> None:
     print('2. stability: v perturbed by 1e-12 (relative); same grasp = palm within 1e-6 m, approach within 1e-6')
     rng = np.random.default_rng(seed + 1)
     for name in (m for m in SEVEN if m in models):
@@ -120,25 +117,26 @@ def stability(n: int, seed: int, models: tuple[str, ...], method: planner.Method
 
 def expected_success(model: GraspModel, v: np.ndarray, res: planner.PlanResult) -> float:
     """The model's expected success of a 'task' plan: v's mass on the zones its demonstration serves."""
-    task_set = int(model.demo_sets[res.chosen.start_index])
-    return sum(vk for vk, z in zip(v.tolist(), model.zones) if task_set & z == z)
+    assert res.chosen.demonstration is not None, "a 'task' plan's candidate is a demonstration"
+    return float(ranking.expected_success(model.demo_sets[[res.chosen.demonstration]], model.zones, v)[0])
 
 
 def kept_by_hysteresis(model: GraspModel, v: np.ndarray, res: planner.PlanResult) -> bool:
     """Whether a stream's answer does or reads as a task outside the fresh likely set (so hysteresis kept it)."""
-    likely = serving.likely_tasks(model, v, int(planner.zone_order(v)[0]), serving.TAU, 0, serving.HYSTERESIS)
-    tasks = int(model.demo_sets[res.chosen.start_index]) | int(model.zones[int(np.argmax(res.chosen.posterior))])
+    likely = ranking.likely_tasks(model, v, int(planner.zone_order(v)[0]), ranking.TAU, 0, ranking.HYSTERESIS)
+    assert res.chosen.demonstration is not None, "a 'task' plan's candidate is a demonstration"
+    tasks = int(model.demo_sets[res.chosen.demonstration]) | int(model.zones[int(np.argmax(res.chosen.posterior))])
     return bool(tasks & ~likely)
 
 
-def continuity(steps: int, seed: int, walks: int, models: tuple[str, ...], method: planner.Method) -> None:
+def continuity(steps: int, seed: int, walks: int, models: tuple[str, ...], method: Method) -> None:
     print(f'3. continuity: {walks} random walks of w (seeds {seed}-{seed + walks - 1}), {steps} steps each, '
           'warm-started; jump = palm > 20 mm or approach > 0.3 rad')
     if method == 'task':
         print(f'   and against a fresh plan at every step: the stream\'s expected success E (by the model) below the '
-              f'fresh plan\'s by more than the band {serving.BAND}, its residual |v - P| above the fresh one\'s by '
-              f'more than the band {serving.KEEP_BAND} (the bands hold where the stream\'s answer lies in the fresh '
-              f'likely set; steps where it keeps a task by hysteresis, w_i within {serving.HYSTERESIS} below tau, '
+              f'fresh plan\'s by more than the band {ranking.BAND}, its residual |v - P| above the fresh one\'s by '
+              f'more than the band {ranking.KEEP_BAND} (the bands hold where the stream\'s answer lies in the fresh '
+              f'likely set; steps where it keeps a task by hysteresis, w_i within {ranking.HYSTERESIS} below tau, '
               'are counted apart), and the fit f of both')
     for name in (m for m in SEVEN if m in models):
         model = load(name)
@@ -154,8 +152,8 @@ def continuity(steps: int, seed: int, walks: int, models: tuple[str, ...], metho
                     if kept_by_hysteresis(model, v, res):
                         held += 1
                     else:
-                        worse += expected_success(model, v, res) < expected_success(model, v, fresh) - serving.BAND
-                        unfit += np.sqrt(2.0 * res.objective) > np.sqrt(2.0 * fresh.objective) + serving.KEEP_BAND
+                        worse += expected_success(model, v, res) < expected_success(model, v, fresh) - ranking.BAND
+                        unfit += np.sqrt(2.0 * res.objective) > np.sqrt(2.0 * fresh.objective) + ranking.KEEP_BAND
                     f_warm.append(res.objective)
                     f_fresh.append(fresh.objective)
                 if previous is not None:
@@ -178,7 +176,7 @@ def continuity(steps: int, seed: int, walks: int, models: tuple[str, ...], metho
               f'({100 * total / (walks * (steps - 1)):.2f}%)')
 
 
-def plausibility(n: int, seed: int, models: tuple[str, ...], method: planner.Method) -> None:
+def plausibility(n: int, seed: int, models: tuple[str, ...], method: Method) -> None:
     print('4. plausibility: planned grasps with the palm centre inside the object body (margin included)')
     for name in (m for m in SEVEN if m in models):
         model = load(name)
@@ -188,7 +186,7 @@ def plausibility(n: int, seed: int, models: tuple[str, ...], method: planner.Met
         print(f'  {name:17s} {inside}/{n} inside')
 
 
-def speed(n: int, seed: int, walks: int, models: tuple[str, ...], method: planner.Method) -> None:
+def speed(n: int, seed: int, walks: int, models: tuple[str, ...], method: Method) -> None:
     print('5. speed: wall time per plan (this process, this machine); the baseline on the same w, after the planner')
     for name in (m for m in SEVEN if m in models):
         model = load(name)
@@ -203,7 +201,8 @@ def speed(n: int, seed: int, walks: int, models: tuple[str, ...], method: planne
             t0 = time.perf_counter()
             planner.plan(model, v, **BASELINE)  # type: ignore[arg-type]
             base.append(1e3 * (time.perf_counter() - t0))
-        print(f'  {name:17s} fresh     {percentiles(fresh)}  (baseline {percentiles(base)}; median ratio '
+        fresh_ms, base_ms = percentiles(fresh, digits=3), percentiles(base, digits=3)
+        print(f'  {name:17s} fresh     {fresh_ms}  (baseline {base_ms}; median ratio '
               f'{np.median(base) / np.median(fresh):.2f}x)')
         pooled: list[float] = []
         for walk_seed in range(seed, seed + walks):  # one walk is one region of w: seed 0's spends 44 of 500 steps
@@ -214,9 +213,10 @@ def speed(n: int, seed: int, walks: int, models: tuple[str, ...], method: planne
                 warm.append(1e3 * (time.perf_counter() - t0))
                 previous, inexact = res.x, inexact + (not res.exact)
             pooled += warm
-            print(f'  {name:17s} warm walk {percentiles(warm)}  (seed {walk_seed}: {inexact}/{n} steps with no '
+            warm_ms = percentiles(warm, digits=3)
+            print(f'  {name:17s} warm walk {warm_ms}  (seed {walk_seed}: {inexact}/{n} steps with no '
                   'exact match)')
-        print(f'  {name:17s} warm, all {walks} walks {percentiles(pooled)}')
+        print(f'  {name:17s} warm, all {walks} walks {percentiles(pooled, digits=3)}')
 
 
 def main() -> None:
@@ -229,7 +229,7 @@ def main() -> None:
                              'each, section 5 times --n steps each')
     parser.add_argument('--sections', default='1,2,3,4,5', help='comma-separated section numbers')
     parser.add_argument('--reference-starts', type=int, default=60)
-    parser.add_argument('--method', default=planner.DEFAULT_METHOD, choices=('task', 'lm'),
+    parser.add_argument('--method', default=DEFAULT_METHOD, choices=('task', 'lm'),
                         help="method of sections 2-5 (default: the planner's default); section 1 checks 'lm', the "
                              "paper's planner, whose objective it is")
     parser.add_argument('--models', default=','.join(MODELS),

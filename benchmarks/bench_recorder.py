@@ -30,13 +30,9 @@ import threading
 import time
 from pathlib import Path
 
+from _bench import cpu_seconds
+
 REPO = Path(__file__).resolve().parents[1]
-
-
-def _cpu_seconds(pid: int) -> float:
-    """CPU time (user + system) of a process (s)."""
-    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
 def main() -> None:
@@ -112,14 +108,14 @@ def main() -> None:
     count = int(round(args.rate * args.duration))
     period = 1.0 / args.rate
     load_before = os.getloadavg()
-    cpu0, t0 = _cpu_seconds(recorder.pid), time.monotonic()
+    cpu0, t0 = cpu_seconds(recorder.pid), time.monotonic()
     for seq in range(count):  # paced against an absolute schedule: no drift
         delay = t0 + seq * period - time.monotonic()
         if delay > 0:
             time.sleep(delay)
         w_pub.publish(Float64MultiArray(data=[seq / count, 0.5, 0.5]))  # a valid w: the interpreter answers
     publish_s = time.monotonic() - t0
-    cpu_pct = 100.0 * (_cpu_seconds(recorder.pid) - cpu0) / publish_s
+    cpu_pct = 100.0 * (cpu_seconds(recorder.pid) - cpu0) / publish_s
     # settle: until the recorder's count has not moved for 3 s (it reports at 1 Hz)
     last, still_since = written['w'], time.monotonic()
     while time.monotonic() - still_since < 3.0:

@@ -102,6 +102,39 @@ class Operator:
     back_to_translation: float = 0.06
 
 
+class Joystick:
+    """The scripted operator's two-mode joystick (module docstring): its mode, its switch's pause and its noise."""
+
+    def __init__(self, op: Operator) -> None:
+        self.op = op
+        self.mode, self.switching_until = 'translate', -math.inf
+        self.noise = np.zeros(6)
+        self._decay = math.exp(-PERIOD / op.noise_tau)
+        self._scale = math.sqrt(1.0 - self._decay**2)
+
+    def command(self, now: float, seen: np.ndarray | None, goal: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """The twist at time ``now`` (s), the hand seen at ``seen`` (base_T_ee; None: not yet) heading for ``goal``."""
+        op = self.op
+        command = np.zeros(6)
+        self.noise = (self._decay * self.noise + self._scale * rng.normal(0.0, 1.0, 6)
+                      * np.r_[[op.noise_linear] * 3, [op.noise_angular] * 3])
+        if seen is not None and now >= self.switching_until:
+            error = pose_error(seen, goal)
+            distance, angle = np.linalg.norm(error[:3]), np.linalg.norm(error[3:])
+            wanted = self.mode
+            if self.mode == 'translate' and distance < op.translate_until and angle > op.rotate_until:
+                wanted = 'rotate'
+            elif self.mode == 'rotate' and (angle < 0.6 * op.rotate_until or distance > op.back_to_translation):
+                wanted = 'translate'
+            if wanted != self.mode:
+                self.mode, self.switching_until = wanted, now + op.switch_time
+            elif self.mode == 'translate':
+                command[:3] = clip_norm(op.gain * error[:3], op.max_linear) + self.noise[:3]
+            else:
+                command[3:] = clip_norm(op.gain * error[3:], op.max_angular) + self.noise[3:]
+        return command
+
+
 @dataclass
 class Intent:
     """One operator's intent: prior w0, true task set S (bitmask), sharpening time."""
@@ -272,10 +305,7 @@ def run_operator(loop: Loop, op: Operator, intent: Intent, own_goal: np.ndarray,
     w_first = intent.w(0.0, rng)  # the intent before the motion: wait for its plan (sent again each second)
     if not loop.probe.wait_for(lambda: len(loop.plans) > first_plan or loop.send_w(w_first), 60.0, poll=1.0):
         sys.exit('bench_shared_control: no plan for the first w within 60 s')
-    mode, switching_until = 'translate', -math.inf
-    noise = np.zeros(6)
-    decay = math.exp(-PERIOD / op.noise_tau)
-    scale = math.sqrt(1.0 - decay**2)
+    joystick = Joystick(op)
     alpha_from = len(loop.alphas)
     start = time.monotonic()
     tick = 0
@@ -293,22 +323,7 @@ def run_operator(loop: Loop, op: Operator, intent: Intent, own_goal: np.ndarray,
             break
         seen, plan_seen = loop.hand_at(now - op.reaction), loop.plan_at(now - op.reaction)
         goal = plan_seen[0] if plan_seen is not None and plan_seen[1] & task_set == task_set else own_goal
-        command = np.zeros(6)
-        noise = decay * noise + scale * rng.normal(0.0, 1.0, 6) * np.r_[[op.noise_linear] * 3, [op.noise_angular] * 3]
-        if seen is not None and now >= switching_until:
-            error = pose_error(seen, goal)
-            distance, angle = np.linalg.norm(error[:3]), np.linalg.norm(error[3:])
-            wanted = mode
-            if mode == 'translate' and distance < op.translate_until and angle > op.rotate_until:
-                wanted = 'rotate'
-            elif mode == 'rotate' and (angle < 0.6 * op.rotate_until or distance > op.back_to_translation):
-                wanted = 'translate'
-            if wanted != mode:
-                mode, switching_until = wanted, now + op.switch_time
-            elif mode == 'translate':
-                command[:3] = clip_norm(op.gain * error[:3], op.max_linear) + noise[:3]
-            else:
-                command[3:] = clip_norm(op.gain * error[3:], op.max_angular) + noise[3:]
+        command = joystick.command(now, seen, goal, rng)
         loop.twist_pub.publish(loop.twist(command))
         run.effort_linear += float(np.linalg.norm(command[:3])) * PERIOD
         run.effort_angular += float(np.linalg.norm(command[3:])) * PERIOD

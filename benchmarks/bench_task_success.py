@@ -28,25 +28,35 @@ at 0.9 against 0.1):
   1x :class:`~grasp_intent_ros.planning.robustness.ExecutionNoise`): the mean of S(x'; w) over ``--landings``
   landings x' of x, the same landings (seeded) for every w and every method, judged by the rules.
 
-``ceiling`` is no planner: the best pick among the demonstrations the default planner would choose from
+``ceiling`` is no planner: the best pick among the demonstrations the exact planner would choose from
 without noise (those that serve v's top zone, are faithful and have the highest expected success, all
 serving the same tasks), made knowing the rules: at each noise level, the one with the highest success over
 ``--landings`` other landings (a second seed, so that the pick is not fitted to the landings that judge it).
 
-Methods: ``default`` (:func:`planner.plan` as called with no method: the task-serving planner, its
-threshold tau ``--tau``, planning for the 1x execution noise), ``exact`` (the same planning for an exact
-landing, ``noise=None``), ``reading`` (the same with ``faithful='reading'``: only the model's reading of the
-demonstration must hold no unlikely task, not its label), ``paper`` (method ``'lm'``: exact P = v, else least squares),
-``slsqp`` (the paper's run: one start, SLSQP, finite differences; slow, so on ``--slsqp-n`` of the w),
-``start`` (Algorithm 1's start, unmoved), ``top-only`` (the paper's planner on the one-hot v of the top
-zone) and ``ceiling`` (above). Models: the four shipped ones, and 7-zone models trained on data sets generated
-with each seed of ``--data-seeds`` (the shipped data sets are seed 0), so no figure is a property of one data set.
+Methods: ``exact`` (:func:`planner.plan` with its defaults: the task-serving planner, its threshold tau
+``--tau``, planning for an exact landing), ``robust`` (the same planning for the 1x execution noise, the
+option ``TaskOptions(noise=ExecutionNoise())``), ``reading`` (``exact`` with ``faithful='reading'``: only the
+model's reading of the demonstration must hold no unlikely task, not its label), ``paper`` (method ``'lm'``:
+exact P = v, else least squares), ``slsqp`` (the paper's run: one start, SLSQP, finite differences; slow, so
+on ``--slsqp-n`` of the w), ``start`` (Algorithm 1's start, unmoved), ``top-only`` (the paper's planner on the
+one-hot v of the top zone) and ``ceiling`` (above). Models: the four shipped ones, and 7-zone models trained
+on data sets generated with each seed of ``--data-seeds`` (the shipped data sets are seed 0), so no figure is
+a property of one data set.
 ``--frontier`` prints the task planner's trade-off (success, faithfulness, legibility, fit) over a range of
 thresholds.
 
-    python benchmarks/bench_task_success.py [--n 500] [--seed 0] [--methods default,paper,start,top-only,slsqp]
+``--physics`` (needs the ``bench`` extra, MuJoCo) runs the planner node's policy (``mico.grasp.plan_grasp``, IK
+included) on the 7-zone models with the object at the suite's default pose, without and with the hand's
+collision check (``mico.collision``), and has an independent judge (``judge_physics``: MuJoCo on the URDF, the
+plan's joint targets, the table plane z = 0 of the object frame and the object's body of the rules) say which
+published grasps put a hand part > 5 mm below the table with the fingers open or the wrist/palm > 2 mm into the
+object, and how many fingers meet the table while closing; with success counting a w without a grasp as 0,
+and the median planning time without and with the check (the planner with the check as its ``accept``, IK left
+out; the check's verdicts for the model's candidates computed once before, as a running planner keeps them).
+
+    python benchmarks/bench_task_success.py [--n 500] [--seed 0] [--methods exact,robust,paper,start,top-only,slsqp]
         [--models cup_7zone,...] [--data-seeds 1,2] [--draws 20] [--slsqp-n 50] [--frontier] [--cases-only]
-        [--noise 0,1,2] [--landings 40]
+        [--noise 0,1,2] [--landings 40] [--physics]
 """
 
 from __future__ import annotations
@@ -57,7 +67,7 @@ import os
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from bench_planner import CASES, random_targets  # the same w as the planner benchmark's
@@ -66,8 +76,9 @@ from numpy.typing import NDArray
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.objects import demos as rules_module
-from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules
+from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules, object_of
 from grasp_intent_ros.planning import planner, ranking
+from grasp_intent_ros.planning.options import ScipyOptions, TaskOptions
 from grasp_intent_ros.planning.robustness import ExecutionNoise, perturb, standard_draws
 from grasp_intent_ros.resources import config_dir
 
@@ -81,10 +92,10 @@ Planned = Callable[[GraspModel, NDArray[np.float64]], NDArray[np.float64]]
 
 
 def rules_for(model: GraspModel) -> ObjectRules:
-    """The judge of a model: the rules of the object its name starts with."""
-    for name, rules in OBJECTS.items():
-        if model.name.startswith(name):
-            return rules
+    """The judge of a model: the rules of its object (:func:`~grasp_intent_ros.objects.demos.object_of`)."""
+    rules = object_of(model.name)
+    if rules is not None:
+        return rules
     raise KeyError(f'no rules for model {model.name!r} (objects: {", ".join(OBJECTS)})')
 
 
@@ -239,14 +250,16 @@ def methods(tau: float | None) -> dict[str, Planned]:
         e[top_zone(model, v)] = 1.0
         return planner.plan(model, e, method='lm').x
 
-    options = {} if tau is None else {'tau': tau}
+    exact = TaskOptions() if tau is None else TaskOptions(tau=tau)
+    robust = replace(exact, noise=ExecutionNoise())
+    reading = replace(exact, faithful='reading')
     return {
-        'default': lambda model, v: planner.plan(model, v, **options).x,  # type: ignore[arg-type]
-        'exact': lambda model, v: planner.plan(model, v, noise=None, **options).x,  # type: ignore[arg-type]
-        'reading': lambda model, v: planner.plan(model, v, method='task', faithful='reading', **options).x,  # type: ignore[arg-type]
+        'robust': lambda model, v: planner.plan(model, v, options=robust).x,
+        'exact': lambda model, v: planner.plan(model, v, options=exact).x,
+        'reading': lambda model, v: planner.plan(model, v, method='task', options=reading).x,
         'paper': lambda model, v: planner.plan(model, v, method='lm').x,
-        'slsqp': lambda model, v: planner.plan(model, v, method='slsqp', n_starts=1, top_zones=1,
-                                               gradient='2-point').x,
+        'slsqp': lambda model, v: planner.plan(model, v, method='slsqp',
+                                               options=ScipyOptions(n_starts=1, top_zones=1, gradient='2-point')).x,
         'start': lambda model, v: planner.select_starts(model, v, 1, 1)[0],
         'top-only': one_hot,
         'ceiling': lambda model, v: ceiling_pick(model, v, np.zeros(0), None),  # its w-dependent picks: run_model
@@ -326,17 +339,72 @@ def frontier(models: Sequence[GraspModel], n: int, seed: int, taus: Sequence[flo
                 rng = np.random.default_rng(0)
                 for w, v in targets:
                     t0 = time.perf_counter()
-                    x = planner.plan(model, v, method='task', tau=tau, hysteresis=0.0, faithful=faithful).x
+                    x = planner.plan(model, v, method='task',
+                                     options=TaskOptions(tau=tau, hysteresis=0.0, faithful=faithful)).x
                     tally.ms.append(1e3 * (time.perf_counter() - t0))
                     judge.add(tally, x, w, v, 0, rng)
                 print(f'  {model.name:24s} {faithful:7s} tau {tau:4.2f}  {tally.line()}')
+
+
+def physics(models: Sequence[GraspModel], n: int, seed: int) -> None:
+    """Plans of the node's policy without and with the collision check, judged by MuJoCo (module docstring)."""
+    from judge_physics import PALM_LIMIT, TABLE_LIMIT, PhysicsJudge  # the bench extra: only this section needs it
+
+    from grasp_intent_ros.mico.collision import CollisionFree, HandCollision
+    from grasp_intent_ros.mico.frames import pose_to_matrix
+    from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+    from grasp_intent_ros.mico.kinematics import MicoKinematics
+
+    base_T_obj = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))  # the suite's default object pose
+    kin, hand = MicoKinematics(), HandCollision()
+    print(f'physics: plan_grasp at the default object pose, judged by MuJoCo {__import__("mujoco").__version__} '
+          f'(table > {1e3 * TABLE_LIMIT:g} mm, palm > {1e3 * PALM_LIMIT:g} mm)')
+    for model in models:
+        if len(model.zones) != 7:
+            continue
+        judge, rules = PhysicsJudge(rules_for(model).body, base_T_obj), Judge(model)
+        targets = list(random_targets(model, n, seed))
+        t0 = time.perf_counter()
+        clear = CollisionFree(hand, model.body)
+        candidates = planner.feasible_demonstrations(model)
+        screened = sum(clear(x) for x in candidates)  # once per model, as the node does: plans then look it up
+        print(f'  {model.name}: {screened} of {len(candidates)} demonstrations clear by the check '
+              f'(all checked in {time.perf_counter() - t0:.1f} s)')
+        ms: dict[bool, list[float]] = {False: [], True: []}
+        for _, v in targets:  # the planner alone, without and with the check, paired (the same load)
+            for checked in (False, True):
+                t1 = time.perf_counter()
+                planner.plan(model, v, accept=CollisionFree(hand, model.body) if checked else None)
+                ms[checked].append(1e3 * (time.perf_counter() - t1))
+        ratio = np.array(ms[True]) / np.array(ms[False])
+        print(f'    plan median without / with the check {np.median(ms[False]):.3f} / {np.median(ms[True]):.3f} ms '
+              f'(paired ratio median {np.median(ratio):.2f})')
+        for checked in (False, True):
+            plans = no_grasp = table = palm = collide = fingers_on_table = 0
+            scores: list[float] = []
+            for w, v in targets:
+                grasp = plan_grasp(model, v, intent.all_zones(3), base_T_obj, kin, hand=hand if checked else None)
+                if not isinstance(grasp, Grasp):
+                    no_grasp += 1
+                    scores.append(0.0)
+                    continue
+                plans += 1
+                verdict = judge.judge(grasp.positions)
+                table += verdict.table > TABLE_LIMIT
+                palm += verdict.palm > PALM_LIMIT
+                collide += verdict.collides
+                fingers_on_table += verdict.finger_on_table > 0
+                scores.append(success(rules.label(grasp.result.x), w))
+            print(f'    {"checked" if checked else "unchecked":9s} success {100 * np.mean(scores):5.1f}%  grasps '
+                  f'{plans}/{len(targets)}  in collision {collide} (table {table}, palm {palm})  a finger meets the '
+                  f'table closing {fingers_on_table}')
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--n', type=int, default=500, help='random w per model (default 500)')
     parser.add_argument('--seed', type=int, default=0, help='seed of the random w (default 0)')
-    parser.add_argument('--methods', default='default,reading,paper,slsqp,start,top-only,ceiling')
+    parser.add_argument('--methods', default='exact,robust,reading,paper,slsqp,start,top-only,ceiling')
     parser.add_argument('--models', default=','.join(MODELS), help='shipped models (default: all four)')
     parser.add_argument('--data-seeds', default='1,2', help="data-set seeds of regenerated 7-zone models ('' none)")
     parser.add_argument('--draws', type=int, default=0, help='also estimate success with this many T per w')
@@ -346,6 +414,8 @@ def main() -> None:
     parser.add_argument('--cases-only', action='store_true', help='only the paper cases')
     parser.add_argument('--noise', default='0,1,2', help="execution noise levels, multiples of the 1x ('' none)")
     parser.add_argument('--landings', type=int, default=40, help='landings per grasp at each noise level (default 40)')
+    parser.add_argument('--physics', action='store_true', help='plans with and without the collision check, '
+                        'judged by MuJoCo (the bench extra)')
     args = parser.parse_args()
     levels = [float(s) for s in args.noise.split(',') if s.strip()]
     table = methods(args.tau)
@@ -354,7 +424,9 @@ def main() -> None:
     fresh = [m for s in args.data_seeds.split(',') if s.strip() for m in regenerated(int(s))]
     print(f'bench_task_success: n={args.n}, seed={args.seed}, methods {", ".join(chosen)}; '
           f'load average {", ".join(f"{a:.2f}" for a in os.getloadavg())}')
-    if args.frontier:
+    if args.physics:
+        physics(shipped + fresh, args.n, args.seed)
+    elif args.frontier:
         frontier(shipped + fresh, args.n, args.seed, (0.0, 0.1, 0.2, 0.25, 0.3, 0.4, 0.5, 1.0))
     else:
         for model in shipped + fresh:

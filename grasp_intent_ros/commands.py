@@ -19,6 +19,7 @@ COMMANDS = {
     'viewer': 'nodes.viewer',
     'assistance': 'nodes.assistance',
     'mock_arm': 'nodes.mock_arm',
+    'intent_estimator': 'nodes.intent_estimator',
     'suite': 'launch.suite',
     'send_intent': 'cli.send_intent',
     'demo': 'launch.demo',

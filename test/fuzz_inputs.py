@@ -245,11 +245,11 @@ INTERPRETER_V_LABEL = ','.join(zone_labels(all_zones(N_TASKS), DEFAULT_TASKS))
 """The label of the one dimension of the interpreter's v (the fuzzed v never carry it)."""
 SETTLE_W = (0.9, 0.1, 0.9)
 """The w :meth:`Fuzzer.settle` sends (a v other than that of :func:`valid_w`, and a grasp)."""
-INTERPRETER_CLARIFICATIONS = 'clarifications'
+INTERPRETER_CLARIFICATIONS = protocol.KEY_CLARIFICATIONS
 """Status value: the interpreter's clarification requests so far."""
 PLANNING = 'grasp_planner: planning'
 """The planner's diagnostics component for its plans."""
-PLANNER_CLARIFICATIONS = 'clarifications requested'
+PLANNER_CLARIFICATIONS = protocol.KEY_CLARIFICATIONS
 """Status value: the planner's clarification requests so far (one per v and model at most)."""
 
 

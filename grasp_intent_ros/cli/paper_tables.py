@@ -22,6 +22,7 @@ from ..method import intent
 from ..method.model import GraspModel
 from ..objects.demos import OBJECTS
 from ..planning import planner
+from ..planning.options import Method
 from ..resources import config_dir
 from .user_errors import report_user_errors
 
@@ -36,7 +37,7 @@ CASES: list[tuple[str, tuple[float, float, float], tuple[str, ...]]] = [
 def _fmt(values: Iterable[float]) -> str:
     return ' '.join(f'{v:7.4f}' for v in values)
 
-def print_case(model: GraspModel, w: Sequence[float], method: planner.Method) -> None:
+def print_case(model: GraspModel, w: Sequence[float], method: Method) -> None:
     """Print v, P, reconstructed w and the objective for one model and one w."""
     r = intent.interpret(w, model.zones)
     print(f'  model {model.name} ({len(model.zones)} zones), w = {tuple(w)}')

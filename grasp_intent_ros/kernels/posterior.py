@@ -96,7 +96,13 @@ def _log_joints(xs, mixture):
 
 def log_joints(xs: NDArray[np.float64], means: NDArray[np.float64], prec: NDArray[np.float64],
                log_norm: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """log(pi_k N_k(x)) and P(k|x) of every row of xs (N, d), each (N, K), with the iterations' own arithmetic."""
+    """log(pi_k N_k(x)) and P(k|x) of every row of xs (N, d), each (N, K), with the iterations' own arithmetic.
+
+    The fixed-order reference of :meth:`grasp_intent_ros.method.model.GraspModel.log_joint` and
+    :meth:`~grasp_intent_ros.method.model.GraspModel.posterior` (numpy, BLAS): the same quantities, every
+    sum in a stated order, so the planner's answers do not depend on the CPU's BLAS kernels. The two agree
+    to rounding (test/unit/kernels/test_posterior.py).
+    """
     lj: NDArray[np.float64]
     post: NDArray[np.float64]
     lj, post = _log_joints(np.ascontiguousarray(xs, dtype=np.float64), Mixture(means, prec, log_norm))

@@ -63,7 +63,7 @@ from ..mico.frames import obj_T_ee_to_features, pose_to_matrix
 from ..objects.demos import OBJECTS
 from ..ros.conversions import model_from_msg
 from ..ros.qos import input_qos, latched_qos
-from ..wire.protocol import ModelDocument
+from ..wire.protocol import KEY_MODEL, ModelDocument
 from .suite import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
 
 __all__ = ['CLARIFICATION_CASE', 'DemoError', 'main']
@@ -186,7 +186,7 @@ class _Demo:
 
     def _planner_model(self) -> str:
         status = self.observer.status('grasp_planner: planning')
-        return '' if status is None else status.get('model', '')
+        return '' if status is None else status.get(KEY_MODEL, '')
 
     def check_domain_unused(self, domain_id: int) -> None:
         """DemoError if other nodes show up on the domain within DOMAIN_CHECK seconds.

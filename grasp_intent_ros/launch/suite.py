@@ -70,7 +70,7 @@ SUITE_NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
 """The node modules of the suite, in start order."""
 SHARED_CONTROL_NODES = ('mock_arm', 'assistance')
 """The shared-control loop's nodes: the mock MICO and the assistance (``suite --shared-control``)."""
-OPTIONAL_NODES: tuple[str, ...] = (*SHARED_CONTROL_NODES, 'viewer')
+OPTIONAL_NODES: tuple[str, ...] = (*SHARED_CONTROL_NODES, 'intent_estimator', 'viewer')
 """Node modules started only on request, after :data:`SUITE_NODES`: ``suite --with NAME``,
 :meth:`NodeSuite.start_nodes`'s ``extra``. Each is ``python -m grasp_intent_ros.nodes.<name>`` with its
 ``config/<name>.yaml`` when there is one, like the suite's own nodes."""

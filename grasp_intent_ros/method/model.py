@@ -521,8 +521,23 @@ class GraspModel:
         diff = arr[:, None, :] - self.means[None, :, :]
         return self._log_norm + 0.5 * np.sum(diff * g, axis=2), g
 
+    @property
+    def precisions(self) -> NDArray[np.float64]:
+        """The zones' precision matrices Sigma_k^-1, shape (K, d, d) (read-only; factored once, no BLAS)."""
+        return self._precisions
+
+    @property
+    def log_norm(self) -> NDArray[np.float64]:
+        """log(pi_k) + the log normaliser of zone k's Gaussian, shape (K,) (read-only)."""
+        return self._log_norm
+
     def log_joint(self, x: ArrayLike) -> NDArray[np.float64]:
-        """Log P(x|k) + log P(k), shape (K,) for x of shape (d,), or (N, K) for (N, d)."""
+        """Log P(x|k) + log P(k), shape (K,) for x of shape (d,), or (N, K) for (N, d).
+
+        numpy's matrix products (BLAS: the order of their sums is the CPU's). The planner's fixed-order
+        twin, same values to rounding, is :func:`grasp_intent_ros.kernels.posterior.log_joints`
+        (test/unit/kernels/test_posterior.py holds them together).
+        """
         arr, single = self._check_x(x)
         out = self._log_joint_and_score(arr)[0]
         return out[0] if single else out
@@ -530,9 +545,10 @@ class GraspModel:
     def posterior(self, x: ArrayLike) -> NDArray[np.float64]:
         """Zone posterior P(k|x) (eq. 2): shape (K,) for x of shape (d,), or (N, K) for (N, d).
 
-        Computed in log space (log-sum-exp), so it stays finite and normalised far from every mean, as
-        long as the log-likelihoods are finite floats: roughly while every |x_i - mu_i| stays below 1e150
-        times the feature's spread. A finite x farther out (e.g. 1e308) overflows them; it is rejected
+        Computed in log space (log-sum-exp) with numpy (as :meth:`log_joint`; the planner's fixed-order twin is
+        :func:`grasp_intent_ros.kernels.posterior.log_joints`), so it stays finite and normalised far from every
+        mean, as long as the log-likelihoods are finite floats: roughly while every |x_i - mu_i| stays below
+        1e150 times the feature's spread. A finite x farther out (e.g. 1e308) overflows them; it is rejected
         rather than answered with NaN.
 
         Raises

@@ -14,8 +14,7 @@ __all__ = ['ModelFiles', 'CACHED_MODELS']
 CACHED_MODELS = 2
 """Models a :class:`ModelFiles` keeps loaded, the most recently used: the model server's active model and
 the one a parameter change checks before it activates it. A bound, so that the memory held does not grow
-with the models used (about 0.15 MB of arrays per 7-zone model); another model is read from its file
-again (about 40 ms for a 7-zone model)."""
+with the models used; another model is read from its file again (docs/measurements.md has the costs)."""
 
 
 class ModelFiles:

@@ -80,14 +80,14 @@ def _construct_events(loader: Any, on_key: Callable[[Any, dict[Any, Any]], objec
     """The one document of ``loader``'s event stream, built event by event with its safe constructors.
 
     PyYAML's own loaders compose the whole document into a node tree first (a node, its attributes and
-    two marks per scalar, about 4 MB for a 116 kB model document) and only then construct it: that
+    two marks per scalar, many times the document's size) and only then construct it: that
     transient is what a node's first reading of a model left behind as new pymalloc arenas, pinned by
     the few objects that outlived it. Here each scalar is resolved and constructed as soon as the C
     parser reports it (with PyYAML's resolver and ``SafeConstructor``, so every scalar reads as
     ``yaml.safe_load`` reads it; a plain decimal number (:data:`_PLAIN_DECIMAL`) directly as the float
-    they would make of it); only the document's own lists and dicts are ever held (peak 0.6 MB
-    for that document). Collections are built on an explicit stack, so nesting is bounded
-    (:data:`MAX_DOCUMENT_DEPTH`) without recursion. Raises yaml.YAMLError (aliases, a tag other than a
+    they would make of it); only the document's own lists and dicts are ever held. Collections are built
+    on an explicit stack, so nesting is bounded (:data:`MAX_DOCUMENT_DEPTH`) without recursion. Raises
+    yaml.YAMLError (aliases, a tag other than a
     plain sequence, mapping or safe scalar, an unhashable key, several documents), ModelFormatError
     (nesting too deep, an alias). ``on_key(key, mapping)`` is called as each key of a top-level mapping is read,
     with the fields before it complete: it may raise to stop reading there.
@@ -155,8 +155,8 @@ def document_events(data: Any) -> Iterator[yaml.Event]:
 
     ``data``: plain dicts (with scalar keys), lists and scalars.
 
-    ``yaml.dump`` first represents the whole document as a node tree (3 MB of Python objects for a 7-zone
-    model) and then serializes it; these are the same events (block style, keys in order, each scalar
+    ``yaml.dump`` first represents the whole document as a node tree (Python objects many times the
+    document's size) and then serializes it; these are the same events (block style, keys in order, each scalar
     represented by ``SafeRepresenter`` and tagged implicitly as the serializer does), without the tree.
     """
     yield yaml.StreamStartEvent()

@@ -1,4 +1,4 @@
-"""The Kinova MICO (3 fingers): its hand's frames, its kinematics, a grasp it can reach, a mock arm's dynamics.
+"""The Kinova MICO (3 fingers): frames, kinematics, the hand's collisions, a grasp it takes, a mock arm.
 
 ROS-free. Modules
 -----------------
@@ -6,6 +6,9 @@ frames
     Grasp features <-> the end-effector pose in the object frame; poses as 4x4 transforms.
 kinematics
     Forward and inverse kinematics (pinocchio, the URDF in config/), reachability.
+collision
+    The hand (the URDF's collision primitives, coal) against the table and the object: on the approach with the
+    fingers open, and closing until contact.
 grasp
     The planner node's policy: plan, then a grasp the arm reaches (joint targets, move time).
 mock_arm

@@ -1,9 +1,10 @@
 """The grasp policy of the planner node, ROS-free: target vector + model + object pose -> one MICO grasp.
 
-:func:`plan_grasp` restricts v to the model's zones, plans (paper Algorithm 1,
-:func:`grasp_intent_ros.planning.planner.plan`) with the MICO's reachability as the robot constraint, falls back
-to the best reachable candidate when the best grasp is unreachable, and turns the plan into what a robot
-executes: the end-effector pose ``base_T_ee``, the arm and finger joint targets, and the time the move
+:func:`plan_grasp` restricts v to the model's zones, plans (:func:`grasp_intent_ros.planning.planner.plan`)
+with the robot constraints, the hand clear of the table and the object along the approach
+(:class:`~.collision.CollisionFree`, given a :class:`~.collision.HandCollision`) and the MICO's reachability,
+falls back to the best candidate that meets both when the best grasp does not, and turns the plan into what a
+robot executes: the end-effector pose ``base_T_ee``, the arm and finger joint targets, and the time the move
 takes at the arm's velocity limits.
 """
 
@@ -21,7 +22,8 @@ from ..method.features import FINGERS, MICO_3F
 from ..method.intent import restrict
 from ..method.model import GraspModel
 from ..planning import planner
-from ..planning.robustness import ExecutionNoise
+from ..planning.options import DEFAULT_METHOD, Method, Options
+from .collision import Clearance, CollisionFree, HandCollision, Table
 from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 
 __all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'OUTCOMES', 'NoModelZone', 'PlanOutcome', 'Grasp', 'NoReachableGrasp',
@@ -32,7 +34,8 @@ MIN_TRAJECTORY_TIME = 0.1
 JOINT_NAMES: tuple[str, ...] = ARM_JOINTS + FINGER_JOINTS
 """Names of :attr:`Grasp.positions`: the six arm joints, then the three fingers."""
 OUTCOMES = ('best grasp reachable', 'fallback to a reachable candidate', 'no reachable grasp')
-"""The reachability outcomes of a plan (:attr:`PlanOutcome.outcome`)."""
+"""The outcomes of a plan (:attr:`PlanOutcome.outcome`); reachable: IK converges and, when checked, the hand
+is clear of the table and the object."""
 
 
 @dataclass(frozen=True)
@@ -99,12 +102,15 @@ class Grasp(PlanOutcome):
         Time to reach them from the seed at the arm's velocity limits, at least :data:`MIN_TRAJECTORY_TIME`.
     fallback : bool
         True when the best grasp was unreachable and a lower-ranked candidate is published.
+    clearance : Clearance or None
+        The hand's clearance from the table and the object (None: not checked).
     """
 
     base_T_ee: NDArray[np.float64]
     positions: NDArray[np.float64]
     duration_s: float
     fallback: bool
+    clearance: Clearance | None = None
 
 
 def check_mico_model(model: GraspModel, name: str) -> None:
@@ -201,9 +207,9 @@ def trajectory_duration(q_from: ArrayLike, q_to: ArrayLike, velocity_limits: Arr
 
 def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_obj: NDArray[np.float64],
                kin: MicoKinematics, *, name: str = 'model', q_arm: NDArray[np.float64] | None = None,
-               method: planner.Method = planner.DEFAULT_METHOD, n_starts: int = 3, ik_restarts: int = 8,
-               warm_start: NDArray[np.float64] | None = None,
-               noise: ExecutionNoise | None = ExecutionNoise()) -> Grasp | NoReachableGrasp | NoModelZone:
+               method: Method = DEFAULT_METHOD, options: Options | None = None, ik_restarts: int = 8,
+               warm_start: NDArray[np.float64] | None = None, hand: HandCollision | None = None,
+               table_plane: ArrayLike | None = None) -> Grasp | NoReachableGrasp | NoModelZone:
     """Plan the grasp for target ``v`` over ``zones`` on ``model`` with the object at ``base_T_obj``.
 
     Parameters
@@ -221,10 +227,16 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
         The model's name, for messages.
     q_arm : ndarray, shape (6,), optional
         Latest arm joint reading (rad): seeds IK and starts the trajectory; :data:`HOME_Q` if None.
-    method, n_starts, warm_start, noise
+    method, options, warm_start
         As for :func:`grasp_intent_ros.planning.planner.plan`.
     ik_restarts : int
         Random IK restarts after the seeded attempt fails.
+    hand : HandCollision, optional
+        Checks the hand's clearance from the table and the model's body; a candidate in collision is turned
+        down before IK is tried (None: not checked).
+    table_plane : array_like, shape (4,), optional
+        The table in the base frame, ``(nx, ny, nz, d)`` with ``n . p >= d`` above it (m); None: the plane the
+        object stands on (z = 0 of the object frame).
 
     Returns
     -------
@@ -235,25 +247,40 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     ------
     InvalidIntentError
         When v does not match ``zones``.
+    KinematicsError
+        For a malformed ``table_plane``.
     """
     v_model = restrict(v, zones, model.zones)
     if v_model is None:
         return NoModelZone(f'v gives no probability to the zones {",".join(model.zone_labels)} of model {name!r}')
     reachable = Reachability(kin, base_T_obj, q_arm, restarts=ik_restarts)
-    result = planner.plan(model, v_model, method=method, n_starts=n_starts, warm_start=warm_start,
-                          accept=reachable, noise=noise)
+    table = None if table_plane is None else Table.in_object_frame(table_plane, base_T_obj)
+    clear = None if hand is None else CollisionFree(hand, model.body, table)
+
+    def accept(x: NDArray[np.float64]) -> bool:
+        return (clear is None or clear(x)) and reachable(x)
+
+    result = planner.plan(model, v_model, method=method, options=options, warm_start=warm_start, accept=accept)
     n = len(result.candidates)
+    faults = {} if clear is None else clear.faults
+    colliding = f'{len(faults)} in collision (first: {next(iter(faults.values()))}), ' if faults else ''
     if result.status == 'rejected':
-        closest = min(reachable.answers.values(), key=lambda a: a.pos_error_m)
         position = base_T_obj[:3, 3]
-        reason = (f'no reachable grasp: IK failed for all {n} candidates with the object at '
-                  f'{np.round(position, 3).tolist()} m ({np.linalg.norm(position):.2f} m from the base); '
-                  f'closest: {closest.message}')
-        return NoReachableGrasp(result=result, note=f'none of {n} candidates reachable',
-                                ik_seconds=reachable.seconds, reason=reason)
+        where = (f'with the object at {np.round(position, 3).tolist()} m '
+                 f'({np.linalg.norm(position):.2f} m from the base)')
+        if not reachable.answers:
+            reason = (f'no grasp clear of the table and the object: all {n} candidates in collision (first: '
+                      f'{next(iter(faults.values()))}) {where}')
+        else:
+            closest = min(reachable.answers.values(), key=lambda a: a.pos_error_m)
+            tried = f'all {n} candidates' if not faults else f'the other {len(reachable.answers)} candidates'
+            reason = (f'no reachable grasp: {colliding}IK failed for {tried} {where}; closest: {closest.message}')
+        note = f'none of {n} candidates reachable' + (f' ({colliding}{len(reachable.answers)} unreachable)'
+                                                       if faults else '')
+        return NoReachableGrasp(result=result, note=note, ik_seconds=reachable.seconds, reason=reason)
     if result.rejected:
-        note = (f'best grasp unreachable: published candidate {result.rejected + 1} of {n} (objective '
-                f'{result.objective:.3g}, best {result.candidates[0].objective:.3g})')
+        note = (f'best grasp unreachable: published candidate {result.rejected + 1} of {n} ({colliding}'
+                f'objective {result.objective:.3g}, best {result.candidates[0].objective:.3g})')
     else:
         note = f'best of {n} candidates reachable'
     q = reachable.answer(result.x).q
@@ -262,4 +289,4 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     return Grasp(result=result, note=note, ik_seconds=reachable.seconds,
                  base_T_ee=reachable.target(result.x),
                  positions=np.concatenate([q, result.x[FINGERS]]), duration_s=duration,
-                 fallback=bool(result.rejected))
+                 fallback=bool(result.rejected), clearance=None if clear is None else clear.clearance(result.x))

@@ -11,6 +11,8 @@ model_server
     The active model (latched), its ambiguity, posterior queries.
 grasp_planner
     v + model + object pose -> a MICO grasp.
+intent_estimator
+    The operator's twist -> w (the intent estimated from the motion).
 assistance
     The operator's twist blended toward the grasp (shared control).
 mock_arm

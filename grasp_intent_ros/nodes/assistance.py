@@ -74,7 +74,8 @@ PARAMETERS = (
     ParamSpec('gain_joint', _DEFAULTS.gain_joint, "Robot twist's joint-space gain toward the target's IK, 1/s.",
               range=_POSITIVE),
     ParamSpec('deadband_linear', _DEFAULTS.deadband_linear, "'confidence': operator speed (m/s) from which an "
-              "operator steering against the robot's twist lowers alpha.", range=(0.0, 10.0)),
+              'operator steering away from the grasp (the agreement is measured against the grasp, not the '
+              "robot's twist) lowers alpha.", range=(0.0, 10.0)),
     ParamSpec('deadband_angular', _DEFAULTS.deadband_angular, "'confidence': the same for the operator's angular "
               'speed, rad/s.', range=(0.0, 10.0)),
     ParamSpec('operator_timeout', _DEFAULTS.operator_timeout, 'Operator twist age (s) from which the output is '

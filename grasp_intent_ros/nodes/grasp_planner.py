@@ -36,11 +36,12 @@ from rclpy.time import Time
 from sensor_msgs.msg import JointState
 
 from ..method.intent import match_zones
+from ..mico.collision import HandCollision, Table
 from ..mico.frames import pose_to_matrix
 from ..mico.grasp import check_workspace, plan_grasp
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
-from ..planning import planner
-from ..planning.robustness import ExecutionNoise, retention
+from ..planning.options import DEFAULT_METHOD, METHODS, node_options, noise_from
+from ..planning.robustness import retention
 from ..ros.clarification import ClarificationRequests
 from ..ros.conversions import SerializedTargets
 from ..ros.diagnostics import NodeDiagnostics
@@ -52,34 +53,36 @@ from ..ros.qos import input_qos
 from ..ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 from ..ros.worker import LatestOnlyWorker
 from ..wire import protocol as topics
-from ..wire.protocol import KEY_KERNELS_LOADED_LATE, KEY_MODEL, KEY_PLAN_STATUS, OK, WARN, ModelDocument
+from ..wire.protocol import (
+    KEY_CLARIFICATIONS,
+    KEY_KERNELS_LOADED_LATE,
+    KEY_MODEL,
+    KEY_PLAN_STATUS,
+    OK,
+    WARN,
+    ModelDocument,
+)
 
 __all__ = ['GraspPlanner', 'PARAMETERS', 'main']
 
 
-def _noise(value: Any) -> ExecutionNoise:
-    """The ``execution_noise`` parameter as an :class:`ExecutionNoise` (ValueError when it is not 4 numbers >= 0)."""
-    if len(value) != 4:
-        raise ValueError(f'must be 4 numbers (palm m, tilt rad, roll rad, closure rad), got {list(value)}')
-    return ExecutionNoise(*(float(v) for v in value))
-
-
-def _check_noise(value: Any) -> None:
-    _noise(value)
-
+def table_plane(value: Any) -> None:
+    """Validate ``table_plane``: all zeros, or 4 finite numbers with a non-zero normal (raises ValueError)."""
+    if any(value):
+        Table.in_object_frame(value, np.eye(4))
 
 PARAMETERS = (
-    ParamSpec('method', planner.DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
+    ParamSpec('method', DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
               "likely tasks, docs/planner.md), or the paper's 'lm' (P = v by log-odds projection, else least "
-              "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(planner.METHODS),
-              constraints=f'one of {", ".join(planner.METHODS)}'),
+              "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(METHODS),
+              constraints=f'one of {", ".join(METHODS)}'),
     ParamSpec('execution_noise', (0.0, 0.0, 0.0, 0.0),
               "Where the arm lands around a plan, as standard deviations: palm per axis (m), approach tilt about "
               "each of two axes orthogonal to it (rad), wrist roll (rad), each finger closure (rad). Method 'task' "
               "then picks the grasp with the highest expected success as executed (docs/planner.md); the "
-              "documented 1x level is [0.005, 0.0524, 0.0524, 0.1]. All zero (the node's default, as the estimate "
-              "costs seconds of CPU per model read): an exact landing.",
-              validator=_check_noise, constraints='4 finite numbers >= 0'),
+              "documented 1x level is [0.005, 0.0524, 0.0524, 0.1]. All zero (the default, as the planner's): an "
+              "exact landing. The estimate costs seconds of CPU per model read.",
+              validator=noise_from, constraints='4 finite numbers >= 0'),
     ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
     ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),
     ParamSpec('object_position', (0.3, -0.3, 0.0),
@@ -101,6 +104,12 @@ PARAMETERS = (
               'Markers are for RViz and cost as much to build as the other outputs together.',
               range=(0.0, 10.0)),
     ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
+    ParamSpec('collision_check', False, 'Turn down grasps whose hand goes into the table or the object on the '
+              'approach (fingers open, from the pre-grasp 0.08 m behind), as unreachable ones are '
+              '(docs/planner.md, "The hand\'s clearance").'),
+    ParamSpec('table_plane', (0.0, 0.0, 0.0, 0.0), 'The table in m1n6s300_link_base: (nx, ny, nz, d), points '
+              'with n . p >= d above it, m; all zeros: the plane the object stands on (z = 0 of its frame).',
+              validator=table_plane),
     TASK_NAMES,
 )
 
@@ -130,10 +139,11 @@ class GraspPlanner(Node):
         self._params = declare_parameters(self, PARAMETERS, on_change=self._on_parameters, check=self._check)
         try:
             self._kin = MicoKinematics(self._params['urdf_path'] or None)
+            self._hand = HandCollision(self._params['urdf_path'] or None)
         except FileNotFoundError as exc:
             raise ParameterError(f'urdf_path: {exc}') from None
         self._warm: tuple[tuple[str, str], NDArray[np.float64]] | None = None
-        self._clarifications = ClarificationRequests(self, self._plan_diag, count_key='clarifications requested',
+        self._clarifications = ClarificationRequests(self, self._plan_diag, count_key=KEY_CLARIFICATIONS,
                                                      outcome_key=KEY_PLAN_STATUS, level=WARN, log=True)
         self._plan_diag.set_state(OK, f'waiting for {topics.MODEL_ACTIVE} and {topics.INTENT_V}')
         self._outputs = GraspOutputs(self, self._kin, self._plan_diag, self._clarifications,
@@ -183,8 +193,9 @@ class GraspPlanner(Node):
     def _use_model(self, doc: ModelDocument | None) -> None:  # in the model follower's thread: planning goes on
         previous = self._worker.latest.model
         new = doc is not None and (previous is None or (previous.name, previous.sha256) != (doc.name, doc.sha256))
-        if new and doc is not None and self._params['method'] == 'task':  # the robustness estimate, off the plan path
-            retention(doc.model, _noise(self._params['execution_noise']))
+        noise = noise_from(self._params['execution_noise'])
+        if new and doc is not None and self._params['method'] == 'task' and noise is not None:
+            retention(doc.model, noise)  # the robustness estimate, off the plan path
         self._update(trigger=new, model=doc)  # None: recheck() refused the model; nothing to plan with
         self._plan_diag.set_value(KEY_MODEL, 'none' if doc is None else f'{doc.name} (version {doc.version}, '
                                   f'zones {",".join(doc.model.zone_labels)})')
@@ -226,8 +237,12 @@ class GraspPlanner(Node):
         warm = self._warm[1] if self._warm is not None and self._warm[0] == key else None
         grasp = plan_grasp(doc.model, inputs.v, match_zones(inputs.v.size, inputs.v_labels, doc.model.task_names),
                            inputs.base_T_obj, self._kin, name=doc.name, q_arm=inputs.q_arm, warm_start=warm,
-                           method=self._params['method'], n_starts=self._params['n_starts'],
-                           ik_restarts=self._params['ik_restarts'], noise=_noise(self._params['execution_noise']))
+                           method=self._params['method'],
+                           options=node_options(self._params['method'], self._params['n_starts'],
+                                                self._params['execution_noise']),
+                           ik_restarts=self._params['ik_restarts'],
+                           hand=self._hand if self._params['collision_check'] else None,
+                           table_plane=self._params['table_plane'] if any(self._params['table_plane']) else None)
         try:
             if (checked := self._outputs.send(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
                                               once_for=(inputs.v_seq, key), stopping=lambda: self._worker.stopping)):

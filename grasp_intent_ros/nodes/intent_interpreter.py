@@ -63,7 +63,14 @@ from ..ros.qos import input_qos, output_publisher
 from ..ros.run import guard_exit, publish_all, run_node
 from ..ros.worker import InputThread
 from ..wire import protocol as topics
-from ..wire.protocol import ModelDocument, msg_to_array, serialized_vector
+from ..wire.protocol import (
+    KEY_CLARIFICATIONS,
+    KEY_LAST_OUTCOME,
+    KEY_MODEL,
+    ModelDocument,
+    msg_to_array,
+    serialized_vector,
+)
 
 __all__ = ['IntentInterpreter', 'PARAMETERS', 'W_QUEUE_DEPTH', 'main']
 
@@ -93,12 +100,12 @@ class IntentInterpreter(Node):
         self._diagnostics = NodeDiagnostics(self, 'intent')
         self._params = declare_parameters(self, PARAMETERS, check=self._check, on_change=self._configure)
         self._pubs = {topics.INTENT_V: output_publisher(self, Float64MultiArray, topics.INTENT_V)}
-        self._clarifications = ClarificationRequests(self, self._diagnostics, count_key='clarifications',
-                                                     outcome_key='last outcome')
+        self._clarifications = ClarificationRequests(self, self._diagnostics, count_key=KEY_CLARIFICATIONS,
+                                                     outcome_key=KEY_LAST_OUTCOME)
         self._model_lock = threading.RLock()
         self._model: tuple[ModelDocument | None, ZoneInterpreter] | None = None
         """The active model and the interpretation of w with the zones it supports, swapped together."""
-        self._diagnostics.set_value('last outcome', '')
+        self._diagnostics.set_value(KEY_LAST_OUTCOME, '')
         # no document is read before the node spins: _configure below sets up what _use_model needs first
         self._models = ModelFollower(self, self._diagnostics, self._use_model, name=f'{node_name}_model',
                                      requires=lambda: served_models(self._params['task_names']))
@@ -156,7 +163,7 @@ class IntentInterpreter(Node):
                         'not used (all zones)')
             else:
                 text = f'{doc.name} (zones {",".join(doc.model.zone_labels)})'
-            self._diagnostics.set_value('active model', text)
+            self._diagnostics.set_value(KEY_MODEL, text)
 
     def _on_w(self, data: bytes) -> None:  # in the w thread
         w = serialized_vector(data, max_size=MAX_TASKS, error=InvalidIntentError, what='w')
@@ -177,7 +184,7 @@ class IntentInterpreter(Node):
             self._clarifications.request(reason)
         else:
             publish_all(self, self._pubs, {topics.INTENT_V: v_messages.serialize(result.v)})
-            self._diagnostics.set_value('last outcome', 'v published')
+            self._diagnostics.set_value(KEY_LAST_OUTCOME, 'v published')
 
 
 def main(args: list[str] | None = None) -> None:

@@ -48,7 +48,7 @@ from ..ros.params import TASK_NAMES, ParamSpec, declare_parameters
 from ..ros.qos import input_qos, latched_qos, output_publisher
 from ..ros.run import guard_exit, publish_all, release_free_memory, run_node
 from ..wire import protocol as topics
-from ..wire.protocol import MAX_FEATURES, msg_to_array
+from ..wire.protocol import KEY_MODEL, MAX_FEATURES, msg_to_array
 
 __all__ = ['ModelServer', 'PARAMETERS', 'MAX_FEATURES', 'main']
 
@@ -111,7 +111,7 @@ class ModelServer(Node):
                                        topics.MODEL_AMBIGUITY: array_to_msg(report.kl, tasks),
                                        topics.MODEL_AMBIGUITY_SYMMETRIC: array_to_msg(report.symmetric, tasks),
                                        topics.MODEL_AMBIGUITY_PINSKER: array_to_msg(report.pinsker, tasks)})
-        self._diagnostics.set_value('active model', name)
+        self._diagnostics.set_value(KEY_MODEL, name)
         self._diagnostics.set_value('model version', self._version)
         self._diagnostics.set_value('zones', ','.join(model.zone_labels))
         self.get_logger().info(f'active model {name!r} (version {self._version}, '

@@ -74,7 +74,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import DataError, InvalidFeaturesError
-from ..method.body import Cylinder, ObjectBody
+from ..method.body import Box, Cylinder, ObjectBody
 from ..method.data import Demonstrations
 from ..method.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL, FeatureSpace
 from ..method.intent import DEFAULT_TASKS, all_zones, zone_label
@@ -98,6 +98,7 @@ __all__ = [
     'CUP_RULES',
     'FLASHLIGHT_RULES',
     'OBJECTS',
+    'object_of',
     'DEFAULT_COUNT',
     'TURNED_ROLL_TOLERANCE',
     'cup_rules',
@@ -208,6 +209,8 @@ class Cup:
     height: float = 0.10
     handle_z: tuple[float, float] = (0.025, 0.075)
     handle_reach: float = 0.03
+    handle_bar: tuple[float, float] = (0.008, 0.012)
+    """Thickness in the loop's plane and width across it (m) of the handle's three bars."""
     rim_palm_z_max: float = 0.08
     """Usage: the palm centre at most this high leaves the rim clear for drinking."""
     bottom_palm_z_min: float = 0.05
@@ -223,9 +226,23 @@ class Cup:
     """Handover: |roll - pi| at most this counts as the wrist turned by about 180 degrees."""
 
     def body(self) -> ObjectBody:
-        """The solid body the planner keeps the palm centre out of (the handle is a loop, not solid)."""
+        """The cup's solid parts: the cylinder, and the handle loop as three bars (top, outer, bottom).
+
+        The bars leave the loop's opening free (where the usage rule wants the fingers); the top and bottom
+        bars reach half a bar into the wall, so the loop is attached.
+        """
+        thick, width = self.handle_bar
+        (z_low, z_high), outer = self.handle_z, self.radius + self.handle_reach
+        inner = self.radius - 0.5 * thick
+        half_bar = 0.5 * (outer - thick - inner)
+        bars = (Box(centre=np.array([inner + half_bar, 0.0, z_high - 0.5 * thick]),
+                    half_extents=np.array([half_bar, 0.5 * width, 0.5 * thick])),
+                Box(centre=np.array([outer - 0.5 * thick, 0.0, 0.5 * (z_low + z_high)]),
+                    half_extents=np.array([0.5 * thick, 0.5 * width, 0.5 * (z_high - z_low)])),
+                Box(centre=np.array([inner + half_bar, 0.0, z_low + 0.5 * thick]),
+                    half_extents=np.array([half_bar, 0.5 * width, 0.5 * thick])))
         return ObjectBody((Cylinder(centre=np.array([0.0, 0.0, 0.5 * self.height]), axis=np.array([0.0, 0.0, 1.0]),
-                                    radius=self.radius, length=self.height),))
+                                    radius=self.radius, length=self.height), *bars))
 
     def palm_to_body(self, x: ArrayLike) -> float:
         """Distance (m) from the palm centre to the cup's body (solid cylinder, handle excluded)."""
@@ -288,6 +305,8 @@ class Flashlight:
     radius: float = 0.02
     length: float = 0.20
     switch_x: float = 0.04
+    switch_half_extents: tuple[float, float, float] = (0.008, 0.003, 0.005)
+    """The switch, a box on the +y side at x = switch_x, axis height (m); it stands 4 mm proud of the body."""
     centre_of_mass_x: float = 0.0
     usage_min_elevation: float = math.radians(50.0)
     switch_reach: float = 0.035
@@ -304,9 +323,13 @@ class Flashlight:
     """Handover: |roll - pi| at most this counts as the wrist turned by about 180 degrees."""
 
     def body(self) -> ObjectBody:
-        """The solid body the planner keeps the palm centre out of."""
+        """The flashlight's solid parts: the cylinder and the switch on its +y side."""
+        half = np.array(self.switch_half_extents)
+        proud = 0.004
         return ObjectBody((Cylinder(centre=np.array([0.0, 0.0, self.radius]), axis=np.array([1.0, 0.0, 0.0]),
-                                    radius=self.radius, length=self.length),))
+                                    radius=self.radius, length=self.length),
+                           Box(centre=np.array([self.switch_x, self.radius + proud - half[1], self.radius]),
+                               half_extents=half)))
 
     def palm_to_body(self, x: ArrayLike) -> float:
         """Distance (m) from the palm centre to the body (solid cylinder along x, axis at z = radius)."""
@@ -570,6 +593,16 @@ FLASHLIGHT_RULES = ObjectRules(name='flashlight', task_names=DEFAULT_TASKS,
 
 OBJECTS: dict[str, ObjectRules] = {'cup': CUP_RULES, 'flashlight': FLASHLIGHT_RULES}
 """The objects this module can generate demonstrations for, by name."""
+
+
+def object_of(model_name: str) -> ObjectRules | None:
+    """The rules of a model's object, found by the model's name; None for no known object.
+
+    The object is the one of :data:`OBJECTS` whose name is ``model_name`` or the part of it before the first
+    ``_`` (``cup_7zone``, ``cup_7zone@seed1``: the cup). The one rule for every reader (the viewer's scene,
+    the benchmarks, the tests); the model document does not name its object.
+    """
+    return OBJECTS.get(model_name) or OBJECTS.get(model_name.partition('_')[0])
 
 
 # ---------------------------------------------------------------------------------------- sampling

@@ -14,9 +14,10 @@ first it takes is returned, status 'rejected' when it takes none). The feasible 
 that serves v's top zone, does (by its label) and is read by the model (argmax_k P(k|x)) as doing only
 likely tasks (the top zone's, and tasks whose probability, read from v, is at least ``tau``), and has the
 highest expected task success under v as executed: v's mass on the zones its task set contains, each
-weighted by the estimated probability that the grasp, landing off by the execution noise ``noise``, still
-does that zone's tasks (:mod:`grasp_intent_ros.planning.robustness`: estimated from the labelled demonstrations
-only, once per model and noise; ``noise=None`` plans for an exact landing); ties go to the paper's
+weighted by the estimated probability that the grasp, landing off by the execution noise
+:attr:`~.options.TaskOptions.noise`, still does that zone's tasks (:mod:`grasp_intent_ros.planning.robustness`:
+estimated from the labelled demonstrations only, once per model and noise; None, the default, plans for an
+exact landing, where that probability is 1); ties go to the paper's
 fit 1/2 |v - P|^2, then to the reference, then to demonstration order. A warm start keeps its demonstration
 while it stays within stated bands of the best expected success and fit, and tasks it is read as doing stay
 likely down to ``tau - hysteresis``. The rules and reasons are :mod:`grasp_intent_ros.planning.ranking`'s.
@@ -87,8 +88,10 @@ wider search runs and the grasp may jump.
 The paper's solvers stay available too: ``method='slsqp'`` (SQP) and ``'trust-constr'`` (interior point)
 minimise f from the demonstration starts (scipy), with rule 6's choice.
 
-Machine independence (every method): nothing goes through BLAS or LAPACK (their kernels sum in an order
-chosen for the CPU). The model's precisions, the screens' log joints and posteriors
+Machine independence (methods 'task' and 'lm'): nothing goes through BLAS or LAPACK (their kernels sum in
+an order chosen for the CPU). The scipy methods are the exception: they take the posterior's Jacobian from
+``GraspModel.posterior_jacobian`` (numpy) and run scipy's solvers, so their last bits may differ between
+machines. The model's precisions, the screens' log joints and posteriors
 (``GraspModel.start_pool``), the demonstrations' scores and every iteration sum in a fixed order and take
 ``exp`` and ``log`` from the C library, so a plan has the same bits under any BLAS.
 
@@ -102,7 +105,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, NamedTuple, get_args
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -121,19 +124,17 @@ from ..kernels import (
 from ..method.features import FINGERS, MICO_3F, PALM
 from ..method.intent import reconstruct_w, zone_label
 from ..method.model import GraspModel
-from .ranking import HYSTERESIS, TAU, Faithful, rank
-from .robustness import ExecutionNoise, retention
+from .options import DEFAULT_METHOD, Gradient, Method, Options, ScipyOptions, TaskOptions, check_options
+from .ranking import rank
+from .robustness import retention
 
 if TYPE_CHECKING:
     from scipy.optimize import OptimizeResult  # type: ignore[import-untyped]
 
 __all__ = [
+    'feasible_demonstrations',
     'Candidate',
     'PlanResult',
-    'Method',
-    'METHODS',
-    'DEFAULT_METHOD',
-    'Gradient',
     'MATCH_TOL',
     'DISTANCE_TOL',
     'WARM_BAND',
@@ -145,13 +146,6 @@ __all__ = [
     'plan',
     'reference_search',
 ]
-
-Method = Literal['task', 'lm', 'slsqp', 'trust-constr']
-METHODS: tuple[Method, ...] = get_args(Method)
-"""Every :data:`Method`, in order."""
-DEFAULT_METHOD: Method = 'task'
-"""The method :func:`plan` uses unless told otherwise (the planner node's default too)."""
-Gradient = Literal['analytic', '2-point']
 
 MATCH_TOL = 1e-12
 """f within this of the best found (or 1e-6 relative, whichever is larger) counts as a match."""
@@ -192,7 +186,7 @@ _NO_EQUATIONS = (np.zeros(0, dtype=np.int64), 0, np.zeros(0), np.zeros(0))  # P 
 
 
 class Candidate(NamedTuple):
-    """One refined start (immutable; a named tuple, as a plan makes some 30 of them: 0.4 us each, 1.5 as a dataclass).
+    """One refined start (immutable; a named tuple, built faster than a dataclass: a plan makes dozens).
 
     Attributes
     ----------
@@ -206,12 +200,20 @@ class Candidate(NamedTuple):
         Where the refinement began.
     start_objective : float
     start_index : int
-        Position of the start in the plan's start order (ties are broken by it).
+        Position of the start in the plan's start order (ties are broken by it); method 'task': the
+        candidate's position in the ranking.
     success : bool
         The refinement converged (a KKT point or a stationary point of f), not stopped by its
-        iteration limit.
+        iteration limit; always True for method 'task' (a demonstration is not refined).
     message : str
+        How the refinement ended; method 'task': the demonstration and the tier of the ranking it is in.
     iterations : int
+        Solver iterations (0 for method 'task').
+    demonstration : int or None
+        Method 'task': the candidate's row in the model's demonstrations; None for the other methods.
+
+    For method 'task' the candidate is a demonstration as it is: ``x`` is ``start`` and ``objective`` is
+    ``start_objective``; ``distance`` is to the plan's reference.
     """
 
     x: NDArray[np.float64]
@@ -224,6 +226,7 @@ class Candidate(NamedTuple):
     success: bool
     message: str
     iterations: int
+    demonstration: int | None = None
 
 
 @dataclass(frozen=True)
@@ -356,6 +359,11 @@ def search_starts(model: GraspModel, v: NDArray[np.float64], count: int = _SCREE
     return out
 
 
+def feasible_demonstrations(model: GraspModel) -> NDArray[np.float64]:
+    """The demonstrations projected onto the feasible set X (N, d): method 'task''s candidates, bit for bit."""
+    return _Feasible(model).project(model.demo_x)
+
+
 class _Feasible:
     """Projection onto the feasible set X (compiled: :mod:`.kernels`) and the scale of the distance between grasps."""
 
@@ -386,25 +394,12 @@ class _LogOddsProjection:
     the residual is below 1e-11 nats after a step of less than 1e-9 (scaled); it stops without a match
     when its residual has not halved in 12 iterations, or after 60.
 
-    Why a start stalls (flashlight, measured): where the projection of x_ref stops short of an existing
-    match, the normalised Jacobian's smallest singular value is about 3e-3 (the homotopy path nears a
-    fold), and the ridge, larger than its square, turns the step into one that no longer lowers the
-    residual's 1-norm, so the trust radius collapses (no bound is active in 16 of the 20 that stall
-    even without the stall rule, and the body is 1-3 cm away in all). Without the
-    stall rule (400 iterations) 27 instead of 10 of 48 such starts converge, without the ridge too 30,
-    but the long paths are not stable: their end points move under a 1e-12 change of v (6-13 in 100).
-    A path-following continuation in the right-hand side (Gauss-Newton corrector, adaptive step)
-    reached 25 of the 48, stopping where the path meets such a fold. The short, damped paths are
-    kept; the wider search finds the other matches.
-
-    Why the path is taken to rounded targets (flashlight, measured): a path that reaches its match only
-    after many rejected steps near such a fold amplifies a difference in its input by about 1.8 per
-    iteration; for one w (the benchmark's #192) a 1e-12 change of v was 1e-13 after 2 iterations, 1e-7
-    after 40 and 1e-4 at the match after 60 (both runs converged, at different points of the match
-    manifold). No iteration count was involved, so no convergence rule could fix it. With the targets
-    rounded to 1e-9 nats the path sees the same input for both runs (unless a target lies within the
-    change of a rounding boundary: odds of about 1e-3 per target, which matter only for such a path),
-    and the few local steps onto the exact targets that follow are contractions, not amplifiers.
+    Why the paths are short and damped, and taken to targets rounded to 1e-9 nats: near a fold of the
+    homotopy path the ridge turns the steps into ones that no longer lower the residual, and a long path
+    amplifies a difference in its input at every iteration; with rounded targets both runs of a perturbed
+    input see the same path, and the few local steps onto the exact targets that follow are contractions.
+    The wider search finds the matches a short path misses. The measurements behind these choices are in
+    docs/measurements.md ("The planner's log-odds projection").
     """
 
     def __init__(self, model: GraspModel, v: NDArray[np.float64], feas: _Feasible) -> None:
@@ -424,7 +419,7 @@ class _LogOddsProjection:
         two steps from 1e-9 nats away, in the same compiled call).
         """
         model, feas = self.model, self.feas
-        return project(starts, model.means, model._precisions, model._log_norm, self.others, self.r, self.b_path,
+        return project(starts, model.means, model.precisions, model.log_norm, self.others, self.r, self.b_path,
                        feas.scale, feas.lower, feas.upper, feas.a.start, feas.a.stop, feas.body,
                        maxiter=_GN_MAXITER, stall=_GN_STALL, damping=_GN_DAMPING, htol=_GN_HTOL,
                        steptol=_GN_STEPTOL, b_final=self.b)
@@ -449,7 +444,7 @@ def _least_squares(model: GraspModel, v: NDArray[np.float64], origins: NDArray[n
     mico_fingers = model.features.names[FINGERS] == MICO_3F.names[FINGERS]  # other feature spaces: no round
     equations = projection.equations if projection is not None else _NO_EQUATIONS
     xs, ok, its, ends, origins = least_squares_rounds(
-        origins, v, v_path, model.means, model._precisions, model._log_norm, feas.lower, feas.upper, feas.scale,
+        origins, v, v_path, model.means, model.precisions, model.log_norm, feas.lower, feas.upper, feas.scale,
         feas.a.start, feas.a.stop, feas.body, lm=(_LM_RACE, _LM_KEEP, _LM_MAXITER, _LM_FTOL, _LM_RIDGE),
         newton=(_NEWTON_POLISH, _NEWTON_RACE, _NEWTON_KEEP, _NEWTON_MAXITER, _NEWTON_STEPTOL), screened=screened,
         fingers=(FINGERS.start, FINGERS.stop) if mico_fingers else (0, 0), open_f=_OPEN_F, open_lm=_OPEN_LM,
@@ -559,11 +554,9 @@ def _choose(candidates: list[Candidate], band: float) -> list[Candidate]:
     return [candidates[i] for i in order.tolist()]
 
 
-def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gradient: Gradient = 'analytic',
-         n_starts: int = 3, top_zones: int = 2, warm_start: ArrayLike | None = None,
-         accept: Callable[[NDArray[np.float64]], bool] | None = None,
-         extra_constraints: Sequence[Any] = (), tau: float = TAU, hysteresis: float = HYSTERESIS,
-         faithful: Faithful = 'label', noise: ExecutionNoise | None = ExecutionNoise()) -> PlanResult:
+def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, options: Options | None = None,
+         warm_start: ArrayLike | None = None,
+         accept: Callable[[NDArray[np.float64]], bool] | None = None) -> PlanResult:
     """Plan a grasp for target v (module docstring): by default the demonstration that serves the likely tasks.
 
     Parameters
@@ -572,54 +565,33 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
     v : array_like, shape (K,)
         Target vector over the model's zones (see :func:`grasp_intent_ros.method.intent.interpret`).
     method : {'task', 'lm', 'slsqp', 'trust-constr'}
-        ``'task'`` (default, :data:`DEFAULT_METHOD`): serve the likely tasks (:mod:`.serving`). The paper's
-        planner: ``'lm'``, the exact match by log-odds projection, then projected Levenberg-Marquardt least
-        squares when no exact match is found; ``'slsqp'`` and ``'trust-constr'``, the paper's solvers on f
-        from the demonstration starts.
-    gradient : {'analytic', '2-point'}
-        Analytic gradient (default) or scipy's finite differences (the paper's baseline; scipy methods only).
-    n_starts : int >= 1
-        Demonstrations to start from (see :func:`select_starts`; not used by ``'task'``).
-    top_zones : int >= 1
-        How many of the most likely zones supply starts (not used by ``'task'``).
+        ``'task'`` (default, :data:`~.options.DEFAULT_METHOD`): serve the likely tasks (:mod:`.ranking`). The
+        paper's planner: ``'lm'``, the exact match by log-odds projection, then projected Levenberg-Marquardt
+        least squares when no exact match is found; ``'slsqp'`` and ``'trust-constr'``, the paper's solvers
+        on f from the demonstration starts.
+    options : TaskOptions, LmOptions or ScipyOptions, optional
+        The method's options (:mod:`.options`: one class per method); None for its defaults.
     warm_start : array_like, shape (d,), optional
         The reference and first start (e.g. the previous plan).
     accept : callable x -> bool, optional
         Robot constraint that cannot be written as a smooth function (e.g. IK reachability): the first
         candidate in the choice order it accepts is returned.
-    extra_constraints : sequence
-        More smooth constraints in the form the chosen scipy method takes (not with ``'task'`` or ``'lm'``).
-    tau : float in [0, 1]
-        ``'task'``: the probability at which a task beyond the top zone is likely (:data:`.serving.TAU`).
-    hysteresis : float in [0, 1]
-        ``'task'``, warm start: tasks the previous grasp is read as doing stay likely down to tau - hysteresis.
-    faithful : {'label', 'reading'}
-        ``'task'``: what must hold no task outside the likely ones: the demonstration's label (the tasks it
-        does) and the model's reading of it (default), or only the reading.
-    noise : ExecutionNoise or None
-        ``'task'``: where the arm lands around the plan (default: the documented 1x level); the choice
-        maximises the expected success as executed (:mod:`.robustness`). None: an exact landing. The first
-        plan for a model and noise computes the estimate (seconds); later plans reuse it.
+
+    Returns
+    -------
+    PlanResult
+        Its fields mean the same for every method; :class:`Candidate` says where 'task' differs.
 
     Raises
     ------
     PlanningError
-        For a v that is not a probability vector over the model's zones, or bad options.
+        For a v that is not a probability vector over the model's zones, an unknown method, options of
+        another method's class or out of range, or a bad warm start.
     """
     t0 = time.perf_counter()
     v_arr = _check_v(model, v)
-    if n_starts < 1 or top_zones < 1:
-        raise PlanningError('n_starts and top_zones must be at least 1')
-    if method not in METHODS:
-        raise PlanningError(f"method must be 'task', 'lm', 'slsqp' or 'trust-constr', got {method!r}")
-    if not (0.0 <= tau <= 1.0 and 0.0 <= hysteresis <= 1.0):
-        raise PlanningError(f'tau and hysteresis must lie in [0, 1], got {tau!r} and {hysteresis!r}')
-    if noise is not None and not isinstance(noise, ExecutionNoise):
-        raise PlanningError(f'noise must be an ExecutionNoise or None, got {type(noise).__name__}')
-    if gradient not in ('analytic', '2-point'):
-        raise PlanningError(f"gradient must be 'analytic' or '2-point', got {gradient!r}")
-    if method in ('task', 'lm') and (gradient != 'analytic' or extra_constraints):
-        raise PlanningError(f"method {method!r} takes the analytic gradient and no extra_constraints")
+    opts = check_options(method, options)
+    n_starts, top_zones = (1, 1) if isinstance(opts, TaskOptions) else (opts.n_starts, opts.top_zones)
     demo: NDArray[np.float64] | None = None  # the demonstration starts, Algorithm 1's first
     if warm_start is not None:
         ws = np.asarray(warm_start, dtype=np.float64)
@@ -631,8 +603,8 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
         first = demo[:1]  # Algorithm 1's start
     feas = _Feasible(model)
     x_ref = feas.project(first)[0]
-    if method == 'task':
-        return _serve(model, v_arr, x_ref, feas, warm_start is not None, accept, tau, hysteresis, faithful, noise, t0)
+    if isinstance(opts, TaskOptions):
+        return _serve(model, v_arr, x_ref, feas, warm_start is not None, accept, opts, t0)
     band = WARM_BAND if warm_start is not None else 0.0  # rule 6: a stream keeps its branch within the band
 
     def all_starts() -> NDArray[np.float64]:
@@ -646,7 +618,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
                         ) -> list[Candidate]:
         """Scored candidates of the end points xs (N, d); ``message(i, converged)`` says how row i ended."""
         n = xs.shape[0]
-        post, f, dist = score(np.concatenate([xs, origin]), v_arr, model.means, model._precisions, model._log_norm,
+        post, f, dist = score(np.concatenate([xs, origin]), v_arr, model.means, model.precisions, model.log_norm,
                               x_ref, feas.scale)
         f_all = f.tolist()
         return [Candidate(x, p, fi, di, x0, f0, first_index + i, converged, message(i, converged), it)
@@ -689,8 +661,9 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
             xs, ok, its, labels, origins = _least_squares(model, v_arr, origins, feas, projection, screened[0])
             found += candidates_from(xs, origins, ok, its, len(found), lambda i, _: labels[i])
     else:
+        assert isinstance(opts, ScipyOptions)
         for i, s0 in enumerate(all_starts()):
-            x1, ok1, text, it = _refine_scipy(model, v_arr, s0, method, gradient, extra_constraints, feas)
+            x1, ok1, text, it = _refine_scipy(model, v_arr, s0, method, opts.gradient, opts.extra_constraints, feas)
             found += candidates_from(x1[None, :], s0[None, :], np.array([ok1]), np.array([it]), i,
                                      lambda _, __: text)  # called at once, in this iteration
     ranked = _choose(found, band)
@@ -714,12 +687,11 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, gr
                       method=method, candidates=tuple(ranked), rejected=rejected)
 
 def _serve(model: GraspModel, v: NDArray[np.float64], x_ref: NDArray[np.float64], feas: _Feasible, warm: bool,
-           accept: Callable[[NDArray[np.float64]], bool] | None, tau: float, hysteresis: float, faithful: Faithful,
-           noise: ExecutionNoise | None, t0: float) -> PlanResult:
+           accept: Callable[[NDArray[np.float64]], bool] | None, opts: TaskOptions, t0: float) -> PlanResult:
     """Method 'task': the first demonstration of :func:`~.ranking.rank` that ``accept`` takes."""
-    kept = None if noise is None or noise.is_zero else retention(model, noise)
-    ranking = rank(model, v, int(zone_order(v)[0]), x_ref, feas.lower, feas.upper, feas.a, feas.body, tau=tau,
-                   hysteresis=hysteresis, warm=warm, faithful=faithful, retention=kept)
+    kept = None if opts.noise is None or opts.noise.is_zero else retention(model, opts.noise)
+    ranking = rank(model, v, int(zone_order(v)[0]), x_ref, feas.lower, feas.upper, feas.a, feas.body, tau=opts.tau,
+                   hysteresis=opts.hysteresis, warm=warm, faithful=opts.faithful, retention=kept)
     names = model.task_names
     likely = zone_label(ranking.likely, names)
     top = zone_label(ranking.top, names)
@@ -728,10 +700,10 @@ def _serve(model: GraspModel, v: NDArray[np.float64], x_ref: NDArray[np.float64]
     sets = model.demo_sets
     n = min(_TASK_CANDIDATES, ranking.order.size)
     candidates = tuple(
-        Candidate(x, p, f, d, x, f, i, True, f'demonstration {i} ({zone_label(int(sets[i]), names)}): {tiers[t]}', 0)
-        for x, p, f, d, i, t in zip(ranking.x[:n], ranking.posterior[:n], ranking.objective[:n].tolist(),
+        Candidate(x, p, f, d, x, f, k, True, f'demonstration {i} ({zone_label(int(sets[i]), names)}): {tiers[t]}', 0, i)
+        for k, (x, p, f, d, i, t) in enumerate(zip(ranking.x[:n], ranking.posterior[:n], ranking.objective[:n].tolist(),
                                     ranking.distance[:n].tolist(), ranking.order[:n].tolist(),
-                                    ranking.tier[:n].tolist()))
+                                    ranking.tier[:n].tolist())))
     if not candidates:
         raise PlanningError(f'model {model.name!r} has no demonstration outside its body to plan from')
     rejected = 0

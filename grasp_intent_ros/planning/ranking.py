@@ -185,7 +185,7 @@ def rank(model: GraspModel, v: NDArray[np.float64], top: int, reference: NDArray
     xs = feasible(demo_x, lower, upper, approach.start, approach.stop, body)
     inside = np.abs(xs[:, :3] - demo_x[:, :3]).max(axis=1) > 0.0 if model.body is not None else \
         np.zeros(demo_x.shape[0], dtype=np.bool_)
-    posterior, f, dist = score(xs, v, model.means, model._precisions, model._log_norm, reference,
+    posterior, f, dist = score(xs, v, model.means, model.precisions, model.log_norm, reference,
                                model.feature_scale)
     zones = np.asarray(model.zones, dtype=np.int64)
     sets = model.demo_sets

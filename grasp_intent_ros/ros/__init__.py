@@ -33,6 +33,10 @@ robot
     PoseStamped <-> 4x4 transforms, joint states, joint trajectories.
 markers
     RViz markers of a planned grasp.
+model_follower
+    ``ModelFollower``: a node's copy of the active model, read from ``model/active`` in a thread of its own.
+clarification
+    ``ClarificationRequests``: a node's requests for clarification on ``intent/clarification``, counted.
 grasp_messages
     The messages of one planned grasp (:class:`grasp_intent_ros.mico.grasp.Grasp`); ``GraspOutputs``, the
     planner's output stage (all or none, else a clarification request).
@@ -43,6 +47,3 @@ compat
 Importing this package imports no submodule; each submodule but ``startup`` imports rclpy or the message
 packages, and :mod:`grasp_intent_ros.method` never does.
 """
-
-__all__ = ['compat', 'conversions', 'diagnostics', 'grasp_messages', 'inputs', 'markers', 'params', 'qos', 'robot',
-           'run', 'startup', 'worker']

@@ -154,6 +154,8 @@ class GraspOutputs:
             self._diagnostics.set_values({KEY_PLANNING_TIME: f'{1e3 * grasp.result.wall_time_s:.3f}',
                                           'last IK time [ms]': f'{1e3 * grasp.ik_seconds:.3f}',
                                           'last plan reachability': grasp.note, **self._counts})
+            if isinstance(grasp, Grasp) and grasp.clearance is not None:
+                self._diagnostics.set_value('last grasp clearance', grasp.clearance.summary())
         if status is not None:
             self._diagnostics.set_value(KEY_PLAN_STATUS, status)
         if isinstance(grasp, Grasp) and grasp.fallback:

@@ -19,7 +19,7 @@ process's start only:
   cycle among them is never collected.
 - OpenBLAS runs single-threaded, unless ``OPENBLAS_NUM_THREADS`` is set already (read when numpy and
   scipy load it): each of the two OpenBLAS libraries (numpy's and scipy's) otherwise starts worker threads
-  (one on a 2-core machine), each spinning on the CPU for a while as it starts, while the planner's
+  (by the machine's cores), each spinning on the CPU for a while as it starts, while the planner's
   matrices (at most 10 x 10) are far below the size at which OpenBLAS would hand work to a second thread.
 
 :func:`begin` must run before the node's module imports numpy to have its full effect: a node module calls

@@ -1,16 +1,7 @@
-"""Work off the node's executor: a latest-only worker, and an input thread that answers every message.
+"""Work off the node's executor: a latest-only worker that can take subscriptions, and an input thread.
 
-Latest-only worker: callbacks store the newest inputs, one thread handles the newest snapshot.
-
-The node's executor thread never blocks on a long computation (a plan), and the thread never works
-through a backlog: inputs that arrive while it is busy replace each other, and it takes the newest
-snapshot when it is free again. Nothing here knows message types: it is rclpy's threading idiom, written once.
-
-The hand-over: an update that finds the thread idle also hands it the GIL at once (``time.sleep(0)``
-releases it). Otherwise the woken thread waits for the GIL until the updating thread gives it up by
-itself: an rclpy executor thread does so only when it blocks in its next wait, after building the wait
-set (a few hundred microseconds of Python), or when the switch interval forces it (``sys.getswitchinterval``,
-the planner's 0.5 ms), which the hand-over saves on every update.
+The latest-only worker itself (callbacks store the newest inputs, one thread handles the newest snapshot)
+is ROS-free: :mod:`grasp_intent_ros.latest_only`. This module adds what needs rclpy.
 
 Taken subscriptions: a worker built with an rclpy ``context`` can take a subscription's messages in its own
 thread (:meth:`LatestOnlyWorker.take`) instead of the node's executor; an :class:`InputThread` does only
@@ -25,12 +16,10 @@ runs; the worker's thread also runs the subscription's QoS event handlers.
 
 from __future__ import annotations
 
-import math
 import threading
-import time
 from collections.abc import Callable
 from contextlib import ExitStack
-from typing import Any, Generic, TypeVar, cast
+from typing import Any, TypeVar, cast
 
 from rclpy.callback_groups import CallbackGroup
 from rclpy.context import Context
@@ -39,6 +28,8 @@ from rclpy.exceptions import InvalidHandle
 from rclpy.guard_condition import GuardCondition
 from rclpy.subscription import Subscription
 
+from .. import latest_only
+from ..latest_only import Wait, WorkerThread
 from .compat import new_wait_set, waiting_messages
 
 __all__ = ['LatestOnlyWorker', 'InputThread']
@@ -61,24 +52,6 @@ class _TakenByWorker(CallbackGroup):
         return False
 
     def ending_execution(self, entity: Any) -> None:
-        pass
-
-
-class _EventWait:
-    """The worker thread waits on a ``threading.Event`` (a worker without ROS)."""
-
-    def __init__(self) -> None:
-        self._event = threading.Event()
-
-    def wake(self) -> None:
-        self._event.set()
-
-    def wait(self, timeout: float | None) -> bool:
-        self._event.wait(timeout)
-        self._event.clear()
-        return True
-
-    def close(self) -> None:
         pass
 
 
@@ -159,14 +132,11 @@ class _WaitSetWait:
             self.subscriptions.clear()
 
 
-class _OffExecutorThread:
-    """What the module's threads share: the thread, its wait (an Event or an rclpy wait set), stopping."""
+class _Taking:
+    """Subscriptions taken in a worker's own thread (an rclpy wait set), off the node's executor."""
 
-    def __init__(self, wait: _EventWait | _WaitSetWait, name: str) -> None:
-        self._wait = wait
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
-        self._thread.start()
+    _wait: Wait
+    _thread: threading.Thread
 
     @property
     def callback_group(self) -> CallbackGroup:
@@ -186,47 +156,14 @@ class _OffExecutorThread:
             raise ValueError(f'{self._thread.name}: a thread without an rclpy context takes no subscriptions')
         return self._wait
 
-    def stop_soon(self) -> None:
-        """Ask the thread to stop after its current work (safe from any thread and a signal handler)."""
-        self._stop.set()
-        self._wait.wake()
 
-    def stop(self) -> None:
-        """Stop the thread and wait for it (unless called from it); then release its guard condition, if any."""
-        self.stop_soon()
-        if threading.current_thread() is not self._thread:
-            self._thread.join()
-            self._wait.close()
-
-    @property
-    def stopping(self) -> bool:
-        """Whether a stop was asked for."""
-        return self._stop.is_set()
-
-    def _run(self) -> None:
-        raise NotImplementedError
-
-
-class LatestOnlyWorker(_OffExecutorThread, Generic[T]):
-    """Holds the newest inputs ``T`` (immutable) and hands them to ``handle`` in a thread of its own.
+class LatestOnlyWorker(_Taking, latest_only.LatestOnlyWorker[T]):
+    """:class:`grasp_intent_ros.latest_only.LatestOnlyWorker`, which can also take subscriptions.
 
     Parameters
     ----------
-    initial : T
-        The inputs before any update.
-    handle : callable
-        ``handle(snapshot)`` runs in the worker thread. It must not raise (wrap it, e.g. with
-        ``NodeDiagnostics.guard``).
-    ready : callable
-        ``ready(snapshot) -> bool``, checked first in the worker thread: False when the snapshot cannot
-        be handled yet (an input is still missing); it is offered again after the next triggering update.
-    name : str
-        Thread name.
-    min_period : callable
-        Seconds that must pass between the starts of two handled snapshots (read before each).
-    prepare : callable, optional
-        Run once in the worker thread before it handles anything (e.g. loading compiled code), so that the
-        work overlaps with what the node waits for at start (discovery, its first inputs). It must not raise.
+    initial, handle, name, ready, min_period, prepare
+        As for :class:`grasp_intent_ros.latest_only.LatestOnlyWorker`.
     context : rclpy Context, optional
         The node's context: the thread then waits in an rclpy wait set and can take subscriptions
         (:meth:`take`); without one it waits on a ``threading.Event``.
@@ -237,88 +174,12 @@ class LatestOnlyWorker(_OffExecutorThread, Generic[T]):
                  min_period: Callable[[], float] = lambda: 0.0,
                  prepare: Callable[[], object] | None = None,
                  context: Context | None = None) -> None:
-        self._lock = threading.Lock()
-        self._latest = initial
-        self._version = 0
-        self._handle, self._ready = handle, ready
-        self._min_period = min_period
-        self._prepare = prepare
-        self._preparing = prepare is not None
-        self._idle = False  # the thread waits for an update
-        self.superseded = 0
-        """Triggering updates never handled because a newer one replaced them."""
         # a subscription's callback that calls update() (in this thread) has it handled in the same wake-up
-        super().__init__(_EventWait() if context is None else _WaitSetWait(context, name), name)
-
-    @property
-    def latest(self) -> T:
-        """The newest inputs."""
-        with self._lock:
-            return self._latest
-
-    def update(self, change: Callable[[T], T], *, trigger: bool = True) -> None:
-        """Replace the inputs by ``change(latest)`` atomically; with ``trigger`` they call for handling."""
-        with self._lock:
-            self._latest = change(self._latest)
-            if trigger:
-                self._version += 1
-        if trigger and threading.current_thread() is not self._thread:  # the thread itself looks after waking
-            self._wait.wake()
-            if self._idle:  # hand it the GIL now (module docstring); a busy thread takes the update later
-                time.sleep(0)
-
-    @property
-    def idle(self) -> bool:
-        """Whether the thread waits for a triggering update (its preparation done, nothing being handled)."""
-        return self._idle
-
-    @property
-    def preparing(self) -> bool:
-        """Whether the thread still runs ``prepare``."""
-        return self._preparing
-
-    def stop(self) -> None:
-        """Stop the thread and wait for it, unless it still runs ``prepare``.
-
-        A preparation (a compile, say) cannot be cut short: the thread (a daemon) is then only asked to stop,
-        and ends with the process (:func:`grasp_intent_ros.ros.startup.run` ends a process left so at once).
-        """
-        if self._preparing:
-            self.stop_soon()
-        else:
-            super().stop()
-
-    def _run(self) -> None:
-        if self._prepare is not None:
-            try:
-                self._prepare()
-            finally:
-                self._preparing = False
-        handled = 0
-        last_start = -math.inf
-        while not self._stop.is_set():
-            self._idle = True
-            waited = self._wait.wait(None)
-            self._idle = False
-            wait = last_start + self._min_period() - time.monotonic()
-            if waited and wait > 0.0:
-                if self._stop.wait(wait):
-                    break
-                waited = self._wait.wait(0.0)  # take what arrived meanwhile
-            if self._stop.is_set() or not waited:
-                break
-            with self._lock:
-                snapshot, version = self._latest, self._version
-            if version == handled:
-                continue
-            if not self._ready(snapshot):
-                continue
-            self.superseded += max(0, version - handled - 1)
-            handled, last_start = version, time.monotonic()
-            self._handle(snapshot)
+        super().__init__(initial, handle, name=name, ready=ready, min_period=min_period, prepare=prepare,
+                         wait=None if context is None else _WaitSetWait(context, name))
 
 
-class InputThread(_OffExecutorThread):
+class InputThread(_Taking, WorkerThread):
     """A thread of its own that takes subscriptions' messages and runs their callbacks, off the node's executor.
 
     For a node that must answer every message of a fast input: its executor would wake for each message (or

@@ -4,8 +4,9 @@ A :class:`Shape` is a box or a capped cylinder (its axis along its own +z, as in
 colour; :func:`arm_shapes` poses the URDF's visual geometry (Pinocchio's ``VISUAL`` geometry model of
 ``config/mico_3f.urdf``: the arm's cylinders and the fingers' boxes) for arm joint angles and finger
 closures, :func:`body_shapes` the primitives of an :class:`~grasp_intent_ros.method.body.ObjectBody` for an
-object pose. Every pose is ``base_T_shape`` (4x4, metres, in ``m1n6s300_link_base``), so a drawing needs no
-kinematics of its own: three.js through viser in the viewer, matplotlib in the report.
+object pose (the cup's handle, the flashlight's switch), :func:`table_shape` the table it stands on. Every
+pose is ``base_T_shape`` (4x4, metres, in ``m1n6s300_link_base``), so a drawing needs no kinematics of its own:
+three.js through viser in the viewer, matplotlib in the report.
 
 No mesh loader: the URDF holds primitives only, and a mesh in it is refused (:class:`ArmModel`).
 """
@@ -26,10 +27,14 @@ from ..method.body import Box, Cylinder, ObjectBody
 from ..mico.frames import check_transform, check_vector
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, EE_FRAME, FINGER_JOINTS, default_urdf_path
 
-__all__ = ['Shape', 'ArmModel', 'body_shapes', 'BODY_RGBA']
+__all__ = ['Shape', 'ArmModel', 'body_shapes', 'table_shape', 'BODY_RGBA', 'TABLE_RGBA', 'TABLE_SIZE']
 
 BODY_RGBA = (0.62, 0.66, 0.74, 0.85)
 """Colour of the object's body (RGBA, 0..1)."""
+TABLE_RGBA = (0.55, 0.42, 0.30, 0.45)
+"""Colour of the table (RGBA, 0..1)."""
+TABLE_SIZE = (0.5, 0.5, 0.01)
+"""Edge lengths (m) of the drawn table top: its upper face is the plane the object stands on."""
 
 
 @dataclass(frozen=True)
@@ -183,3 +188,18 @@ def body_shapes(body: ObjectBody, base_T_obj: ArrayLike, *,
             hx, hy, hz = (2.0 * float(v) for v in primitive.half_extents)
             out.append(Shape(f'body_{i}', 'box', (hx, hy, hz), base_T @ obj_T_shape, rgba))
     return out
+
+
+def table_shape(base_T_obj: ArrayLike, *, rgba: tuple[float, float, float, float] = TABLE_RGBA) -> Shape:
+    """The table the object stands on (the planner's default table, the plane z = 0 of the object's frame).
+
+    A :data:`TABLE_SIZE` box centred under the object, its upper face on the plane.
+
+    Raises
+    ------
+    KinematicsError
+        If ``base_T_obj`` is not a rigid transform.
+    """
+    obj_T_shape = np.eye(4)
+    obj_T_shape[2, 3] = -0.5 * TABLE_SIZE[2]
+    return Shape('table', 'box', TABLE_SIZE, check_transform(base_T_obj, 'base_T_obj') @ obj_T_shape, rgba)

@@ -5,7 +5,8 @@ The scene (three.js, in the base frame ``m1n6s300_link_base``, +z up):
 - ``/arm``: the MICO at ``joint_states``, drawn from the URDF's visual model
   (:class:`~grasp_intent_ros.scene.geometry.ArmModel`);
 - ``/ghost``: a translucent MICO at the newest plan's ``grasp/joint_targets``;
-- ``/object``: the active model's body at the object's pose (:attr:`SceneState.object_pose`);
+- ``/object``: the active model's body at the object's pose (:attr:`SceneState.object_pose`), and the table
+  it stands on (:func:`~grasp_intent_ros.scene.geometry.table_shape`);
 - ``/grasp``: the planned grasp frame (``grasp/pose``) and the three fingers closed as planned
   (:func:`~grasp_intent_ros.mico.frames.finger_segments`);
 - ``/twist``: the operator's (blue) and the blended (orange) linear velocity from the live hand, 1 m/s
@@ -35,7 +36,7 @@ except ModuleNotFoundError as exc:  # the optional extra
                               name=exc.name) from None
 
 from ..mico.frames import finger_segments, matrix_to_pose
-from .geometry import ArmModel, Shape, body_shapes
+from .geometry import ArmModel, Shape, body_shapes, table_shape
 from .panel import panel_html
 from .state import SceneState
 
@@ -107,6 +108,8 @@ class ScenePage:
         self._grasp = scene.add_frame('/grasp', axes_length=0.06, axes_radius=0.003, visible=False)
         self._fingers: Any = None
         self._body: list[Any] = []
+        table = table_shape(np.eye(4))
+        self._table = self._add_shape('/object/table', table, _rgb(table.rgba), table.rgba[3])
         self._twists: dict[str, Any] = {}
         self._panel = self.server.gui.add_html(panel_html(SceneState()))
         self._shown = SceneState()
@@ -179,7 +182,7 @@ class ScenePage:
             self._body = [] if body is None else [self._add_shape(f'/object/{s.name}', s, _rgb(s.rgba), s.rgba[3])
                                                   for s in body_shapes(body, np.eye(4))]
         if body is not None and pose is not None and not _same(pose, self._body_pose):
-            self._pose_shapes(self._body, body_shapes(body, pose))
+            self._pose_shapes([*self._body, self._table], [*body_shapes(body, pose), table_shape(pose)])
             self._body_pose = pose
 
     def _show_grasp(self, state: SceneState) -> None:

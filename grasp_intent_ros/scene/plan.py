@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from ..method.features import MICO_3F
 from ..mico.frames import features_to_obj_T_ee
-from ..objects.demos import OBJECTS
+from ..objects.demos import object_of
 
 __all__ = ['served_tasks', 'plan_object_pose']
 
@@ -19,10 +19,9 @@ __all__ = ['served_tasks', 'plan_object_pose']
 def served_tasks(model_name: str, task_names: tuple[str, ...], x: NDArray[np.float64]) -> tuple[str, ...] | None:
     """The tasks whose rule grasp ``x`` satisfies, by the rules of the model's object; None if not known.
 
-    The object is the one of :data:`~grasp_intent_ros.objects.demos.OBJECTS` whose name is ``model_name`` or
-    its prefix before ``_``, with the same task names (module docstring).
+    The object is :func:`~grasp_intent_ros.objects.demos.object_of` the model's name, with the same task names.
     """
-    rules = OBJECTS.get(model_name) or OBJECTS.get(model_name.partition('_')[0])
+    rules = object_of(model_name)
     if rules is None or rules.task_names != task_names or x.size != MICO_3F.dim:
         return None
     mask = rules.label(x)

@@ -28,7 +28,7 @@ from pathlib import Path
 from types import FrameType
 
 from ..errors import GraspIntentError
-from ..ros.worker import LatestOnlyWorker
+from ..latest_only import LatestOnlyWorker
 from ..scene.geometry import ArmModel
 from ..scene.page import DEFAULT_HOST, ScenePage
 from ..scene.state import VIEWER_TOPICS, SceneState, apply

@@ -103,7 +103,8 @@ __all__ = [
     'ModelHeader', 'ModelDocument', 'model_document', 'parse_model_document', 'read_model_document',
     'OK', 'WARN', 'ERROR', 'STALE', 'LEVEL_NAMES', 'level_value', 'status_name', 'status_values',
     'KEY_RECEIVED', 'KEY_REJECTED', 'KEY_LAST_ERROR', 'KEY_PROCESSING_TIME', 'KEY_DROPPED', 'KEY_PLANS',
-    'KEY_PLANNING_TIME', 'KEY_PLAN_STATUS', 'KEY_MODEL', 'KEY_KERNELS_LOAD_TIME', 'KEY_KERNELS_LOADED_LATE',
+    'KEY_PLANNING_TIME', 'KEY_PLAN_STATUS', 'KEY_MODEL', 'KEY_CLARIFICATIONS', 'KEY_LAST_OUTCOME',
+    'KEY_KERNELS_LOAD_TIME', 'KEY_KERNELS_LOADED_LATE',
 ]
 
 # ------------------------------------------------------------------------------------------ topics
@@ -713,8 +714,13 @@ KEY_PLANS: Final = 'plans'
 KEY_PLANNING_TIME: Final = 'last planning time [ms]'
 KEY_PLAN_STATUS: Final = 'last plan status'
 """What the planner's last plan led to (``grasp published (...)``, ``clarification requested: ...``)."""
-KEY_MODEL: Final = 'model'
-"""The planner's model: ``"<name> (version <n>, zones <labels>)"``."""
+KEY_MODEL: Final = 'active model'
+"""A node's active model: ``"<name> (version <n>, zones <labels>)"`` (the planner), the name (the model
+server), the name and its zones or why it was refused (the interpreter)."""
+KEY_CLARIFICATIONS: Final = 'clarifications requested'
+"""How many clarification requests a node (the interpreter, the planner) has published."""
+KEY_LAST_OUTCOME: Final = 'last outcome'
+"""What the interpreter's last w led to (``v published``, ``clarification requested: ...``)."""
 KEY_KERNELS_LOAD_TIME: Final = 'compiled kernels load time [ms]'
 """How long the planner's planning thread took at start, before it was ready, to load (or, with an empty
 cache, compile) every compiled kernel."""

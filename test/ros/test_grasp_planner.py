@@ -41,7 +41,7 @@ from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOIN
 from grasp_intent_ros.nodes.grasp_planner import PARAMETERS, GraspPlanner
 from grasp_intent_ros.objects.demos import grasp_features
 from grasp_intent_ros.planning import planner
-from grasp_intent_ros.planning.robustness import ExecutionNoise
+from grasp_intent_ros.planning.options import node_options
 from grasp_intent_ros.ros import model_follower
 from grasp_intent_ros.ros.conversions import (
     array_to_msg,
@@ -62,7 +62,8 @@ DEFAULT_POSE = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 W_GOOD = (0.9, 0.9, 0.1)
 TOPICS = ('pose', 'joints', 'trajectory', 'posterior', 'features', 'markers')
 METHOD = next(spec.default for spec in PARAMETERS if spec.name == 'method')
-NOISE = ExecutionNoise(*next(spec.default for spec in PARAMETERS if spec.name == 'execution_noise'))
+OPTIONS = node_options(METHOD, *(next(spec.default for spec in PARAMETERS if spec.name == name)
+                                 for name in ('n_starts', 'execution_noise')))
 
 
 # ---------------------------------------------------------------------------------- models
@@ -123,7 +124,7 @@ def core_plan(kin: MicoKinematics, model: GraspModel, v_all: Any, base_T_obj: An
               warm_start: Any = None, q_seed: Any = HOME_Q) -> planner.PlanResult:
     """What the node computes for v over all zones: restrict, then plan with IK reachability."""
     v = restrict(v_all, all_zones(len(model.task_names)), model.zones)
-    return planner.plan(model, v, method=METHOD, warm_start=warm_start, noise=NOISE, accept=lambda x: kin.ik(
+    return planner.plan(model, v, method=METHOD, options=OPTIONS, warm_start=warm_start, accept=lambda x: kin.ik(
         base_T_obj @ features_to_obj_T_ee(x), q_seed, restarts=8).success)
 
 
@@ -747,3 +748,24 @@ def test_every_compiled_kernel_loads_before_the_first_plan_and_none_after(make_r
         rig.request(v_msg(interpret(w).v))
         assert rig.ros.wait_for(lambda: loaded(KEY_KERNELS_LOADED_LATE), timeout=10.0)
         assert values_of(loaded(KEY_KERNELS_LOADED_LATE)[-1])[KEY_KERNELS_LOADED_LATE] == '0'
+
+
+def test_collision_check_turns_down_grasps_into_the_table_and_reports_the_clearance(
+        make_rig: Callable[..., Rig], model: GraspModel) -> None:
+    """With collision_check on, a grasp whose open hand goes below the table is not published; one clear of it is."""
+    rig = make_rig(model, parameter_overrides=[Parameter('markers_period', value=0.0),
+                                               Parameter('collision_check', value=True)])
+    clarifications = rig.ros.subscribe(String, 'intent/clarification')
+    start = rig.now()
+    assert rig.ros.publish_until(rig.v_pub, v_msg(interpret((0.9, 0.1, 0.1)).v),
+                                 rig.warn('no grasp clear of the table and the object'), timeout=20.0, period=2.0)
+    assert rig.ros.wait_for(lambda: clarifications)
+    assert 'below the table' in clarifications[0].data
+    assert rig.grasps.stamps_after(start) == []
+    plan = rig.request(v_msg(interpret((0.1, 0.9, 0.1)).v), timeout=20.0)  # transfer, from above: clear
+    assert rig.ros.wait_for(lambda: any('last grasp clearance' in values_of(s) for s in rig.statuses))
+    status = next(s for s in reversed(rig.statuses) if 'last grasp clearance' in values_of(s))
+    assert values_of(status)['last grasp clearance'].startswith('table ') and plan.x is not None
+    # a table plane that is not one is refused with the reason, and the node keeps its own
+    result = rig.node.set_parameters([Parameter('table_plane', value=[0.0, 0.0, 0.0, 1.0])])[0]
+    assert not result.successful and 'non-zero normal' in result.reason

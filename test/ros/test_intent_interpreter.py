@@ -17,7 +17,7 @@ from grasp_intent_ros.method.intent import interpret
 from grasp_intent_ros.nodes.intent_interpreter import IntentInterpreter
 from grasp_intent_ros.ros.conversions import array_to_msg
 from grasp_intent_ros.ros.params import ParameterError
-from grasp_intent_ros.wire.protocol import msg_labels, msg_to_array
+from grasp_intent_ros.wire.protocol import KEY_CLARIFICATIONS, msg_labels, msg_to_array
 
 REPO = Path(__file__).resolve().parents[2]
 LABELS_7 = 'U,T,H,UT,UH,TH,UTH'
@@ -203,7 +203,7 @@ def test_active_model_zones_decide_whether_the_intent_can_be_served(ros, interpr
     assert 'no zone of the model has non-zero probability' in msg.data and 'cup_4zone' in msg.data
     assert 'T,UT,TH,UTH' in msg.data and v_msgs == []
     status = [s for s in statuses if s.message.startswith('clarification requested')][-1]
-    assert status.level == DiagnosticStatus.OK and values(status)['clarifications'] == '1'
+    assert status.level == DiagnosticStatus.OK and values(status)[KEY_CLARIFICATIONS] == '1'
     assert values(status)['last outcome'] == f'clarification requested: {msg.data}'
     # with transfer possible the same model serves it: v over all zones, as before
     assert ros.publish_until(w_pub, w_msg([0.9, 0.9, 0.1]), lambda: v_msgs)

@@ -23,10 +23,10 @@ from grasp_intent_ros.method.features import FINGERS, MICO_3F
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
-from grasp_intent_ros.objects.demos import CUP_PROTOTYPES, CUP_RULES, grasp_features
+from grasp_intent_ros.objects.demos import CUP, CUP_PROTOTYPES, CUP_RULES, grasp_features
 from grasp_intent_ros.ros.conversions import model_to_msg, posterior_to_msg, stamped_array_to_msg
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
-from grasp_intent_ros.scene.geometry import ArmModel, body_shapes
+from grasp_intent_ros.scene.geometry import ArmModel, body_shapes, table_shape
 from grasp_intent_ros.scene.page import ScenePage
 from grasp_intent_ros.scene.panel import panel_html
 from grasp_intent_ros.scene.plan import served_tasks
@@ -84,6 +84,16 @@ def test_the_cup_s_body_stands_on_the_object_frame(cup: GraspModel) -> None:
     assert shape.kind == 'cylinder' and shape.size == pytest.approx((0.04, 0.04, 0.10))
     assert_allclose(shape.base_T_shape[:3, 3], [0.3, -0.3, 0.05], atol=1e-12)
     assert_allclose(shape.base_T_shape[:3, 2], [0.0, 0.0, 1.0], atol=1e-12)
+
+
+def test_the_handle_and_the_table_are_drawn_where_the_collision_check_has_them() -> None:
+    base_T_obj = pose_to_matrix([0.3, -0.3, 0.0], [0.0, 0.0, 1.0, 0.0])  # the handle turned toward the arm: -x
+    shapes = body_shapes(CUP.body(), base_T_obj)
+    assert [s.kind for s in shapes] == ['cylinder', 'box', 'box', 'box']
+    outer = shapes[2]  # the handle's outer bar: x from 0.062 to 0.070 m in the object frame, turned by pi
+    assert_allclose(outer.base_T_shape[:3, 3], [0.3 - 0.066, -0.3, 0.05], atol=1e-12)
+    table = table_shape(base_T_obj)
+    assert table.kind == 'box' and table.base_T_shape[2, 3] + 0.5 * table.size[2] == pytest.approx(0.0, abs=1e-15)
 
 
 # ------------------------------------------------------------------------------------------ state

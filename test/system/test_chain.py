@@ -44,7 +44,7 @@ from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
 from grasp_intent_ros.planning import planner
-from grasp_intent_ros.planning.robustness import ExecutionNoise
+from grasp_intent_ros.planning.options import node_options
 from grasp_intent_ros.ros.conversions import model_from_msg, posterior_from_msg, stamped_array_from_msg
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import matrix_to_pose_msg, pose_msg_to_matrix
@@ -102,8 +102,9 @@ def core_plan(model: GraspModel, w: tuple[float, ...], kin: MicoKinematics,
 
     reachable = Reachability(kin, base_T_obj, HOME_Q, restarts=options['ik_restarts'])
 
-    return planner.plan(model, v, method=options['method'], n_starts=options['n_starts'], accept=reachable,
-                        warm_start=warm_start, noise=ExecutionNoise(*options['execution_noise']))
+    return planner.plan(model, v, method=options['method'],
+                        options=node_options(options['method'], options['n_starts'], options['execution_noise']),
+                        accept=reachable, warm_start=warm_start)
 
 
 def _ns(stamp: Any) -> int:

@@ -118,7 +118,7 @@ def test_a_model_the_suite_cannot_serve_is_refused_and_every_intent_it_leaves_un
         w_pub.publish(Float64MultiArray(data=w))
         assert ros.wait_for(lambda n=n: len(clarifications) > n, STARTUP)
     assert {m.data for m in clarifications} == {f'cannot serve: {refused}'}
-    counted = lambda: int(status_values(status('intent_interpreter', 'intent'))['clarifications'])  # noqa: E731
+    counted = lambda: int(status_values(status('intent_interpreter', 'intent'))['clarifications requested'])  # noqa: E731
     assert ros.wait_for(lambda: counted() == len(clarifications) >= 4), (counted(), len(clarifications))
     assert ros.wait_for(lambda: status('grasp_planner', 'planning') is not None, STARTUP)  # 1 Hz, maybe none yet
     assert status_values(status('grasp_planner', 'planning'))['clarifications requested'] == '0'

@@ -25,6 +25,7 @@ THIRD_PARTY = {
     'matplotlib': ('python3-matplotlib', 'matplotlib'),
     'mpl_toolkits': ('python3-matplotlib', 'matplotlib'),  # mplot3d ships with matplotlib
     'pinocchio': ('pinocchio', 'pin'),
+    'coal': ('coal', 'coal'),
     'rosbags': ('python3-rosbags-pip', 'rosbags'),
     'pytest': ('python3-pytest', 'pytest'),
     'hypothesis': ('python3-hypothesis', 'hypothesis'),

@@ -29,6 +29,7 @@ BASE = ('errors', 'resources')
 CONTRACTS: Mapping[str, tuple[str, ...]] = {
     'errors': (),
     'resources': (),
+    'latest_only': (),
     'commands': (),
     '__main__': ('commands',),
     'kernels': (),
@@ -39,18 +40,18 @@ CONTRACTS: Mapping[str, tuple[str, ...]] = {
     'objects': (*BASE, 'method', 'mico', 'cli.user_errors'),
     'wire': (*BASE, 'method', 'mico'),
     'scene': (*BASE, 'method', 'mico', 'wire', 'objects'),
-    'ros': (*BASE, 'kernels', 'method', 'mico', 'wire'),
+    'ros': (*BASE, 'kernels', 'method', 'mico', 'wire', 'latest_only'),
     'nodes': (*BASE, 'kernels', 'method', 'planning', 'mico', 'shared_control', 'wire', 'ros', 'scene',
               'sessions.bag'),
     'sessions': (*BASE, 'method', 'mico', 'shared_control', 'wire', 'scene', 'objects', 'cli.user_errors',
-                 'ros.worker'),
+                 'latest_only'),
     'sessions.replay': (*BASE, 'method', 'mico', 'wire', 'ros', 'launch', 'cli.user_errors'),
     'sessions.replay_client': (*BASE, 'method', 'mico', 'wire', 'ros'),
     'launch': (*BASE, 'method', 'mico', 'wire', 'ros', 'objects', 'cli'),
     'cli': (*BASE, 'method', 'planning', 'mico', 'wire', 'ros', 'objects'),
 }
 """Folder (or module, the most specific entry wins) -> what else of the package it may import."""
-ROS_FREE = ('errors', 'resources', 'commands', 'kernels', 'method', 'planning', 'mico', 'shared_control',
+ROS_FREE = ('errors', 'resources', 'latest_only', 'commands', 'kernels', 'method', 'planning', 'mico', 'shared_control',
             'objects', 'wire', 'scene', 'sessions')
 """Folders that import no rclpy and no ROS message package (``sessions`` but its live replay: below)."""
 ROS_USERS = ('sessions.replay', 'sessions.replay_client')
@@ -158,7 +159,7 @@ def test_ros_free_layers_load_without_rclpy() -> None:
     """Every module of a ROS-free folder (but the live replay's) imports without loading rclpy."""
     modules = sorted(name for path in (REPO / PACKAGE).rglob('*.py')
                      if within(name := module_name(path, REPO).removeprefix(f'{PACKAGE}.'), ROS_FREE)
-                     and not within(name, ROS_USERS) and name != 'sessions.playback'
+                     and not within(name, ROS_USERS)
                      and not name.endswith('__main__'))
     code = ('import sys, importlib\n'
             f'for m in {modules!r}: importlib.import_module(f"{PACKAGE}.{{m}}")\n'
@@ -166,8 +167,15 @@ def test_ros_free_layers_load_without_rclpy() -> None:
     subprocess.run([sys.executable, '-c', code], cwd=REPO, check=True, timeout=120)
 
 
-TYPED = ('errors.py', 'resources.py', 'kernels', 'method', 'planning', 'mico', 'shared_control', 'wire',
-         'scene', 'ros', 'nodes', 'sessions')
+def test_playback_leaves_rclpy_unloaded() -> None:
+    """A recorded session plays back in the viewer's page without ROS (the ``viewer`` extra only)."""
+    code = ('import sys\nimport grasp_intent_ros.sessions.playback\n'
+            'assert "rclpy" not in sys.modules, "rclpy imported"\n')
+    subprocess.run([sys.executable, '-c', code], cwd=REPO, check=True, timeout=120)
+
+
+TYPED = ('errors.py', 'resources.py', 'latest_only.py', 'kernels', 'method', 'planning', 'mico', 'shared_control',
+         'wire', 'scene', 'ros', 'nodes', 'sessions')
 """What mypy --strict checks: every folder but the command lines (launch, cli) and the data set (objects)..."""
 UNTYPED = ('nodes/recorder.py', 'sessions/reindex.py', 'sessions/replay.py', 'sessions/replay_client.py',
            'sessions/report.py', 'sessions/playback.py')

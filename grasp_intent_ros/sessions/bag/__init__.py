@@ -6,6 +6,10 @@ repair a killed recording with :func:`reindex`; every module starts from :func:`
 Bags are rosbag2 directories (metadata.yaml version 9, MCAP storage, CDR messages, ros2msg schemas,
 offered QoS per topic), as ``ros2 bag info/play`` in ROS 2 Jazzy expects. This package imports
 rosbags only, never rclpy.
+
+Modules: writer (:class:`SessionWriter`), queued (:class:`QueuedWriter`, writes off the caller's thread),
+reader (:func:`read_messages`, :func:`topics_info`), repair (:func:`reindex`), offered_qos (the QoS a topic
+was offered with), errors, types (:func:`jazzy_typestore`).
 """
 
 from .errors import BagError, BagReadError, BagWriteError

@@ -17,6 +17,7 @@ from numpy.testing import assert_allclose
 from grasp_intent_ros.method import ambiguity, intent
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning.options import Method
 from grasp_intent_ros.resources import config_dir
 
 from ..fixed_reference import FixedReference
@@ -47,7 +48,7 @@ def models() -> dict[str, GraspModel]:
 ], ids=['cup-single', 'cup-two', 'cup-three', 'flashlight-single'])
 @pytest.mark.parametrize('method', ['lm', 'slsqp'])
 def test_planner_reconstructs_intent(models: dict[str, GraspModel], name: str,
-                                     w: tuple[float, float, float], method: planner.Method) -> None:
+                                     w: tuple[float, float, float], method: Method) -> None:
     model = models[name]
     r = intent.interpret(w, model.zones)
     assert r.v is not None

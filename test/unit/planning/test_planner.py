@@ -31,6 +31,7 @@ from grasp_intent_ros.method.data import Demonstrations
 from grasp_intent_ros.method.features import FINGERS, MICO_3F, FeatureSpace
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning.options import ScipyOptions
 from grasp_intent_ros.resources import config_dir
 
 from ..fixed_reference import FixedReference
@@ -41,9 +42,9 @@ CASES = [(0.9, 0.1, 0.1), (0.1, 0.9, 0.1), (0.1, 0.1, 0.9), (0.9, 0.9, 0.1), (0.
 
 
 
-def plan_lm(model: GraspModel, v: np.ndarray, **options: object) -> planner.PlanResult:
+def plan_lm(model: GraspModel, v: np.ndarray, **inputs: object) -> planner.PlanResult:
     """The paper's planner (method 'lm'), the subject of this module; the default method is test_ranking's."""
-    return planner.plan(model, v, method='lm', **options)  # type: ignore[arg-type]
+    return planner.plan(model, v, method='lm', **inputs)  # type: ignore[arg-type]
 
 
 SHIPPED = ('cup_7zone', 'cup_5zone', 'cup_4zone', 'flashlight_7zone')
@@ -384,7 +385,7 @@ def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, 
             x = 0.5 * (model.means[i] + model.means[j])  # between two zones, where P varies
             K, d = model.means.shape
             hess = np.empty((d, d))
-            _posterior_hessian(x, Mixture(model.means, model._precisions, model._log_norm), v, np.empty(K),
+            _posterior_hessian(x, Mixture(model.means, model.precisions, model.log_norm), v, np.empty(K),
                                np.empty((K, d)), np.empty((K, d)), hess, np.empty(d))
             step = 1e-6 * model.feature_scale
             numeric = np.stack([(planner.objective_and_gradient(model, v, x + h)[1]
@@ -581,7 +582,7 @@ def _rule_5(model: GraspModel, v: np.ndarray, origins: np.ndarray, screened: np.
     feas = planner._Feasible(model)
     body = Body(*feas.body)
     v_path = np.rint(v / planner._LS_QUANTUM) * planner._LS_QUANTUM
-    consts = (model.means, model._precisions, model._log_norm)
+    consts = (model.means, model.precisions, model.log_norm)
     mixture = Mixture(*consts)
 
     def f_of(xs: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -684,8 +685,8 @@ def test_bad_inputs_raise(toy_model: GraspModel) -> None:
         plan_lm(toy_model, np.full(7, 0.5))
     with pytest.raises(PlanningError, match='method'):
         planner.plan(toy_model, _v((0.9, 0.1, 0.1)), method='newton')  # type: ignore[arg-type]
-    with pytest.raises(PlanningError, match="'lm' takes the analytic gradient"):
-        plan_lm(toy_model, _v((0.9, 0.1, 0.1)), gradient='2-point')
+    with pytest.raises(PlanningError, match="'lm' takes LmOptions, got ScipyOptions"):
+        plan_lm(toy_model, _v((0.9, 0.1, 0.1)), options=ScipyOptions(gradient='2-point'))
     with pytest.raises(PlanningError, match='warm_start'):
         plan_lm(toy_model, _v((0.9, 0.1, 0.1)), warm_start=np.zeros(3))
 

@@ -1,6 +1,6 @@
 """The default planner (method 'task', planning/ranking.py): grasps that serve the operator's likely tasks.
 
-The judge is the object's rules (dataset.demos.OBJECTS, Table I), which the planner never sees: every
+The judge is the object's rules (objects.demos.object_of, Table I), which the planner never sees: every
 plan must serve v's top zone, never serve no task, and be faithful: neither the tasks it does (by the
 rules) nor the model's reading of it (argmax P(x)) include a task outside the top zone with w_i < 0.25.
 Asserted on the paper's 14 cases (7 per 7-zone model) and on 300 derandomised w; then the choice rule
@@ -20,9 +20,9 @@ from hypothesis import strategies as st
 from grasp_intent_ros.errors import PlanningError
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.model import GraspModel
-from grasp_intent_ros.objects.demos import OBJECTS
-from grasp_intent_ros.planning import planner
-from grasp_intent_ros.planning import ranking as serving
+from grasp_intent_ros.objects.demos import object_of
+from grasp_intent_ros.planning import planner, ranking
+from grasp_intent_ros.planning.options import TaskOptions
 from grasp_intent_ros.planning.robustness import ExecutionNoise, retention
 from grasp_intent_ros.resources import config_dir
 
@@ -49,7 +49,9 @@ def judge(model: GraspModel, w: np.ndarray, x: np.ndarray) -> tuple[int, int, in
     top = model.zones[int(planner.zone_order(r.v)[0])]
     reading = model.zones[int(np.argmax(model.posterior(x)))]
     wanted = top | sum(1 << i for i, wi in enumerate(w.tolist()) if wi >= UNLIKELY)
-    return OBJECTS[model.name.split('_')[0]].label(x), top, reading, wanted
+    rules = object_of(model.name)
+    assert rules is not None
+    return rules.label(x), top, reading, wanted
 
 
 def assert_serves(model: GraspModel, w: np.ndarray, x: np.ndarray) -> None:
@@ -82,7 +84,7 @@ def test_random_intents_serve_the_top_zone_faithfully(w: tuple[float, ...], name
     assert_serves(model, np.array(w), planner.plan(model, r.v).x)
 
 
-def oracle(model: GraspModel, v: np.ndarray, reference: np.ndarray, warm: bool, tau: float = serving.TAU,
+def oracle(model: GraspModel, v: np.ndarray, reference: np.ndarray, warm: bool, tau: float = ranking.TAU,
            faithful: str = 'label', kept: np.ndarray | None = None) -> int:
     """The module docstring's choice in plain Python (no warm band, no hysteresis): the chosen demonstration.
 
@@ -126,11 +128,13 @@ def test_the_choice_is_the_stated_rule(w: tuple[float, ...], name: str, faithful
     r = intent.interpret(w, model.zones)
     if r.v is None:
         return
-    res = planner.plan(model, r.v, tau=tau, faithful=faithful)  # type: ignore[arg-type]
-    kept = retention(model, ExecutionNoise())  # the default noise
-    assert res.chosen.start_index == oracle(model, r.v, res.reference, False, tau, faithful, kept)
-    exact = planner.plan(model, r.v, tau=tau, faithful=faithful, noise=None)  # type: ignore[arg-type]
-    assert exact.chosen.start_index == oracle(model, r.v, exact.reference, False, tau, faithful)
+    res = planner.plan(model, r.v, options=TaskOptions(tau=tau, faithful=faithful))  # type: ignore[arg-type]
+    assert res.chosen.demonstration == oracle(model, r.v, res.reference, False, tau, faithful)
+    noise = ExecutionNoise()  # the documented 1x level
+    options = TaskOptions(tau=tau, faithful=faithful, noise=noise)  # type: ignore[arg-type]
+    robust = planner.plan(model, r.v, options=options)
+    kept = retention(model, noise)
+    assert robust.chosen.demonstration == oracle(model, r.v, robust.reference, False, tau, faithful, kept)
 
 
 def test_a_likely_task_joins_the_top_zone_at_tau(models: dict[str, GraspModel]) -> None:
@@ -139,10 +143,10 @@ def test_a_likely_task_joins_the_top_zone_at_tau(models: dict[str, GraspModel]) 
     for w_t, joins in ((0.3, True), (0.2999, False), (0.2501, False)):
         v = intent.interpret((0.9, w_t, 0.1), model.zones).v
         assert planner.zone_order(v)[0] == top
-        assert serving.likely_tasks(model, v, top, 0.3) == (0b011 if joins else 0b001)
+        assert ranking.likely_tasks(model, v, top, 0.3) == (0b011 if joins else 0b001)
     v = intent.interpret((0.9, 0.2501, 0.1), model.zones).v  # a task the previous grasp reads as done stays
-    assert serving.likely_tasks(model, v, top, 0.3, keep=0b011, hysteresis=0.05) == 0b011
-    assert serving.likely_tasks(model, v, top, 0.3, keep=0b011, hysteresis=0.0) == 0b001
+    assert ranking.likely_tasks(model, v, top, 0.3, keep=0b011, hysteresis=0.05) == 0b011
+    assert ranking.likely_tasks(model, v, top, 0.3, keep=0b011, hysteresis=0.0) == 0b001
 
 
 def test_a_stream_keeps_its_demonstration_while_it_still_ranks_first(models: dict[str, GraspModel]) -> None:
@@ -155,9 +159,9 @@ def test_a_stream_keeps_its_demonstration_while_it_still_ranks_first(models: dic
     assert warm.chosen.distance == 0.0
     # never worse than the fresh plan in the model's expected success by more than the band
     e = lambda res: sum(vk for vk, z in zip(v.tolist(), model.zones)  # noqa: E731
-                        if model.demo_sets[res.chosen.start_index] & z == z)
-    assert e(warm) >= e(fresh) - serving.BAND
-    assert math.sqrt(2.0 * warm.objective) <= math.sqrt(2.0 * fresh.objective) + serving.KEEP_BAND
+                        if model.demo_sets[res.chosen.demonstration] & z == z)
+    assert e(warm) >= e(fresh) - ranking.BAND
+    assert math.sqrt(2.0 * warm.objective) <= math.sqrt(2.0 * fresh.objective) + ranking.KEEP_BAND
 
 
 @pytest.mark.parametrize('name', SEVEN)
@@ -187,7 +191,7 @@ def test_plans_faithful_by_reading_only_may_do_unlikely_tasks(models: dict[str, 
     """Only the reading must be faithful: the cup's U case gets a demonstration that does every task (read as U)."""
     model = models['cup_7zone']
     w = np.array((0.9, 0.1, 0.1))
-    res = planner.plan(model, intent.interpret(w, model.zones).v, faithful='reading')
+    res = planner.plan(model, intent.interpret(w, model.zones).v, options=TaskOptions(faithful='reading'))
     label, top, reading, wanted = judge(model, w, res.x)
     assert label == 0b111 and reading & ~wanted == 0
 
@@ -204,4 +208,4 @@ def test_bad_options_are_refused(models: dict[str, GraspModel]) -> None:
     v = intent.interpret((0.9, 0.1, 0.1), models['cup_7zone'].zones).v
     for tau, hysteresis in ((-0.1, 0.0), (1.5, 0.0), (0.3, -0.1), (math.nan, 0.0)):
         with pytest.raises(PlanningError):
-            planner.plan(models['cup_7zone'], v, tau=tau, hysteresis=hysteresis)
+            planner.plan(models['cup_7zone'], v, options=TaskOptions(tau=tau, hysteresis=hysteresis))

@@ -24,7 +24,7 @@ from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, MicoKinematics, Reachability
 from grasp_intent_ros.planning import planner
-from grasp_intent_ros.planning.robustness import ExecutionNoise
+from grasp_intent_ros.planning.options import node_options
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.sessions.closed_loop import is_closed_loop
 from grasp_intent_ros.sessions.compare import Tolerances
@@ -88,9 +88,9 @@ def test_every_recorded_plan_is_planned_again_with_v_perturbed_at_the_last_bits(
         v_perturbed = v * (1.0 + 1e-12 * rng.standard_normal(v.size))
         v_perturbed /= v_perturbed.sum()
         reachable = Reachability(kin, base_T_obj, q_arm, restarts=PARAMS['ik_restarts'])
-        result = planner.plan(model, v_perturbed, method=PARAMS['method'], n_starts=PARAMS['n_starts'],
-                              warm_start=warm.get(model.name), accept=reachable,
-                              noise=ExecutionNoise(*PARAMS['execution_noise']))
+        result = planner.plan(model, v_perturbed, method=PARAMS['method'],
+                              options=node_options(PARAMS['method'], PARAMS['n_starts'], PARAMS['execution_noise']),
+                              warm_start=warm.get(model.name), accept=reachable)
         again = base_T_obj @ features_to_obj_T_ee(result.x)
         where = f'{bag.name} input #{step.index} ({step.description})'
         assert np.linalg.norm(again[:3, 3] - base_T_ee[:3, 3]) <= TOL.position_m, where

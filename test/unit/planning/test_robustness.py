@@ -14,6 +14,7 @@ from grasp_intent_ros.method.data import Demonstrations
 from grasp_intent_ros.method.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning.options import LmOptions, TaskOptions, node_options, noise_from, options_for
 from grasp_intent_ros.planning.robustness import DRAW_DIM, ExecutionNoise, perturb, retention, standard_draws
 
 A, B, AB = 1, 2, 3
@@ -97,12 +98,26 @@ def test_retention_is_a_function_of_the_document(slab: GraspModel) -> None:
 def test_the_planner_takes_the_demonstration_inside_the_region(slab: GraspModel) -> None:
     v = np.zeros(len(slab.zones))
     v[slab.zones.index(AB)], v[slab.zones.index(A)], v[slab.zones.index(B)] = 0.8, 0.1, 0.1
-    robust = planner.plan(slab, v).x
+    robust = planner.plan(slab, v, options=TaskOptions(noise=ExecutionNoise())).x
     assert abs(robust[0] - 0.015) <= 0.006  # within the middle fifth of the band
-    exact = planner.plan(slab, v, noise=None).x
+    exact = planner.plan(slab, v).x  # the default: an exact landing
     assert BAND[0] <= exact[0] <= BAND[1]  # without noise any demonstration of the band serves as well
     with pytest.raises(PlanningError, match='ExecutionNoise'):
-        planner.plan(slab, v, noise=(0.005, 0.05, 0.05, 0.1))  # type: ignore[arg-type]
+        planner.plan(slab, v, options=TaskOptions(noise=(0.005, 0.05, 0.05, 0.1)))  # type: ignore[arg-type]
+
+
+def test_the_noise_is_an_option_of_the_task_method_only(slab: GraspModel) -> None:
+    v = np.full(len(slab.zones), 1.0 / len(slab.zones))
+    assert TaskOptions().noise is None  # the default: an exact landing, no estimate to compute
+    with pytest.raises(PlanningError, match='noise'):
+        options_for('lm', noise=ExecutionNoise())
+    with pytest.raises(PlanningError, match='TaskOptions'):
+        planner.plan(slab, v, method='lm', options=TaskOptions(noise=ExecutionNoise()))
+    assert node_options('task', 3, (0.0, 0.0, 0.0, 0.0)) == TaskOptions()
+    assert node_options('task', 3, (0.005, 0.1, 0.1, 0.2)) == TaskOptions(noise=ExecutionNoise(0.005, 0.1, 0.1, 0.2))
+    assert node_options('lm', 3, (0.005, 0.1, 0.1, 0.2)) == LmOptions(n_starts=3)  # the node's noise is for 'task'
+    with pytest.raises(PlanningError, match='4 numbers'):
+        noise_from((0.005, 0.1, 0.1))
 
 
 def test_the_planner_never_imports_the_rules() -> None:

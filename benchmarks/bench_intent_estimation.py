@@ -1,0 +1,305 @@
+r"""Calibration of the intent estimator on scripted reaches, ROS-free (issue 39).
+
+Each seeded operator is the shared-control benchmark's (:mod:`bench_shared_control`: its intent draw, its
+two-mode joystick with reaction delay, noise and speed limits) reaching, without assistance, on the mock
+MICO's twist mode (:class:`~grasp_intent_ros.mico.mock_arm.MockArm`, 100 Hz) for a grasp of its true task set S.
+Two goal rules (``--goals``):
+
+- ``fresh`` (default): a new grasp for S, drawn from the data set's prototypes of S with its person's noise
+  (:func:`grasp_intent_ros.objects.demos.sample_grasp`), kept when the object's rules label it exactly S
+  and the arm reaches it from Home: a grasp the estimator's demonstrations do not contain;
+- ``own``: the shared-control benchmark's own grasp for S (:func:`bench_shared_control.own_goals`).
+
+The estimator (:class:`~grasp_intent_ros.shared_control.estimator.IntentEstimator`, goals: the model's reachable
+demonstrations) gets each operator twist with the hand's pose at that tick; it never sees S, the rules or
+the operator's goal, and the operator never sees the estimator. At 25 / 50 / 75 % of the hand's path length
+(its translation, from the start to the grasp or the timeout) w is compared with S's indicator: the Brier
+score (mean over tasks of (w_i - 1[i in S])^2, then over episodes) and the expected calibration error (10
+equal-width bins over all (episode, task) pairs: sum over bins of n_b / n |mean w - frequency|), per object
+and per true task set, against the estimator's prior (w before any motion) and the scripted w of the
+shared-control benchmark (its ``Intent.w`` at the same instant). 95 % CIs of the paired Brier differences
+are bootstrap (2,000 resamples of episodes). Also the time of one update (all goals; wall clock, and the
+thread's CPU time, which a loaded machine's preemption does not enter) and, with ``--plot``,
+a reliability diagram.
+
+``--fit`` searches the estimator's rationality and memory on training seeds (``--seed`` + 100) and prints
+the grid; the reported figures use ``--seed`` (the shared-control benchmark's seeds), held out from the fit.
+
+    .venv/bin/python benchmarks/bench_intent_estimation.py [--operators 50] [--goals fresh] [--plot docs/x.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from collections import deque
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+from _bench import uptime
+from bench_shared_control import BASE_T_OBJ, OBJECTS, PERIOD, Joystick, Operator, draw_intent, own_goals
+
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee
+from grasp_intent_ros.mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.mico.mock_arm import MockArm, check_twist
+from grasp_intent_ros.objects.demos import ObjectRules, sample_grasp
+from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.sessions.closed_loop import reached
+from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
+
+FRACTIONS = (0.25, 0.5, 0.75)
+BETAS = (30.0, 100.0, 300.0, 1000.0, 3000.0)
+MEMORIES = (0.05, 0.1, 0.2, 0.4, 1.0)
+"""The grid of ``--fit``: rationality (1/m) and memory (m)."""
+W_EVERY = 10
+"""Operator ticks per scripted w (10 Hz, as the shared-control benchmark sends it)."""
+
+
+@dataclass
+class Reach:
+    """One operator's reach: what the estimator is fed, and what judges it."""
+
+    task_set: int
+    hands: np.ndarray      # (T, 4, 4) the hand's pose at each tick
+    twists: np.ndarray     # (T, 6) the operator's twist at each tick
+    scripted: np.ndarray   # (T, 3) the shared-control benchmark's scripted w at each tick
+    path: np.ndarray       # (T,) the hand's translation path so far, m
+    success: bool
+    seconds: float
+
+
+def fresh_goal(rules: ObjectRules, task_set: int, kin: MicoKinematics, rng: np.random.Generator) -> np.ndarray:
+    """A new grasp for exactly ``task_set`` near one of its prototypes, reachable from Home: base_T_ee."""
+    for _ in range(1000):
+        protos = rules.prototypes[task_set]
+        x = sample_grasp(protos[int(rng.integers(len(protos)))], rules.noise, rng)
+        if rules.label(x) != task_set:
+            continue
+        base_T_ee = BASE_T_OBJ @ features_to_obj_T_ee(x)
+        if kin.ik(base_T_ee, HOME_Q, restarts=2).success:
+            return base_T_ee
+    sys.exit(f'bench_intent_estimation: no reachable grasp of set {task_set} in 1000 draws')
+
+
+def simulate(op: Operator, goal: np.ndarray, intent_w: object, task_set: int, kin: MicoKinematics,
+             rng: np.random.Generator, timeout: float) -> Reach:
+    """The two-mode joystick operator of bench_shared_control reaching ``goal`` directly (no assistance)."""
+    arm = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0])
+    seen: deque[np.ndarray] = deque(maxlen=max(1, round(op.reaction / PERIOD)) + 1)
+    joystick = Joystick(op)
+    hands, twists, scripted, path = [], [], [], []
+    walked, w = 0.0, None
+    success = False
+    tick = 0
+    while True:
+        t = tick * PERIOD
+        hand = kin.fk(arm.q[:6])
+        if hands:
+            walked += float(np.linalg.norm(hand[:3, 3] - hands[-1][:3, 3]))
+        seen.append(hand)
+        if tick % W_EVERY == 0:
+            w = intent_w(t, rng)  # type: ignore[operator]
+        if reached(hand, goal):
+            success = True
+            break
+        if t >= timeout:
+            break
+        command = joystick.command(t, seen[0] if t >= op.reaction else None, goal, rng)
+        hands.append(hand)
+        twists.append(command)
+        scripted.append(w)
+        path.append(walked)
+        arm.command_twist(check_twist(command[:3], command[3:], BASE_FRAME), t)
+        tick += 1
+        arm.step(tick * PERIOD, PERIOD)
+    return Reach(task_set, np.array(hands), np.array(twists), np.array(scripted), np.array(path), success,
+                 tick * PERIOD)
+
+
+def reaches(name: str, seed: int, operators: int, goals_rule: str, kin: MicoKinematics, op: Operator,
+            timeout: float) -> list[Reach]:
+    """The reaches of ``operators`` seeded operators on object ``name``."""
+    model_name, rules = OBJECTS[name]
+    own = own_goals(model_name, rules, kin) if goals_rule == 'own' else {}
+    out = []
+    for i in range(operators):
+        rng = np.random.default_rng([seed, list(OBJECTS).index(name), i])
+        intent = draw_intent(rng)
+        goal = own[intent.task_set] if goals_rule == 'own' else fresh_goal(rules, intent.task_set, kin, rng)
+        out.append(simulate(op, goal, intent.w, intent.task_set, kin, rng, timeout))
+    return out
+
+
+def indicator(task_set: int, m: int = 3) -> np.ndarray:
+    return np.array([float(task_set >> i & 1) for i in range(m)])
+
+
+def estimates(runs: list[Reach], estimator: IntentEstimator, timings: list[float] | None = None) -> np.ndarray:
+    """W at each fraction of each reach, shape (len(runs), len(FRACTIONS), m)."""
+    out = np.empty((len(runs), len(FRACTIONS), estimator.goals.n_tasks))
+    for r, run in enumerate(runs):
+        estimator.reset()
+        ticks = [int(np.searchsorted(run.path, f * run.path[-1])) for f in FRACTIONS]
+        k = 0
+        for tick in range(len(run.twists)):
+            start, cpu = time.perf_counter(), time.thread_time()
+            estimator.update(run.hands[tick], run.twists[tick], PERIOD)
+            if timings is not None:
+                timings.append((time.perf_counter() - start, time.thread_time() - cpu))
+            while k < len(ticks) and tick >= ticks[k]:
+                out[r, k] = estimator.w
+                k += 1
+        while k < len(ticks):
+            out[r, k] = estimator.w
+            k += 1
+    return out
+
+
+def scripted_at(runs: list[Reach]) -> np.ndarray:
+    """The scripted w at each fraction, shape (len(runs), len(FRACTIONS), 3)."""
+    return np.array([[run.scripted[min(int(np.searchsorted(run.path, f * run.path[-1])), len(run.path) - 1)]
+                      for f in FRACTIONS] for run in runs])
+
+
+def brier(w: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """Per-episode Brier score, mean over tasks: w (n, m), truth (n, m) -> (n,)."""
+    return np.mean((w - truth) ** 2, axis=-1)
+
+
+def ece(w: np.ndarray, truth: np.ndarray, bins: int = 10) -> float:
+    """Expected calibration error over all (episode, task) pairs, ``bins`` equal-width bins."""
+    p, y = w.ravel(), truth.ravel()
+    index = np.minimum((p * bins).astype(int), bins - 1)
+    return float(sum(abs(p[index == b].mean() - y[index == b].mean()) * np.count_nonzero(index == b)
+                     for b in range(bins) if np.any(index == b)) / p.size)
+
+
+def ci95(diff: np.ndarray, rng: np.random.Generator) -> tuple[float, float]:
+    means = [float(np.mean(rng.choice(diff, diff.size))) for _ in range(2000)]
+    return float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+
+
+def estimator_for(name: str, kin: MicoKinematics, config: EstimatorConfig) -> IntentEstimator:
+    model = ModelFiles(config_dir() / 'models').load(OBJECTS[name][0])
+    return IntentEstimator(goals_at(model, BASE_T_OBJ, reachable_goals(model, BASE_T_OBJ, kin)), config)
+
+
+def report(name: str, runs: list[Reach], est: np.ndarray, scripted: np.ndarray, prior: np.ndarray) -> dict[str, object]:
+    truth = np.array([indicator(r.task_set) for r in runs])
+    rng = np.random.default_rng(0)
+    print(f'\n[{name}] {len(runs)} reaches, {sum(r.success for r in runs)} reached their grasp; median '
+          f'{statistics.median(r.seconds for r in runs):.1f} s, path '
+          f'{statistics.median(r.path[-1] for r in runs):.2f} m')
+    print(f'{"path":>5s} {"Brier est":>10s} {"prior":>7s} {"scripted":>9s} {"ECE est":>8s} {"prior":>6s} '
+          f'{"scripted":>9s}  est - prior [95% CI]        est - scripted [95% CI]')
+    rows = {}
+    for k, f in enumerate(FRACTIONS):
+        b_est, b_scr = brier(est[:, k], truth), brier(scripted[:, k], truth)
+        b_pri = brier(np.broadcast_to(prior, truth.shape), truth)
+        lo1, hi1 = ci95(b_est - b_pri, rng)
+        lo2, hi2 = ci95(b_est - b_scr, rng)
+        rows[f] = (b_est.mean(), b_pri.mean(), b_scr.mean(), ece(est[:, k], truth))
+        print(f'{f:5.0%} {b_est.mean():10.3f} {b_pri.mean():7.3f} {b_scr.mean():9.3f} {ece(est[:, k], truth):8.3f} '
+              f'{ece(np.broadcast_to(prior, truth.shape), truth):6.3f} {ece(scripted[:, k], truth):9.3f}  '
+              f'{(b_est - b_pri).mean():+.3f} [{lo1:+.3f}, {hi1:+.3f}]   {(b_est - b_scr).mean():+.3f} '
+              f'[{lo2:+.3f}, {hi2:+.3f}]')
+    print('per true task set at 50 % (n, Brier est / scripted, mean w est):')
+    labels = {1: 'U', 2: 'T', 3: 'UT', 4: 'H', 5: 'UH', 6: 'TH', 7: 'UTH'}
+    k = FRACTIONS.index(0.5)
+    for s in sorted(set(r.task_set for r in runs)):
+        sel = np.array([r.task_set == s for r in runs])
+        print(f'  {labels[s]:4s} n={sel.sum():3d}  {brier(est[sel, k], truth[sel]).mean():.3f} / '
+              f'{brier(scripted[sel, k], truth[sel]).mean():.3f}   w = '
+              f'({", ".join(f"{v:.2f}" for v in est[sel, k].mean(axis=0))})')
+    return rows
+
+
+def fit(names: list[str], args: argparse.Namespace, kin: MicoKinematics, op: Operator) -> None:
+    """Grid of rationality x memory on the training seeds: mean Brier over the fractions, both objects."""
+    runs = {name: reaches(name, args.seed + 100, args.operators, args.goals, kin, op, args.timeout) for name in names}
+    base = {name: estimator_for(name, kin, EstimatorConfig()) for name in names}
+    print(f'fit on seed {args.seed + 100}, {args.operators} operators per object; mean Brier over 25/50/75 %')
+    best = None
+    for beta in BETAS:
+        line = []
+        for memory in MEMORIES:
+            score = 0.0
+            for name in names:
+                est = base[name]
+                est.config = replace(EstimatorConfig(), rationality=beta, memory=memory)
+                truth = np.array([indicator(r.task_set) for r in runs[name]])
+                w = estimates(runs[name], est)
+                score += float(np.mean([brier(w[:, k], truth).mean() for k in range(len(FRACTIONS))])) / len(names)
+            line.append(f'{score:.3f}')
+            if best is None or score < best[0]:
+                best = (score, beta, memory)
+        print(f'  beta {beta:5.1f}: ' + ' '.join(line) + f'   (memory {MEMORIES} m)')
+    print(f'best: beta {best[1]}, memory {best[2]} (score {best[0]:.3f})')
+
+
+def plot(path: Path, curves: dict[str, tuple[np.ndarray, np.ndarray]]) -> None:
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5, 5))
+    ax.plot([0, 1], [0, 1], color='0.6', lw=1, ls='--', label='perfectly calibrated')
+    edges = np.linspace(0.0, 1.0, 11)
+    for label, (w, truth) in curves.items():
+        p, y = w.ravel(), truth.ravel()
+        index = np.minimum((p * 10).astype(int), 9)
+        xs = [p[index == b].mean() for b in range(10) if np.any(index == b)]
+        ys = [y[index == b].mean() for b in range(10) if np.any(index == b)]
+        ax.plot(xs, ys, marker='o', label=label)
+    ax.set_xticks(edges[::2])
+    ax.set_xlabel('estimated w_i (bin mean)')
+    ax.set_ylabel('frequency of task i in the true set')
+    ax.set_title('Intent estimator: reliability at 50 % of the path')
+    ax.legend(loc='upper left', fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    print(f'wrote {path}')
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--operators', type=int, default=50)
+    parser.add_argument('--objects', nargs='+', default=list(OBJECTS), choices=list(OBJECTS))
+    parser.add_argument('--goals', choices=('fresh', 'own'), default='fresh')
+    parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--timeout', type=float, default=25.0)
+    parser.add_argument('--fit', action='store_true', help='search rationality x memory on seed + 100 instead')
+    parser.add_argument('--plot', type=Path, help='write the reliability diagram at 50 % here (PNG)')
+    args = parser.parse_args()
+    kin, op = MicoKinematics(), Operator()
+    print(f'bench_intent_estimation: {args.operators} operators per object, goals {args.goals}; {uptime()}', flush=True)
+    if args.fit:
+        fit(args.objects, args, kin, op)
+        return
+    curves = {}
+    for name in args.objects:
+        runs = reaches(name, args.seed, args.operators, args.goals, kin, op, args.timeout)
+        estimator = estimator_for(name, kin, EstimatorConfig())
+        timings: list[tuple[float, float]] = []
+        est = estimates(runs, estimator, timings)
+        prior = IntentEstimator(estimator.goals, estimator.config).w
+        report(name, runs, est, scripted_at(runs), prior)
+        t = np.array(timings) * 1e3
+        print(f'one update, {len(estimator.goals)} goals ({len(t)} updates): wall median {np.median(t[:, 0]):.3f} ms, '
+              f'p99 {np.percentile(t[:, 0], 99):.3f} ms; CPU (this thread) median {np.median(t[:, 1]):.3f} ms, '
+              f'p99 {np.percentile(t[:, 1], 99):.3f} ms')
+        truth = np.array([indicator(r.task_set) for r in runs])
+        k = FRACTIONS.index(0.5)
+        curves[f'{name}: estimator'] = (est[:, k], truth)
+        curves[f'{name}: scripted w'] = (scripted_at(runs)[:, k], truth)
+    print(f'done; {uptime()}')
+    if args.plot:
+        plot(args.plot, curves)
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,348 @@
+r"""Intent from the operator's motion, ROS-free: operator twists -> a posterior over grasps -> task probabilities w.
+
+The method (docs/intent_estimation.md states it in full, with what it assumes and what it cannot tell apart)
+------------------------------------------------------------------------------------------------------------
+**Goals.** Every labelled demonstration of the active model, placed at the object
+(``base_T_g = base_T_obj @ features_to_obj_T_ee(x_g)``) and reachable by the arm, is a goal ``g`` serving
+its task set ``S_g`` (:class:`Goals`). Only the pose is used: the finger closures, which the motion of the
+hand does not show, are not.
+
+**Prior.** Uniform over the task sets that some reachable goal serves, then uniform over the goals of a set:
+``pi_g = 1 / (n_sets * n_{S_g})``.
+
+**Evidence: progress toward each goal** (goal inference as in ADA's ``GoalPredictor``, Javdani et al. 2015,
+and Dragan & Srinivasa 2013: an operator moves so as to reduce a cost-to-go to the goal, and a motion's
+likelihood under goal g is ``exp(-beta (Q_g - V_g))``, here ``exp(beta * progress_g)``). The cost-to-go is a
+Huber pose distance,
+``D_g = h(|p_g - p|) + rho * c(theta_g)``, ``theta_g`` the angle of ``R_g R^T``: ``h(e) = e^2 / (2 delta_p)``
+below ``delta_p`` and ``e - delta_p / 2`` above; ``c(theta) = (1 - cos theta) / (2 sin(delta_theta / 2))``
+below ``delta_theta`` and ``2 sin(theta / 2) - sin(delta_theta / 2)`` above (the chord, continuous with a
+continuous slope). Its rate of decrease under the operator's twist
+``(v, omega)`` (base frame, the hand at ``(p, R)``) is
+
+.. math::
+
+    s_g = v \cdot \frac{p_g - p}{\max(|p_g - p|, \delta_p)}
+        + \rho\, \omega \cdot \frac{a_g}{4 \max(\sin(\theta_g / 2), \sin(\delta_\theta / 2))},
+    \qquad a_g = \operatorname{vee}(R_g R^T - R R_g^T),
+
+in m/s (:func:`progress_rates`; ``a_g = 2 sin(theta_g) axis_g``, so the rotation part is
+``rho cos(theta_g / 2) omega . axis_g`` away from the goal: the rate at which the angle closes, weighted as
+the chord ``2 sin(theta / 2)`` shrinks). It is bounded (by ``|v| + rho |omega|``) and defined for every
+pose, the goal's own included.
+
+**Forgetting.** The log-evidence ``E_g`` (log posterior minus log prior, up to a constant) follows
+``dE_g / dl = -E_g / L + beta s_g / u`` along the hand's pose path ``l`` (``u = |v| + rho |omega|`` its
+rate), solved exactly over each operator twist held for ``dt`` seconds:
+
+.. math::
+
+    E_g \leftarrow \gamma\, E_g + \beta L (1 - \gamma)\, s_g / u, \qquad \gamma = \exp(-u\, dt / L),
+
+(``beta s_g dt`` for a short step), so evidence fades with the operator's own motion (memory ``L`` metres of
+pose motion), not with time: an operator who holds still or lets go keeps the estimate, and one who changes
+their mind is followed after moving at most ``L ln 2`` toward the new goal (when the goals lie farther apart
+than ``delta_p``). Since ``|s_g| <= u``, ``E_g`` stays within ``beta L`` in magnitude: no goal's posterior
+runs to 0 or 1, which is what ADA's cap of 0.99 per goal does.
+
+**Task marginals.** ``P(g) = pi_g exp(E_g) / sum``; the task set posterior ``P(S) = sum_{S_g = S} P(g)``;
+``w_i = sum_{S : i in S} P(S)``, clipped to ``[w_floor, 1 - w_floor]``. The interpreter's eq. 3 rebuilds
+joint events from the marginals as if tasks were independent; the joint ``P(S)`` here is not (two exclusive
+alternatives U or H give ``w = (0.5, 0, 0.5)``, which eq. 3 reads as a quarter each U, H, UH and no task):
+that correlation is what passing w loses.
+
+Contracts: every public function checks shapes and finiteness of what it is given and raises a
+:class:`~grasp_intent_ros.errors.GraspIntentError` subclass; w is always finite and inside
+``[w_floor, 1 - w_floor]``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import InvalidIntentError, KinematicsError
+from ..method.intent import MAX_TASKS
+from ..method.model import GraspModel
+from ..mico.frames import check_transform, check_vector, features_to_obj_T_ee
+from ..mico.kinematics import HOME_Q, MicoKinematics
+
+__all__ = ['EstimatorConfig', 'Goals', 'goals_from_poses', 'goals_at', 'reachable_goals', 'progress_rates',
+           'IntentEstimator']
+
+
+@dataclass(frozen=True)
+class EstimatorConfig:
+    """The estimator's constants (module docstring; units m, rad, s).
+
+    Attributes
+    ----------
+    rationality : float
+        beta, 1/m: log-likelihood per metre of progress toward a goal.
+    memory : float
+        L, m of pose motion over which the evidence fades by a factor e.
+    rotation_length : float
+        rho, m per rad: the length one radian of the hand's rotation counts as (the fingers' reach).
+    position_scale, angle_scale : float
+        delta_p (m), delta_theta (rad): below these distances to a goal the progress toward it fades
+        linearly to 0 (the Huber distance's quadratic core).
+    w_floor : float
+        w is clipped to [w_floor, 1 - w_floor], in (0, 0.5).
+    max_dt : float
+        Longest time (s) one operator twist is taken to act (a gap in the stream is not motion).
+    """
+
+    rationality: float = 1000.0
+    memory: float = 0.1
+    rotation_length: float = 0.1
+    position_scale: float = 0.02
+    angle_scale: float = 0.2
+    w_floor: float = 0.01
+    max_dt: float = 0.1
+
+    def __post_init__(self) -> None:
+        positive = {'rationality': self.rationality, 'memory': self.memory, 'rotation_length': self.rotation_length,
+                    'position_scale': self.position_scale, 'angle_scale': self.angle_scale, 'max_dt': self.max_dt}
+        bad = [f'{name} = {value!r}' for name, value in positive.items()
+               if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0.0)]
+        if not (isinstance(self.w_floor, (int, float)) and 0.0 < self.w_floor < 0.5):
+            bad.append(f'w_floor = {self.w_floor!r} (must lie in (0, 0.5))')
+        if self.angle_scale > math.pi:
+            bad.append(f'angle_scale = {self.angle_scale!r} (at most pi)')
+        if bad:
+            raise InvalidIntentError(f'estimator settings must be finite and positive: {", ".join(bad)}')
+
+
+@dataclass(frozen=True, eq=False)
+class Goals:
+    """The goals of one model at one object pose (module docstring), read-only arrays.
+
+    Attributes
+    ----------
+    positions : ndarray, shape (N, 3)
+        Palm centres in the base frame (m).
+    rotations : ndarray, shape (N, 3, 3)
+        Hand orientations in the base frame.
+    task_sets : ndarray of int, shape (N,)
+        Bitmask of the tasks each goal serves (the demonstration's label).
+    log_prior : ndarray, shape (N,)
+        log pi_g.
+    membership : ndarray, shape (N, m)
+        1.0 where goal g serves task i.
+    demo_index : ndarray of int, shape (N,)
+        Row of each goal in the model's demonstrations.
+    """
+
+    positions: NDArray[np.float64]
+    rotations: NDArray[np.float64]
+    task_sets: NDArray[np.int64]
+    log_prior: NDArray[np.float64]
+    membership: NDArray[np.float64]
+    demo_index: NDArray[np.int64]
+
+    @property
+    def n_tasks(self) -> int:
+        """m, the number of tasks."""
+        return int(self.membership.shape[1])
+
+    def __len__(self) -> int:
+        return int(self.task_sets.shape[0])
+
+    def set_posterior(self, goal_posterior: ArrayLike) -> dict[int, float]:
+        """P(S) for each task set S served by a goal: the posterior summed over its goals."""
+        p = np.asarray(goal_posterior, dtype=np.float64)
+        return {int(s): float(p[self.task_sets == s].sum()) for s in np.unique(self.task_sets)}
+
+
+def goals_from_poses(base_T_goals: ArrayLike, task_sets: ArrayLike, n_tasks: int,
+                     demo_index: ArrayLike | None = None) -> Goals:
+    """Goals at the given hand poses, each serving its task set, with the estimator's prior (module docstring).
+
+    Parameters
+    ----------
+    base_T_goals : array_like, shape (N, 4, 4)
+        Goal hand poses in the base frame (rigid transforms).
+    task_sets : array_like of int, shape (N,)
+        Bitmask of the tasks each goal serves, non-empty subsets of ``n_tasks`` tasks.
+    n_tasks : int
+        m, 1..MAX_TASKS.
+    demo_index : array_like of int, shape (N,), optional
+        Each goal's row in the model's demonstrations (default 0..N-1).
+
+    Raises
+    ------
+    InvalidIntentError
+        For no goal, mismatched shapes or task sets that are not non-empty subsets of the tasks.
+    KinematicsError
+        For a pose that is not a rigid transform.
+    """
+    if not 1 <= n_tasks <= MAX_TASKS:
+        raise InvalidIntentError(f'the number of tasks must be 1..{MAX_TASKS}, got {n_tasks}')
+    poses = np.asarray(base_T_goals, dtype=np.float64)
+    sets = np.asarray(task_sets, dtype=np.int64)
+    if poses.ndim != 3 or poses.shape[1:] != (4, 4) or poses.shape[0] == 0 or sets.shape != (poses.shape[0],):
+        raise InvalidIntentError(f'need poses of shape (N > 0, 4, 4) and N task sets, got {poses.shape} and '
+                                 f'{sets.shape}')
+    if np.any(sets <= 0) or np.any(sets >= 1 << n_tasks):
+        raise InvalidIntentError(f'task sets must be non-empty subsets of {n_tasks} tasks')
+    poses = np.stack([check_transform(T, 'goal pose') for T in poses])
+    index = np.arange(sets.size, dtype=np.int64) if demo_index is None else np.asarray(demo_index, dtype=np.int64)
+    unique, inverse, counts = np.unique(sets, return_inverse=True, return_counts=True)
+    log_prior = -np.log(float(unique.size)) - np.log(counts[inverse].astype(np.float64))
+    membership = ((sets[:, None] >> np.arange(n_tasks)[None, :]) & 1).astype(np.float64)
+    arrays = (np.ascontiguousarray(poses[:, :3, 3]), np.ascontiguousarray(poses[:, :3, :3]), sets.copy(),
+              log_prior, membership, index.copy())
+    for arr in arrays:
+        arr.flags.writeable = False
+    return Goals(*arrays)
+
+
+def goals_at(model: GraspModel, base_T_obj: ArrayLike, keep: ArrayLike | None = None) -> Goals:
+    """The model's demonstrations placed at the object, those where ``keep`` is true (default all).
+
+    Parameters
+    ----------
+    model : GraspModel
+        MICO 3-finger features (the first seven: palm, approach, roll).
+    base_T_obj : array_like, shape (4, 4)
+        Object pose in the base frame.
+    keep : array_like of bool, shape (N,), optional
+        Which demonstrations are goals (e.g. :func:`reachable_goals`).
+
+    Raises
+    ------
+    KinematicsError
+        For a malformed pose.
+    InvalidIntentError
+        If ``keep`` has the wrong shape or keeps nothing, or the model has more than MAX_TASKS tasks.
+    """
+    base_T = check_transform(base_T_obj, 'base_T_obj')
+    n = model.demo_x.shape[0]
+    mask = np.ones(n, dtype=bool) if keep is None else np.asarray(keep, dtype=bool)
+    if mask.shape != (n,):
+        raise InvalidIntentError(f'keep must have shape ({n},), got {mask.shape}')
+    if not mask.any():
+        raise InvalidIntentError('no goal: no demonstration of the model is kept (none reachable?)')
+    index = np.flatnonzero(mask)
+    obj_T = np.stack([features_to_obj_T_ee(model.demo_x[k]) for k in index])
+    return goals_from_poses(np.einsum('ij,njk->nik', base_T, obj_T), model.demo_sets[index], len(model.task_names),
+                            index)
+
+
+def reachable_goals(model: GraspModel, base_T_obj: ArrayLike, kin: MicoKinematics, *,
+                    q_seed: ArrayLike | None = None, restarts: int = 2,
+                    stopping: Callable[[], bool] = lambda: False) -> NDArray[np.bool_]:
+    """Which demonstrations placed at the object the arm reaches: IK from ``q_seed`` (Home if None), then restarts.
+
+    Returns an array of bool, shape (N,). ``stopping()`` is polled between goals; when it turns true the rest
+    are marked unreachable (the answer is then thrown away by the caller). Raises KinematicsError for a
+    malformed pose or seed.
+    """
+    base_T = check_transform(base_T_obj, 'base_T_obj')
+    seed = np.array(HOME_Q) if q_seed is None else check_vector(q_seed, 6, 'q_seed')
+    out = np.zeros(model.demo_x.shape[0], dtype=bool)
+    for k, x in enumerate(model.demo_x):
+        if stopping():
+            break
+        out[k] = kin.ik(base_T @ features_to_obj_T_ee(x), seed, restarts=restarts).success
+    return out
+
+
+def progress_rates(goals: Goals, base_T_ee: NDArray[np.float64], twist: NDArray[np.float64],
+                   config: EstimatorConfig) -> NDArray[np.float64]:
+    """s_g, the rate (m/s) at which the twist reduces the pose distance to each goal (module docstring).
+
+    Parameters
+    ----------
+    goals : Goals
+    base_T_ee : ndarray, shape (4, 4)
+        The hand's pose (a rigid transform; not checked here).
+    twist : ndarray, shape (6,)
+        The operator's twist (m/s, rad/s), base frame, finite.
+    config : EstimatorConfig
+
+    Returns
+    -------
+    ndarray, shape (N,)
+    """
+    offset = goals.positions - base_T_ee[:3, 3]
+    distance = np.sqrt(np.einsum('ni,ni->n', offset, offset))
+    linear = (offset @ twist[:3]) / np.maximum(distance, config.position_scale)
+    r_rel = goals.rotations @ base_T_ee[:3, :3].T  # R_g R^T, (N, 3, 3)
+    a = np.stack([r_rel[:, 2, 1] - r_rel[:, 1, 2], r_rel[:, 0, 2] - r_rel[:, 2, 0],
+                  r_rel[:, 1, 0] - r_rel[:, 0, 1]], axis=1)
+    trace = r_rel[:, 0, 0] + r_rel[:, 1, 1] + r_rel[:, 2, 2]
+    half_sin = np.sqrt(np.clip(0.25 * (3.0 - trace), 0.0, 1.0))  # sin(theta / 2)
+    angular = (a @ twist[3:]) / (4.0 * np.maximum(half_sin, math.sin(0.5 * config.angle_scale)))
+    out: NDArray[np.float64] = linear + config.rotation_length * angular
+    return out
+
+
+class IntentEstimator:
+    """The posterior over ``goals`` from a stream of operator twists, and the task marginals w (module docstring).
+
+    Parameters
+    ----------
+    goals : Goals
+    config : EstimatorConfig
+    """
+
+    def __init__(self, goals: Goals, config: EstimatorConfig = EstimatorConfig()) -> None:
+        self.goals, self.config = goals, config
+        self.evidence = np.zeros(len(goals))
+        """E_g, the log-evidence of each goal (0: the prior)."""
+        self.updates = 0
+
+    def reset(self) -> None:
+        """Back to the prior (a new scene)."""
+        self.evidence = np.zeros(len(self.goals))
+        self.updates = 0
+
+    def update(self, base_T_ee: ArrayLike, twist: ArrayLike, dt: float) -> NDArray[np.float64]:
+        """Take one operator twist held for ``dt`` s with the hand at ``base_T_ee``; returns the new w.
+
+        ``dt`` is clipped to [0, ``max_dt``]; any finite twist is taken (its size enters only through the
+        motion ``u dt``). Raises KinematicsError for a malformed pose, twist or ``dt`` (the estimate is then
+        unchanged).
+        """
+        hand = check_transform(base_T_ee, 'base_T_ee')
+        xi = check_vector(twist, 6, 'twist')
+        if not math.isfinite(dt):
+            raise KinematicsError(f'dt must be finite, got {dt!r}')
+        dt = min(max(dt, 0.0), self.config.max_dt)
+        cfg = self.config
+        self.updates += 1
+        size = float(np.max(np.abs(xi)))
+        if size == 0.0 or dt == 0.0:
+            return self.w
+        unit = xi / size  # the direction, without overflow for any finite twist: only s_g / u and u dt matter
+        unit_speed = float(np.linalg.norm(unit[:3])) + cfg.rotation_length * float(np.linalg.norm(unit[3:]))
+        fade = -math.expm1(-(size * dt) * unit_speed / cfg.memory)  # 1 - gamma; 1 when u dt overflows
+        rates = progress_rates(self.goals, hand, unit, cfg) / unit_speed  # s_g / u, in [-1, 1]
+        # the exact solution over the step of dE/dl = -E / L + beta s / u (l the pose path): |E| <= beta L
+        self.evidence = (1.0 - fade) * self.evidence + (cfg.rationality * cfg.memory * fade) * rates
+        return self.w
+
+    @property
+    def posterior(self) -> NDArray[np.float64]:
+        """P(g), shape (N,): the prior times exp(E_g), normalised."""
+        log_p = self.goals.log_prior + self.evidence
+        p = np.exp(log_p - log_p.max())
+        out: NDArray[np.float64] = p / p.sum()
+        return out
+
+    @property
+    def w(self) -> NDArray[np.float64]:
+        """The task marginals, shape (m,), in [w_floor, 1 - w_floor]."""
+        floor = self.config.w_floor
+        out: NDArray[np.float64] = np.clip(self.posterior @ self.goals.membership, floor, 1.0 - floor)
+        return out
+
+    def set_posterior(self) -> dict[int, float]:
+        """P(S) per task set served by some goal (bitmask -> probability)."""
+        return self.goals.set_posterior(self.posterior)
+

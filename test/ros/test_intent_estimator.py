@@ -1,0 +1,122 @@
+"""In-process tests of the intent estimator node (private Context per test, see test/conftest.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import PoseStamped, TwistStamped
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, String
+
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.nodes.intent_estimator import IntentEstimatorNode
+from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.ros.qos import latched_qos
+from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
+from grasp_intent_ros.shared_control.estimator import goals_at
+from grasp_intent_ros.wire import protocol
+from grasp_intent_ros.wire.protocol import model_document
+
+BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+PRIOR = 4 / 7
+"""Each task's prior probability: uniform over the seven task sets, four of which contain it."""
+
+
+def twist_msg(linear: np.ndarray) -> TwistStamped:
+    msg = TwistStamped()
+    msg.header.frame_id = BASE_FRAME
+    msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z = (float(v) for v in linear)
+    return msg
+
+
+class Rig:
+    """The estimator node with the cup model latched and the arm at Home."""
+
+    def __init__(self, ros, **params) -> None:
+        self.ros = ros
+        overrides = [Parameter(k, value=v) for k, v in params.items()]
+        self.node = ros.add(IntentEstimatorNode(context=ros.context, parameter_overrides=overrides))
+        self.w = ros.subscribe(Float64MultiArray, protocol.INTENT_W)
+        self.statuses = ros.diagnostics()
+        self.models = ModelFiles(config_dir() / 'models')
+        self.model_pub = ros.publisher(String, protocol.MODEL_ACTIVE, latched_qos())
+        self.joints = ros.publisher(JointState, protocol.JOINT_STATES)
+        self.operator = ros.publisher(TwistStamped, protocol.OPERATOR_TWIST)
+        self.object = ros.publisher(PoseStamped, protocol.OBJECT_POSE)
+        self.hand = MicoKinematics().fk(HOME_Q)
+
+    def activate(self, name: str, version: int) -> None:
+        self.model_pub.publish(String(data=model_document(self.models.load(name), name=name, version=version)))
+
+    def at_home(self) -> None:
+        stamp = self.ros.node.get_clock().now().to_msg()
+        assert self.ros.publish_until(self.joints, joint_state_msg(ARM_JOINTS, HOME_Q, stamp=stamp),
+                                      lambda: self.node._base_T_ee is not None, 10.0)
+
+    def toward(self, task_set: int) -> np.ndarray:
+        """A twist at 0.1 m/s from the hand at Home toward the first goal serving exactly ``task_set``."""
+        goals = goals_at(self.models.load('cup_7zone'), BASE_T_OBJ)
+        direction = goals.positions[int(np.flatnonzero(goals.task_sets == task_set)[0])] - self.hand[:3, 3]
+        return 0.1 * direction / np.linalg.norm(direction)
+
+
+@pytest.fixture
+def rig(ros) -> Rig:
+    rig = Rig(ros)
+    rig.activate('cup_7zone', 1)
+    assert ros.wait_for(lambda: rig.w, 60.0), 'no prior w after the model'
+    return rig
+
+
+def test_the_prior_then_motion_toward_a_usage_grasp_raises_w_usage(ros, rig: Rig) -> None:
+    np.testing.assert_allclose(rig.w[-1].data, [PRIOR] * 3, rtol=1e-12)
+    rig.at_home()
+    twist = twist_msg(rig.toward(1))
+    assert ros.publish_until(rig.operator, twist, lambda: rig.w[-1].data[0] > PRIOR + 0.1, 20.0, period=0.01)
+    assert all(0.0 < v < 1.0 for msg in rig.w for v in msg.data)
+    # the operator lets go: w is no longer published (the estimate kept)
+    count = len(rig.w)
+    ros.wait_for(lambda: False, 0.5)
+    settled = len(rig.w)
+    ros.wait_for(lambda: False, 0.5)
+    assert len(rig.w) == settled and settled - count <= 5
+
+
+def test_a_moved_object_and_a_new_model_restart_from_the_prior(ros, rig: Rig) -> None:
+    rig.at_home()
+    assert ros.publish_until(rig.operator, twist_msg(rig.toward(1)), lambda: rig.w[-1].data[0] > PRIOR + 0.1,
+                             20.0, period=0.01)
+    assert rig.node._restarts == 1
+    nudged = matrix_to_pose_msg(pose_to_matrix((0.3, -0.3, 0.005), (0.0, 0.0, 1.0, 0.0)), frame_id=BASE_FRAME,
+                                stamp=ros.node.get_clock().now().to_msg())
+    received = rig.node._diag._received
+    assert ros.publish_until(rig.object, nudged, lambda: rig.node._diag._received > received + 2, 10.0, period=0.05)
+    np.testing.assert_array_equal(rig.node._scenes.latest.base_T_obj, BASE_T_OBJ)  # within the tolerance: kept
+    moved = matrix_to_pose_msg(pose_to_matrix((0.3, -0.25, 0.0), (0.0, 0.0, 1.0, 0.0)), frame_id=BASE_FRAME,
+                               stamp=ros.node.get_clock().now().to_msg())
+    rig.object.publish(moved)
+    assert ros.wait_for(lambda: rig.node._restarts == 2, 60.0)
+    np.testing.assert_allclose(rig.w[-1].data, [PRIOR] * 3, rtol=1e-12)
+    rig.activate('cup_5zone', 2)
+    assert ros.wait_for(lambda: rig.node._restarts == 3, 60.0)
+    assert rig.node._estimator is not None and rig.node._estimator.updates == 0
+
+
+def test_bad_input_is_rejected_and_another_w_publisher_is_reported(ros, rig: Rig, status_finder) -> None:
+    warn = bytes([protocol.WARN])
+    rig.at_home()
+    bad = twist_msg(np.array([np.nan, 0.0, 0.0]))
+    assert ros.publish_until(rig.operator, bad, lambda: status_finder(rig.statuses, ': intent estimator', level=warn,
+                                                                       text='finite'), 10.0)
+    far = matrix_to_pose_msg(pose_to_matrix((30.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)), frame_id=BASE_FRAME,
+                             stamp=ros.node.get_clock().now().to_msg())
+    assert ros.publish_until(rig.object, far, lambda: status_finder(rig.statuses, ': intent estimator', level=warn,
+                                                                    text='workspace'), 10.0)
+    assert ros.publish_until(rig.operator, twist_msg(rig.toward(1)), lambda: rig.w[-1].data[0] > PRIOR + 0.05, 20.0,
+                             period=0.01)
+    ros.publisher(Float64MultiArray, protocol.INTENT_W)
+    assert ros.wait_for(lambda: status_finder(rig.statuses, ': intent estimator', level=warn,
+                                              text='other publisher'), 10.0)

@@ -1,0 +1,62 @@
+"""The closed loop with the intent estimator as the only source of w, as real processes over loopback.
+
+The test side is the operator: it steers the hand toward a usage-only demonstration of the cup (a twist
+proportional to the pose error, read from the joint states) and never publishes ``intent/w``. The estimator
+must publish the prior, so that the suite plans, then raise w_usage as the hand heads for the usage grasp.
+Nothing sleeps: every wait polls with a deadline.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from geometry_msgs.msg import PoseStamped, TwistStamped
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.ros.robot import joint_positions
+from grasp_intent_ros.shared_control.assistance import clip_norm, pose_error
+from grasp_intent_ros.wire import protocol
+
+STARTUP = 90.0
+"""Seconds for six processes to start, discover each other, prepare the goals and plan on a loaded machine."""
+REACH = 30.0
+"""Seconds for w_usage to rise while the operator heads for the usage grasp (about 0.4 m at 0.1 m/s)."""
+PRIOR = 4 / 7
+
+
+def test_the_estimator_alone_drives_intent_w_from_the_operators_reach(ros: Any, launch: Any) -> None:
+    launch.start_nodes(model='cup_7zone', shared_control=True, extra=('intent_estimator',))
+    kin = MicoKinematics()
+    model = ModelFiles(config_dir() / 'models').load('cup_7zone')
+    base_T_obj = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))  # the planner's and estimator's default
+    usage = [x for x, s in zip(model.demo_x, model.demo_sets) if s == 1]
+    goal = next(base_T_obj @ features_to_obj_T_ee(x) for x in usage
+                if kin.ik(base_T_obj @ features_to_obj_T_ee(x), HOME_Q, restarts=2).success)
+    ws = ros.subscribe(Float64MultiArray, protocol.INTENT_W)
+    grasps = ros.subscribe(PoseStamped, protocol.GRASP_POSE)
+    states = ros.subscribe(JointState, protocol.JOINT_STATES)
+    operator = ros.publisher(TwistStamped, protocol.OPERATOR_TWIST)
+
+    def steer() -> None:
+        msg = TwistStamped()
+        msg.header.frame_id = BASE_FRAME
+        if states and (q := joint_positions(states[-1], ARM_JOINTS)) is not None:
+            error = pose_error(kin.fk(q), goal)
+            t = msg.twist
+            t.linear.x, t.linear.y, t.linear.z = clip_norm(1.5 * error[:3], 0.1).tolist()
+            t.angular.x, t.angular.y, t.angular.z = clip_norm(1.5 * error[3:], 0.5).tolist()
+        operator.publish(msg)
+
+    assert ros.wait_for(lambda: ws and states, STARTUP), launch.died() or 'no prior w or joint state'
+    np.testing.assert_allclose(ws[0].data, [PRIOR] * 3, rtol=1e-9)
+    ros.node.create_timer(0.01, steer)  # spun whenever the test waits
+    assert ros.wait_for(lambda: grasps, STARTUP), launch.died() or 'no grasp planned from the estimated w'
+    assert ros.wait_for(lambda: ws[-1].data[0] > 0.8, REACH), \
+        launch.died() or f'w stayed at {list(ws[-1].data)} while the operator headed for a usage grasp'
+    assert all(0.0 < v < 1.0 for msg in ws for v in msg.data)

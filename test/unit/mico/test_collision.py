@@ -1,0 +1,150 @@
+"""The hand's clearance from the table and the object (mico/collision.py) and the planner turning grasps down."""
+
+from __future__ import annotations
+
+import math
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+from numpy.testing import assert_allclose
+
+from grasp_intent_ros.errors import KinematicsError
+from grasp_intent_ros.method import intent
+from grasp_intent_ros.method.body import ObjectBody
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.mico.collision import HAND_PARTS, LIMITS, CollisionFree, HandCollision, Table
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.grasp import Grasp, NoReachableGrasp, plan_grasp
+from grasp_intent_ros.mico.kinematics import EE_FRAME, MicoKinematics, default_urdf_path
+from grasp_intent_ros.objects.demos import CUP, FLASHLIGHT, grasp_features
+from grasp_intent_ros.resources import config_dir
+
+CUP_BODY = CUP.body()
+CYLINDER_ONLY = ObjectBody(CUP_BODY.primitives[:1])
+BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+SIDE_THUMB_SIDEWAYS = math.pi / 2
+"""Roll of a horizontal approach from +x with the thumb along +y: the fingers close in the horizontal plane."""
+
+
+@pytest.fixture(scope='module')
+def hand() -> HandCollision:
+    return HandCollision()
+
+
+def test_the_hand_parts_are_where_pinocchio_puts_the_urdf_s_collision_geometry(hand: HandCollision) -> None:
+    """Every part's pose from the end effector's pose and the closures = forward kinematics of the whole URDF."""
+    path = str(default_urdf_path())
+    model = pin.buildModelFromUrdf(path)
+    geom = pin.buildGeomFromUrdf(model, path, pin.COLLISION)
+    data, gdata = model.createData(), geom.createData()
+    names = [f'm1n6s300_link_{p if p != "palm" else "6"}_0' for p in HAND_PARTS]
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        q = pin.randomConfiguration(model)
+        closures = rng.uniform(0.0, 1.51, 3)
+        q[-3:] = closures
+        pin.forwardKinematics(model, data, q)
+        pin.updateFramePlacements(model, data)
+        pin.updateGeometryPlacements(model, data, geom, gdata)
+        world_T_ee = np.array(data.oMf[model.getFrameId(EE_FRAME)].homogeneous)
+        expected = np.array([gdata.oMg[geom.getGeometryId(n)].homogeneous for n in names])
+        assert_allclose(hand.parts(world_T_ee, closures), expected, atol=1e-12)
+
+
+def test_the_table_depth_is_coal_s_distance_to_a_half_space(hand: HandCollision) -> None:
+    """The support function of each primitive against the plane agrees with coal's signed distance (1e-9 m)."""
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        normal = rng.normal(size=3)
+        table = Table(tuple(normal.tolist()), float(rng.uniform(-0.1, 0.1)))
+        half_space = coal.Halfspace(np.array(table.normal), table.offset)
+        x = grasp_features(rng.uniform(-0.05, 0.05, 3), rng.uniform(-math.pi, math.pi), rng.uniform(-0.5, 1.5),
+                           0.03, rng.uniform(0.0, 2 * math.pi), (0.0, 0.0, 0.0))
+        obj_T_ee = features_to_obj_T_ee(x)
+        depths = []
+        for shape, pose in zip(hand.shapes, hand.parts(obj_T_ee, np.zeros(3))):
+            distance = coal.distance(shape.geometry, coal.Transform3s(pose[:3, :3], pose[:3, 3]), half_space,
+                                     coal.Transform3s(), coal.DistanceRequest(), coal.DistanceResult())
+            depths.append(-distance)
+        pre = obj_T_ee.copy()
+        pre[:3, 3] -= hand.standoff * obj_T_ee[:3, 2]
+        for shape, pose in zip(hand.shapes, hand.parts(pre, np.zeros(3))):
+            depths.append(-coal.distance(shape.geometry, coal.Transform3s(pose[:3, :3], pose[:3, 3]), half_space,
+                                         coal.Transform3s(), coal.DistanceRequest(), coal.DistanceResult()))
+        assert hand.clearance(x, None, table).table_depth == pytest.approx(max(depths), abs=1e-9)
+
+
+def test_a_low_side_grasp_of_the_handle_with_the_thumb_up_is_turned_down_for_the_table(hand: HandCollision) -> None:
+    """The usage grasp of the demonstrations: palm 5 cm high, nearly horizontal, fingers open below the table."""
+    x = grasp_features((0.055, 0.0, 0.040), 0.0, math.radians(22.0), 0.030, 0.0, (1.2, 1.2, 1.05))
+    clearance = hand.clearance(x, CUP_BODY)
+    assert clearance.table_depth > 0.05  # a finger tip more than 5 cm below the table
+    assert 'below the table' in (clearance.fault() or '')
+    # the same hand 10 cm above a lower table is clear of it
+    lowered = hand.clearance(x, CUP_BODY, Table(offset=-0.10))
+    assert lowered.table_depth < 0.0 and 'table' not in (lowered.fault() or '')
+
+
+def test_a_palm_pressed_into_the_handle_is_turned_down_and_clear_of_the_cylinder_alone(hand: HandCollision) -> None:
+    """From +x, horizontal, fingers sideways: the palm 4 mm into the handle's outer bar (its face at x = 0.070 m)."""
+    into = np.array([0.066, 0.0, 0.05, -1.0, 0.0, 0.0, SIDE_THUMB_SIDEWAYS, 1.2, 1.2, 1.2])
+    clearance = hand.clearance(into, CUP_BODY)
+    assert clearance.palm_depth == pytest.approx(0.004, abs=1e-6)
+    assert clearance.fault() == 'palm 4.0 mm into the object'
+    assert hand.clearance(into, CYLINDER_ONLY).fault() is None  # the handle, not the cup, is in the way
+    clear = into.copy()
+    clear[0] = 0.075
+    assert hand.clearance(clear, CUP_BODY).palm_depth == pytest.approx(-0.005, abs=1e-6)
+    assert hand.clearance(clear, CUP_BODY).fault() is None
+
+
+def test_closing_fingers_stop_on_what_they_touch(hand: HandCollision) -> None:
+    """Round the handle the fingers stop on it short of their plan; low over the table on the table."""
+    x = np.array([0.075, 0.0, 0.05, -1.0, 0.0, 0.0, SIDE_THUMB_SIDEWAYS, 1.4, 1.4, 1.4])
+    stops = hand.clearance(x, CUP_BODY).stops
+    assert all(stop.on == 'object' and 0.0 < stop.closure < 1.4 for stop in stops)
+    assert hand.clearance(x, CYLINDER_ONLY).stops != stops  # the handle stops them
+    # far from the object, palm down 7 cm above the table: the open fingers clear it, closing they meet it
+    low = np.array([0.0, 0.3, 0.07, 0.0, 0.0, -1.0, 0.0, 1.4, 1.4, 1.4])
+    clearance = hand.clearance(low, CUP_BODY)
+    assert clearance.fault() is None
+    assert clearance.fingers_on_table >= 1
+    assert all(stop.on in ('table', '') for stop in clearance.stops)
+
+
+def test_the_flashlight_s_switch_is_part_of_its_body() -> None:
+    switch = FLASHLIGHT.body().primitives[1]
+    sd = FLASHLIGHT.body().distance(np.array([[FLASHLIGHT.switch_x, FLASHLIGHT.radius + 0.003, FLASHLIGHT.radius]]))[0]
+    assert sd[0] < 0.0 and switch.centre[0] == FLASHLIGHT.switch_x
+
+
+def test_a_table_of_the_base_frame_in_the_object_frame() -> None:
+    base_T_obj = pose_to_matrix((0.3, -0.3, 0.1), (0.0, 0.0, 1.0, 0.0))  # the object 10 cm above the base's plane
+    table = Table.in_object_frame((0.0, 0.0, 2.0, 0.0), base_T_obj)
+    assert_allclose(table.normal, (0.0, 0.0, 1.0), atol=1e-15)
+    assert table.offset == pytest.approx(-0.1)
+    with pytest.raises(KinematicsError, match='4 finite numbers'):
+        Table.in_object_frame((0.0, 0.0, 1.0), base_T_obj)
+    with pytest.raises(KinematicsError, match='non-zero normal'):
+        Table.in_object_frame((0.0, 0.0, 0.0, 1.0), base_T_obj)
+
+
+def test_the_planner_turns_down_grasps_in_collision_and_says_so(hand: HandCollision) -> None:
+    """On the shipped cup model every usage demonstration puts the open hand below the table."""
+    cup = GraspModel.load(config_dir() / 'models' / 'cup_7zone.yaml')
+    kin = MicoKinematics()
+    usage = plan_grasp(cup, intent.interpret((0.9, 0.1, 0.1)).v, intent.all_zones(3), BASE_T_OBJ, kin, hand=hand)
+    assert isinstance(usage, NoReachableGrasp)
+    assert usage.reason.startswith('no grasp clear of the table and the object: all 32 candidates in collision')
+    assert 'below the table' in usage.reason
+    transfer = plan_grasp(cup, intent.interpret((0.1, 0.9, 0.1)).v, intent.all_zones(3), BASE_T_OBJ, kin, hand=hand)
+    assert isinstance(transfer, Grasp) and transfer.clearance is not None
+    assert transfer.clearance.fault() is None
+    turned_down = CollisionFree(hand, cup.body)
+    for candidate in transfer.result.candidates[:transfer.result.rejected]:
+        assert not turned_down(candidate.x)
+    unchecked = plan_grasp(cup, intent.interpret((0.9, 0.1, 0.1)).v, intent.all_zones(3), BASE_T_OBJ, kin)
+    assert isinstance(unchecked, Grasp) and unchecked.clearance is None
+    assert CollisionFree(hand, cup.body).clearance(unchecked.result.x).fault(LIMITS) is not None

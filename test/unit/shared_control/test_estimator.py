@@ -1,0 +1,188 @@
+"""shared_control.estimator: goal inference from the operator's twist, on hand-built scenes and the cup."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
+import pytest
+from numpy.testing import assert_allclose
+
+from grasp_intent_ros.errors import InvalidIntentError, KinematicsError
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
+from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.shared_control.estimator import (
+    EstimatorConfig,
+    IntentEstimator,
+    goals_at,
+    goals_from_poses,
+    progress_rates,
+)
+
+U, T, H = 1, 2, 4
+CONFIG = EstimatorConfig()
+SPEED = 0.12
+"""The shared-control benchmark's operator speed limit, m/s."""
+DT = 0.01
+
+
+def pose(position: tuple[float, float, float], rotvec: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> np.ndarray:
+    out = np.eye(4)
+    out[:3, :3] = pin.exp3(np.asarray(rotvec, dtype=np.float64))
+    out[:3, 3] = position
+    return out
+
+
+def scene() -> IntentEstimator:
+    """Three goals 0.3 m from the origin: usage on +x, transfer on +y, handover on -x."""
+    goals = goals_from_poses([pose((0.3, 0.0, 0.0)), pose((0.0, 0.3, 0.0)), pose((-0.3, 0.0, 0.0))], [U, T, H], 3)
+    return IntentEstimator(goals, CONFIG)
+
+
+def reach(est: IntentEstimator, hand: np.ndarray, velocity: np.ndarray, seconds: float) -> np.ndarray:
+    """Move the hand at constant ``velocity`` (m/s) for ``seconds``, feeding the estimator; returns the hand."""
+    hand = hand.copy()
+    for _ in range(round(seconds / DT)):
+        est.update(hand, np.r_[velocity, 0.0, 0.0, 0.0], DT)
+        hand[:3, 3] += velocity * DT
+    return hand
+
+
+def test_prior_is_uniform_over_task_sets_then_over_goals() -> None:
+    goals = goals_from_poses([pose((0.1 * k, 0.0, 0.0)) for k in range(4)], [U, U, U, T | H], 3)
+    assert_allclose(np.exp(goals.log_prior), [1 / 6, 1 / 6, 1 / 6, 1 / 2], rtol=1e-12)
+    assert_allclose(IntentEstimator(goals).w, [0.5, 0.5, 0.5], rtol=1e-12)
+
+
+def test_motion_straight_at_the_usage_goal_raises_w_usage_and_away_lowers_it() -> None:
+    prior = scene().w
+    toward = scene()
+    reach(toward, np.eye(4), np.array([SPEED, 0.0, 0.0]), 1.0)
+    assert toward.w[0] > prior[0] + 0.3 and toward.w[2] < prior[2] - 0.2
+    away = scene()
+    reach(away, np.eye(4), np.array([-SPEED, 0.0, 0.0]), 1.0)
+    assert away.w[0] < prior[0] - 0.2 and away.w[2] > prior[2] + 0.3
+
+
+def test_holding_still_keeps_the_estimate_and_reset_returns_to_the_prior() -> None:
+    est = scene()
+    prior = est.w
+    hand = reach(est, np.eye(4), np.array([SPEED, 0.0, 0.0]), 0.5)
+    before = est.w
+    for _ in range(200):
+        est.update(hand, np.zeros(6), DT)
+    assert_allclose(est.w, before, rtol=0, atol=0)
+    est.reset()
+    assert_allclose(est.w, prior, rtol=0, atol=0)
+
+
+def test_a_goal_change_is_followed_within_memory_ln2_of_motion() -> None:
+    """After 2 s toward usage, the operator heads for transfer: w_transfer leads within L ln 2 of motion."""
+    est = scene()
+    hand = reach(est, np.eye(4), np.array([SPEED, 0.0, 0.0]), 2.0)
+    assert est.w[0] > est.w[1]
+    bound = CONFIG.memory * math.log(2.0) / SPEED  # s
+    elapsed = 0.0
+    while est.w[1] <= est.w[0]:
+        direction = np.array([0.0, 0.3, 0.0]) - hand[:3, 3]
+        hand = reach(est, hand, SPEED * direction / np.linalg.norm(direction), DT)
+        elapsed += DT
+        assert elapsed <= bound + DT, f'not followed within {bound:.2f} s'
+
+
+def test_goals_at_the_same_pose_keep_their_prior_ratio() -> None:
+    """What the motion cannot tell apart (two task sets at one pose, differing only in the fingers)."""
+    goals = goals_from_poses([pose((0.3, 0.0, 0.0)), pose((0.3, 0.0, 0.0)), pose((-0.3, 0.0, 0.0))], [H, U | H, T], 3)
+    est = IntentEstimator(goals)
+    reach(est, np.eye(4), np.array([SPEED, 0.0, 0.0]), 2.0)
+    p = est.posterior
+    assert p[0] == pytest.approx(p[1], rel=1e-12) and p[2] < 0.05
+    assert est.w[2] > 0.95 and est.w[0] == pytest.approx(0.5, abs=0.03)
+
+
+def test_progress_rates_are_the_decrease_of_the_huber_pose_distance() -> None:
+    """Against finite differences of D_g, written out here independently, at poses far from and near the goals."""
+    rng = np.random.default_rng(1)
+    cfg = CONFIG
+
+    def distance(goal: np.ndarray, hand: np.ndarray) -> float:
+        e = float(np.linalg.norm(goal[:3, 3] - hand[:3, 3]))
+        h = e * e / (2 * cfg.position_scale) if e <= cfg.position_scale else e - cfg.position_scale / 2
+        theta = float(np.linalg.norm(pin.log3(goal[:3, :3] @ hand[:3, :3].T)))
+        s = math.sin(cfg.angle_scale / 2)
+        c = (1 - math.cos(theta)) / (2 * s) if theta <= cfg.angle_scale else 2 * math.sin(theta / 2) - s
+        return h + cfg.rotation_length * c
+
+    goal_poses = [pose(tuple(rng.uniform(-0.3, 0.3, 3)), tuple(rng.normal(0.0, 1.0, 3))) for _ in range(6)]
+    goals = goals_from_poses(goal_poses, [U, T, H, U | T, U | H, T | H], 3)
+    hands = [pose(tuple(rng.uniform(-0.3, 0.3, 3)), tuple(rng.normal(0.0, 1.0, 3))) for _ in range(5)]
+    hands.append(goal_poses[0] @ pose((0.005, 0.0, 0.0), (0.0, 0.05, 0.0)))  # inside both quadratic cores
+    step = 1e-6
+    for hand in hands:
+        twist = rng.normal(0.0, 0.1, 6)
+        moved = hand.copy()
+        moved[:3, 3] += twist[:3] * step
+        moved[:3, :3] = pin.exp3(twist[3:] * step) @ hand[:3, :3]
+        numeric = [-(distance(g, moved) - distance(g, hand)) / step for g in goal_poses]
+        assert_allclose(progress_rates(goals, hand, twist, cfg), numeric, rtol=0, atol=1e-6)
+
+
+def test_rates_are_bounded_by_the_pose_speed_and_defined_at_the_goal_and_opposite_it() -> None:
+    goals = goals_from_poses([pose((0.0, 0.0, 0.0)), pose((0.0, 0.0, 0.0), (math.pi, 0.0, 0.0))], [U, T], 2)
+    twist = np.array([0.1, -0.2, 0.05, 0.3, -0.4, 0.9])
+    rates = progress_rates(goals, np.eye(4), twist, CONFIG)
+    assert np.all(np.isfinite(rates))
+    assert np.all(np.abs(rates) <= np.linalg.norm(twist[:3]) + CONFIG.rotation_length * np.linalg.norm(twist[3:]))
+
+
+def test_w_stays_finite_and_in_range_under_extreme_input() -> None:
+    est = scene()
+    floor = CONFIG.w_floor
+    for twist, dt in ((np.full(6, 1e300), 0.01), (np.full(6, -1.7e308), 1e9), (np.full(6, 1e-300), 0.01),
+                      (np.ones(6), 0.0), (np.ones(6), -5.0)):
+        w = est.update(np.eye(4), twist, dt)
+        assert np.all(np.isfinite(w)) and np.all(w >= floor) and np.all(w <= 1 - floor)
+        assert np.all(np.abs(est.evidence) <= CONFIG.rationality * CONFIG.memory * (1 + 1e-12))
+    before = est.evidence.copy()
+    for bad in ((np.eye(4), np.full(6, np.nan), 0.01), (np.eye(4), np.full(6, np.inf), 0.01),
+                (np.eye(4), np.ones(6), math.nan), (np.full((4, 4), np.nan), np.ones(6), 0.01),
+                (np.eye(4), np.ones(5), 0.01)):
+        with pytest.raises(KinematicsError):
+            est.update(*bad)
+    assert_allclose(est.evidence, before, rtol=0, atol=0)
+
+
+def test_bad_settings_and_goals_are_refused() -> None:
+    for bad in (dict(rationality=0.0), dict(memory=-1.0), dict(w_floor=0.5), dict(angle_scale=4.0),
+                dict(max_dt=math.inf)):
+        with pytest.raises(InvalidIntentError):
+            EstimatorConfig(**bad)  # type: ignore[arg-type]
+    with pytest.raises(InvalidIntentError):
+        goals_from_poses(np.zeros((0, 4, 4)), [], 3)
+    with pytest.raises(InvalidIntentError):
+        goals_from_poses([np.eye(4)], [8], 3)
+    with pytest.raises(KinematicsError):
+        goals_from_poses([2 * np.eye(4)], [1], 3)
+
+
+def test_cup_reach_from_home_toward_a_usage_demonstration_raises_w_usage() -> None:
+    """The shipped cup model at the planner's default object pose: a straight reach for a usage-only grasp."""
+    model = ModelFiles(config_dir() / 'models').load('cup_7zone')
+    base_T_obj = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+    goals = goals_at(model, base_T_obj)
+    assert len(goals) == model.demo_x.shape[0] and goals.n_tasks == 3
+    with pytest.raises(InvalidIntentError):
+        goals_at(model, base_T_obj, np.zeros(model.demo_x.shape[0], dtype=bool))
+    est = IntentEstimator(goals)
+    prior = est.w
+    target = int(np.flatnonzero(goals.task_sets == U)[0])
+    hand = MicoKinematics().fk(HOME_Q)
+    direction = goals.positions[target] - hand[:3, 3]
+    distance = float(np.linalg.norm(direction))
+    reach(est, hand, SPEED * direction / distance, 0.9 * distance / SPEED)
+    assert est.w[0] > prior[0]
+    sets = est.set_posterior()
+    assert sum(sets.values()) == pytest.approx(1.0, abs=1e-12) and set(sets) == set(range(1, 8))

@@ -1,0 +1,129 @@
+"""The docs match the code: the layer table, each folder's module list, public names, docstrings' content.
+
+- CONTRIBUTING.md's layer table names every module of the package under its folder;
+- every package's docstring names each of its modules (its one job and what is in it);
+- every name in a module's ``__all__`` is defined there;
+- docstrings state contracts and reasons, never dates or measured figures (those go to
+  docs/measurements.md and the README's table, history to git).
+
+Read from the source (ast), so no module is imported.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+PACKAGE = REPO / 'grasp_intent_ros'
+MODULES = sorted(p for p in PACKAGE.rglob('*.py') if '__pycache__' not in p.parts)
+DATE = re.compile(r'\b20\d\d-\d\d-\d\d\b|\b(?:January|February|March|April|May|June|July|August|September|October|'
+                  r'November|December) 20\d\d\b')
+FIGURE = re.compile(r'\(\w[\w ]*, measured\)|benchmark\'s #\d|\babout \d[\d.]* ?(?:MB|kB|GB|ms|us|µs)\b|'
+                    r'\bpeak \d[\d.]* ?(?:MB|kB|GB)\b|\d[\d.]* ?(?:us|µs|ms) each\b|\bon a \d-core\b')
+"""Measured figures as docstrings have carried them: '(... measured)', 'about 4 MB', '0.4 us each'."""
+
+
+def layer_table() -> dict[str, str]:
+    """Folder (or top-level module) -> its text in CONTRIBUTING.md's layer table."""
+    text = (REPO / 'CONTRIBUTING.md').read_text()
+    block = text[text.index('## Layers'):]
+    block = block[block.index('```') + 3:]
+    block = block[:block.index('```')]
+    rows: dict[str, str] = {}
+    key = ''
+    for line in block.splitlines():
+        entry = re.match(r'^  (\S[^ ]*(?:, \S+)*)\s{2,}(.*)$', line)
+        if entry:
+            key = entry.group(1)
+            rows[key] = entry.group(2)
+        elif line.startswith('   ') and key:
+            rows[key] += ' ' + line.strip()
+        else:
+            key = ''
+    return rows
+
+
+def docstrings(tree: ast.Module) -> Iterator[str]:
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            doc = ast.get_docstring(node, clean=False)
+            if doc:
+                yield doc
+        elif isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant) and isinstance(node.value.value, str):
+            yield node.value.value  # attribute docstrings
+
+
+def test_the_layer_table_names_every_module_under_its_folder() -> None:
+    rows = layer_table()
+    missing = []
+    for path in MODULES:
+        parts = path.relative_to(PACKAGE).with_suffix('').parts
+        if len(parts) == 1:
+            if parts[0] != '__init__' and not any(re.search(rf'(?<![\w.]){re.escape(parts[0])}\b', k) for k in rows):
+                missing.append(parts[0])
+            continue
+        folder = f'{parts[0]}/'
+        name = parts[-1] if len(parts) == 2 else parts[-2] if parts[-1] == '__init__' else parts[-1]
+        if name in ('__init__', '__main__'):
+            continue
+        if folder not in rows or not re.search(rf'\b{re.escape(name)}\b', rows[folder]):
+            missing.append('/'.join(parts))
+    assert missing == [], f"CONTRIBUTING.md's layer table does not name: {missing}"
+
+
+@pytest.mark.parametrize('init', sorted(PACKAGE.rglob('__init__.py')), ids=lambda p: str(p.parent.name))
+def test_every_package_docstring_names_its_modules(init: Path) -> None:
+    doc = ast.get_docstring(ast.parse(init.read_text())) or ''
+    subs = sorted({p.stem for p in init.parent.glob('*.py') if not p.stem.startswith('_')}
+                  | {p.parent.name for p in init.parent.glob('*/__init__.py')})
+    if init.parent == PACKAGE:
+        return  # the package's own docstring points at the folders; CONTRIBUTING's table is the list
+    assert [s for s in subs if not re.search(rf'\b{re.escape(s)}\b', doc)] == []
+
+
+@pytest.mark.parametrize('path', MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_all_names_only_what_the_module_defines(path: Path) -> None:
+    tree = ast.parse(path.read_text())
+    defined: set[str] = set()
+    exported: list[str] = []
+    for node in tree.body:
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            defined.add(node.name)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            for target in targets:
+                for name in ast.walk(target):
+                    if isinstance(name, ast.Name):
+                        defined.add(name.id)
+                        if name.id == '__all__' and isinstance(node.value, (ast.List, ast.Tuple)):
+                            exported = [ast.literal_eval(e) for e in node.value.elts]
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            defined.update((a.asname or a.name).split('.')[0] for a in node.names)
+        elif isinstance(node, ast.If):  # TYPE_CHECKING imports and the like
+            for sub in ast.walk(node):
+                if isinstance(sub, (ast.Import, ast.ImportFrom)):
+                    defined.update((a.asname or a.name).split('.')[0] for a in sub.names)
+    if path.name == '__init__.py':  # a package's __all__ may name its modules
+        defined.update(p.stem for p in path.parent.glob('*.py'))
+    assert [n for n in exported if n not in defined] == []
+
+
+@pytest.mark.parametrize('path', MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_docstrings_carry_no_dates_or_measured_figures(path: Path) -> None:
+    found = [m.group(0) for doc in docstrings(ast.parse(path.read_text()))
+             for m in [*DATE.finditer(doc), *FIGURE.finditer(doc)]]
+    assert found == [], f'{path.name}: move figures to docs/measurements.md, history to git: {found}'
+
+
+def test_the_figure_and_date_patterns_catch_what_they_are_for() -> None:
+    assert DATE.search('run on 2026-11-27') and DATE.search('as of November 2026')
+    for text in ('a plan makes 30: 0.4 us each', 'about 4 MB for a document', '(flashlight, measured)',
+                 "the benchmark's #192", 'peak 0.6 MB', 'on a 2-core machine'):
+        assert FIGURE.search(text), text
+    for text in ('polls every 50 ms', 'a rejected 500 kB message', '(measured against the grasp)'):
+        assert not FIGURE.search(text), text
