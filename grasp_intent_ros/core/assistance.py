@@ -527,13 +527,21 @@ class Assistance:
             if idle and not cfg.assist_without_input:
                 alpha, phase = 0.0, 'no operator input'
             elif alpha > 0.0:
-                target, phase = assistance_target(self.base_T_ee, self.base_T_grasp, standoff=cfg.standoff,
-                                                  corridor_radius=cfg.corridor_radius,
-                                                  corridor_angle=cfg.corridor_angle)
-                robot = self._robot_twist(target, phase)
+                robot, phase = self.robot()
             else:
                 phase = 'yielded to the operator' if self.yielded else phase
         return Command(self.limiter.limit(blend(alpha, robot, operator), dt), alpha, phase)
+
+    def robot(self) -> tuple[NDArray[np.float64], str]:
+        """The robot's twist toward the planned grasp now (before any blending), and its phase.
+
+        Needs the grasp and the hand's pose (set_grasp, set_joints or base_T_ee).
+        """
+        cfg = self.config
+        assert self.base_T_ee is not None and self.base_T_grasp is not None
+        target, phase = assistance_target(self.base_T_ee, self.base_T_grasp, standoff=cfg.standoff,
+                                          corridor_radius=cfg.corridor_radius, corridor_angle=cfg.corridor_angle)
+        return self._robot_twist(target, phase), phase
 
     def _robot_twist(self, base_T_target: NDArray[np.float64], phase: str) -> NDArray[np.float64]:
         """The robot's twist toward ``base_T_target`` (the grasp or the pre-grasp, ``phase``): module docstring."""
