@@ -41,7 +41,7 @@ setup(
         'pyyaml>=6',
         'pin>=2.7',
         'rosbags>=0.10',
-        'mcap-ros2-support>=0.5',  # brings mcap (bag/repair.py); mcap-ros2-support is the rosdep key that does
+        'mcap-ros2-support>=0.5',  # brings mcap (sessions/bag/repair.py); mcap-ros2-support is the rosdep key that does
         'matplotlib>=3.7',
     ],
     extras_require={

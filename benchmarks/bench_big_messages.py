@@ -1,7 +1,7 @@
 r"""Memory under huge messages on every input: each node's RSS before and after. Prints figures, asserts nothing.
 
 The three suite nodes run as ``python -m`` processes (config/<node>.yaml, the environment of
-:func:`grasp_intent_ros.tools.suite.node_environment`, so the Fast DDS profile config/fastdds_loopback.xml). A
+:func:`grasp_intent_ros.launch.suite.node_environment`, so the Fast DDS profile config/fastdds_loopback.xml). A
 probe publishes ``--count`` messages of ``--mbytes`` MB (default 100 of 64 MB), serialized, on each input topic
 in turn: intent/w, intent/v, model/active (read by the interpreter and the planner), object/pose,
 joint_states, model/query. Each is far over its topic's cap and rejected by its size; the next is sent once
@@ -46,7 +46,7 @@ def huge_messages(n_bytes: int) -> dict[str, bytes]:
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray, String
 
-    from grasp_intent_ros import protocol
+    from grasp_intent_ros.wire import protocol
 
     values = Float64MultiArray()
     values.data = array.array('d', bytes(n_bytes))  # n_bytes / 8 zeros
@@ -71,7 +71,7 @@ def main() -> None:
     domain_id = loopback_domain('bench_big_messages')
     env = dict(item.split('=', 1) for item in args.env)
 
-    from grasp_intent_ros.tools.suite import SUITE_NODES, NodeSuite, use_loopback_discovery
+    from grasp_intent_ros.launch.suite import SUITE_NODES, NodeSuite, use_loopback_discovery
 
     use_loopback_discovery()  # the probe too: loopback only, the suite's profile
     suite = NodeSuite(domain_id, cwd=REPO, env=env)
@@ -92,13 +92,13 @@ def run(args: argparse.Namespace, suite: Any, probe: Probe, pids: dict[str, int]
     from geometry_msgs.msg import PoseStamped
     from std_msgs.msg import Float64MultiArray
 
-    from grasp_intent_ros import protocol
-    from grasp_intent_ros.core.frames import pose_to_matrix
-    from grasp_intent_ros.core.kinematics import BASE_FRAME
-    from grasp_intent_ros.core.model import GraspModel
+    from grasp_intent_ros.method.model import GraspModel
+    from grasp_intent_ros.mico.frames import pose_to_matrix
+    from grasp_intent_ros.mico.kinematics import BASE_FRAME
     from grasp_intent_ros.ros.conversions import message_class, model_to_msg
     from grasp_intent_ros.ros.qos import input_qos, latched_qos
     from grasp_intent_ros.ros.robot import matrix_to_pose_msg
+    from grasp_intent_ros.wire import protocol
 
     readers = {protocol.INTENT_W: 'intent_interpreter: intent', protocol.INTENT_V: 'grasp_planner: inputs',
                protocol.MODEL_ACTIVE: 'grasp_planner: inputs', protocol.OBJECT_POSE: 'grasp_planner: inputs',

@@ -13,7 +13,7 @@ import time
 import numpy as np
 from numpy.typing import NDArray
 
-from grasp_intent_ros.core.kinematics import HOME_Q, IkResult, MicoKinematics
+from grasp_intent_ros.mico.kinematics import HOME_Q, IkResult, MicoKinematics
 
 WIDE = [0, 3, 4, 5]
 

@@ -5,7 +5,7 @@ intent estimate) while ``model/active`` switches between two models every second
 switch must not stall planning: the new model is read off the planning path and swapped in whole.
 
 Printed, with the load average before and after:
-- the time to read one model document (:func:`grasp_intent_ros.protocol.read_model_document`: hash,
+- the time to read one model document (:func:`grasp_intent_ros.wire.protocol.read_model_document`: hash,
   YAML, model) beside PyYAML's pure-Python ``safe_load`` of the same document plus the model's
   construction (the reader before issue 10), medians in this process;
 - the gaps between consecutive answers (``grasp/posterior`` received by the probe): the largest within
@@ -54,7 +54,8 @@ def median_seconds(func: object, repeat: int) -> float:
 
 def plan_gaps_while(read: object, model: object, seconds: float = 0.6) -> float:
     """Largest gap (ms) between warm-started plans in a thread while ``read()`` runs (None: sleep ``seconds``)."""
-    from grasp_intent_ros.core import intent, planner
+    from grasp_intent_ros.method import intent
+    from grasp_intent_ros.planning import planner
 
     v = intent.interpret([0.9, 0.9, 0.1]).v
     x0 = planner.plan(model, v).x  # type: ignore[arg-type]
@@ -88,7 +89,7 @@ def main() -> None:
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--source', default=None, help='run the planner from this source tree (PYTHONPATH)')
     args = parser.parse_args()
-    from grasp_intent_ros.tools.suite import NodeSuite, domain_id_from_environment, use_loopback_discovery
+    from grasp_intent_ros.launch.suite import NodeSuite, domain_id_from_environment, use_loopback_discovery
 
     use_loopback_discovery()  # this process's participant too, before rclpy is imported
     domain_id = domain_id_from_environment(unset=93)
@@ -99,13 +100,13 @@ def main() -> None:
     from rclpy.executors import SingleThreadedExecutor
     from std_msgs.msg import Float64MultiArray, String
 
-    from grasp_intent_ros.core import intent
-    from grasp_intent_ros.core.model import GraspModel
-    from grasp_intent_ros.core.resources import config_dir
-    from grasp_intent_ros.protocol import parse_model_document, read_model_document, read_posterior
+    from grasp_intent_ros.method import intent
+    from grasp_intent_ros.method.model import GraspModel
+    from grasp_intent_ros.resources import config_dir
     from grasp_intent_ros.ros.conversions import array_to_msg, model_to_msg
     from grasp_intent_ros.ros.model_follower import yielding_reader
     from grasp_intent_ros.ros.qos import input_qos, latched_qos
+    from grasp_intent_ros.wire.protocol import parse_model_document, read_model_document, read_posterior
 
     load_before = os.getloadavg()
     models = {name: GraspModel.load(config_dir() / 'models' / f'{name}.yaml') for name in args.models}

@@ -1,7 +1,7 @@
 r"""Latest-only benchmark of the grasp planner node as deployed (issues 3, 7, 10): prints figures, asserts nothing.
 
-The planner runs as it is deployed, ``python -m grasp_intent_ros.grasp_planner`` with its config file, in a
-process of its own (:class:`grasp_intent_ros.tools.suite.NodeSuite`); the probe (:class:`_bench.Probe`, the
+The planner runs as it is deployed, ``python -m grasp_intent_ros.nodes.grasp_planner`` with its config file, in a
+process of its own (:class:`grasp_intent_ros.launch.suite.NodeSuite`); the probe (:class:`_bench.Probe`, the
 helpers bench_latency.py uses) runs in this process. The probe publishes the cup 7-zone model on
 ``model/active`` and then a new target vector v every 10 ms for 10 s (seeded random w, interpreted over
 all zones; ``--stream walk``: a random walk of w, as from a smooth intent estimate during
@@ -68,13 +68,13 @@ def main() -> None:
     from diagnostic_msgs.msg import DiagnosticArray
     from sensor_msgs.msg import JointState
 
-    from grasp_intent_ros.core import intent
-    from grasp_intent_ros.core.model import GraspModel
-    from grasp_intent_ros.core.resources import config_dir
-    from grasp_intent_ros.protocol import KEY_PLANS, status_values
+    from grasp_intent_ros.launch.suite import NodeSuite
+    from grasp_intent_ros.method import intent
+    from grasp_intent_ros.method.model import GraspModel
+    from grasp_intent_ros.resources import config_dir
     from grasp_intent_ros.ros.conversions import array_to_msg
     from grasp_intent_ros.ros.qos import input_qos
-    from grasp_intent_ros.tools.suite import NodeSuite
+    from grasp_intent_ros.wire.protocol import KEY_PLANS, status_values
 
     path = Path(args.model) if args.model else config_dir() / 'models' / 'cup_7zone.yaml'
     if not path.is_file():

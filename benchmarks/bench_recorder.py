@@ -1,6 +1,6 @@
 r"""Recorder under load: suite + recorder as processes, w at 1 kHz; prints figures, asserts nothing.
 
-Starts the three suite nodes (:meth:`~grasp_intent_ros.tools.suite.NodeSuite.start_nodes`) and
+Starts the three suite nodes (:meth:`~grasp_intent_ros.launch.suite.NodeSuite.start_nodes`) and
 ``python -m grasp_intent_ros recorder BAG`` as processes, then publishes ``intent/w`` from this process
 at ``--rate`` Hz for ``--duration`` s (each w carries its sequence number in ``data[0]``; a paced
 publishing thread, reliable keep-last ``--pub-depth``, the profile of the suite's own publishers). The
@@ -61,10 +61,10 @@ def main() -> None:
     from rclpy.executors import SingleThreadedExecutor
     from std_msgs.msg import Float64MultiArray
 
-    from grasp_intent_ros.bag import read_messages
-    from grasp_intent_ros.protocol import INTENT_W
+    from grasp_intent_ros.launch.suite import NodeProcess, NodeSuite
     from grasp_intent_ros.ros.qos import output_qos
-    from grasp_intent_ros.tools.suite import NodeProcess, NodeSuite
+    from grasp_intent_ros.sessions.bag import read_messages
+    from grasp_intent_ros.wire.protocol import INTENT_W
 
     work = Path(tempfile.mkdtemp(prefix='bench_recorder_'))
     bag = work / 'session'

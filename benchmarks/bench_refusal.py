@@ -1,6 +1,6 @@
 r"""How soon a node refuses a model document it will not serve, and what reading one costs. Prints figures.
 
-Times :func:`grasp_intent_ros.protocol.read_model_document` as a node's model follower calls it (the suite's
+Times :func:`grasp_intent_ros.wire.protocol.read_model_document` as a node's model follower calls it (the suite's
 requirements, :func:`grasp_intent_ros.ros.model_follower.served_models`; garbage collection off and the
 short GIL switch interval of :func:`~grasp_intent_ros.ros.model_follower.yielding_reader`) on documents a
 hostile peer may latch on ``model/active``, each under the document cap:
@@ -29,12 +29,12 @@ from typing import Any
 import yaml
 from _bench import REPO, uptime
 
-from grasp_intent_ros.core.errors import GraspIntentError
-from grasp_intent_ros.core.intent import DEFAULT_TASKS, all_zones, zone_labels
-from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.core.safe_yaml import MAX_DOCUMENT_CHARS
-from grasp_intent_ros.protocol import read_model_document
+from grasp_intent_ros.errors import GraspIntentError
+from grasp_intent_ros.method.intent import DEFAULT_TASKS, all_zones, zone_labels
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.method.safe_yaml import MAX_DOCUMENT_CHARS
 from grasp_intent_ros.ros.model_follower import served_models, yielding_reader
+from grasp_intent_ros.wire.protocol import read_model_document
 
 
 def _document(body: str, name: str) -> str:

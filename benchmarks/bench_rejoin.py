@@ -7,7 +7,7 @@ trial, in seconds: the subscriber's node created (from its process start), its s
 (from the node created) and the first message published after its start received (from the match).
 Prints figures, asserts nothing.
 
-Both processes get the environment of the suite's nodes (``tools.suite.node_environment``), so the Fast DDS
+Both processes get the environment of the suite's nodes (``launch.suite.node_environment``), so the Fast DDS
 profile ``config/fastdds_loopback.xml`` unless FASTRTPS_DEFAULT_PROFILES_FILE is set: set it to another
 profile to compare (the profile's comment gives the findings).
 
@@ -31,7 +31,7 @@ import time
 import numpy as np
 from _bench import REPO, loopback_domain, uptime
 
-from grasp_intent_ros.tools.suite import node_environment
+from grasp_intent_ros.launch.suite import node_environment
 
 TOPIC = 'bench_rejoin/w'
 

@@ -51,12 +51,12 @@ from _bench import REPO, Probe, cpu_seconds, loopback_domain, paced, uptime, wal
 
 
 def import_seconds(module: str, code: Path | None = None, repeats: int = 3) -> float:
-    """Median wall time of ``python -c 'import grasp_intent_ros.<module>'`` in a fresh interpreter (s)."""
+    """Median wall time of ``python -c 'import grasp_intent_ros.nodes.<module>'`` in a fresh interpreter (s)."""
     times = []
     env = {**os.environ, 'PYTHONPATH': str(code)} if code else None
     for _ in range(repeats):
         start = time.monotonic()
-        subprocess.run([sys.executable, '-c', f'import grasp_intent_ros.{module}'], check=True, cwd=code or REPO,
+        subprocess.run([sys.executable, '-c', f'import grasp_intent_ros.nodes.{module}'], check=True, cwd=code or REPO,
                        env=env)
         times.append(time.monotonic() - start)
     return float(np.median(times))
@@ -84,9 +84,9 @@ def main() -> None:
     from geometry_msgs.msg import PoseStamped
     from std_msgs.msg import Float64MultiArray, String
 
-    from grasp_intent_ros.core import intent
+    from grasp_intent_ros.launch.suite import NodeProcess, NodeSuite
+    from grasp_intent_ros.method import intent
     from grasp_intent_ros.ros.qos import input_qos, latched_qos, output_qos
-    from grasp_intent_ros.tools.suite import NodeProcess, NodeSuite
 
     code = args.code.resolve() if args.code else None
     trees: list[Path | None] = [code] if args.compare is None else [code, args.compare.resolve()]

@@ -67,16 +67,15 @@ from typing import Any
 import numpy as np
 from _bench import REPO, Probe, loopback_domain, stopped_after, uptime
 
-from grasp_intent_ros.core.assistance import clip_norm, pose_error
-from grasp_intent_ros.core.data import load_csv
-from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
-from grasp_intent_ros.core.grasp import Grasp, plan_grasp
-from grasp_intent_ros.core.intent import all_zones, interpret
-from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
-from grasp_intent_ros.core.registry import ModelFiles
-from grasp_intent_ros.core.resources import config_dir
-from grasp_intent_ros.dataset.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRules
-from grasp_intent_ros.sessions.closed_loop import offset, reached
+from grasp_intent_ros.method.data import load_csv
+from grasp_intent_ros.method.intent import all_zones, interpret
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRules
+from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error, reached
 
 OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 CONDITIONS = ('none', 'blend', 'confidence')
@@ -180,9 +179,9 @@ class Loop:
         from std_msgs.msg import Float64, Float64MultiArray
         from std_srvs.srv import Trigger
 
-        from grasp_intent_ros.protocol import stamped_values
         from grasp_intent_ros.ros.qos import input_qos, output_qos
         from grasp_intent_ros.ros.robot import joint_positions, pose_msg_to_matrix
+        from grasp_intent_ros.wire.protocol import stamped_values
 
         self.probe, self.kin, self.rules = probe, kin, rules
         node = probe.node
@@ -447,7 +446,7 @@ def stream_phase(loop: Loop) -> dict[str, float]:
 
 
 def run_object(name: str, args: argparse.Namespace, domain_id: int, op: Operator) -> tuple[list[Run], dict[str, float]]:
-    from grasp_intent_ros.tools.suite import NodeSuite
+    from grasp_intent_ros.launch.suite import NodeSuite
 
     model_name, rules = OBJECTS[name]
     kin = MicoKinematics()
@@ -508,9 +507,9 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
     """
     from rclpy.executors import SingleThreadedExecutor
 
+    from grasp_intent_ros.launch.suite import NodeSuite
+    from grasp_intent_ros.nodes.recorder import Recorder
     from grasp_intent_ros.sessions.pairing import compact_session
-    from grasp_intent_ros.tools.recorder import Recorder
-    from grasp_intent_ros.tools.suite import NodeSuite
 
     model_name, rules = OBJECTS[name]
     kin = MicoKinematics()

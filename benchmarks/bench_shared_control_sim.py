@@ -52,13 +52,13 @@ from typing import Any
 import numpy as np
 from _bench import uptime
 
-from grasp_intent_ros.core.frames import pose_to_matrix
-from grasp_intent_ros.core.grasp import Grasp, plan_grasp
-from grasp_intent_ros.core.intent import all_zones, interpret
-from grasp_intent_ros.core.kinematics import MicoKinematics
-from grasp_intent_ros.core.registry import ModelFiles
-from grasp_intent_ros.core.resources import config_dir
-from grasp_intent_ros.dataset.demos import CUP_RULES, FLASHLIGHT_RULES
+from grasp_intent_ros.method.intent import all_zones, interpret
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+from grasp_intent_ros.mico.kinematics import MicoKinematics
+from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES
+from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.operators import (
     ChangingIntent,
     OperatorConstants,

@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 from _bench import REPO, Probe, loopback_domain, uptime
 
-from grasp_intent_ros.tools.suite import SUITE_NODES, NodeProcess, NodeSuite, node_environment
+from grasp_intent_ros.launch.suite import SUITE_NODES, NodeProcess, NodeSuite, node_environment
 
 QUIET = '''
 import linecache, sys, threading, time
@@ -73,8 +73,8 @@ def suite_cycles(probe: Probe, domain_id: int, args: argparse.Namespace, code: P
     """``--suite``: the three nodes started, answering, and stopped with SIGINT ``args.cycles`` times."""
     from std_msgs.msg import Float64MultiArray
 
-    from grasp_intent_ros.protocol import GRASP_POSTERIOR, INTENT_W
     from grasp_intent_ros.ros.qos import input_qos, output_qos
+    from grasp_intent_ros.wire.protocol import GRASP_POSTERIOR, INTENT_W
 
     answers = probe.record(Float64MultiArray, GRASP_POSTERIOR, input_qos())
     w_pub = probe.node.create_publisher(Float64MultiArray, INTENT_W, output_qos())

@@ -1,6 +1,6 @@
 """Task-success benchmark: does the planned grasp serve the operator's task? Prints figures, asserts nothing.
 
-The judge is the object's Table I rules (:data:`grasp_intent_ros.dataset.demos.OBJECTS`, ``label(x)``): the
+The judge is the object's Table I rules (:data:`grasp_intent_ros.objects.demos.OBJECTS`, ``label(x)``): the
 planner never sees them. Operator model (the paper's own assumption): the intent inference gives w, and the
 operator's true task set T holds each task i independently with probability w_i, conditioned on T being
 non-empty. A grasp x succeeds when the rule of every task in T holds, T <= label(x), so its success is
@@ -53,11 +53,12 @@ import numpy as np
 from bench_planner import CASES, random_targets  # the same w as the planner benchmark's
 from numpy.typing import NDArray
 
-from grasp_intent_ros.core import intent, planner
-from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.core.resources import config_dir
-from grasp_intent_ros.dataset import demos as rules_module
-from grasp_intent_ros.dataset.demos import OBJECTS, ObjectRules
+from grasp_intent_ros.method import intent
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.objects import demos as rules_module
+from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules
+from grasp_intent_ros.planning import planner
+from grasp_intent_ros.resources import config_dir
 
 MODELS = ('cup_7zone', 'flashlight_7zone', 'cup_5zone', 'cup_4zone')
 UNLIKELY = 0.25

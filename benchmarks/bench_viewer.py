@@ -1,11 +1,11 @@
 r"""The viewer's cost to the planner, and 100 browser connections: prints figures, asserts nothing.
 
-Part 1, in one run: the grasp planner runs as deployed (``python -m grasp_intent_ros.grasp_planner`` with its
+Part 1, in one run: the grasp planner runs as deployed (``python -m grasp_intent_ros.nodes.grasp_planner`` with its
 config file, a process of its own); the probe (:class:`_bench.Probe`) publishes the cup 7-zone model and then
 a v every ``--period`` s (seeded random w over all zones, as bench_planner_node.py) for ``--duration`` s per
 phase. Phases cycle through ``alone``, ``viewer`` and ``browser`` (``--rounds`` of each, interleaved so that a
 change of the machine's load falls on all three): in a ``viewer`` phase the viewer node runs
-(``python -m grasp_intent_ros.viewer``, a process, subscribed to everything the planner publishes) and draws,
+(``python -m grasp_intent_ros.nodes.viewer``, a process, subscribed to everything the planner publishes) and draws,
 with no browser; in a ``browser`` phase a headless Chromium page is open on it too, so the viewer sends its
 frames and the browser renders them (software WebGL) on the same machine. Printed per phase and pooled per
 condition: the latency from publishing a v to the probe's receipt of the grasp/joint_targets that answers it
@@ -76,13 +76,13 @@ def main() -> None:
     from diagnostic_msgs.msg import DiagnosticArray
     from sensor_msgs.msg import JointState
 
-    from grasp_intent_ros.core import intent
-    from grasp_intent_ros.core.model import GraspModel
-    from grasp_intent_ros.core.resources import config_dir
-    from grasp_intent_ros.protocol import status_values
+    from grasp_intent_ros.launch.suite import NodeSuite
+    from grasp_intent_ros.method import intent
+    from grasp_intent_ros.method.model import GraspModel
+    from grasp_intent_ros.resources import config_dir
     from grasp_intent_ros.ros.conversions import array_to_msg
     from grasp_intent_ros.ros.qos import input_qos
-    from grasp_intent_ros.tools.suite import NodeSuite
+    from grasp_intent_ros.wire.protocol import status_values
 
     path = config_dir() / 'models' / 'cup_7zone.yaml'
     model = GraspModel.load(path)

@@ -45,9 +45,9 @@ def main() -> None:
     from rclpy.parameter_client import AsyncParameterClient
     from std_msgs.msg import Float64MultiArray
 
-    from grasp_intent_ros.core.kinematics import BASE_FRAME
+    from grasp_intent_ros.launch.suite import SUITE_NODES, NodeSuite
+    from grasp_intent_ros.mico.kinematics import BASE_FRAME
     from grasp_intent_ros.ros.qos import input_qos, output_qos
-    from grasp_intent_ros.tools.suite import SUITE_NODES, NodeSuite
 
     suite = NodeSuite(domain_id, cwd=REPO)
     suite.start_nodes()

@@ -7,9 +7,10 @@ import sys
 
 import numpy as np
 
-from grasp_intent_ros.core import ambiguity, intent, planner
-from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.core.resources import config_dir
+from grasp_intent_ros.method import ambiguity, intent
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.planning import planner
+from grasp_intent_ros.resources import config_dir
 
 
 def main(w: list[float]) -> None:

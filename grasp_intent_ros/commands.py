@@ -8,29 +8,29 @@ One table serves every way of starting them:
   (:mod:`grasp_intent_ros.__main__`), so that a pip install puts no generic name such as ``demo`` or
   ``train`` into a user's ``bin/``.
 
-The node modules also run as ``python -m grasp_intent_ros.<node>``. setup.py reads this file without
+The node modules also run as ``python -m grasp_intent_ros.nodes.<node>``. setup.py reads this file without
 importing the package, so it imports nothing.
 """
 
 COMMANDS = {
-    'intent_interpreter': 'intent_interpreter',
-    'model_server': 'model_server',
-    'grasp_planner': 'grasp_planner',
-    'viewer': 'viewer',
-    'assistance': 'assistance',
-    'mock_arm': 'mock_arm',
-    'suite': 'tools.suite',
-    'send_intent': 'tools.send_intent',
-    'demo': 'tools.demo',
-    'recorder': 'tools.recorder',
-    'reindex': 'tools.reindex',
-    'replay': 'tools.replay',
-    'report': 'tools.report',
-    'playback': 'tools.playback',
-    'paper_tables': 'tools.paper_tables',
-    'ambiguity_report': 'tools.ambiguity_report',
-    'generate_data': 'dataset.generate_data',
-    'train': 'dataset.train',
+    'intent_interpreter': 'nodes.intent_interpreter',
+    'model_server': 'nodes.model_server',
+    'grasp_planner': 'nodes.grasp_planner',
+    'viewer': 'nodes.viewer',
+    'assistance': 'nodes.assistance',
+    'mock_arm': 'nodes.mock_arm',
+    'suite': 'launch.suite',
+    'send_intent': 'cli.send_intent',
+    'demo': 'launch.demo',
+    'recorder': 'nodes.recorder',
+    'reindex': 'sessions.reindex',
+    'replay': 'sessions.replay',
+    'report': 'sessions.report',
+    'playback': 'sessions.playback',
+    'paper_tables': 'cli.paper_tables',
+    'ambiguity_report': 'cli.ambiguity_report',
+    'generate_data': 'objects.generate_data',
+    'train': 'objects.train',
 }
 """Command name -> module under ``grasp_intent_ros`` with a ``main()`` that reads ``sys.argv``."""
 

@@ -10,7 +10,7 @@ else
     python="$repo/.venv/bin/python"
 fi
 # Network rule: ROS traffic stays on loopback. The domain id is chosen by the Python side
-# (grasp_intent_ros.tools.suite.domain_id_from_environment: ROS_DOMAIN_ID if set, else one of its own;
+# (grasp_intent_ros.launch.suite.domain_id_from_environment: ROS_DOMAIN_ID if set, else one of its own;
 # the tests claim one per test).
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 cd "$repo"

@@ -64,7 +64,7 @@ def main() -> None:
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
 
-    from grasp_intent_ros.tools.suite import SUITE_NODES, NodeSuite, use_loopback_discovery
+    from grasp_intent_ros.launch.suite import SUITE_NODES, NodeSuite, use_loopback_discovery
 
     use_loopback_discovery()
     context = Context()
@@ -102,8 +102,8 @@ def run(args: argparse.Namespace, suite: Any, probe: Any, wait_for: Callable[[Ca
     from hypothesis import HealthCheck, Phase, given, settings
     from std_msgs.msg import Float64MultiArray
 
-    from grasp_intent_ros import protocol
     from grasp_intent_ros.ros.qos import DEFAULT_DEPTH, input_qos
+    from grasp_intent_ros.wire import protocol
 
     fuzzer = Fuzzer(probe, wait_for)
     grasps: list[Any] = []

@@ -6,9 +6,9 @@ All but the closed-loop bags/shared_control_cup, which ``benchmarks/bench_shared
 
     .venv/bin/python scripts/record_sessions.py [--out bags] [--only NAME ...] [--models-dir DIR]
 
-For each session: start the three nodes as ``python -m`` processes (:class:`grasp_intent_ros.tools.suite.NodeSuite`,
+For each session: start the three nodes as ``python -m`` processes (:class:`grasp_intent_ros.launch.suite.NodeSuite`,
 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, ROS_DOMAIN_ID from the environment, else derived from the pid), record with the
-in-process :class:`grasp_intent_ros.tools.recorder.Recorder` (own executor and thread), drive the inputs one at a
+in-process :class:`grasp_intent_ros.nodes.recorder.Recorder` (own executor and thread), drive the inputs one at a
 time, each sent once the previous one was answered and the recorder has written the answer, stop the nodes
 (by PID), then
 compact the bag (:func:`grasp_intent_ros.sessions.pairing.compact_session`: of /diagnostics only the
@@ -45,14 +45,14 @@ from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q
-from grasp_intent_ros.protocol import DIAGNOSTICS, MODEL_ACTIVE, PLAN_TOPICS
+from grasp_intent_ros.launch.suite import NodeSuite, domain_id_from_environment, use_loopback_discovery
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q
+from grasp_intent_ros.nodes.recorder import Recorder
 from grasp_intent_ros.sessions.compare import compare_step, summarize
 from grasp_intent_ros.sessions.outputs import Joints, Output, Undecodable
 from grasp_intent_ros.sessions.pairing import Step, compact_session, load_paired_session
-from grasp_intent_ros.tools.recorder import Recorder
-from grasp_intent_ros.tools.replay_client import SUITE_SETTLE_S, SessionClient, await_answer
-from grasp_intent_ros.tools.suite import NodeSuite, domain_id_from_environment, use_loopback_discovery
+from grasp_intent_ros.sessions.replay_client import SUITE_SETTLE_S, SessionClient, await_answer
+from grasp_intent_ros.wire.protocol import DIAGNOSTICS, MODEL_ACTIVE, PLAN_TOPICS
 
 REPO = Path(__file__).resolve().parents[1]
 RECORDED = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'intent/v', 'intent/clarification',

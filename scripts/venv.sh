@@ -53,7 +53,7 @@ if $latest; then  # what the drift run tests beyond the lock: each locked packag
 fi
 # Compile the planner's numba kernels now (cached next to the source; a no-op when the cache is fresh),
 # so that no node pays for compilation on its first plan.
-"$venv/bin/python" -m grasp_intent_ros.core.kernels
+"$venv/bin/python" -m grasp_intent_ros.kernels
 # Byte-compile the package's own modules (an editable install leaves them to the first import, which writes
 # nothing under PYTHONDONTWRITEBYTECODE=1, and each node process would compile them again).
 "$venv/bin/python" -m compileall -q "$repo/grasp_intent_ros"

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from grasp_intent_ros.tools.suite import TEST_DOMAIN_IDS, use_loopback_discovery
+from grasp_intent_ros.launch.suite import TEST_DOMAIN_IDS, use_loopback_discovery
 
 use_loopback_discovery()  # before rclpy is imported anywhere
 
@@ -193,9 +193,9 @@ def train_tiny_models(directory: Path, *, seed: int = 7, per_set: int = 12) -> d
     model saved as ``cup_7zone.yaml`` and ``cup_5zone.yaml`` in ``directory`` (tiny stand-ins for the
     real models), plus ``broken.yaml`` (not a model). Returns the models by name.
     """
-    from grasp_intent_ros.core.data import Demonstrations
-    from grasp_intent_ros.core.features import APPROACH, MICO_3F
-    from grasp_intent_ros.core.model import GraspModel, structure_zones
+    from grasp_intent_ros.method.data import Demonstrations
+    from grasp_intent_ros.method.features import APPROACH, MICO_3F
+    from grasp_intent_ros.method.model import GraspModel, structure_zones
 
     rng = np.random.default_rng(seed)
     span = MICO_3F.upper - MICO_3F.lower
@@ -237,7 +237,7 @@ def weaponised_model_documents() -> Callable[..., dict[str, tuple[str, str]]]:
 
 def _weaponised_model_documents(model: Any, *, name: str = 'cup_7zone', version: int = 2
                                 ) -> dict[str, tuple[str, str]]:
-    from grasp_intent_ros.core.safe_yaml import ALIAS, MAX_DOCUMENT_CHARS, OVERSIZED, TOO_DEEP
+    from grasp_intent_ros.method.safe_yaml import ALIAS, MAX_DOCUMENT_CHARS, OVERSIZED, TOO_DEEP
 
     def document(body: str) -> str:
         sha = hashlib.sha256(body.encode()).hexdigest()

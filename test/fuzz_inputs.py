@@ -30,10 +30,10 @@ from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from grasp_intent_ros import protocol
-from grasp_intent_ros.core.intent import DEFAULT_TASKS, all_zones, interpret, zone_labels
-from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q
+from grasp_intent_ros.method.intent import DEFAULT_TASKS, all_zones, interpret, zone_labels
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q
 from grasp_intent_ros.ros.qos import input_qos
+from grasp_intent_ros.wire import protocol
 
 COMPONENTS = {
     protocol.INTENT_W: 'intent_interpreter: intent',

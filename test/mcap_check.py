@@ -17,7 +17,7 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from grasp_intent_ros.bag import BagReadError
+from grasp_intent_ros.sessions.bag import BagReadError
 
 __all__ = ['McapMessage', 'read_messages_mcap']
 
@@ -26,7 +26,7 @@ __all__ = ['McapMessage', 'read_messages_mcap']
 class McapMessage:
     """One message as read by the ``mcap`` library, independently of rosbags.
 
-    The fields of :class:`grasp_intent_ros.bag.BagMessage` under the mcap library's names: the channel
+    The fields of :class:`grasp_intent_ros.sessions.bag.BagMessage` under the mcap library's names: the channel
     ``topic``, the ``schema_name`` (the message type, e.g. 'std_msgs/msg/String'), the log (receive) time
     ``log_time_ns`` in ns since the epoch, and instead of the bytes the ``mcap_ros2`` dynamic message object
     ``decoded`` (fields as attributes).

@@ -1,6 +1,6 @@
-"""The rclpy layer: the one place that knows both ROS messages and :mod:`grasp_intent_ros.core`.
+"""The rclpy layer: the one place that knows both ROS messages and :mod:`grasp_intent_ros.method`.
 
-The wire formats themselves are defined ROS-free in :mod:`grasp_intent_ros.protocol`; this layer builds and
+The wire formats themselves are defined ROS-free in :mod:`grasp_intent_ros.wire.protocol`; this layer builds and
 reads the rclpy objects.
 
 Modules
@@ -34,14 +34,14 @@ robot
 markers
     RViz markers of a planned grasp.
 grasp_messages
-    The messages of one planned grasp (:class:`grasp_intent_ros.core.grasp.Grasp`); ``GraspOutputs``, the
+    The messages of one planned grasp (:class:`grasp_intent_ros.mico.grasp.Grasp`); ``GraspOutputs``, the
     planner's output stage (all or none, else a clarification request).
 compat
     Every workaround of rclpy internals, each naming the rclpy it works around (a test fails when rclpy
     changes, so that they are checked again).
 
 Importing this package imports no submodule; each submodule but ``startup`` imports rclpy or the message
-packages, and :mod:`grasp_intent_ros.core` never does.
+packages, and :mod:`grasp_intent_ros.method` never does.
 """
 
 __all__ = ['compat', 'conversions', 'diagnostics', 'grasp_messages', 'inputs', 'markers', 'params', 'qos', 'robot',

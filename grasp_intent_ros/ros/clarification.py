@@ -13,7 +13,7 @@ from collections.abc import Hashable
 from rclpy.node import Node
 from std_msgs.msg import String
 
-from .. import protocol
+from ..wire import protocol
 from .diagnostics import NodeDiagnostics, cap_text
 from .qos import output_publisher
 from .run import publish_all
@@ -33,7 +33,7 @@ class ClarificationRequests:
     count_key, outcome_key : str
         Status values holding the number of requests and the last outcome.
     level : int
-        Status level of a request (:data:`grasp_intent_ros.protocol.OK` or ``WARN``).
+        Status level of a request (:data:`grasp_intent_ros.wire.protocol.OK` or ``WARN``).
     log : bool
         Also log each request as a warning.
     """

@@ -1,8 +1,8 @@
 """Messages <-> core types: labelled and stamped Float64MultiArray, the grasp posterior, the model document.
 
-The layouts are defined, written and read in :mod:`grasp_intent_ros.protocol` (ROS-free); this module
+The layouts are defined, written and read in :mod:`grasp_intent_ros.wire.protocol` (ROS-free); this module
 only builds the rclpy message objects from them. Readers need no message class: use
-:func:`grasp_intent_ros.protocol.msg_to_array` and friends on rclpy messages directly.
+:func:`grasp_intent_ros.wire.protocol.msg_to_array` and friends on rclpy messages directly.
 """
 
 from __future__ import annotations
@@ -19,10 +19,10 @@ from numpy.typing import ArrayLike, NDArray
 from rclpy.serialization import serialize_message
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
-from ..core.errors import GraspIntentError, InvalidIntentError
-from ..core.intent import MAX_TASKS, validate_v
-from ..core.model import GraspModel
-from ..protocol import (
+from ..errors import GraspIntentError, InvalidIntentError
+from ..method.intent import MAX_TASKS, validate_v
+from ..method.model import GraspModel
+from ..wire.protocol import (
     MAX_ARRAY_SIZE,
     MSGTYPES,
     ModelDocument,
@@ -52,7 +52,7 @@ def type_class(msgtype: str) -> Any:
 
 @functools.lru_cache(maxsize=None)  # per message on the nodes' inputs (ros.inputs.decode_input)
 def message_class(topic: str) -> Any:
-    """The rclpy message class of a suite topic (:data:`grasp_intent_ros.protocol.MSGTYPES`).
+    """The rclpy message class of a suite topic (:data:`grasp_intent_ros.wire.protocol.MSGTYPES`).
 
     Raises
     ------
@@ -65,7 +65,7 @@ def message_class(topic: str) -> Any:
 def array_to_msg(values: ArrayLike, labels: Sequence[str | Sequence[str]]) -> Float64MultiArray:
     """A labelled Float64MultiArray of ``values``: the one place the suite's arrays become messages.
 
-    ``labels`` and their errors as for :func:`grasp_intent_ros.protocol.array_layout`.
+    ``labels`` and their errors as for :func:`grasp_intent_ros.wire.protocol.array_layout`.
 
     Raises
     ------
@@ -137,7 +137,7 @@ class SerializedArrays:
 
 
 def stamped_array_to_msg(values: ArrayLike, labels: str | Sequence[str], *, stamp: Time) -> Float64MultiArray:
-    """A 1-D array as a stamped Float64MultiArray (layout in :mod:`grasp_intent_ros.protocol`).
+    """A 1-D array as a stamped Float64MultiArray (layout in :mod:`grasp_intent_ros.wire.protocol`).
 
     ``labels``: the value names (one per value) or a ready label string.
     """
@@ -163,7 +163,7 @@ def stamped_array_from_msg(msg: Float64MultiArray, *, max_size: int = MAX_ARRAY_
 
 def posterior_to_msg(p: ArrayLike, w: ArrayLike, zone_labels: Sequence[str], task_names: Sequence[str], *,
                      stamp: Time) -> Float64MultiArray:
-    """The ``grasp/posterior`` message (layout in :mod:`grasp_intent_ros.protocol`)."""
+    """The ``grasp/posterior`` message (layout in :mod:`grasp_intent_ros.wire.protocol`)."""
     p_arr, w_arr = np.asarray(p, dtype=np.float64), np.asarray(w, dtype=np.float64)
     if p_arr.shape != (len(zone_labels),) or w_arr.shape != (len(task_names),):
         raise ValueError(f'p {p_arr.shape} / w {w_arr.shape} do not match {len(zone_labels)} zones / '
@@ -188,7 +188,7 @@ def target_from_msg(msg: Float64MultiArray) -> tuple[NDArray[np.float64], tuple[
     ------
     InvalidIntentError
         For a malformed array, or a v that is not a probability vector naming each value once
-        (:func:`grasp_intent_ros.core.intent.validate_v`).
+        (:func:`grasp_intent_ros.method.intent.validate_v`).
     """
     labels = msg_labels(msg)[0] if msg.layout.dim and msg.layout.dim[0].label else None
     values = msg_to_array(msg, max_size=(1 << MAX_TASKS) - 1, error=InvalidIntentError, what='v')
@@ -199,7 +199,7 @@ class SerializedTargets:
     """:func:`target_from_msg` of serialized ``intent/v`` messages, each layout decoded once.
 
     An ``intent/v`` stream repeats its layout (the zone labels) message after message: a message with the
-    bytes of the last decoded layout is read in place (:class:`grasp_intent_ros.protocol.RepeatedLayout`)
+    bytes of the last decoded layout is read in place (:class:`grasp_intent_ros.wire.protocol.RepeatedLayout`)
     and its values checked as :func:`target_from_msg` checks them; any other message is decoded by
     ``decode`` and read by :func:`target_from_msg`. The same v, labels and errors either way.
 
@@ -224,7 +224,7 @@ class SerializedTargets:
 
 
 def model_to_msg(model: GraspModel, *, name: str, version: int) -> String:
-    """The model document (:func:`grasp_intent_ros.protocol.model_document`) as a std_msgs/String.
+    """The model document (:func:`grasp_intent_ros.wire.protocol.model_document`) as a std_msgs/String.
 
     Raises
     ------
@@ -235,7 +235,7 @@ def model_to_msg(model: GraspModel, *, name: str, version: int) -> String:
 
 
 def model_from_msg(msg: String) -> ModelDocument:
-    """Parse a model document (:func:`grasp_intent_ros.protocol.read_model_document`).
+    """Parse a model document (:func:`grasp_intent_ros.wire.protocol.read_model_document`).
 
     Raises
     ------

@@ -9,7 +9,7 @@ input (message = the reason) until an input is processed again; ERROR after an u
 :meth:`NodeDiagnostics.set_state` asks for (the worse of the two wins).
 
 :meth:`NodeDiagnostics.guard` wraps a subscription callback so that no exception escapes it: a
-:class:`~grasp_intent_ros.core.errors.GraspIntentError` (bad input) is a rejection, anything else an
+:class:`~grasp_intent_ros.errors.GraspIntentError` (bad input) is a rejection, anything else an
 internal error logged with its traceback; either way the node keeps serving.
 :meth:`NodeDiagnostics.count_dropped` wraps one so that the messages the node never took (replaced in a
 full keep-last input queue, or lost) are counted, from the gaps in the publisher's sequence numbers.
@@ -32,8 +32,8 @@ from typing import Any, TypeVar
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
-from ..core.errors import GraspIntentError
-from ..protocol import (
+from ..errors import GraspIntentError
+from ..wire.protocol import (
     DIAGNOSTICS,
     ERROR,
     KEY_DROPPED,

@@ -1,4 +1,4 @@
-"""The messages of one planned grasp (:class:`grasp_intent_ros.core.grasp.Grasp`), and their publishers.
+"""The messages of one planned grasp (:class:`grasp_intent_ros.mico.grasp.Grasp`), and their publishers.
 
 All carry the plan's stamp but the trajectory, stamped zero ("start now", the trajectory_msgs convention)
 and ordered right after the joint targets of its plan. :class:`GraspOutputs` is the planner's output
@@ -17,11 +17,11 @@ from builtin_interfaces.msg import Time
 from numpy.typing import NDArray
 from rclpy.node import Node
 
-from .. import protocol as topics
-from ..core.features import FINGERS
-from ..core.grasp import JOINT_NAMES, OUTCOMES, Grasp, NoModelZone, NoReachableGrasp, check_grasp
-from ..core.kinematics import BASE_FRAME, MicoKinematics
-from ..protocol import KEY_PLAN_STATUS, KEY_PLANNING_TIME, KEY_PLANS, ModelDocument
+from ..method.features import FINGERS
+from ..mico.grasp import JOINT_NAMES, OUTCOMES, Grasp, NoModelZone, NoReachableGrasp, check_grasp
+from ..mico.kinematics import BASE_FRAME, MicoKinematics
+from ..wire import protocol as topics
+from ..wire.protocol import KEY_PLAN_STATUS, KEY_PLANNING_TIME, KEY_PLANS, ModelDocument
 from .clarification import ClarificationRequests
 from .conversions import message_class, posterior_to_msg, stamped_array_to_msg
 from .diagnostics import NodeDiagnostics
@@ -35,7 +35,7 @@ __all__ = ['grasp_messages', 'GraspOutputs']
 
 def grasp_messages(grasp: Grasp, doc: ModelDocument, base_T_obj: NDArray[np.float64], *, stamp: Time,
                    object_size: tuple[float, float], markers: bool = True) -> dict[str, Any]:
-    """The plan's outputs by topic (:data:`grasp_intent_ros.protocol.PLAN_TOPICS`, and ``grasp/markers``).
+    """The plan's outputs by topic (:data:`grasp_intent_ros.wire.protocol.PLAN_TOPICS`, and ``grasp/markers``).
 
     Parameters
     ----------
@@ -43,7 +43,7 @@ def grasp_messages(grasp: Grasp, doc: ModelDocument, base_T_obj: NDArray[np.floa
     doc : ModelDocument
         The model planned on (zone labels, task and feature names, marker text).
     base_T_obj : ndarray, shape (4, 4)
-        Object pose in :data:`~grasp_intent_ros.core.kinematics.BASE_FRAME`.
+        Object pose in :data:`~grasp_intent_ros.mico.kinematics.BASE_FRAME`.
     stamp : builtin_interfaces/Time
         The stamp of every output but the trajectory.
     object_size : (diameter, height)
@@ -77,9 +77,9 @@ class GraspOutputs:
     Parameters
     ----------
     node : Node
-        Owner of the publishers (:data:`~grasp_intent_ros.protocol.PLAN_TOPICS` and ``grasp/markers``).
+        Owner of the publishers (:data:`~grasp_intent_ros.wire.protocol.PLAN_TOPICS` and ``grasp/markers``).
     kin : MicoKinematics
-        The arm a grasp is checked against (:func:`~grasp_intent_ros.core.grasp.check_grasp`).
+        The arm a grasp is checked against (:func:`~grasp_intent_ros.mico.grasp.check_grasp`).
     diagnostics : NodeDiagnostics
         The planning component.
     clarifications : ClarificationRequests
@@ -108,11 +108,11 @@ class GraspOutputs:
         Parameters
         ----------
         grasp : Grasp, NoReachableGrasp or NoModelZone
-            What :func:`~grasp_intent_ros.core.grasp.plan_grasp` returned.
+            What :func:`~grasp_intent_ros.mico.grasp.plan_grasp` returned.
         doc : ModelDocument
             The model planned on.
         base_T_obj : ndarray, shape (4, 4)
-            Object pose in :data:`~grasp_intent_ros.core.kinematics.BASE_FRAME`.
+            Object pose in :data:`~grasp_intent_ros.mico.kinematics.BASE_FRAME`.
         stamp : builtin_interfaces/Time
             Of every output but the trajectory.
         once_for : hashable

@@ -2,7 +2,7 @@
 
 :func:`grasp_markers` draws the object as a cylinder standing on its frame origin, the planned gripper as
 an arrow along the approach ending at the palm centre plus the schematic of the three fingers of
-:func:`grasp_intent_ros.core.frames.finger_segments`, and a text with the most likely zones
+:func:`grasp_intent_ros.mico.frames.finger_segments`, and a text with the most likely zones
 (:func:`zone_summary`).
 """
 
@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..core.frames import finger_segments
+from ..mico.frames import finger_segments
 from .robot import matrix_to_pose_msg
 
 __all__ = ['zone_summary', 'grasp_markers']

@@ -4,7 +4,7 @@ Reading a model document (the size check, the hash, the YAML, the model's own ch
 milliseconds. In a subscription callback it would hold back every other callback of the node (and, in
 the planner, the answers to intent/v). :class:`ModelFollower` only stores the newest document in the
 callback; a latest-only thread of its own reads it and hands the complete
-:class:`~grasp_intent_ros.protocol.ModelDocument` to the node, which swaps it in with one assignment. Until
+:class:`~grasp_intent_ros.wire.protocol.ModelDocument` to the node, which swaps it in with one assignment. Until
 then the node keeps serving with the model it has; a document that fails to read changes nothing. Documents
 that arrive while one is being read replace each other (only the newest model matters): the diagnostics
 count them as ``model documents superseded`` and show the ``last model read time [ms]``.
@@ -40,10 +40,10 @@ from contextlib import contextmanager
 from rclpy.node import Node
 from std_msgs.msg import String
 
-from ..core.errors import GraspIntentError
-from ..core.features import MICO_3F
-from ..core.model import ModelRequirements
-from ..protocol import ERROR, MODEL_ACTIVE, OK, ModelDocument, read_model_document
+from ..errors import GraspIntentError
+from ..method.features import MICO_3F
+from ..method.model import ModelRequirements
+from ..wire.protocol import ERROR, MODEL_ACTIVE, OK, ModelDocument, read_model_document
 from .diagnostics import NodeDiagnostics
 from .inputs import subscribe_input
 from .qos import latched_qos
@@ -102,7 +102,7 @@ class ModelFollower:
         raises a GraspIntentError to refuse the model (then the node keeps its current one). With
         ``None`` when a document is refused and the node has no model it serves (:attr:`refused` says why).
     requires : callable
-        ``requires()``: the node's :class:`~grasp_intent_ros.core.model.ModelRequirements` now (e.g.
+        ``requires()``: the node's :class:`~grasp_intent_ros.method.model.ModelRequirements` now (e.g.
         :func:`served_models` of its ``task_names``), read for every document.
     name : str
         Name of the thread.

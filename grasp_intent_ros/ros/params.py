@@ -27,8 +27,8 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from ..core.errors import InvalidIntentError
-from ..core.intent import DEFAULT_TASKS, MAX_TASKS, all_zones
+from ..errors import InvalidIntentError
+from ..method.intent import DEFAULT_TASKS, MAX_TASKS, all_zones
 
 __all__ = ['ParamSpec', 'Parameters', 'ParameterError', 'declare_parameters', 'one_of', 'finite_vector',
            'check_task_names', 'TASK_NAMES']

@@ -2,12 +2,12 @@
 
 Poses
 -----
-geometry_msgs/PoseStamped <-> 4x4 transforms ``a_T_b`` through :func:`~grasp_intent_ros.core.frames.
-pose_to_matrix` / :func:`~grasp_intent_ros.core.frames.matrix_to_pose`. There is no TF here: a pose
+geometry_msgs/PoseStamped <-> 4x4 transforms ``a_T_b`` through :func:`~grasp_intent_ros.mico.frames.
+pose_to_matrix` / :func:`~grasp_intent_ros.mico.frames.matrix_to_pose`. There is no TF here: a pose
 must already be in the expected frame. Incoming quaternions must have unit norm within
 :data:`QUATERNION_NORM_TOL` (they are then normalised); anything else is a malformed message. The readers
 (:func:`pose_msg_to_matrix`, :func:`joint_positions`, :func:`check_unit_quaternion`) are defined in
-:mod:`grasp_intent_ros.protocol`, ROS-free, so that the session analysis reads recorded messages with them.
+:mod:`grasp_intent_ros.wire.protocol`, ROS-free, so that the session analysis reads recorded messages with them.
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ from numpy.typing import ArrayLike
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from ..core.frames import matrix_to_pose
-from ..protocol import QUATERNION_NORM_TOL, check_unit_quaternion, joint_positions, pose_msg_to_matrix
+from ..mico.frames import matrix_to_pose
+from ..wire.protocol import QUATERNION_NORM_TOL, check_unit_quaternion, joint_positions, pose_msg_to_matrix
 
 __all__ = [
     'QUATERNION_NORM_TOL',

@@ -42,7 +42,7 @@ from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 
-from ..core.errors import GraspIntentError
+from ..errors import GraspIntentError
 from .compat import ShutdownSafeExecutor, StopWatcher, ignore_python_sigint
 from .params import ParameterError
 

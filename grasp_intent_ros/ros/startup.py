@@ -106,8 +106,8 @@ class KernelWarmUp:
         Loads numba's CPU target and the kernels every answer uses (e.g. one IK of the arm's home pose).
     report : callable
         ``report(key, value)`` with the milliseconds a load took, as text, under
-        :data:`~grasp_intent_ros.protocol.KEY_KERNELS_LOAD_TIME` (:meth:`at_start`) or
-        :data:`~grasp_intent_ros.protocol.KEY_KERNELS_LATE_LOAD_TIME` (:meth:`after_first`); e.g. a
+        :data:`~grasp_intent_ros.wire.protocol.KEY_KERNELS_LOAD_TIME` (:meth:`at_start`) or
+        :data:`~grasp_intent_ros.wire.protocol.KEY_KERNELS_LATE_LOAD_TIME` (:meth:`after_first`); e.g. a
         :meth:`NodeDiagnostics.set_value <grasp_intent_ros.ros.diagnostics.NodeDiagnostics.set_value>`.
     warn : callable
         ``warn(text)`` for a load that failed, e.g. a logger's ``warning``.
@@ -119,7 +119,7 @@ class KernelWarmUp:
 
     def at_start(self) -> None:
         """Run ``first``, then :func:`end` (the node's code is loaded): before the first answer."""
-        from ..protocol import KEY_KERNELS_LOAD_TIME
+        from ..wire.protocol import KEY_KERNELS_LOAD_TIME
 
         try:
             self._timed(KEY_KERNELS_LOAD_TIME, self._first)
@@ -128,8 +128,8 @@ class KernelWarmUp:
 
     def after_first(self) -> None:
         """Load the kernels the first answer did not use (loaded ones cost nothing): right after it."""
-        from ..core.kernels import warm_up
-        from ..protocol import KEY_KERNELS_LATE_LOAD_TIME
+        from ..kernels import warm_up
+        from ..wire.protocol import KEY_KERNELS_LATE_LOAD_TIME
 
         self._timed(KEY_KERNELS_LATE_LOAD_TIME, warm_up)
 

@@ -15,6 +15,6 @@ panel
 page
     The viser server drawing a state (the optional ``viewer`` extra).
 
-Used by the viewer node (:mod:`grasp_intent_ros.viewer`), the session playback
-(:mod:`grasp_intent_ros.tools.playback`) and the report. Imports nothing of :mod:`grasp_intent_ros.bag`.
+Used by the viewer node (:mod:`grasp_intent_ros.nodes.viewer`), the session playback
+(:mod:`grasp_intent_ros.sessions.playback`) and the report. Imports nothing of :mod:`grasp_intent_ros.sessions.bag`.
 """

@@ -3,7 +3,7 @@
 A :class:`Shape` is a box or a capped cylinder (its axis along its own +z, as in URDF and Pinocchio) with a
 colour; :func:`arm_shapes` poses the URDF's visual geometry (Pinocchio's ``VISUAL`` geometry model of
 ``config/mico_3f.urdf``: the arm's cylinders and the fingers' boxes) for arm joint angles and finger
-closures, :func:`body_shapes` the primitives of an :class:`~grasp_intent_ros.core.body.ObjectBody` for an
+closures, :func:`body_shapes` the primitives of an :class:`~grasp_intent_ros.method.body.ObjectBody` for an
 object pose. Every pose is ``base_T_shape`` (4x4, metres, in ``m1n6s300_link_base``), so a drawing needs no
 kinematics of its own: three.js through viser in the viewer, matplotlib in the report.
 
@@ -21,10 +21,10 @@ import numpy as np
 import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.body import Box, Cylinder, ObjectBody
-from ..core.errors import KinematicsError
-from ..core.frames import check_transform, check_vector
-from ..core.kinematics import ARM_JOINTS, BASE_FRAME, EE_FRAME, FINGER_JOINTS, default_urdf_path
+from ..errors import KinematicsError
+from ..method.body import Box, Cylinder, ObjectBody
+from ..mico.frames import check_transform, check_vector
+from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, EE_FRAME, FINGER_JOINTS, default_urdf_path
 
 __all__ = ['Shape', 'ArmModel', 'body_shapes', 'BODY_RGBA']
 
@@ -65,7 +65,7 @@ class ArmModel:
     Parameters
     ----------
     urdf_path : path-like, optional
-        Default :func:`~grasp_intent_ros.core.kinematics.default_urdf_path`.
+        Default :func:`~grasp_intent_ros.mico.kinematics.default_urdf_path`.
 
     Raises
     ------
@@ -139,7 +139,7 @@ class ArmModel:
         Parameters
         ----------
         q_arm : array_like, shape (6,)
-            Arm joint angles (rad), :data:`~grasp_intent_ros.core.kinematics.ARM_JOINTS` order.
+            Arm joint angles (rad), :data:`~grasp_intent_ros.mico.kinematics.ARM_JOINTS` order.
         fingers : array_like, shape (3,), optional
             Finger closures (rad, 0 open .. 1.51 closed); open when None.
 

@@ -7,7 +7,7 @@ The scene (three.js, in the base frame ``m1n6s300_link_base``, +z up):
 - ``/ghost``: a translucent MICO at the newest plan's ``grasp/joint_targets``;
 - ``/object``: the active model's body at the object's pose (:attr:`SceneState.object_pose`);
 - ``/grasp``: the planned grasp frame (``grasp/pose``) and the three fingers closed as planned
-  (:func:`~grasp_intent_ros.core.frames.finger_segments`);
+  (:func:`~grasp_intent_ros.mico.frames.finger_segments`);
 - ``/twist``: the operator's (blue) and the blended (orange) linear velocity from the live hand, 1 m/s
   drawn as :data:`TWIST_SCALE` m;
 - the side panel: :func:`~grasp_intent_ros.scene.panel.panel_html`.
@@ -34,7 +34,7 @@ except ModuleNotFoundError as exc:  # the optional extra
     raise ModuleNotFoundError(f"the viewer needs viser ({exc}): pip install 'grasp_intent_ros[viewer]'",
                               name=exc.name) from None
 
-from ..core.frames import finger_segments, matrix_to_pose
+from ..mico.frames import finger_segments, matrix_to_pose
 from .geometry import ArmModel, Shape, body_shapes
 from .panel import panel_html
 from .state import SceneState

@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.features import MICO_3F
-from ..core.frames import features_to_obj_T_ee
-from ..dataset.demos import OBJECTS
+from ..method.features import MICO_3F
+from ..mico.frames import features_to_obj_T_ee
+from ..objects.demos import OBJECTS
 
 __all__ = ['served_tasks', 'plan_object_pose']
 
@@ -19,7 +19,7 @@ __all__ = ['served_tasks', 'plan_object_pose']
 def served_tasks(model_name: str, task_names: tuple[str, ...], x: NDArray[np.float64]) -> tuple[str, ...] | None:
     """The tasks whose rule grasp ``x`` satisfies, by the rules of the model's object; None if not known.
 
-    The object is the one of :data:`~grasp_intent_ros.dataset.demos.OBJECTS` whose name is ``model_name`` or
+    The object is the one of :data:`~grasp_intent_ros.objects.demos.OBJECTS` whose name is ``model_name`` or
     its prefix before ``_``, with the same task names (module docstring).
     """
     rules = OBJECTS.get(model_name) or OBJECTS.get(model_name.partition('_')[0])
@@ -32,7 +32,7 @@ def served_tasks(model_name: str, task_names: tuple[str, ...], x: NDArray[np.flo
 def plan_object_pose(base_T_ee: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
     """``base_T_obj`` (4x4) of a plan: its end-effector pose composed with the inverse of its grasp ``x``.
 
-    ``x`` is the plan's grasp in the object frame (:data:`~grasp_intent_ros.core.features.MICO_3F` order),
+    ``x`` is the plan's grasp in the object frame (:data:`~grasp_intent_ros.method.features.MICO_3F` order),
     so the result is the object pose the planner planned for. Raises KinematicsError for a malformed ``x``.
     """
     return base_T_ee @ np.linalg.inv(features_to_obj_T_ee(x))

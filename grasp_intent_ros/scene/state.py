@@ -2,16 +2,16 @@
 
 :class:`SceneState` holds the newest content of every topic the viewer follows (:data:`VIEWER_TOPICS`);
 :func:`apply` returns the state after one message. Messages are read through their fields only
-(:mod:`grasp_intent_ros.protocol`, :mod:`grasp_intent_ros.ros.robot`), so an rclpy message of the live
+(:mod:`grasp_intent_ros.wire.protocol`), so an rclpy message of the live
 viewer and a rosbags-decoded one of a session's playback give the same state. A message that cannot be
-read raises a :class:`~grasp_intent_ros.core.errors.GraspIntentError` and leaves the state as it was.
+read raises a :class:`~grasp_intent_ros.errors.GraspIntentError` and leaves the state as it was.
 
 The object's pose is the newest ``object/pose``; before one arrives (the planner then plans at its
 ``object_*`` parameters) it is the pose the newest plan implies: ``grasp/pose`` composed with the inverse
 of the grasp in the object frame (``grasp/features``), when both carry the same stamp.
 
 The tasks a planned grasp serves are judged by the rules of the object
-(:data:`grasp_intent_ros.dataset.demos.OBJECTS`) when the active model is known to be of that object:
+(:data:`grasp_intent_ros.objects.demos.OBJECTS`) when the active model is known to be of that object:
 its name is the object's name or starts with ``<object>_`` (``cup_7zone``), and its task names are the
 rules' (:func:`~grasp_intent_ros.scene.plan.served_tasks`).
 """
@@ -25,20 +25,21 @@ from typing import Any, Final
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import protocol as topics
-from ..core.errors import GraspIntentError
-from ..core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS
-from ..protocol import (
+from ..errors import GraspIntentError
+from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS
+from ..wire import protocol as topics
+from ..wire.protocol import (
     ModelDocument,
     Posterior,
     Stamp,
+    joint_positions,
     msg_labels,
     msg_to_array,
+    pose_msg_to_matrix,
     read_features,
     read_model_document,
     read_posterior,
 )
-from ..ros.robot import joint_positions, pose_msg_to_matrix
 from .plan import plan_object_pose, served_tasks
 
 __all__ = ['OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA', 'VIEWER_TOPICS', 'SceneState', 'apply',
@@ -82,7 +83,7 @@ class SceneState:
     base_T_ee, ee_stamp : ndarray, shape (4, 4), Stamp
         ``grasp/pose`` and its stamp.
     x, x_stamp : ndarray, shape (d,), Stamp
-        ``grasp/features`` (in :data:`~grasp_intent_ros.core.features.MICO_3F` order) and its stamp.
+        ``grasp/features`` (in :data:`~grasp_intent_ros.method.features.MICO_3F` order) and its stamp.
     posterior : Posterior
         ``grasp/posterior``: P over the model's zones and the w reconstructed from it.
     w, v, v_labels

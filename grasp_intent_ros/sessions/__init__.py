@@ -1,11 +1,12 @@
-"""Recorded sessions paired, compared and summarised, ROS-free (numpy and rosbags; never rclpy).
+"""Recorded sessions: bags written, read and repaired; sessions replayed, compared, reported and played back.
 
-A session is a rosbag2 bag of the node suite's topics (:mod:`grasp_intent_ros.bag` reads and writes it);
-this package reads it as the method's values. The command lines that use it (replay, report) are in
-:mod:`grasp_intent_ros.tools`.
+ROS-free (numpy and rosbags; never rclpy) but the live replay (``replay``, ``replay_client``), which runs
+the nodes and talks to them.
 
 Modules
 -------
+bag
+    rosbag2 MCAP bags, generic: writer, queued writer, reader, repair, offered QoS, types.
 outputs
     Messages read into comparable values (:class:`~.outputs.Output`); rejections from ``/diagnostics``
     (:class:`~.outputs.RejectionTracker`); :class:`~.outputs.SessionError`.
@@ -14,10 +15,16 @@ pairing
     :class:`~.pairing.Step` s, :func:`~.pairing.load_paired_session`); compaction of a recorded bag.
 compare
     A step's recorded outputs against live ones at the replay's tolerances.
-report_data
-    What the report draws, by role and receive time (:class:`~.report_data.ReportData`,
-    :func:`~.report_data.load_report_data`).
+closed_loop
+    A shared-control session replayed by its outcome (the grasp reached, the pose offset).
+report_data, report
+    What the report draws, by role and receive time; the report's figures, summary and command line.
+replay_client, replay
+    The replay's rclpy client and engine; its command line (``--check``).
+playback
+    A session bag in the viewer's page, with a time slider (the ``viewer`` extra).
+reindex
+    The command line of the bag repair (:func:`grasp_intent_ros.sessions.bag.reindex`).
 
-Imports: :mod:`~grasp_intent_ros.core`, :mod:`~grasp_intent_ros.bag` and :mod:`~grasp_intent_ros.protocol`
-only (test/unit/test_static.py).
+The recorder itself is a node (:mod:`grasp_intent_ros.nodes.recorder`).
 """

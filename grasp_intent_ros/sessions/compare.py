@@ -19,8 +19,8 @@ from typing import Final
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.errors import GraspIntentError
-from ..protocol import DIAGNOSTICS, LEVEL_NAMES, MODEL_ACTIVE, ModelHeader, split_labels, split_posterior
+from ..errors import GraspIntentError
+from ..wire.protocol import DIAGNOSTICS, LEVEL_NAMES, MODEL_ACTIVE, ModelHeader, split_labels, split_posterior
 from .outputs import Joints, Output, Pose, Rejection, Text, Trajectory, Undecodable, Value, Vector
 from .pairing import Step
 

@@ -15,10 +15,8 @@ from numpy.typing import NDArray
 from rosbags.serde import SerdeError
 from rosbags.typesys import TypesysError
 
-from ..bag.errors import BagReadError
-from ..bag.types import jazzy_typestore
-from ..core.errors import ModelFormatError
-from ..protocol import (
+from ..errors import ModelFormatError
+from ..wire.protocol import (
     DIAGNOSTICS,
     KEY_LAST_ERROR,
     KEY_REJECTED,
@@ -29,6 +27,8 @@ from ..protocol import (
     parse_model_document,
     status_values,
 )
+from .bag.errors import BagReadError
+from .bag.types import jazzy_typestore
 
 __all__ = [
     'SessionError',
@@ -134,7 +134,7 @@ class Output:
 
 
 class RawMessage(Protocol):
-    """What :func:`pair_messages` needs of a message; :class:`~grasp_intent_ros.bag.BagMessage` fits."""
+    """What :func:`pair_messages` needs of a message; :class:`~grasp_intent_ros.sessions.bag.BagMessage` fits."""
 
     @property
     def topic(self) -> str: ...
@@ -167,7 +167,7 @@ def decode(msgtype: str, cdr: bytes) -> Any:
 
 
 def model_header(text: str) -> ModelHeader:
-    """The header lines of a model document (:func:`~grasp_intent_ros.protocol.parse_model_document`).
+    """The header lines of a model document (:func:`~grasp_intent_ros.wire.protocol.parse_model_document`).
 
     The body is neither hashed nor parsed.
 

@@ -32,10 +32,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Final
 
-from ..bag.offered_qos import QosSpec
-from ..bag.reader import read_messages, topics_info
-from ..bag.writer import SessionWriter
-from ..protocol import DIAGNOSTICS, INPUT_TOPICS, MODEL_ACTIVE, OUTPUT_TOPICS, ModelHeader
+from ..wire.protocol import DIAGNOSTICS, INPUT_TOPICS, MODEL_ACTIVE, OUTPUT_TOPICS, ModelHeader
+from .bag.offered_qos import QosSpec
+from .bag.reader import read_messages, topics_info
+from .bag.writer import SessionWriter
 from .outputs import Output, RawMessage, RejectionTracker, SessionError, decode, model_header, output_of
 
 __all__ = [
@@ -202,7 +202,7 @@ def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '') -> tup
     Parameters
     ----------
     messages
-        Messages in receive-time order (e.g. :func:`~grasp_intent_ros.bag.read_messages`);
+        Messages in receive-time order (e.g. :func:`~grasp_intent_ros.sessions.bag.read_messages`);
         topics outside the session's (in ``namespace``) are ignored.
     namespace
         '' or e.g. '/robot1'.

@@ -7,9 +7,9 @@ Message layouts read (as the nodes publish them)
 ------------------------------------------------
 ``intent/v``        1-D, ``dim[0].label`` = comma-joined zone labels ("U,T,H,UT,UH,TH,UTH").
 ``grasp/posterior`` shape (1, K + m), the stamp axis then "<zones>|<tasks>": P over the model's K zones,
-                    then the reconstructed w (:func:`grasp_intent_ros.protocol.read_posterior`).
+                    then the reconstructed w (:func:`grasp_intent_ros.wire.protocol.read_posterior`).
 ``grasp/features``  shape (1, d), the same stamp axis, dim[1] labelled with the feature names
-                    (:data:`~grasp_intent_ros.core.features.MICO_3F`); 1-D or unlabelled: by position.
+                    (:data:`~grasp_intent_ros.method.features.MICO_3F`); 1-D or unlabelled: by position.
 ``model/active``    std_msgs/String, the model document (header lines, then GraspModel YAML).
 ``model/ambiguity`` 2-D (m, m) KL matrix, both dims labelled with the task names.
 ``grasp/pose``, ``grasp/joint_targets``: with ``grasp/features`` and ``grasp/posterior``, gathered by their
@@ -31,13 +31,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import protocol as topics
-from ..bag import BagError, TopicInfo, read_messages, topics_info
-from ..core.errors import GraspIntentError
-from ..core.intent import default_task_names
-from ..core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS
-from ..core.model import GraspModel
-from ..protocol import (
+from ..errors import GraspIntentError
+from ..method.intent import default_task_names
+from ..method.model import GraspModel
+from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS
+from ..wire import protocol as topics
+from ..wire.protocol import (
     Posterior,
     Stamp,
     joint_positions,
@@ -48,6 +47,7 @@ from ..protocol import (
     read_model_document,
     read_posterior,
 )
+from .bag import BagError, TopicInfo, read_messages, topics_info
 from .outputs import Rejection, RejectionTracker, SessionError
 from .pairing import detect_namespace
 

@@ -1,1 +1,14 @@
-"""Shared control, closed loop without ROS: scripted operators and a simulated-clock loop (docs/shared_control.md)."""
+"""Shared control: the operator's twist blended with assistance toward the planned grasp.
+
+ROS-free. Modules
+-----------------
+assistance
+    Arbitration (how much to help), the robot's twist toward the grasp, blending and limits.
+operators
+    Scripted teleoperators and their intents (a device model, a goal choice without the rules, an intent script).
+simulator
+    The closed loop on a simulated clock with the nodes' core functions (planner policy, assistance, mock arm).
+
+Imports of the package: :mod:`~grasp_intent_ros.errors`, :mod:`~grasp_intent_ros.method`,
+:mod:`~grasp_intent_ros.planning` and :mod:`~grasp_intent_ros.mico`.
+"""

@@ -20,7 +20,7 @@ The operator's own goal for T is a grasp it picks without the rules (the caller 
 uses the planner's grasp for the certain w_T). It follows the *shown* grasp (the planner's, on the screen)
 when that is on its way, i.e. within ``accept_position`` and ``accept_angle`` of its own goal (it looks like
 the grasp it wanted), else drives to its own goal. It closes the hand (the grasp command) once the hand it
-sees is within :data:`~grasp_intent_ros.sessions.closed_loop.REACH_POS` / ``REACH_ROT`` of the goal it
+sees is within :data:`~grasp_intent_ros.shared_control.assistance.REACH_POS` / ``REACH_ROT`` of the goal it
 pursues.
 
 Devices (:meth:`ScriptedOperator.twist`)
@@ -45,8 +45,7 @@ from typing import Literal, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.assistance import clip_norm, pose_error
-from ..sessions.closed_loop import offset, reached
+from .assistance import clip_norm, offset, pose_error, reached
 
 __all__ = ['Device', 'DEVICES', 'IntentScript', 'PersistentIntent', 'SharpeningIntent', 'ChangingIntent',
            'certain_w', 'draw_task_set', 'OperatorConstants', 'ScriptedOperator']

@@ -42,13 +42,13 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.arm import MockArm, TwistCommand
-from ..core.assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, pose_error
-from ..core.frames import obj_T_ee_to_features
-from ..core.grasp import Grasp, plan_grasp
-from ..core.intent import Interpretation, ZoneInterpreter, all_zones, default_task_names, zone_labels
-from ..core.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
-from ..core.model import GraspModel
+from ..method.intent import Interpretation, ZoneInterpreter, all_zones, default_task_names, zone_labels
+from ..method.model import GraspModel
+from ..mico.frames import obj_T_ee_to_features
+from ..mico.grasp import Grasp, plan_grasp
+from ..mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
+from ..mico.mock_arm import MockArm, TwistCommand
+from .assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, pose_error
 from .operators import IntentScript, ScriptedOperator
 
 __all__ = ['Condition', 'CONDITIONS', 'ADA_APPLY_TIME', 'Scene', 'PlanStream', 'AdaAssistance', 'Episode',

@@ -5,9 +5,9 @@ from __future__ import annotations
 import rclpy
 from std_msgs.msg import String
 
-from grasp_intent_ros import protocol
 from grasp_intent_ros.ros.clarification import ClarificationRequests
 from grasp_intent_ros.ros.diagnostics import NodeDiagnostics
+from grasp_intent_ros.wire import protocol
 
 
 def test_requests_are_published_counted_and_reported_once_per_key(ros) -> None:

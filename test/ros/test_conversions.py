@@ -11,8 +11,7 @@ from numpy.testing import assert_allclose
 from rclpy.serialization import deserialize_message, serialize_message
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
-from grasp_intent_ros import protocol
-from grasp_intent_ros.core.errors import GraspIntentError, InvalidIntentError, ModelFormatError
+from grasp_intent_ros.errors import GraspIntentError, InvalidIntentError, ModelFormatError
 from grasp_intent_ros.ros.conversions import (
     SerializedArrays,
     SerializedTargets,
@@ -26,6 +25,7 @@ from grasp_intent_ros.ros.conversions import (
     stamped_array_to_msg,
     target_from_msg,
 )
+from grasp_intent_ros.wire import protocol
 
 
 def test_every_suite_topic_has_its_message_class() -> None:

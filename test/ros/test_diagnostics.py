@@ -8,10 +8,10 @@ from types import SimpleNamespace
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 
-from grasp_intent_ros import protocol
-from grasp_intent_ros.core.errors import InvalidIntentError
+from grasp_intent_ros.errors import InvalidIntentError
 from grasp_intent_ros.ros import diagnostics
 from grasp_intent_ros.ros.diagnostics import MAX_TEXT, NodeDiagnostics, cap_text
+from grasp_intent_ros.wire import protocol
 
 
 def test_guard_turns_exceptions_into_rejections_and_counts(ros) -> None:

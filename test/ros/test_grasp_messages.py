@@ -8,17 +8,17 @@ from builtin_interfaces.msg import Time
 from native_memory import growth_over, malloc_in_use
 from numpy.testing import assert_allclose
 
-from grasp_intent_ros import protocol
-from grasp_intent_ros.core import intent
-from grasp_intent_ros.core.frames import pose_to_matrix
-from grasp_intent_ros.core.grasp import JOINT_NAMES, Grasp, plan_grasp
-from grasp_intent_ros.core.kinematics import BASE_FRAME, MicoKinematics
-from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.core.resources import config_dir
-from grasp_intent_ros.protocol import ModelDocument
+from grasp_intent_ros.method import intent
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.grasp import JOINT_NAMES, Grasp, plan_grasp
+from grasp_intent_ros.mico.kinematics import BASE_FRAME, MicoKinematics
+from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.conversions import posterior_from_msg, stamped_array_from_msg
 from grasp_intent_ros.ros.grasp_messages import grasp_messages
 from grasp_intent_ros.ros.robot import pose_msg_to_matrix
+from grasp_intent_ros.wire import protocol
+from grasp_intent_ros.wire.protocol import ModelDocument
 
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 

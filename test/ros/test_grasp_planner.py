@@ -31,17 +31,16 @@ from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import Marker, MarkerArray
 
-from grasp_intent_ros.core import planner
-from grasp_intent_ros.core.data import Demonstrations
-from grasp_intent_ros.core.features import FINGERS, MICO_3F
-from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
-from grasp_intent_ros.core.grasp import MIN_TRAJECTORY_TIME
-from grasp_intent_ros.core.intent import all_zones, interpret, restrict
-from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
-from grasp_intent_ros.core.model import GraspModel, structure_zones
-from grasp_intent_ros.dataset.demos import grasp_features
-from grasp_intent_ros.grasp_planner import PARAMETERS, GraspPlanner
-from grasp_intent_ros.protocol import KEY_KERNELS_LATE_LOAD_TIME, KEY_KERNELS_LOAD_TIME, read_model_document
+from grasp_intent_ros.method.data import Demonstrations
+from grasp_intent_ros.method.features import FINGERS, MICO_3F
+from grasp_intent_ros.method.intent import all_zones, interpret, restrict
+from grasp_intent_ros.method.model import GraspModel, structure_zones
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.grasp import MIN_TRAJECTORY_TIME
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
+from grasp_intent_ros.nodes.grasp_planner import PARAMETERS, GraspPlanner
+from grasp_intent_ros.objects.demos import grasp_features
+from grasp_intent_ros.planning import planner
 from grasp_intent_ros.ros import model_follower
 from grasp_intent_ros.ros.conversions import (
     array_to_msg,
@@ -53,6 +52,7 @@ from grasp_intent_ros.ros.conversions import (
 from grasp_intent_ros.ros.params import ParameterError
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import matrix_to_pose_msg, pose_msg_to_matrix
+from grasp_intent_ros.wire.protocol import KEY_KERNELS_LATE_LOAD_TIME, KEY_KERNELS_LOAD_TIME, read_model_document
 
 REPO = Path(__file__).resolve().parents[2]
 TASKS = ('usage', 'transfer', 'handover')
@@ -495,7 +495,7 @@ def assert_rejected_and_serving(rig: Rig, model: GraspModel, topic: str, msg: An
 
 def test_a_plan_failing_its_checks_publishes_nothing_and_asks(rig: Rig, kin: MicoKinematics,
                                                               monkeypatch: pytest.MonkeyPatch) -> None:
-    from grasp_intent_ros import grasp_planner
+    from grasp_intent_ros.nodes import grasp_planner
 
     rig.request(v_msg(interpret(W_GOOD).v))
     clarifications = rig.ros.subscribe(String, 'intent/clarification')
@@ -677,8 +677,8 @@ def test_params_file_and_invalid_initial_parameters(ros: Any) -> None:
 
 
 def test_send_intent_prints_the_chain_answer(rig: Rig, model: GraspModel, kin: MicoKinematics) -> None:
-    from grasp_intent_ros.intent_interpreter import IntentInterpreter
-    from grasp_intent_ros.tools.send_intent import IntentSender, NoGrasp, format_grasp
+    from grasp_intent_ros.cli.send_intent import IntentSender, NoGrasp, format_grasp
+    from grasp_intent_ros.nodes.intent_interpreter import IntentInterpreter
 
     rig.ros.add(IntentInterpreter(context=rig.ros.context))
     sender = rig.ros.add(IntentSender(context=rig.ros.context))

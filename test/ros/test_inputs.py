@@ -8,10 +8,10 @@ from rclpy.qos import ReliabilityPolicy
 from rclpy.serialization import serialize_message
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from grasp_intent_ros import protocol
 from grasp_intent_ros.ros.diagnostics import NodeDiagnostics
 from grasp_intent_ros.ros.inputs import subscribe_input
 from grasp_intent_ros.ros.qos import input_qos
+from grasp_intent_ros.wire import protocol
 
 
 def w_with_label(label: str) -> Float64MultiArray:

@@ -13,11 +13,11 @@ from rclpy.exceptions import InvalidParameterValueException
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
-from grasp_intent_ros.core.intent import interpret
-from grasp_intent_ros.intent_interpreter import IntentInterpreter
-from grasp_intent_ros.protocol import msg_labels, msg_to_array
+from grasp_intent_ros.method.intent import interpret
+from grasp_intent_ros.nodes.intent_interpreter import IntentInterpreter
 from grasp_intent_ros.ros.conversions import array_to_msg
 from grasp_intent_ros.ros.params import ParameterError
+from grasp_intent_ros.wire.protocol import msg_labels, msg_to_array
 
 REPO = Path(__file__).resolve().parents[2]
 LABELS_7 = 'U,T,H,UT,UH,TH,UTH'
@@ -183,7 +183,7 @@ def test_invalid_initial_parameters_fail_construction(ros):
 
 
 def _model_doc(name: str) -> String:
-    from grasp_intent_ros.core.model import GraspModel
+    from grasp_intent_ros.method.model import GraspModel
     from grasp_intent_ros.ros.conversions import model_to_msg
     return model_to_msg(GraspModel.load(REPO / 'config' / 'models' / f'{name}.yaml'), name=name, version=1)
 
@@ -243,7 +243,7 @@ def test_a_model_of_other_tasks_is_refused_and_every_intent_is_clarified_until_o
 @pytest.mark.parametrize('kind', ['alias bomb', 'nested too deeply', 'oversized'])
 def test_weaponised_model_document_is_rejected_and_the_model_kept(ros, interpreter, weaponised_model_documents,
                                                                    kind):
-    from grasp_intent_ros.core.model import GraspModel
+    from grasp_intent_ros.method.model import GraspModel
     from grasp_intent_ros.ros.qos import latched_qos
     node, w_pub, v_msgs, clarifications = interpreter
     statuses = ros.diagnostics()

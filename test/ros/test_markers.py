@@ -7,7 +7,7 @@ from builtin_interfaces.msg import Time
 from numpy.testing import assert_allclose
 from visualization_msgs.msg import Marker
 
-from grasp_intent_ros.core.frames import features_to_obj_T_ee, finger_segments
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, finger_segments
 from grasp_intent_ros.ros.markers import grasp_markers, zone_summary
 
 

@@ -10,10 +10,10 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from grasp_intent_ros import protocol
-from grasp_intent_ros.core.grasp import JOINT_NAMES
-from grasp_intent_ros.core.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
-from grasp_intent_ros.mock_arm import MockArmNode
+from grasp_intent_ros.mico.grasp import JOINT_NAMES
+from grasp_intent_ros.mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.nodes.mock_arm import MockArmNode
+from grasp_intent_ros.wire import protocol
 
 Q0 = np.r_[HOME_Q, 0.0, 0.0, 0.0]
 END = Q0 + np.r_[0.2, -0.1, 0.15, 0.3, -0.2, 0.1, 0.9, 0.9, 0.7]
@@ -82,8 +82,8 @@ def test_twists_move_the_hand_until_they_stop_and_reset(ros) -> None:
 def test_the_hand_closes_to_the_plans_closures_with_its_own_error(ros) -> None:
     from rclpy.parameter import Parameter
 
-    from grasp_intent_ros.core.kinematics import FINGER_JOINTS
-    from grasp_intent_ros.mock_arm import GRASP_CLOSE
+    from grasp_intent_ros.mico.kinematics import FINGER_JOINTS
+    from grasp_intent_ros.nodes.mock_arm import GRASP_CLOSE
     from grasp_intent_ros.ros.robot import joint_state_msg
 
     arm = ros.add(MockArmNode(context=ros.context, parameter_overrides=[Parameter('closure_error', value=0.05),

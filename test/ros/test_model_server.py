@@ -11,13 +11,13 @@ from numpy.testing import assert_allclose
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, String
 
-from grasp_intent_ros.core import ambiguity
-from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.model_server import ModelServer
-from grasp_intent_ros.protocol import msg_labels, msg_to_array
+from grasp_intent_ros.method import ambiguity
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.nodes.model_server import ModelServer
 from grasp_intent_ros.ros.conversions import model_from_msg
 from grasp_intent_ros.ros.params import ParameterError
 from grasp_intent_ros.ros.qos import latched_qos
+from grasp_intent_ros.wire.protocol import msg_labels, msg_to_array
 
 TASKS = ('usage', 'transfer', 'handover')
 

@@ -20,9 +20,9 @@ from mcap_check import read_messages_mcap
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
-from grasp_intent_ros.bag import BagWriteError, QosSpec, read_messages, topics_info
+from grasp_intent_ros.nodes.recorder import Recorder
 from grasp_intent_ros.ros.qos import latched_qos
-from grasp_intent_ros.tools.recorder import Recorder
+from grasp_intent_ros.sessions.bag import BagWriteError, QosSpec, read_messages, topics_info
 
 N = 2000
 PERIOD = 1e-3  # s: 1 kHz

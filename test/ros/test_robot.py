@@ -10,8 +10,8 @@ from builtin_interfaces.msg import Time
 from numpy.testing import assert_allclose
 from sensor_msgs.msg import JointState
 
-from grasp_intent_ros.core.errors import GraspIntentError, KinematicsError
-from grasp_intent_ros.core.frames import pose_to_matrix
+from grasp_intent_ros.errors import GraspIntentError, KinematicsError
+from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.ros.robot import (
     check_unit_quaternion,
     joint_positions,

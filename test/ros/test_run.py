@@ -10,9 +10,9 @@ import pytest
 import rclpy
 from rclpy.executors import ExternalShutdownException
 
+from grasp_intent_ros.launch.suite import node_environment
 from grasp_intent_ros.ros.compat import ShutdownSafeExecutor
 from grasp_intent_ros.ros.run import publish_all, release_free_memory
-from grasp_intent_ros.tools.suite import node_environment
 
 REPO = Path(__file__).resolve().parents[2]
 

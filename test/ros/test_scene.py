@@ -17,27 +17,22 @@ from geometry_msgs.msg import TwistStamped
 from numpy.testing import assert_allclose
 from std_msgs.msg import Float64, String
 
-from grasp_intent_ros import protocol as topics
-from grasp_intent_ros.core.errors import GraspIntentError
-from grasp_intent_ros.core.features import FINGERS, MICO_3F
-from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
-from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
-from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.dataset.demos import CUP_PROTOTYPES, CUP_RULES, grasp_features
+from grasp_intent_ros.errors import GraspIntentError
+from grasp_intent_ros.method.features import FINGERS, MICO_3F
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
+from grasp_intent_ros.objects.demos import CUP_PROTOTYPES, CUP_RULES, grasp_features
 from grasp_intent_ros.ros.conversions import model_to_msg, posterior_to_msg, stamped_array_to_msg
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.scene.geometry import ArmModel, body_shapes
 from grasp_intent_ros.scene.page import ScenePage
 from grasp_intent_ros.scene.panel import panel_html
 from grasp_intent_ros.scene.plan import served_tasks
-from grasp_intent_ros.scene.state import (
-    ASSISTANCE_ALPHA,
-    OPERATOR_TWIST,
-    SceneState,
-    apply,
-)
+from grasp_intent_ros.scene.state import ASSISTANCE_ALPHA, OPERATOR_TWIST, SceneState, apply
+from grasp_intent_ros.sessions.playback import load_timeline
 from grasp_intent_ros.sessions.report_data import load_report_data
-from grasp_intent_ros.tools.playback import load_timeline
+from grasp_intent_ros.wire import protocol as topics
 
 REPO = Path(__file__).resolve().parents[2]
 STAMP = Time(sec=12, nanosec=345)

@@ -17,11 +17,11 @@ from hypothesis import strategies as st
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from grasp_intent_ros import protocol
-from grasp_intent_ros.assistance import AssistanceNode
-from grasp_intent_ros.core.arm import MockArm
-from grasp_intent_ros.core.kinematics import BASE_FRAME, EE_FRAME, HOME_Q, MicoKinematics
-from grasp_intent_ros.mock_arm import MockArmNode
+from grasp_intent_ros.mico.kinematics import BASE_FRAME, EE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.mico.mock_arm import MockArm
+from grasp_intent_ros.nodes.assistance import AssistanceNode
+from grasp_intent_ros.nodes.mock_arm import MockArmNode
+from grasp_intent_ros.wire import protocol
 
 EXAMPLES = 400
 ARM_STATES = 'mock/joint_states'

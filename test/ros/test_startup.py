@@ -7,9 +7,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-from grasp_intent_ros.protocol import KEY_KERNELS_LATE_LOAD_TIME, KEY_KERNELS_LOAD_TIME
+from grasp_intent_ros.launch.suite import node_environment
 from grasp_intent_ros.ros import startup
-from grasp_intent_ros.tools.suite import node_environment
+from grasp_intent_ros.wire.protocol import KEY_KERNELS_LATE_LOAD_TIME, KEY_KERNELS_LOAD_TIME
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -59,12 +59,12 @@ def test_end_without_begin_leaves_the_collector_alone() -> None:
 
 
 def test_the_planner_process_collects_again_once_its_kernels_are_loaded(domain_id: int) -> None:
-    """As ``python -m grasp_intent_ros.grasp_planner`` does: begin before the imports, end in the planning thread."""
+    """As the planner node does: begin before the imports, end in the planner thread."""
     _run('from grasp_intent_ros.ros import startup\n'
          'startup.begin()\n'
          'import gc, time\n'
          'import rclpy\n'
-         'from grasp_intent_ros.grasp_planner import GraspPlanner\n'
+         'from grasp_intent_ros.nodes.grasp_planner import GraspPlanner\n'
          'rclpy.init()\n'
          'node = GraspPlanner()\n'
          'deadline = time.monotonic() + 30.0\n'

@@ -10,10 +10,10 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from grasp_intent_ros.core.kinematics import ARM_JOINTS, HOME_Q
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, HOME_Q
+from grasp_intent_ros.nodes.viewer import Viewer
 from grasp_intent_ros.ros.params import ParameterError
 from grasp_intent_ros.ros.robot import joint_state_msg
-from grasp_intent_ros.viewer import Viewer
 
 
 def viewer_values(statuses: list[Any]) -> dict[str, str]:

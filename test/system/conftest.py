@@ -2,7 +2,7 @@
 
 Every process gets ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and the test's own ROS_DOMAIN_ID (the same
 one as the test's in-process ``ros`` harness, which talks to the processes over loopback DDS): one
-:class:`~grasp_intent_ros.tools.suite.NodeSuite` per test. At teardown each process still running gets
+:class:`~grasp_intent_ros.launch.suite.NodeSuite` per test. At teardown each process still running gets
 SIGTERM and must exit with code 0 within a deadline (else SIGKILL and the test errors); only processes
 started here are ever signalled, by PID.
 """
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from grasp_intent_ros.tools.suite import NodeSuite
+from grasp_intent_ros.launch.suite import NodeSuite
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -1,7 +1,7 @@
 """The full chain as three real processes (interpreter, model server, grasp planner) over loopback DDS.
 
 The test side is the in-process ``ros`` harness (private Context on the test's domain id) with an
-:class:`~grasp_intent_ros.tools.send_intent.IntentSender`, whose answer to a w is the first plan (pose, joint
+:class:`~grasp_intent_ros.cli.send_intent.IntentSender`, whose answer to a w is the first plan (pose, joint
 targets, posterior of equal stamps) stamped after the send. The models are the shipped
 config/models, copied once per module so that the nodes and the expected answers read the same files.
 Expected answers come from the core library with the planner node's options (config/grasp_planner.yaml)
@@ -36,18 +36,18 @@ from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
-from grasp_intent_ros.core import planner
-from grasp_intent_ros.core.features import FINGERS
-from grasp_intent_ros.core.frames import features_to_obj_T_ee, pose_to_matrix
-from grasp_intent_ros.core.intent import all_zones, interpret, restrict
-from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
-from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.protocol import KEY_MODEL, Posterior, msg_to_array
+from grasp_intent_ros.cli.paper_tables import CASES
+from grasp_intent_ros.cli.send_intent import GraspAnswer, IntentSender
+from grasp_intent_ros.method.features import FINGERS
+from grasp_intent_ros.method.intent import all_zones, interpret, restrict
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
+from grasp_intent_ros.planning import planner
 from grasp_intent_ros.ros.conversions import model_from_msg, posterior_from_msg, stamped_array_from_msg
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import matrix_to_pose_msg, pose_msg_to_matrix
-from grasp_intent_ros.tools.paper_tables import CASES
-from grasp_intent_ros.tools.send_intent import GraspAnswer, IntentSender
+from grasp_intent_ros.wire.protocol import KEY_MODEL, Posterior, msg_to_array
 
 REPO = Path(__file__).resolve().parents[2]
 STARTUP = 30.0

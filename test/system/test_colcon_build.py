@@ -97,7 +97,7 @@ def test_installed_package_runs_and_finds_its_config_through_the_ament_index(ins
     assert len(site) == 1, site
     env = {k: v for k, v in os.environ.items() if k not in ('GRASP_INTENT_ROS_CONFIG', 'PYTHONPATH')}
     env.update(PYTHONPATH=str(site[0]), AMENT_PREFIX_PATH=str(install))
-    code = ('import grasp_intent_ros as g, grasp_intent_ros.core.resources as r; '
+    code = ('import grasp_intent_ros as g, grasp_intent_ros.resources as r; '
             'print(g.__file__); print(r.config_dir())')
     out = subprocess.run([sys.executable, '-c', code], cwd=tmp_path, env=env, capture_output=True, text=True,
                          timeout=120, check=True).stdout.splitlines()

@@ -20,8 +20,8 @@ from fuzz_inputs import COMPONENTS, FAMILIES, Case, Fuzzer, cases, valid_w
 from geometry_msgs.msg import PoseStamped
 from hypothesis import HealthCheck, Phase, given, settings
 
-from grasp_intent_ros import protocol
-from grasp_intent_ros.tools.suite import SUITE_NODES
+from grasp_intent_ros.launch.suite import SUITE_NODES
+from grasp_intent_ros.wire import protocol
 
 STARTUP = 60.0
 """Seconds the suite gets to start and plan the first w on a loaded 2-core machine."""

@@ -23,14 +23,14 @@ import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 from std_msgs.msg import Float64MultiArray, String
 
-from grasp_intent_ros.core.data import Demonstrations
-from grasp_intent_ros.core.features import APPROACH, MICO_3F
-from grasp_intent_ros.core.model import GraspModel
-from grasp_intent_ros.protocol import status_values
+from grasp_intent_ros.cli.send_intent import IntentSender, NoGrasp
+from grasp_intent_ros.method.data import Demonstrations
+from grasp_intent_ros.method.features import APPROACH, MICO_3F
+from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.ros.conversions import model_to_msg
 from grasp_intent_ros.ros.model_follower import KEY_REFUSED
 from grasp_intent_ros.ros.qos import latched_qos
-from grasp_intent_ros.tools.send_intent import IntentSender, NoGrasp
+from grasp_intent_ros.wire.protocol import status_values
 
 REPO = Path(__file__).resolve().parents[2]
 STARTUP = 30.0

@@ -13,10 +13,10 @@ from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, String
 
-from grasp_intent_ros.core.intent import interpret
-from grasp_intent_ros.protocol import msg_to_array
+from grasp_intent_ros.method.intent import interpret
 from grasp_intent_ros.ros.conversions import model_from_msg
 from grasp_intent_ros.ros.qos import latched_qos
+from grasp_intent_ros.wire.protocol import msg_to_array
 
 REPO = Path(__file__).resolve().parents[2]
 STARTUP = 20.0

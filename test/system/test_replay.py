@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from grasp_intent_ros.bag import QosSpec, SessionWriter, jazzy_typestore, read_messages, topics_info
-from grasp_intent_ros.core.kinematics import MicoKinematics
-from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.mico.kinematics import MicoKinematics
+from grasp_intent_ros.sessions.bag import QosSpec, SessionWriter, jazzy_typestore, read_messages, topics_info
 from grasp_intent_ros.sessions.closed_loop import is_closed_loop, load_closed_loop, outcome
 from grasp_intent_ros.sessions.pairing import load_paired_session
 

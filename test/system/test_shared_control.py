@@ -15,9 +15,9 @@ from geometry_msgs.msg import PoseStamped, TwistStamped
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
-from grasp_intent_ros import protocol
-from grasp_intent_ros.core.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
 from grasp_intent_ros.ros.robot import joint_positions, pose_msg_to_matrix
+from grasp_intent_ros.wire import protocol
 
 STARTUP = 60.0
 """Seconds for five processes to start, discover each other and plan on a loaded 2-core machine."""

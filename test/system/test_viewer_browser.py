@@ -29,11 +29,11 @@ from sensor_msgs.msg import JointState
 from websockets.sync.client import connect
 from websockets.typing import Subprotocol
 
-from grasp_intent_ros.core.kinematics import ARM_JOINTS, HOME_Q
+from grasp_intent_ros.cli.send_intent import IntentSender
+from grasp_intent_ros.launch.suite import NodeProcess
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, HOME_Q
 from grasp_intent_ros.ros.robot import joint_state_msg
 from grasp_intent_ros.sessions.report_data import load_report_data
-from grasp_intent_ros.tools.send_intent import IntentSender
-from grasp_intent_ros.tools.suite import NodeProcess
 
 REPO = Path(__file__).resolve().parents[2]
 TWO_TASK_CUP = (0.9, 0.9, 0.1)

@@ -7,13 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from grasp_intent_ros.core.data import Demonstrations
-from grasp_intent_ros.core.features import MICO_3F
-from grasp_intent_ros.core.intent import DEFAULT_TASKS, all_zones
-from grasp_intent_ros.core.model import GraspModel
+from grasp_intent_ros.method.data import Demonstrations
+from grasp_intent_ros.method.features import MICO_3F
+from grasp_intent_ros.method.intent import DEFAULT_TASKS, all_zones
+from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.sessions.pairing import Step, load_paired_session
 
-from .sessions import session_messages, write_bag
+from .session_bags import session_messages, write_bag
 
 
 def synthetic_demos(seed: int = 0, per_set: int = 40, spread: float = 0.12) -> Demonstrations:

@@ -1,21 +1,16 @@
-"""Static checks: mypy, lint and the package's import rules.
+"""Static checks: mypy, lint and the package's import contracts.
 
 mypy --strict (setup.cfg), the lint configuration (ruff.toml: pycodestyle, pyflakes, import order, numpydoc
 docstrings).
 
-Import rules (the layers of the README's layout):
-- ``core`` is the method: it imports nothing of rclpy or the ROS message packages, ``ros``, ``bag``,
-  ``protocol``, ``sessions``, ``tools``, ``dataset`` or the nodes;
-- ``bag`` and ``protocol`` import no rclpy and no ROS message package, and nothing of ``ros`` or ``sessions``;
-- ``sessions`` (the session analysis) imports no rclpy and no ROS message package; of the package only
-  ``core``, ``bag`` and ``protocol`` (nothing of ``ros``, ``tools``, ``dataset`` or the nodes);
-- the nodes (the viewer too) and ``scene`` import nothing of ``bag`` or ``sessions``.
-They are read from the source (every ``import`` and ``from ... import``, relative ones resolved), so a rule is
-broken by a late import inside a function too.
+Import contracts, one per folder (:data:`CONTRACTS`, the layer table of CONTRIBUTING.md): a folder imports
+of the package only itself and what its contract lists, and a ROS-free folder (:data:`ROS_FREE`) imports no
+rclpy and no ROS message package. They are read from the source (every ``import`` and ``from ... import``,
+relative ones resolved), so a contract is broken by a late import inside a function too.
 
 Why not import-linter: its forbidden contracts name external packages one by one (a wildcard matches whole
 name segments), and "no ROS package" is a pattern over every ``*_msgs`` and ``*_srvs`` package; these rules
-fit in the 50 lines below, against two more test dependencies (import-linter and grimp).
+fit in the lines below, against two more test dependencies (import-linter and grimp).
 """
 
 from __future__ import annotations
@@ -24,27 +19,42 @@ import ast
 import re
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
-
-from grasp_intent_ros.tools.suite import SHARED_CONTROL_NODES, SUITE_NODES
 
 REPO = Path(__file__).resolve().parents[2]
 PACKAGE = 'grasp_intent_ros'
-NODES = (*(f'{PACKAGE}.{n}' for n in SUITE_NODES + SHARED_CONTROL_NODES), f'{PACKAGE}.viewer')
 ROS = re.compile(r'^(rclpy|rcl_interfaces|builtin_interfaces|[a-z_]+_msgs|[a-z_]+_srvs)(\.|$)')
-RULES: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...] = (
-    ((f'{PACKAGE}.core',), (f'{PACKAGE}.ros', f'{PACKAGE}.bag', f'{PACKAGE}.protocol', f'{PACKAGE}.sessions',
-                             f'{PACKAGE}.tools', f'{PACKAGE}.dataset', *NODES)),
-    ((f'{PACKAGE}.bag', f'{PACKAGE}.protocol'), (f'{PACKAGE}.ros', f'{PACKAGE}.sessions')),
-    ((f'{PACKAGE}.sessions',), (f'{PACKAGE}.ros', f'{PACKAGE}.tools', f'{PACKAGE}.dataset', *NODES)),
-    ((*NODES, f'{PACKAGE}.scene'), (f'{PACKAGE}.bag', f'{PACKAGE}.sessions')),
-    # the simulated loop never reads the objects' task rules (dataset): only a benchmark judges with them
-    ((f'{PACKAGE}.shared_control',), (f'{PACKAGE}.ros', f'{PACKAGE}.tools', f'{PACKAGE}.dataset', *NODES)),
-)
-"""(modules the rule is about, what they must not import); ROS_FREE import no ROS package."""
-ROS_FREE = (f'{PACKAGE}.core', f'{PACKAGE}.bag', f'{PACKAGE}.protocol', f'{PACKAGE}.sessions',
-            f'{PACKAGE}.shared_control')
+BASE = ('errors', 'resources')
+CONTRACTS: Mapping[str, tuple[str, ...]] = {
+    'errors': (),
+    'resources': (),
+    'commands': (),
+    '__main__': ('commands',),
+    'kernels': (),
+    'method': (*BASE, 'kernels'),
+    'planning': (*BASE, 'kernels', 'method'),
+    'mico': (*BASE, 'kernels', 'method', 'planning'),
+    'shared_control': (*BASE, 'method', 'planning', 'mico'),
+    'objects': (*BASE, 'method', 'mico', 'cli.user_errors'),
+    'wire': (*BASE, 'method', 'mico'),
+    'scene': (*BASE, 'method', 'mico', 'wire', 'objects'),
+    'ros': (*BASE, 'kernels', 'method', 'mico', 'wire'),
+    'nodes': (*BASE, 'kernels', 'method', 'planning', 'mico', 'shared_control', 'wire', 'ros', 'scene',
+              'sessions.bag'),
+    'sessions': (*BASE, 'method', 'mico', 'shared_control', 'wire', 'scene', 'objects', 'cli.user_errors',
+                 'ros.worker'),
+    'sessions.replay': (*BASE, 'method', 'mico', 'wire', 'ros', 'launch', 'cli.user_errors'),
+    'sessions.replay_client': (*BASE, 'method', 'mico', 'wire', 'ros'),
+    'launch': (*BASE, 'method', 'mico', 'wire', 'ros', 'objects', 'cli'),
+    'cli': (*BASE, 'method', 'planning', 'mico', 'wire', 'ros', 'objects'),
+}
+"""Folder (or module, the most specific entry wins) -> what else of the package it may import."""
+ROS_FREE = ('errors', 'resources', 'commands', 'kernels', 'method', 'planning', 'mico', 'shared_control',
+            'objects', 'wire', 'scene', 'sessions')
+"""Folders that import no rclpy and no ROS message package (``sessions`` but its live replay: below)."""
+ROS_USERS = ('sessions.replay', 'sessions.replay_client')
+"""Modules of a ROS-free folder that talk ROS (the replay runs the nodes and is their client)."""
 
 
 def module_name(path: Path, root: Path) -> str:
@@ -71,16 +81,35 @@ def within(module: str, prefixes: tuple[str, ...]) -> bool:
     return any(module == p or module.startswith(f'{p}.') for p in prefixes)
 
 
+def contract(module: str) -> tuple[str, tuple[str, ...]] | None:
+    """The most specific entry of :data:`CONTRACTS` for a module: (its subject, what it may import)."""
+    short = module.removeprefix(f'{PACKAGE}.')
+    subjects = [s for s in CONTRACTS if within(short, (s,))]
+    if not subjects:
+        return None
+    subject = max(subjects, key=len)
+    return subject, CONTRACTS[subject]
+
+
 def violations(root: Path) -> list[str]:
-    """Every import that breaks a rule, as 'module imports name'."""
+    """Every import that breaks a contract, as 'module imports name'; a module no contract covers is one too."""
     found = []
     for path in sorted((root / PACKAGE).rglob('*.py')):
         name = module_name(path, root)
+        if name == PACKAGE:
+            continue
+        rule = contract(name)
+        if rule is None:
+            found.append(f'{name} is in no contract')
+            continue
+        subject, allowed = rule
+        own = f'{PACKAGE}.{subject.partition(".")[0]}'
         for imported in set(imports(path, root)):
-            for subjects, forbidden in RULES:
-                if within(name, subjects) and within(imported, forbidden):
+            if within(imported, (PACKAGE,)) and imported != PACKAGE and not within(imported, (own,)):
+                if not within(imported.removeprefix(f'{PACKAGE}.'), allowed):
                     found.append(f'{name} imports {imported}')
-            if within(name, ROS_FREE) and ROS.match(imported):
+            short = name.removeprefix(f'{PACKAGE}.')
+            if within(short, ROS_FREE) and not within(short, ROS_USERS) and ROS.match(imported):
                 found.append(f'{name} imports {imported}')
     return sorted(found)
 
@@ -91,50 +120,66 @@ def test_import_rules_hold() -> None:
 
 def test_import_rules_catch_a_broken_rule(tmp_path: Path) -> None:
     package = tmp_path / PACKAGE
-    for sub in ('core', 'bag', 'ros', 'sessions'):
+    for sub in ('method', 'wire', 'ros', 'sessions', 'sessions/bag', 'nodes', 'stray'):
         (package / sub).mkdir(parents=True)
         (package / sub / '__init__.py').write_text('')
     (package / '__init__.py').write_text('')
-    (package / 'core' / 'model.py').write_text('def f():\n    from ..ros import conversions\n    import rclpy\n')
-    (package / 'bag' / 'writer.py').write_text('from std_msgs.msg import String\nfrom ..ros.qos import input_qos\n')
-    (package / 'protocol.py').write_text('from .core import model\n')
-    (package / 'sessions' / 'pairing.py').write_text('from ..bag import reader\nfrom ..tools import replay\n'
+    (package / 'method' / 'model.py').write_text('def f():\n    from ..ros import conversions\n    import rclpy\n'
+                                                 'from ..errors import ModelError\n')
+    (package / 'wire' / 'arrays.py').write_text('from std_msgs.msg import String\nfrom ..method import model\n')
+    (package / 'sessions' / 'pairing.py').write_text('from .bag import reader\nfrom ..launch import suite\n'
                                                      'import rclpy.node\n')
-    (package / 'grasp_planner.py').write_text('from .bag import writer\nfrom . import protocol\n')
+    (package / 'sessions' / 'replay.py').write_text('import rclpy\nfrom ..launch import suite\n')
+    (package / 'nodes' / 'grasp_planner.py').write_text('from ..sessions.bag import writer\n'
+                                                        'from ..sessions import pairing\n')
     assert violations(tmp_path) == [
-        f'{PACKAGE}.bag.writer imports {PACKAGE}.ros.qos',
-        f'{PACKAGE}.bag.writer imports {PACKAGE}.ros.qos.input_qos',
-        f'{PACKAGE}.bag.writer imports std_msgs.msg',
-        f'{PACKAGE}.bag.writer imports std_msgs.msg.String',
-        f'{PACKAGE}.core.model imports {PACKAGE}.ros',
-        f'{PACKAGE}.core.model imports {PACKAGE}.ros.conversions',
-        f'{PACKAGE}.core.model imports rclpy',
-        f'{PACKAGE}.grasp_planner imports {PACKAGE}.bag',
-        f'{PACKAGE}.grasp_planner imports {PACKAGE}.bag.writer',
-        f'{PACKAGE}.sessions.pairing imports {PACKAGE}.tools',
-        f'{PACKAGE}.sessions.pairing imports {PACKAGE}.tools.replay',
+        f'{PACKAGE}.method.model imports {PACKAGE}.ros',
+        f'{PACKAGE}.method.model imports {PACKAGE}.ros.conversions',
+        f'{PACKAGE}.method.model imports rclpy',
+        f'{PACKAGE}.nodes.grasp_planner imports {PACKAGE}.sessions',
+        f'{PACKAGE}.nodes.grasp_planner imports {PACKAGE}.sessions.pairing',
+        f'{PACKAGE}.sessions.pairing imports {PACKAGE}.launch',
+        f'{PACKAGE}.sessions.pairing imports {PACKAGE}.launch.suite',
         f'{PACKAGE}.sessions.pairing imports rclpy.node',
+        f'{PACKAGE}.stray is in no contract',
+        f'{PACKAGE}.wire.arrays imports std_msgs.msg',
+        f'{PACKAGE}.wire.arrays imports std_msgs.msg.String',
     ]
 
 
+def test_every_contract_names_a_folder_or_module_of_the_package() -> None:
+    names = {module_name(path, REPO).removeprefix(f'{PACKAGE}.') for path in (REPO / PACKAGE).rglob('*.py')}
+    for subject, allowed in CONTRACTS.items():
+        for name in (subject, *allowed):
+            assert name in names, name
+
+
 def test_ros_free_layers_load_without_rclpy() -> None:
-    code = ('import sys, importlib, pkgutil\n'
-            'import grasp_intent_ros.core as c, grasp_intent_ros.bag, grasp_intent_ros.protocol\n'
-            'import grasp_intent_ros.sessions as s, grasp_intent_ros.shared_control as sc\n'
-            'for p in (c, s, sc):\n'
-            '    for m in pkgutil.iter_modules(p.__path__): importlib.import_module(f"{p.__name__}.{m.name}")\n'
-            'import grasp_intent_ros.tools.report\n'
+    """Every module of a ROS-free folder (but the live replay's) imports without loading rclpy."""
+    modules = sorted(name for path in (REPO / PACKAGE).rglob('*.py')
+                     if within(name := module_name(path, REPO).removeprefix(f'{PACKAGE}.'), ROS_FREE)
+                     and not within(name, ROS_USERS) and name != 'sessions.playback'
+                     and not name.endswith('__main__'))
+    code = ('import sys, importlib\n'
+            f'for m in {modules!r}: importlib.import_module(f"{PACKAGE}.{{m}}")\n'
             'assert "rclpy" not in sys.modules, "rclpy imported"\n')
     subprocess.run([sys.executable, '-c', code], cwd=REPO, check=True, timeout=120)
 
 
+TYPED = ('errors.py', 'resources.py', 'kernels', 'method', 'planning', 'mico', 'shared_control', 'wire',
+         'scene', 'ros', 'nodes', 'sessions')
+"""What mypy --strict checks: every folder but the command lines (launch, cli) and the data set (objects)..."""
+UNTYPED = ('nodes/recorder.py', 'sessions/reindex.py', 'sessions/replay.py', 'sessions/replay_client.py',
+           'sessions/report.py', 'sessions/playback.py')
+"""... but these command-line modules, which were never held to it (their errors are not fixed yet)."""
+
+
 def test_mypy_strict() -> None:
-    """Mypy --strict (setup.cfg) on the typed layers: core, bag, protocol, sessions, ros, scene and the nodes."""
-    paths = ['grasp_intent_ros/core', 'grasp_intent_ros/bag', 'grasp_intent_ros/protocol.py',
-             'grasp_intent_ros/sessions', 'grasp_intent_ros/ros', 'grasp_intent_ros/scene',
-             'grasp_intent_ros/shared_control',
-             *(f'grasp_intent_ros/{node.rpartition(".")[2]}.py' for node in NODES)]
-    result = subprocess.run([sys.executable, '-m', 'mypy', '--strict', '--follow-imports=silent', *paths],
+    """Mypy --strict (setup.cfg) on :data:`TYPED`."""
+    paths = [f'{PACKAGE}/{name}' for name in TYPED]
+    excluded = '|'.join(re.escape(f'{PACKAGE}/{name}') for name in UNTYPED)
+    result = subprocess.run([sys.executable, '-m', 'mypy', '--strict', '--follow-imports=silent',
+                             f'--exclude=^({excluded})$', *paths],
                             cwd=REPO, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stdout + result.stderr
 

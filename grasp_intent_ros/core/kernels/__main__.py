@@ -1,5 +1,0 @@
-"""``python -m grasp_intent_ros.core.kernels``: compile (or load from the cache) every kernel ahead of time."""
-
-from . import warm_up
-
-warm_up()

@@ -1,0 +1,9 @@
+"""Starting the suite: the nodes as processes on one loopback-only domain, and the README's demo.
+
+Modules
+-------
+suite
+    :class:`~grasp_intent_ros.launch.suite.NodeSuite` and ``python -m grasp_intent_ros suite``.
+demo
+    ``python -m grasp_intent_ros demo``: the paper's intent cases sent to a running suite.
+"""

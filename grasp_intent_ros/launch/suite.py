@@ -1,0 +1,556 @@
+"""The node suite as processes on one loopback-only ROS domain.
+
+``python -m grasp_intent_ros.nodes.<module> --ros-args ...`` started, watched and stopped by PID.
+
+One :class:`NodeSuite` serves the suite command (:func:`main`: ``python -m grasp_intent_ros suite``,
+``ros2 run grasp_intent_ros suite``), the demo, the replay (``--start-suite``),
+``scripts/record_sessions.py`` and the system tests.
+
+- :func:`domain_id_from_environment`: the run's ROS domain id, chosen and validated once
+  (``ROS_DOMAIN_ID`` if set, 0..101, else one derived from the process id).
+- :func:`use_loopback_discovery`: called by a tool's ``main`` before it initialises rclpy (never at
+  import), so its own participant stays on the loopback interface too (and uses the suite's Fast DDS
+  discovery timing, so that it finds a restarted node as soon as the nodes do).
+- :func:`node_environment`: the environment every node process gets: loopback-only discovery
+  (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, no ``ROS_STATIC_PEERS``), the run's ``ROS_DOMAIN_ID``,
+  unbuffered output, so the log of a SIGKILLed node is complete, and the Fast DDS discovery timing of
+  ``config/fastdds_loopback.xml`` (:data:`FASTDDS_PROFILE`; it also puts user data on UDP 127.0.0.1).
+- :class:`NodeProcess`: stdout and stderr go to files (no pipe can fill up and block a node); it runs in a
+  session of its own, so it is signalled only by its own PID (a terminal's Ctrl-C reaches the command that
+  started it, never the node directly), SIGKILLed after a deadline, and judged clean on exit code 0 with no
+  traceback on stderr.
+- Nodes are stopped one at a time, the last started first (:meth:`NodeSuite.stop`). Stopped together,
+  two nodes can end in a livelock of the middleware: rmw_fastrtps destroys a process's DDS participant with
+  its last node, first calling ``DomainParticipant::set_listener(nullptr)``, which in Fast DDS 2.14.5 as
+  built in the Jazzy wheels spins forever, holding the listener's mutex and the GIL, when a discovery
+  callback is running at that instant, i.e. when a peer's endpoints are coming or going: the peer's own
+  shutdown (docs/nodes.md, "Shutdown"). A node stopped while its peers are steady meets no such callback.
+- :class:`NodeSuite`: the processes of one run: start (one node, or the three suite nodes with their
+  ``config/<node>.yaml``, and :data:`OPTIONAL_NODES` on request: the shared-control loop's
+  :data:`SHARED_CONTROL_NODES`, the viewer), wait until ready, notice a death, stop
+  them all.
+- :func:`main`: the suite command: start the nodes, copy their output to stdout with each line prefixed
+  by ``[node]``, stop them all on Ctrl-C (SIGINT), SIGTERM or SIGHUP (its terminal closed); exit code 0
+  when every node stopped cleanly, 1 when one died or did not stop cleanly, 2 for bad arguments.
+
+Never imports rclpy. One module: the processes, the environment they share and the command that runs
+them are one job, starting the suite.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Collection, Mapping, MutableMapping, Sequence
+from pathlib import Path
+from types import TracebackType
+
+from ..resources import config_dir
+from ..wire.protocol import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
+
+__all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
+           'TEST_DOMAIN_IDS', 'RUN_DOMAIN_IDS', 'FASTDDS_PROFILE', 'SuiteError', 'domain_id_from_environment',
+           'use_loopback_discovery', 'node_environment', 'optional_nodes', 'NodeProcess', 'NodeSuite', 'main']
+
+_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+"""The signals on which the suite command stops its nodes (they, in sessions of their own, get none of them)."""
+STOP_TIMEOUT = 10.0
+"""Seconds a node gets to exit after SIGINT/SIGTERM before it is SIGKILLed."""
+SUITE_NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
+"""The node modules of the suite, in start order."""
+SHARED_CONTROL_NODES = ('mock_arm', 'assistance')
+"""The shared-control loop's nodes: the mock MICO and the assistance (``suite --shared-control``)."""
+OPTIONAL_NODES: tuple[str, ...] = (*SHARED_CONTROL_NODES, 'viewer')
+"""Node modules started only on request, after :data:`SUITE_NODES`: ``suite --with NAME``,
+:meth:`NodeSuite.start_nodes`'s ``extra``. Each is ``python -m grasp_intent_ros.nodes.<name>`` with its
+``config/<name>.yaml`` when there is one, like the suite's own nodes."""
+REMAPPINGS: Mapping[str, tuple[str, ...]] = {
+    'mock_arm': (f'{ARM_TRAJECTORY_COMMAND}:={GRASP_TRAJECTORY}', f'{ARM_TWIST_COMMAND}:={ASSISTANCE_TWIST}'),
+}
+"""Each node's remappings in the suite: the mock arm executes the planner's trajectory and the blended twist."""
+MAX_DOMAIN_ID = 101
+"""Largest ROS domain id usable with LOCALHOST discovery."""
+TEST_DOMAIN_IDS = range(1, MAX_DOMAIN_ID - 10)
+"""The domain ids the tests claim, one per test (1..90); runs that choose their own use the rest."""
+RUN_DOMAIN_IDS = range(MAX_DOMAIN_ID - 10, MAX_DOMAIN_ID + 1)
+"""The domain ids a run without ``ROS_DOMAIN_ID`` picks from (91..101): never one a test may hold."""
+FASTDDS_PROFILE = 'fastdds_loopback.xml'
+"""Fast DDS profile in the config directory: user data over UDP on 127.0.0.1, announcements every 0.1 s, and
+sample payloads held only while a sample is (so a peer's huge message does not leave its size in memory).
+
+So a node restarted after a SIGKILL serves again sooner: its peers reach it at once (over shared memory they
+kept writing into the killed process's port for up to a few seconds), and it learns of a peer from the peer's
+announcement within 0.1 s, not 3 s. Which interfaces discovery uses still comes from
+ROS_AUTOMATIC_DISCOVERY_RANGE (the file's comment says more).
+"""
+
+
+class SuiteError(RuntimeError):
+    """The suite cannot run: a bad ROS_DOMAIN_ID, or a node process exited while it was waited for."""
+
+
+def domain_id_from_environment(environ: Mapping[str, str] | None = None, *, unset: int | None = None) -> int:
+    """The run's ROS domain id: ``ROS_DOMAIN_ID`` if set, else ``unset``, else one of :data:`RUN_DOMAIN_IDS`.
+
+    The last is chosen by the process id, so two runs may share one (set ``ROS_DOMAIN_ID`` to be sure), but
+    a run never lands on a domain a test holds.
+
+    A run that starts its own nodes keeps off other runs' domains; one that joins running nodes passes
+    ``unset=0``, ROS's own default.
+
+    Raises
+    ------
+    SuiteError
+        If ``ROS_DOMAIN_ID`` is set but not an integer in 0..:data:`MAX_DOMAIN_ID`.
+    """
+    value = (os.environ if environ is None else environ).get('ROS_DOMAIN_ID', '').strip()
+    if not value:
+        return RUN_DOMAIN_IDS[os.getpid() % len(RUN_DOMAIN_IDS)] if unset is None else unset
+    if not value.isdigit() or int(value) > MAX_DOMAIN_ID:
+        raise SuiteError(f'ROS_DOMAIN_ID must be an integer in 0..{MAX_DOMAIN_ID}, got {value!r}')
+    return int(value)
+
+
+def use_loopback_discovery(environ: MutableMapping[str, str] | None = None) -> str | None:
+    """Set ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and drop ``ROS_STATIC_PEERS``; the range replaced.
+
+    In ``environ`` (default ``os.environ``), before this process initialises rclpy. Also sets the suite's
+    Fast DDS profile (:data:`FASTDDS_PROFILE`) unless FASTRTPS_DEFAULT_PROFILES_FILE is set, and with it
+    RMW_FASTRTPS_USE_QOS_FROM_XML=1, without which rmw_fastrtps ignores the profile's history memory policy
+    (the profile's comment says why it matters). Returns the range it replaced (None if unset).
+    """
+    env = os.environ if environ is None else environ
+    previous = env.get('ROS_AUTOMATIC_DISCOVERY_RANGE')
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    env.pop('ROS_STATIC_PEERS', None)
+    if 'FASTRTPS_DEFAULT_PROFILES_FILE' in env:
+        return previous
+    try:
+        profile = config_dir() / FASTDDS_PROFILE
+    except FileNotFoundError:
+        return previous
+    if profile.is_file():
+        env['FASTRTPS_DEFAULT_PROFILES_FILE'] = str(profile)
+        env['RMW_FASTRTPS_USE_QOS_FROM_XML'] = '1'
+    return previous
+
+
+def node_environment(domain_id: int, base: Mapping[str, str] | None = None) -> dict[str, str]:
+    """The environment of a node process on ``domain_id``.
+
+    Parameters
+    ----------
+    domain_id
+        ROS_DOMAIN_ID (0..101 for LOCALHOST discovery).
+    base
+        Environment to start from (default ``os.environ``); not modified.
+
+    Returns
+    -------
+        ``base`` with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, ROS_DOMAIN_ID, PYTHONUNBUFFERED=1 and
+        RCUTILS_LOGGING_BUFFERED_STREAM=0 set and ROS_STATIC_PEERS removed; FASTRTPS_DEFAULT_PROFILES_FILE
+        is the config directory's :data:`FASTDDS_PROFILE` (and RMW_FASTRTPS_USE_QOS_FROM_XML=1) unless
+        ``base`` sets it (or there is none).
+    """
+    env = {**(os.environ if base is None else base), 'ROS_DOMAIN_ID': str(domain_id), 'PYTHONUNBUFFERED': '1',
+           'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
+    use_loopback_discovery(env)
+    return env
+
+
+class NodeProcess:
+    """One process, started on construction, its output in ``<log_dir>/<prefix><module>.out`` and ``.err``.
+
+    Parameters
+    ----------
+    command
+        The command line (:meth:`start` builds the one of a node module).
+    module
+        Name of the process in log file names and messages (the node module's).
+    env
+        Its whole environment (see :func:`node_environment`).
+    log_dir
+        Existing directory for the two log files.
+    prefix
+        Prepended to the log file names (e.g. ``'00_'``).
+    cwd
+        Its working directory (default this process's).
+    preexec_fn
+        Run in the child before the command (e.g. to set a resource limit).
+    """
+
+    def __init__(self, command: Sequence[str], *, module: str, env: Mapping[str, str], log_dir: Path,
+                 prefix: str = '', cwd: Path | None = None,
+                 preexec_fn: Callable[[], None] | None = None) -> None:
+        self.module = module
+        self.stdout_path = log_dir / f'{prefix}{module}.out'
+        self.stderr_path = log_dir / f'{prefix}{module}.err'
+        self._signal_sent: signal.Signals | None = None
+        self._killed = False
+        with self.stdout_path.open('wb') as out, self.stderr_path.open('wb') as err:
+            self.popen = subprocess.Popen(list(command), cwd=cwd, env=dict(env), stdout=out, stderr=err,
+                                          stdin=subprocess.DEVNULL, preexec_fn=preexec_fn,
+                                          start_new_session=True)
+
+    @classmethod
+    def start(cls, module: str, ros_args: Sequence[str] = (), *, env: Mapping[str, str], log_dir: Path,
+              prefix: str = '', cwd: Path | None = None) -> NodeProcess:
+        """``python -m grasp_intent_ros.nodes.<module> --ros-args <ros_args>`` (no ``--ros-args`` when empty)."""
+        command = [sys.executable, '-m', f'grasp_intent_ros.nodes.{module}']
+        if ros_args:
+            command += ['--ros-args', *ros_args]
+        return cls(command, module=module, env=env, log_dir=log_dir, prefix=prefix, cwd=cwd)
+
+    @property
+    def pid(self) -> int:
+        """The process id."""
+        return self.popen.pid
+
+    def poll(self) -> int | None:
+        """The exit code (negative: killed by that signal), or None while it runs."""
+        return self.popen.poll()
+
+    def stderr(self) -> str:
+        """Everything it has written to stderr so far."""
+        return self.stderr_path.read_text(errors='replace')
+
+    def stderr_tail(self, lines: int = 15) -> str:
+        """The last ``lines`` lines of stderr, indented with ``'    | '``, for a message."""
+        try:
+            tail = self.stderr().strip().splitlines()[-lines:]
+        except OSError as exc:
+            return f'    | (stderr unreadable: {exc})'
+        return '\n'.join(f'    | {line}' for line in tail) if tail else '    | (empty)'
+
+    def send_signal(self, sig: signal.Signals) -> None:
+        """Send ``sig`` to this PID unless the process has exited."""
+        if self.popen.poll() is None:
+            self.popen.send_signal(sig)
+            self._signal_sent = sig
+
+    def wait(self, timeout: float) -> int:
+        """Wait up to ``timeout`` seconds for the exit, then SIGKILL; the exit code."""
+        try:
+            return self.popen.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.popen.kill()
+            self._killed = True
+            return self.popen.wait()
+
+    def stop(self, sig: signal.Signals = signal.SIGTERM, timeout: float = STOP_TIMEOUT) -> int:
+        """Send ``sig`` (unless it has exited), wait up to ``timeout`` s, then SIGKILL; the exit code."""
+        self.send_signal(sig)
+        return self.wait(timeout)
+
+    def problem(self) -> str:
+        """After the exit: '' when clean (code 0, no 'Traceback' on stderr), else one line saying why not.
+
+        Raises
+        ------
+        RuntimeError
+            The process is still running.
+        """
+        code = self.popen.poll()
+        if code is None:
+            raise RuntimeError(f'{self.module} (pid {self.pid}) is still running')
+        who = f'{self.module} (pid {self.pid})'
+        if self._killed:
+            sent = self._signal_sent.name if self._signal_sent is not None else 'no signal'
+            return f'{who} did not exit after {sent} and was killed'
+        if code != 0:
+            return f'{who} exited with code {code}'
+        if 'Traceback' in self.stderr():
+            return f'{who} printed a traceback'
+        return ''
+
+
+def optional_nodes(names: Sequence[str]) -> tuple[str, ...]:
+    """``names``, each checked against :data:`OPTIONAL_NODES`.
+
+    Raises
+    ------
+    SuiteError
+        Naming the unknown ones and the optional nodes there are.
+    """
+    if unknown := [name for name in names if name not in OPTIONAL_NODES]:
+        raise SuiteError(f'no optional node {", ".join(unknown)}; there are: {", ".join(OPTIONAL_NODES) or "none"}')
+    return tuple(names)
+
+
+class NodeSuite:
+    """The node processes of one run, all on ``domain_id`` with loopback-only discovery.
+
+    Parameters
+    ----------
+    domain_id : int
+        ROS_DOMAIN_ID of every process (0..:data:`MAX_DOMAIN_ID`).
+    log_dir : path, optional
+        Where each process's stdout/stderr go; default a new temporary directory
+        (:meth:`remove_logs` deletes it).
+    cwd : path, optional
+        Working directory of the processes (default this process's).
+    numbered_logs : bool
+        Prefix log file names with the start order (``00_``, ``01_``, ...), for a run that starts one
+        module several times.
+    env : mapping, optional
+        Extra environment variables of the processes.
+
+    Raises
+    ------
+    SuiteError
+        For a domain id outside 0..:data:`MAX_DOMAIN_ID`.
+    """
+
+    def __init__(self, domain_id: int, *, log_dir: str | os.PathLike[str] | None = None,
+                 cwd: str | os.PathLike[str] | None = None, numbered_logs: bool = False,
+                 env: Mapping[str, str] | None = None) -> None:
+        if not 0 <= domain_id <= MAX_DOMAIN_ID:
+            raise SuiteError(f'ROS domain id must be in 0..{MAX_DOMAIN_ID}, got {domain_id}')
+        self.domain_id = domain_id
+        self._own_log_dir = log_dir is None
+        self.log_dir = Path(log_dir) if log_dir is not None else Path(tempfile.mkdtemp(prefix='grasp_intent_ros_'))
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        self._cwd = None if cwd is None else Path(cwd)
+        self._numbered = numbered_logs
+        self.env = {**node_environment(domain_id), **(env or {})}
+        self.processes: list[NodeProcess] = []
+
+    def start(self, module: str, *ros_args: str) -> NodeProcess:
+        """Start ``python -m grasp_intent_ros.nodes.<module> --ros-args <ros_args>``."""
+        prefix = f'{len(self.processes):02d}_' if self._numbered else ''
+        proc = NodeProcess.start(module, ros_args, env=self.env, log_dir=self.log_dir, prefix=prefix,
+                                 cwd=self._cwd)
+        self.processes.append(proc)
+        return proc
+
+    def start_nodes(self, *, namespace: str = '', model: str | None = None,
+                    models_dir: str | os.PathLike[str] | None = None,
+                    params_files: Sequence[str | os.PathLike[str]] = (), extra: Sequence[str] = (),
+                    shared_control: bool = False) -> None:
+        """Start :data:`SUITE_NODES`, then ``extra``, each with :meth:`node_args`.
+
+        Parameters
+        ----------
+        namespace : str
+            '' or e.g. '/robot1' (``-r __ns:=``).
+        model, models_dir : optional
+            The model server's initial ``model`` and its ``models_dir`` (default: its config file's).
+        params_files : sequence of paths
+            ROS parameters files given to every node after its own ``config/<node>.yaml``; the node-name
+            keys in a file pick what each node reads, and a later file wins.
+        extra : sequence of str
+            Names from :data:`OPTIONAL_NODES`, started after the suite's own nodes.
+        shared_control : bool
+            Also start :data:`SHARED_CONTROL_NODES` (the mock arm and the assistance), before ``extra``.
+
+        Raises
+        ------
+        SuiteError
+            For a name in ``extra`` that is not in :data:`OPTIONAL_NODES`, before anything is started.
+        OSError
+            If a process cannot be started; those already started stay in :attr:`processes`.
+        """
+        wanted = (*(SHARED_CONTROL_NODES if shared_control else ()), *extra)
+        for module in (*SUITE_NODES, *optional_nodes(tuple(dict.fromkeys(wanted)))):
+            self.start(module, *self.node_args(module, namespace=namespace, model=model, models_dir=models_dir,
+                                               params_files=params_files))
+
+    @staticmethod
+    def node_args(module: str, *, namespace: str = '', model: str | None = None,
+                  models_dir: str | os.PathLike[str] | None = None,
+                  params_files: Sequence[str | os.PathLike[str]] = ()) -> list[str]:
+        """The ``--ros-args`` of a suite node (as :meth:`start_nodes` gives them), e.g. to restart it."""
+        try:
+            config: Path | None = config_dir()
+        except FileNotFoundError:
+            config = None
+        ros_args: list[str] = []
+        if config is not None and (config / f'{module}.yaml').is_file():
+            ros_args += ['--params-file', str(config / f'{module}.yaml')]
+        for path in params_files:
+            ros_args += ['--params-file', str(Path(path).resolve())]
+        if namespace:
+            ros_args += ['-r', f'__ns:={namespace}']
+        for remapping in REMAPPINGS.get(module, ()):
+            ros_args += ['-r', remapping]
+        if module == 'model_server':
+            if model is not None:
+                ros_args += ['-p', f'model:={model}']
+            if models_dir is not None:
+                ros_args += ['-p', f'models_dir:={Path(models_dir).resolve()}']
+        return ros_args
+
+    def node(self, module: str) -> NodeProcess:
+        """The last process started of ``module``. Raises KeyError if there is none."""
+        for proc in reversed(self.processes):
+            if proc.module == module:
+                return proc
+        raise KeyError(module)
+
+    def died(self) -> str:
+        """'' while every process runs; else which one exited, with its code and the end of its stderr."""
+        for proc in self.processes:
+            code = proc.poll()
+            if code is not None:
+                return f'{proc.module} (pid {proc.pid}) exited with code {code}; its stderr ends with:\n' \
+                       f'{proc.stderr_tail()}'
+        return ''
+
+    def wait_ready(self, missing: Callable[[], Collection[str]], spin: Callable[[float], object],
+                   timeout: float) -> Collection[str]:
+        """Call ``spin(seconds)`` until ``missing()`` is empty or ``timeout`` seconds pass.
+
+        Returns
+        -------
+        What ``missing()`` last returned: empty when the suite is ready.
+
+        Raises
+        ------
+        SuiteError
+            As soon as a process has exited (:meth:`died`).
+        """
+        deadline = time.monotonic() + timeout
+        while lacking := missing():
+            if problem := self.died():
+                raise SuiteError(problem)
+            remaining = deadline - time.monotonic()
+            if remaining <= 0.0:
+                return lacking
+            spin(min(remaining, 0.05))
+        return lacking
+
+    def stop(self, sig: signal.Signals = signal.SIGTERM, *, timeout: float = STOP_TIMEOUT, tail_lines: int = 15,
+             include_exited: bool = True) -> list[str]:
+        """Stop every process still running, one at a time, the last started first: ``sig`` by PID, then wait.
+
+        Each gets ``timeout`` s before SIGKILL. One at a time, because nodes stopped together can livelock in
+        the middleware (module docstring).
+
+        Parameters
+        ----------
+        include_exited : bool
+            Also judge the processes that had exited before this call (False: only those it stops).
+
+        Returns
+        -------
+        list of str
+            The problems (non-zero exit, traceback, killed), each followed by the last ``tail_lines``
+            lines of that process's stderr (none for 0).
+        """
+        judged = [p for p in self.processes if include_exited or p.poll() is None]
+        for proc in reversed(judged):
+            proc.stop(sig, timeout)
+        problems = []
+        for proc in judged:
+            if problem := proc.problem():
+                problems.append(f'{problem}:\n{proc.stderr_tail(tail_lines)}' if tail_lines else problem)
+        return problems
+
+    def remove_logs(self) -> None:
+        """Delete the log directory if this suite created it (a temporary one); after :meth:`stop`."""
+        if self._own_log_dir:
+            shutil.rmtree(self.log_dir, ignore_errors=True)
+
+    def __enter__(self) -> NodeSuite:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.stop()
+
+
+class _Echo:
+    """Copies the lines the processes wrote to their log files to stdout, each prefixed with ``[module]``."""
+
+    def __init__(self, suite: NodeSuite) -> None:
+        self._suite = suite
+        self._done: dict[Path, int] = {}  # bytes of each log file already copied (or held as a partial line)
+        self._partial: dict[Path, bytes] = {}
+
+    def copy(self, *, final: bool = False) -> None:
+        """Copy every complete new line; with ``final``, also each file's last line without a newline."""
+        for proc in self._suite.processes:
+            for path in (proc.stdout_path, proc.stderr_path):
+                try:
+                    with path.open('rb') as log:
+                        log.seek(self._done.get(path, 0))
+                        data = log.read()
+                except OSError:
+                    continue
+                self._done[path] = self._done.get(path, 0) + len(data)
+                lines = (self._partial.pop(path, b'') + data).split(b'\n')
+                last = lines.pop()
+                if final and last:
+                    lines.append(last)
+                elif last:
+                    self._partial[path] = last
+                for line in lines:
+                    print(f'[{proc.module}] {line.decode(errors="replace")}')
+        sys.stdout.flush()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The suite command (see the module docstring); returns the exit code."""
+    parser = argparse.ArgumentParser(
+        description='Start the node suite (intent_interpreter, model_server, grasp_planner) as processes on '
+                    'loopback-only discovery, each with its config/<node>.yaml; Ctrl-C stops them all.')
+    parser.add_argument('--namespace', default='', metavar='NS', help='every node in this namespace, e.g. /robot1')
+    parser.add_argument('--domain-id', type=int, metavar='ID',
+                        help=f'ROS_DOMAIN_ID of the nodes, 0..{MAX_DOMAIN_ID} (default: $ROS_DOMAIN_ID, else 0)')
+    parser.add_argument('--params-file', action='append', default=[], type=Path, metavar='FILE',
+                        help='a ROS parameters file for every node, after its config/<node>.yaml (its node-name '
+                             'keys pick what each reads); repeatable, a later file wins')
+    parser.add_argument('--with', dest='extra', action='append', default=[], metavar='NAME',
+                        help=f'also start this node (optional nodes: {", ".join(OPTIONAL_NODES) or "none"})')
+    parser.add_argument('--shared-control', action='store_true',
+                        help=f'also start the shared-control loop: {" and ".join(SHARED_CONTROL_NODES)}')
+    parser.add_argument('--log-dir', type=Path, metavar='DIR',
+                        help="keep each node's stdout and stderr in DIR (default: a temporary directory, deleted)")
+    args = parser.parse_args(argv)
+    if args.namespace and not args.namespace.startswith('/'):
+        parser.error(f'--namespace must be absolute, e.g. /{args.namespace}')
+    if missing := [str(path) for path in args.params_file if not path.is_file()]:
+        parser.error(f'no parameters file {", ".join(missing)}')
+    try:
+        extra = optional_nodes(args.extra)
+        domain_id = args.domain_id if args.domain_id is not None else domain_id_from_environment(unset=0)
+        suite = NodeSuite(domain_id, log_dir=args.log_dir)
+    except SuiteError as exc:
+        parser.error(str(exc))
+    stop_requested: list[int] = []
+    for sig in _STOP_SIGNALS:
+        signal.signal(sig, lambda signum, _frame: stop_requested.append(signum))
+    echo = _Echo(suite)
+    died = ''
+    try:
+        suite.start_nodes(namespace=args.namespace, params_files=args.params_file, extra=extra,
+                          shared_control=args.shared_control)
+        print(f'suite: ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, namespace '
+              f'{args.namespace or "/"}; started ' + ', '.join(f'{p.module} (pid {p.pid})' for p in suite.processes)
+              + '; Ctrl-C stops them', flush=True)
+        while not stop_requested and not died:
+            time.sleep(0.1)  # a signal handler only appends: the loop looks 10 times a second
+            echo.copy()
+            if died := suite.died().split(';', 1)[0]:
+                print(f'suite: {died}; stopping the others', file=sys.stderr, flush=True)
+    finally:
+        for sig in _STOP_SIGNALS:
+            signal.signal(sig, signal.SIG_IGN)  # the nodes are stopped once, completely
+        problems = suite.stop(signal.SIGINT, tail_lines=0)
+        echo.copy(final=True)
+        if args.log_dir is None:
+            suite.remove_logs()
+    for problem in problems:
+        print(f'suite: {problem}', file=sys.stderr)
+    print(f'suite: stopped {"with problems" if problems else "cleanly"}', flush=True)
+    return 1 if problems or died else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,291 @@
+r"""Grasp-frame maths: grasp features <-> end-effector pose, poses <-> 4x4 transforms, the drawn gripper.
+
+Frames and units as in :mod:`grasp_intent_ros.mico.kinematics` (``a_T_b`` maps coordinates in ``b`` to
+coordinates in ``a``; metres, radians).
+
+Grasp features -> end-effector pose
+-----------------------------------
+A grasp feature vector ``x`` (shape (10,), see :mod:`~grasp_intent_ros.method.features`) holds the palm
+centre ``p = x[PALM]`` (m, object frame), the approach ``a = x[APPROACH]`` and the roll ``r = x[ROLL]``
+(rad); the finger closures ``x[FINGERS]`` do not affect the pose. :func:`features_to_obj_T_ee` returns
+
+.. math::
+
+    {}^{obj}T_{ee} = \begin{pmatrix} R_{min}(\hat a)\, R_z(r)\, R_{top} & p \\ 0 & 1 \end{pmatrix},
+    \qquad \hat a = a / \lVert a \rVert,
+
+* ``R_top = diag(1, -1, -1)``: the top-down grasp with roll 0 (EE z = -z_obj, EE x = +x_obj);
+* ``R_z(r)``: rotation by r about the object's z axis, applied to ``R_top``. Since EE z = -z_obj there,
+  r is a rotation by -r about the EE's own z axis: ``R_z(r) R_top = R_top R_z(-r)``;
+* ``R_min(a)``: the smallest rotation taking the downward direction (0, 0, -1) to ``a`` (Rodrigues, about
+  the horizontal axis (0, 0, -1) x a). It is undefined only for ``a = +z`` (approach from below the
+  table); there ``R_min = R_x(pi)`` by definition, and it is discontinuous next to ``+z``.
+
+Hence the EE origin is the palm centre ``p`` and the EE z axis equals ``a``. For a horizontal approach
+``a = (ax, ay, 0)`` with roll 0 the thumb (EE x) points along ``(ay^2, -ax ay, ax)``: up for an approach
+along +x_obj, horizontal (+x_obj) for an approach along +-y_obj.
+
+:func:`obj_T_ee_to_features` inverts this: ``a`` = EE z axis, and r is wrapped into
+``[MICO_3F.lower[ROLL], MICO_3F.lower[ROLL] + 2 pi)`` = [-pi/2, 3pi/2).
+Drawn gripper
+-------------
+:func:`finger_segments` is the schematic of the three fingers that the RViz markers and the session
+report both draw (base on a circle around the approach axis, bent inwards by the closure; not the finger
+kinematics).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import InvalidFeaturesError, KinematicsError
+from ..method.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL
+
+__all__ = [
+    'check_vector',
+    'check_transform',
+    'ORTHONORMAL_TOL',
+    'features_to_obj_T_ee',
+    'obj_T_ee_to_features',
+    'pose_to_matrix',
+    'matrix_to_pose',
+    'finger_segments',
+    'FINGER_LENGTH',
+]
+
+_TWO_PI = 2.0 * math.pi
+_R_TOP = np.diag([1.0, -1.0, -1.0])
+_ROLL_MIN = float(MICO_3F.lower[ROLL])
+
+FINGER_LENGTH = 0.08
+"""Length of a drawn finger (m)."""
+_FINGER_BASE_RADIUS = 0.03
+_FINGER_ANGLES = (0.0, math.radians(140.6), -math.radians(140.6))
+"""Azimuth of fingers 1 (thumb, +x of the EE frame), 2 and 3 around the approach axis (rad)."""
+_FINGER_SPLAY = 0.35
+"""Outward tilt of an open finger (rad); closure c tilts it inwards by c - splay."""
+
+
+def check_vector(value: ArrayLike, n: int, what: str) -> NDArray[np.float64]:
+    """A finite vector of shape (n,). Raises KinematicsError naming ``what``."""
+    try:
+        vec = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise KinematicsError(f'{what} must be numeric: {exc}') from None
+    if vec.shape != (n,):
+        raise KinematicsError(f'{what} must have shape ({n},), got {vec.shape}')
+    if not np.all(np.isfinite(vec)):
+        raise KinematicsError(f'{what} must be finite, got {vec}')
+    return vec
+
+
+ORTHONORMAL_TOL = 1e-12
+"""Largest entry of ``|R^T R - I|`` for which :func:`check_transform` keeps a rotation as it is."""
+
+
+def check_transform(value: ArrayLike, what: str, *, tol: float = 1e-6) -> NDArray[np.float64]:
+    """A validated 4x4 rigid transform; its rotation is projected onto SO(3) (deviations < tol allowed).
+
+    The tolerance test is ``np.allclose(R.T @ R, I, atol=tol)`` (and ``det R > 0``), the last row's
+    ``np.allclose(T[3], (0, 0, 0, 1), atol=tol)``. A rotation already orthonormal within
+    :data:`ORTHONORMAL_TOL` (one built from a unit quaternion or composed of such, off by rounding only) is
+    returned as given: the projection (SVD) would move it by as little. The tests run on Python floats:
+    a planner checks three transforms per plan, each right after the thread was idle, when numpy's
+    machinery for a 4x4 array costs several times its warm time.
+    """
+    try:
+        T = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise KinematicsError(f'{what} must be numeric: {exc}') from None
+    if T.shape != (4, 4):
+        raise KinematicsError(f'{what} must have shape (4, 4), got {T.shape}')
+    (a, b, c, _), (d, e, f, _), (g, h, i, _), last = rows = T.tolist()
+    if not all(math.isfinite(v) for row in rows for v in row):
+        raise KinematicsError(f'{what} must be finite')
+    if not (abs(last[0]) <= tol and abs(last[1]) <= tol and abs(last[2]) <= tol and abs(last[3] - 1.0) <= tol + 1e-5):
+        raise KinematicsError(f'{what} must have last row (0, 0, 0, 1), got {T[3]}')
+    # R^T R: the columns' dot products
+    off = max(abs(a * b + d * e + g * h), abs(a * c + d * f + g * i), abs(b * c + e * f + h * i))
+    diag = max(abs(a * a + d * d + g * g - 1.0), abs(b * b + e * e + h * h - 1.0), abs(c * c + f * f + i * i - 1.0))
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    if not (off <= tol and diag <= tol + 1e-5 and det > 0.0):
+        raise KinematicsError(f'{what} rotation is not a rotation matrix (tolerance {tol})')
+    if max(off, diag) > ORTHONORMAL_TOL:
+        u, _, vt = np.linalg.svd(T[:3, :3])
+        T[:3, :3] = u @ vt
+    T[3] = (0.0, 0.0, 0.0, 1.0)
+    return T
+
+
+# -- grasp features <-> end-effector pose -------------------------------------------------------------
+
+_Rows = tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float]]
+
+
+def _min_rotation_from_down(ax: float, ay: float, az: float) -> _Rows:
+    """The smallest rotation (rows) taking (0, 0, -1) to the unit vector a; R_x(pi) for a = +z."""
+    s2 = ax * ax + ay * ay
+    if s2 == 0.0 and az > 0.0:
+        return (1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, -1.0)
+    # Rodrigues with w = (0, 0, -1) x a = (ay, -ax, 0), cos = -az: R = -az I + [w]x + w w^T / (1 - az).
+    # 1 - az is computed as s2 / (1 + az) when az > 0 to avoid cancellation near +z.
+    h = (1.0 + az) / s2 if az > 0.0 else 1.0 / (1.0 - az)
+    hxy = -h * ax * ay
+    return (-az + h * ay * ay, hxy, -ax), (hxy, -az + h * ax * ax, -ay), (ax, ay, -az)
+
+
+def features_to_obj_T_ee(x: ArrayLike) -> NDArray[np.float64]:
+    """End-effector pose ``obj_T_ee`` of a grasp feature vector (convention in the module docstring).
+
+    Parameters
+    ----------
+    x : array_like, shape (10,)
+        Grasp features (:data:`~grasp_intent_ros.method.features.MICO_3F` layout); the approach need not be
+        normalised, the finger closures are ignored.
+
+    Returns
+    -------
+    ndarray, shape (4, 4)
+
+    Raises
+    ------
+    InvalidFeaturesError
+        If ``x`` has the wrong shape, non-finite entries, or a zero approach vector.
+    """
+    try:
+        vec = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InvalidFeaturesError(f'x must be numeric: {exc}') from None
+    if vec.shape != (MICO_3F.dim,):
+        raise InvalidFeaturesError(f'x must have shape ({MICO_3F.dim},), got {vec.shape}')
+    values = vec.tolist()
+    if not all(math.isfinite(v) for v in values):
+        raise InvalidFeaturesError(f'x must be finite, got {vec}')
+    ax, ay, az = values[APPROACH]
+    norm = math.sqrt(ax * ax + ay * ay + az * az)
+    if norm < 1e-9:
+        raise InvalidFeaturesError(f'approach vector x[3:6] must be non-zero, got {vec[APPROACH]}')
+    # R_min(a_hat) R_z(roll) R_top, R_z(roll) R_top = ((c, s, 0), (s, -c, 0), (0, 0, -1)); Python floats
+    # (numpy's machinery for 3x3 products costs more than the arithmetic, several times over in a planner)
+    c, s = math.cos(values[ROLL]), math.sin(values[ROLL])
+    px, py, pz = values[PALM]
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = _min_rotation_from_down(ax / norm, ay / norm, az / norm)
+    return np.array([[r00 * c + r01 * s, r00 * s - r01 * c, -r02, px],
+                     [r10 * c + r11 * s, r10 * s - r11 * c, -r12, py],
+                     [r20 * c + r21 * s, r20 * s - r21 * c, -r22, pz],
+                     [0.0, 0.0, 0.0, 1.0]])
+
+
+def obj_T_ee_to_features(obj_T_ee: ArrayLike, fingers: ArrayLike) -> NDArray[np.float64]:
+    """Grasp feature vector of an end-effector pose and finger closures (inverse of features_to_obj_T_ee).
+
+    Parameters
+    ----------
+    obj_T_ee : array_like, shape (4, 4)
+        End-effector pose in the object frame.
+    fingers : array_like, shape (3,)
+        Finger closures (rad), copied to ``x[7:10]`` unchanged.
+
+    Returns
+    -------
+    ndarray, shape (10,)
+        Unit approach, roll wrapped into [-pi/2, 3pi/2).
+
+    Raises
+    ------
+    KinematicsError
+        If ``obj_T_ee`` is not a rigid 4x4 transform.
+    InvalidFeaturesError
+        If ``fingers`` is not a finite vector of shape (3,).
+    """
+    T = check_transform(obj_T_ee, 'obj_T_ee')
+    try:
+        closures = check_vector(fingers, 3, 'fingers')
+    except KinematicsError as exc:
+        raise InvalidFeaturesError(str(exc)) from None
+    obj_R_ee = T[:3, :3]
+    approach = obj_R_ee[:, 2]
+    r_min = np.array(_min_rotation_from_down(*approach.tolist()))
+    roll_R = r_min.T @ obj_R_ee @ _R_TOP  # = R_z(roll); R_TOP is involutive
+    roll = math.atan2(float(roll_R[1, 0]), float(roll_R[0, 0]))
+    roll = (roll - _ROLL_MIN) % _TWO_PI + _ROLL_MIN
+    if roll >= _ROLL_MIN + _TWO_PI:  # a tiny negative offset wraps to exactly 2 pi in floating point
+        roll -= _TWO_PI
+    x = np.empty(MICO_3F.dim)
+    x[PALM] = T[:3, 3]
+    x[APPROACH] = approach
+    x[ROLL] = roll
+    x[FINGERS] = closures
+    return x
+
+
+# -- poses ----------------------------------------------------------------------------------------------
+
+def pose_to_matrix(position: ArrayLike, quat_xyzw: ArrayLike) -> NDArray[np.float64]:
+    """4x4 transform of a position (m) and a quaternion in ROS order (x, y, z, w), normalised here.
+
+    Raises
+    ------
+    KinematicsError
+        On wrong shapes, non-finite values, or a zero quaternion.
+    """
+    p = check_vector(position, 3, 'position')
+    xyzw = check_vector(quat_xyzw, 4, 'quat_xyzw')
+    norm = float(np.linalg.norm(xyzw))
+    if norm < 1e-12:
+        raise KinematicsError('quat_xyzw must be non-zero')
+    x, y, z, w = xyzw / norm
+    T = np.eye(4)
+    T[:3, :3] = pin.Quaternion(w, x, y, z).toRotationMatrix()  # Pinocchio takes w first
+    T[:3, 3] = p
+    return T
+
+
+def matrix_to_pose(T: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Position (m) and unit quaternion (x, y, z, w) with w >= 0 of a 4x4 rigid transform.
+
+    Raises
+    ------
+    KinematicsError
+        If ``T`` is not a rigid 4x4 transform.
+    """
+    M = check_transform(T, 'T')
+    (a, b, c, px), (d, e, f, py), (g, h, i, pz), _ = M.tolist()
+    # Shepperd's method (as Eigen's Quaternion from a rotation matrix) in Python floats: the planner converts
+    # one pose per plan, and numpy's or Pinocchio's machinery for it costs more than the arithmetic.
+    trace = a + e + i
+    if trace > 0.0:
+        t = 2.0 * math.sqrt(trace + 1.0)
+        x, y, z, w = (h - f) / t, (c - g) / t, (d - b) / t, 0.25 * t
+    elif a >= e and a >= i:
+        t = 2.0 * math.sqrt(1.0 + a - e - i)
+        x, y, z, w = 0.25 * t, (b + d) / t, (c + g) / t, (h - f) / t
+    elif e >= i:
+        t = 2.0 * math.sqrt(1.0 + e - a - i)
+        x, y, z, w = (b + d) / t, 0.25 * t, (f + h) / t, (c - g) / t
+    else:
+        t = 2.0 * math.sqrt(1.0 + i - a - e)
+        x, y, z, w = (c + g) / t, (f + h) / t, 0.25 * t, (d - b) / t
+    xyzw = np.array([-x, -y, -z, -w] if w < 0.0 else [x, y, z, w])
+    return np.array([px, py, pz]), xyzw
+
+
+def finger_segments(closures: ArrayLike) -> NDArray[np.float64]:
+    """Base and tip of each drawn finger in the EE frame (m), for closures (rad, 0 open .. 1.51 closed).
+
+    Returns
+    -------
+    ndarray, shape (3, 2, 3)
+        ``[finger, (base, tip), xyz]``.
+    """
+    out = np.empty((3, 2, 3))
+    for k, (azimuth, closure) in enumerate(zip(_FINGER_ANGLES, np.asarray(closures, dtype=np.float64))):
+        radial = np.array([math.cos(azimuth), math.sin(azimuth), 0.0])
+        tilt = float(closure) - _FINGER_SPLAY
+        out[k, 0] = _FINGER_BASE_RADIUS * radial
+        out[k, 1] = out[k, 0] + FINGER_LENGTH * (math.cos(tilt) * np.array([0.0, 0.0, 1.0]) - math.sin(tilt) * radial)
+    return out

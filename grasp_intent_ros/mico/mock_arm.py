@@ -1,0 +1,447 @@
+r"""The mock MICO's motion, ROS-free: joint trajectories and twists executed within the joint limits.
+
+A stand-in for ros2_control's mock hardware (``mock_components/GenericSystem``: the commanded positions
+become the state) driven by a joint_trajectory_controller and a servo (MoveIt Servo). Not a dynamics
+simulation: the state is the commanded position, moved at most by the velocity limits per step.
+
+Joint trajectories (the joint_trajectory_controller's topic interface)
+----------------------------------------------------------------------
+:func:`check_trajectory` accepts what the controller accepts and rejects the rest with a
+:class:`~grasp_intent_ros.errors.CommandError` saying why:
+
+- joint names non-empty, unique, each a controller joint; all controller joints unless
+  ``allow_partial`` (the controller's ``allow_partial_joints_goal``, default false);
+- every point has one position per joint; velocities and accelerations either absent from every point
+  or one per joint in every point (accelerations only with velocities); all values finite;
+- ``time_from_start`` strictly increasing from a first point later than 0 (a point at 0 would ask for a
+  jump from the current state);
+- the last point's velocities zero (``allow_nonzero_velocity_at_trajectory_end`` false, Jazzy's default);
+- positions within the joint limits (the mock's stand-in for ros2_control's joint limits);
+- a non-zero header stamp is the start time; a trajectory that would end before ``now`` is rejected.
+  A zero stamp means "start now".
+
+:class:`TrajectoryExecution` samples an accepted trajectory as the controller's spline interpolator does:
+the first segment runs from the state at the start time (position and velocity, zero acceleration) to
+the first point; each segment is linear when the points give positions only, a cubic Hermite spline with
+velocities, a quintic with velocities and accelerations. Before the start time the state is held; after
+the last point, its positions. A new trajectory replaces the one in progress (from the current state).
+
+Twists (a servo's input)
+------------------------
+:func:`dls_joint_velocities` maps an EE twist to joint speeds by damped least squares:
+
+.. math::
+
+    \dot q = \arg\min_{\dot q} \lVert J \dot q - \xi \rVert^2 + \lambda^2 \lVert \dot q \rVert^2
+           = J^T (J J^T + \lambda^2 I)^{-1} \xi,
+    \qquad \lambda^2 = \lambda_{max}^2 \, (1 - (\sigma_{min} / \epsilon)^2) \text{ if } \sigma_{min} < \epsilon
+    \text{ else } 0,
+
+with damping only near a singularity (Chiaverini's rule: :math:`\sigma_{min}` the smallest singular
+value of J, :math:`\epsilon` the threshold), so that the twist is tracked exactly elsewhere; unique
+for :math:`\lambda > 0` and for a full-rank J. The answer is then scaled as a whole (the direction kept)
+so that no joint exceeds its velocity limit. :class:`MockArm` integrates it for one step and clips the
+positions to the limits.
+
+State and steps
+---------------
+:class:`MockArm` holds the positions of the 6 arm joints and 3 fingers (:data:`~.grasp.JOINT_NAMES`
+order) and their velocities; :meth:`MockArm.step` advances it by ``dt`` under the active command: a
+trajectory (each joint moves towards the sampled reference by at most its velocity limit times ``dt``),
+a twist (until it is older than the command timeout, then the arm stops), or none (hold). Closing the
+fingers (:meth:`MockArm.close_fingers`, the hand's grasp command) moves only the fingers, toward their
+closures at the finger speed limit, under any arm command but a trajectory that arrives later.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import CommandError, KinematicsError
+from ..method.features import FINGERS, MICO_3F
+from .frames import check_vector
+from .grasp import JOINT_NAMES
+from .kinematics import BASE_FRAME, EE_FRAME, MicoKinematics
+
+__all__ = ['FINGER_VELOCITY_LIMIT', 'TrajectoryCommand', 'TrajectoryExecution', 'check_trajectory',
+           'dls_joint_velocities', 'TwistCommand', 'check_twist', 'MockArm']
+
+FINGER_VELOCITY_LIMIT = 1.0
+"""Finger joint speed limit (rad/s), the URDF's."""
+
+
+@dataclass(frozen=True)
+class TrajectoryCommand:
+    """A joint trajectory as received, before any check.
+
+    Attributes
+    ----------
+    joint_names : tuple of str, length k
+    times : sequence of float, length n
+        ``time_from_start`` of each point (s).
+    positions : list of n sequences
+        Each point's positions (rad); lengths checked by :func:`check_trajectory`.
+    velocities, accelerations : list of n sequences
+        Each point's (possibly empty) velocities (rad/s) and accelerations (rad/s^2).
+    start : float or None
+        The header stamp (s, the controller's clock); None for a zero stamp ("start now").
+    """
+
+    joint_names: tuple[str, ...]
+    times: Sequence[float]
+    positions: Sequence[Sequence[float]]
+    velocities: Sequence[Sequence[float]]
+    accelerations: Sequence[Sequence[float]]
+    start: float | None = None
+
+
+@dataclass(frozen=True)
+class _CheckedTrajectory:
+    """An accepted trajectory: controller joint indices (k,), times (n,), arrays (n, k) or None, start (s)."""
+
+    indices: NDArray[np.intp]
+    times: NDArray[np.float64]
+    positions: NDArray[np.float64]
+    velocities: NDArray[np.float64] | None
+    accelerations: NDArray[np.float64] | None
+    start: float
+
+
+def _point_array(rows: Sequence[Sequence[float]], k: int, what: str, *, optional: bool) -> NDArray[np.float64] | None:
+    """The n rows as an (n, k) array; None when every row is empty and ``optional``."""
+    sizes = {len(row) for row in rows}
+    if optional and sizes == {0}:
+        return None
+    if sizes != {k}:
+        bad = next(i for i, row in enumerate(rows) if len(row) != k)
+        raise CommandError(f'trajectory point {bad} has {len(rows[bad])} {what} for {k} joints'
+                           + (f' (give {what} in every point or in none)' if optional else ''))
+    arr = np.array([list(row) for row in rows], dtype=np.float64).reshape(len(rows), k)
+    if not np.all(np.isfinite(arr)):
+        bad = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
+        raise CommandError(f'trajectory point {bad} has a NaN or infinite {what[:-1]}')
+    return arr
+
+
+def check_trajectory(cmd: TrajectoryCommand, controller_joints: Sequence[str], lower: ArrayLike, upper: ArrayLike,
+                     *, now: float, allow_partial: bool = False) -> _CheckedTrajectory:
+    """The trajectory, checked by the rules of the module docstring, ready for :class:`TrajectoryExecution`.
+
+    An empty trajectory (no points) is accepted: it stops the arm where it is.
+
+    Parameters
+    ----------
+    cmd : TrajectoryCommand
+    controller_joints : sequence of str, length N
+    lower, upper : array_like, shape (N,)
+        Position limits (rad).
+    now : float
+        The controller's time (s), the start of a trajectory stamped zero.
+    allow_partial : bool
+        Accept a trajectory for some of the controller's joints (the others hold).
+
+    Raises
+    ------
+    CommandError
+        Naming the first rule broken.
+    """
+    names = cmd.joint_names
+    index = {name: i for i, name in enumerate(controller_joints)}
+    if not names:
+        raise CommandError('trajectory has no joint names')
+    if len(set(names)) != len(names):
+        raise CommandError(f'trajectory names a joint twice: {sorted({n for n in names if names.count(n) > 1})}')
+    unknown = [name for name in names if name not in index]
+    if unknown:
+        raise CommandError(f'trajectory names joints this controller does not have: {unknown[:5]}')
+    missing = [name for name in controller_joints if name not in names]
+    if missing and not allow_partial:
+        raise CommandError(f'trajectory lacks the controller joints {missing} (allow_partial_joints_goal is false)')
+    indices = np.array([index[name] for name in names], dtype=np.intp)
+    times = np.asarray(cmd.times, dtype=np.float64)
+    start = now if cmd.start is None else cmd.start
+    n, k = times.size, len(names)
+    if n == 0:
+        return _CheckedTrajectory(indices, times, np.empty((0, k)), None, None, start)
+    if not (len(cmd.positions) == len(cmd.velocities) == len(cmd.accelerations) == n):
+        raise CommandError('trajectory points and their fields differ in number')
+    if not np.all(np.isfinite(times)):
+        raise CommandError('trajectory has a NaN or infinite time_from_start')
+    if times[0] <= 0.0:
+        raise CommandError(f'the first trajectory point must come after time 0, got time_from_start {times[0]:g} s')
+    if n > 1 and not np.all(np.diff(times) > 0.0):
+        bad = int(np.flatnonzero(np.diff(times) <= 0.0)[0]) + 1
+        raise CommandError(f'time_from_start must be strictly increasing: point {bad} at {times[bad]:g} s '
+                           f'after point {bad - 1} at {times[bad - 1]:g} s')
+    positions = _point_array(cmd.positions, k, 'positions', optional=False)
+    assert positions is not None
+    velocities = _point_array(cmd.velocities, k, 'velocities', optional=True)
+    accelerations = _point_array(cmd.accelerations, k, 'accelerations', optional=True)
+    if accelerations is not None and velocities is None:
+        raise CommandError('trajectory gives accelerations without velocities')
+    if velocities is not None and np.any(velocities[-1] != 0.0):
+        raise CommandError('the last trajectory point must have zero velocities '
+                           '(allow_nonzero_velocity_at_trajectory_end is false)')
+    lo, hi = np.asarray(lower, dtype=np.float64)[indices], np.asarray(upper, dtype=np.float64)[indices]
+    outside = (positions < lo) | (positions > hi)
+    if np.any(outside):
+        point, joint = (int(i) for i in np.argwhere(outside)[0])
+        raise CommandError(f'trajectory point {point} puts {names[joint]} at {positions[point, joint]:.6g} rad, '
+                           f'outside its limits [{lo[joint]:.6g}, {hi[joint]:.6g}]')
+    if start + times[-1] < now:
+        raise CommandError(f'trajectory stamped {start:.3f} s ends {now - start - times[-1]:.3f} s in the past')
+    return _CheckedTrajectory(indices, times, positions, velocities, accelerations, start)
+
+
+def _segment(t: float, duration: float, p0: NDArray[np.float64], v0: NDArray[np.float64], a0: NDArray[np.float64],
+             p1: NDArray[np.float64], v1: NDArray[np.float64] | None, a1: NDArray[np.float64] | None
+             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Position and velocity at ``t`` in [0, duration] of the spline from (p0, v0, a0) to (p1, v1, a1).
+
+    Linear when ``v1`` is None, cubic Hermite when ``a1`` is None, else quintic.
+    """
+    T = duration
+    if v1 is None:
+        return p0 + (p1 - p0) * (t / T), (p1 - p0) / T
+    if a1 is None:  # cubic: p(0) = p0, p'(0) = v0, p(T) = p1, p'(T) = v1
+        c2 = (3.0 * (p1 - p0) - (2.0 * v0 + v1) * T) / T**2
+        c3 = (-2.0 * (p1 - p0) + (v0 + v1) * T) / T**3
+        return p0 + v0 * t + c2 * t**2 + c3 * t**3, v0 + 2.0 * c2 * t + 3.0 * c3 * t**2
+    # quintic: p, p', p'' given at both ends
+    c2 = a0 / 2.0
+    d = p1 - p0 - v0 * T - c2 * T**2
+    dv = v1 - v0 - a0 * T
+    da = a1 - a0
+    c3 = (20.0 * d - 8.0 * dv * T + da * T**2) / (2.0 * T**3)
+    c4 = (-30.0 * d + 14.0 * dv * T - 2.0 * da * T**2) / (2.0 * T**4)
+    c5 = (12.0 * d - 6.0 * dv * T + da * T**2) / (2.0 * T**5)
+    position = p0 + v0 * t + c2 * t**2 + c3 * t**3 + c4 * t**4 + c5 * t**5
+    velocity = v0 + 2.0 * c2 * t + 3.0 * c3 * t**2 + 4.0 * c4 * t**3 + 5.0 * c5 * t**4
+    return position, velocity
+
+
+class TrajectoryExecution:
+    """An accepted trajectory from the state its controller had when it arrived (module docstring).
+
+    Parameters
+    ----------
+    trajectory : result of :func:`check_trajectory`
+    q0, v0 : ndarray, shape (N,)
+        The controller joints' positions and velocities when the trajectory arrived.
+    """
+
+    def __init__(self, trajectory: _CheckedTrajectory, q0: NDArray[np.float64], v0: NDArray[np.float64]) -> None:
+        self.trajectory = trajectory
+        self._q0, self._v0 = q0[trajectory.indices].copy(), v0[trajectory.indices].copy()
+
+    @property
+    def end_time(self) -> float:
+        """When the last point is reached (s, the controller's clock)."""
+        t = self.trajectory
+        return t.start + (float(t.times[-1]) if t.times.size else 0.0)
+
+    def sample(self, now: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Reference positions and velocities of the trajectory's joints at time ``now`` (s), shape (k,) each."""
+        traj = self.trajectory
+        t = now - traj.start
+        k = traj.indices.size
+        if traj.times.size == 0 or t <= 0.0:
+            return self._q0.copy(), np.zeros(k) if traj.times.size == 0 else self._v0.copy()
+        if t >= traj.times[-1]:
+            last_v = np.zeros(k) if traj.velocities is None else traj.velocities[-1]
+            return traj.positions[-1].copy(), last_v.copy()
+        i = int(np.searchsorted(traj.times, t, side='right'))  # t lies in segment i: (times[i-1], times[i]]
+        zero = np.zeros(k)
+        vel, acc = traj.velocities, traj.accelerations
+        if i == 0:
+            t0, p0, v0, a0 = 0.0, self._q0, self._v0, zero
+        else:
+            t0, p0 = float(traj.times[i - 1]), traj.positions[i - 1]
+            v0 = zero if vel is None else vel[i - 1]
+            a0 = zero if acc is None else acc[i - 1]
+        return _segment(t - t0, float(traj.times[i]) - t0, p0, v0, a0, traj.positions[i],
+                        None if vel is None else vel[i], None if acc is None else acc[i])
+
+
+def dls_joint_velocities(jacobian: NDArray[np.float64], twist: NDArray[np.float64], damping: float,
+                         velocity_limits: NDArray[np.float64], *, threshold: float = 0.05) -> NDArray[np.float64]:
+    """Joint speeds (rad/s) for an EE twist by damped least squares, scaled into the velocity limits.
+
+    Parameters
+    ----------
+    jacobian : ndarray, shape (6, 6)
+        :meth:`~.kinematics.MicoKinematics.jacobian`.
+    twist : ndarray, shape (6,)
+        Linear (m/s) then angular (rad/s) velocity of the EE, in the Jacobian's frame.
+    damping : float
+        lambda_max (> 0), reached at a singularity.
+    velocity_limits : ndarray, shape (6,)
+        (> 0). The DLS answer is scaled by one factor (<= 1) so that every joint is within its limit.
+    threshold : float
+        epsilon (> 0): the smallest singular value of J below which damping sets in.
+
+    Returns
+    -------
+    ndarray, shape (6,)
+        ``s V diag(sigma / (sigma^2 + lambda^2)) U^T twist`` (J = U diag(sigma) V^T), which equals
+        ``s J^T (J J^T + lambda^2 I)^{-1} twist``, times the scale s.
+    """
+    size = float(np.max(np.abs(twist)))
+    if size == 0.0:
+        return np.zeros(jacobian.shape[1])
+    u, sigma, vt = np.linalg.svd(jacobian)
+    lam2 = damping**2 * (1.0 - (sigma[-1] / threshold) ** 2) if sigma[-1] < threshold else 0.0
+    # solved for the twist scaled to a largest entry of 1 (linear in the twist): no overflow for any finite twist
+    unit: NDArray[np.float64] = vt.T @ ((sigma / (sigma**2 + lam2)) * (u.T @ (twist / size)))
+    peak = float(np.max(np.abs(unit) / velocity_limits))
+    return unit / peak if peak * size > 1.0 else unit * size
+
+
+@dataclass(frozen=True)
+class TwistCommand:
+    """An EE twist command: linear (m/s) and angular (rad/s) velocity, shape (3,) each, in ``frame``."""
+
+    linear: NDArray[np.float64]
+    angular: NDArray[np.float64]
+    frame: str
+
+
+def check_twist(linear: ArrayLike, angular: ArrayLike, frame: str, *, default_frame: str = BASE_FRAME
+                ) -> TwistCommand:
+    """A finite twist in the base or the EE frame (``''`` means ``default_frame``).
+
+    Raises
+    ------
+    CommandError
+        For a NaN or infinite value, or another frame (there is no TF here).
+    """
+    frame = frame or default_frame
+    if frame not in (BASE_FRAME, EE_FRAME):
+        raise CommandError(f'twist must be given in {BASE_FRAME!r} or {EE_FRAME!r} (no TF lookup), '
+                           f'got frame_id {frame[:80]!r}')
+    lin, ang = np.asarray(linear, dtype=np.float64), np.asarray(angular, dtype=np.float64)
+    if not (np.all(np.isfinite(lin)) and np.all(np.isfinite(ang))):
+        raise CommandError(f'twist must be finite, got linear {lin.tolist()}, angular {ang.tolist()}')
+    return TwistCommand(lin, ang, frame)
+
+
+class MockArm:
+    """The state of the mock MICO and its controllers (module docstring).
+
+    Parameters
+    ----------
+    kin : MicoKinematics
+    q0 : array_like, shape (9,)
+        Initial positions in :data:`~.grasp.JOINT_NAMES` order (rad), within the limits.
+    damping, singular_threshold : float
+        DLS lambda_max and epsilon for twists (> 0; :func:`dls_joint_velocities`).
+    command_timeout : float
+        A twist older than this (s) stops the arm (MoveIt Servo's ``incoming_command_timeout``).
+    finger_velocity_limit : float
+        rad/s.
+
+    Raises
+    ------
+    KinematicsError
+        For a ``q0`` of the wrong shape, not finite, or outside the limits.
+    """
+
+    joint_names: tuple[str, ...] = JOINT_NAMES
+
+    def __init__(self, kin: MicoKinematics, q0: ArrayLike, *, damping: float = 0.05, singular_threshold: float = 0.05,
+                 command_timeout: float = 0.1, finger_velocity_limit: float = FINGER_VELOCITY_LIMIT) -> None:
+        self.kin = kin
+        self.lower = np.concatenate([kin.lower, MICO_3F.lower[FINGERS]])
+        self.upper = np.concatenate([kin.upper, MICO_3F.upper[FINGERS]])
+        self.velocity_limits = np.concatenate([kin.velocity_limits, np.full(3, finger_velocity_limit)])
+        self.damping, self.singular_threshold, self.command_timeout = damping, singular_threshold, command_timeout
+        self.reset(q0)
+
+    def reset(self, q0: ArrayLike) -> None:
+        """Put the arm at ``q0`` (shape (9,)), at rest, without a command. Raises KinematicsError as the constructor."""
+        q = check_vector(q0, len(self.joint_names), 'initial positions')
+        outside = (q < self.lower) | (q > self.upper)
+        if np.any(outside):
+            raise KinematicsError('initial positions outside the joint limits: ' + ', '.join(
+                f'{n} = {v:.6g}' for n, v, o in zip(self.joint_names, q, outside) if o))
+        self.q, self.qd = q.copy(), np.zeros_like(q)
+        self._trajectory: TrajectoryExecution | None = None
+        self._twist: tuple[TwistCommand, float] | None = None
+        self._fingers: NDArray[np.float64] | None = None
+
+    def close_fingers(self, closures: ArrayLike) -> NDArray[np.float64]:
+        """Move the three fingers to ``closures`` (rad), at their speed limit, whatever the arm follows.
+
+        The closures are clipped to the fingers' limits; the clipped target is returned. A trajectory that
+        arrives later commands the fingers again (it replaces this).
+
+        Raises
+        ------
+        KinematicsError
+            For closures of the wrong shape or not finite.
+        """
+        target = np.clip(check_vector(closures, 3, 'finger closures'), self.lower[6:], self.upper[6:])
+        self._fingers = target
+        return target.copy()
+
+    @property
+    def mode(self) -> str:
+        """'trajectory', 'twist' or 'hold': what the arm follows now."""
+        return 'trajectory' if self._trajectory is not None else 'twist' if self._twist is not None else 'hold'
+
+    def twist_live(self, now: float) -> bool:
+        """Whether a twist newer than the command timeout is being followed at time ``now`` (s)."""
+        return self._twist is not None and now - self._twist[1] <= self.command_timeout
+
+    def command_trajectory(self, cmd: TrajectoryCommand, now: float, *, allow_partial: bool = False) -> None:
+        """Follow ``cmd`` from the current state, replacing any trajectory or twist.
+
+        Raises
+        ------
+        CommandError
+            If the trajectory breaks a rule (:func:`check_trajectory`); the arm goes on as before.
+        """
+        checked = check_trajectory(cmd, self.joint_names, self.lower, self.upper, now=now, allow_partial=allow_partial)
+        self._trajectory = TrajectoryExecution(checked, self.q, self.qd)
+        self._twist, self._fingers = None, None
+
+    def command_twist(self, twist: TwistCommand, now: float) -> None:
+        """Follow ``twist`` (from :func:`check_twist`) from now on, replacing a trajectory in progress."""
+        self._twist = (twist, now)
+        self._trajectory = None
+
+    def step(self, now: float, dt: float) -> None:
+        """Advance the state by ``dt`` (s) to time ``now`` (s) under the active command."""
+        if dt <= 0.0:
+            return
+        if self._trajectory is not None:
+            target = self.q.copy()
+            indices = self._trajectory.trajectory.indices
+            target[indices] = self._trajectory.sample(now)[0]
+            step = np.clip(target - self.q, -self.velocity_limits * dt, self.velocity_limits * dt)
+        elif self._twist is not None and now - self._twist[1] <= self.command_timeout:
+            twist, _ = self._twist
+            xi = np.concatenate([twist.linear, twist.angular])
+            if twist.frame == EE_FRAME:
+                base_R_ee = self.kin.fk(self.q[:6])[:3, :3]
+                xi = np.concatenate([base_R_ee @ twist.linear, base_R_ee @ twist.angular])
+            step = np.zeros_like(self.q)
+            step[:6] = dls_joint_velocities(self.kin.jacobian(self.q[:6]), xi, self.damping,
+                                            self.velocity_limits[:6], threshold=self.singular_threshold) * dt
+        else:
+            step = np.zeros_like(self.q)
+        if self._fingers is not None:
+            limit = self.velocity_limits[6:] * dt
+            step[6:] = np.clip(self._fingers - self.q[6:], -limit, limit)
+        q = np.clip(self.q + step, self.lower, self.upper)
+        self.qd = (q - self.q) / dt
+        self.q = q
+        if self._trajectory is not None and now >= self._trajectory.end_time and not np.any(self.qd):
+            self._trajectory = None  # reached: hold
+        elif self._twist is not None and now - self._twist[1] > self.command_timeout:
+            self._twist = None  # timed out: hold
+

@@ -1,0 +1,25 @@
+"""The ROS 2 nodes: one Node subclass and its ``main`` per module (``python -m grasp_intent_ros.nodes.<name>``).
+
+Each converts messages, calls the ROS-free core and publishes; the rclpy plumbing they share is
+:mod:`grasp_intent_ros.ros`.
+
+Modules
+-------
+intent_interpreter
+    w -> v (or a clarification request).
+model_server
+    The active model (latched), its ambiguity, posterior queries.
+grasp_planner
+    v + model + object pose -> a MICO grasp.
+assistance
+    The operator's twist blended toward the grasp (shared control).
+mock_arm
+    A simulated MICO taking trajectories and twists.
+viewer
+    The scene in a browser (the ``viewer`` extra).
+recorder
+    A session recorded into a rosbag2 bag.
+
+Imports nothing of :mod:`~grasp_intent_ros.sessions` but its bags, nor the data set
+(:mod:`~grasp_intent_ros.objects`), nor the command lines.
+"""

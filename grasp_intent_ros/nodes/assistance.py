@@ -1,0 +1,264 @@
+"""Assistance node: the operator's twist blended with a twist toward the planned grasp (shared control).
+
+Run: ``python -m grasp_intent_ros.assistance [--ros-args --params-file config/assistance.yaml]``
+(for MoveIt Servo: ``-r assistance/twist:=/servo_node/delta_twist_cmds``)
+
+Topics (relative)
+    in   ``operator/twist`` (geometry_msgs/TwistStamped, or Twist with ``operator_message_type``; frame
+         ``m1n6s300_link_base`` or ``m1n6s300_end_effector``, '' = ``operator_frame``), ``joint_states``,
+         ``grasp/pose``, ``grasp/posterior``, ``grasp/features``, ``intent/v``, ``intent/clarification``,
+         ``model/active`` (latched: the demonstrations, whose labels give the planned grasp's task set)
+    out  ``assistance/twist`` (TwistStamped in ``m1n6s300_link_base``), ``assistance/alpha``
+         (std_msgs/Float64, the arbitration weight of that twist), ``/diagnostics`` (``assistance``)
+    srv  ``assistance/enable`` (std_srvs/SetBool): the operator's switch; off, the output is the operator's
+         twist exactly
+
+Behaviour
+    One blended twist per ``publish_period``: an operator twist is answered at once when the last output
+    is at least 0.95 ``publish_period`` old (it restarts the period), else by the timer, which sends one
+    ``publish_period`` after the last output whatever arrived (a slower operator source, or a stale one:
+    then the zero twist). The kinematics and the assistance's maths run once at start (warm-up), before
+    the first output. The maths, alpha's definition and the safety rules are
+    :mod:`grasp_intent_ros.core.assistance`. Inputs are keep-last 1 (latest only); staleness is judged by
+    arrival time on the node's clock.
+
+Parameters: :data:`PARAMETERS`, ``config/assistance.yaml``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
+from numpy.typing import NDArray
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64, String
+from std_srvs.srv import SetBool
+
+from ..errors import GraspIntentError
+from ..method.features import MICO_3F
+from ..method.intent import all_zones, default_task_names, zone_labels
+from ..method.model import ModelRequirements
+from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, EE_FRAME, HOME_Q, MicoKinematics
+from ..mico.mock_arm import check_twist
+from ..ros.diagnostics import NodeDiagnostics
+from ..ros.inputs import subscribe_input
+from ..ros.model_follower import ModelFollower
+from ..ros.params import ParameterError, ParamSpec, declare_parameters, one_of
+from ..ros.qos import input_qos, output_publisher
+from ..ros.robot import joint_positions, pose_msg_to_matrix
+from ..ros.run import guard_exit, publish_all, run_node
+from ..shared_control.assistance import ARBITRATIONS, Assistance, AssistanceConfig, TwistLimiter, grasp_task_set
+from ..wire import protocol as topics
+from ..wire.protocol import ERROR, ModelDocument, msg_labels, msg_to_array, read_features, read_posterior
+
+__all__ = ['AssistanceNode', 'PARAMETERS', 'ENABLE_SERVICE', 'main']
+
+_DEFAULTS = AssistanceConfig()
+_POSITIVE = (1e-6, 100.0)
+PARAMETERS = (
+    ParamSpec('arbitration', _DEFAULTS.arbitration, "alpha's rule: 'confidence' (the probability that the grasp "
+              "serves the operator's task, times the operator's agreement), 'blend' (alpha_max when v's top zone "
+              "leads by margin) or 'none' (alpha = 0).",
+              validator=one_of(ARBITRATIONS), constraints=f'one of {", ".join(ARBITRATIONS)}'),
+    ParamSpec('alpha_max', _DEFAULTS.alpha_max, 'Largest alpha (the operator keeps 1 - alpha_max).',
+              range=(0.0, 1.0)),
+    ParamSpec('margin', _DEFAULTS.margin, "'blend': lead of v's top zone over the second (of the total).",
+              range=(0.0, 1.0)),
+    ParamSpec('standoff', _DEFAULTS.standoff, 'Pre-grasp distance behind the grasp along its approach axis, m.',
+              range=(0.0, 0.5)),
+    ParamSpec('corridor_radius', _DEFAULTS.corridor_radius, 'Approach corridor radius, m.', range=_POSITIVE),
+    ParamSpec('corridor_angle', _DEFAULTS.corridor_angle, 'Approach corridor orientation tolerance, rad.',
+              range=(0.0, 3.2)),
+    ParamSpec('gain_linear', _DEFAULTS.gain_linear, "Robot twist's position gain, 1/s.", range=_POSITIVE),
+    ParamSpec('gain_angular', _DEFAULTS.gain_angular, "Robot twist's orientation gain, 1/s.", range=_POSITIVE),
+    ParamSpec('robot_max_linear', _DEFAULTS.robot_max_linear, "Robot twist's speed limit, m/s.", range=_POSITIVE),
+    ParamSpec('robot_max_angular', _DEFAULTS.robot_max_angular, "Robot twist's angular speed limit, rad/s.",
+              range=_POSITIVE),
+    ParamSpec('gain_joint', _DEFAULTS.gain_joint, "Robot twist's joint-space gain toward the target's IK, 1/s.",
+              range=_POSITIVE),
+    ParamSpec('deadband_linear', _DEFAULTS.deadband_linear, "'confidence': operator speed (m/s) from which an "
+              "operator steering against the robot's twist lowers alpha.", range=(0.0, 10.0)),
+    ParamSpec('deadband_angular', _DEFAULTS.deadband_angular, "'confidence': the same for the operator's angular "
+              'speed, rad/s.', range=(0.0, 10.0)),
+    ParamSpec('yield_time', _DEFAULTS.yield_time, "'confidence': seconds of sustained opposition after which the "
+              'robot yields (alpha 0), and of heading back to the grasp after which it assists again.',
+              range=(0.0, 10.0)),
+    ParamSpec('assist_without_input', _DEFAULTS.assist_without_input, "Whether the robot's twist moves the hand "
+              'while the operator gives no input (both parts within their deadbands).'),
+    ParamSpec('operator_timeout', _DEFAULTS.operator_timeout, 'Operator twist age (s) from which the output is '
+              'the zero twist (MoveIt Servo: incoming_command_timeout).', range=(0.001, 10.0)),
+    ParamSpec('max_linear', 0.2, 'Output speed limit, m/s.', range=_POSITIVE),
+    ParamSpec('max_angular', 1.0, 'Output angular speed limit, rad/s.', range=_POSITIVE),
+    ParamSpec('max_linear_acceleration', 1.0, 'Output acceleration limit, m/s^2.', range=_POSITIVE),
+    ParamSpec('max_angular_acceleration', 5.0, 'Output angular acceleration limit, rad/s^2.', range=_POSITIVE),
+    ParamSpec('publish_period', 0.01, 'Longest time between two outputs, s (MoveIt Servo: publish_period).',
+              range=(0.001, 1.0), read_only=True),
+    ParamSpec('operator_message_type', 'TwistStamped', 'Type on operator/twist: TwistStamped or Twist.',
+              validator=one_of(('TwistStamped', 'Twist')), read_only=True),
+    ParamSpec('operator_frame', BASE_FRAME, 'Frame of a plain Twist or of a TwistStamped with an empty frame_id.',
+              validator=one_of((BASE_FRAME, EE_FRAME))),
+    ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
+)
+_CONFIG_FIELDS = tuple(f.name for f in dataclasses.fields(AssistanceConfig))
+
+ENABLE_SERVICE = 'assistance/enable'
+"""The operator's switch (std_srvs/SetBool)."""
+_EARLY = 0.95
+"""An operator twist is answered at once when the last output is at least this many periods old."""
+
+
+class AssistanceNode(Node):
+    """Blends the operator's twist with the robot's toward the planned grasp. ``kwargs`` go to ``Node``."""
+
+    def __init__(self, node_name: str = 'assistance', **kwargs: Any) -> None:
+        super().__init__(node_name, **kwargs)
+        self._diag = NodeDiagnostics(self, 'assistance')
+        self._params = declare_parameters(self, PARAMETERS, on_change=self._configure)
+        try:
+            self._kin = MicoKinematics(self._params['urdf_path'] or None)
+        except FileNotFoundError as exc:
+            raise ParameterError(f'urdf_path: {exc}') from None
+        self._assist = Assistance(AssistanceConfig(), TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin)
+        self._configure(self._params)
+        self._warm_up()
+        self._last_output = -float('inf')
+        self._outputs = 0
+        self._demos: tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]] | None = None
+        self._features: NDArray[np.float64] | None = None
+        self._pubs = {topics.ASSISTANCE_TWIST: output_publisher(self, TwistStamped, topics.ASSISTANCE_TWIST),
+                      topics.ASSISTANCE_ALPHA: output_publisher(self, Float64, topics.ASSISTANCE_ALPHA)}
+        latest, diag = input_qos(depth=1), self._diag
+        plain = self._params['operator_message_type'] == 'Twist'
+        subscribe_input(self, topics.OPERATOR_TWIST, self._on_operator, latest, diag, count_dropped=True,
+                        msg_type=Twist if plain else None)
+        subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), diag)
+        subscribe_input(self, topics.GRASP_POSE, self._on_grasp, latest, diag)
+        subscribe_input(self, topics.GRASP_POSTERIOR, self._on_posterior, latest, diag)
+        subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag)
+        subscribe_input(self, topics.INTENT_CLARIFICATION, self._on_clarification, input_qos(), diag)
+        subscribe_input(self, topics.GRASP_FEATURES, self._on_features, latest, diag)
+        self._models = ModelFollower(self, diag, self._use_model, name=f'{node_name}_model',
+                                     requires=lambda: ModelRequirements(feature_names=MICO_3F.names))
+        self.create_service(SetBool, ENABLE_SERVICE, self._on_enable)
+        self._period = float(self._params['publish_period'])
+        self._timer = self.create_timer(self._period, self._on_timer)
+
+    def _warm_up(self) -> None:
+        """One assisted command on a copy at Home (forward and inverse kinematics, Jacobian, arbitration)."""
+        warm = Assistance(self._assist.config, TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin)
+        warm.set_joints(HOME_Q.copy())
+        assert warm.base_T_ee is not None
+        grasp = warm.base_T_ee.copy()
+        grasp[:3, 3] += (0.05, 0.0, -0.05)
+        warm.set_grasp(grasp)
+        labels = zone_labels(all_zones(3), default_task_names(3))
+        warm.set_v(np.full(7, 1.0 / 7.0), labels)
+        warm.set_posterior(np.full(7, 1.0 / 7.0), labels, default_task_names(3))
+        warm.set_operator(np.r_[0.05, 0.0, -0.05, 0.0, 0.0, 0.0], 0.0)
+        warm.command(0.0)
+        grasp_task_set(np.zeros(MICO_3F.dim), np.zeros((1, MICO_3F.dim)), np.ones(1, dtype=np.int64),
+                       np.ones(MICO_3F.dim))
+
+    def _use_model(self, document: ModelDocument | None) -> None:
+        if document is not None:
+            model = document.model
+            self._demos = (model.demo_x, model.demo_sets, model.feature_scale)
+            self._update_task_set()
+
+    def _on_features(self, msg: Any) -> None:
+        self._features = read_features(msg)[0]
+        self._update_task_set()
+
+    def _update_task_set(self) -> None:
+        demos, x = self._demos, self._features
+        self._assist.set_task_set(None if demos is None or x is None else grasp_task_set(x, *demos))
+
+    def _on_enable(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        self._assist.enabled = bool(request.data)
+        response.success, response.message = True, f'assistance {"on" if request.data else "off"}'
+        self._diag.set_value('enabled', self._assist.enabled)
+        return response
+
+    def _configure(self, changed: Mapping[str, Any]) -> None:
+        p = self._params
+        self._assist.config = AssistanceConfig(**{name: p[name] for name in _CONFIG_FIELDS})
+        limiter = self._assist.limiter
+        limiter.max_linear, limiter.max_angular = p['max_linear'], p['max_angular']
+        limiter.max_linear_acceleration = p['max_linear_acceleration']
+        limiter.max_angular_acceleration = p['max_angular_acceleration']
+        limiter.max_dt = 2.0 * p['publish_period']
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _on_operator(self, msg: TwistStamped | Twist) -> None:
+        twist, frame = (msg, '') if isinstance(msg, Twist) else (msg.twist, msg.header.frame_id)
+        cmd = check_twist([twist.linear.x, twist.linear.y, twist.linear.z],
+                          [twist.angular.x, twist.angular.y, twist.angular.z], frame,
+                          default_frame=self._params['operator_frame'])
+        xi = np.concatenate([cmd.linear, cmd.angular])
+        if cmd.frame == EE_FRAME:
+            if self._assist.base_T_ee is None:
+                raise GraspIntentError(f'an operator twist in {EE_FRAME} needs a joint state first')
+            base_R_ee = self._assist.base_T_ee[:3, :3]
+            xi = np.concatenate([base_R_ee @ cmd.linear, base_R_ee @ cmd.angular])
+        self._assist.set_operator(xi, self._now())
+        if time.monotonic() - self._last_output >= _EARLY * self._period:
+            self._publish()
+            self._timer.reset()  # the next output one period from now, unless an operator twist comes first
+
+    def _on_joint_state(self, msg: JointState) -> None:
+        if (q := joint_positions(msg, ARM_JOINTS)) is not None:
+            self._assist.set_joints(q)
+
+    def _on_grasp(self, msg: PoseStamped) -> None:
+        self._assist.set_grasp(pose_msg_to_matrix(msg, frame_id=BASE_FRAME))
+
+    def _on_posterior(self, msg: Any) -> None:
+        posterior = read_posterior(msg)
+        self._assist.set_posterior(posterior.p, posterior.zone_labels, posterior.task_names)
+
+    def _on_v(self, msg: Any) -> None:
+        v = msg_to_array(msg, what='v')
+        labels = msg_labels(msg)
+        if not labels or len(labels[0]) != v.size or np.any(v < 0.0):
+            raise GraspIntentError(f'v must be non-negative and labelled with its {v.size} zones')
+        self._assist.set_v(v, labels[0])
+
+    def _on_clarification(self, msg: String) -> None:
+        self._assist.clarification()
+
+    def _on_timer(self) -> None:
+        try:
+            self._publish()
+        except Exception as exc:  # noqa: BLE001 - an exception escaping a timer kills the node
+            self._diag.rejected(f'internal error: {type(exc).__name__}: {exc}', level=ERROR)
+
+    def _publish(self) -> None:
+        self._last_output = time.monotonic()
+        stamp = self.get_clock().now()
+        command = self._assist.command(stamp.nanoseconds * 1e-9)
+        out = TwistStamped()
+        out.header.stamp, out.header.frame_id = stamp.to_msg(), BASE_FRAME
+        (out.twist.linear.x, out.twist.linear.y, out.twist.linear.z,
+         out.twist.angular.x, out.twist.angular.y, out.twist.angular.z) = command.twist.tolist()
+        publish_all(self, self._pubs, {topics.ASSISTANCE_TWIST: out,
+                                       topics.ASSISTANCE_ALPHA: Float64(data=command.alpha)})
+        self._outputs += 1
+        self._diag.set_values({'alpha': f'{command.alpha:.3f}', 'state': command.phase, 'outputs': self._outputs})
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point: run the node until SIGINT/SIGTERM."""
+    run_node(AssistanceNode, args)
+    guard_exit()
+
+
+if __name__ == '__main__':
+    main()

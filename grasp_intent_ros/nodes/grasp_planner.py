@@ -1,0 +1,211 @@
+"""Grasp planner node: target vector v + active model + object pose -> MICO grasp (docs/planner.md).
+
+Run: ``python -m grasp_intent_ros.nodes.grasp_planner [--ros-args --params-file config/grasp_planner.yaml]``
+
+Topics (relative; formats in :mod:`grasp_intent_ros.wire.protocol`; each in docs/nodes.md)
+    in   ``intent/v``, ``model/active`` (latched), ``object/pose`` (default: the ``object_*`` parameters),
+         ``joint_states`` (IK seed)
+    out  ``grasp/*`` (:class:`~grasp_intent_ros.ros.grasp_messages.GraspOutputs`: all or none), else
+         ``intent/clarification`` with the reason; ``/diagnostics`` (``inputs``, ``planning``)
+
+A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs, never a backlog, with
+:func:`grasp_intent_ros.mico.grasp.plan_grasp`, warm-started from the last plan of the same model; its
+thread takes ``intent/v`` itself. A :class:`~grasp_intent_ros.ros.model_follower.ModelFollower` reads each
+new ``model/active`` in a thread of its own; :mod:`grasp_intent_ros.ros.startup` tunes the process and
+loads the compiled kernels ahead (docs/nodes.md, "The planner node"). Parameters: :data:`PARAMETERS`.
+"""
+
+from __future__ import annotations
+
+from ..ros import startup
+
+if __name__ == '__main__':  # a node process: before the imports below (grasp_intent_ros.ros.startup)
+    startup.begin()
+
+import functools
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from geometry_msgs.msg import PoseStamped
+from numpy.typing import NDArray
+from rclpy.node import Node
+from rclpy.time import Time
+from sensor_msgs.msg import JointState
+
+from ..method.intent import match_zones
+from ..mico.frames import pose_to_matrix
+from ..mico.grasp import check_workspace, plan_grasp
+from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
+from ..planning import planner
+from ..ros.clarification import ClarificationRequests
+from ..ros.conversions import SerializedTargets
+from ..ros.diagnostics import NodeDiagnostics
+from ..ros.grasp_messages import GraspOutputs
+from ..ros.inputs import decode_input, subscribe_input
+from ..ros.model_follower import ModelFollower, served_models
+from ..ros.params import TASK_NAMES, ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
+from ..ros.qos import input_qos
+from ..ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
+from ..ros.worker import LatestOnlyWorker
+from ..wire import protocol as topics
+from ..wire.protocol import KEY_MODEL, KEY_PLAN_STATUS, OK, WARN, ModelDocument
+
+__all__ = ['GraspPlanner', 'PARAMETERS', 'main']
+
+PARAMETERS = (
+    ParamSpec('method', planner.DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
+              "likely tasks, docs/planner.md), or the paper's 'lm' (P = v by log-odds projection, else least "
+              "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(planner.METHODS),
+              constraints=f'one of {", ".join(planner.METHODS)}'),
+    ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
+    ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),
+    ParamSpec('object_position', (0.3, -0.3, 0.0),
+              'Object pose until one arrives on object/pose (and whenever set): position (x, y, z) of the '
+              'object frame in m1n6s300_link_base, m.', validator=finite_vector(3, 'x, y, z in m')),
+    ParamSpec('object_orientation', (0.0, 0.0, 1.0, 0.0),
+              'Object pose orientation: unit quaternion (x, y, z, w) in m1n6s300_link_base. The default '
+              'turns the cup handle (+x of the object) towards the arm.', validator=check_unit_quaternion,
+              constraints='unit norm within 1e-3'),
+    ParamSpec('workspace_radius', 1.5,
+              'Largest distance (m) of an object position from the m1n6s300_link_base origin: a pose on '
+              'object/pose or object_position farther away is rejected (the arm reaches about 1 m).',
+              range=(0.1, 100.0)),
+    ParamSpec('object_marker_size', (0.08, 0.10), 'Diameter and height of the object marker, m.',
+              validator=finite_vector(2, 'diameter, height in m', positive=True)),
+    ParamSpec('min_replan_period', 0.0, 'Least time between the starts of two plans, s (0: plan at once).',
+              range=(0.0, 10.0)),
+    ParamSpec('markers_period', 0.1, 'Least time between two grasp/markers messages, s (0: with every plan). '
+              'Markers are for RViz and cost as much to build as the other outputs together.',
+              range=(0.0, 10.0)),
+    ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
+    TASK_NAMES,
+)
+
+
+@dataclass(frozen=True)
+class _Inputs:
+    """The newest inputs; ``stamp`` is the node-clock time the newest planning input arrived."""
+
+    model: ModelDocument | None = None
+    v: NDArray[np.float64] | None = None
+    v_labels: tuple[str, ...] | None = None
+    v_seq: int = 0
+    base_T_obj: NDArray[np.float64] | None = None
+    q_arm: NDArray[np.float64] | None = None
+    stamp: Time | None = None
+
+
+class GraspPlanner(Node):
+    """Plans a MICO grasp for the newest v, model and object pose. ``kwargs`` go to ``rclpy.node.Node``."""
+
+    def __init__(self, node_name: str = 'grasp_planner', **kwargs: Any) -> None:
+        super().__init__(node_name, **kwargs)
+        self._inputs_diag, self._plan_diag = NodeDiagnostics(self, 'inputs'), NodeDiagnostics(self, 'planning')
+        self._params = declare_parameters(self, PARAMETERS, on_change=self._on_parameters, check=lambda values:
+                                          check_workspace(values['object_position'], values['workspace_radius'],
+                                                          what='object_position'))
+        try:
+            self._kin = MicoKinematics(self._params['urdf_path'] or None)
+        except FileNotFoundError as exc:
+            raise ParameterError(f'urdf_path: {exc}') from None
+        self._warm: tuple[tuple[str, str], NDArray[np.float64]] | None = None
+        self._clarifications = ClarificationRequests(self, self._plan_diag, count_key='clarifications requested',
+                                                     outcome_key=KEY_PLAN_STATUS, level=WARN, log=True)
+        self._plan_diag.set_state(OK, f'waiting for {topics.MODEL_ACTIVE} and {topics.INTENT_V}')
+        self._outputs = GraspOutputs(self, self._kin, self._plan_diag, self._clarifications,
+                                     object_size=lambda: self._params['object_marker_size'],
+                                     markers_period=lambda: float(self._params['markers_period']))
+        kernels = startup.KernelWarmUp(lambda: self._kin.ik(self._kin.fk(HOME_Q), HOME_Q, restarts=0),
+                                       report=self._plan_diag.set_value, warn=self.get_logger().warning)
+        base_T_obj = pose_to_matrix(self._params['object_position'], self._params['object_orientation'])
+        self._worker = LatestOnlyWorker(_Inputs(base_T_obj=base_T_obj), self._plan_diag.guard(self._plan),
+                                        ready=self._ready, name=f'{node_name}_planning',
+                                        min_period=lambda: float(self._params['min_replan_period']),
+                                        prepare=kernels.at_start, after_first=kernels.after_first,
+                                        context=self.context)
+        # SIGINT/SIGTERM shut the context down before destroy_node runs: stop planning at once
+        self.context.on_shutdown(self._worker.stop_soon)
+        diag, latest = self._inputs_diag, input_qos(depth=1)
+        self._targets = SerializedTargets(functools.partial(decode_input, topics.INTENT_V))
+        # v is taken in the planning thread: no hand-over, and the executor thread sleeps through the v stream
+        self._worker.take(subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag, count_dropped=True,
+                                          serialized=True, callback_group=self._worker.callback_group))
+        self._models = ModelFollower(self, self._inputs_diag, self._use_model, name=f'{node_name}_model',
+                                     requires=lambda: served_models(self._params['task_names']))
+        subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, latest, diag)
+        # not keep-last 1: arm and finger states may come from different publishers
+        subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), diag)
+
+    def destroy_node(self) -> None:
+        """Stop the planning and model threads (after their current work), then destroy the node."""
+        self._models.stop()
+        self._worker.stop()
+        super().destroy_node()
+
+    def _update(self, trigger: bool = True, **changes: Any) -> None:
+        if trigger:
+            changes['stamp'] = self.get_clock().now()
+        self._worker.update(lambda inputs: replace(inputs, **changes), trigger=trigger)
+
+    def _on_v(self, data: bytes) -> None:  # in the planning thread (LatestOnlyWorker.take)
+        v, labels = self._targets(data)
+        if (model := self._worker.latest.model) is not None:
+            match_zones(v.size, labels, model.model.task_names)
+        self._update(v=v, v_labels=labels, v_seq=self._worker.latest.v_seq + 1)
+        if model is None and (refused := self._models.refused):  # no model, and the newest was refused
+            self._clarifications.request(f'cannot serve: {refused}')
+
+    def _use_model(self, doc: ModelDocument | None) -> None:  # in the model follower's thread: planning goes on
+        previous = self._worker.latest.model
+        new = doc is not None and (previous is None or (previous.name, previous.sha256) != (doc.name, doc.sha256))
+        self._update(trigger=new, model=doc)  # None: recheck() refused the model; nothing to plan with
+        self._plan_diag.set_value(KEY_MODEL, 'none' if doc is None else f'{doc.name} (version {doc.version}, '
+                                  f'zones {",".join(doc.model.zone_labels)})')
+
+    def _on_object_pose(self, msg: PoseStamped) -> None:
+        base_T_obj = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
+        check_workspace(base_T_obj[:3, 3], self._params['workspace_radius'])
+        self._update(base_T_obj=base_T_obj)
+
+    def _on_joint_state(self, msg: JointState) -> None:
+        if (q := joint_positions(msg, ARM_JOINTS)) is not None:
+            self._kin.check_limits(q, margin=JOINT_LIMIT_MARGIN, what='joint state')
+            self._update(trigger=False, q_arm=q)
+
+    def _on_parameters(self, changed: Mapping[str, Any]) -> None:
+        if 'task_names' in changed:
+            self._models.recheck()  # the model is served for other tasks, or now one refused is
+        if {'object_position', 'object_orientation'} & set(changed):
+            self._update(base_T_obj=pose_to_matrix(self._params['object_position'],
+                                                   self._params['object_orientation']))
+
+    def _ready(self, inputs: _Inputs) -> bool:
+        missing = [t for t, x in ((topics.MODEL_ACTIVE, inputs.model), (topics.INTENT_V, inputs.v)) if x is None]
+        self._plan_diag.set_state(OK, f'waiting for {" and ".join(missing)}' if missing else '')
+        return not missing
+
+    def _plan(self, inputs: _Inputs) -> None:
+        assert inputs.model and inputs.v is not None and inputs.base_T_obj is not None and inputs.stamp
+        doc, key = inputs.model, (inputs.model.name, inputs.model.sha256)
+        warm = self._warm[1] if self._warm is not None and self._warm[0] == key else None
+        grasp = plan_grasp(doc.model, inputs.v, match_zones(inputs.v.size, inputs.v_labels, doc.model.task_names),
+                           inputs.base_T_obj, self._kin, name=doc.name, q_arm=inputs.q_arm, warm_start=warm,
+                           method=self._params['method'], n_starts=self._params['n_starts'],
+                           ik_restarts=self._params['ik_restarts'])
+        try:
+            if (checked := self._outputs.send(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
+                                              once_for=(inputs.v_seq, key), stopping=lambda: self._worker.stopping)):
+                self._warm = (key, checked.result.x)
+        finally:  # the diagnostics after the outputs, off their path
+            self._plan_diag.set_value('inputs superseded', self._worker.superseded)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point: run the node until SIGINT/SIGTERM, in a process tuned by :func:`.ros.startup.run`."""
+    startup.run(GraspPlanner, args)
+
+
+if __name__ == '__main__':
+    main()

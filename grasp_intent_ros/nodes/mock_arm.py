@@ -1,0 +1,188 @@
+"""Mock MICO node: joint states from commanded trajectories and twists, without hardware.
+
+A stand-in for ros2_control's mock hardware (commands mirrored into states) with a joint_trajectory_controller
+and a servo in front of it: the motion rules are :mod:`grasp_intent_ros.core.arm`.
+
+Run: ``python -m grasp_intent_ros.mock_arm [--ros-args --params-file config/mock_arm.yaml]``
+(the suite connects ``-r arm_controller/joint_trajectory:=grasp/trajectory
+-r servo/delta_twist_cmds:=assistance/twist``)
+
+Topics and services (relative)
+    in   ``arm_controller/joint_trajectory`` (trajectory_msgs/JointTrajectory),
+         ``servo/delta_twist_cmds`` (geometry_msgs/TwistStamped in ``m1n6s300_link_base`` or
+         ``m1n6s300_end_effector``; '' = the base)
+    out  ``joint_states`` (the 6 arm joints and 3 fingers: positions and velocities, every ``period`` s),
+         ``/diagnostics`` (``arm``: commands received and rejected with the reason, mode, trajectories
+         ignored)
+    in   ``grasp/joint_targets`` (sensor_msgs/JointState: the plan's finger closures, the latest kept)
+    srv  ``~/reset`` (std_srvs/Trigger): back to ``initial_positions``, at rest, commands dropped
+    srv  ``grasp/close`` (std_srvs/Trigger): close the fingers to the latest plan's closures plus the hand's own
+         closure error (each finger N(0, ``closure_error``^2), seeded by ``closure_seed``); the answer's
+         message gives the executed closures; refused (success false) before any plan
+
+The newest command wins, as a servo writing to a trajectory controller: a twist ends a trajectory in
+progress; a trajectory replaces the twist control unless a twist is still live (newer than
+``command_timeout``), in which case it is ignored and counted (a controller manager would not let a second
+controller claim the joints).
+
+Parameters: :data:`PARAMETERS`, ``config/mock_arm.yaml``.
+"""
+
+from __future__ import annotations
+
+import array
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from geometry_msgs.msg import TwistStamped
+from numpy.typing import NDArray
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory
+
+from ..errors import GraspIntentError
+from ..mico.grasp import JOINT_NAMES
+from ..mico.kinematics import FINGER_JOINTS, HOME_Q, MicoKinematics
+from ..mico.mock_arm import FINGER_VELOCITY_LIMIT, MockArm, TrajectoryCommand, check_twist
+from ..ros.diagnostics import NodeDiagnostics
+from ..ros.inputs import subscribe_input
+from ..ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector
+from ..ros.qos import input_qos, output_publisher
+from ..ros.robot import joint_positions, joint_state_msg
+from ..ros.run import guard_exit, run_node
+from ..wire import protocol as topics
+
+__all__ = ['MockArmNode', 'PARAMETERS', 'GRASP_CLOSE', 'main']
+
+GRASP_CLOSE = 'grasp/close'
+"""The hand's grasp command (std_srvs/Trigger): close the fingers to the plan's closures."""
+
+PARAMETERS = (
+    ParamSpec('initial_positions', (*HOME_Q.tolist(), 0.0, 0.0, 0.0),
+              f'Start (and reset) positions, rad, of {", ".join(JOINT_NAMES)}; default Home, fingers open.',
+              validator=finite_vector(len(JOINT_NAMES), 'rad')),
+    ParamSpec('period', 0.01, 'Time step and joint_states period, s.', range=(0.001, 1.0), read_only=True),
+    ParamSpec('command_timeout', 0.1, 'A twist older than this (s) stops the arm (MoveIt Servo: '
+              'incoming_command_timeout).', range=(0.001, 10.0)),
+    ParamSpec('ik_damping', 0.05, 'Largest damping lambda of the differential IK of twists (at a singularity).',
+              range=(1e-6, 10.0)),
+    ParamSpec('singular_threshold', 0.05, 'Smallest singular value of the Jacobian below which the IK is damped.',
+              range=(1e-6, 10.0)),
+    ParamSpec('allow_partial_joints_goal', False, 'Accept trajectories for some of the joints (the '
+              "joint_trajectory_controller's parameter)."),
+    ParamSpec('finger_velocity_limit', FINGER_VELOCITY_LIMIT, 'Finger speed limit, rad/s.', range=(1e-3, 10.0)),
+    ParamSpec('closure_error', 0.05, "Standard deviation (rad) of each finger's closure error on grasp/close.",
+              range=(0.0, 1.0)),
+    ParamSpec('closure_seed', 0, 'Seed of the closure errors.', range=(0, 2**31 - 1), read_only=True),
+    ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
+)
+
+
+def _seconds(t: Any) -> float:
+    return int(t.sec) + int(t.nanosec) * 1e-9
+
+
+class MockArmNode(Node):
+    """Publishes the mock MICO's joint states and executes its commands. ``kwargs`` go to ``Node``."""
+
+    def __init__(self, node_name: str = 'mock_arm', **kwargs: Any) -> None:
+        super().__init__(node_name, **kwargs)
+        self._diag = NodeDiagnostics(self, 'arm')
+        self._params = declare_parameters(self, PARAMETERS, on_change=self._configure)
+        try:
+            kin = MicoKinematics(self._params['urdf_path'] or None)
+        except FileNotFoundError as exc:
+            raise ParameterError(f'urdf_path: {exc}') from None
+        try:
+            self._arm = MockArm(kin, self._params['initial_positions'],
+                                finger_velocity_limit=self._params['finger_velocity_limit'])
+        except ValueError as exc:
+            raise ParameterError(f'initial_positions: {exc}') from None
+        self._configure(self._params)
+        self._ignored = 0
+        self._pubs = {topics.JOINT_STATES: output_publisher(self, JointState, topics.JOINT_STATES)}
+        subscribe_input(self, topics.ARM_TRAJECTORY_COMMAND, self._on_trajectory, input_qos(), self._diag)
+        subscribe_input(self, topics.ARM_TWIST_COMMAND, self._on_twist, input_qos(depth=1), self._diag)
+        subscribe_input(self, topics.GRASP_JOINT_TARGETS, self._on_joint_targets, input_qos(depth=1), self._diag)
+        self._closures: NDArray[np.float64] | None = None
+        self._closure_rng = np.random.default_rng(self._params['closure_seed'])
+        self.create_service(Trigger, '~/reset', self._on_reset)
+        self.create_service(Trigger, GRASP_CLOSE, self._on_close)
+        self._last = self._now()
+        self.create_timer(self._params['period'], self._on_timer)
+
+    def _configure(self, changed: Mapping[str, Any]) -> None:
+        self._arm.damping, self._arm.singular_threshold = self._params['ik_damping'], self._params['singular_threshold']
+        self._arm.command_timeout = self._params['command_timeout']
+        self._arm.velocity_limits[6:] = self._params['finger_velocity_limit']
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _on_trajectory(self, msg: JointTrajectory) -> None:
+        now = self._now()
+        if self._arm.twist_live(now):
+            self._ignored += 1
+            self._diag.set_value('trajectories ignored while a twist is live', self._ignored)
+            return
+        start = _seconds(msg.header.stamp)
+        points = msg.points
+        cmd = TrajectoryCommand(tuple(msg.joint_names), array.array('d', (_seconds(p.time_from_start) for p in points)),
+                                [p.positions for p in points], [p.velocities for p in points],
+                                [p.accelerations for p in points], start=start or None)
+        self._arm.command_trajectory(cmd, now, allow_partial=self._params['allow_partial_joints_goal'])
+
+    def _on_twist(self, msg: TwistStamped) -> None:
+        t = msg.twist
+        self._arm.command_twist(check_twist([t.linear.x, t.linear.y, t.linear.z],
+                                            [t.angular.x, t.angular.y, t.angular.z], msg.header.frame_id),
+                                self._now())
+
+    def _on_joint_targets(self, msg: JointState) -> None:
+        closures = joint_positions(msg, FINGER_JOINTS)
+        if closures is None:
+            raise GraspIntentError(f'grasp/joint_targets must name the fingers {list(FINGER_JOINTS)}')
+        self._closures = closures
+
+    def _on_close(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        if self._closures is None:
+            response.success, response.message = False, 'no grasp planned: nothing to close to'
+            return response
+        error = self._closure_rng.normal(0.0, self._params['closure_error'], 3)
+        executed = self._arm.close_fingers(self._closures + error)
+        response.success = True
+        response.message = 'closing to ' + ', '.join(f'{c:.4f}' for c in executed.tolist()) + ' rad'
+        return response
+
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        try:
+            self._arm.reset(self._params['initial_positions'])
+        except GraspIntentError as exc:  # initial_positions set outside the limits since the start
+            response.success, response.message = False, str(exc)
+        else:
+            response.success, response.message = True, 'at initial_positions'
+        return response
+
+    def _on_timer(self) -> None:
+        now = self._now()
+        try:
+            self._arm.step(now, now - self._last)
+            self._last = now
+            msg = joint_state_msg(JOINT_NAMES, self._arm.q, stamp=self.get_clock().now().to_msg())
+            msg.velocity = array.array('d', self._arm.qd.tolist())
+            self._pubs[topics.JOINT_STATES].publish(msg)
+            self._diag.set_value('mode', self._arm.mode)
+        except Exception as exc:  # noqa: BLE001 - an exception escaping a timer kills the node
+            self._diag.rejected(f'internal error: {type(exc).__name__}: {exc}', level=topics.ERROR)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point: run the node until SIGINT/SIGTERM."""
+    run_node(MockArmNode, args)
+    guard_exit()
+
+
+if __name__ == '__main__':
+    main()

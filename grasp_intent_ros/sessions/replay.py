@@ -1,0 +1,245 @@
+"""Replay a recorded session into a live node suite and, with ``--check``, compare its answers.
+
+Run: ``python -m grasp_intent_ros replay BAG [--rate R | --fast] [--check] [--start-suite]``
+     ``[--timeout S] [--models-dir DIR] [--max-diffs N]``
+
+What is replayed
+    The recorded inputs ``intent/w``, ``object/pose`` and ``joint_states``, published again byte for byte
+    (bad inputs included), and the model switches: a recorded ``model/active`` with another name (or
+    content) is reproduced by setting the model server's ``model`` parameter through its parameter
+    service at that point. Before the first input the live model is set to the session's initial one.
+Closed-loop sessions
+    A session with operator twists is replayed as a closed loop (:mod:`grasp_intent_ros.sessions.closed_loop`):
+    w, object poses, model switches and operator twists at the recorded pace (``--fast`` and ``--rate`` are
+    refused), never the arm's joint states; ``--start-suite`` adds the assistance and the mock arm; ``--check``
+    compares the outcome (start, last grasp, where the hand ends), not each message.
+Pace
+    Default: the recorded pace (``--rate R`` scales it: 2 = twice as fast). ``--fast``: each input as soon
+    as the system has answered the previous one. ``--check`` always waits for the answer to an input
+    (or ``--timeout`` seconds) before sending the next, so inputs and outputs pair one to one.
+Check (``--check``)
+    The live answer to each input is compared with the recorded one
+    (:func:`grasp_intent_ros.sessions.compare.compare_step`): v within 1e-9, P and reconstructed w within 1e-4,
+    end-effector pose within 1 mm and 0.01 rad, joint targets within 1e-3 rad, clarifications and
+    rejections (WARN diagnostics: node, level, reason) identical, nothing missing, nothing extra.
+    Differences are printed one per line (input #, its description, topic, field, recorded vs live), for
+    the first ``--max-diffs`` differing messages; exit code 1. All equal: one summary line, exit code 0.
+Suite (``--start-suite``)
+    Starts ``intent_interpreter``, ``model_server`` (with the session's initial model and ``--models-dir``)
+    and ``grasp_planner`` (for a closed-loop session also ``mock_arm`` and ``assistance``) as ``python -m``
+    processes with the package's config files, in the session's
+    namespace (:class:`~grasp_intent_ros.launch.suite.NodeSuite`), with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+    and this process's ROS_DOMAIN_ID (else one derived from the process id); they are
+    stopped by PID (SIGTERM, then SIGKILL) at the end. The planner warm-starts from its previous plan and
+    keeps the last object pose and joint state, so exact answers need a suite whose history is the
+    recording's: a fresh one.
+Network
+    ROS_AUTOMATIC_DISCOVERY_RANGE defaults to LOCALHOST when unset (always with ``--start-suite``).
+Exit codes
+    0 replayed (and, with --check, everything matched); 1 a check difference; 2 the bag cannot be used,
+    the system did not come up, or a suite process died; 130 interrupted (SIGINT/SIGTERM; a started suite
+    is stopped all the same).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+
+from ..launch.suite import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
+from ..mico.kinematics import MicoKinematics
+from .bag.errors import BagError
+from .closed_loop import ClosedLoopSession, Trace, compare_outcomes, describe, is_closed_loop, load_closed_loop, outcome
+from .compare import Difference
+from .pairing import PairedSession, load_paired_session
+from .replay_client import (
+    SUITE_SETTLE_S,
+    ClosedLoopReplayer,
+    Replayer,
+    ReplayError,
+    ReplayOptions,
+    ReplayResult,
+    SessionClient,
+)
+
+__all__ = ['main']
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        description=__doc__.split('\n\n')[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('bag', type=Path, help='session bag directory (rosbag2, MCAP)')
+    pace = parser.add_mutually_exclusive_group()
+    pace.add_argument('--rate', type=float, default=1.0, help='recorded pace multiplier (default 1)')
+    pace.add_argument('--fast', action='store_true', help='send each input once the previous one was answered')
+    parser.add_argument('--check', action='store_true', help='compare the live answers with the recorded ones')
+    parser.add_argument('--start-suite', action='store_true',
+                        help='start the three nodes (a closed-loop session: five, with the assistance and the mock '
+                             'arm) as processes (LOCALHOST, this ROS_DOMAIN_ID) and stop them at the end')
+    parser.add_argument('--timeout', type=float, default=10.0, metavar='S',
+                        help='longest wait for one answer, s (default 10)')
+    parser.add_argument('--startup-timeout', type=float, default=60.0, metavar='S',
+                        help='longest wait for the live system to be ready, s (default 60)')
+    parser.add_argument('--models-dir', type=Path, default=None, metavar='DIR',
+                        help="with --start-suite: the model server's models_dir (default config/models)")
+    parser.add_argument('--model-server', default='model_server', metavar='NAME',
+                        help='model server node name, relative to the session namespace (default model_server)')
+    parser.add_argument('--max-diffs', type=int, default=10, metavar='N',
+                        help='differing messages printed, up to 2 fields each (default 10)')
+    parser.add_argument('--max-failed-inputs', type=int, default=5, metavar='N',
+                        help='stop after N inputs with differences; 0: never (default 5)')
+    return parser
+
+
+def _report(session: PairedSession, options: ReplayOptions, result: ReplayResult, max_diffs: int) -> int:
+    name = session.path
+    notes = [d for d in result.differences if not d.fatal]
+    for note in notes[:max_diffs]:
+        print(str(note))
+    if not options.check:
+        print(f'replay: {name}: {result.inputs_sent} inputs published in {result.replay_s:.2f} s '
+              f'({"as fast as answered" if options.fast else f"recorded pace x {options.rate:g}"}); '
+              f'{result.outputs_received} outputs received')
+        return 0
+    failures = result.failures
+    if not failures:
+        print(f'replay --check OK: {name}: {result.inputs_sent} inputs, {session.n_outputs} recorded outputs '
+              f'matched live (v, P, w, pose, joints, clarifications, rejections) in {result.replay_s:.2f} s '
+              f'(system ready after {result.ready_s:.2f} s)')
+        return 0
+    failed_inputs = sorted({d.step for d in failures})
+    first = failures[0]
+    print(f'replay --check FAILED: {name}: {len(failures)} difference(s) in {len(failed_inputs)} of '
+          f'{result.inputs_sent} inputs replayed ({len(session.steps)} recorded)'
+          f'{", stopped early" if result.stopped_early else ""}; first differing message: input '
+          f'#{first.step}, {first.topic}')
+    for line in _diff_lines(failures, max_diffs):
+        print(f'  {line}')
+    return 1
+
+
+def _report_closed_loop(session: ClosedLoopSession, options: ReplayOptions, result: ReplayResult,
+                        live: Trace) -> int:
+    kin = MicoKinematics()
+    recorded_outcome, live_outcome = outcome(session.trace, kin), outcome(live, kin)
+    for note in result.differences:
+        print(str(note))
+    print(f'  recorded: {describe(recorded_outcome)}')
+    print(f'  live:     {describe(live_outcome)}')
+    stopped = '' if not result.timed_out else f'; the arm still moved {options.timeout_s:g} s after the last input'
+    head = (f'{session.path}: closed loop, {result.inputs_sent} inputs at the recorded pace in {result.replay_s:.2f} s '
+            f'(system ready after {result.ready_s:.2f} s){stopped}')
+    if not options.check:
+        print(f'replay: {head}')
+        return 0
+    problems = compare_outcomes(recorded_outcome, live_outcome)
+    if not problems:
+        print(f'replay --check OK: {head}; the live loop planned the recorded last grasp and ended where the '
+              'recorded one did')
+        return 0
+    print(f'replay --check FAILED: {head}')
+    for problem in problems:
+        print(f'  {problem}')
+    return 1
+
+
+def _diff_lines(failures: Sequence[Difference], max_messages: int, fields_per_message: int = 2) -> list[str]:
+    """One line per difference, for the first ``max_messages`` differing messages (input, topic).
+
+    At most ``fields_per_message`` fields each; the last line of a message says how many more fields differ.
+    """
+    groups: dict[tuple[int, str], list[Difference]] = {}
+    for diff in failures:
+        groups.setdefault((diff.step, diff.topic), []).append(diff)
+    lines = []
+    for diffs in list(groups.values())[:max_messages]:
+        shown = [str(d) for d in diffs[:fields_per_message]]
+        if len(diffs) > fields_per_message:
+            shown[-1] += f' (and {len(diffs) - fields_per_message} more field(s) of this message)'
+        lines += shown
+    if len(groups) > max_messages:
+        lines.append(f'... and {len(groups) - max_messages} more differing message(s)')
+    return lines
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point; returns the exit code (see the module docstring)."""
+    args = _parser().parse_args(argv)
+    if not args.rate > 0.0 or not args.timeout > 0.0:
+        _parser().error('--rate and --timeout must be > 0')
+    if args.models_dir is not None and not args.start_suite:
+        _parser().error('--models-dir needs --start-suite')
+    try:
+        closed_loop = is_closed_loop(args.bag)
+        session: PairedSession | ClosedLoopSession = (load_closed_loop(args.bag) if closed_loop
+                                                      else load_paired_session(args.bag))
+    except BagError as exc:
+        print(f'replay: error: {exc}', file=sys.stderr)
+        return 2
+    if closed_loop and (args.fast or args.rate != 1.0):
+        print(f'replay: error: {args.bag} is a closed-loop session (it holds operator twists): it is replayed at '
+              'the recorded pace only, because the operator\'s twists answered the arm\'s motion at that pace; '
+              'drop --fast and --rate', file=sys.stderr)
+        return 2
+    options = ReplayOptions(rate=args.rate, fast=args.fast, check=args.check, timeout_s=args.timeout,
+                            startup_timeout_s=args.startup_timeout, max_failed_inputs=args.max_failed_inputs,
+                            settle_s=SUITE_SETTLE_S if args.start_suite else 0.0)
+    if args.start_suite or not os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE'):
+        use_loopback_discovery()
+    try:
+        domain_id = domain_id_from_environment(unset=None if args.start_suite else 0)
+    except SuiteError as exc:
+        print(f'replay: error: {exc}', file=sys.stderr)
+        return 2
+
+    suite: NodeSuite | None = None
+    context = Context()  # rclpy's SIGINT/SIGTERM handlers shut it down: exit code 130, suite stopped
+    rclpy.init(context=context, domain_id=domain_id, args=[])
+    executor = SingleThreadedExecutor(context=context)
+    client: SessionClient | None = None
+    code = 2
+    try:
+        if args.start_suite:
+            initial = session.initial_model.name if session.initial_model is not None else None
+            suite = NodeSuite(domain_id)
+            suite.start_nodes(model=initial, models_dir=args.models_dir, namespace=session.namespace,
+                              shared_control=closed_loop)
+        client = SessionClient(model_server=args.model_server, context=context, closed_loop=closed_loop,
+                               namespace=session.namespace or '/')
+        executor.add_node(client)
+        alive = suite.died if suite else lambda: ''
+        if isinstance(session, ClosedLoopSession):
+            result = ClosedLoopReplayer(session, client, executor, options, alive=alive).run()
+            code = _report_closed_loop(session, options, result, client.tracer.trace())
+        else:
+            result = Replayer(session, client, executor, options, alive=alive).run()
+            code = _report(session, options, result, args.max_diffs)
+    except ReplayError as exc:
+        print(f'replay: error: {exc}', file=sys.stderr)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        code = 130
+    finally:
+        executor.shutdown()
+        if client is not None:
+            client.destroy_node()
+        rclpy.try_shutdown(context=context)
+        if suite is not None:
+            problems = [f'{problem}; log in {suite.log_dir}' for problem in suite.stop(tail_lines=0)]
+            for problem in problems:
+                print(f'replay: warning: {problem}', file=sys.stderr)
+            if code in (0, 1) and not problems:  # the logs tell nothing about a difference in the answers
+                suite.remove_logs()
+            else:
+                print(f'replay: the suite\'s logs are in {suite.log_dir}', file=sys.stderr)
+    return code
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,466 @@
+"""The replay's rclpy side: its client node and its engine.
+
+The client node publishes a session's inputs and collects the live outputs; the engine that paces the inputs and
+checks each answer (:mod:`.compare`). The command line is :mod:`grasp_intent_ros.sessions.replay`.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.srv import SetParameters
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.task import Future
+from std_msgs.msg import String
+
+from ..ros.conversions import message_class
+from ..ros.qos import input_qos, latched_qos, output_qos
+from ..wire.protocol import (
+    ASSISTANCE_ALPHA,
+    ASSISTANCE_TWIST,
+    DIAGNOSTICS,
+    INPUT_TOPICS,
+    JOINT_STATES,
+    MODEL_ACTIVE,
+    MSGTYPES,
+    OUTPUT_TOPICS,
+    ModelHeader,
+)
+from .closed_loop import REPLAYED, ClosedLoopSession, Tracer
+from .compare import Difference, Tolerances, answered, compare_step, diverged
+from .outputs import Output, RejectionTracker, SessionError, decode, output_of
+from .pairing import PairedSession, Step
+
+__all__ = ['SUITE_SETTLE_S', 'SessionClient', 'ReplayOptions', 'ReplayResult', 'ReplayError', 'Replayer',
+           'ClosedLoopReplayer', 'await_answer']
+
+SUITE_SETTLE_S = 3.0
+"""With --start-suite: seconds every node must have been visible before the first input (see
+:meth:`SessionClient.settled`)."""
+
+
+# ---------------------------------------------------------------------------------------- the client
+class SessionClient(Node):
+    """Publishes session inputs, collects the live outputs, sets the model server's ``model`` parameter.
+
+    Outputs are :class:`~grasp_intent_ros.sessions.outputs.Output` (serialized, decoded like the recorded ones).
+
+    Parameters
+    ----------
+    model_server
+        Name of the model server node, relative to this node's namespace.
+    node_name
+        This node's name; ``kwargs`` go to ``rclpy.node.Node`` (``context``, ``namespace``).
+    """
+
+    def __init__(self, *, model_server: str = 'model_server', node_name: str = 'replay', closed_loop: bool = False,
+                 **kwargs: Any) -> None:
+        super().__init__(node_name, **kwargs)
+        self.closed_loop = closed_loop
+        """Whether this client replays a closed-loop session (:mod:`grasp_intent_ros.sessions.closed_loop`)."""
+        self.tracer = Tracer()
+        """With ``closed_loop``: the live loop's joint states, grasps, alphas and blended twists."""
+        self.outputs: list[Output] = []
+        """Live outputs in arrival order (model/active documents and rejections included)."""
+        self.model: ModelHeader | None = None
+        """The newest live model document."""
+        self.statuses: set[str] = set()
+        """Names of the diagnostic statuses seen."""
+        self.diagnostics_received = 0
+        """Number of /diagnostics messages received."""
+        self.last_status: dict[str, str] = {}
+        """Per diagnostic status name, its latest message and values, for error reports."""
+        self._tracker = RejectionTracker()
+        self._first_seen: dict[str, float] = {}
+        self._input_pubs = {topic: self.create_publisher(message_class(topic), topic, output_qos())
+                            for topic in (REPLAYED if closed_loop else INPUT_TOPICS)}
+        self._loop_subs = {
+            topic: self.create_subscription(message_class(topic), topic, self._tracer_receiver(topic), input_qos(1000),
+                                            raw=True)
+            for topic in ((JOINT_STATES, ASSISTANCE_TWIST, ASSISTANCE_ALPHA) if closed_loop else ())}
+        self._output_subs = {
+            topic: self.create_subscription(message_class(topic), topic, self._receiver(topic), input_qos(100),
+                                            raw=True)
+            for topic in OUTPUT_TOPICS}
+        self._output_subs[MODEL_ACTIVE] = self.create_subscription(
+            String, MODEL_ACTIVE, self._receiver(MODEL_ACTIVE), latched_qos(), raw=True)
+        self._diag_sub = self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics,
+                                                  input_qos(100), raw=True)
+        self._param_client = self.create_client(SetParameters, f'{model_server}/set_parameters')
+
+    def _now_ns(self) -> int:
+        return self.get_clock().now().nanoseconds
+
+    def _receiver(self, topic: str) -> Callable[[bytes], None]:
+        def receive(cdr: bytes) -> None:
+            out = output_of(topic, self._now_ns(), cdr)  # never raises
+            if self.closed_loop:
+                self.tracer.add(topic, out.t_ns, cdr)
+            if isinstance(out.value, ModelHeader):
+                self.model = out.value
+            self.outputs.append(out)
+        return receive
+
+    def _tracer_receiver(self, topic: str) -> Callable[[bytes], None]:
+        return lambda cdr: self.tracer.add(topic, self._now_ns(), cdr)
+
+    def _on_diagnostics(self, cdr: bytes) -> None:
+        try:
+            msg = decode(MSGTYPES[DIAGNOSTICS], cdr)
+        except SessionError:
+            return
+        self.diagnostics_received += 1
+        for status in msg.status:
+            self.last_status[str(status.name)] = (
+                f'{status.message} ({", ".join(f"{kv.key}: {kv.value}" for kv in status.values)})')
+        self.statuses.update(str(s.name) for s in msg.status)
+        now = self._now_ns()
+        self.outputs.extend(Output(DIAGNOSTICS, now, r) for r in self._tracker.update(msg))
+
+    def publish(self, topic: str, message: bytes | Any) -> None:
+        """Publish on an input topic (relative name) a message object or its CDR bytes."""
+        self._input_pubs[topic].publish(message)
+
+    def set_model(self, name: str) -> Future:
+        """Ask the model server to activate ``name``; the future's result is a SetParameters response."""
+        request = SetParameters.Request(parameters=[Parameter('model', value=name).to_parameter_msg()])
+        return self._param_client.call_async(request)
+
+    def settled(self, seconds: float) -> bool:
+        """Whether every node in the graph has been visible to this node for at least ``seconds``.
+
+        Nodes started together discover each other through periodic announcements (Fast DDS: every 3 s),
+        so two suite nodes may still miss each other when both are visible here; after one announcement
+        period every pair has met, and a first output between them is no longer lost.
+        """
+        now = time.monotonic()
+        for name, namespace in self.get_node_names_and_namespaces():
+            self._first_seen.setdefault(f'{namespace.rstrip("/")}/{name}', now)
+        return all(now - t >= seconds for t in self._first_seen.values())
+
+    def missing(self, *, need_parameters: bool) -> list[str]:
+        """What the live system still lacks to be replayed into ([] when ready).
+
+        A model document,
+        matched subscribers of the inputs, matched publishers of the outputs, a status from every
+        /diagnostics publisher, the parameter service.
+        """
+        lacking = []
+        if self.model is None:
+            lacking.append(f'no {MODEL_ACTIVE} received')
+        lacking += [f'no subscriber on {t}' for t, p in self._input_pubs.items() if p.get_subscription_count() == 0]
+        lacking += [f'no publisher on {t}' for t, s in (*self._output_subs.items(), *self._loop_subs.items())
+                    if s.get_publisher_count() == 0]
+        publishers = self._diag_sub.get_publisher_count()
+        if publishers == 0 or len(self.statuses) < publishers:
+            lacking.append(f'{len(self.statuses)} diagnostic statuses from {publishers} /diagnostics publishers')
+        if need_parameters and not self._param_client.service_is_ready():
+            lacking.append(f'no parameter service {self._param_client.srv_name}')
+        return lacking
+
+
+# ---------------------------------------------------------------------------------------- replaying
+def await_answer(spin: Callable[[], None], outputs: list[Output], mark: int, step: Step, *,
+                 timeout_s: float, quiet_s: float = 0.25, settle_s: float = 0.02,
+                 future: Future | None = None) -> tuple[list[Output], str]:
+    """Spin until the answer to ``step`` (sent when ``outputs`` had ``mark`` entries) is complete.
+
+    Complete: every recorded output topic has as many live messages as recorded and nothing new came for
+    ``settle_s``; or the answer diverges (an unrecorded message) and nothing new came for 0.5 s; or, for a
+    step recorded without outputs, nothing came for ``quiet_s``; or ``timeout_s`` passed. ``future`` (a
+    SetParameters call) must be done too; a refused parameter ends the wait.
+
+    Returns
+    -------
+        (the live outputs since ``mark``, '' | 'timeout' | 'rejected: <reason>')
+    """
+    start = last_change = time.monotonic()
+    seen = 0
+    while True:
+        spin()
+        now = time.monotonic()
+        live = outputs[mark:]
+        if len(live) != seen:
+            seen, last_change = len(live), now
+        if future is not None and future.done():
+            result = future.result().results[0]
+            if not result.successful:
+                return live, f'rejected: {result.reason}'
+            future = None
+        quiet = now - last_change
+        if future is None:
+            if step.expected:
+                if answered(step, live) and (quiet >= settle_s or diverged(step, live)):
+                    return live, ''
+                if diverged(step, live) and quiet >= 0.5:
+                    return live, ''
+            elif quiet >= quiet_s:
+                return live, ''
+        if now - start >= timeout_s:
+            return live, 'timeout'
+
+
+@dataclass(frozen=True)
+class ReplayOptions:
+    """How to replay.
+
+    Attributes
+    ----------
+    rate
+        Recorded pace multiplier (> 0); ignored with ``fast``.
+    fast
+        Send each input once the previous one was answered, without waiting for its recorded time.
+    check
+        Wait for every answer and compare it with the recording.
+    timeout_s
+        Longest wait for one answer (s).
+    startup_timeout_s
+        Longest wait for the live system to be ready (s).
+    settle_s
+        Once ready, how long every node must have been visible before the first input (s):
+        one discovery announcement period (3 s) for a suite started together with the replay, so its
+        nodes have met each other; 0 for a system that was running already.
+    quiet_s
+        For an input recorded without any answer: how long nothing must arrive (s).
+    max_failed_inputs
+        Stop after this many inputs with differences (0: never stop early).
+    tolerances
+        Of the comparison.
+    """
+
+    rate: float = 1.0
+    fast: bool = False
+    check: bool = False
+    timeout_s: float = 10.0
+    startup_timeout_s: float = 60.0
+    settle_s: float = 0.0
+    quiet_s: float = 0.25
+    max_failed_inputs: int = 5
+    tolerances: Tolerances = field(default_factory=Tolerances)
+
+
+@dataclass
+class ReplayResult:
+    """What a replay did: inputs sent, outputs received, differences (with --check), timings (s)."""
+
+    inputs_sent: int = 0
+    outputs_received: int = 0
+    differences: list[Difference] = field(default_factory=list)
+    timed_out: list[int] = field(default_factory=list)
+    stopped_early: bool = False
+    ready_s: float = 0.0
+    replay_s: float = 0.0
+
+    @property
+    def failures(self) -> list[Difference]:
+        """The differences that fail a check (notes excluded)."""
+        return [d for d in self.differences if d.fatal]
+
+
+class ReplayError(RuntimeError):
+    """The live system did not come up or could not be put into the session's initial state."""
+
+
+class Replayer:
+    """Replays one session through a :class:`SessionClient` spun by ``executor`` in the calling thread.
+
+    Parameters
+    ----------
+    session
+        The recorded session.
+    client
+        Added to ``executor`` by the caller.
+    executor
+        Spun with ``spin_once`` while waiting.
+    options
+        See :class:`ReplayOptions`.
+    alive
+        Called while waiting; a non-empty return (e.g. a suite process died) aborts with ReplayError.
+    """
+
+    def __init__(self, session: PairedSession, client: SessionClient, executor: SingleThreadedExecutor,
+                 options: ReplayOptions, *, alive: Callable[[], str] = lambda: '') -> None:
+        self.session, self.client, self.executor, self.options = session, client, executor, options
+        self._alive = alive
+
+    def _spin(self, seconds: float = 0.005) -> None:
+        self.executor.spin_once(timeout_sec=seconds)
+        if problem := self._alive():
+            raise ReplayError(problem)
+
+    def _wait(self, predicate: Callable[[], bool], timeout: float) -> bool:
+        deadline = time.monotonic() + timeout
+        while not predicate():
+            if time.monotonic() >= deadline:
+                return predicate()
+            self._spin(min(0.05, max(0.0, deadline - time.monotonic())))
+        return True
+
+    def prepare(self) -> list[Difference]:
+        """Wait until the live system is ready and runs the session's initial model.
+
+        Returns notes (a model with the recorded name but other content). Raises ReplayError.
+        """
+        need_parameters = self._needs_parameters()
+        missing = lambda: self.client.missing(need_parameters=need_parameters)  # noqa: E731
+        if not self._wait(lambda: not missing() and self.client.settled(self.options.settle_s),
+                          self.options.startup_timeout_s):
+            raise ReplayError(f'the live system is not ready after {self.options.startup_timeout_s:g} s: '
+                              f'{"; ".join(missing()) or "nodes still appearing"}')
+        initial = self.session.initial_model
+        notes = []
+        if initial is not None and self.client.model is not None and self.client.model.name != initial.name:
+            self._activate(initial.name)
+            self._quiet(0.5)  # a running planner replans its current v for the new model: not an answer
+        if initial is not None and self.client.model is not None and self.client.model.sha256 != initial.sha256:
+            notes.append(Difference(0, 'initial model', MODEL_ACTIVE, 'model content', f'sha256 {initial.sha256[:12]}',
+                                    f'sha256 {self.client.model.sha256[:12]} (same name, different model)', False))
+        return notes
+
+    def _needs_parameters(self) -> bool:
+        return any(s.model is not None for s in self.session.steps) or self.session.initial_model is not None
+
+    def _quiet(self, seconds: float) -> None:
+        """Spin until no output arrived for ``seconds`` (at most the answer timeout)."""
+        last = [len(self.client.outputs), time.monotonic()]
+
+        def quiet() -> bool:
+            if len(self.client.outputs) != last[0]:
+                last[:] = [len(self.client.outputs), time.monotonic()]
+            return time.monotonic() - last[1] >= seconds
+
+        self._wait(quiet, self.options.timeout_s)
+
+    def _activate(self, name: str) -> None:
+        future = self.client.set_model(name)
+        if not self._wait(future.done, self.options.timeout_s):
+            raise ReplayError(f'no answer from the parameter service when setting model {name!r}')
+        result = future.result().results[0]
+        if not result.successful:
+            raise ReplayError(f'the model server rejected model {name!r}: {result.reason}')
+        if not self._wait(lambda: self.client.model is not None and self.client.model.name == name,
+                          self.options.timeout_s):
+            raise ReplayError(f'model {name!r} was accepted but no {MODEL_ACTIVE} for it arrived')
+
+    def _send(self, step: Step) -> Future | None:
+        if step.model is not None:
+            return self.client.set_model(step.model)
+        self.client.publish(step.topic, step.cdr)
+        return None
+
+    def _await_answer(self, step: Step, mark: int, future: Future | None) -> tuple[list[Output], list[Difference]]:
+        live, problem = await_answer(self._spin, self.client.outputs, mark, step, future=future,
+                                     timeout_s=self.options.timeout_s, quiet_s=self.options.quiet_s)
+        if not problem:
+            return live, []
+        if problem == 'timeout':
+            return live, [Difference(step.index, step.description, '(answer)', 'timeout',
+                                     f'{len(step.expected)} output(s)',
+                                     f'{len(live)} output(s) within {self.options.timeout_s:g} s', False)]
+        return live, [Difference(step.index, step.description, MODEL_ACTIVE, 'parameter model',
+                                 f'{step.model!r} accepted', problem)]
+
+    def run(self) -> ReplayResult:
+        """Replay every step; compare with --check. Raises ReplayError (system not ready, suite died)."""
+        result = ReplayResult()
+        started = time.monotonic()
+        result.differences += self.prepare()
+        result.ready_s = time.monotonic() - started
+        paced_by_answers = self.options.check or self.options.fast
+        steps = self.session.steps
+        t_first = steps[0].t_ns
+        begin = time.monotonic()
+        failed_inputs = 0
+        first_mark = mark = len(self.client.outputs)
+        for step in steps:
+            if not self.options.fast:
+                send_at = begin + 1e-9 * (step.t_ns - t_first) / self.options.rate
+                self._wait(lambda: time.monotonic() >= send_at, max(0.0, send_at - time.monotonic()) + 1.0)
+            mark = len(self.client.outputs)
+            future = self._send(step)
+            result.inputs_sent += 1
+            if not paced_by_answers:
+                continue
+            live, problems = self._await_answer(step, mark, future)
+            if any(d.field == 'timeout' for d in problems):
+                result.timed_out.append(step.index)
+                statuses = '\n'.join(f'  {name}: {text}' for name, text in sorted(self.client.last_status.items()))
+                print(f'replay: input #{step.index} got {len(live)} of {len(step.expected)} recorded outputs '
+                      f'within {self.options.timeout_s:g} s; latest node statuses:\n{statuses}', file=sys.stderr)
+            if self.options.check:
+                diffs = problems + compare_step(step, live, self.options.tolerances)
+                result.differences += diffs
+                if any(d.fatal for d in diffs):
+                    failed_inputs += 1
+                    if failed_inputs >= self.options.max_failed_inputs > 0:
+                        result.stopped_early = step is not steps[-1]
+                        break
+        if not paced_by_answers:  # let the last answer arrive
+            self._wait(lambda: answered(steps[-1], self.client.outputs[mark:]), self.options.timeout_s)
+        result.replay_s = time.monotonic() - begin
+        result.outputs_received = len(self.client.outputs) - first_mark
+        return result
+
+
+class ClosedLoopReplayer(Replayer):
+    """Replays a closed-loop session (:mod:`grasp_intent_ros.sessions.closed_loop`) at its recorded pace.
+
+    The live system must run the assistance and an arm (the suite with ``shared_control``), with the arm where
+    the recording's started. The client must have been made with ``closed_loop=True``. :meth:`run` sends every
+    message at its recorded time after the first, then waits until the arm has stopped (no joint moved by more
+    than 1e-6 rad over :data:`STOPPED_S`, once the operator's last twist is older than :data:`STOPPED_S`), at most
+    ``options.timeout_s``.
+    """
+
+    session: ClosedLoopSession  # type: ignore[assignment]
+
+    STOPPED_S = 0.3
+    """Seconds without arm motion that end the replay: the assistance stops 0.1 s after the operator's last twist
+    (operator_timeout) and the mock arm 0.1 s after the last blended twist (command_timeout)."""
+
+    def _needs_parameters(self) -> bool:
+        return self.session.initial_model is not None or any(s.model is not None for s in self.session.sends)
+
+    def run(self) -> ReplayResult:
+        """Send every message, wait for the arm to stop; raises ReplayError (system not ready, suite died)."""
+        result = ReplayResult()
+        started = time.monotonic()
+        result.differences += self.prepare()
+        result.ready_s = time.monotonic() - started
+        if not self._wait(lambda: bool(self.client.tracer.trace().joints), self.options.startup_timeout_s):
+            raise ReplayError('no joint state from the live arm')
+        self.client.tracer.restart()
+        sends = self.session.sends
+        begin = time.monotonic()
+        for send in sends:
+            send_at = begin + 1e-9 * (send.t_ns - sends[0].t_ns)
+            self._wait(lambda: time.monotonic() >= send_at, max(0.0, send_at - time.monotonic()) + 1.0)
+            if send.model is not None:
+                self.client.set_model(send.model)  # not awaited: the recorded operator did not wait either
+            else:
+                self.client.publish(send.topic, send.cdr)
+                self.client.tracer.add(send.topic, self.client.get_clock().now().nanoseconds, send.cdr)
+            result.inputs_sent += 1
+        last_send = time.monotonic()
+        if not self._wait(lambda: time.monotonic() - last_send >= self.STOPPED_S and self._arm_stopped(),
+                          self.options.timeout_s):
+            result.timed_out.append(len(sends))
+        result.replay_s = time.monotonic() - begin
+        result.outputs_received = len(self.client.outputs)
+        return result
+
+    def _arm_stopped(self) -> bool:
+        joints = self.client.tracer.trace().joints
+        if not joints:
+            return False
+        since = joints[-1][0] - int(self.STOPPED_S * 1e9)
+        recent = [q for t, q in joints if t >= since]
+        return len(recent) > 1 and all(float(np.max(np.abs(q - recent[-1]))) <= 1e-6 for q in recent)

@@ -1,0 +1,577 @@
+r"""Shared control, ROS-free: the robot's twist toward the planned grasp, arbitration, blending, limits.
+
+Policy blending (Dragan & Srinivasa, "A policy-blending formalism for shared control", 2013): the command is
+
+.. math::
+
+    u = \alpha\, r + (1 - \alpha)\, h,
+
+``h`` the operator's twist, ``r`` the robot's twist toward the planned grasp, ``alpha`` in [0, 1] the
+arbitration weight. Twists are 6-vectors (linear m/s, angular rad/s) of the end effector (EE) in the base
+frame; the linear part is the velocity of the EE origin.
+
+The robot's twist (:func:`robot_twist`)
+---------------------------------------
+Toward the pre-grasp (the grasp pose moved back by ``standoff`` along its approach axis, the EE z axis)
+until the hand is in the approach corridor, then toward the grasp (:func:`assistance_target`): the hand
+is in the corridor when it is within ``corridor_radius`` of the grasp, or behind it (along the approach
+axis) within ``corridor_radius`` of that axis and within ``corridor_angle`` of the grasp's orientation.
+With the arm's kinematics (:class:`Assistance` given a :class:`~.kinematics.MicoKinematics`), the twist is
+the end effector's motion while the joints move straight toward the target's inverse kinematics q_t
+(solved from the current joints q without random restarts, on the 2 pi branch nearest them, once per
+target and planned grasp), ``J(q) k_q (q_t - q)`` (:func:`joint_space_twist`); without the kinematics, or
+when the target has no IK solution from q, it is proportional to the pose error,
+``(k_lin (p_t - p), k_ang log3(R_t R^T))`` (the rotation vector in the base frame, :func:`robot_twist`).
+Either way each part is scaled down to its speed limit. Why joint space: the Cartesian twist turns the
+hand along the straight rotation to the target, which for many of the MICO's grasps runs the wrist (joint
+5) through 0 or pi, a singularity; there a servo's damped least squares cannot make the motion asked for
+and the arm settles in the singular configuration, short of the grasp. The joint-space twist lies in the
+range of J, so the servo can follow it, and following it the joints go straight to q_t. Its price: the
+hand's path curves and the hand turns on the way (the image of a straight joint-space line); near the
+target it agrees with the Cartesian error to first order.
+
+Arbitration (:func:`arbitration`): alpha from the probability that the grasp serves the operator's task
+----------------------------------------------------------------------------------------------------------
+``'confidence'`` (the suite's): alpha = alpha_max * s * o, where
+
+- s = P(the grasp serves T | w) (:func:`serving_probability`), T the operator's task set under the paper's
+  independent-task model (eq. 3: task i in T with probability w_i, independently; T not empty, eq. 4's
+  v). A grasp whose task set is S *serves* T when T is a subset of S: the object's rules hold for every
+  task the operator wants, which is how the benchmark judges success. So s = sum of v_k over the zones k
+  contained in S (the planner's expected success E of S). For the chosen demonstration S is its label
+  (:func:`grasp_task_set` finds it among the model's demonstrations); for a grasp that is no
+  demonstration (a moved grasp, e.g. the paper's planner) S is unknown and s is the model's expectation,
+  sum_k P(k | x) E(zone k). A grasp that serves every likely task has s near 1 however spread v is: v's
+  concentration does not enter (an ambiguous intent is exactly where a grasp serving every likely task
+  helps most).
+- o, the operator's agreement with the planned grasp: the smaller of the linear and the angular
+  agreement, each (1 + cos theta) / 2 of the angle theta between the operator's part and the same part of
+  the pose error toward the grasp itself, ``(k_lin (p_g - p), k_ang log3(R_g R^T))``
+  (:func:`operator_agreement`), as last measured while the operator moved that part faster than its
+  deadband (1 before; :class:`Assistance` holds them, and forgets them when the planned grasp moves by
+  more than the corridor's radius or angle). It is measured against the grasp, not against the robot's
+  twist: the pre-grasp and the joint-space path are the robot's way to the grasp, not another proposal.
+
+**The operator wins** (:class:`Assistance`). A part measured against the grasp (theta > pi / 2, o < 1/2)
+is opposition. Opposition sustained for ``yield_time`` makes the robot yield: alpha = 0 for this grasp
+until the operator heads toward it again (every measured part with theta < pi / 2) for ``yield_time``, or
+a new grasp is planned. While the operator gives no input (both parts within their deadbands) the output
+is the operator's twist (the robot does not move the hand on its own) unless ``assist_without_input``.
+Assistance switched off (:attr:`Assistance.enabled` False) gives the operator's twist exactly.
+
+``'blend'`` (a baseline after ADA's blend: alpha = alpha_max when v's top zone leads the second by at
+least ``margin``, else 0). ``'none'``: alpha = 0 (direct teleoperation). Neither looks at the operator's
+input. Whatever the rule, alpha is 0 without a valid grasp, while a clarification is pending, or without
+the arm's joint state: :class:`Assistance` decides that.
+
+alpha is therefore in [0, alpha_max] for every rule: 0 means the operator's twist alone, alpha_max (< 1 by
+default) the most the robot ever gets, so the operator always keeps 1 - alpha_max of the command.
+
+Limits (:class:`TwistLimiter`)
+------------------------------
+The blended twist's linear and angular parts are scaled down to their speed limits, then each part's
+change since the last output is scaled down to acceleration limit times the elapsed time. A stale operator
+input (older than the timeout) gives the zero twist at once, without the acceleration limit: a stop.
+"""
+
+from __future__ import annotations
+
+import typing
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Final, Literal
+
+import numpy as np
+import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import InvalidIntentError
+from ..method.intent import parse_zones
+from ..mico.kinematics import MicoKinematics
+from ..planning.ranking import expected_success
+
+__all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
+           'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached',
+           'pre_grasp', 'assistance_target', 'robot_twist', 'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter',
+           'AssistanceConfig',
+           'Command', 'Assistance']
+
+Arbitration = Literal['confidence', 'blend', 'none']
+ARBITRATIONS: tuple[str, ...] = typing.get_args(Arbitration)
+
+
+def serving_probability(v: ArrayLike, v_labels: Sequence[str], task_names: Sequence[str], *,
+                        task_set: int | None = None, posterior: ArrayLike | None = None,
+                        zone_labels: Sequence[str] = ()) -> float:
+    """P(the grasp serves T | w): v's share on the zones contained in the grasp's task set (module docstring).
+
+    Parameters
+    ----------
+    v : array_like, shape (K,)
+        The target over the zones ``v_labels`` (normalised here).
+    v_labels, task_names : sequence of str
+        v's zone labels and the tasks they are made of.
+    task_set : int or None
+        The grasp's task set (bitmask over ``task_names``) when it is a labelled demonstration.
+    posterior, zone_labels
+        Without ``task_set``: the model's posterior P(k | x) of the grasp over its zones ``zone_labels``;
+        the result is then sum_k P_k E(zone k) / sum_k P_k.
+
+    Returns
+    -------
+    float in [0, 1]
+        0 when a label is not a zone of ``task_names``, v sums to 0, or neither a task set nor a posterior
+        is given.
+    """
+    try:
+        v_zones = parse_zones(v_labels, task_names)
+        zones = parse_zones(zone_labels, task_names) if task_set is None else (task_set,)
+    except InvalidIntentError:
+        return 0.0
+    values = np.asarray(v, dtype=np.float64)
+    total = float(values.sum())
+    if not total > 0.0 or len(v_zones) != values.size or not zones:
+        return 0.0
+    per_set = expected_success(np.array(zones, dtype=np.int64), v_zones, values / total)
+    if task_set is not None:
+        return float(min(per_set[0], 1.0))
+    p = np.asarray(posterior, dtype=np.float64)
+    if p.shape != per_set.shape or not float(p.sum()) > 0.0:
+        return 0.0
+    return float(min(max(float(p @ per_set) / float(p.sum()), 0.0), 1.0))
+
+
+def grasp_task_set(x: NDArray[np.float64], demo_x: NDArray[np.float64], demo_sets: NDArray[np.int64],
+                   feature_scale: NDArray[np.float64], *, tolerance: float = 1e-6) -> int | None:
+    """The task set (bitmask) of the demonstration the grasp features ``x`` (shape (d,)) are, None for none.
+
+    ``x`` is demonstration n when its scaled distance max_j |x_j - demo_x[n, j]| / feature_scale[j] is at most
+    ``tolerance`` (the planner publishes a chosen demonstration's features, projected onto the feasible set,
+    which moves a feasible demonstration by rounding at most); the first such demonstration wins.
+    """
+    gap = np.max(np.abs(demo_x - x) / feature_scale, axis=1)
+    hits = np.flatnonzero(gap <= tolerance)
+    return int(demo_sets[hits[0]]) if hits.size else None
+
+
+def arbitration(rule: Arbitration, v: ArrayLike, serving: float, *, alpha_max: float, margin: float) -> float:
+    """The arbitration weight alpha in [0, alpha_max] before the operator's agreement (module docstring).
+
+    Parameters
+    ----------
+    rule : 'confidence', 'blend' or 'none'
+    v : array_like, shape (K,)
+    serving : float in [0, 1]
+        P(the grasp serves T | w), :func:`serving_probability` ('confidence' only).
+    alpha_max : float in [0, 1]
+    margin : float
+        The lead of 'blend'.
+    """
+    if rule == 'none':
+        return 0.0
+    if rule == 'blend':
+        top = np.sort(np.asarray(v, dtype=np.float64))[::-1]
+        lead = float(top[0] - (top[1] if top.size > 1 else 0.0)) / float(top.sum())
+        return alpha_max if lead >= margin else 0.0
+    return alpha_max * min(max(serving, 0.0), 1.0)
+
+
+def operator_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64], *, deadband_linear: float,
+                       deadband_angular: float) -> tuple[float | None, float | None]:
+    """The operator's agreement with the robot per part (linear, angular): (1 + cos theta) / 2, in [0, 1].
+
+    theta is the angle between the operator's and the robot's part; None (no evidence) for a part that
+    either twist moves no faster than its deadband (m/s, rad/s).
+    """
+    parts: list[float | None] = []
+    for part, deadband in ((slice(0, 3), deadband_linear), (slice(3, 6), deadband_angular)):
+        if _norm(operator[part]) <= deadband or _norm(robot[part]) <= deadband:
+            parts.append(None)
+            continue
+        h, r = clip_norm(operator[part], 1.0), clip_norm(robot[part], 1.0)  # no overflow in the products
+        cos = float(h @ r) / (float(np.linalg.norm(h)) * float(np.linalg.norm(r)))
+        parts.append(0.5 * (1.0 + min(max(cos, -1.0), 1.0)))
+    return parts[0], parts[1]
+
+
+def pose_error(base_T_ee: NDArray[np.float64], base_T_target: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(p_t - p, log3(R_t R^T)), shape (6,): the target's offset (m) and rotation vector (rad), base frame."""
+    dp = base_T_target[:3, 3] - base_T_ee[:3, 3]
+    dr = pin.log3(base_T_target[:3, :3] @ base_T_ee[:3, :3].T)
+    return np.concatenate([dp, np.asarray(dr, dtype=np.float64)])
+
+
+REACH_POS: Final = 0.01
+"""The hand has reached a grasp within this distance (m) ..."""
+REACH_ROT: Final = 0.1
+"""... and this rotation (rad): the closed-loop benchmarks' success and a scripted operator's grasp command."""
+
+
+def offset(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[float, float]:
+    """How far pose ``b`` is from pose ``a`` (4x4): (distance m, rotation angle rad), by :func:`pose_error`."""
+    error = pose_error(a, b)
+    return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
+
+
+def reached(hand: NDArray[np.float64], goal: NDArray[np.float64]) -> bool:
+    """Whether the hand is within :data:`REACH_POS` and :data:`REACH_ROT` of ``goal``."""
+    distance, angle = offset(hand, goal)
+    return distance <= REACH_POS and angle <= REACH_ROT
+
+
+def pre_grasp(base_T_grasp: NDArray[np.float64], standoff: float) -> NDArray[np.float64]:
+    """The grasp pose moved back by ``standoff`` (m) along its approach axis (the EE z axis)."""
+    base_T_pre = base_T_grasp.copy()
+    base_T_pre[:3, 3] -= standoff * base_T_grasp[:3, 2]
+    return base_T_pre
+
+
+def assistance_target(base_T_ee: NDArray[np.float64], base_T_grasp: NDArray[np.float64], *, standoff: float,
+                      corridor_radius: float, corridor_angle: float) -> tuple[NDArray[np.float64], str]:
+    """The pose the robot's twist aims at, and its name: ``'grasp'`` in the approach corridor, else ``'pre-grasp'``."""
+    offset = base_T_ee[:3, 3] - base_T_grasp[:3, 3]
+    if float(np.linalg.norm(offset)) <= corridor_radius:
+        return base_T_grasp, 'grasp'
+    axis = base_T_grasp[:3, 2]
+    along = float(offset @ axis)
+    lateral = float(np.linalg.norm(offset - along * axis))
+    angle = float(np.linalg.norm(pin.log3(base_T_grasp[:3, :3] @ base_T_ee[:3, :3].T)))
+    if along <= 0.0 and lateral <= corridor_radius and angle <= corridor_angle:
+        return base_T_grasp, 'grasp'
+    return pre_grasp(base_T_grasp, standoff), 'pre-grasp'
+
+
+def _norm(x: NDArray[np.float64]) -> float:
+    """|x|, without overflow for any finite ``x`` (inf when it exceeds the float range)."""
+    size = float(np.max(np.abs(x)))
+    return size * float(np.linalg.norm(x / size)) if size > 0.0 else 0.0
+
+
+def clip_norm(x: NDArray[np.float64], limit: float) -> NDArray[np.float64]:
+    """``x`` scaled down to norm ``limit`` when longer (direction kept; no overflow for any finite ``x``)."""
+    size = float(np.max(np.abs(x)))
+    if size == 0.0:
+        return x
+    unit = x / size
+    norm = float(np.linalg.norm(unit))
+    return unit * (limit / norm) if size * norm > limit else x
+
+
+def robot_twist(base_T_ee: NDArray[np.float64], base_T_target: NDArray[np.float64], *, gain_linear: float,
+                gain_angular: float, max_linear: float, max_angular: float) -> NDArray[np.float64]:
+    """The proportional twist toward ``base_T_target``, each part within its speed limit; shape (6,)."""
+    error = pose_error(base_T_ee, base_T_target)
+    return np.concatenate([clip_norm(gain_linear * error[:3], max_linear),
+                           clip_norm(gain_angular * error[3:], max_angular)])
+
+
+def joint_space_twist(jacobian: NDArray[np.float64], q: NDArray[np.float64], q_target: NDArray[np.float64], *,
+                      gain: float, max_linear: float, max_angular: float) -> NDArray[np.float64]:
+    """The EE twist ``J(q) gain (q_target - q)``, each part within its speed limit; shape (6,).
+
+    Parameters
+    ----------
+    jacobian : ndarray, shape (6, 6)
+        The geometric Jacobian at ``q`` (:meth:`~.kinematics.MicoKinematics.jacobian`: linear rows m/rad,
+        angular rows rad/rad, base frame).
+    q, q_target : ndarray, shape (6,)
+        Joint angles now and at the target (rad), ``q_target`` on the 2 pi branch nearest ``q``.
+    gain : float
+        1/s.
+    max_linear, max_angular : float
+        m/s, rad/s.
+    """
+    twist = jacobian @ (gain * (q_target - q))
+    return np.concatenate([clip_norm(twist[:3], max_linear), clip_norm(twist[3:], max_angular)])
+
+
+def blend(alpha: float, robot: NDArray[np.float64], operator: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The blended twist alpha * robot + (1 - alpha) * operator."""
+    return alpha * robot + (1.0 - alpha) * operator
+
+
+@dataclass
+class TwistLimiter:
+    """Speed and acceleration limits of an output twist stream (module docstring).
+
+    Attributes
+    ----------
+    max_linear, max_angular : float
+        m/s, rad/s.
+    max_linear_acceleration, max_angular_acceleration : float
+        m/s^2, rad/s^2.
+    max_dt : float
+        Longest elapsed time (s) the acceleration limit grants (a gap in the stream is no licence to jump).
+    """
+
+    max_linear: float
+    max_angular: float
+    max_linear_acceleration: float
+    max_angular_acceleration: float
+    max_dt: float = 0.02
+
+    def __post_init__(self) -> None:
+        self.last = np.zeros(6)
+
+    def limit(self, twist: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
+        """``twist`` (shape (6,)) within the limits, ``dt`` s after the last output; becomes the last output.
+
+        A non-finite twist counts as zero (never a NaN out).
+        """
+        if not np.all(np.isfinite(twist)):
+            twist = np.zeros(6)
+        dt = min(max(dt, 0.0), self.max_dt)
+        lin, ang = clip_norm(twist[:3], self.max_linear), clip_norm(twist[3:], self.max_angular)
+        lin = self.last[:3] + clip_norm(lin - self.last[:3], self.max_linear_acceleration * dt)
+        ang = self.last[3:] + clip_norm(ang - self.last[3:], self.max_angular_acceleration * dt)
+        self.last = np.concatenate([lin, ang])
+        return self.last.copy()
+
+    def stop(self) -> NDArray[np.float64]:
+        """The zero twist, at once; becomes the last output."""
+        self.last = np.zeros(6)
+        return self.last.copy()
+
+
+@dataclass(frozen=True)
+class AssistanceConfig:
+    """The assistance's settings (the node's parameters of the same names; units m, rad, s).
+
+    Attributes
+    ----------
+    arbitration : 'confidence', 'blend' or 'none'
+    alpha_max, margin
+        Of :func:`arbitration`.
+    standoff, corridor_radius, corridor_angle
+        Of :func:`assistance_target`.
+    gain_linear, gain_angular, robot_max_linear, robot_max_angular
+        Of :func:`robot_twist` (1/s, 1/s, m/s, rad/s); the speed limits also bound :func:`joint_space_twist`.
+    gain_joint : float
+        Of :func:`joint_space_twist` (1/s).
+    deadband_linear, deadband_angular : float
+        Operator speeds (m/s, rad/s) up to which a part is no input: no evidence for
+        :func:`operator_agreement`, and no input at all when both parts are within them.
+    yield_time : float
+        Seconds of sustained opposition after which the robot yields, and of heading toward the grasp
+        after which it assists again ('confidence').
+    assist_without_input : bool
+        Whether the robot's twist moves the hand while the operator gives no input (default False).
+    operator_timeout : float
+        An operator twist older than this gives the zero twist.
+    """
+
+    arbitration: Arbitration = 'confidence'
+    alpha_max: float = 0.9
+    margin: float = 0.2
+    standoff: float = 0.08
+    corridor_radius: float = 0.02
+    corridor_angle: float = 0.2
+    gain_linear: float = 2.0
+    gain_angular: float = 2.0
+    robot_max_linear: float = 0.15
+    robot_max_angular: float = 0.8
+    gain_joint: float = 2.0
+    deadband_linear: float = 0.01
+    deadband_angular: float = 0.05
+    yield_time: float = 0.15
+    assist_without_input: bool = False
+    operator_timeout: float = 0.1
+
+
+@dataclass(frozen=True)
+class Command:
+    """One output of :class:`Assistance`.
+
+    Attributes
+    ----------
+    twist : ndarray, shape (6,)
+        The blended, limited twist (base frame).
+    alpha : float
+        The arbitration weight it was blended with (0 when there was nothing to assist, and for the stop of a
+        stale operator input).
+    phase : str
+        'pre-grasp' or 'grasp' (what the robot's twist aims at), or why there is no assistance.
+    """
+
+    twist: NDArray[np.float64]
+    alpha: float
+    phase: str
+
+
+class Assistance:
+    """The newest inputs of the shared-control loop and the command they give (module docstring).
+
+    Times are seconds of one clock (the node's). Inputs are assumed checked (finite, rigid transforms).
+    With ``kin`` the arm's state comes from :meth:`set_joints` and the robot's twist is joint-space
+    (module docstring); without it, from ``base_T_ee`` and the twist is Cartesian.
+    """
+
+    def __init__(self, config: AssistanceConfig, limiter: TwistLimiter, kin: MicoKinematics | None = None) -> None:
+        self.config, self.limiter, self.kin = config, limiter, kin
+        self.base_T_grasp: NDArray[np.float64] | None = None
+        self.base_T_ee: NDArray[np.float64] | None = None
+        self.q: NDArray[np.float64] | None = None
+        self.enabled = True
+        """False: the output is the operator's twist, exactly (the operator's switch)."""
+        self._jacobian: NDArray[np.float64] | None = None
+        self._q_targets: dict[str, NDArray[np.float64] | None] = {}
+        """IK of the grasp and the pre-grasp (None: none found), by phase, for the current grasp."""
+        self.clarification_pending = False
+        self.agreement = (1.0, 1.0)
+        """The operator's held agreement with the grasp, linear and angular (module docstring)."""
+        self.yielded = False
+        """Whether the robot yields to the operator's sustained opposition (alpha 0) for this grasp."""
+        self._since: float | None = None
+        """When the operator's current opposition (or, yielded, agreement) began."""
+        self._task_set: int | None = None
+        self._posterior: tuple[NDArray[np.float64], tuple[str, ...], tuple[str, ...]] | None = None
+        self._v: tuple[NDArray[np.float64], tuple[str, ...]] | None = None
+        self._operator: tuple[NDArray[np.float64], float] | None = None
+        self._last_output: float | None = None
+
+    def set_grasp(self, base_T_grasp: NDArray[np.float64]) -> None:
+        """A new planned grasp: valid from now on, and it answers any clarification pending.
+
+        A grasp that moved by more than the corridor's radius or angle is a new proposal: the operator's held
+        agreement and the robot's yielding (module docstring) start afresh.
+        """
+        if self.base_T_grasp is not None:
+            error = pose_error(self.base_T_grasp, base_T_grasp)
+            if (float(np.linalg.norm(error[:3])) > self.config.corridor_radius
+                    or float(np.linalg.norm(error[3:])) > self.config.corridor_angle):
+                self.agreement, self.yielded, self._since = (1.0, 1.0), False, None
+        self.base_T_grasp, self.clarification_pending = base_T_grasp, False
+        self._q_targets = {}
+
+    def set_joints(self, q: NDArray[np.float64]) -> None:
+        """The arm's joint angles (rad, shape (6,)): the hand's pose and the Jacobian there (needs ``kin``)."""
+        if self.kin is None:
+            raise ValueError('set_joints needs the kinematics (Assistance(..., kin=...))')
+        self.q, self.base_T_ee, self._jacobian = q, self.kin.fk(q), self.kin.jacobian(q)
+
+    def set_posterior(self, posterior: NDArray[np.float64], zone_labels: Sequence[str],
+                      task_names: Sequence[str]) -> None:
+        """The planned grasp's posterior over the model's zones of ``task_names`` (the latest is used)."""
+        self._posterior = (posterior, tuple(zone_labels), tuple(task_names))
+
+    def set_task_set(self, task_set: int | None) -> None:
+        """The planned grasp's task set (bitmask over the posterior's tasks), None when it is no demonstration."""
+        self._task_set = task_set
+
+    def set_v(self, v: NDArray[np.float64], labels: Sequence[str]) -> None:
+        """The newest target vector v over the zones ``labels``."""
+        self._v = (v, tuple(labels))
+
+    def clarification(self) -> None:
+        """A clarification was requested: no assistance until the next grasp."""
+        self.clarification_pending = True
+
+    def set_operator(self, twist: NDArray[np.float64], now: float) -> None:
+        """The operator's twist (shape (6,), base frame) received at ``now``."""
+        self._operator = (twist, now)
+
+    def operator_fresh(self, now: float) -> bool:
+        """Whether the operator's twist is at most ``operator_timeout`` old."""
+        return self._operator is not None and now - self._operator[1] <= self.config.operator_timeout
+
+    def serving(self) -> float:
+        """P(the planned grasp serves T | w) now (:func:`serving_probability`; 0 without v or a posterior)."""
+        if self._v is None or self._posterior is None:
+            return 0.0
+        posterior, zone_labels, task_names = self._posterior
+        v, labels = self._v
+        return serving_probability(v, labels, task_names, task_set=self._task_set, posterior=posterior,
+                                   zone_labels=zone_labels)
+
+    def alpha(self) -> tuple[float, str]:
+        """The arbitration weight now before the operator's agreement, and the robot's phase or why it is 0."""
+        cfg = self.config
+        if not self.enabled:
+            return 0.0, 'assistance off'
+        if cfg.arbitration == 'none':
+            return 0.0, 'direct teleoperation'
+        if self.clarification_pending:
+            return 0.0, 'clarification pending'
+        if self.base_T_grasp is None:
+            return 0.0, 'no grasp'
+        if self.base_T_ee is None:
+            return 0.0, 'no joint state'
+        if self._v is None:
+            return 0.0, 'no intent'
+        alpha = arbitration(cfg.arbitration, self._v[0], self.serving() if cfg.arbitration == 'confidence' else 0.0,
+                            alpha_max=cfg.alpha_max, margin=cfg.margin)
+        return alpha, 'assisting'
+
+    def _agree(self, operator: NDArray[np.float64], now: float) -> float:
+        """Update the held agreement and the yielding from the operator's twist at ``now``; the agreement o."""
+        cfg = self.config
+        assert self.base_T_ee is not None and self.base_T_grasp is not None
+        error = pose_error(self.base_T_ee, self.base_T_grasp)  # toward the proposal, the grasp itself
+        goal = np.concatenate([cfg.gain_linear * error[:3], cfg.gain_angular * error[3:]])
+        measured = operator_agreement(operator, goal, deadband_linear=cfg.deadband_linear,
+                                      deadband_angular=cfg.deadband_angular)
+        linear, angular = (held if fresh is None else fresh for fresh, held in zip(measured, self.agreement))
+        self.agreement = (linear, angular)
+        parts = [m for m in measured if m is not None]
+        if parts:  # evidence: against the grasp in some part, or toward it in every measured part
+            against = min(parts) < 0.5
+            if against == self.yielded:  # the state holds: nothing is building up
+                self._since = None
+            elif self._since is None:
+                self._since = now
+            if self._since is not None and now - self._since >= cfg.yield_time:
+                self.yielded, self._since = not self.yielded, None
+        return 0.0 if self.yielded else min(linear, angular)
+
+    def command(self, now: float) -> Command:
+        """The twist to send at ``now``: the blend within the limits, or the zero twist for a stale operator."""
+        dt = self.limiter.max_dt if self._last_output is None else now - self._last_output
+        self._last_output = now
+        if not self.operator_fresh(now):
+            return Command(self.limiter.stop(), 0.0, 'operator input stale')
+        assert self._operator is not None
+        operator = self._operator[0]
+        if not self.enabled:
+            self.limiter.last = operator.copy()
+            return Command(operator.copy(), 0.0, 'assistance off')
+        alpha, phase = self.alpha()
+        cfg = self.config
+        robot = np.zeros(6)
+        if alpha > 0.0:
+            assert self.base_T_ee is not None and self.base_T_grasp is not None
+            if cfg.arbitration == 'confidence':
+                alpha *= self._agree(operator, now)
+            idle = _norm(operator[:3]) <= cfg.deadband_linear and _norm(operator[3:]) <= cfg.deadband_angular
+            if idle and not cfg.assist_without_input:
+                alpha, phase = 0.0, 'no operator input'
+            elif alpha > 0.0:
+                robot, phase = self.robot()
+            else:
+                phase = 'yielded to the operator' if self.yielded else phase
+        return Command(self.limiter.limit(blend(alpha, robot, operator), dt), alpha, phase)
+
+    def robot(self) -> tuple[NDArray[np.float64], str]:
+        """The robot's twist toward the planned grasp now (before any blending), and its phase.
+
+        Needs the grasp and the hand's pose (set_grasp, set_joints or base_T_ee).
+        """
+        cfg = self.config
+        assert self.base_T_ee is not None and self.base_T_grasp is not None
+        target, phase = assistance_target(self.base_T_ee, self.base_T_grasp, standoff=cfg.standoff,
+                                          corridor_radius=cfg.corridor_radius, corridor_angle=cfg.corridor_angle)
+        return self._robot_twist(target, phase), phase
+
+    def _robot_twist(self, base_T_target: NDArray[np.float64], phase: str) -> NDArray[np.float64]:
+        """The robot's twist toward ``base_T_target`` (the grasp or the pre-grasp, ``phase``): module docstring."""
+        cfg = self.config
+        if self.kin is not None and self.q is not None and self._jacobian is not None:
+            if phase not in self._q_targets:
+                ik = self.kin.ik(base_T_target, self.q, restarts=0)  # the solution the joints descend to
+                self._q_targets[phase] = ik.q if ik.success else None
+            q_target = self._q_targets[phase]
+            if q_target is not None:
+                return joint_space_twist(self._jacobian, self.q, q_target, gain=cfg.gain_joint,
+                                         max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)
+        assert self.base_T_ee is not None
+        return robot_twist(self.base_T_ee, base_T_target, gain_linear=cfg.gain_linear, gain_angular=cfg.gain_angular,
+                           max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)

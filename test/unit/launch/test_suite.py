@@ -1,0 +1,206 @@
+"""grasp_intent_ros.launch.suite on plain ``python -c`` processes (no ROS node is started)."""
+
+from __future__ import annotations
+
+import signal
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from grasp_intent_ros.launch.suite import (
+    FASTDDS_PROFILE,
+    RUN_DOMAIN_IDS,
+    TEST_DOMAIN_IDS,
+    NodeProcess,
+    NodeSuite,
+    SuiteError,
+    domain_id_from_environment,
+    node_environment,
+    use_loopback_discovery,
+)
+from grasp_intent_ros.resources import config_dir
+
+SLEEPER = 'import time; time.sleep(60)'
+
+
+def run(tmp_path: Path, code: str) -> NodeProcess:
+    """``python -c <code>`` as process 'probe', its logs in ``tmp_path``."""
+    return NodeProcess([sys.executable, '-c', code], module='probe', env=node_environment(97), log_dir=tmp_path)
+
+
+def test_node_environment_is_loopback_only_and_unbuffered() -> None:
+    base = {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET', 'ROS_STATIC_PEERS': '10.0.0.1', 'HOME': '/home/x'}
+    env = node_environment(42, base)
+    assert env == {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': '42', 'HOME': '/home/x',
+                   'PYTHONUNBUFFERED': '1', 'RCUTILS_LOGGING_BUFFERED_STREAM': '0',
+                   'FASTRTPS_DEFAULT_PROFILES_FILE': str(config_dir() / FASTDDS_PROFILE),
+                   'RMW_FASTRTPS_USE_QOS_FROM_XML': '1'}
+    assert base['ROS_STATIC_PEERS'] == '10.0.0.1'  # not modified
+    mine = node_environment(42, {**base, 'FASTRTPS_DEFAULT_PROFILES_FILE': 'mine.xml'})
+    assert mine['FASTRTPS_DEFAULT_PROFILES_FILE'] == 'mine.xml', "the user's own profile is kept"
+    assert 'RMW_FASTRTPS_USE_QOS_FROM_XML' not in mine, 'and rmw_fastrtps uses it as the user chose'
+
+
+def test_fastdds_profile_sets_timing_loopback_data_locators_and_payload_memory_only() -> None:
+    """The profile sets discovery timing, user data on UDP 127.0.0.1, payload memory; never transports or peers.
+
+    Which interfaces and peers discovery uses stays with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; the one
+    locator the profile sets is the loopback address (the file's comment says why). Readers and writers
+    hold a payload only while its sample is held (DYNAMIC), without data sharing.
+    """
+    import xml.etree.ElementTree as ET
+    ns = {'p': 'http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles'}
+    root = ET.parse(config_dir() / FASTDDS_PROFILE).getroot()
+    participants = root.findall('p:participant', ns)
+    assert len(participants) == 1 and participants[0].get('is_default_profile') == 'true'
+    assert [child.tag.split('}')[1] for child in root] == ['participant', 'data_writer', 'data_reader']
+    for endpoint in root.findall('p:data_writer', ns) + root.findall('p:data_reader', ns):
+        assert endpoint.get('is_default_profile') == 'true'
+        assert [(child.tag.split('}')[1], (child.text or '').strip()) for child in endpoint] == [
+            ('historyMemoryPolicy', 'DYNAMIC'), ('qos', '')]
+        assert endpoint.find('p:qos/p:data_sharing/p:kind', ns).text == 'OFF'
+    discovery = participants[0].find('p:rtps/p:builtin/p:discovery_config', ns)
+    assert discovery is not None
+    assert sorted(child.tag.split('}')[1] for child in discovery) == ['initialAnnouncements', 'leaseAnnouncement']
+    assert [child.tag.split('}')[1] for child in participants[0].find('p:rtps/p:builtin', ns)] == ['discovery_config']
+    rtps = participants[0].find('p:rtps', ns)
+    assert [child.tag.split('}')[1] for child in rtps] == ['defaultUnicastLocatorList', 'builtin']
+    locators = rtps.findall('p:defaultUnicastLocatorList/p:locator', ns)
+    assert [[(child.tag.split('}')[1], [(a.tag.split('}')[1], a.text) for a in child]) for child in locator]
+            for locator in locators] == [[('udpv4', [('address', '127.0.0.1')])]]
+
+
+def test_clean_exit_and_log_files(tmp_path: Path) -> None:
+    proc = NodeProcess([sys.executable, '-c', 'import sys; print("out"); print("err", file=sys.stderr)'],
+                       module='probe', env=node_environment(97), log_dir=tmp_path, prefix='03_')
+    assert proc.wait(10.0) == 0
+    assert proc.problem() == ''
+    assert (tmp_path / '03_probe.out').read_text() == 'out\n'
+    assert proc.stderr() == 'err\n'
+    assert proc.stderr_tail() == '    | err'
+
+
+def test_stop_by_signal_reports_the_exit_code(tmp_path: Path) -> None:
+    proc = run(tmp_path, SLEEPER)
+    assert proc.poll() is None
+    with pytest.raises(RuntimeError, match='still running'):
+        proc.problem()
+    assert proc.stop(signal.SIGTERM) == -signal.SIGTERM
+    assert proc.problem() == f'probe (pid {proc.pid}) exited with code {-signal.SIGTERM}'
+    assert proc.stop() == -signal.SIGTERM  # exited: no signal is sent
+
+
+def test_traceback_is_a_problem(tmp_path: Path) -> None:
+    proc = run(tmp_path, 'import sys\ntry:\n    1 / 0\nexcept ZeroDivisionError:\n'
+                         '    import traceback; traceback.print_exc(); sys.exit(0)')
+    assert proc.wait(10.0) == 0
+    assert proc.problem() == f'probe (pid {proc.pid}) printed a traceback'
+    assert 'ZeroDivisionError' in proc.stderr_tail(1)
+
+
+def test_sigkill_after_the_deadline(tmp_path: Path) -> None:
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})  # inherited: the child never sees SIGTERM
+    try:
+        proc = run(tmp_path, SLEEPER)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    assert proc.stop(signal.SIGTERM, timeout=0.5) == -signal.SIGKILL
+    assert proc.problem() == f'probe (pid {proc.pid}) did not exit after SIGTERM and was killed'
+
+
+def test_domain_id_is_validated_once() -> None:
+    assert domain_id_from_environment({'ROS_DOMAIN_ID': ' 42 '}) == 42
+    assert domain_id_from_environment({'ROS_DOMAIN_ID': ''}, unset=0) == 0
+    assert domain_id_from_environment({}) in RUN_DOMAIN_IDS and not set(RUN_DOMAIN_IDS) & set(TEST_DOMAIN_IDS)
+    for bad in ('102', '-1', 'x', '4.2'):
+        with pytest.raises(SuiteError, match='0..101'):
+            domain_id_from_environment({'ROS_DOMAIN_ID': bad})
+    with pytest.raises(SuiteError, match='0..101'):
+        NodeSuite(102)
+
+
+def test_loopback_discovery_is_set_in_the_given_environment() -> None:
+    env = {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET', 'ROS_STATIC_PEERS': '10.0.0.1'}
+    assert use_loopback_discovery(env) == 'SUBNET'
+    assert env == {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+                   'FASTRTPS_DEFAULT_PROFILES_FILE': str(config_dir() / FASTDDS_PROFILE),
+                   'RMW_FASTRTPS_USE_QOS_FROM_XML': '1'}
+    mine = {'FASTRTPS_DEFAULT_PROFILES_FILE': 'mine.xml'}
+    assert use_loopback_discovery(mine) is None
+    assert mine == {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'FASTRTPS_DEFAULT_PROFILES_FILE': 'mine.xml'}
+
+
+def test_suite_waits_notices_a_death_and_stops_by_pid(tmp_path: Path) -> None:
+    suite = NodeSuite(97, log_dir=tmp_path)
+    suite.processes += [run(tmp_path, SLEEPER), NodeProcess([sys.executable, '-c', 'import sys; sys.exit(3)'],
+                                                            module='quitter', env=suite.env, log_dir=tmp_path)]
+    spins: list[float] = []
+    with pytest.raises(SuiteError, match=r'quitter \(pid \d+\) exited with code 3'):
+        suite.wait_ready(lambda: ['not yet'], spins.append, 30.0)
+    assert suite.wait_ready(lambda: [], spins.append, 0.0) == []
+    assert suite.stop(include_exited=False) == [f'probe (pid {suite.processes[0].pid}) exited with code '
+                                                f'{-signal.SIGTERM}:\n    | (empty)']
+    assert suite.stop(tail_lines=0) == [f'probe (pid {suite.processes[0].pid}) exited with code {-signal.SIGTERM}',
+                                        f'quitter (pid {suite.processes[1].pid}) exited with code 3']
+    suite.remove_logs()
+    assert tmp_path.is_dir(), 'a log directory given by the caller stays'
+
+
+def test_nodes_stop_one_at_a_time_the_last_started_first_each_in_a_session_of_its_own(tmp_path: Path) -> None:
+    """Each writes to one shared file (appends are ordered) when it gets SIGTERM and just before it exits."""
+    journal = tmp_path / 'journal'
+    code = ('import os, signal, sys, time\n'
+            'name = sys.argv[1]\n'
+            'def note(what):\n'
+            '    with open({journal!r}, "a") as f:\n'
+            '        f.write(f"{{name}} {{what}}\\n")\n'
+            'def stop(*_):\n'
+            '    note("signalled"); time.sleep(0.2); note("exits"); sys.exit(0)\n'
+            'signal.signal(signal.SIGTERM, stop)\n'
+            'note(f"session {{os.getsid(0) == os.getpid()}}")\n'
+            'while True:\n'
+            '    time.sleep(1)\n').format(journal=str(journal))
+    suite = NodeSuite(97, log_dir=tmp_path)
+    for name in ('first', 'second', 'third'):
+        suite.processes.append(NodeProcess([sys.executable, '-c', code, name], module=name, env=suite.env,
+                                           log_dir=tmp_path))
+    assert suite.wait_ready(lambda: [] if journal.is_file() and len(journal.read_text().splitlines()) == 3
+                            else ['not yet'], lambda seconds: time.sleep(seconds), 30.0) == []
+    assert suite.stop() == []
+    lines = journal.read_text().splitlines()
+    assert sorted(lines[:3]) == ['first session True', 'second session True', 'third session True']
+    assert lines[3:] == ['third signalled', 'third exits', 'second signalled', 'second exits', 'first signalled',
+                         'first exits']
+
+
+def test_optional_nodes_start_on_request_after_the_suite_with_every_params_file(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``suite --with NAME`` for any entry of OPTIONAL_NODES; no process is started (``start`` recorded)."""
+    import grasp_intent_ros.launch.suite as suite_module
+
+    monkeypatch.setattr(suite_module, 'OPTIONAL_NODES', ('viewer_like',))
+    started: list[tuple[str, tuple[str, ...]]] = []
+    monkeypatch.setattr(NodeSuite, 'start', lambda self, module, *args: started.append((module, args)))
+    mine = tmp_path / 'mine.yaml'
+    suite = NodeSuite(97, log_dir=tmp_path)
+    suite.start_nodes(namespace='/r1', params_files=[mine], extra=['viewer_like'])
+    assert [m for m, _ in started] == [*suite_module.SUITE_NODES, 'viewer_like']
+    for module, args in started:
+        files = [args[i + 1] for i, a in enumerate(args) if a == '--params-file']
+        own = config_dir() / f'{module}.yaml'
+        assert files == ([str(own)] if own.is_file() else []) + [str(mine.resolve())], (module, args)
+        assert ('-r', '__ns:=/r1') == args[args.index('-r'):args.index('-r') + 2]
+    started.clear()
+    with pytest.raises(SuiteError, match="no optional node nope; there are: viewer_like"):
+        suite.start_nodes(extra=['nope'])
+    assert not started
+
+
+def test_the_shared_control_nodes_get_their_config_and_the_suite_remappings() -> None:
+    args = NodeSuite.node_args('mock_arm', namespace='/robot1')
+    assert args[:2] == ['--params-file', str(config_dir() / 'mock_arm.yaml')]
+    assert args[2:] == ['-r', '__ns:=/robot1', '-r', 'arm_controller/joint_trajectory:=grasp/trajectory',
+                        '-r', 'servo/delta_twist_cmds:=assistance/twist']
+    assert NodeSuite.node_args('assistance') == ['--params-file', str(config_dir() / 'assistance.yaml')]

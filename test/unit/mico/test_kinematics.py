@@ -1,0 +1,374 @@
+"""Unit tests of grasp_intent_ros.mico.kinematics and resources (no rclpy)."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
+import pytest
+from numpy.testing import assert_allclose
+from numpy.typing import NDArray
+
+from grasp_intent_ros import resources
+from grasp_intent_ros.errors import KinematicsError
+from grasp_intent_ros.kernels import warm_up
+from grasp_intent_ros.kernels.ik import _chain_fk, _ik_descent, _ik_jacobian, _ik_residual, _log3
+from grasp_intent_ros.method.features import APPROACH, FINGER_CLOSED
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, obj_T_ee_to_features, pose_to_matrix
+from grasp_intent_ros.mico.kinematics import (
+    ARM_JOINTS,
+    EE_FRAME,
+    FINGER_JOINTS,
+    HOME_Q,
+    MicoKinematics,
+    Reachability,
+    default_urdf_path,
+)
+
+WIDE = (0, 3, 4, 5)
+
+# -- an independent implementation of Kinova's MICO DH table (standard DH, theta = s q + o) -------------
+_K = math.sin(math.radians(30)) / math.sin(math.radians(60))
+_D1, _D2, _D3, _D4, _D5, _D6, _E2 = 0.2755, 0.2900, 0.1233, 0.0741, 0.0741, 0.1600, 0.0070
+_DH = (  # a, d, alpha, s, o
+    (0.0, _D1, math.pi / 2, -1.0, 0.0),
+    (_D2, 0.0, math.pi, 1.0, -math.pi / 2),
+    (0.0, -_E2, math.pi / 2, 1.0, math.pi / 2),
+    (0.0, -(_D3 + _K * _D4), math.radians(60), 1.0, 0.0),
+    (0.0, -_K * (_D4 + _D5), math.radians(60), 1.0, -math.pi),
+    (0.0, -(_K * _D5 + _D6), math.pi, 1.0, math.pi / 2),
+)
+
+
+def dh_fk(q: NDArray[np.float64]) -> NDArray[np.float64]:
+    base_T_i = np.eye(4)
+    for (a, d, alpha, s, o), q_i in zip(_DH, q):
+        theta = s * q_i + o
+        ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
+        base_T_i = base_T_i @ np.array([[ct, -st * ca, st * sa, a * ct],
+                                        [st, ct * ca, -ct * sa, a * st],
+                                        [0.0, sa, ca, d],
+                                        [0.0, 0.0, 0.0, 1.0]])
+    return base_T_i
+
+
+@pytest.fixture(scope='module')
+def kin() -> MicoKinematics:
+    return MicoKinematics()
+
+
+def random_q(kin: MicoKinematics, rng: np.random.Generator) -> NDArray[np.float64]:
+    """Joint angles within the limits, wide joints within pi of home."""
+    q = rng.uniform(kin.lower, kin.upper)
+    q[list(WIDE)] = HOME_Q[list(WIDE)] + rng.uniform(-math.pi, math.pi, len(WIDE))
+    return q
+
+
+def pose_errors(base_T_a: NDArray[np.float64], base_T_b: NDArray[np.float64]) -> tuple[float, float]:
+    pos = float(np.linalg.norm(base_T_a[:3, 3] - base_T_b[:3, 3]))
+    cos_angle = (np.trace(base_T_a[:3, :3].T @ base_T_b[:3, :3]) - 1.0) / 2.0
+    return pos, math.acos(min(1.0, max(-1.0, cos_angle)))
+
+
+# -- URDF and model ---------------------------------------------------------------------------------
+
+def test_model_joints_and_limits(kin: MicoKinematics) -> None:
+    assert kin.joint_names == ARM_JOINTS
+    assert kin.model.nq == 6
+    assert_allclose(kin.lower[[1, 2]], np.radians([50.0, 35.0]))
+    assert_allclose(kin.upper[[1, 2]], np.radians([310.0, 325.0]))
+    assert np.all(kin.lower[list(WIDE)] <= HOME_Q[list(WIDE)] - 2 * math.pi)
+    assert np.all(kin.upper[list(WIDE)] >= HOME_Q[list(WIDE)] + 2 * math.pi)
+    assert np.all((kin.lower < HOME_Q) & (HOME_Q < kin.upper))
+    assert_allclose(kin.velocity_limits, np.radians([36, 36, 36, 48, 48, 48]))
+    with pytest.raises(ValueError):
+        kin.lower[0] = 0.0
+
+
+def test_urdf_fingers() -> None:
+    full = pin.buildModelFromUrdf(str(default_urdf_path()))
+    for name in FINGER_JOINTS:
+        jid = full.getJointId(name)
+        assert jid < full.njoints
+        assert full.lowerPositionLimit[full.idx_qs[jid]] == 0.0
+        assert full.upperPositionLimit[full.idx_qs[jid]] == pytest.approx(FINGER_CLOSED)
+    for i in (1, 2, 3):
+        assert full.existFrame(f'm1n6s300_link_finger_{i}')
+        assert full.existFrame(f'm1n6s300_link_finger_tip_{i}')
+    assert full.nq == 9  # fingertips are fixed
+
+
+def test_fk_matches_dh_table(kin: MicoKinematics) -> None:
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        q = rng.uniform(-2 * math.pi, 2 * math.pi, 6)
+        assert_allclose(kin.fk(q), dh_fk(q), rtol=0.0, atol=1e-9)
+
+
+def test_home_fk(kin: MicoKinematics) -> None:
+    base_T_ee = kin.fk(HOME_Q)
+    assert_allclose(base_T_ee[:3, 3], (0.2149, -0.2036, 0.4187), atol=1e-3)
+
+
+def test_fk_rejects_bad_q(kin: MicoKinematics) -> None:
+    for bad in (np.zeros(5), np.zeros((6, 1)), np.full(6, np.nan), 'abcdef'):
+        with pytest.raises(KinematicsError):
+            kin.fk(bad)
+
+
+# -- inverse kinematics -----------------------------------------------------------------------------
+
+def test_compiled_chain_fk_matches_pinocchio(kin: MicoKinematics) -> None:
+    """The compiled IK's chain (read from the Pinocchio model) gives Pinocchio's FK: the IK works on the URDF."""
+    rng = np.random.default_rng(7)
+    origins, zs = np.empty((6, 3)), np.empty((6, 3))
+    for _ in range(50):
+        q = random_q(kin, rng)
+        R, p = _chain_fk(q, *kin._chain, origins, zs)
+        assert_allclose(kin._world_T_base[:3, :3] @ kin.fk(q)[:3, :3], R, atol=1e-12)
+        assert_allclose(kin._world_T_base[:3, :3] @ kin.fk(q)[:3, 3] + kin._world_T_base[:3, 3], p, atol=1e-12)
+
+
+def test_ik_kernel_warmed_up_with_the_types_ik_uses(kin: MicoKinematics) -> None:
+    """After warm_up, IK compiles nothing more: a node that loaded its kernels at start never compiles in a plan."""
+    warm_up()
+    before = len(_ik_descent.signatures)
+    kin.ik(kin.fk(HOME_Q + 0.2), HOME_Q)
+    x = np.array([0.0, 0.0, 0.1, 0.0, 0.0, -1.0, 0.0, 0.5, 0.5, 0.5])  # palm 10 cm above, approach down
+    Reachability(kin, pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 0.0, 1.0)))(x)
+    assert len(_ik_descent.signatures) == before
+
+
+@pytest.mark.parametrize('angle', [0.0, 1e-9, 1e-5, 0.3, 2.0, math.pi - 2e-3, math.pi - 1e-6, math.pi])
+def test_log3_matches_pinocchio(angle: float) -> None:
+    """The rotation vector, also within 1e-3 of pi where the kernel takes the axis from the symmetric part."""
+    rng = np.random.default_rng(int(angle * 1e6))
+    for _ in range(5):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        R = pin.exp3(angle * axis)
+        phi = _log3(np.ascontiguousarray(R))
+        assert_allclose(pin.exp3(phi), R, atol=1e-12)
+        assert float(np.linalg.norm(phi)) == pytest.approx(angle, abs=1e-9)
+        if angle < math.pi - 1e-6:  # at pi, phi and -phi are the same rotation
+            assert_allclose(phi, np.asarray(pin.log3(R)), atol=1e-9)
+
+
+def test_ik_jacobian_matches_central_differences(kin: MicoKinematics) -> None:
+    """de/dq of the compiled IK against central differences (1e-6 relative), rotation errors up to 3 rad."""
+    rng = np.random.default_rng(8)
+    origins, zs = np.empty((6, 3)), np.empty((6, 3))
+    for _ in range(20):
+        q_target, q = random_q(kin, rng), random_q(kin, rng)
+        W = kin._world_T_base @ kin.fk(q_target)
+        R_t, p_t = np.ascontiguousarray(W[:3, :3]), np.ascontiguousarray(W[:3, 3])
+        e, R, p = _ik_residual(q, *kin._chain, R_t, p_t, origins, zs)
+        if np.linalg.norm(e[3:]) > 3.0:  # log3 is not differentiable at pi
+            continue
+        J = _ik_jacobian(e, R, p, origins, zs)
+        h = 1e-6
+        numeric = np.empty((6, 6))
+        for i in range(6):
+            dq = np.zeros(6)
+            dq[i] = h
+            plus = _ik_residual(q + dq, *kin._chain, R_t, p_t, origins.copy(), zs.copy())[0]
+            minus = _ik_residual(q - dq, *kin._chain, R_t, p_t, origins.copy(), zs.copy())[0]
+            numeric[:, i] = (plus - minus) / (2 * h)
+        assert_allclose(J, numeric, rtol=1e-6, atol=1e-7)
+
+
+def test_ik_round_trip_from_home(kin: MicoKinematics) -> None:
+    rng = np.random.default_rng(1)
+    n, successes = 100, 0
+    for _ in range(n):
+        base_T_target = kin.fk(random_q(kin, rng))
+        res = kin.ik(base_T_target, HOME_Q, restarts=8, rng=rng)
+        assert np.all((kin.lower <= res.q) & (res.q <= kin.upper))
+        assert np.all(np.abs(res.q[list(WIDE)] - HOME_Q[list(WIDE)]) <= math.pi + 1e-9)
+        if res.success:
+            successes += 1
+            pos, rot = pose_errors(kin.fk(res.q), base_T_target)
+            assert pos <= 1e-4 and rot <= 1e-3, res.message
+            assert res.pos_error_m == pytest.approx(pos, abs=1e-9)
+    assert successes / n >= 0.95
+
+
+def test_ik_runs_to_the_solution_so_last_bits_do_not_move_it(kin: MicoKinematics) -> None:
+    """Not the first point within tolerance: the seed moved by 1e-12 gives the same joints within 1e-8 rad."""
+    rng = np.random.default_rng(3)
+    for _ in range(40):
+        base_T_target = kin.fk(random_q(kin, rng))
+        res = kin.ik(base_T_target, HOME_Q)
+        if not res.success:
+            continue
+        nudged = kin.ik(base_T_target, HOME_Q * (1.0 + 1e-12 * rng.standard_normal(6)))
+        assert nudged.success
+        assert res.pos_error_m <= 1e-10 and res.rot_error_rad <= 1e-10, res.message
+        assert_allclose(nudged.q, res.q, atol=1e-8)
+
+
+def test_ik_near_seed_is_fast_and_exact(kin: MicoKinematics) -> None:
+    rng = np.random.default_rng(2)
+    for _ in range(30):
+        q_true = random_q(kin, rng)
+        q_seed = np.clip(q_true + rng.normal(0.0, 0.05, 6), kin.lower, kin.upper)
+        base_T_target = kin.fk(q_true)
+        res = kin.ik(base_T_target, q_seed, restarts=0)
+        assert res.success, res.message
+        assert res.attempts == 1 and res.iterations <= 20
+        pos, rot = pose_errors(kin.fk(res.q), base_T_target)
+        assert pos <= 1e-4 and rot <= 1e-3
+        # the same solution (joint errors of a few mrad are allowed near the wrist singularity q5 = 0)
+        assert_allclose(res.q, q_true, atol=0.05)
+
+
+def test_ik_answer_on_branch_nearest_seed(kin: MicoKinematics) -> None:
+    q_true = np.array([1.0, 2.5, 1.5, -0.5, 2.0, 0.3])
+    q_seed = q_true + np.array([2 * math.pi, 0.0, 0.0, -2 * math.pi, 4 * math.pi, 2 * math.pi]) + 0.02
+    res = kin.ik(kin.fk(q_true), q_seed)
+    assert res.success, res.message
+    # joint 5's nearest branch (q + 4 pi = 14.6) lies beyond the 4 pi limit: the nearest one inside is taken
+    expected = q_true + np.array([2 * math.pi, 0.0, 0.0, -2 * math.pi, 2 * math.pi, 2 * math.pi])
+    assert_allclose(res.q, expected, atol=0.02)
+
+
+def test_nearest_branch(kin: MicoKinematics) -> None:
+    q = np.array([0.1, 2.0, 2.0, 0.2, 0.3, 0.4])
+    ref = np.array([6.3, 5.0, 0.7, -6.0, -12.5, 30.0])
+    out = kin.nearest_branch(q, ref)
+    assert_allclose(out[[1, 2]], q[[1, 2]])
+    assert_allclose(out[[0, 3]], q[[0, 3]] + np.array([2 * math.pi, -2 * math.pi]))
+    assert kin.lower[4] <= out[4] and out[5] <= kin.upper[5]
+    assert_allclose(kin.fk(out), kin.fk(q), atol=1e-12)
+
+
+def test_nearest_branch_is_the_nearest_whole_turn_within_the_limits(kin: MicoKinematics) -> None:
+    rng = np.random.default_rng(11)
+    wide = [0, 3, 4, 5]
+    for _ in range(300):
+        q, ref = rng.uniform(-20.0, 20.0, 6), rng.uniform(-20.0, 20.0, 6)
+        out = kin.nearest_branch(q, ref)
+        assert_allclose(out[[1, 2]], q[[1, 2]], rtol=0, atol=0)  # joints with end stops: as given
+        turns = (out[wide] - q[wide]) / (2 * math.pi)
+        assert_allclose(turns, np.round(turns), rtol=0, atol=1e-9)  # the pose is kept
+        nearest = q[wide] + 2 * math.pi * np.round((ref[wide] - q[wide]) / (2 * math.pi))
+        inside = (kin.lower[wide] <= nearest) & (nearest <= kin.upper[wide])
+        assert_allclose(out[wide][inside], nearest[inside], rtol=0, atol=1e-12)
+        assert np.all((kin.lower[wide] <= out[wide]) & (out[wide] <= kin.upper[wide]))
+
+
+def test_ik_reproducible(kin: MicoKinematics) -> None:
+    q_true = random_q(kin, np.random.default_rng(3))
+    target = kin.fk(q_true)
+    first = kin.ik(target, rng=7)
+    second = kin.ik(target, rng=7)
+    assert_allclose(first.q, second.q)
+    assert first.iterations == second.iterations
+
+
+def test_ik_unreachable_reports_failure(kin: MicoKinematics) -> None:
+    base_T_target = np.eye(4)
+    base_T_target[:3, 3] = (2.0, 0.0, 0.3)
+    res = kin.ik(base_T_target, restarts=2)
+    assert not res.success
+    assert res.pos_error_m > 1.0
+    assert res.attempts == 0 and res.iterations == 0  # beyond MAX_REACH: answered without iterating
+    assert np.all(np.isfinite(res.q)) and np.all((kin.lower <= res.q) & (res.q <= kin.upper))
+    assert 'reach' in res.message
+
+
+def test_ik_that_does_not_converge_reports_failure(kin: MicoKinematics) -> None:
+    q_far = np.array(HOME_Q) + np.array([1.0, -0.6, 0.8, 1.0, 1.0, 1.0])
+    res = kin.ik(kin.fk(q_far), restarts=2, max_iter=1)  # one iteration per attempt cannot get there
+    assert not res.success
+    assert res.attempts == 3
+    assert np.all(np.isfinite(res.q)) and np.all((kin.lower <= res.q) & (res.q <= kin.upper))
+    assert 'did not converge' in res.message
+
+
+def test_ik_rejects_bad_input(kin: MicoKinematics) -> None:
+    good = kin.fk(HOME_Q)
+    skewed = good.copy()
+    skewed[:3, :3] *= 1.1
+    bottom = good.copy()
+    bottom[3, 0] = 1.0
+    for target in (np.eye(3), np.full((4, 4), np.nan), skewed, bottom):
+        with pytest.raises(KinematicsError):
+            kin.ik(target)
+    with pytest.raises(KinematicsError):
+        kin.ik(good, np.zeros(5))
+    with pytest.raises(KinematicsError):
+        kin.ik(good, restarts=-1)
+    with pytest.raises(KinematicsError):
+        kin.ik(good, pos_tol=0.0)
+
+
+def test_missing_urdf_raises(tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError):
+        MicoKinematics(tmp_path / 'nope.urdf')
+    bad = tmp_path / 'two_link.urdf'
+    bad.write_text('<robot name="r"><link name="a"/><link name="b"/>'
+                   '<joint name="j" type="revolute"><parent link="a"/><child link="b"/>'
+                   '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/>'
+                   '</joint></robot>')
+    with pytest.raises(KinematicsError):
+        MicoKinematics(bad)
+
+
+def test_features_to_base_pose_and_ik(kin: MicoKinematics) -> None:
+    """The planner's path: features in the object frame -> base_T_ee -> joint angles."""
+    base_T_obj = pose_to_matrix((0.35, -0.25, 0.0), (0.0, 0.0, math.sin(0.3), math.cos(0.3)))
+    x = np.array([0.0, 0.0, 0.12, 0.0, 0.0, -1.0, 0.2, 0.5, 0.5, 0.5])
+    base_T_ee = base_T_obj @ features_to_obj_T_ee(x)
+    res = kin.ik(base_T_ee)
+    assert res.success, res.message
+    assert_allclose(kin.fk(res.q)[:3, 2], base_T_obj[:3, :3] @ x[APPROACH], atol=1e-3)
+
+
+# -- poses --------------------------------------------------------------------------------------------
+
+# -- resources ----------------------------------------------------------------------------------------
+
+def test_config_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv(resources.CONFIG_ENV_VAR, raising=False)
+    assert (resources.config_dir() / 'mico_3f.urdf').is_file()
+    assert default_urdf_path().name == 'mico_3f.urdf'
+    monkeypatch.setenv(resources.CONFIG_ENV_VAR, str(tmp_path))
+    assert resources.config_dir() == tmp_path
+    with pytest.raises(FileNotFoundError, match='mico_3f.urdf'):
+        default_urdf_path()
+    monkeypatch.setenv(resources.CONFIG_ENV_VAR, str(tmp_path / 'missing'))
+    with pytest.raises(FileNotFoundError, match=resources.CONFIG_ENV_VAR):
+        resources.config_dir()
+
+
+def test_core_kinematics_does_not_import_rclpy() -> None:
+    code = ('import sys, grasp_intent_ros.mico.kinematics, grasp_intent_ros.resources; '
+            'sys.exit("rclpy" in sys.modules)')
+    assert subprocess.run([sys.executable, '-c', code], check=False, timeout=60).returncode == 0
+
+
+def test_ee_frame_name(kin: MicoKinematics) -> None:
+    assert kin.model.existFrame(EE_FRAME)
+
+
+def test_reachability_constraint_caches_ik_answers(kin: MicoKinematics) -> None:
+    from grasp_intent_ros.mico.kinematics import Reachability
+    base_T_obj = np.eye(4)
+    base_T_ee = kin.fk(HOME_Q)  # reachable: the home pose, as a grasp of an object at the base origin
+    x = obj_T_ee_to_features(base_T_ee, np.zeros(3))
+    reach = Reachability(kin, base_T_obj)
+    assert reach(x)
+    first = reach.answer(x)
+    assert reach.answer(x) is first and len(reach.answers) == 1 and reach.seconds > 0.0
+    target = reach.target(x)  # the pose IK solved, kept for the grasp's pose (plan_grasp)
+    assert reach.target(x.copy()) is target and not target.flags.writeable
+    assert_allclose(target, base_T_obj @ features_to_obj_T_ee(x), atol=1e-15)
+    assert_allclose(kin.fk(first.q), target, atol=1e-4)
+    far = base_T_obj.copy()
+    far[:3, 3] = (2.0, 0.0, 0.0)
+    assert not Reachability(kin, far)(x)

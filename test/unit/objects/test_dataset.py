@@ -1,0 +1,367 @@
+"""Rule-based demonstration generators (objects/demos.py) and the generate_data / train CLIs."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from numpy.testing import assert_allclose, assert_array_equal
+
+from grasp_intent_ros.errors import DataError, InvalidFeaturesError
+from grasp_intent_ros.method.data import Demonstrations, load_csv, save_csv
+from grasp_intent_ros.method.features import MICO_3F
+from grasp_intent_ros.method.intent import all_zones, parse_zones
+from grasp_intent_ros.method.model import GraspModel, structure_zones
+from grasp_intent_ros.method.safe_yaml import MAX_DOCUMENT_CHARS
+from grasp_intent_ros.objects import demos, generate_data, train
+from grasp_intent_ros.resources import config_dir
+
+DEG = math.pi / 180.0
+CUP, LIGHT = demos.CUP, demos.FLASHLIGHT
+F_CLOSED = (1.2, 1.2, 1.2)
+
+
+def grasp(aim: tuple[float, float, float], azimuth_deg: float, elevation_deg: float, standoff: float,
+          roll: float, closures: tuple[float, float, float]) -> np.ndarray:
+    return demos.grasp_features(aim, azimuth_deg * DEG, elevation_deg * DEG, standoff, roll, closures)
+
+
+def with_approach(x: np.ndarray, azimuth_deg: float, elevation_deg: float) -> np.ndarray:
+    """X with only the approach direction replaced."""
+    y = x.copy()
+    y[3:6] = demos.grasp_features((0, 0, 0), azimuth_deg * DEG, elevation_deg * DEG, 0.0, 0.0, (0, 0, 0))[3:6]
+    return y
+
+
+def with_values(x: np.ndarray, **changes: float | tuple[float, ...]) -> np.ndarray:
+    """X with named features (or groups 'palm', 'fingers') replaced."""
+    y = x.copy()
+    for name, value in changes.items():
+        if name == 'palm':
+            y[0:3] = value
+        elif name == 'fingers':
+            y[7:10] = value
+        else:
+            y[MICO_3F.names.index(name)] = value
+    return y
+
+
+# ------------------------------------------------------------------------------------ helpers
+def test_approach_elevation() -> None:
+    assert_allclose(demos.approach_elevation(grasp((0, 0, 0), 30, 0, 0.05, 0, F_CLOSED)), 0.0, atol=1e-12)
+    assert_allclose(demos.approach_elevation(grasp((0, 0, 0), 0, 90, 0.05, 0, F_CLOSED)), math.pi / 2)
+    assert_allclose(demos.approach_elevation(grasp((0, 0, 0), 0, 40, 0.05, 0, F_CLOSED)), 40 * DEG)
+    x = with_values(grasp((0, 0, 0), 0, 0, 0.05, 0, F_CLOSED), approach_x=0.0, approach_z=1.0)
+    assert_allclose(demos.approach_elevation(x), -math.pi / 2)  # from below
+    with pytest.raises(InvalidFeaturesError):
+        demos.approach_elevation(with_values(x, approach_z=0.0))
+    with pytest.raises(InvalidFeaturesError):
+        demos.approach_elevation(np.zeros(9))
+
+
+def test_grasp_features_points_at_aim() -> None:
+    x = grasp((0.01, 0.02, 0.03), 60, 35, 0.04, 0.5, (0.1, 0.2, 0.3))
+    assert_allclose(np.linalg.norm(x[3:6]), 1.0)
+    assert_allclose(x[0:3] + 0.04 * x[3:6], (0.01, 0.02, 0.03), atol=1e-12)
+    assert_allclose(demos.palm_azimuth(with_values(x, palm=tuple(x[0:3] - (0.01, 0.02, 0)))), 60 * DEG)
+    assert_allclose(x[6:], (0.5, 0.1, 0.2, 0.3))
+
+
+def test_finger_helpers() -> None:
+    x = grasp((0, 0, 0), 0, 0, 0.05, 0, (1.2, demos.CLOSED, 0.79))
+    assert demos.closed_fingers(x) == 2
+    assert demos.closed_fingers(x, threshold=1.0) == 1
+    assert_allclose(demos.mean_closure(x), (1.2 + 0.8 + 0.79) / 3)
+    assert demos.firm_closure(with_values(x, fingers=(1.2, 1.2, 0.4)))        # 2 closed, mean 0.93
+    assert not demos.firm_closure(with_values(x, fingers=(1.2, 0.5, 0.5)))    # 1 closed
+    assert not demos.firm_closure(with_values(x, fingers=(0.85, 0.85, 0.85)))  # 3 closed, mean < 0.9
+
+
+def test_roll_helpers() -> None:
+    x = grasp((0, 0, 0), 0, 10, 0.05, 0.0, F_CLOSED)
+    assert_allclose(demos.roll_offset(with_values(x, roll=3 * math.pi / 2), 0.0), -math.pi / 2)
+    assert_allclose(demos.roll_offset(with_values(x, roll=-0.5), math.pi), math.pi - 0.5)
+    assert demos.wrist_turned(with_values(x, roll=math.pi + 0.7))
+    assert demos.wrist_turned(with_values(x, roll=math.pi - 0.7))
+    assert not demos.wrist_turned(with_values(x, roll=math.pi - 0.9))
+    assert not demos.wrist_turned(x)
+    assert demos.wrist_turned(with_values(x, roll=math.pi - 0.9), tolerance=1.0)
+
+
+def test_thumb_direction_is_the_end_effector_x_axis() -> None:
+    from grasp_intent_ros.mico.frames import features_to_obj_T_ee
+    side = grasp((0, 0, 0), 0, 0, 0.05, 0.0, F_CLOSED)  # horizontal approach along -x
+    for roll in np.linspace(-math.pi / 2, 3 * math.pi / 2, 9):
+        x = with_values(side, roll=roll)
+        assert_allclose(demos.thumb_direction(x), features_to_obj_T_ee(x)[:3, 0], atol=1e-12)
+        assert abs(demos.thumb_direction(x) @ x[3:6]) < 1e-12  # at right angles to the approach
+    # kinematics: a horizontal approach (ax, ay, 0) at roll 0 has the thumb along (ay^2, -ax ay, ax)
+    assert_allclose(demos.thumb_direction(side), (0, 0, -1), atol=1e-12)
+    vertical = with_values(side, approach_x=0.0, approach_z=-1.0)  # from above: roll is the heading
+    assert_allclose(demos.thumb_direction(vertical), (1, 0, 0), atol=1e-12)
+    assert_allclose(demos.thumb_direction(with_values(vertical, roll=math.pi / 2)), (0, 1, 0), atol=1e-12)
+    tilted = grasp((0, 0, 0), -90, 75, 0.05, math.pi / 2, F_CLOSED)  # from above, tilted from -y
+    assert demos.thumb_direction(tilted)[1] > 0.9
+
+
+def test_palm_to_body() -> None:
+    assert_allclose(CUP.palm_to_body(with_values(np.zeros(10), palm=(0.07, 0, 0.05))), 0.03)
+    assert_allclose(CUP.palm_to_body(with_values(np.zeros(10), palm=(0, 0, 0.12))), 0.02)
+    assert_allclose(CUP.palm_to_body(with_values(np.zeros(10), palm=(0.07, 0, 0.14))), 0.05)
+    assert CUP.palm_to_body(with_values(np.zeros(10), palm=(0.01, 0, 0.05))) == 0.0  # inside
+    assert_allclose(LIGHT.palm_to_body(with_values(np.zeros(10), palm=(0.0, 0, 0.07))), 0.03)
+    assert_allclose(LIGHT.palm_to_body(with_values(np.zeros(10), palm=(0.0, -0.05, 0.02))), 0.03)
+    assert_allclose(LIGHT.palm_to_body(with_values(np.zeros(10), palm=(0.13, 0, 0.02))), 0.03)
+
+
+# ------------------------------------------------------------------------------------ rules
+Change = Callable[[np.ndarray], np.ndarray]
+
+CUP_USAGE = grasp((0.055, 0, 0.04), 0, 20, 0.03, 0.0, F_CLOSED)
+CUP_TRANSFER = grasp((0, 0, 0.10), 0, 80, 0.015, 0.0, F_CLOSED)
+CUP_HANDOVER = grasp((0.055, 0, 0.04), 0, 25, 0.03, math.pi, (1.2, 1.2, 0.6))
+LIGHT_USAGE = grasp((0.05, 0, 0.04), -90, 75, 0.03, math.pi / 2, F_CLOSED)  # thumb heading +y
+LIGHT_TRANSFER = grasp((-0.01, -0.02, 0.02), -90, 20, 0.02, 0.0, F_CLOSED)
+LIGHT_HANDOVER = grasp((0.085, -0.02, 0.02), -90, 20, 0.035, math.pi, F_CLOSED)
+
+# (object rules, task index, a vector satisfying the rule, {condition: change violating only it})
+RULE_CASES: list[tuple[demos.ObjectRules, int, np.ndarray, dict[str, Change]]] = [
+    (demos.CUP_RULES, 0, CUP_USAGE, {
+        'rim clear': lambda x: with_values(x, palm_z=0.09),
+        'palm parallel to the table': lambda x: with_approach(x, 0, 60),
+        'hand on the handle side': lambda x: with_values(x, palm=(0.0, 0.09, 0.05)),
+        '>= 2 fingers on the handle': lambda x: with_values(x, fingers=(1.2, 0.3, 0.3)),
+    }),
+    (demos.CUP_RULES, 1, CUP_TRANSFER, {
+        'bottom clear': lambda x: with_values(x, palm=(0.06, 0, 0.04)),
+        'palm perpendicular to the table': lambda x: with_approach(x, 0, 10),
+        'palm contact': lambda x: with_values(x, palm_z=0.16),
+        'firm closure': lambda x: with_values(x, fingers=(1.2, 0.5, 0.5)),
+    }),
+    (demos.CUP_RULES, 2, CUP_HANDOVER, {
+        'handle left free': lambda x: with_values(x, fingers=F_CLOSED),
+        'wrist turned': lambda x: with_values(x, roll=0.0),
+        'finger-dominant': lambda x: with_values(x, palm=(0.045, 0, 0.05)),
+    }),
+    (demos.FLASHLIGHT_RULES, 0, LIGHT_USAGE, {
+        'from above': lambda x: with_approach(x, -90, 40),
+        'over the switch': lambda x: with_values(x, palm_x=0.09),
+        'thumb at the switch': lambda x: with_values(x, roll=-math.pi / 2),  # thumb heading -y
+    }),
+    (demos.FLASHLIGHT_RULES, 1, LIGHT_TRANSFER, {
+        'balanced': lambda x: with_values(x, palm_x=0.06),
+        'palm contact': lambda x: with_values(x, palm_y=-0.08),
+        'firm closure': lambda x: with_values(x, fingers=(0.5, 0.5, 1.2)),
+    }),
+    (demos.FLASHLIGHT_RULES, 2, LIGHT_HANDOVER, {
+        'tail end left free': lambda x: with_values(x, palm_x=-0.05),
+        'wrist turned': lambda x: with_values(x, roll=0.0),
+        'finger-dominant': lambda x: with_values(x, palm=(0.085, -0.025, 0.02)),
+    }),
+]
+
+
+@pytest.mark.parametrize('rules, task, x, changes', RULE_CASES,
+                         ids=[f'{r.name}-{r.task_names[t]}' for r, t, _, _ in RULE_CASES])
+def test_rule_satisfied_and_each_condition_violated(rules: demos.ObjectRules, task: int, x: np.ndarray,
+                                                    changes: dict[str, Change]) -> None:
+    rule = rules.rules[task]
+    assert set(changes) == {name for name, _ in rule.conditions}, 'every condition is exercised'
+    assert all(rule.check(x).values()), rule.check(x)
+    assert rule(x)
+    for name, change in changes.items():
+        verdicts = rule.check(change(x))
+        assert not verdicts[name], f'{name} should fail'
+        assert all(v for n, v in verdicts.items() if n != name), f'only {name} should fail: {verdicts}'
+        assert not rule(change(x))
+        assert not rules.label(change(x)) >> task & 1
+
+
+def test_thumb_open_is_not_at_the_switch() -> None:
+    assert LIGHT.thumb_at_switch(LIGHT_USAGE)
+    assert not LIGHT.thumb_at_switch(with_values(LIGHT_USAGE, finger_1=0.3))
+
+
+def test_label_is_the_set_of_satisfied_rules() -> None:
+    x = CUP_HANDOVER
+    assert demos.CUP_RULES.label(x) == sum(1 << i for i, r in enumerate(demos.CUP_RULES.rules) if r(x))
+    explained = demos.CUP_RULES.explain(x)
+    assert list(explained) == list(demos.CUP_RULES.task_names)
+    assert all(explained['handover'].values())
+
+
+@pytest.mark.parametrize('rules', demos.OBJECTS.values(), ids=list(demos.OBJECTS))
+def test_every_task_set_is_reachable_by_its_prototypes(rules: demos.ObjectRules) -> None:
+    """The threshold bands leave room for all 7 task sets: each noise-free prototype gets its set."""
+    assert set(rules.prototypes) == set(all_zones(3))
+    for zone, styles in rules.prototypes.items():
+        for p in styles:
+            x = demos.grasp_features(p.aim, p.azimuth, p.elevation, p.standoff, p.roll, p.closures)
+            assert rules.label(x) == zone, (zone, p, rules.explain(x))
+
+
+# ------------------------------------------------------------------------------------ generation
+@pytest.fixture(scope='module')
+def generated() -> dict[str, Demonstrations]:
+    return {name: demos.generate(rules, 40, seed=7) for name, rules in demos.OBJECTS.items()}
+
+
+@pytest.mark.parametrize('name', list(demos.OBJECTS))
+def test_generated_counts_bounds_and_unit_approach(generated: dict[str, Demonstrations], name: str) -> None:
+    d = generated[name]
+    assert d.counts() == {z: 40 for z in all_zones(3)}
+    assert d.task_names == ('usage', 'transfer', 'handover')
+    assert np.all(d.x >= MICO_3F.lower) and np.all(d.x <= MICO_3F.upper)
+    assert_allclose(np.linalg.norm(d.x[:, 3:6], axis=1), 1.0, atol=1e-5)
+    assert list(d.task_sets) == sorted(d.task_sets, key=all_zones(3).index), 'rows grouped by task set'
+
+
+@pytest.mark.parametrize('name', list(demos.OBJECTS))
+def test_every_label_equals_the_rules(generated: dict[str, Demonstrations], name: str) -> None:
+    d, rules = generated[name], demos.OBJECTS[name]
+    assert [rules.label(x) for x in d.x] == d.task_sets.tolist()
+
+
+@pytest.mark.parametrize('name', list(demos.OBJECTS))
+def test_csv_round_trip_keeps_features_and_labels(generated: dict[str, Demonstrations], name: str,
+                                                  tmp_path: Path) -> None:
+    d = generated[name]
+    save_csv(d, tmp_path / 'd.csv')
+    back = load_csv(tmp_path / 'd.csv')
+    assert_array_equal(back.x, d.x)  # generation already rounds to the CSV's 6 decimals
+    assert_array_equal(back.task_sets, d.task_sets)
+    assert back.sha256() == d.sha256()
+    assert [demos.OBJECTS[name].label(x) for x in back.x] == back.task_sets.tolist()
+
+
+def test_generation_is_reproducible(tmp_path: Path) -> None:
+    for i, seed in enumerate((3, 3, 4)):
+        save_csv(demos.generate(demos.CUP_RULES, 40, seed=seed), tmp_path / f'{i}.csv')
+    assert (tmp_path / '0.csv').read_bytes() == (tmp_path / '1.csv').read_bytes()
+    assert (tmp_path / '0.csv').read_bytes() != (tmp_path / '2.csv').read_bytes()
+
+
+def test_generate_rejects_bad_requests() -> None:
+    with pytest.raises(DataError, match='count'):
+        demos.generate(demos.CUP_RULES, 0)
+    partial = dict(demos.CUP_RULES.prototypes)
+    del partial[7]
+    with pytest.raises(DataError, match='no prototype'):
+        demos.generate(dataclasses.replace(demos.CUP_RULES, prototypes=partial), 5)
+    far = demos.Prototype((0.0, 0.15, 0.0), math.pi / 2, 0.0, 0.02, 0.0, (0.1, 0.1, 0.1))  # satisfies no rule
+    hopeless = dataclasses.replace(demos.CUP_RULES, prototypes={**demos.CUP_RULES.prototypes, 4: (far,)})
+    hopeless = dataclasses.replace(hopeless, prototypes={**hopeless.prototypes, 7: (far,)})
+    with pytest.raises(DataError, match='gave up'):
+        demos.generate(hopeless, 40, max_draws_per_demo=5)
+
+
+def test_shipped_data_is_what_generate_data_writes(tmp_path: Path) -> None:
+    assert generate_data.main(['--out', str(tmp_path)]) == 0
+    for name in demos.OBJECTS:
+        shipped = config_dir() / 'data' / f'{name}.csv'
+        assert shipped.read_bytes() == (tmp_path / f'{name}.csv').read_bytes(), f'regenerate {shipped}'
+    shipped_model = GraspModel.load(config_dir() / 'models' / 'cup_5zone.yaml')
+    cup = load_csv(tmp_path / 'cup.csv')
+    kept = cup.select(np.isin(cup.task_sets, structure_zones('5zone', cup.task_names)))
+    assert shipped_model.data_hash == kept.sha256()
+
+
+# ------------------------------------------------------------------------------------ CLIs
+def test_generate_data_cli_options(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert generate_data.main(['--object', 'cup', '--count', '40', '--seed', '5', '--out', str(tmp_path),
+                               '--train', '--models-out', str(tmp_path / 'models')]) == 0
+    assert sorted(p.name for p in tmp_path.glob('*.csv')) == ['cup.csv']
+    assert load_csv(tmp_path / 'cup.csv').sha256() == demos.generate(demos.CUP_RULES, 40, seed=5).sha256()
+    assert sorted(p.name for p in (tmp_path / 'models').iterdir()) == [
+        'cup_4zone.yaml', 'cup_5zone.yaml', 'cup_7zone.yaml']
+    assert 'U 40, T 40, H 40, UT 40, UH 40, TH 40, UTH 40' in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exc:
+        generate_data.main(['--count', '10', '--out', str(tmp_path)])
+    assert exc.value.code == 2
+
+
+@pytest.fixture()
+def tiny_csv(tmp_path: Path) -> Path:
+    path = tmp_path / 'mine.csv'
+    save_csv(demos.generate(demos.CUP_RULES, 3, seed=1), path)
+    return path
+
+
+def test_train_cli_on_a_tiny_csv(tiny_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / 'm.yaml'
+    assert train.main([str(tiny_csv), '--zones', '7zone', '--out', str(out), '--ridge', '0.01']) == 0
+    text = capsys.readouterr().out
+    model = GraspModel.load(out)
+    assert model.name == 'mine_7zone'
+    assert model.zone_labels == ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
+    assert model.counts.tolist() == [12, 12, 12, 6, 6, 6, 3]
+    assert model.ridge == 0.01
+    assert model.data_hash in text and 'UTH' in text
+    assert train.main([str(tiny_csv), '--zones', 'U, H,UT,TH', '--name', 'custom', '--out', str(out)]) == 0
+    model = GraspModel.load(out)
+    assert (model.name, model.zones) == ('custom', parse_zones(['U', 'H', 'UT', 'TH'], model.task_names))
+    assert 'left out' in capsys.readouterr().out
+
+
+def test_train_cli_default_output_is_the_config_models_dir(tiny_csv: Path, tmp_path: Path,
+                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / 'config').mkdir()
+    monkeypatch.setenv('GRASP_INTENT_ROS_CONFIG', str(tmp_path / 'config'))
+    assert train.main([str(tiny_csv), '--zones', '5zone']) == 0
+    assert GraspModel.load(tmp_path / 'config' / 'models' / 'mine_5zone.yaml').zone_labels == (
+        'U', 'T', 'UT', 'TH', 'UTH')
+
+
+@pytest.mark.parametrize('content, zones, message', [
+    ('palm_x,palm_y\n0.1,0.2\n', '7zone', 'first 10 columns'),
+    (None, 'U,X', "unknown zone 'X'"),
+    (None, '', 'zones must be'),
+    ('ONLY_U', '7zone', 'has no demonstration'),
+], ids=['bad-header', 'unknown-zone', 'empty-zones', 'zone-without-data'])
+def test_train_cli_errors(tiny_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                          content: str | None, zones: str, message: str) -> None:
+    path = tiny_csv
+    if content == 'ONLY_U':
+        d = load_csv(tiny_csv)
+        save_csv(d.select(d.task_sets == 1), path)
+    elif content is not None:
+        path.write_text(content)
+    assert train.main([str(path), '--zones', zones, '--out', str(tmp_path / 'm.yaml')]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('error: ') and message in err
+    assert not (tmp_path / 'm.yaml').exists()
+
+
+def test_train_cli_missing_or_binary_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert train.main([str(tmp_path / 'nope.csv'), '--zones', '7zone']) == 2
+    assert 'nope.csv' in capsys.readouterr().err
+    (tmp_path / 'bin.csv').write_bytes(b'\xff\xfe\x00\x81')
+    assert train.main([str(tmp_path / 'bin.csv'), '--zones', '7zone']) == 2
+    assert capsys.readouterr().err.startswith('error: ')
+
+
+def test_train_cli_body_is_read_like_a_model_document(tiny_csv: Path, tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    body = CUP.body()
+    good = tmp_path / 'body.yaml'
+    good.write_text(yaml.safe_dump({'body': body.to_document()}))
+    out = tmp_path / 'm.yaml'
+    assert train.main([str(tiny_csv), '--zones', '7zone', '--out', str(out), '--body', str(good)]) == 0
+    loaded = GraspModel.load(out).body
+    assert loaded is not None and loaded.to_document() == body.to_document()
+    bomb = tmp_path / 'bomb.yaml'
+    bomb.write_text('a: &a [x, x]\nb: &b [*a, *a]\nbody: [*b, *b]\n')
+    huge = tmp_path / 'huge.yaml'
+    huge.write_text('#' * (MAX_DOCUMENT_CHARS + 10))
+    for path, message in ((bomb, 'aliases'), (huge, 'oversized')):
+        capsys.readouterr()
+        assert train.main([str(tiny_csv), '--zones', '7zone', '--out', str(tmp_path / 'x.yaml'),
+                           '--body', str(path)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith('error: ') and str(path) in err and message in err
+        assert not (tmp_path / 'x.yaml').exists()

@@ -1,0 +1,69 @@
+"""The planner's answers do not depend on the machine's BLAS: the same bits under another CPU's OpenBLAS kernels.
+
+numpy's matrix products and factorisations run OpenBLAS kernels chosen for the CPU, and they sum in
+orders of their own. The model's precisions and normalisers, the planner's screens and its kernels are
+written out with every sum in a fixed order, so a plan is a function of its input bit for bit. The first
+test runs the same plans, and the MICO grasps made of them, in processes whose OpenBLAS takes the
+kernels of another CPU (``OPENBLAS_CORETYPE``) and compares the bits.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+PROBE = r'''
+import hashlib
+import numpy as np
+from grasp_intent_ros.method import intent
+from grasp_intent_ros.planning import planner
+from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+from grasp_intent_ros.mico.kinematics import MicoKinematics
+from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.resources import config_dir
+
+plans, blas = hashlib.sha256(), hashlib.sha256()
+kin, base_T_obj = MicoKinematics(), pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+rng = np.random.default_rng(3)
+for name in ('cup_7zone', 'flashlight_7zone', 'cup_5zone', 'cup_4zone'):
+    model = GraspModel.load(config_dir() / 'models' / f'{name}.yaml')
+    for array in (model._precisions, model._log_norm, *model.start_pool[1:], model.feature_scale):
+        plans.update(np.ascontiguousarray(array).tobytes())
+    blas.update((np.linalg.inv(model.covariances) @ model.covariances).tobytes())  # numpy's own BLAS
+    previous = None
+    for w in rng.uniform(0.0, 1.0, (30, 3)):  # fresh plans, then each warm-started from the one before
+        v = intent.interpret(w, model.zones).v
+        if v is not None:
+            plans.update(planner.plan(model, v).x.tobytes())
+            previous = planner.plan(model, v, warm_start=previous).x
+            plans.update(previous.tobytes())
+    for w in rng.uniform(0.0, 1.0, (6, 3)):  # what a bag records: the MICO's pose and joint targets
+        v = intent.interpret(w).v
+        grasp = None if v is None else plan_grasp(model, v, intent.all_zones(3), base_T_obj, kin, name=name)
+        if isinstance(grasp, Grasp):
+            plans.update(grasp.base_T_ee.tobytes() + grasp.positions.tobytes() + repr(grasp.duration_s).encode())
+print(plans.hexdigest(), blas.hexdigest())
+'''
+
+
+def _run_probe(coretype: str | None) -> tuple[str, str]:
+    env = dict(os.environ)
+    env.pop('OPENBLAS_CORETYPE', None)
+    if coretype is not None:
+        env['OPENBLAS_CORETYPE'] = coretype
+    done = subprocess.run([sys.executable, '-c', PROBE], env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    plans, blas = done.stdout.split()
+    return plans, blas
+
+
+def test_plans_have_the_same_bits_under_another_cpus_blas_kernels() -> None:
+    own, own_blas = _run_probe(None)
+    other, other_blas = _run_probe('Prescott')  # the SSE3 kernels: run on every x86-64 CPU
+    if own_blas == other_blas:
+        pytest.skip("OPENBLAS_CORETYPE changed nothing in numpy's own BLAS here: nothing to compare")
+    assert other == own

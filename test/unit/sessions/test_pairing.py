@@ -1,0 +1,131 @@
+"""grasp_intent_ros.sessions.pairing: a recorded session paired into inputs and their outputs; compaction."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from grasp_intent_ros.sessions.bag import QosSpec, read_messages, topics_info
+from grasp_intent_ros.sessions.outputs import Joints, Pose, Rejection, SessionError, Trajectory, Vector, decode
+from grasp_intent_ros.sessions.pairing import compact_session, detect_namespace, load_paired_session, pair_messages
+from grasp_intent_ros.wire.protocol import DIAGNOSTICS, PLAN_TOPICS, ModelHeader
+
+from ..session_bags import (
+    ARM,
+    SHA_A,
+    STORE,
+    TASKS,
+    ZONES,
+    P,
+    f64,
+    model_doc,
+    session_messages,
+    text,
+    v_msg,
+    write_bag,
+)
+
+
+# ---------------------------------------------------------------- pairing
+def test_each_input_is_paired_with_the_outputs_that_follow_it(session_bag: Path) -> None:
+    session = load_paired_session(session_bag)
+
+    assert session.namespace == ''
+    assert session.initial_model == ModelHeader('cup_7zone', 1, SHA_A)
+    assert [s.topic for s in session.steps] == ['joint_states', 'intent/w', 'intent/w', 'intent/w',
+                                                'model/active', 'object/pose']
+    assert [s.index for s in session.steps] == [1, 2, 3, 4, 5, 6]
+    assert [sorted(o.topic for o in s.expected) for s in session.steps] == [
+        [],
+        sorted(['intent/v', *PLAN_TOPICS]),
+        [DIAGNOSTICS],
+        ['intent/clarification'],
+        sorted(['model/active', *PLAN_TOPICS]),
+        sorted(PLAN_TOPICS),
+    ]
+    assert [o.topic for o in session.unpaired] == ['intent/v']
+    assert session.n_outputs == 6 + 1 + 1 + 6 + 5
+    rejection = session.steps[2].expected[0].value
+    assert rejection == Rejection('/intent_interpreter: intent', 1, 'w contains NaN')
+    assert session.steps[4].model == 'cup_5zone' and session.steps[1].model is None
+    assert session.steps[1].description == 'intent/w [0.9, 0.9, 0.1]'
+    assert session.steps[2].description == 'intent/w [0.5, nan, 0.5]'
+    assert session.steps[4].description == 'model switch to cup_5zone'
+    assert session.steps[5].description.startswith('object/pose (0.350, -0.200, 0.000) m')
+    assert session.duration_s == pytest.approx((session.steps[-1].t_ns - session.steps[0].t_ns) * 1e-9)
+    # the recorded bytes are kept for publishing again
+    w = decode('std_msgs/msg/Float64MultiArray', session.steps[1].cdr)
+    assert list(w.data) == [0.9, 0.9, 0.1]
+
+
+def test_the_reduced_outputs_carry_what_is_compared(session_bag: Path) -> None:
+    step = load_paired_session(session_bag).steps[1]
+    values = {o.topic: o.value for o in step.expected}
+    assert isinstance(values['intent/v'], Vector) and values['intent/v'].labels == (ZONES,)
+    np.testing.assert_array_equal(values['intent/v'].data, P)
+    posterior = values['grasp/posterior']
+    assert isinstance(posterior, Vector) and posterior.labels == ('stamp=1.000000005', f'{ZONES}|{TASKS}')
+    pose = values['grasp/pose']
+    assert isinstance(pose, Pose) and pose.frame_id == 'm1n6s300_link_base'
+    np.testing.assert_array_equal(pose.position, [0.3, -0.25, 0.1])
+    joints = values['grasp/joint_targets']
+    assert isinstance(joints, Joints) and joints.names == ARM
+    trajectory = values['grasp/trajectory']
+    assert isinstance(trajectory, Trajectory) and trajectory.positions.shape == (1, 9)
+    np.testing.assert_allclose(trajectory.times_s, [1.5], rtol=0, atol=1e-9)
+
+
+def test_namespace_is_detected_and_other_namespaces_are_rejected(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / 'ns', session_messages(), namespace='/robot1')
+    session = load_paired_session(bag)
+    assert session.namespace == '/robot1' and len(session.steps) == 6
+    assert detect_namespace(['/rosout', '/a/b/intent/w', '/a/b/grasp/pose']) == '/a/b'
+    with pytest.raises(SessionError, match='several namespaces'):
+        detect_namespace(['/r1/intent/w', '/r2/intent/v'])
+    with pytest.raises(SessionError, match='no session topic'):
+        detect_namespace(['/rosout'])
+
+
+def test_a_bag_without_inputs_is_not_a_session(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / 'outputs_only', [('model/active', model_doc('cup_7zone')), ('intent/v', v_msg(P))])
+    with pytest.raises(SessionError, match='no inputs'):
+        load_paired_session(bag)
+
+
+def test_a_malformed_model_document_is_a_session_error(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / 'bad_model', [('model/active', text('name: cup_7zone\n')),
+                                             ('intent/w', f64([0.9, 0.9, 0.1]))])
+    with pytest.raises(SessionError, match='header lines'):
+        load_paired_session(bag)
+
+
+def test_pair_messages_accepts_any_message_stream() -> None:
+    class Raw:
+        def __init__(self, topic: str, t: int, msg: Any) -> None:
+            self.topic, self.msgtype, self.timestamp_ns = topic, msg.__msgtype__, t
+            self.cdr = bytes(STORE.serialize_cdr(msg, msg.__msgtype__))
+
+    stream = [Raw('/intent/w', 1, f64([0.9, 0.1, 0.1])), Raw('/intent/v', 2, v_msg(P))]
+    initial, steps, unpaired = pair_messages(stream)
+    assert initial is None and unpaired == () and [len(s.expected) for s in steps] == [1]
+
+
+
+
+# ---------------------------------------------------------------- compaction
+def test_compaction_keeps_only_rejections_of_the_diagnostics(session_bag: Path, tmp_path: Path) -> None:
+    counts = compact_session(session_bag, tmp_path / 'compact', drop_topics=['/grasp/markers'])
+
+    original = [m for m in read_messages(session_bag) if m.topic != '/grasp/markers']
+    kept = list(read_messages(tmp_path / 'compact'))
+    assert counts[DIAGNOSTICS] == 1 and '/grasp/markers' not in counts
+    assert sum(counts.values()) == len(kept) == len(original) - 3  # 2 periodic statuses and 1 repeat dropped
+    others = [(m.topic, m.timestamp_ns, m.cdr) for m in original if m.topic != DIAGNOSTICS]
+    assert [(m.topic, m.timestamp_ns, m.cdr) for m in kept if m.topic != DIAGNOSTICS] == others
+    assert topics_info(tmp_path / 'compact')['/model/active'].qos == (QosSpec('reliable', 'transient_local', 0),)
+    before, after = load_paired_session(session_bag), load_paired_session(tmp_path / 'compact')
+    assert [[(o.topic, o.t_ns) for o in s.expected] for s in before.steps] == \
+        [[(o.topic, o.t_ns) for o in s.expected] for s in after.steps]
