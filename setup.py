@@ -14,8 +14,33 @@ _commands = runpy.run_path(os.path.join(os.path.dirname(os.path.realpath(__file_
 # lib/grasp_intent_ros: where `ros2 run grasp_intent_ros <name>` looks and no shell's PATH does, so one
 # script per command. pip builds a wheel, whose scripts land in the user's bin/: there one script,
 # grasp-intent-ros <name>, so that no generic name (demo, train, report) shadows another program.
-CONSOLE_SCRIPTS = (_commands['COMMANDS'] if {'install', 'develop'} & set(sys.argv[1:])
-                   else {_commands['SCRIPT']: '__main__'})
+COLCON = bool({'install', 'develop'} & set(sys.argv[1:]))
+CONSOLE_SCRIPTS = _commands['COMMANDS'] if COLCON else {_commands['SCRIPT']: '__main__'}
+# A wheel (pip) still gets `ros2 run grasp_intent_ros <name>`: one small script per command in the package's
+# lib/grasp_intent_ros (data files), where ament's index has ros2 run look; each runs the command with the
+# Python of the installation's prefix (a venv's bin/python3), else the python3 on PATH.
+RUN_SCRIPT = '''#!/bin/sh
+# ros2 run grasp_intent_ros {name}: python -m grasp_intent_ros {name} with this installation's Python
+py="$(dirname "$0")/../../bin/python3"
+[ -x "$py" ] || py=python3
+exec "$py" -m grasp_intent_ros {name} "$@"
+'''
+
+
+def _run_scripts() -> list[str]:
+    """The scripts of ``ros2 run`` for a wheel, written under build/ (paths relative to setup.py)."""
+    if COLCON:
+        return []  # setuptools' own scripts (setup.cfg) are there
+    paths = []
+    for name in _commands['COMMANDS']:
+        path = os.path.join('build', 'ros2_run', name)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        with open(path, 'w') as script:
+            script.write(RUN_SCRIPT.format(name=name))
+        os.chmod(path, 0o755)
+        paths.append(path)
+    return paths
+
 
 setup(
     name=package_name,
@@ -28,7 +53,7 @@ setup(
         (f'share/{package_name}/config', glob('config/*.yaml') + glob('config/*.urdf') + glob('config/*.xml')),
         (f'share/{package_name}/config/models', glob('config/models/*.yaml')),
         (f'share/{package_name}/config/data', glob('config/data/*.csv')),
-    ] + [
+    ] + ([(f'lib/{package_name}', _run_scripts())] if not COLCON else []) + [
         # recorded sessions, one directory per bag
         (f'share/{package_name}/{os.path.dirname(path)}', [path])
         for path in sorted(glob('bags/*/*')) if os.path.isfile(path)

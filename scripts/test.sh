@@ -1,10 +1,41 @@
 #!/usr/bin/env bash
 # Run every test (unit, in-process node tests, system tests with real processes, bag replays) in the repo's
 # venv of locked versions, created/refreshed first. Extra arguments go to pytest.
-#   scripts/test.sh --latest [pytest args]   the drift run: the same tests against the newest versions
+#   scripts/test.sh [pytest options]         the whole suite, then the unit level again as on another CPU
+#   scripts/test.sh PATHS, -k EXPR, -m EXPR  only what is selected, once (any argument not starting with '-')
+#   scripts/test.sh --other-cpu [args]       only as on another CPU (test/unit unless paths are given)
+#   scripts/test.sh --latest [args]          the drift run: the same tests against the newest versions
 #                                            setup.py allows, in a venv of its own (.venv-latest)
+# "As on another CPU": OpenBLAS takes the Prescott kernels (SSE3: every x86-64 CPU runs them, and they sum in
+# other orders than an AVX2 or AVX-512 host's) and numba compiles for a generic x86-64 CPU (a cache entry of
+# its own beside the host's: the first such run compiles the kernels once). A test whose expected value
+# depends on the host's kernels fails on the development machine too. The main run keeps the environment's
+# own OPENBLAS_CORETYPE and NUMBA_CPU_NAME.
 set -euo pipefail
 latest=false
+other_cpu=false
 if [ "${1:-}" = --latest ]; then latest=true; shift; fi
+if [ "${1:-}" = --other-cpu ]; then other_cpu=true; shift; fi
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
-exec "$python" -m pytest -q "$@"
+selects=false
+for arg in "$@"; do
+    case "$arg" in -*) ;; *) selects=true ;; esac
+done
+skip_static=(--ignore=test/unit/test_static.py)  # mypy, ruff and the import rules: no arithmetic in them
+as_on_another_cpu() {
+    if [ "$(uname -m)" != x86_64 ]; then
+        echo "scripts/test.sh: not an x86-64 machine: the run as on another CPU is skipped" >&2
+        return 0
+    fi
+    echo "as on another CPU (OPENBLAS_CORETYPE=Prescott NUMBA_CPU_NAME=generic): $*"
+    OPENBLAS_CORETYPE=Prescott NUMBA_CPU_NAME=generic "$python" -m pytest -q "$@"
+}
+if [ "$other_cpu" = true ]; then
+    if [ "$selects" = true ]; then as_on_another_cpu "$@"; else as_on_another_cpu "$@" test/unit "${skip_static[@]}"; fi
+    exit
+fi
+if [ "$selects" = true ]; then exec "$python" -m pytest -q "$@"; fi
+status=0
+"$python" -m pytest -q "$@" || status=$?
+as_on_another_cpu "$@" test/unit "${skip_static[@]}" || status=$?
+exit "$status"

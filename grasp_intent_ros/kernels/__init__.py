@@ -70,13 +70,28 @@ from .rounds import least_squares_rounds  # noqa: E402
 from .selection import choice_order, distinct, screen, select_demonstrations  # noqa: E402
 
 __all__ = ['project', 'least_squares_rounds', 'feasible', 'score', 'log_joints', 'screen', 'choice_order',
-           'select_demonstrations', 'distinct', 'ik_descent', 'warm_up']
+           'select_demonstrations', 'distinct', 'ik_descent', 'warm_up', 'loaded_signatures']
+
+
+def loaded_signatures() -> int:
+    """How many compiled signatures the kernel modules' numba functions hold now, compiled or loaded from the cache.
+
+    It grows whenever a call compiles or loads a kernel for new argument types; a caller that takes it after
+    :func:`warm_up` and again after its work learns whether that work waited on one (the count, not a time).
+    """
+    from numba.core.dispatcher import Dispatcher
+
+    from . import geometry, ik, least_squares, linalg, posterior, projection, rounds, selection
+
+    return sum(len(obj.signatures) for module in (geometry, ik, least_squares, linalg, posterior, projection, rounds,
+                                                  selection)
+               for obj in vars(module).values() if isinstance(obj, Dispatcher))
 
 
 def warm_up() -> None:
     """Compile (or load from the cache) every kernel on a tiny problem with the planner's argument types.
 
-    ``scripts/venv.sh`` calls it at set-up time, so that no node pays for compilation on its first plan.
+    ``scripts/venv.sh`` calls it at set-up time (the cache), and the planner node before it is ready.
     """
     d = 10
     cylinder = (np.zeros(1, dtype=np.int64), np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]),

@@ -30,8 +30,11 @@ One :class:`NodeSuite` serves the suite command (:func:`main`: ``python -m grasp
   :data:`SHARED_CONTROL_NODES`, the viewer), wait until ready, notice a death, stop
   them all.
 - :func:`main`: the suite command: start the nodes, copy their output to stdout with each line prefixed
-  by ``[node]``, stop them all on Ctrl-C (SIGINT), SIGTERM or SIGHUP (its terminal closed); exit code 0
-  when every node stopped cleanly, 1 when one died or did not stop cleanly, 2 for bad arguments.
+  by ``[node]``, print ``suite: up`` once every node has logged that it is ready
+  (:func:`~grasp_intent_ros.ros.startup.is_ready_line`), stop them all on Ctrl-C (SIGINT), SIGTERM or
+  SIGHUP (its terminal closed). Its last line says whether every node stopped cleanly, else names each
+  that did not (died, killed, or ended by its watchdog); exit code 0 when every node stopped cleanly, 1
+  when one died or did not stop cleanly, 2 for bad arguments.
 
 Never imports rclpy. One module: the processes, the environment they share and the command that runs
 them are one job, starting the suite.
@@ -52,6 +55,7 @@ from pathlib import Path
 from types import TracebackType
 
 from ..resources import config_dir
+from ..ros.startup import WATCHDOG_EXIT_CODE, is_ready_line
 from ..wire.protocol import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
@@ -263,6 +267,8 @@ class NodeProcess:
         if self._killed:
             sent = self._signal_sent.name if self._signal_sent is not None else 'no signal'
             return f'{who} did not exit after {sent} and was killed'
+        if code == WATCHDOG_EXIT_CODE:
+            return f'{who} was ended by its watchdog: its stop did not finish in time (the stacks are in its log)'
         if code != 0:
             return f'{who} exited with code {code}'
         if 'Traceback' in self.stderr():
@@ -472,6 +478,8 @@ class _Echo:
         self._suite = suite
         self._done: dict[Path, int] = {}  # bytes of each log file already copied (or held as a partial line)
         self._partial: dict[Path, bytes] = {}
+        self.ready: set[int] = set()
+        """The pids of the processes that logged that they are ready (``startup.is_ready_line``)."""
 
     def copy(self, *, final: bool = False) -> None:
         """Copy every complete new line; with ``final``, also each file's last line without a newline."""
@@ -491,7 +499,10 @@ class _Echo:
                 elif last:
                     self._partial[path] = last
                 for line in lines:
-                    print(f'[{proc.module}] {line.decode(errors="replace")}')
+                    text = line.decode(errors='replace')
+                    print(f'[{proc.module}] {text}')
+                    if is_ready_line(text):
+                        self.ready.add(proc.pid)
         sys.stdout.flush()
 
 
@@ -534,9 +545,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f'suite: ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, namespace '
               f'{args.namespace or "/"}; started ' + ', '.join(f'{p.module} (pid {p.pid})' for p in suite.processes)
               + '; Ctrl-C stops them', flush=True)
+        start, up = time.monotonic(), False
         while not stop_requested and not died:
             time.sleep(0.1)  # a signal handler only appends: the loop looks 10 times a second
             echo.copy()
+            if not up and (up := {p.pid for p in suite.processes} <= echo.ready):
+                print(f'suite: up after {time.monotonic() - start:.1f} s: every node is ready', flush=True)
             if died := suite.died().split(';', 1)[0]:
                 print(f'suite: {died}; stopping the others', file=sys.stderr, flush=True)
     finally:
@@ -548,7 +562,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             suite.remove_logs()
     for problem in problems:
         print(f'suite: {problem}', file=sys.stderr)
-    print(f'suite: stopped {"with problems" if problems else "cleanly"}', flush=True)
+    sys.stderr.flush()
+    print('suite: stopped ' + (f'not cleanly: {"; ".join(p.split(":", 1)[0] for p in problems)}' if problems
+                               else 'cleanly'), flush=True)
     return 1 if problems or died else 0
 
 

@@ -671,7 +671,9 @@ class GraspModel:
             if key in _ARRAY_FIELDS and not _ARRAY_FIELDS & fields.keys():  # the first array field
                 if missing := [f for f in DECLARATION_FIELDS if f not in fields]:
                     raise ModelFormatError(f'model document lists {key!r} before declaring {", ".join(missing)} '
-                                           f'(the fields {", ".join(DECLARATION_FIELDS)} come first)')
+                                           f'(the fields {", ".join(DECLARATION_FIELDS)} come first): write it '
+                                           f'with GraspModel.save, or with a YAML dumper that keeps the key '
+                                           f'order (yaml.safe_dump(doc, sort_keys=False))')
                 with _named_errors():
                     _declaration(fields, requires)
         return cls.from_document(parse_document(text, on_key=declared_first), requires=requires)

@@ -12,7 +12,8 @@ A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs
 :func:`grasp_intent_ros.mico.grasp.plan_grasp`, warm-started from the last plan of the same model; its
 thread takes ``intent/v`` itself. A :class:`~grasp_intent_ros.ros.model_follower.ModelFollower` reads each
 new ``model/active`` in a thread of its own; :mod:`grasp_intent_ros.ros.startup` tunes the process and
-loads the compiled kernels ahead (docs/nodes.md, "The planner node"). Parameters: :data:`PARAMETERS`.
+loads every compiled kernel before the node logs that it is ready (docs/nodes.md, "The planner node").
+Parameters: :data:`PARAMETERS`.
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ from ..ros.qos import input_qos
 from ..ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 from ..ros.worker import LatestOnlyWorker
 from ..wire import protocol as topics
-from ..wire.protocol import KEY_MODEL, KEY_PLAN_STATUS, OK, WARN, ModelDocument
+from ..wire.protocol import KEY_KERNELS_LOADED_LATE, KEY_MODEL, KEY_PLAN_STATUS, OK, WARN, ModelDocument
 
 __all__ = ['GraspPlanner', 'PARAMETERS', 'main']
 
@@ -100,12 +101,13 @@ class _Inputs:
 class GraspPlanner(Node):
     """Plans a MICO grasp for the newest v, model and object pose. ``kwargs`` go to ``rclpy.node.Node``."""
 
+    announces_ready = True
+    """It logs that it is ready once its compiled kernels are loaded (:mod:`grasp_intent_ros.ros.startup`)."""
+
     def __init__(self, node_name: str = 'grasp_planner', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._inputs_diag, self._plan_diag = NodeDiagnostics(self, 'inputs'), NodeDiagnostics(self, 'planning')
-        self._params = declare_parameters(self, PARAMETERS, on_change=self._on_parameters, check=lambda values:
-                                          check_workspace(values['object_position'], values['workspace_radius'],
-                                                          what='object_position'))
+        self._params = declare_parameters(self, PARAMETERS, on_change=self._on_parameters, check=self._check)
         try:
             self._kin = MicoKinematics(self._params['urdf_path'] or None)
         except FileNotFoundError as exc:
@@ -117,13 +119,14 @@ class GraspPlanner(Node):
         self._outputs = GraspOutputs(self, self._kin, self._plan_diag, self._clarifications,
                                      object_size=lambda: self._params['object_marker_size'],
                                      markers_period=lambda: float(self._params['markers_period']))
-        kernels = startup.KernelWarmUp(lambda: self._kin.ik(self._kin.fk(HOME_Q), HOME_Q, restarts=0),
-                                       report=self._plan_diag.set_value, warn=self.get_logger().warning)
+        self._kernels = startup.KernelWarmUp(lambda: self._kin.ik(self._kin.fk(HOME_Q), HOME_Q, restarts=0),
+                                             report=self._plan_diag.set_value, warn=self.get_logger().warning,
+                                             ready=functools.partial(startup.announce_ready, self.get_logger().info))
         base_T_obj = pose_to_matrix(self._params['object_position'], self._params['object_orientation'])
         self._worker = LatestOnlyWorker(_Inputs(base_T_obj=base_T_obj), self._plan_diag.guard(self._plan),
                                         ready=self._ready, name=f'{node_name}_planning',
                                         min_period=lambda: float(self._params['min_replan_period']),
-                                        prepare=kernels.at_start, after_first=kernels.after_first,
+                                        prepare=self._kernels.at_start,
                                         context=self.context)
         # SIGINT/SIGTERM shut the context down before destroy_node runs: stop planning at once
         self.context.on_shutdown(self._worker.stop_soon)
@@ -174,6 +177,15 @@ class GraspPlanner(Node):
             self._kin.check_limits(q, margin=JOINT_LIMIT_MARGIN, what='joint state')
             self._update(trigger=False, q_arm=q)
 
+    def _check(self, values: Mapping[str, Any]) -> None:
+        """The object within the workspace, and task_names that the active model has.
+
+        No model is active while the parameters are declared.
+        """
+        check_workspace(values['object_position'], values['workspace_radius'], what='object_position')
+        if hasattr(self, '_models'):
+            self._models.check(served_models(values['task_names']))
+
     def _on_parameters(self, changed: Mapping[str, Any]) -> None:
         if 'task_names' in changed:
             self._models.recheck()  # the model is served for other tasks, or now one refused is
@@ -200,6 +212,7 @@ class GraspPlanner(Node):
                 self._warm = (key, checked.result.x)
         finally:  # the diagnostics after the outputs, off their path
             self._plan_diag.set_value('inputs superseded', self._worker.superseded)
+            self._plan_diag.set_value(KEY_KERNELS_LOADED_LATE, self._kernels.loaded_late())
 
 
 def main(args: list[str] | None = None) -> None:

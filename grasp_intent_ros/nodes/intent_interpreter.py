@@ -91,7 +91,7 @@ class IntentInterpreter(Node):
     def __init__(self, node_name: str = 'intent_interpreter', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._diagnostics = NodeDiagnostics(self, 'intent')
-        self._params = declare_parameters(self, PARAMETERS, on_change=self._configure)
+        self._params = declare_parameters(self, PARAMETERS, check=self._check, on_change=self._configure)
         self._pubs = {topics.INTENT_V: output_publisher(self, Float64MultiArray, topics.INTENT_V)}
         self._clarifications = ClarificationRequests(self, self._diagnostics, count_key='clarifications',
                                                      outcome_key='last outcome')
@@ -118,6 +118,11 @@ class IntentInterpreter(Node):
         self._inputs.stop()
         self._models.stop()
         super().destroy_node()
+
+    def _check(self, values: Mapping[str, Any]) -> None:
+        """task_names the active model does not have are refused (none is active while they are declared)."""
+        if hasattr(self, '_models'):
+            self._models.check(served_models(values['task_names']))
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
         task_names = self._params['task_names']

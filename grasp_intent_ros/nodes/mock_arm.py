@@ -51,7 +51,7 @@ from ..ros.inputs import subscribe_input
 from ..ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector
 from ..ros.qos import input_qos, output_publisher
 from ..ros.robot import joint_positions, joint_state_msg
-from ..ros.run import guard_exit, run_node
+from ..ros.run import guard_exit, publish_all, run_node
 from ..wire import protocol as topics
 
 __all__ = ['MockArmNode', 'PARAMETERS', 'GRASP_CLOSE', 'main']
@@ -172,7 +172,7 @@ class MockArmNode(Node):
             self._last = now
             msg = joint_state_msg(JOINT_NAMES, self._arm.q, stamp=self.get_clock().now().to_msg())
             msg.velocity = array.array('d', self._arm.qd.tolist())
-            self._pubs[topics.JOINT_STATES].publish(msg)
+            publish_all(self, self._pubs, {topics.JOINT_STATES: msg})  # dropped once a signal ended the context
             self._diag.set_value('mode', self._arm.mode)
         except Exception as exc:  # noqa: BLE001 - an exception escaping a timer kills the node
             self._diag.rejected(f'internal error: {type(exc).__name__}: {exc}', level=topics.ERROR)

@@ -46,6 +46,8 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.subscription import Subscription
 
+from .startup import WATCHDOG_EXIT_CODE
+
 __all__ = ['CHECKED_RCLPY', 'rclpy_version', 'ignore_python_sigint', 'ShutdownSafeExecutor', 'StopWatcher',
            'new_wait_set', 'waiting_messages']
 
@@ -93,8 +95,9 @@ class StopWatcher:
     A daemon thread waits until ``context`` is shut down or the spin has ended (:meth:`spin_ended`). Then,
     unless the spin has ended, it calls ``wake`` (the executor's ``wake``: rclpy's signal thread may have
     woken the executor before it shut the context down: workaround 3 above). With a ``grace`` it also arms a
-    timer (ERROR, every thread's stack, exit code 0) and faulthandler's C timer 2 s later (stacks, exit code
-    1). :meth:`spin_ended` arms faulthandler's timer itself too, from the caller's thread, before the
+    timer (ERROR, every thread's stack, exit code :data:`~grasp_intent_ros.ros.startup.WATCHDOG_EXIT_CODE`) and
+    faulthandler's C timer 2 s later (stacks, exit code 1). :meth:`spin_ended` arms faulthandler's timer
+    itself too, from the caller's thread, before the
     teardown: a teardown that holds the GIL from its start (the middleware's shutdown livelock, docs/nodes.md)
     would keep this thread from ever arming anything. :meth:`finished` disarms both: once run_node's shutdown
     is done the process is left alone.
@@ -144,7 +147,7 @@ class StopWatcher:
             f'shutdown not finished {self._grace:g} s after the stop request: exiting now; the threads follow')
         faulthandler.dump_traceback(file=sys.stderr, all_threads=True)
         sys.stderr.flush()
-        os._exit(0)
+        os._exit(WATCHDOG_EXIT_CODE)
 
 
 class ShutdownSafeExecutor(SingleThreadedExecutor):

@@ -167,6 +167,27 @@ class ModelFollower:
         else:
             self._diagnostics.set_value(KEY_REFUSED, f'{self.refused}; still serving with model {self.current.name!r}')
 
+    def check(self, requires: ModelRequirements) -> None:
+        """Whether the node still serves after its requirements become ``requires``: for a parameter check.
+
+        A change is refused when the model in use would be refused and the newest document is that model
+        (a node that serves would stop serving). While the newest document is refused, or none has come,
+        any requirements pass: the node cannot serve it anyway, and new requirements may let it
+        (:meth:`recheck` then reads it again).
+
+        Raises
+        ------
+        GraspIntentError
+            (a ValueError) Naming the model in use and why ``requires`` would refuse it.
+        """
+        current = self.current
+        if current is None or self.refused:
+            return
+        try:
+            requires.check(current.model.task_names, current.model.feature_names)
+        except GraspIntentError as exc:
+            raise GraspIntentError(f'the suite could not serve its active model {current.name!r}: {exc}') from None
+
     def stop(self) -> None:
         """Stop the reading thread (after the document it is reading)."""
         self._worker.stop()

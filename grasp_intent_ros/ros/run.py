@@ -15,9 +15,10 @@ a missing model) is logged and ends the process with exit code 1.
 
 A stop request that has not ended the process :data:`SHUTDOWN_GRACE` seconds later is ended by a
 watchdog (the stop watcher's thread arms it): it logs an ERROR, writes every thread's stack to stderr
-(``faulthandler``) and exits with code 0, so that a stop request always ends the node and leaves the
-evidence in its log. This covers a hung shutdown (executor, node and context, after the spin has ended)
-and a spin that a stop did not end. Two seconds later still, ``faulthandler``'s own timer (a C thread,
+(``faulthandler``) and exits with code :data:`~grasp_intent_ros.ros.startup.WATCHDOG_EXIT_CODE`, so
+that a stop request always ends the node, leaves the evidence in its log and tells its parent. This covers
+a hung shutdown (executor, node and context, after the spin has ended) and a spin that a stop did not
+end. Two seconds later still, ``faulthandler``'s own timer (a C thread,
 which needs no GIL) writes the stacks and exits with code 1, for a hang that holds the GIL (it is armed again
 from the main thread when the spin ends, before the teardown, which may hold the GIL from its start: the
 middleware's shutdown livelock of docs/nodes.md). Once run_node
@@ -45,6 +46,7 @@ from rclpy.publisher import Publisher
 from ..errors import GraspIntentError
 from .compat import ShutdownSafeExecutor, StopWatcher, ignore_python_sigint
 from .params import ParameterError
+from .startup import announce_ready
 
 __all__ = ['run_node', 'guard_exit', 'publish_all', 'release_free_memory', 'STARTUP_ERRORS', 'SHUTDOWN_GRACE']
 
@@ -113,6 +115,8 @@ def run_node(node_factory: Callable[[], Node], args: Sequence[str] | None = None
                 raise
             return  # SIGINT/SIGTERM while starting: rcl calls fail on the shut-down context
         executor.add_node(node)
+        if not getattr(node, 'announces_ready', False):  # a node that warms up announces it itself
+            announce_ready(node.get_logger().info)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -29,9 +29,13 @@ the module first). Only a process that called :func:`begin` is changed by :func:
 test process leaves that process's collector alone.
 
 **The answers.** :func:`run` sets the GIL switch interval to :data:`GIL_SWITCH_INTERVAL`, and
-:class:`KernelWarmUp` loads the compiled kernels in the worker thread while the node discovers its peers
-and waits for its first inputs (the kernels a first answer needs), and right after its first answer (the
-others), so that a restarted node answers sooner and never compiles or loads in a later answer.
+:class:`KernelWarmUp` loads every compiled kernel in the worker thread while the node discovers its peers
+and waits for its first inputs, compiling what numba's cache lacks (a fresh installation), so that no answer
+ever compiles or loads one; only then does the node log :data:`READY_LOG` (:func:`announce_ready`).
+
+**Ready.** A node logs :data:`READY_LOG` at INFO once it answers without a compile: :func:`run_node
+<grasp_intent_ros.ros.run.run_node>` as it starts to spin, or, for a node that warms up (``announces_ready``
+True), its warm-up when done. The suite command prints that it is up once every node has (:func:`is_ready_line`).
 
 This module imports neither rclpy nor numpy (it runs before them); what it calls of them it imports late.
 """
@@ -48,7 +52,8 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from rclpy.node import Node
 
-__all__ = ['begin', 'end', 'run', 'KernelWarmUp', 'GIL_SWITCH_INTERVAL']
+__all__ = ['begin', 'end', 'run', 'KernelWarmUp', 'GIL_SWITCH_INTERVAL', 'READY_LOG', 'announce_ready',
+           'is_ready_line', 'WATCHDOG_EXIT_CODE']
 
 GIL_SWITCH_INTERVAL = 0.0005
 """Seconds (Python's default: 0.005) a node's worker thread may hold the GIL while the executor thread waits.
@@ -57,8 +62,17 @@ The executor thread needs the GIL several times per message; with the default it
 each time behind a plan in progress, so a new input waited while the worker started on an older one.
 """
 
+WATCHDOG_EXIT_CODE = 3
+"""The exit code of a node process whose stop did not finish within its grace, ended by the watchdog of
+:mod:`grasp_intent_ros.ros.run` (its log holds every thread's stack)."""
+
+READY_LOG = 'ready'
+"""The start of the INFO line a node logs once it is ready (module docstring, "Ready")."""
+
 _paused = False
 """Whether :func:`begin` turned the collector off and :func:`end` has not turned it on yet (process-wide, as gc)."""
+_loading: set[KernelWarmUp] = set()
+"""The :class:`KernelWarmUp` whose :meth:`~KernelWarmUp.at_start` runs now (process-wide)."""
 
 
 def begin() -> None:
@@ -83,61 +97,100 @@ def run(node_factory: Callable[[], Node], args: Sequence[str] | None = None) -> 
     """A node process's ``main``: :func:`begin`, :data:`GIL_SWITCH_INTERVAL`, then the node until SIGINT/SIGTERM.
 
     The node runs with :func:`grasp_intent_ros.ros.run.run_node` (``args`` as there), and the process's
-    own exit is guarded by :func:`grasp_intent_ros.ros.run.guard_exit`.
+    own exit is guarded by :func:`grasp_intent_ros.ros.run.guard_exit`. A node stopped while a
+    :class:`KernelWarmUp` still loads (a first start compiles for tens of seconds) exits at once with code 0,
+    saying so on stderr: a compile cannot be cut short, and nothing else waits.
     """
     begin()
     sys.setswitchinterval(GIL_SWITCH_INTERVAL)
     from .run import guard_exit, run_node  # late: rclpy loads after begin()
 
     run_node(node_factory, args)
+    if _loading:  # stopped while compiling: nothing else to finish, and a compile cannot be cut short
+        print(f'stopped while loading compiled kernels ({len(_loading)} loading): not waiting for them',
+              file=sys.stderr, flush=True)
+        sys.stdout.flush()
+        os._exit(0)
     guard_exit()  # the interpreter's exit too must end, or leave the stacks
 
 
-class KernelWarmUp:
-    """Compiled kernels loaded ahead of the answers that need them, in a node's worker thread.
+def announce_ready(log: Callable[[str], object], detail: str = '') -> None:
+    """Log that the node is ready with ``log`` (a logger's ``info``): :data:`READY_LOG`, then ``detail``."""
+    log(f'{READY_LOG}{": " if detail else ""}{detail}')
 
-    Pass :meth:`at_start` and :meth:`after_first` as the ``prepare`` and ``after_first`` of a
-    :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker`. Neither raises: a load that fails is reported
-    with ``warn``, and the answer that needs the kernels loads them and reports what fails.
+
+def is_ready_line(line: str) -> bool:
+    """Whether ``line`` of a node's output is its :func:`announce_ready` line (rclpy's default log format)."""
+    return line.partition(']: ')[2].startswith(READY_LOG)
+
+
+class KernelWarmUp:
+    """Every compiled kernel a node's answers use, loaded (or compiled) in its worker thread before its first answer.
+
+    Pass :meth:`at_start` as the ``prepare`` of a :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker`
+    and report :meth:`loaded_late` after each answer. Neither raises: a load that fails is reported with
+    ``warn``, and the answer that needs the kernels loads them and reports what fails.
 
     Parameters
     ----------
     first : callable
-        Loads numba's CPU target and the kernels every answer uses (e.g. one IK of the arm's home pose).
+        Loads the node's own uses of the kernels (e.g. one IK of the arm's home pose); then
+        :func:`grasp_intent_ros.kernels.warm_up` loads every kernel with the planner's argument types.
     report : callable
-        ``report(key, value)`` with the milliseconds a load took, as text, under
-        :data:`~grasp_intent_ros.wire.protocol.KEY_KERNELS_LOAD_TIME` (:meth:`at_start`) or
-        :data:`~grasp_intent_ros.wire.protocol.KEY_KERNELS_LATE_LOAD_TIME` (:meth:`after_first`); e.g. a
+        ``report(key, value)`` with the milliseconds the load took, as text, under
+        :data:`~grasp_intent_ros.wire.protocol.KEY_KERNELS_LOAD_TIME`; e.g. a
         :meth:`NodeDiagnostics.set_value <grasp_intent_ros.ros.diagnostics.NodeDiagnostics.set_value>`.
     warn : callable
         ``warn(text)`` for a load that failed, e.g. a logger's ``warning``.
+    ready : callable
+        ``ready(detail)`` once the kernels are loaded (or failed to), e.g. :func:`announce_ready` with a
+        logger's ``info``.
     """
 
     def __init__(self, first: Callable[[], object], *, report: Callable[[str, str], object],
-                 warn: Callable[[str], object]) -> None:
-        self._first, self._report, self._warn = first, report, warn
+                 warn: Callable[[str], object], ready: Callable[[str], object]) -> None:
+        self._first, self._report, self._warn, self._ready = first, report, warn, ready
+        self._loaded: int | None = None
 
     def at_start(self) -> None:
-        """Run ``first``, then :func:`end` (the node's code is loaded): before the first answer."""
+        """Load every kernel, then :func:`end` (the node's code is loaded), then ``ready``: before the first answer."""
+        from ..kernels import loaded_signatures, warm_up
         from ..wire.protocol import KEY_KERNELS_LOAD_TIME
 
+        def load() -> None:
+            self._first()
+            warm_up()
+
+        _loading.add(self)
         try:
-            self._timed(KEY_KERNELS_LOAD_TIME, self._first)
+            took = self._timed(KEY_KERNELS_LOAD_TIME, load)
         finally:
             end()
+            _loading.discard(self)
+        self._loaded = loaded_signatures()
+        self._ready('' if took is None else f'compiled kernels loaded in {took:.0f} ms')
 
-    def after_first(self) -> None:
-        """Load the kernels the first answer did not use (loaded ones cost nothing): right after it."""
-        from ..kernels import warm_up
-        from ..wire.protocol import KEY_KERNELS_LATE_LOAD_TIME
+    def loaded_late(self) -> int:
+        """Kernel signatures compiled or loaded since :meth:`at_start` ended (0: no answer waited on one).
 
-        self._timed(KEY_KERNELS_LATE_LOAD_TIME, warm_up)
+        Raises
+        ------
+        RuntimeError
+            Before :meth:`at_start` has ended.
+        """
+        from ..kernels import loaded_signatures
 
-    def _timed(self, key: str, load: Callable[[], object]) -> None:
+        if self._loaded is None:
+            raise RuntimeError('the kernels are still loading')
+        return loaded_signatures() - self._loaded
+
+    def _timed(self, key: str, load: Callable[[], object]) -> float | None:
         start = time.perf_counter()
         try:
             load()
         except Exception as exc:  # noqa: BLE001 - then an answer loads them, and reports what fails
             self._warn(f'compiled planner kernels not loaded ahead: {exc}')
-            return
-        self._report(key, f'{1e3 * (time.perf_counter() - start):.0f}')
+            return None
+        took = 1e3 * (time.perf_counter() - start)
+        self._report(key, f'{took:.0f}')
+        return took

@@ -227,9 +227,6 @@ class LatestOnlyWorker(_OffExecutorThread, Generic[T]):
     prepare : callable, optional
         Run once in the worker thread before it handles anything (e.g. loading compiled code), so that the
         work overlaps with what the node waits for at start (discovery, its first inputs). It must not raise.
-    after_first : callable, optional
-        Run once in the worker thread right after it handled its first snapshot (e.g. loading what that one
-        did not need), so that the first answer does not wait for it. It must not raise.
     context : rclpy Context, optional
         The node's context: the thread then waits in an rclpy wait set and can take subscriptions
         (:meth:`take`); without one it waits on a ``threading.Event``.
@@ -239,14 +236,14 @@ class LatestOnlyWorker(_OffExecutorThread, Generic[T]):
                  ready: Callable[[T], bool] = lambda _: True,
                  min_period: Callable[[], float] = lambda: 0.0,
                  prepare: Callable[[], object] | None = None,
-                 after_first: Callable[[], object] | None = None,
                  context: Context | None = None) -> None:
         self._lock = threading.Lock()
         self._latest = initial
         self._version = 0
         self._handle, self._ready = handle, ready
         self._min_period = min_period
-        self._prepare, self._after_first = prepare, after_first
+        self._prepare = prepare
+        self._preparing = prepare is not None
         self._idle = False  # the thread waits for an update
         self.superseded = 0
         """Triggering updates never handled because a newer one replaced them."""
@@ -275,9 +272,28 @@ class LatestOnlyWorker(_OffExecutorThread, Generic[T]):
         """Whether the thread waits for a triggering update (its preparation done, nothing being handled)."""
         return self._idle
 
+    @property
+    def preparing(self) -> bool:
+        """Whether the thread still runs ``prepare``."""
+        return self._preparing
+
+    def stop(self) -> None:
+        """Stop the thread and wait for it, unless it still runs ``prepare``.
+
+        A preparation (a compile, say) cannot be cut short: the thread (a daemon) is then only asked to stop,
+        and ends with the process (:func:`grasp_intent_ros.ros.startup.run` ends a process left so at once).
+        """
+        if self._preparing:
+            self.stop_soon()
+        else:
+            super().stop()
+
     def _run(self) -> None:
         if self._prepare is not None:
-            self._prepare()
+            try:
+                self._prepare()
+            finally:
+                self._preparing = False
         handled = 0
         last_start = -math.inf
         while not self._stop.is_set():
@@ -300,9 +316,6 @@ class LatestOnlyWorker(_OffExecutorThread, Generic[T]):
             self.superseded += max(0, version - handled - 1)
             handled, last_start = version, time.monotonic()
             self._handle(snapshot)
-            if self._after_first is not None:
-                self._after_first()
-                self._after_first = None
 
 
 class InputThread(_OffExecutorThread):

@@ -87,7 +87,8 @@ def panel_html(state: SceneState, *, time_text: str = '') -> str:
     if state.alpha is not None:
         parts.append(f'<div>assistance α = {state.alpha:.2f}</div>')
     if state.q_live is None and len(parts) > 2:
-        parts.append('<div>live arm: no joint_states yet (the green ghost is the plan)</div>')
+        ghost = ' (the green ghost is the plan)' if state.q_target is not None else ''
+        parts.append(f'<div>live arm: no joint_states yet{ghost}</div>')
     if len(parts) == 2:
         parts.append('<div>waiting for the suite: no model, intent or plan yet</div>')
     parts.append('</div>')

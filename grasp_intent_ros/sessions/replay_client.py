@@ -29,6 +29,7 @@ from ..wire.protocol import (
     DIAGNOSTICS,
     INPUT_TOPICS,
     JOINT_STATES,
+    KEY_KERNELS_LOAD_TIME,
     MODEL_ACTIVE,
     MSGTYPES,
     OUTPUT_TOPICS,
@@ -74,6 +75,8 @@ class SessionClient(Node):
         """The newest live model document."""
         self.statuses: set[str] = set()
         """Names of the diagnostic statuses seen."""
+        self.loading: set[str] = set()
+        """Names of the planners' statuses that do not report their kernels loaded yet (not ready)."""
         self.diagnostics_received = 0
         """Number of /diagnostics messages received."""
         self.last_status: dict[str, str] = {}
@@ -122,6 +125,12 @@ class SessionClient(Node):
             self.last_status[str(status.name)] = (
                 f'{status.message} ({", ".join(f"{kv.key}: {kv.value}" for kv in status.values)})')
         self.statuses.update(str(s.name) for s in msg.status)
+        for status in msg.status:  # a planner is ready once its kernels are loaded (it reports their load time)
+            if str(status.name).endswith(': planning'):
+                if any(kv.key == KEY_KERNELS_LOAD_TIME for kv in status.values):
+                    self.loading.discard(str(status.name))
+                else:
+                    self.loading.add(str(status.name))
         now = self._now_ns()
         self.outputs.extend(Output(DIAGNOSTICS, now, r) for r in self._tracker.update(msg))
 
@@ -151,7 +160,7 @@ class SessionClient(Node):
 
         A model document,
         matched subscribers of the inputs, matched publishers of the outputs, a status from every
-        /diagnostics publisher, the parameter service.
+        /diagnostics publisher, every planner's kernels loaded, the parameter service.
         """
         lacking = []
         if self.model is None:
@@ -162,6 +171,7 @@ class SessionClient(Node):
         publishers = self._diag_sub.get_publisher_count()
         if publishers == 0 or len(self.statuses) < publishers:
             lacking.append(f'{len(self.statuses)} diagnostic statuses from {publishers} /diagnostics publishers')
+        lacking += [f'{name}: compiled kernels still loading' for name in sorted(self.loading)]
         if need_parameters and not self._param_client.service_is_ready():
             lacking.append(f'no parameter service {self._param_client.srv_name}')
         return lacking

@@ -103,7 +103,7 @@ __all__ = [
     'ModelHeader', 'ModelDocument', 'model_document', 'parse_model_document', 'read_model_document',
     'OK', 'WARN', 'ERROR', 'STALE', 'LEVEL_NAMES', 'level_value', 'status_name', 'status_values',
     'KEY_RECEIVED', 'KEY_REJECTED', 'KEY_LAST_ERROR', 'KEY_PROCESSING_TIME', 'KEY_DROPPED', 'KEY_PLANS',
-    'KEY_PLANNING_TIME', 'KEY_PLAN_STATUS', 'KEY_MODEL', 'KEY_KERNELS_LOAD_TIME', 'KEY_KERNELS_LATE_LOAD_TIME',
+    'KEY_PLANNING_TIME', 'KEY_PLAN_STATUS', 'KEY_MODEL', 'KEY_KERNELS_LOAD_TIME', 'KEY_KERNELS_LOADED_LATE',
 ]
 
 # ------------------------------------------------------------------------------------------ topics
@@ -718,11 +718,10 @@ KEY_PLAN_STATUS: Final = 'last plan status'
 KEY_MODEL: Final = 'model'
 """The planner's model: ``"<name> (version <n>, zones <labels>)"``."""
 KEY_KERNELS_LOAD_TIME: Final = 'compiled kernels load time [ms]'
-"""How long the planner's planning thread took at start to load numba's CPU target and the IK kernel
-(before any input; the first plan loads the kernels it uses)."""
-KEY_KERNELS_LATE_LOAD_TIME: Final = 'compiled kernels loaded after the first plan [ms]'
-"""How long the planner's planning thread took, right after its first plan, to load the compiled kernels
-that plan did not use."""
+"""How long the planner's planning thread took at start, before it was ready, to load (or, with an empty
+cache, compile) every compiled kernel."""
+KEY_KERNELS_LOADED_LATE: Final = 'compiled kernels loaded after ready'
+"""How many kernel signatures the planner compiled or loaded after it was ready (0: no plan waited on one)."""
 
 
 def level_value(level: Any) -> int:

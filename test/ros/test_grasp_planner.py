@@ -52,7 +52,7 @@ from grasp_intent_ros.ros.conversions import (
 from grasp_intent_ros.ros.params import ParameterError
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import matrix_to_pose_msg, pose_msg_to_matrix
-from grasp_intent_ros.wire.protocol import KEY_KERNELS_LATE_LOAD_TIME, KEY_KERNELS_LOAD_TIME, read_model_document
+from grasp_intent_ros.wire.protocol import KEY_KERNELS_LOAD_TIME, KEY_KERNELS_LOADED_LATE, read_model_document
 
 REPO = Path(__file__).resolve().parents[2]
 TASKS = ('usage', 'transfer', 'handover')
@@ -564,14 +564,19 @@ def test_a_model_the_suite_cannot_serve_is_refused_and_every_v_clarified_until_o
     plan = rig.request(model_to_msg(model, name='cup', version=2), rig.model_pub)
     assert plan.posterior.zone_labels == model.zone_labels
     assert rig.ros.wait_for(lambda: rig.node._inputs_diag.status().level != DiagnosticStatus.ERROR)
-    # the suite's tasks change: the latched model is read again and refused, so nothing is left to plan with
+    # task_names the served model does not have: refused by the set itself, with the reason; planning goes on
+    result = rig.node.set_parameters([Parameter('task_names', value=['use', 'throw', 'hold'])])[0]
+    assert not result.successful
+    assert result.reason == ("the suite could not serve its active model 'cup': its tasks [usage, transfer, "
+                             'handover] are not the task_names [use, throw, hold]')
+    assert tuple(rig.node.get_parameter('task_names').value) == ('usage', 'transfer', 'handover')
+    assert rig.request(v_msg(interpret(W_GOOD).v)).posterior.zone_labels == model.zone_labels
+    # while the newest document is refused, task_names that serve it are accepted: it is read again and used
+    rig.model_pub.publish(model_to_msg(other, name='other_tasks', version=3))
+    assert rig.ros.wait_for(lambda: rig.node._models.refused, 10.0)
     assert rig.node.set_parameters([Parameter('task_names', value=['use', 'throw', 'hold'])])[0].successful
-    assert rig.ros.wait_for(error("model/active: model 'cup' refused: its tasks [usage, transfer, handover] are "
-                                  'not the task_names [use, throw, hold]'), 10.0)
-    n = len(clarifications)
-    assert rig.ros.publish_until(rig.v_pub, v_msg(interpret(W_GOOD).v), lambda: len(clarifications) > n,
-                                 timeout=10.0)
-    assert clarifications[-1].data.startswith("cannot serve: model/active: model 'cup' refused")
+    assert rig.ros.wait_for(lambda: rig.node._models.current is not None
+                            and rig.node._models.current.name == 'other_tasks', 10.0)
 
 
 def test_planning_goes_on_with_the_current_model_while_a_new_one_is_read(
@@ -717,14 +722,13 @@ def test_markers_period(make_rig: Callable[..., Rig], model: GraspModel) -> None
     assert len(rig.grasps.received['markers']) == 1, 'markers again within markers_period'
 
 
-def test_compiled_kernels_load_at_start_and_the_rest_after_the_first_plan(make_rig: Callable[..., Rig],
-                                                                         model: GraspModel) -> None:
-    """The planning thread loads numba's target and the IK kernel while the node waits for its first inputs.
+def test_every_compiled_kernel_loads_before_the_first_plan_and_none_after(make_rig: Callable[..., Rig],
+                                                                          model: GraspModel) -> None:
+    """The planning thread loads every kernel while the node waits for its first inputs, and none later.
 
-    The first plan loads the planner kernels it uses; the others are loaded right after it, so that a
-    restarted planner answers sooner. Loading at start ends a node process's start
-    (:mod:`grasp_intent_ros.ros.startup`), which leaves the garbage collector of a process that did not
-    begin one (this test's) as it was.
+    Loading ends a node process's start (:mod:`grasp_intent_ros.ros.startup`), which leaves the garbage
+    collector of a process that did not begin one (this test's) as it was. Plans of both methods and of a
+    second model then compile and load nothing (the count of kernel signatures loaded after ready).
     """
     frozen, collecting = gc.get_freeze_count(), gc.isenabled()
     rig = make_rig(None)
@@ -734,9 +738,10 @@ def test_compiled_kernels_load_at_start_and_the_rest_after_the_first_plan(make_r
     assert rig.ros.wait_for(lambda: loaded(KEY_KERNELS_LOAD_TIME), timeout=30.0), 'no kernel load time'
     assert float(values_of(loaded(KEY_KERNELS_LOAD_TIME)[0])[KEY_KERNELS_LOAD_TIME]) >= 0.0
     assert not rig.grasps.count(), 'nothing planned: no model and no v were sent'
-    assert not loaded(KEY_KERNELS_LATE_LOAD_TIME), 'the other kernels wait for the first plan'
     assert (gc.get_freeze_count(), gc.isenabled()) == (frozen, collecting)
     rig.model_pub.publish(model_to_msg(model, name=model.name or 'model', version=1))
-    rig.request(v_msg(interpret(W_GOOD).v))
-    assert rig.ros.wait_for(lambda: loaded(KEY_KERNELS_LATE_LOAD_TIME), timeout=30.0)
-    assert float(values_of(loaded(KEY_KERNELS_LATE_LOAD_TIME)[0])[KEY_KERNELS_LATE_LOAD_TIME]) >= 0.0
+    for method, w in (('task', W_GOOD), ('task', (0.2, 0.9, 0.9)), ('lm', W_GOOD)):
+        assert rig.node.set_parameters([Parameter('method', value=method)])[0].successful
+        rig.request(v_msg(interpret(w).v))
+        assert rig.ros.wait_for(lambda: loaded(KEY_KERNELS_LOADED_LATE), timeout=10.0)
+        assert values_of(loaded(KEY_KERNELS_LOADED_LATE)[-1])[KEY_KERNELS_LOADED_LATE] == '0'

@@ -240,6 +240,20 @@ def test_a_model_of_other_tasks_is_refused_and_every_intent_is_clarified_until_o
     assert ros.wait_for(lambda: node._diagnostics.status().level == DiagnosticStatus.OK)
 
 
+def test_task_names_that_would_leave_the_model_unserved_are_refused_by_the_set(ros, interpreter):
+    """``ros2 param set /intent_interpreter task_names "[a, b, c]"``: answered by the set, with the reason."""
+    from grasp_intent_ros.ros.qos import latched_qos
+    node, w_pub, v_msgs, clarifications = interpreter
+    ros.publisher(String, 'model/active', latched_qos()).publish(_model_doc('cup_5zone'))
+    assert ros.wait_for(lambda: node._models.current is not None)
+    result = node.set_parameters([Parameter('task_names', value=['a', 'b', 'c'])])[0]
+    assert not result.successful
+    assert result.reason == ("the suite could not serve its active model 'cup_5zone': its tasks [usage, transfer, "
+                             'handover] are not the task_names [a, b, c]')
+    assert tuple(node.get_parameter('task_names').value) == ('usage', 'transfer', 'handover')
+    assert ros.publish_until(w_pub, w_msg([0.9, 0.9, 0.1]), lambda: v_msgs) and clarifications == []
+
+
 @pytest.mark.parametrize('kind', ['alias bomb', 'nested too deeply', 'oversized'])
 def test_weaponised_model_document_is_rejected_and_the_model_kept(ros, interpreter, weaponised_model_documents,
                                                                    kind):

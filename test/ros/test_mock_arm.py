@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import rclpy
 from builtin_interfaces.msg import Duration
 from geometry_msgs.msg import TwistStamped
 from numpy.testing import assert_allclose
@@ -103,3 +104,16 @@ def test_the_hand_closes_to_the_plans_closures_with_its_own_error(ros) -> None:
     assert ros.wait_for(lambda: states and np.allclose(latest_positions(states)[6:], executed, atol=1e-12), 5.0)
     assert_allclose(latest_positions(states)[:6], HOME_Q, atol=0)  # only the fingers moved
     assert FINGER_JOINTS == JOINT_NAMES[6:]
+
+
+def test_a_tick_after_a_signal_ended_the_context_publishes_nothing_and_reports_no_error(ros) -> None:
+    """A signal shuts the context down while the timer ticks: joint_states is dropped, not an internal error."""
+    context = rclpy.context.Context()
+    rclpy.init(context=context, domain_id=ros.domain_id)
+    node = MockArmNode(context=context)
+    errors: list[str] = []
+    node._diag.rejected = lambda reason, **kw: errors.append(reason)  # type: ignore[method-assign]
+    rclpy.shutdown(context=context)
+    node._on_timer()
+    node.destroy_node()
+    assert errors == []

@@ -13,6 +13,7 @@ from rclpy.executors import ExternalShutdownException
 from grasp_intent_ros.launch.suite import node_environment
 from grasp_intent_ros.ros.compat import ShutdownSafeExecutor
 from grasp_intent_ros.ros.run import publish_all, release_free_memory
+from grasp_intent_ros.ros.startup import WATCHDOG_EXIT_CODE
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -89,8 +90,8 @@ def _stuck(domain_id: int, node_body: str, exit_code: int) -> str:
 
 
 def _stopped_by_the_watchdog(domain_id: int, node_body: str) -> str:
-    """:func:`_stuck` ended by the watchdog: exit code 0, its ERROR; the stderr."""
-    err = _stuck(domain_id, node_body, 0)
+    """:func:`_stuck` ended by the watchdog: its own exit code (the parent can tell), its ERROR; the stderr."""
+    err = _stuck(domain_id, node_body, WATCHDOG_EXIT_CODE)
     assert 'shutdown not finished 0.5 s after the stop request' in err
     return err
 

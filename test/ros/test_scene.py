@@ -7,6 +7,7 @@ here creates a node.
 from __future__ import annotations
 
 import socket
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -151,6 +152,13 @@ def test_the_panel_names_every_zone_with_v_and_p_and_escapes_text(cup: GraspMode
         assert row.index(f'{v_k:.2f}') < row.index(f'{p_k:.2f}') < row.index('</tr>')
     assert '&lt;b&gt;which task?&lt;/b&gt;' in html and '<b>which task?</b>' not in html
     assert 'waiting for the suite' in panel_html(SceneState())
+
+
+def test_the_panel_names_the_green_ghost_only_when_a_plan_drew_it(cup: GraspModel) -> None:
+    state = apply(SceneState(), topics.MODEL_ACTIVE, model_to_msg(cup, name='cup_7zone', version=1))
+    assert 'no joint_states yet' in panel_html(state) and 'ghost' not in panel_html(state)  # a bag's t = 0
+    planned = replace(state, q_target=HOME_Q, fingers_target=np.zeros(3))
+    assert 'no joint_states yet (the green ghost is the plan)' in panel_html(planned)
 
 
 def test_the_page_is_served_on_loopback_and_draws_any_state(arm: ArmModel, cup: GraspModel) -> None:

@@ -7,9 +7,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
+import pytest
+
 from grasp_intent_ros.launch.suite import node_environment
 from grasp_intent_ros.ros import startup
-from grasp_intent_ros.wire.protocol import KEY_KERNELS_LATE_LOAD_TIME, KEY_KERNELS_LOAD_TIME
+from grasp_intent_ros.wire.protocol import KEY_KERNELS_LOAD_TIME
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -88,18 +91,34 @@ def test_run_tunes_the_process_before_the_node_is_built(domain_id: int) -> None:
     assert result.returncode == 1 and 'cannot start: tuned' in result.stdout + result.stderr, result.stderr
 
 
-def test_kernel_warm_up_reports_each_load_and_warns_of_one_that_failed() -> None:
+def test_kernel_warm_up_loads_every_kernel_before_ready_and_counts_the_loads_after_it() -> None:
     reports: list[tuple[str, float]] = []
     warnings: list[str] = []
+    ready: list[str] = []
 
     def failing() -> None:
         raise RuntimeError('no CPU target')
 
-    startup.KernelWarmUp(failing, report=lambda k, v: reports.append((k, float(v))), warn=warnings.append).at_start()
+    startup.KernelWarmUp(failing, report=lambda k, v: reports.append((k, float(v))), warn=warnings.append,
+                         ready=ready.append).at_start()
     assert reports == [] and warnings == ['compiled planner kernels not loaded ahead: no CPU target']
+    assert ready == [''], 'ready even so: the answers load what they need and report what fails'
     warm_up = startup.KernelWarmUp(lambda: None, report=lambda k, v: reports.append((k, float(v))),
-                                   warn=warnings.append)
+                                   warn=warnings.append, ready=ready.append)
+    with pytest.raises(RuntimeError, match='still loading'):
+        warm_up.loaded_late()
     warm_up.at_start()
-    warm_up.after_first()
-    assert [key for key, _ in reports] == [KEY_KERNELS_LOAD_TIME, KEY_KERNELS_LATE_LOAD_TIME]
-    assert all(ms >= 0.0 for _, ms in reports) and len(warnings) == 1
+    assert [key for key, _ in reports] == [KEY_KERNELS_LOAD_TIME] and reports[0][1] >= 0.0
+    assert ready[1].startswith('compiled kernels loaded in ') and len(warnings) == 1
+    assert warm_up.loaded_late() == 0
+    from grasp_intent_ros.kernels import selection
+    selection._distinct(np.ones((2, 3), dtype=np.float32), 1e-18)  # new argument types: a signature compiled
+    assert warm_up.loaded_late() == 1
+
+
+def test_a_ready_line_is_told_from_other_output() -> None:
+    lines: list[str] = []
+    startup.announce_ready(lines.append, 'compiled kernels loaded in 12 ms')
+    assert startup.is_ready_line(f'[INFO] [1764336000.123] [robot1.grasp_planner]: {lines[0]}')
+    assert not startup.is_ready_line('[INFO] [1764336000.123] [model_server]: active model ready')
+    assert not startup.is_ready_line('ready')

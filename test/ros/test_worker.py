@@ -112,21 +112,19 @@ def test_an_update_hands_an_idle_thread_the_gil_and_a_busy_one_nothing(monkeypat
         worker.stop()
 
 
-def test_after_first_runs_once_in_the_thread_after_the_first_handled_snapshot() -> None:
-    order: list[tuple[str, str]] = []
-    worker = LatestOnlyWorker(0, lambda v: order.append((f'handle {v}', threading.current_thread().name)),
-                              name='test_worker', ready=lambda value: value >= 2,
-                              after_first=lambda: order.append(('after first', threading.current_thread().name)))
+def test_stop_does_not_wait_for_a_preparation_and_nothing_is_handled_after_it() -> None:
+    release, handled = threading.Event(), []
+    worker = LatestOnlyWorker(0, handled.append, name='test_worker', prepare=lambda: release.wait(30.0))
     try:
-        worker.update(lambda _: 1)  # not ready: not handled, so not yet the first
-        assert wait(lambda: worker.idle)
-        assert order == []
-        for value in (2, 3):
-            worker.update(lambda _, value=value: value)
-            assert wait(lambda: len(order) == value), order
+        assert worker.preparing
+        worker.update(lambda _: 1)
+        worker.stop()  # returns while the preparation goes on (a compile cannot be cut short)
+        assert worker.preparing and worker.stopping
     finally:
-        worker.stop()
-    assert order == [('handle 2', 'test_worker'), ('after first', 'test_worker'), ('handle 3', 'test_worker')]
+        release.set()
+    assert wait(lambda: not worker.preparing)
+    worker.stop()  # now it joins the thread, which ends without handling the update
+    assert handled == []
 
 
 # ------------------------------------------------------------ a worker that takes a subscription (ROS)

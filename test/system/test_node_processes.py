@@ -105,3 +105,20 @@ def test_bad_configuration_exits_1_with_reason(launch, tiny_models):
     assert proc.popen.wait(STARTUP) == 1
     err = proc.stderr()
     assert "unknown model 'mug'" in err and 'Traceback' not in err, err
+
+
+SUITE_STARTUP = 30.0
+"""Seconds for the three suite nodes to start and answer a w (imports, DDS discovery) on a loaded 2-core machine."""
+
+
+def test_a_launch_stopping_the_nodes_one_at_a_time_with_sigint_ends_each_with_exit_code_0(ros, launch):
+    """The stop that docs/nodes.md#shutdown asks of a launch of one's own, with all three nodes up.
+
+    SIGINT to one node's PID, wait for its exit, then the next, the last started first (NodeSuite.stop).
+    """
+    launch.start_nodes()
+    posteriors = ros.subscribe(Float64MultiArray, 'grasp/posterior')
+    w_pub = ros.publisher(Float64MultiArray, 'intent/w')
+    assert ros.publish_until(w_pub, Float64MultiArray(data=[0.9, 0.9, 0.1]), lambda: posteriors,
+                             timeout=SUITE_STARTUP, period=0.5)
+    assert launch.stop(signal.SIGINT) == []

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,7 @@ from grasp_intent_ros.method.intent import DEFAULT_TASKS, all_zones
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.sessions.pairing import Step, load_paired_session
 
+from .fixed_reference import FixedReference
 from .session_bags import session_messages, write_bag
 
 
@@ -52,3 +54,11 @@ def session_bag(tmp_path: Path) -> Path:
 def plan_step(tmp_path_factory: pytest.TempPathFactory) -> Step:
     """The step of that session whose input was answered by a plan."""
     return load_paired_session(write_bag(tmp_path_factory.mktemp('s') / 'plan', session_messages())).steps[1]
+
+
+@pytest.fixture(scope='session')
+def fixed_reference() -> Iterator[FixedReference]:
+    """The scipy searches on fixed OpenBLAS kernels, in a child process: the same references on every x86-64 CPU."""
+    searches = FixedReference()
+    yield searches
+    searches.close()

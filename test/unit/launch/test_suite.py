@@ -134,16 +134,16 @@ def test_loopback_discovery_is_set_in_the_given_environment() -> None:
 
 def test_suite_waits_notices_a_death_and_stops_by_pid(tmp_path: Path) -> None:
     suite = NodeSuite(97, log_dir=tmp_path)
-    suite.processes += [run(tmp_path, SLEEPER), NodeProcess([sys.executable, '-c', 'import sys; sys.exit(3)'],
+    suite.processes += [run(tmp_path, SLEEPER), NodeProcess([sys.executable, '-c', 'import sys; sys.exit(4)'],
                                                             module='quitter', env=suite.env, log_dir=tmp_path)]
     spins: list[float] = []
-    with pytest.raises(SuiteError, match=r'quitter \(pid \d+\) exited with code 3'):
+    with pytest.raises(SuiteError, match=r'quitter \(pid \d+\) exited with code 4'):
         suite.wait_ready(lambda: ['not yet'], spins.append, 30.0)
     assert suite.wait_ready(lambda: [], spins.append, 0.0) == []
     assert suite.stop(include_exited=False) == [f'probe (pid {suite.processes[0].pid}) exited with code '
                                                 f'{-signal.SIGTERM}:\n    | (empty)']
     assert suite.stop(tail_lines=0) == [f'probe (pid {suite.processes[0].pid}) exited with code {-signal.SIGTERM}',
-                                        f'quitter (pid {suite.processes[1].pid}) exited with code 3']
+                                        f'quitter (pid {suite.processes[1].pid}) exited with code 4']
     suite.remove_logs()
     assert tmp_path.is_dir(), 'a log directory given by the caller stays'
 

@@ -279,6 +279,8 @@ def test_generate_data_cli_options(tmp_path: Path, capsys: pytest.CaptureFixture
     assert load_csv(tmp_path / 'cup.csv').sha256() == demos.generate(demos.CUP_RULES, 40, seed=5).sha256()
     assert sorted(p.name for p in (tmp_path / 'models').iterdir()) == [
         'cup_4zone.yaml', 'cup_5zone.yaml', 'cup_7zone.yaml']
+    for path in (tmp_path / 'models').iterdir():  # written with the declaration first: they load
+        assert GraspModel.load(path).name == path.stem
     assert 'U 40, T 40, H 40, UT 40, UH 40, TH 40, UTH 40' in capsys.readouterr().out
     with pytest.raises(SystemExit) as exc:
         generate_data.main(['--count', '10', '--out', str(tmp_path)])

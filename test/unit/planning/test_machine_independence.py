@@ -1,10 +1,12 @@
-"""The planner's answers do not depend on the machine's BLAS: the same bits under another CPU's OpenBLAS kernels.
+"""The planner's answers do not depend on the CPU: the same bits under another CPU's OpenBLAS kernels and numba target.
 
 numpy's matrix products and factorisations run OpenBLAS kernels chosen for the CPU, and they sum in
 orders of their own. The model's precisions and normalisers, the planner's screens and its kernels are
-written out with every sum in a fixed order, so a plan is a function of its input bit for bit. The first
-test runs the same plans, and the MICO grasps made of them, in processes whose OpenBLAS takes the
-kernels of another CPU (``OPENBLAS_CORETYPE``) and compares the bits.
+written out with every sum in a fixed order, so a plan is a function of its input bit for bit. The tests
+run the same plans, and the MICO grasps made of them, in processes whose OpenBLAS takes the kernels of
+another CPU (``OPENBLAS_CORETYPE``), or whose numba compiles for a generic x86-64 CPU (``NUMBA_CPU_NAME``),
+and compare the bits: both methods ('task' and 'lm'), fresh and warm-started, and the MICO's pose, joint
+targets and trajectory duration of :func:`~grasp_intent_ros.mico.grasp.plan_grasp`.
 """
 
 from __future__ import annotations
@@ -38,32 +40,48 @@ for name in ('cup_7zone', 'flashlight_7zone', 'cup_5zone', 'cup_4zone'):
     for w in rng.uniform(0.0, 1.0, (30, 3)):  # fresh plans, then each warm-started from the one before
         v = intent.interpret(w, model.zones).v
         if v is not None:
-            plans.update(planner.plan(model, v).x.tobytes())
+            plans.update(planner.plan(model, v).x.tobytes() + planner.plan(model, v, method='lm').x.tobytes())
             previous = planner.plan(model, v, warm_start=previous).x
             plans.update(previous.tobytes())
     for w in rng.uniform(0.0, 1.0, (6, 3)):  # what a bag records: the MICO's pose and joint targets
         v = intent.interpret(w).v
-        grasp = None if v is None else plan_grasp(model, v, intent.all_zones(3), base_T_obj, kin, name=name)
-        if isinstance(grasp, Grasp):
-            plans.update(grasp.base_T_ee.tobytes() + grasp.positions.tobytes() + repr(grasp.duration_s).encode())
+        for method in ('task', 'lm'):
+            grasp = None if v is None else plan_grasp(model, v, intent.all_zones(3), base_T_obj, kin, name=name,
+                                                      method=method)
+            if isinstance(grasp, Grasp):
+                plans.update(grasp.base_T_ee.tobytes() + grasp.positions.tobytes()
+                             + repr(grasp.duration_s).encode())
 print(plans.hexdigest(), blas.hexdigest())
 '''
 
 
-def _run_probe(coretype: str | None) -> tuple[str, str]:
+def _run_probe(coretype: str | None, cpu_name: str | None = None) -> tuple[str, str]:
     env = dict(os.environ)
     env.pop('OPENBLAS_CORETYPE', None)
+    env.pop('NUMBA_CPU_NAME', None)
     if coretype is not None:
         env['OPENBLAS_CORETYPE'] = coretype
+    if cpu_name is not None:
+        env['NUMBA_CPU_NAME'] = cpu_name
     done = subprocess.run([sys.executable, '-c', PROBE], env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     plans, blas = done.stdout.split()
     return plans, blas
 
 
-def test_plans_have_the_same_bits_under_another_cpus_blas_kernels() -> None:
-    own, own_blas = _run_probe(None)
+@pytest.fixture(scope='module')
+def own() -> tuple[str, str]:
+    """The probe's hashes with the host's OpenBLAS kernels and numba compiling for the host."""
+    return _run_probe(None)
+
+
+def test_plans_have_the_same_bits_under_another_cpus_blas_kernels(own: tuple[str, str]) -> None:
     other, other_blas = _run_probe('Prescott')  # the SSE3 kernels: run on every x86-64 CPU
-    if own_blas == other_blas:
+    if own[1] == other_blas:
         pytest.skip("OPENBLAS_CORETYPE changed nothing in numpy's own BLAS here: nothing to compare")
-    assert other == own
+    assert other == own[0]
+
+
+def test_plans_have_the_same_bits_with_numba_compiling_for_a_generic_cpu(own: tuple[str, str]) -> None:
+    """The kernels compiled by numba for a baseline x86-64 CPU (no AVX, no FMA) instead of the host's."""
+    assert _run_probe(None, 'generic')[0] == own[0]
