@@ -15,6 +15,8 @@ assistance
     The operator's twist blended toward the grasp (shared control).
 mock_arm
     A simulated MICO taking trajectories and twists.
+intent_estimator
+    w from the operator's own twist (optional).
 viewer
     The scene in a browser (the ``viewer`` extra).
 recorder
