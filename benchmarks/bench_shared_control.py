@@ -1,7 +1,7 @@
 r"""Closed-loop shared control without hardware: scripted operators, five real node processes (issue 30).
 
 The interpreter, model server, planner, mock arm and assistance run as ``python -m`` processes over
-loopback (:meth:`~grasp_intent_ros.launch.suite.NodeSuite.start_nodes` with ``shared_control=True``); this
+loopback (:meth:`~grasp_intent_ros.tools.suite.NodeSuite.start_nodes` with ``shared_control=True``); this
 process is the operator (a probe node). Each seeded operator is run three times, in a rotating order, one
 per condition, switched by the assistance node's ``arbitration`` parameter: ``none`` (direct
 teleoperation, alpha = 0), ``blend`` (ADA's baseline: alpha_max when v's top zone leads by ``margin``) and
@@ -16,7 +16,7 @@ The scripted operator (a stated, simple model)
   with N(0, (0.08 (1 - s))^2) noise per task (s the sharpening's progress, w clipped to [0.02, 0.98]),
   published at 10 Hz on ``intent/w``.
 - **Goal.** The grasp the planner shows (``grasp/pose``, judged by ``grasp/features``) when it serves S
-  (the data set's task rules, :data:`grasp_intent_ros.objects.demos.CUP_RULES` / ``FLASHLIGHT_RULES``: every
+  (the data set's task rules, :data:`grasp_intent_ros.dataset.demos.CUP_RULES` / ``FLASHLIGHT_RULES``: every
   task of S satisfied), else the operator's own grasp for S: the planner's grasp for w_S planned offline
   from Home, or, when that does not serve S, the reachable demonstration of the data set that serves S
   nearest to it. The rule is the same under the three conditions (the shown grasp is on the screen
@@ -39,7 +39,9 @@ latency from the operator's publish to the blended twist's receipt (the middlewa
 
 ``--record BAG`` runs no benchmark: it records one operator (the first of ``--only``, of the first of
 ``--objects``) under ``confidence`` as a closed-loop session bag, holding still for 2 s after the grasp
-(:func:`record_session`); bags/shared_control_cup is ``--objects cup --only 0 --record``.
+(:func:`record_session`), in an ambiguous episode: w held at the paper's (0.9, 0.9, 0.1) with the noise of an
+unsharpened intent, the operator wanting usage and transfer; bags/shared_control_cup is
+``--objects cup --only 0 --record``.
 
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set.
 
@@ -73,8 +75,7 @@ from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRules
 from grasp_intent_ros.resources import config_dir
-from grasp_intent_ros.sessions.closed_loop import reached
-from grasp_intent_ros.shared_control.assistance import clip_norm, pose_error
+from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error, reached
 
 OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 CONDITIONS = ('none', 'blend', 'confidence')
@@ -244,12 +245,21 @@ class Loop:
         node.create_subscription(Float64MultiArray, 'grasp/features', on_features, input_qos(100))
         node.create_subscription(Float64, 'assistance/alpha', lambda m: self.alphas.append(
             (time.monotonic(), m.data)), input_qos(1000))
-        node.create_subscription(TwistStamped, 'assistance/twist', lambda m, info: self.outputs.append(
-            (info['received_timestamp'], m.twist.angular.z)), input_qos(1000))
+        def on_blended(m: Any, info: Any) -> None:
+            self.outputs.append((info['received_timestamp'], m.twist.angular.z))
+            t = m.twist
+            self.blended.append((time.monotonic(), np.array([t.linear.x, t.linear.y, t.linear.z, t.angular.x,
+                                                             t.angular.y, t.angular.z])))
+
+        self.blended: list[tuple[float, np.ndarray]] = []  # (monotonic, twist)
+        node.create_subscription(TwistStamped, 'assistance/twist', on_blended, input_qos(1000))
         self.twist_pub = node.create_publisher(TwistStamped, 'operator/twist', output_qos())
         self.w_pub = node.create_publisher(Float64MultiArray, 'intent/w', output_qos())
         self._set_params = node.create_client(SetParameters, 'assistance/set_parameters')
         self._reset = node.create_client(Trigger, 'mock_arm/reset')
+        from std_srvs.srv import SetBool
+        self._enable = node.create_client(SetBool, 'assistance/enable')
+        self._set_bool = SetBool
         self._twist_type, self._w_type, self._trigger = TwistStamped, Float64MultiArray, Trigger
 
     def twist(self, values: np.ndarray) -> Any:
@@ -278,6 +288,9 @@ class Loop:
         result = self.call(self._set_params, SetParameters.Request(parameters=[Parameter(name='arbitration',
                                                                                           value=value)]))
         assert result.results[0].successful, result.results[0].reason
+
+    def enable(self, on: bool) -> None:
+        assert self.call(self._enable, self._set_bool.Request(data=on)).success
 
     def reset_arm(self) -> None:
         assert self.call(self._reset, self._trigger.Request()).success
@@ -371,6 +384,82 @@ def latency_phase(loop: Loop, seconds: float) -> dict[str, float]:
             'p99_ms': float(np.percentile(latency, 99)), 'max_ms': float(latency.max())}
 
 
+STREAM_W = (0.9, 0.9, 0.1)
+"""The intent the stream phase's estimator reports (10 Hz, no noise): the paper's ambiguous case."""
+
+
+def _send_for(loop: Loop, seconds: float, twist_of: Any) -> tuple[float, float]:
+    """Publish ``twist_of(now)`` at 100 Hz and :data:`STREAM_W` at 10 Hz for ``seconds``; (start, end) monotonic."""
+    start = time.monotonic()
+    tick = 0
+    while time.monotonic() - start < seconds:
+        if tick % W_EVERY == 0:
+            loop.send_w(np.array(STREAM_W))
+        loop.twist_pub.publish(loop.twist(twist_of(time.monotonic())))
+        tick += 1
+        delay = start + tick * PERIOD - time.monotonic()
+        if delay > 0.0:
+            time.sleep(delay)
+    return start, time.monotonic()
+
+
+def stream_phase(loop: Loop) -> dict[str, float]:
+    """The stream a servo sees under the suite's rule, opposition, the switch and zero input (module docstring)."""
+    loop.set_arbitration('confidence')
+    loop.enable(True)
+    out: dict[str, float] = {}
+    # zero input from a fresh start, with the intent streaming: the hand must not move (the zero twists keep
+    # the mock arm in twist mode: the planner's grasp/trajectory is not followed meanwhile)
+    loop.reset_arm()
+    _send_for(loop, 0.5, lambda now: np.zeros(6))
+    first = loop.hand_at(time.monotonic())
+    _send_for(loop, 3.0, lambda now: np.zeros(6))
+    last = loop.hand_at(time.monotonic())
+    assert first is not None and last is not None
+    out['zero_input_motion_mm'] = 1e3 * float(np.linalg.norm(last[:3, 3] - first[:3, 3]))
+    # heading at the grasp: rate, gaps, alpha
+    plan = loop.plan_at(time.monotonic())
+    assert plan is not None
+    goal = plan[0]
+
+    def toward(now: float) -> np.ndarray:
+        hand = loop.hand_at(now)
+        error = pose_error(hand, goal) if hand is not None else np.zeros(6)
+        return np.r_[clip_norm(1.5 * error[:3], 0.05), clip_norm(1.5 * error[3:], 0.3)]
+
+    loop.reset_arm()
+    start, end = _send_for(loop, 4.0, toward)
+    times = np.array([t for t, _ in loop.blended if start <= t <= end])
+    gaps = np.diff(times)
+    out['rate_hz'] = (times.size - 1) / float(times[-1] - times[0])
+    out['max_gap_ms'] = 1e3 * float(gaps.max())
+    out['gaps_over_20ms'] = int(np.sum(gaps > 0.02))
+    alphas = [a for t, a in loop.alphas if start <= t <= end]
+    out['alpha_heading_mean'] = float(np.mean(alphas))
+    # sustained opposition: straight away from the grasp at 0.1 m/s for 3 s
+    hand0 = loop.hand_at(time.monotonic())
+    assert hand0 is not None
+    away = np.r_[-clip_norm(pose_error(hand0, goal)[:3], 1.0) * 0.1, 0.0, 0.0, 0.0]
+    start, end = _send_for(loop, 3.0, lambda now: away)
+    low = [t for t, a in loop.alphas if t >= start and a <= 0.1]
+    out['opposition_to_alpha_0.1_s'] = (low[0] - start) if low else math.inf
+    zero = [t for t, a in loop.alphas if t >= start and a == 0.0]
+    out['opposition_to_alpha_0_s'] = (zero[0] - start) if zero else math.inf
+    hand1 = loop.hand_at(end)
+    assert hand1 is not None
+    out['opposition_moved_away_cm'] = 1e2 * (offset(hand1, goal)[0] - offset(hand0, goal)[0])
+    # the switch: off, the operator's twist exactly
+    loop.enable(False)
+    loop.probe.wait_for(lambda: False, 0.1)
+    fast = np.r_[0.05, -0.03, 0.02, 0.1, 0.0, -0.1]
+    start, end = _send_for(loop, 1.0, lambda now: fast)
+    outs = [tw for t, tw in loop.blended if start + 0.05 <= t <= end]
+    out['switch_off_exact_fraction'] = float(np.mean([np.array_equal(tw, fast) for tw in outs]))
+    loop.enable(True)
+    out['load'] = float(uptime().split()[2].rstrip(','))
+    return out
+
+
 def run_object(name: str, args: argparse.Namespace, domain_id: int, op: Operator) -> tuple[list[Run], dict[str, float]]:
     from grasp_intent_ros.launch.suite import NodeSuite
 
@@ -390,6 +479,11 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int, op: Operator
         print(f'[{name}] latency phase ({args.latency_seconds:g} s), {uptime()}', flush=True)
         latency = latency_phase(loop, args.latency_seconds)
         latency['load'] = uptime()
+        stream = stream_phase(loop)
+        print(f'[{name}] stream: ' + ', '.join(f'{k} {v:.3g}' for k, v in stream.items()), flush=True)
+        latency.update({f'stream_{k}': v for k, v in stream.items()})
+        if args.stream_only:
+            return runs, latency
         for i in args.only or range(args.operators):
             order = CONDITIONS[i % 3:] + CONDITIONS[:i % 3]
             for condition in order:
@@ -413,6 +507,9 @@ RECORDED_TOPICS = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'i
                    'assistance/alpha', '/diagnostics')
 """What ``--record`` records: what a closed-loop replay sends and compares, and the report's shared-control plot."""
 HOLD_S = 2.0
+RECORDED_W = (0.9, 0.9, 0.1)
+RECORDED_TASKS = 0b011
+"""The recorded episode's intent: w held at the paper's ambiguous case, the operator wanting usage and transfer."""
 """Seconds a recorded operator holds still (zero twists) after reaching the grasp, letting the loop settle."""
 
 
@@ -431,7 +528,6 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
 
     model_name, rules = OBJECTS[name]
     kin = MicoKinematics()
-    goals = own_goals(model_name, rules, kin)
     work = Path(tempfile.mkdtemp(prefix='record_closed_loop_'))
     suite = NodeSuite(domain_id, cwd=REPO, log_dir=work / 'logs')
     suite.start_nodes(model=model_name, shared_control=True)
@@ -442,7 +538,7 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
     thread = threading.Thread(target=executor.spin, name='recorder', daemon=True)
     thread.start()
     rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), index])
-    intent = draw_intent(rng)
+    intent = Intent(np.array(RECORDED_W), RECORDED_TASKS, math.inf)  # never sharpens: ambiguous throughout
     run = Run(name, index, 'confidence', intent.task_set)
     with stopped_after(suite, probe):
         try:
@@ -454,7 +550,11 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
                 sys.exit(f'bench_shared_control: the suite or the recorder not ready within 90 s; recorded '
                          f'{sorted(recorder.recorded_topics)}\n{suite.died()}')
             loop.set_arbitration('confidence')
-            run_operator(loop, op, intent, goals[intent.task_set], rng, args.timeout, run)
+            # the recorded operator wants the grasp it is shown: the planner's for the recorded w, from Home
+            shown = plan_grasp(ModelFiles(config_dir() / 'models').load(model_name), interpret(np.array(RECORDED_W)).v,
+                               all_zones(3), BASE_T_OBJ, kin)
+            assert isinstance(shown, Grasp), shown
+            run_operator(loop, op, intent, shown.base_T_ee, rng, args.timeout, run)
             still = loop.twist(np.zeros(6))
             end = time.monotonic() + HOLD_S
             while time.monotonic() < end:
@@ -507,6 +607,7 @@ def main() -> None:
     parser.add_argument('--only', type=int, nargs='+', metavar='I', help='run only these operators (e.g. to look '
                         'into one); their seeds are those of the full run')
     parser.add_argument('--json', help='write every run and the summaries here')
+    parser.add_argument('--stream-only', action='store_true', help='the latency and stream phases only')
     parser.add_argument('--record', type=Path, metavar='BAG',
                         help='instead of the benchmark: record the first --only operator (default 0) of the first '
                              'object under confidence as a closed-loop session bag (replaced), e.g. for bags/')

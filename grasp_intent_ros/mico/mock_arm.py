@@ -48,7 +48,9 @@ State and steps
 :class:`MockArm` holds the positions of the 6 arm joints and 3 fingers (:data:`~.grasp.JOINT_NAMES`
 order) and their velocities; :meth:`MockArm.step` advances it by ``dt`` under the active command: a
 trajectory (each joint moves towards the sampled reference by at most its velocity limit times ``dt``),
-a twist (until it is older than the command timeout, then the arm stops), or none (hold).
+a twist (until it is older than the command timeout, then the arm stops), or none (hold). Closing the
+fingers (:meth:`MockArm.close_fingers`, the hand's grasp command) moves only the fingers, toward their
+closures at the finger speed limit, under any arm command but a trajectory that arrives later.
 """
 
 from __future__ import annotations
@@ -369,6 +371,22 @@ class MockArm:
         self.q, self.qd = q.copy(), np.zeros_like(q)
         self._trajectory: TrajectoryExecution | None = None
         self._twist: tuple[TwistCommand, float] | None = None
+        self._fingers: NDArray[np.float64] | None = None
+
+    def close_fingers(self, closures: ArrayLike) -> NDArray[np.float64]:
+        """Move the three fingers to ``closures`` (rad), at their speed limit, whatever the arm follows.
+
+        The closures are clipped to the fingers' limits; the clipped target is returned. A trajectory that
+        arrives later commands the fingers again (it replaces this).
+
+        Raises
+        ------
+        KinematicsError
+            For closures of the wrong shape or not finite.
+        """
+        target = np.clip(check_vector(closures, 3, 'finger closures'), self.lower[6:], self.upper[6:])
+        self._fingers = target
+        return target.copy()
 
     @property
     def mode(self) -> str:
@@ -389,7 +407,7 @@ class MockArm:
         """
         checked = check_trajectory(cmd, self.joint_names, self.lower, self.upper, now=now, allow_partial=allow_partial)
         self._trajectory = TrajectoryExecution(checked, self.q, self.qd)
-        self._twist = None
+        self._twist, self._fingers = None, None
 
     def command_twist(self, twist: TwistCommand, now: float) -> None:
         """Follow ``twist`` (from :func:`check_twist`) from now on, replacing a trajectory in progress."""
@@ -416,6 +434,9 @@ class MockArm:
                                             self.velocity_limits[:6], threshold=self.singular_threshold) * dt
         else:
             step = np.zeros_like(self.q)
+        if self._fingers is not None:
+            limit = self.velocity_limits[6:] * dt
+            step[6:] = np.clip(self._fingers - self.q[6:], -limit, limit)
         q = np.clip(self.q + step, self.lower, self.upper)
         self.qd = (q - self.q) / dt
         self.q = q

@@ -11,12 +11,12 @@ model_server
     The active model (latched), its ambiguity, posterior queries.
 grasp_planner
     v + model + object pose -> a MICO grasp.
-intent_estimator
-    The operator's twist -> w (the intent estimated from the motion).
 assistance
     The operator's twist blended toward the grasp (shared control).
 mock_arm
     A simulated MICO taking trajectories and twists.
+intent_estimator
+    w from the operator's own twist (optional).
 viewer
     The scene in a browser (the ``viewer`` extra).
 recorder

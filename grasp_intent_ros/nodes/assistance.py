@@ -1,21 +1,26 @@
 """Assistance node: the operator's twist blended with a twist toward the planned grasp (shared control).
 
-Run: ``python -m grasp_intent_ros.nodes.assistance [--ros-args --params-file config/assistance.yaml]``
+Run: ``python -m grasp_intent_ros.assistance [--ros-args --params-file config/assistance.yaml]``
 (for MoveIt Servo: ``-r assistance/twist:=/servo_node/delta_twist_cmds``)
 
 Topics (relative)
     in   ``operator/twist`` (geometry_msgs/TwistStamped, or Twist with ``operator_message_type``; frame
          ``m1n6s300_link_base`` or ``m1n6s300_end_effector``, '' = ``operator_frame``), ``joint_states``,
-         ``grasp/pose``, ``grasp/posterior``, ``intent/v``, ``intent/clarification``
+         ``grasp/pose``, ``grasp/posterior``, ``grasp/features``, ``intent/v``, ``intent/clarification``,
+         ``model/active`` (latched: the demonstrations, whose labels give the planned grasp's task set)
     out  ``assistance/twist`` (TwistStamped in ``m1n6s300_link_base``), ``assistance/alpha``
          (std_msgs/Float64, the arbitration weight of that twist), ``/diagnostics`` (``assistance``)
+    srv  ``assistance/enable`` (std_srvs/SetBool): the operator's switch; off, the output is the operator's
+         twist exactly
 
 Behaviour
-    Each operator twist is answered at once with a blended twist; a ``publish_period`` timer sends one
-    whenever none went out for 3/4 of the period, so the output never falls below 1 / ``publish_period``
-    (a slower operator source, or a stale one: then the zero twist). The maths, alpha's definition and
-    the safety rules are :mod:`grasp_intent_ros.shared_control.assistance`. Inputs are keep-last 1 (latest only);
-    staleness is judged by arrival time on the node's clock.
+    One blended twist per ``publish_period``: an operator twist is answered at once when the last output
+    is at least 0.95 ``publish_period`` old (it restarts the period), else by the timer, which sends one
+    ``publish_period`` after the last output whatever arrived (a slower operator source, or a stale one:
+    then the zero twist). The kinematics and the assistance's maths run once at start (warm-up), before
+    the first output. The maths, alpha's definition and the safety rules are
+    :mod:`grasp_intent_ros.core.assistance`. Inputs are keep-last 1 (latest only); staleness is judged by
+    arrival time on the node's clock.
 
 Parameters: :data:`PARAMETERS`, ``config/assistance.yaml``.
 """
@@ -29,36 +34,40 @@ from typing import Any
 
 import numpy as np
 from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
+from numpy.typing import NDArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, String
+from std_srvs.srv import SetBool
 
 from ..errors import GraspIntentError
-from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, EE_FRAME, MicoKinematics
+from ..method.features import MICO_3F
+from ..method.intent import all_zones, default_task_names, zone_labels
+from ..method.model import ModelRequirements
+from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, EE_FRAME, HOME_Q, MicoKinematics
 from ..mico.mock_arm import check_twist
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input
+from ..ros.model_follower import ModelFollower
 from ..ros.params import ParameterError, ParamSpec, declare_parameters, one_of
 from ..ros.qos import input_qos, output_publisher
 from ..ros.robot import joint_positions, pose_msg_to_matrix
 from ..ros.run import guard_exit, publish_all, run_node
-from ..shared_control.assistance import ARBITRATIONS, Assistance, AssistanceConfig, TwistLimiter
+from ..shared_control.assistance import ARBITRATIONS, Assistance, AssistanceConfig, TwistLimiter, grasp_task_set
 from ..wire import protocol as topics
-from ..wire.protocol import ERROR, msg_labels, msg_to_array, read_posterior
+from ..wire.protocol import ERROR, ModelDocument, msg_labels, msg_to_array, read_features, read_posterior
 
-__all__ = ['AssistanceNode', 'PARAMETERS', 'main']
+__all__ = ['AssistanceNode', 'PARAMETERS', 'ENABLE_SERVICE', 'main']
 
 _DEFAULTS = AssistanceConfig()
 _POSITIVE = (1e-6, 100.0)
 PARAMETERS = (
-    ParamSpec('arbitration', _DEFAULTS.arbitration, "alpha's rule: 'confidence' (from v's concentration and the "
-              "plan's expected success), 'blend' (alpha_max when v's top zone leads by margin) or 'none' (alpha = 0).",
+    ParamSpec('arbitration', _DEFAULTS.arbitration, "alpha's rule: 'confidence' (the probability that the grasp "
+              "serves the operator's task, times the operator's agreement), 'blend' (alpha_max when v's top zone "
+              "leads by margin) or 'none' (alpha = 0).",
               validator=one_of(ARBITRATIONS), constraints=f'one of {", ".join(ARBITRATIONS)}'),
     ParamSpec('alpha_max', _DEFAULTS.alpha_max, 'Largest alpha (the operator keeps 1 - alpha_max).',
               range=(0.0, 1.0)),
-    ParamSpec('c_low', _DEFAULTS.c_low, "Concentration of v below which 'confidence' gives alpha 0.", range=(0.0, 1.0)),
-    ParamSpec('c_high', _DEFAULTS.c_high, "Concentration of v from which 'confidence' gives alpha_max "
-              "(times the plan's expected success); > c_low.", range=(0.0, 1.0)),
     ParamSpec('margin', _DEFAULTS.margin, "'blend': lead of v's top zone over the second (of the total).",
               range=(0.0, 1.0)),
     ParamSpec('standoff', _DEFAULTS.standoff, 'Pre-grasp distance behind the grasp along its approach axis, m.',
@@ -78,6 +87,11 @@ PARAMETERS = (
               "robot's twist) lowers alpha.", range=(0.0, 10.0)),
     ParamSpec('deadband_angular', _DEFAULTS.deadband_angular, "'confidence': the same for the operator's angular "
               'speed, rad/s.', range=(0.0, 10.0)),
+    ParamSpec('yield_time', _DEFAULTS.yield_time, "'confidence': seconds of sustained opposition after which the "
+              'robot yields (alpha 0), and of heading back to the grasp after which it assists again.',
+              range=(0.0, 10.0)),
+    ParamSpec('assist_without_input', _DEFAULTS.assist_without_input, "Whether the robot's twist moves the hand "
+              'while the operator gives no input (both parts within their deadbands).'),
     ParamSpec('operator_timeout', _DEFAULTS.operator_timeout, 'Operator twist age (s) from which the output is '
               'the zero twist (MoveIt Servo: incoming_command_timeout).', range=(0.001, 10.0)),
     ParamSpec('max_linear', 0.2, 'Output speed limit, m/s.', range=_POSITIVE),
@@ -94,10 +108,10 @@ PARAMETERS = (
 )
 _CONFIG_FIELDS = tuple(f.name for f in dataclasses.fields(AssistanceConfig))
 
-
-def _check(values: Mapping[str, Any]) -> None:
-    if not values['c_low'] < values['c_high']:
-        raise ValueError(f'c_low ({values["c_low"]}) must be below c_high ({values["c_high"]})')
+ENABLE_SERVICE = 'assistance/enable'
+"""The operator's switch (std_srvs/SetBool)."""
+_EARLY = 0.95
+"""An operator twist is answered at once when the last output is at least this many periods old."""
 
 
 class AssistanceNode(Node):
@@ -106,15 +120,18 @@ class AssistanceNode(Node):
     def __init__(self, node_name: str = 'assistance', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, 'assistance')
-        self._params = declare_parameters(self, PARAMETERS, check=_check, on_change=self._configure)
+        self._params = declare_parameters(self, PARAMETERS, on_change=self._configure)
         try:
             self._kin = MicoKinematics(self._params['urdf_path'] or None)
         except FileNotFoundError as exc:
             raise ParameterError(f'urdf_path: {exc}') from None
         self._assist = Assistance(AssistanceConfig(), TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin)
         self._configure(self._params)
+        self._warm_up()
         self._last_output = -float('inf')
         self._outputs = 0
+        self._demos: tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]] | None = None
+        self._features: NDArray[np.float64] | None = None
         self._pubs = {topics.ASSISTANCE_TWIST: output_publisher(self, TwistStamped, topics.ASSISTANCE_TWIST),
                       topics.ASSISTANCE_ALPHA: output_publisher(self, Float64, topics.ASSISTANCE_ALPHA)}
         latest, diag = input_qos(depth=1), self._diag
@@ -126,8 +143,48 @@ class AssistanceNode(Node):
         subscribe_input(self, topics.GRASP_POSTERIOR, self._on_posterior, latest, diag)
         subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag)
         subscribe_input(self, topics.INTENT_CLARIFICATION, self._on_clarification, input_qos(), diag)
+        subscribe_input(self, topics.GRASP_FEATURES, self._on_features, latest, diag)
+        self._models = ModelFollower(self, diag, self._use_model, name=f'{node_name}_model',
+                                     requires=lambda: ModelRequirements(feature_names=MICO_3F.names))
+        self.create_service(SetBool, ENABLE_SERVICE, self._on_enable)
         self._period = float(self._params['publish_period'])
-        self.create_timer(self._period, self._on_timer)
+        self._timer = self.create_timer(self._period, self._on_timer)
+
+    def _warm_up(self) -> None:
+        """One assisted command on a copy at Home (forward and inverse kinematics, Jacobian, arbitration)."""
+        warm = Assistance(self._assist.config, TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin)
+        warm.set_joints(HOME_Q.copy())
+        assert warm.base_T_ee is not None
+        grasp = warm.base_T_ee.copy()
+        grasp[:3, 3] += (0.05, 0.0, -0.05)
+        warm.set_grasp(grasp)
+        labels = zone_labels(all_zones(3), default_task_names(3))
+        warm.set_v(np.full(7, 1.0 / 7.0), labels)
+        warm.set_posterior(np.full(7, 1.0 / 7.0), labels, default_task_names(3))
+        warm.set_operator(np.r_[0.05, 0.0, -0.05, 0.0, 0.0, 0.0], 0.0)
+        warm.command(0.0)
+        grasp_task_set(np.zeros(MICO_3F.dim), np.zeros((1, MICO_3F.dim)), np.ones(1, dtype=np.int64),
+                       np.ones(MICO_3F.dim))
+
+    def _use_model(self, document: ModelDocument | None) -> None:
+        if document is not None:
+            model = document.model
+            self._demos = (model.demo_x, model.demo_sets, model.feature_scale)
+            self._update_task_set()
+
+    def _on_features(self, msg: Any) -> None:
+        self._features = read_features(msg)[0]
+        self._update_task_set()
+
+    def _update_task_set(self) -> None:
+        demos, x = self._demos, self._features
+        self._assist.set_task_set(None if demos is None or x is None else grasp_task_set(x, *demos))
+
+    def _on_enable(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        self._assist.enabled = bool(request.data)
+        response.success, response.message = True, f'assistance {"on" if request.data else "off"}'
+        self._diag.set_value('enabled', self._assist.enabled)
+        return response
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
         p = self._params
@@ -153,7 +210,9 @@ class AssistanceNode(Node):
             base_R_ee = self._assist.base_T_ee[:3, :3]
             xi = np.concatenate([base_R_ee @ cmd.linear, base_R_ee @ cmd.angular])
         self._assist.set_operator(xi, self._now())
-        self._publish()
+        if time.monotonic() - self._last_output >= _EARLY * self._period:
+            self._publish()
+            self._timer.reset()  # the next output one period from now, unless an operator twist comes first
 
     def _on_joint_state(self, msg: JointState) -> None:
         if (q := joint_positions(msg, ARM_JOINTS)) is not None:
@@ -177,8 +236,6 @@ class AssistanceNode(Node):
         self._assist.clarification()
 
     def _on_timer(self) -> None:
-        if time.monotonic() - self._last_output < 0.75 * self._period:
-            return
         try:
             self._publish()
         except Exception as exc:  # noqa: BLE001 - an exception escaping a timer kills the node

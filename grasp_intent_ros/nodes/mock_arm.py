@@ -1,9 +1,9 @@
 """Mock MICO node: joint states from commanded trajectories and twists, without hardware.
 
 A stand-in for ros2_control's mock hardware (commands mirrored into states) with a joint_trajectory_controller
-and a servo in front of it: the motion rules are :mod:`grasp_intent_ros.mico.mock_arm`.
+and a servo in front of it: the motion rules are :mod:`grasp_intent_ros.core.arm`.
 
-Run: ``python -m grasp_intent_ros.nodes.mock_arm [--ros-args --params-file config/mock_arm.yaml]``
+Run: ``python -m grasp_intent_ros.mock_arm [--ros-args --params-file config/mock_arm.yaml]``
 (the suite connects ``-r arm_controller/joint_trajectory:=grasp/trajectory
 -r servo/delta_twist_cmds:=assistance/twist``)
 
@@ -14,7 +14,11 @@ Topics and services (relative)
     out  ``joint_states`` (the 6 arm joints and 3 fingers: positions and velocities, every ``period`` s),
          ``/diagnostics`` (``arm``: commands received and rejected with the reason, mode, trajectories
          ignored)
+    in   ``grasp/joint_targets`` (sensor_msgs/JointState: the plan's finger closures, the latest kept)
     srv  ``~/reset`` (std_srvs/Trigger): back to ``initial_positions``, at rest, commands dropped
+    srv  ``grasp/close`` (std_srvs/Trigger): close the fingers to the latest plan's closures plus the hand's own
+         closure error (each finger N(0, ``closure_error``^2), seeded by ``closure_seed``); the answer's
+         message gives the executed closures; refused (success false) before any plan
 
 The newest command wins, as a servo writing to a trajectory controller: a twist ends a trajectory in
 progress; a trajectory replaces the twist control unless a twist is still live (newer than
@@ -30,7 +34,9 @@ import array
 from collections.abc import Mapping
 from typing import Any
 
+import numpy as np
 from geometry_msgs.msg import TwistStamped
+from numpy.typing import NDArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
@@ -38,17 +44,20 @@ from trajectory_msgs.msg import JointTrajectory
 
 from ..errors import GraspIntentError
 from ..mico.grasp import JOINT_NAMES
-from ..mico.kinematics import HOME_Q, MicoKinematics
+from ..mico.kinematics import FINGER_JOINTS, HOME_Q, MicoKinematics
 from ..mico.mock_arm import FINGER_VELOCITY_LIMIT, MockArm, TrajectoryCommand, check_twist
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input
 from ..ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector
 from ..ros.qos import input_qos, output_publisher
-from ..ros.robot import joint_state_msg
+from ..ros.robot import joint_positions, joint_state_msg
 from ..ros.run import guard_exit, publish_all, run_node
 from ..wire import protocol as topics
 
-__all__ = ['MockArmNode', 'PARAMETERS', 'main']
+__all__ = ['MockArmNode', 'PARAMETERS', 'GRASP_CLOSE', 'main']
+
+GRASP_CLOSE = 'grasp/close'
+"""The hand's grasp command (std_srvs/Trigger): close the fingers to the plan's closures."""
 
 PARAMETERS = (
     ParamSpec('initial_positions', (*HOME_Q.tolist(), 0.0, 0.0, 0.0),
@@ -64,6 +73,9 @@ PARAMETERS = (
     ParamSpec('allow_partial_joints_goal', False, 'Accept trajectories for some of the joints (the '
               "joint_trajectory_controller's parameter)."),
     ParamSpec('finger_velocity_limit', FINGER_VELOCITY_LIMIT, 'Finger speed limit, rad/s.', range=(1e-3, 10.0)),
+    ParamSpec('closure_error', 0.05, "Standard deviation (rad) of each finger's closure error on grasp/close.",
+              range=(0.0, 1.0)),
+    ParamSpec('closure_seed', 0, 'Seed of the closure errors.', range=(0, 2**31 - 1), read_only=True),
     ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
 )
 
@@ -93,7 +105,11 @@ class MockArmNode(Node):
         self._pubs = {topics.JOINT_STATES: output_publisher(self, JointState, topics.JOINT_STATES)}
         subscribe_input(self, topics.ARM_TRAJECTORY_COMMAND, self._on_trajectory, input_qos(), self._diag)
         subscribe_input(self, topics.ARM_TWIST_COMMAND, self._on_twist, input_qos(depth=1), self._diag)
+        subscribe_input(self, topics.GRASP_JOINT_TARGETS, self._on_joint_targets, input_qos(depth=1), self._diag)
+        self._closures: NDArray[np.float64] | None = None
+        self._closure_rng = np.random.default_rng(self._params['closure_seed'])
         self.create_service(Trigger, '~/reset', self._on_reset)
+        self.create_service(Trigger, GRASP_CLOSE, self._on_close)
         self._last = self._now()
         self.create_timer(self._params['period'], self._on_timer)
 
@@ -123,6 +139,22 @@ class MockArmNode(Node):
         self._arm.command_twist(check_twist([t.linear.x, t.linear.y, t.linear.z],
                                             [t.angular.x, t.angular.y, t.angular.z], msg.header.frame_id),
                                 self._now())
+
+    def _on_joint_targets(self, msg: JointState) -> None:
+        closures = joint_positions(msg, FINGER_JOINTS)
+        if closures is None:
+            raise GraspIntentError(f'grasp/joint_targets must name the fingers {list(FINGER_JOINTS)}')
+        self._closures = closures
+
+    def _on_close(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        if self._closures is None:
+            response.success, response.message = False, 'no grasp planned: nothing to close to'
+            return response
+        error = self._closure_rng.normal(0.0, self._params['closure_error'], 3)
+        executed = self._arm.close_fingers(self._closures + error)
+        response.success = True
+        response.message = 'closing to ' + ', '.join(f'{c:.4f}' for c in executed.tolist()) + ' rad'
+        return response
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         try:

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from ..mico.frames import pose_to_matrix
 from ..mico.kinematics import ARM_JOINTS, MicoKinematics
-from ..shared_control.assistance import pose_error
+from ..shared_control.assistance import REACH_POS, REACH_ROT, offset, reached
 from ..wire.protocol import (
     ASSISTANCE_ALPHA,
     ASSISTANCE_TWIST,
@@ -51,10 +51,6 @@ __all__ = ['REACH_POS', 'REACH_ROT', 'REPLAYED', 'Send', 'Trace', 'Outcome', 'Cl
            'reached', 'is_closed_loop', 'split_messages', 'load_closed_loop', 'Tracer', 'outcome', 'compare_outcomes',
            'describe']
 
-REACH_POS: Final = 0.01
-"""The hand has reached a grasp within this distance (m) ..."""
-REACH_ROT: Final = 0.1
-"""... and this rotation (rad): the closed-loop benchmark's success."""
 START_TOLERANCE: Final = 1e-3
 """Largest difference (rad) between the recorded and the live arm's first joint state."""
 REPLAYED: Final = (INTENT_W, OBJECT_POSE, OPERATOR_TWIST)
@@ -171,18 +167,6 @@ class Outcome:
     ends_at_grasp: bool
     alpha_mean: float
     blended: int
-
-
-def offset(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[float, float]:
-    """How far pose ``b`` is from pose ``a`` (4x4): (distance m, rotation angle rad), by :func:`pose_error`."""
-    error = pose_error(a, b)
-    return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
-
-
-def reached(hand: NDArray[np.float64], goal: NDArray[np.float64]) -> bool:
-    """Whether the hand is within :data:`REACH_POS` and :data:`REACH_ROT` of ``goal`` (the benchmark's success)."""
-    distance, angle = offset(hand, goal)
-    return distance <= REACH_POS and angle <= REACH_ROT
 
 
 def outcome(trace: Trace, kin: MicoKinematics) -> Outcome:

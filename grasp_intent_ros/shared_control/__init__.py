@@ -6,6 +6,10 @@ assistance
     Arbitration (how much to help), the robot's twist toward the grasp, blending and limits.
 estimator
     The intent estimator: the operator's twist -> a posterior over the model's demonstrated grasps -> w.
+operators
+    Scripted teleoperators and their intents (a device model, a goal choice without the rules, an intent script).
+simulator
+    The closed loop on a simulated clock with the nodes' core functions (planner policy, assistance, mock arm).
 
 Imports of the package: :mod:`~grasp_intent_ros.errors`, :mod:`~grasp_intent_ros.method`,
 :mod:`~grasp_intent_ros.planning` and :mod:`~grasp_intent_ros.mico`.

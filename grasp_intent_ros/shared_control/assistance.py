@@ -30,41 +30,42 @@ range of J, so the servo can follow it, and following it the joints go straight 
 hand's path curves and the hand turns on the way (the image of a straight joint-space line); near the
 target it agrees with the Cartesian error to first order.
 
-Arbitration (:func:`arbitration`): alpha from the intent's confidence
----------------------------------------------------------------------
-``'confidence'`` (the suite's): alpha = alpha_max * ramp(c) * a, where
+Arbitration (:func:`arbitration`): alpha from the probability that the grasp serves the operator's task
+----------------------------------------------------------------------------------------------------------
+``'confidence'`` (the suite's): alpha = alpha_max * s * o, where
 
-- c = 1 - H(v) / ln K, the concentration of the target vector v over its K zones (0 for a uniform v, 1
-  for a single zone; H the Shannon entropy), and ramp(c) = clip((c - c_low) / (c_high - c_low), 0, 1);
-- a = E, the planned grasp's expected task success under v (:func:`plan_success`): v's share on the zones
-  whose tasks are all among those of the grasp's reading, the zone of largest posterior P. It is the
-  probability, under the intent, that the grasp serves the operator's task set, and the quantity the
-  default planner ranks its candidates by; the posterior's fit to v would distrust the grasps that give
-  up fit to serve the likely tasks.
+- s = P(the grasp serves T | w) (:func:`serving_probability`), T the operator's task set under the paper's
+  independent-task model (eq. 3: task i in T with probability w_i, independently; T not empty, eq. 4's
+  v). A grasp whose task set is S *serves* T when T is a subset of S: the object's rules hold for every
+  task the operator wants, which is how the benchmark judges success. So s = sum of v_k over the zones k
+  contained in S (the planner's expected success E of S). For the chosen demonstration S is its label
+  (:func:`grasp_task_set` finds it among the model's demonstrations); for a grasp that is no
+  demonstration (a moved grasp, e.g. the paper's planner) S is unknown and s is the model's expectation,
+  sum_k P(k | x) E(zone k). A grasp that serves every likely task has s near 1 however spread v is: v's
+  concentration does not enter (an ambiguous intent is exactly where a grasp serving every likely task
+  helps most).
+- o, the operator's agreement with the planned grasp: the smaller of the linear and the angular
+  agreement, each (1 + cos theta) / 2 of the angle theta between the operator's part and the same part of
+  the pose error toward the grasp itself, ``(k_lin (p_g - p), k_ang log3(R_g R^T))``
+  (:func:`operator_agreement`), as last measured while the operator moved that part faster than its
+  deadband (1 before; :class:`Assistance` holds them, and forgets them when the planned grasp moves by
+  more than the corridor's radius or angle). It is measured against the grasp, not against the robot's
+  twist: the pre-grasp and the joint-space path are the robot's way to the grasp, not another proposal.
 
-and times the operator's agreement with the planned grasp, o: the smaller of the linear and the angular
-agreement, each (1 + cos theta) / 2 of the angle theta between the operator's part and the same part of
-the pose error toward the grasp itself, ``(k_lin (p_g - p), k_ang log3(R_g R^T))``
-(:func:`operator_agreement`), as last measured while the operator moved that part faster than its
-deadband (1 before; :class:`Assistance` holds them, and forgets them when the planned grasp moves by more
-than the corridor's radius or angle). An operator who steers against the robot takes the control back
-(alpha -> 0 as theta -> pi): the operator's input is evidence against the planned grasp (Dragan &
-Srinivasa's confidence in the prediction). It is measured against the grasp, not against the robot's
-twist: the pre-grasp and the joint-space path are the robot's way to the grasp, not a different proposal,
-so an operator who heads straight for the grasp agrees with it (measured against the robot's twist, the
-straight approach and the robot's detour disagree and the two pull against each other). The agreement is
-held so that the control stays with an operator who then works the other part (a joystick's other mode)
-or lets go, until the operator moves toward the grasp again.
+**The operator wins** (:class:`Assistance`). A part measured against the grasp (theta > pi / 2, o < 1/2)
+is opposition. Opposition sustained for ``yield_time`` makes the robot yield: alpha = 0 for this grasp
+until the operator heads toward it again (every measured part with theta < pi / 2) for ``yield_time``, or
+a new grasp is planned. While the operator gives no input (both parts within their deadbands) the output
+is the operator's twist (the robot does not move the hand on its own) unless ``assist_without_input``.
+Assistance switched off (:attr:`Assistance.enabled` False) gives the operator's twist exactly.
 
-``'blend'`` (ADA's baseline): alpha = alpha_max when v's top zone leads the second by at least
-``margin``, else 0. ``'none'``: alpha = 0 (direct teleoperation). Neither looks at the operator's input.
-Whatever the rule, alpha is 0 without a valid grasp, while a clarification is pending, or without the
-arm's joint state: :class:`Assistance` decides that.
+``'blend'`` (a baseline after ADA's blend: alpha = alpha_max when v's top zone leads the second by at
+least ``margin``, else 0). ``'none'``: alpha = 0 (direct teleoperation). Neither looks at the operator's
+input. Whatever the rule, alpha is 0 without a valid grasp, while a clarification is pending, or without
+the arm's joint state: :class:`Assistance` decides that.
 
 alpha is therefore in [0, alpha_max] for every rule: 0 means the operator's twist alone, alpha_max (< 1 by
-default) the most the robot ever gets, so the operator always keeps 1 - alpha_max of the command and can
-steer against any proposal. Under 'confidence' alpha reaches alpha_max * a (a the plan's expected success above)
-once v is concentrated (c >= c_high) and the operator's last motion of each part was toward the grasp.
+default) the most the robot ever gets, so the operator always keeps 1 - alpha_max of the command.
 
 Limits (:class:`TwistLimiter`)
 ------------------------------
@@ -75,11 +76,10 @@ input (older than the timeout) gives the zero twist at once, without the acceler
 
 from __future__ import annotations
 
-import math
 import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Final, Literal
 
 import numpy as np
 import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
@@ -90,8 +90,8 @@ from ..method.intent import parse_zones
 from ..mico.kinematics import MicoKinematics
 from ..planning.ranking import expected_success
 
-__all__ = ['Arbitration', 'ARBITRATIONS', 'concentration', 'plan_success', 'arbitration', 'operator_agreement',
-           'pose_error',
+__all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
+           'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached',
            'pre_grasp', 'assistance_target', 'robot_twist', 'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter',
            'AssistanceConfig',
            'Command', 'Assistance']
@@ -100,59 +100,70 @@ Arbitration = Literal['confidence', 'blend', 'none']
 ARBITRATIONS: tuple[str, ...] = typing.get_args(Arbitration)
 
 
-def concentration(v: ArrayLike) -> float:
-    """1 - H(v) / ln K of a probability vector over K zones (1 for K = 1); v is normalised first.
+def serving_probability(v: ArrayLike, v_labels: Sequence[str], task_names: Sequence[str], *,
+                        task_set: int | None = None, posterior: ArrayLike | None = None,
+                        zone_labels: Sequence[str] = ()) -> float:
+    """P(the grasp serves T | w): v's share on the zones contained in the grasp's task set (module docstring).
 
-    Raises
-    ------
-    ValueError
-        If v is empty, negative, not finite or sums to 0.
-    """
-    p = np.asarray(v, dtype=np.float64).ravel()
-    if p.size == 0 or not np.all(np.isfinite(p)) or np.any(p < 0.0) or not p.sum() > 0.0:
-        raise ValueError(f'v must be a non-negative, finite, non-zero vector, got {p.tolist()}')
-    if p.size == 1:
-        return 1.0
-    p = p / p.sum()
-    nz = p[p > 0.0]
-    return float(min(max(1.0 + np.sum(nz * np.log(nz)) / math.log(p.size), 0.0), 1.0))
+    Parameters
+    ----------
+    v : array_like, shape (K,)
+        The target over the zones ``v_labels`` (normalised here).
+    v_labels, task_names : sequence of str
+        v's zone labels and the tasks they are made of.
+    task_set : int or None
+        The grasp's task set (bitmask over ``task_names``) when it is a labelled demonstration.
+    posterior, zone_labels
+        Without ``task_set``: the model's posterior P(k | x) of the grasp over its zones ``zone_labels``;
+        the result is then sum_k P_k E(zone k) / sum_k P_k.
 
-
-def plan_success(posterior: ArrayLike, zone_labels: Sequence[str], task_names: Sequence[str], v: ArrayLike,
-                 v_labels: Sequence[str]) -> float:
-    """The planned grasp's expected task success under v: v's share on the zones its reading contains.
-
-    The reading is the zone of largest P (the first of equal ones, in the model's zone order); a zone k is
-    served when its tasks are among the reading's. This is the expected success E of a demonstration
-    (:func:`~grasp_intent_ros.planning.ranking.expected_success`), with the grasp's reading as its task set.
-    0 when a label is not a zone of ``task_names`` or v sums to 0.
+    Returns
+    -------
+    float in [0, 1]
+        0 when a label is not a zone of ``task_names``, v sums to 0, or neither a task set nor a posterior
+        is given.
     """
     try:
-        zones = parse_zones(zone_labels, task_names)
         v_zones = parse_zones(v_labels, task_names)
+        zones = parse_zones(zone_labels, task_names) if task_set is None else (task_set,)
     except InvalidIntentError:
         return 0.0
     values = np.asarray(v, dtype=np.float64)
     total = float(values.sum())
-    if not total > 0.0 or len(v_zones) != values.size:
+    if not total > 0.0 or len(v_zones) != values.size or not zones:
         return 0.0
-    reading = zones[int(np.argmax(np.asarray(posterior, dtype=np.float64)))]
-    return float(expected_success(np.array([reading], dtype=np.int64), v_zones, values / total)[0])
+    per_set = expected_success(np.array(zones, dtype=np.int64), v_zones, values / total)
+    if task_set is not None:
+        return float(min(per_set[0], 1.0))
+    p = np.asarray(posterior, dtype=np.float64)
+    if p.shape != per_set.shape or not float(p.sum()) > 0.0:
+        return 0.0
+    return float(min(max(float(p @ per_set) / float(p.sum()), 0.0), 1.0))
 
 
-def arbitration(rule: Arbitration, v: ArrayLike, agreement: float, *, alpha_max: float, c_low: float,
-                c_high: float, margin: float) -> float:
-    """The arbitration weight alpha in [0, alpha_max] for target vector ``v`` and plan ``agreement`` (module docstring).
+def grasp_task_set(x: NDArray[np.float64], demo_x: NDArray[np.float64], demo_sets: NDArray[np.int64],
+                   feature_scale: NDArray[np.float64], *, tolerance: float = 1e-6) -> int | None:
+    """The task set (bitmask) of the demonstration the grasp features ``x`` (shape (d,)) are, None for none.
+
+    ``x`` is demonstration n when its scaled distance max_j |x_j - demo_x[n, j]| / feature_scale[j] is at most
+    ``tolerance`` (the planner publishes a chosen demonstration's features, projected onto the feasible set,
+    which moves a feasible demonstration by rounding at most); the first such demonstration wins.
+    """
+    gap = np.max(np.abs(demo_x - x) / feature_scale, axis=1)
+    hits = np.flatnonzero(gap <= tolerance)
+    return int(demo_sets[hits[0]]) if hits.size else None
+
+
+def arbitration(rule: Arbitration, v: ArrayLike, serving: float, *, alpha_max: float, margin: float) -> float:
+    """The arbitration weight alpha in [0, alpha_max] before the operator's agreement (module docstring).
 
     Parameters
     ----------
     rule : 'confidence', 'blend' or 'none'
     v : array_like, shape (K,)
-    agreement : float in [0, 1]
-        The plan's expected success, :func:`plan_success`.
+    serving : float in [0, 1]
+        P(the grasp serves T | w), :func:`serving_probability` ('confidence' only).
     alpha_max : float in [0, 1]
-    c_low, c_high : float, 0 <= c_low < c_high <= 1
-        The concentration ramp of 'confidence'.
     margin : float
         The lead of 'blend'.
     """
@@ -162,8 +173,7 @@ def arbitration(rule: Arbitration, v: ArrayLike, agreement: float, *, alpha_max:
         top = np.sort(np.asarray(v, dtype=np.float64))[::-1]
         lead = float(top[0] - (top[1] if top.size > 1 else 0.0)) / float(top.sum())
         return alpha_max if lead >= margin else 0.0
-    ramp = min(max((concentration(v) - c_low) / (c_high - c_low), 0.0), 1.0)
-    return alpha_max * ramp * min(max(agreement, 0.0), 1.0)
+    return alpha_max * min(max(serving, 0.0), 1.0)
 
 
 def operator_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64], *, deadband_linear: float,
@@ -189,6 +199,24 @@ def pose_error(base_T_ee: NDArray[np.float64], base_T_target: NDArray[np.float64
     dp = base_T_target[:3, 3] - base_T_ee[:3, 3]
     dr = pin.log3(base_T_target[:3, :3] @ base_T_ee[:3, :3].T)
     return np.concatenate([dp, np.asarray(dr, dtype=np.float64)])
+
+
+REACH_POS: Final = 0.01
+"""The hand has reached a grasp within this distance (m) ..."""
+REACH_ROT: Final = 0.1
+"""... and this rotation (rad): the closed-loop benchmarks' success and a scripted operator's grasp command."""
+
+
+def offset(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[float, float]:
+    """How far pose ``b`` is from pose ``a`` (4x4): (distance m, rotation angle rad), by :func:`pose_error`."""
+    error = pose_error(a, b)
+    return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
+
+
+def reached(hand: NDArray[np.float64], goal: NDArray[np.float64]) -> bool:
+    """Whether the hand is within :data:`REACH_POS` and :data:`REACH_ROT` of ``goal``."""
+    distance, angle = offset(hand, goal)
+    return distance <= REACH_POS and angle <= REACH_ROT
 
 
 def pre_grasp(base_T_grasp: NDArray[np.float64], standoff: float) -> NDArray[np.float64]:
@@ -312,7 +340,7 @@ class AssistanceConfig:
     Attributes
     ----------
     arbitration : 'confidence', 'blend' or 'none'
-    alpha_max, c_low, c_high, margin
+    alpha_max, margin
         Of :func:`arbitration`.
     standoff, corridor_radius, corridor_angle
         Of :func:`assistance_target`.
@@ -321,15 +349,19 @@ class AssistanceConfig:
     gain_joint : float
         Of :func:`joint_space_twist` (1/s).
     deadband_linear, deadband_angular : float
-        Of :func:`operator_agreement` ('confidence' only), m/s and rad/s.
+        Operator speeds (m/s, rad/s) up to which a part is no input: no evidence for
+        :func:`operator_agreement`, and no input at all when both parts are within them.
+    yield_time : float
+        Seconds of sustained opposition after which the robot yields, and of heading toward the grasp
+        after which it assists again ('confidence').
+    assist_without_input : bool
+        Whether the robot's twist moves the hand while the operator gives no input (default False).
     operator_timeout : float
         An operator twist older than this gives the zero twist.
     """
 
     arbitration: Arbitration = 'confidence'
     alpha_max: float = 0.9
-    c_low: float = 0.2
-    c_high: float = 0.7
     margin: float = 0.2
     standoff: float = 0.08
     corridor_radius: float = 0.02
@@ -341,6 +373,8 @@ class AssistanceConfig:
     gain_joint: float = 2.0
     deadband_linear: float = 0.01
     deadband_angular: float = 0.05
+    yield_time: float = 0.15
+    assist_without_input: bool = False
     operator_timeout: float = 0.1
 
 
@@ -377,12 +411,19 @@ class Assistance:
         self.base_T_grasp: NDArray[np.float64] | None = None
         self.base_T_ee: NDArray[np.float64] | None = None
         self.q: NDArray[np.float64] | None = None
+        self.enabled = True
+        """False: the output is the operator's twist, exactly (the operator's switch)."""
         self._jacobian: NDArray[np.float64] | None = None
         self._q_targets: dict[str, NDArray[np.float64] | None] = {}
         """IK of the grasp and the pre-grasp (None: none found), by phase, for the current grasp."""
         self.clarification_pending = False
         self.agreement = (1.0, 1.0)
-        """The operator's held agreement with the robot, linear and angular (module docstring)."""
+        """The operator's held agreement with the grasp, linear and angular (module docstring)."""
+        self.yielded = False
+        """Whether the robot yields to the operator's sustained opposition (alpha 0) for this grasp."""
+        self._since: float | None = None
+        """When the operator's current opposition (or, yielded, agreement) began."""
+        self._task_set: int | None = None
         self._posterior: tuple[NDArray[np.float64], tuple[str, ...], tuple[str, ...]] | None = None
         self._v: tuple[NDArray[np.float64], tuple[str, ...]] | None = None
         self._operator: tuple[NDArray[np.float64], float] | None = None
@@ -392,13 +433,13 @@ class Assistance:
         """A new planned grasp: valid from now on, and it answers any clarification pending.
 
         A grasp that moved by more than the corridor's radius or angle is a new proposal: the operator's held
-        agreement (module docstring) starts afresh.
+        agreement and the robot's yielding (module docstring) start afresh.
         """
         if self.base_T_grasp is not None:
             error = pose_error(self.base_T_grasp, base_T_grasp)
             if (float(np.linalg.norm(error[:3])) > self.config.corridor_radius
                     or float(np.linalg.norm(error[3:])) > self.config.corridor_angle):
-                self.agreement = (1.0, 1.0)
+                self.agreement, self.yielded, self._since = (1.0, 1.0), False, None
         self.base_T_grasp, self.clarification_pending = base_T_grasp, False
         self._q_targets = {}
 
@@ -412,6 +453,10 @@ class Assistance:
                       task_names: Sequence[str]) -> None:
         """The planned grasp's posterior over the model's zones of ``task_names`` (the latest is used)."""
         self._posterior = (posterior, tuple(zone_labels), tuple(task_names))
+
+    def set_task_set(self, task_set: int | None) -> None:
+        """The planned grasp's task set (bitmask over the posterior's tasks), None when it is no demonstration."""
+        self._task_set = task_set
 
     def set_v(self, v: NDArray[np.float64], labels: Sequence[str]) -> None:
         """The newest target vector v over the zones ``labels``."""
@@ -429,9 +474,20 @@ class Assistance:
         """Whether the operator's twist is at most ``operator_timeout`` old."""
         return self._operator is not None and now - self._operator[1] <= self.config.operator_timeout
 
+    def serving(self) -> float:
+        """P(the planned grasp serves T | w) now (:func:`serving_probability`; 0 without v or a posterior)."""
+        if self._v is None or self._posterior is None:
+            return 0.0
+        posterior, zone_labels, task_names = self._posterior
+        v, labels = self._v
+        return serving_probability(v, labels, task_names, task_set=self._task_set, posterior=posterior,
+                                   zone_labels=zone_labels)
+
     def alpha(self) -> tuple[float, str]:
-        """The arbitration weight now, and the robot's target phase or why alpha is 0."""
+        """The arbitration weight now before the operator's agreement, and the robot's phase or why it is 0."""
         cfg = self.config
+        if not self.enabled:
+            return 0.0, 'assistance off'
         if cfg.arbitration == 'none':
             return 0.0, 'direct teleoperation'
         if self.clarification_pending:
@@ -442,36 +498,68 @@ class Assistance:
             return 0.0, 'no joint state'
         if self._v is None:
             return 0.0, 'no intent'
-        v, labels = self._v
-        agreement = 0.0 if self._posterior is None else plan_success(*self._posterior, v, labels)
-        alpha = arbitration(cfg.arbitration, v, agreement, alpha_max=cfg.alpha_max, c_low=cfg.c_low,
-                            c_high=cfg.c_high, margin=cfg.margin)
+        alpha = arbitration(cfg.arbitration, self._v[0], self.serving() if cfg.arbitration == 'confidence' else 0.0,
+                            alpha_max=cfg.alpha_max, margin=cfg.margin)
         return alpha, 'assisting'
+
+    def _agree(self, operator: NDArray[np.float64], now: float) -> float:
+        """Update the held agreement and the yielding from the operator's twist at ``now``; the agreement o."""
+        cfg = self.config
+        assert self.base_T_ee is not None and self.base_T_grasp is not None
+        error = pose_error(self.base_T_ee, self.base_T_grasp)  # toward the proposal, the grasp itself
+        goal = np.concatenate([cfg.gain_linear * error[:3], cfg.gain_angular * error[3:]])
+        measured = operator_agreement(operator, goal, deadband_linear=cfg.deadband_linear,
+                                      deadband_angular=cfg.deadband_angular)
+        linear, angular = (held if fresh is None else fresh for fresh, held in zip(measured, self.agreement))
+        self.agreement = (linear, angular)
+        parts = [m for m in measured if m is not None]
+        if parts:  # evidence: against the grasp in some part, or toward it in every measured part
+            against = min(parts) < 0.5
+            if against == self.yielded:  # the state holds: nothing is building up
+                self._since = None
+            elif self._since is None:
+                self._since = now
+            if self._since is not None and now - self._since >= cfg.yield_time:
+                self.yielded, self._since = not self.yielded, None
+        return 0.0 if self.yielded else min(linear, angular)
 
     def command(self, now: float) -> Command:
         """The twist to send at ``now``: the blend within the limits, or the zero twist for a stale operator."""
         dt = self.limiter.max_dt if self._last_output is None else now - self._last_output
         self._last_output = now
-        alpha, phase = self.alpha()
         if not self.operator_fresh(now):
             return Command(self.limiter.stop(), 0.0, 'operator input stale')
         assert self._operator is not None
+        operator = self._operator[0]
+        if not self.enabled:
+            self.limiter.last = operator.copy()
+            return Command(operator.copy(), 0.0, 'assistance off')
+        alpha, phase = self.alpha()
+        cfg = self.config
         robot = np.zeros(6)
         if alpha > 0.0:
             assert self.base_T_ee is not None and self.base_T_grasp is not None
-            cfg = self.config
-            target, phase = assistance_target(self.base_T_ee, self.base_T_grasp, standoff=cfg.standoff,
-                                              corridor_radius=cfg.corridor_radius, corridor_angle=cfg.corridor_angle)
-            robot = self._robot_twist(target, phase)
             if cfg.arbitration == 'confidence':
-                error = pose_error(self.base_T_ee, self.base_T_grasp)  # toward the proposal, the grasp itself
-                goal = np.concatenate([cfg.gain_linear * error[:3], cfg.gain_angular * error[3:]])
-                measured = operator_agreement(self._operator[0], goal, deadband_linear=cfg.deadband_linear,
-                                              deadband_angular=cfg.deadband_angular)
-                linear, angular = (held if fresh is None else fresh for fresh, held in zip(measured, self.agreement))
-                self.agreement = (linear, angular)
-                alpha *= min(linear, angular)
-        return Command(self.limiter.limit(blend(alpha, robot, self._operator[0]), dt), alpha, phase)
+                alpha *= self._agree(operator, now)
+            idle = _norm(operator[:3]) <= cfg.deadband_linear and _norm(operator[3:]) <= cfg.deadband_angular
+            if idle and not cfg.assist_without_input:
+                alpha, phase = 0.0, 'no operator input'
+            elif alpha > 0.0:
+                robot, phase = self.robot()
+            else:
+                phase = 'yielded to the operator' if self.yielded else phase
+        return Command(self.limiter.limit(blend(alpha, robot, operator), dt), alpha, phase)
+
+    def robot(self) -> tuple[NDArray[np.float64], str]:
+        """The robot's twist toward the planned grasp now (before any blending), and its phase.
+
+        Needs the grasp and the hand's pose (set_grasp, set_joints or base_T_ee).
+        """
+        cfg = self.config
+        assert self.base_T_ee is not None and self.base_T_grasp is not None
+        target, phase = assistance_target(self.base_T_ee, self.base_T_grasp, standoff=cfg.standoff,
+                                          corridor_radius=cfg.corridor_radius, corridor_angle=cfg.corridor_angle)
+        return self._robot_twist(target, phase), phase
 
     def _robot_twist(self, base_T_target: NDArray[np.float64], phase: str) -> NDArray[np.float64]:
         """The robot's twist toward ``base_T_target`` (the grasp or the pre-grasp, ``phase``): module docstring."""

@@ -11,10 +11,11 @@ from numpy.testing import assert_allclose
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, String
+from std_srvs.srv import SetBool
 
 from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
-from grasp_intent_ros.nodes.assistance import AssistanceNode
+from grasp_intent_ros.nodes.assistance import ENABLE_SERVICE, AssistanceNode
 from grasp_intent_ros.ros.conversions import array_to_msg, posterior_to_msg
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control.assistance import joint_space_twist
@@ -67,29 +68,37 @@ class Loop:
         for topic, msg in messages.items():
             self.pubs[topic].publish(msg)
 
-    def assisted(self) -> bool:
-        return bool(self.alphas) and self.alphas[-1].data > 0.5
+    def assisted(self) -> bool:  # the recent outputs: one may be a stale input's stop on a loaded machine
+        return any(a.data > 0.5 for a in self.alphas[-10:])
+
+    def toward(self, speed: float = 0.02) -> TwistStamped:
+        """The operator's twist straight at the grasp (agreement 1)."""
+        return twist_msg(linear=tuple(speed * self.hand[:3, 2]))
+
+    def assist(self) -> None:
+        deadline = time.monotonic() + 10.0
+        while not self.assisted() and time.monotonic() < deadline:
+            self.feed()
+            self.operator.publish(self.toward())
+            self.ros.wait_for(lambda: False, 0.02)
+        assert self.assisted(), 'no assistance after the grasp, v and the joint state'
 
 
 def test_the_blend_pulls_toward_the_grasp_and_alpha_drops_while_clarifying(ros) -> None:
     loop = Loop(ros)
     assert ros.wait_for(lambda: loop.alphas, 10.0)  # the timer's output, before any operator input
     assert loop.alphas[-1].data == 0.0 and not np.any(as_array(loop.twists[-1]))
-    deadline = time.monotonic() + 10.0
-    while not loop.assisted() and time.monotonic() < deadline:
-        loop.feed()
-        loop.operator.publish(twist_msg())
-        ros.wait_for(lambda: False, 0.02)
-    assert loop.assisted(), 'no assistance after the grasp, v and the joint state'
-    assert loop.alphas[-1].data == pytest.approx(0.9)
-    # held still by the operator: the robot's part, the hand's motion under the joints moving toward the grasp's
-    # IK, reached within the acceleration limits
+    loop.assist()
+    assert max(a.data for a in loop.alphas[-10:]) == pytest.approx(0.9)
+    # the operator heading at the grasp: the robot's part, the hand's motion under the joints moving toward the
+    # grasp's IK, blended with it, reached within the acceleration limits
     kin = MicoKinematics()
     q = np.asarray(HOME_Q)
     robot = joint_space_twist(kin.jacobian(q), q, kin.ik(loop.grasp, q, restarts=0).q, gain=2.0, max_linear=0.15,
                               max_angular=0.8)
-    assert ros.publish_until(loop.operator, twist_msg(), lambda: np.allclose(
-        as_array(loop.twists[-1]), 0.9 * robot, rtol=0.0, atol=1e-9), 10.0, period=0.01)
+    assert ros.publish_until(loop.operator, loop.toward(), lambda: np.allclose(
+        as_array(loop.twists[-1]), 0.9 * robot + 0.1 * as_array(loop.toward()), rtol=0.0, atol=1e-9), 10.0,
+        period=0.01)
     twist = as_array(loop.twists[-1])
     assert twist[:3] @ loop.hand[:3, 2] > 0.5 * np.linalg.norm(twist[:3])  # toward the grasp
     # a clarification: alpha 0 at once, the output the operator's alone for as long as it is pending
@@ -101,11 +110,42 @@ def test_the_blend_pulls_toward_the_grasp_and_alpha_drops_while_clarifying(ros) 
         as_array(loop.twists[-1]), [0.02, 0, 0, 0, 0, 0], rtol=0.0, atol=1e-12), 10.0, period=0.01)
     assert [a.data for a in loop.alphas[pending:]] == [0.0] * (len(loop.alphas) - pending)
     loop.feed()  # the next grasp answers it
-    assert ros.wait_for(lambda: loop.alphas[-1].data > 0.5, 5.0)
+    assert ros.publish_until(loop.operator, loop.toward(), lambda: loop.alphas[-1].data > 0.5, 5.0, period=0.01)
+
+
+def test_the_operator_wins_holding_still_moves_nothing_and_the_switch_gives_the_operator_alone(ros) -> None:
+    loop = Loop(ros)
+    loop.assist()
+    # no input: no assistance, the output is the operator's zero twist (after the acceleration limit's ramp)
+    assert ros.publish_until(loop.operator, twist_msg(), lambda: loop.alphas[-1].data == 0.0 and not np.any(
+        as_array(loop.twists[-1])), 5.0, period=0.01)
+    # sustained opposition: the robot yields (alpha 0) and stays yielded while the operator opposes
+    loop.assist()
+    away = loop.toward(-0.05)
+    assert ros.publish_until(loop.operator, away, lambda: loop.node._assist.yielded, 5.0, period=0.01)
+    count = len(loop.alphas)
+    assert ros.publish_until(loop.operator, away, lambda: len(loop.alphas) > count + 10, 5.0, period=0.01)
+    assert all(a.data == 0.0 for a in loop.alphas[count + 1:])
+    # the switch: off, the operator's twist exactly (beyond the output's limits too); on, assisted again
+    client = ros.node.create_client(SetBool, ENABLE_SERVICE)
+    assert client.wait_for_service(timeout_sec=10.0)
+    future = client.call_async(SetBool.Request(data=False))
+    assert ros.wait_for(future.done, 10.0) and future.result().success
+    fast = twist_msg(linear=(0.5, -0.3, 0.1), angular=(2.0, 0.0, -1.5))
+    assert ros.publish_until(loop.operator, fast, lambda: np.array_equal(as_array(loop.twists[-1]), as_array(fast)),
+                             5.0, period=0.01)
+    assert loop.alphas[-1].data == 0.0
+    future = client.call_async(SetBool.Request(data=True))
+    assert ros.wait_for(future.done, 10.0) and future.result().success
+    loop.feed()
+    moved = loop.grasp.copy()
+    moved[:3, 3] += 0.05  # a new proposal: no longer yielded
+    loop.grasp = moved
+    loop.assist()
 
 
 def test_a_stale_operator_input_gives_the_zero_twist_and_it_goes_on(ros) -> None:
-    """The node side; that the zero twist comes within the timeout is the unit test's (own clock)."""
+    """The node side; that the zero twist comes within the timeout is test/unit/test_assistance.py's (own clock)."""
     loop = Loop(ros, operator_timeout=0.1)
     moving = twist_msg(linear=(0.05, 0.0, 0.0))
     up_to_speed = lambda: loop.twists and loop.twists[-1].twist.linear.x >= 0.049  # noqa: E731 (acceleration-limited)

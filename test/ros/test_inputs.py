@@ -54,7 +54,7 @@ def test_oversized_and_undecodable_messages_are_rejected_and_the_rest_decoded(ro
 def test_a_topic_without_a_cap_is_refused(ros) -> None:
     node = ros.add(rclpy.create_node('inputs_probe', context=ros.context))
     with pytest.raises(KeyError, match='not an input topic with a size cap'):
-        subscribe_input(node, protocol.GRASP_FEATURES, print, input_qos(), NodeDiagnostics(node, 'inputs'))
+        subscribe_input(node, protocol.GRASP_MARKERS, print, input_qos(), NodeDiagnostics(node, "inputs"))
 
 
 def test_an_input_thread_takes_a_burst_in_order_counted_and_off_the_executor(ros) -> None:

@@ -80,6 +80,32 @@ def test_twists_move_the_hand_until_they_stop_and_reset(ros) -> None:
     assert ros.wait_for(lambda: np.array_equal(latest_positions(states), Q0), 5.0)
 
 
+def test_the_hand_closes_to_the_plans_closures_with_its_own_error(ros) -> None:
+    from rclpy.parameter import Parameter
+
+    from grasp_intent_ros.mico.kinematics import FINGER_JOINTS
+    from grasp_intent_ros.nodes.mock_arm import GRASP_CLOSE
+    from grasp_intent_ros.ros.robot import joint_state_msg
+
+    arm = ros.add(MockArmNode(context=ros.context, parameter_overrides=[Parameter('closure_error', value=0.05),
+                                                                        Parameter('closure_seed', value=7)]))
+    states = ros.subscribe(JointState, protocol.JOINT_STATES)
+    client = ros.node.create_client(Trigger, GRASP_CLOSE)
+    assert client.wait_for_service(timeout_sec=5.0)
+    future = client.call_async(Trigger.Request())
+    assert ros.wait_for(future.done, 5.0) and not future.result().success  # no plan yet: nothing to close to
+    plan = np.array([0.9, 1.0, 0.6])
+    targets = ros.publisher(JointState, protocol.GRASP_JOINT_TARGETS)
+    msg = joint_state_msg(JOINT_NAMES, np.r_[HOME_Q, plan], stamp=ros.node.get_clock().now().to_msg())
+    assert ros.publish_until(targets, msg, lambda: arm._closures is not None, 5.0)
+    future = client.call_async(Trigger.Request())
+    assert ros.wait_for(future.done, 5.0) and future.result().success
+    executed = np.random.default_rng(7).normal(0.0, 0.05, 3) + plan  # the seeded error, the same draws
+    assert ros.wait_for(lambda: states and np.allclose(latest_positions(states)[6:], executed, atol=1e-12), 5.0)
+    assert_allclose(latest_positions(states)[:6], HOME_Q, atol=0)  # only the fingers moved
+    assert FINGER_JOINTS == JOINT_NAMES[6:]
+
+
 def test_a_tick_after_a_signal_ended_the_context_publishes_nothing_and_reports_no_error(ros) -> None:
     """A signal shuts the context down while the timer ticks: joint_states is dropped, not an internal error."""
     context = rclpy.context.Context()

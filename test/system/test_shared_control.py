@@ -32,13 +32,6 @@ def test_the_assistance_brings_the_hand_to_the_planned_grasp(ros: Any, launch: A
     states = ros.subscribe(JointState, protocol.JOINT_STATES)
     alphas = ros.subscribe(Float64, protocol.ASSISTANCE_ALPHA)
     operator = ros.publisher(TwistStamped, protocol.OPERATOR_TWIST)
-    still = TwistStamped()
-    still.header.frame_id = BASE_FRAME
-    ros.node.create_timer(0.01, lambda: operator.publish(still))  # spun whenever the test waits
-    assert ros.wait_for(lambda: states and alphas, STARTUP), launch.died() or 'no joint states or alpha'
-    w = ros.publisher(Float64MultiArray, protocol.INTENT_W)
-    assert ros.publish_until(w, Float64MultiArray(data=[0.95, 0.05, 0.05]), lambda: grasps, STARTUP, period=1.0), \
-        launch.died() or 'no grasp'
 
     def errors() -> tuple[float, float]:
         q = joint_positions(states[-1], ARM_JOINTS)
@@ -46,6 +39,26 @@ def test_the_assistance_brings_the_hand_to_the_planned_grasp(ros: Any, launch: A
         hand, grasp = kin.fk(q), pose_msg_to_matrix(grasps[-1], frame_id=BASE_FRAME)
         return (float(np.linalg.norm(hand[:3, 3] - grasp[:3, 3])),
                 float(np.linalg.norm(pin.log3(grasp[:3, :3] @ hand[:3, :3].T))))
+
+    def steer() -> None:  # the operator: proportional toward the planned grasp, six axes (zero before a grasp)
+        msg = TwistStamped()
+        msg.header.frame_id = BASE_FRAME
+        q = joint_positions(states[-1], ARM_JOINTS) if states else None
+        if q is not None and grasps:
+            hand, grasp = kin.fk(q), pose_msg_to_matrix(grasps[-1], frame_id=BASE_FRAME)
+            error = np.r_[grasp[:3, 3] - hand[:3, 3], pin.log3(grasp[:3, :3] @ hand[:3, :3].T)]
+            linear, angular = 1.5 * error[:3], 1.5 * error[3:]
+            linear *= min(1.0, 0.05 / max(float(np.linalg.norm(linear)), 1e-12))
+            angular *= min(1.0, 0.3 / max(float(np.linalg.norm(angular)), 1e-12))
+            (msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z) = linear.tolist()
+            (msg.twist.angular.x, msg.twist.angular.y, msg.twist.angular.z) = angular.tolist()
+        operator.publish(msg)
+
+    ros.node.create_timer(0.01, steer)  # spun whenever the test waits
+    assert ros.wait_for(lambda: states and alphas, STARTUP), launch.died() or 'no joint states or alpha'
+    w = ros.publisher(Float64MultiArray, protocol.INTENT_W)
+    assert ros.publish_until(w, Float64MultiArray(data=[0.95, 0.05, 0.05]), lambda: grasps, STARTUP, period=1.0), \
+        launch.died() or 'no grasp'
 
     start = errors()
     assert start[0] > 0.1  # Home is far from the cup

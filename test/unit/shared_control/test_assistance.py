@@ -1,4 +1,4 @@
-"""grasp_intent_ros.shared_control.assistance: arbitration, the robot's twist, blending, limits, the safety rules."""
+"""grasp_intent_ros.core.assistance: arbitration, the robot's twist, blending, limits, the safety rules."""
 
 from __future__ import annotations
 
@@ -7,7 +7,9 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+from numpy.typing import NDArray
 
+from grasp_intent_ros.method.intent import all_zones, interpret, zone_labels
 from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.kinematics import BASE_FRAME, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import MockArm, TwistCommand
@@ -17,55 +19,77 @@ from grasp_intent_ros.shared_control.assistance import (
     TwistLimiter,
     arbitration,
     assistance_target,
-    concentration,
+    grasp_task_set,
     joint_space_twist,
     operator_agreement,
-    plan_success,
     pose_error,
     pre_grasp,
     robot_twist,
+    serving_probability,
 )
 
 LABELS = ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
 TASKS = ('usage', 'transfer', 'handover')
 GRASP = pose_to_matrix((0.3, -0.3, 0.05), (1.0, 0.0, 0.0, 0.0))  # approach (EE z) straight down
-ARGS = dict(alpha_max=0.9, c_low=0.2, c_high=0.7, margin=0.2)
+ARGS = dict(alpha_max=0.9, margin=0.2)
+U, T, H = 1, 2, 4
 
 
-def test_concentration_runs_from_uniform_to_one_zone() -> None:
-    assert concentration(np.full(7, 1 / 7)) == pytest.approx(0.0, abs=1e-15)
-    assert concentration(np.eye(7)[2]) == 1.0
-    assert concentration([3.0]) == 1.0
-    assert 0.0 < concentration([0.7, 0.1, 0.1, 0.1]) < 1.0
-    assert concentration([2.0, 2.0]) == concentration([0.5, 0.5])  # normalised first
-    with pytest.raises(ValueError):
-        concentration([0.0, 0.0])
+@pytest.mark.parametrize('w, task_set, serving', [
+    # the issue's table: the planned grasp's task set by the rules, and P(it serves T | w)
+    ((0.7, 0.7, 0.7), U | T | H, 1.0),
+    ((0.9, 0.5, 0.5), U | T | H, 1.0),
+    ((0.6, 0.6, 0.1), U | T, (0.9 - 0.4 * 0.4 * 0.9) / (1 - 0.4 * 0.4 * 0.9)),
+    ((0.9, 0.9, 0.1), U | T, (0.9 - 0.1 * 0.1 * 0.9) / (1 - 0.1 * 0.1 * 0.9)),
+    ((0.9, 0.1, 0.1), U, (0.9 * 0.9 - 0.1 * 0.9 * 0.9) / (1 - 0.1 * 0.9 * 0.9)),
+    ((0.9, 0.9, 0.1), U, (0.9 * 0.1 * 0.9) / (1 - 0.1 * 0.1 * 0.9)),  # a grasp for usage only: 9 %
+])
+def test_alpha_is_high_where_the_grasp_serves_every_likely_task(w: tuple[float, ...], task_set: int,
+                                                               serving: float) -> None:
+    # under the independent-task model P(T within S | T not empty) = (prod_{i not in S} (1 - w_i) - prod_i (1 - w_i))
+    # / (1 - prod_i (1 - w_i)): the closed forms above
+    v = interpret(w).v
+    labels = zone_labels(all_zones(3), TASKS)
+    s = serving_probability(v, labels, TASKS, task_set=task_set)
+    assert s == pytest.approx(serving, abs=1e-12)
+    assert arbitration('confidence', v, s, **ARGS) == pytest.approx(0.9 * serving, abs=1e-12)
+    assistance = make_assistance()
+    assistance.set_v(v, labels)
+    assistance.set_task_set(task_set)
+    straight = np.array([0.0, 0.0, -0.05, 0.0, 0.0, 0.0])  # the grasp is straight below the hand: o = 1
+    assistance.set_operator(straight, now=0.0)
+    assert assistance.command(0.01).alpha == pytest.approx(0.9 * serving, abs=1e-12)
 
 
-def test_plan_success_is_v_on_the_zones_the_grasp_s_reading_contains() -> None:
+def test_serving_probability_of_a_grasp_that_is_no_demonstration_is_the_models_expectation() -> None:
     v = np.array([0.5, 0.1, 0.1, 0.1, 0.1, 0.05, 0.05])  # over LABELS: U, T, H, UT, UH, TH, UTH
     model = ('U', 'T', 'UT', 'UTH')  # a 4-zone model: its posterior names only these
-    assert plan_success([0.1, 0.1, 0.7, 0.1], model, TASKS, v, LABELS) == pytest.approx(0.7, abs=1e-15)  # U+T+UT
-    assert plan_success([0.0, 0.0, 0.0, 1.0], model, TASKS, v, LABELS) == pytest.approx(1.0, abs=1e-15)  # all
-    assert plan_success([0.4, 0.4, 0.1, 0.1], model, TASKS, v, LABELS) == pytest.approx(0.5, abs=1e-15)  # U: first max
-    # it does not look at the fit: a posterior far from v, reading the zone v favours, is fully trusted
-    assert plan_success([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.7], LABELS, TASKS, v, LABELS) == pytest.approx(1.0, abs=1e-15)
-    assert plan_success([1.0, 0.0], ('U', 'X'), TASKS, v, LABELS) == 0.0  # a label that is not a zone of the tasks
-    assert plan_success([1.0], ('U',), TASKS, np.zeros(7), LABELS) == 0.0
+    e = {'U': 0.5, 'T': 0.1, 'UT': 0.7, 'UTH': 1.0}
+    p = np.array([0.1, 0.2, 0.3, 0.4])
+    expected = sum(pk * e[k] for pk, k in zip(p, model))
+    assert serving_probability(v, LABELS, TASKS, posterior=p, zone_labels=model) == pytest.approx(expected, abs=1e-15)
+    assert serving_probability(v, LABELS, TASKS, task_set=U | T) == pytest.approx(0.7, abs=1e-15)
+    assert serving_probability(v, LABELS, TASKS, posterior=[1.0, 0.0], zone_labels=('U', 'X')) == 0.0
+    assert serving_probability(np.zeros(7), LABELS, TASKS, task_set=U) == 0.0
+    assert serving_probability(v, LABELS, TASKS) == 0.0  # neither a task set nor a posterior
+
+
+def test_the_grasp_task_set_is_the_demonstrations_label() -> None:
+    demo_x = np.array([[0.0, 1.0], [1.0, 1.0], [1.0, 1.0]])
+    sets = np.array([U, T | H, U], dtype=np.int64)
+    scale = np.array([0.5, 2.0])
+    assert grasp_task_set(np.array([1.0, 1.0 + 1e-7]), demo_x, sets, scale) == T | H  # the first of equal ones
+    assert grasp_task_set(np.array([0.5, 1.0]), demo_x, sets, scale) is None  # moved: no label
 
 
 def test_arbitration_rules() -> None:
     certain, uniform = np.eye(7)[0], np.full(7, 1 / 7)
     assert arbitration('confidence', certain, 1.0, **ARGS) == pytest.approx(0.9)
+    assert arbitration('confidence', uniform, 1.0, **ARGS) == pytest.approx(0.9)  # v's spread vetoes nothing
     assert arbitration('confidence', certain, 0.5, **ARGS) == pytest.approx(0.45)
-    assert arbitration('confidence', uniform, 1.0, **ARGS) == 0.0
     assert arbitration('none', certain, 1.0, **ARGS) == 0.0
     assert arbitration('blend', [0.5, 0.35, 0.15], 0.0, **ARGS) == 0.0  # leads by 0.15 < 0.2
     assert arbitration('blend', [0.5, 0.25, 0.25], 0.0, **ARGS) == 0.9
-    # the ramp is monotone in the concentration
-    vs = [np.r_[p, np.full(6, (1 - p) / 6)] for p in np.linspace(1 / 7, 1.0, 30)]
-    alphas = [arbitration('confidence', v, 1.0, **ARGS) for v in vs]
-    assert all(b >= a for a, b in zip(alphas, alphas[1:])) and alphas[0] == 0.0 and alphas[-1] == pytest.approx(0.9)
 
 
 def test_the_robot_aims_at_the_pre_grasp_then_the_grasp() -> None:
@@ -141,7 +165,7 @@ def test_the_blend_and_the_safety_rules() -> None:
     assert command.alpha == 0.0 and command.phase == 'clarification pending'
     assert_allclose(command.twist, human, atol=0)
     assistance.set_grasp(GRASP)  # the same grasp: the operator's sideways motion (o = 1/2) is remembered
-    assistance.set_operator(np.zeros(6), now=1.02)
+    assistance.set_operator(np.array([0.0, 0.0, 0.0, 0.0, 0.06, 0.0]), now=1.02)  # turning only: no evidence
     assert assistance.command(1.02).alpha == pytest.approx(0.45)
 
 
@@ -199,6 +223,78 @@ def test_the_operator_who_steered_against_the_robot_keeps_the_control() -> None:
     assert blend.command(0.01).alpha == pytest.approx(0.9)
 
 
+def run_operator(assistance: Assistance, twist: NDArray[np.float64], start: float, seconds: float,
+                 period: float = 0.01) -> list[tuple[float, float]]:
+    """(time, alpha) of each output while the operator sends ``twist`` every ``period`` for ``seconds``."""
+    out = []
+    for i in range(round(seconds / period)):
+        now = start + i * period
+        assistance.set_operator(twist, now)
+        out.append((now, assistance.command(now).alpha))
+    return out
+
+
+def test_sustained_opposition_makes_the_robot_yield_until_the_operator_heads_back() -> None:
+    assistance = make_assistance()  # the grasp 0.2 m straight below the hand
+    oblique = np.array([0.0, 0.05, 0.05, 0.0, 0.0, 0.0])  # 135 degrees off the grasp: o = (1 - cos 45) / 2
+    alphas = run_operator(assistance, oblique, 0.0, 0.4)
+    assert alphas[0][1] == pytest.approx(0.9 * (1 - 0.5**0.5) / 2, abs=1e-12)  # 0.13: not yet <= 0.1
+    yielded = next(t for t, a in alphas if a == 0.0)
+    assert yielded <= 0.15 + 0.01  # yield_time (0.15 s) after the opposition began, within one output
+    assert all(a == 0.0 for t, a in alphas if t >= yielded)
+    assert assistance.yielded
+    # letting go, or turning only, keeps the control with the operator
+    run_operator(assistance, np.zeros(6), 0.4, 0.5)
+    assert assistance.yielded
+    # heading toward the grasp again: the robot assists once that lasted yield_time
+    toward = np.array([0.0, 0.0, -0.05, 0.0, 0.0, 0.0])
+    alphas = run_operator(assistance, toward, 1.0, 0.3)
+    back = next(t for t, a in alphas if a > 0.0)
+    assert 1.0 + 0.15 - 1e-9 <= back <= 1.0 + 0.15 + 0.01 and alphas[-1][1] == pytest.approx(0.9, abs=1e-12)
+    # a short opposition (below yield_time) only lowers alpha by the agreement
+    alphas = run_operator(assistance, -toward, 2.0, 0.1)
+    assert not assistance.yielded and all(a == pytest.approx(0.0, abs=1e-12) for _, a in alphas)
+    alphas = run_operator(assistance, toward, 2.1, 0.05)
+    assert alphas[-1][1] == pytest.approx(0.9, abs=1e-12)
+    # a new grasp (moved by more than the corridor) is a new proposal: no longer yielded
+    run_operator(assistance, -toward, 3.0, 0.3)
+    assert assistance.yielded
+    moved = GRASP.copy()
+    moved[1, 3] += 0.05
+    assistance.set_grasp(moved)
+    assert not assistance.yielded
+
+
+def test_the_switch_gives_the_operators_twist_exactly() -> None:
+    assistance = make_assistance()
+    fast = np.array([0.5, -0.3, 0.1, 2.0, 0.0, -1.5])  # beyond every speed and acceleration limit
+    assistance.enabled = False
+    assistance.set_operator(fast, now=0.0)
+    command = assistance.command(0.01)
+    assert_allclose(command.twist, fast, atol=0, rtol=0)
+    assert command.alpha == 0.0 and command.phase == 'assistance off'
+    assert not np.any(assistance.command(0.2).twist)  # stale: still the stop
+    assistance.enabled = True  # on again: blended and limited, from the last output on
+    assistance.set_operator(fast, now=0.3)
+    command = assistance.command(0.31)
+    assert command.alpha > 0.0 and not np.allclose(command.twist, fast)
+
+
+@pytest.mark.parametrize('assist_without_input', [False, True])
+def test_no_robot_motion_without_operator_input(assist_without_input: bool) -> None:
+    assistance = make_assistance(assist_without_input=assist_without_input)
+    within = np.array([0.005, 0.0, 0.0, 0.0, 0.02, 0.0])  # inside both deadbands
+    outputs = [None] * 50
+    for i in range(50):
+        assistance.set_operator(within, now=0.01 * i)
+        outputs[i] = assistance.command(0.01 * i)
+    if assist_without_input:
+        assert outputs[-1].alpha == pytest.approx(0.9) and outputs[-1].twist[2] < -0.1  # the robot drives down
+    else:
+        assert all(c.alpha == 0.0 and c.phase == 'no operator input' for c in outputs)
+        assert_allclose(outputs[-1].twist, within, atol=1e-15)  # the operator's own (tiny) twist, nothing more
+
+
 def test_the_operator_agrees_with_the_grasp_not_with_the_robots_way_to_it() -> None:
     assistance = make_assistance()
     assistance.base_T_ee = pose_to_matrix((0.4, -0.3, 0.05), (1.0, 0.0, 0.0, 0.0))  # beside the grasp
@@ -240,11 +336,12 @@ def test_the_robot_twist_in_joint_space_keeps_the_arm_out_of_the_wrist_singulari
     # the joint-space twist turns the joints straight to the grasp's IK
     kin = MicoKinematics()
     arm = MockArm(kin, np.r_[np.radians([244.0, 233.0, 62.0, 192.0, 50.0, 125.0]), 0.0, 0.0, 0.0])
-    assistance = Assistance(AssistanceConfig(), TwistLimiter(0.2, 1.0, 1.0, 5.0), kin if with_kinematics else None)
+    assistance = Assistance(AssistanceConfig(assist_without_input=True), TwistLimiter(0.2, 1.0, 1.0, 5.0),
+                            kin if with_kinematics else None)
     assistance.set_grasp(TRANSFER_GRASP)
     assistance.set_v(np.eye(7)[1], LABELS)
     assistance.set_posterior(np.eye(7)[1], LABELS, TASKS)
-    for tick in range(1000):  # 10 s of 100 Hz outputs; the operator holds still (alpha 0.9)
+    for tick in range(1000):  # 10 s of 100 Hz outputs; the operator holds still, the robot moves (alpha 0.9)
         now = 0.01 * tick
         if with_kinematics:
             assistance.set_joints(arm.q[:6].copy())

@@ -1,0 +1,273 @@
+r"""Shared control under intent uncertainty, closed loop on a simulated clock: success at the reached grasp.
+
+Runs :func:`grasp_intent_ros.shared_control.simulator.simulate` (the nodes' own core functions: interpreter,
+planner policy, assistance, mock arm) for 2 objects x 3 operator models x 4 conditions (direct, ADA as
+published, the suite on the independent-task grasp, the suite), on the same seeded episodes, faster than
+real time, and prints per object and operator: success at the reached pose, median time to grasp, operator
+effort, wrong-task pull, with paired differences and 95% bootstrap confidence intervals over episodes.
+The stream figures (rate, gaps, latency, opposition timing, the switch) are bench_shared_control.py's
+(real processes).
+
+The episodes
+------------
+- Intent (``--intent``): ``persistent`` (w held at the paper's ambiguous cases, :data:`CASES`, episode i on
+  case i mod 5, noise 0.05; T drawn from the case under the independent-task model) or ``sharpening`` (as
+  bench_shared_control.py: w0 ~ U(0.2, 0.8)^3 sharpening to the certain w_T over U(1.5, 4) s).
+- Operators (:mod:`grasp_intent_ros.shared_control.operators`): ``joystick`` (two modes), ``spacemouse``
+  (six axes), ``goal-changing`` (a spacemouse operator whose true set changes once, at U(1.5, 3) s, to
+  another set; w follows 1 s later).
+- The operator's own goal for T: the planner's grasp for the certain w_T, on the true object (the
+  planner's own choice for a certain intent; no rule is read). ADA's goals: the planner's grasps for the seven
+  certain task sets, on the tracked object.
+- The object tracker's error (per episode): position N(0, (5 mm)^2 / 3) per axis, rotation vector
+  N(0, (3 deg)^2 / 3) per axis (``--tracker-mm``, ``--tracker-deg``): 5 mm and 3 deg RMS. The hand's closure
+  error on the grasp command: N(0, (0.05 rad)^2) per finger (the mock arm's ``closure_error``).
+- Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
+  intent, its noise and the tracker error are the episode's).
+
+Judged here, after the episode, by the data set's rules (never seen by the planner, the assistance or the
+operator): success = the hand closed before the timeout and the object's rules hold for every task of the
+true set at the reached pose with the executed closures (the features in the true object frame). Wrong-task
+pull: alpha-seconds toward proposals whose features (as planned) do not serve the true set (for ADA: the
+goal probabilities' seconds, its assistance weight being 1).
+
+Statistics: per episode the mean over repeats; paired differences (suite minus each other condition) with a
+95% percentile bootstrap over episodes (10,000 resamples, seeded).
+
+    .venv/bin/python benchmarks/bench_shared_control_sim.py [--episodes 50] [--repeats 3] [--jobs 2] \
+        [--intent persistent] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from _bench import uptime
+
+from grasp_intent_ros.method.intent import all_zones, interpret
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+from grasp_intent_ros.mico.kinematics import MicoKinematics
+from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES
+from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.shared_control.operators import (
+    ChangingIntent,
+    OperatorConstants,
+    PersistentIntent,
+    ScriptedOperator,
+    SharpeningIntent,
+    certain_w,
+    draw_task_set,
+)
+from grasp_intent_ros.shared_control.simulator import CONDITIONS, Scene, perturb_pose, simulate
+
+OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
+OPERATORS = ('joystick', 'spacemouse', 'goal-changing')
+CASES = ((0.9, 0.9, 0.1), (0.9, 0.1, 0.9), (0.1, 0.9, 0.9), (0.9, 0.5, 0.5), (0.7, 0.7, 0.7))
+BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+"""The true object pose (the planner's default, config/grasp_planner.yaml)."""
+
+_STATE: dict[str, Any] = {}
+
+
+def _certain_grasps(model: Any, base_T_obj: np.ndarray, kin: MicoKinematics) -> dict[int, Grasp]:
+    out = {}
+    for task_set in range(1, 8):
+        grasp = plan_grasp(model, interpret(certain_w(task_set)).v, all_zones(3), base_T_obj, kin)
+        assert isinstance(grasp, Grasp), grasp
+        out[task_set] = grasp
+    return out
+
+
+def _setup(name: str) -> dict[str, Any]:
+    if name not in _STATE:
+        model_name, rules = OBJECTS[name]
+        kin = MicoKinematics()
+        model = ModelFiles(config_dir() / 'models').load(model_name)
+        own = {s: (g.base_T_ee, g.positions[6:]) for s, g in _certain_grasps(model, BASE_T_OBJ, kin).items()}
+        _STATE[name] = {'kin': kin, 'model': model, 'rules': rules, 'own': own}
+    return _STATE[name]
+
+
+@dataclass(frozen=True)
+class Task:
+    """One episode: object, operator model, index, and the run's settings."""
+
+    object: str
+    operator: str
+    index: int
+    seed: int
+    repeats: int
+    intent: str
+    timeout: float
+    tracker_mm: float
+    tracker_deg: float
+
+
+def _intent(task: Task, rng: np.random.Generator) -> Any:
+    if task.intent == 'sharpening':
+        w0 = rng.uniform(0.2, 0.8, 3)
+        return SharpeningIntent(tuple(w0.tolist()), draw_task_set(w0, rng), float(rng.uniform(1.5, 4.0)))
+    case = CASES[task.index % len(CASES)]
+    persistent = PersistentIntent(case, draw_task_set(np.asarray(case), rng))
+    if task.operator != 'goal-changing':
+        return persistent
+    others = [s for s in range(1, 8) if s != persistent.true_set]
+    return ChangingIntent(persistent, int(rng.choice(others)), float(rng.uniform(1.5, 3.0)))
+
+
+def run_task(task: Task) -> list[dict[str, Any]]:
+    """Every repeat and condition of one episode: judged records."""
+    state = _setup(task.object)
+    kin, model, rules = state['kin'], state['model'], state['rules']
+    setup_rng = np.random.default_rng([task.seed, list(OBJECTS).index(task.object), OPERATORS.index(task.operator),
+                                       task.index])
+    intent = _intent(task, setup_rng)
+    tracked = perturb_pose(BASE_T_OBJ, task.tracker_mm * 1e-3, math.radians(task.tracker_deg), setup_rng)
+    scene = Scene(model, BASE_T_OBJ, tracked, kin)
+    ada_goals = [(g.base_T_ee, g.result.x) for g in _certain_grasps(model, tracked, kin).values()]
+    cache: dict[bytes, Grasp | None] = {}
+    device = 'joystick' if task.operator == 'joystick' else 'spacemouse'
+    records = []
+    for repeat in range(task.repeats):
+        for condition in CONDITIONS:
+            intent_rng = np.random.default_rng([task.seed, task.index, 1])  # the same reports in every run
+            op_rng = np.random.default_rng([task.seed, list(OBJECTS).index(task.object),
+                                            OPERATORS.index(task.operator), task.index, repeat, 2])
+            closure_rng = np.random.default_rng([task.seed, task.index, repeat, 3])
+            operator = ScriptedOperator(device, OperatorConstants(), op_rng)
+            t0 = time.perf_counter()
+            ep = simulate(scene, condition, intent, operator, state['own'], intent_rng, closure_rng,
+                          ada_goals=ada_goals, plan_cache=cache, timeout=task.timeout)
+            true_set = ep.task_set
+            success = ep.features is not None and rules.label(ep.features) & true_set == true_set
+            wrong = sum(s for x, s in ep.pulls if rules.label(x) & true_set != true_set)
+            records.append({'object': task.object, 'operator': task.operator, 'episode': task.index,
+                            'repeat': repeat, 'condition': condition, 'task_set': true_set,
+                            'success': bool(success), 'closed': ep.closed_at is not None,
+                            'time': ep.closed_at if ep.closed_at is not None else task.timeout,
+                            'pursued': ep.pursued, 'effort_linear': ep.effort_linear,
+                            'effort_angular': ep.effort_angular, 'wrong_pull': wrong, 'alpha_mean': ep.alpha_mean,
+                            'wall_s': time.perf_counter() - t0})
+    return records
+
+
+def bootstrap_ci(values: Sequence[float], rng: np.random.Generator, n: int = 10_000) -> tuple[float, float, float]:
+    """(mean, 2.5th, 97.5th percentile of the bootstrap means) of ``values``."""
+    arr = np.asarray(values, dtype=np.float64)
+    means = arr[rng.integers(0, arr.size, (n, arr.size))].mean(axis=1)
+    return float(arr.mean()), float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+
+
+def per_episode(records: list[dict[str, Any]], key: str) -> dict[str, dict[int, float]]:
+    """Mean of ``key`` over repeats, by condition and episode."""
+    out: dict[str, dict[int, list[float]]] = {}
+    for r in records:
+        out.setdefault(r['condition'], {}).setdefault(r['episode'], []).append(float(r[key]))
+    return {c: {e: float(np.mean(v)) for e, v in eps.items()} for c, eps in out.items()}
+
+
+def summarise(records: list[dict[str, Any]], timeout: float) -> dict[str, Any]:
+    """The figures of one object x operator cell (module docstring)."""
+    rng = np.random.default_rng(0)
+    success, times = per_episode(records, 'success'), per_episode(records, 'time')
+    effort, wrong = per_episode(records, 'effort_linear'), per_episode(records, 'wrong_pull')
+    table: dict[str, Any] = {}
+    for c in CONDITIONS:
+        eps = sorted(success[c])
+        table[c] = {'success': float(np.mean([success[c][e] for e in eps])),
+                    'median_time': float(np.median([r['time'] for r in records if r['condition'] == c])),
+                    'effort_linear': float(np.median([effort[c][e] for e in eps])),
+                    'wrong_pull': float(np.mean([wrong[c][e] for e in eps])),
+                    'episodes': len(eps)}
+    for other in CONDITIONS[:-1]:
+        eps = sorted(success['suite'])
+        diff = [success['suite'][e] - success[other][e] for e in eps]
+        ratio = [math.log(times['suite'][e] / times[other][e]) for e in eps]
+        d, lo, hi = bootstrap_ci(diff, rng)
+        m, rlo, rhi = bootstrap_ci(ratio, rng)
+        table[f'suite-{other}'] = {'success_diff': d, 'ci': [lo, hi],
+                                   'time_ratio': math.exp(m), 'time_ratio_ci': [math.exp(rlo), math.exp(rhi)]}
+    return table
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--episodes', type=int, default=50)
+    parser.add_argument('--repeats', type=int, default=3)
+    parser.add_argument('--objects', nargs='+', default=list(OBJECTS), choices=list(OBJECTS))
+    parser.add_argument('--operators', nargs='+', default=list(OPERATORS), choices=list(OPERATORS))
+    parser.add_argument('--intent', default='persistent', choices=('persistent', 'sharpening'))
+    parser.add_argument('--timeout', type=float, default=25.0)
+    parser.add_argument('--tracker-mm', type=float, default=5.0)
+    parser.add_argument('--tracker-deg', type=float, default=3.0)
+    parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--jobs', type=int, default=2)
+    parser.add_argument('--json', help='write every record and the summaries here')
+    parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
+    parser.add_argument('--summarise', metavar='JSONL', help='run nothing: summarise the records of a --records file '
+                        '(the cells it holds complete)')
+    args = parser.parse_args()
+    if args.summarise:
+        with open(args.summarise) as f:
+            done = [r for line in f for r in json.loads(line)]
+        report_cells(done, args, sorted({r['object'] for r in done}), sorted({r['operator'] for r in done}))
+        return
+    tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg)
+             for i in range(args.episodes) for o in args.objects for op in args.operators]  # cells fill evenly
+    print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(CONDITIONS)} conditions, '
+          f'intent {args.intent}; {uptime()}', flush=True)
+    t0 = time.monotonic()
+    records: list[dict[str, Any]] = []
+    with ProcessPoolExecutor(args.jobs) as pool:
+        for i, result in enumerate(pool.map(run_task, tasks)):
+            records.extend(result)
+            if args.records:
+                with open(args.records, 'a') as f:
+                    f.write(json.dumps(result) + '\n')
+            if (i + 1) % 10 == 0:
+                print(f'  {i + 1}/{len(tasks)} episodes, {time.monotonic() - t0:.0f} s; {uptime()}', flush=True)
+    report = report_cells(records, args, args.objects, args.operators)
+    print(f'\ndone in {time.monotonic() - t0:.0f} s; {uptime()}')
+    if args.json:
+        report['records'] = records
+        with open(args.json, 'w') as f:
+            json.dump(report, f, indent=1)
+
+
+def report_cells(records: list[dict[str, Any]], args: argparse.Namespace, objects: Sequence[str],
+                 operators: Sequence[str]) -> dict[str, Any]:
+    """Print and return the summaries of every object x operator cell of ``records``."""
+    report: dict[str, Any] = {'args': vars(args), 'cells': {}}
+    repeats = 1 + max(r['repeat'] for r in records)
+    for o in objects:
+        for op in operators:
+            cell = [r for r in records if r['object'] == o and r['operator'] == op]
+            if not cell:
+                continue
+            table = summarise(cell, args.timeout)
+            report['cells'][f'{o}/{op}'] = table
+            print(f'\n[{o} / {op}] {table["suite"]["episodes"]} episodes x {repeats} repeats')
+            for c in CONDITIONS:
+                row = table[c]
+                print(f'  {c:12s} success {row["success"]:.3f}  median time {row["median_time"]:5.2f} s  '
+                      f'effort {row["effort_linear"]:.3f} m  wrong pull {row["wrong_pull"]:.3f} alpha s')
+            for other in CONDITIONS[:-1]:
+                d = table[f'suite-{other}']
+                print(f'  suite - {other:12s} success {100 * d["success_diff"]:+5.1f} points '
+                      f'[{100 * d["ci"][0]:+5.1f}, {100 * d["ci"][1]:+5.1f}]  time ratio {d["time_ratio"]:.2f} '
+                      f'[{d["time_ratio_ci"][0]:.2f}, {d["time_ratio_ci"][1]:.2f}]')
+    return report
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,209 @@
+r"""Scripted teleoperators and their intents: stated models that never read an object's task rules.
+
+An operator is an intent script (what it wants, over time: its true task set T and the w an intent estimator
+reports) and a device model (how it moves the hand toward the grasp it pursues). Both are seeded; an intent
+estimator under test (or the benchmarks) can reuse them.
+
+Intents (:class:`IntentScript`: ``task_set(t)``, ``w(t, rng)``)
+---------------------------------------------------------------
+- :class:`PersistentIntent`: the estimator's w held at one case (e.g. the paper's (0.9, 0.9, 0.1)) with
+  N(0, ``noise``^2) per task and report, clipped to [0.02, 0.98]; T drawn from the case under the
+  independent-task model (task i with probability w_i, redrawn until not empty).
+- :class:`SharpeningIntent`: a prior w0 ~ U(0.2, 0.8)^3, T drawn from it, w moving linearly from w0 to the
+  certain w_T (0.95 on T, 0.05 elsewhere) over ``sharpen`` s, noise N(0, (0.08 (1 - s))^2).
+- :class:`ChangingIntent`: a persistent intent whose true set changes once, at ``t_change``, to another set
+  T2; the estimator's w follows ``delay`` s later (then the certain w_T2 with the same noise).
+
+Goals (:class:`ScriptedOperator`)
+---------------------------------
+The operator's own goal for T is a grasp it picks without the rules (the caller gives it: the benchmark
+uses the planner's grasp for the certain w_T). It follows the *shown* grasp (the planner's, on the screen)
+when that is on its way, i.e. within ``accept_position`` and ``accept_angle`` of its own goal (it looks like
+the grasp it wanted), else drives to its own goal. It closes the hand (the grasp command) once the hand it
+sees is within :data:`~grasp_intent_ros.shared_control.assistance.REACH_POS` / ``REACH_ROT`` of the goal it
+pursues.
+
+Devices (:meth:`ScriptedOperator.twist`)
+----------------------------------------
+The hand and the shown grasp are perceived ``reaction`` s late. The command is proportional to the pose
+error toward the goal (gain ``gain`` 1/s), each part limited to ``max_linear`` / ``max_angular``, plus
+Ornstein-Uhlenbeck noise (time constant ``noise_tau``; ``noise_linear`` m/s, ``noise_angular`` rad/s) on the
+parts moved:
+
+- ``'joystick'``: two modes, as in ADA's studies: translation (3 axes) or rotation (3 axes), never both;
+  switching costs ``switch_time`` of no input. It translates until within ``translate_until`` of the goal,
+  then rotates until within 0.6 ``rotate_until``, back to translation beyond ``back_to_translation``.
+- ``'spacemouse'``: six axes at once, both parts every tick.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .assistance import clip_norm, offset, pose_error, reached
+
+__all__ = ['Device', 'DEVICES', 'IntentScript', 'PersistentIntent', 'SharpeningIntent', 'ChangingIntent',
+           'certain_w', 'draw_task_set', 'OperatorConstants', 'ScriptedOperator']
+
+Device = Literal['joystick', 'spacemouse']
+DEVICES: tuple[Device, ...] = ('joystick', 'spacemouse')
+
+
+def certain_w(task_set: int, m: int = 3) -> NDArray[np.float64]:
+    """The w of an estimator certain of ``task_set`` (bitmask): 0.95 on its tasks, 0.05 elsewhere."""
+    return np.array([0.95 if task_set >> i & 1 else 0.05 for i in range(m)])
+
+
+def draw_task_set(w: NDArray[np.float64], rng: np.random.Generator) -> int:
+    """A task set drawn under the independent-task model (task i with probability w_i), redrawn until not empty."""
+    task_set = 0
+    while not task_set:
+        task_set = sum(1 << i for i in range(w.size) if rng.uniform() < w[i])
+    return task_set
+
+
+class IntentScript(Protocol):
+    """What an operator wants at time t (s from the episode's start) and what the estimator reports."""
+
+    def task_set(self, t: float) -> int:
+        """The operator's true task set (bitmask) at ``t``."""
+
+    def w(self, t: float, rng: np.random.Generator) -> NDArray[np.float64]:
+        """The estimator's report at ``t`` (noise from ``rng``)."""
+
+
+@dataclass(frozen=True)
+class PersistentIntent:
+    """w held at ``case`` with noise; true set ``true_set`` (module docstring)."""
+
+    case: tuple[float, ...]
+    true_set: int
+    noise: float = 0.05
+
+    def task_set(self, t: float) -> int:
+        return self.true_set
+
+    def w(self, t: float, rng: np.random.Generator) -> NDArray[np.float64]:
+        return np.clip(np.asarray(self.case) + rng.normal(0.0, self.noise, len(self.case)), 0.02, 0.98)
+
+
+@dataclass(frozen=True)
+class SharpeningIntent:
+    """w sharpening from ``w0`` to the certain w of ``true_set`` over ``sharpen`` s (module docstring)."""
+
+    w0: tuple[float, ...]
+    true_set: int
+    sharpen: float
+
+    def task_set(self, t: float) -> int:
+        return self.true_set
+
+    def w(self, t: float, rng: np.random.Generator) -> NDArray[np.float64]:
+        s = min(max(t / self.sharpen, 0.0), 1.0)
+        w = (1.0 - s) * np.asarray(self.w0) + s * certain_w(self.true_set, len(self.w0))
+        return np.clip(w + rng.normal(0.0, 0.08 * (1.0 - s), len(self.w0)), 0.02, 0.98)
+
+
+@dataclass(frozen=True)
+class ChangingIntent:
+    """``before`` until ``t_change``, then ``after_set``; w follows ``delay`` s later (module docstring)."""
+
+    before: PersistentIntent
+    after_set: int
+    t_change: float
+    delay: float = 1.0
+
+    def task_set(self, t: float) -> int:
+        return self.after_set if t >= self.t_change else self.before.task_set(t)
+
+    def w(self, t: float, rng: np.random.Generator) -> NDArray[np.float64]:
+        if t < self.t_change + self.delay:
+            return self.before.w(t, rng)
+        m = len(self.before.case)
+        return np.clip(certain_w(self.after_set, m) + rng.normal(0.0, self.before.noise, m), 0.02, 0.98)
+
+
+@dataclass(frozen=True)
+class OperatorConstants:
+    """The scripted operator's constants (module docstring; m, rad, s)."""
+
+    max_linear: float = 0.12
+    max_angular: float = 0.6
+    gain: float = 1.5
+    reaction: float = 0.25
+    noise_linear: float = 0.01
+    noise_angular: float = 0.05
+    noise_tau: float = 0.3
+    switch_time: float = 0.5
+    translate_until: float = 0.03
+    rotate_until: float = 0.05
+    back_to_translation: float = 0.06
+    accept_position: float = 0.06
+    accept_angle: float = 0.8
+
+
+class ScriptedOperator:
+    """One operator's device and goal choice (module docstring); ``rng`` drives its noise.
+
+    Parameters
+    ----------
+    device : 'joystick' or 'spacemouse'
+    constants : OperatorConstants
+    rng : numpy Generator
+    period : float
+        Seconds between two calls of :meth:`twist`.
+    """
+
+    def __init__(self, device: Device, constants: OperatorConstants, rng: np.random.Generator,
+                 period: float = 0.01) -> None:
+        self.device, self.c, self.rng, self.period = device, constants, rng, period
+        self.mode = 'translate'
+        self._switching_until = -math.inf
+        self._noise = np.zeros(6)
+        self._decay = math.exp(-period / constants.noise_tau)
+        self._scale = math.sqrt(1.0 - self._decay**2)
+
+    def choose_goal(self, shown: NDArray[np.float64] | None, own: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                                                                 str]:
+        """The goal pursued: ``shown`` when it is on the way (near ``own``), else ``own``; with 'shown'/'own'."""
+        if shown is not None:
+            distance, angle = offset(own, shown)
+            if distance <= self.c.accept_position and angle <= self.c.accept_angle:
+                return shown, 'shown'
+        return own, 'own'
+
+    def at_goal(self, hand: NDArray[np.float64], goal: NDArray[np.float64]) -> bool:
+        """Whether the operator closes the hand: the hand it sees is at the goal it pursues."""
+        return reached(hand, goal)
+
+    def twist(self, now: float, hand: NDArray[np.float64], goal: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The device's twist (shape (6,), base frame) at ``now`` for the seen ``hand`` and ``goal`` (4x4 each)."""
+        c = self.c
+        sigma = np.r_[[c.noise_linear] * 3, [c.noise_angular] * 3]
+        self._noise = self._decay * self._noise + self._scale * self.rng.normal(0.0, 1.0, 6) * sigma
+        error = pose_error(hand, goal)
+        linear = clip_norm(c.gain * error[:3], c.max_linear)
+        angular = clip_norm(c.gain * error[3:], c.max_angular)
+        command = np.zeros(6)
+        if self.device == 'spacemouse':
+            return np.concatenate([linear, angular]) + self._noise
+        if now < self._switching_until:
+            return command
+        distance, angle = float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
+        wanted = self.mode
+        if self.mode == 'translate' and distance < c.translate_until and angle > c.rotate_until:
+            wanted = 'rotate'
+        elif self.mode == 'rotate' and (angle < 0.6 * c.rotate_until or distance > c.back_to_translation):
+            wanted = 'translate'
+        if wanted != self.mode:
+            self.mode, self._switching_until = wanted, now + c.switch_time
+        elif self.mode == 'translate':
+            command[:3] = linear + self._noise[:3]
+        else:
+            command[3:] = angular + self._noise[3:]
+        return command

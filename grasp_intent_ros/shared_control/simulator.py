@@ -1,0 +1,301 @@
+r"""The shared-control loop on a simulated clock, with the functions the nodes call (ROS-free).
+
+One episode (:func:`simulate`): an operator (:mod:`.operators`) teleoperates the mock MICO
+(:class:`~grasp_intent_ros.core.arm.MockArm`, the mock arm node's core) through the assistance
+(:class:`~grasp_intent_ros.core.assistance.Assistance`, the assistance node's core) toward a grasp the
+planner's policy (:func:`~grasp_intent_ros.core.grasp.plan_grasp`, the planner node's core) plans for the
+intent (:func:`~grasp_intent_ros.core.intent.interpret`, the interpreter's core), until the operator closes
+the hand or the episode times out. Every ``period`` (0.01 s, the nodes' period): the arm's joints go to the
+assistance (joint_states), the operator sends a twist seen ``reaction`` s late, the assistance answers with
+one command, the arm follows it for one period. Every ``w_period`` (0.1 s) the estimator reports w, which is
+interpreted and planned at once (the nodes take milliseconds: the simulation leaves their latency out),
+warm-started from the previous plan of the stream, with the IK seeded at Home (the planner node seeds it with
+the arm's joints: the grasp's pose does not depend on the seed, only which IK branch the planner reports, and
+the assistance solves its own IK). The planner sees the object where the tracker says it is (``base_T_obj``
+of the :class:`Scene`, the true pose plus the tracker's error); the operator and the judge see the true one.
+
+Conditions (:data:`CONDITIONS`)
+-------------------------------
+- ``'direct'``: the planner runs and its grasp is shown, alpha = 0 (``arbitration: none``).
+- ``'ada'``: ADA's shared autonomy as published (Javdani et al.; personalrobotics/ada_assistance_policy):
+  a goal distribution over the task-serving grasps (the planner's grasp for each certain task set), uniform
+  at the start, updated from each operator twist u by log p(g) -= Q_g(x, u) - V_g(x) (Huber distance costs
+  with ADA's constants, the action applied for ``ADA_APPLY_TIME``; no goal above 0.99), and the command
+  u + sum_g p(g) a_g, a_g ADA's Huber-gradient twist toward goal g. Nothing is shown (ADA shows goal
+  probabilities, not a grasp proposal); the robot assists with zero input too (additive, as published).
+- ``'independent'``: the suite's assistance on the grasp separate per-task classifiers would choose: the
+  planner's grasp for the single most likely task argmax_i w_i (v on that zone alone), shown.
+- ``'suite'``: the suite: v = interpret(w), the planner's grasp, the assistance's ``confidence`` rule, shown.
+
+The simulation returns what happened, never a verdict: the executed grasp's features in the true object
+frame, when the hand closed, the operator's effort and each shown grasp's alpha-time; the caller judges
+(the task rules never enter here).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..method.intent import Interpretation, ZoneInterpreter, all_zones, default_task_names, zone_labels
+from ..method.model import GraspModel
+from ..mico.frames import obj_T_ee_to_features
+from ..mico.grasp import Grasp, plan_grasp
+from ..mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
+from ..mico.mock_arm import MockArm, TwistCommand
+from .assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, pose_error
+from .operators import IntentScript, ScriptedOperator
+
+__all__ = ['Condition', 'CONDITIONS', 'ADA_APPLY_TIME', 'Scene', 'PlanStream', 'AdaAssistance', 'Episode',
+           'simulate', 'perturb_pose']
+
+Condition = Literal['direct', 'ada', 'independent', 'suite']
+CONDITIONS: tuple[Condition, ...] = ('direct', 'ada', 'independent', 'suite')
+ADA_APPLY_TIME = 0.1
+"""Seconds ADA's goal predictor applies the operator's action for (its ``ACTION_APPLY_TIME``)."""
+_ZONES = all_zones(3)
+_LABELS = zone_labels(_ZONES, default_task_names(3))
+
+
+def perturb_pose(base_T: NDArray[np.float64], position_rms: float, angle_rms: float,
+                 rng: np.random.Generator) -> NDArray[np.float64]:
+    """``base_T`` moved by N(0, (position_rms^2 / 3) I) m and turned by a rotation vector N(0, (angle_rms^2 / 3) I)."""
+    import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
+
+    out = base_T.copy()
+    out[:3, 3] += rng.normal(0.0, position_rms / math.sqrt(3.0), 3)
+    out[:3, :3] = np.asarray(pin.exp3(rng.normal(0.0, angle_rms / math.sqrt(3.0), 3))) @ base_T[:3, :3]
+    return out
+
+
+@dataclass(frozen=True)
+class Scene:
+    """What one episode runs on: the model, the object's true and tracked poses, the kinematics."""
+
+    model: GraspModel
+    base_T_obj_true: NDArray[np.float64]
+    base_T_obj: NDArray[np.float64]
+    kin: MicoKinematics
+
+
+class PlanStream:
+    """The planner node's stream of plans on the simulated clock: warm-started, cached by (v, warm start).
+
+    ``cache`` may be shared between streams of the same scene and kind: the plan is a function of them.
+    """
+
+    def __init__(self, scene: Scene, kind: Literal['intent', 'single'], cache: dict[bytes, Grasp | None]) -> None:
+        self.scene, self.kind, self.cache = scene, kind, cache
+        self.warm: NDArray[np.float64] | None = None
+        self._interpreter = ZoneInterpreter(3, _ZONES)
+
+    def plan(self, w: NDArray[np.float64]) -> tuple[NDArray[np.float64] | None, Grasp | None]:
+        """(v, grasp) for the estimator's ``w``; v None asks for clarification, grasp None: nothing reachable."""
+        read = self._interpreter.interpret_checked(w)
+        if not isinstance(read, Interpretation):
+            return None, None
+        v = read.v
+        target = v
+        if self.kind == 'single':  # separate per-task classifiers: the grasp for the most likely task alone
+            target = np.zeros(len(_ZONES))
+            target[_ZONES.index(1 << int(np.argmax(w)))] = 1.0
+        key = self.kind.encode() + target.tobytes() + (b'' if self.warm is None else self.warm.tobytes())
+        if key not in self.cache:
+            planned = plan_grasp(self.scene.model, target, _ZONES, self.scene.base_T_obj, self.scene.kin,
+                                 q_arm=HOME_Q, warm_start=self.warm)
+            self.cache[key] = planned if isinstance(planned, Grasp) else None
+        grasp = self.cache[key]
+        if grasp is not None:
+            self.warm = grasp.result.x
+        return v, grasp
+
+
+def _huber(d: float, linear: float, delta: float, constant: float) -> tuple[float, float]:
+    """ADA's Huber cost-to-go of distance ``d`` and its derivative."""
+    if d <= delta:
+        return 0.5 * linear / delta * d * d + constant * d, linear / delta * d + constant
+    return (linear + constant) * d - 0.5 * linear * delta, linear + constant
+
+
+class AdaAssistance:
+    """ADA's shared autonomy over ``goals`` (module docstring), with the assistance's output limits.
+
+    Constants are ADA's (its HuberAssistancePolicy): translation 2.25 /m beyond 0.07 m plus 0.2, rotation
+    0.07 (0.2 /rad beyond pi/32 plus 0.01), robot cost 40 (translation) and 0.05 (rotation).
+    """
+
+    def __init__(self, goals: list[NDArray[np.float64]], limiter: TwistLimiter) -> None:
+        self.goals, self.limiter = goals, limiter
+        self.log_p = np.full(len(goals), -math.log(len(goals)))
+
+    def distribution(self) -> NDArray[np.float64]:
+        """p(g), shape (len(goals),)."""
+        p: NDArray[np.float64] = np.exp(self.log_p)
+        return p
+
+    @staticmethod
+    def _value(error: NDArray[np.float64]) -> float:
+        trans = _huber(float(np.linalg.norm(error[:3])), 2.25, 0.07, 0.2)[0]
+        rot = 0.07 * _huber(float(np.linalg.norm(error[3:])), 0.2, math.pi / 32.0, 0.01)[0]
+        return trans + rot
+
+    @staticmethod
+    def _action(error: NDArray[np.float64]) -> NDArray[np.float64]:
+        d, a = float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
+        out = np.zeros(6)
+        if d > 0.0:
+            out[:3] = _huber(d, 2.25, 0.07, 0.2)[1] * error[:3] / d / 40.0 * min(d / 0.02, 1.0)
+        if a > 0.0:
+            out[3:] = 0.07 * _huber(a, 0.2, math.pi / 32.0, 0.01)[1] * error[3:] / a / 0.05 * min(a / (math.pi / 12.0),
+                                                                                                 1.0)
+        return out
+
+    def command(self, hand: NDArray[np.float64], operator: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
+        """The limited command for the operator's twist (base frame) with the hand at ``hand``."""
+        errors = [pose_error(hand, g) for g in self.goals]
+        moved = operator * ADA_APPLY_TIME
+        for i, e in enumerate(errors):
+            after = e - moved  # the error after the operator's action (first order in the rotation)
+            self.log_p[i] -= self._value(after) - self._value(e)
+        self.log_p -= np.logaddexp.reduce(self.log_p)
+        p = self.distribution()
+        top = int(np.argmax(p))
+        if p.size > 1 and p[top] > 0.99:  # ADA's cap, the excess spread evenly over the others
+            extra = (p[top] - 0.99) / (p.size - 1)
+            p = p + extra
+            p[top] = 0.99
+            self.log_p = np.log(p)
+        assist = sum((pg * self._action(e) for pg, e in zip(p, errors)), np.zeros(6))
+        return self.limiter.limit(operator + assist, dt)
+
+
+@dataclass
+class Episode:
+    """What one simulated episode did (nothing judged).
+
+    Attributes
+    ----------
+    closed_at : float or None
+        Seconds from the start to the grasp command; None when the episode timed out first.
+    features : ndarray, shape (10,) or None
+        The executed grasp in the true object frame (the hand's pose and the executed closures) after closing.
+    task_set : int
+        The operator's true task set at the end.
+    pursued : str
+        'shown' or 'own': the goal the operator closed on.
+    effort_linear, effort_angular : float
+        Integrals of the operator's twist's parts (m, rad).
+    pulls : list of (ndarray, float)
+        Each proposal the robot pulled toward (its features, in the tracked frame) and its alpha-seconds.
+    alpha_mean : float
+    """
+
+    closed_at: float | None = None
+    features: NDArray[np.float64] | None = None
+    task_set: int = 0
+    pursued: str = ''
+    effort_linear: float = 0.0
+    effort_angular: float = 0.0
+    pulls: list[tuple[NDArray[np.float64], float]] = field(default_factory=list)
+    alpha_mean: float = 0.0
+
+
+def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator: ScriptedOperator,
+             own_goals: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]], intent_rng: np.random.Generator,
+             closure_rng: np.random.Generator, *, ada_goals: list[tuple[NDArray[np.float64], NDArray[np.float64]]],
+             plan_cache: dict[bytes, Grasp | None], timeout: float = 25.0, period: float = 0.01,
+             w_period: float = 0.1, closure_error: float = 0.05,
+             config: AssistanceConfig | None = None) -> Episode:
+    """Run one episode (module docstring).
+
+    Parameters
+    ----------
+    own_goals : dict task set -> (base_T_ee, closures)
+        The operator's own grasp per task set (true object frame), chosen without the rules.
+    ada_goals : list of (base_T_ee, features)
+        ADA's goals, in the tracked frame (the robot's perception).
+    intent_rng, closure_rng
+        The estimator's noise; the hand's closure error (N(0, closure_error^2) per finger).
+    config : AssistanceConfig, optional
+        The suite's assistance settings (default: the node's defaults); ``arbitration`` is set by the condition.
+    """
+    kin = scene.kin
+    base = config or AssistanceConfig()
+    rule = 'none' if condition == 'direct' else 'confidence'
+    limiter = TwistLimiter(0.2, 1.0, 1.0, 5.0, max_dt=2.0 * period)
+    assistance = Assistance(AssistanceConfig(**{**base.__dict__, 'arbitration': rule}), limiter, kin)
+    ada = AdaAssistance([g for g, _ in ada_goals], limiter) if condition == 'ada' else None
+    stream = PlanStream(scene, 'single' if condition == 'independent' else 'intent', plan_cache)
+    arm = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0])
+    reaction_ticks = max(int(round(operator.c.reaction / period)), 0)
+    hands: deque[NDArray[np.float64]] = deque(maxlen=reaction_ticks + 1)
+    shown_history: deque[Grasp | None] = deque(maxlen=reaction_ticks + 1)
+    shown: Grasp | None = None
+    episode = Episode()
+    pull: dict[int, list[object]] = {}
+    alpha_sum = 0.0
+    w_every = max(int(round(w_period / period)), 1)
+    ticks = int(round(timeout / period))
+    tick = 0
+    for tick in range(ticks):
+        now = tick * period
+        if tick % w_every == 0:
+            v, grasp = stream.plan(intent.w(now, intent_rng))
+            if v is None:
+                assistance.clarification()
+            else:
+                assistance.set_v(v, _LABELS)
+                if grasp is not None:
+                    shown = grasp
+                    assistance.set_grasp(grasp.base_T_ee)
+                    model = scene.model
+                    assistance.set_posterior(grasp.result.posterior, model.zone_labels, model.task_names)
+                    assistance.set_task_set(grasp_task_set(grasp.result.x, model.demo_x, model.demo_sets,
+                                                           model.feature_scale))
+        q = arm.q[:6].copy()
+        assistance.set_joints(q)
+        assert assistance.base_T_ee is not None
+        hand_now = assistance.base_T_ee
+        hands.append(hand_now)
+        shown_history.append(shown)
+        seen, shown_seen = hands[0], shown_history[0]
+        task_set = intent.task_set(now)
+        own_pose, own_closures = own_goals[task_set]
+        shown_pose = None if shown_seen is None or condition == 'ada' else shown_seen.base_T_ee  # on the screen
+        goal, pursued = operator.choose_goal(shown_pose, own_pose)
+        if operator.at_goal(seen, goal):
+            closures = own_closures if pursued == 'own' or shown_seen is None else shown_seen.positions[6:]
+            executed = arm.close_fingers(closures + closure_rng.normal(0.0, closure_error, 3))
+            obj_T_ee = np.linalg.inv(scene.base_T_obj_true) @ hand_now
+            episode.closed_at, episode.pursued = now, pursued
+            episode.features = obj_T_ee_to_features(obj_T_ee, executed)
+            break
+        h = operator.twist(now, seen, goal)
+        episode.effort_linear += float(np.linalg.norm(h[:3])) * period
+        episode.effort_angular += float(np.linalg.norm(h[3:])) * period
+        if ada is not None:
+            twist = ada.command(hand_now, h, period)
+            p = ada.distribution()
+            alpha_sum += 1.0
+            for i, pg in enumerate(p):
+                pull.setdefault(-1 - i, [ada_goals[i][1], 0.0])[1] += float(pg) * period  # type: ignore[operator]
+        else:
+            assistance.set_operator(h, now)
+            command = assistance.command(now)
+            twist = command.twist
+            alpha_sum += command.alpha
+            if command.alpha > 0.0 and shown is not None:
+                entry = pull.setdefault(id(shown), [shown.result.x, 0.0])
+                entry[1] += command.alpha * period  # type: ignore[operator]
+        arm.command_twist(TwistCommand(twist[:3], twist[3:], BASE_FRAME), now)
+        arm.step(now + period, period)
+    episode.task_set = intent.task_set(tick * period)
+    episode.alpha_mean = alpha_sum / max(tick, 1)
+    episode.pulls = [(np.asarray(x), float(s)) for x, s in pull.values()]  # type: ignore[arg-type]
+    return episode
+

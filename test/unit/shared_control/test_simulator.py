@@ -1,0 +1,96 @@
+"""grasp_intent_ros.shared_control: the scripted operators and the simulated closed loop."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grasp_intent_ros.method.intent import all_zones, interpret
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
+from grasp_intent_ros.objects.demos import CUP_RULES
+from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.shared_control.assistance import TwistLimiter, pose_error
+from grasp_intent_ros.shared_control.operators import (
+    ChangingIntent,
+    OperatorConstants,
+    PersistentIntent,
+    ScriptedOperator,
+    certain_w,
+    draw_task_set,
+)
+from grasp_intent_ros.shared_control.simulator import AdaAssistance, Scene, perturb_pose, simulate
+
+BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+U, T, H = 1, 2, 4
+
+
+@pytest.fixture(scope='module')
+def cup() -> tuple[Scene, dict[int, Grasp]]:
+    kin = MicoKinematics()
+    model = ModelFiles(config_dir() / 'models').load('cup_7zone')
+    grasps = {}
+    for task_set in range(1, 8):
+        grasp = plan_grasp(model, interpret(certain_w(task_set)).v, all_zones(3), BASE_T_OBJ, kin)
+        assert isinstance(grasp, Grasp)
+        grasps[task_set] = grasp
+    return Scene(model, BASE_T_OBJ, BASE_T_OBJ, kin), grasps
+
+
+def test_intents_follow_their_scripts() -> None:
+    rng = np.random.default_rng(1)
+    counts = np.zeros(3)
+    for _ in range(2000):
+        s = draw_task_set(np.array([0.9, 0.5, 0.1]), rng)
+        assert s != 0
+        counts += [s & 1, s >> 1 & 1, s >> 2 & 1]
+    # P(i in T | T not empty) = w_i / (1 - prod (1 - w_j)) = w_i / 0.955
+    assert counts / 2000 == pytest.approx(np.array([0.9, 0.5, 0.1]) / 0.955, abs=0.03)
+    persistent = PersistentIntent((0.9, 0.9, 0.1), U | T)
+    changing = ChangingIntent(persistent, H, t_change=2.0, delay=1.0)
+    assert changing.task_set(1.9) == U | T and changing.task_set(2.0) == H
+    assert changing.w(2.5, rng)[0] > 0.6 and changing.w(3.0, rng)[0] < 0.3  # w follows 1 s after the change
+
+
+def test_a_suite_episode_is_reproducible_and_ends_at_a_grasp_serving_the_operator(cup) -> None:
+    scene, grasps = cup
+    own = {s: (g.base_T_ee, g.positions[6:]) for s, g in grasps.items()}
+    ada = [(g.base_T_ee, g.result.x) for g in grasps.values()]
+    intent = PersistentIntent((0.9, 0.9, 0.1), U | T)
+    episodes = []
+    for _ in range(2):
+        cache: dict[bytes, Grasp | None] = {}
+        operator = ScriptedOperator('spacemouse', OperatorConstants(), np.random.default_rng(3))
+        episodes.append(simulate(scene, 'suite', intent, operator, own, np.random.default_rng(4),
+                                 np.random.default_rng(5), ada_goals=ada, plan_cache=cache, closure_error=0.0,
+                                 timeout=15.0))
+    first, second = episodes
+    assert first.closed_at is not None and first.closed_at == second.closed_at
+    assert first.features is not None and np.array_equal(first.features, second.features)
+    # judged here by the rules the loop never saw: the (0.9, 0.9, 0.1) grasp serves usage and transfer
+    assert CUP_RULES.label(first.features) & (U | T) == U | T
+    assert first.alpha_mean > 0.3 and first.pursued == 'shown'
+
+
+def test_ada_s_goal_distribution_follows_the_operators_motion(cup) -> None:
+    scene, grasps = cup
+    goals = [g.base_T_ee for g in grasps.values()]
+    ada = AdaAssistance(goals, TwistLimiter(0.2, 1.0, 1.0, 5.0))
+    hand = scene.kin.fk(HOME_Q)
+    toward = pose_error(hand, goals[3])
+    for _ in range(100):
+        ada.command(hand, np.r_[0.1 * toward[:3] / np.linalg.norm(toward[:3]), 0.0, 0.0, 0.0], 0.01)
+    p = ada.distribution()
+    assert p.sum() == pytest.approx(1.0) and p.max() <= 0.99 + 1e-12
+    assert int(np.argmax(p)) in {i for i, g in enumerate(goals)
+                                 if np.linalg.norm(g[:3, 3] - goals[3][:3, 3]) < 0.02}
+
+
+def test_the_tracker_error_has_the_stated_size() -> None:
+    rng = np.random.default_rng(0)
+    moved = [perturb_pose(BASE_T_OBJ, 0.005, np.radians(3.0), rng) for _ in range(3000)]
+    errors = np.array([pose_error(BASE_T_OBJ, m) for m in moved])
+    assert np.sqrt(np.mean(np.sum(errors[:, :3] ** 2, axis=1))) == pytest.approx(0.005, rel=0.05)
+    assert np.sqrt(np.mean(np.sum(errors[:, 3:] ** 2, axis=1))) == pytest.approx(np.radians(3.0), rel=0.05)
