@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 from _bench import uptime
-from bench_shared_control import BASE_T_OBJ, OBJECTS, PERIOD, Joystick, Operator, draw_intent, own_goals
+from bench_shared_control import BASE_T_OBJ, OBJECTS, PERIOD, draw_intent, joystick, own_goals
 
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee
@@ -50,6 +50,7 @@ from grasp_intent_ros.objects.demos import ObjectRules, sample_grasp
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.sessions.closed_loop import reached
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
+from grasp_intent_ros.shared_control.operators import OperatorConstants
 
 FRACTIONS = (0.25, 0.5, 0.75)
 BETAS = (30.0, 100.0, 300.0, 1000.0, 3000.0)
@@ -85,12 +86,12 @@ def fresh_goal(rules: ObjectRules, task_set: int, kin: MicoKinematics, rng: np.r
     sys.exit(f'bench_intent_estimation: no reachable grasp of set {task_set} in 1000 draws')
 
 
-def simulate(op: Operator, goal: np.ndarray, intent_w: object, task_set: int, kin: MicoKinematics,
+def simulate(op: OperatorConstants, goal: np.ndarray, intent_w: object, task_set: int, kin: MicoKinematics,
              rng: np.random.Generator, timeout: float) -> Reach:
     """The two-mode joystick operator of bench_shared_control reaching ``goal`` directly (no assistance)."""
     arm = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0])
     seen: deque[np.ndarray] = deque(maxlen=max(1, round(op.reaction / PERIOD)) + 1)
-    joystick = Joystick(op)
+    device = joystick(op, rng)
     hands, twists, scripted, path = [], [], [], []
     walked, w = 0.0, None
     success = False
@@ -108,7 +109,7 @@ def simulate(op: Operator, goal: np.ndarray, intent_w: object, task_set: int, ki
             break
         if t >= timeout:
             break
-        command = joystick.command(t, seen[0] if t >= op.reaction else None, goal, rng)
+        command = device.twist(t, seen[0] if t >= op.reaction else None, goal)
         hands.append(hand)
         twists.append(command)
         scripted.append(w)
@@ -120,7 +121,7 @@ def simulate(op: Operator, goal: np.ndarray, intent_w: object, task_set: int, ki
                  tick * PERIOD)
 
 
-def reaches(name: str, seed: int, operators: int, goals_rule: str, kin: MicoKinematics, op: Operator,
+def reaches(name: str, seed: int, operators: int, goals_rule: str, kin: MicoKinematics, op: OperatorConstants,
             timeout: float) -> list[Reach]:
     """The reaches of ``operators`` seeded operators on object ``name``."""
     model_name, rules = OBJECTS[name]
@@ -218,7 +219,7 @@ def report(name: str, runs: list[Reach], est: np.ndarray, scripted: np.ndarray, 
     return rows
 
 
-def fit(names: list[str], args: argparse.Namespace, kin: MicoKinematics, op: Operator) -> None:
+def fit(names: list[str], args: argparse.Namespace, kin: MicoKinematics, op: OperatorConstants) -> None:
     """Grid of rationality x memory on the training seeds: mean Brier over the fractions, both objects."""
     runs = {name: reaches(name, args.seed + 100, args.operators, args.goals, kin, op, args.timeout) for name in names}
     base = {name: estimator_for(name, kin, EstimatorConfig()) for name in names}
@@ -275,7 +276,7 @@ def main() -> None:
     parser.add_argument('--fit', action='store_true', help='search rationality x memory on seed + 100 instead')
     parser.add_argument('--plot', type=Path, help='write the reliability diagram at 50 % here (PNG)')
     args = parser.parse_args()
-    kin, op = MicoKinematics(), Operator()
+    kin, op = MicoKinematics(), OperatorConstants()
     print(f'bench_intent_estimation: {args.operators} operators per object, goals {args.goals}; {uptime()}', flush=True)
     if args.fit:
         fit(args.objects, args, kin, op)

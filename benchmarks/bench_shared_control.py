@@ -76,6 +76,7 @@ from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, Mic
 from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRules
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error, reached
+from grasp_intent_ros.shared_control.operators import OperatorConstants, ScriptedOperator
 
 OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 CONDITIONS = ('none', 'blend', 'confidence')
@@ -86,54 +87,9 @@ W_EVERY = 10
 """Operator ticks per w (10 Hz)."""
 
 
-@dataclass(frozen=True)
-class Operator:
-    """The scripted operator's constants (module docstring)."""
-
-    max_linear: float = 0.12
-    max_angular: float = 0.6
-    gain: float = 1.5
-    reaction: float = 0.25
-    noise_linear: float = 0.01
-    noise_angular: float = 0.05
-    noise_tau: float = 0.3
-    switch_time: float = 0.5
-    translate_until: float = 0.03
-    rotate_until: float = 0.05
-    back_to_translation: float = 0.06
-
-
-class Joystick:
-    """The scripted operator's two-mode joystick (module docstring): its mode, its switch's pause and its noise."""
-
-    def __init__(self, op: Operator) -> None:
-        self.op = op
-        self.mode, self.switching_until = 'translate', -math.inf
-        self.noise = np.zeros(6)
-        self._decay = math.exp(-PERIOD / op.noise_tau)
-        self._scale = math.sqrt(1.0 - self._decay**2)
-
-    def command(self, now: float, seen: np.ndarray | None, goal: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """The twist at time ``now`` (s), the hand seen at ``seen`` (base_T_ee; None: not yet) heading for ``goal``."""
-        op = self.op
-        command = np.zeros(6)
-        self.noise = (self._decay * self.noise + self._scale * rng.normal(0.0, 1.0, 6)
-                      * np.r_[[op.noise_linear] * 3, [op.noise_angular] * 3])
-        if seen is not None and now >= self.switching_until:
-            error = pose_error(seen, goal)
-            distance, angle = np.linalg.norm(error[:3]), np.linalg.norm(error[3:])
-            wanted = self.mode
-            if self.mode == 'translate' and distance < op.translate_until and angle > op.rotate_until:
-                wanted = 'rotate'
-            elif self.mode == 'rotate' and (angle < 0.6 * op.rotate_until or distance > op.back_to_translation):
-                wanted = 'translate'
-            if wanted != self.mode:
-                self.mode, self.switching_until = wanted, now + op.switch_time
-            elif self.mode == 'translate':
-                command[:3] = clip_norm(op.gain * error[:3], op.max_linear) + self.noise[:3]
-            else:
-                command[3:] = clip_norm(op.gain * error[3:], op.max_angular) + self.noise[3:]
-        return command
+def joystick(op: OperatorConstants, rng: np.random.Generator) -> ScriptedOperator:
+    """The scripted operator's two-mode joystick (module docstring), its noise drawn from ``rng``."""
+    return ScriptedOperator('joystick', op, rng, PERIOD)
 
 
 @dataclass
@@ -310,7 +266,7 @@ class Loop:
         return None
 
 
-def run_operator(loop: Loop, op: Operator, intent: Intent, own_goal: np.ndarray, rng: np.random.Generator,
+def run_operator(loop: Loop, op: OperatorConstants, intent: Intent, own_goal: np.ndarray, rng: np.random.Generator,
                  timeout: float, run: Run) -> None:
     """Run one operator until success or ``timeout``; fills ``run``."""
     task_set = intent.task_set
@@ -318,7 +274,7 @@ def run_operator(loop: Loop, op: Operator, intent: Intent, own_goal: np.ndarray,
     w_first = intent.w(0.0, rng)  # the intent before the motion: wait for its plan (sent again each second)
     if not loop.probe.wait_for(lambda: len(loop.plans) > first_plan or loop.send_w(w_first), 60.0, poll=1.0):
         sys.exit('bench_shared_control: no plan for the first w within 60 s')
-    joystick = Joystick(op)
+    device = joystick(op, rng)
     alpha_from = len(loop.alphas)
     start = time.monotonic()
     tick = 0
@@ -336,7 +292,7 @@ def run_operator(loop: Loop, op: Operator, intent: Intent, own_goal: np.ndarray,
             break
         seen, plan_seen = loop.hand_at(now - op.reaction), loop.plan_at(now - op.reaction)
         goal = plan_seen[0] if plan_seen is not None and plan_seen[1] & task_set == task_set else own_goal
-        command = joystick.command(now, seen, goal, rng)
+        command = device.twist(now, seen, goal)
         loop.twist_pub.publish(loop.twist(command))
         run.effort_linear += float(np.linalg.norm(command[:3])) * PERIOD
         run.effort_angular += float(np.linalg.norm(command[3:])) * PERIOD
@@ -460,7 +416,8 @@ def stream_phase(loop: Loop) -> dict[str, float]:
     return out
 
 
-def run_object(name: str, args: argparse.Namespace, domain_id: int, op: Operator) -> tuple[list[Run], dict[str, float]]:
+def run_object(name: str, args: argparse.Namespace, domain_id: int,
+               op: OperatorConstants) -> tuple[list[Run], dict[str, float]]:
     from grasp_intent_ros.launch.suite import NodeSuite
 
     model_name, rules = OBJECTS[name]
@@ -513,7 +470,8 @@ RECORDED_TASKS = 0b011
 """Seconds a recorded operator holds still (zero twists) after reaching the grasp, letting the loop settle."""
 
 
-def record_session(name: str, index: int, out: Path, args: argparse.Namespace, domain_id: int, op: Operator) -> None:
+def record_session(name: str, index: int, out: Path, args: argparse.Namespace, domain_id: int,
+                   op: OperatorConstants) -> None:
     """Record operator ``index`` of object ``name`` under ``confidence`` into the session bag ``out`` (replaced).
 
     A fresh suite (a replay starts one too), the recorder in the probe's context on an executor and thread of
@@ -614,12 +572,12 @@ def main() -> None:
     args = parser.parse_args()
     if args.record is not None:
         record_session(args.objects[0], (args.only or [0])[0], args.record, args,
-                       loopback_domain('bench_shared_control'), Operator())
+                       loopback_domain('bench_shared_control'), OperatorConstants())
         return
     if args.quick:
         args.operators, args.latency_seconds = 3, 5.0
     domain_id = loopback_domain('bench_shared_control')
-    op = Operator()
+    op = OperatorConstants()
     print(f'bench_shared_control: {args.operators} operators per object, {", ".join(args.objects)}; {uptime()}',
           flush=True)
     report: dict[str, Any] = {'operator': asdict(op), 'objects': {}}

@@ -181,11 +181,17 @@ class ScriptedOperator:
         """Whether the operator closes the hand: the hand it sees is at the goal it pursues."""
         return reached(hand, goal)
 
-    def twist(self, now: float, hand: NDArray[np.float64], goal: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The device's twist (shape (6,), base frame) at ``now`` for the seen ``hand`` and ``goal`` (4x4 each)."""
+    def twist(self, now: float, hand: NDArray[np.float64] | None, goal: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The device's twist (shape (6,), base frame) at ``now`` for the seen ``hand`` and ``goal`` (4x4 each).
+
+        ``hand`` None: the operator has not seen the hand yet (the first reaction time); the twist is zero, and
+        the device's noise still advances, so the draws do not depend on when the hand is first seen.
+        """
         c = self.c
         sigma = np.r_[[c.noise_linear] * 3, [c.noise_angular] * 3]
         self._noise = self._decay * self._noise + self._scale * self.rng.normal(0.0, 1.0, 6) * sigma
+        if hand is None:
+            return np.zeros(6)
         error = pose_error(hand, goal)
         linear = clip_norm(c.gain * error[:3], c.max_linear)
         angular = clip_norm(c.gain * error[3:], c.max_angular)
