@@ -55,10 +55,18 @@ Prototypes and noise
 :data:`CUP_PROTOTYPES` and :data:`FLASHLIGHT_PROTOTYPES` give one or more prototype grasps (styles)
 per task set; a demonstration draws a style uniformly, then perturbs every parameter with
 :class:`Noise` (aim 6 mm, azimuth 10 deg, elevation 5 deg, standoff 5 mm, roll 0.3 rad, closures
-0.12 rad). Usage and transfer do not constrain the wrist roll, so those task sets are demonstrated both
-thumb-up and with the wrist turned (only the handover rule asks for the turn); the grasps that serve
-two tasks sit in the threshold bands between the single-task ones. This keeps the zones of a model
-distinguishable but overlapping, which is what lets the planner blend them (paper Tables II-VI).
+0.12 rad). The grasps that serve two tasks sit in the threshold bands between the single-task ones. This
+keeps the zones of a model distinguishable but overlapping, which is what lets the planner blend them
+(paper Tables II-VI).
+
+Every demonstration is one a MICO can take (:func:`generate` drops the others): the open hand clear of the
+table and the object along its 8 cm approach (:mod:`grasp_intent_ros.mico.collision`). The open hand reaches
+some 5.5 cm ahead of the palm centre and spreads 8-9 cm to each side, so the prototypes are shaped by it: the
+cup's low side grasps at the handle hold the thumb sideways (thumb up or down puts fingers or thumb under the
+table) and come from either side of the handle (:func:`_both_sides`); its handover grasps come high (over the
+rim's height) or from above; every flashlight grasp comes from above with the palm 2.5-3 cm over the body, the
+thumb across it. The bands the rules leave for the cup's usage with transfer or handover are narrow for such a
+hand, so fewer of their draws are kept.
 
 One module: the objects' geometry, their rules and the prototypes sampled against them are one
 specification (the paper's Table I), read together.
@@ -78,6 +86,8 @@ from ..method.body import Box, Cylinder, ObjectBody
 from ..method.data import Demonstrations
 from ..method.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL, FeatureSpace
 from ..method.intent import DEFAULT_TASKS, all_zones, zone_label
+from ..method.model import GraspModel
+from ..mico.collision import HandCollision
 from ..mico.frames import features_to_obj_T_ee
 
 __all__ = [
@@ -520,65 +530,93 @@ def _one_open(closed: float, opened: float) -> tuple[tuple[float, float, float],
     return ((opened, closed, closed), (closed, opened, closed), (closed, closed, opened))
 
 
-# Cup aim points (object frame, m): lower part of the handle, handle root, centre of the rim.
+# Cup aim points (object frame, m): lower part of the handle, centre of the rim.
 _HANDLE_LOW = (0.055, 0.0, 0.040)
-_HANDLE_ROOT = (0.045, 0.0, 0.050)
 _RIM = (0.0, 0.0, 0.100)
 _CUP_CLOSED = (1.20, 1.20, 1.05)  # the third finger rests a little more open, under the handle
 _TURNED = (math.pi - 0.35, math.pi + 0.35)
+_THUMB_SIDEWAYS = 1.8
+"""Roll of a low side grasp that keeps every open finger above the table: the thumb sideways, tilted up a little
+(the open hand spans some 17 cm across the thumb; thumb up or down would put fingers or thumb under the table)."""
+
+
+
+def _both_sides(*styles: Prototype) -> tuple[Prototype, ...]:
+    """Each style, then its mirror image across the object's xz-plane.
+
+    The mirror negates the aim's y, the azimuth and the roll (taken in [0, 2 pi)): the hand is symmetric about
+    the plane of its thumb and approach, and so are the rules.
+    """
+    return styles + tuple(Prototype((p.aim[0], -p.aim[1], p.aim[2]), -p.azimuth, p.elevation, p.standoff,
+                                    2.0 * math.pi - p.roll, p.closures) for p in styles)
+
 
 CUP_PROTOTYPES: dict[int, tuple[Prototype, ...]] = {
-    # Usage: on the lower handle from the side, fingers wrapped round it; thumb up, or the wrist
-    # turned with all three fingers still in the handle (usage does not constrain the roll).
-    _U: (Prototype(_HANDLE_LOW, 0.0, 22 * _DEG, 0.030, 0.0, _CUP_CLOSED),
-         Prototype(_HANDLE_LOW, 0.0, 30 * _DEG, 0.030, math.pi, _CUP_CLOSED)),
+    # Usage: on the lower handle from the side (a little from one side of it), fingers wrapped round it, the
+    # thumb sideways: a hand low at the handle with the thumb up or down puts open fingers under the table.
+    _U: _both_sides(Prototype(_HANDLE_LOW, 20 * _DEG, 25 * _DEG, 0.065, _THUMB_SIDEWAYS, _CUP_CLOSED),
+                    Prototype((0.050, 0.0, 0.050), 20 * _DEG, 25 * _DEG, 0.050, _THUMB_SIDEWAYS, _CUP_CLOSED)),
     # Transfer: from above onto the rim, palm on the cup; the roll is free from above.
     _T: (Prototype(_RIM, 0.0, 80 * _DEG, 0.015, 0.0, _CUP_CLOSED),
          Prototype(_RIM, 0.0, 80 * _DEG, 0.015, math.pi, _CUP_CLOSED)),
-    # Handover: low at the handle, wrist turned, only the thumb closed: the handle is left free.
-    _H: (Prototype(_HANDLE_LOW, 0.0, 25 * _DEG, 0.030, math.pi, (1.20, 0.60, 0.60)),),
-    # Usage and transfer: tilted onto the handle root, palm touching the cup, all fingers closed.
-    _U | _T: (Prototype(_HANDLE_ROOT, 0.0, 42 * _DEG, 0.025, math.pi, _CUP_CLOSED),),
-    # Usage and handover: low at the handle, wrist turned, two fingers in the handle.
-    _U | _H: (Prototype(_HANDLE_LOW, 0.0, 25 * _DEG, 0.030, math.pi, (1.20, 1.20, 0.60)),),
+    # Handover: high on the handle side, over the rim's height (not low enough to drink), wrist turned, only the
+    # thumb closed: the handle is left free.
+    _H: _both_sides(Prototype((0.062, 0.016, 0.100), 40 * _DEG, 30 * _DEG, 0.020, math.pi - 0.4, (1.20, 0.60, 0.60))),
+    # Usage and transfer: tilted (about 42 deg) onto one side of the handle root, palm touching the cup, all
+    # fingers closed, the thumb sideways and up: the one narrow pose where the open hand clears the table,
+    # the handle and the wall at once.
+    _U | _T: _both_sides(Prototype((0.050, 0.029, 0.060), 37 * _DEG, 42 * _DEG, 0.020, 2.07, _CUP_CLOSED)),
+    # Usage and handover: low beside the handle, palm off the cup, wrist turned, two fingers in the handle.
+    _U | _H: _both_sides(Prototype((0.067, 0.042, 0.066), 68 * _DEG, 30 * _DEG, 0.020, 2.56, (1.20, 1.20, 0.60))),
     # Transfer and handover: from above a little off the rim, wrist turned (less precisely than at
     # the handle), two fingers firmly closed, whichever finger is left open.
     _T | _H: tuple(Prototype(_RIM, 0.0, 80 * _DEG, 0.025, roll, closures)
                    for closures in _one_open(1.25, 0.60) for roll in _TURNED),
-    # All: tilted onto the handle root off the body, wrist turned, two fingers firmly closed.
-    _U | _T | _H: tuple(Prototype(_HANDLE_ROOT, 0.0, 42 * _DEG, 0.030, roll, closures)
-                        for closures in _one_open(1.25, 0.60) for roll in _TURNED),
+    # All: tilted (about 36 deg) onto one side of the handle root, palm near the cup, wrist turned, two
+    # fingers firmly closed, whichever finger is left open.
+    _U | _T | _H: _both_sides(*(Prototype((0.049, 0.026, 0.063), 60 * _DEG, 36 * _DEG, 0.020, 2.62, closures)
+                                for closures in _one_open(1.25, 0.60))),
 }
 """Cup prototype grasps per task set: (aim, azimuth, elevation, standoff, roll, closures)."""
 
-# Flashlight aim points: top of the body (z = 0.04) and its -y side (y = -0.02, z = 0.02).
+# Flashlight: every grasp from (nearly) straight above, the palm centre 2.5-3 cm above the body's top
+# (z = 0.04): the open fingers reach some 5.5 cm below the palm and spread 8-9 cm to the sides, so a lower or
+# a side grasp of a body 4 cm tall puts them under the table.
 _F_CLOSED = (1.20, 1.20, 1.20)
+_F_TOP = 0.040
+_F_ELEVATION = 88 * _DEG
+_F_STANDOFF = 0.027
 _FROM_MINUS_Y, _FROM_PLUS_Y = -90 * _DEG, 90 * _DEG
 _THUMB_Y = math.pi / 2
 """Roll that heads the thumb along +y (onto the switch) for a grasp from above."""
 _THUMB_Y_TURNED = 2.45
 """Roll inside both the thumb-at-the-switch band (thumb . y = 0.64 >= 0.5) and the wrist-turned band
 (|roll - pi| = 0.69 <= 0.8): usage and handover at once."""
+_THUMB_MINUS_Y_TURNED = 2.0 * math.pi - _THUMB_Y_TURNED
+"""The wrist turned the other way (thumb . y = -0.64): turned, the thumb away from the switch and across the body
+(a thumb along the body, roll pi, drives the open fingers into it)."""
+
+
+def _from_above(palm_x: float, roll: float, *, azimuth: float = _FROM_MINUS_Y, extra: float = 0.0) -> Prototype:
+    """A flashlight grasp from above at ``palm_x`` (m), ``extra`` (m) higher than the usual standoff."""
+    return Prototype((palm_x, 0.0, _F_TOP), azimuth, _F_ELEVATION, _F_STANDOFF + extra, roll, _F_CLOSED)
+
 
 FLASHLIGHT_PROTOTYPES: dict[int, tuple[Prototype, ...]] = {
-    # Usage: from above over the switch, the thumb heading +y onto it (roll pi/2): tilted from -y, or
-    # from +y with the palm pressed on the body.
-    _U: (Prototype((0.050, 0.0, 0.040), _FROM_MINUS_Y, 75 * _DEG, 0.030, _THUMB_Y, _F_CLOSED),
-         Prototype((0.045, 0.0, 0.040), _FROM_PLUS_Y, 75 * _DEG, 0.010, _THUMB_Y, _F_CLOSED)),
-    # Transfer: from the side just behind the centre of mass, palm on the body; roll free.
-    _T: (Prototype((-0.015, -0.020, 0.020), _FROM_MINUS_Y, 20 * _DEG, 0.020, 0.0, _F_CLOSED),
-         Prototype((-0.015, -0.020, 0.020), _FROM_MINUS_Y, 20 * _DEG, 0.020, math.pi, _F_CLOSED)),
-    # Handover: from the side at the head, wrist turned, palm off the body; the tail is left free.
-    _H: (Prototype((0.085, -0.020, 0.020), _FROM_MINUS_Y, 20 * _DEG, 0.035, math.pi, _F_CLOSED),),
-    # Usage and transfer: from above between switch and centre of mass, palm pressed on the body.
-    _U | _T: (Prototype((0.020, 0.0, 0.040), _FROM_PLUS_Y, 75 * _DEG, 0.010, _THUMB_Y, _F_CLOSED),),
-    # Usage and handover: from above over the switch, wrist turned, palm off the body.
-    _U | _H: (Prototype((0.050, 0.0, 0.040), _FROM_PLUS_Y, 75 * _DEG, 0.030, _THUMB_Y_TURNED, _F_CLOSED),),
-    # Transfer and handover: from the side just ahead of the centre of mass, wrist turned.
-    _T | _H: (Prototype((0.025, -0.020, 0.020), _FROM_MINUS_Y, 20 * _DEG, 0.022, math.pi, _F_CLOSED),),
-    # All: from above just ahead of the centre of mass, wrist turned, palm lightly on the body.
-    _U | _T | _H: (Prototype((0.025, 0.0, 0.040), _FROM_PLUS_Y, 75 * _DEG, 0.022, _THUMB_Y_TURNED,
-                             _F_CLOSED),),
+    # Usage: from above over the switch, the thumb heading +y onto it.
+    _U: (_from_above(0.060, _THUMB_Y),),
+    # Transfer: from above just behind the centre of mass, palm near the body; the thumb across it.
+    _T: (_from_above(-0.010, _THUMB_Y), _from_above(-0.010, 1.2, azimuth=_FROM_PLUS_Y)),
+    # Handover: from above at the head, wrist turned, palm off the body; the tail is left free.
+    _H: (_from_above(0.075, _THUMB_MINUS_Y_TURNED, extra=0.004),),
+    # Usage and transfer: from above between switch and centre of mass, the thumb onto the switch.
+    _U | _T: (_from_above(0.020, _THUMB_Y),),
+    # Usage and handover: from above over the switch, wrist turned with the thumb still at it, palm off the body.
+    _U | _H: (_from_above(0.060, _THUMB_Y_TURNED, extra=0.004),),
+    # Transfer and handover: from above just ahead of the centre of mass, wrist turned.
+    _T | _H: (_from_above(0.025, _THUMB_MINUS_Y_TURNED),),
+    # All: from above just ahead of the centre of mass, wrist turned with the thumb at the switch.
+    _U | _T | _H: (_from_above(0.025, _THUMB_Y_TURNED),),
 }
 """Flashlight prototype grasps per task set."""
 
@@ -595,14 +633,13 @@ OBJECTS: dict[str, ObjectRules] = {'cup': CUP_RULES, 'flashlight': FLASHLIGHT_RU
 """The objects this module can generate demonstrations for, by name."""
 
 
-def object_of(model_name: str) -> ObjectRules | None:
-    """The rules of a model's object, found by the model's name; None for no known object.
+def object_of(model: GraspModel) -> ObjectRules | None:
+    """The rules of the object a model's document names (``object``); None if unknown.
 
-    The object is the one of :data:`OBJECTS` whose name is ``model_name`` or the part of it before the first
-    ``_`` (``cup_7zone``, ``cup_7zone@seed1``: the cup). The one rule for every reader (the viewer's scene,
-    the benchmarks, the tests); the model document does not name its object.
+    None for a model that names no object, or one this module does not know. The one rule for every reader (the
+    viewer's scene, the session report, the benchmarks, the tests).
     """
-    return OBJECTS.get(model_name) or OBJECTS.get(model_name.partition('_')[0])
+    return OBJECTS.get(model.object_name) if model.object_name else None
 
 
 # ---------------------------------------------------------------------------------------- sampling
@@ -634,14 +671,17 @@ def _in_bounds(x: NDArray[np.float64], features: FeatureSpace) -> bool:
     return bool(np.all(x >= features.lower) and np.all(x <= features.upper))
 
 
-def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0,
+def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0, hand: HandCollision | None = None,
              max_draws_per_demo: int = 200) -> Demonstrations:
-    """Sample and label demonstrations until every task set has exactly ``count`` of them.
+    """Sample and label demonstrations a MICO can take until every task set has exactly ``count`` of them.
 
     Sampling cycles over the task sets that are still short, draws a grasp near that set's prototype,
     rounds it to the CSV precision, drops it when it leaves the feature bounds, labels it by the rules
-    and keeps it when its (possibly different) task set is still short. Rows are ordered by task set
-    (core zone order), then by draw. Fully determined by ``seed``.
+    and keeps it when its (possibly different) task set is still short and the hand takes it: the open hand
+    clear of the table (the plane the object stands on, z = 0) and of ``rules.body`` along the approach
+    (:meth:`~grasp_intent_ros.mico.collision.Clearance.fault` under the planner's
+    :data:`~grasp_intent_ros.mico.collision.LIMITS`; a closing finger that stops on the table or the object
+    is kept). Rows are ordered by task set (core zone order), then by draw. Fully determined by ``seed``.
 
     Parameters
     ----------
@@ -650,6 +690,8 @@ def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0,
         Demonstrations per task set.
     seed : int
         Seed of the numpy Generator.
+    hand : HandCollision, optional
+        The hand that must take every demonstration; None: the MICO of the default URDF.
     max_draws_per_demo : int
         Give up after ``max_draws_per_demo * count * n_sets`` draws.
 
@@ -661,7 +703,7 @@ def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0,
     Raises
     ------
     DataError
-        If count < 1, a task set has no prototype, or some task set cannot be filled.
+        If count < 1, a task set has no prototype, or some task set cannot be filled with grasps the hand takes.
     """
     if not isinstance(count, (int, np.integer)) or count < 1:
         raise DataError(f'count must be a positive integer, got {count!r}')
@@ -670,6 +712,7 @@ def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0,
     if missing:
         raise DataError(f'{rules.name}: no prototype for task sets {missing}')
     rng = np.random.default_rng(seed)
+    robot = hand if hand is not None else HandCollision()
     kept: dict[int, list[NDArray[np.float64]]] = {z: [] for z in sets}
     budget = max_draws_per_demo * count * len(sets)
     draws = 0
@@ -689,7 +732,7 @@ def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0,
             if not _in_bounds(x, MICO_3F):
                 continue
             label = rules.label(x)
-            if label and len(kept[label]) < count:
+            if label and len(kept[label]) < count and robot.clearance(x, rules.body).fault() is None:
                 kept[label].append(x)
     x_all = np.array([x for z in sets for x in kept[z]])
     labels = np.array([z for z in sets for _ in kept[z]], dtype=np.int64)

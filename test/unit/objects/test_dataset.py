@@ -18,6 +18,7 @@ from grasp_intent_ros.method.features import MICO_3F
 from grasp_intent_ros.method.intent import all_zones, parse_zones
 from grasp_intent_ros.method.model import GraspModel, structure_zones
 from grasp_intent_ros.method.safe_yaml import MAX_DOCUMENT_CHARS
+from grasp_intent_ros.mico.collision import HandCollision
 from grasp_intent_ros.objects import demos, generate_data, train
 from grasp_intent_ros.resources import config_dir
 
@@ -237,6 +238,30 @@ def test_csv_round_trip_keeps_features_and_labels(generated: dict[str, Demonstra
     assert_array_equal(back.task_sets, d.task_sets)
     assert back.sha256() == d.sha256()
     assert [demos.OBJECTS[name].label(x) for x in back.x] == back.task_sets.tolist()
+
+
+@pytest.mark.parametrize('name', list(demos.OBJECTS))
+def test_every_demonstration_is_one_the_hand_takes(generated: dict[str, Demonstrations], name: str) -> None:
+    """Open along its approach, the hand stays clear of the table (z = 0) and the object's body (handle included)."""
+    hand, body = HandCollision(), demos.OBJECTS[name].body
+    faults = [(x.tolist(), hand.clearance(x, body).fault()) for x in generated[name].x]
+    assert [f for f in faults if f[1] is not None] == []
+
+
+def test_samples_in_collision_are_dropped() -> None:
+    """A style whose every draw collides gives no demonstration.
+
+    The cup's usage demonstrated low at the handle thumb up (its former prototype): the rules hold, but two open
+    fingers go under the table on every draw, so a generator with only that style keeps none.
+    """
+    thumb_up = demos.Prototype((0.055, 0.0, 0.040), 0.0, math.radians(22.0), 0.030, 0.0, (1.2, 1.2, 1.05))
+    x = demos.grasp_features(thumb_up.aim, thumb_up.azimuth, thumb_up.elevation, thumb_up.standoff, thumb_up.roll,
+                             thumb_up.closures)
+    assert demos.CUP_RULES.label(x) == 0b001
+    assert HandCollision().clearance(x, demos.CUP_RULES.body).table_depth > 0.02
+    rules = dataclasses.replace(demos.CUP_RULES, prototypes={z: (thumb_up,) for z in all_zones(3)})
+    with pytest.raises(DataError, match="gave up.*'U': 0"):
+        demos.generate(rules, 2, max_draws_per_demo=10)
 
 
 def test_generation_is_reproducible(tmp_path: Path) -> None:
