@@ -92,11 +92,12 @@ Planned = Callable[[GraspModel, NDArray[np.float64]], NDArray[np.float64]]
 
 
 def rules_for(model: GraspModel) -> ObjectRules:
-    """The judge of a model: the rules of its object (:func:`~grasp_intent_ros.objects.demos.object_of`)."""
-    rules = object_of(model.name)
+    """The judge of a model: the rules of the object its document names (:func:`~.demos.object_of`)."""
+    rules = object_of(model)
     if rules is not None:
         return rules
-    raise KeyError(f'no rules for model {model.name!r} (objects: {", ".join(OBJECTS)})')
+    raise KeyError(f'no rules for model {model.name!r}: its document names the object {model.object_name!r} '
+                   f'(field "object"; known: {", ".join(OBJECTS)})')
 
 
 def success(label: int, w: NDArray[np.float64]) -> float:
@@ -271,7 +272,7 @@ def regenerated(seed: int) -> list[GraspModel]:
     out = []
     for name, rules in OBJECTS.items():
         data = rules_module.generate(rules, seed=seed)
-        out.append(GraspModel.fit(data, name=f'{name}_7zone@seed{seed}', body=rules.body))
+        out.append(GraspModel.fit(data, name=f'{name}_7zone@seed{seed}', body=rules.body, object_name=name))
     return out
 
 

@@ -59,8 +59,9 @@ from ..cli.send_intent import GraspAnswer, IntentSender, NoGrasp, format_grasp
 from ..errors import GraspIntentError
 from ..method.features import FINGERS
 from ..method.intent import zone_label
+from ..method.model import GraspModel
 from ..mico.frames import obj_T_ee_to_features, pose_to_matrix
-from ..objects.demos import OBJECTS
+from ..objects.demos import OBJECTS, object_of
 from ..ros.conversions import model_from_msg
 from ..ros.qos import input_qos, latched_qos
 from ..wire.protocol import KEY_MODEL, ModelDocument
@@ -89,15 +90,15 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
     raise _Interrupted(signal.Signals(signum).name)
 
 
-def served_tasks(model_name: str, task_names: Sequence[str], base_T_obj: np.ndarray, answer: GraspAnswer) -> str:
+def served_tasks(model: GraspModel, base_T_obj: np.ndarray, answer: GraspAnswer) -> str:
     """Which tasks the answered grasp serves by its object's rules, e.g. 'usage, transfer (UT)', or why unknown.
 
     The grasp features are recovered from the answer's end-effector pose (in the base frame), ``base_T_obj``
     and the finger targets (the last three joint targets).
     """
-    rules = next((r for name, r in OBJECTS.items() if model_name.startswith(name)), None)
+    rules = object_of(model)
     if rules is None:
-        return f'unknown (no rules for model {model_name!r})'
+        return f'unknown (model {model.name!r} names no object of {", ".join(OBJECTS)})'
     p, o = answer.pose.pose.position, answer.pose.pose.orientation
     base_T_ee = pose_to_matrix((p.x, p.y, p.z), (o.x, o.y, o.z, o.w))
     fingers = np.asarray(answer.joints.position, dtype=np.float64)[-(FINGERS.stop - FINGERS.start):]
@@ -107,8 +108,8 @@ def served_tasks(model_name: str, task_names: Sequence[str], base_T_obj: np.ndar
         failed = '; '.join(f'{task}: {", ".join(n for n, ok in checks.items() if not ok)}'
                            for task, checks in rules.explain(x).items())
         return f'no task (failed: {failed})'
-    names = ', '.join(n for i, n in enumerate(task_names) if label >> i & 1)
-    return f'{names} ({zone_label(label, task_names)})'
+    names = ', '.join(n for i, n in enumerate(model.task_names) if label >> i & 1)
+    return f'{names} ({zone_label(label, model.task_names)})'
 
 
 # ------------------------------------------------------------------------------------------ the ROS side
@@ -289,7 +290,7 @@ class _Demo:
         print('    ' + format_grasp(answer).replace('\n', '\n    '))
         if self.base_T_obj is None:
             self.base_T_obj = self.object_pose()
-        print(f'    {"serves (rules)":<18}{served_tasks(doc.name, doc.model.task_names, self.base_T_obj, answer)}')
+        print(f'    {"serves (rules)":<18}{served_tasks(doc.model, self.base_T_obj, answer)}')
         print(f'    answered in {time.monotonic() - start:.2f} s\n')
 
 

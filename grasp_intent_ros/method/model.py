@@ -319,6 +319,10 @@ class GraspModel:
     body : ObjectBody or None
         The object's solid body: the planner keeps the palm centre outside it (see method.body). With a
         body, the first three features must be the palm centre (``palm_x``, ``palm_y``, ``palm_z``).
+    object_name : str
+        The object the demonstrations grasp (the document's ``object``, e.g. ``'cup'``): what a reader that
+        knows objects by name (the benchmarks' judge, the viewer) looks up; ``''`` (a document without the
+        field): not named. The planner never reads it.
     feature_scale : ndarray, shape (d,)
         Spread of each feature over the demonstrations (standard deviation, at least 1e-3 of the
         feature's bound range): the unit of the planner's distance between grasps.
@@ -340,6 +344,7 @@ class GraspModel:
     data_hash: str = ''
     ridge: float = DEFAULT_RIDGE
     body: ObjectBody | None = None
+    object_name: str = ''
     feature_scale: NDArray[np.float64] = field(init=False, repr=False)
     _precisions: NDArray[np.float64] = field(init=False, repr=False)
     _log_norm: NDArray[np.float64] = field(init=False, repr=False)
@@ -448,7 +453,7 @@ class GraspModel:
     # ------------------------------------------------------------------ training
     @classmethod
     def fit(cls, demos: Demonstrations, zones: Sequence[int] | None = None, *, name: str = '',
-            ridge: float = DEFAULT_RIDGE, body: ObjectBody | None = None) -> GraspModel:
+            ridge: float = DEFAULT_RIDGE, body: ObjectBody | None = None, object_name: str = '') -> GraspModel:
         """Train a model with inclusive labeling.
 
         Parameters
@@ -460,6 +465,8 @@ class GraspModel:
             Covariance ridge as a fraction of each feature's bound range.
         body : ObjectBody, optional
             The object's body, kept with the model for the planner.
+        object_name : str
+            The object the demonstrations grasp ('' : not named).
 
         Raises
         ------
@@ -496,7 +503,7 @@ class GraspModel:
                    task_covariances=np.stack([g.cov for g in tasks]),
                    task_counts=np.array([g.count for g in tasks]),
                    demo_x=kept.x, demo_sets=kept.task_sets,
-                   data_hash=kept.sha256(), ridge=ridge, body=body)
+                   data_hash=kept.sha256(), ridge=ridge, body=body, object_name=object_name)
 
     # ------------------------------------------------------------------ inference
     def _check_x(self, x: ArrayLike) -> tuple[NDArray[np.float64], bool]:
@@ -596,6 +603,7 @@ class GraspModel:
         return {
             'format_version': FORMAT_VERSION,
             'name': self.name,
+            **({'object': self.object_name} if self.object_name else {}),
             'task_names': list(self.task_names),
             'zones': list(self.zone_labels),
             'features': [{'name': n, 'unit': u, 'lower': float(lo), 'upper': float(hi)}
@@ -666,7 +674,8 @@ class GraspModel:
                        demo_sets=np.asarray(parse_zones([str(dm['tasks']) for dm in doc['demonstrations']],
                                                         task_names), dtype=np.int64),
                        data_hash=str(doc.get('data_hash', '')), ridge=float(doc.get('ridge', DEFAULT_RIDGE)),
-                       body=ObjectBody.from_document(doc['body']) if doc.get('body') is not None else None)
+                       body=ObjectBody.from_document(doc['body']) if doc.get('body') is not None else None,
+                       object_name=str(doc.get('object', '')))
 
     @classmethod
     def from_yaml(cls, text: str, *, requires: ModelRequirements | None = None) -> GraspModel:

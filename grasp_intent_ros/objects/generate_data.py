@@ -74,7 +74,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 for structure in SHIPPED_MODELS[name]:
                     model, demos, path = train(data_dir / f'{name}.csv', structure,
                                                out=models_dir / f'{name}_{structure}.yaml',
-                                               body=demo_rules.OBJECTS[name].body)
+                                               body=demo_rules.OBJECTS[name].body, object_name=name)
                     print(summary(model, demos))
                     print(f'  wrote {path}')
 

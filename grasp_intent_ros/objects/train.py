@@ -1,7 +1,7 @@
 """Train a multi-task grasp model from demonstrations in CSV (no ROS needed).
 
     python -m grasp_intent_ros train CSV --zones 7zone|5zone|4zone|U,T,UT,...
-                                     [--name NAME] [--out PATH] [--ridge R] [--body BODY.yaml]
+                                     [--name NAME] [--out PATH] [--ridge R] [--body BODY.yaml] [--object NAME]
 
 CSV is any file in the format of :mod:`grasp_intent_ros.method.data` (the 10 MICO features, then one 0/1
 column per task), e.g. demonstrations recorded on your own robot. ``--zones`` names a structure of the
@@ -82,8 +82,11 @@ def load_body(path: str | Path) -> ObjectBody:
 
 
 def train(csv_path: str | Path, zones: str, *, name: str | None = None, out: str | Path | None = None,
-          ridge: float = DEFAULT_RIDGE, body: ObjectBody | None = None) -> tuple[GraspModel, Demonstrations, Path]:
+          ridge: float = DEFAULT_RIDGE, body: ObjectBody | None = None,
+          object_name: str = '') -> tuple[GraspModel, Demonstrations, Path]:
     """Load demonstrations, fit a model with inclusive labeling and save it as YAML.
+
+    ``object_name`` is the object the demonstrations grasp, stored as the document's ``object`` ('' : none).
 
     Returns
     -------
@@ -105,7 +108,7 @@ def train(csv_path: str | Path, zones: str, *, name: str | None = None, out: str
     demos = load_csv(csv_path)
     zone_masks = parse_zones_option(zones, demos.task_names)
     model_name = name or default_model_name(csv_path, zones)
-    model = GraspModel.fit(demos, zone_masks, name=model_name, ridge=ridge, body=body)
+    model = GraspModel.fit(demos, zone_masks, name=model_name, ridge=ridge, body=body, object_name=object_name)
     path = Path(out) if out is not None else config_dir() / 'models' / f'{model_name}.yaml'
     model.save(path)
     return model, demos, path
@@ -137,6 +140,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help='output YAML (default: <config>/models/NAME.yaml)')
     parser.add_argument('--ridge', type=float, default=DEFAULT_RIDGE,
                         help=f'covariance ridge as a fraction of each feature range (default {DEFAULT_RIDGE})')
+    parser.add_argument('--object', default='', help="the object the demonstrations grasp, stored in the model "
+                        "(e.g. cup: readers that know its rules judge the grasps by them)")
     parser.add_argument('--body', type=Path, default=None,
                         help="YAML file with the object's solid body (cylinders, boxes; see method.body)")
     args = parser.parse_args(argv)
@@ -145,7 +150,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         solid = load_body(args.body) if args.body is not None else None
         try:
             model, demos, path = train(args.csv, args.zones, name=args.name, out=args.out, ridge=args.ridge,
-                                       body=solid)
+                                       body=solid, object_name=args.object)
         except (UnicodeDecodeError, csv.Error) as exc:
             raise DataError(f'{args.csv}: not a readable CSV file ({exc})') from None
         print(summary(model, demos))

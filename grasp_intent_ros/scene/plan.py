@@ -10,18 +10,21 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..method.features import MICO_3F
+from ..method.model import GraspModel
 from ..mico.frames import features_to_obj_T_ee
 from ..objects.demos import object_of
 
 __all__ = ['served_tasks', 'plan_object_pose']
 
 
-def served_tasks(model_name: str, task_names: tuple[str, ...], x: NDArray[np.float64]) -> tuple[str, ...] | None:
+def served_tasks(model: GraspModel, x: NDArray[np.float64]) -> tuple[str, ...] | None:
     """The tasks whose rule grasp ``x`` satisfies, by the rules of the model's object; None if not known.
 
-    The object is :func:`~grasp_intent_ros.objects.demos.object_of` the model's name, with the same task names.
+    The object is the one the model document names (:func:`~grasp_intent_ros.objects.demos.object_of`), with the
+    model's task names.
     """
-    rules = object_of(model_name)
+    rules = object_of(model)
+    task_names = model.task_names
     if rules is None or rules.task_names != task_names or x.size != MICO_3F.dim:
         return None
     mask = rules.label(x)

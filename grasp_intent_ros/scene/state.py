@@ -138,7 +138,7 @@ class SceneState:
         """The tasks the planned grasp serves by its object's rules; None when they are not known."""
         if self.x is None or self.model is None:
             return None
-        return served_tasks(self.model.name, self.model.model.task_names, self.x)
+        return served_tasks(self.model.model, self.x)
 
 
 def plan_status(msg: Any) -> str | None:

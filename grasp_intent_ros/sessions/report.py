@@ -367,7 +367,7 @@ def plot_grasp_scenes(session: ReportData, out: Path) -> list[str]:
         if found is not None and found[1].body is not None:
             for shape in body_shapes(found[1].body, base_T_obj):
                 _draw_shape(ax, shape, alpha=0.5)
-            served = served_tasks(found[0], found[1].task_names, x)
+            served = served_tasks(found[1], x)
         for k, axis in enumerate(('tab:red', 'tab:green', 'tab:blue')):
             ax.plot(*np.c_[base_T_ee[:3, 3], base_T_ee[:3, 3] + 0.06 * base_T_ee[:3, k]], color=axis, linewidth=2)
         for base_ee, tip_ee in finger_segments(q[6:]):

@@ -80,8 +80,9 @@ def test_fingers_close_as_told_and_the_arm_does_not_move(arm: ArmModel) -> None:
 def test_the_cup_s_body_stands_on_the_object_frame(cup: GraspModel) -> None:
     assert cup.body is not None
     base_T_obj = pose_to_matrix([0.3, -0.3, 0.0], [0.0, 0.0, 1.0, 0.0])
-    (shape,) = body_shapes(cup.body, base_T_obj)
+    shape, *handle = body_shapes(cup.body, base_T_obj)
     assert shape.kind == 'cylinder' and shape.size == pytest.approx((0.04, 0.04, 0.10))
+    assert [s.kind for s in handle] == ['box'] * 3
     assert_allclose(shape.base_T_shape[:3, 3], [0.3, -0.3, 0.05], atol=1e-12)
     assert_allclose(shape.base_T_shape[:3, 2], [0.0, 0.0, 1.0], atol=1e-12)
 
@@ -142,13 +143,16 @@ def test_the_plan_status_is_the_planner_s_and_others_are_ignored() -> None:
     assert state.plan_status == 'ok'
 
 
-def test_tasks_are_served_by_the_object_s_rules_only_when_the_object_is_known() -> None:
+def test_tasks_are_served_by_the_object_s_rules_only_when_the_object_is_known(cup: GraspModel) -> None:
+    """The object is the one the model document names (its ``object``), never guessed from the model's name."""
     x = prototype_x(0b001)
     tasks = CUP_RULES.task_names
     expected = tuple(n for i, n in enumerate(tasks) if CUP_RULES.label(x) >> i & 1)
-    assert served_tasks('cup_7zone', tasks, x) == served_tasks('cup', tasks, x) == expected
-    assert served_tasks('mug_7zone', tasks, x) is None
-    assert served_tasks('cup_7zone', ('a', 'b', 'c'), x) is None
+    assert cup.object_name == 'cup'
+    assert served_tasks(cup, x) == served_tasks(replace(cup, name='mug_7zone'), x) == expected
+    assert served_tasks(replace(cup, object_name='mug'), x) is None
+    assert served_tasks(replace(cup, object_name=''), x) is None
+    assert served_tasks(replace(cup, task_names=('a', 'b', 'c')), x) is None
 
 
 # ------------------------------------------------------------------------------------------ panel and page

@@ -49,7 +49,7 @@ def judge(model: GraspModel, w: np.ndarray, x: np.ndarray) -> tuple[int, int, in
     top = model.zones[int(planner.zone_order(r.v)[0])]
     reading = model.zones[int(np.argmax(model.posterior(x)))]
     wanted = top | sum(1 << i for i, wi in enumerate(w.tolist()) if wi >= UNLIKELY)
-    rules = object_of(model.name)
+    rules = object_of(model)
     assert rules is not None
     return rules.label(x), top, reading, wanted
 
