@@ -104,9 +104,9 @@ PARAMETERS = (
               'Markers are for RViz and cost as much to build as the other outputs together.',
               range=(0.0, 10.0)),
     ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
-    ParamSpec('collision_check', False, 'Turn down grasps whose hand goes into the table or the object on the '
+    ParamSpec('collision_check', True, 'Turn down grasps whose hand goes into the table or the object on the '
               'approach (fingers open, from the pre-grasp 0.08 m behind), as unreachable ones are '
-              '(docs/planner.md, "The hand\'s clearance").'),
+              '(docs/planner.md, "The hand\'s clearance"); false: publish them.'),
     ParamSpec('table_plane', (0.0, 0.0, 0.0, 0.0), 'The table in m1n6s300_link_base: (nx, ny, nz, d), points '
               'with n . p >= d above it, m; all zeros: the plane the object stands on (z = 0 of its frame).',
               validator=table_plane),

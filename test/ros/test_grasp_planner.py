@@ -9,6 +9,7 @@ reachability constraint the node uses (IK seeded from Home, 8 restarts, seed 0).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import gc
 import math
 import sys
@@ -35,6 +36,7 @@ from grasp_intent_ros.method.data import Demonstrations
 from grasp_intent_ros.method.features import FINGERS, MICO_3F
 from grasp_intent_ros.method.intent import all_zones, interpret, restrict
 from grasp_intent_ros.method.model import GraspModel, structure_zones
+from grasp_intent_ros.mico.collision import CollisionFree, HandCollision
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.mico.grasp import MIN_TRAJECTORY_TIME
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
@@ -61,6 +63,8 @@ LABELS_7 = 'U,T,H,UT,UH,TH,UTH'
 DEFAULT_POSE = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 W_GOOD = (0.9, 0.9, 0.1)
 TOPICS = ('pose', 'joints', 'trajectory', 'posterior', 'features', 'markers')
+UNCHECKED = [Parameter('markers_period', value=0.0), Parameter('collision_check', value=False)]
+"""The rig's parameters for the tiny models (:func:`reachable_tiny_models`): their grasps are not shaped for a table."""
 METHOD = next(spec.default for spec in PARAMETERS if spec.name == 'method')
 OPTIONS = node_options(METHOD, *(next(spec.default for spec in PARAMETERS if spec.name == name)
                                  for name in ('n_starts', 'execution_noise')))
@@ -80,7 +84,11 @@ _PROTOTYPES = {  # task set -> (aim, azimuth, elevation, standoff, roll, closure
 
 
 def reachable_tiny_models(per_set: int = 10, seed: int = 3) -> dict[str, GraspModel]:
-    """7- and 5-zone models fitted on noisy copies of prototype grasps the MICO reaches at DEFAULT_POSE."""
+    """7- and 5-zone models fitted on noisy copies of prototype grasps the MICO reaches at DEFAULT_POSE.
+
+    Their grasps are not shaped for a table (some open the hand below it): a node serving them runs with
+    ``collision_check`` off (:data:`UNCHECKED`), and :func:`core_plan` is told so.
+    """
     rng = np.random.default_rng(seed)
     rows, sets = [], []
     for task_set, (aim, azimuth, elevation, standoff, roll, closure) in _PROTOTYPES.items():
@@ -121,11 +129,21 @@ def kin() -> MicoKinematics:
 
 
 def core_plan(kin: MicoKinematics, model: GraspModel, v_all: Any, base_T_obj: Any = DEFAULT_POSE, *,
-              warm_start: Any = None, q_seed: Any = HOME_Q) -> planner.PlanResult:
-    """What the node computes for v over all zones: restrict, then plan with IK reachability."""
+              warm_start: Any = None, q_seed: Any = HOME_Q, checked: bool = True) -> planner.PlanResult:
+    """What the node computes for v over all zones: restrict, then plan with its default checks.
+
+    The hand clear of the object's table and body (unless not ``checked``), and IK reachability.
+    """
     v = restrict(v_all, all_zones(len(model.task_names)), model.zones)
-    return planner.plan(model, v, method=METHOD, options=OPTIONS, warm_start=warm_start, accept=lambda x: kin.ik(
-        base_T_obj @ features_to_obj_T_ee(x), q_seed, restarts=8).success)
+    clear = CollisionFree(hand(), model.body) if checked else lambda x: True
+    return planner.plan(model, v, method=METHOD, options=OPTIONS, warm_start=warm_start, accept=lambda x: clear(x)
+                        and kin.ik(base_T_obj @ features_to_obj_T_ee(x), q_seed, restarts=8).success)
+
+
+@functools.cache
+def hand() -> HandCollision:
+    """The MICO hand's collision geometry, built once for the module."""
+    return HandCollision()
 
 
 # ---------------------------------------------------------------------------------- messages
@@ -525,7 +543,7 @@ def test_a_plan_failing_its_checks_publishes_nothing_and_asks(rig: Rig, kin: Mic
 def test_clarification_needed_and_model_switch(make_rig: Callable[..., Rig], tiny: dict[str, GraspModel],
                                                kin: MicoKinematics) -> None:
     five, seven = tiny['cup_5zone'], tiny['cup_7zone']
-    rig = make_rig(five)
+    rig = make_rig(five, parameter_overrides=UNCHECKED)
     clarifications = rig.ros.subscribe(String, 'intent/clarification')
     h_only = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0])  # no zone of the 5-zone model is possible
     assert rig.ros.publish_until(rig.v_pub, v_msg(h_only), rig.warn('clarification requested'), period=0.5)
@@ -537,11 +555,11 @@ def test_clarification_needed_and_model_switch(make_rig: Callable[..., Rig], tin
     v = interpret(W_GOOD).v
     plan = rig.request(v_msg(v))
     assert plan.posterior.zone_labels == ('U', 'T', 'UT', 'TH', 'UTH')
-    assert_allclose(plan.posterior.p, core_plan(kin, five, v).posterior, atol=1e-6)
+    assert_allclose(plan.posterior.p, core_plan(kin, five, v, checked=False).posterior, atol=1e-6)
     # a new model re-plans the current v without a warm start from the other model
     switched = rig.request(model_to_msg(seven, name='cup_7zone', version=2), rig.model_pub)
     assert switched.posterior.zone_labels == tuple(LABELS_7.split(','))
-    assert_allclose(switched.x, core_plan(kin, seven, v).x, atol=1e-6)
+    assert_allclose(switched.x, core_plan(kin, seven, v, checked=False).x, atol=1e-6)
 
 
 def test_a_model_the_suite_cannot_serve_is_refused_and_every_v_clarified_until_one_is_served(
@@ -585,7 +603,7 @@ def test_a_model_the_suite_cannot_serve_is_refused_and_every_v_clarified_until_o
 def test_planning_goes_on_with_the_current_model_while_a_new_one_is_read(
         make_rig: Callable[..., Rig], tiny: dict[str, GraspModel], monkeypatch: pytest.MonkeyPatch) -> None:
     five, seven = tiny['cup_5zone'], tiny['cup_7zone']
-    rig = make_rig(five)
+    rig = make_rig(five, parameter_overrides=UNCHECKED)
     v = interpret(W_GOOD).v
     assert rig.request(v_msg(v)).posterior.zone_labels == five.zone_labels
     reading, release = threading.Event(), threading.Event()
@@ -626,7 +644,7 @@ def test_unreachable_best_grasp_falls_back_to_reachable_candidate(make_rig: Call
                                        for x in (0.45, 0.55, 0.6))):
         for _ in range(20):
             v = interpret(rng.uniform(0.0, 1.0, 3)).v
-            if v is not None and (expected := core_plan(kin, model, v, base_T_obj)).rejected \
+            if v is not None and (expected := core_plan(kin, model, v, base_T_obj, checked=False)).rejected \
                     and expected.status != 'rejected':
                 break
         else:
@@ -635,7 +653,7 @@ def test_unreachable_best_grasp_falls_back_to_reachable_candidate(make_rig: Call
     else:
         pytest.fail('no v with an unreachable best grasp found')
     rig = make_rig(model, parameter_overrides=[
-        Parameter('object_position', value=[float(c) for c in base_T_obj[:3, 3]])])
+        *UNCHECKED, Parameter('object_position', value=[float(c) for c in base_T_obj[:3, 3]])])
     plan = rig.request(v_msg(v))
     assert_allclose(plan.x, expected.x, atol=1e-6)
     assert expected.rejected >= 1 and not np.allclose(expected.x, expected.candidates[0].x)
@@ -752,9 +770,14 @@ def test_every_compiled_kernel_loads_before_the_first_plan_and_none_after(make_r
 
 def test_collision_check_turns_down_grasps_into_the_table_and_reports_the_clearance(
         make_rig: Callable[..., Rig], model: GraspModel) -> None:
-    """With collision_check on, a grasp whose open hand goes below the table is not published; one clear of it is."""
+    """With collision_check on (the default), a grasp whose open hand goes below the table is not published.
+
+    One clear of it is. The table is raised 4 cm above the object's plane: every usage demonstration opens its hand
+    lower than that (at most 3.3 cm above the object's plane), many transfer ones from above do not.
+    """
     rig = make_rig(model, parameter_overrides=[Parameter('markers_period', value=0.0),
-                                               Parameter('collision_check', value=True)])
+                                               Parameter('table_plane', value=[0.0, 0.0, 1.0, 0.04])])
+    assert rig.node.get_parameter('collision_check').value is True
     clarifications = rig.ros.subscribe(String, 'intent/clarification')
     start = rig.now()
     assert rig.ros.publish_until(rig.v_pub, v_msg(interpret((0.9, 0.1, 0.1)).v),
