@@ -4,9 +4,10 @@
                                              [--out DIR] [--train [--models-out DIR]]
 
 Writes ``DIR/cup.csv`` and/or ``DIR/flashlight.csv`` (default DIR: ``<config>/data``), N demonstrations
-for each of the 7 task sets (see :mod:`grasp_intent_ros.objects.demos` for the rules and prototypes).
+for each of the 7 task sets, each one the MICO's hand takes clear of the table and the object (see
+:mod:`grasp_intent_ros.objects.demos` for the rules and prototypes).
 With ``--train`` it also fits the shipped models into ``<config>/models``: cup_7zone, cup_5zone,
-cup_4zone and flashlight_7zone. The same seed always gives byte-identical files.
+cup_4zone and flashlight_7zone, each naming its object. The same seed always gives byte-identical files.
 """
 
 from __future__ import annotations
