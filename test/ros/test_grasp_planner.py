@@ -42,7 +42,7 @@ from grasp_intent_ros.mico.grasp import MIN_TRAJECTORY_TIME
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
 from grasp_intent_ros.nodes.grasp_planner import PARAMETERS, GraspPlanner
 from grasp_intent_ros.objects.demos import grasp_features
-from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning import common, planner
 from grasp_intent_ros.planning.options import node_options
 from grasp_intent_ros.ros import model_follower
 from grasp_intent_ros.ros.conversions import (
@@ -54,8 +54,10 @@ from grasp_intent_ros.ros.conversions import (
 )
 from grasp_intent_ros.ros.params import ParameterError
 from grasp_intent_ros.ros.qos import latched_qos
-from grasp_intent_ros.ros.robot import matrix_to_pose_msg, pose_msg_to_matrix
-from grasp_intent_ros.wire.protocol import KEY_KERNELS_LOAD_TIME, KEY_KERNELS_LOADED_LATE, read_model_document
+from grasp_intent_ros.ros.robot import matrix_to_pose_msg
+from grasp_intent_ros.wire.diagnostics import KEY_KERNELS_LOAD_TIME, KEY_KERNELS_LOADED_LATE
+from grasp_intent_ros.wire.model_document import read_model_document
+from grasp_intent_ros.wire.robot_state import pose_msg_to_matrix
 
 REPO = Path(__file__).resolve().parents[2]
 TASKS = ('usage', 'transfer', 'handover')
@@ -129,7 +131,7 @@ def kin() -> MicoKinematics:
 
 
 def core_plan(kin: MicoKinematics, model: GraspModel, v_all: Any, base_T_obj: Any = DEFAULT_POSE, *,
-              warm_start: Any = None, q_seed: Any = HOME_Q, checked: bool = True) -> planner.PlanResult:
+              warm_start: Any = None, q_seed: Any = HOME_Q, checked: bool = True) -> common.PlanResult:
     """What the node computes for v over all zones: restrict, then plan with its default checks.
 
     The hand clear of the object's table and body (unless not ``checked``), and IK reachability.
