@@ -6,9 +6,9 @@ coordinates y = x / s (s the model's ``feature_scale``, each feature's spread ov
 method 'lm''s metric): the features' units differ by orders of magnitude (a palm coordinate spreads over
 centimetres, a finger closure over tenths of a radian), and unscaled the problem is ill-conditioned enough
 that SLSQP crawls to its iteration limit near a match. trust-constr's first trust region is one unit of the
-scaled coordinates (one spread). Each end point is projected onto X and never worse than its start. The answer follows rule 6 of :mod:`.lm` (the
-nearest match to the reference, ties by start order). :func:`reference_search` is a slow multi-start SLSQP
-search, an oracle for checking :func:`~.planner.plan`.
+scaled coordinates (one spread). Each end point is projected onto X and never worse than its start. The answer
+follows rule 6 of :mod:`.lm` (the nearest match to the reference, ties by start order). :func:`reference_search`
+is a slow multi-start SLSQP search, an oracle for checking :func:`~.planner.plan`.
 
 Machine independence: unlike the other methods, these take the posterior's Jacobian from
 ``GraspModel.posterior_jacobian`` (numpy) and run scipy's solvers, so their last bits may differ between
