@@ -8,7 +8,8 @@ Two goal rules (``--goals``):
 - ``fresh`` (default): a new grasp for S, drawn from the data set's prototypes of S with its person's noise
   (:func:`grasp_intent_ros.objects.demos.sample_grasp`), kept when the object's rules label it exactly S
   and the arm reaches it from Home: a grasp the estimator's demonstrations do not contain;
-- ``own``: the shared-control benchmark's own grasp for S (:func:`bench_shared_control.own_goals`).
+- ``own``: the shared-control benchmark's own grasp for S (:func:`bench_shared_control.own_goals`: the
+  planner's for the certain w_S).
 
 The estimator (:class:`~grasp_intent_ros.shared_control.estimator.IntentEstimator`, goals: the model's reachable
 demonstrations) gets each operator twist with the hand's pose at that tick; it never sees S, the rules or
@@ -125,13 +126,14 @@ def reaches(name: str, seed: int, operators: int, goals_rule: str, kin: MicoKine
             timeout: float) -> list[Reach]:
     """The reaches of ``operators`` seeded operators on object ``name``."""
     model_name, rules = OBJECTS[name]
-    own = own_goals(model_name, rules, kin) if goals_rule == 'own' else {}
+    own = own_goals(model_name, kin) if goals_rule == 'own' else {}
     out = []
     for i in range(operators):
         rng = np.random.default_rng([seed, list(OBJECTS).index(name), i])
         intent = draw_intent(rng)
-        goal = own[intent.task_set] if goals_rule == 'own' else fresh_goal(rules, intent.task_set, kin, rng)
-        out.append(simulate(op, goal, intent.w, intent.task_set, kin, rng, timeout))
+        task_set = intent.true_set
+        goal = own[task_set].base_T_ee if goals_rule == 'own' else fresh_goal(rules, task_set, kin, rng)
+        out.append(simulate(op, goal, intent.w, task_set, kin, rng, timeout))
     return out
 
 

@@ -52,10 +52,9 @@ from typing import Any
 import numpy as np
 from _bench import uptime
 
-from grasp_intent_ros.method.intent import all_zones, interpret
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
-from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
 from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES
 from grasp_intent_ros.resources import config_dir
@@ -65,10 +64,9 @@ from grasp_intent_ros.shared_control.operators import (
     PersistentIntent,
     ScriptedOperator,
     SharpeningIntent,
-    certain_w,
     draw_task_set,
 )
-from grasp_intent_ros.shared_control.simulator import CONDITIONS, Scene, perturb_pose, simulate
+from grasp_intent_ros.shared_control.simulator import CONDITIONS, Scene, certain_grasps, perturb_pose, simulate
 
 OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 OPERATORS = ('joystick', 'spacemouse', 'goal-changing')
@@ -79,21 +77,12 @@ BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 _STATE: dict[str, Any] = {}
 
 
-def _certain_grasps(model: Any, base_T_obj: np.ndarray, kin: MicoKinematics) -> dict[int, Grasp]:
-    out = {}
-    for task_set in range(1, 8):
-        grasp = plan_grasp(model, interpret(certain_w(task_set)).v, all_zones(3), base_T_obj, kin)
-        assert isinstance(grasp, Grasp), grasp
-        out[task_set] = grasp
-    return out
-
-
 def _setup(name: str) -> dict[str, Any]:
     if name not in _STATE:
         model_name, rules = OBJECTS[name]
         kin = MicoKinematics()
         model = ModelFiles(config_dir() / 'models').load(model_name)
-        own = {s: (g.base_T_ee, g.positions[6:]) for s, g in _certain_grasps(model, BASE_T_OBJ, kin).items()}
+        own = {s: (g.base_T_ee, g.positions[6:]) for s, g in certain_grasps(model, BASE_T_OBJ, kin).items()}
         _STATE[name] = {'kin': kin, 'model': model, 'rules': rules, 'own': own}
     return _STATE[name]
 
@@ -134,7 +123,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
     intent = _intent(task, setup_rng)
     tracked = perturb_pose(BASE_T_OBJ, task.tracker_mm * 1e-3, math.radians(task.tracker_deg), setup_rng)
     scene = Scene(model, BASE_T_OBJ, tracked, kin)
-    ada_goals = [(g.base_T_ee, g.result.x) for g in _certain_grasps(model, tracked, kin).values()]
+    ada_goals = [(g.base_T_ee, g.result.x) for g in certain_grasps(model, tracked, kin).values()]
     cache: dict[bytes, Grasp | None] = {}
     device = 'joystick' if task.operator == 'joystick' else 'spacemouse'
     records = []

@@ -42,17 +42,17 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from ..method.intent import Interpretation, ZoneInterpreter, all_zones, default_task_names, zone_labels
+from ..method.intent import Interpretation, ZoneInterpreter, all_zones, default_task_names, interpret, zone_labels
 from ..method.model import GraspModel
 from ..mico.frames import obj_T_ee_to_features
 from ..mico.grasp import Grasp, plan_grasp
 from ..mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
 from ..mico.mock_arm import MockArm, TwistCommand
 from .assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, pose_error
-from .operators import IntentScript, ScriptedOperator
+from .operators import IntentScript, ScriptedOperator, certain_w
 
 __all__ = ['Condition', 'CONDITIONS', 'ADA_APPLY_TIME', 'Scene', 'PlanStream', 'AdaAssistance', 'Episode',
-           'simulate', 'perturb_pose']
+           'simulate', 'perturb_pose', 'certain_grasps']
 
 Condition = Literal['direct', 'ada', 'independent', 'suite']
 CONDITIONS: tuple[Condition, ...] = ('direct', 'ada', 'independent', 'suite')
@@ -70,6 +70,27 @@ def perturb_pose(base_T: NDArray[np.float64], position_rms: float, angle_rms: fl
     out = base_T.copy()
     out[:3, 3] += rng.normal(0.0, position_rms / math.sqrt(3.0), 3)
     out[:3, :3] = np.asarray(pin.exp3(rng.normal(0.0, angle_rms / math.sqrt(3.0), 3))) @ base_T[:3, :3]
+    return out
+
+
+def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: MicoKinematics) -> dict[int, Grasp]:
+    """The planner's grasp (cold, IK from Home) for each certain task set 1..7 (:func:`.operators.certain_w`).
+
+    An operator's own grasp per task set, chosen without the rules, and ADA's goals.
+
+    Raises
+    ------
+    ValueError
+        If the planner finds no reachable grasp for a set (the object is out of the arm's reach).
+    """
+    out = {}
+    for task_set in range(1, 8):
+        read = interpret(certain_w(task_set), _ZONES)
+        assert isinstance(read, Interpretation)  # a certain w never asks for clarification
+        grasp = plan_grasp(model, read.v, _ZONES, base_T_obj, kin)
+        if not isinstance(grasp, Grasp):
+            raise ValueError(f'no grasp for the certain task set {task_set}: {grasp}')
+        out[task_set] = grasp
     return out
 
 

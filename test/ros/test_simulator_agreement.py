@@ -31,7 +31,7 @@ from grasp_intent_ros.launch.suite import NodeSuite
 from grasp_intent_ros.method.intent import all_zones, default_task_names, interpret, zone_labels
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
-from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
 from grasp_intent_ros.nodes.assistance import AssistanceNode
 from grasp_intent_ros.nodes.mock_arm import MockArmNode
@@ -41,8 +41,8 @@ from grasp_intent_ros.ros.grasp_messages import grasp_messages
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_positions
 from grasp_intent_ros.shared_control.assistance import grasp_task_set, offset
-from grasp_intent_ros.shared_control.operators import OperatorConstants, PersistentIntent, ScriptedOperator, certain_w
-from grasp_intent_ros.shared_control.simulator import Scene, simulate
+from grasp_intent_ros.shared_control.operators import OperatorConstants, PersistentIntent, ScriptedOperator
+from grasp_intent_ros.shared_control.simulator import Scene, certain_grasps, simulate
 from grasp_intent_ros.wire import protocol
 from grasp_intent_ros.wire.protocol import model_document, read_model_document
 
@@ -79,11 +79,7 @@ def setup() -> dict[str, Any]:
     kin = MicoKinematics()
     models = ModelFiles(config_dir() / 'models')
     model = models.load('cup_7zone')
-    own = {}
-    for task_set in range(1, 8):
-        grasp = plan_grasp(model, interpret(certain_w(task_set)).v, all_zones(3), BASE_T_OBJ, kin)
-        assert isinstance(grasp, Grasp)
-        own[task_set] = (grasp.base_T_ee, grasp.positions[6:])
+    own = {s: (g.base_T_ee, g.positions[6:]) for s, g in certain_grasps(model, BASE_T_OBJ, kin).items()}
     return {'kin': kin, 'model': model, 'own': own}
 
 

@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grasp_intent_ros.method.intent import all_zones, interpret
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
-from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.objects.demos import CUP_RULES
 from grasp_intent_ros.resources import config_dir
@@ -18,10 +17,9 @@ from grasp_intent_ros.shared_control.operators import (
     OperatorConstants,
     PersistentIntent,
     ScriptedOperator,
-    certain_w,
     draw_task_set,
 )
-from grasp_intent_ros.shared_control.simulator import AdaAssistance, Scene, perturb_pose, simulate
+from grasp_intent_ros.shared_control.simulator import AdaAssistance, Scene, certain_grasps, perturb_pose, simulate
 
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 U, T, H = 1, 2, 4
@@ -31,12 +29,7 @@ U, T, H = 1, 2, 4
 def cup() -> tuple[Scene, dict[int, Grasp]]:
     kin = MicoKinematics()
     model = ModelFiles(config_dir() / 'models').load('cup_7zone')
-    grasps = {}
-    for task_set in range(1, 8):
-        grasp = plan_grasp(model, interpret(certain_w(task_set)).v, all_zones(3), BASE_T_OBJ, kin)
-        assert isinstance(grasp, Grasp)
-        grasps[task_set] = grasp
-    return Scene(model, BASE_T_OBJ, BASE_T_OBJ, kin), grasps
+    return Scene(model, BASE_T_OBJ, BASE_T_OBJ, kin), certain_grasps(model, BASE_T_OBJ, kin)
 
 
 def test_intents_follow_their_scripts() -> None:
