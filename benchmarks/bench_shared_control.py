@@ -365,10 +365,14 @@ def stream_phase(loop: Loop) -> dict[str, float]:
     out['gaps_over_20ms'] = int(np.sum(gaps > 0.02))
     alphas = [a for t, a in loop.alphas if start <= t <= end]
     out['alpha_heading_mean'] = float(np.mean(alphas))
-    # sustained opposition: straight away from the grasp at 0.1 m/s for 3 s
+    # sustained opposition: from 1 s into an assisted reach (the hand well short of the grasp), straight away
+    # from the grasp at 0.1 m/s for 3 s
+    loop.reset_arm()
+    _send_for(loop, 1.0, toward)
     hand0 = loop.hand_at(time.monotonic())
     assert hand0 is not None
-    away = np.r_[-clip_norm(pose_error(hand0, goal)[:3], 1.0) * 0.1, 0.0, 0.0, 0.0]
+    toward_grasp = pose_error(hand0, goal)[:3]
+    away = np.r_[-0.1 * toward_grasp / float(np.linalg.norm(toward_grasp)), 0.0, 0.0, 0.0]
     start, end = _send_for(loop, 3.0, lambda now: away)
     low = [t for t, a in loop.alphas if t >= start and a <= 0.1]
     out['opposition_to_alpha_0.1_s'] = (low[0] - start) if low else math.inf
