@@ -13,7 +13,7 @@ Topics and services (relative)
          ``m1n6s300_end_effector``; '' = the base)
     out  ``joint_states`` (the 6 arm joints and 3 fingers: positions and velocities, every ``period`` s),
          ``/diagnostics`` (``arm``: commands received and rejected with the reason, mode, trajectories
-         ignored)
+         ignored, the trajectory kept)
     in   ``grasp/joint_targets`` (sensor_msgs/JointState: the plan's finger closures, the latest kept)
     srv  ``~/reset`` (std_srvs/Trigger): back to ``initial_positions``, at rest, commands dropped
     srv  ``grasp/close`` (std_srvs/Trigger): close the fingers to the latest plan's closures plus the hand's own
