@@ -131,19 +131,19 @@ def test_in_the_suites_shared_control_loop_a_trajectory_moves_the_arm_only_when_
     from grasp_intent_ros.nodes.mock_arm import GRASP_EXECUTE
 
     arm = ros.add(MockArmNode(context=ros.context, cli_args=['--ros-args', *NodeSuite.node_args('mock_arm')]))
-    states = ros.subscribe(JointState, protocol.JOINT_STATES)
+    states = ros.subscribe(JointState, topics.JOINT_STATES)
     assert ros.wait_for(lambda: states, 10.0)
     client = ros.node.create_client(Trigger, GRASP_EXECUTE)
     assert client.wait_for_service(timeout_sec=5.0)
     future = client.call_async(Trigger.Request())
     assert ros.wait_for(future.done, 5.0) and not future.result().success  # nothing received: nothing to execute
-    plans = ros.publisher(JointTrajectory, protocol.GRASP_TRAJECTORY)
+    plans = ros.publisher(JointTrajectory, topics.GRASP_TRAJECTORY)
     assert ros.publish_until(plans, trajectory(JOINT_NAMES, [(0.5, (Q0 + END) / 2), (1.0, END)]),
                              lambda: arm._kept is not None, 10.0)
     kept_at = len(states)
     assert ros.wait_for(lambda: len(states) > kept_at + 50, 10.0)  # 0.5 s of ticks, half the trajectory's time
     assert_allclose(latest_positions(states), Q0, atol=0)  # nothing moved
-    twists = ros.publisher(TwistStamped, protocol.ASSISTANCE_TWIST)
+    twists = ros.publisher(TwistStamped, topics.ASSISTANCE_TWIST)
     zero = TwistStamped()
     zero.header.frame_id = BASE_FRAME
     ros.node.create_timer(0.01, lambda: twists.publish(zero))  # an operator at rest, through the assistance

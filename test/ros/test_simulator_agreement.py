@@ -39,12 +39,12 @@ from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.conversions import array_to_msg
 from grasp_intent_ros.ros.grasp_messages import grasp_messages
 from grasp_intent_ros.ros.qos import latched_qos
-from grasp_intent_ros.ros.robot import joint_positions
 from grasp_intent_ros.shared_control.assistance import grasp_task_set, offset
 from grasp_intent_ros.shared_control.operators import OperatorConstants, PersistentIntent, ScriptedOperator
 from grasp_intent_ros.shared_control.simulator import Scene, certain_grasps, simulate
-from grasp_intent_ros.wire import protocol
-from grasp_intent_ros.wire.protocol import model_document, read_model_document
+from grasp_intent_ros.wire import topics
+from grasp_intent_ros.wire.model_document import model_document, read_model_document
+from grasp_intent_ros.wire.robot_state import joint_positions
 
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 W = (0.9, 0.9, 0.1)
@@ -99,12 +99,12 @@ def test_the_simulator_and_the_nodes_agree_on_the_hands_path_and_outcome(ros: An
     assistance = ros.add(AssistanceNode(context=ros.context))
     ros.add(MockArmNode(context=ros.context, cli_args=['--ros-args', *NodeSuite.node_args('mock_arm')]))
     text = model_document(model, name='cup_7zone', version=1)
-    ros.publisher(String, protocol.MODEL_ACTIVE, latched_qos()).publish(String(data=text))
+    ros.publisher(String, topics.MODEL_ACTIVE, latched_qos()).publish(String(data=text))
     stamp = ros.node.get_clock().now().to_msg()
     messages = grasp_messages(grasp, read_model_document(text), BASE_T_OBJ, stamp=stamp, object_size=(0.08, 0.1),
                               markers=False)
     v = interpret(np.asarray(W)).v
-    messages[protocol.INTENT_V] = array_to_msg(v, [zone_labels(all_zones(3), default_task_names(3))])
+    messages[topics.INTENT_V] = array_to_msg(v, [zone_labels(all_zones(3), default_task_names(3))])
     pubs = {topic: ros.publisher(type(msg), topic) for topic, msg in messages.items()}
     assist = assistance._assist
     task_set = grasp_task_set(grasp.result.x, model.demo_x, model.demo_sets, model.feature_scale)
@@ -119,7 +119,7 @@ def test_the_simulator_and_the_nodes_agree_on_the_hands_path_and_outcome(ros: An
 
     # the operator: one tick per joint_states, the hand seen `reaction` s late, from the first tick on
     live = operator()
-    operator_pub = ros.publisher(TwistStamped, protocol.OPERATOR_TWIST)
+    operator_pub = ros.publisher(TwistStamped, topics.OPERATOR_TWIST)
     hands: list[tuple[float, np.ndarray]] = []  # (s from the first tick, the hand's pose)
     result: dict[str, Any] = {}
 
@@ -143,7 +143,7 @@ def test_the_simulator_and_the_nodes_agree_on_the_hands_path_and_outcome(ros: An
          out.twist.angular.x, out.twist.angular.y, out.twist.angular.z) = live.twist(now, seen, goal).tolist()
         operator_pub.publish(out)
 
-    ros.node.create_subscription(JointState, protocol.JOINT_STATES, tick, 10)
+    ros.node.create_subscription(JointState, topics.JOINT_STATES, tick, 10)
     assert ros.wait_for(lambda: result or (hands and hands[-1][0] - hands[0][0] > TIMEOUT), 4 * TIMEOUT), \
         'the node loop stalled'
     assert result, f'the nodes did not close within {TIMEOUT} s (the simulator closed at {episode.closed_at} s)'
