@@ -477,13 +477,13 @@ RECORDED_TOPICS = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'i
                    'assistance/alpha', '/diagnostics')
 """What ``--record`` records: what a closed-loop replay sends and compares, and the report's shared-control plot."""
 HOLD_S = 2.0
+"""Seconds a recorded operator holds still (zero twists) after reaching the grasp, letting the loop settle."""
 RECORDED_W = (0.9, 0.9, 0.1)
 RECORDED_TASKS = 0b011
 """The recorded episode's intent: w held at the paper's ambiguous case, the operator wanting usage and transfer."""
 ESTIMATED_TASKS = 0b010
 """What the operator of a session recorded with the intent estimator wants: transfer (from above: the motion
 tells it from usage)."""
-"""Seconds a recorded operator holds still (zero twists) after reaching the grasp, letting the loop settle."""
 
 
 def record_session(name: str, index: int, out: Path, args: argparse.Namespace, domain_id: int,
