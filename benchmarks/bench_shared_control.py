@@ -81,7 +81,7 @@ from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRu
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error, reached
 from grasp_intent_ros.shared_control.operators import OperatorConstants, ScriptedOperator
-from grasp_intent_ros.wire.protocol import ESTIMATOR_COMPONENT
+from grasp_intent_ros.wire.diagnostics import ESTIMATOR_COMPONENT
 
 OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 CONDITIONS = ('none', 'blend', 'confidence')
@@ -174,8 +174,8 @@ class Loop:
         from std_srvs.srv import Trigger
 
         from grasp_intent_ros.ros.qos import input_qos, output_qos
-        from grasp_intent_ros.ros.robot import joint_positions, pose_msg_to_matrix
-        from grasp_intent_ros.wire.protocol import stamped_values
+        from grasp_intent_ros.wire.arrays import stamped_values
+        from grasp_intent_ros.wire.robot_state import joint_positions, pose_msg_to_matrix
 
         self.probe, self.kin, self.rules = probe, kin, rules
         node = probe.node

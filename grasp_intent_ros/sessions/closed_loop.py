@@ -33,7 +33,7 @@ Times to reach the grasp and mean alpha are reported side by side, not compared:
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Final
@@ -44,11 +44,12 @@ from numpy.typing import NDArray
 from ..mico.frames import pose_to_matrix
 from ..mico.kinematics import ARM_JOINTS, MicoKinematics
 from ..shared_control.assistance import REACH_POS, REACH_ROT, offset, reached
-from ..wire.protocol import (
+from ..wire.diagnostics import ESTIMATOR_COMPONENT, KEY_GOALS
+from ..wire.model_document import ModelHeader
+from ..wire.topics import (
     ASSISTANCE_ALPHA,
     ASSISTANCE_TWIST,
     DIAGNOSTICS,
-    ESTIMATOR_COMPONENT,
     GRASP_POSE,
     INTENT_W,
     JOINT_STATES,
@@ -56,15 +57,14 @@ from ..wire.protocol import (
     MSGTYPES,
     OBJECT_POSE,
     OPERATOR_TWIST,
-    ModelHeader,
 )
 from .bag.reader import read_messages, topics_info
 from .outputs import Joints, Pose, RawMessage, SessionError, decode, output_of
 from .pairing import ModelSwitches, detect_namespace
 
 __all__ = ['REACH_POS', 'REACH_ROT', 'REPLAYED', 'ESTIMATED_REPLAYED', 'W_TOLERANCE', 'Send', 'Trace', 'Outcome',
-           'ClosedLoopSession', 'offset', 'reached', 'is_closed_loop', 'estimated', 'split_messages',
-           'load_closed_loop', 'Tracer', 'outcome', 'compare_outcomes', 'describe']
+           'ClosedLoopSession', 'offset', 'reached', 'is_closed_loop', 'estimated', 'estimator_ready',
+           'split_messages', 'load_closed_loop', 'Tracer', 'outcome', 'compare_outcomes', 'describe']
 
 START_TOLERANCE: Final = 1e-3
 """Largest difference (rad) between the recorded and the live arm's first joint state."""
@@ -314,6 +314,12 @@ def estimated(messages: Iterable[RawMessage], namespace: str = '') -> bool:
             except SessionError:
                 continue
     return False
+
+
+def estimator_ready(statuses: Mapping[str, str]) -> bool:
+    """Whether an intent estimator's status (name -> its message and values, as text) reports its goals ready."""
+    return any(name.endswith(f': {ESTIMATOR_COMPONENT}') and f'{KEY_GOALS}: ' in text
+               for name, text in statuses.items())
 
 
 def split_messages(messages: Iterable[RawMessage], namespace: str = '', *,
