@@ -42,7 +42,11 @@ latency from the operator's publish to the blended twist's receipt (the middlewa
 ``--objects``) under ``confidence`` as a closed-loop session bag, holding still for 2 s after the grasp
 (:func:`record_session`), in an ambiguous episode: w held at the paper's (0.9, 0.9, 0.1) with the noise of an
 unsharpened intent, the operator wanting usage and transfer; bags/shared_control_cup is
-``--objects cup --only 0 --record``.
+``--objects cup --only 0 --record``. With ``--estimator`` the suite runs the intent estimator, the only source
+of w (this process publishes none; its operator twists are stamped), and the operator wants transfer (T),
+heading for its own grasp for T or the shown one when that serves T; bags/shared_control_cup_estimated is
+``--objects cup --only 3 --record bags/shared_control_cup_estimated --estimator`` (operator 3: its last w is
+clear of the planner's ties, (0.99, 0.99, 0.09); operators 0-2 ended with a w_i of 0.19-0.54).
 
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set.
 
@@ -86,6 +90,7 @@ from grasp_intent_ros.shared_control.operators import (
     draw_task_set,
 )
 from grasp_intent_ros.shared_control.simulator import certain_grasps
+from grasp_intent_ros.wire.diagnostics import ESTIMATOR_COMPONENT
 
 OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 CONDITIONS = ('none', 'blend', 'confidence')
@@ -133,7 +138,7 @@ class Run:
 class Loop:
     """The probe side: subscriptions, the operator's publishers, the service clients."""
 
-    def __init__(self, probe: Probe, kin: MicoKinematics) -> None:
+    def __init__(self, probe: Probe, kin: MicoKinematics, sends_w: bool = True) -> None:
         from geometry_msgs.msg import PoseStamped, TwistStamped
         from rcl_interfaces.srv import SetParameters
         from sensor_msgs.msg import JointState
@@ -182,7 +187,7 @@ class Loop:
         self.blended: list[tuple[float, np.ndarray]] = []  # (monotonic, twist)
         node.create_subscription(TwistStamped, 'assistance/twist', on_blended, input_qos(1000))
         self.twist_pub = node.create_publisher(TwistStamped, 'operator/twist', output_qos())
-        self.w_pub = node.create_publisher(Float64MultiArray, 'intent/w', output_qos())
+        self.w_pub = node.create_publisher(Float64MultiArray, 'intent/w', output_qos()) if sends_w else None
         self._set_params = node.create_client(SetParameters, 'assistance/set_parameters')
         self._reset = node.create_client(Trigger, 'mock_arm/reset')
         from std_srvs.srv import SetBool
@@ -193,11 +198,13 @@ class Loop:
     def twist(self, values: np.ndarray) -> Any:
         msg = self._twist_type()
         msg.header.frame_id = BASE_FRAME
+        msg.header.stamp = self.probe.node.get_clock().now().to_msg()
         t = msg.twist
         t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z = (float(v) for v in values)
         return msg
 
     def send_w(self, w: np.ndarray) -> None:
+        assert self.w_pub is not None, 'this loop sends no w'
         self.w_pub.publish(self._w_type(data=[float(x) for x in w]))
 
     def call(self, client: Any, request: Any, timeout: float = 30.0) -> Any:
@@ -239,13 +246,19 @@ class Loop:
 
 
 def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: Grasp, rules: ObjectRules,
-                 rng: np.random.Generator, timeout: float, run: Run) -> None:
-    """Run one operator until it closes the hand or ``timeout``; fills ``run`` (judged by ``rules`` after)."""
+                 rng: np.random.Generator, timeout: float, run: Run, sends_w: bool = True) -> None:
+    """Run one operator until it closes the hand or ``timeout``; fills ``run`` (judged by ``rules`` after).
+
+    ``sends_w`` False: w comes from elsewhere (the intent estimator), the operator waits for a plan only.
+    """
     task_set = intent.task_set(0.0)
-    first_plan = len(loop.plans)
-    w_first = intent.w(0.0, rng)  # the intent before the motion: wait for its plan (sent again each second)
-    if not loop.probe.wait_for(lambda: len(loop.plans) > first_plan or loop.send_w(w_first), 60.0, poll=1.0):
-        sys.exit('bench_shared_control: no plan for the first w within 60 s')
+    if sends_w:
+        first_plan = len(loop.plans)
+        w_first = intent.w(0.0, rng)  # the intent before the motion: wait for its plan (sent again each second)
+        if not loop.probe.wait_for(lambda: len(loop.plans) > first_plan or loop.send_w(w_first), 60.0, poll=1.0):
+            sys.exit('bench_shared_control: no plan for the first w within 60 s')
+    elif not loop.probe.wait_for(lambda: bool(loop.plans), 60.0, poll=0.1):
+        sys.exit('bench_shared_control: no plan for the estimator\'s first w within 60 s')
     device = joystick(op, rng)
     alpha_from = len(loop.alphas)
     start = time.monotonic()
@@ -253,7 +266,7 @@ def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: G
     while True:
         now = time.monotonic()
         t = now - start
-        if tick % W_EVERY == 0:
+        if sends_w and tick % W_EVERY == 0:
             loop.send_w(intent.w(t, rng))
         seen, plan_seen = loop.hand_at(now - op.reaction), loop.plan_at(now - op.reaction)
         goal, pursued = device.choose_goal(None if plan_seen is None else plan_seen[0], own.base_T_ee)
@@ -441,19 +454,23 @@ RECORDED_TOPICS = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'i
                    'assistance/alpha', '/diagnostics')
 """What ``--record`` records: what a closed-loop replay sends and compares, and the report's shared-control plot."""
 HOLD_S = 2.0
+"""Seconds a recorded operator holds still (zero twists) after reaching the grasp, letting the loop settle."""
 RECORDED_W = (0.9, 0.9, 0.1)
 RECORDED_TASKS = 0b011
 """The recorded episode's intent: w held at the paper's ambiguous case, the operator wanting usage and transfer."""
-"""Seconds a recorded operator holds still (zero twists) after reaching the grasp, letting the loop settle."""
+ESTIMATED_TASKS = 0b010
+"""What the operator of a session recorded with the intent estimator wants: transfer (from above: the motion
+tells it from usage)."""
 
 
 def record_session(name: str, index: int, out: Path, args: argparse.Namespace, domain_id: int,
-                   op: OperatorConstants) -> None:
+                   op: OperatorConstants, estimated: bool = False) -> None:
     """Record operator ``index`` of object ``name`` under ``confidence`` into the session bag ``out`` (replaced).
 
     A fresh suite (a replay starts one too), the recorder in the probe's context on an executor and thread of
     its own, no warm-up: the session's first w is the planner's first. After success (or the timeout) the
-    operator holds still for :data:`HOLD_S`; then the bag is compacted (of /diagnostics only the rejections).
+    operator holds still for :data:`HOLD_S`; then the bag is compacted (of /diagnostics only the rejections,
+    and with ``estimated`` the estimator's first status: the intent estimator ran, the only source of w).
     """
     from rclpy.executors import SingleThreadedExecutor
 
@@ -465,7 +482,7 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
     kin = MicoKinematics()
     work = Path(tempfile.mkdtemp(prefix='record_closed_loop_'))
     suite = NodeSuite(domain_id, cwd=REPO, log_dir=work / 'logs')
-    suite.start_nodes(model=model_name, shared_control=True)
+    suite.start_nodes(model=model_name, shared_control=True, extra=('intent_estimator',) if estimated else ())
     probe = Probe(domain_id, 'bench_operator')
     recorder = Recorder(work / 'raw', topics=RECORDED_TOPICS, discovery_period=0.5, context=probe.context)
     executor = SingleThreadedExecutor(context=probe.context)
@@ -473,11 +490,12 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
     thread = threading.Thread(target=executor.spin, name='recorder', daemon=True)
     thread.start()
     rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), index])
-    intent = PersistentIntent(RECORDED_W, RECORDED_TASKS, noise=0.08)  # an unsharpened intent's noise
+    intent = PersistentIntent(RECORDED_W, ESTIMATED_TASKS if estimated else RECORDED_TASKS,
+                              noise=0.08)  # an unsharpened intent's noise (its w unused with the estimator)
     run = Run(name, index, 'confidence', intent.true_set)
     with stopped_after(suite, probe):
         try:
-            loop = Loop(probe, kin)
+            loop = Loop(probe, kin, sends_w=not estimated)
             needed = {recorder.resolve_topic_name(t) for t in RECORDED_TOPICS
                       if t not in ('object/pose', 'intent/clarification')}  # nobody publishes these here
             if not probe.wait_for(lambda: loop.hands and loop.alphas and needed <= set(recorder.recorded_topics),
@@ -485,11 +503,14 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
                 sys.exit(f'bench_shared_control: the suite or the recorder not ready within 90 s; recorded '
                          f'{sorted(recorder.recorded_topics)}\n{suite.died()}')
             loop.set_arbitration('confidence')
-            # the recorded operator wants the grasp it is shown: the planner's for the recorded w, from Home
-            shown = plan_grasp(ModelFiles(config_dir() / 'models').load(model_name), interpret(np.array(RECORDED_W)).v,
-                               all_zones(3), BASE_T_OBJ, kin)
-            assert isinstance(shown, Grasp), shown
-            run_operator(loop, op, intent, shown, rules, rng, args.timeout, run)
+            if estimated:  # its own grasp for its set, or the shown one when that serves the set
+                goal = own_goals(model_name, kin)[intent.true_set]
+            else:  # the recorded operator wants the grasp it is shown: the planner's for the recorded w, from Home
+                shown = plan_grasp(ModelFiles(config_dir() / 'models').load(model_name),
+                                   interpret(np.array(RECORDED_W)).v, all_zones(3), BASE_T_OBJ, kin)
+                assert isinstance(shown, Grasp), shown
+                goal = shown
+            run_operator(loop, op, intent, goal, rules, rng, args.timeout, run, sends_w=not estimated)
             still = loop.twist(np.zeros(6))
             end = time.monotonic() + HOLD_S
             while time.monotonic() < end:
@@ -503,7 +524,7 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
             recorder.destroy_node()  # closes the bag
     if out.exists():
         shutil.rmtree(out)
-    counts = compact_session(work / 'raw', out)
+    counts = compact_session(work / 'raw', out, keep_components=(ESTIMATOR_COMPONENT,) if estimated else ())
     shutil.rmtree(work)
     size = sum(f.stat().st_size for f in out.iterdir())
     print(f'{out}: operator {index} of {name}, task set {intent.true_set}, success {run.success} after '
@@ -542,6 +563,8 @@ def main() -> None:
     parser.add_argument('--only', type=int, nargs='+', metavar='I', help='run only these operators (e.g. to look '
                         'into one); their seeds are those of the full run')
     parser.add_argument('--json', help='write every run and the summaries here')
+    parser.add_argument('--estimator', action='store_true', help='with --record: w from the intent estimator node '
+                        '(module docstring)')
     parser.add_argument('--stream-only', action='store_true', help='the latency and stream phases only')
     parser.add_argument('--record', type=Path, metavar='BAG',
                         help='instead of the benchmark: record the first --only operator (default 0) of the first '
@@ -549,7 +572,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.record is not None:
         record_session(args.objects[0], (args.only or [0])[0], args.record, args,
-                       loopback_domain('bench_shared_control'), OperatorConstants())
+                       loopback_domain('bench_shared_control'), OperatorConstants(), args.estimator)
         return
     if args.quick:
         args.operators, args.latency_seconds = 3, 5.0

@@ -27,6 +27,12 @@ Conditions (:data:`CONDITIONS`)
   planner's grasp for the single most likely task argmax_i w_i (v on that zone alone), shown.
 - ``'suite'``: the suite: v = interpret(w), the planner's grasp, the assistance's ``confidence`` rule, shown.
 
+With an :class:`~.estimator.IntentEstimator` (``estimator``), w comes from it instead of the intent script
+(the intent node's place in the suite, ``suite --with intent_estimator``): it is reset at the start and fed,
+every period, the operator's own twist (before blending, so the assistance never creates its own evidence)
+with the hand's pose at that tick; every ``w_period`` its w is interpreted and planned as the script's would
+be. The script then gives only the operator's true task set: the estimator never sees it.
+
 The simulation returns what happened, never a verdict: the executed grasp's features in the true object
 frame, when the hand closed, the operator's effort and each shown grasp's alpha-time; the caller judges
 (the task rules never enter here).
@@ -49,6 +55,7 @@ from ..mico.grasp import Grasp, plan_grasp
 from ..mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
 from ..mico.mock_arm import MockArm, TwistCommand
 from .assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, pose_error
+from .estimator import IntentEstimator
 from .operators import IntentScript, ScriptedOperator, certain_w
 
 __all__ = ['Condition', 'CONDITIONS', 'ADA_APPLY_TIME', 'Scene', 'PlanStream', 'AdaAssistance', 'Episode',
@@ -231,7 +238,7 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
              closure_rng: np.random.Generator, *, ada_goals: list[tuple[NDArray[np.float64], NDArray[np.float64]]],
              plan_cache: dict[bytes, Grasp | None], timeout: float = 25.0, period: float = 0.01,
              w_period: float = 0.1, closure_error: float = 0.05,
-             config: AssistanceConfig | None = None) -> Episode:
+             config: AssistanceConfig | None = None, estimator: IntentEstimator | None = None) -> Episode:
     """Run one episode (module docstring).
 
     Parameters
@@ -244,6 +251,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
         The estimator's noise; the hand's closure error (N(0, closure_error^2) per finger).
     config : AssistanceConfig, optional
         The suite's assistance settings (default: the node's defaults); ``arbitration`` is set by the condition.
+    estimator : IntentEstimator, optional
+        The source of w instead of ``intent.w`` (module docstring); reset here, its goals at the tracked object.
     """
     kin = scene.kin
     base = config or AssistanceConfig()
@@ -263,10 +272,12 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
     w_every = max(int(round(w_period / period)), 1)
     ticks = int(round(timeout / period))
     tick = 0
+    if estimator is not None:
+        estimator.reset()
     for tick in range(ticks):
         now = tick * period
         if tick % w_every == 0:
-            v, grasp = stream.plan(intent.w(now, intent_rng))
+            v, grasp = stream.plan(intent.w(now, intent_rng) if estimator is None else estimator.w)
             if v is None:
                 assistance.clarification()
             else:
@@ -297,6 +308,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
             episode.features = obj_T_ee_to_features(obj_T_ee, executed)
             break
         h = operator.twist(now, seen, goal)
+        if estimator is not None:
+            estimator.update(hand_now, h, period)
         episode.effort_linear += float(np.linalg.norm(h[:3])) * period
         episode.effort_angular += float(np.linalg.norm(h[3:])) * period
         if ada is not None:
