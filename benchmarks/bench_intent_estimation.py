@@ -279,7 +279,7 @@ def main() -> None:
     parser.add_argument('--timeout', type=float, default=25.0)
     parser.add_argument('--device', choices=('joystick', 'spacemouse'), default='joystick')
     parser.add_argument('--fit', action='store_true', help='search rationality x memory on seed + 100 instead')
-    parser.add_argument('--plot', type=Path, help='write the reliability diagram at 50 % here (PNG)')
+    parser.add_argument('--plot', type=Path, help='write the reliability diagram at 50 %% here (PNG)')
     args = parser.parse_args()
     kin, op = MicoKinematics(), OperatorConstants()
     print(f'bench_intent_estimation: {args.operators} operators per object, goals {args.goals}, device {args.device}; '
