@@ -27,24 +27,34 @@ rules that labelled them):
    zone, not a product of per-task votes: the tasks' rules share conditions, and a zone's demonstrations
    say where all of its tasks hold at once.
 3. The bandwidths of zone k minimise the vote's leave-one-out log loss over the demonstrations, by a
-   coordinate search over 2^p times the noise's own scale of each feature (palm and clearance: ``palm``;
-   approach: ``tilt``; roll: ``roll``; fingers: ``closure``; a zero scale counts as 1e-3 of the feature's
-   range), p an integer in [-2, 8]: from p = 2 (4x the noise), for each feature in index order p goes up by
-   one while the loss drops by more than 1e-9 (relative), else down by one while it does; :data:`SWEEPS`
-   sweeps. Losses are compared only beyond that tolerance, so float noise never decides a step.
-4. R_nk = mean over :data:`DRAWS` fixed landings (:func:`standard_draws` of seed 0) of q_k at the landing,
-   demonstration n itself left out of the vote. A landing that gains a
-   task is not credited: R_nk = 0 for a zone outside S_n.
+   coordinate search (:func:`~grasp_intent_ros.kernels.voting.search_bandwidths`) over 2^p times the
+   noise's own scale of each feature (palm and clearance: ``palm``; approach: ``tilt``; roll: ``roll``;
+   fingers: ``closure``; a zero scale counts as 1e-3 of the feature's range), p an integer in [-2, 8]: from
+   p = 2 (4x the noise), for each feature in index order p goes up by one while the loss drops by more than
+   1e-9 (relative), else down by one while it does; :data:`SWEEPS` sweeps. Losses are compared only beyond
+   that tolerance, so float noise never decides a step.
+4. R_nk = mean over :data:`DRAWS` fixed landings (:func:`stratified_draws` of seed 0, a Latin hypercube) of
+   q_k at the landing, demonstration n itself left out of the vote. A landing that gains a task is not
+   credited: R_nk = 0 for a zone outside S_n. Stratified, 16 landings are as accurate as 64 random ones
+   (docs/planner.md gives the measured error).
 
 Without noise (:attr:`ExecutionNoise.is_zero`) R_nk is 1 for every zone within S_n. The estimate does not
-depend on v: it is computed once per model and noise (some seconds) and kept with the model.
+depend on v: it is computed once per model and noise and kept with the model. Its cost is O(N^2) per
+bandwidth trial (a few hundred trials) and O(N^2 DRAWS K) for the votes, N demonstrations, K zones: about a
+second of CPU for the shipped 560-demonstration models (docs/planner.md states the measured bound).
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
+import os
 import weakref
+from collections import OrderedDict
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from statistics import NormalDist
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,12 +63,13 @@ from ..errors import PlanningError
 from ..method.features import APPROACH, FINGERS, PALM, ROLL, FeatureSpace
 from ..method.model import GraspModel
 
-__all__ = ['ExecutionNoise', 'DRAW_DIM', 'DRAWS', 'SWEEPS', 'standard_draws', 'perturb', 'bandwidths', 'retention']
+__all__ = ['ExecutionNoise', 'DRAW_DIM', 'DRAWS', 'SWEEPS', 'standard_draws', 'stratified_draws', 'perturb',
+           'bandwidths', 'retention']
 
 DRAW_DIM = 9
 """Standard normal numbers per landing: palm (3), tilt (2), roll (1), fingers (3)."""
-DRAWS = 64
-"""Landings per demonstration in the robustness estimate."""
+DRAWS = 16
+"""Landings per demonstration in the robustness estimate (stratified: :func:`stratified_draws`)."""
 SWEEPS = 2
 """Sweeps of the bandwidth search over the features."""
 _START_POWER = 2  # bandwidths are the noise's scale times 2^power, power in [_LOWEST_POWER, _HIGHEST_POWER]
@@ -117,6 +128,20 @@ def standard_draws(count: int, seed: int) -> NDArray[np.float64]:
     """
     z = np.random.default_rng(seed).standard_normal((count, DRAW_DIM))
     out: NDArray[np.float64] = np.round(z, 6)
+    return out
+
+
+def stratified_draws(count: int, seed: int) -> NDArray[np.float64]:
+    """``count`` landings as a Latin hypercube of standard normal numbers, shape (count, :data:`DRAW_DIM`).
+
+    Each of the nine numbers takes the ``count`` stratum medians Phi^-1((j + 1/2) / count), j < count, once
+    each, in an order shuffled per number from ``seed``. Rounded to 1e-6, so that they are the same numbers on
+    any machine.
+    """
+    medians = np.array([NormalDist().inv_cdf((j + 0.5) / count) for j in range(count)])
+    rng = np.random.default_rng(seed)
+    out: NDArray[np.float64] = np.round(np.stack([medians[rng.permutation(count)] for _ in range(DRAW_DIM)],
+                                                 axis=1), 6)
     return out
 
 
@@ -179,46 +204,62 @@ def _does(model: GraspModel, zone: int) -> NDArray[np.float64]:
 
 
 def bandwidths(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
-    """Each zone's vote bandwidths (module docstring, step 3): shape (K, F), F the classifier features."""
-    from ..kernels import loo_loss  # numba: the planner's import, not every model reader's
+    """Each zone's vote bandwidths (module docstring, step 3): shape (K, F), F the classifier features.
+
+    The zones' searches are independent and run on up to one thread per CPU (the compiled search releases
+    the GIL); each zone's result does not depend on the threads.
+    """
+    from ..kernels import search_bandwidths  # numba: the planner's import, not every model reader's
     data = _classifier_features(model, model.demo_x)
     base = _scales(noise, model.features, model.body is not None)
-    out = np.empty((len(model.zones), base.size))
-    for k, zone in enumerate(model.zones):
-        labels = _does(model, zone)
-        power = np.full(base.size, _START_POWER)
-        best = loo_loss(data, labels, 1.0 / (base * 2.0 ** power))
-        for _ in range(SWEEPS):
-            for f in range(base.size):
-                for step in (1, -1):  # widen while it helps, else narrow while it helps
-                    moved = False
-                    while _LOWEST_POWER <= power[f] + step <= _HIGHEST_POWER:
-                        trial = power.copy()
-                        trial[f] += step
-                        loss = loo_loss(data, labels, 1.0 / (base * 2.0 ** trial))
-                        if not loss < best * (1.0 - _LOSS_RTOL):
-                            break
-                        power, best, moved = trial, loss, True
-                    if moved:
-                        break
-        out[k] = base * 2.0 ** power
-    return out
+
+    def search(zone: int) -> NDArray[np.float64]:
+        power = search_bandwidths(data, _does(model, zone), base, _START_POWER, _LOWEST_POWER, _HIGHEST_POWER,
+                                  SWEEPS, _LOSS_RTOL)
+        out: NDArray[np.float64] = base * 2.0 ** power
+        return out
+
+    with ThreadPoolExecutor(max_workers=min(len(model.zones), os.cpu_count() or 1)) as pool:
+        return np.stack(list(pool.map(search, model.zones)))
 
 
 _TABLES: weakref.WeakKeyDictionary[GraspModel, dict[ExecutionNoise, NDArray[np.float64]]] = \
     weakref.WeakKeyDictionary()
+_BY_CONTENT: OrderedDict[tuple[str, ExecutionNoise], NDArray[np.float64]] = OrderedDict()
+"""Estimates kept by the content of what they read, at most :data:`_KEPT` (the oldest goes first)."""
+_KEPT = 16
+
+
+def _content(model: GraspModel) -> str:
+    """SHA-256 of everything the estimate reads: the demonstrations, task sets, feature bounds and the body."""
+    digest = hashlib.sha256()
+    arrays: list[Any] = [model.demo_x, model.demo_sets, model.features.lower, model.features.upper]
+    if model.body is not None:
+        arrays.extend(model.body.kernel_arrays)
+    for array in arrays:
+        a = np.ascontiguousarray(array)
+        digest.update(f'{a.dtype.str}{a.shape}'.encode())
+        digest.update(a.tobytes())
+    return digest.hexdigest()
 
 
 def retention(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
     """R (module docstring): shape (N, K), demonstration n, zone k; kept per model and noise after the first call.
 
-    Read-only; the same bits on any machine.
+    Read-only; the same bits on any machine. A model read again (another object with the same demonstrations,
+    feature bounds and body, as a node gets when a model is sent again) reuses the estimate of the first.
     """
     tables = _TABLES.setdefault(model, {})
     table = tables.get(noise)
     if table is None:
-        table = _retention(model, noise)
-        table.setflags(write=False)
+        key = (_content(model), noise)
+        table = _BY_CONTENT.get(key)
+        if table is None:
+            table = _retention(model, noise)
+            table.setflags(write=False)
+            _BY_CONTENT[key] = table
+            while len(_BY_CONTENT) > _KEPT:
+                _BY_CONTENT.popitem(last=False)
         tables[noise] = table
     return table
 
@@ -229,18 +270,11 @@ def _retention(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
     if noise.is_zero:
         out: NDArray[np.float64] = within.astype(np.float64)
         return out
-    from ..kernels import vote
+    from ..kernels import landed_votes
     n, d = model.demo_x.shape
-    landed = perturb(model.demo_x, standard_draws(DRAWS, 0), noise, model.features).reshape(n * DRAWS, d)
-    queries = _classifier_features(model, landed)
-    data = _classifier_features(model, model.demo_x)
-    skip = np.repeat(np.arange(n, dtype=np.int64), DRAWS)
-    h = bandwidths(model, noise)
-    out = np.zeros((n, zones.size))
-    for k, zone in enumerate(model.zones):
-        q = vote(queries, skip, data, _does(model, zone), 1.0 / h[k]).reshape(n, DRAWS)
-        total = np.zeros(n)
-        for j in range(DRAWS):  # summed landing by landing: a fixed order
-            total += q[:, j]
-        out[:, k] = np.where(within[:, k], total / DRAWS, 0.0)
+    landed = perturb(model.demo_x, stratified_draws(DRAWS, 0), noise, model.features).reshape(n * DRAWS, d)
+    labels = np.stack([_does(model, zone) for zone in model.zones], axis=1)
+    votes = landed_votes(_classifier_features(model, model.demo_x), labels, bandwidths(model, noise),
+                         _classifier_features(model, landed), DRAWS)
+    out = np.where(within, votes, 0.0)
     return out
