@@ -22,21 +22,25 @@ rules that labelled them):
 
 1. Classifier features: the grasp's features, plus the palm's clearance from the body when the model has one
    (:meth:`~grasp_intent_ros.method.body.ObjectBody.distance`).
-2. Per zone k, a kernel vote q_k(y) over the demonstrations, labelled 1 where their task set contains the
-   zone's (:mod:`grasp_intent_ros.kernels.voting`), with a diagonal bandwidth per feature. One vote per
-   zone, not a product of per-task votes: the tasks' rules share conditions, and a zone's demonstrations
-   say where all of its tasks hold at once.
-3. The bandwidths of zone k minimise the vote's leave-one-out log loss over the demonstrations, by a
+2. Per zone k and per task i, a kernel vote q(y) over the demonstrations, labelled 1 where their task set
+   contains the zone's tasks (the task) (:mod:`grasp_intent_ros.kernels.voting`), with a diagonal bandwidth
+   per feature. (A task that is a zone of its own, as in every shipped model, has one vote.)
+3. The bandwidths of each vote minimise the vote's leave-one-out log loss over the demonstrations, by a
    coordinate search (:func:`~grasp_intent_ros.kernels.voting.search_bandwidths`) over 2^p times the
    noise's own scale of each feature (palm and clearance: ``palm``; approach: ``tilt``; roll: ``roll``;
    fingers: ``closure``; a zero scale counts as 1e-3 of the feature's range), p an integer in [-2, 8]: from
    p = 2 (4x the noise), for each feature in index order p goes up by one while the loss drops by more than
    1e-9 (relative), else down by one while it does; :data:`SWEEPS` sweeps. Losses are compared only beyond
    that tolerance, so float noise never decides a step.
-4. R_nk = mean over :data:`DRAWS` fixed landings (:func:`stratified_draws` of seed 0, a Latin hypercube) of
-   q_k at the landing, demonstration n itself left out of the vote. A landing that gains a task is not
-   credited: R_nk = 0 for a zone outside S_n. Stratified, 16 landings are as accurate as 64 random ones
-   (docs/planner.md gives the measured error).
+4. At the landings, each vote takes its bandwidths times :data:`NARROWING` (2^-1/2, half a step of the
+   search's grid): the search fits the vote to the demonstrations' spacing, and the mean over the landings
+   smooths it once more by the noise itself.
+5. R_nk = min(Q_k, prod_{i in k} Q_i), Q the mean of a vote over :data:`DRAWS` fixed landings of
+   demonstration n (:func:`stratified_draws` of seed 0, a Latin hypercube), n itself left out of the vote:
+   a landing must keep every task of the zone, and the two estimates miss different ways to lose one (a
+   multi-task zone has fewer demonstrations to vote; a product of the tasks' votes takes their losses as
+   independent). A landing that gains a task is not credited: R_nk = 0 for a zone outside S_n. Stratified,
+   16 landings are as accurate as 64 random ones (docs/planner.md gives the measured error).
 
 Without noise (:attr:`ExecutionNoise.is_zero`) R_nk is 1 for every zone within S_n. The estimate does not
 depend on v: it is computed once per model and noise and kept with the model. Its cost is O(N^2) per
@@ -63,8 +67,8 @@ from ..errors import PlanningError
 from ..method.features import APPROACH, FINGERS, PALM, ROLL, FeatureSpace
 from ..method.model import GraspModel
 
-__all__ = ['ExecutionNoise', 'DRAW_DIM', 'DRAWS', 'SWEEPS', 'standard_draws', 'stratified_draws', 'perturb',
-           'bandwidths', 'retention']
+__all__ = ['ExecutionNoise', 'DRAW_DIM', 'DRAWS', 'SWEEPS', 'NARROWING', 'standard_draws', 'stratified_draws',
+           'perturb', 'votes', 'bandwidths', 'retention']
 
 DRAW_DIM = 9
 """Standard normal numbers per landing: palm (3), tilt (2), roll (1), fingers (3)."""
@@ -72,6 +76,8 @@ DRAWS = 16
 """Landings per demonstration in the robustness estimate (stratified: :func:`stratified_draws`)."""
 SWEEPS = 2
 """Sweeps of the bandwidth search over the features."""
+NARROWING = 2.0 ** -0.5
+"""The factor on the searched bandwidths of the votes at the landings (module docstring, step 4)."""
 _START_POWER = 2  # bandwidths are the noise's scale times 2^power, power in [_LOWEST_POWER, _HIGHEST_POWER]
 _LOWEST_POWER = -2
 _HIGHEST_POWER = 8
@@ -197,30 +203,37 @@ def _classifier_features(model: GraspModel, x: NDArray[np.float64]) -> NDArray[n
     return np.ascontiguousarray(np.concatenate([x, palm_clearance], axis=1))
 
 
-def _does(model: GraspModel, zone: int) -> NDArray[np.float64]:
-    """1 for each demonstration whose task set contains ``zone`` (bitmask), else 0: shape (N,)."""
-    out: NDArray[np.float64] = ((model.demo_sets & zone) == zone).astype(np.float64)
+def _does(model: GraspModel, tasks: int) -> NDArray[np.float64]:
+    """1 for each demonstration whose task set contains ``tasks`` (bitmask), else 0: shape (N,)."""
+    out: NDArray[np.float64] = ((model.demo_sets & tasks) == tasks).astype(np.float64)
     return out
 
 
-def bandwidths(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
-    """Each zone's vote bandwidths (module docstring, step 3): shape (K, F), F the classifier features.
+def votes(model: GraspModel) -> tuple[int, ...]:
+    """The task sets (bitmasks) voted on (module docstring, step 2): the zones, then each task not a zone."""
+    tasks = tuple(1 << i for i in range(len(model.task_names)) if (1 << i) not in model.zones)
+    return tuple(model.zones) + tasks
 
-    The zones' searches are independent and run on up to one thread per CPU (the compiled search releases
-    the GIL); each zone's result does not depend on the threads.
+
+def bandwidths(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
+    """Each vote's bandwidths (module docstring, step 3): shape (V, F), the votes of :func:`votes`, F the features.
+
+    The searches are independent and run on up to one thread per CPU (the compiled search releases the GIL);
+    each one's result does not depend on the threads.
     """
     from ..kernels import search_bandwidths  # numba: the planner's import, not every model reader's
     data = _classifier_features(model, model.demo_x)
     base = _scales(noise, model.features, model.body is not None)
 
-    def search(zone: int) -> NDArray[np.float64]:
-        power = search_bandwidths(data, _does(model, zone), base, _START_POWER, _LOWEST_POWER, _HIGHEST_POWER,
+    def search(voted: int) -> NDArray[np.float64]:
+        power = search_bandwidths(data, _does(model, voted), base, _START_POWER, _LOWEST_POWER, _HIGHEST_POWER,
                                   SWEEPS, _LOSS_RTOL)
         out: NDArray[np.float64] = base * 2.0 ** power
         return out
 
-    with ThreadPoolExecutor(max_workers=min(len(model.zones), os.cpu_count() or 1)) as pool:
-        return np.stack(list(pool.map(search, model.zones)))
+    voted = votes(model)
+    with ThreadPoolExecutor(max_workers=min(len(voted), os.cpu_count() or 1)) as pool:
+        return np.stack(list(pool.map(search, voted)))
 
 
 _TABLES: weakref.WeakKeyDictionary[GraspModel, dict[ExecutionNoise, NDArray[np.float64]]] = \
@@ -272,9 +285,16 @@ def _retention(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
         return out
     from ..kernels import landed_votes
     n, d = model.demo_x.shape
+    voted = votes(model)
     landed = perturb(model.demo_x, stratified_draws(DRAWS, 0), noise, model.features).reshape(n * DRAWS, d)
-    labels = np.stack([_does(model, zone) for zone in model.zones], axis=1)
-    votes = landed_votes(_classifier_features(model, model.demo_x), labels, bandwidths(model, noise),
-                         _classifier_features(model, landed), DRAWS)
-    out = np.where(within, votes, 0.0)
+    labels = np.stack([_does(model, mask) for mask in voted], axis=1)
+    q = landed_votes(_classifier_features(model, model.demo_x), labels, bandwidths(model, noise) * NARROWING,
+                     _classifier_features(model, landed), DRAWS)  # (N, V)
+    out = np.zeros((n, zones.size))
+    for k, zone in enumerate(model.zones):
+        tasks = np.ones(n)
+        for i in range(len(model.task_names)):  # the product in task order
+            if zone >> i & 1:
+                tasks *= q[:, voted.index(1 << i)]
+        out[:, k] = np.where(within[:, k], np.minimum(q[:, k], tasks), 0.0)
     return out

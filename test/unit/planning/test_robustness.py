@@ -97,6 +97,22 @@ def test_retention_credits_only_the_tasks_a_demonstration_does(slab: GraspModel)
     assert retention(slab, ExecutionNoise()) is table  # kept per model and noise
 
 
+def test_a_zones_retention_is_at_most_the_product_of_its_tasks(slab: GraspModel) -> None:
+    table = retention(slab, ExecutionNoise())
+    k_a, k_b, k_ab = (slab.zones.index(z) for z in (A, B, AB))
+    both = slab.demo_sets == AB
+    assert np.all(table[both, k_ab] <= table[both, k_a] * table[both, k_b])  # the tasks' product bounds the zone's
+
+
+def test_a_task_that_is_no_zone_gets_a_vote_of_its_own() -> None:
+    xs = [_grasp(round(-0.04 + 0.0025 * i, 6), 0.0, 1.0) for i in range(30)]
+    sets = np.array([A if i < 15 else AB for i in range(30)], dtype=np.int64)
+    demos = Demonstrations(np.array(xs), sets, ('a', 'b'))
+    model = GraspModel.fit(demos, zones=(A, AB), name='no b alone')
+    assert robustness.votes(model) == (A, AB, B)
+    assert robustness.bandwidths(model, ExecutionNoise()).shape[0] == len(model.zones) + 1
+
+
 def test_retention_is_a_function_of_the_document(slab: GraspModel) -> None:
     again = _slab_model()  # another model object from the same demonstrations, as a node reads a model sent again
     np.testing.assert_array_equal(robustness._retention(again, ExecutionNoise()), retention(slab, ExecutionNoise()))
