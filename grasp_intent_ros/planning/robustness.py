@@ -55,9 +55,7 @@ import math
 import os
 import weakref
 from collections import OrderedDict
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from statistics import NormalDist
 from typing import Any
 
 import numpy as np
@@ -144,6 +142,8 @@ def stratified_draws(count: int, seed: int) -> NDArray[np.float64]:
     each, in an order shuffled per number from ``seed``. Rounded to 1e-6, so that they are the same numbers on
     any machine.
     """
+    from statistics import NormalDist  # late: a node process imports this module before its signal handlers
+
     medians = np.array([NormalDist().inv_cdf((j + 0.5) / count) for j in range(count)])
     rng = np.random.default_rng(seed)
     out: NDArray[np.float64] = np.round(np.stack([medians[rng.permutation(count)] for _ in range(DRAW_DIM)],
@@ -221,6 +221,8 @@ def bandwidths(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
     The searches are independent and run on up to one thread per CPU (the compiled search releases the GIL);
     each one's result does not depend on the threads.
     """
+    from concurrent.futures import ThreadPoolExecutor  # late: as NormalDist
+
     from ..kernels import search_bandwidths  # numba: the planner's import, not every model reader's
     data = _classifier_features(model, model.demo_x)
     base = _scales(noise, model.features, model.body is not None)
