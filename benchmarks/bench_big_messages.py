@@ -46,18 +46,18 @@ def huge_messages(n_bytes: int) -> dict[str, bytes]:
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray, String
 
-    from grasp_intent_ros.wire import protocol
+    from grasp_intent_ros.wire import topics
 
     values = Float64MultiArray()
     values.data = array.array('d', bytes(n_bytes))  # n_bytes / 8 zeros
     text = 'x' * n_bytes
     pose = PoseStamped()
     pose.header.frame_id = text
-    return {protocol.INTENT_W: serialize_message(values), protocol.INTENT_V: serialize_message(values),
-            protocol.MODEL_ACTIVE: serialize_message(String(data=text)),
-            protocol.OBJECT_POSE: serialize_message(pose),
-            protocol.JOINT_STATES: serialize_message(JointState(name=[text])),
-            protocol.MODEL_QUERY: serialize_message(values)}
+    return {topics.INTENT_W: serialize_message(values), topics.INTENT_V: serialize_message(values),
+            topics.MODEL_ACTIVE: serialize_message(String(data=text)),
+            topics.OBJECT_POSE: serialize_message(pose),
+            topics.JOINT_STATES: serialize_message(JointState(name=[text])),
+            topics.MODEL_QUERY: serialize_message(values)}
 
 
 def main() -> None:
@@ -98,22 +98,23 @@ def run(args: argparse.Namespace, suite: Any, probe: Probe, pids: dict[str, int]
     from grasp_intent_ros.ros.conversions import message_class, model_to_msg
     from grasp_intent_ros.ros.qos import input_qos, latched_qos
     from grasp_intent_ros.ros.robot import matrix_to_pose_msg
-    from grasp_intent_ros.wire import protocol
+    from grasp_intent_ros.wire import topics
+    from grasp_intent_ros.wire.diagnostics import KEY_RECEIVED, status_values
 
-    readers = {protocol.INTENT_W: 'intent_interpreter: intent', protocol.INTENT_V: 'grasp_planner: inputs',
-               protocol.MODEL_ACTIVE: 'grasp_planner: inputs', protocol.OBJECT_POSE: 'grasp_planner: inputs',
-               protocol.JOINT_STATES: 'grasp_planner: inputs', protocol.MODEL_QUERY: 'model_server: model'}
+    readers = {topics.INTENT_W: 'intent_interpreter: intent', topics.INTENT_V: 'grasp_planner: inputs',
+               topics.MODEL_ACTIVE: 'grasp_planner: inputs', topics.OBJECT_POSE: 'grasp_planner: inputs',
+               topics.JOINT_STATES: 'grasp_planner: inputs', topics.MODEL_QUERY: 'model_server: model'}
     counts: dict[str, int] = {}
 
     def on_diagnostics(msg: DiagnosticArray) -> None:
         for status in msg.status:
-            counts[status.name.lstrip('/')] = int(protocol.status_values(status).get(protocol.KEY_RECEIVED, 0))
+            counts[status.name.lstrip('/')] = int(status_values(status).get(KEY_RECEIVED, 0))
 
-    probe.node.create_subscription(DiagnosticArray, protocol.DIAGNOSTICS, on_diagnostics, 50)
-    grasps = probe.record(PoseStamped, protocol.GRASP_POSE, input_qos())
-    posteriors = probe.record(Float64MultiArray, protocol.MODEL_POSTERIOR, input_qos())
+    probe.node.create_subscription(DiagnosticArray, topics.DIAGNOSTICS, on_diagnostics, 50)
+    grasps = probe.record(PoseStamped, topics.GRASP_POSE, input_qos())
+    posteriors = probe.record(Float64MultiArray, topics.MODEL_POSTERIOR, input_qos())
     pubs = {topic: probe.node.create_publisher(message_class(topic), topic, latched_qos()
-                                               if topic == protocol.MODEL_ACTIVE else input_qos())
+                                               if topic == topics.MODEL_ACTIVE else input_qos())
             for topic in readers}
 
     def answered(what: str, topic: str, msg: Any, replies: list[Any], check: Any = lambda _: True) -> None:
@@ -128,12 +129,12 @@ def run(args: argparse.Namespace, suite: Any, probe: Probe, pids: dict[str, int]
 
     def valid_inputs(when: str) -> None:
         print(f'valid inputs {when}:')
-        answered('w (0.9, 0.9, 0.1) -> grasp/pose', protocol.INTENT_W, Float64MultiArray(data=[0.9, 0.9, 0.1]),
+        answered('w (0.9, 0.9, 0.1) -> grasp/pose', topics.INTENT_W, Float64MultiArray(data=[0.9, 0.9, 0.1]),
                  grasps)
-        answered('x on model/query -> model/posterior', protocol.MODEL_QUERY,
+        answered('x on model/query -> model/posterior', topics.MODEL_QUERY,
                  Float64MultiArray(data=[0.0, 0.0, 0.1, 0.0, 0.0, -1.0, 0.0, 0.5, 0.5, 0.5]), posteriors)
         moved = pose_to_matrix((0.32, -0.28, 0.0), (0.0, 0.0, 1.0, 0.0))
-        answered('object/pose -> grasp/pose', protocol.OBJECT_POSE, matrix_to_pose_msg(
+        answered('object/pose -> grasp/pose', topics.OBJECT_POSE, matrix_to_pose_msg(
             moved, frame_id=BASE_FRAME, stamp=probe.node.get_clock().now().to_msg()),
                  grasps)
 
@@ -161,7 +162,7 @@ def run(args: argparse.Namespace, suite: Any, probe: Probe, pids: dict[str, int]
         print(f'RSS {m}: {before[m]:.1f} -> {after[m]:.1f} MB ({100 * (after[m] / before[m] - 1):+.1f}%), '
               f'peak {peak_mb(pid):.1f} MB')
     valid_inputs('after')
-    answered('a model document on model/active (cup_5zone) -> a grasp on it', protocol.MODEL_ACTIVE,
+    answered('a model document on model/active (cup_5zone) -> a grasp on it', topics.MODEL_ACTIVE,
              model_to_msg(model5, name='cup_5zone', version=99), grasps)
     print(f'same PIDs: {all(suite.node(m).pid == pid and suite.node(m).poll() is None for m, pid in pids.items())}')
 

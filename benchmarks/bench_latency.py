@@ -123,7 +123,7 @@ def chain_phase(domain_id: int, n: int, period: float, fast_n: int, fast_period:
     from grasp_intent_ros.launch.suite import NodeSuite
     from grasp_intent_ros.method import intent
     from grasp_intent_ros.ros.qos import input_qos, output_qos
-    from grasp_intent_ros.wire.protocol import status_values
+    from grasp_intent_ros.wire.diagnostics import status_values
 
     def key(v: Any) -> tuple[float, ...]:
         return tuple(np.round(np.asarray(v, dtype=np.float64), 9))
@@ -209,7 +209,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.relay:
         return relay(args.relay)
-    from grasp_intent_ros.wire.protocol import KEY_DROPPED, KEY_PLANS, KEY_RECEIVED
+    from grasp_intent_ros.wire.diagnostics import KEY_DROPPED, KEY_PLANS, KEY_RECEIVED
     domain_id = loopback_domain('bench_latency')
     n, fast_n = int(round(args.duration * args.rate)), int(round(args.fast_duration * args.fast_rate))
     floor = floor_phase(domain_id, n, 1.0 / args.rate)

@@ -5,7 +5,7 @@ intent estimate) while ``model/active`` switches between two models every second
 switch must not stall planning: the new model is read off the planning path and swapped in whole.
 
 Printed, with the load average before and after:
-- the time to read one model document (:func:`grasp_intent_ros.wire.protocol.read_model_document`: hash,
+- the time to read one model document (:func:`grasp_intent_ros.wire.model_document.read_model_document`: hash,
   YAML, model) beside PyYAML's pure-Python ``safe_load`` of the same document plus the model's
   construction (the reader before issue 10), medians in this process;
 - the gaps between consecutive answers (``grasp/posterior`` received by the probe): the largest within
@@ -106,7 +106,8 @@ def main() -> None:
     from grasp_intent_ros.ros.conversions import array_to_msg, model_to_msg
     from grasp_intent_ros.ros.model_follower import yielding_reader
     from grasp_intent_ros.ros.qos import input_qos, latched_qos
-    from grasp_intent_ros.wire.protocol import parse_model_document, read_model_document, read_posterior
+    from grasp_intent_ros.wire.arrays import read_posterior
+    from grasp_intent_ros.wire.model_document import parse_model_document, read_model_document
 
     load_before = os.getloadavg()
     models = {name: GraspModel.load(config_dir() / 'models' / f'{name}.yaml') for name in args.models}

@@ -42,7 +42,7 @@ from _bench import percentiles
 
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.model import GraspModel
-from grasp_intent_ros.planning import planner, ranking
+from grasp_intent_ros.planning import common, planner, ranking, scipy_methods
 from grasp_intent_ros.planning.options import DEFAULT_METHOD, Method, ScipyOptions
 from grasp_intent_ros.resources import config_dir
 
@@ -93,7 +93,7 @@ def optimality(n: int, seed: int, reference_starts: int, models: tuple[str, ...]
             met, better, worst, statuses = 0, 0, 0.0, {}
             for v in targets:
                 res = planner.plan(model, v, method='lm')
-                ref = planner.reference_search(model, v, n_starts=reference_starts)
+                ref = scipy_methods.reference_search(model, v, n_starts=reference_starts)
                 met += res.objective <= max(1e-9, 1.01 * ref)
                 better += res.objective < ref - 1e-12
                 worst = max(worst, res.objective - ref)
@@ -115,15 +115,15 @@ def stability(n: int, seed: int, models: tuple[str, ...], method: Method) -> Non
         print(f'  {name:17s} same grasp in {same}/{n} ({100 * same / n:.2f}%)')
 
 
-def expected_success(model: GraspModel, v: np.ndarray, res: planner.PlanResult) -> float:
+def expected_success(model: GraspModel, v: np.ndarray, res: common.PlanResult) -> float:
     """The model's expected success of a 'task' plan: v's mass on the zones its demonstration serves."""
     assert res.chosen.demonstration is not None, "a 'task' plan's candidate is a demonstration"
     return float(ranking.expected_success(model.demo_sets[[res.chosen.demonstration]], model.zones, v)[0])
 
 
-def kept_by_hysteresis(model: GraspModel, v: np.ndarray, res: planner.PlanResult) -> bool:
+def kept_by_hysteresis(model: GraspModel, v: np.ndarray, res: common.PlanResult) -> bool:
     """Whether a stream's answer does or reads as a task outside the fresh likely set (so hysteresis kept it)."""
-    likely = ranking.likely_tasks(model, v, int(planner.zone_order(v)[0]), ranking.TAU, 0, ranking.HYSTERESIS)
+    likely = ranking.likely_tasks(model, v, int(common.zone_order(v)[0]), ranking.TAU, 0, ranking.HYSTERESIS)
     assert res.chosen.demonstration is not None, "a 'task' plan's candidate is a demonstration"
     tasks = int(model.demo_sets[res.chosen.demonstration]) | int(model.zones[int(np.argmax(res.chosen.posterior))])
     return bool(tasks & ~likely)

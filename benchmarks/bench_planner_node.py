@@ -74,7 +74,7 @@ def main() -> None:
     from grasp_intent_ros.resources import config_dir
     from grasp_intent_ros.ros.conversions import array_to_msg
     from grasp_intent_ros.ros.qos import input_qos
-    from grasp_intent_ros.wire.protocol import KEY_PLANS, status_values
+    from grasp_intent_ros.wire.diagnostics import KEY_PLANS, status_values
 
     path = Path(args.model) if args.model else config_dir() / 'models' / 'cup_7zone.yaml'
     if not path.is_file():

@@ -60,7 +60,7 @@ def main() -> None:
     from grasp_intent_ros.launch.suite import NodeProcess, NodeSuite
     from grasp_intent_ros.ros.qos import output_qos
     from grasp_intent_ros.sessions.bag import read_messages
-    from grasp_intent_ros.wire.protocol import INTENT_W
+    from grasp_intent_ros.wire.topics import INTENT_W
 
     work = Path(tempfile.mkdtemp(prefix='bench_recorder_'))
     bag = work / 'session'

@@ -1,6 +1,6 @@
 r"""How soon a node refuses a model document it will not serve, and what reading one costs. Prints figures.
 
-Times :func:`grasp_intent_ros.wire.protocol.read_model_document` as a node's model follower calls it (the suite's
+Times :func:`grasp_intent_ros.wire.model_document.read_model_document` as a node's model follower calls it (the suite's
 requirements, :func:`grasp_intent_ros.ros.model_follower.served_models`; garbage collection off and the
 short GIL switch interval of :func:`~grasp_intent_ros.ros.model_follower.yielding_reader`) on documents a
 hostile peer may latch on ``model/active``, each under the document cap:
@@ -34,7 +34,7 @@ from grasp_intent_ros.method.intent import DEFAULT_TASKS, all_zones, zone_labels
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.method.safe_yaml import MAX_DOCUMENT_CHARS
 from grasp_intent_ros.ros.model_follower import served_models, yielding_reader
-from grasp_intent_ros.wire.protocol import read_model_document
+from grasp_intent_ros.wire.model_document import read_model_document
 
 
 def _document(body: str, name: str) -> str:

@@ -169,8 +169,8 @@ class Loop:
         from std_srvs.srv import Trigger
 
         from grasp_intent_ros.ros.qos import input_qos, output_qos
-        from grasp_intent_ros.ros.robot import joint_positions, pose_msg_to_matrix
-        from grasp_intent_ros.wire.protocol import stamped_values
+        from grasp_intent_ros.wire.arrays import stamped_values
+        from grasp_intent_ros.wire.robot_state import joint_positions, pose_msg_to_matrix
 
         self.probe, self.kin, self.rules = probe, kin, rules
         node = probe.node

@@ -74,7 +74,7 @@ def suite_cycles(probe: Probe, domain_id: int, args: argparse.Namespace, code: P
     from std_msgs.msg import Float64MultiArray
 
     from grasp_intent_ros.ros.qos import input_qos, output_qos
-    from grasp_intent_ros.wire.protocol import GRASP_POSTERIOR, INTENT_W
+    from grasp_intent_ros.wire.topics import GRASP_POSTERIOR, INTENT_W
 
     answers = probe.record(Float64MultiArray, GRASP_POSTERIOR, input_qos())
     w_pub = probe.node.create_publisher(Float64MultiArray, INTENT_W, output_qos())

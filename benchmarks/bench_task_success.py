@@ -80,7 +80,7 @@ from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.objects import demos as rules_module
 from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules, object_of
-from grasp_intent_ros.planning import planner, ranking
+from grasp_intent_ros.planning import common, planner, ranking
 from grasp_intent_ros.planning.options import ScipyOptions, TaskOptions
 from grasp_intent_ros.planning.robustness import ExecutionNoise, perturb, standard_draws
 from grasp_intent_ros.resources import config_dir
@@ -123,7 +123,7 @@ def sampled_success(label: int, w: NDArray[np.float64], draws: int, rng: np.rand
 
 def top_zone(model: GraspModel, v: NDArray[np.float64]) -> int:
     """Index of v's most likely zone (the planner's own order: v at 1e-9, ties to the first zone)."""
-    return int(planner.zone_order(v)[0])
+    return int(common.zone_order(v)[0])
 
 
 def log_density(model: GraspModel, x: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -246,8 +246,8 @@ def ceiling_pick(model: GraspModel, v: NDArray[np.float64], w: NDArray[np.float6
 
     ``picker`` judges them (other landings than the judging ones); None: the planner's own first (no noise).
     """
-    feas = planner._Feasible(model)
-    x_ref = feas.project(planner.select_starts(model, v, 1, 1)[:1])[0]
+    feas = common.Feasible(model)
+    x_ref = feas.project(common.select_starts(model, v, 1, 1)[:1])[0]
     ranked = ranking.rank(model, v, top_zone(model, v), x_ref, feas.lower, feas.upper, feas.a, feas.body)
     best = (ranked.tier == ranked.tier[0]) & (np.abs(ranked.expected - ranked.expected[0]) <= 1e-9)
     xs = ranked.x[best]
@@ -274,7 +274,7 @@ def methods(tau: float | None) -> dict[str, Planned]:
         'paper': lambda model, v: planner.plan(model, v, method='lm').x,
         'slsqp': lambda model, v: planner.plan(model, v, method='slsqp',
                                                options=ScipyOptions(n_starts=1, top_zones=1, gradient='2-point')).x,
-        'start': lambda model, v: planner.select_starts(model, v, 1, 1)[0],
+        'start': lambda model, v: common.select_starts(model, v, 1, 1)[0],
         'top-only': one_hot,
         'ceiling': lambda model, v: ceiling_pick(model, v, np.zeros(0), None),  # its w-dependent picks: run_model
     }
@@ -386,7 +386,7 @@ def physics(models: Sequence[GraspModel], n: int, seed: int) -> None:
         targets = list(random_targets(model, n, seed))
         t0 = time.perf_counter()
         clear = CollisionFree(hand, model.body)
-        candidates = planner.feasible_demonstrations(model)
+        candidates = common.feasible_demonstrations(model)
         screened = sum(clear(x) for x in candidates)  # once per model, as the node does: plans then look it up
         print(f'  {model.name}: {screened} of {len(candidates)} demonstrations clear by the check '
               f'(all checked in {time.perf_counter() - t0:.1f} s)')

@@ -82,7 +82,7 @@ def main() -> None:
     from grasp_intent_ros.resources import config_dir
     from grasp_intent_ros.ros.conversions import array_to_msg
     from grasp_intent_ros.ros.qos import input_qos
-    from grasp_intent_ros.wire.protocol import status_values
+    from grasp_intent_ros.wire.diagnostics import status_values
 
     path = config_dir() / 'models' / 'cup_7zone.yaml'
     model = GraspModel.load(path)

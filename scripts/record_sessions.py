@@ -52,7 +52,7 @@ from grasp_intent_ros.sessions.compare import compare_step, summarize
 from grasp_intent_ros.sessions.outputs import Joints, Output, Undecodable
 from grasp_intent_ros.sessions.pairing import Step, compact_session, load_paired_session
 from grasp_intent_ros.sessions.replay_client import SUITE_SETTLE_S, SessionClient, await_answer
-from grasp_intent_ros.wire.protocol import DIAGNOSTICS, MODEL_ACTIVE, PLAN_TOPICS
+from grasp_intent_ros.wire.topics import DIAGNOSTICS, MODEL_ACTIVE, PLAN_TOPICS
 
 REPO = Path(__file__).resolve().parents[1]
 RECORDED = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'intent/v', 'intent/clarification',

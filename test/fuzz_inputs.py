@@ -1,6 +1,6 @@
 """Malformed inputs for every input topic of the suite, as hypothesis strategies, and a driver that counts them.
 
-Used by the fuzz system test (test/system/test_fuzz.py, a few thousand cases) and by ``scripts/fuzz_nodes.py``
+Used by the fuzz system test (test/system/test_fuzz.py, a few thousand cases) and by ``benchmarks/fuzz_nodes.py``
 (10,000+ cases and the oversized-message memory check).
 
 A :class:`Case` is one message for one topic of one *family* (NaN/Inf, 1e308, -0.0, empty and 5,000-element
@@ -33,14 +33,15 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from grasp_intent_ros.method.intent import DEFAULT_TASKS, all_zones, interpret, zone_labels
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q
 from grasp_intent_ros.ros.qos import input_qos
-from grasp_intent_ros.wire import protocol
+from grasp_intent_ros.wire import topics
+from grasp_intent_ros.wire.diagnostics import KEY_CLARIFICATIONS, KEY_PLANS, KEY_REJECTED, status_values
 
 COMPONENTS = {
-    protocol.INTENT_W: 'intent_interpreter: intent',
-    protocol.INTENT_V: 'grasp_planner: inputs',
-    protocol.OBJECT_POSE: 'grasp_planner: inputs',
-    protocol.JOINT_STATES: 'grasp_planner: inputs',
-    protocol.MODEL_QUERY: 'model_server: model',
+    topics.INTENT_W: 'intent_interpreter: intent',
+    topics.INTENT_V: 'grasp_planner: inputs',
+    topics.OBJECT_POSE: 'grasp_planner: inputs',
+    topics.JOINT_STATES: 'grasp_planner: inputs',
+    topics.MODEL_QUERY: 'model_server: model',
 }
 """The diagnostics component (status name after the node namespace) that counts each input topic."""
 TOPICS = tuple(COMPONENTS)
@@ -111,7 +112,7 @@ def _arrays(topic: str, valid: st.SearchStrategy[list[float]], n: int, *,
     def case(family: str) -> Callable[[Any], Case]:
         return lambda msg: Case(family, topic, msg)
 
-    big = max(protocol.MAX_MESSAGE_BYTES[topic] // 8 + 8, LONG)
+    big = max(topics.MAX_MESSAGE_BYTES[topic] // 8 + 8, LONG)
     out = [] if out_of_range is None else [
         valid.flatmap(lambda vs: _replace_one(vs, out_of_range)).map(array_msg).map(case('1e308'))]
     return st.one_of(
@@ -127,7 +128,7 @@ def _arrays(topic: str, valid: st.SearchStrategy[list[float]], n: int, *,
         .map(case('5000-element array')),
         st.integers(1, 40).filter(lambda k: k != n).map(lambda k: array_msg([1.0 / k] * k))
         .map(case('length mismatch')),
-        st.tuples(valid, st.integers(protocol.MAX_MESSAGE_BYTES[topic], 2 * protocol.MAX_MESSAGE_BYTES[topic]))
+        st.tuples(valid, st.integers(topics.MAX_MESSAGE_BYTES[topic], 2 * topics.MAX_MESSAGE_BYTES[topic]))
         .map(lambda t: array_msg(t[0], (('x' * t[1], n, n),))).map(case('oversized strings')),
     )
 
@@ -137,8 +138,8 @@ def w_cases() -> st.SearchStrategy[Case]:
     out_of_range = st.one_of(absurd, st.floats(min_value=1.0, max_value=1e300, exclude_min=True),
                              st.floats(max_value=-1e-300))
     negzero = valid.flatmap(lambda vs: _replace_one(vs, st.just(-0.0)))
-    return st.one_of(_arrays(protocol.INTENT_W, valid, N_TASKS, out_of_range=out_of_range),
-                     negzero.map(lambda vs: Case('-0.0', protocol.INTENT_W, array_msg(vs), rejected=False)))
+    return st.one_of(_arrays(topics.INTENT_W, valid, N_TASKS, out_of_range=out_of_range),
+                     negzero.map(lambda vs: Case('-0.0', topics.INTENT_W, array_msg(vs), rejected=False)))
 
 
 def _v(w: list[float]) -> list[float]:
@@ -149,20 +150,20 @@ def _v(w: list[float]) -> list[float]:
 def v_cases() -> st.SearchStrategy[Case]:
     valid = st.lists(st.floats(0.05, 1.0), min_size=N_TASKS, max_size=N_TASKS).map(_v)
     one_hot = st.integers(0, N_ZONES - 1).map(lambda k: [1.0 if i == k else -0.0 for i in range(N_ZONES)])
-    return st.one_of(_arrays(protocol.INTENT_V, valid, N_ZONES, out_of_range=absurd),
-                     one_hot.map(lambda vs: Case('-0.0', protocol.INTENT_V, array_msg(vs), rejected=False)))
+    return st.one_of(_arrays(topics.INTENT_V, valid, N_ZONES, out_of_range=absurd),
+                     one_hot.map(lambda vs: Case('-0.0', topics.INTENT_V, array_msg(vs), rejected=False)))
 
 
 def query_cases() -> st.SearchStrategy[Case]:
     valid = st.lists(st.floats(-1.0, 1.0), min_size=N_FEATURES, max_size=N_FEATURES)
     huge = st.sampled_from([1e308, -1e308, 1.7976931348623157e308])  # one huge feature may still give a finite P
     return st.one_of(
-        _arrays(protocol.MODEL_QUERY, valid, N_FEATURES, out_of_range=None),
-        huge.map(lambda x: Case('1e308', protocol.MODEL_QUERY, array_msg([x] * N_FEATURES))))
+        _arrays(topics.MODEL_QUERY, valid, N_FEATURES, out_of_range=None),
+        huge.map(lambda x: Case('1e308', topics.MODEL_QUERY, array_msg([x] * N_FEATURES))))
 
 
 def pose_cases() -> st.SearchStrategy[Case]:
-    topic = protocol.OBJECT_POSE
+    topic = topics.OBJECT_POSE
     finite = st.floats(-1.0, 1.0)
     far = st.tuples(st.integers(0, 2), absurd).map(
         lambda t: [t[1] if i == t[0] else OBJECT_POSITION[i] for i in range(3)])
@@ -178,7 +179,7 @@ def pose_cases() -> st.SearchStrategy[Case]:
                                                     pose_msg(OBJECT_POSITION, np.asarray(t[0]) * t[1]))),
         st.text(max_size=60).filter(lambda f: f != BASE_FRAME).map(
             lambda f: Case('bad frame', topic, pose_msg(OBJECT_POSITION, OBJECT_XYZW, f))),
-        st.integers(protocol.MAX_MESSAGE_BYTES[topic], 4 * protocol.MAX_MESSAGE_BYTES[topic]).map(
+        st.integers(topics.MAX_MESSAGE_BYTES[topic], 4 * topics.MAX_MESSAGE_BYTES[topic]).map(
             lambda k: Case('oversized strings', topic, pose_msg(OBJECT_POSITION, OBJECT_XYZW, 'f' * k))),
         st.tuples(finite, finite).map(lambda t: Case('-0.0', topic, pose_msg((0.3 + 0.02 * t[0], -0.3 + 0.02 * t[1],
                                                                               -0.0), (-0.0, -0.0, 1.0, -0.0)),
@@ -192,7 +193,7 @@ _JUST_OUTSIDE = [(1, math.radians(50) - 0.15), (1, math.radians(310) + 0.15), (2
 
 
 def joint_cases() -> st.SearchStrategy[Case]:
-    topic = protocol.JOINT_STATES
+    topic = topics.JOINT_STATES
     arm = list(ARM_JOINTS)
     home = [float(q) for q in HOME_Q]
     return st.one_of(
@@ -205,11 +206,11 @@ def joint_cases() -> st.SearchStrategy[Case]:
         st.integers(7, LONG).map(lambda k: Case('5000-element array', topic, joint_msg(arm, [0.5] * k))),
         st.integers(0, 5).map(lambda k: Case('length mismatch', topic, joint_msg(arm, home[:k]))),
         st.integers(0, 5).map(lambda i: Case('duplicate names', topic, joint_msg(arm + [arm[i]], [*home, 0.0]))),
-        st.tuples(st.integers(1, 100), st.integers(protocol.MAX_NAME_LENGTH + 1, 600)).map(
+        st.tuples(st.integers(1, 100), st.integers(topics.MAX_NAME_LENGTH + 1, 600)).map(
             lambda t: Case('oversized strings', topic, joint_msg(['j' * t[1]] * t[0], [0.0] * t[0]))),
         st.integers(20, 120).map(lambda k: Case('oversized strings', topic,
                                                 joint_msg(['m1n6s300_joint_1' + 'x' * LONG] * k, [0.0] * k))),
-        st.integers(protocol.MAX_JOINTS + 1, 500).map(
+        st.integers(topics.MAX_JOINTS + 1, 500).map(
             lambda k: Case('oversized strings', topic, joint_msg([f'j{i}' for i in range(k)], [0.0] * k))),
         st.just(Case('-0.0', topic, joint_msg(list(FINGER_JOINTS), [-0.0] * 3), rejected=False)),
         st.binary(min_size=1, max_size=64).map(lambda b: Case('undecodable bytes', topic, _CDR_HEADER + b))
@@ -245,11 +246,11 @@ INTERPRETER_V_LABEL = ','.join(zone_labels(all_zones(N_TASKS), DEFAULT_TASKS))
 """The label of the one dimension of the interpreter's v (the fuzzed v never carry it)."""
 SETTLE_W = (0.9, 0.1, 0.9)
 """The w :meth:`Fuzzer.settle` sends (a v other than that of :func:`valid_w`, and a grasp)."""
-INTERPRETER_CLARIFICATIONS = protocol.KEY_CLARIFICATIONS
+INTERPRETER_CLARIFICATIONS = KEY_CLARIFICATIONS
 """Status value: the interpreter's clarification requests so far."""
 PLANNING = 'grasp_planner: planning'
 """The planner's diagnostics component for its plans."""
-PLANNER_CLARIFICATIONS = protocol.KEY_CLARIFICATIONS
+PLANNER_CLARIFICATIONS = KEY_CLARIFICATIONS
 """Status value: the planner's clarification requests so far (one per v and model at most)."""
 
 
@@ -306,16 +307,16 @@ class Fuzzer:
         """Stamp (ns) of the newest grasp/pose."""
         self._pubs = {topic: node.create_publisher(_type(topic), topic, input_qos()) for topic in TOPICS}
         self._clock = node.get_clock()
-        node.create_subscription(DiagnosticArray, protocol.DIAGNOSTICS, self._on_diagnostics, 1000)
-        node.create_subscription(_type(protocol.INTENT_V), protocol.INTENT_V, self._on_v, 100)
-        node.create_subscription(PoseStamped, protocol.GRASP_POSE, self._on_grasp, 100)
+        node.create_subscription(DiagnosticArray, topics.DIAGNOSTICS, self._on_diagnostics, 1000)
+        node.create_subscription(_type(topics.INTENT_V), topics.INTENT_V, self._on_v, 100)
+        node.create_subscription(PoseStamped, topics.GRASP_POSE, self._on_grasp, 100)
 
     def component(self, topic: str) -> str:
         return f'{self._ns}/{COMPONENTS[topic]}'
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
-            values = protocol.status_values(status)
+            values = status_values(status)
             self.latest[status.name] = values
             self._messages[status.name] = status.message
             for key, value in values.items():
@@ -330,7 +331,7 @@ class Fuzzer:
     def _on_grasp(self, msg: PoseStamped) -> None:
         self.grasp_ns = max(self.grasp_ns, Time.from_msg(msg.header.stamp).nanoseconds)
 
-    def count(self, topic: str, key: str = protocol.KEY_REJECTED) -> int:
+    def count(self, topic: str, key: str = KEY_REJECTED) -> int:
         """The largest value of ``key`` seen in the statuses of the component that reads ``topic`` (-1: none)."""
         return self._counts.get((self.component(topic), key), -1)
 
@@ -356,9 +357,9 @@ class Fuzzer:
             assert self.count(case.topic) == rejected_before + 1, f'{case!r}: counted as several rejections'
             self.rejected[(case.topic, case.family)] += 1
             return
-        if case.topic == protocol.INTENT_W:
+        if case.topic == topics.INTENT_W:
             self.answer_w(case.msg, timeout, what=repr(case))
-        elif case.topic == protocol.JOINT_STATES:  # a joint state is stored, not answered
+        elif case.topic == topics.JOINT_STATES:  # a joint state is stored, not answered
             self._pubs[case.topic].publish(case.msg)
         else:
             self._planner_answers(lambda: self._pubs[case.topic].publish(case.msg), timeout, what=repr(case))
@@ -370,13 +371,13 @@ class Fuzzer:
         ``v``: the answer must be a v with these values (the interpreter publishes in order: every v
         it published before has arrived too). Raises AssertionError as :meth:`send`.
         """
-        seq, asked = self.v_seq, self.count(protocol.INTENT_W, INTERPRETER_CLARIFICATIONS)
+        seq, asked = self.v_seq, self.count(topics.INTENT_W, INTERPRETER_CLARIFICATIONS)
         if v is None:
-            answered = lambda: self.v_seq > seq or self.count(protocol.INTENT_W, INTERPRETER_CLARIFICATIONS) > asked  # noqa: E731
+            answered = lambda: self.v_seq > seq or self.count(topics.INTENT_W, INTERPRETER_CLARIFICATIONS) > asked  # noqa: E731
         else:
             answered = lambda: self.v_seq > seq and np.allclose(self._v_data, v, rtol=0, atol=1e-12)  # noqa: E731
         planner = self._planner_counts()
-        self._pubs[protocol.INTENT_W].publish(msg)
+        self._pubs[topics.INTENT_W].publish(msg)
         assert self._wait_for(answered, timeout), f'{what}: accepted input not answered within {timeout} s'
         if self.v_seq > seq:  # the planner takes it after its publication
             planned = self._planner_answered(planner, self._v_ns)
@@ -388,7 +389,7 @@ class Fuzzer:
         assert self._wait_for(planned, timeout), f'{what}: accepted input not answered within {timeout} s'
 
     def _planner_counts(self) -> tuple[int, int]:
-        return self._planning(PLANNER_CLARIFICATIONS), self._planning(protocol.KEY_PLANS)
+        return self._planning(PLANNER_CLARIFICATIONS), self._planning(KEY_PLANS)
 
     def _planner_answered(self, counts: tuple[int, int], sent_ns: int) -> Callable[[], bool]:
         """A predicate: the planner has answered an input sent at ``sent_ns`` (ns) or later.
@@ -398,7 +399,7 @@ class Fuzzer:
         asked, plans = counts
         planning = f'{self._ns}/{PLANNING}'
         return lambda: (self.grasp_ns >= sent_ns or self._planning(PLANNER_CLARIFICATIONS) > asked
-                        or (self._planning(protocol.KEY_PLANS) > plans
+                        or (self._planning(KEY_PLANS) > plans
                             and self._messages.get(planning, '').startswith('clarification requested')))
 
     def settle(self, timeout: float = 10.0) -> None:

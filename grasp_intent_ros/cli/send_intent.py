@@ -37,7 +37,7 @@ from ..errors import GraspIntentError
 from ..method.intent import validate_w
 from ..ros.conversions import posterior_from_msg
 from ..ros.qos import input_qos, output_qos
-from ..wire.protocol import Posterior, msg_labels, msg_to_array
+from ..wire.arrays import Posterior, msg_labels, msg_to_array
 
 __all__ = ['GraspAnswer', 'NoGrasp', 'IntentSender', 'format_grasp', 'main']
 

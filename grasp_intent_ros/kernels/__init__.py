@@ -14,13 +14,14 @@ ik             the MICO's inverse kinematics (:meth:`grasp_intent_ros.mico.kinem
 types          the shared arrays as typed tuples: the body (:class:`~.types.Body`), the model's Gaussians
                (:class:`~.types.Mixture`)
 
-The algorithms are stated where they are used (:mod:`grasp_intent_ros.planning.planner`) and in the solvers'
-docstrings; these modules only run them without numpy's per-call overhead (an iteration is ~10^3 flops,
-so that overhead, not the arithmetic, is the cost): the iterations work in arrays allocated once per call
-and write their small products and solves as loops. The public functions below take and return numpy
-arrays and are typed; the compiled ones (leading underscore) are typed by numba from their arguments
-(setup.cfg says why mypy does not ask them for annotations) and pass the body and the model's Gaussians
-on as one :class:`~.types.Body` and one :class:`~.types.Mixture`.
+The algorithms are stated where they are used (:mod:`grasp_intent_ros.planning.lm`,
+:mod:`grasp_intent_ros.planning.common`) and in the solvers' docstrings; these modules only run them without
+numpy's per-call overhead (an iteration is ~10^3 flops, so that overhead, not the arithmetic, is the cost):
+the iterations work in arrays allocated once per call and write their small products and solves as loops.
+The public functions below take and return numpy arrays and are typed; the compiled ones (leading
+underscore) are typed by numba from their arguments (setup.cfg says why mypy does not ask them for
+annotations) and pass the body and the model's Gaussians on as one :class:`~.types.Body` and one
+:class:`~.types.Mixture`.
 
 Compiled code is cached next to the modules (``cache=True``); the first call in a fresh installation
 compiles it, which ``python -m grasp_intent_ros.kernels`` (:func:`warm_up`) does ahead of time.

@@ -3,7 +3,7 @@
 Solves, from each start, log(pi_k N_k(x)) - log(pi_r N_r(x)) = b_i for every other zone k (the equations
 that P(x) = v means for a reference zone r), with x in X (:mod:`.geometry`), by damped Gauss-Newton
 steps of minimum scaled length (:func:`~.linalg._min_norm`) in a trust region. The algorithm and its
-stopping rules are stated in :class:`grasp_intent_ros.planning.planner._LogOddsProjection`.
+stopping rules are stated in :class:`grasp_intent_ros.planning.lm._LogOddsProjection`.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The planner's least squares (its rule 5, :mod:`grasp_intent_ros.planning.planner`) in one compiled call.
+"""The planner's least squares (its rule 5, :mod:`grasp_intent_ros.planning.lm`) in one compiled call.
 
 Levenberg-Marquardt races from every origin, Newton polishes the best end points, an open-finger round
 runs when nothing matches, and end points near an exact match are projected onto it
@@ -151,7 +151,7 @@ def least_squares_rounds(origins: NDArray[np.float64], v: NDArray[np.float64], v
                          near_f: float, gn: tuple[int, int, float, float, float], tol: float,
                          ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64], NDArray[np.int8],
                                     NDArray[np.float64]]:
-    """The planner's least squares (rule 5 of :mod:`grasp_intent_ros.planning.planner`) in one compiled call.
+    """The planner's least squares (rule 5 of :mod:`grasp_intent_ros.planning.lm`) in one compiled call.
 
     Levenberg-Marquardt (``lm`` = race iterations, leaders kept, their iteration limit, ftol, ridge) from every
     origin (N, d) on ``v_path``, then Newton (``newton`` = end points polished, race iterations, leaders kept,

@@ -92,7 +92,7 @@ def _screen(log_joint_t, log_v, posterior, v, count, tol):
 
 def screen(log_joint_t: NDArray[np.float64], log_v: NDArray[np.float64], posterior: NDArray[np.float64],
            v: NDArray[np.float64], count: int, tol: float) -> NDArray[np.int64]:
-    """The ``count`` best of N candidate starts by the planner's screen (``planner.search_starts``): indices.
+    """The ``count`` best of N candidate starts by the planner's screen (``planning.lm.search_starts``): indices.
 
     With log v given (K,), the score of start i is max_k q_k - min_k q_k, q_k = log_joint_t[k, i] - log v_k
     (log joints (K, N)); with an empty ``log_v``, 1/2 |v - posterior[i]|^2 (posteriors (N, K)), summed in zone

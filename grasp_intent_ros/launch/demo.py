@@ -63,7 +63,8 @@ from ..mico.frames import obj_T_ee_to_features, pose_to_matrix
 from ..objects.demos import OBJECTS
 from ..ros.conversions import model_from_msg
 from ..ros.qos import input_qos, latched_qos
-from ..wire.protocol import KEY_MODEL, ModelDocument
+from ..wire.diagnostics import KEY_MODEL
+from ..wire.model_document import ModelDocument
 from .suite import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
 
 __all__ = ['CLARIFICATION_CASE', 'DemoError', 'main']

@@ -18,7 +18,7 @@ One :class:`NodeSuite` serves the suite command (:func:`main`: ``python -m grasp
 - :class:`NodeProcess`: stdout and stderr go to files (no pipe can fill up and block a node); it runs in a
   session of its own, so it is signalled only by its own PID (a terminal's Ctrl-C reaches the command that
   started it, never the node directly), SIGKILLed after a deadline, and judged clean on exit code 0 with no
-  traceback on stderr.
+  traceback on stderr, or on death by the SIGTERM it was sent before it logged that it is ready.
 - Nodes are stopped one at a time, the last started first (:meth:`NodeSuite.stop`). Stopped together,
   two nodes can end in a livelock of the middleware: rmw_fastrtps destroys a process's DDS participant with
   its last node, first calling ``DomainParticipant::set_listener(nullptr)``, which in Fast DDS 2.14.5 as
@@ -56,7 +56,7 @@ from types import TracebackType
 
 from ..resources import config_dir
 from ..ros.startup import WATCHDOG_EXIT_CODE, is_ready_line
-from ..wire.protocol import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
+from ..wire.topics import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
            'TEST_DOMAIN_IDS', 'RUN_DOMAIN_IDS', 'FASTDDS_PROFILE', 'SuiteError', 'domain_id_from_environment',
@@ -232,6 +232,11 @@ class NodeProcess:
             return f'    | (stderr unreadable: {exc})'
         return '\n'.join(f'    | {line}' for line in tail) if tail else '    | (empty)'
 
+    def logged_ready(self) -> bool:
+        """Whether its output so far holds its ready line (:func:`~grasp_intent_ros.ros.startup.is_ready_line`)."""
+        return any(is_ready_line(line) for path in (self.stdout_path, self.stderr_path)
+                   for line in path.read_text(errors='replace').splitlines())
+
     def send_signal(self, sig: signal.Signals) -> None:
         """Send ``sig`` to this PID unless the process has exited."""
         if self.popen.poll() is None:
@@ -253,7 +258,11 @@ class NodeProcess:
         return self.wait(timeout)
 
     def problem(self) -> str:
-        """After the exit: '' when clean (code 0, no 'Traceback' on stderr), else one line saying why not.
+        """After the exit: '' when clean, else one line saying why not.
+
+        Clean is exit code 0 with no 'Traceback' on stderr, or death by the SIGTERM this object sent before
+        the process logged that it is ready (a node signalled while it still imports, before ``rclpy.init``
+        installs its handlers, has built nothing).
 
         Raises
         ------
@@ -267,6 +276,8 @@ class NodeProcess:
         if self._killed:
             sent = self._signal_sent.name if self._signal_sent is not None else 'no signal'
             return f'{who} did not exit after {sent} and was killed'
+        if code == -signal.SIGTERM and self._signal_sent is signal.SIGTERM and not self.logged_ready():
+            return ''  # ended by our SIGTERM while importing, before rclpy's handlers: nothing built, nothing lost
         if code == WATCHDOG_EXIT_CODE:
             return f'{who} was ended by its watchdog: its stop did not finish in time (the stacks are in its log)'
         if code != 0:
@@ -556,7 +567,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         for sig in _STOP_SIGNALS:
             signal.signal(sig, signal.SIG_IGN)  # the nodes are stopped once, completely
-        problems = suite.stop(signal.SIGINT, tail_lines=0)
+        problems = suite.stop(signal.SIGTERM, tail_lines=0)  # SIGINT would print a node's imports' traceback
         echo.copy(final=True)
         if args.log_dir is None:
             suite.remove_logs()

@@ -22,7 +22,7 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import yaml
@@ -44,6 +44,7 @@ __all__ = [
     'MAX_FEATURE_DIM',
     'DECLARATION_FIELDS',
     'ModelRequirements',
+    'StartPool',
     'fit_gaussian',
     'structure_zones',
 ]
@@ -291,6 +292,24 @@ def _as_matrix(a: Any, shape: tuple[int, ...], what: str) -> NDArray[np.float64]
     return arr
 
 
+class StartPool(NamedTuple):
+    """The planner's pool of starts (:attr:`GraspModel.start_pool`), evaluated once per model.
+
+    Attributes
+    ----------
+    x : ndarray, shape (K + N, d)
+        The K zone means, then the N demonstrations.
+    log_joint_t : ndarray, shape (K, K + N)
+        log(pi_k N_k(x)) of every pool row, zone by zone (as ``kernels.screen`` takes them).
+    posterior : ndarray, shape (K + N, K)
+        P(k | x) of every pool row.
+    """
+
+    x: NDArray[np.float64]
+    log_joint_t: NDArray[np.float64]
+    posterior: NDArray[np.float64]
+
+
 @dataclass(frozen=True, eq=False)
 class GraspModel:
     """A trained multi-task grasp model. Immutable; build with :meth:`fit` or :meth:`load`.
@@ -422,13 +441,13 @@ class GraspModel:
 
         By the planner's compiled kernels, as :attr:`start_pool`'s.
         """
-        return self.start_pool[2][len(self.zones):]
+        return self.start_pool.posterior[len(self.zones):]
 
     @functools.cached_property
-    def start_pool(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """The zone means and then the demonstrations (N, d), their log joints transposed (K, N) and posteriors (N, K).
+    def start_pool(self) -> StartPool:
+        """The zone means and then the demonstrations, with their log joints and posteriors (:class:`StartPool`).
 
-        The planner screens these as starts (:func:`grasp_intent_ros.planning.planner.search_starts`); they
+        The planner screens these as starts (:func:`grasp_intent_ros.planning.lm.search_starts`); they
         do not depend on v, so they are evaluated once per model. They are evaluated by the planner's
         compiled kernels (``kernels.log_joints``: every sum in a fixed order), not by numpy's matrix
         products, whose BLAS kernels sum in an order that depends on the CPU: the planner's choices among
@@ -438,7 +457,7 @@ class GraspModel:
         from ..kernels import log_joints  # here: numba is the planner's, not every model reader's, import
         pool = np.concatenate([self.means, self.demo_x])
         lj, post = log_joints(pool, self.means, self._precisions, self._log_norm)
-        return pool, np.ascontiguousarray(lj.T), post
+        return StartPool(pool, np.ascontiguousarray(lj.T), post)
 
     @functools.cached_property
     def zone_labels(self) -> tuple[str, ...]:

@@ -21,7 +21,7 @@ from ..errors import KinematicsError, ModelError, PlanningError
 from ..method.features import FINGERS, MICO_3F
 from ..method.intent import restrict
 from ..method.model import GraspModel
-from ..planning import planner
+from ..planning import common, planner
 from ..planning.options import DEFAULT_METHOD, Method, Options
 from .collision import Clearance, CollisionFree, HandCollision, Table
 from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
@@ -57,7 +57,7 @@ class PlanOutcome:
 
     Attributes
     ----------
-    result : planner.PlanResult
+    result : common.PlanResult
         The plan; its ``x`` is the best reachable candidate (status ``'rejected'`` when none is).
     note : str
         The reachability outcome in words.
@@ -65,7 +65,7 @@ class PlanOutcome:
         Time spent in IK (s).
     """
 
-    result: planner.PlanResult
+    result: common.PlanResult
     note: str
     ik_seconds: float
 

@@ -51,11 +51,13 @@ from ..ros.inputs import subscribe_input
 from ..ros.model_follower import ModelFollower
 from ..ros.params import ParameterError, ParamSpec, declare_parameters, one_of
 from ..ros.qos import input_qos, output_publisher
-from ..ros.robot import joint_positions, pose_msg_to_matrix
 from ..ros.run import guard_exit, publish_all, run_node
 from ..shared_control.assistance import ARBITRATIONS, Assistance, AssistanceConfig, TwistLimiter, grasp_task_set
-from ..wire import protocol as topics
-from ..wire.protocol import ERROR, ModelDocument, msg_labels, msg_to_array, read_features, read_posterior
+from ..wire import topics
+from ..wire.arrays import msg_labels, msg_to_array, read_features, read_posterior
+from ..wire.diagnostics import ERROR
+from ..wire.model_document import ModelDocument
+from ..wire.robot_state import joint_positions, pose_msg_to_matrix
 
 __all__ = ['AssistanceNode', 'PARAMETERS', 'ENABLE_SERVICE', 'main']
 

@@ -2,7 +2,7 @@
 
 Run: ``python -m grasp_intent_ros.nodes.grasp_planner [--ros-args --params-file config/grasp_planner.yaml]``
 
-Topics (relative; formats in :mod:`grasp_intent_ros.wire.protocol`; each in docs/nodes.md)
+Topics (relative; formats in :mod:`grasp_intent_ros.wire`; each in docs/nodes.md)
     in   ``intent/v``, ``model/active`` (latched), ``object/pose`` (default: the ``object_*`` parameters),
          ``joint_states`` (IK seed)
     out  ``grasp/*`` (:class:`~grasp_intent_ros.ros.grasp_messages.GraspOutputs`: all or none), else
@@ -50,18 +50,11 @@ from ..ros.inputs import decode_input, subscribe_input
 from ..ros.model_follower import ModelFollower, served_models
 from ..ros.params import TASK_NAMES, ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
 from ..ros.qos import input_qos
-from ..ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 from ..ros.worker import LatestOnlyWorker
-from ..wire import protocol as topics
-from ..wire.protocol import (
-    KEY_CLARIFICATIONS,
-    KEY_KERNELS_LOADED_LATE,
-    KEY_MODEL,
-    KEY_PLAN_STATUS,
-    OK,
-    WARN,
-    ModelDocument,
-)
+from ..wire import topics
+from ..wire.diagnostics import KEY_CLARIFICATIONS, KEY_KERNELS_LOADED_LATE, KEY_MODEL, KEY_PLAN_STATUS, OK, WARN
+from ..wire.model_document import ModelDocument
+from ..wire.robot_state import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 
 __all__ = ['GraspPlanner', 'PARAMETERS', 'main']
 

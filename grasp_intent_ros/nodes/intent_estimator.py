@@ -52,13 +52,14 @@ from ..ros.inputs import subscribe_input
 from ..ros.model_follower import ModelFollower, served_models
 from ..ros.params import TASK_NAMES, ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
 from ..ros.qos import input_qos, output_publisher
-from ..ros.robot import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 from ..ros.run import guard_exit, publish_all, run_node
 from ..ros.worker import LatestOnlyWorker
 from ..shared_control.assistance import pose_error
 from ..shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
-from ..wire import protocol as topics
-from ..wire.protocol import ERROR, OK, WARN, ModelDocument
+from ..wire import topics
+from ..wire.diagnostics import ERROR, OK, WARN
+from ..wire.model_document import ModelDocument
+from ..wire.robot_state import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 
 __all__ = ['IntentEstimatorNode', 'PARAMETERS', 'main']
 

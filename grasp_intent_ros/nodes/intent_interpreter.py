@@ -62,15 +62,10 @@ from ..ros.params import TASK_NAMES, ParamSpec, declare_parameters
 from ..ros.qos import input_qos, output_publisher
 from ..ros.run import guard_exit, publish_all, run_node
 from ..ros.worker import InputThread
-from ..wire import protocol as topics
-from ..wire.protocol import (
-    KEY_CLARIFICATIONS,
-    KEY_LAST_OUTCOME,
-    KEY_MODEL,
-    ModelDocument,
-    msg_to_array,
-    serialized_vector,
-)
+from ..wire import topics
+from ..wire.arrays import msg_to_array, serialized_vector
+from ..wire.diagnostics import KEY_CLARIFICATIONS, KEY_LAST_OUTCOME, KEY_MODEL
+from ..wire.model_document import ModelDocument
 
 __all__ = ['IntentInterpreter', 'PARAMETERS', 'W_QUEUE_DEPTH', 'main']
 

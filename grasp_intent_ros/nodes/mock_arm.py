@@ -50,9 +50,11 @@ from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input
 from ..ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector
 from ..ros.qos import input_qos, output_publisher
-from ..ros.robot import joint_positions, joint_state_msg
+from ..ros.robot import joint_state_msg
 from ..ros.run import guard_exit, publish_all, run_node
-from ..wire import protocol as topics
+from ..wire import topics
+from ..wire.diagnostics import ERROR
+from ..wire.robot_state import joint_positions
 
 __all__ = ['MockArmNode', 'PARAMETERS', 'GRASP_CLOSE', 'main']
 
@@ -175,7 +177,7 @@ class MockArmNode(Node):
             publish_all(self, self._pubs, {topics.JOINT_STATES: msg})  # dropped once a signal ended the context
             self._diag.set_value('mode', self._arm.mode)
         except Exception as exc:  # noqa: BLE001 - an exception escaping a timer kills the node
-            self._diag.rejected(f'internal error: {type(exc).__name__}: {exc}', level=topics.ERROR)
+            self._diag.rejected(f'internal error: {type(exc).__name__}: {exc}', level=ERROR)
 
 
 def main(args: list[str] | None = None) -> None:

@@ -47,8 +47,10 @@ from ..ros.model_follower import served_models
 from ..ros.params import TASK_NAMES, ParamSpec, declare_parameters
 from ..ros.qos import input_qos, latched_qos, output_publisher
 from ..ros.run import guard_exit, publish_all, release_free_memory, run_node
-from ..wire import protocol as topics
-from ..wire.protocol import KEY_MODEL, MAX_FEATURES, msg_to_array
+from ..wire import topics
+from ..wire.arrays import msg_to_array
+from ..wire.diagnostics import KEY_MODEL
+from ..wire.topics import MAX_FEATURES
 
 __all__ = ['ModelServer', 'PARAMETERS', 'MAX_FEATURES', 'main']
 

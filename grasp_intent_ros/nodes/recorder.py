@@ -60,7 +60,7 @@ from ..ros.conversions import type_class
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.run import run_node
 from ..sessions.bag import DEFAULT_FLUSH_PERIOD, BagWriteError, QosSpec, QueuedWriter, SessionWriter, jazzy_typestore
-from ..wire.protocol import ERROR, WARN
+from ..wire.diagnostics import ERROR, WARN
 
 __all__ = ['Recorder', 'TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'offered_qos_spec', 'offered_qos',
            'request_qos', 'main']

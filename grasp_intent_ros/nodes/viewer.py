@@ -44,7 +44,9 @@ from ..ros.worker import LatestOnlyWorker
 from ..scene.geometry import ArmModel
 from ..scene.page import DEFAULT_HOST, ScenePage
 from ..scene.state import VIEWER_TOPICS, SceneState, apply
-from ..wire.protocol import DIAGNOSTICS, JOINT_STATES, MODEL_ACTIVE, OK, WARN, ModelDocument
+from ..wire.diagnostics import OK, WARN
+from ..wire.model_document import ModelDocument
+from ..wire.topics import DIAGNOSTICS, JOINT_STATES, MODEL_ACTIVE
 
 __all__ = ['Viewer', 'PARAMETERS', 'main']
 

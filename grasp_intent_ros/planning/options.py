@@ -72,7 +72,7 @@ class LmOptions:
     Attributes
     ----------
     n_starts : int >= 1
-        Demonstrations to start from (:func:`~grasp_intent_ros.planning.planner.select_starts`).
+        Demonstrations to start from (:func:`~grasp_intent_ros.planning.common.select_starts`).
     top_zones : int >= 1
         How many of the most likely zones supply those starts.
     """

@@ -1,6 +1,6 @@
 """The rclpy layer: the one place that knows both ROS messages and :mod:`grasp_intent_ros.method`.
 
-The wire formats themselves are defined ROS-free in :mod:`grasp_intent_ros.wire.protocol`; this layer builds and
+The wire formats themselves are defined ROS-free in :mod:`grasp_intent_ros.wire`; this layer builds and
 reads the rclpy objects.
 
 Modules

@@ -13,7 +13,8 @@ from collections.abc import Hashable
 from rclpy.node import Node
 from std_msgs.msg import String
 
-from ..wire import protocol
+from ..wire import topics
+from ..wire.diagnostics import OK
 from .diagnostics import NodeDiagnostics, cap_text
 from .qos import output_publisher
 from .run import publish_all
@@ -33,16 +34,16 @@ class ClarificationRequests:
     count_key, outcome_key : str
         Status values holding the number of requests and the last outcome.
     level : int
-        Status level of a request (:data:`grasp_intent_ros.wire.protocol.OK` or ``WARN``).
+        Status level of a request (:data:`grasp_intent_ros.wire.diagnostics.OK` or ``WARN``).
     log : bool
         Also log each request as a warning.
     """
 
     def __init__(self, node: Node, diagnostics: NodeDiagnostics, *, count_key: str, outcome_key: str,
-                 level: int = protocol.OK, log: bool = False) -> None:
+                 level: int = OK, log: bool = False) -> None:
         self._node, self._diagnostics = node, diagnostics
         self._count_key, self._outcome_key, self._level, self._log = count_key, outcome_key, level, log
-        topic = protocol.INTENT_CLARIFICATION
+        topic = topics.INTENT_CLARIFICATION
         self._publishers = {topic: output_publisher(node, String, topic)}
         self._asked: Hashable = None
         self.count = 0
@@ -64,4 +65,4 @@ class ClarificationRequests:
         self._diagnostics.set_value(self._count_key, self.count)
         if self._log:
             self._node.get_logger().warning(cap_text(message))
-        publish_all(self._node, self._publishers, {protocol.INTENT_CLARIFICATION: String(data=reason)})
+        publish_all(self._node, self._publishers, {topics.INTENT_CLARIFICATION: String(data=reason)})

@@ -1,8 +1,9 @@
 """Messages <-> core types: labelled and stamped Float64MultiArray, the grasp posterior, the model document.
 
-The layouts are defined, written and read in :mod:`grasp_intent_ros.wire.protocol` (ROS-free); this module
+The layouts are defined, written and read in :mod:`grasp_intent_ros.wire.arrays` and
+:mod:`grasp_intent_ros.wire.model_document` (ROS-free); this module
 only builds the rclpy message objects from them. Readers need no message class: use
-:func:`grasp_intent_ros.wire.protocol.msg_to_array` and friends on rclpy messages directly.
+:func:`grasp_intent_ros.wire.arrays.msg_to_array` and friends on rclpy messages directly.
 """
 
 from __future__ import annotations
@@ -22,22 +23,20 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 from ..errors import GraspIntentError, InvalidIntentError
 from ..method.intent import MAX_TASKS, validate_v
 from ..method.model import GraspModel
-from ..wire.protocol import (
+from ..wire.arrays import (
     MAX_ARRAY_SIZE,
-    MSGTYPES,
-    ModelDocument,
     Posterior,
     RepeatedLayout,
     array_layout,
-    model_document,
     msg_labels,
     msg_to_array,
     posterior_label,
-    read_model_document,
     read_posterior,
     stamp_label,
     stamped_values,
 )
+from ..wire.model_document import ModelDocument, model_document, read_model_document
+from ..wire.topics import MSGTYPES
 
 __all__ = ['type_class', 'message_class', 'array_to_msg', 'SerializedArrays', 'target_from_msg', 'SerializedTargets',
            'stamped_array_to_msg',
@@ -52,7 +51,7 @@ def type_class(msgtype: str) -> Any:
 
 @functools.lru_cache(maxsize=None)  # per message on the nodes' inputs (ros.inputs.decode_input)
 def message_class(topic: str) -> Any:
-    """The rclpy message class of a suite topic (:data:`grasp_intent_ros.wire.protocol.MSGTYPES`).
+    """The rclpy message class of a suite topic (:data:`grasp_intent_ros.wire.topics.MSGTYPES`).
 
     Raises
     ------
@@ -65,7 +64,7 @@ def message_class(topic: str) -> Any:
 def array_to_msg(values: ArrayLike, labels: Sequence[str | Sequence[str]]) -> Float64MultiArray:
     """A labelled Float64MultiArray of ``values``: the one place the suite's arrays become messages.
 
-    ``labels`` and their errors as for :func:`grasp_intent_ros.wire.protocol.array_layout`.
+    ``labels`` and their errors as for :func:`grasp_intent_ros.wire.arrays.array_layout`.
 
     Raises
     ------
@@ -137,7 +136,7 @@ class SerializedArrays:
 
 
 def stamped_array_to_msg(values: ArrayLike, labels: str | Sequence[str], *, stamp: Time) -> Float64MultiArray:
-    """A 1-D array as a stamped Float64MultiArray (layout in :mod:`grasp_intent_ros.wire.protocol`).
+    """A 1-D array as a stamped Float64MultiArray (layout in :mod:`grasp_intent_ros.wire.arrays`).
 
     ``labels``: the value names (one per value) or a ready label string.
     """
@@ -163,7 +162,7 @@ def stamped_array_from_msg(msg: Float64MultiArray, *, max_size: int = MAX_ARRAY_
 
 def posterior_to_msg(p: ArrayLike, w: ArrayLike, zone_labels: Sequence[str], task_names: Sequence[str], *,
                      stamp: Time) -> Float64MultiArray:
-    """The ``grasp/posterior`` message (layout in :mod:`grasp_intent_ros.wire.protocol`)."""
+    """The ``grasp/posterior`` message (layout in :mod:`grasp_intent_ros.wire.arrays`)."""
     p_arr, w_arr = np.asarray(p, dtype=np.float64), np.asarray(w, dtype=np.float64)
     if p_arr.shape != (len(zone_labels),) or w_arr.shape != (len(task_names),):
         raise ValueError(f'p {p_arr.shape} / w {w_arr.shape} do not match {len(zone_labels)} zones / '
@@ -199,7 +198,7 @@ class SerializedTargets:
     """:func:`target_from_msg` of serialized ``intent/v`` messages, each layout decoded once.
 
     An ``intent/v`` stream repeats its layout (the zone labels) message after message: a message with the
-    bytes of the last decoded layout is read in place (:class:`grasp_intent_ros.wire.protocol.RepeatedLayout`)
+    bytes of the last decoded layout is read in place (:class:`grasp_intent_ros.wire.arrays.RepeatedLayout`)
     and its values checked as :func:`target_from_msg` checks them; any other message is decoded by
     ``decode`` and read by :func:`target_from_msg`. The same v, labels and errors either way.
 
@@ -224,7 +223,7 @@ class SerializedTargets:
 
 
 def model_to_msg(model: GraspModel, *, name: str, version: int) -> String:
-    """The model document (:func:`grasp_intent_ros.wire.protocol.model_document`) as a std_msgs/String.
+    """The model document (:func:`grasp_intent_ros.wire.model_document.model_document`) as a std_msgs/String.
 
     Raises
     ------
@@ -235,7 +234,7 @@ def model_to_msg(model: GraspModel, *, name: str, version: int) -> String:
 
 
 def model_from_msg(msg: String) -> ModelDocument:
-    """Parse a model document (:func:`grasp_intent_ros.wire.protocol.read_model_document`).
+    """Parse a model document (:func:`grasp_intent_ros.wire.model_document.read_model_document`).
 
     Raises
     ------

@@ -33,8 +33,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
 from ..errors import GraspIntentError
-from ..wire.protocol import (
-    DIAGNOSTICS,
+from ..wire.diagnostics import (
     ERROR,
     KEY_DROPPED,
     KEY_LAST_ERROR,
@@ -46,6 +45,7 @@ from ..wire.protocol import (
     level_value,
     status_name,
 )
+from ..wire.topics import DIAGNOSTICS
 from .qos import output_publisher
 
 __all__ = ['NodeDiagnostics', 'MAX_TEXT', 'LOG_PERIOD', 'cap_text']

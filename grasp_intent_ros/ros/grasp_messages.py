@@ -20,8 +20,9 @@ from rclpy.node import Node
 from ..method.features import FINGERS
 from ..mico.grasp import JOINT_NAMES, OUTCOMES, Grasp, NoModelZone, NoReachableGrasp, check_grasp
 from ..mico.kinematics import BASE_FRAME, MicoKinematics
-from ..wire import protocol as topics
-from ..wire.protocol import KEY_PLAN_STATUS, KEY_PLANNING_TIME, KEY_PLANS, ModelDocument
+from ..wire import topics
+from ..wire.diagnostics import KEY_PLAN_STATUS, KEY_PLANNING_TIME, KEY_PLANS
+from ..wire.model_document import ModelDocument
 from .clarification import ClarificationRequests
 from .conversions import message_class, posterior_to_msg, stamped_array_to_msg
 from .diagnostics import NodeDiagnostics
@@ -35,7 +36,7 @@ __all__ = ['grasp_messages', 'GraspOutputs']
 
 def grasp_messages(grasp: Grasp, doc: ModelDocument, base_T_obj: NDArray[np.float64], *, stamp: Time,
                    object_size: tuple[float, float], markers: bool = True) -> dict[str, Any]:
-    """The plan's outputs by topic (:data:`grasp_intent_ros.wire.protocol.PLAN_TOPICS`, and ``grasp/markers``).
+    """The plan's outputs by topic (:data:`grasp_intent_ros.wire.topics.PLAN_TOPICS`, and ``grasp/markers``).
 
     Parameters
     ----------
@@ -77,7 +78,7 @@ class GraspOutputs:
     Parameters
     ----------
     node : Node
-        Owner of the publishers (:data:`~grasp_intent_ros.wire.protocol.PLAN_TOPICS` and ``grasp/markers``).
+        Owner of the publishers (:data:`~grasp_intent_ros.wire.topics.PLAN_TOPICS` and ``grasp/markers``).
     kin : MicoKinematics
         The arm a grasp is checked against (:func:`~grasp_intent_ros.mico.grasp.check_grasp`).
     diagnostics : NodeDiagnostics

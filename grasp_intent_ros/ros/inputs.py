@@ -1,7 +1,7 @@
 """Input subscriptions that reject oversized messages before decoding them.
 
 Every input of the suite is read serialized (``create_subscription(..., raw=True)`` hands the callback the
-CDR bytes): a message larger than its topic's cap (:data:`grasp_intent_ros.wire.protocol.MAX_MESSAGE_BYTES`) is
+CDR bytes): a message larger than its topic's cap (:data:`grasp_intent_ros.wire.topics.MAX_MESSAGE_BYTES`) is
 rejected by its size alone and never becomes Python objects; the rest is decoded with
 ``rclpy.serialization.deserialize_message`` and handed to the node's callback. Both go through the node's
 :meth:`~grasp_intent_ros.ros.diagnostics.NodeDiagnostics.guard`, so an oversized message is one counted
@@ -20,7 +20,7 @@ from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
 
 from ..errors import GraspIntentError
-from ..wire.protocol import MAX_MESSAGE_BYTES, check_message_size
+from ..wire.topics import MAX_MESSAGE_BYTES, check_message_size
 from .conversions import message_class
 from .diagnostics import NodeDiagnostics
 from .qos import input_events
@@ -31,7 +31,7 @@ __all__ = ['subscribe_input', 'decode_input']
 def decode_input(topic: str, data: bytes, msg_type: Any = None) -> Any:
     """The message of the suite input ``topic`` serialized in ``data`` (its size already checked).
 
-    ``msg_type`` (default: the topic's, :data:`~grasp_intent_ros.wire.protocol.MSGTYPES`) is for an input that
+    ``msg_type`` (default: the topic's, :data:`~grasp_intent_ros.wire.topics.MSGTYPES`) is for an input that
     takes another type by configuration (e.g. a plain Twist for a TwistStamped).
 
     Raises
@@ -54,9 +54,9 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
     ----------
     node : Node
     topic : str
-        A topic of :data:`~grasp_intent_ros.wire.protocol.MAX_MESSAGE_BYTES` (relative name).
+        A topic of :data:`~grasp_intent_ros.wire.topics.MAX_MESSAGE_BYTES` (relative name).
     callback : callable
-        Called with the decoded message (the topic's type, :data:`~grasp_intent_ros.wire.protocol.MSGTYPES`).
+        Called with the decoded message (the topic's type, :data:`~grasp_intent_ros.wire.topics.MSGTYPES`).
     qos : QoSProfile
     diagnostics : NodeDiagnostics
         Counts every message received and every rejection (:meth:`NodeDiagnostics.guard`).
@@ -64,7 +64,7 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
         Also count the messages the node never took (:meth:`NodeDiagnostics.count_dropped`).
     serialized : bool
         Hand ``callback`` the size-checked serialized bytes instead of the decoded message; it decodes
-        them itself (e.g. :func:`grasp_intent_ros.wire.protocol.serialized_vector`, else :func:`decode_input`).
+        them itself (e.g. :func:`grasp_intent_ros.wire.arrays.serialized_vector`, else :func:`decode_input`).
     callback_group : CallbackGroup, optional
         The subscription's group (default: the node's), e.g. that of a thread that takes it off the executor
         (:class:`grasp_intent_ros.ros.worker.InputThread`, :meth:`~grasp_intent_ros.ros.worker.

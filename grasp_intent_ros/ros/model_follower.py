@@ -4,7 +4,7 @@ Reading a model document (the size check, the hash, the YAML, the model's own ch
 milliseconds. In a subscription callback it would hold back every other callback of the node (and, in
 the planner, the answers to intent/v). :class:`ModelFollower` only stores the newest document in the
 callback; a latest-only thread of its own reads it and hands the complete
-:class:`~grasp_intent_ros.wire.protocol.ModelDocument` to the node, which swaps it in with one assignment. Until
+:class:`~grasp_intent_ros.wire.model_document.ModelDocument` to the node, which swaps it in with one assignment. Until
 then the node keeps serving with the model it has; a document that fails to read changes nothing. Documents
 that arrive while one is being read replace each other (only the newest model matters): the diagnostics
 count them as ``model documents superseded`` and show the ``last model read time [ms]``.
@@ -43,7 +43,9 @@ from std_msgs.msg import String
 from ..errors import GraspIntentError
 from ..method.features import MICO_3F
 from ..method.model import ModelRequirements
-from ..wire.protocol import ERROR, MODEL_ACTIVE, OK, ModelDocument, read_model_document
+from ..wire.diagnostics import ERROR, OK
+from ..wire.model_document import ModelDocument, read_model_document
+from ..wire.topics import MODEL_ACTIVE
 from .diagnostics import NodeDiagnostics
 from .inputs import subscribe_input
 from .qos import latched_qos

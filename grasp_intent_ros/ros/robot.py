@@ -1,13 +1,12 @@
-"""Robot-side messages <-> core types: poses, joint states, joint trajectories.
+"""Robot-side messages written from core types: poses, joint states, joint trajectories.
 
 Poses
 -----
-geometry_msgs/PoseStamped <-> 4x4 transforms ``a_T_b`` through :func:`~grasp_intent_ros.mico.frames.
-pose_to_matrix` / :func:`~grasp_intent_ros.mico.frames.matrix_to_pose`. There is no TF here: a pose
-must already be in the expected frame. Incoming quaternions must have unit norm within
-:data:`QUATERNION_NORM_TOL` (they are then normalised); anything else is a malformed message. The readers
-(:func:`pose_msg_to_matrix`, :func:`joint_positions`, :func:`check_unit_quaternion`) are defined in
-:mod:`grasp_intent_ros.wire.protocol`, ROS-free, so that the session analysis reads recorded messages with them.
+4x4 transforms ``a_T_b`` -> geometry_msgs/PoseStamped through
+:func:`~grasp_intent_ros.mico.frames.matrix_to_pose`. There is no TF here: a pose is published in the frame
+it is given in. The readers of these messages (:func:`~grasp_intent_ros.wire.robot_state.pose_msg_to_matrix`,
+:func:`~grasp_intent_ros.wire.robot_state.joint_positions`) are ROS-free, in
+:mod:`grasp_intent_ros.wire.robot_state`, so that the session analysis reads recorded messages with them.
 """
 
 from __future__ import annotations
@@ -24,17 +23,13 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from ..mico.frames import matrix_to_pose
-from ..wire.protocol import QUATERNION_NORM_TOL, check_unit_quaternion, joint_positions, pose_msg_to_matrix
 
 __all__ = [
-    'QUATERNION_NORM_TOL',
-    'check_unit_quaternion',
-    'pose_msg_to_matrix',
     'matrix_to_pose_msg',
-    'joint_positions',
     'joint_state_msg',
     'joint_trajectory_msg',
 ]
+
 
 def matrix_to_pose_msg(frame_T_pose: ArrayLike, *, frame_id: str, stamp: Time) -> PoseStamped:
     """PoseStamped of a 4x4 rigid transform (unit quaternion with w >= 0). Raises KinematicsError."""

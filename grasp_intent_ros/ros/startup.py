@@ -138,7 +138,7 @@ class KernelWarmUp:
         :func:`grasp_intent_ros.kernels.warm_up` loads every kernel with the planner's argument types.
     report : callable
         ``report(key, value)`` with the milliseconds the load took, as text, under
-        :data:`~grasp_intent_ros.wire.protocol.KEY_KERNELS_LOAD_TIME`; e.g. a
+        :data:`~grasp_intent_ros.wire.diagnostics.KEY_KERNELS_LOAD_TIME`; e.g. a
         :meth:`NodeDiagnostics.set_value <grasp_intent_ros.ros.diagnostics.NodeDiagnostics.set_value>`.
     warn : callable
         ``warn(text)`` for a load that failed, e.g. a logger's ``warning``.
@@ -155,7 +155,7 @@ class KernelWarmUp:
     def at_start(self) -> None:
         """Load every kernel, then :func:`end` (the node's code is loaded), then ``ready``: before the first answer."""
         from ..kernels import loaded_signatures, warm_up
-        from ..wire.protocol import KEY_KERNELS_LOAD_TIME
+        from ..wire.diagnostics import KEY_KERNELS_LOAD_TIME
 
         def load() -> None:
             self._first()

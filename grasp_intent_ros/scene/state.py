@@ -2,7 +2,7 @@
 
 :class:`SceneState` holds the newest content of every topic the viewer follows (:data:`VIEWER_TOPICS`);
 :func:`apply` returns the state after one message. Messages are read through their fields only
-(:mod:`grasp_intent_ros.wire.protocol`), so an rclpy message of the live
+(the readers of :mod:`grasp_intent_ros.wire`), so an rclpy message of the live
 viewer and a rosbags-decoded one of a session's playback give the same state. A message that cannot be
 read raises a :class:`~grasp_intent_ros.errors.GraspIntentError` and leaves the state as it was.
 
@@ -27,19 +27,11 @@ from numpy.typing import NDArray
 
 from ..errors import GraspIntentError
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS
-from ..wire import protocol as topics
-from ..wire.protocol import (
-    ModelDocument,
-    Posterior,
-    Stamp,
-    joint_positions,
-    msg_labels,
-    msg_to_array,
-    pose_msg_to_matrix,
-    read_features,
-    read_model_document,
-    read_posterior,
-)
+from ..wire import topics
+from ..wire.arrays import Posterior, Stamp, msg_labels, msg_to_array, read_features, read_posterior
+from ..wire.diagnostics import KEY_PLAN_STATUS, status_values
+from ..wire.model_document import ModelDocument, read_model_document
+from ..wire.robot_state import joint_positions, pose_msg_to_matrix
 from .plan import plan_object_pose, served_tasks
 
 __all__ = ['OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA', 'VIEWER_TOPICS', 'SceneState', 'apply',
@@ -145,7 +137,7 @@ def plan_status(msg: Any) -> str | None:
     """The planner's ``last plan status`` in a DiagnosticArray, else None."""
     for status in msg.status:
         if str(status.name).endswith(': planning'):
-            value = topics.status_values(status).get(topics.KEY_PLAN_STATUS)
+            value = status_values(status).get(KEY_PLAN_STATUS)
             if value is not None:
                 return value
     return None

@@ -31,7 +31,8 @@ from numpy.typing import NDArray
 from ..mico.frames import pose_to_matrix
 from ..mico.kinematics import ARM_JOINTS, MicoKinematics
 from ..shared_control.assistance import REACH_POS, REACH_ROT, offset, reached
-from ..wire.protocol import (
+from ..wire.model_document import ModelHeader
+from ..wire.topics import (
     ASSISTANCE_ALPHA,
     ASSISTANCE_TWIST,
     GRASP_POSE,
@@ -41,7 +42,6 @@ from ..wire.protocol import (
     MSGTYPES,
     OBJECT_POSE,
     OPERATOR_TWIST,
-    ModelHeader,
 )
 from .bag.reader import read_messages, topics_info
 from .outputs import Joints, Pose, RawMessage, SessionError, decode, output_of

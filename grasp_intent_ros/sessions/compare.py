@@ -20,7 +20,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GraspIntentError
-from ..wire.protocol import DIAGNOSTICS, LEVEL_NAMES, MODEL_ACTIVE, ModelHeader, split_labels, split_posterior
+from ..wire.arrays import split_labels, split_posterior
+from ..wire.diagnostics import LEVEL_NAMES
+from ..wire.model_document import ModelHeader
+from ..wire.topics import DIAGNOSTICS, MODEL_ACTIVE
 from .outputs import Joints, Output, Pose, Rejection, Text, Trajectory, Undecodable, Value, Vector
 from .pairing import Step
 

@@ -16,17 +16,9 @@ from rosbags.serde import SerdeError
 from rosbags.typesys import TypesysError
 
 from ..errors import ModelFormatError
-from ..wire.protocol import (
-    DIAGNOSTICS,
-    KEY_LAST_ERROR,
-    KEY_REJECTED,
-    MODEL_ACTIVE,
-    MSGTYPES,
-    ModelHeader,
-    level_value,
-    parse_model_document,
-    status_values,
-)
+from ..wire.diagnostics import KEY_LAST_ERROR, KEY_REJECTED, level_value, status_values
+from ..wire.model_document import ModelHeader, parse_model_document
+from ..wire.topics import DIAGNOSTICS, MODEL_ACTIVE, MSGTYPES
 from .bag.errors import BagReadError
 from .bag.types import jazzy_typestore
 
@@ -167,7 +159,7 @@ def decode(msgtype: str, cdr: bytes) -> Any:
 
 
 def model_header(text: str) -> ModelHeader:
-    """The header lines of a model document (:func:`~grasp_intent_ros.wire.protocol.parse_model_document`).
+    """The header lines of a model document (:func:`~grasp_intent_ros.wire.model_document.parse_model_document`).
 
     The body is neither hashed nor parsed.
 

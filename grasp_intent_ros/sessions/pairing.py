@@ -32,7 +32,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Final
 
-from ..wire.protocol import DIAGNOSTICS, INPUT_TOPICS, MODEL_ACTIVE, OUTPUT_TOPICS, ModelHeader
+from ..wire.model_document import ModelHeader
+from ..wire.topics import DIAGNOSTICS, INPUT_TOPICS, MODEL_ACTIVE, OUTPUT_TOPICS
 from .bag.offered_qos import QosSpec
 from .bag.reader import read_messages, topics_info
 from .bag.writer import SessionWriter

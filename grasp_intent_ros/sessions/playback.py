@@ -32,7 +32,7 @@ from ..latest_only import LatestOnlyWorker
 from ..scene.geometry import ArmModel
 from ..scene.page import DEFAULT_HOST, ScenePage
 from ..scene.state import VIEWER_TOPICS, SceneState, apply
-from ..wire.protocol import Stamp
+from ..wire.arrays import Stamp
 from .bag import BagError, read_messages, topics_info
 from .outputs import SessionError
 from .pairing import detect_namespace

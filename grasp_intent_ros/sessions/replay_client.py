@@ -10,7 +10,7 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
@@ -23,25 +23,25 @@ from std_msgs.msg import String
 
 from ..ros.conversions import message_class
 from ..ros.qos import input_qos, latched_qos, output_qos
-from ..wire.protocol import (
+from ..wire.diagnostics import KEY_KERNELS_LOAD_TIME
+from ..wire.model_document import ModelHeader
+from ..wire.topics import (
     ASSISTANCE_ALPHA,
     ASSISTANCE_TWIST,
     DIAGNOSTICS,
     INPUT_TOPICS,
     JOINT_STATES,
-    KEY_KERNELS_LOAD_TIME,
     MODEL_ACTIVE,
     MSGTYPES,
     OUTPUT_TOPICS,
-    ModelHeader,
 )
 from .closed_loop import REPLAYED, ClosedLoopSession, Tracer
 from .compare import Difference, Tolerances, answered, compare_step, diverged
 from .outputs import Output, RejectionTracker, SessionError, decode, output_of
 from .pairing import PairedSession, Step
 
-__all__ = ['SUITE_SETTLE_S', 'SessionClient', 'ReplayOptions', 'ReplayResult', 'ReplayError', 'Replayer',
-           'ClosedLoopReplayer', 'await_answer']
+__all__ = ['SUITE_SETTLE_S', 'SessionClient', 'ReplayOptions', 'ReplayResult', 'ReplayError', 'SessionReplayer',
+           'Replayer', 'ClosedLoopReplayer', 'await_answer']
 
 SUITE_SETTLE_S = 3.0
 """With --start-suite: seconds every node must have been visible before the first input (see
@@ -279,8 +279,12 @@ class ReplayError(RuntimeError):
     """The live system did not come up or could not be put into the session's initial state."""
 
 
-class Replayer:
-    """Replays one session through a :class:`SessionClient` spun by ``executor`` in the calling thread.
+S = TypeVar('S', PairedSession, ClosedLoopSession)
+"""The session a replayer replays."""
+
+
+class SessionReplayer(Generic[S]):
+    """What both replayers share: a session replayed through a :class:`SessionClient` spun by ``executor``.
 
     Parameters
     ----------
@@ -296,9 +300,10 @@ class Replayer:
         Called while waiting; a non-empty return (e.g. a suite process died) aborts with ReplayError.
     """
 
-    def __init__(self, session: PairedSession, client: SessionClient, executor: SingleThreadedExecutor,
+    def __init__(self, session: S, client: SessionClient, executor: SingleThreadedExecutor,
                  options: ReplayOptions, *, alive: Callable[[], str] = lambda: '') -> None:
-        self.session, self.client, self.executor, self.options = session, client, executor, options
+        self.session: S = session
+        self.client, self.executor, self.options = client, executor, options
         self._alive = alive
 
     def _spin(self, seconds: float = 0.005) -> None:
@@ -336,7 +341,8 @@ class Replayer:
         return notes
 
     def _needs_parameters(self) -> bool:
-        return any(s.model is not None for s in self.session.steps) or self.session.initial_model is not None
+        """Whether the session activates a model (then the model server's parameters must be reachable)."""
+        raise NotImplementedError
 
     def _quiet(self, seconds: float) -> None:
         """Spin until no output arrived for ``seconds`` (at most the answer timeout)."""
@@ -359,6 +365,13 @@ class Replayer:
         if not self._wait(lambda: self.client.model is not None and self.client.model.name == name,
                           self.options.timeout_s):
             raise ReplayError(f'model {name!r} was accepted but no {MODEL_ACTIVE} for it arrived')
+
+
+class Replayer(SessionReplayer[PairedSession]):
+    """Replays a paired session (:mod:`grasp_intent_ros.sessions.pairing`) input by input, comparing the answers."""
+
+    def _needs_parameters(self) -> bool:
+        return any(s.model is not None for s in self.session.steps) or self.session.initial_model is not None
 
     def _send(self, step: Step) -> Future | None:
         if step.model is not None:
@@ -420,7 +433,7 @@ class Replayer:
         return result
 
 
-class ClosedLoopReplayer(Replayer):
+class ClosedLoopReplayer(SessionReplayer[ClosedLoopSession]):
     """Replays a closed-loop session (:mod:`grasp_intent_ros.sessions.closed_loop`) at its recorded pace.
 
     The live system must run the assistance and an arm (the suite with ``shared_control``), with the arm where
@@ -429,8 +442,6 @@ class ClosedLoopReplayer(Replayer):
     than 1e-6 rad over :data:`STOPPED_S`, once the operator's last twist is older than :data:`STOPPED_S`), at most
     ``options.timeout_s``.
     """
-
-    session: ClosedLoopSession  # type: ignore[assignment]
 
     STOPPED_S = 0.3
     """Seconds without arm motion that end the replay: the assistance stops 0.1 s after the operator's last twist

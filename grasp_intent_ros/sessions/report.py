@@ -60,7 +60,7 @@ from ..method.model import GraspModel
 from ..mico.frames import features_to_obj_T_ee, finger_segments
 from ..scene.geometry import ArmModel, Shape, body_shapes
 from ..scene.plan import plan_object_pose, served_tasks
-from ..wire.protocol import Posterior, Stamp
+from ..wire.arrays import Posterior, Stamp
 from .bag import BagError
 from .report_data import ReportData, load_report_data
 

@@ -7,7 +7,7 @@ Message layouts read (as the nodes publish them)
 ------------------------------------------------
 ``intent/v``        1-D, ``dim[0].label`` = comma-joined zone labels ("U,T,H,UT,UH,TH,UTH").
 ``grasp/posterior`` shape (1, K + m), the stamp axis then "<zones>|<tasks>": P over the model's K zones,
-                    then the reconstructed w (:func:`grasp_intent_ros.wire.protocol.read_posterior`).
+                    then the reconstructed w (:func:`grasp_intent_ros.wire.arrays.read_posterior`).
 ``grasp/features``  shape (1, d), the same stamp axis, dim[1] labelled with the feature names
                     (:data:`~grasp_intent_ros.method.features.MICO_3F`); 1-D or unlabelled: by position.
 ``model/active``    std_msgs/String, the model document (header lines, then GraspModel YAML).
@@ -35,18 +35,11 @@ from ..errors import GraspIntentError
 from ..method.intent import default_task_names
 from ..method.model import GraspModel
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS
-from ..wire import protocol as topics
-from ..wire.protocol import (
-    Posterior,
-    Stamp,
-    joint_positions,
-    msg_labels,
-    msg_to_array,
-    pose_msg_to_matrix,
-    read_features,
-    read_model_document,
-    read_posterior,
-)
+from ..wire import topics
+from ..wire.arrays import Posterior, Stamp, msg_labels, msg_to_array, read_features, read_posterior
+from ..wire.diagnostics import KEY_PLANNING_TIME, KEY_PLANS, status_values
+from ..wire.model_document import read_model_document
+from ..wire.robot_state import joint_positions, pose_msg_to_matrix
 from .bag import BagError, TopicInfo, read_messages, topics_info
 from .outputs import Rejection, RejectionTracker, SessionError
 from .pairing import detect_namespace
@@ -214,8 +207,8 @@ def _plan_part(session: ReportData, plan: Stamp | None, received: int, part: str
 
 def _sample_planning_time(session: ReportData, status: Any) -> None:
     """Record the planner's 'last planning time [ms]' each time a status shows a new 'plans' count."""
-    values = topics.status_values(status)
-    plans, value = values.get(topics.KEY_PLANS), values.get(topics.KEY_PLANNING_TIME)
+    values = status_values(status)
+    plans, value = values.get(KEY_PLANS), values.get(KEY_PLANNING_TIME)
     if plans is None or not value or session.plan_counts.get(status.name) == plans:
         return
     session.plan_counts[status.name] = plans

@@ -2,9 +2,17 @@
 
 Modules
 -------
-protocol
-    Topics and their types, input size caps, labelled and stamped arrays (and the CDR fast path), the
-    model document, diagnostics keys and levels, robot-side messages read as values.
+topics
+    Every topic and its message type, the topic groups a replay uses, the input size caps.
+arrays
+    Labelled and stamped Float64MultiArrays, the grasp posterior and features, and the CDR fast path that
+    reads a flat vector (or a repeated layout) from its serialized bytes.
+model_document
+    The model document on ``model/active``: header (name, version, sha256) and YAML, written, read, checked.
+diagnostics
+    The diagnostics levels, status names and keys (each key defined once).
+robot_state
+    Robot-side messages read as values: a PoseStamped as a transform, a JointState's positions by name.
 
 Imports of the package: :mod:`~grasp_intent_ros.errors`, :mod:`~grasp_intent_ros.method` and
 :mod:`~grasp_intent_ros.mico`.

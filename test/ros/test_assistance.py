@@ -19,7 +19,8 @@ from grasp_intent_ros.nodes.assistance import ENABLE_SERVICE, AssistanceNode
 from grasp_intent_ros.ros.conversions import array_to_msg, posterior_to_msg
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control.assistance import joint_space_twist
-from grasp_intent_ros.wire import protocol
+from grasp_intent_ros.wire import topics
+from grasp_intent_ros.wire.diagnostics import WARN
 
 LABELS = ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
 TASKS = ('usage', 'transfer', 'handover')
@@ -45,14 +46,14 @@ class Loop:
         overrides = [Parameter(k, value=v) for k, v in params.items()]
         self.node = ros.add(AssistanceNode(context=ros.context, parameter_overrides=overrides))
         self.ros = ros
-        self.twists = ros.subscribe(TwistStamped, protocol.ASSISTANCE_TWIST)
-        self.alphas = ros.subscribe(Float64, protocol.ASSISTANCE_ALPHA)
-        self.operator = ros.publisher(operator_type, protocol.OPERATOR_TWIST)
+        self.twists = ros.subscribe(TwistStamped, topics.ASSISTANCE_TWIST)
+        self.alphas = ros.subscribe(Float64, topics.ASSISTANCE_ALPHA)
+        self.operator = ros.publisher(operator_type, topics.OPERATOR_TWIST)
         self.pubs = {topic: ros.publisher(type_, topic) for topic, type_ in (
-            (protocol.JOINT_STATES, JointState), (protocol.GRASP_POSE, PoseStamped),
-            (protocol.GRASP_POSTERIOR, type(array_to_msg([1.0], [['a']]))),
-            (protocol.INTENT_V, type(array_to_msg([1.0], [['a']]))),
-            (protocol.INTENT_CLARIFICATION, String))}
+            (topics.JOINT_STATES, JointState), (topics.GRASP_POSE, PoseStamped),
+            (topics.GRASP_POSTERIOR, type(array_to_msg([1.0], [['a']]))),
+            (topics.INTENT_V, type(array_to_msg([1.0], [['a']]))),
+            (topics.INTENT_CLARIFICATION, String))}
         self.hand = MicoKinematics().fk(HOME_Q)
         self.grasp = self.hand.copy()
         self.grasp[:3, 3] += 0.2 * self.hand[:3, 2]  # 0.2 m ahead along the approach axis: in the corridor
@@ -60,10 +61,10 @@ class Loop:
     def feed(self, v=np.eye(7)[0]) -> None:
         stamp = self.ros.node.get_clock().now().to_msg()
         messages = {
-            protocol.JOINT_STATES: joint_state_msg(ARM_JOINTS, HOME_Q, stamp=stamp),
-            protocol.GRASP_POSE: matrix_to_pose_msg(self.grasp, frame_id=BASE_FRAME, stamp=stamp),
-            protocol.GRASP_POSTERIOR: posterior_to_msg(v, np.array([1.0, 0.0, 0.0]), LABELS, TASKS, stamp=stamp),
-            protocol.INTENT_V: array_to_msg(v, [LABELS]),
+            topics.JOINT_STATES: joint_state_msg(ARM_JOINTS, HOME_Q, stamp=stamp),
+            topics.GRASP_POSE: matrix_to_pose_msg(self.grasp, frame_id=BASE_FRAME, stamp=stamp),
+            topics.GRASP_POSTERIOR: posterior_to_msg(v, np.array([1.0, 0.0, 0.0]), LABELS, TASKS, stamp=stamp),
+            topics.INTENT_V: array_to_msg(v, [LABELS]),
         }
         for topic, msg in messages.items():
             self.pubs[topic].publish(msg)
@@ -103,7 +104,7 @@ def test_the_blend_pulls_toward_the_grasp_and_alpha_drops_while_clarifying(ros) 
     assert twist[:3] @ loop.hand[:3, 2] > 0.5 * np.linalg.norm(twist[:3])  # toward the grasp
     # a clarification: alpha 0 at once, the output the operator's alone for as long as it is pending
     count = len(loop.alphas)
-    loop.pubs[protocol.INTENT_CLARIFICATION].publish(String(data='which task?'))
+    loop.pubs[topics.INTENT_CLARIFICATION].publish(String(data='which task?'))
     assert ros.wait_for(lambda: len(loop.alphas) > count and loop.alphas[-1].data == 0.0, 5.0)
     pending = len(loop.alphas) - 1
     assert ros.publish_until(loop.operator, twist_msg(linear=(0.02, 0.0, 0.0)), lambda: np.allclose(
@@ -159,7 +160,7 @@ def test_a_plain_twist_source_in_the_hand_frame(ros) -> None:
     loop = Loop(ros, Twist, operator_message_type='Twist', operator_frame='m1n6s300_end_effector')
     msg = Twist()
     msg.linear.z = 0.01  # along the hand axis
-    assert ros.publish_until(loop.pubs[protocol.JOINT_STATES], joint_state_msg(
+    assert ros.publish_until(loop.pubs[topics.JOINT_STATES], joint_state_msg(
         ARM_JOINTS, HOME_Q, stamp=ros.node.get_clock().now().to_msg()), lambda: loop.node._assist.base_T_ee is not None)
     assert ros.publish_until(loop.operator, msg, lambda: loop.twists and np.any(as_array(loop.twists[-1])), 10.0,
                              period=0.01)
@@ -172,14 +173,14 @@ def test_a_plain_twist_source_in_the_hand_frame(ros) -> None:
 def test_bad_inputs_are_rejected_and_the_node_serves_on(ros, status_finder) -> None:
     loop = Loop(ros)
     statuses = ros.diagnostics()
-    warn = bytes([protocol.WARN])
+    warn = bytes([WARN])
     for bad, reason in ((twist_msg(linear=(float('nan'), 0.0, 0.0)), 'finite'),
                         (twist_msg(frame='map'), 'no TF')):
         assert ros.publish_until(loop.operator, bad, lambda r=reason: status_finder(
             statuses, ': assistance', level=warn, text=r), 10.0)
     bad_pose = matrix_to_pose_msg(pose_to_matrix((0.3, -0.3, 0.1), (0.0, 0.0, 0.0, 1.0)), frame_id='map',
                                   stamp=ros.node.get_clock().now().to_msg())
-    assert ros.publish_until(loop.pubs[protocol.GRASP_POSE], bad_pose,
+    assert ros.publish_until(loop.pubs[topics.GRASP_POSE], bad_pose,
                              lambda: status_finder(statuses, ': assistance', level=warn, text='no TF'), 10.0)
     count = len(loop.twists)
     loop.operator.publish(twist_msg(linear=(0.01, 0.0, 0.0)))

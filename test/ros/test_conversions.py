@@ -1,4 +1,4 @@
-"""grasp_intent_ros.ros.conversions: rclpy messages built from, and read through, the protocol's layouts."""
+"""grasp_intent_ros.ros.conversions: rclpy messages built from, and read through, the wire layouts."""
 
 from __future__ import annotations
 
@@ -25,11 +25,12 @@ from grasp_intent_ros.ros.conversions import (
     stamped_array_to_msg,
     target_from_msg,
 )
-from grasp_intent_ros.wire import protocol
+from grasp_intent_ros.wire import topics
+from grasp_intent_ros.wire.arrays import msg_labels, msg_to_array, serialized_vector
 
 
 def test_every_suite_topic_has_its_message_class() -> None:
-    for topic, msgtype in protocol.MSGTYPES.items():
+    for topic, msgtype in topics.MSGTYPES.items():
         cls = message_class(topic)
         package, _, name = msgtype.split('/')
         assert (cls.__module__.split('.')[0], cls.__name__) == (package, name), topic
@@ -41,8 +42,8 @@ def test_labelled_array_round_trip() -> None:
     kl = np.arange(6.0).reshape(2, 3)
     msg = array_to_msg(kl, [('a', 'b'), 'x,y,z'])
     assert [(d.label, d.size, d.stride) for d in msg.layout.dim] == [('a,b', 2, 6), ('x,y,z', 3, 3)]
-    assert_allclose(protocol.msg_to_array(msg, ndim=2), kl)
-    assert protocol.msg_labels(msg) == (('a', 'b'), ('x', 'y', 'z'))
+    assert_allclose(msg_to_array(msg, ndim=2), kl)
+    assert msg_labels(msg) == (('a', 'b'), ('x', 'y', 'z'))
     with pytest.raises(ValueError, match='2 labels for an array with 1 axes'):
         array_to_msg([1.0], ['a', 'b'])
 
@@ -59,11 +60,11 @@ def test_no_array_with_nan_or_infinity_becomes_a_message(bad: float) -> None:
 @pytest.mark.parametrize('values', [[0.25], [0.9, 0.9, 0.1], list(np.linspace(0.0, 1.0, 10)), [-1e308, 5e-324, 1e308]])
 def test_a_flat_vector_is_read_from_its_serialized_bytes_as_from_the_message(values: list[float]) -> None:
     data = serialize_message(Float64MultiArray(data=values))
-    got = protocol.serialized_vector(data, max_size=10)
+    got = serialized_vector(data, max_size=10)
     assert got is not None
-    assert_allclose(got, protocol.msg_to_array(deserialize_message(data, Float64MultiArray), max_size=10), rtol=0)
+    assert_allclose(got, msg_to_array(deserialize_message(data, Float64MultiArray), max_size=10), rtol=0)
     with pytest.raises(InvalidIntentError, match=f'w is oversized: {len(values)} values, the limit is 0'):
-        protocol.serialized_vector(data, max_size=0, error=InvalidIntentError, what='w')
+        serialized_vector(data, max_size=0, error=InvalidIntentError, what='w')
 
 
 def test_only_a_flat_vector_is_read_from_serialized_bytes() -> None:
@@ -73,14 +74,14 @@ def test_only_a_flat_vector_is_read_from_serialized_bytes() -> None:
     offset = Float64MultiArray(data=[0.0, 0.5])
     offset.layout.data_offset = 1
     for msg in (dims, offset, Float64MultiArray()):
-        assert protocol.serialized_vector(serialize_message(msg)) is None
+        assert serialized_vector(serialize_message(msg)) is None
     data = serialize_message(Float64MultiArray(data=[0.5, 0.5]))
     for other in (data[:-1], data + bytes(8), b'\x00\x00' + data[2:], data[:20]):  # truncated, long, big-endian
-        assert protocol.serialized_vector(other) is None
+        assert serialized_vector(other) is None
     for bad in (np.nan, np.inf):
         data = serialize_message(Float64MultiArray(data=[0.5, bad]))
         with pytest.raises(InvalidIntentError, match='w contains NaN or infinity \\(first at index 1'):
-            protocol.serialized_vector(data, error=InvalidIntentError, what='w')
+            serialized_vector(data, error=InvalidIntentError, what='w')
 
 
 def test_serialized_arrays_decode_as_array_to_msg() -> None:

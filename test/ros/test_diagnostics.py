@@ -11,7 +11,19 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from grasp_intent_ros.errors import InvalidIntentError
 from grasp_intent_ros.ros import diagnostics
 from grasp_intent_ros.ros.diagnostics import MAX_TEXT, NodeDiagnostics, cap_text
-from grasp_intent_ros.wire import protocol
+from grasp_intent_ros.wire.diagnostics import (
+    ERROR,
+    KEY_DROPPED,
+    KEY_LAST_ERROR,
+    KEY_MODEL,
+    KEY_RECEIVED,
+    KEY_REJECTED,
+    OK,
+    WARN,
+    level_value,
+    status_name,
+    status_values,
+)
 
 
 def test_guard_turns_exceptions_into_rejections_and_counts(ros) -> None:
@@ -31,17 +43,17 @@ def test_guard_turns_exceptions_into_rejections_and_counts(ros) -> None:
     guarded(1)
     guarded(-1)
     status = diag.status()
-    assert status.name == protocol.status_name('/diag_probe', 'intent')
-    assert protocol.level_value(status.level) == protocol.WARN
+    assert status.name == status_name('/diag_probe', 'intent')
+    assert level_value(status.level) == WARN
     assert status.message == 'rejected input: w must be >= 0, got -1'
-    values = protocol.status_values(status)
-    assert (values[protocol.KEY_RECEIVED], values[protocol.KEY_REJECTED]) == ('2', '1')
-    assert values[protocol.KEY_LAST_ERROR] == 'w must be >= 0, got -1'
+    values = status_values(status)
+    assert (values[KEY_RECEIVED], values[KEY_REJECTED]) == ('2', '1')
+    assert values[KEY_LAST_ERROR] == 'w must be >= 0, got -1'
     guarded(0)  # does not raise
-    assert protocol.level_value(diag.status().level) == protocol.ERROR
+    assert level_value(diag.status().level) == ERROR
     assert 'ZeroDivisionError: a bug' in diag.status().message
     guarded(2)
-    assert (protocol.level_value(diag.status().level), diag.status().message) == (protocol.OK, 'ok')
+    assert (level_value(diag.status().level), diag.status().message) == (OK, 'ok')
     assert seen == [1, 2]
     assert ros.wait_for(lambda: any(s.level == DiagnosticStatus.ERROR and s.name.endswith(': intent')
                                     for s in statuses)), 'a rejection is published at once'
@@ -50,13 +62,13 @@ def test_guard_turns_exceptions_into_rejections_and_counts(ros) -> None:
 def test_state_and_values_join_the_status(ros) -> None:
     probe = ros.add(rclpy.create_node('diag_probe', context=ros.context))
     diag = NodeDiagnostics(probe, 'planning')
-    diag.set_state(protocol.OK, 'waiting for model/active')
-    diag.set_values({'plans': 2, protocol.KEY_MODEL: 'cup_7zone'})
+    diag.set_state(OK, 'waiting for model/active')
+    diag.set_values({'plans': 2, KEY_MODEL: 'cup_7zone'})
     status = diag.status()
     assert status.message == 'waiting for input; waiting for model/active'
-    assert protocol.status_values(status)['plans'] == '2'
-    diag.set_state(protocol.ERROR, 'no model')
-    assert (protocol.level_value(diag.status().level), diag.status().message) == (protocol.ERROR, 'no model')
+    assert status_values(status)['plans'] == '2'
+    diag.set_state(ERROR, 'no model')
+    assert (level_value(diag.status().level), diag.status().message) == (ERROR, 'no model')
 
 
 def test_texts_are_capped(ros) -> None:
@@ -74,25 +86,25 @@ def test_texts_are_capped(ros) -> None:
     diag.guard(echo)(['x' * 5000] * 100)
     diag.set_value('model', long)
     status = diag.status()
-    values = protocol.status_values(status)
+    values = status_values(status)
     assert len(status.message) <= MAX_TEXT + len('rejected input: ')
-    assert len(values[protocol.KEY_LAST_ERROR]) <= MAX_TEXT and len(values['model']) <= MAX_TEXT
-    assert values[protocol.KEY_REJECTED] == '1'
+    assert len(values[KEY_LAST_ERROR]) <= MAX_TEXT and len(values['model']) <= MAX_TEXT
+    assert values[KEY_REJECTED] == '1'
 def test_count_dropped_from_sequence_gaps(ros) -> None:
     probe = ros.add(rclpy.create_node('diag_probe', context=ros.context))
     diag = NodeDiagnostics(probe, 'intent')
-    assert protocol.KEY_DROPPED not in protocol.status_values(diag.status()), 'no input tracked yet'
+    assert KEY_DROPPED not in status_values(diag.status()), 'no input tracked yet'
     seen: list[int] = []
     counted = diag.count_dropped(diag.guard(seen.append))
     for seq in (1, 2, 5, 6, 10):  # 3, 4 and 7..9 never taken
         counted(seq, {'publication_sequence_number': seq})
     assert seen == [1, 2, 5, 6, 10]
-    assert protocol.status_values(diag.status())[protocol.KEY_DROPPED] == '5'
+    assert status_values(diag.status())[KEY_DROPPED] == '5'
     counted(1, {'publication_sequence_number': 1})  # a restarted publisher starts afresh
     counted(3, {'publication_sequence_number': 3})
     counted(4, {'publication_sequence_number': None})  # a middleware without sequence numbers
-    assert protocol.status_values(diag.status())[protocol.KEY_DROPPED] == '6'
-    assert protocol.status_values(diag.status())[protocol.KEY_RECEIVED] == '8'
+    assert status_values(diag.status())[KEY_DROPPED] == '6'
+    assert status_values(diag.status())[KEY_RECEIVED] == '8'
 
 
 def test_dropped_messages_of_a_full_queue_are_counted(ros) -> None:
@@ -114,9 +126,9 @@ def test_dropped_messages_of_a_full_queue_are_counted(ros) -> None:
         pub.publish(Float64MultiArray(data=[float(i)]))
     ros.executor.add_node(sink)
     assert ros.wait_for(lambda: taken[-1] == 20.0)
-    values = protocol.status_values(diag.status())
-    assert values[protocol.KEY_DROPPED] == str(20 - (len(taken) - 1)), (taken, values)
-    assert int(values[protocol.KEY_DROPPED]) >= 1
+    values = status_values(diag.status())
+    assert values[KEY_DROPPED] == str(20 - (len(taken) - 1)), (taken, values)
+    assert int(values[KEY_DROPPED]) >= 1
 
 
 def test_rejection_log_lines_are_throttled_but_every_rejection_counts(ros, capfd, monkeypatch) -> None:
@@ -126,10 +138,10 @@ def test_rejection_log_lines_are_throttled_but_every_rejection_counts(ros, capfd
     monkeypatch.setattr(diagnostics, 'time', SimpleNamespace(monotonic=lambda: now[0], perf_counter=time.perf_counter))
     for i in range(5):
         diag.rejected(f'bad w {i}')
-    diag.rejected('a bug', level=protocol.ERROR, detail='Traceback: here')
+    diag.rejected('a bug', level=ERROR, detail='Traceback: here')
     now[0] += diagnostics.LOG_PERIOD
     diag.rejected('bad w 5')
-    assert protocol.status_values(diag.status())[protocol.KEY_REJECTED] == '7'
+    assert status_values(diag.status())[KEY_REJECTED] == '7'
     err = capfd.readouterr().err
     assert 'bad w 0' in err and 'a bug' in err and 'Traceback: here' in err
     assert not any(f'bad w {i}' in err for i in range(1, 5))
@@ -152,6 +164,6 @@ def test_a_rejection_is_published_as_it_was_when_another_thread_processes_an_inp
         return log_line(error, text)
     diag._log_line = processed_meanwhile  # type: ignore[method-assign]
     diag.rejected('model document is oversized')
-    assert protocol.level_value(diag.status().level) == protocol.OK  # the input processed since
+    assert level_value(diag.status().level) == OK  # the input processed since
     assert ros.wait_for(lambda: [s for s in statuses if s.level == DiagnosticStatus.WARN
                                  and s.message == 'rejected input: model document is oversized'])

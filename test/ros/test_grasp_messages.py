@@ -16,9 +16,17 @@ from grasp_intent_ros.mico.kinematics import BASE_FRAME, MicoKinematics
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.conversions import posterior_from_msg, stamped_array_from_msg
 from grasp_intent_ros.ros.grasp_messages import grasp_messages
-from grasp_intent_ros.ros.robot import pose_msg_to_matrix
-from grasp_intent_ros.wire import protocol
-from grasp_intent_ros.wire.protocol import ModelDocument
+from grasp_intent_ros.wire.model_document import ModelDocument
+from grasp_intent_ros.wire.robot_state import pose_msg_to_matrix
+from grasp_intent_ros.wire.topics import (
+    GRASP_FEATURES,
+    GRASP_JOINT_TARGETS,
+    GRASP_MARKERS,
+    GRASP_POSE,
+    GRASP_POSTERIOR,
+    GRASP_TRAJECTORY,
+    PLAN_TOPICS,
+)
 
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 
@@ -36,20 +44,20 @@ def test_every_output_of_one_plan_carries_its_stamp(planned: tuple[Grasp, ModelD
     grasp, doc = planned
     stamp = Time(sec=5, nanosec=6)
     messages = grasp_messages(grasp, doc, BASE_T_OBJ, stamp=stamp, object_size=(0.08, 0.1))
-    assert set(messages) == {*protocol.PLAN_TOPICS, protocol.GRASP_MARKERS}
-    assert posterior_from_msg(messages[protocol.GRASP_POSTERIOR]).stamp == stamp
-    assert stamped_array_from_msg(messages[protocol.GRASP_FEATURES])[0] == stamp
-    for topic in (protocol.GRASP_POSE, protocol.GRASP_JOINT_TARGETS):
+    assert set(messages) == {*PLAN_TOPICS, GRASP_MARKERS}
+    assert posterior_from_msg(messages[GRASP_POSTERIOR]).stamp == stamp
+    assert stamped_array_from_msg(messages[GRASP_FEATURES])[0] == stamp
+    for topic in (GRASP_POSE, GRASP_JOINT_TARGETS):
         assert messages[topic].header.stamp == stamp, topic
-    assert messages[protocol.GRASP_TRAJECTORY].header.stamp == Time(), 'zero: start now'
+    assert messages[GRASP_TRAJECTORY].header.stamp == Time(), 'zero: start now'
     topics = list(messages)
-    assert topics.index(protocol.GRASP_TRAJECTORY) == topics.index(protocol.GRASP_JOINT_TARGETS) + 1
-    assert all(m.header.stamp == stamp for m in messages[protocol.GRASP_MARKERS].markers)
-    assert_allclose(pose_msg_to_matrix(messages[protocol.GRASP_POSE], frame_id=BASE_FRAME), grasp.base_T_ee,
+    assert topics.index(GRASP_TRAJECTORY) == topics.index(GRASP_JOINT_TARGETS) + 1
+    assert all(m.header.stamp == stamp for m in messages[GRASP_MARKERS].markers)
+    assert_allclose(pose_msg_to_matrix(messages[GRASP_POSE], frame_id=BASE_FRAME), grasp.base_T_ee,
                     atol=1e-9)
-    joints = messages[protocol.GRASP_JOINT_TARGETS]
+    joints = messages[GRASP_JOINT_TARGETS]
     assert tuple(joints.name) == JOINT_NAMES and np.allclose(joints.position, grasp.positions)
-    assert_allclose(posterior_from_msg(messages[protocol.GRASP_POSTERIOR]).p, grasp.result.posterior)
+    assert_allclose(posterior_from_msg(messages[GRASP_POSTERIOR]).p, grasp.result.posterior)
 
 
 @pytest.mark.skipif(malloc_in_use() is None, reason='needs glibc mallinfo2')

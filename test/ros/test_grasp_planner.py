@@ -40,7 +40,7 @@ from grasp_intent_ros.mico.grasp import MIN_TRAJECTORY_TIME
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
 from grasp_intent_ros.nodes.grasp_planner import PARAMETERS, GraspPlanner
 from grasp_intent_ros.objects.demos import grasp_features
-from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning import common, planner
 from grasp_intent_ros.planning.options import node_options
 from grasp_intent_ros.ros import model_follower
 from grasp_intent_ros.ros.conversions import (
@@ -52,8 +52,10 @@ from grasp_intent_ros.ros.conversions import (
 )
 from grasp_intent_ros.ros.params import ParameterError
 from grasp_intent_ros.ros.qos import latched_qos
-from grasp_intent_ros.ros.robot import matrix_to_pose_msg, pose_msg_to_matrix
-from grasp_intent_ros.wire.protocol import KEY_KERNELS_LOAD_TIME, KEY_KERNELS_LOADED_LATE, read_model_document
+from grasp_intent_ros.ros.robot import matrix_to_pose_msg
+from grasp_intent_ros.wire.diagnostics import KEY_KERNELS_LOAD_TIME, KEY_KERNELS_LOADED_LATE
+from grasp_intent_ros.wire.model_document import read_model_document
+from grasp_intent_ros.wire.robot_state import pose_msg_to_matrix
 
 REPO = Path(__file__).resolve().parents[2]
 TASKS = ('usage', 'transfer', 'handover')
@@ -121,7 +123,7 @@ def kin() -> MicoKinematics:
 
 
 def core_plan(kin: MicoKinematics, model: GraspModel, v_all: Any, base_T_obj: Any = DEFAULT_POSE, *,
-              warm_start: Any = None, q_seed: Any = HOME_Q) -> planner.PlanResult:
+              warm_start: Any = None, q_seed: Any = HOME_Q) -> common.PlanResult:
     """What the node computes for v over all zones: restrict, then plan with IK reachability."""
     v = restrict(v_all, all_zones(len(model.task_names)), model.zones)
     return planner.plan(model, v, method=METHOD, options=OPTIONS, warm_start=warm_start, accept=lambda x: kin.ik(

@@ -11,7 +11,8 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from grasp_intent_ros.ros.diagnostics import NodeDiagnostics
 from grasp_intent_ros.ros.inputs import subscribe_input
 from grasp_intent_ros.ros.qos import input_qos
-from grasp_intent_ros.wire import protocol
+from grasp_intent_ros.wire import topics
+from grasp_intent_ros.wire.diagnostics import KEY_DROPPED, KEY_RECEIVED, KEY_REJECTED, status_values
 
 
 def w_with_label(label: str) -> Float64MultiArray:
@@ -24,14 +25,14 @@ def test_oversized_and_undecodable_messages_are_rejected_and_the_rest_decoded(ro
     node = ros.add(rclpy.create_node('inputs_probe', context=ros.context))
     diag = NodeDiagnostics(node, 'inputs')
     received: list[Float64MultiArray] = []
-    subscribe_input(node, protocol.INTENT_W, received.append, input_qos(), diag)
-    pub = ros.publisher(Float64MultiArray, protocol.INTENT_W)
+    subscribe_input(node, topics.INTENT_W, received.append, input_qos(), diag)
+    pub = ros.publisher(Float64MultiArray, topics.INTENT_W)
 
     def counts() -> tuple[str, str]:
-        values = protocol.status_values(diag.status())
-        return values[protocol.KEY_RECEIVED], values[protocol.KEY_REJECTED]
+        values = status_values(diag.status())
+        return values[KEY_RECEIVED], values[KEY_REJECTED]
 
-    cap = protocol.MAX_MESSAGE_BYTES[protocol.INTENT_W]
+    cap = topics.MAX_MESSAGE_BYTES[topics.INTENT_W]
     size = {n: len(serialize_message(w_with_label('x' * n))) for n in range(cap - 100, cap)}
     at_cap = w_with_label('x' * max(n for n, k in size.items() if k <= cap))  # CDR pads: the largest that fits
     over = w_with_label('x' * min(n for n, k in size.items() if k > cap))
@@ -43,7 +44,7 @@ def test_oversized_and_undecodable_messages_are_rejected_and_the_rest_decoded(ro
 
     pub.publish(over)
     assert ros.wait_for(lambda: counts() == (str(int(n_received) + 1), '1'))
-    assert diag.status().message == (f'rejected input: {protocol.INTENT_W}: oversized message of {over_size} bytes, '
+    assert diag.status().message == (f'rejected input: {topics.INTENT_W}: oversized message of {over_size} bytes, '
                                      f'the limit is {cap} bytes')
     pub.publish(b'\x00\x01\x00\x00\xff\xff\xff\x7f')  # a CDR sequence length of 2^31 and no data
     assert ros.wait_for(lambda: counts() == (str(int(n_received) + 2), '2'))
@@ -54,7 +55,7 @@ def test_oversized_and_undecodable_messages_are_rejected_and_the_rest_decoded(ro
 def test_a_topic_without_a_cap_is_refused(ros) -> None:
     node = ros.add(rclpy.create_node('inputs_probe', context=ros.context))
     with pytest.raises(KeyError, match='not an input topic with a size cap'):
-        subscribe_input(node, protocol.GRASP_MARKERS, print, input_qos(), NodeDiagnostics(node, "inputs"))
+        subscribe_input(node, topics.GRASP_MARKERS, print, input_qos(), NodeDiagnostics(node, "inputs"))
 
 
 def test_an_input_thread_takes_a_burst_in_order_counted_and_off_the_executor(ros) -> None:
@@ -67,28 +68,28 @@ def test_an_input_thread_takes_a_burst_in_order_counted_and_off_the_executor(ros
     try:
         diag = NodeDiagnostics(sink, 'inputs')
         taken: list[tuple[float, str]] = []
-        inputs.take(subscribe_input(sink, protocol.INTENT_W,
+        inputs.take(subscribe_input(sink, topics.INTENT_W,
                                     lambda m: taken.append((m.data[0], threading.current_thread().name)),
                                     input_qos(depth=50), diag, count_dropped=True,
                                     callback_group=inputs.callback_group))
-        pub = ros.publisher(Float64MultiArray, protocol.INTENT_W)
+        pub = ros.publisher(Float64MultiArray, topics.INTENT_W)
         assert ros.wait_for(lambda: pub.get_subscription_count() == 1)
         for i in range(30):
             pub.publish(Float64MultiArray(data=[float(i)]))
         assert ros.wait_for(lambda: len(taken) == 30, 10.0), taken
         assert taken == [(float(i), 'test_inputs') for i in range(30)]
-        values = protocol.status_values(diag.status())
-        assert (values[protocol.KEY_RECEIVED], values[protocol.KEY_DROPPED]) == ('30', '0')
+        values = status_values(diag.status())
+        assert (values[KEY_RECEIVED], values[KEY_DROPPED]) == ('30', '0')
     finally:
         inputs.stop()
 
 
 def test_a_publisher_with_incompatible_qos_is_named_in_the_log(ros, capfd) -> None:
     node = ros.add(rclpy.create_node('inputs_probe', context=ros.context))
-    subscribe_input(node, protocol.INTENT_W, print, input_qos(), NodeDiagnostics(node, 'inputs'))
+    subscribe_input(node, topics.INTENT_W, print, input_qos(), NodeDiagnostics(node, 'inputs'))
     best_effort = input_qos()
     best_effort.reliability = ReliabilityPolicy.BEST_EFFORT  # the subscription asks for reliable
-    ros.publisher(Float64MultiArray, protocol.INTENT_W, best_effort)
+    ros.publisher(Float64MultiArray, topics.INTENT_W, best_effort)
     err: list[str] = []
     # the probe's publisher logs its own side of the mismatch too, and may do so first: wait for the subscription's
     expected = ("New publisher discovered on topic 'intent/w', offering incompatible QoS. No messages will be "

@@ -17,8 +17,9 @@ from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control.estimator import goals_at
-from grasp_intent_ros.wire import protocol
-from grasp_intent_ros.wire.protocol import model_document
+from grasp_intent_ros.wire import topics
+from grasp_intent_ros.wire.diagnostics import WARN
+from grasp_intent_ros.wire.model_document import model_document
 
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 PRIOR = 4 / 7
@@ -39,13 +40,13 @@ class Rig:
         self.ros = ros
         overrides = [Parameter(k, value=v) for k, v in params.items()]
         self.node = ros.add(IntentEstimatorNode(context=ros.context, parameter_overrides=overrides))
-        self.w = ros.subscribe(Float64MultiArray, protocol.INTENT_W)
+        self.w = ros.subscribe(Float64MultiArray, topics.INTENT_W)
         self.statuses = ros.diagnostics()
         self.models = ModelFiles(config_dir() / 'models')
-        self.model_pub = ros.publisher(String, protocol.MODEL_ACTIVE, latched_qos())
-        self.joints = ros.publisher(JointState, protocol.JOINT_STATES)
-        self.operator = ros.publisher(TwistStamped, protocol.OPERATOR_TWIST)
-        self.object = ros.publisher(PoseStamped, protocol.OBJECT_POSE)
+        self.model_pub = ros.publisher(String, topics.MODEL_ACTIVE, latched_qos())
+        self.joints = ros.publisher(JointState, topics.JOINT_STATES)
+        self.operator = ros.publisher(TwistStamped, topics.OPERATOR_TWIST)
+        self.object = ros.publisher(PoseStamped, topics.OBJECT_POSE)
         self.hand = MicoKinematics().fk(HOME_Q)
 
     def activate(self, name: str, version: int) -> None:
@@ -106,7 +107,7 @@ def test_a_moved_object_and_a_new_model_restart_from_the_prior(ros, rig: Rig) ->
 
 
 def test_bad_input_is_rejected_and_another_w_publisher_is_reported(ros, rig: Rig, status_finder) -> None:
-    warn = bytes([protocol.WARN])
+    warn = bytes([WARN])
     rig.at_home()
     bad = twist_msg(np.array([np.nan, 0.0, 0.0]))
     assert ros.publish_until(rig.operator, bad, lambda: status_finder(rig.statuses, ': intent estimator', level=warn,
@@ -117,6 +118,6 @@ def test_bad_input_is_rejected_and_another_w_publisher_is_reported(ros, rig: Rig
                                                                     text='workspace'), 10.0)
     assert ros.publish_until(rig.operator, twist_msg(rig.toward(1)), lambda: rig.w[-1].data[0] > PRIOR + 0.05, 20.0,
                              period=0.01)
-    ros.publisher(Float64MultiArray, protocol.INTENT_W)
+    ros.publisher(Float64MultiArray, topics.INTENT_W)
     assert ros.wait_for(lambda: status_finder(rig.statuses, ': intent estimator', level=warn,
                                               text='other publisher'), 10.0)

@@ -17,7 +17,8 @@ from grasp_intent_ros.method.intent import interpret
 from grasp_intent_ros.nodes.intent_interpreter import IntentInterpreter
 from grasp_intent_ros.ros.conversions import array_to_msg
 from grasp_intent_ros.ros.params import ParameterError
-from grasp_intent_ros.wire.protocol import KEY_CLARIFICATIONS, msg_labels, msg_to_array
+from grasp_intent_ros.wire.arrays import msg_labels, msg_to_array
+from grasp_intent_ros.wire.diagnostics import KEY_CLARIFICATIONS
 
 REPO = Path(__file__).resolve().parents[2]
 LABELS_7 = 'U,T,H,UT,UH,TH,UTH'

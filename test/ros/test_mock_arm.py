@@ -14,7 +14,8 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from grasp_intent_ros.mico.grasp import JOINT_NAMES
 from grasp_intent_ros.mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.nodes.mock_arm import MockArmNode
-from grasp_intent_ros.wire import protocol
+from grasp_intent_ros.wire import topics
+from grasp_intent_ros.wire.diagnostics import WARN
 
 Q0 = np.r_[HOME_Q, 0.0, 0.0, 0.0]
 END = Q0 + np.r_[0.2, -0.1, 0.15, 0.3, -0.2, 0.1, 0.9, 0.9, 0.7]
@@ -37,16 +38,16 @@ def latest_positions(states: list[JointState]) -> np.ndarray:
 
 def test_the_arm_follows_a_trajectory_and_rejects_bad_ones(ros, status_finder) -> None:
     ros.add(MockArmNode(context=ros.context))
-    states = ros.subscribe(JointState, protocol.JOINT_STATES)
+    states = ros.subscribe(JointState, topics.JOINT_STATES)
     statuses = ros.diagnostics()
     assert ros.wait_for(lambda: states, 10.0)
     assert list(states[-1].name) == list(JOINT_NAMES)
     assert_allclose(latest_positions(states), Q0, atol=0)
-    pub = ros.publisher(JointTrajectory, protocol.ARM_TRAJECTORY_COMMAND)
+    pub = ros.publisher(JointTrajectory, topics.ARM_TRAJECTORY_COMMAND)
     for bad, reason in (
             (trajectory([*JOINT_NAMES[:8], 'elbow'], [(1.0, END)]), 'does not have'),
             (trajectory(JOINT_NAMES, [(1.0, END), (1.0, END)]), 'strictly increasing')):
-        warned = lambda r=reason: status_finder(statuses, ': arm', level=bytes([protocol.WARN]), text=r)  # noqa: E731
+        warned = lambda r=reason: status_finder(statuses, ': arm', level=bytes([WARN]), text=r)  # noqa: E731
         assert ros.publish_until(pub, bad, warned, 10.0)
     assert_allclose(latest_positions(states), Q0, atol=0)  # nothing moved
     duration = 1.0
@@ -58,11 +59,11 @@ def test_the_arm_follows_a_trajectory_and_rejects_bad_ones(ros, status_finder) -
 
 def test_twists_move_the_hand_until_they_stop_and_reset(ros) -> None:
     ros.add(MockArmNode(context=ros.context))
-    states = ros.subscribe(JointState, protocol.JOINT_STATES)
+    states = ros.subscribe(JointState, topics.JOINT_STATES)
     kin = MicoKinematics()
     assert ros.wait_for(lambda: states, 10.0)
     start = kin.fk(latest_positions(states)[:6])
-    pub = ros.publisher(TwistStamped, protocol.ARM_TWIST_COMMAND)
+    pub = ros.publisher(TwistStamped, topics.ARM_TWIST_COMMAND)
     twist = TwistStamped()
     twist.header.frame_id = BASE_FRAME
     twist.twist.linear.z = 0.05
@@ -89,13 +90,13 @@ def test_the_hand_closes_to_the_plans_closures_with_its_own_error(ros) -> None:
 
     arm = ros.add(MockArmNode(context=ros.context, parameter_overrides=[Parameter('closure_error', value=0.05),
                                                                         Parameter('closure_seed', value=7)]))
-    states = ros.subscribe(JointState, protocol.JOINT_STATES)
+    states = ros.subscribe(JointState, topics.JOINT_STATES)
     client = ros.node.create_client(Trigger, GRASP_CLOSE)
     assert client.wait_for_service(timeout_sec=5.0)
     future = client.call_async(Trigger.Request())
     assert ros.wait_for(future.done, 5.0) and not future.result().success  # no plan yet: nothing to close to
     plan = np.array([0.9, 1.0, 0.6])
-    targets = ros.publisher(JointState, protocol.GRASP_JOINT_TARGETS)
+    targets = ros.publisher(JointState, topics.GRASP_JOINT_TARGETS)
     msg = joint_state_msg(JOINT_NAMES, np.r_[HOME_Q, plan], stamp=ros.node.get_clock().now().to_msg())
     assert ros.publish_until(targets, msg, lambda: arm._closures is not None, 5.0)
     future = client.call_async(Trigger.Request())

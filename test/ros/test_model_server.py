@@ -17,7 +17,7 @@ from grasp_intent_ros.nodes.model_server import ModelServer
 from grasp_intent_ros.ros.conversions import model_from_msg
 from grasp_intent_ros.ros.params import ParameterError
 from grasp_intent_ros.ros.qos import latched_qos
-from grasp_intent_ros.wire.protocol import msg_labels, msg_to_array
+from grasp_intent_ros.wire.arrays import msg_labels, msg_to_array
 
 TASKS = ('usage', 'transfer', 'handover')
 

@@ -12,14 +12,8 @@ from sensor_msgs.msg import JointState
 
 from grasp_intent_ros.errors import GraspIntentError, KinematicsError
 from grasp_intent_ros.mico.frames import pose_to_matrix
-from grasp_intent_ros.ros.robot import (
-    check_unit_quaternion,
-    joint_positions,
-    joint_state_msg,
-    joint_trajectory_msg,
-    matrix_to_pose_msg,
-    pose_msg_to_matrix,
-)
+from grasp_intent_ros.ros.robot import joint_state_msg, joint_trajectory_msg, matrix_to_pose_msg
+from grasp_intent_ros.wire.robot_state import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 
 STAMP = Time(sec=3, nanosec=4)
 

@@ -33,7 +33,8 @@ from grasp_intent_ros.scene.plan import served_tasks
 from grasp_intent_ros.scene.state import ASSISTANCE_ALPHA, OPERATOR_TWIST, SceneState, apply
 from grasp_intent_ros.sessions.playback import load_timeline
 from grasp_intent_ros.sessions.report_data import load_report_data
-from grasp_intent_ros.wire import protocol as topics
+from grasp_intent_ros.wire import topics
+from grasp_intent_ros.wire.arrays import Posterior
 
 REPO = Path(__file__).resolve().parents[2]
 STAMP = Time(sec=12, nanosec=345)
@@ -154,7 +155,7 @@ def test_tasks_are_served_by_the_object_s_rules_only_when_the_object_is_known() 
 # ------------------------------------------------------------------------------------------ panel and page
 def test_the_panel_names_every_zone_with_v_and_p_and_escapes_text(cup: GraspModel) -> None:
     p = np.linspace(0.0, 0.6, 7)
-    state = SceneState(posterior=topics.Posterior(None, cup.zone_labels, p, cup.task_names, np.array([.9, .8, .1])),
+    state = SceneState(posterior=Posterior(None, cup.zone_labels, p, cup.task_names, np.array([.9, .8, .1])),
                        v=p + 0.35, v_labels=cup.zone_labels, clarification='<b>which task?</b>')
     html = panel_html(state)
     for label, v_k, p_k in zip(cup.zone_labels, p + 0.35, p):

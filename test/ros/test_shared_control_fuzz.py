@@ -21,7 +21,7 @@ from grasp_intent_ros.mico.kinematics import BASE_FRAME, EE_FRAME, HOME_Q, MicoK
 from grasp_intent_ros.mico.mock_arm import MockArm
 from grasp_intent_ros.nodes.assistance import AssistanceNode
 from grasp_intent_ros.nodes.mock_arm import MockArmNode
-from grasp_intent_ros.wire import protocol
+from grasp_intent_ros.wire import topics
 
 EXAMPLES = 400
 ARM_STATES = 'mock/joint_states'
@@ -45,19 +45,19 @@ twists = st.one_of(st.builds(_twist, st.lists(_values, min_size=6, max_size=6), 
 def test_fuzzed_twists_and_joint_states_never_crash_either_node(ros) -> None:
     ros.add(AssistanceNode(context=ros.context))
     ros.add(MockArmNode(context=ros.context, cli_args=['--ros-args', '-r', f'joint_states:={ARM_STATES}']))
-    outputs = ros.subscribe(TwistStamped, protocol.ASSISTANCE_TWIST)
-    alphas = ros.subscribe(Float64, protocol.ASSISTANCE_ALPHA)
+    outputs = ros.subscribe(TwistStamped, topics.ASSISTANCE_TWIST)
+    alphas = ros.subscribe(Float64, topics.ASSISTANCE_ALPHA)
     states = ros.subscribe(JointState, ARM_STATES)
     pubs = {topic: ros.publisher(type_, topic) for topic, type_ in (
-        (protocol.OPERATOR_TWIST, TwistStamped), (protocol.ARM_TWIST_COMMAND, TwistStamped),
-        (protocol.JOINT_STATES, JointState))}
+        (topics.OPERATOR_TWIST, TwistStamped), (topics.ARM_TWIST_COMMAND, TwistStamped),
+        (topics.JOINT_STATES, JointState))}
     assert ros.wait_for(lambda: outputs and states and all(p.get_subscription_count() for p in pubs.values()), 10.0)
 
     @settings(max_examples=EXAMPLES, derandomize=True, database=None, deadline=None,
               phases=(Phase.explicit, Phase.generate), suppress_health_check=list(HealthCheck))
-    @given(case=st.one_of(twists.map(lambda m: (protocol.OPERATOR_TWIST, m)),
-                          twists.map(lambda m: (protocol.ARM_TWIST_COMMAND, m)),
-                          joint_cases().map(lambda c: (protocol.JOINT_STATES, c.msg))))
+    @given(case=st.one_of(twists.map(lambda m: (topics.OPERATOR_TWIST, m)),
+                          twists.map(lambda m: (topics.ARM_TWIST_COMMAND, m)),
+                          joint_cases().map(lambda c: (topics.JOINT_STATES, c.msg))))
     def send(case: tuple[str, object]) -> None:
         topic, msg = case
         pubs[topic].publish(msg)

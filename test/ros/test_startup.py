@@ -12,7 +12,7 @@ import pytest
 
 from grasp_intent_ros.launch.suite import node_environment
 from grasp_intent_ros.ros import startup
-from grasp_intent_ros.wire.protocol import KEY_KERNELS_LOAD_TIME
+from grasp_intent_ros.wire.diagnostics import KEY_KERNELS_LOAD_TIME
 
 REPO = Path(__file__).resolve().parents[2]
 

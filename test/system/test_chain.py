@@ -43,12 +43,14 @@ from grasp_intent_ros.method.intent import all_zones, interpret, restrict
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
-from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning import common, planner
 from grasp_intent_ros.planning.options import node_options
 from grasp_intent_ros.ros.conversions import model_from_msg, posterior_from_msg, stamped_array_from_msg
 from grasp_intent_ros.ros.qos import latched_qos
-from grasp_intent_ros.ros.robot import matrix_to_pose_msg, pose_msg_to_matrix
-from grasp_intent_ros.wire.protocol import KEY_MODEL, Posterior, msg_to_array
+from grasp_intent_ros.ros.robot import matrix_to_pose_msg
+from grasp_intent_ros.wire.arrays import Posterior, msg_to_array
+from grasp_intent_ros.wire.diagnostics import KEY_MODEL
+from grasp_intent_ros.wire.robot_state import pose_msg_to_matrix
 
 REPO = Path(__file__).resolve().parents[2]
 STARTUP = 30.0
@@ -94,7 +96,7 @@ def _planner_object_pose() -> np.ndarray:
 
 
 def core_plan(model: GraspModel, w: tuple[float, ...], kin: MicoKinematics,
-              warm_start: np.ndarray | None = None) -> planner.PlanResult:
+              warm_start: np.ndarray | None = None) -> common.PlanResult:
     """The core library's plan for w on ``model`` with the planner node's options and robot constraint."""
     options = _planner_parameters()
     v = restrict(interpret(w).v, all_zones(len(w)), model.zones)

@@ -19,9 +19,9 @@ from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.resources import config_dir
-from grasp_intent_ros.ros.robot import joint_positions
 from grasp_intent_ros.shared_control.assistance import clip_norm, pose_error
-from grasp_intent_ros.wire import protocol
+from grasp_intent_ros.wire import topics
+from grasp_intent_ros.wire.robot_state import joint_positions
 
 STARTUP = 90.0
 """Seconds for six processes to start, discover each other, prepare the goals and plan on a loaded machine."""
@@ -38,10 +38,10 @@ def test_the_estimator_alone_drives_intent_w_from_the_operators_reach(ros: Any, 
     usage = [x for x, s in zip(model.demo_x, model.demo_sets) if s == 1]
     goal = next(base_T_obj @ features_to_obj_T_ee(x) for x in usage
                 if kin.ik(base_T_obj @ features_to_obj_T_ee(x), HOME_Q, restarts=2).success)
-    ws = ros.subscribe(Float64MultiArray, protocol.INTENT_W)
-    grasps = ros.subscribe(PoseStamped, protocol.GRASP_POSE)
-    states = ros.subscribe(JointState, protocol.JOINT_STATES)
-    operator = ros.publisher(TwistStamped, protocol.OPERATOR_TWIST)
+    ws = ros.subscribe(Float64MultiArray, topics.INTENT_W)
+    grasps = ros.subscribe(PoseStamped, topics.GRASP_POSE)
+    states = ros.subscribe(JointState, topics.JOINT_STATES)
+    operator = ros.publisher(TwistStamped, topics.OPERATOR_TWIST)
 
     def steer() -> None:
         msg = TwistStamped()

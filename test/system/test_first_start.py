@@ -25,7 +25,8 @@ from std_msgs.msg import Float64MultiArray
 from grasp_intent_ros.launch.suite import NodeSuite
 from grasp_intent_ros.ros.run import SHUTDOWN_GRACE
 from grasp_intent_ros.ros.startup import WATCHDOG_EXIT_CODE
-from grasp_intent_ros.wire.protocol import KEY_KERNELS_LOADED_LATE, read_posterior
+from grasp_intent_ros.wire.arrays import read_posterior
+from grasp_intent_ros.wire.diagnostics import KEY_KERNELS_LOADED_LATE
 
 REPO = Path(__file__).resolve().parents[2]
 COMPILE = 900.0

@@ -21,7 +21,7 @@ from geometry_msgs.msg import PoseStamped
 from hypothesis import HealthCheck, Phase, given, settings
 
 from grasp_intent_ros.launch.suite import SUITE_NODES
-from grasp_intent_ros.wire import protocol
+from grasp_intent_ros.wire import topics
 
 STARTUP = 60.0
 """Seconds the suite gets to start and plan the first w on a loaded 2-core machine."""
@@ -32,8 +32,8 @@ def test_fuzzed_inputs_are_all_rejected_and_counted_and_the_nodes_keep_serving(r
     launch.start_nodes()
     pids = {module: launch.node(module).pid for module in SUITE_NODES}
     fuzzer = Fuzzer(ros.node, ros.wait_for)
-    grasps = ros.subscribe(PoseStamped, protocol.GRASP_POSE)
-    w_pub = ros.publisher(type(valid_w()), protocol.INTENT_W)
+    grasps = ros.subscribe(PoseStamped, topics.GRASP_POSE)
+    w_pub = ros.publisher(type(valid_w()), topics.INTENT_W)
     ready = lambda: grasps and all(fuzzer.component(t) in fuzzer.latest for t in COMPONENTS)  # noqa: E731
     assert ros.publish_until(w_pub, valid_w(), ready, timeout=STARTUP, period=1.0), launch.died() or 'no grasp'
     fuzzer.settle()  # the w published until then and their answers are all in

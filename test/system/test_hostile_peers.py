@@ -30,7 +30,7 @@ from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.ros.conversions import model_to_msg
 from grasp_intent_ros.ros.model_follower import KEY_REFUSED
 from grasp_intent_ros.ros.qos import latched_qos
-from grasp_intent_ros.wire.protocol import status_values
+from grasp_intent_ros.wire.diagnostics import status_values
 
 REPO = Path(__file__).resolve().parents[2]
 STARTUP = 30.0

@@ -16,7 +16,7 @@ from std_msgs.msg import Float64MultiArray, String
 from grasp_intent_ros.method.intent import interpret
 from grasp_intent_ros.ros.conversions import model_from_msg
 from grasp_intent_ros.ros.qos import latched_qos
-from grasp_intent_ros.wire.protocol import msg_to_array
+from grasp_intent_ros.wire.arrays import msg_to_array
 
 REPO = Path(__file__).resolve().parents[2]
 STARTUP = 20.0

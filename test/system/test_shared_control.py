@@ -16,8 +16,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
-from grasp_intent_ros.ros.robot import joint_positions, pose_msg_to_matrix
-from grasp_intent_ros.wire import protocol
+from grasp_intent_ros.wire import topics
+from grasp_intent_ros.wire.robot_state import joint_positions, pose_msg_to_matrix
 
 STARTUP = 60.0
 """Seconds for five processes to start, discover each other and plan on a loaded 2-core machine."""
@@ -28,10 +28,10 @@ CONVERGE = 30.0
 def test_the_assistance_brings_the_hand_to_the_planned_grasp(ros: Any, launch: Any) -> None:
     launch.start_nodes(shared_control=True)
     kin = MicoKinematics()
-    grasps = ros.subscribe(PoseStamped, protocol.GRASP_POSE)
-    states = ros.subscribe(JointState, protocol.JOINT_STATES)
-    alphas = ros.subscribe(Float64, protocol.ASSISTANCE_ALPHA)
-    operator = ros.publisher(TwistStamped, protocol.OPERATOR_TWIST)
+    grasps = ros.subscribe(PoseStamped, topics.GRASP_POSE)
+    states = ros.subscribe(JointState, topics.JOINT_STATES)
+    alphas = ros.subscribe(Float64, topics.ASSISTANCE_ALPHA)
+    operator = ros.publisher(TwistStamped, topics.OPERATOR_TWIST)
 
     def errors() -> tuple[float, float]:
         q = joint_positions(states[-1], ARM_JOINTS)
@@ -56,7 +56,7 @@ def test_the_assistance_brings_the_hand_to_the_planned_grasp(ros: Any, launch: A
 
     ros.node.create_timer(0.01, steer)  # spun whenever the test waits
     assert ros.wait_for(lambda: states and alphas, STARTUP), launch.died() or 'no joint states or alpha'
-    w = ros.publisher(Float64MultiArray, protocol.INTENT_W)
+    w = ros.publisher(Float64MultiArray, topics.INTENT_W)
     assert ros.publish_until(w, Float64MultiArray(data=[0.95, 0.05, 0.05]), lambda: grasps, STARTUP, period=1.0), \
         launch.died() or 'no grasp'
 

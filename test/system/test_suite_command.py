@@ -16,7 +16,7 @@ from pathlib import Path
 
 from std_msgs.msg import Float64MultiArray
 
-from grasp_intent_ros.wire.protocol import read_posterior
+from grasp_intent_ros.wire.arrays import read_posterior
 
 REPO = Path(__file__).resolve().parents[2]
 STARTUP = 30.0

@@ -28,7 +28,7 @@ _CHILD = r'''
 import json, sys
 import numpy as np
 from grasp_intent_ros.method.model import GraspModel
-from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning import planner, scipy_methods
 from grasp_intent_ros.resources import config_dir
 models = {}
 for line in sys.stdin:
@@ -37,7 +37,7 @@ for line in sys.stdin:
     model = models.setdefault(name, GraspModel.load(config_dir() / 'models' / f'{name}.yaml'))
     v = np.array([float.fromhex(h) for h in ask['v']])
     if ask['method'] == 'reference_search':
-        f = planner.reference_search(model, v, n_starts=60)
+        f = scipy_methods.reference_search(model, v, n_starts=60)
     else:
         f = planner.plan(model, v, method=ask['method']).objective
     print(json.dumps(f.hex()), flush=True)

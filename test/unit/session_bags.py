@@ -14,7 +14,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from grasp_intent_ros.sessions.bag import QosSpec, SessionWriter
 from grasp_intent_ros.sessions.outputs import Output, output_of
-from grasp_intent_ros.wire.protocol import DIAGNOSTICS, MSGTYPES
+from grasp_intent_ros.wire.topics import DIAGNOSTICS, MSGTYPES
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 T = STORE.types

@@ -21,13 +21,25 @@ from grasp_intent_ros.launch.suite import (
     use_loopback_discovery,
 )
 from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.ros.startup import READY_LOG
 
 SLEEPER = 'import time; time.sleep(60)'
+READY_SLEEPER = f'print("[INFO] [1.0] [probe]: {READY_LOG}"); {SLEEPER}'
+"""A sleeper that first logs a node's ready line: dying by SIGTERM after it is a problem."""
 
 
 def run(tmp_path: Path, code: str) -> NodeProcess:
     """``python -c <code>`` as process 'probe', its logs in ``tmp_path``."""
     return NodeProcess([sys.executable, '-c', code], module='probe', env=node_environment(97), log_dir=tmp_path)
+
+
+def wait_logged_ready(proc: NodeProcess) -> NodeProcess:
+    """``proc`` once it has logged its ready line (30 s deadline)."""
+    deadline = time.monotonic() + 30.0
+    while not proc.logged_ready():
+        assert time.monotonic() < deadline and proc.poll() is None, proc.stderr()
+        time.sleep(0.01)
+    return proc
 
 
 def test_node_environment_is_loopback_only_and_unbuffered() -> None:
@@ -83,13 +95,19 @@ def test_clean_exit_and_log_files(tmp_path: Path) -> None:
 
 
 def test_stop_by_signal_reports_the_exit_code(tmp_path: Path) -> None:
-    proc = run(tmp_path, SLEEPER)
+    proc = wait_logged_ready(run(tmp_path, READY_SLEEPER))
     assert proc.poll() is None
     with pytest.raises(RuntimeError, match='still running'):
         proc.problem()
     assert proc.stop(signal.SIGTERM) == -signal.SIGTERM
     assert proc.problem() == f'probe (pid {proc.pid}) exited with code {-signal.SIGTERM}'
     assert proc.stop() == -signal.SIGTERM  # exited: no signal is sent
+
+
+def test_death_by_our_sigterm_before_the_ready_line_is_clean(tmp_path: Path) -> None:
+    importing = run(tmp_path, SLEEPER)  # as a node still importing: no handler, no ready line
+    assert importing.stop(signal.SIGTERM) == -signal.SIGTERM
+    assert importing.problem() == ''
 
 
 def test_traceback_is_a_problem(tmp_path: Path) -> None:
@@ -134,12 +152,13 @@ def test_loopback_discovery_is_set_in_the_given_environment() -> None:
 
 def test_suite_waits_notices_a_death_and_stops_by_pid(tmp_path: Path) -> None:
     suite = NodeSuite(97, log_dir=tmp_path)
-    suite.processes += [run(tmp_path, SLEEPER), NodeProcess([sys.executable, '-c', 'import sys; sys.exit(4)'],
+    suite.processes += [run(tmp_path, READY_SLEEPER), NodeProcess([sys.executable, '-c', 'import sys; sys.exit(4)'],
                                                             module='quitter', env=suite.env, log_dir=tmp_path)]
     spins: list[float] = []
     with pytest.raises(SuiteError, match=r'quitter \(pid \d+\) exited with code 4'):
         suite.wait_ready(lambda: ['not yet'], spins.append, 30.0)
     assert suite.wait_ready(lambda: [], spins.append, 0.0) == []
+    wait_logged_ready(suite.processes[0])
     assert suite.stop(include_exited=False) == [f'probe (pid {suite.processes[0].pid}) exited with code '
                                                 f'{-signal.SIGTERM}:\n    | (empty)']
     assert suite.stop(tail_lines=0) == [f'probe (pid {suite.processes[0].pid}) exited with code {-signal.SIGTERM}',

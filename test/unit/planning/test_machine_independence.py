@@ -33,7 +33,8 @@ kin, base_T_obj = MicoKinematics(), pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 
 rng = np.random.default_rng(3)
 for name in ('cup_7zone', 'flashlight_7zone', 'cup_5zone', 'cup_4zone'):
     model = GraspModel.load(config_dir() / 'models' / f'{name}.yaml')
-    for array in (model.precisions, model.log_norm, *model.start_pool[1:], model.feature_scale):
+    pool = model.start_pool
+    for array in (model.precisions, model.log_norm, pool.log_joint_t, pool.posterior, model.feature_scale):
         plans.update(np.ascontiguousarray(array).tobytes())
     blas.update((np.linalg.inv(model.covariances) @ model.covariances).tobytes())  # numpy's own BLAS
     previous = None

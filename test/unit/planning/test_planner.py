@@ -30,7 +30,7 @@ from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.data import Demonstrations
 from grasp_intent_ros.method.features import FINGERS, MICO_3F, FeatureSpace
 from grasp_intent_ros.method.model import GraspModel
-from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning import common, lm, planner, scipy_methods
 from grasp_intent_ros.planning.options import ScipyOptions
 from grasp_intent_ros.resources import config_dir
 
@@ -42,7 +42,7 @@ CASES = [(0.9, 0.1, 0.1), (0.1, 0.9, 0.1), (0.1, 0.1, 0.9), (0.9, 0.9, 0.1), (0.
 
 
 
-def plan_lm(model: GraspModel, v: np.ndarray, **inputs: object) -> planner.PlanResult:
+def plan_lm(model: GraspModel, v: np.ndarray, **inputs: object) -> common.PlanResult:
     """The paper's planner (method 'lm'), the subject of this module; the default method is test_ranking's."""
     return planner.plan(model, v, method='lm', **inputs)  # type: ignore[arg-type]
 
@@ -79,24 +79,24 @@ def test_result_is_consistent_feasible_and_never_worse_than_algorithm1s_start(
     # scipy's solvers may stop at their iteration limit (sliding along the matches): reported, not hidden
     assert res.success or (method != 'lm' and res.status == 'solver_failed'
                            and ('limit' in res.message or 'maximum number' in res.message)), res.message
-    first = planner.select_starts(toy_model, v, n_starts=1)[0]
-    assert res.objective <= planner.objective(toy_model, v, first) + planner.MATCH_TOL
+    first = common.select_starts(toy_model, v, n_starts=1)[0]
+    assert res.objective <= common.objective(toy_model, v, first) + common.MATCH_TOL
     assert_allclose(res.reference, first)
     assert_allclose(res.posterior, toy_model.posterior(res.x), atol=1e-12)
     assert_allclose(res.w, intent.reconstruct_w(res.posterior, toy_model.zones, 3), atol=1e-12)
     assert_feasible(toy_model, res.x)
     assert res.objective == pytest.approx(0.5 * np.sum((v - res.posterior) ** 2), abs=1e-15)
-    assert res.exact == (res.objective <= planner.MATCH_TOL)
+    assert res.exact == (res.objective <= common.MATCH_TOL)
     assert res.candidates[0].distance == pytest.approx(
         float(np.linalg.norm((res.x - res.reference) / toy_model.feature_scale)))
 
 
 def test_first_start_is_the_best_demonstration_of_the_top_zone(toy_model: GraspModel) -> None:
     v = _v((0.9, 0.9, 0.1))  # top zone UT
-    start = planner.select_starts(toy_model, v, n_starts=1)[0]
+    start = common.select_starts(toy_model, v, n_starts=1)[0]
     ut = toy_model.zones.index(0b011)
     members = (toy_model.demo_sets & 0b011) == 0b011
-    f = [planner.objective(toy_model, v, x) for x in toy_model.demo_x[members]]
+    f = [common.objective(toy_model, v, x) for x in toy_model.demo_x[members]]
     assert_allclose(start, toy_model.demo_x[members][int(np.argmin(f))])
     assert np.argmax(v) == ut
 
@@ -114,13 +114,13 @@ def test_demonstration_starts_follow_their_stated_rule(seed: int, n: int, n_star
         posterior[rng.integers(0, n, size=n)] = posterior[0]
     members = rng.random((K, n)) < 0.4
     v = rng.dirichlet(np.ones(K))
-    zones = planner.zone_order(v)[:top_zones]
+    zones = common.zone_order(v)[:top_zones]
     f = [0.5 * sum((v[k] - posterior[i, k]) ** 2 for k in range(K)) for i in range(n)]  # summed in order
     rank = {i: (round(f[i] / (1e-12 * (1 + f[i]))), i) for i in range(n)}
     top = [i for i in range(n) if members[zones[0], i]]
     first = min(top or range(n), key=rank.__getitem__)
     rest = sorted((i for i in range(n) if i != first and members[zones, i].any()), key=rank.__getitem__)
-    got = kernels.select_demonstrations(posterior, v, members, zones, n_starts - 1, planner.MATCH_TOL)
+    got = kernels.select_demonstrations(posterior, v, members, zones, n_starts - 1, common.MATCH_TOL)
     assert got.tolist() == [first] + rest[:n_starts - 1]
 
 
@@ -128,16 +128,16 @@ def test_analytic_gradient_of_the_objective(toy_model: GraspModel) -> None:
     v = _v((0.9, 0.9, 0.9))
     rng = np.random.default_rng(3)
     for x in toy_model.demo_x[rng.integers(0, len(toy_model.demo_x), 30)]:
-        _, g = planner.objective_and_gradient(toy_model, v, x)
+        _, g = scipy_methods.objective_and_gradient(toy_model, v, x)
         h = 1e-6
-        fd = np.array([(planner.objective(toy_model, v, x + h * e) - planner.objective(toy_model, v, x - h * e))
+        fd = np.array([(common.objective(toy_model, v, x + h * e) - common.objective(toy_model, v, x - h * e))
                        / (2 * h) for e in np.eye(x.size)])
         assert np.abs(g - fd).max() <= 1e-5 * max(np.abs(fd).max(), 1e-4)
 
 
-def _cand(f: float, dist: float, index: int, success: bool = True) -> planner.Candidate:
+def _cand(f: float, dist: float, index: int, success: bool = True) -> common.Candidate:
     x = np.full(3, float(index))
-    return planner.Candidate(x=x, posterior=np.ones(1), objective=f, distance=dist, start=x,
+    return common.Candidate(x=x, posterior=np.ones(1), objective=f, distance=dist, start=x,
                              start_objective=f, start_index=index, success=success, message='', iterations=1)
 
 
@@ -145,33 +145,33 @@ def test_the_choice_rule_tolerance_then_distance_then_start_order() -> None:
     cand = _cand
 
     # a worse objective loses even when nearer; objectives within the match tolerance tie
-    order = planner._choose([cand(1e-3, 0.1, 0), cand(1e-20, 2.0, 1), cand(1e-14, 1.0, 2)], 0.0)
+    order = common.in_choice_order([cand(1e-3, 0.1, 0), cand(1e-20, 2.0, 1), cand(1e-14, 1.0, 2)], 0.0)
     assert [c.start_index for c in order] == [2, 1, 0]
     # distances within DISTANCE_TOL of the nearest tie: the earlier start wins, whatever the last bits
-    tie = planner.DISTANCE_TOL / 2
-    assert planner._choose([cand(1e-20, 1.0 + tie, 0), cand(1e-20, 1.0, 1)], 0.0)[0].start_index == 0
-    assert planner._choose([cand(1e-20, 1.0, 0), cand(1e-20, 1.0 + tie, 1)], 0.0)[0].start_index == 0
+    tie = common.DISTANCE_TOL / 2
+    assert common.in_choice_order([cand(1e-20, 1.0 + tie, 0), cand(1e-20, 1.0, 1)], 0.0)[0].start_index == 0
+    assert common.in_choice_order([cand(1e-20, 1.0, 0), cand(1e-20, 1.0 + tie, 1)], 0.0)[0].start_index == 0
     # least squares: objectives within 1e-6 relative of the best tie
-    order = planner._choose([cand(2e-3 * (1 + 1e-8), 0.5, 0), cand(2e-3, 1.5, 1), cand(3e-3, 0.1, 2)], 0.0)
+    order = common.in_choice_order([cand(2e-3 * (1 + 1e-8), 0.5, 0), cand(2e-3, 1.5, 1), cand(3e-3, 0.1, 2)], 0.0)
     assert [c.start_index for c in order] == [0, 1, 2]
 
 
 def test_a_stream_keeps_its_branch_within_the_residual_band() -> None:
     """Rule 6's band: with no exact match, a converged candidate within WARM_BAND in |v - P| of the best ties."""
-    band = planner.WARM_BAND
+    band = common.WARM_BAND
     best = 2e-3  # residual sqrt(2 f) = 0.0632...
     inside = 0.5 * (math.sqrt(2 * best) + 0.99 * band) ** 2
     outside = 0.5 * (math.sqrt(2 * best) + 1.01 * band) ** 2
     # the nearer one within the band is chosen; a fresh plan (band 0) keeps the best
-    assert planner._choose([_cand(best, 2.0, 0), _cand(inside, 0.1, 1)], band)[0].start_index == 1
-    assert planner._choose([_cand(best, 2.0, 0), _cand(inside, 0.1, 1)], 0.0)[0].start_index == 0
+    assert common.in_choice_order([_cand(best, 2.0, 0), _cand(inside, 0.1, 1)], band)[0].start_index == 1
+    assert common.in_choice_order([_cand(best, 2.0, 0), _cand(inside, 0.1, 1)], 0.0)[0].start_index == 0
     # beyond the band, or stopped unconverged, the nearer one does not tie
-    assert planner._choose([_cand(best, 2.0, 0), _cand(outside, 0.1, 1)], band)[0].start_index == 0
-    assert planner._choose([_cand(best, 2.0, 0), _cand(inside, 0.1, 1, success=False)], band)[0].start_index == 0
+    assert common.in_choice_order([_cand(best, 2.0, 0), _cand(outside, 0.1, 1)], band)[0].start_index == 0
+    assert common.in_choice_order([_cand(best, 2.0, 0), _cand(inside, 0.1, 1, success=False)], band)[0].start_index == 0
     # the best itself is a match even when it stopped unconverged
-    assert planner._choose([_cand(best, 2.0, 0, success=False), _cand(inside, 0.1, 1)], band)[0].start_index == 1
+    assert common.in_choice_order([_cand(best, 2.0, 0, success=False), _cand(inside, 0.1, 1)], band)[0].start_index == 1
     # an exact match exists: the band does not apply, a near-match nearer to the reference does not tie
-    assert planner._choose([_cand(1e-20, 2.0, 0), _cand(1e-8, 0.1, 1)], band)[0].start_index == 0
+    assert common.in_choice_order([_cand(1e-20, 2.0, 0), _cand(1e-8, 0.1, 1)], band)[0].start_index == 0
 
 
 def _walk_jumps(model: GraspModel, steps: int, seed: int) -> list[int]:
@@ -221,15 +221,15 @@ def _choice_rule(f: list[float], dist: list[float], start: list[int], xs: np.nda
                  band: float) -> list[int]:
     """Rule 6 as the module docstring states it, in plain Python: the oracle for the compiled choice order."""
     best = min(f)
-    matches = [i for i, fi in enumerate(f) if fi <= best + max(planner.MATCH_TOL, planner.F_RTOL * best)
-               or (best > planner.MATCH_TOL and converged[i] and math.sqrt(2 * fi) <= math.sqrt(2 * best) + band)]
+    matches = [i for i, fi in enumerate(f) if fi <= best + max(common.MATCH_TOL, common.F_RTOL * best)
+               or (best > common.MATCH_TOL and converged[i] and math.sqrt(2 * fi) <= math.sqrt(2 * best) + band)]
     order, pool = [], list(matches)
     while pool:
         nearest = min(dist[i] for i in pool)
-        pick = min(pool, key=lambda i: (dist[i] > nearest + planner.DISTANCE_TOL, start[i]))
+        pick = min(pool, key=lambda i: (dist[i] > nearest + common.DISTANCE_TOL, start[i]))
         order.append(pick)
         pool.remove(pick)
-    ranked = np.argsort(selection._rank_keys(np.array(f), planner.MATCH_TOL)).tolist()
+    ranked = np.argsort(selection._rank_keys(np.array(f), common.MATCH_TOL)).tolist()
     order += [i for i in ranked if i not in matches]
     kept: list[int] = []
     for i in order:  # a row within 1e-18 (squared, relative) of an earlier kept one is dropped
@@ -242,7 +242,7 @@ def _choice_rule(f: list[float], dist: list[float], start: list[int], xs: np.nda
 @given(data=st.data(), n=st.integers(2, 12))
 def test_the_compiled_choice_order_is_the_rule(data: st.DataObject, n: int) -> None:
     """Objectives and distances drawn around ties at the tolerances and the band's edge, repeated grasps included."""
-    band = data.draw(st.sampled_from([0.0, planner.WARM_BAND]))
+    band = data.draw(st.sampled_from([0.0, common.WARM_BAND]))
     base_f = data.draw(st.sampled_from([0.0, 1e-20, 1e-13, 2e-3, 0.5]))
     edge = 0.5 * (math.sqrt(2 * base_f) + band) ** 2 / base_f if base_f > 0.0 else 1.0  # f's factor at the edge
     f = [base_f * data.draw(st.sampled_from([1.0, 1 + 1e-7, 1 + 1e-5, 3.0, edge * (1 - 1e-9), edge * (1 + 1e-9)]))
@@ -251,12 +251,12 @@ def test_the_compiled_choice_order_is_the_rule(data: st.DataObject, n: int) -> N
     start = data.draw(st.permutations(list(range(n))))
     converged = [data.draw(st.booleans()) for _ in range(n)]
     xs = np.array([[float(data.draw(st.integers(0, 3))), 1.0] for _ in range(n)])
-    cands = [planner.Candidate(x=xs[i], posterior=np.ones(1), objective=f[i], distance=dist[i], start=xs[i],
+    cands = [common.Candidate(x=xs[i], posterior=np.ones(1), objective=f[i], distance=dist[i], start=xs[i],
                                start_objective=f[i], start_index=start[i], success=converged[i], message='',
                                iterations=1)
              for i in range(n)]
     expected = _choice_rule(f, dist, start, xs, converged, band)
-    assert [c.start_index for c in planner._choose(cands, band)] == [start[i] for i in expected]
+    assert [c.start_index for c in common.in_choice_order(cands, band)] == [start[i] for i in expected]
 
 
 def _random_vs(model: GraspModel, n: int, seed: int, zero_share: float) -> list[np.ndarray]:
@@ -278,38 +278,38 @@ def test_the_compiled_screen_is_the_log_odds_spread_or_f(shipped: dict[str, Gras
     pool, log_joint_t, posterior = model.start_pool
     for v in _random_vs(model, 50, 3, 0.5):
         if v.min() > 0.0:
-            q = log_joint_t - planner._log(v)[:, None]
+            q = log_joint_t - common.c_log(v)[:, None]
             score = q.max(axis=0) - q.min(axis=0)
         else:
             score = 0.5 * np.sum((v[None, :] - posterior) ** 2, axis=1)
-        expected = np.argsort(selection._rank_keys(score, planner.MATCH_TOL))[:planner._SCREEN]
-        got = kernels.screen(log_joint_t, planner._log(v) if v.min() > 0.0 else np.zeros(0), posterior, v,
-                              planner._SCREEN, planner.MATCH_TOL)
+        expected = np.argsort(selection._rank_keys(score, common.MATCH_TOL))[:lm._SCREEN]
+        got = kernels.screen(log_joint_t, common.c_log(v) if v.min() > 0.0 else np.zeros(0), posterior, v,
+                              lm._SCREEN, common.MATCH_TOL)
         if v.min() > 0.0:  # the same arithmetic: the same order
             assert got.tolist() == expected.tolist()
         else:  # numpy sums the squares in an order of its own: the same starts up to ties at 1e-12
             assert_allclose(score[got], score[expected], rtol=1e-12, atol=1e-300)
-        assert_allclose(planner.search_starts(model, v), pool[got])
+        assert_allclose(lm.search_starts(model, v), pool[got])
 
 
 def test_ranking_quantises_f_then_takes_the_index_and_puts_nan_last() -> None:
     f = np.array([3e-3, 1e-20, np.nan, 2e-3, 1e-14, 2e-3 * (1 + 1e-13), 5.0, 0.5])
-    order = np.argsort(selection._rank_keys(f, planner.MATCH_TOL)).tolist()
+    order = np.argsort(selection._rank_keys(f, common.MATCH_TOL)).tolist()
     # 1e-20 and 1e-14 are both 0 at the quantum (index order); 2e-3 and its 1e-13 relative neighbour tie
     assert order == [1, 4, 3, 5, 0, 7, 6, 2]
     for count in range(-1, len(f) + 2):
-        assert selection._first_ranked(f, planner.MATCH_TOL, count).tolist() == order[:max(count, 0)]
+        assert selection._first_ranked(f, common.MATCH_TOL, count).tolist() == order[:max(count, 0)]
     rng = np.random.default_rng(7)
     for n in (1, 6, 40, 600):  # ties at the quantum as well as distinct values
         f = np.round(rng.exponential(1e-3, n), 5) * (1.0 + 1e-14 * rng.standard_normal(n))
-        ranked = np.argsort(selection._rank_keys(f, planner.MATCH_TOL)).tolist()
+        ranked = np.argsort(selection._rank_keys(f, common.MATCH_TOL)).tolist()
         for count in (1, 3, 6, n):
-            assert selection._first_ranked(f, planner.MATCH_TOL, count).tolist() == ranked[:count]
+            assert selection._first_ranked(f, common.MATCH_TOL, count).tolist() == ranked[:count]
 
 
 def test_unique_rows_drop_exact_repeats_only() -> None:
     x = np.array([[0.0, 1.0], [-0.0, 1.0], [1.0, 2.0], [0.0, 1.0], [1.0, np.nextafter(2.0, 3.0)], [1.0, 2.0]])
-    assert planner._unique_rows(x).tolist() == [[0.0, 1.0], [1.0, 2.0], [1.0, np.nextafter(2.0, 3.0)]]
+    assert common.unique_rows(x).tolist() == [[0.0, 1.0], [1.0, 2.0], [1.0, np.nextafter(2.0, 3.0)]]
 
 
 def test_warm_start_on_a_match_is_its_own_answer(toy_model: GraspModel) -> None:
@@ -348,9 +348,9 @@ def test_status_tells_an_iteration_limit_from_convergence(shipped: dict[str, Gra
     model = shipped['cup_7zone']
     v = _v((0.1, 0.9, 0.1), model)
     assert plan_lm(model, v).status == 'ok'
-    monkeypatch.setattr(planner, '_GN_MAXITER', 1)
+    monkeypatch.setattr(lm, '_GN_MAXITER', 1)
     for name in ('_LM_RACE', '_LM_MAXITER', '_NEWTON_RACE', '_NEWTON_MAXITER', '_OPEN_LM'):
-        monkeypatch.setattr(planner, name, 1)
+        monkeypatch.setattr(lm, name, 1)
     res = plan_lm(model, v)
     assert res.status == 'solver_failed' and not res.success
     assert 'iteration limit' in res.message
@@ -388,8 +388,8 @@ def test_hessian_of_the_objective_matches_finite_differences(shipped: dict[str, 
             _posterior_hessian(x, Mixture(model.means, model.precisions, model.log_norm), v, np.empty(K),
                                np.empty((K, d)), np.empty((K, d)), hess, np.empty(d))
             step = 1e-6 * model.feature_scale
-            numeric = np.stack([(planner.objective_and_gradient(model, v, x + h)[1]
-                                 - planner.objective_and_gradient(model, v, x - h)[1]) / (2.0 * h[i])
+            numeric = np.stack([(scipy_methods.objective_and_gradient(model, v, x + h)[1]
+                                 - scipy_methods.objective_and_gradient(model, v, x - h)[1]) / (2.0 * h[i])
                                 for i, h in enumerate(np.diag(step))])
             assert_allclose(hess, numeric, rtol=0.0, atol=1e-5 * np.abs(hess).max())
 
@@ -481,7 +481,7 @@ def test_newton_converges_where_least_squares_steps_run_out(shipped: dict[str, G
     v = _v((0.05, 0.8, 0.3), model)
     res = plan_lm(model, v)
     assert not res.exact and res.status == 'ok' and res.chosen.message == 'least squares: converged'
-    monkeypatch.setattr(planner, '_NEWTON_POLISH', 0)
+    monkeypatch.setattr(lm, '_NEWTON_POLISH', 0)
     steps_only = plan_lm(model, v)
     assert steps_only.status == 'solver_failed'
     assert res.objective <= steps_only.objective * (1.0 + 1e-12)
@@ -577,11 +577,11 @@ def test_least_squares_find_the_minima_with_a_finger_open(shipped: dict[str, Gra
 
 
 def _rule_5(model: GraspModel, v: np.ndarray, origins: np.ndarray, screened: np.ndarray,
-            projection: planner._LogOddsProjection | None) -> tuple[np.ndarray, ...]:
+            projection: lm._LogOddsProjection | None) -> tuple[np.ndarray, ...]:
     """Rule 5 as the module docstring states it, driven from Python over the compiled iterations: the oracle."""
-    feas = planner._Feasible(model)
+    feas = common.Feasible(model)
     body = Body(*feas.body)
-    v_path = np.rint(v / planner._LS_QUANTUM) * planner._LS_QUANTUM
+    v_path = np.rint(v / lm._LS_QUANTUM) * lm._LS_QUANTUM
     consts = (model.means, model.precisions, model.log_norm)
     mixture = Mixture(*consts)
 
@@ -589,51 +589,51 @@ def _rule_5(model: GraspModel, v: np.ndarray, origins: np.ndarray, screened: np.
         return kernels.score(xs, target, *consts, xs[0], feas.scale)[1] if len(xs) else np.zeros(0)
 
     def first(f: np.ndarray, count: int) -> np.ndarray:
-        return np.argsort(selection._rank_keys(f, planner.MATCH_TOL))[:count]
+        return np.argsort(selection._rank_keys(f, common.MATCH_TOL))[:count]
 
-    def lm(starts: np.ndarray, maxiter: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def levenberg(starts: np.ndarray, maxiter: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return least_squares._least_squares(np.ascontiguousarray(starts), v_path, mixture, feas.lower, feas.upper,
-                                            feas.a.start, feas.a.stop, body, maxiter, planner._LM_FTOL,
-                                            planner._LM_RIDGE)
+                                            feas.a.start, feas.a.stop, body, maxiter, lm._LM_FTOL,
+                                            lm._LM_RIDGE)
 
     def newton(starts: np.ndarray, maxiter: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return least_squares._newton_least_squares(np.ascontiguousarray(starts), v_path, mixture, feas.lower,
                                                    feas.upper, feas.scale, feas.a.start, feas.a.stop, body, maxiter,
-                                                   planner._NEWTON_STEPTOL, planner._LM_RIDGE)
+                                                   lm._NEWTON_STEPTOL, lm._LM_RIDGE)
 
     def polish(xs: np.ndarray, ok: np.ndarray, its: np.ndarray, left: np.ndarray) -> None:
-        best = first(f_of(xs, v_path), planner._NEWTON_POLISH)
-        xs_n, ok_n, its_n = newton(xs[best], planner._NEWTON_RACE)
+        best = first(f_of(xs, v_path), lm._NEWTON_POLISH)
+        xs_n, ok_n, its_n = newton(xs[best], lm._NEWTON_RACE)
         going = np.flatnonzero(~ok_n)
-        ahead = going[first(f_of(xs_n[going], v_path), planner._NEWTON_KEEP)]
+        ahead = going[first(f_of(xs_n[going], v_path), lm._NEWTON_KEEP)]
         if ahead.size:
-            xs_n[ahead], ok_n[ahead], more = newton(xs_n[ahead], planner._NEWTON_MAXITER - planner._NEWTON_RACE)
+            xs_n[ahead], ok_n[ahead], more = newton(xs_n[ahead], lm._NEWTON_MAXITER - lm._NEWTON_RACE)
             its_n[ahead] += more
         xs[best[ok_n]] = xs_n[ok_n]
         ok[best] |= ok_n
         its[best] += its_n
         left[best[ok_n]] = 0
 
-    xs, ok, its = lm(origins, planner._LM_RACE)
+    xs, ok, its = levenberg(origins, lm._LM_RACE)
     left = np.where(ok, 0, 1)
     going = np.flatnonzero(~ok)
-    ahead = going[first(f_of(xs[going], v_path), planner._LM_KEEP)]
+    ahead = going[first(f_of(xs[going], v_path), lm._LM_KEEP)]
     if ahead.size:
-        xs[ahead], ok[ahead], more = lm(xs[ahead], planner._LM_MAXITER - planner._LM_RACE)
+        xs[ahead], ok[ahead], more = levenberg(xs[ahead], lm._LM_MAXITER - lm._LM_RACE)
         its[ahead] += more
         left[ahead] = 0
     polish(xs, ok, its, left)
     fingers = [j for j in range(FINGERS.start, FINGERS.stop) if screened[j] != model.lower[j]]
-    if f_of(xs, v_path).min() > planner._OPEN_F and fingers:
+    if f_of(xs, v_path).min() > lm._OPEN_F and fingers:
         opened = np.repeat(screened[None, :], len(fingers), axis=0)
         opened[np.arange(len(fingers)), fingers] = model.lower[fingers]
         starts = feas.project(opened)
-        xs_o, ok_o, its_o = lm(starts, planner._OPEN_LM)
+        xs_o, ok_o, its_o = levenberg(starts, lm._OPEN_LM)
         left_o = np.where(ok_o, 0, 2)
         polish(xs_o, ok_o, its_o, left_o)
         xs, ok, its = np.concatenate([xs, xs_o]), np.concatenate([ok, ok_o]), np.concatenate([its, its_o])
         left, origins = np.concatenate([left, left_o]), np.concatenate([origins, starts])
-    near = np.flatnonzero(f_of(xs, v) <= planner._POLISH)
+    near = np.flatnonzero(f_of(xs, v) <= lm._POLISH)
     if near.size and projection is not None:
         xs_p, ok_p, its_p = projection.run(xs[near])
         xs[near[ok_p]] = xs_p[ok_p]
@@ -651,17 +651,17 @@ def test_the_compiled_least_squares_is_rule_5(shipped: dict[str, GraspModel], na
     from the origins a fresh plan would use.
     """
     model = shipped[name]
-    feas = planner._Feasible(model)
+    feas = common.Feasible(model)
     for v in _random_vs(model, 12, 11, 0.25):
-        projection = planner._LogOddsProjection(model, v, feas) if v.min() > 0.0 else None
-        screened = feas.project(planner.search_starts(model, v))
-        origins = planner._unique_rows(np.concatenate([feas.project(planner.select_starts(model, v)), screened,
+        projection = lm._LogOddsProjection(model, v, feas) if v.min() > 0.0 else None
+        screened = feas.project(lm.search_starts(model, v))
+        origins = common.unique_rows(np.concatenate([feas.project(common.select_starts(model, v)), screened,
                                                        feas.project(model.means)]))
-        got = planner._least_squares(model, v, origins, feas, projection, screened[0])
+        got = lm._least_squares(model, v, origins, feas, projection, screened[0])
         expected = _rule_5(model, v, origins, screened[0], projection)
         for a, b in zip(got[:3] + got[4:], expected[:3] + expected[4:]):
             assert np.array_equal(a, b)
-        assert got[3] == planner._labels(expected[3], expected[1])
+        assert got[3] == lm._labels(expected[3], expected[1])
 
 
 def test_a_model_without_the_mico_fingers_plans_without_the_open_finger_round(demos: Demonstrations) -> None:
@@ -674,7 +674,7 @@ def test_a_model_without_the_mico_fingers_plans_without_the_open_finger_round(de
     model = GraspModel.fit(Demonstrations(demos.x[:, :7], demos.task_sets, demos.task_names, features))
     res = plan_lm(model, _v((0.51, 0.95, 0.14), model))  # no match: the least squares, f 2.9e-3
     assert res.status == 'ok' and res.chosen.message.startswith('least squares')
-    assert res.x.shape == (7,) and res.objective > planner._OPEN_F
+    assert res.x.shape == (7,) and res.objective > lm._OPEN_F
     assert not any('finger opened' in c.message for c in res.candidates)
 
 
@@ -715,7 +715,7 @@ def test_every_shipped_model_plans_feasible_grasps_for_every_case(shipped: dict[
             continue
         res = plan_lm(model, r.v)
         assert_feasible(model, res.x)
-        assert res.objective <= planner.objective(model, r.v, res.reference) + planner.MATCH_TOL
+        assert res.objective <= common.objective(model, r.v, res.reference) + common.MATCH_TOL
 
 
 ws = st.tuples(*[st.floats(0.02, 0.98) for _ in range(3)])
@@ -792,7 +792,7 @@ def test_a_model_without_a_body_is_unconstrained(shipped: dict[str, GraspModel])
 
 def test_zone_order_of_round_numbers_survives_last_bit_perturbations() -> None:
     v = np.array([0.2, 0.1, 0.2, 0.1, 0.2, 0.1, 0.1])  # w = (0.5, 1/3, 0.5): ties at round values
-    order = planner.zone_order(v)
+    order = common.zone_order(v)
     assert order.tolist() == [0, 2, 4, 1, 3, 5, 6]
     for seed in range(50):
-        assert planner.zone_order(_perturbed(v, seed)).tolist() == order.tolist()
+        assert common.zone_order(_perturbed(v, seed)).tolist() == order.tolist()

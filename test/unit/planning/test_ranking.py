@@ -21,7 +21,7 @@ from grasp_intent_ros.errors import PlanningError
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.objects.demos import object_of
-from grasp_intent_ros.planning import planner, ranking
+from grasp_intent_ros.planning import common, planner, ranking
 from grasp_intent_ros.planning.options import TaskOptions
 from grasp_intent_ros.planning.robustness import ExecutionNoise, retention
 from grasp_intent_ros.resources import config_dir
@@ -46,7 +46,7 @@ def judge(model: GraspModel, w: np.ndarray, x: np.ndarray) -> tuple[int, int, in
     """(label of x by the rules, v's top zone, the model's reading of x, the tasks the operator may want)."""
     r = intent.interpret(w, model.zones)
     assert r.v is not None
-    top = model.zones[int(planner.zone_order(r.v)[0])]
+    top = model.zones[int(common.zone_order(r.v)[0])]
     reading = model.zones[int(np.argmax(model.posterior(x)))]
     wanted = top | sum(1 << i for i, wi in enumerate(w.tolist()) if wi >= UNLIKELY)
     rules = object_of(model.name)
@@ -91,13 +91,13 @@ def oracle(model: GraspModel, v: np.ndarray, reference: np.ndarray, warm: bool, 
     ``kept``: the robustness estimate R (N, K) the plan was made with (E = sum_k v_k R_nk), None for an exact landing.
     """
     zones = model.zones
-    top = zones[int(planner.zone_order(v)[0])]
+    top = zones[int(common.zone_order(v)[0])]
     likely = top
     for i in range(len(model.task_names)):
         z = top | 1 << i
         if z != top and z in zones and v[zones.index(z)] * (1 - tau) >= tau * v[zones.index(top)] * (1 - 1e-9):
             likely |= 1 << i
-    feas = planner._Feasible(model)
+    feas = common.Feasible(model)
     xs = feas.project(model.demo_x)
     best: tuple[float, ...] | None = None
     chosen = -1
@@ -142,7 +142,7 @@ def test_a_likely_task_joins_the_top_zone_at_tau(models: dict[str, GraspModel]) 
     top = 0  # U
     for w_t, joins in ((0.3, True), (0.2999, False), (0.2501, False)):
         v = intent.interpret((0.9, w_t, 0.1), model.zones).v
-        assert planner.zone_order(v)[0] == top
+        assert common.zone_order(v)[0] == top
         assert ranking.likely_tasks(model, v, top, 0.3) == (0b011 if joins else 0b001)
     v = intent.interpret((0.9, 0.2501, 0.1), model.zones).v  # a task the previous grasp reads as done stays
     assert ranking.likely_tasks(model, v, top, 0.3, keep=0b011, hysteresis=0.05) == 0b011

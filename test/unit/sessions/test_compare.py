@@ -12,7 +12,7 @@ import pytest
 from grasp_intent_ros.sessions.compare import Difference, Tolerances, answered, compare_step, diverged
 from grasp_intent_ros.sessions.outputs import Output, Rejection, Undecodable, output_of
 from grasp_intent_ros.sessions.pairing import Step, load_paired_session
-from grasp_intent_ros.wire.protocol import DIAGNOSTICS, PLAN_TOPICS
+from grasp_intent_ros.wire.topics import DIAGNOSTICS, PLAN_TOPICS
 
 from ..session_bags import (
     ARM,

@@ -14,7 +14,7 @@ from grasp_intent_ros.sessions.outputs import (
     Undecodable,
     Vector,
 )
-from grasp_intent_ros.wire.protocol import ModelHeader
+from grasp_intent_ros.wire.model_document import ModelHeader
 
 from ..session_bags import (
     SHA_A,

@@ -25,7 +25,7 @@ from grasp_intent_ros.mico.frames import matrix_to_pose
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
 from grasp_intent_ros.sessions import report
 from grasp_intent_ros.sessions.bag import QosSpec, SessionWriter
-from grasp_intent_ros.wire.protocol import model_document
+from grasp_intent_ros.wire.model_document import model_document
 
 T0 = 1_700_000_000_000_000_000  # ns
 S = 1_000_000_000  # ns per s

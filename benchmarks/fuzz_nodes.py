@@ -21,7 +21,7 @@ unpacked in /tmp) for a before/after comparison; the probe and the messages stay
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set.
 
     ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=95 \
-        .venv/bin/python scripts/fuzz_nodes.py [--cases 12000] [--oversized 100000] [--oversized-bytes 500000]
+        .venv/bin/python benchmarks/fuzz_nodes.py [--cases 12000] [--oversized 100000] [--oversized-bytes 500000]
 """
 
 from __future__ import annotations
@@ -34,15 +34,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-REPO = Path(__file__).resolve().parents[1]
-
-
-def rss_mb(pid: int) -> float:
-    """Resident set size of a process (MB), from /proc."""
-    for line in Path(f'/proc/{pid}/status').read_text().splitlines():
-        if line.startswith('VmRSS:'):
-            return int(line.split()[1]) / 1024.0
-    raise RuntimeError(f'no VmRSS for pid {pid}')
+from _bench import REPO, loopback_domain, rss_mb
 
 
 def main() -> None:
@@ -55,9 +47,7 @@ def main() -> None:
                              'publish as fast as possible and let the keep-last queues drop what they must)')
     parser.add_argument('--nodes-from', type=Path, default=None, help='run the nodes from this checkout')
     args = parser.parse_args()
-    if os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE') != 'LOCALHOST' or 'ROS_DOMAIN_ID' not in os.environ:
-        sys.exit('fuzz_nodes: set ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of your own')
-    domain_id = int(os.environ['ROS_DOMAIN_ID'])
+    domain_id = loopback_domain('fuzz_nodes')
     sys.path.insert(0, str(REPO / 'test'))
 
     import rclpy
@@ -103,12 +93,13 @@ def run(args: argparse.Namespace, suite: Any, probe: Any, wait_for: Callable[[Ca
     from std_msgs.msg import Float64MultiArray
 
     from grasp_intent_ros.ros.qos import DEFAULT_DEPTH, input_qos
-    from grasp_intent_ros.wire import protocol
+    from grasp_intent_ros.wire import topics
+    from grasp_intent_ros.wire.diagnostics import KEY_RECEIVED
 
     fuzzer = Fuzzer(probe, wait_for)
     grasps: list[Any] = []
-    probe.create_subscription(PoseStamped, protocol.GRASP_POSE, grasps.append, input_qos())
-    w_pub = probe.create_publisher(Float64MultiArray, protocol.INTENT_W, input_qos())
+    probe.create_subscription(PoseStamped, topics.GRASP_POSE, grasps.append, input_qos())
+    w_pub = probe.create_publisher(Float64MultiArray, topics.INTENT_W, input_qos())
 
     def answer(what: str) -> None:
         n, start = len(grasps), time.monotonic()
@@ -158,14 +149,14 @@ def run(args: argparse.Namespace, suite: Any, probe: Any, wait_for: Callable[[Ca
         k = args.oversized_bytes
         names = max(1, k // 5000)
         oversized = {  # topic -> (node, serialized message)
-            protocol.JOINT_STATES: ('grasp_planner', serialized(joint_msg(['m1n6s300_joint_1' + 'x' * 4984] * names,
+            topics.JOINT_STATES: ('grasp_planner', serialized(joint_msg(['m1n6s300_joint_1' + 'x' * 4984] * names,
                                                                           [0.0] * names))),
-            protocol.INTENT_W: ('intent_interpreter', serialized(array_msg([0.5] * 3, (('x' * k, 3, 3),)))),
-            protocol.MODEL_QUERY: ('model_server', serialized(array_msg([0.1] * 10, (('x' * k, 10, 10),)))),
+            topics.INTENT_W: ('intent_interpreter', serialized(array_msg([0.5] * 3, (('x' * k, 3, 3),)))),
+            topics.MODEL_QUERY: ('model_server', serialized(array_msg([0.1] * 10, (('x' * k, 10, 10),)))),
         }
         print(f'\noversized: {args.oversized} messages of {k} bytes to each node at once, published serialized')
         wait_for(lambda: False, 1.5)  # a periodic status with the counts before
-        received0 = {t: fuzzer.count(t, protocol.KEY_RECEIVED) for t in oversized}
+        received0 = {t: fuzzer.count(t, KEY_RECEIVED) for t in oversized}
         rejected0 = {t: fuzzer.count(t) for t in oversized}
         before, start, stalls, sent = rss(), time.monotonic(), 0, 0
         while sent < args.oversized:  # a window fits each node's queue
@@ -188,7 +179,7 @@ def run(args: argparse.Namespace, suite: Any, probe: Any, wait_for: Callable[[Ca
               f'{os.getloadavg()[0]:.2f}')
         for topic, (module, _) in oversized.items():
             print(f'{module:18} {topic:14} sent {args.oversized}; {fuzzer.component(topic)}: received '
-                  f'{fuzzer.count(topic, protocol.KEY_RECEIVED) - received0[topic]}, rejected '
+                  f'{fuzzer.count(topic, KEY_RECEIVED) - received0[topic]}, rejected '
                   f'{fuzzer.count(topic) - rejected0[topic]}; RSS {before[module]:.1f} -> {after[module]:.1f} MB '
                   f'({100 * (after[module] / before[module] - 1):+.1f}%)')
         answer('after the oversized messages')

@@ -1,0 +1,75 @@
+"""The default method, ``method='task'``: serve the likely tasks with a demonstration.
+
+The answer is the labelled demonstration, in X, that serves v's top zone, does (by its label) and is read by
+the model (argmax_k P(k|x)) as doing only likely tasks (the top zone's, and tasks whose probability, read
+from v, is at least ``tau``), and has the highest expected task success under v as executed: v's mass on the
+zones its task set contains, each weighted by the estimated probability that the grasp, landing off by the
+execution noise :attr:`~.options.TaskOptions.noise`, still does that zone's tasks
+(:mod:`grasp_intent_ros.planning.robustness`: estimated from the labelled demonstrations only, once per
+model and noise; None, the default, plans for an exact landing, where that probability is 1); ties go to the
+paper's fit 1/2 |v - P|^2, then to the reference, then to demonstration order. A warm start keeps its
+demonstration while it stays within stated bands of the best expected success and fit, and tasks it is read
+as doing stay likely down to ``tau - hysteresis``. The rules and reasons are
+:mod:`grasp_intent_ros.planning.ranking`'s. P(x) does not match v in general: the price in fit is the
+benchmarks' to report.
+
+Every quantity sums in a fixed order (:mod:`.ranking`, compiled kernels), so a plan has the same bits under
+any BLAS.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import PlanningError
+from ..method.intent import reconstruct_w, zone_label
+from ..method.model import GraspModel
+from .common import MATCH_TOL, Candidate, Feasible, PlanResult, zone_order
+from .options import TaskOptions
+from .ranking import rank
+from .robustness import retention
+
+__all__ = ['serve']
+
+_TASK_CANDIDATES = 32  # the best demonstrations offered to ``accept``, in the choice order
+
+
+def serve(model: GraspModel, v: NDArray[np.float64], x_ref: NDArray[np.float64], feas: Feasible, warm: bool,
+          accept: Callable[[NDArray[np.float64]], bool] | None, opts: TaskOptions, t0: float) -> PlanResult:
+    """Method 'task': the first demonstration of :func:`~.ranking.rank` that ``accept`` takes."""
+    kept = None if opts.noise is None or opts.noise.is_zero else retention(model, opts.noise)
+    ranking = rank(model, v, int(zone_order(v)[0]), x_ref, feas.lower, feas.upper, feas.a, feas.body, tau=opts.tau,
+                   hysteresis=opts.hysteresis, warm=warm, faithful=opts.faithful, retention=kept)
+    names = model.task_names
+    likely = zone_label(ranking.likely, names)
+    top = zone_label(ranking.top, names)
+    tiers = (f'serves the likely tasks {likely}', f'serves the top zone {top}, reads as a task outside {likely}',
+             f'misses the top zone {top}')
+    sets = model.demo_sets
+    n = min(_TASK_CANDIDATES, ranking.order.size)
+    candidates = tuple(
+        Candidate(x, p, f, d, x, f, k, True, f'demonstration {i} ({zone_label(int(sets[i]), names)}): {tiers[t]}', 0, i)
+        for k, (x, p, f, d, i, t) in enumerate(zip(ranking.x[:n], ranking.posterior[:n], ranking.objective[:n].tolist(),
+                                    ranking.distance[:n].tolist(), ranking.order[:n].tolist(),
+                                    ranking.tier[:n].tolist())))
+    if not candidates:
+        raise PlanningError(f'model {model.name!r} has no demonstration outside its body to plan from')
+    rejected = 0
+    chosen = None
+    for cand in candidates:
+        if accept is None or accept(cand.x):
+            chosen = cand
+            break
+        rejected += 1
+    status = 'ok' if chosen is not None else 'rejected'
+    chosen = chosen if chosen is not None else candidates[0]
+    message = f'planned ({chosen.message})' if status == 'ok' else \
+        f'all {len(candidates)} candidates rejected by the robot constraint'
+    return PlanResult(chosen=chosen, w=reconstruct_w(chosen.posterior, model.zones, len(names)),
+                      exact=chosen.objective <= MATCH_TOL, reference=x_ref, status=status, message=message,
+                      iterations=0, wall_time_s=time.perf_counter() - t0, method='task', candidates=candidates,
+                      rejected=rejected)

@@ -1,0 +1,161 @@
+"""The suite's topics, their message types, and the caps on what an input may carry.
+
+ROS-free (plain strings and numbers); every node, session tool and test names a topic through this module.
+
+Topics
+------
+:data:`MSGTYPES` maps every topic of the suite (relative names; ``/diagnostics`` is absolute) to its
+message type. :data:`INPUT_TOPICS` are the inputs a replay publishes again, :data:`PLAN_TOPICS` the
+outputs of one plan (one stamp), :data:`OUTPUT_TOPICS` the outputs a replay compares.
+
+Input caps
+----------
+:data:`MAX_MESSAGE_BYTES` caps the serialized size of a message on each input topic (checked before the
+message is decoded, :func:`check_message_size`); :data:`MAX_JOINTS` and :data:`MAX_NAME_LENGTH` bound a
+joint state's names (:func:`check_names`), :data:`MAX_FEATURES` a feature vector.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Final
+
+from ..errors import GraspIntentError
+from ..method.safe_yaml import MAX_DOCUMENT_CHARS
+
+__all__ = [
+    'INTENT_W', 'INTENT_V', 'INTENT_CLARIFICATION', 'MODEL_ACTIVE', 'MODEL_AMBIGUITY',
+    'MODEL_AMBIGUITY_SYMMETRIC', 'MODEL_AMBIGUITY_PINSKER', 'MODEL_QUERY', 'MODEL_POSTERIOR',
+    'OBJECT_POSE', 'JOINT_STATES', 'GRASP_POSE', 'GRASP_JOINT_TARGETS', 'GRASP_TRAJECTORY',
+    'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA',
+    'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS',
+    'MSGTYPES', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS', 'PLAN_TOPICS', 'OUTPUT_TOPICS',
+    'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size', 'check_names',
+]
+
+INTENT_W: Final = 'intent/w'
+INTENT_V: Final = 'intent/v'
+INTENT_CLARIFICATION: Final = 'intent/clarification'
+MODEL_ACTIVE: Final = 'model/active'
+MODEL_AMBIGUITY: Final = 'model/ambiguity'
+MODEL_AMBIGUITY_SYMMETRIC: Final = 'model/ambiguity/symmetric'
+MODEL_AMBIGUITY_PINSKER: Final = 'model/ambiguity/pinsker'
+MODEL_QUERY: Final = 'model/query'
+MODEL_POSTERIOR: Final = 'model/posterior'
+OBJECT_POSE: Final = 'object/pose'
+JOINT_STATES: Final = 'joint_states'
+GRASP_POSE: Final = 'grasp/pose'
+GRASP_JOINT_TARGETS: Final = 'grasp/joint_targets'
+GRASP_TRAJECTORY: Final = 'grasp/trajectory'
+GRASP_POSTERIOR: Final = 'grasp/posterior'
+GRASP_FEATURES: Final = 'grasp/features'
+GRASP_MARKERS: Final = 'grasp/markers'
+DIAGNOSTICS: Final = '/diagnostics'
+OPERATOR_TWIST: Final = 'operator/twist'
+"""The operator's twist (e.g. a spacemouse or joystick teleop), the assistance node's input."""
+ASSISTANCE_TWIST: Final = 'assistance/twist'
+"""The blended twist, for a servo (remap it to e.g. ``/servo_node/delta_twist_cmds``)."""
+ASSISTANCE_ALPHA: Final = 'assistance/alpha'
+"""The arbitration weight of each blended twist."""
+ARM_TRAJECTORY_COMMAND: Final = 'arm_controller/joint_trajectory'
+"""The mock arm's trajectory input (a joint_trajectory_controller's topic); the suite remaps it to grasp/trajectory."""
+ARM_TWIST_COMMAND: Final = 'servo/delta_twist_cmds'
+"""The mock arm's twist input (MoveIt Servo's topic); the suite remaps it to assistance/twist."""
+
+_F64MA, _STRING = 'std_msgs/msg/Float64MultiArray', 'std_msgs/msg/String'
+MSGTYPES: Final[Mapping[str, str]] = {
+    INTENT_W: _F64MA,
+    INTENT_V: _F64MA,
+    INTENT_CLARIFICATION: _STRING,
+    MODEL_ACTIVE: _STRING,
+    MODEL_AMBIGUITY: _F64MA,
+    MODEL_AMBIGUITY_SYMMETRIC: _F64MA,
+    MODEL_AMBIGUITY_PINSKER: _F64MA,
+    MODEL_QUERY: _F64MA,
+    MODEL_POSTERIOR: _F64MA,
+    OBJECT_POSE: 'geometry_msgs/msg/PoseStamped',
+    JOINT_STATES: 'sensor_msgs/msg/JointState',
+    GRASP_POSE: 'geometry_msgs/msg/PoseStamped',
+    GRASP_JOINT_TARGETS: 'sensor_msgs/msg/JointState',
+    GRASP_TRAJECTORY: 'trajectory_msgs/msg/JointTrajectory',
+    GRASP_POSTERIOR: _F64MA,
+    GRASP_FEATURES: _F64MA,
+    GRASP_MARKERS: 'visualization_msgs/msg/MarkerArray',
+    DIAGNOSTICS: 'diagnostic_msgs/msg/DiagnosticArray',
+    OPERATOR_TWIST: 'geometry_msgs/msg/TwistStamped',
+    ASSISTANCE_TWIST: 'geometry_msgs/msg/TwistStamped',
+    ASSISTANCE_ALPHA: 'std_msgs/msg/Float64',
+    ARM_TRAJECTORY_COMMAND: 'trajectory_msgs/msg/JointTrajectory',
+    ARM_TWIST_COMMAND: 'geometry_msgs/msg/TwistStamped',
+}
+"""Message type of every topic of the suite, by relative name (``/diagnostics`` is absolute)."""
+
+INPUT_TOPICS: Final = (INTENT_W, OBJECT_POSE, JOINT_STATES)
+"""Inputs a replay publishes again (relative names)."""
+PLAN_TOPICS: Final = (GRASP_POSE, GRASP_JOINT_TARGETS, GRASP_TRAJECTORY, GRASP_POSTERIOR, GRASP_FEATURES)
+"""The outputs of one plan (all carry the same stamp)."""
+OUTPUT_TOPICS: Final = (INTENT_V, INTENT_CLARIFICATION, *PLAN_TOPICS)
+"""Outputs compared by a replay (relative names), besides ``model/active`` and rejections."""
+SHARED_CONTROL_TOPICS: Final = (OPERATOR_TWIST, ASSISTANCE_TWIST, ASSISTANCE_ALPHA)
+"""The shared-control loop's topics (the assistance node's input and outputs), recorded with the suite's."""
+
+# ------------------------------------------------------------------------------------------ input caps
+MAX_NAME_LENGTH: Final = 256
+"""Longest accepted name (characters): a joint name, a frame id."""
+MAX_JOINTS: Final = 64
+"""Most joints accepted in one ``joint_states`` message."""
+MAX_FEATURES: Final = 1024
+"""Largest feature vector accepted on ``model/query`` (values)."""
+
+MAX_MESSAGE_BYTES: Final[Mapping[str, int]] = {
+    INTENT_W: 16 << 10,        # 10 tasks; labels of up to 10 task names
+    INTENT_V: 64 << 10,        # 1023 zones and their labels
+    MODEL_QUERY: 64 << 10,     # MAX_FEATURES values and their labels
+    OBJECT_POSE: 4 << 10,      # a pose and a frame id of MAX_NAME_LENGTH
+    JOINT_STATES: 64 << 10,    # MAX_JOINTS names of MAX_NAME_LENGTH, positions, velocities, efforts
+    MODEL_ACTIVE: 4 * MAX_DOCUMENT_CHARS + 64,  # a document of at most MAX_DOCUMENT_CHARS UTF-8 characters
+    INTENT_CLARIFICATION: 64 << 10,  # a reason naming a model's zones
+    GRASP_POSE: 4 << 10,       # as OBJECT_POSE
+    GRASP_POSTERIOR: 64 << 10,  # 1023 zones, 10 tasks and their labels
+    GRASP_FEATURES: 64 << 10,  # MAX_FEATURES values, their labels and a stamp label
+    GRASP_JOINT_TARGETS: 64 << 10,  # as JOINT_STATES
+    OPERATOR_TWIST: 4 << 10,   # a twist and a frame id of MAX_NAME_LENGTH
+    ARM_TWIST_COMMAND: 4 << 10,
+    ARM_TRAJECTORY_COMMAND: 1 << 20,  # e.g. 4,000 points of 9 joints with positions, velocities, accelerations
+}
+"""Largest serialized (CDR) message accepted on each input topic, bytes.
+
+A node reads its inputs serialized and rejects a larger message before decoding it (so an oversized
+message never becomes Python objects); each cap leaves ample room for the largest valid message.
+"""
+
+
+def check_message_size(topic: str, size: int) -> None:
+    """Reject a serialized message of ``size`` bytes larger than the cap of ``topic``.
+
+    Raises
+    ------
+    GraspIntentError
+        If ``size`` exceeds :data:`MAX_MESSAGE_BYTES` ``[topic]``.
+    KeyError
+        For a topic without a cap (not an input of the suite).
+    """
+    cap = MAX_MESSAGE_BYTES[topic]
+    if size > cap:
+        raise GraspIntentError(f'{topic}: oversized message of {size} bytes, the limit is {cap} bytes')
+
+
+def check_names(names: Sequence[str], *, max_count: int, what: str) -> None:
+    """At most ``max_count`` names of at most :data:`MAX_NAME_LENGTH` characters each.
+
+    Raises
+    ------
+    GraspIntentError
+        Naming the count or the first name that is too long (abbreviated).
+    """
+    if len(names) > max_count:
+        raise GraspIntentError(f'{what}: {len(names)} names, the limit is {max_count}')
+    for i, name in enumerate(names):
+        if len(name) > MAX_NAME_LENGTH:
+            raise GraspIntentError(f'{what}: name {i} has {len(name)} characters, the limit is '
+                                   f'{MAX_NAME_LENGTH} ({name[:40]!r}...)')
