@@ -59,12 +59,12 @@ from typing import Any
 
 import numpy as np
 from _bench import uptime
+from bench_shared_control import OBJECTS
 
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
-from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
@@ -77,7 +77,6 @@ from grasp_intent_ros.shared_control.operators import (
 )
 from grasp_intent_ros.shared_control.simulator import CONDITIONS, Scene, certain_grasps, perturb_pose, simulate
 
-OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 OPERATORS = ('joystick', 'spacemouse', 'goal-changing')
 CASES = ((0.9, 0.9, 0.1), (0.9, 0.1, 0.9), (0.1, 0.9, 0.9), (0.9, 0.5, 0.5), (0.7, 0.7, 0.7))
 ESTIMATED = 'estimated'
