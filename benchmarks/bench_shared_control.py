@@ -75,7 +75,7 @@ from _bench import REPO, Probe, loopback_domain, stopped_after, uptime
 from grasp_intent_ros.method.features import FINGERS
 from grasp_intent_ros.method.intent import all_zones, interpret
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import obj_T_ee_to_features, pose_to_matrix
+from grasp_intent_ros.mico.frames import default_base_T_obj, obj_T_ee_to_features
 from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
 from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRules
@@ -94,8 +94,8 @@ from grasp_intent_ros.wire.diagnostics import ESTIMATOR_COMPONENT
 
 OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 CONDITIONS = ('none', 'blend', 'confidence')
-BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
-"""The planner's default object pose (config/grasp_planner.yaml)."""
+BASE_T_OBJ = default_base_T_obj()
+"""The true object pose: the planner's default (:func:`~grasp_intent_ros.mico.frames.default_base_T_obj`)."""
 PERIOD = 0.01
 W_EVERY = 10
 """Operator ticks per w (10 Hz)."""

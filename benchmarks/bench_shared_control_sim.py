@@ -62,7 +62,7 @@ from _bench import uptime
 from bench_shared_control import OBJECTS
 
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.frames import default_base_T_obj
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
 from grasp_intent_ros.resources import config_dir
@@ -84,8 +84,8 @@ RUN = (*CONDITIONS, ESTIMATED)
 """The conditions: the simulator's, and the suite with the intent estimator's w (module docstring)."""
 PAIRS = (*(('suite', c) for c in CONDITIONS[:-1]), (ESTIMATED, 'suite'), (ESTIMATED, 'direct'))
 """The paired differences reported (a minus b)."""
-BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
-"""The true object pose (the planner's default, config/grasp_planner.yaml)."""
+BASE_T_OBJ = default_base_T_obj()
+"""The true object pose: the planner's default (:func:`~grasp_intent_ros.mico.frames.default_base_T_obj`)."""
 
 _STATE: dict[str, Any] = {}
 

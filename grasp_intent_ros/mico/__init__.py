@@ -13,6 +13,8 @@ grasp
     The planner node's policy: plan, then a grasp the arm reaches (joint targets, move time).
 mock_arm
     A simulated arm for the closed loop without hardware: trajectories, twists, differential IK.
+reach
+    A grasp the arm reaches from home: IK, the approach corridor, a Cartesian servo of the mock arm.
 
 Imports of the package: :mod:`~grasp_intent_ros.errors`, :mod:`~grasp_intent_ros.resources`,
 :mod:`~grasp_intent_ros.method`, :mod:`~grasp_intent_ros.planning` and :mod:`~grasp_intent_ros.kernels`.

@@ -37,6 +37,7 @@ kinematics).
 from __future__ import annotations
 
 import math
+from typing import Final
 
 import numpy as np
 import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
@@ -53,8 +54,16 @@ __all__ = [
     'obj_T_ee_to_features',
     'pose_to_matrix',
     'matrix_to_pose',
+    'DEFAULT_OBJECT_POSITION',
+    'DEFAULT_OBJECT_ORIENTATION',
+    'default_base_T_obj',
     'PRE_GRASP_STANDOFF',
     'pre_grasp',
+    'pose_error',
+    'REACH_POS',
+    'REACH_ROT',
+    'offset',
+    'reached',
     'finger_segments',
     'FINGER_LENGTH',
 ]
@@ -256,6 +265,44 @@ def pose_to_matrix(position: ArrayLike, quat_xyzw: ArrayLike) -> NDArray[np.floa
     T[:3, :3] = pin.Quaternion(w, x, y, z).toRotationMatrix()  # Pinocchio takes w first
     T[:3, 3] = p
     return T
+
+
+def pose_error(base_T_ee: NDArray[np.float64], base_T_target: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(p_t - p, log3(R_t R^T)), shape (6,): the target's offset (m) and rotation vector (rad), base frame."""
+    dp = base_T_target[:3, 3] - base_T_ee[:3, 3]
+    dr = pin.log3(base_T_target[:3, :3] @ base_T_ee[:3, :3].T)
+    return np.concatenate([dp, np.asarray(dr, dtype=np.float64)])
+
+
+REACH_POS: Final = 0.01
+"""The hand has reached a grasp within this distance (m) ..."""
+REACH_ROT: Final = 0.1
+"""... and this rotation (rad): the closed-loop benchmarks' success and a scripted operator's grasp command."""
+
+
+def offset(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[float, float]:
+    """How far pose ``b`` is from pose ``a`` (4x4): (distance m, rotation angle rad), by :func:`pose_error`."""
+    error = pose_error(a, b)
+    return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
+
+
+def reached(hand: NDArray[np.float64], goal: NDArray[np.float64]) -> bool:
+    """Whether the hand is within :data:`REACH_POS` and :data:`REACH_ROT` of ``goal``."""
+    distance, angle = offset(hand, goal)
+    return distance <= REACH_POS and angle <= REACH_ROT
+
+
+DEFAULT_OBJECT_POSITION = (0.3, -0.3, 0.0)
+"""The object's default position (m) in the arm's base frame: on the table plane z = 0 of a table-mounted MICO,
+within its reach (the planner's and the estimator's ``object_position`` default, the benchmarks' object pose)."""
+DEFAULT_OBJECT_ORIENTATION = (0.0, 0.0, 1.0, 0.0)
+"""The object's default orientation, a quaternion (x, y, z, w) in the base frame: half a turn about z, which turns
+the cup's handle (+x of the object) towards the arm."""
+
+
+def default_base_T_obj() -> NDArray[np.float64]:
+    """``base_T_obj`` (4x4) of :data:`DEFAULT_OBJECT_POSITION` and :data:`DEFAULT_OBJECT_ORIENTATION`."""
+    return pose_to_matrix(DEFAULT_OBJECT_POSITION, DEFAULT_OBJECT_ORIENTATION)
 
 
 def matrix_to_pose(T: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -445,3 +445,4 @@ class MockArm:
         elif self._twist is not None and now - self._twist[1] > self.command_timeout:
             self._twist = None  # timed out: hold
 
+

@@ -37,7 +37,7 @@ from sensor_msgs.msg import JointState
 
 from ..method.intent import match_zones
 from ..mico.collision import HandCollision, Table
-from ..mico.frames import pose_to_matrix
+from ..mico.frames import DEFAULT_OBJECT_ORIENTATION, DEFAULT_OBJECT_POSITION, pose_to_matrix
 from ..mico.grasp import check_workspace, plan_grasp
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
 from ..planning.options import DEFAULT_METHOD, METHODS, node_options, noise_from
@@ -79,10 +79,10 @@ PARAMETERS = (
               validator=noise_from, constraints='4 finite numbers >= 0'),
     ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
     ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),
-    ParamSpec('object_position', (0.3, -0.3, 0.0),
+    ParamSpec('object_position', DEFAULT_OBJECT_POSITION,
               'Object pose until one arrives on object/pose (and whenever set): position (x, y, z) of the '
               'object frame in m1n6s300_link_base, m.', validator=finite_vector(3, 'x, y, z in m')),
-    ParamSpec('object_orientation', (0.0, 0.0, 1.0, 0.0),
+    ParamSpec('object_orientation', DEFAULT_OBJECT_ORIENTATION,
               'Object pose orientation: unit quaternion (x, y, z, w) in m1n6s300_link_base. The default '
               'turns the cup handle (+x of the object) towards the arm.', validator=check_unit_quaternion,
               constraints='unit norm within 1e-3'),

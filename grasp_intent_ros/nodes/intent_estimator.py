@@ -45,7 +45,7 @@ from std_msgs.msg import Float64MultiArray
 
 from ..errors import GraspIntentError
 from ..method.intent import zone_label
-from ..mico.frames import pose_to_matrix
+from ..mico.frames import DEFAULT_OBJECT_ORIENTATION, DEFAULT_OBJECT_POSITION, pose_to_matrix
 from ..mico.grasp import check_mico_model, check_workspace
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, EE_FRAME, JOINT_LIMIT_MARGIN, MicoKinematics
 from ..mico.mock_arm import check_twist
@@ -84,10 +84,10 @@ PARAMETERS = (
               read_only=True),
     ParamSpec('operator_timeout', 0.1, 'Operator twist age (s) after which the operator counts as still (no w '
               'published).', range=(0.001, 10.0)),
-    ParamSpec('object_position', (0.3, -0.3, 0.0), 'Object pose until one arrives on object/pose (and whenever '
+    ParamSpec('object_position', DEFAULT_OBJECT_POSITION, 'Object pose until one arrives on object/pose (and whenever '
               'set): position in m1n6s300_link_base, m (as the planner\'s).',
               validator=finite_vector(3, 'x, y, z in m')),
-    ParamSpec('object_orientation', (0.0, 0.0, 1.0, 0.0), 'Object orientation: unit quaternion (x, y, z, w).',
+    ParamSpec('object_orientation', DEFAULT_OBJECT_ORIENTATION, 'Object orientation: unit quaternion (x, y, z, w).',
               validator=check_unit_quaternion, constraints='unit norm within 1e-3'),
     ParamSpec('object_tolerance', 0.01, 'An object that moves farther (m) restarts the estimate with new goals.',
               range=(0.0, 1.0)),

@@ -60,13 +60,21 @@ keeps the zones of a model distinguishable but overlapping, which is what lets t
 (paper Tables II-VI).
 
 Every demonstration is one a MICO can take (:func:`generate` drops the others): the open hand clear of the
-table and the object along its 8 cm approach (:mod:`grasp_intent_ros.mico.collision`). The open hand reaches
-some 5.5 cm ahead of the palm centre and spreads 8-9 cm to each side, so the prototypes are shaped by it: the
-cup's low side grasps at the handle hold the thumb sideways (thumb up or down puts fingers or thumb under the
-table) and come from either side of the handle (:func:`_both_sides`); its handover grasps come high (over the
-rim's height) or from above; every flashlight grasp comes from above with the palm 2.5-3 cm over the body, the
-thumb across it. The bands the rules leave for the cup's usage with transfer or handover are narrow for such a
-hand, so fewer of their draws are kept.
+table and the object along its 8 cm approach (:mod:`grasp_intent_ros.mico.collision`), and, with the object at
+its default pose (:func:`~grasp_intent_ros.mico.frames.default_base_T_obj`), a grasp the arm reaches from home:
+IK converges, the approach corridor is followed, and a proportional Cartesian servo from home brings the hand to
+the pre-grasp and the grasp, and to the grasp straight, without crossing the wrist singularity or stopping at a
+joint limit
+(:class:`~grasp_intent_ros.mico.reach.ArmReach`). The open hand reaches some 5.5 cm ahead of the palm centre
+and spreads 8-9 cm to each side, and at the default pose the arm stands on the cup's handle side, a little to its
+-y; so the prototypes are shaped by both: the cup's low side grasps at the handle hold the thumb sideways (thumb
+up or down puts fingers or thumb under the table) and come from either side of the handle (:func:`_both_sides`);
+its handover grasps come high (over the rim's height) from the arm's side; its grasps that serve usage with
+transfer or handover come from the arm's side of the handle root (a wrist turned at the handle, the thumb level,
+needs the hand along the cup's side: the mirror image, from +y, is out of reach, and a hand between the arm and
+the cup folds the arm against its joint limits); every flashlight grasp comes from above with the palm 2.5-3 cm
+over the body, the thumb across it. The bands the rules leave for the cup's usage with transfer or handover are
+narrow for such a hand and arm, so fewer of their draws are kept.
 
 One module: the objects' geometry, their rules and the prototypes sampled against them are one
 specification (the paper's Table I), read together.
@@ -74,6 +82,7 @@ specification (the paper's Table I), read together.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -88,7 +97,9 @@ from ..method.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL, FeatureSpa
 from ..method.intent import DEFAULT_TASKS, all_zones, zone_label
 from ..method.model import GraspModel
 from ..mico.collision import HandCollision
-from ..mico.frames import features_to_obj_T_ee
+from ..mico.frames import default_base_T_obj, features_to_obj_T_ee
+from ..mico.kinematics import MicoKinematics
+from ..mico.reach import ArmReach
 
 __all__ = [
     'CLOSED',
@@ -559,23 +570,32 @@ CUP_PROTOTYPES: dict[int, tuple[Prototype, ...]] = {
     # Transfer: from above onto the rim, palm on the cup; the roll is free from above.
     _T: (Prototype(_RIM, 0.0, 80 * _DEG, 0.015, 0.0, _CUP_CLOSED),
          Prototype(_RIM, 0.0, 80 * _DEG, 0.015, math.pi, _CUP_CLOSED)),
-    # Handover: high on the handle side, over the rim's height (not low enough to drink), wrist turned, only the
-    # thumb closed: the handle is left free.
-    _H: _both_sides(Prototype((0.062, 0.016, 0.100), 40 * _DEG, 30 * _DEG, 0.020, math.pi - 0.4, (1.20, 0.60, 0.60))),
-    # Usage and transfer: tilted (about 42 deg) onto one side of the handle root, palm touching the cup, all
-    # fingers closed, the thumb sideways and up: the one narrow pose where the open hand clears the table,
-    # the handle and the wall at once.
-    _U | _T: _both_sides(Prototype((0.050, 0.029, 0.060), 37 * _DEG, 42 * _DEG, 0.020, 2.07, _CUP_CLOSED)),
-    # Usage and handover: low beside the handle, palm off the cup, wrist turned, two fingers in the handle.
-    _U | _H: _both_sides(Prototype((0.067, 0.042, 0.066), 68 * _DEG, 30 * _DEG, 0.020, 2.56, (1.20, 1.20, 0.60))),
+    # Handover: high over the handle, above the rim's height (not low enough to drink), tilted from the arm's
+    # side, wrist turned, two fingers closed: the handle is left free.
+    _H: (Prototype((0.063, -0.040, 0.119), -29 * _DEG, 45 * _DEG, 0.017, 3.19, (1.20, 1.20, 0.60)),
+         Prototype((0.072, 0.026, 0.104), -4 * _DEG, 57 * _DEG, 0.036, 2.92, (1.20, 1.20, 0.60))),
+    # Usage and transfer: tilted (about 40-47 deg) onto the arm's side of the handle root, palm touching the cup,
+    # all fingers closed, the thumb sideways and up: the narrow pose where the open hand clears the table, the
+    # handle and the wall at once and the arm's wrist keeps its side.
+    _U | _T: tuple(Prototype(aim, az * _DEG, el * _DEG, standoff, roll, _CUP_CLOSED)
+                   for aim, az, el, standoff, roll in (((0.051, -0.023, 0.062), -29, 42, 0.025, 4.55),
+                                                       ((0.049, -0.025, 0.057), -24, 47, 0.025, 4.25),
+                                                       ((0.051, -0.026, 0.065), -18, 39, 0.020, 4.65),
+                                                       ((0.046, -0.027, 0.060), -30, 43, 0.025, 4.46))),
+    # Usage and handover: low in front of the handle, coming along the cup's side from the arm's side (the
+    # thumb level, so no open finger goes under the table), palm off the cup, wrist turned, two fingers in
+    # the handle.
+    _U | _H: (Prototype((0.089, -0.050, 0.061), -85 * _DEG, 3 * _DEG, 0.036, 3.38, (1.20, 0.60, 1.20)),
+              Prototype((0.086, -0.060, 0.055), -86 * _DEG, 18 * _DEG, 0.026, 3.25, (1.20, 0.60, 1.20)),
+              Prototype((0.075, -0.054, 0.068), -89 * _DEG, 19 * _DEG, 0.021, 3.20, (1.20, 1.20, 0.60))),
     # Transfer and handover: from above a little off the rim, wrist turned (less precisely than at
     # the handle), two fingers firmly closed, whichever finger is left open.
     _T | _H: tuple(Prototype(_RIM, 0.0, 80 * _DEG, 0.025, roll, closures)
                    for closures in _one_open(1.25, 0.60) for roll in _TURNED),
-    # All: tilted (about 36 deg) onto one side of the handle root, palm near the cup, wrist turned, two
-    # fingers firmly closed, whichever finger is left open.
-    _U | _T | _H: _both_sides(*(Prototype((0.049, 0.026, 0.063), 60 * _DEG, 36 * _DEG, 0.020, 2.62, closures)
-                                for closures in _one_open(1.25, 0.60))),
+    # All: tilted (about 43 deg) onto the arm's side of the handle root along the cup's side, palm near the cup,
+    # wrist turned (the thumb level), two fingers firmly closed, whichever finger is left open.
+    _U | _T | _H: tuple(Prototype((0.054, -0.034, 0.060), -88 * _DEG, 43 * _DEG, 0.021, 3.44, closures)
+                        for closures in _one_open(1.25, 0.60)),
 }
 """Cup prototype grasps per task set: (aim, azimuth, elevation, standoff, roll, closures)."""
 
@@ -671,17 +691,27 @@ def _in_bounds(x: NDArray[np.float64], features: FeatureSpace) -> bool:
     return bool(np.all(x >= features.lower) and np.all(x <= features.upper))
 
 
+@functools.cache
+def _default_arm() -> ArmReach:
+    """The MICO of the default URDF at home, the object at its default pose; one per process (its verdicts kept)."""
+    return ArmReach(MicoKinematics(), default_base_T_obj())
+
+
 def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0, hand: HandCollision | None = None,
-             max_draws_per_demo: int = 200) -> Demonstrations:
+             arm: ArmReach | None = None, max_draws_per_demo: int = 200) -> Demonstrations:
     """Sample and label demonstrations a MICO can take until every task set has exactly ``count`` of them.
 
     Sampling cycles over the task sets that are still short, draws a grasp near that set's prototype,
     rounds it to the CSV precision, drops it when it leaves the feature bounds, labels it by the rules
-    and keeps it when its (possibly different) task set is still short and the hand takes it: the open hand
-    clear of the table (the plane the object stands on, z = 0) and of ``rules.body`` along the approach
-    (:meth:`~grasp_intent_ros.mico.collision.Clearance.fault` under the planner's
+    and keeps it when its (possibly different) task set is still short, the hand takes it and the arm reaches it:
+    the open hand clear of the table (the plane the object stands on, z = 0) and of ``rules.body`` along the
+    approach (:meth:`~grasp_intent_ros.mico.collision.Clearance.fault` under the planner's
     :data:`~grasp_intent_ros.mico.collision.LIMITS`; a closing finger that stops on the table or the object
-    is kept). Rows are ordered by task set (core zone order), then by draw. Fully determined by ``seed``.
+    is kept), and the arm at home takes the grasp with the object at its default pose
+    (:meth:`~grasp_intent_ros.mico.reach.ArmReach.fault`: IK from home, the approach corridor, and a Cartesian
+    servo from home to the pre-grasp and the grasp, and one to the grasp straight, that converge; 0.2-0.4 s a
+    kept grasp). Rows are
+    ordered by task set (core zone order), then by draw. Fully determined by ``seed``.
 
     Parameters
     ----------
@@ -692,6 +722,10 @@ def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0, h
         Seed of the numpy Generator.
     hand : HandCollision, optional
         The hand that must take every demonstration; None: the MICO of the default URDF.
+    arm : ArmReach, optional
+        The arm that must reach every demonstration; None: the MICO of the default URDF at
+        :data:`~grasp_intent_ros.mico.kinematics.HOME_Q`, the object at
+        :func:`~grasp_intent_ros.mico.frames.default_base_T_obj`.
     max_draws_per_demo : int
         Give up after ``max_draws_per_demo * count * n_sets`` draws.
 
@@ -703,7 +737,8 @@ def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0, h
     Raises
     ------
     DataError
-        If count < 1, a task set has no prototype, or some task set cannot be filled with grasps the hand takes.
+        If count < 1, a task set has no prototype, or some task set cannot be filled with grasps the hand takes
+        and the arm reaches.
     """
     if not isinstance(count, (int, np.integer)) or count < 1:
         raise DataError(f'count must be a positive integer, got {count!r}')
@@ -713,6 +748,7 @@ def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0, h
         raise DataError(f'{rules.name}: no prototype for task sets {missing}')
     rng = np.random.default_rng(seed)
     robot = hand if hand is not None else HandCollision()
+    reach = arm if arm is not None else _default_arm()
     kept: dict[int, list[NDArray[np.float64]]] = {z: [] for z in sets}
     budget = max_draws_per_demo * count * len(sets)
     draws = 0
@@ -732,7 +768,8 @@ def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0, h
             if not _in_bounds(x, MICO_3F):
                 continue
             label = rules.label(x)
-            if label and len(kept[label]) < count and robot.clearance(x, rules.body).fault() is None:
+            if (label and len(kept[label]) < count and robot.clearance(x, rules.body).fault() is None
+                    and reach.fault(x) is None):
                 kept[label].append(x)
     x_all = np.array([x for z in sets for x in kept[z]])
     labels = np.array([z for z in sets for _ in kept[z]], dtype=np.int64)

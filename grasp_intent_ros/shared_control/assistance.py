@@ -79,7 +79,7 @@ from __future__ import annotations
 import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Final, Literal
+from typing import Literal
 
 import numpy as np
 import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
@@ -87,7 +87,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidIntentError
 from ..method.intent import parse_zones
-from ..mico.frames import PRE_GRASP_STANDOFF, pre_grasp
+from ..mico.frames import PRE_GRASP_STANDOFF, REACH_POS, REACH_ROT, offset, pose_error, pre_grasp, reached
 from ..mico.kinematics import MicoKinematics
 from ..planning.ranking import expected_success
 
@@ -193,31 +193,6 @@ def operator_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64]
         cos = float(h @ r) / (float(np.linalg.norm(h)) * float(np.linalg.norm(r)))
         parts.append(0.5 * (1.0 + min(max(cos, -1.0), 1.0)))
     return parts[0], parts[1]
-
-
-def pose_error(base_T_ee: NDArray[np.float64], base_T_target: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(p_t - p, log3(R_t R^T)), shape (6,): the target's offset (m) and rotation vector (rad), base frame."""
-    dp = base_T_target[:3, 3] - base_T_ee[:3, 3]
-    dr = pin.log3(base_T_target[:3, :3] @ base_T_ee[:3, :3].T)
-    return np.concatenate([dp, np.asarray(dr, dtype=np.float64)])
-
-
-REACH_POS: Final = 0.01
-"""The hand has reached a grasp within this distance (m) ..."""
-REACH_ROT: Final = 0.1
-"""... and this rotation (rad): the closed-loop benchmarks' success and a scripted operator's grasp command."""
-
-
-def offset(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[float, float]:
-    """How far pose ``b`` is from pose ``a`` (4x4): (distance m, rotation angle rad), by :func:`pose_error`."""
-    error = pose_error(a, b)
-    return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
-
-
-def reached(hand: NDArray[np.float64], goal: NDArray[np.float64]) -> bool:
-    """Whether the hand is within :data:`REACH_POS` and :data:`REACH_ROT` of ``goal``."""
-    distance, angle = offset(hand, goal)
-    return distance <= REACH_POS and angle <= REACH_ROT
 
 
 def assistance_target(base_T_ee: NDArray[np.float64], base_T_grasp: NDArray[np.float64], *, standoff: float,

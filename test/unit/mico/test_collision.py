@@ -15,7 +15,7 @@ from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.body import ObjectBody
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.mico.collision import HAND_PARTS, LIMITS, CollisionFree, HandCollision, Table
-from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.frames import default_base_T_obj, features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.mico.grasp import Grasp, NoReachableGrasp, plan_grasp
 from grasp_intent_ros.mico.kinematics import EE_FRAME, MicoKinematics, default_urdf_path
 from grasp_intent_ros.objects.demos import CUP, FLASHLIGHT, grasp_features
@@ -23,7 +23,7 @@ from grasp_intent_ros.resources import config_dir
 
 CUP_BODY = CUP.body()
 CYLINDER_ONLY = ObjectBody(CUP_BODY.primitives[:1])
-BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+BASE_T_OBJ = default_base_T_obj()
 SIDE_THUMB_SIDEWAYS = math.pi / 2
 """Roll of a horizontal approach from +x with the thumb along +y: the fingers close in the horizontal plane."""
 
