@@ -134,6 +134,7 @@ __all__ = [
     'wrist_turned',
     'grasp_features',
     'sample_grasp',
+    'taken',
     'generate',
 ]
 
@@ -691,6 +692,26 @@ def _in_bounds(x: NDArray[np.float64], features: FeatureSpace) -> bool:
     return bool(np.all(x >= features.lower) and np.all(x <= features.upper))
 
 
+def taken(rules: ObjectRules, x: NDArray[np.float64], *, hand: HandCollision | None = None,
+          arm: ArmReach | None = None) -> bool:
+    """Whether the MICO takes grasp x of ``rules``' object: what :func:`generate` asks of a demonstration.
+
+    The open hand clear of the table and ``rules.body`` along the approach
+    (:meth:`~grasp_intent_ros.mico.collision.Clearance.fault`), and the arm reaches it from home with the object at
+    its default pose (:meth:`~grasp_intent_ros.mico.reach.ArmReach.fault`). ``hand`` and ``arm``: as
+    :func:`generate`'s.
+    """
+    robot = hand if hand is not None else _default_hand()
+    reach = arm if arm is not None else _default_arm()
+    return robot.clearance(x, rules.body).fault() is None and reach.fault(x) is None
+
+
+@functools.cache
+def _default_hand() -> HandCollision:
+    """The hand of the default URDF; one per process."""
+    return HandCollision()
+
+
 @functools.cache
 def _default_arm() -> ArmReach:
     """The MICO of the default URDF at home, the object at its default pose; one per process (its verdicts kept)."""
@@ -747,8 +768,6 @@ def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0, h
     if missing:
         raise DataError(f'{rules.name}: no prototype for task sets {missing}')
     rng = np.random.default_rng(seed)
-    robot = hand if hand is not None else HandCollision()
-    reach = arm if arm is not None else _default_arm()
     kept: dict[int, list[NDArray[np.float64]]] = {z: [] for z in sets}
     budget = max_draws_per_demo * count * len(sets)
     draws = 0
@@ -768,8 +787,7 @@ def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0, h
             if not _in_bounds(x, MICO_3F):
                 continue
             label = rules.label(x)
-            if (label and len(kept[label]) < count and robot.clearance(x, rules.body).fault() is None
-                    and reach.fault(x) is None):
+            if label and len(kept[label]) < count and taken(rules, x, hand=hand, arm=arm):
                 kept[label].append(x)
     x_all = np.array([x for z in sets for x in kept[z]])
     labels = np.array([z for z in sets for _ in kept[z]], dtype=np.int64)
