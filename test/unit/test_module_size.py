@@ -19,7 +19,7 @@ MAX_NODE_LINES = 200
 OVER_LIMIT: Mapping[str, tuple[int, str]] = {
     'method/model.py': (750, 'GraspModel is one frozen class: training, the posterior and its Jacobian, the model '
                              'document read and written; its methods share the cached arrays'),
-    'objects/demos.py': (790, "two objects' task rules and prototypes (shaped for the MICO's hand and arm), each "
+    'objects/demos.py': (800, "two objects' task rules and prototypes (shaped for the MICO's hand and arm), each "
                               'rule a documented condition, in one table that both the data generator and the '
                               "benchmarks' judge read"),
     'shared_control/assistance.py': (600, 'the blending formalism with its formulas (a 75-line docstring), '
