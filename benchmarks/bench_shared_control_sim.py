@@ -23,6 +23,9 @@ The episodes
 - The object tracker's error (per episode): position N(0, (5 mm)^2 / 3) per axis, rotation vector
   N(0, (3 deg)^2 / 3) per axis (``--tracker-mm``, ``--tracker-deg``): 5 mm and 3 deg RMS. The hand's closure
   error on the grasp command: N(0, (0.05 rad)^2) per finger (the mock arm's ``closure_error``).
+- The grasp command: under the suite's assistance, closing on the shown grasp executes it (the arm moves to
+  the planned grasp, then closes: :func:`~grasp_intent_ros.shared_control.simulator.execute_grasp`);
+  ``--no-execute`` closes where the hand is, as under direct and ADA.
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   intent, its noise and the tracker error are the episode's).
 
@@ -114,6 +117,7 @@ class Task:
     tracker_mm: float
     tracker_deg: float
     conditions: tuple[str, ...] = RUN
+    execute: bool = True
 
 
 def _intent(task: Task, rng: np.random.Generator) -> Any:
@@ -155,7 +159,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
             estimated = condition == ESTIMATED
             ep = simulate(scene, 'suite' if estimated else condition, intent, operator, state['own'], intent_rng,
                           closure_rng, ada_goals=ada_goals, plan_cache=cache, timeout=task.timeout,
-                          estimator=estimator if estimated else None)
+                          estimator=estimator if estimated else None, execute=task.execute)
             true_set = ep.task_set
             success = ep.features is not None and rules.label(ep.features) & true_set == true_set
             wrong = sum(s for x, s in ep.pulls if rules.label(x) & true_set != true_set)
@@ -163,7 +167,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
                             'repeat': repeat, 'condition': condition, 'task_set': true_set,
                             'success': bool(success), 'closed': ep.closed_at is not None,
                             'time': ep.closed_at if ep.closed_at is not None else task.timeout,
-                            'pursued': ep.pursued, 'effort_linear': ep.effort_linear,
+                            'pursued': ep.pursued, 'executed': ep.executed, 'effort_linear': ep.effort_linear,
                             'effort_angular': ep.effort_angular, 'wrong_pull': wrong, 'alpha_mean': ep.alpha_mean,
                             'wall_s': time.perf_counter() - t0})
     return records
@@ -220,6 +224,8 @@ def main() -> None:
     parser.add_argument('--tracker-deg', type=float, default=3.0)
     parser.add_argument('--conditions', nargs='+', default=list(RUN), choices=list(RUN))
     parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--no-execute', action='store_true', help='the suite\'s grasp command closes the hand where '
+                        'it is instead of executing the shown grasp (the simulator\'s execute=False)')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--json', help='write every record and the summaries here')
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
@@ -232,7 +238,7 @@ def main() -> None:
         report_cells(done, args, sorted({r['object'] for r in done}), sorted({r['operator'] for r in done}))
         return
     tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg,
-                  tuple(c for c in RUN if c in args.conditions))
+                  tuple(c for c in RUN if c in args.conditions), not args.no_execute)
              for i in range(args.episodes) for o in args.objects for op in args.operators]  # cells fill evenly
     print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
           f'conditions, intent {args.intent}; {uptime()}', flush=True)
