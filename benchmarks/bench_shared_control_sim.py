@@ -26,6 +26,10 @@ The episodes
 - The grasp command: under the suite's assistance, closing on the shown grasp executes it (the arm moves to
   the planned grasp, then closes: :func:`~grasp_intent_ros.shared_control.simulator.execute_grasp`);
   ``--no-execute`` closes where the hand is, as under direct and ADA.
+- The planner (every plan: the shown grasps, the operators' own grasps, ADA's goals): the planner node's
+  defaults (an exact landing); ``--execution-noise`` plans for the documented 1x execution noise
+  (:class:`~grasp_intent_ros.planning.robustness.ExecutionNoise`: 5 mm, 3 deg, 0.1 rad closures, the size of
+  the simulated tracker and closure errors), as the node's ``execution_noise`` parameter does.
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   intent, its noise and the tracker error are the episode's).
 
@@ -68,6 +72,8 @@ from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
+from grasp_intent_ros.planning.options import TaskOptions
+from grasp_intent_ros.planning.robustness import ExecutionNoise
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
@@ -93,14 +99,21 @@ BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 _STATE: dict[str, Any] = {}
 
 
-def _setup(name: str) -> dict[str, Any]:
-    if name not in _STATE:
+def _options(execution_noise: bool) -> TaskOptions | None:
+    """The planner's options: the node's defaults, or planning for the documented 1x execution noise."""
+    return TaskOptions(noise=ExecutionNoise()) if execution_noise else None
+
+
+def _setup(name: str, execution_noise: bool) -> dict[str, Any]:
+    key = f'{name}/{execution_noise}'
+    if key not in _STATE:
         model_name, rules = OBJECTS[name]
         kin = MicoKinematics()
         model = ModelFiles(config_dir() / 'models').load(model_name)
-        own = {s: (g.base_T_ee, g.positions[6:]) for s, g in certain_grasps(model, BASE_T_OBJ, kin).items()}
-        _STATE[name] = {'kin': kin, 'model': model, 'rules': rules, 'own': own}
-    return _STATE[name]
+        grasps = certain_grasps(model, BASE_T_OBJ, kin, _options(execution_noise))
+        own = {s: (g.base_T_ee, g.positions[6:]) for s, g in grasps.items()}
+        _STATE[key] = {'kin': kin, 'model': model, 'rules': rules, 'own': own}
+    return _STATE[key]
 
 
 @dataclass(frozen=True)
@@ -118,6 +131,7 @@ class Task:
     tracker_deg: float
     conditions: tuple[str, ...] = RUN
     execute: bool = True
+    execution_noise: bool = False
 
 
 def _intent(task: Task, rng: np.random.Generator) -> Any:
@@ -134,14 +148,15 @@ def _intent(task: Task, rng: np.random.Generator) -> Any:
 
 def run_task(task: Task) -> list[dict[str, Any]]:
     """Every repeat and condition of one episode: judged records."""
-    state = _setup(task.object)
+    state = _setup(task.object, task.execution_noise)
     kin, model, rules = state['kin'], state['model'], state['rules']
     setup_rng = np.random.default_rng([task.seed, list(OBJECTS).index(task.object), OPERATORS.index(task.operator),
                                        task.index])
     intent = _intent(task, setup_rng)
     tracked = perturb_pose(BASE_T_OBJ, task.tracker_mm * 1e-3, math.radians(task.tracker_deg), setup_rng)
-    scene = Scene(model, BASE_T_OBJ, tracked, kin)
-    ada_goals = [(g.base_T_ee, g.result.x) for g in certain_grasps(model, tracked, kin).values()]
+    options = _options(task.execution_noise)
+    scene = Scene(model, BASE_T_OBJ, tracked, kin, options)
+    ada_goals = [(g.base_T_ee, g.result.x) for g in certain_grasps(model, tracked, kin, options).values()]
     cache: dict[bytes, Grasp | None] = {}
     estimator = None
     if ESTIMATED in task.conditions:  # the goals the node would prepare for the tracked object
@@ -226,6 +241,8 @@ def main() -> None:
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--no-execute', action='store_true', help='the suite\'s grasp command closes the hand where '
                         'it is instead of executing the shown grasp (the simulator\'s execute=False)')
+    parser.add_argument('--execution-noise', action='store_true', help='the planner plans for the documented 1x '
+                        'execution noise (the planner node\'s execution_noise; default: its default, none)')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--json', help='write every record and the summaries here')
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
@@ -238,7 +255,7 @@ def main() -> None:
         report_cells(done, args, sorted({r['object'] for r in done}), sorted({r['operator'] for r in done}))
         return
     tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg,
-                  tuple(c for c in RUN if c in args.conditions), not args.no_execute)
+                  tuple(c for c in RUN if c in args.conditions), not args.no_execute, args.execution_noise)
              for i in range(args.episodes) for o in args.objects for op in args.operators]  # cells fill evenly
     print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
           f'conditions, intent {args.intent}; {uptime()}', flush=True)

@@ -65,6 +65,7 @@ from ..mico.frames import obj_T_ee_to_features
 from ..mico.grasp import MIN_TRAJECTORY_TIME, Grasp, plan_grasp, trajectory_duration
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
 from ..mico.mock_arm import MockArm, TrajectoryCommand, TwistCommand
+from ..planning.options import Options
 from .assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, pose_error
 from .estimator import IntentEstimator
 from .operators import IntentScript, ScriptedOperator, certain_w
@@ -91,10 +92,12 @@ def perturb_pose(base_T: NDArray[np.float64], position_rms: float, angle_rms: fl
     return out
 
 
-def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: MicoKinematics) -> dict[int, Grasp]:
+def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: MicoKinematics,
+                   options: Options | None = None) -> dict[int, Grasp]:
     """The planner's grasp (cold, IK from Home) for each certain task set 1..7 (:func:`.operators.certain_w`).
 
-    An operator's own grasp per task set, chosen without the rules, and ADA's goals.
+    An operator's own grasp per task set, chosen without the rules, and ADA's goals; ``options`` are the
+    planner's (:func:`~grasp_intent_ros.mico.grasp.plan_grasp`; None: its defaults).
 
     Raises
     ------
@@ -105,7 +108,7 @@ def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: Mico
     for task_set in range(1, 8):
         read = interpret(certain_w(task_set), _ZONES)
         assert isinstance(read, Interpretation)  # a certain w never asks for clarification
-        grasp = plan_grasp(model, read.v, _ZONES, base_T_obj, kin)
+        grasp = plan_grasp(model, read.v, _ZONES, base_T_obj, kin, options=options)
         if not isinstance(grasp, Grasp):
             raise ValueError(f'no grasp for the certain task set {task_set}: {grasp}')
         out[task_set] = grasp
@@ -114,12 +117,16 @@ def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: Mico
 
 @dataclass(frozen=True)
 class Scene:
-    """What one episode runs on: the model, the object's true and tracked poses, the kinematics."""
+    """What one episode runs on: the model, the object's true and tracked poses, the kinematics, the planner's options.
+
+    ``options`` None: the planner node's defaults (an exact landing; the node's ``execution_noise`` zero).
+    """
 
     model: GraspModel
     base_T_obj_true: NDArray[np.float64]
     base_T_obj: NDArray[np.float64]
     kin: MicoKinematics
+    options: Options | None = None
 
 
 class PlanStream:
@@ -146,7 +153,7 @@ class PlanStream:
         key = self.kind.encode() + target.tobytes() + (b'' if self.warm is None else self.warm.tobytes())
         if key not in self.cache:
             planned = plan_grasp(self.scene.model, target, _ZONES, self.scene.base_T_obj, self.scene.kin,
-                                 q_arm=HOME_Q, warm_start=self.warm)
+                                 q_arm=HOME_Q, warm_start=self.warm, options=self.scene.options)
             self.cache[key] = planned if isinstance(planned, Grasp) else None
         grasp = self.cache[key]
         if grasp is not None:
