@@ -1,7 +1,7 @@
 r"""Closed-loop shared control without hardware: scripted operators, five real node processes (issue 30).
 
 The interpreter, model server, planner, mock arm and assistance run as ``python -m`` processes over
-loopback (:meth:`~grasp_intent_ros.tools.suite.NodeSuite.start_nodes` with ``shared_control=True``); this
+loopback (:meth:`~grasp_intent_ros.launch.suite.NodeSuite.start_nodes` with ``shared_control=True``); this
 process is the operator (a probe node). Each seeded operator is run three times, in a rotating order, one
 per condition, switched by the assistance node's ``arbitration`` parameter: ``none`` (direct
 teleoperation, alpha = 0), ``blend`` (ADA's baseline: alpha_max when v's top zone leads by ``margin``) and
