@@ -39,6 +39,9 @@ grasp_messages
     A plan's way out, in one module: ``GraspOutputs``, the planner's output stage (the checks, the messages
     of one planned grasp with its RViz markers, all or none, else a clarification request; the plan's
     diagnostics).
+recording
+    The recorder's plumbing: ``TopicSelection``, the offered QoS read from discovery, ``TopicRecorder`` (the
+    selected topics subscribed as they appear, their messages put into a bag serialized), its command line.
 compat
     Every workaround of rclpy internals, each naming the rclpy it works around (a test fails when rclpy
     changes, so that they are checked again).

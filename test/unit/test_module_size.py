@@ -29,8 +29,6 @@ OVER_LIMIT: Mapping[str, tuple[int, str]] = {
                                'constraint; not split yet'),
     'sessions/report.py': (540, "the session report's figures and summary (a command-line module, untyped); not "
                                 'split yet'),
-    'nodes/recorder.py': (520, 'the recorder node with its bag-writing thread and its command line (untyped); '
-                               'not split yet'),
     'nodes/intent_estimator.py': (290, 'the estimator node with its parameters and its clock-driven loop; not '
                                        'thinned yet'),
     'nodes/assistance.py': (280, 'the assistance node with its parameters and its input checks; not thinned yet'),
