@@ -66,10 +66,9 @@ from typing import Any
 
 import numpy as np
 from _bench import uptime
-from bench_shared_control import OBJECTS
+from bench_shared_control import BASE_T_OBJ, OBJECTS
 
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
 from grasp_intent_ros.planning.options import TaskOptions
@@ -93,8 +92,6 @@ RUN = (*CONDITIONS, ESTIMATED)
 """The conditions: the simulator's, and the suite with the intent estimator's w (module docstring)."""
 PAIRS = (*(('suite', c) for c in CONDITIONS[:-1]), (ESTIMATED, 'suite'), (ESTIMATED, 'direct'))
 """The paired differences reported (a minus b)."""
-BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
-"""The true object pose (the planner's default, config/grasp_planner.yaml)."""
 
 _STATE: dict[str, Any] = {}
 
