@@ -23,6 +23,13 @@ The episodes
 - The object tracker's error (per episode): position N(0, (5 mm)^2 / 3) per axis, rotation vector
   N(0, (3 deg)^2 / 3) per axis (``--tracker-mm``, ``--tracker-deg``): 5 mm and 3 deg RMS. The hand's closure
   error on the grasp command: N(0, (0.05 rad)^2) per finger (the mock arm's ``closure_error``).
+- The grasp command: under the suite's assistance, closing on the shown grasp executes it (the arm moves to
+  the planned grasp, then closes: :func:`~grasp_intent_ros.shared_control.simulator.execute_grasp`);
+  ``--no-execute`` closes where the hand is, as under direct and ADA.
+- The planner (every plan: the shown grasps, the operators' own grasps, ADA's goals): the planner node's
+  defaults (an exact landing); ``--execution-noise`` plans for the documented 1x execution noise
+  (:class:`~grasp_intent_ros.planning.robustness.ExecutionNoise`: 5 mm, 3 deg, 0.1 rad closures, the size of
+  the simulated tracker and closure errors), as the node's ``execution_noise`` parameter does.
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   intent, its noise and the tracker error are the episode's).
 
@@ -59,12 +66,13 @@ from typing import Any
 
 import numpy as np
 from _bench import uptime
-from bench_shared_control import OBJECTS
+from bench_shared_control import BASE_T_OBJ, OBJECTS
 
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import default_base_T_obj
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
+from grasp_intent_ros.planning.options import TaskOptions
+from grasp_intent_ros.planning.robustness import ExecutionNoise
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
@@ -84,20 +92,25 @@ RUN = (*CONDITIONS, ESTIMATED)
 """The conditions: the simulator's, and the suite with the intent estimator's w (module docstring)."""
 PAIRS = (*(('suite', c) for c in CONDITIONS[:-1]), (ESTIMATED, 'suite'), (ESTIMATED, 'direct'))
 """The paired differences reported (a minus b)."""
-BASE_T_OBJ = default_base_T_obj()
-"""The true object pose: the planner's default (:func:`~grasp_intent_ros.mico.frames.default_base_T_obj`)."""
 
 _STATE: dict[str, Any] = {}
 
 
-def _setup(name: str) -> dict[str, Any]:
-    if name not in _STATE:
+def _options(execution_noise: bool) -> TaskOptions | None:
+    """The planner's options: the node's defaults, or planning for the documented 1x execution noise."""
+    return TaskOptions(noise=ExecutionNoise()) if execution_noise else None
+
+
+def _setup(name: str, execution_noise: bool) -> dict[str, Any]:
+    key = f'{name}/{execution_noise}'
+    if key not in _STATE:
         model_name, rules = OBJECTS[name]
         kin = MicoKinematics()
         model = ModelFiles(config_dir() / 'models').load(model_name)
-        own = {s: (g.base_T_ee, g.positions[6:]) for s, g in certain_grasps(model, BASE_T_OBJ, kin).items()}
-        _STATE[name] = {'kin': kin, 'model': model, 'rules': rules, 'own': own}
-    return _STATE[name]
+        grasps = certain_grasps(model, BASE_T_OBJ, kin, _options(execution_noise))
+        own = {s: (g.base_T_ee, g.positions[6:]) for s, g in grasps.items()}
+        _STATE[key] = {'kin': kin, 'model': model, 'rules': rules, 'own': own}
+    return _STATE[key]
 
 
 @dataclass(frozen=True)
@@ -114,6 +127,8 @@ class Task:
     tracker_mm: float
     tracker_deg: float
     conditions: tuple[str, ...] = RUN
+    execute: bool = True
+    execution_noise: bool = False
 
 
 def _intent(task: Task, rng: np.random.Generator) -> Any:
@@ -130,14 +145,15 @@ def _intent(task: Task, rng: np.random.Generator) -> Any:
 
 def run_task(task: Task) -> list[dict[str, Any]]:
     """Every repeat and condition of one episode: judged records."""
-    state = _setup(task.object)
+    state = _setup(task.object, task.execution_noise)
     kin, model, rules = state['kin'], state['model'], state['rules']
     setup_rng = np.random.default_rng([task.seed, list(OBJECTS).index(task.object), OPERATORS.index(task.operator),
                                        task.index])
     intent = _intent(task, setup_rng)
     tracked = perturb_pose(BASE_T_OBJ, task.tracker_mm * 1e-3, math.radians(task.tracker_deg), setup_rng)
-    scene = Scene(model, BASE_T_OBJ, tracked, kin)
-    ada_goals = [(g.base_T_ee, g.result.x) for g in certain_grasps(model, tracked, kin).values()]
+    options = _options(task.execution_noise)
+    scene = Scene(model, BASE_T_OBJ, tracked, kin, options)
+    ada_goals = [(g.base_T_ee, g.result.x) for g in certain_grasps(model, tracked, kin, options).values()]
     cache: dict[bytes, Grasp | None] = {}
     estimator = None
     if ESTIMATED in task.conditions:  # the goals the node would prepare for the tracked object
@@ -155,7 +171,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
             estimated = condition == ESTIMATED
             ep = simulate(scene, 'suite' if estimated else condition, intent, operator, state['own'], intent_rng,
                           closure_rng, ada_goals=ada_goals, plan_cache=cache, timeout=task.timeout,
-                          estimator=estimator if estimated else None)
+                          estimator=estimator if estimated else None, execute=task.execute)
             true_set = ep.task_set
             success = ep.features is not None and rules.label(ep.features) & true_set == true_set
             wrong = sum(s for x, s in ep.pulls if rules.label(x) & true_set != true_set)
@@ -163,7 +179,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
                             'repeat': repeat, 'condition': condition, 'task_set': true_set,
                             'success': bool(success), 'closed': ep.closed_at is not None,
                             'time': ep.closed_at if ep.closed_at is not None else task.timeout,
-                            'pursued': ep.pursued, 'effort_linear': ep.effort_linear,
+                            'pursued': ep.pursued, 'executed': ep.executed, 'effort_linear': ep.effort_linear,
                             'effort_angular': ep.effort_angular, 'wrong_pull': wrong, 'alpha_mean': ep.alpha_mean,
                             'wall_s': time.perf_counter() - t0})
     return records
@@ -220,6 +236,10 @@ def main() -> None:
     parser.add_argument('--tracker-deg', type=float, default=3.0)
     parser.add_argument('--conditions', nargs='+', default=list(RUN), choices=list(RUN))
     parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--no-execute', action='store_true', help='the suite\'s grasp command closes the hand where '
+                        'it is instead of executing the shown grasp (the simulator\'s execute=False)')
+    parser.add_argument('--execution-noise', action='store_true', help='the planner plans for the documented 1x '
+                        'execution noise (the planner node\'s execution_noise; default: its default, none)')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--json', help='write every record and the summaries here')
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
@@ -232,7 +252,7 @@ def main() -> None:
         report_cells(done, args, sorted({r['object'] for r in done}), sorted({r['operator'] for r in done}))
         return
     tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg,
-                  tuple(c for c in RUN if c in args.conditions))
+                  tuple(c for c in RUN if c in args.conditions), not args.no_execute, args.execution_noise)
              for i in range(args.episodes) for o in args.objects for op in args.operators]  # cells fill evenly
     print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
           f'conditions, intent {args.intent}; {uptime()}', flush=True)

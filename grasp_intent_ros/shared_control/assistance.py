@@ -45,15 +45,18 @@ Arbitration (:func:`arbitration`): alpha from the probability that the grasp ser
   concentration does not enter (an ambiguous intent is exactly where a grasp serving every likely task
   helps most).
 - o, the operator's agreement with the planned grasp: the smaller of the linear and the angular
-  agreement, each (1 + cos theta) / 2 of the angle theta between the operator's part and the same part of
+  agreement, each max(cos theta, 0) of the angle theta between the operator's part and the same part of
   the pose error toward the grasp itself, ``(k_lin (p_g - p), k_ang log3(R_g R^T))``
-  (:func:`operator_agreement`), as last measured while the operator moved that part faster than its
-  deadband (1 before; :class:`Assistance` holds them, and forgets them when the planned grasp moves by
-  more than the corridor's radius or angle). It is measured against the grasp, not against the robot's
-  twist: the pre-grasp and the joint-space path are the robot's way to the grasp, not another proposal.
+  (:func:`operator_agreement`): the share of the operator's motion that goes toward the grasp, so the robot's
+  share falls as fast as the operator turns away from it (an operator who changed its goal heads elsewhere,
+  seldom straight back: 0.5 at 60 degrees, 0.17 at 80, 0 from right angles on). Each is as last measured
+  while the operator moved that part faster than its deadband (1 before; :class:`Assistance` holds them, and
+  forgets them when the planned grasp moves by more than the corridor's radius or angle). It is measured
+  against the grasp, not against the robot's twist: the pre-grasp and the joint-space path are the robot's
+  way to the grasp, not another proposal.
 
-**The operator wins** (:class:`Assistance`). A part measured against the grasp (theta > pi / 2, o < 1/2)
-is opposition. Opposition sustained for ``yield_time`` makes the robot yield: alpha = 0 for this grasp
+**The operator wins** (:class:`Assistance`). A part measured against the grasp (theta > pi / 2, o = 0) is
+opposition. Opposition sustained for ``yield_time`` makes the robot yield: alpha = 0 for this grasp
 until the operator heads toward it again (every measured part with theta < pi / 2) for ``yield_time``, or
 a new grasp is planned. While the operator gives no input (both parts within their deadbands) the output
 is the operator's twist (the robot does not move the hand on its own) unless ``assist_without_input``.
@@ -179,7 +182,7 @@ def arbitration(rule: Arbitration, v: ArrayLike, serving: float, *, alpha_max: f
 
 def operator_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64], *, deadband_linear: float,
                        deadband_angular: float) -> tuple[float | None, float | None]:
-    """The operator's agreement with the robot per part (linear, angular): (1 + cos theta) / 2, in [0, 1].
+    """The operator's agreement with the robot per part (linear, angular): max(cos theta, 0), in [0, 1].
 
     theta is the angle between the operator's and the robot's part; None (no evidence) for a part that
     either twist moves no faster than its deadband (m/s, rad/s).
@@ -191,7 +194,7 @@ def operator_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64]
             continue
         h, r = clip_norm(operator[part], 1.0), clip_norm(robot[part], 1.0)  # no overflow in the products
         cos = float(h @ r) / (float(np.linalg.norm(h)) * float(np.linalg.norm(r)))
-        parts.append(0.5 * (1.0 + min(max(cos, -1.0), 1.0)))
+        parts.append(min(max(cos, 0.0), 1.0))
     return parts[0], parts[1]
 
 

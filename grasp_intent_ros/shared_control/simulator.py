@@ -1,10 +1,10 @@
 r"""The shared-control loop on a simulated clock, with the functions the nodes call (ROS-free).
 
 One episode (:func:`simulate`): an operator (:mod:`.operators`) teleoperates the mock MICO
-(:class:`~grasp_intent_ros.core.arm.MockArm`, the mock arm node's core) through the assistance
-(:class:`~grasp_intent_ros.core.assistance.Assistance`, the assistance node's core) toward a grasp the
-planner's policy (:func:`~grasp_intent_ros.core.grasp.plan_grasp`, the planner node's core) plans for the
-intent (:func:`~grasp_intent_ros.core.intent.interpret`, the interpreter's core), until the operator closes
+(:class:`~grasp_intent_ros.mico.mock_arm.MockArm`, the mock arm node's core) through the assistance
+(:class:`~grasp_intent_ros.shared_control.assistance.Assistance`, the assistance node's core) toward a grasp the
+planner's policy (:func:`~grasp_intent_ros.mico.grasp.plan_grasp`, the planner node's core) plans for the
+intent (:func:`~grasp_intent_ros.method.intent.interpret`, the interpreter's core), until the operator closes
 the hand or the episode times out. Every ``period`` (0.01 s, the nodes' period): the arm's joints go to the
 assistance (joint_states), the operator sends a twist seen ``reaction`` s late, the assistance answers with
 one command, the arm follows it for one period. Every ``w_period`` (0.1 s) the estimator reports w, which is
@@ -27,6 +27,16 @@ Conditions (:data:`CONDITIONS`)
   planner's grasp for the single most likely task argmax_i w_i (v on that zone alone), shown.
 - ``'suite'``: the suite: v = interpret(w), the planner's grasp, the assistance's ``confidence`` rule, shown.
 
+The grasp command (:func:`execute_grasp`). Under the suite's assistance (``'suite'``, ``'independent'``), when
+the operator closes on the shown grasp, the suite executes that grasp, as the nodes do on ``grasp/execute``
+then ``grasp/close``: the arm follows a trajectory from its joints to the newest plan's inverse kinematics
+(nearest them, as the planner node seeds it with the arm's joints) at its velocity limits, then the fingers
+close. The operator closes once the hand it sees is within the reach tolerance of the grasp, and a hand that
+came down the approach axis is then up to that tolerance short of it: closed there, the grasp is shallower than
+the planned one (the cup's transfer loses palm contact). Executed, the hand is at the grasp that was planned
+(and shown, and trusted by the arbitration). Under ``'direct'`` and ``'ada'`` the hand closes where it is
+(``execute=False`` in :func:`simulate` closes where it is under every condition).
+
 With an :class:`~.estimator.IntentEstimator` (``estimator``), w comes from it instead of the intent script
 (the intent node's place in the suite, ``suite --with intent_estimator``): it is reset at the start and fed,
 every period, the operator's own twist (before blending, so the assistance never creates its own evidence)
@@ -48,18 +58,20 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from ..errors import CommandError
 from ..method.intent import Interpretation, ZoneInterpreter, all_zones, default_task_names, interpret, zone_labels
 from ..method.model import GraspModel
 from ..mico.frames import obj_T_ee_to_features
-from ..mico.grasp import Grasp, plan_grasp
-from ..mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
-from ..mico.mock_arm import MockArm, TwistCommand
+from ..mico.grasp import MIN_TRAJECTORY_TIME, Grasp, plan_grasp, trajectory_duration
+from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from ..mico.mock_arm import MockArm, TrajectoryCommand, TwistCommand
+from ..planning.options import Options
 from .assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, pose_error
 from .estimator import IntentEstimator
 from .operators import IntentScript, ScriptedOperator, certain_w
 
 __all__ = ['Condition', 'CONDITIONS', 'ADA_APPLY_TIME', 'Scene', 'PlanStream', 'AdaAssistance', 'Episode',
-           'simulate', 'perturb_pose', 'certain_grasps']
+           'execute_grasp', 'simulate', 'perturb_pose', 'certain_grasps']
 
 Condition = Literal['direct', 'ada', 'independent', 'suite']
 CONDITIONS: tuple[Condition, ...] = ('direct', 'ada', 'independent', 'suite')
@@ -80,10 +92,12 @@ def perturb_pose(base_T: NDArray[np.float64], position_rms: float, angle_rms: fl
     return out
 
 
-def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: MicoKinematics) -> dict[int, Grasp]:
+def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: MicoKinematics,
+                   options: Options | None = None) -> dict[int, Grasp]:
     """The planner's grasp (cold, IK from Home) for each certain task set 1..7 (:func:`.operators.certain_w`).
 
-    An operator's own grasp per task set, chosen without the rules, and ADA's goals.
+    An operator's own grasp per task set, chosen without the rules, and ADA's goals; ``options`` are the
+    planner's (:func:`~grasp_intent_ros.mico.grasp.plan_grasp`; None: its defaults).
 
     Raises
     ------
@@ -94,7 +108,7 @@ def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: Mico
     for task_set in range(1, 8):
         read = interpret(certain_w(task_set), _ZONES)
         assert isinstance(read, Interpretation)  # a certain w never asks for clarification
-        grasp = plan_grasp(model, read.v, _ZONES, base_T_obj, kin)
+        grasp = plan_grasp(model, read.v, _ZONES, base_T_obj, kin, options=options)
         if not isinstance(grasp, Grasp):
             raise ValueError(f'no grasp for the certain task set {task_set}: {grasp}')
         out[task_set] = grasp
@@ -103,12 +117,16 @@ def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: Mico
 
 @dataclass(frozen=True)
 class Scene:
-    """What one episode runs on: the model, the object's true and tracked poses, the kinematics."""
+    """What one episode runs on: the model, the object's true and tracked poses, the kinematics, the planner's options.
+
+    ``options`` None: the planner node's defaults (an exact landing; the node's ``execution_noise`` zero).
+    """
 
     model: GraspModel
     base_T_obj_true: NDArray[np.float64]
     base_T_obj: NDArray[np.float64]
     kin: MicoKinematics
+    options: Options | None = None
 
 
 class PlanStream:
@@ -135,7 +153,7 @@ class PlanStream:
         key = self.kind.encode() + target.tobytes() + (b'' if self.warm is None else self.warm.tobytes())
         if key not in self.cache:
             planned = plan_grasp(self.scene.model, target, _ZONES, self.scene.base_T_obj, self.scene.kin,
-                                 q_arm=HOME_Q, warm_start=self.warm)
+                                 q_arm=HOME_Q, warm_start=self.warm, options=self.scene.options)
             self.cache[key] = planned if isinstance(planned, Grasp) else None
         grasp = self.cache[key]
         if grasp is not None:
@@ -202,6 +220,32 @@ class AdaAssistance:
         return self.limiter.limit(operator + assist, dt)
 
 
+def execute_grasp(arm: MockArm, base_T_grasp: NDArray[np.float64], now: float, period: float) -> float:
+    """Move ``arm`` to the grasp ``base_T_grasp`` (4x4, base frame) from ``now``: the time (s) it arrives there.
+
+    The trajectory goes from the arm's joints to the grasp's inverse kinematics from them (no restarts; the 2 pi
+    branch nearest them), in :func:`~grasp_intent_ros.mico.grasp.trajectory_duration` at the arm's velocity
+    limits (at least :data:`~grasp_intent_ros.mico.grasp.MIN_TRAJECTORY_TIME`), stepped every ``period`` until the
+    arm holds (at most one second past the trajectory's end). Without an IK solution, or for a trajectory the arm
+    refuses (a branch outside the joint limits), the arm stays and ``now`` is returned. The fingers are not moved.
+    """
+    q = arm.q[:6].copy()
+    ik = arm.kin.ik(base_T_grasp, q, restarts=0)
+    if not ik.success:
+        return now
+    duration = trajectory_duration(q, ik.q, arm.velocity_limits[:6], min_duration=MIN_TRAJECTORY_TIME)
+    try:
+        arm.command_trajectory(TrajectoryCommand(ARM_JOINTS, [duration], [ik.q.tolist()], [[0.0] * 6], [[]], None),
+                               now, allow_partial=True)
+    except CommandError:
+        return now
+    end = now + duration + 1.0
+    while arm.mode == 'trajectory' and now < end:
+        arm.step(now + period, period)
+        now += period
+    return now
+
+
 @dataclass
 class Episode:
     """What one simulated episode did (nothing judged).
@@ -216,6 +260,10 @@ class Episode:
         The operator's true task set at the end.
     pursued : str
         'shown' or 'own': the goal the operator closed on.
+    goal : ndarray, shape (4, 4) or None
+        The pose (base frame) the operator pursued when it closed the hand.
+    executed : bool
+        Whether the suite executed the shown grasp on the grasp command (:func:`execute_grasp`).
     effort_linear, effort_angular : float
         Integrals of the operator's twist's parts (m, rad).
     pulls : list of (ndarray, float)
@@ -227,6 +275,8 @@ class Episode:
     features: NDArray[np.float64] | None = None
     task_set: int = 0
     pursued: str = ''
+    goal: NDArray[np.float64] | None = None
+    executed: bool = False
     effort_linear: float = 0.0
     effort_angular: float = 0.0
     pulls: list[tuple[NDArray[np.float64], float]] = field(default_factory=list)
@@ -238,7 +288,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
              closure_rng: np.random.Generator, *, ada_goals: list[tuple[NDArray[np.float64], NDArray[np.float64]]],
              plan_cache: dict[bytes, Grasp | None], timeout: float = 25.0, period: float = 0.01,
              w_period: float = 0.1, closure_error: float = 0.05,
-             config: AssistanceConfig | None = None, estimator: IntentEstimator | None = None) -> Episode:
+             config: AssistanceConfig | None = None, estimator: IntentEstimator | None = None,
+             execute: bool = True) -> Episode:
     """Run one episode (module docstring).
 
     Parameters
@@ -253,6 +304,9 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
         The suite's assistance settings (default: the node's defaults); ``arbitration`` is set by the condition.
     estimator : IntentEstimator, optional
         The source of w instead of ``intent.w`` (module docstring); reset here, its goals at the tracked object.
+    execute : bool
+        Whether the suite's grasp command executes the shown grasp (module docstring); False: the hand closes
+        where it is under every condition.
     """
     kin = scene.kin
     base = config or AssistanceConfig()
@@ -302,9 +356,13 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
         goal, pursued = operator.choose_goal(shown_pose, own_pose)
         if operator.at_goal(seen, goal):
             closures = own_closures if pursued == 'own' or shown_seen is None else shown_seen.positions[6:]
+            if execute and pursued == 'shown' and shown is not None and condition in ('suite', 'independent'):
+                now = execute_grasp(arm, shown.base_T_ee, now, period)  # grasp/execute: the newest plan
+                closures, episode.executed = shown.positions[6:], True
+                hand_now = kin.fk(arm.q[:6])
             executed = arm.close_fingers(closures + closure_rng.normal(0.0, closure_error, 3))
             obj_T_ee = np.linalg.inv(scene.base_T_obj_true) @ hand_now
-            episode.closed_at, episode.pursued = now, pursued
+            episode.closed_at, episode.pursued, episode.goal = now, pursued, goal
             episode.features = obj_T_ee_to_features(obj_T_ee, executed)
             break
         h = operator.twist(now, seen, goal)

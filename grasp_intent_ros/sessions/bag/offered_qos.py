@@ -7,11 +7,13 @@ discovery (``offered_qos_profiles``, one entry per publisher), and writes each p
 durations as the ``rmw_time_t`` they are, ``{sec, nsec}``, so an infinite duration (what a publisher
 offers without a deadline, lifespan or lease) is ``RMW_DURATION_INFINITE`` = ``{sec: 9223372036, nsec:
 854775807}``. :func:`encode_qos` writes exactly that; :func:`decode_qos` reads it back and, like
-rosbag2, also reads the "infinite" values older rmw implementations reported (Foxy).
+rosbag2, also reads the "infinite" values older rmw implementations reported (Foxy). :func:`request_qos` is
+the QoS a recorder subscribes with to the publishers of a topic.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Final, Literal
 
@@ -19,7 +21,8 @@ from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, Qo
 
 from .errors import BagError, BagReadError
 
-__all__ = ['QosSpec', 'Reliability', 'Durability', 'Liveliness', 'INFINITE', 'decode_qos', 'encode_qos']
+__all__ = ['QosSpec', 'Reliability', 'Durability', 'Liveliness', 'INFINITE', 'decode_qos', 'encode_qos', 'request_qos',
+           'misses_offers']
 
 Reliability = Literal['reliable', 'best_effort']
 Durability = Literal['volatile', 'transient_local']
@@ -165,3 +168,29 @@ def decode_qos(qos: Qos) -> QosSpec:
     depth = qos.depth if qos.history == QosHistory.KEEP_LAST and qos.depth > 0 else 0
     return QosSpec(reliability, durability, depth, liveliness, _decode_time(qos.deadline),
                    _decode_time(qos.lifespan), _decode_time(qos.liveliness_lease_duration))
+
+
+def request_qos(offered: Sequence[QosSpec]) -> QosSpec:
+    """The QoS to subscribe with to publishers offering ``offered`` (rosbag2's adapt_request_to_offers).
+
+    Reliable / transient local only if every publisher offers it, so the subscription matches all of them.
+
+    Raises
+    ------
+    ValueError
+        ``offered`` is empty.
+    """
+    if not offered:
+        raise ValueError('a topic without publishers has no offered QoS')
+    reliable = all(q.reliability == 'reliable' for q in offered)
+    latched = all(q.durability == 'transient_local' for q in offered)
+    return QosSpec('reliable' if reliable else 'best_effort', 'transient_local' if latched else 'volatile', 0)
+
+
+def misses_offers(subscribed: QosSpec, offered: QosSpec) -> bool:
+    """Whether a subscription with ``subscribed`` receives nothing from a publisher offering ``offered``.
+
+    DDS connects no reliable subscription to a best-effort publisher, no transient-local one to a volatile one.
+    """
+    return ((subscribed.reliability, offered.reliability) == ('reliable', 'best_effort')
+            or (subscribed.durability, offered.durability) == ('transient_local', 'volatile'))

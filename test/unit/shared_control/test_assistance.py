@@ -1,4 +1,4 @@
-"""grasp_intent_ros.core.assistance: arbitration, the robot's twist, blending, limits, the safety rules."""
+"""grasp_intent_ros.shared_control.assistance: arbitration, the robot's twist, blending, limits, the safety rules."""
 
 from __future__ import annotations
 
@@ -147,12 +147,13 @@ def make_assistance(**config: object) -> Assistance:
 
 def test_the_blend_and_the_safety_rules() -> None:
     assistance = make_assistance()
-    human = np.array([0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
+    human = np.array([0.05, 0.0, -0.05, 0.0, 0.0, 0.0])
     assistance.set_operator(human, now=0.0)
     command = assistance.command(0.01)
-    assert command.alpha == pytest.approx(0.45) and command.phase == 'grasp'  # at right angles: o = 1/2
+    alpha = 0.9 * 0.5**0.5  # 45 degrees off the grasp: o = cos 45 deg
+    assert command.alpha == pytest.approx(alpha) and command.phase == 'grasp'
     robot = np.array([0.0, 0.0, -0.15, 0.0, 0.0, 0.0])  # 0.2 m above the grasp: gain 2, limited to 0.15
-    assert_allclose(command.twist, 0.45 * robot + 0.55 * human, atol=1e-12)
+    assert_allclose(command.twist, alpha * robot + (1.0 - alpha) * human, atol=1e-12)
     # a stale operator input: the zero twist as soon as it is older than the timeout
     assert np.any(assistance.command(0.1).twist)
     stale = assistance.command(0.1 + 1e-6)
@@ -163,9 +164,9 @@ def test_the_blend_and_the_safety_rules() -> None:
     command = assistance.command(1.01)
     assert command.alpha == 0.0 and command.phase == 'clarification pending'
     assert_allclose(command.twist, human, atol=0)
-    assistance.set_grasp(GRASP)  # the same grasp: the operator's sideways motion (o = 1/2) is remembered
+    assistance.set_grasp(GRASP)  # the same grasp: the operator's oblique motion (o = cos 45 deg) is remembered
     assistance.set_operator(np.array([0.0, 0.0, 0.0, 0.0, 0.06, 0.0]), now=1.02)  # turning only: no evidence
-    assert assistance.command(1.02).alpha == pytest.approx(0.45)
+    assert assistance.command(1.02).alpha == pytest.approx(alpha)
 
 
 @pytest.mark.parametrize('missing, phase', [('base_T_grasp', 'no grasp'), ('base_T_ee', 'no joint state')])
@@ -184,11 +185,30 @@ def test_operator_agreement_lets_the_operator_take_the_control_back() -> None:
     assert operator_agreement(np.zeros(6), robot, **kw) == (None, None)  # holding still: no evidence
     assert operator_agreement(np.r_[0.005, 0, 0, 0, 0, 0], -robot, **kw) == (None, None)  # within the deadband
     assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, 0], robot, **kw) == (pytest.approx(1.0), None)
-    assert operator_agreement(np.r_[0, 0.05, 0, 0, 0, 0], robot, **kw)[0] == pytest.approx(0.5)  # at right angles
+    assert operator_agreement(np.r_[0, 0.05, 0, 0, 0, 0], robot, **kw)[0] == pytest.approx(0.0)  # at right angles
     assert operator_agreement(np.r_[-0.05, 0, 0, 0, 0, 0], robot, **kw)[0] == pytest.approx(0.0)  # against it
     assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, -0.2], robot, **kw) == (pytest.approx(1.0), pytest.approx(0.0))
     assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, 0], np.zeros(6), **kw) == (None, None)  # the robot holds
-    assert operator_agreement(np.r_[1e308, -1e308, 0, 0, 0, 0], robot, **kw)[0] == pytest.approx(0.5 * (1 + 0.5**0.5))
+    assert operator_agreement(np.r_[1e308, -1e308, 0, 0, 0, 0], robot, **kw)[0] == pytest.approx(0.5**0.5)
+
+
+@pytest.mark.parametrize('degrees', [0.0, 30.0, 60.0, 80.0, 90.0, 135.0])
+def test_alpha_falls_with_the_share_of_the_operators_motion_toward_the_grasp(degrees) -> None:
+    # an operator turning toward another goal (a goal change) moves at an angle to the grasp: alpha follows the
+    # share of its motion that goes toward the grasp, cos theta, at once (0 from right angles on), where
+    # (1 + cos theta) / 2 kept 0.59 of alpha_max at 80 degrees and 0.5 at right angles
+    assistance = make_assistance()
+    assert assistance.base_T_ee is not None
+    toward = pose_error(assistance.base_T_ee, GRASP)[:3]
+    toward /= np.linalg.norm(toward)
+    side = np.cross(toward, [0.0, 1.0, 0.0] if abs(toward[1]) < 0.9 else [1.0, 0.0, 0.0])
+    side /= np.linalg.norm(side)
+    theta = np.radians(degrees)
+    assistance.set_operator(np.r_[0.1 * (np.cos(theta) * toward + np.sin(theta) * side), 0.0, 0.0, 0.0], now=0.0)
+    alpha = assistance.command(0.01).alpha
+    assert alpha == pytest.approx(0.9 * max(np.cos(theta), 0.0), abs=1e-9)
+    if degrees >= 80.0:
+        assert alpha <= 0.16
 
 
 def test_the_operator_who_steered_against_the_robot_keeps_the_control() -> None:
@@ -235,13 +255,12 @@ def run_operator(assistance: Assistance, twist: NDArray[np.float64], start: floa
 
 def test_sustained_opposition_makes_the_robot_yield_until_the_operator_heads_back() -> None:
     assistance = make_assistance()  # the grasp 0.2 m straight below the hand
-    oblique = np.array([0.0, 0.05, 0.05, 0.0, 0.0, 0.0])  # 135 degrees off the grasp: o = (1 - cos 45) / 2
-    alphas = run_operator(assistance, oblique, 0.0, 0.4)
-    assert alphas[0][1] == pytest.approx(0.9 * (1 - 0.5**0.5) / 2, abs=1e-12)  # 0.13: not yet <= 0.1
-    yielded = next(t for t, a in alphas if a == 0.0)
+    oblique = np.array([0.0, 0.05, 0.05, 0.0, 0.0, 0.0])  # 135 degrees off the grasp: o = 0 at once
+    alphas = run_operator(assistance, oblique, 0.0, 0.01)
+    assert alphas[0][1] == 0.0 and not assistance.yielded
+    steps = np.arange(1, 40) * 0.01
+    yielded = next(t for t in steps if run_operator(assistance, oblique, t, 0.01) and assistance.yielded)
     assert yielded <= 0.15 + 0.01  # yield_time (0.15 s) after the opposition began, within one output
-    assert all(a == 0.0 for t, a in alphas if t >= yielded)
-    assert assistance.yielded
     # letting go, or turning only, keeps the control with the operator
     run_operator(assistance, np.zeros(6), 0.4, 0.5)
     assert assistance.yielded
@@ -274,6 +293,7 @@ def test_the_switch_gives_the_operators_twist_exactly() -> None:
     assert command.alpha == 0.0 and command.phase == 'assistance off'
     assert not np.any(assistance.command(0.2).twist)  # stale: still the stop
     assistance.enabled = True  # on again: blended and limited, from the last output on
+    fast = np.array([0.1, -0.1, -0.5, 2.0, 0.0, -1.5])  # mostly toward the grasp below
     assistance.set_operator(fast, now=0.3)
     command = assistance.command(0.31)
     assert command.alpha > 0.0 and not np.allclose(command.twist, fast)

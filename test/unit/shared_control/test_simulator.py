@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.objects.demos import CUP_RULES
 from grasp_intent_ros.resources import config_dir
-from grasp_intent_ros.shared_control.assistance import TwistLimiter, pose_error
+from grasp_intent_ros.shared_control.assistance import TwistLimiter, offset, pose_error
 from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
     ChangingIntent,
@@ -66,6 +66,31 @@ def test_a_suite_episode_is_reproducible_and_ends_at_a_grasp_serving_the_operato
     # judged here by the rules the loop never saw: the (0.9, 0.9, 0.1) grasp serves usage and transfer
     assert CUP_RULES.label(first.features) & (U | T) == U | T
     assert first.alpha_mean > 0.3 and first.pursued == 'shown'
+
+
+def test_the_suites_grasp_command_executes_the_shown_grasp(cup) -> None:
+    # the operator closes once the hand it sees (0.25 s late) is within 1 cm / 0.1 rad of the grasp; the
+    # assistance brings the hand down the approach axis, so closed there the grasp is about 5 mm shallower than
+    # planned (the cup's transfer then loses palm contact under the tracker's error): the suite executes the
+    # planned grasp on the grasp command instead, and closes the fingers there
+    scene, grasps = cup
+    own = {s: (g.base_T_ee, g.positions[6:]) for s, g in grasps.items()}
+    intent = PersistentIntent((0.1, 0.9, 0.9), T | H)
+    shortfall = {}
+    for execute in (False, True):
+        operator = ScriptedOperator('spacemouse', OperatorConstants(), np.random.default_rng(3))
+        ep = simulate(scene, 'suite', intent, operator, own, np.random.default_rng(4), np.random.default_rng(5),
+                      ada_goals=[], plan_cache={}, closure_error=0.0, timeout=15.0, execute=execute)
+        assert ep.features is not None and ep.goal is not None and ep.pursued == 'shown'
+        assert ep.executed == execute
+        hand = scene.base_T_obj_true @ features_to_obj_T_ee(ep.features)
+        goal_T_hand = np.linalg.inv(ep.goal) @ hand
+        shortfall[execute] = -goal_T_hand[2, 3]  # behind the grasp along its approach axis (EE z), m
+        distance, angle = offset(ep.goal, hand)
+        if execute:
+            assert distance <= 1e-4 and angle <= 1e-3  # the planned grasp (IK's tolerances, the features' rounding)
+            assert CUP_RULES.label(ep.features) & (T | H) == T | H
+    assert shortfall[False] > 0.003 and abs(shortfall[True]) <= 1e-4
 
 
 class _TrueSetOnly:

@@ -1,0 +1,307 @@
+"""The recorder's rclpy plumbing: its topics, their QoS, the subscriptions feeding its bag, its command line.
+
+A topic selection is a set of names and prefixes resolved against the recorder node
+(:class:`TopicSelection`); what each publisher offers is read from discovery into the bag's
+:class:`~grasp_intent_ros.sessions.bag.QosSpec` (:func:`offered_qos`), as ``ros2 bag record`` stores it;
+:class:`TopicRecorder` subscribes to the selected topics as they appear and puts their messages, serialized,
+into a :class:`~grasp_intent_ros.sessions.bag.Recording`.
+
+Each topic is subscribed with the reliability and durability its publishers offer (best effort / volatile if
+they differ; transient local for latched topics, so the last ``model/active`` is recorded even when it was
+published before the recorder started), keep-last ``depth``. As ``ros2 bag record`` does, the bag's
+``offered_qos_profiles`` hold each publisher's QoS as discovery shows it (:func:`offered_qos_spec`: history
+unknown, the durations and liveliness the publisher offers). A publisher appearing later with a weaker offer
+than the subscription requests (best effort, volatile) is connected to nothing: a WARN names the topic.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from rclpy.event_handler import QoSMessageLostInfo, SubscriptionEventCallbacks
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.subscription import Subscription
+from rclpy.topic_endpoint_info import TopicEndpointInfo
+from rclpy.utilities import remove_ros_args
+
+from ..sessions.bag import DEFAULT_FLUSH_PERIOD, BagWriteError, QosSpec, Recording, misses_offers, request_qos
+from ..wire.diagnostics import WARN
+from .compat import waiting_messages
+from .conversions import type_class
+from .diagnostics import NodeDiagnostics
+
+__all__ = ['TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'DEFAULT_DISCOVERY_PERIOD', 'offered_qos_spec',
+           'offered_qos', 'subscription_qos', 'TopicRecorder', 'command_line']
+
+DEFAULT_TOPICS = ('intent/', 'model/', 'grasp/', 'object/', 'joint_states', 'operator/', 'assistance/', '/diagnostics')
+"""Recorded by default: relative to the recorder's namespace; a trailing '/' selects a whole subtree."""
+
+DEFAULT_DEPTH = 1000
+"""Keep-last depth of the recorder's subscriptions (messages): absorbs bursts while a write blocks."""
+
+DEFAULT_DISCOVERY_PERIOD = 0.5
+"""Seconds between the recorder's looks at the ROS graph for new topics."""
+
+
+@dataclass(frozen=True)
+class TopicSelection:
+    """Fully qualified topic names and prefixes (ending in '/') to record."""
+
+    names: frozenset[str]
+    prefixes: tuple[str, ...]
+
+    @classmethod
+    def resolve(cls, node: Node, patterns: Iterable[str]) -> TopicSelection:
+        """Resolve ``patterns`` (relative names are expanded and remapped against ``node``).
+
+        Raises
+        ------
+        ValueError
+            A pattern is empty or not a valid topic name.
+        """
+        names, prefixes = set(), []
+        for pattern in patterns:
+            subtree = pattern.endswith('/')
+            stem = pattern.rstrip('/')
+            if not stem:
+                raise ValueError(f'not a topic name or prefix: {pattern!r}')
+            try:
+                full = node.resolve_topic_name(stem)
+            except Exception as exc:  # rclpy raises its own (Invalid*NameException) types
+                raise ValueError(f'not a topic name or prefix: {pattern!r}: {exc}') from None
+            if subtree:
+                prefixes.append(full + '/')
+            else:
+                names.add(full)
+        return cls(frozenset(names), tuple(prefixes))
+
+    def matches(self, topic: str) -> bool:
+        """Whether a fully qualified topic name is selected."""
+        return topic in self.names or topic.startswith(self.prefixes)
+
+
+_LIVELINESS = {LivelinessPolicy.AUTOMATIC: 'automatic', LivelinessPolicy.MANUAL_BY_TOPIC: 'manual_by_topic'}
+_INFINITE_NS = 2**63 - 1
+
+
+def _duration_ns(duration: object) -> int | None:
+    """Nanoseconds of a QoS duration; None for infinite (RMW_DURATION_INFINITE) or unspecified (0: default)."""
+    ns = int(getattr(duration, 'nanoseconds'))
+    return None if ns <= 0 or ns >= _INFINITE_NS else ns
+
+
+def offered_qos_spec(profile: QoSProfile) -> QosSpec:
+    """What a publisher offers (``TopicEndpointInfo.qos_profile`` from discovery) as a bag records it.
+
+    ``ros2 bag record`` stores exactly this profile per publisher: discovery shows no history (history
+    unknown, depth 0) and the durations the middleware resolved (infinite for a publisher that sets
+    none, with automatic liveliness). Reliability or durability that no live publisher offers
+    (system default, best available, unknown) are recorded as best effort / volatile, the offers every
+    subscriber can match.
+    """
+    depth = int(profile.depth) if profile.history == HistoryPolicy.KEEP_LAST and profile.depth > 0 else 0
+    return QosSpec(
+        'reliable' if profile.reliability == ReliabilityPolicy.RELIABLE else 'best_effort',
+        'transient_local' if profile.durability == DurabilityPolicy.TRANSIENT_LOCAL else 'volatile',
+        depth,
+        _LIVELINESS.get(profile.liveliness, 'system_default'),  # type: ignore[arg-type]
+        _duration_ns(profile.deadline), _duration_ns(profile.lifespan),
+        _duration_ns(profile.liveliness_lease_duration))
+
+
+def offered_qos(publishers: Sequence[TopicEndpointInfo]) -> tuple[QosSpec, ...]:
+    """The QoS each of a topic's publishers offers, as recorded.
+
+    ``ros2 bag record``'s ``offered_qos_profiles``: one profile per publisher.
+    """
+    return tuple(offered_qos_spec(p.qos_profile) for p in publishers)
+
+
+def subscription_qos(spec: QosSpec, depth: int) -> QoSProfile:
+    """The profile to subscribe with: ``spec``'s reliability and durability, keep-last ``depth`` (messages)."""
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST, depth=depth,
+        reliability=(ReliabilityPolicy.RELIABLE if spec.reliability == 'reliable'
+                     else ReliabilityPolicy.BEST_EFFORT),
+        durability=(DurabilityPolicy.TRANSIENT_LOCAL if spec.durability == 'transient_local'
+                    else DurabilityPolicy.VOLATILE))
+
+
+class TopicRecorder:
+    """Subscribes ``node`` to the selected topics as they appear and puts their messages into ``bag``.
+
+    Parameters
+    ----------
+    node
+        The recorder node: its graph is searched, its subscriptions created and destroyed here.
+    bag
+        Where the messages go, serialized (``raw=True``, never decoded), stamped with the middleware's
+        receive time (ns).
+    selection
+        The topics to record.
+    overrides
+        Fully qualified topic -> QoS to subscribe with and record, instead of the discovered offered QoS.
+    depth
+        Keep-last depth of each subscription (messages), >= 1.
+    diagnostics
+        The node's diagnostics: a value per topic, a WARN for lost messages and late publishers.
+    on_error
+        Called with a :class:`BagWriteError` the bag raised while adding a topic.
+    """
+
+    def __init__(self, node: Node, bag: Recording, selection: TopicSelection, overrides: Mapping[str, QosSpec],
+                 depth: int, diagnostics: NodeDiagnostics, on_error: Callable[[BagWriteError], object]) -> None:
+        self._node, self._bag, self._selection, self._overrides = node, bag, selection, overrides
+        self._depth, self._diagnostics, self._on_error = depth, diagnostics, on_error
+        self._subscriptions: dict[str, Subscription] = {}
+        self._skipped: set[str] = set()
+        self._qos_warned: set[str] = set()
+
+    def discover(self) -> None:
+        """Subscribe to every selected topic that has appeared with a publisher since the last look.
+
+        A topic with several message types, or of a type the bag or this process does not know, is skipped
+        with a warning; a topic seen only through its subscribers waits for a publisher.
+        """
+        log = self._node.get_logger()
+        try:
+            graph = self._node.get_topic_names_and_types()
+        except Exception as exc:  # noqa: BLE001 - e.g. the context is shutting down; never raise in a timer
+            log.warning(f'topic discovery failed: {exc}')
+            return
+        for topic, types in graph:
+            if topic in self._subscriptions:
+                self._check_late_publishers(topic)
+                continue
+            if topic in self._skipped or not self._selection.matches(topic):
+                continue
+            if len(types) != 1:
+                self._skip(topic, f'it has {len(types)} message types {types}; one is needed')
+                continue
+            try:
+                publishers = self._node.get_publishers_info_by_topic(topic)
+            except Exception as exc:  # noqa: BLE001
+                log.warning(f'cannot query the publishers of {topic}: {exc}')
+                continue
+            if publishers:
+                override = self._overrides.get(topic)
+                offered = (override,) if override is not None else offered_qos(publishers)
+                self._subscribe(topic, types[0], override or request_qos(offered), offered)
+
+    def stop(self, exc: BagWriteError) -> None:
+        """After the write error ``exc``: destroy every subscription and close the bag (a failure logged)."""
+        for subscription in self._subscriptions.values():
+            self._node.destroy_subscription(subscription)
+        close_failure = self._bag.close()
+        if close_failure is not None and close_failure is not exc:
+            self._node.get_logger().error(f'closing the bag after the error failed too: {close_failure}')
+
+    def _check_late_publishers(self, topic: str) -> None:
+        """Warn (once per topic) about a late publisher offering a weaker QoS than the subscription requests.
+
+        Best effort or volatile: DDS connects nothing, its messages are lost.
+        """
+        if topic in self._qos_warned:
+            return
+        try:
+            publishers = self._node.get_publishers_info_by_topic(topic)
+        except Exception:  # noqa: BLE001 - shutting down; the next look will tell
+            return
+        if not publishers:
+            return
+        offered, subscribed = request_qos(offered_qos(publishers)), self._bag.recorded_topics[topic][1]
+        if misses_offers(subscribed, offered):
+            self._qos_warned.add(topic)
+            message = (f'{topic}: a publisher offers {offered.reliability}/{offered.durability} but the recorder '
+                       f'subscribed {subscribed.reliability}/{subscribed.durability}; its messages are NOT '
+                       'recorded (restart the recorder to record it)')
+            self._node.get_logger().warning(message)
+            self._diagnostics.set_state(WARN, message)
+
+    def _skip(self, topic: str, reason: str) -> None:
+        self._skipped.add(topic)
+        self._node.get_logger().warning(f'not recording {topic}: {reason}')
+
+    def _subscribe(self, topic: str, msgtype: str, qos: QosSpec, offered: Sequence[QosSpec]) -> None:
+        if not self._bag.knows(msgtype):
+            self._skip(topic, f'type {msgtype} is not a ROS 2 Jazzy standard type known to the bag writer')
+            return
+        try:
+            msg_class = type_class(msgtype)
+        except (ImportError, AttributeError, ValueError) as exc:
+            self._skip(topic, f'type {msgtype} cannot be imported: {exc}')
+            return
+        try:
+            self._bag.add_topic(topic, msgtype, qos, offered)
+        except BagWriteError as exc:
+            self._on_error(exc)
+            return
+        self._diagnostics.set_value(f'topic {topic}', 0)
+        on_message = self._diagnostics.guard(functools.partial(self._on_message, topic))
+        self._subscriptions[topic] = self._node.create_subscription(  # two parameters: rclpy passes MessageInfo
+            msg_class, topic, lambda data, info: on_message((data, info)),  # type: ignore[arg-type,misc]
+            subscription_qos(qos, self._depth), raw=True,
+            event_callbacks=SubscriptionEventCallbacks(message_lost=functools.partial(self._on_lost, topic)))
+        self._node.get_logger().info(f'recording {topic} ({msgtype}, {qos.reliability}, {qos.durability})')
+
+    def _on_message(self, topic: str, received: tuple[bytes, Mapping[str, int]]) -> None:
+        """The whole work on the executor thread: stamp and enqueue, then drain the subscription's queue.
+
+        rclpy's executor builds a wait set and a task for every message it hands over, which at
+        a few kHz costs more than a loaded machine's share of a core; so the callback takes the
+        messages already waiting on the same subscription itself (at most ``depth``, so other topics
+        keep their turn), as rclpy's executor does (``handle.take_message``).
+        """
+        data, info = received
+        put, now = self._bag.put, self._node.get_clock().now
+        # the middleware's receive time, not the callback's: an input and a fast answer taken in one
+        # executor wait keep their order of arrival
+        put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data)
+        taken = 1
+        subscription = self._subscriptions.get(topic)
+        if subscription is not None:
+            for data, info in waiting_messages(subscription, self._depth - 1):
+                put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data)
+                taken += 1
+        self._bag.count_received(taken)
+
+    def _on_lost(self, topic: str, info: QoSMessageLostInfo) -> None:
+        """The middleware reports messages that never reached the subscription: count them, WARN."""
+        lost = self._bag.count_lost(topic, int(info.total_count_change))
+        self._diagnostics.set_state(WARN, f'messages lost before they reached the recorder: {lost}')
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        description='Record the node suite\'s topics into a rosbag2 MCAP bag until SIGINT/SIGTERM.')
+    parser.add_argument('out_dir', type=Path, help='bag directory to create (must not exist)')
+    parser.add_argument('--topics', nargs='+', metavar='T', default=list(DEFAULT_TOPICS),
+                        help='topics to record, relative to the node namespace; a trailing "/" selects '
+                             f'a subtree (default: {" ".join(DEFAULT_TOPICS)})')
+    parser.add_argument('--depth', type=int, default=DEFAULT_DEPTH,
+                        help=f'keep-last depth of each subscription (default {DEFAULT_DEPTH})')
+    parser.add_argument('--discovery-period', type=float, default=DEFAULT_DISCOVERY_PERIOD,
+                        help=f'seconds between looks for new topics (default {DEFAULT_DISCOVERY_PERIOD:g})')
+    parser.add_argument('--flush-period', type=float, default=DEFAULT_FLUSH_PERIOD,
+                        help='seconds after which a message is on disk, so that a killed recorder loses at '
+                             f'most this much (default {DEFAULT_FLUSH_PERIOD:g}; repair with '
+                             'python -m grasp_intent_ros reindex)')
+    return parser
+
+
+def command_line(argv: Sequence[str]) -> argparse.Namespace:
+    """The recorder's options from a full command line (program name first; ROS arguments ignored).
+
+    ``out_dir``, ``topics``, ``depth``, ``discovery_period``, ``flush_period``; exits with argparse's usage
+    error (code 2) on a bad option or a depth below 1, a period not above 0.
+    """
+    parser = _parser()
+    options = parser.parse_args(remove_ros_args(list(argv))[1:])
+    if options.depth < 1 or not options.discovery_period > 0.0 or not options.flush_period > 0.0:
+        parser.error('--depth must be >= 1, --discovery-period and --flush-period > 0')
+    return options
