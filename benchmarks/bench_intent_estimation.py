@@ -3,12 +3,14 @@ r"""Calibration of the intent estimator on scripted reaches, ROS-free (issue 39)
 Each seeded operator is the shared-control benchmark's (:mod:`bench_shared_control`: its intent draw, its
 two-mode joystick with reaction delay, noise and speed limits) reaching, without assistance, on the mock
 MICO's twist mode (:class:`~grasp_intent_ros.mico.mock_arm.MockArm`, 100 Hz) for a grasp of its true task set S.
-Two goal rules (``--goals``):
+``--device spacemouse`` gives it the package's six-axis spacemouse instead (it turns the wrist from the start;
+the joystick only within 3 cm of its grasp). Two goal rules (``--goals``):
 
 - ``fresh`` (default): a new grasp for S, drawn from the data set's prototypes of S with its person's noise
   (:func:`grasp_intent_ros.objects.demos.sample_grasp`), kept when the object's rules label it exactly S
   and the arm reaches it from Home: a grasp the estimator's demonstrations do not contain;
-- ``own``: the shared-control benchmark's own grasp for S (:func:`bench_shared_control.own_goals`).
+- ``own``: the shared-control benchmark's own grasp for S (:func:`bench_shared_control.own_goals`: the
+  planner's for the certain w_S).
 
 The estimator (:class:`~grasp_intent_ros.shared_control.estimator.IntentEstimator`, goals: the model's reachable
 demonstrations) gets each operator twist with the hand's pose at that tick; it never sees S, the rules or
@@ -40,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 from _bench import uptime
-from bench_shared_control import BASE_T_OBJ, OBJECTS, PERIOD, draw_intent, joystick, own_goals
+from bench_shared_control import BASE_T_OBJ, OBJECTS, PERIOD, draw_intent, own_goals
 
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee
@@ -50,7 +52,7 @@ from grasp_intent_ros.objects.demos import ObjectRules, sample_grasp
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.sessions.closed_loop import reached
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
-from grasp_intent_ros.shared_control.operators import OperatorConstants
+from grasp_intent_ros.shared_control.operators import Device, OperatorConstants, ScriptedOperator
 
 FRACTIONS = (0.25, 0.5, 0.75)
 BETAS = (30.0, 100.0, 300.0, 1000.0, 3000.0)
@@ -87,11 +89,11 @@ def fresh_goal(rules: ObjectRules, task_set: int, kin: MicoKinematics, rng: np.r
 
 
 def simulate(op: OperatorConstants, goal: np.ndarray, intent_w: object, task_set: int, kin: MicoKinematics,
-             rng: np.random.Generator, timeout: float) -> Reach:
-    """The two-mode joystick operator of bench_shared_control reaching ``goal`` directly (no assistance)."""
+             rng: np.random.Generator, timeout: float, device_name: Device = 'joystick') -> Reach:
+    """The scripted operator (its device ``device_name``) reaching ``goal`` directly (no assistance)."""
     arm = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0])
     seen: deque[np.ndarray] = deque(maxlen=max(1, round(op.reaction / PERIOD)) + 1)
-    device = joystick(op, rng)
+    device = ScriptedOperator(device_name, op, rng, PERIOD)
     hands, twists, scripted, path = [], [], [], []
     walked, w = 0.0, None
     success = False
@@ -122,16 +124,17 @@ def simulate(op: OperatorConstants, goal: np.ndarray, intent_w: object, task_set
 
 
 def reaches(name: str, seed: int, operators: int, goals_rule: str, kin: MicoKinematics, op: OperatorConstants,
-            timeout: float) -> list[Reach]:
+            timeout: float, device: Device = 'joystick') -> list[Reach]:
     """The reaches of ``operators`` seeded operators on object ``name``."""
     model_name, rules = OBJECTS[name]
-    own = own_goals(model_name, rules, kin) if goals_rule == 'own' else {}
+    own = own_goals(model_name, kin) if goals_rule == 'own' else {}
     out = []
     for i in range(operators):
         rng = np.random.default_rng([seed, list(OBJECTS).index(name), i])
         intent = draw_intent(rng)
-        goal = own[intent.task_set] if goals_rule == 'own' else fresh_goal(rules, intent.task_set, kin, rng)
-        out.append(simulate(op, goal, intent.w, intent.task_set, kin, rng, timeout))
+        task_set = intent.true_set
+        goal = own[task_set].base_T_ee if goals_rule == 'own' else fresh_goal(rules, task_set, kin, rng)
+        out.append(simulate(op, goal, intent.w, task_set, kin, rng, timeout, device))
     return out
 
 
@@ -221,7 +224,8 @@ def report(name: str, runs: list[Reach], est: np.ndarray, scripted: np.ndarray, 
 
 def fit(names: list[str], args: argparse.Namespace, kin: MicoKinematics, op: OperatorConstants) -> None:
     """Grid of rationality x memory on the training seeds: mean Brier over the fractions, both objects."""
-    runs = {name: reaches(name, args.seed + 100, args.operators, args.goals, kin, op, args.timeout) for name in names}
+    runs = {name: reaches(name, args.seed + 100, args.operators, args.goals, kin, op, args.timeout, args.device)
+            for name in names}
     base = {name: estimator_for(name, kin, EstimatorConfig()) for name in names}
     print(f'fit on seed {args.seed + 100}, {args.operators} operators per object; mean Brier over 25/50/75 %')
     best = None
@@ -273,17 +277,19 @@ def main() -> None:
     parser.add_argument('--goals', choices=('fresh', 'own'), default='fresh')
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--timeout', type=float, default=25.0)
+    parser.add_argument('--device', choices=('joystick', 'spacemouse'), default='joystick')
     parser.add_argument('--fit', action='store_true', help='search rationality x memory on seed + 100 instead')
-    parser.add_argument('--plot', type=Path, help='write the reliability diagram at 50 % here (PNG)')
+    parser.add_argument('--plot', type=Path, help='write the reliability diagram at 50 %% here (PNG)')
     args = parser.parse_args()
     kin, op = MicoKinematics(), OperatorConstants()
-    print(f'bench_intent_estimation: {args.operators} operators per object, goals {args.goals}; {uptime()}', flush=True)
+    print(f'bench_intent_estimation: {args.operators} operators per object, goals {args.goals}, device {args.device}; '
+          f'{uptime()}', flush=True)
     if args.fit:
         fit(args.objects, args, kin, op)
         return
     curves = {}
     for name in args.objects:
-        runs = reaches(name, args.seed, args.operators, args.goals, kin, op, args.timeout)
+        runs = reaches(name, args.seed, args.operators, args.goals, kin, op, args.timeout, args.device)
         estimator = estimator_for(name, kin, EstimatorConfig())
         timings: list[tuple[float, float]] = []
         est = estimates(runs, estimator, timings)

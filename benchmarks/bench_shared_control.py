@@ -15,13 +15,11 @@ The scripted operator (a stated, simple model)
   linearly from w0 to the certain w_S (0.95 for the tasks of S, 0.05 for the others) over T ~ U(1.5, 4) s,
   with N(0, (0.08 (1 - s))^2) noise per task (s the sharpening's progress, w clipped to [0.02, 0.98]),
   published at 10 Hz on ``intent/w``.
-- **Goal.** The grasp the planner shows (``grasp/pose``, judged by ``grasp/features``) when it serves S
-  (the data set's task rules, :data:`grasp_intent_ros.dataset.demos.CUP_RULES` / ``FLASHLIGHT_RULES``: every
-  task of S satisfied), else the operator's own grasp for S: the planner's grasp for w_S planned offline
-  from Home, or, when that does not serve S, the reachable demonstration of the data set that serves S
-  nearest to it. The rule is the same under the three conditions (the shown grasp is on the screen
-  whatever alpha is): an operator who sees a grasp that serves the task takes it, and the robot's
-  assistance never decides which goal the operator pursues.
+- **Goal** (:class:`~grasp_intent_ros.shared_control.operators.ScriptedOperator`, which never reads the
+  rules). Its own grasp for S: the planner's grasp for the certain w_S, planned offline from Home
+  (:func:`~grasp_intent_ros.shared_control.simulator.certain_grasps`). It follows the grasp the planner shows
+  (``grasp/pose``) when that is on its way (within 6 cm and 0.8 rad of its own), else drives to its own. The
+  rule is the same under the three conditions (the shown grasp is on the screen whatever alpha is).
 - **Device.** A joystick with two modes, as in ADA's studies: translation (3 axes) or rotation (3 axes),
   never both; switching costs 0.5 s of no input. The operator translates until within 3 cm of the goal,
   then rotates until within 0.05 rad, then translates again (back to translation whenever the hand is
@@ -29,11 +27,14 @@ The scripted operator (a stated, simple model)
   Ornstein-Uhlenbeck noise (time constant 0.3 s; 0.01 m/s, 0.05 rad/s) on the active mode; the hand and the
   shown grasp are perceived 0.25 s late. Twists at 100 Hz on ``operator/twist`` in the base frame.
 
-Figures per object and condition (the same seeded operators): success (the hand within 1 cm and 0.1 rad of a
-grasp that serves S, the operator's or the shown one, within ``--timeout`` s), time to grasp (median of the
+Figures per object and condition (the same seeded operators): success (the operator closes the hand, its
+seen hand within 1 cm and 0.1 rad of the goal it pursues, within ``--timeout`` s, and the data set's task
+rules, :data:`grasp_intent_ros.objects.demos.CUP_RULES` / ``FLASHLIGHT_RULES``, hold for every task of S at
+the reached pose with the pursued grasp's closures: judged after the run, never seen by the operator), time
+to grasp (median of the
 successful runs, and over all runs with a failure counted as the timeout), operator effort (integral of
 |operator twist|, linear m and angular rad), wrong-task pulls (the integral of alpha over the time the shown
-grasp did not serve S, and how many operators met any), mean alpha. A latency phase first (``arbitration``
+grasp did not serve S by the rules, and how many operators met any), mean alpha. A latency phase first (``arbitration``
 none, 100 Hz operator twists carrying a sequence number in ``angular.z``): the blended twist's rate and the
 latency from the operator's publish to the blended twist's receipt (the middleware's receive time).
 
@@ -41,7 +42,11 @@ latency from the operator's publish to the blended twist's receipt (the middlewa
 ``--objects``) under ``confidence`` as a closed-loop session bag, holding still for 2 s after the grasp
 (:func:`record_session`), in an ambiguous episode: w held at the paper's (0.9, 0.9, 0.1) with the noise of an
 unsharpened intent, the operator wanting usage and transfer; bags/shared_control_cup is
-``--objects cup --only 0 --record``.
+``--objects cup --only 0 --record``. With ``--estimator`` the suite runs the intent estimator, the only source
+of w (this process publishes none; its operator twists are stamped), and the operator wants transfer (T),
+heading for its own grasp for T or the shown one when that serves T; bags/shared_control_cup_estimated is
+``--objects cup --only 3 --record bags/shared_control_cup_estimated --estimator`` (operator 3: its last w is
+clear of the planner's ties, (0.99, 0.99, 0.09); operators 0-2 ended with a w_i of 0.19-0.54).
 
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set.
 
@@ -67,16 +72,25 @@ from typing import Any
 import numpy as np
 from _bench import REPO, Probe, loopback_domain, stopped_after, uptime
 
-from grasp_intent_ros.method.data import load_csv
+from grasp_intent_ros.method.features import FINGERS
 from grasp_intent_ros.method.intent import all_zones, interpret
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.frames import obj_T_ee_to_features, pose_to_matrix
 from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
-from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
 from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRules
 from grasp_intent_ros.resources import config_dir
-from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error, reached
-from grasp_intent_ros.shared_control.operators import OperatorConstants, ScriptedOperator
+from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error
+from grasp_intent_ros.shared_control.operators import (
+    IntentScript,
+    OperatorConstants,
+    PersistentIntent,
+    ScriptedOperator,
+    SharpeningIntent,
+    draw_task_set,
+)
+from grasp_intent_ros.shared_control.simulator import certain_grasps
+from grasp_intent_ros.wire.diagnostics import ESTIMATOR_COMPONENT
 
 OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 CONDITIONS = ('none', 'blend', 'confidence')
@@ -92,53 +106,15 @@ def joystick(op: OperatorConstants, rng: np.random.Generator) -> ScriptedOperato
     return ScriptedOperator('joystick', op, rng, PERIOD)
 
 
-@dataclass
-class Intent:
-    """One operator's intent: prior w0, true task set S (bitmask), sharpening time."""
-
-    w0: np.ndarray
-    task_set: int
-    sharpen: float
-
-    def w(self, t: float, rng: np.random.Generator) -> np.ndarray:
-        s = min(max(t / self.sharpen, 0.0), 1.0)
-        certain = np.array([0.95 if self.task_set >> i & 1 else 0.05 for i in range(3)])
-        w = (1.0 - s) * self.w0 + s * certain + rng.normal(0.0, 0.08 * (1.0 - s), 3)
-        return np.clip(w, 0.02, 0.98)
-
-
-def draw_intent(rng: np.random.Generator) -> Intent:
+def draw_intent(rng: np.random.Generator) -> SharpeningIntent:
+    """One operator's intent (module docstring): w0 ~ U(0.2, 0.8)^3, S drawn from it, sharpening in U(1.5, 4) s."""
     w0 = rng.uniform(0.2, 0.8, 3)
-    task_set = 0
-    while not task_set:
-        task_set = sum(1 << i for i in range(3) if rng.uniform() < w0[i])
-    return Intent(w0, task_set, float(rng.uniform(1.5, 4.0)))
+    return SharpeningIntent(tuple(w0.tolist()), draw_task_set(w0, rng), float(rng.uniform(1.5, 4.0)))
 
 
-def own_goals(model_name: str, rules: ObjectRules, kin: MicoKinematics) -> dict[int, np.ndarray]:
-    """The operator's own grasp (base_T_ee) per task set (module docstring)."""
-    model = ModelFiles(config_dir() / 'models').load(model_name)
-    demos = load_csv(config_dir() / 'data' / f'{rules.name}.csv')
-    goals = {}
-    for task_set in range(1, 8):
-        w = np.array([0.95 if task_set >> i & 1 else 0.05 for i in range(3)])
-        grasp = plan_grasp(model, interpret(w).v, all_zones(3), BASE_T_OBJ, kin)
-        assert isinstance(grasp, Grasp), grasp
-        if rules.label(grasp.result.x) & task_set == task_set:
-            goals[task_set] = grasp.base_T_ee
-            continue
-        best = None
-        for x in demos.x:
-            if rules.label(x) & task_set != task_set:
-                continue
-            base_T_ee = BASE_T_OBJ @ features_to_obj_T_ee(x)
-            error = pose_error(grasp.base_T_ee, base_T_ee)
-            score = float(np.linalg.norm(error[:3]) + 0.1 * np.linalg.norm(error[3:]))
-            if (best is None or score < best[0]) and kin.ik(base_T_ee, HOME_Q).success:
-                best = (score, base_T_ee)
-        assert best is not None, f'no reachable demonstration serves task set {task_set}'
-        goals[task_set] = best[1]
-    return goals
+def own_goals(model_name: str, kin: MicoKinematics) -> dict[int, Grasp]:
+    """The operator's own grasp per task set (module docstring), chosen without the rules."""
+    return certain_grasps(ModelFiles(config_dir() / 'models').load(model_name), BASE_T_OBJ, kin)
 
 
 @dataclass
@@ -150,6 +126,7 @@ class Run:
     condition: str
     task_set: int
     success: bool = False
+    pursued: str = ''
     time_to_grasp: float = math.nan
     effort_linear: float = 0.0
     effort_angular: float = 0.0
@@ -161,7 +138,7 @@ class Run:
 class Loop:
     """The probe side: subscriptions, the operator's publishers, the service clients."""
 
-    def __init__(self, probe: Probe, kin: MicoKinematics, rules: ObjectRules) -> None:
+    def __init__(self, probe: Probe, kin: MicoKinematics, sends_w: bool = True) -> None:
         from geometry_msgs.msg import PoseStamped, TwistStamped
         from rcl_interfaces.srv import SetParameters
         from sensor_msgs.msg import JointState
@@ -172,10 +149,10 @@ class Loop:
         from grasp_intent_ros.wire.arrays import stamped_values
         from grasp_intent_ros.wire.robot_state import joint_positions, pose_msg_to_matrix
 
-        self.probe, self.kin, self.rules = probe, kin, rules
+        self.probe, self.kin = probe, kin
         node = probe.node
         self.hands: deque[tuple[float, np.ndarray]] = deque(maxlen=200)  # (monotonic, base_T_ee)
-        self.plans: list[tuple[float, np.ndarray, int]] = []  # (monotonic, base_T_grasp, task label)
+        self.plans: list[tuple[float, np.ndarray, np.ndarray]] = []  # (monotonic, base_T_grasp, features)
         self.alphas: list[tuple[float, float]] = []
         self.outputs: list[tuple[int, float]] = []  # (receive ns, angular.z)
         self._poses: dict[tuple[int, int], np.ndarray] = {}
@@ -194,7 +171,7 @@ class Loop:
             base_T = self._poses.pop((stamp.sec, stamp.nanosec), None) if stamp is not None else None
             if base_T is not None:
                 with self._lock:
-                    self.plans.append((time.monotonic(), base_T, rules.label(x)))
+                    self.plans.append((time.monotonic(), base_T, x))
 
         node.create_subscription(JointState, 'joint_states', on_joints, input_qos(100))
         node.create_subscription(PoseStamped, 'grasp/pose', on_pose, input_qos(100))
@@ -210,7 +187,7 @@ class Loop:
         self.blended: list[tuple[float, np.ndarray]] = []  # (monotonic, twist)
         node.create_subscription(TwistStamped, 'assistance/twist', on_blended, input_qos(1000))
         self.twist_pub = node.create_publisher(TwistStamped, 'operator/twist', output_qos())
-        self.w_pub = node.create_publisher(Float64MultiArray, 'intent/w', output_qos())
+        self.w_pub = node.create_publisher(Float64MultiArray, 'intent/w', output_qos()) if sends_w else None
         self._set_params = node.create_client(SetParameters, 'assistance/set_parameters')
         self._reset = node.create_client(Trigger, 'mock_arm/reset')
         from std_srvs.srv import SetBool
@@ -221,11 +198,13 @@ class Loop:
     def twist(self, values: np.ndarray) -> Any:
         msg = self._twist_type()
         msg.header.frame_id = BASE_FRAME
+        msg.header.stamp = self.probe.node.get_clock().now().to_msg()
         t = msg.twist
         t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z = (float(v) for v in values)
         return msg
 
     def send_w(self, w: np.ndarray) -> None:
+        assert self.w_pub is not None, 'this loop sends no w'
         self.w_pub.publish(self._w_type(data=[float(x) for x in w]))
 
     def call(self, client: Any, request: Any, timeout: float = 30.0) -> Any:
@@ -251,12 +230,12 @@ class Loop:
     def reset_arm(self) -> None:
         assert self.call(self._reset, self._trigger.Request()).success
 
-    def plan_at(self, t: float) -> tuple[np.ndarray, int] | None:
-        """The last plan received by monotonic time ``t``: (base_T_grasp, task label)."""
+    def plan_at(self, t: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """The last plan received by monotonic time ``t``: (base_T_grasp, features)."""
         with self._lock:
-            for received, base_T, label in reversed(self.plans):
+            for received, base_T, x in reversed(self.plans):
                 if received <= t:
-                    return base_T, label
+                    return base_T, x
         return None
 
     def hand_at(self, t: float) -> np.ndarray | None:
@@ -266,14 +245,20 @@ class Loop:
         return None
 
 
-def run_operator(loop: Loop, op: OperatorConstants, intent: Intent, own_goal: np.ndarray, rng: np.random.Generator,
-                 timeout: float, run: Run) -> None:
-    """Run one operator until success or ``timeout``; fills ``run``."""
-    task_set = intent.task_set
-    first_plan = len(loop.plans)
-    w_first = intent.w(0.0, rng)  # the intent before the motion: wait for its plan (sent again each second)
-    if not loop.probe.wait_for(lambda: len(loop.plans) > first_plan or loop.send_w(w_first), 60.0, poll=1.0):
-        sys.exit('bench_shared_control: no plan for the first w within 60 s')
+def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: Grasp, rules: ObjectRules,
+                 rng: np.random.Generator, timeout: float, run: Run, sends_w: bool = True) -> None:
+    """Run one operator until it closes the hand or ``timeout``; fills ``run`` (judged by ``rules`` after).
+
+    ``sends_w`` False: w comes from elsewhere (the intent estimator), the operator waits for a plan only.
+    """
+    task_set = intent.task_set(0.0)
+    if sends_w:
+        first_plan = len(loop.plans)
+        w_first = intent.w(0.0, rng)  # the intent before the motion: wait for its plan (sent again each second)
+        if not loop.probe.wait_for(lambda: len(loop.plans) > first_plan or loop.send_w(w_first), 60.0, poll=1.0):
+            sys.exit('bench_shared_control: no plan for the first w within 60 s')
+    elif not loop.probe.wait_for(lambda: bool(loop.plans), 60.0, poll=0.1):
+        sys.exit('bench_shared_control: no plan for the estimator\'s first w within 60 s')
     device = joystick(op, rng)
     alpha_from = len(loop.alphas)
     start = time.monotonic()
@@ -281,17 +266,18 @@ def run_operator(loop: Loop, op: OperatorConstants, intent: Intent, own_goal: np
     while True:
         now = time.monotonic()
         t = now - start
-        if tick % W_EVERY == 0:
+        if sends_w and tick % W_EVERY == 0:
             loop.send_w(intent.w(t, rng))
-        hand_now, plan_now = loop.hand_at(now), loop.plan_at(now)
-        serving_now = plan_now is not None and plan_now[1] & task_set == task_set
-        if hand_now is not None and (reached(hand_now, own_goal) or (serving_now and reached(hand_now, plan_now[0]))):
-            run.success, run.time_to_grasp = True, t
+        seen, plan_seen = loop.hand_at(now - op.reaction), loop.plan_at(now - op.reaction)
+        goal, pursued = device.choose_goal(None if plan_seen is None else plan_seen[0], own.base_T_ee)
+        hand_now = loop.hand_at(now)
+        if seen is not None and hand_now is not None and device.at_goal(seen, goal):
+            closures = own.positions[6:] if pursued == 'own' or plan_seen is None else plan_seen[1][FINGERS]
+            reached = obj_T_ee_to_features(np.linalg.inv(BASE_T_OBJ) @ hand_now, closures)
+            run.success, run.pursued, run.time_to_grasp = rules.label(reached) & task_set == task_set, pursued, t
             break
         if t >= timeout:
             break
-        seen, plan_seen = loop.hand_at(now - op.reaction), loop.plan_at(now - op.reaction)
-        goal = plan_seen[0] if plan_seen is not None and plan_seen[1] & task_set == task_set else own_goal
         command = device.twist(now, seen, goal)
         loop.twist_pub.publish(loop.twist(command))
         run.effort_linear += float(np.linalg.norm(command[:3])) * PERIOD
@@ -307,7 +293,7 @@ def run_operator(loop: Loop, op: OperatorConstants, intent: Intent, own_goal: np
     previous = start
     for t, alpha in samples:
         plan = loop.plan_at(t)
-        if plan is not None and plan[1] & task_set != task_set:
+        if plan is not None and rules.label(plan[1]) & task_set != task_set:
             run.wrong_pull += alpha * min(t - previous, 2 * PERIOD)
         previous = t
 
@@ -364,8 +350,8 @@ def stream_phase(loop: Loop) -> dict[str, float]:
     loop.set_arbitration('confidence')
     loop.enable(True)
     out: dict[str, float] = {}
-    # zero input from a fresh start, with the intent streaming: the hand must not move (the zero twists keep
-    # the mock arm in twist mode: the planner's grasp/trajectory is not followed meanwhile)
+    # zero input from a fresh start, with the intent streaming: the hand must not move (the suite's mock arm
+    # follows the planner's grasp/trajectory only on grasp/execute)
     loop.reset_arm()
     _send_for(loop, 0.5, lambda now: np.zeros(6))
     first = loop.hand_at(time.monotonic())
@@ -392,10 +378,14 @@ def stream_phase(loop: Loop) -> dict[str, float]:
     out['gaps_over_20ms'] = int(np.sum(gaps > 0.02))
     alphas = [a for t, a in loop.alphas if start <= t <= end]
     out['alpha_heading_mean'] = float(np.mean(alphas))
-    # sustained opposition: straight away from the grasp at 0.1 m/s for 3 s
+    # sustained opposition: from 1 s into an assisted reach (the hand well short of the grasp), straight away
+    # from the grasp at 0.1 m/s for 3 s
+    loop.reset_arm()
+    _send_for(loop, 1.0, toward)
     hand0 = loop.hand_at(time.monotonic())
     assert hand0 is not None
-    away = np.r_[-clip_norm(pose_error(hand0, goal)[:3], 1.0) * 0.1, 0.0, 0.0, 0.0]
+    toward_grasp = pose_error(hand0, goal)[:3]
+    away = np.r_[-0.1 * toward_grasp / float(np.linalg.norm(toward_grasp)), 0.0, 0.0, 0.0]
     start, end = _send_for(loop, 3.0, lambda now: away)
     low = [t for t, a in loop.alphas if t >= start and a <= 0.1]
     out['opposition_to_alpha_0.1_s'] = (low[0] - start) if low else math.inf
@@ -422,13 +412,13 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
 
     model_name, rules = OBJECTS[name]
     kin = MicoKinematics()
-    goals = own_goals(model_name, rules, kin)
+    goals = own_goals(model_name, kin)
     suite = NodeSuite(domain_id, cwd=REPO)
     suite.start_nodes(model=model_name, shared_control=True)
     probe = Probe(domain_id, 'bench_operator')
     runs: list[Run] = []
     with stopped_after(suite, probe):
-        loop = Loop(probe, kin, rules)
+        loop = Loop(probe, kin)
         warm = np.array([0.9, 0.1, 0.1])
         if not probe.wait_for(lambda: (loop.plans and loop.hands and loop.alphas) or loop.send_w(warm), 90.0,
                               poll=0.5):
@@ -448,10 +438,10 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
                 intent = draw_intent(rng)
                 loop.set_arbitration(condition)
                 loop.reset_arm()
-                run = Run(name, i, condition, intent.task_set)
-                run_operator(loop, op, intent, goals[intent.task_set], rng, args.timeout, run)
+                run = Run(name, i, condition, intent.true_set)
+                run_operator(loop, op, intent, goals[intent.true_set], rules, rng, args.timeout, run)
                 runs.append(run)
-                print(f'[{name}] operator {i:3d} {condition:10s} S={intent.task_set} success={run.success!s:5s} '
+                print(f'[{name}] operator {i:3d} {condition:10s} S={intent.true_set} success={run.success!s:5s} '
                       f't={run.time_to_grasp:6.2f} s wrong pull {run.wrong_pull:5.2f} s alpha {run.alpha_mean:.2f}',
                       flush=True)
             if problem := suite.died():
@@ -464,19 +454,23 @@ RECORDED_TOPICS = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'i
                    'assistance/alpha', '/diagnostics')
 """What ``--record`` records: what a closed-loop replay sends and compares, and the report's shared-control plot."""
 HOLD_S = 2.0
+"""Seconds a recorded operator holds still (zero twists) after reaching the grasp, letting the loop settle."""
 RECORDED_W = (0.9, 0.9, 0.1)
 RECORDED_TASKS = 0b011
 """The recorded episode's intent: w held at the paper's ambiguous case, the operator wanting usage and transfer."""
-"""Seconds a recorded operator holds still (zero twists) after reaching the grasp, letting the loop settle."""
+ESTIMATED_TASKS = 0b010
+"""What the operator of a session recorded with the intent estimator wants: transfer (from above: the motion
+tells it from usage)."""
 
 
 def record_session(name: str, index: int, out: Path, args: argparse.Namespace, domain_id: int,
-                   op: OperatorConstants) -> None:
+                   op: OperatorConstants, estimated: bool = False) -> None:
     """Record operator ``index`` of object ``name`` under ``confidence`` into the session bag ``out`` (replaced).
 
     A fresh suite (a replay starts one too), the recorder in the probe's context on an executor and thread of
     its own, no warm-up: the session's first w is the planner's first. After success (or the timeout) the
-    operator holds still for :data:`HOLD_S`; then the bag is compacted (of /diagnostics only the rejections).
+    operator holds still for :data:`HOLD_S`; then the bag is compacted (of /diagnostics only the rejections,
+    and with ``estimated`` the estimator's first status: the intent estimator ran, the only source of w).
     """
     from rclpy.executors import SingleThreadedExecutor
 
@@ -488,7 +482,7 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
     kin = MicoKinematics()
     work = Path(tempfile.mkdtemp(prefix='record_closed_loop_'))
     suite = NodeSuite(domain_id, cwd=REPO, log_dir=work / 'logs')
-    suite.start_nodes(model=model_name, shared_control=True)
+    suite.start_nodes(model=model_name, shared_control=True, extra=('intent_estimator',) if estimated else ())
     probe = Probe(domain_id, 'bench_operator')
     recorder = Recorder(work / 'raw', topics=RECORDED_TOPICS, discovery_period=0.5, context=probe.context)
     executor = SingleThreadedExecutor(context=probe.context)
@@ -496,11 +490,12 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
     thread = threading.Thread(target=executor.spin, name='recorder', daemon=True)
     thread.start()
     rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), index])
-    intent = Intent(np.array(RECORDED_W), RECORDED_TASKS, math.inf)  # never sharpens: ambiguous throughout
-    run = Run(name, index, 'confidence', intent.task_set)
+    intent = PersistentIntent(RECORDED_W, ESTIMATED_TASKS if estimated else RECORDED_TASKS,
+                              noise=0.08)  # an unsharpened intent's noise (its w unused with the estimator)
+    run = Run(name, index, 'confidence', intent.true_set)
     with stopped_after(suite, probe):
         try:
-            loop = Loop(probe, kin, rules)
+            loop = Loop(probe, kin, sends_w=not estimated)
             needed = {recorder.resolve_topic_name(t) for t in RECORDED_TOPICS
                       if t not in ('object/pose', 'intent/clarification')}  # nobody publishes these here
             if not probe.wait_for(lambda: loop.hands and loop.alphas and needed <= set(recorder.recorded_topics),
@@ -508,11 +503,14 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
                 sys.exit(f'bench_shared_control: the suite or the recorder not ready within 90 s; recorded '
                          f'{sorted(recorder.recorded_topics)}\n{suite.died()}')
             loop.set_arbitration('confidence')
-            # the recorded operator wants the grasp it is shown: the planner's for the recorded w, from Home
-            shown = plan_grasp(ModelFiles(config_dir() / 'models').load(model_name), interpret(np.array(RECORDED_W)).v,
-                               all_zones(3), BASE_T_OBJ, kin)
-            assert isinstance(shown, Grasp), shown
-            run_operator(loop, op, intent, shown.base_T_ee, rng, args.timeout, run)
+            if estimated:  # its own grasp for its set, or the shown one when that serves the set
+                goal = own_goals(model_name, kin)[intent.true_set]
+            else:  # the recorded operator wants the grasp it is shown: the planner's for the recorded w, from Home
+                shown = plan_grasp(ModelFiles(config_dir() / 'models').load(model_name),
+                                   interpret(np.array(RECORDED_W)).v, all_zones(3), BASE_T_OBJ, kin)
+                assert isinstance(shown, Grasp), shown
+                goal = shown
+            run_operator(loop, op, intent, goal, rules, rng, args.timeout, run, sends_w=not estimated)
             still = loop.twist(np.zeros(6))
             end = time.monotonic() + HOLD_S
             while time.monotonic() < end:
@@ -526,10 +524,10 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
             recorder.destroy_node()  # closes the bag
     if out.exists():
         shutil.rmtree(out)
-    counts = compact_session(work / 'raw', out)
+    counts = compact_session(work / 'raw', out, keep_components=(ESTIMATOR_COMPONENT,) if estimated else ())
     shutil.rmtree(work)
     size = sum(f.stat().st_size for f in out.iterdir())
-    print(f'{out}: operator {index} of {name}, task set {intent.task_set}, success {run.success} after '
+    print(f'{out}: operator {index} of {name}, task set {intent.true_set}, success {run.success} after '
           f'{run.time_to_grasp:.2f} s, {sum(counts.values())} messages, {size / 1024:.1f} KiB')
 
 
@@ -565,6 +563,8 @@ def main() -> None:
     parser.add_argument('--only', type=int, nargs='+', metavar='I', help='run only these operators (e.g. to look '
                         'into one); their seeds are those of the full run')
     parser.add_argument('--json', help='write every run and the summaries here')
+    parser.add_argument('--estimator', action='store_true', help='with --record: w from the intent estimator node '
+                        '(module docstring)')
     parser.add_argument('--stream-only', action='store_true', help='the latency and stream phases only')
     parser.add_argument('--record', type=Path, metavar='BAG',
                         help='instead of the benchmark: record the first --only operator (default 0) of the first '
@@ -572,7 +572,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.record is not None:
         record_session(args.objects[0], (args.only or [0])[0], args.record, args,
-                       loopback_domain('bench_shared_control'), OperatorConstants())
+                       loopback_domain('bench_shared_control'), OperatorConstants(), args.estimator)
         return
     if args.quick:
         args.operators, args.latency_seconds = 3, 5.0

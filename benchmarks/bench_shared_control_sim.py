@@ -1,8 +1,9 @@
 r"""Shared control under intent uncertainty, closed loop on a simulated clock: success at the reached grasp.
 
 Runs :func:`grasp_intent_ros.shared_control.simulator.simulate` (the nodes' own core functions: interpreter,
-planner policy, assistance, mock arm) for 2 objects x 3 operator models x 4 conditions (direct, ADA as
-published, the suite on the independent-task grasp, the suite), on the same seeded episodes, faster than
+planner policy, assistance, mock arm) for 2 objects x 3 operator models x 5 conditions (direct, ADA as
+published, the suite on the independent-task grasp, the suite, the suite with estimated w), on the same
+seeded episodes, faster than
 real time, and prints per object and operator: success at the reached pose, median time to grasp, operator
 effort, wrong-task pull, with paired differences and 95% bootstrap confidence intervals over episodes.
 The stream figures (rate, gaps, latency, opposition timing, the switch) are bench_shared_control.py's
@@ -25,17 +26,24 @@ The episodes
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   intent, its noise and the tracker error are the episode's).
 
+Estimated w (condition ``estimated``): the suite, with w from the intent estimator
+(:class:`~grasp_intent_ros.shared_control.estimator.IntentEstimator`, its default settings; goals: the
+model's demonstrations at the tracked object that the arm reaches from Home) fed the operator's own twist
+before blending; the intent script's w is not used, only its true set, which the operator pursues and the
+judge reads. The estimator never sees the true set, the rules or the operator's goal.
+
 Judged here, after the episode, by the data set's rules (never seen by the planner, the assistance or the
 operator): success = the hand closed before the timeout and the object's rules hold for every task of the
 true set at the reached pose with the executed closures (the features in the true object frame). Wrong-task
 pull: alpha-seconds toward proposals whose features (as planned) do not serve the true set (for ADA: the
 goal probabilities' seconds, its assistance weight being 1).
 
-Statistics: per episode the mean over repeats; paired differences (suite minus each other condition) with a
-95% percentile bootstrap over episodes (10,000 resamples, seeded).
+Statistics: per episode the mean over repeats; paired differences (:data:`PAIRS`: the suite minus each other
+condition, estimated w minus scripted w (the suite) and minus direct) with a 95% percentile bootstrap over
+episodes (10,000 resamples, seeded).
 
     .venv/bin/python benchmarks/bench_shared_control_sim.py [--episodes 50] [--repeats 3] [--jobs 2] \
-        [--intent persistent] [--json out.json]
+        [--intent persistent] [--conditions direct suite estimated] [--json out.json]
 """
 
 from __future__ import annotations
@@ -51,41 +59,35 @@ from typing import Any
 
 import numpy as np
 from _bench import uptime
+from bench_shared_control import OBJECTS
 
-from grasp_intent_ros.method.intent import all_zones, interpret
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
-from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
-from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES
 from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
     ChangingIntent,
     OperatorConstants,
     PersistentIntent,
     ScriptedOperator,
     SharpeningIntent,
-    certain_w,
     draw_task_set,
 )
-from grasp_intent_ros.shared_control.simulator import CONDITIONS, Scene, perturb_pose, simulate
+from grasp_intent_ros.shared_control.simulator import CONDITIONS, Scene, certain_grasps, perturb_pose, simulate
 
-OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 OPERATORS = ('joystick', 'spacemouse', 'goal-changing')
 CASES = ((0.9, 0.9, 0.1), (0.9, 0.1, 0.9), (0.1, 0.9, 0.9), (0.9, 0.5, 0.5), (0.7, 0.7, 0.7))
+ESTIMATED = 'estimated'
+RUN = (*CONDITIONS, ESTIMATED)
+"""The conditions: the simulator's, and the suite with the intent estimator's w (module docstring)."""
+PAIRS = (*(('suite', c) for c in CONDITIONS[:-1]), (ESTIMATED, 'suite'), (ESTIMATED, 'direct'))
+"""The paired differences reported (a minus b)."""
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 """The true object pose (the planner's default, config/grasp_planner.yaml)."""
 
 _STATE: dict[str, Any] = {}
-
-
-def _certain_grasps(model: Any, base_T_obj: np.ndarray, kin: MicoKinematics) -> dict[int, Grasp]:
-    out = {}
-    for task_set in range(1, 8):
-        grasp = plan_grasp(model, interpret(certain_w(task_set)).v, all_zones(3), base_T_obj, kin)
-        assert isinstance(grasp, Grasp), grasp
-        out[task_set] = grasp
-    return out
 
 
 def _setup(name: str) -> dict[str, Any]:
@@ -93,7 +95,7 @@ def _setup(name: str) -> dict[str, Any]:
         model_name, rules = OBJECTS[name]
         kin = MicoKinematics()
         model = ModelFiles(config_dir() / 'models').load(model_name)
-        own = {s: (g.base_T_ee, g.positions[6:]) for s, g in _certain_grasps(model, BASE_T_OBJ, kin).items()}
+        own = {s: (g.base_T_ee, g.positions[6:]) for s, g in certain_grasps(model, BASE_T_OBJ, kin).items()}
         _STATE[name] = {'kin': kin, 'model': model, 'rules': rules, 'own': own}
     return _STATE[name]
 
@@ -111,6 +113,7 @@ class Task:
     timeout: float
     tracker_mm: float
     tracker_deg: float
+    conditions: tuple[str, ...] = RUN
 
 
 def _intent(task: Task, rng: np.random.Generator) -> Any:
@@ -134,20 +137,25 @@ def run_task(task: Task) -> list[dict[str, Any]]:
     intent = _intent(task, setup_rng)
     tracked = perturb_pose(BASE_T_OBJ, task.tracker_mm * 1e-3, math.radians(task.tracker_deg), setup_rng)
     scene = Scene(model, BASE_T_OBJ, tracked, kin)
-    ada_goals = [(g.base_T_ee, g.result.x) for g in _certain_grasps(model, tracked, kin).values()]
+    ada_goals = [(g.base_T_ee, g.result.x) for g in certain_grasps(model, tracked, kin).values()]
     cache: dict[bytes, Grasp | None] = {}
+    estimator = None
+    if ESTIMATED in task.conditions:  # the goals the node would prepare for the tracked object
+        estimator = IntentEstimator(goals_at(model, tracked, reachable_goals(model, tracked, kin)))
     device = 'joystick' if task.operator == 'joystick' else 'spacemouse'
     records = []
     for repeat in range(task.repeats):
-        for condition in CONDITIONS:
+        for condition in task.conditions:
             intent_rng = np.random.default_rng([task.seed, task.index, 1])  # the same reports in every run
             op_rng = np.random.default_rng([task.seed, list(OBJECTS).index(task.object),
                                             OPERATORS.index(task.operator), task.index, repeat, 2])
             closure_rng = np.random.default_rng([task.seed, task.index, repeat, 3])
             operator = ScriptedOperator(device, OperatorConstants(), op_rng)
             t0 = time.perf_counter()
-            ep = simulate(scene, condition, intent, operator, state['own'], intent_rng, closure_rng,
-                          ada_goals=ada_goals, plan_cache=cache, timeout=task.timeout)
+            estimated = condition == ESTIMATED
+            ep = simulate(scene, 'suite' if estimated else condition, intent, operator, state['own'], intent_rng,
+                          closure_rng, ada_goals=ada_goals, plan_cache=cache, timeout=task.timeout,
+                          estimator=estimator if estimated else None)
             true_set = ep.task_set
             success = ep.features is not None and rules.label(ep.features) & true_set == true_set
             wrong = sum(s for x, s in ep.pulls if rules.label(x) & true_set != true_set)
@@ -182,20 +190,20 @@ def summarise(records: list[dict[str, Any]], timeout: float) -> dict[str, Any]:
     success, times = per_episode(records, 'success'), per_episode(records, 'time')
     effort, wrong = per_episode(records, 'effort_linear'), per_episode(records, 'wrong_pull')
     table: dict[str, Any] = {}
-    for c in CONDITIONS:
+    for c in [c for c in RUN if c in success]:
         eps = sorted(success[c])
         table[c] = {'success': float(np.mean([success[c][e] for e in eps])),
                     'median_time': float(np.median([r['time'] for r in records if r['condition'] == c])),
                     'effort_linear': float(np.median([effort[c][e] for e in eps])),
                     'wrong_pull': float(np.mean([wrong[c][e] for e in eps])),
                     'episodes': len(eps)}
-    for other in CONDITIONS[:-1]:
-        eps = sorted(success['suite'])
-        diff = [success['suite'][e] - success[other][e] for e in eps]
-        ratio = [math.log(times['suite'][e] / times[other][e]) for e in eps]
+    for a, other in [(a, b) for a, b in PAIRS if a in success and b in success]:
+        eps = sorted(success[a])
+        diff = [success[a][e] - success[other][e] for e in eps]
+        ratio = [math.log(times[a][e] / times[other][e]) for e in eps]
         d, lo, hi = bootstrap_ci(diff, rng)
         m, rlo, rhi = bootstrap_ci(ratio, rng)
-        table[f'suite-{other}'] = {'success_diff': d, 'ci': [lo, hi],
+        table[f'{a}-{other}'] = {'success_diff': d, 'ci': [lo, hi],
                                    'time_ratio': math.exp(m), 'time_ratio_ci': [math.exp(rlo), math.exp(rhi)]}
     return table
 
@@ -210,6 +218,7 @@ def main() -> None:
     parser.add_argument('--timeout', type=float, default=25.0)
     parser.add_argument('--tracker-mm', type=float, default=5.0)
     parser.add_argument('--tracker-deg', type=float, default=3.0)
+    parser.add_argument('--conditions', nargs='+', default=list(RUN), choices=list(RUN))
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--json', help='write every record and the summaries here')
@@ -222,10 +231,11 @@ def main() -> None:
             done = [r for line in f for r in json.loads(line)]
         report_cells(done, args, sorted({r['object'] for r in done}), sorted({r['operator'] for r in done}))
         return
-    tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg)
+    tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg,
+                  tuple(c for c in RUN if c in args.conditions))
              for i in range(args.episodes) for o in args.objects for op in args.operators]  # cells fill evenly
-    print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(CONDITIONS)} conditions, '
-          f'intent {args.intent}; {uptime()}', flush=True)
+    print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
+          f'conditions, intent {args.intent}; {uptime()}', flush=True)
     t0 = time.monotonic()
     records: list[dict[str, Any]] = []
     with ProcessPoolExecutor(args.jobs) as pool:
@@ -256,14 +266,15 @@ def report_cells(records: list[dict[str, Any]], args: argparse.Namespace, object
                 continue
             table = summarise(cell, args.timeout)
             report['cells'][f'{o}/{op}'] = table
-            print(f'\n[{o} / {op}] {table["suite"]["episodes"]} episodes x {repeats} repeats')
-            for c in CONDITIONS:
+            episodes = max(row['episodes'] for c, row in table.items() if c in RUN)
+            print(f'\n[{o} / {op}] {episodes} episodes x {repeats} repeats')
+            for c in [c for c in RUN if c in table]:
                 row = table[c]
                 print(f'  {c:12s} success {row["success"]:.3f}  median time {row["median_time"]:5.2f} s  '
                       f'effort {row["effort_linear"]:.3f} m  wrong pull {row["wrong_pull"]:.3f} alpha s')
-            for other in CONDITIONS[:-1]:
-                d = table[f'suite-{other}']
-                print(f'  suite - {other:12s} success {100 * d["success_diff"]:+5.1f} points '
+            for a, other in [(a, b) for a, b in PAIRS if f'{a}-{b}' in table]:
+                d = table[f'{a}-{other}']
+                print(f'  {a} - {other:12s} success {100 * d["success_diff"]:+5.1f} points '
                       f'[{100 * d["ci"][0]:+5.1f}, {100 * d["ci"][1]:+5.1f}]  time ratio {d["time_ratio"]:.2f} '
                       f'[{d["time_ratio_ci"][0]:.2f}, {d["time_ratio_ci"][1]:.2f}]')
     return report

@@ -28,6 +28,9 @@ at 0.9 against 0.1):
   1x :class:`~grasp_intent_ros.planning.robustness.ExecutionNoise`): the mean of S(x'; w) over ``--landings``
   landings x' of x, the same landings (seeded) for every w and every method, judged by the rules.
 
+Per model and noise level, ``robust - exact`` and ``robust - ceiling``: the mean paired difference of
+success as executed (the same w and landings), in points, with its 95% confidence interval (:func:`paired`).
+
 ``ceiling`` is no planner: the best pick among the demonstrations the exact planner would choose from
 without noise (those that serve v's top zone, are faithful and have the highest expected success, all
 serving the same tasks), made knowing the rules: at each noise level, the one with the highest success over
@@ -227,6 +230,17 @@ class Landings:
         return float(table[self.labels(x)].mean())
 
 
+def paired(a: Sequence[float], b: Sequence[float]) -> str:
+    """Mean of the paired differences a - b (the same w) in points, with its 95% confidence interval.
+
+    The interval is the mean +- 1.96 standard errors (sample standard deviation / sqrt(n)): the normal
+    approximation, sound for the hundreds of w the benchmark draws.
+    """
+    d = 100.0 * (np.asarray(a) - np.asarray(b))
+    half = 1.96 * float(d.std(ddof=1)) / math.sqrt(d.size) if d.size > 1 else math.inf
+    return f'{d.mean():+5.1f} [{d.mean() - half:+5.1f}, {d.mean() + half:+5.1f}]'
+
+
 def ceiling_pick(model: GraspModel, v: NDArray[np.float64], w: NDArray[np.float64], picker: Landings | None
                  ) -> NDArray[np.float64]:
     """The module docstring's ``ceiling``: among the noise-free planner's best candidates, the best as executed.
@@ -283,8 +297,9 @@ def run_model(model: GraspModel, chosen: dict[str, Planned], n: int, seed: int, 
     print(f'  {model.name} ({len(model.zones)} zones): {len(targets)} random w')
     judges = {level: Landings(judge, level, landings, LANDING_SEED) for level in levels}
     pickers = {level: Landings(judge, level, landings, LANDING_SEED + 1) for level in levels}
+    tallies: dict[str, Tally] = {}
     for name, method in chosen.items():
-        tally = Tally()
+        tally = tallies[name] = Tally()
         rng = np.random.default_rng(seed + 7)
         for i, (w, v) in enumerate(targets):
             if name == 'slsqp' and i >= slsqp_n:
@@ -301,6 +316,11 @@ def run_model(model: GraspModel, chosen: dict[str, Planned], n: int, seed: int, 
             print(f'    {name:9s} {tally.line()}' + (f'  [{len(tally.success)} w]' if name == 'slsqp' else ''))
             if tally.failed:
                 print('              failed: ' + ', '.join(f'{k} {c}' for k, c in tally.failed.most_common(4)))
+    for other in ('exact', 'ceiling'):
+        if 'robust' in tallies and other in tallies and tallies[other].executed:
+            print(f'    robust - {other:7s} ' + '  '.join(
+                f'{level:g}x {paired(tallies["robust"].executed[level], tallies[other].executed[level])}'
+                for level in levels))
     if len(model.zones) == 7:
         cases(model, judge, chosen)
 

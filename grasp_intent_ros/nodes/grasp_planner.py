@@ -74,7 +74,8 @@ PARAMETERS = (
               "each of two axes orthogonal to it (rad), wrist roll (rad), each finger closure (rad). Method 'task' "
               "then picks the grasp with the highest expected success as executed (docs/planner.md); the "
               "documented 1x level is [0.005, 0.0524, 0.0524, 0.1]. All zero (the default, as the planner's): an "
-              "exact landing. The estimate costs seconds of CPU per model read.",
+              "exact landing. The estimate is made when a model is read, before its first plan (about a second of "
+              "CPU per model).",
               validator=noise_from, constraints='4 finite numbers >= 0'),
     ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
     ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),

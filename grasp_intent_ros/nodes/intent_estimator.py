@@ -13,7 +13,9 @@ Topics (relative)
 
 Behaviour
     The maths is :mod:`grasp_intent_ros.shared_control.estimator`. Each operator twist updates the estimate with the
-    hand's pose from the newest joint state, on the executor (one update over all goals of a 7-zone model
+    hand's pose from the newest joint state, taken to act since the previous twist (the difference of their
+    header stamps when both are set: the operator's own timing, which delivery delays do not change; else of
+    their arrival times), on the executor (one update over all goals of a 7-zone model
     takes a fraction of a millisecond). w is published every ``publish_period`` while the operator's last
     twist is at most ``operator_timeout`` old, and once when the estimate restarts (the prior). The goals
     (the model's demonstrations at the object, those the arm reaches from the newest joint state) are
@@ -57,7 +59,7 @@ from ..ros.worker import LatestOnlyWorker
 from ..shared_control.assistance import pose_error
 from ..shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
 from ..wire import topics
-from ..wire.diagnostics import ERROR, OK, WARN
+from ..wire.diagnostics import ERROR, ESTIMATOR_COMPONENT, KEY_GOALS, OK, WARN
 from ..wire.model_document import ModelDocument
 from ..wire.robot_state import check_unit_quaternion, joint_positions, pose_msg_to_matrix
 
@@ -118,7 +120,7 @@ class IntentEstimatorNode(Node):
 
     def __init__(self, node_name: str = 'intent_estimator', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
-        self._diag = NodeDiagnostics(self, 'intent estimator')
+        self._diag = NodeDiagnostics(self, ESTIMATOR_COMPONENT)
         self._params = declare_parameters(self, PARAMETERS, on_change=self._configure, check=self._check)
         try:
             self._kin = MicoKinematics(self._params['urdf_path'] or None)
@@ -130,6 +132,7 @@ class IntentEstimatorNode(Node):
         self._q: NDArray[np.float64] | None = None
         self._base_T_ee: NDArray[np.float64] | None = None
         self._last_twist: float | None = None  # node-clock time of the last operator twist
+        self._last_stamp: float | None = None  # its header stamp (s), None when unset
         self._published = self._restarts = 0
         self._pub = output_publisher(self, Float64MultiArray, topics.INTENT_W)
         self._diag.set_state(OK, f'waiting for {topics.MODEL_ACTIVE}')
@@ -209,7 +212,7 @@ class IntentEstimatorNode(Node):
         self._estimator = IntentEstimator(goals, self._config)
         self._restarts += 1
         self._diag.set_state(OK, '')
-        self._diag.set_values({'model': scene.model.name, 'goals': f'{len(goals)} of {model.demo_x.shape[0]} '
+        self._diag.set_values({'model': scene.model.name, KEY_GOALS: f'{len(goals)} of {model.demo_x.shape[0]} '
                                'reachable', 'goals prepared in [ms]': f'{1e3 * (time.perf_counter() - start):.0f}',
                                'restarts': self._restarts})
         self._publish(self._estimator)  # the prior: the planner has an intent before the first motion
@@ -227,8 +230,13 @@ class IntentEstimatorNode(Node):
                           [twist.angular.x, twist.angular.y, twist.angular.z], frame,
                           default_frame=self._params['operator_frame'])
         now = self.get_clock().now().nanoseconds * 1e-9
-        dt = self._config.max_dt if self._last_twist is None else now - self._last_twist
-        self._last_twist = now
+        stamp = None if isinstance(msg, Twist) else msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+        stamp = stamp or None  # an unset stamp (0) says nothing
+        if stamp is not None and self._last_stamp is not None:
+            dt = stamp - self._last_stamp  # the operator's own timing, whatever the delivery's
+        else:
+            dt = self._config.max_dt if self._last_twist is None else now - self._last_twist
+        self._last_twist, self._last_stamp = now, stamp
         estimator, hand = self._estimator, self._base_T_ee
         if estimator is None or hand is None:
             self._diag.note('operator twist not used: ' + ('no joint state yet' if hand is None else 'no goals yet'))

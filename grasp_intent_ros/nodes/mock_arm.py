@@ -13,17 +13,28 @@ Topics and services (relative)
          ``m1n6s300_end_effector``; '' = the base)
     out  ``joint_states`` (the 6 arm joints and 3 fingers: positions and velocities, every ``period`` s),
          ``/diagnostics`` (``arm``: commands received and rejected with the reason, mode, trajectories
-         ignored)
+         ignored, the trajectory kept)
     in   ``grasp/joint_targets`` (sensor_msgs/JointState: the plan's finger closures, the latest kept)
     srv  ``~/reset`` (std_srvs/Trigger): back to ``initial_positions``, at rest, commands dropped
     srv  ``grasp/close`` (std_srvs/Trigger): close the fingers to the latest plan's closures plus the hand's own
          closure error (each finger N(0, ``closure_error``^2), seeded by ``closure_seed``); the answer's
          message gives the executed closures; refused (success false) before any plan
+    srv  ``grasp/execute`` (std_srvs/Trigger): with ``trajectory_execution: on_request``, follow the latest
+         trajectory received, from now (its stamp ignored); refused (success false) before any, or under
+         ``on_arrival``
 
-The newest command wins, as a servo writing to a trajectory controller: a twist ends a trajectory in
-progress; a trajectory replaces the twist control unless a twist is still live (newer than
-``command_timeout``), in which case it is ignored and counted (a controller manager would not let a second
-controller claim the joints).
+``trajectory_execution`` says who owns the arm:
+
+- ``on_arrival`` (the default, a joint_trajectory_controller): the newest command wins, as a servo writing
+  to a trajectory controller: a twist ends a trajectory in progress; a trajectory replaces the twist control
+  unless a twist is still live (newer than ``command_timeout``), in which case it is ignored and counted (a
+  controller manager would not let a second controller claim the joints).
+- ``on_request`` (shared control, the suite's ``config/mock_arm.yaml``): the twist stream owns the arm. A
+  trajectory is checked and kept, never executed on arrival (so a gap in the twists never lets the planner's
+  trajectory move the arm by itself: the assistance's zero-input rule holds end to end); ``grasp/execute``
+  runs the kept one. While it runs, a zero twist leaves it alone (a servo halts on zero commands; the
+  assistance sends zeros while the operator gives no input), and a non-zero twist ends it: the operator
+  takes over.
 
 Parameters: :data:`PARAMETERS`, ``config/mock_arm.yaml``.
 """
@@ -31,6 +42,7 @@ Parameters: :data:`PARAMETERS`, ``config/mock_arm.yaml``.
 from __future__ import annotations
 
 import array
+import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
@@ -45,10 +57,10 @@ from trajectory_msgs.msg import JointTrajectory
 from ..errors import GraspIntentError
 from ..mico.grasp import JOINT_NAMES
 from ..mico.kinematics import FINGER_JOINTS, HOME_Q, MicoKinematics
-from ..mico.mock_arm import FINGER_VELOCITY_LIMIT, MockArm, TrajectoryCommand, check_twist
+from ..mico.mock_arm import FINGER_VELOCITY_LIMIT, MockArm, TrajectoryCommand, check_trajectory, check_twist
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input
-from ..ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector
+from ..ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
 from ..ros.qos import input_qos, output_publisher
 from ..ros.robot import joint_state_msg
 from ..ros.run import guard_exit, publish_all, run_node
@@ -56,10 +68,14 @@ from ..wire import topics
 from ..wire.diagnostics import ERROR
 from ..wire.robot_state import joint_positions
 
-__all__ = ['MockArmNode', 'PARAMETERS', 'GRASP_CLOSE', 'main']
+__all__ = ['MockArmNode', 'PARAMETERS', 'GRASP_CLOSE', 'GRASP_EXECUTE', 'TRAJECTORY_EXECUTIONS', 'main']
 
 GRASP_CLOSE = 'grasp/close'
 """The hand's grasp command (std_srvs/Trigger): close the fingers to the plan's closures."""
+GRASP_EXECUTE = 'grasp/execute'
+"""The request to follow the latest trajectory (std_srvs/Trigger), under ``trajectory_execution: on_request``."""
+TRAJECTORY_EXECUTIONS = ('on_arrival', 'on_request')
+"""When a trajectory is followed (module docstring)."""
 
 PARAMETERS = (
     ParamSpec('initial_positions', (*HOME_Q.tolist(), 0.0, 0.0, 0.0),
@@ -72,6 +88,10 @@ PARAMETERS = (
               range=(1e-6, 10.0)),
     ParamSpec('singular_threshold', 0.05, 'Smallest singular value of the Jacobian below which the IK is damped.',
               range=(1e-6, 10.0)),
+    ParamSpec('trajectory_execution', 'on_arrival', "When a trajectory is followed: 'on_arrival' (a "
+              "joint_trajectory_controller) or 'on_request' (kept until grasp/execute: the twist stream owns the "
+              'arm, as under shared control).',
+              validator=one_of(TRAJECTORY_EXECUTIONS), constraints=f'one of {", ".join(TRAJECTORY_EXECUTIONS)}'),
     ParamSpec('allow_partial_joints_goal', False, 'Accept trajectories for some of the joints (the '
               "joint_trajectory_controller's parameter)."),
     ParamSpec('finger_velocity_limit', FINGER_VELOCITY_LIMIT, 'Finger speed limit, rad/s.', range=(1e-3, 10.0)),
@@ -109,9 +129,11 @@ class MockArmNode(Node):
         subscribe_input(self, topics.ARM_TWIST_COMMAND, self._on_twist, input_qos(depth=1), self._diag)
         subscribe_input(self, topics.GRASP_JOINT_TARGETS, self._on_joint_targets, input_qos(depth=1), self._diag)
         self._closures: NDArray[np.float64] | None = None
+        self._kept: TrajectoryCommand | None = None
         self._closure_rng = np.random.default_rng(self._params['closure_seed'])
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(Trigger, GRASP_CLOSE, self._on_close)
+        self.create_service(Trigger, GRASP_EXECUTE, self._on_execute)
         self._last = self._now()
         self.create_timer(self._params['period'], self._on_timer)
 
@@ -125,22 +147,47 @@ class MockArmNode(Node):
 
     def _on_trajectory(self, msg: JointTrajectory) -> None:
         now = self._now()
-        if self._arm.twist_live(now):
-            self._ignored += 1
-            self._diag.set_value('trajectories ignored while a twist is live', self._ignored)
-            return
         start = _seconds(msg.header.stamp)
         points = msg.points
         cmd = TrajectoryCommand(tuple(msg.joint_names), array.array('d', (_seconds(p.time_from_start) for p in points)),
                                 [p.positions for p in points], [p.velocities for p in points],
                                 [p.accelerations for p in points], start=start or None)
-        self._arm.command_trajectory(cmd, now, allow_partial=self._params['allow_partial_joints_goal'])
+        arm, partial = self._arm, self._params['allow_partial_joints_goal']
+        if self._params['trajectory_execution'] == 'on_request':
+            check_trajectory(dataclasses.replace(cmd, start=None), arm.joint_names, arm.lower, arm.upper, now=now,
+                             allow_partial=partial)
+            self._kept = cmd
+            self._diag.set_value('trajectory kept for grasp/execute', f'{len(points)} points')
+            return
+        if arm.twist_live(now):
+            self._ignored += 1
+            self._diag.set_value('trajectories ignored while a twist is live', self._ignored)
+            return
+        arm.command_trajectory(cmd, now, allow_partial=partial)
 
     def _on_twist(self, msg: TwistStamped) -> None:
         t = msg.twist
-        self._arm.command_twist(check_twist([t.linear.x, t.linear.y, t.linear.z],
-                                            [t.angular.x, t.angular.y, t.angular.z], msg.header.frame_id),
-                                self._now())
+        twist = check_twist([t.linear.x, t.linear.y, t.linear.z], [t.angular.x, t.angular.y, t.angular.z],
+                            msg.header.frame_id)
+        if (self._params['trajectory_execution'] == 'on_request' and self._arm.mode == 'trajectory'
+                and not (np.any(twist.linear) or np.any(twist.angular))):
+            return  # a requested trajectory runs on through the zero twists of an operator at rest
+        self._arm.command_twist(twist, self._now())
+
+    def _on_execute(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        if self._params['trajectory_execution'] != 'on_request':
+            response.success, response.message = False, 'trajectory_execution is on_arrival: nothing is kept'
+        elif self._kept is None:
+            response.success, response.message = False, 'no trajectory received: nothing to execute'
+        else:
+            try:
+                self._arm.command_trajectory(dataclasses.replace(self._kept, start=None), self._now(),
+                                             allow_partial=self._params['allow_partial_joints_goal'])
+            except GraspIntentError as exc:  # allow_partial_joints_goal changed since it was kept
+                response.success, response.message = False, str(exc)
+            else:
+                response.success, response.message = True, 'following the latest trajectory from now'
+        return response
 
     def _on_joint_targets(self, msg: JointState) -> None:
         closures = joint_positions(msg, FINGER_JOINTS)

@@ -54,7 +54,8 @@ class TaskOptions:
     noise : ExecutionNoise or None
         Where the arm lands around the plan: the choice then maximises the expected success as executed
         (:mod:`~grasp_intent_ros.planning.robustness`; ``ExecutionNoise()`` is the documented 1x level). The
-        first plan for a model and noise computes the estimate (seconds of CPU); later plans reuse it.
+        first plan for a model and noise computes the estimate (about a second of CPU for 560 demonstrations);
+        later plans reuse it.
         None (default): an exact landing.
     """
 

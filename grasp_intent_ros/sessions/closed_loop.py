@@ -12,7 +12,20 @@ out at the recorded pace into a live suite with the assistance and an arm, and w
   the replay's pose tolerances);
 - where the hand ends: within :data:`REACH_POS` and :data:`REACH_ROT` of that grasp when the recorded hand
   ended there (the benchmark's "reached");
-- the arm's first joint state (the live arm must start where the recorded one did).
+- the arm's first joint state (the live arm must start where the recorded one did);
+- the last w, within :data:`W_TOLERANCE` (exact when w is an input).
+
+A session recorded with the intent estimator running (its status on ``/diagnostics``: :func:`estimated`) had
+its w from the operator's motion: w is then an output, never sent. Such a session is replayed on the recorded
+hand (:data:`ESTIMATED_REPLAYED`: the operator twists *and* the arm's joint states, at the recorded pace, into
+the estimator, the interpreter and the planner, without the assistance and the arm), and the live estimator's
+last w is compared (the start too; the grasp and where the hand ends are reported, not compared). A live arm
+would not do: the estimator's input is the hand, and the loop hand -> w -> plan -> assistance -> hand
+amplifies the wall clock's millimetres into another goal (the last w of three live-arm replays of one
+recording differed from it by 0.12-0.22). Nor is the last grasp a function of the last w alone: the planner
+warm-starts from its previous plan, and which of the estimator's 25 w a second it planned is the wall
+clock's choice, so for one w near (0.99, 0.99, 0.09) it ended on either of two grasps 7 mm and 0.42 rad
+apart (the recording on one, three replays on the other, their last w within 0.006 of the recorded).
 
 Times to reach the grasp and mean alpha are reported side by side, not compared: they are wall-clock figures.
 """
@@ -20,7 +33,7 @@ Times to reach the grasp and mean alpha are reported side by side, not compared:
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Final
@@ -31,10 +44,12 @@ from numpy.typing import NDArray
 from ..mico.frames import pose_to_matrix
 from ..mico.kinematics import ARM_JOINTS, MicoKinematics
 from ..shared_control.assistance import REACH_POS, REACH_ROT, offset, reached
+from ..wire.diagnostics import ESTIMATOR_COMPONENT, KEY_GOALS
 from ..wire.model_document import ModelHeader
 from ..wire.topics import (
     ASSISTANCE_ALPHA,
     ASSISTANCE_TWIST,
+    DIAGNOSTICS,
     GRASP_POSE,
     INTENT_W,
     JOINT_STATES,
@@ -47,14 +62,20 @@ from .bag.reader import read_messages, topics_info
 from .outputs import Joints, Pose, RawMessage, SessionError, decode, output_of
 from .pairing import ModelSwitches, detect_namespace
 
-__all__ = ['REACH_POS', 'REACH_ROT', 'REPLAYED', 'Send', 'Trace', 'Outcome', 'ClosedLoopSession', 'offset',
-           'reached', 'is_closed_loop', 'split_messages', 'load_closed_loop', 'Tracer', 'outcome', 'compare_outcomes',
-           'describe']
+__all__ = ['REACH_POS', 'REACH_ROT', 'REPLAYED', 'ESTIMATED_REPLAYED', 'W_TOLERANCE', 'Send', 'Trace', 'Outcome',
+           'ClosedLoopSession', 'offset', 'reached', 'is_closed_loop', 'estimated', 'estimator_ready',
+           'split_messages', 'load_closed_loop', 'Tracer', 'outcome', 'compare_outcomes', 'describe']
 
 START_TOLERANCE: Final = 1e-3
 """Largest difference (rad) between the recorded and the live arm's first joint state."""
 REPLAYED: Final = (INTENT_W, OBJECT_POSE, OPERATOR_TWIST)
-"""Topics a closed-loop replay publishes again (and the model switches); ``joint_states`` is the arm's."""
+"""Topics a closed-loop replay publishes again (and the model switches); ``joint_states`` is the arm's, and
+``intent/w`` the estimator's in an estimated session."""
+ESTIMATED_REPLAYED: Final = (OBJECT_POSE, OPERATOR_TWIST, JOINT_STATES)
+"""What the replay of an estimated session publishes again (and the model switches): the estimator's inputs."""
+W_TOLERANCE: Final = 0.02
+"""Largest difference of any w_i between the recorded and the live last w. The estimator takes each operator
+twist with the newest joint state it has received, and which one that is depends on delivery order."""
 
 
 @dataclass(frozen=True)
@@ -83,6 +104,7 @@ class Tracer:
         self._alphas: list[tuple[int, float]] = []
         self._operator: list[int] = []
         self._blended: list[int] = []
+        self._w: list[tuple[int, NDArray[np.float64]]] = []
 
     def restart(self) -> None:
         """Forget everything but the newest joint state (the arm's state when a replay starts)."""
@@ -91,6 +113,7 @@ class Tracer:
         self._alphas.clear()
         self._operator.clear()
         self._blended.clear()
+        self._w.clear()
 
     def add(self, topic: str, t_ns: int, cdr: bytes) -> None:
         """Take one message; messages on other topics and undecodable ones are ignored."""
@@ -111,11 +134,17 @@ class Tracer:
             self._blended.append(t_ns)
         elif topic == OPERATOR_TWIST:
             self._operator.append(t_ns)
+        elif topic == INTENT_W:
+            try:
+                w = np.asarray(decode(MSGTYPES[INTENT_W], cdr).data, dtype=np.float64)
+            except SessionError:
+                return
+            self._w.append((t_ns, w))
 
     def trace(self) -> Trace:
         """What was collected so far."""
         return Trace(tuple(self._joints), tuple(self._grasps), tuple(self._alphas), tuple(self._blended),
-                     tuple(self._operator))
+                     tuple(self._operator), tuple(self._w))
 
 
 def _arm_positions(joints: Joints) -> NDArray[np.float64] | None:
@@ -128,13 +157,14 @@ def _arm_positions(joints: Joints) -> NDArray[np.float64] | None:
 
 @dataclass(frozen=True)
 class Trace:
-    """A closed loop's messages by receive time (ns): arm joints, grasps, alphas, blended and operator twists."""
+    """A closed loop's messages by receive time (ns): arm joints, grasps, alphas, blended and operator twists, w."""
 
     joints: tuple[tuple[int, NDArray[np.float64]], ...]
     grasps: tuple[tuple[int, NDArray[np.float64]], ...]
     alphas: tuple[tuple[int, float], ...]
     blended: tuple[int, ...]
     operator: tuple[int, ...]
+    w: tuple[tuple[int, NDArray[np.float64]], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -158,6 +188,8 @@ class Outcome:
         Mean of the published alphas from the first operator twist on (nan without any).
     blended
         Number of blended twists from the first operator twist to the last.
+    final_w
+        The last w, shape (m,); None without one.
     """
 
     final_grasp: NDArray[np.float64] | None
@@ -167,6 +199,7 @@ class Outcome:
     ends_at_grasp: bool
     alpha_mean: float
     blended: int
+    final_w: NDArray[np.float64] | None = None
 
 
 def outcome(trace: Trace, kin: MicoKinematics) -> Outcome:
@@ -185,15 +218,16 @@ def outcome(trace: Trace, kin: MicoKinematics) -> Outcome:
     return Outcome(grasp, hand, trace.joints[0][1] if trace.joints else None, reached_s,
                    grasp is not None and hand is not None and reached(hand, grasp),
                    float(np.mean(alphas)) if alphas else float('nan'),
-                   sum(start_ns <= t <= end_ns for t in trace.blended))
+                   sum(start_ns <= t <= end_ns for t in trace.blended), trace.w[-1][1] if trace.w else None)
 
 
 def compare_outcomes(recorded: Outcome, live: Outcome, *, position_m: float = 1e-3,
-                     rotation_rad: float = 1e-2) -> list[str]:
+                     rotation_rad: float = 1e-2, grasp: bool = True) -> list[str]:
     """What differs between a recorded and a live outcome, one line each ([] when they agree).
 
-    The last grasp within ``position_m`` / ``rotation_rad`` (the replay's pose tolerances); the first joint
-    state within :data:`START_TOLERANCE`; a live hand at that grasp when the recorded one ended there.
+    The first joint state within :data:`START_TOLERANCE`; the last w within :data:`W_TOLERANCE`; with
+    ``grasp``, the last grasp within ``position_m`` / ``rotation_rad`` (the replay's pose tolerances) and a
+    live hand at that grasp when the recorded one ended there.
     """
     problems = []
     if recorded.start_q is not None and live.start_q is not None:
@@ -201,7 +235,14 @@ def compare_outcomes(recorded: Outcome, live: Outcome, *, position_m: float = 1e
         if gap > START_TOLERANCE:
             problems.append(f'the live arm started {gap:.3g} rad from the recorded start '
                             f'(tolerance {START_TOLERANCE:g}): start it where the recording did')
-    if recorded.final_grasp is None:
+    if recorded.final_w is not None:
+        if live.final_w is None or live.final_w.shape != recorded.final_w.shape:
+            problems.append(f'last w: recorded {np.round(recorded.final_w, 3).tolist()}, live '
+                            f'{None if live.final_w is None else np.round(live.final_w, 3).tolist()}')
+        elif (gap := float(np.max(np.abs(live.final_w - recorded.final_w)))) > W_TOLERANCE:
+            problems.append(f'last w: live {np.round(live.final_w, 3).tolist()}, recorded '
+                            f'{np.round(recorded.final_w, 3).tolist()} ({gap:.3g} apart; tolerance {W_TOLERANCE:g})')
+    if recorded.final_grasp is None or not grasp:
         return problems
     if live.final_grasp is None:
         return [*problems, 'no grasp was planned live']
@@ -229,6 +270,8 @@ class ClosedLoopSession:
         What a replay sends, in recorded order.
     trace
         What the recorded loop did.
+    estimated
+        Whether w came from the intent estimator (:func:`estimated`): replayed on the recorded hand, w compared.
     """
 
     path: Path
@@ -236,6 +279,7 @@ class ClosedLoopSession:
     initial_model: ModelHeader | None
     sends: tuple[Send, ...]
     trace: Trace
+    estimated: bool = False
 
     @property
     def duration_s(self) -> float:
@@ -258,9 +302,29 @@ def is_closed_loop(path: str | os.PathLike[str], *, namespace: str | None = None
     return info is not None and info.count > 0
 
 
-def split_messages(messages: Iterable[RawMessage], namespace: str = '') -> tuple[
-        ModelHeader | None, tuple[Send, ...], Trace]:
-    """Split a closed-loop session's time-ordered messages into (initial model, sends, recorded trace)."""
+def estimated(messages: Iterable[RawMessage], namespace: str = '') -> bool:
+    """Whether ``/diagnostics`` among ``messages`` holds an intent estimator's status (a node in ``namespace``)."""
+    prefix, suffix = f'{namespace}/', f': {ESTIMATOR_COMPONENT}'
+    for msg in messages:
+        if msg.topic == DIAGNOSTICS:
+            try:
+                names = [str(status.name) for status in decode(MSGTYPES[DIAGNOSTICS], bytes(msg.cdr)).status]
+                if any(name.startswith(prefix) and name.endswith(suffix) for name in names):
+                    return True
+            except SessionError:
+                continue
+    return False
+
+
+def estimator_ready(statuses: Mapping[str, str]) -> bool:
+    """Whether an intent estimator's status (name -> its message and values, as text) reports its goals ready."""
+    return any(name.endswith(f': {ESTIMATOR_COMPONENT}') and f'{KEY_GOALS}: ' in text
+               for name, text in statuses.items())
+
+
+def split_messages(messages: Iterable[RawMessage], namespace: str = '', *,
+                   replayed: tuple[str, ...] = REPLAYED) -> tuple[ModelHeader | None, tuple[Send, ...], Trace]:
+    """Split a closed-loop session's time-ordered messages into (initial model, sends of ``replayed``, trace)."""
     models = ModelSwitches()
     sends: list[Send] = []
     tracer = Tracer()
@@ -269,7 +333,7 @@ def split_messages(messages: Iterable[RawMessage], namespace: str = '') -> tuple
             if (header := models.take(msg)) is not None:
                 sends.append(Send(msg.timestamp_ns, MODEL_ACTIVE, b'', header.name))
             continue
-        if rel in REPLAYED:
+        if rel in replayed:
             sends.append(Send(msg.timestamp_ns, rel, bytes(msg.cdr)))
         tracer.add(rel, msg.timestamp_ns, bytes(msg.cdr))
     return models.initial, tuple(sends), tracer.trace()
@@ -279,15 +343,18 @@ def load_closed_loop(path: str | os.PathLike[str], *, namespace: str | None = No
     """Read a closed-loop session bag (raises BagReadError, or SessionError without operator twists)."""
     bag = Path(path)
     ns = detect_namespace(topics_info(bag)) if namespace is None else namespace.rstrip('/')
-    initial, sends, trace = split_messages(read_messages(bag), ns)
+    messages = list(read_messages(bag))
+    from_estimator = estimated(messages, ns)
+    initial, sends, trace = split_messages(messages, ns, replayed=ESTIMATED_REPLAYED if from_estimator else REPLAYED)
     if not trace.operator:
         raise SessionError(f'bag {bag} holds no {OPERATOR_TWIST}: not a closed-loop session')
-    return ClosedLoopSession(bag, ns, initial, sends, trace)
+    return ClosedLoopSession(bag, ns, initial, sends, trace, from_estimator)
 
 
 def describe(outcome_: Outcome) -> str:
     """One line: reached after, ends at the grasp, mean alpha, blended twists while the operator sent."""
     reached = 'never' if outcome_.reached_s is None else f'after {outcome_.reached_s:.2f} s'
+    w = '' if outcome_.final_w is None else f'; last w ({", ".join(f"{v:.3f}" for v in outcome_.final_w)})'
     return (f'hand at the last grasp {reached}, {"ends there" if outcome_.ends_at_grasp else "does not end there"}; '
-            f'mean alpha {outcome_.alpha_mean:.2f}; {outcome_.blended} blended twists while the operator sent')
+            f'mean alpha {outcome_.alpha_mean:.2f}; {outcome_.blended} blended twists while the operator sent{w}')
 

@@ -277,14 +277,24 @@ def load_paired_session(path: str | os.PathLike[str], *, namespace: str | None =
 
 
 # ------------------------------------------------------------------------------ compaction
+def _statuses_ending(msg: RawMessage, suffixes: set[str]) -> set[str]:
+    """Which of ``suffixes`` end a status name of the DiagnosticArray ``msg`` (none when undecodable)."""
+    try:
+        names = [str(status.name) for status in decode(msg.msgtype, msg.cdr).status]
+    except SessionError:
+        return set()
+    return {suffix for suffix in suffixes if any(name.endswith(suffix) for name in names)}
+
+
 def compact_session(src: str | os.PathLike[str], dst: str | os.PathLike[str], *,
-                    drop_topics: Iterable[str] = ()) -> dict[str, int]:
+                    drop_topics: Iterable[str] = (), keep_components: Iterable[str] = ()) -> dict[str, int]:
     """Copy a bag, keeping of ``/diagnostics`` only the messages that report a rejection.
 
     Periodic diagnostics make up most of a recorded session and add nothing a replay or a report
-    needs; the rejections stay, at their receive times. Other messages are copied unchanged (bytes,
-    timestamps, offered QoS); topics in ``drop_topics`` (absolute names) and topics left without
-    messages are left out.
+    needs; the rejections stay, at their receive times, and so does the first message holding a status of
+    each component in ``keep_components`` (e.g. the intent estimator's: it tells a replay which node
+    produced w). Other messages are copied unchanged (bytes, timestamps, offered QoS); topics in
+    ``drop_topics`` (absolute names) and topics left without messages are left out.
 
     Returns
     -------
@@ -300,13 +310,17 @@ def compact_session(src: str | os.PathLike[str], dst: str | os.PathLike[str], *,
     infos = topics_info(src)
     dropped = set(drop_topics)
     tracker = RejectionTracker()
+    wanted = {f': {component}' for component in keep_components}
     counts: dict[str, int] = {}
     with SessionWriter(dst) as writer:
         for msg in read_messages(src):
             if msg.topic in dropped:
                 continue
             if msg.topic == DIAGNOSTICS and not tracker.update_cdr(msg.cdr):
-                continue
+                found = _statuses_ending(msg, wanted) if wanted else set()
+                if not found:
+                    continue
+                wanted -= found
             if msg.topic not in counts:
                 qos = infos[msg.topic].qos
                 writer.add_topic(msg.topic, msg.msgtype, qos=qos or QosSpec())

@@ -12,7 +12,10 @@ Closed-loop sessions
     A session with operator twists is replayed as a closed loop (:mod:`grasp_intent_ros.sessions.closed_loop`):
     w, object poses, model switches and operator twists at the recorded pace (``--fast`` and ``--rate`` are
     refused), never the arm's joint states; ``--start-suite`` adds the assistance and the mock arm; ``--check``
-    compares the outcome (start, last grasp, where the hand ends), not each message.
+    compares the outcome (start, last grasp, where the hand ends, last w), not each message. A session recorded
+    with the intent estimator (its status in the bag) is replayed on the recorded hand: its operator twists
+    and joint states, no w, into the estimator (``--start-suite`` starts it with the three nodes, no assistance
+    or arm); the live estimator's last w and the last grasp are compared.
 Pace
     Default: the recorded pace (``--rate R`` scales it: 2 = twice as fast). ``--fast``: each input as soon
     as the system has answered the previous one. ``--check`` always waits for the answer to an input
@@ -26,7 +29,8 @@ Check (``--check``)
     the first ``--max-diffs`` differing messages; exit code 1. All equal: one summary line, exit code 0.
 Suite (``--start-suite``)
     Starts ``intent_interpreter``, ``model_server`` (with the session's initial model and ``--models-dir``)
-    and ``grasp_planner`` (for a closed-loop session also ``mock_arm`` and ``assistance``) as ``python -m``
+    and ``grasp_planner`` (for a closed-loop session also ``mock_arm`` and ``assistance``, or for one recorded
+    with the intent estimator ``intent_estimator``) as ``python -m``
     processes with the package's config files, in the session's
     namespace (:class:`~grasp_intent_ros.launch.suite.NodeSuite`), with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
     and this process's ROS_DOMAIN_ID (else one derived from the process id); they are
@@ -82,7 +86,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument('--check', action='store_true', help='compare the live answers with the recorded ones')
     parser.add_argument('--start-suite', action='store_true',
                         help='start the three nodes (a closed-loop session: five, with the assistance and the mock '
-                             'arm) as processes (LOCALHOST, this ROS_DOMAIN_ID) and stop them at the end')
+                             'arm; one recorded with the intent estimator: four, with it) as processes (LOCALHOST, '
+                             'this ROS_DOMAIN_ID) and stop them at the end')
     parser.add_argument('--timeout', type=float, default=10.0, metavar='S',
                         help='longest wait for one answer, s (default 10)')
     parser.add_argument('--startup-timeout', type=float, default=60.0, metavar='S',
@@ -139,10 +144,12 @@ def _report_closed_loop(session: ClosedLoopSession, options: ReplayOptions, resu
     if not options.check:
         print(f'replay: {head}')
         return 0
-    problems = compare_outcomes(recorded_outcome, live_outcome)
+    problems = compare_outcomes(recorded_outcome, live_outcome, grasp=not session.estimated)
     if not problems:
-        print(f'replay --check OK: {head}; the live loop planned the recorded last grasp and ended where the '
-              'recorded one did')
+        print(f'replay --check OK: {head}; ' + (
+            'the live intent estimator ended on the recorded w (the last grasp not compared: module '
+            'closed_loop)' if session.estimated else
+            'the live loop planned the recorded last grasp and ended where the recorded one did'))
         return 0
     print(f'replay --check FAILED: {head}')
     for problem in problems:
@@ -205,14 +212,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     executor = SingleThreadedExecutor(context=context)
     client: SessionClient | None = None
     code = 2
+    estimated = isinstance(session, ClosedLoopSession) and session.estimated
     try:
         if args.start_suite:
             initial = session.initial_model.name if session.initial_model is not None else None
             suite = NodeSuite(domain_id)
             suite.start_nodes(model=initial, models_dir=args.models_dir, namespace=session.namespace,
-                              shared_control=closed_loop)
+                              shared_control=closed_loop and not estimated,
+                              extra=('intent_estimator',) if estimated else ())
         client = SessionClient(model_server=args.model_server, context=context, closed_loop=closed_loop,
-                               namespace=session.namespace or '/')
+                               estimated=estimated, namespace=session.namespace or '/')
         executor.add_node(client)
         alive = suite.died if suite else lambda: ''
         if isinstance(session, ClosedLoopSession):

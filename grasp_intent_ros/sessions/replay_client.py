@@ -30,12 +30,13 @@ from ..wire.topics import (
     ASSISTANCE_TWIST,
     DIAGNOSTICS,
     INPUT_TOPICS,
+    INTENT_W,
     JOINT_STATES,
     MODEL_ACTIVE,
     MSGTYPES,
     OUTPUT_TOPICS,
 )
-from .closed_loop import REPLAYED, ClosedLoopSession, Tracer
+from .closed_loop import ESTIMATED_REPLAYED, REPLAYED, ClosedLoopSession, Tracer, estimator_ready
 from .compare import Difference, Tolerances, answered, compare_step, diverged
 from .outputs import Output, RejectionTracker, SessionError, decode, output_of
 from .pairing import PairedSession, Step
@@ -60,10 +61,15 @@ class SessionClient(Node):
         Name of the model server node, relative to this node's namespace.
     node_name
         This node's name; ``kwargs`` go to ``rclpy.node.Node`` (``context``, ``namespace``).
+    closed_loop
+        Replay a closed-loop session: publish :data:`~.closed_loop.REPLAYED` and trace the loop.
+    estimated
+        With ``closed_loop``, a session whose w came from the intent estimator: publish
+        :data:`~.closed_loop.ESTIMATED_REPLAYED` (the recorded hand included) and trace the live w.
     """
 
     def __init__(self, *, model_server: str = 'model_server', node_name: str = 'replay', closed_loop: bool = False,
-                 **kwargs: Any) -> None:
+                 estimated: bool = False, **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self.closed_loop = closed_loop
         """Whether this client replays a closed-loop session (:mod:`grasp_intent_ros.sessions.closed_loop`)."""
@@ -83,12 +89,14 @@ class SessionClient(Node):
         """Per diagnostic status name, its latest message and values, for error reports."""
         self._tracker = RejectionTracker()
         self._first_seen: dict[str, float] = {}
+        sent, traced = ((ESTIMATED_REPLAYED, (INTENT_W,)) if estimated else
+                        (REPLAYED, (JOINT_STATES, ASSISTANCE_TWIST, ASSISTANCE_ALPHA)))
         self._input_pubs = {topic: self.create_publisher(message_class(topic), topic, output_qos())
-                            for topic in (REPLAYED if closed_loop else INPUT_TOPICS)}
+                            for topic in (sent if closed_loop else INPUT_TOPICS)}
         self._loop_subs = {
             topic: self.create_subscription(message_class(topic), topic, self._tracer_receiver(topic), input_qos(1000),
                                             raw=True)
-            for topic in ((JOINT_STATES, ASSISTANCE_TWIST, ASSISTANCE_ALPHA) if closed_loop else ())}
+            for topic in (traced if closed_loop else ())}
         self._output_subs = {
             topic: self.create_subscription(message_class(topic), topic, self._receiver(topic), input_qos(100),
                                             raw=True)
@@ -437,7 +445,9 @@ class ClosedLoopReplayer(SessionReplayer[ClosedLoopSession]):
     """Replays a closed-loop session (:mod:`grasp_intent_ros.sessions.closed_loop`) at its recorded pace.
 
     The live system must run the assistance and an arm (the suite with ``shared_control``), with the arm where
-    the recording's started. The client must have been made with ``closed_loop=True``. :meth:`run` sends every
+    the recording's started; for an estimated session the intent estimator instead (the recorded hand is
+    sent). The client must have been made with ``closed_loop=True`` and ``estimated`` as the session's.
+    :meth:`run` sends every
     message at its recorded time after the first, then waits until the arm has stopped (no joint moved by more
     than 1e-6 rad over :data:`STOPPED_S`, once the operator's last twist is older than :data:`STOPPED_S`), at most
     ``options.timeout_s``.
@@ -456,7 +466,10 @@ class ClosedLoopReplayer(SessionReplayer[ClosedLoopSession]):
         started = time.monotonic()
         result.differences += self.prepare()
         result.ready_s = time.monotonic() - started
-        if not self._wait(lambda: bool(self.client.tracer.trace().joints), self.options.startup_timeout_s):
+        if self.session.estimated:
+            if not self._wait(lambda: estimator_ready(self.client.last_status), self.options.startup_timeout_s):
+                raise ReplayError('the live intent estimator did not report its goals ready')
+        elif not self._wait(lambda: bool(self.client.tracer.trace().joints), self.options.startup_timeout_s):
             raise ReplayError('no joint state from the live arm')
         self.client.tracer.restart()
         sends = self.session.sends

@@ -27,6 +27,12 @@ Conditions (:data:`CONDITIONS`)
   planner's grasp for the single most likely task argmax_i w_i (v on that zone alone), shown.
 - ``'suite'``: the suite: v = interpret(w), the planner's grasp, the assistance's ``confidence`` rule, shown.
 
+With an :class:`~.estimator.IntentEstimator` (``estimator``), w comes from it instead of the intent script
+(the intent node's place in the suite, ``suite --with intent_estimator``): it is reset at the start and fed,
+every period, the operator's own twist (before blending, so the assistance never creates its own evidence)
+with the hand's pose at that tick; every ``w_period`` its w is interpreted and planned as the script's would
+be. The script then gives only the operator's true task set: the estimator never sees it.
+
 The simulation returns what happened, never a verdict: the executed grasp's features in the true object
 frame, when the hand closed, the operator's effort and each shown grasp's alpha-time; the caller judges
 (the task rules never enter here).
@@ -42,17 +48,18 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from ..method.intent import Interpretation, ZoneInterpreter, all_zones, default_task_names, zone_labels
+from ..method.intent import Interpretation, ZoneInterpreter, all_zones, default_task_names, interpret, zone_labels
 from ..method.model import GraspModel
 from ..mico.frames import obj_T_ee_to_features
 from ..mico.grasp import Grasp, plan_grasp
 from ..mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
 from ..mico.mock_arm import MockArm, TwistCommand
 from .assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, pose_error
-from .operators import IntentScript, ScriptedOperator
+from .estimator import IntentEstimator
+from .operators import IntentScript, ScriptedOperator, certain_w
 
 __all__ = ['Condition', 'CONDITIONS', 'ADA_APPLY_TIME', 'Scene', 'PlanStream', 'AdaAssistance', 'Episode',
-           'simulate', 'perturb_pose']
+           'simulate', 'perturb_pose', 'certain_grasps']
 
 Condition = Literal['direct', 'ada', 'independent', 'suite']
 CONDITIONS: tuple[Condition, ...] = ('direct', 'ada', 'independent', 'suite')
@@ -70,6 +77,27 @@ def perturb_pose(base_T: NDArray[np.float64], position_rms: float, angle_rms: fl
     out = base_T.copy()
     out[:3, 3] += rng.normal(0.0, position_rms / math.sqrt(3.0), 3)
     out[:3, :3] = np.asarray(pin.exp3(rng.normal(0.0, angle_rms / math.sqrt(3.0), 3))) @ base_T[:3, :3]
+    return out
+
+
+def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: MicoKinematics) -> dict[int, Grasp]:
+    """The planner's grasp (cold, IK from Home) for each certain task set 1..7 (:func:`.operators.certain_w`).
+
+    An operator's own grasp per task set, chosen without the rules, and ADA's goals.
+
+    Raises
+    ------
+    ValueError
+        If the planner finds no reachable grasp for a set (the object is out of the arm's reach).
+    """
+    out = {}
+    for task_set in range(1, 8):
+        read = interpret(certain_w(task_set), _ZONES)
+        assert isinstance(read, Interpretation)  # a certain w never asks for clarification
+        grasp = plan_grasp(model, read.v, _ZONES, base_T_obj, kin)
+        if not isinstance(grasp, Grasp):
+            raise ValueError(f'no grasp for the certain task set {task_set}: {grasp}')
+        out[task_set] = grasp
     return out
 
 
@@ -210,7 +238,7 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
              closure_rng: np.random.Generator, *, ada_goals: list[tuple[NDArray[np.float64], NDArray[np.float64]]],
              plan_cache: dict[bytes, Grasp | None], timeout: float = 25.0, period: float = 0.01,
              w_period: float = 0.1, closure_error: float = 0.05,
-             config: AssistanceConfig | None = None) -> Episode:
+             config: AssistanceConfig | None = None, estimator: IntentEstimator | None = None) -> Episode:
     """Run one episode (module docstring).
 
     Parameters
@@ -223,6 +251,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
         The estimator's noise; the hand's closure error (N(0, closure_error^2) per finger).
     config : AssistanceConfig, optional
         The suite's assistance settings (default: the node's defaults); ``arbitration`` is set by the condition.
+    estimator : IntentEstimator, optional
+        The source of w instead of ``intent.w`` (module docstring); reset here, its goals at the tracked object.
     """
     kin = scene.kin
     base = config or AssistanceConfig()
@@ -242,10 +272,12 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
     w_every = max(int(round(w_period / period)), 1)
     ticks = int(round(timeout / period))
     tick = 0
+    if estimator is not None:
+        estimator.reset()
     for tick in range(ticks):
         now = tick * period
         if tick % w_every == 0:
-            v, grasp = stream.plan(intent.w(now, intent_rng))
+            v, grasp = stream.plan(intent.w(now, intent_rng) if estimator is None else estimator.w)
             if v is None:
                 assistance.clarification()
             else:
@@ -276,6 +308,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
             episode.features = obj_T_ee_to_features(obj_T_ee, executed)
             break
         h = operator.twist(now, seen, goal)
+        if estimator is not None:
+            estimator.update(hand_now, h, period)
         episode.effort_linear += float(np.linalg.norm(h[:3])) * period
         episode.effort_angular += float(np.linalg.norm(h[3:])) * period
         if ada is not None:

@@ -15,7 +15,7 @@ __all__ = [
     'OK', 'WARN', 'ERROR', 'STALE', 'LEVEL_NAMES', 'level_value', 'status_name', 'status_values',
     'KEY_RECEIVED', 'KEY_REJECTED', 'KEY_LAST_ERROR', 'KEY_PROCESSING_TIME', 'KEY_DROPPED', 'KEY_PLANS',
     'KEY_PLANNING_TIME', 'KEY_PLAN_STATUS', 'KEY_MODEL', 'KEY_CLARIFICATIONS', 'KEY_LAST_OUTCOME',
-    'KEY_KERNELS_LOAD_TIME', 'KEY_KERNELS_LOADED_LATE',
+    'KEY_KERNELS_LOAD_TIME', 'KEY_KERNELS_LOADED_LATE', 'KEY_GOALS', 'ESTIMATOR_COMPONENT',
 ]
 
 OK: Final = 0
@@ -47,6 +47,11 @@ KEY_KERNELS_LOAD_TIME: Final = 'compiled kernels load time [ms]'
 cache, compile) every compiled kernel."""
 KEY_KERNELS_LOADED_LATE: Final = 'compiled kernels loaded after ready'
 """How many kernel signatures the planner compiled or loaded after it was ready (0: no plan waited on one)."""
+KEY_GOALS: Final = 'goals'
+"""How many of the model's demonstrations the intent estimator has as goals (reachable); set once they are ready."""
+ESTIMATOR_COMPONENT: Final = 'intent estimator'
+"""The intent estimator node's status component (:func:`status_name`); a closed-loop session holding it had
+its w from the estimator."""
 
 
 def level_value(level: Any) -> int:

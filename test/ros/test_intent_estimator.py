@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from rclpy.parameter import Parameter
+from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
@@ -16,7 +17,7 @@ from grasp_intent_ros.nodes.intent_estimator import IntentEstimatorNode
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
-from grasp_intent_ros.shared_control.estimator import goals_at
+from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.diagnostics import WARN
 from grasp_intent_ros.wire.model_document import model_document
@@ -98,8 +99,10 @@ def test_a_moved_object_and_a_new_model_restart_from_the_prior(ros, rig: Rig) ->
     np.testing.assert_array_equal(rig.node._scenes.latest.base_T_obj, BASE_T_OBJ)  # within the tolerance: kept
     moved = matrix_to_pose_msg(pose_to_matrix((0.3, -0.25, 0.0), (0.0, 0.0, 1.0, 0.0)), frame_id=BASE_FRAME,
                                stamp=ros.node.get_clock().now().to_msg())
+    count = len(rig.w)
     rig.object.publish(moved)
-    assert ros.wait_for(lambda: rig.node._restarts == 2, 60.0)
+    # the restart is counted just before its prior is published: wait for that w too
+    assert ros.wait_for(lambda: rig.node._restarts == 2 and len(rig.w) > count, 60.0)
     np.testing.assert_allclose(rig.w[-1].data, [PRIOR] * 3, rtol=1e-12)
     rig.activate('cup_5zone', 2)
     assert ros.wait_for(lambda: rig.node._restarts == 3, 60.0)
@@ -121,3 +124,21 @@ def test_bad_input_is_rejected_and_another_w_publisher_is_reported(ros, rig: Rig
     ros.publisher(Float64MultiArray, topics.INTENT_W)
     assert ros.wait_for(lambda: status_finder(rig.statuses, ': intent estimator', level=warn,
                                               text='other publisher'), 10.0)
+
+
+def test_stamped_twists_act_for_their_stamps_difference_whenever_they_arrive(ros, rig: Rig) -> None:
+    rig.at_home()
+    assert ros.wait_for(lambda: rig.node._estimator is not None, 60.0)
+    estimator = rig.node._estimator
+    reference = IntentEstimator(estimator.goals, estimator.config)
+    linear = rig.toward(1)
+    for k in range(5):  # stamped 0.01 s apart, delivered whenever the previous one was taken
+        twist = twist_msg(linear)
+        twist.header.stamp = Time(seconds=100.0 + 0.01 * k).to_msg()
+        updates = estimator.updates
+        rig.operator.publish(twist)
+        assert ros.wait_for(lambda: estimator.updates > updates, 10.0)
+        # the first twist has no previous stamp: it acts for max_dt
+        reference.update(rig.hand, np.r_[linear, 0.0, 0.0, 0.0], estimator.config.max_dt if k == 0 else 0.01)
+    # the stamps' difference is 0.01 s up to rounding at 100 s (about 1e-14 s); arrival times differ by ms
+    np.testing.assert_allclose(estimator.evidence, reference.evidence, rtol=0.0, atol=1e-9)

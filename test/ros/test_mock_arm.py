@@ -118,3 +118,42 @@ def test_a_tick_after_a_signal_ended_the_context_publishes_nothing_and_reports_n
     node._on_timer()
     node.destroy_node()
     assert errors == []
+
+
+def test_in_the_suites_shared_control_loop_a_trajectory_moves_the_arm_only_when_asked(ros) -> None:
+    """The suite's mock arm (its config and remappings): the planner's trajectory waits for grasp/execute.
+
+    No twist arrives at all (twists lapsed longer than the command timeout): the planner's trajectory must
+    not move the arm. Asked, the arm follows it through the zero twists of an operator at rest, and the
+    operator's first non-zero twist takes the arm back.
+    """
+    from grasp_intent_ros.launch.suite import NodeSuite
+    from grasp_intent_ros.nodes.mock_arm import GRASP_EXECUTE
+
+    arm = ros.add(MockArmNode(context=ros.context, cli_args=['--ros-args', *NodeSuite.node_args('mock_arm')]))
+    states = ros.subscribe(JointState, topics.JOINT_STATES)
+    assert ros.wait_for(lambda: states, 10.0)
+    client = ros.node.create_client(Trigger, GRASP_EXECUTE)
+    assert client.wait_for_service(timeout_sec=5.0)
+    future = client.call_async(Trigger.Request())
+    assert ros.wait_for(future.done, 5.0) and not future.result().success  # nothing received: nothing to execute
+    plans = ros.publisher(JointTrajectory, topics.GRASP_TRAJECTORY)
+    assert ros.publish_until(plans, trajectory(JOINT_NAMES, [(0.5, (Q0 + END) / 2), (1.0, END)]),
+                             lambda: arm._kept is not None, 10.0)
+    kept_at = len(states)
+    assert ros.wait_for(lambda: len(states) > kept_at + 50, 10.0)  # 0.5 s of ticks, half the trajectory's time
+    assert_allclose(latest_positions(states), Q0, atol=0)  # nothing moved
+    twists = ros.publisher(TwistStamped, topics.ASSISTANCE_TWIST)
+    zero = TwistStamped()
+    zero.header.frame_id = BASE_FRAME
+    ros.node.create_timer(0.01, lambda: twists.publish(zero))  # an operator at rest, through the assistance
+    future = client.call_async(Trigger.Request())
+    assert ros.wait_for(future.done, 5.0) and future.result().success
+    assert ros.wait_for(lambda: np.allclose(latest_positions(states), END, atol=1e-3, rtol=0), 15.0)
+    assert ros.publish_until(plans, trajectory(JOINT_NAMES, [(1.0, Q0)]),
+                             lambda: np.array_equal(arm._kept.positions[0], Q0), 10.0)
+    future = client.call_async(Trigger.Request())
+    assert ros.wait_for(future.done, 5.0) and future.result().success
+    assert ros.wait_for(lambda: not np.allclose(latest_positions(states), END, atol=1e-3, rtol=0), 5.0)
+    zero.twist.linear.z = 0.02  # the operator moves: the trajectory ends, the twist drives
+    assert ros.wait_for(lambda: arm._arm.mode == 'twist', 5.0)

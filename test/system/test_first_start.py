@@ -117,7 +117,7 @@ def test_the_suite_command_says_when_a_stop_needed_the_watchdog(tmp_path: Path) 
     (test/ros/test_run.py checks that a real hang ends with that code).
     """
     node = ("import signal, sys, time\n"
-            "signal.signal(signal.SIGINT, lambda *_: sys.exit(%d))\n"
+            "signal.signal(signal.SIGTERM, lambda *_: sys.exit(%d))\n"
             "print('[INFO] [0.0] [grasp_planner]: ready', flush=True)\n"
             "time.sleep(60)\n") % WATCHDOG_EXIT_CODE
     command = ("import os, signal, sys, threading\n"

@@ -7,7 +7,10 @@ starts the three nodes as processes on this test's domain id (LOCALHOST discover
 A replay takes about 10 s on 2 cores (about 7 s of it for the suite to start and its nodes to meet).
 A closed-loop session (operator twists: bags/shared_control_cup) is replayed at its recorded pace into the
 suite with the assistance and the mock arm (no ``--fast``), as recorded and with its operator twists and w
-perturbed at the last bits (1e-12 relative), which shows its check does not depend on the machine.
+perturbed at the last bits (1e-12 relative), which shows its check does not depend on the machine. A
+closed-loop session recorded with the intent estimator (bags/shared_control_cup_estimated) is replayed on its
+recorded hand into the live estimator (its operator twists and joint states, perturbed the same way), whose
+last w is compared.
 """
 
 from __future__ import annotations
@@ -31,9 +34,10 @@ from grasp_intent_ros.sessions.pairing import load_paired_session
 
 REPO = Path(__file__).resolve().parents[2]
 BAGS = REPO / 'bags'
-REQUIRED = ('bad_inputs', 'cup_paper_cases', 'flashlight', 'model_ambiguity', 'moving_object', 'shared_control_cup')
-"""The sessions bags/ must hold (scripts/record_sessions.py records them; the closed-loop shared_control_cup is
-recorded by ``benchmarks/bench_shared_control.py --record``)."""
+REQUIRED = ('bad_inputs', 'cup_paper_cases', 'flashlight', 'model_ambiguity', 'moving_object', 'shared_control_cup',
+            'shared_control_cup_estimated')
+"""The sessions bags/ must hold (scripts/record_sessions.py records them; the closed-loop shared_control_cup and
+shared_control_cup_estimated are recorded by ``benchmarks/bench_shared_control.py --record``)."""
 RUN_TIMEOUT = 120.0
 """Seconds one replay command may take before it is stopped (SIGTERM, then SIGKILL)."""
 
@@ -86,7 +90,7 @@ def test_replay_of_each_bag_passes_the_check(bag: Path, domain_id: int) -> None:
 
 
 def perturbed_copy(bag: Path, out: Path, relative: float = 1e-12) -> Path:
-    """``bag`` with every operator twist and w scaled by 1 + N(0, relative) per value (seeded); else unchanged."""
+    """``bag`` with every operator twist, w and joint position scaled by 1 + N(0, relative) (seeded); else unchanged."""
     rng = np.random.default_rng(0)
     store = jazzy_typestore()
     with SessionWriter(out) as writer:
@@ -104,6 +108,10 @@ def perturbed_copy(bag: Path, out: Path, relative: float = 1e-12) -> Path:
                 w = store.deserialize_cdr(cdr, msg.msgtype)
                 w.data = w.data * (1.0 + relative * rng.standard_normal(w.data.size))
                 cdr = bytes(store.serialize_cdr(w, msg.msgtype))
+            elif msg.topic.endswith('/joint_states'):
+                joints = store.deserialize_cdr(cdr, msg.msgtype)
+                joints.position = joints.position * (1.0 + relative * rng.standard_normal(joints.position.size))
+                cdr = bytes(store.serialize_cdr(joints, msg.msgtype))
             writer.write(msg.topic, msg.timestamp_ns, cdr)
     return out
 
@@ -119,11 +127,12 @@ def test_a_closed_loop_session_replayed_plans_the_recorded_grasp_and_ends_there(
     assert result.returncode == 0, f'{result.stdout}\n{result.stderr}'
     summary = result.stdout.strip().splitlines()[-1]
     assert summary.startswith(f'replay --check OK: {played}: closed loop, {len(session.sends)} inputs'), result.stdout
+    assert ('the live intent estimator ended on the recorded w' in summary) == session.estimated, summary
     assert 'Traceback' not in result.stderr, result.stderr
 
 
 def test_a_closed_loop_session_is_refused_at_another_pace(domain_id: int) -> None:
-    (bag,) = bag_dirs(closed_loop=True)
+    bag = bag_dirs(closed_loop=True)[0]
     result = replay(bag, domain_id)  # --fast
     assert result.returncode == 2 and 'closed-loop session' in result.stderr, result.stderr
 

@@ -13,9 +13,16 @@ from grasp_intent_ros.errors import PlanningError
 from grasp_intent_ros.method.data import Demonstrations
 from grasp_intent_ros.method.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL
 from grasp_intent_ros.method.model import GraspModel
-from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning import planner, robustness
 from grasp_intent_ros.planning.options import LmOptions, TaskOptions, node_options, noise_from, options_for
-from grasp_intent_ros.planning.robustness import DRAW_DIM, ExecutionNoise, perturb, retention, standard_draws
+from grasp_intent_ros.planning.robustness import (
+    DRAW_DIM,
+    ExecutionNoise,
+    perturb,
+    retention,
+    standard_draws,
+    stratified_draws,
+)
 
 A, B, AB = 1, 2, 3
 BAND = (0.0, 0.03)  # palm_x (m) where the demonstrations do both tasks
@@ -90,9 +97,36 @@ def test_retention_credits_only_the_tasks_a_demonstration_does(slab: GraspModel)
     assert retention(slab, ExecutionNoise()) is table  # kept per model and noise
 
 
+def test_a_zones_retention_is_at_most_the_product_of_its_tasks(slab: GraspModel) -> None:
+    table = retention(slab, ExecutionNoise())
+    k_a, k_b, k_ab = (slab.zones.index(z) for z in (A, B, AB))
+    both = slab.demo_sets == AB
+    assert np.all(table[both, k_ab] <= table[both, k_a] * table[both, k_b])  # the tasks' product bounds the zone's
+
+
+def test_a_task_that_is_no_zone_gets_a_vote_of_its_own() -> None:
+    xs = [_grasp(round(-0.04 + 0.0025 * i, 6), 0.0, 1.0) for i in range(30)]
+    sets = np.array([A if i < 15 else AB for i in range(30)], dtype=np.int64)
+    demos = Demonstrations(np.array(xs), sets, ('a', 'b'))
+    model = GraspModel.fit(demos, zones=(A, AB), name='no b alone')
+    assert robustness.votes(model) == (A, AB, B)
+    assert robustness.bandwidths(model, ExecutionNoise()).shape[0] == len(model.zones) + 1
+
+
 def test_retention_is_a_function_of_the_document(slab: GraspModel) -> None:
-    again = retention(_slab_model(), ExecutionNoise())  # another model object from the same demonstrations
-    np.testing.assert_array_equal(again, retention(slab, ExecutionNoise()))
+    again = _slab_model()  # another model object from the same demonstrations, as a node reads a model sent again
+    np.testing.assert_array_equal(robustness._retention(again, ExecutionNoise()), retention(slab, ExecutionNoise()))
+    assert retention(again, ExecutionNoise()) is retention(slab, ExecutionNoise())  # computed once
+
+
+def test_stratified_landings_take_each_strata_median_once_per_number() -> None:
+    z = stratified_draws(16, 0)
+    assert z.shape == (16, DRAW_DIM)
+    medians = np.sort(z[:, 0])
+    for column in z.T:
+        np.testing.assert_array_equal(np.sort(column), medians)
+    assert medians[7] < 0.0 < medians[8] and abs(medians[0] + medians[15]) <= 1e-6  # symmetric about 0
+    assert not np.array_equal(z[:, 0], z[:, 1])  # shuffled per number
 
 
 def test_the_planner_takes_the_demonstration_inside_the_region(slab: GraspModel) -> None:

@@ -10,10 +10,18 @@ import pinocchio as pin
 import pytest
 
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
-from grasp_intent_ros.sessions.closed_loop import REACH_POS, compare_outcomes, is_closed_loop, load_closed_loop, outcome
+from grasp_intent_ros.sessions.closed_loop import (
+    REACH_POS,
+    W_TOLERANCE,
+    compare_outcomes,
+    is_closed_loop,
+    load_closed_loop,
+    outcome,
+)
 from grasp_intent_ros.sessions.outputs import SessionError
+from grasp_intent_ros.sessions.pairing import compact_session
 
-from ..session_bags import MS, SHA_B, T, f64, header, joint_msg, model_doc, session_messages, write_bag
+from ..session_bags import MS, SHA_B, T, diagnostics, f64, header, joint_msg, model_doc, session_messages, write_bag
 
 Q_END = np.array([4.6, 3.1, 1.2, 4.0, 1.6, 1.1])
 """Where the recorded arm ends; the recorded grasp is its hand pose."""
@@ -120,3 +128,37 @@ def test_a_live_loop_that_ends_elsewhere_or_plans_another_grasp_fails_the_compar
     moved_start = outcome(load_closed_loop(write_bag(tmp_path / 'start', late_start)).trace, kin)
     assert any('from the recorded start' in p for p in compare_outcomes(recorded, moved_start))
 
+
+
+def estimated_messages(kin: MicoKinematics, w_end: list[float]) -> list[tuple[str, Any]]:
+    """:func:`loop_messages` with the intent estimator's status first and its w after every operator twist."""
+    out: list[tuple[str, Any]] = [('/diagnostics', diagnostics('/intent_estimator: intent estimator', received=0,
+                                                              rejected=0))]
+    for topic, msg in loop_messages(kin):
+        out.append((topic, msg))
+        if topic == 'operator/twist':
+            out.append(('intent/w', f64([0.5, 0.5, 0.5])))
+    return [*out, ('intent/w', f64(w_end))]
+
+
+def test_a_session_recorded_with_the_estimator_replays_the_hand_and_compares_the_last_w(
+        tmp_path: Path, kin: MicoKinematics) -> None:
+    other = diagnostics('/assistance: assistance', received=0, rejected=0)
+    raw = write_bag(tmp_path / 'raw', [*estimated_messages(kin, [0.9, 0.1, 0.2]), ('/diagnostics', other)])
+    compact_session(raw, tmp_path / 'est', keep_components=['intent estimator'])
+    session = load_closed_loop(tmp_path / 'est')  # the estimator's first status survived the compaction
+    assert session.estimated and not load_closed_loop(write_bag(tmp_path / 'plain', loop_messages(kin))).estimated
+    compact_session(raw, tmp_path / 'dropped')  # without keep_components the periodic statuses go
+    assert not load_closed_loop(tmp_path / 'dropped').estimated
+    topics = [send.topic for send in session.sends]
+    assert 'intent/w' not in topics  # the estimator's output: compared, never sent
+    assert topics.count('operator/twist') == STEPS and topics.count('joint_states') == STEPS + 1  # the hand too
+    recorded = outcome(session.trace, kin)
+    np.testing.assert_array_equal(recorded.final_w, [0.9, 0.1, 0.2])
+    near = outcome(load_closed_loop(write_bag(tmp_path / 'near', estimated_messages(
+        kin, [0.9, 0.1 + 0.9 * W_TOLERANCE, 0.2]))).trace, kin)
+    far = outcome(load_closed_loop(write_bag(tmp_path / 'far', estimated_messages(
+        kin, [0.9, 0.1 + 1.1 * W_TOLERANCE, 0.2]))).trace, kin)
+    assert compare_outcomes(recorded, near, grasp=False) == []
+    (problem,) = compare_outcomes(recorded, far, grasp=False)
+    assert problem.startswith('last w: live [0.9, 0.122, 0.2], recorded [0.9, 0.1, 0.2]')

@@ -5,23 +5,22 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grasp_intent_ros.method.intent import all_zones, interpret
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
-from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
+from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.objects.demos import CUP_RULES
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.assistance import TwistLimiter, pose_error
+from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
     ChangingIntent,
     OperatorConstants,
     PersistentIntent,
     ScriptedOperator,
-    certain_w,
     draw_task_set,
 )
-from grasp_intent_ros.shared_control.simulator import AdaAssistance, Scene, perturb_pose, simulate
+from grasp_intent_ros.shared_control.simulator import AdaAssistance, Scene, certain_grasps, perturb_pose, simulate
 
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 U, T, H = 1, 2, 4
@@ -31,12 +30,7 @@ U, T, H = 1, 2, 4
 def cup() -> tuple[Scene, dict[int, Grasp]]:
     kin = MicoKinematics()
     model = ModelFiles(config_dir() / 'models').load('cup_7zone')
-    grasps = {}
-    for task_set in range(1, 8):
-        grasp = plan_grasp(model, interpret(certain_w(task_set)).v, all_zones(3), BASE_T_OBJ, kin)
-        assert isinstance(grasp, Grasp)
-        grasps[task_set] = grasp
-    return Scene(model, BASE_T_OBJ, BASE_T_OBJ, kin), grasps
+    return Scene(model, BASE_T_OBJ, BASE_T_OBJ, kin), certain_grasps(model, BASE_T_OBJ, kin)
 
 
 def test_intents_follow_their_scripts() -> None:
@@ -72,6 +66,39 @@ def test_a_suite_episode_is_reproducible_and_ends_at_a_grasp_serving_the_operato
     # judged here by the rules the loop never saw: the (0.9, 0.9, 0.1) grasp serves usage and transfer
     assert CUP_RULES.label(first.features) & (U | T) == U | T
     assert first.alpha_mean > 0.3 and first.pursued == 'shown'
+
+
+class _TrueSetOnly:
+    """An intent script that gives the operator's true set and refuses to report w."""
+
+    def __init__(self, task_set: int) -> None:
+        self.true_set = task_set
+
+    def task_set(self, t: float) -> int:
+        return self.true_set
+
+    def w(self, t: float, rng: np.random.Generator) -> np.ndarray:
+        raise AssertionError('the script\'s w was used')
+
+
+def test_with_an_estimator_w_comes_from_the_operators_motion_alone(cup) -> None:
+    scene, grasps = cup
+    own = {s: (g.base_T_ee, g.positions[6:]) for s, g in grasps.items()}
+    estimator = IntentEstimator(goals_at(scene.model, scene.base_T_obj,
+                                         reachable_goals(scene.model, scene.base_T_obj, scene.kin)))
+    prior = estimator.w
+    episodes = []
+    for _ in range(2):
+        operator = ScriptedOperator('spacemouse', OperatorConstants(), np.random.default_rng(3))
+        episodes.append(simulate(scene, 'suite', _TrueSetOnly(T), operator, own, np.random.default_rng(4),
+                                 np.random.default_rng(5), ada_goals=[], plan_cache={}, closure_error=0.0,
+                                 timeout=15.0, estimator=estimator))
+        # heading for a transfer grasp from above moved w_transfer up from the prior, and w_usage down
+        assert estimator.w[1] > prior[1] + 0.2 and estimator.w[0] < prior[0] - 0.2, estimator.w
+    first, second = episodes
+    assert first.closed_at is not None and first.closed_at == second.closed_at  # reset at each start
+    assert first.features is not None and np.array_equal(first.features, second.features)
+    assert CUP_RULES.label(first.features) & T == T
 
 
 def test_ada_s_goal_distribution_follows_the_operators_motion(cup) -> None:
