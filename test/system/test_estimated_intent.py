@@ -1,7 +1,11 @@
 """The closed loop with the intent estimator as the only source of w, as real processes over loopback.
 
 The test side is the operator: it steers the hand toward a usage-only demonstration of the cup (a twist
-proportional to the pose error, read from the joint states) and never publishes ``intent/w``. The estimator
+proportional to the pose error, read from the joint states) and never publishes ``intent/w``. The
+demonstration is the reachable one farthest in pose from every other task set's: the motion can only tell
+apart goals that differ in pose (docs/intent_estimation.md), and at a usage goal with handover goals a few
+millimetres off, the w the hand ends with depends on the path of its last decimetre, which the assistance's
+pull toward the shown grasp changes with the planner's choice. The estimator
 must publish the prior, so that the suite plans, then raise w_usage as the hand heads for the usage grasp.
 Nothing sleeps: every wait polls with a deadline.
 """
@@ -20,6 +24,7 @@ from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.assistance import clip_norm, pose_error
+from grasp_intent_ros.shared_control.estimator import EstimatorConfig
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.robot_state import joint_positions
 
@@ -31,13 +36,20 @@ PRIOR = 4 / 7
 
 
 def test_the_estimator_alone_drives_intent_w_from_the_operators_reach(ros: Any, launch: Any) -> None:
-    launch.start_nodes(model='cup_7zone', shared_control=True, extra=('intent_estimator',))
     kin = MicoKinematics()
     model = ModelFiles(config_dir() / 'models').load('cup_7zone')
     base_T_obj = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))  # the planner's and estimator's default
-    usage = [x for x, s in zip(model.demo_x, model.demo_sets) if s == 1]
-    goal = next(base_T_obj @ features_to_obj_T_ee(x) for x in usage
-                if kin.ik(base_T_obj @ features_to_obj_T_ee(x), HOME_Q, restarts=2).success)
+    poses = [base_T_obj @ features_to_obj_T_ee(x) for x in model.demo_x]
+    rho = EstimatorConfig().rotation_length
+
+    def separation(n: int) -> float:  # pose distance (m) to the nearest demonstration of another task set
+        return min(float(np.linalg.norm(e[:3]) + rho * np.linalg.norm(e[3:]))
+                   for e in (pose_error(poses[n], poses[m]) for m in range(len(poses))
+                             if model.demo_sets[m] != model.demo_sets[n]))
+
+    usage = sorted((n for n, s in enumerate(model.demo_sets) if s == 1), key=separation, reverse=True)
+    goal = next(poses[n] for n in usage if kin.ik(poses[n], HOME_Q, restarts=2).success)
+    launch.start_nodes(model='cup_7zone', shared_control=True, extra=('intent_estimator',))
     ws = ros.subscribe(Float64MultiArray, topics.INTENT_W)
     grasps = ros.subscribe(PoseStamped, topics.GRASP_POSE)
     states = ros.subscribe(JointState, topics.JOINT_STATES)
