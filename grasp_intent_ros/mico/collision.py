@@ -10,7 +10,7 @@ A grasp x (:mod:`grasp_intent_ros.method.features`, object frame) puts the end e
 :class:`HandCollision` answers, for one grasp (:meth:`HandCollision.clearance`), in metres:
 
 - **the approach, fingers open**: the hand moves from the pre-grasp (the grasp moved back by ``standoff``
-  along its approach axis, :data:`PRE_GRASP_STANDOFF` as the assistance's) to the grasp with every finger at
+  along its approach axis, :data:`~.frames.PRE_GRASP_STANDOFF` as the assistance's) to the grasp with every finger at
   0. ``table_depth``: how deep the deepest hand part goes below the table on the way (a plane's depth is
   linear along a straight path, so the two ends decide it; exact, the support function of each primitive);
   ``palm_depth`` and ``finger_depth``: how deep the palm/wrist and the open fingers go into the object
@@ -47,14 +47,12 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import KinematicsError
 from ..method.body import Box, Cylinder, ObjectBody
 from ..method.features import FINGERS, MICO_3F
-from .frames import check_transform, features_to_obj_T_ee
+from .frames import PRE_GRASP_STANDOFF, check_transform, features_to_obj_T_ee, pre_grasp
 from .kinematics import EE_FRAME, FINGER_JOINTS, default_urdf_path
 
-__all__ = ['PRE_GRASP_STANDOFF', 'SWEEP_STEP', 'CLOSURE_STEP', 'Limits', 'LIMITS', 'Table', 'FingerStop',
+__all__ = ['SWEEP_STEP', 'CLOSURE_STEP', 'Limits', 'LIMITS', 'Table', 'FingerStop',
            'Clearance', 'HandCollision', 'CollisionFree', 'HAND_PARTS']
 
-PRE_GRASP_STANDOFF = 0.08
-"""Distance (m) of the pre-grasp behind the grasp along the approach axis: where the approach starts."""
 SWEEP_STEP = 0.005
 """Largest spacing (m) of the poses checked against the object along the approach corridor (below the
 thinnest primitive of hand and object, 10 mm)."""
@@ -370,8 +368,7 @@ class HandCollision:
         obj_T_ee = features_to_obj_T_ee(vec)
         closures = np.clip(vec[FINGERS], 0.0, _CLOSED)
         # the table: the lowest point of each part, fingers open, at the grasp and at the pre-grasp
-        pre = obj_T_ee.copy()
-        pre[:3, 3] -= self.standoff * obj_T_ee[:3, 2]
+        pre = pre_grasp(obj_T_ee, self.standoff)
         normal = np.asarray(plane.normal)
         open_parts = np.stack([self.parts(obj_T_ee, np.zeros(3)), self.parts(pre, np.zeros(3))], axis=1)  # (7, 2)
         depth = np.array([plane.offset - shape.lowest(T, normal).min() for shape, T in zip(self.shapes, open_parts)])

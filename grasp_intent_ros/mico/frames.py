@@ -53,6 +53,8 @@ __all__ = [
     'obj_T_ee_to_features',
     'pose_to_matrix',
     'matrix_to_pose',
+    'PRE_GRASP_STANDOFF',
+    'pre_grasp',
     'finger_segments',
     'FINGER_LENGTH',
 ]
@@ -224,6 +226,17 @@ def obj_T_ee_to_features(obj_T_ee: ArrayLike, fingers: ArrayLike) -> NDArray[np.
 
 
 # -- poses ----------------------------------------------------------------------------------------------
+
+PRE_GRASP_STANDOFF = 0.08
+"""Distance (m) of the pre-grasp behind the grasp along the approach axis: where the approach starts."""
+
+
+def pre_grasp(a_T_grasp: NDArray[np.float64], standoff: float) -> NDArray[np.float64]:
+    """The grasp pose (4x4, any frame ``a``) moved back by ``standoff`` (m) along its approach axis (the EE z axis)."""
+    a_T_pre = a_T_grasp.copy()
+    a_T_pre[:3, 3] -= standoff * a_T_grasp[:3, 2]
+    return a_T_pre
+
 
 def pose_to_matrix(position: ArrayLike, quat_xyzw: ArrayLike) -> NDArray[np.float64]:
     """4x4 transform of a position (m) and a quaternion in ROS order (x, y, z, w), normalised here.

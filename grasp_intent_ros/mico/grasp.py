@@ -2,16 +2,19 @@
 
 :func:`plan_grasp` restricts v to the model's zones, plans (:func:`grasp_intent_ros.planning.planner.plan`)
 with the robot constraints, the hand clear of the table and the object along the approach
-(:class:`~.collision.CollisionFree`, given a :class:`~.collision.HandCollision`) and the MICO's reachability,
-falls back to the best candidate that meets both when the best grasp does not, and turns the plan into what a
-robot executes: the end-effector pose ``base_T_ee``, the arm and finger joint targets, and the time the move
-takes at the arm's velocity limits.
+(:class:`~.collision.CollisionFree`, given a :class:`~.collision.HandCollision`) and the MICO's reach of the
+grasp and of its whole approach (:class:`ApproachReach`: the pre-grasp and the corridor from it to the grasp
+within the joint limits, the way the assistance brings the hand in), falls back to the best candidate that
+meets them all when the best grasp does not, and turns the plan into what a robot executes: the
+end-effector pose ``base_T_ee``, the arm and finger joint targets, and the time the move takes at the arm's
+velocity limits.
 """
 
 from __future__ import annotations
 
 import functools
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,18 +27,22 @@ from ..method.model import GraspModel
 from ..planning import common, planner
 from ..planning.options import DEFAULT_METHOD, Method, Options
 from .collision import Clearance, CollisionFree, HandCollision, Table
+from .frames import PRE_GRASP_STANDOFF, pre_grasp
 from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 
-__all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'OUTCOMES', 'NoModelZone', 'PlanOutcome', 'Grasp', 'NoReachableGrasp',
-           'check_mico_model', 'check_workspace', 'check_grasp', 'trajectory_duration', 'plan_grasp']
+__all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'OUTCOMES', 'APPROACH_STEP', 'NoModelZone', 'PlanOutcome', 'Grasp',
+           'NoReachableGrasp', 'ApproachReach', 'check_mico_model', 'check_workspace', 'check_grasp',
+           'trajectory_duration', 'plan_grasp']
 
 MIN_TRAJECTORY_TIME = 0.1
 """Shortest time to reach the grasp (s); controllers reject a trajectory point at 0."""
 JOINT_NAMES: tuple[str, ...] = ARM_JOINTS + FINGER_JOINTS
 """Names of :attr:`Grasp.positions`: the six arm joints, then the three fingers."""
 OUTCOMES = ('best grasp reachable', 'fallback to a reachable candidate', 'no reachable grasp')
-"""The outcomes of a plan (:attr:`PlanOutcome.outcome`); reachable: IK converges and, when checked, the hand
-is clear of the table and the object."""
+"""The outcomes of a plan (:attr:`PlanOutcome.outcome`); reachable: IK converges for the grasp and along its
+approach (:class:`ApproachReach`) and, when checked, the hand is clear of the table and the object."""
+APPROACH_STEP = 0.01
+"""Largest spacing (m) of the poses IK follows along the approach corridor (:class:`ApproachReach`)."""
 
 
 @dataclass(frozen=True)
@@ -111,6 +118,100 @@ class Grasp(PlanOutcome):
     duration_s: float
     fallback: bool
     clearance: Clearance | None = None
+
+
+class ApproachReach:
+    """The MICO's reach of a grasp and of its approach, as a robot constraint (``accept=`` of the planner).
+
+    A grasp x is taken when the arm reaches it and can follow its approach corridor, from the pre-grasp
+    (``standoff`` m behind the grasp along its approach axis, :func:`~.frames.pre_grasp`) to the grasp, within
+    its joint limits. *Following* a corridor from joint angles q: IK of the poses ``s = standoff k / n``
+    (n = ceil(standoff / APPROACH_STEP)) along it, each started from the answer of the pose before it without
+    random restarts, converges to the IK tolerances at every pose. Following from a neighbouring answer keeps
+    one arm configuration along the corridor; IK's iterates stay within the limits, so a corridor that needs a
+    joint past its limit stops the follow there. Two tries, the first that holds gives the grasp's joint
+    targets (:meth:`joints`):
+
+    1. back from the grasp's IK answer (``reachable``, :class:`~.kinematics.Reachability`) to the pre-grasp
+       (the targets are that answer);
+    2. IK of the pre-grasp (from the seed, with the random restarts of ``reachable``), then forward to the
+       grasp (the targets are the follow's end, another configuration of the arm at the grasp).
+
+    A grasp neither holds for is turned down with the first try's reason (:attr:`faults`), as an unreachable
+    one. Each candidate is checked once (cached by ``x.tobytes()``).
+
+    Parameters
+    ----------
+    reachable : Reachability
+        The grasp's IK.
+    standoff : float
+        The pre-grasp's distance behind the grasp (m), >= 0 (0: the grasp alone).
+
+    Raises
+    ------
+    KinematicsError
+        For a standoff that is not finite and >= 0.
+    """
+
+    def __init__(self, reachable: Reachability, *, standoff: float = PRE_GRASP_STANDOFF) -> None:
+        if not (math.isfinite(standoff) and standoff >= 0.0):
+            raise KinematicsError(f'standoff must be finite and >= 0, got {standoff!r}')
+        self.reachable, self.standoff = reachable, float(standoff)
+        self.faults: dict[bytes, str] = {}
+        """Why the approach of a candidate whose grasp IK converged is out of reach (key: ``x.tobytes()``)."""
+        self._joints: dict[bytes, NDArray[np.float64]] = {}
+
+    def _follow(self, grasp: NDArray[np.float64], q: NDArray[np.float64], back: bool) -> tuple[NDArray[np.float64],
+                                                                                                str | None]:
+        """Follow the corridor of ``grasp`` (base_T_ee) from q, back to the pre-grasp or forward from it.
+
+        Returns the joints at the follow's end (or at its start, when it stops) and why it stopped (None: it did not).
+        """
+        kin = self.reachable.kin
+        n = math.ceil(self.standoff / APPROACH_STEP)
+        for k in range(1, n + 1):
+            s = self.standoff * ((k if back else n - k) / n)
+            ik = kin.ik(pre_grasp(grasp, s), q, restarts=0)
+            if not ik.success:
+                pinned = [name for name, value, lo, hi in zip(kin.joint_names, ik.q.tolist(), kin.lower.tolist(),
+                                                              kin.upper.tolist()) if value in (lo, hi)]
+                at_limit = f'; at its limit: {", ".join(pinned)}' if pinned else ''
+                return q, (f'the approach leaves the arm\'s reach {1e3 * s:.0f} mm behind the grasp (pre-grasp '
+                           f'{1e3 * self.standoff:.0f} mm): position error {1e3 * ik.pos_error_m:.3g} mm, rotation '
+                           f'error {ik.rot_error_rad:.3g} rad{at_limit}')
+            q = ik.q
+        return q, None
+
+    def joints(self, x: NDArray[np.float64]) -> NDArray[np.float64] | None:
+        """The arm's joint targets (rad, shape (6,)) for grasp x at the end of its approach (class docstring).
+
+        None when the arm reaches the grasp or follows its approach on no configuration tried.
+        """
+        key = np.asarray(x, dtype=np.float64).tobytes()
+        if key in self._joints or key in self.faults:
+            return self._joints.get(key)
+        reach = self.reachable
+        answer = reach.answer(x)
+        if not answer.success:
+            return None
+        start = time.perf_counter()
+        grasp = reach.target(x)
+        _, fault = self._follow(grasp, answer.q, back=True)
+        if fault is None:
+            self._joints[key] = answer.q
+        else:
+            pre = reach.kin.ik(pre_grasp(grasp, self.standoff), reach.q_seed, restarts=reach.restarts)
+            q, forward_fault = self._follow(grasp, pre.q, back=False) if pre.success else (pre.q, fault)
+            if forward_fault is None:
+                self._joints[key] = q
+            else:
+                self.faults[key] = fault
+        reach.seconds += time.perf_counter() - start
+        return self._joints.get(key)
+
+    def __call__(self, x: NDArray[np.float64]) -> bool:
+        """Whether the arm reaches the grasp x and follows its approach (class docstring)."""
+        return self.joints(x) is not None
 
 
 def check_mico_model(model: GraspModel, name: str) -> None:
@@ -254,36 +355,47 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     if v_model is None:
         return NoModelZone(f'v gives no probability to the zones {",".join(model.zone_labels)} of model {name!r}')
     reachable = Reachability(kin, base_T_obj, q_arm, restarts=ik_restarts)
+    approach = ApproachReach(reachable)
     table = None if table_plane is None else Table.in_object_frame(table_plane, base_T_obj)
     clear = None if hand is None else CollisionFree(hand, model.body, table)
 
     def accept(x: NDArray[np.float64]) -> bool:
-        return (clear is None or clear(x)) and reachable(x)
+        return (clear is None or clear(x)) and approach(x)
 
     result = planner.plan(model, v_model, method=method, options=options, warm_start=warm_start, accept=accept)
     n = len(result.candidates)
-    faults = {} if clear is None else clear.faults
-    colliding = f'{len(faults)} in collision (first: {next(iter(faults.values()))}), ' if faults else ''
+    collisions = {} if clear is None else clear.faults
+    turned_down = []
+    for faults, what in ((collisions, 'in collision'),
+                         (approach.faults, 'with the approach out of reach')):
+        if faults:
+            turned_down.append(f'{len(faults)} {what} (first: {next(iter(faults.values()))})')
+    failed = [answer for answer in reachable.answers.values() if not answer.success]
     if result.status == 'rejected':
         position = base_T_obj[:3, 3]
         where = (f'with the object at {np.round(position, 3).tolist()} m '
                  f'({np.linalg.norm(position):.2f} m from the base)')
         if not reachable.answers:
             reason = (f'no grasp clear of the table and the object: all {n} candidates in collision (first: '
-                      f'{next(iter(faults.values()))}) {where}')
+                      f'{next(iter(collisions.values()))}) {where}')
+        elif failed:
+            closest = min(failed, key=lambda a: a.pos_error_m)
+            tried = f'all {n} candidates' if len(failed) == n else f'the other {len(failed)} candidates'
+            reason = ('no reachable grasp: ' + ''.join(f'{t}, ' for t in turned_down)
+                      + f'IK failed for {tried} {where}; closest: {closest.message}')
         else:
-            closest = min(reachable.answers.values(), key=lambda a: a.pos_error_m)
-            tried = f'all {n} candidates' if not faults else f'the other {len(reachable.answers)} candidates'
-            reason = (f'no reachable grasp: {colliding}IK failed for {tried} {where}; closest: {closest.message}')
-        note = f'none of {n} candidates reachable' + (f' ({colliding}{len(reachable.answers)} unreachable)'
-                                                       if faults else '')
+            reason = f'no reachable grasp: {", ".join(turned_down)} {where}'
+        note = f'none of {n} candidates reachable' + (f' ({", ".join(turned_down)}, {len(failed)} unreachable)'
+                                                       if turned_down else '')
         return NoReachableGrasp(result=result, note=note, ik_seconds=reachable.seconds, reason=reason)
     if result.rejected:
-        note = (f'best grasp unreachable: published candidate {result.rejected + 1} of {n} ({colliding}'
-                f'objective {result.objective:.3g}, best {result.candidates[0].objective:.3g})')
+        note = (f'best grasp unreachable: published candidate {result.rejected + 1} of {n} ('
+                + ''.join(f'{t}, ' for t in turned_down)
+                + f'objective {result.objective:.3g}, best {result.candidates[0].objective:.3g})')
     else:
         note = f'best of {n} candidates reachable'
-    q = reachable.answer(result.x).q
+    q = approach.joints(result.x)
+    assert q is not None  # the plan's x was accepted
     duration = trajectory_duration(HOME_Q if q_arm is None else q_arm, q, kin.velocity_limits,
                                    min_duration=MIN_TRAJECTORY_TIME)
     return Grasp(result=result, note=note, ik_seconds=reachable.seconds,

@@ -87,12 +87,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidIntentError
 from ..method.intent import parse_zones
+from ..mico.frames import PRE_GRASP_STANDOFF, pre_grasp
 from ..mico.kinematics import MicoKinematics
 from ..planning.ranking import expected_success
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
            'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached',
-           'pre_grasp', 'assistance_target', 'robot_twist', 'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter',
+           'assistance_target', 'robot_twist', 'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter',
            'AssistanceConfig',
            'Command', 'Assistance']
 
@@ -217,13 +218,6 @@ def reached(hand: NDArray[np.float64], goal: NDArray[np.float64]) -> bool:
     """Whether the hand is within :data:`REACH_POS` and :data:`REACH_ROT` of ``goal``."""
     distance, angle = offset(hand, goal)
     return distance <= REACH_POS and angle <= REACH_ROT
-
-
-def pre_grasp(base_T_grasp: NDArray[np.float64], standoff: float) -> NDArray[np.float64]:
-    """The grasp pose moved back by ``standoff`` (m) along its approach axis (the EE z axis)."""
-    base_T_pre = base_T_grasp.copy()
-    base_T_pre[:3, 3] -= standoff * base_T_grasp[:3, 2]
-    return base_T_pre
 
 
 def assistance_target(base_T_ee: NDArray[np.float64], base_T_grasp: NDArray[np.float64], *, standoff: float,
@@ -363,7 +357,7 @@ class AssistanceConfig:
     arbitration: Arbitration = 'confidence'
     alpha_max: float = 0.9
     margin: float = 0.2
-    standoff: float = 0.08
+    standoff: float = PRE_GRASP_STANDOFF
     corridor_radius: float = 0.02
     corridor_angle: float = 0.2
     gain_linear: float = 2.0

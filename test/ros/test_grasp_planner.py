@@ -38,8 +38,8 @@ from grasp_intent_ros.method.intent import all_zones, interpret, restrict
 from grasp_intent_ros.method.model import GraspModel, structure_zones
 from grasp_intent_ros.mico.collision import CollisionFree, HandCollision
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
-from grasp_intent_ros.mico.grasp import MIN_TRAJECTORY_TIME
-from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
+from grasp_intent_ros.mico.grasp import MIN_TRAJECTORY_TIME, ApproachReach
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
 from grasp_intent_ros.nodes.grasp_planner import PARAMETERS, GraspPlanner
 from grasp_intent_ros.objects.demos import grasp_features
 from grasp_intent_ros.planning import common, planner
@@ -134,12 +134,14 @@ def core_plan(kin: MicoKinematics, model: GraspModel, v_all: Any, base_T_obj: An
               warm_start: Any = None, q_seed: Any = HOME_Q, checked: bool = True) -> common.PlanResult:
     """What the node computes for v over all zones: restrict, then plan with its default checks.
 
-    The hand clear of the object's table and body (unless not ``checked``), and IK reachability.
+    The hand clear of the object's table and body (unless not ``checked``), and the arm's reach of the grasp and
+    its approach.
     """
     v = restrict(v_all, all_zones(len(model.task_names)), model.zones)
     clear = CollisionFree(hand(), model.body) if checked else lambda x: True
-    return planner.plan(model, v, method=METHOD, options=OPTIONS, warm_start=warm_start, accept=lambda x: clear(x)
-                        and kin.ik(base_T_obj @ features_to_obj_T_ee(x), q_seed, restarts=8).success)
+    approach = ApproachReach(Reachability(kin, base_T_obj, q_seed, restarts=8))
+    return planner.plan(model, v, method=METHOD, options=OPTIONS, warm_start=warm_start,
+                        accept=lambda x: clear(x) and approach(x))
 
 
 @functools.cache

@@ -42,6 +42,7 @@ from grasp_intent_ros.method.features import FINGERS
 from grasp_intent_ros.method.intent import all_zones, interpret, restrict
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.grasp import ApproachReach
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
 from grasp_intent_ros.planning import common, planner
 from grasp_intent_ros.planning.options import node_options
@@ -102,7 +103,7 @@ def core_plan(model: GraspModel, w: tuple[float, ...], kin: MicoKinematics,
     v = restrict(interpret(w).v, all_zones(len(w)), model.zones)
     base_T_obj = _planner_object_pose()
 
-    reachable = Reachability(kin, base_T_obj, HOME_Q, restarts=options['ik_restarts'])
+    reachable = ApproachReach(Reachability(kin, base_T_obj, HOME_Q, restarts=options['ik_restarts']))
 
     return planner.plan(model, v, method=options['method'],
                         options=node_options(options['method'], options['n_starts'], options['execution_noise']),

@@ -13,10 +13,17 @@ from grasp_intent_ros.errors import InvalidIntentError, KinematicsError, ModelEr
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.features import FINGERS
 from grasp_intent_ros.method.model import GraspModel
-from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.frames import (
+    PRE_GRASP_STANDOFF,
+    features_to_obj_T_ee,
+    obj_T_ee_to_features,
+    pose_to_matrix,
+    pre_grasp,
+)
 from grasp_intent_ros.mico.grasp import (
     MIN_TRAJECTORY_TIME,
     OUTCOMES,
+    ApproachReach,
     Grasp,
     NoModelZone,
     NoReachableGrasp,
@@ -47,16 +54,45 @@ def kin() -> MicoKinematics:
 def test_reachable_grasp_is_the_core_plan_with_its_pose_joints_and_timing(cup, kin) -> None:
     v = intent.interpret(W).v
     grasp = plan_grasp(cup, v, intent.all_zones(3), BASE_T_OBJ, kin, name='cup_7zone')
-    assert isinstance(grasp, Grasp) and grasp.outcome == OUTCOMES[0] and not grasp.fallback
-    expected = planner.plan(cup, intent.restrict(v, intent.all_zones(3), cup.zones),
-                            accept=Reachability(kin, BASE_T_OBJ))
+    approach = ApproachReach(Reachability(kin, BASE_T_OBJ))
+    expected = planner.plan(cup, intent.restrict(v, intent.all_zones(3), cup.zones), accept=approach)
+    assert isinstance(grasp, Grasp) and grasp.fallback == bool(expected.rejected)
+    assert grasp.outcome == OUTCOMES[1 if expected.rejected else 0]
     assert_allclose(grasp.result.x, expected.x, atol=1e-9)
+    assert_allclose(grasp.positions[:6], approach.joints(expected.x), atol=1e-12)
     assert_allclose(grasp.base_T_ee, BASE_T_OBJ @ features_to_obj_T_ee(grasp.result.x), atol=1e-12)
     assert_allclose(kin.fk(grasp.positions[:6]), grasp.base_T_ee, atol=1e-4)
     assert_allclose(grasp.positions[6:], grasp.result.x[FINGERS])
     assert grasp.duration_s == pytest.approx(
         max(MIN_TRAJECTORY_TIME, trajectory_duration(HOME_Q, grasp.positions[:6], kin.velocity_limits)))
-    assert grasp.note == f'best of {len(grasp.result.candidates)} candidates reachable'
+    if not expected.rejected:
+        assert grasp.note == f'best of {len(grasp.result.candidates)} candidates reachable'
+    else:  # each candidate before it turned down with the reason (IK or the approach)
+        assert grasp.note.startswith(f'best grasp unreachable: published candidate {expected.rejected + 1} of ')
+        for x in (c.x for c in expected.candidates[:expected.rejected]):
+            assert x.tobytes() in approach.faults or not approach.reachable(x)
+
+
+def test_a_grasp_whose_approach_pins_a_joint_at_its_limit_is_turned_down_with_the_reason(kin) -> None:
+    # hand-built: the elbow (joint 3) 0.1 rad from its lower limit, the hand's approach axis pointing away from
+    # the base and down, so backing out toward the pre-grasp folds the elbow further: the grasp is reachable,
+    # its approach is not (on no branch: IK of the pre-grasp from Home with 50 restarts fails too)
+    q = np.array([4.37, 4.31, kin.lower[2] + 0.1, 3.01, 1.59, 3.05])
+    base_T_ee = kin.fk(q)
+    assert float(np.linalg.norm(base_T_ee[:3, 3])) < 0.4 and base_T_ee[:3, 3] @ base_T_ee[:3, 2] > 0.0
+    x = obj_T_ee_to_features(np.linalg.inv(BASE_T_OBJ) @ base_T_ee, np.zeros(3))
+    reachable = Reachability(kin, BASE_T_OBJ)
+    approach = ApproachReach(reachable)
+    assert reachable(x) and not kin.ik(pre_grasp(base_T_ee, PRE_GRASP_STANDOFF), HOME_Q, restarts=50).success
+    assert not approach(x) and approach.joints(x) is None
+    fault = approach.faults[x.tobytes()]
+    assert "the approach leaves the arm's reach" in fault and 'at its limit: m1n6s300_joint_3' in fault
+    # the same arm with the elbow mid-range: grasp and approach reachable, the joint targets the grasp's IK
+    q[2] = 2.0
+    mid = obj_T_ee_to_features(np.linalg.inv(BASE_T_OBJ) @ kin.fk(q), np.zeros(3))
+    assert approach(mid) and np.array_equal(approach.joints(mid), reachable.answer(mid).q)
+    with pytest.raises(KinematicsError, match='standoff'):
+        ApproachReach(reachable, standoff=-0.01)
 
 
 def test_unreachable_object_gives_no_grasp_and_says_why(cup, kin) -> None:

@@ -22,6 +22,7 @@ from numpy.testing import assert_allclose
 from grasp_intent_ros.method.intent import parse_zones, restrict
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.grasp import ApproachReach
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, MicoKinematics, Reachability
 from grasp_intent_ros.planning import planner
 from grasp_intent_ros.planning.options import node_options
@@ -87,7 +88,7 @@ def test_every_recorded_plan_is_planned_again_with_v_perturbed_at_the_last_bits(
         assert v is not None
         v_perturbed = v * (1.0 + 1e-12 * rng.standard_normal(v.size))
         v_perturbed /= v_perturbed.sum()
-        reachable = Reachability(kin, base_T_obj, q_arm, restarts=PARAMS['ik_restarts'])
+        reachable = ApproachReach(Reachability(kin, base_T_obj, q_arm, restarts=PARAMS['ik_restarts']))
         result = planner.plan(model, v_perturbed, method=PARAMS['method'],
                               options=node_options(PARAMS['method'], PARAMS['n_starts'], PARAMS['execution_noise']),
                               warm_start=warm.get(model.name), accept=reachable)

@@ -10,7 +10,7 @@ from numpy.testing import assert_allclose
 from numpy.typing import NDArray
 
 from grasp_intent_ros.method.intent import all_zones, interpret, zone_labels
-from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.frames import pose_to_matrix, pre_grasp
 from grasp_intent_ros.mico.kinematics import BASE_FRAME, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import MockArm, TwistCommand
 from grasp_intent_ros.shared_control.assistance import (
@@ -23,7 +23,6 @@ from grasp_intent_ros.shared_control.assistance import (
     joint_space_twist,
     operator_agreement,
     pose_error,
-    pre_grasp,
     robot_twist,
     serving_probability,
 )
