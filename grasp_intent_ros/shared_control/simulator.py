@@ -54,6 +54,7 @@ from ..mico.frames import obj_T_ee_to_features
 from ..mico.grasp import Grasp, plan_grasp
 from ..mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
 from ..mico.mock_arm import MockArm, TwistCommand
+from ..planning.options import Options
 from .assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, pose_error
 from .estimator import IntentEstimator
 from .operators import IntentScript, ScriptedOperator, certain_w
@@ -80,10 +81,13 @@ def perturb_pose(base_T: NDArray[np.float64], position_rms: float, angle_rms: fl
     return out
 
 
-def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: MicoKinematics) -> dict[int, Grasp]:
+def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: MicoKinematics, *,
+                   options: Options | None = None) -> dict[int, Grasp]:
     """The planner's grasp (cold, IK from Home) for each certain task set 1..7 (:func:`.operators.certain_w`).
 
-    An operator's own grasp per task set, chosen without the rules, and ADA's goals.
+    An operator's own grasp per task set, chosen without the rules, and ADA's goals. ``options``: the
+    planner's (default: the library's, an exact landing; the nodes' answers need
+    :func:`~grasp_intent_ros.planning.options.node_default_options`).
 
     Raises
     ------
@@ -94,7 +98,7 @@ def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: Mico
     for task_set in range(1, 8):
         read = interpret(certain_w(task_set), _ZONES)
         assert isinstance(read, Interpretation)  # a certain w never asks for clarification
-        grasp = plan_grasp(model, read.v, _ZONES, base_T_obj, kin)
+        grasp = plan_grasp(model, read.v, _ZONES, base_T_obj, kin, options=options)
         if not isinstance(grasp, Grasp):
             raise ValueError(f'no grasp for the certain task set {task_set}: {grasp}')
         out[task_set] = grasp
