@@ -7,7 +7,7 @@ Sections 2-5 measure ``--method`` (default: the planner's default, ``'task'``); 
 
 1. **Optimality.** For every shipped model, n random w (uniform in [0, 1]^3; w asking for clarification
    are redrawn) and, on both 7-zone models, the 7 cases (every task alone, every pair, all three): the
-   planner's objective against :func:`grasp_intent_ros.planning.planner.reference_search` (60-start SLSQP:
+   planner's objective against :func:`grasp_intent_ros.planning.scipy_methods.reference_search` (60-start SLSQP:
    every zone mean, then seeded random points). Within max(1e-9, 1%) of the reference, or better.
 2. **Stability.** The same w with v perturbed by 1e-12 (relative): the same grasp (palm within 1e-6 m,
    approach within 1e-6) on both 7-zone models.

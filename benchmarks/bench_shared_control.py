@@ -1,7 +1,7 @@
 r"""Closed-loop shared control without hardware: scripted operators, five real node processes (issue 30).
 
 The interpreter, model server, planner, mock arm and assistance run as ``python -m`` processes over
-loopback (:meth:`~grasp_intent_ros.tools.suite.NodeSuite.start_nodes` with ``shared_control=True``); this
+loopback (:meth:`~grasp_intent_ros.launch.suite.NodeSuite.start_nodes` with ``shared_control=True``); this
 process is the operator (a probe node). Each seeded operator is run three times, in a rotating order, one
 per condition, switched by the assistance node's ``arbitration`` parameter: ``none`` (direct
 teleoperation, alpha = 0), ``blend`` (ADA's baseline: alpha_max when v's top zone leads by ``margin``) and
@@ -477,11 +477,8 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
     operator holds still for :data:`HOLD_S`; then the bag is compacted (of /diagnostics only the rejections,
     and with ``estimated`` the estimator's first status: the intent estimator ran, the only source of w).
     """
-    from rclpy.executors import SingleThreadedExecutor
-
     from grasp_intent_ros.launch.suite import NodeSuite
-    from grasp_intent_ros.nodes.recorder import Recorder
-    from grasp_intent_ros.sessions.pairing import compact_session
+    from grasp_intent_ros.sessions.fixtures import compact_into, recording
 
     model_name, rules = OBJECTS[name]
     kin = MicoKinematics()
@@ -489,50 +486,37 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
     suite = NodeSuite(domain_id, cwd=REPO, log_dir=work / 'logs')
     suite.start_nodes(model=model_name, shared_control=True, extra=('intent_estimator',) if estimated else ())
     probe = Probe(domain_id, 'bench_operator')
-    recorder = Recorder(work / 'raw', topics=RECORDED_TOPICS, discovery_period=0.5, context=probe.context)
-    executor = SingleThreadedExecutor(context=probe.context)
-    executor.add_node(recorder)
-    thread = threading.Thread(target=executor.spin, name='recorder', daemon=True)
-    thread.start()
     rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), index])
     intent = PersistentIntent(RECORDED_W, ESTIMATED_TASKS if estimated else RECORDED_TASKS,
                               noise=0.08)  # an unsharpened intent's noise (its w unused with the estimator)
     run = Run(name, index, 'confidence', intent.true_set)
-    with stopped_after(suite, probe):
-        try:
-            loop = Loop(probe, kin, sends_w=not estimated)
-            needed = {recorder.resolve_topic_name(t) for t in RECORDED_TOPICS
-                      if t not in ('object/pose', 'intent/clarification')}  # nobody publishes these here
-            if not probe.wait_for(lambda: loop.hands and loop.alphas and needed <= set(recorder.recorded_topics),
-                                  90.0, poll=0.1):
-                sys.exit(f'bench_shared_control: the suite or the recorder not ready within 90 s; recorded '
-                         f'{sorted(recorder.recorded_topics)}\n{suite.died()}')
-            loop.set_arbitration('confidence')
-            if estimated:  # its own grasp for its set, or the shown one when that serves the set
-                goal = own_goals(model_name, kin)[intent.true_set]
-            else:  # the recorded operator wants the grasp it is shown: the planner's for the recorded w, from Home
-                shown = plan_grasp(ModelFiles(config_dir() / 'models').load(model_name),
-                                   interpret(np.array(RECORDED_W)).v, all_zones(3), BASE_T_OBJ, kin,
-                                   options=node_default_options())
-                assert isinstance(shown, Grasp), shown
-                goal = shown
-            run_operator(loop, op, intent, goal, rules, rng, args.timeout, run, sends_w=not estimated)
-            still = loop.twist(np.zeros(6))
-            end = time.monotonic() + HOLD_S
-            while time.monotonic() < end:
-                loop.twist_pub.publish(still)
-                time.sleep(PERIOD)
-            probe.wait_for(lambda: False, 0.5)  # the last messages reach the recorder
-        finally:
-            executor.shutdown()  # before the probe's context is shut down
-            thread.join()
-            print(recorder.summary())
-            recorder.destroy_node()  # closes the bag
-    if out.exists():
-        shutil.rmtree(out)
-    counts = compact_session(work / 'raw', out, keep_components=(ESTIMATOR_COMPONENT,) if estimated else ())
+    with stopped_after(suite, probe), recording(work / 'raw', RECORDED_TOPICS, probe.context,
+                                                  discovery_period=0.5) as recorder:
+        loop = Loop(probe, kin, sends_w=not estimated)
+        needed = {recorder.resolve_topic_name(t) for t in RECORDED_TOPICS
+                  if t not in ('object/pose', 'intent/clarification')}  # nobody publishes these here
+        if not probe.wait_for(lambda: loop.hands and loop.alphas and needed <= set(recorder.recorded_topics),
+                              90.0, poll=0.1):
+            sys.exit(f'bench_shared_control: the suite or the recorder not ready within 90 s; recorded '
+                     f'{sorted(recorder.recorded_topics)}\n{suite.died()}')
+        loop.set_arbitration('confidence')
+        if estimated:  # its own grasp for its set, or the shown one when that serves the set
+            goal = own_goals(model_name, kin)[intent.true_set]
+        else:  # the recorded operator wants the grasp it is shown: the planner's for the recorded w, from Home
+            shown = plan_grasp(ModelFiles(config_dir() / 'models').load(model_name),
+                               interpret(np.array(RECORDED_W)).v, all_zones(3), BASE_T_OBJ, kin,
+                               options=node_default_options())
+            assert isinstance(shown, Grasp), shown
+            goal = shown
+        run_operator(loop, op, intent, goal, rules, rng, args.timeout, run, sends_w=not estimated)
+        still = loop.twist(np.zeros(6))
+        end = time.monotonic() + HOLD_S
+        while time.monotonic() < end:
+            loop.twist_pub.publish(still)
+            time.sleep(PERIOD)
+        probe.wait_for(lambda: False, 0.5)  # the last messages reach the recorder
+    counts, size = compact_into(work / 'raw', out, keep_components=(ESTIMATOR_COMPONENT,) if estimated else ())
     shutil.rmtree(work)
-    size = sum(f.stat().st_size for f in out.iterdir())
     print(f'{out}: operator {index} of {name}, task set {intent.true_set}, success {run.success} after '
           f'{run.time_to_grasp:.2f} s, {sum(counts.values())} messages, {size / 1024:.1f} KiB')
 

@@ -47,9 +47,7 @@ from _bench import (
     stopped_after,
     uptime,
 )
-
-sys.path.insert(0, str(REPO / 'test'))
-from cdp import INSTALL, Chromium, chromium_path  # noqa: E402 - the tests' DevTools client
+from _bench.cdp import INSTALL, Chromium, chromium_path  # the tests' DevTools client
 
 CONDITIONS = ('alone', 'viewer', 'browser')
 """Part 1's conditions: the planner alone; with the viewer node; with the viewer node and a browser page on it."""

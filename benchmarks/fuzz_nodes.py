@@ -1,7 +1,7 @@
 r"""Fuzz the three nodes as processes and measure their memory under oversized messages: prints figures.
 
 1. Starts the suite (``python -m`` processes, config/<node>.yaml) and waits for a grasp for a valid w.
-2. Fuzz: ``--cases`` hypothesis-drawn malformed messages (test/fuzz_inputs.py, fixed seed) on intent/w,
+2. Fuzz: ``--cases`` hypothesis-drawn malformed messages (benchmarks/_bench/fuzz_inputs.py, fixed seed) on intent/w,
    intent/v, object/pose, joint_states and model/query, each sent once its predecessor's verdict is in.
    Prints sent / rejected per family and topic (every case must be rejected but the accepted edge cases),
    each node's RSS before and after, and the answer to a valid w afterwards.
@@ -48,7 +48,6 @@ def main() -> None:
     parser.add_argument('--nodes-from', type=Path, default=None, help='run the nodes from this checkout')
     args = parser.parse_args()
     domain_id = loopback_domain('fuzz_nodes')
-    sys.path.insert(0, str(REPO / 'test'))
 
     import rclpy
     from rclpy.context import Context
@@ -87,7 +86,7 @@ def main() -> None:
 
 def run(args: argparse.Namespace, suite: Any, probe: Any, wait_for: Callable[[Callable[[], object], float], bool],
         pids: dict[str, int]) -> None:
-    from fuzz_inputs import COMPONENTS, Fuzzer, array_msg, cases, joint_msg, serialized, valid_w
+    from _bench.fuzz_inputs import COMPONENTS, Fuzzer, array_msg, cases, joint_msg, serialized, valid_w
     from geometry_msgs.msg import PoseStamped
     from hypothesis import HealthCheck, Phase, given, settings
     from std_msgs.msg import Float64MultiArray

@@ -3,7 +3,9 @@
 Modules
 -------
 suite
-    :class:`~grasp_intent_ros.launch.suite.NodeSuite` and ``python -m grasp_intent_ros suite``.
+    :class:`~grasp_intent_ros.launch.suite.NodeSuite`: the nodes as processes, their environment.
+suite_command
+    ``python -m grasp_intent_ros suite``: the suite started, its output echoed, stopped on a signal.
 demo
     ``python -m grasp_intent_ros demo``: the paper's intent cases sent to a running suite.
 """

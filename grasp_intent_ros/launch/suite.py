@@ -2,9 +2,9 @@
 
 ``python -m grasp_intent_ros.nodes.<module> --ros-args ...`` started, watched and stopped by PID.
 
-One :class:`NodeSuite` serves the suite command (:func:`main`: ``python -m grasp_intent_ros suite``,
-``ros2 run grasp_intent_ros suite``), the demo, the replay (``--start-suite``),
-``scripts/record_sessions.py`` and the system tests.
+One :class:`NodeSuite` serves the suite command (:mod:`grasp_intent_ros.launch.suite_command`), the
+demo, the replay (``--start-suite``), the fixture recording (:mod:`grasp_intent_ros.sessions.fixtures`)
+and the system tests.
 
 - :func:`domain_id_from_environment`: the run's ROS domain id, chosen and validated once
   (``ROS_DOMAIN_ID`` if set, 0..101, else one derived from the process id).
@@ -29,20 +29,12 @@ One :class:`NodeSuite` serves the suite command (:func:`main`: ``python -m grasp
   ``config/<node>.yaml``, and :data:`OPTIONAL_NODES` on request: the shared-control loop's
   :data:`SHARED_CONTROL_NODES`, the viewer), wait until ready, notice a death, stop
   them all.
-- :func:`main`: the suite command: start the nodes, copy their output to stdout with each line prefixed
-  by ``[node]``, print ``suite: up`` once every node has logged that it is ready
-  (:func:`~grasp_intent_ros.ros.startup.is_ready_line`), stop them all on Ctrl-C (SIGINT), SIGTERM or
-  SIGHUP (its terminal closed). Its last line says whether every node stopped cleanly, else names each
-  that did not (died, killed, or ended by its watchdog); exit code 0 when every node stopped cleanly, 1
-  when one died or did not stop cleanly, 2 for bad arguments.
 
-Never imports rclpy. One module: the processes, the environment they share and the command that runs
-them are one job, starting the suite.
+Never imports rclpy.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import shutil
 import signal
@@ -60,10 +52,8 @@ from ..wire.topics import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
            'TEST_DOMAIN_IDS', 'RUN_DOMAIN_IDS', 'FASTDDS_PROFILE', 'SuiteError', 'domain_id_from_environment',
-           'use_loopback_discovery', 'node_environment', 'optional_nodes', 'NodeProcess', 'NodeSuite', 'main']
+           'use_loopback_discovery', 'node_environment', 'optional_nodes', 'NodeProcess', 'NodeSuite']
 
-_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-"""The signals on which the suite command stops its nodes (they, in sessions of their own, get none of them)."""
 STOP_TIMEOUT = 10.0
 """Seconds a node gets to exit after SIGINT/SIGTERM before it is SIGKILLed."""
 SUITE_NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
@@ -480,104 +470,3 @@ class NodeSuite:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
         self.stop()
-
-
-class _Echo:
-    """Copies the lines the processes wrote to their log files to stdout, each prefixed with ``[module]``."""
-
-    def __init__(self, suite: NodeSuite) -> None:
-        self._suite = suite
-        self._done: dict[Path, int] = {}  # bytes of each log file already copied (or held as a partial line)
-        self._partial: dict[Path, bytes] = {}
-        self.ready: set[int] = set()
-        """The pids of the processes that logged that they are ready (``startup.is_ready_line``)."""
-
-    def copy(self, *, final: bool = False) -> None:
-        """Copy every complete new line; with ``final``, also each file's last line without a newline."""
-        for proc in self._suite.processes:
-            for path in (proc.stdout_path, proc.stderr_path):
-                try:
-                    with path.open('rb') as log:
-                        log.seek(self._done.get(path, 0))
-                        data = log.read()
-                except OSError:
-                    continue
-                self._done[path] = self._done.get(path, 0) + len(data)
-                lines = (self._partial.pop(path, b'') + data).split(b'\n')
-                last = lines.pop()
-                if final and last:
-                    lines.append(last)
-                elif last:
-                    self._partial[path] = last
-                for line in lines:
-                    text = line.decode(errors='replace')
-                    print(f'[{proc.module}] {text}')
-                    if is_ready_line(text):
-                        self.ready.add(proc.pid)
-        sys.stdout.flush()
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """The suite command (see the module docstring); returns the exit code."""
-    parser = argparse.ArgumentParser(
-        description='Start the node suite (intent_interpreter, model_server, grasp_planner) as processes on '
-                    'loopback-only discovery, each with its config/<node>.yaml; Ctrl-C stops them all.')
-    parser.add_argument('--namespace', default='', metavar='NS', help='every node in this namespace, e.g. /robot1')
-    parser.add_argument('--domain-id', type=int, metavar='ID',
-                        help=f'ROS_DOMAIN_ID of the nodes, 0..{MAX_DOMAIN_ID} (default: $ROS_DOMAIN_ID, else 0)')
-    parser.add_argument('--params-file', action='append', default=[], type=Path, metavar='FILE',
-                        help='a ROS parameters file for every node, after its config/<node>.yaml (its node-name '
-                             'keys pick what each reads); repeatable, a later file wins')
-    parser.add_argument('--with', dest='extra', action='append', default=[], metavar='NAME',
-                        help=f'also start this node (optional nodes: {", ".join(OPTIONAL_NODES) or "none"})')
-    parser.add_argument('--shared-control', action='store_true',
-                        help=f'also start the shared-control loop: {" and ".join(SHARED_CONTROL_NODES)}')
-    parser.add_argument('--log-dir', type=Path, metavar='DIR',
-                        help="keep each node's stdout and stderr in DIR (default: a temporary directory, deleted)")
-    args = parser.parse_args(argv)
-    if args.namespace and not args.namespace.startswith('/'):
-        parser.error(f'--namespace must be absolute, e.g. /{args.namespace}')
-    if missing := [str(path) for path in args.params_file if not path.is_file()]:
-        parser.error(f'no parameters file {", ".join(missing)}')
-    try:
-        extra = optional_nodes(args.extra)
-        domain_id = args.domain_id if args.domain_id is not None else domain_id_from_environment(unset=0)
-        suite = NodeSuite(domain_id, log_dir=args.log_dir)
-    except SuiteError as exc:
-        parser.error(str(exc))
-    stop_requested: list[int] = []
-    for sig in _STOP_SIGNALS:
-        signal.signal(sig, lambda signum, _frame: stop_requested.append(signum))
-    echo = _Echo(suite)
-    died = ''
-    try:
-        suite.start_nodes(namespace=args.namespace, params_files=args.params_file, extra=extra,
-                          shared_control=args.shared_control)
-        print(f'suite: ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, namespace '
-              f'{args.namespace or "/"}; started ' + ', '.join(f'{p.module} (pid {p.pid})' for p in suite.processes)
-              + '; Ctrl-C stops them', flush=True)
-        start, up = time.monotonic(), False
-        while not stop_requested and not died:
-            time.sleep(0.1)  # a signal handler only appends: the loop looks 10 times a second
-            echo.copy()
-            if not up and (up := {p.pid for p in suite.processes} <= echo.ready):
-                print(f'suite: up after {time.monotonic() - start:.1f} s: every node is ready', flush=True)
-            if died := suite.died().split(';', 1)[0]:
-                print(f'suite: {died}; stopping the others', file=sys.stderr, flush=True)
-    finally:
-        for sig in _STOP_SIGNALS:
-            signal.signal(sig, signal.SIG_IGN)  # the nodes are stopped once, completely
-        problems = suite.stop(signal.SIGTERM, tail_lines=0)  # SIGINT would print a node's imports' traceback
-        echo.copy(final=True)
-        if args.log_dir is None:
-            suite.remove_logs()
-    for problem in problems:
-        print(f'suite: {problem}', file=sys.stderr)
-    sys.stderr.flush()
-    print('suite: stopped ' + (f'not cleanly: {"; ".join(p.split(":", 1)[0] for p in problems)}' if problems
-                               else 'cleanly'), flush=True)
-    return 1 if problems or died else 0
-
-
-if __name__ == '__main__':
-    sys.exit(main())

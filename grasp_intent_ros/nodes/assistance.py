@@ -1,6 +1,6 @@
 """Assistance node: the operator's twist blended with a twist toward the planned grasp (shared control).
 
-Run: ``python -m grasp_intent_ros.assistance [--ros-args --params-file config/assistance.yaml]``
+Run: ``python -m grasp_intent_ros assistance [--ros-args --params-file config/assistance.yaml]``
 (for MoveIt Servo: ``-r assistance/twist:=/servo_node/delta_twist_cmds``)
 
 Topics (relative)
@@ -19,7 +19,7 @@ Behaviour
     ``publish_period`` after the last output whatever arrived (a slower operator source, or a stale one:
     then the zero twist). The kinematics and the assistance's maths run once at start (warm-up), before
     the first output. The maths, alpha's definition and the safety rules are
-    :mod:`grasp_intent_ros.core.assistance`. Inputs are keep-last 1 (latest only); staleness is judged by
+    :mod:`grasp_intent_ros.shared_control.assistance`. Inputs are keep-last 1 (latest only); staleness is judged by
     arrival time on the node's clock.
 
 Parameters: :data:`PARAMETERS`, ``config/assistance.yaml``.

@@ -1,6 +1,6 @@
 """Intent estimator node: the operator's reach -> task probabilities w on ``intent/w`` (docs/intent_estimation.md).
 
-Run: ``python -m grasp_intent_ros.intent_estimator [--ros-args --params-file config/intent_estimator.yaml]``
+Run: ``python -m grasp_intent_ros intent_estimator [--ros-args --params-file config/intent_estimator.yaml]``
 (in the suite: ``python -m grasp_intent_ros suite --shared-control --with intent_estimator``)
 
 Topics (relative)

@@ -1,9 +1,9 @@
 """Mock MICO node: joint states from commanded trajectories and twists, without hardware.
 
 A stand-in for ros2_control's mock hardware (commands mirrored into states) with a joint_trajectory_controller
-and a servo in front of it: the motion rules are :mod:`grasp_intent_ros.core.arm`.
+and a servo in front of it: the motion rules are :mod:`grasp_intent_ros.mico.mock_arm`.
 
-Run: ``python -m grasp_intent_ros.mock_arm [--ros-args --params-file config/mock_arm.yaml]``
+Run: ``python -m grasp_intent_ros mock_arm [--ros-args --params-file config/mock_arm.yaml]``
 (the suite connects ``-r arm_controller/joint_trajectory:=grasp/trajectory
 -r servo/delta_twist_cmds:=assistance/twist``)
 

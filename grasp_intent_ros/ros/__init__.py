@@ -31,15 +31,14 @@ conversions
     the message class of a suite topic.
 robot
     PoseStamped <-> 4x4 transforms, joint states, joint trajectories.
-markers
-    RViz markers of a planned grasp.
 model_follower
     ``ModelFollower``: a node's copy of the active model, read from ``model/active`` in a thread of its own.
 clarification
     ``ClarificationRequests``: a node's requests for clarification on ``intent/clarification``, counted.
 grasp_messages
-    The messages of one planned grasp (:class:`grasp_intent_ros.mico.grasp.Grasp`); ``GraspOutputs``, the
-    planner's output stage (all or none, else a clarification request).
+    A plan's way out, in one module: ``GraspOutputs``, the planner's output stage (the checks, the messages
+    of one planned grasp with its RViz markers, all or none, else a clarification request; the plan's
+    diagnostics).
 compat
     Every workaround of rclpy internals, each naming the rclpy it works around (a test fails when rclpy
     changes, so that they are checked again).

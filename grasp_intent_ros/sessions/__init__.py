@@ -1,7 +1,7 @@
 """Recorded sessions: bags written, read and repaired; sessions replayed, compared, reported and played back.
 
-ROS-free (numpy and rosbags; never rclpy) but the live replay (``replay``, ``replay_client``), which runs
-the nodes and talks to them.
+ROS-free (numpy and rosbags; never rclpy) but the live replay (``replay``, ``replay_client``) and the
+fixture recording (``fixtures``), which run the nodes and talk to them.
 
 Modules
 -------
@@ -25,6 +25,10 @@ playback
     A session bag in the viewer's page, with a time slider (the ``viewer`` extra).
 reindex
     The command line of the bag repair (:func:`grasp_intent_ros.sessions.bag.reindex`).
+fixtures
+    The session bags of bags/ recorded from real runs of the suite (``scripts/record_sessions.py``), and
+    the recording both kinds of fixture share (the closed-loop ones are recorded by
+    ``benchmarks/bench_shared_control.py --record``).
 
 The recorder itself is a node (:mod:`grasp_intent_ros.nodes.recorder`).
 """

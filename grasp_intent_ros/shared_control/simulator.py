@@ -1,10 +1,10 @@
 r"""The shared-control loop on a simulated clock, with the functions the nodes call (ROS-free).
 
 One episode (:func:`simulate`): an operator (:mod:`.operators`) teleoperates the mock MICO
-(:class:`~grasp_intent_ros.core.arm.MockArm`, the mock arm node's core) through the assistance
-(:class:`~grasp_intent_ros.core.assistance.Assistance`, the assistance node's core) toward a grasp the
-planner's policy (:func:`~grasp_intent_ros.core.grasp.plan_grasp`, the planner node's core) plans for the
-intent (:func:`~grasp_intent_ros.core.intent.interpret`, the interpreter's core), until the operator closes
+(:class:`~grasp_intent_ros.mico.mock_arm.MockArm`, the mock arm node's core) through the assistance
+(:class:`~grasp_intent_ros.shared_control.assistance.Assistance`, the assistance node's core) toward a grasp the
+planner's policy (:func:`~grasp_intent_ros.mico.grasp.plan_grasp`, the planner node's core) plans for the
+intent (:func:`~grasp_intent_ros.method.intent.interpret`, the interpreter's core), until the operator closes
 the hand or the episode times out. Every ``period`` (0.01 s, the nodes' period): the arm's joints go to the
 assistance (joint_states), the operator sends a twist seen ``reaction`` s late, the assistance answers with
 one command, the arm follows it for one period. Every ``w_period`` (0.1 s) the estimator reports w, which is

@@ -348,7 +348,7 @@ class Posterior(Generic[S]):
     ----------
     stamp : S
         Stamp of the plan (:class:`Stamp`, None for an unstamped array, or a ``builtin_interfaces/Time``
-        from :func:`grasp_intent_ros.ros.robot.posterior_from_msg`).
+        from :func:`grasp_intent_ros.ros.conversions.posterior_from_msg`).
     zone_labels : tuple of str, length K
     p : ndarray, shape (K,)
         P(zone | x) of the planned grasp.

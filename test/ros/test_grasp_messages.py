@@ -1,4 +1,4 @@
-"""grasp_intent_ros.ros.grasp_messages: the messages of one planned grasp."""
+"""grasp_intent_ros.ros.grasp_messages: the messages of one planned grasp, its markers included."""
 
 from __future__ import annotations
 
@@ -7,15 +7,16 @@ import pytest
 from builtin_interfaces.msg import Time
 from native_memory import growth_over, malloc_in_use
 from numpy.testing import assert_allclose
+from visualization_msgs.msg import Marker
 
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.model import GraspModel
-from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, finger_segments, pose_to_matrix
 from grasp_intent_ros.mico.grasp import JOINT_NAMES, Grasp, plan_grasp
 from grasp_intent_ros.mico.kinematics import BASE_FRAME, MicoKinematics
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.conversions import posterior_from_msg, stamped_array_from_msg
-from grasp_intent_ros.ros.grasp_messages import grasp_messages
+from grasp_intent_ros.ros.grasp_messages import grasp_markers, grasp_messages, zone_summary
 from grasp_intent_ros.wire.model_document import ModelDocument
 from grasp_intent_ros.wire.robot_state import pose_msg_to_matrix
 from grasp_intent_ros.wire.topics import (
@@ -67,3 +68,27 @@ def test_building_a_plans_messages_holds_no_native_memory(planned: tuple[Grasp, 
     growth = growth_over(lambda i: grasp_messages(grasp, doc, BASE_T_OBJ, stamp=Time(sec=i), object_size=(0.08, 0.1),
                                                   markers=i % 10 == 0), 2_000)
     assert growth is not None and growth < 50_000
+
+
+def test_markers_draw_object_approach_the_shared_fingers_and_text() -> None:
+    x = np.array([0.05, 0.0, 0.06, -1.0, 0.0, 0.0, 0.0, 0.4, 0.8, 1.2])
+    base_T_obj = np.eye(4)
+    base_T_obj[:3, 3] = (0.3, -0.3, 0.0)
+    base_T_ee = base_T_obj @ features_to_obj_T_ee(x)
+    markers = grasp_markers(base_T_obj, base_T_ee, x[7:], 'cup\nUT  0.62', frame_id='base',
+                            stamp=Time(sec=1), object_size=(0.08, 0.1)).markers
+    assert [(m.id, m.type) for m in markers] == [(0, Marker.CYLINDER), (1, Marker.ARROW), (2, Marker.LINE_LIST),
+                                                 (3, Marker.TEXT_VIEW_FACING)]
+    assert all(m.header.frame_id == 'base' and m.header.stamp == Time(sec=1) for m in markers)
+    assert_allclose([markers[0].scale.x, markers[0].scale.z], [0.08, 0.1])
+    assert_allclose([markers[0].pose.position.x, markers[0].pose.position.z], [0.3, 0.05])
+    tip = markers[1].points[1]
+    assert_allclose([tip.x, tip.y, tip.z], base_T_ee[:3, 3], atol=1e-12)  # the arrow ends at the palm
+    lines = np.array([[p.x, p.y, p.z] for p in markers[2].points]).reshape(3, 2, 3)
+    ee_segments = finger_segments(x[7:])
+    assert_allclose(lines, ee_segments @ base_T_ee[:3, :3].T + base_T_ee[:3, 3], atol=1e-12)
+    assert markers[3].text == 'cup\nUT  0.62'
+
+
+def test_zone_summary_lists_the_most_likely_zones() -> None:
+    assert zone_summary(('U', 'T', 'UT'), [0.2, 0.1, 0.7], top=2) == 'UT  0.70\nU  0.20'

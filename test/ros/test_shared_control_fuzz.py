@@ -2,7 +2,7 @@
 
 Hypothesis draws the messages with a fixed seed (derandomize): twists with NaN, infinities, 1e308, -0.0 in
 any field and frames that are the base, the hand, unknown or 5,000 characters long (over the input cap),
-undecodable bytes, and the joint states of test/fuzz_inputs.py. No exception may leave a callback (it would
+undecodable bytes, and the joint states of benchmarks/_bench/fuzz_inputs.py. No exception may leave a callback (it would
 leave the executor's spin, here in the test's thread), no output may hold a NaN or infinity, the arm must
 stay within its limits, and both nodes must still answer afterwards.
 """
@@ -10,7 +10,7 @@ stay within its limits, and both nodes must still answer afterwards.
 from __future__ import annotations
 
 import numpy as np
-from fuzz_inputs import joint_cases
+from _bench.fuzz_inputs import joint_cases
 from geometry_msgs.msg import TwistStamped
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st

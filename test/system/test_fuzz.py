@@ -1,6 +1,6 @@
 """Fuzz: the three nodes as processes get a few thousand malformed messages on every input topic.
 
-Hypothesis draws the cases (test/fuzz_inputs.py: NaN/Inf, 1e308, -0.0, empty and 5,000-element arrays,
+Hypothesis draws the cases (benchmarks/_bench/fuzz_inputs.py: NaN/Inf, 1e308, -0.0, empty and 5,000-element arrays,
 bogus layouts and offsets, bad quaternions and frames, length mismatches, oversized strings and name
 lists, absurd joint positions and object poses, undecodable bytes) with a fixed seed (derandomize), so
 every run sends the same messages. Each one is sent once its predecessor's verdict is in, and each verdict
@@ -16,7 +16,7 @@ import time
 from collections import Counter
 from typing import Any
 
-from fuzz_inputs import COMPONENTS, FAMILIES, Case, Fuzzer, cases, valid_w
+from _bench.fuzz_inputs import COMPONENTS, FAMILIES, Case, Fuzzer, cases, valid_w
 from geometry_msgs.msg import PoseStamped
 from hypothesis import HealthCheck, Phase, given, settings
 

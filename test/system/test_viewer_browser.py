@@ -2,7 +2,7 @@
 
 The suite (interpreter, model server, planner) and the viewer run as processes on the test's domain; the
 test sends the demo's two-task cup intent w = (0.9, 0.9, 0.1) and opens the viewer's page in Debian's
-``chromium`` (:mod:`cdp`). It waits until the page's text shows every zone label with the P of the published
+``chromium`` (:mod:`_bench.cdp`). It waits until the page's text shows every zone label with the P of the published
 grasp and the scene's canvas is drawn, takes a screenshot, and checks it is not blank. Skipped, naming the
 install command, only where Chromium is not installed (CI installs it: ``apt-get install -y chromium``).
 
@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pytest
 import viser
-from cdp import INSTALL, Chromium, Page, chromium_path
+from _bench.cdp import INSTALL, Chromium, Page, chromium_path
 from matplotlib.image import imread
 from sensor_msgs.msg import JointState
 from websockets.sync.client import connect

@@ -4,7 +4,10 @@
 - every package's docstring names each of its modules (its one job and what is in it);
 - every name in a module's ``__all__`` is defined there;
 - docstrings state contracts and reasons, never dates or measured figures (those go to
-  docs/measurements.md and the README's table, history to git).
+  docs/measurements.md and the README's table, history to git);
+- every dotted name ``grasp_intent_ros.x.y`` and every ``python -m grasp_intent_ros <command>`` written in the
+  package, its docs, config, benchmarks and tests names a module (and a name defined in it) or a command that
+  exists, so a move leaves no stale pointer behind.
 
 Read from the source (ast), so no module is imported.
 """
@@ -26,6 +29,14 @@ DATE = re.compile(r'\b20\d\d-\d\d-\d\d\b|\b(?:January|February|March|April|May|J
 FIGURE = re.compile(r'\(\w[\w ]*, measured\)|benchmark\'s #\d|\babout \d[\d.]* ?(?:MB|kB|GB|ms|us|µs)\b|'
                     r'\bpeak \d[\d.]* ?(?:MB|kB|GB)\b|\d[\d.]* ?(?:us|µs|ms) each\b|\bon a \d-core\b')
 """Measured figures as docstrings have carried them: '(... measured)', 'about 4 MB', '0.4 us each'."""
+
+
+REFERENCE = re.compile(r'grasp_intent_ros(?:\.[A-Za-z_]\w*)+')
+COMMAND = re.compile(r'(?:python -m grasp_intent_ros|ros2 run grasp_intent_ros|grasp-intent-ros) ([a-z_]+)')
+TEXTS = sorted([*MODULES, *REPO.glob('*.md'), *(REPO / 'docs').glob('*.md'), *(REPO / 'config').glob('*.yaml'),
+                *(p for d in ('benchmarks', 'scripts', 'test') for p in (REPO / d).rglob('*.py')
+                  if '__pycache__' not in p.parts and p.name != 'test_docs.py')])
+"""Every text a reader follows to the code (this file names stale ones on purpose)."""
 
 
 def layer_table() -> dict[str, str]:
@@ -127,3 +138,54 @@ def test_the_figure_and_date_patterns_catch_what_they_are_for() -> None:
         assert FIGURE.search(text), text
     for text in ('polls every 50 ms', 'a rejected 500 kB message', '(measured against the grasp)'):
         assert not FIGURE.search(text), text
+
+
+def defined_names(body: list[ast.stmt]) -> dict[str, list[ast.stmt]]:
+    """Name -> the body of the class it names ([] for anything else) for a module's or class's statements."""
+    names: dict[str, list[ast.stmt]] = {}
+    for node in body:
+        if isinstance(node, ast.ClassDef):
+            names[node.name] = node.body
+        elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            names[node.name] = []
+        elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+            for target in node.targets if isinstance(node, ast.Assign) else [node.target]:
+                names.update((n.id, []) for n in ast.walk(target) if isinstance(n, ast.Name))
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            names.update(((a.asname or a.name).split('.')[0], []) for a in node.names)
+    return names
+
+
+def resolves(reference: str) -> bool:
+    """Whether ``reference`` names a module of the package, then at most a name in it and a name in that class."""
+    parts = reference.split('.')[1:]
+    for k in range(len(parts), -1, -1):
+        folder = PACKAGE.joinpath(*parts[:k])
+        source = folder / '__init__.py' if folder.is_dir() else folder.with_suffix('.py')
+        if source.is_file():
+            break
+    else:
+        return False
+    body = ast.parse(source.read_text()).body
+    for name in parts[k:k + 2]:
+        names = defined_names(body)
+        if name not in names:
+            return False
+        body = names[name]
+    return True
+
+
+def test_every_reference_to_the_package_names_what_exists() -> None:
+    from grasp_intent_ros.commands import COMMANDS
+    stale = sorted({f'{path.relative_to(REPO)}: {m.group(0)}' for path in TEXTS for text in [path.read_text()]
+                    for m in [*REFERENCE.finditer(text), *COMMAND.finditer(text)]
+                    if (m.re is REFERENCE and not resolves(m.group(0)))
+                    or (m.re is COMMAND and m.group(1) not in COMMANDS)})
+    assert stale == [], f'references to what does not exist (moved or renamed?): {stale}'
+
+
+def test_the_reference_check_tells_stale_names_from_live_ones() -> None:
+    assert resolves('grasp_intent_ros.mico.mock_arm.MockArm.step') and resolves('grasp_intent_ros.commands')
+    for stale in ('grasp_intent_ros.core.arm', 'grasp_intent_ros.mico.mock_arm.NoSuchArm',
+                  'grasp_intent_ros.mico.mock_arm.MockArm.no_such_method'):
+        assert not resolves(stale), stale

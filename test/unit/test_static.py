@@ -47,6 +47,7 @@ CONTRACTS: Mapping[str, tuple[str, ...]] = {
                  'latest_only'),
     'sessions.replay': (*BASE, 'method', 'mico', 'wire', 'ros', 'launch', 'cli.user_errors'),
     'sessions.replay_client': (*BASE, 'method', 'mico', 'wire', 'ros'),
+    'sessions.fixtures': (*BASE, 'method', 'mico', 'wire', 'ros', 'launch', 'nodes.recorder'),
     'launch': (*BASE, 'method', 'mico', 'wire', 'ros', 'objects', 'cli'),
     'cli': (*BASE, 'method', 'planning', 'mico', 'wire', 'ros', 'objects'),
 }
@@ -54,8 +55,9 @@ CONTRACTS: Mapping[str, tuple[str, ...]] = {
 ROS_FREE = ('errors', 'resources', 'latest_only', 'commands', 'kernels', 'method', 'planning', 'mico', 'shared_control',
             'objects', 'wire', 'scene', 'sessions')
 """Folders that import no rclpy and no ROS message package (``sessions`` but its live replay: below)."""
-ROS_USERS = ('sessions.replay', 'sessions.replay_client')
-"""Modules of a ROS-free folder that talk ROS (the replay runs the nodes and is their client)."""
+ROS_USERS = ('sessions.replay', 'sessions.replay_client', 'sessions.fixtures')
+"""Modules of a ROS-free folder that talk ROS (the replay and the fixture recording run the nodes and are their
+clients)."""
 
 
 def module_name(path: Path, root: Path) -> str:

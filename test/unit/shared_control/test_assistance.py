@@ -1,4 +1,4 @@
-"""grasp_intent_ros.core.assistance: arbitration, the robot's twist, blending, limits, the safety rules."""
+"""grasp_intent_ros.shared_control.assistance: arbitration, the robot's twist, blending, limits, the safety rules."""
 
 from __future__ import annotations
 

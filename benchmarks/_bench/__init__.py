@@ -1,8 +1,12 @@
 """What the process benchmarks share: the network rule, a probe node, w, the planner primed, the teardown.
 
-Not a benchmark itself. The probe is an rclpy node in a private Context, spun by an executor in a thread
-of its own; callbacks record the middleware's receive time of each message (``received_timestamp`` of
-the message info), so the probe's own Python overhead does not enter the figures.
+Not a benchmark itself. Its submodules are shared with the tests (setup.cfg puts benchmarks/ on pytest's
+path): :mod:`_bench.cdp` (a headless Chromium driven over the DevTools protocol) and :mod:`_bench.fuzz_inputs`
+(malformed inputs for every input topic).
+
+The probe is an rclpy node in a private Context, spun by an executor in a thread of its own; callbacks
+record the middleware's receive time of each message (``received_timestamp`` of the message info),
+so the probe's own Python overhead does not enter the figures.
 """
 
 from __future__ import annotations
@@ -18,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def loopback_domain(name: str) -> int:
