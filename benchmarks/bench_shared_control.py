@@ -17,9 +17,11 @@ The scripted operator (a stated, simple model)
   published at 10 Hz on ``intent/w``.
 - **Goal** (:class:`~grasp_intent_ros.shared_control.operators.ScriptedOperator`, which never reads the
   rules). Its own grasp for S: the planner's grasp for the certain w_S, planned offline from Home
-  (:func:`~grasp_intent_ros.shared_control.simulator.certain_grasps`). It follows the grasp the planner shows
-  (``grasp/pose``) when that is on its way (within 6 cm and 0.8 rad of its own), else drives to its own. The
-  rule is the same under the three conditions (the shown grasp is on the screen whatever alpha is).
+  (:func:`~grasp_intent_ros.shared_control.simulator.certain_grasps`) with the planner node's default
+  options (:func:`~grasp_intent_ros.planning.options.node_default_options`: for the 1x execution noise).
+  It follows the grasp the planner shows (``grasp/pose``) when that is on its way (within 6 cm and 0.8 rad
+  of its own), else drives to its own. The rule is the same under the three conditions (the shown grasp is
+  on the screen whatever alpha is).
 - **Device.** A joystick with two modes, as in ADA's studies: translation (3 axes) or rotation (3 axes),
   never both; switching costs 0.5 s of no input. The operator translates until within 3 cm of the goal,
   then rotates until within 0.05 rad, then translates again (back to translation whenever the hand is
@@ -45,8 +47,9 @@ unsharpened intent, the operator wanting usage and transfer; bags/shared_control
 ``--objects cup --only 0 --record``. With ``--estimator`` the suite runs the intent estimator, the only source
 of w (this process publishes none; its operator twists are stamped), and the operator wants transfer (T),
 heading for its own grasp for T or the shown one when that serves T; bags/shared_control_cup_estimated is
-``--objects cup --only 3 --record bags/shared_control_cup_estimated --estimator`` (operator 3: its last w is
-clear of the planner's ties, (0.99, 0.99, 0.09); operators 0-2 ended with a w_i of 0.19-0.54).
+``--objects cup --only 3 --record bags/shared_control_cup_estimated --estimator`` (operator 3: on the data it
+was chosen on, its last w was clear of the planner's ties, (0.99, 0.99, 0.09), where operators 0-2 ended with a
+w_i of 0.19-0.54).
 
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set.
 
@@ -79,6 +82,7 @@ from grasp_intent_ros.mico.frames import default_base_T_obj, obj_T_ee_to_feature
 from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
 from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRules
+from grasp_intent_ros.planning.options import node_default_options
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error
 from grasp_intent_ros.shared_control.operators import (
@@ -114,7 +118,8 @@ def draw_intent(rng: np.random.Generator) -> SharpeningIntent:
 
 def own_goals(model_name: str, kin: MicoKinematics) -> dict[int, Grasp]:
     """The operator's own grasp per task set (module docstring), chosen without the rules."""
-    return certain_grasps(ModelFiles(config_dir() / 'models').load(model_name), BASE_T_OBJ, kin)
+    return certain_grasps(ModelFiles(config_dir() / 'models').load(model_name), BASE_T_OBJ, kin,
+                          options=node_default_options())
 
 
 @dataclass
@@ -499,7 +504,8 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
             goal = own_goals(model_name, kin)[intent.true_set]
         else:  # the recorded operator wants the grasp it is shown: the planner's for the recorded w, from Home
             shown = plan_grasp(ModelFiles(config_dir() / 'models').load(model_name),
-                               interpret(np.array(RECORDED_W)).v, all_zones(3), BASE_T_OBJ, kin)
+                               interpret(np.array(RECORDED_W)).v, all_zones(3), BASE_T_OBJ, kin,
+                               options=node_default_options())
             assert isinstance(shown, Grasp), shown
             goal = shown
         run_operator(loop, op, intent, goal, rules, rng, args.timeout, run, sends_w=not estimated)

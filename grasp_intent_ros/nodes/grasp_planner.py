@@ -40,7 +40,7 @@ from ..mico.collision import HandCollision, Table
 from ..mico.frames import DEFAULT_OBJECT_ORIENTATION, DEFAULT_OBJECT_POSITION, pose_to_matrix
 from ..mico.grasp import check_workspace, plan_grasp
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
-from ..planning.options import DEFAULT_METHOD, METHODS, node_options, noise_from
+from ..planning.options import DEFAULT_METHOD, METHODS, NODE_EXECUTION_NOISE, node_options, noise_from
 from ..planning.robustness import retention
 from ..ros.clarification import ClarificationRequests
 from ..ros.conversions import SerializedTargets
@@ -69,13 +69,12 @@ PARAMETERS = (
               "likely tasks, docs/planner.md), or the paper's 'lm' (P = v by log-odds projection, else least "
               "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(METHODS),
               constraints=f'one of {", ".join(METHODS)}'),
-    ParamSpec('execution_noise', (0.0, 0.0, 0.0, 0.0),
+    ParamSpec('execution_noise', NODE_EXECUTION_NOISE,
               "Where the arm lands around a plan, as standard deviations: palm per axis (m), approach tilt about "
               "each of two axes orthogonal to it (rad), wrist roll (rad), each finger closure (rad). Method 'task' "
-              "then picks the grasp with the highest expected success as executed (docs/planner.md); the "
-              "documented 1x level is [0.005, 0.0524, 0.0524, 0.1]. All zero (the default, as the planner's): an "
-              "exact landing. The estimate is made when a model is read, before its first plan (about a second of "
-              "CPU per model).",
+              "picks the grasp with the highest expected success as executed (docs/planner.md). The default is "
+              "the documented 1x level: 5 mm, 3 degrees, 3 degrees, 0.1 rad. All zero: an exact landing. The "
+              "estimate is made when a model is read, before its first plan (about a second of CPU per model).",
               validator=noise_from, constraints='4 finite numbers >= 0'),
     ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
     ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),

@@ -20,7 +20,7 @@ parameters.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import astuple, dataclass, fields
 from typing import Any, Literal, Union, get_args
 
 from ..errors import PlanningError
@@ -28,7 +28,8 @@ from .ranking import HYSTERESIS, TAU, Faithful
 from .robustness import ExecutionNoise
 
 __all__ = ['Method', 'METHODS', 'DEFAULT_METHOD', 'Gradient', 'TaskOptions', 'LmOptions', 'ScipyOptions', 'Options',
-           'OPTIONS', 'check_options', 'options_for', 'noise_from', 'node_options']
+           'OPTIONS', 'check_options', 'options_for', 'noise_from', 'NODE_EXECUTION_NOISE', 'node_default_options',
+           'node_options']
 
 Method = Literal['task', 'lm', 'slsqp', 'trust-constr']
 METHODS: tuple[Method, ...] = get_args(Method)
@@ -172,6 +173,19 @@ def noise_from(values: Sequence[float]) -> ExecutionNoise | None:
                             f'got {list(values)}')
     noise = ExecutionNoise(*(float(v) for v in values))
     return None if noise.is_zero else noise
+
+
+NODE_EXECUTION_NOISE: tuple[float, float, float, float] = astuple(ExecutionNoise())
+"""The planner node's default ``execution_noise`` (palm m, tilt rad, roll rad, closure rad): the documented 1x level."""
+
+
+def node_default_options() -> Options:
+    """The options the planner node plans with under its default parameters.
+
+    :data:`DEFAULT_METHOD` planning for :data:`NODE_EXECUTION_NOISE`: what a scripted operator or a benchmark
+    uses to know the node's answer.
+    """
+    return options_for(DEFAULT_METHOD, noise=noise_from(NODE_EXECUTION_NOISE))
 
 
 def node_options(method: str, n_starts: int, execution_noise: Sequence[float] = (0.0, 0.0, 0.0, 0.0)) -> Options:

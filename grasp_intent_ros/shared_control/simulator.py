@@ -96,8 +96,9 @@ def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: Mico
                    options: Options | None = None) -> dict[int, Grasp]:
     """The planner's grasp (cold, IK from Home) for each certain task set 1..7 (:func:`.operators.certain_w`).
 
-    An operator's own grasp per task set, chosen without the rules, and ADA's goals; ``options`` are the
-    planner's (:func:`~grasp_intent_ros.mico.grasp.plan_grasp`; None: its defaults).
+    An operator's own grasp per task set, chosen without the rules, and ADA's goals. ``options``: the
+    planner's (:func:`~grasp_intent_ros.mico.grasp.plan_grasp`; None: the library's, an exact landing; the
+    nodes' answers need :func:`~grasp_intent_ros.planning.options.node_default_options`).
 
     Raises
     ------
