@@ -27,9 +27,9 @@ The episodes
   the planned grasp, then closes: :func:`~grasp_intent_ros.shared_control.simulator.execute_grasp`);
   ``--no-execute`` closes where the hand is, as under direct and ADA.
 - The planner (every plan: the shown grasps, the operators' own grasps, ADA's goals): the planner node's
-  defaults (an exact landing); ``--execution-noise`` plans for the documented 1x execution noise
-  (:class:`~grasp_intent_ros.planning.robustness.ExecutionNoise`: 5 mm, 3 deg, 0.1 rad closures, the size of
-  the simulated tracker and closure errors), as the node's ``execution_noise`` parameter does.
+  defaults (:func:`~grasp_intent_ros.planning.options.node_default_options`: planning for the documented 1x
+  execution noise, 5 mm, 3 deg, 0.1 rad closures, the size of the simulated tracker and closure errors);
+  ``--exact-landing`` plans for an exact landing (the node's ``execution_noise`` zero).
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   intent, its noise and the tracker error are the episode's).
 
@@ -71,8 +71,7 @@ from bench_shared_control import BASE_T_OBJ, OBJECTS
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
-from grasp_intent_ros.planning.options import TaskOptions
-from grasp_intent_ros.planning.robustness import ExecutionNoise
+from grasp_intent_ros.planning.options import Options, node_default_options
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
@@ -96,9 +95,9 @@ PAIRS = (*(('suite', c) for c in CONDITIONS[:-1]), (ESTIMATED, 'suite'), (ESTIMA
 _STATE: dict[str, Any] = {}
 
 
-def _options(execution_noise: bool) -> TaskOptions | None:
-    """The planner's options: the node's defaults, or planning for the documented 1x execution noise."""
-    return TaskOptions(noise=ExecutionNoise()) if execution_noise else None
+def _options(execution_noise: bool) -> Options | None:
+    """The planner's options: the node's defaults (the 1x execution noise), or the library's (an exact landing)."""
+    return node_default_options() if execution_noise else None
 
 
 def _setup(name: str, execution_noise: bool) -> dict[str, Any]:
@@ -128,7 +127,7 @@ class Task:
     tracker_deg: float
     conditions: tuple[str, ...] = RUN
     execute: bool = True
-    execution_noise: bool = False
+    execution_noise: bool = True
 
 
 def _intent(task: Task, rng: np.random.Generator) -> Any:
@@ -238,8 +237,8 @@ def main() -> None:
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--no-execute', action='store_true', help='the suite\'s grasp command closes the hand where '
                         'it is instead of executing the shown grasp (the simulator\'s execute=False)')
-    parser.add_argument('--execution-noise', action='store_true', help='the planner plans for the documented 1x '
-                        'execution noise (the planner node\'s execution_noise; default: its default, none)')
+    parser.add_argument('--exact-landing', action='store_true', help='the planner plans for an exact landing '
+                        '(the planner node\'s execution_noise zero; default: the node\'s default, the 1x noise)')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--json', help='write every record and the summaries here')
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
@@ -252,7 +251,7 @@ def main() -> None:
         report_cells(done, args, sorted({r['object'] for r in done}), sorted({r['operator'] for r in done}))
         return
     tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg,
-                  tuple(c for c in RUN if c in args.conditions), not args.no_execute, args.execution_noise)
+                  tuple(c for c in RUN if c in args.conditions), not args.no_execute, not args.exact_landing)
              for i in range(args.episodes) for o in args.objects for op in args.operators]  # cells fill evenly
     print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
           f'conditions, intent {args.intent}; {uptime()}', flush=True)

@@ -120,7 +120,8 @@ def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: Mico
 class Scene:
     """What one episode runs on: the model, the object's true and tracked poses, the kinematics, the planner's options.
 
-    ``options`` None: the planner node's defaults (an exact landing; the node's ``execution_noise`` zero).
+    ``options`` None: the library's defaults (an exact landing); the planner node's are
+    :func:`~grasp_intent_ros.planning.options.node_default_options`.
     """
 
     model: GraspModel

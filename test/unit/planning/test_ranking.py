@@ -156,7 +156,8 @@ def test_a_stream_keeps_its_demonstration_while_it_still_ranks_first(models: dic
     fresh = planner.plan(model, v)
     warm = planner.plan(model, v, warm_start=first.x)
     assert warm.x.tobytes() == first.x.tobytes()
-    assert warm.chosen.distance == 0.0
+    assert warm.chosen.demonstration == first.chosen.demonstration
+    assert warm.chosen.distance <= ranking._ON_DEMO  # the kernel's distance of a grasp to itself: rounding only
     # never worse than the fresh plan in the model's expected success by more than the band
     e = lambda res: sum(vk for vk, z in zip(v.tolist(), model.zones)  # noqa: E731
                         if model.demo_sets[res.chosen.demonstration] & z == z)
@@ -188,12 +189,12 @@ def test_accept_takes_the_next_candidate_in_the_choice_order(models: dict[str, G
 
 
 def test_plans_faithful_by_reading_only_may_do_unlikely_tasks(models: dict[str, GraspModel]) -> None:
-    """Only the reading must be faithful: the cup's U case gets a demonstration that does every task (read as U)."""
+    """Only the reading must be faithful: the cup's U case gets a demonstration read as U that also does an unlikely task."""
     model = models['cup_7zone']
     w = np.array((0.9, 0.1, 0.1))
     res = planner.plan(model, intent.interpret(w, model.zones).v, options=TaskOptions(faithful='reading'))
     label, top, reading, wanted = judge(model, w, res.x)
-    assert label == 0b111 and reading & ~wanted == 0
+    assert label & top == top and label & ~wanted != 0 and reading & ~wanted == 0
 
 
 def test_plans_do_only_likely_tasks(models: dict[str, GraspModel]) -> None:
