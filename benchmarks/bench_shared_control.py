@@ -47,9 +47,9 @@ unsharpened intent, the operator wanting usage and transfer; bags/shared_control
 ``--objects cup --only 0 --record``. With ``--estimator`` the suite runs the intent estimator, the only source
 of w (this process publishes none; its operator twists are stamped), and the operator wants transfer (T),
 heading for its own grasp for T or the shown one when that serves T; bags/shared_control_cup_estimated is
-``--objects cup --only 3 --record bags/shared_control_cup_estimated --estimator`` (operator 3: on the data it
-was chosen on, its last w was clear of the planner's ties, (0.99, 0.99, 0.09), where operators 0-2 ended with a
-w_i of 0.19-0.54).
+``--objects cup --only 1 --record bags/shared_control_cup_estimated --estimator`` (operator 1: of operators 0-3,
+the first whose recorded hand ends at the last grasp planned, which the replay checks; operators 0 and 3 closed
+on their own transfer grasp while the planner's last one, for a w with handover near tau, was another).
 
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set.
 
