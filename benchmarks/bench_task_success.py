@@ -49,7 +49,8 @@ a property of one data set.
 thresholds.
 
 ``--physics`` (needs the ``bench`` extra, MuJoCo) runs the planner node's policy (``mico.grasp.plan_grasp``, IK
-included) on the 7-zone models with the object at the suite's default pose, without and with the hand's
+included, the node's default options: the 1x execution noise) on the 7-zone models with the object at the
+suite's default pose, without and with the hand's
 collision check (``mico.collision``), and has an independent judge (``judge_physics``: MuJoCo on the URDF, the
 plan's joint targets, the table plane z = 0 of the object frame and the object's body of the rules) say which
 published grasps put a hand part > 5 mm below the table with the fingers open or the wrist/palm > 2 mm into the
@@ -81,7 +82,7 @@ from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.objects import demos as rules_module
 from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules, object_of
 from grasp_intent_ros.planning import common, planner, ranking
-from grasp_intent_ros.planning.options import ScipyOptions, TaskOptions
+from grasp_intent_ros.planning.options import ScipyOptions, TaskOptions, node_default_options
 from grasp_intent_ros.planning.robustness import ExecutionNoise, perturb, standard_draws
 from grasp_intent_ros.resources import config_dir
 
@@ -372,11 +373,11 @@ def physics(models: Sequence[GraspModel], n: int, seed: int) -> None:
     from judge_physics import PALM_LIMIT, TABLE_LIMIT, PhysicsJudge  # the bench extra: only this section needs it
 
     from grasp_intent_ros.mico.collision import CollisionFree, HandCollision
-    from grasp_intent_ros.mico.frames import pose_to_matrix
+    from grasp_intent_ros.mico.frames import default_base_T_obj
     from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
     from grasp_intent_ros.mico.kinematics import MicoKinematics
 
-    base_T_obj = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))  # the suite's default object pose
+    base_T_obj, options = default_base_T_obj(), node_default_options()  # the planner node's defaults
     kin, hand = MicoKinematics(), HandCollision()
     print(f'physics: plan_grasp at the default object pose, judged by MuJoCo {__import__("mujoco").__version__} '
           f'(table > {1e3 * TABLE_LIMIT:g} mm, palm > {1e3 * PALM_LIMIT:g} mm)')
@@ -395,7 +396,7 @@ def physics(models: Sequence[GraspModel], n: int, seed: int) -> None:
         for _, v in targets:  # the planner alone, without and with the check, paired (the same load)
             for checked in (False, True):
                 t1 = time.perf_counter()
-                planner.plan(model, v, accept=CollisionFree(hand, model.body) if checked else None)
+                planner.plan(model, v, options=options, accept=CollisionFree(hand, model.body) if checked else None)
                 ms[checked].append(1e3 * (time.perf_counter() - t1))
         ratio = np.array(ms[True]) / np.array(ms[False])
         print(f'    plan median without / with the check {np.median(ms[False]):.3f} / {np.median(ms[True]):.3f} ms '
@@ -404,7 +405,8 @@ def physics(models: Sequence[GraspModel], n: int, seed: int) -> None:
             plans = no_grasp = table = palm = collide = fingers_on_table = 0
             scores: list[float] = []
             for w, v in targets:
-                grasp = plan_grasp(model, v, intent.all_zones(3), base_T_obj, kin, hand=hand if checked else None)
+                grasp = plan_grasp(model, v, intent.all_zones(3), base_T_obj, kin, options=options,
+                                   hand=hand if checked else None)
                 if not isinstance(grasp, Grasp):
                     no_grasp += 1
                     scores.append(0.0)
