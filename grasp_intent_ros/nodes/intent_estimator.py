@@ -5,10 +5,9 @@ Run: ``python -m grasp_intent_ros intent_estimator [--ros-args --params-file con
 
 Topics, diagnostics, restarts and timing: docs/intent_estimation.md (its interface table is this node's contract);
 the maths: :mod:`grasp_intent_ros.shared_control.estimator`. Each operator twist (before blending) updates the
-estimate on the executor, with the hand's pose from the newest joint state. ``intent/w`` goes out every
-``publish_period`` while the operator moves, and once at each restart (the prior). The goals are prepared in a
-thread of their own whenever the model changes or the object moves beyond ``object_tolerance`` or
-``angle_tolerance``; meanwhile no w is published and twists are not used.
+estimate on the executor. ``intent/w`` goes out every ``publish_period`` while the operator moves, and once at
+each restart (the prior). The goals are prepared in a thread of their own whenever the model changes or the
+object moves beyond the tolerances; meanwhile no w is published and twists are not used.
 
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.ESTIMATOR`, ``config/intent_estimator.yaml``.
 """
@@ -40,7 +39,7 @@ from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, output_publisher
 from ..ros.run import guard_exit, publish_all, run_node
 from ..ros.worker import LatestOnlyWorker
-from ..shared_control.assistance import pose_moved
+from ..shared_control.assistance import offset
 from ..shared_control.estimator import EstimatorConfig, IntentEstimator, TwistTiming, goals_at, reachable_goals
 from ..shared_control.parameters import ESTIMATOR, check_estimator
 from ..wire import topics
@@ -119,9 +118,11 @@ class IntentEstimatorNode(Node):
 
     def _move_object(self, base_T_obj: NDArray[np.float64]) -> None:
         """A new object pose: new goals when it moved beyond the tolerances, else nothing changes."""
-        current, p = self._scenes.latest.base_T_obj, self._params
-        if current is not None and not pose_moved(current, base_T_obj, p['object_tolerance'], p['angle_tolerance']):
-            return
+        current = self._scenes.latest.base_T_obj
+        if current is not None:
+            distance, angle = offset(current, base_T_obj)
+            if distance <= self._params['object_tolerance'] and angle <= self._params['angle_tolerance']:
+                return
         self._scenes.update(lambda scene: replace(scene, base_T_obj=base_T_obj, q_arm=self._q))
 
     def _prepare(self, scene: _Scene) -> None:  # in the goal thread

@@ -94,7 +94,7 @@ from ..mico.kinematics import MicoKinematics
 from ..planning.ranking import expected_success
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
-           'pose_error', 'pose_moved', 'REACH_POS', 'REACH_ROT', 'offset', 'reached',
+           'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached',
            'pre_grasp', 'assistance_target', 'robot_twist', 'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter',
            'AssistanceConfig',
            'Command', 'Assistance']
@@ -202,12 +202,6 @@ def pose_error(base_T_ee: NDArray[np.float64], base_T_target: NDArray[np.float64
     dp = base_T_target[:3, 3] - base_T_ee[:3, 3]
     dr = pin.log3(base_T_target[:3, :3] @ base_T_ee[:3, :3].T)
     return np.concatenate([dp, np.asarray(dr, dtype=np.float64)])
-
-
-def pose_moved(base_T_a: NDArray[np.float64], base_T_b: NDArray[np.float64], distance: float, angle: float) -> bool:
-    """Whether pose ``b`` lies farther than ``distance`` (m) from pose ``a`` or turns farther than ``angle`` (rad)."""
-    error = pose_error(base_T_a, base_T_b)
-    return float(np.linalg.norm(error[:3])) > distance or float(np.linalg.norm(error[3:])) > angle
 
 
 REACH_POS: Final = 0.01
