@@ -40,7 +40,8 @@ from grasp_intent_ros.mico.collision import CollisionFree, HandCollision
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.mico.grasp import MIN_TRAJECTORY_TIME, ApproachReach
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
-from grasp_intent_ros.nodes.grasp_planner import PARAMETERS, GraspPlanner
+from grasp_intent_ros.mico.parameters import GRASP_PLANNER
+from grasp_intent_ros.nodes.grasp_planner import GraspPlanner
 from grasp_intent_ros.objects.demos import grasp_features
 from grasp_intent_ros.planning import common, planner
 from grasp_intent_ros.planning.options import node_options
@@ -67,8 +68,8 @@ W_GOOD = (0.9, 0.9, 0.1)
 TOPICS = ('pose', 'joints', 'trajectory', 'posterior', 'features', 'markers')
 UNCHECKED = [Parameter('markers_period', value=0.0), Parameter('collision_check', value=False)]
 """The rig's parameters for the tiny models (:func:`reachable_tiny_models`): their grasps are not shaped for a table."""
-METHOD = next(spec.default for spec in PARAMETERS if spec.name == 'method')
-OPTIONS = node_options(METHOD, *(next(spec.default for spec in PARAMETERS if spec.name == name)
+METHOD = next(spec.default for spec in GRASP_PLANNER if spec.name == 'method')
+OPTIONS = node_options(METHOD, *(next(spec.default for spec in GRASP_PLANNER if spec.name == name)
                                  for name in ('n_starts', 'execution_noise')))
 
 
