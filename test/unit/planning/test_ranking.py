@@ -189,7 +189,7 @@ def test_accept_takes_the_next_candidate_in_the_choice_order(models: dict[str, G
 
 
 def test_plans_faithful_by_reading_only_may_do_unlikely_tasks(models: dict[str, GraspModel]) -> None:
-    """Only the reading must be faithful: the cup's U case gets a demonstration read as U that also does an unlikely task."""
+    """Only the reading must be faithful: the cup's U case gets a demonstration read as U doing an unlikely task too."""
     model = models['cup_7zone']
     w = np.array((0.9, 0.1, 0.1))
     res = planner.plan(model, intent.interpret(w, model.zones).v, options=TaskOptions(faithful='reading'))
