@@ -7,7 +7,8 @@ Topics (relative)
     in   ``operator/twist`` (the operator's own twist, before blending: TwistStamped, or Twist with
          ``operator_message_type``; frame ``m1n6s300_link_base`` or ``m1n6s300_end_effector``, '' =
          ``operator_frame``), ``joint_states`` (the hand's pose), ``object/pose`` (default: the ``object_*``
-         parameters), ``model/active`` (latched: the goals are its demonstrations)
+         parameters), ``model/active`` (latched: the goals are its demonstrations), ``grasp/pose`` (the
+         planner's grasp, shown to the operator: the proposal an operator may take for its own)
     out  ``intent/w`` (std_msgs/Float64MultiArray, m values in [w_floor, 1 - w_floor], flat as ``ros2 topic
          pub`` sends it), ``/diagnostics`` (``intent estimator``)
 
@@ -31,6 +32,7 @@ Parameters: :data:`PARAMETERS`, ``config/intent_estimator.yaml``.
 from __future__ import annotations
 
 import dataclasses
+import threading
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -80,6 +82,9 @@ PARAMETERS = (
               range=(1e-6, 3.14159)),
     ParamSpec('w_floor', _DEFAULTS.w_floor, 'w is kept within [w_floor, 1 - w_floor].', range=(1e-6, 0.49)),
     ParamSpec('max_dt', _DEFAULTS.max_dt, 'Longest time one operator twist is taken to act, s.', range=(1e-3, 10.0)),
+    ParamSpec('proposal_radius', _DEFAULTS.proposal_radius, 'm: goals within it (and proposal_angle) of the shown '
+              'grasp are credited with the progress toward it (0: the shown grasp is ignored).', range=(0.0, 10.0)),
+    ParamSpec('proposal_angle', _DEFAULTS.proposal_angle, 'rad: the same for the orientation.', range=(0.0, 3.15)),
     ParamSpec('publish_period', 0.04, 'Time between two w while the operator moves, s.', range=(0.001, 1.0),
               read_only=True),
     ParamSpec('operator_timeout', 0.1, 'Operator twist age (s) after which the operator counts as still (no w '
@@ -129,6 +134,10 @@ class IntentEstimatorNode(Node):
         self._config = EstimatorConfig(**{name: self._params[name] for name in _CONFIG_FIELDS})
         self._estimator: IntentEstimator | None = None
         """The estimate over the current scene's goals; None while they are prepared."""
+        self._proposal: NDArray[np.float64] | None = None
+        """The latest grasp on ``grasp/pose`` (base frame): what the operator is shown."""
+        self._proposal_lock = threading.Lock()
+        """Orders a new estimate (the goal thread) and a new proposal (the executor): the newest is used."""
         self._q: NDArray[np.float64] | None = None
         self._base_T_ee: NDArray[np.float64] | None = None
         self._last_twist: float | None = None  # node-clock time of the last operator twist
@@ -148,6 +157,7 @@ class IntentEstimatorNode(Node):
                         count_dropped=True, msg_type=Twist if plain else None)
         subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), self._diag)
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, input_qos(depth=1), self._diag)
+        subscribe_input(self, topics.GRASP_POSE, self._on_grasp, input_qos(depth=1), self._diag)
         self.create_timer(float(self._params['publish_period']), self._on_timer)
 
     def destroy_node(self) -> None:
@@ -209,7 +219,10 @@ class IntentEstimatorNode(Node):
         except GraspIntentError as exc:
             self._diag.set_state(ERROR, f'no goal for {scene.model.name} at this object pose: {exc}')
             raise
-        self._estimator = IntentEstimator(goals, self._config)
+        estimator = IntentEstimator(goals, self._config)
+        with self._proposal_lock:
+            estimator.set_proposal(self._proposal)
+            self._estimator = estimator
         self._restarts += 1
         self._diag.set_state(OK, '')
         self._diag.set_values({'model': scene.model.name, KEY_GOALS: f'{len(goals)} of {model.demo_x.shape[0]} '
@@ -223,6 +236,13 @@ class IntentEstimatorNode(Node):
         if (q := joint_positions(msg, ARM_JOINTS)) is not None:
             self._kin.check_limits(q, margin=JOINT_LIMIT_MARGIN, what='joint state')
             self._q, self._base_T_ee = q, self._kin.fk(q)
+
+    def _on_grasp(self, msg: PoseStamped) -> None:
+        pose = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
+        with self._proposal_lock:
+            if (estimator := self._estimator) is not None:
+                estimator.set_proposal(pose)
+            self._proposal = pose
 
     def _on_operator(self, msg: TwistStamped | Twist) -> None:
         twist, frame = (msg, '') if isinstance(msg, Twist) else (msg.twist, msg.header.frame_id)

@@ -40,8 +40,8 @@ the planned one (the cup's transfer loses palm contact). Executed, the hand is a
 With an :class:`~.estimator.IntentEstimator` (``estimator``), w comes from it instead of the intent script
 (the intent node's place in the suite, ``suite --with intent_estimator``): it is reset at the start and fed,
 every period, the operator's own twist (before blending, so the assistance never creates its own evidence)
-with the hand's pose at that tick; every ``w_period`` its w is interpreted and planned as the script's would
-be. The script then gives only the operator's true task set: the estimator never sees it.
+with the hand's pose at that tick, and each grasp planned, as the proposal shown (the node's ``grasp/pose``);
+every ``w_period`` its w is interpreted and planned as the script's would be. The script then gives only the operator's true task set: the estimator never sees it.
 
 The simulation returns what happened, never a verdict: the executed grasp's features in the true object
 frame, when the hand closed, the operator's effort and each shown grasp's alpha-time; the caller judges
@@ -383,6 +383,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
                 if grasp is not None:
                     shown = grasp
                     assistance.set_grasp(grasp.base_T_ee)
+                    if estimator is not None:
+                        estimator.set_proposal(grasp.base_T_ee)
                     model = scene.model
                     assistance.set_posterior(grasp.result.posterior, model.zone_labels, model.task_names)
                     assistance.set_task_set(grasp_task_set(grasp.result.x, model.demo_x, model.demo_sets,
