@@ -41,7 +41,8 @@ With an :class:`~.estimator.IntentEstimator` (``estimator``), w comes from it in
 (the intent node's place in the suite, ``suite --with intent_estimator``): it is reset at the start and fed,
 every period, the operator's own twist (before blending, so the assistance never creates its own evidence)
 with the hand's pose at that tick, and each grasp planned, as the proposal shown (the node's ``grasp/pose``);
-every ``w_period`` its w is interpreted and planned as the script's would be. The script then gives only the operator's true task set: the estimator never sees it.
+every ``w_period`` its w is interpreted and planned as the script's would be. The script then gives only the
+operator's true task set: the estimator never sees it.
 
 The simulation returns what happened, never a verdict: the executed grasp's features in the true object
 frame, when the hand closed, the operator's effort and each shown grasp's alpha-time; the caller judges
