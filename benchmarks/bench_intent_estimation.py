@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 from _bench import uptime
-from bench_shared_control import BASE_T_OBJ, OBJECTS, PERIOD, draw_intent, own_goals
+from bench_shared_control import BASE_T_OBJ, OBJECTS, PERIOD, own_goals
 
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee
@@ -52,7 +52,7 @@ from grasp_intent_ros.objects.demos import ObjectRules, sample_grasp
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.sessions.closed_loop import reached
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
-from grasp_intent_ros.shared_control.operators import Device, OperatorConstants, ScriptedOperator
+from grasp_intent_ros.shared_control.operators import Device, OperatorConstants, ScriptedOperator, SharpeningIntent
 
 FRACTIONS = (0.25, 0.5, 0.75)
 BETAS = (30.0, 100.0, 300.0, 1000.0, 3000.0)
@@ -131,7 +131,7 @@ def reaches(name: str, seed: int, operators: int, goals_rule: str, kin: MicoKine
     out = []
     for i in range(operators):
         rng = np.random.default_rng([seed, list(OBJECTS).index(name), i])
-        intent = draw_intent(rng)
+        intent = SharpeningIntent.draw(rng)
         task_set = intent.true_set
         goal = own[task_set].base_T_ee if goals_rule == 'own' else fresh_goal(rules, task_set, kin, rng)
         out.append(simulate(op, goal, intent.w, task_set, kin, rng, timeout, device))

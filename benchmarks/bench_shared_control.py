@@ -87,7 +87,6 @@ from grasp_intent_ros.shared_control.operators import (
     PersistentIntent,
     ScriptedOperator,
     SharpeningIntent,
-    draw_task_set,
 )
 from grasp_intent_ros.shared_control.simulator import certain_grasps
 from grasp_intent_ros.wire.diagnostics import ESTIMATOR_COMPONENT
@@ -104,12 +103,6 @@ W_EVERY = 10
 def joystick(op: OperatorConstants, rng: np.random.Generator) -> ScriptedOperator:
     """The scripted operator's two-mode joystick (module docstring), its noise drawn from ``rng``."""
     return ScriptedOperator('joystick', op, rng, PERIOD)
-
-
-def draw_intent(rng: np.random.Generator) -> SharpeningIntent:
-    """One operator's intent (module docstring): w0 ~ U(0.2, 0.8)^3, S drawn from it, sharpening in U(1.5, 4) s."""
-    w0 = rng.uniform(0.2, 0.8, 3)
-    return SharpeningIntent(tuple(w0.tolist()), draw_task_set(w0, rng), float(rng.uniform(1.5, 4.0)))
 
 
 def own_goals(model_name: str, kin: MicoKinematics) -> dict[int, Grasp]:
@@ -435,7 +428,7 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
             order = CONDITIONS[i % 3:] + CONDITIONS[:i % 3]
             for condition in order:
                 rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), i])
-                intent = draw_intent(rng)
+                intent = SharpeningIntent.draw(rng)
                 loop.set_arbitration(condition)
                 loop.reset_arm()
                 run = Run(name, i, condition, intent.true_set)

@@ -144,8 +144,7 @@ class Task:
 
 def _intent(task: Task, rng: np.random.Generator) -> Any:
     if task.intent == 'sharpening':
-        w0 = rng.uniform(0.2, 0.8, 3)
-        return SharpeningIntent(tuple(w0.tolist()), draw_task_set(w0, rng), float(rng.uniform(1.5, 4.0)))
+        return SharpeningIntent.draw(rng)
     case = CASES[task.index % len(CASES)]
     persistent = PersistentIntent(case, draw_task_set(np.asarray(case), rng))
     if task.operator != 'goal-changing':

@@ -22,7 +22,10 @@ registry
     The models of a directory, loaded on demand, a few kept.
 safe_yaml
     YAML documents read and written safely (size caps, no aliases).
+parameters (ROS-free tables)
+    The intent interpreter node's and the model server node's parameter tables; ``task_names``.
 
-Imports of the package: :mod:`grasp_intent_ros.errors`, :mod:`grasp_intent_ros.resources` and the compiled
+Imports of the package: :mod:`grasp_intent_ros.errors`, :mod:`grasp_intent_ros.resources`,
+:mod:`grasp_intent_ros.parameters` and the compiled
 posterior (:mod:`grasp_intent_ros.kernels`) only (test/unit/test_static.py).
 """

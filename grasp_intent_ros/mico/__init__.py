@@ -6,6 +6,8 @@ frames
     Grasp features <-> the end-effector pose in the object frame; poses as 4x4 transforms.
 kinematics
     Forward and inverse kinematics (pinocchio, the URDF in config/), reachability.
+parameters (ROS-free tables)
+    The grasp planner node's and the mock arm node's parameter tables; the object pose and the URDF they share.
 collision
     The hand (the URDF's collision primitives, coal) against the table and the object: on the approach with the
     fingers open, and closing until contact.

@@ -48,6 +48,8 @@ from ..method.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL
 __all__ = [
     'check_vector',
     'check_transform',
+    'QUATERNION_NORM_TOL',
+    'check_unit_quaternion',
     'ORTHONORMAL_TOL',
     'features_to_obj_T_ee',
     'obj_T_ee_to_features',
@@ -119,6 +121,33 @@ def check_transform(value: ArrayLike, what: str, *, tol: float = 1e-6) -> NDArra
         T[:3, :3] = u @ vt
     T[3] = (0.0, 0.0, 0.0, 1.0)
     return T
+
+
+QUATERNION_NORM_TOL = 1e-3
+"""Largest accepted deviation of an incoming quaternion's norm from 1."""
+
+
+def check_unit_quaternion(xyzw: ArrayLike, *, tol: float = QUATERNION_NORM_TOL) -> NDArray[np.float64]:
+    """A finite quaternion (x, y, z, w) of unit norm within ``tol``, as an array of shape (4,).
+
+    Raises
+    ------
+    KinematicsError
+        For a wrong shape, a NaN or infinity, or a norm further than ``tol`` from 1.
+    """
+    try:
+        q = np.asarray(xyzw, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise KinematicsError(f'quaternion must be numeric: {exc}') from None
+    if q.shape != (4,):
+        raise KinematicsError(f'quaternion must have 4 entries (x, y, z, w), got shape {q.shape}')
+    if not np.all(np.isfinite(q)):
+        raise KinematicsError(f'quaternion must be finite, got {q.tolist()}')
+    norm = float(np.linalg.norm(q))
+    if abs(norm - 1.0) > tol:
+        raise KinematicsError(f'quaternion must have unit norm (within {tol:g}), got norm {norm:.6g} '
+                              f'for (x, y, z, w) = {q.tolist()}')
+    return q
 
 
 # -- grasp features <-> end-effector pose -------------------------------------------------------------

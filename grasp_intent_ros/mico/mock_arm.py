@@ -309,6 +309,20 @@ class TwistCommand:
     angular: NDArray[np.float64]
     frame: str
 
+    def in_base(self, base_T_ee: NDArray[np.float64] | None) -> NDArray[np.float64]:
+        """(linear, angular), shape (6,), in the base frame: one in the EE frame turned by ``base_T_ee``.
+
+        Raises
+        ------
+        CommandError
+            For a twist in the EE frame without ``base_T_ee`` (no joint state yet).
+        """
+        if self.frame != EE_FRAME:
+            return np.concatenate([self.linear, self.angular])
+        if base_T_ee is None:
+            raise CommandError(f'an operator twist in {EE_FRAME} needs a joint state first')
+        return np.concatenate([base_T_ee[:3, :3] @ self.linear, base_T_ee[:3, :3] @ self.angular])
+
 
 def check_twist(linear: ArrayLike, angular: ArrayLike, frame: str, *, default_frame: str = BASE_FRAME
                 ) -> TwistCommand:

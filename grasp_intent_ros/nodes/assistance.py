@@ -22,18 +22,17 @@ Behaviour
     :mod:`grasp_intent_ros.shared_control.assistance`. Inputs are keep-last 1 (latest only); staleness is judged by
     arrival time on the node's clock.
 
-Parameters: :data:`PARAMETERS`, ``config/assistance.yaml``.
+Parameters: :data:`grasp_intent_ros.shared_control.parameters.ASSISTANCE`, ``config/assistance.yaml``.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
+from geometry_msgs.msg import PoseStamped, TwistStamped
 from numpy.typing import NDArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -44,71 +43,22 @@ from ..errors import GraspIntentError
 from ..method.features import MICO_3F
 from ..method.intent import all_zones, default_task_names, zone_labels
 from ..method.model import ModelRequirements
-from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, EE_FRAME, HOME_Q, MicoKinematics
-from ..mico.mock_arm import check_twist
+from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from ..parameters import config_from
 from ..ros.diagnostics import NodeDiagnostics
-from ..ros.inputs import subscribe_input
+from ..ros.inputs import subscribe_input, subscribe_operator
 from ..ros.model_follower import ModelFollower
-from ..ros.params import ParameterError, ParamSpec, declare_parameters, one_of
+from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, output_publisher
 from ..ros.run import guard_exit, publish_all, run_node
-from ..shared_control.assistance import ARBITRATIONS, Assistance, AssistanceConfig, TwistLimiter, grasp_task_set
+from ..shared_control.assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set
+from ..shared_control.parameters import ASSISTANCE
 from ..wire import topics
 from ..wire.arrays import msg_labels, msg_to_array, read_features, read_posterior
-from ..wire.diagnostics import ERROR
 from ..wire.model_document import ModelDocument
-from ..wire.robot_state import joint_positions, pose_msg_to_matrix
+from ..wire.robot_state import joint_positions, pose_msg_to_matrix, twist_command
 
-__all__ = ['AssistanceNode', 'PARAMETERS', 'ENABLE_SERVICE', 'main']
-
-_DEFAULTS = AssistanceConfig()
-_POSITIVE = (1e-6, 100.0)
-PARAMETERS = (
-    ParamSpec('arbitration', _DEFAULTS.arbitration, "alpha's rule: 'confidence' (the probability that the grasp "
-              "serves the operator's task, times the operator's agreement), 'blend' (alpha_max when v's top zone "
-              "leads by margin) or 'none' (alpha = 0).",
-              validator=one_of(ARBITRATIONS), constraints=f'one of {", ".join(ARBITRATIONS)}'),
-    ParamSpec('alpha_max', _DEFAULTS.alpha_max, 'Largest alpha (the operator keeps 1 - alpha_max).',
-              range=(0.0, 1.0)),
-    ParamSpec('margin', _DEFAULTS.margin, "'blend': lead of v's top zone over the second (of the total).",
-              range=(0.0, 1.0)),
-    ParamSpec('standoff', _DEFAULTS.standoff, 'Pre-grasp distance behind the grasp along its approach axis, m.',
-              range=(0.0, 0.5)),
-    ParamSpec('corridor_radius', _DEFAULTS.corridor_radius, 'Approach corridor radius, m.', range=_POSITIVE),
-    ParamSpec('corridor_angle', _DEFAULTS.corridor_angle, 'Approach corridor orientation tolerance, rad.',
-              range=(0.0, 3.2)),
-    ParamSpec('gain_linear', _DEFAULTS.gain_linear, "Robot twist's position gain, 1/s.", range=_POSITIVE),
-    ParamSpec('gain_angular', _DEFAULTS.gain_angular, "Robot twist's orientation gain, 1/s.", range=_POSITIVE),
-    ParamSpec('robot_max_linear', _DEFAULTS.robot_max_linear, "Robot twist's speed limit, m/s.", range=_POSITIVE),
-    ParamSpec('robot_max_angular', _DEFAULTS.robot_max_angular, "Robot twist's angular speed limit, rad/s.",
-              range=_POSITIVE),
-    ParamSpec('gain_joint', _DEFAULTS.gain_joint, "Robot twist's joint-space gain toward the target's IK, 1/s.",
-              range=_POSITIVE),
-    ParamSpec('deadband_linear', _DEFAULTS.deadband_linear, "'confidence': operator speed (m/s) from which an "
-              'operator steering away from the grasp (the agreement is measured against the grasp, not the '
-              "robot's twist) lowers alpha.", range=(0.0, 10.0)),
-    ParamSpec('deadband_angular', _DEFAULTS.deadband_angular, "'confidence': the same for the operator's angular "
-              'speed, rad/s.', range=(0.0, 10.0)),
-    ParamSpec('yield_time', _DEFAULTS.yield_time, "'confidence': seconds of sustained opposition after which the "
-              'robot yields (alpha 0), and of heading back to the grasp after which it assists again.',
-              range=(0.0, 10.0)),
-    ParamSpec('assist_without_input', _DEFAULTS.assist_without_input, "Whether the robot's twist moves the hand "
-              'while the operator gives no input (both parts within their deadbands).'),
-    ParamSpec('operator_timeout', _DEFAULTS.operator_timeout, 'Operator twist age (s) from which the output is '
-              'the zero twist (MoveIt Servo: incoming_command_timeout).', range=(0.001, 10.0)),
-    ParamSpec('max_linear', 0.2, 'Output speed limit, m/s.', range=_POSITIVE),
-    ParamSpec('max_angular', 1.0, 'Output angular speed limit, rad/s.', range=_POSITIVE),
-    ParamSpec('max_linear_acceleration', 1.0, 'Output acceleration limit, m/s^2.', range=_POSITIVE),
-    ParamSpec('max_angular_acceleration', 5.0, 'Output angular acceleration limit, rad/s^2.', range=_POSITIVE),
-    ParamSpec('publish_period', 0.01, 'Longest time between two outputs, s (MoveIt Servo: publish_period).',
-              range=(0.001, 1.0), read_only=True),
-    ParamSpec('operator_message_type', 'TwistStamped', 'Type on operator/twist: TwistStamped or Twist.',
-              validator=one_of(('TwistStamped', 'Twist')), read_only=True),
-    ParamSpec('operator_frame', BASE_FRAME, 'Frame of a plain Twist or of a TwistStamped with an empty frame_id.',
-              validator=one_of((BASE_FRAME, EE_FRAME))),
-    ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
-)
-_CONFIG_FIELDS = tuple(f.name for f in dataclasses.fields(AssistanceConfig))
+__all__ = ['AssistanceNode', 'ENABLE_SERVICE', 'main']
 
 ENABLE_SERVICE = 'assistance/enable'
 """The operator's switch (std_srvs/SetBool)."""
@@ -122,11 +72,8 @@ class AssistanceNode(Node):
     def __init__(self, node_name: str = 'assistance', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, 'assistance')
-        self._params = declare_parameters(self, PARAMETERS, on_change=self._configure)
-        try:
-            self._kin = MicoKinematics(self._params['urdf_path'] or None)
-        except FileNotFoundError as exc:
-            raise ParameterError(f'urdf_path: {exc}') from None
+        self._params = declare_parameters(self, ASSISTANCE, on_change=self._configure)
+        self._kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
         self._assist = Assistance(AssistanceConfig(), TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin)
         self._configure(self._params)
         self._warm_up()
@@ -137,9 +84,7 @@ class AssistanceNode(Node):
         self._pubs = {topics.ASSISTANCE_TWIST: output_publisher(self, TwistStamped, topics.ASSISTANCE_TWIST),
                       topics.ASSISTANCE_ALPHA: output_publisher(self, Float64, topics.ASSISTANCE_ALPHA)}
         latest, diag = input_qos(depth=1), self._diag
-        plain = self._params['operator_message_type'] == 'Twist'
-        subscribe_input(self, topics.OPERATOR_TWIST, self._on_operator, latest, diag, count_dropped=True,
-                        msg_type=Twist if plain else None)
+        subscribe_operator(self, self._on_operator, latest, diag, self._params['operator_message_type'])
         subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), diag)
         subscribe_input(self, topics.GRASP_POSE, self._on_grasp, latest, diag)
         subscribe_input(self, topics.GRASP_POSTERIOR, self._on_posterior, latest, diag)
@@ -150,7 +95,7 @@ class AssistanceNode(Node):
                                      requires=lambda: ModelRequirements(feature_names=MICO_3F.names))
         self.create_service(SetBool, ENABLE_SERVICE, self._on_enable)
         self._period = float(self._params['publish_period'])
-        self._timer = self.create_timer(self._period, self._on_timer)
+        self._timer = self.create_timer(self._period, self._diag.guard_timer(self._publish))
 
     def _warm_up(self) -> None:
         """One assisted command on a copy at Home (forward and inverse kinematics, Jacobian, arbitration)."""
@@ -190,7 +135,7 @@ class AssistanceNode(Node):
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
         p = self._params
-        self._assist.config = AssistanceConfig(**{name: p[name] for name in _CONFIG_FIELDS})
+        self._assist.config = config_from(AssistanceConfig, p)
         limiter = self._assist.limiter
         limiter.max_linear, limiter.max_angular = p['max_linear'], p['max_angular']
         limiter.max_linear_acceleration = p['max_linear_acceleration']
@@ -200,17 +145,8 @@ class AssistanceNode(Node):
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def _on_operator(self, msg: TwistStamped | Twist) -> None:
-        twist, frame = (msg, '') if isinstance(msg, Twist) else (msg.twist, msg.header.frame_id)
-        cmd = check_twist([twist.linear.x, twist.linear.y, twist.linear.z],
-                          [twist.angular.x, twist.angular.y, twist.angular.z], frame,
-                          default_frame=self._params['operator_frame'])
-        xi = np.concatenate([cmd.linear, cmd.angular])
-        if cmd.frame == EE_FRAME:
-            if self._assist.base_T_ee is None:
-                raise GraspIntentError(f'an operator twist in {EE_FRAME} needs a joint state first')
-            base_R_ee = self._assist.base_T_ee[:3, :3]
-            xi = np.concatenate([base_R_ee @ cmd.linear, base_R_ee @ cmd.angular])
+    def _on_operator(self, msg: Any) -> None:
+        xi = twist_command(msg, default_frame=self._params['operator_frame']).in_base(self._assist.base_T_ee)
         self._assist.set_operator(xi, self._now())
         if time.monotonic() - self._last_output >= _EARLY * self._period:
             self._publish()
@@ -236,12 +172,6 @@ class AssistanceNode(Node):
 
     def _on_clarification(self, msg: String) -> None:
         self._assist.clarification()
-
-    def _on_timer(self) -> None:
-        try:
-            self._publish()
-        except Exception as exc:  # noqa: BLE001 - an exception escaping a timer kills the node
-            self._diag.rejected(f'internal error: {type(exc).__name__}: {exc}', level=ERROR)
 
     def _publish(self) -> None:
         self._last_output = time.monotonic()

@@ -13,7 +13,7 @@ A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs
 thread takes ``intent/v`` itself. A :class:`~grasp_intent_ros.ros.model_follower.ModelFollower` reads each
 new ``model/active`` in a thread of its own; :mod:`grasp_intent_ros.ros.startup` tunes the process and
 loads every compiled kernel before the node logs that it is ready (docs/nodes.md, "The planner node").
-Parameters: :data:`PARAMETERS`.
+Parameters: :data:`grasp_intent_ros.mico.parameters.GRASP_PLANNER`, ``config/grasp_planner.yaml``.
 """
 
 from __future__ import annotations
@@ -36,11 +36,11 @@ from rclpy.time import Time
 from sensor_msgs.msg import JointState
 
 from ..method.intent import match_zones
-from ..mico.collision import HandCollision, Table
-from ..mico.frames import pose_to_matrix
-from ..mico.grasp import check_workspace, plan_grasp
-from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
-from ..planning.options import DEFAULT_METHOD, METHODS, node_options, noise_from
+from ..mico.collision import HandCollision
+from ..mico.grasp import plan_grasp
+from ..mico.kinematics import ARM_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
+from ..mico.parameters import GRASP_PLANNER, check_object_pose, object_pose
+from ..planning.options import node_options, noise_from
 from ..planning.robustness import retention
 from ..ros.clarification import ClarificationRequests
 from ..ros.conversions import SerializedTargets
@@ -48,64 +48,15 @@ from ..ros.diagnostics import NodeDiagnostics
 from ..ros.grasp_messages import GraspOutputs
 from ..ros.inputs import decode_input, subscribe_input
 from ..ros.model_follower import ModelFollower, served_models
-from ..ros.params import TASK_NAMES, ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
+from ..ros.params import declare_parameters
 from ..ros.qos import input_qos
 from ..ros.worker import LatestOnlyWorker
 from ..wire import topics
 from ..wire.diagnostics import KEY_CLARIFICATIONS, KEY_KERNELS_LOADED_LATE, KEY_MODEL, KEY_PLAN_STATUS, OK, WARN
 from ..wire.model_document import ModelDocument
-from ..wire.robot_state import check_unit_quaternion, joint_positions, pose_msg_to_matrix
+from ..wire.robot_state import joint_positions, object_pose_msg
 
-__all__ = ['GraspPlanner', 'PARAMETERS', 'main']
-
-
-def table_plane(value: Any) -> None:
-    """Validate ``table_plane``: all zeros, or 4 finite numbers with a non-zero normal (raises ValueError)."""
-    if any(value):
-        Table.in_object_frame(value, np.eye(4))
-
-PARAMETERS = (
-    ParamSpec('method', DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
-              "likely tasks, docs/planner.md), or the paper's 'lm' (P = v by log-odds projection, else least "
-              "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(METHODS),
-              constraints=f'one of {", ".join(METHODS)}'),
-    ParamSpec('execution_noise', (0.0, 0.0, 0.0, 0.0),
-              "Where the arm lands around a plan, as standard deviations: palm per axis (m), approach tilt about "
-              "each of two axes orthogonal to it (rad), wrist roll (rad), each finger closure (rad). Method 'task' "
-              "then picks the grasp with the highest expected success as executed (docs/planner.md); the "
-              "documented 1x level is [0.005, 0.0524, 0.0524, 0.1]. All zero (the default, as the planner's): an "
-              "exact landing. The estimate is made when a model is read, before its first plan (about a second of "
-              "CPU per model).",
-              validator=noise_from, constraints='4 finite numbers >= 0'),
-    ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
-    ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),
-    ParamSpec('object_position', (0.3, -0.3, 0.0),
-              'Object pose until one arrives on object/pose (and whenever set): position (x, y, z) of the '
-              'object frame in m1n6s300_link_base, m.', validator=finite_vector(3, 'x, y, z in m')),
-    ParamSpec('object_orientation', (0.0, 0.0, 1.0, 0.0),
-              'Object pose orientation: unit quaternion (x, y, z, w) in m1n6s300_link_base. The default '
-              'turns the cup handle (+x of the object) towards the arm.', validator=check_unit_quaternion,
-              constraints='unit norm within 1e-3'),
-    ParamSpec('workspace_radius', 1.5,
-              'Largest distance (m) of an object position from the m1n6s300_link_base origin: a pose on '
-              'object/pose or object_position farther away is rejected (the arm reaches about 1 m).',
-              range=(0.1, 100.0)),
-    ParamSpec('object_marker_size', (0.08, 0.10), 'Diameter and height of the object marker, m.',
-              validator=finite_vector(2, 'diameter, height in m', positive=True)),
-    ParamSpec('min_replan_period', 0.0, 'Least time between the starts of two plans, s (0: plan at once).',
-              range=(0.0, 10.0)),
-    ParamSpec('markers_period', 0.1, 'Least time between two grasp/markers messages, s (0: with every plan). '
-              'Markers are for RViz and cost as much to build as the other outputs together.',
-              range=(0.0, 10.0)),
-    ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
-    ParamSpec('collision_check', False, 'Turn down grasps whose hand goes into the table or the object on the '
-              'approach (fingers open, from the pre-grasp 0.08 m behind), as unreachable ones are '
-              '(docs/planner.md, "The hand\'s clearance").'),
-    ParamSpec('table_plane', (0.0, 0.0, 0.0, 0.0), 'The table in m1n6s300_link_base: (nx, ny, nz, d), points '
-              'with n . p >= d above it, m; all zeros: the plane the object stands on (z = 0 of its frame).',
-              validator=table_plane),
-    TASK_NAMES,
-)
+__all__ = ['GraspPlanner', 'main']
 
 
 @dataclass(frozen=True)
@@ -130,12 +81,9 @@ class GraspPlanner(Node):
     def __init__(self, node_name: str = 'grasp_planner', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._inputs_diag, self._plan_diag = NodeDiagnostics(self, 'inputs'), NodeDiagnostics(self, 'planning')
-        self._params = declare_parameters(self, PARAMETERS, on_change=self._on_parameters, check=self._check)
-        try:
-            self._kin = MicoKinematics(self._params['urdf_path'] or None)
-            self._hand = HandCollision(self._params['urdf_path'] or None)
-        except FileNotFoundError as exc:
-            raise ParameterError(f'urdf_path: {exc}') from None
+        self._params = declare_parameters(self, GRASP_PLANNER, on_change=self._on_parameters, check=self._check)
+        self._kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
+        self._hand = self._params.build('urdf_path', lambda path: HandCollision(path or None))
         self._warm: tuple[tuple[str, str], NDArray[np.float64]] | None = None
         self._clarifications = ClarificationRequests(self, self._plan_diag, count_key=KEY_CLARIFICATIONS,
                                                      outcome_key=KEY_PLAN_STATUS, level=WARN, log=True)
@@ -146,8 +94,8 @@ class GraspPlanner(Node):
         self._kernels = startup.KernelWarmUp(lambda: self._kin.ik(self._kin.fk(HOME_Q), HOME_Q, restarts=0),
                                              report=self._plan_diag.set_value, warn=self.get_logger().warning,
                                              ready=functools.partial(startup.announce_ready, self.get_logger().info))
-        base_T_obj = pose_to_matrix(self._params['object_position'], self._params['object_orientation'])
-        self._worker = LatestOnlyWorker(_Inputs(base_T_obj=base_T_obj), self._plan_diag.guard(self._plan),
+        self._worker = LatestOnlyWorker(_Inputs(base_T_obj=object_pose(self._params)),
+                                        self._plan_diag.guard(self._plan),
                                         ready=self._ready, name=f'{node_name}_planning',
                                         min_period=lambda: float(self._params['min_replan_period']),
                                         prepare=self._kernels.at_start,
@@ -195,9 +143,7 @@ class GraspPlanner(Node):
                                   f'zones {",".join(doc.model.zone_labels)})')
 
     def _on_object_pose(self, msg: PoseStamped) -> None:
-        base_T_obj = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
-        check_workspace(base_T_obj[:3, 3], self._params['workspace_radius'])
-        self._update(base_T_obj=base_T_obj)
+        self._update(base_T_obj=object_pose_msg(msg, self._params['workspace_radius']))
 
     def _on_joint_state(self, msg: JointState) -> None:
         if (q := joint_positions(msg, ARM_JOINTS)) is not None:
@@ -209,7 +155,7 @@ class GraspPlanner(Node):
 
         No model is active while the parameters are declared.
         """
-        check_workspace(values['object_position'], values['workspace_radius'], what='object_position')
+        check_object_pose(values)
         if hasattr(self, '_models'):
             self._models.check(served_models(values['task_names']))
 
@@ -217,8 +163,7 @@ class GraspPlanner(Node):
         if 'task_names' in changed:
             self._models.recheck()  # the model is served for other tasks, or now one refused is
         if {'object_position', 'object_orientation'} & set(changed):
-            self._update(base_T_obj=pose_to_matrix(self._params['object_position'],
-                                                   self._params['object_orientation']))
+            self._update(base_T_obj=object_pose(self._params))
 
     def _ready(self, inputs: _Inputs) -> bool:
         missing = [t for t, x in ((topics.MODEL_ACTIVE, inputs.model), (topics.INTENT_V, inputs.v)) if x is None]

@@ -27,9 +27,9 @@ Every w is answered, in order: a thread of its own (:class:`~grasp_intent_ros.ro
 takes all waiting w (up to 100) at each wake-up, off the executor, which handles the parameters, the
 arrival of model documents and the diagnostics timer.
 
-ROS parameters
+Parameters: :data:`grasp_intent_ros.method.parameters.INTENT_INTERPRETER`, ``config/intent_interpreter.yaml``.
     ``task_names`` (string[], default usage, transfer, handover): names of the m tasks in w's order, the same
-    list on every node of the suite (:data:`~grasp_intent_ros.ros.params.TASK_NAMES`)
+    list on every node of the suite (:data:`~grasp_intent_ros.method.parameters.TASK_NAMES`)
     ``clarification_threshold`` (float in (0, 1], default 0.5)
 """
 
@@ -44,7 +44,6 @@ from std_msgs.msg import Float64MultiArray
 
 from ..errors import InvalidIntentError
 from ..method.intent import (
-    DEFAULT_CLARIFICATION_THRESHOLD,
     MAX_TASKS,
     NeedsClarification,
     ZoneInterpreter,
@@ -53,12 +52,13 @@ from ..method.intent import (
     validate_w,
     zone_labels,
 )
+from ..method.parameters import INTENT_INTERPRETER
 from ..ros.clarification import ClarificationRequests
 from ..ros.conversions import SerializedArrays
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import decode_input, subscribe_input
 from ..ros.model_follower import ModelFollower, served_models
-from ..ros.params import TASK_NAMES, ParamSpec, declare_parameters
+from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, output_publisher
 from ..ros.run import guard_exit, publish_all, run_node
 from ..ros.worker import InputThread
@@ -67,24 +67,10 @@ from ..wire.arrays import msg_to_array, serialized_vector
 from ..wire.diagnostics import KEY_CLARIFICATIONS, KEY_LAST_OUTCOME, KEY_MODEL
 from ..wire.model_document import ModelDocument
 
-__all__ = ['IntentInterpreter', 'PARAMETERS', 'W_QUEUE_DEPTH', 'main']
+__all__ = ['IntentInterpreter', 'W_QUEUE_DEPTH', 'main']
 
 W_QUEUE_DEPTH = 100
 """Keep-last depth of the ``intent/w`` subscription: 0.1 s of w at 1 kHz."""
-
-
-def check_threshold(value: float) -> None:
-    """The threshold must be > 0 (the upper bound 1 is enforced by the descriptor's range)."""
-    if not value > 0.0:
-        raise InvalidIntentError(f'must lie in (0, 1], got {value}')
-
-
-PARAMETERS = (
-    TASK_NAMES,
-    ParamSpec('clarification_threshold', DEFAULT_CLARIFICATION_THRESHOLD,
-              'Ask for clarification instead of publishing v when P(no task) >= this probability.',
-              range=(0.0, 1.0), validator=check_threshold, constraints='in (0, 1]'),
-)
 
 
 class IntentInterpreter(Node):
@@ -93,7 +79,7 @@ class IntentInterpreter(Node):
     def __init__(self, node_name: str = 'intent_interpreter', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._diagnostics = NodeDiagnostics(self, 'intent')
-        self._params = declare_parameters(self, PARAMETERS, check=self._check, on_change=self._configure)
+        self._params = declare_parameters(self, INTENT_INTERPRETER, check=self._check, on_change=self._configure)
         self._pubs = {topics.INTENT_V: output_publisher(self, Float64MultiArray, topics.INTENT_V)}
         self._clarifications = ClarificationRequests(self, self._diagnostics, count_key=KEY_CLARIFICATIONS,
                                                      outcome_key=KEY_LAST_OUTCOME)

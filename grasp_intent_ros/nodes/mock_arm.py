@@ -36,7 +36,7 @@ Topics and services (relative)
   assistance sends zeros while the operator gives no input), and a non-zero twist ends it: the operator
   takes over.
 
-Parameters: :data:`PARAMETERS`, ``config/mock_arm.yaml``.
+Parameters: :data:`grasp_intent_ros.mico.parameters.MOCK_ARM`, ``config/mock_arm.yaml``.
 """
 
 from __future__ import annotations
@@ -56,52 +56,24 @@ from trajectory_msgs.msg import JointTrajectory
 
 from ..errors import GraspIntentError
 from ..mico.grasp import JOINT_NAMES
-from ..mico.kinematics import FINGER_JOINTS, HOME_Q, MicoKinematics
-from ..mico.mock_arm import FINGER_VELOCITY_LIMIT, MockArm, TrajectoryCommand, check_trajectory, check_twist
+from ..mico.kinematics import FINGER_JOINTS, MicoKinematics
+from ..mico.mock_arm import MockArm, TrajectoryCommand, check_trajectory
+from ..mico.parameters import MOCK_ARM
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input
-from ..ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
+from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, output_publisher
 from ..ros.robot import joint_state_msg
 from ..ros.run import guard_exit, publish_all, run_node
 from ..wire import topics
-from ..wire.diagnostics import ERROR
-from ..wire.robot_state import joint_positions
+from ..wire.robot_state import joint_positions, twist_command
 
-__all__ = ['MockArmNode', 'PARAMETERS', 'GRASP_CLOSE', 'GRASP_EXECUTE', 'TRAJECTORY_EXECUTIONS', 'main']
+__all__ = ['MockArmNode', 'GRASP_CLOSE', 'GRASP_EXECUTE', 'main']
 
 GRASP_CLOSE = 'grasp/close'
 """The hand's grasp command (std_srvs/Trigger): close the fingers to the plan's closures."""
 GRASP_EXECUTE = 'grasp/execute'
 """The request to follow the latest trajectory (std_srvs/Trigger), under ``trajectory_execution: on_request``."""
-TRAJECTORY_EXECUTIONS = ('on_arrival', 'on_request')
-"""When a trajectory is followed (module docstring)."""
-
-PARAMETERS = (
-    ParamSpec('initial_positions', (*HOME_Q.tolist(), 0.0, 0.0, 0.0),
-              f'Start (and reset) positions, rad, of {", ".join(JOINT_NAMES)}; default Home, fingers open.',
-              validator=finite_vector(len(JOINT_NAMES), 'rad')),
-    ParamSpec('period', 0.01, 'Time step and joint_states period, s.', range=(0.001, 1.0), read_only=True),
-    ParamSpec('command_timeout', 0.1, 'A twist older than this (s) stops the arm (MoveIt Servo: '
-              'incoming_command_timeout).', range=(0.001, 10.0)),
-    ParamSpec('ik_damping', 0.05, 'Largest damping lambda of the differential IK of twists (at a singularity).',
-              range=(1e-6, 10.0)),
-    ParamSpec('singular_threshold', 0.05, 'Smallest singular value of the Jacobian below which the IK is damped.',
-              range=(1e-6, 10.0)),
-    ParamSpec('trajectory_execution', 'on_arrival', "When a trajectory is followed: 'on_arrival' (a "
-              "joint_trajectory_controller) or 'on_request' (kept until grasp/execute: the twist stream owns the "
-              'arm, as under shared control).',
-              validator=one_of(TRAJECTORY_EXECUTIONS), constraints=f'one of {", ".join(TRAJECTORY_EXECUTIONS)}'),
-    ParamSpec('allow_partial_joints_goal', False, 'Accept trajectories for some of the joints (the '
-              "joint_trajectory_controller's parameter)."),
-    ParamSpec('finger_velocity_limit', FINGER_VELOCITY_LIMIT, 'Finger speed limit, rad/s.', range=(1e-3, 10.0)),
-    ParamSpec('closure_error', 0.05, "Standard deviation (rad) of each finger's closure error on grasp/close.",
-              range=(0.0, 1.0)),
-    ParamSpec('closure_seed', 0, 'Seed of the closure errors.', range=(0, 2**31 - 1), read_only=True),
-    ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
-)
-
-
 def _seconds(t: Any) -> float:
     return int(t.sec) + int(t.nanosec) * 1e-9
 
@@ -112,16 +84,10 @@ class MockArmNode(Node):
     def __init__(self, node_name: str = 'mock_arm', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, 'arm')
-        self._params = declare_parameters(self, PARAMETERS, on_change=self._configure)
-        try:
-            kin = MicoKinematics(self._params['urdf_path'] or None)
-        except FileNotFoundError as exc:
-            raise ParameterError(f'urdf_path: {exc}') from None
-        try:
-            self._arm = MockArm(kin, self._params['initial_positions'],
-                                finger_velocity_limit=self._params['finger_velocity_limit'])
-        except ValueError as exc:
-            raise ParameterError(f'initial_positions: {exc}') from None
+        self._params = declare_parameters(self, MOCK_ARM, on_change=self._configure)
+        kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
+        self._arm = self._params.build('initial_positions', lambda q0: MockArm(
+            kin, q0, finger_velocity_limit=self._params['finger_velocity_limit']))
         self._configure(self._params)
         self._ignored = 0
         self._pubs = {topics.JOINT_STATES: output_publisher(self, JointState, topics.JOINT_STATES)}
@@ -135,7 +101,7 @@ class MockArmNode(Node):
         self.create_service(Trigger, GRASP_CLOSE, self._on_close)
         self.create_service(Trigger, GRASP_EXECUTE, self._on_execute)
         self._last = self._now()
-        self.create_timer(self._params['period'], self._on_timer)
+        self.create_timer(self._params['period'], self._diag.guard_timer(self._on_timer))
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
         self._arm.damping, self._arm.singular_threshold = self._params['ik_damping'], self._params['singular_threshold']
@@ -166,9 +132,7 @@ class MockArmNode(Node):
         arm.command_trajectory(cmd, now, allow_partial=partial)
 
     def _on_twist(self, msg: TwistStamped) -> None:
-        t = msg.twist
-        twist = check_twist([t.linear.x, t.linear.y, t.linear.z], [t.angular.x, t.angular.y, t.angular.z],
-                            msg.header.frame_id)
+        twist = twist_command(msg)
         if (self._params['trajectory_execution'] == 'on_request' and self._arm.mode == 'trajectory'
                 and not (np.any(twist.linear) or np.any(twist.angular))):
             return  # a requested trajectory runs on through the zero twists of an operator at rest
@@ -216,15 +180,12 @@ class MockArmNode(Node):
 
     def _on_timer(self) -> None:
         now = self._now()
-        try:
-            self._arm.step(now, now - self._last)
-            self._last = now
-            msg = joint_state_msg(JOINT_NAMES, self._arm.q, stamp=self.get_clock().now().to_msg())
-            msg.velocity = array.array('d', self._arm.qd.tolist())
-            publish_all(self, self._pubs, {topics.JOINT_STATES: msg})  # dropped once a signal ended the context
-            self._diag.set_value('mode', self._arm.mode)
-        except Exception as exc:  # noqa: BLE001 - an exception escaping a timer kills the node
-            self._diag.rejected(f'internal error: {type(exc).__name__}: {exc}', level=ERROR)
+        self._arm.step(now, now - self._last)
+        self._last = now
+        msg = joint_state_msg(JOINT_NAMES, self._arm.q, stamp=self.get_clock().now().to_msg())
+        msg.velocity = array.array('d', self._arm.qd.tolist())
+        publish_all(self, self._pubs, {topics.JOINT_STATES: msg})  # dropped once a signal ended the context
+        self._diag.set_value('mode', self._arm.mode)
 
 
 def main(args: list[str] | None = None) -> None:

@@ -15,7 +15,8 @@ Topics (relative; ``-r __ns:=/robot1`` moves them)
     out           ``model/posterior``            std_msgs/Float64MultiArray, P(zone | x) over the active
                                                  model's zones, dim labelled with the zone labels
     out           ``/diagnostics``
-Parameters
+
+Parameters: :data:`grasp_intent_ros.method.parameters.MODEL_SERVER`, ``config/model_server.yaml``.
     ``model`` (string, default cup_7zone): active model, the stem of a YAML file in the models
     directory; changeable at run time; an unknown or malformed model is rejected with the reason.
     Its descriptor's ``additional_constraints`` (``ros2 param describe /model_server model``) list the
@@ -39,12 +40,13 @@ from std_msgs.msg import Float64MultiArray, String
 
 from ..errors import InvalidFeaturesError
 from ..method import ambiguity
+from ..method.parameters import MODEL_SERVER
 from ..method.registry import ModelFiles
 from ..ros.conversions import array_to_msg, model_to_msg
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input
 from ..ros.model_follower import served_models
-from ..ros.params import TASK_NAMES, ParamSpec, declare_parameters
+from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, latched_qos, output_publisher
 from ..ros.run import guard_exit, publish_all, release_free_memory, run_node
 from ..wire import topics
@@ -52,17 +54,7 @@ from ..wire.arrays import msg_to_array
 from ..wire.diagnostics import KEY_MODEL
 from ..wire.topics import MAX_FEATURES
 
-__all__ = ['ModelServer', 'PARAMETERS', 'MAX_FEATURES', 'main']
-
-PARAMETERS = (
-    ParamSpec('model', 'cup_7zone',
-              'Active grasp model: the file stem of a model YAML in models_dir (e.g. cup_7zone).'),
-    ParamSpec('models_dir', '',
-              "Directory of the trained models (*.yaml); '' means the package's config/models.",
-              read_only=True),
-    TASK_NAMES,
-)
-
+__all__ = ['ModelServer', 'MAX_FEATURES', 'main']
 
 class ModelServer(Node):
     """Publishes the active model and its ambiguity (latched) and answers posterior queries."""
@@ -77,7 +69,7 @@ class ModelServer(Node):
                                           (topics.MODEL_AMBIGUITY_SYMMETRIC, Float64MultiArray),
                                           (topics.MODEL_AMBIGUITY_PINSKER, Float64MultiArray))}
         self._pubs[topics.MODEL_POSTERIOR] = output_publisher(self, Float64MultiArray, topics.MODEL_POSTERIOR)
-        self._params = declare_parameters(self, PARAMETERS, check=self._check, on_change=self._activate)
+        self._params = declare_parameters(self, MODEL_SERVER, check=self._check, on_change=self._activate)
         self._activate(self._params)
         self._query_sub = subscribe_input(self, topics.MODEL_QUERY, self._on_query, input_qos(), self._diagnostics)
 

@@ -31,13 +31,14 @@ from typing import Any
 
 from rclpy.node import Node
 
-from ..errors import KinematicsError
 from ..method.features import MICO_3F
 from ..method.model import ModelRequirements
+from ..mico.parameters import URDF_PATH
+from ..parameters import ParameterError, ParamSpec
 from ..ros.conversions import type_class
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.model_follower import ModelFollower
-from ..ros.params import ParameterError, ParamSpec, declare_parameters
+from ..ros.params import declare_parameters
 from ..ros.qos import input_qos
 from ..ros.run import guard_exit, run_node
 from ..ros.worker import LatestOnlyWorker
@@ -56,7 +57,7 @@ PARAMETERS = (
     ParamSpec('port', 8080, 'TCP port of the page (0: any free port; a port in use: the next free one).',
               range=(0, 65535), read_only=True),
     ParamSpec('rate', 20.0, 'Most frames drawn per second, Hz (the newest state each time).', range=(1.0, 60.0)),
-    ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True),
+    URDF_PATH,
 )
 
 
@@ -67,10 +68,7 @@ class Viewer(Node):
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, 'viewer')
         self._params = declare_parameters(self, PARAMETERS)
-        try:
-            arm = ArmModel(self._params['urdf_path'] or None)
-        except (FileNotFoundError, KinematicsError) as exc:
-            raise ParameterError(f'urdf_path: {exc}') from None
+        arm = self._params.build('urdf_path', lambda path: ArmModel(path or None))
         try:
             self._page = ScenePage(arm, host=self._params['host'], port=self._params['port'],
                                    title=f'grasp_intent_ros {self.get_fully_qualified_name()}')

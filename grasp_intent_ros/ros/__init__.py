@@ -14,8 +14,8 @@ startup
 qos
     QoS profiles: input (compatible with ``ros2 topic pub``), output, latched.
 params
-    Parameters declared from a table of :class:`~grasp_intent_ros.ros.params.ParamSpec`, validated
-    together on every change and never half-applied; common validators.
+    ``declare_parameters``: a node's table of :class:`~grasp_intent_ros.parameters.ParamSpec` declared with
+    ParameterDescriptors, validated together on every change and never half-applied.
 diagnostics
     ``NodeDiagnostics``: counters, last error and timing of a node, published on ``/diagnostics``,
     and ``guard`` for subscription callbacks that must never raise.

@@ -198,6 +198,19 @@ class NodeDiagnostics:
                 self.processed(time.perf_counter() - start)
         return guarded
 
+    def guard_timer(self, callback: Callable[[], object]) -> Callable[[], None]:
+        """Wrap a timer callback: any exception is an ERROR rejection ('internal error: ...'); nothing escapes.
+
+        An exception escaping a timer callback would kill the node; the timer's own work is not counted.
+        """
+        @functools.wraps(callback)
+        def guarded() -> None:
+            try:
+                callback()
+            except Exception as exc:  # noqa: BLE001 - an exception escaping a timer kills the node
+                self.rejected(f'internal error: {type(exc).__name__}: {exc}', level=ERROR)
+        return guarded
+
     def count_dropped(self, callback: Callable[[M], object]) -> Callable[[M], None]:
         """Wrap a subscription callback so that the messages it never got are counted (``messages dropped``).
 

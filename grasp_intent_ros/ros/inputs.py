@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any, cast
 
+from geometry_msgs.msg import Twist
 from rclpy.callback_groups import CallbackGroup
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
@@ -20,12 +21,12 @@ from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
 
 from ..errors import GraspIntentError
-from ..wire.topics import MAX_MESSAGE_BYTES, check_message_size
+from ..wire.topics import MAX_MESSAGE_BYTES, OPERATOR_TWIST, check_message_size
 from .conversions import message_class
 from .diagnostics import NodeDiagnostics
 from .qos import input_events
 
-__all__ = ['subscribe_input', 'decode_input']
+__all__ = ['subscribe_input', 'subscribe_operator', 'decode_input']
 
 
 def decode_input(topic: str, data: bytes, msg_type: Any = None) -> Any:
@@ -94,3 +95,14 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
                                     event_callbacks=input_events(node.get_logger(), topic),
                                     callback_group=callback_group)
 
+
+
+def subscribe_operator(node: Node, callback: Callable[[Any], object], qos: QoSProfile, diagnostics: NodeDiagnostics,
+                       message_type: str) -> Subscription:
+    """:func:`subscribe_input` to ``operator/twist``, messages dropped counted: a TwistStamped, or a plain Twist.
+
+    ``message_type`` is the node's ``operator_message_type`` parameter ('TwistStamped' or 'Twist');
+    :func:`grasp_intent_ros.wire.robot_state.twist_command` reads either.
+    """
+    return subscribe_input(node, OPERATOR_TWIST, callback, qos, diagnostics, count_dropped=True,
+                           msg_type=Twist if message_type == 'Twist' else None)

@@ -1,15 +1,17 @@
-"""Node parameters declared from a table, validated together, never half-applied.
+"""The one routine that declares a node's parameter table: descriptors, validation as a whole, on-set callbacks.
 
-A node lists its parameters as :class:`ParamSpec` entries and calls :func:`declare_parameters`
-once in its constructor. Each parameter gets a ParameterDescriptor (type, description, range,
-read-only) that rclpy enforces; on top of that, every change is checked by the spec's validator and
-by an optional whole-table ``check`` in an on-set callback that sees *all* parameters of the request
-at once and rejects the whole request with a reason. Only accepted changes reach the node, through
-``on_change`` called from the post-set callback, so the node's state is never half-updated.
+A node's parameters are a table of :class:`~grasp_intent_ros.parameters.ParamSpec` (ROS-free, kept beside the
+feature they configure); the node calls :func:`declare_parameters` once in its constructor. Each parameter
+gets a ParameterDescriptor (type, description, range as a FloatingPointRange or IntegerRange, read-only) that
+rclpy enforces, and all are declared in one ``Node.declare_parameters`` call; on top of that, every change
+is checked by the spec's validator and by an optional whole-table ``check`` in an on-set callback that sees
+*all* parameters of the request at once and rejects the whole request with a reason. Only accepted changes
+reach the node, through ``on_change`` called from the post-set callback, so the node's state is never
+half-updated.
 
 Values come from the spec default, overridden by ``--ros-args --params-file config/<node>.yaml``
 (node name as the key, ``/**/<node>`` to match it in any namespace). Initial values are validated the
-same way; an invalid one makes the constructor raise :class:`ParameterError`.
+same way; an invalid one makes the constructor raise :class:`~grasp_intent_ros.parameters.ParameterError`.
 
 Read current values from the returned :class:`Parameters` mapping (a dict lookup), never with
 ``get_parameter`` in a hot path. Values are plain Python: bool, int, float, str, or tuples of them.
@@ -18,125 +20,50 @@ Read current values from the returned :class:`Parameters` mapping (a dict lookup
 from __future__ import annotations
 
 import array
-import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from ..errors import InvalidIntentError
-from ..method.intent import DEFAULT_TASKS, MAX_TASKS, all_zones
+from ..parameters import ParameterError, ParamSpec
 
-__all__ = ['ParamSpec', 'Parameters', 'ParameterError', 'declare_parameters', 'one_of', 'finite_vector',
-           'check_task_names', 'TASK_NAMES']
+__all__ = ['Parameters', 'ParameterError', 'declare_parameters', 'descriptor']
 
-Validator = Callable[[Any], object]
-"""Called with a proposed value; raises ValueError (e.g. a core GraspIntentError) with the reason."""
-
-
-def one_of(choices: Sequence[str]) -> Validator:
-    """A validator accepting only ``choices``."""
-    def check(value: str) -> None:
-        if value not in choices:
-            raise ValueError(f'must be one of {", ".join(choices)}; got {value!r}')
-    return check
+T = TypeVar('T')
+_ARRAY_TYPES = {bool: Parameter.Type.BOOL_ARRAY, int: Parameter.Type.INTEGER_ARRAY,
+                float: Parameter.Type.DOUBLE_ARRAY, str: Parameter.Type.STRING_ARRAY}
 
 
-def finite_vector(n: int, meaning: str, *, positive: bool = False) -> Validator:
-    """A validator of ``n`` finite (and, with ``positive``, > 0) numbers; ``meaning`` ends the reason."""
-    def check(value: Sequence[float]) -> None:
-        if len(value) != n or not all(math.isfinite(v) and (v > 0.0 or not positive) for v in value):
-            kind = 'positive' if positive else 'finite'
-            raise ValueError(f'must be {n} {kind} numbers ({meaning}), got {list(value)}')
-    return check
+def _param_type(spec: ParamSpec) -> Parameter.Type:
+    """The declared type: inferred from the default, or ``item_type``'s array for an empty sequence."""
+    if _is_sequence(spec.default) and len(spec.default) == 0:
+        if spec.item_type not in _ARRAY_TYPES:
+            raise TypeError(f'parameter {spec.name!r}: an empty default needs item_type bool, int, float or str')
+        return _ARRAY_TYPES[spec.item_type]
+    inferred: Parameter.Type = Parameter.Type.from_parameter_value(_to_rclpy(spec.default))
+    if spec.item_type is not None and inferred != _ARRAY_TYPES.get(spec.item_type):
+        raise TypeError(f'parameter {spec.name!r}: default {spec.default!r} is not a sequence of {spec.item_type}')
+    return inferred
 
 
-class ParameterError(ValueError):
-    """An initial parameter value (default or from a params file) fails validation."""
-
-
-@dataclass(frozen=True)
-class ParamSpec:
-    """One parameter of a node.
-
-    Attributes
-    ----------
-    name : str
-    default : bool, int, float, str or a sequence of one of these
-        Also fixes the type unless ``type`` is given (needed for an empty sequence).
-    description : str
-        Shown by ``ros2 param describe``; state the unit.
-    type : rclpy.parameter.Parameter.Type, optional
-    range : (low, high) or (low, high, step), optional
-        Inclusive; becomes a FloatingPointRange (float) or IntegerRange (int) enforced by rclpy.
-    read_only : bool
-        Settable only at start-up (params file or override).
-    validator : callable, optional
-        Further check of a single value: raises ValueError with the reason.
-    constraints : str
-        Free text for ``additional_constraints``; default: the range, if any.
-    """
-
-    name: str
-    default: Any
-    description: str
-    type: Parameter.Type | None = None
-    range: tuple[float, float] | tuple[float, float, float] | None = None
-    read_only: bool = False
-    validator: Validator | None = None
-    constraints: str = ''
-
-    def param_type(self) -> Parameter.Type:
-        """The declared type: ``type`` if given, else inferred from the default."""
-        inferred: Parameter.Type = Parameter.Type.from_parameter_value(_to_rclpy(self.default))
-        if self.type is None:
-            return inferred
-        if _is_sequence(self.default) and len(self.default) == 0:
-            return self.type
-        if inferred != self.type:
-            raise TypeError(f'parameter {self.name!r}: default {self.default!r} is not of type {self.type}')
-        return self.type
-
-    def descriptor(self) -> ParameterDescriptor:
-        """The ParameterDescriptor for this spec."""
-        ptype = self.param_type()
-        desc = ParameterDescriptor(name=self.name, type=ptype.value, description=self.description,
-                                   read_only=self.read_only)
-        constraints = self.constraints
-        if self.range is not None:
-            low, high = self.range[0], self.range[1]
-            step = self.range[2] if len(self.range) == 3 else 0
-            if ptype == Parameter.Type.DOUBLE:
-                desc.floating_point_range = [FloatingPointRange(
-                    from_value=float(low), to_value=float(high), step=float(step))]
-            elif ptype == Parameter.Type.INTEGER:
-                desc.integer_range = [IntegerRange(from_value=int(low), to_value=int(high), step=int(step))]
-            else:
-                raise TypeError(f'parameter {self.name!r}: a range needs a float or int parameter')
-            constraints = constraints or f'in [{low}, {high}]'
-        desc.additional_constraints = constraints
-        return desc
-
-
-def check_task_names(names: Sequence[str]) -> None:
-    """1..MAX_TASKS unique, non-empty names without commas. Raises InvalidIntentError."""
-    all_zones(len(names))
-    if any(not n or ',' in n or n != n.strip() for n in names):
-        raise InvalidIntentError(f'task names must be non-empty, without commas or surrounding spaces: '
-                                 f'{list(names)}')
-    if len(set(names)) != len(names):
-        raise InvalidIntentError(f'task names must be unique: {list(names)}')
-
-
-TASK_NAMES = ParamSpec(
-    'task_names', DEFAULT_TASKS,
-    'Names of the m principal tasks, in the order of the entries of w (m = expected length of w). The same '
-    'list on every node of the suite: a model of other tasks is refused.',
-    validator=check_task_names, constraints=f'1..{MAX_TASKS} unique names without commas')
-"""The suite's tasks: the interpreter reads w by them; every node serves only models of these tasks."""
+def descriptor(spec: ParamSpec) -> ParameterDescriptor:
+    """The ParameterDescriptor of ``spec`` (its range a FloatingPointRange or an IntegerRange)."""
+    ptype = _param_type(spec)
+    desc = ParameterDescriptor(name=spec.name, type=ptype.value, description=spec.description,
+                               read_only=spec.read_only, additional_constraints=spec.constraint_text())
+    if spec.range is not None:
+        low, high = spec.range[0], spec.range[1]
+        step = spec.range[2] if len(spec.range) == 3 else 0
+        if ptype == Parameter.Type.DOUBLE:
+            desc.floating_point_range = [FloatingPointRange(from_value=float(low), to_value=float(high),
+                                                            step=float(step))]
+        elif ptype == Parameter.Type.INTEGER:
+            desc.integer_range = [IntegerRange(from_value=int(low), to_value=int(high), step=int(step))]
+        else:
+            raise TypeError(f'parameter {spec.name!r}: a range needs a float or int parameter')
+    return desc
 
 
 def _is_sequence(value: Any) -> bool:
@@ -167,15 +94,14 @@ class Parameters(Mapping[str, Any]):
             raise ValueError('parameter specs must have unique names')
         self._check = check
         self._on_change = on_change
-        for spec in specs:
-            ptype = spec.param_type()
-            default = _to_rclpy(spec.default)
-            if _is_sequence(default) and len(default) == 0:
-                declared = node.declare_parameter(spec.name, ptype, spec.descriptor())
-                if declared.type_ == Parameter.Type.NOT_SET:
-                    node.set_parameters([Parameter(spec.name, ptype, [])])
-            else:
-                node.declare_parameter(spec.name, default, spec.descriptor())
+        empty = [spec for spec in specs if _is_sequence(spec.default) and len(spec.default) == 0]
+        # an empty default declares the type alone (rclpy cannot infer an empty array's), then sets it
+        declared = node.declare_parameters('', [
+            (spec.name, _param_type(spec) if spec in empty else _to_rclpy(spec.default), descriptor(spec))
+            for spec in specs])
+        unset = [spec for spec, param in zip(specs, declared) if param.type_ == Parameter.Type.NOT_SET]
+        if unset:
+            node.set_parameters([Parameter(spec.name, _param_type(spec), []) for spec in unset])
         self._values: dict[str, Any] = {
             name: _plain(node.get_parameter(name).value) for name in self._specs}
         reason = self.validate(self._values, self._values)
@@ -193,6 +119,19 @@ class Parameters(Mapping[str, Any]):
 
     def __len__(self) -> int:
         return len(self._values)
+
+    def build(self, name: str, make: Callable[[Any], T]) -> T:
+        """``make(value of name)``, as the node's start-up uses it (e.g. the kinematics of ``urdf_path``).
+
+        Raises
+        ------
+        ParameterError
+            When ``make`` raises ValueError or FileNotFoundError: the parameter's name and the reason.
+        """
+        try:
+            return make(self._values[name])
+        except (ValueError, FileNotFoundError) as exc:
+            raise ParameterError(f'{name}: {exc}') from None
 
     def validate(self, proposed: Mapping[str, Any], changed: Mapping[str, Any]) -> str:
         """Reasons why ``proposed`` (all values, ``changed`` among them) is invalid; '' when valid.

@@ -10,6 +10,8 @@ operators
     Scripted teleoperators and their intents (a device model, a goal choice without the rules, an intent script).
 simulator
     The closed loop on a simulated clock with the nodes' core functions (planner policy, assistance, mock arm).
+parameters (ROS-free tables)
+    The assistance node's and the intent estimator node's parameter tables; how the operator's twist is read.
 
 Imports of the package: :mod:`~grasp_intent_ros.errors`, :mod:`~grasp_intent_ros.method`,
 :mod:`~grasp_intent_ros.planning` and :mod:`~grasp_intent_ros.mico`.

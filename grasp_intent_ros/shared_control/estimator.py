@@ -82,7 +82,7 @@ from ..mico.frames import check_transform, check_vector, features_to_obj_T_ee
 from ..mico.kinematics import HOME_Q, MicoKinematics
 
 __all__ = ['EstimatorConfig', 'Goals', 'goals_from_poses', 'goals_at', 'reachable_goals', 'progress_rates',
-           'IntentEstimator']
+           'TwistTiming', 'IntentEstimator']
 
 
 @dataclass(frozen=True)
@@ -269,6 +269,30 @@ def reachable_goals(model: GraspModel, base_T_obj: ArrayLike, kin: MicoKinematic
             break
         out[k] = kin.ik(base_T @ features_to_obj_T_ee(x), seed, restarts=restarts).success
     return out
+
+
+class TwistTiming:
+    """How long each operator twist is taken to act: until the next one, so from the previous one to it.
+
+    The difference of two successive twists' header stamps (s) when both are set: the operator's own timing,
+    which delivery delays do not change; else of their arrival times (s, one clock); ``max_dt`` for the first
+    twist. :meth:`IntentEstimator.update` clips it to [0, ``max_dt``].
+    """
+
+    def __init__(self) -> None:
+        self.arrival: float | None = None
+        """Arrival time (s) of the last twist; None before the first."""
+        self.stamp: float | None = None
+        """Its header stamp (s); None when unset."""
+
+    def duration(self, stamp: float | None, arrival: float, max_dt: float) -> float:
+        """The duration (s) of a twist stamped ``stamp`` (None: unset) that arrived at ``arrival`` (now the last)."""
+        if stamp is not None and self.stamp is not None:
+            dt = stamp - self.stamp
+        else:
+            dt = max_dt if self.arrival is None else arrival - self.arrival
+        self.arrival, self.stamp = arrival, stamp
+        return dt
 
 
 def progress_rates(goals: Goals, base_T_ee: NDArray[np.float64], twist: NDArray[np.float64],

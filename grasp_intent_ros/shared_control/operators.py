@@ -100,6 +100,15 @@ class SharpeningIntent:
     true_set: int
     sharpen: float
 
+    @classmethod
+    def draw(cls, rng: np.random.Generator) -> SharpeningIntent:
+        """One operator's intent over three tasks: w0 ~ U(0.2, 0.8)^3, T drawn from it, ``sharpen`` ~ U(1.5, 4) s.
+
+        The draws come from ``rng`` in that order (the benchmarks' seeded operators depend on it).
+        """
+        w0 = rng.uniform(0.2, 0.8, 3)
+        return cls(tuple(w0.tolist()), draw_task_set(w0, rng), float(rng.uniform(1.5, 4.0)))
+
     def task_set(self, t: float) -> int:
         return self.true_set
 

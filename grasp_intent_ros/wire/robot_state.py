@@ -13,39 +13,17 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from ..errors import KinematicsError
-from ..mico.frames import pose_to_matrix
+from ..mico.frames import QUATERNION_NORM_TOL, check_unit_quaternion, pose_to_matrix
+from ..mico.grasp import check_workspace
+from ..mico.kinematics import BASE_FRAME
+from ..mico.mock_arm import TwistCommand, check_twist
 from .topics import MAX_JOINTS, MAX_NAME_LENGTH, check_names
 
-__all__ = ['QUATERNION_NORM_TOL', 'check_unit_quaternion', 'pose_msg_to_matrix', 'joint_positions']
-
-QUATERNION_NORM_TOL = 1e-3
-"""Largest accepted deviation of an incoming quaternion's norm from 1."""
-
-
-def check_unit_quaternion(xyzw: ArrayLike, *, tol: float = QUATERNION_NORM_TOL) -> NDArray[np.float64]:
-    """A finite quaternion (x, y, z, w) of unit norm within ``tol``, as an array of shape (4,).
-
-    Raises
-    ------
-    KinematicsError
-        For a wrong shape, a NaN or infinity, or a norm further than ``tol`` from 1.
-    """
-    try:
-        q = np.asarray(xyzw, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise KinematicsError(f'quaternion must be numeric: {exc}') from None
-    if q.shape != (4,):
-        raise KinematicsError(f'quaternion must have 4 entries (x, y, z, w), got shape {q.shape}')
-    if not np.all(np.isfinite(q)):
-        raise KinematicsError(f'quaternion must be finite, got {q.tolist()}')
-    norm = float(np.linalg.norm(q))
-    if abs(norm - 1.0) > tol:
-        raise KinematicsError(f'quaternion must have unit norm (within {tol:g}), got norm {norm:.6g} '
-                              f'for (x, y, z, w) = {q.tolist()}')
-    return q
+__all__ = ['QUATERNION_NORM_TOL', 'check_unit_quaternion', 'pose_msg_to_matrix', 'joint_positions', 'twist_command',
+           'stamp_seconds', 'object_pose_msg']
 
 
 def pose_msg_to_matrix(msg: Any, *, frame_id: str,
@@ -99,3 +77,40 @@ def joint_positions(msg: Any, names: Sequence[str]) -> NDArray[np.float64] | Non
         bad = [name for name, value in zip(names, q) if not math.isfinite(value)]
         raise KinematicsError(f'joint state positions must be finite; NaN or infinity for {bad}')
     return q
+
+
+def twist_command(msg: Any, *, default_frame: str = BASE_FRAME) -> TwistCommand:
+    """A geometry_msgs/TwistStamped, or a plain Twist (no header: frame ''), as a checked twist command.
+
+    An empty frame means ``default_frame``.
+
+    Raises
+    ------
+    CommandError
+        As :func:`grasp_intent_ros.mico.mock_arm.check_twist`: a NaN or infinity, a frame but the base or the EE.
+    """
+    stamped = hasattr(msg, 'header')
+    twist, frame = (msg.twist, msg.header.frame_id) if stamped else (msg, '')
+    return check_twist([twist.linear.x, twist.linear.y, twist.linear.z],
+                       [twist.angular.x, twist.angular.y, twist.angular.z], frame, default_frame=default_frame)
+
+
+def stamp_seconds(msg: Any) -> float | None:
+    """A message's header stamp in seconds; None for a message without a header or with an unset (zero) stamp."""
+    if not hasattr(msg, 'header'):
+        return None
+    return (msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec) or None
+
+
+def object_pose_msg(msg: Any, workspace_radius: float) -> NDArray[np.float64]:
+    """``base_T_obj``, shape (4, 4), of an ``object/pose`` PoseStamped: in the base frame, within the workspace.
+
+    Raises
+    ------
+    KinematicsError
+        As :func:`pose_msg_to_matrix` (frame ``m1n6s300_link_base``), or for a position farther than
+        ``workspace_radius`` (m) from the base origin (:func:`grasp_intent_ros.mico.grasp.check_workspace`).
+    """
+    base_T_obj = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
+    check_workspace(base_T_obj[:3, 3], workspace_radius)
+    return base_T_obj

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import importlib
 import re
 import textwrap
 from pathlib import Path
 
 import pytest
+from node_parameters import node_parameters
 
 from grasp_intent_ros.launch.suite import SHARED_CONTROL_NODES, SUITE_NODES
 
@@ -32,7 +32,7 @@ def comments(path: Path) -> dict[str, str]:
 
 @pytest.mark.parametrize('node', [*SUITE_NODES, *SHARED_CONTROL_NODES])
 def test_every_parameter_is_documented_by_its_descriptor_text(node: str) -> None:
-    specs = importlib.import_module(f'grasp_intent_ros.nodes.{node}').PARAMETERS
+    specs = node_parameters(node)
     documented = comments(CONFIG / f'{node}.yaml')
     for spec in specs:
         wrapped = '\n'.join(f'    # {line}' for line in textwrap.wrap(spec.description, WIDTH))

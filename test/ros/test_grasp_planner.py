@@ -38,7 +38,8 @@ from grasp_intent_ros.method.model import GraspModel, structure_zones
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.mico.grasp import MIN_TRAJECTORY_TIME
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
-from grasp_intent_ros.nodes.grasp_planner import PARAMETERS, GraspPlanner
+from grasp_intent_ros.mico.parameters import GRASP_PLANNER
+from grasp_intent_ros.nodes.grasp_planner import GraspPlanner
 from grasp_intent_ros.objects.demos import grasp_features
 from grasp_intent_ros.planning import common, planner
 from grasp_intent_ros.planning.options import node_options
@@ -63,8 +64,8 @@ LABELS_7 = 'U,T,H,UT,UH,TH,UTH'
 DEFAULT_POSE = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 W_GOOD = (0.9, 0.9, 0.1)
 TOPICS = ('pose', 'joints', 'trajectory', 'posterior', 'features', 'markers')
-METHOD = next(spec.default for spec in PARAMETERS if spec.name == 'method')
-OPTIONS = node_options(METHOD, *(next(spec.default for spec in PARAMETERS if spec.name == name)
+METHOD = next(spec.default for spec in GRASP_PLANNER if spec.name == 'method')
+OPTIONS = node_options(METHOD, *(next(spec.default for spec in GRASP_PLANNER if spec.name == name)
                                  for name in ('n_starts', 'execution_noise')))
 
 

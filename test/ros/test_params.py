@@ -9,13 +9,14 @@ import rclpy
 from rcl_interfaces.msg import ParameterType
 from rclpy.parameter import Parameter
 
-from grasp_intent_ros.ros.params import ParameterError, ParamSpec, declare_parameters, finite_vector, one_of
+from grasp_intent_ros.parameters import ParameterError, ParamSpec, finite_vector, one_of
+from grasp_intent_ros.ros.params import declare_parameters
 
 SPECS = (
     ParamSpec('mode', 'fast', 'How.', validator=one_of(('fast', 'slow'))),
     ParamSpec('size', (1.0, 2.0), 'Width and height, m.', validator=finite_vector(2, 'w, h in m', positive=True)),
     ParamSpec('count', 3, 'How many.', range=(1, 5)),
-    ParamSpec('names', (), 'Names.', type=Parameter.Type.STRING_ARRAY),
+    ParamSpec('names', (), 'Names.', item_type=str),
 )
 
 

@@ -25,10 +25,11 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 PACKAGE = 'grasp_intent_ros'
 ROS = re.compile(r'^(rclpy|rcl_interfaces|builtin_interfaces|[a-z_]+_msgs|[a-z_]+_srvs)(\.|$)')
-BASE = ('errors', 'resources')
+BASE = ('errors', 'resources', 'parameters')
 CONTRACTS: Mapping[str, tuple[str, ...]] = {
     'errors': (),
     'resources': (),
+    'parameters': (),
     'latest_only': (),
     'commands': (),
     '__main__': ('commands',),
@@ -53,8 +54,8 @@ CONTRACTS: Mapping[str, tuple[str, ...]] = {
     'cli': (*BASE, 'method', 'planning', 'mico', 'wire', 'ros', 'objects'),
 }
 """Folder (or module, the most specific entry wins) -> what else of the package it may import."""
-ROS_FREE = ('errors', 'resources', 'latest_only', 'commands', 'kernels', 'method', 'planning', 'mico', 'shared_control',
-            'objects', 'wire', 'scene', 'sessions')
+ROS_FREE = ('errors', 'resources', 'parameters', 'latest_only', 'commands', 'kernels', 'method', 'planning', 'mico',
+            'shared_control', 'objects', 'wire', 'scene', 'sessions')
 """Folders that import no rclpy and no ROS message package (``sessions`` but its live replay: below)."""
 ROS_USERS = ('sessions.replay', 'sessions.replay_client', 'sessions.fixtures')
 """Modules of a ROS-free folder that talk ROS (the replay and the fixture recording run the nodes and are their

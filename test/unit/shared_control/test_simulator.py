@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from numpy.testing import assert_allclose
 
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
@@ -18,6 +19,8 @@ from grasp_intent_ros.shared_control.operators import (
     OperatorConstants,
     PersistentIntent,
     ScriptedOperator,
+    SharpeningIntent,
+    certain_w,
     draw_task_set,
 )
 from grasp_intent_ros.shared_control.simulator import (
@@ -53,6 +56,11 @@ def test_intents_follow_their_scripts() -> None:
     changing = ChangingIntent(persistent, H, t_change=2.0, delay=1.0)
     assert changing.task_set(1.9) == U | T and changing.task_set(2.0) == H
     assert changing.w(2.5, rng)[0] > 0.6 and changing.w(3.0, rng)[0] < 0.3  # w follows 1 s after the change
+    drawn = [SharpeningIntent.draw(rng) for _ in range(500)]
+    assert all(0.2 <= w <= 0.8 for d in drawn for w in d.w0) and all(1.5 <= d.sharpen <= 4.0 for d in drawn)
+    assert all(d.true_set != 0 for d in drawn)
+    sharpening = drawn[0]
+    assert_allclose(sharpening.w(sharpening.sharpen, rng), certain_w(sharpening.true_set))  # no noise once sharp
 
 
 def test_a_suite_episode_is_reproducible_and_ends_at_a_grasp_serving_the_operator(cup) -> None:

@@ -1,0 +1,123 @@
+"""The parameters of the nodes that drive the MICO: the grasp planner's and the mock arm's, and those shared.
+
+Each table is a tuple of :class:`~grasp_intent_ros.parameters.ParamSpec`, declared on a node by
+:func:`grasp_intent_ros.ros.params.declare_parameters`; config/<node>.yaml documents each parameter with its
+description (test/ros/test_config_files.py) and docs/nodes.md's table lists them (test/unit/test_docs.py).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..method.parameters import TASK_NAMES
+from ..parameters import ParamSpec, finite_vector, one_of
+from ..planning.options import DEFAULT_METHOD, METHODS, noise_from
+from .collision import Table
+from .frames import check_unit_quaternion, pose_to_matrix
+from .grasp import JOINT_NAMES, check_workspace
+from .kinematics import HOME_Q
+from .mock_arm import FINGER_VELOCITY_LIMIT
+
+__all__ = ['URDF_PATH', 'OBJECT_POSE', 'check_object_pose', 'object_pose', 'check_table_plane', 'GRASP_PLANNER',
+           'TRAJECTORY_EXECUTIONS', 'MOCK_ARM']
+
+URDF_PATH = ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True)
+"""The robot's description, read once at start (every node that has the kinematics)."""
+
+OBJECT_POSE = (
+    ParamSpec('object_position', (0.3, -0.3, 0.0),
+              'Object pose until one arrives on object/pose (and whenever set): position (x, y, z) of the '
+              'object frame in m1n6s300_link_base, m.', validator=finite_vector(3, 'x, y, z in m')),
+    ParamSpec('object_orientation', (0.0, 0.0, 1.0, 0.0),
+              'Object pose orientation: unit quaternion (x, y, z, w) in m1n6s300_link_base. The default '
+              'turns the cup handle (+x of the object) towards the arm.', validator=check_unit_quaternion,
+              constraints='unit norm within 1e-3'),
+    ParamSpec('workspace_radius', 1.5,
+              'Largest distance (m) of an object position from the m1n6s300_link_base origin: a pose on '
+              'object/pose or object_position farther away is rejected (the arm reaches about 1 m).',
+              range=(0.1, 100.0)),
+)
+"""The object's pose until one arrives on ``object/pose``, and the workspace (planner and intent estimator)."""
+
+
+def check_object_pose(values: Mapping[str, Any]) -> None:
+    """The rule of :data:`OBJECT_POSE` over its values: the position within ``workspace_radius`` (KinematicsError)."""
+    check_workspace(values['object_position'], values['workspace_radius'], what='object_position')
+
+
+def object_pose(values: Mapping[str, Any]) -> NDArray[np.float64]:
+    """``base_T_obj``, shape (4, 4), of the :data:`OBJECT_POSE` values."""
+    return pose_to_matrix(values['object_position'], values['object_orientation'])
+
+
+def check_table_plane(value: Any) -> None:
+    """Validate ``table_plane``: all zeros, or 4 finite numbers with a non-zero normal (raises ValueError)."""
+    if any(value):
+        Table.in_object_frame(value, np.eye(4))
+
+
+GRASP_PLANNER = (
+    ParamSpec('method', DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
+              "likely tasks, docs/planner.md), or the paper's 'lm' (P = v by log-odds projection, else least "
+              "squares), 'slsqp' (SQP) or 'trust-constr' (interior point).", validator=one_of(METHODS),
+              constraints=f'one of {", ".join(METHODS)}'),
+    ParamSpec('execution_noise', (0.0, 0.0, 0.0, 0.0),
+              "Where the arm lands around a plan, as standard deviations: palm per axis (m), approach tilt about "
+              "each of two axes orthogonal to it (rad), wrist roll (rad), each finger closure (rad). Method 'task' "
+              "then picks the grasp with the highest expected success as executed (docs/planner.md); the "
+              "documented 1x level is [0.005, 0.0524, 0.0524, 0.1]. All zero (the default, as the planner's): an "
+              "exact landing. The estimate is made when a model is read, before its first plan (about a second of "
+              "CPU per model).",
+              validator=noise_from, constraints='4 finite numbers >= 0'),
+    ParamSpec('n_starts', 3, 'Demonstrations the planner starts from (plus the warm start).', range=(1, 20)),
+    ParamSpec('ik_restarts', 8, 'Random IK restarts after the seeded attempt fails.', range=(0, 100)),
+    *OBJECT_POSE,
+    ParamSpec('object_marker_size', (0.08, 0.10), 'Diameter and height of the object marker, m.',
+              validator=finite_vector(2, 'diameter, height in m', positive=True)),
+    ParamSpec('min_replan_period', 0.0, 'Least time between the starts of two plans, s (0: plan at once).',
+              range=(0.0, 10.0)),
+    ParamSpec('markers_period', 0.1, 'Least time between two grasp/markers messages, s (0: with every plan). '
+              'Markers are for RViz and cost as much to build as the other outputs together.',
+              range=(0.0, 10.0)),
+    URDF_PATH,
+    ParamSpec('collision_check', False, 'Turn down grasps whose hand goes into the table or the object on the '
+              'approach (fingers open, from the pre-grasp 0.08 m behind), as unreachable ones are '
+              '(docs/planner.md, "The hand\'s clearance").'),
+    ParamSpec('table_plane', (0.0, 0.0, 0.0, 0.0), 'The table in m1n6s300_link_base: (nx, ny, nz, d), points '
+              'with n . p >= d above it, m; all zeros: the plane the object stands on (z = 0 of its frame).',
+              validator=check_table_plane),
+    TASK_NAMES,
+)
+"""The grasp planner node's parameters (:mod:`grasp_intent_ros.nodes.grasp_planner`, docs/nodes.md)."""
+
+TRAJECTORY_EXECUTIONS = ('on_arrival', 'on_request')
+"""When the mock arm follows a trajectory (:mod:`grasp_intent_ros.nodes.mock_arm`)."""
+
+MOCK_ARM = (
+    ParamSpec('initial_positions', (*HOME_Q.tolist(), 0.0, 0.0, 0.0),
+              f'Start (and reset) positions, rad, of {", ".join(JOINT_NAMES)}; default Home, fingers open.',
+              validator=finite_vector(len(JOINT_NAMES), 'rad')),
+    ParamSpec('period', 0.01, 'Time step and joint_states period, s.', range=(0.001, 1.0), read_only=True),
+    ParamSpec('command_timeout', 0.1, 'A twist older than this (s) stops the arm (MoveIt Servo: '
+              'incoming_command_timeout).', range=(0.001, 10.0)),
+    ParamSpec('ik_damping', 0.05, 'Largest damping lambda of the differential IK of twists (at a singularity).',
+              range=(1e-6, 10.0)),
+    ParamSpec('singular_threshold', 0.05, 'Smallest singular value of the Jacobian below which the IK is damped.',
+              range=(1e-6, 10.0)),
+    ParamSpec('trajectory_execution', 'on_arrival', "When a trajectory is followed: 'on_arrival' (a "
+              "joint_trajectory_controller) or 'on_request' (kept until grasp/execute: the twist stream owns the "
+              'arm, as under shared control).',
+              validator=one_of(TRAJECTORY_EXECUTIONS), constraints=f'one of {", ".join(TRAJECTORY_EXECUTIONS)}'),
+    ParamSpec('allow_partial_joints_goal', False, 'Accept trajectories for some of the joints (the '
+              "joint_trajectory_controller's parameter)."),
+    ParamSpec('finger_velocity_limit', FINGER_VELOCITY_LIMIT, 'Finger speed limit, rad/s.', range=(1e-3, 10.0)),
+    ParamSpec('closure_error', 0.05, "Standard deviation (rad) of each finger's closure error on grasp/close.",
+              range=(0.0, 1.0)),
+    ParamSpec('closure_seed', 0, 'Seed of the closure errors.', range=(0, 2**31 - 1), read_only=True),
+    URDF_PATH,
+)
+"""The mock arm node's parameters (:mod:`grasp_intent_ros.nodes.mock_arm`)."""

@@ -1,0 +1,117 @@
+"""The parameters of the shared-control nodes: the assistance's and the intent estimator's, and the operator's input.
+
+Each table is a tuple of :class:`~grasp_intent_ros.parameters.ParamSpec`, declared on a node by
+:func:`grasp_intent_ros.ros.params.declare_parameters`; the defaults of the maths' settings are those of
+:class:`~.assistance.AssistanceConfig` and :class:`~.estimator.EstimatorConfig`, which the nodes build from
+the values of the same names (:func:`~grasp_intent_ros.parameters.config_from`). config/<node>.yaml
+documents each parameter with its description (test/ros/test_config_files.py).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from ..method.parameters import TASK_NAMES
+from ..mico.kinematics import BASE_FRAME, EE_FRAME
+from ..mico.parameters import OBJECT_POSE, URDF_PATH, check_object_pose
+from ..parameters import ParamSpec, config_from, one_of
+from .assistance import ARBITRATIONS, AssistanceConfig
+from .estimator import EstimatorConfig
+
+__all__ = ['OPERATOR_INPUT', 'ASSISTANCE', 'ESTIMATOR', 'check_estimator']
+
+OPERATOR_INPUT = (
+    ParamSpec('operator_message_type', 'TwistStamped', 'Type on operator/twist: TwistStamped or Twist.',
+              validator=one_of(('TwistStamped', 'Twist')), read_only=True),
+    ParamSpec('operator_frame', BASE_FRAME, 'Frame of a plain Twist or of a TwistStamped with an empty frame_id.',
+              validator=one_of((BASE_FRAME, EE_FRAME))),
+)
+"""How the operator's twist on ``operator/twist`` is read (assistance and intent estimator)."""
+
+_ASSIST = AssistanceConfig()
+_POSITIVE = (1e-6, 100.0)
+ASSISTANCE = (
+    ParamSpec('arbitration', _ASSIST.arbitration, "alpha's rule: 'confidence' (the probability that the grasp "
+              "serves the operator's task, times the operator's agreement), 'blend' (alpha_max when v's top zone "
+              "leads by margin) or 'none' (alpha = 0).",
+              validator=one_of(ARBITRATIONS), constraints=f'one of {", ".join(ARBITRATIONS)}'),
+    ParamSpec('alpha_max', _ASSIST.alpha_max, 'Largest alpha (the operator keeps 1 - alpha_max).',
+              range=(0.0, 1.0)),
+    ParamSpec('margin', _ASSIST.margin, "'blend': lead of v's top zone over the second (of the total).",
+              range=(0.0, 1.0)),
+    ParamSpec('standoff', _ASSIST.standoff, 'Pre-grasp distance behind the grasp along its approach axis, m.',
+              range=(0.0, 0.5)),
+    ParamSpec('corridor_radius', _ASSIST.corridor_radius, 'Approach corridor radius, m.', range=_POSITIVE),
+    ParamSpec('corridor_angle', _ASSIST.corridor_angle, 'Approach corridor orientation tolerance, rad.',
+              range=(0.0, 3.2)),
+    ParamSpec('gain_linear', _ASSIST.gain_linear, "Robot twist's position gain, 1/s.", range=_POSITIVE),
+    ParamSpec('gain_angular', _ASSIST.gain_angular, "Robot twist's orientation gain, 1/s.", range=_POSITIVE),
+    ParamSpec('robot_max_linear', _ASSIST.robot_max_linear, "Robot twist's speed limit, m/s.", range=_POSITIVE),
+    ParamSpec('robot_max_angular', _ASSIST.robot_max_angular, "Robot twist's angular speed limit, rad/s.",
+              range=_POSITIVE),
+    ParamSpec('gain_joint', _ASSIST.gain_joint, "Robot twist's joint-space gain toward the target's IK, 1/s.",
+              range=_POSITIVE),
+    ParamSpec('deadband_linear', _ASSIST.deadband_linear, "'confidence': operator speed (m/s) from which an "
+              'operator steering away from the grasp (the agreement is measured against the grasp, not the '
+              "robot's twist) lowers alpha.", range=(0.0, 10.0)),
+    ParamSpec('deadband_angular', _ASSIST.deadband_angular, "'confidence': the same for the operator's angular "
+              'speed, rad/s.', range=(0.0, 10.0)),
+    ParamSpec('yield_time', _ASSIST.yield_time, "'confidence': seconds of sustained opposition after which the "
+              'robot yields (alpha 0), and of heading back to the grasp after which it assists again.',
+              range=(0.0, 10.0)),
+    ParamSpec('assist_without_input', _ASSIST.assist_without_input, "Whether the robot's twist moves the hand "
+              'while the operator gives no input (both parts within their deadbands).'),
+    ParamSpec('operator_timeout', _ASSIST.operator_timeout, 'Operator twist age (s) from which the output is '
+              'the zero twist (MoveIt Servo: incoming_command_timeout).', range=(0.001, 10.0)),
+    ParamSpec('max_linear', 0.2, 'Output speed limit, m/s.', range=_POSITIVE),
+    ParamSpec('max_angular', 1.0, 'Output angular speed limit, rad/s.', range=_POSITIVE),
+    ParamSpec('max_linear_acceleration', 1.0, 'Output acceleration limit, m/s^2.', range=_POSITIVE),
+    ParamSpec('max_angular_acceleration', 5.0, 'Output angular acceleration limit, rad/s^2.', range=_POSITIVE),
+    ParamSpec('publish_period', 0.01, 'Longest time between two outputs, s (MoveIt Servo: publish_period).',
+              range=(0.001, 1.0), read_only=True),
+    *OPERATOR_INPUT,
+    URDF_PATH,
+)
+"""The assistance node's parameters (:mod:`grasp_intent_ros.nodes.assistance`)."""
+
+_ESTIMATE = EstimatorConfig()
+_SCALE = (1e-6, 1e6)
+ESTIMATOR = (
+    ParamSpec('rationality', _ESTIMATE.rationality, 'beta, 1/m: log-likelihood per metre of progress toward a '
+              'goal.', range=_SCALE),
+    ParamSpec('memory', _ESTIMATE.memory, 'L, m of the hand\'s pose motion over which the evidence fades by e.',
+              range=_SCALE),
+    ParamSpec('rotation_length', _ESTIMATE.rotation_length, 'rho, m per rad: the weight of the hand\'s rotation.',
+              range=_SCALE),
+    ParamSpec('position_scale', _ESTIMATE.position_scale, 'delta_p, m: progress toward a goal fades within it.',
+              range=_SCALE),
+    ParamSpec('angle_scale', _ESTIMATE.angle_scale, 'delta_theta, rad: the same for the orientation.',
+              range=(1e-6, 3.14159)),
+    ParamSpec('w_floor', _ESTIMATE.w_floor, 'w is kept within [w_floor, 1 - w_floor].', range=(1e-6, 0.49)),
+    ParamSpec('max_dt', _ESTIMATE.max_dt, 'Longest time one operator twist is taken to act, s.', range=(1e-3, 10.0)),
+    ParamSpec('proposal_radius', _ESTIMATE.proposal_radius, 'm: goals within it (and proposal_angle) of the shown '
+              'grasp are credited with the progress toward it (0: the shown grasp is ignored).', range=(0.0, 10.0)),
+    ParamSpec('proposal_angle', _ESTIMATE.proposal_angle, 'rad: the same for the orientation.', range=(0.0, 3.15)),
+    ParamSpec('publish_period', 0.04, 'Time between two w while the operator moves, s.', range=(0.001, 1.0),
+              read_only=True),
+    ParamSpec('operator_timeout', 0.1, 'Operator twist age (s) after which the operator counts as still (no w '
+              'published).', range=(0.001, 10.0)),
+    *OBJECT_POSE[:2],
+    ParamSpec('object_tolerance', 0.01, 'An object that moves farther (m) restarts the estimate with new goals.',
+              range=(0.0, 1.0)),
+    ParamSpec('angle_tolerance', 0.05, 'An object that turns farther (rad) restarts the estimate with new goals.',
+              range=(0.0, 3.2)),
+    OBJECT_POSE[2],
+    ParamSpec('ik_restarts', 2, 'Random IK restarts when a goal is checked for reachability.', range=(0, 100)),
+    *OPERATOR_INPUT,
+    URDF_PATH,
+    TASK_NAMES,
+)
+"""The intent estimator node's parameters (:mod:`grasp_intent_ros.nodes.intent_estimator`)."""
+
+
+def check_estimator(values: Mapping[str, Any]) -> None:
+    """The rules over :data:`ESTIMATOR`'s values: a valid EstimatorConfig, the object within the workspace."""
+    config_from(EstimatorConfig, values)
+    check_object_pose(values)
