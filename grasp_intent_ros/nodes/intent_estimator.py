@@ -6,8 +6,9 @@ Run: ``python -m grasp_intent_ros intent_estimator [--ros-args --params-file con
 Topics, diagnostics, restarts and timing: docs/intent_estimation.md (its interface table is this node's contract);
 the maths: :mod:`grasp_intent_ros.shared_control.estimator`. Each operator twist (before blending) updates the
 estimate on the executor; each grasp on ``grasp/pose`` (the planner's, shown to the operator) is its proposal.
-``intent/w`` goes out every ``publish_period`` while the operator moves, and once at each restart (the prior). The goals are prepared in a thread of their own whenever the model changes or the
-object moves beyond the tolerances; meanwhile no w is published and twists are not used.
+``intent/w`` goes out every ``publish_period`` while the operator moves, and once at each restart (the prior).
+The goals are prepared in a thread of their own whenever the model changes or the object moves beyond the
+tolerances; meanwhile no w is published and twists are not used.
 
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.ESTIMATOR`, ``config/intent_estimator.yaml``.
 """
