@@ -5,17 +5,16 @@ Run: ``python -m grasp_intent_ros intent_estimator [--ros-args --params-file con
 
 Topics, diagnostics, restarts and timing: docs/intent_estimation.md (its interface table is this node's contract);
 the maths: :mod:`grasp_intent_ros.shared_control.estimator`. Each operator twist (before blending) updates the
-estimate on the executor; each grasp on ``grasp/pose`` (the planner's, shown to the operator) is its proposal.
-``intent/w`` goes out every ``publish_period`` while the operator moves, and once at each restart (the prior).
-The goals are prepared in a thread of their own whenever the model changes or the object moves beyond the
-tolerances; meanwhile no w is published and twists are not used.
+estimate on the executor, and each grasp on ``grasp/pose`` is the grasp shown. ``intent/w`` goes out every
+``publish_period`` while the operator moves, and once at each restart (the prior). The goals are prepared in a
+thread of their own whenever the model changes or the object moves beyond the tolerances; meanwhile no w is
+published and twists are not used.
 
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.ESTIMATOR`, ``config/intent_estimator.yaml``.
 """
 
 from __future__ import annotations
 
-import threading
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -29,7 +28,6 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from ..errors import GraspIntentError
-from ..method.intent import zone_label
 from ..mico.grasp import check_mico_model
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, JOINT_LIMIT_MARGIN, MicoKinematics
 from ..mico.parameters import object_pose
@@ -72,10 +70,7 @@ class IntentEstimatorNode(Node):
         self._config = config_from(EstimatorConfig, self._params)
         self._estimator: IntentEstimator | None = None
         """The estimate over the current scene's goals; None while they are prepared."""
-        self._proposal: NDArray[np.float64] | None = None
-        """The latest grasp on ``grasp/pose`` (base frame): what the operator is shown."""
-        self._proposal_lock = threading.Lock()
-        """Orders a new estimate (the goal thread) and a new proposal (the executor): the newest is used."""
+        self._proposal: NDArray[np.float64] | None = None  # the newest grasp/pose (base frame): the grasp shown
         self._q: NDArray[np.float64] | None = None
         self._base_T_ee: NDArray[np.float64] | None = None
         self._timing = TwistTiming()  # on the node's clock
@@ -147,10 +142,7 @@ class IntentEstimatorNode(Node):
         except GraspIntentError as exc:
             self._diag.set_state(ERROR, f'no goal for {scene.model.name} at this object pose: {exc}')
             raise
-        estimator = IntentEstimator(goals, self._config)
-        with self._proposal_lock:
-            estimator.set_proposal(self._proposal)
-            self._estimator = estimator
+        self._estimator = estimator = IntentEstimator(goals, self._config, proposal=self._proposal)
         self._restarts += 1
         self._diag.set_state(OK, '')
         self._diag.set_values({'model': scene.model.name, KEY_GOALS: f'{len(goals)} of {model.demo_x.shape[0]} '
@@ -165,12 +157,10 @@ class IntentEstimatorNode(Node):
             self._kin.check_limits(q, margin=JOINT_LIMIT_MARGIN, what='joint state')
             self._q, self._base_T_ee = q, self._kin.fk(q)
 
-    def _on_grasp(self, msg: PoseStamped) -> None:
-        pose = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
-        with self._proposal_lock:
-            if (estimator := self._estimator) is not None:
-                estimator.set_proposal(pose)
-            self._proposal = pose
+    def _on_grasp(self, msg: PoseStamped) -> None:  # one racing a restart reaches the new estimate with the next
+        self._proposal = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
+        if (estimator := self._estimator) is not None:
+            estimator.set_proposal(self._proposal)
 
     def _on_operator(self, msg: Any) -> None:
         cmd = twist_command(msg, default_frame=self._params['operator_frame'])
@@ -200,11 +190,9 @@ class IntentEstimatorNode(Node):
         w = estimator.w
         publish_all(self, {topics.INTENT_W: self._pub}, {topics.INTENT_W: Float64MultiArray(data=w.tolist())})
         self._published += 1
-        names = self._params['task_names']
-        top = sorted(estimator.set_posterior().items(), key=lambda item: -item[1])[:3]
         self._diag.set_values({'w': ', '.join(f'{v:.3f}' for v in w), 'w published': self._published,
                                'updates': estimator.updates,
-                               'likely task sets': ', '.join(f'{zone_label(s, names)}: {p:.2f}' for s, p in top)})
+                               'likely task sets': estimator.likely_sets(self._params['task_names'])})
 
 
 def main(args: list[str] | None = None) -> None:

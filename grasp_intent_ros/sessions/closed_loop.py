@@ -64,8 +64,8 @@ from .outputs import Joints, Pose, RawMessage, SessionError, decode, output_of
 from .pairing import ModelSwitches, detect_namespace
 
 __all__ = ['REACH_POS', 'REACH_ROT', 'REPLAYED', 'ESTIMATED_REPLAYED', 'W_TOLERANCE', 'Send', 'Trace', 'Outcome',
-           'RECORDED_GRASP_POSE', 'ESTIMATOR_REMAPPING', 'ClosedLoopSession', 'offset', 'reached', 'is_closed_loop',
-           'estimated', 'estimator_ready',
+           'RECORDED_GRASP_POSE', 'ESTIMATOR_REMAPPING', 'RENAMED', 'ClosedLoopSession', 'offset', 'reached',
+           'is_closed_loop', 'estimated', 'estimator_ready',
            'split_messages', 'load_closed_loop', 'Tracer', 'outcome', 'compare_outcomes', 'describe']
 
 START_TOLERANCE: Final = 1e-3
@@ -82,6 +82,8 @@ RECORDED_GRASP_POSE: Final = 'recorded/grasp/pose'
 would make the estimate depend on it."""
 ESTIMATOR_REMAPPING: Final = f'{GRASP_POSE}:={RECORDED_GRASP_POSE}'
 """The live estimator's remapping in the replay of an estimated session."""
+RENAMED: Final = {GRASP_POSE: RECORDED_GRASP_POSE}
+"""Replayed topics sent under another name (only an estimated session's replay sends ``grasp/pose``)."""
 W_TOLERANCE: Final = 0.02
 """Largest difference of any w_i between the recorded and the live last w. The estimator takes each operator
 twist with the newest joint state it has received, and which one that is depends on delivery order."""

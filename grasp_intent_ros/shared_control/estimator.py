@@ -69,14 +69,14 @@ Contracts: every public function checks shapes and finiteness of what it is give
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidIntentError, KinematicsError
-from ..method.intent import MAX_TASKS
+from ..method.intent import MAX_TASKS, zone_label
 from ..method.model import GraspModel
 from ..mico.frames import check_transform, check_vector, features_to_obj_T_ee
 from ..mico.kinematics import HOME_Q, MicoKinematics
@@ -338,14 +338,18 @@ class IntentEstimator:
     ----------
     goals : Goals
     config : EstimatorConfig
+    proposal : array_like, shape (4, 4), optional
+        The grasp shown now (:meth:`set_proposal`).
     """
 
-    def __init__(self, goals: Goals, config: EstimatorConfig = EstimatorConfig()) -> None:
+    def __init__(self, goals: Goals, config: EstimatorConfig = EstimatorConfig(),
+                 proposal: ArrayLike | None = None) -> None:
         self.goals, self.config = goals, config
         self.evidence = np.zeros(len(goals))
         """E_g, the log-evidence of each goal (0: the prior)."""
         self.updates = 0
         self._proposal: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]] | None = None
+        self.set_proposal(proposal)
 
     def reset(self) -> None:
         """Back to the prior (a new scene); the proposal is forgotten."""
@@ -416,4 +420,9 @@ class IntentEstimator:
     def set_posterior(self) -> dict[int, float]:
         """P(S) per task set served by some goal (bitmask -> probability)."""
         return self.goals.set_posterior(self.posterior)
+
+    def likely_sets(self, task_names: Sequence[str], count: int = 3) -> str:
+        """The ``count`` likeliest task sets as 'label: P(S)' (ties: the smaller bitmask first), for a status."""
+        top = sorted(self.set_posterior().items(), key=lambda item: (-item[1], item[0]))[:count]
+        return ', '.join(f'{zone_label(s, task_names)}: {p:.2f}' for s, p in top)
 
