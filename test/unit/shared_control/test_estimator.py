@@ -158,6 +158,24 @@ def test_proposal_turned_away_is_outside_and_none_or_reset_forget_it() -> None:
         est.set_proposal(2.0 * np.eye(4))
 
 
+def test_likely_sets_lists_the_likeliest_first_and_ties_by_bitmask() -> None:
+    names = ('usage', 'transfer', 'handover')
+    est = scene()
+    assert est.likely_sets(names) == 'U: 0.33, T: 0.33, H: 0.33'
+    reach(est, np.eye(4), np.array([0.0, SPEED, 0.0]), 1.0)
+    assert est.likely_sets(names, count=1).startswith('T: ')
+
+
+def test_a_proposal_given_at_construction_is_set() -> None:
+    shown = near_scene()
+    shown.set_proposal(pose((0.3, 0.0, 0.0)))
+    built = IntentEstimator(shown.goals, CONFIG, proposal=pose((0.3, 0.0, 0.0)))
+    toward = np.array([0.3, 0.01, 0.0]) / np.linalg.norm([0.3, 0.01, 0.0]) * SPEED
+    reach(shown, np.eye(4), toward, 1.0)
+    reach(built, np.eye(4), toward, 1.0)
+    assert_allclose(built.evidence, shown.evidence, rtol=0, atol=0)
+
+
 def test_progress_rates_are_the_decrease_of_the_huber_pose_distance() -> None:
     """Against finite differences of D_g, written out here independently, at poses far from and near the goals."""
     rng = np.random.default_rng(1)
