@@ -84,9 +84,11 @@ ESTIMATOR_REMAPPING: Final = f'{GRASP_POSE}:={RECORDED_GRASP_POSE}'
 """The live estimator's remapping in the replay of an estimated session."""
 RENAMED: Final = {GRASP_POSE: RECORDED_GRASP_POSE}
 """Replayed topics sent under another name (only an estimated session's replay sends ``grasp/pose``)."""
-W_TOLERANCE: Final = 0.02
+W_TOLERANCE: Final = 0.04
 """Largest difference of any w_i between the recorded and the live last w. The estimator takes each operator
-twist with the newest joint state it has received, and which one that is depends on delivery order."""
+twist with the newest joint state and the newest shown grasp it has received, and which ones those are depends
+on delivery order: replays of the estimated cup session differed by up to 0.026 beside the whole test suite
+(load 6-10), 0.006 alone."""
 
 
 @dataclass(frozen=True)
