@@ -88,7 +88,7 @@ W_TOLERANCE: Final = 0.04
 """Largest difference of any w_i between the recorded and the live last w. The estimator takes each operator
 twist with the newest joint state and the newest shown grasp it has received, and which ones those are depends
 on delivery order: replays of the estimated cup session differed by up to 0.026 beside the whole test suite
-(load 6-10), 0.006 alone."""
+(load 6-10), within 0.02 alone (load 1)."""
 
 
 @dataclass(frozen=True)
