@@ -50,7 +50,7 @@ condition, estimated w minus scripted w (the suite) and minus direct) with a 95%
 episodes (10,000 resamples, seeded).
 
     .venv/bin/python benchmarks/bench_shared_control_sim.py [--episodes 50] [--repeats 3] [--jobs 2] \
-        [--intent persistent] [--conditions direct suite estimated] [--json out.json]
+        [--intent persistent] [--conditions direct suite estimated] [--estimator rationality=300] [--json out.json]
 """
 
 from __future__ import annotations
@@ -73,7 +73,7 @@ from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
 from grasp_intent_ros.planning.options import Options, node_default_options
 from grasp_intent_ros.resources import config_dir
-from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at, reachable_goals
+from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
     ChangingIntent,
     OperatorConstants,
@@ -82,7 +82,14 @@ from grasp_intent_ros.shared_control.operators import (
     SharpeningIntent,
     draw_task_set,
 )
-from grasp_intent_ros.shared_control.simulator import CONDITIONS, Scene, certain_grasps, perturb_pose, simulate
+from grasp_intent_ros.shared_control.simulator import (
+    CONDITIONS,
+    Scene,
+    TraceRow,
+    certain_grasps,
+    perturb_pose,
+    simulate,
+)
 
 OPERATORS = ('joystick', 'spacemouse', 'goal-changing')
 CASES = ((0.9, 0.9, 0.1), (0.9, 0.1, 0.9), (0.1, 0.9, 0.9), (0.9, 0.5, 0.5), (0.7, 0.7, 0.7))
@@ -128,6 +135,10 @@ class Task:
     conditions: tuple[str, ...] = RUN
     execute: bool = True
     execution_noise: bool = True
+    estimator: tuple[tuple[str, float], ...] = ()
+    """EstimatorConfig fields set for the ``estimated`` condition (the rest: its defaults)."""
+    trace: bool = False
+    """Whether each record carries the loop's trace and the failed rules (:func:`trace_record`)."""
 
 
 def _intent(task: Task, rng: np.random.Generator) -> Any:
@@ -155,7 +166,8 @@ def run_task(task: Task) -> list[dict[str, Any]]:
     cache: dict[bytes, Grasp | None] = {}
     estimator = None
     if ESTIMATED in task.conditions:  # the goals the node would prepare for the tracked object
-        estimator = IntentEstimator(goals_at(model, tracked, reachable_goals(model, tracked, kin)))
+        estimator = IntentEstimator(goals_at(model, tracked, reachable_goals(model, tracked, kin)),
+                                    EstimatorConfig(**dict(task.estimator)))
     device = 'joystick' if task.operator == 'joystick' else 'spacemouse'
     records = []
     for repeat in range(task.repeats):
@@ -167,9 +179,10 @@ def run_task(task: Task) -> list[dict[str, Any]]:
             operator = ScriptedOperator(device, OperatorConstants(), op_rng)
             t0 = time.perf_counter()
             estimated = condition == ESTIMATED
+            trace: list[TraceRow] | None = [] if task.trace else None
             ep = simulate(scene, 'suite' if estimated else condition, intent, operator, state['own'], intent_rng,
                           closure_rng, ada_goals=ada_goals, plan_cache=cache, timeout=task.timeout,
-                          estimator=estimator if estimated else None, execute=task.execute)
+                          estimator=estimator if estimated else None, execute=task.execute, trace=trace)
             true_set = ep.task_set
             success = ep.features is not None and rules.label(ep.features) & true_set == true_set
             wrong = sum(s for x, s in ep.pulls if rules.label(x) & true_set != true_set)
@@ -180,7 +193,33 @@ def run_task(task: Task) -> list[dict[str, Any]]:
                             'pursued': ep.pursued, 'executed': ep.executed, 'effort_linear': ep.effort_linear,
                             'effort_angular': ep.effort_angular, 'wrong_pull': wrong, 'alpha_mean': ep.alpha_mean,
                             'wall_s': time.perf_counter() - t0})
+            if trace is not None:
+                records[-1].update(trace_record(trace, ep, rules))
     return records
+
+
+def trace_record(trace: list[TraceRow], ep: Any, rules: Any) -> dict[str, Any]:
+    """The loop's trace of one run, as JSON values, and what the judge found at the reached grasp.
+
+    ``trace``: per w report (every 0.1 s) t, w, the shown grasp's demonstration set, the set the rules give
+    its features as planned (``shown_label``), its palm position and rotation (base frame, m), the hand's palm
+    position, mean alpha, the goal pursued, the true set. ``failed``: the rule
+    conditions (``task.condition``) of the true set's tasks that fail at the reached grasp (empty on success or
+    without a grasp). ``own``: whether the operator closed on its own grasp.
+    """
+    rows = [{'t': round(r.t, 3), 'w': [round(float(x), 4) for x in r.w], 'shown_set': r.shown_set,
+             'shown_label': None if r.shown_x is None else rules.label(r.shown_x),
+             'shown_p': None if r.shown is None else [round(float(x), 4) for x in r.shown[:3, 3]],
+             'shown_R': None if r.shown is None else [round(float(x), 4) for x in r.shown[:3, :3].ravel()],
+             'hand_p': [round(float(x), 4) for x in r.hand[:3, 3]], 'alpha': round(r.alpha, 4),
+             'pursued': r.pursued, 'T': r.task_set} for r in trace]
+    failed: list[str] = []
+    if ep.features is not None:
+        names = rules.task_names
+        for task, checks in rules.explain(ep.features).items():
+            if ep.task_set >> names.index(task) & 1:
+                failed.extend(f'{task}.{name}' for name, ok in checks.items() if not ok)
+    return {'trace': rows, 'failed': failed}
 
 
 def bootstrap_ci(values: Sequence[float], rng: np.random.Generator, n: int = 10_000) -> tuple[float, float, float]:
@@ -222,6 +261,26 @@ def summarise(records: list[dict[str, Any]], timeout: float) -> dict[str, Any]:
     return table
 
 
+def estimator_fields(items: Sequence[str]) -> tuple[tuple[str, float], ...]:
+    """``FIELD=VALUE`` strings as :attr:`Task.estimator` (checked by EstimatorConfig when the task runs)."""
+    return tuple((k, float(v)) for k, v in (item.split('=', 1) for item in items))
+
+
+def run_tasks(tasks: Sequence[Task], jobs: int, records_path: str | None) -> list[dict[str, Any]]:
+    """Every task's records, ``jobs`` processes at once; each episode's appended to ``records_path`` as it ends."""
+    t0 = time.monotonic()
+    records: list[dict[str, Any]] = []
+    with ProcessPoolExecutor(jobs) as pool:
+        for i, result in enumerate(pool.map(run_task, tasks)):
+            records.extend(result)
+            if records_path:
+                with open(records_path, 'a') as f:
+                    f.write(json.dumps(result) + '\n')
+            if (i + 1) % 10 == 0:
+                print(f'  {i + 1}/{len(tasks)} episodes, {time.monotonic() - t0:.0f} s; {uptime()}', flush=True)
+    return records
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--episodes', type=int, default=50)
@@ -238,6 +297,8 @@ def main() -> None:
                         'it is instead of executing the shown grasp (the simulator\'s execute=False)')
     parser.add_argument('--exact-landing', action='store_true', help='the planner plans for an exact landing '
                         '(the planner node\'s execution_noise zero; default: the node\'s default, the 1x noise)')
+    parser.add_argument('--estimator', nargs='*', default=[], metavar='FIELD=VALUE',
+                        help='EstimatorConfig fields for the estimated condition (default: its defaults)')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--json', help='write every record and the summaries here')
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
@@ -250,20 +311,13 @@ def main() -> None:
         report_cells(done, args, sorted({r['object'] for r in done}), sorted({r['operator'] for r in done}))
         return
     tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg,
-                  tuple(c for c in RUN if c in args.conditions), not args.no_execute, not args.exact_landing)
+                  tuple(c for c in RUN if c in args.conditions), not args.no_execute, not args.exact_landing,
+                  estimator_fields(args.estimator))
              for i in range(args.episodes) for o in args.objects for op in args.operators]  # cells fill evenly
     print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
           f'conditions, intent {args.intent}; {uptime()}', flush=True)
     t0 = time.monotonic()
-    records: list[dict[str, Any]] = []
-    with ProcessPoolExecutor(args.jobs) as pool:
-        for i, result in enumerate(pool.map(run_task, tasks)):
-            records.extend(result)
-            if args.records:
-                with open(args.records, 'a') as f:
-                    f.write(json.dumps(result) + '\n')
-            if (i + 1) % 10 == 0:
-                print(f'  {i + 1}/{len(tasks)} episodes, {time.monotonic() - t0:.0f} s; {uptime()}', flush=True)
+    records = run_tasks(tasks, args.jobs, args.records)
     report = report_cells(records, args, args.objects, args.operators)
     print(f'\ndone in {time.monotonic() - t0:.0f} s; {uptime()}')
     if args.json:

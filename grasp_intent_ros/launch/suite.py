@@ -339,7 +339,7 @@ class NodeSuite:
     def start_nodes(self, *, namespace: str = '', model: str | None = None,
                     models_dir: str | os.PathLike[str] | None = None,
                     params_files: Sequence[str | os.PathLike[str]] = (), extra: Sequence[str] = (),
-                    shared_control: bool = False) -> None:
+                    shared_control: bool = False, remappings: Mapping[str, Sequence[str]] | None = None) -> None:
         """Start :data:`SUITE_NODES`, then ``extra``, each with :meth:`node_args`.
 
         Parameters
@@ -355,6 +355,9 @@ class NodeSuite:
             Names from :data:`OPTIONAL_NODES`, started after the suite's own nodes.
         shared_control : bool
             Also start :data:`SHARED_CONTROL_NODES` (the mock arm and the assistance), before ``extra``.
+        remappings : mapping module -> remappings ('from:=to'), optional
+            Given to that node after :data:`REMAPPINGS` (e.g. the replay of an estimated session feeds the
+            estimator the recorded grasps).
 
         Raises
         ------
@@ -365,8 +368,9 @@ class NodeSuite:
         """
         wanted = (*(SHARED_CONTROL_NODES if shared_control else ()), *extra)
         for module in (*SUITE_NODES, *optional_nodes(tuple(dict.fromkeys(wanted)))):
+            more = [arg for remapping in (remappings or {}).get(module, ()) for arg in ('-r', remapping)]
             self.start(module, *self.node_args(module, namespace=namespace, model=model, models_dir=models_dir,
-                                               params_files=params_files))
+                                               params_files=params_files), *more)
 
     @staticmethod
     def node_args(module: str, *, namespace: str = '', model: str | None = None,

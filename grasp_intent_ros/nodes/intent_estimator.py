@@ -5,9 +5,10 @@ Run: ``python -m grasp_intent_ros intent_estimator [--ros-args --params-file con
 
 Topics, diagnostics, restarts and timing: docs/intent_estimation.md (its interface table is this node's contract);
 the maths: :mod:`grasp_intent_ros.shared_control.estimator`. Each operator twist (before blending) updates the
-estimate on the executor. ``intent/w`` goes out every ``publish_period`` while the operator moves, and once at
-each restart (the prior). The goals are prepared in a thread of their own whenever the model changes or the
-object moves beyond the tolerances; meanwhile no w is published and twists are not used.
+estimate on the executor, and each grasp on ``grasp/pose`` is the grasp shown. ``intent/w`` goes out every
+``publish_period`` while the operator moves, and once at each restart (the prior). The goals are prepared in a
+thread of their own whenever the model changes or the object moves beyond the tolerances; meanwhile no w is
+published and twists are not used.
 
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.ESTIMATOR`, ``config/intent_estimator.yaml``.
 """
@@ -27,9 +28,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from ..errors import GraspIntentError
-from ..method.intent import zone_label
 from ..mico.grasp import check_mico_model
-from ..mico.kinematics import ARM_JOINTS, JOINT_LIMIT_MARGIN, MicoKinematics
+from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, JOINT_LIMIT_MARGIN, MicoKinematics
 from ..mico.parameters import object_pose
 from ..parameters import config_from
 from ..ros.diagnostics import NodeDiagnostics
@@ -45,7 +45,7 @@ from ..shared_control.parameters import ESTIMATOR, check_estimator
 from ..wire import topics
 from ..wire.diagnostics import ERROR, ESTIMATOR_COMPONENT, KEY_GOALS, OK, WARN
 from ..wire.model_document import ModelDocument
-from ..wire.robot_state import joint_positions, object_pose_msg, stamp_seconds, twist_command
+from ..wire.robot_state import joint_positions, object_pose_msg, pose_msg_to_matrix, stamp_seconds, twist_command
 
 __all__ = ['IntentEstimatorNode', 'main']
 
@@ -70,6 +70,7 @@ class IntentEstimatorNode(Node):
         self._config = config_from(EstimatorConfig, self._params)
         self._estimator: IntentEstimator | None = None
         """The estimate over the current scene's goals; None while they are prepared."""
+        self._proposal: NDArray[np.float64] | None = None  # the newest grasp/pose (base frame): the grasp shown
         self._q: NDArray[np.float64] | None = None
         self._base_T_ee: NDArray[np.float64] | None = None
         self._timing = TwistTiming()  # on the node's clock
@@ -86,6 +87,7 @@ class IntentEstimatorNode(Node):
                            self._params['operator_message_type'])
         subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), self._diag)
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, input_qos(depth=1), self._diag)
+        subscribe_input(self, topics.GRASP_POSE, self._on_grasp, input_qos(depth=1), self._diag)
         self.create_timer(float(self._params['publish_period']), self._diag.guard_timer(self._on_timer))
 
     def destroy_node(self) -> None:
@@ -140,13 +142,13 @@ class IntentEstimatorNode(Node):
         except GraspIntentError as exc:
             self._diag.set_state(ERROR, f'no goal for {scene.model.name} at this object pose: {exc}')
             raise
-        self._estimator = IntentEstimator(goals, self._config)
+        self._estimator = estimator = IntentEstimator(goals, self._config, proposal=self._proposal)
         self._restarts += 1
         self._diag.set_state(OK, '')
         self._diag.set_values({'model': scene.model.name, KEY_GOALS: f'{len(goals)} of {model.demo_x.shape[0]} '
                                'reachable', 'goals prepared in [ms]': f'{1e3 * (time.perf_counter() - start):.0f}',
                                'restarts': self._restarts})
-        self._publish(self._estimator)  # the prior: the planner has an intent before the first motion
+        self._publish(estimator)  # the prior: the planner has an intent before the first motion
 
     # -- the stream: joint states and operator twists, on the executor ---------------------------------------
 
@@ -154,6 +156,11 @@ class IntentEstimatorNode(Node):
         if (q := joint_positions(msg, ARM_JOINTS)) is not None:
             self._kin.check_limits(q, margin=JOINT_LIMIT_MARGIN, what='joint state')
             self._q, self._base_T_ee = q, self._kin.fk(q)
+
+    def _on_grasp(self, msg: PoseStamped) -> None:  # one racing a restart reaches the new estimate with the next
+        self._proposal = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
+        if (estimator := self._estimator) is not None:
+            estimator.set_proposal(self._proposal)
 
     def _on_operator(self, msg: Any) -> None:
         cmd = twist_command(msg, default_frame=self._params['operator_frame'])
@@ -183,11 +190,9 @@ class IntentEstimatorNode(Node):
         w = estimator.w
         publish_all(self, {topics.INTENT_W: self._pub}, {topics.INTENT_W: Float64MultiArray(data=w.tolist())})
         self._published += 1
-        names = self._params['task_names']
-        top = sorted(estimator.set_posterior().items(), key=lambda item: -item[1])[:3]
         self._diag.set_values({'w': ', '.join(f'{v:.3f}' for v in w), 'w published': self._published,
                                'updates': estimator.updates,
-                               'likely task sets': ', '.join(f'{zone_label(s, names)}: {p:.2f}' for s, p in top)})
+                               'likely task sets': estimator.likely_sets(self._params['task_names'])})
 
 
 def main(args: list[str] | None = None) -> None:

@@ -18,7 +18,8 @@ out at the recorded pace into a live suite with the assistance and an arm, and w
 A session recorded with the intent estimator running (its status on ``/diagnostics``: :func:`estimated`) had
 its w from the operator's motion: w is then an output, never sent. Such a session is replayed on the recorded
 hand (:data:`ESTIMATED_REPLAYED`: the operator twists *and* the arm's joint states, at the recorded pace, into
-the estimator, the interpreter and the planner, without the assistance and the arm), and the live estimator's
+the estimator, the interpreter and the planner, without the assistance and the arm; the recorded grasps, the
+proposals the estimator took, into the estimator alone), and the live estimator's
 last w is compared (the start too; the grasp and where the hand ends are reported, not compared). A live arm
 would not do: the estimator's input is the hand, and the loop hand -> w -> plan -> assistance -> hand
 amplifies the wall clock's millimetres into another goal (the last w of three live-arm replays of one
@@ -63,7 +64,8 @@ from .outputs import Joints, Pose, RawMessage, SessionError, decode, output_of
 from .pairing import ModelSwitches, detect_namespace
 
 __all__ = ['REACH_POS', 'REACH_ROT', 'REPLAYED', 'ESTIMATED_REPLAYED', 'W_TOLERANCE', 'Send', 'Trace', 'Outcome',
-           'ClosedLoopSession', 'offset', 'reached', 'is_closed_loop', 'estimated', 'estimator_ready',
+           'RECORDED_GRASP_POSE', 'ESTIMATOR_REMAPPING', 'RENAMED', 'ClosedLoopSession', 'offset', 'reached',
+           'is_closed_loop', 'estimated', 'estimator_ready',
            'split_messages', 'load_closed_loop', 'Tracer', 'outcome', 'compare_outcomes', 'describe']
 
 START_TOLERANCE: Final = 1e-3
@@ -71,11 +73,22 @@ START_TOLERANCE: Final = 1e-3
 REPLAYED: Final = (INTENT_W, OBJECT_POSE, OPERATOR_TWIST)
 """Topics a closed-loop replay publishes again (and the model switches); ``joint_states`` is the arm's, and
 ``intent/w`` the estimator's in an estimated session."""
-ESTIMATED_REPLAYED: Final = (OBJECT_POSE, OPERATOR_TWIST, JOINT_STATES)
-"""What the replay of an estimated session publishes again (and the model switches): the estimator's inputs."""
-W_TOLERANCE: Final = 0.02
+ESTIMATED_REPLAYED: Final = (OBJECT_POSE, OPERATOR_TWIST, JOINT_STATES, GRASP_POSE)
+"""What the replay of an estimated session publishes again (and the model switches): the estimator's inputs,
+the recorded grasps (the proposals its operator was shown) on :data:`RECORDED_GRASP_POSE`."""
+RECORDED_GRASP_POSE: Final = 'recorded/grasp/pose'
+"""Where the replay of an estimated session sends the recorded grasps, and the live estimator, remapped
+(:data:`ESTIMATOR_REMAPPING`), reads them: the live planner's grasps, planned on the wall clock's choice of w,
+would make the estimate depend on it."""
+ESTIMATOR_REMAPPING: Final = f'{GRASP_POSE}:={RECORDED_GRASP_POSE}'
+"""The live estimator's remapping in the replay of an estimated session."""
+RENAMED: Final = {GRASP_POSE: RECORDED_GRASP_POSE}
+"""Replayed topics sent under another name (only an estimated session's replay sends ``grasp/pose``)."""
+W_TOLERANCE: Final = 0.04
 """Largest difference of any w_i between the recorded and the live last w. The estimator takes each operator
-twist with the newest joint state it has received, and which one that is depends on delivery order."""
+twist with the newest joint state and the newest shown grasp it has received, and which ones those are depends
+on delivery order: replays of the estimated cup session differed by up to 0.026 beside the whole test suite
+(load 6-10), within 0.02 alone (load 1)."""
 
 
 @dataclass(frozen=True)

@@ -60,7 +60,16 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from ..launch.suite import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
 from ..mico.kinematics import MicoKinematics
 from .bag.errors import BagError
-from .closed_loop import ClosedLoopSession, Trace, compare_outcomes, describe, is_closed_loop, load_closed_loop, outcome
+from .closed_loop import (
+    ESTIMATOR_REMAPPING,
+    ClosedLoopSession,
+    Trace,
+    compare_outcomes,
+    describe,
+    is_closed_loop,
+    load_closed_loop,
+    outcome,
+)
 from .compare import Difference
 from .pairing import PairedSession, load_paired_session
 from .replay_client import (
@@ -219,7 +228,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             suite = NodeSuite(domain_id)
             suite.start_nodes(model=initial, models_dir=args.models_dir, namespace=session.namespace,
                               shared_control=closed_loop and not estimated,
-                              extra=('intent_estimator',) if estimated else ())
+                              extra=('intent_estimator',) if estimated else (),
+                              remappings={'intent_estimator': (ESTIMATOR_REMAPPING,)} if estimated else None)
         client = SessionClient(model_server=args.model_server, context=context, closed_loop=closed_loop,
                                estimated=estimated, namespace=session.namespace or '/')
         executor.add_node(client)

@@ -36,7 +36,7 @@ from ..wire.topics import (
     MSGTYPES,
     OUTPUT_TOPICS,
 )
-from .closed_loop import ESTIMATED_REPLAYED, REPLAYED, ClosedLoopSession, Tracer, estimator_ready
+from .closed_loop import ESTIMATED_REPLAYED, RENAMED, REPLAYED, ClosedLoopSession, Tracer, estimator_ready
 from .compare import Difference, Tolerances, answered, compare_step, diverged
 from .outputs import Output, RejectionTracker, SessionError, decode, output_of
 from .pairing import PairedSession, Step
@@ -91,7 +91,7 @@ class SessionClient(Node):
         self._first_seen: dict[str, float] = {}
         sent, traced = ((ESTIMATED_REPLAYED, (INTENT_W,)) if estimated else
                         (REPLAYED, (JOINT_STATES, ASSISTANCE_TWIST, ASSISTANCE_ALPHA)))
-        self._input_pubs = {topic: self.create_publisher(message_class(topic), topic, output_qos())
+        self._input_pubs = {topic: self.create_publisher(message_class(topic), RENAMED.get(topic, topic), output_qos())
                             for topic in (sent if closed_loop else INPUT_TOPICS)}
         self._loop_subs = {
             topic: self.create_subscription(message_class(topic), topic, self._tracer_receiver(topic), input_qos(1000),

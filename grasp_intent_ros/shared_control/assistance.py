@@ -430,6 +430,11 @@ class Assistance:
         """The planned grasp's task set (bitmask over the posterior's tasks), None when it is no demonstration."""
         self._task_set = task_set
 
+    @property
+    def task_set(self) -> int | None:
+        """The planned grasp's task set as last set (None: none, or no demonstration)."""
+        return self._task_set
+
     def set_v(self, v: NDArray[np.float64], labels: Sequence[str]) -> None:
         """The newest target vector v over the zones ``labels``."""
         self._v = (v, tuple(labels))

@@ -45,6 +45,16 @@ their mind is followed after moving at most ``L ln 2`` toward the new goal (when
 than ``delta_p``). Since ``|s_g| <= u``, ``E_g`` stays within ``beta L`` in magnitude: no goal's posterior
 runs to 0 or 1, which is what ADA's cap of 0.99 per goal does.
 
+**The shown grasp.** The operator sees the planner's grasp (the proposal) and takes it for its own when its
+own lies near it (within ``proposal_radius`` and ``proposal_angle``): it then heads for the proposal, whichever
+of the goals near it it wants. So while a proposal is shown, every goal within those bounds of it is credited
+with the progress toward the proposal itself (:meth:`IntentEstimator.set_proposal`): following the proposal
+raises the whole neighbourhood against the goals outside it, and tells the goals inside it apart only by
+their prior (their differences fade with the memory). Why: the final approach to a proposal passes within
+millimetres of other sets' goals; crediting each with its own progress there drives w to its bounds on the
+fine motion, and the planner then proposes a neighbouring grasp that may miss a task the operator wants, which
+the operator takes (docs/intent_estimation.md, the closed loop).
+
 **Task marginals.** ``P(g) = pi_g exp(E_g) / sum``; the task set posterior ``P(S) = sum_{S_g = S} P(g)``;
 ``w_i = sum_{S : i in S} P(S)``, clipped to ``[w_floor, 1 - w_floor]``. The interpreter's eq. 3 rebuilds
 joint events from the marginals as if tasks were independent; the joint ``P(S)`` here is not (two exclusive
@@ -59,14 +69,14 @@ Contracts: every public function checks shapes and finiteness of what it is give
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidIntentError, KinematicsError
-from ..method.intent import MAX_TASKS
+from ..method.intent import MAX_TASKS, zone_label
 from ..method.model import GraspModel
 from ..mico.frames import check_transform, check_vector, features_to_obj_T_ee
 from ..mico.kinematics import HOME_Q, MicoKinematics
@@ -94,6 +104,10 @@ class EstimatorConfig:
         w is clipped to [w_floor, 1 - w_floor], in (0, 0.5).
     max_dt : float
         Longest time (s) one operator twist is taken to act (a gap in the stream is not motion).
+    proposal_radius, proposal_angle : float
+        m, rad: an operator takes a shown grasp (the planner's proposal) for its own when its own lies within
+        these of it; while a proposal is shown, every goal within them of it is credited with the progress
+        toward the proposal (:meth:`IntentEstimator.set_proposal`). 0: proposals are ignored.
     """
 
     rationality: float = 1000.0
@@ -103,6 +117,8 @@ class EstimatorConfig:
     angle_scale: float = 0.2
     w_floor: float = 0.01
     max_dt: float = 0.1
+    proposal_radius: float = 0.06
+    proposal_angle: float = 0.8
 
     def __post_init__(self) -> None:
         positive = {'rationality': self.rationality, 'memory': self.memory, 'rotation_length': self.rotation_length,
@@ -111,6 +127,9 @@ class EstimatorConfig:
                if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0.0)]
         if not (isinstance(self.w_floor, (int, float)) and 0.0 < self.w_floor < 0.5):
             bad.append(f'w_floor = {self.w_floor!r} (must lie in (0, 0.5))')
+        for name, value in (('proposal_radius', self.proposal_radius), ('proposal_angle', self.proposal_angle)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
+                bad.append(f'{name} = {value!r} (must be finite and >= 0)')
         if self.angle_scale > math.pi:
             bad.append(f'angle_scale = {self.angle_scale!r} (at most pi)')
         if bad:
@@ -293,10 +312,16 @@ def progress_rates(goals: Goals, base_T_ee: NDArray[np.float64], twist: NDArray[
     -------
     ndarray, shape (N,)
     """
-    offset = goals.positions - base_T_ee[:3, 3]
+    return _progress(goals.positions, goals.rotations, base_T_ee, twist, config)
+
+
+def _progress(positions: NDArray[np.float64], rotations: NDArray[np.float64], base_T_ee: NDArray[np.float64],
+              twist: NDArray[np.float64], config: EstimatorConfig) -> NDArray[np.float64]:
+    """The progress rates toward goals at ``positions`` (N, 3), ``rotations`` (N, 3, 3): :func:`progress_rates`."""
+    offset = positions - base_T_ee[:3, 3]
     distance = np.sqrt(np.einsum('ni,ni->n', offset, offset))
     linear = (offset @ twist[:3]) / np.maximum(distance, config.position_scale)
-    r_rel = goals.rotations @ base_T_ee[:3, :3].T  # R_g R^T, (N, 3, 3)
+    r_rel = rotations @ base_T_ee[:3, :3].T  # R_g R^T, (N, 3, 3)
     a = np.stack([r_rel[:, 2, 1] - r_rel[:, 1, 2], r_rel[:, 0, 2] - r_rel[:, 2, 0],
                   r_rel[:, 1, 0] - r_rel[:, 0, 1]], axis=1)
     trace = r_rel[:, 0, 0] + r_rel[:, 1, 1] + r_rel[:, 2, 2]
@@ -313,18 +338,41 @@ class IntentEstimator:
     ----------
     goals : Goals
     config : EstimatorConfig
+    proposal : array_like, shape (4, 4), optional
+        The grasp shown now (:meth:`set_proposal`).
     """
 
-    def __init__(self, goals: Goals, config: EstimatorConfig = EstimatorConfig()) -> None:
+    def __init__(self, goals: Goals, config: EstimatorConfig = EstimatorConfig(),
+                 proposal: ArrayLike | None = None) -> None:
         self.goals, self.config = goals, config
         self.evidence = np.zeros(len(goals))
         """E_g, the log-evidence of each goal (0: the prior)."""
         self.updates = 0
+        self._proposal: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]] | None = None
+        self.set_proposal(proposal)
 
     def reset(self) -> None:
-        """Back to the prior (a new scene)."""
+        """Back to the prior (a new scene); the proposal is forgotten."""
         self.evidence = np.zeros(len(self.goals))
         self.updates = 0
+        self._proposal = None
+
+    def set_proposal(self, base_T_grasp: ArrayLike | None) -> None:
+        """The grasp shown to the operator now (4x4, base frame), None for none (module docstring).
+
+        Raises KinematicsError for a pose that is not a rigid transform (the proposal is then unchanged).
+        """
+        if base_T_grasp is None:
+            self._proposal = None
+            return
+        pose = check_transform(base_T_grasp, 'base_T_grasp')
+        cfg = self.config
+        offset = self.goals.positions - pose[:3, 3]
+        near = np.sqrt(np.einsum('ni,ni->n', offset, offset)) <= cfg.proposal_radius
+        r_rel = self.goals.rotations @ pose[:3, :3].T
+        cos = np.clip(0.5 * (r_rel[:, 0, 0] + r_rel[:, 1, 1] + r_rel[:, 2, 2] - 1.0), -1.0, 1.0)
+        near &= np.arccos(cos) <= cfg.proposal_angle
+        self._proposal = (pose[None, :3, 3].copy(), pose[None, :3, :3].copy(), near)
 
     def update(self, base_T_ee: ArrayLike, twist: ArrayLike, dt: float) -> NDArray[np.float64]:
         """Take one operator twist held for ``dt`` s with the hand at ``base_T_ee``; returns the new w.
@@ -347,6 +395,9 @@ class IntentEstimator:
         unit_speed = float(np.linalg.norm(unit[:3])) + cfg.rotation_length * float(np.linalg.norm(unit[3:]))
         fade = -math.expm1(-(size * dt) * unit_speed / cfg.memory)  # 1 - gamma; 1 when u dt overflows
         rates = progress_rates(self.goals, hand, unit, cfg) / unit_speed  # s_g / u, in [-1, 1]
+        if self._proposal is not None and self._proposal[2].any():
+            position, rotation, near = self._proposal
+            rates[near] = _progress(position, rotation, hand, unit, cfg)[0] / unit_speed
         # the exact solution over the step of dE/dl = -E / L + beta s / u (l the pose path): |E| <= beta L
         self.evidence = (1.0 - fade) * self.evidence + (cfg.rationality * cfg.memory * fade) * rates
         return self.w
@@ -369,4 +420,9 @@ class IntentEstimator:
     def set_posterior(self) -> dict[int, float]:
         """P(S) per task set served by some goal (bitmask -> probability)."""
         return self.goals.set_posterior(self.posterior)
+
+    def likely_sets(self, task_names: Sequence[str], count: int = 3) -> str:
+        """The ``count`` likeliest task sets as 'label: P(S)' (ties: the smaller bitmask first), for a status."""
+        top = sorted(self.set_posterior().items(), key=lambda item: (-item[1], item[0]))[:count]
+        return ', '.join(f'{zone_label(s, task_names)}: {p:.2f}' for s, p in top)
 

@@ -90,6 +90,9 @@ ESTIMATOR = (
               range=(1e-6, 3.14159)),
     ParamSpec('w_floor', _ESTIMATE.w_floor, 'w is kept within [w_floor, 1 - w_floor].', range=(1e-6, 0.49)),
     ParamSpec('max_dt', _ESTIMATE.max_dt, 'Longest time one operator twist is taken to act, s.', range=(1e-3, 10.0)),
+    ParamSpec('proposal_radius', _ESTIMATE.proposal_radius, 'm: goals within it (and proposal_angle) of the shown '
+              'grasp are credited with the progress toward it (0: the shown grasp is ignored).', range=(0.0, 10.0)),
+    ParamSpec('proposal_angle', _ESTIMATE.proposal_angle, 'rad: the same for the orientation.', range=(0.0, 3.15)),
     ParamSpec('publish_period', 0.04, 'Time between two w while the operator moves, s.', range=(0.001, 1.0),
               read_only=True),
     ParamSpec('operator_timeout', 0.1, 'Operator twist age (s) after which the operator counts as still (no w '

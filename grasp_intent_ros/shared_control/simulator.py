@@ -40,8 +40,9 @@ the planned one (the cup's transfer loses palm contact). Executed, the hand is a
 With an :class:`~.estimator.IntentEstimator` (``estimator``), w comes from it instead of the intent script
 (the intent node's place in the suite, ``suite --with intent_estimator``): it is reset at the start and fed,
 every period, the operator's own twist (before blending, so the assistance never creates its own evidence)
-with the hand's pose at that tick; every ``w_period`` its w is interpreted and planned as the script's would
-be. The script then gives only the operator's true task set: the estimator never sees it.
+with the hand's pose at that tick, and each grasp planned, as the proposal shown (the node's ``grasp/pose``);
+every ``w_period`` its w is interpreted and planned as the script's would be. The script then gives only the
+operator's true task set: the estimator never sees it.
 
 The simulation returns what happened, never a verdict: the executed grasp's features in the true object
 frame, when the hand closed, the operator's effort and each shown grasp's alpha-time; the caller judges
@@ -71,7 +72,7 @@ from .estimator import IntentEstimator
 from .operators import IntentScript, ScriptedOperator, certain_w
 
 __all__ = ['Condition', 'CONDITIONS', 'ADA_APPLY_TIME', 'Scene', 'PlanStream', 'AdaAssistance', 'Episode',
-           'execute_grasp', 'simulate', 'perturb_pose', 'certain_grasps']
+           'TraceRow', 'execute_grasp', 'simulate', 'perturb_pose', 'certain_grasps']
 
 Condition = Literal['direct', 'ada', 'independent', 'suite']
 CONDITIONS: tuple[Condition, ...] = ('direct', 'ada', 'independent', 'suite')
@@ -249,6 +250,47 @@ def execute_grasp(arm: MockArm, base_T_grasp: NDArray[np.float64], now: float, p
 
 
 @dataclass
+class TraceRow:
+    """The loop's state over one ``w_period`` of an episode (``simulate(..., trace=...)``; nothing judged).
+
+    Attributes
+    ----------
+    t : float
+        Seconds from the start to the w report that opens the period.
+    w : ndarray, shape (m,)
+        The w reported (the script's or the estimator's).
+    v : ndarray, shape (K,) or None
+        Its interpretation (None: clarification asked).
+    shown_set : int or None
+        The task set (the demonstration's label, as the assistance finds it) of the grasp shown over the period;
+        None for no grasp or a grasp that is no demonstration.
+    shown : ndarray, shape (4, 4) or None
+        The shown grasp's pose (base frame).
+    shown_x : ndarray, shape (10,) or None
+        The shown grasp's features as planned (the tracked object frame).
+    hand : ndarray, shape (4, 4)
+        The hand's pose at the report.
+    alpha : float
+        Mean arbitration weight over the period's commands.
+    pursued : str
+        'shown' or 'own': the goal the operator pursued at the period's last tick.
+    task_set : int
+        The operator's true task set at the report.
+    """
+
+    t: float
+    w: NDArray[np.float64]
+    v: NDArray[np.float64] | None
+    shown_set: int | None
+    shown: NDArray[np.float64] | None
+    shown_x: NDArray[np.float64] | None
+    hand: NDArray[np.float64]
+    alpha: float = 0.0
+    pursued: str = ''
+    task_set: int = 0
+
+
+@dataclass
 class Episode:
     """What one simulated episode did (nothing judged).
 
@@ -291,7 +333,7 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
              plan_cache: dict[bytes, Grasp | None], timeout: float = 25.0, period: float = 0.01,
              w_period: float = 0.1, closure_error: float = 0.05,
              config: AssistanceConfig | None = None, estimator: IntentEstimator | None = None,
-             execute: bool = True) -> Episode:
+             execute: bool = True, trace: list[TraceRow] | None = None) -> Episode:
     """Run one episode (module docstring).
 
     Parameters
@@ -309,6 +351,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
     execute : bool
         Whether the suite's grasp command executes the shown grasp (module docstring); False: the hand closes
         where it is under every condition.
+    trace : list of TraceRow, optional
+        When given, one row per ``w_period`` is appended to it (the loop's state; a diagnostic's record).
     """
     kin = scene.kin
     base = config or AssistanceConfig()
@@ -333,7 +377,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
     for tick in range(ticks):
         now = tick * period
         if tick % w_every == 0:
-            v, grasp = stream.plan(intent.w(now, intent_rng) if estimator is None else estimator.w)
+            w = intent.w(now, intent_rng) if estimator is None else estimator.w
+            v, grasp = stream.plan(w)
             if v is None:
                 assistance.clarification()
             else:
@@ -341,10 +386,16 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
                 if grasp is not None:
                     shown = grasp
                     assistance.set_grasp(grasp.base_T_ee)
+                    if estimator is not None:
+                        estimator.set_proposal(grasp.base_T_ee)
                     model = scene.model
                     assistance.set_posterior(grasp.result.posterior, model.zone_labels, model.task_names)
                     assistance.set_task_set(grasp_task_set(grasp.result.x, model.demo_x, model.demo_sets,
                                                            model.feature_scale))
+            if trace is not None:
+                trace.append(TraceRow(now, w, v, assistance.task_set, None if shown is None else shown.base_T_ee,
+                                      None if shown is None else shown.result.x, kin.fk(arm.q[:6]),
+                                      task_set=intent.task_set(now)))
         q = arm.q[:6].copy()
         assistance.set_joints(q)
         assert assistance.base_T_ee is not None
@@ -356,6 +407,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
         own_pose, own_closures = own_goals[task_set]
         shown_pose = None if shown_seen is None or condition == 'ada' else shown_seen.base_T_ee  # on the screen
         goal, pursued = operator.choose_goal(shown_pose, own_pose)
+        if trace:
+            trace[-1].pursued = pursued
         if operator.at_goal(seen, goal):
             closures = own_closures if pursued == 'own' or shown_seen is None else shown_seen.positions[6:]
             if execute and pursued == 'shown' and shown is not None and condition in ('suite', 'independent'):
@@ -383,6 +436,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
             command = assistance.command(now)
             twist = command.twist
             alpha_sum += command.alpha
+            if trace:
+                trace[-1].alpha += command.alpha / w_every
             if command.alpha > 0.0 and shown is not None:
                 entry = pull.setdefault(id(shown), [shown.result.x, 0.0])
                 entry[1] += command.alpha * period  # type: ignore[operator]

@@ -142,3 +142,31 @@ def test_stamped_twists_act_for_their_stamps_difference_whenever_they_arrive(ros
         reference.update(rig.hand, np.r_[linear, 0.0, 0.0, 0.0], estimator.config.max_dt if k == 0 else 0.01)
     # the stamps' difference is 0.01 s up to rounding at 100 s (about 1e-14 s); arrival times differ by ms
     np.testing.assert_allclose(estimator.evidence, reference.evidence, rtol=0.0, atol=1e-9)
+
+
+def test_the_shown_grasp_is_the_proposal_and_survives_a_restart(ros, rig: Rig) -> None:
+    """grasp/pose (the planner's grasp, on the operator's screen) reaches the estimate, and the next after a restart.
+
+    A pose in another frame is rejected and changes nothing.
+    """
+    goals = goals_at(rig.models.load('cup_7zone'), BASE_T_OBJ)
+    shown = np.eye(4)
+    shown[:3, :3], shown[:3, 3] = goals.rotations[0], goals.positions[0]
+    grasps = ros.publisher(PoseStamped, topics.GRASP_POSE)
+
+    def proposal() -> np.ndarray | None:
+        estimator = rig.node._estimator
+        return None if estimator is None or estimator._proposal is None else estimator._proposal[0][0]
+
+    msg = matrix_to_pose_msg(shown, frame_id=BASE_FRAME, stamp=ros.node.get_clock().now().to_msg())
+    assert ros.publish_until(grasps, msg, lambda: proposal() is not None, 10.0, period=0.05)
+    np.testing.assert_allclose(proposal(), goals.positions[0], rtol=0, atol=1e-9)
+    near = rig.node._estimator._proposal[2]
+    assert near[0] and 1 < near.sum() < near.size, 'the shown goal and some, not all, others are near it'
+    rig.activate('cup_5zone', 2)
+    assert ros.wait_for(lambda: rig.node._restarts == 2, 60.0)
+    np.testing.assert_allclose(proposal(), goals.positions[0], rtol=0, atol=1e-9)
+    wrong = matrix_to_pose_msg(np.eye(4), frame_id='elsewhere', stamp=ros.node.get_clock().now().to_msg())
+    rejected = rig.node._diag._rejected
+    assert ros.publish_until(grasps, wrong, lambda: rig.node._diag._rejected > rejected, 10.0, period=0.05)
+    np.testing.assert_allclose(proposal(), goals.positions[0], rtol=0, atol=1e-9)

@@ -103,6 +103,79 @@ def test_goals_at_the_same_pose_keep_their_prior_ratio() -> None:
     assert est.w[2] > 0.95 and est.w[0] == pytest.approx(0.5, abs=0.03)
 
 
+def near_scene(config: EstimatorConfig = CONFIG) -> IntentEstimator:
+    """Usage and handover goals 1 cm apart at 0.3 m on +x, transfer 0.3 m away on +y."""
+    goals = goals_from_poses([pose((0.3, 0.0, 0.0)), pose((0.3, 0.01, 0.0)), pose((0.0, 0.3, 0.0))], [U, H, T], 3)
+    return IntentEstimator(goals, config)
+
+
+def test_goals_near_the_shown_grasp_gain_the_progress_toward_it() -> None:
+    """An operator heading for the shown grasp says only that its own goal lies near it, not which one."""
+    toward_h = np.array([0.3, 0.01, 0.0]) / np.linalg.norm([0.3, 0.01, 0.0]) * SPEED
+    unshown = near_scene()
+    end = reach(unshown, np.eye(4), toward_h, 2.45)  # to within 1 cm of the handover goal (0.294 m of 0.300)
+    assert unshown.w[2] > unshown.w[0] + 0.2, 'without a proposal the motion separates goals 1 cm apart'
+    shown = near_scene()
+    shown.set_proposal(pose((0.3, 0.0, 0.0)))  # the usage goal is shown; handover lies 1 cm from it
+    reach(shown, np.eye(4), toward_h, 2.45)
+    p = shown.posterior
+    assert p[0] == pytest.approx(p[1], rel=1e-9), 'both near goals gain the same evidence: their prior ratio stays'
+    assert shown.w[1] < 0.05, 'the far transfer goal still loses'
+    ignored = near_scene(EstimatorConfig(proposal_radius=0.0))
+    ignored.set_proposal(pose((0.3, 0.0, 0.0)))
+    reach(ignored, np.eye(4), toward_h, 2.45)
+    assert_allclose(ignored.evidence, unshown.evidence, rtol=0, atol=0)
+    assert np.linalg.norm(end[:3, 3] - [0.3, 0.01, 0.0]) < 0.01
+
+
+def test_a_goal_outside_the_proposal_keeps_its_own_progress() -> None:
+    est = near_scene()
+    est.set_proposal(pose((0.3, 0.0, 0.0)))
+    reach(est, np.eye(4), np.array([0.0, SPEED, 0.0]), 2.0)  # straight at transfer, away from the proposal
+    assert est.w[1] > 0.95 and est.w[0] < 0.05 and est.w[2] < 0.05
+
+
+def test_proposal_turned_away_is_outside_and_none_or_reset_forget_it() -> None:
+    turned = near_scene()
+    turned.set_proposal(pose((0.3, 0.0, 0.0), (CONFIG.proposal_angle + 0.1, 0.0, 0.0)))  # beyond the angle
+    reach(turned, np.eye(4), np.array([0.3, 0.01, 0.0]) / np.linalg.norm([0.3, 0.01, 0.0]) * SPEED, 2.4)
+    plain = near_scene()
+    reach(plain, np.eye(4), np.array([0.3, 0.01, 0.0]) / np.linalg.norm([0.3, 0.01, 0.0]) * SPEED, 2.4)
+    assert_allclose(turned.evidence, plain.evidence, rtol=0, atol=0)
+    for forget in ('none', 'reset'):
+        est = near_scene()
+        est.set_proposal(pose((0.3, 0.0, 0.0)))
+        if forget == 'none':
+            est.set_proposal(None)
+        else:
+            est.reset()
+        reach(est, np.eye(4), np.array([0.0, SPEED, 0.0]), 0.5)
+        fresh = near_scene()
+        reach(fresh, np.eye(4), np.array([0.0, SPEED, 0.0]), 0.5)
+        assert_allclose(est.evidence, fresh.evidence, rtol=0, atol=0)
+    est = near_scene()
+    with pytest.raises(KinematicsError):
+        est.set_proposal(2.0 * np.eye(4))
+
+
+def test_likely_sets_lists_the_likeliest_first_and_ties_by_bitmask() -> None:
+    names = ('usage', 'transfer', 'handover')
+    est = scene()
+    assert est.likely_sets(names) == 'U: 0.33, T: 0.33, H: 0.33'
+    reach(est, np.eye(4), np.array([0.0, SPEED, 0.0]), 1.0)
+    assert est.likely_sets(names, count=1).startswith('T: ')
+
+
+def test_a_proposal_given_at_construction_is_set() -> None:
+    shown = near_scene()
+    shown.set_proposal(pose((0.3, 0.0, 0.0)))
+    built = IntentEstimator(shown.goals, CONFIG, proposal=pose((0.3, 0.0, 0.0)))
+    toward = np.array([0.3, 0.01, 0.0]) / np.linalg.norm([0.3, 0.01, 0.0]) * SPEED
+    reach(shown, np.eye(4), toward, 1.0)
+    reach(built, np.eye(4), toward, 1.0)
+    assert_allclose(built.evidence, shown.evidence, rtol=0, atol=0)
+
+
 def test_progress_rates_are_the_decrease_of_the_huber_pose_distance() -> None:
     """Against finite differences of D_g, written out here independently, at poses far from and near the goals."""
     rng = np.random.default_rng(1)
@@ -157,7 +230,7 @@ def test_w_stays_finite_and_in_range_under_extreme_input() -> None:
 
 def test_bad_settings_and_goals_are_refused() -> None:
     for bad in (dict(rationality=0.0), dict(memory=-1.0), dict(w_floor=0.5), dict(angle_scale=4.0),
-                dict(max_dt=math.inf)):
+                dict(max_dt=math.inf), dict(proposal_radius=-0.1), dict(proposal_angle=math.nan)):
         with pytest.raises(InvalidIntentError):
             EstimatorConfig(**bad)  # type: ignore[arg-type]
     with pytest.raises(InvalidIntentError):

@@ -23,7 +23,14 @@ from grasp_intent_ros.shared_control.operators import (
     certain_w,
     draw_task_set,
 )
-from grasp_intent_ros.shared_control.simulator import AdaAssistance, Scene, certain_grasps, perturb_pose, simulate
+from grasp_intent_ros.shared_control.simulator import (
+    AdaAssistance,
+    Scene,
+    TraceRow,
+    certain_grasps,
+    perturb_pose,
+    simulate,
+)
 
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 U, T, H = 1, 2, 4
@@ -132,6 +139,25 @@ def test_with_an_estimator_w_comes_from_the_operators_motion_alone(cup) -> None:
     assert first.closed_at is not None and first.closed_at == second.closed_at  # reset at each start
     assert first.features is not None and np.array_equal(first.features, second.features)
     assert CUP_RULES.label(first.features) & T == T
+
+
+def test_the_trace_follows_the_loop_and_the_estimator_is_shown_each_plan(cup) -> None:
+    scene, grasps = cup
+    own = {s: (g.base_T_ee, g.positions[6:]) for s, g in grasps.items()}
+    estimator = IntentEstimator(goals_at(scene.model, scene.base_T_obj,
+                                         reachable_goals(scene.model, scene.base_T_obj, scene.kin)))
+    trace: list[TraceRow] = []
+    operator = ScriptedOperator('spacemouse', OperatorConstants(), np.random.default_rng(3))
+    ep = simulate(scene, 'suite', _TrueSetOnly(T), operator, own, np.random.default_rng(4), np.random.default_rng(5),
+                  ada_goals=[], plan_cache={}, closure_error=0.0, timeout=15.0, estimator=estimator, trace=trace)
+    assert ep.closed_at is not None and ep.executed and trace[-1].t <= ep.closed_at  # closing may execute the plan
+    assert [row.t for row in trace] == pytest.approx([0.1 * k for k in range(len(trace))], abs=1e-9)
+    assert all(0.0 <= row.alpha <= 0.9 + 1e-12 and row.task_set == T and row.pursued in ('shown', 'own')
+               for row in trace)
+    assert trace[-1].pursued == ep.pursued and trace[-1].shown is not None
+    # the estimator was shown the last plan, which is what the trace shows
+    assert estimator._proposal is not None
+    np.testing.assert_array_equal(estimator._proposal[0][0], trace[-1].shown[:3, 3])
 
 
 def test_ada_s_goal_distribution_follows_the_operators_motion(cup) -> None:
