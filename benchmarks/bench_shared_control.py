@@ -47,9 +47,9 @@ unsharpened intent, the operator wanting usage and transfer; bags/shared_control
 ``--objects cup --only 0 --record``. With ``--estimator`` the suite runs the intent estimator, the only source
 of w (this process publishes none; its operator twists are stamped), and the operator wants transfer (T),
 heading for its own grasp for T or the shown one when that serves T; bags/shared_control_cup_estimated is
-``--objects cup --only 2 --record bags/shared_control_cup_estimated --estimator`` (operator 2: of operators 0-3,
-the first whose recorded hand ended at the last grasp planned, which the replay checks; operators 0 and 1 closed
-on a transfer grasp while the planner's last one, for a later w, was another).
+``--objects cup --only 1 --record bags/shared_control_cup_estimated --estimator`` (keep a recording whose hand
+ended at the last grasp planned, which the replay checks, and whose replay passes twice: the live loop differs
+between recordings of one operator; two of operator 1 ended with w_handover 0.23 and 0.63).
 
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set.
 

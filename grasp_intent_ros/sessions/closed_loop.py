@@ -84,11 +84,11 @@ ESTIMATOR_REMAPPING: Final = f'{GRASP_POSE}:={RECORDED_GRASP_POSE}'
 """The live estimator's remapping in the replay of an estimated session."""
 RENAMED: Final = {GRASP_POSE: RECORDED_GRASP_POSE}
 """Replayed topics sent under another name (only an estimated session's replay sends ``grasp/pose``)."""
-W_TOLERANCE: Final = 0.04
+W_TOLERANCE: Final = 0.05
 """Largest difference of any w_i between the recorded and the live last w. The estimator takes each operator
 twist with the newest joint state and the newest shown grasp it has received, and which ones those are depends
-on delivery order: replays of the estimated cup session differed by up to 0.026 beside the whole test suite
-(load 6-10), within 0.02 alone (load 1)."""
+on delivery order: replays of three recordings of the estimated cup session differed from them by 0.018-0.044
+(load 1-10)."""
 
 
 @dataclass(frozen=True)
