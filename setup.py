@@ -76,8 +76,8 @@ setup(
         'viewer': ['viser>=1.1'],
         # the benchmarks' independent collision judge (benchmarks/judge_physics.py); not for the package itself
         'bench': ['mujoco>=3.2'],
-        'test': ['pytest>=7', 'pytest-timeout>=2', 'hypothesis>=6', 'packaging>=23', 'mypy>=1.9', 'types-PyYAML',
-                 'ruff>=0.4', 'colcon-core>=0.15', 'colcon-ros>=0.4', 'viser>=1.1'],
+        'test': ['pytest>=7', 'pytest-timeout>=2', 'pytest-xdist>=3', 'hypothesis>=6', 'packaging>=23', 'mypy>=1.9',
+                 'types-PyYAML', 'ruff>=0.4', 'colcon-core>=0.15', 'colcon-ros>=0.4', 'viser>=1.1'],
     },
     zip_safe=True,
     maintainer='grasp_intent_ros developers',

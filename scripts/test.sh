@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Run every test (unit, in-process node tests, system tests with real processes, bag replays) in the repo's
 # venv of locked versions, created/refreshed first. Extra arguments go to pytest.
-#   scripts/test.sh [pytest options]         the whole suite, then the unit level again as on another CPU
+#   scripts/test.sh [pytest options]         the whole suite, then the unit level again as on another CPU; the
+#                                            unit level (computation, no ROS) on one worker per core (pytest-xdist)
 #   scripts/test.sh PATHS, -k EXPR, -m EXPR  only what is selected, once (any argument not starting with '-')
 #   scripts/test.sh --other-cpu [args]       only as on another CPU (test/unit unless paths are given)
 #   scripts/test.sh --latest [args]          the drift run: the same tests against the newest versions
@@ -22,6 +23,8 @@ for arg in "$@"; do
     case "$arg" in -*) ;; *) selects=true ;; esac
 done
 skip_static=(--ignore=test/unit/test_static.py)  # mypy, ruff and the import rules: no arithmetic in them
+# test/unit on one process per core, a test module per process (its module fixtures made once); up to 4 processes
+workers=(-n auto --maxprocesses=4 --dist loadfile)
 as_on_another_cpu() {
     if [ "$(uname -m)" != x86_64 ]; then
         echo "scripts/test.sh: not an x86-64 machine: the run as on another CPU is skipped" >&2
@@ -31,11 +34,16 @@ as_on_another_cpu() {
     OPENBLAS_CORETYPE=Prescott NUMBA_CPU_NAME=generic "$python" -m pytest -q "$@"
 }
 if [ "$other_cpu" = true ]; then
-    if [ "$selects" = true ]; then as_on_another_cpu "$@"; else as_on_another_cpu "$@" test/unit "${skip_static[@]}"; fi
+    if [ "$selects" = true ]; then
+        as_on_another_cpu "$@"
+    else
+        as_on_another_cpu "${workers[@]}" "$@" test/unit "${skip_static[@]}"
+    fi
     exit
 fi
 if [ "$selects" = true ]; then exec "$python" -m pytest -q "$@"; fi
 status=0
-"$python" -m pytest -q "$@" || status=$?
-as_on_another_cpu "$@" test/unit "${skip_static[@]}" || status=$?
+"$python" -m pytest -q "${workers[@]}" "$@" test/unit || status=$?
+"$python" -m pytest -q "$@" test --ignore=test/unit || status=$?
+as_on_another_cpu "${workers[@]}" "$@" test/unit "${skip_static[@]}" || status=$?
 exit "$status"
