@@ -17,12 +17,16 @@ The episodes
 - Operators (:mod:`grasp_intent_ros.shared_control.operators`): ``joystick`` (two modes), ``spacemouse``
   (six axes), ``goal-changing`` (a spacemouse operator whose true set changes once, at U(1.5, 3) s, to
   another set; w follows 1 s later).
-- The operator's own goal for T: the planner's grasp for the certain w_T, on the true object (the
-  planner's own choice for a certain intent; no rule is read). ADA's goals: the planner's grasps for the seven
-  certain task sets, on the tracked object.
 - The object tracker's error (per episode): position N(0, (5 mm)^2 / 3) per axis, rotation vector
   N(0, (3 deg)^2 / 3) per axis (``--tracker-mm``, ``--tracker-deg``): 5 mm and 3 deg RMS. The hand's closure
   error on the grasp command: N(0, (0.05 rad)^2) per finger (the mock arm's ``closure_error``).
+- What the operator perceives: the true object, with its own error (a person's eye is no exact tracker),
+  drawn per episode independently of the tracker's, by default of the same size (``--operator-mm``,
+  ``--operator-deg``; 0 and 0: an exact eye). The operator's own goal for T: the planner's grasp for the
+  certain w_T on the object where the operator sees it (the planner's own choice for a certain intent; no rule
+  is read). ADA's goals: the planner's grasps for the seven certain task sets, on the tracked object (the
+  robot's perception). So every grasp is planned on a perceived object, the robot's on the tracker's, the
+  operator's on its own view, each with an error of the same size; the judge alone sees the true object.
 - The grasp command: under the suite's assistance, closing on the shown grasp executes it (the arm moves to
   the planned grasp, then closes: :func:`~grasp_intent_ros.shared_control.simulator.execute_grasp`);
   ``--no-execute`` closes where the hand is, as under direct and ADA.
@@ -50,7 +54,8 @@ condition, estimated w minus scripted w (the suite) and minus direct) with a 95%
 episodes (10,000 resamples, seeded).
 
     .venv/bin/python benchmarks/bench_shared_control_sim.py [--episodes 50] [--repeats 3] [--jobs 2] \
-        [--intent persistent] [--conditions direct suite estimated] [--estimator rationality=300] [--json out.json]
+        [--intent persistent] [--conditions direct suite estimated] [--estimator rationality=300] \
+        [--operator-mm 5 --operator-deg 3] [--json out.json]
 """
 
 from __future__ import annotations
@@ -113,9 +118,7 @@ def _setup(name: str, execution_noise: bool) -> dict[str, Any]:
         model_name, rules = OBJECTS[name]
         kin = MicoKinematics()
         model = ModelFiles(config_dir() / 'models').load(model_name)
-        grasps = certain_grasps(model, BASE_T_OBJ, kin, _options(execution_noise))
-        own = {s: (g.base_T_ee, g.positions[6:]) for s, g in grasps.items()}
-        _STATE[key] = {'kin': kin, 'model': model, 'rules': rules, 'own': own}
+        _STATE[key] = {'kin': kin, 'model': model, 'rules': rules}
     return _STATE[key]
 
 
@@ -139,6 +142,9 @@ class Task:
     """EstimatorConfig fields set for the ``estimated`` condition (the rest: its defaults)."""
     trace: bool = False
     """Whether each record carries the loop's trace and the failed rules (:func:`trace_record`)."""
+    operator_mm: float = 5.0
+    operator_deg: float = 3.0
+    """The RMS error of the operator's view of the object (module docstring): mm, deg."""
 
 
 def _intent(task: Task, rng: np.random.Generator) -> Any:
@@ -160,9 +166,11 @@ def run_task(task: Task) -> list[dict[str, Any]]:
                                        task.index])
     intent = _intent(task, setup_rng)
     tracked = perturb_pose(BASE_T_OBJ, task.tracker_mm * 1e-3, math.radians(task.tracker_deg), setup_rng)
+    seen = perturb_pose(BASE_T_OBJ, task.operator_mm * 1e-3, math.radians(task.operator_deg), setup_rng)
     options = _options(task.execution_noise)
     scene = Scene(model, BASE_T_OBJ, tracked, kin, options)
     ada_goals = [(g.base_T_ee, g.result.x) for g in certain_grasps(model, tracked, kin, options).values()]
+    own = {s: (g.base_T_ee, g.positions[6:]) for s, g in certain_grasps(model, seen, kin, options).items()}
     cache: dict[bytes, Grasp | None] = {}
     estimator = None
     if ESTIMATED in task.conditions:  # the goals the node would prepare for the tracked object
@@ -180,7 +188,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
             t0 = time.perf_counter()
             estimated = condition == ESTIMATED
             trace: list[TraceRow] | None = [] if task.trace else None
-            ep = simulate(scene, 'suite' if estimated else condition, intent, operator, state['own'], intent_rng,
+            ep = simulate(scene, 'suite' if estimated else condition, intent, operator, own, intent_rng,
                           closure_rng, ada_goals=ada_goals, plan_cache=cache, timeout=task.timeout,
                           estimator=estimator if estimated else None, execute=task.execute, trace=trace)
             true_set = ep.task_set
@@ -291,6 +299,9 @@ def main() -> None:
     parser.add_argument('--timeout', type=float, default=25.0)
     parser.add_argument('--tracker-mm', type=float, default=5.0)
     parser.add_argument('--tracker-deg', type=float, default=3.0)
+    parser.add_argument('--operator-mm', type=float, default=5.0, help='RMS position error of the operator\'s view '
+                        'of the object (its own grasps are planned there; 0: the true object)')
+    parser.add_argument('--operator-deg', type=float, default=3.0, help='RMS rotation error of the operator\'s view')
     parser.add_argument('--conditions', nargs='+', default=list(RUN), choices=list(RUN))
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--no-execute', action='store_true', help='the suite\'s grasp command closes the hand where '
@@ -312,7 +323,7 @@ def main() -> None:
         return
     tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg,
                   tuple(c for c in RUN if c in args.conditions), not args.no_execute, not args.exact_landing,
-                  estimator_fields(args.estimator))
+                  estimator_fields(args.estimator), operator_mm=args.operator_mm, operator_deg=args.operator_deg)
              for i in range(args.episodes) for o in args.objects for op in args.operators]  # cells fill evenly
     print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
           f'conditions, intent {args.intent}; {uptime()}', flush=True)

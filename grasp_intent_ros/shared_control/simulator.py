@@ -12,7 +12,8 @@ interpreted and planned at once (the nodes take milliseconds: the simulation lea
 warm-started from the previous plan of the stream, with the IK seeded at Home (the planner node seeds it with
 the arm's joints: the grasp's pose does not depend on the seed, only which IK branch the planner reports, and
 the assistance solves its own IK). The planner sees the object where the tracker says it is (``base_T_obj``
-of the :class:`Scene`, the true pose plus the tracker's error); the operator and the judge see the true one.
+of the :class:`Scene`, the true pose plus the tracker's error); the judge sees the true one; the operator
+drives to the shown grasp or to its own goals, which the caller plans where the operator sees the object.
 
 Conditions (:data:`CONDITIONS`)
 -------------------------------
@@ -339,7 +340,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
     Parameters
     ----------
     own_goals : dict task set -> (base_T_ee, closures)
-        The operator's own grasp per task set (true object frame), chosen without the rules.
+        The operator's own grasp per task set (base frame; planned where the operator sees the object), chosen
+        without the rules.
     ada_goals : list of (base_T_ee, features)
         ADA's goals, in the tracked frame (the robot's perception).
     intent_rng, closure_rng

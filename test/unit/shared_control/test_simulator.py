@@ -180,3 +180,17 @@ def test_the_tracker_error_has_the_stated_size() -> None:
     errors = np.array([pose_error(BASE_T_OBJ, m) for m in moved])
     assert np.sqrt(np.mean(np.sum(errors[:, :3] ** 2, axis=1))) == pytest.approx(0.005, rel=0.05)
     assert np.sqrt(np.mean(np.sum(errors[:, 3:] ** 2, axis=1))) == pytest.approx(np.radians(3.0), rel=0.05)
+
+
+def test_a_grasp_planned_on_a_perceived_object_sits_on_it_as_on_the_true_one(cup) -> None:
+    # The benchmark plans the robot's grasps on the tracker's view and the operator's own on the operator's view:
+    # each view's error then enters its grasps alike, as a rigid motion of the object (no other change of plan).
+    scene, true_grasps = cup
+    rng = np.random.default_rng(3)
+    for _ in range(2):
+        seen = perturb_pose(BASE_T_OBJ, 0.005, np.radians(3.0), rng)
+        for task_set, grasp in certain_grasps(scene.model, seen, scene.kin).items():
+            in_view = np.linalg.inv(seen) @ grasp.base_T_ee
+            in_true = np.linalg.inv(BASE_T_OBJ) @ true_grasps[task_set].base_T_ee
+            distance, angle = offset(in_view, in_true)
+            assert distance < 1e-6 and angle < 1e-6
