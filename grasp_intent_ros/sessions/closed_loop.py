@@ -88,9 +88,9 @@ AHEAD_TOPICS: Final = (JOINT_STATES, GRASP_POSE)
 AHEAD_NS: Final = 200_000_000
 """How early (ns). The estimator takes each operator twist with the joint state and the grasp stamped at or
 before it (:mod:`grasp_intent_ros.shared_control.stamped_inputs`), so those sent early change nothing but that
-they are there when the twist is taken. Sent at the recorded pace, a grasp (received 14 ms after its stamp, the
-planning time, and up to 96 ms on a loaded machine) raced the twists stamped after it; joint states were received
-up to 75 ms after their stamps. The live trace's times are the recorded ones (the lead added back)."""
+they are there when the twist is taken. Sent at the recorded pace, a grasp (received after its stamp by the
+planning time, longer on a loaded machine) raced the twists stamped after it. The live trace's times are the
+recorded ones (the lead added back). What was measured: docs/intent_estimation.md, the closed-loop bag."""
 ESTIMATOR_REMAPPING: Final = f'{GRASP_POSE}:={RECORDED_GRASP_POSE}'
 """The live estimator's remapping in the replay of an estimated session."""
 RENAMED: Final = {GRASP_POSE: RECORDED_GRASP_POSE}
@@ -98,11 +98,10 @@ RENAMED: Final = {GRASP_POSE: RECORDED_GRASP_POSE}
 W_TOLERANCE: Final = 0.002
 """Largest difference of any w_i between the recorded and the live last w. The replay itself adds nothing: the
 estimator takes each operator twist with the joint state and the grasp stamped at or before it, all in the bag
-and sent ahead (:data:`AHEAD_NS`), so its replays end on one w to the last bit (eight replays of three recordings,
-load 8-11), and 1e-12 (relative) perturbed inputs move it by 7e-12. What remains is the recording's own: its live
-estimator took the twists stamped after a new grasp before that grasp arrived (about 14 ms after its stamp, up to
-96 ms), which no bag records; two recordings ended 6e-4 and 8e-4 from their replays, both first apart at a grasp
-that changed. A recording whose replay misses this tolerance is recorded again."""
+and sent ahead (:data:`AHEAD_NS`), so its replays end on one w to the last bit. What remains is the recording's
+own: its live estimator took the twists stamped just after a new grasp before that grasp arrived, which no bag
+records (docs/intent_estimation.md, the closed-loop bag, says what it measured). A recording whose replay
+misses this tolerance is recorded again."""
 
 
 @dataclass(frozen=True)
