@@ -30,22 +30,31 @@ from std_msgs.msg import Float64MultiArray
 from ..errors import GraspIntentError
 from ..mico.grasp import check_mico_model
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, JOINT_LIMIT_MARGIN, MicoKinematics
+from ..mico.mock_arm import TwistCommand
 from ..mico.parameters import object_pose
 from ..parameters import config_from
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input, subscribe_operator
 from ..ros.model_follower import ModelFollower, served_models
 from ..ros.params import declare_parameters
-from ..ros.qos import input_qos, output_publisher
+from ..ros.qos import STREAM_DEPTH, input_qos, output_publisher
 from ..ros.run import guard_exit, publish_all, run_node
 from ..ros.worker import LatestOnlyWorker
 from ..shared_control.assistance import offset
 from ..shared_control.estimator import EstimatorConfig, IntentEstimator, TwistTiming, goals_at, reachable_goals
 from ..shared_control.parameters import ESTIMATOR, check_estimator
+from ..shared_control.stamped_inputs import StampedInputs
 from ..wire import topics
 from ..wire.diagnostics import ERROR, ESTIMATOR_COMPONENT, KEY_GOALS, OK, WARN
 from ..wire.model_document import ModelDocument
-from ..wire.robot_state import joint_positions, object_pose_msg, pose_msg_to_matrix, stamp_seconds, twist_command
+from ..wire.robot_state import (
+    joint_positions,
+    object_pose_msg,
+    pose_msg_to_matrix,
+    stamp_nanoseconds,
+    stamp_seconds,
+    twist_command,
+)
 
 __all__ = ['IntentEstimatorNode', 'main']
 
@@ -72,7 +81,10 @@ class IntentEstimatorNode(Node):
         """The estimate over the current scene's goals; None while they are prepared."""
         self._proposal: NDArray[np.float64] | None = None  # the newest grasp/pose (base frame): the grasp shown
         self._q: NDArray[np.float64] | None = None
-        self._base_T_ee: NDArray[np.float64] | None = None
+        self._inputs: StampedInputs[tuple[TwistCommand, float | None]] = StampedInputs(self._config.max_dt)
+        """Operator twists (their command and stamp, s) paired with the hand and the grasp shown at their stamps."""
+        self._shown: NDArray[np.float64] | None = None  # the proposal the estimator holds
+        self._fresh = False  # a twist was taken since the last w published
         self._timing = TwistTiming()  # on the node's clock
         self._published = self._restarts = 0
         self._pub = output_publisher(self, Float64MultiArray, topics.INTENT_W)
@@ -83,11 +95,11 @@ class IntentEstimatorNode(Node):
         self.context.on_shutdown(self._scenes.stop_soon)
         self._models = ModelFollower(self, self._diag, self._use_model, name=f'{node_name}_model',
                                      requires=lambda: served_models(self._params['task_names']))
-        subscribe_operator(self, self._on_operator, input_qos(depth=10), self._diag,
+        subscribe_operator(self, self._on_operator, input_qos(STREAM_DEPTH), self._diag,
                            self._params['operator_message_type'])
-        subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), self._diag)
+        subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(STREAM_DEPTH), self._diag)
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, input_qos(depth=1), self._diag)
-        subscribe_input(self, topics.GRASP_POSE, self._on_grasp, input_qos(depth=1), self._diag)
+        subscribe_input(self, topics.GRASP_POSE, self._on_grasp, input_qos(), self._diag)
         self.create_timer(float(self._params['publish_period']), self._diag.guard_timer(self._on_timer))
 
     def destroy_node(self) -> None:
@@ -98,6 +110,7 @@ class IntentEstimatorNode(Node):
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
         self._config = config_from(EstimatorConfig, self._params)
+        self._inputs.wait = self._config.max_dt
         if (estimator := self._estimator) is not None:
             estimator.config = self._config
         if 'task_names' in changed:
@@ -142,6 +155,7 @@ class IntentEstimatorNode(Node):
         except GraspIntentError as exc:
             self._diag.set_state(ERROR, f'no goal for {scene.model.name} at this object pose: {exc}')
             raise
+        self._shown = self._proposal
         self._estimator = estimator = IntentEstimator(goals, self._config, proposal=self._proposal)
         self._restarts += 1
         self._diag.set_state(OK, '')
@@ -155,29 +169,45 @@ class IntentEstimatorNode(Node):
     def _on_joint_state(self, msg: JointState) -> None:
         if (q := joint_positions(msg, ARM_JOINTS)) is not None:
             self._kin.check_limits(q, margin=JOINT_LIMIT_MARGIN, what='joint state')
-            self._q, self._base_T_ee = q, self._kin.fk(q)
+            self._q = q
+            self._inputs.hand(stamp_nanoseconds(msg), self._kin.fk(q))
+            self._take_twists()
 
-    def _on_grasp(self, msg: PoseStamped) -> None:  # one racing a restart reaches the new estimate with the next
+    def _on_grasp(self, msg: PoseStamped) -> None:
         self._proposal = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
-        if (estimator := self._estimator) is not None:
-            estimator.set_proposal(self._proposal)
+        self._inputs.proposal(stamp_nanoseconds(msg), self._proposal)
 
     def _on_operator(self, msg: Any) -> None:
         cmd = twist_command(msg, default_frame=self._params['operator_frame'])
-        dt = self._timing.duration(stamp_seconds(msg), self.get_clock().now().nanoseconds * 1e-9, self._config.max_dt)
-        estimator, hand = self._estimator, self._base_T_ee
-        if estimator is None or hand is None:
-            self._diag.note('operator twist not used: ' + ('no joint state yet' if hand is None else 'no goals yet'))
-            return
-        start = time.perf_counter()
-        estimator.update(hand, cmd.in_base(hand), dt)
-        self._diag.processed(time.perf_counter() - start)
+        self._inputs.twist(stamp_nanoseconds(msg), self._now(), (cmd, stamp_seconds(msg)))
+        self._take_twists()
+
+    def _now(self) -> float:
+        return float(self.get_clock().now().nanoseconds * 1e-9)
+
+    def _take_twists(self) -> None:
+        """Update the estimate with every twist whose hand is known (:mod:`~.shared_control.stamped_inputs`)."""
+        for paired in self._inputs.due(self._now()):
+            (cmd, stamp), hand = paired.command, paired.hand
+            dt = self._timing.duration(stamp, paired.arrival, self._config.max_dt)
+            estimator = self._estimator
+            if estimator is None or hand is None:
+                self._diag.note(f'operator twist not used: no {"joint state" if hand is None else "goals"} yet')
+                continue
+            start = time.perf_counter()
+            if paired.proposal is not self._shown:
+                estimator.set_proposal(paired.proposal)
+                self._shown = paired.proposal
+            estimator.update(hand, cmd.in_base(hand), dt)
+            self._fresh = True
+            self._diag.processed(time.perf_counter() - start)
 
     def _on_timer(self) -> None:
-        now = self.get_clock().now().nanoseconds * 1e-9
+        self._take_twists()  # a twist whose joint state is late waits at most max_dt
+        now = self._now()
         last = self._timing.arrival
         moving = last is not None and now - last <= self._params['operator_timeout']
-        if moving and (estimator := self._estimator) is not None:
+        if (moving or self._fresh) and (estimator := self._estimator) is not None:
             self._publish(estimator)
         others = self.count_publishers(topics.INTENT_W) - 1
         if others > 0:
@@ -188,6 +218,7 @@ class IntentEstimatorNode(Node):
 
     def _publish(self, estimator: IntentEstimator) -> None:
         w = estimator.w
+        self._fresh = False
         publish_all(self, {topics.INTENT_W: self._pub}, {topics.INTENT_W: Float64MultiArray(data=w.tolist())})
         self._published += 1
         self._diag.set_values({'w': ', '.join(f'{v:.3f}' for v in w), 'w published': self._published,

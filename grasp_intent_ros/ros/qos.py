@@ -26,10 +26,14 @@ from rclpy.qos import (
     qos_policy_name_from_kind,
 )
 
-__all__ = ['input_qos', 'output_qos', 'latched_qos', 'output_publisher', 'input_events', 'DEFAULT_DEPTH']
+__all__ = ['input_qos', 'output_qos', 'latched_qos', 'output_publisher', 'input_events', 'DEFAULT_DEPTH',
+           'STREAM_DEPTH']
 
 DEFAULT_DEPTH = 10
 """Queue depth of input and output topics (messages)."""
+STREAM_DEPTH = 100
+"""Queue depth of a 100 Hz stream whose every message counts (one second), so a busy node catches up instead of
+losing messages: the intent estimator's operator twists and joint states, a replay's inputs."""
 
 
 def input_qos(depth: int = DEFAULT_DEPTH) -> QoSProfile:

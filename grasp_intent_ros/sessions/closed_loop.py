@@ -19,8 +19,10 @@ A session recorded with the intent estimator running (its status on ``/diagnosti
 its w from the operator's motion: w is then an output, never sent. Such a session is replayed on the recorded
 hand (:data:`ESTIMATED_REPLAYED`: the operator twists *and* the arm's joint states, at the recorded pace, into
 the estimator, the interpreter and the planner, without the assistance and the arm; the recorded grasps, the
-proposals the estimator took, into the estimator alone), and the live estimator's
-last w is compared (the start too; the grasp and where the hand ends are reported, not compared). A live arm
+proposals the estimator took, into the estimator alone; joint states and grasps :data:`AHEAD_NS` early), and
+the live estimator's last w is compared (the start too; the grasp and where the hand ends are reported, not
+compared). The estimator pairs its inputs by their stamps, so that replay is deterministic
+(:data:`W_TOLERANCE`). A live arm
 would not do: the estimator's input is the hand, and the loop hand -> w -> plan -> assistance -> hand
 amplifies the wall clock's millimetres into another goal (the last w of three live-arm replays of one
 recording differed from it by 0.12-0.22). Nor is the last grasp a function of the last w alone: the planner
@@ -63,10 +65,11 @@ from .bag.reader import read_messages, topics_info
 from .outputs import Joints, Pose, RawMessage, SessionError, decode, output_of
 from .pairing import ModelSwitches, detect_namespace
 
-__all__ = ['REACH_POS', 'REACH_ROT', 'REPLAYED', 'ESTIMATED_REPLAYED', 'W_TOLERANCE', 'Send', 'Trace', 'Outcome',
+__all__ = ['REACH_POS', 'REACH_ROT', 'REPLAYED', 'ESTIMATED_REPLAYED', 'AHEAD_TOPICS', 'AHEAD_NS', 'W_TOLERANCE',
+           'Send', 'Trace', 'Outcome',
            'RECORDED_GRASP_POSE', 'ESTIMATOR_REMAPPING', 'RENAMED', 'ClosedLoopSession', 'offset', 'reached',
            'is_closed_loop', 'estimated', 'estimator_ready',
-           'split_messages', 'load_closed_loop', 'Tracer', 'outcome', 'compare_outcomes', 'describe']
+           'split_messages', 'ahead', 'load_closed_loop', 'Tracer', 'outcome', 'compare_outcomes', 'describe']
 
 START_TOLERANCE: Final = 1e-3
 """Largest difference (rad) between the recorded and the live arm's first joint state."""
@@ -80,20 +83,30 @@ RECORDED_GRASP_POSE: Final = 'recorded/grasp/pose'
 """Where the replay of an estimated session sends the recorded grasps, and the live estimator, remapped
 (:data:`ESTIMATOR_REMAPPING`), reads them: the live planner's grasps, planned on the wall clock's choice of w,
 would make the estimate depend on it."""
+AHEAD_TOPICS: Final = (JOINT_STATES, GRASP_POSE)
+"""What the replay of an estimated session sends :data:`AHEAD_NS` before its recorded time."""
+AHEAD_NS: Final = 200_000_000
+"""How early (ns). The estimator takes each operator twist with the joint state and the grasp stamped at or
+before it (:mod:`grasp_intent_ros.shared_control.stamped_inputs`), so those sent early change nothing but that
+they are there when the twist is taken. Sent at the recorded pace, a grasp (received after its stamp by the
+planning time, longer on a loaded machine) raced the twists stamped after it. The live trace's times are the
+recorded ones (the lead added back). What was measured: docs/intent_estimation.md, the closed-loop bag."""
 ESTIMATOR_REMAPPING: Final = f'{GRASP_POSE}:={RECORDED_GRASP_POSE}'
 """The live estimator's remapping in the replay of an estimated session."""
 RENAMED: Final = {GRASP_POSE: RECORDED_GRASP_POSE}
 """Replayed topics sent under another name (only an estimated session's replay sends ``grasp/pose``)."""
-W_TOLERANCE: Final = 0.05
-"""Largest difference of any w_i between the recorded and the live last w. The estimator takes each operator
-twist with the newest joint state and the newest shown grasp it has received, and which ones those are depends
-on delivery order: replays of three recordings of the estimated cup session differed from them by 0.018-0.044
-(load 1-10)."""
+W_TOLERANCE: Final = 0.002
+"""Largest difference of any w_i between the recorded and the live last w. The replay itself adds nothing: the
+estimator takes each operator twist with the joint state and the grasp stamped at or before it, all in the bag
+and sent ahead (:data:`AHEAD_NS`), so its replays end on one w to the last bit. What remains is the recording's
+own: its live estimator took the twists stamped just after a new grasp before that grasp arrived, which no bag
+records (docs/intent_estimation.md, the closed-loop bag, says what it measured). A recording whose replay
+misses this tolerance is recorded again."""
 
 
 @dataclass(frozen=True)
 class Send:
-    """One message a closed-loop replay sends: at ``t_ns`` (recorded receive time), on ``topic``.
+    """One message a closed-loop replay sends: ``lead_ns`` before ``t_ns`` (its recorded receive time), on ``topic``.
 
     ``topic`` is one of :data:`REPLAYED` (``cdr`` the serialized message) or ``model/active`` for a
     model switch (``model`` the name to activate, ``cdr`` empty).
@@ -103,6 +116,7 @@ class Send:
     topic: str
     cdr: bytes
     model: str | None = None
+    lead_ns: int = 0
 
 
 class Tracer:
@@ -352,13 +366,25 @@ def split_messages(messages: Iterable[RawMessage], namespace: str = '', *,
     return models.initial, tuple(sends), tracer.trace()
 
 
+def ahead(sends: Iterable[Send], topics: tuple[str, ...] = AHEAD_TOPICS, lead_ns: int = AHEAD_NS) -> tuple[Send, ...]:
+    """``sends`` with those on ``topics`` sent ``lead_ns`` early, in the order of sending (ties: as given)."""
+    moved = [Send(send.t_ns, send.topic, send.cdr, send.model, lead_ns) if send.topic in topics else send
+             for send in sends]
+    return tuple(sorted(moved, key=lambda send: send.t_ns - send.lead_ns))
+
+
 def load_closed_loop(path: str | os.PathLike[str], *, namespace: str | None = None) -> ClosedLoopSession:
-    """Read a closed-loop session bag (raises BagReadError, or SessionError without operator twists)."""
+    """Read a closed-loop session bag (raises BagReadError, or SessionError without operator twists).
+
+    An estimated session's joint states and grasps are sent :data:`AHEAD_NS` early (:func:`ahead`).
+    """
     bag = Path(path)
     ns = detect_namespace(topics_info(bag)) if namespace is None else namespace.rstrip('/')
     messages = list(read_messages(bag))
     from_estimator = estimated(messages, ns)
     initial, sends, trace = split_messages(messages, ns, replayed=ESTIMATED_REPLAYED if from_estimator else REPLAYED)
+    if from_estimator:
+        sends = ahead(sends)
     if not trace.operator:
         raise SessionError(f'bag {bag} holds no {OPERATOR_TWIST}: not a closed-loop session')
     return ClosedLoopSession(bag, ns, initial, sends, trace, from_estimator)

@@ -22,7 +22,7 @@ from rclpy.task import Future
 from std_msgs.msg import String
 
 from ..ros.conversions import message_class
-from ..ros.qos import input_qos, latched_qos, output_qos
+from ..ros.qos import DEFAULT_DEPTH, STREAM_DEPTH, input_qos, latched_qos, output_qos
 from ..wire.diagnostics import KEY_KERNELS_LOAD_TIME
 from ..wire.model_document import ModelHeader
 from ..wire.topics import (
@@ -89,14 +89,14 @@ class SessionClient(Node):
         """Per diagnostic status name, its latest message and values, for error reports."""
         self._tracker = RejectionTracker()
         self._first_seen: dict[str, float] = {}
-        sent, traced = ((ESTIMATED_REPLAYED, (INTENT_W,)) if estimated else
-                        (REPLAYED, (JOINT_STATES, ASSISTANCE_TWIST, ASSISTANCE_ALPHA)))
-        self._input_pubs = {topic: self.create_publisher(message_class(topic), RENAMED.get(topic, topic), output_qos())
-                            for topic in (sent if closed_loop else INPUT_TOPICS)}
+        sent, traced = ((INPUT_TOPICS, ()) if not closed_loop else (ESTIMATED_REPLAYED, (INTENT_W,)) if estimated
+                        else (REPLAYED, (JOINT_STATES, ASSISTANCE_TWIST, ASSISTANCE_ALPHA)))
+        qos = output_qos(STREAM_DEPTH if estimated else DEFAULT_DEPTH)  # the estimator takes every message
+        self._input_pubs = {t: self.create_publisher(message_class(t), RENAMED.get(t, t), qos) for t in sent}
         self._loop_subs = {
             topic: self.create_subscription(message_class(topic), topic, self._tracer_receiver(topic), input_qos(1000),
                                             raw=True)
-            for topic in (traced if closed_loop else ())}
+            for topic in traced}
         self._output_subs = {
             topic: self.create_subscription(message_class(topic), topic, self._receiver(topic), input_qos(100),
                                             raw=True)
@@ -475,13 +475,13 @@ class ClosedLoopReplayer(SessionReplayer[ClosedLoopSession]):
         sends = self.session.sends
         begin = time.monotonic()
         for send in sends:
-            send_at = begin + 1e-9 * (send.t_ns - sends[0].t_ns)
+            send_at = begin + 1e-9 * (send.t_ns - send.lead_ns - sends[0].t_ns + sends[0].lead_ns)
             self._wait(lambda: time.monotonic() >= send_at, max(0.0, send_at - time.monotonic()) + 1.0)
             if send.model is not None:
                 self.client.set_model(send.model)  # not awaited: the recorded operator did not wait either
             else:
                 self.client.publish(send.topic, send.cdr)
-                self.client.tracer.add(send.topic, self.client.get_clock().now().nanoseconds, send.cdr)
+                self.client.tracer.add(send.topic, self.client.get_clock().now().nanoseconds + send.lead_ns, send.cdr)
             result.inputs_sent += 1
         last_send = time.monotonic()
         if not self._wait(lambda: time.monotonic() - last_send >= self.STOPPED_S and self._arm_stopped(),

@@ -23,7 +23,7 @@ from ..mico.mock_arm import TwistCommand, check_twist
 from .topics import MAX_JOINTS, MAX_NAME_LENGTH, check_names
 
 __all__ = ['QUATERNION_NORM_TOL', 'check_unit_quaternion', 'pose_msg_to_matrix', 'joint_positions', 'twist_command',
-           'stamp_seconds', 'object_pose_msg']
+           'stamp_seconds', 'stamp_nanoseconds', 'object_pose_msg']
 
 
 def pose_msg_to_matrix(msg: Any, *, frame_id: str,
@@ -100,6 +100,13 @@ def stamp_seconds(msg: Any) -> float | None:
     if not hasattr(msg, 'header'):
         return None
     return (msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec) or None
+
+
+def stamp_nanoseconds(msg: Any) -> int | None:
+    """A message's header stamp in integer nanoseconds (exact, for ordering); None as :func:`stamp_seconds`."""
+    if not hasattr(msg, 'header'):
+        return None
+    return (int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)) or None
 
 
 def object_pose_msg(msg: Any, workspace_radius: float) -> NDArray[np.float64]:

@@ -56,7 +56,7 @@ class Rig:
     def at_home(self) -> None:
         stamp = self.ros.node.get_clock().now().to_msg()
         assert self.ros.publish_until(self.joints, joint_state_msg(ARM_JOINTS, HOME_Q, stamp=stamp),
-                                      lambda: self.node._base_T_ee is not None, 10.0)
+                                      lambda: self.node._q is not None, 10.0)
 
     def toward(self, task_set: int) -> np.ndarray:
         """A twist at 0.1 m/s from the hand at Home toward the first goal serving exactly ``task_set``."""
@@ -145,10 +145,13 @@ def test_stamped_twists_act_for_their_stamps_difference_whenever_they_arrive(ros
 
 
 def test_the_shown_grasp_is_the_proposal_and_survives_a_restart(ros, rig: Rig) -> None:
-    """grasp/pose (the planner's grasp, on the operator's screen) reaches the estimate, and the next after a restart.
+    """grasp/pose (the planner's grasp, on the operator's screen) reaches the estimate with the next twist.
+
+    And the next estimate after a restart.
 
     A pose in another frame is rejected and changes nothing.
     """
+    rig.at_home()
     goals = goals_at(rig.models.load('cup_7zone'), BASE_T_OBJ)
     shown = np.eye(4)
     shown[:3, :3], shown[:3, 3] = goals.rotations[0], goals.positions[0]
@@ -159,7 +162,9 @@ def test_the_shown_grasp_is_the_proposal_and_survives_a_restart(ros, rig: Rig) -
         return None if estimator is None or estimator._proposal is None else estimator._proposal[0][0]
 
     msg = matrix_to_pose_msg(shown, frame_id=BASE_FRAME, stamp=ros.node.get_clock().now().to_msg())
-    assert ros.publish_until(grasps, msg, lambda: proposal() is not None, 10.0, period=0.05)
+    assert ros.publish_until(grasps, msg, lambda: rig.node._proposal is not None, 10.0, period=0.05)
+    assert proposal() is None  # taken with the twists
+    assert ros.publish_until(rig.operator, twist_msg(np.zeros(3)), lambda: proposal() is not None, 10.0, period=0.05)
     np.testing.assert_allclose(proposal(), goals.positions[0], rtol=0, atol=1e-9)
     near = rig.node._estimator._proposal[2]
     assert near[0] and 1 < near.sum() < near.size, 'the shown goal and some, not all, others are near it'

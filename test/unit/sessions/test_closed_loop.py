@@ -11,6 +11,8 @@ import pytest
 
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.sessions.closed_loop import (
+    AHEAD_NS,
+    AHEAD_TOPICS,
     REACH_POS,
     W_TOLERANCE,
     compare_outcomes,
@@ -153,6 +155,11 @@ def test_a_session_recorded_with_the_estimator_replays_the_hand_and_compares_the
     topics = [send.topic for send in session.sends]
     assert 'intent/w' not in topics  # the estimator's output: compared, never sent
     assert topics.count('operator/twist') == STEPS and topics.count('joint_states') == STEPS + 1  # the hand too
+    # the joint states (and grasps) go AHEAD_NS early, at their recorded times: the estimator pairs by stamps
+    assert AHEAD_TOPICS == ('joint_states', 'grasp/pose')
+    assert all(send.lead_ns == (AHEAD_NS if send.topic in AHEAD_TOPICS else 0) for send in session.sends)
+    due = [send.t_ns - send.lead_ns for send in session.sends]
+    assert due == sorted(due) and topics.index('joint_states') < topics.index('operator/twist')
     recorded = outcome(session.trace, kin)
     np.testing.assert_array_equal(recorded.final_w, [0.9, 0.1, 0.2])
     near = outcome(load_closed_loop(write_bag(tmp_path / 'near', estimated_messages(
