@@ -22,7 +22,9 @@ selects=false
 for arg in "$@"; do
     case "$arg" in -*) ;; *) selects=true ;; esac
 done
-skip_static=(--ignore=test/unit/test_static.py)  # mypy, ruff and the import rules: no arithmetic in them
+# not again as on another CPU: mypy, ruff and the import rules (no arithmetic in them); the machine-independence
+# probes (they set the kernels of each child process themselves)
+host_only=(--ignore=test/unit/test_static.py --ignore=test/unit/planning/test_machine_independence.py)
 # test/unit on one process per core, a test module per process (its module fixtures made once); up to 4 processes
 workers=(-n auto --maxprocesses=4 --dist loadfile)
 as_on_another_cpu() {
@@ -37,7 +39,7 @@ if [ "$other_cpu" = true ]; then
     if [ "$selects" = true ]; then
         as_on_another_cpu "$@"
     else
-        as_on_another_cpu "${workers[@]}" "$@" test/unit "${skip_static[@]}"
+        as_on_another_cpu "${workers[@]}" "$@" test/unit "${host_only[@]}"
     fi
     exit
 fi
@@ -45,5 +47,5 @@ if [ "$selects" = true ]; then exec "$python" -m pytest -q "$@"; fi
 status=0
 "$python" -m pytest -q "${workers[@]}" "$@" test/unit || status=$?
 "$python" -m pytest -q "$@" test --ignore=test/unit || status=$?
-as_on_another_cpu "${workers[@]}" "$@" test/unit "${skip_static[@]}" || status=$?
+as_on_another_cpu "${workers[@]}" "$@" test/unit "${host_only[@]}" || status=$?
 exit "$status"
