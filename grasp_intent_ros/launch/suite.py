@@ -17,8 +17,9 @@ and the system tests.
   ``config/fastdds_loopback.xml`` (:data:`FASTDDS_PROFILE`; it also puts user data on UDP 127.0.0.1).
 - :class:`NodeProcess`: stdout and stderr go to files (no pipe can fill up and block a node); it runs in a
   session of its own, so it is signalled only by its own PID (a terminal's Ctrl-C reaches the command that
-  started it, never the node directly), SIGKILLed after a deadline, and judged clean on exit code 0 with no
-  traceback on stderr, or on death by the SIGTERM it was sent before it logged that it is ready.
+  started it, never the node directly), gets SIGTERM when the command that started it dies (on Linux; a
+  killed test run or suite leaves no node on its domain), is SIGKILLed after a deadline, and is judged clean
+  on exit code 0 with no traceback on stderr, or on death by the SIGTERM it was sent before it logged that it is ready.
 - Nodes are stopped one at a time, the last started first (:meth:`NodeSuite.stop`). Stopped together,
   two nodes can end in a livelock of the middleware: rmw_fastrtps destroys a process's DDS participant with
   its last node, first calling ``DomainParticipant::set_listener(nullptr)``, which in Fast DDS 2.14.5 as
@@ -35,6 +36,7 @@ Never imports rclpy.
 
 from __future__ import annotations
 
+import ctypes
 import os
 import shutil
 import signal
@@ -52,7 +54,8 @@ from ..wire.topics import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
            'TEST_DOMAIN_IDS', 'RUN_DOMAIN_IDS', 'FASTDDS_PROFILE', 'SuiteError', 'domain_id_from_environment',
-           'use_loopback_discovery', 'node_environment', 'optional_nodes', 'NodeProcess', 'NodeSuite']
+           'use_loopback_discovery', 'node_environment', 'optional_nodes', 'ended_with_this_process', 'NodeProcess',
+           'NodeSuite']
 
 STOP_TIMEOUT = 10.0
 """Seconds a node gets to exit after SIGINT/SIGTERM before it is SIGKILLed."""
@@ -158,6 +161,34 @@ def node_environment(domain_id: int, base: Mapping[str, str] | None = None) -> d
     return env
 
 
+_PR_SET_PDEATHSIG = 1
+"""prctl(2) option: the signal this process gets when the thread that started it ends."""
+
+
+def ended_with_this_process(then: Callable[[], None] | None = None) -> Callable[[], None]:
+    """A ``preexec_fn`` for :class:`subprocess.Popen`: the child gets SIGTERM when this thread ends.
+
+    Run in the child: ``prctl(PR_SET_PDEATHSIG, SIGTERM)``, so the kernel sends SIGTERM to the child when the
+    thread that started it ends (the whole process killed, even by SIGKILL, included); a child whose parent
+    has already ended by then ends itself by SIGTERM; then ``then``. Where prctl(2) is not available (not
+    Linux), only ``then`` runs. The C function is looked up here, in the parent: between fork and exec the
+    child only calls it.
+    """
+    parent_pid = os.getpid()
+    libc = ctypes.CDLL(None, use_errno=True)
+    prctl = getattr(libc, 'prctl', None)
+
+    def in_child() -> None:
+        if prctl is not None:
+            prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
+            if os.getppid() != parent_pid:
+                os.kill(os.getpid(), signal.SIGTERM)
+        if then is not None:
+            then()
+
+    return in_child
+
+
 class NodeProcess:
     """One process, started on construction, its output in ``<log_dir>/<prefix><module>.out`` and ``.err``.
 
@@ -177,6 +208,11 @@ class NodeProcess:
         Its working directory (default this process's).
     preexec_fn
         Run in the child before the command (e.g. to set a resource limit).
+
+    On Linux the process is sent SIGTERM when the thread that started it ends (``PR_SET_PDEATHSIG``), and
+    is never started if this process has already ended: a test runner, suite or benchmark killed without
+    its cleanup leaves no node behind on its ROS domain. So start processes from a thread that lives as long
+    as they should (the main thread does).
     """
 
     def __init__(self, command: Sequence[str], *, module: str, env: Mapping[str, str], log_dir: Path,
@@ -189,7 +225,8 @@ class NodeProcess:
         self._killed = False
         with self.stdout_path.open('wb') as out, self.stderr_path.open('wb') as err:
             self.popen = subprocess.Popen(list(command), cwd=cwd, env=dict(env), stdout=out, stderr=err,
-                                          stdin=subprocess.DEVNULL, preexec_fn=preexec_fn,
+                                          stdin=subprocess.DEVNULL,
+                                          preexec_fn=ended_with_this_process(preexec_fn),
                                           start_new_session=True)
 
     @classmethod
