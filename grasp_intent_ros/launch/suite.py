@@ -36,7 +36,6 @@ Never imports rclpy.
 
 from __future__ import annotations
 
-import ctypes
 import os
 import shutil
 import signal
@@ -51,11 +50,11 @@ from types import TracebackType
 from ..resources import config_dir
 from ..ros.startup import WATCHDOG_EXIT_CODE, is_ready_line
 from ..wire.topics import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
+from .parent_death import ended_with_this_process
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
            'TEST_DOMAIN_IDS', 'RUN_DOMAIN_IDS', 'FASTDDS_PROFILE', 'SuiteError', 'domain_id_from_environment',
-           'use_loopback_discovery', 'node_environment', 'optional_nodes', 'ended_with_this_process', 'NodeProcess',
-           'NodeSuite']
+           'use_loopback_discovery', 'node_environment', 'optional_nodes', 'NodeProcess', 'NodeSuite']
 
 STOP_TIMEOUT = 10.0
 """Seconds a node gets to exit after SIGINT/SIGTERM before it is SIGKILLed."""
@@ -159,34 +158,6 @@ def node_environment(domain_id: int, base: Mapping[str, str] | None = None) -> d
            'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
     use_loopback_discovery(env)
     return env
-
-
-_PR_SET_PDEATHSIG = 1
-"""prctl(2) option: the signal this process gets when the thread that started it ends."""
-
-
-def ended_with_this_process(then: Callable[[], None] | None = None) -> Callable[[], None]:
-    """A ``preexec_fn`` for :class:`subprocess.Popen`: the child gets SIGTERM when this thread ends.
-
-    Run in the child: ``prctl(PR_SET_PDEATHSIG, SIGTERM)``, so the kernel sends SIGTERM to the child when the
-    thread that started it ends (the whole process killed, even by SIGKILL, included); a child whose parent
-    has already ended by then ends itself by SIGTERM; then ``then``. Where prctl(2) is not available (not
-    Linux), only ``then`` runs. The C function is looked up here, in the parent: between fork and exec the
-    child only calls it.
-    """
-    parent_pid = os.getpid()
-    libc = ctypes.CDLL(None, use_errno=True)
-    prctl = getattr(libc, 'prctl', None)
-
-    def in_child() -> None:
-        if prctl is not None:
-            prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
-            if os.getppid() != parent_pid:
-                os.kill(os.getpid(), signal.SIGTERM)
-        if then is not None:
-            then()
-
-    return in_child
 
 
 class NodeProcess:

@@ -22,7 +22,8 @@ from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray
 
-from grasp_intent_ros.launch.suite import NodeSuite, ended_with_this_process
+from grasp_intent_ros.launch.parent_death import ended_with_this_process
+from grasp_intent_ros.launch.suite import NodeSuite
 from grasp_intent_ros.ros.run import SHUTDOWN_GRACE
 from grasp_intent_ros.ros.startup import WATCHDOG_EXIT_CODE
 from grasp_intent_ros.wire.arrays import read_posterior

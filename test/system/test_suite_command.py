@@ -16,7 +16,7 @@ from pathlib import Path
 
 from std_msgs.msg import Float64MultiArray
 
-from grasp_intent_ros.launch.suite import ended_with_this_process
+from grasp_intent_ros.launch.parent_death import ended_with_this_process
 from grasp_intent_ros.wire.arrays import read_posterior
 
 REPO = Path(__file__).resolve().parents[2]
