@@ -51,8 +51,9 @@ demonstration within them is taken. Against a fresh plan for the same v with the
 a stream's answer has E at most ``band`` lower and a residual at most ``keep_band`` higher; the likely sets
 differ only by tasks with w_i within ``hysteresis`` below tau.
 
-Every quantity is computed by the planner's compiled kernels in a fixed order (``kernels.score``) or
-elementwise, so the choice has the same bits on any machine.
+Every quantity is computed by the planner's compiled kernels in a fixed order (``kernels.log_joints``,
+``kernels.fit_and_distance``) or elementwise, and sorted by ``kernels.lex_order``, so the choice has the same
+bits on any machine.
 
 What does not depend on v, the reference or the options (the candidates projected onto X, which of them
 have the palm inside the body, their posteriors and readings: :class:`TaskCandidates`) is computed once per
