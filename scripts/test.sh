@@ -2,7 +2,8 @@
 # Run every test (unit, in-process node tests, system tests with real processes, bag replays) in the repo's
 # venv of locked versions, created/refreshed first. Extra arguments go to pytest.
 #   scripts/test.sh [pytest options]         the whole suite, then the unit level again as on another CPU; the
-#                                            unit level (computation, no ROS) on one worker per core (pytest-xdist)
+#                                            unit level (computation, no ROS) on one worker per core, the ROS
+#                                            levels on two (pytest-xdist)
 #   scripts/test.sh PATHS, -k EXPR, -m EXPR  only what is selected, once (any argument not starting with '-')
 #   scripts/test.sh --other-cpu [args]       only as on another CPU (test/unit unless paths are given)
 #   scripts/test.sh --latest [args]          the drift run: the same tests against the newest versions
@@ -27,6 +28,9 @@ done
 host_only=(--ignore=test/unit/test_static.py --ignore=test/unit/planning/test_machine_independence.py)
 # test/unit on one process per core, a test module per process (its module fixtures made once); up to 4 processes
 workers=(-n auto --maxprocesses=4 --dist loadfile)
+# test/ros and test/system on up to 2: a test and its node processes seldom fill two cores (they wait on discovery
+# and on recorded paces), and each test claims a ROS domain of its own
+ros_workers=(-n auto --maxprocesses=2 --dist loadfile)
 as_on_another_cpu() {
     if [ "$(uname -m)" != x86_64 ]; then
         echo "scripts/test.sh: not an x86-64 machine: the run as on another CPU is skipped" >&2
@@ -46,6 +50,6 @@ fi
 if [ "$selects" = true ]; then exec "$python" -m pytest -q "$@"; fi
 status=0
 "$python" -m pytest -q "${workers[@]}" "$@" test/unit || status=$?
-"$python" -m pytest -q "$@" test --ignore=test/unit || status=$?
+"$python" -m pytest -q "${ros_workers[@]}" "$@" test --ignore=test/unit || status=$?
 as_on_another_cpu "${workers[@]}" "$@" test/unit "${host_only[@]}" || status=$?
 exit "$status"

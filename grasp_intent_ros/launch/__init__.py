@@ -4,6 +4,8 @@ Modules
 -------
 suite
     :class:`~grasp_intent_ros.launch.suite.NodeSuite`: the nodes as processes, their environment.
+parent_death
+    :func:`~grasp_intent_ros.launch.parent_death.ended_with_this_process`: a node process ends with its launcher.
 suite_command
     ``python -m grasp_intent_ros suite``: the suite started, its output echoed, stopped on a signal.
 demo

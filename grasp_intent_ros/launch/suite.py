@@ -17,8 +17,9 @@ and the system tests.
   ``config/fastdds_loopback.xml`` (:data:`FASTDDS_PROFILE`; it also puts user data on UDP 127.0.0.1).
 - :class:`NodeProcess`: stdout and stderr go to files (no pipe can fill up and block a node); it runs in a
   session of its own, so it is signalled only by its own PID (a terminal's Ctrl-C reaches the command that
-  started it, never the node directly), SIGKILLed after a deadline, and judged clean on exit code 0 with no
-  traceback on stderr, or on death by the SIGTERM it was sent before it logged that it is ready.
+  started it, never the node directly), gets SIGTERM when the command that started it dies (on Linux; a
+  killed test run or suite leaves no node on its domain), is SIGKILLed after a deadline, and is judged clean
+  on exit code 0 with no traceback on stderr, or on death by the SIGTERM it was sent before it logged that it is ready.
 - Nodes are stopped one at a time, the last started first (:meth:`NodeSuite.stop`). Stopped together,
   two nodes can end in a livelock of the middleware: rmw_fastrtps destroys a process's DDS participant with
   its last node, first calling ``DomainParticipant::set_listener(nullptr)``, which in Fast DDS 2.14.5 as
@@ -49,6 +50,7 @@ from types import TracebackType
 from ..resources import config_dir
 from ..ros.startup import WATCHDOG_EXIT_CODE, is_ready_line
 from ..wire.topics import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
+from .parent_death import ended_with_this_process
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
            'TEST_DOMAIN_IDS', 'RUN_DOMAIN_IDS', 'FASTDDS_PROFILE', 'SuiteError', 'domain_id_from_environment',
@@ -177,6 +179,11 @@ class NodeProcess:
         Its working directory (default this process's).
     preexec_fn
         Run in the child before the command (e.g. to set a resource limit).
+
+    On Linux the process is sent SIGTERM when the thread that started it ends (``PR_SET_PDEATHSIG``), and
+    is never started if this process has already ended: a test runner, suite or benchmark killed without
+    its cleanup leaves no node behind on its ROS domain. So start processes from a thread that lives as long
+    as they should (the main thread does).
     """
 
     def __init__(self, command: Sequence[str], *, module: str, env: Mapping[str, str], log_dir: Path,
@@ -189,7 +196,8 @@ class NodeProcess:
         self._killed = False
         with self.stdout_path.open('wb') as out, self.stderr_path.open('wb') as err:
             self.popen = subprocess.Popen(list(command), cwd=cwd, env=dict(env), stdout=out, stderr=err,
-                                          stdin=subprocess.DEVNULL, preexec_fn=preexec_fn,
+                                          stdin=subprocess.DEVNULL,
+                                          preexec_fn=ended_with_this_process(preexec_fn),
                                           start_new_session=True)
 
     @classmethod

@@ -22,6 +22,7 @@ from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray
 
+from grasp_intent_ros.launch.parent_death import ended_with_this_process
 from grasp_intent_ros.launch.suite import NodeSuite
 from grasp_intent_ros.ros.run import SHUTDOWN_GRACE
 from grasp_intent_ros.ros.startup import WATCHDOG_EXIT_CODE
@@ -48,7 +49,8 @@ def test_from_an_empty_compile_cache_no_answer_after_up_waits_on_a_kernel(ros, d
     env = {**os.environ, 'NUMBA_CACHE_DIR': str(tmp_path / 'numba_cache')}
     with out_path.open('w') as out:
         suite = subprocess.Popen([sys.executable, '-m', 'grasp_intent_ros', 'suite', '--domain-id', str(domain_id)],
-                                 cwd=tmp_path, env=env, stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+                                 cwd=tmp_path, env=env, stdout=out, stderr=subprocess.STDOUT, start_new_session=True,
+                                 preexec_fn=ended_with_this_process())
     try:
         assert ros.wait_for(lambda: 'suite: up after' in _read(out_path) or suite.poll() is not None,
                             timeout=COMPILE) and suite.poll() is None, _read(out_path)

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from std_msgs.msg import Float64MultiArray
 
+from grasp_intent_ros.launch.parent_death import ended_with_this_process
 from grasp_intent_ros.wire.arrays import read_posterior
 
 REPO = Path(__file__).resolve().parents[2]
@@ -40,7 +41,8 @@ def test_one_command_starts_the_suite_with_a_namespace_and_params_file_and_ctrl_
     out = (tmp_path / 'suite.out').open('w+')
     command = [sys.executable, '-m', 'grasp_intent_ros', 'suite', '--namespace', '/robot7', '--domain-id',
                str(domain_id), '--params-file', str(params), '--log-dir', str(tmp_path / 'logs')]
-    suite = subprocess.Popen(command, cwd=tmp_path, stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+    suite = subprocess.Popen(command, cwd=tmp_path, stdout=out, stderr=subprocess.STDOUT, start_new_session=True,
+                             preexec_fn=ended_with_this_process())
     try:
         posteriors = ros.subscribe(Float64MultiArray, '/robot7/grasp/posterior')
         w_pub = ros.publisher(Float64MultiArray, '/robot7/intent/w')

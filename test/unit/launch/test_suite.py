@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import signal
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -126,6 +127,40 @@ def test_sigkill_after_the_deadline(tmp_path: Path) -> None:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
     assert proc.stop(signal.SIGTERM, timeout=0.5) == -signal.SIGKILL
     assert proc.problem() == f'probe (pid {proc.pid}) did not exit after SIGTERM and was killed'
+
+
+def _gone(pid: int) -> bool:
+    """Whether process ``pid`` has ended (a zombie not yet reaped by whoever adopted it counts as ended)."""
+    try:
+        state = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()[0]
+    except (FileNotFoundError, ProcessLookupError):
+        return True
+    return state in ('Z', 'X')
+
+
+@pytest.mark.skipif(not sys.platform.startswith('linux'), reason='PR_SET_PDEATHSIG is Linux only')
+def test_a_process_ends_when_the_command_that_started_it_is_killed(tmp_path: Path) -> None:
+    """A launcher SIGKILLed (no cleanup runs) leaves no process: each gets SIGTERM from the kernel."""
+    launcher_code = (
+        'import sys, time\n'
+        'from pathlib import Path\n'
+        'from grasp_intent_ros.launch.suite import NodeProcess, node_environment\n'
+        f'proc = NodeProcess([sys.executable, "-c", {SLEEPER!r}], module="orphan", env=node_environment(97), '
+        f'log_dir=Path({str(tmp_path)!r}))\n'
+        'print(proc.pid, flush=True)\n'
+        'time.sleep(60)\n')
+    launcher = subprocess.Popen([sys.executable, '-c', launcher_code], stdout=subprocess.PIPE, text=True)
+    try:
+        assert launcher.stdout is not None
+        child = int(launcher.stdout.readline())
+        assert not _gone(child)
+    finally:
+        launcher.kill()
+        launcher.wait()
+    deadline = time.monotonic() + 10.0
+    while not _gone(child):
+        assert time.monotonic() < deadline, f'process {child} outlived the launcher that started it'
+        time.sleep(0.01)
 
 
 def test_domain_id_is_validated_once() -> None:
