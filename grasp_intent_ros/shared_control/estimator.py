@@ -110,7 +110,7 @@ class EstimatorConfig:
         toward the proposal (:meth:`IntentEstimator.set_proposal`). 0: proposals are ignored.
     """
 
-    rationality: float = 3000.0
+    rationality: float = 1000.0
     memory: float = 0.1
     rotation_length: float = 0.1
     position_scale: float = 0.02
