@@ -26,13 +26,13 @@ thread's CPU time, which a loaded machine's preemption does not enter) and, with
 a reliability diagram.
 
 ``--compare FIELD=VALUE ...`` also scores an estimator with those settings on the same reaches (its Brier score
-and calibration error, and the paired Brier difference of the defaults minus it), e.g. earlier defaults.
+and calibration error, and the paired Brier difference of the defaults minus it), e.g. a candidate default.
 
 ``--fit`` searches the estimator's rationality and memory on training seeds (``--seed`` + 100) and prints
 the grid; the reported figures use ``--seed`` (the shared-control benchmark's seeds), held out from the fit.
 
     .venv/bin/python benchmarks/bench_intent_estimation.py [--operators 50] [--goals fresh] [--plot docs/x.png] \
-        [--compare rationality=1000]
+        [--compare rationality=3000]
 """
 
 from __future__ import annotations
