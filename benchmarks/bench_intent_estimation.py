@@ -25,10 +25,14 @@ are bootstrap (2,000 resamples of episodes). Also the time of one update (all go
 thread's CPU time, which a loaded machine's preemption does not enter) and, with ``--plot``,
 a reliability diagram.
 
+``--compare FIELD=VALUE ...`` also scores an estimator with those settings on the same reaches (its Brier score
+and calibration error, and the paired Brier difference of the defaults minus it), e.g. a candidate default.
+
 ``--fit`` searches the estimator's rationality and memory on training seeds (``--seed`` + 100) and prints
 the grid; the reported figures use ``--seed`` (the shared-control benchmark's seeds), held out from the fit.
 
-    .venv/bin/python benchmarks/bench_intent_estimation.py [--operators 50] [--goals fresh] [--plot docs/x.png]
+    .venv/bin/python benchmarks/bench_intent_estimation.py [--operators 50] [--goals fresh] [--plot docs/x.png] \
+        [--compare rationality=3000]
 """
 
 from __future__ import annotations
@@ -44,6 +48,7 @@ from pathlib import Path
 import numpy as np
 from _bench import uptime
 from bench_shared_control import BASE_T_OBJ, OBJECTS, PERIOD, own_goals
+from bench_shared_control_sim import estimator_fields
 
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee
@@ -56,7 +61,7 @@ from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEst
 from grasp_intent_ros.shared_control.operators import Device, OperatorConstants, ScriptedOperator, SharpeningIntent
 
 FRACTIONS = (0.25, 0.5, 0.75)
-BETAS = (30.0, 100.0, 300.0, 1000.0, 3000.0)
+BETAS = (30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0)
 MEMORIES = (0.05, 0.1, 0.2, 0.4, 1.0)
 """The grid of ``--fit``: rationality (1/m) and memory (m)."""
 W_EVERY = 10
@@ -229,6 +234,18 @@ def report(name: str, runs: list[Reach], est: np.ndarray, scripted: np.ndarray, 
     return rows
 
 
+def compare(runs: list[Reach], est: np.ndarray, other: np.ndarray, label: str) -> None:
+    """The defaults' w ``est`` against ``other``: another estimator's on the same reaches (as :func:`estimates`)."""
+    truth = np.array([indicator(r.task_set) for r in runs])
+    rng = np.random.default_rng(0)
+    print(f'against {label} (same reaches): path, Brier defaults / it, ECE defaults / it, defaults - it [95% CI]')
+    for k, f in enumerate(FRACTIONS):
+        b_est, b_other = brier(est[:, k], truth), brier(other[:, k], truth)
+        lo, hi = ci95(b_est - b_other, rng)
+        print(f'{f:5.0%}  {b_est.mean():.3f} / {b_other.mean():.3f}  {ece(est[:, k], truth):.3f} / '
+              f'{ece(other[:, k], truth):.3f}  {(b_est - b_other).mean():+.3f} [{lo:+.3f}, {hi:+.3f}]')
+
+
 def fit(names: list[str], args: argparse.Namespace, kin: MicoKinematics, op: OperatorConstants) -> None:
     """Grid of rationality x memory on the training seeds: mean Brier over the fractions, both objects."""
     runs = {name: reaches(name, args.seed + 100, args.operators, args.goals, kin, op, args.timeout, args.device)
@@ -286,6 +303,8 @@ def main() -> None:
     parser.add_argument('--timeout', type=float, default=25.0)
     parser.add_argument('--device', choices=('joystick', 'spacemouse'), default='joystick')
     parser.add_argument('--fit', action='store_true', help='search rationality x memory on seed + 100 instead')
+    parser.add_argument('--compare', nargs='+', default=[], metavar='FIELD=VALUE',
+                        help='also score an estimator with these EstimatorConfig fields on the same reaches, paired')
     parser.add_argument('--plot', type=Path, help='write the reliability diagram at 50 %% here (PNG)')
     args = parser.parse_args()
     kin, op = MicoKinematics(), OperatorConstants()
@@ -302,6 +321,9 @@ def main() -> None:
         est = estimates(runs, estimator, timings)
         prior = IntentEstimator(estimator.goals, estimator.config).w
         report(name, runs, est, scripted_at(runs), prior)
+        if args.compare:
+            other = IntentEstimator(estimator.goals, EstimatorConfig(**dict(estimator_fields(args.compare))))
+            compare(runs, est, estimates(runs, other), ' '.join(args.compare))
         t = np.array(timings) * 1e3
         print(f'one update, {len(estimator.goals)} goals ({len(t)} updates): wall median {np.median(t[:, 0]):.3f} ms, '
               f'p99 {np.percentile(t[:, 0], 99):.3f} ms; CPU (this thread) median {np.median(t[:, 1]):.3f} ms, '
