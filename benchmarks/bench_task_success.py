@@ -248,9 +248,8 @@ def ceiling_pick(model: GraspModel, v: NDArray[np.float64], w: NDArray[np.float6
 
     ``picker`` judges them (other landings than the judging ones); None: the planner's own first (no noise).
     """
-    feas = common.Feasible(model)
-    x_ref = feas.project(common.select_starts(model, v, 1, 1)[:1])[0]
-    ranked = ranking.rank(model, v, top_zone(model, v), x_ref, feas.lower, feas.upper, feas.a, feas.body)
+    x_ref = common.Feasible(model).project(common.select_starts(model, v, 1, 1)[:1])[0]
+    ranked = ranking.rank(model, v, top_zone(model, v), x_ref)
     best = (ranked.tier == ranked.tier[0]) & (np.abs(ranked.expected - ranked.expected[0]) <= 1e-9)
     xs = ranked.x[best]
     if picker is None:

@@ -66,16 +66,15 @@ _drop_stale_caches(Path(__file__).parent)  # before any kernel is compiled or lo
 
 from .geometry import clearance, feasible  # noqa: E402
 from .ik import ik_descent  # noqa: E402
-from .posterior import log_joints, score  # noqa: E402
+from .posterior import fit_and_distance, log_joints, score  # noqa: E402
 from .projection import project  # noqa: E402
 from .rounds import least_squares_rounds  # noqa: E402
-from .selection import choice_order, distinct, screen, select_demonstrations  # noqa: E402
+from .selection import choice_order, distinct, lex_order, screen, select_demonstrations  # noqa: E402
 from .voting import landed_votes, search_bandwidths  # noqa: E402
 
-__all__ = ['project', 'least_squares_rounds', 'feasible', 'score', 'log_joints', 'screen', 'choice_order',
-           'select_demonstrations', 'distinct', 'ik_descent', 'clearance', 'landed_votes', 'search_bandwidths',
-           'warm_up',
-           'loaded_signatures']
+__all__ = ['project', 'least_squares_rounds', 'feasible', 'score', 'fit_and_distance', 'log_joints', 'screen',
+           'choice_order', 'select_demonstrations', 'distinct', 'lex_order', 'ik_descent', 'clearance', 'landed_votes',
+           'search_bandwidths', 'warm_up', 'loaded_signatures']
 
 
 def loaded_signatures() -> int:
@@ -116,9 +115,14 @@ def warm_up() -> None:
     score(np.full((1, d), 0.5), np.array([0.5, 0.5]), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2),
           np.zeros(d), np.ones(d))
     log_joints(np.full((1, d), 0.5), np.zeros((2, d)), np.stack([np.eye(d)] * 2), np.zeros(2))
+    known = np.full((1, 2), 0.5), np.full((1, d), 0.5)
+    for array in known:  # the planner's per-model candidates are read-only, a type of their own to numba
+        array.setflags(write=False)
+    fit_and_distance(known[0], np.array([0.5, 0.5]), known[1], np.zeros(d), np.ones(d))
     for log_v in (np.zeros(2), np.zeros(0)):
         screen(np.zeros((2, 3)), log_v, np.full((3, 2), 0.5), np.array([0.5, 0.5]), 1, 1e-12)
     distinct(np.ones((2, d)), 1e-18)
+    lex_order(np.ones((2, 3)))
     landed_votes(np.ones((2, d)), np.ones((2, 2)), np.ones((2, d)), np.zeros((2, d)), 1)
     search_bandwidths(np.ones((2, d)), np.ones(2), np.ones(d), 0, -1, 1, 1, 1e-9)
     choice_order(np.ones(2), np.ones(2), np.arange(2), np.ones((2, d)), np.ones(2, dtype=np.bool_), 1e-12, 1e-6, 3e-3,

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from .linalg import _gram
 from .types import Mixture
 
-__all__ = ['log_joints', 'score']
+__all__ = ['log_joints', 'score', 'fit_and_distance']
 
 
 @njit(cache=True, nogil=True)
@@ -191,6 +191,15 @@ def _objective(x, v, mixture, p, u, diff):
 
 
 @njit(cache=True, nogil=True)
+def _scaled_distance(x, x_ref, scale):
+    """|(x - x_ref) / scale|, summed in feature order."""
+    acc = 0.0
+    for j in range(x.size):
+        acc += ((x[j] - x_ref[j]) / scale[j]) ** 2
+    return math.sqrt(acc)
+
+
+@njit(cache=True, nogil=True)
 def _score(xs, v, mixture, x_ref, scale):
     """Posterior (N, K), objective 1/2 |v - P|^2 (N,) and scaled distance to x_ref (N,) of every row."""
     means, prec, log_norm = mixture
@@ -202,10 +211,7 @@ def _score(xs, v, mixture, x_ref, scale):
     u, diff = np.empty((K, d)), np.empty(d)
     for s in range(n):
         f[s] = _objective(xs[s], v, mixture, post[s], u, diff)
-        acc = 0.0
-        for j in range(d):
-            acc += ((xs[s, j] - x_ref[j]) / scale[j]) ** 2
-        dist[s] = math.sqrt(acc)
+        dist[s] = _scaled_distance(xs[s], x_ref, scale)
     return post, f, dist
 
 
@@ -215,6 +221,30 @@ def score(xs: NDArray[np.float64], v: NDArray[np.float64], means: NDArray[np.flo
     """Posterior (N, K), objective (N,) and scaled distance |(x - x_ref) / s| (N,) of every row of xs."""
     out: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] = _score(
         np.ascontiguousarray(xs, dtype=np.float64), v, Mixture(means, prec, log_norm), x_ref, scale)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _fit_and_distance(post, v, xs, x_ref, scale):
+    n = xs.shape[0]
+    f = np.empty(n)
+    dist = np.empty(n)
+    for s in range(n):
+        f[s] = _half_square(v, post[s])
+        dist[s] = _scaled_distance(xs[s], x_ref, scale)
+    return f, dist
+
+
+def fit_and_distance(post: NDArray[np.float64], v: NDArray[np.float64], xs: NDArray[np.float64],
+                     x_ref: NDArray[np.float64], scale: NDArray[np.float64],
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`score`'s objective (N,) and scaled distance (N,) of rows xs (N, d) whose posteriors post (N, K) are known.
+
+    ``post`` must be the rows' posteriors as :func:`score` or :func:`log_joints` computes them (the same
+    arithmetic); then both outputs have :func:`score`'s bits, without evaluating the N K Gaussians again.
+    """
+    out: tuple[NDArray[np.float64], NDArray[np.float64]] = _fit_and_distance(
+        np.ascontiguousarray(post, dtype=np.float64), v, np.ascontiguousarray(xs, dtype=np.float64), x_ref, scale)
     return out
 
 

@@ -136,6 +136,9 @@ class Table:
         return out
 
 
+_STANDING = Table()  # the plane z = 0 of the object frame, the object's own (immutable: built once)
+
+
 @dataclass(frozen=True)
 class FingerStop:
     """Where a closing finger stopped: ``closure`` (rad) and ``on`` 'object', 'table' or '' (reached its plan)."""
@@ -358,7 +361,7 @@ class HandCollision:
             If x is not a finite feature vector with a non-zero approach.
         """
         vec = np.asarray(x, dtype=np.float64)
-        plane = table if table is not None else Table()
+        plane = table if table is not None else _STANDING
         key = (body, plane, vec.tobytes())
         with self._lock:
             hit = self._cache.get(key)
@@ -495,7 +498,7 @@ class CollisionFree:
     def __init__(self, hand: HandCollision, body: ObjectBody | None, table: Table | None = None, *,
                  limits: Limits = LIMITS) -> None:
         self.hand, self.body, self.limits = hand, body, limits
-        self.table = table if table is not None else Table()
+        self.table = table if table is not None else _STANDING
         self.faults: dict[bytes, str] = {}
         """Why each grasp turned down is in collision."""
 

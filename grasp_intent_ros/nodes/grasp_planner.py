@@ -41,7 +41,7 @@ from ..mico.grasp import plan_grasp
 from ..mico.kinematics import ARM_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
 from ..mico.parameters import GRASP_PLANNER, check_object_pose, object_pose
 from ..planning.options import node_options, noise_from
-from ..planning.robustness import retention
+from ..planning.task import precompute
 from ..ros.clarification import ClarificationRequests
 from ..ros.conversions import SerializedTargets
 from ..ros.diagnostics import NodeDiagnostics
@@ -135,9 +135,8 @@ class GraspPlanner(Node):
     def _use_model(self, doc: ModelDocument | None) -> None:  # in the model follower's thread: planning goes on
         previous = self._worker.latest.model
         new = doc is not None and (previous is None or (previous.name, previous.sha256) != (doc.name, doc.sha256))
-        noise = noise_from(self._params['execution_noise'])
-        if new and doc is not None and self._params['method'] == 'task' and noise is not None:
-            retention(doc.model, noise)  # the robustness estimate, off the plan path
+        if doc is not None and self._params['method'] == 'task':  # off the plan path (a model sent again: a new object)
+            precompute(doc.model, noise_from(self._params['execution_noise']))
         self._update(trigger=new, model=doc)  # None: recheck() refused the model; nothing to plan with
         self._plan_diag.set_value(KEY_MODEL, 'none' if doc is None else f'{doc.name} (version {doc.version}, '
                                   f'zones {",".join(doc.model.zone_labels)})')

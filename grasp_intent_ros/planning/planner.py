@@ -86,7 +86,7 @@ def plan(model: GraspModel, v: ArrayLike, *, method: Method = DEFAULT_METHOD, op
     feas = Feasible(model)
     x_ref = feas.project(first)[0]
     if isinstance(opts, TaskOptions):
-        return serve(model, v_arr, x_ref, feas, warm_start is not None, accept, opts, t0)
+        return serve(model, v_arr, x_ref, warm_start is not None, accept, opts, t0)
     band = WARM_BAND if warm_start is not None else 0.0  # rule 6 of .lm: a stream keeps its branch within the band
     search = Search(model, v_arr, x_ref, feas, band, accept, demo, n_starts, top_zones, method, t0)
     if method == 'lm':

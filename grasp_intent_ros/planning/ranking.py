@@ -51,12 +51,20 @@ demonstration within them is taken. Against a fresh plan for the same v with the
 a stream's answer has E at most ``band`` lower and a residual at most ``keep_band`` higher; the likely sets
 differ only by tasks with w_i within ``hysteresis`` below tau.
 
-Every quantity is computed by the planner's compiled kernels in a fixed order (``kernels.score``) or
-elementwise, so the choice has the same bits on any machine.
+Every quantity is computed by the planner's compiled kernels in a fixed order (``kernels.log_joints``,
+``kernels.fit_and_distance``) or elementwise, and sorted by ``kernels.lex_order``, so the choice has the same
+bits on any machine.
+
+What does not depend on v, the reference or the options (the candidates projected onto X, which of them
+have the palm inside the body, their posteriors and readings: :class:`TaskCandidates`) is computed once per
+model (:func:`task_candidates`) and kept with it; a plan computes only its f, distances, likely set, E and
+order from them.
 """
 
 from __future__ import annotations
 
+import threading
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
@@ -64,11 +72,13 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from ..kernels import feasible, score
+from ..kernels import fit_and_distance, lex_order, log_joints
+from ..method.intent import zone_label
 from ..method.model import GraspModel
+from .common import feasible_demonstrations
 
-__all__ = ['TAU', 'HYSTERESIS', 'BAND', 'FIT_BAND', 'KEEP_BAND', 'Faithful', 'Ranking', 'likely_tasks',
-           'expected_success', 'rank']
+__all__ = ['TAU', 'HYSTERESIS', 'BAND', 'FIT_BAND', 'KEEP_BAND', 'Faithful', 'TaskCandidates', 'task_candidates',
+           'Ranking', 'likely_tasks', 'expected_success', 'rank']
 
 Faithful = Literal['label', 'reading']
 """What must hold no unlikely task: the demonstration's label and the model's reading of it, or the reading only."""
@@ -87,6 +97,65 @@ _F_QUANTUM = 1e-9
 _D_QUANTUM = 1e-6
 _RATIO_RTOL = 1e-9
 _ON_DEMO = 1e-9  # scaled distance within which a warm start is the demonstration it came from
+
+
+@dataclass(frozen=True)
+class TaskCandidates:
+    """The model's demonstrations as the ranking's candidates: what of them no v, reference or option changes.
+
+    Every array is read-only.
+
+    Attributes
+    ----------
+    x : ndarray, shape (N, d)
+        The demonstrations projected onto the feasible set (:func:`~.common.feasible_demonstrations`, bit for bit).
+    inside : ndarray of bool, shape (N,)
+        The projection moved the palm (it lay inside the body with its margin): never a candidate. All False
+        for a model without a body.
+    posterior : ndarray, shape (N, K)
+        P(k | x_n) of each projected demonstration, by the planner's kernels (``kernels.log_joints``: the
+        arithmetic of ``kernels.score``, so the same bits).
+    reading : ndarray of int, shape (N,)
+        The zone (bitmask) the model reads each as doing, argmax_k P(k | x_n) (ties to the first zone).
+    labels : tuple of str, length N
+        Each demonstration's task set as a zone label (:func:`~grasp_intent_ros.method.intent.zone_label`).
+    """
+
+    x: NDArray[np.float64]
+    inside: NDArray[np.bool_]
+    posterior: NDArray[np.float64]
+    reading: NDArray[np.int64]
+    labels: tuple[str, ...]
+
+
+_CANDIDATES: weakref.WeakKeyDictionary[GraspModel, TaskCandidates] = weakref.WeakKeyDictionary()
+_CANDIDATES_LOCK = threading.Lock()
+
+
+def task_candidates(model: GraspModel) -> TaskCandidates:
+    """The ranking's candidates of ``model`` (:class:`TaskCandidates`): computed at the first call, then kept.
+
+    Kept by the model object (a :class:`~grasp_intent_ros.method.model.GraspModel` is immutable; another
+    model, e.g. one read again or switched to, has its own), for as long as the model lives. Everything in
+    it is a function of the model alone (demonstrations, bounds, body, Gaussians), never of a plan's input.
+    Safe to call from several threads (the first calls may each compute it; they get the same bits).
+    """
+    with _CANDIDATES_LOCK:
+        kept = _CANDIDATES.get(model)
+    if kept is not None:
+        return kept
+    demo_x = model.demo_x
+    xs = feasible_demonstrations(model)
+    inside = np.abs(xs[:, :3] - demo_x[:, :3]).max(axis=1) > 0.0 if model.body is not None else \
+        np.zeros(demo_x.shape[0], dtype=np.bool_)
+    posterior = log_joints(xs, model.means, model.precisions, model.log_norm)[1]
+    reading = np.asarray(model.zones, dtype=np.int64)[np.argmax(posterior, axis=1)]
+    for array in (xs, inside, posterior, reading):
+        array.setflags(write=False)
+    made = TaskCandidates(xs, inside, posterior, reading,
+                          tuple(zone_label(int(s), model.task_names) for s in model.demo_sets.tolist()))
+    with _CANDIDATES_LOCK:
+        return _CANDIDATES.setdefault(model, made)
 
 
 @dataclass(frozen=True)
@@ -171,25 +240,20 @@ def _quantised(values: NDArray[np.float64], quantum: float) -> NDArray[np.float6
 
 
 def rank(model: GraspModel, v: NDArray[np.float64], top: int, reference: NDArray[np.float64],
-         lower: NDArray[np.float64], upper: NDArray[np.float64], approach: slice, body: tuple[object, ...],
          *, tau: float = TAU, hysteresis: float = HYSTERESIS, warm: bool = False, faithful: Faithful = 'label',
          band: float = BAND, fit_band: float = FIT_BAND, keep_band: float = KEEP_BAND,
          retention: NDArray[np.float64] | None = None) -> Ranking:
     """Rank the demonstrations (module docstring) for target v with top zone index ``top``.
 
-    ``reference`` is Algorithm 1's start (fresh) or the warm start (``warm``); ``lower``, ``upper``,
-    ``approach`` and ``body`` are the feasible set as the compiled kernels take it; ``retention`` (N, K), when
-    given, turns E into the expected success under execution noise.
+    ``reference`` (d,) is Algorithm 1's start (fresh) or the warm start (``warm``); ``retention`` (N, K), when
+    given, turns E into the expected success under execution noise. The candidates are
+    :func:`task_candidates`'s (computed at the model's first ranking).
     """
-    demo_x = model.demo_x
-    xs = feasible(demo_x, lower, upper, approach.start, approach.stop, body)
-    inside = np.abs(xs[:, :3] - demo_x[:, :3]).max(axis=1) > 0.0 if model.body is not None else \
-        np.zeros(demo_x.shape[0], dtype=np.bool_)
-    posterior, f, dist = score(xs, v, model.means, model.precisions, model.log_norm, reference,
-                               model.feature_scale)
+    cands = task_candidates(model)
+    xs, inside, posterior, reading = cands.x, cands.inside, cands.posterior, cands.reading
+    f, dist = fit_and_distance(posterior, v, xs, reference, model.feature_scale)
     zones = np.asarray(model.zones, dtype=np.int64)
     sets = model.demo_sets
-    reading = zones[np.argmax(posterior, axis=1)]
     keep = 0
     if warm and dist.size and float(dist.min()) <= _ON_DEMO:
         n = int(np.argmin(dist))
@@ -218,8 +282,8 @@ def rank(model: GraspModel, v: NDArray[np.float64], top: int, reference: NDArray
         limit[dist <= _ON_DEMO] += keep_band - fit_band  # the previous grasp itself keeps a wider band
         outside_band[top_group & (residual > limit)] = 1
     secondary = (fit_key, dist_key, outside_band) if warm else (dist_key, fit_key)
-    # np.lexsort: the last key is the primary one
-    order = np.lexsort((np.arange(sets.size), *secondary, -expected_key, tier))
+    # the last key is the primary one; ties stay in demonstration order
+    order = lex_order(np.stack((*secondary, -expected_key, tier)))
     order = order[~inside[order]]
     return Ranking(order=order.astype(np.int64), x=xs[order], posterior=posterior[order], objective=f[order],
                    distance=dist[order], expected=expected[order], tier=tier[order], top=z_top, likely=likely)

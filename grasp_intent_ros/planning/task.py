@@ -28,31 +28,31 @@ from numpy.typing import NDArray
 from ..errors import PlanningError
 from ..method.intent import reconstruct_w, zone_label
 from ..method.model import GraspModel
-from .common import MATCH_TOL, Candidate, Feasible, PlanResult, zone_order
+from .common import MATCH_TOL, Candidate, PlanResult, zone_order
 from .options import TaskOptions
-from .ranking import rank
-from .robustness import retention
+from .ranking import rank, task_candidates
+from .robustness import ExecutionNoise, retention
 
-__all__ = ['serve']
+__all__ = ['serve', 'precompute']
 
 _TASK_CANDIDATES = 32  # the best demonstrations offered to ``accept``, in the choice order
 
 
-def serve(model: GraspModel, v: NDArray[np.float64], x_ref: NDArray[np.float64], feas: Feasible, warm: bool,
+def serve(model: GraspModel, v: NDArray[np.float64], x_ref: NDArray[np.float64], warm: bool,
           accept: Callable[[NDArray[np.float64]], bool] | None, opts: TaskOptions, t0: float) -> PlanResult:
     """Method 'task': the first demonstration of :func:`~.ranking.rank` that ``accept`` takes."""
     kept = None if opts.noise is None or opts.noise.is_zero else retention(model, opts.noise)
-    ranking = rank(model, v, int(zone_order(v)[0]), x_ref, feas.lower, feas.upper, feas.a, feas.body, tau=opts.tau,
-                   hysteresis=opts.hysteresis, warm=warm, faithful=opts.faithful, retention=kept)
+    ranking = rank(model, v, int(zone_order(v)[0]), x_ref, tau=opts.tau, hysteresis=opts.hysteresis, warm=warm,
+                   faithful=opts.faithful, retention=kept)
     names = model.task_names
     likely = zone_label(ranking.likely, names)
     top = zone_label(ranking.top, names)
     tiers = (f'serves the likely tasks {likely}', f'serves the top zone {top}, reads as a task outside {likely}',
              f'misses the top zone {top}')
-    sets = model.demo_sets
+    labels = task_candidates(model).labels
     n = min(_TASK_CANDIDATES, ranking.order.size)
     candidates = tuple(
-        Candidate(x, p, f, d, x, f, k, True, f'demonstration {i} ({zone_label(int(sets[i]), names)}): {tiers[t]}', 0, i)
+        Candidate(x, p, f, d, x, f, k, True, f'demonstration {i} ({labels[i]}): {tiers[t]}', 0, i)
         for k, (x, p, f, d, i, t) in enumerate(zip(ranking.x[:n], ranking.posterior[:n], ranking.objective[:n].tolist(),
                                     ranking.distance[:n].tolist(), ranking.order[:n].tolist(),
                                     ranking.tier[:n].tolist())))
@@ -73,3 +73,15 @@ def serve(model: GraspModel, v: NDArray[np.float64], x_ref: NDArray[np.float64],
                       exact=chosen.objective <= MATCH_TOL, reference=x_ref, status=status, message=message,
                       iterations=0, wall_time_s=time.perf_counter() - t0, method='task', candidates=candidates,
                       rejected=rejected)
+
+
+def precompute(model: GraspModel, noise: ExecutionNoise | None) -> None:
+    """Compute what method 'task' keeps of ``model`` for every plan, so that no plan waits on it.
+
+    The ranking's candidates (:func:`~.ranking.task_candidates`) and, for a ``noise`` that is not zero, the
+    robustness estimate (:func:`~.robustness.retention`); both are kept per model (and noise), so a caller that
+    does not prepare pays them at the model's first plan instead. A planner node calls it when a model arrives.
+    """
+    task_candidates(model)
+    if noise is not None and not noise.is_zero:
+        retention(model, noise)

@@ -156,3 +156,27 @@ def test_the_planner_turns_down_grasps_in_collision_and_says_so(hand: HandCollis
     assert CollisionFree(hand, cup.body, table).clearance(unchecked.result.x).fault(LIMITS) is not None
     # on the object's own table, the shipped demonstrations are clear: usage gets its grasp
     assert isinstance(plan_grasp(cup, v_usage, intent.all_zones(3), BASE_T_OBJ, kin, hand=hand), Grasp)
+
+
+def test_the_hand_s_verdicts_follow_the_object_and_the_table(hand: HandCollision) -> None:
+    """The same usage plan with one hand (its caches filled by the plans before) and with a new hand, bit for bit.
+
+    A table 4 cm up with the object on the base's plane (no usage grasp is clear), then the object's own table,
+    then the object raised onto that table (the same table in the object's frame as its own): a verdict kept
+    for another table, or for the object where it was, would give another answer than the new hand's.
+    """
+    cup = GraspModel.load(config_dir() / 'models' / 'cup_7zone.yaml')
+    kin = MicoKinematics()
+    v_usage = intent.interpret((0.9, 0.1, 0.1)).v
+    raised_object = BASE_T_OBJ.copy()
+    raised_object[2, 3] = 0.04
+    outcomes = []
+    for base_T_obj, plane in ((BASE_T_OBJ, (0.0, 0.0, 1.0, 0.04)), (BASE_T_OBJ, None),
+                              (raised_object, (0.0, 0.0, 1.0, 0.04))):
+        shared, new = (plan_grasp(cup, v_usage, intent.all_zones(3), base_T_obj, kin, hand=h, table_plane=plane)
+                       for h in (hand, HandCollision()))
+        assert type(shared) is type(new) and shared.result.x.tobytes() == new.result.x.tobytes()
+        if isinstance(shared, Grasp) and isinstance(new, Grasp):
+            assert shared.positions.tobytes() == new.positions.tobytes() and shared.clearance == new.clearance
+        outcomes.append(type(shared))
+    assert outcomes == [NoReachableGrasp, Grasp, Grasp]

@@ -4,11 +4,13 @@ The judge is the object's rules (objects.demos.object_of, Table I), which the pl
 plan must serve v's top zone, never serve no task, and be faithful: neither the tasks it does (by the
 rules) nor the model's reading of it (argmax P(x)) include a task outside the top zone with w_i < 0.25.
 Asserted on the paper's 14 cases (7 per 7-zone model) and on 300 derandomised w; then the choice rule
-against a plain-Python oracle, the stream's branch, and stability under last-bit changes of v.
+against a plain-Python oracle, the stream's branch, stability under last-bit changes of v, and the candidates
+kept per model (each model its own; no plan reads what an earlier v left).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 
@@ -18,10 +20,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from grasp_intent_ros.errors import PlanningError
+from grasp_intent_ros.kernels import log_joints
 from grasp_intent_ros.method import intent
+from grasp_intent_ros.method.body import ObjectBody
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.objects.demos import object_of
-from grasp_intent_ros.planning import common, planner, ranking
+from grasp_intent_ros.planning import common, planner, ranking, robustness, task
 from grasp_intent_ros.planning.options import TaskOptions
 from grasp_intent_ros.planning.robustness import ExecutionNoise, retention
 from grasp_intent_ros.resources import config_dir
@@ -210,3 +214,59 @@ def test_bad_options_are_refused(models: dict[str, GraspModel]) -> None:
     for tau, hysteresis in ((-0.1, 0.0), (1.5, 0.0), (0.3, -0.1), (math.nan, 0.0)):
         with pytest.raises(PlanningError):
             planner.plan(models['cup_7zone'], v, options=TaskOptions(tau=tau, hysteresis=hysteresis))
+
+
+def _same_plan(a: common.PlanResult, b: common.PlanResult) -> bool:
+    return a.x.tobytes() == b.x.tobytes() and a.posterior.tobytes() == b.posterior.tobytes() and \
+        a.message == b.message and [(c.demonstration, c.message, c.objective, c.distance) for c in a.candidates] == \
+        [(c.demonstration, c.message, c.objective, c.distance) for c in b.candidates]
+
+
+def test_each_model_ranks_its_own_candidates(models: dict[str, GraspModel]) -> None:
+    """Models that share the name and data hash but not the demonstrations or the body: each its own candidates.
+
+    The candidates are kept per model object; a cache keyed by the name, the data or the body alone would hand
+    one of these models another's.
+    """
+    cup = models['cup_7zone']
+    assert cup.body is not None
+    v = intent.interpret((0.9, 0.6, 0.1), cup.zones).v
+    planner.plan(cup, v)
+    shift = np.zeros(cup.features.dim)
+    shift[0] = 0.02
+    moved = dataclasses.replace(cup, demo_x=cup.demo_x + shift)  # the demonstrations 2 cm along x
+    wide = dataclasses.replace(cup, body=ObjectBody(cup.body.primitives, margin=0.05))  # a wider margin
+    assert (moved.name, moved.data_hash) == (wide.name, wide.data_hash) == (cup.name, cup.data_hash)
+    for model in (moved, wide, cup):
+        planner.plan(model, v)
+        kept = ranking.task_candidates(model)
+        xs = common.feasible_demonstrations(model)
+        assert np.array_equal(kept.x, xs)
+        assert np.array_equal(kept.inside, np.abs(xs[:, :3] - model.demo_x[:, :3]).max(axis=1) > 0.0)
+        assert np.array_equal(kept.posterior, log_joints(xs, model.means, model.precisions, model.log_norm)[1])
+        assert kept.labels[0] == intent.zone_label(int(model.demo_sets[0]), model.task_names)
+        with pytest.raises(ValueError, match='read-only'):
+            kept.x[0, 0] = 0.0
+    assert not np.array_equal(ranking.task_candidates(moved).x, ranking.task_candidates(cup).x)
+    assert ranking.task_candidates(wide).inside.sum() > ranking.task_candidates(cup).inside.sum()
+
+
+def test_a_plan_does_not_depend_on_the_plans_before_it(models: dict[str, GraspModel]) -> None:
+    """Plans for several v, with and without the execution noise, each equal to the same plan on a new model object."""
+    for model in models.values():
+        rng = np.random.default_rng(4)
+        for w in rng.uniform(0.0, 1.0, (6, 3)):
+            v = intent.interpret(w, model.zones).v
+            if v is None:
+                continue
+            for options in (None, TaskOptions(noise=ExecutionNoise())):
+                again = dataclasses.replace(model)  # nothing kept for it yet
+                assert _same_plan(planner.plan(model, v, options=options), planner.plan(again, v, options=options))
+
+
+def test_precompute_keeps_what_the_first_plan_would_compute(models: dict[str, GraspModel]) -> None:
+    """What a planner node computes when a model arrives: the ranking's candidates and the robustness estimate."""
+    model = dataclasses.replace(models['cup_7zone'])
+    noise = ExecutionNoise()
+    task.precompute(model, noise)
+    assert model in ranking._CANDIDATES and noise in robustness._TABLES[model]

@@ -119,6 +119,15 @@ def test_retention_is_a_function_of_the_document(slab: GraspModel) -> None:
     assert retention(again, ExecutionNoise()) is retention(slab, ExecutionNoise())  # computed once
 
 
+def test_each_noise_has_its_own_estimate(slab: GraspModel) -> None:
+    """A new execution noise on a model that has an estimate: the new noise's, as computed from scratch."""
+    one, two = ExecutionNoise(), ExecutionNoise().scaled(2.0)
+    first = retention(slab, one)
+    np.testing.assert_array_equal(retention(slab, two), robustness._retention(slab, two))
+    assert not np.array_equal(retention(slab, two), first)
+    assert retention(slab, one) is first
+
+
 def test_stratified_landings_take_each_strata_median_once_per_number() -> None:
     z = stratified_draws(16, 0)
     assert z.shape == (16, DRAW_DIM)
