@@ -29,7 +29,8 @@ host_only=(--ignore=test/unit/test_static.py --ignore=test/unit/planning/test_ma
 # test/unit on one process per core, a test module per process (its module fixtures made once); up to 4 processes
 workers=(-n auto --maxprocesses=4 --dist loadfile)
 # test/ros and test/system on up to 2: a test and its node processes seldom fill two cores (they wait on discovery
-# and on recorded paces), and each test claims a ROS domain of its own
+# and on recorded paces), and each test claims a ROS domain of its own; then, alone, the tests marked wall_clock
+# (a loop on wall-clock timers compared with a recorded or simulated one: setup.cfg)
 ros_workers=(-n auto --maxprocesses=2 --dist loadfile)
 as_on_another_cpu() {
     if [ "$(uname -m)" != x86_64 ]; then
@@ -50,6 +51,7 @@ fi
 if [ "$selects" = true ]; then exec "$python" -m pytest -q "$@"; fi
 status=0
 "$python" -m pytest -q "${workers[@]}" "$@" test/unit || status=$?
-"$python" -m pytest -q "${ros_workers[@]}" "$@" test --ignore=test/unit || status=$?
+"$python" -m pytest -q "${ros_workers[@]}" "$@" test --ignore=test/unit -m "not wall_clock" || status=$?
+"$python" -m pytest -q "$@" test --ignore=test/unit -m wall_clock || status=$?
 as_on_another_cpu "${workers[@]}" "$@" test/unit "${host_only[@]}" || status=$?
 exit "$status"

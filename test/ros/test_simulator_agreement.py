@@ -83,6 +83,7 @@ def setup() -> dict[str, Any]:
     return {'kin': kin, 'model': model, 'own': own}
 
 
+@pytest.mark.wall_clock
 def test_the_simulator_and_the_nodes_agree_on_the_hands_path_and_outcome(ros: Any, setup: dict[str, Any]) -> None:
     kin, model, own = setup['kin'], setup['model'], setup['own']
     intent = PersistentIntent(W, TRUE_SET, noise=0.0)  # no estimator noise: one plan, shown throughout

@@ -116,6 +116,7 @@ def perturbed_copy(bag: Path, out: Path, relative: float = 1e-12) -> Path:
     return out
 
 
+@pytest.mark.wall_clock
 @pytest.mark.parametrize('perturbed', [False, True], ids=['as recorded', 'inputs perturbed by 1e-12'])
 @pytest.mark.parametrize('bag', bag_dirs(closed_loop=True), ids=lambda p: p.name)
 def test_a_closed_loop_session_replayed_plans_the_recorded_grasp_and_ends_there(
