@@ -20,8 +20,9 @@ if [ "${1:-}" = --latest ]; then latest=true; shift; fi
 if [ "${1:-}" = --other-cpu ]; then other_cpu=true; shift; fi
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 selects=false
+quiet=-q  # pytest's -q, unless the caller sets the verbosity (a second -q would hide the summary line)
 for arg in "$@"; do
-    case "$arg" in -*) ;; *) selects=true ;; esac
+    case "$arg" in -q*|-v*|--quiet|--verbose) quiet=--verbosity=0 ;; -*) ;; *) selects=true ;; esac
 done
 # not again as on another CPU: mypy, ruff and the import rules (no arithmetic in them); the machine-independence
 # probes (they set the kernels of each child process themselves)
@@ -38,7 +39,7 @@ as_on_another_cpu() {
         return 0
     fi
     echo "as on another CPU (OPENBLAS_CORETYPE=Prescott NUMBA_CPU_NAME=generic): $*"
-    OPENBLAS_CORETYPE=Prescott NUMBA_CPU_NAME=generic "$python" -m pytest -q "$@"
+    OPENBLAS_CORETYPE=Prescott NUMBA_CPU_NAME=generic "$python" -m pytest "$quiet" "$@"
 }
 if [ "$other_cpu" = true ]; then
     if [ "$selects" = true ]; then
@@ -48,10 +49,10 @@ if [ "$other_cpu" = true ]; then
     fi
     exit
 fi
-if [ "$selects" = true ]; then exec "$python" -m pytest -q "$@"; fi
+if [ "$selects" = true ]; then exec "$python" -m pytest "$quiet" "$@"; fi
 status=0
-"$python" -m pytest -q "${workers[@]}" "$@" test/unit || status=$?
-"$python" -m pytest -q "${ros_workers[@]}" "$@" test --ignore=test/unit -m "not wall_clock" || status=$?
-"$python" -m pytest -q "$@" test --ignore=test/unit -m wall_clock || status=$?
+"$python" -m pytest "$quiet" "${workers[@]}" "$@" test/unit || status=$?
+"$python" -m pytest "$quiet" "${ros_workers[@]}" "$@" test --ignore=test/unit -m "not wall_clock" || status=$?
+"$python" -m pytest "$quiet" "$@" test --ignore=test/unit -m wall_clock || status=$?
 as_on_another_cpu "${workers[@]}" "$@" test/unit "${host_only[@]}" || status=$?
 exit "$status"
