@@ -59,7 +59,7 @@ R_nk = sqrt(V_nk B_nk):
 Without noise (:attr:`ExecutionNoise.is_zero`) R_nk is 1 for every zone within S_n. The estimate does not
 depend on v: it is computed once per model and noise and kept with the model. Its cost is O(N^2) per
 bandwidth trial (a few hundred trials), O(N^2 DRAWS K) for the votes and O(N THRESHOLD_DRAWS C) for the
-thresholds, N demonstrations, K zones, C conditions: about two seconds of CPU for the shipped
+thresholds, N demonstrations, K zones, C conditions: about a second and a half of CPU for the shipped
 560-demonstration models (docs/planner.md states the measured bound).
 """
 
