@@ -56,17 +56,17 @@ fine motion, and the planner then proposes a neighbouring grasp that may miss a 
 the operator takes (docs/intent_estimation.md, the closed loop).
 
 **Task marginals.** ``P(g) = pi_g exp(E_g) / sum``; the task set posterior ``P(S) = sum_{S_g = S} P(g)``;
-``p_i = sum_{S : i in S} P(S)``, clipped to ``[w_floor, 1 - w_floor]``.
+``p_i = sum_{S : i in S} P(S)``, clipped to ``[w_floor, 1 - w_floor]``, then calibrated (below) into ``w_i``.
+The interpreter's eq. 3 rebuilds joint events from the marginals as if tasks were independent; the joint
+``P(S)`` here is not (two exclusive alternatives U or H give ``w = (0.5, 0, 0.5)``, which eq. 3 reads as a
+quarter each U, H, UH and no task): that correlation is what passing w loses.
 
-**Calibration.** ``w_i = sigma(a logit(p_i) + b)``, clipped again (:mod:`.calibration`): a monotone map of each
-marginal, the same for every task, fitted per model on training reaches (the log loss of the w of unassisted
-scripted reaches against their true set; ``calibration_slope`` a, ``calibration_offset`` b; 1 and 0: none).
-The motion model above orders the goals well but spreads the marginals too little (an under-confident w); the
-map corrects the spread without changing the evidence: the goal and task set posteriors, the order of the
-tasks' w and how fast a change of mind is followed stay as they are. The interpreter's eq. 3 rebuilds
-joint events from the marginals as if tasks were independent; the joint ``P(S)`` here is not (two exclusive
-alternatives U or H give ``w = (0.5, 0, 0.5)``, which eq. 3 reads as a quarter each U, H, UH and no task):
-that correlation is what passing w loses.
+**Calibration (optional; none by default).** ``w_i = sigma(a logit(p_i) + b)``, clipped again
+(:mod:`.calibration`; ``calibration_slope`` a, ``calibration_offset`` b; 1 and 0: none, ``w_i = p_i``): a
+monotone map of each marginal, the same for every task, fitted per model by the log loss of w on training
+reaches against their true set. It changes how far w spreads, not the evidence: the goal and task set
+posteriors, the order of the tasks' w and how fast a change of mind is followed stay as they are.
+docs/intent_estimation.md says why no shipped model is mapped (the map calibrates w and closes the loop worse).
 
 Contracts: every public function checks shapes and finiteness of what it is given and raises a
 :class:`~grasp_intent_ros.errors.GraspIntentError` subclass; w is always finite and inside
