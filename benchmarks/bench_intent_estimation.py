@@ -25,11 +25,17 @@ are bootstrap (2,000 resamples of episodes). Also the time of one update (all go
 thread's CPU time, which a loaded machine's preemption does not enter) and, with ``--plot``,
 a reliability diagram.
 
-``--compare FIELD=VALUE ...`` also scores an estimator with those settings on the same reaches (its Brier score
-and calibration error, and the paired Brier difference of the defaults minus it), e.g. a candidate default.
+``--compare FIELD=VALUE ...`` also scores an estimator with those settings (the rest as the defaults') on the same
+reaches: its Brier score and calibration error, and the paired Brier difference of the defaults minus it; e.g. a
+candidate default, or a calibration map (``calibration_slope=1.4 calibration_offset=-0.09``).
 
 ``--fit`` searches the estimator's rationality and memory on training seeds (``--seed`` + 100) and prints
-the grid; the reported figures use ``--seed`` (the shared-control benchmark's seeds), held out from the fit.
+the grid; ``--fit-calibration`` fits the calibration map of the marginals (``calibration_slope``,
+``calibration_offset``: :mod:`grasp_intent_ros.shared_control.calibration`) to the uncalibrated estimator's w
+at 25 / 50 / 75 % of the path of the training seeds' reaches, both devices, per object (the node's
+``calibration_models``) and the objects pooled, and prints them with the training reaches' calibration error
+before and after. The reported figures use ``--seed`` (the
+shared-control benchmark's seeds), held out from both fits.
 
     .venv/bin/python benchmarks/bench_intent_estimation.py [--operators 50] [--goals fresh] [--plot docs/x.png] \
         [--compare rationality=3000]
@@ -57,6 +63,7 @@ from grasp_intent_ros.mico.mock_arm import MockArm, check_twist
 from grasp_intent_ros.objects.demos import ObjectRules, sample_grasp, taken
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.sessions.closed_loop import reached
+from grasp_intent_ros.shared_control.calibration import calibrate, fit_calibration
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import Device, OperatorConstants, ScriptedOperator, SharpeningIntent
 
@@ -247,7 +254,7 @@ def compare(runs: list[Reach], est: np.ndarray, other: np.ndarray, label: str) -
 
 
 def fit(names: list[str], args: argparse.Namespace, kin: MicoKinematics, op: OperatorConstants) -> None:
-    """Grid of rationality x memory on the training seeds: mean Brier over the fractions, both objects."""
+    """Grid of rationality x memory on the training seeds (no calibration map): mean Brier over the fractions."""
     runs = {name: reaches(name, args.seed + 100, args.operators, args.goals, kin, op, args.timeout, args.device)
             for name in names}
     base = {name: estimator_for(name, kin, EstimatorConfig()) for name in names}
@@ -259,7 +266,8 @@ def fit(names: list[str], args: argparse.Namespace, kin: MicoKinematics, op: Ope
             score = 0.0
             for name in names:
                 est = base[name]
-                est.config = replace(EstimatorConfig(), rationality=beta, memory=memory)
+                est.config = replace(EstimatorConfig(), rationality=beta, memory=memory, calibration_slope=1.0,
+                                     calibration_offset=0.0)
                 truth = np.array([indicator(r.task_set) for r in runs[name]])
                 w = estimates(runs[name], est)
                 score += float(np.mean([brier(w[:, k], truth).mean() for k in range(len(FRACTIONS))])) / len(names)
@@ -268,6 +276,35 @@ def fit(names: list[str], args: argparse.Namespace, kin: MicoKinematics, op: Ope
                 best = (score, beta, memory)
         print(f'  beta {beta:5.1f}: ' + ' '.join(line) + f'   (memory {MEMORIES} m)')
     print(f'best: beta {best[1]}, memory {best[2]} (score {best[0]:.3f})')
+
+
+def calibration_fit(names: list[str], args: argparse.Namespace, kin: MicoKinematics, op: OperatorConstants) -> None:
+    """The calibration map fitted on the training seeds' reaches of both devices (module docstring)."""
+    raw = replace(EstimatorConfig(), calibration_slope=1.0, calibration_offset=0.0)
+    print(f'calibration fit on seed {args.seed + 100}, {args.operators} operators per object and device; '
+          f'uncalibrated estimator (rationality {raw.rationality}, memory {raw.memory})', flush=True)
+    cells: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
+    for name in names:
+        estimator = estimator_for(name, kin, raw)
+        for device in ('joystick', 'spacemouse'):
+            runs = reaches(name, args.seed + 100, args.operators, args.goals, kin, op, args.timeout, device)
+            truth = np.array([indicator(r.task_set) for r in runs])
+            cells[name, device] = (estimates(runs, estimator), np.broadcast_to(truth[:, None, :], (len(runs),
+                                   len(FRACTIONS), truth.shape[1])))
+            print(f'  {name} {device}: {len(runs)} reaches; {uptime()}', flush=True)
+    w = np.concatenate([c[0] for c in cells.values()])
+    y = np.concatenate([c[1] for c in cells.values()])
+    slope, offset = fit_calibration(w, y, raw.w_floor)
+    print(f'fit (all pooled): calibration_slope={slope:.4f} calibration_offset={offset:.4f}')
+    for name in names:
+        one = [cells[name, d] for d in ('joystick', 'spacemouse')]
+        a, b = fit_calibration(np.concatenate([c[0] for c in one]), np.concatenate([c[1] for c in one]), raw.w_floor)
+        print(f'  {name} alone: slope {a:.4f}, offset {b:.4f}')
+    print('training reaches, ECE before / after the pooled map at 25 / 50 / 75 %:')
+    for (name, device), (wc, yc) in cells.items():
+        after = calibrate(wc, slope, offset, raw.w_floor)
+        print(f'  {name:10s} {device:10s} ' + '  '.join(
+            f'{ece(wc[:, k], yc[:, k]):.3f} / {ece(after[:, k], yc[:, k]):.3f}' for k in range(len(FRACTIONS))))
 
 
 def plot(path: Path, curves: dict[str, tuple[np.ndarray, np.ndarray]]) -> None:
@@ -303,6 +340,8 @@ def main() -> None:
     parser.add_argument('--timeout', type=float, default=25.0)
     parser.add_argument('--device', choices=('joystick', 'spacemouse'), default='joystick')
     parser.add_argument('--fit', action='store_true', help='search rationality x memory on seed + 100 instead')
+    parser.add_argument('--fit-calibration', action='store_true',
+                        help='fit the calibration map on seed + 100, both devices, instead')
     parser.add_argument('--compare', nargs='+', default=[], metavar='FIELD=VALUE',
                         help='also score an estimator with these EstimatorConfig fields on the same reaches, paired')
     parser.add_argument('--plot', type=Path, help='write the reliability diagram at 50 %% here (PNG)')
@@ -312,6 +351,9 @@ def main() -> None:
           f'{uptime()}', flush=True)
     if args.fit:
         fit(args.objects, args, kin, op)
+        return
+    if args.fit_calibration:
+        calibration_fit(args.objects, args, kin, op)
         return
     curves = {}
     for name in args.objects:

@@ -32,7 +32,6 @@ from ..mico.grasp import check_mico_model
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, JOINT_LIMIT_MARGIN, MicoKinematics
 from ..mico.mock_arm import TwistCommand
 from ..mico.parameters import object_pose
-from ..parameters import config_from
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input, subscribe_operator
 from ..ros.model_follower import ModelFollower, served_models
@@ -41,8 +40,8 @@ from ..ros.qos import STREAM_DEPTH, input_qos, output_publisher
 from ..ros.run import guard_exit, publish_all, run_node
 from ..ros.worker import LatestOnlyWorker
 from ..shared_control.assistance import offset
-from ..shared_control.estimator import EstimatorConfig, IntentEstimator, TwistTiming, goals_at, reachable_goals
-from ..shared_control.parameters import ESTIMATOR, check_estimator
+from ..shared_control.estimator import IntentEstimator, TwistTiming, goals_at, reachable_goals
+from ..shared_control.parameters import ESTIMATOR, check_estimator, estimator_config
 from ..shared_control.stamped_inputs import StampedInputs
 from ..wire import topics
 from ..wire.diagnostics import ERROR, ESTIMATOR_COMPONENT, KEY_GOALS, OK, WARN
@@ -76,7 +75,7 @@ class IntentEstimatorNode(Node):
         self._diag = NodeDiagnostics(self, ESTIMATOR_COMPONENT)
         self._params = declare_parameters(self, ESTIMATOR, on_change=self._configure, check=check_estimator)
         self._kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
-        self._config = config_from(EstimatorConfig, self._params)
+        self._config = estimator_config(self._params, None)
         self._estimator: IntentEstimator | None = None
         """The estimate over the current scene's goals; None while they are prepared."""
         self._proposal: NDArray[np.float64] | None = None  # the newest grasp/pose (base frame): the grasp shown
@@ -109,7 +108,8 @@ class IntentEstimatorNode(Node):
         super().destroy_node()
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
-        self._config = config_from(EstimatorConfig, self._params)
+        model = self._scenes.latest.model
+        self._config = estimator_config(self._params, None if model is None else model.name)
         self._inputs.wait = self._config.max_dt
         if (estimator := self._estimator) is not None:
             estimator.config = self._config
@@ -156,11 +156,13 @@ class IntentEstimatorNode(Node):
             self._diag.set_state(ERROR, f'no goal for {scene.model.name} at this object pose: {exc}')
             raise
         self._shown = self._proposal
-        self._estimator = estimator = IntentEstimator(goals, self._config, proposal=self._proposal)
+        self._config = config = estimator_config(self._params, scene.model.name)  # its calibration map
+        self._estimator = estimator = IntentEstimator(goals, config, proposal=self._proposal)
         self._restarts += 1
         self._diag.set_state(OK, '')
         self._diag.set_values({'model': scene.model.name, KEY_GOALS: f'{len(goals)} of {model.demo_x.shape[0]} '
                                'reachable', 'goals prepared in [ms]': f'{1e3 * (time.perf_counter() - start):.0f}',
+                               'calibration (a, b)': f'{config.calibration_slope:g}, {config.calibration_offset:g}',
                                'restarts': self._restarts})
         self._publish(estimator)  # the prior: the planner has an intent before the first motion
 

@@ -6,6 +6,8 @@ assistance
     Arbitration (how much to help), the robot's twist toward the grasp, blending and limits.
 estimator
     The intent estimator: the operator's twist -> a posterior over the model's demonstrated grasps -> w.
+calibration
+    An optional monotone map of the estimator's task marginals, w -> sigmoid(a logit(w) + b), and its log-loss fit.
 stamped_inputs
     The estimator's inputs paired by header stamps: each operator twist with the hand and the grasp shown at its stamp.
 operators

@@ -56,10 +56,17 @@ fine motion, and the planner then proposes a neighbouring grasp that may miss a 
 the operator takes (docs/intent_estimation.md, the closed loop).
 
 **Task marginals.** ``P(g) = pi_g exp(E_g) / sum``; the task set posterior ``P(S) = sum_{S_g = S} P(g)``;
-``w_i = sum_{S : i in S} P(S)``, clipped to ``[w_floor, 1 - w_floor]``. The interpreter's eq. 3 rebuilds
-joint events from the marginals as if tasks were independent; the joint ``P(S)`` here is not (two exclusive
-alternatives U or H give ``w = (0.5, 0, 0.5)``, which eq. 3 reads as a quarter each U, H, UH and no task):
-that correlation is what passing w loses.
+``p_i = sum_{S : i in S} P(S)``, clipped to ``[w_floor, 1 - w_floor]``, then calibrated (below) into ``w_i``.
+The interpreter's eq. 3 rebuilds joint events from the marginals as if tasks were independent; the joint
+``P(S)`` here is not (two exclusive alternatives U or H give ``w = (0.5, 0, 0.5)``, which eq. 3 reads as a
+quarter each U, H, UH and no task): that correlation is what passing w loses.
+
+**Calibration (optional; none by default).** ``w_i = sigma(a logit(p_i) + b)``, clipped again
+(:mod:`.calibration`; ``calibration_slope`` a, ``calibration_offset`` b; 1 and 0: none, ``w_i = p_i``): a
+monotone map of each marginal, the same for every task, fitted per model by the log loss of w on training
+reaches against their true set. It changes how far w spreads, not the evidence: the goal and task set
+posteriors, the order of the tasks' w and how fast a change of mind is followed stay as they are.
+docs/intent_estimation.md says why no shipped model is mapped (the map calibrates w and closes the loop worse).
 
 Contracts: every public function checks shapes and finiteness of what it is given and raises a
 :class:`~grasp_intent_ros.errors.GraspIntentError` subclass; w is always finite and inside
@@ -80,6 +87,7 @@ from ..method.intent import MAX_TASKS, zone_label
 from ..method.model import GraspModel
 from ..mico.frames import check_transform, check_vector, features_to_obj_T_ee
 from ..mico.kinematics import HOME_Q, MicoKinematics
+from .calibration import calibrate
 
 __all__ = ['EstimatorConfig', 'Goals', 'goals_from_poses', 'goals_at', 'reachable_goals', 'progress_rates',
            'TwistTiming', 'IntentEstimator']
@@ -108,6 +116,9 @@ class EstimatorConfig:
         m, rad: an operator takes a shown grasp (the planner's proposal) for its own when its own lies within
         these of it; while a proposal is shown, every goal within them of it is credited with the progress
         toward the proposal (:meth:`IntentEstimator.set_proposal`). 0: proposals are ignored.
+    calibration_slope, calibration_offset : float
+        a (> 0) and b of the calibration map of each marginal, ``w_i <- sigmoid(a logit(w_i) + b)``
+        (:mod:`.calibration`); 1 and 0: none.
     """
 
     rationality: float = 1000.0
@@ -119,10 +130,13 @@ class EstimatorConfig:
     max_dt: float = 0.1
     proposal_radius: float = 0.06
     proposal_angle: float = 0.8
+    calibration_slope: float = 1.0
+    calibration_offset: float = 0.0
 
     def __post_init__(self) -> None:
         positive = {'rationality': self.rationality, 'memory': self.memory, 'rotation_length': self.rotation_length,
-                    'position_scale': self.position_scale, 'angle_scale': self.angle_scale, 'max_dt': self.max_dt}
+                    'position_scale': self.position_scale, 'angle_scale': self.angle_scale, 'max_dt': self.max_dt,
+                    'calibration_slope': self.calibration_slope}
         bad = [f'{name} = {value!r}' for name, value in positive.items()
                if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0.0)]
         if not (isinstance(self.w_floor, (int, float)) and 0.0 < self.w_floor < 0.5):
@@ -130,6 +144,8 @@ class EstimatorConfig:
         for name, value in (('proposal_radius', self.proposal_radius), ('proposal_angle', self.proposal_angle)):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
                 bad.append(f'{name} = {value!r} (must be finite and >= 0)')
+        if not (isinstance(self.calibration_offset, (int, float)) and math.isfinite(self.calibration_offset)):
+            bad.append(f'calibration_offset = {self.calibration_offset!r} (must be finite)')
         if self.angle_scale > math.pi:
             bad.append(f'angle_scale = {self.angle_scale!r} (at most pi)')
         if bad:
@@ -412,10 +428,10 @@ class IntentEstimator:
 
     @property
     def w(self) -> NDArray[np.float64]:
-        """The task marginals, shape (m,), in [w_floor, 1 - w_floor]."""
-        floor = self.config.w_floor
-        out: NDArray[np.float64] = np.clip(self.posterior @ self.goals.membership, floor, 1.0 - floor)
-        return out
+        """The task marginals, calibrated (module docstring), shape (m,), in [w_floor, 1 - w_floor]."""
+        cfg = self.config
+        return calibrate(self.posterior @ self.goals.membership, cfg.calibration_slope, cfg.calibration_offset,
+                         cfg.w_floor)
 
     def set_posterior(self) -> dict[int, float]:
         """P(S) per task set served by some goal (bitmask -> probability)."""

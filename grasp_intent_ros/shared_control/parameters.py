@@ -17,9 +17,10 @@ from ..mico.kinematics import BASE_FRAME, EE_FRAME
 from ..mico.parameters import OBJECT_POSE, URDF_PATH, check_object_pose
 from ..parameters import ParamSpec, config_from, one_of
 from .assistance import ARBITRATIONS, AssistanceConfig
+from .calibration import model_calibration
 from .estimator import EstimatorConfig
 
-__all__ = ['OPERATOR_INPUT', 'ASSISTANCE', 'ESTIMATOR', 'check_estimator']
+__all__ = ['OPERATOR_INPUT', 'ASSISTANCE', 'ESTIMATOR', 'estimator_config', 'check_estimator']
 
 OPERATOR_INPUT = (
     ParamSpec('operator_message_type', 'TwistStamped', 'Type on operator/twist: TwistStamped or Twist.',
@@ -93,6 +94,10 @@ ESTIMATOR = (
     ParamSpec('proposal_radius', _ESTIMATE.proposal_radius, 'm: goals within it (and proposal_angle) of the shown '
               'grasp are credited with the progress toward it (0: the shown grasp is ignored).', range=(0.0, 10.0)),
     ParamSpec('proposal_angle', _ESTIMATE.proposal_angle, 'rad: the same for the orientation.', range=(0.0, 3.15)),
+    ParamSpec('calibration_models', [], 'Models whose task marginals are mapped to sigmoid(a logit(w) + b) (a map '
+              'fitted on training reaches of that model); another model\'s w is not mapped.', item_type=str),
+    ParamSpec('calibration_slopes', [], 'a (> 0) of the map of each of calibration_models.', item_type=float),
+    ParamSpec('calibration_offsets', [], 'b of the map of each of calibration_models.', item_type=float),
     ParamSpec('publish_period', 0.04, 'Time between two w while the operator moves, s.', range=(0.001, 1.0),
               read_only=True),
     ParamSpec('operator_timeout', 0.1, 'Operator twist age (s) after which the operator counts as still (no w '
@@ -111,7 +116,17 @@ ESTIMATOR = (
 """The intent estimator node's parameters (:mod:`grasp_intent_ros.nodes.intent_estimator`)."""
 
 
+def estimator_config(values: Mapping[str, Any], model_name: str | None) -> EstimatorConfig:
+    """The EstimatorConfig of :data:`ESTIMATOR`'s values, with the calibration map listed for ``model_name``.
+
+    Raises InvalidIntentError for invalid settings or calibration lists (:func:`.calibration.model_calibration`).
+    """
+    slope, offset = model_calibration(model_name, values['calibration_models'], values['calibration_slopes'],
+                                      values['calibration_offsets'])
+    return config_from(EstimatorConfig, {**values, 'calibration_slope': slope, 'calibration_offset': offset})
+
+
 def check_estimator(values: Mapping[str, Any]) -> None:
-    """The rules over :data:`ESTIMATOR`'s values: a valid EstimatorConfig, the object within the workspace."""
-    config_from(EstimatorConfig, values)
+    """The rules over :data:`ESTIMATOR`'s values: valid settings and calibration lists, the object in the workspace."""
+    estimator_config(values, None)
     check_object_pose(values)

@@ -17,6 +17,7 @@ from grasp_intent_ros.nodes.intent_estimator import IntentEstimatorNode
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
+from grasp_intent_ros.shared_control.calibration import calibrate
 from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.diagnostics import WARN
@@ -175,3 +176,16 @@ def test_the_shown_grasp_is_the_proposal_and_survives_a_restart(ros, rig: Rig) -
     rejected = rig.node._diag._rejected
     assert ros.publish_until(grasps, wrong, lambda: rig.node._diag._rejected > rejected, 10.0, period=0.05)
     np.testing.assert_allclose(proposal(), goals.positions[0], rtol=0, atol=1e-9)
+
+
+def test_a_listed_models_marginals_are_mapped_and_another_models_not(ros) -> None:
+    rig = Rig(ros, calibration_models=['cup_7zone'], calibration_slopes=[2.0], calibration_offsets=[0.5])
+    rig.activate('cup_7zone', 1)
+    assert ros.wait_for(lambda: rig.w, 60.0), 'no prior w after the model'
+    np.testing.assert_allclose(rig.w[-1].data, [float(calibrate(PRIOR, 2.0, 0.5, 0.01))] * 3, rtol=1e-12)
+    count = len(rig.w)
+    rig.activate('cup_5zone', 2)  # no map listed: its prior unmapped
+    assert ros.wait_for(lambda: len(rig.w) > count, 60.0)
+    estimator = rig.node._estimator
+    assert estimator is not None
+    np.testing.assert_allclose(rig.w[-1].data, IntentEstimator(estimator.goals).w, rtol=0, atol=0)
