@@ -9,7 +9,8 @@ projection     the log-odds projection onto P(x) = v (Gauss-Newton)
 least_squares  Levenberg-Marquardt and Newton on 1/2 |v - P(x)|^2 over X
 rounds         the planner's least squares (its rule 5) in one call
 selection      ranking, screening and choosing candidates without float-noise ties
-voting         a kernel vote over labelled points and its bandwidth search (the robustness estimate)
+voting         a kernel vote over labelled points, its bandwidth search, and soft thresholds at landings
+               (the robustness estimate)
 ik             the MICO's inverse kinematics (:meth:`grasp_intent_ros.mico.kinematics.MicoKinematics.ik`)
 types          the shared arrays as typed tuples: the body (:class:`~.types.Body`), the model's Gaussians
                (:class:`~.types.Mixture`)
@@ -70,11 +71,11 @@ from .posterior import fit_and_distance, log_joints, score  # noqa: E402
 from .projection import project  # noqa: E402
 from .rounds import least_squares_rounds  # noqa: E402
 from .selection import choice_order, distinct, lex_order, screen, select_demonstrations  # noqa: E402
-from .voting import landed_votes, search_bandwidths  # noqa: E402
+from .voting import landed_thresholds, landed_votes, search_bandwidths  # noqa: E402
 
 __all__ = ['project', 'least_squares_rounds', 'feasible', 'score', 'fit_and_distance', 'log_joints', 'screen',
            'choice_order', 'select_demonstrations', 'distinct', 'lex_order', 'ik_descent', 'clearance', 'landed_votes',
-           'search_bandwidths', 'warm_up', 'loaded_signatures']
+           'landed_thresholds', 'search_bandwidths', 'warm_up', 'loaded_signatures']
 
 
 def loaded_signatures() -> int:
@@ -125,6 +126,8 @@ def warm_up() -> None:
     lex_order(np.ones((2, 3)))
     landed_votes(np.ones((2, d)), np.ones((2, 2)), np.ones((2, d)), np.zeros((2, d)), 1)
     search_bandwidths(np.ones((2, d)), np.ones(2), np.ones(d), 0, -1, 1, 1, 1e-9)
+    landed_thresholds(np.zeros((2, d)), np.zeros(1, dtype=np.int64), np.zeros(1), np.ones(1),
+                      np.array([0, 1], dtype=np.int64), 1)
     choice_order(np.ones(2), np.ones(2), np.arange(2), np.ones((2, d)), np.ones(2, dtype=np.bool_), 1e-12, 1e-6, 3e-3,
                  1e-6, 1e-18)
     select_demonstrations(np.full((2, 2), 0.5), np.array([0.5, 0.5]), np.ones((2, 2), dtype=np.bool_),

@@ -16,6 +16,11 @@ have the same bits on any machine.
   (every term is positive).
 - :func:`landed_votes`: per data point n, the mean over its landings of the votes of several label columns,
   each with its own bandwidths, n left out of its own vote.
+- :func:`landed_thresholds`: per data point n, the mean over its landings of a product of soft one-feature
+  thresholds per column (the conjunction the robustness estimate learns, :mod:`grasp_intent_ros.planning.robustness`).
+  Condition c (feature f_c, inner edge a_c, outer edge b_c != a_c) holds at y with degree
+  clip((b_c - y_f) / (b_c - a_c), 0, 1): 1 on the inner side of a_c, 0 beyond b_c, linear between (the
+  threshold taken uniform between the two edges).
 """
 
 from __future__ import annotations
@@ -26,7 +31,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ['CUTOFF', 'search_bandwidths', 'landed_votes']
+__all__ = ['CUTOFF', 'search_bandwidths', 'landed_votes', 'landed_thresholds']
 
 CUTOFF = 50.0
 """Scaled squared distance beyond which a point does not vote."""
@@ -166,6 +171,26 @@ def _landed(data, labels, s, landed, draws, cutoff):
     return out
 
 
+@njit(cache=True, nogil=True)
+def _thresholds(landed, feature, inner, outer, starts, draws):
+    rows = landed.shape[0] // draws
+    c = starts.size - 1
+    out = np.zeros((rows, c))
+    for i in range(rows):
+        for d in range(draws):
+            y = landed[i * draws + d]
+            for j in range(c):
+                degree = 1.0
+                for k in range(starts[j], starts[j + 1]):
+                    t = (outer[k] - y[feature[k]]) / (outer[k] - inner[k])
+                    degree *= min(max(t, 0.0), 1.0)
+                out[i, j] += degree
+    for i in range(rows):
+        for j in range(c):
+            out[i, j] /= draws
+    return out
+
+
 def search_bandwidths(data: NDArray[np.float64], labels: NDArray[np.float64], base: NDArray[np.float64],
                       start: int, lowest: int, highest: int, sweeps: int, rtol: float) -> NDArray[np.int64]:
     """Powers p (F,) of h_f = base_f 2^p_f minimising the leave-one-out log loss of the vote of ``labels``.
@@ -195,4 +220,21 @@ def landed_votes(data: NDArray[np.float64], labels: NDArray[np.float64], h: NDAr
                                        np.ascontiguousarray(1.0 / (h * h)), np.ascontiguousarray(landed,
                                                                                                  dtype=np.float64),
                                        draws, CUTOFF)
+    return out
+
+
+def landed_thresholds(landed: NDArray[np.float64], feature: NDArray[np.int64], inner: NDArray[np.float64],
+                      outer: NDArray[np.float64], starts: NDArray[np.int64], draws: int) -> NDArray[np.float64]:
+    """Mean over each point's landings of the product of its columns' soft thresholds: shape (M, C).
+
+    ``landed`` (M * draws, F), rows m * draws to (m + 1) * draws - 1 the landings of point m; the conditions
+    of column j are ``starts[j]`` to ``starts[j + 1] - 1`` of ``feature``, ``inner``, ``outer`` (module
+    docstring; ``inner != outer``), ``starts`` (C + 1,) non-decreasing from 0. A column without conditions
+    is 1. The product runs in condition order and the mean sums landing by landing.
+    """
+    out: NDArray[np.float64] = _thresholds(np.ascontiguousarray(landed, dtype=np.float64),
+                                           np.ascontiguousarray(feature, dtype=np.int64),
+                                           np.ascontiguousarray(inner, dtype=np.float64),
+                                           np.ascontiguousarray(outer, dtype=np.float64),
+                                           np.ascontiguousarray(starts, dtype=np.int64), draws)
     return out

@@ -18,34 +18,49 @@ three fingers), so that the same draws can be applied to any grasp and any noise
 task set S_n, the probability R_nk that the grasp, executed under the noise, still does every task of zone k
 (the event the operator model's success counts: an intended task set T is served when T is within the label).
 It is estimated from the model document only (the labelled demonstrations and the object's body; never the
-rules that labelled them):
+rules that labelled them), as the geometric mean of two estimates that err in different places,
+R_nk = sqrt(V_nk B_nk):
 
 1. Classifier features: the grasp's features, plus the palm's clearance from the body when the model has one
    (:meth:`~grasp_intent_ros.method.body.ObjectBody.distance`).
-2. Per zone k and per task i, a kernel vote q(y) over the demonstrations, labelled 1 where their task set
-   contains the zone's tasks (the task) (:mod:`grasp_intent_ros.kernels.voting`), with a diagonal bandwidth
-   per feature. (A task that is a zone of its own, as in every shipped model, has one vote.)
-3. The bandwidths of each vote minimise the vote's leave-one-out log loss over the demonstrations, by a
-   coordinate search (:func:`~grasp_intent_ros.kernels.voting.search_bandwidths`) over 2^p times the
-   noise's own scale of each feature (palm and clearance: ``palm``; approach: ``tilt``; roll: ``roll``;
-   fingers: ``closure``; a zero scale counts as 1e-3 of the feature's range), p an integer in [-2, 8]: from
-   p = 2 (4x the noise), for each feature in index order p goes up by one while the loss drops by more than
-   1e-9 (relative), else down by one while it does; :data:`SWEEPS` sweeps. Losses are compared only beyond
-   that tolerance, so float noise never decides a step.
-4. At the landings, each vote takes its bandwidths times :data:`NARROWING` (2^-1/2, half a step of the
-   search's grid): the search fits the vote to the demonstrations' spacing, and the mean over the landings
-   smooths it once more by the noise itself.
-5. R_nk = min(Q_k, prod_{i in k} Q_i), Q the mean of a vote over :data:`DRAWS` fixed landings of
-   demonstration n (:func:`stratified_draws` of seed 0, a Latin hypercube), n itself left out of the vote:
-   a landing must keep every task of the zone, and the two estimates miss different ways to lose one (a
-   multi-task zone has fewer demonstrations to vote; a product of the tasks' votes takes their losses as
-   independent). A landing that gains a task is not credited: R_nk = 0 for a zone outside S_n. Stratified,
-   16 landings are as accurate as 64 random ones (docs/planner.md gives the measured error).
+2. The task sets voted on (:func:`votes`): the zones, then each task that is not a zone of its own. For each,
+   the demonstrations whose task set contains it are its positives, the others its negatives.
+3. **The vote V** (:func:`bandwidths`): per voted set, a kernel vote q(y) over the demonstrations
+   (:mod:`grasp_intent_ros.kernels.voting`), with a diagonal bandwidth per feature. The bandwidths minimise
+   the vote's leave-one-out log loss over the demonstrations, by a coordinate search
+   (:func:`~grasp_intent_ros.kernels.voting.search_bandwidths`) over 2^p times the noise's own scale of
+   each feature (palm and clearance: ``palm``; approach: ``tilt``; roll: ``roll``; fingers: ``closure``; a
+   zero scale counts as 1e-3 of the feature's range), p an integer in [-2, 8]: from p = 2 (4x the noise),
+   for each feature in index order p goes up by one while the loss drops by more than 1e-9 (relative), else
+   down by one while it does; :data:`SWEEPS` sweeps. Losses are compared only beyond that tolerance, so float
+   noise never decides a step. At the landings each vote takes its bandwidths times :data:`NARROWING`
+   (2^-1/2, half a step of the search's grid). Q is the mean of a vote over :data:`DRAWS` fixed landings of
+   demonstration n (:func:`stratified_draws` of seed 0, a Latin hypercube), n itself left out of the vote.
+   The vote places a task's edge where positives and negatives meet near the demonstration; where only one
+   task set's demonstrations are near (a band a few millimetres wide that no other demonstration borders),
+   it smooths across the edge.
+4. **The thresholds B** (:func:`thresholds`): per voted set, a conjunction of one-feature thresholds learnt
+   from all the demonstrations, so that an edge found where the data meet holds where they are thin. Greedy:
+   among the negatives not yet excluded, for each feature in index order and each side (above the
+   positives' largest value, then below their smallest), count those strictly beyond the positives' extreme;
+   the side that excludes the most (ties to the first in that order) becomes a condition, its inner edge the
+   positives' extreme, its outer edge the nearest excluded negative; repeat until no side excludes a
+   negative. (Negatives no such side excludes stay unexplained; a set without positives or negatives has no
+   condition.) A landing y meets a condition to the degree clip((outer - y_f) / (outer - inner), 0, 1): the
+   threshold taken as uniform between the edges. Q' is the mean over :data:`THRESHOLD_DRAWS` landings
+   (:func:`stratified_draws` of seed 0) of the product of the set's conditions
+   (:func:`~grasp_intent_ros.kernels.voting.landed_thresholds`). Integer counts choose the conditions and
+   the edges are data values, so no float noise decides them.
+5. For each estimate, its value for zone k is min(Q_k, prod_{i in k} Q_i) (V from the votes, B from the
+   thresholds): a landing must keep every task of the zone, and the two miss different ways to lose one (a
+   multi-task zone has fewer demonstrations to vote; a product of the tasks' takes their losses as
+   independent). A landing that gains a task is not credited: R_nk = 0 for a zone outside S_n.
 
 Without noise (:attr:`ExecutionNoise.is_zero`) R_nk is 1 for every zone within S_n. The estimate does not
 depend on v: it is computed once per model and noise and kept with the model. Its cost is O(N^2) per
-bandwidth trial (a few hundred trials) and O(N^2 DRAWS K) for the votes, N demonstrations, K zones: about a
-second of CPU for the shipped 560-demonstration models (docs/planner.md states the measured bound).
+bandwidth trial (a few hundred trials), O(N^2 DRAWS K) for the votes and O(N THRESHOLD_DRAWS C) for the
+thresholds, N demonstrations, K zones, C conditions: about a second and a half of CPU for the shipped
+560-demonstration models (docs/planner.md states the measured bound).
 """
 
 from __future__ import annotations
@@ -65,13 +80,16 @@ from ..errors import PlanningError
 from ..method.features import APPROACH, FINGERS, PALM, ROLL, FeatureSpace
 from ..method.model import GraspModel
 
-__all__ = ['ExecutionNoise', 'DRAW_DIM', 'DRAWS', 'SWEEPS', 'NARROWING', 'standard_draws', 'stratified_draws',
-           'perturb', 'votes', 'bandwidths', 'retention']
+__all__ = ['ExecutionNoise', 'DRAW_DIM', 'DRAWS', 'THRESHOLD_DRAWS', 'SWEEPS', 'NARROWING', 'Condition',
+           'standard_draws', 'stratified_draws', 'perturb', 'votes', 'bandwidths', 'thresholds', 'retention']
 
 DRAW_DIM = 9
 """Standard normal numbers per landing: palm (3), tilt (2), roll (1), fingers (3)."""
 DRAWS = 16
-"""Landings per demonstration in the robustness estimate (stratified: :func:`stratified_draws`)."""
+"""Landings per demonstration in the robustness estimate's vote (stratified: :func:`stratified_draws`)."""
+THRESHOLD_DRAWS = 1024
+"""Landings per demonstration in the robustness estimate's thresholds (stratified: :func:`stratified_draws`)."""
+_CHUNK = 32  # demonstrations whose threshold landings are held at once
 SWEEPS = 2
 """Sweeps of the bandwidth search over the features."""
 NARROWING = 2.0 ** -0.5
@@ -238,6 +256,84 @@ def bandwidths(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
         return np.stack(list(pool.map(search, voted)))
 
 
+@dataclass(frozen=True)
+class Condition:
+    """One learnt threshold (module docstring, step 4): feature ``feature`` of the classifier features.
+
+    A landing y meets it fully on the inner side of ``inner`` (the positives' extreme), not at all beyond
+    ``outer`` (the nearest excluded negative), linearly between.
+    """
+
+    feature: int
+    inner: float
+    outer: float
+
+
+def _conditions(data: NDArray[np.float64], labels: NDArray[np.float64]) -> tuple[Condition, ...]:
+    """The greedy conjunction of module docstring step 4 for 0/1 ``labels`` (N,) of ``data`` (N, F)."""
+    positive = labels > 0.5
+    if not positive.any() or positive.all():
+        return ()
+    low, high = data[positive].min(axis=0), data[positive].max(axis=0)
+    negatives = data[~positive]
+    alive = np.ones(negatives.shape[0], dtype=bool)
+    out: list[Condition] = []
+    while True:
+        best: tuple[int, int, float, NDArray[np.bool_]] | None = None
+        for f in range(data.shape[1]):
+            for inner, beyond in ((high[f], negatives[:, f] > high[f]), (low[f], negatives[:, f] < low[f])):
+                excluded = alive & beyond
+                count = int(excluded.sum())
+                if count and (best is None or count > best[0]):
+                    best = (count, f, float(inner), excluded)
+        if best is None:
+            return tuple(out)
+        _, f, inner, excluded = best
+        values = negatives[excluded, f]
+        outer = float(values.min() if values.min() > inner else values.max())
+        out.append(Condition(f, inner, outer))
+        alive &= ~excluded
+
+
+def thresholds(model: GraspModel) -> tuple[tuple[Condition, ...], ...]:
+    """Each vote's conditions (module docstring, step 4), for the votes of :func:`votes`; independent of the noise."""
+    data = _classifier_features(model, model.demo_x)
+    return tuple(_conditions(data, _does(model, voted)) for voted in votes(model))
+
+
+def _landed_thresholds(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
+    """Q' of module docstring step 4: shape (N, V), the votes of :func:`votes`."""
+    from ..kernels import landed_thresholds
+    conditions = thresholds(model)
+    feature = np.array([c.feature for group in conditions for c in group], dtype=np.int64)
+    inner = np.array([c.inner for group in conditions for c in group])
+    outer = np.array([c.outer for group in conditions for c in group])
+    starts = np.cumsum([0] + [len(group) for group in conditions]).astype(np.int64)
+    z = stratified_draws(THRESHOLD_DRAWS, 0)
+    n, d = model.demo_x.shape
+    out = np.empty((n, len(conditions)))
+    for first in range(0, n, _CHUNK):
+        rows = model.demo_x[first:first + _CHUNK]
+        landed = perturb(rows, z, noise, model.features).reshape(rows.shape[0] * THRESHOLD_DRAWS, d)
+        out[first:first + rows.shape[0]] = landed_thresholds(_classifier_features(model, landed), feature, inner,
+                                                             outer, starts, THRESHOLD_DRAWS)
+    return out
+
+
+def _per_zone(model: GraspModel, q: NDArray[np.float64], within: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """min(Q_k, prod_{i in k} Q_i) within S_n, else 0 (module docstring, step 5): shape (N, K)."""
+    voted = votes(model)
+    n = q.shape[0]
+    out = np.zeros((n, len(model.zones)))
+    for k, zone in enumerate(model.zones):
+        tasks = np.ones(n)
+        for i in range(len(model.task_names)):  # the product in task order
+            if zone >> i & 1:
+                tasks *= q[:, voted.index(1 << i)]
+        out[:, k] = np.where(within[:, k], np.minimum(q[:, k], tasks), 0.0)
+    return out
+
+
 _TABLES: weakref.WeakKeyDictionary[GraspModel, dict[ExecutionNoise, NDArray[np.float64]]] = \
     weakref.WeakKeyDictionary()
 _BY_CONTENT: OrderedDict[tuple[str, ExecutionNoise], NDArray[np.float64]] = OrderedDict()
@@ -292,11 +388,6 @@ def _retention(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
     labels = np.stack([_does(model, mask) for mask in voted], axis=1)
     q = landed_votes(_classifier_features(model, model.demo_x), labels, bandwidths(model, noise) * NARROWING,
                      _classifier_features(model, landed), DRAWS)  # (N, V)
-    out = np.zeros((n, zones.size))
-    for k, zone in enumerate(model.zones):
-        tasks = np.ones(n)
-        for i in range(len(model.task_names)):  # the product in task order
-            if zone >> i & 1:
-                tasks *= q[:, voted.index(1 << i)]
-        out[:, k] = np.where(within[:, k], np.minimum(q[:, k], tasks), 0.0)
+    vote, threshold = _per_zone(model, q, within), _per_zone(model, _landed_thresholds(model, noise), within)
+    out = np.sqrt(vote * threshold)
     return out

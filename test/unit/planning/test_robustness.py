@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from grasp_intent_ros.errors import PlanningError
+from grasp_intent_ros.kernels import landed_thresholds
 from grasp_intent_ros.method.data import Demonstrations
 from grasp_intent_ros.method.features import APPROACH, FINGERS, MICO_3F, PALM, ROLL
 from grasp_intent_ros.method.model import GraspModel
@@ -17,6 +18,7 @@ from grasp_intent_ros.planning import planner, robustness
 from grasp_intent_ros.planning.options import LmOptions, TaskOptions, node_options, noise_from, options_for
 from grasp_intent_ros.planning.robustness import (
     DRAW_DIM,
+    Condition,
     ExecutionNoise,
     perturb,
     retention,
@@ -101,7 +103,9 @@ def test_a_zones_retention_is_at_most_the_product_of_its_tasks(slab: GraspModel)
     table = retention(slab, ExecutionNoise())
     k_a, k_b, k_ab = (slab.zones.index(z) for z in (A, B, AB))
     both = slab.demo_sets == AB
-    assert np.all(table[both, k_ab] <= table[both, k_a] * table[both, k_b])  # the tasks' product bounds the zone's
+    # the tasks' product bounds the zone's, in each of the two estimates and so in their geometric mean (which
+    # takes its square roots in another order: up to rounding)
+    assert np.all(table[both, k_ab] <= table[both, k_a] * table[both, k_b] + 1e-12)
 
 
 def test_a_task_that_is_no_zone_gets_a_vote_of_its_own() -> None:
@@ -111,6 +115,57 @@ def test_a_task_that_is_no_zone_gets_a_vote_of_its_own() -> None:
     model = GraspModel.fit(demos, zones=(A, AB), name='no b alone')
     assert robustness.votes(model) == (A, AB, B)
     assert robustness.bandwidths(model, ExecutionNoise()).shape[0] == len(model.zones) + 1
+
+
+def test_soft_thresholds_hold_fully_inside_not_beyond_and_linearly_between() -> None:
+    landed = np.array([[-1.0, 0.0], [0.25, 0.0], [0.5, 5.0], [2.0, 5.0]])  # two points, two landings each
+    # column 0: feature 0 below 0 fully, beyond 1 not at all; column 1: no condition; column 2: column 0's and
+    # feature 1 above 4 fully, below 2 not at all (a lower side)
+    feature = np.array([0, 0, 1], dtype=np.int64)
+    inner, outer = np.array([0.0, 0.0, 4.0]), np.array([1.0, 1.0, 2.0])
+    out = landed_thresholds(landed, feature, inner, outer, np.array([0, 1, 1, 3], dtype=np.int64), 2)
+    np.testing.assert_allclose(out, [[(1.0 + 0.75) / 2, 1.0, (1.0 * 0.0 + 0.75 * 0.0) / 2],
+                                     [(0.5 + 0.0) / 2, 1.0, (0.5 * 1.0 + 0.0) / 2]], atol=1e-15)
+
+
+def test_thresholds_take_the_edges_where_positives_and_negatives_meet(slab: GraspModel) -> None:
+    conditions = dict(zip(robustness.votes(slab), robustness.thresholds(slab)))
+    # a: A and AB below palm_x 0.03, B from 0.0325; b: the mirror image; both: the band's two edges
+    assert conditions[A] == (Condition(0, 0.03, 0.0325),)
+    assert conditions[B] == (Condition(0, 0.0, -0.0025),)
+    assert set(conditions[AB]) == {Condition(0, 0.03, 0.0325), Condition(0, 0.0, -0.0025)}
+
+
+def _edge_model() -> GraspModel:
+    """Task b ends at palm_z 0.06 m: seen at palm_x -0.05 (AB below, A above), unseen at +0.05 (AB only).
+
+    Grid of 5 mm in palm_y; the fingers vary a little so that no two rows are equal.
+    """
+    xs, sets = [], []
+    for j, py in enumerate((-0.01, -0.005, 0.0, 0.005, 0.01)):
+        for i in range(25):  # where the data meet: 0.03 .. 0.09
+            pz = round(0.03 + 0.0025 * i, 6)
+            xs.append([-0.05, py, pz, 0.0, 0.0, -1.0, 0.0, 0.9 + 0.01 * j, 0.9, 0.9])
+            sets.append(AB if pz <= 0.06 else A)
+        for i in range(13):  # a band against the edge that no A demonstration borders: 0.03 .. 0.06
+            pz = round(0.03 + 0.0025 * i, 6)
+            if pz <= 0.06:
+                xs.append([0.05, py, pz, 0.0, 0.0, -1.0, 0.0, 0.9 + 0.01 * j, 0.9, 0.9])
+                sets.append(AB)
+    return GraspModel.fit(Demonstrations(np.array(xs), np.array(sets, dtype=np.int64), ('a', 'b')), name='edge')
+
+
+def test_an_edge_learnt_where_the_data_meet_holds_where_they_are_thin() -> None:
+    model = _edge_model()
+    conditions = dict(zip(robustness.votes(model), robustness.thresholds(model)))
+    assert Condition(2, 0.06, 0.0625) in conditions[B]  # palm_z: the last AB, the first A
+    table = retention(model, ExecutionNoise())
+    k_ab = model.zones.index(AB)
+    px, pz = model.demo_x[:, 0], model.demo_x[:, 2]
+    thin_top = table[(px > 0.0) & (np.abs(pz - 0.06) < 1e-9), k_ab]
+    thin_low = table[(px > 0.0) & (np.abs(pz - 0.05) < 1e-9), k_ab]
+    # 5 mm of palm noise: at the edge about half the landings keep b, two deviations below nearly all of them
+    assert thin_top.max() < 0.75 and thin_low.min() > 0.9
 
 
 def test_retention_is_a_function_of_the_document(slab: GraspModel) -> None:
