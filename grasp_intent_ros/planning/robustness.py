@@ -316,7 +316,10 @@ def _column(data: NDArray[np.float64], scale: NDArray[np.float64], column: Colum
 def _threshold_features(data: NDArray[np.float64], scale: NDArray[np.float64],
                         columns: tuple[Column, ...]) -> NDArray[np.float64]:
     """The threshold features ``columns`` of classifier features ``data`` (M, F): shape (M, len(columns))."""
-    return np.ascontiguousarray(np.stack([_column(data, scale, c) for c in columns], axis=1))
+    out = np.empty((data.shape[0], len(columns)))
+    for j, column in enumerate(columns):
+        out[:, j] = _column(data, scale, column)
+    return out
 
 
 def _conditions(data: NDArray[np.float64], labels: NDArray[np.float64]) -> tuple[Condition, ...]:

@@ -215,6 +215,15 @@ def test_a_bound_on_the_closed_fingers_is_learnt_on_the_least_closed_one() -> No
     assert kept[np.abs(open_finger - 0.9) < 1e-9].max() < 0.9
 
 
+def test_a_set_without_negatives_has_no_condition_and_its_thresholds_hold_everywhere() -> None:
+    xs = [[0.01 * i, 0.0, 0.05, 0.0, 0.0, -1.0, 0.0, 0.9 + 0.01 * (i % 3), 0.9, 0.9 + 0.01 * (i % 5)]
+          for i in range(30)]
+    model = GraspModel.fit(Demonstrations(np.array(xs), np.full(30, AB, dtype=np.int64), ('a', 'b')), zones=(AB,),
+                           name='every demonstration does both')
+    assert robustness.thresholds(model, ExecutionNoise()) == ((), (), ())
+    np.testing.assert_array_equal(robustness._landed_thresholds(model, ExecutionNoise()), np.ones((30, 3)))
+
+
 def test_retention_is_a_function_of_the_document(slab: GraspModel) -> None:
     again = _slab_model()  # another model object from the same demonstrations, as a node reads a model sent again
     np.testing.assert_array_equal(robustness._retention(again, ExecutionNoise()), retention(slab, ExecutionNoise()))
