@@ -33,14 +33,23 @@ from .options import TaskOptions
 from .ranking import rank, task_candidates
 from .robustness import ExecutionNoise, retention
 
-__all__ = ['serve', 'precompute']
+__all__ = ['FIRST_CANDIDATES', 'serve', 'precompute']
 
-_TASK_CANDIDATES = 32  # the best demonstrations offered to ``accept``, in the choice order
+FIRST_CANDIDATES = 32
+"""How many candidates ``accept`` is asked before the rest of the best tier (:func:`serve`)."""
 
 
 def serve(model: GraspModel, v: NDArray[np.float64], x_ref: NDArray[np.float64], warm: bool,
           accept: Callable[[NDArray[np.float64]], bool] | None, opts: TaskOptions, t0: float) -> PlanResult:
-    """Method 'task': the first demonstration of :func:`~.ranking.rank` that ``accept`` takes."""
+    """Method 'task': the first demonstration of :func:`~.ranking.rank` that ``accept`` takes.
+
+    ``accept`` is asked in the choice order: the first 32 candidates, then, only when it refuses them all, the
+    rest of the best tier (the first candidate's, :class:`~.ranking.Ranking`), so that no demonstration that
+    serves the likely tasks is left unasked when the arm reaches few of them (an object turned away); further
+    candidates of lower tiers are not asked, and the plan is 'rejected'. Asked at most: the larger of 32 and the
+    best tier's size, which for a model of one Gaussian per zone is the demonstrations of the zones containing
+    v's top zone. The result's ``candidates`` are those asked, in order.
+    """
     kept = None if opts.noise is None or opts.noise.is_zero else retention(model, opts.noise)
     ranking = rank(model, v, int(zone_order(v)[0]), x_ref, tau=opts.tau, hysteresis=opts.hysteresis, warm=warm,
                    faithful=opts.faithful, retention=kept)
@@ -50,28 +59,33 @@ def serve(model: GraspModel, v: NDArray[np.float64], x_ref: NDArray[np.float64],
     tiers = (f'serves the likely tasks {likely}', f'serves the top zone {top}, reads as a task outside {likely}',
              f'misses the top zone {top}')
     labels = task_candidates(model).labels
-    n = min(_TASK_CANDIDATES, ranking.order.size)
-    candidates = tuple(
-        Candidate(x, p, f, d, x, f, k, True, f'demonstration {i} ({labels[i]}): {tiers[t]}', 0, i)
-        for k, (x, p, f, d, i, t) in enumerate(zip(ranking.x[:n], ranking.posterior[:n], ranking.objective[:n].tolist(),
-                                    ranking.distance[:n].tolist(), ranking.order[:n].tolist(),
-                                    ranking.tier[:n].tolist())))
-    if not candidates:
+
+    if not ranking.order.size:
         raise PlanningError(f'model {model.name!r} has no demonstration outside its body to plan from')
-    rejected = 0
-    chosen = None
-    for cand in candidates:
-        if accept is None or accept(cand.x):
-            chosen = cand
-            break
-        rejected += 1
-    status = 'ok' if chosen is not None else 'rejected'
-    chosen = chosen if chosen is not None else candidates[0]
+    first = min(FIRST_CANDIDATES, ranking.order.size)
+
+    def build(lo: int, hi: int) -> list[Candidate]:
+        """Candidates lo..hi-1 of the ranking (Python scalars converted in bulk: a plan builds dozens)."""
+        return [Candidate(x, p, f, d, x, f, k, True, f'demonstration {i} ({labels[i]}): {tiers[t]}', 0, i)
+                for k, (x, p, f, d, i, t) in enumerate(zip(
+                    ranking.x[lo:hi], ranking.posterior[lo:hi], ranking.objective[lo:hi].tolist(),
+                    ranking.distance[lo:hi].tolist(), ranking.order[lo:hi].tolist(), ranking.tier[lo:hi].tolist()),
+                    start=lo)]
+
+    candidates = build(0, first)
+    index = next((k for k, cand in enumerate(candidates) if accept is None or accept(cand.x)), None)
+    if index is None and accept is not None:  # the rest of the best tier (the tier sorts first)
+        rest = build(first, int(np.count_nonzero(ranking.tier == ranking.tier[0])))
+        index = next((k for k, cand in enumerate(rest, start=first) if accept(cand.x)), None)
+        candidates += rest if index is None else rest[:index + 1 - first]
+    status = 'ok' if index is not None else 'rejected'
+    rejected = index if index is not None else len(candidates)
+    chosen = candidates[index if index is not None else 0]
     message = f'planned ({chosen.message})' if status == 'ok' else \
         f'all {len(candidates)} candidates rejected by the robot constraint'
     return PlanResult(chosen=chosen, w=reconstruct_w(chosen.posterior, model.zones, len(names)),
                       exact=chosen.objective <= MATCH_TOL, reference=x_ref, status=status, message=message,
-                      iterations=0, wall_time_s=time.perf_counter() - t0, method='task', candidates=candidates,
+                      iterations=0, wall_time_s=time.perf_counter() - t0, method='task', candidates=tuple(candidates),
                       rejected=rejected)
 
 

@@ -173,8 +173,8 @@ SESSIONS: dict[str, tuple[str, list[Send]]] = {
     ]),
     # The object moves between plans; after each plan the arm reaches the planned joint targets
     # (joint_states), which seed the next IK. At the last pose (turned 0.6 rad) the arm reaches few of the
-    # usage + handover demonstrations (2 of 80 from home), none among the 32 candidates a plan offers to IK:
-    # the operator is asked to clarify.
+    # usage + handover demonstrations (2 of 80 from home), none among the first 32 candidates a plan offers to
+    # IK: the rest of the best tier is offered, and one of them is planned.
     'moving_object': ('cup_7zone', [
         Send('joint_states', joints(HOME_Q), ()),
         Send('intent/w', w(0.9, 0.9, 0.1), PLAN),
@@ -182,7 +182,7 @@ SESSIONS: dict[str, tuple[str, list[Send]]] = {
             Send('joint_states', follow_last_targets, ()),
             Send('object/pose', pose(0.28 + 0.03 * k, -0.34 + 0.05 * k, 0.0, CUP_HANDLE_TO_ARM - 0.15 * k), ('plan',)),
         )],
-        Send('intent/w', w(0.9, 0.1, 0.9), ('v', 'clarification')),
+        Send('intent/w', w(0.9, 0.1, 0.9), PLAN),
     ]),
 }
 

@@ -192,6 +192,25 @@ def test_accept_takes_the_next_candidate_in_the_choice_order(models: dict[str, G
     assert none.status == 'rejected' and none.rejected == len(none.candidates)
 
 
+def test_accept_is_asked_the_whole_best_tier_when_it_refuses_the_first(models: dict[str, GraspModel]) -> None:
+    """Past the first candidates, the rest of the best tier is asked (an object turned away), and no further."""
+    model = models['cup_7zone']
+    v = intent.interpret((0.9, 0.9, 0.1), model.zones).v
+    assert v is not None
+    ranked = ranking.rank(model, v, int(common.zone_order(v)[0]), model.demo_x[0])
+    best_tier = set(ranked.order[ranked.tier == ranked.tier[0]].tolist())
+    assert len(best_tier) > task.FIRST_CANDIDATES  # the case is one where the rule matters
+    first = planner.plan(model, v).candidates
+    assert len(first) == task.FIRST_CANDIDATES
+    late = planner.plan(model, v, accept=lambda x: x.tobytes() not in {c.x.tobytes() for c in first})
+    assert late.status == 'ok' and late.rejected == len(first)
+    assert late.candidates[len(first)].demonstration in best_tier
+    none = planner.plan(model, v, accept=lambda x: False)
+    assert none.status == 'rejected' and none.rejected == len(none.candidates) == len(best_tier)
+    assert {c.demonstration for c in none.candidates} == best_tier
+    assert [c.x.tobytes() for c in none.candidates[:len(first)]] == [c.x.tobytes() for c in first]
+
+
 def test_plans_faithful_by_reading_only_may_do_unlikely_tasks(models: dict[str, GraspModel]) -> None:
     """Only the reading must be faithful: the cup's U case gets a demonstration read as U doing an unlikely task too."""
     model = models['cup_7zone']
