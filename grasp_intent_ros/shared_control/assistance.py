@@ -563,19 +563,14 @@ class Assistance:
     def line_ik(self, base_T_target: NDArray[np.float64]) -> NDArray[np.float64] | None:
         """An IK of ``base_T_target`` reached by a straight joint line from q that keeps the hand near the grasp.
 
-        For a target with no IK from the joints q (the descent from q stops at a joint limit or in the wrist's
-        singularity). Candidates: the IK (no restarts) from :data:`LINE_IK_SEEDS` seeds, Home first, then random
-        ones drawn from a generator seeded 0 (joints 2, 3 uniform within their limits, the others q +- pi), each
-        on the 2 pi branch nearest q. A candidate is admissible when its wrist (joint 5) stays on q's side of 0
-        and pi (sin q5 keeps its sign: the straight line does not cross the wrist singularity, which the servo's
-        damped least squares cannot follow) and the hand's origin stays within the present distance to the grasp
-        plus ``corridor_radius`` of the grasp at :data:`LINE_IK_CHECKS` evenly spaced points of the line (the
-        arm does not swing the hand away while the operator, heading for the grasp, counts as agreeing).
-        Minimises |q_t - q| over the admissible candidates; ties: the earlier seed. None when none is
-        admissible.
-
-        Needs the kinematics, the joints and the grasp (``Assistance(..., kin)``, :meth:`set_joints`,
-        :meth:`set_grasp`).
+        For a target with no IK from the joints q. Candidates: the IK (no restarts) from :data:`LINE_IK_SEEDS`
+        seeds, Home first, then random ones from a generator seeded 0 (joints 2, 3 uniform within their limits,
+        the others q +- pi), each on the 2 pi branch nearest q. Admissible: the wrist (joint 5) stays on q's side
+        of 0 and pi (sin q5 keeps its sign: no crossing of the singularity the servo cannot follow) and the hand's
+        origin stays within its present distance to the grasp plus ``corridor_radius`` of the grasp at
+        :data:`LINE_IK_CHECKS` evenly spaced points of the line. Minimises |q_t - q| over the admissible
+        candidates; ties: the earlier seed. None when none is admissible. Needs the kinematics, the joints and
+        the grasp (``Assistance(..., kin)``, :meth:`set_joints`, :meth:`set_grasp`).
         """
         kin, q = self.kin, self.q
         assert kin is not None and q is not None and self.base_T_ee is not None and self.base_T_grasp is not None
