@@ -40,17 +40,27 @@ R_nk = sqrt(V_nk B_nk):
    task set's demonstrations are near (a band a few millimetres wide that no other demonstration borders),
    it smooths across the edge.
 4. **The thresholds B** (:func:`thresholds`): per voted set, a conjunction of one-feature thresholds learnt
-   from all the demonstrations, so that an edge found where the data meet holds where they are thin. Greedy:
-   among the negatives not yet excluded, for each feature in index order and each side (above the
-   positives' largest value, then below their smallest), count those strictly beyond the positives' extreme;
-   the side that excludes the most (ties to the first in that order) becomes a condition, its inner edge the
-   positives' extreme, its outer edge the nearest excluded negative; repeat until no side excludes a
-   negative. (Negatives no such side excludes stay unexplained; a set without positives or negatives has no
+   from all the demonstrations, so that an edge found where the data meet holds where they are thin. They
+   are learnt on the threshold features (:func:`threshold_columns`), so that edges no single classifier
+   feature follows are in reach: the classifier features; then, for each pair f < g of the palm's
+   coordinates and each pair of the approach's components, the oblique combinations a y_f / s_f + b y_g / s_g
+   for (a, b) in :data:`OBLIQUE` (s_f the noise's own scale of step 3; directions at 45, about 63 and about
+   27 degrees to the features' axes in units of the noise, either sign: a bound on the palm's bearing about
+   the object's axis, on a tilt in two components); then the three finger closures sorted, the least closed
+   first (a bound on how many fingers close is a threshold on one of them). Greedy: among the negatives not
+   yet excluded, for each threshold feature in index order and each side (above the positives' largest
+   value, then below their smallest), count those strictly beyond the positives' extreme; the side that
+   excludes the most (ties to the first in that order) becomes a condition, its inner edge the positives'
+   extreme, its outer edge the nearest excluded negative; repeat until no side excludes a negative.
+   (Negatives no such side excludes stay unexplained; a set without positives or negatives has no
    condition.) A landing y meets a condition to the degree clip((outer - y_f) / (outer - inner), 0, 1): the
    threshold taken as uniform between the edges. Q' is the mean over :data:`THRESHOLD_DRAWS` landings
    (:func:`stratified_draws` of seed 0) of the product of the set's conditions
-   (:func:`~grasp_intent_ros.kernels.voting.landed_thresholds`). Integer counts choose the conditions and
-   the edges are data values, so no float noise decides them.
+   (:func:`~grasp_intent_ros.kernels.voting.landed_thresholds`), the threshold features computed at the
+   landings for the conditions' features only. Integer counts choose the conditions and the edges are data
+   values; each threshold feature is a data value, a sort, or two quotients each times 1 or 2 and their sum
+   (each rounded once by IEEE arithmetic), so no float noise decides a condition and the same bits come on
+   any machine.
 5. For each estimate, its value for zone k is min(Q_k, prod_{i in k} Q_i) (V from the votes, B from the
    thresholds): a landing must keep every task of the zone, and the two miss different ways to lose one (a
    multi-task zone has fewer demonstrations to vote; a product of the tasks' takes their losses as
@@ -80,8 +90,9 @@ from ..errors import PlanningError
 from ..method.features import APPROACH, FINGERS, PALM, ROLL, FeatureSpace
 from ..method.model import GraspModel
 
-__all__ = ['ExecutionNoise', 'DRAW_DIM', 'DRAWS', 'THRESHOLD_DRAWS', 'SWEEPS', 'NARROWING', 'Condition',
-           'standard_draws', 'stratified_draws', 'perturb', 'votes', 'bandwidths', 'thresholds', 'retention']
+__all__ = ['ExecutionNoise', 'DRAW_DIM', 'DRAWS', 'THRESHOLD_DRAWS', 'SWEEPS', 'NARROWING', 'OBLIQUE', 'Column',
+           'Condition', 'standard_draws', 'stratified_draws', 'perturb', 'votes', 'bandwidths', 'threshold_columns',
+           'thresholds', 'retention']
 
 DRAW_DIM = 9
 """Standard normal numbers per landing: palm (3), tilt (2), roll (1), fingers (3)."""
@@ -90,6 +101,8 @@ DRAWS = 16
 THRESHOLD_DRAWS = 1024
 """Landings per demonstration in the robustness estimate's thresholds (stratified: :func:`stratified_draws`)."""
 _CHUNK = 32  # demonstrations whose threshold landings are held at once
+OBLIQUE = ((1, 1), (1, -1), (1, 2), (1, -2), (2, 1), (2, -1))
+"""The weights (a, b) of the thresholds' oblique combinations of two features (module docstring, step 4)."""
 SWEEPS = 2
 """Sweeps of the bandwidth search over the features."""
 NARROWING = 2.0 ** -0.5
@@ -258,7 +271,7 @@ def bandwidths(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
 
 @dataclass(frozen=True)
 class Condition:
-    """One learnt threshold (module docstring, step 4): feature ``feature`` of the classifier features.
+    """One learnt threshold (module docstring, step 4): threshold feature ``feature`` (:func:`threshold_columns`).
 
     A landing y meets it fully on the inner side of ``inner`` (the positives' extreme), not at all beyond
     ``outer`` (the nearest excluded negative), linearly between.
@@ -267,6 +280,46 @@ class Condition:
     feature: int
     inner: float
     outer: float
+
+
+Column = tuple[int, ...]
+"""One threshold feature (module docstring, step 4): (f,) classifier feature f; (f, g, a, b) the oblique
+combination a y_f / s_f + b y_g / s_g; (-1, r) the r-th least closed finger."""
+
+
+def threshold_columns(width: int) -> tuple[Column, ...]:
+    """The threshold features of ``width`` classifier features, in their index order (module docstring, step 4)."""
+    out: list[Column] = [(f,) for f in range(width)]
+    for block in (PALM, APPROACH):
+        members = range(block.start, block.stop)
+        out.extend((f, g, a, b) for f in members for g in members if g > f for a, b in OBLIQUE)
+    out.extend((-1, r) for r in range(FINGERS.stop - FINGERS.start))
+    return tuple(out)
+
+
+def _column(data: NDArray[np.float64], scale: NDArray[np.float64], column: Column) -> NDArray[np.float64]:
+    """The threshold feature ``column`` of classifier features ``data`` (M, F): shape (M,).
+
+    Elementwise operations that IEEE arithmetic rounds once each (a quotient, a product by 1 or 2, a sum of
+    two terms) and a sort, so the same bits on any machine.
+    """
+    if len(column) == 1:
+        out: NDArray[np.float64] = data[:, column[0]]
+    elif column[0] < 0:
+        out = np.sort(data[:, FINGERS], axis=1)[:, column[1]]
+    else:
+        f, g, a, b = column
+        out = a * (data[:, f] / scale[f]) + b * (data[:, g] / scale[g])
+    return out
+
+
+def _threshold_features(data: NDArray[np.float64], scale: NDArray[np.float64],
+                        columns: tuple[Column, ...]) -> NDArray[np.float64]:
+    """The threshold features ``columns`` of classifier features ``data`` (M, F): shape (M, len(columns))."""
+    out = np.empty((data.shape[0], len(columns)))
+    for j, column in enumerate(columns):
+        out[:, j] = _column(data, scale, column)
+    return out
 
 
 def _conditions(data: NDArray[np.float64], labels: NDArray[np.float64]) -> tuple[Condition, ...]:
@@ -295,28 +348,38 @@ def _conditions(data: NDArray[np.float64], labels: NDArray[np.float64]) -> tuple
         alive &= ~excluded
 
 
-def thresholds(model: GraspModel) -> tuple[tuple[Condition, ...], ...]:
-    """Each vote's conditions (module docstring, step 4), for the votes of :func:`votes`; independent of the noise."""
+def thresholds(model: GraspModel, noise: ExecutionNoise) -> tuple[tuple[Condition, ...], ...]:
+    """Each vote's conditions (module docstring, step 4), for the votes of :func:`votes`, on the threshold features.
+
+    ``noise`` scales the oblique combinations (its own scale of each feature, step 3).
+    """
     data = _classifier_features(model, model.demo_x)
-    return tuple(_conditions(data, _does(model, voted)) for voted in votes(model))
+    scale = _scales(noise, model.features, model.body is not None)
+    features = _threshold_features(data, scale, threshold_columns(data.shape[1]))
+    return tuple(_conditions(features, _does(model, voted)) for voted in votes(model))
 
 
 def _landed_thresholds(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.float64]:
     """Q' of module docstring step 4: shape (N, V), the votes of :func:`votes`."""
     from ..kernels import landed_thresholds
-    conditions = thresholds(model)
-    feature = np.array([c.feature for group in conditions for c in group], dtype=np.int64)
+    conditions = thresholds(model, noise)
+    columns = threshold_columns(model.features.dim + (1 if model.body is not None else 0))
+    used = sorted({c.feature for group in conditions for c in group})  # only these are computed at the landings
+    feature = np.array([used.index(c.feature) for group in conditions for c in group], dtype=np.int64)
     inner = np.array([c.inner for group in conditions for c in group])
     outer = np.array([c.outer for group in conditions for c in group])
     starts = np.cumsum([0] + [len(group) for group in conditions]).astype(np.int64)
+    scale = _scales(noise, model.features, model.body is not None)
     z = stratified_draws(THRESHOLD_DRAWS, 0)
     n, d = model.demo_x.shape
     out = np.empty((n, len(conditions)))
     for first in range(0, n, _CHUNK):
         rows = model.demo_x[first:first + _CHUNK]
         landed = perturb(rows, z, noise, model.features).reshape(rows.shape[0] * THRESHOLD_DRAWS, d)
-        out[first:first + rows.shape[0]] = landed_thresholds(_classifier_features(model, landed), feature, inner,
-                                                             outer, starts, THRESHOLD_DRAWS)
+        landed_features = _threshold_features(_classifier_features(model, landed), scale,
+                                              tuple(columns[j] for j in used))
+        out[first:first + rows.shape[0]] = landed_thresholds(landed_features, feature, inner, outer, starts,
+                                                             THRESHOLD_DRAWS)
     return out
 
 

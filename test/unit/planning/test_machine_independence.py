@@ -5,8 +5,9 @@ orders of their own. The model's precisions and normalisers, the planner's scree
 written out with every sum in a fixed order, so a plan is a function of its input bit for bit. The tests
 run the same plans, and the MICO grasps made of them, in processes whose OpenBLAS takes the kernels of
 another CPU (``OPENBLAS_CORETYPE``), or whose numba compiles for a generic x86-64 CPU (``NUMBA_CPU_NAME``),
-and compare the bits: both methods ('task' and 'lm'), fresh and warm-started, and the MICO's pose, joint
-targets and trajectory duration of :func:`~grasp_intent_ros.mico.grasp.plan_grasp`.
+and compare the bits: both methods ('task' and 'lm'), fresh and warm-started, the robustness estimate of the
+7-zone models at the 1x execution noise, and the MICO's pose, joint targets and trajectory duration of
+:func:`~grasp_intent_ros.mico.grasp.plan_grasp`.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import hashlib
 import numpy as np
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.planning import planner
+from grasp_intent_ros.planning.robustness import ExecutionNoise, retention
 from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
@@ -37,6 +39,8 @@ for name in ('cup_7zone', 'flashlight_7zone', 'cup_5zone', 'cup_4zone'):
     for array in (model.precisions, model.log_norm, pool.log_joint_t, pool.posterior, model.feature_scale):
         plans.update(np.ascontiguousarray(array).tobytes())
     blas.update((np.linalg.inv(model.covariances) @ model.covariances).tobytes())  # numpy's own BLAS
+    if name.endswith('7zone'):  # the robustness estimate the planner node plans with (its default noise)
+        plans.update(retention(model, ExecutionNoise()).tobytes())
     previous = None
     for w in rng.uniform(0.0, 1.0, (30, 3)):  # fresh plans, then each warm-started from the one before
         v = intent.interpret(w, model.zones).v

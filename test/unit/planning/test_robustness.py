@@ -129,7 +129,7 @@ def test_soft_thresholds_hold_fully_inside_not_beyond_and_linearly_between() -> 
 
 
 def test_thresholds_take_the_edges_where_positives_and_negatives_meet(slab: GraspModel) -> None:
-    conditions = dict(zip(robustness.votes(slab), robustness.thresholds(slab)))
+    conditions = dict(zip(robustness.votes(slab), robustness.thresholds(slab, ExecutionNoise())))
     # a: A and AB below palm_x 0.03, B from 0.0325; b: the mirror image; both: the band's two edges
     assert conditions[A] == (Condition(0, 0.03, 0.0325),)
     assert conditions[B] == (Condition(0, 0.0, -0.0025),)
@@ -157,7 +157,7 @@ def _edge_model() -> GraspModel:
 
 def test_an_edge_learnt_where_the_data_meet_holds_where_they_are_thin() -> None:
     model = _edge_model()
-    conditions = dict(zip(robustness.votes(model), robustness.thresholds(model)))
+    conditions = dict(zip(robustness.votes(model), robustness.thresholds(model, ExecutionNoise())))
     assert Condition(2, 0.06, 0.0625) in conditions[B]  # palm_z: the last AB, the first A
     table = retention(model, ExecutionNoise())
     k_ab = model.zones.index(AB)
@@ -166,6 +166,62 @@ def test_an_edge_learnt_where_the_data_meet_holds_where_they_are_thin() -> None:
     thin_low = table[(px > 0.0) & (np.abs(pz - 0.05) < 1e-9), k_ab]
     # 5 mm of palm noise: at the edge about half the landings keep b, two deviations below nearly all of them
     assert thin_top.max() < 0.75 and thin_low.min() > 0.9
+
+
+def test_an_oblique_edge_is_learnt_on_a_combination_of_two_palm_coordinates() -> None:
+    """Task b holds where palm_x + palm_y >= 0: no bound on either coordinate alone separates it."""
+    xs, sets = [], []
+    for i in range(13):
+        for j in range(13):
+            px, py = round(-0.03 + 0.005 * i, 6), round(-0.03 + 0.005 * j, 6)
+            xs.append([px, py, 0.05, 0.0, 0.0, -1.0, 0.0, 0.9 + 0.01 * (i % 3), 0.9, 0.9 + 0.01 * (j % 3)])
+            sets.append(AB if i + j >= 12 else A)
+    model = GraspModel.fit(Demonstrations(np.array(xs), np.array(sets, dtype=np.int64), ('a', 'b')), name='wedge')
+    noise = ExecutionNoise()
+    column = robustness.threshold_columns(model.features.dim).index((0, 1, 1, 1))  # x / 5 mm + y / 5 mm
+    b = robustness.votes(model).index(B)
+    (condition,) = [c for c in robustness.thresholds(model, noise)[b] if c.feature == column]
+    # the positives' lowest x + y is 0, the nearest negative's -5 mm: -1 in units of the noise's 5 mm
+    assert condition.inner == pytest.approx(0.0, abs=1e-9) and condition.outer == pytest.approx(-1.0, abs=1e-9)
+    kept = robustness._landed_thresholds(model, noise)[:, b]
+    s = model.demo_x[:, 0] + model.demo_x[:, 1]
+    # each landing moves x + y by N(0, 7.1 mm): on the edge about half the landings meet it, 30 mm inside all
+    on_edge, inside = kept[np.abs(s) < 1e-9], kept[np.abs(s - 0.03) < 1e-9]
+    assert 0.3 < on_edge.min() and on_edge.max() < 0.75 and inside.min() > 0.99
+
+
+def test_a_bound_on_the_closed_fingers_is_learnt_on_the_least_closed_one() -> None:
+    """Task b holds while some finger stays open (any one of the three): no bound on one finger separates it."""
+    xs, sets = [], []
+    for i in range(30):
+        palm = [round(-0.03 + 0.002 * i, 6), 0.002 * (i % 2), 0.05]  # the same palms for both sets
+        fingers = [round(1.0 + 0.01 * ((i + k) % 3), 6) for k in range(3)]
+        xs.append([*palm, 0.0, 0.0, -1.0, 0.0, *fingers])
+        sets.append(A)
+        fingers[i % 3] = 0.3 if i % 2 else 0.9  # one finger open: fully, or just short of the others
+        xs.append([*palm, 0.0, 0.0, -1.0, 0.0, *fingers])
+        sets.append(AB)
+    model = GraspModel.fit(Demonstrations(np.array(xs), np.array(sets, dtype=np.int64), ('a', 'b')), name='fingers')
+    noise = ExecutionNoise()
+    least = robustness.threshold_columns(model.features.dim).index((-1, 0))
+    b = robustness.votes(model).index(B)
+    assert Condition(least, 0.9, 1.0) in robustness.thresholds(model, noise)[b]
+    kept = robustness._landed_thresholds(model, noise)[:, b]
+    open_finger = model.demo_x[:, FINGERS].min(axis=1)
+    # 0.1 rad of closure noise: a finger at 0.3 stays below 0.9 always; one at 0.9 sits on the bound's inner
+    # edge, and the least closed of its three noisy fingers goes past it in about half the landings, past the
+    # outer edge (1.0) in some (the mean degree is about 0.83)
+    assert kept[np.abs(open_finger - 0.3) < 1e-9].min() > 0.99
+    assert kept[np.abs(open_finger - 0.9) < 1e-9].max() < 0.9
+
+
+def test_a_set_without_negatives_has_no_condition_and_its_thresholds_hold_everywhere() -> None:
+    xs = [[0.01 * i, 0.0, 0.05, 0.0, 0.0, -1.0, 0.0, 0.9 + 0.01 * (i % 3), 0.9, 0.9 + 0.01 * (i % 5)]
+          for i in range(30)]
+    model = GraspModel.fit(Demonstrations(np.array(xs), np.full(30, AB, dtype=np.int64), ('a', 'b')), zones=(AB,),
+                           name='every demonstration does both')
+    assert robustness.thresholds(model, ExecutionNoise()) == ((), (), ())
+    np.testing.assert_array_equal(robustness._landed_thresholds(model, ExecutionNoise()), np.ones((30, 3)))
 
 
 def test_retention_is_a_function_of_the_document(slab: GraspModel) -> None:
