@@ -19,9 +19,12 @@ axis) within ``corridor_radius`` of that axis and within ``corridor_angle`` of t
 With the arm's kinematics (:class:`Assistance` given a :class:`~.kinematics.MicoKinematics`), the twist is
 the end effector's motion while the joints move straight toward the target's inverse kinematics q_t
 (solved from the current joints q without random restarts, on the 2 pi branch nearest them, once per
-target and planned grasp), ``J(q) k_q (q_t - q)`` (:func:`joint_space_twist`); without the kinematics, or
-when the target has no IK solution from q, it is proportional to the pose error,
-``(k_lin (p_t - p), k_ang log3(R_t R^T))`` (the rotation vector in the base frame, :func:`robot_twist`).
+target and planned grasp), ``J(q) k_q (q_t - q)`` (:func:`joint_space_twist`). When the target has no IK
+solution from q (the descent from q stops at a joint limit or in the wrist's singularity), q_t is an IK
+solution from other seeds whose straight joint line from q keeps the hand near the grasp and the wrist on
+its side (:meth:`Assistance.line_ik`). Without the kinematics, or when there is no such solution either, it is
+proportional to the pose error, ``(k_lin (p_t - p), k_ang log3(R_t R^T))`` (the rotation vector in the base
+frame, :func:`robot_twist`).
 Either way each part is scaled down to its speed limit. Why joint space: the Cartesian twist turns the
 hand along the straight rotation to the target, which for many of the MICO's grasps runs the wrist (joint
 5) through 0 or pi, a singularity; there a servo's damped least squares cannot make the motion asked for
@@ -91,7 +94,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import InvalidIntentError
 from ..method.intent import parse_zones
 from ..mico.frames import PRE_GRASP_STANDOFF, REACH_POS, REACH_ROT, offset, pose_error, pre_grasp, reached
-from ..mico.kinematics import MicoKinematics
+from ..mico.kinematics import HOME_Q, MicoKinematics
 from ..planning.ranking import expected_success
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
@@ -102,6 +105,10 @@ __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set
 
 Arbitration = Literal['confidence', 'blend', 'none']
 ARBITRATIONS: tuple[str, ...] = typing.get_args(Arbitration)
+LINE_IK_SEEDS = 8
+"""Seeds tried (Home, then random ones) for a target that has no IK from the joints (:meth:`Assistance.line_ik`)."""
+LINE_IK_CHECKS = 20
+"""Points (after the start) at which :meth:`Assistance.line_ik` checks the hand along a joint line."""
 
 
 def serving_probability(v: ArrayLike, v_labels: Sequence[str], task_names: Sequence[str], *,
@@ -544,7 +551,7 @@ class Assistance:
         if self.kin is not None and self.q is not None and self._jacobian is not None:
             if phase not in self._q_targets:
                 ik = self.kin.ik(base_T_target, self.q, restarts=0)  # the solution the joints descend to
-                self._q_targets[phase] = ik.q if ik.success else None
+                self._q_targets[phase] = ik.q if ik.success else self.line_ik(base_T_target)
             q_target = self._q_targets[phase]
             if q_target is not None:
                 return joint_space_twist(self._jacobian, self.q, q_target, gain=cfg.gain_joint,
@@ -552,3 +559,40 @@ class Assistance:
         assert self.base_T_ee is not None
         return robot_twist(self.base_T_ee, base_T_target, gain_linear=cfg.gain_linear, gain_angular=cfg.gain_angular,
                            max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)
+
+    def line_ik(self, base_T_target: NDArray[np.float64]) -> NDArray[np.float64] | None:
+        """An IK of ``base_T_target`` reached by a straight joint line from q that keeps the hand near the grasp.
+
+        For a target with no IK from the joints q. Candidates: the IK (no restarts) from :data:`LINE_IK_SEEDS`
+        seeds, Home first, then random ones from a generator seeded 0 (joints 2, 3 uniform within their limits,
+        the others q +- pi), each on the 2 pi branch nearest q. Admissible: the wrist (joint 5) stays on q's side
+        of 0 and pi (sin q5 keeps its sign: no crossing of the singularity the servo cannot follow) and the hand's
+        origin stays within its present distance to the grasp plus ``corridor_radius`` of the grasp at
+        :data:`LINE_IK_CHECKS` evenly spaced points of the line. Minimises |q_t - q| over the admissible
+        candidates; ties: the earlier seed. None when none is admissible. Needs the kinematics, the joints and
+        the grasp (``Assistance(..., kin)``, :meth:`set_joints`, :meth:`set_grasp`).
+        """
+        kin, q = self.kin, self.q
+        assert kin is not None and q is not None and self.base_T_ee is not None and self.base_T_grasp is not None
+        grasp = self.base_T_grasp[:3, 3]
+        bound = float(np.linalg.norm(self.base_T_ee[:3, 3] - grasp)) + self.config.corridor_radius
+        rng = np.random.default_rng(0)
+        seeds = [np.asarray(HOME_Q, dtype=np.float64)]
+        for _ in range(LINE_IK_SEEDS - 1):
+            seed = q + rng.uniform(-np.pi, np.pi, 6)
+            seed[1:3] = rng.uniform(kin.lower[1:3], kin.upper[1:3])
+            seeds.append(seed)
+        best: NDArray[np.float64] | None = None
+        best_distance = np.inf
+        for seed in seeds:
+            ik = kin.ik(base_T_target, seed, restarts=0)
+            if not ik.success:
+                continue
+            q_t = kin.nearest_branch(ik.q, q)
+            distance = float(np.linalg.norm(q_t - q))
+            if distance >= best_distance or np.sin(q_t[4]) * np.sin(q[4]) <= 0.0:
+                continue
+            steps = np.linspace(0.0, 1.0, LINE_IK_CHECKS + 1)[1:]
+            if all(float(np.linalg.norm(kin.fk(q + s * (q_t - q))[:3, 3] - grasp)) <= bound for s in steps):
+                best, best_distance = q_t, distance
+        return best

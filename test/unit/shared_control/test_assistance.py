@@ -375,3 +375,70 @@ def test_the_robot_twist_in_joint_space_keeps_the_arm_out_of_the_wrist_singulari
     assert (np.linalg.norm(error[:3]) <= 1e-3 and np.linalg.norm(error[3:]) <= 1e-2) == reaches
     if not reaches:
         assert np.linalg.norm(error[:3]) > 0.1  # the documented trap: held in the singularity, far from the grasp
+
+
+# the arm 7 cm from a cup grasp after the operator's goal changed (the closed-loop benchmark's goal-changing
+# operator, seed 0, episode 0): the pre-grasp has no IK from these joints (the descent stops with the elbow at
+# its limit) and lies on another branch, reached by a straight joint line that keeps the hand near the grasp
+GOAL_CHANGED_Q = np.array([4.847526, 4.233469, 0.686679, 3.743465, 1.448577, 3.146208])
+PRE_GRASP_Q = np.array([2.692064, 4.45801, 0.612733, 1.108852, 1.271732, 2.066687])
+
+
+def _grasp_ahead_of(base_T_pre: NDArray[np.float64], standoff: float) -> NDArray[np.float64]:
+    grasp = base_T_pre.copy()
+    grasp[:3, 3] += standoff * base_T_pre[:3, 2]
+    return grasp
+
+
+def test_a_pre_grasp_without_ik_from_the_joints_is_reached_by_a_joint_line_near_the_grasp() -> None:
+    kin = MicoKinematics()
+    config = AssistanceConfig(assist_without_input=True)
+    grasp = _grasp_ahead_of(kin.fk(PRE_GRASP_Q), config.standoff)
+    pre = pre_grasp(grasp, config.standoff)
+    assert not kin.ik(pre, GOAL_CHANGED_Q, restarts=0).success  # the case: no IK from the joints
+    assistance = Assistance(config, TwistLimiter(0.2, 1.0, 1.0, 5.0), kin)
+    assistance.set_joints(GOAL_CHANGED_Q)
+    assistance.set_grasp(grasp)
+    q_t = assistance.line_ik(pre)
+    assert q_t is not None
+    error = pose_error(kin.fk(q_t), pre)
+    assert np.linalg.norm(error[:3]) <= 1e-6 and np.linalg.norm(error[3:]) <= 1e-6
+    assert np.sin(q_t[4]) * np.sin(GOAL_CHANGED_Q[4]) > 0.0  # the wrist stays on its side
+    start = float(np.linalg.norm(kin.fk(GOAL_CHANGED_Q)[:3, 3] - grasp[:3, 3]))
+    for s in np.linspace(0.0, 1.0, 101):  # finer than the check's 20 points: 1 mm of slack between them
+        hand = kin.fk(GOAL_CHANGED_Q + s * (q_t - GOAL_CHANGED_Q))
+        assert np.linalg.norm(hand[:3, 3] - grasp[:3, 3]) <= start + config.corridor_radius + 1e-3
+    # the robot alone (the operator still, assistance without input) brings the hand to the grasp; the
+    # Cartesian twist toward the pre-grasp held the elbow at its limit, 9 cm away, to the end
+    arm = MockArm(kin, np.r_[GOAL_CHANGED_Q, 0.0, 0.0, 0.0])
+    assistance.set_v(np.eye(7)[4], LABELS)
+    assistance.set_posterior(np.eye(7)[4], LABELS, TASKS)
+    for tick in range(1000):
+        now = 0.01 * tick
+        assistance.set_joints(arm.q[:6].copy())
+        assistance.set_operator(np.zeros(6), now)
+        command = assistance.command(now)
+        arm.command_twist(TwistCommand(command.twist[:3], command.twist[3:], BASE_FRAME), now)
+        arm.step(now + 0.01, 0.01)
+    error = pose_error(kin.fk(arm.q[:6]), grasp)
+    assert np.linalg.norm(error[:3]) <= 1e-3 and np.linalg.norm(error[3:]) <= 1e-2
+
+
+def test_no_joint_line_through_the_wrist_singularity() -> None:
+    # the target's only IK near the hand has joint 5 on the other side of 0: its straight line keeps the hand near
+    # the grasp, but crosses the singularity the servo cannot follow, so the line IK gives none
+    kin = MicoKinematics()
+    config = AssistanceConfig()
+    q = np.radians([240.0, 231.0, 66.0, 172.0, 31.0, 133.0])
+    across = np.radians([237.0, 228.0, 106.0, 198.0, -64.0, 127.0])
+    target = kin.fk(across)
+    grasp = _grasp_ahead_of(target, config.standoff)
+    assert not kin.ik(target, q, restarts=0).success
+    assistance = Assistance(config, TwistLimiter(0.2, 1.0, 1.0, 5.0), kin)
+    assistance.set_joints(q)
+    assistance.set_grasp(grasp)
+    start = float(np.linalg.norm(kin.fk(q)[:3, 3] - grasp[:3, 3]))
+    line = [kin.fk(q + s * (across - q))[:3, 3] for s in np.linspace(0.0, 1.0, 21)]
+    assert max(float(np.linalg.norm(p - grasp[:3, 3])) for p in line) <= start + config.corridor_radius
+    assert np.sin(across[4]) * np.sin(q[4]) < 0.0
+    assert assistance.line_ik(target) is None
