@@ -55,6 +55,17 @@ millimetres of other sets' goals; crediting each with its own progress there dri
 fine motion, and the planner then proposes a neighbouring grasp that may miss a task the operator wants, which
 the operator takes (docs/intent_estimation.md, the closed loop).
 
+**At the shown grasp.** While the hand lies within ``position_scale`` and ``angle_scale`` of a shown grasp that
+has a goal near it (:meth:`IntentEstimator.at_proposal`: the core of the distance to it, where its progress
+fades to 0), a twist that does not move the hand away from it (progress toward it >= 0) is the operator placing
+the hand on the grasp it took: no evidence, and the evidence neither grows nor fades with it (the update changes
+nothing). A twist that moves the hand away from it there (turning off it toward a goal elsewhere while the
+assistance holds the hand on it, or backing off) is read as anywhere else. Why: there the progress toward the
+shown grasp, and so its neighbourhood's, fades to 0 while a goal outside the neighbourhood that lies on past it
+(beyond ``proposal_angle`` of it, a few cm on along the approach) gains the full progress of the last
+corrections, which a reaction-delayed operator aims at a hand it saw a moment earlier: in the last second w
+flipped to that goal's set and the planner proposed it.
+
 **Task marginals.** ``P(g) = pi_g exp(E_g) / sum``; the task set posterior ``P(S) = sum_{S_g = S} P(g)``;
 ``p_i = sum_{S : i in S} P(S)``, clipped to ``[w_floor, 1 - w_floor]``, then calibrated (below) into ``w_i``.
 The interpreter's eq. 3 rebuilds joint events from the marginals as if tasks were independent; the joint
@@ -115,7 +126,9 @@ class EstimatorConfig:
     proposal_radius, proposal_angle : float
         m, rad: an operator takes a shown grasp (the planner's proposal) for its own when its own lies within
         these of it; while a proposal is shown, every goal within them of it is credited with the progress
-        toward the proposal (:meth:`IntentEstimator.set_proposal`). 0: proposals are ignored.
+        toward the proposal (:meth:`IntentEstimator.set_proposal`), and within ``position_scale`` and
+        ``angle_scale`` of it motion that does not move away from it is no evidence
+        (:meth:`IntentEstimator.at_proposal`). 0: proposals are ignored.
     calibration_slope, calibration_offset : float
         a (> 0) and b of the calibration map of each marginal, ``w_i <- sigmoid(a logit(w_i) + b)``
         (:mod:`.calibration`); 1 and 0: none.
@@ -383,6 +396,9 @@ class IntentEstimator:
             return
         pose = check_transform(base_T_grasp, 'base_T_grasp')
         cfg = self.config
+        if cfg.proposal_radius == 0.0 or cfg.proposal_angle == 0.0:  # the shown grasp is ignored
+            self._proposal = None
+            return
         offset = self.goals.positions - pose[:3, 3]
         near = np.sqrt(np.einsum('ni,ni->n', offset, offset)) <= cfg.proposal_radius
         r_rel = self.goals.rotations @ pose[:3, :3].T
@@ -390,11 +406,26 @@ class IntentEstimator:
         near &= np.arccos(cos) <= cfg.proposal_angle
         self._proposal = (pose[None, :3, 3].copy(), pose[None, :3, :3].copy(), near)
 
+    def at_proposal(self, base_T_ee: NDArray[np.float64]) -> bool:
+        """Whether the hand is in the core of the distance to the shown grasp (module docstring).
+
+        True when a grasp is shown, some goal lies near it, and ``base_T_ee`` (4x4, not checked here) is within
+        ``position_scale`` and ``angle_scale`` of it.
+        """
+        if self._proposal is None or not self._proposal[2].any():
+            return False
+        position, rotation, _ = self._proposal
+        offset = position[0] - base_T_ee[:3, 3]
+        cos = 0.5 * (float(np.trace(rotation[0] @ base_T_ee[:3, :3].T)) - 1.0)
+        return (float(np.sqrt(offset @ offset)) <= self.config.position_scale
+                and math.acos(min(max(cos, -1.0), 1.0)) <= self.config.angle_scale)
+
     def update(self, base_T_ee: ArrayLike, twist: ArrayLike, dt: float) -> NDArray[np.float64]:
         """Take one operator twist held for ``dt`` s with the hand at ``base_T_ee``; returns the new w.
 
         ``dt`` is clipped to [0, ``max_dt``]; any finite twist is taken (its size enters only through the
-        motion ``u dt``). Raises KinematicsError for a malformed pose, twist or ``dt`` (the estimate is then
+        motion ``u dt``); with the hand at the shown grasp (:meth:`at_proposal`) a twist that does not move it away
+        from it changes nothing. Raises KinematicsError for a malformed pose, twist or ``dt`` (the estimate is then
         unchanged).
         """
         hand = check_transform(base_T_ee, 'base_T_ee')
@@ -409,11 +440,14 @@ class IntentEstimator:
             return self.w
         unit = xi / size  # the direction, without overflow for any finite twist: only s_g / u and u dt matter
         unit_speed = float(np.linalg.norm(unit[:3])) + cfg.rotation_length * float(np.linalg.norm(unit[3:]))
+        proposal = self._proposal if self._proposal is not None and self._proposal[2].any() else None
+        shown = 0.0 if proposal is None else float(_progress(proposal[0], proposal[1], hand, unit, cfg)[0])
+        if proposal is not None and shown >= 0.0 and self.at_proposal(hand):
+            return self.w  # placing the hand on the shown grasp: no evidence (module docstring)
         fade = -math.expm1(-(size * dt) * unit_speed / cfg.memory)  # 1 - gamma; 1 when u dt overflows
         rates = progress_rates(self.goals, hand, unit, cfg) / unit_speed  # s_g / u, in [-1, 1]
-        if self._proposal is not None and self._proposal[2].any():
-            position, rotation, near = self._proposal
-            rates[near] = _progress(position, rotation, hand, unit, cfg)[0] / unit_speed
+        if proposal is not None:
+            rates[proposal[2]] = shown / unit_speed
         # the exact solution over the step of dE/dl = -E / L + beta s / u (l the pose path): |E| <= beta L
         self.evidence = (1.0 - fade) * self.evidence + (cfg.rationality * cfg.memory * fade) * rates
         return self.w

@@ -92,7 +92,8 @@ ESTIMATOR = (
     ParamSpec('w_floor', _ESTIMATE.w_floor, 'w is kept within [w_floor, 1 - w_floor].', range=(1e-6, 0.49)),
     ParamSpec('max_dt', _ESTIMATE.max_dt, 'Longest time one operator twist is taken to act, s.', range=(1e-3, 10.0)),
     ParamSpec('proposal_radius', _ESTIMATE.proposal_radius, 'm: goals within it (and proposal_angle) of the shown '
-              'grasp are credited with the progress toward it (0: the shown grasp is ignored).', range=(0.0, 10.0)),
+              'grasp are credited with the progress toward it; within position_scale and angle_scale of it motion '
+              'that does not move away from it is no evidence (0: the shown grasp is ignored).', range=(0.0, 10.0)),
     ParamSpec('proposal_angle', _ESTIMATE.proposal_angle, 'rad: the same for the orientation.', range=(0.0, 3.15)),
     ParamSpec('calibration_models', [], 'Models whose task marginals are mapped to sigmoid(a logit(w) + b) (a map '
               'fitted on training reaches of that model); another model\'s w is not mapped.', item_type=str),

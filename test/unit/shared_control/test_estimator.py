@@ -135,6 +135,61 @@ def test_a_goal_outside_the_proposal_keeps_its_own_progress() -> None:
     assert est.w[1] > 0.95 and est.w[0] < 0.05 and est.w[2] < 0.05
 
 
+def beyond_scene(config: EstimatorConfig = CONFIG) -> IntentEstimator:
+    """Usage and handover 1 cm apart at 0.3 m on +x; transfer 3 cm beyond usage on the same line, turned 1 rad."""
+    goals = goals_from_poses([pose((0.3, 0.0, 0.0)), pose((0.3, 0.01, 0.0)), pose((0.33, 0.0, 0.0), (1.0, 0.0, 0.0))],
+                             [U, H, T], 3)
+    return IntentEstimator(goals, config)
+
+
+def test_fine_motion_at_the_shown_grasp_is_no_evidence() -> None:
+    """Within position_scale and angle_scale of the shown grasp the hand is being placed on it.
+
+    The last corrections, which point on past it at a goal outside its neighbourhood, change no evidence.
+    """
+    fine = np.array([0.03, 0.0, 0.0])  # the final approach: slow, on toward the shown grasp and transfer beyond it
+    runs = {}
+    for name, config in (('shown', CONFIG), ('ignored', EstimatorConfig(proposal_radius=0.0))):
+        est = beyond_scene(config)
+        est.set_proposal(pose((0.3, 0.0, 0.0)))
+        hand = reach(est, np.eye(4), np.array([SPEED, 0.0, 0.0]), 2.35)  # 0.282 m: 1.8 cm short, in the core
+        assert est.at_proposal(hand) == (name == 'shown')
+        arrived = est.evidence.copy()
+        reach(est, hand, fine, 0.5)  # to 0.297 m
+        runs[name] = (arrived, est)
+    arrived, shown = runs['shown']
+    assert_allclose(shown.evidence, arrived, rtol=0, atol=0)
+    assert shown.w[1] < 0.5, 'transfer keeps what the approach gave it (the three lie on one line: a third)'
+    arrived, ignored = runs['ignored']
+    assert ignored.evidence[2] - ignored.evidence[0] > arrived[2] - arrived[0] + 3.0, \
+        'without the shown grasp the same corrections are read as progress toward transfer'
+    assert ignored.w[1] > 0.9
+
+
+def test_motion_outside_the_shown_grasps_core_or_away_from_it_is_evidence() -> None:
+    """Motion outside the shown grasp's core, or in it away from the grasp, is evidence.
+
+    2.5 cm short of the shown grasp, or at its position turned 0.1 rad past angle_scale, motion toward it counts;
+    in the core, motion that moves the hand away from it (turning off it toward a goal elsewhere while something
+    else holds the hand there, or backing off) counts too.
+    """
+    for hand, twist in ((pose((0.275, 0.0, 0.0)), np.array([0.03, 0.0, 0.0, 0.0, 0.0, 0.0])),
+                        (pose((0.3, 0.0, 0.0), (0.0, 0.0, CONFIG.angle_scale + 0.1)),
+                         np.array([0.0, 0.0, 0.0, 0.0, 0.0, -0.3]))):
+        est = beyond_scene()
+        est.set_proposal(pose((0.3, 0.0, 0.0)))
+        assert not est.at_proposal(hand)
+        est.update(hand, twist, DT)
+        assert est.evidence[0] > 0.0 and est.evidence[0] == est.evidence[1], 'toward the shown grasp: its neighbours'
+    est = beyond_scene()
+    est.set_proposal(pose((0.3, 0.0, 0.0)))
+    hand = pose((0.295, 0.0, 0.0), (0.05, 0.0, 0.0))
+    assert est.at_proposal(hand)
+    for _ in range(50):  # 0.5 s turning at 0.6 rad/s toward transfer's roll, the hand held in place
+        est.update(hand, np.array([0.0, 0.0, 0.0, 0.6, 0.0, 0.0]), DT)
+    assert est.evidence[0] < 0.0 < est.evidence[2] and est.w[1] > 0.9, 'turning off the shown grasp says transfer'
+
+
 def test_proposal_turned_away_is_outside_and_none_or_reset_forget_it() -> None:
     turned = near_scene()
     turned.set_proposal(pose((0.3, 0.0, 0.0), (CONFIG.proposal_angle + 0.1, 0.0, 0.0)))  # beyond the angle
