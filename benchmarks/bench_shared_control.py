@@ -458,9 +458,9 @@ HOLD_S = 2.0
 RECORDED_W = (0.9, 0.9, 0.1)
 RECORDED_TASKS = 0b011
 """The recorded episode's intent: w held at the paper's ambiguous case, the operator wanting usage and transfer."""
-ESTIMATED_TASKS = 0b010
-"""What the operator of a session recorded with the intent estimator wants: transfer (from above: the motion
-tells it from usage)."""
+ESTIMATED_TASKS = 0b011
+"""What the operator of a session recorded with the intent estimator wants: usage and transfer (the handle root,
+tilted: its shown grasp comes within the operator's reach of its own, so the session ends at a planned grasp)."""
 
 
 def record_session(name: str, index: int, out: Path, args: argparse.Namespace, domain_id: int,
