@@ -47,7 +47,7 @@ unsharpened intent, the operator wanting usage and transfer; bags/shared_control
 ``--objects cup --only 0 --record``. With ``--estimator`` the suite runs the intent estimator, the only source
 of w (this process publishes none; its operator twists are stamped), and the operator wants transfer (T),
 heading for its own grasp for T or the shown one when that serves T; bags/shared_control_cup_estimated is
-``--objects cup --only 1 --record bags/shared_control_cup_estimated --estimator`` (keep a recording whose hand
+``--objects cup --only 4 --record bags/shared_control_cup_estimated --estimator`` (keep a recording whose hand
 ended at the last grasp planned, which the replay checks, and whose replay passes: the replay is deterministic,
 but the live estimator took the twists stamped just after a new grasp before that grasp arrived, which the bag
 does not hold; and the live loop differs between recordings of one operator: three of operator 1 ended with
