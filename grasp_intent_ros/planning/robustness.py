@@ -297,28 +297,24 @@ def threshold_columns(width: int) -> tuple[Column, ...]:
     return tuple(out)
 
 
-def _column(data: NDArray[np.float64], scale: NDArray[np.float64], column: Column) -> NDArray[np.float64]:
-    """The threshold feature ``column`` of classifier features ``data`` (M, F): shape (M,).
+def _threshold_features(data: NDArray[np.float64], scale: NDArray[np.float64],
+                        columns: tuple[Column, ...]) -> NDArray[np.float64]:
+    """The threshold features ``columns`` of classifier features ``data`` (M, F): shape (M, len(columns)).
 
     Elementwise operations that IEEE arithmetic rounds once each (a quotient, a product by 1 or 2, a sum of
     two terms) and a sort, so the same bits on any machine.
     """
-    if len(column) == 1:
-        out: NDArray[np.float64] = data[:, column[0]]
-    elif column[0] < 0:
-        out = np.sort(data[:, FINGERS], axis=1)[:, column[1]]
-    else:
-        f, g, a, b = column
-        out = a * (data[:, f] / scale[f]) + b * (data[:, g] / scale[g])
-    return out
-
-
-def _threshold_features(data: NDArray[np.float64], scale: NDArray[np.float64],
-                        columns: tuple[Column, ...]) -> NDArray[np.float64]:
-    """The threshold features ``columns`` of classifier features ``data`` (M, F): shape (M, len(columns))."""
     out = np.empty((data.shape[0], len(columns)))
+    fingers = None  # sorted once, when a column asks for it
     for j, column in enumerate(columns):
-        out[:, j] = _column(data, scale, column)
+        if len(column) == 1:
+            out[:, j] = data[:, column[0]]
+        elif column[0] < 0:
+            fingers = np.sort(data[:, FINGERS], axis=1) if fingers is None else fingers
+            out[:, j] = fingers[:, column[1]]
+        else:
+            f, g, a, b = column
+            out[:, j] = a * (data[:, f] / scale[f]) + b * (data[:, g] / scale[g])
     return out
 
 
@@ -363,13 +359,13 @@ def _landed_thresholds(model: GraspModel, noise: ExecutionNoise) -> NDArray[np.f
     """Q' of module docstring step 4: shape (N, V), the votes of :func:`votes`."""
     from ..kernels import landed_thresholds
     conditions = thresholds(model, noise)
-    columns = threshold_columns(model.features.dim + (1 if model.body is not None else 0))
+    scale = _scales(noise, model.features, model.body is not None)  # one entry per classifier feature
+    columns = threshold_columns(scale.size)
     used = sorted({c.feature for group in conditions for c in group})  # only these are computed at the landings
     feature = np.array([used.index(c.feature) for group in conditions for c in group], dtype=np.int64)
     inner = np.array([c.inner for group in conditions for c in group])
     outer = np.array([c.outer for group in conditions for c in group])
     starts = np.cumsum([0] + [len(group) for group in conditions]).astype(np.int64)
-    scale = _scales(noise, model.features, model.body is not None)
     z = stratified_draws(THRESHOLD_DRAWS, 0)
     n, d = model.demo_x.shape
     out = np.empty((n, len(conditions)))
