@@ -23,8 +23,10 @@ The scripted operator (a stated, simple model)
   of its own), else drives to its own. The rule is the same under the three conditions (the shown grasp is
   on the screen whatever alpha is).
 - **Device.** A joystick with two modes, as in ADA's studies: translation (3 axes) or rotation (3 axes),
-  never both; switching costs 0.5 s of no input. The operator translates until within 3 cm of the goal,
-  then rotates until within 0.05 rad, then translates again (back to translation whenever the hand is
+  never both; switching costs 0.5 s of no input. The operator steers to the goal's pre-grasp (8 cm back
+  along its approach axis), then, once the hand is in the approach corridor, down the axis to the goal
+  (the operators' module docstring, "The approach"); it translates until within 3 cm of the pose steered
+  to, then rotates until within 0.03 rad, then translates again (back to translation whenever the hand is
   more than 6 cm away). Proportional command (gain 1.5 /s) limited to 0.12 m/s and 0.6 rad/s, plus
   Ornstein-Uhlenbeck noise (time constant 0.3 s; 0.01 m/s, 0.05 rad/s) on the active mode; the hand and the
   shown grasp are perceived 0.25 s late. Twists at 100 Hz on ``operator/twist`` in the base frame.

@@ -16,7 +16,7 @@ The episodes
   bench_shared_control.py: w0 ~ U(0.2, 0.8)^3 sharpening to the certain w_T over U(1.5, 4) s).
 - Operators (:mod:`grasp_intent_ros.shared_control.operators`): ``joystick`` (two modes), ``spacemouse``
   (six axes), ``goal-changing`` (a spacemouse operator whose true set changes once, at U(1.5, 3) s, to
-  another set; w follows 1 s later).
+  another set; w follows 1 s later). Each approaches a grasp via its pre-grasp, then down its approach axis.
 - The object tracker's error (per episode): position N(0, (5 mm)^2 / 3) per axis, rotation vector
   N(0, (3 deg)^2 / 3) per axis (``--tracker-mm``, ``--tracker-deg``): 5 mm and 3 deg RMS. The hand's closure
   error on the grasp command: N(0, (0.05 rad)^2) per finger (the mock arm's ``closure_error``).

@@ -23,15 +23,31 @@ the grasp it wanted), else drives to its own goal. It closes the hand (the grasp
 sees is within :data:`~grasp_intent_ros.shared_control.assistance.REACH_POS` / ``REACH_ROT`` of the goal it
 pursues.
 
+The approach (:meth:`ScriptedOperator.approach_target`)
+-------------------------------------------------------
+A person reaching for a grasp does not push the object over: it brings the open hand in front of the grasp,
+lined up with it, then moves it in along the hand's approach axis (the approach that the planner's collision
+check clears, :mod:`~grasp_intent_ros.mico.collision`, and the assistance takes). So the
+operator steers to the goal's **pre-grasp**, the goal moved back by ``standoff`` along its approach axis (the
+EE z axis; default :data:`~grasp_intent_ros.mico.frames.PRE_GRASP_STANDOFF`, the assistance's), until the hand
+it sees is **in the approach corridor**, then to the goal itself. The corridor is the assistance's
+(:func:`~.assistance.assistance_target`, with ``corridor_radius`` and ``corridor_angle``, by default the
+assistance's): the hand is within ``corridor_radius`` of the goal, or behind it along the approach axis,
+within ``corridor_radius`` of that axis and within ``corridor_angle`` of the goal's orientation. The rule holds
+no state: a hand that leaves the corridor (a new goal, noise) is steered to the pre-grasp again. ``standoff``
+0 steers straight at the goal (the pre-grasp is the goal). Why the model needs the rule: the simulation has no
+contact, so a hand steered straight at the goal passes through the object's side when the line crosses it, or
+(the joystick: translation, then rotation) turns through the object at the goal, which a real hand cannot.
+
 Devices (:meth:`ScriptedOperator.twist`)
 ----------------------------------------
 The hand and the shown grasp are perceived ``reaction`` s late. The command is proportional to the pose
-error toward the goal (gain ``gain`` 1/s), each part limited to ``max_linear`` / ``max_angular``, plus
-Ornstein-Uhlenbeck noise (time constant ``noise_tau``; ``noise_linear`` m/s, ``noise_angular`` rad/s) on the
-parts moved:
+error toward the pose steered to (the approach's; gain ``gain`` 1/s), each part limited to ``max_linear`` /
+``max_angular``, plus Ornstein-Uhlenbeck noise (time constant ``noise_tau``; ``noise_linear`` m/s,
+``noise_angular`` rad/s) on the parts moved:
 
 - ``'joystick'``: two modes, as in ADA's studies: translation (3 axes) or rotation (3 axes), never both;
-  switching costs ``switch_time`` of no input. It translates until within ``translate_until`` of the goal,
+  switching costs ``switch_time`` of no input. It translates until within ``translate_until`` of that pose,
   then rotates until within 0.6 ``rotate_until``, back to translation beyond ``back_to_translation``.
 - ``'spacemouse'``: six axes at once, both parts every tick.
 """
@@ -45,7 +61,8 @@ from typing import Literal, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from .assistance import clip_norm, offset, pose_error, reached
+from ..mico.frames import PRE_GRASP_STANDOFF
+from .assistance import AssistanceConfig, assistance_target, clip_norm, offset, pose_error, reached
 
 __all__ = ['Device', 'DEVICES', 'IntentScript', 'PersistentIntent', 'SharpeningIntent', 'ChangingIntent',
            'certain_w', 'draw_task_set', 'OperatorConstants', 'ScriptedOperator']
@@ -154,6 +171,9 @@ class OperatorConstants:
     back_to_translation: float = 0.06
     accept_position: float = 0.06
     accept_angle: float = 0.8
+    standoff: float = PRE_GRASP_STANDOFF
+    corridor_radius: float = AssistanceConfig.corridor_radius
+    corridor_angle: float = AssistanceConfig.corridor_angle
 
 
 class ScriptedOperator:
@@ -190,18 +210,31 @@ class ScriptedOperator:
         """Whether the operator closes the hand: the hand it sees is at the goal it pursues."""
         return reached(hand, goal)
 
+    def approach_target(self, hand: NDArray[np.float64], goal: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The pose (4x4, base frame) steered to for ``goal`` with the seen ``hand`` (module docstring, the approach).
+
+        ``goal``'s pre-grasp (``standoff`` back along its approach axis) until ``hand`` is in the approach
+        corridor (within ``corridor_radius`` of ``goal``, or behind it within ``corridor_radius`` of its approach
+        axis and ``corridor_angle`` of its orientation), then ``goal``.
+        """
+        c = self.c
+        target, _ = assistance_target(hand, goal, standoff=c.standoff, corridor_radius=c.corridor_radius,
+                                      corridor_angle=c.corridor_angle)
+        return target
+
     def twist(self, now: float, hand: NDArray[np.float64] | None, goal: NDArray[np.float64]) -> NDArray[np.float64]:
         """The device's twist (shape (6,), base frame) at ``now`` for the seen ``hand`` and ``goal`` (4x4 each).
 
-        ``hand`` None: the operator has not seen the hand yet (the first reaction time); the twist is zero, and
-        the device's noise still advances, so the draws do not depend on when the hand is first seen.
+        The twist steers to :meth:`approach_target` (the pre-grasp, then ``goal``). ``hand`` None: the operator
+        has not seen the hand yet (the first reaction time); the twist is zero, and the device's noise still
+        advances, so the draws do not depend on when the hand is first seen.
         """
         c = self.c
         sigma = np.r_[[c.noise_linear] * 3, [c.noise_angular] * 3]
         self._noise = self._decay * self._noise + self._scale * self.rng.normal(0.0, 1.0, 6) * sigma
         if hand is None:
             return np.zeros(6)
-        error = pose_error(hand, goal)
+        error = pose_error(hand, self.approach_target(hand, goal))
         linear = clip_norm(c.gain * error[:3], c.max_linear)
         angular = clip_norm(c.gain * error[3:], c.max_angular)
         command = np.zeros(6)

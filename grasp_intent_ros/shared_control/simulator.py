@@ -13,7 +13,8 @@ warm-started from the previous plan of the stream, with the IK seeded at Home (t
 the arm's joints: the grasp's pose does not depend on the seed, only which IK branch the planner reports, and
 the assistance solves its own IK). The planner sees the object where the tracker says it is (``base_T_obj``
 of the :class:`Scene`, the true pose plus the tracker's error); the judge sees the true one; the operator
-drives to the shown grasp or to its own goals, which the caller plans where the operator sees the object.
+drives to the shown grasp or to its own goals (each via its pre-grasp: :mod:`.operators`), which the caller plans
+where the operator sees the object.
 
 Conditions (:data:`CONDITIONS`)
 -------------------------------

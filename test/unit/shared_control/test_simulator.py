@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 import pytest
 from numpy.testing import assert_allclose
 
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.frames import PRE_GRASP_STANDOFF, features_to_obj_T_ee, pose_to_matrix, pre_grasp, reached
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.objects.demos import CUP_RULES
@@ -61,6 +62,74 @@ def test_intents_follow_their_scripts() -> None:
     assert all(d.true_set != 0 for d in drawn)
     sharpening = drawn[0]
     assert_allclose(sharpening.w(sharpening.sharpen, rng), certain_w(sharpening.true_set))  # no noise once sharp
+
+
+def _drive(operator: ScriptedOperator, hand: np.ndarray, goal: np.ndarray, period: float = 0.01,
+           ticks: int = 3000) -> list[np.ndarray]:
+    """A free-floating hand (no arm, no delay) moved by the operator's twists until it reaches ``goal``."""
+    path = [hand.copy()]
+    for tick in range(ticks):
+        if reached(hand, goal):
+            return path
+        twist = operator.twist(tick * period, hand, goal)
+        hand = hand.copy()
+        hand[:3, 3] += twist[:3] * period
+        hand[:3, :3] = pin.exp3(twist[3:] * period) @ hand[:3, :3]
+        path.append(hand)
+    raise AssertionError(f'the hand did not reach the goal in {ticks} ticks')
+
+
+# a grasp approaching along +x of the base (its EE z axis), the object a ball 4 cm across beyond it on that axis
+_GOAL = np.eye(4)
+_GOAL[:3, :3] = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])  # columns: x, y, z (approach)
+_GOAL[:3, 3] = (0.3, -0.3, 0.1)
+_BALL, _BALL_RADIUS = _GOAL[:3, 3] + 0.05 * _GOAL[:3, 2], 0.04
+_QUIET = OperatorConstants(noise_linear=0.0, noise_angular=0.0)
+
+
+def _start(offset_along: float, offset_y: float, turn: float) -> np.ndarray:
+    hand = _GOAL.copy()
+    hand[:3, 3] += offset_along * _GOAL[:3, 2] + offset_y * _GOAL[:3, 1]
+    hand[:3, :3] = pin.exp3(np.array([0.0, 0.0, turn])) @ _GOAL[:3, :3]
+    return hand
+
+
+def _closest_to_ball(path: list[np.ndarray]) -> float:
+    return float(min(np.linalg.norm(h[:3, 3] - _BALL) for h in path))
+
+
+@pytest.mark.parametrize('device', ['spacemouse', 'joystick'])
+def test_a_goal_behind_the_object_is_approached_via_its_pre_grasp(device: str) -> None:
+    # the hand starts beside the ball, level with its far side: the straight line to the grasp cuts the ball
+    start = _start(0.10, 0.10, 0.5)
+    operator = ScriptedOperator(device, _QUIET, np.random.default_rng(0))
+    assert_allclose(operator.approach_target(start, _GOAL), pre_grasp(_GOAL, PRE_GRASP_STANDOFF), atol=1e-12)
+    path = _drive(operator, start, _GOAL)
+    assert _closest_to_ball(path) > _BALL_RADIUS + 0.01
+    # it went in along the approach axis: it entered the corridor near the pre-grasp, and stayed in it
+    axis = _GOAL[:3, 2]
+    offsets = np.array([h[:3, 3] - _GOAL[:3, 3] for h in path])
+    along = offsets @ axis
+    lateral = np.linalg.norm(offsets - np.outer(along, axis), axis=1)
+    inside = (along <= 0.0) & (lateral <= _QUIET.corridor_radius)
+    entered = int(np.argmax(inside))
+    assert inside[entered] and along[entered] < -0.03 and inside[entered:].all()
+    straight = _drive(ScriptedOperator(device, OperatorConstants(noise_linear=0.0, noise_angular=0.0, standoff=0.0),
+                                       np.random.default_rng(0)), start, _GOAL)
+    assert _closest_to_ball(straight) < _BALL_RADIUS  # without the pre-grasp, the hand goes through the ball
+
+
+def test_a_goal_already_on_the_approach_axis_is_approached_straight() -> None:
+    start = _start(-0.06, 0.005, 0.1)  # 6 cm back along the axis, 5 mm off it, turned 0.1 rad: in the corridor
+    operator = ScriptedOperator('spacemouse', _QUIET, np.random.default_rng(0))
+    assert operator.approach_target(start, _GOAL) is _GOAL
+    path = _drive(operator, start, _GOAL)
+    axis = _GOAL[:3, 2]
+    offsets = np.array([h[:3, 3] - _GOAL[:3, 3] for h in path])
+    lateral = np.linalg.norm(offsets - np.outer(offsets @ axis, axis), axis=1)
+    assert lateral.max() <= 0.005 + 1e-9 and np.all(np.diff(offsets @ axis) >= 0.0)  # straight in, never back
+    assert len(path) < len(_drive(ScriptedOperator('spacemouse', _QUIET, np.random.default_rng(0)),
+                                  _start(-0.06, 0.03, 0.1), _GOAL))  # 3 cm off the axis: by the pre-grasp, longer
 
 
 def test_a_suite_episode_is_reproducible_and_ends_at_a_grasp_serving_the_operator(cup) -> None:
