@@ -105,8 +105,10 @@ __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set
 
 Arbitration = Literal['confidence', 'blend', 'none']
 ARBITRATIONS: tuple[str, ...] = typing.get_args(Arbitration)
-LINE_IK_SEEDS = 8
-"""Seeds tried (Home, then random ones) for a target that has no IK from the joints (:meth:`Assistance.line_ik`)."""
+LINE_IK_SEEDS = 32
+"""Seeds tried (Home, then random ones) for a target that has no IK from the joints (:meth:`Assistance.line_ik`):
+each of a target's IK solutions is the descent's answer from about one random seed in ten, so 32 miss a given
+one with probability about 0.03 (8: 0.4)."""
 LINE_IK_CHECKS = 20
 """Points (after the start) at which :meth:`Assistance.line_ik` checks the hand along a joint line."""
 
@@ -564,10 +566,11 @@ class Assistance:
         """An IK of ``base_T_target`` reached by a straight joint line from q that keeps the hand near the grasp.
 
         For a target with no IK from the joints q. Candidates: the IK (no restarts) from :data:`LINE_IK_SEEDS`
-        seeds, Home first, then random ones from a generator seeded 0 (joints 2, 3 uniform within their limits,
-        the others q +- pi), each on the 2 pi branch nearest q. Admissible: the wrist (joint 5) stays on q's side
-        of 0 and pi (sin q5 keeps its sign: no crossing of the singularity the servo cannot follow) and the hand's
-        origin stays within its present distance to the grasp plus ``corridor_radius`` of the grasp at
+        seeds, Home first, then the IK's own restart seeds about q
+        (:meth:`~grasp_intent_ros.mico.kinematics.MicoKinematics.restart_seed`) from a generator seeded 0, each
+        on the 2 pi branch nearest q. Admissible: the wrist (joint 5) stays on q's side of 0 and pi (sin q5
+        keeps its sign: no crossing of the singularity the servo cannot follow) and the hand's origin stays
+        within its present distance to the grasp plus ``corridor_radius`` of the grasp at
         :data:`LINE_IK_CHECKS` evenly spaced points of the line. Minimises |q_t - q| over the admissible
         candidates; ties: the earlier seed. None when none is admissible. Needs the kinematics, the joints and
         the grasp (``Assistance(..., kin)``, :meth:`set_joints`, :meth:`set_grasp`).
@@ -578,10 +581,7 @@ class Assistance:
         bound = float(np.linalg.norm(self.base_T_ee[:3, 3] - grasp)) + self.config.corridor_radius
         rng = np.random.default_rng(0)
         seeds = [np.asarray(HOME_Q, dtype=np.float64)]
-        for _ in range(LINE_IK_SEEDS - 1):
-            seed = q + rng.uniform(-np.pi, np.pi, 6)
-            seed[1:3] = rng.uniform(kin.lower[1:3], kin.upper[1:3])
-            seeds.append(seed)
+        seeds += [kin.restart_seed(q, rng) for _ in range(LINE_IK_SEEDS - 1)]
         best: NDArray[np.float64] | None = None
         best_distance = np.inf
         for seed in seeds:
