@@ -22,7 +22,7 @@ the end effector's motion while the joints move straight toward the target's inv
 target and planned grasp), ``J(q) k_q (q_t - q)`` (:func:`joint_space_twist`). When the target has no IK
 solution from q (the descent from q stops at a joint limit or in the wrist's singularity), q_t is an IK
 solution from other seeds whose straight joint line from q keeps the hand near the grasp and the wrist on
-its side (:meth:`Assistance.line_ik`). Without the kinematics, or when there is no such solution either, it is
+its side (:func:`~.joint_path.line_ik`). Without the kinematics, or when there is no such solution either, it is
 proportional to the pose error, ``(k_lin (p_t - p), k_ang log3(R_t R^T))`` (the rotation vector in the base
 frame, :func:`robot_twist`).
 Either way each part is scaled down to its speed limit. Why joint space: the Cartesian twist turns the
@@ -94,8 +94,9 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import InvalidIntentError
 from ..method.intent import parse_zones
 from ..mico.frames import PRE_GRASP_STANDOFF, REACH_POS, REACH_ROT, offset, pose_error, pre_grasp, reached
-from ..mico.kinematics import HOME_Q, MicoKinematics
+from ..mico.kinematics import MicoKinematics
 from ..planning.ranking import expected_success
+from .joint_path import line_ik
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
            'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached',
@@ -105,12 +106,6 @@ __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set
 
 Arbitration = Literal['confidence', 'blend', 'none']
 ARBITRATIONS: tuple[str, ...] = typing.get_args(Arbitration)
-LINE_IK_SEEDS = 32
-"""Seeds tried (Home, then random ones) for a target that has no IK from the joints (:meth:`Assistance.line_ik`):
-each of a target's IK solutions is the descent's answer from about one random seed in ten, so 32 miss a given
-one with probability about 0.03 (8: 0.4)."""
-LINE_IK_CHECKS = 20
-"""Points (after the start) at which :meth:`Assistance.line_ik` checks the hand along a joint line."""
 
 
 def serving_probability(v: ArrayLike, v_labels: Sequence[str], task_names: Sequence[str], *,
@@ -563,36 +558,10 @@ class Assistance:
                            max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)
 
     def line_ik(self, base_T_target: NDArray[np.float64]) -> NDArray[np.float64] | None:
-        """An IK of ``base_T_target`` reached by a straight joint line from q that keeps the hand near the grasp.
+        """:func:`~.joint_path.line_ik` from the joints toward ``base_T_target`` (slack: ``corridor_radius``).
 
-        For a target with no IK from the joints q. Candidates: the IK (no restarts) from :data:`LINE_IK_SEEDS`
-        seeds, Home first, then the IK's own restart seeds about q
-        (:meth:`~grasp_intent_ros.mico.kinematics.MicoKinematics.restart_seed`) from a generator seeded 0, each
-        on the 2 pi branch nearest q. Admissible: the wrist (joint 5) stays on q's side of 0 and pi (sin q5
-        keeps its sign: no crossing of the singularity the servo cannot follow) and the hand's origin stays
-        within its present distance to the grasp plus ``corridor_radius`` of the grasp at
-        :data:`LINE_IK_CHECKS` evenly spaced points of the line. Minimises |q_t - q| over the admissible
-        candidates; ties: the earlier seed. None when none is admissible. Needs the kinematics, the joints and
-        the grasp (``Assistance(..., kin)``, :meth:`set_joints`, :meth:`set_grasp`).
+        Needs the kinematics, the joints and the grasp (``Assistance(..., kin)``, :meth:`set_joints`,
+        :meth:`set_grasp`).
         """
-        kin, q = self.kin, self.q
-        assert kin is not None and q is not None and self.base_T_ee is not None and self.base_T_grasp is not None
-        grasp = self.base_T_grasp[:3, 3]
-        bound = float(np.linalg.norm(self.base_T_ee[:3, 3] - grasp)) + self.config.corridor_radius
-        rng = np.random.default_rng(0)
-        seeds = [np.asarray(HOME_Q, dtype=np.float64)]
-        seeds += [kin.restart_seed(q, rng) for _ in range(LINE_IK_SEEDS - 1)]
-        best: NDArray[np.float64] | None = None
-        best_distance = np.inf
-        for seed in seeds:
-            ik = kin.ik(base_T_target, seed, restarts=0)
-            if not ik.success:
-                continue
-            q_t = kin.nearest_branch(ik.q, q)
-            distance = float(np.linalg.norm(q_t - q))
-            if distance >= best_distance or np.sin(q_t[4]) * np.sin(q[4]) <= 0.0:
-                continue
-            steps = np.linspace(0.0, 1.0, LINE_IK_CHECKS + 1)[1:]
-            if all(float(np.linalg.norm(kin.fk(q + s * (q_t - q))[:3, 3] - grasp)) <= bound for s in steps):
-                best, best_distance = q_t, distance
-        return best
+        assert self.kin is not None and self.q is not None and self.base_T_grasp is not None
+        return line_ik(self.kin, self.q, base_T_target, self.base_T_grasp, slack=self.config.corridor_radius)
