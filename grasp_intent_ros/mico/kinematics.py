@@ -377,6 +377,18 @@ class MicoKinematics:
         clipped: NDArray[np.float64] = np.clip(out, self.lower, self.upper)
         return clipped
 
+    def restart_seed(self, q_ref: NDArray[np.float64], rng: np.random.Generator) -> NDArray[np.float64]:
+        """A random IK start near ``q_ref`` (shape (6,), rad): the seed of each of :meth:`ik`'s restarts.
+
+        Joints 2 and 3 uniform within their limits, joints 1, 4, 5, 6 uniform in ``q_ref`` +- pi, then wrapped
+        by 2 pi into the limits (the pose-keeping wrap of wide joints; anything still outside is clipped).
+        Draws, in this order: six values uniform within the limits (the wide joints' are discarded), then
+        four in (-pi, pi), so one generator state gives one seed.
+        """
+        q_start = rng.uniform(self.lower, self.upper)
+        q_start[_WIDE_JOINTS] = q_ref[_WIDE_JOINTS] + rng.uniform(-math.pi, math.pi, int(_WIDE_JOINTS.sum()))
+        return self._into_limits(q_start)
+
     def ik(self, base_T_ee_target: ArrayLike, q_seed: ArrayLike | None = None, *, restarts: int = 8,
            pos_tol: float = IK_POS_TOL, rot_tol: float = IK_ROT_TOL, max_iter: int = IK_MAX_ITER,
            rng: np.random.Generator | int | None = None) -> IkResult:
@@ -389,9 +401,9 @@ class MicoKinematics:
         where the errors first fell within the tolerances. An attempt succeeds when its position error
         |e_p| and rotation error |log3| are within ``pos_tol`` and ``rot_tol``. The first attempt starts
         from ``q_seed``; if it fails, up to ``restarts`` further attempts start from random joint angles
-        (joints 2, 3 uniform within limits, the others uniform in seed +- pi). The answer is wrapped per
-        joint to the 2 pi branch nearest ``q_seed`` (:meth:`nearest_branch`). Never raises for an
-        unreachable target: ``success`` is then False.
+        (:meth:`restart_seed` about ``q_seed``: joints 2, 3 uniform within limits, the others uniform in
+        seed +- pi). The answer is wrapped per joint to the 2 pi branch nearest ``q_seed``
+        (:meth:`nearest_branch`). Never raises for an unreachable target: ``success`` is then False.
 
         Parameters
         ----------
@@ -445,10 +457,7 @@ class MicoKinematics:
             if attempt > 0:
                 if generator is None:
                     generator = np.random.default_rng(0 if rng is None else rng)
-                q_start = generator.uniform(self.lower, self.upper)
-                wide = _WIDE_JOINTS
-                q_start[wide] = q_ref[wide] + generator.uniform(-math.pi, math.pi, int(wide.sum()))
-                q_start = self._into_limits(q_start)
+                q_start = self.restart_seed(q_ref, generator)
             q, pos_err, rot_err, used = ik_descent(q_start, self.lower, self.upper, self._chain, R_t, p_t,
                                                    max_iter)
             iterations += used

@@ -4,6 +4,8 @@ ROS-free. Modules
 -----------------
 assistance
     Arbitration (how much to help), the robot's twist toward the grasp, blending and limits.
+joint_path
+    The robot twist's joint-space target for a pose with no IK from the arm's joints (the line IK).
 estimator
     The intent estimator: the operator's twist -> a posterior over the model's demonstrated grasps -> w.
 calibration

@@ -22,9 +22,12 @@ the end effector's motion while the joints move straight toward the target's inv
 target and planned grasp), ``J(q) k_q (q_t - q)`` (:func:`joint_space_twist`). When the target has no IK
 solution from q (the descent from q stops at a joint limit or in the wrist's singularity), q_t is an IK
 solution from other seeds whose straight joint line from q keeps the hand near the grasp and the wrist on
-its side (:meth:`Assistance.line_ik`). Without the kinematics, or when there is no such solution either, it is
-proportional to the pose error, ``(k_lin (p_t - p), k_ang log3(R_t R^T))`` (the rotation vector in the base
-frame, :func:`robot_twist`).
+its side, or, when no straight line does, whose two lines through one via point do: the joints aim at the
+via point until within :data:`~.joint_path.VIA_REACHED` of it, then at q_t (:func:`~.joint_path.joint_path`;
+"near": within the hand's distance to the grasp when the first path to this proposal was sought, or its
+present distance if larger, plus ``corridor_radius``).
+Without the kinematics, or when there is no such path either, it is proportional to the pose error,
+``(k_lin (p_t - p), k_ang log3(R_t R^T))`` (the rotation vector in the base frame, :func:`robot_twist`).
 Either way each part is scaled down to its speed limit. Why joint space: the Cartesian twist turns the
 hand along the straight rotation to the target, which for many of the MICO's grasps runs the wrist (joint
 5) through 0 or pi, a singularity; there a servo's damped least squares cannot make the motion asked for
@@ -94,8 +97,9 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import InvalidIntentError
 from ..method.intent import parse_zones
 from ..mico.frames import PRE_GRASP_STANDOFF, REACH_POS, REACH_ROT, offset, pose_error, pre_grasp, reached
-from ..mico.kinematics import HOME_Q, MicoKinematics
+from ..mico.kinematics import MicoKinematics
 from ..planning.ranking import expected_success
+from .joint_path import VIA_REACHED, joint_path
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
            'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached',
@@ -105,10 +109,6 @@ __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set
 
 Arbitration = Literal['confidence', 'blend', 'none']
 ARBITRATIONS: tuple[str, ...] = typing.get_args(Arbitration)
-LINE_IK_SEEDS = 8
-"""Seeds tried (Home, then random ones) for a target that has no IK from the joints (:meth:`Assistance.line_ik`)."""
-LINE_IK_CHECKS = 20
-"""Points (after the start) at which :meth:`Assistance.line_ik` checks the hand along a joint line."""
 
 
 def serving_probability(v: ArrayLike, v_labels: Sequence[str], task_names: Sequence[str], *,
@@ -393,8 +393,12 @@ class Assistance:
         self.enabled = True
         """False: the output is the operator's twist, exactly (the operator's switch)."""
         self._jacobian: NDArray[np.float64] | None = None
-        self._q_targets: dict[str, NDArray[np.float64] | None] = {}
-        """IK of the grasp and the pre-grasp (None: none found), by phase, for the current grasp."""
+        self._path_reference: float | None = None
+        """The hand's distance to the grasp (m) when a joint path to this proposal was first sought
+        (:meth:`joint_path`)."""
+        self._q_targets: dict[str, list[NDArray[np.float64]] | None] = {}
+        """The joint path's points still ahead toward the grasp and the pre-grasp (None: none found), by phase,
+        for the current grasp."""
         self.clarification_pending = False
         self.agreement = (1.0, 1.0)
         """The operator's held agreement with the grasp, linear and angular (module docstring)."""
@@ -419,6 +423,7 @@ class Assistance:
             if (float(np.linalg.norm(error[:3])) > self.config.corridor_radius
                     or float(np.linalg.norm(error[3:])) > self.config.corridor_angle):
                 self.agreement, self.yielded, self._since = (1.0, 1.0), False, None
+                self._path_reference = None
         self.base_T_grasp, self.clarification_pending = base_T_grasp, False
         self._q_targets = {}
 
@@ -551,48 +556,27 @@ class Assistance:
         if self.kin is not None and self.q is not None and self._jacobian is not None:
             if phase not in self._q_targets:
                 ik = self.kin.ik(base_T_target, self.q, restarts=0)  # the solution the joints descend to
-                self._q_targets[phase] = ik.q if ik.success else self.line_ik(base_T_target)
-            q_target = self._q_targets[phase]
-            if q_target is not None:
-                return joint_space_twist(self._jacobian, self.q, q_target, gain=cfg.gain_joint,
+                self._q_targets[phase] = [ik.q] if ik.success else self.joint_path(base_T_target)
+            path = self._q_targets[phase]
+            if path is not None:
+                if len(path) > 1 and float(np.linalg.norm(path[0] - self.q)) <= VIA_REACHED:
+                    path.pop(0)  # the via point reached: on to the target
+                return joint_space_twist(self._jacobian, self.q, path[0], gain=cfg.gain_joint,
                                          max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)
         assert self.base_T_ee is not None
         return robot_twist(self.base_T_ee, base_T_target, gain_linear=cfg.gain_linear, gain_angular=cfg.gain_angular,
                            max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)
 
-    def line_ik(self, base_T_target: NDArray[np.float64]) -> NDArray[np.float64] | None:
-        """An IK of ``base_T_target`` reached by a straight joint line from q that keeps the hand near the grasp.
+    def joint_path(self, base_T_target: NDArray[np.float64]) -> list[NDArray[np.float64]] | None:
+        """:func:`~.joint_path.joint_path` from the joints toward ``base_T_target`` (slack: ``corridor_radius``).
 
-        For a target with no IK from the joints q. Candidates: the IK (no restarts) from :data:`LINE_IK_SEEDS`
-        seeds, Home first, then random ones from a generator seeded 0 (joints 2, 3 uniform within their limits,
-        the others q +- pi), each on the 2 pi branch nearest q. Admissible: the wrist (joint 5) stays on q's side
-        of 0 and pi (sin q5 keeps its sign: no crossing of the singularity the servo cannot follow) and the hand's
-        origin stays within its present distance to the grasp plus ``corridor_radius`` of the grasp at
-        :data:`LINE_IK_CHECKS` evenly spaced points of the line. Minimises |q_t - q| over the admissible
-        candidates; ties: the earlier seed. None when none is admissible. Needs the kinematics, the joints and
+        Its reference distance is the hand's distance to the grasp at the first call for this proposal (a grasp
+        moved by more than the corridor is a new one: :meth:`set_grasp`). Needs the kinematics, the joints and
         the grasp (``Assistance(..., kin)``, :meth:`set_joints`, :meth:`set_grasp`).
         """
-        kin, q = self.kin, self.q
-        assert kin is not None and q is not None and self.base_T_ee is not None and self.base_T_grasp is not None
-        grasp = self.base_T_grasp[:3, 3]
-        bound = float(np.linalg.norm(self.base_T_ee[:3, 3] - grasp)) + self.config.corridor_radius
-        rng = np.random.default_rng(0)
-        seeds = [np.asarray(HOME_Q, dtype=np.float64)]
-        for _ in range(LINE_IK_SEEDS - 1):
-            seed = q + rng.uniform(-np.pi, np.pi, 6)
-            seed[1:3] = rng.uniform(kin.lower[1:3], kin.upper[1:3])
-            seeds.append(seed)
-        best: NDArray[np.float64] | None = None
-        best_distance = np.inf
-        for seed in seeds:
-            ik = kin.ik(base_T_target, seed, restarts=0)
-            if not ik.success:
-                continue
-            q_t = kin.nearest_branch(ik.q, q)
-            distance = float(np.linalg.norm(q_t - q))
-            if distance >= best_distance or np.sin(q_t[4]) * np.sin(q[4]) <= 0.0:
-                continue
-            steps = np.linspace(0.0, 1.0, LINE_IK_CHECKS + 1)[1:]
-            if all(float(np.linalg.norm(kin.fk(q + s * (q_t - q))[:3, 3] - grasp)) <= bound for s in steps):
-                best, best_distance = q_t, distance
-        return best
+        assert self.kin is not None and self.q is not None and self.base_T_grasp is not None
+        assert self.base_T_ee is not None
+        if self._path_reference is None:
+            self._path_reference = float(np.linalg.norm(self.base_T_ee[:3, 3] - self.base_T_grasp[:3, 3]))
+        return joint_path(self.kin, self.q, base_T_target, self.base_T_grasp, slack=self.config.corridor_radius,
+                          reference=self._path_reference)

@@ -63,9 +63,7 @@ def kin() -> MicoKinematics:
 
 def random_q(kin: MicoKinematics, rng: np.random.Generator) -> NDArray[np.float64]:
     """Joint angles within the limits, wide joints within pi of home."""
-    q = rng.uniform(kin.lower, kin.upper)
-    q[list(WIDE)] = HOME_Q[list(WIDE)] + rng.uniform(-math.pi, math.pi, len(WIDE))
-    return q
+    return kin.restart_seed(np.array(HOME_Q), rng)
 
 
 def pose_errors(base_T_a: NDArray[np.float64], base_T_b: NDArray[np.float64]) -> tuple[float, float]:
@@ -372,3 +370,30 @@ def test_reachability_constraint_caches_ik_answers(kin: MicoKinematics) -> None:
     far = base_T_obj.copy()
     far[:3, 3] = (2.0, 0.0, 0.0)
     assert not Reachability(kin, far)(x)
+
+
+def test_restart_seed_draws_joints_2_3_within_limits_and_the_others_within_pi_of_the_reference(
+        kin: MicoKinematics) -> None:
+    q_ref = np.array(HOME_Q)
+    seeds = np.array([kin.restart_seed(q_ref, np.random.default_rng(k)) for k in range(200)])
+    assert np.all(seeds >= kin.lower) and np.all(seeds <= kin.upper)
+    wide = list(WIDE)
+    assert np.all(np.abs(seeds[:, wide] - q_ref[wide]) <= math.pi)
+    for j in (1, 2):  # spread over the limits, not near the reference
+        assert seeds[:, j].min() < kin.lower[j] + 0.2 * (kin.upper[j] - kin.lower[j])
+        assert seeds[:, j].max() > kin.upper[j] - 0.2 * (kin.upper[j] - kin.lower[j])
+
+
+def test_ik_restarts_from_restart_seed(kin: MicoKinematics) -> None:
+    # a target the seed's own descent misses and the restart seed's finds: the first restart is that descent
+    rng = np.random.default_rng(4)
+    for _ in range(200):
+        target, q_seed = kin.fk(random_q(kin, rng)), random_q(kin, rng)
+        by_hand = kin.ik(target, kin.restart_seed(q_seed, np.random.default_rng(9)), restarts=0)
+        if not kin.ik(target, q_seed, restarts=0).success and by_hand.success:
+            break
+    else:
+        pytest.fail('no target that the seed misses and the restart seed finds')
+    restarted = kin.ik(target, q_seed, restarts=1, rng=np.random.default_rng(9))
+    assert restarted.success and restarted.attempts == 2
+    assert_allclose(restarted.q, kin.nearest_branch(by_hand.q, q_seed), rtol=0, atol=1e-12)

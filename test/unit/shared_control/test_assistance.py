@@ -399,8 +399,9 @@ def test_a_pre_grasp_without_ik_from_the_joints_is_reached_by_a_joint_line_near_
     assistance = Assistance(config, TwistLimiter(0.2, 1.0, 1.0, 5.0), kin)
     assistance.set_joints(GOAL_CHANGED_Q)
     assistance.set_grasp(grasp)
-    q_t = assistance.line_ik(pre)
-    assert q_t is not None
+    path = assistance.joint_path(pre)
+    assert path is not None and len(path) == 1  # a straight line
+    q_t = path[0]
     error = pose_error(kin.fk(q_t), pre)
     assert np.linalg.norm(error[:3]) <= 1e-6 and np.linalg.norm(error[3:]) <= 1e-6
     assert np.sin(q_t[4]) * np.sin(GOAL_CHANGED_Q[4]) > 0.0  # the wrist stays on its side
@@ -441,4 +442,4 @@ def test_no_joint_line_through_the_wrist_singularity() -> None:
     line = [kin.fk(q + s * (across - q))[:3, 3] for s in np.linspace(0.0, 1.0, 21)]
     assert max(float(np.linalg.norm(p - grasp[:3, 3])) for p in line) <= start + config.corridor_radius
     assert np.sin(across[4]) * np.sin(q[4]) < 0.0
-    assert assistance.line_ik(target) is None
+    assert assistance.joint_path(target) is None
