@@ -54,15 +54,16 @@ rate), solved exactly over each operator twist held for ``dt`` seconds:
 (``beta s_g dt`` for a short step), so evidence fades with the operator's own motion (memory ``L`` metres of
 pose motion), not with time: an operator who holds still or lets go keeps the estimate, and one who changes
 their mind is followed after moving at most ``L ln 2`` toward the new goal's approach target (when the
-targets lie farther apart than ``delta_p``). Since ``|s_g| <= u``, ``E_g`` stays within ``beta L`` in magnitude: no goal's posterior
-runs to 0 or 1, which is what ADA's cap of 0.99 per goal does.
+targets lie farther apart than ``delta_p``). Since ``|s_g| <= u``, ``E_g`` stays within ``beta L`` in magnitude:
+no goal's posterior runs to 0 or 1, which is what ADA's cap of 0.99 per goal does. The approach changes none of
+this: the rule takes whatever ``s_g`` the targets give.
 
 **The shown grasp.** The operator sees the planner's grasp (the proposal) and takes it for its own when its
 own lies near it (within ``proposal_radius`` and ``proposal_angle``): it then heads for the proposal, whichever
 of the goals near it it wants, by the approach (its pre-grasp, then the proposal). So while a proposal is
-shown, every goal within those bounds of it is credited with the progress toward the proposal's approach target
-(:meth:`IntentEstimator.set_proposal`; which goals are near it does not depend on the hand): following the proposal
-raises the whole neighbourhood against the goals outside it, and tells the goals inside it apart only by
+shown, every goal within those bounds of it is credited with the progress toward the proposal's approach
+target (:meth:`IntentEstimator.set_proposal`; which goals are near it does not depend on the hand): following
+the proposal raises the whole neighbourhood against the goals outside it, and tells the goals inside it apart only by
 their prior (their differences fade with the memory). Why: the final approach to a proposal passes within
 millimetres of other sets' goals; crediting each with its own progress there drives w to its bounds on the
 fine motion, and the planner then proposes a neighbouring grasp that may miss a task the operator wants, which
@@ -72,13 +73,17 @@ the operator takes (docs/intent_estimation.md, the closed loop).
 has a goal near it (:meth:`IntentEstimator.at_proposal`: the core of the distance to it, where its progress
 fades to 0), a twist that does not move the hand away from it (progress toward it >= 0) is the operator placing
 the hand on the grasp it took (there the approach target is the shown grasp itself when ``position_scale <=
-corridor_radius``, as by default: the hand is then within the corridor's radius of it): no evidence, and the evidence neither grows nor fades with it (the update changes
-nothing). A twist that moves the hand away from it there (turning off it toward a goal elsewhere while the
-assistance holds the hand on it, or backing off) is read as anywhere else. Why: there the progress toward the
-shown grasp, and so its neighbourhood's, fades to 0 while a goal outside the neighbourhood that lies on past it
-(beyond ``proposal_angle`` of it, a few cm on along the approach) gains the full progress of the last
-corrections, which a reaction-delayed operator aims at a hand it saw a moment earlier: in the last second w
-flipped to that goal's set and the planner proposed it.
+corridor_radius``, as by default: the hand is then within the corridor's radius of it): no evidence, and the
+evidence neither grows nor fades with it (the update changes nothing). A twist that moves the hand away from it
+there (turning off it toward a goal elsewhere while the assistance holds the hand on it, or backing off) is
+read as anywhere else. Why: there the progress toward the shown grasp, and so its neighbourhood's, fades to 0
+while a goal outside the neighbourhood that lies on past it (a few cm on along the approach) gains the full
+progress of the last corrections, which a reaction-delayed operator aims at a hand it saw a moment earlier: in
+the last second w flipped to that goal's set and the planner proposed it. With the approach, such a goal gains
+that progress only while the hand is in its corridor (within ``corridor_angle`` of its orientation, so at the
+shown grasp one beyond ``proposal_radius`` of it rather than beyond ``proposal_angle``, or within
+``corridor_radius`` of it); otherwise it steers to its pre-grasp, behind the hand, and loses on those
+corrections. The rule is kept for the former.
 
 **Task marginals.** ``P(g) = pi_g exp(E_g) / sum``; the task set posterior ``P(S) = sum_{S_g = S} P(g)``;
 ``p_i = sum_{S : i in S} P(S)``, clipped to ``[w_floor, 1 - w_floor]``, then calibrated (below) into ``w_i``.
@@ -350,7 +355,7 @@ class TwistTiming:
 
 def progress_rates(goals: Goals, base_T_ee: NDArray[np.float64], twist: NDArray[np.float64],
                    config: EstimatorConfig) -> NDArray[np.float64]:
-    """s_g, the rate (m/s) at which the twist reduces the pose distance to each goal's approach target (module docstring).
+    """s_g, the rate (m/s) at which the twist reduces the pose distance to each goal's approach target (module doc).
 
     The target is g's pre-grasp until the hand is in g's approach corridor, then g (:mod:`.approach`); ``s_g`` is the
     derivative of ``D_g`` where the hand stays on one side of g's corridor boundary (``D_g`` jumps on it).
@@ -381,7 +386,7 @@ def _targets(positions: NDArray[np.float64], rotations: NDArray[np.float64], bas
 
 def _progress(positions: NDArray[np.float64], rotations: NDArray[np.float64], base_T_ee: NDArray[np.float64],
               twist: NDArray[np.float64], config: EstimatorConfig) -> NDArray[np.float64]:
-    """The progress rates toward fixed poses at ``positions`` (N, 3), ``rotations`` (N, 3, 3): :func:`progress_rates`."""
+    """The progress rates toward fixed poses at ``positions`` (N, 3), ``rotations`` (N, 3, 3)."""
     offset = positions - base_T_ee[:3, 3]
     distance = np.sqrt(np.einsum('ni,ni->n', offset, offset))
     linear = (offset @ twist[:3]) / np.maximum(distance, config.position_scale)

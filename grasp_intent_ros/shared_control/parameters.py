@@ -39,7 +39,7 @@ APPROACH = (
     ParamSpec('corridor_angle', _ASSIST.corridor_angle, 'Approach corridor orientation tolerance, rad.',
               range=(0.0, 3.2)),
 )
-"""The approach to a grasp via its pre-grasp (:mod:`.approach`): the assistance's, and the estimator's operator model's."""
+"""The approach to a grasp via its pre-grasp (:mod:`.approach`): the assistance's and the estimator's operator's."""
 
 ASSISTANCE = (
     ParamSpec('arbitration', _ASSIST.arbitration, "alpha's rule: 'confidence' (the probability that the grasp "
