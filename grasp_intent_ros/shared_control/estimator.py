@@ -38,8 +38,8 @@ in m/s (:func:`progress_rates`; ``a_g = 2 sin(theta_g) axis_g``, so the rotation
 the chord ``2 sin(theta / 2)`` shrinks). It is bounded (by ``|v| + rho |omega|``) and defined for every
 pose, the goal's own included. ``t_g`` is piecewise constant in the hand's pose (the pre-grasp or the goal), so
 ``s_g`` is the rate of decrease of ``D_g`` wherever the hand stays on one side of g's corridor boundary; on
-the boundary ``D_g`` jumps (down, by the Huber distance of the standoff when the hand enters the corridor at
-the pre-grasp's distance) and ``s_g`` is the one-sided rate toward the target of the hand's present side. The
+the boundary ``D_g`` jumps (up by about ``standoff`` when the hand enters the corridor at the pre-grasp: the
+target moves on to g) and ``s_g`` is the one-sided rate toward the target of the hand's present side. The
 cost-to-go does not count the rest of the approach (pre-grasp to goal, ``standoff`` along the axis) before the
 hand is in the corridor: it is the same for every goal and moves no goal's progress.
 
