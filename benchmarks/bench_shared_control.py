@@ -481,7 +481,7 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
     kin = MicoKinematics()
     work = Path(tempfile.mkdtemp(prefix='record_closed_loop_'))
     suite = NodeSuite(domain_id, cwd=REPO, log_dir=work / 'logs')
-    suite.start_nodes(model=model_name, shared_control=True, extra=('intent_estimator',) if estimated else ())
+    suite.start_nodes(model=model_name, shared_control=True)  # the estimator after the recorder (below)
     probe = Probe(domain_id, 'bench_operator')
     rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), index])
     intent = PersistentIntent(RECORDED_W, ESTIMATED_TASKS if estimated else RECORDED_TASKS,
@@ -492,6 +492,15 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
         loop = Loop(probe, kin, sends_w=not estimated)
         needed = {recorder.resolve_topic_name(t) for t in RECORDED_TOPICS
                   if t not in ('object/pose', 'intent/clarification')}  # nobody publishes these here
+        if estimated:
+            # its one prior w is planned on at once: start it once the recorder and this process listen (started with
+            # the suite, its prior came before they had subscribed to intent/w and grasp/pose, and nothing was planned)
+            if not probe.wait_for(lambda: loop.hands and loop.alphas
+                                  and needed - {recorder.resolve_topic_name('intent/w')}
+                                  <= set(recorder.recorded_topics), 90.0, poll=0.1):
+                sys.exit(f'bench_shared_control: the suite or the recorder not ready within 90 s; recorded '
+                         f'{sorted(recorder.recorded_topics)}\n{suite.died()}')
+            suite.start('intent_estimator', *suite.node_args('intent_estimator'))
         if not probe.wait_for(lambda: loop.hands and loop.alphas and needed <= set(recorder.recorded_topics),
                               90.0, poll=0.1):
             sys.exit(f'bench_shared_control: the suite or the recorder not ready within 90 s; recorded '

@@ -2,6 +2,8 @@
 
 ROS-free. Modules
 -----------------
+approach
+    The approach to a grasp via its pre-grasp: the pose a hand steers to (assistance, operators, estimator).
 assistance
     Arbitration (how much to help), the robot's twist toward the grasp, blending and limits.
 joint_path

@@ -91,7 +91,6 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidIntentError
@@ -99,6 +98,7 @@ from ..method.intent import parse_zones
 from ..mico.frames import PRE_GRASP_STANDOFF, REACH_POS, REACH_ROT, offset, pose_error, pre_grasp, reached
 from ..mico.kinematics import MicoKinematics
 from ..planning.ranking import expected_success
+from .approach import in_corridor
 from .joint_path import VIA_REACHED, joint_path
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
@@ -207,15 +207,12 @@ def operator_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64]
 
 def assistance_target(base_T_ee: NDArray[np.float64], base_T_grasp: NDArray[np.float64], *, standoff: float,
                       corridor_radius: float, corridor_angle: float) -> tuple[NDArray[np.float64], str]:
-    """The pose the robot's twist aims at, and its name: ``'grasp'`` in the approach corridor, else ``'pre-grasp'``."""
-    offset = base_T_ee[:3, 3] - base_T_grasp[:3, 3]
-    if float(np.linalg.norm(offset)) <= corridor_radius:
-        return base_T_grasp, 'grasp'
-    axis = base_T_grasp[:3, 2]
-    along = float(offset @ axis)
-    lateral = float(np.linalg.norm(offset - along * axis))
-    angle = float(np.linalg.norm(pin.log3(base_T_grasp[:3, :3] @ base_T_ee[:3, :3].T)))
-    if along <= 0.0 and lateral <= corridor_radius and angle <= corridor_angle:
+    """The pose the robot's twist aims at, and its name: ``'grasp'`` in the approach corridor, else ``'pre-grasp'``.
+
+    The corridor is :func:`~.approach.in_corridor`'s.
+    """
+    if in_corridor(base_T_ee, base_T_grasp[None, :3, 3], base_T_grasp[None, :3, :3], corridor_radius=corridor_radius,
+                   corridor_angle=corridor_angle)[0]:
         return base_T_grasp, 'grasp'
     return pre_grasp(base_T_grasp, standoff), 'pre-grasp'
 

@@ -10,11 +10,18 @@ hand does not show, are not.
 **Prior.** Uniform over the task sets that some reachable goal serves, then uniform over the goals of a set:
 ``pi_g = 1 / (n_sets * n_{S_g})``.
 
-**Evidence: progress toward each goal** (goal inference as in ADA's ``GoalPredictor``, Javdani et al. 2015,
-and Dragan & Srinivasa 2013: an operator moves so as to reduce a cost-to-go to the goal, and a motion's
-likelihood under goal g is ``exp(-beta (Q_g - V_g))``, here ``exp(beta * progress_g)``). The cost-to-go is a
-Huber pose distance,
-``D_g = h(|p_g - p|) + rho * c(theta_g)``, ``theta_g`` the angle of ``R_g R^T``: ``h(e) = e^2 / (2 delta_p)``
+**The approach.** An operator who wants goal g steers the hand to g's **approach target** for the hand's
+present pose (:mod:`.approach`, the assistance's and the scripted operators' rule): g's pre-grasp
+``p_g - standoff z_g`` (``z_g`` g's approach axis, the EE z axis; orientation ``R_g``) until the hand is in g's
+approach corridor (within ``corridor_radius`` of ``p_g``, or behind it along ``z_g`` within ``corridor_radius``
+of that axis and ``corridor_angle`` of ``R_g``), then g itself. Write ``t_g(p, R)`` for the target's position;
+its orientation is always ``R_g``. ``standoff`` 0 heads straight for g.
+
+**Evidence: progress toward each goal's approach target** (goal inference as in ADA's ``GoalPredictor``,
+Javdani et al. 2015, and Dragan & Srinivasa 2013: an operator moves so as to reduce a cost-to-go to the goal,
+and a motion's likelihood under goal g is ``exp(-beta (Q_g - V_g))``, here ``exp(beta * progress_g)``). The
+cost-to-go is a Huber pose distance to the approach target,
+``D_g = h(|t_g - p|) + rho * c(theta_g)``, ``theta_g`` the angle of ``R_g R^T``: ``h(e) = e^2 / (2 delta_p)``
 below ``delta_p`` and ``e - delta_p / 2`` above; ``c(theta) = (1 - cos theta) / (2 sin(delta_theta / 2))``
 below ``delta_theta`` and ``2 sin(theta / 2) - sin(delta_theta / 2)`` above (the chord, continuous with a
 continuous slope). Its rate of decrease under the operator's twist
@@ -22,14 +29,19 @@ continuous slope). Its rate of decrease under the operator's twist
 
 .. math::
 
-    s_g = v \cdot \frac{p_g - p}{\max(|p_g - p|, \delta_p)}
+    s_g = v \cdot \frac{t_g - p}{\max(|t_g - p|, \delta_p)}
         + \rho\, \omega \cdot \frac{a_g}{4 \max(\sin(\theta_g / 2), \sin(\delta_\theta / 2))},
     \qquad a_g = \operatorname{vee}(R_g R^T - R R_g^T),
 
 in m/s (:func:`progress_rates`; ``a_g = 2 sin(theta_g) axis_g``, so the rotation part is
 ``rho cos(theta_g / 2) omega . axis_g`` away from the goal: the rate at which the angle closes, weighted as
 the chord ``2 sin(theta / 2)`` shrinks). It is bounded (by ``|v| + rho |omega|``) and defined for every
-pose, the goal's own included.
+pose, the goal's own included. ``t_g`` is piecewise constant in the hand's pose (the pre-grasp or the goal), so
+``s_g`` is the rate of decrease of ``D_g`` wherever the hand stays on one side of g's corridor boundary; on
+the boundary ``D_g`` jumps (up by about ``standoff`` when the hand enters the corridor at the pre-grasp: the
+target moves on to g) and ``s_g`` is the one-sided rate toward the target of the hand's present side. The
+cost-to-go does not count the rest of the approach (pre-grasp to goal, ``standoff`` along the axis) before the
+hand is in the corridor: it is the same for every goal and moves no goal's progress.
 
 **Forgetting.** The log-evidence ``E_g`` (log posterior minus log prior, up to a constant) follows
 ``dE_g / dl = -E_g / L + beta s_g / u`` along the hand's pose path ``l`` (``u = |v| + rho |omega|`` its
@@ -41,15 +53,17 @@ rate), solved exactly over each operator twist held for ``dt`` seconds:
 
 (``beta s_g dt`` for a short step), so evidence fades with the operator's own motion (memory ``L`` metres of
 pose motion), not with time: an operator who holds still or lets go keeps the estimate, and one who changes
-their mind is followed after moving at most ``L ln 2`` toward the new goal (when the goals lie farther apart
-than ``delta_p``). Since ``|s_g| <= u``, ``E_g`` stays within ``beta L`` in magnitude: no goal's posterior
-runs to 0 or 1, which is what ADA's cap of 0.99 per goal does.
+their mind is followed after moving at most ``L ln 2`` toward the new goal's approach target (when the
+targets lie farther apart than ``delta_p``). Since ``|s_g| <= u``, ``E_g`` stays within ``beta L`` in magnitude:
+no goal's posterior runs to 0 or 1, which is what ADA's cap of 0.99 per goal does. The approach changes none of
+this: the rule takes whatever ``s_g`` the targets give.
 
 **The shown grasp.** The operator sees the planner's grasp (the proposal) and takes it for its own when its
 own lies near it (within ``proposal_radius`` and ``proposal_angle``): it then heads for the proposal, whichever
-of the goals near it it wants. So while a proposal is shown, every goal within those bounds of it is credited
-with the progress toward the proposal itself (:meth:`IntentEstimator.set_proposal`): following the proposal
-raises the whole neighbourhood against the goals outside it, and tells the goals inside it apart only by
+of the goals near it it wants, by the approach (its pre-grasp, then the proposal). So while a proposal is
+shown, every goal within those bounds of it is credited with the progress toward the proposal's approach
+target (:meth:`IntentEstimator.set_proposal`; which goals are near it does not depend on the hand): following
+the proposal raises the whole neighbourhood against the goals outside it, and tells the goals inside it apart only by
 their prior (their differences fade with the memory). Why: the final approach to a proposal passes within
 millimetres of other sets' goals; crediting each with its own progress there drives w to its bounds on the
 fine motion, and the planner then proposes a neighbouring grasp that may miss a task the operator wants, which
@@ -58,13 +72,18 @@ the operator takes (docs/intent_estimation.md, the closed loop).
 **At the shown grasp.** While the hand lies within ``position_scale`` and ``angle_scale`` of a shown grasp that
 has a goal near it (:meth:`IntentEstimator.at_proposal`: the core of the distance to it, where its progress
 fades to 0), a twist that does not move the hand away from it (progress toward it >= 0) is the operator placing
-the hand on the grasp it took: no evidence, and the evidence neither grows nor fades with it (the update changes
-nothing). A twist that moves the hand away from it there (turning off it toward a goal elsewhere while the
-assistance holds the hand on it, or backing off) is read as anywhere else. Why: there the progress toward the
-shown grasp, and so its neighbourhood's, fades to 0 while a goal outside the neighbourhood that lies on past it
-(beyond ``proposal_angle`` of it, a few cm on along the approach) gains the full progress of the last
-corrections, which a reaction-delayed operator aims at a hand it saw a moment earlier: in the last second w
-flipped to that goal's set and the planner proposed it.
+the hand on the grasp it took (there the approach target is the shown grasp itself when ``position_scale <=
+corridor_radius``, as by default: the hand is then within the corridor's radius of it): no evidence, and the
+evidence neither grows nor fades with it (the update changes nothing). A twist that moves the hand away from it
+there (turning off it toward a goal elsewhere while the assistance holds the hand on it, or backing off) is
+read as anywhere else. Why: there the progress toward the shown grasp, and so its neighbourhood's, fades to 0
+while a goal outside the neighbourhood that lies on past it (a few cm on along the approach) gains the full
+progress of the last corrections, which a reaction-delayed operator aims at a hand it saw a moment earlier: in
+the last second w flipped to that goal's set and the planner proposed it. With the approach, such a goal gains
+that progress only while the hand is in its corridor (within ``corridor_angle`` of its orientation, so at the
+shown grasp one beyond ``proposal_radius`` of it rather than beyond ``proposal_angle``, or within
+``corridor_radius`` of it); otherwise it steers to its pre-grasp, behind the hand, and loses on those
+corrections. The rule is kept for the former.
 
 **Task marginals.** ``P(g) = pi_g exp(E_g) / sum``; the task set posterior ``P(S) = sum_{S_g = S} P(g)``;
 ``p_i = sum_{S : i in S} P(S)``, clipped to ``[w_floor, 1 - w_floor]``, then calibrated (below) into ``w_i``.
@@ -96,8 +115,10 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import InvalidIntentError, KinematicsError
 from ..method.intent import MAX_TASKS, zone_label
 from ..method.model import GraspModel
-from ..mico.frames import check_transform, check_vector, features_to_obj_T_ee
+from ..mico.frames import PRE_GRASP_STANDOFF, check_transform, check_vector, features_to_obj_T_ee
 from ..mico.kinematics import HOME_Q, MicoKinematics
+from .approach import approach_positions
+from .assistance import AssistanceConfig
 from .calibration import calibrate
 
 __all__ = ['EstimatorConfig', 'Goals', 'goals_from_poses', 'goals_at', 'reachable_goals', 'progress_rates',
@@ -126,9 +147,12 @@ class EstimatorConfig:
     proposal_radius, proposal_angle : float
         m, rad: an operator takes a shown grasp (the planner's proposal) for its own when its own lies within
         these of it; while a proposal is shown, every goal within them of it is credited with the progress
-        toward the proposal (:meth:`IntentEstimator.set_proposal`), and within ``position_scale`` and
+        toward the proposal's approach target (:meth:`IntentEstimator.set_proposal`), and within ``position_scale`` and
         ``angle_scale`` of it motion that does not move away from it is no evidence
         (:meth:`IntentEstimator.at_proposal`). 0: proposals are ignored.
+    standoff, corridor_radius, corridor_angle : float
+        m, m, rad: the operator's approach (module docstring; :mod:`.approach`), by default the assistance's and
+        the scripted operators'. ``standoff`` 0: the operator heads straight for each goal.
     calibration_slope, calibration_offset : float
         a (> 0) and b of the calibration map of each marginal, ``w_i <- sigmoid(a logit(w_i) + b)``
         (:mod:`.calibration`); 1 and 0: none.
@@ -143,6 +167,9 @@ class EstimatorConfig:
     max_dt: float = 0.1
     proposal_radius: float = 0.06
     proposal_angle: float = 0.8
+    standoff: float = PRE_GRASP_STANDOFF
+    corridor_radius: float = AssistanceConfig.corridor_radius
+    corridor_angle: float = AssistanceConfig.corridor_angle
     calibration_slope: float = 1.0
     calibration_offset: float = 0.0
 
@@ -154,7 +181,9 @@ class EstimatorConfig:
                if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0.0)]
         if not (isinstance(self.w_floor, (int, float)) and 0.0 < self.w_floor < 0.5):
             bad.append(f'w_floor = {self.w_floor!r} (must lie in (0, 0.5))')
-        for name, value in (('proposal_radius', self.proposal_radius), ('proposal_angle', self.proposal_angle)):
+        for name, value in (('proposal_radius', self.proposal_radius), ('proposal_angle', self.proposal_angle),
+                            ('standoff', self.standoff), ('corridor_radius', self.corridor_radius),
+                            ('corridor_angle', self.corridor_angle)):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
                 bad.append(f'{name} = {value!r} (must be finite and >= 0)')
         if not (isinstance(self.calibration_offset, (int, float)) and math.isfinite(self.calibration_offset)):
@@ -326,7 +355,10 @@ class TwistTiming:
 
 def progress_rates(goals: Goals, base_T_ee: NDArray[np.float64], twist: NDArray[np.float64],
                    config: EstimatorConfig) -> NDArray[np.float64]:
-    """s_g, the rate (m/s) at which the twist reduces the pose distance to each goal (module docstring).
+    """s_g, the rate (m/s) at which the twist reduces the pose distance to each goal's approach target (module doc).
+
+    The target is g's pre-grasp until the hand is in g's approach corridor, then g (:mod:`.approach`); ``s_g`` is the
+    derivative of ``D_g`` where the hand stays on one side of g's corridor boundary (``D_g`` jumps on it).
 
     Parameters
     ----------
@@ -341,12 +373,20 @@ def progress_rates(goals: Goals, base_T_ee: NDArray[np.float64], twist: NDArray[
     -------
     ndarray, shape (N,)
     """
-    return _progress(goals.positions, goals.rotations, base_T_ee, twist, config)
+    return _progress(_targets(goals.positions, goals.rotations, base_T_ee, config), goals.rotations, base_T_ee, twist,
+                     config)
+
+
+def _targets(positions: NDArray[np.float64], rotations: NDArray[np.float64], base_T_ee: NDArray[np.float64],
+             config: EstimatorConfig) -> NDArray[np.float64]:
+    """The approach targets' positions (N, 3) for goals at ``positions``, ``rotations`` (:mod:`.approach`)."""
+    return approach_positions(base_T_ee, positions, rotations, standoff=config.standoff,
+                              corridor_radius=config.corridor_radius, corridor_angle=config.corridor_angle)
 
 
 def _progress(positions: NDArray[np.float64], rotations: NDArray[np.float64], base_T_ee: NDArray[np.float64],
               twist: NDArray[np.float64], config: EstimatorConfig) -> NDArray[np.float64]:
-    """The progress rates toward goals at ``positions`` (N, 3), ``rotations`` (N, 3, 3): :func:`progress_rates`."""
+    """The progress rates toward fixed poses at ``positions`` (N, 3), ``rotations`` (N, 3, 3)."""
     offset = positions - base_T_ee[:3, 3]
     distance = np.sqrt(np.einsum('ni,ni->n', offset, offset))
     linear = (offset @ twist[:3]) / np.maximum(distance, config.position_scale)
@@ -441,7 +481,8 @@ class IntentEstimator:
         unit = xi / size  # the direction, without overflow for any finite twist: only s_g / u and u dt matter
         unit_speed = float(np.linalg.norm(unit[:3])) + cfg.rotation_length * float(np.linalg.norm(unit[3:]))
         proposal = self._proposal if self._proposal is not None and self._proposal[2].any() else None
-        shown = 0.0 if proposal is None else float(_progress(proposal[0], proposal[1], hand, unit, cfg)[0])
+        shown = 0.0 if proposal is None else float(_progress(_targets(proposal[0], proposal[1], hand, cfg), proposal[1],
+                                                             hand, unit, cfg)[0])
         if proposal is not None and shown >= 0.0 and self.at_proposal(hand):
             return self.w  # placing the hand on the shown grasp: no evidence (module docstring)
         fade = -math.expm1(-(size * dt) * unit_speed / cfg.memory)  # 1 - gamma; 1 when u dt overflows

@@ -20,7 +20,7 @@ from .assistance import ARBITRATIONS, AssistanceConfig
 from .calibration import model_calibration
 from .estimator import EstimatorConfig
 
-__all__ = ['OPERATOR_INPUT', 'ASSISTANCE', 'ESTIMATOR', 'estimator_config', 'check_estimator']
+__all__ = ['OPERATOR_INPUT', 'APPROACH', 'ASSISTANCE', 'ESTIMATOR', 'estimator_config', 'check_estimator']
 
 OPERATOR_INPUT = (
     ParamSpec('operator_message_type', 'TwistStamped', 'Type on operator/twist: TwistStamped or Twist.',
@@ -32,6 +32,15 @@ OPERATOR_INPUT = (
 
 _ASSIST = AssistanceConfig()
 _POSITIVE = (1e-6, 100.0)
+APPROACH = (
+    ParamSpec('standoff', _ASSIST.standoff, 'Pre-grasp distance behind the grasp along its approach axis, m.',
+              range=(0.0, 0.5)),
+    ParamSpec('corridor_radius', _ASSIST.corridor_radius, 'Approach corridor radius, m.', range=_POSITIVE),
+    ParamSpec('corridor_angle', _ASSIST.corridor_angle, 'Approach corridor orientation tolerance, rad.',
+              range=(0.0, 3.2)),
+)
+"""The approach to a grasp via its pre-grasp (:mod:`.approach`): the assistance's and the estimator's operator's."""
+
 ASSISTANCE = (
     ParamSpec('arbitration', _ASSIST.arbitration, "alpha's rule: 'confidence' (the probability that the grasp "
               "serves the operator's task, times the operator's agreement), 'blend' (alpha_max when v's top zone "
@@ -41,11 +50,7 @@ ASSISTANCE = (
               range=(0.0, 1.0)),
     ParamSpec('margin', _ASSIST.margin, "'blend': lead of v's top zone over the second (of the total).",
               range=(0.0, 1.0)),
-    ParamSpec('standoff', _ASSIST.standoff, 'Pre-grasp distance behind the grasp along its approach axis, m.',
-              range=(0.0, 0.5)),
-    ParamSpec('corridor_radius', _ASSIST.corridor_radius, 'Approach corridor radius, m.', range=_POSITIVE),
-    ParamSpec('corridor_angle', _ASSIST.corridor_angle, 'Approach corridor orientation tolerance, rad.',
-              range=(0.0, 3.2)),
+    *APPROACH,
     ParamSpec('gain_linear', _ASSIST.gain_linear, "Robot twist's position gain, 1/s.", range=_POSITIVE),
     ParamSpec('gain_angular', _ASSIST.gain_angular, "Robot twist's orientation gain, 1/s.", range=_POSITIVE),
     ParamSpec('robot_max_linear', _ASSIST.robot_max_linear, "Robot twist's speed limit, m/s.", range=_POSITIVE),
@@ -95,6 +100,7 @@ ESTIMATOR = (
               'grasp are credited with the progress toward it; within position_scale and angle_scale of it motion '
               'that does not move away from it is no evidence (0: the shown grasp is ignored).', range=(0.0, 10.0)),
     ParamSpec('proposal_angle', _ESTIMATE.proposal_angle, 'rad: the same for the orientation.', range=(0.0, 3.15)),
+    *APPROACH,
     ParamSpec('calibration_models', [], 'Models whose task marginals are mapped to sigmoid(a logit(w) + b) (a map '
               'fitted on training reaches of that model); another model\'s w is not mapped.', item_type=str),
     ParamSpec('calibration_slopes', [], 'a (> 0) of the map of each of calibration_models.', item_type=float),

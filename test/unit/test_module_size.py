@@ -28,6 +28,8 @@ OVER_LIMIT: Mapping[str, tuple[int, str]] = {
                                 'docstring); not split yet'),
     'mico/collision.py': (540, 'the hand against the table and the object: the scene, the query and the robot '
                                'constraint; not split yet'),
+    'shared_control/estimator.py': (540, "the method with its formulas and what it assumes of the operator (a 100-line "
+                                         'docstring), the goals and the update; not split yet'),
     'nodes/intent_estimator.py': (240, 'five inputs (the operator, the joints, the object, the model, the grasp shown) '
                                        'paired by their stamps, and the goal thread; not split yet'),
     'sessions/report.py': (540, "the session report's figures and summary (a command-line module, untyped); not "

@@ -14,6 +14,7 @@ from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.shared_control.approach import approach_positions
 from grasp_intent_ros.shared_control.estimator import (
     EstimatorConfig,
     IntentEstimator,
@@ -21,9 +22,13 @@ from grasp_intent_ros.shared_control.estimator import (
     goals_from_poses,
     progress_rates,
 )
+from grasp_intent_ros.shared_control.operators import OperatorConstants, ScriptedOperator
 
 U, T, H = 1, 2, 4
 CONFIG = EstimatorConfig()
+STRAIGHT = EstimatorConfig(standoff=0.0)
+"""An operator model heading straight for each goal (no pre-grasp): the hand-built scenes whose motions are straight
+lines at a goal, which test the rules that do not depend on the pose steered to (the shown grasp's)."""
 SPEED = 0.12
 """The shared-control benchmark's operator speed limit, m/s."""
 DT = 0.01
@@ -103,7 +108,7 @@ def test_goals_at_the_same_pose_keep_their_prior_ratio() -> None:
     assert est.w[2] > 0.95 and est.w[0] == pytest.approx(0.5, abs=0.03)
 
 
-def near_scene(config: EstimatorConfig = CONFIG) -> IntentEstimator:
+def near_scene(config: EstimatorConfig = STRAIGHT) -> IntentEstimator:
     """Usage and handover goals 1 cm apart at 0.3 m on +x, transfer 0.3 m away on +y."""
     goals = goals_from_poses([pose((0.3, 0.0, 0.0)), pose((0.3, 0.01, 0.0)), pose((0.0, 0.3, 0.0))], [U, H, T], 3)
     return IntentEstimator(goals, config)
@@ -121,7 +126,7 @@ def test_goals_near_the_shown_grasp_gain_the_progress_toward_it() -> None:
     p = shown.posterior
     assert p[0] == pytest.approx(p[1], rel=1e-9), 'both near goals gain the same evidence: their prior ratio stays'
     assert shown.w[1] < 0.05, 'the far transfer goal still loses'
-    ignored = near_scene(EstimatorConfig(proposal_radius=0.0))
+    ignored = near_scene(EstimatorConfig(standoff=0.0, proposal_radius=0.0))
     ignored.set_proposal(pose((0.3, 0.0, 0.0)))
     reach(ignored, np.eye(4), toward_h, 2.45)
     assert_allclose(ignored.evidence, unshown.evidence, rtol=0, atol=0)
@@ -135,7 +140,7 @@ def test_a_goal_outside_the_proposal_keeps_its_own_progress() -> None:
     assert est.w[1] > 0.95 and est.w[0] < 0.05 and est.w[2] < 0.05
 
 
-def beyond_scene(config: EstimatorConfig = CONFIG) -> IntentEstimator:
+def beyond_scene(config: EstimatorConfig = STRAIGHT) -> IntentEstimator:
     """Usage and handover 1 cm apart at 0.3 m on +x; transfer 3 cm beyond usage on the same line, turned 1 rad."""
     goals = goals_from_poses([pose((0.3, 0.0, 0.0)), pose((0.3, 0.01, 0.0)), pose((0.33, 0.0, 0.0), (1.0, 0.0, 0.0))],
                              [U, H, T], 3)
@@ -149,7 +154,7 @@ def test_fine_motion_at_the_shown_grasp_is_no_evidence() -> None:
     """
     fine = np.array([0.03, 0.0, 0.0])  # the final approach: slow, on toward the shown grasp and transfer beyond it
     runs = {}
-    for name, config in (('shown', CONFIG), ('ignored', EstimatorConfig(proposal_radius=0.0))):
+    for name, config in (('shown', STRAIGHT), ('ignored', EstimatorConfig(standoff=0.0, proposal_radius=0.0))):
         est = beyond_scene(config)
         est.set_proposal(pose((0.3, 0.0, 0.0)))
         hand = reach(est, np.eye(4), np.array([SPEED, 0.0, 0.0]), 2.35)  # 0.282 m: 1.8 cm short, in the core
@@ -224,7 +229,7 @@ def test_likely_sets_lists_the_likeliest_first_and_ties_by_bitmask() -> None:
 def test_a_proposal_given_at_construction_is_set() -> None:
     shown = near_scene()
     shown.set_proposal(pose((0.3, 0.0, 0.0)))
-    built = IntentEstimator(shown.goals, CONFIG, proposal=pose((0.3, 0.0, 0.0)))
+    built = IntentEstimator(shown.goals, STRAIGHT, proposal=pose((0.3, 0.0, 0.0)))
     toward = np.array([0.3, 0.01, 0.0]) / np.linalg.norm([0.3, 0.01, 0.0]) * SPEED
     reach(shown, np.eye(4), toward, 1.0)
     reach(built, np.eye(4), toward, 1.0)
@@ -232,12 +237,26 @@ def test_a_proposal_given_at_construction_is_set() -> None:
 
 
 def test_progress_rates_are_the_decrease_of_the_huber_pose_distance() -> None:
-    """Against finite differences of D_g, written out here independently, at poses far from and near the goals."""
+    """Against finite differences of D_g, written out here independently, at poses far from and near the goals.
+
+    D_g is measured to g's approach target, which is piecewise constant in the hand's pose (the pre-grasp outside
+    g's corridor, g inside): D_g is smooth, and s_g its rate of decrease, wherever the step stays on one side of
+    every corridor's boundary (checked here); on a boundary D_g jumps.
+    """
     rng = np.random.default_rng(1)
     cfg = CONFIG
 
-    def distance(goal: np.ndarray, hand: np.ndarray) -> float:
-        e = float(np.linalg.norm(goal[:3, 3] - hand[:3, 3]))
+    def target(goal: np.ndarray, hand: np.ndarray) -> np.ndarray:
+        d = hand[:3, 3] - goal[:3, 3]
+        z = goal[:3, 2]
+        theta = float(np.linalg.norm(pin.log3(goal[:3, :3] @ hand[:3, :3].T)))
+        inside = (np.linalg.norm(d) <= cfg.corridor_radius
+                  or (d @ z <= 0.0 and np.linalg.norm(d - (d @ z) * z) <= cfg.corridor_radius
+                      and theta <= cfg.corridor_angle))
+        return goal[:3, 3] if inside else goal[:3, 3] - cfg.standoff * z
+
+    def distance(goal: np.ndarray, hand: np.ndarray, position: np.ndarray) -> float:
+        e = float(np.linalg.norm(position - hand[:3, 3]))
         h = e * e / (2 * cfg.position_scale) if e <= cfg.position_scale else e - cfg.position_scale / 2
         theta = float(np.linalg.norm(pin.log3(goal[:3, :3] @ hand[:3, :3].T)))
         s = math.sin(cfg.angle_scale / 2)
@@ -248,14 +267,72 @@ def test_progress_rates_are_the_decrease_of_the_huber_pose_distance() -> None:
     goals = goals_from_poses(goal_poses, [U, T, H, U | T, U | H, T | H], 3)
     hands = [pose(tuple(rng.uniform(-0.3, 0.3, 3)), tuple(rng.normal(0.0, 1.0, 3))) for _ in range(5)]
     hands.append(goal_poses[0] @ pose((0.005, 0.0, 0.0), (0.0, 0.05, 0.0)))  # inside both quadratic cores
+    hands.append(goal_poses[1] @ pose((0.01, 0.0, -0.05), (0.0, 0.1, 0.0)))  # in the corridor, 5 cm behind the goal
+    hands.append(goal_poses[2] @ pose((0.0, 0.0, -0.09), (0.0, 0.0, 0.02)))  # 1 cm behind the pre-grasp, in its core
     step = 1e-6
+    inside = 0
     for hand in hands:
         twist = rng.normal(0.0, 0.1, 6)
         moved = hand.copy()
         moved[:3, 3] += twist[:3] * step
         moved[:3, :3] = pin.exp3(twist[3:] * step) @ hand[:3, :3]
-        numeric = [-(distance(g, moved) - distance(g, hand)) / step for g in goal_poses]
+        targets = [target(g, hand) for g in goal_poses]
+        assert all(np.array_equal(t, target(g, moved)) for t, g in zip(targets, goal_poses)), 'a step across a boundary'
+        inside += sum(np.array_equal(t, g[:3, 3]) for t, g in zip(targets, goal_poses))
+        numeric = [-(distance(g, moved, t) - distance(g, hand, t)) / step for g, t in zip(goal_poses, targets)]
         assert_allclose(progress_rates(goals, hand, twist, cfg), numeric, rtol=0, atol=1e-6)
+    assert inside >= 3, 'some hands lie in a corridor (the target is the goal itself)'
+
+
+def test_heading_for_a_goals_pre_grasp_is_evidence_for_it_over_a_goal_on_the_way() -> None:
+    """Goal A (usage) approached from below; B (transfer) lies on the line to A's pre-grasp, approached along +y.
+
+    The operator heads for A's pre-grasp: the approach model credits A with the full progress and B with less
+    (B's own pre-grasp lies 8 cm off the line); an operator model heading straight at each goal prefers B, which
+    lies on the line, to A, which lies 8 cm above its end.
+    """
+    goal_a = pose((0.3, 0.0, 0.0))  # approach axis +z: pre-grasp at (0.3, 0, -0.08)
+    goal_b = pose((0.15, 0.0, -0.04), (-math.pi / 2, 0.0, 0.0))  # halfway to A's pre-grasp, approach axis +y
+    assert_allclose(goal_b[:3, 2], [0.0, 1.0, 0.0], atol=1e-12)
+    pre_a = goal_a[:3, 3] - CONFIG.standoff * goal_a[:3, 2]
+    velocity = SPEED * pre_a / np.linalg.norm(pre_a)
+    w = {}
+    for name, config in (('approach', CONFIG), ('straight', STRAIGHT)):
+        est = IntentEstimator(goals_from_poses([goal_a, goal_b], [U, T], 2), config)
+        hand = reach(est, np.eye(4), velocity, 0.1 / SPEED)  # 10 cm of the 15.5 cm to B
+        assert np.linalg.norm(hand[:3, 3] - goal_b[:3, 3]) > 0.05
+        w[name] = est.posterior
+    assert w['approach'][0] > 0.9, 'heading for A\'s pre-grasp says A'
+    assert w['straight'][1] > w['straight'][0], 'without the approach, B on the way wins'
+
+
+def test_the_target_switches_to_the_goal_in_its_approach_corridor() -> None:
+    """The pose steered to: the pre-grasp outside the corridor, the goal inside (the operators' own rule)."""
+    goals = goals_from_poses([pose((0.0, 0.0, 0.0))], [U], 1)  # approach axis +z, pre-grasp at z = -0.08
+    up, sideways = np.r_[0.0, 0.0, SPEED, 0.0, 0.0, 0.0], np.r_[-SPEED, 0.0, 0.0, 0.0, 0.0, 0.0]
+    beside_pre = pose((0.05, 0.0, -0.08))  # 5 cm beside the pre-grasp: outside the corridor
+    assert progress_rates(goals, beside_pre, up, CONFIG)[0] == pytest.approx(0.0, abs=1e-15)  # across its line
+    assert progress_rates(goals, beside_pre, sideways, CONFIG)[0] == pytest.approx(SPEED, rel=1e-12)
+    on_axis = pose((0.0, 0.01, -0.05), (0.0, 0.1, 0.0))  # behind the goal, 1 cm off its axis, turned 0.1 rad
+    assert progress_rates(goals, on_axis, up, CONFIG)[0] == pytest.approx(SPEED * 0.05 / math.hypot(0.01, 0.05))
+    turned = pose((0.0, 0.01, -0.05), (0.0, CONFIG.corridor_angle + 0.05, 0.0))  # the same, turned past the corridor
+    assert progress_rates(goals, turned, up, CONFIG)[0] == pytest.approx(-SPEED * 0.03 / math.hypot(0.01, 0.03))
+    in_front = pose((0.0, 0.015, 0.01), (1.0, 0.0, 0.0))  # within corridor_radius of the goal, in front, turned 1 rad
+    toward = np.r_[0.0, -SPEED, 0.0, 0.0, 0.0, 0.0]
+    in_core = SPEED * 0.015 / CONFIG.position_scale  # 1.8 cm from the goal: the Huber core's rate
+    assert progress_rates(goals, in_front, toward, CONFIG)[0] == pytest.approx(in_core)
+    # one definition: the operators' approach target, for hands around goals of any orientation
+    rng = np.random.default_rng(3)
+    operator = ScriptedOperator('spacemouse', OperatorConstants(), rng)
+    switched = 0
+    for _ in range(200):
+        goal = pose(tuple(rng.uniform(-0.1, 0.1, 3)), tuple(rng.normal(0.0, 1.0, 3)))
+        hand = goal @ pose(tuple(rng.normal(0.0, 0.02, 3) - [0.0, 0.0, 0.03]), tuple(rng.normal(0.0, 0.15, 3)))
+        ours = approach_positions(hand, goal[None, :3, 3], goal[None, :3, :3], standoff=CONFIG.standoff,
+                                  corridor_radius=CONFIG.corridor_radius, corridor_angle=CONFIG.corridor_angle)
+        assert_allclose(ours[0], operator.approach_target(hand, goal)[:3, 3], rtol=0, atol=0)
+        switched += bool(np.array_equal(ours[0], goal[:3, 3]))
+    assert 20 <= switched <= 180, 'both sides of the corridor are drawn'
 
 
 def test_rates_are_bounded_by_the_pose_speed_and_defined_at_the_goal_and_opposite_it() -> None:
@@ -285,7 +362,8 @@ def test_w_stays_finite_and_in_range_under_extreme_input() -> None:
 
 def test_bad_settings_and_goals_are_refused() -> None:
     for bad in (dict(rationality=0.0), dict(memory=-1.0), dict(w_floor=0.5), dict(angle_scale=4.0),
-                dict(max_dt=math.inf), dict(proposal_radius=-0.1), dict(proposal_angle=math.nan)):
+                dict(max_dt=math.inf), dict(proposal_radius=-0.1), dict(proposal_angle=math.nan), dict(standoff=-0.01),
+                dict(corridor_radius=math.inf), dict(corridor_angle=-0.1)):
         with pytest.raises(InvalidIntentError):
             EstimatorConfig(**bad)  # type: ignore[arg-type]
     with pytest.raises(InvalidIntentError):
