@@ -27,8 +27,8 @@ from grasp_intent_ros.shared_control.assistance import (
     serving_probability,
 )
 
-LABELS = ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
-TASKS = ('usage', 'transfer', 'handover')
+from .robot_alone import LABELS, TASKS, robot_alone
+
 GRASP = pose_to_matrix((0.3, -0.3, 0.05), (1.0, 0.0, 0.0, 0.0))  # approach (EE z) straight down
 ARGS = dict(alpha_max=0.9, margin=0.2)
 U, T, H = 1, 2, 4
@@ -411,17 +411,7 @@ def test_a_pre_grasp_without_ik_from_the_joints_is_reached_by_a_joint_line_near_
         assert np.linalg.norm(hand[:3, 3] - grasp[:3, 3]) <= start + config.corridor_radius + 1e-3
     # the robot alone (the operator still, assistance without input) brings the hand to the grasp; the
     # Cartesian twist toward the pre-grasp held the elbow at its limit, 9 cm away, to the end
-    arm = MockArm(kin, np.r_[GOAL_CHANGED_Q, 0.0, 0.0, 0.0])
-    assistance.set_v(np.eye(7)[4], LABELS)
-    assistance.set_posterior(np.eye(7)[4], LABELS, TASKS)
-    for tick in range(1000):
-        now = 0.01 * tick
-        assistance.set_joints(arm.q[:6].copy())
-        assistance.set_operator(np.zeros(6), now)
-        command = assistance.command(now)
-        arm.command_twist(TwistCommand(command.twist[:3], command.twist[3:], BASE_FRAME), now)
-        arm.step(now + 0.01, 0.01)
-    error = pose_error(kin.fk(arm.q[:6]), grasp)
+    error = pose_error(kin.fk(robot_alone(kin, assistance, GOAL_CHANGED_Q, 4, 1000)), grasp)
     assert np.linalg.norm(error[:3]) <= 1e-3 and np.linalg.norm(error[3:]) <= 1e-2
 
 

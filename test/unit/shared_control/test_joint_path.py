@@ -10,13 +10,11 @@ from numpy.testing import assert_allclose
 from numpy.typing import NDArray
 
 from grasp_intent_ros.mico.frames import pose_error, pre_grasp
-from grasp_intent_ros.mico.kinematics import BASE_FRAME, MicoKinematics
-from grasp_intent_ros.mico.mock_arm import MockArm, TwistCommand
+from grasp_intent_ros.mico.kinematics import MicoKinematics
 from grasp_intent_ros.shared_control.assistance import Assistance, AssistanceConfig, TwistLimiter
 from grasp_intent_ros.shared_control.joint_path import LINE_IK_SEEDS, joint_path
 
-LABELS = ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
-TASKS = ('usage', 'transfer', 'handover')
+from .robot_alone import robot_alone
 
 # the arm 28 cm from a cup grasp after the operator's goal changed (the closed-loop benchmark's goal-changing
 # operator, seed 0, episode 37): the pre-grasp has no IK from these joints, and the straight joint line to each
@@ -64,17 +62,7 @@ def test_a_pre_grasp_without_a_straight_admissible_line_is_reached_through_one_v
     for start, end in ((FAR_Q, via), (via, q_t)):  # 1 mm of slack between the rule's 20 points
         assert _hand_distances(kin, start, end, grasp).max() <= bound + 1e-3
     # the robot alone (the operator still, assistance without input) brings the hand to the grasp
-    arm = MockArm(kin, np.r_[FAR_Q, 0.0, 0.0, 0.0])
-    assistance.set_v(np.eye(7)[4], LABELS)
-    assistance.set_posterior(np.eye(7)[4], LABELS, TASKS)
-    for tick in range(1500):
-        now = 0.01 * tick
-        assistance.set_joints(arm.q[:6].copy())
-        assistance.set_operator(np.zeros(6), now)
-        command = assistance.command(now)
-        arm.command_twist(TwistCommand(command.twist[:3], command.twist[3:], BASE_FRAME), now)
-        arm.step(now + 0.01, 0.01)
-    error = pose_error(kin.fk(arm.q[:6]), grasp)
+    error = pose_error(kin.fk(robot_alone(kin, assistance, FAR_Q, 4, 1500)), grasp)
     assert np.linalg.norm(error[:3]) <= 1e-3 and np.linalg.norm(error[3:]) <= 1e-2
 
 
