@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import ast
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -88,3 +90,16 @@ def test_the_hand_reach_bounds_the_hand_s_collision_primitives() -> None:
     reach = max(float(np.linalg.norm(T[:3, 3])) + shape.radius
                 for T, shape in zip(hand.parts(np.eye(4), np.zeros(3)), hand.shapes))
     assert reach <= HAND_REACH
+
+
+def test_only_the_simulator_s_judge_side_imports_the_sweep() -> None:
+    """The planner, the assistance, the operators and the estimator never read the judge's figure."""
+    package = Path(__file__).resolve().parents[3] / 'grasp_intent_ros'
+    importers = set()
+    for path in package.rglob('*.py'):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = [node.module or ''] + [a.name for a in node.names] if isinstance(node, ast.ImportFrom) else \
+                [a.name for a in node.names] if isinstance(node, ast.Import) else []
+            if any(name == 'sweep' or name.endswith('.sweep') for name in names):
+                importers.add(path.relative_to(package).as_posix())
+    assert importers == {'shared_control/simulator.py'}
