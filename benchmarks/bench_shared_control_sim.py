@@ -3,9 +3,9 @@ r"""Shared control under intent uncertainty, closed loop on a simulated clock: s
 Runs :func:`grasp_intent_ros.shared_control.simulator.simulate` (the nodes' own core functions: interpreter,
 planner policy, assistance, mock arm) for 2 objects x 3 operator models x 5 conditions (direct, ADA as
 published, the suite on the independent-task grasp, the suite, the suite with estimated w), on the same
-seeded episodes, faster than
-real time, and prints per object and operator: success at the reached pose, median time to grasp, operator
-effort, wrong-task pull, with paired differences and 95% bootstrap confidence intervals over episodes.
+seeded episodes, faster than real time, and prints per object and operator: success at the reached pose,
+median time to grasp, operator effort, wrong-task pull, the runs whose hand path swept into the object, with
+paired differences and 95% bootstrap confidence intervals over episodes.
 The stream figures (rate, gaps, latency, opposition timing, the switch) are bench_shared_control.py's
 (real processes).
 
@@ -48,6 +48,14 @@ operator): success = the hand closed before the timeout and the object's rules h
 true set at the reached pose with the executed closures (the features in the true object frame). Wrong-task
 pull: alpha-seconds toward proposals whose features (as planned) do not serve the true set (for ADA: the
 goal probabilities' seconds, its assistance weight being 1).
+
+Swept into the object (a judge's figure the simulation measures: it has no contact model, so a hand path may
+pass through the object): a run swept when, along the hand's path from the start until it closed (the executed grasp's
+trajectory included), the palm/wrist went deeper into the object's body than the planner's limit (1 mm) or an
+open finger deeper than its (5 mm), in the true object frame
+(:class:`~grasp_intent_ros.shared_control.sweep.PathSweep`); each record has ``swept`` and the deepest
+``swept_palm_mm``, ``swept_finger_mm`` (None: never near the body), each cell's summary the count of runs that
+swept per condition.
 
 Statistics: per episode the mean over repeats; paired differences (:data:`PAIRS`: the suite minus each other
 condition, estimated w minus scripted w (the suite) and minus direct) with a 95% percentile bootstrap over
@@ -200,10 +208,16 @@ def run_task(task: Task) -> list[dict[str, Any]]:
                             'time': ep.closed_at if ep.closed_at is not None else task.timeout,
                             'pursued': ep.pursued, 'executed': ep.executed, 'effort_linear': ep.effort_linear,
                             'effort_angular': ep.effort_angular, 'wrong_pull': wrong, 'alpha_mean': ep.alpha_mean,
-                            'wall_s': time.perf_counter() - t0})
+                            'swept': ep.swept, 'swept_palm_mm': _mm(ep.swept_palm),
+                            'swept_finger_mm': _mm(ep.swept_finger), 'wall_s': time.perf_counter() - t0})
             if trace is not None:
                 records[-1].update(trace_record(trace, ep, rules))
     return records
+
+
+def _mm(depth: float) -> float | None:
+    """A depth (m) in mm for a record; None for ``-inf`` (the hand never came near the body)."""
+    return None if depth == -math.inf else round(1e3 * depth, 2)
 
 
 def trace_record(trace: list[TraceRow], ep: Any, rules: Any) -> dict[str, Any]:
@@ -258,6 +272,9 @@ def summarise(records: list[dict[str, Any]], timeout: float) -> dict[str, Any]:
                     'effort_linear': float(np.median([effort[c][e] for e in eps])),
                     'wrong_pull': float(np.mean([wrong[c][e] for e in eps])),
                     'episodes': len(eps)}
+        runs = [r for r in records if r['condition'] == c and 'swept' in r]  # older --records files lack it
+        if runs:
+            table[c]['swept'] = [sum(r['swept'] for r in runs), len(runs)]
     for a, other in [(a, b) for a, b in PAIRS if a in success and b in success]:
         eps = sorted(success[a])
         diff = [success[a][e] - success[other][e] for e in eps]
@@ -353,8 +370,9 @@ def report_cells(records: list[dict[str, Any]], args: argparse.Namespace, object
             print(f'\n[{o} / {op}] {episodes} episodes x {repeats} repeats')
             for c in [c for c in RUN if c in table]:
                 row = table[c]
+                swept = f'  swept {row["swept"][0]}/{row["swept"][1]} runs' if 'swept' in row else ''
                 print(f'  {c:12s} success {row["success"]:.3f}  median time {row["median_time"]:5.2f} s  '
-                      f'effort {row["effort_linear"]:.3f} m  wrong pull {row["wrong_pull"]:.3f} alpha s')
+                      f'effort {row["effort_linear"]:.3f} m  wrong pull {row["wrong_pull"]:.3f} alpha s{swept}')
             for a, other in [(a, b) for a, b in PAIRS if f'{a}-{b}' in table]:
                 d = table[f'{a}-{other}']
                 print(f'  {a} - {other:12s} success {100 * d["success_diff"]:+5.1f} points '

@@ -19,6 +19,8 @@ A grasp x (:mod:`grasp_intent_ros.method.features`, object frame) puts the end e
   stops at the first step where it touches (signed distance <= 0) the object or the table; ``stops`` says
   where and on what (:class:`FingerStop`).
 
+:meth:`HandCollision.open_hand_depth` gives the same two object depths at one hand pose (a path's, at each pose).
+
 :data:`LIMITS` turn that into a verdict (:meth:`Clearance.fault`): a grasp is in collision when a hand part
 goes more than ``table`` below the table, the palm/wrist more than ``palm`` into the object, or an open finger
 more than ``finger`` into it. A finger that meets the table while closing stops there (a MICO's fingers take
@@ -432,11 +434,7 @@ class HandCollision:
             if hit is not None:
                 self._object_cache.move_to_end(key)
                 return hit
-            scene = self._scenes.get(body)
-            if scene is None:
-                if len(self._scenes) >= _MAX_SCENES:
-                    self._scenes.clear()
-                scene = self._scenes[body] = _Scene(body)
+        scene = self._scene(body)
         approach = obj_T_ee[:3, 2]
         depth = np.full(len(HAND_PARTS), -math.inf)
         ee_T_part = self.parts(np.eye(4), np.zeros(3))
@@ -467,6 +465,33 @@ class HandCollision:
             while len(self._object_cache) > _MAX_CACHE:
                 self._object_cache.popitem(last=False)
         return out
+
+    def open_hand_depth(self, obj_T_ee: ArrayLike, body: ObjectBody) -> tuple[float, float]:
+        """How deep the hand at one pose, fingers open, goes into ``body``: (palm/wrist, deepest open finger), m.
+
+        ``obj_T_ee`` (4x4): the end effector in the object frame. :class:`Clearance`'s ``palm_depth`` and
+        ``finger_depth`` at that pose alone (coal's signed distance; negative: clear; ``-inf``: a part outside
+        every primitive's bounding sphere), to compare with :data:`LIMITS` ``.palm`` and ``.finger``.
+
+        Raises
+        ------
+        KinematicsError
+            If ``obj_T_ee`` is not a rigid transform.
+        """
+        T, scene = check_transform(obj_T_ee, 'obj_T_ee'), self._scene(body)
+        depth = [self._depth(shape, pose, scene) for shape, pose in zip(self.shapes, self.parts(T, np.zeros(3)))]
+        return depth[0], max(depth[1:])
+
+    def _scene(self, body: ObjectBody) -> _Scene:
+        """The body's coal shapes, built once per body (at most ``_MAX_SCENES`` kept)."""
+        with self._lock:
+            scene = self._scenes.get(body)
+            if scene is None:
+                if len(self._scenes) >= _MAX_SCENES:
+                    self._scenes.clear()
+                scene = self._scenes[body] = _Scene(body)
+        return scene
+
     def _depth(self, shape: _Shape, pose: NDArray[np.float64], scene: _Scene) -> float:
         """How deep a part at ``pose`` goes into the object (m; negative: clear; -inf: far from every primitive)."""
         centre = pose[:3, 3]

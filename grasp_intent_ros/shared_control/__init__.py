@@ -18,6 +18,8 @@ operators
     Scripted teleoperators and their intents (a device model, a goal choice without the rules, an intent script).
 simulator
     The closed loop on a simulated clock with the nodes' core functions (planner policy, assistance, mock arm).
+sweep
+    The judge's measure the loop lacks a contact model for: how deep the open hand's path goes into the object.
 parameters (ROS-free tables)
     The assistance node's and the intent estimator node's parameter tables; how the operator's twist is read.
 

@@ -47,14 +47,16 @@ every ``w_period`` its w is interpreted and planned as the script's would be. Th
 operator's true task set: the estimator never sees it.
 
 The simulation returns what happened, never a verdict: the executed grasp's features in the true object
-frame, when the hand closed, the operator's effort and each shown grasp's alpha-time; the caller judges
-(the task rules never enter here).
+frame, when the hand closed, the operator's effort and each shown grasp's alpha-time, and how deep the open
+hand's path went into the object's body on the way (:mod:`.sweep`, in the true frame: the loop has no contact
+model, so a path may pass through the object); the caller judges (the task rules never enter here).
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -72,6 +74,7 @@ from ..planning.options import Options
 from .assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, pose_error
 from .estimator import IntentEstimator
 from .operators import IntentScript, ScriptedOperator, certain_w
+from .sweep import SWEEP_TICKS, PathSweep
 
 __all__ = ['Condition', 'CONDITIONS', 'ADA_APPLY_TIME', 'Scene', 'PlanStream', 'AdaAssistance', 'Episode',
            'TraceRow', 'execute_grasp', 'simulate', 'perturb_pose', 'certain_grasps']
@@ -225,7 +228,8 @@ class AdaAssistance:
         return self.limiter.limit(operator + assist, dt)
 
 
-def execute_grasp(arm: MockArm, base_T_grasp: NDArray[np.float64], now: float, period: float) -> float:
+def execute_grasp(arm: MockArm, base_T_grasp: NDArray[np.float64], now: float, period: float,
+                  on_step: Callable[[NDArray[np.float64]], None] | None = None) -> float:
     """Move ``arm`` to the grasp ``base_T_grasp`` (4x4, base frame) from ``now``: the time (s) it arrives there.
 
     The trajectory goes from the arm's joints to the grasp's inverse kinematics from them (no restarts; the 2 pi
@@ -233,6 +237,7 @@ def execute_grasp(arm: MockArm, base_T_grasp: NDArray[np.float64], now: float, p
     limits (at least :data:`~grasp_intent_ros.mico.grasp.MIN_TRAJECTORY_TIME`), stepped every ``period`` until the
     arm holds (at most one second past the trajectory's end). Without an IK solution, or for a trajectory the arm
     refuses (a branch outside the joint limits), the arm stays and ``now`` is returned. The fingers are not moved.
+    ``on_step``, when given, is called with the arm's joints (shape (6,)) after every step.
     """
     q = arm.q[:6].copy()
     ik = arm.kin.ik(base_T_grasp, q, restarts=0)
@@ -248,6 +253,8 @@ def execute_grasp(arm: MockArm, base_T_grasp: NDArray[np.float64], now: float, p
     while arm.mode == 'trajectory' and now < end:
         arm.step(now + period, period)
         now += period
+        if on_step is not None:
+            on_step(arm.q[:6].copy())
     return now
 
 
@@ -315,6 +322,12 @@ class Episode:
     pulls : list of (ndarray, float)
         Each proposal the robot pulled toward (its features, in the tracked frame) and its alpha-seconds.
     alpha_mean : float
+    swept_palm, swept_finger : float
+        The deepest (m) the palm/wrist and an open finger went into the object's body along the hand's path
+        from the start until the hand closed (the executed trajectory included), in the true object frame
+        (:class:`~.sweep.PathSweep`; negative: clear by that much; ``-inf``: never near it). A judge's figure.
+    swept : bool
+        Whether that path swept into the object: deeper than :data:`~grasp_intent_ros.mico.collision.LIMITS`.
     """
 
     closed_at: float | None = None
@@ -327,6 +340,9 @@ class Episode:
     effort_angular: float = 0.0
     pulls: list[tuple[NDArray[np.float64], float]] = field(default_factory=list)
     alpha_mean: float = 0.0
+    swept_palm: float = -math.inf
+    swept_finger: float = -math.inf
+    swept: bool = False
 
 
 def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator: ScriptedOperator,
@@ -375,10 +391,13 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
     w_every = max(int(round(w_period / period)), 1)
     ticks = int(round(timeout / period))
     tick = 0
+    sweep = PathSweep(kin, scene.model.body, scene.base_T_obj_true)  # the judge's: nothing below reads it
     if estimator is not None:
         estimator.reset()
     for tick in range(ticks):
         now = tick * period
+        if tick % SWEEP_TICKS == 0:
+            sweep.check(arm.q[:6])
         if tick % w_every == 0:
             w = intent.w(now, intent_rng) if estimator is None else estimator.w
             v, grasp = stream.plan(w)
@@ -415,7 +434,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
         if operator.at_goal(seen, goal):
             closures = own_closures if pursued == 'own' or shown_seen is None else shown_seen.positions[6:]
             if execute and pursued == 'shown' and shown is not None and condition in ('suite', 'independent'):
-                now = execute_grasp(arm, shown.base_T_ee, now, period)  # grasp/execute: the newest plan
+                # grasp/execute: the newest plan
+                now = execute_grasp(arm, shown.base_T_ee, now, period, sweep.check)
                 closures, episode.executed = shown.positions[6:], True
                 hand_now = kin.fk(arm.q[:6])
             executed = arm.close_fingers(closures + closure_rng.normal(0.0, closure_error, 3))
@@ -446,6 +466,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
                 entry[1] += command.alpha * period  # type: ignore[operator]
         arm.command_twist(TwistCommand(twist[:3], twist[3:], BASE_FRAME), now)
         arm.step(now + period, period)
+    sweep.check(arm.q[:6])  # where the hand closed (or stood at the timeout)
+    episode.swept_palm, episode.swept_finger, episode.swept = sweep.palm, sweep.finger, sweep.swept()
     episode.task_set = intent.task_set(tick * period)
     episode.alpha_mean = alpha_sum / max(tick, 1)
     episode.pulls = [(np.asarray(x), float(s)) for x, s in pull.values()]  # type: ignore[arg-type]

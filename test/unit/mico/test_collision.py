@@ -182,3 +182,19 @@ def test_the_hand_s_verdicts_follow_the_object_and_the_table(hand: HandCollision
             assert shared.positions.tobytes() == new.positions.tobytes() and shared.clearance == new.clearance
         outcomes.append(type(shared))
     assert outcomes == [NoReachableGrasp, Grasp, Grasp]
+
+
+def test_the_open_hand_s_depth_at_one_pose_is_the_clearance_s_without_a_corridor() -> None:
+    """With no standoff the corridor is the grasp's pose alone: the same palm and open-finger depths (1e-12 m)."""
+    at_pose = HandCollision(standoff=0.0)
+    into = np.array([0.066, 0.0, 0.05, -1.0, 0.0, 0.0, SIDE_THUMB_SIDEWAYS, 1.2, 1.2, 1.2])
+    for x in (into, into + np.r_[0.009, np.zeros(9)], into + np.r_[-0.03, 0.0, 0.01, np.zeros(7)]):
+        clearance = at_pose.clearance(x, CUP_BODY)
+        palm, finger = at_pose.open_hand_depth(features_to_obj_T_ee(x), CUP_BODY)
+        assert (palm, finger) == pytest.approx((clearance.palm_depth, clearance.finger_depth), abs=1e-12)
+    assert at_pose.open_hand_depth(features_to_obj_T_ee(into), CUP_BODY)[0] == pytest.approx(0.004, abs=1e-6)
+    far = features_to_obj_T_ee(into)
+    far[:3, 3] += (1.0, 0.0, 0.0)
+    assert at_pose.open_hand_depth(far, CUP_BODY) == (-math.inf, -math.inf)
+    with pytest.raises(KinematicsError):
+        at_pose.open_hand_depth(np.eye(3), CUP_BODY)
