@@ -32,6 +32,9 @@ and 0 m, plus :data:`~grasp_intent_ros.mico.collision.HAND_REACH`, rounded up): 
 point by at most sum_j JOINT_REACH_j |dq_j|."""
 RETREATS = (0.0, 0.08)
 """m: how far :func:`clear_path`'s via points lie behind the target along the grasp's approach axis."""
+FAR = 0.03
+"""m: hand parts farther than this (beyond the margin) from the body count at this distance (:meth:`PathClearance.
+intrusion`): the check's steps need no more room than that, and coal's distances are computed within it only."""
 MAX_CHECKED = 8
 """The most candidates :func:`clear_path` checks (the shortest): each check near the body costs milliseconds."""
 LIFTS = (0.0, 0.1)
@@ -90,12 +93,12 @@ class PathClearance:
 
         ``max(palm - limits.palm, finger - limits.finger) + margin``, the depths those of
         :meth:`~grasp_intent_ros.mico.collision.HandCollision.open_hand_depth` (> 0: too deep). A part whose
-        bounding sphere lies farther than the margin plus :data:`~grasp_intent_ros.mico.collision.SWEEP_STEP` from
-        every primitive's counts at that distance, and when the end effector lies farther than
+        bounding sphere lies farther than the margin plus :data:`FAR` from every primitive's counts at that
+        distance, and when the end effector lies farther than
         :data:`~grasp_intent_ros.mico.collision.HAND_REACH` plus that from every primitive's bounding sphere (gap:
         its least distance to one), the hand counts at ``gap - HAND_REACH``, without the collision model.
         """
-        far = self.margin + SWEEP_STEP
+        far = self.margin + FAR
         obj_T_ee = self.obj_T_base @ self.kin.fk(q)
         gap = float((np.linalg.norm(self._centres - obj_T_ee[:3, 3], axis=1) - self._radii).min())
         if gap - HAND_REACH > far:
