@@ -34,7 +34,6 @@ or, after the table moved in the object's frame, the table's part (a few array o
 
 from __future__ import annotations
 
-import functools
 import math
 import os
 import threading
@@ -54,7 +53,7 @@ from .frames import PRE_GRASP_STANDOFF, check_transform, features_to_obj_T_ee, p
 from .kinematics import EE_FRAME, FINGER_JOINTS, default_urdf_path
 
 __all__ = ['SWEEP_STEP', 'CLOSURE_STEP', 'Limits', 'LIMITS', 'Table', 'FingerStop',
-           'Clearance', 'HandCollision', 'CollisionFree', 'HAND_PARTS', 'HAND_REACH', 'default_hand']
+           'Clearance', 'HandCollision', 'CollisionFree', 'HAND_PARTS']
 
 SWEEP_STEP = 0.005
 """Largest spacing (m) of the poses checked against the object along the approach corridor (below the
@@ -64,9 +63,6 @@ CLOSURE_STEP = 0.02
 HAND_PARTS = ('palm', 'finger_1', 'finger_tip_1', 'finger_2', 'finger_tip_2', 'finger_3', 'finger_tip_3')
 """The hand's collision parts, in :attr:`Clearance.part` order: link 6 (wrist and palm), then each finger's
 proximal link and tip."""
-HAND_REACH = 0.17
-"""Upper bound (m) on the distance of any point of the open hand's collision primitives from the end effector
-(the URDF's: 0.169)."""
 _FINGER_OF_PART = (-1, 0, 0, 1, 1, 2, 2)
 _MAX_CACHE = 8192
 _CLOSED = float(MICO_3F.upper[FINGERS][0])
@@ -474,9 +470,8 @@ class HandCollision:
         """How deep the hand at one pose, fingers open, goes into ``body``: (palm/wrist, deepest open finger), m.
 
         ``obj_T_ee`` (4x4): the end effector in the object frame. :class:`Clearance`'s ``palm_depth`` and
-        ``finger_depth`` at that pose alone (coal's signed distance; negative: clear; ``-inf``: a part whose
-        bounding sphere lies farther than ``within`` (m, >= 0) from every primitive's), to compare with
-        :data:`LIMITS` ``.palm`` and ``.finger``.
+        ``finger_depth`` at that pose alone (coal's signed distance; negative: clear; ``-inf``: a part whose bounding
+        sphere lies farther than ``within`` (m, >= 0) from every primitive's), to compare with :data:`LIMITS`.
 
         Raises
         ------
@@ -484,8 +479,7 @@ class HandCollision:
             If ``obj_T_ee`` is not a rigid transform.
         """
         T, scene = check_transform(obj_T_ee, 'obj_T_ee'), self._scene(body)
-        parts = self.parts(T, np.zeros(3))
-        depth = [self._depth(shape, pose, scene, within) for shape, pose in zip(self.shapes, parts)]
+        depth = [self._depth(sh, pose, scene, within) for sh, pose in zip(self.shapes, self.parts(T, np.zeros(3)))]
         return depth[0], max(depth[1:])
 
     def _scene(self, body: ObjectBody) -> _Scene:
@@ -499,10 +493,7 @@ class HandCollision:
         return scene
 
     def _depth(self, shape: _Shape, pose: NDArray[np.float64], scene: _Scene, within: float = 0.0) -> float:
-        """How deep a part at ``pose`` goes into the object (m; negative: clear; -inf: far from it).
-
-        Far: the part's bounding sphere lies farther than ``within`` (m) from every primitive's.
-        """
+        """How deep a part at ``pose`` goes in (m; < 0: clear; -inf: its bounding sphere ``within`` m clear of all)."""
         centre = pose[:3, 3]
         near = np.flatnonzero(np.linalg.norm(scene.centres - centre, axis=1) <= scene.radii + shape.radius + within)
         if near.size == 0:
@@ -547,9 +538,3 @@ class CollisionFree:
         if fault is not None:
             self.faults[key] = fault
         return fault is None
-
-
-@functools.cache
-def default_hand() -> HandCollision:
-    """The MICO hand of the package's URDF, built once per process."""
-    return HandCollision()

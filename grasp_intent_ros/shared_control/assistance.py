@@ -25,10 +25,9 @@ solution from other seeds whose straight joint line from q keeps the hand near t
 its side, or, when no straight line does, whose two lines through one via point do: the joints aim at the
 via point until within :data:`~.joint_path.VIA_REACHED` of it, then at q_t (:func:`~.joint_path.joint_path`;
 "near": within the hand's distance to the grasp when the first path to this proposal was sought, or its
-present distance if larger, plus ``corridor_radius``). Given the object as the robot perceives it
-(:meth:`Assistance.set_object`: the tracked pose, the model's body), a path whose open hand would go into it is
-replaced by the shortest clear one in joint space, through a via point when needed (:func:`~.clearance.clear_path`).
-Without the kinematics, or when there is no such path either, it is proportional to the pose error,
+present distance if larger, plus ``corridor_radius``). A path whose open hand goes into the object as perceived
+(:meth:`Assistance.set_object`) is replaced by a clear one (:func:`~.clearance.clear_path`). Without the
+kinematics, or when there is no such path either, it is proportional to the pose error,
 ``(k_lin (p_t - p), k_ang log3(R_t R^T))`` (the rotation vector in the base frame, :func:`robot_twist`).
 Either way each part is scaled down to its speed limit. Why joint space: the Cartesian twist turns the
 hand along the straight rotation to the target, which for many of the MICO's grasps runs the wrist (joint
@@ -98,12 +97,12 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import InvalidIntentError
 from ..method.body import ObjectBody
 from ..method.intent import parse_zones
-from ..mico.collision import HandCollision, default_hand
+from ..mico.collision import HandCollision
 from ..mico.frames import PRE_GRASP_STANDOFF, REACH_POS, REACH_ROT, offset, pose_error, pre_grasp, reached
 from ..mico.kinematics import MicoKinematics
 from ..planning.ranking import expected_success
 from .approach import in_corridor
-from .clearance import PathClearance, clear_path
+from .clearance import PathClearance, clear_path, default_hand
 from .joint_path import VIA_REACHED, joint_path
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
@@ -340,8 +339,7 @@ class AssistanceConfig:
     operator_timeout : float
         An operator twist older than this gives the zero twist.
     clearance_margin : float
-        m: how far beyond the planner's limits the robot's joint path keeps the open hand from the perceived
-        object (:class:`~.clearance.PathClearance`'s ``margin``).
+        m: :class:`~.clearance.PathClearance`'s ``margin`` (beyond the planner's limits).
     """
 
     arbitration: Arbitration = 'confidence'
@@ -388,15 +386,13 @@ class Assistance:
 
     Times are seconds of one clock (the node's). Inputs are assumed checked (finite, rigid transforms).
     With ``kin`` the arm's state comes from :meth:`set_joints` and the robot's twist is joint-space
-    (module docstring); without it, from ``base_T_ee`` and the twist is Cartesian. ``hand``: the hand's collision
-    model for :meth:`set_object` (None: :func:`~grasp_intent_ros.mico.collision.default_hand`).
+    (module docstring); without it, from ``base_T_ee`` and the twist is Cartesian. ``hand``: :meth:`set_object`'s.
     """
 
     def __init__(self, config: AssistanceConfig, limiter: TwistLimiter, kin: MicoKinematics | None = None,
                  hand: HandCollision | None = None) -> None:
         self.config, self.limiter, self.kin, self.hand = config, limiter, kin, hand
-        self.clearance: PathClearance | None = None
-        """The perceived object the robot's joint path keeps the open hand clear of (:meth:`set_object`)."""
+        self.clearance: PathClearance | None = None  # the perceived object (set_object)
         self.base_T_grasp: NDArray[np.float64] | None = None
         self.base_T_ee: NDArray[np.float64] | None = None
         self.q: NDArray[np.float64] | None = None
@@ -444,15 +440,9 @@ class Assistance:
         self.q, self.base_T_ee, self._jacobian = q, self.kin.fk(q), self.kin.jacobian(q)
 
     def set_object(self, base_T_obj: NDArray[np.float64] | None, body: ObjectBody | None) -> None:
-        """The object as the robot perceives it: its tracked pose (base frame) and the active model's body.
-
-        The robot's joint paths are sought afresh, clear of it (:func:`~.clearance.clear_path`); None for either,
-        or no kinematics: no check. Raises KinematicsError (nothing changed) for a pose that is not rigid.
-        """
-        clearance = None
-        if self.kin is not None and base_T_obj is not None and body is not None:
-            self.hand = self.hand if self.hand is not None else default_hand()
-            clearance = PathClearance(self.kin, self.hand, body, base_T_obj, margin=self.config.clearance_margin)
+        """Tracked object pose (base), model's body: new paths clear of it (None: none). KinematicsError: not rigid."""
+        clearance = None if self.kin is None or base_T_obj is None or body is None else PathClearance(
+            self.kin, self.hand or default_hand(), body, base_T_obj, margin=self.config.clearance_margin)
         self.clearance, self._q_targets = clearance, {}
 
     def set_posterior(self, posterior: NDArray[np.float64], zone_labels: Sequence[str],
@@ -576,12 +566,12 @@ class Assistance:
         """The robot's twist toward ``base_T_target`` (the grasp or the pre-grasp, ``phase``): module docstring."""
         cfg = self.config
         if self.kin is not None and self.q is not None and self._jacobian is not None:
-            targets = self._q_targets  # this grasp's (set_grasp and set_object replace the mapping)
+            targets, clearance = self._q_targets, self.clearance  # set_grasp and set_object replace them
             if phase not in targets:
                 ik = self.kin.ik(base_T_target, self.q, restarts=0)  # the solution the joints descend to
                 path = [ik.q] if ik.success else self.joint_path(base_T_target)
-                if path is not None and self.clearance is not None:
-                    path = clear_path(self.clearance, self.q, path, base_T_target)
+                if path is not None and clearance is not None:
+                    path = clear_path(clearance, self.q, path, base_T_target)
                 targets[phase] = path
             path = targets[phase]
             if path is not None:

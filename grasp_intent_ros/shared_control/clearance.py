@@ -11,6 +11,7 @@ one. Never the true object: the robot knows only what it perceives. ROS-free.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 
@@ -18,17 +19,21 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..method.body import Box, Cylinder, ObjectBody
-from ..mico.collision import HAND_REACH, LIMITS, SWEEP_STEP, HandCollision, Limits
+from ..mico.collision import LIMITS, SWEEP_STEP, HandCollision, Limits
 from ..mico.frames import check_transform
 from ..mico.kinematics import MicoKinematics
 from .joint_path import ik_candidates
 
-__all__ = ['JOINT_REACH', 'RETREATS', 'LIFTS', 'MAX_CHECKED', 'PathClearance', 'clear_path']
+__all__ = ['HAND_REACH', 'default_hand', 'JOINT_REACH', 'RETREATS', 'LIFTS', 'FAR', 'MAX_CHECKED', 'PathClearance',
+           'clear_path']
 
+HAND_REACH = 0.17
+"""Upper bound (m) on the distance of any point of the open hand's collision primitives from the end effector
+(the URDF's: 0.169)."""
 JOINT_REACH = np.array([0.88, 0.88, 0.6, 0.44, 0.36, 0.17])
 """m: upper bounds on the distance of any point of the open hand from each joint's axis (the end effector's
 largest distance from the axes over 5,000 random configurations of the URDF, 0.705, 0.708, 0.418, 0.256, 0.176
-and 0 m, plus :data:`~grasp_intent_ros.mico.collision.HAND_REACH`, rounded up): a joint step dq moves every hand
+and 0 m, plus :data:`HAND_REACH`, rounded up): a joint step dq moves every hand
 point by at most sum_j JOINT_REACH_j |dq_j|."""
 RETREATS = (0.0, 0.08)
 """m: how far :func:`clear_path`'s via points lie behind the target along the grasp's approach axis."""
@@ -39,6 +44,12 @@ MAX_CHECKED = 8
 """The most candidates :func:`clear_path` checks (the shortest): each check near the body costs milliseconds."""
 LIFTS = (0.0, 0.1)
 """m: how far :func:`clear_path`'s via points lie above the target, along the table's normal (the object's z)."""
+
+
+@functools.cache
+def default_hand() -> HandCollision:
+    """The MICO hand of the package's URDF, built once per process."""
+    return HandCollision()
 
 
 def _spheres(body: ObjectBody) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -95,7 +106,7 @@ class PathClearance:
         :meth:`~grasp_intent_ros.mico.collision.HandCollision.open_hand_depth` (> 0: too deep). A part whose
         bounding sphere lies farther than the margin plus :data:`FAR` from every primitive's counts at that
         distance, and when the end effector lies farther than
-        :data:`~grasp_intent_ros.mico.collision.HAND_REACH` plus that from every primitive's bounding sphere (gap:
+        :data:`HAND_REACH` plus that from every primitive's bounding sphere (gap:
         its least distance to one), the hand counts at ``gap - HAND_REACH``, without the collision model.
         """
         far = self.margin + FAR

@@ -13,7 +13,7 @@ It is a judge's measurement: nothing that plans, assists, operates or estimates 
 
 Spacing of the checks: the teleoperated loop checks every :data:`SWEEP_TICKS` simulator steps. Under the
 assistance's output limits (0.2 m/s, 1 rad/s; ADA's command has the same limiter) every hand part, within
-:data:`~grasp_intent_ros.mico.collision.HAND_REACH` of the end effector, moves at most 0.2 + 1.0 x 0.17 = 0.37 m/s,
+:data:`~.clearance.HAND_REACH` of the end effector, moves at most 0.2 + 1.0 x 0.17 = 0.37 m/s,
 so at most 7.4 mm between two checks 0.02 s apart. The executed grasp's trajectory
 (:func:`.simulator.execute_grasp`) runs at the joints' speed limits, so it is checked at every step (0.01 s).
 """
@@ -26,8 +26,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..method.body import ObjectBody
-from ..mico.collision import HAND_REACH, LIMITS, HandCollision, Limits, default_hand
+from ..mico.collision import LIMITS, HandCollision, Limits
 from ..mico.kinematics import MicoKinematics
+from .clearance import HAND_REACH, default_hand
 
 __all__ = ['SWEEP_TICKS', 'HAND_REACH', 'PathSweep', 'default_hand']
 
