@@ -55,7 +55,9 @@ trajectory included), the palm/wrist went deeper into the object's body than the
 open finger deeper than its (5 mm), in the true object frame
 (:class:`~grasp_intent_ros.shared_control.sweep.PathSweep`); each record has ``swept`` and the deepest
 ``swept_palm_mm``, ``swept_finger_mm`` (None: never near the body), each cell's summary the count of runs that
-swept per condition.
+swept per condition. **Success with a clear path** (``clear``): success, and the run did not sweep: what a real
+arm, whose hand would push or knock the object on the way, could count on; reported beside success, per
+condition and paired (the same pairs), for records that carry ``swept``.
 
 Statistics: per episode the mean over repeats; paired differences (:data:`PAIRS`: the suite minus each other
 condition, estimated w minus scripted w (the suite) and minus direct) with a 95% percentile bootstrap over
@@ -261,8 +263,10 @@ def per_episode(records: list[dict[str, Any]], key: str) -> dict[str, dict[int, 
 
 def summarise(records: list[dict[str, Any]], timeout: float) -> dict[str, Any]:
     """The figures of one object x operator cell (module docstring)."""
-    rng = np.random.default_rng(0)
+    rng, rng_clear = np.random.default_rng(0), np.random.default_rng(1)  # success's CIs as without `clear`
     success, times = per_episode(records, 'success'), per_episode(records, 'time')
+    swept = all('swept' in r for r in records)  # older --records files lack it
+    clear = per_episode([{**r, 'clear': r['success'] and not r['swept']} for r in records], 'clear') if swept else {}
     effort, wrong = per_episode(records, 'effort_linear'), per_episode(records, 'wrong_pull')
     table: dict[str, Any] = {}
     for c in [c for c in RUN if c in success]:
@@ -272,9 +276,10 @@ def summarise(records: list[dict[str, Any]], timeout: float) -> dict[str, Any]:
                     'effort_linear': float(np.median([effort[c][e] for e in eps])),
                     'wrong_pull': float(np.mean([wrong[c][e] for e in eps])),
                     'episodes': len(eps)}
-        runs = [r for r in records if r['condition'] == c and 'swept' in r]  # older --records files lack it
-        if runs:
+        if swept:
+            runs = [r for r in records if r['condition'] == c]
             table[c]['swept'] = [sum(r['swept'] for r in runs), len(runs)]
+            table[c]['clear'] = float(np.mean([clear[c][e] for e in eps]))
     for a, other in [(a, b) for a, b in PAIRS if a in success and b in success]:
         eps = sorted(success[a])
         diff = [success[a][e] - success[other][e] for e in eps]
@@ -283,6 +288,9 @@ def summarise(records: list[dict[str, Any]], timeout: float) -> dict[str, Any]:
         m, rlo, rhi = bootstrap_ci(ratio, rng)
         table[f'{a}-{other}'] = {'success_diff': d, 'ci': [lo, hi],
                                    'time_ratio': math.exp(m), 'time_ratio_ci': [math.exp(rlo), math.exp(rhi)]}
+        if swept:
+            d, lo, hi = bootstrap_ci([clear[a][e] - clear[other][e] for e in eps], rng_clear)
+            table[f'{a}-{other}'].update(clear_diff=d, clear_ci=[lo, hi])
     return table
 
 
@@ -370,14 +378,17 @@ def report_cells(records: list[dict[str, Any]], args: argparse.Namespace, object
             print(f'\n[{o} / {op}] {episodes} episodes x {repeats} repeats')
             for c in [c for c in RUN if c in table]:
                 row = table[c]
-                swept = f'  swept {row["swept"][0]}/{row["swept"][1]} runs' if 'swept' in row else ''
+                swept = (f'  swept {row["swept"][0]}/{row["swept"][1]} runs  clear success {row["clear"]:.3f}'
+                         if 'swept' in row else '')
                 print(f'  {c:12s} success {row["success"]:.3f}  median time {row["median_time"]:5.2f} s  '
                       f'effort {row["effort_linear"]:.3f} m  wrong pull {row["wrong_pull"]:.3f} alpha s{swept}')
             for a, other in [(a, b) for a, b in PAIRS if f'{a}-{b}' in table]:
                 d = table[f'{a}-{other}']
                 print(f'  {a} - {other:12s} success {100 * d["success_diff"]:+5.1f} points '
                       f'[{100 * d["ci"][0]:+5.1f}, {100 * d["ci"][1]:+5.1f}]  time ratio {d["time_ratio"]:.2f} '
-                      f'[{d["time_ratio_ci"][0]:.2f}, {d["time_ratio_ci"][1]:.2f}]')
+                      f'[{d["time_ratio_ci"][0]:.2f}, {d["time_ratio_ci"][1]:.2f}]' +
+                      (f'  clear {100 * d["clear_diff"]:+5.1f} [{100 * d["clear_ci"][0]:+5.1f}, '
+                       f'{100 * d["clear_ci"][1]:+5.1f}]' if 'clear_diff' in d else ''))
     return report
 
 
