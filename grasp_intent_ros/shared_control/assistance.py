@@ -400,11 +400,11 @@ class Assistance:
         """False: the output is the operator's twist, exactly (the operator's switch)."""
         self._jacobian: NDArray[np.float64] | None = None
         self._path_reference: float | None = None
-        """The hand's distance to the grasp (m) when a joint path to this proposal was first sought
-        (:meth:`joint_path`)."""
+        """The hand's distance to the grasp (m) when a joint path to this proposal was first sought (joint_path)."""
         self._q_targets: dict[str, list[NDArray[np.float64]] | None] = {}
         """The joint path's points still ahead toward the grasp and the pre-grasp (None: none found), by phase,
-        for the current grasp."""
+        for the current grasp; ``_cleared``: the clear paths that replaced one, by phase, for this proposal."""
+        self._cleared: dict[str, list[NDArray[np.float64]]] = {}
         self.clarification_pending = False
         self.agreement = (1.0, 1.0)
         """The operator's held agreement with the grasp, linear and angular (module docstring)."""
@@ -429,7 +429,7 @@ class Assistance:
             if (float(np.linalg.norm(error[:3])) > self.config.corridor_radius
                     or float(np.linalg.norm(error[3:])) > self.config.corridor_angle):
                 self.agreement, self.yielded, self._since = (1.0, 1.0), False, None
-                self._path_reference = None
+                self._path_reference, self._cleared = None, {}
         self.base_T_grasp, self.clarification_pending = base_T_grasp, False
         self._q_targets = {}
 
@@ -571,7 +571,9 @@ class Assistance:
                 ik = self.kin.ik(base_T_target, self.q, restarts=0)  # the solution the joints descend to
                 path = [ik.q] if ik.success else self.joint_path(base_T_target)
                 if path is not None and clearance is not None:
-                    path = clear_path(clearance, self.q, path, base_T_target)
+                    cleared = clear_path(clearance, self.q, path, base_T_target, self._cleared.get(phase))
+                    if cleared is not path:
+                        path = self._cleared[phase] = cleared
                 targets[phase] = path
             path = targets[phase]
             if path is not None:

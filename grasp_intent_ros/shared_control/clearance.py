@@ -150,11 +150,18 @@ def _length(q: NDArray[np.float64], path: Sequence[NDArray[np.float64]]) -> floa
 
 
 def clear_path(clearance: PathClearance, q: NDArray[np.float64], path: list[NDArray[np.float64]],
-               base_T_target: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+               base_T_target: NDArray[np.float64],
+               previous: list[NDArray[np.float64]] | None = None) -> list[NDArray[np.float64]]:
     """A joint path from ``q`` to an IK of ``base_T_target`` whose open hand stays clear of the perceived object.
 
     ``path`` (the assistance's: ``[q_t]`` or ``[v, q_t]``) is returned unchanged when it does not go in
-    (:meth:`PathClearance.goes_in`). Else the candidates are, in this order:
+    (:meth:`PathClearance.goes_in`). Else, given ``previous`` (this function's earlier answer for the same
+    proposal, its points still ahead, when that answer replaced the assistance's path), the previous path
+    re-targeted: its points but the last, then the IK (no restarts) of ``base_T_target`` seeded at its last point,
+    on the branch nearest q; returned when that IK succeeds, keeps the wrist (joint 5) on q's side of 0 and pi
+    and the path does not go in. So a plan that moves by millimetres keeps the clear way it had (no switching
+    between clear ways as the plan jitters) for one check instead of a search. Else the candidates are, in this
+    order:
 
     1. the straight lines to the target's IK solutions from the seeds of :func:`~.joint_path.ik_candidates`
        (Home, then the IK's restart seeds about q, on the 2 pi branch nearest q, the wrist on q's side);
@@ -178,6 +185,8 @@ def clear_path(clearance: PathClearance, q: NDArray[np.float64], path: list[NDAr
         The path's points after q (rad), its last an IK solution of ``base_T_target``.
     base_T_target : ndarray, shape (4, 4)
         The target (the grasp or its pre-grasp), base frame.
+    previous : list of ndarray, shape (6,), optional
+        The earlier answer that replaced a path for this proposal (its points ahead), rad.
 
     Returns
     -------
@@ -187,6 +196,12 @@ def clear_path(clearance: PathClearance, q: NDArray[np.float64], path: list[NDAr
     if not clearance.goes_in(q, path):
         return path
     kin = clearance.kin
+    if previous:
+        ik = kin.ik(base_T_target, previous[-1], restarts=0)
+        if ik.success:
+            kept = [*previous[:-1], kin.nearest_branch(ik.q, q)]
+            if np.sin(kept[-1][4]) * np.sin(q[4]) > 0.0 and not clearance.goes_in(q, kept):
+                return kept
     ends = [path[-1], *ik_candidates(kin, q, base_T_target)]
     candidates: list[list[NDArray[np.float64]]] = [[q_e] for q_e in ends[1:]]
     axis, up = base_T_target[:3, 2], clearance.up

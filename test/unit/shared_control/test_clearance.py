@@ -124,3 +124,38 @@ def test_the_assistance_takes_the_perceived_object_and_refuses_a_bad_pose(kin: M
     assistance.set_object(np.eye(4), None)  # a model without a body: no check
     assert assistance.clearance is None
     assert Assistance(AssistanceConfig(), TwistLimiter(0.2, 1.0, 1.0, 5.0)).clearance is None
+
+
+def test_a_previous_clear_way_is_kept_for_a_target_moved_by_millimetres(kin: MicoKinematics,
+                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    # the search's answer for the target, then the target moved by 2 mm: the same way, re-targeted, not a new search
+    q0 = np.asarray(HOME_Q, dtype=np.float64)
+    q1 = q0 + STEP
+    clearance = PathClearance(kin, default_hand(), CUP, _on_the_way(kin, q0, q1))
+    first = clear_path(clearance, q0, [q1], kin.fk(q1))
+    assert clearance.goes_in(q0, [q1]) and not clearance.goes_in(q0, first)
+    moved = kin.fk(q1)
+    moved[:3, 3] += (0.002, 0.0, 0.0)
+    own = kin.ik(moved, q1, restarts=0)
+    assert own.success and clearance.goes_in(q0, [own.q])  # the assistance's own line still goes in
+    def no_search(*args: object) -> None:
+        raise AssertionError('searched again')
+    monkeypatch.setattr('grasp_intent_ros.shared_control.clearance.ik_candidates', no_search)
+    kept = clear_path(clearance, q0, [own.q], moved, previous=first)
+    assert len(kept) == len(first)
+    for a, b in zip(kept[:-1], first[:-1]):  # the way's via point, if any, unchanged
+        assert np.array_equal(a, b)
+    assert np.linalg.norm(kept[-1] - first[-1]) < 0.05  # the end re-targeted next to the former end
+    error = pose_error(kin.fk(kept[-1]), moved)
+    assert np.linalg.norm(error[:3]) <= 1e-6 and np.linalg.norm(error[3:]) <= 1e-6
+    assert not clearance.goes_in(q0, kept)
+
+
+def test_a_previous_way_that_now_goes_in_is_searched_again(kin: MicoKinematics) -> None:
+    # a "previous" way that is the line through the body itself: checked, refused, and the search answers
+    q0 = np.asarray(HOME_Q, dtype=np.float64)
+    q1 = q0 + STEP
+    clearance = PathClearance(kin, default_hand(), CUP, _on_the_way(kin, q0, q1))
+    searched = clear_path(clearance, q0, [q1], kin.fk(q1))
+    again = clear_path(clearance, q0, [q1], kin.fk(q1), previous=[q1])
+    assert len(again) == len(searched) and all(np.array_equal(a, b) for a, b in zip(again, searched))
