@@ -466,12 +466,12 @@ class HandCollision:
                 self._object_cache.popitem(last=False)
         return out
 
-    def open_hand_depth(self, obj_T_ee: ArrayLike, body: ObjectBody) -> tuple[float, float]:
+    def open_hand_depth(self, obj_T_ee: ArrayLike, body: ObjectBody, *, within: float = 0.0) -> tuple[float, float]:
         """How deep the hand at one pose, fingers open, goes into ``body``: (palm/wrist, deepest open finger), m.
 
         ``obj_T_ee`` (4x4): the end effector in the object frame. :class:`Clearance`'s ``palm_depth`` and
-        ``finger_depth`` at that pose alone (coal's signed distance; negative: clear; ``-inf``: a part outside
-        every primitive's bounding sphere), to compare with :data:`LIMITS` ``.palm`` and ``.finger``.
+        ``finger_depth`` at that pose alone (coal's signed distance; negative: clear; ``-inf``: a part whose bounding
+        sphere lies farther than ``within`` (m, >= 0) from every primitive's), to compare with :data:`LIMITS`.
 
         Raises
         ------
@@ -479,7 +479,7 @@ class HandCollision:
             If ``obj_T_ee`` is not a rigid transform.
         """
         T, scene = check_transform(obj_T_ee, 'obj_T_ee'), self._scene(body)
-        depth = [self._depth(shape, pose, scene) for shape, pose in zip(self.shapes, self.parts(T, np.zeros(3)))]
+        depth = [self._depth(sh, pose, scene, within) for sh, pose in zip(self.shapes, self.parts(T, np.zeros(3)))]
         return depth[0], max(depth[1:])
 
     def _scene(self, body: ObjectBody) -> _Scene:
@@ -492,10 +492,10 @@ class HandCollision:
                 scene = self._scenes[body] = _Scene(body)
         return scene
 
-    def _depth(self, shape: _Shape, pose: NDArray[np.float64], scene: _Scene) -> float:
-        """How deep a part at ``pose`` goes into the object (m; negative: clear; -inf: far from every primitive)."""
+    def _depth(self, shape: _Shape, pose: NDArray[np.float64], scene: _Scene, within: float = 0.0) -> float:
+        """How deep a part at ``pose`` goes in (m; < 0: clear; -inf: its bounding sphere ``within`` m clear of all)."""
         centre = pose[:3, 3]
-        near = np.flatnonzero(np.linalg.norm(scene.centres - centre, axis=1) <= scene.radii + shape.radius)
+        near = np.flatnonzero(np.linalg.norm(scene.centres - centre, axis=1) <= scene.radii + shape.radius + within)
         if near.size == 0:
             return -math.inf
         tf = _tf(pose)

@@ -7,7 +7,9 @@ Topics (relative)
     in   ``operator/twist`` (geometry_msgs/TwistStamped, or Twist with ``operator_message_type``; frame
          ``m1n6s300_link_base`` or ``m1n6s300_end_effector``, '' = ``operator_frame``), ``joint_states``,
          ``grasp/pose``, ``grasp/posterior``, ``grasp/features``, ``intent/v``, ``intent/clarification``,
-         ``model/active`` (latched: the demonstrations, whose labels give the planned grasp's task set)
+         ``model/active`` (latched: the demonstrations, whose labels give the planned grasp's task set, and the
+         object's body), ``object/pose`` (the tracked object, as the planner's; ``object_position`` and
+         ``object_orientation`` until one arrives)
     out  ``assistance/twist`` (TwistStamped in ``m1n6s300_link_base``), ``assistance/alpha``
          (std_msgs/Float64, the arbitration weight of that twist), ``/diagnostics`` (``assistance``)
     srv  ``assistance/enable`` (std_srvs/SetBool): the operator's switch; off, the output is the operator's
@@ -20,7 +22,8 @@ Behaviour
     then the zero twist). The kinematics and the assistance's maths run once at start (warm-up), before
     the first output. The maths, alpha's definition and the safety rules are
     :mod:`grasp_intent_ros.shared_control.assistance`. Inputs are keep-last 1 (latest only); staleness is judged by
-    arrival time on the node's clock.
+    arrival time on the node's clock. With a model that has a body, the robot's joint path keeps the open hand
+    clear of it at the object's pose (:mod:`grasp_intent_ros.shared_control.clearance`); without one, unchecked.
 
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.ASSISTANCE`, ``config/assistance.yaml``.
 """
@@ -40,10 +43,13 @@ from std_msgs.msg import Float64, String
 from std_srvs.srv import SetBool
 
 from ..errors import GraspIntentError
+from ..method.body import Cylinder, ObjectBody
 from ..method.features import MICO_3F
 from ..method.intent import all_zones, default_task_names, zone_labels
 from ..method.model import ModelRequirements
+from ..mico.collision import HandCollision
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from ..mico.parameters import check_object_pose, object_pose
 from ..parameters import config_from
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input, subscribe_operator
@@ -56,7 +62,7 @@ from ..shared_control.parameters import ASSISTANCE
 from ..wire import topics
 from ..wire.arrays import msg_labels, msg_to_array, read_features, read_posterior
 from ..wire.model_document import ModelDocument
-from ..wire.robot_state import joint_positions, pose_msg_to_matrix, twist_command
+from ..wire.robot_state import joint_positions, object_pose_msg, pose_msg_to_matrix, twist_command
 
 __all__ = ['AssistanceNode', 'ENABLE_SERVICE', 'main']
 
@@ -72,9 +78,12 @@ class AssistanceNode(Node):
     def __init__(self, node_name: str = 'assistance', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, 'assistance')
-        self._params = declare_parameters(self, ASSISTANCE, on_change=self._configure)
+        self._params = declare_parameters(self, ASSISTANCE, check=check_object_pose, on_change=self._configure)
         self._kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
-        self._assist = Assistance(AssistanceConfig(), TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin)
+        hand = self._params.build('urdf_path', lambda path: HandCollision(path or None))
+        self._assist = Assistance(AssistanceConfig(), TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin, hand)
+        self._base_T_obj = object_pose(self._params)
+        self._body: ObjectBody | None = None
         self._configure(self._params)
         self._warm_up()
         self._last_output = -float('inf')
@@ -91,6 +100,7 @@ class AssistanceNode(Node):
         subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag)
         subscribe_input(self, topics.INTENT_CLARIFICATION, self._on_clarification, input_qos(), diag)
         subscribe_input(self, topics.GRASP_FEATURES, self._on_features, latest, diag)
+        subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, latest, diag)
         self._models = ModelFollower(self, diag, self._use_model, name=f'{node_name}_model',
                                      requires=lambda: ModelRequirements(feature_names=MICO_3F.names))
         self.create_service(SetBool, ENABLE_SERVICE, self._on_enable)
@@ -98,13 +108,17 @@ class AssistanceNode(Node):
         self._timer = self.create_timer(self._period, self._diag.guard_timer(self._publish))
 
     def _warm_up(self) -> None:
-        """One assisted command on a copy at Home (forward and inverse kinematics, Jacobian, arbitration)."""
-        warm = Assistance(self._assist.config, TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin)
+        """One assisted command on a copy at Home (kinematics, Jacobian, arbitration, the path's clearance)."""
+        warm = Assistance(self._assist.config, TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin, self._assist.hand)
         warm.set_joints(HOME_Q.copy())
         assert warm.base_T_ee is not None
         grasp = warm.base_T_ee.copy()
         grasp[:3, 3] += (0.05, 0.0, -0.05)
         warm.set_grasp(grasp)
+        base_T_obj = np.eye(4)
+        base_T_obj[:3, 3] = grasp[:3, 3] + (0.0, 0.0, -0.2)  # an object below the grasp, within the hand's reach
+        cup = Cylinder(np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, 1.0]), 0.04, 0.1)
+        warm.set_object(base_T_obj, ObjectBody((cup,)))
         labels = zone_labels(all_zones(3), default_task_names(3))
         warm.set_v(np.full(7, 1.0 / 7.0), labels)
         warm.set_posterior(np.full(7, 1.0 / 7.0), labels, default_task_names(3))
@@ -118,6 +132,8 @@ class AssistanceNode(Node):
             model = document.model
             self._demos = (model.demo_x, model.demo_sets, model.feature_scale)
             self._update_task_set()
+            self._body = model.body
+            self._assist.set_object(self._base_T_obj, self._body)
 
     def _on_features(self, msg: Any) -> None:
         self._features = read_features(msg)[0]
@@ -141,6 +157,9 @@ class AssistanceNode(Node):
         limiter.max_linear_acceleration = p['max_linear_acceleration']
         limiter.max_angular_acceleration = p['max_angular_acceleration']
         limiter.max_dt = 2.0 * p['publish_period']
+        if {'object_position', 'object_orientation'} & set(changed):
+            self._base_T_obj = object_pose(p)
+        self._assist.set_object(self._base_T_obj, self._body)  # the object, or the clearance's margin, changed
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -155,6 +174,10 @@ class AssistanceNode(Node):
     def _on_joint_state(self, msg: JointState) -> None:
         if (q := joint_positions(msg, ARM_JOINTS)) is not None:
             self._assist.set_joints(q)
+
+    def _on_object_pose(self, msg: PoseStamped) -> None:
+        self._base_T_obj = object_pose_msg(msg, self._params['workspace_radius'])
+        self._assist.set_object(self._base_T_obj, self._body)
 
     def _on_grasp(self, msg: PoseStamped) -> None:
         self._assist.set_grasp(pose_msg_to_matrix(msg, frame_id=BASE_FRAME))

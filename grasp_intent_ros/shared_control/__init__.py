@@ -8,6 +8,8 @@ assistance
     Arbitration (how much to help), the robot's twist toward the grasp, blending and limits.
 joint_path
     The robot twist's joint-space target for a pose with no IK from the arm's joints (the line IK).
+clearance
+    The robot's joint path clear of the object as perceived (tracked pose, model's body): checked, and replaced.
 estimator
     The intent estimator: the operator's twist -> a posterior over the model's demonstrated grasps -> w.
 calibration

@@ -25,8 +25,9 @@ solution from other seeds whose straight joint line from q keeps the hand near t
 its side, or, when no straight line does, whose two lines through one via point do: the joints aim at the
 via point until within :data:`~.joint_path.VIA_REACHED` of it, then at q_t (:func:`~.joint_path.joint_path`;
 "near": within the hand's distance to the grasp when the first path to this proposal was sought, or its
-present distance if larger, plus ``corridor_radius``).
-Without the kinematics, or when there is no such path either, it is proportional to the pose error,
+present distance if larger, plus ``corridor_radius``). A path whose open hand goes into the object as perceived
+(:meth:`Assistance.set_object`) is replaced by a clear one (:func:`~.clearance.clear_path`). Without the
+kinematics, or when there is no such path either, it is proportional to the pose error,
 ``(k_lin (p_t - p), k_ang log3(R_t R^T))`` (the rotation vector in the base frame, :func:`robot_twist`).
 Either way each part is scaled down to its speed limit. Why joint space: the Cartesian twist turns the
 hand along the straight rotation to the target, which for many of the MICO's grasps runs the wrist (joint
@@ -94,11 +95,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidIntentError
+from ..method.body import ObjectBody
 from ..method.intent import parse_zones
+from ..mico.collision import HandCollision
 from ..mico.frames import PRE_GRASP_STANDOFF, REACH_POS, REACH_ROT, offset, pose_error, pre_grasp, reached
 from ..mico.kinematics import MicoKinematics
 from ..planning.ranking import expected_success
 from .approach import in_corridor
+from .clearance import PathClearance, clear_path, default_hand
 from .joint_path import VIA_REACHED, joint_path
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
@@ -334,6 +338,8 @@ class AssistanceConfig:
         Whether the robot's twist moves the hand while the operator gives no input (default False).
     operator_timeout : float
         An operator twist older than this gives the zero twist.
+    clearance_margin : float
+        m: :class:`~.clearance.PathClearance`'s ``margin`` (beyond the planner's limits).
     """
 
     arbitration: Arbitration = 'confidence'
@@ -352,6 +358,7 @@ class AssistanceConfig:
     yield_time: float = 0.15
     assist_without_input: bool = False
     operator_timeout: float = 0.1
+    clearance_margin: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -379,11 +386,13 @@ class Assistance:
 
     Times are seconds of one clock (the node's). Inputs are assumed checked (finite, rigid transforms).
     With ``kin`` the arm's state comes from :meth:`set_joints` and the robot's twist is joint-space
-    (module docstring); without it, from ``base_T_ee`` and the twist is Cartesian.
+    (module docstring); without it, from ``base_T_ee`` and the twist is Cartesian. ``hand``: :meth:`set_object`'s.
     """
 
-    def __init__(self, config: AssistanceConfig, limiter: TwistLimiter, kin: MicoKinematics | None = None) -> None:
-        self.config, self.limiter, self.kin = config, limiter, kin
+    def __init__(self, config: AssistanceConfig, limiter: TwistLimiter, kin: MicoKinematics | None = None,
+                 hand: HandCollision | None = None) -> None:
+        self.config, self.limiter, self.kin, self.hand = config, limiter, kin, hand
+        self.clearance: PathClearance | None = None  # the perceived object (set_object)
         self.base_T_grasp: NDArray[np.float64] | None = None
         self.base_T_ee: NDArray[np.float64] | None = None
         self.q: NDArray[np.float64] | None = None
@@ -391,11 +400,11 @@ class Assistance:
         """False: the output is the operator's twist, exactly (the operator's switch)."""
         self._jacobian: NDArray[np.float64] | None = None
         self._path_reference: float | None = None
-        """The hand's distance to the grasp (m) when a joint path to this proposal was first sought
-        (:meth:`joint_path`)."""
+        """The hand's distance to the grasp (m) when a joint path to this proposal was first sought (joint_path)."""
         self._q_targets: dict[str, list[NDArray[np.float64]] | None] = {}
         """The joint path's points still ahead toward the grasp and the pre-grasp (None: none found), by phase,
-        for the current grasp."""
+        for the current grasp; ``_cleared``: the clear paths that replaced one, by phase, for this proposal."""
+        self._cleared: dict[str, list[NDArray[np.float64]]] = {}
         self.clarification_pending = False
         self.agreement = (1.0, 1.0)
         """The operator's held agreement with the grasp, linear and angular (module docstring)."""
@@ -420,7 +429,7 @@ class Assistance:
             if (float(np.linalg.norm(error[:3])) > self.config.corridor_radius
                     or float(np.linalg.norm(error[3:])) > self.config.corridor_angle):
                 self.agreement, self.yielded, self._since = (1.0, 1.0), False, None
-                self._path_reference = None
+                self._path_reference, self._cleared = None, {}
         self.base_T_grasp, self.clarification_pending = base_T_grasp, False
         self._q_targets = {}
 
@@ -429,6 +438,12 @@ class Assistance:
         if self.kin is None:
             raise ValueError('set_joints needs the kinematics (Assistance(..., kin=...))')
         self.q, self.base_T_ee, self._jacobian = q, self.kin.fk(q), self.kin.jacobian(q)
+
+    def set_object(self, base_T_obj: NDArray[np.float64] | None, body: ObjectBody | None) -> None:
+        """Tracked object pose (base), model's body: new paths clear of it (None: none). KinematicsError: not rigid."""
+        clearance = None if self.kin is None or base_T_obj is None or body is None else PathClearance(
+            self.kin, self.hand or default_hand(), body, base_T_obj, margin=self.config.clearance_margin)
+        self.clearance, self._q_targets = clearance, {}
 
     def set_posterior(self, posterior: NDArray[np.float64], zone_labels: Sequence[str],
                       task_names: Sequence[str]) -> None:
@@ -551,10 +566,16 @@ class Assistance:
         """The robot's twist toward ``base_T_target`` (the grasp or the pre-grasp, ``phase``): module docstring."""
         cfg = self.config
         if self.kin is not None and self.q is not None and self._jacobian is not None:
-            if phase not in self._q_targets:
+            targets, clearance = self._q_targets, self.clearance  # set_grasp and set_object replace them
+            if phase not in targets:
                 ik = self.kin.ik(base_T_target, self.q, restarts=0)  # the solution the joints descend to
-                self._q_targets[phase] = [ik.q] if ik.success else self.joint_path(base_T_target)
-            path = self._q_targets[phase]
+                path = [ik.q] if ik.success else self.joint_path(base_T_target)
+                if path is not None and clearance is not None:
+                    cleared = clear_path(clearance, self.q, path, base_T_target, self._cleared.get(phase))
+                    if cleared is not path:
+                        path = self._cleared[phase] = cleared
+                targets[phase] = path
+            path = targets[phase]
             if path is not None:
                 if len(path) > 1 and float(np.linalg.norm(path[0] - self.q)) <= VIA_REACHED:
                     path.pop(0)  # the via point reached: on to the target

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from ..mico.kinematics import HOME_Q, MicoKinematics
 
-__all__ = ['LINE_IK_SEEDS', 'LINE_IK_CHECKS', 'VIA_REACHED', 'joint_path']
+__all__ = ['LINE_IK_SEEDS', 'LINE_IK_CHECKS', 'VIA_REACHED', 'ik_candidates', 'joint_path']
 
 LINE_IK_SEEDS = 32
 """Seeds tried (Home, then random ones) for a target that has no IK from the joints (:func:`joint_path`): each of
@@ -28,9 +28,14 @@ VIA_REACHED = 0.05
 the path's next point)."""
 
 
-def _candidates(kin: MicoKinematics, q: NDArray[np.float64],
-                base_T_target: NDArray[np.float64]) -> list[NDArray[np.float64]]:
-    """The target's IK solutions from the seeds, in seed order, on q's branch and wrist side, each once."""
+def ik_candidates(kin: MicoKinematics, q: NDArray[np.float64],
+                  base_T_target: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+    """The target's IK solutions from the :data:`LINE_IK_SEEDS` seeds, in seed order, each once (the first seed's).
+
+    The IK (no restarts) from Home, then from the IK's restart seeds about q
+    (:meth:`~grasp_intent_ros.mico.kinematics.MicoKinematics.restart_seed`) from a generator seeded 0; each solution
+    on the 2 pi branch nearest q, kept when the wrist (joint 5) is on q's side of 0 and pi (sin q5 keeps its sign).
+    """
     rng = np.random.default_rng(0)
     seeds = [np.asarray(HOME_Q, dtype=np.float64)]
     seeds += [kin.restart_seed(q, rng) for _ in range(LINE_IK_SEEDS - 1)]
@@ -117,7 +122,7 @@ def joint_path(kin: MicoKinematics, q: NDArray[np.float64], base_T_target: NDArr
     grasp = base_T_grasp[:3, 3]
     present = float(np.linalg.norm(kin.fk(q)[:3, 3] - grasp))
     bound = max(present, reference) + slack
-    candidates = _candidates(kin, q, base_T_target)
+    candidates = ik_candidates(kin, q, base_T_target)
     best: list[NDArray[np.float64]] | None = None
     best_length = np.inf
     for q_t in candidates:

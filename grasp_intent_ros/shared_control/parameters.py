@@ -70,12 +70,16 @@ ASSISTANCE = (
               'while the operator gives no input (both parts within their deadbands).'),
     ParamSpec('operator_timeout', _ASSIST.operator_timeout, 'Operator twist age (s) from which the output is '
               'the zero twist (MoveIt Servo: incoming_command_timeout).', range=(0.001, 10.0)),
+    ParamSpec('clearance_margin', _ASSIST.clearance_margin, "m: how far beyond the planner's collision limits the "
+              "robot's joint path keeps the open hand from the object (its body in the active model, at the "
+              'object pose).', range=(0.0, 0.5)),
     ParamSpec('max_linear', 0.2, 'Output speed limit, m/s.', range=_POSITIVE),
     ParamSpec('max_angular', 1.0, 'Output angular speed limit, rad/s.', range=_POSITIVE),
     ParamSpec('max_linear_acceleration', 1.0, 'Output acceleration limit, m/s^2.', range=_POSITIVE),
     ParamSpec('max_angular_acceleration', 5.0, 'Output angular acceleration limit, rad/s^2.', range=_POSITIVE),
     ParamSpec('publish_period', 0.01, 'Longest time between two outputs, s (MoveIt Servo: publish_period).',
               range=(0.001, 1.0), read_only=True),
+    *OBJECT_POSE,
     *OPERATOR_INPUT,
     URDF_PATH,
 )

@@ -378,6 +378,7 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
     rule = 'none' if condition == 'direct' else 'confidence'
     limiter = TwistLimiter(0.2, 1.0, 1.0, 5.0, max_dt=2.0 * period)
     assistance = Assistance(AssistanceConfig(**{**base.__dict__, 'arbitration': rule}), limiter, kin)
+    assistance.set_object(scene.base_T_obj, scene.model.body)  # the robot's perception: the tracked pose
     ada = AdaAssistance([g for g, _ in ada_goals], limiter) if condition == 'ada' else None
     stream = PlanStream(scene, 'single' if condition == 'independent' else 'intent', plan_cache)
     arm = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0])

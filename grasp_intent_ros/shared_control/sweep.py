@@ -13,14 +13,13 @@ It is a judge's measurement: nothing that plans, assists, operates or estimates 
 
 Spacing of the checks: the teleoperated loop checks every :data:`SWEEP_TICKS` simulator steps. Under the
 assistance's output limits (0.2 m/s, 1 rad/s; ADA's command has the same limiter) every hand part, within
-:data:`HAND_REACH` of the end effector, moves at most 0.2 + 1.0 x 0.17 = 0.37 m/s, so at most 7.4 mm between
-two checks 0.02 s apart. The executed grasp's trajectory (:func:`.simulator.execute_grasp`) runs at the
-joints' speed limits, so it is checked at every step (0.01 s).
+:data:`~.clearance.HAND_REACH` of the end effector, moves at most 0.2 + 1.0 x 0.17 = 0.37 m/s,
+so at most 7.4 mm between two checks 0.02 s apart. The executed grasp's trajectory
+(:func:`.simulator.execute_grasp`) runs at the joints' speed limits, so it is checked at every step (0.01 s).
 """
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
@@ -29,21 +28,12 @@ from numpy.typing import NDArray
 from ..method.body import ObjectBody
 from ..mico.collision import LIMITS, HandCollision, Limits
 from ..mico.kinematics import MicoKinematics
+from .clearance import HAND_REACH, default_hand
 
 __all__ = ['SWEEP_TICKS', 'HAND_REACH', 'PathSweep', 'default_hand']
 
 SWEEP_TICKS = 2
 """Simulator steps (of 0.01 s) between two checks of the teleoperated path (module docstring)."""
-HAND_REACH = 0.17
-"""Upper bound (m) on the distance of any point of the open hand's collision primitives from the end effector
-(the URDF's: 0.169)."""
-
-
-@functools.cache
-def default_hand() -> HandCollision:
-    """The MICO hand of the package's URDF, built once per process."""
-    return HandCollision()
-
 
 class PathSweep:
     """The deepest the open hand goes into ``body`` over the poses it is shown (:meth:`check`), true object frame.

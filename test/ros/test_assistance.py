@@ -13,14 +13,17 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, String
 from std_srvs.srv import SetBool
 
+from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.nodes.assistance import ENABLE_SERVICE, AssistanceNode
+from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.conversions import array_to_msg, posterior_to_msg
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control.assistance import joint_space_twist
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.diagnostics import WARN
+from grasp_intent_ros.wire.model_document import ModelDocument
 
 LABELS = ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
 TASKS = ('usage', 'transfer', 'handover')
@@ -185,3 +188,25 @@ def test_bad_inputs_are_rejected_and_the_node_serves_on(ros, status_finder) -> N
     count = len(loop.twists)
     loop.operator.publish(twist_msg(linear=(0.01, 0.0, 0.0)))
     assert ros.wait_for(lambda: len(loop.twists) > count + 5, 5.0)
+
+
+def test_the_object_pose_sets_the_path_clearance_and_a_bad_one_is_rejected(ros, status_finder) -> None:
+    # no model: no body, no check, and the node serves; a model with a body (the cup's) at the object pose: the
+    # robot's path is checked against it; a pose out of the workspace is rejected and the node serves on
+    loop = Loop(ros)
+    loop.assist()
+    assert loop.node._assist.clearance is None
+    pose = pose_to_matrix((0.35, -0.25, 0.0), (0.0, 0.0, 0.0, 1.0))
+    cup = ModelFiles(config_dir() / 'models').load('cup_7zone')
+    loop.node._use_model(ModelDocument('cup_7zone', 1, '0' * 64, cup))
+    object_pose = ros.publisher(PoseStamped, topics.OBJECT_POSE)
+    msg = matrix_to_pose_msg(pose, frame_id=BASE_FRAME, stamp=ros.node.get_clock().now().to_msg())
+    assert ros.publish_until(object_pose, msg, lambda: loop.node._assist.clearance is not None and np.allclose(
+        loop.node._assist.clearance.obj_T_base @ pose, np.eye(4), atol=1e-12), 10.0)
+    statuses = ros.diagnostics()
+    far = matrix_to_pose_msg(pose_to_matrix((3.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)), frame_id=BASE_FRAME,
+                             stamp=ros.node.get_clock().now().to_msg())
+    assert ros.publish_until(object_pose, far, lambda: status_finder(statuses, ': assistance', level=bytes([WARN]),
+                                                                    text='from the base'), 10.0)
+    assert np.allclose(loop.node._assist.clearance.obj_T_base @ pose, np.eye(4), atol=1e-12)  # the last good pose
+    loop.assist()
