@@ -29,8 +29,9 @@ a reliability diagram.
 reaches: its Brier score and calibration error, and the paired Brier difference of the defaults minus it; e.g. a
 candidate default, or a calibration map (``calibration_slope=1.4 calibration_offset=-0.09``).
 
-``--fit`` searches the estimator's rationality and memory on training seeds (``--seed`` + 100) and prints
-the grid; ``--fit-calibration`` fits the calibration map of the marginals (``calibration_slope``,
+``--fit`` searches the estimator's rationality and memory on training seeds (``--seed`` + 100), both devices
+(``--device`` is ignored), and prints the grid of both devices' scores and their mean, and the point whose mean
+is least (:func:`fit`); ``--fit-calibration`` fits the calibration map of the marginals (``calibration_slope``,
 ``calibration_offset``: :mod:`grasp_intent_ros.shared_control.calibration`) to the uncalibrated estimator's w
 at 25 / 50 / 75 % of the path of the training seeds' reaches, both devices, per object (the node's
 ``calibration_models``) and the objects pooled, and prints them with the training reaches' calibration error
@@ -71,6 +72,8 @@ FRACTIONS = (0.25, 0.5, 0.75)
 BETAS = (30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0)
 MEMORIES = (0.05, 0.1, 0.2, 0.4, 1.0)
 """The grid of ``--fit``: rationality (1/m) and memory (m)."""
+FIT_DEVICES: tuple[Device, ...] = ('joystick', 'spacemouse')
+"""The operator devices ``--fit`` and ``--fit-calibration`` score, alike."""
 W_EVERY = 10
 """Operator ticks per scripted w (10 Hz, as the shared-control benchmark sends it)."""
 
@@ -254,28 +257,35 @@ def compare(runs: list[Reach], est: np.ndarray, other: np.ndarray, label: str) -
 
 
 def fit(names: list[str], args: argparse.Namespace, kin: MicoKinematics, op: OperatorConstants) -> None:
-    """Grid of rationality x memory on the training seeds (no calibration map): mean Brier over the fractions."""
-    runs = {name: reaches(name, args.seed + 100, args.operators, args.goals, kin, op, args.timeout, args.device)
-            for name in names}
+    """Grid of rationality x memory on the training seeds (no calibration map), both devices.
+
+    A grid point's score on one device is its mean Brier score over the fractions and the objects; the choice
+    minimises the mean of the devices' scores (on an exact tie the first in grid order: the smaller rationality,
+    then the smaller memory).
+    """
+    runs = {(name, device): reaches(name, args.seed + 100, args.operators, args.goals, kin, op, args.timeout, device)
+            for name in names for device in FIT_DEVICES}
     base = {name: estimator_for(name, kin, EstimatorConfig()) for name in names}
-    print(f'fit on seed {args.seed + 100}, {args.operators} operators per object; mean Brier over 25/50/75 %')
-    best = None
-    for beta in BETAS:
-        line = []
-        for memory in MEMORIES:
-            score = 0.0
-            for name in names:
-                est = base[name]
-                est.config = replace(EstimatorConfig(), rationality=beta, memory=memory, calibration_slope=1.0,
-                                     calibration_offset=0.0)
-                truth = np.array([indicator(r.task_set) for r in runs[name]])
-                w = estimates(runs[name], est)
-                score += float(np.mean([brier(w[:, k], truth).mean() for k in range(len(FRACTIONS))])) / len(names)
-            line.append(f'{score:.3f}')
-            if best is None or score < best[0]:
-                best = (score, beta, memory)
-        print(f'  beta {beta:5.1f}: ' + ' '.join(line) + f'   (memory {MEMORIES} m)')
-    print(f'best: beta {best[1]}, memory {best[2]} (score {best[0]:.3f})')
+    print(f'fit on seed {args.seed + 100}, {args.operators} operators per object and device; mean Brier over '
+          f'25/50/75 % and the objects; each cell {" / ".join(FIT_DEVICES)} / their mean; memory {MEMORIES} m',
+          flush=True)
+    scores = np.zeros((len(BETAS), len(MEMORIES), len(FIT_DEVICES)))
+    for i, beta in enumerate(BETAS):
+        for j, memory in enumerate(MEMORIES):
+            config = replace(EstimatorConfig(), rationality=beta, memory=memory, calibration_slope=1.0,
+                             calibration_offset=0.0)
+            for d, device in enumerate(FIT_DEVICES):
+                for name in names:
+                    base[name].config = config
+                    truth = np.array([indicator(r.task_set) for r in runs[name, device]])
+                    w = estimates(runs[name, device], base[name])
+                    scores[i, j, d] += float(np.mean([brier(w[:, k], truth).mean()
+                                                      for k in range(len(FRACTIONS))])) / len(names)
+        print(f'  beta {beta:7.1f}: ' + '  '.join(' / '.join(f'{v:.4f}' for v in (*scores[i, j], scores[i, j].mean()))
+                                                  for j in range(len(MEMORIES))), flush=True)
+    i, j = np.unravel_index(int(np.argmin(scores.mean(axis=2))), scores.shape[:2])  # the first minimum, row-major
+    print(f'best: beta {BETAS[i]}, memory {MEMORIES[j]} (mean {scores[i, j].mean():.4f}; '
+          + ', '.join(f'{device} {v:.4f}' for device, v in zip(FIT_DEVICES, scores[i, j])) + ')')
 
 
 def calibration_fit(names: list[str], args: argparse.Namespace, kin: MicoKinematics, op: OperatorConstants) -> None:
@@ -286,7 +296,7 @@ def calibration_fit(names: list[str], args: argparse.Namespace, kin: MicoKinemat
     cells: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
     for name in names:
         estimator = estimator_for(name, kin, raw)
-        for device in ('joystick', 'spacemouse'):
+        for device in FIT_DEVICES:
             runs = reaches(name, args.seed + 100, args.operators, args.goals, kin, op, args.timeout, device)
             truth = np.array([indicator(r.task_set) for r in runs])
             cells[name, device] = (estimates(runs, estimator), np.broadcast_to(truth[:, None, :], (len(runs),
@@ -297,7 +307,7 @@ def calibration_fit(names: list[str], args: argparse.Namespace, kin: MicoKinemat
     slope, offset = fit_calibration(w, y, raw.w_floor)
     print(f'fit (all pooled): calibration_slope={slope:.4f} calibration_offset={offset:.4f}')
     for name in names:
-        one = [cells[name, d] for d in ('joystick', 'spacemouse')]
+        one = [cells[name, d] for d in FIT_DEVICES]
         a, b = fit_calibration(np.concatenate([c[0] for c in one]), np.concatenate([c[1] for c in one]), raw.w_floor)
         print(f'  {name} alone: slope {a:.4f}, offset {b:.4f}')
     print('training reaches, ECE before / after the pooled map at 25 / 50 / 75 %:')
@@ -339,7 +349,8 @@ def main() -> None:
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--timeout', type=float, default=25.0)
     parser.add_argument('--device', choices=('joystick', 'spacemouse'), default='joystick')
-    parser.add_argument('--fit', action='store_true', help='search rationality x memory on seed + 100 instead')
+    parser.add_argument('--fit', action='store_true',
+                        help='search rationality x memory on seed + 100, both devices, instead')
     parser.add_argument('--fit-calibration', action='store_true',
                         help='fit the calibration map on seed + 100, both devices, instead')
     parser.add_argument('--compare', nargs='+', default=[], metavar='FIELD=VALUE',
