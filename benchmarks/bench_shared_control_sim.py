@@ -54,10 +54,13 @@ pass through the object): a run swept when, along the hand's path from the start
 trajectory included), the palm/wrist went deeper into the object's body than the planner's limit (1 mm) or an
 open finger deeper than its (5 mm), in the true object frame
 (:class:`~grasp_intent_ros.shared_control.sweep.PathSweep`); each record has ``swept`` and the deepest
-``swept_palm_mm``, ``swept_finger_mm`` (None: never near the body), each cell's summary the count of runs that
-swept per condition. **Success with a clear path** (``clear``): success, and the run did not sweep: what a real
-arm, whose hand would push or knock the object on the way, could count on; reported beside success, per
-condition and paired (the same pairs), for records that carry ``swept``.
+``swept_palm_mm``, ``swept_finger_mm`` (None: never near the body), the same at the pose where the hand closed
+(``closing_palm_mm``, ``closing_finger_mm``) and whether that pose itself is past the limits (``in_at_closing``:
+the grasp as executed or reached, not only the way to it, went in), each cell's summary the count of runs that
+swept per condition and how many of them were in at the closing pose. **Success with a clear path**
+(``clear``): success, and the run did not sweep: what a real arm, whose hand would push or knock the object on
+the way, could count on; reported beside success, per condition and paired (the same pairs), for records that
+carry ``swept``.
 
 Statistics: per episode the mean over repeats; paired differences (:data:`PAIRS`: the suite minus each other
 condition, estimated w minus scripted w (the suite) and minus direct) with a 95% percentile bootstrap over
@@ -211,7 +214,9 @@ def run_task(task: Task) -> list[dict[str, Any]]:
                             'pursued': ep.pursued, 'executed': ep.executed, 'effort_linear': ep.effort_linear,
                             'effort_angular': ep.effort_angular, 'wrong_pull': wrong, 'alpha_mean': ep.alpha_mean,
                             'swept': ep.swept, 'swept_palm_mm': _mm(ep.swept_palm),
-                            'swept_finger_mm': _mm(ep.swept_finger), 'wall_s': time.perf_counter() - t0})
+                            'swept_finger_mm': _mm(ep.swept_finger), 'in_at_closing': ep.in_at_closing,
+                            'closing_palm_mm': _mm(ep.closing_palm), 'closing_finger_mm': _mm(ep.closing_finger),
+                            'wall_s': time.perf_counter() - t0})
             if trace is not None:
                 records[-1].update(trace_record(trace, ep, rules))
     return records
@@ -279,6 +284,8 @@ def summarise(records: list[dict[str, Any]], timeout: float) -> dict[str, Any]:
         if swept:
             runs = [r for r in records if r['condition'] == c]
             table[c]['swept'] = [sum(r['swept'] for r in runs), len(runs)]
+            if all('in_at_closing' in r for r in runs):  # older --records files lack it
+                table[c]['in_at_closing'] = sum(r['in_at_closing'] for r in runs)
             table[c]['clear'] = float(np.mean([clear[c][e] for e in eps]))
     for a, other in [(a, b) for a, b in PAIRS if a in success and b in success]:
         eps = sorted(success[a])
@@ -378,7 +385,8 @@ def report_cells(records: list[dict[str, Any]], args: argparse.Namespace, object
             print(f'\n[{o} / {op}] {episodes} episodes x {repeats} repeats')
             for c in [c for c in RUN if c in table]:
                 row = table[c]
-                swept = (f'  swept {row["swept"][0]}/{row["swept"][1]} runs  clear success {row["clear"]:.3f}'
+                closing = f' ({row["in_at_closing"]} in at the closing pose)' if 'in_at_closing' in row else ''
+                swept = (f'  swept {row["swept"][0]}/{row["swept"][1]} runs{closing}  clear success {row["clear"]:.3f}'
                          if 'swept' in row else '')
                 print(f'  {c:12s} success {row["success"]:.3f}  median time {row["median_time"]:5.2f} s  '
                       f'effort {row["effort_linear"]:.3f} m  wrong pull {row["wrong_pull"]:.3f} alpha s{swept}')

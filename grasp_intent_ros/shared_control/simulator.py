@@ -229,7 +229,7 @@ class AdaAssistance:
 
 
 def execute_grasp(arm: MockArm, base_T_grasp: NDArray[np.float64], now: float, period: float,
-                  on_step: Callable[[NDArray[np.float64]], None] | None = None) -> float:
+                  on_step: Callable[[NDArray[np.float64]], object] | None = None) -> float:
     """Move ``arm`` to the grasp ``base_T_grasp`` (4x4, base frame) from ``now``: the time (s) it arrives there.
 
     The trajectory goes from the arm's joints to the grasp's inverse kinematics from them (no restarts; the 2 pi
@@ -328,6 +328,10 @@ class Episode:
         (:class:`~.sweep.PathSweep`; negative: clear by that much; ``-inf``: never near it). A judge's figure.
     swept : bool
         Whether that path swept into the object: deeper than :data:`~grasp_intent_ros.mico.collision.LIMITS`.
+    closing_palm, closing_finger : float
+        The same depths at the pose where the hand closed (or stood at the timeout), m.
+    in_at_closing : bool
+        Whether that pose itself is deeper than the limits (a sweep at the grasp, not only on the way).
     """
 
     closed_at: float | None = None
@@ -343,6 +347,9 @@ class Episode:
     swept_palm: float = -math.inf
     swept_finger: float = -math.inf
     swept: bool = False
+    closing_palm: float = -math.inf
+    closing_finger: float = -math.inf
+    in_at_closing: bool = False
 
 
 def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator: ScriptedOperator,
@@ -467,8 +474,10 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
                 entry[1] += command.alpha * period  # type: ignore[operator]
         arm.command_twist(TwistCommand(twist[:3], twist[3:], BASE_FRAME), now)
         arm.step(now + period, period)
-    sweep.check(arm.q[:6])  # where the hand closed (or stood at the timeout)
+    sweep.close(arm.q[:6])  # where the hand closed (or stood at the timeout)
     episode.swept_palm, episode.swept_finger, episode.swept = sweep.palm, sweep.finger, sweep.swept()
+    episode.closing_palm, episode.closing_finger = sweep.closing_palm, sweep.closing_finger
+    episode.in_at_closing = sweep.in_at_closing()
     episode.task_set = intent.task_set(tick * period)
     episode.alpha_mean = alpha_sum / max(tick, 1)
     episode.pulls = [(np.asarray(x), float(s)) for x, s in pull.values()]  # type: ignore[arg-type]

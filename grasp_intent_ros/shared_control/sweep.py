@@ -53,6 +53,8 @@ class PathSweep:
     palm, finger : float
         The deepest (m) the palm/wrist and an open finger went into the body over the checked poses; negative:
         clear by that much; ``-inf``: never near the body (:meth:`HandCollision.open_hand_depth`).
+    closing_palm, closing_finger : float
+        The same at the pose where the hand closed (:meth:`close`); ``-inf`` until then.
     """
 
     def __init__(self, kin: MicoKinematics, body: ObjectBody | None, base_T_obj_true: NDArray[np.float64],
@@ -60,15 +62,27 @@ class PathSweep:
         self.kin, self.body = kin, body
         self.hand = hand if hand is not None else default_hand()
         self.obj_T_base = np.linalg.inv(base_T_obj_true)
-        self.palm = self.finger = -math.inf
+        self.palm = self.finger = self.closing_palm = self.closing_finger = -math.inf
 
-    def check(self, q_arm: NDArray[np.float64]) -> None:
-        """Take the hand, fingers open, at the arm's joints ``q_arm`` (rad, shape (6,)) into the maxima."""
+    def check(self, q_arm: NDArray[np.float64]) -> tuple[float, float]:
+        """Take the hand, fingers open, at the arm's joints ``q_arm`` (rad, shape (6,)) into the maxima.
+
+        Returns its palm/wrist and finger depths there (m; ``-inf`` without a body).
+        """
         if self.body is None:
-            return
+            return -math.inf, -math.inf
         palm, finger = self.hand.open_hand_depth(self.obj_T_base @ self.kin.fk(q_arm), self.body)
         self.palm, self.finger = max(self.palm, palm), max(self.finger, finger)
+        return palm, finger
+
+    def close(self, q_arm: NDArray[np.float64]) -> None:
+        """:meth:`check` at the pose where the hand closed (or stood at the end), kept as the closing depths."""
+        self.closing_palm, self.closing_finger = self.check(q_arm)
 
     def swept(self, limits: Limits = LIMITS) -> bool:
         """Whether the palm went deeper than ``limits.palm`` or an open finger deeper than ``limits.finger``."""
         return self.palm > limits.palm or self.finger > limits.finger
+
+    def in_at_closing(self, limits: Limits = LIMITS) -> bool:
+        """Whether the closing pose itself (:meth:`close`) is deeper than ``limits`` (then the run swept)."""
+        return self.closing_palm > limits.palm or self.closing_finger > limits.finger

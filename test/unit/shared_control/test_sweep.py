@@ -78,10 +78,34 @@ def test_a_path_through_the_object_sweeps_and_the_approach_along_the_axis_does_n
     assert not ends.swept()
 
 
+def test_the_closing_pose_is_told_from_the_way(kin: MicoKinematics) -> None:
+    """A path through the cup that closes clear of it: swept on the way only; closing inside it: in at the closing."""
+    obj_T_grasp = features_to_obj_T_ee(SIDE)
+    base_T_obj = kin.fk(ANCHOR_Q) @ np.linalg.inv(obj_T_grasp)
+    start, middle, end = obj_T_grasp.copy(), obj_T_grasp.copy(), obj_T_grasp.copy()
+    start[:3, 3] = (-0.02, 0.15, 0.05)
+    middle[:3, 3] = (-0.02, 0.0, 0.05)
+    end[:3, 3] = (-0.02, -0.15, 0.05)
+    way = PathSweep(kin, CUP_BODY, base_T_obj)
+    *path, last = _path(kin, start, end, base_T_obj)
+    for q in path:
+        way.check(q)
+    way.close(last)
+    assert way.swept() and not way.in_at_closing()
+    assert way.closing_palm < 0.0 < way.palm  # the deepest was on the way; the closing pose is clear
+    inside = PathSweep(kin, CUP_BODY, base_T_obj)
+    *path, last = _path(kin, start, middle, base_T_obj)
+    for q in path:
+        inside.check(q)
+    inside.close(last)
+    assert inside.swept() and inside.in_at_closing()
+    assert inside.closing_palm > LIMITS.palm and inside.palm >= inside.closing_palm
+
+
 def test_without_a_body_nothing_sweeps(kin: MicoKinematics) -> None:
     sweep = PathSweep(kin, None, np.eye(4))
-    sweep.check(HOME_Q)
-    assert (sweep.palm, sweep.finger, sweep.swept()) == (-math.inf, -math.inf, False)
+    sweep.close(HOME_Q)
+    assert (sweep.palm, sweep.finger, sweep.swept(), sweep.in_at_closing()) == (-math.inf, -math.inf, False, False)
 
 
 def test_the_hand_reach_bounds_the_hand_s_collision_primitives() -> None:
