@@ -86,6 +86,7 @@ input (older than the timeout) gives the zero twist at once, without the acceler
 
 from __future__ import annotations
 
+import functools
 import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -103,7 +104,7 @@ from ..mico.kinematics import MicoKinematics
 from ..planning.ranking import expected_success
 from .approach import in_corridor
 from .clearance import PathClearance, clear_path, default_hand
-from .joint_path import VIA_REACHED, joint_path
+from .joint_path import VIA_REACHED, joint_path, near_grasp
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
            'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached',
@@ -324,10 +325,8 @@ class AssistanceConfig:
         Of :func:`arbitration`.
     standoff, corridor_radius, corridor_angle
         Of :func:`assistance_target`.
-    gain_linear, gain_angular, robot_max_linear, robot_max_angular
-        Of :func:`robot_twist` (1/s, 1/s, m/s, rad/s); the speed limits also bound :func:`joint_space_twist`.
-    gain_joint : float
-        Of :func:`joint_space_twist` (1/s).
+    gain_linear, gain_angular, robot_max_linear, robot_max_angular, gain_joint
+        Of :func:`robot_twist` (1/s, 1/s, m/s, rad/s; the limits bound :func:`joint_space_twist` too), its gain (1/s).
     deadband_linear, deadband_angular : float
         Operator speeds (m/s, rad/s) up to which a part is no input: no evidence for
         :func:`operator_agreement`, and no input at all when both parts are within them.
@@ -370,8 +369,7 @@ class Command:
     twist : ndarray, shape (6,)
         The blended, limited twist (base frame).
     alpha : float
-        The arbitration weight it was blended with (0 when there was nothing to assist, and for the stop of a
-        stale operator input).
+        The arbitration weight it was blended with (0: nothing to assist, or the stop of a stale operator input).
     phase : str
         'pre-grasp' or 'grasp' (what the robot's twist aims at), or why there is no assistance.
     """
@@ -570,8 +568,10 @@ class Assistance:
             if phase not in targets:
                 ik = self.kin.ik(base_T_target, self.q, restarts=0)  # the solution the joints descend to
                 path = [ik.q] if ik.success else self.joint_path(base_T_target)
-                if path is not None and clearance is not None:
-                    cleared = clear_path(clearance, self.q, path, base_T_target, self._cleared.get(phase))
+                if path is not None and clearance is not None and self.base_T_grasp is not None:
+                    near = functools.partial(near_grasp, self.kin, self.q, base_T_grasp=self.base_T_grasp,
+                                             slack=cfg.corridor_radius, reference=self._reference())
+                    cleared = clear_path(clearance, self.q, path, base_T_target, self._cleared.get(phase), near)
                     if cleared is not path:
                         path = self._cleared[phase] = cleared
                 targets[phase] = path
@@ -586,15 +586,14 @@ class Assistance:
                            max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)
 
     def joint_path(self, base_T_target: NDArray[np.float64]) -> list[NDArray[np.float64]] | None:
-        """:func:`~.joint_path.joint_path` from the joints toward ``base_T_target`` (slack: ``corridor_radius``).
-
-        Its reference distance is the hand's distance to the grasp at the first call for this proposal (a grasp
-        moved by more than the corridor is a new one: :meth:`set_grasp`). Needs the kinematics, the joints and
-        the grasp (``Assistance(..., kin)``, :meth:`set_joints`, :meth:`set_grasp`).
-        """
+        """:func:`~.joint_path.joint_path` toward ``base_T_target``: slack ``corridor_radius``, :meth:`_reference`."""
         assert self.kin is not None and self.q is not None and self.base_T_grasp is not None
-        assert self.base_T_ee is not None
+        return joint_path(self.kin, self.q, base_T_target, self.base_T_grasp, slack=self.config.corridor_radius,
+                          reference=self._reference())
+
+    def _reference(self) -> float:
+        """m: the hand's distance to the grasp when a path to this proposal was first sought (set_grasp resets)."""
+        assert self.base_T_ee is not None and self.base_T_grasp is not None
         if self._path_reference is None:
             self._path_reference = float(np.linalg.norm(self.base_T_ee[:3, 3] - self.base_T_grasp[:3, 3]))
-        return joint_path(self.kin, self.q, base_T_target, self.base_T_grasp, slack=self.config.corridor_radius,
-                          reference=self._path_reference)
+        return self._path_reference

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -150,16 +150,16 @@ def _length(q: NDArray[np.float64], path: Sequence[NDArray[np.float64]]) -> floa
 
 
 def clear_path(clearance: PathClearance, q: NDArray[np.float64], path: list[NDArray[np.float64]],
-               base_T_target: NDArray[np.float64],
-               previous: list[NDArray[np.float64]] | None = None) -> list[NDArray[np.float64]]:
+               base_T_target: NDArray[np.float64], previous: list[NDArray[np.float64]] | None = None,
+               admissible: Callable[[list[NDArray[np.float64]]], bool] | None = None) -> list[NDArray[np.float64]]:
     """A joint path from ``q`` to an IK of ``base_T_target`` whose open hand stays clear of the perceived object.
 
     ``path`` (the assistance's: ``[q_t]`` or ``[v, q_t]``) is returned unchanged when it does not go in
     (:meth:`PathClearance.goes_in`). Else, given ``previous`` (this function's earlier answer for the same
     proposal, its points still ahead, when that answer replaced the assistance's path), the previous path
     re-targeted: its points but the last, then the IK (no restarts) of ``base_T_target`` seeded at its last point,
-    on the branch nearest q; returned when that IK succeeds, keeps the wrist (joint 5) on q's side of 0 and pi
-    and the path does not go in. So a plan that moves by millimetres keeps the clear way it had (no switching
+    on the branch nearest q; returned when that IK succeeds, keeps the wrist (joint 5) on q's side of 0 and pi,
+    is ``admissible`` and does not go in. So a plan that moves by millimetres keeps the clear way it had (no switching
     between clear ways as the plan jitters) for one check instead of a search. Else the candidates are, in this
     order:
 
@@ -171,8 +171,10 @@ def clear_path(clearance: PathClearance, q: NDArray[np.float64], path: list[NDAr
        :data:`RETREATS` x :data:`LIFTS` but (0, 0), r the outer loop; kept when the IK succeeds and v keeps the
        wrist (joint 5) on q's side of 0 and pi.
 
+    Candidates that are not ``admissible`` (when given; the assistance's: the hand stays near the grasp on the
+    way, :func:`~.joint_path.near_grasp`, so that no clear way is a detour around the workspace) are dropped.
     The answer minimises the joint-space length (the sum of the lines' Euclidean lengths) over the
-    :data:`MAX_CHECKED` shortest candidates, among those that do not go in; ties: the earlier candidate. They are
+    :data:`MAX_CHECKED` shortest candidates left, among those that do not go in; ties: the earlier candidate. They are
     checked in that order (length, then position), so only those shorter than the answer are checked. When none
     of them is clear: ``path`` (the assistance's own choice; the operator's share still steers the hand).
 
@@ -187,6 +189,8 @@ def clear_path(clearance: PathClearance, q: NDArray[np.float64], path: list[NDAr
         The target (the grasp or its pre-grasp), base frame.
     previous : list of ndarray, shape (6,), optional
         The earlier answer that replaced a path for this proposal (its points ahead), rad.
+    admissible : callable, optional
+        A path (its points after q) -> whether it may be taken; None: every path may.
 
     Returns
     -------
@@ -200,7 +204,8 @@ def clear_path(clearance: PathClearance, q: NDArray[np.float64], path: list[NDAr
         ik = kin.ik(base_T_target, previous[-1], restarts=0)
         if ik.success:
             kept = [*previous[:-1], kin.nearest_branch(ik.q, q)]
-            if np.sin(kept[-1][4]) * np.sin(q[4]) > 0.0 and not clearance.goes_in(q, kept):
+            if (np.sin(kept[-1][4]) * np.sin(q[4]) > 0.0 and (admissible is None or admissible(kept))
+                    and not clearance.goes_in(q, kept)):
                 return kept
     ends = [path[-1], *ik_candidates(kin, q, base_T_target)]
     candidates: list[list[NDArray[np.float64]]] = [[q_e] for q_e in ends[1:]]
@@ -218,6 +223,8 @@ def clear_path(clearance: PathClearance, q: NDArray[np.float64], path: list[NDAr
                 via = kin.nearest_branch(ik.q, q)
                 if np.sin(via[4]) * np.sin(q[4]) > 0.0:
                     candidates.append([via, q_e])
+    if admissible is not None:
+        candidates = [c for c in candidates if admissible(c)]
     order = sorted(range(len(candidates)), key=lambda i: (_length(q, candidates[i]), i))
     for i in order[:MAX_CHECKED]:
         if not clearance.goes_in(q, candidates[i]):

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from ..mico.kinematics import HOME_Q, MicoKinematics
 
-__all__ = ['LINE_IK_SEEDS', 'LINE_IK_CHECKS', 'VIA_REACHED', 'ik_candidates', 'joint_path']
+__all__ = ['LINE_IK_SEEDS', 'LINE_IK_CHECKS', 'VIA_REACHED', 'ik_candidates', 'near_grasp', 'joint_path']
 
 LINE_IK_SEEDS = 32
 """Seeds tried (Home, then random ones) for a target that has no IK from the joints (:func:`joint_path`): each of
@@ -75,6 +75,19 @@ def _via(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.float64], 
     return kin.nearest_branch(ik.q, q) if ik.success else None
 
 
+def near_grasp(kin: MicoKinematics, q: NDArray[np.float64], path: list[NDArray[np.float64]],
+               base_T_grasp: NDArray[np.float64], *, slack: float, reference: float = 0.0) -> bool:
+    """Whether the path from ``q`` through ``path`` keeps the hand near the grasp (:func:`joint_path`'s bound).
+
+    Near: the hand's origin within ``max(d, reference) + slack`` of the grasp (d: its present distance, at q) at
+    the :data:`LINE_IK_CHECKS` evenly spaced points of each of the path's straight joint lines.
+    """
+    grasp = base_T_grasp[:3, 3]
+    bound = max(float(np.linalg.norm(kin.fk(q)[:3, 3] - grasp)), reference) + slack
+    points = [q, *path]
+    return all(max(_distances(kin, a, b, grasp)) <= bound for a, b in zip(points[:-1], points[1:]))
+
+
 def joint_path(kin: MicoKinematics, q: NDArray[np.float64], base_T_target: NDArray[np.float64],
                base_T_grasp: NDArray[np.float64], *, slack: float,
                reference: float = 0.0) -> list[NDArray[np.float64]] | None:
@@ -121,13 +134,12 @@ def joint_path(kin: MicoKinematics, q: NDArray[np.float64], base_T_target: NDArr
     """
     grasp = base_T_grasp[:3, 3]
     present = float(np.linalg.norm(kin.fk(q)[:3, 3] - grasp))
-    bound = max(present, reference) + slack
     candidates = ik_candidates(kin, q, base_T_target)
     best: list[NDArray[np.float64]] | None = None
     best_length = np.inf
     for q_t in candidates:
         length = float(np.linalg.norm(q_t - q))
-        if length < best_length and max(_distances(kin, q, q_t, grasp)) <= bound:
+        if length < best_length and near_grasp(kin, q, [q_t], base_T_grasp, slack=slack, reference=reference):
             best, best_length = [q_t], length
     if best is not None:
         return best
@@ -136,7 +148,6 @@ def joint_path(kin: MicoKinematics, q: NDArray[np.float64], base_T_target: NDArr
         if via is None or np.sin(via[4]) * np.sin(q[4]) <= 0.0:
             continue
         length = float(np.linalg.norm(via - q)) + float(np.linalg.norm(q_t - via))
-        if (length < best_length and max(_distances(kin, q, via, grasp)) <= bound
-                and max(_distances(kin, via, q_t, grasp)) <= bound):
+        if length < best_length and near_grasp(kin, q, [via, q_t], base_T_grasp, slack=slack, reference=reference):
             best, best_length = [via, q_t], length
     return best

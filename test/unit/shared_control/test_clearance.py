@@ -12,6 +12,7 @@ from grasp_intent_ros.mico.frames import pose_error
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.shared_control.assistance import Assistance, AssistanceConfig, TwistLimiter
 from grasp_intent_ros.shared_control.clearance import JOINT_REACH, PathClearance, clear_path, default_hand
+from grasp_intent_ros.shared_control.joint_path import near_grasp
 
 CUP = ObjectBody((Cylinder(np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, 1.0]), 0.04, 0.1),))
 """A cup-sized cylinder standing on the object frame's z = 0."""
@@ -159,3 +160,31 @@ def test_a_previous_way_that_now_goes_in_is_searched_again(kin: MicoKinematics) 
     searched = clear_path(clearance, q0, [q1], kin.fk(q1))
     again = clear_path(clearance, q0, [q1], kin.fk(q1), previous=[q1])
     assert len(again) == len(searched) and all(np.array_equal(a, b) for a, b in zip(again, searched))
+
+
+def test_only_admissible_ways_are_taken(kin: MicoKinematics) -> None:
+    # the search's answer refused by the predicate: another answer, itself admissible; nothing admissible: the path
+    q0 = np.asarray(HOME_Q, dtype=np.float64)
+    q1 = q0 + STEP
+    clearance = PathClearance(kin, default_hand(), CUP, _on_the_way(kin, q0, q1))
+    free = clear_path(clearance, q0, [q1], kin.fk(q1))
+    assert clearance.goes_in(q0, [q1]) and not clearance.goes_in(q0, free)
+
+    def not_free(path: list[NDArray[np.float64]]) -> bool:
+        return not (len(path) == len(free) and all(np.array_equal(a, b) for a, b in zip(path, free)))
+
+    other = clear_path(clearance, q0, [q1], kin.fk(q1), admissible=not_free)
+    assert not_free(other)
+    path = [q1]
+    assert clear_path(clearance, q0, path, kin.fk(q1), admissible=lambda p: False) is path
+
+
+def test_near_grasp_bounds_the_hand_s_distance_on_the_way(kin: MicoKinematics) -> None:
+    # a short step toward the grasp stays near it; the line through the cup's scene, 5 cm deep, ends 0.2 m off
+    q0 = np.asarray(HOME_Q, dtype=np.float64)
+    q1 = q0 + STEP
+    base_T_grasp = kin.fk(q0)
+    assert near_grasp(kin, q0, [q0 + 0.01 * STEP], base_T_grasp, slack=0.02)
+    far = float(np.linalg.norm(kin.fk(q1)[:3, 3] - base_T_grasp[:3, 3]))
+    assert far > 0.1 and not near_grasp(kin, q0, [q1], base_T_grasp, slack=0.02)
+    assert near_grasp(kin, q0, [q1], base_T_grasp, slack=0.02, reference=far + 0.2)
