@@ -223,10 +223,13 @@ def clear_path(clearance: PathClearance, q: NDArray[np.float64], path: list[NDAr
                 via = kin.nearest_branch(ik.q, q)
                 if np.sin(via[4]) * np.sin(q[4]) > 0.0:
                     candidates.append([via, q_e])
-    if admissible is not None:
-        candidates = [c for c in candidates if admissible(c)]
     order = sorted(range(len(candidates)), key=lambda i: (_length(q, candidates[i]), i))
-    for i in order[:MAX_CHECKED]:
-        if not clearance.goes_in(q, candidates[i]):
-            return candidates[i]
+    checked = 0
+    for i in order:  # admissibility is asked in this order too, only until MAX_CHECKED admissible ones are checked
+        if checked == MAX_CHECKED:
+            break
+        if admissible is None or admissible(candidates[i]):
+            checked += 1
+            if not clearance.goes_in(q, candidates[i]):
+                return candidates[i]
     return path
