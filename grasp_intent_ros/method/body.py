@@ -105,6 +105,11 @@ class Cylinder:
         w_t = np.where(is_out, out_t / np.maximum(outside, 1e-300), dr < dt)
         return sd, w_r[:, None] * e_r + w_t[:, None] * e_t
 
+    @property
+    def bounding_radius(self) -> float:
+        """m: the radius of the smallest sphere about ``centre`` that holds the cylinder."""
+        return math.hypot(self.radius, 0.5 * self.length)
+
     def to_document(self) -> dict[str, Any]:
         """YAML-ready mapping."""
         return {'type': 'cylinder', 'centre': [float(v) for v in self.centre],
@@ -139,6 +144,11 @@ class Box:
         grad_out = sign * out / np.maximum(outside, 1e-300)[:, None]
         sd = np.where(is_out, outside, q.max(axis=1))
         return sd, np.where(is_out[:, None], grad_out, grad_in)
+
+    @property
+    def bounding_radius(self) -> float:
+        """m: the radius of the smallest sphere about ``centre`` that holds the box."""
+        return float(np.linalg.norm(self.half_extents))
 
     def to_document(self) -> dict[str, Any]:
         """YAML-ready mapping."""

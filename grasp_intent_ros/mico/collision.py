@@ -251,11 +251,10 @@ class _Scene:
                 T[:3, 2], T[:3, 0] = prim.axis, prim.perpendicular
                 T[:3, 1] = np.cross(prim.axis, prim.perpendicular)
                 shapes.append(coal.Cylinder(prim.radius, prim.length))
-                radii.append(math.hypot(prim.radius, 0.5 * prim.length))
             else:
                 assert isinstance(prim, Box)
                 shapes.append(coal.Box(*(2.0 * prim.half_extents).tolist()))
-                radii.append(float(np.linalg.norm(prim.half_extents)))
+            radii.append(prim.bounding_radius)
             poses.append(_tf(T))
             centres.append(prim.centre)
         self.shapes, self.poses = shapes, poses

@@ -12,13 +12,12 @@ one. Never the true object: the robot knows only what it perceives. ROS-free.
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..method.body import Box, Cylinder, ObjectBody
+from ..method.body import ObjectBody
 from ..mico.collision import LIMITS, SWEEP_STEP, HandCollision, Limits
 from ..mico.frames import check_transform
 from ..mico.kinematics import MicoKinematics
@@ -50,19 +49,6 @@ LIFTS = (0.0, 0.1)
 def default_hand() -> HandCollision:
     """The MICO hand of the package's URDF, built once per process."""
     return HandCollision()
-
-
-def _spheres(body: ObjectBody) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The body's primitives' bounding spheres: centres (P, 3) and radii (P,), object frame."""
-    centres, radii = [], []
-    for prim in body.primitives:
-        centres.append(prim.centre)
-        if isinstance(prim, Cylinder):
-            radii.append(math.hypot(prim.radius, 0.5 * prim.length))
-        else:
-            assert isinstance(prim, Box)
-            radii.append(float(np.linalg.norm(prim.half_extents)))
-    return np.array(centres), np.array(radii)
 
 
 class PathClearance:
@@ -97,7 +83,8 @@ class PathClearance:
         self.obj_T_base[:3, 3] = -base_T_obj[:3, :3].T @ base_T_obj[:3, 3]
         self.up = base_T_obj[:3, 2].copy()
         """The object's z axis in the base frame: the normal of the table it stands on."""
-        self._centres, self._radii = _spheres(body)
+        self._centres = np.array([prim.centre for prim in body.primitives])
+        self._radii = np.array([prim.bounding_radius for prim in body.primitives])
 
     def intrusion(self, q: NDArray[np.float64]) -> float:
         """How far the open hand at joints ``q`` goes into the body beyond the limits less the margin (m; a bound).

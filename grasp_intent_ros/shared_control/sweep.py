@@ -35,6 +35,7 @@ __all__ = ['SWEEP_TICKS', 'HAND_REACH', 'PathSweep', 'default_hand']
 SWEEP_TICKS = 2
 """Simulator steps (of 0.01 s) between two checks of the teleoperated path (module docstring)."""
 
+
 class PathSweep:
     """The deepest the open hand goes into ``body`` over the poses it is shown (:meth:`check`), true object frame.
 

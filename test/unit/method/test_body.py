@@ -99,3 +99,17 @@ def test_document_round_trip_and_errors() -> None:
         ObjectBody(())
     with pytest.raises(ModelFormatError, match='margin'):
         ObjectBody((BOX,), margin=float('nan'))
+
+
+@pytest.mark.parametrize(('prim', 'span'), [
+    (Cylinder(np.array([0.01, -0.02, 0.05]), np.array([0.3, 0.2, 1.0]), 0.04, 0.1), 0.08),
+    (Box(np.array([0.06, 0.0, 0.05]), np.array([0.01, 0.005, 0.025])), 0.03)])
+def test_the_bounding_radius_holds_the_primitive_and_is_reached(prim: Cylinder | Box, span: float) -> None:
+    # every point inside the primitive (sampled in a cube of half-side span about it, which holds it) lies within
+    # bounding_radius of its centre (1e-9 m), and the farthest sampled come within 5 % of it
+    rng = np.random.default_rng(3)
+    points = prim.centre + rng.uniform(-span, span, (200_000, 3))
+    inside = points[prim.distance(points)[0] <= 0.0]
+    reach = np.linalg.norm(inside - prim.centre, axis=1)
+    assert inside.shape[0] > 100 and reach.max() <= prim.bounding_radius + 1e-9
+    assert reach.max() >= 0.95 * prim.bounding_radius
