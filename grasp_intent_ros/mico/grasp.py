@@ -26,7 +26,7 @@ from ..method.intent import restrict
 from ..method.model import GraspModel
 from ..planning import common, planner
 from ..planning.options import DEFAULT_METHOD, Method, Options
-from .collision import Clearance, CollisionFree, HandCollision, Table
+from .collision import LIMITS, Clearance, CollisionFree, HandCollision, Limits, Table
 from .frames import PRE_GRASP_STANDOFF, pre_grasp
 from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 
@@ -310,7 +310,7 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
                kin: MicoKinematics, *, name: str = 'model', q_arm: NDArray[np.float64] | None = None,
                method: Method = DEFAULT_METHOD, options: Options | None = None, ik_restarts: int = 8,
                warm_start: NDArray[np.float64] | None = None, hand: HandCollision | None = None,
-               table_plane: ArrayLike | None = None) -> Grasp | NoReachableGrasp | NoModelZone:
+               table_plane: ArrayLike | None = None, limits: Limits = LIMITS) -> Grasp | NoReachableGrasp | NoModelZone:
     """Plan the grasp for target ``v`` over ``zones`` on ``model`` with the object at ``base_T_obj``.
 
     Parameters
@@ -338,6 +338,9 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     table_plane : array_like, shape (4,), optional
         The table in the base frame, ``(nx, ny, nz, d)`` with ``n . p >= d`` above it (m); None: the plane the
         object stands on (z = 0 of the object frame).
+    limits : Limits
+        The depths the collision check allows (with ``hand``): :data:`~.collision.LIMITS`, or those less a margin
+        for the object pose's error (:meth:`~.collision.Limits.less`).
 
     Returns
     -------
@@ -357,7 +360,7 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     reachable = Reachability(kin, base_T_obj, q_arm, restarts=ik_restarts)
     approach = ApproachReach(reachable)
     table = None if table_plane is None else Table.in_object_frame(table_plane, base_T_obj)
-    clear = None if hand is None else CollisionFree(hand, model.body, table)
+    clear = None if hand is None else CollisionFree(hand, model.body, table, limits=limits)
 
     def accept(x: NDArray[np.float64]) -> bool:
         return (clear is None or clear(x)) and approach(x)
