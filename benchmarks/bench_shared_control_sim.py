@@ -87,7 +87,7 @@ from _bench import uptime
 from bench_shared_control import BASE_T_OBJ, OBJECTS
 
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.collision import LIMITS, tracker_margin
+from grasp_intent_ros.mico.collision import tracker_margin
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
 from grasp_intent_ros.planning.options import Options, node_default_options
@@ -184,10 +184,10 @@ def run_task(task: Task) -> list[dict[str, Any]]:
     tracked = perturb_pose(BASE_T_OBJ, task.tracker_mm * 1e-3, math.radians(task.tracker_deg), setup_rng)
     seen = perturb_pose(BASE_T_OBJ, task.operator_mm * 1e-3, math.radians(task.operator_deg), setup_rng)
     options = _options(task.execution_noise)
-    limits = None if task.margin_sigmas == 0.0 else LIMITS.less(task.margin_sigmas * tracker_margin(
-        task.tracker_mm * 1e-3, math.radians(task.tracker_deg), model.body.reach))
-    scene = Scene(model, BASE_T_OBJ, tracked, kin, options, limits)
-    ada_goals = [(g.base_T_ee, g.result.x) for g in certain_grasps(model, tracked, kin, options, limits).values()]
+    margin = None if task.margin_sigmas == 0.0 else task.margin_sigmas * tracker_margin(
+        task.tracker_mm * 1e-3, math.radians(task.tracker_deg), model.body.reach)
+    scene = Scene(model, BASE_T_OBJ, tracked, kin, options, margin)
+    ada_goals = [(g.base_T_ee, g.result.x) for g in certain_grasps(model, tracked, kin, options, margin).values()]
     own = {s: (g.base_T_ee, g.positions[6:]) for s, g in certain_grasps(model, seen, kin, options).items()}
     cache: dict[bytes, Grasp | None] = {}
     estimator = None

@@ -310,7 +310,8 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
                kin: MicoKinematics, *, name: str = 'model', q_arm: NDArray[np.float64] | None = None,
                method: Method = DEFAULT_METHOD, options: Options | None = None, ik_restarts: int = 8,
                warm_start: NDArray[np.float64] | None = None, hand: HandCollision | None = None,
-               table_plane: ArrayLike | None = None, limits: Limits = LIMITS) -> Grasp | NoReachableGrasp | NoModelZone:
+               table_plane: ArrayLike | None = None, limits: Limits = LIMITS,
+               margin: float = 0.0) -> Grasp | NoReachableGrasp | NoModelZone:
     """Plan the grasp for target ``v`` over ``zones`` on ``model`` with the object at ``base_T_obj``.
 
     Parameters
@@ -339,8 +340,14 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
         The table in the base frame, ``(nx, ny, nz, d)`` with ``n . p >= d`` above it (m); None: the plane the
         object stands on (z = 0 of the object frame).
     limits : Limits
-        The depths the collision check allows (with ``hand``): :data:`~.collision.LIMITS`, or those less a margin
-        for the object pose's error (:meth:`~.collision.Limits.less`).
+        The depths the collision check allows (with ``hand``).
+    margin : float
+        m, >= 0, with ``hand``: the object margin preferred for the error of the object's pose. The candidates
+        are asked first under ``limits.less(margin)`` (:meth:`~.collision.Limits.less`: the palm and the open
+        fingers that much shallower in the object); only when that plan is rejected, again under ``limits``
+        alone, so a margin never turns down the last grasp the limits take (the cup's usage-transfer-handover
+        grasps all put the palm within 2 mm of its limit). Among those it takes, the method's own order
+        decides, as without a margin. 0: ``limits`` alone.
 
     Returns
     -------
@@ -361,15 +368,19 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     approach = ApproachReach(reachable)
     table = None if table_plane is None else Table.in_object_frame(table_plane, base_T_obj)
     clear = None if hand is None else CollisionFree(hand, model.body, table, limits=limits)
-
-    def accept(x: NDArray[np.float64]) -> bool:
-        return (clear is None or clear(x)) and approach(x)
-
-    result = planner.plan(model, v_model, method=method, options=options, warm_start=warm_start, accept=accept)
+    kept = None if hand is None or margin == 0.0 else CollisionFree(hand, model.body, table,
+                                                                     limits=limits.less(margin))
+    result = None if kept is None else planner.plan(model, v_model, method=method, options=options,
+                                                    warm_start=warm_start, accept=lambda x: kept(x) and approach(x))
+    margin_faults = {} if kept is None else kept.faults
+    if result is None or result.status == 'rejected':
+        result = planner.plan(model, v_model, method=method, options=options, warm_start=warm_start,
+                              accept=lambda x: (clear is None or clear(x)) and approach(x))
+        margin_faults = {}
     n = len(result.candidates)
     collisions = {} if clear is None else clear.faults
     turned_down = []
-    for faults, what in ((collisions, 'in collision'),
+    for faults, what in ((collisions, 'in collision'), (margin_faults, 'within the object margin'),
                          (approach.faults, 'with the approach out of reach')):
         if faults:
             turned_down.append(f'{len(faults)} {what} (first: {next(iter(faults.values()))})')
@@ -397,6 +408,8 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
                 + f'objective {result.objective:.3g}, best {result.candidates[0].objective:.3g})')
     else:
         note = f'best of {n} candidates reachable'
+    if kept is not None and not margin_faults and kept.faults:
+        note += '; none with the object margin: planned at the limits'
     q = approach.joints(result.x)
     assert q is not None  # the plan's x was accepted
     duration = trajectory_duration(HOME_Q if q_arm is None else q_arm, q, kin.velocity_limits,

@@ -36,7 +36,7 @@ from rclpy.time import Time
 from sensor_msgs.msg import JointState
 
 from ..method.intent import match_zones
-from ..mico.collision import LIMITS, HandCollision
+from ..mico.collision import HandCollision
 from ..mico.grasp import plan_grasp
 from ..mico.kinematics import ARM_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
 from ..mico.parameters import GRASP_PLANNER, check_object_pose, object_pose
@@ -180,7 +180,7 @@ class GraspPlanner(Node):
                                                 self._params['execution_noise']),
                            ik_restarts=self._params['ik_restarts'],
                            hand=self._hand if self._params['collision_check'] else None,
-                           limits=LIMITS.less(self._params['object_margin']),
+                           margin=self._params['object_margin'],
                            table_plane=self._params['table_plane'] if any(self._params['table_plane']) else None)
         try:
             if (checked := self._outputs.send(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),
