@@ -344,10 +344,12 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     margin : float
         m, >= 0, with ``hand``: the object margin preferred for the error of the object's pose. The candidates
         are asked first under ``limits.less(margin)`` (:meth:`~.collision.Limits.less`: the palm and the open
-        fingers that much shallower in the object); only when that plan is rejected, again under ``limits``
-        alone, so a margin never turns down the last grasp the limits take (the cup's usage-transfer-handover
-        grasps all put the palm within 2 mm of its limit). Among those it takes, the method's own order
-        decides, as without a margin. 0: ``limits`` alone.
+        fingers that much shallower in the object), but the warm start's grasp under ``limits`` alone (a
+        stream's held grasp is not moved for the margin: that would make the plan jump between grasps as v's
+        likely tasks flicker); only when that plan is rejected, again under ``limits`` alone, so a margin never
+        turns down the last grasp the limits take (the cup's usage-transfer-handover grasps all put the palm
+        within 2 mm of its limit). Among those it takes, the method's own order decides, as without a margin.
+        0: ``limits`` alone.
 
     Returns
     -------
@@ -370,8 +372,15 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     clear = None if hand is None else CollisionFree(hand, model.body, table, limits=limits)
     kept = None if hand is None or margin == 0.0 else CollisionFree(hand, model.body, table,
                                                                      limits=limits.less(margin))
+    held = None if warm_start is None else np.asarray(warm_start, dtype=np.float64).tobytes()
+
+    def keeps_margin(x: NDArray[np.float64]) -> bool:
+        assert kept is not None
+        ok = kept(x) or (x.tobytes() == held and (clear is None or clear(x)))  # the held grasp: the limits alone
+        return ok and approach(x)
+
     result = None if kept is None else planner.plan(model, v_model, method=method, options=options,
-                                                    warm_start=warm_start, accept=lambda x: kept(x) and approach(x))
+                                                    warm_start=warm_start, accept=keeps_margin)
     margin_faults = {} if kept is None else kept.faults
     if result is None or result.status == 'rejected':
         result = planner.plan(model, v_model, method=method, options=options, warm_start=warm_start,

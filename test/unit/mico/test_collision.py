@@ -233,22 +233,33 @@ def test_a_grasp_at_the_limits_is_taken_without_a_margin_and_turned_down_with_on
             LIMITS.less(bad)
 
 
-def test_the_planner_keeps_the_margin_and_the_plan_without_it_is_its_first_candidate(hand: HandCollision) -> None:
-    """The planner's grasp under LIMITS less 3 mm keeps the 3 mm; without the margin the first candidate comes back.
+def test_the_planner_prefers_the_margin_and_plans_at_the_limits_when_no_grasp_keeps_it(hand: HandCollision) -> None:
+    """The planner's grasp keeps a 3 mm object margin where one does; where none does, the limits alone decide.
 
-    Transfer on the cup (the palm against the body): the plan under LIMITS is not 3 mm shallower than they allow,
-    and is the margin plan's first candidate, turned down for the margin alone.
+    Transfer on the cup (the palm against the body): the plan without a margin is not 3 mm shallower than LIMITS
+    allow, is the margin plan's first candidate, and is turned down for the margin alone; the margin plan is.
+    Usage-transfer-handover (all its demonstrations put the palm within 2 mm of its limit): with a 4.5 mm margin
+    the plan is the one without it, and its note says so.
     """
     cup = GraspModel.load(config_dir() / 'models' / 'cup_7zone.yaml')
     kin = MicoKinematics()
+    zones = intent.all_zones(3)
     v = intent.interpret((0.1, 0.9, 0.1)).v
-    plain = plan_grasp(cup, v, intent.all_zones(3), BASE_T_OBJ, kin, hand=hand)
-    kept = plan_grasp(cup, v, intent.all_zones(3), BASE_T_OBJ, kin, hand=hand, limits=LIMITS.less(0.003))
+    plain = plan_grasp(cup, v, zones, BASE_T_OBJ, kin, hand=hand)
+    kept = plan_grasp(cup, v, zones, BASE_T_OBJ, kin, hand=hand, margin=0.003)
     assert isinstance(plain, Grasp) and isinstance(kept, Grasp)
     assert plain.clearance is not None and kept.clearance is not None
     assert kept.clearance.palm_depth <= LIMITS.palm - 0.003 and kept.clearance.finger_depth <= LIMITS.finger - 0.003
-    assert plain.clearance.fault(LIMITS.less(0.003)) is not None
+    assert plain.clearance.fault() is None and plain.clearance.fault(LIMITS.less(0.003)) is not None
     assert kept.result.candidates[0].x.tobytes() == plain.result.x.tobytes()
+    assert 'within the object margin' in kept.note
+    v_all = intent.interpret((0.9, 0.9, 0.9)).v
+    plain = plan_grasp(cup, v_all, zones, BASE_T_OBJ, kin, hand=hand)
+    fallback = plan_grasp(cup, v_all, zones, BASE_T_OBJ, kin, hand=hand, margin=0.0045)
+    assert isinstance(plain, Grasp) and isinstance(fallback, Grasp)
+    assert fallback.result.x.tobytes() == plain.result.x.tobytes()
+    assert fallback.note.endswith('none with the object margin: planned at the limits')
+    assert not plain.note.endswith('planned at the limits')
 
 
 def test_the_tracker_margin_bounds_the_depth_error_of_the_simulated_tracker() -> None:
