@@ -33,7 +33,11 @@ The episodes
 - The planner (every plan: the shown grasps, the operators' own grasps, ADA's goals): the planner node's
   defaults (:func:`~grasp_intent_ros.planning.options.node_default_options`: planning for the documented 1x
   execution noise, 5 mm, 3 deg, 0.1 rad closures, the size of the simulated tracker and closure errors);
-  ``--exact-landing`` plans for an exact landing (the node's ``execution_noise`` zero).
+  ``--exact-landing`` plans for an exact landing (the node's ``execution_noise`` zero). ``--margin-sigmas K``
+  (default 0: the collision check unasked, as the shipped demonstrations all pass it) plans the robot's grasps
+  (shown, ADA's goals; not the operator's own) with the collision check and the node's ``object_margin`` at K x
+  :func:`~grasp_intent_ros.mico.collision.tracker_margin` of the tracker's error, the lever arm the body's reach
+  (docs/planner.md, "The hand's clearance").
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   intent, its noise and the tracker error are the episode's).
 

@@ -253,6 +253,8 @@ def test_the_planner_prefers_the_margin_and_plans_at_the_limits_when_no_grasp_ke
     assert plain.clearance.fault() is None and plain.clearance.fault(LIMITS.less(0.003)) is not None
     assert kept.result.candidates[0].x.tobytes() == plain.result.x.tobytes()
     assert 'within the object margin' in kept.note
+    held = plan_grasp(cup, v, zones, BASE_T_OBJ, kin, hand=hand, margin=0.003, warm_start=plain.result.x)
+    assert isinstance(held, Grasp) and held.result.x.tobytes() == plain.result.x.tobytes()
     v_all = intent.interpret((0.9, 0.9, 0.9)).v
     plain = plan_grasp(cup, v_all, zones, BASE_T_OBJ, kin, hand=hand)
     fallback = plan_grasp(cup, v_all, zones, BASE_T_OBJ, kin, hand=hand, margin=0.0045)
