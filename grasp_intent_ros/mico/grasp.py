@@ -343,12 +343,12 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
         The depths the collision check allows (with ``hand``).
     margin : float
         m, >= 0, with ``hand``: the object margin preferred for the error of the object's pose. The candidates
-        are asked first under ``limits.less(margin)`` (:meth:`~.collision.Limits.less`: the palm and the open
+        are asked first under ``limits.less(margin)`` (:meth:`~.limits.Limits.less`: the palm and the open
         fingers that much shallower in the object), but the warm start's grasp under ``limits`` alone (a
         stream's held grasp is not moved for the margin: that would make the plan jump between grasps as v's
         likely tasks flicker); only when that plan is rejected, again under ``limits`` alone, so a margin never
-        turns down the last grasp the limits take (the cup's usage-transfer-handover grasps all put the palm
-        within 2 mm of its limit). Among those it takes, the method's own order decides, as without a margin.
+        turns down the last grasp the limits take (the cup's usage-transfer-handover grasps nearly all put the
+        palm within 3 mm of its limit). Among those it takes, the method's own order decides, as without a margin.
         0: ``limits`` alone.
 
     Returns
