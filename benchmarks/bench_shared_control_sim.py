@@ -33,7 +33,11 @@ The episodes
 - The planner (every plan: the shown grasps, the operators' own grasps, ADA's goals): the planner node's
   defaults (:func:`~grasp_intent_ros.planning.options.node_default_options`: planning for the documented 1x
   execution noise, 5 mm, 3 deg, 0.1 rad closures, the size of the simulated tracker and closure errors);
-  ``--exact-landing`` plans for an exact landing (the node's ``execution_noise`` zero).
+  ``--exact-landing`` plans for an exact landing (the node's ``execution_noise`` zero). ``--margin-sigmas K``
+  (default 0: the collision check unasked, as the shipped demonstrations all pass it) plans the robot's grasps
+  (shown, ADA's goals; not the operator's own) with the collision check and the node's ``object_margin`` at K x
+  :func:`~grasp_intent_ros.mico.collision.tracker_margin` of the tracker's error, the lever arm the body's reach
+  (docs/planner.md, "The hand's clearance").
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   intent, its noise and the tracker error are the episode's).
 
@@ -87,6 +91,7 @@ from _bench import uptime
 from bench_shared_control import BASE_T_OBJ, OBJECTS
 
 from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.collision import tracker_margin
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
 from grasp_intent_ros.planning.options import Options, node_default_options
@@ -158,6 +163,8 @@ class Task:
     operator_mm: float = 5.0
     operator_deg: float = 3.0
     """The RMS error of the operator's view of the object (module docstring): mm, deg."""
+    margin_sigmas: float = 0.0
+    """The planner's object margin in tracker sigmas (module docstring); 0: the collision check unasked."""
 
 
 def _intent(task: Task, rng: np.random.Generator) -> Any:
@@ -181,8 +188,10 @@ def run_task(task: Task) -> list[dict[str, Any]]:
     tracked = perturb_pose(BASE_T_OBJ, task.tracker_mm * 1e-3, math.radians(task.tracker_deg), setup_rng)
     seen = perturb_pose(BASE_T_OBJ, task.operator_mm * 1e-3, math.radians(task.operator_deg), setup_rng)
     options = _options(task.execution_noise)
-    scene = Scene(model, BASE_T_OBJ, tracked, kin, options)
-    ada_goals = [(g.base_T_ee, g.result.x) for g in certain_grasps(model, tracked, kin, options).values()]
+    margin = None if task.margin_sigmas == 0.0 else task.margin_sigmas * tracker_margin(
+        task.tracker_mm * 1e-3, math.radians(task.tracker_deg), model.body.reach)
+    scene = Scene(model, BASE_T_OBJ, tracked, kin, options, margin)
+    ada_goals = [(g.base_T_ee, g.result.x) for g in certain_grasps(model, tracked, kin, options, margin).values()]
     own = {s: (g.base_T_ee, g.positions[6:]) for s, g in certain_grasps(model, seen, kin, options).items()}
     cache: dict[bytes, Grasp | None] = {}
     estimator = None
@@ -342,6 +351,9 @@ def main() -> None:
                         '(the planner node\'s execution_noise zero; default: the node\'s default, the 1x noise)')
     parser.add_argument('--estimator', nargs='*', default=[], metavar='FIELD=VALUE',
                         help='EstimatorConfig fields for the estimated condition (default: its defaults)')
+    parser.add_argument('--margin-sigmas', type=float, default=0.0, help='the planner\'s object margin (its '
+                        'object_margin) in bounds on the tracker error\'s depth sigma (collision.tracker_margin, '
+                        'lever arm: the body\'s reach); 0: the collision check unasked, as the demonstrations pass it')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--json', help='write every record and the summaries here')
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
@@ -355,7 +367,8 @@ def main() -> None:
         return
     tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg,
                   tuple(c for c in RUN if c in args.conditions), not args.no_execute, not args.exact_landing,
-                  estimator_fields(args.estimator), operator_mm=args.operator_mm, operator_deg=args.operator_deg)
+                  estimator_fields(args.estimator), operator_mm=args.operator_mm, operator_deg=args.operator_deg,
+                  margin_sigmas=args.margin_sigmas)
              for i in range(args.episodes) for o in args.objects for op in args.operators]  # cells fill evenly
     print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
           f'conditions, intent {args.intent}; {uptime()}', flush=True)

@@ -203,6 +203,11 @@ class ObjectBody:
         cols = np.arange(pts.shape[0])
         return sds[nearest, cols], grads[nearest, cols]
 
+    @property
+    def reach(self) -> float:
+        """m: a bound on the body's points' distance from the object frame's origin (centre plus bounding radius)."""
+        return max(_norm3(prim.centre) + prim.bounding_radius for prim in self.primitives)
+
     def push_out(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
         """Points moved along the body's normal to clearance ``margin`` where they are closer (N, 3).
 

@@ -11,6 +11,9 @@ parameters (ROS-free tables)
 collision
     The hand (the URDF's collision primitives, coal) against the table and the object: on the approach with the
     fingers open, and closing until contact.
+limits
+    How deep the hand may go in before a grasp counts as in collision (the collision check's thresholds), and a
+    margin for the error of the object's pose.
 grasp
     The planner node's policy: plan, then a grasp the arm reaches (joint targets, move time).
 mock_arm

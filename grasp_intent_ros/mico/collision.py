@@ -51,8 +51,9 @@ from ..method.body import Box, Cylinder, ObjectBody
 from ..method.features import FINGERS, MICO_3F
 from .frames import PRE_GRASP_STANDOFF, check_transform, features_to_obj_T_ee, pre_grasp
 from .kinematics import EE_FRAME, FINGER_JOINTS, default_urdf_path
+from .limits import LIMITS, Limits, tracker_margin
 
-__all__ = ['SWEEP_STEP', 'CLOSURE_STEP', 'Limits', 'LIMITS', 'Table', 'FingerStop',
+__all__ = ['SWEEP_STEP', 'CLOSURE_STEP', 'Limits', 'LIMITS', 'tracker_margin', 'Table', 'FingerStop',
            'Clearance', 'HandCollision', 'CollisionFree', 'HAND_PARTS']
 
 SWEEP_STEP = 0.005
@@ -69,29 +70,6 @@ _CLOSED = float(MICO_3F.upper[FINGERS][0])
 _FINGER_REACH = 0.12
 """Upper bound (m) on the distance of a finger's collision primitives from its joint axis (link and tip: 0.10)."""
 _MAX_SCENES = 16
-
-
-@dataclass(frozen=True)
-class Limits:
-    """How deep (m) a hand part may go into the scene before the grasp counts as in collision.
-
-    Attributes
-    ----------
-    table : float
-        Any hand part below the table, fingers open along the approach.
-    palm : float
-        The palm/wrist into the object along the approach.
-    finger : float
-        An open finger into the object along the approach.
-    """
-
-    table: float = 0.002
-    palm: float = 0.001
-    finger: float = 0.005
-
-
-LIMITS = Limits()
-"""The planner's limits: a margin under the judge's (5 mm into the table, 2 mm of the wrist into the object)."""
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,7 @@ from ..method.intent import restrict
 from ..method.model import GraspModel
 from ..planning import common, planner
 from ..planning.options import DEFAULT_METHOD, Method, Options
-from .collision import Clearance, CollisionFree, HandCollision, Table
+from .collision import LIMITS, Clearance, CollisionFree, HandCollision, Limits, Table
 from .frames import PRE_GRASP_STANDOFF, pre_grasp
 from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 
@@ -310,7 +310,8 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
                kin: MicoKinematics, *, name: str = 'model', q_arm: NDArray[np.float64] | None = None,
                method: Method = DEFAULT_METHOD, options: Options | None = None, ik_restarts: int = 8,
                warm_start: NDArray[np.float64] | None = None, hand: HandCollision | None = None,
-               table_plane: ArrayLike | None = None) -> Grasp | NoReachableGrasp | NoModelZone:
+               table_plane: ArrayLike | None = None, limits: Limits = LIMITS,
+               margin: float = 0.0) -> Grasp | NoReachableGrasp | NoModelZone:
     """Plan the grasp for target ``v`` over ``zones`` on ``model`` with the object at ``base_T_obj``.
 
     Parameters
@@ -338,6 +339,17 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     table_plane : array_like, shape (4,), optional
         The table in the base frame, ``(nx, ny, nz, d)`` with ``n . p >= d`` above it (m); None: the plane the
         object stands on (z = 0 of the object frame).
+    limits : Limits
+        The depths the collision check allows (with ``hand``).
+    margin : float
+        m, >= 0, with ``hand``: the object margin preferred for the error of the object's pose. The candidates
+        are asked first under ``limits.less(margin)`` (:meth:`~.limits.Limits.less`: the palm and the open
+        fingers that much shallower in the object), but the warm start's grasp under ``limits`` alone (a
+        stream's held grasp is not moved for the margin: that would make the plan jump between grasps as v's
+        likely tasks flicker); only when that plan is rejected, again under ``limits`` alone, so a margin never
+        turns down the last grasp the limits take (the cup's usage-transfer-handover grasps nearly all put the
+        palm within 3 mm of its limit). Among those it takes, the method's own order decides, as without a margin.
+        0: ``limits`` alone.
 
     Returns
     -------
@@ -357,16 +369,27 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
     reachable = Reachability(kin, base_T_obj, q_arm, restarts=ik_restarts)
     approach = ApproachReach(reachable)
     table = None if table_plane is None else Table.in_object_frame(table_plane, base_T_obj)
-    clear = None if hand is None else CollisionFree(hand, model.body, table)
+    clear = None if hand is None else CollisionFree(hand, model.body, table, limits=limits)
+    kept = None if hand is None or margin == 0.0 else CollisionFree(hand, model.body, table,
+                                                                     limits=limits.less(margin))
+    held = None if warm_start is None else np.asarray(warm_start, dtype=np.float64).tobytes()
 
-    def accept(x: NDArray[np.float64]) -> bool:
-        return (clear is None or clear(x)) and approach(x)
+    def keeps_margin(x: NDArray[np.float64]) -> bool:
+        assert kept is not None
+        ok = kept(x) or (x.tobytes() == held and (clear is None or clear(x)))  # the held grasp: the limits alone
+        return ok and approach(x)
 
-    result = planner.plan(model, v_model, method=method, options=options, warm_start=warm_start, accept=accept)
+    result = None if kept is None else planner.plan(model, v_model, method=method, options=options,
+                                                    warm_start=warm_start, accept=keeps_margin)
+    margin_faults = {} if kept is None else kept.faults
+    if result is None or result.status == 'rejected':
+        result = planner.plan(model, v_model, method=method, options=options, warm_start=warm_start,
+                              accept=lambda x: (clear is None or clear(x)) and approach(x))
+        margin_faults = {}
     n = len(result.candidates)
     collisions = {} if clear is None else clear.faults
     turned_down = []
-    for faults, what in ((collisions, 'in collision'),
+    for faults, what in ((collisions, 'in collision'), (margin_faults, 'within the object margin'),
                          (approach.faults, 'with the approach out of reach')):
         if faults:
             turned_down.append(f'{len(faults)} {what} (first: {next(iter(faults.values()))})')
@@ -394,6 +417,8 @@ def plan_grasp(model: GraspModel, v: ArrayLike, zones: tuple[int, ...], base_T_o
                 + f'objective {result.objective:.3g}, best {result.candidates[0].objective:.3g})')
     else:
         note = f'best of {n} candidates reachable'
+    if kept is not None and not margin_faults and kept.faults:
+        note += '; none with the object margin: planned at the limits'
     q = approach.joints(result.x)
     assert q is not None  # the plan's x was accepted
     duration = trajectory_duration(HOME_Q if q_arm is None else q_arm, q, kin.velocity_limits,

@@ -86,6 +86,11 @@ GRASP_PLANNER = (
     ParamSpec('collision_check', True, 'Turn down grasps whose hand goes into the table or the object on the '
               'approach (fingers open, from the pre-grasp 0.08 m behind), as unreachable ones are '
               '(docs/planner.md, "The hand\'s clearance"); false: publish them.'),
+    ParamSpec('object_margin', 0.0, 'With collision_check: how much shallower (m) than the check\'s limits the palm '
+              'and the open fingers should stay in the object, for the error of the object\'s pose (e.g. '
+              'collision.tracker_margin of the tracker\'s position and angle RMS): preferred, the limits alone when '
+              'no grasp keeps it (docs/planner.md, "The hand\'s clearance"); 0: the limits alone.',
+              range=(0.0, 0.05)),
     ParamSpec('table_plane', (0.0, 0.0, 0.0, 0.0), 'The table in m1n6s300_link_base: (nx, ny, nz, d), points '
               'with n . p >= d above it, m; all zeros: the plane the object stands on (z = 0 of its frame).',
               validator=check_table_plane),

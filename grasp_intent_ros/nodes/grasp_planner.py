@@ -180,6 +180,7 @@ class GraspPlanner(Node):
                                                 self._params['execution_noise']),
                            ik_restarts=self._params['ik_restarts'],
                            hand=self._hand if self._params['collision_check'] else None,
+                           margin=self._params['object_margin'],
                            table_plane=self._params['table_plane'] if any(self._params['table_plane']) else None)
         try:
             if (checked := self._outputs.send(grasp, doc, inputs.base_T_obj, stamp=inputs.stamp.to_msg(),

@@ -66,12 +66,14 @@ from numpy.typing import NDArray
 from ..errors import CommandError
 from ..method.intent import Interpretation, ZoneInterpreter, all_zones, default_task_names, interpret, zone_labels
 from ..method.model import GraspModel
+from ..mico.collision import HandCollision
 from ..mico.frames import obj_T_ee_to_features
 from ..mico.grasp import MIN_TRAJECTORY_TIME, Grasp, plan_grasp, trajectory_duration
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
 from ..mico.mock_arm import MockArm, TrajectoryCommand, TwistCommand
 from ..planning.options import Options
 from .assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, pose_error
+from .clearance import default_hand
 from .estimator import IntentEstimator
 from .operators import IntentScript, ScriptedOperator, certain_w
 from .sweep import SWEEP_TICKS, PathSweep
@@ -99,12 +101,13 @@ def perturb_pose(base_T: NDArray[np.float64], position_rms: float, angle_rms: fl
 
 
 def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: MicoKinematics,
-                   options: Options | None = None) -> dict[int, Grasp]:
+                   options: Options | None = None, object_margin: float | None = None) -> dict[int, Grasp]:
     """The planner's grasp (cold, IK from Home) for each certain task set 1..7 (:func:`.operators.certain_w`).
 
     An operator's own grasp per task set, chosen without the rules, and ADA's goals. ``options``: the
     planner's (:func:`~grasp_intent_ros.mico.grasp.plan_grasp`; None: the library's, an exact landing; the
-    nodes' answers need :func:`~grasp_intent_ros.planning.options.node_default_options`).
+    nodes' answers need :func:`~grasp_intent_ros.planning.options.node_default_options`); ``object_margin``: the
+    collision check's, as :attr:`Scene.object_margin`.
 
     Raises
     ------
@@ -115,11 +118,17 @@ def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: Mico
     for task_set in range(1, 8):
         read = interpret(certain_w(task_set), _ZONES)
         assert isinstance(read, Interpretation)  # a certain w never asks for clarification
-        grasp = plan_grasp(model, read.v, _ZONES, base_T_obj, kin, options=options)
+        grasp = plan_grasp(model, read.v, _ZONES, base_T_obj, kin, options=options, hand=_hand(object_margin),
+                           margin=object_margin or 0.0)
         if not isinstance(grasp, Grasp):
             raise ValueError(f'no grasp for the certain task set {task_set}: {grasp}')
         out[task_set] = grasp
     return out
+
+
+def _hand(object_margin: float | None) -> HandCollision | None:
+    """The hand :func:`~grasp_intent_ros.mico.grasp.plan_grasp` checks with ``object_margin`` (None: unchecked)."""
+    return None if object_margin is None else default_hand()
 
 
 @dataclass(frozen=True)
@@ -127,7 +136,11 @@ class Scene:
     """What one episode runs on: the model, the object's true and tracked poses, the kinematics, the planner's options.
 
     ``options`` None: the library's defaults (an exact landing); the planner node's are
-    :func:`~grasp_intent_ros.planning.options.node_default_options`.
+    :func:`~grasp_intent_ros.planning.options.node_default_options`. ``object_margin`` (m): the planner's
+    collision check (the planner node's ``collision_check``) with that object margin preferred (its
+    ``object_margin``: :func:`~grasp_intent_ros.mico.grasp.plan_grasp`'s ``margin``); None: unchecked (the
+    shipped demonstrations are all clear under :data:`~grasp_intent_ros.mico.collision.LIMITS` in the object
+    frame, so without a margin the check turns none down and only costs time).
     """
 
     model: GraspModel
@@ -135,6 +148,7 @@ class Scene:
     base_T_obj: NDArray[np.float64]
     kin: MicoKinematics
     options: Options | None = None
+    object_margin: float | None = None
 
 
 class PlanStream:
@@ -161,7 +175,8 @@ class PlanStream:
         key = self.kind.encode() + target.tobytes() + (b'' if self.warm is None else self.warm.tobytes())
         if key not in self.cache:
             planned = plan_grasp(self.scene.model, target, _ZONES, self.scene.base_T_obj, self.scene.kin,
-                                 q_arm=HOME_Q, warm_start=self.warm, options=self.scene.options)
+                                 q_arm=HOME_Q, warm_start=self.warm, options=self.scene.options,
+                                 hand=_hand(self.scene.object_margin), margin=self.scene.object_margin or 0.0)
             self.cache[key] = planned if isinstance(planned, Grasp) else None
         grasp = self.cache[key]
         if grasp is not None:

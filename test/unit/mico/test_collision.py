@@ -14,7 +14,15 @@ from grasp_intent_ros.errors import KinematicsError
 from grasp_intent_ros.method import intent
 from grasp_intent_ros.method.body import ObjectBody
 from grasp_intent_ros.method.model import GraspModel
-from grasp_intent_ros.mico.collision import HAND_PARTS, LIMITS, CollisionFree, HandCollision, Table
+from grasp_intent_ros.mico.collision import (
+    HAND_PARTS,
+    LIMITS,
+    CollisionFree,
+    HandCollision,
+    Limits,
+    Table,
+    tracker_margin,
+)
 from grasp_intent_ros.mico.frames import default_base_T_obj, features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.mico.grasp import Grasp, NoReachableGrasp, plan_grasp
 from grasp_intent_ros.mico.kinematics import EE_FRAME, MicoKinematics, default_urdf_path
@@ -198,3 +206,84 @@ def test_the_open_hand_s_depth_at_one_pose_is_the_clearance_s_without_a_corridor
     assert at_pose.open_hand_depth(far, CUP_BODY) == (-math.inf, -math.inf)
     with pytest.raises(KinematicsError):
         at_pose.open_hand_depth(np.eye(3), CUP_BODY)
+
+
+def test_a_grasp_at_the_limits_is_taken_without_a_margin_and_turned_down_with_one(hand: HandCollision) -> None:
+    """A grasp exactly at the limits is taken with no margin and turned down with 0.1 mm.
+
+    The shipped cup's demonstration whose palm goes deepest, limits set at its depths (a fault is deeper than a
+    limit): less 0.1 mm turns it down for the palm and the fingers, not the table (its limit is kept); a negative
+    or non-finite margin is an error.
+    """
+    cup = GraspModel.load(config_dir() / 'models' / 'cup_7zone.yaml')
+    palm = [hand.clearance(x, cup.body).palm_depth for x in cup.demo_x]
+    x = cup.demo_x[int(np.argmax(palm))]
+    clearance = hand.clearance(x, cup.body)
+    assert -0.001 < clearance.palm_depth <= LIMITS.palm and -0.005 < clearance.finger_depth <= LIMITS.finger
+    at = Limits(table=max(clearance.table_depth, 0.0), palm=clearance.palm_depth, finger=clearance.finger_depth)
+    assert at.less(0.0) == at
+    assert CollisionFree(hand, cup.body, limits=at.less(0.0))(x)
+    turned_down = CollisionFree(hand, cup.body, limits=at.less(1e-4))
+    assert not turned_down(x)
+    fault = turned_down.faults[x.tobytes()]
+    assert 'palm' in fault and 'open finger' in fault and 'table' not in fault
+    assert at.less(0.003) == Limits(at.table, at.palm - 0.003, at.finger - 0.003)
+    for bad in (-1e-3, math.nan, math.inf):
+        with pytest.raises(KinematicsError):
+            LIMITS.less(bad)
+
+
+def test_the_planner_prefers_the_margin_and_plans_at_the_limits_when_no_grasp_keeps_it(hand: HandCollision) -> None:
+    """The planner's grasp keeps a 3 mm object margin where one does; where none does, the limits alone decide.
+
+    Transfer on the cup (the palm against the body): the plan without a margin is not 3 mm shallower than LIMITS
+    allow, is the margin plan's first candidate, and is turned down for the margin alone; the margin plan is.
+    Usage-transfer-handover (all its demonstrations put the palm within 2 mm of its limit): with a 4.5 mm margin
+    the plan is the one without it, and its note says so.
+    """
+    cup = GraspModel.load(config_dir() / 'models' / 'cup_7zone.yaml')
+    kin = MicoKinematics()
+    zones = intent.all_zones(3)
+    v = intent.interpret((0.1, 0.9, 0.1)).v
+    plain = plan_grasp(cup, v, zones, BASE_T_OBJ, kin, hand=hand)
+    kept = plan_grasp(cup, v, zones, BASE_T_OBJ, kin, hand=hand, margin=0.003)
+    assert isinstance(plain, Grasp) and isinstance(kept, Grasp)
+    assert plain.clearance is not None and kept.clearance is not None
+    assert kept.clearance.palm_depth <= LIMITS.palm - 0.003 and kept.clearance.finger_depth <= LIMITS.finger - 0.003
+    assert plain.clearance.fault() is None and plain.clearance.fault(LIMITS.less(0.003)) is not None
+    assert kept.result.candidates[0].x.tobytes() == plain.result.x.tobytes()
+    assert 'within the object margin' in kept.note
+    held = plan_grasp(cup, v, zones, BASE_T_OBJ, kin, hand=hand, margin=0.003, warm_start=plain.result.x)
+    assert isinstance(held, Grasp) and held.result.x.tobytes() == plain.result.x.tobytes()
+    v_all = intent.interpret((0.9, 0.9, 0.9)).v
+    plain = plan_grasp(cup, v_all, zones, BASE_T_OBJ, kin, hand=hand)
+    fallback = plan_grasp(cup, v_all, zones, BASE_T_OBJ, kin, hand=hand, margin=0.0045)
+    assert isinstance(plain, Grasp) and isinstance(fallback, Grasp)
+    assert fallback.result.x.tobytes() == plain.result.x.tobytes()
+    assert fallback.note.endswith('none with the object margin: planned at the limits')
+    assert not plain.note.endswith('planned at the limits')
+
+
+def test_the_tracker_margin_bounds_the_depth_error_of_the_simulated_tracker() -> None:
+    """tracker_margin is the depth sigma of perturb_pose's errors for a contact at the lever arm, across the normal.
+
+    20,000 draws (seeded): a contact at r with normal n moves along n with the formula's sigma for r perpendicular
+    to n at |r| = lever arm (within 3 %), and less for r along n.
+    """
+    from grasp_intent_ros.shared_control.simulator import perturb_pose
+
+    rng = np.random.default_rng(7)
+    position_rms, angle_rms, lever = 0.005, math.radians(3.0), 0.12
+    bound = tracker_margin(position_rms, angle_rms, lever)
+    assert bound == pytest.approx(math.sqrt((position_rms ** 2 + (angle_rms * lever) ** 2) / 3.0), rel=1e-12)
+    n = np.array([0.0, 0.0, 1.0])
+    moves = {'across': [], 'along': []}
+    for _ in range(20_000):
+        T = perturb_pose(np.eye(4), position_rms, angle_rms, rng)
+        moves['across'].append(float((T[:3, :3] @ np.array([lever, 0.0, 0.0]) + T[:3, 3]) @ n))
+        moves['along'].append(float((T[:3, :3] @ (lever * n) + T[:3, 3]) @ n) - lever)
+    assert float(np.std(moves['across'])) == pytest.approx(bound, rel=0.03)
+    assert float(np.std(moves['along'])) < 0.75 * bound
+    assert tracker_margin(0.0, 0.0, 1.0) == 0.0
+    with pytest.raises(KinematicsError):
+        tracker_margin(-0.001, 0.0, 0.1)
