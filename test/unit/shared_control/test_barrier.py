@@ -141,3 +141,13 @@ def test_the_assistance_filters_its_output_but_not_when_off_or_direct(kin: MicoK
     direct, into = _assistance(kin, 'none')
     direct.set_operator(into, 0.0)
     assert np.array_equal(direct.command(0.0).twist, into)  # direct teleoperation: unfiltered
+
+
+def test_the_paths_margin_is_left_out_so_the_hand_still_reaches_the_limits(kin: MicoKinematics) -> None:
+    base_T_ee, axis, clearance = _ahead(kin)
+    into = np.r_[0.1 * axis, 0.0, 0.0, 0.0]
+    near = _drive(clearance, base_T_ee, into, filtered=True, seconds=1.0)[2]
+    assert -0.02 < clearance.intrusion_at(near) < 0.0  # within 2 cm of the limits: within the margin below
+    wide = PathClearance(kin, default_hand(), CUP, np.linalg.inv(clearance.obj_T_base), margin=0.02)
+    np.testing.assert_allclose(clearance_filter(wide, near, into), clearance_filter(clearance, near, into),
+                               atol=1e-9)
