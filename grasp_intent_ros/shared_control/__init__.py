@@ -10,6 +10,8 @@ joint_path
     The robot twist's joint-space target for a pose with no IK from the arm's joints (the line IK).
 clearance
     The robot's joint path clear of the object as perceived (tracked pose, model's body): checked, and replaced.
+barrier
+    The command kept out of the object as perceived: the twist nearest the blend that nears it no faster than a barrier.
 estimator
     The intent estimator: the operator's twist -> a posterior over the model's demonstrated grasps -> w.
 calibration

@@ -81,7 +81,8 @@ Limits (:class:`TwistLimiter`)
 ------------------------------
 The blended twist's linear and angular parts are scaled down to their speed limits, then each part's
 change since the last output is scaled down to acceleration limit times the elapsed time. A stale operator
-input (older than the timeout) gives the zero twist at once, without the acceleration limit: a stop.
+input (older than the timeout) gives the zero twist at once, without the acceleration limit: a stop. Last, given the
+object as perceived (set_object) and a rule but 'none', the hand is kept out of it (:func:`~.barrier.clearance_filter`).
 """
 
 from __future__ import annotations
@@ -103,14 +104,13 @@ from ..mico.frames import PRE_GRASP_STANDOFF, REACH_POS, REACH_ROT, offset, pose
 from ..mico.kinematics import MicoKinematics
 from ..planning.ranking import expected_success
 from .approach import in_corridor
+from .barrier import clearance_filter
 from .clearance import PathClearance, clear_path, default_hand
 from .joint_path import VIA_REACHED, joint_path, near_grasp
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
-           'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached',
-           'assistance_target', 'robot_twist', 'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter',
-           'AssistanceConfig',
-           'Command', 'Assistance']
+           'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached', 'assistance_target', 'robot_twist',
+           'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter', 'AssistanceConfig', 'Command', 'Assistance']
 
 Arbitration = Literal['confidence', 'blend', 'none']
 ARBITRATIONS: tuple[str, ...] = typing.get_args(Arbitration)
@@ -367,7 +367,7 @@ class Command:
     Attributes
     ----------
     twist : ndarray, shape (6,)
-        The blended, limited twist (base frame).
+        The blended, limited and filtered twist (base frame).
     alpha : float
         The arbitration weight it was blended with (0: nothing to assist, or the stop of a stale operator input).
     phase : str
@@ -523,9 +523,8 @@ class Assistance:
         return 0.0 if self.yielded else min(linear, angular)
 
     def command(self, now: float) -> Command:
-        """The twist to send at ``now``: the blend within the limits, or the zero twist for a stale operator."""
-        dt = self.limiter.max_dt if self._last_output is None else now - self._last_output
-        self._last_output = now
+        """The twist to send at ``now``: the blend within the limits, filtered; the zero twist for a stale operator."""
+        dt, self._last_output = self.limiter.max_dt if self._last_output is None else now - self._last_output, now
         if not self.operator_fresh(now):
             return Command(self.limiter.stop(), 0.0, 'operator input stale')
         assert self._operator is not None
@@ -533,9 +532,7 @@ class Assistance:
         if not self.enabled:
             self.limiter.last = operator.copy()
             return Command(operator.copy(), 0.0, 'assistance off')
-        alpha, phase = self.alpha()
-        cfg = self.config
-        robot = np.zeros(6)
+        (alpha, phase), cfg, robot = self.alpha(), self.config, np.zeros(6)
         if alpha > 0.0:
             assert self.base_T_ee is not None and self.base_T_grasp is not None
             if cfg.arbitration == 'confidence':
@@ -547,7 +544,10 @@ class Assistance:
                 robot, phase = self.robot()
             else:
                 phase = 'yielded to the operator' if self.yielded else phase
-        return Command(self.limiter.limit(blend(alpha, robot, operator), dt), alpha, phase)
+        twist = self.limiter.limit(blend(alpha, robot, operator), dt)
+        if self.clearance is not None and self.base_T_ee is not None and cfg.arbitration != 'none':
+            twist = self.limiter.last = clearance_filter(self.clearance, self.base_T_ee, twist)  # the limiter's last
+        return Command(twist.copy(), alpha, phase)
 
     def robot(self) -> tuple[NDArray[np.float64], str]:
         """The robot's twist toward the planned grasp now (before any blending), and its phase.

@@ -96,8 +96,12 @@ class PathClearance:
         :data:`HAND_REACH` plus that from every primitive's bounding sphere (gap:
         its least distance to one), the hand counts at ``gap - HAND_REACH``, without the collision model.
         """
+        return self.intrusion_at(self.kin.fk(q))
+
+    def intrusion_at(self, base_T_ee: NDArray[np.float64]) -> float:
+        """:meth:`intrusion` of the open hand with its end effector at ``base_T_ee`` (4x4, base frame), m."""
         far = self.margin + FAR
-        obj_T_ee = self.obj_T_base @ self.kin.fk(q)
+        obj_T_ee = self.obj_T_base @ base_T_ee
         gap = float((np.linalg.norm(self._centres - obj_T_ee[:3, 3], axis=1) - self._radii).min())
         if gap - HAND_REACH > far:
             return HAND_REACH - gap - min(self.limits.palm, self.limits.finger) + self.margin
