@@ -29,8 +29,9 @@ Threads
     The executor's thread (single-threaded) runs every callback and owns the
     :class:`~grasp_intent_ros.shared_control.assistance.Assistance`. The joint path's search runs in a thread
     of its own (:class:`~grasp_intent_ros.shared_control.path_search.PathWorker`, with its own kinematics and
-    hand model), fed snapshots; until its answer comes the output is the operator's twist alone (alpha 0,
-    state ``seeking a path``). A plan that repeats the grasp, or an object pose that repeats, keeps the path.
+    hand model), fed snapshots. Every grasp and object pose asks for the path again from the joints of that
+    moment; meanwhile a bit-identical grasp and object keep the previous path in use, else the output is the
+    operator's twist alone (alpha 0, state ``seeking a path``).
 
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.ASSISTANCE`, ``config/assistance.yaml``.
 """
