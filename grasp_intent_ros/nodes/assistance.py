@@ -25,6 +25,14 @@ Behaviour
     arrival time on the node's clock. With a model that has a body, the robot's joint path keeps the open hand
     clear of it at the object's pose (:mod:`grasp_intent_ros.shared_control.clearance`); without one, unchecked.
 
+Threads
+    The executor's thread (single-threaded) runs every callback and owns the
+    :class:`~grasp_intent_ros.shared_control.assistance.Assistance`. The joint path's search runs in a thread
+    of its own (:class:`~grasp_intent_ros.shared_control.path_search.PathWorker`, with its own kinematics and
+    hand model), fed snapshots. Every grasp and object pose asks for the path again from the joints of that
+    moment; meanwhile a bit-identical grasp and object keep the previous path in use, else the output is the
+    operator's twist alone (alpha 0, state ``seeking a path``).
+
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.ASSISTANCE`, ``config/assistance.yaml``.
 """
 
@@ -43,12 +51,11 @@ from std_msgs.msg import Float64, String
 from std_srvs.srv import SetBool
 
 from ..errors import GraspIntentError
-from ..method.body import Cylinder, ObjectBody
+from ..method.body import ObjectBody
 from ..method.features import MICO_3F
-from ..method.intent import all_zones, default_task_names, zone_labels
 from ..method.model import ModelRequirements
 from ..mico.collision import HandCollision
-from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
 from ..mico.parameters import check_object_pose, object_pose
 from ..parameters import config_from
 from ..ros.diagnostics import NodeDiagnostics
@@ -57,8 +64,9 @@ from ..ros.model_follower import ModelFollower
 from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, output_publisher
 from ..ros.run import guard_exit, publish_all, run_node
-from ..shared_control.assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set
+from ..shared_control.assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, warm_up
 from ..shared_control.parameters import ASSISTANCE
+from ..shared_control.path_search import PathWorker
 from ..wire import topics
 from ..wire.arrays import msg_labels, msg_to_array, read_features, read_posterior
 from ..wire.model_document import ModelDocument
@@ -85,7 +93,13 @@ class AssistanceNode(Node):
         self._base_T_obj = object_pose(self._params)
         self._body: ObjectBody | None = None
         self._configure(self._params)
-        self._warm_up()
+        warm_up(self._assist)
+        grasp_task_set(np.zeros(MICO_3F.dim), np.zeros((1, MICO_3F.dim)), np.ones(1, dtype=np.int64),
+                       np.ones(MICO_3F.dim))
+        self._paths = PathWorker(self._params.build('urdf_path', lambda path: MicoKinematics(path or None)),
+                                 self._params.build('urdf_path', lambda path: HandCollision(path or None)),
+                                 name=f'{node_name}_paths', guard=lambda f: self._diag.guard(f, counts_received=False))
+        self._assist.paths = self._paths
         self._last_output = -float('inf')
         self._outputs = 0
         self._demos: tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]] | None = None
@@ -107,25 +121,10 @@ class AssistanceNode(Node):
         self._period = float(self._params['publish_period'])
         self._timer = self.create_timer(self._period, self._diag.guard_timer(self._publish))
 
-    def _warm_up(self) -> None:
-        """One assisted command on a copy at Home (kinematics, Jacobian, arbitration, the path's clearance)."""
-        warm = Assistance(self._assist.config, TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin, self._assist.hand)
-        warm.set_joints(HOME_Q.copy())
-        assert warm.base_T_ee is not None
-        grasp = warm.base_T_ee.copy()
-        grasp[:3, 3] += (0.05, 0.0, -0.05)
-        warm.set_grasp(grasp)
-        base_T_obj = np.eye(4)
-        base_T_obj[:3, 3] = grasp[:3, 3] + (0.0, 0.0, -0.2)  # an object below the grasp, within the hand's reach
-        cup = Cylinder(np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, 1.0]), 0.04, 0.1)
-        warm.set_object(base_T_obj, ObjectBody((cup,)))
-        labels = zone_labels(all_zones(3), default_task_names(3))
-        warm.set_v(np.full(7, 1.0 / 7.0), labels)
-        warm.set_posterior(np.full(7, 1.0 / 7.0), labels, default_task_names(3))
-        warm.set_operator(np.r_[0.05, 0.0, -0.05, 0.0, 0.0, 0.0], 0.0)
-        warm.command(0.0)
-        grasp_task_set(np.zeros(MICO_3F.dim), np.zeros((1, MICO_3F.dim)), np.ones(1, dtype=np.int64),
-                       np.ones(MICO_3F.dim))
+    def destroy_node(self) -> None:
+        """Stop the path thread (after its current search), then destroy the node."""
+        self._paths.stop()
+        super().destroy_node()
 
     def _use_model(self, document: ModelDocument | None) -> None:
         if document is not None:

@@ -10,6 +10,10 @@ joint_path
     The robot twist's joint-space target for a pose with no IK from the arm's joints (the line IK).
 clearance
     The robot's joint path clear of the object as perceived (tracked pose, model's body): checked, and replaced.
+path_search
+    The robot's joint path sought from a snapshot: the search (one definition), at once or in a thread of its own.
+limits
+    The output twist's speed and acceleration limits; norms without overflow.
 barrier
     The command kept out of the object as perceived: the twist nearest the blend that nears it no faster than a barrier.
 estimator
@@ -28,5 +32,6 @@ parameters (ROS-free tables)
     The assistance node's and the intent estimator node's parameter tables; how the operator's twist is read.
 
 Imports of the package: :mod:`~grasp_intent_ros.errors`, :mod:`~grasp_intent_ros.method`,
-:mod:`~grasp_intent_ros.planning` and :mod:`~grasp_intent_ros.mico`.
+:mod:`~grasp_intent_ros.planning`, :mod:`~grasp_intent_ros.mico` and :mod:`~grasp_intent_ros.latest_only`
+(path_search's thread).
 """

@@ -77,8 +77,8 @@ the arm's joint state: :class:`Assistance` decides that.
 alpha is therefore in [0, alpha_max] for every rule: 0 means the operator's twist alone, alpha_max (< 1 by
 default) the most the robot ever gets, so the operator always keeps 1 - alpha_max of the command.
 
-Limits (:class:`TwistLimiter`)
-------------------------------
+Limits (:class:`~.limits.TwistLimiter`)
+---------------------------------------
 The blended twist's linear and angular parts are scaled down to their speed limits, then each part's
 change since the last output is scaled down to acceleration limit times the elapsed time. A stale operator
 input (older than the timeout) gives the zero twist at once, without the acceleration limit: a stop. Last, given the
@@ -87,7 +87,6 @@ object as perceived (set_object) and a rule but 'none', the hand is kept out of 
 
 from __future__ import annotations
 
-import functools
 import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -97,20 +96,23 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidIntentError
-from ..method.body import ObjectBody
-from ..method.intent import parse_zones
+from ..method.body import Cylinder, ObjectBody
+from ..method.intent import all_zones, default_task_names, parse_zones, zone_labels
 from ..mico.collision import HandCollision
 from ..mico.frames import PRE_GRASP_STANDOFF, REACH_POS, REACH_ROT, offset, pose_error, pre_grasp, reached
-from ..mico.kinematics import MicoKinematics
+from ..mico.kinematics import HOME_Q, MicoKinematics
 from ..planning.ranking import expected_success
 from .approach import in_corridor
 from .barrier import clearance_filter
-from .clearance import PathClearance, clear_path, default_hand
-from .joint_path import VIA_REACHED, joint_path, near_grasp
+from .clearance import PathClearance, default_hand
+from .joint_path import VIA_REACHED, joint_path
+from .limits import TwistLimiter, clip_norm, norm
+from .path_search import PathRequest, PathSearch, PathSource
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
            'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached', 'assistance_target', 'robot_twist',
-           'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter', 'AssistanceConfig', 'Command', 'Assistance']
+           'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter', 'AssistanceConfig', 'Command', 'Assistance',
+           'warm_up']
 
 Arbitration = Literal['confidence', 'blend', 'none']
 ARBITRATIONS: tuple[str, ...] = typing.get_args(Arbitration)
@@ -201,7 +203,7 @@ def operator_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64]
     """
     parts: list[float | None] = []
     for part, deadband in ((slice(0, 3), deadband_linear), (slice(3, 6), deadband_angular)):
-        if _norm(operator[part]) <= deadband or _norm(robot[part]) <= deadband:
+        if norm(operator[part]) <= deadband or norm(robot[part]) <= deadband:
             parts.append(None)
             continue
         h, r = clip_norm(operator[part], 1.0), clip_norm(robot[part], 1.0)  # no overflow in the products
@@ -220,22 +222,6 @@ def assistance_target(base_T_ee: NDArray[np.float64], base_T_grasp: NDArray[np.f
                    corridor_angle=corridor_angle)[0]:
         return base_T_grasp, 'grasp'
     return pre_grasp(base_T_grasp, standoff), 'pre-grasp'
-
-
-def _norm(x: NDArray[np.float64]) -> float:
-    """|x|, without overflow for any finite ``x`` (inf when it exceeds the float range)."""
-    size = float(np.max(np.abs(x)))
-    return size * float(np.linalg.norm(x / size)) if size > 0.0 else 0.0
-
-
-def clip_norm(x: NDArray[np.float64], limit: float) -> NDArray[np.float64]:
-    """``x`` scaled down to norm ``limit`` when longer (direction kept; no overflow for any finite ``x``)."""
-    size = float(np.max(np.abs(x)))
-    if size == 0.0:
-        return x
-    unit = x / size
-    norm = float(np.linalg.norm(unit))
-    return unit * (limit / norm) if size * norm > limit else x
 
 
 def robot_twist(base_T_ee: NDArray[np.float64], base_T_target: NDArray[np.float64], *, gain_linear: float,
@@ -269,49 +255,6 @@ def joint_space_twist(jacobian: NDArray[np.float64], q: NDArray[np.float64], q_t
 def blend(alpha: float, robot: NDArray[np.float64], operator: NDArray[np.float64]) -> NDArray[np.float64]:
     """The blended twist alpha * robot + (1 - alpha) * operator."""
     return alpha * robot + (1.0 - alpha) * operator
-
-
-@dataclass
-class TwistLimiter:
-    """Speed and acceleration limits of an output twist stream (module docstring).
-
-    Attributes
-    ----------
-    max_linear, max_angular : float
-        m/s, rad/s.
-    max_linear_acceleration, max_angular_acceleration : float
-        m/s^2, rad/s^2.
-    max_dt : float
-        Longest elapsed time (s) the acceleration limit grants (a gap in the stream is no licence to jump).
-    """
-
-    max_linear: float
-    max_angular: float
-    max_linear_acceleration: float
-    max_angular_acceleration: float
-    max_dt: float = 0.02
-
-    def __post_init__(self) -> None:
-        self.last = np.zeros(6)
-
-    def limit(self, twist: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
-        """``twist`` (shape (6,)) within the limits, ``dt`` s after the last output; becomes the last output.
-
-        A non-finite twist counts as zero (never a NaN out).
-        """
-        if not np.all(np.isfinite(twist)):
-            twist = np.zeros(6)
-        dt = min(max(dt, 0.0), self.max_dt)
-        lin, ang = clip_norm(twist[:3], self.max_linear), clip_norm(twist[3:], self.max_angular)
-        lin = self.last[:3] + clip_norm(lin - self.last[:3], self.max_linear_acceleration * dt)
-        ang = self.last[3:] + clip_norm(ang - self.last[3:], self.max_angular_acceleration * dt)
-        self.last = np.concatenate([lin, ang])
-        return self.last.copy()
-
-    def stop(self) -> NDArray[np.float64]:
-        """The zero twist, at once; becomes the last output."""
-        self.last = np.zeros(6)
-        return self.last.copy()
 
 
 @dataclass(frozen=True)
@@ -385,6 +328,13 @@ class Assistance:
     Times are seconds of one clock (the node's). Inputs are assumed checked (finite, rigid transforms).
     With ``kin`` the arm's state comes from :meth:`set_joints` and the robot's twist is joint-space
     (module docstring); without it, from ``base_T_ee`` and the twist is Cartesian. ``hand``: :meth:`set_object`'s.
+    ``paths`` runs the joint path's searches (:mod:`.path_search`): at once by default. Every :meth:`set_grasp`
+    and :meth:`set_object` asks for each phase's path to be sought again, from the joints when it is next
+    needed. While one is sought elsewhere (a :class:`~.path_search.PathWorker`), the robot's twist follows the
+    phase's previous path when the grasp and the object are bit-identical to those it was sought for (its
+    points still ahead: via points reached stay popped); else there is none and the output is the operator's
+    twist alone (alpha 0, phase ``'seeking a path'``): the Cartesian twist is neither checked against the
+    object nor free of the wrist's singularity.
     """
 
     def __init__(self, config: AssistanceConfig, limiter: TwistLimiter, kin: MicoKinematics | None = None,
@@ -397,11 +347,18 @@ class Assistance:
         self.enabled = True
         """False: the output is the operator's twist, exactly (the operator's switch)."""
         self._jacobian: NDArray[np.float64] | None = None
+        self.paths: PathSource | None = None if kin is None else PathSearch(kin)
+        self._epoch = 0
+        """Counts the changes of the grasp or the object (not bit-identical): a path is for one epoch."""
+        self._generation = 0
+        """Counts the grasps and objects set: each asks for the paths to be sought again (class docstring)."""
+        self._object: tuple[bytes, ObjectBody | None, float] | None = None
         self._path_reference: float | None = None
         """The hand's distance to the grasp (m) when a joint path to this proposal was first sought (joint_path)."""
-        self._q_targets: dict[str, list[NDArray[np.float64]] | None] = {}
-        """The joint path's points still ahead toward the grasp and the pre-grasp (None: none found), by phase,
-        for the current grasp; ``_cleared``: the clear paths that replaced one, by phase, for this proposal."""
+        self._q_targets: dict[str, tuple[int, list[NDArray[np.float64]] | None]] = {}
+        """By phase, for this epoch: the generation a joint path was sought for and its points still ahead toward
+        the grasp or the pre-grasp (None: none found); ``_cleared``: the clear paths that replaced one, by phase,
+        for this proposal."""
         self._cleared: dict[str, list[NDArray[np.float64]]] = {}
         self.clarification_pending = False
         self.agreement = (1.0, 1.0)
@@ -420,16 +377,20 @@ class Assistance:
         """A new planned grasp: valid from now on, and it answers any clarification pending.
 
         A grasp that moved by more than the corridor's radius or angle is a new proposal: the operator's held
-        agreement and the robot's yielding (module docstring) start afresh.
+        agreement and the robot's yielding (module docstring) start afresh. The paths are sought again; a grasp
+        bit-identical to the current one (the planner's same plan, sent again) keeps them in use meanwhile.
         """
-        if self.base_T_grasp is not None:
+        same = self.base_T_grasp is not None and np.array_equal(self.base_T_grasp, base_T_grasp)
+        if self.base_T_grasp is not None and not same:
             error = pose_error(self.base_T_grasp, base_T_grasp)
             if (float(np.linalg.norm(error[:3])) > self.config.corridor_radius
                     or float(np.linalg.norm(error[3:])) > self.config.corridor_angle):
                 self.agreement, self.yielded, self._since = (1.0, 1.0), False, None
                 self._path_reference, self._cleared = None, {}
         self.base_T_grasp, self.clarification_pending = base_T_grasp, False
-        self._q_targets = {}
+        self._generation += 1
+        if not same:
+            self._q_targets, self._epoch = {}, self._epoch + 1
 
     def set_joints(self, q: NDArray[np.float64]) -> None:
         """The arm's joint angles (rad, shape (6,)): the hand's pose and the Jacobian there (needs ``kin``)."""
@@ -438,10 +399,18 @@ class Assistance:
         self.q, self.base_T_ee, self._jacobian = q, self.kin.fk(q), self.kin.jacobian(q)
 
     def set_object(self, base_T_obj: NDArray[np.float64] | None, body: ObjectBody | None) -> None:
-        """Tracked object pose (base), model's body: new paths clear of it (None: none). KinematicsError: not rigid."""
-        clearance = None if self.kin is None or base_T_obj is None or body is None else PathClearance(
-            self.kin, self.hand or default_hand(), body, base_T_obj, margin=self.config.clearance_margin)
-        self.clearance, self._q_targets = clearance, {}
+        """Tracked object pose (base), model's body: new paths clear of it (None: none). KinematicsError: not rigid.
+
+        The paths are sought again; the same pose (bit-identical), body (the same object) and
+        ``clearance_margin`` as before keep them in use meanwhile.
+        """
+        key = (b'' if base_T_obj is None else np.asarray(base_T_obj, dtype=np.float64).tobytes(), body,
+               self.config.clearance_margin)
+        if self._object is None or any(a is not b and a != b for a, b in zip(key, self._object)):  # body: identity
+            clearance = None if self.kin is None or base_T_obj is None or body is None else PathClearance(
+                self.kin, self.hand or default_hand(), body, base_T_obj, margin=self.config.clearance_margin)
+            self.clearance, self._q_targets, self._epoch, self._object = clearance, {}, self._epoch + 1, key
+        self._generation += 1
 
     def set_posterior(self, posterior: NDArray[np.float64], zone_labels: Sequence[str],
                       task_names: Sequence[str]) -> None:
@@ -537,11 +506,12 @@ class Assistance:
             assert self.base_T_ee is not None and self.base_T_grasp is not None
             if cfg.arbitration == 'confidence':
                 alpha *= self._agree(operator, now)
-            idle = _norm(operator[:3]) <= cfg.deadband_linear and _norm(operator[3:]) <= cfg.deadband_angular
+            idle = norm(operator[:3]) <= cfg.deadband_linear and norm(operator[3:]) <= cfg.deadband_angular
             if idle and not cfg.assist_without_input:
                 alpha, phase = 0.0, 'no operator input'
             elif alpha > 0.0:
-                robot, phase = self.robot()
+                twist, phase = self.robot()
+                alpha, robot, phase = (0.0, robot, 'seeking a path') if twist is None else (alpha, twist, phase)
             else:
                 phase = 'yielded to the operator' if self.yielded else phase
         twist = self.limiter.limit(blend(alpha, robot, operator), dt)
@@ -549,8 +519,10 @@ class Assistance:
             twist = self.limiter.last = clearance_filter(self.clearance, self.base_T_ee, twist)  # the limiter's last
         return Command(twist.copy(), alpha, phase)
 
-    def robot(self) -> tuple[NDArray[np.float64], str]:
-        """The robot's twist toward the planned grasp now (before any blending), and its phase.
+    def robot(self) -> tuple[NDArray[np.float64] | None, str]:
+        """The robot's twist toward the planned grasp now (None while its path is sought), and its phase.
+
+        The twist is before any blending.
 
         Needs the grasp and the hand's pose (set_grasp, set_joints or base_T_ee).
         """
@@ -560,22 +532,27 @@ class Assistance:
                                           corridor_radius=cfg.corridor_radius, corridor_angle=cfg.corridor_angle)
         return self._robot_twist(target, phase), phase
 
-    def _robot_twist(self, base_T_target: NDArray[np.float64], phase: str) -> NDArray[np.float64]:
-        """The robot's twist toward ``base_T_target`` (the grasp or the pre-grasp, ``phase``): module docstring."""
+    def _robot_twist(self, base_T_target: NDArray[np.float64], phase: str) -> NDArray[np.float64] | None:
+        """The robot's twist toward ``base_T_target`` (the grasp or the pre-grasp, ``phase``; module docstring).
+
+        None while its path is sought (``paths``).
+        """
         cfg = self.config
-        if self.kin is not None and self.q is not None and self._jacobian is not None:
-            targets, clearance = self._q_targets, self.clearance  # set_grasp and set_object replace them
-            if phase not in targets:
-                ik = self.kin.ik(base_T_target, self.q, restarts=0)  # the solution the joints descend to
-                path = [ik.q] if ik.success else self.joint_path(base_T_target)
-                if path is not None and clearance is not None and self.base_T_grasp is not None:
-                    near = functools.partial(near_grasp, self.kin, self.q, base_T_grasp=self.base_T_grasp,
-                                             slack=cfg.corridor_radius, reference=self._reference())
-                    cleared = clear_path(clearance, self.q, path, base_T_target, self._cleared.get(phase), near)
-                    if cleared is not path:
-                        path = self._cleared[phase] = cleared
-                targets[phase] = path
-            path = targets[phase]
+        if self.paths is not None and self.q is not None and self._jacobian is not None:
+            targets = self._q_targets  # set_grasp and set_object replace it
+            entry = targets.get(phase)
+            if entry is None or entry[0] != self._generation:
+                assert self.base_T_grasp is not None
+                answer = self.paths.seek(PathRequest(
+                    (self._epoch, self._generation, phase), self.q.copy(), base_T_target, self.base_T_grasp,
+                    cfg.corridor_radius, self._reference(), self.clearance, tuple(self._cleared.get(phase, ()))))
+                if answer is not None and answer.key[0] == self._epoch and (entry is None or answer.key[1] > entry[0]):
+                    entry = targets[phase] = (answer.key[1], answer.path)
+                    if answer.cleared and answer.path is not None:
+                        self._cleared[phase] = answer.path
+                if entry is None:
+                    return None
+            path = entry[1]
             if path is not None:
                 if len(path) > 1 and float(np.linalg.norm(path[0] - self.q)) <= VIA_REACHED:
                     path.pop(0)  # the via point reached: on to the target
@@ -597,3 +574,27 @@ class Assistance:
         if self._path_reference is None:
             self._path_reference = float(np.linalg.norm(self.base_T_ee[:3, 3] - self.base_T_grasp[:3, 3]))
         return self._path_reference
+
+
+def warm_up(assistance: Assistance) -> None:
+    """One assisted command on a copy of ``assistance`` (needs ``kin``): its first calls paid before an output.
+
+    At Home, toward a grasp 7 cm away with a cup below it: the kinematics, the Jacobian, arbitration, the joint
+    path and its clearance run once (in this thread, whatever ``assistance.paths``). ``assistance`` is unchanged.
+    """
+    assert assistance.kin is not None
+    warm = Assistance(assistance.config, TwistLimiter(1.0, 1.0, 1.0, 1.0), assistance.kin, assistance.hand)
+    warm.set_joints(HOME_Q.copy())
+    assert warm.base_T_ee is not None
+    grasp = warm.base_T_ee.copy()
+    grasp[:3, 3] += (0.05, 0.0, -0.05)
+    warm.set_grasp(grasp)
+    base_T_obj = np.eye(4)
+    base_T_obj[:3, 3] = grasp[:3, 3] + (0.0, 0.0, -0.2)  # an object below the grasp, within the hand's reach
+    warm.set_object(base_T_obj, ObjectBody((Cylinder(np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, 1.0]), 0.04,
+                                                      0.1),)))
+    labels = zone_labels(all_zones(3), default_task_names(3))
+    warm.set_v(np.full(7, 1.0 / 7.0), labels)
+    warm.set_posterior(np.full(7, 1.0 / 7.0), labels, default_task_names(3))
+    warm.set_operator(np.r_[0.05, 0.0, -0.05, 0.0, 0.0, 0.0], 0.0)
+    warm.command(0.0)

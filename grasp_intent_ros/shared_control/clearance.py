@@ -78,6 +78,7 @@ class PathClearance:
                  limits: Limits = LIMITS, margin: float = 0.0) -> None:
         base_T_obj = check_transform(base_T_obj, 'base_T_obj')
         self.kin, self.hand, self.body, self.limits, self.margin = kin, hand, body, limits, margin
+        self.base_T_obj = base_T_obj.copy()
         self.obj_T_base = np.eye(4)
         self.obj_T_base[:3, :3] = base_T_obj[:3, :3].T
         self.obj_T_base[:3, 3] = -base_T_obj[:3, :3].T @ base_T_obj[:3, 3]
@@ -85,6 +86,10 @@ class PathClearance:
         """The object's z axis in the base frame: the normal of the table it stands on."""
         self._centres = np.array([prim.centre for prim in body.primitives])
         self._radii = np.array([prim.bounding_radius for prim in body.primitives])
+
+    def on(self, kin: MicoKinematics, hand: HandCollision) -> PathClearance:
+        """The same check (body, pose, limits, margin) with another kinematics and hand (a thread's own)."""
+        return PathClearance(kin, hand, self.body, self.base_T_obj, self.limits, self.margin)
 
     def intrusion(self, q: NDArray[np.float64]) -> float:
         """How far the open hand at joints ``q`` goes into the body beyond the limits less the margin (m; a bound).

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import time
 
 import numpy as np
@@ -20,6 +21,7 @@ from grasp_intent_ros.nodes.assistance import ENABLE_SERVICE, AssistanceNode
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.conversions import array_to_msg, posterior_to_msg
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
+from grasp_intent_ros.shared_control import path_search
 from grasp_intent_ros.shared_control.assistance import joint_space_twist
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.diagnostics import WARN
@@ -209,4 +211,35 @@ def test_the_object_pose_sets_the_path_clearance_and_a_bad_one_is_rejected(ros, 
     assert ros.publish_until(object_pose, far, lambda: status_finder(statuses, ': assistance', level=bytes([WARN]),
                                                                     text='from the base'), 10.0)
     assert np.allclose(loop.node._assist.clearance.obj_T_base @ pose, np.eye(4), atol=1e-12)  # the last good pose
+    loop.assist()
+
+
+def test_the_output_keeps_coming_while_the_path_is_sought(ros, monkeypatch) -> None:
+    # the node's path search held until released (a slow clearance, as long as need be): the outputs go on at
+    # alpha 0 (the operator's twist alone) while it runs; released, the path comes in and the robot assists
+    armed, started, release = threading.Event(), threading.Event(), threading.Event()
+    seek = path_search.seek_path
+
+    def held(kin, request):
+        if armed.is_set():  # after the warm-up, whichever thread seeks
+            started.set()
+            release.wait(60.0)
+        return seek(kin, request)
+
+    monkeypatch.setattr(path_search, 'seek_path', held)
+    loop = Loop(ros)
+    armed.set()
+    try:
+        deadline = time.monotonic() + 10.0
+        while not started.is_set() and time.monotonic() < deadline:
+            loop.feed()
+            loop.operator.publish(loop.toward())
+            ros.wait_for(started.is_set, 0.02)
+        assert started.is_set(), 'no path sought after the grasp, v and the joint state'
+        count = len(loop.alphas)
+        assert ros.publish_until(loop.operator, loop.toward(), lambda: len(loop.alphas) > count + 20, 10.0,
+                                 period=0.01)
+        assert not release.is_set() and [a.data for a in loop.alphas[count:]] == [0.0] * (len(loop.alphas) - count)
+    finally:
+        release.set()
     loop.assist()

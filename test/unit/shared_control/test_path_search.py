@@ -1,0 +1,180 @@
+"""grasp_intent_ros.shared_control.path_search: what clears the joint paths, and a search in a thread of its own."""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from numpy.typing import NDArray
+
+from grasp_intent_ros.method.body import Cylinder, ObjectBody
+from grasp_intent_ros.mico.collision import HandCollision
+from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
+from grasp_intent_ros.shared_control import path_search
+from grasp_intent_ros.shared_control.assistance import (
+    Assistance,
+    AssistanceConfig,
+    Command,
+    TwistLimiter,
+    joint_space_twist,
+)
+from grasp_intent_ros.shared_control.path_search import PathAnswer, PathRequest, PathSearch, PathWorker
+
+from .robot_alone import LABELS, TASKS
+
+CUP = ObjectBody((Cylinder(np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, 1.0]), 0.04, 0.1),))
+STILL = np.zeros(6)
+"""The operator's twist: no input (the tests' assistance assists without input)."""
+
+
+@pytest.fixture(scope='module')
+def kin() -> MicoKinematics:
+    return MicoKinematics()
+
+
+class Held:
+    """A path source that seeks at once (:class:`PathSearch`) while ``answering``, else holds its last answer."""
+
+    def __init__(self, kin: MicoKinematics) -> None:
+        self.inner = PathSearch(kin)
+        self.answering = True
+        self.last: PathAnswer | None = None
+        self.asked: list[tuple[int, int, str]] = []
+
+    def seek(self, request: PathRequest) -> PathAnswer | None:
+        self.asked.append(request.key)
+        if self.answering:
+            self.last = self.inner.seek(request)
+        last = self.last
+        return last if last is not None and (last.key[0], last.key[2]) == (request.key[0], request.key[2]) else None
+
+
+def assisting(kin: MicoKinematics) -> tuple[Assistance, NDArray[np.float64], NDArray[np.float64]]:
+    """An assistance at Home with a grasp 5 cm ahead (in the corridor), a cup 20 cm below it, v certain."""
+    assistance = Assistance(AssistanceConfig(assist_without_input=True), TwistLimiter(0.2, 1.0, 1.0, 5.0), kin)
+    assistance.set_joints(np.asarray(HOME_Q, dtype=np.float64).copy())
+    assert assistance.base_T_ee is not None
+    grasp = assistance.base_T_ee.copy()
+    grasp[:3, 3] += 0.05 * grasp[:3, 2]
+    base_T_obj = np.eye(4)
+    base_T_obj[:3, 3] = grasp[:3, 3] + (0.0, 0.0, -0.2)
+    assistance.set_grasp(grasp)
+    assistance.set_object(base_T_obj, CUP)
+    assistance.set_v(np.eye(7)[0], LABELS)
+    assistance.set_posterior(np.eye(7)[0], LABELS, TASKS)
+    return assistance, grasp, base_T_obj
+
+
+def step(assistance: Assistance, now: float) -> Command:
+    assistance.set_operator(STILL, now)
+    return assistance.command(now)
+
+
+def test_a_repeated_grasp_or_object_keeps_the_path_in_use_while_it_is_sought_again(kin: MicoKinematics) -> None:
+    assistance, grasp, base_T_obj = assisting(kin)
+    held = Held(kin)
+    assistance.paths = held
+    assert step(assistance, 0.0).phase == 'grasp'
+    held.answering = False  # from now on a search takes until answering is set
+    assistance.set_grasp(grasp.copy())  # the planner's same plan again: bit-identical
+    assistance.set_object(base_T_obj.copy(), CUP)  # the tracker's same pose again
+    command = step(assistance, 0.01)
+    assert command.alpha > 0.0 and command.phase == 'grasp'  # the path in use
+    assert held.asked[-1][0] == held.asked[0][0] and held.asked[-1][1] > held.asked[0][1]  # and sought again
+    moved = grasp.copy()
+    moved[0, 3] = np.nextafter(moved[0, 3], np.inf)  # one ulp: another grasp
+    shifted = base_T_obj.copy()
+    shifted[0, 3] += 1e-9
+    other_cup = ObjectBody((Cylinder(np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, 1.0]), 0.04, 0.1),))  # equal
+    changes = (lambda: assistance.set_grasp(moved), lambda: assistance.set_object(shifted, CUP),
+               lambda: assistance.set_object(shifted, other_cup),
+               lambda: (setattr(assistance, 'config', replace(assistance.config, clearance_margin=0.01)),
+                        assistance.set_object(shifted, other_cup)))
+    for i, change in enumerate(changes):
+        change()
+        command = step(assistance, 0.02 + 0.01 * i)
+        assert command.alpha == 0.0 and command.phase == 'seeking a path', i  # no path of this grasp and object
+        held.answering = True
+        assert step(assistance, 0.02 + 0.01 * i).phase == 'grasp'
+        held.answering = False
+
+
+def test_a_via_point_reached_stays_behind_while_the_path_is_sought_again(kin: MicoKinematics) -> None:
+    # the path's first point is popped when reached; the same grasp again keeps the path as it is (the via point
+    # stays behind) until the new search answers
+    assistance, grasp, _ = assisting(kin)
+    q = np.asarray(HOME_Q, dtype=np.float64)
+    via, end = q + 0.01, q + 0.2
+    held = Held(kin)
+    held.answering = False
+    assistance.paths = held
+    assistance._q_targets['grasp'] = (assistance._generation, [via, end])
+    step(assistance, 0.0)  # within VIA_REACHED of the via point: on to the end
+    assistance.set_grasp(grasp.copy())
+    command = step(assistance, 0.01)
+    assert command.alpha > 0.0 and assistance._q_targets['grasp'][1] == [end]
+    expected = joint_space_twist(kin.jacobian(q), q, end, gain=2.0, max_linear=0.15, max_angular=0.8)
+    assert_allclose(assistance.robot()[0], expected, atol=1e-12)  # toward the end, not back to the via point
+
+
+def test_while_the_path_is_sought_the_output_is_the_operators_alone(kin: MicoKinematics) -> None:
+    assistance, _, _ = assisting(kin)
+    held = Held(kin)
+    held.answering = False
+    assistance.paths = held
+    operator = np.array([0.0, 0.0, 0.01, 0.0, 0.0, 0.0])
+    assistance.set_operator(operator, 0.0)
+    command = assistance.command(0.0)
+    assert command.alpha == 0.0 and command.phase == 'seeking a path'
+    assert_allclose(command.twist, operator, atol=0.0)  # within the limits: exactly the operator's
+    held.answering = True
+    assistance.set_operator(operator, 0.01)
+    command = assistance.command(0.01)
+    assert command.alpha > 0.0 and command.phase == 'grasp'
+
+
+def test_the_worker_seeks_in_its_own_thread_and_answers_the_newest_request(kin: MicoKinematics,
+                                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    started, release = threading.Event(), threading.Event()
+    sought: list[tuple[str, PathRequest, PathAnswer]] = []
+    seek = path_search.seek_path
+
+    def held(own: MicoKinematics, request: PathRequest) -> PathAnswer:
+        started.set()
+        release.wait(30.0)
+        answer = seek(own, request)
+        sought.append((threading.current_thread().name, request, answer))
+        return answer
+
+    monkeypatch.setattr(path_search, 'seek_path', held)
+    assistance, grasp, _ = assisting(kin)
+    worker = PathWorker(MicoKinematics(), HandCollision(), name='paths under test')
+    try:
+        assistance.paths = worker
+        assert step(assistance, 0.0).alpha == 0.0
+        assert started.wait(30.0)  # the first request is being sought
+        assert step(assistance, 0.01).alpha == 0.0  # the same request is not handed over twice
+        moved = grasp.copy()
+        moved[:3, 3] += (0.0, 0.01, 0.0)
+        assistance.set_grasp(moved)  # a newer request while the first is sought
+        assert step(assistance, 0.02).alpha == 0.0
+        release.set()
+        deadline, alpha, now = time.monotonic() + 30.0, 0.0, 0.02
+        while alpha == 0.0 and time.monotonic() < deadline:  # a condition with a deadline
+            now += 0.01
+            alpha = step(assistance, now).alpha
+            threading.Event().wait(0.001)
+        assert alpha > 0.0
+        assert [name for name, _, _ in sought] == ['paths under test'] * 2  # the first, then the newest only
+        _, request, answer = sought[-1]
+        assert np.array_equal(request.base_T_grasp, moved) and request.clearance is not None
+        again = seek(kin, request)  # in this thread, with the caller's kinematics: the same answer
+        assert answer.path is not None and again.path is not None
+        for a, b in zip(answer.path, again.path, strict=True):
+            assert_allclose(a, b, atol=0.0)
+    finally:
+        worker.stop()
