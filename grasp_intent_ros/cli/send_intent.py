@@ -145,6 +145,9 @@ class IntentSender(Node):
     def send(self, w: ArrayLike, executor: Executor, *, timeout: float = 10.0, period: float = 0.5) -> GraspAnswer:
         """Publish w until the chain answers; spin ``executor`` (which must hold this node) meanwhile.
 
+        The answer: the first plan stamped after the send, once an ``intent/v`` has been heard since (w is sent
+        again every ``period``, so a v missed while the subscriptions were still matching comes again).
+
         Raises
         ------
         InvalidIntentError
@@ -158,7 +161,7 @@ class IntentSender(Node):
         n_v, n_clarifications = len(self._v), len(self._clarifications)
         deadline = time.monotonic() + timeout
         next_send = 0.0
-        while (stamp := self._answer(sent_after)) is None:
+        while (stamp := self._answer(sent_after)) is None or len(self._v) == n_v:  # the plan and a v heard
             now = time.monotonic()
             if len(self._clarifications) > n_clarifications:
                 raise NoGrasp(f'the chain asks for clarification: {self._clarifications[-1].data}')
