@@ -95,8 +95,10 @@ class AssistanceNode(Node):
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, 'assistance')
         self._params = declare_parameters(self, ASSISTANCE, check=check_object_pose, on_change=self._configure)
-        self._kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
-        hand = self._params.build('urdf_path', lambda path: HandCollision(path or None))
+        def robot() -> tuple[MicoKinematics, HandCollision]:  # of urdf_path; the path thread has its own
+            return (self._params.build('urdf_path', lambda path: MicoKinematics(path or None)),
+                    self._params.build('urdf_path', lambda path: HandCollision(path or None)))
+        self._kin, hand = robot()
         self._assist = Assistance(AssistanceConfig(), TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin, hand)
         self._base_T_obj = object_pose(self._params)
         self._body: ObjectBody | None = None
@@ -104,9 +106,8 @@ class AssistanceNode(Node):
         warm_up(self._assist)
         grasp_task_set(np.zeros(MICO_3F.dim), np.zeros((1, MICO_3F.dim)), np.ones(1, dtype=np.int64),
                        np.ones(MICO_3F.dim))
-        self._paths = PathWorker(self._params.build('urdf_path', lambda path: MicoKinematics(path or None)),
-                                 self._params.build('urdf_path', lambda path: HandCollision(path or None)),
-                                 name=f'{node_name}_paths', guard=lambda f: self._diag.guard(f, counts_received=False))
+        self._paths = PathWorker(*robot(), name=f'{node_name}_paths',
+                                 guard=lambda f: self._diag.guard(f, counts_received=False))
         self._assist.paths = self._paths
         self._last_output = -float('inf')
         self._outputs = 0
