@@ -11,7 +11,8 @@
   ``ros/worker.LatestOnlyWorker``, ``path.py::test_name``) and every link of the Markdown docs, to a file and
   a heading;
 - every ``ros2 topic pub/echo`` of the docs names a topic of :mod:`grasp_intent_ros.wire.topics` with its type,
-  and every ``ros2 param set/get/describe`` a parameter of that node;
+  every ``ros2 param set/get/describe`` a parameter of that node, and every domain id they write is none of the
+  tests' (:data:`grasp_intent_ros.launch.suite.TEST_DOMAIN_IDS`);
 - the README's library example runs.
 
 Read from the source (ast), so no module is imported (but by the last two checks).
@@ -205,6 +206,7 @@ PATH = re.compile(rf'`((?:{"|".join(TOP_DIRS + FOLDERS)})/[\w./-]*?)(?:::(\w+))?
 LINK = re.compile(r'\]\(([^)\s]+)\)')
 TOPIC_COMMAND = re.compile(r'ros2 topic (?:pub|echo)(?: --?[a-z][\w-]*)* (/?[\w/]+)(?: (\w+/msg/\w+))?')
 PARAM_COMMAND = re.compile(r'ros2 param (?:set|get|describe)(?: --[a-z][\w-]*)* (/[\w/]+) (\w+)')
+DOMAIN = re.compile(r'(?:ROS_DOMAIN_ID=|--domain-id )(\d+)')
 
 
 def stale_path(path: str, name: str | None) -> bool:
@@ -314,6 +316,17 @@ def test_the_ros2_command_check_tells_stale_commands_from_live_ones() -> None:
                   'ros2 topic echo robot1/intent/w', 'ros2 param set /model_server no_such_parameter',
                   'ros2 param set /no_such_node model', 'ros2 param get /suite model'):
         assert [m for m in ros2_commands(stale) if stale_ros2_command(m)], stale
+
+
+def test_no_domain_id_the_docs_give_is_one_the_tests_claim() -> None:
+    from grasp_intent_ros.launch.suite import TEST_DOMAIN_IDS
+    texts = [*MARKDOWN, *MODULES, *(REPO / 'config').glob('*.yaml'),
+             *(p for d in ('benchmarks', 'scripts') for p in (REPO / d).rglob('*.py'))]
+    found = [(path, m) for path in texts for m in DOMAIN.finditer(path.read_text())]
+    assert found
+    clashing = sorted(f'{path.relative_to(REPO)}: {m.group(0)}' for path, m in found
+                      if int(m.group(1)) in TEST_DOMAIN_IDS)
+    assert clashing == [], f'example domain ids a running test may hold (use 91-101): {clashing}'
 
 
 def test_the_readmes_library_example_runs() -> None:
