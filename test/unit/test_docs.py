@@ -13,6 +13,8 @@
 - every ``ros2 topic pub/echo`` of the docs names a topic of :mod:`grasp_intent_ros.wire.topics` with its type,
   every ``ros2 param set/get/describe`` a parameter of that node, and every domain id they write is none of the
   tests' (:data:`grasp_intent_ros.launch.suite.TEST_DOMAIN_IDS`);
+- every ``--option`` written after a command (``python -m grasp_intent_ros <command>``, a benchmark script) is
+  one its parser defines;
 - the README's library example runs.
 
 Read from the source (ast), so no module is imported (but by the last two checks).
@@ -327,6 +329,62 @@ def test_no_domain_id_the_docs_give_is_one_the_tests_claim() -> None:
     clashing = sorted(f'{path.relative_to(REPO)}: {m.group(0)}' for path, m in found
                       if int(m.group(1)) in TEST_DOMAIN_IDS)
     assert clashing == [], f'example domain ids a running test may hold (use 91-101): {clashing}'
+
+
+OPTIONS = re.compile(rf'(?:{COMMAND.pattern}|(?:benchmarks/)?\b(\w+)\.py)([^\n`#]*)')
+"""A command or a benchmark script, then what follows it on its line up to a quote's end or a comment."""
+
+
+def parser_sources(module: Path) -> str:
+    """``module``'s source and that of the package modules it imports, where its parser's options are defined."""
+    tree = ast.parse(module.read_text())
+    sources = [module.read_text()]
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and (node.level or (node.module or '').startswith('grasp_intent_ros')):
+            base = module.parents[node.level - 1] if node.level else REPO
+            base = base.joinpath(*(node.module or '').split('.'))
+            for alias in node.names:
+                for path in (base / f'{alias.name}.py', base.with_suffix('.py'), base / '__init__.py'):
+                    if path.is_file():
+                        sources.append(path.read_text())
+                        break
+    return '\n'.join(sources)
+
+
+def unknown_options(match: re.Match[str]) -> list[str]:
+    """The ``--options`` after a command or benchmark that its parser does not define (any but ROS's own)."""
+    from grasp_intent_ros.commands import COMMANDS
+    command, script, rest = match.groups()
+    if command is not None:
+        if command not in COMMANDS:
+            return []  # test_every_reference_to_the_package_names_what_exists names it
+        module = PACKAGE.joinpath(*COMMANDS[command].split('.')).with_suffix('.py')
+        source = parser_sources(module)
+    else:
+        module = REPO / 'benchmarks' / f'{script}.py'
+        if not module.is_file():
+            return []
+        source = '\n'.join(p.read_text() for p in [module, *(REPO / 'benchmarks' / '_bench').glob('*.py')])
+    options = re.findall(r'(?<![\w-])(--[a-z][\w-]*)', rest.split('--ros-args')[0])
+    return [option for option in options if f"'{option}'" not in source]
+
+
+def test_every_option_the_docs_give_a_command_is_one_it_takes() -> None:
+    found = [(path, m) for path in [*TEXTS, REPO / 'CONTRIBUTING.md'] for m in OPTIONS.finditer(path.read_text())]
+    assert len(found) >= 20
+    unknown = sorted({f'{path.relative_to(REPO)}: {m.group(0).strip()} ({", ".join(bad)})' for path, m in found
+                      if (bad := unknown_options(m))})
+    assert unknown == [], f'options no parser defines (renamed or dropped?): {unknown}'
+
+
+def test_the_option_check_tells_unknown_options_from_known_ones() -> None:
+    for known in ('python -m grasp_intent_ros replay BAG --check --start-suite --ros-args --log-level debug',
+                  'python -m grasp_intent_ros recorder my_session --topics intent/ --flush-period 1',
+                  'benchmarks/bench_shutdown.py --suite [--together]'):
+        assert [m for m in OPTIONS.finditer(known) if not unknown_options(m)], known
+    for unknown in ('python -m grasp_intent_ros replay BAG --checks', 'grasp-intent-ros train x.csv --zone 7zone',
+                    'bench_task_success.py --physic'):
+        assert [m for m in OPTIONS.finditer(unknown) if unknown_options(m)], unknown
 
 
 def test_the_readmes_library_example_runs() -> None:
