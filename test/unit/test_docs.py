@@ -205,6 +205,8 @@ TOP_DIRS = ('grasp_intent_ros', 'test', 'benchmarks', 'scripts', 'config', 'bags
 FOLDERS = tuple(sorted(p.parent.name for p in PACKAGE.glob('*/__init__.py')))
 PATH = re.compile(rf'`((?:{"|".join(TOP_DIRS + FOLDERS)})/[\w./-]*?)(?:::(\w+))?`')
 """A quoted path from the repository's root or the package's (``ros/worker.py``, ``ros/worker.LatestOnlyWorker``)."""
+TEST_PATH = re.compile(r'(?<![\w/.`-])((?:test|benchmarks)/[\w/.-]*\.py)(?:::(\w+))?')
+"""A test or benchmark named unquoted, as docstrings do (no reader writes files there, unlike config/)."""
 LINK = re.compile(r'\]\(([^)\s]+)\)')
 TOPIC_COMMAND = re.compile(r'ros2 topic (?:pub|echo)(?: --?[a-z][\w-]*)* (/?[\w/]+)(?: (\w+/msg/\w+))?')
 PARAM_COMMAND = re.compile(r'ros2 param (?:set|get|describe)(?: --[a-z][\w-]*)* (/[\w/]+) (\w+)')
@@ -226,8 +228,8 @@ def stale_path(path: str, name: str | None) -> bool:
 
 
 def test_every_quoted_repository_path_names_what_exists() -> None:
-    stale = sorted({f'{path.relative_to(REPO)}: {m.group(0)}' for path in TEXTS for m in PATH.finditer(path.read_text())
-                    if stale_path(m.group(1), m.group(2))})
+    stale = sorted({f'{path.relative_to(REPO)}: {m.group(0)}' for path in TEXTS for text in [path.read_text()]
+                    for m in [*PATH.finditer(text), *TEST_PATH.finditer(text)] if stale_path(m.group(1), m.group(2))})
     assert stale == [], f'paths to what does not exist (moved or renamed?): {stale}'
 
 
