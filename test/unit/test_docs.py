@@ -8,8 +8,8 @@
 - every dotted name ``grasp_intent_ros.x.y`` and every ``python -m grasp_intent_ros <command>`` written in the
   package, its docs, config, benchmarks and tests names a module (and a name defined in it) or a command that
   exists, so a move leaves no stale pointer behind; so does every quoted repository path (``test/...``,
-  ``ros/worker.LatestOnlyWorker``, ``path.py::test_name``) and every link of the Markdown docs, to a file and
-  a heading;
+  ``ros/worker.LatestOnlyWorker``, ``path.py::test_name``), every test or benchmark path, quoted or not, and
+  every link of the Markdown docs, to a file and a heading;
 - every ``ros2 topic pub/echo`` of the docs names a topic of :mod:`grasp_intent_ros.wire.topics` with its type,
   every ``ros2 param set/get/describe`` a parameter of that node, and every domain id they write is none of the
   tests' (:data:`grasp_intent_ros.launch.suite.TEST_DOMAIN_IDS`);
