@@ -32,7 +32,7 @@ node working through a queue.
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set;
 the planner process gets both.
 
-    ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=80 \\
+    ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=96 \\
         python benchmarks/bench_planner_node.py [--stream walk] [--period 0.01] [--duration 10] [--code DIR]
 """
 

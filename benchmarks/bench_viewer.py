@@ -21,7 +21,7 @@ Needs Debian's chromium (``apt-get install -y chromium``). Network rule: refuses
 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set; every process gets both, and the page is
 served on 127.0.0.1.
 
-    ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=81 \\
+    ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=92 \\
         python benchmarks/bench_viewer.py [--period 0.01] [--duration 10] [--rounds 2] [--connections 100]
 """
 

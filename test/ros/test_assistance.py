@@ -151,7 +151,7 @@ def test_the_operator_wins_holding_still_moves_nothing_and_the_switch_gives_the_
 
 
 def test_a_stale_operator_input_gives_the_zero_twist_and_it_goes_on(ros) -> None:
-    """The node side; that the zero twist comes within the timeout is test/unit/test_assistance.py's (own clock)."""
+    """The node side (the zero twist within the timeout, own clock: test/unit/shared_control/test_assistance.py)."""
     loop = Loop(ros, operator_timeout=0.1)
     moving = twist_msg(linear=(0.05, 0.0, 0.0))
     up_to_speed = lambda: loop.twists and loop.twists[-1].twist.linear.x >= 0.049  # noqa: E731 (acceleration-limited)

@@ -486,6 +486,14 @@ def _is_node_process(pid: int) -> bool:
         return False
 
 
+def readme_demo_lines() -> list[str]:
+    """The lines of the README's expected demo output that it does not say vary (pids, times, the domain)."""
+    text = (REPO / 'README.md').read_text()
+    block = text.split('Expected output (trimmed', 1)[1].split('```\n', 1)[1].split('```', 1)[0]
+    return [line for line in block.splitlines()
+            if line.strip() not in ('', '...') and not re.search(r'\(pid \d|\d s$|ROS_DOMAIN_ID=', line)]
+
+
 def test_the_demo_runs_to_completion_and_leaves_no_process(domain_id, tmp_path):
     env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': str(domain_id)}
     env.pop('ROS_STATIC_PEERS', None)
@@ -522,3 +530,9 @@ def test_the_demo_runs_to_completion_and_leaves_no_process(domain_id, tmp_path):
     assert stdout.count('joint targets') == sum(len(names) for _, _, names in CASES)
     assert 'asks for clarification: P(no task) = 0.7290' in stdout
     assert 'nodes stopped (cleanly)' in stdout
+    lines, at = stdout.splitlines(), 0
+    expected = readme_demo_lines()
+    assert len(expected) >= 10, expected
+    for line in expected:  # in the README's order
+        assert line in lines[at:], f"README.md's expected demo output has {line!r}; the demo printed:\n{stdout}"
+        at = lines.index(line, at) + 1

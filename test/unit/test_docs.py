@@ -7,9 +7,17 @@
   docs/measurements.md and the README's table, history to git);
 - every dotted name ``grasp_intent_ros.x.y`` and every ``python -m grasp_intent_ros <command>`` written in the
   package, its docs, config, benchmarks and tests names a module (and a name defined in it) or a command that
-  exists, so a move leaves no stale pointer behind.
+  exists, so a move leaves no stale pointer behind; so does every quoted repository path (``test/...``,
+  ``ros/worker.LatestOnlyWorker``, ``path.py::test_name``), every test or benchmark path, quoted or not, and
+  every link of the Markdown docs, to a file and a heading;
+- every ``ros2 topic pub/echo`` of the docs names a topic of :mod:`grasp_intent_ros.wire.topics` with its type,
+  every ``ros2 param set/get/describe`` a parameter of that node, and every domain id they write is none of the
+  tests' (:data:`grasp_intent_ros.launch.suite.TEST_DOMAIN_IDS`);
+- every ``--option`` written after a command (``python -m grasp_intent_ros <command>``, a benchmark script) is
+  one its parser defines;
+- the README's library example runs.
 
-Read from the source (ast), so no module is imported.
+Read from the source (ast), so no module is imported (but by the last two checks).
 """
 
 from __future__ import annotations
@@ -189,3 +197,203 @@ def test_the_reference_check_tells_stale_names_from_live_ones() -> None:
     for stale in ('grasp_intent_ros.core.arm', 'grasp_intent_ros.mico.mock_arm.NoSuchArm',
                   'grasp_intent_ros.mico.mock_arm.MockArm.no_such_method'):
         assert not resolves(stale), stale
+
+
+MARKDOWN = sorted([*REPO.glob('*.md'), *(REPO / 'docs').glob('*.md')])
+TOP_DIRS = ('grasp_intent_ros', 'test', 'benchmarks', 'scripts', 'config', 'bags', 'examples', 'docs', 'requirements',
+            'resource')
+FOLDERS = tuple(sorted(p.parent.name for p in PACKAGE.glob('*/__init__.py')))
+PATH = re.compile(rf'`((?:{"|".join(TOP_DIRS + FOLDERS)})/[\w./-]*?)(?:::(\w+))?`')
+"""A quoted path from the repository's root or the package's (``ros/worker.py``, ``ros/worker.LatestOnlyWorker``)."""
+TEST_PATH = re.compile(r'(?<![\w/.`-])((?:test|benchmarks)/[\w/.-]*\.py)(?:::(\w+))?')
+"""A test or benchmark named unquoted, as docstrings do (no reader writes files there, unlike config/)."""
+LINK = re.compile(r'\]\(([^)\s]+)\)')
+TOPIC_COMMAND = re.compile(r'ros2 topic (?:pub|echo)(?: --?[a-z][\w-]*)* (/?[\w/]+)(?: (\w+/msg/\w+))?')
+PARAM_COMMAND = re.compile(r'ros2 param (?:set|get|describe)(?: --[a-z][\w-]*)* (/[\w/]+) (\w+)')
+DOMAIN = re.compile(r'(?:ROS_DOMAIN_ID=|--domain-id )(\d+)')
+
+
+def stale_path(path: str, name: str | None) -> bool:
+    """Whether a quoted repository ``path`` (then a test ``name`` defined in it) names nothing that exists."""
+    path = path.rstrip('/.')
+    if path.split('/')[0] in TOP_DIRS:
+        target = REPO / path
+    elif '.' in path.rsplit('/', 1)[-1] and not path.endswith('.py'):  # ros/worker.LatestOnlyWorker
+        return not resolves('grasp_intent_ros.' + path.replace('/', '.'))
+    else:
+        target = PACKAGE / path
+    if not target.exists():
+        return True
+    return name is not None and not re.search(rf'^\s*(?:async )?def {name}\b', target.read_text(), re.MULTILINE)
+
+
+def test_every_quoted_repository_path_names_what_exists() -> None:
+    stale = sorted({f'{path.relative_to(REPO)}: {m.group(0)}' for path in TEXTS for text in [path.read_text()]
+                    for m in [*PATH.finditer(text), *TEST_PATH.finditer(text)] if stale_path(m.group(1), m.group(2))})
+    assert stale == [], f'paths to what does not exist (moved or renamed?): {stale}'
+
+
+def test_the_path_check_tells_stale_paths_from_live_ones() -> None:
+    for live in ('test/unit/test_docs.py', 'ros/worker.py', 'ros/worker.LatestOnlyWorker', 'bags/flashlight/',
+                 'test/unit/test_docs.py::test_the_path_check_tells_stale_paths_from_live_ones'):
+        assert not stale_path(*(live.split('::') + [None])[:2]), live
+    for stale in ('test/unit/test_assistance.py', 'ros/no_such_module.py', 'ros/worker.NoSuchWorker',
+                  'test/unit/test_docs.py::test_no_such_test'):
+        assert stale_path(*(stale.split('::') + [None])[:2]), stale
+
+
+def heading_anchors(path: Path) -> set[str]:
+    """The anchors of ``path``'s headings, as GitHub makes them.
+
+    Lower case, every character but letters, digits, '_', '-' and spaces dropped, spaces to '-', a repeated
+    anchor suffixed -1, -2, ...; a line in a code block is no heading.
+    """
+    anchors: set[str] = set()
+    seen: dict[str, int] = {}
+    fenced = False
+    for line in path.read_text().splitlines():
+        fenced ^= line.startswith('```')
+        heading = re.match(r'#{1,6} (.*)', line)
+        if heading and not fenced:
+            anchor = re.sub(r'[^\w\- ]', '', heading.group(1).strip().lower()).replace(' ', '-')
+            anchors.add(f'{anchor}-{seen[anchor]}' if anchor in seen else anchor)
+            seen[anchor] = seen.get(anchor, 0) + 1
+    return anchors
+
+
+def stale_link(source: Path, link: str) -> bool:
+    """Whether a Markdown ``link`` in ``source`` (a web address is not checked) misses its file or heading."""
+    if re.match(r'[a-z]+:', link):
+        return False
+    path, _, anchor = link.partition('#')
+    target = source.parent / path if path else source
+    return not target.exists() or bool(anchor) and target.suffix == '.md' and anchor not in heading_anchors(target)
+
+
+def test_every_link_of_the_docs_names_a_file_and_heading_that_exist() -> None:
+    stale = sorted(f'{path.relative_to(REPO)}: {m.group(1)}' for path in MARKDOWN
+                   for m in LINK.finditer(path.read_text()) if stale_link(path, m.group(1)))
+    assert stale == [], f'links to what does not exist (a heading renamed?): {stale}'
+
+
+def test_the_link_check_tells_stale_links_from_live_ones() -> None:
+    readme = REPO / 'README.md'
+    for live in ('docs/nodes.md#the-dds-profile-and-a-clients-shell', 'LICENSE', '#quick-start', 'https://x.org/#y'):
+        assert not stale_link(readme, live), live
+    for stale in ('docs/nodes.md#no-such-heading', 'docs/no_such_page.md', '#quick-start-1'):
+        assert stale_link(readme, stale), stale
+
+
+def stale_ros2_command(match: re.Match[str]) -> bool:
+    """Whether a ``ros2 topic`` or ``ros2 param`` command names a topic, type, node or parameter the suite lacks."""
+    from node_parameters import node_parameters
+
+    from grasp_intent_ros.commands import COMMANDS
+    from grasp_intent_ros.wire.topics import MSGTYPES
+    if match.re is TOPIC_COMMAND:
+        name, msgtype = match.groups()
+        topics = [t for t in MSGTYPES if name in (t, f'/{t}') or name.endswith(f'/{t.lstrip("/")}') and name[0] == '/']
+        return not topics or msgtype is not None and msgtype != MSGTYPES[topics[0]]
+    node, parameter = match.group(1).rsplit('/', 1)[-1], match.group(2)
+    return (COMMANDS.get(node, '').partition('.')[0] != 'nodes'
+            or parameter not in {spec.name for spec in node_parameters(node)})
+
+
+def ros2_commands(text: str) -> Iterator[re.Match[str]]:
+    yield from TOPIC_COMMAND.finditer(text)
+    yield from PARAM_COMMAND.finditer(text)
+
+
+def test_every_ros2_command_of_the_docs_names_a_topic_or_parameter_of_the_suite() -> None:
+    found = [(path, m) for path in [*MARKDOWN, *MODULES] for m in ros2_commands(path.read_text())]
+    assert len(found) >= 5  # the README's own: echo, pub, param set, echo of a latched topic, ...
+    stale = sorted(f'{path.relative_to(REPO)}: {m.group(0)}' for path, m in found if stale_ros2_command(m))
+    assert stale == [], f'ros2 commands naming what the suite does not have: {stale}'
+
+
+def test_the_ros2_command_check_tells_stale_commands_from_live_ones() -> None:
+    for live in ('ros2 topic echo --once grasp/pose geometry_msgs/msg/PoseStamped', 'ros2 topic echo /diagnostics',
+                 'ros2 topic pub --once /robot1/intent/w std_msgs/msg/Float64MultiArray',
+                 'ros2 param set /robot1/model_server model', 'ros2 param describe /intent_interpreter task_names'):
+        assert [m for m in ros2_commands(live) if not stale_ros2_command(m)], live
+    for stale in ('ros2 topic echo --once grasp/poses', 'ros2 topic pub --once intent/w std_msgs/msg/Float32MultiArray',
+                  'ros2 topic echo robot1/intent/w', 'ros2 param set /model_server no_such_parameter',
+                  'ros2 param set /no_such_node model', 'ros2 param get /suite model'):
+        assert [m for m in ros2_commands(stale) if stale_ros2_command(m)], stale
+
+
+def test_no_domain_id_the_docs_give_is_one_the_tests_claim() -> None:
+    from grasp_intent_ros.launch.suite import TEST_DOMAIN_IDS
+    texts = [*MARKDOWN, *MODULES, *(REPO / 'config').glob('*.yaml'),
+             *(p for d in ('benchmarks', 'scripts') for p in (REPO / d).rglob('*.py'))]
+    found = [(path, m) for path in texts for m in DOMAIN.finditer(path.read_text())]
+    assert found
+    clashing = sorted(f'{path.relative_to(REPO)}: {m.group(0)}' for path, m in found
+                      if int(m.group(1)) in TEST_DOMAIN_IDS)
+    assert clashing == [], f'example domain ids a running test may hold (use 91-101): {clashing}'
+
+
+OPTIONS = re.compile(rf'(?:{COMMAND.pattern}|(?:benchmarks/)?\b(\w+)\.py)([^\n`#]*)')
+"""A command or a benchmark script, then what follows it on its line up to a quote's end or a comment."""
+
+
+def parser_sources(module: Path) -> str:
+    """``module``'s source and that of the package modules it imports, where its parser's options are defined."""
+    tree = ast.parse(module.read_text())
+    sources = [module.read_text()]
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and (node.level or (node.module or '').startswith('grasp_intent_ros')):
+            base = module.parents[node.level - 1] if node.level else REPO
+            base = base.joinpath(*(node.module or '').split('.'))
+            for alias in node.names:
+                for path in (base / f'{alias.name}.py', base.with_suffix('.py'), base / '__init__.py'):
+                    if path.is_file():
+                        sources.append(path.read_text())
+                        break
+    return '\n'.join(sources)
+
+
+def unknown_options(match: re.Match[str]) -> list[str]:
+    """The ``--options`` after a command or benchmark that its parser does not define (any but ROS's own)."""
+    from grasp_intent_ros.commands import COMMANDS
+    command, script, rest = match.groups()
+    if command is not None:
+        if command not in COMMANDS:
+            return []  # test_every_reference_to_the_package_names_what_exists names it
+        module = PACKAGE.joinpath(*COMMANDS[command].split('.')).with_suffix('.py')
+        source = parser_sources(module)
+    else:
+        module = REPO / 'benchmarks' / f'{script}.py'
+        if not module.is_file():
+            return []
+        source = '\n'.join(p.read_text() for p in [module, *(REPO / 'benchmarks' / '_bench').glob('*.py')])
+    options = re.findall(r'(?<![\w-])(--[a-z][\w-]*)', rest.split('--ros-args')[0])
+    return [option for option in options if f"'{option}'" not in source]
+
+
+def test_every_option_the_docs_give_a_command_is_one_it_takes() -> None:
+    found = [(path, m) for path in [*TEXTS, REPO / 'CONTRIBUTING.md'] for m in OPTIONS.finditer(path.read_text())]
+    assert len(found) >= 20
+    unknown = sorted({f'{path.relative_to(REPO)}: {m.group(0).strip()} ({", ".join(bad)})' for path, m in found
+                      if (bad := unknown_options(m))})
+    assert unknown == [], f'options no parser defines (renamed or dropped?): {unknown}'
+
+
+def test_the_option_check_tells_unknown_options_from_known_ones() -> None:
+    for known in ('python -m grasp_intent_ros replay BAG --check --start-suite --ros-args --log-level debug',
+                  'python -m grasp_intent_ros recorder my_session --topics intent/ --flush-period 1',
+                  'benchmarks/bench_shutdown.py --suite [--together]'):
+        assert [m for m in OPTIONS.finditer(known) if not unknown_options(m)], known
+    for unknown in ('python -m grasp_intent_ros replay BAG --checks', 'grasp-intent-ros train x.csv --zone 7zone',
+                    'bench_task_success.py --physic'):
+        assert [m for m in OPTIONS.finditer(unknown) if unknown_options(m)], unknown
+
+
+def test_the_readmes_library_example_runs() -> None:
+    text = (REPO / 'README.md').read_text()
+    blocks = re.findall(r'^```python\n(.*?)^```', text, re.MULTILINE | re.DOTALL)
+    assert len(blocks) == 1
+    names: dict[str, object] = {}
+    exec(compile(blocks[0], 'README.md', 'exec'), names)  # noqa: S102 - the README's own example
+    assert names['res'].status == names['robust'].status == names['paper'].status == 'ok'  # type: ignore[attr-defined]
+    assert names['kl'].shape == (3, 3)  # type: ignore[attr-defined]
