@@ -2,7 +2,8 @@
 
 Run: ``python -m grasp_intent_ros demo [--models-dir DIR] [--timeout S]`` (``scripts/demo.sh`` does this)
 
-1. Refuses a domain on which other nodes show up within :data:`DOMAIN_CHECK` seconds, then starts
+1. Refuses a domain on which other nodes (:func:`other_nodes`: not hidden ones, such as the ``ros2`` CLI's
+   daemon) show up within :data:`DOMAIN_CHECK` seconds, then starts
    ``intent_interpreter``, ``model_server`` and ``grasp_planner`` as ``python -m`` processes (with
    their ``config/<node>.yaml`` parameter files) and waits, up to ``--timeout`` seconds, until each is up:
    the interpreter subscribes to ``intent/w`` and reports on ``/diagnostics``, the model server publishes
@@ -40,7 +41,7 @@ import os
 import signal
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from pathlib import Path
 from types import FrameType
 
@@ -68,7 +69,7 @@ from ..wire.diagnostics import KEY_MODEL
 from ..wire.model_document import ModelDocument
 from .suite import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
 
-__all__ = ['CLARIFICATION_CASE', 'DemoError', 'main']
+__all__ = ['CLARIFICATION_CASE', 'DemoError', 'other_nodes', 'main']
 
 CLARIFICATION_CASE = ('Clarification: low intent', (0.1, 0.1, 0.1))
 """Sent last: P(no task) = 0.729 >= the default threshold 0.5, so the interpreter asks for clarification."""
@@ -89,6 +90,17 @@ class _Interrupted(Exception):
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
     raise _Interrupted(signal.Signals(signum).name)
+
+
+def other_nodes(names_and_namespaces: Sequence[tuple[str, str]], own: Collection[str]) -> list[str]:
+    """The nodes that make a domain in use for the demo: ``namespace/name``, sorted.
+
+    Its own nodes (``own``) and hidden nodes (a name that starts with an underscore, by ROS convention a
+    tool's, e.g. the ``ros2`` CLI's daemon ``_ros2cli_daemon_<domain>_<id>``, which outlives the command that
+    started it) are left out: neither is a chain the demo could talk to by mistake.
+    """
+    return sorted(f'{ns.rstrip("/")}/{name}' for name, ns in names_and_namespaces
+                  if name not in own and not name.startswith('_'))
 
 
 def served_tasks(model: GraspModel, base_T_obj: np.ndarray, answer: GraspAnswer) -> str:
@@ -191,7 +203,7 @@ class _Demo:
         return '' if status is None else status.get(KEY_MODEL, '')
 
     def check_domain_unused(self, domain_id: int) -> None:
-        """DemoError if other nodes show up on the domain within DOMAIN_CHECK seconds.
+        """DemoError if other nodes (:func:`other_nodes`) show up on the domain within DOMAIN_CHECK seconds.
 
         The demo would talk to them (another run's model_server answers set_parameters just as well). Evidence, not
         proof: discovery on loopback normally takes well under a second.
@@ -199,8 +211,7 @@ class _Demo:
         own = {self.sender.get_name(), self.observer.get_name()}
 
         def others() -> list[str]:
-            return sorted(f'{ns.rstrip("/")}/{name}'
-                          for name, ns in self.observer.get_node_names_and_namespaces() if name not in own)
+            return other_nodes(self.observer.get_node_names_and_namespaces(), own)
 
         if self._spin_until(others, DOMAIN_CHECK):
             raise DemoError(f'ROS_DOMAIN_ID={domain_id} is in use by {", ".join(others())}; '
