@@ -105,7 +105,7 @@ from ..planning.ranking import expected_success
 from .approach import in_corridor
 from .barrier import clearance_filter
 from .clearance import PathClearance, default_hand
-from .joint_path import VIA_REACHED, joint_path
+from .joint_path import VIA_REACHED
 from .limits import TwistLimiter, clip_norm, norm
 from .path_search import PathRequest, PathSearch, PathSource
 
@@ -542,10 +542,7 @@ class Assistance:
             targets = self._q_targets  # set_grasp and set_object replace it
             entry = targets.get(phase)
             if entry is None or entry[0] != self._generation:
-                assert self.base_T_grasp is not None
-                answer = self.paths.seek(PathRequest(
-                    (self._epoch, self._generation, phase), self.q.copy(), base_T_target, self.base_T_grasp,
-                    cfg.corridor_radius, self._reference(), self.clearance, tuple(self._cleared.get(phase, ()))))
+                answer = self.paths.seek(self.path_request(phase, base_T_target))
                 if answer is not None and answer.key[0] == self._epoch and (entry is None or answer.key[1] > entry[0]):
                     entry = targets[phase] = (answer.key[1], answer.path)
                     if answer.cleared and answer.path is not None:
@@ -562,11 +559,12 @@ class Assistance:
         return robot_twist(self.base_T_ee, base_T_target, gain_linear=cfg.gain_linear, gain_angular=cfg.gain_angular,
                            max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)
 
-    def joint_path(self, base_T_target: NDArray[np.float64]) -> list[NDArray[np.float64]] | None:
-        """:func:`~.joint_path.joint_path` toward ``base_T_target``: slack ``corridor_radius``, :meth:`_reference`."""
-        assert self.kin is not None and self.q is not None and self.base_T_grasp is not None
-        return joint_path(self.kin, self.q, base_T_target, self.base_T_grasp, slack=self.config.corridor_radius,
-                          reference=self._reference())
+    def path_request(self, phase: str, base_T_target: NDArray[np.float64]) -> PathRequest:
+        """The path search's snapshot for ``phase``'s target now: slack ``corridor_radius``, :meth:`_reference`."""
+        assert self.q is not None and self.base_T_grasp is not None
+        return PathRequest((self._epoch, self._generation, phase), self.q.copy(), base_T_target, self.base_T_grasp,
+                           self.config.corridor_radius, self._reference(), self.clearance,
+                           tuple(self._cleared.get(phase, ())))
 
     def _reference(self) -> float:
         """m: the hand's distance to the grasp when a path to this proposal was first sought (set_grasp resets)."""

@@ -8,6 +8,7 @@ from numpy.typing import NDArray
 from grasp_intent_ros.mico.kinematics import BASE_FRAME, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import MockArm, TwistCommand
 from grasp_intent_ros.shared_control.assistance import Assistance
+from grasp_intent_ros.shared_control.joint_path import joint_path
 
 LABELS = ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
 TASKS = ('usage', 'transfer', 'handover')
@@ -31,3 +32,15 @@ def robot_alone(kin: MicoKinematics, assistance: Assistance, q0: NDArray[np.floa
         arm.command_twist(TwistCommand(command.twist[:3], command.twist[3:], BASE_FRAME), now)
         arm.step(now + 0.01, 0.01)
     return np.asarray(arm.q[:6], dtype=np.float64)
+
+
+def assistance_joint_path(assistance: Assistance,
+                          base_T_target: NDArray[np.float64]) -> list[NDArray[np.float64]] | None:
+    """:func:`~grasp_intent_ros.shared_control.joint_path.joint_path` as the assistance's search asks for it now.
+
+    With :meth:`~grasp_intent_ros.shared_control.assistance.Assistance.path_request`'s joints, target, grasp,
+    slack and reference (the phase does not enter the line IK); the assistance needs its kinematics.
+    """
+    assert assistance.kin is not None
+    r = assistance.path_request('pre-grasp', base_T_target)
+    return joint_path(assistance.kin, r.q, r.base_T_target, r.base_T_grasp, slack=r.slack, reference=r.reference)

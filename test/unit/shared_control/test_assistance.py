@@ -27,7 +27,7 @@ from grasp_intent_ros.shared_control.assistance import (
     serving_probability,
 )
 
-from .robot_alone import LABELS, TASKS, robot_alone
+from .robot_alone import LABELS, TASKS, assistance_joint_path, robot_alone
 
 GRASP = pose_to_matrix((0.3, -0.3, 0.05), (1.0, 0.0, 0.0, 0.0))  # approach (EE z) straight down
 ARGS = dict(alpha_max=0.9, margin=0.2)
@@ -399,7 +399,7 @@ def test_a_pre_grasp_without_ik_from_the_joints_is_reached_by_a_joint_line_near_
     assistance = Assistance(config, TwistLimiter(0.2, 1.0, 1.0, 5.0), kin)
     assistance.set_joints(GOAL_CHANGED_Q)
     assistance.set_grasp(grasp)
-    path = assistance.joint_path(pre)
+    path = assistance_joint_path(assistance, pre)
     assert path is not None and len(path) == 1  # a straight line
     q_t = path[0]
     error = pose_error(kin.fk(q_t), pre)
@@ -432,4 +432,4 @@ def test_no_joint_line_through_the_wrist_singularity() -> None:
     line = [kin.fk(q + s * (across - q))[:3, 3] for s in np.linspace(0.0, 1.0, 21)]
     assert max(float(np.linalg.norm(p - grasp[:3, 3])) for p in line) <= start + config.corridor_radius
     assert np.sin(across[4]) * np.sin(q[4]) < 0.0
-    assert assistance.joint_path(target) is None
+    assert assistance_joint_path(assistance, target) is None

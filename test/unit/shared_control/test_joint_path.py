@@ -14,7 +14,7 @@ from grasp_intent_ros.mico.kinematics import MicoKinematics
 from grasp_intent_ros.shared_control.assistance import Assistance, AssistanceConfig, TwistLimiter
 from grasp_intent_ros.shared_control.joint_path import LINE_IK_SEEDS, joint_path
 
-from .robot_alone import robot_alone
+from .robot_alone import assistance_joint_path, robot_alone
 
 # the arm 28 cm from a cup grasp after the operator's goal changed (the closed-loop benchmark's goal-changing
 # operator, seed 0, episode 37): the pre-grasp has no IK from these joints, and the straight joint line to each
@@ -52,7 +52,7 @@ def test_a_pre_grasp_without_a_straight_admissible_line_is_reached_through_one_v
     assistance = Assistance(config, TwistLimiter(0.2, 1.0, 1.0, 5.0), kin)
     assistance.set_joints(FAR_Q)
     assistance.set_grasp(grasp)
-    path = assistance.joint_path(pre)
+    path = assistance_joint_path(assistance, pre)
     assert path is not None and len(path) == 2
     via, q_t = path
     error = pose_error(kin.fk(q_t), pre)
@@ -130,17 +130,17 @@ def test_the_bound_never_falls_below_the_reference_distance() -> None:
     assistance = Assistance(AssistanceConfig(), TwistLimiter(0.2, 1.0, 1.0, 5.0), kin)
     assistance.set_joints(FAR_Q)
     assistance.set_grasp(grasp)
-    assert assistance.joint_path(pre) is not None
+    assert assistance_joint_path(assistance, pre) is not None
     via, q_t = path
     nearer = via + 0.75 * (q_t - via)
     near = float(np.linalg.norm(kin.fk(nearer)[:3, 3] - grasp[:3, 3]))
     assert near < present - 0.1
     assistance.set_joints(nearer)
     assistance.set_grasp(grasp.copy())
-    assistance.joint_path(pre)
+    assistance_joint_path(assistance, pre)
     assert assistance._path_reference == present
     moved = grasp.copy()
     moved[:3, 3] += [0.0, 0.0, 0.05]  # beyond the corridor: a new proposal
     assistance.set_grasp(moved)
-    assistance.joint_path(pre)
+    assistance_joint_path(assistance, pre)
     assert assistance._path_reference == float(np.linalg.norm(kin.fk(nearer)[:3, 3] - moved[:3, 3]))
