@@ -24,6 +24,8 @@ stamped_inputs
     The estimator's inputs paired by header stamps: each operator twist with the hand and the grasp shown at its stamp.
 operators
     Scripted teleoperators and their intents (a device model, a goal choice without the rules, an intent script).
+ada
+    ADA's shared autonomy as published: the simulated closed loop's baseline.
 simulator
     The closed loop on a simulated clock with the nodes' core functions (planner policy, assistance, mock arm).
 sweep

@@ -13,6 +13,7 @@ from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.objects.demos import CUP_RULES
 from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.shared_control.ada import AdaAssistance
 from grasp_intent_ros.shared_control.assistance import TwistLimiter, offset, pose_error
 from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
@@ -25,7 +26,6 @@ from grasp_intent_ros.shared_control.operators import (
     draw_task_set,
 )
 from grasp_intent_ros.shared_control.simulator import (
-    AdaAssistance,
     Scene,
     TraceRow,
     certain_grasps,
