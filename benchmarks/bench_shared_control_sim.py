@@ -1,8 +1,9 @@
 r"""Shared control under intent uncertainty, closed loop on a simulated clock: success at the reached grasp.
 
 Runs :func:`grasp_intent_ros.shared_control.simulator.simulate` (the nodes' own core functions: interpreter,
-planner policy, assistance, mock arm) for 2 objects x 3 operator models x 5 conditions (direct, ADA as
-published, the suite on the independent-task grasp, the suite, the suite with estimated w), on the same
+planner policy, assistance, mock arm) for 2 objects x 3 operator models x 6 conditions (direct, ADA as
+published, the suite on the independent-task grasp, the suite, the suite with estimated w, the suite with the
+estimator's w on the script's w as its prior), on the same
 seeded episodes, faster than real time, and prints per object and operator: success at the reached pose,
 median time to grasp, operator effort, wrong-task pull, the runs whose hand path swept into the object, with
 paired differences and 95% bootstrap confidence intervals over episodes.
@@ -47,6 +48,12 @@ model's demonstrations at the tracked object that the arm reaches from Home) fed
 before blending; the intent script's w is not used, only its true set, which the operator pursues and the
 judge reads. The estimator never sees the true set, the rules or the operator's goal.
 
+Fused (condition ``fused``): as ``estimated``, and the intent script's w (the suite condition's, with its noise)
+is the estimator's task prior, set every 0.1 s before its w is read (``simulate``'s ``classifier_prior``; the
+node's ``intent/prior``): the script plays per-task classifiers whose w the operator's motion refines. Under
+persistent ambiguity the true set is drawn from that w, so this prior is the one the episodes are drawn from;
+the estimator still never sees the set.
+
 Judged here, after the episode, by the data set's rules (never seen by the planner, the assistance or the
 operator): success = the hand closed before the timeout and the object's rules hold for every task of the
 true set at the reached pose with the executed closures (the features in the true object frame). Wrong-task
@@ -67,7 +74,8 @@ the way, could count on; reported beside success, per condition and paired (the 
 carry ``swept``.
 
 Statistics: per episode the mean over repeats; paired differences (:data:`PAIRS`: the suite minus each other
-condition, estimated w minus scripted w (the suite) and minus direct) with a 95% percentile bootstrap over
+condition, estimated w minus scripted w (the suite) and minus direct, fused minus the suite, estimated w, direct
+and ADA) with a 95% percentile bootstrap over
 episodes (10,000 resamples, seeded).
 
     .venv/bin/python benchmarks/bench_shared_control_sim.py [--episodes 50] [--repeats 3] [--jobs 2] \
@@ -117,9 +125,12 @@ from grasp_intent_ros.shared_control.simulator import (
 OPERATORS = ('joystick', 'spacemouse', 'goal-changing')
 CASES = ((0.9, 0.9, 0.1), (0.9, 0.1, 0.9), (0.1, 0.9, 0.9), (0.9, 0.5, 0.5), (0.7, 0.7, 0.7))
 ESTIMATED = 'estimated'
-RUN = (*CONDITIONS, ESTIMATED)
-"""The conditions: the simulator's, and the suite with the intent estimator's w (module docstring)."""
-PAIRS = (*(('suite', c) for c in CONDITIONS[:-1]), (ESTIMATED, 'suite'), (ESTIMATED, 'direct'))
+FUSED = 'fused'
+RUN = (*CONDITIONS, ESTIMATED, FUSED)
+"""The conditions: the simulator's, the suite with the intent estimator's w, and with the estimator's w on the
+script's w as its prior (module docstring)."""
+PAIRS = (*(('suite', c) for c in CONDITIONS[:-1]), (ESTIMATED, 'suite'), (ESTIMATED, 'direct'),
+         (FUSED, 'suite'), (FUSED, ESTIMATED), (FUSED, 'direct'), (FUSED, 'ada'))
 """The paired differences reported (a minus b)."""
 
 _STATE: dict[str, Any] = {}
@@ -195,7 +206,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
     own = {s: (g.base_T_ee, g.positions[6:]) for s, g in certain_grasps(model, seen, kin, options).items()}
     cache: dict[bytes, Grasp | None] = {}
     estimator = None
-    if ESTIMATED in task.conditions:  # the goals the node would prepare for the tracked object
+    if {ESTIMATED, FUSED} & set(task.conditions):  # the goals the node would prepare for the tracked object
         estimator = IntentEstimator(goals_at(model, tracked, reachable_goals(model, tracked, kin)),
                                     EstimatorConfig(**dict(task.estimator)))
     device = 'joystick' if task.operator == 'joystick' else 'spacemouse'
@@ -208,11 +219,12 @@ def run_task(task: Task) -> list[dict[str, Any]]:
             closure_rng = np.random.default_rng([task.seed, task.index, repeat, 3])
             operator = ScriptedOperator(device, OperatorConstants(), op_rng)
             t0 = time.perf_counter()
-            estimated = condition == ESTIMATED
+            estimated = condition in (ESTIMATED, FUSED)
             trace: list[TraceRow] | None = [] if task.trace else None
             ep = simulate(scene, 'suite' if estimated else condition, intent, operator, own, intent_rng,
                           closure_rng, ada_goals=ada_goals, plan_cache=cache, timeout=task.timeout,
-                          estimator=estimator if estimated else None, execute=task.execute, trace=trace)
+                          estimator=estimator if estimated else None, classifier_prior=condition == FUSED,
+                          execute=task.execute, trace=trace)
             true_set = ep.task_set
             success = ep.features is not None and rules.label(ep.features) & true_set == true_set
             wrong = sum(s for x, s in ep.pulls if rules.label(x) & true_set != true_set)

@@ -5,8 +5,10 @@ Run: ``python -m grasp_intent_ros intent_estimator [--ros-args --params-file con
 
 Topics, diagnostics, restarts and timing: docs/intent_estimation.md (its interface table is this node's contract);
 the maths: :mod:`grasp_intent_ros.shared_control.estimator`. Each operator twist (before blending) updates the
-estimate on the executor, and each grasp on ``grasp/pose`` is the grasp shown. ``intent/w`` goes out every
-``publish_period`` while the operator moves, and once at each restart (the prior). The goals are prepared in a
+estimate on the executor, and each grasp on ``grasp/pose`` is the grasp shown. Task probabilities from another
+source on ``intent/prior`` (e.g. per-task classifiers) become the estimate's prior, kept across restarts, and the
+posterior goes out at the next tick. ``intent/w`` goes out every ``publish_period`` while the operator moves, and
+once at each restart (the prior). The goals are prepared in a
 thread of their own whenever the model changes or the object moves beyond the tolerances; meanwhile no w is
 published and twists are not used.
 
@@ -15,6 +17,7 @@ Parameters: :data:`grasp_intent_ros.shared_control.parameters.ESTIMATOR`, ``conf
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -27,7 +30,8 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from ..errors import GraspIntentError
+from ..errors import GraspIntentError, InvalidIntentError
+from ..method.intent import MAX_TASKS
 from ..mico.grasp import check_mico_model
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, JOINT_LIMIT_MARGIN, MicoKinematics
 from ..mico.mock_arm import TwistCommand
@@ -43,7 +47,9 @@ from ..shared_control.assistance import offset
 from ..shared_control.estimator import IntentEstimator, TwistTiming, goals_at, reachable_goals
 from ..shared_control.parameters import ESTIMATOR, check_estimator, estimator_config
 from ..shared_control.stamped_inputs import StampedInputs
+from ..shared_control.task_prior import check_task_prior
 from ..wire import topics
+from ..wire.arrays import msg_to_array
 from ..wire.diagnostics import ERROR, ESTIMATOR_COMPONENT, KEY_GOALS, OK, WARN
 from ..wire.model_document import ModelDocument
 from ..wire.robot_state import (
@@ -79,6 +85,8 @@ class IntentEstimatorNode(Node):
         self._estimator: IntentEstimator | None = None
         """The estimate over the current scene's goals; None while they are prepared."""
         self._proposal: NDArray[np.float64] | None = None  # the newest grasp/pose (base frame): the grasp shown
+        self._task_prior: NDArray[np.float64] | None = None  # the newest intent/prior, for every estimator
+        self._prior_lock = threading.Lock()  # the prior and the estimator it was set on, one at a time
         self._q: NDArray[np.float64] | None = None
         self._inputs: StampedInputs[tuple[TwistCommand, float | None]] = StampedInputs(self._config.max_dt)
         """Operator twists (their command and stamp, s) paired with the hand and the grasp shown at their stamps."""
@@ -99,6 +107,7 @@ class IntentEstimatorNode(Node):
         subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(STREAM_DEPTH), self._diag)
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, input_qos(depth=1), self._diag)
         subscribe_input(self, topics.GRASP_POSE, self._on_grasp, input_qos(), self._diag)
+        subscribe_input(self, topics.INTENT_PRIOR, self._on_prior, input_qos(), self._diag)
         self.create_timer(float(self._params['publish_period']), self._diag.guard_timer(self._on_timer))
 
     def destroy_node(self) -> None:
@@ -157,9 +166,15 @@ class IntentEstimatorNode(Node):
             raise
         self._shown = self._proposal
         self._config = config = estimator_config(self._params, scene.model.name)  # its calibration map
-        self._estimator = estimator = IntentEstimator(goals, config, proposal=self._proposal)
+        estimator = IntentEstimator(goals, config, proposal=self._proposal)
+        with self._prior_lock:
+            prior = self._task_prior
+            if prior is not None and prior.size == goals.n_tasks:
+                estimator.set_task_prior(prior)
+            self._estimator = estimator
         self._restarts += 1
         self._diag.set_state(OK, '')
+        self._show_prior(estimator)
         self._diag.set_values({'model': scene.model.name, KEY_GOALS: f'{len(goals)} of {model.demo_x.shape[0]} '
                                'reachable', 'goals prepared in [ms]': f'{1e3 * (time.perf_counter() - start):.0f}',
                                'calibration (a, b)': f'{config.calibration_slope:g}, {config.calibration_offset:g}',
@@ -178,6 +193,21 @@ class IntentEstimatorNode(Node):
     def _on_grasp(self, msg: PoseStamped) -> None:
         self._proposal = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
         self._inputs.proposal(stamp_nanoseconds(msg), self._proposal)
+
+    def _on_prior(self, msg: Float64MultiArray) -> None:
+        w = check_task_prior(msg_to_array(msg, max_size=MAX_TASKS, error=InvalidIntentError, what='task prior'))
+        with self._prior_lock:
+            if (estimator := self._estimator) is not None:
+                estimator.set_task_prior(w)  # its length checked against the model's tasks: kept only if it fits
+            self._task_prior = w
+        self._fresh = True  # the posterior on the new prior goes out at the next tick
+        if estimator is not None:
+            self._show_prior(estimator)
+
+    def _show_prior(self, estimator: IntentEstimator) -> None:
+        used = estimator.task_prior  # None also when intent/prior's length is not this model's number of tasks
+        self._diag.set_values({'task prior in use (intent/prior)': 'none (uniform over the served task sets)'
+                               if used is None else ', '.join(f'{v:.3f}' for v in used)})
 
     def _on_operator(self, msg: Any) -> None:
         cmd = twist_command(msg, default_frame=self._params['operator_frame'])

@@ -54,6 +54,7 @@ from ..wire.topics import (
     ASSISTANCE_TWIST,
     DIAGNOSTICS,
     GRASP_POSE,
+    INTENT_PRIOR,
     INTENT_W,
     JOINT_STATES,
     MODEL_ACTIVE,
@@ -76,9 +77,10 @@ START_TOLERANCE: Final = 1e-3
 REPLAYED: Final = (INTENT_W, OBJECT_POSE, OPERATOR_TWIST)
 """Topics a closed-loop replay publishes again (and the model switches); ``joint_states`` is the arm's, and
 ``intent/w`` the estimator's in an estimated session."""
-ESTIMATED_REPLAYED: Final = (OBJECT_POSE, OPERATOR_TWIST, JOINT_STATES, GRASP_POSE)
-"""What the replay of an estimated session publishes again (and the model switches): the estimator's inputs,
-the recorded grasps (the proposals its operator was shown) on :data:`RECORDED_GRASP_POSE`."""
+ESTIMATED_REPLAYED: Final = (OBJECT_POSE, OPERATOR_TWIST, JOINT_STATES, GRASP_POSE, INTENT_PRIOR)
+"""What the replay of an estimated session publishes again (and the model switches): the estimator's inputs
+(a classifier's w on ``intent/prior`` among them, when the session had one), the recorded grasps (the proposals
+its operator was shown) on :data:`RECORDED_GRASP_POSE`."""
 RECORDED_GRASP_POSE: Final = 'recorded/grasp/pose'
 """Where the replay of an estimated session sends the recorded grasps, and the live estimator, remapped
 (:data:`ESTIMATOR_REMAPPING`), reads them: the live planner's grasps, planned on the wall clock's choice of w,

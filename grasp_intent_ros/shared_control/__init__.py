@@ -18,6 +18,8 @@ barrier
     The command kept out of the object as perceived: the twist nearest the blend that nears it no faster than a barrier.
 estimator
     The intent estimator: the operator's twist -> a posterior over the model's demonstrated grasps -> w.
+task_prior
+    A prior over task sets from independent task probabilities: a classifier's w as the estimator's prior.
 calibration
     An optional monotone map of the estimator's task marginals, w -> sigmoid(a logit(w) + b), and its log-loss fit.
 stamped_inputs

@@ -10,6 +10,8 @@ hand does not show, are not.
 **Prior.** Uniform over the task sets that some reachable goal serves, then uniform over the goals of a set:
 ``pi_g = 1 / (n_sets * n_{S_g})``.
 
+**A classifier's w as the prior (optional):** :meth:`IntentEstimator.set_task_prior`, :mod:`.task_prior`.
+
 **The approach.** An operator who wants goal g steers the hand to g's **approach target** for the hand's
 present pose (:mod:`.approach`, the assistance's and the scripted operators' rule): g's pre-grasp
 ``p_g - standoff z_g`` (``z_g`` g's approach axis, the EE z axis; orientation ``R_g``) until the hand is in g's
@@ -120,6 +122,7 @@ from ..mico.kinematics import HOME_Q, MicoKinematics
 from .approach import approach_positions
 from .assistance import AssistanceConfig
 from .calibration import calibrate
+from .task_prior import check_task_prior, task_log_prior
 
 __all__ = ['EstimatorConfig', 'Goals', 'goals_from_poses', 'goals_at', 'reachable_goals', 'progress_rates',
            'TwistTiming', 'IntentEstimator']
@@ -416,15 +419,33 @@ class IntentEstimator:
         self.goals, self.config = goals, config
         self.evidence = np.zeros(len(goals))
         """E_g, the log-evidence of each goal (0: the prior)."""
+        self.log_prior = goals.log_prior
+        """log pi_g: the goals' default prior, or the one :meth:`set_task_prior` set."""
+        self.task_prior: NDArray[np.float64] | None = None
+        """The classifier's w the prior was set from (clipped), or None for the default prior."""
         self.updates = 0
         self._proposal: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]] | None = None
         self.set_proposal(proposal)
 
     def reset(self) -> None:
-        """Back to the prior (a new scene); the proposal is forgotten."""
+        """Back to the prior (a new scene); the proposal is forgotten, a classifier's prior is kept."""
         self.evidence = np.zeros(len(self.goals))
         self.updates = 0
         self._proposal = None
+
+    def set_task_prior(self, w: ArrayLike | None) -> None:
+        """The prior from a classifier's task probabilities ``w`` (shape (m,), in [0, 1]), None for the default.
+
+        :func:`.task_prior.task_log_prior`, ``w`` clipped to ``[w_floor, 1 - w_floor]``. The evidence is kept: the
+        posterior changes at once. Raises InvalidIntentError for a w of another length than the goals' tasks, or
+        with a value outside [0, 1] or not finite (the prior is then unchanged).
+        """
+        if w is None:
+            self.log_prior, self.task_prior = self.goals.log_prior, None
+            return
+        clipped = np.clip(check_task_prior(w, self.goals.n_tasks), self.config.w_floor, 1.0 - self.config.w_floor)
+        self.log_prior = task_log_prior(self.goals.task_sets, self.goals.membership, clipped)
+        self.task_prior = clipped
 
     def set_proposal(self, base_T_grasp: ArrayLike | None) -> None:
         """The grasp shown to the operator now (4x4, base frame), None for none (module docstring).
@@ -496,7 +517,7 @@ class IntentEstimator:
     @property
     def posterior(self) -> NDArray[np.float64]:
         """P(g), shape (N,): the prior times exp(E_g), normalised."""
-        log_p = self.goals.log_prior + self.evidence
+        log_p = self.log_prior + self.evidence
         p = np.exp(log_p - log_p.max())
         out: NDArray[np.float64] = p / p.sum()
         return out

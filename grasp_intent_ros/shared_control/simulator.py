@@ -44,7 +44,10 @@ With an :class:`~.estimator.IntentEstimator` (``estimator``), w comes from it in
 every period, the operator's own twist (before blending, so the assistance never creates its own evidence)
 with the hand's pose at that tick, and each grasp planned, as the proposal shown (the node's ``grasp/pose``);
 every ``w_period`` its w is interpreted and planned as the script's would be. The script then gives only the
-operator's true task set: the estimator never sees it.
+operator's true task set: the estimator never sees it. With ``classifier_prior`` the script's w also reaches the
+estimator, as its task prior (:meth:`~.estimator.IntentEstimator.set_task_prior`; the node's ``intent/prior``),
+every ``w_period`` before the estimator's w is read: the script plays the per-task classifiers whose w the
+motion refines.
 
 The simulation returns what happened, never a verdict: the executed grasp's features in the true object
 frame, when the hand closed, the operator's effort and each shown grasp's alpha-time, and how deep the open
@@ -313,7 +316,7 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
              plan_cache: dict[bytes, Grasp | None], timeout: float = 25.0, period: float = 0.01,
              w_period: float = 0.1, closure_error: float = 0.05,
              config: AssistanceConfig | None = None, estimator: IntentEstimator | None = None,
-             execute: bool = True, trace: list[TraceRow] | None = None) -> Episode:
+             classifier_prior: bool = False, execute: bool = True, trace: list[TraceRow] | None = None) -> Episode:
     """Run one episode (module docstring).
 
     Parameters
@@ -329,6 +332,9 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
         The suite's assistance settings (default: the node's defaults); ``arbitration`` is set by the condition.
     estimator : IntentEstimator, optional
         The source of w instead of ``intent.w`` (module docstring); reset here, its goals at the tracked object.
+    classifier_prior : bool
+        With ``estimator``: whether ``intent.w`` is the estimator's task prior (module docstring); False: the
+        estimator's default prior.
     execute : bool
         Whether the suite's grasp command executes the shown grasp (module docstring); False: the hand closes
         where it is under every condition.
@@ -357,12 +363,18 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
     sweep = PathSweep(kin, scene.model.body, scene.base_T_obj_true)  # the judge's: nothing below reads it
     if estimator is not None:
         estimator.reset()
+        estimator.set_task_prior(None)
     for tick in range(ticks):
         now = tick * period
         if tick % SWEEP_TICKS == 0:
             sweep.check(arm.q[:6])
         if tick % w_every == 0:
-            w = intent.w(now, intent_rng) if estimator is None else estimator.w
+            if estimator is None:
+                w = intent.w(now, intent_rng)
+            else:
+                if classifier_prior:
+                    estimator.set_task_prior(intent.w(now, intent_rng))
+                w = estimator.w
             v, grasp = stream.plan(w)
             if v is None:
                 assistance.clarification()

@@ -24,7 +24,7 @@ from ..errors import GraspIntentError
 from ..method.safe_yaml import MAX_DOCUMENT_CHARS
 
 __all__ = [
-    'INTENT_W', 'INTENT_V', 'INTENT_CLARIFICATION', 'MODEL_ACTIVE', 'MODEL_AMBIGUITY',
+    'INTENT_W', 'INTENT_PRIOR', 'INTENT_V', 'INTENT_CLARIFICATION', 'MODEL_ACTIVE', 'MODEL_AMBIGUITY',
     'MODEL_AMBIGUITY_SYMMETRIC', 'MODEL_AMBIGUITY_PINSKER', 'MODEL_QUERY', 'MODEL_POSTERIOR',
     'OBJECT_POSE', 'JOINT_STATES', 'GRASP_POSE', 'GRASP_JOINT_TARGETS', 'GRASP_TRAJECTORY',
     'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA',
@@ -34,6 +34,8 @@ __all__ = [
 ]
 
 INTENT_W: Final = 'intent/w'
+INTENT_PRIOR: Final = 'intent/prior'
+"""Task probabilities from another source (e.g. per-task classifiers), the intent estimator's prior."""
 INTENT_V: Final = 'intent/v'
 INTENT_CLARIFICATION: Final = 'intent/clarification'
 MODEL_ACTIVE: Final = 'model/active'
@@ -65,6 +67,7 @@ ARM_TWIST_COMMAND: Final = 'servo/delta_twist_cmds'
 _F64MA, _STRING = 'std_msgs/msg/Float64MultiArray', 'std_msgs/msg/String'
 MSGTYPES: Final[Mapping[str, str]] = {
     INTENT_W: _F64MA,
+    INTENT_PRIOR: _F64MA,
     INTENT_V: _F64MA,
     INTENT_CLARIFICATION: _STRING,
     MODEL_ACTIVE: _STRING,
@@ -109,6 +112,7 @@ MAX_FEATURES: Final = 1024
 
 MAX_MESSAGE_BYTES: Final[Mapping[str, int]] = {
     INTENT_W: 16 << 10,        # 10 tasks; labels of up to 10 task names
+    INTENT_PRIOR: 16 << 10,    # as INTENT_W
     INTENT_V: 64 << 10,        # 1023 zones and their labels
     MODEL_QUERY: 64 << 10,     # MAX_FEATURES values and their labels
     OBJECT_POSE: 4 << 10,      # a pose and a frame id of MAX_NAME_LENGTH

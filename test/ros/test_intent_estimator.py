@@ -127,6 +127,33 @@ def test_bad_input_is_rejected_and_another_w_publisher_is_reported(ros, rig: Rig
                                               text='other publisher'), 10.0)
 
 
+def prior_w(model: str, w: list[float]) -> np.ndarray:
+    """The library's w at the start with the classifier's ``w`` as the prior (every goal reachable from Home)."""
+    estimator = IntentEstimator(goals_at(ModelFiles(config_dir() / 'models').load(model), BASE_T_OBJ))
+    estimator.set_task_prior(w)
+    return estimator.w
+
+
+def test_a_classifiers_w_on_intent_prior_is_the_prior_at_once_and_across_restarts(ros, rig: Rig,
+                                                                                   status_finder) -> None:
+    prior = ros.publisher(Float64MultiArray, topics.INTENT_PRIOR)
+    expected = prior_w('cup_7zone', [0.9, 0.9, 0.1])
+    assert expected[0] > 0.85 and expected[2] < 0.15
+    assert ros.publish_until(prior, Float64MultiArray(data=[0.9, 0.9, 0.1]),
+                             lambda: np.allclose(rig.w[-1].data, expected, rtol=1e-12, atol=0), 10.0), \
+        'the posterior on the new prior goes out without any motion'
+    warn = bytes([WARN])
+    assert ros.publish_until(prior, Float64MultiArray(data=[1.5, 0.5, 0.5]),
+                             lambda: status_finder(rig.statuses, ': intent estimator', level=warn, text='[0, 1]'), 10.0)
+    assert ros.publish_until(prior, Float64MultiArray(data=[0.5, 0.5]),
+                             lambda: status_finder(rig.statuses, ': intent estimator', level=warn, text='3 probab'),
+                             10.0)
+    np.testing.assert_array_equal(rig.node._task_prior, [0.9, 0.9, 0.1])  # the last good one is kept
+    rig.activate('cup_5zone', 2)
+    assert ros.wait_for(lambda: rig.node._restarts == 2 and np.allclose(rig.w[-1].data, prior_w('cup_5zone',
+                        [0.9, 0.9, 0.1]), rtol=1e-12, atol=0), 60.0), 'the restart starts from the classifier\'s prior'
+
+
 def test_stamped_twists_act_for_their_stamps_difference_whenever_they_arrive(ros, rig: Rig) -> None:
     rig.at_home()
     assert ros.wait_for(lambda: rig.node._estimator is not None, 60.0)

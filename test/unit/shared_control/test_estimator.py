@@ -108,6 +108,67 @@ def test_goals_at_the_same_pose_keep_their_prior_ratio() -> None:
     assert est.w[2] > 0.95 and est.w[0] == pytest.approx(0.5, abs=0.03)
 
 
+def test_a_classifiers_w_is_the_independent_task_prior_over_the_served_sets() -> None:
+    """pi(S) proportional to prod w_i^s_i (1 - w_i)^(1 - s_i) over the served sets, then uniform over a set's goals."""
+    goals = goals_from_poses([pose((0.1 * k, 0.0, 0.0)) for k in range(4)], [U, U, U | T, H], 3)
+    est = IntentEstimator(goals)
+    w = np.array([0.9, 0.6, 0.2])
+    est.set_task_prior(w)
+    joint = {U: 0.9 * 0.4 * 0.8, U | T: 0.9 * 0.6 * 0.8, H: 0.1 * 0.4 * 0.2}
+    total = sum(joint.values())
+    assert_allclose(est.posterior, [joint[U] / total / 2, joint[U] / total / 2, joint[U | T] / total,
+                                    joint[H] / total], rtol=1e-12)
+    assert_allclose(est.task_prior, w, rtol=0, atol=0)
+    est.set_task_prior([0.5, 0.5, 0.5])  # the uniform prior, up to rounding
+    assert_allclose(est.log_prior, goals.log_prior, rtol=0, atol=1e-12)
+    est.set_task_prior(None)
+    assert est.log_prior is goals.log_prior and est.task_prior is None
+
+
+def test_the_prior_decides_what_the_motion_cannot_tell_apart_and_the_motion_the_rest() -> None:
+    """Two sets at one pose keep the classifier's ratio; motion at a goal the classifier doubts still wins."""
+    goals = goals_from_poses([pose((0.3, 0.0, 0.0)), pose((0.3, 0.0, 0.0)), pose((-0.3, 0.0, 0.0))], [H, U | H, T], 3)
+    est = IntentEstimator(goals)
+    est.set_task_prior([0.9, 0.1, 0.9])  # usage + handover likely, transfer not
+    reach(est, np.eye(4), np.array([SPEED, 0.0, 0.0]), 2.0)
+    p = est.posterior
+    assert p[1] / p[0] == pytest.approx(0.9 / 0.1, rel=1e-9), 'the classifier tells U+H from H where motion cannot'
+    assert est.w[0] > 0.85
+    doubted = IntentEstimator(goals)
+    doubted.set_task_prior([0.9, 0.1, 0.9])
+    reach(doubted, np.eye(4), np.array([-SPEED, 0.0, 0.0]), 1.0)  # straight at the transfer goal
+    assert doubted.w[1] > 0.95, 'motion overrides a classifier that doubts the goal it heads for'
+
+
+def test_a_new_classifier_w_reweights_the_motion_seen_so_far_and_reset_keeps_it() -> None:
+    goals = goals_from_poses([pose((0.3, 0.0, 0.0)), pose((0.3, 0.0, 0.0)), pose((-0.3, 0.0, 0.0))], [H, U | H, T], 3)
+    est = IntentEstimator(goals)
+    reach(est, np.eye(4), np.array([SPEED, 0.0, 0.0]), 1.0)
+    evidence = est.evidence.copy()
+    est.set_task_prior([0.1, 0.1, 0.9])
+    assert_allclose(est.evidence, evidence, rtol=0, atol=0)
+    p = est.posterior
+    assert p[0] / p[1] == pytest.approx(0.9 / 0.1, rel=1e-9), 'H over U+H at once, on the motion already seen'
+    est.reset()
+    assert_allclose(est.task_prior, [0.1, 0.1, 0.9], rtol=0, atol=0)
+    assert est.posterior[0] > est.posterior[1]
+
+
+def test_a_classifier_w_of_0_or_1_rules_no_set_out_and_bad_ones_are_refused() -> None:
+    goals = goals_from_poses([pose((0.3, 0.0, 0.0)), pose((-0.3, 0.0, 0.0))], [U, T], 2)
+    est = IntentEstimator(goals)
+    est.set_task_prior([1.0, 0.0])
+    assert_allclose(est.task_prior, [0.99, 0.01], rtol=0, atol=0)
+    assert est.posterior[1] > 0.0
+    reach(est, np.eye(4), np.array([-SPEED, 0.0, 0.0]), 1.0)
+    assert est.w[1] > 0.9, 'the motion recovers a task the classifier put at 0'
+    before = est.log_prior
+    for bad in ([0.5], [0.5, 0.5, 0.5], [0.5, math.nan], [1.5, 0.5], [-0.1, 0.5], [[0.5, 0.5]]):
+        with pytest.raises(InvalidIntentError):
+            est.set_task_prior(bad)
+        assert est.log_prior is before
+
+
 def near_scene(config: EstimatorConfig = STRAIGHT) -> IntentEstimator:
     """Usage and handover goals 1 cm apart at 0.3 m on +x, transfer 0.3 m away on +y."""
     goals = goals_from_poses([pose((0.3, 0.0, 0.0)), pose((0.3, 0.01, 0.0)), pose((0.0, 0.3, 0.0))], [U, H, T], 3)

@@ -210,6 +210,40 @@ def test_with_an_estimator_w_comes_from_the_operators_motion_alone(cup) -> None:
     assert CUP_RULES.label(first.features) & T == T
 
 
+class _Classifier(_TrueSetOnly):
+    """The true set, and a fixed w that the loop may read (as the estimator's prior, with ``classifier_prior``)."""
+
+    def __init__(self, true_set: int, w: list[float]) -> None:
+        super().__init__(true_set)
+        self.fixed, self.calls = np.asarray(w), 0
+
+    def w(self, t: float, rng: np.random.Generator) -> np.ndarray:
+        self.calls += 1
+        return self.fixed
+
+
+def test_with_classifier_prior_the_scripts_w_is_the_estimators_prior_every_report(cup) -> None:
+    scene, grasps = cup
+    own = {s: (g.base_T_ee, g.positions[6:]) for s, g in grasps.items()}
+    estimator = IntentEstimator(goals_at(scene.model, scene.base_T_obj,
+                                         reachable_goals(scene.model, scene.base_T_obj, scene.kin)))
+    expected = IntentEstimator(estimator.goals)
+    expected.set_task_prior([0.9, 0.9, 0.1])
+    intent, trace = _Classifier(T, [0.9, 0.9, 0.1]), []
+    operator = ScriptedOperator('spacemouse', OperatorConstants(), np.random.default_rng(3))
+    ep = simulate(scene, 'suite', intent, operator, own, np.random.default_rng(4), np.random.default_rng(5),
+                  ada_goals=[], plan_cache={}, closure_error=0.0, timeout=15.0, estimator=estimator,
+                  classifier_prior=True, trace=trace)
+    assert intent.calls == len(trace) and ep.closed_at is not None
+    np.testing.assert_allclose(trace[0].w, expected.w, rtol=1e-12, atol=0)  # before any motion: the prior's w
+    np.testing.assert_array_equal(estimator.task_prior, [0.9, 0.9, 0.1])
+    # a later episode without it starts from the default prior
+    simulate(scene, 'suite', _TrueSetOnly(T), ScriptedOperator('spacemouse', OperatorConstants(),
+             np.random.default_rng(3)), own, np.random.default_rng(4), np.random.default_rng(5), ada_goals=[],
+             plan_cache={}, closure_error=0.0, timeout=15.0, estimator=estimator)
+    assert estimator.task_prior is None
+
+
 def test_the_trace_follows_the_loop_and_the_estimator_is_shown_each_plan(cup) -> None:
     scene, grasps = cup
     own = {s: (g.base_T_ee, g.positions[6:]) for s, g in grasps.items()}
