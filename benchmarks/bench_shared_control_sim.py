@@ -74,8 +74,8 @@ the way, could count on; reported beside success, per condition and paired (the 
 carry ``swept``.
 
 Statistics: per episode the mean over repeats; paired differences (:data:`PAIRS`: the suite minus each other
-condition, estimated w minus scripted w (the suite) and minus direct, fused minus the suite, estimated w, direct
-and ADA) with a 95% percentile bootstrap over
+condition, estimated w minus scripted w (the suite) and minus direct, fused minus the suite, estimated w, the
+independent-task grasp, direct and ADA) with a 95% percentile bootstrap over
 episodes (10,000 resamples, seeded).
 
     .venv/bin/python benchmarks/bench_shared_control_sim.py [--episodes 50] [--repeats 3] [--jobs 2] \
@@ -130,7 +130,7 @@ RUN = (*CONDITIONS, ESTIMATED, FUSED)
 """The conditions: the simulator's, the suite with the intent estimator's w, and with the estimator's w on the
 script's w as its prior (module docstring)."""
 PAIRS = (*(('suite', c) for c in CONDITIONS[:-1]), (ESTIMATED, 'suite'), (ESTIMATED, 'direct'),
-         (FUSED, 'suite'), (FUSED, ESTIMATED), (FUSED, 'direct'), (FUSED, 'ada'))
+         (FUSED, 'suite'), (FUSED, ESTIMATED), (FUSED, 'independent'), (FUSED, 'direct'), (FUSED, 'ada'))
 """The paired differences reported (a minus b)."""
 
 _STATE: dict[str, Any] = {}
