@@ -169,3 +169,14 @@ def test_a_session_recorded_with_the_estimator_replays_the_hand_and_compares_the
     assert compare_outcomes(recorded, near, grasp=False) == []
     (problem,) = compare_outcomes(recorded, far, grasp=False)
     assert problem.startswith(f'last w: live [0.9, {0.1 + 1.1 * W_TOLERANCE:.3g}, 0.2], recorded [0.9, 0.1, 0.2]')
+
+
+def test_a_classifiers_w_on_intent_prior_is_sent_again_to_the_estimator(tmp_path: Path, kin: MicoKinematics) -> None:
+    messages = estimated_messages(kin, [0.9, 0.1, 0.2])
+    messages.insert(3, ('intent/prior', f64([0.9, 0.9, 0.1])))
+    session = load_closed_loop(write_bag(tmp_path / 'prior', messages))
+    (prior,) = [send for send in session.sends if send.topic == 'intent/prior']
+    assert prior.lead_ns == 0  # at its recorded time: the estimator keeps the newest, whenever it comes
+    plain = loop_messages(kin)
+    plain.insert(2, ('intent/prior', f64([0.9, 0.9, 0.1])))
+    assert 'intent/prior' not in [send.topic for send in load_closed_loop(write_bag(tmp_path / 'plain', plain)).sends]
