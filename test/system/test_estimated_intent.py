@@ -6,7 +6,9 @@ demonstration is the reachable one farthest in pose from every other task set's:
 apart goals that differ in pose (docs/intent_estimation.md), and at a usage goal with handover goals a few
 millimetres off, the w the hand ends with depends on the path of its last decimetre, which the assistance's
 pull toward the shown grasp changes with the planner's choice. The estimator
-must publish the prior, so that the suite plans, then raise w_usage as the hand heads for the usage grasp.
+must publish the prior, so that the suite plans, then raise w_usage as the hand heads for the usage grasp. Before
+the reach, a classifier that doubts usage speaks on ``intent/prior``: w must follow it at once, and the motion must
+still win over it.
 Nothing sleeps: every wait polls with a deadline.
 """
 
@@ -67,6 +69,9 @@ def test_the_estimator_alone_drives_intent_w_from_the_operators_reach(ros: Any, 
 
     assert ros.wait_for(lambda: ws and states, STARTUP), launch.died() or 'no prior w or joint state'
     np.testing.assert_allclose(ws[0].data, [PRIOR] * 3, rtol=1e-9)
+    classifier = ros.publisher(Float64MultiArray, topics.INTENT_PRIOR)
+    assert ros.publish_until(classifier, Float64MultiArray(data=[0.1, 0.9, 0.9]), lambda: ws[-1].data[0] < 0.2,
+                             STARTUP), launch.died() or f'w stayed at {list(ws[-1].data)} after the classifier\'s w'
     ros.node.create_timer(0.01, steer)  # spun whenever the test waits
     assert ros.wait_for(lambda: grasps, STARTUP), launch.died() or 'no grasp planned from the estimated w'
     assert ros.wait_for(lambda: ws[-1].data[0] > 0.8, REACH), \
