@@ -53,17 +53,22 @@ Arbitration (:func:`arbitration`): alpha from the probability that the grasp ser
   helps most).
 - o, the operator's agreement with the planned grasp: the smaller of the linear and the angular
   agreement, each max(cos theta, 0) of the angle theta between the operator's part and the same part of
-  the pose error toward the grasp itself, ``(k_lin (p_g - p), k_ang log3(R_g R^T))``
-  (:func:`operator_agreement`): the share of the operator's motion that goes toward the grasp, so the robot's
-  share falls as fast as the operator turns away from it (an operator who changed its goal heads elsewhere,
-  seldom straight back: 0.5 at 60 degrees, 0.17 at 80, 0 from right angles on). Each is as last measured
-  while the operator moved that part faster than its deadband (1 before; :class:`Assistance` holds them, and
-  forgets them when the planned grasp moves by more than the corridor's radius or angle). It is measured
-  against the grasp, not against the robot's twist: the pre-grasp and the joint-space path are the robot's
-  way to the grasp, not another proposal.
+  the pose error toward the grasp's approach target, ``(k_lin (p_a - p), k_ang log3(R_g R^T))``, p_a the
+  pre-grasp's position outside the approach corridor and the grasp's in it (:func:`assistance_target`, the
+  robot's own target: both have the grasp's orientation) (:func:`operator_agreement`): the share of the
+  operator's motion that goes toward the grasp by its approach, so the robot's share falls as fast as the
+  operator turns away from it (an operator who changed its goal heads elsewhere, seldom straight back: 0.5 at
+  60 degrees, 0.17 at 80, 0 from right angles on). Each is as last measured while the operator moved that part
+  faster than its deadband (1 before; :class:`Assistance` holds them, and forgets them when the planned grasp
+  moves by more than the corridor's radius or angle). It is measured against the approach target, the pose an
+  operator reaching for this grasp steers to (the scripted operators' and the intent estimator's model,
+  :mod:`.approach`), not against the grasp itself: near the pre-grasp the direction to the grasp (``standoff``
+  on along the approach axis) is at any angle to the operator's way in, and a held linear agreement measured
+  there would starve a two-mode operator's rotation of help. Nor against the robot's twist: the joint-space
+  path is the robot's way to the target, not another proposal.
 
-**The operator wins** (:class:`Assistance`). A part measured against the grasp (theta > pi / 2, o = 0) is
-opposition. Opposition sustained for ``yield_time`` makes the robot yield: alpha = 0 for this grasp
+**The operator wins** (:class:`Assistance`). A part measured against the approach target (theta > pi / 2,
+o = 0) is opposition. Opposition sustained for ``yield_time`` makes the robot yield: alpha = 0 for this grasp
 until the operator heads toward it again (every measured part with theta < pi / 2) for ``yield_time``, or
 a new grasp is planned. While the operator gives no input (both parts within their deadbands) the output
 is the operator's twist (the robot does not move the hand on its own) unless ``assist_without_input``.
@@ -362,7 +367,7 @@ class Assistance:
         self._cleared: dict[str, list[NDArray[np.float64]]] = {}
         self.clarification_pending = False
         self.agreement = (1.0, 1.0)
-        """The operator's held agreement with the grasp, linear and angular (module docstring)."""
+        """The operator's held agreement with the grasp's approach target, linear and angular (module docstring)."""
         self.yielded = False
         """Whether the robot yields to the operator's sustained opposition (alpha 0) for this grasp."""
         self._since: float | None = None
@@ -474,7 +479,9 @@ class Assistance:
         """Update the held agreement and the yielding from the operator's twist at ``now``; the agreement o."""
         cfg = self.config
         assert self.base_T_ee is not None and self.base_T_grasp is not None
-        error = pose_error(self.base_T_ee, self.base_T_grasp)  # toward the proposal, the grasp itself
+        target, _ = assistance_target(self.base_T_ee, self.base_T_grasp, standoff=cfg.standoff,
+                                      corridor_radius=cfg.corridor_radius, corridor_angle=cfg.corridor_angle)
+        error = pose_error(self.base_T_ee, target)  # toward the proposal by its approach (module docstring)
         goal = np.concatenate([cfg.gain_linear * error[:3], cfg.gain_angular * error[3:]])
         measured = operator_agreement(operator, goal, deadband_linear=cfg.deadband_linear,
                                       deadband_angular=cfg.deadband_angular)
