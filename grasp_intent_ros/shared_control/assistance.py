@@ -67,10 +67,10 @@ Arbitration (:func:`arbitration`): alpha from the probability that the grasp ser
   there would starve a two-mode operator's rotation of help. Nor against the robot's twist: the joint-space
   path is the robot's way to the target, not another proposal.
 
-**The operator wins** (:class:`Assistance`). A part measured against the approach target (theta > pi / 2,
-o = 0) is opposition. Opposition sustained for ``yield_time`` makes the robot yield: alpha = 0 for this grasp
-until the operator heads toward it again (every measured part with theta < pi / 2) for ``yield_time``, or
-a new grasp is planned. While the operator gives no input (both parts within their deadbands) the output
+**The operator wins** (:class:`Assistance`). A part more than pi / 3 off the approach target (o < 0.5) is
+opposition. Opposition sustained for ``yield_time`` makes the robot yield: alpha = 0 for this grasp until the
+operator heads toward it again (every measured part within pi / 3, o >= 0.5) for ``yield_time``, or a new grasp
+is planned. While the operator gives no input (both parts within their deadbands) the output
 is the operator's twist (the robot does not move the hand on its own) unless ``assist_without_input``.
 Assistance switched off (:attr:`Assistance.enabled` False) gives the operator's twist exactly.
 
@@ -488,7 +488,7 @@ class Assistance:
         linear, angular = (held if fresh is None else fresh for fresh, held in zip(measured, self.agreement))
         self.agreement = (linear, angular)
         parts = [m for m in measured if m is not None]
-        if parts:  # evidence: against the grasp in some part, or toward it in every measured part
+        if parts:  # evidence: against the approach target in some part, or toward it in every measured part
             against = min(parts) < 0.5
             if against == self.yielded:  # the state holds: nothing is building up
                 self._since = None
