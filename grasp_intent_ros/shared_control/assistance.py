@@ -53,26 +53,21 @@ Arbitration (:func:`arbitration`): alpha from the probability that the grasp ser
   helps most).
 - o, the operator's agreement with the planned grasp: the smaller of the linear and the angular
   agreement, each max(cos theta, 0) of the angle theta between the operator's part and the same part of
-  the pose error toward the grasp's approach target, ``(k_lin (p_a - p), k_ang log3(R_g R^T))``, p_a the
-  pre-grasp's position outside the approach corridor and the grasp's in it (:func:`assistance_target`, the
-  robot's own target: both have the grasp's orientation) (:func:`operator_agreement`): the share of the
-  operator's motion that goes toward the grasp by its approach, so the robot's share falls as fast as the
-  operator turns away from it (an operator who changed its goal heads elsewhere, seldom straight back: 0.5 at
-  60 degrees, 0.17 at 80, 0 from right angles on). Each is as last measured while the operator moved that part
-  faster than its deadband (1 before; :class:`Assistance` holds them, and forgets them when the planned grasp
-  moves by more than the corridor's radius or angle). It is measured against the approach target, the pose an
-  operator reaching for this grasp steers to (the scripted operators' and the intent estimator's model,
-  :mod:`.approach`), not against the grasp itself: near the pre-grasp the direction to the grasp (``standoff``
-  on along the approach axis) is at any angle to the operator's way in, and a held linear agreement measured
-  there would starve a two-mode operator's rotation of help. Nor against the robot's twist: the joint-space
-  path is the robot's way to the target, not another proposal.
+  the pose error toward the grasp's approach target (:func:`assistance_target`: its pre-grasp out of the
+  corridor, then itself; the grasp's orientation either way) (:func:`operator_agreement`): the share of the
+  operator's motion toward the grasp by its approach, so the robot's share falls as fast as the operator turns
+  away from it (a changed goal: 0.5 at 60 degrees, 0.17 at 80, 0 from right angles on). Each is as last
+  measured while the operator moved that part faster than its deadband (1 before; :class:`Assistance` holds
+  them, and forgets them when the planned grasp moves by more than the corridor's radius or angle). The target
+  is the pose the operators and the intent estimator steer to (:mod:`.approach`): near the pre-grasp the grasp
+  lies at any angle to the way in, and a held linear agreement would starve a two-mode operator's rotation.
 
 **The operator wins** (:class:`Assistance`). A part more than pi / 3 off the approach target (o < 0.5) is
 opposition. Opposition sustained for ``yield_time`` makes the robot yield: alpha = 0 for this grasp until the
 operator heads toward it again (every measured part within pi / 3, o >= 0.5) for ``yield_time``, or a new grasp
-is planned. While the operator gives no input (both parts within their deadbands) the output
-is the operator's twist (the robot does not move the hand on its own) unless ``assist_without_input``.
-Assistance switched off (:attr:`Assistance.enabled` False) gives the operator's twist exactly.
+is planned. While the operator gives no input (both parts within their deadbands) the output is the operator's
+twist (the robot does not move the hand on its own) unless ``assist_without_input``. Assistance switched off
+(:attr:`Assistance.enabled` False) gives the operator's twist exactly.
 
 ``'blend'`` (a baseline after ADA's blend: alpha = alpha_max when v's top zone leads the second by at
 least ``margin``, else 0). ``'none'``: alpha = 0 (direct teleoperation). Neither looks at the operator's
