@@ -53,21 +53,21 @@ Arbitration (:func:`arbitration`): alpha from the probability that the grasp ser
   helps most).
 - o, the operator's agreement with the planned grasp: the smaller of the linear and the angular
   agreement, each max(cos theta, 0) of the angle theta between the operator's part and the same part of
-  the pose error toward the grasp itself, ``(k_lin (p_g - p), k_ang log3(R_g R^T))``
-  (:func:`operator_agreement`): the share of the operator's motion that goes toward the grasp, so the robot's
-  share falls as fast as the operator turns away from it (an operator who changed its goal heads elsewhere,
-  seldom straight back: 0.5 at 60 degrees, 0.17 at 80, 0 from right angles on). Each is as last measured
-  while the operator moved that part faster than its deadband (1 before; :class:`Assistance` holds them, and
-  forgets them when the planned grasp moves by more than the corridor's radius or angle). It is measured
-  against the grasp, not against the robot's twist: the pre-grasp and the joint-space path are the robot's
-  way to the grasp, not another proposal.
+  the pose error toward the grasp's approach target (:func:`assistance_target`: its pre-grasp out of the
+  corridor, then itself; the grasp's orientation either way) (:func:`operator_agreement`): the share of the
+  operator's motion toward the grasp by its approach, so the robot's share falls as fast as the operator turns
+  away from it (a changed goal: 0.5 at 60 degrees, 0.17 at 80, 0 from right angles on). Each is as last
+  measured while the operator moved that part faster than its deadband (1 before; :class:`Assistance` holds
+  them, and forgets them when the planned grasp moves by more than the corridor's radius or angle). The target
+  is the pose the operators and the intent estimator steer to (:mod:`.approach`): near the pre-grasp the grasp
+  lies at any angle to the way in, and a held linear agreement would starve a two-mode operator's rotation.
 
-**The operator wins** (:class:`Assistance`). A part measured against the grasp (theta > pi / 2, o = 0) is
-opposition. Opposition sustained for ``yield_time`` makes the robot yield: alpha = 0 for this grasp
-until the operator heads toward it again (every measured part with theta < pi / 2) for ``yield_time``, or
-a new grasp is planned. While the operator gives no input (both parts within their deadbands) the output
-is the operator's twist (the robot does not move the hand on its own) unless ``assist_without_input``.
-Assistance switched off (:attr:`Assistance.enabled` False) gives the operator's twist exactly.
+**The operator wins** (:class:`Assistance`). A part more than pi / 3 off the approach target (o < 0.5) is
+opposition. Opposition sustained for ``yield_time`` makes the robot yield: alpha = 0 for this grasp until the
+operator heads toward it again (every measured part within pi / 3, o >= 0.5) for ``yield_time``, or a new grasp
+is planned. While the operator gives no input (both parts within their deadbands) the output is the operator's
+twist (the robot does not move the hand on its own) unless ``assist_without_input``. Assistance switched off
+(:attr:`Assistance.enabled` False) gives the operator's twist exactly.
 
 ``'blend'`` (a baseline after ADA's blend: alpha = alpha_max when v's top zone leads the second by at
 least ``margin``, else 0). ``'none'``: alpha = 0 (direct teleoperation). Neither looks at the operator's
@@ -362,7 +362,7 @@ class Assistance:
         self._cleared: dict[str, list[NDArray[np.float64]]] = {}
         self.clarification_pending = False
         self.agreement = (1.0, 1.0)
-        """The operator's held agreement with the grasp, linear and angular (module docstring)."""
+        """The operator's held agreement with the grasp's approach target, linear and angular (module docstring)."""
         self.yielded = False
         """Whether the robot yields to the operator's sustained opposition (alpha 0) for this grasp."""
         self._since: float | None = None
@@ -474,14 +474,16 @@ class Assistance:
         """Update the held agreement and the yielding from the operator's twist at ``now``; the agreement o."""
         cfg = self.config
         assert self.base_T_ee is not None and self.base_T_grasp is not None
-        error = pose_error(self.base_T_ee, self.base_T_grasp)  # toward the proposal, the grasp itself
+        target, _ = assistance_target(self.base_T_ee, self.base_T_grasp, standoff=cfg.standoff,
+                                      corridor_radius=cfg.corridor_radius, corridor_angle=cfg.corridor_angle)
+        error = pose_error(self.base_T_ee, target)  # toward the proposal by its approach (module docstring)
         goal = np.concatenate([cfg.gain_linear * error[:3], cfg.gain_angular * error[3:]])
         measured = operator_agreement(operator, goal, deadband_linear=cfg.deadband_linear,
                                       deadband_angular=cfg.deadband_angular)
         linear, angular = (held if fresh is None else fresh for fresh, held in zip(measured, self.agreement))
         self.agreement = (linear, angular)
         parts = [m for m in measured if m is not None]
-        if parts:  # evidence: against the grasp in some part, or toward it in every measured part
+        if parts:  # evidence: against the approach target in some part, or toward it in every measured part
             against = min(parts) < 0.5
             if against == self.yielded:  # the state holds: nothing is building up
                 self._since = None

@@ -59,8 +59,8 @@ ASSISTANCE = (
     ParamSpec('gain_joint', _ASSIST.gain_joint, "Robot twist's joint-space gain toward the target's IK, 1/s.",
               range=_POSITIVE),
     ParamSpec('deadband_linear', _ASSIST.deadband_linear, "'confidence': operator speed (m/s) from which an "
-              'operator steering away from the grasp (the agreement is measured against the grasp, not the '
-              "robot's twist) lowers alpha.", range=(0.0, 10.0)),
+              'operator steering away from the grasp (the agreement is measured against the grasp\'s approach '
+              "target, its pre-grasp then itself, not the robot's twist) lowers alpha.", range=(0.0, 10.0)),
     ParamSpec('deadband_angular', _ASSIST.deadband_angular, "'confidence': the same for the operator's angular "
               'speed, rad/s.', range=(0.0, 10.0)),
     ParamSpec('yield_time', _ASSIST.yield_time, "'confidence': seconds of sustained opposition after which the "

@@ -211,6 +211,38 @@ def test_alpha_falls_with_the_share_of_the_operators_motion_toward_the_grasp(deg
         assert alpha <= 0.16
 
 
+def test_the_agreement_is_measured_against_the_grasps_approach_target() -> None:
+    # a two-mode operator lines the hand up beside the pre-grasp (8 cm above the grasp, out of the corridor), then
+    # turns it: its way in goes to the pre-grasp, 80 degrees off the direction to the grasp itself, and the robot
+    # helps with both the translation and the turn (measured against the grasp, o was 0.17 and the robot yielded)
+    assistance = make_assistance()
+    hand = np.eye(4)
+    c, s = math.cos(0.5), math.sin(0.5)
+    hand[:3, :3] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ GRASP[:3, :3]  # 0.5 rad off
+    hand[:3, 3] = (0.34, -0.3, 0.11)
+    assistance.base_T_ee = hand
+    cfg = assistance.config
+    target, phase = assistance_target(hand, GRASP, standoff=cfg.standoff, corridor_radius=cfg.corridor_radius,
+                                      corridor_angle=cfg.corridor_angle)
+    assert phase == 'pre-grasp'
+    assert_allclose(target, pre_grasp(GRASP, cfg.standoff), atol=1e-15)
+    toward, grasp = pose_error(hand, target), pose_error(hand, GRASP)
+    assert_allclose(toward[3:], grasp[3:], atol=1e-15)  # the pre-grasp keeps the grasp's orientation
+    cos = float(toward[:3] @ grasp[:3]) / float(np.linalg.norm(toward[:3]) * np.linalg.norm(grasp[:3]))
+    assert 0.1 < cos < 0.2
+    translate = np.r_[0.05 * toward[:3] / np.linalg.norm(toward[:3]), 0.0, 0.0, 0.0]
+    alphas = run_operator(assistance, translate, 0.0, 0.3)
+    assert all(a == pytest.approx(0.9, abs=1e-12) for _, a in alphas) and not assistance.yielded
+    rotate = np.r_[0.0, 0.0, 0.0, 0.3 * toward[3:] / np.linalg.norm(toward[3:])]  # the linear agreement held: 1
+    alphas = run_operator(assistance, rotate, 0.5, 0.3)
+    assert all(a == pytest.approx(0.9, abs=1e-12) for _, a in alphas) and assistance.agreement[0] == 1.0
+    # heading at the grasp itself from out of the corridor (through the object's side) is off the approach by 80
+    # degrees, and away from the pre-grasp is against it
+    alphas = run_operator(assistance, np.r_[0.05 * grasp[:3] / np.linalg.norm(grasp[:3]), 0.0, 0.0, 0.0], 1.0, 0.01)
+    assert alphas[0][1] == pytest.approx(0.9 * cos, abs=1e-12)
+    assert run_operator(assistance, -translate, 1.1, 0.01)[0][1] == pytest.approx(0.0, abs=1e-12)
+
+
 def test_the_operator_who_steered_against_the_robot_keeps_the_control() -> None:
     assistance = make_assistance()
     away = np.array([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])  # the grasp is below the hand: the robot goes down
@@ -312,17 +344,6 @@ def test_no_robot_motion_without_operator_input(assist_without_input: bool) -> N
     else:
         assert all(c.alpha == 0.0 and c.phase == 'no operator input' for c in outputs)
         assert_allclose(outputs[-1].twist, within, atol=1e-15)  # the operator's own (tiny) twist, nothing more
-
-
-def test_the_operator_agrees_with_the_grasp_not_with_the_robots_way_to_it() -> None:
-    assistance = make_assistance()
-    assistance.base_T_ee = pose_to_matrix((0.4, -0.3, 0.05), (1.0, 0.0, 0.0, 0.0))  # beside the grasp
-    straight = np.array([-0.05, 0.0, 0.0, 0.0, 0.0, 0.0])  # straight at the grasp, not via the pre-grasp
-    assistance.set_operator(straight, now=0.0)
-    command = assistance.command(0.01)
-    assert command.phase == 'pre-grasp' and command.alpha == pytest.approx(0.9, abs=1e-12)  # o = 1
-    assistance.set_operator(-straight, now=0.02)  # away from the grasp
-    assert assistance.command(0.03).alpha == pytest.approx(0.0, abs=1e-12)
 
 
 def test_the_joint_space_twist_is_the_hands_motion_under_the_joint_motion() -> None:
