@@ -470,12 +470,10 @@ class Assistance:
                             alpha_max=cfg.alpha_max, margin=cfg.margin)
         return alpha, 'assisting'
 
-    def _agree(self, operator: NDArray[np.float64], now: float) -> float:
-        """Update the held agreement and the yielding from the operator's twist at ``now``; the agreement o."""
+    def _agree(self, operator: NDArray[np.float64], now: float, target: NDArray[np.float64]) -> float:
+        """Update the held agreement and the yielding from the operator's twist at ``now``, toward :meth:`target`."""
         cfg = self.config
-        assert self.base_T_ee is not None and self.base_T_grasp is not None
-        target, _ = assistance_target(self.base_T_ee, self.base_T_grasp, standoff=cfg.standoff,
-                                      corridor_radius=cfg.corridor_radius, corridor_angle=cfg.corridor_angle)
+        assert self.base_T_ee is not None
         error = pose_error(self.base_T_ee, target)  # toward the proposal by its approach (module docstring)
         goal = np.concatenate([cfg.gain_linear * error[:3], cfg.gain_angular * error[3:]])
         measured = operator_agreement(operator, goal, deadband_linear=cfg.deadband_linear,
@@ -505,14 +503,14 @@ class Assistance:
             return Command(operator.copy(), 0.0, 'assistance off')
         (alpha, phase), cfg, robot = self.alpha(), self.config, np.zeros(6)
         if alpha > 0.0:
-            assert self.base_T_ee is not None and self.base_T_grasp is not None
+            aim = self.target()  # one approach target for the agreement and the robot's twist
             if cfg.arbitration == 'confidence':
-                alpha *= self._agree(operator, now)
+                alpha *= self._agree(operator, now, aim[0])
             idle = norm(operator[:3]) <= cfg.deadband_linear and norm(operator[3:]) <= cfg.deadband_angular
             if idle and not cfg.assist_without_input:
                 alpha, phase = 0.0, 'no operator input'
             elif alpha > 0.0:
-                twist, phase = self.robot()
+                twist, phase = self.robot(aim)
                 alpha, robot, phase = (0.0, robot, 'seeking a path') if twist is None else (alpha, twist, phase)
             else:
                 phase = 'yielded to the operator' if self.yielded else phase
@@ -521,17 +519,19 @@ class Assistance:
             twist = self.limiter.last = clearance_filter(self.clearance, self.base_T_ee, twist)  # the limiter's last
         return Command(twist.copy(), alpha, phase)
 
-    def robot(self) -> tuple[NDArray[np.float64] | None, str]:
-        """The robot's twist toward the planned grasp now (None while its path is sought), and its phase.
-
-        The twist is before any blending.
-
-        Needs the grasp and the hand's pose (set_grasp, set_joints or base_T_ee).
-        """
+    def target(self) -> tuple[NDArray[np.float64], str]:
+        """The grasp's approach target for the hand now, and its phase (:func:`assistance_target`); needs both poses."""
         cfg = self.config
         assert self.base_T_ee is not None and self.base_T_grasp is not None
-        target, phase = assistance_target(self.base_T_ee, self.base_T_grasp, standoff=cfg.standoff,
-                                          corridor_radius=cfg.corridor_radius, corridor_angle=cfg.corridor_angle)
+        return assistance_target(self.base_T_ee, self.base_T_grasp, standoff=cfg.standoff,
+                                 corridor_radius=cfg.corridor_radius, corridor_angle=cfg.corridor_angle)
+
+    def robot(self, aim: tuple[NDArray[np.float64], str] | None = None) -> tuple[NDArray[np.float64] | None, str]:
+        """The robot's twist (before blending) toward the grasp now, None while its path is sought, and its phase.
+
+        ``aim``: :meth:`target`, when the caller has it.
+        """
+        target, phase = self.target() if aim is None else aim
         return self._robot_twist(target, phase), phase
 
     def _robot_twist(self, base_T_target: NDArray[np.float64], phase: str) -> NDArray[np.float64] | None:
