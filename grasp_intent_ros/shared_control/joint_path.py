@@ -139,8 +139,8 @@ def line_turns(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.floa
     2. the line's time under the joints' speed limits, max_j |q_t,j - q_j| / v_j, in whole :data:`TIME_STEP`;
     3. the candidates' order (so the IK's own answer wins every tie).
 
-    The quantised costs are rounded integers, so no float noise breaks a tie. Joints 1, 2, 3 and 5 stay as
-    the IK gave them (joint 5 keeps the wrist on its side of its singularity).
+    The costs are whole quanta (rounded down), so float noise can decide only at a quantum's edge. Joints 1, 2,
+    3 and 5 stay as the IK gave them (joint 5 keeps the wrist on its side of its singularity).
 
     Returns
     -------
@@ -156,7 +156,7 @@ def line_turns(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.floa
             continue
         away = max(0.0, _turn_away(kin, q, candidate, base_R_target) - TURN_SLACK)
         time = float(np.max(np.abs(candidate - q) / kin.velocity_limits))
-        cost = (round(away / TURN_STEP), round(time / TIME_STEP))
+        cost = (math.floor(away / TURN_STEP), math.floor(time / TIME_STEP))
         if not any(turns):
             best, best_cost = candidate, cost
         elif cost < best_cost and near_grasp(kin, q, [candidate], base_T_grasp, slack=slack, reference=reference):
