@@ -1,7 +1,8 @@
-"""The robot twist's joint-space path for a pose with no IK from the arm's joints: the line IK and its via point.
+"""The robot twist's joint-space path: the wrist's branch of a straight line's end, the line IK and its via point.
 
 The assistance's robot twist moves the joints straight toward the target's inverse kinematics
-(:func:`~grasp_intent_ros.shared_control.assistance.joint_space_twist`), solved from the joints q. When that IK
+(:func:`~grasp_intent_ros.shared_control.assistance.joint_space_twist`), solved from the joints q, its end on the
+2 pi branch of the wrist's joints that turns the hand the short way (:func:`line_turns`). When that IK
 fails (the descent from q stops with a joint at its limit or in the wrist's singularity), :func:`joint_path`
 looks for a solution from other seeds reached by a joint path the servo can follow and that keeps the hand near
 the grasp: a straight line (the line IK) or, when no straight line qualifies, two straight lines through one via

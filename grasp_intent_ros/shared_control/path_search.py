@@ -95,6 +95,7 @@ def seek_path(kin: MicoKinematics, request: PathRequest) -> PathAnswer:
     """
     q, target, grasp = request.q, request.base_T_target, request.base_T_grasp
     ik = kin.ik(target, q, restarts=0)  # the solution the joints descend to
+    path: list[NDArray[np.float64]] | None
     if ik.success:
         path = [line_turns(kin, q, ik.q, target, grasp, slack=request.slack, reference=request.reference)]
     else:
