@@ -1,9 +1,9 @@
 r"""Why a closed-loop run fails: the loop's trace per run, and the failed runs classified (a diagnostic, not a test).
 
-Runs the episodes of bench_shared_control_sim.py (same seeds, same code: its ``run_task`` with the trace on) for
-the given conditions (default: direct, the suite with scripted w, the suite with estimated w), or reads the
-records of an earlier run (``--records FILE`` is appended to as runs finish; ``--from FILE`` only reads), and
-prints per object x operator:
+Runs the episodes of bench_shared_control_sim.py (same seeds, same code: its ``run_task`` with the trace on; its
+persistent intent, or ``--intent sharpening``) for the given conditions (default: direct, the suite with scripted
+w, the suite with estimated w), or reads the records of an earlier run (``--records FILE`` is appended to as runs
+finish; ``--from FILE`` only reads), and prints per object x operator:
 
 - the failed runs of each condition by class (first match, in this order):
 
@@ -25,8 +25,8 @@ prints per object x operator:
 The judge's rules are read here only after the runs. One command, reusable on other models:
 
     .venv/bin/python benchmarks/diag_estimated_loop.py [--episodes 50] [--jobs 2] [--objects cup] \
-        [--operators joystick] [--conditions direct suite estimated] [--estimator rationality=300] \
-        [--records runs.jsonl] [--from runs.jsonl]
+        [--operators joystick] [--intent persistent] [--conditions direct suite estimated] \
+        [--estimator rationality=300] [--records runs.jsonl] [--from runs.jsonl]
 """
 
 from __future__ import annotations
@@ -135,6 +135,8 @@ def main() -> None:
     parser.add_argument('--repeats', type=int, default=1)
     parser.add_argument('--objects', nargs='+', default=list(OBJECTS), choices=list(OBJECTS))
     parser.add_argument('--operators', nargs='+', default=list(OPERATORS), choices=list(OPERATORS))
+    parser.add_argument('--intent', default='persistent', choices=('persistent', 'sharpening'),
+                        help='the episodes\' intent script, as bench_shared_control_sim.py\'s --intent')
     parser.add_argument('--conditions', nargs='+', default=['direct', 'suite', ESTIMATED], choices=list(RUN))
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--jobs', type=int, default=2)
@@ -147,7 +149,7 @@ def main() -> None:
         with open(args.source) as f:
             report([r for line in f for r in json.loads(line)])
         return
-    tasks = [Task(o, op, i, args.seed, args.repeats, 'persistent', 25.0, 5.0, 3.0,
+    tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, 25.0, 5.0, 3.0,
                   tuple(c for c in RUN if c in args.conditions),
                   estimator=estimator_fields(args.estimator), trace=True)
              for i in range(args.episodes) for o in args.objects for op in args.operators]
