@@ -37,7 +37,7 @@ from ..latest_only import LatestOnlyWorker
 from ..mico.collision import HandCollision
 from ..mico.kinematics import MicoKinematics
 from .clearance import PathClearance, clear_path
-from .joint_path import joint_path, near_grasp
+from .joint_path import joint_path, line_turns, near_grasp
 
 __all__ = ['PathRequest', 'PathAnswer', 'seek_path', 'PathSource', 'PathSearch', 'PathWorker']
 
@@ -88,14 +88,18 @@ class PathAnswer:
 def seek_path(kin: MicoKinematics, request: PathRequest) -> PathAnswer:
     """The joint path toward ``request.base_T_target`` from ``request.q`` (:class:`~.assistance.Assistance`).
 
-    The IK (no restarts) from q, ``[q_t]``, or when it fails :func:`~.joint_path.joint_path`; then, with a
+    The IK (no restarts) from q, ``[q_t]`` with the wrist's 2 pi branch that turns the hand the short way
+    (:func:`~.joint_path.line_turns`), or when it fails :func:`~.joint_path.joint_path`; then, with a
     clearance, :func:`~.clearance.clear_path` (admissible: :func:`~.joint_path.near_grasp`, the same bound).
     ``kin`` must be the calling thread's own, and ``request.clearance`` built on it.
     """
     q, target, grasp = request.q, request.base_T_target, request.base_T_grasp
     ik = kin.ik(target, q, restarts=0)  # the solution the joints descend to
-    path = [ik.q] if ik.success else joint_path(kin, q, target, grasp, slack=request.slack,
-                                                reference=request.reference)
+    path: list[NDArray[np.float64]] | None
+    if ik.success:
+        path = [line_turns(kin, q, ik.q, target, grasp, slack=request.slack, reference=request.reference)]
+    else:
+        path = joint_path(kin, q, target, grasp, slack=request.slack, reference=request.reference)
     if path is not None and request.clearance is not None:
         near = functools.partial(near_grasp, kin, q, base_T_grasp=grasp, slack=request.slack,
                                  reference=request.reference)

@@ -75,6 +75,8 @@ class _Result:
 class _ToyArm:
     """A toy arm: the hand at 0.1 q[:3] m, its IK answer chosen by the seed (``answers[k]`` for the k-th seed)."""
 
+    lower, upper, velocity_limits = np.full(6, -20.0), np.full(6, 20.0), np.ones(6)
+
     def __init__(self, answers: dict[int, NDArray[np.float64]]) -> None:
         self.answers = answers
         self._drawn = 0
