@@ -143,6 +143,10 @@ def line_turns(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.floa
     The costs are whole quanta (rounded down), so float noise can decide only at a quantum's edge. Joints 1, 2,
     3 and 5 stay as the IK gave them (joint 5 keeps the wrist on its side of its singularity).
 
+    When the IK's own answer costs no turn away and its wrist joints are within pi of q, it is returned without
+    the other candidates: a 2 pi shift makes such a joint's turn at least pi, no shorter, so no candidate's cost
+    is lower (the same answer, and only one line's forward kinematics in the common case).
+
     Returns
     -------
     ndarray, shape (6,)
@@ -160,6 +164,8 @@ def line_turns(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.floa
         cost = (math.floor(away / TURN_STEP), math.floor(time / TIME_STEP))
         if not any(turns):
             best, best_cost = candidate, cost
+            if cost[0] == 0 and np.all(np.abs(candidate - q)[list(WRIST_TURNS)] <= math.pi):
+                return best
         elif cost < best_cost and near_grasp(kin, q, [candidate], base_T_grasp, slack=slack, reference=reference):
             best, best_cost = candidate, cost
     return best

@@ -89,3 +89,53 @@ def test_a_tie_goes_to_the_iks_own_answer_whatever_the_last_bits() -> None:
         assert_allclose(line_turns(kin, q, q_t, target, target, slack=0.02), q_t, rtol=0, atol=0)
         other = q_t - np.array([0.0, 0.0, 0.0, 0.0, 0.0, 2.0 * math.pi])
         assert abs(_turn_away(kin, q, other, target) - _turn_away(kin, q, q_t, target)) <= 1e-6
+
+
+def _exhaustive(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.float64], target: NDArray[np.float64],
+                grasp: NDArray[np.float64], slack: float) -> NDArray[np.float64]:
+    """line_turns's rule as its docstring states it, every candidate costed (no shortcut)."""
+    from itertools import product
+
+    from grasp_intent_ros.shared_control.joint_path import TIME_STEP, TURN_STEP, near_grasp
+
+    def error(q_s: NDArray[np.float64]) -> float:
+        cos = (float(np.trace(target[:3, :3].T @ kin.fk(q_s)[:3, :3])) - 1.0) / 2.0
+        return math.acos(min(1.0, max(-1.0, cos)))
+
+    best, best_cost = q_t, None
+    for turns in product((0, -1, 1), repeat=len(WRIST_TURNS)):
+        candidate = q_t.copy()
+        candidate[list(WRIST_TURNS)] += 2.0 * math.pi * np.array(turns, dtype=np.float64)
+        if np.any(candidate < kin.lower) or np.any(candidate > kin.upper):
+            continue
+        rise = max(error(q + s * (candidate - q)) for s in np.linspace(0.0, 1.0, 21)[1:]) - error(q)
+        away = max(0.0, rise - TURN_SLACK)
+        time = float(np.max(np.abs(candidate - q) / kin.velocity_limits))
+        cost = (math.floor(away / TURN_STEP), math.floor(time / TIME_STEP))
+        if best_cost is None:
+            best, best_cost = candidate, cost
+        elif cost < best_cost and near_grasp(kin, q, [candidate], grasp, slack=slack):
+            best, best_cost = candidate, cost
+    return best
+
+
+def test_the_answer_is_the_rules_minimum_over_every_candidate_on_random_reaches() -> None:
+    # the shortcut (the IK's own answer returned when it turns the hand the short way) never changes the answer
+    kin = MicoKinematics()
+    rng = np.random.default_rng(7)
+    slack, checked, moved = AssistanceConfig().corridor_radius, 0, 0
+    while checked < 40:
+        q = np.array(HOME_Q, dtype=np.float64) + rng.uniform(-1.0, 1.0, 6) * np.array([1.5, 0.4, 0.4, 3.0, 1.0, 3.0])
+        q = np.clip(q, kin.lower, kin.upper)
+        target = kin.fk(np.clip(q + rng.uniform(-1.0, 1.0, 6) * np.array([0.8, 0.3, 0.3, 3.0, 0.8, 3.0]),
+                                kin.lower, kin.upper))
+        ik = kin.ik(target, q, restarts=0)
+        if not ik.success:
+            continue
+        grasp = target.copy()
+        grasp[:3, 3] += AssistanceConfig().standoff * target[:3, 2]
+        expected = _exhaustive(kin, q, ik.q, target, grasp, slack)
+        assert_allclose(line_turns(kin, q, ik.q, target, grasp, slack=slack), expected, rtol=0, atol=0)
+        checked += 1
+        moved += not np.array_equal(expected, ik.q)
+    assert moved >= 1  # the reaches include some the rule moves to another branch
