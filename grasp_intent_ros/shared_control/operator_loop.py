@@ -70,6 +70,10 @@ class Perceived(Generic[T]):
         """Keep ``value``, received at ``received`` s."""
         self._values.append((received, value))
 
+    def __len__(self) -> int:
+        """How many values are kept."""
+        return len(self._values)
+
     def at(self, t: float) -> T | None:
         """The newest value received at or before ``t`` s; None when none was (or it was forgotten)."""
         for received, value in reversed(tuple(self._values)):  # a copy: another thread may add meanwhile
@@ -179,7 +183,8 @@ class OperatorEpisodes:
         Inputs kept per :class:`Perceived` (they must cover the reaction time).
 
     The caller feeds :meth:`hand` and :meth:`shown` as inputs arrive, sets :attr:`own` (None while it is
-    prepared), calls :meth:`step` every tick and, on ``resetting``, resets the arm and calls :meth:`reset_done`.
+    prepared; another thread may set it), calls :meth:`step` every tick and, on ``resetting``, resets the arm and
+    calls :meth:`reset_done`. While ``own`` is None a reach pauses (zero twists).
     """
 
     operator: ScriptedOperator
@@ -214,16 +219,17 @@ class OperatorEpisodes:
         Moves through the states (module docstring); a step with ``close`` ends the reaching (its
         :class:`Closed` is appended to :attr:`closed`).
         """
-        if self.state == 'waiting' and self.own is not None and self.hands.at(now) is not None:
+        own = self.own  # read once: another thread may set it meanwhile
+        if self.state == 'waiting' and own is not None and self.hands.at(now) is not None:
             self.state, self._since = 'starting', now
         if self.state == 'starting' and now - self._since >= self.start_delay:
             self.state, self._since = 'reaching', now
         if self.state == 'holding' and now - self._since >= self.hold:
             self.state = 'done' if self.episode == self.episodes else 'resetting'
-        if self.state != 'reaching' or self.own is None:
+        if self.state != 'reaching' or own is None:
             return None
         seen = now - self.operator.c.reaction
-        step = operator_step(self.operator, now, self.hands.at(seen), self.shown_grasps.at(seen), self.own)
+        step = operator_step(self.operator, now, self.hands.at(seen), self.shown_grasps.at(seen), own)
         self.pursued = step.pursued
         if step.close:
             self.closed.append(Closed(self.episode, now - self._since, step.pursued, step.goal))
