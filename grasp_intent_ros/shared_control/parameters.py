@@ -1,4 +1,4 @@
-"""The parameters of the shared-control nodes: the assistance's, the intent estimator's, the scripted operator's.
+"""The shared-control nodes' parameters: the assistance's, the estimator's, the scripted operator's; the twist's input.
 
 Each table is a tuple of :class:`~grasp_intent_ros.parameters.ParamSpec`, declared on a node by
 :func:`grasp_intent_ros.ros.params.declare_parameters`; the defaults of the maths' settings are those of
