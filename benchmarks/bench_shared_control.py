@@ -70,7 +70,8 @@ w_handover 0.23, 0.63 and 0.05).
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set.
 
     ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=97 \
-        .venv/bin/python benchmarks/bench_shared_control.py [--quick] [--operators 50] [--json runs.json]
+        .venv/bin/python benchmarks/bench_shared_control.py [--quick] [--operators 50] [--json runs.json] \
+            [--conditions none blend confidence] [--no-execute]
 """
 
 from __future__ import annotations
@@ -489,7 +490,7 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
         if args.stream_only:
             return runs, latency
         for i in args.only or range(args.operators):
-            order = CONDITIONS[i % 3:] + CONDITIONS[:i % 3]
+            order = [c for c in CONDITIONS[i % 3:] + CONDITIONS[:i % 3] if c in args.conditions]
             for condition in order:
                 rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), i])
                 intent = SharpeningIntent.draw(rng)
@@ -618,6 +619,8 @@ def main() -> None:
     parser.add_argument('--estimator', action='store_true', help='with --record: w from the intent estimator node '
                         '(module docstring)')
     parser.add_argument('--stream-only', action='store_true', help='the latency and stream phases only')
+    parser.add_argument('--conditions', nargs='+', default=list(CONDITIONS), choices=CONDITIONS,
+                        help='run only these conditions (in the rotating order of the full run)')
     parser.add_argument('--no-execute', action='store_true', help='the grasp command executes nothing: the hand is '
                         'judged where the operator closed it under every condition')
     parser.add_argument('--record', type=Path, metavar='BAG',
