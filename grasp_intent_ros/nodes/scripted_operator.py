@@ -17,19 +17,10 @@ Topics and services (relative)
     call ``grasp/execute`` then ``grasp/close`` (std_srvs/Trigger, with ``close_on_reach``; the execute only on the
          shown grasp, with ``execute_shown``), ``mock_arm/reset`` (between episodes)
 
-The grasp command (with ``close_on_reach``). Once the hand it sees is at the goal it pursues, on its own grasp it
-calls ``grasp/close`` at once (the hand closes where it is); on the shown grasp (with ``execute_shown``) it sends
-zero twists until the hand is seen at rest
-(:func:`~grasp_intent_ros.shared_control.operator_loop.hand_at_rest`, at the latest
-:data:`~grasp_intent_ros.shared_control.operator_loop.STOP_WAIT` s on), calls ``grasp/execute`` (the mock arm
-follows the planner's latest trajectory, under ``trajectory_execution: on_request``), sends zero twists (which
-leave that trajectory running) and calls ``grasp/close`` once the latest
-``grasp/trajectory``'s time has passed since the answer, plus
-:data:`~grasp_intent_ros.shared_control.operator_loop.SETTLE`
-(:class:`~grasp_intent_ros.shared_control.operator_loop.GraspCommand`: the trajectory's time, not an arm seen at
-rest, since an arm at rest before the trajectory starts looks the same); at once when the execute is refused (no
-trajectory, ``on_arrival``, no service: the reason is logged and shown in the diagnostics); at the latest
-``execute_timeout`` s after the request. ``hold`` counts from the fingers' close.
+The grasp command (with ``close_on_reach``; :mod:`~grasp_intent_ros.shared_control.operator_loop`): on its own
+grasp ``grasp/close`` at once; on the shown grasp (with ``execute_shown``) zero twists until the hand is at rest,
+``grasp/execute``, zero twists until the latest ``grasp/trajectory``'s time has passed, then ``grasp/close`` (a
+refused execute, logged and in the diagnostics, closes at once). ``hold`` counts from the fingers' close.
 
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.SCRIPTED_OPERATOR`, ``config/scripted_operator.yaml``.
 """
