@@ -18,11 +18,10 @@ Topics (relative)
 Behaviour
     One blended twist per ``publish_period``, at the operator's cadence when its source streams: an operator twist
     is answered at once when the last output is at least 0.95 ``publish_period`` old, or at least half of it when
-    that output was the timer's; one that comes sooner is answered half a period after the timer's output, or one
-    period after an answer (not 1.25: a twist that came late and the next on time made that gap 1.25 periods plus
-    the output's computation). After answering an operator twist the timer waits 1.25 ``publish_period`` from that
-    output's start for the next; after its own output, one ``publish_period``, whatever arrived (a slower operator
-    source, or a stale one: then the zero twist).
+    that output was the timer's; one that comes sooner after the timer's output is answered half a period after it.
+    After answering an operator twist the timer waits 1.25 ``publish_period`` from that output's start for the next;
+    after its own output, one ``publish_period``, whatever arrived (a slower operator source, or a stale one: then the
+    zero twist).
     Without the half-period rule a source at the period whose twists come just after the timer's outputs would have
     every twist held for most of a period (measured: 5-10 ms in most runs); with it the twists are answered at once
     after one re-phasing, whose two gaps are at least half a period. The kinematics and the assistance's maths run
@@ -187,9 +186,9 @@ class AssistanceNode(Node):
         age = (time.monotonic() - self._last_output) / self._period
         if age >= _EARLY or (self._by_timer and age >= _HALF):
             self._answer()
-        elif not self._answer_due:  # the timer answers it half a period after its own output, a period after an answer
-            self._answer_due = True
-            self._rearm((_HALF if self._by_timer else 1.0) - age)
+        elif self._by_timer and not self._answer_due:
+            self._answer_due = True  # the timer answers it half a period after its own output
+            self._rearm(_HALF - age)
 
     def _answer(self) -> None:
         self._publish()

@@ -145,7 +145,7 @@ class PathWorker:
     urdf_path : str or None
         The URDF the process builds its kinematics and hand model from (None: the package's).
     name : str
-        The process's name.
+        The worker's name in its messages (the node's: ``<node>_paths``).
     on_error : callable
         ``on_error(text)``, called in the caller's thread (in :meth:`seek`) with the traceback of a search
         that raised (its answer: None, no joint path) or the reason the process ended; it must not raise.
