@@ -75,7 +75,6 @@ import sys
 import tempfile
 import threading
 import time
-from collections import deque
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -93,6 +92,7 @@ from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRu
 from grasp_intent_ros.planning.options import node_default_options
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error
+from grasp_intent_ros.shared_control.operator_loop import Perceived, operator_step
 from grasp_intent_ros.shared_control.operators import (
     IntentScript,
     OperatorConstants,
@@ -157,7 +157,7 @@ class Loop:
 
         self.probe, self.kin = probe, kin
         node = probe.node
-        self.hands: deque[tuple[float, np.ndarray]] = deque(maxlen=200)  # (monotonic, base_T_ee)
+        self.hands: Perceived[np.ndarray] = Perceived(keep=200)  # base_T_ee by monotonic receipt
         self.plans: list[tuple[float, np.ndarray, np.ndarray]] = []  # (monotonic, base_T_grasp, features)
         self.alphas: list[tuple[float, float]] = []
         self.outputs: list[tuple[int, float]] = []  # (receive ns, angular.z)
@@ -167,7 +167,7 @@ class Loop:
         def on_joints(msg: Any) -> None:
             q = joint_positions(msg, ARM_JOINTS)
             if q is not None:
-                self.hands.append((time.monotonic(), kin.fk(q)))
+                self.hands.add(time.monotonic(), kin.fk(q))
 
         def on_pose(msg: Any) -> None:
             self._poses[(msg.header.stamp.sec, msg.header.stamp.nanosec)] = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
@@ -247,10 +247,7 @@ class Loop:
         return None
 
     def hand_at(self, t: float) -> np.ndarray | None:
-        for received, base_T in reversed(tuple(self.hands)):  # a copy: the executor thread appends meanwhile
-            if received <= t:
-                return base_T
-        return None
+        return self.hands.at(t)
 
 
 def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: Grasp, rules: ObjectRules,
@@ -276,17 +273,18 @@ def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: G
         t = now - start
         if sends_w and tick % W_EVERY == 0:
             loop.send_w(intent.w(t, rng))
-        seen, plan_seen = loop.hand_at(now - op.reaction), loop.plan_at(now - op.reaction)
-        goal, pursued = device.choose_goal(None if plan_seen is None else plan_seen[0], own.base_T_ee)
-        hand_now = loop.hand_at(now)
-        if seen is not None and hand_now is not None and device.at_goal(seen, goal):
-            closures = own.positions[6:] if pursued == 'own' or plan_seen is None else plan_seen[1][FINGERS]
-            reached = obj_T_ee_to_features(np.linalg.inv(BASE_T_OBJ) @ hand_now, closures)
-            run.success, run.pursued, run.time_to_grasp = rules.label(reached) & task_set == task_set, pursued, t
+        plan_seen = loop.plan_at(now - op.reaction)
+        step = operator_step(device, now, loop.hand_at(now - op.reaction),
+                             None if plan_seen is None else plan_seen[0], own.base_T_ee)
+        if step.close:  # the hand it saw is there: the hand now is too (seen later)
+            closures = own.positions[6:] if step.pursued == 'own' or plan_seen is None else plan_seen[1][FINGERS]
+            reached = obj_T_ee_to_features(np.linalg.inv(BASE_T_OBJ) @ loop.hand_at(now), closures)
+            run.success, run.pursued = rules.label(reached) & task_set == task_set, step.pursued
+            run.time_to_grasp = t
             break
         if t >= timeout:
             break
-        command = device.twist(now, seen, goal)
+        command = step.twist
         loop.twist_pub.publish(loop.twist(command))
         run.effort_linear += float(np.linalg.norm(command[:3])) * PERIOD
         run.effort_angular += float(np.linalg.norm(command[3:])) * PERIOD
