@@ -19,9 +19,8 @@ Behaviour
     One blended twist per ``publish_period``, at the operator's cadence when its source streams: an operator twist
     is answered at once when the last output is at least 0.95 ``publish_period`` old, or at least half of it when
     that output was the timer's; one that comes sooner after the timer's output is answered half a period after it.
-    After answering an operator twist the timer waits 1.25 ``publish_period`` from that output's start for the next;
-    after its own output, one ``publish_period``, whatever arrived (a slower operator source, or a stale one: then the
-    zero twist).
+    After answering an operator twist the timer waits 1.25 ``publish_period`` from its start; after its own output,
+    one ``publish_period``, whatever arrived (a slower operator source, or a stale one: then the zero twist).
     Without the half-period rule a source at the period whose twists come just after the timer's outputs would have
     every twist held for most of a period (measured: 5-10 ms in most runs); with it the twists are answered at once
     after one re-phasing, whose two gaps are at least half a period. The kinematics and the assistance's maths run
@@ -32,15 +31,11 @@ Behaviour
 
 Threads and processes
     The executor's thread (single-threaded) runs every callback and owns the
-    :class:`~grasp_intent_ros.shared_control.assistance.Assistance`. The joint path's search runs in a process
-    of its own (:class:`~grasp_intent_ros.shared_control.path_search.PathWorker`, with its own kinematics and
-    hand model, built from ``urdf_path``), fed snapshots over a pipe: in a thread of this process it shared the
-    interpreter's lock with the executor, and an output computed while a search ran took several times as long
-    (a few milliseconds, each hand-over of the lock waiting up to the switch interval), enough with the timer's
-    grace to open gaps over two periods. Every grasp and object pose asks for the path again from the joints of
-    that moment; meanwhile a bit-identical grasp and object keep the previous path in use, else the output is the
-    operator's twist alone (alpha 0, state ``seeking a path``). A search that raises, or the process ending, is
-    an ERROR status (``internal error``); without the process no joint path is found (alpha 0).
+    :class:`~grasp_intent_ros.shared_control.assistance.Assistance`. The joint path's search runs in a process of
+    its own (:class:`~grasp_intent_ros.shared_control.path_search.PathWorker`; in a thread its share of the lock
+    delayed outputs), fed snapshots. Every grasp and object pose asks for the path again from the joints of that
+    moment; meanwhile a bit-identical grasp and object keep the previous path in use, else the output is the
+    operator's twist alone (alpha 0, ``seeking a path``). A search that raises, or the process ending: ERROR.
 
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.ASSISTANCE`, ``config/assistance.yaml``.
 """
@@ -110,8 +105,8 @@ class AssistanceNode(Node):
         warm_up(self._assist)
         grasp_task_set(np.zeros(MICO_3F.dim), np.zeros((1, MICO_3F.dim)), np.ones(1, dtype=np.int64),
                        np.ones(MICO_3F.dim))
-        self._paths = PathWorker(self._params['urdf_path'] or None, name=f'{node_name}_paths',
-                                 on_error=self._path_error)
+        self._paths = PathWorker(self._params['urdf_path'] or None, name=f'{node_name}_paths', on_error=lambda text:
+                                 self._diag.rejected('internal error: path search', level=ERROR, detail=text))
         self._assist.paths = self._paths
         self._last_output = -float('inf')
         self._outputs = 0
@@ -136,12 +131,9 @@ class AssistanceNode(Node):
         self._by_timer, self._answer_due = True, False  # the last output the timer's; an answer set
 
     def destroy_node(self) -> None:
-        """Stop the path search's process (after its current search), then destroy the node."""
+        """Stop the path search's process (after its search), then destroy the node."""
         self._paths.stop()
         super().destroy_node()
-
-    def _path_error(self, text: str) -> None:
-        self._diag.rejected('internal error: path search', level=ERROR, detail=text)
 
     def _use_model(self, document: ModelDocument | None) -> None:
         if document is not None:
@@ -193,9 +185,7 @@ class AssistanceNode(Node):
     def _answer(self) -> None:
         self._publish()
         self._by_timer, self._answer_due = False, False
-        # the timer's output only if no operator twist comes within the grace of this output's start (not of the
-        # end of its computation, which would lengthen the gap by the computation's time)
-        self._rearm(_GRACE - (time.monotonic() - self._last_output) / self._period)
+        self._rearm(_GRACE - (time.monotonic() - self._last_output) / self._period)  # the grace from its start
 
     def _on_timer(self) -> None:
         if self._answer_due:
