@@ -50,7 +50,8 @@ from ..mico.kinematics import HOME_Q, MicoKinematics
 from .clearance import PathClearance, clear_path
 from .joint_path import joint_path, line_turns, near_grasp
 
-__all__ = ['PathRequest', 'PathAnswer', 'seek_path', 'PathSource', 'PathSearch', 'PathWorker', 'STOP_TIMEOUT', 'serve']
+__all__ = ['PathRequest', 'PathAnswer', 'seek_path', 'PathSource', 'PathSearch', 'PathWorker', 'STOP_TIMEOUT', 'serve',
+           'warm_up_scene']
 
 
 @dataclass(frozen=True)
@@ -277,16 +278,22 @@ def serve(fd: int) -> None:
         conn.send(reply)
 
 
-def _warm_up(kin: MicoKinematics, hand: HandCollision) -> None:
-    """One search (the IK, the line, the clearance), so that no answer loads a compiled kernel.
+def warm_up_scene(kin: MicoKinematics) -> tuple[NDArray[np.float64], NDArray[np.float64], ObjectBody]:
+    """A scene whose path search runs every part of it: ``(base_T_target, base_T_obj, body)``, base frame.
 
-    From Home to a target 7 cm away, a cylinder 20 cm below it.
+    The target 7 cm from the hand at Home (5 cm along the base's x, 5 cm down); a cup (a cylinder) 20 cm below it,
+    within the hand's reach.
     """
-    q = np.asarray(HOME_Q, dtype=np.float64)
-    target = kin.fk(q)
+    target = kin.fk(np.asarray(HOME_Q, dtype=np.float64))
     target[:3, 3] += (0.05, 0.0, -0.05)
     base_T_obj = np.eye(4)
     base_T_obj[:3, 3] = target[:3, 3] + (0.0, 0.0, -0.2)
-    body = ObjectBody((Cylinder(np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, 1.0]), 0.04, 0.1),))
-    seek_path(kin, PathRequest((-1, 0, 'grasp'), q, target, target, 0.05, 0.07,
+    return target, base_T_obj, ObjectBody((Cylinder(np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, 1.0]), 0.04,
+                                                    0.1),))
+
+
+def _warm_up(kin: MicoKinematics, hand: HandCollision) -> None:
+    """One search of :func:`warm_up_scene` from Home (the IK, the line, the clearance): no answer loads a kernel."""
+    target, base_T_obj, body = warm_up_scene(kin)
+    seek_path(kin, PathRequest((-1, 0, 'grasp'), np.asarray(HOME_Q, dtype=np.float64), target, target, 0.05, 0.07,
                                PathClearance(kin, hand, body, base_T_obj)))
