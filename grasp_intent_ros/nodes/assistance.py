@@ -23,8 +23,8 @@ Behaviour
     one ``publish_period``, whatever arrived (a slower operator source, or a stale one: then the zero twist).
     Without the half-period rule a source at the period whose twists come just after the timer's outputs would have
     every twist held for most of a period (measured: 5-10 ms in most runs); with it the twists are answered at once
-    after one re-phasing, whose two gaps are at least half a period. The kinematics and the assistance's maths run
-    once at start (warm-up), before the first output. The maths, alpha's definition and the safety rules are
+    after one re-phasing, whose two gaps are at least half a period. The kinematics, the maths and the path search's
+    process run once at start (warm-up), before the first output. The maths, alpha's definition and the rules are
     :mod:`grasp_intent_ros.shared_control.assistance`. Inputs are keep-last 1 (latest only); staleness is judged by
     arrival time on the node's clock. With a model that has a body, the robot's joint path keeps the open hand clear
     of it at the object's pose (:mod:`grasp_intent_ros.shared_control.clearance`); without one, unchecked.
@@ -33,9 +33,9 @@ Threads and processes
     The executor's thread (single-threaded) runs every callback and owns the
     :class:`~grasp_intent_ros.shared_control.assistance.Assistance`. The joint path's search runs in a process of
     its own (:class:`~grasp_intent_ros.shared_control.path_search.PathWorker`; in a thread its share of the lock
-    delayed outputs), fed snapshots. Every grasp and object pose asks for the path again from the joints of that
-    moment; meanwhile a bit-identical grasp and object keep the previous path in use, else the output is the
-    operator's twist alone (alpha 0, ``seeking a path``). A search that raises, or the process ending: ERROR.
+    delayed outputs). Every grasp and object pose asks for the path again from the joints of that moment; meanwhile
+    a bit-identical grasp and object keep the previous path in use, else the output is the operator's twist alone
+    (alpha 0, ``seeking a path``). A search that raises, or the process ending: ERROR (the path sought no more).
 
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.ASSISTANCE`, ``config/assistance.yaml``.
 """
@@ -98,6 +98,8 @@ class AssistanceNode(Node):
         self._params = declare_parameters(self, ASSISTANCE, check=check_object_pose, on_change=self._configure)
         self._kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
         hand = self._params.build('urdf_path', lambda path: HandCollision(path or None))
+        self._paths = PathWorker(self._params['urdf_path'] or None, name=f'{node_name}_paths', on_error=lambda text:
+                                 self._diag.rejected('internal error: path search', level=ERROR, detail=text))
         self._assist = Assistance(AssistanceConfig(), TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin, hand)
         self._base_T_obj = object_pose(self._params)
         self._body: ObjectBody | None = None
@@ -105,11 +107,9 @@ class AssistanceNode(Node):
         warm_up(self._assist)
         grasp_task_set(np.zeros(MICO_3F.dim), np.zeros((1, MICO_3F.dim)), np.ones(1, dtype=np.int64),
                        np.ones(MICO_3F.dim))
-        self._paths = PathWorker(self._params['urdf_path'] or None, name=f'{node_name}_paths', on_error=lambda text:
-                                 self._diag.rejected('internal error: path search', level=ERROR, detail=text))
+        self._paths.wait_ready(60.0)  # its start (a fresh install's compile) overlaps the warm-up above
         self._assist.paths = self._paths
-        self._last_output = -float('inf')
-        self._outputs = 0
+        self._last_output, self._outputs = -float('inf'), 0
         self._demos: tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]] | None = None
         self._features: NDArray[np.float64] | None = None
         self._pubs = {topics.ASSISTANCE_TWIST: output_publisher(self, TwistStamped, topics.ASSISTANCE_TWIST),

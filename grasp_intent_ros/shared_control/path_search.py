@@ -35,6 +35,7 @@ import signal
 import socket
 import subprocess
 import sys
+import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -174,6 +175,20 @@ class PathWorker:
         self._seeking = False  # a request handed over, its answer not yet taken
         self._answer: PathAnswer | None = None
         self._ended = False
+        self._ready = False
+
+    def wait_ready(self, timeout: float) -> bool:
+        """Wait until the process has built its models and run its warm-up (at most ``timeout`` s); whether it has.
+
+        Requests handed over before then wait in the pipe, so this is for a caller that must not run without the
+        search's answers (the node's warm-up: no answer waits for the process's start).
+        """
+        deadline = time.monotonic() + timeout
+        while not self._ready and not self._ended and self._conn.poll(max(0.0, deadline - time.monotonic())):
+            self._take()
+            if time.monotonic() >= deadline:
+                break
+        return self._ready
 
     @property
     def pid(self) -> int:
@@ -228,7 +243,11 @@ class PathWorker:
         """The answers that arrived (the newest kept); an ended process noted once."""
         try:
             while not self._ended and self._conn.poll():
-                answer, error = self._conn.recv()
+                item = self._conn.recv()
+                if item == _READY:
+                    self._ready = True
+                    continue
+                answer, error = item
                 self._answer, self._seeking = answer, False
                 if error is not None:
                     self._on_error(error)
@@ -246,13 +265,15 @@ class PathWorker:
 
 STOP_TIMEOUT = 5.0
 """Seconds :meth:`PathWorker.stop` waits for the process to end before it kills it."""
+_READY = 'ready'
+"""The process's first message: its models built and its warm-up run."""
 
 
 def serve(fd: int) -> None:
     """The process of a :class:`PathWorker` (its end of the pipe: ``fd``): answer each request until None or EOF.
 
-    The first message is the URDF's path and the search; then requests, each answered with ``(answer, None)``, or
-    ``(no path, traceback)`` when the search raised.
+    The first message is the URDF's path and the search; the process answers ``'ready'`` after its warm-up; then
+    requests, each answered with ``(answer, None)``, or ``(no path, traceback)`` when the search raised.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a terminal's Ctrl-C reaches both: the caller stops this one
     conn = Connection(fd)
@@ -262,6 +283,7 @@ def serve(fd: int) -> None:
         return
     kin, hand = MicoKinematics(urdf_path), HandCollision(urdf_path)
     _warm_up(kin, hand)
+    conn.send(_READY)
     while True:
         try:
             item = conn.recv()

@@ -162,6 +162,7 @@ def test_the_worker_seeks_in_a_process_of_its_own_and_answers_as_this_one(kin: M
     worker = PathWorker(name='paths under test', on_error=errors.append)
     try:
         assert worker.pid != os.getpid()
+        assert worker.wait_ready(60.0)  # its models built and its warm-up run
         answers: list[PathAnswer | None] = []
         assert wait_until(lambda: answers.append(worker.seek(request)) or answers[-1] is not None)
         answer, here = answers[-1], seek_path(kin, request)
