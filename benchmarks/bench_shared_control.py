@@ -51,7 +51,11 @@ successful runs, and over all runs with a failure counted as the timeout), opera
 |operator twist|, linear m and angular rad), wrong-task pulls (the integral of alpha over the time the shown
 grasp did not serve S by the rules, and how many operators met any), mean alpha. A latency phase first (``arbitration``
 none, 100 Hz operator twists carrying a sequence number in ``angular.z``): the blended twist's rate and the
-latency from the operator's publish to the blended twist's receipt (the middleware's receive time).
+latency from the operator's publish to the blended twist's receipt (the middleware's receive time). Then a stream
+phase (:func:`stream_phase`, ``confidence``), whose gaps while the operator heads at the grasp are measured between
+the blended twists' receipts (the middleware's receive time: what a servo that receives promptly sees), and, as
+``callback_*``, between the times this process's callback ran (its own delays included: the executor thread shares
+the interpreter's lock with the operator's thread, and callbacks queue behind the joint states' kinematics).
 
 ``--record BAG`` runs no benchmark: it records one operator (the first of ``--only``, of the first of
 ``--objects``) under ``confidence`` as a closed-loop session bag, holding still for 2 s after the grasp
@@ -210,12 +214,14 @@ class Loop:
         node.create_subscription(Float64, 'assistance/alpha', lambda m: self.alphas.append(
             (time.monotonic(), m.data)), input_qos(1000))
         def on_blended(m: Any, info: Any) -> None:
+            self.receipts.append((time.monotonic(), info['received_timestamp']))
             self.outputs.append((info['received_timestamp'], m.twist.angular.z))
             t = m.twist
             self.blended.append((time.monotonic(), np.array([t.linear.x, t.linear.y, t.linear.z, t.angular.x,
                                                              t.angular.y, t.angular.z])))
 
         self.blended: list[tuple[float, np.ndarray]] = []  # (monotonic, twist)
+        self.receipts: list[tuple[float, int]] = []  # (monotonic in the callback, the middleware's receive ns)
         node.create_subscription(TwistStamped, 'assistance/twist', on_blended, input_qos(1000))
         self.twist_pub = node.create_publisher(TwistStamped, 'operator/twist', output_qos())
         self.w_pub = node.create_publisher(Float64MultiArray, 'intent/w', output_qos()) if sends_w else None
@@ -429,11 +435,15 @@ def stream_phase(loop: Loop) -> dict[str, float]:
 
     loop.reset_arm()
     start, end = _send_for(loop, 4.0, toward)
-    times = np.array([t for t, _ in loop.blended if start <= t <= end])
-    gaps = np.diff(times)
-    out['rate_hz'] = (times.size - 1) / float(times[-1] - times[0])
+    receipts = [(t, received) for t, received in loop.receipts if start <= t <= end]
+    received = np.array([r for _, r in receipts], dtype=np.int64)  # the middleware's receive times (ns)
+    gaps = np.diff(received) * 1e-9
+    out['rate_hz'] = (received.size - 1) / float((received[-1] - received[0]) * 1e-9)
     out['max_gap_ms'] = 1e3 * float(gaps.max())
     out['gaps_over_20ms'] = int(np.sum(gaps > 0.02))
+    gaps = np.diff([t for t, _ in receipts])  # when this process's callback ran: its own delays too
+    out['callback_max_gap_ms'] = 1e3 * float(gaps.max())
+    out['callback_gaps_over_20ms'] = int(np.sum(gaps > 0.02))
     alphas = [a for t, a in loop.alphas if start <= t <= end]
     out['alpha_heading_mean'] = float(np.mean(alphas))
     # sustained opposition: from 1 s into an assisted reach (the hand well short of the grasp), straight away

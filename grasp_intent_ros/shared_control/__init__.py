@@ -11,7 +11,7 @@ joint_path
 clearance
     The robot's joint path clear of the object as perceived (tracked pose, model's body): checked, and replaced.
 path_search
-    The robot's joint path sought from a snapshot: the search (one definition), at once or in a thread of its own.
+    The robot's joint path sought from a snapshot: the search (one definition), at once or in a process of its own.
 limits
     The output twist's speed and acceleration limits; norms without overflow.
 barrier
@@ -39,6 +39,5 @@ parameters (ROS-free tables)
     operator's twist is read.
 
 Imports of the package: :mod:`~grasp_intent_ros.errors`, :mod:`~grasp_intent_ros.method`,
-:mod:`~grasp_intent_ros.planning`, :mod:`~grasp_intent_ros.mico` and :mod:`~grasp_intent_ros.latest_only`
-(path_search's thread).
+:mod:`~grasp_intent_ros.planning` and :mod:`~grasp_intent_ros.mico`.
 """
