@@ -8,6 +8,17 @@ teleoperation, alpha = 0), ``blend`` (ADA's baseline: alpha_max when v's top zon
 ``confidence`` (the suite's). Between two runs the mock arm is reset to Home (``mock_arm/reset``). Prints
 figures, asserts nothing; ``--json`` keeps every run.
 
+The grasp command. Under ``confidence`` (the suite's assistance), a close on the shown grasp executes it, as
+the scripted operator node does and the simulated loop models (``shared_control/simulator.py``, "The grasp
+command"): zero twists until the hand is seen at rest, ``grasp/execute`` (the mock arm follows the planner's
+latest ``grasp/trajectory``), zero twists until that trajectory has had its time
+(:class:`~grasp_intent_ros.shared_control.operator_loop.GraspCommand`, the node's timing), and the hand is judged
+where the execution left it, with the newest plan's closures. Under ``none`` and ``blend`` (the simulated loop's
+``direct`` and ADA, which close where the hand is: executing is the suite's command, not the baselines'), and on
+the operator's own grasp, the hand is judged where the operator closed it; ``--no-execute`` judges it there under
+every condition. The probe calls no ``grasp/close``: the judge takes the plan's closures (the mock arm's closure
+error is not judged).
+
 The scripted operator (a stated, simple model)
 ----------------------------------------------
 - **Intent.** A prior w0 ~ U(0.2, 0.8)^3 over (usage, transfer, handover); the true task set S is drawn
@@ -34,8 +45,8 @@ The scripted operator (a stated, simple model)
 Figures per object and condition (the same seeded operators): success (the operator closes the hand, its
 seen hand within 1 cm and 0.1 rad of the goal it pursues, within ``--timeout`` s, and the data set's task
 rules, :data:`grasp_intent_ros.objects.demos.CUP_RULES` / ``FLASHLIGHT_RULES``, hold for every task of S at
-the reached pose with the pursued grasp's closures: judged after the run, never seen by the operator), time
-to grasp (median of the
+the reached pose, after the grasp command, with the pursued grasp's closures: judged after the run, never seen
+by the operator), time to grasp (to the close, an execution included; median of the
 successful runs, and over all runs with a failure counted as the timeout), operator effort (integral of
 |operator twist|, linear m and angular rad), wrong-task pulls (the integral of alpha over the time the shown
 grasp did not serve S by the rules, and how many operators met any), mean alpha. A latency phase first (``arbitration``
@@ -48,7 +59,8 @@ the interpreter's lock with the operator's thread, and callbacks queue behind th
 
 ``--record BAG`` runs no benchmark: it records one operator (the first of ``--only``, of the first of
 ``--objects``) under ``confidence`` as a closed-loop session bag, holding still for 2 s after the grasp
-(:func:`record_session`), in an ambiguous episode: w held at the paper's (0.9, 0.9, 0.1) with the noise of an
+(:func:`record_session`; the grasp command executes nothing: a replay sends the operator's twists only), in an
+ambiguous episode: w held at the paper's (0.9, 0.9, 0.1) with the noise of an
 unsharpened intent, the operator wanting usage and transfer; bags/shared_control_cup is
 ``--objects cup --only 0 --record``. With ``--estimator`` the suite runs the intent estimator, the only source
 of w (this process publishes none; its operator twists are stamped), and the operator wants transfer (T),
@@ -62,7 +74,8 @@ w_handover 0.23, 0.63 and 0.05).
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set.
 
     ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=97 \
-        .venv/bin/python benchmarks/bench_shared_control.py [--quick] [--operators 50] [--json runs.json]
+        .venv/bin/python benchmarks/bench_shared_control.py [--quick] [--operators 50] [--json runs.json] \
+            [--conditions none blend confidence] [--no-execute]
 """
 
 from __future__ import annotations
@@ -92,7 +105,14 @@ from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRu
 from grasp_intent_ros.planning.options import node_default_options
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error
-from grasp_intent_ros.shared_control.operator_loop import Perceived, operator_step
+from grasp_intent_ros.shared_control.operator_loop import (
+    EXECUTE_TIMEOUT,
+    GraspCommand,
+    Perceived,
+    executes,
+    hand_at_rest,
+    operator_step,
+)
 from grasp_intent_ros.shared_control.operators import (
     IntentScript,
     OperatorConstants,
@@ -105,6 +125,8 @@ from grasp_intent_ros.wire.diagnostics import ESTIMATOR_COMPONENT
 
 OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 CONDITIONS = ('none', 'blend', 'confidence')
+EXECUTES = 'confidence'
+"""The condition whose grasp command executes the shown grasp (the suite's assistance; module docstring)."""
 BASE_T_OBJ = default_base_T_obj()
 """The true object pose: the planner's default (:func:`~grasp_intent_ros.mico.frames.default_base_T_obj`)."""
 PERIOD = 0.01
@@ -150,10 +172,11 @@ class Loop:
         from sensor_msgs.msg import JointState
         from std_msgs.msg import Float64, Float64MultiArray
         from std_srvs.srv import Trigger
+        from trajectory_msgs.msg import JointTrajectory
 
         from grasp_intent_ros.ros.qos import input_qos, output_qos
         from grasp_intent_ros.wire.arrays import stamped_values
-        from grasp_intent_ros.wire.robot_state import joint_positions, pose_msg_to_matrix
+        from grasp_intent_ros.wire.robot_state import joint_positions, pose_msg_to_matrix, trajectory_time
 
         self.probe, self.kin = probe, kin
         node = probe.node
@@ -181,6 +204,12 @@ class Loop:
 
         node.create_subscription(JointState, 'joint_states', on_joints, input_qos(100))
         node.create_subscription(PoseStamped, 'grasp/pose', on_pose, input_qos(100))
+        self.trajectory_time: float | None = None  # the latest grasp/trajectory's last time_from_start, s
+
+        def on_trajectory(msg: Any) -> None:
+            self.trajectory_time = trajectory_time(msg)
+
+        node.create_subscription(JointTrajectory, 'grasp/trajectory', on_trajectory, input_qos(100))
         node.create_subscription(Float64MultiArray, 'grasp/features', on_features, input_qos(100))
         node.create_subscription(Float64, 'assistance/alpha', lambda m: self.alphas.append(
             (time.monotonic(), m.data)), input_qos(1000))
@@ -198,6 +227,7 @@ class Loop:
         self.w_pub = node.create_publisher(Float64MultiArray, 'intent/w', output_qos()) if sends_w else None
         self._set_params = node.create_client(SetParameters, 'assistance/set_parameters')
         self._reset = node.create_client(Trigger, 'mock_arm/reset')
+        self._execute = node.create_client(Trigger, 'grasp/execute')
         from std_srvs.srv import SetBool
         self._enable = node.create_client(SetBool, 'assistance/enable')
         self._set_bool = SetBool
@@ -238,6 +268,27 @@ class Loop:
     def reset_arm(self) -> None:
         assert self.call(self._reset, self._trigger.Request()).success
 
+    def execute(self) -> float:
+        """The grasp command's execution: when the fingers close (monotonic s).
+
+        Zero twists until the hand is seen at rest, ``grasp/execute``, zero twists until the trajectory has had
+        its time: :class:`~grasp_intent_ros.shared_control.operator_loop.GraspCommand`, as the scripted operator
+        node; a refused execute is due at once (the hand closes where it is).
+        """
+        command, still = GraspCommand(time.monotonic(), EXECUTE_TIMEOUT), self.twist(np.zeros(6))
+        while not command.ready(now := time.monotonic(), hand_at_rest(self.hands, now)):
+            self.twist_pub.publish(still)
+            time.sleep(PERIOD)
+        command.request(time.monotonic())
+        answer = self.call(self._execute, self._trigger.Request(), timeout=EXECUTE_TIMEOUT)
+        command.answered(time.monotonic(), answer.success, answer.message, self.trajectory_time)
+        if command.refused:
+            print(f'bench_shared_control: grasp/execute refused: {command.refused}', file=sys.stderr)
+        while not command.due(now := time.monotonic()):
+            self.twist_pub.publish(still)
+            time.sleep(min(PERIOD, command.close_at - now))
+        return time.monotonic()
+
     def plan_at(self, t: float) -> tuple[np.ndarray, np.ndarray] | None:
         """The last plan received by monotonic time ``t``: (base_T_grasp, features)."""
         with self._lock:
@@ -251,10 +302,13 @@ class Loop:
 
 
 def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: Grasp, rules: ObjectRules,
-                 rng: np.random.Generator, timeout: float, run: Run, sends_w: bool = True) -> None:
+                 rng: np.random.Generator, timeout: float, run: Run, sends_w: bool = True,
+                 execute: bool = False) -> None:
     """Run one operator until it closes the hand or ``timeout``; fills ``run`` (judged by ``rules`` after).
 
     ``sends_w`` False: w comes from elsewhere (the intent estimator), the operator waits for a plan only.
+    ``execute``: a close on the shown grasp executes it first (:meth:`Loop.execute`); the hand is judged where the
+    execution left it, with the newest plan's closures, and the time to grasp runs to the execution's end.
     """
     task_set = intent.task_set(0.0)
     if sends_w:
@@ -278,6 +332,10 @@ def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: G
                              None if plan_seen is None else plan_seen[0], own.base_T_ee)
         if step.close:  # the hand it saw is there: the hand now is too (seen later)
             closures = own.positions[6:] if step.pursued == 'own' or plan_seen is None else plan_seen[1][FINGERS]
+            if executes(step, execute):  # the arm goes to the newest plan, whose closures the fingers take
+                now = loop.execute()
+                t, newest = now - start, loop.plan_at(now)
+                closures = closures if newest is None else newest[1][FINGERS]
             reached = obj_T_ee_to_features(np.linalg.inv(BASE_T_OBJ) @ loop.hand_at(now), closures)
             run.success, run.pursued = rules.label(reached) & task_set == task_set, step.pursued
             run.time_to_grasp = t
@@ -442,14 +500,15 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
         if args.stream_only:
             return runs, latency
         for i in args.only or range(args.operators):
-            order = CONDITIONS[i % 3:] + CONDITIONS[:i % 3]
+            order = [c for c in CONDITIONS[i % 3:] + CONDITIONS[:i % 3] if c in args.conditions]
             for condition in order:
                 rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), i])
                 intent = SharpeningIntent.draw(rng)
                 loop.set_arbitration(condition)
                 loop.reset_arm()
                 run = Run(name, i, condition, intent.true_set)
-                run_operator(loop, op, intent, goals[intent.true_set], rules, rng, args.timeout, run)
+                run_operator(loop, op, intent, goals[intent.true_set], rules, rng, args.timeout, run,
+                             execute=condition == EXECUTES and not args.no_execute)
                 runs.append(run)
                 print(f'[{name}] operator {i:3d} {condition:10s} S={intent.true_set} success={run.success!s:5s} '
                       f't={run.time_to_grasp:6.2f} s wrong pull {run.wrong_pull:5.2f} s alpha {run.alpha_mean:.2f}',
@@ -570,6 +629,10 @@ def main() -> None:
     parser.add_argument('--estimator', action='store_true', help='with --record: w from the intent estimator node '
                         '(module docstring)')
     parser.add_argument('--stream-only', action='store_true', help='the latency and stream phases only')
+    parser.add_argument('--conditions', nargs='+', default=list(CONDITIONS), choices=CONDITIONS,
+                        help='run only these conditions (in the rotating order of the full run)')
+    parser.add_argument('--no-execute', action='store_true', help='the grasp command executes nothing: the hand is '
+                        'judged where the operator closed it under every condition')
     parser.add_argument('--record', type=Path, metavar='BAG',
                         help='instead of the benchmark: record the first --only operator (default 0) of the first '
                              'object under confidence as a closed-loop session bag (replaced), e.g. for bags/')

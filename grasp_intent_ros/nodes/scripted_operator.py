@@ -9,10 +9,18 @@ its own grasp (:func:`~grasp_intent_ros.shared_control.operator_loop.own_grasp`)
 when the model, the object pose or ``task_set`` changes (a task the model lacks: ERROR, and it waits).
 
 Topics and services (relative)
-    in   ``joint_states``, ``grasp/pose`` (the grasp shown), ``object/pose``, ``model/active``
+    in   ``joint_states``, ``grasp/pose`` (the grasp shown), ``grasp/trajectory`` (its last ``time_from_start``:
+         how long an executed grasp takes), ``object/pose``, ``model/active``
     out  ``operator/twist`` (TwistStamped, base frame, every ``publish_period`` s; zero unless reaching),
-         ``intent/w`` (``intent: held``), ``/diagnostics`` (``scripted operator``: state, episode, times to grasp)
-    call ``grasp/close`` (std_srvs/Trigger, with ``close_on_reach``), ``mock_arm/reset`` (between episodes)
+         ``intent/w`` (``intent: held``), ``/diagnostics`` (``scripted operator``: state, episode, times to grasp,
+         the last execute's answer)
+    call ``grasp/execute`` then ``grasp/close`` (std_srvs/Trigger, with ``close_on_reach``; the execute only on the
+         shown grasp, with ``execute_shown``), ``mock_arm/reset`` (between episodes)
+
+The grasp command (with ``close_on_reach``; :mod:`~grasp_intent_ros.shared_control.operator_loop`): on its own
+grasp ``grasp/close`` at once; on the shown grasp (with ``execute_shown``) zero twists until the hand is at rest,
+``grasp/execute``, zero twists until the latest ``grasp/trajectory``'s time has passed, then ``grasp/close`` (a
+refused execute, logged and in the diagnostics, closes at once). ``hold`` counts from the fingers' close.
 
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.SCRIPTED_OPERATOR`, ``config/scripted_operator.yaml``.
 """
@@ -31,6 +39,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory
 
 from ..errors import GraspIntentError
 from ..method.features import MICO_3F
@@ -52,8 +61,8 @@ from ..shared_control.parameters import SCRIPTED_OPERATOR, check_scripted_operat
 from ..wire import topics
 from ..wire.diagnostics import ERROR, OK, WARN
 from ..wire.model_document import ModelDocument
-from ..wire.robot_state import joint_positions, object_pose_msg, pose_msg_to_matrix
-from .mock_arm import GRASP_CLOSE
+from ..wire.robot_state import joint_positions, object_pose_msg, pose_msg_to_matrix, trajectory_time
+from .mock_arm import GRASP_CLOSE, GRASP_EXECUTE
 
 __all__ = ['ScriptedOperatorNode', 'OPERATOR_COMPONENT', 'ARM_RESET', 'main']
 
@@ -78,7 +87,9 @@ class ScriptedOperatorNode(Node):
                                               check=check_scripted_operator)
         self._kin = p.build('urdf_path', lambda path: MicoKinematics(path or None))
         self._loop = OperatorEpisodes(ScriptedOperator(p['device'], OperatorConstants(), np.random.default_rng(
-            [p['seed'], 0]), p['publish_period']), p['start_delay'], p['hold'], p['episodes'])
+            [p['seed'], 0]), p['publish_period']), p['start_delay'], p['hold'], p['episodes'],
+            execute_shown=p['execute_shown'] and p['close_on_reach'], execute_timeout=p['execute_timeout'])
+        self._trajectory_time: float | None = None  # the latest grasp/trajectory's last time_from_start, s
         self._w_rng = np.random.default_rng([p['seed'], 1])
         self._task_set: int | None = None  # the task set over the model's tasks, once validated
         self._problem = ''  # why there is no own grasp ('' while there is one, or none was tried)
@@ -86,7 +97,7 @@ class ScriptedOperatorNode(Node):
         self._unavailable = ''  # the service last found unavailable ('' once a call is made)
         self._twist_pub = output_publisher(self, TwistStamped, topics.OPERATOR_TWIST)
         self._w_pub = output_publisher(self, Float64MultiArray, topics.INTENT_W)
-        self._triggers = {name: self.create_client(Trigger, name) for name in (GRASP_CLOSE, ARM_RESET)}
+        self._triggers = {name: self.create_client(Trigger, name) for name in (GRASP_EXECUTE, GRASP_CLOSE, ARM_RESET)}
         self._scenes = LatestOnlyWorker(_Scene(None, object_pose(p), p['task_set']),
                                         self._diag.guard(self._prepare, counts_received=False),
                                         ready=lambda scene: scene.model is not None, name=f'{node_name}_goal')
@@ -95,6 +106,7 @@ class ScriptedOperatorNode(Node):
                                      requires=lambda: ModelRequirements(feature_names=MICO_3F.names))
         subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(STREAM_DEPTH), self._diag)
         subscribe_input(self, topics.GRASP_POSE, self._on_grasp, input_qos(), self._diag)
+        subscribe_input(self, topics.GRASP_TRAJECTORY, self._on_trajectory, input_qos(), self._diag)
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, input_qos(depth=1), self._diag)
         self.create_timer(p['publish_period'], self._diag.guard_timer(self._on_tick))
         self.create_timer(p['w_period'], self._diag.guard_timer(self._on_w))
@@ -107,6 +119,7 @@ class ScriptedOperatorNode(Node):
     def _configure(self, changed: Mapping[str, Any]) -> None:
         p, loop = self._params, self._loop
         loop.start_delay, loop.hold, loop.episodes = p['start_delay'], p['hold'], p['episodes']
+        loop.execute_shown, loop.execute_timeout = p['execute_shown'] and p['close_on_reach'], p['execute_timeout']
         if {'object_position', 'object_orientation'} & set(changed):
             self._scenes.update(lambda scene: replace(scene, base_T_obj=object_pose(p)))
         if {'task_set', 'w', 'intent'} & set(changed):  # planned again: a w that fits the model is checked there
@@ -141,6 +154,9 @@ class ScriptedOperatorNode(Node):
     def _on_grasp(self, msg: PoseStamped) -> None:
         self._loop.shown(time.monotonic(), pose_msg_to_matrix(msg, frame_id=BASE_FRAME))
 
+    def _on_trajectory(self, msg: JointTrajectory) -> None:
+        self._trajectory_time = trajectory_time(msg)
+
     def _on_object_pose(self, msg: PoseStamped) -> None:
         base_T_obj = object_pose_msg(msg, self._params['workspace_radius'])
         self._scenes.update(lambda scene: replace(scene, base_T_obj=base_T_obj))
@@ -153,10 +169,15 @@ class ScriptedOperatorNode(Node):
     def _on_tick(self) -> None:
         now, loop = time.monotonic(), self._loop
         step = loop.step(now)
+        if step is not None and step.execute:
+            self.get_logger().info(f'episode {loop.episode}: at the shown grasp, at '
+                                   f'{step.goal[:3, 3].round(3).tolist()} m: executing it')
+            self._call(GRASP_EXECUTE)
         if step is not None and step.close:
             done = loop.closed[-1]
             self.get_logger().info(f'episode {done.episode}: at the {done.pursued} grasp, at '
-                                   f'{done.goal[:3, 3].round(3).tolist()} m, after {done.time_to_grasp:.2f} s')
+                                   f'{done.goal[:3, 3].round(3).tolist()} m, after {done.time_to_grasp:.2f} s'
+                                   + (' (executed)' if done.executed else ''))
             if self._params['close_on_reach']:
                 self._call(GRASP_CLOSE)
         if loop.state == 'resetting' and self._waiting_on is None:
@@ -167,8 +188,10 @@ class ScriptedOperatorNode(Node):
 
     def _call(self, name: str) -> None:
         client = self._triggers[name]
-        if not client.service_is_ready():  # a close is not asked again; a reset at the next tick
+        if not client.service_is_ready():  # a close is not asked again, an execute closes at once, a reset is retried
             self._unavailable = f'{name} is not available (no mock arm?)'
+            if name == GRASP_EXECUTE:
+                self._refused(self._unavailable)
             return
         self._unavailable, self._waiting_on = '', name
         future = client.call_async(Trigger.Request())
@@ -180,6 +203,18 @@ class ScriptedOperatorNode(Node):
         self.get_logger().info(f'{name}: ' + ('no answer' if answer is None else answer.message))
         if name == ARM_RESET:
             self._loop.reset_done(answer is not None and answer.success)
+        elif name == GRASP_EXECUTE:
+            if answer is None or not answer.success:
+                self._refused('no answer' if answer is None else answer.message)
+            else:
+                self._loop.executed(time.monotonic(), True, answer.message, self._trajectory_time)
+                self._diag.set_values({'execute': answer.message + ('' if self._trajectory_time is None else
+                                                                    f' ({self._trajectory_time:.2f} s)')})
+
+    def _refused(self, reason: str) -> None:  # an execute not done: the fingers close where the hand is
+        self.get_logger().warning(f'{GRASP_EXECUTE} refused: {reason}; closing where the hand is')
+        self._diag.set_values({'execute': f'refused: {reason}'})
+        self._loop.executed(time.monotonic(), False, reason, None)
 
     def _show(self, now: float) -> None:
         loop = self._loop

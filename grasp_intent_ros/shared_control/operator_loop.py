@@ -11,18 +11,34 @@ closes the hand (no twist), else it sends the device's twist toward the goal's a
 (:meth:`~.operators.ScriptedOperator.twist`). The benchmark's probe (``benchmarks/bench_shared_control.py``)
 and the node call it.
 
+The grasp command (:func:`executes`, :class:`GraspCommand`): under the suite's assistance, a close on the shown
+grasp executes it first, as the simulated loop models (:mod:`.simulator`, "The grasp command"): zero twists until
+the hand is seen at rest (:func:`hand_at_rest`), then ``grasp/execute`` (the mock arm follows the planner's latest
+``grasp/trajectory`` from then on), then ``grasp/close`` once that trajectory has had its time, so the fingers
+close at the planned grasp, not up to the reach tolerance short of it. On its own grasp (or without the suite's
+assistance) the hand closes where it is. The node and the probe time it with the same :class:`GraspCommand`.
+
 An episode's states (:data:`STATES`), each tick of :meth:`OperatorEpisodes.step`:
 
 ====================  ==================================================================================
 ``waiting``           for the hand (a joint state) and the operator's own goal; zero twists
 ``starting``          ``start_delay`` s from the moment both are there; zero twists
-``reaching``          :func:`operator_step` until it closes the hand (the step then says ``close``)
-``holding``           ``hold`` s of zero twists after the close; then ``resetting``, or ``done`` after the
-                      last episode
+``reaching``          :func:`operator_step` until it closes the hand: on the shown grasp with
+                      ``execute_shown`` then ``closing`` (a zero twist), else the step says ``close``
+                      (then ``holding``)
+``closing``           zero twists; once the hand is seen at rest (at the latest :data:`STOP_WAIT` s) the
+                      step says ``execute``; the caller reports the execute's answer
+                      (:meth:`OperatorEpisodes.executed`); once the :class:`GraspCommand` is due (the
+                      trajectory's time, at once when refused, at the latest ``execute_timeout`` s from the
+                      request) the step says ``close``; then ``holding``
+``holding``           ``hold`` s of zero twists from the fingers' close; then ``resetting``, or ``done`` after
+                      the last episode
 ``resetting``         waits for :meth:`OperatorEpisodes.reset_done` (the caller resets the arm); then a new
                       episode starts at ``waiting``, its hand seen only from then on
 ``done``              zero twists
 ====================  ==================================================================================
+
+A reset is asked only after ``holding``: it never cuts an execution short.
 """
 
 from __future__ import annotations
@@ -30,7 +46,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Generic, Literal, TypeVar
 
 import numpy as np
@@ -41,16 +57,18 @@ from ..method.model import GraspModel
 from ..mico.grasp import Grasp
 from ..mico.kinematics import MicoKinematics
 from ..planning.options import node_default_options
+from .assistance import offset
 from .operators import ScriptedOperator
 from .simulator import certain_grasp
 
-__all__ = ['Perceived', 'Step', 'operator_step', 'task_set_of', 'own_grasp', 'State', 'STATES', 'Closed',
-           'OperatorEpisodes']
+__all__ = ['Perceived', 'Step', 'operator_step', 'task_set_of', 'own_grasp', 'SETTLE', 'EXECUTE_TIMEOUT', 'STOP_WAIT',
+           'REST_DISTANCE', 'REST_ANGLE', 'hand_at_rest', 'executes', 'GraspCommand',
+           'State', 'STATES', 'Closed', 'OperatorEpisodes']
 
 T = TypeVar('T')
 
-State = Literal['waiting', 'starting', 'reaching', 'holding', 'resetting', 'done']
-STATES: tuple[State, ...] = ('waiting', 'starting', 'reaching', 'holding', 'resetting', 'done')
+State = Literal['waiting', 'starting', 'reaching', 'closing', 'holding', 'resetting', 'done']
+STATES: tuple[State, ...] = ('waiting', 'starting', 'reaching', 'closing', 'holding', 'resetting', 'done')
 
 
 class Perceived(Generic[T]):
@@ -76,10 +94,18 @@ class Perceived(Generic[T]):
 
     def at(self, t: float) -> T | None:
         """The newest value received at or before ``t`` s; None when none was (or it was forgotten)."""
+        newest = self.newest(t, 1)
+        return newest[0] if newest else None
+
+    def newest(self, t: float, n: int) -> list[T]:
+        """The ``n`` newest values received at or before ``t`` s, newest first (fewer when fewer are kept)."""
+        out: list[T] = []
         for received, value in reversed(tuple(self._values)):  # a copy: another thread may add meanwhile
             if received <= t:
-                return value
-        return None
+                out.append(value)
+                if len(out) == n:
+                    break
+        return out
 
     def clear(self) -> None:
         """Forget every value."""
@@ -95,17 +121,22 @@ class Step:
     twist : ndarray, shape (6,)
         The device's twist (base frame; m/s, rad/s); zero when it closes the hand.
     close : bool
-        Whether it closes the hand now (the hand it sees is at the goal it pursues).
+        Whether it closes the hand now (the hand it sees is at the goal it pursues; in
+        :meth:`OperatorEpisodes.step`, the fingers close now: ``grasp/close``).
     goal : ndarray, shape (4, 4)
         The goal pursued (base frame).
     pursued : str
         'shown' or 'own'.
+    execute : bool
+        Only from :meth:`OperatorEpisodes.step`: the grasp command executes the shown grasp now
+        (``grasp/execute``); the fingers close at a later step (``close``).
     """
 
     twist: NDArray[np.float64]
     close: bool
     goal: NDArray[np.float64]
     pursued: str
+    execute: bool = False
 
 
 def operator_step(operator: ScriptedOperator, now: float, seen_hand: NDArray[np.float64] | None,
@@ -156,14 +187,118 @@ def own_grasp(model: GraspModel, names: Sequence[str], base_T_obj: NDArray[np.fl
         raise GraspIntentError(str(exc)) from None
 
 
+SETTLE = 0.1
+"""Seconds from an executed trajectory's end to the fingers' close: a few of the arm's 0.01 s joint-state periods
+and a service answer's latency, so that the close finds the arm at the trajectory's last point."""
+EXECUTE_TIMEOUT = 10.0
+"""The default longest wait (s) from ``grasp/execute`` to ``grasp/close`` (:class:`GraspCommand`): the node's
+``execute_timeout``, the live benchmark's."""
+STOP_WAIT = 1.0
+"""The longest wait (s) from the operator's close to ``grasp/execute`` for the hand seen at rest (a real arm's
+joint noise may never look still); the assistance's acceleration limit brings its output to zero in a few ticks."""
+REST_DISTANCE = 1e-5
+REST_ANGLE = 1e-4
+"""Two successive hand poses within these (m, rad) say the hand is at rest: 1 mm/s and 0.01 rad/s at 100 Hz."""
+
+
+def hand_at_rest(hands: Perceived[NDArray[np.float64]], now: float) -> bool:
+    """Whether the two newest hand poses (4x4, base frame) received by ``now`` (s) agree within the rest tolerances.
+
+    Why before ``grasp/execute``: when the operator stops, the assistance's output decelerates within its
+    acceleration limit over a few ticks, and a non-zero twist ends a trajectory the mock arm has begun; once
+    the hand is at rest, the twists that reach the arm are zero, which leave the trajectory running.
+    """
+    newest = hands.newest(now, 2)
+    if len(newest) < 2:
+        return False
+    distance, angle = offset(newest[0], newest[1])
+    return distance <= REST_DISTANCE and angle <= REST_ANGLE
+
+
+def executes(step: Step, execute_shown: bool) -> bool:
+    """Whether the grasp command at ``step`` executes the goal before the fingers close (module docstring).
+
+    True for a close on the shown grasp when ``execute_shown`` (the suite's assistance); a close on the operator's
+    own grasp, or without ``execute_shown``, closes the hand where it is.
+    """
+    return execute_shown and step.close and step.pursued == 'shown'
+
+
+@dataclass
+class GraspCommand:
+    """When ``grasp/execute`` is asked and the fingers close, from the operator's close at ``started`` s.
+
+    The caller sends zero twists, asks ``grasp/execute`` once :meth:`ready` (the hand seen at rest, at the latest
+    :data:`STOP_WAIT` s after ``started``) and calls :meth:`request`, reports the answer (:meth:`answered`) and
+    calls ``grasp/close`` once :meth:`due`. The close is due :data:`SETTLE` s after the executed trajectory's end:
+    ``duration`` (its last ``time_from_start``, the latest ``grasp/trajectory`` received) counted from the answer
+    (the arm started it when it served the request, before answering); at once when the execute is refused (no
+    trajectory kept, ``trajectory_execution: on_arrival``, no service: :attr:`refused` says why); and never later
+    than ``timeout`` s after the request (no answer, or no trajectory's time known).
+
+    The trajectory's time, not the arm seen at rest again, ends the wait: the mock arm reaches the trajectory's
+    last point at exactly that time on its own clock, while an arm at rest cannot be told from one that has not
+    yet started (the hand is at rest when the execute is asked).
+
+    Parameters
+    ----------
+    started : float
+        When the operator closed on the shown grasp, s.
+    timeout : float
+        The longest wait for the close from the request, s (> 0).
+    """
+
+    started: float
+    timeout: float
+    requested: float | None = None
+    """When ``grasp/execute`` was asked (s); None before."""
+    answered_at: float | None = None
+    """When the answer came (s); None before it."""
+    refused: str = ''
+    """Why the execute was refused ('' unless it was)."""
+    close_at: float = math.inf
+    """When the fingers close (s); infinite before the request."""
+
+    def ready(self, now: float, at_rest: bool) -> bool:
+        """Whether to ask ``grasp/execute`` at ``now`` (s): not yet asked, and ``at_rest`` or :data:`STOP_WAIT` s on."""
+        return self.requested is None and (at_rest or now - self.started >= STOP_WAIT)
+
+    def request(self, now: float) -> None:
+        """``grasp/execute`` asked at ``now`` (s): the close is due ``timeout`` s later at the latest."""
+        self.requested, self.close_at = now, now + self.timeout
+
+    def answered(self, now: float, success: bool, message: str, duration: float | None) -> None:
+        """The execute's answer at ``now`` (s); ``duration``: the trajectory's time (s), None if unknown.
+
+        Only the first answer to a request counts.
+        """
+        if self.requested is None or self.answered_at is not None:
+            return
+        self.answered_at = now
+        if not success:
+            self.refused, self.close_at = message or 'refused', min(self.close_at, now)
+        elif duration is not None:
+            self.close_at = min(self.close_at, now + duration + SETTLE)
+
+    def due(self, now: float) -> bool:
+        """Whether the fingers close at ``now`` (s) (never before the request)."""
+        return now >= self.close_at
+
+
 @dataclass(frozen=True)
 class Closed:
-    """One episode's close: when (s from its reaching start), which goal it pursued ('shown'/'own'), and where."""
+    """One episode's close: when the fingers closed (s from its reaching start), the goal pursued, where.
+
+    ``pursued``: 'shown' or 'own'; ``executed``: whether the grasp command executed the goal first; ``refused``:
+    why an execute asked was not done ('' otherwise).
+    """
 
     episode: int
     time_to_grasp: float
     pursued: str
     goal: NDArray[np.float64]
+    executed: bool = False
+    refused: str = ''
 
 
 @dataclass
@@ -181,10 +316,16 @@ class OperatorEpisodes:
         How many episodes; 0: without end.
     keep : int
         Inputs kept per :class:`Perceived` (they must cover the reaction time).
+    execute_shown : bool
+        Whether a close on the shown grasp executes it first (:func:`executes`; the ``closing`` state).
+    execute_timeout : float
+        The longest wait from an execute to the fingers' close, s (:class:`GraspCommand`).
 
     The caller feeds :meth:`hand` and :meth:`shown` as inputs arrive, sets :attr:`own` (None while it is
-    prepared; another thread may set it), calls :meth:`step` every tick and, on ``resetting``, resets the arm and
-    calls :meth:`reset_done`. While ``own`` is None a reach pauses (zero twists).
+    prepared; another thread may set it), calls :meth:`step` every tick (on a step with ``execute`` it asks the
+    arm to execute and reports the answer to :meth:`executed`; on one with ``close`` it closes the fingers) and,
+    on ``resetting``, resets the arm and calls :meth:`reset_done`. While ``own`` is None a reach pauses (zero
+    twists).
     """
 
     operator: ScriptedOperator
@@ -192,6 +333,8 @@ class OperatorEpisodes:
     hold: float
     episodes: int = 1
     keep: int = 200
+    execute_shown: bool = False
+    execute_timeout: float = EXECUTE_TIMEOUT
     own: NDArray[np.float64] | None = None
     state: State = 'waiting'
     episode: int = 1
@@ -199,11 +342,14 @@ class OperatorEpisodes:
     closed: list[Closed] = field(default_factory=list)
     pursued: str = ''
     """The goal pursued at the last reaching tick: 'shown' or 'own' ('' before any)."""
+    command: GraspCommand | None = None
+    """The grasp command of the current ``closing`` state (the last one after it)."""
 
     def __post_init__(self) -> None:
         self.hands: Perceived[NDArray[np.float64]] = Perceived(self.keep)
         self.shown_grasps: Perceived[NDArray[np.float64]] = Perceived(self.keep)
         self._since = -math.inf  # when the current timed state (starting, reaching, holding) began
+        self._goal = np.eye(4)  # the goal being executed (closing)
 
     def hand(self, received: float, base_T_ee: NDArray[np.float64]) -> None:
         """The hand's pose (4x4, base frame), received at ``received`` s."""
@@ -214,10 +360,11 @@ class OperatorEpisodes:
         self.shown_grasps.add(received, base_T_grasp)
 
     def step(self, now: float) -> Step | None:
-        """The tick at ``now`` (s): the reaching step, or None for the zero twist of every other state.
+        """The tick at ``now`` (s): a step of ``reaching`` or ``closing``, or None for a zero twist.
 
-        Moves through the states (module docstring); a step with ``close`` ends the reaching (its
-        :class:`Closed` is appended to :attr:`closed`).
+        Moves through the states (module docstring). A step with ``close`` closes the fingers (its
+        :class:`Closed` is appended to :attr:`closed`, and ``holding`` counts from it); one with ``execute``
+        starts the ``closing`` state's :attr:`command`.
         """
         own = self.own  # read once: another thread may set it meanwhile
         if self.state == 'waiting' and own is not None and self.hands.at(now) is not None:
@@ -226,15 +373,43 @@ class OperatorEpisodes:
             self.state, self._since = 'reaching', now
         if self.state == 'holding' and now - self._since >= self.hold:
             self.state = 'done' if self.episode == self.episodes else 'resetting'
+        if self.state == 'closing':
+            return self._closing(now)
         if self.state != 'reaching' or own is None:
             return None
         seen = now - self.operator.c.reaction
         step = operator_step(self.operator, now, self.hands.at(seen), self.shown_grasps.at(seen), own)
         self.pursued = step.pursued
+        if executes(step, self.execute_shown):
+            self.state, self._goal = 'closing', step.goal
+            self.command = GraspCommand(now, self.execute_timeout)
+            return replace(step, close=False)
         if step.close:
-            self.closed.append(Closed(self.episode, now - self._since, step.pursued, step.goal))
-            self.state, self._since = 'holding', now
+            self._close(now, step.pursued, step.goal)
         return step
+
+    def executed(self, now: float, success: bool, message: str, duration: float | None) -> None:
+        """The execute's answer at ``now`` (s), as :meth:`GraspCommand.answered`; ignored outside ``closing``."""
+        if self.state == 'closing' and self.command is not None:
+            self.command.answered(now, success, message, duration)
+
+    def _closing(self, now: float) -> Step | None:
+        command = self.command
+        assert command is not None
+        if command.ready(now, hand_at_rest(self.hands, now)):  # the hand as it is now: the suite's, not the operator's
+            command.request(now)
+            return Step(np.zeros(6), False, self._goal, 'shown', execute=True)
+        if not command.due(now):
+            return None
+        unanswered = '' if command.answered_at is not None else f'no answer within {command.timeout:g} s'
+        self._close(now, 'shown', self._goal, executed=not (command.refused or unanswered),
+                    refused=command.refused or unanswered)
+        return Step(np.zeros(6), True, self._goal, 'shown')
+
+    def _close(self, now: float, pursued: str, goal: NDArray[np.float64], *, executed: bool = False,
+               refused: str = '') -> None:
+        self.closed.append(Closed(self.episode, now - self._since, pursued, goal, executed, refused))
+        self.state, self._since = 'holding', now
 
     def reset_done(self, success: bool) -> None:
         """The arm's reset answered (in ``resetting``): the next episode waits for a new hand; a failure ends."""
@@ -258,7 +433,12 @@ class OperatorEpisodes:
             return f'reaching in {max(self.start_delay - (now - self._since), 0.0):.1f} s'
         if self.state == 'reaching':
             return f'reaching {"the shown" if self.pursued == "shown" else "its own"} grasp'
+        if self.state == 'closing':
+            return ('executing the shown grasp' if self.command is not None and self.command.requested is not None
+                    else 'stopping to execute the shown grasp')
         if not self.closed:
             return self.state
         last = self.closed[-1]
-        return f'{self.state}: episode {last.episode} reached the {last.pursued} grasp in {last.time_to_grasp:.2f} s'
+        how = ' (executed)' if last.executed else f' (execute refused: {last.refused})' if last.refused else ''
+        return (f'{self.state}: episode {last.episode} reached the {last.pursued} grasp in {last.time_to_grasp:.2f} s'
+                + how)

@@ -20,6 +20,7 @@ from ..parameters import ParamSpec, config_from, one_of
 from .assistance import ARBITRATIONS, AssistanceConfig
 from .calibration import model_calibration
 from .estimator import EstimatorConfig
+from .operator_loop import EXECUTE_TIMEOUT
 from .operators import DEVICES
 
 __all__ = ['OPERATOR_INPUT', 'APPROACH', 'ASSISTANCE', 'ESTIMATOR', 'estimator_config', 'check_estimator',
@@ -182,6 +183,13 @@ SCRIPTED_OPERATOR = (
     ParamSpec('w_period', 0.1, "With intent 'held': time between two w, s.", range=(0.01, 10.0), read_only=True),
     ParamSpec('close_on_reach', True, 'Whether the operator calls grasp/close (std_srvs/Trigger) once the hand it '
               'sees is at the grasp it pursues (else it only stops there).'),
+    ParamSpec('execute_shown', True, 'With close_on_reach: whether a close on the shown grasp executes it first, as '
+              'the suite\'s grasp command: zero twists until the hand is at rest, grasp/execute (the arm follows the '
+              'planner\'s latest grasp/trajectory), zero twists until that trajectory has had its time (its last '
+              'time_from_start), then grasp/close; a refused execute closes where the hand is. On its own grasp the '
+              'hand always closes where it is.'),
+    ParamSpec('execute_timeout', EXECUTE_TIMEOUT, 'The longest wait (s) from grasp/execute to grasp/close (no '
+              'answer, or no grasp/trajectory received).', range=(0.1, 600.0)),
     ParamSpec('episodes', 1, 'How many reaches: after each but the last the operator holds still for hold s, resets '
               'the arm (mock_arm/reset) and reaches again; 0: without end.', range=(0, 1000000)),
     ParamSpec('hold', 2.0, 'Seconds the operator holds still after a close.', range=(0.0, 3600.0)),

@@ -23,7 +23,7 @@ from ..mico.mock_arm import TwistCommand, check_twist
 from .topics import MAX_JOINTS, MAX_NAME_LENGTH, check_names
 
 __all__ = ['QUATERNION_NORM_TOL', 'check_unit_quaternion', 'pose_msg_to_matrix', 'joint_positions', 'twist_command',
-           'stamp_seconds', 'stamp_nanoseconds', 'object_pose_msg']
+           'stamp_seconds', 'stamp_nanoseconds', 'object_pose_msg', 'trajectory_time']
 
 
 def pose_msg_to_matrix(msg: Any, *, frame_id: str,
@@ -107,6 +107,14 @@ def stamp_nanoseconds(msg: Any) -> int | None:
     if not hasattr(msg, 'header'):
         return None
     return (int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)) or None
+
+
+def trajectory_time(msg: Any) -> float | None:
+    """A trajectory_msgs/JointTrajectory's last ``time_from_start`` (s): how long it runs; None without points."""
+    if not msg.points:
+        return None
+    t = msg.points[-1].time_from_start
+    return int(t.sec) + 1e-9 * int(t.nanosec)
 
 
 def object_pose_msg(msg: Any, workspace_radius: float) -> NDArray[np.float64]:

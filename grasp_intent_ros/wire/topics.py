@@ -123,6 +123,7 @@ MAX_MESSAGE_BYTES: Final[Mapping[str, int]] = {
     GRASP_POSTERIOR: 64 << 10,  # 1023 zones, 10 tasks and their labels
     GRASP_FEATURES: 64 << 10,  # MAX_FEATURES values, their labels and a stamp label
     GRASP_JOINT_TARGETS: 64 << 10,  # as JOINT_STATES
+    GRASP_TRAJECTORY: 1 << 20,  # as ARM_TRAJECTORY_COMMAND
     OPERATOR_TWIST: 4 << 10,   # a twist and a frame id of MAX_NAME_LENGTH
     ARM_TWIST_COMMAND: 4 << 10,
     ARM_TRAJECTORY_COMMAND: 1 << 20,  # e.g. 4,000 points of 9 joints with positions, velocities, accelerations

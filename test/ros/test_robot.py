@@ -13,7 +13,12 @@ from sensor_msgs.msg import JointState
 from grasp_intent_ros.errors import GraspIntentError, KinematicsError
 from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.ros.robot import joint_state_msg, joint_trajectory_msg, matrix_to_pose_msg
-from grasp_intent_ros.wire.robot_state import check_unit_quaternion, joint_positions, pose_msg_to_matrix
+from grasp_intent_ros.wire.robot_state import (
+    check_unit_quaternion,
+    joint_positions,
+    pose_msg_to_matrix,
+    trajectory_time,
+)
 
 STAMP = Time(sec=3, nanosec=4)
 
@@ -62,5 +67,8 @@ def test_one_point_trajectory() -> None:
     assert list(msg.joint_names) == ['a', 'b'] and list(point.positions) == [0.5, -0.5]
     assert list(point.velocities) == [0.0, 0.0]
     assert (point.time_from_start.sec, point.time_from_start.nanosec) == (1, 250_000_000)
+    assert trajectory_time(msg) == 1.25  # read back: how long it runs
+    msg.points = []
+    assert trajectory_time(msg) is None
     with pytest.raises(ValueError, match='2 names'):
         joint_trajectory_msg(['a', 'b'], [0.5], 1.0, stamp=STAMP)

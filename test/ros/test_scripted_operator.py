@@ -1,11 +1,13 @@
 """In-process tests of the scripted operator node (private Context per test, see test/conftest.py).
 
 The test side plays the rest of the loop: the cup model latched on ``model/active``, a joint state stream at 100
-Hz (the arm held where the test puts it), the grasp shown on ``grasp/pose``, and the mock arm's ``grasp/close``.
+Hz (the arm held where the test puts it), the grasp shown on ``grasp/pose``, the planner's ``grasp/trajectory``,
+and the mock arm's ``grasp/execute`` and ``grasp/close`` (a fake that answers at once and records when).
 """
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import numpy as np
@@ -15,17 +17,18 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory
 
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import PRE_GRASP_STANDOFF, pose_to_matrix, pre_grasp
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
-from grasp_intent_ros.nodes.mock_arm import GRASP_CLOSE
+from grasp_intent_ros.nodes.mock_arm import GRASP_CLOSE, GRASP_EXECUTE
 from grasp_intent_ros.nodes.scripted_operator import OPERATOR_COMPONENT, ScriptedOperatorNode
 from grasp_intent_ros.planning.options import node_default_options
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.qos import latched_qos
-from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
+from grasp_intent_ros.ros.robot import joint_state_msg, joint_trajectory_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control.simulator import certain_grasp
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.diagnostics import ERROR, WARN
@@ -50,7 +53,7 @@ def moved(pose: np.ndarray, by: tuple[float, float, float]) -> np.ndarray:
 
 
 class Rig:
-    """The node with the cup model latched, the arm at ``q`` (Home at first) and the mock arm's close counted."""
+    """The node with the cup model latched, the arm at ``q`` (Home at first), the mock arm's calls recorded."""
 
     def __init__(self, ros: Any, **params: Any) -> None:
         self.ros = ros
@@ -59,8 +62,9 @@ class Rig:
         self.twists = ros.subscribe(TwistStamped, topics.OPERATOR_TWIST)
         self.w = ros.subscribe(Float64MultiArray, topics.INTENT_W)
         self.statuses = ros.diagnostics()
-        self.closes = 0
-        ros.node.create_service(Trigger, GRASP_CLOSE, self._close)
+        self.calls: list[tuple[str, float]] = []  # (service, monotonic time of the call)
+        for name in (GRASP_EXECUTE, GRASP_CLOSE):
+            ros.node.create_service(Trigger, name, lambda request, response, name=name: self._call(name, response))
         self.shown = ros.publisher(PoseStamped, topics.GRASP_POSE)
         self.q = HOME_Q.copy()
         joints = ros.publisher(JointState, topics.JOINT_STATES)
@@ -70,9 +74,13 @@ class Rig:
         models.publish(String(data=model_document(ModelFiles(config_dir() / 'models').load('cup_7zone'),
                                                   name='cup_7zone', version=1)))
 
-    def _close(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        self.closes += 1
-        response.success, response.message = True, 'closing'
+    @property
+    def closes(self) -> int:
+        return sum(name == GRASP_CLOSE for name, _ in self.calls)
+
+    def _call(self, name: str, response: Trigger.Response) -> Trigger.Response:
+        self.calls.append((name, time.monotonic()))
+        response.success, response.message = True, name
         return response
 
     def show(self, base_T_grasp: np.ndarray, until: Any, timeout: float = 10.0) -> bool:
@@ -109,14 +117,15 @@ def test_at_home_it_holds_w_and_steers_to_the_shown_grasps_pre_grasp(ros: Any, o
 
 
 def test_it_follows_the_shown_grasp_only_near_its_own_and_closes_once_at_it(ros: Any, own: Grasp) -> None:
-    rig = Rig(ros, intent='none')
+    rig = Rig(ros, intent='none', execute_shown=False)  # the shown grasp closed where the hand is, not executed
     loop = rig.node._loop
     assert ros.wait_for(lambda: loop.state == 'reaching', 30.0), rig.status()
     assert rig.show(moved(own.base_T_ee, (0.0, 0.0, 0.15)), lambda: loop.pursued == 'own')
     near = moved(own.base_T_ee, (0.0, 0.0, 0.003))
     assert rig.show(near, lambda: loop.pursued == 'shown')
     rig.q = own.positions[:6]  # the arm at its own grasp: 3 mm from the shown one, which it pursues
-    assert ros.wait_for(lambda: rig.closes == 1 and loop.state == 'done', 5.0), (rig.closes, loop.state)
+    assert ros.wait_for(lambda: rig.closes == 1 and loop.state == 'done', 5.0), (rig.calls, loop.state)
+    assert [name for name, _ in rig.calls] == [GRASP_CLOSE] and not loop.closed[0].executed
     assert loop.closed[0].pursued == 'shown'
     np.testing.assert_allclose(loop.closed[0].goal, near, atol=1e-12)  # as the message carried it
     assert ros.wait_for(lambda: rig.status(text='done: episode 1 reached the shown grasp') is not None, 5.0)
@@ -124,6 +133,33 @@ def test_it_follows_the_shown_grasp_only_near_its_own_and_closes_once_at_it(ros:
     ros.wait_for(lambda: len(rig.twists) > count + 20, 5.0)
     assert rig.closes == 1 and not any(linear(m).any() for m in rig.twists[count:])  # done: it holds still
     assert not rig.w  # intent none: another source gives w
+
+
+def test_on_the_shown_grasp_it_executes_then_closes_once_the_trajectory_has_had_its_time(ros: Any, own: Grasp) -> None:
+    rig = Rig(ros, intent='none')
+    loop = rig.node._loop
+    trajectories = ros.publisher(JointTrajectory, topics.GRASP_TRAJECTORY)
+    assert ros.wait_for(lambda: loop.state == 'reaching', 30.0), rig.status()
+    assert ros.publish_until(trajectories, joint_trajectory_msg(ARM_JOINTS, own.positions[:6], 0.5),
+                             lambda: rig.node._trajectory_time == 0.5, 10.0)
+    assert rig.show(moved(own.base_T_ee, (0.0, 0.0, 0.003)), lambda: loop.pursued == 'shown')
+    rig.q = own.positions[:6]
+    assert ros.wait_for(lambda: loop.state == 'done', 10.0), (rig.calls, loop.state)
+    assert [name for name, _ in rig.calls] == [GRASP_EXECUTE, GRASP_CLOSE]
+    assert rig.calls[1][1] - rig.calls[0][1] >= 0.5  # the close after the trajectory's 0.5 s (+ SETTLE)
+    assert loop.closed[0].executed and loop.closed[0].pursued == 'shown'
+    assert ros.wait_for(lambda: rig.status(text='reached the shown grasp') is not None, 5.0)
+    assert 'execute' in {v.key for v in rig.status(text='reached the shown grasp').values}
+
+
+def test_on_its_own_grasp_it_closes_without_executing(ros: Any, own: Grasp) -> None:
+    rig = Rig(ros, intent='none')
+    loop = rig.node._loop
+    assert ros.wait_for(lambda: loop.state == 'reaching', 30.0), rig.status()
+    assert rig.show(moved(own.base_T_ee, (0.0, 0.0, 0.15)), lambda: loop.pursued == 'own')
+    rig.q = own.positions[:6]
+    assert ros.wait_for(lambda: loop.state == 'done', 5.0), (rig.calls, loop.state)
+    assert [name for name, _ in rig.calls] == [GRASP_CLOSE] and not loop.closed[0].executed
 
 
 def test_a_task_the_model_lacks_and_bad_inputs_give_diagnostics_not_a_crash(ros: Any) -> None:

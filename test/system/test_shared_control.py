@@ -2,7 +2,8 @@
 
 The test side steers toward the planned grasp (six axes, as a spacemouse) and sends a certain intent; the hand
 must reach the planned grasp with the assistance's help. Then the suite with the scripted operator node as the
-only operator and source of w: it must reach a grasp and close the hand. Nothing sleeps: every wait polls with a
+only operator and source of w: it must reach the shown grasp, have the suite execute it (the hand then at the
+planned grasp, not the reach tolerance short of it) and close the hand. Nothing sleeps: every wait polls with a
 deadline.
 """
 
@@ -80,8 +81,8 @@ OPERATOR_PARAMS = """/**/scripted_operator:
 """The scripted operator of the ambiguous case: w held at (0.9, 0.9, 0.1), the operator wanting usage and transfer."""
 
 
-def test_the_suite_with_a_scripted_operator_reaches_a_grasp_and_closes_the_hand(ros: Any, launch: Any,
-                                                                               tmp_path: Any) -> None:
+def test_the_suite_with_a_scripted_operator_reaches_executes_and_closes_on_the_shown_grasp(
+        ros: Any, launch: Any, tmp_path: Any) -> None:
     params = tmp_path / 'operator.yaml'
     params.write_text(OPERATOR_PARAMS)
     launch.start_nodes(shared_control=True, extra=('scripted_operator',), params_files=[params])
@@ -90,7 +91,7 @@ def test_the_suite_with_a_scripted_operator_reaches_a_grasp_and_closes_the_hand(
     states = ros.subscribe(JointState, topics.JOINT_STATES)
     statuses = ros.diagnostics()
 
-    def closed() -> bool:  # the fingers closed by grasp/close: to the plan's closures, about 1 rad each
+    def closed() -> bool:  # the fingers closed to the plan's closures (about 1 rad each), executed or by grasp/close
         fingers = joint_positions(states[-1], FINGER_JOINTS) if states else None
         return fingers is not None and bool(np.all(fingers > 0.5))
 
@@ -99,10 +100,13 @@ def test_the_suite_with_a_scripted_operator_reaches_a_grasp_and_closes_the_hand(
 
     assert ros.wait_for(lambda: grasps and closed(), STARTUP + CONVERGE), launch.died() or \
         f'the hand did not close; the operator: {operator()[-1:]}'
-    q = joint_positions(states[-1], ARM_JOINTS)
+    assert ros.wait_for(lambda: any('done: episode 1' in m for m in operator()), 10.0), operator()[-1:]
+    q = joint_positions(states[-1], ARM_JOINTS)  # after the close, the execution over
     assert q is not None
     hand, shown = kin.fk(q), pose_msg_to_matrix(grasps[-1], frame_id=BASE_FRAME)
     distance, angle = offset(hand, shown)
-    assert distance < 0.015 and angle < 0.15  # it closed on the shown grasp, seen within 1 cm and 0.1 rad
-    assert ros.wait_for(lambda: any('done: episode 1 reached the shown grasp' in m for m in operator()), 10.0), \
+    # executed: the arm followed the plan's trajectory to the shown grasp (closed where it stood, the hand sat about
+    # 5 mm and 0.03 rad short of it: within the reach tolerance the operator closes at, outside this one)
+    assert distance < 0.001 and angle < 0.01, (distance, angle)
+    assert any('done: episode 1 reached the shown grasp' in m and m.endswith('(executed)') for m in operator()), \
         operator()[-1:]
