@@ -89,3 +89,32 @@ def test_the_assistance_seeds_each_search_at_its_proposals_last_path_end(kin: Mi
     other[:3, 3] += 0.05  # a new proposal: sought from q alone
     assistance.set_grasp(other)
     assert search(0.03).former is None
+
+
+def test_a_clear_way_that_replaced_the_path_leaves_the_seed_at_the_own_paths_end(kin: MicoKinematics) -> None:
+    q, pre, _ = _case(kin)
+    own, way = kin.nearest_branch(PRE_GRASP_Q, q), np.array(OTHER_SIDE_Q)
+    answers = [(own, False), (way, True), (own, False)]
+    asked: list[PathRequest] = []
+
+    class Scripted:
+        """Answers each request with the next of ``answers``: (the path's end, whether it is a clear way)."""
+
+        def seek(self, request: PathRequest) -> PathAnswer:
+            asked.append(request)
+            end, cleared = answers[len(asked) - 1]
+            return PathAnswer(request.key, [end], cleared)
+
+    assistance = Assistance(AssistanceConfig(assist_without_input=True, standoff=0.0),
+                            TwistLimiter(0.2, 1.0, 1.0, 5.0), kin)
+    assistance.paths = Scripted()
+    assistance.set_joints(q)
+    assistance.set_v(np.eye(len(LABELS))[0], LABELS)
+    assistance.set_posterior(np.eye(len(LABELS))[0], LABELS, TASKS)
+    for tick in range(3):
+        assistance.set_grasp(pre)
+        assistance.set_operator(np.zeros(6), 0.01 * tick)
+        assistance.command(0.01 * tick)
+    assert asked[0].former is None
+    assert_allclose(asked[1].former, own, rtol=0, atol=0)
+    assert_allclose(asked[2].former, own, rtol=0, atol=0)  # the clear way's end (the other side) is not the seed
