@@ -61,9 +61,6 @@ class PathRequest:
         The object as perceived (None: no check).
     previous : tuple of ndarray, shape (6,)
         The clear way that replaced this proposal's path for this phase, its points still ahead (empty: none).
-    former : ndarray, shape (6,), or None
-        The end of this proposal's last path for this phase that was the search's own, not a clear way that
-        replaced it (the target's IK solution it went to; None: none yet): the seed of :func:`seek_path`'s IK.
     """
 
     key: tuple[int, int, str]
@@ -74,7 +71,6 @@ class PathRequest:
     reference: float
     clearance: PathClearance | None
     previous: tuple[NDArray[np.float64], ...] = ()
-    former: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)
@@ -92,28 +88,16 @@ class PathAnswer:
 def seek_path(kin: MicoKinematics, request: PathRequest) -> PathAnswer:
     """The joint path toward ``request.base_T_target`` from ``request.q`` (:class:`~.assistance.Assistance`).
 
-    The target's IK solution q_t (no restarts): seeded at ``request.former`` when there is one (the solution
-    this proposal's own path went to: it stays the target while the proposal holds), on the 2 pi branch nearest q,
-    else, or when that IK fails, the IK from q (the solution the joints descend to). ``[q_t]`` with the wrist's
-    2 pi branch that turns the hand the short way (:func:`~.joint_path.line_turns`), or when both fail
-    :func:`~.joint_path.joint_path`; then, with a clearance, :func:`~.clearance.clear_path` (admissible:
-    :func:`~.joint_path.near_grasp`, the same bound). ``kin`` must be the calling thread's own, and
-    ``request.clearance`` built on it.
-
-    Why the former end: a target has several IK solutions (the wrist's two sides among them), and from joints
-    that the operator's share moved off the last line the descent from q may land on another one at every
-    search; the robot's twist then turns the joints toward each in turn, the hand's path reversing with it.
+    The IK (no restarts) from q, ``[q_t]`` with the wrist's 2 pi branch that turns the hand the short way
+    (:func:`~.joint_path.line_turns`), or when it fails :func:`~.joint_path.joint_path`; then, with a
+    clearance, :func:`~.clearance.clear_path` (admissible: :func:`~.joint_path.near_grasp`, the same bound).
+    ``kin`` must be the calling thread's own, and ``request.clearance`` built on it.
     """
     q, target, grasp = request.q, request.base_T_target, request.base_T_grasp
-    ik = None if request.former is None else kin.ik(target, request.former, restarts=0)
-    if ik is not None and ik.success:
-        q_t = kin.nearest_branch(ik.q, q)
-    else:
-        ik = kin.ik(target, q, restarts=0)  # the solution the joints descend to
-        q_t = ik.q
+    ik = kin.ik(target, q, restarts=0)  # the solution the joints descend to
     path: list[NDArray[np.float64]] | None
     if ik.success:
-        path = [line_turns(kin, q, q_t, target, grasp, slack=request.slack, reference=request.reference)]
+        path = [line_turns(kin, q, ik.q, target, grasp, slack=request.slack, reference=request.reference)]
     else:
         path = joint_path(kin, q, target, grasp, slack=request.slack, reference=request.reference)
     if path is not None and request.clearance is not None:
