@@ -40,7 +40,11 @@ successful runs, and over all runs with a failure counted as the timeout), opera
 |operator twist|, linear m and angular rad), wrong-task pulls (the integral of alpha over the time the shown
 grasp did not serve S by the rules, and how many operators met any), mean alpha. A latency phase first (``arbitration``
 none, 100 Hz operator twists carrying a sequence number in ``angular.z``): the blended twist's rate and the
-latency from the operator's publish to the blended twist's receipt (the middleware's receive time).
+latency from the operator's publish to the blended twist's receipt (the middleware's receive time). Then a stream
+phase (:func:`stream_phase`, ``confidence``), whose gaps while the operator heads at the grasp are measured between
+the blended twists' receipts (the middleware's receive time: what a servo that receives promptly sees), and, as
+``callback_*``, between the times this process's callback ran (its own delays included: the executor thread shares
+the interpreter's lock with the operator's thread, and callbacks queue behind the joint states' kinematics).
 
 ``--record BAG`` runs no benchmark: it records one operator (the first of ``--only``, of the first of
 ``--objects``) under ``confidence`` as a closed-loop session bag, holding still for 2 s after the grasp
@@ -71,7 +75,6 @@ import sys
 import tempfile
 import threading
 import time
-from collections import deque
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -89,6 +92,7 @@ from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRu
 from grasp_intent_ros.planning.options import node_default_options
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error
+from grasp_intent_ros.shared_control.operator_loop import Perceived, operator_step
 from grasp_intent_ros.shared_control.operators import (
     IntentScript,
     OperatorConstants,
@@ -153,7 +157,7 @@ class Loop:
 
         self.probe, self.kin = probe, kin
         node = probe.node
-        self.hands: deque[tuple[float, np.ndarray]] = deque(maxlen=200)  # (monotonic, base_T_ee)
+        self.hands: Perceived[np.ndarray] = Perceived(keep=200)  # base_T_ee by monotonic receipt
         self.plans: list[tuple[float, np.ndarray, np.ndarray]] = []  # (monotonic, base_T_grasp, features)
         self.alphas: list[tuple[float, float]] = []
         self.outputs: list[tuple[int, float]] = []  # (receive ns, angular.z)
@@ -163,7 +167,7 @@ class Loop:
         def on_joints(msg: Any) -> None:
             q = joint_positions(msg, ARM_JOINTS)
             if q is not None:
-                self.hands.append((time.monotonic(), kin.fk(q)))
+                self.hands.add(time.monotonic(), kin.fk(q))
 
         def on_pose(msg: Any) -> None:
             self._poses[(msg.header.stamp.sec, msg.header.stamp.nanosec)] = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
@@ -181,12 +185,14 @@ class Loop:
         node.create_subscription(Float64, 'assistance/alpha', lambda m: self.alphas.append(
             (time.monotonic(), m.data)), input_qos(1000))
         def on_blended(m: Any, info: Any) -> None:
+            self.receipts.append((time.monotonic(), info['received_timestamp']))
             self.outputs.append((info['received_timestamp'], m.twist.angular.z))
             t = m.twist
             self.blended.append((time.monotonic(), np.array([t.linear.x, t.linear.y, t.linear.z, t.angular.x,
                                                              t.angular.y, t.angular.z])))
 
         self.blended: list[tuple[float, np.ndarray]] = []  # (monotonic, twist)
+        self.receipts: list[tuple[float, int]] = []  # (monotonic in the callback, the middleware's receive ns)
         node.create_subscription(TwistStamped, 'assistance/twist', on_blended, input_qos(1000))
         self.twist_pub = node.create_publisher(TwistStamped, 'operator/twist', output_qos())
         self.w_pub = node.create_publisher(Float64MultiArray, 'intent/w', output_qos()) if sends_w else None
@@ -241,10 +247,7 @@ class Loop:
         return None
 
     def hand_at(self, t: float) -> np.ndarray | None:
-        for received, base_T in reversed(tuple(self.hands)):  # a copy: the executor thread appends meanwhile
-            if received <= t:
-                return base_T
-        return None
+        return self.hands.at(t)
 
 
 def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: Grasp, rules: ObjectRules,
@@ -270,17 +273,18 @@ def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: G
         t = now - start
         if sends_w and tick % W_EVERY == 0:
             loop.send_w(intent.w(t, rng))
-        seen, plan_seen = loop.hand_at(now - op.reaction), loop.plan_at(now - op.reaction)
-        goal, pursued = device.choose_goal(None if plan_seen is None else plan_seen[0], own.base_T_ee)
-        hand_now = loop.hand_at(now)
-        if seen is not None and hand_now is not None and device.at_goal(seen, goal):
-            closures = own.positions[6:] if pursued == 'own' or plan_seen is None else plan_seen[1][FINGERS]
-            reached = obj_T_ee_to_features(np.linalg.inv(BASE_T_OBJ) @ hand_now, closures)
-            run.success, run.pursued, run.time_to_grasp = rules.label(reached) & task_set == task_set, pursued, t
+        plan_seen = loop.plan_at(now - op.reaction)
+        step = operator_step(device, now, loop.hand_at(now - op.reaction),
+                             None if plan_seen is None else plan_seen[0], own.base_T_ee)
+        if step.close:  # the hand it saw is there: the hand now is too (seen later)
+            closures = own.positions[6:] if step.pursued == 'own' or plan_seen is None else plan_seen[1][FINGERS]
+            reached = obj_T_ee_to_features(np.linalg.inv(BASE_T_OBJ) @ loop.hand_at(now), closures)
+            run.success, run.pursued = rules.label(reached) & task_set == task_set, step.pursued
+            run.time_to_grasp = t
             break
         if t >= timeout:
             break
-        command = device.twist(now, seen, goal)
+        command = step.twist
         loop.twist_pub.publish(loop.twist(command))
         run.effort_linear += float(np.linalg.norm(command[:3])) * PERIOD
         run.effort_angular += float(np.linalg.norm(command[3:])) * PERIOD
@@ -373,11 +377,15 @@ def stream_phase(loop: Loop) -> dict[str, float]:
 
     loop.reset_arm()
     start, end = _send_for(loop, 4.0, toward)
-    times = np.array([t for t, _ in loop.blended if start <= t <= end])
-    gaps = np.diff(times)
-    out['rate_hz'] = (times.size - 1) / float(times[-1] - times[0])
+    receipts = [(t, received) for t, received in loop.receipts if start <= t <= end]
+    received = np.array([r for _, r in receipts], dtype=np.int64)  # the middleware's receive times (ns)
+    gaps = np.diff(received) * 1e-9
+    out['rate_hz'] = (received.size - 1) / float((received[-1] - received[0]) * 1e-9)
     out['max_gap_ms'] = 1e3 * float(gaps.max())
     out['gaps_over_20ms'] = int(np.sum(gaps > 0.02))
+    gaps = np.diff([t for t, _ in receipts])  # when this process's callback ran: its own delays too
+    out['callback_max_gap_ms'] = 1e3 * float(gaps.max())
+    out['callback_gaps_over_20ms'] = int(np.sum(gaps > 0.02))
     alphas = [a for t, a in loop.alphas if start <= t <= end]
     out['alpha_heading_mean'] = float(np.mean(alphas))
     # sustained opposition: from 1 s into an assisted reach (the hand well short of the grasp), straight away

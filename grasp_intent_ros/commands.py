@@ -20,6 +20,7 @@ COMMANDS = {
     'assistance': 'nodes.assistance',
     'mock_arm': 'nodes.mock_arm',
     'intent_estimator': 'nodes.intent_estimator',
+    'scripted_operator': 'nodes.scripted_operator',
     'suite': 'launch.suite_command',
     'send_intent': 'cli.send_intent',
     'demo': 'launch.demo',

@@ -28,8 +28,8 @@ and the system tests.
   shutdown (docs/nodes.md, "Shutdown"). A node stopped while its peers are steady meets no such callback.
 - :class:`NodeSuite`: the processes of one run: start (one node, or the three suite nodes with their
   ``config/<node>.yaml``, and :data:`OPTIONAL_NODES` on request: the shared-control loop's
-  :data:`SHARED_CONTROL_NODES`, the viewer), wait until ready, notice a death, stop
-  them all.
+  :data:`SHARED_CONTROL_NODES`, the intent estimator, the scripted operator, the viewer), wait until ready,
+  notice a death, stop them all.
 
 Never imports rclpy.
 """
@@ -62,7 +62,7 @@ SUITE_NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
 """The node modules of the suite, in start order."""
 SHARED_CONTROL_NODES = ('mock_arm', 'assistance')
 """The shared-control loop's nodes: the mock MICO and the assistance (``suite --shared-control``)."""
-OPTIONAL_NODES: tuple[str, ...] = (*SHARED_CONTROL_NODES, 'intent_estimator', 'viewer')
+OPTIONAL_NODES: tuple[str, ...] = (*SHARED_CONTROL_NODES, 'intent_estimator', 'scripted_operator', 'viewer')
 """Node modules started only on request, after :data:`SUITE_NODES`: ``suite --with NAME``,
 :meth:`NodeSuite.start_nodes`'s ``extra``. Each is ``python -m grasp_intent_ros.nodes.<name>`` with its
 ``config/<name>.yaml`` when there is one, like the suite's own nodes."""

@@ -17,6 +17,8 @@ mock_arm
     A simulated MICO taking trajectories and twists.
 intent_estimator
     w from the operator's own twist (optional).
+scripted_operator
+    A scripted operator driving the loop without a device: its twists, a held w, the grasp command (optional).
 viewer
     The scene in a browser (the ``viewer`` extra).
 recorder

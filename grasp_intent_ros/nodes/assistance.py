@@ -19,23 +19,23 @@ Behaviour
     One blended twist per ``publish_period``, at the operator's cadence when its source streams: an operator twist
     is answered at once when the last output is at least 0.95 ``publish_period`` old, or at least half of it when
     that output was the timer's; one that comes sooner after the timer's output is answered half a period after it.
-    After answering an operator twist the timer waits 1.25 ``publish_period`` for the next; after its own output,
+    After answering an operator twist the timer waits 1.25 ``publish_period`` from its start; after its own output,
     one ``publish_period``, whatever arrived (a slower operator source, or a stale one: then the zero twist).
     Without the half-period rule a source at the period whose twists come just after the timer's outputs would have
     every twist held for most of a period (measured: 5-10 ms in most runs); with it the twists are answered at once
-    after one re-phasing, whose two gaps are at least half a period. The kinematics and the assistance's maths run
-    once at start (warm-up), before the first output. The maths, alpha's definition and the safety rules are
+    after one re-phasing, whose two gaps are at least half a period. The kinematics, the maths and the path search's
+    process run once at start (warm-up), before the first output. The maths, alpha's definition and the rules are
     :mod:`grasp_intent_ros.shared_control.assistance`. Inputs are keep-last 1 (latest only); staleness is judged by
     arrival time on the node's clock. With a model that has a body, the robot's joint path keeps the open hand clear
     of it at the object's pose (:mod:`grasp_intent_ros.shared_control.clearance`); without one, unchecked.
 
-Threads
+Threads and processes
     The executor's thread (single-threaded) runs every callback and owns the
-    :class:`~grasp_intent_ros.shared_control.assistance.Assistance`. The joint path's search runs in a thread
-    of its own (:class:`~grasp_intent_ros.shared_control.path_search.PathWorker`, with its own kinematics and
-    hand model), fed snapshots. Every grasp and object pose asks for the path again from the joints of that
-    moment; meanwhile a bit-identical grasp and object keep the previous path in use, else the output is the
-    operator's twist alone (alpha 0, state ``seeking a path``).
+    :class:`~grasp_intent_ros.shared_control.assistance.Assistance`. The joint path's search runs in a process of
+    its own (:class:`~grasp_intent_ros.shared_control.path_search.PathWorker`; in a thread its share of the lock
+    delayed outputs). Every grasp and object pose asks for the path again from the joints of that moment; meanwhile
+    a bit-identical grasp and object keep the previous path in use, else the output is the operator's twist alone
+    (alpha 0, ``seeking a path``). A search that raises, or the process ending: ERROR (the path sought no more).
 
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.ASSISTANCE`, ``config/assistance.yaml``.
 """
@@ -73,6 +73,7 @@ from ..shared_control.parameters import ASSISTANCE
 from ..shared_control.path_search import PathWorker
 from ..wire import topics
 from ..wire.arrays import msg_labels, msg_to_array, read_features, read_posterior
+from ..wire.diagnostics import ERROR
 from ..wire.model_document import ModelDocument
 from ..wire.robot_state import joint_positions, object_pose_msg, pose_msg_to_matrix, twist_command
 
@@ -95,10 +96,10 @@ class AssistanceNode(Node):
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, 'assistance')
         self._params = declare_parameters(self, ASSISTANCE, check=check_object_pose, on_change=self._configure)
-        def robot() -> tuple[MicoKinematics, HandCollision]:  # of urdf_path; the path thread has its own
-            return (self._params.build('urdf_path', lambda path: MicoKinematics(path or None)),
-                    self._params.build('urdf_path', lambda path: HandCollision(path or None)))
-        self._kin, hand = robot()
+        self._kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
+        hand = self._params.build('urdf_path', lambda path: HandCollision(path or None))
+        self._paths = PathWorker(self._params['urdf_path'] or None, name=f'{node_name}_paths', on_error=lambda text:
+                                 self._diag.rejected('internal error: path search', level=ERROR, detail=text))
         self._assist = Assistance(AssistanceConfig(), TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin, hand)
         self._base_T_obj = object_pose(self._params)
         self._body: ObjectBody | None = None
@@ -106,11 +107,9 @@ class AssistanceNode(Node):
         warm_up(self._assist)
         grasp_task_set(np.zeros(MICO_3F.dim), np.zeros((1, MICO_3F.dim)), np.ones(1, dtype=np.int64),
                        np.ones(MICO_3F.dim))
-        self._paths = PathWorker(*robot(), name=f'{node_name}_paths',
-                                 guard=lambda f: self._diag.guard(f, counts_received=False))
+        self._paths.wait_ready(60.0)  # its start (a fresh install's compile) overlaps the warm-up above
         self._assist.paths = self._paths
-        self._last_output = -float('inf')
-        self._outputs = 0
+        self._last_output, self._outputs = -float('inf'), 0
         self._demos: tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]] | None = None
         self._features: NDArray[np.float64] | None = None
         self._pubs = {topics.ASSISTANCE_TWIST: output_publisher(self, TwistStamped, topics.ASSISTANCE_TWIST),
@@ -132,7 +131,7 @@ class AssistanceNode(Node):
         self._by_timer, self._answer_due = True, False  # the last output the timer's; an answer set
 
     def destroy_node(self) -> None:
-        """Stop the path thread (after its current search), then destroy the node."""
+        """Stop the path search's process (after its search), then destroy the node."""
         self._paths.stop()
         super().destroy_node()
 
@@ -186,7 +185,7 @@ class AssistanceNode(Node):
     def _answer(self) -> None:
         self._publish()
         self._by_timer, self._answer_due = False, False
-        self._rearm(_GRACE)  # the timer's output only if no operator twist comes within the grace
+        self._rearm(_GRACE - (time.monotonic() - self._last_output) / self._period)  # the grace from its start
 
     def _on_timer(self) -> None:
         if self._answer_due:
@@ -248,3 +247,4 @@ def main(args: list[str] | None = None) -> None:
 
 if __name__ == '__main__':
     main()
+

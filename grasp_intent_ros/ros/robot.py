@@ -1,4 +1,4 @@
-"""Robot-side messages written from core types: poses, joint states, joint trajectories.
+"""Robot-side messages written from core types: poses, twists, joint states, joint trajectories.
 
 Poses
 -----
@@ -17,7 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 from builtin_interfaces.msg import Duration as DurationMsg
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, TwistStamped
 from numpy.typing import ArrayLike
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -26,6 +26,7 @@ from ..mico.frames import matrix_to_pose
 
 __all__ = [
     'matrix_to_pose_msg',
+    'twist_msg',
     'joint_state_msg',
     'joint_trajectory_msg',
 ]
@@ -40,6 +41,15 @@ def matrix_to_pose_msg(frame_T_pose: ArrayLike, *, frame_id: str, stamp: Time) -
     point, quaternion = msg.pose.position, msg.pose.orientation  # filled in place: no objects built to copy
     point.x, point.y, point.z = position.tolist()
     quaternion.x, quaternion.y, quaternion.z, quaternion.w = xyzw.tolist()
+    return msg
+
+
+def twist_msg(twist: ArrayLike, *, frame_id: str, stamp: Time) -> TwistStamped:
+    """TwistStamped of ``twist``, shape (6,): linear (m/s) then angular (rad/s) in ``frame_id`` (unchecked)."""
+    msg = TwistStamped()
+    msg.header.frame_id, msg.header.stamp = frame_id, stamp
+    t = msg.twist
+    t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z = np.asarray(twist, float).tolist()
     return msg
 
 

@@ -11,7 +11,7 @@ joint_path
 clearance
     The robot's joint path clear of the object as perceived (tracked pose, model's body): checked, and replaced.
 path_search
-    The robot's joint path sought from a snapshot: the search (one definition), at once or in a thread of its own.
+    The robot's joint path sought from a snapshot: the search (one definition), at once or in a process of its own.
 limits
     The output twist's speed and acceleration limits; norms without overflow.
 barrier
@@ -26,6 +26,8 @@ stamped_inputs
     The estimator's inputs paired by header stamps: each operator twist with the hand and the grasp shown at its stamp.
 operators
     Scripted teleoperators and their intents (a device model, a goal choice without the rules, an intent script).
+operator_loop
+    A scripted operator on a wall clock, in episodes, against what it perceives late (the scripted operator node's).
 ada
     ADA's shared autonomy as published: the simulated closed loop's baseline.
 simulator
@@ -33,9 +35,9 @@ simulator
 sweep
     The judge's measure the loop lacks a contact model for: how deep the open hand's path goes into the object.
 parameters (ROS-free tables)
-    The assistance node's and the intent estimator node's parameter tables; how the operator's twist is read.
+    The assistance node's, the intent estimator node's and the scripted operator node's parameter tables; how the
+    operator's twist is read.
 
 Imports of the package: :mod:`~grasp_intent_ros.errors`, :mod:`~grasp_intent_ros.method`,
-:mod:`~grasp_intent_ros.planning`, :mod:`~grasp_intent_ros.mico` and :mod:`~grasp_intent_ros.latest_only`
-(path_search's thread).
+:mod:`~grasp_intent_ros.planning` and :mod:`~grasp_intent_ros.mico`.
 """

@@ -96,7 +96,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidIntentError
-from ..method.body import Cylinder, ObjectBody
+from ..method.body import ObjectBody
 from ..method.intent import all_zones, default_task_names, parse_zones, zone_labels
 from ..mico.collision import HandCollision
 from ..mico.frames import PRE_GRASP_STANDOFF, REACH_POS, REACH_ROT, offset, pose_error, pre_grasp, reached
@@ -107,7 +107,7 @@ from .barrier import clearance_filter
 from .clearance import PathClearance, default_hand
 from .joint_path import VIA_REACHED
 from .limits import TwistLimiter, clip_norm, norm
-from .path_search import PathRequest, PathSearch, PathSource
+from .path_search import PathRequest, PathSearch, PathSource, warm_up_scene
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
            'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached', 'assistance_target', 'robot_twist',
@@ -585,14 +585,9 @@ def warm_up(assistance: Assistance) -> None:
     assert assistance.kin is not None
     warm = Assistance(assistance.config, TwistLimiter(1.0, 1.0, 1.0, 1.0), assistance.kin, assistance.hand)
     warm.set_joints(HOME_Q.copy())
-    assert warm.base_T_ee is not None
-    grasp = warm.base_T_ee.copy()
-    grasp[:3, 3] += (0.05, 0.0, -0.05)
+    grasp, base_T_obj, body = warm_up_scene(assistance.kin)
     warm.set_grasp(grasp)
-    base_T_obj = np.eye(4)
-    base_T_obj[:3, 3] = grasp[:3, 3] + (0.0, 0.0, -0.2)  # an object below the grasp, within the hand's reach
-    warm.set_object(base_T_obj, ObjectBody((Cylinder(np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, 1.0]), 0.04,
-                                                      0.1),)))
+    warm.set_object(base_T_obj, body)
     labels = zone_labels(all_zones(3), default_task_names(3))
     warm.set_v(np.full(7, 1.0 / 7.0), labels)
     warm.set_posterior(np.full(7, 1.0 / 7.0), labels, default_task_names(3))

@@ -87,10 +87,6 @@ class PathClearance:
         self._centres = np.array([prim.centre for prim in body.primitives])
         self._radii = np.array([prim.bounding_radius for prim in body.primitives])
 
-    def on(self, kin: MicoKinematics, hand: HandCollision) -> PathClearance:
-        """The same check (body, pose, limits, margin) with another kinematics and hand (a thread's own)."""
-        return PathClearance(kin, hand, self.body, self.base_T_obj, self.limits, self.margin)
-
     def intrusion(self, q: NDArray[np.float64]) -> float:
         """How far the open hand at joints ``q`` goes into the body beyond the limits less the margin (m; a bound).
 

@@ -1,4 +1,4 @@
-"""The parameters of the shared-control nodes: the assistance's and the intent estimator's, and the operator's input.
+"""The shared-control nodes' parameters: the assistance's, the estimator's, the scripted operator's; the twist's input.
 
 Each table is a tuple of :class:`~grasp_intent_ros.parameters.ParamSpec`, declared on a node by
 :func:`grasp_intent_ros.ros.params.declare_parameters`; the defaults of the maths' settings are those of
@@ -9,6 +9,7 @@ documents each parameter with its description (test/ros/test_config_files.py).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -19,8 +20,10 @@ from ..parameters import ParamSpec, config_from, one_of
 from .assistance import ARBITRATIONS, AssistanceConfig
 from .calibration import model_calibration
 from .estimator import EstimatorConfig
+from .operators import DEVICES
 
-__all__ = ['OPERATOR_INPUT', 'APPROACH', 'ASSISTANCE', 'ESTIMATOR', 'estimator_config', 'check_estimator']
+__all__ = ['OPERATOR_INPUT', 'APPROACH', 'ASSISTANCE', 'ESTIMATOR', 'estimator_config', 'check_estimator',
+           'OPERATOR_INTENTS', 'SCRIPTED_OPERATOR', 'check_scripted_operator']
 
 OPERATOR_INPUT = (
     ParamSpec('operator_message_type', 'TwistStamped', 'Type on operator/twist: TwistStamped or Twist.',
@@ -140,4 +143,54 @@ def estimator_config(values: Mapping[str, Any], model_name: str | None) -> Estim
 def check_estimator(values: Mapping[str, Any]) -> None:
     """The rules over :data:`ESTIMATOR`'s values: valid settings and calibration lists, the object in the workspace."""
     estimator_config(values, None)
+    check_object_pose(values)
+
+
+OPERATOR_INTENTS = ('held', 'none')
+"""Whether the scripted operator publishes w: ``held`` (:class:`~.operators.PersistentIntent`) or ``none``."""
+
+
+def _probabilities(value: Any) -> None:
+    if not value or not all(math.isfinite(v) and 0.0 <= v <= 1.0 for v in value):
+        raise ValueError(f'must be probabilities in [0, 1], one per task of the model; got {list(value)}')
+
+
+def _task_names(value: Any) -> None:
+    if not value or len(set(value)) != len(value):
+        raise ValueError(f'must name one task or more, each once; got {list(value)}')
+
+
+SCRIPTED_OPERATOR = (
+    ParamSpec('device', 'spacemouse', "The device model: 'spacemouse' (six axes at once) or 'joystick' (translation "
+              'or rotation, 0.5 s to switch).', validator=one_of(DEVICES), constraints=f'one of {", ".join(DEVICES)}',
+              read_only=True),
+    ParamSpec('task_set', ['usage', 'transfer'], "The tasks the operator truly wants (of the active model's): its own "
+              'grasp is the planner\'s for the certain w of this set.', validator=_task_names),
+    ParamSpec('seed', 0, "Seed of the device's noise and of the held w's noise.", range=(0, 2**31 - 1),
+              read_only=True),
+    ParamSpec('publish_period', 0.01, 'Time between two operator twists, s.', range=(0.001, 1.0), read_only=True),
+    ParamSpec('start_delay', 1.0, 'Seconds from the moment the hand and its own grasp are known to the reach, in '
+              'each episode.', range=(0.0, 3600.0)),
+    ParamSpec('intent', 'held', "'held': publish w on intent/w (the w parameter with N(0, w_noise^2) per task, "
+              "clipped to [0.02, 0.98], every w_period s); 'none': another source gives w (the intent estimator, "
+              'ros2 topic pub).', validator=one_of(OPERATOR_INTENTS),
+              constraints=f'one of {", ".join(OPERATOR_INTENTS)}'),
+    ParamSpec('w', [0.9, 0.9, 0.1], "With intent 'held': the w held, one probability per task of the model.",
+              validator=_probabilities),
+    ParamSpec('w_noise', 0.05, "With intent 'held': the standard deviation of each task's noise.",
+              range=(0.0, 1.0)),
+    ParamSpec('w_period', 0.1, "With intent 'held': time between two w, s.", range=(0.01, 10.0), read_only=True),
+    ParamSpec('close_on_reach', True, 'Whether the operator calls grasp/close (std_srvs/Trigger) once the hand it '
+              'sees is at the grasp it pursues (else it only stops there).'),
+    ParamSpec('episodes', 1, 'How many reaches: after each but the last the operator holds still for hold s, resets '
+              'the arm (mock_arm/reset) and reaches again; 0: without end.', range=(0, 1000000)),
+    ParamSpec('hold', 2.0, 'Seconds the operator holds still after a close.', range=(0.0, 3600.0)),
+    *OBJECT_POSE,
+    URDF_PATH,
+)
+"""The scripted operator node's parameters (:mod:`grasp_intent_ros.nodes.scripted_operator`)."""
+
+
+def check_scripted_operator(values: Mapping[str, Any]) -> None:
+    """The rules over :data:`SCRIPTED_OPERATOR`'s values: the object in the workspace."""
     check_object_pose(values)

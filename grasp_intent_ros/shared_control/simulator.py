@@ -83,7 +83,7 @@ from .operators import IntentScript, ScriptedOperator, certain_w
 from .sweep import SWEEP_TICKS, PathSweep
 
 __all__ = ['Condition', 'CONDITIONS', 'Scene', 'PlanStream', 'Episode', 'TraceRow', 'execute_grasp', 'simulate',
-           'perturb_pose', 'certain_grasps']
+           'perturb_pose', 'certain_grasp', 'certain_grasps']
 
 Condition = Literal['direct', 'ada', 'independent', 'suite']
 CONDITIONS: tuple[Condition, ...] = ('direct', 'ada', 'independent', 'suite')
@@ -102,11 +102,12 @@ def perturb_pose(base_T: NDArray[np.float64], position_rms: float, angle_rms: fl
     return out
 
 
-def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: MicoKinematics,
-                   options: Options | None = None, object_margin: float | None = None) -> dict[int, Grasp]:
-    """The planner's grasp (cold, IK from Home) for each certain task set 1..7 (:func:`.operators.certain_w`).
+def certain_grasp(model: GraspModel, task_set: int, base_T_obj: NDArray[np.float64], kin: MicoKinematics,
+                  options: Options | None = None, object_margin: float | None = None) -> Grasp:
+    """The planner's grasp (cold, IK from Home) for the certain w of ``task_set`` (:func:`.operators.certain_w`).
 
-    An operator's own grasp per task set, chosen without the rules, and ADA's goals. ``options``: the
+    An operator's own grasp for its task set (bitmask over ``model.task_names``), chosen without the rules: the
+    scripted operators' (the benchmarks', the scripted operator node's), and ADA's goals. ``options``: the
     planner's (:func:`~grasp_intent_ros.mico.grasp.plan_grasp`; None: the library's, an exact landing; the
     nodes' answers need :func:`~grasp_intent_ros.planning.options.node_default_options`); ``object_margin``: the
     collision check's, as :attr:`Scene.object_margin`.
@@ -114,18 +115,23 @@ def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: Mico
     Raises
     ------
     ValueError
-        If the planner finds no reachable grasp for a set (the object is out of the arm's reach).
+        If the planner finds no reachable grasp for the set (the object is out of the arm's reach).
     """
-    out = {}
-    for task_set in range(1, 8):
-        read = interpret(certain_w(task_set), _ZONES)
-        assert isinstance(read, Interpretation)  # a certain w never asks for clarification
-        grasp = plan_grasp(model, read.v, _ZONES, base_T_obj, kin, options=options, hand=_hand(object_margin),
-                           margin=object_margin or 0.0)
-        if not isinstance(grasp, Grasp):
-            raise ValueError(f'no grasp for the certain task set {task_set}: {grasp}')
-        out[task_set] = grasp
-    return out
+    zones = all_zones(len(model.task_names))
+    read = interpret(certain_w(task_set, len(model.task_names)), zones)
+    assert isinstance(read, Interpretation)  # a certain w never asks for clarification
+    grasp = plan_grasp(model, read.v, zones, base_T_obj, kin, options=options, hand=_hand(object_margin),
+                       margin=object_margin or 0.0)
+    if not isinstance(grasp, Grasp):
+        raise ValueError(f'no grasp for the certain task set {task_set}: {grasp}')
+    return grasp
+
+
+def certain_grasps(model: GraspModel, base_T_obj: NDArray[np.float64], kin: MicoKinematics,
+                   options: Options | None = None, object_margin: float | None = None) -> dict[int, Grasp]:
+    """:func:`certain_grasp` for each task set 1..2^m - 1 of the model's m tasks (arguments and errors as there)."""
+    return {task_set: certain_grasp(model, task_set, base_T_obj, kin, options, object_margin)
+            for task_set in range(1, 1 << len(model.task_names))}
 
 
 def _hand(object_margin: float | None) -> HandCollision | None:

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
-import threading
+import functools
+import os
 import time
 
+import held_search
 import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
@@ -164,6 +166,8 @@ def test_a_stale_operator_input_gives_the_zero_twist_and_it_goes_on(ros) -> None
 def test_operator_twists_set_the_output_cadence(ros, monkeypatch) -> None:
     """At once 0.95 period after an output, or half a period after the timer's; sooner, half a period after it.
 
+    The timer's grace after an answer counts from the answer's start.
+
     The callbacks are called directly between spins (the executor spins only in ``wait_for``).
     """
     loop = Loop(ros)
@@ -171,26 +175,39 @@ def test_operator_twists_set_the_output_cadence(ros, monkeypatch) -> None:
     assert ros.wait_for(lambda: loop.twists, 10.0)  # the timer's outputs
     calls: list[float] = []
     published: list[float] = []
+    slow: list[bool] = []  # an output whose computation takes 3 ms
     rearm, publish = node._rearm, node._publish
+
+    def timed_publish() -> None:
+        published.append(time.monotonic())
+        publish()
+        if slow:
+            node._last_output -= 0.003
     monkeypatch.setattr(node, '_rearm', lambda periods: (calls.append(periods), rearm(periods)))
-    monkeypatch.setattr(node, '_publish', lambda: (published.append(time.monotonic()), publish()))
+    monkeypatch.setattr(node, '_publish', timed_publish)
     msg = twist_msg(linear=(0.01, 0.0, 0.0))
     node._on_timer()  # the timer's own output
     node._on_operator(msg)  # just after it: answered half a period after that output, not now
     assert len(published) == 1 and 0.0 < calls[-1] <= 0.5
-    node._on_timer()  # that answer; then the timer waits 1.25 periods for the next twist
-    assert len(published) == 2 and calls[-1] == 1.25
+    node._on_timer()  # that answer; then the timer waits 1.25 periods from its start for the next twist
+    assert len(published) == 2 and 1.0 < calls[-1] <= 1.25
+    rearms = len(calls)
     node._last_output = time.monotonic() - 0.006  # 0.6 period after an answer: held
     node._on_operator(msg)
-    assert len(published) == 2
+    assert len(published) == 2 and len(calls) == rearms
     node._last_output = time.monotonic() - 0.0096  # 0.96 period: at once
     node._on_operator(msg)
-    assert len(published) == 3 and calls[-1] == 1.25
+    assert len(published) == 3 and 1.0 < calls[-1] <= 1.25
+    slow.append(True)
+    node._last_output = time.monotonic() - 0.0096
+    node._on_operator(msg)  # an answer that took 3 ms: the grace counts from its start, 0.3 period before
+    assert len(published) == 4 and 0.0 < calls[-1] <= 0.95
+    slow.clear()
     node._on_timer()  # no twist within the grace: the timer's output, then one per period
-    assert len(published) == 4 and calls[-1] == 1.0 and node._timer.timer_period_ns == 10_000_000
+    assert len(published) == 5 and calls[-1] == 1.0 and node._timer.timer_period_ns == 10_000_000
     node._last_output = time.monotonic() - 0.006  # 0.6 period after the timer's output: at once
     node._on_operator(msg)
-    assert len(published) == 5 and calls[-1] == 1.25
+    assert len(published) == 6 and 1.0 < calls[-1] <= 1.25
 
 
 def test_a_plain_twist_source_in_the_hand_frame(ros) -> None:
@@ -246,32 +263,29 @@ def test_the_object_pose_sets_the_path_clearance_and_a_bad_one_is_rejected(ros, 
     loop.assist()
 
 
-def test_the_output_keeps_coming_while_the_path_is_sought(ros, monkeypatch) -> None:
-    # the node's path search held until released (a slow clearance, as long as need be): the outputs go on at
-    # alpha 0 (the operator's twist alone) while it runs; released, the path comes in and the robot assists
-    armed, started, release = threading.Event(), threading.Event(), threading.Event()
-    seek = path_search.seek_path
-
-    def held(kin, request):
-        if armed.is_set():  # after the warm-up, whichever thread seeks
-            started.set()
-            release.wait(60.0)
-        return seek(kin, request)
-
-    monkeypatch.setattr(path_search, 'seek_path', held)
+def test_the_output_keeps_coming_while_the_path_is_sought_in_a_process_of_its_own(ros, monkeypatch,
+                                                                                  tmp_path) -> None:
+    # the node's path search held until released (a slow clearance, as long as need be), in its own process: the
+    # outputs go on at alpha 0 (the operator's twist alone) while it runs; released, the path comes in over the
+    # pipe and the robot assists; the node destroyed, the process has ended
+    monkeypatch.setattr(path_search, 'seek_path', functools.partial(held_search.held, tmp_path))
     loop = Loop(ros)
-    armed.set()
+    worker = loop.node._paths
+    (tmp_path / 'armed').touch()  # after the warm-up, which seeks in this process
     try:
-        deadline = time.monotonic() + 10.0
-        while not started.is_set() and time.monotonic() < deadline:
+        deadline = time.monotonic() + 30.0
+        while not (tmp_path / 'started').exists() and time.monotonic() < deadline:
             loop.feed()
             loop.operator.publish(loop.toward())
-            ros.wait_for(started.is_set, 0.02)
-        assert started.is_set(), 'no path sought after the grasp, v and the joint state'
+            ros.wait_for(lambda: (tmp_path / 'started').exists(), 0.02)
+        assert (tmp_path / 'started').exists(), 'no path sought after the grasp, v and the joint state'
+        assert int((tmp_path / 'started').read_text()) == worker.pid != os.getpid()
         count = len(loop.alphas)
         assert ros.publish_until(loop.operator, loop.toward(), lambda: len(loop.alphas) > count + 20, 10.0,
                                  period=0.01)
-        assert not release.is_set() and [a.data for a in loop.alphas[count:]] == [0.0] * (len(loop.alphas) - count)
+        assert [a.data for a in loop.alphas[count:]] == [0.0] * (len(loop.alphas) - count)
     finally:
-        release.set()
+        (tmp_path / 'release').touch()
     loop.assist()
+    ros.remove(loop.node)
+    assert worker.returncode == 0  # stopped by the node's destruction, not killed

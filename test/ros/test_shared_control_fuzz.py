@@ -1,10 +1,11 @@
-"""Fuzz: the assistance node and the mock arm, in one process, get malformed twists and joint states.
+"""Fuzz: the assistance, the mock arm and the scripted operator, in one process, get malformed twists and joint states.
 
 Hypothesis draws the messages with a fixed seed (derandomize): twists with NaN, infinities, 1e308, -0.0 in
 any field and frames that are the base, the hand, unknown or 5,000 characters long (over the input cap),
 undecodable bytes, and the joint states of benchmarks/_bench/fuzz_inputs.py. No exception may leave a callback (it would
 leave the executor's spin, here in the test's thread), no output may hold a NaN or infinity, the arm must
-stay within its limits, and both nodes must still answer afterwards.
+stay within its limits, and every node must still answer afterwards (the scripted operator, whose twists go
+elsewhere, reads the fuzzed joint states).
 """
 
 from __future__ import annotations
@@ -21,11 +22,14 @@ from grasp_intent_ros.mico.kinematics import BASE_FRAME, EE_FRAME, HOME_Q, MicoK
 from grasp_intent_ros.mico.mock_arm import MockArm
 from grasp_intent_ros.nodes.assistance import AssistanceNode
 from grasp_intent_ros.nodes.mock_arm import MockArmNode
+from grasp_intent_ros.nodes.scripted_operator import ScriptedOperatorNode
 from grasp_intent_ros.wire import topics
 
 EXAMPLES = 400
 ARM_STATES = 'mock/joint_states'
 """The mock arm's output, remapped away from the fuzzed ``joint_states``."""
+SCRIPTED = 'scripted/twist'
+"""The scripted operator's output, remapped away from the fuzzed ``operator/twist``."""
 _values = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.sampled_from([1e308, -1e308, -0.0, 1e-300]))
 _frames = st.sampled_from(['', BASE_FRAME, EE_FRAME, 'map', 'x' * 5000])
 
@@ -42,9 +46,12 @@ twists = st.one_of(st.builds(_twist, st.lists(_values, min_size=6, max_size=6), 
                    st.binary(min_size=1, max_size=64).map(lambda b: b'\x00\x01\x00\x00' + b[:3]))
 
 
-def test_fuzzed_twists_and_joint_states_never_crash_either_node(ros) -> None:
+def test_fuzzed_twists_and_joint_states_never_crash_a_node(ros) -> None:
     ros.add(AssistanceNode(context=ros.context))
     ros.add(MockArmNode(context=ros.context, cli_args=['--ros-args', '-r', f'joint_states:={ARM_STATES}']))
+    ros.add(ScriptedOperatorNode(context=ros.context, cli_args=['--ros-args', '-r',
+                                                                f'{topics.OPERATOR_TWIST}:={SCRIPTED}']))
+    scripted = ros.subscribe(TwistStamped, SCRIPTED)
     outputs = ros.subscribe(TwistStamped, topics.ASSISTANCE_TWIST)
     alphas = ros.subscribe(Float64, topics.ASSISTANCE_ALPHA)
     states = ros.subscribe(JointState, ARM_STATES)
@@ -64,10 +71,11 @@ def test_fuzzed_twists_and_joint_states_never_crash_either_node(ros) -> None:
         ros.wait_for(lambda: False, 0.002)  # the nodes take it; an exception escaping a callback fails here
 
     send()
-    n_out, n_states = len(outputs), len(states)
-    assert ros.wait_for(lambda: len(outputs) > n_out + 10 and len(states) > n_states + 10, 5.0)  # both still serve
+    n_out, n_states, n_scripted = len(outputs), len(states), len(scripted)
+    assert ros.wait_for(lambda: len(outputs) > n_out + 10 and len(states) > n_states + 10
+                        and len(scripted) > n_scripted + 10, 5.0)  # all still serve
     twist_values = np.array([[m.twist.linear.x, m.twist.linear.y, m.twist.linear.z, m.twist.angular.x,
-                              m.twist.angular.y, m.twist.angular.z] for m in outputs])
+                              m.twist.angular.y, m.twist.angular.z] for m in outputs + scripted])
     assert np.all(np.isfinite(twist_values)) and np.all(np.isfinite([a.data for a in alphas]))
     arm = MockArm(MicoKinematics(), np.r_[HOME_Q, 0.0, 0.0, 0.0])
     positions = np.array([m.position for m in states])

@@ -1,8 +1,9 @@
 """The closed loop as real processes: interpreter, model server, planner, mock arm and assistance over loopback.
 
-The test side holds the spacemouse still (the zero twist at 100 Hz, as a teleop source sends while the
-operator waits) and sends a certain intent; the assistance alone (alpha up to alpha_max) must bring the hand
-to the planned grasp. Nothing sleeps: every wait polls with a deadline.
+The test side steers toward the planned grasp (six axes, as a spacemouse) and sends a certain intent; the hand
+must reach the planned grasp with the assistance's help. Then the suite with the scripted operator node as the
+only operator and source of w: it must reach a grasp and close the hand. Nothing sleeps: every wait polls with a
+deadline.
 """
 
 from __future__ import annotations
@@ -15,7 +16,9 @@ from geometry_msgs.msg import PoseStamped, TwistStamped
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
-from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, MicoKinematics
+from grasp_intent_ros.nodes.scripted_operator import OPERATOR_COMPONENT
+from grasp_intent_ros.shared_control.assistance import offset
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.robot_state import joint_positions, pose_msg_to_matrix
 
@@ -65,3 +68,41 @@ def test_the_assistance_brings_the_hand_to_the_planned_grasp(ros: Any, launch: A
     assert ros.wait_for(lambda: errors()[0] < 0.01 and errors()[1] < 0.1, CONVERGE), \
         launch.died() or f'hand {errors()} (m, rad) from the grasp, started {start} away'
     assert max(a.data for a in alphas) > 0.5
+
+
+OPERATOR_PARAMS = """/**/scripted_operator:
+  ros__parameters:
+    task_set: [usage, transfer]
+    intent: held
+    w: [0.9, 0.9, 0.1]
+    hold: 0.0
+"""
+"""The scripted operator of the ambiguous case: w held at (0.9, 0.9, 0.1), the operator wanting usage and transfer."""
+
+
+def test_the_suite_with_a_scripted_operator_reaches_a_grasp_and_closes_the_hand(ros: Any, launch: Any,
+                                                                               tmp_path: Any) -> None:
+    params = tmp_path / 'operator.yaml'
+    params.write_text(OPERATOR_PARAMS)
+    launch.start_nodes(shared_control=True, extra=('scripted_operator',), params_files=[params])
+    kin = MicoKinematics()
+    grasps = ros.subscribe(PoseStamped, topics.GRASP_POSE)
+    states = ros.subscribe(JointState, topics.JOINT_STATES)
+    statuses = ros.diagnostics()
+
+    def closed() -> bool:  # the fingers closed by grasp/close: to the plan's closures, about 1 rad each
+        fingers = joint_positions(states[-1], FINGER_JOINTS) if states else None
+        return fingers is not None and bool(np.all(fingers > 0.5))
+
+    def operator() -> list[str]:  # the scripted operator's status messages
+        return [s.message for s in statuses if s.name.endswith(OPERATOR_COMPONENT)]
+
+    assert ros.wait_for(lambda: grasps and closed(), STARTUP + CONVERGE), launch.died() or \
+        f'the hand did not close; the operator: {operator()[-1:]}'
+    q = joint_positions(states[-1], ARM_JOINTS)
+    assert q is not None
+    hand, shown = kin.fk(q), pose_msg_to_matrix(grasps[-1], frame_id=BASE_FRAME)
+    distance, angle = offset(hand, shown)
+    assert distance < 0.015 and angle < 0.15  # it closed on the shown grasp, seen within 1 cm and 0.1 rad
+    assert ros.wait_for(lambda: any('done: episode 1 reached the shown grasp' in m for m in operator()), 10.0), \
+        operator()[-1:]

@@ -37,7 +37,7 @@ CONTRACTS: Mapping[str, tuple[str, ...]] = {
     'method': (*BASE, 'kernels'),
     'planning': (*BASE, 'kernels', 'method'),
     'mico': (*BASE, 'kernels', 'method', 'planning'),
-    'shared_control': (*BASE, 'method', 'planning', 'mico', 'latest_only'),
+    'shared_control': (*BASE, 'method', 'planning', 'mico'),
     'objects': (*BASE, 'method', 'mico', 'cli.user_errors'),
     'wire': (*BASE, 'method', 'mico'),
     'scene': (*BASE, 'method', 'mico', 'wire', 'objects'),

@@ -1,11 +1,18 @@
-"""grasp_intent_ros.shared_control.path_search: what clears the joint paths, and a search in a thread of its own."""
+"""grasp_intent_ros.shared_control.path_search: what clears the joint paths, and a search in a process of its own."""
 
 from __future__ import annotations
 
+import functools
+import os
+import subprocess
+import sys
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import replace
+from pathlib import Path
 
+import held_search
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -14,7 +21,6 @@ from numpy.typing import NDArray
 from grasp_intent_ros.method.body import Cylinder, ObjectBody
 from grasp_intent_ros.mico.collision import HandCollision
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
-from grasp_intent_ros.shared_control import path_search
 from grasp_intent_ros.shared_control.assistance import (
     Assistance,
     AssistanceConfig,
@@ -22,7 +28,8 @@ from grasp_intent_ros.shared_control.assistance import (
     TwistLimiter,
     joint_space_twist,
 )
-from grasp_intent_ros.shared_control.path_search import PathAnswer, PathRequest, PathSearch, PathWorker
+from grasp_intent_ros.shared_control.clearance import PathClearance
+from grasp_intent_ros.shared_control.path_search import PathAnswer, PathRequest, PathSearch, PathWorker, seek_path
 
 from .robot_alone import LABELS, TASKS
 
@@ -137,44 +144,98 @@ def test_while_the_path_is_sought_the_output_is_the_operators_alone(kin: MicoKin
     assert command.alpha > 0.0 and command.phase == 'grasp'
 
 
-def test_the_worker_seeks_in_its_own_thread_and_answers_the_newest_request(kin: MicoKinematics,
-                                                                           monkeypatch: pytest.MonkeyPatch) -> None:
-    started, release = threading.Event(), threading.Event()
-    sought: list[tuple[str, PathRequest, PathAnswer]] = []
-    seek = path_search.seek_path
+def wait_until(condition: Callable[[], object], timeout: float = 60.0) -> bool:
+    """Poll ``condition`` until true or ``timeout`` s pass (a condition with a deadline); whether it became true."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        threading.Event().wait(0.002)
+    return True
 
-    def held(own: MicoKinematics, request: PathRequest) -> PathAnswer:
-        started.set()
-        release.wait(30.0)
-        answer = seek(own, request)
-        sought.append((threading.current_thread().name, request, answer))
-        return answer
 
-    monkeypatch.setattr(path_search, 'seek_path', held)
+def test_the_worker_seeks_in_a_process_of_its_own_and_answers_as_this_one(kin: MicoKinematics) -> None:
+    assistance, grasp, base_T_obj = assisting(kin)
+    request = PathRequest((1, 1, 'grasp'), assistance.q.copy(), grasp, grasp, 0.05, 0.05,
+                          PathClearance(kin, HandCollision(), CUP, base_T_obj))
+    errors: list[str] = []
+    worker = PathWorker(name='paths under test', on_error=errors.append)
+    try:
+        assert worker.pid != os.getpid()
+        assert worker.wait_ready(60.0)  # its models built and its warm-up run
+        answers: list[PathAnswer | None] = []
+        assert wait_until(lambda: answers.append(worker.seek(request)) or answers[-1] is not None)
+        answer, here = answers[-1], seek_path(kin, request)
+        assert answer is not None and answer.key == request.key and answer.cleared == here.cleared
+        assert answer.path is not None and here.path is not None
+        for a, b in zip(answer.path, here.path, strict=True):
+            assert_allclose(a, b, atol=0.0)  # the same search on the same inputs: the same answer
+    finally:
+        worker.stop()
+    assert worker.returncode == 0 and not errors  # ended by the request, not killed
+
+
+def test_the_worker_seeks_the_newest_request_only(kin: MicoKinematics, tmp_path: Path) -> None:
+    (tmp_path / 'armed').touch()
     assistance, grasp, _ = assisting(kin)
-    worker = PathWorker(MicoKinematics(), HandCollision(), name='paths under test')
+    errors: list[str] = []
+    worker = PathWorker(name='paths under test', on_error=errors.append,
+                        search=functools.partial(held_search.held, tmp_path))
     try:
         assistance.paths = worker
         assert step(assistance, 0.0).alpha == 0.0
-        assert started.wait(30.0)  # the first request is being sought
+        assert wait_until((tmp_path / 'started').exists)  # the first request is being sought
         assert step(assistance, 0.01).alpha == 0.0  # the same request is not handed over twice
-        moved = grasp.copy()
-        moved[:3, 3] += (0.0, 0.01, 0.0)
-        assistance.set_grasp(moved)  # a newer request while the first is sought
-        assert step(assistance, 0.02).alpha == 0.0
-        release.set()
-        deadline, alpha, now = time.monotonic() + 30.0, 0.0, 0.02
-        while alpha == 0.0 and time.monotonic() < deadline:  # a condition with a deadline
-            now += 0.01
-            alpha = step(assistance, now).alpha
-            threading.Event().wait(0.001)
-        assert alpha > 0.0
-        assert [name for name, _, _ in sought] == ['paths under test'] * 2  # the first, then the newest only
-        _, request, answer = sought[-1]
-        assert np.array_equal(request.base_T_grasp, moved) and request.clearance is not None
-        again = seek(kin, request)  # in this thread, with the caller's kinematics: the same answer
-        assert answer.path is not None and again.path is not None
-        for a, b in zip(answer.path, again.path, strict=True):
-            assert_allclose(a, b, atol=0.0)
+        for dy in (0.01, 0.02):  # two newer requests while the first is sought: the second replaces the first
+            moved = grasp.copy()
+            moved[:3, 3] += (0.0, dy, 0.0)
+            assistance.set_grasp(moved)
+            assert step(assistance, 0.02).alpha == 0.0
+        (tmp_path / 'release').touch()
+        now = [0.02]
+
+        def assisted() -> bool:
+            now[0] += 0.01
+            return step(assistance, now[0]).alpha > 0.0
+        assert wait_until(assisted)
+        pids = (tmp_path / 'sought').read_text().split()
+        assert pids == [str(worker.pid)] * 2  # in the worker's process: the first, then the newest only
+        assert np.array_equal(np.load(tmp_path / 'grasp_0.npy'), grasp)
+        assert np.array_equal(np.load(tmp_path / 'grasp_1.npy'), moved)
+        assert not errors
+    finally:
+        (tmp_path / 'release').touch()
+        worker.stop()
+
+
+def test_a_search_that_raises_answers_no_path_and_is_reported(kin: MicoKinematics) -> None:
+    assistance, grasp, _ = assisting(kin)
+    request = PathRequest((1, 1, 'grasp'), assistance.q.copy(), grasp, grasp, 0.05, 0.05, None)
+    errors: list[str] = []
+    worker = PathWorker(name='paths under test', on_error=errors.append, search=held_search.failing)
+    try:
+        answers: list[PathAnswer | None] = []
+        assert wait_until(lambda: answers.append(worker.seek(request)) or answers[-1] is not None)
+        assert answers[-1] == PathAnswer(request.key, None, False)
+        assert len(errors) == 1 and 'RuntimeError: a search that fails' in errors[0]
+        second = replace(request, key=(1, 2, 'grasp'))
+        assert wait_until(lambda: worker.seek(second) == PathAnswer(second.key, None, False))  # it serves on
     finally:
         worker.stop()
+    assert worker.returncode == 0
+
+
+def test_the_process_ends_with_its_caller() -> None:
+    # a caller that ends without stopping the worker (killed, say): the worker's process ends too, none left behind
+    code = ('import os; from grasp_intent_ros.shared_control.path_search import PathWorker; '
+            'worker = PathWorker(name="orphan", on_error=print); print(worker.pid, flush=True); os._exit(0)')
+    caller = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, timeout=120, check=True)
+    pid = int(caller.stdout.split()[0])
+
+    def ended() -> bool:
+        try:
+            state = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()[0]
+        except FileNotFoundError:
+            return True
+        return state in ('Z', 'X')  # ended (a zombie until its new parent reaps it)
+    assert wait_until(ended)

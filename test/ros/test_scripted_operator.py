@@ -1,0 +1,142 @@
+"""In-process tests of the scripted operator node (private Context per test, see test/conftest.py).
+
+The test side plays the rest of the loop: the cup model latched on ``model/active``, a joint state stream at 100
+Hz (the arm held where the test puts it), the grasp shown on ``grasp/pose``, and the mock arm's ``grasp/close``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import PoseStamped, TwistStamped
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, String
+from std_srvs.srv import Trigger
+
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.frames import PRE_GRASP_STANDOFF, pose_to_matrix, pre_grasp
+from grasp_intent_ros.mico.grasp import Grasp
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.nodes.mock_arm import GRASP_CLOSE
+from grasp_intent_ros.nodes.scripted_operator import OPERATOR_COMPONENT, ScriptedOperatorNode
+from grasp_intent_ros.planning.options import node_default_options
+from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.ros.qos import latched_qos
+from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
+from grasp_intent_ros.shared_control.simulator import certain_grasp
+from grasp_intent_ros.wire import topics
+from grasp_intent_ros.wire.diagnostics import ERROR, WARN
+from grasp_intent_ros.wire.model_document import model_document
+
+BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
+"""The object pose of config/scripted_operator.yaml (and the planner's)."""
+UT = 0b011
+
+
+@pytest.fixture(scope='module')
+def own() -> Grasp:
+    """The operator's own grasp for usage and transfer (the node's default task set), planned as the node does."""
+    model = ModelFiles(config_dir() / 'models').load('cup_7zone')
+    return certain_grasp(model, UT, BASE_T_OBJ, MicoKinematics(), options=node_default_options())
+
+
+def moved(pose: np.ndarray, by: tuple[float, float, float]) -> np.ndarray:
+    out = pose.copy()
+    out[:3, 3] += by
+    return out
+
+
+class Rig:
+    """The node with the cup model latched, the arm at ``q`` (Home at first) and the mock arm's close counted."""
+
+    def __init__(self, ros: Any, **params: Any) -> None:
+        self.ros = ros
+        overrides = [Parameter(k, value=v) for k, v in {'start_delay': 0.0, 'hold': 0.0, **params}.items()]
+        self.node = ros.add(ScriptedOperatorNode(context=ros.context, parameter_overrides=overrides))
+        self.twists = ros.subscribe(TwistStamped, topics.OPERATOR_TWIST)
+        self.w = ros.subscribe(Float64MultiArray, topics.INTENT_W)
+        self.statuses = ros.diagnostics()
+        self.closes = 0
+        ros.node.create_service(Trigger, GRASP_CLOSE, self._close)
+        self.shown = ros.publisher(PoseStamped, topics.GRASP_POSE)
+        self.q = HOME_Q.copy()
+        joints = ros.publisher(JointState, topics.JOINT_STATES)
+        ros.node.create_timer(0.01, lambda: joints.publish(joint_state_msg(
+            ARM_JOINTS, self.q, stamp=ros.node.get_clock().now().to_msg())))
+        models = ros.publisher(String, topics.MODEL_ACTIVE, latched_qos())
+        models.publish(String(data=model_document(ModelFiles(config_dir() / 'models').load('cup_7zone'),
+                                                  name='cup_7zone', version=1)))
+
+    def _close(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        self.closes += 1
+        response.success, response.message = True, 'closing'
+        return response
+
+    def show(self, base_T_grasp: np.ndarray, until: Any, timeout: float = 10.0) -> bool:
+        msg = matrix_to_pose_msg(base_T_grasp, frame_id=BASE_FRAME, stamp=self.ros.node.get_clock().now().to_msg())
+        return bool(self.ros.publish_until(self.shown, msg, until, timeout, period=0.1))
+
+    def status(self, level: bytes | None = None, text: str = '') -> Any:
+        for status in reversed(self.statuses):
+            if status.name.endswith(OPERATOR_COMPONENT) and (level is None or status.level == level) \
+                    and text in status.message:
+                return status
+        return None
+
+
+def linear(msg: TwistStamped) -> np.ndarray:
+    return np.array([msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z])
+
+
+def test_at_home_it_holds_w_and_steers_to_the_shown_grasps_pre_grasp(ros: Any, own: Grasp) -> None:
+    rig = Rig(ros)
+    loop = rig.node._loop
+    assert ros.wait_for(lambda: loop.state == 'reaching', 30.0), rig.status()
+    assert rig.show(own.base_T_ee, lambda: loop.pursued == 'shown')
+    count = len(rig.twists)
+    assert ros.wait_for(lambda: len(rig.twists) > count + 20, 5.0)
+    hand = MicoKinematics().fk(HOME_Q)
+    toward = pre_grasp(own.base_T_ee, PRE_GRASP_STANDOFF)[:3, 3] - hand[:3, 3]
+    for msg in rig.twists[count:]:  # 0.12 m/s toward it, the noise's 0.01 m/s RMS on top
+        assert msg.header.frame_id == BASE_FRAME
+        assert float(linear(msg) @ toward) / (np.linalg.norm(linear(msg)) * np.linalg.norm(toward)) > 0.95
+    assert rig.w and all(len(m.data) == 3 for m in rig.w)
+    assert np.allclose(np.mean([m.data for m in rig.w], axis=0), [0.9, 0.9, 0.1], atol=0.1)
+    assert ros.wait_for(lambda: rig.status(text='reaching the shown grasp'), 5.0) and rig.closes == 0
+
+
+def test_it_follows_the_shown_grasp_only_near_its_own_and_closes_once_at_it(ros: Any, own: Grasp) -> None:
+    rig = Rig(ros, intent='none')
+    loop = rig.node._loop
+    assert ros.wait_for(lambda: loop.state == 'reaching', 30.0), rig.status()
+    assert rig.show(moved(own.base_T_ee, (0.0, 0.0, 0.15)), lambda: loop.pursued == 'own')
+    near = moved(own.base_T_ee, (0.0, 0.0, 0.003))
+    assert rig.show(near, lambda: loop.pursued == 'shown')
+    rig.q = own.positions[:6]  # the arm at its own grasp: 3 mm from the shown one, which it pursues
+    assert ros.wait_for(lambda: rig.closes == 1 and loop.state == 'done', 5.0), (rig.closes, loop.state)
+    assert loop.closed[0].pursued == 'shown'
+    np.testing.assert_allclose(loop.closed[0].goal, near, atol=1e-12)  # as the message carried it
+    assert ros.wait_for(lambda: rig.status(text='done: episode 1 reached the shown grasp') is not None, 5.0)
+    count = len(rig.twists)
+    ros.wait_for(lambda: len(rig.twists) > count + 20, 5.0)
+    assert rig.closes == 1 and not any(linear(m).any() for m in rig.twists[count:])  # done: it holds still
+    assert not rig.w  # intent none: another source gives w
+
+
+def test_a_task_the_model_lacks_and_bad_inputs_give_diagnostics_not_a_crash(ros: Any) -> None:
+    rig = Rig(ros, task_set=['usage', 'pouring'])
+    error = bytes([ERROR])
+    assert ros.wait_for(lambda: rig.status(error, 'no task pouring; its tasks are usage, transfer, handover'), 30.0), \
+        rig.status()
+    assert rig.node._loop.state == 'waiting' and not rig.w  # no grasp, no w: it waits
+    assert rig.node.set_parameters([Parameter('task_set', value=['handover'])])[0].successful
+    assert ros.wait_for(lambda: rig.node._loop.state == 'reaching' and rig.w, 30.0), rig.status()
+    bad = matrix_to_pose_msg(np.eye(4), frame_id='map', stamp=ros.node.get_clock().now().to_msg())
+    assert ros.publish_until(rig.shown, bad, lambda: rig.status(bytes([WARN]), 'frame'), 10.0)
+    rig.q = np.full(6, np.nan)
+    assert ros.wait_for(lambda: rig.status(bytes([WARN]), 'finite'), 10.0)
+    count = len(rig.twists)
+    assert ros.wait_for(lambda: len(rig.twists) > count + 10, 5.0)  # still publishing
