@@ -35,7 +35,9 @@ An episode's states (:data:`STATES`), each tick of :meth:`OperatorEpisodes.step`
                       the last episode
 ``resetting``         waits for :meth:`OperatorEpisodes.reset_done` (the caller resets the arm); then a new
                       episode starts at ``waiting``, its hand seen only from then on
-``done``              zero twists
+``done``              zero twists; after the last episode, ``resetting`` again once ``episodes`` is raised
+                      past the current one or set to 0 (a parameter change: a new episode without a
+                      restart); after a failed reset, for good
 ====================  ==================================================================================
 
 A reset is asked only after ``holding``: it never cuts an execution short.
@@ -349,6 +351,7 @@ class OperatorEpisodes:
         self.hands: Perceived[NDArray[np.float64]] = Perceived(self.keep)
         self.shown_grasps: Perceived[NDArray[np.float64]] = Perceived(self.keep)
         self._since = -math.inf  # when the current timed state (starting, reaching, holding) began
+        self._reset_failed = False  # a reset failed: done for good
         self._goal = np.eye(4)  # the goal being executed (closing)
 
     def hand(self, received: float, base_T_ee: NDArray[np.float64]) -> None:
@@ -367,6 +370,8 @@ class OperatorEpisodes:
         starts the ``closing`` state's :attr:`command`.
         """
         own = self.own  # read once: another thread may set it meanwhile
+        if self.state == 'done' and not self._reset_failed and (self.episodes == 0 or self.episode < self.episodes):
+            self.state = 'resetting'
         if self.state == 'waiting' and own is not None and self.hands.at(now) is not None:
             self.state, self._since = 'starting', now
         if self.state == 'starting' and now - self._since >= self.start_delay:
@@ -416,7 +421,7 @@ class OperatorEpisodes:
         if self.state != 'resetting':
             return
         if not success:
-            self.state = 'done'
+            self.state, self._reset_failed = 'done', True
             return
         self.hands.clear()
         self.episode += 1

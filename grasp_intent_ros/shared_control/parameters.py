@@ -191,7 +191,8 @@ SCRIPTED_OPERATOR = (
     ParamSpec('execute_timeout', EXECUTE_TIMEOUT, 'The longest wait (s) from grasp/execute to grasp/close (no '
               'answer, or no grasp/trajectory received).', range=(0.1, 600.0)),
     ParamSpec('episodes', 1, 'How many reaches: after each but the last the operator holds still for hold s, resets '
-              'the arm (mock_arm/reset) and reaches again; 0: without end.', range=(0, 1000000)),
+              'the arm (mock_arm/reset) and reaches again; 0: without end. Raised after the last (or set to 0), '
+              'the operator goes on.', range=(0, 1000000)),
     ParamSpec('hold', 2.0, 'Seconds the operator holds still after a close.', range=(0.0, 3600.0)),
     *OBJECT_POSE,
     URDF_PATH,

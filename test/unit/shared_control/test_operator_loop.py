@@ -113,6 +113,10 @@ def test_the_episodes_wait_start_reach_close_hold_reset_and_end() -> None:
     loop.step(5.25)
     assert loop.state == 'done' and loop.step(99.0) is None
     assert loop.status(99.0) == 'done: episode 2 reached the own grasp in 0.75 s'
+    loop.episodes = 3  # raised after the last episode (a parameter change): one more, without a restart
+    assert loop.step(100.0) is None and loop.state == 'resetting'
+    loop.reset_done(True)
+    assert (loop.state, loop.episode) == ('waiting', 3)
 
 
 def test_a_failed_reset_ends_and_episodes_zero_never_end() -> None:
@@ -131,6 +135,8 @@ def test_a_failed_reset_ends_and_episodes_zero_never_end() -> None:
     loop.step(40.3)
     loop.reset_done(False)
     assert loop.state == 'done' and [c.episode for c in loop.closed] == [1, 2, 3, 4]
+    loop.episodes = 10  # a failed reset ends for good, whatever the episodes
+    assert loop.step(50.0) is None and loop.state == 'done'
 
 
 def test_without_its_own_grasp_it_waits_and_a_lost_grasp_stops_the_reach() -> None:
