@@ -67,6 +67,7 @@ from ..ros.inputs import subscribe_input, subscribe_operator
 from ..ros.model_follower import ModelFollower
 from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, output_publisher
+from ..ros.robot import twist_msg
 from ..ros.run import guard_exit, publish_all, run_node
 from ..shared_control.assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, warm_up
 from ..shared_control.parameters import ASSISTANCE
@@ -229,10 +230,7 @@ class AssistanceNode(Node):
         self._last_output = time.monotonic()
         stamp = self.get_clock().now()
         command = self._assist.command(stamp.nanoseconds * 1e-9)
-        out = TwistStamped()
-        out.header.stamp, out.header.frame_id = stamp.to_msg(), BASE_FRAME
-        (out.twist.linear.x, out.twist.linear.y, out.twist.linear.z,
-         out.twist.angular.x, out.twist.angular.y, out.twist.angular.z) = command.twist.tolist()
+        out = twist_msg(command.twist, frame_id=BASE_FRAME, stamp=stamp.to_msg())
         publish_all(self, self._pubs, {topics.ASSISTANCE_TWIST: out,
                                        topics.ASSISTANCE_ALPHA: Float64(data=command.alpha)})
         self._outputs += 1
