@@ -66,7 +66,7 @@ from ..ros.qos import input_qos, output_publisher
 from ..ros.robot import joint_state_msg
 from ..ros.run import guard_exit, publish_all, run_node
 from ..wire import topics
-from ..wire.robot_state import joint_positions, twist_command
+from ..wire.robot_state import joint_positions, seconds, twist_command
 
 __all__ = ['MockArmNode', 'GRASP_CLOSE', 'GRASP_EXECUTE', 'main']
 
@@ -74,8 +74,6 @@ GRASP_CLOSE = 'grasp/close'
 """The hand's grasp command (std_srvs/Trigger): close the fingers to the plan's closures."""
 GRASP_EXECUTE = 'grasp/execute'
 """The request to follow the latest trajectory (std_srvs/Trigger), under ``trajectory_execution: on_request``."""
-def _seconds(t: Any) -> float:
-    return int(t.sec) + int(t.nanosec) * 1e-9
 
 
 class MockArmNode(Node):
@@ -113,9 +111,9 @@ class MockArmNode(Node):
 
     def _on_trajectory(self, msg: JointTrajectory) -> None:
         now = self._now()
-        start = _seconds(msg.header.stamp)
+        start = seconds(msg.header.stamp)
         points = msg.points
-        cmd = TrajectoryCommand(tuple(msg.joint_names), array.array('d', (_seconds(p.time_from_start) for p in points)),
+        cmd = TrajectoryCommand(tuple(msg.joint_names), array.array('d', (seconds(p.time_from_start) for p in points)),
                                 [p.positions for p in points], [p.velocities for p in points],
                                 [p.accelerations for p in points], start=start or None)
         arm, partial = self._arm, self._params['allow_partial_joints_goal']

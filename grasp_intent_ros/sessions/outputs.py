@@ -18,6 +18,7 @@ from rosbags.typesys import TypesysError
 from ..errors import ModelFormatError
 from ..wire.diagnostics import KEY_LAST_ERROR, KEY_REJECTED, level_value, status_values
 from ..wire.model_document import ModelHeader, parse_model_document
+from ..wire.robot_state import seconds
 from ..wire.topics import DIAGNOSTICS, MODEL_ACTIVE, MSGTYPES
 from .bag.errors import BagReadError
 from .bag.types import jazzy_typestore
@@ -201,8 +202,7 @@ def reduce_message(topic: str, msg: Any) -> Value:
     # JointTrajectory
     names = tuple(str(n) for n in msg.joint_names)
     positions = np.array([np.asarray(pt.positions, dtype=np.float64) for pt in msg.points], dtype=np.float64)
-    times = np.array([pt.time_from_start.sec + 1e-9 * pt.time_from_start.nanosec for pt in msg.points],
-                     dtype=np.float64)
+    times = np.array([seconds(pt.time_from_start) for pt in msg.points], dtype=np.float64)
     return Trajectory(names, positions.reshape(len(msg.points), -1), times)
 
 

@@ -23,7 +23,7 @@ from ..mico.mock_arm import TwistCommand, check_twist
 from .topics import MAX_JOINTS, MAX_NAME_LENGTH, check_names
 
 __all__ = ['QUATERNION_NORM_TOL', 'check_unit_quaternion', 'pose_msg_to_matrix', 'joint_positions', 'twist_command',
-           'stamp_seconds', 'stamp_nanoseconds', 'object_pose_msg', 'trajectory_time']
+           'seconds', 'stamp_seconds', 'stamp_nanoseconds', 'object_pose_msg', 'trajectory_time']
 
 
 def pose_msg_to_matrix(msg: Any, *, frame_id: str,
@@ -95,11 +95,16 @@ def twist_command(msg: Any, *, default_frame: str = BASE_FRAME) -> TwistCommand:
                        [twist.angular.x, twist.angular.y, twist.angular.z], frame, default_frame=default_frame)
 
 
+def seconds(t: Any) -> float:
+    """A builtin_interfaces Time or Duration (``sec``, ``nanosec``) in seconds."""
+    return int(t.sec) + 1e-9 * int(t.nanosec)
+
+
 def stamp_seconds(msg: Any) -> float | None:
     """A message's header stamp in seconds; None for a message without a header or with an unset (zero) stamp."""
     if not hasattr(msg, 'header'):
         return None
-    return (msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec) or None
+    return seconds(msg.header.stamp) or None
 
 
 def stamp_nanoseconds(msg: Any) -> int | None:
@@ -111,10 +116,7 @@ def stamp_nanoseconds(msg: Any) -> int | None:
 
 def trajectory_time(msg: Any) -> float | None:
     """A trajectory_msgs/JointTrajectory's last ``time_from_start`` (s): how long it runs; None without points."""
-    if not msg.points:
-        return None
-    t = msg.points[-1].time_from_start
-    return int(t.sec) + 1e-9 * int(t.nanosec)
+    return seconds(msg.points[-1].time_from_start) if msg.points else None
 
 
 def object_pose_msg(msg: Any, workspace_radius: float) -> NDArray[np.float64]:
