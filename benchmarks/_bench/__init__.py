@@ -47,6 +47,13 @@ def uptime() -> str:
     return 'load average %.2f, %.2f, %.2f' % os.getloadavg()
 
 
+def bootstrap_ci(values: Sequence[float], rng: np.random.Generator, n: int = 10_000) -> tuple[float, float, float]:
+    """(mean, 2.5th, 97.5th percentile of the bootstrap means) of ``values``: ``n`` resamples with replacement."""
+    arr = np.asarray(values, dtype=np.float64)
+    means = arr[rng.integers(0, arr.size, (n, arr.size))].mean(axis=1)
+    return float(arr.mean()), float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+
+
 def percentiles(values_ms: list[float] | np.ndarray, *, digits: int = 1) -> str:
     """``median X ms, p99 Y ms, max Z ms`` with ``digits`` decimals (or 'no samples')."""
     a = np.asarray(values_ms, dtype=np.float64)
