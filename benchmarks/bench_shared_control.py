@@ -12,12 +12,31 @@ The grasp command. Under ``confidence`` (the suite's assistance), a close on the
 the scripted operator node does and the simulated loop models (``shared_control/simulator.py``, "The grasp
 command"): zero twists until the hand is seen at rest, ``grasp/execute`` (the mock arm follows the planner's
 latest ``grasp/trajectory``), zero twists until that trajectory has had its time
-(:class:`~grasp_intent_ros.shared_control.operator_loop.GraspCommand`, the node's timing), and the hand is judged
-where the execution left it, with the newest plan's closures. Under ``none`` and ``blend`` (the simulated loop's
-``direct`` and ADA, which close where the hand is: executing is the suite's command, not the baselines'), and on
-the operator's own grasp, the hand is judged where the operator closed it; ``--no-execute`` judges it there under
-every condition. The probe calls no ``grasp/close``: the judge takes the plan's closures (the mock arm's closure
-error is not judged).
+(:class:`~grasp_intent_ros.shared_control.operator_loop.GraspCommand`, the node's timing), then ``grasp/close``.
+Under ``none`` and ``blend`` (the simulated loop's ``direct`` and ADA, which close where the hand is: executing is
+the suite's command, not the baselines'), a close on the shown grasp calls ``grasp/close`` where the operator
+stopped; ``--no-execute`` closes there under every condition. The mock arm closes the fingers to the latest plan's
+closures plus its closure error (N(0, ``closure_error``^2) per finger, its own seeded stream, one draw per close in
+the order of the closes, so not paired between conditions). The probe sends zero twists until it receives a joint
+state at least the demo's ``CLOSE_SETTLE`` (0.3 s) after the close's answer with every finger at rest
+(:func:`~grasp_intent_ros.wire.robot_state.fingers_settled`, as the demo reads them), and the hand is judged there:
+its pose and the closures the fingers executed.
+
+A close on the operator's OWN grasp calls no ``grasp/close``: the mock arm would close to the latest plan's
+closures, a grasp the operator did not choose, and judging those would credit (or blame) the planner for the
+operator's own grasp. As in the simulated loop, the own grasp's closures are judged plus the closure error model:
+N(0, ``closure_error``^2) per finger (the mock arm's parameter, read from it), drawn once per operator (the same in
+the three conditions), clipped to the fingers' limits as the mock arm clips (``MockArm.close_fingers``), with the
+hand where it came to rest under zero twists.
+
+The tracker's error. Per operator, the probe publishes the object's pose on ``object/pose`` (the planner and the
+assistance take it: the robot's perception) as the simulated benchmark's tracker sees it: the true pose perturbed
+by :func:`~grasp_intent_ros.shared_control.simulator.perturb_pose`, 5 mm and 3 deg RMS (``--tracker-mm``,
+``--tracker-deg``), and waits up to 5 s for the plan the new pose causes. The operator sees the object with its own
+error, of the same size by default (``--operator-mm``, ``--operator-deg``), and plans its own grasp there. Both
+views and the own closure error come from one stream seeded by (seed, object, operator, :data:`VIEWS`): the three
+conditions of an operator see the same. The judge takes the TRUE pose (:data:`BASE_T_OBJ`). The latency and stream
+phases run before the first operator's pose, at the true pose; ``--record`` publishes none.
 
 The scripted operator (a stated, simple model)
 ----------------------------------------------
@@ -28,8 +47,9 @@ The scripted operator (a stated, simple model)
   published at 10 Hz on ``intent/w``.
 - **Goal** (:class:`~grasp_intent_ros.shared_control.operators.ScriptedOperator`, which never reads the
   rules). Its own grasp for S: the planner's grasp for the certain w_S, planned offline from Home
-  (:func:`~grasp_intent_ros.shared_control.simulator.certain_grasps`) with the planner node's default
-  options (:func:`~grasp_intent_ros.planning.options.node_default_options`: for the 1x execution noise).
+  (:func:`~grasp_intent_ros.shared_control.simulator.certain_grasp`) where the operator sees the object, with the
+  planner node's default options (:func:`~grasp_intent_ros.planning.options.node_default_options`: for the 1x
+  execution noise).
   It follows the grasp the planner shows (``grasp/pose``) when that is on its way (within 6 cm and 0.8 rad
   of its own), else drives to its own. The rule is the same under the three conditions (the shown grasp is
   on the screen whatever alpha is).
@@ -45,8 +65,9 @@ The scripted operator (a stated, simple model)
 Figures per object and condition (the same seeded operators): success (the operator closes the hand, its
 seen hand within 1 cm and 0.1 rad of the goal it pursues, within ``--timeout`` s, and the data set's task
 rules, :data:`grasp_intent_ros.objects.demos.CUP_RULES` / ``FLASHLIGHT_RULES``, hold for every task of S at
-the reached pose, after the grasp command, with the pursued grasp's closures: judged after the run, never seen
-by the operator), time to grasp (to the close, an execution included; median of the
+the true object pose, at the reached pose with the executed closures, judged after closing
+(:func:`~grasp_intent_ros.launch.demo_judge.judge`, the demo's judge; never seen by the operator, the planner or
+the assistance)), time to grasp (to the close, an execution included; median of the
 successful runs, and over all runs with a failure counted as the timeout), operator effort (integral of
 |operator twist|, linear m and angular rad), wrong-task pulls (the integral of alpha over the time the shown
 grasp did not serve S by the rules, and how many operators met any), mean alpha. A latency phase first (``arbitration``
@@ -59,7 +80,9 @@ the interpreter's lock with the operator's thread, and callbacks queue behind th
 
 ``--record BAG`` runs no benchmark: it records one operator (the first of ``--only``, of the first of
 ``--objects``) under ``confidence`` as a closed-loop session bag, holding still for 2 s after the grasp
-(:func:`record_session`; the grasp command executes nothing: a replay sends the operator's twists only), in an
+(:func:`record_session`; the grasp command executes and closes nothing: a replay sends the operator's twists only;
+the object at its true pose, its own grasp planned there; its printed success judges the pursued grasp's planned
+closures where the hand stopped), in an
 ambiguous episode: w held at the paper's (0.9, 0.9, 0.1) with the noise of an
 unsharpened intent, the operator wanting usage and transfer; bags/shared_control_cup is
 ``--objects cup --only 0 --record``. With ``--estimator`` the suite runs the intent estimator, the only source
@@ -75,7 +98,8 @@ Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and 
 
     ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=97 \
         .venv/bin/python benchmarks/bench_shared_control.py [--quick] [--operators 50] [--json runs.json] \
-            [--conditions none blend confidence] [--no-execute]
+            [--conditions none blend confidence] [--no-execute] [--tracker-mm 5 --tracker-deg 3] \
+            [--operator-mm 5 --operator-deg 3]
 """
 
 from __future__ import annotations
@@ -93,15 +117,17 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _bench import REPO, Probe, loopback_domain, stopped_after, uptime
+from _bench import REPO, Probe, bootstrap_ci, loopback_domain, stopped_after, uptime
 
 from grasp_intent_ros.method.features import FINGERS
 from grasp_intent_ros.method.intent import all_zones, interpret
+from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import default_base_T_obj, obj_T_ee_to_features
+from grasp_intent_ros.mico.frames import default_base_T_obj
 from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
-from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
-from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRules
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.mico.mock_arm import MockArm
+from grasp_intent_ros.objects.demos import object_of
 from grasp_intent_ros.planning.options import node_default_options
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error
@@ -120,11 +146,15 @@ from grasp_intent_ros.shared_control.operators import (
     ScriptedOperator,
     SharpeningIntent,
 )
-from grasp_intent_ros.shared_control.simulator import certain_grasps
+from grasp_intent_ros.shared_control.simulator import certain_grasp, certain_grasps, perturb_pose
 from grasp_intent_ros.wire.diagnostics import ESTIMATOR_COMPONENT
+from grasp_intent_ros.wire.robot_state import Hand, fingers_settled, hand_state
 
-OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
+OBJECTS = {'cup': 'cup_7zone', 'flashlight': 'flashlight_7zone'}
+"""The benchmark's objects and their models; the judge's rules are each model's object's (``object_of``)."""
 CONDITIONS = ('none', 'blend', 'confidence')
+PAIRS = (('confidence', 'none'), ('confidence', 'blend'), ('blend', 'none'))
+"""The paired comparisons (:func:`paired`): the first condition against the second, on the same operators."""
 EXECUTES = 'confidence'
 """The condition whose grasp command executes the shown grasp (the suite's assistance; module docstring)."""
 BASE_T_OBJ = default_base_T_obj()
@@ -132,6 +162,16 @@ BASE_T_OBJ = default_base_T_obj()
 PERIOD = 0.01
 W_EVERY = 10
 """Operator ticks per w (10 Hz)."""
+CLOSE_TIMEOUT = 10.0
+"""Seconds the probe waits for the fingers at rest after ``grasp/close`` (they close at their speed limit)."""
+VIEWS = 1
+"""The last seed word of an operator's views (the tracker's and its own) and own closure error: a stream of its
+own, so the intent's and the device's draws (the seed without it) are those of the benchmark before the views."""
+
+
+def load_model(name: str) -> GraspModel:
+    """The shipped model of object ``name`` (:data:`OBJECTS`)."""
+    return ModelFiles(config_dir() / 'models').load(OBJECTS[name])
 
 
 def joystick(op: OperatorConstants, rng: np.random.Generator) -> ScriptedOperator:
@@ -139,10 +179,9 @@ def joystick(op: OperatorConstants, rng: np.random.Generator) -> ScriptedOperato
     return ScriptedOperator('joystick', op, rng, PERIOD)
 
 
-def own_goals(model_name: str, kin: MicoKinematics) -> dict[int, Grasp]:
-    """The operator's own grasp per task set (module docstring), chosen without the rules."""
-    return certain_grasps(ModelFiles(config_dir() / 'models').load(model_name), BASE_T_OBJ, kin,
-                          options=node_default_options())
+def own_goals(model: GraspModel, kin: MicoKinematics) -> dict[int, Grasp]:
+    """The recorded operator's own grasp per task set (module docstring), at the true pose, without the rules."""
+    return certain_grasps(model, BASE_T_OBJ, kin, options=node_default_options())
 
 
 @dataclass
@@ -160,6 +199,8 @@ class Run:
     effort_angular: float = 0.0
     wrong_pull: float = 0.0
     alpha_mean: float = 0.0
+    closures: list[float] = field(default_factory=list)
+    """The closures judged (rad): the fingers' at rest after ``grasp/close``, or the own grasp's (module docstring)."""
     alpha_samples: int = field(default=0, repr=False)
 
 
@@ -181,6 +222,7 @@ class Loop:
         self.probe, self.kin = probe, kin
         node = probe.node
         self.hands: Perceived[np.ndarray] = Perceived(keep=200)  # base_T_ee by monotonic receipt
+        self.joints: tuple[float, Any] | None = None  # the latest joint state, with its monotonic receipt
         self.plans: list[tuple[float, np.ndarray, np.ndarray]] = []  # (monotonic, base_T_grasp, features)
         self.alphas: list[tuple[float, float]] = []
         self.outputs: list[tuple[int, float]] = []  # (receive ns, angular.z)
@@ -188,9 +230,11 @@ class Loop:
         self._lock = threading.Lock()
 
         def on_joints(msg: Any) -> None:
+            received = time.monotonic()
+            self.joints = (received, msg)
             q = joint_positions(msg, ARM_JOINTS)
             if q is not None:
-                self.hands.add(time.monotonic(), kin.fk(q))
+                self.hands.add(received, kin.fk(q))
 
         def on_pose(msg: Any) -> None:
             self._poses[(msg.header.stamp.sec, msg.header.stamp.nanosec)] = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
@@ -228,6 +272,12 @@ class Loop:
         self._set_params = node.create_client(SetParameters, 'assistance/set_parameters')
         self._reset = node.create_client(Trigger, 'mock_arm/reset')
         self._execute = node.create_client(Trigger, 'grasp/execute')
+        self._close = node.create_client(Trigger, 'grasp/close')
+        self._object_pub: Any = None  # made by show_object: a recording's suite sees no publisher of the pose
+        self._pose_type, self._output_qos = PoseStamped, output_qos
+        from rcl_interfaces.srv import GetParameters
+        self._arm_parameters = node.create_client(GetParameters, 'mock_arm/get_parameters')
+        self._get_parameters = GetParameters
         from std_srvs.srv import SetBool
         self._enable = node.create_client(SetBool, 'assistance/enable')
         self._set_bool = SetBool
@@ -289,6 +339,64 @@ class Loop:
             time.sleep(min(PERIOD, command.close_at - now))
         return time.monotonic()
 
+    def hold(self, done: Any, timeout: float) -> bool:
+        """Zero twists at 100 Hz until ``done(now)`` (monotonic s) holds (True) or ``timeout`` s pass (False)."""
+        still, end = self.twist(np.zeros(6)), time.monotonic() + timeout
+        while not done(now := time.monotonic()):
+            if now > end:
+                return False
+            self.twist_pub.publish(still)
+            time.sleep(PERIOD)
+        return True
+
+    def hand(self) -> Hand | None:
+        """The hand of the latest joint state (:func:`~grasp_intent_ros.wire.robot_state.hand_state`)."""
+        joints = self.joints
+        return None if joints is None else hand_state(joints[1], self.kin, joints[0])
+
+    def close(self) -> Hand | None:
+        """The grasp command's close: ``grasp/close``, then zero twists until the fingers are seen at rest.
+
+        The hand read in a joint state received at least the demo's ``CLOSE_SETTLE`` s after the answer, every
+        finger at rest (:func:`~grasp_intent_ros.wire.robot_state.fingers_settled`): its fingers are the closures
+        the mock arm executed (the latest plan's plus its closure error). None when the close is refused or the
+        fingers are not at rest within :data:`CLOSE_TIMEOUT` s (both printed).
+        """
+        from grasp_intent_ros.launch.demo_loop import CLOSE_SETTLE
+
+        answer = self.call(self._close, self._trigger.Request())
+        if not answer.success:
+            print(f'bench_shared_control: grasp/close refused: {answer.message}', file=sys.stderr)
+            return None
+        closed = time.monotonic()
+        if not self.hold(lambda now: fingers_settled(self.hand(), closed, CLOSE_SETTLE), CLOSE_TIMEOUT):
+            print(f'bench_shared_control: the fingers not at rest {CLOSE_TIMEOUT:g} s after grasp/close',
+                  file=sys.stderr)
+            return None
+        return self.hand()
+
+    def show_object(self, base_T_obj: np.ndarray) -> bool:
+        """Publish ``base_T_obj`` on ``object/pose`` (the tracker's), then wait up to 5 s for the plan it causes.
+
+        The planner replans its latest v on a new object pose; whether that plan came (it does not when the planner
+        has no v yet or finds nothing reachable). The assistance takes the pose from the same message.
+        """
+        from grasp_intent_ros.ros.robot import matrix_to_pose_msg
+
+        if self._object_pub is None:
+            self._object_pub = self.probe.node.create_publisher(self._pose_type, 'object/pose', self._output_qos())
+            matched = self.probe.wait_for(lambda: self._object_pub.get_subscription_count() >= 2, 10.0)
+            assert matched, 'the planner and the assistance do not subscribe to object/pose'
+        plans = len(self.plans)
+        self._object_pub.publish(matrix_to_pose_msg(base_T_obj, frame_id=BASE_FRAME,
+                                                    stamp=self.probe.node.get_clock().now().to_msg()))
+        return self.probe.wait_for(lambda: len(self.plans) > plans, 5.0)
+
+    def closure_error(self) -> float:
+        """The mock arm's ``closure_error`` (rad): the standard deviation of each finger's error on a close."""
+        answer = self.call(self._arm_parameters, self._get_parameters.Request(names=['closure_error']))
+        return float(answer.values[0].double_value)
+
     def plan_at(self, t: float) -> tuple[np.ndarray, np.ndarray] | None:
         """The last plan received by monotonic time ``t``: (base_T_grasp, features)."""
         with self._lock:
@@ -301,15 +409,25 @@ class Loop:
         return self.hands.at(t)
 
 
-def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: Grasp, rules: ObjectRules,
+def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: Grasp, model: GraspModel,
                  rng: np.random.Generator, timeout: float, run: Run, sends_w: bool = True,
-                 execute: bool = False) -> None:
-    """Run one operator until it closes the hand or ``timeout``; fills ``run`` (judged by ``rules`` after).
+                 execute: bool = False, own_closures: np.ndarray | None = None) -> None:
+    """Run one operator until it closes the hand or ``timeout``; fills ``run`` (judged after, at the true pose).
 
     ``sends_w`` False: w comes from elsewhere (the intent estimator), the operator waits for a plan only.
-    ``execute``: a close on the shown grasp executes it first (:meth:`Loop.execute`); the hand is judged where the
-    execution left it, with the newest plan's closures, and the time to grasp runs to the execution's end.
+    ``execute``: a close on the shown grasp executes it first (:meth:`Loop.execute`); the time to grasp runs to the
+    execution's end. ``own_closures`` (shape (3,), rad), the benchmark's: a close on the shown grasp calls
+    ``grasp/close`` and the hand is judged at rest with the fingers' executed closures (:meth:`Loop.close`); a close
+    on the operator's own grasp closes nothing and is judged where the hand came to rest with ``own_closures`` (the
+    own grasp's plus a closure error: module docstring). None (the recording): nothing closes, the hand is judged
+    where it is with the closures of the grasp pursued (the plan seen, or the own grasp). The judge:
+    :func:`~grasp_intent_ros.launch.demo_judge.judge` with ``model``'s object's rules, never seen by the operator.
     """
+    from grasp_intent_ros.launch.demo_judge import judge
+
+    rules = object_of(model)
+    assert rules is not None, f'the model {model.name!r} names no object the rules know'
+
     task_set = intent.task_set(0.0)
     if sends_w:
         first_plan = len(loop.plans)
@@ -331,14 +449,24 @@ def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: G
         step = operator_step(device, now, loop.hand_at(now - op.reaction),
                              None if plan_seen is None else plan_seen[0], own.base_T_ee)
         if step.close:  # the hand it saw is there: the hand now is too (seen later)
-            closures = own.positions[6:] if step.pursued == 'own' or plan_seen is None else plan_seen[1][FINGERS]
+            on_own = step.pursued == 'own' or plan_seen is None
+            closures = own.positions[6:] if on_own or plan_seen is None else plan_seen[1][FINGERS]
             if executes(step, execute):  # the arm goes to the newest plan, whose closures the fingers take
                 now = loop.execute()
                 t, newest = now - start, loop.plan_at(now)
                 closures = closures if newest is None else newest[1][FINGERS]
-            reached = obj_T_ee_to_features(np.linalg.inv(BASE_T_OBJ) @ loop.hand_at(now), closures)
-            run.success, run.pursued = rules.label(reached) & task_set == task_set, step.pursued
-            run.time_to_grasp = t
+            run.pursued, run.time_to_grasp = step.pursued, t
+            base_T_ee = loop.hand_at(now)
+            if own_closures is not None and on_own:  # nothing to close to: the mock arm closes to the plan's
+                loop.hold(lambda now: hand_at_rest(loop.hands, now), CLOSE_TIMEOUT)
+                base_T_ee, closures = loop.hand_at(time.monotonic()), own_closures
+            elif own_closures is not None:
+                hand = loop.close()
+                base_T_ee, closures = (None, closures) if hand is None else (hand.base_T_ee, hand.fingers)
+            if base_T_ee is not None:
+                verdict = judge(model, BASE_T_OBJ, base_T_ee, closures)
+                run.success = verdict.label is not None and verdict.label & task_set == task_set
+            run.closures = [float(c) for c in closures]
             break
         if t >= timeout:
             break
@@ -478,11 +606,10 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
                op: OperatorConstants) -> tuple[list[Run], dict[str, float]]:
     from grasp_intent_ros.launch.suite import NodeSuite
 
-    model_name, rules = OBJECTS[name]
-    kin = MicoKinematics()
-    goals = own_goals(model_name, kin)
+    model, kin = load_model(name), MicoKinematics()
+    fingers = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0])  # its close_fingers: the own closures as the arm clips
     suite = NodeSuite(domain_id, cwd=REPO)
-    suite.start_nodes(model=model_name, shared_control=True)
+    suite.start_nodes(model=OBJECTS[name], shared_control=True)
     probe = Probe(domain_id, 'bench_operator')
     runs: list[Run] = []
     with stopped_after(suite, probe):
@@ -499,16 +626,27 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
         latency.update({f'stream_{k}': v for k, v in stream.items()})
         if args.stream_only:
             return runs, latency
+        closure_error = loop.closure_error()
         for i in args.only or range(args.operators):
             order = [c for c in CONDITIONS[i % 3:] + CONDITIONS[:i % 3] if c in args.conditions]
+            views = np.random.default_rng([args.seed, list(OBJECTS).index(name), i, VIEWS])
+            tracked = perturb_pose(BASE_T_OBJ, 1e-3 * args.tracker_mm, math.radians(args.tracker_deg), views)
+            seen = perturb_pose(BASE_T_OBJ, 1e-3 * args.operator_mm, math.radians(args.operator_deg), views)
+            own_error = views.normal(0.0, closure_error, 3)
+            if not loop.show_object(tracked):
+                print(f'bench_shared_control: no plan within 5 s of operator {i}\'s object pose', file=sys.stderr)
+            own: Grasp | None = None
             for condition in order:
                 rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), i])
                 intent = SharpeningIntent.draw(rng)
+                if own is None:  # the operator's own grasp for its set, planned where it sees the object
+                    own = certain_grasp(model, intent.true_set, seen, kin, options=node_default_options())
                 loop.set_arbitration(condition)
                 loop.reset_arm()
                 run = Run(name, i, condition, intent.true_set)
-                run_operator(loop, op, intent, goals[intent.true_set], rules, rng, args.timeout, run,
-                             execute=condition == EXECUTES and not args.no_execute)
+                run_operator(loop, op, intent, own, model, rng, args.timeout, run,
+                             execute=condition == EXECUTES and not args.no_execute,
+                             own_closures=fingers.close_fingers(own.positions[6:] + own_error))
                 runs.append(run)
                 print(f'[{name}] operator {i:3d} {condition:10s} S={intent.true_set} success={run.success!s:5s} '
                       f't={run.time_to_grasp:6.2f} s wrong pull {run.wrong_pull:5.2f} s alpha {run.alpha_mean:.2f}',
@@ -544,11 +682,10 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
     from grasp_intent_ros.launch.suite import NodeSuite
     from grasp_intent_ros.sessions.fixtures import compact_into, recording
 
-    model_name, rules = OBJECTS[name]
-    kin = MicoKinematics()
+    model, kin = load_model(name), MicoKinematics()
     work = Path(tempfile.mkdtemp(prefix='record_closed_loop_'))
     suite = NodeSuite(domain_id, cwd=REPO, log_dir=work / 'logs')
-    suite.start_nodes(model=model_name, shared_control=True)  # the estimator after the recorder (below)
+    suite.start_nodes(model=OBJECTS[name], shared_control=True)  # the estimator after the recorder (below)
     probe = Probe(domain_id, 'bench_operator')
     rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), index])
     intent = PersistentIntent(RECORDED_W, ESTIMATED_TASKS if estimated else RECORDED_TASKS,
@@ -574,14 +711,13 @@ def record_session(name: str, index: int, out: Path, args: argparse.Namespace, d
                      f'{sorted(recorder.recorded_topics)}\n{suite.died()}')
         loop.set_arbitration('confidence')
         if estimated:  # its own grasp for its set, or the shown one when that serves the set
-            goal = own_goals(model_name, kin)[intent.true_set]
+            goal = own_goals(model, kin)[intent.true_set]
         else:  # the recorded operator wants the grasp it is shown: the planner's for the recorded w, from Home
-            shown = plan_grasp(ModelFiles(config_dir() / 'models').load(model_name),
-                               interpret(np.array(RECORDED_W)).v, all_zones(3), BASE_T_OBJ, kin,
+            shown = plan_grasp(model, interpret(np.array(RECORDED_W)).v, all_zones(3), BASE_T_OBJ, kin,
                                options=node_default_options())
             assert isinstance(shown, Grasp), shown
             goal = shown
-        run_operator(loop, op, intent, goal, rules, rng, args.timeout, run, sends_w=not estimated)
+        run_operator(loop, op, intent, goal, model, rng, args.timeout, run, sends_w=not estimated)
         still = loop.twist(np.zeros(6))
         end = time.monotonic() + HOLD_S
         while time.monotonic() < end:
@@ -615,6 +751,31 @@ def summary(runs: list[Run], timeout: float) -> dict[str, dict[str, float]]:
     return out
 
 
+def paired(runs: list[Run], timeout: float) -> dict[str, dict[str, Any]]:
+    """Per pair of :data:`PAIRS` run on the same operators: the success difference and the time-to-grasp ratio.
+
+    ``success_diff``: the mean over operators of success(a) - success(b), with its 95% bootstrap CI (10 000
+    resamples of the operators, seeded 0); ``time_ratio``: exp of the mean log ratio of the times to grasp (a
+    failure counted as ``timeout``), with its CI the same way.
+    """
+    rng = np.random.default_rng(0)
+    by = {(r.condition, r.operator): r for r in runs}
+    out: dict[str, dict[str, Any]] = {}
+    for a, b in PAIRS:
+        ops = sorted(i for c, i in by if c == a and (b, i) in by)
+        if not ops:
+            continue
+
+        def time(r: Run) -> float:
+            return r.time_to_grasp if r.success else timeout
+
+        d, lo, hi = bootstrap_ci([float(by[a, i].success) - float(by[b, i].success) for i in ops], rng)
+        m, rlo, rhi = bootstrap_ci([math.log(time(by[a, i]) / time(by[b, i])) for i in ops], rng)
+        out[f'{a}-{b}'] = {'operators': len(ops), 'success_diff': d, 'ci': [lo, hi], 'time_ratio': math.exp(m),
+                           'time_ratio_ci': [math.exp(rlo), math.exp(rhi)]}
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--operators', type=int, default=50, help='seeded operators per object')
@@ -631,6 +792,12 @@ def main() -> None:
     parser.add_argument('--stream-only', action='store_true', help='the latency and stream phases only')
     parser.add_argument('--conditions', nargs='+', default=list(CONDITIONS), choices=CONDITIONS,
                         help='run only these conditions (in the rotating order of the full run)')
+    parser.add_argument('--tracker-mm', type=float, default=5.0, help='RMS position error (mm) of the object pose '
+                        'published to the suite, drawn per operator (module docstring)')
+    parser.add_argument('--tracker-deg', type=float, default=3.0, help='RMS rotation error (deg) of that pose')
+    parser.add_argument('--operator-mm', type=float, default=5.0, help='RMS position error (mm) of the operator\'s '
+                        'view of the object, where its own grasp is planned')
+    parser.add_argument('--operator-deg', type=float, default=3.0, help='RMS rotation error (deg) of its view')
     parser.add_argument('--no-execute', action='store_true', help='the grasp command executes nothing: the hand is '
                         'judged where the operator closed it under every condition')
     parser.add_argument('--record', type=Path, metavar='BAG',
@@ -650,8 +817,9 @@ def main() -> None:
     report: dict[str, Any] = {'operator': asdict(op), 'objects': {}}
     for name in args.objects:
         runs, latency = run_object(name, args, domain_id, op)
-        table = summary(runs, args.timeout)
-        report['objects'][name] = {'latency': latency, 'summary': table, 'runs': [asdict(r) for r in runs]}
+        table, pairs = summary(runs, args.timeout), paired(runs, args.timeout)
+        report['objects'][name] = {'latency': latency, 'summary': table, 'paired': pairs,
+                                   'runs': [asdict(r) for r in runs]}
         print(f'\n[{name}] blended twist: {latency["rate_hz"]:.1f} Hz, operator -> blended latency median '
               f'{latency["median_ms"]:.2f} ms, p99 {latency["p99_ms"]:.2f} ms, max {latency["max_ms"]:.2f} ms '
               f'({latency["answered"]}/{latency["twists"]} answered; {latency["load"]})')
@@ -661,6 +829,10 @@ def main() -> None:
             print(f'{condition:12s} {row["n"]:3.0f} {row["success"]:8.2f} {row["median_ttg_success"]:11.2f} '
                   f'{row["median_ttg_all"]:12.2f} {row["effort_linear"]:9.3f} {row["effort_angular"]:10.3f} '
                   f'{row["wrong_pull_total"]:13.2f} {row["wrong_pull_operators"]:9.0f} {row["alpha_mean"]:6.2f}')
+        for pair, diff in pairs.items():
+            print(f'{pair:18s} success {diff["success_diff"]:+.2f} [{diff["ci"][0]:+.2f}, {diff["ci"][1]:+.2f}], '
+                  f'time to grasp ratio {diff["time_ratio"]:.2f} [{diff["time_ratio_ci"][0]:.2f}, '
+                  f'{diff["time_ratio_ci"][1]:.2f}] ({diff["operators"]} operators, 95% bootstrap CIs)')
         if 'none' in table and 'confidence' in table:
             ratio = table['confidence']['median_ttg_all'] / table['none']['median_ttg_all']
             print(f'confidence / direct median time to grasp (failures at the timeout): {ratio:.2f} '
