@@ -1,8 +1,9 @@
 """What the process benchmarks share: the network rule, a probe node, w, the planner primed, the teardown.
 
-Not a benchmark itself. Its submodules are shared with the tests (setup.cfg puts benchmarks/ on pytest's
-path): :mod:`_bench.cdp` (a headless Chromium driven over the DevTools protocol) and :mod:`_bench.fuzz_inputs`
-(malformed inputs for every input topic).
+Not a benchmark itself. Its submodules :mod:`_bench.cdp` (a headless Chromium driven over the DevTools protocol)
+and :mod:`_bench.fuzz_inputs` (malformed inputs for every input topic) are shared with the tests (setup.cfg puts
+benchmarks/ on pytest's path); :mod:`_bench.closed_loop` (the live closed loop's probe side and judge) and
+:mod:`_bench.closed_loop_record` (that loop recorded as a session bag) are ``bench_shared_control.py``'s.
 
 The probe is an rclpy node in a private Context, spun by an executor in a thread of its own; callbacks
 record the middleware's receive time of each message (``received_timestamp`` of the message info),
