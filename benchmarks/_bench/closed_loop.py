@@ -74,6 +74,8 @@ class Run:
     wrong_pull: float = 0.0
     alpha_mean: float = 0.0
     closures: list[float] = field(default_factory=list)
+    verdict: str = ''
+    """The judge's verdict in words (which rules failed); '' when nothing was judged."""
     """The closures judged (rad): the fingers' at rest after ``grasp/close``, or the own grasp's (run_operator)."""
     alpha_samples: int = field(default=0, repr=False)
 
@@ -340,6 +342,7 @@ def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: G
             if base_T_ee is not None:
                 verdict = judge(model, BASE_T_OBJ, base_T_ee, closures)
                 run.success = verdict.label is not None and verdict.label & task_set == task_set
+                run.verdict = verdict.text
             run.closures = [float(c) for c in closures]
             break
         if t >= timeout:
