@@ -33,8 +33,7 @@ Threads and processes
     The executor's thread (single-threaded) runs every callback and owns the
     :class:`~grasp_intent_ros.shared_control.assistance.Assistance`. The joint path's search runs in a process of
     its own (:class:`~grasp_intent_ros.shared_control.path_search.PathWorker`; in a thread its share of the lock
-    delayed outputs), at the CPU priority ``path_search_priority`` (``'idle'``: an output computed while a search
-    runs takes the search's core at once). Every grasp and object pose asks for the path again from the joints of that moment; meanwhile
+    delayed outputs). Every grasp and object pose asks for the path again from the joints of that moment; meanwhile
     a bit-identical grasp and object keep the previous path in use, else the output is the operator's twist alone
     (alpha 0, ``seeking a path``). A search that raises, or the process ending: ERROR (the path sought no more).
 
@@ -101,8 +100,7 @@ class AssistanceNode(Node):
         self._kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
         hand = self._params.build('urdf_path', lambda path: HandCollision(path or None))
         self._paths = PathWorker(self._params['urdf_path'] or None, name=f'{node_name}_paths', on_error=lambda text:
-                                 self._diag.rejected('internal error: path search', level=ERROR, detail=text),
-                                 priority=self._params['path_search_priority'])
+                                 self._diag.rejected('internal error: path search', level=ERROR, detail=text))
         self._assist = Assistance(AssistanceConfig(), TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin, hand)
         self._base_T_obj = object_pose(self._params)
         self._body: ObjectBody | None = None

@@ -22,7 +22,6 @@ from .calibration import model_calibration
 from .estimator import EstimatorConfig
 from .operator_loop import EXECUTE_TIMEOUT
 from .operators import DEVICES
-from .path_search import DEFAULT_PRIORITY, PRIORITIES
 
 __all__ = ['OPERATOR_INPUT', 'APPROACH', 'ASSISTANCE', 'ESTIMATOR', 'estimator_config', 'check_estimator',
            'OPERATOR_INTENTS', 'SCRIPTED_OPERATOR', 'check_scripted_operator']
@@ -84,10 +83,6 @@ ASSISTANCE = (
     ParamSpec('max_angular_acceleration', 5.0, 'Output angular acceleration limit, rad/s^2.', range=_POSITIVE),
     ParamSpec('publish_period', 0.01, 'Longest time between two outputs, s (MoveIt Servo: publish_period).',
               range=(0.001, 1.0), read_only=True),
-    ParamSpec('path_search_priority', DEFAULT_PRIORITY, "The CPU priority of the robot's joint path search (a "
-              "process of its own): 'idle' (Linux's SCHED_IDLE, elsewhere the lowest nice value: it yields its core "
-              "at once to other work, an output first) or 'normal' (the node's).", validator=one_of(PRIORITIES),
-              read_only=True),
     *OBJECT_POSE,
     *OPERATOR_INPUT,
     URDF_PATH,

@@ -22,9 +22,7 @@ search, one definition, wherever it runs:
   never holds more than one request (a hung process never blocks the caller). An answer for an older request
   of the same grasp, object and phase is still taken (the assistance's class docstring says what it uses while
   a search runs). The process ends when asked (:meth:`PathWorker.stop`) or when the caller's end of the pipe
-  closes (the caller's process ended, however). Its searches run at a lower CPU priority than the caller
-  (:data:`PRIORITIES`), so that on a machine with few cores an output computed while a search runs takes the
-  core from the search at once, rather than sharing it.
+  closes (the caller's process ended, however).
 
 ROS-free.
 """
@@ -42,7 +40,6 @@ import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from multiprocessing.connection import Connection
-from pathlib import Path
 from typing import Protocol
 
 import numpy as np
@@ -54,8 +51,8 @@ from ..mico.kinematics import HOME_Q, MicoKinematics
 from .clearance import PathClearance, clear_path
 from .joint_path import joint_path, line_turns, near_grasp
 
-__all__ = ['PathRequest', 'PathAnswer', 'seek_path', 'PathSource', 'PathSearch', 'PathWorker', 'PRIORITIES',
-           'DEFAULT_PRIORITY', 'STOP_TIMEOUT', 'serve', 'warm_up_scene', 'lower_priority']
+__all__ = ['PathRequest', 'PathAnswer', 'seek_path', 'PathSource', 'PathSearch', 'PathWorker', 'STOP_TIMEOUT', 'serve',
+           'warm_up_scene']
 
 
 @dataclass(frozen=True)
@@ -142,12 +139,6 @@ class PathSearch:
         return seek_path(self.kin, request)
 
 
-PRIORITIES = ('idle', 'normal')
-"""A :class:`PathWorker`'s CPU priorities (:func:`lower_priority`)."""
-DEFAULT_PRIORITY = 'idle'
-"""The assistance node's (its parameter ``path_search_priority``)."""
-
-
 class PathWorker:
     """Seeks in a process of its own (module docstring); :meth:`stop` ends it.
 
@@ -163,20 +154,10 @@ class PathWorker:
     search : callable, optional
         ``search(kin, request) -> PathAnswer``, run in the process (picklable: a module-level function);
         default :func:`seek_path`.
-    priority : str, optional
-        The process's CPU priority while it serves (one of :data:`PRIORITIES`; its start and warm-up run at the
-        caller's): :func:`lower_priority`.
-
-    Raises
-    ------
-    ValueError
-        ``priority`` is not one of :data:`PRIORITIES`.
     """
 
     def __init__(self, urdf_path: str | None = None, *, name: str, on_error: Callable[[str], object],
-                 search: Callable[[MicoKinematics, PathRequest], PathAnswer] | None = None,
-                 priority: str = DEFAULT_PRIORITY) -> None:
-        _check_priority(priority)
+                 search: Callable[[MicoKinematics, PathRequest], PathAnswer] | None = None) -> None:
         # a new interpreter (never a fork of a process that runs threads: rclpy's, DDS's), which imports this
         # module, not the caller's main module (as multiprocessing's spawn would), on the caller's import path
         ours, theirs = socket.socketpair()
@@ -187,7 +168,7 @@ class PathWorker:
         theirs.close()
         self.name = name
         self._conn = Connection(ours.detach())
-        self._conn.send((urdf_path, seek_path if search is None else search, priority))
+        self._conn.send((urdf_path, seek_path if search is None else search))
         self._on_error = on_error
         self._asked: tuple[int, int, str] | None = None  # the key last asked for
         self._waiting: PathRequest | None = None  # the newest request not handed over (one is being sought)
@@ -291,23 +272,17 @@ _READY = 'ready'
 def serve(fd: int) -> None:
     """The process of a :class:`PathWorker` (its end of the pipe: ``fd``): answer each request until None or EOF.
 
-    The first message is the URDF's path, the search and the priority; the process lowers its priority
-    (:func:`lower_priority`) after its warm-up and answers ``'ready'``; then requests, each answered with
-    ``(answer, None)``, or ``(no path, traceback)`` when the search raised.
+    The first message is the URDF's path and the search; the process answers ``'ready'`` after its warm-up; then
+    requests, each answered with ``(answer, None)``, or ``(no path, traceback)`` when the search raised.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a terminal's Ctrl-C reaches both: the caller stops this one
     conn = Connection(fd)
     try:
-        urdf_path, search, priority = conn.recv()
+        urdf_path, search = conn.recv()
     except EOFError:
         return
     kin, hand = MicoKinematics(urdf_path), HandCollision(urdf_path)
     _warm_up(kin, hand)
-    try:
-        lower_priority(priority)
-    except OSError as error:  # never expected (lowering needs no privilege): it serves on, at the caller's priority
-        print(f'path search process: its priority {priority!r} not set ({error}): it runs at its caller\'s',
-              file=sys.stderr, flush=True)
     conn.send(_READY)
     while True:
         try:
@@ -323,45 +298,6 @@ def serve(fd: int) -> None:
         except Exception:  # noqa: BLE001 - reported by the caller; the process serves on
             reply = (PathAnswer(request.key, None, False), traceback.format_exc())
         conn.send(reply)
-
-
-def lower_priority(priority: str) -> None:
-    """Set the calling process's CPU priority (each of its threads'): ``priority``, one of :data:`PRIORITIES`.
-
-    ``'idle'``: Linux's ``SCHED_IDLE`` policy, whose threads run only when no thread of another policy wants their
-    core (within the same scheduling group: with the kernel's autogroups, a session's), and are preempted at once
-    when one wakes; where the system has no ``SCHED_IDLE`` (not Linux), the lowest nice value, 19 (a thread of
-    nice 0 gets about 70 times its share of a core; a waking one preempts it as the scheduler decides); where it
-    has neither (Windows), nothing changes. ``'normal'``: nothing changes (the caller's priority, inherited).
-    Lowering needs no privilege; raising it back would (so it is done once, in the process it concerns).
-
-    Raises
-    ------
-    ValueError
-        ``priority`` is not one of :data:`PRIORITIES`.
-    OSError
-        The system refused.
-    """
-    _check_priority(priority)
-    if priority == 'normal':
-        return
-    # Linux sets a policy or a nice value per thread: every thread the process has (pid 0 alone: the caller's)
-    tasks = Path('/proc/self/task')
-    threads = [int(entry.name) for entry in tasks.iterdir()] if tasks.is_dir() else [0]
-    if hasattr(os, 'SCHED_IDLE'):
-        for tid in threads:
-            os.sched_setscheduler(tid, os.SCHED_IDLE, os.sched_param(0))
-    elif hasattr(os, 'setpriority'):
-        os.setpriority(os.PRIO_PROCESS, 0, _LOWEST_NICE)
-
-
-_LOWEST_NICE = 19
-"""The lowest CPU priority a POSIX nice value gives."""
-
-
-def _check_priority(priority: str) -> None:
-    if priority not in PRIORITIES:
-        raise ValueError(f'priority must be one of {", ".join(PRIORITIES)}; got {priority!r}')
 
 
 def warm_up_scene(kin: MicoKinematics) -> tuple[NDArray[np.float64], NDArray[np.float64], ObjectBody]:

@@ -22,7 +22,6 @@ from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, Mic
 from grasp_intent_ros.nodes.assistance import ENABLE_SERVICE, AssistanceNode
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.conversions import array_to_msg, posterior_to_msg
-from grasp_intent_ros.ros.params import ParameterError
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control import path_search
 from grasp_intent_ros.shared_control.assistance import joint_space_twist
@@ -281,8 +280,6 @@ def test_the_output_keeps_coming_while_the_path_is_sought_in_a_process_of_its_ow
             ros.wait_for(lambda: (tmp_path / 'started').exists(), 0.02)
         assert (tmp_path / 'started').exists(), 'no path sought after the grasp, v and the joint state'
         assert int((tmp_path / 'started').read_text()) == worker.pid != os.getpid()
-        if hasattr(os, 'SCHED_IDLE'):  # the default path_search_priority, 'idle'
-            assert os.sched_getscheduler(worker.pid) == os.SCHED_IDLE
         count = len(loop.alphas)
         assert ros.publish_until(loop.operator, loop.toward(), lambda: len(loop.alphas) > count + 20, 10.0,
                                  period=0.01)
@@ -292,8 +289,3 @@ def test_the_output_keeps_coming_while_the_path_is_sought_in_a_process_of_its_ow
     loop.assist()
     ros.remove(loop.node)
     assert worker.returncode == 0  # stopped by the node's destruction, not killed
-
-
-def test_an_unknown_path_search_priority_is_refused(ros) -> None:
-    with pytest.raises(ParameterError, match="path_search_priority: must be one of idle, normal; got 'low'"):
-        AssistanceNode(context=ros.context, parameter_overrides=[Parameter('path_search_priority', value='low')])

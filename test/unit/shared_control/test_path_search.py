@@ -29,15 +29,7 @@ from grasp_intent_ros.shared_control.assistance import (
     joint_space_twist,
 )
 from grasp_intent_ros.shared_control.clearance import PathClearance
-from grasp_intent_ros.shared_control.path_search import (
-    PRIORITIES,
-    PathAnswer,
-    PathRequest,
-    PathSearch,
-    PathWorker,
-    lower_priority,
-    seek_path,
-)
+from grasp_intent_ros.shared_control.path_search import PathAnswer, PathRequest, PathSearch, PathWorker, seek_path
 
 from .robot_alone import LABELS, TASKS
 
@@ -247,39 +239,3 @@ def test_the_process_ends_with_its_caller() -> None:
             return True
         return state in ('Z', 'X')  # ended (a zombie until its new parent reaps it)
     assert wait_until(ended)
-
-
-@pytest.mark.skipif(not hasattr(os, 'SCHED_IDLE'), reason="Linux's SCHED_IDLE")
-@pytest.mark.parametrize('priority', PRIORITIES)
-def test_the_process_serves_at_the_priority_asked(priority: str) -> None:
-    # read back from the system, for every thread of the process: 'idle' is SCHED_IDLE, 'normal' this process's
-    # policy and nice value (inherited)
-    errors: list[str] = []
-    worker = PathWorker(name='paths under test', on_error=errors.append, priority=priority)
-    try:
-        assert worker.wait_ready(60.0)  # the priority is set before the process says it is ready
-        threads = [int(entry.name) for entry in Path(f'/proc/{worker.pid}/task').iterdir()]
-        policy = os.SCHED_IDLE if priority == 'idle' else os.sched_getscheduler(0)
-        assert threads and [os.sched_getscheduler(tid) for tid in threads] == [policy] * len(threads)
-        if priority == 'normal':
-            nice = os.getpriority(os.PRIO_PROCESS, 0)
-            assert [os.getpriority(os.PRIO_PROCESS, tid) for tid in threads] == [nice] * len(threads)
-    finally:
-        worker.stop()
-    assert worker.returncode == 0 and not errors
-
-
-def test_without_sched_idle_idle_is_the_lowest_nice_value() -> None:
-    # the fallback where the system has no SCHED_IDLE, in a process of its own (lowering a priority cannot be undone)
-    code = ('import os; del os.SCHED_IDLE; from grasp_intent_ros.shared_control.path_search import lower_priority; '
-            'policy = os.sched_getscheduler(0); lower_priority("idle"); '
-            'print(os.getpriority(os.PRIO_PROCESS, 0), os.sched_getscheduler(0) == policy)')
-    done = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, timeout=120, check=True)
-    assert done.stdout.split() == ['19', 'True']
-
-
-def test_an_unknown_priority_is_refused() -> None:
-    with pytest.raises(ValueError, match="priority must be one of idle, normal; got 'low'"):
-        PathWorker(name='paths under test', on_error=print, priority='low')
-    with pytest.raises(ValueError, match="priority must be one of idle, normal; got 'low'"):
-        lower_priority('low')
