@@ -82,8 +82,8 @@ from .estimator import IntentEstimator
 from .operators import IntentScript, ScriptedOperator, certain_w
 from .sweep import SWEEP_TICKS, PathSweep
 
-__all__ = ['Condition', 'CONDITIONS', 'Scene', 'PlanStream', 'Episode', 'TraceRow', 'execute_grasp', 'simulate',
-           'perturb_pose', 'certain_grasp', 'certain_grasps']
+__all__ = ['Condition', 'CONDITIONS', 'Scene', 'PlanStream', 'Episode', 'TraceRow', 'executes_shown', 'execute_grasp',
+           'simulate', 'perturb_pose', 'certain_grasp', 'certain_grasps']
 
 Condition = Literal['direct', 'ada', 'independent', 'suite']
 CONDITIONS: tuple[Condition, ...] = ('direct', 'ada', 'independent', 'suite')
@@ -190,6 +190,16 @@ class PlanStream:
         if grasp is not None:
             self.warm = grasp.result.x
         return v, grasp
+
+
+def executes_shown(pursued: str, execute_shown: bool) -> bool:
+    """Whether the grasp command on the goal ``pursued`` (``'shown'`` or ``'own'``) executes the shown grasp first.
+
+    True on the shown grasp when ``execute_shown`` (the suite's assistance: conditions ``'suite'`` and
+    ``'independent'`` here, the scripted operator's ``execute_shown`` and the live benchmark's ``confidence``
+    there); otherwise the fingers close where the hand is (module docstring, "The grasp command").
+    """
+    return execute_shown and pursued == 'shown'
 
 
 def execute_grasp(arm: MockArm, base_T_grasp: NDArray[np.float64], now: float, period: float,
@@ -414,7 +424,7 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
             trace[-1].pursued = pursued
         if operator.at_goal(seen, goal):
             closures = own_closures if pursued == 'own' or shown_seen is None else shown_seen.positions[6:]
-            if execute and pursued == 'shown' and shown is not None and condition in ('suite', 'independent'):
+            if executes_shown(pursued, execute and condition in ('suite', 'independent')) and shown is not None:
                 # grasp/execute: the newest plan
                 now = execute_grasp(arm, shown.base_T_ee, now, period, sweep.check)
                 closures, episode.executed = shown.positions[6:], True

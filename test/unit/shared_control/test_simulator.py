@@ -29,6 +29,7 @@ from grasp_intent_ros.shared_control.simulator import (
     Scene,
     TraceRow,
     certain_grasps,
+    executes_shown,
     perturb_pose,
     simulate,
 )
@@ -175,6 +176,12 @@ def test_the_suites_grasp_command_executes_the_shown_grasp(cup) -> None:
             assert distance <= 1e-4 and angle <= 1e-3  # the planned grasp (IK's tolerances, the features' rounding)
             assert CUP_RULES.label(ep.features) & (T | H) == T | H
     assert shortfall[False] > 0.003 and abs(shortfall[True]) <= 1e-4
+
+
+def test_only_the_shown_grasp_is_executed_and_only_under_the_suites_assistance() -> None:
+    assert executes_shown('shown', True)
+    assert not executes_shown('own', True)  # the operator's own grasp: the fingers close where the hand is
+    assert not executes_shown('shown', False)  # direct, ADA, or the grasp command's execute off
 
 
 class _TrueSetOnly:
