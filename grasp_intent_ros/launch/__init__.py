@@ -9,5 +9,9 @@ parent_death
 suite_command
     ``python -m grasp_intent_ros suite``: the suite started, its output echoed, stopped on a signal.
 demo
-    ``python -m grasp_intent_ros demo``: the paper's intent cases sent to a running suite.
+    ``python -m grasp_intent_ros demo``: the paper's intent cases sent to a running suite, then its closed loop.
+demo_loop
+    The demo's closed loop: the scripted operator helped by the assistance on the mock MICO, then without it.
+demo_judge
+    The demo's judge: the tasks a grasp serves by its object's rules, from a hand pose and finger closures.
 """

@@ -1,14 +1,17 @@
-"""The README's main command: the three nodes as separate processes, the paper's intent cases through them.
+"""The README's main command: the suite as separate processes, the paper's intent cases, then the closed loop.
 
 Run: ``python -m grasp_intent_ros demo [--models-dir DIR] [--timeout S]`` (``scripts/demo.sh`` does this)
 
 1. Refuses a domain on which other nodes (:func:`other_nodes`: not hidden ones, such as the ``ros2`` CLI's
-   daemon) show up within :data:`DOMAIN_CHECK` seconds, then starts
-   ``intent_interpreter``, ``model_server`` and ``grasp_planner`` as ``python -m`` processes (with
-   their ``config/<node>.yaml`` parameter files) and waits, up to ``--timeout`` seconds, until each is up:
-   the interpreter subscribes to ``intent/w`` and reports on ``/diagnostics``, the model server publishes
-   ``model/active`` and offers its parameter services, the planner reports the model it received. A node
-   that does not come up is named, with the end of its stderr.
+   daemon) show up within :data:`DOMAIN_CHECK` seconds, then starts ``intent_interpreter``,
+   ``model_server``, ``grasp_planner``, ``mock_arm``, ``assistance`` and ``scripted_operator`` as
+   ``python -m`` processes (with their ``config/<node>.yaml`` parameter files; the operator held back with
+   the closed loop's parameters, :func:`~grasp_intent_ros.launch.demo_loop.operator_args`) and waits, up to
+   ``--timeout`` seconds, until each is up: the interpreter subscribes to ``intent/w`` and reports on
+   ``/diagnostics``, the model server publishes ``model/active`` and offers its parameter services, the
+   planner reports the model it received, the mock arm reports and publishes ``joint_states``, the
+   assistance reports and offers ``assistance/enable``, the scripted operator reports and offers its
+   parameter services. A node that does not come up is named, with the end of its stderr.
 2. Sends the cases of :data:`grasp_intent_ros.cli.paper_tables.CASES` through the running chain with
    :class:`~grasp_intent_ros.cli.send_intent.IntentSender` (an answer is the first plan stamped after the send)
    and prints each with :func:`~grasp_intent_ros.cli.send_intent.format_grasp`: v, P, reconstructed w,
@@ -17,10 +20,17 @@ Run: ``python -m grasp_intent_ros demo [--models-dir DIR] [--timeout S]`` (``scr
    model document (name and version) on ``/diagnostics``; the answer must carry that model's zones.
    A last case with a low intent (0.1, 0.1, 0.1) shows the interpreter's clarification request.
    Below each grasp it prints which tasks the grasp serves by the object's rules (Table I,
-   :data:`grasp_intent_ros.objects.demos.OBJECTS`, the judge the planner never sees): the features are
-   recovered from the published end-effector pose, the finger targets and the planner's object pose (its
-   ``object_position`` and ``object_orientation`` parameters, read once through its parameter service).
-3. Stops every node with SIGINT (SIGKILL after a deadline) and checks each exited with code 0 and
+   :data:`grasp_intent_ros.objects.demos.OBJECTS`, the judge the planner never sees,
+   :mod:`~grasp_intent_ros.launch.demo_judge`): the features are recovered from the published end-effector
+   pose, the finger targets and the planner's object pose (its ``object_position`` and
+   ``object_orientation`` parameters, read once through its parameter service).
+3. The closed loop (:mod:`~grasp_intent_ros.launch.demo_loop`): on ``cup_7zone`` the scripted operator, who
+   wants usage and transfer and holds the ambiguous w (0.9, 0.9, 0.1), drives the mock MICO under the
+   assistance for one episode: the grasp shown and the tasks it serves, the robot's share (alpha), the time to
+   grasp, where the hand ended after the grasp command's execute and close, and the judge's verdict there with
+   the closures the fingers executed; then one episode of the same operator with the help off. Each stage waits
+   up to ``--timeout`` seconds; one that does not complete is named with what is missing.
+4. Stops every node with SIGINT (SIGKILL after a deadline) and checks each exited with code 0 and
    printed no traceback.
 
 Network: :func:`main` sets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and drops ``ROS_STATIC_PEERS`` in
@@ -29,8 +39,9 @@ its own environment before it initialises rclpy, and the nodes get the same
 domain id is ``ROS_DOMAIN_ID`` when set, else one derived from the process id
 (:func:`~grasp_intent_ros.launch.suite.domain_id_from_environment`).
 
-Exit codes: 0 every case answered and every node exited 0; 1 a node did not come up, a case was not
-answered as expected, or a node did not shut down cleanly; 2 bad arguments; 130 interrupted (SIGINT or
+Exit codes: 0 every case answered, the closed loop's two episodes done and every node exited 0; 1 a node did
+not come up, a case was not answered as expected, a stage of the closed loop did not complete in time, or a
+node did not shut down cleanly; 2 bad arguments; 130 interrupted (SIGINT or
 SIGTERM; the nodes are stopped first).
 """
 
@@ -59,14 +70,14 @@ from ..cli.paper_tables import CASES
 from ..cli.send_intent import GraspAnswer, IntentSender, NoGrasp, format_grasp
 from ..errors import GraspIntentError
 from ..method.features import FINGERS
-from ..method.intent import zone_label
 from ..method.model import GraspModel
-from ..mico.frames import obj_T_ee_to_features, pose_to_matrix
-from ..objects.demos import OBJECTS, object_of
+from ..mico.frames import pose_to_matrix
 from ..ros.conversions import model_from_msg
 from ..ros.qos import input_qos, latched_qos
 from ..wire.diagnostics import KEY_MODEL
 from ..wire.model_document import ModelDocument
+from .demo_judge import judge
+from .demo_loop import LOOP_MODEL, LoopError, LoopObserver, operator_args, run_closed_loop
 from .suite import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
 
 __all__ = ['CLARIFICATION_CASE', 'DemoError', 'other_nodes', 'main']
@@ -106,23 +117,13 @@ def other_nodes(names_and_namespaces: Sequence[tuple[str, str]], own: Collection
 def served_tasks(model: GraspModel, base_T_obj: np.ndarray, answer: GraspAnswer) -> str:
     """Which tasks the answered grasp serves by its object's rules, e.g. 'usage, transfer (UT)', or why unknown.
 
-    The grasp features are recovered from the answer's end-effector pose (in the base frame), ``base_T_obj``
-    and the finger targets (the last three joint targets).
+    :func:`~grasp_intent_ros.launch.demo_judge.judge` of the answer's end-effector pose (in the base frame),
+    ``base_T_obj`` and the finger targets (the last three joint targets).
     """
-    rules = object_of(model)
-    if rules is None:
-        return f'unknown (model {model.name!r} names no object of {", ".join(OBJECTS)})'
     p, o = answer.pose.pose.position, answer.pose.pose.orientation
     base_T_ee = pose_to_matrix((p.x, p.y, p.z), (o.x, o.y, o.z, o.w))
     fingers = np.asarray(answer.joints.position, dtype=np.float64)[-(FINGERS.stop - FINGERS.start):]
-    x = obj_T_ee_to_features(np.linalg.inv(base_T_obj) @ base_T_ee, fingers)
-    label = rules.label(x)
-    if not label:
-        failed = '; '.join(f'{task}: {", ".join(n for n, ok in checks.items() if not ok)}'
-                           for task, checks in rules.explain(x).items())
-        return f'no task (failed: {failed})'
-    names = ', '.join(n for i, n in enumerate(model.task_names) if label >> i & 1)
-    return f'{names} ({zone_label(label, model.task_names)})'
+    return judge(model, base_T_obj, base_T_ee, fingers).text
 
 
 # ------------------------------------------------------------------------------------------ the ROS side
@@ -167,15 +168,16 @@ class _Demo:
         self.timeout = timeout
         self.sender = IntentSender('grasp_intent_demo_sender')
         self.observer = _ChainObserver()
+        self.loop = LoopObserver(self._spin_until)
         self.executor = SingleThreadedExecutor()
-        self.executor.add_node(self.sender)
-        self.executor.add_node(self.observer)
+        for node in (self.sender, self.observer, self.loop):
+            self.executor.add_node(node)
         self.base_T_obj: np.ndarray | None = None
 
     def close(self) -> None:
         self.executor.shutdown()
-        self.sender.destroy_node()
-        self.observer.destroy_node()
+        for node in (self.sender, self.observer, self.loop):
+            node.destroy_node()
 
     def _check_alive(self) -> None:
         if problem := self.suite.died():
@@ -208,7 +210,7 @@ class _Demo:
         The demo would talk to them (another run's model_server answers set_parameters just as well). Evidence, not
         proof: discovery on loopback normally takes well under a second.
         """
-        own = {self.sender.get_name(), self.observer.get_name()}
+        own = {node.get_name() for node in (self.sender, self.observer, self.loop)}
 
         def others() -> list[str]:
             return other_nodes(self.observer.get_node_names_and_namespaces(), own)
@@ -230,6 +232,16 @@ class _Demo:
             'grasp_planner': lambda: (
                 'no /diagnostics from it' if obs.status('grasp_planner: planning') is None else
                 'it reports no model received' if not self._planner_model() else ''),
+            'mock_arm': lambda: (
+                'no /diagnostics from it' if obs.status('mock_arm: arm') is None else
+                'no joint_states from it' if self.loop.hand() is None else ''),
+            'assistance': lambda: (
+                'no /diagnostics from it' if obs.status('assistance: assistance') is None else
+                'its enable service is not ready' if not self.loop.enable_client.service_is_ready() else ''),
+            'scripted_operator': lambda: (
+                'no /diagnostics from it' if self.loop.operator_status() is None else
+                'its parameter services are not ready' if not self.loop.operator_parameters.services_are_ready()
+                else ''),
         }
         try:
             down = self.suite.wait_ready(lambda: {name: why for name, check in missing.items() if (why := check())},
@@ -321,7 +333,8 @@ def _run(models_dir: Path | None, timeout: float) -> int:
         rclpy.init(domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
         demo = _Demo(suite, timeout)
         demo.check_domain_unused(domain_id)
-        suite.start_nodes(models_dir=models_dir)
+        suite.start_nodes(models_dir=models_dir, shared_control=True)
+        suite.start('scripted_operator', *suite.node_args('scripted_operator'), *operator_args())
         print(f'ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; started '
               + ', '.join(f'{p.module} (pid {p.pid})' for p in suite.processes), flush=True)
         demo.wait_until_up()
@@ -332,8 +345,12 @@ def _run(models_dir: Path | None, timeout: float) -> int:
                 demo.run_case(title, w, name)
         print(CLARIFICATION_CASE[0])
         demo.run_case(*CLARIFICATION_CASE, None)
+        print('Closed loop: a scripted operator reaches with an ambiguous intent; the assistance helps (mock MICO)')
+        doc = demo.switch_model(LOOP_MODEL)
+        run_closed_loop(demo.loop, doc, demo.object_pose() if demo.base_T_obj is None else demo.base_T_obj,
+                        timeout)
         code = 0
-    except DemoError as exc:
+    except (DemoError, LoopError) as exc:
         print(f'demo: {exc}', file=sys.stderr)
     except (_Interrupted, KeyboardInterrupt):
         print('demo: interrupted, stopping the nodes', file=sys.stderr)
@@ -362,7 +379,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument('--models-dir', type=Path, default=None,
                         help="directory of the trained models (default: the package's config/models)")
     parser.add_argument('--timeout', type=float, default=30.0,
-                        help='seconds to wait for the nodes to come up, and for each answer (default 30)')
+                        help='seconds to wait for the nodes to come up, for each answer and for each stage of '
+                             'the closed loop (default 30)')
     args = parser.parse_args(argv)
     if not args.timeout > 0.0:
         parser.error('--timeout must be positive')

@@ -80,7 +80,7 @@ from ..wire.robot_state import joint_positions, object_pose_msg, pose_msg_to_mat
 
 __all__ = ['AssistanceNode', 'ENABLE_SERVICE', 'main']
 
-ENABLE_SERVICE = 'assistance/enable'
+ENABLE_SERVICE = topics.ASSISTANCE_ENABLE
 """The operator's switch (std_srvs/SetBool)."""
 _EARLY = 0.95
 """An operator twist is answered at once when the last output is at least this many periods old."""

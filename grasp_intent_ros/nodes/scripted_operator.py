@@ -59,14 +59,13 @@ from ..shared_control.operator_loop import OperatorEpisodes, own_grasp
 from ..shared_control.operators import OperatorConstants, PersistentIntent, ScriptedOperator
 from ..shared_control.parameters import SCRIPTED_OPERATOR, check_scripted_operator
 from ..wire import topics
-from ..wire.diagnostics import ERROR, OK, WARN
+from ..wire.diagnostics import ERROR, KEY_EXECUTE, KEY_TIMES_TO_GRASP, OK, OPERATOR_COMPONENT, WARN
 from ..wire.model_document import ModelDocument
 from ..wire.robot_state import joint_positions, object_pose_msg, pose_msg_to_matrix, trajectory_time
 from .mock_arm import GRASP_CLOSE, GRASP_EXECUTE
 
-__all__ = ['ScriptedOperatorNode', 'OPERATOR_COMPONENT', 'ARM_RESET', 'main']
+__all__ = ['ScriptedOperatorNode', 'ARM_RESET', 'main']
 
-OPERATOR_COMPONENT = 'scripted operator'
 ARM_RESET = 'mock_arm/reset'  # the mock arm's reset to its initial joints (std_srvs/Trigger)
 
 
@@ -208,12 +207,12 @@ class ScriptedOperatorNode(Node):
                 self._refused('no answer' if answer is None else answer.message)
             else:
                 self._loop.executed(time.monotonic(), True, answer.message, self._trajectory_time)
-                self._diag.set_values({'execute': answer.message + ('' if self._trajectory_time is None else
+                self._diag.set_values({KEY_EXECUTE: answer.message + ('' if self._trajectory_time is None else
                                                                     f' ({self._trajectory_time:.2f} s)')})
 
     def _refused(self, reason: str) -> None:  # an execute not done: the fingers close where the hand is
         self.get_logger().warning(f'{GRASP_EXECUTE} refused: {reason}; closing where the hand is')
-        self._diag.set_values({'execute': f'refused: {reason}'})
+        self._diag.set_values({KEY_EXECUTE: f'refused: {reason}'})
         self._loop.executed(time.monotonic(), False, reason, None)
 
     def _show(self, now: float) -> None:
@@ -222,7 +221,7 @@ class ScriptedOperatorNode(Node):
         self._diag.set_state(*((ERROR, self._problem) if self._problem else (WARN, self._unavailable)
                                if self._unavailable else (OK, text)))
         self._diag.set_values({'state': loop.state, 'episode': loop.episode,
-                               'times to grasp [s]': ', '.join(f'{c.time_to_grasp:.2f}' for c in loop.closed)})
+                               KEY_TIMES_TO_GRASP: ', '.join(f'{c.time_to_grasp:.2f}' for c in loop.closed)})
 
 
 def main(args: list[str] | None = None) -> None:

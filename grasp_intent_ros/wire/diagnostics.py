@@ -15,7 +15,8 @@ __all__ = [
     'OK', 'WARN', 'ERROR', 'STALE', 'LEVEL_NAMES', 'level_value', 'status_name', 'status_values',
     'KEY_RECEIVED', 'KEY_REJECTED', 'KEY_LAST_ERROR', 'KEY_PROCESSING_TIME', 'KEY_DROPPED', 'KEY_PLANS',
     'KEY_PLANNING_TIME', 'KEY_PLAN_STATUS', 'KEY_MODEL', 'KEY_CLARIFICATIONS', 'KEY_LAST_OUTCOME',
-    'KEY_KERNELS_LOAD_TIME', 'KEY_KERNELS_LOADED_LATE', 'KEY_GOALS', 'ESTIMATOR_COMPONENT',
+    'KEY_KERNELS_LOAD_TIME', 'KEY_KERNELS_LOADED_LATE', 'KEY_GOALS', 'ESTIMATOR_COMPONENT', 'OPERATOR_COMPONENT',
+    'KEY_TIMES_TO_GRASP', 'KEY_EXECUTE',
 ]
 
 OK: Final = 0
@@ -52,6 +53,14 @@ KEY_GOALS: Final = 'goals'
 ESTIMATOR_COMPONENT: Final = 'intent estimator'
 """The intent estimator node's status component (:func:`status_name`); a closed-loop session holding it had
 its w from the estimator."""
+OPERATOR_COMPONENT: Final = 'scripted operator'
+"""The scripted operator node's status component (its values include the two below)."""
+KEY_TIMES_TO_GRASP: Final = 'times to grasp [s]'
+"""The scripted operator's time to grasp of each episode closed so far (s, ', '-separated, two decimals): from its
+reach's start to the fingers' close, an execution included."""
+KEY_EXECUTE: Final = 'execute'
+"""The scripted operator's last ``grasp/execute``: the answer's message with the trajectory's time, or ``refused:
+<reason>``; absent before the first."""
 
 
 def level_value(level: Any) -> int:

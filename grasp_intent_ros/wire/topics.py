@@ -6,7 +6,8 @@ Topics
 ------
 :data:`MSGTYPES` maps every topic of the suite (relative names; ``/diagnostics`` is absolute) to its
 message type. :data:`INPUT_TOPICS` are the inputs a replay publishes again, :data:`PLAN_TOPICS` the
-outputs of one plan (one stamp), :data:`OUTPUT_TOPICS` the outputs a replay compares.
+outputs of one plan (one stamp), :data:`OUTPUT_TOPICS` the outputs a replay compares. One service is named
+here too, the assistance's switch :data:`ASSISTANCE_ENABLE`.
 
 Input caps
 ----------
@@ -28,7 +29,7 @@ __all__ = [
     'MODEL_AMBIGUITY_SYMMETRIC', 'MODEL_AMBIGUITY_PINSKER', 'MODEL_QUERY', 'MODEL_POSTERIOR',
     'OBJECT_POSE', 'JOINT_STATES', 'GRASP_POSE', 'GRASP_JOINT_TARGETS', 'GRASP_TRAJECTORY',
     'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA',
-    'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS',
+    'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS', 'ASSISTANCE_ENABLE',
     'MSGTYPES', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS', 'PLAN_TOPICS', 'OUTPUT_TOPICS',
     'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size', 'check_names',
 ]
@@ -63,6 +64,8 @@ ARM_TRAJECTORY_COMMAND: Final = 'arm_controller/joint_trajectory'
 """The mock arm's trajectory input (a joint_trajectory_controller's topic); the suite remaps it to grasp/trajectory."""
 ARM_TWIST_COMMAND: Final = 'servo/delta_twist_cmds'
 """The mock arm's twist input (MoveIt Servo's topic); the suite remaps it to assistance/twist."""
+ASSISTANCE_ENABLE: Final = 'assistance/enable'
+"""Not a topic: the assistance node's switch, a service (std_srvs/SetBool; off, its output is the operator's twist)."""
 
 _F64MA, _STRING = 'std_msgs/msg/Float64MultiArray', 'std_msgs/msg/String'
 MSGTYPES: Final[Mapping[str, str]] = {

@@ -24,14 +24,14 @@ from grasp_intent_ros.mico.frames import PRE_GRASP_STANDOFF, pose_to_matrix, pre
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.nodes.mock_arm import GRASP_CLOSE, GRASP_EXECUTE
-from grasp_intent_ros.nodes.scripted_operator import OPERATOR_COMPONENT, ScriptedOperatorNode
+from grasp_intent_ros.nodes.scripted_operator import ScriptedOperatorNode
 from grasp_intent_ros.planning.options import node_default_options
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_state_msg, joint_trajectory_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control.simulator import certain_grasp
 from grasp_intent_ros.wire import topics
-from grasp_intent_ros.wire.diagnostics import ERROR, WARN
+from grasp_intent_ros.wire.diagnostics import ERROR, OPERATOR_COMPONENT, WARN
 from grasp_intent_ros.wire.model_document import model_document
 
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))

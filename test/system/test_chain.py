@@ -9,7 +9,8 @@ and robot constraint (IK seeded from HOME_Q, ``ik_restarts`` restarts, restart s
 plan on a model has no warm start, so its features match the core's (usually bit-identical; asserted to
 1e-6, since the optimum is flat when P matches v exactly, so a second plan that warm-starts from the
 first, e.g. after the sender repeated a w that was not lost after all, moves x by ~1e-7).
-Nothing sleeps: every wait polls with a deadline.
+The demo's test runs the README's command, which also starts the mock arm, the assistance and the scripted
+operator for its closed loop. Nothing sleeps: every wait polls with a deadline.
 """
 
 from __future__ import annotations
@@ -487,11 +488,31 @@ def _is_node_process(pid: int) -> bool:
 
 
 def readme_demo_lines() -> list[str]:
-    """The lines of the README's expected demo output that it does not say vary (pids, times, the domain)."""
+    """The lines of the README's expected demo output that it does not say vary.
+
+    Not the pids, the domain, a line with a time (an answer's, the operator's, alpha's over the motion), where the
+    helped hand ended (at the grasp within the IK's tolerance, 0.1 mm: asserted below), nor the episode without
+    help but its heading (where the operator stops varies with the wall clock's timing).
+    """
     text = (REPO / 'README.md').read_text()
     block = text.split('Expected output (trimmed', 1)[1].split('```\n', 1)[1].split('```', 1)[0]
-    return [line for line in block.splitlines()
-            if line.strip() not in ('', '...') and not re.search(r'\(pid \d|\d s$|ROS_DOMAIN_ID=', line)]
+    lines, unhelped = [], False
+    for line in block.splitlines():
+        if line.startswith('  ') and not line.startswith('    '):
+            unhelped = line.startswith('  without it')
+        elif unhelped:
+            continue
+        if line.strip() not in ('', '...') and not re.search(r'\(pid \d|\d s\b|ROS_DOMAIN_ID=|hand ended', line):
+            lines.append(line)
+    return lines
+
+
+def closed_loop_episodes(stdout: str) -> tuple[list[str], list[str]]:
+    """The lines of the demo's closed-loop episodes, with the help and without it (their headings left out)."""
+    loop = stdout.split('\nClosed loop: ', 1)[1]
+    helped = loop.split('\n  with the help', 1)[1].split('\n  without it', 1)[0]
+    unhelped = loop.split('\n  without it', 1)[1].split('\n  one episode each', 1)[0]
+    return helped.splitlines()[1:], unhelped.splitlines()[1:]
 
 
 def test_the_demo_runs_to_completion_and_leaves_no_process(domain_id, tmp_path):
@@ -522,7 +543,7 @@ def test_the_demo_runs_to_completion_and_leaves_no_process(domain_id, tmp_path):
     stdout, stderr = read(), err_path.read_text(errors='replace')
     assert code == 0, f'demo exited with {code}:\n{stdout[-3000:]}\n{stderr}'
     assert 'Traceback' not in stderr, stderr
-    assert len(node_pids()) == 3
+    assert len(node_pids()) == 6  # the suite's three, the mock arm, the assistance, the scripted operator
     assert not [pid for pid in node_pids() if _is_node_process(pid)], 'a node outlived the demo'
     for title, w, names in CASES:
         for name in names:
@@ -530,6 +551,17 @@ def test_the_demo_runs_to_completion_and_leaves_no_process(domain_id, tmp_path):
     assert stdout.count('joint targets') == sum(len(names) for _, _, names in CASES)
     assert 'asks for clarification: P(no task) = 0.7290' in stdout
     assert 'nodes stopped (cleanly)' in stdout
+    helped, unhelped = closed_loop_episodes(stdout)
+    rows = {line[4:22].strip(): line[22:] for line in helped}
+    assert rows['serves (rules)'] == "usage, transfer (UT) at the reached pose: the operator's tasks served", helped
+    assert rows['grasp command'].startswith('grasp/execute (following the latest trajectory from now'), helped
+    distance, angle = map(float, re.findall(r'([\d.]+) (?:mm|rad)', rows['hand ended']))  # executed: at the grasp
+    assert distance < 1.0 and angle < 0.01, helped
+    assert float(re.findall(r'max ([\d.]+)', rows["robot's share"])[0]) > 0.5, helped  # the robot helped
+    rows = {line[4:22].strip(): line[22:] for line in unhelped}
+    assert rows["robot's share"].startswith('alpha mean 0.00, max 0.00'), unhelped
+    assert rows['grasp command'] == 'grasp/close where the operator stopped', unhelped
+    assert re.fullmatch(r'.+ at the reached pose: .+', rows['serves (rules)']), unhelped
     lines, at = stdout.splitlines(), 0
     expected = readme_demo_lines()
     assert len(expected) >= 10, expected

@@ -18,9 +18,9 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, MicoKinematics
-from grasp_intent_ros.nodes.scripted_operator import OPERATOR_COMPONENT
 from grasp_intent_ros.shared_control.assistance import offset
 from grasp_intent_ros.wire import topics
+from grasp_intent_ros.wire.diagnostics import OPERATOR_COMPONENT
 from grasp_intent_ros.wire.robot_state import joint_positions, pose_msg_to_matrix
 
 STARTUP = 60.0

@@ -1,0 +1,78 @@
+"""The demo's judge: which tasks a grasp serves by its object's rules, never seen by the planner or the operator.
+
+The rules are Table I's (:data:`grasp_intent_ros.objects.demos.OBJECTS`, chosen by the model's ``object``). A
+grasp is judged as a hand pose in the arm's base frame and three finger closures: the features are recovered
+from the hand's pose relative to the object (``base_T_obj``) and the closures
+(:func:`~grasp_intent_ros.mico.frames.obj_T_ee_to_features`). The demo judges the planner's answers (the
+published end-effector pose and finger targets) and, in the closed loop, where the mock arm's hand ended with
+the closures its fingers executed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..method.intent import zone_label
+from ..method.model import GraspModel
+from ..mico.frames import obj_T_ee_to_features
+from ..objects.demos import OBJECTS, object_of
+
+__all__ = ['Judgement', 'judge', 'operator_verdict']
+
+
+@dataclass(frozen=True)
+class Judgement:
+    """The rules' verdict on one grasp.
+
+    Attributes
+    ----------
+    label : int or None
+        The task set the rules give (bitmask over the model's ``task_names``; 0: no task); None when the model
+        names no object the rules know.
+    text : str
+        For a reader: e.g. 'usage, transfer (UT)', 'no task (failed: usage: rim clear; ...)', or why unknown.
+    """
+
+    label: int | None
+    text: str
+
+
+def judge(model: GraspModel, base_T_obj: NDArray[np.float64], base_T_ee: NDArray[np.float64],
+          closures: ArrayLike) -> Judgement:
+    """The tasks the grasp serves by ``model``'s object's rules.
+
+    Parameters
+    ----------
+    model : GraspModel
+        Its ``object`` picks the rules, its ``task_names`` name the tasks.
+    base_T_obj, base_T_ee : ndarray, shape (4, 4)
+        The object's and the hand's (end effector's) poses in the arm's base frame.
+    closures : array_like, shape (3,)
+        The three fingers' closures, rad.
+    """
+    rules = object_of(model)
+    if rules is None:
+        return Judgement(None, f'unknown (model {model.name!r} names no object of {", ".join(OBJECTS)})')
+    x = obj_T_ee_to_features(np.linalg.inv(base_T_obj) @ base_T_ee, np.asarray(closures, dtype=np.float64))
+    label = rules.label(x)
+    if not label:
+        failed = '; '.join(f'{task}: {", ".join(n for n, ok in checks.items() if not ok)}'
+                           for task, checks in rules.explain(x).items())
+        return Judgement(0, f'no task (failed: {failed})')
+    names = ', '.join(n for i, n in enumerate(model.task_names) if label >> i & 1)
+    return Judgement(label, f'{names} ({zone_label(label, model.task_names)})')
+
+
+def operator_verdict(judgement: Judgement, wanted: Sequence[str], task_names: Sequence[str]) -> str:
+    """Whether the judged grasp serves every task the operator wants (``wanted``, names of ``task_names``), in words.
+
+    'the operator's tasks served', 'not the operator's transfer', or 'unknown' when the rules gave no label.
+    """
+    if judgement.label is None:
+        return 'unknown'
+    missing = [name for name in wanted if not judgement.label >> list(task_names).index(name) & 1]
+    return "the operator's tasks served" if not missing else f"not the operator's {', '.join(missing)}"
