@@ -12,12 +12,31 @@ The grasp command. Under ``confidence`` (the suite's assistance), a close on the
 the scripted operator node does and the simulated loop models (``shared_control/simulator.py``, "The grasp
 command"): zero twists until the hand is seen at rest, ``grasp/execute`` (the mock arm follows the planner's
 latest ``grasp/trajectory``), zero twists until that trajectory has had its time
-(:class:`~grasp_intent_ros.shared_control.operator_loop.GraspCommand`, the node's timing), and the hand is judged
-where the execution left it, with the newest plan's closures. Under ``none`` and ``blend`` (the simulated loop's
-``direct`` and ADA, which close where the hand is: executing is the suite's command, not the baselines'), and on
-the operator's own grasp, the hand is judged where the operator closed it; ``--no-execute`` judges it there under
-every condition. The probe calls no ``grasp/close``: the judge takes the plan's closures (the mock arm's closure
-error is not judged).
+(:class:`~grasp_intent_ros.shared_control.operator_loop.GraspCommand`, the node's timing), then ``grasp/close``.
+Under ``none`` and ``blend`` (the simulated loop's ``direct`` and ADA, which close where the hand is: executing is
+the suite's command, not the baselines'), a close on the shown grasp calls ``grasp/close`` where the operator
+stopped; ``--no-execute`` closes there under every condition. The mock arm closes the fingers to the latest plan's
+closures plus its closure error (N(0, ``closure_error``^2) per finger, its own seeded stream, one draw per close in
+the order of the closes, so not paired between conditions). The probe sends zero twists until it receives a joint
+state at least the demo's ``CLOSE_SETTLE`` (0.3 s) after the close's answer with every finger at rest
+(:func:`~grasp_intent_ros.wire.robot_state.fingers_settled`, as the demo reads them), and the hand is judged there:
+its pose and the closures the fingers executed.
+
+A close on the operator's OWN grasp calls no ``grasp/close``: the mock arm would close to the latest plan's
+closures, a grasp the operator did not choose, and judging those would credit (or blame) the planner for the
+operator's own grasp. As in the simulated loop, the own grasp's closures are judged plus the closure error model:
+N(0, ``closure_error``^2) per finger (the mock arm's parameter, read from it), drawn once per operator (the same in
+the three conditions), clipped to the fingers' limits as the mock arm clips (``MockArm.close_fingers``), with the
+hand where it came to rest under zero twists.
+
+The tracker's error. Per operator, the probe publishes the object's pose on ``object/pose`` (the planner and the
+assistance take it: the robot's perception) as the simulated benchmark's tracker sees it: the true pose perturbed
+by :func:`~grasp_intent_ros.shared_control.simulator.perturb_pose`, 5 mm and 3 deg RMS (``--tracker-mm``,
+``--tracker-deg``), and waits up to 5 s for the plan the new pose causes. The operator sees the object with its own
+error, of the same size by default (``--operator-mm``, ``--operator-deg``), and plans its own grasp there. Both
+views and the own closure error come from one stream seeded by (seed, object, operator, :data:`VIEWS`): the three
+conditions of an operator see the same. The judge takes the TRUE pose (:data:`_bench.closed_loop.BASE_T_OBJ`).
+The latency and stream phases run before the first operator's pose, at the true pose; ``--record`` publishes none.
 
 The scripted operator (a stated, simple model)
 ----------------------------------------------
@@ -28,8 +47,9 @@ The scripted operator (a stated, simple model)
   published at 10 Hz on ``intent/w``.
 - **Goal** (:class:`~grasp_intent_ros.shared_control.operators.ScriptedOperator`, which never reads the
   rules). Its own grasp for S: the planner's grasp for the certain w_S, planned offline from Home
-  (:func:`~grasp_intent_ros.shared_control.simulator.certain_grasps`) with the planner node's default
-  options (:func:`~grasp_intent_ros.planning.options.node_default_options`: for the 1x execution noise).
+  (:func:`~grasp_intent_ros.shared_control.simulator.certain_grasp`) where the operator sees the object, with the
+  planner node's default options (:func:`~grasp_intent_ros.planning.options.node_default_options`: for the 1x
+  execution noise).
   It follows the grasp the planner shows (``grasp/pose``) when that is on its way (within 6 cm and 0.8 rad
   of its own), else drives to its own. The rule is the same under the three conditions (the shown grasp is
   on the screen whatever alpha is).
@@ -45,8 +65,9 @@ The scripted operator (a stated, simple model)
 Figures per object and condition (the same seeded operators): success (the operator closes the hand, its
 seen hand within 1 cm and 0.1 rad of the goal it pursues, within ``--timeout`` s, and the data set's task
 rules, :data:`grasp_intent_ros.objects.demos.CUP_RULES` / ``FLASHLIGHT_RULES``, hold for every task of S at
-the reached pose, after the grasp command, with the pursued grasp's closures: judged after the run, never seen
-by the operator), time to grasp (to the close, an execution included; median of the
+the true object pose, at the reached pose with the executed closures, judged after closing
+(:func:`~grasp_intent_ros.launch.demo_judge.judge`, the demo's judge; never seen by the operator, the planner or
+the assistance)), time to grasp (to the close, an execution included; median of the
 successful runs, and over all runs with a failure counted as the timeout), operator effort (integral of
 |operator twist|, linear m and angular rad), wrong-task pulls (the integral of alpha over the time the shown
 grasp did not serve S by the rules, and how many operators met any), mean alpha. A latency phase first (``arbitration``
@@ -57,25 +78,26 @@ the blended twists' receipts (the middleware's receive time: what a servo that r
 ``callback_*``, between the times this process's callback ran (its own delays included: the executor thread shares
 the interpreter's lock with the operator's thread, and callbacks queue behind the joint states' kinematics).
 
-``--record BAG`` runs no benchmark: it records one operator (the first of ``--only``, of the first of
-``--objects``) under ``confidence`` as a closed-loop session bag, holding still for 2 s after the grasp
-(:func:`record_session`; the grasp command executes nothing: a replay sends the operator's twists only), in an
-ambiguous episode: w held at the paper's (0.9, 0.9, 0.1) with the noise of an
-unsharpened intent, the operator wanting usage and transfer; bags/shared_control_cup is
-``--objects cup --only 0 --record``. With ``--estimator`` the suite runs the intent estimator, the only source
-of w (this process publishes none; its operator twists are stamped), and the operator wants transfer (T),
-heading for its own grasp for T or the shown one when that serves T; bags/shared_control_cup_estimated is
-``--objects cup --only 4 --record bags/shared_control_cup_estimated --estimator`` (keep a recording whose hand
-ended at the last grasp planned, which the replay checks, and whose replay passes: the replay is deterministic,
-but the live estimator took the twists stamped just after a new grasp before that grasp arrived, which the bag
-does not hold; and the live loop differs between recordings of one operator: three of operator 1 ended with
-w_handover 0.23, 0.63 and 0.05).
+``--record BAG`` runs no benchmark: it records one operator (the first of ``--only``, of the first of ``--objects``)
+under ``confidence`` as a closed-loop session bag, holding still for 2 s after the grasp
+(:func:`_bench.closed_loop_record.record_session`; the grasp command executes and closes nothing: a replay sends the
+operator's twists only; the object at its true pose, its own grasp planned there; its printed success judges the
+pursued grasp's planned closures where the hand stopped), in an ambiguous episode: w held at the paper's (0.9, 0.9,
+0.1) with the noise of an unsharpened intent, the operator wanting usage and transfer; bags/shared_control_cup is
+``--objects cup --only 0 --record``. With ``--estimator`` the suite runs the intent estimator, the only source of w
+(this process publishes none; its operator twists are stamped), and the operator wants transfer (T), heading for its
+own grasp for T or the shown one when that serves T; bags/shared_control_cup_estimated is ``--objects cup --only 4
+--record bags/shared_control_cup_estimated --estimator`` (keep a recording whose hand ended at the last grasp
+planned, which the replay checks, and whose replay passes: the replay is deterministic, but the live estimator took
+the twists stamped just after a new grasp before that grasp arrived, which the bag does not hold; and the live loop
+differs between recordings of one operator: three of operator 1 ended with w_handover 0.23, 0.63 and 0.05).
 
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_DOMAIN_ID are set.
 
     ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=97 \
         .venv/bin/python benchmarks/bench_shared_control.py [--quick] [--operators 50] [--json runs.json] \
-            [--conditions none blend confidence] [--no-execute]
+            [--conditions none blend confidence] [--no-execute] [--tracker-mm 5 --tracker-deg 3] \
+            [--operator-mm 5 --operator-deg 3]
 """
 
 from __future__ import annotations
@@ -83,283 +105,33 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import shutil
 import sys
-import tempfile
-import threading
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _bench import REPO, Probe, loopback_domain, stopped_after, uptime
+from _bench import REPO, Probe, bootstrap_ci, loopback_domain, stopped_after, uptime
+from _bench.closed_loop import BASE_T_OBJ, OBJECTS, PERIOD, W_EVERY, Loop, Run, load_model, run_operator
+from _bench.closed_loop_record import record_session
 
-from grasp_intent_ros.method.features import FINGERS
-from grasp_intent_ros.method.intent import all_zones, interpret
-from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import default_base_T_obj, obj_T_ee_to_features
-from grasp_intent_ros.mico.grasp import Grasp, plan_grasp
-from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
-from grasp_intent_ros.objects.demos import CUP_RULES, FLASHLIGHT_RULES, ObjectRules
+from grasp_intent_ros.mico.grasp import Grasp
+from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
+from grasp_intent_ros.mico.mock_arm import MockArm
 from grasp_intent_ros.planning.options import node_default_options
-from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error
-from grasp_intent_ros.shared_control.operator_loop import (
-    EXECUTE_TIMEOUT,
-    GraspCommand,
-    Perceived,
-    executes,
-    hand_at_rest,
-    operator_step,
-)
-from grasp_intent_ros.shared_control.operators import (
-    IntentScript,
-    OperatorConstants,
-    PersistentIntent,
-    ScriptedOperator,
-    SharpeningIntent,
-)
-from grasp_intent_ros.shared_control.simulator import certain_grasps
-from grasp_intent_ros.wire.diagnostics import ESTIMATOR_COMPONENT
+from grasp_intent_ros.shared_control.operators import OperatorConstants, SharpeningIntent
+from grasp_intent_ros.shared_control.simulator import certain_grasp, perturb_pose
 
-OBJECTS = {'cup': ('cup_7zone', CUP_RULES), 'flashlight': ('flashlight_7zone', FLASHLIGHT_RULES)}
 CONDITIONS = ('none', 'blend', 'confidence')
+PAIRS = (('confidence', 'none'), ('confidence', 'blend'), ('blend', 'none'))
+"""The paired comparisons (:func:`paired`): the first condition against the second, on the same operators."""
 EXECUTES = 'confidence'
 """The condition whose grasp command executes the shown grasp (the suite's assistance; module docstring)."""
-BASE_T_OBJ = default_base_T_obj()
-"""The true object pose: the planner's default (:func:`~grasp_intent_ros.mico.frames.default_base_T_obj`)."""
-PERIOD = 0.01
-W_EVERY = 10
-"""Operator ticks per w (10 Hz)."""
-
-
-def joystick(op: OperatorConstants, rng: np.random.Generator) -> ScriptedOperator:
-    """The scripted operator's two-mode joystick (module docstring), its noise drawn from ``rng``."""
-    return ScriptedOperator('joystick', op, rng, PERIOD)
-
-
-def own_goals(model_name: str, kin: MicoKinematics) -> dict[int, Grasp]:
-    """The operator's own grasp per task set (module docstring), chosen without the rules."""
-    return certain_grasps(ModelFiles(config_dir() / 'models').load(model_name), BASE_T_OBJ, kin,
-                          options=node_default_options())
-
-
-@dataclass
-class Run:
-    """The figures of one operator under one condition."""
-
-    object: str
-    operator: int
-    condition: str
-    task_set: int
-    success: bool = False
-    pursued: str = ''
-    time_to_grasp: float = math.nan
-    effort_linear: float = 0.0
-    effort_angular: float = 0.0
-    wrong_pull: float = 0.0
-    alpha_mean: float = 0.0
-    alpha_samples: int = field(default=0, repr=False)
-
-
-class Loop:
-    """The probe side: subscriptions, the operator's publishers, the service clients."""
-
-    def __init__(self, probe: Probe, kin: MicoKinematics, sends_w: bool = True) -> None:
-        from geometry_msgs.msg import PoseStamped, TwistStamped
-        from rcl_interfaces.srv import SetParameters
-        from sensor_msgs.msg import JointState
-        from std_msgs.msg import Float64, Float64MultiArray
-        from std_srvs.srv import Trigger
-        from trajectory_msgs.msg import JointTrajectory
-
-        from grasp_intent_ros.ros.qos import input_qos, output_qos
-        from grasp_intent_ros.wire.arrays import stamped_values
-        from grasp_intent_ros.wire.robot_state import joint_positions, pose_msg_to_matrix, trajectory_time
-
-        self.probe, self.kin = probe, kin
-        node = probe.node
-        self.hands: Perceived[np.ndarray] = Perceived(keep=200)  # base_T_ee by monotonic receipt
-        self.plans: list[tuple[float, np.ndarray, np.ndarray]] = []  # (monotonic, base_T_grasp, features)
-        self.alphas: list[tuple[float, float]] = []
-        self.outputs: list[tuple[int, float]] = []  # (receive ns, angular.z)
-        self._poses: dict[tuple[int, int], np.ndarray] = {}
-        self._lock = threading.Lock()
-
-        def on_joints(msg: Any) -> None:
-            q = joint_positions(msg, ARM_JOINTS)
-            if q is not None:
-                self.hands.add(time.monotonic(), kin.fk(q))
-
-        def on_pose(msg: Any) -> None:
-            self._poses[(msg.header.stamp.sec, msg.header.stamp.nanosec)] = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
-
-        def on_features(msg: Any) -> None:
-            x, _, stamp = stamped_values(msg)
-            base_T = self._poses.pop((stamp.sec, stamp.nanosec), None) if stamp is not None else None
-            if base_T is not None:
-                with self._lock:
-                    self.plans.append((time.monotonic(), base_T, x))
-
-        node.create_subscription(JointState, 'joint_states', on_joints, input_qos(100))
-        node.create_subscription(PoseStamped, 'grasp/pose', on_pose, input_qos(100))
-        self.trajectory_time: float | None = None  # the latest grasp/trajectory's last time_from_start, s
-
-        def on_trajectory(msg: Any) -> None:
-            self.trajectory_time = trajectory_time(msg)
-
-        node.create_subscription(JointTrajectory, 'grasp/trajectory', on_trajectory, input_qos(100))
-        node.create_subscription(Float64MultiArray, 'grasp/features', on_features, input_qos(100))
-        node.create_subscription(Float64, 'assistance/alpha', lambda m: self.alphas.append(
-            (time.monotonic(), m.data)), input_qos(1000))
-        def on_blended(m: Any, info: Any) -> None:
-            self.receipts.append((time.monotonic(), info['received_timestamp']))
-            self.outputs.append((info['received_timestamp'], m.twist.angular.z))
-            t = m.twist
-            self.blended.append((time.monotonic(), np.array([t.linear.x, t.linear.y, t.linear.z, t.angular.x,
-                                                             t.angular.y, t.angular.z])))
-
-        self.blended: list[tuple[float, np.ndarray]] = []  # (monotonic, twist)
-        self.receipts: list[tuple[float, int]] = []  # (monotonic in the callback, the middleware's receive ns)
-        node.create_subscription(TwistStamped, 'assistance/twist', on_blended, input_qos(1000))
-        self.twist_pub = node.create_publisher(TwistStamped, 'operator/twist', output_qos())
-        self.w_pub = node.create_publisher(Float64MultiArray, 'intent/w', output_qos()) if sends_w else None
-        self._set_params = node.create_client(SetParameters, 'assistance/set_parameters')
-        self._reset = node.create_client(Trigger, 'mock_arm/reset')
-        self._execute = node.create_client(Trigger, 'grasp/execute')
-        from std_srvs.srv import SetBool
-        self._enable = node.create_client(SetBool, 'assistance/enable')
-        self._set_bool = SetBool
-        self._twist_type, self._w_type, self._trigger = TwistStamped, Float64MultiArray, Trigger
-
-    def twist(self, values: np.ndarray) -> Any:
-        msg = self._twist_type()
-        msg.header.frame_id = BASE_FRAME
-        msg.header.stamp = self.probe.node.get_clock().now().to_msg()
-        t = msg.twist
-        t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z = (float(v) for v in values)
-        return msg
-
-    def send_w(self, w: np.ndarray) -> None:
-        assert self.w_pub is not None, 'this loop sends no w'
-        self.w_pub.publish(self._w_type(data=[float(x) for x in w]))
-
-    def call(self, client: Any, request: Any, timeout: float = 30.0) -> Any:
-        if not client.wait_for_service(timeout_sec=timeout):
-            sys.exit(f'bench_shared_control: service {client.srv_name} not available')
-        future = client.call_async(request)
-        if not self.probe.wait_for(future.done, timeout):
-            sys.exit(f'bench_shared_control: no answer from {client.srv_name}')
-        return future.result()
-
-    def set_arbitration(self, rule: str) -> None:
-        from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-        from rcl_interfaces.srv import SetParameters
-
-        value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=rule)
-        result = self.call(self._set_params, SetParameters.Request(parameters=[Parameter(name='arbitration',
-                                                                                          value=value)]))
-        assert result.results[0].successful, result.results[0].reason
-
-    def enable(self, on: bool) -> None:
-        assert self.call(self._enable, self._set_bool.Request(data=on)).success
-
-    def reset_arm(self) -> None:
-        assert self.call(self._reset, self._trigger.Request()).success
-
-    def execute(self) -> float:
-        """The grasp command's execution: when the fingers close (monotonic s).
-
-        Zero twists until the hand is seen at rest, ``grasp/execute``, zero twists until the trajectory has had
-        its time: :class:`~grasp_intent_ros.shared_control.operator_loop.GraspCommand`, as the scripted operator
-        node; a refused execute is due at once (the hand closes where it is).
-        """
-        command, still = GraspCommand(time.monotonic(), EXECUTE_TIMEOUT), self.twist(np.zeros(6))
-        while not command.ready(now := time.monotonic(), hand_at_rest(self.hands, now)):
-            self.twist_pub.publish(still)
-            time.sleep(PERIOD)
-        command.request(time.monotonic())
-        answer = self.call(self._execute, self._trigger.Request(), timeout=EXECUTE_TIMEOUT)
-        command.answered(time.monotonic(), answer.success, answer.message, self.trajectory_time)
-        if command.refused:
-            print(f'bench_shared_control: grasp/execute refused: {command.refused}', file=sys.stderr)
-        while not command.due(now := time.monotonic()):
-            self.twist_pub.publish(still)
-            time.sleep(min(PERIOD, command.close_at - now))
-        return time.monotonic()
-
-    def plan_at(self, t: float) -> tuple[np.ndarray, np.ndarray] | None:
-        """The last plan received by monotonic time ``t``: (base_T_grasp, features)."""
-        with self._lock:
-            for received, base_T, x in reversed(self.plans):
-                if received <= t:
-                    return base_T, x
-        return None
-
-    def hand_at(self, t: float) -> np.ndarray | None:
-        return self.hands.at(t)
-
-
-def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: Grasp, rules: ObjectRules,
-                 rng: np.random.Generator, timeout: float, run: Run, sends_w: bool = True,
-                 execute: bool = False) -> None:
-    """Run one operator until it closes the hand or ``timeout``; fills ``run`` (judged by ``rules`` after).
-
-    ``sends_w`` False: w comes from elsewhere (the intent estimator), the operator waits for a plan only.
-    ``execute``: a close on the shown grasp executes it first (:meth:`Loop.execute`); the hand is judged where the
-    execution left it, with the newest plan's closures, and the time to grasp runs to the execution's end.
-    """
-    task_set = intent.task_set(0.0)
-    if sends_w:
-        first_plan = len(loop.plans)
-        w_first = intent.w(0.0, rng)  # the intent before the motion: wait for its plan (sent again each second)
-        if not loop.probe.wait_for(lambda: len(loop.plans) > first_plan or loop.send_w(w_first), 60.0, poll=1.0):
-            sys.exit('bench_shared_control: no plan for the first w within 60 s')
-    elif not loop.probe.wait_for(lambda: bool(loop.plans), 60.0, poll=0.1):
-        sys.exit('bench_shared_control: no plan for the estimator\'s first w within 60 s')
-    device = joystick(op, rng)
-    alpha_from = len(loop.alphas)
-    start = time.monotonic()
-    tick = 0
-    while True:
-        now = time.monotonic()
-        t = now - start
-        if sends_w and tick % W_EVERY == 0:
-            loop.send_w(intent.w(t, rng))
-        plan_seen = loop.plan_at(now - op.reaction)
-        step = operator_step(device, now, loop.hand_at(now - op.reaction),
-                             None if plan_seen is None else plan_seen[0], own.base_T_ee)
-        if step.close:  # the hand it saw is there: the hand now is too (seen later)
-            closures = own.positions[6:] if step.pursued == 'own' or plan_seen is None else plan_seen[1][FINGERS]
-            if executes(step, execute):  # the arm goes to the newest plan, whose closures the fingers take
-                now = loop.execute()
-                t, newest = now - start, loop.plan_at(now)
-                closures = closures if newest is None else newest[1][FINGERS]
-            reached = obj_T_ee_to_features(np.linalg.inv(BASE_T_OBJ) @ loop.hand_at(now), closures)
-            run.success, run.pursued = rules.label(reached) & task_set == task_set, step.pursued
-            run.time_to_grasp = t
-            break
-        if t >= timeout:
-            break
-        command = step.twist
-        loop.twist_pub.publish(loop.twist(command))
-        run.effort_linear += float(np.linalg.norm(command[:3])) * PERIOD
-        run.effort_angular += float(np.linalg.norm(command[3:])) * PERIOD
-        tick += 1
-        delay = start + tick * PERIOD - time.monotonic()
-        if delay > 0.0:
-            time.sleep(delay)
-    end = time.monotonic()
-    samples = [(t, a) for t, a in loop.alphas[alpha_from:] if start <= t <= end]
-    run.alpha_samples = len(samples)
-    run.alpha_mean = float(np.mean([a for _, a in samples])) if samples else 0.0
-    previous = start
-    for t, alpha in samples:
-        plan = loop.plan_at(t)
-        if plan is not None and rules.label(plan[1]) & task_set != task_set:
-            run.wrong_pull += alpha * min(t - previous, 2 * PERIOD)
-        previous = t
+VIEWS = 1
+"""The last seed word of an operator's views (the tracker's and its own) and own closure error: a stream of its
+own, so the intent's and the device's draws (the seed without it) are those of the benchmark before the views."""
 
 
 def latency_phase(loop: Loop, seconds: float) -> dict[str, float]:
@@ -478,11 +250,10 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
                op: OperatorConstants) -> tuple[list[Run], dict[str, float]]:
     from grasp_intent_ros.launch.suite import NodeSuite
 
-    model_name, rules = OBJECTS[name]
-    kin = MicoKinematics()
-    goals = own_goals(model_name, kin)
+    model, kin = load_model(name), MicoKinematics()
+    fingers = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0])  # its close_fingers: the own closures as the arm clips
     suite = NodeSuite(domain_id, cwd=REPO)
-    suite.start_nodes(model=model_name, shared_control=True)
+    suite.start_nodes(model=OBJECTS[name], shared_control=True)
     probe = Probe(domain_id, 'bench_operator')
     runs: list[Run] = []
     with stopped_after(suite, probe):
@@ -499,16 +270,27 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
         latency.update({f'stream_{k}': v for k, v in stream.items()})
         if args.stream_only:
             return runs, latency
+        closure_error = loop.closure_error()
         for i in args.only or range(args.operators):
             order = [c for c in CONDITIONS[i % 3:] + CONDITIONS[:i % 3] if c in args.conditions]
+            views = np.random.default_rng([args.seed, list(OBJECTS).index(name), i, VIEWS])
+            tracked = perturb_pose(BASE_T_OBJ, 1e-3 * args.tracker_mm, math.radians(args.tracker_deg), views)
+            seen = perturb_pose(BASE_T_OBJ, 1e-3 * args.operator_mm, math.radians(args.operator_deg), views)
+            own_error = views.normal(0.0, closure_error, 3)
+            if not loop.show_object(tracked):
+                print(f'bench_shared_control: no plan within 5 s of operator {i}\'s object pose', file=sys.stderr)
+            own: Grasp | None = None
             for condition in order:
                 rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), i])
                 intent = SharpeningIntent.draw(rng)
+                if own is None:  # the operator's own grasp for its set, planned where it sees the object
+                    own = certain_grasp(model, intent.true_set, seen, kin, options=node_default_options())
                 loop.set_arbitration(condition)
                 loop.reset_arm()
                 run = Run(name, i, condition, intent.true_set)
-                run_operator(loop, op, intent, goals[intent.true_set], rules, rng, args.timeout, run,
-                             execute=condition == EXECUTES and not args.no_execute)
+                run_operator(loop, op, intent, own, model, rng, args.timeout, run,
+                             execute=condition == EXECUTES and not args.no_execute,
+                             own_closures=fingers.close_fingers(own.positions[6:] + own_error))
                 runs.append(run)
                 print(f'[{name}] operator {i:3d} {condition:10s} S={intent.true_set} success={run.success!s:5s} '
                       f't={run.time_to_grasp:6.2f} s wrong pull {run.wrong_pull:5.2f} s alpha {run.alpha_mean:.2f}',
@@ -516,82 +298,6 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
             if problem := suite.died():
                 sys.exit(f'bench_shared_control: {problem}')
     return runs, latency
-
-
-RECORDED_TOPICS = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'intent/v', 'intent/clarification',
-                   'grasp/pose', 'grasp/joint_targets', 'grasp/posterior', 'operator/twist', 'assistance/twist',
-                   'assistance/alpha', '/diagnostics')
-"""What ``--record`` records: what a closed-loop replay sends and compares, and the report's shared-control plot."""
-HOLD_S = 2.0
-"""Seconds a recorded operator holds still (zero twists) after reaching the grasp, letting the loop settle."""
-RECORDED_W = (0.9, 0.9, 0.1)
-RECORDED_TASKS = 0b011
-"""The recorded episode's intent: w held at the paper's ambiguous case, the operator wanting usage and transfer."""
-ESTIMATED_TASKS = 0b011
-"""What the operator of a session recorded with the intent estimator wants: usage and transfer (the handle root,
-tilted: its shown grasp comes within the operator's reach of its own, so the session ends at a planned grasp)."""
-
-
-def record_session(name: str, index: int, out: Path, args: argparse.Namespace, domain_id: int,
-                   op: OperatorConstants, estimated: bool = False) -> None:
-    """Record operator ``index`` of object ``name`` under ``confidence`` into the session bag ``out`` (replaced).
-
-    A fresh suite (a replay starts one too), the recorder in the probe's context on an executor and thread of
-    its own, no warm-up: the session's first w is the planner's first. After success (or the timeout) the
-    operator holds still for :data:`HOLD_S`; then the bag is compacted (of /diagnostics only the rejections,
-    and with ``estimated`` the estimator's first status: the intent estimator ran, the only source of w).
-    """
-    from grasp_intent_ros.launch.suite import NodeSuite
-    from grasp_intent_ros.sessions.fixtures import compact_into, recording
-
-    model_name, rules = OBJECTS[name]
-    kin = MicoKinematics()
-    work = Path(tempfile.mkdtemp(prefix='record_closed_loop_'))
-    suite = NodeSuite(domain_id, cwd=REPO, log_dir=work / 'logs')
-    suite.start_nodes(model=model_name, shared_control=True)  # the estimator after the recorder (below)
-    probe = Probe(domain_id, 'bench_operator')
-    rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), index])
-    intent = PersistentIntent(RECORDED_W, ESTIMATED_TASKS if estimated else RECORDED_TASKS,
-                              noise=0.08)  # an unsharpened intent's noise (its w unused with the estimator)
-    run = Run(name, index, 'confidence', intent.true_set)
-    with stopped_after(suite, probe), recording(work / 'raw', RECORDED_TOPICS, probe.context,
-                                                  discovery_period=0.5) as recorder:
-        loop = Loop(probe, kin, sends_w=not estimated)
-        needed = {recorder.resolve_topic_name(t) for t in RECORDED_TOPICS
-                  if t not in ('object/pose', 'intent/clarification')}  # nobody publishes these here
-        if estimated:
-            # its one prior w is planned on at once: start it once the recorder and this process listen (started with
-            # the suite, its prior came before they had subscribed to intent/w and grasp/pose, and nothing was planned)
-            if not probe.wait_for(lambda: loop.hands and loop.alphas
-                                  and needed - {recorder.resolve_topic_name('intent/w')}
-                                  <= set(recorder.recorded_topics), 90.0, poll=0.1):
-                sys.exit(f'bench_shared_control: the suite or the recorder not ready within 90 s; recorded '
-                         f'{sorted(recorder.recorded_topics)}\n{suite.died()}')
-            suite.start('intent_estimator', *suite.node_args('intent_estimator'))
-        if not probe.wait_for(lambda: loop.hands and loop.alphas and needed <= set(recorder.recorded_topics),
-                              90.0, poll=0.1):
-            sys.exit(f'bench_shared_control: the suite or the recorder not ready within 90 s; recorded '
-                     f'{sorted(recorder.recorded_topics)}\n{suite.died()}')
-        loop.set_arbitration('confidence')
-        if estimated:  # its own grasp for its set, or the shown one when that serves the set
-            goal = own_goals(model_name, kin)[intent.true_set]
-        else:  # the recorded operator wants the grasp it is shown: the planner's for the recorded w, from Home
-            shown = plan_grasp(ModelFiles(config_dir() / 'models').load(model_name),
-                               interpret(np.array(RECORDED_W)).v, all_zones(3), BASE_T_OBJ, kin,
-                               options=node_default_options())
-            assert isinstance(shown, Grasp), shown
-            goal = shown
-        run_operator(loop, op, intent, goal, rules, rng, args.timeout, run, sends_w=not estimated)
-        still = loop.twist(np.zeros(6))
-        end = time.monotonic() + HOLD_S
-        while time.monotonic() < end:
-            loop.twist_pub.publish(still)
-            time.sleep(PERIOD)
-        probe.wait_for(lambda: False, 0.5)  # the last messages reach the recorder
-    counts, size = compact_into(work / 'raw', out, keep_components=(ESTIMATOR_COMPONENT,) if estimated else ())
-    shutil.rmtree(work)
-    print(f'{out}: operator {index} of {name}, task set {intent.true_set}, success {run.success} after '
-          f'{run.time_to_grasp:.2f} s, {sum(counts.values())} messages, {size / 1024:.1f} KiB')
 
 
 def summary(runs: list[Run], timeout: float) -> dict[str, dict[str, float]]:
@@ -615,6 +321,31 @@ def summary(runs: list[Run], timeout: float) -> dict[str, dict[str, float]]:
     return out
 
 
+def paired(runs: list[Run], timeout: float) -> dict[str, dict[str, Any]]:
+    """Per pair of :data:`PAIRS` run on the same operators: the success difference and the time-to-grasp ratio.
+
+    ``success_diff``: the mean over operators of success(a) - success(b), with its 95% bootstrap CI (10 000
+    resamples of the operators, seeded 0); ``time_ratio``: exp of the mean log ratio of the times to grasp (a
+    failure counted as ``timeout``), with its CI the same way.
+    """
+    rng = np.random.default_rng(0)
+    by = {(r.condition, r.operator): r for r in runs}
+    out: dict[str, dict[str, Any]] = {}
+    for a, b in PAIRS:
+        ops = sorted(i for c, i in by if c == a and (b, i) in by)
+        if not ops:
+            continue
+
+        def time(r: Run) -> float:
+            return r.time_to_grasp if r.success else timeout
+
+        d, lo, hi = bootstrap_ci([float(by[a, i].success) - float(by[b, i].success) for i in ops], rng)
+        m, rlo, rhi = bootstrap_ci([math.log(time(by[a, i]) / time(by[b, i])) for i in ops], rng)
+        out[f'{a}-{b}'] = {'operators': len(ops), 'success_diff': d, 'ci': [lo, hi], 'time_ratio': math.exp(m),
+                           'time_ratio_ci': [math.exp(rlo), math.exp(rhi)]}
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--operators', type=int, default=50, help='seeded operators per object')
@@ -631,6 +362,12 @@ def main() -> None:
     parser.add_argument('--stream-only', action='store_true', help='the latency and stream phases only')
     parser.add_argument('--conditions', nargs='+', default=list(CONDITIONS), choices=CONDITIONS,
                         help='run only these conditions (in the rotating order of the full run)')
+    parser.add_argument('--tracker-mm', type=float, default=5.0, help='RMS position error (mm) of the object pose '
+                        'published to the suite, drawn per operator (module docstring)')
+    parser.add_argument('--tracker-deg', type=float, default=3.0, help='RMS rotation error (deg) of that pose')
+    parser.add_argument('--operator-mm', type=float, default=5.0, help='RMS position error (mm) of the operator\'s '
+                        'view of the object, where its own grasp is planned')
+    parser.add_argument('--operator-deg', type=float, default=3.0, help='RMS rotation error (deg) of its view')
     parser.add_argument('--no-execute', action='store_true', help='the grasp command executes nothing: the hand is '
                         'judged where the operator closed it under every condition')
     parser.add_argument('--record', type=Path, metavar='BAG',
@@ -650,8 +387,9 @@ def main() -> None:
     report: dict[str, Any] = {'operator': asdict(op), 'objects': {}}
     for name in args.objects:
         runs, latency = run_object(name, args, domain_id, op)
-        table = summary(runs, args.timeout)
-        report['objects'][name] = {'latency': latency, 'summary': table, 'runs': [asdict(r) for r in runs]}
+        table, pairs = summary(runs, args.timeout), paired(runs, args.timeout)
+        report['objects'][name] = {'latency': latency, 'summary': table, 'paired': pairs,
+                                   'runs': [asdict(r) for r in runs]}
         print(f'\n[{name}] blended twist: {latency["rate_hz"]:.1f} Hz, operator -> blended latency median '
               f'{latency["median_ms"]:.2f} ms, p99 {latency["p99_ms"]:.2f} ms, max {latency["max_ms"]:.2f} ms '
               f'({latency["answered"]}/{latency["twists"]} answered; {latency["load"]})')
@@ -661,6 +399,10 @@ def main() -> None:
             print(f'{condition:12s} {row["n"]:3.0f} {row["success"]:8.2f} {row["median_ttg_success"]:11.2f} '
                   f'{row["median_ttg_all"]:12.2f} {row["effort_linear"]:9.3f} {row["effort_angular"]:10.3f} '
                   f'{row["wrong_pull_total"]:13.2f} {row["wrong_pull_operators"]:9.0f} {row["alpha_mean"]:6.2f}')
+        for pair, diff in pairs.items():
+            print(f'{pair:18s} success {diff["success_diff"]:+.2f} [{diff["ci"][0]:+.2f}, {diff["ci"][1]:+.2f}], '
+                  f'time to grasp ratio {diff["time_ratio"]:.2f} [{diff["time_ratio_ci"][0]:.2f}, '
+                  f'{diff["time_ratio_ci"][1]:.2f}] ({diff["operators"]} operators, 95% bootstrap CIs)')
         if 'none' in table and 'confidence' in table:
             ratio = table['confidence']['median_ttg_all'] / table['none']['median_ttg_all']
             print(f'confidence / direct median time to grasp (failures at the timeout): {ratio:.2f} '

@@ -95,7 +95,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from _bench import uptime
+from _bench import bootstrap_ci, uptime
 from bench_shared_control import BASE_T_OBJ, OBJECTS
 
 from grasp_intent_ros.method.registry import ModelFiles
@@ -270,13 +270,6 @@ def trace_record(trace: list[TraceRow], ep: Any, rules: Any) -> dict[str, Any]:
             if ep.task_set >> names.index(task) & 1:
                 failed.extend(f'{task}.{name}' for name, ok in checks.items() if not ok)
     return {'trace': rows, 'failed': failed}
-
-
-def bootstrap_ci(values: Sequence[float], rng: np.random.Generator, n: int = 10_000) -> tuple[float, float, float]:
-    """(mean, 2.5th, 97.5th percentile of the bootstrap means) of ``values``."""
-    arr = np.asarray(values, dtype=np.float64)
-    means = arr[rng.integers(0, arr.size, (n, arr.size))].mean(axis=1)
-    return float(arr.mean()), float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
 
 
 def per_episode(records: list[dict[str, Any]], key: str) -> dict[str, dict[int, float]]:

@@ -1,8 +1,9 @@
 """What the process benchmarks share: the network rule, a probe node, w, the planner primed, the teardown.
 
-Not a benchmark itself. Its submodules are shared with the tests (setup.cfg puts benchmarks/ on pytest's
-path): :mod:`_bench.cdp` (a headless Chromium driven over the DevTools protocol) and :mod:`_bench.fuzz_inputs`
-(malformed inputs for every input topic).
+Not a benchmark itself. Its submodules :mod:`_bench.cdp` (a headless Chromium driven over the DevTools protocol)
+and :mod:`_bench.fuzz_inputs` (malformed inputs for every input topic) are shared with the tests (setup.cfg puts
+benchmarks/ on pytest's path); :mod:`_bench.closed_loop` (the live closed loop's probe side and judge) and
+:mod:`_bench.closed_loop_record` (that loop recorded as a session bag) are ``bench_shared_control.py``'s.
 
 The probe is an rclpy node in a private Context, spun by an executor in a thread of its own; callbacks
 record the middleware's receive time of each message (``received_timestamp`` of the message info),
@@ -45,6 +46,13 @@ def walk(n: int, m: int = 3, *, seed: int = 0, step: float = 0.01) -> Iterator[n
 def uptime() -> str:
     """The load averages (1, 5, 15 min), as ``uptime`` prints them."""
     return 'load average %.2f, %.2f, %.2f' % os.getloadavg()
+
+
+def bootstrap_ci(values: Sequence[float], rng: np.random.Generator, n: int = 10_000) -> tuple[float, float, float]:
+    """(mean, 2.5th, 97.5th percentile of the bootstrap means) of ``values``: ``n`` resamples with replacement."""
+    arr = np.asarray(values, dtype=np.float64)
+    means = arr[rng.integers(0, arr.size, (n, arr.size))].mean(axis=1)
+    return float(arr.mean()), float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
 
 
 def percentiles(values_ms: list[float] | np.ndarray, *, digits: int = 1) -> str:

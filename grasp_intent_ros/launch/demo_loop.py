@@ -55,12 +55,12 @@ from std_srvs.srv import SetBool
 
 from ..method.model import GraspModel
 from ..mico.frames import offset
-from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, MicoKinematics
+from ..mico.kinematics import BASE_FRAME, FINGER_JOINTS, MicoKinematics
 from ..ros.qos import STREAM_DEPTH, input_qos
 from ..wire import topics
 from ..wire.diagnostics import KEY_EXECUTE, KEY_TIMES_TO_GRASP, OPERATOR_COMPONENT
 from ..wire.model_document import ModelDocument
-from ..wire.robot_state import joint_positions, pose_msg_to_matrix
+from ..wire.robot_state import Hand, fingers_settled, hand_state, joint_positions, pose_msg_to_matrix
 from .demo_judge import judge, operator_verdict
 
 __all__ = ['LOOP_MODEL', 'OPERATOR_TASKS', 'OPERATOR_W', 'OPERATOR_W_NOISE', 'OPERATOR_SEED', 'HELD_BACK',
@@ -86,20 +86,6 @@ fingers: the close request is served within milliseconds, and the fingers must b
 
 class LoopError(RuntimeError):
     """The closed loop did not complete a stage within its deadline; the message says which and what is missing."""
-
-
-@dataclass(frozen=True)
-class Hand:
-    """The mock arm's latest joint state: where the hand is.
-
-    ``received``: monotonic s; ``base_T_ee``: shape (4, 4), base frame (forward kinematics of the arm joints);
-    ``fingers``: shape (3,), rad; ``fingers_at_rest``: every finger's velocity is zero.
-    """
-
-    received: float
-    base_T_ee: NDArray[np.float64]
-    fingers: NDArray[np.float64]
-    fingers_at_rest: bool
 
 
 @dataclass(frozen=True)
@@ -227,11 +213,7 @@ def wait_for_close(view: LoopView, number: int, released: float, help_on: bool, 
     assert status is not None
     seen, _, values = status
 
-    def at_rest() -> bool:
-        hand = view.hand()
-        return hand is not None and hand.received >= seen + CLOSE_SETTLE and hand.fingers_at_rest
-
-    if not view.wait(at_rest, timeout):
+    if not view.wait(lambda: fingers_settled(view.hand(), seen, CLOSE_SETTLE), timeout):
         raise LoopError(f'episode {number}: the fingers were not at rest within {timeout:g} s of the operator\'s close '
                         f'({_where(view)})')
     hand, shown, motion = view.hand(), view.shown(), view.operator_motion(released)
@@ -326,11 +308,7 @@ class LoopObserver(Node):
         if self._joints is None:
             return None
         received, msg = self._joints
-        q, fingers = joint_positions(msg, ARM_JOINTS), joint_positions(msg, FINGER_JOINTS)
-        if q is None or fingers is None:
-            return None
-        velocity = dict(zip(msg.name, msg.velocity))
-        return Hand(received, self._kin.fk(q), fingers, not any(velocity.get(name, 0.0) for name in FINGER_JOINTS))
+        return hand_state(msg, self._kin, received)
 
     def shown(self) -> Shown | None:  # noqa: D102
         return self._shown

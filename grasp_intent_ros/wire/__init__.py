@@ -12,7 +12,8 @@ model_document
 diagnostics
     The diagnostics levels, status names and keys (each key defined once).
 robot_state
-    Robot-side messages read as values: a PoseStamped as a transform, a JointState's positions by name.
+    Robot-side messages read as values: a PoseStamped as a transform, a JointState's positions by name, the hand
+    (its pose and its fingers, at rest or not).
 
 Imports of the package: :mod:`~grasp_intent_ros.errors`, :mod:`~grasp_intent_ros.method` and
 :mod:`~grasp_intent_ros.mico`.

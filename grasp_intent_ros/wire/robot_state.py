@@ -1,4 +1,4 @@
-"""Robot-side messages read as values: a PoseStamped as a transform, a JointState's positions by name.
+"""Robot-side messages read as values: a PoseStamped as a transform, a JointState's positions by name, the hand.
 
 ROS-free (attribute access only, so rosbags' message classes are read too): the nodes read their inputs and
 the session analysis reads recorded messages with the same checks. Writers of these messages need rclpy and
@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -18,12 +19,13 @@ from numpy.typing import NDArray
 from ..errors import KinematicsError
 from ..mico.frames import QUATERNION_NORM_TOL, check_unit_quaternion, pose_to_matrix
 from ..mico.grasp import check_workspace
-from ..mico.kinematics import BASE_FRAME
+from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, MicoKinematics
 from ..mico.mock_arm import TwistCommand, check_twist
 from .topics import MAX_JOINTS, MAX_NAME_LENGTH, check_names
 
 __all__ = ['QUATERNION_NORM_TOL', 'check_unit_quaternion', 'pose_msg_to_matrix', 'joint_positions', 'twist_command',
-           'seconds', 'stamp_seconds', 'stamp_nanoseconds', 'object_pose_msg', 'trajectory_time']
+           'seconds', 'stamp_seconds', 'stamp_nanoseconds', 'object_pose_msg', 'trajectory_time', 'Hand',
+           'hand_state', 'fingers_settled']
 
 
 def pose_msg_to_matrix(msg: Any, *, frame_id: str,
@@ -131,3 +133,39 @@ def object_pose_msg(msg: Any, workspace_radius: float) -> NDArray[np.float64]:
     base_T_obj = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
     check_workspace(base_T_obj[:3, 3], workspace_radius)
     return base_T_obj
+
+
+@dataclass(frozen=True)
+class Hand:
+    """The MICO's hand as one joint state gives it: where the hand is, and its fingers.
+
+    ``received``: monotonic s (the receipt); ``base_T_ee``: shape (4, 4), base frame (forward kinematics of the arm
+    joints); ``fingers``: shape (3,), rad (the executed closures: a mock arm's closure error included);
+    ``fingers_at_rest``: every finger's velocity is zero (a finger without a velocity counts as at rest).
+    """
+
+    received: float
+    base_T_ee: NDArray[np.float64]
+    fingers: NDArray[np.float64]
+    fingers_at_rest: bool
+
+
+def hand_state(msg: Any, kin: MicoKinematics, received: float) -> Hand | None:
+    """The :class:`Hand` of a sensor_msgs/JointState received at monotonic ``received`` s.
+
+    None when the message lacks an arm or a finger joint. Raises as :func:`joint_positions`.
+    """
+    q, fingers = joint_positions(msg, ARM_JOINTS), joint_positions(msg, FINGER_JOINTS)
+    if q is None or fingers is None:
+        return None
+    velocity = dict(zip(msg.name, msg.velocity))
+    return Hand(received, kin.fk(q), fingers, not any(velocity.get(name, 0.0) for name in FINGER_JOINTS))
+
+
+def fingers_settled(hand: Hand | None, closed: float, settle: float) -> bool:
+    """Whether ``hand`` shows the fingers at rest after a close at monotonic ``closed`` s.
+
+    True when the joint state was received at least ``settle`` s after ``closed`` (the fingers seen moving or at
+    rest after the close, not before it) and every finger is at rest: its ``fingers`` are the executed closures.
+    """
+    return hand is not None and hand.received >= closed + settle and hand.fingers_at_rest
