@@ -10,8 +10,8 @@ the joystick only within 3 cm of its grasp). Two goal rules (``--goals``):
   (:func:`grasp_intent_ros.objects.demos.sample_grasp`), kept when the object's rules label it exactly S
   and the MICO takes it as a demonstration (:func:`grasp_intent_ros.objects.demos.taken`: the open hand clear,
   the arm reaches it from Home): a grasp the estimator's demonstrations do not contain;
-- ``own``: the shared-control benchmark's own grasp for S (:func:`bench_shared_control.own_goals`: the
-  planner's for the certain w_S).
+- ``own``: the shared-control benchmarks' own grasp for S (:func:`_bench.closed_loop_record.own_goals`: the
+  planner's for the certain w_S, at the true object).
 
 The estimator (:class:`~grasp_intent_ros.shared_control.estimator.IntentEstimator`, goals: the model's reachable
 demonstrations) gets each operator twist with the hand's pose at that tick; it never sees S, the rules or
@@ -54,15 +54,14 @@ from pathlib import Path
 
 import numpy as np
 from _bench import uptime
-from bench_shared_control import BASE_T_OBJ, OBJECTS, PERIOD, own_goals
+from _bench.closed_loop import BASE_T_OBJ, OBJECTS, PERIOD, load_model
+from _bench.closed_loop_record import own_goals
 from bench_shared_control_sim import estimator_fields
 
-from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee
 from grasp_intent_ros.mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import MockArm, check_twist
-from grasp_intent_ros.objects.demos import ObjectRules, sample_grasp, taken
-from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.objects.demos import ObjectRules, object_of, sample_grasp, taken
 from grasp_intent_ros.sessions.closed_loop import reached
 from grasp_intent_ros.shared_control.calibration import calibrate, fit_calibration
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
@@ -148,8 +147,10 @@ def simulate(op: OperatorConstants, goal: np.ndarray, intent_w: object, task_set
 def reaches(name: str, seed: int, operators: int, goals_rule: str, kin: MicoKinematics, op: OperatorConstants,
             timeout: float, device: Device = 'joystick') -> list[Reach]:
     """The reaches of ``operators`` seeded operators on object ``name``."""
-    model_name, rules = OBJECTS[name]
-    own = own_goals(model_name, kin) if goals_rule == 'own' else {}
+    model = load_model(name)
+    rules = object_of(model)
+    assert rules is not None, f'{model.name} names no object with rules'
+    own = own_goals(model, kin) if goals_rule == 'own' else {}
     out = []
     for i in range(operators):
         rng = np.random.default_rng([seed, list(OBJECTS).index(name), i])
@@ -210,7 +211,7 @@ def ci95(diff: np.ndarray, rng: np.random.Generator) -> tuple[float, float]:
 
 
 def estimator_for(name: str, kin: MicoKinematics, config: EstimatorConfig) -> IntentEstimator:
-    model = ModelFiles(config_dir() / 'models').load(OBJECTS[name][0])
+    model = load_model(name)
     return IntentEstimator(goals_at(model, BASE_T_OBJ, reachable_goals(model, BASE_T_OBJ, kin)), config)
 
 

@@ -96,14 +96,13 @@ from typing import Any
 
 import numpy as np
 from _bench import bootstrap_ci, uptime
-from bench_shared_control import BASE_T_OBJ, OBJECTS
+from _bench.closed_loop import BASE_T_OBJ, OBJECTS, load_model
 
-from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.collision import tracker_margin
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
+from grasp_intent_ros.objects.demos import object_of
 from grasp_intent_ros.planning.options import Options, node_default_options
-from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
     ChangingIntent,
@@ -144,10 +143,10 @@ def _options(execution_noise: bool) -> Options | None:
 def _setup(name: str, execution_noise: bool) -> dict[str, Any]:
     key = f'{name}/{execution_noise}'
     if key not in _STATE:
-        model_name, rules = OBJECTS[name]
-        kin = MicoKinematics()
-        model = ModelFiles(config_dir() / 'models').load(model_name)
-        _STATE[key] = {'kin': kin, 'model': model, 'rules': rules}
+        model = load_model(name)
+        rules = object_of(model)
+        assert rules is not None, f'{model.name} names no object with rules'
+        _STATE[key] = {'kin': MicoKinematics(), 'model': model, 'rules': rules}
     return _STATE[key]
 
 

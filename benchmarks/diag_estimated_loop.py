@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 from _bench import uptime
-from bench_shared_control import OBJECTS
+from _bench.closed_loop import OBJECTS
 from bench_shared_control_sim import ESTIMATED, OPERATORS, RUN, Task, estimator_fields, run_tasks
 
 CLASSES = ('timeout', 'wrong plan, w wrong', 'wrong plan, w right', 'right plan, rules fail', 'own, rules fail')
