@@ -1,0 +1,37 @@
+"""The benchmarks can run: every script imports, and the simulated closed loop judges one episode.
+
+No benchmark runs in CI, so a change that moves a name a benchmark uses (or the shape of a table it reads) would
+otherwise be found only by the next person who measures. Importing a script runs nothing but its imports and
+definitions (each runs its work under ``if __name__ == '__main__'``); ``benchmarks/`` is on the tests' path
+(setup.cfg).
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+
+import pytest
+
+BENCHMARKS = Path(__file__).resolve().parents[2] / 'benchmarks'
+SCRIPTS = sorted(p.stem for p in BENCHMARKS.glob('*.py'))
+
+
+@pytest.mark.parametrize('script', SCRIPTS)
+def test_every_benchmark_script_imports(script: str) -> None:
+    module = importlib.import_module(script)
+    assert module.__doc__, f'benchmarks/{script}.py states what it measures in its docstring'
+
+
+def test_the_simulated_closed_loop_judges_one_episode_under_each_condition() -> None:
+    sim = importlib.import_module('bench_shared_control_sim')
+    task = sim.Task('cup', 'spacemouse', 0, seed=0, repeats=1, intent='persistent', timeout=15.0, tracker_mm=5.0,
+                    tracker_deg=3.0, conditions=('direct', 'suite'))
+    records = sim.run_task(task)
+    assert [r['condition'] for r in records] == ['direct', 'suite']
+    for record in records:
+        assert record['object'] == 'cup' and record['operator'] == 'spacemouse' and record['episode'] == 0
+        assert 1 <= record['task_set'] <= 7 and isinstance(record['success'], bool)
+        assert 0.0 < record['time'] <= 15.0
+        assert record['success'] <= record['closed']  # judged only where the hand closed
+    assert records[0]['alpha_mean'] == 0.0 and records[1]['alpha_mean'] > 0.0  # direct: no help; the suite helps
