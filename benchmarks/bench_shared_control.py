@@ -18,7 +18,7 @@ the suite's command, not the baselines'), a close on the shown grasp calls ``gra
 stopped; ``--no-execute`` closes there under every condition. The mock arm closes the fingers to the latest plan's
 closures plus its closure error (N(0, ``closure_error``^2) per finger, its own seeded stream, one draw per close in
 the order of the closes, so not paired between conditions). The probe sends zero twists until it receives a joint
-state at least the demo's ``CLOSE_SETTLE`` (0.3 s) after the close's answer with every finger at rest
+state at least ``CLOSE_SETTLE`` (0.3 s) after the close's answer with every finger at rest
 (:func:`~grasp_intent_ros.wire.robot_state.fingers_settled`, as the demo reads them), and the hand is judged there:
 its pose and the closures the fingers executed.
 

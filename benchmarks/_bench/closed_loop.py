@@ -35,7 +35,7 @@ from grasp_intent_ros.shared_control.operator_loop import (
     operator_step,
 )
 from grasp_intent_ros.shared_control.operators import IntentScript, OperatorConstants, ScriptedOperator
-from grasp_intent_ros.wire.robot_state import Hand, fingers_settled, hand_state
+from grasp_intent_ros.wire.robot_state import CLOSE_SETTLE, Hand, fingers_settled, hand_state
 
 OBJECTS = {'cup': 'cup_7zone', 'flashlight': 'flashlight_7zone'}
 """The benchmark's objects and their models; the judge's rules are each model's object's (``object_of``)."""
@@ -233,13 +233,11 @@ class Loop:
     def close(self) -> Hand | None:
         """The grasp command's close: ``grasp/close``, then zero twists until the fingers are seen at rest.
 
-        The hand read in a joint state received at least the demo's ``CLOSE_SETTLE`` s after the answer, every
-        finger at rest (:func:`~grasp_intent_ros.wire.robot_state.fingers_settled`): its fingers are the closures
-        the mock arm executed (the latest plan's plus its closure error). None when the close is refused or the
-        fingers are not at rest within :data:`CLOSE_TIMEOUT` s (both printed).
+        The hand read in a joint state received at least :data:`~grasp_intent_ros.wire.robot_state.CLOSE_SETTLE` s
+        after the answer, every finger at rest (:func:`~grasp_intent_ros.wire.robot_state.fingers_settled`): its
+        fingers are the closures the mock arm executed (the latest plan's plus its closure error). None when the close
+        is refused or the fingers are not at rest within :data:`CLOSE_TIMEOUT` s (both printed).
         """
-        from grasp_intent_ros.launch.demo_loop import CLOSE_SETTLE
-
         answer = self.call(self._close, self._trigger.Request())
         if not answer.success:
             print(f'bench_shared_control: grasp/close refused: {answer.message}', file=sys.stderr)

@@ -31,8 +31,8 @@ mock arm's second closure error).
 Waits: each stage waits up to the demo's ``timeout`` (the grasp shown, the operator's close, the fingers at
 rest); a stage that does not complete raises :class:`LoopError` naming what is missing (the demo prints it and
 exits 1). The fingers are read once at rest in joint states received at least
-:data:`CLOSE_SETTLE` s after the operator's status reported the close (the close request is served in
-milliseconds; the status may arrive up to its 1 s period after it).
+:data:`~grasp_intent_ros.wire.robot_state.CLOSE_SETTLE` s after the operator's status reported the close (the
+close request is served in milliseconds; the status may arrive up to its 1 s period after it).
 """
 
 from __future__ import annotations
@@ -60,11 +60,18 @@ from ..ros.qos import STREAM_DEPTH, input_qos
 from ..wire import topics
 from ..wire.diagnostics import KEY_EXECUTE, KEY_TIMES_TO_GRASP, OPERATOR_COMPONENT
 from ..wire.model_document import ModelDocument
-from ..wire.robot_state import Hand, fingers_settled, hand_state, joint_positions, pose_msg_to_matrix
+from ..wire.robot_state import (
+    CLOSE_SETTLE,
+    Hand,
+    fingers_settled,
+    hand_state,
+    joint_positions,
+    pose_msg_to_matrix,
+)
 from .demo_judge import judge, operator_verdict
 
 __all__ = ['LOOP_MODEL', 'OPERATOR_TASKS', 'OPERATOR_W', 'OPERATOR_W_NOISE', 'OPERATOR_SEED', 'HELD_BACK',
-           'CLOSE_SETTLE', 'OPERATOR_PARAMETERS', 'LoopError', 'Hand', 'Shown', 'Episode', 'LoopView',
+           'OPERATOR_PARAMETERS', 'LoopError', 'Hand', 'Shown', 'Episode', 'LoopView',
            'operator_args', 'wait_for_close', 'format_episode', 'LoopObserver', 'run_closed_loop']
 
 LOOP_MODEL = 'cup_7zone'
@@ -79,9 +86,6 @@ OPERATOR_SEED = 0
 """Its ``seed``: the device's noise and the held w's noise."""
 HELD_BACK = 3600.0
 """Its ``start_delay`` (s) until the section releases it: the largest the parameter takes."""
-CLOSE_SETTLE = 0.3
-"""Seconds from the receipt of the operator's status that reports a close to the first joint state read for the
-fingers: the close request is served within milliseconds, and the fingers must be seen moving or at rest after it."""
 
 
 class LoopError(RuntimeError):
@@ -200,7 +204,8 @@ def wait_for_close(view: LoopView, number: int, released: float, help_on: bool, 
     ------
     LoopError
         When the operator's status does not report the episode's close within ``timeout`` s, or the fingers are not
-        seen at rest :data:`CLOSE_SETTLE` s after that within ``timeout`` s more; the message names what is missing.
+        seen at rest :data:`~grasp_intent_ros.wire.robot_state.CLOSE_SETTLE` s after that within ``timeout`` s
+        more; the message names what is missing.
     """
     def closed() -> bool:
         status = view.operator_status()

@@ -25,7 +25,7 @@ from .topics import MAX_JOINTS, MAX_NAME_LENGTH, check_names
 
 __all__ = ['QUATERNION_NORM_TOL', 'check_unit_quaternion', 'pose_msg_to_matrix', 'joint_positions', 'twist_command',
            'seconds', 'stamp_seconds', 'stamp_nanoseconds', 'object_pose_msg', 'trajectory_time', 'Hand',
-           'hand_state', 'fingers_settled']
+           'hand_state', 'CLOSE_SETTLE', 'fingers_settled']
 
 
 def pose_msg_to_matrix(msg: Any, *, frame_id: str,
@@ -162,7 +162,12 @@ def hand_state(msg: Any, kin: MicoKinematics, received: float) -> Hand | None:
     return Hand(received, kin.fk(q), fingers, not any(velocity.get(name, 0.0) for name in FINGER_JOINTS))
 
 
-def fingers_settled(hand: Hand | None, closed: float, settle: float) -> bool:
+CLOSE_SETTLE = 0.3
+"""Seconds from a close (its answer, or a status that reports it) to the first joint state read for the fingers:
+the close request is served within milliseconds, and the fingers must be seen moving or at rest after it."""
+
+
+def fingers_settled(hand: Hand | None, closed: float, settle: float = CLOSE_SETTLE) -> bool:
     """Whether ``hand`` shows the fingers at rest after a close at monotonic ``closed`` s.
 
     True when the joint state was received at least ``settle`` s after ``closed`` (the fingers seen moving or at

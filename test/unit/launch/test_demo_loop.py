@@ -10,7 +10,6 @@ import pytest
 
 from grasp_intent_ros.launch.demo_judge import judge, operator_verdict
 from grasp_intent_ros.launch.demo_loop import (
-    CLOSE_SETTLE,
     OPERATOR_PARAMETERS,
     OPERATOR_TASKS,
     Episode,
@@ -28,6 +27,7 @@ from grasp_intent_ros.objects.demos import CUP_RULES
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.parameters import SCRIPTED_OPERATOR
 from grasp_intent_ros.wire.diagnostics import KEY_EXECUTE, KEY_TIMES_TO_GRASP
+from grasp_intent_ros.wire.robot_state import CLOSE_SETTLE
 
 UT = 0b011
 MODEL = ModelFiles(config_dir() / 'models').load('cup_7zone')
