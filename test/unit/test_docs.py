@@ -15,6 +15,7 @@
   tests' (:data:`grasp_intent_ros.launch.suite.TEST_DOMAIN_IDS`);
 - every ``--option`` written after a command (``python -m grasp_intent_ros <command>``, a benchmark script) is
   one its parser defines;
+- docs/sessions.md names every file ``report`` writes;
 - the README's library example runs.
 
 Read from the source (ast), so no module is imported (but by the last two checks).
@@ -397,3 +398,17 @@ def test_the_readmes_library_example_runs() -> None:
     exec(compile(blocks[0], 'README.md', 'exec'), names)  # noqa: S102 - the README's own example
     assert names['res'].status == names['robust'].status == names['paper'].status == 'ok'  # type: ignore[attr-defined]
     assert names['kl'].shape == (3, 3)  # type: ignore[attr-defined]
+
+
+def report_outputs() -> list[str]:
+    """The files ``report`` writes, as the entries of :mod:`grasp_intent_ros.sessions.report`'s docstring name them."""
+    doc = ast.get_docstring(ast.parse((PACKAGE / 'sessions' / 'report.py').read_text())) or ''
+    return re.findall(r'^``([\w.\[\]<>]+\.(?:png|md))``', doc, re.MULTILINE)
+
+
+def test_the_sessions_page_names_every_file_the_report_writes() -> None:
+    outputs = report_outputs()
+    assert {'summary.md', 'shared_control.png', 'grasp_scene_<k>.png'} <= set(outputs)  # the docstring's entries
+    text = (REPO / 'docs' / 'sessions.md').read_text()
+    section = text.split('\n## report\n', 1)[1].split('\n## ', 1)[0]
+    assert [name for name in outputs if f'`{name}`' not in section] == [], 'docs/sessions.md, "report"'
