@@ -209,7 +209,9 @@ PATH = re.compile(rf'`((?:{"|".join(TOP_DIRS + FOLDERS)})/[\w./-]*?)(?:::(\w+))?
 TEST_PATH = re.compile(r'(?<![\w/.`-])((?:test|benchmarks)/[\w/.-]*\.py)(?:::(\w+))?')
 """A test or benchmark named unquoted, as docstrings do (no reader writes files there, unlike config/)."""
 LINK = re.compile(r'\]\(([^)\s]+)\)')
-TOPIC_COMMAND = re.compile(r'ros2 topic (?:pub|echo)(?: --?[a-z][\w-]*)* (/?[\w/]+)(?: (\w+/msg/\w+))?')
+TOPIC_COMMAND = re.compile(r'ros2 topic (?:pub|echo)(?: --?[a-z][\w-]*(?: \d[\d.]*)?)* (/?[\w/]+)(?: (\w+/msg/\w+))?')
+"""``ros2 topic pub/echo``, its options (a number after one is its value: no topic name starts with a digit), the
+topic and the type."""
 PARAM_COMMAND = re.compile(r'ros2 param (?:set|get|describe)(?: --[a-z][\w-]*)* (/[\w/]+) (\w+)')
 DOMAIN = re.compile(r'(?:ROS_DOMAIN_ID=|--domain-id )(\d+)')
 
@@ -315,9 +317,11 @@ def test_every_ros2_command_of_the_docs_names_a_topic_or_parameter_of_the_suite(
 def test_the_ros2_command_check_tells_stale_commands_from_live_ones() -> None:
     for live in ('ros2 topic echo --once grasp/pose geometry_msgs/msg/PoseStamped', 'ros2 topic echo /diagnostics',
                  'ros2 topic pub --once /robot1/intent/w std_msgs/msg/Float64MultiArray',
-                 'ros2 param set /robot1/model_server model', 'ros2 param describe /intent_interpreter task_names'):
+                 'ros2 param set /robot1/model_server model', 'ros2 param describe /intent_interpreter task_names',
+                 'ros2 topic pub --rate 2 --times 6 intent/w std_msgs/msg/Float64MultiArray'):
         assert [m for m in ros2_commands(live) if not stale_ros2_command(m)], live
     for stale in ('ros2 topic echo --once grasp/poses', 'ros2 topic pub --once intent/w std_msgs/msg/Float32MultiArray',
+                  'ros2 topic pub --rate 2 intent/ww',
                   'ros2 topic echo robot1/intent/w', 'ros2 param set /model_server no_such_parameter',
                   'ros2 param set /no_such_node model', 'ros2 param get /suite model'):
         assert [m for m in ros2_commands(stale) if stale_ros2_command(m)], stale
