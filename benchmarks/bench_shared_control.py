@@ -66,8 +66,8 @@ Figures per object and condition (the same seeded operators): success (the opera
 seen hand within 1 cm and 0.1 rad of the goal it pursues, within ``--timeout`` s, and the data set's task
 rules, :data:`grasp_intent_ros.objects.demos.CUP_RULES` / ``FLASHLIGHT_RULES``, hold for every task of S at
 the true object pose, at the reached pose with the executed closures, judged after closing
-(:func:`~grasp_intent_ros.launch.demo_judge.judge`, the demo's judge; never seen by the operator, the planner or
-the assistance)), time to grasp (to the close, an execution included; median of the
+(:func:`~grasp_intent_ros.objects.judge.judge`, the demo's and the simulated benchmark's judge; never seen by the
+operator, the planner or the assistance)), time to grasp (to the close, an execution included; median of the
 successful runs, and over all runs with a failure counted as the timeout), operator effort (integral of
 |operator twist|, linear m and angular rad), wrong-task pulls (the integral of alpha over the time the shown
 grasp did not serve S by the rules, and how many operators met any), mean alpha. A latency phase first (``arbitration``
