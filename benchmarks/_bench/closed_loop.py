@@ -154,6 +154,7 @@ class Loop:
         self._pose_type, self._output_qos = PoseStamped, output_qos
         from rcl_interfaces.srv import GetParameters
         self._arm_parameters = node.create_client(GetParameters, 'mock_arm/get_parameters')
+        self._arm_set_parameters = node.create_client(SetParameters, 'mock_arm/set_parameters')
         self._get_parameters = GetParameters
         from std_srvs.srv import SetBool
         self._enable = node.create_client(SetBool, 'assistance/enable')
@@ -180,14 +181,21 @@ class Loop:
             sys.exit(f'bench_shared_control: no answer from {client.srv_name}')
         return future.result()
 
-    def set_arbitration(self, rule: str) -> None:
-        from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    def _set_parameter(self, client: Any, name: str, value: Any) -> None:
+        """Set one parameter through ``client`` (a node's ``set_parameters``); a refusal stops the benchmark."""
         from rcl_interfaces.srv import SetParameters
+        from rclpy.parameter import Parameter
 
-        value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=rule)
-        result = self.call(self._set_params, SetParameters.Request(parameters=[Parameter(name='arbitration',
-                                                                                          value=value)]))
-        assert result.results[0].successful, result.results[0].reason
+        request = SetParameters.Request(parameters=[Parameter(name, value=value).to_parameter_msg()])
+        result = self.call(client, request).results[0]
+        assert result.successful, f'{client.srv_name} {name}: {result.reason}'
+
+    def set_arbitration(self, rule: str) -> None:
+        self._set_parameter(self._set_params, 'arbitration', rule)
+
+    def set_closure_seed(self, seed: int) -> None:
+        """The mock arm's ``closure_seed``: its closes from now draw the errors of ``seed`` from their start."""
+        self._set_parameter(self._arm_set_parameters, 'closure_seed', seed)
 
     def enable(self, on: bool) -> None:
         assert self.call(self._enable, self._set_bool.Request(data=on)).success
