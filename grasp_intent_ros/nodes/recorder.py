@@ -10,9 +10,9 @@ Topics
     so nodes may start before or after the recorder (:class:`~grasp_intent_ros.ros.recording.TopicRecorder`).
 Ready
     Once it logs ``recording to BAG: TOPICS``, a message published on one of the package's topics reaches the
-    bag, from a one-shot publisher too, provided the publisher had matched the recorder's subscription (a
-    publisher that waits for its matches knows: ``ros2 topic pub -w 2 --once intent/w ...`` beside the
-    interpreter; ``send_intent`` waits for every subscription it sees).
+    bag, from a one-shot publisher too, provided the publisher had matched the recorder's subscription and
+    stays until the message is delivered (a publisher that waits for two matches, the interpreter's and the
+    recorder's, is sure: ``ros2 topic pub -w 2 --once intent/w ...``, ``send_intent -w 2``).
     On any other topic, what a publisher sends before the next look at the graph is lost.
 Recording
     Messages are taken serialized and written unchanged, stamped with the middleware's receive time (ns),

@@ -10,11 +10,11 @@ When a topic is subscribed
     The package's own topics (:data:`~grasp_intent_ros.wire.topics.MSGTYPES`, resolved against the recorder:
     its namespace and remaps) that the selection holds are subscribed when the recorder starts, before any
     publisher is seen (:func:`known_topics`), so a one-shot publisher is heard: a message published on one
-    of them after the recorder is ready reaches the bag once the publisher has matched the recorder's
-    subscription (DDS discovery takes some ms: ``ros2 topic pub -w 2 --once intent/w ...`` waits for two
-    matched subscriptions, the interpreter's and the recorder's; ``send_intent`` for every subscription it
-    sees). Any other selected topic is subscribed when a look at
-    the graph (every discovery period) first shows a publisher of it: what it sends before is lost.
+    of them after the recorder is ready reaches the bag if the publisher has matched the recorder's
+    subscription (DDS discovery of a new participant takes ms to a second) and stays until the message is
+    delivered: ``ros2 topic pub -w 2 --once intent/w ...`` and ``send_intent -w 2`` wait for two matched
+    subscriptions, the interpreter's and the recorder's. Any other selected topic is subscribed when a look
+    at the graph (every discovery period) first shows a publisher of it: what it sends before is lost.
 The QoS they are subscribed with
     A known topic: what the suite's publishers of it offer (:func:`declared_qos`): reliable, transient local
     for the latched model topics (their last message is recorded however early it was published), volatile

@@ -288,3 +288,19 @@ def test_topic_outside_the_package_is_recorded_once_discovered(ros, tmp_path: Pa
     assert ros.publish_until(pub, String(data='cup'), lambda: recorder.counts.get(label, 0) >= 1, timeout=10.0)
     assert recorder.recorded_topics[label] == (STRING, QosSpec('reliable', 'volatile', 0))
     assert set(recorder.recorded_topics) == {label}
+
+
+def test_send_intent_waits_for_the_subscriptions_it_is_told_of(ros, tmp_path: Path) -> None:
+    """``send_intent -w 2``: no w before two subscriptions (the interpreter's, the recorder's) have matched."""
+    from grasp_intent_ros.cli.send_intent import IntentSender, NoGrasp
+
+    heard: list[Float64MultiArray] = []
+    ros.node.create_subscription(Float64MultiArray, W, heard.append, 10)  # stands in for the interpreter
+    sender = ros.add(IntentSender(context=ros.context, namespace=NS))
+    with pytest.raises(NoGrasp, match='no w was sent: 1 of the 2 subscriptions'):
+        sender.send((0.9, 0.1), ros.executor, timeout=1.0, subscribers=2)
+    assert heard == []
+    recorder = ros.add(Recorder(tmp_path / 'sent', context=ros.context, namespace=NS, discovery_period=NO_LOOK))
+    with pytest.raises(NoGrasp, match='no intent/v came back'):  # nobody answers: w is sent until the timeout
+        sender.send((0.9, 0.1), ros.executor, timeout=2.0, subscribers=2)
+    assert ros.wait_for(lambda: heard and recorder.counts.get(W) == len(heard)), (len(heard), recorder.summary())
