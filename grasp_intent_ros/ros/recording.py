@@ -18,7 +18,7 @@ When a topic is subscribed
 The QoS they are subscribed with
     A known topic: what the suite's publishers of it offer (:func:`declared_qos`): reliable, transient local
     for the latched model topics (their last message is recorded however early it was published), volatile
-    for the others (what ``send_intent``, ``replay`` and ``ros2 topic pub`` offer; a reliable subscription
+    for the others (matching what ``send_intent``, ``replay`` and ``ros2 topic pub`` offer; a reliable subscription
     loses nothing a reliable publisher sends). When every live publisher of a known topic offers less (only
     best-effort ones, or only volatile ones on a latched topic), the topic is subscribed again as any other
     topic is: best effort / volatile if its publishers' offers differ, else what they offer
