@@ -12,8 +12,6 @@ clearance
     The robot's joint path clear of the object as perceived (tracked pose, model's body): checked, and replaced.
 path_search
     The robot's joint path sought from a snapshot: the search (one definition), at once or in a process of its own.
-line_hold
-    The target's IK solution held for a proposal, let go when the joints stall short of it (the search's request).
 limits
     The output twist's speed and acceleration limits; norms without overflow.
 barrier

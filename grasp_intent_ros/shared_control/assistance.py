@@ -17,11 +17,9 @@ until the hand is in the approach corridor, then toward the grasp (:func:`assist
 is in the corridor when it is within ``corridor_radius`` of the grasp, or behind it (along the approach
 axis) within ``corridor_radius`` of that axis and within ``corridor_angle`` of the grasp's orientation.
 With the arm's kinematics (:class:`Assistance` given a :class:`~.kinematics.MicoKinematics`), the twist is the
-end effector's motion while the joints move straight toward the target's inverse kinematics q_t (without
-random restarts: the solution this proposal's last own line went to while that line keeps the open hand out of
-the perceived object, until the joints stall short of it (:mod:`.line_hold`), else the one the current joints q
-descend to, :func:`~.joint_path.ik_line`; its wrist on the 2 pi branch that turns the hand the short way,
-:func:`~.joint_path.line_turns`; once per target and planned grasp), ``J(q) k_q (q_t - q)``
+end effector's motion while the joints move straight toward the target's inverse kinematics q_t (solved from
+the current joints q without random restarts, its wrist on the 2 pi branch that turns the hand the short way,
+:func:`~.joint_path.line_turns`, once per target and planned grasp), ``J(q) k_q (q_t - q)``
 (:func:`joint_space_twist`). When the target has no IK solution from q (the descent from q stops at a joint
 limit or in the wrist's singularity), q_t is an IK solution from other seeds whose straight joint line from q
 keeps the hand near the grasp and the wrist on its side, or, when no straight line does, whose two lines
@@ -109,7 +107,6 @@ from .barrier import clearance_filter
 from .clearance import PathClearance, default_hand
 from .joint_path import VIA_REACHED
 from .limits import TwistLimiter, clip_norm, norm
-from .line_hold import LineHold
 from .path_search import PathRequest, PathSearch, PathSource, warm_up_scene
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
@@ -363,7 +360,6 @@ class Assistance:
         the grasp or the pre-grasp (None: none found); ``_cleared``: the clear paths that replaced one, by phase,
         for this proposal."""
         self._cleared: dict[str, list[NDArray[np.float64]]] = {}
-        self._hold = LineHold()  # by phase: this proposal's held IK solution, let go on a stall (line_hold)
         self.clarification_pending = False
         self.agreement = (1.0, 1.0)
         """The operator's held agreement with the grasp's approach target, linear and angular (module docstring)."""
@@ -391,7 +387,6 @@ class Assistance:
                     or float(np.linalg.norm(error[3:])) > self.config.corridor_angle):
                 self.agreement, self.yielded, self._since = (1.0, 1.0), False, None
                 self._path_reference, self._cleared = None, {}
-                self._hold.reset()
         self.base_T_grasp, self.clarification_pending = base_T_grasp, False
         self._generation += 1
         if not same:
@@ -554,7 +549,6 @@ class Assistance:
                     entry = targets[phase] = (answer.key[1], answer.path)
                     if answer.cleared and answer.path is not None:
                         self._cleared[phase] = answer.path
-                    self._hold.answered(phase, answer.path, answer.cleared)
                 if entry is None:
                     return None
             path = entry[1]
@@ -572,8 +566,7 @@ class Assistance:
         assert self.q is not None and self.base_T_grasp is not None
         return PathRequest((self._epoch, self._generation, phase), self.q.copy(), base_T_target, self.base_T_grasp,
                            self.config.corridor_radius, self._reference(), self.clearance,
-                           tuple(self._cleared.get(phase, ())),
-                           self._hold.request(phase, self.q, self._last_output or 0.0))
+                           tuple(self._cleared.get(phase, ())))
 
     def _reference(self) -> float:
         """m: the hand's distance to the grasp when a path to this proposal was first sought (set_grasp resets)."""

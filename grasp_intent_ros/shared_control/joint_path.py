@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,7 +20,7 @@ from numpy.typing import NDArray
 from ..mico.kinematics import HOME_Q, MicoKinematics
 
 __all__ = ['LINE_IK_SEEDS', 'LINE_IK_CHECKS', 'VIA_REACHED', 'WRIST_TURNS', 'TURN_SLACK', 'TURN_STEP', 'TIME_STEP',
-           'ik_candidates', 'near_grasp', 'line_turns', 'ik_line', 'joint_path']
+           'ik_candidates', 'near_grasp', 'line_turns', 'joint_path']
 
 LINE_IK_SEEDS = 32
 """Seeds tried (Home, then random ones) for a target that has no IK from the joints (:func:`joint_path`): each of
@@ -170,58 +169,6 @@ def line_turns(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.floa
         elif cost < best_cost and near_grasp(kin, q, [candidate], base_T_grasp, slack=slack, reference=reference):
             best, best_cost = candidate, cost
     return best
-
-
-def ik_line(kin: MicoKinematics, q: NDArray[np.float64], base_T_target: NDArray[np.float64],
-            base_T_grasp: NDArray[np.float64], *, slack: float, reference: float = 0.0,
-            held: NDArray[np.float64] | None = None,
-            clear: Callable[[list[NDArray[np.float64]]], bool] | None = None) -> NDArray[np.float64] | None:
-    """The end of the straight joint line from ``q`` toward ``base_T_target``: the target's IK solution it goes to.
-
-    A target has several IK solutions (the wrist's two sides among them). The descent from q alone lands on
-    whichever is nearest in its own sense, and as the operator's share moves the joints off the last line it
-    lands now on one, now on another, each switch reversing the robot's twist. So the solution the last line
-    went to (``held``) is kept while its line stays clear of the object, and given up only for a line that is.
-
-    Candidates: **the held solution**, the IK (no restarts) seeded at ``held`` (when given), on the 2 pi
-    branch nearest q; **the descent's**, the IK (no restarts) from q as it gives it. Each ends on
-    :func:`line_turns`'s wrist branch. The held one is admissible when its IK succeeds and its line keeps the
-    hand near the grasp (:func:`near_grasp`, the bound of :func:`joint_path`); the descent's when its IK
-    succeeds (the answer without a held solution). Clear: ``clear([end])`` (the assistance's: the line keeps
-    the open hand out of the object as perceived, :meth:`~.clearance.PathClearance.goes_in`; None: every line
-    is clear). The answer, in this order:
-
-    1. the held solution, when admissible and its line is clear;
-    2. the descent's, when admissible and either no held solution is admissible or its line is clear;
-    3. the held solution (no line is clear: a switch to a line that sweeps too would only reverse the robot's
-       twist; :func:`~.clearance.clear_path` then seeks a clear way).
-
-    No cost is compared, so no float noise decides between the two. Cost: the IK from the held solution (a
-    seed a step from its answer: a few iterations), :func:`line_turns` and ``clear`` for its line; only when that
-    line is not clear, the same for the descent's.
-
-    Returns
-    -------
-    ndarray, shape (6,), or None
-        The line's end (rad); None when neither is admissible (:func:`joint_path` then).
-    """
-    kept: NDArray[np.float64] | None = None  # the held solution's line end, admissible, not clear
-    if held is not None:
-        ik = kin.ik(base_T_target, held, restarts=0)
-        if ik.success:
-            end = line_turns(kin, q, kin.nearest_branch(ik.q, q), base_T_target, base_T_grasp, slack=slack,
-                             reference=reference)
-            if near_grasp(kin, q, [end], base_T_grasp, slack=slack, reference=reference):
-                if clear is None or clear([end]):
-                    return end
-                kept = end
-    ik = kin.ik(base_T_target, q, restarts=0)  # the solution the joints descend to
-    if not ik.success:
-        return kept
-    end = line_turns(kin, q, ik.q, base_T_target, base_T_grasp, slack=slack, reference=reference)
-    if kept is None or (clear is not None and clear([end])):
-        return end
-    return kept
 
 
 def joint_path(kin: MicoKinematics, q: NDArray[np.float64], base_T_target: NDArray[np.float64],

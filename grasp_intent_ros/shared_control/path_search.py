@@ -49,7 +49,7 @@ from ..method.body import Cylinder, ObjectBody
 from ..mico.collision import HandCollision
 from ..mico.kinematics import HOME_Q, MicoKinematics
 from .clearance import PathClearance, clear_path
-from .joint_path import ik_line, joint_path, near_grasp
+from .joint_path import joint_path, line_turns, near_grasp
 
 __all__ = ['PathRequest', 'PathAnswer', 'seek_path', 'PathSource', 'PathSearch', 'PathWorker', 'STOP_TIMEOUT', 'serve',
            'warm_up_scene']
@@ -74,10 +74,6 @@ class PathRequest:
         The object as perceived (None: no check).
     previous : tuple of ndarray, shape (6,)
         The clear way that replaced this proposal's path for this phase, its points still ahead (empty: none).
-    held : ndarray, shape (6,), or None
-        The end of this proposal's last path for this phase that was the search's own (not a clear way that
-        replaced it): the target's IK solution its line went to; :func:`~.joint_path.ik_line`'s. None: none yet,
-        or let go for this proposal because the joints stalled short of it (:class:`~.line_hold.LineHold`).
     """
 
     key: tuple[int, int, str]
@@ -88,7 +84,6 @@ class PathRequest:
     reference: float
     clearance: PathClearance | None
     previous: tuple[NDArray[np.float64], ...] = ()
-    held: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)
@@ -106,21 +101,16 @@ class PathAnswer:
 def seek_path(kin: MicoKinematics, request: PathRequest) -> PathAnswer:
     """The joint path toward ``request.base_T_target`` from ``request.q`` (:class:`~.assistance.Assistance`).
 
-    ``[q_t]``, the straight joint line to the target's IK solution of :func:`~.joint_path.ik_line`:
-    ``request.held`` (the solution this proposal's last own line went to) while its line keeps the open hand out
-    of the perceived object, else the descent's from q (the descent's alone once the caller let go of the held
-    solution: ``held`` None, :class:`~.line_hold.LineHold`); when neither IK serves,
-    :func:`~.joint_path.joint_path`.
-    Then, with a clearance, :func:`~.clearance.clear_path` (admissible: :func:`~.joint_path.near_grasp`, the
-    same bound). ``kin`` must be the calling thread's own, and ``request.clearance`` built on it.
+    The IK (no restarts) from q, ``[q_t]`` with the wrist's 2 pi branch that turns the hand the short way
+    (:func:`~.joint_path.line_turns`), or when it fails :func:`~.joint_path.joint_path`; then, with a
+    clearance, :func:`~.clearance.clear_path` (admissible: :func:`~.joint_path.near_grasp`, the same bound).
+    ``kin`` must be the calling thread's own, and ``request.clearance`` built on it.
     """
-    q, target, grasp, clearance = request.q, request.base_T_target, request.base_T_grasp, request.clearance
-    clear = None if clearance is None else functools.partial(_clear, clearance, q)
-    end = ik_line(kin, q, target, grasp, slack=request.slack, reference=request.reference, held=request.held,
-                  clear=clear)
+    q, target, grasp = request.q, request.base_T_target, request.base_T_grasp
+    ik = kin.ik(target, q, restarts=0)  # the solution the joints descend to
     path: list[NDArray[np.float64]] | None
-    if end is not None:
-        path = [end]
+    if ik.success:
+        path = [line_turns(kin, q, ik.q, target, grasp, slack=request.slack, reference=request.reference)]
     else:
         path = joint_path(kin, q, target, grasp, slack=request.slack, reference=request.reference)
     if path is not None and request.clearance is not None:
@@ -130,11 +120,6 @@ def seek_path(kin: MicoKinematics, request: PathRequest) -> PathAnswer:
         if cleared is not path:
             return PathAnswer(request.key, cleared, True)
     return PathAnswer(request.key, path, False)
-
-
-def _clear(clearance: PathClearance, q: NDArray[np.float64], path: list[NDArray[np.float64]]) -> bool:
-    """Whether the path from ``q`` through ``path`` keeps the open hand out of ``clearance``'s object."""
-    return not clearance.goes_in(q, path)
 
 
 class PathSource(Protocol):
