@@ -29,6 +29,7 @@ COMMANDS = {
     'replay': 'sessions.replay',
     'report': 'sessions.report',
     'playback': 'sessions.playback',
+    'demonstrations': 'sessions.demonstrations',
     'paper_tables': 'cli.paper_tables',
     'ambiguity_report': 'cli.ambiguity_report',
     'generate_data': 'objects.generate_data',

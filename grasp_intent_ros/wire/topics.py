@@ -28,8 +28,8 @@ __all__ = [
     'INTENT_W', 'INTENT_PRIOR', 'INTENT_V', 'INTENT_CLARIFICATION', 'MODEL_ACTIVE', 'MODEL_AMBIGUITY',
     'MODEL_AMBIGUITY_SYMMETRIC', 'MODEL_AMBIGUITY_PINSKER', 'MODEL_QUERY', 'MODEL_POSTERIOR',
     'OBJECT_POSE', 'JOINT_STATES', 'GRASP_POSE', 'GRASP_JOINT_TARGETS', 'GRASP_TRAJECTORY',
-    'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA',
-    'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS', 'ASSISTANCE_ENABLE',
+    'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'OPERATOR_TWIST', 'OPERATOR_GRASP_TASKS', 'ASSISTANCE_TWIST',
+    'ASSISTANCE_ALPHA', 'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS', 'ASSISTANCE_ENABLE',
     'MSGTYPES', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS', 'PLAN_TOPICS', 'OUTPUT_TOPICS',
     'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size', 'check_names',
 ]
@@ -56,6 +56,9 @@ GRASP_MARKERS: Final = 'grasp/markers'
 DIAGNOSTICS: Final = '/diagnostics'
 OPERATOR_TWIST: Final = 'operator/twist'
 """The operator's twist (e.g. a spacemouse or joystick teleop), the assistance node's input."""
+OPERATOR_GRASP_TASKS: Final = 'operator/grasp_tasks'
+"""A demonstrator's label of the next close (comma-separated task names), read from a session bag by the
+``demonstrations`` command (:mod:`grasp_intent_ros.sessions.demonstrations`); no node subscribes to it."""
 ASSISTANCE_TWIST: Final = 'assistance/twist'
 """The blended twist, for a servo (remap it to e.g. ``/servo_node/delta_twist_cmds``)."""
 ASSISTANCE_ALPHA: Final = 'assistance/alpha'
@@ -89,6 +92,7 @@ MSGTYPES: Final[Mapping[str, str]] = {
     GRASP_MARKERS: 'visualization_msgs/msg/MarkerArray',
     DIAGNOSTICS: 'diagnostic_msgs/msg/DiagnosticArray',
     OPERATOR_TWIST: 'geometry_msgs/msg/TwistStamped',
+    OPERATOR_GRASP_TASKS: _STRING,
     ASSISTANCE_TWIST: 'geometry_msgs/msg/TwistStamped',
     ASSISTANCE_ALPHA: 'std_msgs/msg/Float64',
     ARM_TRAJECTORY_COMMAND: 'trajectory_msgs/msg/JointTrajectory',

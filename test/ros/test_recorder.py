@@ -22,7 +22,9 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
 from grasp_intent_ros.nodes.recorder import Recorder
 from grasp_intent_ros.ros.qos import latched_qos
+from grasp_intent_ros.ros.recording import DEFAULT_TOPICS, TopicSelection
 from grasp_intent_ros.sessions.bag import BagWriteError, QosSpec, read_messages, topics_info
+from grasp_intent_ros.wire.topics import JOINT_STATES, OBJECT_POSE, OPERATOR_GRASP_TASKS
 
 N = 2000
 PERIOD = 1e-3  # s: 1 kHz
@@ -221,3 +223,10 @@ def test_late_publisher_with_weaker_qos_is_reported(ros, tmp_path: Path) -> None
     assert ros.wait_for(lambda: [s for s in statuses if s.name == f'{NS}/recorder: recorder'
                                  and s.level == DiagnosticStatus.WARN and 'NOT recorded' in s.message],
                         timeout=10.0)
+
+
+def test_the_default_topics_hold_what_the_demonstrations_command_reads(ros) -> None:
+    """joint_states, object/pose and operator/grasp_tasks (grasp_intent_ros.sessions.demonstrations)."""
+    selection = TopicSelection.resolve(ros.node, DEFAULT_TOPICS)
+    assert all(selection.matches(f'/{topic}') for topic in (JOINT_STATES, OBJECT_POSE, OPERATOR_GRASP_TASKS))
+    assert not selection.matches('/grasp_tasks')
