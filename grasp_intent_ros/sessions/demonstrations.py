@@ -34,7 +34,7 @@ The grasp
     ``object/pose`` received at or before it, and the fingers' positions (the executed closures), as the 10
     features (:func:`~grasp_intent_ros.mico.frames.obj_T_ee_to_features`). Rejected when no object pose was
     received, when the latest is malformed (another frame than the arm's base, a non-unit quaternion), when it
-    was received more than ``max_pose_age`` s before the settled joint state (stale: default
+    was received more than ``max_pose_age`` s before the settled joint state (in integer ns; stale: default
     :data:`MAX_POSE_AGE`; ``inf`` for an object the demonstrator vouches did not move), or when the features
     fall outside the feature space's bounds (the hand closed away from the object).
 Labels (inclusive: every task the grasp serves)
@@ -307,7 +307,7 @@ class _Extractor:
             reasons.append('no object pose')
         elif isinstance(self.pose[1], str):
             reasons.append(f'the latest object pose, at {self.pose[0]:.3f} s, is malformed: {self.pose[1]}')
-        elif hand.received - self.pose[0] > self.max_pose_age:
+        elif _ns(hand.received) - _ns(self.pose[0]) > self.max_pose_age * 1e9:
             reasons.append(f'stale object pose: the latest, at {self.pose[0]:.3f} s, is '
                            f'{hand.received - self.pose[0]:.3f} s old (at most {self.max_pose_age:g} s)')
         else:

@@ -272,11 +272,19 @@ def test_a_close_without_a_usable_object_pose_is_rejected(pose_messages: list[An
     assert len(run([*pose_messages, *hand.messages()]).grasps) == reason.startswith('stale')
 
 
-def test_a_pose_exactly_max_pose_age_old_is_used() -> None:
+@pytest.mark.parametrize('age', [0.3, 0.5, 0.7])
+def test_a_pose_exactly_max_pose_age_old_is_used(age: float) -> None:
+    """A pose received exactly ``max_pose_age`` s before the settled joint state is used (the next float down: not).
+
+    Ages are compared in integer nanoseconds, so the rounding of the two times in s decides nothing.
+    """
     hand = Fingers().rest(1.0).move(CLOSED).rest(1.0)
-    grasp_t = run([(OBJECT_POSE, 0.505, pose()), *hand.messages()]).grasps[0].t
-    for age, found in ((0.5, 1), (math.nextafter(0.5, 0.0), 0)):
-        assert len(run([(OBJECT_POSE, grasp_t - 0.5, pose()), *hand.messages()], max_pose_age=age).grasps) == found
+    k_grasp = round(run([(OBJECT_POSE, 0.505, pose()), *hand.messages()]).grasps[0].t * RATE)
+    messages = [(OBJECT_POSE, (k_grasp - round(age * RATE)) / RATE, pose()), *hand.messages()]
+    messages.sort(key=lambda m: (m[1], m[0] == JOINT_STATES))  # the pose first at its joint state's time
+    for max_pose_age, found in ((age, 1), (math.nextafter(age, 0.0), 0)):
+        assert len(extract(messages, KIN, task_names=DEFAULT_TASKS, tasks=USAGE, max_pose_age=max_pose_age).grasps) == (
+            found)
 
 
 def test_a_close_away_from_the_object_is_rejected() -> None:
