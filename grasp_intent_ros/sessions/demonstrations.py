@@ -26,9 +26,8 @@ Closes (on the finger positions alone: a driver's finger velocities may be absen
     :class:`CloseRule` (defaults :data:`CLOSE_RISE`, :data:`SETTLE_TOLERANCE`, :data:`SETTLE_WINDOW`, each
     with its reason). Comparisons: ``>=`` for a rise or a fall (the amount counts), ``<=`` for a span, and
     times in integer nanoseconds (a bag's own); a closure and a span are computed from the message's numbers
-    by the same IEEE operations in a fixed order, so one bag gives one answer on every machine. The rule sees
-    finger motion, not contact (a close on nothing is a grasp), and a finger slower than ``tolerance / window``
-    is at rest (docs/sessions.md: what it cannot tell).
+    by the same IEEE operations in a fixed order, so one bag gives one answer on every machine. It sees motion,
+    not contact; a finger slower than ``tolerance / window`` is at rest (docs/sessions.md: what it cannot tell).
 The grasp
     At the settled joint state: the hand's pose (forward kinematics of the arm joints) relative to the latest
     ``object/pose`` received at or before it, and the fingers' positions (the executed closures), as the 10
@@ -122,11 +121,9 @@ class CloseRule:
     window: float = SETTLE_WINDOW
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.rise) and math.isfinite(self.tolerance) and 0.0 <= self.tolerance < self.rise):
-            raise DataError(f'the close rule needs 0 <= settle tolerance < close rise, both finite; got tolerance '
-                            f'{self.tolerance} rad, rise {self.rise} rad')
-        if not (math.isfinite(self.window) and self.window > 0.0):
-            raise DataError(f'the settle window must be > 0 s and finite, got {self.window}')
+        if not (math.isfinite(self.rise) and 0.0 <= self.tolerance < self.rise and 0.0 < self.window < math.inf):
+            raise DataError(f'the close rule needs 0 <= settle tolerance < close rise and a settle window > 0, all '
+                            f'finite; got tolerance {self.tolerance} rad, rise {self.rise} rad, window {self.window} s')
 
 
 @dataclass(frozen=True)
@@ -181,10 +178,7 @@ def parse_tasks(text: str, task_names: Sequence[str]) -> int:
 
 @dataclass
 class _Motion:
-    """A finger motion in progress: where it was seen (s), its direction, the label pending then, its extreme.
-
-    ``extreme``: the closure's highest (a close) or lowest (an opening) since it was seen, rad.
-    """
+    """A motion in progress: seen at (s), direction, the label pending then, the closure's highest (lowest) since."""
 
     start: float
     closing: bool
@@ -223,7 +217,7 @@ class _Extractor:
                  rule: CloseRule) -> None:
         self.kin, self.task_names, self.tasks, self.max_pose_age = kin, tuple(task_names), tasks, max_pose_age
         self.rule, self.window = rule, _FingerWindow(rule)
-        self.rest: float | None = None  # the closure at the latest joint state at rest (rad)
+        self.rest: float | None = None  # the closure at the latest joint state at rest so far (rad)
         self.pose: tuple[float, NDArray[np.float64] | str] | None = None  # (received, base_T_obj or why not)
         self.label: tuple[float, int | str] | None = None  # (received, task set or why not), pending
         self.motion: _Motion | None = None
@@ -463,14 +457,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument('--max-pose-age', type=float, default=MAX_POSE_AGE,
                         help=f'oldest object pose a grasp is measured against, s before it (default '
                              f'{MAX_POSE_AGE:g}; inf: the object never moved)')
-    parser.add_argument('--close-rise', type=float, default=CLOSE_RISE, metavar='RAD',
-                        help=f'rise of the mean finger closure from a rest that is a close (a fall: an opening); '
-                             f'default {CLOSE_RISE:g}')
-    parser.add_argument('--settle-tolerance', type=float, default=SETTLE_TOLERANCE, metavar='RAD',
-                        help=f'span within which every finger stays over the settle window to be at rest; '
-                             f'default {SETTLE_TOLERANCE:g}')
-    parser.add_argument('--settle-window', type=float, default=SETTLE_WINDOW, metavar='S',
-                        help=f'how long the fingers stay within the tolerance to be at rest; default {SETTLE_WINDOW:g}')
+    for flag, default, unit, what in (
+            ('--close-rise', CLOSE_RISE, 'RAD', 'rise of the mean finger closure from a rest that is a close'),
+            ('--settle-tolerance', SETTLE_TOLERANCE, 'RAD', 'span of each finger over the window at rest'),
+            ('--settle-window', SETTLE_WINDOW, 'S', 'how long the fingers stay within the tolerance at rest')):
+        parser.add_argument(flag, type=float, default=default, metavar=unit, help=f'{what} (default {default:g})')
     args = parser.parse_args(argv)
     status = [0]
 
