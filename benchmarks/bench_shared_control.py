@@ -16,8 +16,10 @@ latest ``grasp/trajectory``), zero twists until that trajectory has had its time
 Under ``none`` and ``blend`` (the simulated loop's ``direct`` and ADA, which close where the hand is: executing is
 the suite's command, not the baselines'), a close on the shown grasp calls ``grasp/close`` where the operator
 stopped; ``--no-execute`` closes there under every condition. The mock arm closes the fingers to the latest plan's
-closures plus its closure error (N(0, ``closure_error``^2) per finger, its own seeded stream, one draw per close in
-the order of the closes, so not paired between conditions). The probe sends zero twists until it receives a joint
+closures plus its closure error (N(0, ``closure_error``^2) per finger, one draw per close from its stream seeded by
+``closure_seed``). The probe sets ``closure_seed`` to the operator's closure seed before each of its runs (the set
+restarts the stream): the one close of a run draws the stream's first error, so an operator's closes draw the same
+error in the three conditions (paired, as the simulated loop's). The probe sends zero twists until it receives a joint
 state at least ``CLOSE_SETTLE`` (0.3 s) after the close's answer with every finger at rest
 (:func:`~grasp_intent_ros.wire.robot_state.fingers_settled`, as the demo reads them), and the hand is judged there:
 its pose and the closures the fingers executed.
@@ -25,17 +27,19 @@ its pose and the closures the fingers executed.
 A close on the operator's OWN grasp calls no ``grasp/close``: the mock arm would close to the latest plan's
 closures, a grasp the operator did not choose, and judging those would credit (or blame) the planner for the
 operator's own grasp. As in the simulated loop, the own grasp's closures are judged plus the closure error model:
-N(0, ``closure_error``^2) per finger (the mock arm's parameter, read from it), drawn once per operator (the same in
-the three conditions), clipped to the fingers' limits as the mock arm clips (``MockArm.close_fingers``), with the
-hand where it came to rest under zero twists.
+N(0, ``closure_error``^2) per finger (the mock arm's parameter, read from it), the first draw of the operator's closure
+seed (the error the mock arm would draw on the run's close: the same in the three conditions, and whether the
+operator closes on its own grasp or the shown one), clipped to the fingers' limits as the mock arm clips
+(``MockArm.close_fingers``), with the hand where it came to rest under zero twists.
 
 The tracker's error. Per operator, the probe publishes the object's pose on ``object/pose`` (the planner and the
 assistance take it: the robot's perception) as the simulated benchmark's tracker sees it: the true pose perturbed
 by :func:`~grasp_intent_ros.shared_control.simulator.perturb_pose`, 5 mm and 3 deg RMS (``--tracker-mm``,
 ``--tracker-deg``), and waits up to 5 s for the plan the new pose causes. The operator sees the object with its own
 error, of the same size by default (``--operator-mm``, ``--operator-deg``), and plans its own grasp there. Both
-views and the own closure error come from one stream seeded by (seed, object, operator, :data:`VIEWS`): the three
-conditions of an operator see the same. The judge takes the TRUE pose (:data:`_bench.closed_loop.BASE_T_OBJ`).
+views and the closure seed (an integer in [0, 2^31)) come from one stream seeded by (seed, object, operator,
+:data:`VIEWS`): the three conditions of an operator see the same. The judge takes the TRUE pose
+(:data:`_bench.closed_loop.BASE_T_OBJ`).
 The latency and stream phases run before the first operator's pose, at the true pose; ``--record`` publishes none.
 
 The scripted operator (a stated, simple model)
@@ -66,8 +70,8 @@ Figures per object and condition (the same seeded operators): success (the opera
 seen hand within 1 cm and 0.1 rad of the goal it pursues, within ``--timeout`` s, and the data set's task
 rules, :data:`grasp_intent_ros.objects.demos.CUP_RULES` / ``FLASHLIGHT_RULES``, hold for every task of S at
 the true object pose, at the reached pose with the executed closures, judged after closing
-(:func:`~grasp_intent_ros.launch.demo_judge.judge`, the demo's judge; never seen by the operator, the planner or
-the assistance)), time to grasp (to the close, an execution included; median of the
+(:func:`~grasp_intent_ros.objects.judge.judge`, the demo's and the simulated benchmark's judge; never seen by the
+operator, the planner or the assistance)), time to grasp (to the close, an execution included; median of the
 successful runs, and over all runs with a failure counted as the timeout), operator effort (integral of
 |operator twist|, linear m and angular rad), wrong-task pulls (the integral of alpha over the time the shown
 grasp did not serve S by the rules, and how many operators met any), mean alpha. A latency phase first (``arbitration``
@@ -130,8 +134,8 @@ PAIRS = (('confidence', 'none'), ('confidence', 'blend'), ('blend', 'none'))
 EXECUTES = 'confidence'
 """The condition whose grasp command executes the shown grasp (the suite's assistance; module docstring)."""
 VIEWS = 1
-"""The last seed word of an operator's views (the tracker's and its own) and own closure error: a stream of its
-own, so the intent's and the device's draws (the seed without it) are those of the benchmark before the views."""
+"""The last seed word of an operator's views (the tracker's and its own) and closure seed: a stream of its own, so
+the intent's and the device's draws (the seed without it) are those of the benchmark before the views."""
 
 
 def latency_phase(loop: Loop, seconds: float) -> dict[str, float]:
@@ -276,7 +280,8 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
             views = np.random.default_rng([args.seed, list(OBJECTS).index(name), i, VIEWS])
             tracked = perturb_pose(BASE_T_OBJ, 1e-3 * args.tracker_mm, math.radians(args.tracker_deg), views)
             seen = perturb_pose(BASE_T_OBJ, 1e-3 * args.operator_mm, math.radians(args.operator_deg), views)
-            own_error = views.normal(0.0, closure_error, 3)
+            closure_seed = int(views.integers(2**31))
+            own_error = np.random.default_rng(closure_seed).normal(0.0, closure_error, 3)  # the arm's first draw
             if not loop.show_object(tracked):
                 print(f'bench_shared_control: no plan within 5 s of operator {i}\'s object pose', file=sys.stderr)
             own: Grasp | None = None
@@ -286,6 +291,7 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
                 if own is None:  # the operator's own grasp for its set, planned where it sees the object
                     own = certain_grasp(model, intent.true_set, seen, kin, options=node_default_options())
                 loop.set_arbitration(condition)
+                loop.set_closure_seed(closure_seed)
                 loop.reset_arm()
                 run = Run(name, i, condition, intent.true_set)
                 run_operator(loop, op, intent, own, model, rng, args.timeout, run,

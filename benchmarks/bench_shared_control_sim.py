@@ -56,7 +56,8 @@ the estimator still never sees the set.
 
 Judged here, after the episode, by the data set's rules (never seen by the planner, the assistance or the
 operator): success = the hand closed before the timeout and the object's rules hold for every task of the
-true set at the reached pose with the executed closures (the features in the true object frame). Wrong-task
+true set at the reached pose with the executed closures, at the true object pose
+(:func:`~grasp_intent_ros.objects.judge.judge`, the live benchmark's and the demo's judge). Wrong-task
 pull: alpha-seconds toward proposals whose features (as planned) do not serve the true set (for ADA: the
 goal probabilities' seconds, its assistance weight being 1).
 
@@ -102,6 +103,7 @@ from grasp_intent_ros.mico.collision import tracker_margin
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
 from grasp_intent_ros.objects.demos import object_of
+from grasp_intent_ros.objects.judge import Judgement, judge
 from grasp_intent_ros.planning.options import Options, node_default_options
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
@@ -225,7 +227,8 @@ def run_task(task: Task) -> list[dict[str, Any]]:
                           estimator=estimator if estimated else None, classifier_prior=condition == FUSED,
                           execute=task.execute, trace=trace)
             true_set = ep.task_set
-            success = ep.features is not None and rules.label(ep.features) & true_set == true_set
+            verdict = None if ep.hand is None else judge(model, scene.base_T_obj_true, ep.hand, ep.closures)
+            success = verdict is not None and verdict.serves(true_set)
             wrong = sum(s for x, s in ep.pulls if rules.label(x) & true_set != true_set)
             records.append({'object': task.object, 'operator': task.operator, 'episode': task.index,
                             'repeat': repeat, 'condition': condition, 'task_set': true_set,
@@ -238,7 +241,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
                             'closing_palm_mm': _mm(ep.closing_palm), 'closing_finger_mm': _mm(ep.closing_finger),
                             'wall_s': time.perf_counter() - t0})
             if trace is not None:
-                records[-1].update(trace_record(trace, ep, rules))
+                records[-1].update(trace_record(trace, ep, rules, verdict))
     return records
 
 
@@ -247,14 +250,14 @@ def _mm(depth: float) -> float | None:
     return None if depth == -math.inf else round(1e3 * depth, 2)
 
 
-def trace_record(trace: list[TraceRow], ep: Any, rules: Any) -> dict[str, Any]:
+def trace_record(trace: list[TraceRow], ep: Any, rules: Any, verdict: Judgement | None) -> dict[str, Any]:
     """The loop's trace of one run, as JSON values, and what the judge found at the reached grasp.
 
     ``trace``: per w report (every 0.1 s) t, w, the shown grasp's demonstration set, the set the rules give
     its features as planned (``shown_label``), its palm position and rotation (base frame, m), the hand's palm
     position, mean alpha, the goal pursued, the true set. ``failed``: the rule
-    conditions (``task.condition``) of the true set's tasks that fail at the reached grasp (empty on success or
-    without a grasp). ``own``: whether the operator closed on its own grasp.
+    conditions (``task.condition``) of the true set's tasks that fail at the reached grasp (``verdict``'s; empty on
+    success or without a grasp). ``own``: whether the operator closed on its own grasp.
     """
     rows = [{'t': round(r.t, 3), 'w': [round(float(x), 4) for x in r.w], 'shown_set': r.shown_set,
              'shown_label': None if r.shown_x is None else rules.label(r.shown_x),
@@ -263,11 +266,11 @@ def trace_record(trace: list[TraceRow], ep: Any, rules: Any) -> dict[str, Any]:
              'hand_p': [round(float(x), 4) for x in r.hand[:3, 3]], 'alpha': round(r.alpha, 4),
              'pursued': r.pursued, 'T': r.task_set} for r in trace]
     failed: list[str] = []
-    if ep.features is not None:
+    if verdict is not None:
         names = rules.task_names
-        for task, checks in rules.explain(ep.features).items():
+        for task, conditions in verdict.failed.items():
             if ep.task_set >> names.index(task) & 1:
-                failed.extend(f'{task}.{name}' for name, ok in checks.items() if not ok)
+                failed.extend(f'{task}.{name}' for name in conditions)
     return {'trace': rows, 'failed': failed}
 
 

@@ -25,6 +25,7 @@ from grasp_intent_ros.mico.frames import default_base_T_obj
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
 from grasp_intent_ros.objects.demos import object_of
+from grasp_intent_ros.objects.judge import judge
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.operator_loop import (
     EXECUTE_TIMEOUT,
@@ -74,9 +75,9 @@ class Run:
     wrong_pull: float = 0.0
     alpha_mean: float = 0.0
     closures: list[float] = field(default_factory=list)
+    """The closures judged (rad): the fingers' at rest after ``grasp/close``, or the own grasp's (run_operator)."""
     verdict: str = ''
     """The judge's verdict in words (which rules failed); '' when nothing was judged."""
-    """The closures judged (rad): the fingers' at rest after ``grasp/close``, or the own grasp's (run_operator)."""
     alpha_samples: int = field(default=0, repr=False)
 
 
@@ -153,6 +154,7 @@ class Loop:
         self._pose_type, self._output_qos = PoseStamped, output_qos
         from rcl_interfaces.srv import GetParameters
         self._arm_parameters = node.create_client(GetParameters, 'mock_arm/get_parameters')
+        self._arm_set_parameters = node.create_client(SetParameters, 'mock_arm/set_parameters')
         self._get_parameters = GetParameters
         from std_srvs.srv import SetBool
         self._enable = node.create_client(SetBool, 'assistance/enable')
@@ -179,14 +181,21 @@ class Loop:
             sys.exit(f'bench_shared_control: no answer from {client.srv_name}')
         return future.result()
 
-    def set_arbitration(self, rule: str) -> None:
-        from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    def _set_parameter(self, client: Any, name: str, value: Any) -> None:
+        """Set one parameter through ``client`` (a node's ``set_parameters``); a refusal stops the benchmark."""
         from rcl_interfaces.srv import SetParameters
+        from rclpy.parameter import Parameter
 
-        value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=rule)
-        result = self.call(self._set_params, SetParameters.Request(parameters=[Parameter(name='arbitration',
-                                                                                          value=value)]))
-        assert result.results[0].successful, result.results[0].reason
+        request = SetParameters.Request(parameters=[Parameter(name, value=value).to_parameter_msg()])
+        result = self.call(client, request).results[0]
+        assert result.successful, f'{client.srv_name} {name}: {result.reason}'
+
+    def set_arbitration(self, rule: str) -> None:
+        self._set_parameter(self._set_params, 'arbitration', rule)
+
+    def set_closure_seed(self, seed: int) -> None:
+        """The mock arm's ``closure_seed``: its closes from now draw the errors of ``seed`` from their start."""
+        self._set_parameter(self._arm_set_parameters, 'closure_seed', seed)
 
     def enable(self, on: bool) -> None:
         assert self.call(self._enable, self._set_bool.Request(data=on)).success
@@ -295,10 +304,8 @@ def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: G
     on the operator's own grasp closes nothing and is judged where the hand came to rest with ``own_closures`` (the
     own grasp's plus a closure error: bench_shared_control's docstring). None (the recording): nothing closes, the
     hand is judged where it is with the closures of the grasp pursued (the plan seen, or the own grasp). The judge:
-    :func:`~grasp_intent_ros.launch.demo_judge.judge` with ``model``'s object's rules, never seen by the operator.
+    :func:`~grasp_intent_ros.objects.judge.judge` with ``model``'s object's rules, never seen by the operator.
     """
-    from grasp_intent_ros.launch.demo_judge import judge
-
     rules = object_of(model)
     assert rules is not None, f'the model {model.name!r} names no object the rules know'
 
@@ -339,7 +346,7 @@ def run_operator(loop: Loop, op: OperatorConstants, intent: IntentScript, own: G
                 base_T_ee, closures = (None, closures) if hand is None else (hand.base_T_ee, hand.fingers)
             if base_T_ee is not None:
                 verdict = judge(model, BASE_T_OBJ, base_T_ee, closures)
-                run.success = verdict.label is not None and verdict.label & task_set == task_set
+                run.success = verdict.serves(task_set)
                 run.verdict = verdict.text
             run.closures = [float(c) for c in closures]
             break

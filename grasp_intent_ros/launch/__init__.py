@@ -12,6 +12,4 @@ demo
     ``python -m grasp_intent_ros demo``: the paper's intent cases sent to a running suite, then its closed loop.
 demo_loop
     The demo's closed loop: the scripted operator helped by the assistance on the mock MICO, then without it.
-demo_judge
-    The demo's judge: the tasks a grasp serves by its object's rules, from a hand pose and finger closures.
 """

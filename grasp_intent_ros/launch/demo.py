@@ -21,7 +21,7 @@ Run: ``python -m grasp_intent_ros demo [--models-dir DIR] [--timeout S]`` (``scr
    A last case with a low intent (0.1, 0.1, 0.1) shows the interpreter's clarification request.
    Below each grasp it prints which tasks the grasp serves by the object's rules (Table I,
    :data:`grasp_intent_ros.objects.demos.OBJECTS`, the judge the planner never sees,
-   :mod:`~grasp_intent_ros.launch.demo_judge`): the features are recovered from the published end-effector
+   :mod:`~grasp_intent_ros.objects.judge`): the features are recovered from the published end-effector
    pose, the finger targets and the planner's object pose (its ``object_position`` and
    ``object_orientation`` parameters, read once through its parameter service).
 3. The closed loop (:mod:`~grasp_intent_ros.launch.demo_loop`): on ``cup_7zone`` the scripted operator, who
@@ -72,11 +72,11 @@ from ..errors import GraspIntentError
 from ..method.features import FINGERS
 from ..method.model import GraspModel
 from ..mico.frames import pose_to_matrix
+from ..objects.judge import judge
 from ..ros.conversions import model_from_msg
 from ..ros.qos import input_qos, latched_qos
 from ..wire.diagnostics import KEY_MODEL
 from ..wire.model_document import ModelDocument
-from .demo_judge import judge
 from .demo_loop import LOOP_MODEL, LoopError, LoopObserver, operator_args, run_closed_loop
 from .suite import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
 
@@ -117,7 +117,7 @@ def other_nodes(names_and_namespaces: Sequence[tuple[str, str]], own: Collection
 def served_tasks(model: GraspModel, base_T_obj: np.ndarray, answer: GraspAnswer) -> str:
     """Which tasks the answered grasp serves by its object's rules, e.g. 'usage, transfer (UT)', or why unknown.
 
-    :func:`~grasp_intent_ros.launch.demo_judge.judge` of the answer's end-effector pose (in the base frame),
+    :func:`~grasp_intent_ros.objects.judge.judge` of the answer's end-effector pose (in the base frame),
     ``base_T_obj`` and the finger targets (the last three joint targets).
     """
     p, o = answer.pose.pose.position, answer.pose.pose.orientation

@@ -15,9 +15,9 @@ Printed per episode: the robot's share while the operator moved the hand (mean a
 received between its first and last non-zero ``operator/twist``), the operator's time to grasp (its status: from
 its reach's start to the fingers' close, an execution included), where the hand ended (the mock arm's
 ``joint_states`` through the MICO's forward kinematics) against the grasp shown at the close, and the judge's
-verdict (:mod:`.demo_judge`, the object pose of the planner) at that pose with the closures the fingers executed
-(the mock arm's finger positions, which carry its seeded closure error). The judge only reads: nothing it finds
-reaches the operator, the planner or the assistance.
+verdict (:mod:`~grasp_intent_ros.objects.judge`, the object pose of the planner) at that pose with the closures the
+fingers executed (the mock arm's finger positions, which carry its seeded closure error). The judge only reads:
+nothing it finds reaches the operator, the planner or the assistance.
 
 What repeats from run to run. With the help on, the hand ends at the shown grasp (the executed trajectory's end:
 the planner's IK of the grasp, within its 0.1 mm and 1 mrad) and the fingers at the plan's closures plus the mock
@@ -56,6 +56,7 @@ from std_srvs.srv import SetBool
 from ..method.model import GraspModel
 from ..mico.frames import offset
 from ..mico.kinematics import BASE_FRAME, FINGER_JOINTS, MicoKinematics
+from ..objects.judge import judge, operator_verdict
 from ..ros.qos import STREAM_DEPTH, input_qos
 from ..wire import topics
 from ..wire.diagnostics import KEY_EXECUTE, KEY_TIMES_TO_GRASP, OPERATOR_COMPONENT
@@ -68,7 +69,6 @@ from ..wire.robot_state import (
     joint_positions,
     pose_msg_to_matrix,
 )
-from .demo_judge import judge, operator_verdict
 
 __all__ = ['LOOP_MODEL', 'OPERATOR_TASKS', 'OPERATOR_W', 'OPERATOR_W_NOISE', 'OPERATOR_SEED', 'HELD_BACK',
            'OPERATOR_PARAMETERS', 'LoopError', 'Hand', 'Shown', 'Episode', 'LoopView',

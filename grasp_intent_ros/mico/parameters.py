@@ -121,7 +121,9 @@ MOCK_ARM = (
     ParamSpec('finger_velocity_limit', FINGER_VELOCITY_LIMIT, 'Finger speed limit, rad/s.', range=(1e-3, 10.0)),
     ParamSpec('closure_error', 0.05, "Standard deviation (rad) of each finger's closure error on grasp/close.",
               range=(0.0, 1.0)),
-    ParamSpec('closure_seed', 0, 'Seed of the closure errors.', range=(0, 2**31 - 1), read_only=True),
+    ParamSpec('closure_seed', 0, 'Seed of the closure errors, one draw per grasp/close. A set at run time (even to '
+              'the current value) restarts their sequence, so the closes after two sets to one value draw the '
+              'same errors.', range=(0, 2**31 - 1)),
     URDF_PATH,
 )
 """The mock arm node's parameters (:mod:`grasp_intent_ros.nodes.mock_arm`)."""

@@ -17,8 +17,9 @@ Topics and services (relative)
     in   ``grasp/joint_targets`` (sensor_msgs/JointState: the plan's finger closures, the latest kept)
     srv  ``~/reset`` (std_srvs/Trigger): back to ``initial_positions``, at rest, commands dropped
     srv  ``grasp/close`` (std_srvs/Trigger): close the fingers to the latest plan's closures plus the hand's own
-         closure error (each finger N(0, ``closure_error``^2), seeded by ``closure_seed``); the answer's
-         message gives the executed closures; refused (success false) before any plan
+         closure error (each finger N(0, ``closure_error``^2), one draw per close from a stream seeded by
+         ``closure_seed``, which a set of that parameter restarts); the answer's message gives the executed
+         closures; refused (success false) before any plan
     srv  ``grasp/execute`` (std_srvs/Trigger): with ``trajectory_execution: on_request``, follow the latest
          trajectory received, from now (its stamp ignored); refused (success false) before any, or under
          ``on_arrival``
@@ -82,6 +83,7 @@ class MockArmNode(Node):
     def __init__(self, node_name: str = 'mock_arm', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, 'arm')
+        self._closure_rng: np.random.Generator  # made by _configure from closure_seed
         self._params = declare_parameters(self, MOCK_ARM, on_change=self._configure)
         kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
         self._arm = self._params.build('initial_positions', lambda q0: MockArm(
@@ -94,7 +96,6 @@ class MockArmNode(Node):
         subscribe_input(self, topics.GRASP_JOINT_TARGETS, self._on_joint_targets, input_qos(depth=1), self._diag)
         self._closures: NDArray[np.float64] | None = None
         self._kept: TrajectoryCommand | None = None
-        self._closure_rng = np.random.default_rng(self._params['closure_seed'])
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(Trigger, GRASP_CLOSE, self._on_close)
         self.create_service(Trigger, GRASP_EXECUTE, self._on_execute)
@@ -105,6 +106,8 @@ class MockArmNode(Node):
         self._arm.damping, self._arm.singular_threshold = self._params['ik_damping'], self._params['singular_threshold']
         self._arm.command_timeout = self._params['command_timeout']
         self._arm.velocity_limits[6:] = self._params['finger_velocity_limit']
+        if 'closure_seed' in changed:  # set, even to its value: the errors' sequence starts again
+            self._closure_rng = np.random.default_rng(self._params['closure_seed'])
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9

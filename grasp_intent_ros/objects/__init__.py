@@ -7,6 +7,8 @@ Modules
 -------
 demos
     Each object's rules and body, and a sampler of demonstrations.
+judge
+    The judge: the tasks a grasp serves by its object's rules, from a hand pose and finger closures.
 train
     ``python -m grasp_intent_ros train``: fit a model from a demonstrations CSV.
 generate_data

@@ -49,10 +49,11 @@ estimator, as its task prior (:meth:`~.estimator.IntentEstimator.set_task_prior`
 every ``w_period`` before the estimator's w is read: the script plays the per-task classifiers whose w the
 motion refines.
 
-The simulation returns what happened, never a verdict: the executed grasp's features in the true object
-frame, when the hand closed, the operator's effort and each shown grasp's alpha-time, and how deep the open
+The simulation returns what happened, never a verdict: where the hand closed (base frame) and the closures the
+fingers executed, when it closed, the operator's effort and each shown grasp's alpha-time, and how deep the open
 hand's path went into the object's body on the way (:mod:`.sweep`, in the true frame: the loop has no contact
-model, so a path may pass through the object); the caller judges (the task rules never enter here).
+model, so a path may pass through the object); the caller judges, at the scene's true object pose (the task rules
+never enter here: :func:`grasp_intent_ros.objects.judge.judge` is the benchmarks' judge).
 """
 
 from __future__ import annotations
@@ -70,7 +71,6 @@ from ..errors import CommandError
 from ..method.intent import Interpretation, ZoneInterpreter, all_zones, default_task_names, interpret, zone_labels
 from ..method.model import GraspModel
 from ..mico.collision import HandCollision
-from ..mico.frames import obj_T_ee_to_features
 from ..mico.grasp import MIN_TRAJECTORY_TIME, Grasp, plan_grasp, trajectory_duration
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
 from ..mico.mock_arm import MockArm, TrajectoryCommand, TwistCommand
@@ -281,8 +281,10 @@ class Episode:
     ----------
     closed_at : float or None
         Seconds from the start to the grasp command; None when the episode timed out first.
-    features : ndarray, shape (10,) or None
-        The executed grasp in the true object frame (the hand's pose and the executed closures) after closing.
+    hand : ndarray, shape (4, 4) or None
+        The hand's (end effector's) pose in the base frame where it closed; None when the episode timed out.
+    closures : ndarray, shape (3,) or None
+        The closures the fingers executed there (the grasp's plus the closure error, clipped to the limits), rad.
     task_set : int
         The operator's true task set at the end.
     pursued : str
@@ -309,7 +311,8 @@ class Episode:
     """
 
     closed_at: float | None = None
-    features: NDArray[np.float64] | None = None
+    hand: NDArray[np.float64] | None = None
+    closures: NDArray[np.float64] | None = None
     task_set: int = 0
     pursued: str = ''
     goal: NDArray[np.float64] | None = None
@@ -430,9 +433,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
                 closures, episode.executed = shown.positions[6:], True
                 hand_now = kin.fk(arm.q[:6])
             executed = arm.close_fingers(closures + closure_rng.normal(0.0, closure_error, 3))
-            obj_T_ee = np.linalg.inv(scene.base_T_obj_true) @ hand_now
             episode.closed_at, episode.pursued, episode.goal = now, pursued, goal
-            episode.features = obj_T_ee_to_features(obj_T_ee, executed)
+            episode.hand, episode.closures = hand_now, executed
             break
         h = operator.twist(now, seen, goal)
         if estimator is not None:

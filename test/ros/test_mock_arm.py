@@ -107,6 +107,46 @@ def test_the_hand_closes_to_the_plans_closures_with_its_own_error(ros) -> None:
     assert FINGER_JOINTS == JOINT_NAMES[6:]
 
 
+def test_a_set_closure_seed_restarts_the_closure_errors_and_a_bad_seed_is_refused_with_the_reason(ros) -> None:
+    """Set at run time, even to its value, ``closure_seed`` makes the next closes draw its errors from the start."""
+    from rclpy.parameter import Parameter
+
+    from grasp_intent_ros.nodes.mock_arm import GRASP_CLOSE
+    from grasp_intent_ros.ros.robot import joint_state_msg
+
+    arm = ros.add(MockArmNode(context=ros.context, parameter_overrides=[Parameter('closure_error', value=0.05)]))
+    client = ros.node.create_client(Trigger, GRASP_CLOSE)
+    assert client.wait_for_service(timeout_sec=5.0)
+    plan = np.array([0.9, 1.0, 0.6])
+    targets = ros.publisher(JointState, topics.GRASP_JOINT_TARGETS)
+    msg = joint_state_msg(JOINT_NAMES, np.r_[HOME_Q, plan], stamp=ros.node.get_clock().now().to_msg())
+    assert ros.publish_until(targets, msg, lambda: arm._closures is not None, 5.0)
+
+    def close() -> str:
+        future = client.call_async(Trigger.Request())
+        assert ros.wait_for(future.done, 5.0) and future.result().success
+        return future.result().message
+
+    def closes_after_seed(seed: int) -> list[str]:
+        assert arm.set_parameters([Parameter('closure_seed', value=seed)])[0].successful
+        return [close() for _ in range(3)]
+
+    first = closes_after_seed(11)
+    assert closes_after_seed(11) == first and len(set(first)) == 3  # restarted: the same three draws
+    draws = np.random.default_rng(11)
+    for message in first:  # 'closing to a, b, c rad', 4 decimals
+        executed = [float(c) for c in message.removeprefix('closing to ').removesuffix(' rad').split(', ')]
+        assert_allclose(executed, plan + draws.normal(0.0, 0.05, 3), atol=5e-5)
+    assert closes_after_seed(12) != first
+    assert closes_after_seed(11) == first
+    for bad, reason in ((-1, 'out of range'), (2**31, 'out of range'), (3.5, 'Wrong parameter type'),
+                        ('7', 'Wrong parameter type')):
+        result = arm.set_parameters([Parameter('closure_seed', value=bad)])[0]
+        assert not result.successful and reason in result.reason, result.reason
+    assert arm._params['closure_seed'] == 11
+    assert close() != first[0]  # refused sets restarted nothing: the fourth draw of seed 11
+
+
 def test_a_tick_after_a_signal_ended_the_context_publishes_nothing_and_reports_no_error(ros) -> None:
     """A signal shuts the context down while the timer ticks: joint_states is dropped, not an internal error."""
     context = rclpy.context.Context()

@@ -30,7 +30,7 @@ from std_msgs.msg import String
 from grasp_intent_ros.launch.suite import NodeSuite
 from grasp_intent_ros.method.intent import all_zones, default_task_names, interpret, zone_labels
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
 from grasp_intent_ros.nodes.assistance import AssistanceNode
@@ -157,7 +157,6 @@ def test_the_simulator_and_the_nodes_agree_on_the_hands_path_and_outcome(ros: An
           f'{1e3 * apart.min(axis=1).max():.1f} / {1e3 * apart.min(axis=0).max():.1f} mm')
     assert apart.min(axis=1).max() <= PATH_TOL and apart.min(axis=0).max() <= PATH_TOL
     assert result['pursued'] == episode.pursued
-    assert episode.features is not None
-    simulated_close = BASE_T_OBJ @ features_to_obj_T_ee(episode.features)
-    distance, angle = offset(result['hand'], simulated_close)
+    assert episode.hand is not None
+    distance, angle = offset(result['hand'], episode.hand)
     assert distance <= CLOSE_POS and angle <= CLOSE_ROT, (distance, angle)

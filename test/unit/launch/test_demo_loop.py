@@ -8,7 +8,6 @@ from dataclasses import dataclass, field
 import numpy as np
 import pytest
 
-from grasp_intent_ros.launch.demo_judge import judge, operator_verdict
 from grasp_intent_ros.launch.demo_loop import (
     OPERATOR_PARAMETERS,
     OPERATOR_TASKS,
@@ -24,6 +23,7 @@ from grasp_intent_ros.method.features import FINGERS
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import default_base_T_obj, features_to_obj_T_ee
 from grasp_intent_ros.objects.demos import CUP_RULES
+from grasp_intent_ros.objects.judge import judge, operator_verdict
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.parameters import SCRIPTED_OPERATOR
 from grasp_intent_ros.wire.diagnostics import KEY_EXECUTE, KEY_TIMES_TO_GRASP
@@ -53,16 +53,6 @@ def test_the_operators_parameters_are_its_own_and_valid() -> None:
     args = operator_args()
     assert args[::2] == ['-p'] * len(OPERATOR_PARAMETERS)
     assert 'intent:=none' in args and 'task_set:=[usage,transfer]' in args and 'execute_shown:=true' in args
-
-
-def test_the_judge_reads_a_grasp_from_its_pose_and_closures() -> None:
-    base_T_ee, closures = ut_grasp()
-    verdict = judge(MODEL, BASE_T_OBJ, base_T_ee, closures)
-    assert (verdict.label, verdict.text) == (UT, 'usage, transfer (UT)')
-    assert operator_verdict(verdict, OPERATOR_TASKS, MODEL.task_names) == "the operator's tasks served"
-    opened = judge(MODEL, BASE_T_OBJ, base_T_ee, np.zeros(3))  # no finger closed: neither usage nor transfer
-    assert opened.label == 0 and opened.text.startswith('no task (failed: usage: ')
-    assert operator_verdict(opened, OPERATOR_TASKS, MODEL.task_names) == "not the operator's usage, transfer"
 
 
 # ------------------------------------------------------------------------------------------ a fake loop

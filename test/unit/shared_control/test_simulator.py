@@ -8,10 +8,10 @@ import pytest
 from numpy.testing import assert_allclose
 
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import PRE_GRASP_STANDOFF, features_to_obj_T_ee, pose_to_matrix, pre_grasp, reached
+from grasp_intent_ros.mico.frames import PRE_GRASP_STANDOFF, pose_to_matrix, pre_grasp, reached
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
-from grasp_intent_ros.objects.demos import CUP_RULES
+from grasp_intent_ros.objects.judge import judge
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.ada import AdaAssistance
 from grasp_intent_ros.shared_control.assistance import TwistLimiter, offset, pose_error
@@ -147,9 +147,10 @@ def test_a_suite_episode_is_reproducible_and_ends_at_a_grasp_serving_the_operato
                                  timeout=15.0))
     first, second = episodes
     assert first.closed_at is not None and first.closed_at == second.closed_at
-    assert first.features is not None and np.array_equal(first.features, second.features)
+    assert first.hand is not None and np.array_equal(first.hand, second.hand)
+    assert first.closures is not None and np.array_equal(first.closures, second.closures)
     # judged here by the rules the loop never saw: the (0.9, 0.9, 0.1) grasp serves usage and transfer
-    assert CUP_RULES.label(first.features) & (U | T) == U | T
+    assert judge(scene.model, scene.base_T_obj_true, first.hand, first.closures).serves(U | T)
     assert first.alpha_mean > 0.3 and first.pursued == 'shown'
 
 
@@ -166,15 +167,15 @@ def test_the_suites_grasp_command_executes_the_shown_grasp(cup) -> None:
         operator = ScriptedOperator('spacemouse', OperatorConstants(), np.random.default_rng(3))
         ep = simulate(scene, 'suite', intent, operator, own, np.random.default_rng(4), np.random.default_rng(5),
                       ada_goals=[], plan_cache={}, closure_error=0.0, timeout=15.0, execute=execute)
-        assert ep.features is not None and ep.goal is not None and ep.pursued == 'shown'
+        hand = ep.hand
+        assert hand is not None and ep.goal is not None and ep.pursued == 'shown'
         assert ep.executed == execute
-        hand = scene.base_T_obj_true @ features_to_obj_T_ee(ep.features)
         goal_T_hand = np.linalg.inv(ep.goal) @ hand
         shortfall[execute] = -goal_T_hand[2, 3]  # behind the grasp along its approach axis (EE z), m
         distance, angle = offset(ep.goal, hand)
         if execute:
-            assert distance <= 1e-4 and angle <= 1e-3  # the planned grasp (IK's tolerances, the features' rounding)
-            assert CUP_RULES.label(ep.features) & (T | H) == T | H
+            assert distance <= 1e-4 and angle <= 1e-3  # the planned grasp (IK's tolerances)
+            assert judge(scene.model, scene.base_T_obj_true, hand, ep.closures).serves(T | H)
     assert shortfall[False] > 0.003 and abs(shortfall[True]) <= 1e-4
 
 
@@ -213,8 +214,9 @@ def test_with_an_estimator_w_comes_from_the_operators_motion_alone(cup) -> None:
         assert estimator.w[1] > prior[1] + 0.2 and estimator.w[0] < prior[0] - 0.2, estimator.w
     first, second = episodes
     assert first.closed_at is not None and first.closed_at == second.closed_at  # reset at each start
-    assert first.features is not None and np.array_equal(first.features, second.features)
-    assert CUP_RULES.label(first.features) & T == T
+    assert first.hand is not None and np.array_equal(first.hand, second.hand)
+    assert first.closures is not None and np.array_equal(first.closures, second.closures)
+    assert judge(scene.model, scene.base_T_obj_true, first.hand, first.closures).serves(T)
 
 
 class _Classifier(_TrueSetOnly):

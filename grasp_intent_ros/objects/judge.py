@@ -1,16 +1,17 @@
-"""The demo's judge: which tasks a grasp serves by its object's rules, never seen by the planner or the operator.
+"""The judge: which tasks a grasp serves by its object's rules, never seen by the planner, estimator or operator.
 
 The rules are Table I's (:data:`grasp_intent_ros.objects.demos.OBJECTS`, chosen by the model's ``object``). A
 grasp is judged as a hand pose in the arm's base frame and three finger closures: the features are recovered
 from the hand's pose relative to the object (``base_T_obj``) and the closures
-(:func:`~grasp_intent_ros.mico.frames.obj_T_ee_to_features`). The demo judges the planner's answers (the
-published end-effector pose and finger targets) and, in the closed loop, where the mock arm's hand ended with
-the closures its fingers executed.
+(:func:`~grasp_intent_ros.mico.frames.obj_T_ee_to_features`). The one definition of a verdict on a grasp the hand
+reached: the demo judges the planner's answers (the published end-effector pose and finger targets) and, in its
+closed loop, where the mock arm's hand ended with the closures its fingers executed; the closed-loop benchmarks,
+live and simulated, judge where each run's hand closed, at the true object pose, with the executed closures.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..method.intent import zone_label
 from ..method.model import GraspModel
 from ..mico.frames import obj_T_ee_to_features
-from ..objects.demos import OBJECTS, object_of
+from .demos import OBJECTS, object_of
 
 __all__ = ['Judgement', 'judge', 'operator_verdict']
 
@@ -35,10 +36,18 @@ class Judgement:
         names no object the rules know.
     text : str
         For a reader: e.g. 'usage, transfer (UT)', 'no task (failed: usage: rim clear; ...)', or why unknown.
+    failed : mapping of str to tuple of str
+        Per task of the rules, the names of its conditions the grasp fails (empty for a task it serves; no
+        task when the rules are unknown).
     """
 
     label: int | None
     text: str
+    failed: Mapping[str, tuple[str, ...]]
+
+    def serves(self, task_set: int) -> bool:
+        """Whether the grasp serves every task of ``task_set`` (a bitmask as ``label``); False when unknown."""
+        return self.label is not None and self.label & task_set == task_set
 
 
 def judge(model: GraspModel, base_T_obj: NDArray[np.float64], base_T_ee: NDArray[np.float64],
@@ -56,15 +65,15 @@ def judge(model: GraspModel, base_T_obj: NDArray[np.float64], base_T_ee: NDArray
     """
     rules = object_of(model)
     if rules is None:
-        return Judgement(None, f'unknown (model {model.name!r} names no object of {", ".join(OBJECTS)})')
+        return Judgement(None, f'unknown (model {model.name!r} names no object of {", ".join(OBJECTS)})', {})
     x = obj_T_ee_to_features(np.linalg.inv(base_T_obj) @ base_T_ee, np.asarray(closures, dtype=np.float64))
     label = rules.label(x)
+    failed = {task: tuple(n for n, ok in checks.items() if not ok) for task, checks in rules.explain(x).items()}
     if not label:
-        failed = '; '.join(f'{task}: {", ".join(n for n, ok in checks.items() if not ok)}'
-                           for task, checks in rules.explain(x).items())
-        return Judgement(0, f'no task (failed: {failed})')
+        return Judgement(0, 'no task (failed: ' + '; '.join(f'{task}: {", ".join(names)}'
+                                                           for task, names in failed.items()) + ')', failed)
     names = ', '.join(n for i, n in enumerate(model.task_names) if label >> i & 1)
-    return Judgement(label, f'{names} ({zone_label(label, model.task_names)})')
+    return Judgement(label, f'{names} ({zone_label(label, model.task_names)})', failed)
 
 
 def operator_verdict(judgement: Judgement, wanted: Sequence[str], task_names: Sequence[str]) -> str:
