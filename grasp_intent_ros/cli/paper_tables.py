@@ -1,6 +1,6 @@
 """Print, for our models, what the paper's Tables II, III, IV and VI show.
 
-    python -m grasp_intent_ros paper_tables [--models-dir DIR] [--method lm|slsqp|trust-constr]
+    python -m grasp_intent_ros paper_tables [--models-dir DIR] [--method lm|slsqp|trust-constr|task]
 
 For each case: the target vector v, the planned posterior P and the reconstructed w, with the
 objective 1/2 |v - P|^2, and which tasks the grasp serves by the object's rules (Table I,

@@ -2,7 +2,8 @@
 
 :func:`main` starts the nodes (:class:`~grasp_intent_ros.launch.suite.NodeSuite`), copies their output
 to stdout with each line prefixed by ``[node]``, prints ``suite: up`` once every node has logged that it is
-ready (:func:`~grasp_intent_ros.ros.startup.is_ready_line`), and stops them all on Ctrl-C (SIGINT), SIGTERM
+ready (:func:`~grasp_intent_ros.ros.startup.is_ready_line`; the scripted operator is started only once the
+others are, :data:`_HELD_BACK`), and stops them all on Ctrl-C (SIGINT), SIGTERM
 or SIGHUP (its terminal closed). Its last line says whether every node stopped cleanly, else names each
 that did not (died, killed, or ended by its watchdog); exit code 0 when every node stopped cleanly, 1 when
 one died or did not stop cleanly, 2 for bad arguments.
@@ -32,6 +33,10 @@ __all__ = ['main']
 
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 """The signals on which the suite command stops its nodes (they, in sessions of their own, get none of them)."""
+_HELD_BACK = ('scripted_operator',)
+"""Optional nodes started only once every other node is ready: the scripted operator drives the loop, and started
+with the others it would begin its first episode (its twists, its time to grasp) before the assistance could move
+the arm, so that a session recorded from the start would not replay."""
 
 
 class _Echo:
@@ -103,17 +108,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     echo = _Echo(suite)
     died = ''
     try:
-        suite.start_nodes(namespace=args.namespace, params_files=args.params_file, extra=extra,
-                          shared_control=args.shared_control)
+        held = [module for module in extra if module in _HELD_BACK]
+        suite.start_nodes(namespace=args.namespace, params_files=args.params_file,
+                          extra=[module for module in extra if module not in held], shared_control=args.shared_control)
         print(f'suite: ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, namespace '
               f'{args.namespace or "/"}; started ' + ', '.join(f'{p.module} (pid {p.pid})' for p in suite.processes)
-              + '; Ctrl-C stops them', flush=True)
+              + ''.join(f'; {module} once they are ready' for module in held) + '; Ctrl-C stops them', flush=True)
         start, up = time.monotonic(), False
         while not stop_requested and not died:
             time.sleep(0.1)  # a signal handler only appends: the loop looks 10 times a second
             echo.copy()
-            if not up and (up := {p.pid for p in suite.processes} <= echo.ready):
-                print(f'suite: up after {time.monotonic() - start:.1f} s: every node is ready', flush=True)
+            if not up and {p.pid for p in suite.processes} <= echo.ready:
+                if held:  # the others are ready: now the held-back ones, then up once they are too
+                    later = [suite.start(module, *suite.node_args(module, namespace=args.namespace,
+                                                                  params_files=args.params_file)) for module in held]
+                    print('suite: started ' + ', '.join(f'{p.module} (pid {p.pid})' for p in later), flush=True)
+                    held = []
+                else:
+                    up = True
+                    print(f'suite: up after {time.monotonic() - start:.1f} s: every node is ready', flush=True)
             if died := suite.died().split(';', 1)[0]:
                 print(f'suite: {died}; stopping the others', file=sys.stderr, flush=True)
     finally:

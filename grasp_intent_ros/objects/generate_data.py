@@ -7,7 +7,9 @@ Writes ``DIR/cup.csv`` and/or ``DIR/flashlight.csv`` (default DIR: ``<config>/da
 for each of the 7 task sets, each one the MICO's hand takes clear of the table and the object (see
 :mod:`grasp_intent_ros.objects.demos` for the rules and prototypes).
 With ``--train`` it also fits the shipped models into ``<config>/models``: cup_7zone, cup_5zone,
-cup_4zone and flashlight_7zone, each naming its object. The same seed always gives byte-identical files.
+cup_4zone and flashlight_7zone, each naming its object. The same seed always gives byte-identical data
+files; the models are fitted to those same demonstrations (their ``data_hash``), but their covariances can
+differ in the last bits between machines, whose BLAS kernels sum in other orders (``OPENBLAS_CORETYPE``).
 """
 
 from __future__ import annotations

@@ -443,8 +443,7 @@ def _task_names(args: argparse.Namespace, existing: Demonstrations | None) -> tu
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point; returns the exit status (module docstring)."""
-    parser = argparse.ArgumentParser(prog='demonstrations', description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('bags', type=Path, nargs='+', metavar='BAG', help='session bags recorded by the recorder')
     parser.add_argument('--out', type=Path, required=True, help='the CSV to write (method.data format)')
     parser.add_argument('--tasks', default=None,

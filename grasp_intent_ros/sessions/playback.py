@@ -166,8 +166,7 @@ def _stop(stopped: threading.Event) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit code (0 after SIGINT/SIGTERM, 2 for a bad bag or an unservable page)."""
-    parser = argparse.ArgumentParser(prog='python -m grasp_intent_ros playback',
-                                     description='A recorded session in the viewer\'s page, with a time slider.')
+    parser = argparse.ArgumentParser(description='A recorded session in the viewer\'s page, with a time slider.')
     parser.add_argument('bag', type=Path, help='rosbag2 directory (with metadata.yaml)')
     parser.add_argument('--host', default=DEFAULT_HOST, help='address served (default %(default)s: this machine)')
     parser.add_argument('--port', type=int, default=8080, help='TCP port (0: any free one; default %(default)s)')

@@ -12,6 +12,7 @@ import re
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 from std_msgs.msg import Float64MultiArray
@@ -68,6 +69,33 @@ def test_one_command_starts_the_suite_with_a_namespace_and_params_file_and_ctrl_
     assert not [m for m, pid in pids.items() if alive(pid)], 'a node outlived the suite command'
     assert sorted(p.name for p in (tmp_path / 'logs').iterdir()) == sorted(
         f'{m}.{ext}' for m in pids for ext in ('out', 'err'))
+
+
+def test_the_scripted_operator_starts_once_every_other_node_is_ready(domain_id: int, tmp_path: Path) -> None:
+    # started with the others it moved before the assistance could move the arm, and a session recorded from the
+    # start did not replay (docs/sessions.md, "Closed-loop sessions")
+    out = tmp_path / 'suite.out'
+    suite = subprocess.Popen([sys.executable, '-m', 'grasp_intent_ros', 'suite', '--domain-id', str(domain_id),
+                              '--shared-control', '--with', 'scripted_operator'], cwd=tmp_path, stdout=out.open('w'),
+                             stderr=subprocess.STDOUT, start_new_session=True, preexec_fn=ended_with_this_process())
+    try:
+        deadline = time.monotonic() + 2 * STARTUP  # five nodes, then the operator
+        while 'suite: up' not in out.read_text() and suite.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.1)  # another process writes the file: no event to wait on
+        os.killpg(suite.pid, signal.SIGINT)  # Ctrl-C
+        assert suite.wait(STOP) == 0, out.read_text()
+    finally:
+        if suite.poll() is None:
+            os.killpg(suite.pid, signal.SIGKILL)
+            suite.wait()
+    lines = out.read_text().splitlines()
+    assert 'suite: up' in '\n'.join(lines), lines
+    assert lines[0].endswith('; scripted_operator once they are ready; Ctrl-C stops them'), lines[0]
+    started = next(i for i, line in enumerate(lines) if re.fullmatch(r'suite: started scripted_operator \(pid \d+\)',
+                                                                    line))
+    ready = {m for m in re.findall(r'^\[(\w+)\] .*\]: ready', '\n'.join(lines[:started]), re.MULTILINE)}
+    assert ready == {'intent_interpreter', 'model_server', 'grasp_planner', 'mock_arm', 'assistance'}, lines
+    assert not [line for line in lines[:started] if line.startswith('[scripted_operator]')], lines
 
 
 def test_a_node_that_dies_stops_the_suite_with_exit_code_1(domain_id: int, tmp_path: Path) -> None:

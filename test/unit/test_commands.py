@@ -23,6 +23,19 @@ def test_every_command_names_a_module_with_a_main() -> None:
         assert any(isinstance(n, ast.FunctionDef) and n.name == 'main' for n in tree.body), (name, path)
 
 
+def test_no_command_names_its_own_prog() -> None:
+    # __main__ sets argv[0] to how the command was called ('python -m grasp_intent_ros NAME', 'grasp-intent-ros
+    # NAME'), argparse's prog unless a parser fixes its own; then --help and errors would name another command line
+    fixed = []
+    for name, module in COMMANDS.items():
+        path = PACKAGE_DIR.joinpath(*module.split('.')).with_suffix('.py')
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                    and node.func.attr == 'ArgumentParser' and any(k.arg == 'prog' for k in node.keywords)):
+                fixed.append(name)
+    assert fixed == []
+
+
 def test_pip_installs_one_script_and_no_generic_names() -> None:
     scripts = {ep.name for ep in distribution('grasp_intent_ros').entry_points if ep.group == 'console_scripts'}
     assert scripts == {SCRIPT}

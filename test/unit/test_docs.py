@@ -15,6 +15,7 @@
   tests' (:data:`grasp_intent_ros.launch.suite.TEST_DOMAIN_IDS`);
 - every ``--option`` written after a command (``python -m grasp_intent_ros <command>``, a benchmark script) is
   one its parser defines;
+- docs/sessions.md names every file ``report`` writes;
 - the README's library example runs.
 
 Read from the source (ast), so no module is imported (but by the last two checks).
@@ -208,7 +209,9 @@ PATH = re.compile(rf'`((?:{"|".join(TOP_DIRS + FOLDERS)})/[\w./-]*?)(?:::(\w+))?
 TEST_PATH = re.compile(r'(?<![\w/.`-])((?:test|benchmarks)/[\w/.-]*\.py)(?:::(\w+))?')
 """A test or benchmark named unquoted, as docstrings do (no reader writes files there, unlike config/)."""
 LINK = re.compile(r'\]\(([^)\s]+)\)')
-TOPIC_COMMAND = re.compile(r'ros2 topic (?:pub|echo)(?: --?[a-z][\w-]*)* (/?[\w/]+)(?: (\w+/msg/\w+))?')
+TOPIC_COMMAND = re.compile(r'ros2 topic (?:pub|echo)(?: --?[a-z][\w-]*(?: \d[\d.]*)?)* (/?[\w/]+)(?: (\w+/msg/\w+))?')
+"""``ros2 topic pub/echo``, its options (a number after one is its value: no topic name starts with a digit), the
+topic and the type."""
 PARAM_COMMAND = re.compile(r'ros2 param (?:set|get|describe)(?: --[a-z][\w-]*)* (/[\w/]+) (\w+)')
 DOMAIN = re.compile(r'(?:ROS_DOMAIN_ID=|--domain-id )(\d+)')
 
@@ -314,9 +317,11 @@ def test_every_ros2_command_of_the_docs_names_a_topic_or_parameter_of_the_suite(
 def test_the_ros2_command_check_tells_stale_commands_from_live_ones() -> None:
     for live in ('ros2 topic echo --once grasp/pose geometry_msgs/msg/PoseStamped', 'ros2 topic echo /diagnostics',
                  'ros2 topic pub --once /robot1/intent/w std_msgs/msg/Float64MultiArray',
-                 'ros2 param set /robot1/model_server model', 'ros2 param describe /intent_interpreter task_names'):
+                 'ros2 param set /robot1/model_server model', 'ros2 param describe /intent_interpreter task_names',
+                 'ros2 topic pub --rate 2 --times 6 intent/w std_msgs/msg/Float64MultiArray'):
         assert [m for m in ros2_commands(live) if not stale_ros2_command(m)], live
     for stale in ('ros2 topic echo --once grasp/poses', 'ros2 topic pub --once intent/w std_msgs/msg/Float32MultiArray',
+                  'ros2 topic pub --rate 2 intent/ww',
                   'ros2 topic echo robot1/intent/w', 'ros2 param set /model_server no_such_parameter',
                   'ros2 param set /no_such_node model', 'ros2 param get /suite model'):
         assert [m for m in ros2_commands(stale) if stale_ros2_command(m)], stale
@@ -397,3 +402,17 @@ def test_the_readmes_library_example_runs() -> None:
     exec(compile(blocks[0], 'README.md', 'exec'), names)  # noqa: S102 - the README's own example
     assert names['res'].status == names['robust'].status == names['paper'].status == 'ok'  # type: ignore[attr-defined]
     assert names['kl'].shape == (3, 3)  # type: ignore[attr-defined]
+
+
+def report_outputs() -> list[str]:
+    """The files ``report`` writes, as the entries of :mod:`grasp_intent_ros.sessions.report`'s docstring name them."""
+    doc = ast.get_docstring(ast.parse((PACKAGE / 'sessions' / 'report.py').read_text())) or ''
+    return re.findall(r'^``([\w.\[\]<>]+\.(?:png|md))``', doc, re.MULTILINE)
+
+
+def test_the_sessions_page_names_every_file_the_report_writes() -> None:
+    outputs = report_outputs()
+    assert {'summary.md', 'shared_control.png', 'grasp_scene_<k>.png'} <= set(outputs)  # the docstring's entries
+    text = (REPO / 'docs' / 'sessions.md').read_text()
+    section = text.split('\n## report\n', 1)[1].split('\n## ', 1)[0]
+    assert [name for name in outputs if f'`{name}`' not in section] == [], 'docs/sessions.md, "report"'
