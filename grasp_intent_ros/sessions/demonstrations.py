@@ -2,33 +2,43 @@
 
     python -m grasp_intent_ros demonstrations BAG [BAG ...] --out CSV [--tasks T1,T2]
                                               [--task-names T1,T2,T3 | --model MODEL.yaml] [--append]
-                                              [--max-pose-age S]
+                                              [--max-pose-age S] [--close-rise RAD]
+                                              [--settle-tolerance RAD] [--settle-window S]
 
 A demonstrator teleoperates the MICO to a grasp and closes the hand while the recorder runs
 (``python -m grasp_intent_ros recorder BAG``: its default topics hold ``joint_states``, ``object/pose`` and
 ``operator/grasp_tasks``). Each grasp becomes a row of the :mod:`grasp_intent_ros.method.data` CSV, which
 ``train`` reads as is. The rules, on the bag's receive times (one clock for every topic):
 
-Closes
+Closes (on the finger positions alone: a driver's finger velocities may be absent, or noisy at rest)
     Each ``joint_states`` message is read as a :class:`~grasp_intent_ros.wire.robot_state.Hand` (messages
-    without the arm and finger joints are skipped). A finger motion starts at a joint state whose fingers are
-    not at rest while no motion is in progress; it is a *close* when the three finger velocities there sum to a
-    positive value (the closures grow), else an opening, which is no grasp. A motion ends at the first joint
-    state for which :func:`~grasp_intent_ros.wire.robot_state.fingers_settled` holds with the motion's start
-    as the close (at rest, at least ``CLOSE_SETTLE`` s after it). A motion whose velocities' sum changes sign
-    before it settles ends there, and one the other way begins: a close that opens again before it settles, or
-    that the bag ends in, is rejected (the fingers never settled); an opening that closes again is counted.
+    without the arm and finger joints are skipped); its *closure* is the mean of the three finger positions,
+    ``(f1 + f2 + f3) / 3`` rad. The fingers are *at rest* at a joint state received at ``t`` when, over the
+    joint states from the latest one received at or before ``t - window`` up to it, every finger's positions
+    span (max - min) at most ``tolerance`` rad: still for ``window`` s at least. The *rest* is the closure at
+    the latest earlier joint state at rest (before the first, the first joint state's). While no motion is in
+    progress, a finger motion is seen at a joint state whose closure is at least ``rise`` rad above the rest
+    (a *close*) or below it (an *opening*, which is no grasp); it ends at the next joint state at rest, where a
+    close is a grasp. A close whose closure falls ``rise`` below its highest since it was seen (an opening
+    whose closure rises ``rise`` above its lowest) ends there unsettled, and a motion the other way is seen
+    at that joint state: a close that opens again before it settles, or that the bag ends in, is rejected
+    (the fingers never settled); an opening that closes again is counted. The three amounts are a
+    :class:`CloseRule` (defaults :data:`CLOSE_RISE`, :data:`SETTLE_TOLERANCE`, :data:`SETTLE_WINDOW`, each
+    with its reason). Comparisons: ``>=`` for a rise or a fall (the amount counts), ``<=`` for a span, and
+    times in integer nanoseconds (a bag's own); a closure and a span are computed from the message's numbers
+    by the same IEEE operations in a fixed order, so one bag gives one answer on every machine. It sees motion,
+    not contact; a finger slower than ``tolerance / window`` is at rest (docs/sessions.md: what it cannot tell).
 The grasp
     At the settled joint state: the hand's pose (forward kinematics of the arm joints) relative to the latest
     ``object/pose`` received at or before it, and the fingers' positions (the executed closures), as the 10
     features (:func:`~grasp_intent_ros.mico.frames.obj_T_ee_to_features`). Rejected when no object pose was
     received, when the latest is malformed (another frame than the arm's base, a non-unit quaternion), when it
-    was received more than ``max_pose_age`` s before the settled joint state (stale: default
+    was received more than ``max_pose_age`` s before the settled joint state (in integer ns; stale: default
     :data:`MAX_POSE_AGE`; ``inf`` for an object the demonstrator vouches did not move), or when the features
     fall outside the feature space's bounds (the hand closed away from the object).
 Labels (inclusive: every task the grasp serves)
     A ``std_msgs/String`` on ``operator/grasp_tasks`` holding comma-separated task names labels the next close
-    that starts after it was received, and that close only (a second label before any close replaces the first,
+    seen after it was received, and that close only (a second label before any close replaces the first,
     and is printed). A close without one takes the command's ``--tasks``; without either it is rejected
     (unlabelled). A label naming an unknown task rejects the close it labels. Never guessed.
 
@@ -43,6 +53,7 @@ import argparse
 import math
 import os
 import sys
+from collections import deque
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -59,17 +70,60 @@ from ..method.intent import DEFAULT_TASKS
 from ..method.model import GraspModel
 from ..method.parameters import check_task_names
 from ..mico.frames import obj_T_ee_to_features
-from ..mico.kinematics import BASE_FRAME, FINGER_JOINTS, MicoKinematics
-from ..wire.robot_state import CLOSE_SETTLE, Hand, fingers_settled, hand_state, pose_msg_to_matrix
+from ..mico.kinematics import BASE_FRAME, MicoKinematics
+from ..wire.robot_state import Hand, hand_state, pose_msg_to_matrix
 from ..wire.topics import JOINT_STATES, MSGTYPES, OBJECT_POSE, OPERATOR_GRASP_TASKS
 from .bag import BagReadError, read_messages, topics_info
 from .pairing import detect_namespace
 
-__all__ = ['MAX_POSE_AGE', 'Grasp', 'Rejected', 'Extraction', 'parse_tasks', 'extract', 'read_bag', 'describe',
-           'main']
+__all__ = ['MAX_POSE_AGE', 'CLOSE_RISE', 'SETTLE_TOLERANCE', 'SETTLE_WINDOW', 'CloseRule', 'Grasp', 'Rejected',
+           'Extraction', 'parse_tasks', 'extract', 'read_bag', 'describe', 'main']
 
 MAX_POSE_AGE: Final = 1.0
 """Default oldest object pose (s before the settled joint state) a grasp is measured against."""
+
+CLOSE_RISE: Final = 0.2
+"""Default rise (rad) of the mean finger closure from the rest that makes a close (a fall: an opening).
+
+The MICO's fingers run over 0-1.51 rad (the URDF's limits), and every shipped demonstration's mean closure is at
+least 0.8 rad (a close from open rises that much); 0.2 rad is 100 times a real encoder's noise of about 0.002 rad
+(about 170 standard deviations of the mean of three fingers), so noise never makes a motion, and 10 times
+:data:`SETTLE_TOLERANCE`."""
+
+SETTLE_TOLERANCE: Final = 0.02
+"""Default span (rad) within which every finger's positions must stay over :data:`SETTLE_WINDOW` to be at rest.
+
+Ten standard deviations of an encoder's noise of 0.002 rad: the span of 51 samples of such noise (the window at
+100 Hz) exceeds it with a probability below 1e-8 per window, so noise at rest does not keep the fingers from
+settling."""
+
+SETTLE_WINDOW: Final = 0.5
+"""Default time (s) the fingers must stay within :data:`SETTLE_TOLERANCE` to be at rest.
+
+51 joint states at 100 Hz (the mock arm's rate; 6 from a driver at 10 Hz), shorter than a demonstrator holds a
+grasp; a finger moving faster than ``SETTLE_TOLERANCE / SETTLE_WINDOW`` (0.04 rad/s: 25 s from open to
+1 rad) is never at rest, and a slower one cannot be told from a rest."""
+
+
+@dataclass(frozen=True)
+class CloseRule:
+    """The amounts of the close rule (module docstring): ``rise`` rad, ``tolerance`` rad, ``window`` s.
+
+    Raises
+    ------
+    DataError
+        Unless ``0 <= tolerance < rise`` (a motion is more than the fingers' wobble at rest) and ``window > 0``,
+        all finite.
+    """
+
+    rise: float = CLOSE_RISE
+    tolerance: float = SETTLE_TOLERANCE
+    window: float = SETTLE_WINDOW
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.rise) and 0.0 <= self.tolerance < self.rise and 0.0 < self.window < math.inf):
+            raise DataError(f'the close rule needs 0 <= settle tolerance < close rise and a settle window > 0, all '
+                            f'finite; got tolerance {self.tolerance} rad, rise {self.rise} rad, window {self.window} s')
 
 
 @dataclass(frozen=True)
@@ -87,7 +141,7 @@ class Grasp:
 
 @dataclass(frozen=True)
 class Rejected:
-    """A close that gives no grasp: ``t`` s (receive time of the motion's first joint state) and why."""
+    """A close that gives no grasp: ``t`` s (receive time of the joint state it was seen at) and why."""
 
     t: float
     reasons: tuple[str, ...]
@@ -124,18 +178,46 @@ def parse_tasks(text: str, task_names: Sequence[str]) -> int:
 
 @dataclass
 class _Motion:
-    """A finger motion in progress: its start (s), direction, and the label pending when it started."""
+    """A motion in progress: seen at (s), direction, the label pending then, the closure's highest (lowest) since."""
 
     start: float
     closing: bool
     label: tuple[float, int | str] | None
+    extreme: float
+
+
+def _ns(t: float) -> int:
+    """A receive time in s as integer nanoseconds (exact for a bag's times, which are whole nanoseconds)."""
+    return round(t * 1e9)
+
+
+class _FingerWindow:
+    """The fingers' closure and whether they are at rest, joint state by joint state (module docstring)."""
+
+    def __init__(self, rule: CloseRule) -> None:
+        self.rule, self.window_ns = rule, _ns(rule.window)
+        self.recent: deque[tuple[int, NDArray[np.float64]]] = deque()  # from the latest at or before t - window
+
+    def step(self, t: float, fingers: NDArray[np.float64]) -> tuple[float, bool]:
+        """The closure (rad) of the joint state received at ``t`` s, and whether the fingers are at rest there."""
+        t_ns = _ns(t)
+        self.recent.append((t_ns, fingers))
+        while len(self.recent) >= 2 and self.recent[1][0] <= t_ns - self.window_ns:
+            self.recent.popleft()
+        positions = np.array([f for _, f in self.recent])
+        at_rest = self.recent[0][0] <= t_ns - self.window_ns and bool(
+            np.all(positions.max(axis=0) - positions.min(axis=0) <= self.rule.tolerance))
+        return (float(fingers[0]) + float(fingers[1]) + float(fingers[2])) / 3.0, at_rest
 
 
 class _Extractor:
     """The rules of the module docstring over one bag's messages, fed in receive order."""
 
-    def __init__(self, kin: MicoKinematics, task_names: Sequence[str], tasks: int | None, max_pose_age: float) -> None:
+    def __init__(self, kin: MicoKinematics, task_names: Sequence[str], tasks: int | None, max_pose_age: float,
+                 rule: CloseRule) -> None:
         self.kin, self.task_names, self.tasks, self.max_pose_age = kin, tuple(task_names), tasks, max_pose_age
+        self.rule, self.window = rule, _FingerWindow(rule)
+        self.rest: float | None = None  # the closure at the latest joint state at rest so far (rad)
         self.pose: tuple[float, NDArray[np.float64] | str] | None = None  # (received, base_T_obj or why not)
         self.label: tuple[float, int | str] | None = None  # (received, task set or why not), pending
         self.motion: _Motion | None = None
@@ -163,24 +245,30 @@ class _Extractor:
         hand = hand_state(msg, self.kin, t)
         if hand is None:
             return
-        velocities = dict(zip(msg.name, msg.velocity))
-        velocity = sum(float(velocities.get(name, 0.0)) for name in FINGER_JOINTS)  # > 0: closing
+        closure, at_rest = self.window.step(t, hand.fingers)
+        rise = self.rule.rise
         motion = self.motion
-        if motion is not None and fingers_settled(hand, motion.start, CLOSE_SETTLE):
-            self.motion = None
+        if motion is None:
+            rest = closure if self.rest is None else self.rest
+            if closure - rest >= rise or rest - closure >= rise:
+                self.motion = _Motion(t, closure > rest, self.label, closure)
+            elif at_rest or self.rest is None:
+                self.rest = closure
+            return
+        if at_rest:
+            self.motion, self.rest = None, closure
             if motion.closing:
                 self._close(motion, hand)
             else:
                 self.openings += 1
             return
-        if motion is not None and velocity != 0.0 and (velocity > 0.0) != motion.closing:  # reversed, unsettled
-            if motion.closing:
-                self._reject(motion, f'fingers never settled: they opened at {t:.3f} s')
-            else:
-                self.openings += 1
-            motion = self.motion = None
-        if motion is None and not hand.fingers_at_rest:
-            self.motion = _Motion(t, velocity > 0.0, self.label)
+        motion.extreme = max(motion.extreme, closure) if motion.closing else min(motion.extreme, closure)
+        if motion.closing and motion.extreme - closure >= rise:
+            self._reject(motion, f'fingers never settled: they opened at {t:.3f} s')
+            self.motion = _Motion(t, False, self.label, closure)
+        elif not motion.closing and closure - motion.extreme >= rise:
+            self.openings += 1
+            self.motion = _Motion(t, True, self.label, closure)
 
     def end(self, t: float) -> None:
         """The bag ended at ``t`` s."""
@@ -213,7 +301,7 @@ class _Extractor:
             reasons.append('no object pose')
         elif isinstance(self.pose[1], str):
             reasons.append(f'the latest object pose, at {self.pose[0]:.3f} s, is malformed: {self.pose[1]}')
-        elif hand.received - self.pose[0] > self.max_pose_age:
+        elif _ns(hand.received) - _ns(self.pose[0]) > self.max_pose_age * 1e9:
             reasons.append(f'stale object pose: the latest, at {self.pose[0]:.3f} s, is '
                            f'{hand.received - self.pose[0]:.3f} s old (at most {self.max_pose_age:g} s)')
         else:
@@ -235,7 +323,7 @@ class _Extractor:
 
 
 def extract(messages: Iterable[tuple[str, float, Any]], kin: MicoKinematics, *, task_names: Sequence[str],
-            tasks: int | None = None, max_pose_age: float = MAX_POSE_AGE) -> Extraction:
+            tasks: int | None = None, max_pose_age: float = MAX_POSE_AGE, rule: CloseRule = CloseRule()) -> Extraction:
     """The grasps and rejected closes of a session's messages, by the rules of the module docstring.
 
     Parameters
@@ -250,13 +338,15 @@ def extract(messages: Iterable[tuple[str, float, Any]], kin: MicoKinematics, *, 
         The task set of a close without its own label (``--tasks``); None: such a close is rejected.
     max_pose_age : float
         The oldest object pose (s before the settled joint state) a grasp is measured against (> 0, may be inf).
+    rule : CloseRule
+        What makes a close and its end.
 
     Raises
     ------
     DataError
         For a malformed joint state (duplicate names, positions not finite, ...), naming its time.
     """
-    extractor = _Extractor(kin, task_names, tasks, max_pose_age)
+    extractor = _Extractor(kin, task_names, tasks, max_pose_age, rule)
     handlers = {JOINT_STATES: extractor.joint_state, OBJECT_POSE: extractor.object_pose,
                 OPERATOR_GRASP_TASKS: extractor.grasp_tasks}
     t = math.nan
@@ -294,7 +384,7 @@ def _bag_messages(path: Path) -> Iterator[tuple[str, float, Any]]:
 
 
 def read_bag(path: str | os.PathLike[str], kin: MicoKinematics, *, task_names: Sequence[str], tasks: int | None = None,
-             max_pose_age: float = MAX_POSE_AGE) -> Extraction:
+             max_pose_age: float = MAX_POSE_AGE, rule: CloseRule = CloseRule()) -> Extraction:
     """:func:`extract` of a session bag's messages (times in s from its first message).
 
     Raises
@@ -306,7 +396,7 @@ def read_bag(path: str | os.PathLike[str], kin: MicoKinematics, *, task_names: S
     """
     try:
         return extract(_bag_messages(Path(path)), kin, task_names=task_names, tasks=tasks,
-                       max_pose_age=max_pose_age)
+                       max_pose_age=max_pose_age, rule=rule)
     except DataError as exc:
         raise DataError(f'bag {path}: {exc}') from None
 
@@ -366,20 +456,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument('--max-pose-age', type=float, default=MAX_POSE_AGE,
                         help=f'oldest object pose a grasp is measured against, s before it (default '
                              f'{MAX_POSE_AGE:g}; inf: the object never moved)')
+    for flag, default, unit, what in (
+            ('--close-rise', CLOSE_RISE, 'RAD', 'rise of the mean finger closure from a rest that is a close'),
+            ('--settle-tolerance', SETTLE_TOLERANCE, 'RAD', 'span of each finger over the window at rest'),
+            ('--settle-window', SETTLE_WINDOW, 'S', 'how long the fingers stay within the tolerance at rest')):
+        parser.add_argument(flag, type=float, default=default, metavar=unit, help=f'{what} (default {default:g})')
     args = parser.parse_args(argv)
     status = [0]
 
     def body() -> None:
         if not args.max_pose_age > 0.0:
             raise DataError(f'--max-pose-age must be > 0 s (or inf), got {args.max_pose_age}')
+        rule = CloseRule(args.close_rise, args.settle_tolerance, args.settle_window)
         if args.out.exists() and not args.append:
             raise DataError(f'{args.out} exists: --append adds to it')
         existing = load_csv(args.out) if args.append and args.out.exists() else None
         task_names = _task_names(args, existing)
         tasks = None if args.tasks is None else parse_tasks(args.tasks, task_names)
         kin = MicoKinematics()
-        found = [(bag, read_bag(bag, kin, task_names=task_names, tasks=tasks, max_pose_age=args.max_pose_age))
-                 for bag in args.bags]  # every bag read before anything is written
+        found = [(bag, read_bag(bag, kin, task_names=task_names, tasks=tasks, max_pose_age=args.max_pose_age,
+                                rule=rule)) for bag in args.bags]  # every bag read before anything is written
         for bag, extraction in found:
             print('\n'.join(describe(str(bag), extraction, task_names)))
         grasps = [g for _, extraction in found for g in extraction.grasps]

@@ -1,12 +1,14 @@
 """The demonstrations command: closes found in joint states, labels, rejections, and a mock-arm session end to end.
 
-The rules (grasp_intent_ros.sessions.demonstrations' docstring) on hand-built message sequences, then the proof:
+The rules (grasp_intent_ros.sessions.demonstrations' docstring) on hand-built message sequences, the joint states
+as three kinds of driver publish them (exact velocities, none, noisy positions and velocities), then the proof:
 the mock arm's dynamics driven to demonstrations of config/data/cup.csv at the default object pose, closed,
 recorded with the session bag writer, read back by the command, and trained on.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 from typing import Any
@@ -26,8 +28,14 @@ from grasp_intent_ros.mico.parameters import MOCK_ARM
 from grasp_intent_ros.objects.train import train
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.sessions.bag import QosSpec, SessionWriter
-from grasp_intent_ros.sessions.demonstrations import extract, main, parse_tasks
-from grasp_intent_ros.wire.robot_state import CLOSE_SETTLE
+from grasp_intent_ros.sessions.demonstrations import (
+    SETTLE_TOLERANCE,
+    SETTLE_WINDOW,
+    CloseRule,
+    extract,
+    main,
+    parse_tasks,
+)
 from grasp_intent_ros.wire.topics import JOINT_STATES, OBJECT_POSE, OPERATOR_GRASP_TASKS
 
 from ..session_bags import T, header, text
@@ -35,8 +43,9 @@ from ..session_bags import T, header, text
 KIN = MicoKinematics()
 BASE_T_OBJ = default_base_T_obj()
 USAGE, TRANSFER, HANDOVER = 1, 2, 4
-DT = 0.01
-"""The mock arm's joint_states period (s), its node's default."""
+RATE = 100
+"""The mock arm's joint_states rate (Hz), its node's default."""
+DT = 1.0 / RATE
 
 
 def joint_state(q: Any, qd: Any = None) -> Any:
@@ -60,152 +69,284 @@ def pose(base_T_obj: Any = BASE_T_OBJ, frame: str = 'm1n6s300_link_base') -> Any
 GRASP_X = np.array([0.13, -0.02, 0.07, -0.89, 0.17, -0.42, 4.54, 0.0, 0.0, 0.0])
 GRASP_X[3:6] /= np.linalg.norm(GRASP_X[3:6])
 Q_GRASP = KIN.ik(BASE_T_OBJ @ features_to_obj_T_ee(GRASP_X), HOME_Q).q
-CLOSED = np.array([1.0, 1.1, 0.9])
+OPEN, CLOSED = np.zeros(3), np.array([1.0, 1.1, 0.9])  # CLOSED: mean closure 1 rad
+POSITION_NOISE, VELOCITY_NOISE = 0.002, 0.01
+"""A real driver's noise (standard deviations, rad and rad/s) on every joint, at rest and moving."""
+DRIVERS = ('exact', 'positions only', 'noisy')
+"""How a driver publishes: the mock arm's exact positions and velocities (zero at rest), a ros2_control interface
+with position state interfaces only (an empty ``velocity``), or measured positions and velocities with noise."""
 
 
-def finger_motion(t0: float, start: Any, end: Any, *, q_arm: Any = Q_GRASP, speed: float = 1.0,
-                  rest: float = 0.5) -> list[tuple[str, float, Any]]:
-    """Joint states every DT s from ``t0``: fingers from ``start`` to ``end`` at ``speed`` rad/s, then at rest."""
-    start, end = np.asarray(start, dtype=np.float64), np.asarray(end, dtype=np.float64)
-    steps = math.ceil(float(np.max(np.abs(end - start))) / (speed * DT))
-    messages, fingers = [], start.copy()
-    for k in range(1, steps + 1):
-        previous, fingers = fingers, start + (end - start) * k / steps
-        messages.append((JOINT_STATES, t0 + k * DT, joint_state([*q_arm, *fingers], [0.0] * 6 + list(
-            (fingers - previous) / DT))))
-    t_end = t0 + steps * DT
-    messages += [(JOINT_STATES, t_end + k * DT, joint_state([*q_arm, *end])) for k in range(1, round(rest / DT) + 1)]
-    return messages
+class Fingers:
+    """The arm held at Q_GRASP while the fingers move and rest in turn, sampled every DT s at times k / RATE.
+
+    ``states``: (t, finger positions, finger velocities) as the mock arm would publish them (the velocity of a
+    moving finger its step over DT, exact zeros at rest).
+    """
+
+    def __init__(self, fingers: Any = OPEN) -> None:
+        self.k, self.fingers = 0, np.asarray(fingers, dtype=np.float64)
+        self.states: list[tuple[float, np.ndarray, np.ndarray]] = [(0.0, self.fingers, np.zeros(3))]
+
+    @property
+    def t(self) -> float:
+        return self.k / RATE
+
+    def rest(self, seconds: float) -> Fingers:
+        for _ in range(round(seconds * RATE)):
+            self.k += 1
+            self.states.append((self.t, self.fingers, np.zeros(3)))
+        return self
+
+    def move(self, to: Any, speed: float = 1.0) -> Fingers:
+        """To ``to`` at ``speed`` rad/s (the farthest finger's; the others in proportion), in whole steps."""
+        start, to = self.fingers, np.asarray(to, dtype=np.float64)
+        steps = math.ceil(round(float(np.max(np.abs(to - start))) / (speed * DT), 6))
+        for i in range(1, steps + 1):
+            self.k += 1
+            previous, self.fingers = self.fingers, start + (to - start) * i / steps
+            self.states.append((self.t, self.fingers, (self.fingers - previous) * RATE))
+        return self
+
+    def messages(self, driver: str = 'exact', seed: int = 0) -> list[tuple[str, float, Any]]:
+        """The joint states as ``driver`` (one of DRIVERS) publishes them."""
+        rng = np.random.default_rng(seed)
+        messages = []
+        for t, fingers, velocities in self.states:
+            q, qd = np.array([*Q_GRASP, *fingers]), np.array([0.0] * 6 + list(velocities))
+            if driver == 'noisy':
+                q, qd = q + rng.normal(0.0, POSITION_NOISE, 9), qd + rng.normal(0.0, VELOCITY_NOISE, 9)
+            messages.append((JOINT_STATES, t, joint_state(q, np.array([]) if driver == 'positions only' else qd)))
+        return messages
 
 
-def at_rest(t0: float, fingers: Any = (0.0, 0.0, 0.0), seconds: float = 0.2) -> list[tuple[str, float, Any]]:
-    return [(JOINT_STATES, t0 + k * DT, joint_state([*Q_GRASP, *fingers])) for k in range(round(seconds / DT))]
-
-
-def close_at(t0: float) -> list[tuple[str, float, Any]]:
-    """Open fingers at rest, then closed to CLOSED: the close starts at ``t0 + DT``."""
-    return [*finger_motion(t0, (0.0, 0.0, 0.0), CLOSED)]
-
-
-def run(messages: list[tuple[str, float, Any]], *, tasks: int | None = USAGE, max_pose_age: float = 1.0) -> Any:
+def run(messages: list[tuple[str, float, Any]], *, tasks: int | None = USAGE, max_pose_age: float = math.inf,
+        rule: CloseRule = CloseRule()) -> Any:
     return extract(sorted(messages, key=lambda m: m[1]), KIN, task_names=DEFAULT_TASKS, tasks=tasks,
-                   max_pose_age=max_pose_age)
+                   max_pose_age=max_pose_age, rule=rule)
 
 
-def test_a_close_that_settles_is_a_grasp_at_its_first_settled_joint_state() -> None:
-    messages = [*at_rest(0.0), (OBJECT_POSE, 1.5, pose()), *close_at(1.0)]
-    found = run(messages)
+def features_at(messages: list[tuple[str, float, Any]], t: float) -> np.ndarray:
+    """The features of the joint state received at ``t`` s: the hand's pose and its finger positions."""
+    q = next(msg.position for topic, t_msg, msg in messages if topic == JOINT_STATES and t_msg == t)
+    return obj_T_ee_to_features(np.linalg.inv(BASE_T_OBJ) @ KIN.fk(q[:6]), q[6:])
+
+
+def closes(hand: Fingers) -> list[tuple[str, float, Any]]:
+    """``hand`` at rest 1 s, closed to CLOSED, at rest 1 s (the first object pose 0.5 s in): one grasp."""
+    return [(OBJECT_POSE, 0.505, pose()), *hand.rest(1.0).move(CLOSED).rest(1.0).messages()]
+
+
+@pytest.mark.parametrize('driver', DRIVERS)
+def test_a_close_is_found_on_the_positions_whatever_the_driver_publishes_as_velocities(driver: str) -> None:
+    """One grasp at the first joint state with every finger still for SETTLE_WINDOW s, after 20 s at rest.
+
+    The rest is long enough for the noise to matter (2000 joint states): it never makes a motion, and it does not
+    keep the fingers from settling. Still means within SETTLE_TOLERANCE: the window's first joint state may be
+    the close's last step or two (at 1 rad/s a finger moves 0.01 rad per joint state), so the grasp comes up to
+    SETTLE_TOLERANCE / 1 rad/s before the fingers were SETTLE_WINDOW s at their closures, at a joint state after
+    they reached them. Noisy, the features are those of the noisy joint state where the fingers settled.
+    """
+    hand = Fingers().rest(20.0).move(CLOSED)
+    reached = hand.t
+    messages = [(OBJECT_POSE, 21.005, pose()), *hand.rest(1.0).messages(driver)]
+    found = run(messages, max_pose_age=1.0)
     assert len(found.grasps) == 1 and found.rejected == () and found.openings == 0
     grasp = found.grasps[0]
-    # the fingers reach CLOSED after 1.1 s (> CLOSE_SETTLE): the first joint state at rest after that
-    assert grasp.t == pytest.approx(1.0 + 1.1 + DT)
-    expected = obj_T_ee_to_features(np.linalg.inv(BASE_T_OBJ) @ KIN.fk(Q_GRASP), CLOSED)
-    assert_allclose(grasp.x, expected, atol=1e-12)
-    assert_allclose(grasp.x[:7], GRASP_X[:7], atol=2 * IK_ROT_TOL)
+    assert reached + SETTLE_WINDOW - SETTLE_TOLERANCE <= grasp.t <= reached + SETTLE_WINDOW
+    assert_allclose(grasp.x, features_at(messages, grasp.t), rtol=0.0, atol=1e-12)
+    if driver != 'noisy':
+        assert_allclose(grasp.x[7:], CLOSED, rtol=0.0, atol=0.0)
+        assert_allclose(grasp.x[:7], GRASP_X[:7], atol=2 * IK_ROT_TOL)
     assert (grasp.task_set, grasp.label) == (USAGE, '--tasks')
 
 
-def test_rest_within_the_settle_time_does_not_end_a_close() -> None:
-    small = CLOSED * 0.1  # at rest 0.11 s after the close began: settled only CLOSE_SETTLE s after it
-    motion = finger_motion(1.0, (0.0, 0.0, 0.0), small)
-    found = run([*at_rest(0.0), (OBJECT_POSE, 0.9, pose()), *motion])
-    start = motion[0][1]
-    assert [g.t for g in found.grasps] == [next(t for _, t, _ in motion if t >= start + CLOSE_SETTLE)]
-    assert found.grasps[0].t == pytest.approx(start + CLOSE_SETTLE, abs=DT)
-    assert_allclose(found.grasps[0].x[7:], small)
+@pytest.mark.parametrize('driver', DRIVERS)
+def test_a_slow_close_is_one_grasp_at_its_end(driver: str) -> None:
+    """At 0.1 rad/s (10 s from open to CLOSED): the fingers move 0.05 rad per window, never still until the end."""
+    hand = Fingers().rest(1.0).move(CLOSED, speed=0.1)
+    reached = hand.t
+    messages = [(OBJECT_POSE, 0.505, pose()), *hand.rest(1.0).messages(driver)]
+    found = run(messages)
+    assert len(found.grasps) == 1 and found.rejected == () and found.openings == 0
+    assert reached <= found.grasps[0].t <= reached + SETTLE_WINDOW
+
+
+def test_a_motion_slower_than_the_tolerance_over_the_window_is_a_rest() -> None:
+    """The rule's stated limit: a finger slower than SETTLE_TOLERANCE / SETTLE_WINDOW is always at rest.
+
+    At 0.03 rad/s the rest follows the fingers, and a rise of 0.6 rad is no close.
+    """
+    hand = Fingers().rest(1.0).move(CLOSED * 0.6, speed=0.03).rest(1.0)
+    assert SETTLE_TOLERANCE / SETTLE_WINDOW > 0.03
+    found = run([(OBJECT_POSE, 0.505, pose()), *hand.messages()])
+    assert (found.grasps, found.rejected, found.openings) == ((), (), 0)
+
+
+def test_the_amounts_count_inclusively_and_times_compare_in_nanoseconds() -> None:
+    """The bounds count: a rise of exactly ``rise``, a span of exactly ``tolerance``, a window of exactly ``window``.
+
+    Dyadic amounts and closures, so every closure and span is exact; times k / RATE s, exact in nanoseconds.
+    """
+    rule = CloseRule(rise=0.25, tolerance=0.0625, window=0.5)
+    hand = Fingers().rest(1.0)
+    hand.fingers = np.full(3, 0.25)  # one step from the rest at 0: the mean closure rises by exactly 0.25
+    for _ in range(100):  # then finger 1 wobbles by exactly 0.0625 below it
+        hand.rest(1 / RATE).fingers = np.array([0.1875 if hand.k % 2 else 0.25, 0.25, 0.25])
+    messages = [(OBJECT_POSE, 0.505, pose()), *hand.messages()]
+    found = run(messages, rule=rule)
+    assert [g.t for g in found.grasps] == [1.51]  # seen at 1.01, at rest once the joint state at 1.01 is 0.5 s old
+    finer = run(messages, rule=dataclasses.replace(rule, tolerance=math.nextafter(0.0625, 0.0)))
+    assert finer.grasps == () and finer.rejected[0].reasons[0].startswith('fingers never settled: the bag ends')
+    higher = run(messages, rule=dataclasses.replace(rule, rise=math.nextafter(0.25, 1.0)))
+    assert (higher.grasps, higher.rejected) == ((), ())
+
+
+def test_a_twitch_below_the_close_rise_is_no_motion() -> None:
+    hand = Fingers().rest(1.0).move(CLOSED * 0.15).move(OPEN).move(CLOSED * 0.15).rest(1.0)
+    found = run([(OBJECT_POSE, 0.505, pose()), *hand.messages('noisy')])
+    assert (found.grasps, found.rejected, found.openings) == ((), (), 0)
 
 
 def test_an_opening_is_no_grasp_and_no_rejection() -> None:
-    found = run([*at_rest(0.0, CLOSED), (OBJECT_POSE, 1.5, pose()), *finger_motion(1.0, CLOSED, (0.0, 0.0, 0.0))])
+    hand = Fingers(CLOSED).rest(1.0).move(OPEN).rest(1.0)
+    found = run([(OBJECT_POSE, 0.505, pose()), *hand.messages()])
     assert (found.grasps, found.rejected, found.openings) == ((), (), 1)
 
 
+def test_a_close_then_an_opening_is_a_grasp_then_an_opening() -> None:
+    hand = Fingers().rest(1.0).move(CLOSED).rest(1.0).move(OPEN).rest(1.0)
+    found = run([(OBJECT_POSE, 0.505, pose()), *hand.messages('noisy')])
+    assert (len(found.grasps), found.rejected, found.openings) == (1, (), 1)
+    assert_allclose(found.grasps[0].x[7:], CLOSED, atol=5 * POSITION_NOISE)
+
+
 def test_a_close_right_after_an_opening_is_found() -> None:
-    opening = finger_motion(1.0, CLOSED, CLOSED * 0.5, rest=0.0)
-    found = run([*at_rest(0.0, CLOSED), (OBJECT_POSE, 1.5, pose()), *opening,
-                 *finger_motion(opening[-1][1], CLOSED * 0.5, CLOSED)])
+    hand = Fingers(CLOSED).rest(1.0).move(CLOSED * 0.5).move(CLOSED).rest(1.0)
+    found = run([(OBJECT_POSE, 0.505, pose()), *hand.messages()])
     assert (len(found.grasps), found.rejected, found.openings) == (1, (), 1)
     assert_allclose(found.grasps[0].x[7:], CLOSED)
 
 
-def test_a_close_that_opens_or_ends_the_bag_before_settling_is_rejected() -> None:
-    opened = run([*at_rest(0.0), (OBJECT_POSE, 1.5, pose()), *finger_motion(1.0, (0.0, 0.0, 0.0), CLOSED * 0.1,
-                                                                            rest=0.1),
-                  *finger_motion(1.21, CLOSED * 0.1, (0.0, 0.0, 0.0))])
-    assert opened.grasps == () and opened.openings == 1
-    assert [(r.t, r.reasons) for r in opened.rejected] == [
-        (pytest.approx(1.0 + DT), ('fingers never settled: they opened at 1.220 s',))]
-    cut = run([*at_rest(0.0), (OBJECT_POSE, 1.5, pose()), *close_at(1.0)[:50]])
-    assert cut.grasps == () and len(cut.rejected) == 1
-    assert cut.rejected[0].reasons[0].startswith('fingers never settled: the bag ends 0.490 s after the close')
+@pytest.mark.parametrize('driver', DRIVERS)
+def test_a_close_that_opens_before_settling_is_rejected(driver: str) -> None:
+    """Closed to a mean closure of 0.5 rad, held 0.3 s (< SETTLE_WINDOW), opened: rejected, the opening counted.
+
+    The fingers opened where the mean has fallen 0.2 rad from its highest: 0.22 s into the opening (the fastest
+    finger, 1.1 times the mean, moves at 1 rad/s), within a step for the noise. The close is seen where the mean
+    has risen 0.2 rad from the rest, which follows the fingers while they stay within SETTLE_TOLERANCE: 0.22 s into
+    the close, up to SETTLE_TOLERANCE / 1 rad/s later.
+    """
+    hand = Fingers().rest(1.0).move(CLOSED * 0.5).rest(0.3)
+    opened = hand.t
+    found = run([(OBJECT_POSE, 0.505, pose()), *hand.move(OPEN).rest(1.0).messages(driver)])
+    assert found.grasps == () and found.openings == 1 and len(found.rejected) == 1
+    rejected = found.rejected[0]
+    assert 1.22 - DT <= rejected.t <= 1.22 + SETTLE_TOLERANCE + DT
+    t_opened = float(rejected.reasons[0].removeprefix('fingers never settled: they opened at ').removesuffix(' s'))
+    assert t_opened == pytest.approx(opened + 0.22, abs=1.5 * DT)
+
+
+@pytest.mark.parametrize('driver', DRIVERS)
+def test_a_close_the_bag_ends_in_is_rejected(driver: str) -> None:
+    """Cut while the fingers close, or at their closures but still for less than SETTLE_WINDOW."""
+    for hand in (Fingers().rest(1.0).move(CLOSED * 0.5), Fingers().rest(1.0).move(CLOSED).rest(SETTLE_WINDOW - 0.1)):
+        found = run([(OBJECT_POSE, 0.505, pose()), *hand.messages(driver)])
+        assert found.grasps == () and len(found.rejected) == 1
+        rejected = found.rejected[0]
+        assert rejected.reasons == (f'fingers never settled: the bag ends {hand.t - rejected.t:.3f} s after the close '
+                                    'began',)
 
 
 @pytest.mark.parametrize(('pose_messages', 'reason'), [
     ([], 'no object pose'),
-    ([(OBJECT_POSE, 0.5, pose())], 'stale object pose: the latest, at 0.500 s, is 1.610 s old (at most 1 s)'),
-    ([(OBJECT_POSE, 1.5, pose()), (OBJECT_POSE, 1.6, pose(frame='world'))],
-     "the latest object pose, at 1.600 s, is malformed: pose must be given in frame 'm1n6s300_link_base'"),
+    ([(OBJECT_POSE, 0.505, pose())], 'stale object pose: the latest, at 0.505 s, is 2.'),
+    ([(OBJECT_POSE, 1.505, pose()), (OBJECT_POSE, 1.605, pose(frame='world'))],
+     "the latest object pose, at 1.605 s, is malformed: pose must be given in frame 'm1n6s300_link_base'"),
 ])
 def test_a_close_without_a_usable_object_pose_is_rejected(pose_messages: list[Any], reason: str) -> None:
-    found = run([*at_rest(0.0), *pose_messages, *close_at(1.0)])
+    hand = Fingers().rest(1.0).move(CLOSED).rest(1.0)
+    found = run([*pose_messages, *hand.messages()], max_pose_age=1.0)
     assert found.grasps == () and len(found.rejected) == 1
     assert found.rejected[0].reasons[0].startswith(reason)
-    assert len(run([*at_rest(0.0), *pose_messages, *close_at(1.0)], max_pose_age=math.inf).grasps) == (
-        reason.startswith('stale'))
+    assert len(run([*pose_messages, *hand.messages()]).grasps) == reason.startswith('stale')
 
 
-def test_a_pose_exactly_max_pose_age_old_is_used() -> None:
-    grasp_t = 1.0 + 1.1 + DT
-    assert len(run([*at_rest(0.0), (OBJECT_POSE, grasp_t - 0.5, pose()), *close_at(1.0)], max_pose_age=0.5).grasps)
+@pytest.mark.parametrize('age', [0.3, 0.5, 0.7])
+def test_a_pose_exactly_max_pose_age_old_is_used(age: float) -> None:
+    """A pose received exactly ``max_pose_age`` s before the settled joint state is used (the next float down: not).
+
+    Ages are compared in integer nanoseconds, so the rounding of the two times in s decides nothing.
+    """
+    hand = Fingers().rest(1.0).move(CLOSED).rest(1.0)
+    k_grasp = round(run([(OBJECT_POSE, 0.505, pose()), *hand.messages()]).grasps[0].t * RATE)
+    messages = [(OBJECT_POSE, (k_grasp - round(age * RATE)) / RATE, pose()), *hand.messages()]
+    messages.sort(key=lambda m: (m[1], m[0] == JOINT_STATES))  # the pose first at its joint state's time
+    for max_pose_age, found in ((age, 1), (math.nextafter(age, 0.0), 0)):
+        assert len(extract(messages, KIN, task_names=DEFAULT_TASKS, tasks=USAGE, max_pose_age=max_pose_age).grasps) == (
+            found)
 
 
 def test_a_close_away_from_the_object_is_rejected() -> None:
     moved = BASE_T_OBJ.copy()
     moved[:3, 3] += [0.0, 0.0, 0.3]
-    found = run([*at_rest(0.0), (OBJECT_POSE, 1.5, pose(moved)), *close_at(1.0)])
+    found = run([(OBJECT_POSE, 0.505, pose(moved)), *Fingers().rest(1.0).move(CLOSED).rest(1.0).messages()])
     assert found.grasps == ()
     assert found.rejected[0].reasons == ('the hand is not at the object: palm_z = -0.2300 outside the feature bounds',)
 
 
+def session(*labels: tuple[float, str]) -> list[tuple[str, float, Any]]:
+    """Three closes 4 s apart, each opened again; the object pose every second at k + 0.005 s; ``labels`` (t, text).
+
+    Each close starts at 1.5, 5.5 and 9.5 s (seen about 0.22 s later), reaches CLOSED 1.1 s later and stays 0.8 s
+    (settled after 0.5 s), then opens in 1.1 s and stays open 0.5 s.
+    """
+    hand = Fingers().rest(1.0)
+    for _ in range(3):
+        hand.rest(0.5).move(CLOSED).rest(0.8).move(OPEN).rest(0.5)
+    return [*hand.messages(), *[(OBJECT_POSE, k + 0.005, pose()) for k in range(round(hand.t) + 1)],
+            *[(OPERATOR_GRASP_TASKS, t, text(value)) for t, value in labels]]
+
+
 def test_a_label_message_labels_the_next_close_only() -> None:
-    label = (OPERATOR_GRASP_TASKS, 0.8, text('usage, transfer'))
-    messages = [*at_rest(0.0), (OBJECT_POSE, 1.5, pose()), label, *close_at(1.0),
-                *finger_motion(2.7, CLOSED, (0.0, 0.0, 0.0)),  # an opening does not take a label
-                (OPERATOR_GRASP_TASKS, 4.0, text('handover')), *close_at(4.5), (OBJECT_POSE, 5.0, pose()),
-                *finger_motion(6.2, CLOSED, (0.0, 0.0, 0.0)), *close_at(7.5), (OBJECT_POSE, 8.0, pose())]
+    messages = session((1.25, 'usage, transfer'), (5.25, 'handover'))
     found = run(messages, tasks=TRANSFER)
     assert [(g.task_set, g.label) for g in found.grasps] == [
-        (USAGE | TRANSFER, 'label at 0.800 s'), (HANDOVER, 'label at 4.000 s'), (TRANSFER, '--tasks')]
-    assert found.rejected == () and found.notes == ()
+        (USAGE | TRANSFER, 'label at 1.250 s'), (HANDOVER, 'label at 5.250 s'), (TRANSFER, '--tasks')]
+    assert found.rejected == () and found.notes == () and found.openings == 3
     unlabelled = run(messages, tasks=None)
     assert [g.task_set for g in unlabelled.grasps] == [USAGE | TRANSFER, HANDOVER]
     assert [r.reasons for r in unlabelled.rejected] == [('unlabelled: no label before the close and no --tasks',)]
 
 
 def test_a_label_received_during_a_close_labels_the_next_one() -> None:
-    messages = [*at_rest(0.0), (OBJECT_POSE, 1.5, pose()), (OPERATOR_GRASP_TASKS, 0.8, text('usage')),
-                *close_at(1.0), (OPERATOR_GRASP_TASKS, 1.5, text('handover')),
-                *finger_motion(2.7, CLOSED, (0.0, 0.0, 0.0)), *close_at(4.5), (OBJECT_POSE, 5.0, pose())]
-    found = run(messages, tasks=None)
-    assert [g.task_set for g in found.grasps] == [USAGE, HANDOVER] and found.notes == ()
+    for t in (1.8, 4.0):  # after the first close was seen; during the first opening
+        found = run(session((1.25, 'usage'), (t, 'handover')), tasks=None)
+        assert [g.task_set for g in found.grasps] == [USAGE, HANDOVER] and found.notes == ()
 
 
 def test_a_replaced_or_unknown_label_is_reported() -> None:
-    replaced = run([*at_rest(0.0), (OBJECT_POSE, 1.5, pose()), (OPERATOR_GRASP_TASKS, 0.6, text('usage')),
-                    (OPERATOR_GRASP_TASKS, 0.7, text('handover')), *close_at(1.0)])
+    replaced = run(session((0.25, 'usage'), (1.25, 'handover')), tasks=None)
     assert [g.task_set for g in replaced.grasps] == [HANDOVER]
-    assert replaced.notes == ('the label at 0.600 s is replaced by the one at 0.700 s before any close',)
-    unknown = run([*at_rest(0.0), (OBJECT_POSE, 1.5, pose()), (OPERATOR_GRASP_TASKS, 0.6, text('usage,pour')),
-                   *close_at(1.0)])
+    assert replaced.notes == ('the label at 0.250 s is replaced by the one at 1.250 s before any close',)
+    unknown = run(session((1.25, 'usage,pour')), tasks=None)
     assert unknown.grasps == ()
     assert unknown.rejected[0].reasons == (
-        'the label at 0.600 s: unknown task(s) pour in \'usage,pour\'; tasks: usage, transfer, handover',)
+        'the label at 1.250 s: unknown task(s) pour in \'usage,pour\'; tasks: usage, transfer, handover',)
 
 
 def test_a_malformed_joint_state_is_a_bad_session() -> None:
     bad = joint_state([*Q_GRASP, 0.0, 0.0, math.nan])
-    with pytest.raises(DataError, match='malformed joint_states message at 0.300 s: .*finite'):
-        run([*at_rest(0.0), (JOINT_STATES, 0.3, bad)])
+    with pytest.raises(DataError, match='malformed joint_states message at 0.305 s: .*finite'):
+        run([*Fingers().rest(1.0).messages(), (JOINT_STATES, 0.305, bad)])
+
+
+@pytest.mark.parametrize(('rise', 'tolerance', 'window'), [
+    (0.2, 0.2, 0.5), (0.2, -0.01, 0.5), (0.2, 0.02, 0.0), (math.inf, 0.02, 0.5), (0.2, 0.02, math.nan)])
+def test_a_close_rule_refuses_amounts_that_tell_nothing(rise: float, tolerance: float, window: float) -> None:
+    with pytest.raises(DataError):
+        CloseRule(rise, tolerance, window)
+    assert CloseRule(0.2, 0.0, 0.01) == CloseRule(rise=0.2, tolerance=0.0, window=0.01)
 
 
 @pytest.mark.parametrize('text_', ['', 'usage,,transfer', 'usage,usage', 'pour'])
@@ -260,7 +401,7 @@ def record_session(path: Path, rows: list[tuple[np.ndarray, int]], closure_error
                 bag.write_message(f'/{OPERATOR_GRASP_TASKS}', round(t * 1e9) + 1, text(label))
             executed.append(arm.close_fingers(x[7:] + rng.normal(0.0, closure_error, 3)))
             advance(lambda: not np.any(arm.qd[6:]) and np.array_equal(arm.q[6:], executed[-1]))
-            rest_until = t + 2 * CLOSE_SETTLE
+            rest_until = t + 2 * SETTLE_WINDOW
             advance(lambda: t >= rest_until)
     return executed
 
@@ -314,6 +455,11 @@ def test_the_command_appends_refuses_and_exits_as_documented(tmp_path: Path, cap
     assert 'cannot read bag' in capsys.readouterr().err
     assert main([session, '--out', str(tmp_path / 'x.csv'), '--tasks', 'pour']) == 2
     assert main([session, '--out', str(tmp_path / 'x.csv'), '--max-pose-age', '0']) == 2
+    assert main([session, '--out', str(tmp_path / 'x.csv'), '--tasks', 'usage', '--settle-tolerance', '0.2']) == 2
+    assert 'the close rule needs 0 <= settle tolerance < close rise' in capsys.readouterr().err
+    assert main([session, '--out', str(tmp_path / 'x.csv'), '--tasks', 'usage', '--settle-window', '0']) == 2
+    assert main([session, '--out', str(tmp_path / 'x.csv'), '--tasks', 'usage', '--close-rise', '1.6']) == 1
+    assert '0 grasp(s), 0 close(s) rejected, 0 opening(s)' in capsys.readouterr().out  # no mean closure rises 1.6
     with SessionWriter(tmp_path / 'poses_only') as bag:
         bag.add_topic('/object/pose', 'geometry_msgs/msg/PoseStamped', qos=QosSpec())
         bag.write_message('/object/pose', 1, pose())
