@@ -6,20 +6,13 @@ Topics
     ``--topics`` takes topic names relative to the recorder's namespace (or absolute); a name ending in ``/``
     selects every topic under it. Default: :data:`~grasp_intent_ros.ros.recording.DEFAULT_TOPICS` (the
     shared-control loop's twists and alpha included). The package's own topics among them are subscribed at
-    start; others once a look at the graph, every ``--discovery-period`` seconds, shows a publisher of them;
-    so nodes may start before or after the recorder (:class:`~grasp_intent_ros.ros.recording.TopicRecorder`).
-Ready
-    Once it logs ``recording to BAG: TOPICS``, a message published on one of the package's topics reaches the
-    bag, from a one-shot publisher too, provided the publisher had matched the recorder's subscription and
-    stays until the message is delivered (a publisher that waits for two matches, the interpreter's and the
-    recorder's, is sure: ``ros2 topic pub -w 2 --once intent/w ...``, ``send_intent -w 2``).
-    On any other topic, what a publisher sends before the next look at the graph is lost.
+    start, others once a look at the graph (every ``--discovery-period`` s) shows a publisher; what reaches the
+    bag once it logs ``recording to BAG``, with which QoS: :mod:`grasp_intent_ros.ros.recording`.
 Recording
-    Messages are taken serialized and written unchanged, stamped with the middleware's receive time (ns),
-    each topic subscribed with a QoS that matches its publishers (the rule: :mod:`grasp_intent_ros.ros.recording`)
-    and recorded with each publisher's offered QoS, as ``ros2 bag record`` does. The executor
-    thread only queues them; a writer thread (:class:`~grasp_intent_ros.sessions.bag.Recording`) writes and
-    compresses, so a slow disk or a chunk being compressed never delays a subscription.
+    Messages are taken serialized and written unchanged, stamped with the middleware's receive time (ns), and
+    recorded with each publisher's offered QoS, as ``ros2 bag record`` does. The executor thread only queues
+    them; a writer thread (:class:`~grasp_intent_ros.sessions.bag.Recording`) writes and compresses, so a slow
+    disk or a chunk being compressed never delays a subscription.
 Crash safety
     A chunk is on disk once its first message is ``--flush-period`` seconds old (default 1 s): a SIGKILLed
     recorder loses at most that much; ``python -m grasp_intent_ros reindex BAG`` repairs the bag.
@@ -123,11 +116,6 @@ class Recorder(Node):
     def recorded_topics(self) -> dict[str, tuple[str, QosSpec]]:
         """A copy of the topics in the bag: name -> (message type, QoS subscribed with)."""
         return self._bag.recorded_topics
-
-    @property
-    def subscribed_topics(self) -> dict[str, tuple[str, QosSpec]]:
-        """A copy of the subscribed topics, in the bag or not yet: name -> (message type, QoS subscribed with)."""
-        return self._topics.subscribed
 
     @property
     def error(self) -> BagWriteError | None:

@@ -222,11 +222,6 @@ class TopicRecorder:
             if self._subscribe(topic, msgtype, override or declared):
                 self._unrecorded[topic] = override or declared
 
-    @property
-    def subscribed(self) -> dict[str, tuple[str, QosSpec]]:
-        """A copy of the subscribed topics, in the bag or not yet: name -> (message type, QoS subscribed with)."""
-        return dict(self._subscribed)
-
     def discover(self) -> None:
         """Look at the graph: subscribe to new selected topics with a publisher, put topics seen into the bag.
 

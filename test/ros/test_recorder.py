@@ -239,6 +239,12 @@ NO_LOOK = 3600.0
 """A discovery period (s) no test lasts: the recorder looks at the graph once, when it starts."""
 
 
+def recorder_qos(ros, topic: str) -> list[tuple[ReliabilityPolicy, DurabilityPolicy]]:
+    """The reliability and durability of the recorder's subscriptions of ``topic``, as the graph shows them."""
+    return [(i.qos_profile.reliability, i.qos_profile.durability)
+            for i in ros.node.get_subscriptions_info_by_topic(topic) if i.node_name == 'recorder']
+
+
 def test_one_shot_publish_on_a_package_topic_right_after_ready_is_recorded(ros, tmp_path: Path) -> None:
     """A publisher that appears after the recorder is ready, sends once after matching it and leaves."""
     bag = tmp_path / 'one_shot'
@@ -265,10 +271,12 @@ def test_latched_topic_gets_its_last_message_and_best_effort_only_publisher_matc
     model_pub.publish(String(data=MODEL_DOC))  # keep-last 1: only this one is left for a late subscriber
     bag = tmp_path / 'latched'
     recorder = ros.add(Recorder(bag, context=ros.context, namespace=NS, discovery_period=0.1))
-    assert recorder.subscribed_topics[MODEL] == (STRING, QosSpec('reliable', 'transient_local', 0))
-    assert recorder.subscribed_topics[POSE] == (POSE_T, QosSpec('reliable', 'volatile', 0))
+    assert ros.wait_for(lambda: recorder_qos(ros, MODEL) == [(ReliabilityPolicy.RELIABLE,
+                                                              DurabilityPolicy.TRANSIENT_LOCAL)])
+    assert recorder_qos(ros, POSE) == [(ReliabilityPolicy.RELIABLE, DurabilityPolicy.VOLATILE)]
     pose_pub = ros.publisher(PoseStamped, POSE, BEST_EFFORT)
-    assert ros.wait_for(lambda: recorder.subscribed_topics[POSE][1].reliability == 'best_effort', timeout=10.0)
+    assert ros.wait_for(lambda: recorder_qos(ros, POSE) == [(ReliabilityPolicy.BEST_EFFORT, DurabilityPolicy.VOLATILE)],
+                        timeout=10.0)
     assert ros.publish_until(pose_pub, PoseStamped(), lambda: recorder.counts.get(POSE, 0) >= 1, timeout=10.0)
     assert ros.wait_for(lambda: recorder.counts.get(MODEL) == 1, timeout=10.0), recorder.summary()
     ros.remove(recorder)
@@ -282,7 +290,9 @@ def test_topic_outside_the_package_is_recorded_once_discovered(ros, tmp_path: Pa
     label = f'{NS}/object/label'
     recorder = ros.add(Recorder(tmp_path / 'other', context=ros.context, namespace=NS, discovery_period=0.1,
                                 topics=['object/']))
-    assert set(recorder.subscribed_topics) == {POSE}  # the package's topic under object/, before any publisher
+    # the package's topic under object/ is subscribed before any publisher, the other one is not
+    assert ros.wait_for(lambda: recorder_qos(ros, POSE) == [(ReliabilityPolicy.RELIABLE, DurabilityPolicy.VOLATILE)])
+    assert recorder_qos(ros, label) == []
     assert recorder.recorded_topics == {}  # a topic enters the bag with its first publisher or message
     pub = ros.publisher(String, label, output_qos())
     assert ros.publish_until(pub, String(data='cup'), lambda: recorder.counts.get(label, 0) >= 1, timeout=10.0)
