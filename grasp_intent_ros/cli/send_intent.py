@@ -1,6 +1,6 @@
 """Send one intent w to the node chain and print the grasp it answers with (a ``ros2 topic pub`` stand-in).
 
-Run: ``python -m grasp_intent_ros send_intent 0.9 0.9 0.1 [--timeout 10] [--ros-args -r __ns:=/robot1]``
+Run: ``python -m grasp_intent_ros send_intent 0.9 0.9 0.1 [--timeout 10] [-w N] [--ros-args -r __ns:=/robot1]``
 
 Publishes w on ``intent/w``, again every 0.5 s until answered (the first message after discovery can be
 lost), and waits for the chain's answer: ``grasp/pose``, ``grasp/joint_targets`` and ``grasp/posterior``
@@ -9,6 +9,12 @@ Prints w, v (the last ``intent/v`` seen), P, the reconstructed w, the end-effect
 targets (:func:`format_grasp`, reusable by other tools) and exits 0. Exits 1 with the reason on stderr on
 a clarification request or a timeout (the message then names what was and was not heard, and the last
 warning of the grasp planner's diagnostics), 2 for bad arguments.
+
+Before it leaves, it waits up to :data:`ACK_TIMEOUT` for every matched subscription to acknowledge its w
+(a subscription whose side of the match came late gets it resent). A subscriber that discovery finds after the
+interpreter answered gets no w: a recorder started before ``send_intent`` records its w for sure only with
+``-w 2`` (``--wait-matching-subscriptions``, as ``ros2 topic pub`` has it), which holds the first w until
+two subscriptions, the interpreter's and the recorder's, have matched (within ``--timeout``).
 """
 
 from __future__ import annotations
@@ -27,6 +33,8 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from numpy.typing import ArrayLike, NDArray
+from rclpy.duration import Duration
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
@@ -39,7 +47,10 @@ from ..ros.conversions import posterior_from_msg
 from ..ros.qos import input_qos, output_qos
 from ..wire.arrays import Posterior, msg_labels, msg_to_array
 
-__all__ = ['GraspAnswer', 'NoGrasp', 'IntentSender', 'format_grasp', 'main']
+__all__ = ['GraspAnswer', 'NoGrasp', 'IntentSender', 'format_grasp', 'main', 'ACK_TIMEOUT']
+
+ACK_TIMEOUT = 1.0
+"""Seconds ``send_intent`` waits at most, before it leaves, for its w to be acknowledged by every subscription."""
 
 
 class NoGrasp(RuntimeError):
@@ -103,7 +114,9 @@ class IntentSender(Node):
 
     def __init__(self, node_name: str = 'send_intent', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
-        self._w_pub = self.create_publisher(Float64MultiArray, 'intent/w', output_qos())
+        # the matched event only wakes the executor: a first w waiting for its subscribers goes out at once
+        self._w_pub = self.create_publisher(Float64MultiArray, 'intent/w', output_qos(),
+                                            event_callbacks=PublisherEventCallbacks(matched=lambda _status: None))
         self._v: list[Float64MultiArray] = []
         self._clarifications: list[String] = []
         self._poses: dict[int, PoseStamped] = {}
@@ -142,8 +155,12 @@ class IntentSender(Node):
         stamps = sorted(s for s in self._posteriors if s > after and s in self._poses and s in self._joints)
         return stamps[0] if stamps else None
 
-    def send(self, w: ArrayLike, executor: Executor, *, timeout: float = 10.0, period: float = 0.5) -> GraspAnswer:
+    def send(self, w: ArrayLike, executor: Executor, *, timeout: float = 10.0, period: float = 0.5,
+             subscribers: int = 0) -> GraspAnswer:
         """Publish w until the chain answers; spin ``executor`` (which must hold this node) meanwhile.
+
+        The first w goes out once ``subscribers`` subscriptions of ``intent/w`` have matched this publisher
+        (at once for 0).
 
         The answer: the first plan stamped after the send, once an ``intent/v`` has been heard since (w is sent
         again every ``period``, so a v missed while the subscriptions were still matching comes again).
@@ -153,7 +170,8 @@ class IntentSender(Node):
         InvalidIntentError
             For a w that is not a vector of 1..10 probabilities.
         NoGrasp
-            On a clarification request, or when no answer arrives within ``timeout`` seconds.
+            On a clarification request, or when no answer arrives within ``timeout`` seconds (the first w
+            included).
         """
         w_arr = validate_w(w)
         msg = Float64MultiArray(data=[float(v) for v in w_arr])
@@ -161,23 +179,38 @@ class IntentSender(Node):
         n_v, n_clarifications = len(self._v), len(self._clarifications)
         deadline = time.monotonic() + timeout
         next_send = 0.0
+        waiting = self._w_pub.get_subscription_count() < subscribers
         while (stamp := self._answer(sent_after)) is None or len(self._v) == n_v:  # the plan and a v heard
             now = time.monotonic()
             if len(self._clarifications) > n_clarifications:
                 raise NoGrasp(f'the chain asks for clarification: {self._clarifications[-1].data}')
             if now >= deadline:
-                raise NoGrasp(self._timeout_reason(timeout, heard_v=len(self._v) > n_v))
-            if now >= next_send:
+                raise NoGrasp(self._timeout_reason(timeout, heard_v=len(self._v) > n_v,
+                                                   subscribers=subscribers if waiting else 0))
+            waiting = waiting and self._w_pub.get_subscription_count() < subscribers
+            if now >= next_send and not waiting:
                 self._w_pub.publish(msg)
                 next_send = now + period
-            executor.spin_once(timeout_sec=max(0.0, min(next_send, deadline) - time.monotonic()))
+            executor.spin_once(timeout_sec=max(0.0, (deadline if waiting else min(next_send, deadline))
+                                               - time.monotonic()))
         v_msg = self._v[-1] if len(self._v) > n_v else None
         return GraspAnswer(w=w_arr, v_labels=msg_labels(v_msg)[0] if v_msg and v_msg.layout.dim else None,
                            v=msg_to_array(v_msg) if v_msg is not None else None,
                            posterior=self._posteriors[stamp], pose=self._poses[stamp], joints=self._joints[stamp])
 
-    def _timeout_reason(self, timeout: float, *, heard_v: bool) -> str:
-        if self._w_pub.get_subscription_count() == 0:
+    def wait_for_acks(self, timeout: float) -> bool:
+        """Wait up to ``timeout`` seconds until every matched subscription has acknowledged every w sent.
+
+        A reliable subscription that received a w before its side of the match was complete asks for it again:
+        the w reaches it only while this publisher exists. Returns whether all were acknowledged in time.
+        """
+        return self._w_pub.wait_for_all_acked(Duration(seconds=timeout))
+
+    def _timeout_reason(self, timeout: float, *, heard_v: bool, subscribers: int) -> str:
+        if subscribers:
+            where = (f'no w was sent: {self._w_pub.get_subscription_count()} of the {subscribers} subscriptions of '
+                     'intent/w waited for matched')
+        elif self._w_pub.get_subscription_count() == 0:
             where = 'nobody subscribes to intent/w (is intent_interpreter running, on this ROS_DOMAIN_ID?)'
         elif not heard_v:
             where = 'no intent/v came back (does the interpreter expect this many tasks?)'
@@ -193,6 +226,9 @@ def main(args: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description='Publish one intent w on intent/w and print the grasp.')
     parser.add_argument('w', type=float, nargs='+', help='probability of each task, in [0, 1]')
     parser.add_argument('--timeout', type=float, default=10.0, help='seconds to wait for the answer')
+    parser.add_argument('-w', '--wait-matching-subscriptions', type=int, default=0, metavar='N', dest='subscribers',
+                        help='send the first w once N subscriptions of intent/w have matched (2: the interpreter '
+                             'and a recorder, so that the recorder gets it for sure); default 0, at once')
     options = parser.parse_args(remove_ros_args(argv)[1:])
     try:
         w = validate_w(options.w)
@@ -200,6 +236,8 @@ def main(args: Sequence[str] | None = None) -> None:
         parser.error(str(exc))
     if not options.timeout > 0.0:
         parser.error('--timeout must be positive')
+    if options.subscribers < 0:
+        parser.error('--wait-matching-subscriptions must not be negative')
     rclpy.init(args=argv)
     node: IntentSender | None = None
     code = 1
@@ -207,7 +245,7 @@ def main(args: Sequence[str] | None = None) -> None:
         node = IntentSender()
         executor = SingleThreadedExecutor()
         executor.add_node(node)
-        print(format_grasp(node.send(w, executor, timeout=options.timeout)))
+        print(format_grasp(node.send(w, executor, timeout=options.timeout, subscribers=options.subscribers)))
         code = 0
     except NoGrasp as exc:
         print(f'send_intent: {exc}', file=sys.stderr)
@@ -215,6 +253,7 @@ def main(args: Sequence[str] | None = None) -> None:
         pass
     finally:
         if node is not None:
+            node.wait_for_acks(ACK_TIMEOUT)
             node.destroy_node()
         rclpy.try_shutdown()
     raise SystemExit(code)

@@ -36,13 +36,13 @@ from typing import Any
 
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
-from std_msgs.msg import Float64MultiArray, String
+from std_msgs.msg import Float64MultiArray
 
 from ..errors import InvalidFeaturesError
 from ..method import ambiguity
 from ..method.parameters import MODEL_SERVER
 from ..method.registry import ModelFiles
-from ..ros.conversions import array_to_msg, model_to_msg
+from ..ros.conversions import array_to_msg, message_class, model_to_msg
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input
 from ..ros.model_follower import served_models
@@ -64,10 +64,8 @@ class ModelServer(Node):
         self._diagnostics = NodeDiagnostics(self, 'model')
         self._files: ModelFiles | None = None
         self._version = 0
-        self._pubs = {topic: output_publisher(self, kind, topic, latched_qos())
-                      for topic, kind in ((topics.MODEL_ACTIVE, String), (topics.MODEL_AMBIGUITY, Float64MultiArray),
-                                          (topics.MODEL_AMBIGUITY_SYMMETRIC, Float64MultiArray),
-                                          (topics.MODEL_AMBIGUITY_PINSKER, Float64MultiArray))}
+        self._pubs = {topic: output_publisher(self, message_class(topic), topic, latched_qos())
+                      for topic in topics.LATCHED_TOPICS}
         self._pubs[topics.MODEL_POSTERIOR] = output_publisher(self, Float64MultiArray, topics.MODEL_POSTERIOR)
         self._params = declare_parameters(self, MODEL_SERVER, check=self._check, on_change=self._activate)
         self._activate(self._params)

@@ -5,14 +5,14 @@ Run: ``python -m grasp_intent_ros recorder OUT_DIR [--topics T ...] [--ros-args 
 Topics
     ``--topics`` takes topic names relative to the recorder's namespace (or absolute); a name ending in ``/``
     selects every topic under it. Default: :data:`~grasp_intent_ros.ros.recording.DEFAULT_TOPICS` (the
-    shared-control loop's twists and alpha included). Matching topics are discovered every
-    ``--discovery-period`` seconds, so nodes may start before or after the recorder.
+    shared-control loop's twists and alpha included). The package's own topics among them are subscribed at
+    start, others once a look at the graph (every ``--discovery-period`` s) shows a publisher; what reaches the
+    bag once it logs ``recording to BAG``, with which QoS: :mod:`grasp_intent_ros.ros.recording`.
 Recording
-    Messages are taken serialized and written unchanged, stamped with the middleware's receive time (ns),
-    each topic subscribed with the QoS its publishers offer and recorded with each publisher's offered QoS,
-    as ``ros2 bag record`` does (:class:`~grasp_intent_ros.ros.recording.TopicRecorder`). The executor
-    thread only queues them; a writer thread (:class:`~grasp_intent_ros.sessions.bag.Recording`) writes and
-    compresses, so a slow disk or a chunk being compressed never delays a subscription.
+    Messages are taken serialized and written unchanged, stamped with the middleware's receive time (ns), and
+    recorded with each publisher's offered QoS, as ``ros2 bag record`` does. The executor thread only queues
+    them; a writer thread (:class:`~grasp_intent_ros.sessions.bag.Recording`) writes and compresses, so a slow
+    disk or a chunk being compressed never delays a subscription.
 Crash safety
     A chunk is on disk once its first message is ``--flush-period`` seconds old (default 1 s): a SIGKILLed
     recorder loses at most that much; ``python -m grasp_intent_ros reindex BAG`` repairs the bag.
@@ -114,7 +114,7 @@ class Recorder(Node):
 
     @property
     def recorded_topics(self) -> dict[str, tuple[str, QosSpec]]:
-        """A copy of the subscribed topics: name -> (message type, QoS subscribed with)."""
+        """A copy of the topics in the bag: name -> (message type, QoS subscribed with)."""
         return self._bag.recorded_topics
 
     @property
@@ -127,7 +127,7 @@ class Recorder(Node):
         return self._bag.summary()
 
     def discover(self) -> None:
-        """Subscribe to every selected topic that has appeared with a publisher since the last look."""
+        """Look at the graph: subscribe to new selected topics with a publisher, put topics seen into the bag."""
         if self._bag.error is None and not self._bag.closed:
             self._topics.discover()
 

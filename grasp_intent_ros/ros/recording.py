@@ -3,15 +3,35 @@
 A topic selection is a set of names and prefixes resolved against the recorder node
 (:class:`TopicSelection`); what each publisher offers is read from discovery into the bag's
 :class:`~grasp_intent_ros.sessions.bag.QosSpec` (:func:`offered_qos`), as ``ros2 bag record`` stores it;
-:class:`TopicRecorder` subscribes to the selected topics as they appear and puts their messages, serialized,
-into a :class:`~grasp_intent_ros.sessions.bag.Recording`.
+:class:`TopicRecorder` subscribes to the selected topics and puts their messages, serialized, into a
+:class:`~grasp_intent_ros.sessions.bag.Recording`.
 
-Each topic is subscribed with the reliability and durability its publishers offer (best effort / volatile if
-they differ; transient local for latched topics, so the last ``model/active`` is recorded even when it was
-published before the recorder started), keep-last ``depth``. As ``ros2 bag record`` does, the bag's
-``offered_qos_profiles`` hold each publisher's QoS as discovery shows it (:func:`offered_qos_spec`: history
-unknown, the durations and liveliness the publisher offers). A publisher appearing later with a weaker offer
-than the subscription requests (best effort, volatile) is connected to nothing: a WARN names the topic.
+When a topic is subscribed
+    The package's own topics (:data:`~grasp_intent_ros.wire.topics.MSGTYPES`, resolved against the recorder:
+    its namespace and remaps) that the selection holds are subscribed when the recorder starts, before any
+    publisher is seen (:func:`known_topics`), so a one-shot publisher is heard: a message published on one
+    of them after the recorder is ready reaches the bag if the publisher has matched the recorder's
+    subscription (DDS discovery of a new participant takes ms to a second) and stays until the message is
+    delivered: ``ros2 topic pub -w 2 --once intent/w ...`` and ``send_intent -w 2`` wait for two matched
+    subscriptions, the interpreter's and the recorder's. Any other selected topic is subscribed when a look
+    at the graph (every discovery period) first shows a publisher of it: what it sends before is lost.
+The QoS they are subscribed with
+    A known topic: what the suite's publishers of it offer (:func:`declared_qos`): reliable, transient local
+    for the latched model topics (their last message is recorded however early it was published), volatile
+    for the others (matching what ``send_intent``, ``replay`` and ``ros2 topic pub`` offer; a reliable subscription
+    loses nothing a reliable publisher sends). When every live publisher of a known topic offers less (only
+    best-effort ones, or only volatile ones on a latched topic), the topic is subscribed again as any other
+    topic is: best effort / volatile if its publishers' offers differ, else what they offer
+    (:func:`~grasp_intent_ros.sessions.bag.request_qos`), keep-last ``depth`` in every case. A publisher
+    joining later with a weaker offer than the subscription requests, beside one it hears, is connected to
+    nothing: a WARN names the topic.
+The offered QoS in the bag
+    As ``ros2 bag record`` does, the bag's ``offered_qos_profiles`` hold each publisher's QoS as discovery
+    shows it (:func:`offered_qos_spec`: history unknown, the durations and liveliness the publisher offers),
+    for the publishers seen when the topic enters the bag: at the first look that shows a publisher of it, or
+    at its first message if earlier. A topic nobody published is not in the bag; one whose only publisher was
+    gone by the time its first message was taken is recorded with :func:`declared_qos`, what discovery shows
+    of the suite's publishers of it.
 """
 
 from __future__ import annotations
@@ -31,12 +51,13 @@ from rclpy.utilities import remove_ros_args
 
 from ..sessions.bag import DEFAULT_FLUSH_PERIOD, BagWriteError, QosSpec, Recording, misses_offers, request_qos
 from ..wire.diagnostics import WARN
+from ..wire.topics import LATCHED_TOPICS, MSGTYPES
 from .compat import waiting_messages
 from .conversions import type_class
 from .diagnostics import NodeDiagnostics
 
 __all__ = ['TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'DEFAULT_DISCOVERY_PERIOD', 'offered_qos_spec',
-           'offered_qos', 'subscription_qos', 'TopicRecorder', 'command_line']
+           'offered_qos', 'declared_qos', 'known_topics', 'subscription_qos', 'TopicRecorder', 'command_line']
 
 DEFAULT_TOPICS = ('intent/', 'model/', 'grasp/', 'object/', 'joint_states', 'operator/', 'assistance/', '/diagnostics')
 """Recorded by default: relative to the recorder's namespace; a trailing '/' selects a whole subtree."""
@@ -122,6 +143,30 @@ def offered_qos(publishers: Sequence[TopicEndpointInfo]) -> tuple[QosSpec, ...]:
     return tuple(offered_qos_spec(p.qos_profile) for p in publishers)
 
 
+def declared_qos(topic: str) -> QosSpec:
+    """What the suite's publishers of ``topic`` (a relative name of :data:`MSGTYPES`) offer, as discovery shows it.
+
+    Reliable; transient local for :data:`~grasp_intent_ros.wire.topics.LATCHED_TOPICS`, volatile otherwise;
+    history unknown, automatic liveliness, no deadline, lifespan or lease (:func:`offered_qos_spec` of the
+    profiles of :mod:`grasp_intent_ros.ros.qos`).
+    """
+    return QosSpec('reliable', 'transient_local' if topic in LATCHED_TOPICS else 'volatile', 0)
+
+
+def known_topics(node: Node, selection: TopicSelection) -> dict[str, tuple[str, QosSpec]]:
+    """The package's topics ``selection`` holds: fully qualified name -> (message type, :func:`declared_qos`).
+
+    Each name of :data:`MSGTYPES` is resolved against ``node`` (namespace and remaps), as the suite's nodes
+    started with the same namespace and remaps resolve it.
+    """
+    known: dict[str, tuple[str, QosSpec]] = {}
+    for topic, msgtype in MSGTYPES.items():
+        name = node.resolve_topic_name(topic)
+        if selection.matches(name):
+            known.setdefault(name, (msgtype, declared_qos(topic)))
+    return known
+
+
 def subscription_qos(spec: QosSpec, depth: int) -> QoSProfile:
     """The profile to subscribe with: ``spec``'s reliability and durability, keep-last ``depth`` (messages)."""
     return QoSProfile(
@@ -133,7 +178,16 @@ def subscription_qos(spec: QosSpec, depth: int) -> QoSProfile:
 
 
 class TopicRecorder:
-    """Subscribes ``node`` to the selected topics as they appear and puts their messages into ``bag``.
+    """Subscribes ``node`` to the selected topics and puts their messages into ``bag``.
+
+    A topic of the package (:func:`known_topics`) is subscribed at once, with :func:`declared_qos` (or its
+    override), before any publisher of it is seen; any other selected topic when a look at the graph
+    (:meth:`discover`) first shows a publisher of it, with :func:`request_qos` of their offers (or its
+    override). A known topic whose live publishers the subscription all misses (e.g. only best-effort ones)
+    is subscribed again with :func:`request_qos` of their offers; it misses nobody then, so nothing is lost or
+    taken twice. A topic enters the bag, with the offers of the publishers seen then, at the first look
+    that shows a publisher of it or at its first message, whichever comes first; when that first message's
+    publisher is gone already (a one-shot one), its offer is taken to be :func:`declared_qos`.
 
     Parameters
     ----------
@@ -159,11 +213,17 @@ class TopicRecorder:
         self._node, self._bag, self._selection, self._overrides = node, bag, selection, overrides
         self._depth, self._diagnostics, self._on_error = depth, diagnostics, on_error
         self._subscriptions: dict[str, Subscription] = {}
+        self._subscribed: dict[str, tuple[str, QosSpec]] = {}  # topic -> (message type, QoS subscribed with)
+        self._unrecorded: dict[str, QosSpec] = {}  # subscribed, not in the bag yet -> the offer assumed
         self._skipped: set[str] = set()
         self._qos_warned: set[str] = set()
+        for topic, (msgtype, declared) in known_topics(node, selection).items():
+            override = overrides.get(topic)
+            if self._subscribe(topic, msgtype, override or declared):
+                self._unrecorded[topic] = override or declared
 
     def discover(self) -> None:
-        """Subscribe to every selected topic that has appeared with a publisher since the last look.
+        """Look at the graph: subscribe to new selected topics with a publisher, put topics seen into the bag.
 
         A topic with several message types, or of a type the bag or this process does not know, is skipped
         with a warning; a topic seen only through its subscribers waits for a publisher.
@@ -175,12 +235,9 @@ class TopicRecorder:
             log.warning(f'topic discovery failed: {exc}')
             return
         for topic, types in graph:
-            if topic in self._subscriptions:
-                self._check_late_publishers(topic)
+            if topic in self._skipped or (topic not in self._subscriptions and not self._selection.matches(topic)):
                 continue
-            if topic in self._skipped or not self._selection.matches(topic):
-                continue
-            if len(types) != 1:
+            if topic not in self._subscriptions and len(types) != 1:
                 self._skip(topic, f'it has {len(types)} message types {types}; one is needed')
                 continue
             try:
@@ -188,10 +245,20 @@ class TopicRecorder:
             except Exception as exc:  # noqa: BLE001
                 log.warning(f'cannot query the publishers of {topic}: {exc}')
                 continue
-            if publishers:
-                override = self._overrides.get(topic)
-                offered = (override,) if override is not None else offered_qos(publishers)
-                self._subscribe(topic, types[0], override or request_qos(offered), offered)
+            if not publishers:
+                continue
+            offered = offered_qos(publishers)
+            override = self._overrides.get(topic)
+            if topic not in self._subscriptions:
+                if self._subscribe(topic, types[0], override or request_qos(offered)):
+                    self._record(topic, (override,) if override is not None else offered)
+                continue
+            if topic in self._unrecorded and not self._record(topic, (override,) if override is not None else offered):
+                return
+            if override is None and all(misses_offers(self._subscribed[topic][1], q) for q in offered):
+                self._resubscribe(topic, request_qos(offered))
+            else:
+                self._check_late_publishers(topic, offered)
 
     def stop(self, exc: BagWriteError) -> None:
         """After the write error ``exc``: destroy every subscription and close the bag (a failure logged)."""
@@ -201,53 +268,86 @@ class TopicRecorder:
         if close_failure is not None and close_failure is not exc:
             self._node.get_logger().error(f'closing the bag after the error failed too: {close_failure}')
 
-    def _check_late_publishers(self, topic: str) -> None:
-        """Warn (once per topic) about a late publisher offering a weaker QoS than the subscription requests.
+    def _check_late_publishers(self, topic: str, offered: Sequence[QosSpec]) -> None:
+        """Warn (once per topic) about a publisher offering a weaker QoS than the subscription requests.
 
-        Best effort or volatile: DDS connects nothing, its messages are lost.
+        Best effort or volatile beside publishers the subscription hears: DDS connects nothing to it, its
+        messages are lost.
         """
-        if topic in self._qos_warned:
+        subscribed = self._subscribed[topic][1]
+        weaker = request_qos(offered)
+        if topic in self._qos_warned or not misses_offers(subscribed, weaker):
             return
-        try:
-            publishers = self._node.get_publishers_info_by_topic(topic)
-        except Exception:  # noqa: BLE001 - shutting down; the next look will tell
-            return
-        if not publishers:
-            return
-        offered, subscribed = request_qos(offered_qos(publishers)), self._bag.recorded_topics[topic][1]
-        if misses_offers(subscribed, offered):
-            self._qos_warned.add(topic)
-            message = (f'{topic}: a publisher offers {offered.reliability}/{offered.durability} but the recorder '
-                       f'subscribed {subscribed.reliability}/{subscribed.durability}; its messages are NOT '
-                       'recorded (restart the recorder to record it)')
-            self._node.get_logger().warning(message)
-            self._diagnostics.set_state(WARN, message)
+        self._qos_warned.add(topic)
+        message = (f'{topic}: a publisher offers {weaker.reliability}/{weaker.durability} but the recorder '
+                   f'subscribed {subscribed.reliability}/{subscribed.durability}; its messages are NOT '
+                   'recorded (restart the recorder to record it)')
+        self._node.get_logger().warning(message)
+        self._diagnostics.set_state(WARN, message)
 
     def _skip(self, topic: str, reason: str) -> None:
         self._skipped.add(topic)
         self._node.get_logger().warning(f'not recording {topic}: {reason}')
 
-    def _subscribe(self, topic: str, msgtype: str, qos: QosSpec, offered: Sequence[QosSpec]) -> None:
+    def _subscribe(self, topic: str, msgtype: str, qos: QosSpec) -> bool:
+        """Subscribe to ``topic`` with ``qos`` (not yet in the bag); False (and skipped) for an unknown type."""
         if not self._bag.knows(msgtype):
             self._skip(topic, f'type {msgtype} is not a ROS 2 Jazzy standard type known to the bag writer')
-            return
+            return False
         try:
             msg_class = type_class(msgtype)
         except (ImportError, AttributeError, ValueError) as exc:
             self._skip(topic, f'type {msgtype} cannot be imported: {exc}')
-            return
-        try:
-            self._bag.add_topic(topic, msgtype, qos, offered)
-        except BagWriteError as exc:
-            self._on_error(exc)
-            return
-        self._diagnostics.set_value(f'topic {topic}', 0)
+            return False
         on_message = self._diagnostics.guard(functools.partial(self._on_message, topic))
         self._subscriptions[topic] = self._node.create_subscription(  # two parameters: rclpy passes MessageInfo
             msg_class, topic, lambda data, info: on_message((data, info)),  # type: ignore[arg-type,misc]
             subscription_qos(qos, self._depth), raw=True,
             event_callbacks=SubscriptionEventCallbacks(message_lost=functools.partial(self._on_lost, topic)))
+        self._subscribed[topic] = (msgtype, qos)
+        return True
+
+    def _resubscribe(self, topic: str, qos: QosSpec) -> None:
+        """Subscribe ``topic`` (in the bag) again with ``qos``.
+
+        The old subscription, which hears no live publisher, is emptied into the bag and destroyed.
+        """
+        old = self._subscriptions[topic]
+        msgtype, before = self._subscribed[topic]
+        if not self._subscribe(topic, msgtype, qos):
+            return
+        self._bag.count_received(self._take_waiting(old, topic, self._depth))
+        self._node.destroy_subscription(old)
+        self._bag.resubscribe(topic, qos)
+        self._node.get_logger().info(f'{topic}: no publisher offers {before.reliability}/{before.durability}; '
+                                     f'subscribed again {qos.reliability}/{qos.durability}')
+
+    def _record(self, topic: str, offered: Sequence[QosSpec]) -> bool:
+        """Put a subscribed topic into the bag, recorded with the QoS ``offered``; False after a write error."""
+        msgtype, qos = self._subscribed[topic]
+        try:
+            self._bag.add_topic(topic, msgtype, qos, offered)
+        except BagWriteError as exc:
+            self._on_error(exc)
+            return False
+        self._unrecorded.pop(topic, None)
+        self._diagnostics.set_value(f'topic {topic}', 0)
         self._node.get_logger().info(f'recording {topic} ({msgtype}, {qos.reliability}, {qos.durability})')
+        return True
+
+    def _offers_now(self, topic: str) -> tuple[QosSpec, ...]:
+        """The offers to record for a topic whose first message came before a look at the graph showed it.
+
+        Its publishers' offers (the override if any), or the assumed offer once they are gone.
+        """
+        assumed = self._unrecorded[topic]
+        if topic in self._overrides:
+            return (assumed,)
+        try:
+            publishers = self._node.get_publishers_info_by_topic(topic)
+        except Exception:  # noqa: BLE001 - shutting down: the assumed offer
+            publishers = []
+        return offered_qos(publishers) if publishers else (assumed,)
 
     def _on_message(self, topic: str, received: tuple[bytes, Mapping[str, int]]) -> None:
         """The whole work on the executor thread: stamp and enqueue, then drain the subscription's queue.
@@ -257,18 +357,27 @@ class TopicRecorder:
         messages already waiting on the same subscription itself (at most ``depth``, so other topics
         keep their turn), as rclpy's executor does (``handle.take_message``).
         """
+        if topic in self._unrecorded and not self._record(topic, self._offers_now(topic)):
+            return
         data, info = received
-        put, now = self._bag.put, self._node.get_clock().now
         # the middleware's receive time, not the callback's: an input and a fast answer taken in one
         # executor wait keep their order of arrival
-        put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data)
-        taken = 1
+        self._bag.put(topic, info.get('received_timestamp', 0) or self._node.get_clock().now().nanoseconds, data)
         subscription = self._subscriptions.get(topic)
-        if subscription is not None:
-            for data, info in waiting_messages(subscription, self._depth - 1):
-                put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data)
-                taken += 1
-        self._bag.count_received(taken)
+        taken = 0 if subscription is None else self._take_waiting(subscription, topic, self._depth - 1)
+        self._bag.count_received(1 + taken)
+
+    def _take_waiting(self, subscription: Subscription, topic: str, limit: int) -> int:
+        """Put up to ``limit`` messages waiting on ``subscription`` (of ``topic``, in the bag) into the bag.
+
+        Returns how many.
+        """
+        put, now = self._bag.put, self._node.get_clock().now
+        taken = 0
+        for data, info in waiting_messages(subscription, limit):
+            put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data)
+            taken += 1
+        return taken
 
     def _on_lost(self, topic: str, info: QoSMessageLostInfo) -> None:
         """The middleware reports messages that never reached the subscription: count them, WARN."""

@@ -5,8 +5,9 @@ ROS-free (plain strings and numbers); every node, session tool and test names a 
 Topics
 ------
 :data:`MSGTYPES` maps every topic of the suite (relative names; ``/diagnostics`` is absolute) to its
-message type. :data:`INPUT_TOPICS` are the inputs a replay publishes again, :data:`PLAN_TOPICS` the
-outputs of one plan (one stamp), :data:`OUTPUT_TOPICS` the outputs a replay compares. One service is named
+message type; :data:`LATCHED_TOPICS` are those it publishes latched. :data:`INPUT_TOPICS` are the inputs a
+replay publishes again, :data:`PLAN_TOPICS` the outputs of one plan (one stamp), :data:`OUTPUT_TOPICS` the
+outputs a replay compares. One service is named
 here too, the assistance's switch :data:`ASSISTANCE_ENABLE`.
 
 Input caps
@@ -30,7 +31,7 @@ __all__ = [
     'OBJECT_POSE', 'JOINT_STATES', 'GRASP_POSE', 'GRASP_JOINT_TARGETS', 'GRASP_TRAJECTORY',
     'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'OPERATOR_TWIST', 'OPERATOR_GRASP_TASKS', 'ASSISTANCE_TWIST',
     'ASSISTANCE_ALPHA', 'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS', 'ASSISTANCE_ENABLE',
-    'MSGTYPES', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS', 'PLAN_TOPICS', 'OUTPUT_TOPICS',
+    'MSGTYPES', 'LATCHED_TOPICS', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS', 'PLAN_TOPICS', 'OUTPUT_TOPICS',
     'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size', 'check_names',
 ]
 
@@ -99,6 +100,9 @@ MSGTYPES: Final[Mapping[str, str]] = {
     ARM_TWIST_COMMAND: 'geometry_msgs/msg/TwistStamped',
 }
 """Message type of every topic of the suite, by relative name (``/diagnostics`` is absolute)."""
+
+LATCHED_TOPICS: Final = (MODEL_ACTIVE, MODEL_AMBIGUITY, MODEL_AMBIGUITY_SYMMETRIC, MODEL_AMBIGUITY_PINSKER)
+"""Topics the suite publishes latched (transient local, keep-last 1): a late subscriber gets the last message."""
 
 INPUT_TOPICS: Final = (INTENT_W, OBJECT_POSE, JOINT_STATES)
 """Inputs a replay publishes again (relative names)."""

@@ -3,6 +3,8 @@
 "Nothing lost": 2000 Float64MultiArray at 1 kHz, each carrying its sequence number, are all found in
 the bag, in order, by the rosbags reader and by the independent mcap reader; topics, types and offered
 QoS (transient local for a latched String published before the recorder existed) match what was sent.
+The package's topics are subscribed at start: a one-shot publisher's message is recorded without any look
+at the graph after the start; other topics wait for discovery.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
 from grasp_intent_ros.nodes.recorder import Recorder
-from grasp_intent_ros.ros.qos import latched_qos
+from grasp_intent_ros.ros.qos import latched_qos, output_qos
 from grasp_intent_ros.ros.recording import DEFAULT_TOPICS, TopicSelection
 from grasp_intent_ros.sessions.bag import BagWriteError, QosSpec, read_messages, topics_info
 from grasp_intent_ros.wire.topics import JOINT_STATES, OBJECT_POSE, OPERATOR_GRASP_TASKS
@@ -173,8 +175,9 @@ def test_recorded_qos_and_type_hashes_are_what_publishers_offer(ros, tmp_path: P
     recorder = ros.add(Recorder(tmp_path / 'q', context=ros.context, namespace=NS, discovery_period=0.1,
                                 topics=['object/', 'intent/']))
     assert ros.wait_for(lambda: {f'{NS}/object/label', W} <= set(recorder.recorded_topics), timeout=10.0)
-    # mixed reliability: subscribed best effort, so that both publishers are heard
-    assert recorder.recorded_topics[W][1] == QosSpec('best_effort', 'volatile', 0)
+    # a package topic stays subscribed reliable (what the suite offers) beside a best-effort publisher, which is
+    # warned about; both offers are recorded
+    assert recorder.recorded_topics[W][1] == QosSpec('reliable', 'volatile', 0)
     assert ros.publish_until(timed_pub, String(data='cup'), lambda: recorder.counts[f'{NS}/object/label'] >= 1)
     hashes = {t: str(ros.node.get_publishers_info_by_topic(t)[0].topic_type_hash) for t in (f'{NS}/object/label', W)}
     ros.remove(recorder)
@@ -230,3 +233,84 @@ def test_the_default_topics_hold_what_the_demonstrations_command_reads(ros) -> N
     selection = TopicSelection.resolve(ros.node, DEFAULT_TOPICS)
     assert all(selection.matches(f'/{topic}') for topic in (JOINT_STATES, OBJECT_POSE, OPERATOR_GRASP_TASKS))
     assert not selection.matches('/grasp_tasks')
+
+
+NO_LOOK = 3600.0
+"""A discovery period (s) no test lasts: the recorder looks at the graph once, when it starts."""
+
+
+def recorder_qos(ros, topic: str) -> list[tuple[ReliabilityPolicy, DurabilityPolicy]]:
+    """The reliability and durability of the recorder's subscriptions of ``topic``, as the graph shows them."""
+    return [(i.qos_profile.reliability, i.qos_profile.durability)
+            for i in ros.node.get_subscriptions_info_by_topic(topic) if i.node_name == 'recorder']
+
+
+def test_one_shot_publish_on_a_package_topic_right_after_ready_is_recorded(ros, tmp_path: Path) -> None:
+    """A publisher that appears after the recorder is ready, sends once after matching it and leaves."""
+    bag = tmp_path / 'one_shot'
+    recorder = ros.add(Recorder(bag, context=ros.context, namespace=NS, discovery_period=NO_LOOK))
+    pub = ros.publisher(Float64MultiArray, W, output_qos())  # what send_intent and ros2 topic pub offer
+    # what `ros2 topic pub --once -w 1` waits for before it publishes
+    assert ros.wait_for(lambda: pub.get_subscription_count() >= 1, timeout=10.0), 'the recorder never subscribed'
+    pub.publish(w_msg(3))
+    ros.node.destroy_publisher(pub)
+    assert ros.wait_for(lambda: recorder.counts.get(W) == 1, timeout=10.0), recorder.summary()
+    ros.remove(recorder)
+    assert [list(m.decode().data) for m in read_messages(bag, topics=[W])] == [list(w_msg(3).data)]
+    # the offer of the publisher seen at the first message, or the suite's if it was gone by then: the same here
+    assert topics_info(bag)[W].qos == (QosSpec('reliable', 'volatile', 0),)
+
+
+def test_latched_topic_gets_its_last_message_and_best_effort_only_publisher_matches(ros, tmp_path: Path) -> None:
+    """The package's latched topic is subscribed transient local.
+
+    A package topic with best-effort publishers only is subscribed again best effort.
+    """
+    model_pub = ros.publisher(String, MODEL, latched_qos())
+    model_pub.publish(String(data='# first'))
+    model_pub.publish(String(data=MODEL_DOC))  # keep-last 1: only this one is left for a late subscriber
+    bag = tmp_path / 'latched'
+    recorder = ros.add(Recorder(bag, context=ros.context, namespace=NS, discovery_period=0.1))
+    assert ros.wait_for(lambda: recorder_qos(ros, MODEL) == [(ReliabilityPolicy.RELIABLE,
+                                                              DurabilityPolicy.TRANSIENT_LOCAL)])
+    assert recorder_qos(ros, POSE) == [(ReliabilityPolicy.RELIABLE, DurabilityPolicy.VOLATILE)]
+    pose_pub = ros.publisher(PoseStamped, POSE, BEST_EFFORT)
+    assert ros.wait_for(lambda: recorder_qos(ros, POSE) == [(ReliabilityPolicy.BEST_EFFORT, DurabilityPolicy.VOLATILE)],
+                        timeout=10.0)
+    assert ros.publish_until(pose_pub, PoseStamped(), lambda: recorder.counts.get(POSE, 0) >= 1, timeout=10.0)
+    assert ros.wait_for(lambda: recorder.counts.get(MODEL) == 1, timeout=10.0), recorder.summary()
+    ros.remove(recorder)
+    assert [m.decode().data for m in read_messages(bag, topics=[MODEL])] == [MODEL_DOC]
+    info = topics_info(bag)
+    assert info[MODEL].qos == (QosSpec('reliable', 'transient_local', 0),)
+    assert info[POSE].qos == (QosSpec('best_effort', 'volatile', 0),)
+
+
+def test_topic_outside_the_package_is_recorded_once_discovered(ros, tmp_path: Path) -> None:
+    label = f'{NS}/object/label'
+    recorder = ros.add(Recorder(tmp_path / 'other', context=ros.context, namespace=NS, discovery_period=0.1,
+                                topics=['object/']))
+    # the package's topic under object/ is subscribed before any publisher, the other one is not
+    assert ros.wait_for(lambda: recorder_qos(ros, POSE) == [(ReliabilityPolicy.RELIABLE, DurabilityPolicy.VOLATILE)])
+    assert recorder_qos(ros, label) == []
+    assert recorder.recorded_topics == {}  # a topic enters the bag with its first publisher or message
+    pub = ros.publisher(String, label, output_qos())
+    assert ros.publish_until(pub, String(data='cup'), lambda: recorder.counts.get(label, 0) >= 1, timeout=10.0)
+    assert recorder.recorded_topics[label] == (STRING, QosSpec('reliable', 'volatile', 0))
+    assert set(recorder.recorded_topics) == {label}
+
+
+def test_send_intent_waits_for_the_subscriptions_it_is_told_of(ros, tmp_path: Path) -> None:
+    """``send_intent -w 2``: no w before two subscriptions (the interpreter's, the recorder's) have matched."""
+    from grasp_intent_ros.cli.send_intent import IntentSender, NoGrasp
+
+    heard: list[Float64MultiArray] = []
+    ros.node.create_subscription(Float64MultiArray, W, heard.append, 10)  # stands in for the interpreter
+    sender = ros.add(IntentSender(context=ros.context, namespace=NS))
+    with pytest.raises(NoGrasp, match='no w was sent: 1 of the 2 subscriptions'):
+        sender.send((0.9, 0.1), ros.executor, timeout=1.0, subscribers=2)
+    assert heard == []
+    recorder = ros.add(Recorder(tmp_path / 'sent', context=ros.context, namespace=NS, discovery_period=NO_LOOK))
+    with pytest.raises(NoGrasp, match='no intent/v came back'):  # nobody answers: w is sent until the timeout
+        sender.send((0.9, 0.1), ros.executor, timeout=2.0, subscribers=2)
+    assert ros.wait_for(lambda: heard and recorder.counts.get(W) == len(heard)), (len(heard), recorder.summary())

@@ -93,6 +93,16 @@ class Recording:
         self._bag.add_topic(topic, msgtype, qos=offered)
         self._recorded[topic] = (msgtype, subscribed)
 
+    def resubscribe(self, topic: str, subscribed: QosSpec) -> None:
+        """Note that an added topic is now subscribed with ``subscribed``; its offered QoS in the bag stay.
+
+        Raises
+        ------
+        KeyError
+            ``topic`` was not added.
+        """
+        self._recorded[topic] = (self._recorded[topic][0], subscribed)
+
     def count_received(self, messages: int) -> None:
         """Count messages received (put or about to be)."""
         self._received += messages
