@@ -55,6 +55,7 @@ from ..wire.topics import LATCHED_TOPICS, MSGTYPES
 from .compat import waiting_messages
 from .conversions import type_class
 from .diagnostics import NodeDiagnostics
+from .qos import latched_qos, output_qos
 
 __all__ = ['TopicSelection', 'DEFAULT_TOPICS', 'DEFAULT_DEPTH', 'DEFAULT_DISCOVERY_PERIOD', 'offered_qos_spec',
            'offered_qos', 'declared_qos', 'known_topics', 'subscription_qos', 'TopicRecorder', 'command_line']
@@ -146,11 +147,13 @@ def offered_qos(publishers: Sequence[TopicEndpointInfo]) -> tuple[QosSpec, ...]:
 def declared_qos(topic: str) -> QosSpec:
     """What the suite's publishers of ``topic`` (a relative name of :data:`MSGTYPES`) offer, as discovery shows it.
 
-    Reliable; transient local for :data:`~grasp_intent_ros.wire.topics.LATCHED_TOPICS`, volatile otherwise;
-    history unknown, automatic liveliness, no deadline, lifespan or lease (:func:`offered_qos_spec` of the
-    profiles of :mod:`grasp_intent_ros.ros.qos`).
+    The reliability and durability of the profile they publish with (:func:`~grasp_intent_ros.ros.qos.latched_qos`
+    for :data:`~grasp_intent_ros.wire.topics.LATCHED_TOPICS`, :func:`~grasp_intent_ros.ros.qos.output_qos`
+    otherwise: reliable, transient local or volatile); history unknown, the other policies :class:`QosSpec`'s
+    defaults.
     """
-    return QosSpec('reliable', 'transient_local' if topic in LATCHED_TOPICS else 'volatile', 0)
+    published = offered_qos_spec(latched_qos() if topic in LATCHED_TOPICS else output_qos())
+    return QosSpec(published.reliability, published.durability, 0)
 
 
 def known_topics(node: Node, selection: TopicSelection) -> dict[str, tuple[str, QosSpec]]:
