@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,7 +21,7 @@ from numpy.typing import NDArray
 from ..mico.kinematics import HOME_Q, MicoKinematics
 
 __all__ = ['LINE_IK_SEEDS', 'LINE_IK_CHECKS', 'VIA_REACHED', 'WRIST_TURNS', 'TURN_SLACK', 'TURN_STEP', 'TIME_STEP',
-           'ik_candidates', 'near_grasp', 'line_turns', 'joint_path']
+           'ik_candidates', 'near_grasp', 'line_cost', 'line_turns', 'wrist_flip', 'least_sweep_line', 'joint_path']
 
 LINE_IK_SEEDS = 32
 """Seeds tried (Home, then random ones) for a target that has no IK from the joints (:func:`joint_path`): each of
@@ -119,6 +120,23 @@ def _turn_away(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.floa
     return max(0.0, max(error(q + s * (q_t - q)) for s in steps) - start)
 
 
+def line_cost(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.float64],
+              base_R_target: NDArray[np.float64]) -> tuple[int, int]:
+    """How the straight joint line from ``q`` to ``q_t`` turns the hand: ``(turn away, time)``, whole quanta.
+
+    1. the turn away: how far the hand's orientation error to ``base_R_target`` (3x3, base frame) rises over its
+       value at ``q`` at the :data:`LINE_IK_CHECKS` points of the line, less :data:`TURN_SLACK` (0 when not
+       above), in whole :data:`TURN_STEP`;
+    2. the line's time under the joints' speed limits, max_j |q_t,j - q_j| / v_j, in whole :data:`TIME_STEP`.
+
+    Both rounded down, so float noise can decide only at a quantum's edge (:func:`line_turns`,
+    :func:`least_sweep_line`).
+    """
+    away = max(0.0, _turn_away(kin, q, q_t, base_R_target) - TURN_SLACK)
+    time = float(np.max(np.abs(q_t - q) / kin.velocity_limits))
+    return math.floor(away / TURN_STEP), math.floor(time / TIME_STEP)
+
+
 def line_turns(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.float64],
                base_T_target: NDArray[np.float64], base_T_grasp: NDArray[np.float64], *, slack: float,
                reference: float = 0.0) -> NDArray[np.float64]:
@@ -134,14 +152,11 @@ def line_turns(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.floa
     Admissible: the unshifted one always (the IK's own answer); a shifted one when its line keeps the hand
     near the grasp (:func:`near_grasp`, the bound of :func:`joint_path`). Minimises, lexicographically:
 
-    1. the line's turn away: how far the hand's orientation error to the target rises over its value at
-       ``q`` at the :data:`LINE_IK_CHECKS` points of the line, less :data:`TURN_SLACK` (0 when not above), in
-       whole :data:`TURN_STEP`;
-    2. the line's time under the joints' speed limits, max_j |q_t,j - q_j| / v_j, in whole :data:`TIME_STEP`;
+    1. and 2. :func:`line_cost`: the line's turn away, then its time (whole quanta, rounded down, so float noise
+       can decide only at a quantum's edge);
     3. the candidates' order (so the IK's own answer wins every tie).
 
-    The costs are whole quanta (rounded down), so float noise can decide only at a quantum's edge. Joints 1, 2,
-    3 and 5 stay as the IK gave them (joint 5 keeps the wrist on its side of its singularity).
+    Joints 1, 2, 3 and 5 stay as the IK gave them (joint 5 keeps the wrist on its side of its singularity).
 
     When the IK's own answer costs no turn away and its wrist joints are within pi of q, it is returned without
     the other candidates: a 2 pi shift makes such a joint's turn at least pi, no shorter, so no candidate's cost
@@ -159,15 +174,75 @@ def line_turns(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.floa
         candidate[list(WRIST_TURNS)] += 2.0 * math.pi * np.array(turns, dtype=np.float64)
         if np.any(candidate < kin.lower) or np.any(candidate > kin.upper):
             continue
-        away = max(0.0, _turn_away(kin, q, candidate, base_R_target) - TURN_SLACK)
-        time = float(np.max(np.abs(candidate - q) / kin.velocity_limits))
-        cost = (math.floor(away / TURN_STEP), math.floor(time / TIME_STEP))
+        cost = line_cost(kin, q, candidate, base_R_target)
         if not any(turns):
             best, best_cost = candidate, cost
             if cost[0] == 0 and np.all(np.abs(candidate - q)[list(WRIST_TURNS)] <= math.pi):
                 return best
         elif cost < best_cost and near_grasp(kin, q, [candidate], base_T_grasp, slack=slack, reference=reference):
             best, best_cost = candidate, cost
+    return best
+
+
+def wrist_flip(q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``q`` (rad, shape (6,)) with the wrist turned to its other side: joints 4 and 6 by pi, joint 5 negated.
+
+    An IK seed (:func:`least_sweep_line`): the descent from it finds the target's solution with joint 5 on the
+    side of 0 opposite q's, where the descent from q finds the one on q's side.
+    """
+    flipped = q.copy()
+    flipped[list(WRIST_TURNS)] += math.pi
+    flipped[4] = -q[4]
+    return flipped
+
+
+def least_sweep_line(kin: MicoKinematics, q: NDArray[np.float64], base_T_target: NDArray[np.float64],
+                     base_T_grasp: NDArray[np.float64], *, slack: float, reference: float = 0.0,
+                     sweep: Callable[[NDArray[np.float64]], int] | None = None) -> NDArray[np.float64] | None:
+    """The end of the straight joint line from ``q`` toward ``base_T_target``: the IK solution whose line sweeps least.
+
+    A target has several IK solutions (the wrist's two sides among them); the descent from q alone lands on one
+    or the other as the operator's share moves the joints, and on either the line may sweep the open hand
+    through the object or turn the wrist's joints by several radians. So the line is chosen among them.
+
+    Candidates, in this order: **the descent's**, the IK (no restarts) from q; **the wrist flip's**, the IK
+    (no restarts) from :func:`wrist_flip` (q), on the 2 pi branch nearest q, when it is not the descent's
+    solution (a joint apart by more than 1e-6). Each ends on :func:`line_turns`'s wrist branch. Admissible: the
+    descent's when its IK succeeds (the search's answer before this choice); the flip's when its IK succeeds and
+    its line keeps the hand near the grasp (:func:`near_grasp`, the bound of :func:`joint_path`). Minimises,
+    lexicographically:
+
+    1. ``sweep(end)``: how far the line's open hand goes into the object as perceived, in whole quanta (the
+       assistance's: :meth:`~.clearance.PathClearance.sweep`; None: 0 for every line);
+    2. and 3. :func:`line_cost`: the line's turn away, then its time (whole quanta);
+    4. the candidates' order (the descent's wins every tie).
+
+    Every cost is an integer count of quanta, so float noise can decide only at a quantum's edge.
+
+    Returns
+    -------
+    ndarray, shape (6,), or None
+        The chosen line's end (rad); None when no candidate is admissible (:func:`joint_path` then).
+    """
+    solutions: list[tuple[NDArray[np.float64], bool]] = []  # (the IK's solution, whether near_grasp must admit it)
+    ik = kin.ik(base_T_target, q, restarts=0)  # the solution the joints descend to
+    if ik.success:
+        solutions.append((ik.q, False))
+    ik = kin.ik(base_T_target, wrist_flip(q), restarts=0)
+    if ik.success:
+        q_t = kin.nearest_branch(ik.q, q)
+        if not solutions or np.max(np.abs(q_t - solutions[0][0])) > 1e-6:
+            solutions.append((q_t, True))
+    base_R_target = base_T_target[:3, :3]
+    best: NDArray[np.float64] | None = None
+    best_cost = (0, 0, 0)
+    for q_t, checked in solutions:
+        end = line_turns(kin, q, q_t, base_T_target, base_T_grasp, slack=slack, reference=reference)
+        if checked and not near_grasp(kin, q, [end], base_T_grasp, slack=slack, reference=reference):
+            continue
+        cost = (0 if sweep is None else sweep(end), *line_cost(kin, q, end, base_R_target))
+        if best is None or cost < best_cost:
+            best, best_cost = end, cost
     return best
 
 
