@@ -44,13 +44,14 @@ TIME_STEP = 0.1
 """s: the quantum of :func:`line_turns`'s time cost."""
 
 
-def ik_candidates(kin: MicoKinematics, q: NDArray[np.float64],
-                  base_T_target: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+def ik_candidates(kin: MicoKinematics, q: NDArray[np.float64], base_T_target: NDArray[np.float64], *,
+                  wrist_side: bool = True) -> list[NDArray[np.float64]]:
     """The target's IK solutions from the :data:`LINE_IK_SEEDS` seeds, in seed order, each once (the first seed's).
 
     The IK (no restarts) from Home, then from the IK's restart seeds about q
     (:meth:`~grasp_intent_ros.mico.kinematics.MicoKinematics.restart_seed`) from a generator seeded 0; each solution
-    on the 2 pi branch nearest q, kept when the wrist (joint 5) is on q's side of 0 and pi (sin q5 keeps its sign).
+    on the 2 pi branch nearest q, kept when the wrist (joint 5) is on q's side of 0 and pi (sin q5 keeps its sign),
+    or on either side when ``wrist_side`` is False.
     """
     rng = np.random.default_rng(0)
     seeds = [np.asarray(HOME_Q, dtype=np.float64)]
@@ -61,7 +62,8 @@ def ik_candidates(kin: MicoKinematics, q: NDArray[np.float64],
         if not ik.success:
             continue
         q_t = kin.nearest_branch(ik.q, q)
-        if np.sin(q_t[4]) * np.sin(q[4]) > 0.0 and all(np.max(np.abs(q_t - f)) > 1e-6 for f in found):
+        side = not wrist_side or np.sin(q_t[4]) * np.sin(q[4]) > 0.0
+        if side and all(np.max(np.abs(q_t - f)) > 1e-6 for f in found):
             found.append(q_t)
     return found
 
@@ -202,47 +204,51 @@ def least_sweep_line(kin: MicoKinematics, q: NDArray[np.float64], base_T_target:
     """The end of the straight joint line from ``q`` toward ``base_T_target``: the IK solution whose line sweeps least.
 
     A target has several IK solutions (the wrist's two sides among them); the descent from q alone lands on one
-    or the other as the operator's share moves the joints, and on either the line may sweep the open hand
-    through the object or turn the wrist's joints by several radians. So the line is chosen among them.
+    or another as the operator's share moves the joints, and on any the line may sweep the open hand through
+    the object or turn the wrist's joints by several radians. So the line is chosen among them.
 
-    Candidates, in this order: **the descent's**, the IK (no restarts) from q; **the wrist flip's**, the IK
-    (no restarts) from :func:`wrist_flip` (q), on the 2 pi branch nearest q, when it is not the descent's
-    solution (a joint apart by more than 1e-6). Each ends on :func:`line_turns`'s wrist branch. Admissible: the
-    descent's when its IK succeeds (the search's answer before this choice); the flip's when its IK succeeds and
-    its line keeps the hand near the grasp (:func:`near_grasp`, the bound of :func:`joint_path`). Minimises,
-    lexicographically:
+    Candidates, in this order, each solution once (the first's; solutions a joint apart by more than 1e-6 are
+    distinct): **the descent's**, the IK (no restarts) from q; **the wrist flip's**, the IK (no restarts) from
+    :func:`wrist_flip` (q); then those of :func:`ik_candidates` on either side of the wrist; each on the 2 pi
+    branch nearest q, then ending on :func:`line_turns`'s wrist branch. Admissible: the descent's when its IK
+    succeeds (the search's answer before this choice); any other when its line keeps the hand near the grasp
+    (:func:`near_grasp`, the bound of :func:`joint_path`). Minimises, lexicographically:
 
     1. ``sweep(end)``: how far the line's open hand goes into the object as perceived, in whole quanta (the
        assistance's: :meth:`~.clearance.PathClearance.sweep`; None: 0 for every line);
     2. and 3. :func:`line_cost`: the line's turn away, then its time (whole quanta);
     4. the candidates' order (the descent's wins every tie).
 
-    Every cost is an integer count of quanta, so float noise can decide only at a quantum's edge.
+    Every cost is an integer count of quanta, so float noise can decide only at a quantum's edge. ``sweep`` is
+    asked in the order of 2 to 4 and no further than the first line it gives 0 (no later line can cost less).
 
     Returns
     -------
     ndarray, shape (6,), or None
         The chosen line's end (rad); None when no candidate is admissible (:func:`joint_path` then).
     """
-    solutions: list[tuple[NDArray[np.float64], bool]] = []  # (the IK's solution, whether near_grasp must admit it)
-    ik = kin.ik(base_T_target, q, restarts=0)  # the solution the joints descend to
-    if ik.success:
-        solutions.append((ik.q, False))
-    ik = kin.ik(base_T_target, wrist_flip(q), restarts=0)
-    if ik.success:
-        q_t = kin.nearest_branch(ik.q, q)
-        if not solutions or np.max(np.abs(q_t - solutions[0][0])) > 1e-6:
-            solutions.append((q_t, True))
+    solutions: list[NDArray[np.float64]] = []
+    descent = kin.ik(base_T_target, q, restarts=0)  # the solution the joints descend to
+    flip = kin.ik(base_T_target, wrist_flip(q), restarts=0)
+    found = [ik.q for ik in (descent, flip) if ik.success]
+    for q_t in [kin.nearest_branch(q_t, q) for q_t in found] + ik_candidates(kin, q, base_T_target, wrist_side=False):
+        if all(np.max(np.abs(q_t - other)) > 1e-6 for other in solutions):
+            solutions.append(q_t)
     base_R_target = base_T_target[:3, :3]
+    ranked: list[tuple[tuple[int, int], int, NDArray[np.float64]]] = []
+    for i, q_t in enumerate(solutions):
+        end = line_turns(kin, q, q_t, base_T_target, base_T_grasp, slack=slack, reference=reference)
+        if (i == 0 and descent.success) or near_grasp(kin, q, [end], base_T_grasp, slack=slack, reference=reference):
+            ranked.append((line_cost(kin, q, end, base_R_target), i, end))
+    ranked.sort(key=lambda item: item[:2])
     best: NDArray[np.float64] | None = None
     best_cost = (0, 0, 0)
-    for q_t, checked in solutions:
-        end = line_turns(kin, q, q_t, base_T_target, base_T_grasp, slack=slack, reference=reference)
-        if checked and not near_grasp(kin, q, [end], base_T_grasp, slack=slack, reference=reference):
-            continue
-        cost = (0 if sweep is None else sweep(end), *line_cost(kin, q, end, base_R_target))
+    for turns, _, end in ranked:
+        cost = (0 if sweep is None else sweep(end), *turns)
         if best is None or cost < best_cost:
             best, best_cost = end, cost
+        if cost[0] == 0:
+            break
     return best
 
 
