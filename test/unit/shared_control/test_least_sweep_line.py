@@ -13,7 +13,13 @@ from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.shared_control import joint_path
 from grasp_intent_ros.shared_control.assistance import AssistanceConfig
 from grasp_intent_ros.shared_control.clearance import PathClearance, default_hand
-from grasp_intent_ros.shared_control.joint_path import least_sweep_line, line_cost, line_turns, wrist_flip
+from grasp_intent_ros.shared_control.joint_path import (
+    ik_candidates,
+    least_sweep_line,
+    line_cost,
+    line_turns,
+    wrist_flip,
+)
 from grasp_intent_ros.shared_control.path_search import PathRequest, seek_path
 
 # the flashlight's pre-grasp of test_line_turns (seed 1, episode 4, the joystick), from Home: the descent from
@@ -76,13 +82,16 @@ def test_the_deeper_sweep_loses_whatever_the_turns() -> None:
 
 
 def test_equal_sweeps_and_turns_go_to_the_first_in_seed_order(monkeypatch: pytest.MonkeyPatch) -> None:
-    kin, home, pre, grasp, descent, _ = _case()
+    kin, home, pre, grasp, _, _ = _case()
     monkeypatch.setattr(joint_path, 'line_cost', lambda *args: (0, 0))  # every line turns alike
-    ends = []
-    chosen = least_sweep_line(kin, home, pre, grasp, slack=SLACK, sweep=lambda end: ends.append(end) or 0)
-    assert len(ends) == 2  # both candidates were costed
-    assert_allclose(chosen, ends[0], rtol=0, atol=0)  # the descent's, seeded first
-    assert np.sin(chosen[4]) * np.sin(home[4]) > 0.0
+    descent = line_turns(kin, home, kin.ik(pre, home, restarts=0).q, pre, grasp, slack=SLACK)  # under the patch
+    for depth in (0, 1):  # every line clear (the first one asked ends the search), or every one as deep
+        asked: list[NDArray[np.float64]] = []
+        chosen = least_sweep_line(kin, home, pre, grasp, slack=SLACK,
+                                  sweep=lambda end, depth=depth: asked.append(end) or depth)
+        assert_allclose(chosen, descent, rtol=0, atol=0)  # the descent's, the first candidate
+        assert_allclose(asked[0], descent, rtol=0, atol=0)
+        assert len(asked) == 1 if depth == 0 else len(asked) >= 2
 
 
 def test_the_choice_is_the_same_for_the_same_inputs() -> None:
@@ -116,3 +125,12 @@ def test_the_sweep_counts_the_depth_beyond_the_allowance_in_whole_steps() -> Non
     assert clearance.sweep(middle, [flipped]) < clearance.sweep(home, [flipped])
     # a path through a via point: its lines' deepest point
     assert clearance.sweep(home, [middle, flipped]) >= 1
+
+
+def test_the_candidates_on_either_side_of_the_wrist_include_those_on_qs_side() -> None:
+    kin, home, pre, _, _, _ = _case()
+    either = ik_candidates(kin, home, pre, wrist_side=False)
+    own = ik_candidates(kin, home, pre)
+    assert {bool(np.sin(q_t[4]) > 0.0) for q_t in either} == {True, False}
+    assert all(np.sin(q_t[4]) * np.sin(home[4]) > 0.0 for q_t in own)
+    assert all(any(np.array_equal(q_t, other) for other in either) for q_t in own)
