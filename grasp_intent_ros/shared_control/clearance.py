@@ -12,7 +12,6 @@ one. Never the true object: the robot knows only what it perceives. ROS-free.
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -22,7 +21,7 @@ from ..method.body import ObjectBody
 from ..mico.collision import LIMITS, SWEEP_STEP, HandCollision, Limits
 from ..mico.frames import check_transform
 from ..mico.kinematics import MicoKinematics
-from .joint_path import LINE_IK_CHECKS, ik_candidates
+from .joint_path import ik_candidates
 
 __all__ = ['HAND_REACH', 'default_hand', 'JOINT_REACH', 'RETREATS', 'LIFTS', 'FAR', 'MAX_CHECKED', 'PathClearance',
            'clear_path']
@@ -134,24 +133,6 @@ class PathClearance:
                     return True
             start = end
         return False
-
-    def sweep(self, q: NDArray[np.float64], path: Sequence[NDArray[np.float64]]) -> int:
-        """How deep the path from ``q`` through the points ``path`` takes the open hand, in whole ``SWEEP_STEP``.
-
-        The largest :meth:`intrusion` over the :data:`~.joint_path.LINE_IK_CHECKS` evenly spaced points after
-        the start of each of its straight joint lines, less :meth:`goes_in`'s allowance (``max(0, intrusion at
-        q, intrusion at the path's end)``), in whole :data:`~grasp_intent_ros.mico.collision.SWEEP_STEP`
-        rounded up: 0 when no point is deeper than the allowance, 1 for a point up to a step deeper, and so on
-        (so float noise decides only at a step's edge). Points, not :meth:`goes_in`'s advancement: a measure of
-        depth to compare lines by (:func:`~.joint_path.least_sweep_line`), at a bounded cost.
-        """
-        allowance = max(0.0, self.intrusion(q), self.intrusion(path[-1]))
-        steps = np.linspace(0.0, 1.0, LINE_IK_CHECKS + 1)[1:]
-        deepest, start = 0.0, q
-        for end in path:
-            deepest = max(deepest, *(self.intrusion(start + s * (end - start)) - allowance for s in steps))
-            start = end
-        return math.ceil(deepest / SWEEP_STEP)
 
 
 def _length(q: NDArray[np.float64], path: Sequence[NDArray[np.float64]]) -> float:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,7 +20,7 @@ from numpy.typing import NDArray
 from ..mico.kinematics import HOME_Q, MicoKinematics
 
 __all__ = ['LINE_IK_SEEDS', 'LINE_IK_CHECKS', 'VIA_REACHED', 'WRIST_TURNS', 'TURN_SLACK', 'TURN_STEP', 'TIME_STEP',
-           'ik_candidates', 'near_grasp', 'line_cost', 'line_turns', 'wrist_flip', 'least_sweep_line', 'joint_path']
+           'ik_candidates', 'near_grasp', 'line_turns', 'joint_path']
 
 LINE_IK_SEEDS = 32
 """Seeds tried (Home, then random ones) for a target that has no IK from the joints (:func:`joint_path`): each of
@@ -44,14 +43,13 @@ TIME_STEP = 0.1
 """s: the quantum of :func:`line_turns`'s time cost."""
 
 
-def ik_candidates(kin: MicoKinematics, q: NDArray[np.float64], base_T_target: NDArray[np.float64], *,
-                  wrist_side: bool = True) -> list[NDArray[np.float64]]:
+def ik_candidates(kin: MicoKinematics, q: NDArray[np.float64],
+                  base_T_target: NDArray[np.float64]) -> list[NDArray[np.float64]]:
     """The target's IK solutions from the :data:`LINE_IK_SEEDS` seeds, in seed order, each once (the first seed's).
 
     The IK (no restarts) from Home, then from the IK's restart seeds about q
     (:meth:`~grasp_intent_ros.mico.kinematics.MicoKinematics.restart_seed`) from a generator seeded 0; each solution
-    on the 2 pi branch nearest q, kept when the wrist (joint 5) is on q's side of 0 and pi (sin q5 keeps its sign),
-    or on either side when ``wrist_side`` is False.
+    on the 2 pi branch nearest q, kept when the wrist (joint 5) is on q's side of 0 and pi (sin q5 keeps its sign).
     """
     rng = np.random.default_rng(0)
     seeds = [np.asarray(HOME_Q, dtype=np.float64)]
@@ -62,8 +60,7 @@ def ik_candidates(kin: MicoKinematics, q: NDArray[np.float64], base_T_target: ND
         if not ik.success:
             continue
         q_t = kin.nearest_branch(ik.q, q)
-        side = not wrist_side or np.sin(q_t[4]) * np.sin(q[4]) > 0.0
-        if side and all(np.max(np.abs(q_t - f)) > 1e-6 for f in found):
+        if np.sin(q_t[4]) * np.sin(q[4]) > 0.0 and all(np.max(np.abs(q_t - f)) > 1e-6 for f in found):
             found.append(q_t)
     return found
 
@@ -122,23 +119,6 @@ def _turn_away(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.floa
     return max(0.0, max(error(q + s * (q_t - q)) for s in steps) - start)
 
 
-def line_cost(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.float64],
-              base_R_target: NDArray[np.float64]) -> tuple[int, int]:
-    """How the straight joint line from ``q`` to ``q_t`` turns the hand: ``(turn away, time)``, whole quanta.
-
-    1. the turn away: how far the hand's orientation error to ``base_R_target`` (3x3, base frame) rises over its
-       value at ``q`` at the :data:`LINE_IK_CHECKS` points of the line, less :data:`TURN_SLACK` (0 when not
-       above), in whole :data:`TURN_STEP`;
-    2. the line's time under the joints' speed limits, max_j |q_t,j - q_j| / v_j, in whole :data:`TIME_STEP`.
-
-    Both rounded down, so float noise can decide only at a quantum's edge (:func:`line_turns`,
-    :func:`least_sweep_line`).
-    """
-    away = max(0.0, _turn_away(kin, q, q_t, base_R_target) - TURN_SLACK)
-    time = float(np.max(np.abs(q_t - q) / kin.velocity_limits))
-    return math.floor(away / TURN_STEP), math.floor(time / TIME_STEP)
-
-
 def line_turns(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.float64],
                base_T_target: NDArray[np.float64], base_T_grasp: NDArray[np.float64], *, slack: float,
                reference: float = 0.0) -> NDArray[np.float64]:
@@ -154,11 +134,14 @@ def line_turns(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.floa
     Admissible: the unshifted one always (the IK's own answer); a shifted one when its line keeps the hand
     near the grasp (:func:`near_grasp`, the bound of :func:`joint_path`). Minimises, lexicographically:
 
-    1. and 2. :func:`line_cost`: the line's turn away, then its time (whole quanta, rounded down, so float noise
-       can decide only at a quantum's edge);
+    1. the line's turn away: how far the hand's orientation error to the target rises over its value at
+       ``q`` at the :data:`LINE_IK_CHECKS` points of the line, less :data:`TURN_SLACK` (0 when not above), in
+       whole :data:`TURN_STEP`;
+    2. the line's time under the joints' speed limits, max_j |q_t,j - q_j| / v_j, in whole :data:`TIME_STEP`;
     3. the candidates' order (so the IK's own answer wins every tie).
 
-    Joints 1, 2, 3 and 5 stay as the IK gave them (joint 5 keeps the wrist on its side of its singularity).
+    The costs are whole quanta (rounded down), so float noise can decide only at a quantum's edge. Joints 1, 2,
+    3 and 5 stay as the IK gave them (joint 5 keeps the wrist on its side of its singularity).
 
     When the IK's own answer costs no turn away and its wrist joints are within pi of q, it is returned without
     the other candidates: a 2 pi shift makes such a joint's turn at least pi, no shorter, so no candidate's cost
@@ -176,79 +159,15 @@ def line_turns(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.floa
         candidate[list(WRIST_TURNS)] += 2.0 * math.pi * np.array(turns, dtype=np.float64)
         if np.any(candidate < kin.lower) or np.any(candidate > kin.upper):
             continue
-        cost = line_cost(kin, q, candidate, base_R_target)
+        away = max(0.0, _turn_away(kin, q, candidate, base_R_target) - TURN_SLACK)
+        time = float(np.max(np.abs(candidate - q) / kin.velocity_limits))
+        cost = (math.floor(away / TURN_STEP), math.floor(time / TIME_STEP))
         if not any(turns):
             best, best_cost = candidate, cost
             if cost[0] == 0 and np.all(np.abs(candidate - q)[list(WRIST_TURNS)] <= math.pi):
                 return best
         elif cost < best_cost and near_grasp(kin, q, [candidate], base_T_grasp, slack=slack, reference=reference):
             best, best_cost = candidate, cost
-    return best
-
-
-def wrist_flip(q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``q`` (rad, shape (6,)) with the wrist turned to its other side: joints 4 and 6 by pi, joint 5 negated.
-
-    An IK seed (:func:`least_sweep_line`): the descent from it finds the target's solution with joint 5 on the
-    side of 0 opposite q's, where the descent from q finds the one on q's side.
-    """
-    flipped = q.copy()
-    flipped[list(WRIST_TURNS)] += math.pi
-    flipped[4] = -q[4]
-    return flipped
-
-
-def least_sweep_line(kin: MicoKinematics, q: NDArray[np.float64], base_T_target: NDArray[np.float64],
-                     base_T_grasp: NDArray[np.float64], *, slack: float, reference: float = 0.0,
-                     sweep: Callable[[NDArray[np.float64]], int] | None = None) -> NDArray[np.float64] | None:
-    """The end of the straight joint line from ``q`` toward ``base_T_target``: the IK solution whose line sweeps least.
-
-    A target has several IK solutions (the wrist's two sides among them); the descent from q alone lands on one
-    or another as the operator's share moves the joints, and on any the line may sweep the open hand through
-    the object or turn the wrist's joints by several radians. So the line is chosen among them.
-
-    Candidates, in this order, each solution once (the first's; solutions a joint apart by more than 1e-6 are
-    distinct): **the descent's**, the IK (no restarts) from q; **the wrist flip's**, the IK (no restarts) from
-    :func:`wrist_flip` (q); then those of :func:`ik_candidates` on either side of the wrist; each on the 2 pi
-    branch nearest q, then ending on :func:`line_turns`'s wrist branch. Admissible: the descent's when its IK
-    succeeds (the search's answer before this choice); any other when its line keeps the hand near the grasp
-    (:func:`near_grasp`, the bound of :func:`joint_path`). Minimises, lexicographically:
-
-    1. ``sweep(end)``: how far the line's open hand goes into the object as perceived, in whole quanta (the
-       assistance's: :meth:`~.clearance.PathClearance.sweep`; None: 0 for every line);
-    2. and 3. :func:`line_cost`: the line's turn away, then its time (whole quanta);
-    4. the candidates' order (the descent's wins every tie).
-
-    Every cost is an integer count of quanta, so float noise can decide only at a quantum's edge. ``sweep`` is
-    asked in the order of 2 to 4 and no further than the first line it gives 0 (no later line can cost less).
-
-    Returns
-    -------
-    ndarray, shape (6,), or None
-        The chosen line's end (rad); None when no candidate is admissible (:func:`joint_path` then).
-    """
-    solutions: list[NDArray[np.float64]] = []
-    descent = kin.ik(base_T_target, q, restarts=0)  # the solution the joints descend to
-    flip = kin.ik(base_T_target, wrist_flip(q), restarts=0)
-    found = [ik.q for ik in (descent, flip) if ik.success]
-    for q_t in [kin.nearest_branch(q_t, q) for q_t in found] + ik_candidates(kin, q, base_T_target, wrist_side=False):
-        if all(np.max(np.abs(q_t - other)) > 1e-6 for other in solutions):
-            solutions.append(q_t)
-    base_R_target = base_T_target[:3, :3]
-    ranked: list[tuple[tuple[int, int], int, NDArray[np.float64]]] = []
-    for i, q_t in enumerate(solutions):
-        end = line_turns(kin, q, q_t, base_T_target, base_T_grasp, slack=slack, reference=reference)
-        if (i == 0 and descent.success) or near_grasp(kin, q, [end], base_T_grasp, slack=slack, reference=reference):
-            ranked.append((line_cost(kin, q, end, base_R_target), i, end))
-    ranked.sort(key=lambda item: item[:2])
-    best: NDArray[np.float64] | None = None
-    best_cost = (0, 0, 0)
-    for turns, _, end in ranked:
-        cost = (0 if sweep is None else sweep(end), *turns)
-        if best is None or cost < best_cost:
-            best, best_cost = end, cost
-        if cost[0] == 0:
-            break
     return best
 
 

@@ -49,7 +49,7 @@ from ..method.body import Cylinder, ObjectBody
 from ..mico.collision import HandCollision
 from ..mico.kinematics import HOME_Q, MicoKinematics
 from .clearance import PathClearance, clear_path
-from .joint_path import joint_path, least_sweep_line, near_grasp
+from .joint_path import joint_path, line_turns, near_grasp
 
 __all__ = ['PathRequest', 'PathAnswer', 'seek_path', 'PathSource', 'PathSearch', 'PathWorker', 'STOP_TIMEOUT', 'serve',
            'warm_up_scene']
@@ -101,19 +101,16 @@ class PathAnswer:
 def seek_path(kin: MicoKinematics, request: PathRequest) -> PathAnswer:
     """The joint path toward ``request.base_T_target`` from ``request.q`` (:class:`~.assistance.Assistance`).
 
-    ``[q_t]``, the straight joint line to the target's IK solution of :func:`~.joint_path.least_sweep_line`
-    (of the descent's from q and the wrist flip's, the one whose line's open hand goes least deep into the
-    perceived object, :meth:`~.clearance.PathClearance.sweep`, then turns least), or when neither IK serves
-    :func:`~.joint_path.joint_path`; then, with a clearance, :func:`~.clearance.clear_path` (admissible:
-    :func:`~.joint_path.near_grasp`, the same bound). ``kin`` must be the calling thread's own, and
-    ``request.clearance`` built on it.
+    The IK (no restarts) from q, ``[q_t]`` with the wrist's 2 pi branch that turns the hand the short way
+    (:func:`~.joint_path.line_turns`), or when it fails :func:`~.joint_path.joint_path`; then, with a
+    clearance, :func:`~.clearance.clear_path` (admissible: :func:`~.joint_path.near_grasp`, the same bound).
+    ``kin`` must be the calling thread's own, and ``request.clearance`` built on it.
     """
-    q, target, grasp, clearance = request.q, request.base_T_target, request.base_T_grasp, request.clearance
-    sweep = None if clearance is None else (lambda end: clearance.sweep(q, [end]))
-    end = least_sweep_line(kin, q, target, grasp, slack=request.slack, reference=request.reference, sweep=sweep)
+    q, target, grasp = request.q, request.base_T_target, request.base_T_grasp
+    ik = kin.ik(target, q, restarts=0)  # the solution the joints descend to
     path: list[NDArray[np.float64]] | None
-    if end is not None:
-        path = [end]
+    if ik.success:
+        path = [line_turns(kin, q, ik.q, target, grasp, slack=request.slack, reference=request.reference)]
     else:
         path = joint_path(kin, q, target, grasp, slack=request.slack, reference=request.reference)
     if path is not None and request.clearance is not None:
