@@ -47,6 +47,7 @@ from collections.abc import Callable, Collection, Mapping, MutableMapping, Seque
 from pathlib import Path
 from types import TracebackType
 
+from ..errors import GraspIntentError
 from ..resources import config_dir
 from ..ros.startup import WATCHDOG_EXIT_CODE, is_ready_line
 from ..wire.topics import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
@@ -205,10 +206,7 @@ class NodeProcess:
     @classmethod
     def start(cls, module: str, ros_args: Sequence[str] = (), *, env: Mapping[str, str], log_dir: Path,
               prefix: str = '', cwd: Path | None = None, name: str | None = None) -> NodeProcess:
-        """``python -m grasp_intent_ros.nodes.<module> --ros-args <ros_args>`` (no ``--ros-args`` when empty).
-
-        ``name`` is the process's name in messages and log files (default ``module``).
-        """
+        """``python -m grasp_intent_ros.nodes.<module> --ros-args <ros_args>``, named ``name`` (or ``module``)."""
         command = [sys.executable, '-m', f'grasp_intent_ros.nodes.{module}']
         if ros_args:
             command += ['--ros-args', *ros_args]
@@ -363,9 +361,8 @@ class NodeSuite:
         model, models_dir : optional
             The model server's initial ``model`` and its ``models_dir`` (default: its config file's).
         objects : sequence of SceneObject
-            If given, one chain of :data:`SUITE_NODES` per object (:mod:`grasp_intent_ros.launch.objects`), in
-            ``<namespace>/<object>`` with the object's model, reading ``<namespace>/joint_states``; each process
-            named ``<object>/<module>``. Then ``model``, ``extra`` and ``shared_control`` must not be given.
+            One chain of :data:`SUITE_NODES` per object instead, each process named ``<object>/<module>``
+            (:mod:`grasp_intent_ros.launch.objects`); then no ``model``, ``extra`` or ``shared_control``.
         params_files : sequence of paths
             ROS parameters files given to every node after its own ``config/<node>.yaml``; the node-name
             keys in a file pick what each node reads, and a later file wins.
@@ -382,10 +379,7 @@ class NodeSuite:
         SuiteError
             For a name in ``extra`` that is not in :data:`OPTIONAL_NODES`, before anything is started.
         GraspIntentError
-            For ``objects`` with ``extra`` or ``shared_control`` (not built yet:
-            :func:`~grasp_intent_ros.launch.objects.refuse_unbuilt`), before anything is started.
-        ValueError
-            For ``objects`` with ``model``.
+            For ``objects`` with ``model``, ``extra`` or ``shared_control``, before anything is started.
         OSError
             If a process cannot be started; those already started stay in :attr:`processes`.
         """
@@ -393,8 +387,7 @@ class NodeSuite:
         if objects:
             refuse_unbuilt(wanted)
             if model is not None:
-                raise ValueError('objects name their own models: give no model')
-        # (module, its namespace, its model, its process name, its own remappings), in start order
+                raise GraspIntentError('objects name their own models: give no model')
         starts = [(module, obj.namespace(namespace), obj.model, obj.process_name(module), chain_remappings(namespace))
                   for obj in objects for module in SUITE_NODES] if objects else [
                       (module, namespace, model, None, ()) for module in (*SUITE_NODES, *wanted)]

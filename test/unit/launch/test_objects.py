@@ -85,17 +85,17 @@ def test_each_object_gets_a_chain_in_its_namespace_with_its_model_reading_the_ar
         suite.start_nodes(objects=objects, shared_control=True)
     with pytest.raises(GraspIntentError, match='viewer with --object'):
         suite.start_nodes(objects=objects, extra=['viewer'])
-    with pytest.raises(ValueError, match='give no model'):
+    with pytest.raises(GraspIntentError, match='give no model'):
         suite.start_nodes(objects=objects, model='cup_7zone')
     assert not started
 
 
 def test_a_chain_process_is_named_by_its_object_and_its_logs_too(tmp_path: Path) -> None:
-    proc = NodeProcess.start('no_such_node_module', env=node_environment(97), log_dir=tmp_path,
-                             name='cup/no_such_node_module')
+    module = 'absent_node'
+    proc = NodeProcess.start(module, env=node_environment(97), log_dir=tmp_path, name=f'cup/{module}')
     proc.wait(30.0)
-    assert proc.module == 'cup/no_such_node_module'
-    assert (proc.stdout_path.name, proc.stderr_path.name) == ('cup.no_such_node_module.out',
-                                                              'cup.no_such_node_module.err')
-    assert 'No module named grasp_intent_ros.nodes.no_such_node_module' in proc.stderr()
-    assert proc.problem().startswith('cup/no_such_node_module (pid ')
+    assert proc.module == 'cup/absent_node'
+    assert (proc.stdout_path.name, proc.stderr_path.name) == ('cup.absent_node.out',
+                                                              'cup.absent_node.err')
+    assert f'No module named grasp_intent_ros.nodes.{module}' in proc.stderr()
+    assert proc.problem().startswith('cup/absent_node (pid ')
