@@ -63,7 +63,7 @@ from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
 from ..mico.parameters import check_object_pose, object_pose
 from ..parameters import config_from
 from ..ros.diagnostics import NodeDiagnostics
-from ..ros.inputs import subscribe_input, subscribe_operator
+from ..ros.inputs import read_joint_state, subscribe_input, subscribe_operator
 from ..ros.model_follower import ModelFollower
 from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, output_publisher
@@ -75,8 +75,9 @@ from ..shared_control.path_search import PathWorker
 from ..wire import topics
 from ..wire.arrays import msg_labels, msg_to_array, read_features, read_posterior
 from ..wire.diagnostics import ERROR
+from ..wire.joint_states import JointStates
 from ..wire.model_document import ModelDocument
-from ..wire.robot_state import joint_positions, object_pose_msg, pose_msg_to_matrix, twist_command
+from ..wire.robot_state import object_pose_msg, pose_msg_to_matrix, twist_command
 
 __all__ = ['AssistanceNode', 'ENABLE_SERVICE', 'main']
 
@@ -115,6 +116,7 @@ class AssistanceNode(Node):
         self._features: NDArray[np.float64] | None = None
         self._pubs = {topics.ASSISTANCE_TWIST: output_publisher(self, TwistStamped, topics.ASSISTANCE_TWIST),
                       topics.ASSISTANCE_ALPHA: output_publisher(self, Float64, topics.ASSISTANCE_ALPHA)}
+        self._joints = JointStates(ARM_JOINTS)  # the arm's latest positions, perhaps from several messages
         latest, diag = input_qos(depth=1), self._diag
         subscribe_operator(self, self._on_operator, latest, diag, self._params['operator_message_type'])
         subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), diag)
@@ -202,8 +204,8 @@ class AssistanceNode(Node):
         self._timer.reset()
 
     def _on_joint_state(self, msg: JointState) -> None:
-        if (q := joint_positions(msg, ARM_JOINTS)) is not None:
-            self._assist.set_joints(q)
+        if (arm := read_joint_state(self._joints, msg, self._diag)) is not None:
+            self._assist.set_joints(arm.positions)
 
     def _on_object_pose(self, msg: PoseStamped) -> None:
         self._base_T_obj = object_pose_msg(msg, self._params['workspace_radius'])

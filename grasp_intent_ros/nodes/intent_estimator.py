@@ -37,7 +37,7 @@ from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, JOINT_LIMIT_MARGIN, MicoKi
 from ..mico.mock_arm import TwistCommand
 from ..mico.parameters import object_pose
 from ..ros.diagnostics import NodeDiagnostics
-from ..ros.inputs import subscribe_input, subscribe_operator
+from ..ros.inputs import read_joint_state, subscribe_input, subscribe_operator
 from ..ros.model_follower import ModelFollower, served_models
 from ..ros.params import declare_parameters
 from ..ros.qos import STREAM_DEPTH, input_qos, output_publisher
@@ -51,9 +51,9 @@ from ..shared_control.task_prior import check_task_prior
 from ..wire import topics
 from ..wire.arrays import msg_to_array
 from ..wire.diagnostics import ERROR, ESTIMATOR_COMPONENT, KEY_GOALS, OK, WARN
+from ..wire.joint_states import JointStates
 from ..wire.model_document import ModelDocument
 from ..wire.robot_state import (
-    joint_positions,
     object_pose_msg,
     pose_msg_to_matrix,
     stamp_nanoseconds,
@@ -88,6 +88,7 @@ class IntentEstimatorNode(Node):
         self._task_prior: NDArray[np.float64] | None = None  # the newest intent/prior, for every estimator
         self._prior_lock = threading.Lock()  # the prior and the estimator it was set on, one at a time
         self._q: NDArray[np.float64] | None = None
+        self._joints = JointStates(ARM_JOINTS)  # the arm's latest positions, perhaps from several messages
         self._inputs: StampedInputs[tuple[TwistCommand, float | None]] = StampedInputs(self._config.max_dt)
         """Operator twists (their command and stamp, s) paired with the hand and the grasp shown at their stamps."""
         self._shown: NDArray[np.float64] | None = None  # the proposal the estimator holds
@@ -184,10 +185,10 @@ class IntentEstimatorNode(Node):
     # -- the stream: joint states and operator twists, on the executor ---------------------------------------
 
     def _on_joint_state(self, msg: JointState) -> None:
-        if (q := joint_positions(msg, ARM_JOINTS)) is not None:
-            self._kin.check_limits(q, margin=JOINT_LIMIT_MARGIN, what='joint state')
-            self._q = q
-            self._inputs.hand(stamp_nanoseconds(msg), self._kin.fk(q))
+        if (arm := read_joint_state(self._joints, msg, self._diag)) is not None:
+            self._kin.check_limits(arm.positions, margin=JOINT_LIMIT_MARGIN, what='joint state')
+            self._q = arm.positions
+            self._inputs.hand(arm.stamp_ns, self._kin.fk(arm.positions))
             self._take_twists()
 
     def _on_grasp(self, msg: PoseStamped) -> None:

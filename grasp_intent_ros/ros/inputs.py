@@ -10,6 +10,7 @@ rejection (a WARN with the size and the cap) like any other bad input.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Mapping
 from typing import Any, cast
 
@@ -21,12 +22,14 @@ from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
 
 from ..errors import GraspIntentError
+from ..wire.diagnostics import WARN
+from ..wire.joint_states import JointReading, JointStates
 from ..wire.topics import MAX_MESSAGE_BYTES, OPERATOR_TWIST, check_message_size
 from .conversions import message_class
 from .diagnostics import NodeDiagnostics
 from .qos import input_events
 
-__all__ = ['subscribe_input', 'subscribe_operator', 'decode_input']
+__all__ = ['subscribe_input', 'subscribe_operator', 'decode_input', 'read_joint_state']
 
 
 def decode_input(topic: str, data: bytes, msg_type: Any = None) -> Any:
@@ -96,7 +99,6 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
                                     callback_group=callback_group)
 
 
-
 def subscribe_operator(node: Node, callback: Callable[[Any], object], qos: QoSProfile, diagnostics: NodeDiagnostics,
                        message_type: str) -> Subscription:
     """:func:`subscribe_input` to ``operator/twist``, messages dropped counted: a TwistStamped, or a plain Twist.
@@ -106,3 +108,20 @@ def subscribe_operator(node: Node, callback: Callable[[Any], object], qos: QoSPr
     """
     return subscribe_input(node, OPERATOR_TWIST, callback, qos, diagnostics, count_dropped=True,
                            msg_type=Twist if message_type == 'Twist' else None)
+
+
+def read_joint_state(joints: JointStates, msg: Any, diagnostics: NodeDiagnostics) -> JointReading | None:
+    """A ``joint_states`` message taken into ``joints`` (received now, on the monotonic clock); their reading, if new.
+
+    The reading of ``joints``' names when the message named one of them and every one is known and not stale; None
+    otherwise: a message that names none of them (e.g. the fingers' alone, from another publisher) brings
+    nothing new; one that names some while another is unknown or stale is noted in ``diagnostics`` (WARN, why:
+    :meth:`~grasp_intent_ros.wire.joint_states.JointStates.missing`). Raises as
+    :meth:`~grasp_intent_ros.wire.joint_states.JointStates.add` (the subscription's guard counts a rejection).
+    """
+    if not joints.add(msg, time.monotonic()):
+        return None
+    reading = joints.read()
+    if reading is None:
+        diagnostics.note(f'joint state not used: {joints.missing()}', level=WARN)
+    return reading
