@@ -22,14 +22,15 @@ from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
 
 from ..errors import GraspIntentError
+from ..mico.kinematics import ARM_JOINTS
 from ..wire.diagnostics import WARN
 from ..wire.joint_states import JointReading, JointStates
-from ..wire.topics import MAX_MESSAGE_BYTES, OPERATOR_TWIST, check_message_size
+from ..wire.topics import JOINT_STATES, MAX_MESSAGE_BYTES, OPERATOR_TWIST, check_message_size
 from .conversions import message_class
 from .diagnostics import NodeDiagnostics
 from .qos import input_events
 
-__all__ = ['subscribe_input', 'subscribe_operator', 'decode_input', 'read_joint_state']
+__all__ = ['subscribe_input', 'subscribe_operator', 'decode_input', 'subscribe_arm']
 
 
 def decode_input(topic: str, data: bytes, msg_type: Any = None) -> Any:
@@ -110,18 +111,26 @@ def subscribe_operator(node: Node, callback: Callable[[Any], object], qos: QoSPr
                            msg_type=Twist if message_type == 'Twist' else None)
 
 
-def read_joint_state(joints: JointStates, msg: Any, diagnostics: NodeDiagnostics) -> JointReading | None:
-    """A ``joint_states`` message taken into ``joints`` (received now, on the monotonic clock); their reading, if new.
+def subscribe_arm(node: Node, callback: Callable[[JointReading], object], qos: QoSProfile,
+                  diagnostics: NodeDiagnostics) -> Subscription:
+    """:func:`subscribe_input` to ``joint_states``, ``callback`` given the arm's reading when a message renews it.
 
-    The reading of ``joints``' names when the message named one of them and every one is known and not stale; None
-    otherwise: a message that names none of them (e.g. the fingers' alone, from another publisher) brings
-    nothing new; one that names some while another is unknown or stale is noted in ``diagnostics`` (WARN, why:
-    :meth:`~grasp_intent_ros.wire.joint_states.JointStates.missing`). Raises as
-    :meth:`~grasp_intent_ros.wire.joint_states.JointStates.add` (the subscription's guard counts a rejection).
+    Each arm joint's latest position from whichever message named it last
+    (:class:`~grasp_intent_ros.wire.joint_states.JointStates` of the arm joints, receipts on the monotonic clock):
+    the callback runs when a message names an arm joint and every arm joint is known and not stale. A message that
+    names none (e.g. the fingers' alone, from another publisher) brings nothing new; one that names some while
+    another is unknown or stale is noted (WARN, why: :meth:`~grasp_intent_ros.wire.joint_states.JointStates.missing`);
+    a malformed one is a counted rejection that changes nothing.
     """
-    if not joints.add(msg, time.monotonic()):
-        return None
-    reading = joints.read()
-    if reading is None:
-        diagnostics.note(f'joint state not used: {joints.missing()}', level=WARN)
-    return reading
+    joints = JointStates(ARM_JOINTS)
+
+    def on_joint_state(msg: Any) -> None:
+        if not joints.add(msg, time.monotonic()):
+            return
+        if (arm := joints.read()) is None:
+            diagnostics.note(f'joint state not used: {joints.missing()}', level=WARN)
+        else:
+            callback(arm)
+
+    on_joint_state.__name__ = getattr(callback, '__name__', 'on_joint_state')
+    return subscribe_input(node, JOINT_STATES, on_joint_state, qos, diagnostics)
