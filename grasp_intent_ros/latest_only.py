@@ -95,7 +95,7 @@ class WorkerThread:
     def __init__(self, wait: Wait, name: str) -> None:
         self._wait = wait
         self._stop = threading.Event()
-        self._thread = _Thread(self._run, name, self._stop)
+        self._thread: threading.Thread = _Thread(self._run, name, self._stop)
         self._thread.start()
 
     def stop_soon(self) -> None:

@@ -114,10 +114,7 @@ class GraspPlanner(Node):
         subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), diag)
 
     def destroy_node(self) -> None:
-        """Stop the planning and model threads, then destroy the node.
-
-        Their current work is waited for at most :data:`~grasp_intent_ros.latest_only.FINISH_WAIT` s each.
-        """
+        """Stop the planning and model threads (their current work waited for at most FINISH_WAIT s), then destroy."""
         self._models.stop()
         self._worker.stop()
         super().destroy_node()

@@ -111,11 +111,7 @@ class IntentEstimatorNode(Node):
         self.create_timer(float(self._params['publish_period']), self._diag.guard_timer(self._on_timer))
 
     def destroy_node(self) -> None:
-        """Stop the model and goal threads, then destroy the node.
-
-        Their current work is waited for at most :data:`~grasp_intent_ros.latest_only.FINISH_WAIT` s each (the goal
-        thread's IK looks at the stop request between goals).
-        """
+        """Stop the model and goal threads (their current work waited for at most FINISH_WAIT s), then destroy."""
         self._models.stop()
         self._scenes.stop()
         super().destroy_node()
