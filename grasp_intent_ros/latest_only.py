@@ -19,8 +19,8 @@ messages itself.
 short: nothing in it looks at the stop request, and compiled code cannot be interrupted. The thread, a
 daemon, is then left to end with the process (:func:`left_running` names such threads); a node process
 exits at once when its node has shut down (:func:`grasp_intent_ros.ros.run.guard_exit`), so a stop takes
-at most :data:`FINISH_WAIT` s per thread, at any load. A handler must therefore publish nothing once
-:attr:`WorkerThread.stopping` is true (the planner's answer checks it before it publishes).
+at most :data:`FINISH_WAIT` s per thread, at any load. What such work yields is not wanted: a handler
+publishes no answer once :attr:`WorkerThread.stopping` is true (the planner's checks it before it publishes).
 """
 
 from __future__ import annotations

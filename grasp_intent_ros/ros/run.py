@@ -31,8 +31,8 @@ A stop during a worker thread's long work (a model's first robustness estimate, 
 for it: the node's ``destroy_node`` waits at most :data:`~grasp_intent_ros.latest_only.FINISH_WAIT` s per
 thread (:meth:`WorkerThread.stop <grasp_intent_ros.latest_only.WorkerThread.stop>`), and :func:`guard_exit`
 then ends the process at once with code 0 (``os._exit``), saying on stderr which threads it left. Not the
-interpreter's exit: it would tear down the modules, and with them the compiled code, under a thread that
-may still run in it. The shutdown has finished by then (rclpy's logging too), so nothing is lost.
+interpreter's exit: it would finalize the modules while the thread may still run in their compiled code, and
+it has nothing left to do: the shutdown has finished by then (rclpy's logging too).
 """
 
 from __future__ import annotations
