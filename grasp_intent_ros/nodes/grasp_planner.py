@@ -114,7 +114,7 @@ class GraspPlanner(Node):
         subscribe_arm(self, self._on_arm, input_qos(), diag)  # the IK seed, whatever its age
 
     def destroy_node(self) -> None:
-        """Stop the planning and model threads (after their current work), then destroy the node."""
+        """Stop the planning and model threads (their current work waited for at most FINISH_WAIT s), then destroy."""
         self._models.stop()
         self._worker.stop()
         super().destroy_node()

@@ -110,7 +110,7 @@ class IntentEstimatorNode(Node):
         self.create_timer(float(self._params['publish_period']), self._diag.guard_timer(self._on_timer))
 
     def destroy_node(self) -> None:
-        """Stop the model and goal threads (after their current work), then destroy the node."""
+        """Stop the model and goal threads (their current work waited for at most FINISH_WAIT s), then destroy."""
         self._models.stop()
         self._scenes.stop()
         super().destroy_node()

@@ -110,7 +110,7 @@ class ScriptedOperatorNode(Node):
         self.create_timer(p['publish_period'], self._diag.guard_timer(self._on_tick))
         self.create_timer(p['w_period'], self._diag.guard_timer(self._on_w))
 
-    def destroy_node(self) -> None:  # the model and goal threads stop after their current work
+    def destroy_node(self) -> None:  # an own grasp being planned is not waited for beyond FINISH_WAIT (latest_only)
         self._models.stop()
         self._scenes.stop()
         super().destroy_node()
