@@ -12,8 +12,9 @@ The stream figures (rate, gaps, latency, opposition timing, the switch) are benc
 
 The episodes
 ------------
-- Intent (``--intent``): ``persistent`` (w held at the paper's ambiguous cases, :data:`CASES`, episode i on
-  case i mod 5, noise 0.05; T drawn from the case under the independent-task model) or ``sharpening`` (as
+- Intent (``--intent``): ``persistent`` (w held at the paper's ambiguous cases,
+  :data:`~grasp_intent_ros.shared_control.operators.AMBIGUOUS_CASES`, episode i on case i mod 5, noise 0.05;
+  T drawn from the case under the independent-task model) or ``sharpening`` (as
   bench_shared_control.py: w0 ~ U(0.2, 0.8)^3 sharpening to the certain w_T over U(1.5, 4) s).
 - Operators (:mod:`grasp_intent_ros.shared_control.operators`): ``joystick`` (two modes), ``spacemouse``
   (six axes), ``goal-changing`` (a spacemouse operator whose true set changes once, at U(1.5, 3) s, to
@@ -119,7 +120,6 @@ from grasp_intent_ros.shared_control.operators import (
     PersistentIntent,
     ScriptedOperator,
     SharpeningIntent,
-    draw_task_set,
 )
 from grasp_intent_ros.shared_control.simulator import (
     CONDITIONS,
@@ -131,7 +131,6 @@ from grasp_intent_ros.shared_control.simulator import (
 )
 
 OPERATORS = ('joystick', 'spacemouse', 'goal-changing')
-CASES = ((0.9, 0.9, 0.1), (0.9, 0.1, 0.9), (0.1, 0.9, 0.9), (0.9, 0.5, 0.5), (0.7, 0.7, 0.7))
 ESTIMATED = 'estimated'
 FUSED = 'fused'
 RUN = (*CONDITIONS, ESTIMATED, FUSED)
@@ -219,8 +218,7 @@ def read_records(path: str) -> list[dict[str, Any]]:
 def _intent(task: Task, rng: np.random.Generator) -> Any:
     if task.intent == 'sharpening':
         return SharpeningIntent.draw(rng)
-    case = CASES[task.index % len(CASES)]
-    persistent = PersistentIntent(case, draw_task_set(np.asarray(case), rng))
+    persistent = PersistentIntent.draw(task.index, rng)
     if task.operator != 'goal-changing':
         return persistent
     others = [s for s in range(1, 8) if s != persistent.true_set]

@@ -6,6 +6,8 @@ suite
     :class:`~grasp_intent_ros.launch.suite.NodeSuite`: the nodes as processes, their environment.
 parent_death
     :func:`~grasp_intent_ros.launch.parent_death.ended_with_this_process`: a node process ends with its launcher.
+objects
+    :func:`~grasp_intent_ros.launch.objects.parse_objects`: several objects in one scene, one planning chain each.
 suite_command
     ``python -m grasp_intent_ros suite``: the suite started, its output echoed, stopped on a signal.
 demo

@@ -27,9 +27,9 @@ and the system tests.
   callback is running at that instant, i.e. when a peer's endpoints are coming or going: the peer's own
   shutdown (docs/nodes.md, "Shutdown"). A node stopped while its peers are steady meets no such callback.
 - :class:`NodeSuite`: the processes of one run: start (one node, or the three suite nodes with their
-  ``config/<node>.yaml``, and :data:`OPTIONAL_NODES` on request: the shared-control loop's
-  :data:`SHARED_CONTROL_NODES`, the intent estimator, the scripted operator, the viewer), wait until ready,
-  notice a death, stop them all.
+  ``config/<node>.yaml``, or one such chain per object of the scene (:mod:`grasp_intent_ros.launch.objects`),
+  and :data:`OPTIONAL_NODES` on request: the shared-control loop's :data:`SHARED_CONTROL_NODES`, the intent
+  estimator, the scripted operator, the viewer), wait until ready, notice a death, stop them all.
 
 Never imports rclpy.
 """
@@ -47,9 +47,11 @@ from collections.abc import Callable, Collection, Mapping, MutableMapping, Seque
 from pathlib import Path
 from types import TracebackType
 
+from ..errors import GraspIntentError
 from ..resources import config_dir
 from ..ros.startup import WATCHDOG_EXIT_CODE, is_ready_line
 from ..wire.topics import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
+from .objects import SceneObject, chain_remappings, refuse_unbuilt
 from .parent_death import ended_with_this_process
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
@@ -168,7 +170,8 @@ class NodeProcess:
     command
         The command line (:meth:`start` builds the one of a node module).
     module
-        Name of the process in log file names and messages (the node module's).
+        Name of the process in messages and log file names (the node module's, or ``<object>/<module>`` for an
+        object's chain: a '/' is a '.' in the file names).
     env
         Its whole environment (see :func:`node_environment`).
     log_dir
@@ -190,8 +193,8 @@ class NodeProcess:
                  prefix: str = '', cwd: Path | None = None,
                  preexec_fn: Callable[[], None] | None = None) -> None:
         self.module = module
-        self.stdout_path = log_dir / f'{prefix}{module}.out'
-        self.stderr_path = log_dir / f'{prefix}{module}.err'
+        self.stdout_path = log_dir / f'{prefix}{module.replace("/", ".")}.out'
+        self.stderr_path = log_dir / f'{prefix}{module.replace("/", ".")}.err'
         self._signal_sent: signal.Signals | None = None
         self._killed = False
         with self.stdout_path.open('wb') as out, self.stderr_path.open('wb') as err:
@@ -202,12 +205,12 @@ class NodeProcess:
 
     @classmethod
     def start(cls, module: str, ros_args: Sequence[str] = (), *, env: Mapping[str, str], log_dir: Path,
-              prefix: str = '', cwd: Path | None = None) -> NodeProcess:
-        """``python -m grasp_intent_ros.nodes.<module> --ros-args <ros_args>`` (no ``--ros-args`` when empty)."""
+              prefix: str = '', cwd: Path | None = None, name: str | None = None) -> NodeProcess:
+        """``python -m grasp_intent_ros.nodes.<module> --ros-args <ros_args>``, named ``name`` (or ``module``)."""
         command = [sys.executable, '-m', f'grasp_intent_ros.nodes.{module}']
         if ros_args:
             command += ['--ros-args', *ros_args]
-        return cls(command, module=module, env=env, log_dir=log_dir, prefix=prefix, cwd=cwd)
+        return cls(command, module=name or module, env=env, log_dir=log_dir, prefix=prefix, cwd=cwd)
 
     @property
     def pid(self) -> int:
@@ -336,19 +339,20 @@ class NodeSuite:
         self.env = {**node_environment(domain_id), **(env or {})}
         self.processes: list[NodeProcess] = []
 
-    def start(self, module: str, *ros_args: str) -> NodeProcess:
-        """Start ``python -m grasp_intent_ros.nodes.<module> --ros-args <ros_args>``."""
+    def start(self, module: str, *ros_args: str, name: str | None = None) -> NodeProcess:
+        """Start ``python -m grasp_intent_ros.nodes.<module> --ros-args <ros_args>``, named ``name`` (or ``module``)."""
         prefix = f'{len(self.processes):02d}_' if self._numbered else ''
         proc = NodeProcess.start(module, ros_args, env=self.env, log_dir=self.log_dir, prefix=prefix,
-                                 cwd=self._cwd)
+                                 cwd=self._cwd, name=name)
         self.processes.append(proc)
         return proc
 
     def start_nodes(self, *, namespace: str = '', model: str | None = None,
                     models_dir: str | os.PathLike[str] | None = None,
                     params_files: Sequence[str | os.PathLike[str]] = (), extra: Sequence[str] = (),
-                    shared_control: bool = False, remappings: Mapping[str, Sequence[str]] | None = None) -> None:
-        """Start :data:`SUITE_NODES`, then ``extra``, each with :meth:`node_args`.
+                    shared_control: bool = False, remappings: Mapping[str, Sequence[str]] | None = None,
+                    objects: Sequence[SceneObject] = ()) -> None:
+        """Start :data:`SUITE_NODES` (once, or once per object), then ``extra``, each with :meth:`node_args`.
 
         Parameters
         ----------
@@ -356,6 +360,9 @@ class NodeSuite:
             '' or e.g. '/robot1' (``-r __ns:=``).
         model, models_dir : optional
             The model server's initial ``model`` and its ``models_dir`` (default: its config file's).
+        objects : sequence of SceneObject
+            One chain of :data:`SUITE_NODES` per object instead, each process named ``<object>/<module>``
+            (:mod:`grasp_intent_ros.launch.objects`); then no ``model``, ``extra`` or ``shared_control``.
         params_files : sequence of paths
             ROS parameters files given to every node after its own ``config/<node>.yaml``; the node-name
             keys in a file pick what each node reads, and a later file wins.
@@ -371,14 +378,23 @@ class NodeSuite:
         ------
         SuiteError
             For a name in ``extra`` that is not in :data:`OPTIONAL_NODES`, before anything is started.
+        GraspIntentError
+            For ``objects`` with ``model``, ``extra`` or ``shared_control``, before anything is started.
         OSError
             If a process cannot be started; those already started stay in :attr:`processes`.
         """
-        wanted = (*(SHARED_CONTROL_NODES if shared_control else ()), *extra)
-        for module in (*SUITE_NODES, *optional_nodes(tuple(dict.fromkeys(wanted)))):
-            more = [arg for remapping in (remappings or {}).get(module, ()) for arg in ('-r', remapping)]
-            self.start(module, *self.node_args(module, namespace=namespace, model=model, models_dir=models_dir,
-                                               params_files=params_files), *more)
+        wanted = optional_nodes(tuple(dict.fromkeys((*(SHARED_CONTROL_NODES if shared_control else ()), *extra))))
+        if objects:
+            refuse_unbuilt(wanted)
+            if model is not None:
+                raise GraspIntentError('objects name their own models: give no model')
+        starts = [(module, obj.namespace(namespace), obj.model, obj.process_name(module), chain_remappings(namespace))
+                  for obj in objects for module in SUITE_NODES] if objects else [
+                      (module, namespace, model, None, ()) for module in (*SUITE_NODES, *wanted)]
+        for module, node_namespace, node_model, name, own in starts:
+            more = [arg for remapping in (*own, *(remappings or {}).get(module, ())) for arg in ('-r', remapping)]
+            self.start(module, *self.node_args(module, namespace=node_namespace, model=node_model,
+                                               models_dir=models_dir, params_files=params_files), *more, name=name)
 
     @staticmethod
     def node_args(module: str, *, namespace: str = '', model: str | None = None,
@@ -406,7 +422,7 @@ class NodeSuite:
         return ros_args
 
     def node(self, module: str) -> NodeProcess:
-        """The last process started of ``module``. Raises KeyError if there is none."""
+        """The last process started named ``module`` (``<object>/<module>`` in a chain). KeyError if none."""
         for proc in reversed(self.processes):
             if proc.module == module:
                 return proc

@@ -4,9 +4,11 @@
 to stdout with each line prefixed by ``[node]``, prints ``suite: up`` once every node has logged that it is
 ready (:func:`~grasp_intent_ros.ros.startup.is_ready_line`; the scripted operator is started only once the
 others are, :data:`_HELD_BACK`), and stops them all on Ctrl-C (SIGINT), SIGTERM
-or SIGHUP (its terminal closed). Its last line says whether every node stopped cleanly, else names each
-that did not (died, killed, or ended by its watchdog); exit code 0 when every node stopped cleanly, 1 when
-one died or did not stop cleanly, 2 for bad arguments.
+or SIGHUP (its terminal closed). With ``--object NAME=MODEL`` (repeatable) it starts one planning chain per
+object under ``<namespace>/<NAME>/`` instead (:mod:`grasp_intent_ros.launch.objects`), each process's lines
+prefixed ``[NAME/node]``, and ``suite: up`` waits for every chain. Its last line says whether every node
+stopped cleanly, else names each that did not (died, killed, or ended by its watchdog); exit code 0 when every
+node stopped cleanly, 1 when one died or did not stop cleanly, 2 for bad arguments.
 """
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from ..errors import GraspIntentError
 from ..ros.startup import is_ready_line
+from .objects import parse_objects, refuse_unbuilt
 from .suite import (
     MAX_DOMAIN_ID,
     OPTIONAL_NODES,
@@ -89,6 +93,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help=f'also start this node (optional nodes: {", ".join(OPTIONAL_NODES) or "none"})')
     parser.add_argument('--shared-control', action='store_true',
                         help=f'also start the shared-control loop: {" and ".join(SHARED_CONTROL_NODES)}')
+    parser.add_argument('--object', dest='objects', action='append', default=[], metavar='NAME=MODEL',
+                        help='instead of one planning chain, one per object of the scene under <namespace>/NAME/ '
+                             'with its own model (a stem in config/models) and object/pose, all reading the arm\'s '
+                             'joint_states; repeatable (docs/several_objects.md)')
     parser.add_argument('--log-dir', type=Path, metavar='DIR',
                         help="keep each node's stdout and stderr in DIR (default: a temporary directory, deleted)")
     args = parser.parse_args(argv)
@@ -98,9 +106,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f'no parameters file {", ".join(missing)}')
     try:
         extra = optional_nodes(args.extra)
+        objects = parse_objects(args.objects)
+        if objects:
+            refuse_unbuilt([*(SHARED_CONTROL_NODES if args.shared_control else ()), *extra])
         domain_id = args.domain_id if args.domain_id is not None else domain_id_from_environment(unset=0)
         suite = NodeSuite(domain_id, log_dir=args.log_dir)
-    except SuiteError as exc:
+    except (SuiteError, GraspIntentError) as exc:
         parser.error(str(exc))
     stop_requested: list[int] = []
     for sig in _STOP_SIGNALS:
@@ -110,9 +121,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         held = [module for module in extra if module in _HELD_BACK]
         suite.start_nodes(namespace=args.namespace, params_files=args.params_file,
-                          extra=[module for module in extra if module not in held], shared_control=args.shared_control)
+                          extra=[module for module in extra if module not in held], shared_control=args.shared_control,
+                          objects=objects)
+        scene = ''.join(f'; object {o.name} ({o.model}) in {o.namespace(args.namespace)}' for o in objects)
         print(f'suite: ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, namespace '
-              f'{args.namespace or "/"}; started ' + ', '.join(f'{p.module} (pid {p.pid})' for p in suite.processes)
+              f'{args.namespace or "/"}{scene}; started '
+              + ', '.join(f'{p.module} (pid {p.pid})' for p in suite.processes)
               + ''.join(f'; {module} once they are ready' for module in held) + '; Ctrl-C stops them', flush=True)
         start, up = time.monotonic(), False
         while not stop_requested and not died:

@@ -236,7 +236,7 @@ def test_optional_nodes_start_on_request_after_the_suite_with_every_params_file(
 
     monkeypatch.setattr(suite_module, 'OPTIONAL_NODES', ('viewer_like',))
     started: list[tuple[str, tuple[str, ...]]] = []
-    monkeypatch.setattr(NodeSuite, 'start', lambda self, module, *args: started.append((module, args)))
+    monkeypatch.setattr(NodeSuite, 'start', lambda self, module, *args, name=None: started.append((module, args)))
     mine = tmp_path / 'mine.yaml'
     suite = NodeSuite(97, log_dir=tmp_path)
     suite.start_nodes(namespace='/r1', params_files=[mine], extra=['viewer_like'])

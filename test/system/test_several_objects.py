@@ -1,0 +1,134 @@
+"""Several objects in one scene: ``suite --object cup=... --object flashlight=...`` as a user runs it.
+
+One planning chain per object under ``/<object>/``, each with its own model and ``object/pose``, all reading
+the arm's one ``joint_states`` at the root (docs/several_objects.md); the command's readiness and its clean
+stop cover every chain. Only the process group this test started is signalled.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, String
+
+from grasp_intent_ros.launch.parent_death import ended_with_this_process
+from grasp_intent_ros.launch.suite import SUITE_NODES
+from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q
+from grasp_intent_ros.ros.conversions import model_from_msg
+from grasp_intent_ros.ros.qos import latched_qos
+from grasp_intent_ros.ros.robot import matrix_to_pose_msg
+
+UP = 90.0
+"""Seconds for six node processes to start and log that they are ready (two planners load their compiled kernels
+at once) on a loaded 2-core machine."""
+ANSWER = 30.0
+"""Seconds for a chain to answer a w (discovery of the test's publishers, one plan)."""
+STOP = 30.0
+"""Seconds for the command to stop six nodes, one at a time, after Ctrl-C."""
+MODELS = {'cup': 'cup_7zone', 'flashlight': 'flashlight_7zone'}
+W = Float64MultiArray(data=[0.9, 0.9, 0.1])
+
+
+def alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def stamp_ns(msg: PoseStamped) -> int:
+    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+
+
+def test_one_chain_per_object_each_with_its_model_and_pose_sharing_the_arms_joint_states(
+        ros, domain_id: int, tmp_path: Path) -> None:
+    out = tmp_path / 'suite.out'
+    command = [sys.executable, '-m', 'grasp_intent_ros', 'suite', '--domain-id', str(domain_id),
+               *(arg for name, model in MODELS.items() for arg in ('--object', f'{name}={model}')),
+               '--log-dir', str(tmp_path / 'logs')]
+    suite = subprocess.Popen(command, cwd=tmp_path, stdout=out.open('w'), stderr=subprocess.STDOUT,
+                             start_new_session=True, preexec_fn=ended_with_this_process())
+    try:
+        active = {name: ros.subscribe(String, f'/{name}/model/active', latched_qos()) for name in MODELS}
+        grasps = {name: ros.subscribe(PoseStamped, f'/{name}/grasp/pose') for name in MODELS}
+        w_pubs = {name: ros.publisher(Float64MultiArray, f'/{name}/intent/w') for name in MODELS}
+        joints_pub = ros.publisher(JointState, '/joint_states')
+        flashlight_pose_pub = ros.publisher(PoseStamped, '/flashlight/object/pose')
+        assert ros.wait_for(lambda: 'suite: up' in out.read_text() or suite.poll() is not None, UP), out.read_text()
+        assert suite.poll() is None, out.read_text()
+
+        # each chain's model is its own
+        assert ros.wait_for(lambda: all(active.values()), ANSWER)
+        assert {name: model_from_msg(msgs[-1]).name for name, msgs in active.items()} == MODELS
+
+        # the arm's joint_states is one, at the root: each planner reads it, no chain has one of its own
+        def planner_inputs(name: str) -> set[str]:  # empty until the probe has discovered the planner
+            if ('grasp_planner', f'/{name}') not in ros.node.get_node_names_and_namespaces():
+                return set()
+            return {topic for topic, _ in ros.node.get_subscriber_names_and_types_by_node('grasp_planner', f'/{name}')}
+
+        def own_inputs(name: str) -> set[str]:
+            return {'/joint_states', f'/{name}/intent/v', f'/{name}/model/active', f'/{name}/object/pose'}
+        assert ros.wait_for(lambda: all(own_inputs(name) <= planner_inputs(name) for name in MODELS), ANSWER), \
+            {name: planner_inputs(name) for name in MODELS}
+        assert [sorted(t for t in planner_inputs(name) if t != '/joint_states' and not t.startswith(f'/{name}/'))
+                for name in MODELS] == [[], []], 'a chain reads a topic outside its namespace besides the arm\'s'
+        assert [ros.node.count_subscribers(f'/{name}/joint_states') for name in MODELS] == [0, 0]
+
+        # the flashlight on the other side of the arm (its own object/pose); the cup at the default pose (y -0.3)
+        home = JointState(name=list(ARM_JOINTS), position=[float(q) for q in HOME_Q])
+        flashlight_pose = matrix_to_pose_msg(pose_to_matrix((0.3, 0.3, 0.0), (0.0, 0.0, 1.0, 0.0)),
+                                             frame_id=BASE_FRAME, stamp=ros.node.get_clock().now().to_msg())
+
+        def publish_until(name: str, predicate, *more: tuple[object, object]) -> bool:
+            deadline = time.monotonic() + ANSWER
+            while time.monotonic() < deadline:
+                joints_pub.publish(home)
+                for publisher, msg in more:
+                    publisher.publish(msg)
+                w_pubs[name].publish(W)
+                if ros.wait_for(predicate, 0.5):
+                    return True
+            return False
+
+        assert publish_until('flashlight', lambda: any(g.pose.position.y > 0.0 for g in grasps['flashlight']),
+                             (flashlight_pose_pub, flashlight_pose)), out.read_text()
+        assert grasps['cup'] == [], 'a w on /flashlight/intent/w planned for the cup'
+
+        cup_w_sent = ros.node.get_clock().now().nanoseconds  # a flashlight plan of the cup's w is stamped later
+        assert publish_until('cup', lambda: grasps['cup']), out.read_text()
+        assert all(g.pose.position.y < 0.0 for g in grasps['cup']), 'the cup was planned at the flashlight\'s pose'
+        assert [stamp_ns(g) for g in grasps['flashlight'] if stamp_ns(g) > cup_w_sent] == [], \
+            'a w on /cup/intent/w planned for the flashlight'
+
+        os.killpg(suite.pid, signal.SIGINT)  # Ctrl-C
+        assert suite.wait(STOP) == 0, out.read_text()
+    finally:
+        if suite.poll() is None:
+            os.killpg(suite.pid, signal.SIGKILL)
+            suite.wait()
+    text = out.read_text()
+    first, lines = text.splitlines()[0], text.splitlines()
+    assert first.startswith(f'suite: ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, namespace /; '
+                            'object cup (cup_7zone) in /cup; object flashlight (flashlight_7zone) in /flashlight; '
+                            'started cup/intent_interpreter (pid '), first
+    pids = {name: int(pid) for name, pid in re.findall(r'([\w/]+) \(pid (\d+)\)', first)}
+    chain = [f'{name}/{module}' for name in MODELS for module in SUITE_NODES]
+    assert list(pids) == chain, first
+    up = next(i for i, line in enumerate(lines) if line.startswith('suite: up after'))
+    assert {m for m in re.findall(r'^\[([\w/]+)\] .*\]: ready', '\n'.join(lines[:up]), re.MULTILINE)} == set(chain)
+    assert text.rstrip().endswith('suite: stopped cleanly'), text
+    assert 'Traceback' not in text, text
+    assert not [name for name, pid in pids.items() if alive(pid)], 'a node outlived the suite command'
+    assert sorted(p.name for p in (tmp_path / 'logs').iterdir()) == sorted(
+        f'{name.replace("/", ".")}.{ext}' for name in chain for ext in ('out', 'err'))
