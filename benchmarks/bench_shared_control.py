@@ -20,9 +20,9 @@ closures plus its closure error (N(0, ``closure_error``^2) per finger, one draw 
 ``closure_seed``). The probe sets ``closure_seed`` to the operator's closure seed before each of its runs (the set
 restarts the stream): the one close of a run draws the stream's first error, so an operator's closes draw the same
 error in the three conditions (paired, as the simulated loop's). The probe sends zero twists until it receives a joint
-state at least ``CLOSE_SETTLE`` (0.3 s) after the close's answer with every finger at rest
-(:func:`~grasp_intent_ros.wire.robot_state.fingers_settled`, as the demo reads them), and the hand is judged there:
-its pose and the closures the fingers executed.
+state at least ``CLOSE_SETTLE`` (0.3 s) after the close's answer with the fingers at rest
+(:func:`~grasp_intent_ros.wire.joint_states.fingers_settled`, as the demo reads them: still for 0.5 s, from
+positions), and the hand is judged there: its pose and the closures the fingers executed.
 
 A close on the operator's OWN grasp calls no ``grasp/close``: the mock arm would close to the latest plan's
 closures, a grasp the operator did not choose, and judging those would credit (or blame) the planner for the
@@ -44,11 +44,14 @@ The latency and stream phases run before the first operator's pose, at the true 
 
 The scripted operator (a stated, simple model)
 ----------------------------------------------
-- **Intent.** A prior w0 ~ U(0.2, 0.8)^3 over (usage, transfer, handover); the true task set S is drawn
-  from it (task i with probability w0_i, redrawn until not empty). The intent inference's w sharpens
-  linearly from w0 to the certain w_S (0.95 for the tasks of S, 0.05 for the others) over T ~ U(1.5, 4) s,
-  with N(0, (0.08 (1 - s))^2) noise per task (s the sharpening's progress, w clipped to [0.02, 0.98]),
-  published at 10 Hz on ``intent/w``.
+- **Intent** (``--intent``). ``sharpening`` (the default): a prior w0 ~ U(0.2, 0.8)^3 over (usage, transfer,
+  handover); the true task set S is drawn from it (task i with probability w0_i, redrawn until not empty). The
+  intent inference's w sharpens linearly from w0 to the certain w_S (0.95 for the tasks of S, 0.05 for the
+  others) over T ~ U(1.5, 4) s, with N(0, (0.08 (1 - s))^2) noise per task (s the sharpening's progress, w
+  clipped to [0.02, 0.98]). ``persistent``: the simulated benchmark's persistent ambiguity
+  (:meth:`~grasp_intent_ros.shared_control.operators.PersistentIntent.draw`): operator i's w held at the paper's
+  case i mod 5 (:data:`~grasp_intent_ros.shared_control.operators.AMBIGUOUS_CASES`) with N(0, 0.05^2) noise per
+  task, S drawn from the case the same way. Either is published at 10 Hz on ``intent/w``.
 - **Goal** (:class:`~grasp_intent_ros.shared_control.operators.ScriptedOperator`, which never reads the
   rules). Its own grasp for S: the planner's grasp for the certain w_S, planned offline from Home
   (:func:`~grasp_intent_ros.shared_control.simulator.certain_grasp`) where the operator sees the object, with the
@@ -100,8 +103,8 @@ Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and 
 
     ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=97 \
         .venv/bin/python benchmarks/bench_shared_control.py [--quick] [--operators 50] [--json runs.json] \
-            [--conditions none blend confidence] [--no-execute] [--tracker-mm 5 --tracker-deg 3] \
-            [--operator-mm 5 --operator-deg 3]
+            [--intent sharpening] [--conditions none blend confidence] [--no-execute] \
+            [--tracker-mm 5 --tracker-deg 3] [--operator-mm 5 --operator-deg 3]
 """
 
 from __future__ import annotations
@@ -125,7 +128,7 @@ from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import MockArm
 from grasp_intent_ros.planning.options import node_default_options
 from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error
-from grasp_intent_ros.shared_control.operators import OperatorConstants, SharpeningIntent
+from grasp_intent_ros.shared_control.operators import OperatorConstants, PersistentIntent, SharpeningIntent
 from grasp_intent_ros.shared_control.simulator import certain_grasp, perturb_pose
 
 CONDITIONS = ('none', 'blend', 'confidence')
@@ -287,7 +290,8 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
             own: Grasp | None = None
             for condition in order:
                 rng = np.random.default_rng([args.seed, list(OBJECTS).index(name), i])
-                intent = SharpeningIntent.draw(rng)
+                intent = (PersistentIntent.draw(i, rng) if args.intent == 'persistent'
+                          else SharpeningIntent.draw(rng))
                 if own is None:  # the operator's own grasp for its set, planned where it sees the object
                     own = certain_grasp(model, intent.true_set, seen, kin, options=node_default_options())
                 loop.set_arbitration(condition)
@@ -357,6 +361,8 @@ def main() -> None:
     parser.add_argument('--operators', type=int, default=50, help='seeded operators per object')
     parser.add_argument('--quick', action='store_true', help='3 operators per object, a 5 s latency phase')
     parser.add_argument('--objects', nargs='+', default=list(OBJECTS), choices=list(OBJECTS))
+    parser.add_argument('--intent', default='sharpening', choices=('sharpening', 'persistent'),
+                        help='the operators\' w: sharpening to the true set, or held at the paper\'s ambiguous cases')
     parser.add_argument('--timeout', type=float, default=25.0, help='seconds an operator gets')
     parser.add_argument('--latency-seconds', type=float, default=20.0)
     parser.add_argument('--seed', type=int, default=0)
@@ -388,9 +394,9 @@ def main() -> None:
         args.operators, args.latency_seconds = 3, 5.0
     domain_id = loopback_domain('bench_shared_control')
     op = OperatorConstants()
-    print(f'bench_shared_control: {args.operators} operators per object, {", ".join(args.objects)}; {uptime()}',
-          flush=True)
-    report: dict[str, Any] = {'operator': asdict(op), 'objects': {}}
+    print(f'bench_shared_control: {args.operators} operators per object, {", ".join(args.objects)}, the '
+          f'{args.intent} intent; {uptime()}', flush=True)
+    report: dict[str, Any] = {'operator': asdict(op), 'intent': args.intent, 'objects': {}}
     for name in args.objects:
         runs, latency = run_object(name, args, domain_id, op)
         table, pairs = summary(runs, args.timeout), paired(runs, args.timeout)

@@ -12,8 +12,9 @@ The stream figures (rate, gaps, latency, opposition timing, the switch) are benc
 
 The episodes
 ------------
-- Intent (``--intent``): ``persistent`` (w held at the paper's ambiguous cases, :data:`CASES`, episode i on
-  case i mod 5, noise 0.05; T drawn from the case under the independent-task model) or ``sharpening`` (as
+- Intent (``--intent``): ``persistent`` (w held at the paper's ambiguous cases,
+  :data:`~grasp_intent_ros.shared_control.operators.AMBIGUOUS_CASES`, episode i on case i mod 5, noise 0.05;
+  T drawn from the case under the independent-task model) or ``sharpening`` (as
   bench_shared_control.py: w0 ~ U(0.2, 0.8)^3 sharpening to the certain w_T over U(1.5, 4) s).
 - Operators (:mod:`grasp_intent_ros.shared_control.operators`): ``joystick`` (two modes), ``spacemouse``
   (six axes), ``goal-changing`` (a spacemouse operator whose true set changes once, at U(1.5, 3) s, to
@@ -79,14 +80,21 @@ condition, estimated w minus scripted w (the suite) and minus direct, fused minu
 independent-task grasp, direct and ADA) with a 95% percentile bootstrap over
 episodes (10,000 resamples, seeded).
 
+Records (``--records F``): a JSON line per episode as it ends, the list of its runs' records, each carrying the
+run's settings (``run``: :func:`run_settings`; files written before they did lack it). ``--summarise F`` prints
+the figures of such a file (``.jsonl``, or gzip-compressed ``.jsonl.gz``) and runs nothing;
+benchmarks/compare_records.py pairs the runs of two of them, a change's against main's or against the shipped
+reference records of the README's rows (``benchmarks/reference/``).
+
     .venv/bin/python benchmarks/bench_shared_control_sim.py [--episodes 50] [--repeats 3] [--jobs 2] \
         [--intent persistent] [--conditions direct suite estimated] [--estimator rationality=300] \
-        [--operator-mm 5 --operator-deg 3] [--json out.json]
+        [--operator-mm 5 --operator-deg 3] [--json out.json] [--records runs.jsonl] [--summarise runs.jsonl]
 """
 
 from __future__ import annotations
 
 import argparse
+import gzip
 import json
 import math
 import time
@@ -112,7 +120,6 @@ from grasp_intent_ros.shared_control.operators import (
     PersistentIntent,
     ScriptedOperator,
     SharpeningIntent,
-    draw_task_set,
 )
 from grasp_intent_ros.shared_control.simulator import (
     CONDITIONS,
@@ -124,7 +131,6 @@ from grasp_intent_ros.shared_control.simulator import (
 )
 
 OPERATORS = ('joystick', 'spacemouse', 'goal-changing')
-CASES = ((0.9, 0.9, 0.1), (0.9, 0.1, 0.9), (0.1, 0.9, 0.9), (0.9, 0.5, 0.5), (0.7, 0.7, 0.7))
 ESTIMATED = 'estimated'
 FUSED = 'fused'
 RUN = (*CONDITIONS, ESTIMATED, FUSED)
@@ -179,11 +185,40 @@ class Task:
     """The planner's object margin in tracker sigmas (module docstring); 0: the collision check unasked."""
 
 
+EPISODE_SETTINGS = ('seed', 'intent', 'timeout', 'tracker_mm', 'tracker_deg', 'operator_mm', 'operator_deg')
+"""The settings that make the episodes (the seeds, the intent, the tracker's and the operator's errors) and the
+timeout that ends them: the runs of two record files pair only where these agree. The rest of a record's ``run``
+(:func:`run_settings`) is the loop's: what a compared change may vary."""
+
+
+def run_settings(task: Task) -> dict[str, Any]:
+    """The run's settings, which every record carries as ``run``.
+
+    :data:`EPISODE_SETTINGS`, then the loop's: the grasp command executing, the planner's execution noise and
+    object margin, the estimator's fields set.
+    """
+    return {**{name: getattr(task, name) for name in EPISODE_SETTINGS}, 'execute': task.execute,
+            'execution_noise': task.execution_noise, 'margin_sigmas': task.margin_sigmas,
+            'estimator': dict(task.estimator)}
+
+
+def read_records(path: str) -> list[dict[str, Any]]:
+    """The records of a ``--records`` file (``.jsonl``, or gzip-compressed: ``.jsonl.gz``).
+
+    JSON lines, each a list of records (one episode's, as :func:`run_tasks` appends them). Raises OSError
+    (unreadable), ValueError (a line that is not a JSON list of objects).
+    """
+    with (gzip.open(path, 'rt') if path.endswith('.gz') else open(path)) as f:
+        lines = [json.loads(line) for line in f if line.strip()]
+    if not all(isinstance(line, list) and all(isinstance(r, dict) for r in line) for line in lines):
+        raise ValueError(f'{path}: a line is not a JSON list of records (not a --records file)')
+    return [r for line in lines for r in line]
+
+
 def _intent(task: Task, rng: np.random.Generator) -> Any:
     if task.intent == 'sharpening':
         return SharpeningIntent.draw(rng)
-    case = CASES[task.index % len(CASES)]
-    persistent = PersistentIntent(case, draw_task_set(np.asarray(case), rng))
+    persistent = PersistentIntent.draw(task.index, rng)
     if task.operator != 'goal-changing':
         return persistent
     others = [s for s in range(1, 8) if s != persistent.true_set]
@@ -239,7 +274,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
                             'swept': ep.swept, 'swept_palm_mm': _mm(ep.swept_palm),
                             'swept_finger_mm': _mm(ep.swept_finger), 'in_at_closing': ep.in_at_closing,
                             'closing_palm_mm': _mm(ep.closing_palm), 'closing_finger_mm': _mm(ep.closing_finger),
-                            'wall_s': time.perf_counter() - t0})
+                            'wall_s': time.perf_counter() - t0, 'run': run_settings(task)})
             if trace is not None:
                 records[-1].update(trace_record(trace, ep, rules, verdict))
     return records
@@ -282,12 +317,45 @@ def per_episode(records: list[dict[str, Any]], key: str) -> dict[str, dict[int, 
     return {c: {e: float(np.mean(v)) for e, v in eps.items()} for c, eps in out.items()}
 
 
+def episode_figures(records: list[dict[str, Any]]) -> dict[str, dict[str, dict[int, float]]]:
+    """Figure -> condition -> episode -> the mean over the episode's repeats (:func:`per_episode`).
+
+    The figures: success, time (a run that never closed: the timeout) and, where every record carries ``swept``
+    (older ``--records`` files lack it), ``clear``: success with a clear path.
+    """
+    figures = {'success': per_episode(records, 'success'), 'time': per_episode(records, 'time')}
+    if all('swept' in r for r in records):
+        figures['clear'] = per_episode([{**r, 'clear': r['success'] and not r['swept']} for r in records], 'clear')
+    return figures
+
+
+def paired_difference(a: dict[str, dict[int, float]], b: dict[str, dict[int, float]], rng: np.random.Generator,
+                      rng_clear: np.random.Generator) -> dict[str, Any]:
+    """``a`` minus ``b`` paired over ``a``'s episodes, with 95% bootstrap CIs (:func:`_bench.bootstrap_ci`).
+
+    ``a``, ``b``: figure -> episode -> the mean over repeats, for one condition each (:func:`episode_figures`);
+    ``b`` has every episode of ``a``. Success (``success_diff``, ``ci``): the mean of the episodes' differences, a
+    share (x 100: points). Time (``time_ratio``, ``time_ratio_ci``): the geometric mean over episodes of the
+    ratio of the episodes' mean times, a run that never closed counting as the timeout (its record's ``time``).
+    Success with a clear path (``clear_diff``, ``clear_ci``) when both carry ``clear``, drawn from ``rng_clear``
+    so that the success's CIs do not depend on whether the records carry it.
+    """
+    eps = sorted(a['success'])
+    d, lo, hi = bootstrap_ci([a['success'][e] - b['success'][e] for e in eps], rng)
+    m, rlo, rhi = bootstrap_ci([math.log(a['time'][e] / b['time'][e]) for e in eps], rng)
+    out = {'success_diff': d, 'ci': [lo, hi],
+           'time_ratio': math.exp(m), 'time_ratio_ci': [math.exp(rlo), math.exp(rhi)]}
+    if 'clear' in a and 'clear' in b:
+        d, lo, hi = bootstrap_ci([a['clear'][e] - b['clear'][e] for e in eps], rng_clear)
+        out.update(clear_diff=d, clear_ci=[lo, hi])
+    return out
+
+
 def summarise(records: list[dict[str, Any]], timeout: float) -> dict[str, Any]:
     """The figures of one object x operator cell (module docstring)."""
     rng, rng_clear = np.random.default_rng(0), np.random.default_rng(1)  # success's CIs as without `clear`
-    success, times = per_episode(records, 'success'), per_episode(records, 'time')
-    swept = all('swept' in r for r in records)  # older --records files lack it
-    clear = per_episode([{**r, 'clear': r['success'] and not r['swept']} for r in records], 'clear') if swept else {}
+    figures = episode_figures(records)
+    success, swept, clear = figures['success'], 'clear' in figures, figures.get('clear', {})
     effort, wrong = per_episode(records, 'effort_linear'), per_episode(records, 'wrong_pull')
     table: dict[str, Any] = {}
     for c in [c for c in RUN if c in success]:
@@ -304,16 +372,8 @@ def summarise(records: list[dict[str, Any]], timeout: float) -> dict[str, Any]:
                 table[c]['in_at_closing'] = sum(r['in_at_closing'] for r in runs)
             table[c]['clear'] = float(np.mean([clear[c][e] for e in eps]))
     for a, other in [(a, b) for a, b in PAIRS if a in success and b in success]:
-        eps = sorted(success[a])
-        diff = [success[a][e] - success[other][e] for e in eps]
-        ratio = [math.log(times[a][e] / times[other][e]) for e in eps]
-        d, lo, hi = bootstrap_ci(diff, rng)
-        m, rlo, rhi = bootstrap_ci(ratio, rng)
-        table[f'{a}-{other}'] = {'success_diff': d, 'ci': [lo, hi],
-                                   'time_ratio': math.exp(m), 'time_ratio_ci': [math.exp(rlo), math.exp(rhi)]}
-        if swept:
-            d, lo, hi = bootstrap_ci([clear[a][e] - clear[other][e] for e in eps], rng_clear)
-            table[f'{a}-{other}'].update(clear_diff=d, clear_ci=[lo, hi])
+        table[f'{a}-{other}'] = paired_difference({k: v[a] for k, v in figures.items()},
+                                                  {k: v[other] for k, v in figures.items()}, rng, rng_clear)
     return table
 
 
@@ -365,11 +425,10 @@ def main() -> None:
     parser.add_argument('--json', help='write every record and the summaries here')
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
     parser.add_argument('--summarise', metavar='JSONL', help='run nothing: summarise the records of a --records file '
-                        '(the cells it holds complete)')
+                        '(.jsonl or .jsonl.gz; the cells it holds complete)')
     args = parser.parse_args()
     if args.summarise:
-        with open(args.summarise) as f:
-            done = [r for line in f for r in json.loads(line)]
+        done = read_records(args.summarise)
         report_cells(done, args, sorted({r['object'] for r in done}), sorted({r['operator'] for r in done}))
         return
     tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg,

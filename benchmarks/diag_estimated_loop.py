@@ -32,7 +32,6 @@ The judge's rules are read here only after the runs. One command, reusable on ot
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from collections import Counter
 from typing import Any
@@ -40,7 +39,7 @@ from typing import Any
 import numpy as np
 from _bench import uptime
 from _bench.closed_loop import OBJECTS
-from bench_shared_control_sim import ESTIMATED, OPERATORS, RUN, Task, estimator_fields, run_tasks
+from bench_shared_control_sim import ESTIMATED, OPERATORS, RUN, Task, estimator_fields, read_records, run_tasks
 
 CLASSES = ('timeout', 'wrong plan, w wrong', 'wrong plan, w right', 'right plan, rules fail', 'own, rules fail')
 CORRIDOR = (0.02, 0.2)
@@ -143,11 +142,11 @@ def main() -> None:
     parser.add_argument('--estimator', nargs='*', default=[], metavar='FIELD=VALUE',
                         help='EstimatorConfig fields for the estimated condition (default: its defaults)')
     parser.add_argument('--records', help='append each episode\'s traced records here (JSON lines)')
-    parser.add_argument('--from', dest='source', metavar='JSONL', help='run nothing: classify these records')
+    parser.add_argument('--from', dest='source', metavar='JSONL', help='run nothing: classify these records '
+                        '(.jsonl or .jsonl.gz)')
     args = parser.parse_args()
     if args.source:
-        with open(args.source) as f:
-            report([r for line in f for r in json.loads(line)])
+        report(read_records(args.source))
         return
     tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, 25.0, 5.0, 3.0,
                   tuple(c for c in RUN if c in args.conditions),

@@ -13,6 +13,14 @@ which the hand-over saves on every update.
 How the thread waits is a :class:`Wait`: a ``threading.Event`` by default (:class:`EventWait`);
 :mod:`grasp_intent_ros.ros.worker` gives it an rclpy wait set, so that it can also take a subscription's
 messages itself.
+
+**The stop.** :meth:`WorkerThread.stop` asks the thread to stop and waits for its current work at most
+:data:`FINISH_WAIT` s. Work that takes longer (a model's first robustness estimate, a compile) is not cut
+short: nothing in it looks at the stop request, and compiled code cannot be interrupted. The thread, a
+daemon, is then left to end with the process (:func:`left_running` names such threads); a node process
+exits at once when its node has shut down (:func:`grasp_intent_ros.ros.run.guard_exit`), so a stop takes
+at most :data:`FINISH_WAIT` s per thread, at any load. What such work yields is not wanted: a handler
+publishes no answer once :attr:`WorkerThread.stopping` is true (the planner's checks it before it publishes).
 """
 
 from __future__ import annotations
@@ -23,9 +31,17 @@ import time
 from collections.abc import Callable
 from typing import Generic, Protocol, TypeVar
 
-__all__ = ['Wait', 'EventWait', 'WorkerThread', 'LatestOnlyWorker']
+__all__ = ['Wait', 'EventWait', 'WorkerThread', 'LatestOnlyWorker', 'FINISH_WAIT', 'left_running']
 
 T = TypeVar('T')
+
+FINISH_WAIT = 1.0
+"""Seconds :meth:`WorkerThread.stop` waits for the thread's current work before leaving it to end with the process.
+
+Ordinary work (a plan, a model document's read, a goal set's IK) ends well within it even on a loaded machine;
+a node stops at most two such threads (its work and its model follower), within the stop's grace
+(:data:`grasp_intent_ros.ros.run.SHUTDOWN_GRACE`).
+"""
 
 
 class Wait(Protocol):
@@ -59,13 +75,27 @@ class EventWait:
         pass
 
 
+class _Thread(threading.Thread):
+    """A worker's thread, which knows its stop request (:func:`left_running`)."""
+
+    def __init__(self, target: Callable[[], None], name: str, stop: threading.Event) -> None:
+        super().__init__(target=target, name=name, daemon=True)
+        self.stop_request = stop
+
+
+def left_running() -> list[str]:
+    """The names of the worker threads asked to stop that still run: stops that did not wait for their work."""
+    return [thread.name for thread in threading.enumerate()
+            if isinstance(thread, _Thread) and thread.stop_request.is_set() and thread.is_alive()]
+
+
 class WorkerThread:
     """A daemon thread with a :class:`Wait` and a stop request; ``_run`` is the subclass's loop."""
 
     def __init__(self, wait: Wait, name: str) -> None:
         self._wait = wait
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread: threading.Thread = _Thread(self._run, name, self._stop)
         self._thread.start()
 
     def stop_soon(self) -> None:
@@ -73,12 +103,20 @@ class WorkerThread:
         self._stop.set()
         self._wait.wake()
 
-    def stop(self) -> None:
-        """Stop the thread and wait for it (unless called from it); then close its wait."""
+    def stop(self) -> bool:
+        """Stop the thread: wait for its current work at most :data:`FINISH_WAIT` s (module docstring, "The stop").
+
+        Returns whether the thread ended (then its wait is closed); False when called from the thread itself, or
+        when its work goes on: the thread then ends after it, or with the process (:func:`left_running`).
+        """
         self.stop_soon()
-        if threading.current_thread() is not self._thread:
-            self._thread.join()
-            self._wait.close()
+        if threading.current_thread() is self._thread:
+            return False
+        self._thread.join(FINISH_WAIT)
+        if self._thread.is_alive():
+            return False
+        self._wait.close()
+        return True
 
     @property
     def stopping(self) -> bool:
@@ -156,17 +194,6 @@ class LatestOnlyWorker(WorkerThread, Generic[T]):
     def preparing(self) -> bool:
         """Whether the thread still runs ``prepare``."""
         return self._preparing
-
-    def stop(self) -> None:
-        """Stop the thread and wait for it, unless it still runs ``prepare``.
-
-        A preparation (a compile, say) cannot be cut short: the thread (a daemon) is then only asked to stop,
-        and ends with the process (:func:`grasp_intent_ros.ros.startup.run` ends a process left so at once).
-        """
-        if self._preparing:
-            self.stop_soon()
-        else:
-            super().stop()
 
     def _run(self) -> None:
         if self._prepare is not None:

@@ -36,7 +36,7 @@ from grasp_intent_ros.shared_control.operator_loop import (
     operator_step,
 )
 from grasp_intent_ros.shared_control.operators import IntentScript, OperatorConstants, ScriptedOperator
-from grasp_intent_ros.wire.robot_state import CLOSE_SETTLE, Hand, fingers_settled, hand_state
+from grasp_intent_ros.wire.joint_states import CLOSE_SETTLE, Hand, HandTracker, fingers_settled
 
 OBJECTS = {'cup': 'cup_7zone', 'flashlight': 'flashlight_7zone'}
 """The benchmark's objects and their models; the judge's rules are each model's object's (``object_of``)."""
@@ -92,14 +92,15 @@ class Loop:
         from std_srvs.srv import Trigger
         from trajectory_msgs.msg import JointTrajectory
 
+        from grasp_intent_ros.errors import GraspIntentError
         from grasp_intent_ros.ros.qos import input_qos, output_qos
         from grasp_intent_ros.wire.arrays import stamped_values
-        from grasp_intent_ros.wire.robot_state import joint_positions, pose_msg_to_matrix, trajectory_time
+        from grasp_intent_ros.wire.robot_state import pose_msg_to_matrix, trajectory_time
 
         self.probe, self.kin = probe, kin
         node = probe.node
         self.hands: Perceived[np.ndarray] = Perceived(keep=200)  # base_T_ee by monotonic receipt
-        self.joints: tuple[float, Any] | None = None  # the latest joint state, with its monotonic receipt
+        self.tracker = HandTracker(kin)  # joint_states by monotonic receipt
         self.plans: list[tuple[float, np.ndarray, np.ndarray]] = []  # (monotonic, base_T_grasp, features)
         self.alphas: list[tuple[float, float]] = []
         self.outputs: list[tuple[int, float]] = []  # (receive ns, angular.z)
@@ -108,10 +109,13 @@ class Loop:
 
         def on_joints(msg: Any) -> None:
             received = time.monotonic()
-            self.joints = (received, msg)
-            q = joint_positions(msg, ARM_JOINTS)
-            if q is not None:
-                self.hands.add(received, kin.fk(q))
+            try:
+                named = self.tracker.add(msg, received)
+            except GraspIntentError as exc:  # not read: the hand stays the previous messages'
+                print(f'bench_shared_control: joint_states not read: {exc}', file=sys.stderr)
+                return
+            if any(name in ARM_JOINTS for name in named) and (arm := self.tracker.joints.read(ARM_JOINTS)) is not None:
+                self.hands.add(received, kin.fk(arm.positions))
 
         def on_pose(msg: Any) -> None:
             self._poses[(msg.header.stamp.sec, msg.header.stamp.nanosec)] = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
@@ -235,15 +239,15 @@ class Loop:
         return True
 
     def hand(self) -> Hand | None:
-        """The hand of the latest joint state (:func:`~grasp_intent_ros.wire.robot_state.hand_state`)."""
-        joints = self.joints
-        return None if joints is None else hand_state(joints[1], self.kin, joints[0])
+        """The hand of the joint states so far (:class:`~grasp_intent_ros.wire.joint_states.HandTracker`)."""
+        return self.tracker.hand()
 
     def close(self) -> Hand | None:
         """The grasp command's close: ``grasp/close``, then zero twists until the fingers are seen at rest.
 
-        The hand read in a joint state received at least :data:`~grasp_intent_ros.wire.robot_state.CLOSE_SETTLE` s
-        after the answer, every finger at rest (:func:`~grasp_intent_ros.wire.robot_state.fingers_settled`): its
+        The hand read in joint states received at least :data:`~grasp_intent_ros.wire.joint_states.CLOSE_SETTLE` s
+        after the answer, the fingers at rest (:func:`~grasp_intent_ros.wire.joint_states.fingers_settled`: still
+        for the rest rule's window, from positions): its
         fingers are the closures the mock arm executed (the latest plan's plus its closure error). None when the close
         is refused or the fingers are not at rest within :data:`CLOSE_TIMEOUT` s (both printed).
         """

@@ -30,8 +30,9 @@ mock arm's second closure error).
 
 Waits: each stage waits up to the demo's ``timeout`` (the grasp shown, the operator's close, the fingers at
 rest); a stage that does not complete raises :class:`LoopError` naming what is missing (the demo prints it and
-exits 1). The fingers are read once at rest in joint states received at least
-:data:`~grasp_intent_ros.wire.robot_state.CLOSE_SETTLE` s after the operator's status reported the close (the
+exits 1). The fingers are read once at rest (:func:`~grasp_intent_ros.wire.joint_states.fingers_settled`: still
+within the rest rule's tolerance for its window, from their positions) in joint states received at least
+:data:`~grasp_intent_ros.wire.joint_states.CLOSE_SETTLE` s after the operator's status reported the close (the
 close request is served in milliseconds; the status may arrive up to its 1 s period after it).
 """
 
@@ -53,6 +54,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool
 
+from ..errors import GraspIntentError
 from ..method.model import GraspModel
 from ..mico.frames import offset
 from ..mico.kinematics import BASE_FRAME, FINGER_JOINTS, MicoKinematics
@@ -60,15 +62,9 @@ from ..objects.judge import judge, operator_verdict
 from ..ros.qos import STREAM_DEPTH, input_qos
 from ..wire import topics
 from ..wire.diagnostics import KEY_EXECUTE, KEY_TIMES_TO_GRASP, OPERATOR_COMPONENT
+from ..wire.joint_states import CLOSE_SETTLE, Hand, HandTracker, fingers_settled
 from ..wire.model_document import ModelDocument
-from ..wire.robot_state import (
-    CLOSE_SETTLE,
-    Hand,
-    fingers_settled,
-    hand_state,
-    joint_positions,
-    pose_msg_to_matrix,
-)
+from ..wire.robot_state import joint_positions, pose_msg_to_matrix
 
 __all__ = ['LOOP_MODEL', 'OPERATOR_TASKS', 'OPERATOR_W', 'OPERATOR_W_NOISE', 'OPERATOR_SEED', 'HELD_BACK',
            'OPERATOR_PARAMETERS', 'LoopError', 'Hand', 'Shown', 'Episode', 'LoopView',
@@ -144,7 +140,7 @@ class LoopView(Protocol):
         """The operator's latest status: (monotonic receipt s, message, values); None before any."""
 
     def hand(self) -> Hand | None:
-        """The latest joint state; None before any."""
+        """The hand of the joint states so far (each joint's latest position); None while one is not known."""
 
     def shown(self) -> Shown | None:
         """The latest grasp shown; None before any."""
@@ -188,7 +184,7 @@ def _where(view: LoopView) -> str:
     status, hand, shown = view.operator_status(), view.hand(), view.shown()
     parts = ['no status from the scripted operator' if status is None else f'the scripted operator: {status[1]!r}']
     if hand is None:
-        parts.append('no joint_states from the mock arm')
+        parts.append('no joint_states with every arm and finger joint from the mock arm')
     elif shown is None:
         parts.append('no grasp shown')
     else:
@@ -204,7 +200,7 @@ def wait_for_close(view: LoopView, number: int, released: float, help_on: bool, 
     ------
     LoopError
         When the operator's status does not report the episode's close within ``timeout`` s, or the fingers are not
-        seen at rest :data:`~grasp_intent_ros.wire.robot_state.CLOSE_SETTLE` s after that within ``timeout`` s
+        seen at rest :data:`~grasp_intent_ros.wire.joint_states.CLOSE_SETTLE` s after that within ``timeout`` s
         more; the message names what is missing.
     """
     def closed() -> bool:
@@ -264,8 +260,7 @@ class LoopObserver(Node):
     def __init__(self, wait: Callable[[Callable[[], object], float], bool]) -> None:
         super().__init__('grasp_intent_demo_loop')
         self._wait = wait
-        self._kin = MicoKinematics()
-        self._joints: tuple[float, JointState] | None = None  # the latest joint state, with its receipt time
+        self._hands = HandTracker(MicoKinematics())  # joint_states by monotonic receipt
         self._status: tuple[float, str, Mapping[str, str]] | None = None
         self._poses: dict[tuple[int, int], NDArray[np.float64]] = {}  # grasp/pose by stamp, until its targets come
         self._shown: Shown | None = None
@@ -274,14 +269,21 @@ class LoopObserver(Node):
         self._alphas: list[tuple[float, float]] = []
         self.operator_parameters = AsyncParameterClient(self, 'scripted_operator')
         self.enable_client = self.create_client(SetBool, topics.ASSISTANCE_ENABLE)
-        self.create_subscription(JointState, topics.JOINT_STATES,
-                                 lambda msg: setattr(self, '_joints', (time.monotonic(), msg)), input_qos(1))
+        # keep-last 1: each joint state is timed by its receipt, so a backlog taken late would pass for joint states
+        # sent after the close; the rest rule reads what it takes (a joint state dropped only thins its window)
+        self.create_subscription(JointState, topics.JOINT_STATES, self._on_joints, input_qos(1))
         self.create_subscription(PoseStamped, topics.GRASP_POSE, self._on_pose, input_qos())
         self.create_subscription(JointState, topics.GRASP_JOINT_TARGETS, self._on_targets, input_qos())
         self.create_subscription(TwistStamped, topics.OPERATOR_TWIST, self._on_twist, input_qos(STREAM_DEPTH))
         self.create_subscription(Float64, topics.ASSISTANCE_ALPHA,
                                  lambda msg: self._alphas.append((time.monotonic(), msg.data)), input_qos(STREAM_DEPTH))
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, 50)
+
+    def _on_joints(self, msg: JointState) -> None:
+        try:
+            self._hands.add(msg, time.monotonic())
+        except GraspIntentError as exc:  # not read: the hand stays the previous messages'
+            self.get_logger().warning(f'joint_states not read: {exc}', throttle_duration_sec=5.0)
 
     def _on_pose(self, msg: PoseStamped) -> None:
         self._poses[(msg.header.stamp.sec, msg.header.stamp.nanosec)] = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
@@ -310,10 +312,7 @@ class LoopObserver(Node):
         return self._status
 
     def hand(self) -> Hand | None:  # noqa: D102
-        if self._joints is None:
-            return None
-        received, msg = self._joints
-        return hand_state(msg, self._kin, received)
+        return self._hands.hand()
 
     def shown(self) -> Shown | None:  # noqa: D102
         return self._shown

@@ -50,7 +50,6 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from numpy.typing import NDArray
 from rclpy.node import Node
-from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, String
 from std_srvs.srv import SetBool
 
@@ -59,11 +58,11 @@ from ..method.body import ObjectBody
 from ..method.features import MICO_3F
 from ..method.model import ModelRequirements
 from ..mico.collision import HandCollision
-from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
+from ..mico.kinematics import BASE_FRAME, MicoKinematics
 from ..mico.parameters import check_object_pose, object_pose
 from ..parameters import config_from
 from ..ros.diagnostics import NodeDiagnostics
-from ..ros.inputs import subscribe_input, subscribe_operator
+from ..ros.inputs import subscribe_arm, subscribe_input, subscribe_operator
 from ..ros.model_follower import ModelFollower
 from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, output_publisher
@@ -75,8 +74,9 @@ from ..shared_control.path_search import PathWorker
 from ..wire import topics
 from ..wire.arrays import msg_labels, msg_to_array, read_features, read_posterior
 from ..wire.diagnostics import ERROR
+from ..wire.joint_states import JointReading
 from ..wire.model_document import ModelDocument
-from ..wire.robot_state import joint_positions, object_pose_msg, pose_msg_to_matrix, twist_command
+from ..wire.robot_state import object_pose_msg, pose_msg_to_matrix, twist_command
 
 __all__ = ['AssistanceNode', 'ENABLE_SERVICE', 'main']
 
@@ -117,7 +117,7 @@ class AssistanceNode(Node):
                       topics.ASSISTANCE_ALPHA: output_publisher(self, Float64, topics.ASSISTANCE_ALPHA)}
         latest, diag = input_qos(depth=1), self._diag
         subscribe_operator(self, self._on_operator, latest, diag, self._params['operator_message_type'])
-        subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), diag)
+        subscribe_arm(self, self._on_arm, input_qos(), diag)
         subscribe_input(self, topics.GRASP_POSE, self._on_grasp, latest, diag)
         subscribe_input(self, topics.GRASP_POSTERIOR, self._on_posterior, latest, diag)
         subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag)
@@ -201,9 +201,8 @@ class AssistanceNode(Node):
         self._timer.timer_period_ns = max(1, round(periods * self._period * 1e9))
         self._timer.reset()
 
-    def _on_joint_state(self, msg: JointState) -> None:
-        if (q := joint_positions(msg, ARM_JOINTS)) is not None:
-            self._assist.set_joints(q)
+    def _on_arm(self, arm: JointReading) -> None:
+        self._assist.set_joints(arm.positions)
 
     def _on_object_pose(self, msg: PoseStamped) -> None:
         self._base_T_obj = object_pose_msg(msg, self._params['workspace_radius'])

@@ -33,12 +33,11 @@ from geometry_msgs.msg import PoseStamped
 from numpy.typing import NDArray
 from rclpy.node import Node
 from rclpy.time import Time
-from sensor_msgs.msg import JointState
 
 from ..method.intent import match_zones
 from ..mico.collision import HandCollision
 from ..mico.grasp import plan_grasp
-from ..mico.kinematics import ARM_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
+from ..mico.kinematics import HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
 from ..mico.parameters import GRASP_PLANNER, check_object_pose, object_pose
 from ..planning.options import node_options, noise_from
 from ..planning.task import precompute
@@ -46,15 +45,16 @@ from ..ros.clarification import ClarificationRequests
 from ..ros.conversions import SerializedTargets
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.grasp_messages import GraspOutputs
-from ..ros.inputs import decode_input, subscribe_input
+from ..ros.inputs import decode_input, subscribe_arm, subscribe_input
 from ..ros.model_follower import ModelFollower, served_models
 from ..ros.params import declare_parameters
 from ..ros.qos import input_qos
 from ..ros.worker import LatestOnlyWorker
 from ..wire import topics
 from ..wire.diagnostics import KEY_CLARIFICATIONS, KEY_KERNELS_LOADED_LATE, KEY_MODEL, KEY_PLAN_STATUS, OK, WARN
+from ..wire.joint_states import JointReading
 from ..wire.model_document import ModelDocument
-from ..wire.robot_state import joint_positions, object_pose_msg
+from ..wire.robot_state import object_pose_msg
 
 __all__ = ['GraspPlanner', 'main']
 
@@ -111,10 +111,10 @@ class GraspPlanner(Node):
                                      requires=lambda: served_models(self._params['task_names']))
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, latest, diag)
         # not keep-last 1: arm and finger states may come from different publishers
-        subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(), diag)
+        subscribe_arm(self, self._on_arm, input_qos(), diag)  # the IK seed, whatever its age
 
     def destroy_node(self) -> None:
-        """Stop the planning and model threads (after their current work), then destroy the node."""
+        """Stop the planning and model threads (their current work waited for at most FINISH_WAIT s), then destroy."""
         self._models.stop()
         self._worker.stop()
         super().destroy_node()
@@ -144,10 +144,9 @@ class GraspPlanner(Node):
     def _on_object_pose(self, msg: PoseStamped) -> None:
         self._update(base_T_obj=object_pose_msg(msg, self._params['workspace_radius']))
 
-    def _on_joint_state(self, msg: JointState) -> None:
-        if (q := joint_positions(msg, ARM_JOINTS)) is not None:
-            self._kin.check_limits(q, margin=JOINT_LIMIT_MARGIN, what='joint state')
-            self._update(trigger=False, q_arm=q)
+    def _on_arm(self, arm: JointReading) -> None:
+        self._kin.check_limits(arm.positions, margin=JOINT_LIMIT_MARGIN, what='joint state')
+        self._update(trigger=False, q_arm=arm.positions)
 
     def _check(self, values: Mapping[str, Any]) -> None:
         """The object within the workspace, and task_names that the active model has.

@@ -27,17 +27,16 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped
 from numpy.typing import NDArray
 from rclpy.node import Node
-from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from ..errors import GraspIntentError, InvalidIntentError
 from ..method.intent import MAX_TASKS
 from ..mico.grasp import check_mico_model
-from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, JOINT_LIMIT_MARGIN, MicoKinematics
+from ..mico.kinematics import BASE_FRAME, JOINT_LIMIT_MARGIN, MicoKinematics
 from ..mico.mock_arm import TwistCommand
 from ..mico.parameters import object_pose
 from ..ros.diagnostics import NodeDiagnostics
-from ..ros.inputs import subscribe_input, subscribe_operator
+from ..ros.inputs import subscribe_arm, subscribe_input, subscribe_operator
 from ..ros.model_follower import ModelFollower, served_models
 from ..ros.params import declare_parameters
 from ..ros.qos import STREAM_DEPTH, input_qos, output_publisher
@@ -51,9 +50,9 @@ from ..shared_control.task_prior import check_task_prior
 from ..wire import topics
 from ..wire.arrays import msg_to_array
 from ..wire.diagnostics import ERROR, ESTIMATOR_COMPONENT, KEY_GOALS, OK, WARN
+from ..wire.joint_states import JointReading
 from ..wire.model_document import ModelDocument
 from ..wire.robot_state import (
-    joint_positions,
     object_pose_msg,
     pose_msg_to_matrix,
     stamp_nanoseconds,
@@ -104,14 +103,14 @@ class IntentEstimatorNode(Node):
                                      requires=lambda: served_models(self._params['task_names']))
         subscribe_operator(self, self._on_operator, input_qos(STREAM_DEPTH), self._diag,
                            self._params['operator_message_type'])
-        subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(STREAM_DEPTH), self._diag)
+        subscribe_arm(self, self._on_arm, input_qos(STREAM_DEPTH), self._diag)
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, input_qos(depth=1), self._diag)
         subscribe_input(self, topics.GRASP_POSE, self._on_grasp, input_qos(), self._diag)
         subscribe_input(self, topics.INTENT_PRIOR, self._on_prior, input_qos(), self._diag)
         self.create_timer(float(self._params['publish_period']), self._diag.guard_timer(self._on_timer))
 
     def destroy_node(self) -> None:
-        """Stop the model and goal threads (after their current work), then destroy the node."""
+        """Stop the model and goal threads (their current work waited for at most FINISH_WAIT s), then destroy."""
         self._models.stop()
         self._scenes.stop()
         super().destroy_node()
@@ -183,12 +182,11 @@ class IntentEstimatorNode(Node):
 
     # -- the stream: joint states and operator twists, on the executor ---------------------------------------
 
-    def _on_joint_state(self, msg: JointState) -> None:
-        if (q := joint_positions(msg, ARM_JOINTS)) is not None:
-            self._kin.check_limits(q, margin=JOINT_LIMIT_MARGIN, what='joint state')
-            self._q = q
-            self._inputs.hand(stamp_nanoseconds(msg), self._kin.fk(q))
-            self._take_twists()
+    def _on_arm(self, arm: JointReading) -> None:
+        self._kin.check_limits(arm.positions, margin=JOINT_LIMIT_MARGIN, what='joint state')
+        self._q = arm.positions
+        self._inputs.hand(arm.stamp_ns, self._kin.fk(arm.positions))
+        self._take_twists()
 
     def _on_grasp(self, msg: PoseStamped) -> None:
         self._proposal = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)

@@ -36,7 +36,6 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from numpy.typing import NDArray
 from rclpy.node import Node
-from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
@@ -45,10 +44,10 @@ from ..errors import GraspIntentError
 from ..method.features import MICO_3F
 from ..method.model import ModelRequirements
 from ..mico.grasp import check_mico_model
-from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, JOINT_LIMIT_MARGIN, MicoKinematics
+from ..mico.kinematics import BASE_FRAME, JOINT_LIMIT_MARGIN, MicoKinematics
 from ..mico.parameters import object_pose
 from ..ros.diagnostics import NodeDiagnostics
-from ..ros.inputs import subscribe_input
+from ..ros.inputs import subscribe_arm, subscribe_input
 from ..ros.model_follower import ModelFollower
 from ..ros.params import declare_parameters
 from ..ros.qos import STREAM_DEPTH, input_qos, output_publisher
@@ -60,8 +59,9 @@ from ..shared_control.operators import OperatorConstants, PersistentIntent, Scri
 from ..shared_control.parameters import SCRIPTED_OPERATOR, check_scripted_operator
 from ..wire import topics
 from ..wire.diagnostics import ERROR, KEY_EXECUTE, KEY_TIMES_TO_GRASP, OK, OPERATOR_COMPONENT, WARN
+from ..wire.joint_states import JointReading
 from ..wire.model_document import ModelDocument
-from ..wire.robot_state import joint_positions, object_pose_msg, pose_msg_to_matrix, trajectory_time
+from ..wire.robot_state import object_pose_msg, pose_msg_to_matrix, trajectory_time
 from .mock_arm import GRASP_CLOSE, GRASP_EXECUTE
 
 __all__ = ['ScriptedOperatorNode', 'ARM_RESET', 'main']
@@ -103,14 +103,14 @@ class ScriptedOperatorNode(Node):
         self.context.on_shutdown(self._scenes.stop_soon)
         self._models = ModelFollower(self, self._diag, self._use_model, name=f'{node_name}_model',
                                      requires=lambda: ModelRequirements(feature_names=MICO_3F.names))
-        subscribe_input(self, topics.JOINT_STATES, self._on_joint_state, input_qos(STREAM_DEPTH), self._diag)
+        subscribe_arm(self, self._on_arm, input_qos(STREAM_DEPTH), self._diag)
         subscribe_input(self, topics.GRASP_POSE, self._on_grasp, input_qos(), self._diag)
         subscribe_input(self, topics.GRASP_TRAJECTORY, self._on_trajectory, input_qos(), self._diag)
         subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, input_qos(depth=1), self._diag)
         self.create_timer(p['publish_period'], self._diag.guard_timer(self._on_tick))
         self.create_timer(p['w_period'], self._diag.guard_timer(self._on_w))
 
-    def destroy_node(self) -> None:  # the model and goal threads stop after their current work
+    def destroy_node(self) -> None:  # an own grasp being planned is not waited for beyond FINISH_WAIT (latest_only)
         self._models.stop()
         self._scenes.stop()
         super().destroy_node()
@@ -145,10 +145,9 @@ class ScriptedOperatorNode(Node):
         self._diag.set_values({'model': name, 'task set': ', '.join(scene.task_names),
                                'own grasp (m)': ', '.join(f'{v:.3f}' for v in own.base_T_ee[:3, 3])})
 
-    def _on_joint_state(self, msg: JointState) -> None:
-        if (q := joint_positions(msg, ARM_JOINTS)) is not None:
-            self._kin.check_limits(q, margin=JOINT_LIMIT_MARGIN, what='joint state')
-            self._loop.hand(time.monotonic(), self._kin.fk(q))
+    def _on_arm(self, arm: JointReading) -> None:
+        self._kin.check_limits(arm.positions, margin=JOINT_LIMIT_MARGIN, what='joint state')
+        self._loop.hand(arm.received, self._kin.fk(arm.positions))
 
     def _on_grasp(self, msg: PoseStamped) -> None:
         self._loop.shown(time.monotonic(), pose_msg_to_matrix(msg, frame_id=BASE_FRAME))

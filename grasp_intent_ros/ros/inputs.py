@@ -10,6 +10,7 @@ rejection (a WARN with the size and the cap) like any other bad input.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Mapping
 from typing import Any, cast
 
@@ -21,12 +22,15 @@ from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
 
 from ..errors import GraspIntentError
-from ..wire.topics import MAX_MESSAGE_BYTES, OPERATOR_TWIST, check_message_size
+from ..mico.kinematics import ARM_JOINTS
+from ..wire.diagnostics import WARN
+from ..wire.joint_states import JointReading, JointStates
+from ..wire.topics import JOINT_STATES, MAX_MESSAGE_BYTES, OPERATOR_TWIST, check_message_size
 from .conversions import message_class
 from .diagnostics import NodeDiagnostics
 from .qos import input_events
 
-__all__ = ['subscribe_input', 'subscribe_operator', 'decode_input']
+__all__ = ['subscribe_input', 'subscribe_operator', 'decode_input', 'subscribe_arm']
 
 
 def decode_input(topic: str, data: bytes, msg_type: Any = None) -> Any:
@@ -96,7 +100,6 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
                                     callback_group=callback_group)
 
 
-
 def subscribe_operator(node: Node, callback: Callable[[Any], object], qos: QoSProfile, diagnostics: NodeDiagnostics,
                        message_type: str) -> Subscription:
     """:func:`subscribe_input` to ``operator/twist``, messages dropped counted: a TwistStamped, or a plain Twist.
@@ -106,3 +109,28 @@ def subscribe_operator(node: Node, callback: Callable[[Any], object], qos: QoSPr
     """
     return subscribe_input(node, OPERATOR_TWIST, callback, qos, diagnostics, count_dropped=True,
                            msg_type=Twist if message_type == 'Twist' else None)
+
+
+def subscribe_arm(node: Node, callback: Callable[[JointReading], object], qos: QoSProfile,
+                  diagnostics: NodeDiagnostics) -> Subscription:
+    """:func:`subscribe_input` to ``joint_states``, ``callback`` given the arm's reading when a message renews it.
+
+    Each arm joint's latest position from whichever message named it last
+    (:class:`~grasp_intent_ros.wire.joint_states.JointStates` of the arm joints, receipts on the monotonic clock):
+    the callback runs when a message names an arm joint and every arm joint is known and not stale. A message that
+    names none (e.g. the fingers' alone, from another publisher) brings nothing new; one that names some while
+    another is unknown or stale is noted (WARN, why: :meth:`~grasp_intent_ros.wire.joint_states.JointStates.missing`);
+    a malformed one is a counted rejection that changes nothing.
+    """
+    joints = JointStates(ARM_JOINTS)
+
+    def on_joint_state(msg: Any) -> None:
+        if not joints.add(msg, time.monotonic()):
+            return
+        if (arm := joints.read()) is None:
+            diagnostics.note(f'joint state not used: {joints.missing()}', level=WARN)
+        else:
+            callback(arm)
+
+    on_joint_state.__name__ = getattr(callback, '__name__', 'on_joint_state')
+    return subscribe_input(node, JOINT_STATES, on_joint_state, qos, diagnostics)

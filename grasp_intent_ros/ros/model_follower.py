@@ -191,5 +191,9 @@ class ModelFollower:
             raise GraspIntentError(f'the suite could not serve its active model {current.name!r}: {exc}') from None
 
     def stop(self) -> None:
-        """Stop the reading thread (after the document it is reading)."""
+        """Stop the reading thread; its current document (and ``use``) is waited for at most ``FINISH_WAIT`` s.
+
+        :data:`grasp_intent_ros.latest_only.FINISH_WAIT`: e.g. a planner's precompute of a new model goes on, and
+        ends with the process.
+        """
         self._worker.stop()

@@ -26,12 +26,20 @@ has returned (the shutdown finished), both are disarmed and the process is left 
 ``main`` then calls :func:`guard_exit`: the interpreter's own exit (atexit handlers, threads, the
 middleware's destructors) gets the same grace, after which faulthandler writes the stacks and exits with
 code 1, so that no hang, not even one after the node's shutdown, passes without output.
+
+A stop during a worker thread's long work (a model's first robustness estimate, a compile) does not wait
+for it: the node's ``destroy_node`` waits at most :data:`~grasp_intent_ros.latest_only.FINISH_WAIT` s per
+thread (:meth:`WorkerThread.stop <grasp_intent_ros.latest_only.WorkerThread.stop>`), and :func:`guard_exit`
+then ends the process at once with code 0 (``os._exit``), saying on stderr which threads it left. Not the
+interpreter's exit: it would finalize the modules while the thread may still run in their compiled code, and
+it has nothing left to do: the shutdown has finished by then (rclpy's logging too).
 """
 
 from __future__ import annotations
 
 import ctypes
 import faulthandler
+import os
 import sys
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -44,6 +52,7 @@ from rclpy.node import Node
 from rclpy.publisher import Publisher
 
 from ..errors import GraspIntentError
+from ..latest_only import left_running
 from .compat import ShutdownSafeExecutor, StopWatcher, ignore_python_sigint
 from .params import ParameterError
 from .startup import announce_ready
@@ -136,8 +145,14 @@ def guard_exit(grace: float = SHUTDOWN_GRACE) -> None:
     """For a node process's ``main`` once :func:`run_node` has returned: the process must end within ``grace`` s.
 
     Else faulthandler writes every thread's stack to stderr and exits with code 1 (module docstring).
-    Not for a process that goes on working after its node (e.g. a test): it would be ended.
+    A process whose stop left a worker thread at its work (:func:`~grasp_intent_ros.latest_only.left_running`)
+    exits here at once, with code 0. Not for a process that goes on working after its node (e.g. a test): it
+    would be ended.
     """
+    if busy := left_running():  # module docstring: not the interpreter's exit under a thread in compiled code
+        print(f'stopped while {", ".join(busy)} worked: not waiting for it', file=sys.stderr, flush=True)
+        sys.stdout.flush()
+        os._exit(0)
     faulthandler.dump_traceback_later(grace, exit=True, file=sys.stderr)
 
 

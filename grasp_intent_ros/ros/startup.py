@@ -71,8 +71,6 @@ READY_LOG = 'ready'
 
 _paused = False
 """Whether :func:`begin` turned the collector off and :func:`end` has not turned it on yet (process-wide, as gc)."""
-_loading: set[KernelWarmUp] = set()
-"""The :class:`KernelWarmUp` whose :meth:`~KernelWarmUp.at_start` runs now (process-wide)."""
 
 
 def begin() -> None:
@@ -98,20 +96,16 @@ def run(node_factory: Callable[[], Node], args: Sequence[str] | None = None) -> 
 
     The node runs with :func:`grasp_intent_ros.ros.run.run_node` (``args`` as there), and the process's
     own exit is guarded by :func:`grasp_intent_ros.ros.run.guard_exit`. A node stopped while a
-    :class:`KernelWarmUp` still loads (a first start compiles for tens of seconds) exits at once with code 0,
-    saying so on stderr: a compile cannot be cut short, and nothing else waits.
+    :class:`KernelWarmUp` still loads (a first start compiles for tens of seconds) exits with code 0 within
+    :data:`~grasp_intent_ros.latest_only.FINISH_WAIT` s, saying so on stderr: a compile cannot be cut short,
+    and its worker thread is left to end with the process (:func:`~grasp_intent_ros.ros.run.guard_exit`).
     """
     begin()
     sys.setswitchinterval(GIL_SWITCH_INTERVAL)
     from .run import guard_exit, run_node  # late: rclpy loads after begin()
 
     run_node(node_factory, args)
-    if _loading:  # stopped while compiling: nothing else to finish, and a compile cannot be cut short
-        print(f'stopped while loading compiled kernels ({len(_loading)} loading): not waiting for them',
-              file=sys.stderr, flush=True)
-        sys.stdout.flush()
-        os._exit(0)
-    guard_exit()  # the interpreter's exit too must end, or leave the stacks
+    guard_exit()  # the interpreter's exit too must end, or leave the stacks; at once if a thread is left working
 
 
 def announce_ready(log: Callable[[str], object], detail: str = '') -> None:
@@ -161,12 +155,10 @@ class KernelWarmUp:
             self._first()
             warm_up()
 
-        _loading.add(self)
         try:
             took = self._timed(KEY_KERNELS_LOAD_TIME, load)
         finally:
             end()
-            _loading.discard(self)
         self._loaded = loaded_signatures()
         self._ready('' if took is None else f'compiled kernels loaded in {took:.0f} ms')
 

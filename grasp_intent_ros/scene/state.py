@@ -19,7 +19,7 @@ rules' (:func:`~grasp_intent_ros.scene.plan.served_tasks`).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any, Final
 
 import numpy as np
@@ -31,7 +31,7 @@ from ..wire import topics
 from ..wire.arrays import Posterior, Stamp, msg_labels, msg_to_array, read_features, read_posterior
 from ..wire.diagnostics import KEY_PLAN_STATUS, status_values
 from ..wire.model_document import ModelDocument, read_model_document
-from ..wire.robot_state import joint_positions, pose_msg_to_matrix
+from ..wire.robot_state import joint_positions, named_positions, pose_msg_to_matrix
 from .plan import plan_object_pose, served_tasks
 
 __all__ = ['OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA', 'VIEWER_TOPICS', 'SceneState', 'apply',
@@ -63,7 +63,11 @@ class SceneState:
     Attributes
     ----------
     q_live, fingers_live : ndarray, shape (6,) and (3,)
-        ``joint_states``: arm joint angles and finger closures (rad).
+        ``joint_states``: arm joint angles and finger closures (rad), each joint's latest position from whichever
+        message named it last (the arm and the fingers may come from separate publishers, a message may name some
+        joints only); each once all its joints have been named (no staleness: the newest known is shown).
+    live_positions : mapping of str to float
+        Every arm and finger joint named so far in ``joint_states``, its latest position (rad).
     q_target, fingers_target, targets_stamp : ndarray, shape (6,) and (3,), Stamp
         ``grasp/joint_targets`` of the newest plan, and its stamp.
     base_T_obj : ndarray, shape (4, 4)
@@ -92,6 +96,7 @@ class SceneState:
 
     q_live: NDArray[np.float64] | None = None
     fingers_live: NDArray[np.float64] | None = None
+    live_positions: Mapping[str, float] = field(default_factory=dict)
     q_target: NDArray[np.float64] | None = None
     fingers_target: NDArray[np.float64] | None = None
     targets_stamp: Stamp | None = None
@@ -170,11 +175,17 @@ def apply(state: SceneState, topic: str, msg: Any) -> SceneState:
     GraspIntentError
         For a message that cannot be read (its reason); ``state`` is then still the valid one.
     """
-    if topic in (topics.JOINT_STATES, topics.GRASP_JOINT_TARGETS):
+    if topic == topics.JOINT_STATES:
+        named = named_positions(msg, (*ARM_JOINTS, *FINGER_JOINTS))
+        if not named:
+            return state
+        live = {**state.live_positions, **named}
+        q, fingers = (np.array([live[n] for n in names]) if all(n in live for n in names) else None
+                      for names in (ARM_JOINTS, FINGER_JOINTS))
+        return replace(state, live_positions=live, q_live=state.q_live if q is None else q,
+                       fingers_live=state.fingers_live if fingers is None else fingers)
+    if topic == topics.GRASP_JOINT_TARGETS:
         q, fingers = joint_positions(msg, ARM_JOINTS), joint_positions(msg, FINGER_JOINTS)
-        if topic == topics.JOINT_STATES:
-            return replace(state, q_live=state.q_live if q is None else q,
-                           fingers_live=state.fingers_live if fingers is None else fingers)
         if q is None:
             raise GraspIntentError(f'{topic} lacks the arm joints {ARM_JOINTS}')
         return replace(state, q_target=q, fingers_target=fingers, targets_stamp=_stamp(msg.header))

@@ -11,11 +11,15 @@ A demonstrator teleoperates the MICO to a grasp and closes the hand while the re
 ``train`` reads as is. The rules, on the bag's receive times (one clock for every topic):
 
 Closes (on the finger positions alone: a driver's finger velocities may be absent, or noisy at rest)
-    Each ``joint_states`` message is read as a :class:`~grasp_intent_ros.wire.robot_state.Hand` (messages
-    without the arm and finger joints are skipped); its *closure* is the mean of the three finger positions,
-    ``(f1 + f2 + f3) / 3`` rad. The fingers are *at rest* at a joint state received at ``t`` when, over the
-    joint states from the latest one received at or before ``t - window`` up to it, every finger's positions
-    span (max - min) at most ``tolerance`` rad: still for ``window`` s at least. The *rest* is the closure at
+    The ``joint_states`` messages are read as the suite reads a real arm's
+    (:class:`~grasp_intent_ros.wire.joint_states.HandTracker`: each joint's latest position from whichever
+    message named it last, the arm and the fingers perhaps in separate messages); a *joint state* here is a
+    message that names a finger while every arm and finger joint is known (the others only update the arm),
+    its hand that tracker's :class:`~grasp_intent_ros.wire.joint_states.Hand`. Its *closure* is the mean of the
+    three finger positions, ``(f1 + f2 + f3) / 3`` rad. The fingers are *at rest* at a joint state received at
+    ``t`` by the suite's rest rule (:class:`~grasp_intent_ros.wire.joint_states.FingerRest`): over the joint
+    states from the latest one received at or before ``t - window`` up to it, every finger's positions span
+    (max - min) at most ``tolerance`` rad: still for ``window`` s at least. The *rest* is the closure at
     the latest earlier joint state at rest (before the first, the first joint state's). While no motion is in
     progress, a finger motion is seen at a joint state whose closure is at least ``rise`` rad above the rest
     (a *close*) or below it (an *opening*, which is no grasp); it ends at the next joint state at rest, where a
@@ -53,7 +57,6 @@ import argparse
 import math
 import os
 import sys
-from collections import deque
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -71,7 +74,8 @@ from ..method.model import GraspModel
 from ..method.parameters import check_task_names
 from ..mico.frames import obj_T_ee_to_features
 from ..mico.kinematics import BASE_FRAME, MicoKinematics
-from ..wire.robot_state import Hand, hand_state, pose_msg_to_matrix
+from ..wire.joint_states import FINGER_SET, SETTLE_TOLERANCE, SETTLE_WINDOW, Hand, HandTracker, RestRule, receipt_ns
+from ..wire.robot_state import pose_msg_to_matrix
 from ..wire.topics import JOINT_STATES, MSGTYPES, OBJECT_POSE, OPERATOR_GRASP_TASKS
 from .bag import BagReadError, read_messages, topics_info
 from .pairing import detect_namespace
@@ -89,21 +93,6 @@ The MICO's fingers run over 0-1.51 rad (the URDF's limits), and every shipped de
 least 0.8 rad (a close from open rises that much); 0.2 rad is 100 times a real encoder's noise of about 0.002 rad
 (about 170 standard deviations of the mean of three fingers), so noise never makes a motion, and 10 times
 :data:`SETTLE_TOLERANCE`."""
-
-SETTLE_TOLERANCE: Final = 0.02
-"""Default span (rad) within which every finger's positions must stay over :data:`SETTLE_WINDOW` to be at rest.
-
-Ten standard deviations of an encoder's noise of 0.002 rad: the span of 51 samples of such noise (the window at
-100 Hz) exceeds it with a probability below 1e-8 per window, so noise at rest does not keep the fingers from
-settling."""
-
-SETTLE_WINDOW: Final = 0.5
-"""Default time (s) the fingers must stay within :data:`SETTLE_TOLERANCE` to be at rest.
-
-51 joint states at 100 Hz (the mock arm's rate; 6 from a driver at 10 Hz), shorter than a demonstrator holds a
-grasp; a finger moving faster than ``SETTLE_TOLERANCE / SETTLE_WINDOW`` (0.04 rad/s: 25 s from open to
-1 rad) is never at rest, and a slower one cannot be told from a rest."""
-
 
 @dataclass(frozen=True)
 class CloseRule:
@@ -124,6 +113,11 @@ class CloseRule:
         if not (math.isfinite(self.rise) and 0.0 <= self.tolerance < self.rise and 0.0 < self.window < math.inf):
             raise DataError(f'the close rule needs 0 <= settle tolerance < close rise and a settle window > 0, all '
                             f'finite; got tolerance {self.tolerance} rad, rise {self.rise} rad, window {self.window} s')
+
+    @property
+    def rest(self) -> RestRule:
+        """The rest rule of its tolerance and window (the suite's one, :mod:`~grasp_intent_ros.wire.joint_states`)."""
+        return RestRule(self.tolerance, self.window)
 
 
 @dataclass(frozen=True)
@@ -186,37 +180,13 @@ class _Motion:
     extreme: float
 
 
-def _ns(t: float) -> int:
-    """A receive time in s as integer nanoseconds (exact for a bag's times, which are whole nanoseconds)."""
-    return round(t * 1e9)
-
-
-class _FingerWindow:
-    """The fingers' closure and whether they are at rest, joint state by joint state (module docstring)."""
-
-    def __init__(self, rule: CloseRule) -> None:
-        self.rule, self.window_ns = rule, _ns(rule.window)
-        self.recent: deque[tuple[int, NDArray[np.float64]]] = deque()  # from the latest at or before t - window
-
-    def step(self, t: float, fingers: NDArray[np.float64]) -> tuple[float, bool]:
-        """The closure (rad) of the joint state received at ``t`` s, and whether the fingers are at rest there."""
-        t_ns = _ns(t)
-        self.recent.append((t_ns, fingers))
-        while len(self.recent) >= 2 and self.recent[1][0] <= t_ns - self.window_ns:
-            self.recent.popleft()
-        positions = np.array([f for _, f in self.recent])
-        at_rest = self.recent[0][0] <= t_ns - self.window_ns and bool(
-            np.all(positions.max(axis=0) - positions.min(axis=0) <= self.rule.tolerance))
-        return (float(fingers[0]) + float(fingers[1]) + float(fingers[2])) / 3.0, at_rest
-
-
 class _Extractor:
     """The rules of the module docstring over one bag's messages, fed in receive order."""
 
     def __init__(self, kin: MicoKinematics, task_names: Sequence[str], tasks: int | None, max_pose_age: float,
                  rule: CloseRule) -> None:
         self.kin, self.task_names, self.tasks, self.max_pose_age = kin, tuple(task_names), tasks, max_pose_age
-        self.rule, self.window = rule, _FingerWindow(rule)
+        self.rule, self.hands = rule, HandTracker(kin, rule.rest)
         self.rest: float | None = None  # the closure at the latest joint state at rest so far (rad)
         self.pose: tuple[float, NDArray[np.float64] | str] | None = None  # (received, base_T_obj or why not)
         self.label: tuple[float, int | str] | None = None  # (received, task set or why not), pending
@@ -242,10 +212,10 @@ class _Extractor:
             self.label = (t, str(exc))
 
     def joint_state(self, t: float, msg: Any) -> None:
-        hand = hand_state(msg, self.kin, t)
-        if hand is None:
-            return
-        closure, at_rest = self.window.step(t, hand.fingers)
+        if FINGER_SET.isdisjoint(self.hands.add(msg, t)) or (hand := self.hands.hand()) is None:
+            return  # no new finger reading, or the arm or a finger not known yet
+        fingers, at_rest = hand.fingers, hand.fingers_at_rest
+        closure = (float(fingers[0]) + float(fingers[1]) + float(fingers[2])) / 3.0
         rise = self.rule.rise
         motion = self.motion
         if motion is None:
@@ -301,7 +271,7 @@ class _Extractor:
             reasons.append('no object pose')
         elif isinstance(self.pose[1], str):
             reasons.append(f'the latest object pose, at {self.pose[0]:.3f} s, is malformed: {self.pose[1]}')
-        elif _ns(hand.received) - _ns(self.pose[0]) > self.max_pose_age * 1e9:
+        elif receipt_ns(hand.received) - receipt_ns(self.pose[0]) > self.max_pose_age * 1e9:
             reasons.append(f'stale object pose: the latest, at {self.pose[0]:.3f} s, is '
                            f'{hand.received - self.pose[0]:.3f} s old (at most {self.max_pose_age:g} s)')
         else:

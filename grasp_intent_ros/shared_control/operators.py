@@ -64,11 +64,16 @@ from numpy.typing import NDArray
 from ..mico.frames import PRE_GRASP_STANDOFF
 from .assistance import AssistanceConfig, assistance_target, clip_norm, offset, pose_error, reached
 
-__all__ = ['Device', 'DEVICES', 'IntentScript', 'PersistentIntent', 'SharpeningIntent', 'ChangingIntent',
-           'certain_w', 'draw_task_set', 'OperatorConstants', 'ScriptedOperator']
+__all__ = ['Device', 'DEVICES', 'AMBIGUOUS_CASES', 'IntentScript', 'PersistentIntent', 'SharpeningIntent',
+           'ChangingIntent', 'certain_w', 'draw_task_set', 'OperatorConstants', 'ScriptedOperator']
 
 Device = Literal['joystick', 'spacemouse']
 DEVICES: tuple[Device, ...] = ('joystick', 'spacemouse')
+
+AMBIGUOUS_CASES: tuple[tuple[float, float, float], ...] = (
+    (0.9, 0.9, 0.1), (0.9, 0.1, 0.9), (0.1, 0.9, 0.9), (0.9, 0.5, 0.5), (0.7, 0.7, 0.7))
+"""The paper's ambiguous intents over (usage, transfer, handover) that a :class:`PersistentIntent` holds in the
+closed-loop benchmarks (:meth:`PersistentIntent.draw`: episode i on case i mod 5)."""
 
 
 def certain_w(task_set: int, m: int = 3) -> NDArray[np.float64]:
@@ -101,6 +106,12 @@ class PersistentIntent:
     case: tuple[float, ...]
     true_set: int
     noise: float = 0.05
+
+    @classmethod
+    def draw(cls, index: int, rng: np.random.Generator) -> PersistentIntent:
+        """Episode ``index``'s intent: the case :data:`AMBIGUOUS_CASES` [index mod 5], T drawn from it with ``rng``."""
+        case = AMBIGUOUS_CASES[index % len(AMBIGUOUS_CASES)]
+        return cls(case, draw_task_set(np.asarray(case), rng))
 
     def task_set(self, t: float) -> int:
         return self.true_set

@@ -12,8 +12,10 @@ model_document
 diagnostics
     The diagnostics levels, status names and keys (each key defined once).
 robot_state
-    Robot-side messages read as values: a PoseStamped as a transform, a JointState's positions by name, the hand
-    (its pose and its fingers, at rest or not).
+    Robot-side messages read as values: a PoseStamped as a transform, a JointState's positions by name, a twist.
+joint_states
+    The arm's ``joint_states`` as a real arm's driver publishes them (split, reordered, velocity-less): the
+    latest position of each joint and its staleness, the hand, the fingers at rest (from positions).
 
 Imports of the package: :mod:`~grasp_intent_ros.errors`, :mod:`~grasp_intent_ros.method` and
 :mod:`~grasp_intent_ros.mico`.

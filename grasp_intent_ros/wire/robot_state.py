@@ -1,4 +1,4 @@
-"""Robot-side messages read as values: a PoseStamped as a transform, a JointState's positions by name, the hand.
+"""Robot-side messages read as values: a PoseStamped as a transform, a JointState's positions by name, a twist.
 
 ROS-free (attribute access only, so rosbags' message classes are read too): the nodes read their inputs and
 the session analysis reads recorded messages with the same checks. Writers of these messages need rclpy and
@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,13 +18,12 @@ from numpy.typing import NDArray
 from ..errors import KinematicsError
 from ..mico.frames import QUATERNION_NORM_TOL, check_unit_quaternion, pose_to_matrix
 from ..mico.grasp import check_workspace
-from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, MicoKinematics
+from ..mico.kinematics import BASE_FRAME
 from ..mico.mock_arm import TwistCommand, check_twist
 from .topics import MAX_JOINTS, MAX_NAME_LENGTH, check_names
 
-__all__ = ['QUATERNION_NORM_TOL', 'check_unit_quaternion', 'pose_msg_to_matrix', 'joint_positions', 'twist_command',
-           'seconds', 'stamp_seconds', 'stamp_nanoseconds', 'object_pose_msg', 'trajectory_time', 'Hand',
-           'hand_state', 'CLOSE_SETTLE', 'fingers_settled']
+__all__ = ['QUATERNION_NORM_TOL', 'check_unit_quaternion', 'pose_msg_to_matrix', 'named_positions', 'joint_positions',
+           'twist_command', 'seconds', 'stamp_seconds', 'stamp_nanoseconds', 'object_pose_msg', 'trajectory_time']
 
 
 def pose_msg_to_matrix(msg: Any, *, frame_id: str,
@@ -48,19 +46,17 @@ def pose_msg_to_matrix(msg: Any, *, frame_id: str,
     return pose_to_matrix(position, check_unit_quaternion([o.x, o.y, o.z, o.w], tol=quat_tol))
 
 
-def joint_positions(msg: Any, names: Sequence[str]) -> NDArray[np.float64] | None:
-    """Positions of ``names`` (in that order) from a sensor_msgs/JointState whose names may come in any order.
+def named_positions(msg: Any, names: Sequence[str]) -> dict[str, float]:
+    """The positions (rad) of those of ``names`` that a sensor_msgs/JointState names, by name, in ``names``' order.
 
-    Returns
-    -------
-    ndarray, shape (len(names),), or None when the message lacks one of ``names`` (e.g. a
-    finger-only message from another publisher).
+    The message's names may come in any order, with others besides (not read); its velocities and efforts are
+    never read.
 
     Raises
     ------
     KinematicsError
-        If the message has duplicate names, a different number of names and positions, or a wanted
-        position that is NaN or infinite.
+        If the message has duplicate names, a different number of names and positions, or a position of one of
+        ``names`` that is NaN or infinite.
     GraspIntentError
         For more than :data:`~grasp_intent_ros.wire.topics.MAX_JOINTS` names or a name longer than
         :data:`~grasp_intent_ros.wire.topics.MAX_NAME_LENGTH`.
@@ -72,13 +68,32 @@ def joint_positions(msg: Any, names: Sequence[str]) -> NDArray[np.float64] | Non
     if len(index) != len(msg.name):
         duplicates = sorted(name for name, count in Counter(msg.name).items() if count > 1)
         raise KinematicsError(f'joint state has duplicate names: {duplicates}')
-    if any(name not in index for name in names):
-        return None
-    q = np.array([msg.position[index[name]] for name in names], dtype=np.float64)
-    if not np.all(np.isfinite(q)):
-        bad = [name for name, value in zip(names, q) if not math.isfinite(value)]
+    positions = {name: float(msg.position[index[name]]) for name in names if name in index}
+    bad = [name for name, value in positions.items() if not math.isfinite(value)]
+    if bad:
         raise KinematicsError(f'joint state positions must be finite; NaN or infinity for {bad}')
-    return q
+    return positions
+
+
+def joint_positions(msg: Any, names: Sequence[str]) -> NDArray[np.float64] | None:
+    """Positions of ``names`` (in that order) from one sensor_msgs/JointState whose names may come in any order.
+
+    For one message alone (e.g. ``grasp/joint_targets``); a ``joint_states`` stream, whose joints may come in
+    several messages, is read by :class:`~grasp_intent_ros.wire.joint_states.JointStates`.
+
+    Returns
+    -------
+    ndarray, shape (len(names),), or None when the message lacks one of ``names``.
+
+    Raises
+    ------
+    KinematicsError, GraspIntentError
+        As :func:`named_positions`.
+    """
+    positions = named_positions(msg, names)
+    if len(positions) < len(names):
+        return None
+    return np.array([positions[name] for name in names], dtype=np.float64)
 
 
 def twist_command(msg: Any, *, default_frame: str = BASE_FRAME) -> TwistCommand:
@@ -133,44 +148,3 @@ def object_pose_msg(msg: Any, workspace_radius: float) -> NDArray[np.float64]:
     base_T_obj = pose_msg_to_matrix(msg, frame_id=BASE_FRAME)
     check_workspace(base_T_obj[:3, 3], workspace_radius)
     return base_T_obj
-
-
-@dataclass(frozen=True)
-class Hand:
-    """The MICO's hand as one joint state gives it: where the hand is, and its fingers.
-
-    ``received``: monotonic s (the receipt); ``base_T_ee``: shape (4, 4), base frame (forward kinematics of the arm
-    joints); ``fingers``: shape (3,), rad (the executed closures: a mock arm's closure error included);
-    ``fingers_at_rest``: every finger's velocity is zero (a finger without a velocity counts as at rest).
-    """
-
-    received: float
-    base_T_ee: NDArray[np.float64]
-    fingers: NDArray[np.float64]
-    fingers_at_rest: bool
-
-
-def hand_state(msg: Any, kin: MicoKinematics, received: float) -> Hand | None:
-    """The :class:`Hand` of a sensor_msgs/JointState received at monotonic ``received`` s.
-
-    None when the message lacks an arm or a finger joint. Raises as :func:`joint_positions`.
-    """
-    q, fingers = joint_positions(msg, ARM_JOINTS), joint_positions(msg, FINGER_JOINTS)
-    if q is None or fingers is None:
-        return None
-    velocity = dict(zip(msg.name, msg.velocity))
-    return Hand(received, kin.fk(q), fingers, not any(velocity.get(name, 0.0) for name in FINGER_JOINTS))
-
-
-CLOSE_SETTLE = 0.3
-"""Seconds from a close (its answer, or a status that reports it) to the first joint state read for the fingers:
-the close request is served within milliseconds, and the fingers must be seen moving or at rest after it."""
-
-
-def fingers_settled(hand: Hand | None, closed: float, settle: float = CLOSE_SETTLE) -> bool:
-    """Whether ``hand`` shows the fingers at rest after a close at monotonic ``closed`` s.
-
-    True when the joint state was received at least ``settle`` s after ``closed`` (the fingers seen moving or at
-    rest after the close, not before it) and every finger is at rest: its ``fingers`` are the executed closures.
-    """
-    return hand is not None and hand.received >= closed + settle and hand.fingers_at_rest

@@ -2,17 +2,22 @@
 
 from __future__ import annotations
 
+import time
+
 import pytest
 import rclpy
 from rclpy.qos import ReliabilityPolicy
 from rclpy.serialization import serialize_message
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q
 from grasp_intent_ros.ros.diagnostics import NodeDiagnostics
-from grasp_intent_ros.ros.inputs import subscribe_input
+from grasp_intent_ros.ros.inputs import subscribe_arm, subscribe_input
 from grasp_intent_ros.ros.qos import input_qos
 from grasp_intent_ros.wire import topics
-from grasp_intent_ros.wire.diagnostics import KEY_DROPPED, KEY_RECEIVED, KEY_REJECTED, status_values
+from grasp_intent_ros.wire.diagnostics import KEY_DROPPED, KEY_RECEIVED, KEY_REJECTED, WARN, level_value, status_values
+from grasp_intent_ros.wire.joint_states import STALE_AFTER, JointReading
 
 
 def w_with_label(label: str) -> Float64MultiArray:
@@ -50,6 +55,42 @@ def test_oversized_and_undecodable_messages_are_rejected_and_the_rest_decoded(ro
     assert ros.wait_for(lambda: counts() == (str(int(n_received) + 2), '2'))
     assert 'intent/w: undecodable message' in diag.status().message
     assert len(received) == int(n_received)  # neither reached the callback
+
+
+def test_the_arm_from_joint_states_split_partial_stale_and_malformed(ros) -> None:
+    """The arm's joints over two messages and the fingers in a third: the arm once both halves came.
+
+    The halves reordered, one with an extra joint, no velocities. A half alone is noted (never named; then stale
+    after STALE_AFTER s of other messages); a malformed message is a rejection that changes nothing.
+    """
+    node = ros.add(rclpy.create_node('inputs_probe', context=ros.context))
+    diag = NodeDiagnostics(node, 'inputs')
+    arms: list[JointReading] = []
+    subscribe_arm(node, arms.append, input_qos(), diag)
+    pub = ros.publisher(JointState, topics.JOINT_STATES)
+    fingers = JointState(name=list(FINGER_JOINTS), position=[0.1, 0.2, 0.3])
+    first = JointState(name=['m1n6s300_joint_extra', *ARM_JOINTS[2::-1]], position=[5.0, *HOME_Q[2::-1]])
+    second = JointState(name=list(ARM_JOINTS[:2:-1]), position=HOME_Q[:2:-1].tolist())
+
+    def noted(text: str) -> bool:
+        status = diag.status()
+        return level_value(status.level) == WARN and status.message.startswith(f'joint state not used: {text}')
+
+    assert ros.publish_until(pub, first, lambda: noted('never named: ' + ', '.join(ARM_JOINTS[3:])))
+    pub.publish(fingers)
+    pub.publish(second)
+    assert ros.wait_for(lambda: arms) and len(arms) == 1  # the fingers' message brought nothing new
+    assert arms[0].positions.tolist() == list(HOME_Q) and arms[0].stamp_ns is None
+    assert ros.publish_until(pub, JointState(name=list(ARM_JOINTS), position=[0.0] * 5),
+                             lambda: 'rejected input: joint state has 6 names but 5 positions' in diag.status().message)
+    assert len(arms) == 1
+
+    since = time.monotonic()  # the arm's second half stops; the fingers' publisher goes on
+    assert ros.publish_until(pub, fingers, lambda: time.monotonic() > since + STALE_AFTER + 0.1, period=0.05)
+    assert ros.publish_until(pub, first, lambda: noted('stale (not named for more than 1 s while other joints were): '
+                                                       + ', '.join(ARM_JOINTS[3:])))
+    pub.publish(second)
+    assert ros.wait_for(lambda: len(arms) == 2)
 
 
 def test_a_topic_without_a_cap_is_refused(ros) -> None:

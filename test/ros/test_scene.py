@@ -16,6 +16,7 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped
 from numpy.testing import assert_allclose
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, String
 
 from grasp_intent_ros.errors import GraspIntentError
@@ -122,6 +123,19 @@ def test_joint_states_from_two_publishers_fill_arm_and_fingers() -> None:
     state = apply(state, topics.JOINT_STATES, joint_state_msg(FINGER_JOINTS, [0.1, 0.2, 0.3], stamp=STAMP))
     assert_allclose(state.q_live, HOME_Q)
     assert_allclose(state.fingers_live, [0.1, 0.2, 0.3])
+
+
+def test_joint_states_naming_some_joints_each_fill_the_arm_once_every_joint_was_named() -> None:
+    """A driver that publishes the arm's joints in two messages, in other orders, among joints it does not know."""
+    q = HOME_Q + 0.1
+    first = JointState(name=['m1n6s300_joint_extra', *ARM_JOINTS[2::-1]], position=[7.0, *q[2::-1]])
+    state = apply(SceneState(), topics.JOINT_STATES, first)
+    assert state.q_live is None and state.fingers_live is None
+    state = apply(state, topics.JOINT_STATES, JointState(name=list(ARM_JOINTS[:2:-1]), position=q[:2:-1].tolist()))
+    assert_allclose(state.q_live, q, rtol=0.0, atol=0.0)
+    state = apply(state, topics.JOINT_STATES, JointState(name=[ARM_JOINTS[4]], position=[0.5]))
+    assert_allclose(state.q_live, [*q[:4], 0.5, q[5]], rtol=0.0, atol=0.0)
+    assert state.fingers_live is None
 
 
 def test_bad_messages_raise_and_leave_the_state_as_it_was() -> None:

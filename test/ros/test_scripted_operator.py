@@ -7,6 +7,7 @@ and the mock arm's ``grasp/execute`` and ``grasp/close`` (a fake that answers at
 
 from __future__ import annotations
 
+import threading
 import time
 from typing import Any
 
@@ -14,21 +15,25 @@ import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from rclpy.parameter import Parameter
+from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
 
+from grasp_intent_ros.latest_only import left_running
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import PRE_GRASP_STANDOFF, pose_to_matrix, pre_grasp
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
+from grasp_intent_ros.nodes import scripted_operator
 from grasp_intent_ros.nodes.mock_arm import GRASP_CLOSE, GRASP_EXECUTE
 from grasp_intent_ros.nodes.scripted_operator import ScriptedOperatorNode
 from grasp_intent_ros.planning.options import node_default_options
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_state_msg, joint_trajectory_msg, matrix_to_pose_msg
+from grasp_intent_ros.ros.run import SHUTDOWN_GRACE
 from grasp_intent_ros.shared_control.simulator import certain_grasp
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.diagnostics import ERROR, OPERATOR_COMPONENT, WARN
@@ -177,3 +182,34 @@ def test_a_task_the_model_lacks_and_bad_inputs_give_diagnostics_not_a_crash(ros:
     assert ros.wait_for(lambda: rig.status(bytes([WARN]), 'finite'), 10.0)
     count = len(rig.twists)
     assert ros.wait_for(lambda: len(rig.twists) > count + 10, 5.0)  # still publishing
+
+
+def test_stopped_while_its_own_grasp_is_planned_it_is_destroyed_within_the_grace_and_publishes_nothing_after(
+        ros: Any, own: Grasp, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The first own grasp of a model computes its robustness estimate (seconds at load): a stop does not wait for it.
+
+    Here the plan blocks until the test releases it, after the node is destroyed; it then ends in its thread.
+    """
+    planning, release = threading.Event(), threading.Event()
+
+    def slow_own_grasp(*_: Any) -> tuple[int, Grasp]:
+        planning.set()
+        release.wait(30.0)  # far beyond the grace: the node must be destroyed without it
+        return UT, own
+
+    monkeypatch.setattr(scripted_operator, 'own_grasp', slow_own_grasp)
+    rig = Rig(ros)
+    try:
+        assert ros.wait_for(planning.is_set, 30.0), rig.status()
+        assert ros.wait_for(lambda: len(rig.twists) > 2, 5.0)  # it runs meanwhile: zero twists, no own grasp
+        start = time.monotonic()
+        stop_stamp = ros.node.get_clock().now()
+        ros.remove(rig.node)
+        took = time.monotonic() - start
+        assert took < SHUTDOWN_GRACE, f'{took:.1f} s: the stop waited for the plan'
+        assert 'scripted_operator_goal' in left_running()
+    finally:
+        release.set()
+    assert ros.wait_for(lambda: 'scripted_operator_goal' not in left_running(), 10.0)
+    assert rig.node._loop.own is not None, 'the plan ended in its thread, into the destroyed node, without an error'
+    assert not [m for m in rig.twists if Time.from_msg(m.header.stamp) > stop_stamp]

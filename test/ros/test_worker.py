@@ -8,6 +8,7 @@ from collections.abc import Callable
 
 import pytest
 
+from grasp_intent_ros.latest_only import FINISH_WAIT, left_running
 from grasp_intent_ros.ros.worker import LatestOnlyWorker
 
 
@@ -112,19 +113,55 @@ def test_an_update_hands_an_idle_thread_the_gil_and_a_busy_one_nothing(monkeypat
         worker.stop()
 
 
-def test_stop_does_not_wait_for_a_preparation_and_nothing_is_handled_after_it() -> None:
+def test_stop_waits_for_long_work_at_most_finish_wait_and_the_thread_ends_after_it_handling_nothing_more() -> None:
+    busy, release, handled = threading.Event(), threading.Event(), []
+
+    def handle(value: int) -> None:
+        busy.set()
+        release.wait(10.0)  # far beyond the bound: never set before the stop has returned
+        handled.append(value)
+
+    worker = LatestOnlyWorker(0, handle, name='test_busy_worker')
+    try:
+        worker.update(lambda _: 1)
+        assert busy.wait(5.0)
+        worker.update(lambda _: 2)  # waits behind the work in progress
+        start = time.monotonic()
+        assert not worker.stop(), 'the thread cannot have ended: its work goes on'
+        took = time.monotonic() - start
+        assert FINISH_WAIT <= took < FINISH_WAIT + 0.5, took
+        assert 'test_busy_worker' in left_running() and worker.stopping
+    finally:
+        release.set()
+    assert wait(lambda: 'test_busy_worker' not in left_running())
+    assert handled == [1], 'the update that waited behind the work was handled after the stop'
+    assert worker.stop()  # ended: joined at once, its wait closed
+
+
+def test_stop_does_not_wait_for_a_preparation_beyond_the_bound_and_nothing_is_handled_after_it() -> None:
     release, handled = threading.Event(), []
-    worker = LatestOnlyWorker(0, handled.append, name='test_worker', prepare=lambda: release.wait(30.0))
+    worker = LatestOnlyWorker(0, handled.append, name='test_preparing_worker', prepare=lambda: release.wait(30.0))
     try:
         assert worker.preparing
         worker.update(lambda _: 1)
-        worker.stop()  # returns while the preparation goes on (a compile cannot be cut short)
-        assert worker.preparing and worker.stopping
+        start = time.monotonic()
+        assert not worker.stop()  # returns while the preparation goes on (a compile cannot be cut short)
+        assert time.monotonic() - start < FINISH_WAIT + 0.5
+        assert worker.preparing and worker.stopping and 'test_preparing_worker' in left_running()
     finally:
         release.set()
     assert wait(lambda: not worker.preparing)
-    worker.stop()  # now it joins the thread, which ends without handling the update
-    assert handled == []
+    assert worker.stop()  # now it joins the thread, which ends without handling the update
+    assert handled == [] and 'test_preparing_worker' not in left_running()
+
+
+def test_a_stop_from_the_thread_itself_asks_only() -> None:
+    stopped: list[bool] = []
+    worker: LatestOnlyWorker[int] = LatestOnlyWorker(0, lambda _: stopped.append(worker.stop()), name='test_worker')
+    worker.update(lambda _: 1)
+    assert wait(lambda: bool(stopped)) and stopped == [False] and worker.stopping
+    assert wait(lambda: 'test_worker' not in left_running())
+    assert worker.stop()
 
 
 # ------------------------------------------------------------ a worker that takes a subscription (ROS)

@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import math
 import signal
+import subprocess
+import sys
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -13,10 +17,16 @@ from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, String
 
+from grasp_intent_ros.launch.suite import node_environment
 from grasp_intent_ros.method.intent import interpret
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.conversions import model_from_msg
 from grasp_intent_ros.ros.qos import latched_qos
+from grasp_intent_ros.ros.run import SHUTDOWN_GRACE
+from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.arrays import msg_to_array
+from grasp_intent_ros.wire.model_document import model_document
 
 REPO = Path(__file__).resolve().parents[2]
 STARTUP = 20.0
@@ -122,3 +132,41 @@ def test_a_launch_stopping_the_nodes_one_at_a_time_with_sigint_ends_each_with_ex
     assert ros.publish_until(w_pub, Float64MultiArray(data=[0.9, 0.9, 0.1]), lambda: posteriors,
                              timeout=SUITE_STARTUP, period=0.5)
     assert launch.stop(signal.SIGINT) == []
+
+
+def test_a_scripted_operator_stopped_while_it_plans_its_own_grasp_exits_0_within_the_grace(ros, domain_id):
+    """Ctrl-C while the goal thread plans: exit code 0 within the grace, the thread left to the process's end.
+
+    The node's ``own_grasp`` is made to plan without end (the model's first robustness estimate, then plan after
+    plan, in compiled kernels), so that the stop always finds it planning.
+    """
+    code = ('from grasp_intent_ros.nodes import scripted_operator\n'
+            'plan = scripted_operator.own_grasp\n'
+            'def plan_on(*args):\n'
+            '    print("planning", flush=True)\n'
+            '    while True:\n'
+            '        plan(*args)\n'
+            'scripted_operator.own_grasp = plan_on\n'
+            'scripted_operator.main([])\n')
+    proc = subprocess.Popen([sys.executable, '-c', code], cwd=REPO, env=node_environment(domain_id),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines: list[str] = []
+    threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True).start()
+    try:
+        models = ros.publisher(String, topics.MODEL_ACTIVE, latched_qos())
+        models.publish(String(data=model_document(ModelFiles(config_dir() / 'models').load('cup_7zone'),
+                                                  name='cup_7zone', version=1)))
+        assert ros.wait_for(lambda: lines or proc.poll() is not None, timeout=3 * STARTUP), 'it never planned'
+        assert lines == ['planning\n'], lines
+        start = time.monotonic()
+        proc.send_signal(signal.SIGINT)  # Ctrl-C
+        exit_code = proc.wait(SHUTDOWN_GRACE + 10.0)
+        took = time.monotonic() - start
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait()
+    err = proc.stderr.read()
+    assert exit_code == 0 and took < SHUTDOWN_GRACE, (exit_code, took, err)
+    assert 'stopped while scripted_operator_goal worked: not waiting for it' in err, err
+    assert 'Traceback' not in err and 'shutdown not finished' not in err, err

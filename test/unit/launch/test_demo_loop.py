@@ -27,7 +27,7 @@ from grasp_intent_ros.objects.judge import judge, operator_verdict
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.parameters import SCRIPTED_OPERATOR
 from grasp_intent_ros.wire.diagnostics import KEY_EXECUTE, KEY_TIMES_TO_GRASP
-from grasp_intent_ros.wire.robot_state import CLOSE_SETTLE
+from grasp_intent_ros.wire.joint_states import CLOSE_SETTLE
 
 UT = 0b011
 MODEL = ModelFiles(config_dir() / 'models').load('cup_7zone')

@@ -48,11 +48,14 @@ RATE = 100
 DT = 1.0 / RATE
 
 
-def joint_state(q: Any, qd: Any = None) -> Any:
-    """A rosbags JointState of the 6 arm joints and 3 fingers (positions, velocities: zero by default)."""
+def joint_state(q: Any, qd: Any = None, names: Any = JOINT_NAMES) -> Any:
+    """A rosbags JointState of ``names`` (default: the 6 arm joints and 3 fingers), positions and velocities.
+
+    The velocities are zero by default.
+    """
     q = np.asarray(q, dtype=np.float64)
-    qd = np.zeros(9) if qd is None else np.asarray(qd, dtype=np.float64)
-    return T['sensor_msgs/msg/JointState'](header=header(), name=list(JOINT_NAMES), position=q, velocity=qd,
+    qd = np.zeros(q.size) if qd is None else np.asarray(qd, dtype=np.float64)
+    return T['sensor_msgs/msg/JointState'](header=header(), name=list(names), position=q, velocity=qd,
                                            effort=np.array([], dtype=np.float64))
 
 
@@ -72,9 +75,12 @@ Q_GRASP = KIN.ik(BASE_T_OBJ @ features_to_obj_T_ee(GRASP_X), HOME_Q).q
 OPEN, CLOSED = np.zeros(3), np.array([1.0, 1.1, 0.9])  # CLOSED: mean closure 1 rad
 POSITION_NOISE, VELOCITY_NOISE = 0.002, 0.01
 """A real driver's noise (standard deviations, rad and rad/s) on every joint, at rest and moving."""
-DRIVERS = ('exact', 'positions only', 'noisy')
+DRIVERS = ('exact', 'positions only', 'noisy', 'split', 'partial')
 """How a driver publishes: the mock arm's exact positions and velocities (zero at rest), a ros2_control interface
-with position state interfaces only (an empty ``velocity``), or measured positions and velocities with noise."""
+with position state interfaces only (an empty ``velocity``), measured positions and velocities with noise, the
+arm and the fingers in two messages (in reversed order, an extra joint with the arm, no velocities), or the
+arm's joints over two messages, the second with the fingers, in other orders (noisy positions, no velocities)."""
+EXTRA_JOINT = 'm1n6s300_joint_extra'
 
 
 class Fingers:
@@ -114,9 +120,18 @@ class Fingers:
         messages = []
         for t, fingers, velocities in self.states:
             q, qd = np.array([*Q_GRASP, *fingers]), np.array([0.0] * 6 + list(velocities))
-            if driver == 'noisy':
+            if driver in ('noisy', 'partial'):
                 q, qd = q + rng.normal(0.0, POSITION_NOISE, 9), qd + rng.normal(0.0, VELOCITY_NOISE, 9)
-            messages.append((JOINT_STATES, t, joint_state(q, np.array([]) if driver == 'positions only' else qd)))
+            if driver == 'split':  # the arm's first: each finger reading has the arm of its own time
+                messages += [(JOINT_STATES, t, joint_state([0.5, *q[5::-1]], np.array([]),
+                                                           [EXTRA_JOINT, *JOINT_NAMES[5::-1]])),
+                             (JOINT_STATES, t, joint_state(q[:5:-1], np.array([]), JOINT_NAMES[:5:-1]))]
+            elif driver == 'partial':
+                halves = ([2, 0, 1], [3, 8, 4, 5, 7, 6])
+                messages += [(JOINT_STATES, t, joint_state(q[half], np.array([]), [JOINT_NAMES[i] for i in half]))
+                             for half in halves]
+            else:
+                messages.append((JOINT_STATES, t, joint_state(q, np.array([]) if driver == 'positions only' else qd)))
         return messages
 
 
@@ -127,8 +142,10 @@ def run(messages: list[tuple[str, float, Any]], *, tasks: int | None = USAGE, ma
 
 
 def features_at(messages: list[tuple[str, float, Any]], t: float) -> np.ndarray:
-    """The features of the joint state received at ``t`` s: the hand's pose and its finger positions."""
-    q = next(msg.position for topic, t_msg, msg in messages if topic == JOINT_STATES and t_msg == t)
+    """The features of the joint states received at ``t`` s: the hand's pose and its finger positions."""
+    named = {name: float(p) for topic, t_msg, msg in messages if topic == JOINT_STATES and t_msg == t
+             for name, p in zip(msg.name, msg.position)}
+    q = np.array([named[name] for name in JOINT_NAMES])
     return obj_T_ee_to_features(np.linalg.inv(BASE_T_OBJ) @ KIN.fk(q[:6]), q[6:])
 
 
@@ -153,9 +170,9 @@ def test_a_close_is_found_on_the_positions_whatever_the_driver_publishes_as_velo
     found = run(messages, max_pose_age=1.0)
     assert len(found.grasps) == 1 and found.rejected == () and found.openings == 0
     grasp = found.grasps[0]
-    assert reached + SETTLE_WINDOW - SETTLE_TOLERANCE <= grasp.t <= reached + SETTLE_WINDOW
+    assert reached + SETTLE_WINDOW - SETTLE_TOLERANCE - 1e-9 <= grasp.t <= reached + SETTLE_WINDOW  # 1e-9: rounding
     assert_allclose(grasp.x, features_at(messages, grasp.t), rtol=0.0, atol=1e-12)
-    if driver != 'noisy':
+    if driver not in ('noisy', 'partial'):
         assert_allclose(grasp.x[7:], CLOSED, rtol=0.0, atol=0.0)
         assert_allclose(grasp.x[:7], GRASP_X[:7], atol=2 * IK_ROT_TOL)
     assert (grasp.task_set, grasp.label) == (USAGE, '--tasks')

@@ -17,6 +17,7 @@ from grasp_intent_ros.shared_control.ada import AdaAssistance
 from grasp_intent_ros.shared_control.assistance import TwistLimiter, offset, pose_error
 from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
+    AMBIGUOUS_CASES,
     ChangingIntent,
     OperatorConstants,
     PersistentIntent,
@@ -63,6 +64,12 @@ def test_intents_follow_their_scripts() -> None:
     assert all(d.true_set != 0 for d in drawn)
     sharpening = drawn[0]
     assert_allclose(sharpening.w(sharpening.sharpen, rng), certain_w(sharpening.true_set))  # no noise once sharp
+    # episode i holds the paper's case i mod 5, its true set drawn from that case with the episode's stream
+    for index in range(12):
+        persistent = PersistentIntent.draw(index, np.random.default_rng(index))
+        assert persistent.case == AMBIGUOUS_CASES[index % 5]
+        assert persistent.true_set == draw_task_set(np.asarray(persistent.case), np.random.default_rng(index))
+    assert AMBIGUOUS_CASES[0] == (0.9, 0.9, 0.1) and len(set(AMBIGUOUS_CASES)) == 5
 
 
 def _drive(operator: ScriptedOperator, hand: np.ndarray, goal: np.ndarray, period: float = 0.01,
