@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 from geometry_msgs.msg import PoseStamped
+from processes import alive
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
@@ -36,14 +37,6 @@ STOP = 30.0
 """Seconds for the command to stop six nodes, one at a time, after Ctrl-C."""
 MODELS = {'cup': 'cup_7zone', 'flashlight': 'flashlight_7zone'}
 W = Float64MultiArray(data=[0.9, 0.9, 0.1])
-
-
-def alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    return True
 
 
 def stamp_ns(msg: PoseStamped) -> int:

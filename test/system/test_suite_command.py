@@ -15,6 +15,7 @@ import sys
 import time
 from pathlib import Path
 
+from processes import alive
 from std_msgs.msg import Float64MultiArray
 
 from grasp_intent_ros.launch.parent_death import ended_with_this_process
@@ -25,14 +26,6 @@ STARTUP = 30.0
 """Seconds for the suite to start and answer (imports, DDS discovery) on a loaded 2-core machine."""
 STOP = 20.0
 """Seconds for the command to stop every node and exit after Ctrl-C."""
-
-
-def alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    return True
 
 
 def test_one_command_starts_the_suite_with_a_namespace_and_params_file_and_ctrl_c_stops_it(
