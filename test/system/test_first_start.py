@@ -18,11 +18,11 @@ import time
 from pathlib import Path
 
 import pytest
+from processes import ctrl_c, suite_command
 from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray
 
-from grasp_intent_ros.launch.parent_death import ended_with_this_process
 from grasp_intent_ros.launch.suite import NodeSuite
 from grasp_intent_ros.ros.run import SHUTDOWN_GRACE
 from grasp_intent_ros.ros.startup import WATCHDOG_EXIT_CODE
@@ -47,11 +47,7 @@ def test_from_an_empty_compile_cache_no_answer_after_up_waits_on_a_kernel(ros, d
                                                                           tmp_path: Path) -> None:
     out_path = tmp_path / 'suite.out'
     env = {**os.environ, 'NUMBA_CACHE_DIR': str(tmp_path / 'numba_cache')}
-    with out_path.open('w') as out:
-        suite = subprocess.Popen([sys.executable, '-m', 'grasp_intent_ros', 'suite', '--domain-id', str(domain_id)],
-                                 cwd=tmp_path, env=env, stdout=out, stderr=subprocess.STDOUT, start_new_session=True,
-                                 preexec_fn=ended_with_this_process())
-    try:
+    with suite_command(['--domain-id', str(domain_id)], cwd=tmp_path, out=out_path, env=env) as suite:
         assert ros.wait_for(lambda: 'suite: up after' in _read(out_path) or suite.poll() is not None,
                             timeout=COMPILE) and suite.poll() is None, _read(out_path)
         assert (tmp_path / 'numba_cache').is_dir(), 'the kernels were compiled into the empty cache'
@@ -82,12 +78,7 @@ def test_from_an_empty_compile_cache_no_answer_after_up_waits_on_a_kernel(ros, d
         assert set(late()) == {'0'}, (late(), answered)
         up = next(line for line in _read(out_path).splitlines() if line.startswith('suite: up after'))
         print(f'{up}; answer times after it [s]: {", ".join(f"{t:.3f}" for t in answered)}')
-        os.killpg(suite.pid, signal.SIGINT)  # Ctrl-C
-        assert suite.wait(STOP) == 0, _read(out_path)
-    finally:
-        if suite.poll() is None:
-            os.killpg(suite.pid, signal.SIGKILL)
-            suite.wait()
+        assert ctrl_c(suite, STOP) == 0, _read(out_path)
     assert _read(out_path).rstrip().endswith('suite: stopped cleanly'), _read(out_path)
 
 

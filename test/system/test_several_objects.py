@@ -7,20 +7,15 @@ stop cover every chain. Only the process group this test started is signalled.
 
 from __future__ import annotations
 
-import os
 import re
-import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 from geometry_msgs.msg import PoseStamped
-from processes import alive
+from processes import alive, ctrl_c, suite_command
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
-from grasp_intent_ros.launch.parent_death import ended_with_this_process
 from grasp_intent_ros.launch.suite import SUITE_NODES
 from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q
@@ -46,12 +41,9 @@ def stamp_ns(msg: PoseStamped) -> int:
 def test_one_chain_per_object_each_with_its_model_and_pose_sharing_the_arms_joint_states(
         ros, domain_id: int, tmp_path: Path) -> None:
     out = tmp_path / 'suite.out'
-    command = [sys.executable, '-m', 'grasp_intent_ros', 'suite', '--domain-id', str(domain_id),
-               *(arg for name, model in MODELS.items() for arg in ('--object', f'{name}={model}')),
-               '--log-dir', str(tmp_path / 'logs')]
-    suite = subprocess.Popen(command, cwd=tmp_path, stdout=out.open('w'), stderr=subprocess.STDOUT,
-                             start_new_session=True, preexec_fn=ended_with_this_process())
-    try:
+    objects = [arg for name, model in MODELS.items() for arg in ('--object', f'{name}={model}')]
+    args = ['--domain-id', str(domain_id), *objects, '--log-dir', str(tmp_path / 'logs')]
+    with suite_command(args, cwd=tmp_path, out=out) as suite:
         active = {name: ros.subscribe(String, f'/{name}/model/active', latched_qos()) for name in MODELS}
         grasps = {name: ros.subscribe(PoseStamped, f'/{name}/grasp/pose') for name in MODELS}
         w_pubs = {name: ros.publisher(Float64MultiArray, f'/{name}/intent/w') for name in MODELS}
@@ -104,12 +96,7 @@ def test_one_chain_per_object_each_with_its_model_and_pose_sharing_the_arms_join
         assert [stamp_ns(g) for g in grasps['flashlight'] if stamp_ns(g) > cup_w_sent] == [], \
             'a w on /cup/intent/w planned for the flashlight'
 
-        os.killpg(suite.pid, signal.SIGINT)  # Ctrl-C
-        assert suite.wait(STOP) == 0, out.read_text()
-    finally:
-        if suite.poll() is None:
-            os.killpg(suite.pid, signal.SIGKILL)
-            suite.wait()
+        assert ctrl_c(suite, STOP) == 0, out.read_text()
     text = out.read_text()
     first, lines = text.splitlines()[0], text.splitlines()
     assert first.startswith(f'suite: ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, namespace /; '

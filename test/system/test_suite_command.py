@@ -7,18 +7,15 @@ and it stops them one at a time. Only that process group, which this test starte
 
 from __future__ import annotations
 
-import os
 import re
-import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-from processes import alive
+from processes import alive, ctrl_c, suite_command
 from std_msgs.msg import Float64MultiArray
 
-from grasp_intent_ros.launch.parent_death import ended_with_this_process
 from grasp_intent_ros.wire.arrays import read_posterior
 
 REPO = Path(__file__).resolve().parents[2]
@@ -32,12 +29,9 @@ def test_one_command_starts_the_suite_with_a_namespace_and_params_file_and_ctrl_
         ros, domain_id: int, tmp_path: Path) -> None:
     params = tmp_path / 'mine.yaml'
     params.write_text('/**/model_server:\n  ros__parameters:\n    model: cup_5zone\n')
-    out = (tmp_path / 'suite.out').open('w+')
-    command = [sys.executable, '-m', 'grasp_intent_ros', 'suite', '--namespace', '/robot7', '--domain-id',
-               str(domain_id), '--params-file', str(params), '--log-dir', str(tmp_path / 'logs')]
-    suite = subprocess.Popen(command, cwd=tmp_path, stdout=out, stderr=subprocess.STDOUT, start_new_session=True,
-                             preexec_fn=ended_with_this_process())
-    try:
+    args = ['--namespace', '/robot7', '--domain-id', str(domain_id), '--params-file', str(params), '--log-dir',
+            str(tmp_path / 'logs')]
+    with suite_command(args, cwd=tmp_path, out=tmp_path / 'suite.out') as suite:
         posteriors = ros.subscribe(Float64MultiArray, '/robot7/grasp/posterior')
         w_pub = ros.publisher(Float64MultiArray, '/robot7/intent/w')
         assert ros.publish_until(w_pub, Float64MultiArray(data=[0.9, 0.9, 0.1]), lambda: posteriors,
@@ -49,12 +43,7 @@ def test_one_command_starts_the_suite_with_a_namespace_and_params_file_and_ctrl_
         assert set(pids) == {'intent_interpreter', 'model_server', 'grasp_planner'}, first
         assert f'ROS_DOMAIN_ID={domain_id}' in first and 'namespace /robot7' in first
 
-        os.killpg(suite.pid, signal.SIGINT)  # Ctrl-C
-        assert suite.wait(STOP) == 0, (tmp_path / 'suite.out').read_text()
-    finally:
-        if suite.poll() is None:
-            os.killpg(suite.pid, signal.SIGKILL)
-            suite.wait()
+        assert ctrl_c(suite, STOP) == 0, (tmp_path / 'suite.out').read_text()
     text = (tmp_path / 'suite.out').read_text()
     assert text.rstrip().endswith('suite: stopped cleanly'), text
     assert "[model_server] [INFO]" in text and "active model 'cup_5zone'" in text, text  # the nodes' output
@@ -68,19 +57,12 @@ def test_the_scripted_operator_starts_once_every_other_node_is_ready(domain_id: 
     # started with the others it moved before the assistance could move the arm, and a session recorded from the
     # start did not replay (docs/sessions.md, "Closed-loop sessions")
     out = tmp_path / 'suite.out'
-    suite = subprocess.Popen([sys.executable, '-m', 'grasp_intent_ros', 'suite', '--domain-id', str(domain_id),
-                              '--shared-control', '--with', 'scripted_operator'], cwd=tmp_path, stdout=out.open('w'),
-                             stderr=subprocess.STDOUT, start_new_session=True, preexec_fn=ended_with_this_process())
-    try:
+    args = ['--domain-id', str(domain_id), '--shared-control', '--with', 'scripted_operator']
+    with suite_command(args, cwd=tmp_path, out=out) as suite:
         deadline = time.monotonic() + 2 * STARTUP  # five nodes, then the operator
         while 'suite: up' not in out.read_text() and suite.poll() is None and time.monotonic() < deadline:
             time.sleep(0.1)  # another process writes the file: no event to wait on
-        os.killpg(suite.pid, signal.SIGINT)  # Ctrl-C
-        assert suite.wait(STOP) == 0, out.read_text()
-    finally:
-        if suite.poll() is None:
-            os.killpg(suite.pid, signal.SIGKILL)
-            suite.wait()
+        assert ctrl_c(suite, STOP) == 0, out.read_text()
     lines = out.read_text().splitlines()
     assert 'suite: up' in '\n'.join(lines), lines
     assert lines[0].endswith('; scripted_operator once they are ready; Ctrl-C stops them'), lines[0]
