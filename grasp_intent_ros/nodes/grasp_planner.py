@@ -10,9 +10,10 @@ Topics (relative; formats in :mod:`grasp_intent_ros.wire`; each in docs/nodes.md
 
 A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs, never a backlog, with
 :func:`grasp_intent_ros.mico.grasp.plan_grasp`, warm-started from the last plan of the same model; its
-thread takes ``intent/v`` itself. A :class:`~grasp_intent_ros.ros.model_follower.ModelFollower` reads each
-new ``model/active`` in a thread of its own; :mod:`grasp_intent_ros.ros.startup` tunes the process and
-loads every compiled kernel before the node logs that it is ready (docs/nodes.md, "The planner node").
+thread takes ``intent/v`` itself (planned as ``plan_for`` says: :func:`~.mico.parameters.planned_target`). A
+:class:`~grasp_intent_ros.ros.model_follower.ModelFollower` reads each new ``model/active`` in a thread of its own;
+:mod:`grasp_intent_ros.ros.startup` tunes the process and loads every compiled kernel before the node logs that it
+is ready (docs/nodes.md, "The planner node").
 Parameters: :data:`grasp_intent_ros.mico.parameters.GRASP_PLANNER`, ``config/grasp_planner.yaml``.
 """
 
@@ -38,7 +39,7 @@ from ..method.intent import match_zones
 from ..mico.collision import HandCollision
 from ..mico.grasp import plan_grasp
 from ..mico.kinematics import HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
-from ..mico.parameters import GRASP_PLANNER, check_object_pose, object_pose
+from ..mico.parameters import GRASP_PLANNER, check_object_pose, object_pose, planned_target
 from ..planning.options import node_options, noise_from
 from ..planning.task import precompute
 from ..ros.clarification import ClarificationRequests
@@ -160,7 +161,7 @@ class GraspPlanner(Node):
     def _on_parameters(self, changed: Mapping[str, Any]) -> None:
         if 'task_names' in changed:
             self._models.recheck()  # the model is served for other tasks, or now one refused is
-        if {'object_position', 'object_orientation'} & set(changed):
+        if {'object_position', 'object_orientation', 'plan_for'} & set(changed):  # replan the newest inputs
             self._update(base_T_obj=object_pose(self._params))
 
     def _ready(self, inputs: _Inputs) -> bool:
@@ -172,9 +173,9 @@ class GraspPlanner(Node):
         assert inputs.model and inputs.v is not None and inputs.base_T_obj is not None and inputs.stamp
         doc, key = inputs.model, (inputs.model.name, inputs.model.sha256)
         warm = self._warm[1] if self._warm is not None and self._warm[0] == key else None
-        grasp = plan_grasp(doc.model, inputs.v, match_zones(inputs.v.size, inputs.v_labels, doc.model.task_names),
-                           inputs.base_T_obj, self._kin, name=doc.name, q_arm=inputs.q_arm, warm_start=warm,
-                           method=self._params['method'],
+        v, zones = planned_target(self._params['plan_for'], inputs.v, inputs.v_labels, doc.model.task_names)
+        grasp = plan_grasp(doc.model, v, zones, inputs.base_T_obj, self._kin, name=doc.name, q_arm=inputs.q_arm,
+                           warm_start=warm, method=self._params['method'],
                            options=node_options(self._params['method'], self._params['n_starts'],
                                                 self._params['execution_noise']),
                            ik_restarts=self._params['ik_restarts'],
