@@ -288,8 +288,8 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
             return runs, latency
         closure_error = loop.closure_error()
         for i in args.only or range(args.operators):
-            turn = i % len(CONDITIONS)
-            order = [c for c in CONDITIONS[turn:] + CONDITIONS[:turn] if c in args.conditions]
+            chosen = [c for c in CONDITIONS if c in args.conditions]
+            order = chosen[i % len(chosen):] + chosen[:i % len(chosen)]  # each first equally often
             views = np.random.default_rng([args.seed, list(OBJECTS).index(name), i, VIEWS])
             tracked = perturb_pose(BASE_T_OBJ, 1e-3 * args.tracker_mm, math.radians(args.tracker_deg), views)
             seen = perturb_pose(BASE_T_OBJ, 1e-3 * args.operator_mm, math.radians(args.operator_deg), views)
@@ -384,7 +384,8 @@ def main() -> None:
                         '(module docstring)')
     parser.add_argument('--stream-only', action='store_true', help='the latency and stream phases only')
     parser.add_argument('--conditions', nargs='+', default=list(CONDITIONS), choices=CONDITIONS,
-                        help='run only these conditions (in the rotating order of the full run)')
+                        help='run only these conditions (rotating: operator i starts with the (i mod n)-th of them, '
+                             'in the order of the full run)')
     parser.add_argument('--tracker-mm', type=float, default=5.0, help='RMS position error (mm) of the object pose '
                         'published to the suite, drawn per operator (module docstring)')
     parser.add_argument('--tracker-deg', type=float, default=3.0, help='RMS rotation error (deg) of that pose')
