@@ -273,6 +273,14 @@ class Rig:
                                       timeout=timeout, period=0.5), 'no complete plan received'
         return self.grasps.plans(start)[0]
 
+    def plans_at(self, base_T_obj: Any, after: int) -> list[Plan]:
+        """Complete plans stamped after ``after`` whose grasp is at the object pose ``base_T_obj``.
+
+        A v that :meth:`request` re-sent may still be planned after ``after`` with the object where it was.
+        """
+        return [p for p in self.grasps.plans(after) if np.allclose(
+            pose_msg_to_matrix(p.pose, frame_id=BASE_FRAME), base_T_obj @ features_to_obj_T_ee(p.x), atol=1e-9)]
+
     def warn(self, reason: str) -> Callable[[], list[Any]]:
         return lambda: [s for s in self.statuses if s.level == DiagnosticStatus.WARN and reason in s.message]
 
@@ -355,15 +363,11 @@ def test_v_in_grasp_out_equals_core(rig: Rig, model: GraspModel, kin: MicoKinema
 def test_object_pose_change_moves_the_grasp(rig: Rig, kin: MicoKinematics) -> None:
     before = rig.request(v_msg(interpret(W_GOOD).v))
     moved = pose_to_matrix((0.3, -0.25, 0.02), (0.0, 0.0, 1.0, 0.0))
-
-    def on_moved_object() -> list[Plan]:
-        # a v that request() re-sent may still be planned (with the old pose) after `start`: skip such plans
-        return [p for p in rig.grasps.plans(start) if np.allclose(
-            pose_msg_to_matrix(p.pose, frame_id=BASE_FRAME), moved @ features_to_obj_T_ee(p.x), atol=1e-9)]
     start = rig.now()
-    assert rig.ros.publish_until(rig.pose_pub, pose_msg((0.3, -0.25, 0.02), (0.0, 0.0, 1.0, 0.0)), on_moved_object,
-                                 timeout=10.0, period=0.5), 'no plan for the moved object'
-    after = on_moved_object()[0]
+    assert rig.ros.publish_until(rig.pose_pub, pose_msg((0.3, -0.25, 0.02), (0.0, 0.0, 1.0, 0.0)),
+                                 lambda: rig.plans_at(moved, start), timeout=10.0, period=0.5), \
+        'no plan for the moved object'
+    after = rig.plans_at(moved, start)[0]
     shift = pose_msg_to_matrix(after.pose, frame_id=BASE_FRAME)[:3, 3] - pose_msg_to_matrix(
         before.pose, frame_id=BASE_FRAME)[:3, 3]
     assert np.linalg.norm(shift) > 0.04
@@ -722,13 +726,10 @@ def test_parameters_are_validated_and_object_pose_parameters_replan(rig: Rig) ->
     for name, value in (('n_starts', 0), ('ik_restarts', 101), ('min_replan_period', -1.0)):
         assert not node.set_parameters([Parameter(name, value=value)])[0].successful
     rig.request(v_msg(interpret(W_GOOD).v))
+    moved = pose_to_matrix((0.28, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
     start = rig.now()
     assert node.set_parameters([Parameter('object_position', value=[0.28, -0.3, 0.0])])[0].successful
-    assert rig.ros.wait_for(lambda: rig.grasps.plans(start), timeout=10.0)
-    plan = rig.grasps.plans(start)[0]
-    moved = pose_to_matrix((0.28, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
-    assert_allclose(pose_msg_to_matrix(plan.pose, frame_id=BASE_FRAME), moved @ features_to_obj_T_ee(plan.x),
-                    atol=1e-9)
+    assert rig.ros.wait_for(lambda: rig.plans_at(moved, start), timeout=10.0), 'no plan at the new object_position'
 
 
 def test_params_file_and_invalid_initial_parameters(ros: Any) -> None:
