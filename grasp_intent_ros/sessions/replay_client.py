@@ -6,9 +6,10 @@ checks each answer (:mod:`.compare`). The command line is :mod:`grasp_intent_ros
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Generic, TypeVar
 
@@ -39,10 +40,10 @@ from ..wire.topics import (
 from .closed_loop import ESTIMATED_REPLAYED, RENAMED, REPLAYED, ClosedLoopSession, Tracer, estimator_ready
 from .compare import Difference, Tolerances, answered, compare_step, diverged
 from .outputs import Output, RejectionTracker, SessionError, decode, output_of
-from .pairing import PairedSession, Step
+from .pairing import PairedScene, PairedSession, Step
 
 __all__ = ['SUITE_SETTLE_S', 'SessionClient', 'ReplayOptions', 'ReplayResult', 'ReplayError', 'SessionReplayer',
-           'Replayer', 'ClosedLoopReplayer', 'await_answer']
+           'Replayer', 'SceneReplayer', 'ClosedLoopReplayer', 'await_answer']
 
 SUITE_SETTLE_S = 3.0
 """With --start-suite: seconds every node must have been visible before the first input (see
@@ -66,10 +67,14 @@ class SessionClient(Node):
     estimated
         With ``closed_loop``, a session whose w came from the intent estimator: publish
         :data:`~.closed_loop.ESTIMATED_REPLAYED` (the recorded hand included) and trace the live w.
+    arm_namespace
+        None for a one-chain session. For a chain of a scene (this node in the chain's namespace), the scene's
+        namespace: ``joint_states`` is published there (the arm's), and only the rejections of nodes in
+        this node's namespace are outputs (:class:`~.outputs.RejectionTracker`).
     """
 
     def __init__(self, *, model_server: str = 'model_server', node_name: str = 'replay', closed_loop: bool = False,
-                 estimated: bool = False, **kwargs: Any) -> None:
+                 estimated: bool = False, arm_namespace: str | None = None, **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self.closed_loop = closed_loop
         """Whether this client replays a closed-loop session (:mod:`grasp_intent_ros.sessions.closed_loop`)."""
@@ -87,12 +92,13 @@ class SessionClient(Node):
         """Number of /diagnostics messages received."""
         self.last_status: dict[str, str] = {}
         """Per diagnostic status name, its latest message and values, for error reports."""
-        self._tracker = RejectionTracker()
+        self._tracker = RejectionTracker(nodes_in=None if arm_namespace is None else self.get_namespace().rstrip('/'))
         self._first_seen: dict[str, float] = {}
         sent, traced = ((INPUT_TOPICS, ()) if not closed_loop else (ESTIMATED_REPLAYED, (INTENT_W,)) if estimated
                         else (REPLAYED, (JOINT_STATES, ASSISTANCE_TWIST, ASSISTANCE_ALPHA)))
         qos = output_qos(STREAM_DEPTH if estimated else DEFAULT_DEPTH)  # the estimator takes every message
-        self._input_pubs = {t: self.create_publisher(message_class(t), RENAMED.get(t, t), qos) for t in sent}
+        renamed = {**RENAMED, **({} if arm_namespace is None else {JOINT_STATES: f'{arm_namespace}/{JOINT_STATES}'})}
+        self._input_pubs = {t: self.create_publisher(message_class(t), renamed.get(t, t), qos) for t in sent}
         self._loop_subs = {
             topic: self.create_subscription(message_class(topic), topic, self._tracer_receiver(topic), input_qos(1000),
                                             raw=True)
@@ -376,68 +382,109 @@ class SessionReplayer(Generic[S]):
 
 
 class Replayer(SessionReplayer[PairedSession]):
-    """Replays a paired session (:mod:`grasp_intent_ros.sessions.pairing`) input by input, comparing the answers."""
+    """One chain of a paired session (:mod:`grasp_intent_ros.sessions.pairing`) and its client.
+
+    Its inputs are sent and its answers awaited and compared here; :class:`SceneReplayer` runs the chains of a
+    session.
+    """
 
     def _needs_parameters(self) -> bool:
         return any(s.model is not None for s in self.session.steps) or self.session.initial_model is not None
 
-    def _send(self, step: Step) -> Future | None:
+    def send(self, step: Step) -> Future | None:
+        """Publish ``step``'s input (or ask for its model switch: the SetParameters future)."""
         if step.model is not None:
             return self.client.set_model(step.model)
         self.client.publish(step.topic, step.cdr)
         return None
 
-    def _await_answer(self, step: Step, mark: int, future: Future | None) -> tuple[list[Output], list[Difference]]:
+    def answer(self, step: Step, index: int, mark: int, future: Future | None) -> list[Difference]:
+        """The differences of the answer to ``step``, awaited (:func:`await_answer`).
+
+        ``step`` was sent as input ``index`` of the session when the client had ``mark`` outputs. With ``check``
+        every difference from the recording, else only a timeout's or a refused model's. The differences name
+        input ``index`` and, in a chain of a scene, the chain's output topics by the chain's name
+        ('cup/grasp/pose').
+        """
         live, problem = await_answer(self._spin, self.client.outputs, mark, step, future=future,
                                      timeout_s=self.options.timeout_s, quiet_s=self.options.quiet_s)
-        if not problem:
-            return live, []
+        diffs = []
         if problem == 'timeout':
-            return live, [Difference(step.index, step.description, '(answer)', 'timeout',
-                                     f'{len(step.expected)} output(s)',
-                                     f'{len(live)} output(s) within {self.options.timeout_s:g} s', False)]
-        return live, [Difference(step.index, step.description, MODEL_ACTIVE, 'parameter model',
-                                 f'{step.model!r} accepted', problem)]
+            diffs.append(Difference(step.index, step.description, '(answer)', 'timeout',
+                                    f'{len(step.expected)} output(s)',
+                                    f'{len(live)} output(s) within {self.options.timeout_s:g} s', False))
+            statuses = '\n'.join(f'  {name}: {text}' for name, text in sorted(self.client.last_status.items()))
+            chain = f' ({self.session.name})' if self.session.name else ''
+            print(f'replay: input #{index}{chain} got {len(live)} of {len(step.expected)} recorded outputs within '
+                  f'{self.options.timeout_s:g} s; latest node statuses:\n{statuses}', file=sys.stderr)
+        elif problem:
+            diffs.append(Difference(step.index, step.description, MODEL_ACTIVE, 'parameter model',
+                                    f'{step.model!r} accepted', problem))
+        if self.options.check:
+            diffs += compare_step(step, live, self.options.tolerances)
+        name = self.session.name
+        return [dataclasses.replace(d, step=index, topic=f'{name}/{d.topic}' if name and d.topic != DIAGNOSTICS
+                                    else d.topic) for d in diffs]
+
+
+class SceneReplayer:
+    """Replays a paired session, of one chain or a scene (:class:`~grasp_intent_ros.sessions.pairing.PairedScene`).
+
+    Each input is sent once, through the replayer of the first chain it feeds, at its recorded time (``rate``) or,
+    with ``fast`` or ``check``, once the previous input was answered; then the answer of every chain it feeds
+    is awaited and, with ``check``, compared with that chain's recording.
+
+    Parameters
+    ----------
+    scene
+        The recorded session.
+    chains
+        One :class:`Replayer` per chain of ``scene.chains``, in its order, their clients spun by one executor.
+    options
+        See :class:`ReplayOptions` (the chains' own).
+    """
+
+    def __init__(self, scene: PairedScene, chains: Sequence[Replayer], options: ReplayOptions) -> None:
+        self.scene, self.chains, self.options = scene, tuple(chains), options
 
     def run(self) -> ReplayResult:
-        """Replay every step; compare with --check. Raises ReplayError (system not ready, suite died)."""
+        """Replay every input; compare with --check. Raises ReplayError (system not ready, suite died)."""
         result = ReplayResult()
         started = time.monotonic()
-        result.differences += self.prepare()
+        for chain in self.chains:
+            result.differences += chain.prepare()
         result.ready_s = time.monotonic() - started
         paced_by_answers = self.options.check or self.options.fast
-        steps = self.session.steps
-        t_first = steps[0].t_ns
+        inputs, wait = self.scene.inputs, self.chains[0]._wait
+        t_first = inputs[0].steps[0][1].t_ns
         begin = time.monotonic()
         failed_inputs = 0
-        first_mark = mark = len(self.client.outputs)
-        for step in steps:
+        first_marks = marks = [len(chain.client.outputs) for chain in self.chains]
+        for item in inputs:
             if not self.options.fast:
-                send_at = begin + 1e-9 * (step.t_ns - t_first) / self.options.rate
-                self._wait(lambda: time.monotonic() >= send_at, max(0.0, send_at - time.monotonic()) + 1.0)
-            mark = len(self.client.outputs)
-            future = self._send(step)
+                send_at = begin + 1e-9 * (item.steps[0][1].t_ns - t_first) / self.options.rate
+                wait(lambda: time.monotonic() >= send_at, max(0.0, send_at - time.monotonic()) + 1.0)
+            marks = [len(chain.client.outputs) for chain in self.chains]
+            sender, sent = item.steps[0]
+            future = self.chains[sender].send(sent)
             result.inputs_sent += 1
             if not paced_by_answers:
                 continue
-            live, problems = self._await_answer(step, mark, future)
-            if any(d.field == 'timeout' for d in problems):
-                result.timed_out.append(step.index)
-                statuses = '\n'.join(f'  {name}: {text}' for name, text in sorted(self.client.last_status.items()))
-                print(f'replay: input #{step.index} got {len(live)} of {len(step.expected)} recorded outputs '
-                      f'within {self.options.timeout_s:g} s; latest node statuses:\n{statuses}', file=sys.stderr)
+            diffs = [d for i, step in item.steps
+                     for d in self.chains[i].answer(step, item.index, marks[i], future if step is sent else None)]
+            result.timed_out += [item.index] if any(d.field == 'timeout' for d in diffs) else []
             if self.options.check:
-                diffs = problems + compare_step(step, live, self.options.tolerances)
                 result.differences += diffs
                 if any(d.fatal for d in diffs):
                     failed_inputs += 1
                     if failed_inputs >= self.options.max_failed_inputs > 0:
-                        result.stopped_early = step is not steps[-1]
+                        result.stopped_early = item is not inputs[-1]
                         break
         if not paced_by_answers:  # let the last answer arrive
-            self._wait(lambda: answered(steps[-1], self.client.outputs[mark:]), self.options.timeout_s)
+            wait(lambda: all(answered(step, self.chains[i].client.outputs[marks[i]:]) for i, step in inputs[-1].steps),
+                 self.options.timeout_s)
         result.replay_s = time.monotonic() - begin
-        result.outputs_received = len(self.client.outputs) - first_mark
+        result.outputs_received = sum(len(c.client.outputs) - m for c, m in zip(self.chains, first_marks))
         return result
 
 
