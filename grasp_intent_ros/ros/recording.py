@@ -416,7 +416,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument('out_dir', type=Path, help='bag directory to create (must not exist)')
     parser.add_argument('--topics', nargs='+', metavar='T', default=list(DEFAULT_TOPICS),
                         help='topics to record, relative to the node namespace; a trailing "/" selects '
-                             f'a subtree (default: {" ".join(DEFAULT_TOPICS)})')
+                             'a subtree, and one that is not a folder of the suite\'s topics names a namespace whose '
+                             'suite topics are heard from the start (a chain of a scene: cup/) '
+                             f'(default: {" ".join(DEFAULT_TOPICS)})')
     parser.add_argument('--depth', type=int, default=DEFAULT_DEPTH,
                         help=f'keep-last depth of each subscription (default {DEFAULT_DEPTH})')
     parser.add_argument('--discovery-period', type=float, default=DEFAULT_DISCOVERY_PERIOD,

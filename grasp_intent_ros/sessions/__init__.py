@@ -12,7 +12,8 @@ outputs
     (:class:`~.outputs.RejectionTracker`); :class:`~.outputs.SessionError`.
 pairing
     A session bag split into inputs and the outputs each caused (:class:`~.pairing.PairedSession` of
-    :class:`~.pairing.Step` s, :func:`~.pairing.load_paired_session`); compaction of a recorded bag.
+    :class:`~.pairing.Step` s, :func:`~.pairing.load_paired_session`), chain by chain for a scene of several
+    objects (:func:`~.pairing.load_paired_scene`); compaction of a recorded bag.
 compare
     A step's recorded outputs against live ones at the replay's tolerances.
 closed_loop

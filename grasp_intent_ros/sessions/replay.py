@@ -8,6 +8,12 @@ What is replayed
     (bad inputs included), and the model switches: a recorded ``model/active`` with another name (or
     content) is reproduced by setting the model server's ``model`` parameter through its parameter
     service at that point. Before the first input the live model is set to the session's initial one.
+Scenes of several objects
+    A bag of one planning chain per object (``/cup``, ``/flashlight``) and the arm's ``joint_states`` above
+    them (:func:`~grasp_intent_ros.sessions.pairing.detect_scene`): each chain is paired by its namespace, and
+    replayed and checked through a client in it (its model server's parameter, its outputs, its nodes'
+    rejections); every input is sent once in the recorded order (a joint state for every chain), and the answer
+    of each chain it feeds is awaited. A difference names the chain's topic (``flashlight/grasp/pose``).
 Closed-loop sessions
     A session with operator twists is replayed as a closed loop (:mod:`grasp_intent_ros.sessions.closed_loop`):
     w, object poses, model switches and operator twists at the recorded pace (``--fast`` and ``--rate`` are
@@ -32,7 +38,8 @@ Suite (``--start-suite``)
     and ``grasp_planner`` (for a closed-loop session also ``mock_arm`` and ``assistance``, or for one recorded
     with the intent estimator ``intent_estimator``) as ``python -m``
     processes with the package's config files, in the session's
-    namespace (:class:`~grasp_intent_ros.launch.suite.NodeSuite`), with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+    namespace (:class:`~grasp_intent_ros.launch.suite.NodeSuite`; for a scene, one chain per object as
+    ``suite --object`` starts them, each with its recorded initial model), with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
     and this process's ROS_DOMAIN_ID (else one derived from the process id); they are
     stopped by PID (SIGTERM, then SIGKILL) at the end. The planner warm-starts from its previous plan and
     keeps the last object pose and joint state, so exact answers need a suite whose history is the
@@ -40,7 +47,8 @@ Suite (``--start-suite``)
 Network
     ROS_AUTOMATIC_DISCOVERY_RANGE defaults to LOCALHOST when unset (always with ``--start-suite``).
 Exit codes
-    0 replayed (and, with --check, everything matched); 1 a check difference; 2 the bag cannot be used,
+    0 replayed (and, with --check, everything matched); 1 a check difference; 2 the bag cannot be used (e.g.
+    topics that belong to no chain of a scene),
     the system did not come up, or a suite process died; 130 interrupted (SIGINT/SIGTERM; a started suite
     is stopped all the same).
 """
