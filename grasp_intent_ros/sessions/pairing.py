@@ -23,15 +23,9 @@ the session was recorded one input at a time, each sent once the previous one wa
 ``scripts/record_sessions.py`` does and ``replay --check`` reproduces). :mod:`.compare` compares a step's
 recorded outputs with live ones.
 
-Scenes
-------
-A session of several objects (``suite --object cup=... --object flashlight=...``, docs/several_objects.md) has
-one planning chain per object in ``<namespace>/<object>`` and the arm's ``joint_states`` in ``<namespace>``,
-read by every chain (:func:`detect_scene`). Each chain is paired as above by its namespace (its own inputs and
-the arm's joint states, its outputs, the rejections of its own nodes: :func:`pair_messages` with
-``arm_namespace``), and the inputs of all chains are put in their receive order once each
-(:class:`SceneInput`: the arm's joint state is a step of every chain), which is how a replay sends them
-(:func:`load_paired_scene`). A one-chain session is a scene of one chain, paired as before.
+A chain of a scene of several objects (:mod:`.scenes`) is paired by its namespace: its own inputs and the
+arm's ``joint_states`` in the scene's namespace, its outputs, the rejections of its own nodes
+(:func:`pair_messages` with ``arm_namespace``).
 """
 
 from __future__ import annotations
@@ -52,15 +46,12 @@ from .outputs import Output, RawMessage, RejectionTracker, SessionError, decode,
 __all__ = [
     'Step',
     'PairedSession',
-    'Scene',
-    'SceneInput',
-    'PairedScene',
+    'session_topics',
     'detect_namespace',
-    'detect_scene',
     'ModelSwitches',
+    'ChainPairing',
     'pair_messages',
     'load_paired_session',
-    'load_paired_scene',
     'compact_session',
 ]
 
@@ -145,7 +136,7 @@ class PairedSession:
         Outputs received before the first input (not compared).
     arm_namespace
         None for a one-chain session; for a chain of a scene, the scene's namespace, where the arm's
-        ``joint_states`` is (:func:`detect_scene`).
+        ``joint_states`` is (:func:`~.scenes.detect_scene`).
     """
 
     path: Path
@@ -182,8 +173,14 @@ class PairedSession:
 _KNOWN_RELATIVE: Final = (*INPUT_TOPICS, MODEL_ACTIVE, *OUTPUT_TOPICS)
 
 
-def _session_topics(topics: Iterable[str]) -> dict[str, list[str]]:
-    """Namespace ('' for root) -> the session topics in it, fully qualified, sorted (SessionError if none)."""
+def session_topics(topics: Iterable[str]) -> dict[str, list[str]]:
+    """Namespace ('' for root) -> the session topics among ``topics`` in it, fully qualified, sorted.
+
+    Raises
+    ------
+    SessionError
+        No session topic.
+    """
     topics = sorted(topics)
     found: dict[str, list[str]] = {}
     for topic in topics:
@@ -203,65 +200,10 @@ def detect_namespace(topics: Iterable[str]) -> str:
     SessionError
         No session topic, or session topics in several namespaces.
     """
-    found = _session_topics(topics)
+    found = session_topics(topics)
     if len(found) > 1:
         raise SessionError(f'session topics in several namespaces: {sorted(found)}')
     return next(iter(found))
-
-
-@dataclass(frozen=True)
-class Scene:
-    """Where a session's planning chains are (module docstring, Scenes).
-
-    Attributes
-    ----------
-    namespace
-        The suite's namespace ('' for the root), where the arm's ``joint_states`` is.
-    chains
-        Each chain's namespace, sorted: ``(namespace,)`` for a one-chain session, else ``<namespace>/<object>``.
-    """
-
-    namespace: str
-    chains: tuple[str, ...]
-
-    @property
-    def one_chain(self) -> bool:
-        """Whether this is a one-chain session (every session topic in :attr:`namespace`)."""
-        return self.chains == (self.namespace,)
-
-
-def detect_scene(topics: Iterable[str]) -> Scene:
-    """The chains of the session topics among ``topics``: one namespace, or a scene of several objects.
-
-    Session topics in one namespace are a one-chain session there (as :func:`detect_namespace`). In several,
-    they are a scene when exactly one namespace holds ``joint_states`` (the arm's), and no other session topic,
-    and every other one is a namespace directly below it (a chain: ``/cup`` below the root).
-
-    Raises
-    ------
-    SessionError
-        No session topic; several namespaces and not one ``joint_states`` among them (no arm, or one per
-        namespace: several robots); or a scene with topics that belong to no chain, naming them.
-    """
-    found = _session_topics(topics)
-    if len(found) == 1:
-        namespace = next(iter(found))
-        return Scene(namespace, (namespace,))
-    arms = [ns for ns, names in found.items() if f'{ns}/{JOINT_STATES}' in names]
-    if len(arms) != 1:
-        raise SessionError(
-            f'session topics in several namespaces {sorted(found)}, {len(arms)} of them with {JOINT_STATES}: neither '
-            f'one chain nor a scene (one chain per object in <namespace>/<object>, all reading the arm\'s '
-            f'<namespace>/{JOINT_STATES}: docs/several_objects.md)')
-    arm = arms[0]
-    chains = tuple(sorted(ns for ns in found if ns != arm))
-    stray = [t for t in found[arm] if t != f'{arm}/{JOINT_STATES}']
-    stray += [t for ns in chains if ns.rpartition('/')[0] != arm for t in found[ns]]
-    if stray:
-        raise SessionError(
-            f'topics that belong to no chain of the scene in {arm or "/"} (a chain is a namespace directly below '
-            f'it, reading the arm\'s {arm}/{JOINT_STATES}): {", ".join(stray)}')
-    return Scene(arm, chains)
 
 
 class ModelSwitches:
@@ -290,8 +232,8 @@ class ModelSwitches:
         return header
 
 
-class _ChainPairing:
-    """Pairs one chain's messages into steps as they come (:func:`pair_messages` says how)."""
+class ChainPairing:
+    """Pairs one chain's messages into steps as they come (:func:`pair_messages` says how; its arguments)."""
 
     def __init__(self, namespace: str, arm_namespace: str | None) -> None:
         self._prefix = f'{namespace}/'
@@ -367,7 +309,7 @@ def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '', arm_na
     SessionError
         An input or model document cannot be decoded.
     """
-    chain = _ChainPairing(namespace, arm_namespace)
+    chain = ChainPairing(namespace, arm_namespace)
     for msg in messages:
         chain.take(msg)
     return chain.finish()
@@ -397,82 +339,6 @@ def load_paired_session(path: str | os.PathLike[str], *, namespace: str | None =
     if not steps:
         raise SessionError(f'bag {bag} holds no inputs ({", ".join(INPUT_TOPICS)} or model switches)')
     return PairedSession(bag, ns, initial, steps, unpaired)
-
-
-@dataclass(frozen=True)
-class SceneInput:
-    """One input of a scene, as a replay sends it: once, opening a step in each chain it feeds.
-
-    Attributes
-    ----------
-    index
-        Input number in the scene, 1-based, in receive order.
-    steps
-        (index into :attr:`PairedScene.chains`, the step it opens there): one chain for a chain's own input,
-        every chain for the arm's ``joint_states``.
-    """
-
-    index: int
-    steps: tuple[tuple[int, Step], ...]
-
-
-@dataclass(frozen=True)
-class PairedScene:
-    """A session bag's chains, each paired by its namespace, and their inputs in receive order.
-
-    Attributes
-    ----------
-    path
-        The bag directory.
-    scene
-        Where the chains are.
-    chains
-        One :class:`PairedSession` per chain of :attr:`scene` (in its order); for a one-chain session the
-        session as :func:`load_paired_session` reads it.
-    inputs
-        Every chain's inputs once each, in receive order.
-    """
-
-    path: Path
-    scene: Scene
-    chains: tuple[PairedSession, ...]
-    inputs: tuple[SceneInput, ...]
-
-    @property
-    def n_outputs(self) -> int:
-        """Number of outputs paired with an input, over every chain."""
-        return sum(chain.n_outputs for chain in self.chains)
-
-
-def load_paired_scene(path: str | os.PathLike[str]) -> PairedScene:
-    """Read a session bag of one chain or of a scene (:func:`detect_scene`) and pair each chain by its namespace.
-
-    Raises
-    ------
-    BagReadError
-        The bag cannot be read.
-    SessionError
-        As :func:`detect_scene`; the bag holds no inputs; a model document is malformed.
-    """
-    bag = Path(path)
-    scene = detect_scene(topics_info(bag))
-    arm = None if scene.one_chain else scene.namespace
-    pairings = [_ChainPairing(chain, arm) for chain in scene.chains]
-    opened: list[tuple[tuple[int, Step], ...]] = []
-    for msg in read_messages(bag):
-        fed = tuple((i, step) for i, pairing in enumerate(pairings) if (step := pairing.take(msg)) is not None)
-        if fed:
-            opened.append(fed)
-    chains = []
-    for namespace, pairing in zip(scene.chains, pairings):
-        initial, steps, unpaired = pairing.finish()
-        chains.append(PairedSession(bag, namespace, initial, steps, unpaired, arm))
-    if not opened:
-        raise SessionError(f'bag {bag} holds no inputs ({", ".join(INPUT_TOPICS)} or model switches)')
-    closed = [{step.index: step for step in chain.steps} for chain in chains]  # the steps with their outputs
-    inputs = tuple(SceneInput(k, tuple((i, closed[i][step.index]) for i, step in fed))
-                   for k, fed in enumerate(opened, start=1))
-    return PairedScene(bag, scene, tuple(chains), inputs)
 
 
 # ------------------------------------------------------------------------------ compaction

@@ -10,7 +10,7 @@ What is replayed
     service at that point. Before the first input the live model is set to the session's initial one.
 Scenes of several objects
     A bag of one planning chain per object (``/cup``, ``/flashlight``) and the arm's ``joint_states`` above
-    them (:func:`~grasp_intent_ros.sessions.pairing.detect_scene`): each chain is paired by its namespace, and
+    them (:func:`~grasp_intent_ros.sessions.scenes.detect_scene`): each chain is paired by its namespace, and
     replayed and checked through a client in it (its model server's parameter, its outputs, its nodes'
     rejections); every input is sent once in the recorded order (a joint state for every chain), and the answer
     of each chain it feeds is awaited. A difference names the chain's topic (``flashlight/grasp/pose``).
@@ -82,17 +82,9 @@ from .closed_loop import (
 )
 from .compare import Difference
 from .outputs import SessionError
-from .pairing import PairedScene, detect_scene, load_paired_scene
-from .replay_client import (
-    SUITE_SETTLE_S,
-    ClosedLoopReplayer,
-    Replayer,
-    ReplayError,
-    ReplayOptions,
-    ReplayResult,
-    SceneReplayer,
-    SessionClient,
-)
+from .replay_client import SUITE_SETTLE_S, SessionClient
+from .replayers import ClosedLoopReplayer, Replayer, ReplayError, ReplayOptions, ReplayResult, SceneReplayer
+from .scenes import PairedScene, detect_scene, load_paired_scene
 
 __all__ = ['main']
 

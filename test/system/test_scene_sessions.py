@@ -26,7 +26,7 @@ from grasp_intent_ros.launch.suite import NodeProcess, node_environment
 from grasp_intent_ros.mico.kinematics import HOME_Q
 from grasp_intent_ros.sessions.bag import QosSpec, SessionWriter, jazzy_typestore, read_messages, topics_info
 from grasp_intent_ros.sessions.fixtures import joints, pose, w
-from grasp_intent_ros.sessions.pairing import load_paired_scene
+from grasp_intent_ros.sessions.scenes import load_paired_scene
 from grasp_intent_ros.wire.diagnostics import KEY_REJECTED
 from grasp_intent_ros.wire.topics import PLAN_TOPICS
 

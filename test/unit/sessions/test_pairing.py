@@ -10,15 +10,8 @@ import pytest
 
 from grasp_intent_ros.sessions.bag import QosSpec, read_messages, topics_info
 from grasp_intent_ros.sessions.outputs import Joints, Pose, Rejection, SessionError, Trajectory, Vector, decode
-from grasp_intent_ros.sessions.pairing import (
-    Scene,
-    compact_session,
-    detect_namespace,
-    detect_scene,
-    load_paired_scene,
-    load_paired_session,
-    pair_messages,
-)
+from grasp_intent_ros.sessions.pairing import compact_session, detect_namespace, load_paired_session, pair_messages
+from grasp_intent_ros.sessions.scenes import Scene, detect_scene, load_paired_scene
 from grasp_intent_ros.wire.model_document import ModelHeader
 from grasp_intent_ros.wire.topics import DIAGNOSTICS, PLAN_TOPICS
 
