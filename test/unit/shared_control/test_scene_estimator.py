@@ -244,3 +244,33 @@ def test_one_object_gives_the_one_object_estimators_w_to_the_last_bit() -> None:
         hand[:3, :3] = pin.exp3(twist[3:] * DT) @ hand[:3, :3]
     assert_array_equal(inside.evidence, alone.evidence)
     assert alone.w[0] > 0.9 and placed > 0, "the reach arrived, into the shown grasp's core"
+
+
+def test_the_cup_and_the_flashlight_a_reach_for_the_flashlight_finds_it() -> None:
+    """The shipped models at two poses 0.43 m apart: a reach for a flashlight usage grasp finds the flashlight.
+
+    A scripted joystick operator from Home: P(flashlight) and its w_usage end near 1, every step in range.
+    """
+    files = ModelFiles(config_dir() / 'models')
+    scene = SceneEstimator()
+    scene.set_object('cup', IntentEstimator(goals_at(files.load('cup_7zone'),
+                                                     pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0)))))
+    scene.set_object('flashlight', IntentEstimator(goals_at(files.load('flashlight_7zone'),
+                                                            pose_to_matrix((0.45, 0.1, 0.0), (0.0, 0.0, 1.0, 0.0)))))
+    goals = scene['flashlight'].goals
+    index = int(np.flatnonzero(goals.task_sets == U)[0])
+    goal = np.eye(4)
+    goal[:3, :3], goal[:3, 3] = goals.rotations[index], goals.positions[index]
+    operator = ScriptedOperator('joystick', OperatorConstants(), np.random.default_rng(1))
+    hand = MicoKinematics().fk(HOME_Q)
+    for tick in range(1500):
+        twist = operator.twist(tick * DT, hand, goal)
+        scene.update(hand, twist, DT)
+        in_range(scene)
+        hand = hand.copy()
+        hand[:3, 3] += twist[:3] * DT
+        hand[:3, :3] = pin.exp3(twist[3:] * DT) @ hand[:3, :3]
+        if operator.at_goal(hand, goal):
+            break
+    assert operator.at_goal(hand, goal)
+    assert scene.object_probabilities[1] > 0.99 and scene.w('flashlight')[0] > 0.9
