@@ -7,7 +7,7 @@ its task prior.
 
 **One posterior.** Over the goals of every object, the prior uniform over the objects, then over an object's task
 sets, then over the goals of a set, ``pi_g = 1 / (n_objects n_sets(o) n_{S_g}(o))`` (or, for an object with a
-task prior, that prior's ``pi_g | o`` (:mod:`.task_prior`) over ``n_objects``); the evidence ``E_g`` of each goal
+task prior, that prior's ``pi_{g|o}`` (:mod:`.task_prior`) over ``n_objects``); the evidence ``E_g`` of each goal
 is the one-object rule's, every object's goals updated by one motion. So
 
 .. math::
@@ -33,10 +33,11 @@ away from it), the motion is no evidence for **any** object's goals: the whole p
 as the one-object rule holds its w (were the other objects' goals to fade or gain there, P(o) would move on the
 fine motion of placing the hand).
 
-**Objects come and go.** :meth:`SceneEstimator.set_object` adds an object or replaces its goals (a new model, or
-the object moved): its goals start from the prior (``E = 0``, ``Lambda_o = 0``: no evidence for or against it)
-while the other objects keep theirs. The objects' settings must agree except in the calibration map (each model
-its own): one motion fades every goal's evidence alike.
+**Objects come and go.** :meth:`SceneEstimator.set_object` adds an object or replaces its estimator (a new
+model, or the object moved: a new estimator over the new goals, whose evidence starts at the prior, ``E = 0``,
+``Lambda_o = 0``: no evidence for or against the object) while the other objects keep theirs. The objects'
+settings must agree except in the calibration map (each model its own): one motion fades every goal's evidence
+alike.
 """
 
 from __future__ import annotations
