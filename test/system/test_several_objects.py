@@ -31,11 +31,8 @@ ANSWER = 30.0
 STOP = 30.0
 """Seconds for the command to stop six nodes, one at a time, after Ctrl-C."""
 MODELS = {'cup': 'cup_7zone', 'flashlight': 'flashlight_7zone'}
-W = Float64MultiArray(data=[0.9, 0.9, 0.1])
-
-
-def stamp_ns(msg: PoseStamped) -> int:
-    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+W = {'cup': Float64MultiArray(data=[0.1, 0.9, 0.9]), 'flashlight': Float64MultiArray(data=[0.9, 0.9, 0.1])}
+"""Each chain's w, different, so that a v tells which w it came from."""
 
 
 def test_one_chain_per_object_each_with_its_model_and_pose_sharing_the_arms_joint_states(
@@ -47,6 +44,7 @@ def test_one_chain_per_object_each_with_its_model_and_pose_sharing_the_arms_join
         active = {name: ros.subscribe(String, f'/{name}/model/active', latched_qos()) for name in MODELS}
         grasps = {name: ros.subscribe(PoseStamped, f'/{name}/grasp/pose') for name in MODELS}
         w_pubs = {name: ros.publisher(Float64MultiArray, f'/{name}/intent/w') for name in MODELS}
+        v_msgs = {name: ros.subscribe(Float64MultiArray, f'/{name}/intent/v') for name in MODELS}
         joints_pub = ros.publisher(JointState, '/joint_states')
         flashlight_pose_pub = ros.publisher(PoseStamped, '/flashlight/object/pose')
         assert ros.wait_for(lambda: 'suite: up' in out.read_text() or suite.poll() is not None, UP), out.read_text()
@@ -81,20 +79,21 @@ def test_one_chain_per_object_each_with_its_model_and_pose_sharing_the_arms_join
                 joints_pub.publish(home)
                 for publisher, msg in more:
                     publisher.publish(msg)
-                w_pubs[name].publish(W)
+                w_pubs[name].publish(W[name])
                 if ros.wait_for(predicate, 0.5):
                     return True
             return False
 
         assert publish_until('flashlight', lambda: any(g.pose.position.y > 0.0 for g in grasps['flashlight']),
                              (flashlight_pose_pub, flashlight_pose)), out.read_text()
-        assert grasps['cup'] == [], 'a w on /flashlight/intent/w planned for the cup'
+        assert grasps['cup'] == [] and v_msgs['cup'] == [], 'a w on /flashlight/intent/w reached the cup\'s chain'
 
-        cup_w_sent = ros.node.get_clock().now().nanoseconds  # a flashlight plan of the cup's w is stamped later
+        # a flashlight v still in flight may be planned after this; a v of the cup's w never reaches the flashlight
         assert publish_until('cup', lambda: grasps['cup']), out.read_text()
         assert all(g.pose.position.y < 0.0 for g in grasps['cup']), 'the cup was planned at the flashlight\'s pose'
-        assert [stamp_ns(g) for g in grasps['flashlight'] if stamp_ns(g) > cup_w_sent] == [], \
-            'a w on /cup/intent/w planned for the flashlight'
+        vs = {name: {tuple(m.data) for m in msgs} for name, msgs in v_msgs.items()}
+        assert len(vs['cup']) == 1 and len(vs['flashlight']) == 1, f'a w reached the other object\'s chain: {vs}'
+        assert vs['cup'] != vs['flashlight'], vs  # (else the test above could not tell the two w apart)
 
         assert ctrl_c(suite, STOP) == 0, out.read_text()
     text = out.read_text()
