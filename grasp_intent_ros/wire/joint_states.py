@@ -268,8 +268,8 @@ def fingers_settled(hand: Hand | None, closed: float, settle: float = CLOSE_SETT
     True when every joint of the hand was received at least ``settle`` s after ``closed`` (the fingers seen moving
     or at rest after the close, not before it) and the fingers are at rest by the rest rule (:class:`FingerRest`,
     from positions: velocities are never read), so at least the rule's window after they last moved; its
-    ``fingers`` are then the executed closures. Receipts only say when a joint state was taken, not sent: a backlog
-    of more than ``settle`` s taken after the close passes for joint states sent after it (a reader keeps the
-    newest joint state only, as the demo's loop does, to have none).
+    ``fingers`` are then the executed closures. Receipts say when a joint state was taken, not when it was sent: a
+    backlog of more than ``settle`` s taken after the close passes for joint states sent after it (a reader that
+    keeps only the newest joint state, as the demo's loop does, has no backlog).
     """
     return hand is not None and hand.received >= closed + settle and hand.fingers_at_rest
