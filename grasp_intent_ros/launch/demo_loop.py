@@ -260,7 +260,7 @@ class LoopObserver(Node):
     def __init__(self, wait: Callable[[Callable[[], object], float], bool]) -> None:
         super().__init__('grasp_intent_demo_loop')
         self._wait = wait
-        self._hands = HandTracker(MicoKinematics())  # joint_states by monotonic receipt
+        self._hands = HandTracker(MicoKinematics())  # received on the monotonic clock; the rest by the stamps
         self._status: tuple[float, str, Mapping[str, str]] | None = None
         self._poses: dict[tuple[int, int], NDArray[np.float64]] = {}  # grasp/pose by stamp, until its targets come
         self._shown: Shown | None = None
