@@ -27,7 +27,8 @@ restarts the stream): the one close of a run draws the stream's first error, so 
 error in every condition (paired, as the simulated loop's). The probe sends zero twists until it receives a joint
 state at least ``CLOSE_SETTLE`` (0.3 s) after the close's answer with the fingers at rest
 (:func:`~grasp_intent_ros.wire.joint_states.fingers_settled`, as the demo reads them: still for 0.5 s, from
-positions), and the hand is judged there: its pose and the closures the fingers executed.
+positions, timed by the joint states' stamps), and the hand is judged there: its pose and the closures the fingers
+executed.
 
 A close on the operator's OWN grasp calls no ``grasp/close``: the mock arm would close to the latest plan's
 closures, a grasp the operator did not choose, and judging those would credit (or blame) the planner for the

@@ -100,7 +100,7 @@ class Loop:
         self.probe, self.kin = probe, kin
         node = probe.node
         self.hands: Perceived[np.ndarray] = Perceived(keep=200)  # base_T_ee by monotonic receipt
-        self.tracker = HandTracker(kin)  # joint_states by monotonic receipt
+        self.tracker = HandTracker(kin)  # received on the monotonic clock; the rest by the stamps
         self.plans: list[tuple[float, np.ndarray, np.ndarray]] = []  # (monotonic, base_T_grasp, features)
         self.alphas: list[tuple[float, float]] = []
         self.outputs: list[tuple[int, float]] = []  # (receive ns, angular.z)

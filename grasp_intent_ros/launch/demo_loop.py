@@ -260,7 +260,7 @@ class LoopObserver(Node):
     def __init__(self, wait: Callable[[Callable[[], object], float], bool]) -> None:
         super().__init__('grasp_intent_demo_loop')
         self._wait = wait
-        self._hands = HandTracker(MicoKinematics())  # joint_states by monotonic receipt
+        self._hands = HandTracker(MicoKinematics())  # received on the monotonic clock; the rest by the stamps
         self._status: tuple[float, str, Mapping[str, str]] | None = None
         self._poses: dict[tuple[int, int], NDArray[np.float64]] = {}  # grasp/pose by stamp, until its targets come
         self._shown: Shown | None = None
@@ -269,8 +269,9 @@ class LoopObserver(Node):
         self._alphas: list[tuple[float, float]] = []
         self.operator_parameters = AsyncParameterClient(self, 'scripted_operator')
         self.enable_client = self.create_client(SetBool, topics.ASSISTANCE_ENABLE)
-        # keep-last 1: each joint state is timed by its receipt, so a backlog taken late would pass for joint states
-        # sent after the close; the rest rule reads what it takes (a joint state dropped only thins its window)
+        # keep-last 1: fingers_settled times each joint state by its receipt, so a backlog taken late would pass for
+        # joint states sent after the close; the rest rule reads what it takes (a joint state dropped only thins its
+        # window)
         self.create_subscription(JointState, topics.JOINT_STATES, self._on_joints, input_qos(1))
         self.create_subscription(PoseStamped, topics.GRASP_POSE, self._on_pose, input_qos())
         self.create_subscription(JointState, topics.GRASP_JOINT_TARGETS, self._on_targets, input_qos())

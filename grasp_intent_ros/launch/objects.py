@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 from ..errors import GraspIntentError, ModelError
 from ..method.registry import ModelFiles
-from ..wire.topics import JOINT_STATES
+from ..wire.topics import JOINT_STATES, TOPIC_FOLDERS
 
 __all__ = ['OBJECT_NAME', 'SceneObject', 'parse_objects', 'chain_remappings', 'refuse_unbuilt']
 
@@ -53,15 +53,18 @@ def parse_objects(specs: Sequence[str], *, models_dir: str = '') -> tuple[SceneO
     Parameters
     ----------
     specs
-        Each ``NAME=MODEL``: NAME matches :data:`OBJECT_NAME`, MODEL is the stem of a YAML file in ``models_dir``.
+        Each ``NAME=MODEL``: NAME matches :data:`OBJECT_NAME` and is not one of
+        :data:`~grasp_intent_ros.wire.topics.TOPIC_FOLDERS` (``grasp``, ``intent``, ...), MODEL is the stem of
+        a YAML file in ``models_dir``.
     models_dir
         Where the models are ('' means the package's ``config/models``, the model server's default).
 
     Raises
     ------
     GraspIntentError
-        Naming every bad spec at once: not ``NAME=MODEL``, a NAME that is not a ROS name token, a NAME given
-        twice, or a MODEL that ``models_dir`` does not hold (the message lists those it holds).
+        Naming every bad spec at once: not ``NAME=MODEL``, a NAME that is not a ROS name token or is a folder
+        of the suite's topics, a NAME given twice, or a MODEL that ``models_dir`` does not hold (the message
+        lists those it holds).
     """
     problems: list[str] = []
     objects: list[SceneObject] = []
@@ -77,6 +80,9 @@ def parse_objects(specs: Sequence[str], *, models_dir: str = '') -> tuple[SceneO
         elif not OBJECT_NAME.fullmatch(name):
             problems.append(f'object name {name!r} is not a ROS name token (letters, digits and underscores, '
                             'a letter first)')
+        elif name in TOPIC_FOLDERS:
+            problems.append(f'object name {name!r} is a folder of the suite\'s topics ({name}/...): a recorder\'s '
+                            f'--topics {name}/ would select those, not the chain\'s')
         elif name in {o.name for o in objects}:
             problems.append(f'object {name!r} is named twice')
         elif known is not None and model not in known:

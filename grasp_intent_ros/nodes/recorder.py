@@ -5,9 +5,10 @@ Run: ``python -m grasp_intent_ros recorder OUT_DIR [--topics T ...] [--ros-args 
 Topics
     ``--topics`` takes topic names relative to the recorder's namespace (or absolute); a name ending in ``/``
     selects every topic under it. Default: :data:`~grasp_intent_ros.ros.recording.DEFAULT_TOPICS` (the
-    shared-control loop's twists and alpha included). The package's own topics among them are subscribed at
-    start, others once a look at the graph (every ``--discovery-period`` s) shows a publisher; what reaches the
-    bag once it logs ``recording to BAG``, with which QoS: :mod:`grasp_intent_ros.ros.recording`.
+    shared-control loop's twists and alpha included). The package's own topics among them, also in each
+    namespace a prefix names (a scene's chains: ``--topics cup/ flashlight/ joint_states /diagnostics``), are
+    subscribed at start, others once a look at the graph (every ``--discovery-period`` s) shows a publisher;
+    what reaches the bag once it logs ``recording to BAG``, with which QoS: :mod:`grasp_intent_ros.ros.recording`.
 Recording
     Messages are taken serialized and written unchanged, stamped with the middleware's receive time (ns), and
     recorded with each publisher's offered QoS, as ``ros2 bag record`` does. The executor thread only queues

@@ -8,8 +8,10 @@ A topic selection is a set of names and prefixes resolved against the recorder n
 
 When a topic is subscribed
     The package's own topics (:data:`~grasp_intent_ros.wire.topics.MSGTYPES`, resolved against the recorder:
-    its namespace and remaps) that the selection holds are subscribed when the recorder starts, before any
-    publisher is seen (:func:`known_topics`), so a one-shot publisher is heard: a message published on one
+    its namespace and remaps, and in every namespace the selection names, e.g. each chain of a scene that
+    ``--topics cup/ flashlight/`` selects, :meth:`TopicSelection.namespaces`) that the selection holds are
+    subscribed when the recorder starts, before any publisher is seen (:func:`known_topics`), so a one-shot
+    publisher is heard, in a chain that starts after the recorder too: a message published on one
     of them after the recorder is ready reaches the bag if the publisher has matched the recorder's
     subscription (DDS discovery of a new participant takes ms to a second) and stays until the message is
     delivered: ``ros2 topic pub -w 2 --once intent/w ...`` and ``send_intent -w 2`` wait for two matched
@@ -51,7 +53,7 @@ from rclpy.utilities import remove_ros_args
 
 from ..sessions.bag import DEFAULT_FLUSH_PERIOD, BagWriteError, QosSpec, Recording, misses_offers, request_qos
 from ..wire.diagnostics import WARN
-from ..wire.topics import LATCHED_TOPICS, MSGTYPES
+from ..wire.topics import LATCHED_TOPICS, MSGTYPES, TOPIC_FOLDERS
 from .compat import waiting_messages
 from .conversions import type_class
 from .diagnostics import NodeDiagnostics
@@ -105,6 +107,23 @@ class TopicSelection:
     def matches(self, topic: str) -> bool:
         """Whether a fully qualified topic name is selected."""
         return topic in self.names or topic.startswith(self.prefixes)
+
+    def namespaces(self) -> tuple[str, ...]:
+        """The namespaces the selection names, fully qualified ('' for the root), sorted.
+
+        A prefix that ends in a folder of the package's topics (:data:`~grasp_intent_ros.wire.topics.TOPIC_FOLDERS`:
+        ``/robot1/intent/``, ``/model/ambiguity/``) lies in the namespace before that folder (``/robot1``, '');
+        any other prefix is a namespace itself (a chain of a scene: ``/cup/``). A name that ends in one of the
+        package's topics (``/cup/intent/w``) lies in the namespace before it.
+        """
+        found = set()
+        for prefix in self.prefixes:
+            stem = prefix.rstrip('/')
+            folders = [stem[:-len(f) - 1] for f in TOPIC_FOLDERS if stem.endswith(f'/{f}')]
+            found.update(folders or [stem])
+        found.update(name[:-len(t) - 1] for name in self.names for t in MSGTYPES
+                     if not t.startswith('/') and name.endswith(f'/{t}'))
+        return tuple(sorted(found))
 
 
 _LIVELINESS = {LivelinessPolicy.AUTOMATIC: 'automatic', LivelinessPolicy.MANUAL_BY_TOPIC: 'manual_by_topic'}
@@ -160,13 +179,16 @@ def known_topics(node: Node, selection: TopicSelection) -> dict[str, tuple[str, 
     """The package's topics ``selection`` holds: fully qualified name -> (message type, :func:`declared_qos`).
 
     Each name of :data:`MSGTYPES` is resolved against ``node`` (namespace and remaps), as the suite's nodes
-    started with the same namespace and remaps resolve it.
+    started with the same namespace and remaps resolve it, and placed in every namespace the selection names
+    (:meth:`TopicSelection.namespaces`: each chain of a scene, ``--topics cup/ flashlight/``).
     """
     known: dict[str, tuple[str, QosSpec]] = {}
+    namespaces = selection.namespaces()
     for topic, msgtype in MSGTYPES.items():
-        name = node.resolve_topic_name(topic)
-        if selection.matches(name):
-            known.setdefault(name, (msgtype, declared_qos(topic)))
+        placed = [topic, *(f'{ns}/{topic}' for ns in namespaces if not topic.startswith('/'))]
+        for name in map(node.resolve_topic_name, placed):
+            if selection.matches(name):
+                known.setdefault(name, (msgtype, declared_qos(topic)))
     return known
 
 
@@ -394,7 +416,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument('out_dir', type=Path, help='bag directory to create (must not exist)')
     parser.add_argument('--topics', nargs='+', metavar='T', default=list(DEFAULT_TOPICS),
                         help='topics to record, relative to the node namespace; a trailing "/" selects '
-                             f'a subtree (default: {" ".join(DEFAULT_TOPICS)})')
+                             'a subtree, and one that is not a folder of the suite\'s topics names a namespace whose '
+                             'suite topics are heard from the start (a chain of a scene: cup/) '
+                             f'(default: {" ".join(DEFAULT_TOPICS)})')
     parser.add_argument('--depth', type=int, default=DEFAULT_DEPTH,
                         help=f'keep-last depth of each subscription (default {DEFAULT_DEPTH})')
     parser.add_argument('--discovery-period', type=float, default=DEFAULT_DISCOVERY_PERIOD,

@@ -1,6 +1,6 @@
 """Recorded sessions: bags written, read and repaired; sessions replayed, compared, reported and played back.
 
-ROS-free (numpy and rosbags; never rclpy) but the live replay (``replay``, ``replay_client``) and the
+ROS-free (numpy and rosbags; never rclpy) but the live replay (``replay``, ``replay_client``, ``replayers``) and the
 fixture recording (``fixtures``), which run the nodes and talk to them.
 
 Modules
@@ -13,13 +13,16 @@ outputs
 pairing
     A session bag split into inputs and the outputs each caused (:class:`~.pairing.PairedSession` of
     :class:`~.pairing.Step` s, :func:`~.pairing.load_paired_session`); compaction of a recorded bag.
+scenes
+    A session of several objects (one planning chain per object, the arm's joint states above them) paired
+    chain by chain (:func:`~.scenes.load_paired_scene`).
 compare
     A step's recorded outputs against live ones at the replay's tolerances.
 closed_loop
     A shared-control session replayed by its outcome (the grasp reached, the pose offset).
 report_data, report
     What the report draws, by role and receive time; the report's figures, summary and command line.
-replay_client, replay
+replay_client, replayers, replay
     The replay's rclpy client and engine; its command line (``--check``).
 playback
     A session bag in the viewer's page, with a time slider (the ``viewer`` extra).

@@ -44,10 +44,12 @@ from typing import Final
 import numpy as np
 from numpy.typing import NDArray
 
+from ..errors import GraspIntentError
 from ..mico.frames import pose_to_matrix
 from ..mico.kinematics import ARM_JOINTS, MicoKinematics
 from ..shared_control.assistance import REACH_POS, REACH_ROT, offset, reached
 from ..wire.diagnostics import ESTIMATOR_COMPONENT, KEY_GOALS
+from ..wire.joint_states import JointStates
 from ..wire.model_document import ModelHeader
 from ..wire.topics import (
     ASSISTANCE_ALPHA,
@@ -63,7 +65,7 @@ from ..wire.topics import (
     OPERATOR_TWIST,
 )
 from .bag.reader import read_messages, topics_info
-from .outputs import Joints, Pose, RawMessage, SessionError, decode, output_of
+from .outputs import Pose, RawMessage, SessionError, decode, output_of
 from .pairing import ModelSwitches, detect_namespace
 
 __all__ = ['REACH_POS', 'REACH_ROT', 'REPLAYED', 'ESTIMATED_REPLAYED', 'AHEAD_TOPICS', 'AHEAD_NS', 'W_TOLERANCE',
@@ -124,10 +126,15 @@ class Send:
 class Tracer:
     """Collects what a closed loop did, from recorded or live messages on the session's topics.
 
-    Feed it with :meth:`add` (relative topic, receive time ns, CDR) and read :meth:`trace`.
+    Feed it with :meth:`add` (relative topic, receive time ns, CDR) and read :meth:`trace`. The arm is read from
+    ``joint_states`` as the nodes read it (:class:`~grasp_intent_ros.wire.joint_states.JointStates` of the arm
+    joints, on the receive times: each joint's latest position from whichever message named it last, the fingers
+    and the arm's joints perhaps in separate messages): a message that names an arm joint while every arm joint is
+    known and not stale adds the arm's reading at its receive time; a malformed one changes nothing.
     """
 
     def __init__(self) -> None:
+        self._arm = JointStates(ARM_JOINTS)
         self._joints: list[tuple[int, NDArray[np.float64]]] = []
         self._grasps: list[tuple[int, NDArray[np.float64]]] = []
         self._alphas: list[tuple[int, float]] = []
@@ -136,7 +143,7 @@ class Tracer:
         self._w: list[tuple[int, NDArray[np.float64]]] = []
 
     def restart(self) -> None:
-        """Forget everything but the newest joint state (the arm's state when a replay starts)."""
+        """Forget everything but the newest arm reading (the arm's state when a replay starts) and its joints."""
         self._joints[:-1] = []
         self._grasps.clear()
         self._alphas.clear()
@@ -147,9 +154,12 @@ class Tracer:
     def add(self, topic: str, t_ns: int, cdr: bytes) -> None:
         """Take one message; messages on other topics and undecodable ones are ignored."""
         if topic == JOINT_STATES:
-            value = output_of(topic, t_ns, cdr).value
-            if isinstance(value, Joints) and (q := _arm_positions(value)) is not None:
-                self._joints.append((t_ns, q))
+            try:
+                named = self._arm.add(decode(MSGTYPES[JOINT_STATES], cdr), t_ns * 1e-9)
+            except (SessionError, GraspIntentError):
+                return
+            if named and (arm := self._arm.read()) is not None:
+                self._joints.append((t_ns, arm.positions))
         elif topic == GRASP_POSE:
             value = output_of(topic, t_ns, cdr).value
             if isinstance(value, Pose):
@@ -174,14 +184,6 @@ class Tracer:
         """What was collected so far."""
         return Trace(tuple(self._joints), tuple(self._grasps), tuple(self._alphas), tuple(self._blended),
                      tuple(self._operator), tuple(self._w))
-
-
-def _arm_positions(joints: Joints) -> NDArray[np.float64] | None:
-    index = {name: i for i, name in enumerate(joints.names)}
-    if not all(name in index and index[name] < joints.positions.size for name in ARM_JOINTS):
-        return None
-    q = np.array([joints.positions[index[name]] for name in ARM_JOINTS], dtype=np.float64)
-    return q if np.all(np.isfinite(q)) else None
 
 
 @dataclass(frozen=True)

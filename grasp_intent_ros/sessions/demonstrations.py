@@ -16,10 +16,12 @@ Closes (on the finger positions alone: a driver's finger velocities may be absen
     message named it last, the arm and the fingers perhaps in separate messages); a *joint state* here is a
     message that names a finger while every arm and finger joint is known (the others only update the arm),
     its hand that tracker's :class:`~grasp_intent_ros.wire.joint_states.Hand`. Its *closure* is the mean of the
-    three finger positions, ``(f1 + f2 + f3) / 3`` rad. The fingers are *at rest* at a joint state received at
-    ``t`` by the suite's rest rule (:class:`~grasp_intent_ros.wire.joint_states.FingerRest`): over the joint
-    states from the latest one received at or before ``t - window`` up to it, every finger's positions span
-    (max - min) at most ``tolerance`` rad: still for ``window`` s at least. The *rest* is the closure at
+    three finger positions, ``(f1 + f2 + f3) / 3`` rad. The fingers are *at rest* at a joint state of time ``t``
+    by the suite's rest rule (:class:`~grasp_intent_ros.wire.joint_states.FingerRest`): over the joint states
+    from the latest one of time at or before ``t - window`` up to it, every finger's positions span (max - min)
+    at most ``tolerance`` rad: still for ``window`` s at least; a joint state's time is its header stamp while
+    every one so far had a non-zero stamp later than the one before, else its receive time (that rule's clock:
+    receive times misjudge a backlog written in a burst). The *rest* is the closure at
     the latest earlier joint state at rest (before the first, the first joint state's). While no motion is in
     progress, a finger motion is seen at a joint state whose closure is at least ``rise`` rad above the rest
     (a *close*) or below it (an *opening*, which is no grasp); it ends at the next joint state at rest, where a
@@ -29,9 +31,9 @@ Closes (on the finger positions alone: a driver's finger velocities may be absen
     (the fingers never settled); an opening that closes again is counted. The three amounts are a
     :class:`CloseRule` (defaults :data:`CLOSE_RISE`, :data:`SETTLE_TOLERANCE`, :data:`SETTLE_WINDOW`, each
     with its reason). Comparisons: ``>=`` for a rise or a fall (the amount counts), ``<=`` for a span, and
-    times in integer nanoseconds (a bag's own); a closure and a span are computed from the message's numbers
-    by the same IEEE operations in a fixed order, so one bag gives one answer on every machine. It sees motion,
-    not contact; a finger slower than ``tolerance / window`` is at rest (docs/sessions.md: what it cannot tell).
+    times in integer nanoseconds (the stamps', a bag's own); a closure and a span are computed from the message's
+    numbers by the same IEEE operations in a fixed order, so one bag gives one answer on every machine. It sees
+    motion, not contact; a finger slower than ``tolerance / window`` is at rest (docs/sessions.md: what it cannot tell).
 The grasp
     At the settled joint state: the hand's pose (forward kinematics of the arm joints) relative to the latest
     ``object/pose`` received at or before it, and the fingers' positions (the executed closures), as the 10

@@ -54,7 +54,8 @@ from ..wire.topics import DIAGNOSTICS, MODEL_ACTIVE, PLAN_TOPICS
 from .compare import compare_step, summarize
 from .outputs import Joints, Output, Undecodable
 from .pairing import Step, compact_session, load_paired_session
-from .replay_client import SUITE_SETTLE_S, SessionClient, await_answer
+from .replay_client import SUITE_SETTLE_S, SessionClient
+from .replayers import await_answer
 
 RECORDED = ('intent/w', 'object/pose', 'joint_states', 'model/active', 'intent/v', 'intent/clarification',
             *PLAN_TOPICS, DIAGNOSTICS)

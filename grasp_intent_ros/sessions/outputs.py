@@ -223,15 +223,25 @@ class RejectionTracker:
 
     Statuses without an integer 'messages rejected' value (not a node of this package) are ignored.
     Feed every DiagnosticArray in order; the tracker remembers the last count per status name.
+
+    Parameters
+    ----------
+    nodes_in
+        None: every node's statuses. A namespace ('' for the root, else e.g. '/cup'): only the statuses of
+        nodes directly in it (``/cup/grasp_planner: planning``, not ``/flashlight/grasp_planner: planning``),
+        the rejections of one chain of a scene.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, *, nodes_in: str | None = None) -> None:
         self._rejected: dict[str, int] = {}
+        self._nodes_in = nodes_in
 
     def update(self, msg: Any) -> list[Rejection]:
         """The rejections that ``msg`` (a decoded DiagnosticArray) reports for the first time."""
         events = []
         for status in msg.status:
+            if self._nodes_in is not None and str(status.name).partition(': ')[0].rpartition('/')[0] != self._nodes_in:
+                continue
             values = status_values(status)
             try:
                 count = int(values.get(KEY_REJECTED, ''))

@@ -22,6 +22,10 @@ switch), holding the outputs received after it and before the next input. That p
 the session was recorded one input at a time, each sent once the previous one was answered (what
 ``scripts/record_sessions.py`` does and ``replay --check`` reproduces). :mod:`.compare` compares a step's
 recorded outputs with live ones.
+
+A chain of a scene of several objects (:mod:`.scenes`) is paired by its namespace: its own inputs and the
+arm's ``joint_states`` in the scene's namespace, its outputs, the rejections of its own nodes
+(:func:`pair_messages` with ``arm_namespace``).
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ from pathlib import Path
 from typing import Final
 
 from ..wire.model_document import ModelHeader
-from ..wire.topics import DIAGNOSTICS, INPUT_TOPICS, MODEL_ACTIVE, OUTPUT_TOPICS
+from ..wire.topics import DIAGNOSTICS, INPUT_TOPICS, JOINT_STATES, MODEL_ACTIVE, OUTPUT_TOPICS
 from .bag.offered_qos import QosSpec
 from .bag.reader import read_messages, topics_info
 from .bag.writer import SessionWriter
@@ -42,8 +46,10 @@ from .outputs import Output, RawMessage, RejectionTracker, SessionError, decode,
 __all__ = [
     'Step',
     'PairedSession',
+    'session_topics',
     'detect_namespace',
     'ModelSwitches',
+    'ChainPairing',
     'pair_messages',
     'load_paired_session',
     'compact_session',
@@ -128,6 +134,9 @@ class PairedSession:
         The inputs in order with their outputs.
     unpaired
         Outputs received before the first input (not compared).
+    arm_namespace
+        None for a one-chain session; for a chain of a scene, the scene's namespace, where the arm's
+        ``joint_states`` is (:func:`~.scenes.detect_scene`).
     """
 
     path: Path
@@ -135,6 +144,20 @@ class PairedSession:
     initial_model: ModelHeader | None
     steps: tuple[Step, ...]
     unpaired: tuple[Output, ...] = field(default=())
+    arm_namespace: str | None = None
+
+    @property
+    def joint_states(self) -> str:
+        """The topic the session's ``joint_states`` steps were received on and are sent to again.
+
+        Relative (``joint_states``, in :attr:`namespace`) for a one-chain session, else the arm's, fully qualified.
+        """
+        return JOINT_STATES if self.arm_namespace is None else f'{self.arm_namespace}/{JOINT_STATES}'
+
+    @property
+    def name(self) -> str:
+        """The chain's name in its scene ('cup' for '/cup' in the root's scene); '' for a one-chain session."""
+        return '' if self.arm_namespace is None else self.namespace[len(self.arm_namespace) + 1:]
 
     @property
     def n_outputs(self) -> int:
@@ -150,6 +173,25 @@ class PairedSession:
 _KNOWN_RELATIVE: Final = (*INPUT_TOPICS, MODEL_ACTIVE, *OUTPUT_TOPICS)
 
 
+def session_topics(topics: Iterable[str]) -> dict[str, list[str]]:
+    """Namespace ('' for root) -> the session topics among ``topics`` in it, fully qualified, sorted.
+
+    Raises
+    ------
+    SessionError
+        No session topic.
+    """
+    topics = sorted(topics)
+    found: dict[str, list[str]] = {}
+    for topic in topics:
+        for rel in _KNOWN_RELATIVE:
+            if topic.endswith(f'/{rel}'):
+                found.setdefault(topic[:-len(rel) - 1], []).append(topic)
+    if not found:
+        raise SessionError(f'no session topic ({", ".join(_KNOWN_RELATIVE)}) in {topics}')
+    return found
+
+
 def detect_namespace(topics: Iterable[str]) -> str:
     """The namespace of the session topics among ``topics`` ('' for root, e.g. '/robot1').
 
@@ -158,16 +200,10 @@ def detect_namespace(topics: Iterable[str]) -> str:
     SessionError
         No session topic, or session topics in several namespaces.
     """
-    found = set()
-    for topic in topics:
-        for rel in _KNOWN_RELATIVE:
-            if topic == f'/{rel}' or topic.endswith(f'/{rel}'):
-                found.add(topic[:-len(rel) - 1])
-    if not found:
-        raise SessionError(f'no session topic ({", ".join(_KNOWN_RELATIVE)}) in {sorted(topics)}')
+    found = session_topics(topics)
     if len(found) > 1:
         raise SessionError(f'session topics in several namespaces: {sorted(found)}')
-    return found.pop()
+    return next(iter(found))
 
 
 class ModelSwitches:
@@ -196,7 +232,62 @@ class ModelSwitches:
         return header
 
 
-def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '') -> tuple[
+class ChainPairing:
+    """Pairs one chain's messages into steps as they come (:func:`pair_messages` says how; its arguments)."""
+
+    def __init__(self, namespace: str, arm_namespace: str | None) -> None:
+        self._prefix = f'{namespace}/'
+        self._joint_states = f'{namespace if arm_namespace is None else arm_namespace}/{JOINT_STATES}'
+        self._label = '' if arm_namespace is None else f'{namespace[len(arm_namespace) + 1:]}: '
+        self._tracker = RejectionTracker(nodes_in=None if arm_namespace is None else namespace)
+        self._models = ModelSwitches()
+        self._steps: list[Step] = []
+        self._pending: Step | None = None
+        self._outputs: list[Output] = []
+        self._unpaired: list[Output] = []
+
+    def take(self, msg: RawMessage) -> Step | None:
+        """Take the next message; the (pending) step it opens when it is an input of this chain, else None."""
+        if msg.topic == DIAGNOSTICS:
+            events = [Output(DIAGNOSTICS, msg.timestamp_ns, r) for r in self._tracker.update_cdr(msg.cdr)]
+            (self._outputs if self._pending is not None else self._unpaired).extend(events)
+            return None
+        if msg.topic == self._joint_states:
+            rel = JOINT_STATES
+        elif msg.topic.startswith(self._prefix):
+            rel = msg.topic[len(self._prefix):]
+        else:
+            return None
+        if rel in INPUT_TOPICS or rel == MODEL_ACTIVE:
+            header = self._models.take(msg) if rel == MODEL_ACTIVE else None
+            if rel == MODEL_ACTIVE and header is None:
+                return None
+            self._close()
+            label = '' if msg.topic == self._joint_states else self._label
+            self._pending = Step(len(self._steps) + 1, rel, msg.timestamp_ns, msg.msgtype, bytes(msg.cdr), (),
+                                 label + _describe_input(rel, msg.msgtype, msg.cdr))
+            if header is not None:
+                self._outputs.append(Output(rel, msg.timestamp_ns, header))
+            return self._pending
+        if rel in OUTPUT_TOPICS:
+            (self._outputs if self._pending is not None else self._unpaired).append(
+                output_of(rel, msg.timestamp_ns, msg.cdr))
+        return None
+
+    def _close(self) -> None:
+        if self._pending is not None:
+            p = self._pending
+            self._steps.append(Step(p.index, p.topic, p.t_ns, p.msgtype, p.cdr, tuple(self._outputs), p.description))
+        self._outputs.clear()
+
+    def finish(self) -> tuple[ModelHeader | None, tuple[Step, ...], tuple[Output, ...]]:
+        """(initial model, steps, outputs before the first input), the last step closed."""
+        self._close()
+        self._pending = None
+        return self._models.initial, tuple(self._steps), tuple(self._unpaired)
+
+
+def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '', arm_namespace: str | None = None) -> tuple[
         ModelHeader | None, tuple[Step, ...], tuple[Output, ...]]:
     """Split time-ordered messages into (initial model, steps, outputs before the first input).
 
@@ -207,47 +298,21 @@ def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '') -> tup
         topics outside the session's (in ``namespace``) are ignored.
     namespace
         '' or e.g. '/robot1'.
+    arm_namespace
+        None: a one-chain session (``joint_states`` in ``namespace``, every node's rejections). For a chain of
+        a scene (``namespace`` '/cup'), the scene's namespace: the arm's ``joint_states`` there is an input of
+        the chain, only the rejections of nodes in ``namespace`` are its outputs, and each description but the
+        joint states' starts with the chain's name ('cup: intent/w [...]').
 
     Raises
     ------
     SessionError
         An input or model document cannot be decoded.
     """
-    prefix = f'{namespace}/'
-    tracker = RejectionTracker()
-    models = ModelSwitches()
-    steps: list[Step] = []
-    pending: Step | None = None
-    outputs: list[Output] = []
-    unpaired: list[Output] = []
-
-    def close() -> None:
-        if pending is not None:
-            steps.append(Step(pending.index, pending.topic, pending.t_ns, pending.msgtype, pending.cdr,
-                              tuple(outputs), pending.description))
-        outputs.clear()
-
+    chain = ChainPairing(namespace, arm_namespace)
     for msg in messages:
-        if msg.topic == DIAGNOSTICS:
-            events = [Output(DIAGNOSTICS, msg.timestamp_ns, r) for r in tracker.update_cdr(msg.cdr)]
-            (outputs if pending is not None else unpaired).extend(events)
-            continue
-        if not msg.topic.startswith(prefix):
-            continue
-        rel = msg.topic[len(prefix):]
-        if rel in INPUT_TOPICS or rel == MODEL_ACTIVE:
-            header = models.take(msg) if rel == MODEL_ACTIVE else None
-            if rel == MODEL_ACTIVE and header is None:
-                continue
-            close()
-            pending = Step(len(steps) + 1, rel, msg.timestamp_ns, msg.msgtype, bytes(msg.cdr), (),
-                           _describe_input(rel, msg.msgtype, msg.cdr))
-            if header is not None:
-                outputs.append(Output(rel, msg.timestamp_ns, header))
-        elif rel in OUTPUT_TOPICS:
-            (outputs if pending is not None else unpaired).append(output_of(rel, msg.timestamp_ns, msg.cdr))
-    close()
-    return models.initial, tuple(steps), tuple(unpaired)
+        chain.take(msg)
+    return chain.finish()
 
 
 def load_paired_session(path: str | os.PathLike[str], *, namespace: str | None = None) -> PairedSession:

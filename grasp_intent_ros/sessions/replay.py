@@ -8,6 +8,12 @@ What is replayed
     (bad inputs included), and the model switches: a recorded ``model/active`` with another name (or
     content) is reproduced by setting the model server's ``model`` parameter through its parameter
     service at that point. Before the first input the live model is set to the session's initial one.
+Scenes of several objects
+    A bag of one planning chain per object (``/cup``, ``/flashlight``) and the arm's ``joint_states`` above
+    them (:func:`~grasp_intent_ros.sessions.scenes.detect_scene`): each chain is paired by its namespace, and
+    replayed and checked through a client in it (its model server's parameter, its outputs, its nodes'
+    rejections); every input is sent once in the recorded order (a joint state for every chain), and the answer
+    of each chain it feeds is awaited. A difference names the chain's topic (``flashlight/grasp/pose``).
 Closed-loop sessions
     A session with operator twists is replayed as a closed loop (:mod:`grasp_intent_ros.sessions.closed_loop`):
     w, object poses, model switches and operator twists at the recorded pace (``--fast`` and ``--rate`` are
@@ -32,7 +38,8 @@ Suite (``--start-suite``)
     and ``grasp_planner`` (for a closed-loop session also ``mock_arm`` and ``assistance``, or for one recorded
     with the intent estimator ``intent_estimator``) as ``python -m``
     processes with the package's config files, in the session's
-    namespace (:class:`~grasp_intent_ros.launch.suite.NodeSuite`), with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+    namespace (:class:`~grasp_intent_ros.launch.suite.NodeSuite`; for a scene, one chain per object as
+    ``suite --object`` starts them, each with its recorded initial model), with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
     and this process's ROS_DOMAIN_ID (else one derived from the process id); they are
     stopped by PID (SIGTERM, then SIGKILL) at the end. The planner warm-starts from its previous plan and
     keeps the last object pose and joint state, so exact answers need a suite whose history is the
@@ -40,7 +47,8 @@ Suite (``--start-suite``)
 Network
     ROS_AUTOMATIC_DISCOVERY_RANGE defaults to LOCALHOST when unset (always with ``--start-suite``).
 Exit codes
-    0 replayed (and, with --check, everything matched); 1 a check difference; 2 the bag cannot be used,
+    0 replayed (and, with --check, everything matched); 1 a check difference; 2 the bag cannot be used (e.g.
+    topics that belong to no chain of a scene),
     the system did not come up, or a suite process died; 130 interrupted (SIGINT/SIGTERM; a started suite
     is stopped all the same).
 """
@@ -57,9 +65,11 @@ import rclpy
 from rclpy.context import Context
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
+from ..launch.objects import SceneObject
 from ..launch.suite import NodeSuite, SuiteError, domain_id_from_environment, use_loopback_discovery
 from ..mico.kinematics import MicoKinematics
 from .bag.errors import BagError
+from .bag.reader import topics_info
 from .closed_loop import (
     ESTIMATOR_REMAPPING,
     ClosedLoopSession,
@@ -71,16 +81,10 @@ from .closed_loop import (
     outcome,
 )
 from .compare import Difference
-from .pairing import PairedSession, load_paired_session
-from .replay_client import (
-    SUITE_SETTLE_S,
-    ClosedLoopReplayer,
-    Replayer,
-    ReplayError,
-    ReplayOptions,
-    ReplayResult,
-    SessionClient,
-)
+from .outputs import SessionError
+from .replay_client import SUITE_SETTLE_S, SessionClient
+from .replayers import ClosedLoopReplayer, Replayer, ReplayError, ReplayOptions, ReplayResult, SceneReplayer
+from .scenes import PairedScene, detect_scene, load_paired_scene
 
 __all__ = ['main']
 
@@ -112,7 +116,7 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _report(session: PairedSession, options: ReplayOptions, result: ReplayResult, max_diffs: int) -> int:
+def _report(session: PairedScene, options: ReplayOptions, result: ReplayResult, max_diffs: int) -> int:
     name = session.path
     notes = [d for d in result.differences if not d.fatal]
     for note in notes[:max_diffs]:
@@ -123,20 +127,39 @@ def _report(session: PairedSession, options: ReplayOptions, result: ReplayResult
               f'{result.outputs_received} outputs received')
         return 0
     failures = result.failures
+    scene = session.scene
+    chains = '' if scene.one_chain else (f' to the chains {", ".join(c.name for c in session.chains)} of the scene '
+                                         f'in {scene.namespace or "/"}')
     if not failures:
-        print(f'replay --check OK: {name}: {result.inputs_sent} inputs, {session.n_outputs} recorded outputs '
+        print(f'replay --check OK: {name}: {result.inputs_sent} inputs{chains}, {session.n_outputs} recorded outputs '
               f'matched live (v, P, w, pose, joints, clarifications, rejections) in {result.replay_s:.2f} s '
               f'(system ready after {result.ready_s:.2f} s)')
         return 0
     failed_inputs = sorted({d.step for d in failures})
     first = failures[0]
     print(f'replay --check FAILED: {name}: {len(failures)} difference(s) in {len(failed_inputs)} of '
-          f'{result.inputs_sent} inputs replayed ({len(session.steps)} recorded)'
+          f'{result.inputs_sent} inputs replayed{chains} ({len(session.inputs)} recorded)'
           f'{", stopped early" if result.stopped_early else ""}; first differing message: input '
           f'#{first.step}, {first.topic}')
     for line in _diff_lines(failures, max_diffs):
         print(f'  {line}')
     return 1
+
+
+def scene_objects(session: PairedScene) -> tuple[SceneObject, ...]:
+    """The objects ``suite --object`` starts for a scene's chains: each chain's name and its initial model.
+
+    Raises
+    ------
+    SessionError
+        A chain without a model document (its model is unknown).
+    """
+    lacking = [chain.namespace for chain in session.chains if chain.initial_model is None]
+    if lacking:
+        raise SessionError(f'no model/active of the chain(s) {", ".join(lacking)} in {session.path}: --start-suite '
+                           'does not know their models')
+    return tuple(SceneObject(chain.name, chain.initial_model.name) for chain in session.chains
+                 if chain.initial_model is not None)
 
 
 def _report_closed_loop(session: ClosedLoopSession, options: ReplayOptions, result: ReplayResult,
@@ -193,9 +216,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.models_dir is not None and not args.start_suite:
         _parser().error('--models-dir needs --start-suite')
     try:
-        closed_loop = is_closed_loop(args.bag)
-        session: PairedSession | ClosedLoopSession = (load_closed_loop(args.bag) if closed_loop
-                                                      else load_paired_session(args.bag))
+        scene = detect_scene(topics_info(args.bag))
+        closed_loop = scene.one_chain and is_closed_loop(args.bag, namespace=scene.namespace)
+        session: PairedScene | ClosedLoopSession = (load_closed_loop(args.bag) if closed_loop
+                                                    else load_paired_scene(args.bag))
+        objects = (scene_objects(session) if isinstance(session, PairedScene) and not scene.one_chain
+                   and args.start_suite else ())
     except BagError as exc:
         print(f'replay: error: {exc}', file=sys.stderr)
         return 2
@@ -219,26 +245,38 @@ def main(argv: Sequence[str] | None = None) -> int:
     context = Context()  # rclpy's SIGINT/SIGTERM handlers shut it down: exit code 130, suite stopped
     rclpy.init(context=context, domain_id=domain_id, args=[])
     executor = SingleThreadedExecutor(context=context)
-    client: SessionClient | None = None
+    clients: list[SessionClient] = []
     code = 2
     estimated = isinstance(session, ClosedLoopSession) and session.estimated
     try:
         if args.start_suite:
-            initial = session.initial_model.name if session.initial_model is not None else None
             suite = NodeSuite(domain_id)
-            suite.start_nodes(model=initial, models_dir=args.models_dir, namespace=session.namespace,
-                              shared_control=closed_loop and not estimated,
-                              extra=('intent_estimator',) if estimated else (),
-                              remappings={'intent_estimator': (ESTIMATOR_REMAPPING,)} if estimated else None)
-        client = SessionClient(model_server=args.model_server, context=context, closed_loop=closed_loop,
-                               estimated=estimated, namespace=session.namespace or '/')
-        executor.add_node(client)
+            if objects:
+                suite.start_nodes(models_dir=args.models_dir, namespace=scene.namespace, objects=objects)
+            else:
+                model = (session.initial_model if isinstance(session, ClosedLoopSession)
+                         else session.chains[0].initial_model)
+                suite.start_nodes(model=model.name if model is not None else None, models_dir=args.models_dir,
+                                  namespace=scene.namespace, shared_control=closed_loop and not estimated,
+                                  extra=('intent_estimator',) if estimated else (),
+                                  remappings={'intent_estimator': (ESTIMATOR_REMAPPING,)} if estimated else None)
         alive = suite.died if suite else lambda: ''
         if isinstance(session, ClosedLoopSession):
+            client = SessionClient(model_server=args.model_server, context=context, closed_loop=closed_loop,
+                                   estimated=estimated, namespace=session.namespace or '/')
+            clients.append(client)
+            executor.add_node(client)
             result = ClosedLoopReplayer(session, client, executor, options, alive=alive).run()
             code = _report_closed_loop(session, options, result, client.tracer.trace())
         else:
-            result = Replayer(session, client, executor, options, alive=alive).run()
+            chains = []
+            for chain in session.chains:
+                client = SessionClient(model_server=args.model_server, context=context,
+                                       arm_namespace=chain.arm_namespace, namespace=chain.namespace or '/')
+                clients.append(client)
+                executor.add_node(client)
+                chains.append(Replayer(chain, client, executor, options, alive=alive))
+            result = SceneReplayer(session, chains, options).run()
             code = _report(session, options, result, args.max_diffs)
     except ReplayError as exc:
         print(f'replay: error: {exc}', file=sys.stderr)
@@ -246,7 +284,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         code = 130
     finally:
         executor.shutdown()
-        if client is not None:
+        for client in clients:
             client.destroy_node()
         rclpy.try_shutdown(context=context)
         if suite is not None:

@@ -1,21 +1,17 @@
-"""The replay's rclpy side: its client node and its engine.
+"""The replay's client node: it publishes a session's inputs and collects the live outputs.
 
-The client node publishes a session's inputs and collects the live outputs; the engine that paces the inputs and
-checks each answer (:mod:`.compare`). The command line is :mod:`grasp_intent_ros.sessions.replay`.
+The engine that paces the inputs and checks each answer through it is :mod:`.replayers`; the command line is
+:mod:`grasp_intent_ros.sessions.replay`.
 """
 
 from __future__ import annotations
 
-import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any, Generic, TypeVar
+from typing import Any
 
-import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.srv import SetParameters
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.task import Future
@@ -36,13 +32,10 @@ from ..wire.topics import (
     MSGTYPES,
     OUTPUT_TOPICS,
 )
-from .closed_loop import ESTIMATED_REPLAYED, RENAMED, REPLAYED, ClosedLoopSession, Tracer, estimator_ready
-from .compare import Difference, Tolerances, answered, compare_step, diverged
+from .closed_loop import ESTIMATED_REPLAYED, RENAMED, REPLAYED, Tracer
 from .outputs import Output, RejectionTracker, SessionError, decode, output_of
-from .pairing import PairedSession, Step
 
-__all__ = ['SUITE_SETTLE_S', 'SessionClient', 'ReplayOptions', 'ReplayResult', 'ReplayError', 'SessionReplayer',
-           'Replayer', 'ClosedLoopReplayer', 'await_answer']
+__all__ = ['SUITE_SETTLE_S', 'SessionClient']
 
 SUITE_SETTLE_S = 3.0
 """With --start-suite: seconds every node must have been visible before the first input (see
@@ -66,10 +59,14 @@ class SessionClient(Node):
     estimated
         With ``closed_loop``, a session whose w came from the intent estimator: publish
         :data:`~.closed_loop.ESTIMATED_REPLAYED` (the recorded hand included) and trace the live w.
+    arm_namespace
+        None for a one-chain session. For a chain of a scene (this node in the chain's namespace), the scene's
+        namespace: ``joint_states`` is published there (the arm's), and only the rejections of nodes in
+        this node's namespace are outputs (:class:`~.outputs.RejectionTracker`).
     """
 
     def __init__(self, *, model_server: str = 'model_server', node_name: str = 'replay', closed_loop: bool = False,
-                 estimated: bool = False, **kwargs: Any) -> None:
+                 estimated: bool = False, arm_namespace: str | None = None, **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self.closed_loop = closed_loop
         """Whether this client replays a closed-loop session (:mod:`grasp_intent_ros.sessions.closed_loop`)."""
@@ -87,12 +84,13 @@ class SessionClient(Node):
         """Number of /diagnostics messages received."""
         self.last_status: dict[str, str] = {}
         """Per diagnostic status name, its latest message and values, for error reports."""
-        self._tracker = RejectionTracker()
+        self._tracker = RejectionTracker(nodes_in=None if arm_namespace is None else self.get_namespace().rstrip('/'))
         self._first_seen: dict[str, float] = {}
         sent, traced = ((INPUT_TOPICS, ()) if not closed_loop else (ESTIMATED_REPLAYED, (INTENT_W,)) if estimated
                         else (REPLAYED, (JOINT_STATES, ASSISTANCE_TWIST, ASSISTANCE_ALPHA)))
         qos = output_qos(STREAM_DEPTH if estimated else DEFAULT_DEPTH)  # the estimator takes every message
-        self._input_pubs = {t: self.create_publisher(message_class(t), RENAMED.get(t, t), qos) for t in sent}
+        renamed = {**RENAMED, **({} if arm_namespace is None else {JOINT_STATES: f'{arm_namespace}/{JOINT_STATES}'})}
+        self._input_pubs = {t: self.create_publisher(message_class(t), renamed.get(t, t), qos) for t in sent}
         self._loop_subs = {
             topic: self.create_subscription(message_class(topic), topic, self._tracer_receiver(topic), input_qos(1000),
                                             raw=True)
@@ -183,318 +181,3 @@ class SessionClient(Node):
         if need_parameters and not self._param_client.service_is_ready():
             lacking.append(f'no parameter service {self._param_client.srv_name}')
         return lacking
-
-
-# ---------------------------------------------------------------------------------------- replaying
-def await_answer(spin: Callable[[], None], outputs: list[Output], mark: int, step: Step, *,
-                 timeout_s: float, quiet_s: float = 0.25, settle_s: float = 0.02,
-                 future: Future | None = None) -> tuple[list[Output], str]:
-    """Spin until the answer to ``step`` (sent when ``outputs`` had ``mark`` entries) is complete.
-
-    Complete: every recorded output topic has as many live messages as recorded and nothing new came for
-    ``settle_s``; or the answer diverges (an unrecorded message) and nothing new came for 0.5 s; or, for a
-    step recorded without outputs, nothing came for ``quiet_s``; or ``timeout_s`` passed. ``future`` (a
-    SetParameters call) must be done too; a refused parameter ends the wait.
-
-    Returns
-    -------
-        (the live outputs since ``mark``, '' | 'timeout' | 'rejected: <reason>')
-    """
-    start = last_change = time.monotonic()
-    seen = 0
-    while True:
-        spin()
-        now = time.monotonic()
-        live = outputs[mark:]
-        if len(live) != seen:
-            seen, last_change = len(live), now
-        if future is not None and future.done():
-            result = future.result().results[0]
-            if not result.successful:
-                return live, f'rejected: {result.reason}'
-            future = None
-        quiet = now - last_change
-        if future is None:
-            if step.expected:
-                if answered(step, live) and (quiet >= settle_s or diverged(step, live)):
-                    return live, ''
-                if diverged(step, live) and quiet >= 0.5:
-                    return live, ''
-            elif quiet >= quiet_s:
-                return live, ''
-        if now - start >= timeout_s:
-            return live, 'timeout'
-
-
-@dataclass(frozen=True)
-class ReplayOptions:
-    """How to replay.
-
-    Attributes
-    ----------
-    rate
-        Recorded pace multiplier (> 0); ignored with ``fast``.
-    fast
-        Send each input once the previous one was answered, without waiting for its recorded time.
-    check
-        Wait for every answer and compare it with the recording.
-    timeout_s
-        Longest wait for one answer (s).
-    startup_timeout_s
-        Longest wait for the live system to be ready (s).
-    settle_s
-        Once ready, how long every node must have been visible before the first input (s):
-        one discovery announcement period (3 s) for a suite started together with the replay, so its
-        nodes have met each other; 0 for a system that was running already.
-    quiet_s
-        For an input recorded without any answer: how long nothing must arrive (s).
-    max_failed_inputs
-        Stop after this many inputs with differences (0: never stop early).
-    tolerances
-        Of the comparison.
-    """
-
-    rate: float = 1.0
-    fast: bool = False
-    check: bool = False
-    timeout_s: float = 10.0
-    startup_timeout_s: float = 60.0
-    settle_s: float = 0.0
-    quiet_s: float = 0.25
-    max_failed_inputs: int = 5
-    tolerances: Tolerances = field(default_factory=Tolerances)
-
-
-@dataclass
-class ReplayResult:
-    """What a replay did: inputs sent, outputs received, differences (with --check), timings (s)."""
-
-    inputs_sent: int = 0
-    outputs_received: int = 0
-    differences: list[Difference] = field(default_factory=list)
-    timed_out: list[int] = field(default_factory=list)
-    stopped_early: bool = False
-    ready_s: float = 0.0
-    replay_s: float = 0.0
-
-    @property
-    def failures(self) -> list[Difference]:
-        """The differences that fail a check (notes excluded)."""
-        return [d for d in self.differences if d.fatal]
-
-
-class ReplayError(RuntimeError):
-    """The live system did not come up or could not be put into the session's initial state."""
-
-
-S = TypeVar('S', PairedSession, ClosedLoopSession)
-"""The session a replayer replays."""
-
-
-class SessionReplayer(Generic[S]):
-    """What both replayers share: a session replayed through a :class:`SessionClient` spun by ``executor``.
-
-    Parameters
-    ----------
-    session
-        The recorded session.
-    client
-        Added to ``executor`` by the caller.
-    executor
-        Spun with ``spin_once`` while waiting.
-    options
-        See :class:`ReplayOptions`.
-    alive
-        Called while waiting; a non-empty return (e.g. a suite process died) aborts with ReplayError.
-    """
-
-    def __init__(self, session: S, client: SessionClient, executor: SingleThreadedExecutor,
-                 options: ReplayOptions, *, alive: Callable[[], str] = lambda: '') -> None:
-        self.session: S = session
-        self.client, self.executor, self.options = client, executor, options
-        self._alive = alive
-
-    def _spin(self, seconds: float = 0.005) -> None:
-        self.executor.spin_once(timeout_sec=seconds)
-        if problem := self._alive():
-            raise ReplayError(problem)
-
-    def _wait(self, predicate: Callable[[], bool], timeout: float) -> bool:
-        deadline = time.monotonic() + timeout
-        while not predicate():
-            if time.monotonic() >= deadline:
-                return predicate()
-            self._spin(min(0.05, max(0.0, deadline - time.monotonic())))
-        return True
-
-    def prepare(self) -> list[Difference]:
-        """Wait until the live system is ready and runs the session's initial model.
-
-        Returns notes (a model with the recorded name but other content). Raises ReplayError.
-        """
-        need_parameters = self._needs_parameters()
-        missing = lambda: self.client.missing(need_parameters=need_parameters)  # noqa: E731
-        if not self._wait(lambda: not missing() and self.client.settled(self.options.settle_s),
-                          self.options.startup_timeout_s):
-            raise ReplayError(f'the live system is not ready after {self.options.startup_timeout_s:g} s: '
-                              f'{"; ".join(missing()) or "nodes still appearing"}')
-        initial = self.session.initial_model
-        notes = []
-        if initial is not None and self.client.model is not None and self.client.model.name != initial.name:
-            self._activate(initial.name)
-            self._quiet(0.5)  # a running planner replans its current v for the new model: not an answer
-        if initial is not None and self.client.model is not None and self.client.model.sha256 != initial.sha256:
-            notes.append(Difference(0, 'initial model', MODEL_ACTIVE, 'model content', f'sha256 {initial.sha256[:12]}',
-                                    f'sha256 {self.client.model.sha256[:12]} (same name, different model)', False))
-        return notes
-
-    def _needs_parameters(self) -> bool:
-        """Whether the session activates a model (then the model server's parameters must be reachable)."""
-        raise NotImplementedError
-
-    def _quiet(self, seconds: float) -> None:
-        """Spin until no output arrived for ``seconds`` (at most the answer timeout)."""
-        last = [len(self.client.outputs), time.monotonic()]
-
-        def quiet() -> bool:
-            if len(self.client.outputs) != last[0]:
-                last[:] = [len(self.client.outputs), time.monotonic()]
-            return time.monotonic() - last[1] >= seconds
-
-        self._wait(quiet, self.options.timeout_s)
-
-    def _activate(self, name: str) -> None:
-        future = self.client.set_model(name)
-        if not self._wait(future.done, self.options.timeout_s):
-            raise ReplayError(f'no answer from the parameter service when setting model {name!r}')
-        result = future.result().results[0]
-        if not result.successful:
-            raise ReplayError(f'the model server rejected model {name!r}: {result.reason}')
-        if not self._wait(lambda: self.client.model is not None and self.client.model.name == name,
-                          self.options.timeout_s):
-            raise ReplayError(f'model {name!r} was accepted but no {MODEL_ACTIVE} for it arrived')
-
-
-class Replayer(SessionReplayer[PairedSession]):
-    """Replays a paired session (:mod:`grasp_intent_ros.sessions.pairing`) input by input, comparing the answers."""
-
-    def _needs_parameters(self) -> bool:
-        return any(s.model is not None for s in self.session.steps) or self.session.initial_model is not None
-
-    def _send(self, step: Step) -> Future | None:
-        if step.model is not None:
-            return self.client.set_model(step.model)
-        self.client.publish(step.topic, step.cdr)
-        return None
-
-    def _await_answer(self, step: Step, mark: int, future: Future | None) -> tuple[list[Output], list[Difference]]:
-        live, problem = await_answer(self._spin, self.client.outputs, mark, step, future=future,
-                                     timeout_s=self.options.timeout_s, quiet_s=self.options.quiet_s)
-        if not problem:
-            return live, []
-        if problem == 'timeout':
-            return live, [Difference(step.index, step.description, '(answer)', 'timeout',
-                                     f'{len(step.expected)} output(s)',
-                                     f'{len(live)} output(s) within {self.options.timeout_s:g} s', False)]
-        return live, [Difference(step.index, step.description, MODEL_ACTIVE, 'parameter model',
-                                 f'{step.model!r} accepted', problem)]
-
-    def run(self) -> ReplayResult:
-        """Replay every step; compare with --check. Raises ReplayError (system not ready, suite died)."""
-        result = ReplayResult()
-        started = time.monotonic()
-        result.differences += self.prepare()
-        result.ready_s = time.monotonic() - started
-        paced_by_answers = self.options.check or self.options.fast
-        steps = self.session.steps
-        t_first = steps[0].t_ns
-        begin = time.monotonic()
-        failed_inputs = 0
-        first_mark = mark = len(self.client.outputs)
-        for step in steps:
-            if not self.options.fast:
-                send_at = begin + 1e-9 * (step.t_ns - t_first) / self.options.rate
-                self._wait(lambda: time.monotonic() >= send_at, max(0.0, send_at - time.monotonic()) + 1.0)
-            mark = len(self.client.outputs)
-            future = self._send(step)
-            result.inputs_sent += 1
-            if not paced_by_answers:
-                continue
-            live, problems = self._await_answer(step, mark, future)
-            if any(d.field == 'timeout' for d in problems):
-                result.timed_out.append(step.index)
-                statuses = '\n'.join(f'  {name}: {text}' for name, text in sorted(self.client.last_status.items()))
-                print(f'replay: input #{step.index} got {len(live)} of {len(step.expected)} recorded outputs '
-                      f'within {self.options.timeout_s:g} s; latest node statuses:\n{statuses}', file=sys.stderr)
-            if self.options.check:
-                diffs = problems + compare_step(step, live, self.options.tolerances)
-                result.differences += diffs
-                if any(d.fatal for d in diffs):
-                    failed_inputs += 1
-                    if failed_inputs >= self.options.max_failed_inputs > 0:
-                        result.stopped_early = step is not steps[-1]
-                        break
-        if not paced_by_answers:  # let the last answer arrive
-            self._wait(lambda: answered(steps[-1], self.client.outputs[mark:]), self.options.timeout_s)
-        result.replay_s = time.monotonic() - begin
-        result.outputs_received = len(self.client.outputs) - first_mark
-        return result
-
-
-class ClosedLoopReplayer(SessionReplayer[ClosedLoopSession]):
-    """Replays a closed-loop session (:mod:`grasp_intent_ros.sessions.closed_loop`) at its recorded pace.
-
-    The live system must run the assistance and an arm (the suite with ``shared_control``), with the arm where
-    the recording's started; for an estimated session the intent estimator instead (the recorded hand is
-    sent). The client must have been made with ``closed_loop=True`` and ``estimated`` as the session's.
-    :meth:`run` sends every
-    message at its recorded time after the first, then waits until the arm has stopped (no joint moved by more
-    than 1e-6 rad over :data:`STOPPED_S`, once the operator's last twist is older than :data:`STOPPED_S`), at most
-    ``options.timeout_s``.
-    """
-
-    STOPPED_S = 0.3
-    """Seconds without arm motion that end the replay: the assistance stops 0.1 s after the operator's last twist
-    (operator_timeout) and the mock arm 0.1 s after the last blended twist (command_timeout)."""
-
-    def _needs_parameters(self) -> bool:
-        return self.session.initial_model is not None or any(s.model is not None for s in self.session.sends)
-
-    def run(self) -> ReplayResult:
-        """Send every message, wait for the arm to stop; raises ReplayError (system not ready, suite died)."""
-        result = ReplayResult()
-        started = time.monotonic()
-        result.differences += self.prepare()
-        result.ready_s = time.monotonic() - started
-        if self.session.estimated:
-            if not self._wait(lambda: estimator_ready(self.client.last_status), self.options.startup_timeout_s):
-                raise ReplayError('the live intent estimator did not report its goals ready')
-        elif not self._wait(lambda: bool(self.client.tracer.trace().joints), self.options.startup_timeout_s):
-            raise ReplayError('no joint state from the live arm')
-        self.client.tracer.restart()
-        sends = self.session.sends
-        begin = time.monotonic()
-        for send in sends:
-            send_at = begin + 1e-9 * (send.t_ns - send.lead_ns - sends[0].t_ns + sends[0].lead_ns)
-            self._wait(lambda: time.monotonic() >= send_at, max(0.0, send_at - time.monotonic()) + 1.0)
-            if send.model is not None:
-                self.client.set_model(send.model)  # not awaited: the recorded operator did not wait either
-            else:
-                self.client.publish(send.topic, send.cdr)
-                self.client.tracer.add(send.topic, self.client.get_clock().now().nanoseconds + send.lead_ns, send.cdr)
-            result.inputs_sent += 1
-        last_send = time.monotonic()
-        if not self._wait(lambda: time.monotonic() - last_send >= self.STOPPED_S and self._arm_stopped(),
-                          self.options.timeout_s):
-            result.timed_out.append(len(sends))
-        result.replay_s = time.monotonic() - begin
-        result.outputs_received = len(self.client.outputs)
-        return result
-
-    def _arm_stopped(self) -> bool:
-        joints = self.client.tracer.trace().joints
-        if not joints:
-            return False
-        since = joints[-1][0] - int(self.STOPPED_S * 1e9)
-        recent = [q for t, q in joints if t >= since]
-        return len(recent) > 1 and all(float(np.max(np.abs(q - recent[-1]))) <= 1e-6 for q in recent)

@@ -18,6 +18,8 @@ barrier
     The command kept out of the object as perceived: the twist nearest the blend that nears it no faster than a barrier.
 estimator
     The intent estimator: the operator's twist -> a posterior over the model's demonstrated grasps -> w.
+scene_estimator
+    The intent estimator over several objects: one posterior over every object's goals -> P(o) and each object's w.
 task_prior
     A prior over task sets from independent task probabilities: a classifier's w as the estimator's prior.
 calibration

@@ -125,7 +125,7 @@ from .calibration import calibrate
 from .task_prior import check_task_prior, task_log_prior
 
 __all__ = ['EstimatorConfig', 'Goals', 'goals_from_poses', 'goals_at', 'reachable_goals', 'progress_rates',
-           'TwistTiming', 'IntentEstimator']
+           'TwistTiming', 'Motion', 'checked_motion', 'IntentEstimator']
 
 
 @dataclass(frozen=True)
@@ -403,6 +403,47 @@ def _progress(positions: NDArray[np.float64], rotations: NDArray[np.float64], ba
     return out
 
 
+@dataclass(frozen=True)
+class Motion:
+    """One operator twist held for a time, as the evidence takes it (module docstring, "Forgetting").
+
+    Attributes
+    ----------
+    unit : ndarray, shape (6,)
+        The twist's direction: the twist divided by its largest absolute component (base frame).
+    unit_speed : float
+        u of ``unit``: ``|v| + rho |omega|`` (> 0).
+    fade : float
+        ``1 - gamma``, the share of the evidence the motion forgets, in (0, 1].
+    """
+
+    unit: NDArray[np.float64]
+    unit_speed: float
+    fade: float
+
+
+def checked_motion(base_T_ee: ArrayLike, twist: ArrayLike, dt: float,
+                   config: EstimatorConfig) -> tuple[NDArray[np.float64], Motion | None]:
+    """The hand's pose (4x4, checked) and the motion of ``twist`` held for ``dt`` s, None when it is no motion.
+
+    ``dt`` is clipped to [0, ``max_dt``]; a zero twist or ``dt`` is no motion. Any finite twist is taken: only its
+    direction and the motion ``u dt`` matter, computed without overflow. Raises KinematicsError for a malformed
+    pose, twist or ``dt``.
+    """
+    hand = check_transform(base_T_ee, 'base_T_ee')
+    xi = check_vector(twist, 6, 'twist')
+    if not math.isfinite(dt):
+        raise KinematicsError(f'dt must be finite, got {dt!r}')
+    dt = min(max(dt, 0.0), config.max_dt)
+    size = float(np.max(np.abs(xi)))
+    if size == 0.0 or dt == 0.0:
+        return hand, None
+    unit = xi / size
+    unit_speed = float(np.linalg.norm(unit[:3])) + config.rotation_length * float(np.linalg.norm(unit[3:]))
+    fade = -math.expm1(-(size * dt) * unit_speed / config.memory)  # 1 - gamma; 1 when u dt overflows
+    return hand, Motion(unit, unit_speed, fade)
+
+
 class IntentEstimator:
     """The posterior over ``goals`` from a stream of operator twists, and the task marginals w (module docstring).
 
@@ -489,30 +530,48 @@ class IntentEstimator:
         from it changes nothing. Raises KinematicsError for a malformed pose, twist or ``dt`` (the estimate is then
         unchanged).
         """
-        hand = check_transform(base_T_ee, 'base_T_ee')
-        xi = check_vector(twist, 6, 'twist')
-        if not math.isfinite(dt):
-            raise KinematicsError(f'dt must be finite, got {dt!r}')
-        dt = min(max(dt, 0.0), self.config.max_dt)
-        cfg = self.config
+        hand, motion = checked_motion(base_T_ee, twist, dt, self.config)
         self.updates += 1
-        size = float(np.max(np.abs(xi)))
-        if size == 0.0 or dt == 0.0:
+        if motion is None:
             return self.w
-        unit = xi / size  # the direction, without overflow for any finite twist: only s_g / u and u dt matter
-        unit_speed = float(np.linalg.norm(unit[:3])) + cfg.rotation_length * float(np.linalg.norm(unit[3:]))
-        proposal = self._proposal if self._proposal is not None and self._proposal[2].any() else None
-        shown = 0.0 if proposal is None else float(_progress(_targets(proposal[0], proposal[1], hand, cfg), proposal[1],
-                                                             hand, unit, cfg)[0])
-        if proposal is not None and shown >= 0.0 and self.at_proposal(hand):
+        shown = self.shown_progress(hand, motion)
+        if self.placing(hand, shown):
             return self.w  # placing the hand on the shown grasp: no evidence (module docstring)
-        fade = -math.expm1(-(size * dt) * unit_speed / cfg.memory)  # 1 - gamma; 1 when u dt overflows
-        rates = progress_rates(self.goals, hand, unit, cfg) / unit_speed  # s_g / u, in [-1, 1]
-        if proposal is not None:
-            rates[proposal[2]] = shown / unit_speed
-        # the exact solution over the step of dE/dl = -E / L + beta s / u (l the pose path): |E| <= beta L
-        self.evidence = (1.0 - fade) * self.evidence + (cfg.rationality * cfg.memory * fade) * rates
+        self.take(hand, motion, shown)
         return self.w
+
+    def shown_progress(self, base_T_ee: NDArray[np.float64], motion: Motion) -> float | None:
+        """The progress rate of ``motion.unit`` toward the shown grasp's approach target (:func:`progress_rates`).
+
+        None when no grasp with a goal near it is shown. ``base_T_ee``: the hand, 4x4, checked by the caller.
+        """
+        proposal = self._proposal
+        if proposal is None or not proposal[2].any():
+            return None
+        return float(_progress(_targets(proposal[0], proposal[1], base_T_ee, self.config), proposal[1], base_T_ee,
+                               motion.unit, self.config)[0])
+
+    def placing(self, base_T_ee: NDArray[np.float64], shown: float | None) -> bool:
+        """Whether a motion of progress ``shown`` (:meth:`shown_progress`) places the hand on the shown grasp.
+
+        True when it does not move the hand away from the grasp, the hand in its core (:meth:`at_proposal`): such
+        a motion is no evidence (module docstring, "At the shown grasp").
+        """
+        return shown is not None and shown >= 0.0 and self.at_proposal(base_T_ee)
+
+    def take(self, base_T_ee: NDArray[np.float64], motion: Motion, shown: float | None) -> None:
+        """The evidence step of ``motion`` with the hand at ``base_T_ee`` (module docstring, "Forgetting").
+
+        The goals near the shown grasp are credited with ``shown`` (:meth:`shown_progress`). Neither the placing test
+        (:meth:`placing`, the caller's) nor the update count.
+        """
+        rates = progress_rates(self.goals, base_T_ee, motion.unit, self.config) / motion.unit_speed  # s_g / u: [-1, 1]
+        if shown is not None:
+            assert self._proposal is not None
+            rates[self._proposal[2]] = shown / motion.unit_speed
+        # the exact solution over the step of dE/dl = -E / L + beta s / u (l the pose path): |E| <= beta L
+        cfg = self.config
+        self.evidence = (1.0 - motion.fade) * self.evidence + (cfg.rationality * cfg.memory * motion.fade) * rates
 
     @property
     def posterior(self) -> NDArray[np.float64]:

@@ -20,10 +20,23 @@ Bad input
     names, duplicates, names and positions of different counts, a kept joint's position NaN or infinite) raises
     and changes nothing; the joints it would have updated keep their previous positions.
 The fingers at rest (:class:`RestRule`, :class:`FingerRest`: from positions alone)
-    At a finger reading received at ``t`` the fingers are *at rest* when, over the finger readings from the latest
-    one received at or before ``t - window`` up to it, every finger's positions span (max - min) at most
+    A *finger reading* is a message that names a finger while the three fingers are known; its *time* is its
+    message's header stamp while every finger reading so far has had a non-zero stamp later than the one before
+    (the driver's clock: when each sample was taken), else its receipt (a position-only driver may stamp zero).
+    At a finger reading of time ``t`` the fingers are *at rest* when, over the finger readings from the latest
+    one of time at or before ``t - window`` up to it, every finger's positions span (max - min) at most
     ``tolerance`` rad: still for ``window`` s at least. ``<=`` for the span and the window, times in integer
     nanoseconds. A finger slower than ``tolerance / window`` rad/s is at rest.
+The rule's clock
+    Receipts misjudge a backlog: messages held up and taken in a burst get receipts close together, so a burst's
+    first reading, a sample long before its receipt, has the reading before the backlog within the window and is
+    judged still over what was a few milliseconds of the fingers' motion. Stamps time each sample where it was
+    taken. The first finger reading unstamped, or stamped at or before the one before (a stamp that does not
+    advance, a clock that went back), ends the stamps' use for good: the rule goes on by receipts, over the
+    readings the stamps' window kept, so in the window after the change it may call the fingers at rest later
+    than receipts alone would, never sooner. Only differences of times are read, so a constant offset between
+    the stamps and the receipts changes no decision. A hand's receipt (:class:`Hand`, :func:`fingers_settled`)
+    stays on its reader's clock.
 """
 
 from __future__ import annotations
@@ -152,24 +165,41 @@ class RestRule:
 
 
 class FingerRest:
-    """Whether the fingers are at rest, finger reading by finger reading (module docstring)."""
+    """Whether the fingers are at rest, finger reading by finger reading (module docstring: the rule, its clock).
+
+    ``by_stamps``: whether the readings so far are timed by their stamps (True until one is unstamped or not later
+    than the one before).
+    """
 
     def __init__(self, rule: RestRule = RestRule()) -> None:
         self.rule, self.window_ns = rule, receipt_ns(rule.window)
-        self.recent: deque[tuple[int, NDArray[np.float64]]] = deque()  # from the latest at or before t - window
+        self.by_stamps = True
+        # (receipt ns, stamp ns, fingers) from the latest of time at or before the newest's less the window
+        self.recent: deque[tuple[int, int | None, NDArray[np.float64]]] = deque()
 
-    def step(self, t: float, fingers: NDArray[np.float64]) -> bool:
-        """Whether the fingers are at rest at their reading ``fingers`` (shape (3,), rad) received at ``t`` s.
+    def step(self, received: float, stamp_ns: int | None, fingers: NDArray[np.float64]) -> bool:
+        """Whether the fingers are at rest at their reading ``fingers`` (shape (3,), rad).
 
-        ``t`` non-decreasing from call to call.
+        ``received``: its receipt (s, non-decreasing from call to call); ``stamp_ns``: its message's header stamp
+        (integer ns; None when unset).
         """
-        t_ns = receipt_ns(t)
-        self.recent.append((t_ns, fingers))
-        while len(self.recent) >= 2 and self.recent[1][0] <= t_ns - self.window_ns:
+        if self.by_stamps and (stamp_ns is None or (self.recent and stamp_ns <= self._time(-1))):
+            self.by_stamps = False
+        self.recent.append((receipt_ns(received), stamp_ns, fingers))
+        since = self._time(-1) - self.window_ns
+        while len(self.recent) >= 2 and self._time(1) <= since:
             self.recent.popleft()
-        positions = np.array([f for _, f in self.recent])
-        return self.recent[0][0] <= t_ns - self.window_ns and bool(
+        positions = np.array([f for _, _, f in self.recent])
+        return self._time(0) <= since and bool(
             np.all(positions.max(axis=0) - positions.min(axis=0) <= self.rule.tolerance))
+
+    def _time(self, index: int) -> int:
+        """The time (ns) of the reading kept at ``index``: its stamp while :attr:`by_stamps`, else its receipt."""
+        received, stamp, _ = self.recent[index]
+        if not self.by_stamps:
+            return received
+        assert stamp is not None  # every reading kept while by_stamps has a stamp
+        return stamp
 
 
 @dataclass(frozen=True)
@@ -179,7 +209,7 @@ class Hand:
     ``received``: s (the oldest receipt of the joints it is read from: each was seen at least then); ``base_T_ee``:
     shape (4, 4), base frame (forward kinematics of the arm joints); ``fingers``: shape (3,), rad (the executed
     closures: a mock arm's closure error included); ``fingers_at_rest``: at the latest finger reading, by the rest
-    rule (:class:`FingerRest`: positions only).
+    rule (:class:`FingerRest`: positions only, timed by stamps or receipts as the module docstring says).
     """
 
     received: float
@@ -195,14 +225,14 @@ class HandTracker:
     """The :class:`Hand` of a ``joint_states`` stream: arm and fingers by :class:`JointStates`, the rest by positions.
 
     Each message (:meth:`add`) that names a finger, with the three fingers known, is a finger reading: the rest rule
-    steps on it (at the message's receipt). :meth:`hand` is the hand after the latest message; safe to call from
-    another thread than :meth:`add`'s (it reads one snapshot).
+    (:attr:`rest`) steps on it, at the message's stamp or receipt (the module docstring's clock). :meth:`hand` is the
+    hand after the latest message; safe to call from another thread than :meth:`add`'s (it reads one snapshot).
     """
 
     def __init__(self, kin: MicoKinematics, rule: RestRule = RestRule(), *, stale_after: float = STALE_AFTER) -> None:
         self.kin = kin
         self.joints = JointStates((*ARM_JOINTS, *FINGER_JOINTS), stale_after=stale_after)
-        self._rest = FingerRest(rule)
+        self.rest = FingerRest(rule)
         self._fingers: tuple[JointReading, bool] | None = None  # the latest finger reading, at rest there
         self._state: tuple[JointReading | None, tuple[JointReading, bool] | None] = (None, None)
 
@@ -214,7 +244,7 @@ class HandTracker:
         named = self.joints.add(msg, received)
         fingers = self.joints.read(FINGER_JOINTS)
         if fingers is not None and not FINGER_SET.isdisjoint(named):
-            self._fingers = (fingers, self._rest.step(received, fingers.positions))
+            self._fingers = (fingers, self.rest.step(received, stamp_nanoseconds(msg), fingers.positions))
         self._state = (self.joints.read(ARM_JOINTS), self._fingers if fingers is not None else None)
         return named
 
@@ -238,6 +268,8 @@ def fingers_settled(hand: Hand | None, closed: float, settle: float = CLOSE_SETT
     True when every joint of the hand was received at least ``settle`` s after ``closed`` (the fingers seen moving
     or at rest after the close, not before it) and the fingers are at rest by the rest rule (:class:`FingerRest`,
     from positions: velocities are never read), so at least the rule's window after they last moved; its
-    ``fingers`` are then the executed closures.
+    ``fingers`` are then the executed closures. Receipts say when a joint state was taken, not when it was sent: a
+    backlog of more than ``settle`` s taken after the close passes for joint states sent after it (a reader that
+    keeps only the newest joint state, as the demo's loop does, has no backlog).
     """
     return hand is not None and hand.received >= closed + settle and hand.fingers_at_rest

@@ -31,8 +31,9 @@ __all__ = [
     'OBJECT_POSE', 'JOINT_STATES', 'GRASP_POSE', 'GRASP_JOINT_TARGETS', 'GRASP_TRAJECTORY',
     'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'OPERATOR_TWIST', 'OPERATOR_GRASP_TASKS', 'ASSISTANCE_TWIST',
     'ASSISTANCE_ALPHA', 'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS', 'ASSISTANCE_ENABLE',
-    'MSGTYPES', 'LATCHED_TOPICS', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS', 'PLAN_TOPICS', 'OUTPUT_TOPICS',
-    'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size', 'check_names',
+    'MSGTYPES', 'TOPIC_FOLDERS', 'LATCHED_TOPICS', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS', 'PLAN_TOPICS',
+    'OUTPUT_TOPICS', 'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size',
+    'check_names',
 ]
 
 INTENT_W: Final = 'intent/w'
@@ -100,6 +101,13 @@ MSGTYPES: Final[Mapping[str, str]] = {
     ARM_TWIST_COMMAND: 'geometry_msgs/msg/TwistStamped',
 }
 """Message type of every topic of the suite, by relative name (``/diagnostics`` is absolute)."""
+
+TOPIC_FOLDERS: Final = frozenset(
+    '/'.join(parts[:i]) for parts in (t.split('/')[:-1] for t in MSGTYPES if not t.startswith('/'))
+    for i in range(1, len(parts) + 1))
+"""Every folder of the relative names of :data:`MSGTYPES` ('intent', 'model', 'model/ambiguity', ...): a
+recorder's topic prefix that ends in one selects topics of a namespace, any other prefix names a namespace
+(:class:`~grasp_intent_ros.ros.recording.TopicSelection`), so no object of a scene may be named after one."""
 
 LATCHED_TOPICS: Final = (MODEL_ACTIVE, MODEL_AMBIGUITY, MODEL_AMBIGUITY_SYMMETRIC, MODEL_AMBIGUITY_PINSKER)
 """Topics the suite publishes latched (transient local, keep-last 1): a late subscriber gets the last message."""

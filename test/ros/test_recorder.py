@@ -261,6 +261,40 @@ def test_one_shot_publish_on_a_package_topic_right_after_ready_is_recorded(ros, 
     assert topics_info(bag)[W].qos == (QosSpec('reliable', 'volatile', 0),)
 
 
+SCENE_TOPICS = ('cup/', 'flashlight/', 'joint_states', '/diagnostics')
+"""A scene's recording at the root (docs/several_objects.md): each chain's namespace, the arm's joint states."""
+
+
+def test_the_namespaces_a_selection_names_are_its_chains_not_the_folders_of_the_package_topics(ros) -> None:
+    def namespaces(*patterns: str) -> tuple[str, ...]:
+        return TopicSelection.resolve(ros.node, patterns).namespaces()
+
+    assert namespaces(*DEFAULT_TOPICS) == ('',)
+    assert namespaces(*SCENE_TOPICS) == ('', '/cup', '/flashlight')  # '': the arm's joint_states
+    assert namespaces('/robot1/cup/', '/robot1/model/ambiguity/', 'cup/intent/w', 'other') == ('/cup', '/robot1',
+                                                                                             '/robot1/cup')
+
+
+def test_a_one_shot_w_in_a_chain_of_a_scene_right_after_ready_is_recorded(ros, tmp_path: Path) -> None:
+    """A recorder at the root selecting each chain by its prefix hears the chains' topics before any publisher."""
+    bag = tmp_path / 'scene'
+    cup_w, flashlight_model = '/cup/intent/w', '/flashlight/model/active'
+    recorder = ros.add(Recorder(bag, context=ros.context, topics=SCENE_TOPICS, discovery_period=NO_LOOK))
+    assert recorder_qos(ros, flashlight_model) == [(ReliabilityPolicy.RELIABLE, DurabilityPolicy.TRANSIENT_LOCAL)]
+    assert recorder_qos(ros, '/intent/w') == [] and recorder_qos(ros, '/cup/cup/intent/w') == []
+    pub = ros.publisher(Float64MultiArray, cup_w, output_qos())
+    assert ros.wait_for(lambda: pub.get_subscription_count() >= 1, timeout=10.0), 'the recorder never subscribed'
+    pub.publish(w_msg(5))
+    ros.node.destroy_publisher(pub)
+    model_pub = ros.publisher(String, flashlight_model, latched_qos())
+    model_pub.publish(String(data=MODEL_DOC))
+    assert ros.wait_for(lambda: recorder.counts.get(cup_w) == 1 and recorder.counts.get(flashlight_model) == 1,
+                        timeout=10.0), recorder.summary()
+    ros.remove(recorder)
+    assert [list(m.decode().data) for m in read_messages(bag, topics=[cup_w])] == [list(w_msg(5).data)]
+    assert set(topics_info(bag)) - {DIAG} == {cup_w, flashlight_model}  # /diagnostics: the recorder's own
+
+
 def test_latched_topic_gets_its_last_message_and_best_effort_only_publisher_matches(ros, tmp_path: Path) -> None:
     """The package's latched topic is subscribed transient local.
 

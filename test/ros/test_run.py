@@ -196,7 +196,8 @@ def test_guard_exit_ends_a_process_whose_exit_hangs_after_run_node_with_the_stac
 
 
 def test_guard_exit_leaves_a_process_that_ends_alone(domain_id: int) -> None:
-    result = _run_script(domain_id, _DONE_NODE + 'run.run_node(Done, [], shutdown_grace=0.5)\nrun.guard_exit(0.5)\n')
+    """The guard's grace as the nodes' default: the interpreter's exit took over 0.5 s at load 12-16 on 2 cores."""
+    result = _run_script(domain_id, _DONE_NODE + 'run.run_node(Done, [], shutdown_grace=0.5)\nrun.guard_exit()\n')
     assert result.returncode == 0 and 'Timeout' not in result.stderr, result.stderr
 
 

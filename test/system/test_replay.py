@@ -16,15 +16,12 @@ last w is compared.
 from __future__ import annotations
 
 import dataclasses
-import os
 import shutil
-import signal
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from processes import replay
 
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.mico.kinematics import MicoKinematics
@@ -38,35 +35,12 @@ REQUIRED = ('bad_inputs', 'cup_paper_cases', 'flashlight', 'model_ambiguity', 'm
             'shared_control_cup_estimated')
 """The sessions bags/ must hold (scripts/record_sessions.py records them; the closed-loop shared_control_cup and
 shared_control_cup_estimated are recorded by ``benchmarks/bench_shared_control.py --record``)."""
-RUN_TIMEOUT = 120.0
-"""Seconds one replay command may take before it is stopped (SIGTERM, then SIGKILL)."""
 
 
 def bag_dirs(*, closed_loop: bool | None = None) -> list[Path]:
     """The session bags; only the closed-loop ones (True) or only the others (False)."""
     bags = sorted(p for p in BAGS.iterdir() if (p / 'metadata.yaml').is_file()) if BAGS.is_dir() else []
     return [p for p in bags if closed_loop is None or is_closed_loop(p) == closed_loop]
-
-
-def replay(bag: Path, domain_id: int, *extra: str, fast: bool = True) -> subprocess.CompletedProcess[str]:
-    """Run the replay command; stop it by PID (SIGTERM: it stops its suite) if it overruns."""
-    env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'ROS_DOMAIN_ID': str(domain_id),
-           'PYTHONUNBUFFERED': '1'}
-    env.pop('ROS_STATIC_PEERS', None)
-    cmd = [sys.executable, '-m', 'grasp_intent_ros', 'replay', str(bag), '--check', *(['--fast'] if fast else []),
-           '--start-suite', *extra]
-    proc = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        out, err = proc.communicate(timeout=RUN_TIMEOUT)
-    except subprocess.TimeoutExpired:
-        proc.send_signal(signal.SIGTERM)
-        try:
-            out, err = proc.communicate(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            out, err = proc.communicate()
-        pytest.fail(f'replay of {bag.name} did not finish within {RUN_TIMEOUT:g} s:\n{out}\n{err}')
-    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
 
 
 def test_bags_hold_the_required_sessions() -> None:

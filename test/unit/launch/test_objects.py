@@ -30,6 +30,8 @@ def test_specs_become_objects_in_the_given_order() -> None:
     ('_cup=cup_7zone', "object name '_cup' is not a ROS name token"),
     ('a/b=cup_7zone', "object name 'a/b' is not a ROS name token"),
     ('cup-1=cup_7zone', "object name 'cup-1' is not a ROS name token"),
+    ('grasp=cup_7zone', "object name 'grasp' is a folder of the suite's topics"),
+    ('model=cup_7zone', "object name 'model' is a folder of the suite's topics"),
     ('cup=mug_7zone', "object 'cup': no model 'mug_7zone'; there are: cup_4zone, cup_5zone, cup_7zone, "
                       'flashlight_7zone'),
 ])

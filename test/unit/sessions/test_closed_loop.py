@@ -23,7 +23,19 @@ from grasp_intent_ros.sessions.closed_loop import (
 from grasp_intent_ros.sessions.outputs import SessionError
 from grasp_intent_ros.sessions.pairing import compact_session
 
-from ..session_bags import MS, SHA_B, T, diagnostics, f64, header, joint_msg, model_doc, session_messages, write_bag
+from ..session_bags import (
+    ARM,
+    MS,
+    SHA_B,
+    T,
+    diagnostics,
+    f64,
+    header,
+    joint_msg,
+    model_doc,
+    session_messages,
+    write_bag,
+)
 
 Q_END = np.array([4.6, 3.1, 1.2, 4.0, 1.6, 1.1])
 """Where the recorded arm ends; the recorded grasp is its hand pose."""
@@ -130,6 +142,45 @@ def test_a_live_loop_that_ends_elsewhere_or_plans_another_grasp_fails_the_compar
     moved_start = outcome(load_closed_loop(write_bag(tmp_path / 'start', late_start)).trace, kin)
     assert any('from the recorded start' in p for p in compare_outcomes(recorded, moved_start))
 
+
+
+def split_arm(messages: list[tuple[str, Any]]) -> list[tuple[str, Any]]:
+    """``messages`` with each joint state split as two publishers may send it.
+
+    Joints 1-3 with the fingers, then 4-6 (in reversed order, with a joint the suite does not know).
+    """
+    out = []
+    for topic, msg in messages:
+        if topic != 'joint_states':
+            out.append((topic, msg))
+            continue
+        q = list(msg.position)
+        out += [(topic, joint_msg([*q[:3], *q[6:]], (*ARM[:3], *ARM[6:]))),
+                (topic, joint_msg([*q[5:2:-1], 9.0], (*ARM[5:2:-1], 'm1n6s300_joint_extra')))]
+    return out
+
+
+def test_the_arm_of_split_joint_states_is_traced_as_the_nodes_read_it(tmp_path: Path, kin: MicoKinematics) -> None:
+    """Each arm joint's latest position, from whichever message named it last, as the nodes read the arm.
+
+    A reading at each message that names an arm joint once all are known (the first half of a step's with the last
+    step's other half, then the whole). The outcome is the one-message session's; the fingers' message alone, or a
+    malformed one, adds nothing. (The tracer before read only messages with every arm joint: none here.)
+    """
+    one = load_closed_loop(write_bag(tmp_path / 'one', loop_messages(kin))).trace
+    messages = split_arm(loop_messages(kin))
+    fingers_only = joint_msg([0.1, 0.1, 0.1], ARM[6:])
+    bad = joint_msg([0.0] * 2, ARM[:3])  # 3 names, 2 positions
+    split = load_closed_loop(write_bag(tmp_path / 'split', [*messages, ('joint_states', fingers_only),
+                                                            ('joint_states', bad)])).trace
+    assert len(split.joints) == 2 * len(one.joints) - 1  # the first message alone: joints 4-6 unknown yet
+    for (_, q_one), (_, q_split) in zip(one.joints, split.joints[::2]):
+        np.testing.assert_array_equal(q_split, q_one)
+    np.testing.assert_array_equal(split.joints[1][1], [*one.joints[1][1][:3], *one.joints[0][1][3:]])
+    recorded, live = outcome(one, kin), outcome(split, kin)
+    np.testing.assert_array_equal(live.start_q, recorded.start_q)
+    np.testing.assert_array_equal(live.final_hand, recorded.final_hand)
+    assert live.ends_at_grasp and compare_outcomes(recorded, live) == []
 
 
 def estimated_messages(kin: MicoKinematics, w_end: list[float]) -> list[tuple[str, Any]]:

@@ -189,6 +189,33 @@ def test_a_slow_close_is_one_grasp_at_its_end(driver: str) -> None:
     assert reached <= found.grasps[0].t <= reached + SETTLE_WINDOW
 
 
+def test_joint_states_held_up_and_written_in_a_burst_are_timed_by_their_stamps() -> None:
+    """A recorder's backlog: what was published in [1.3, 1.9) s, mid-close, written just before 1.9 s, 1 us apart.
+
+    By receive times (this test's constant stamps: no clock) the burst's first joint state has the one before the
+    backlog within its window, 10 ms of motion: the fingers are called at rest mid-close, a grasp taken there, and
+    the rest of the close is a second one. By the driver's stamps (the publication times) the close is one grasp,
+    where the fingers stopped: the rule and its clock are the suite's (wire.joint_states).
+    """
+    def backlog(stamps: bool) -> list[tuple[str, float, Any]]:
+        out, held = [], 0
+        for topic, t, msg in closes(Fingers()):
+            if topic == JOINT_STATES and stamps:
+                stamp = T['builtin_interfaces/msg/Time'](sec=1_764_500_000 + math.floor(t), nanosec=round(t % 1 * 1e9))
+                msg = T['sensor_msgs/msg/JointState'](header=T['std_msgs/msg/Header'](stamp=stamp, frame_id=''),
+                                                      name=msg.name, position=msg.position, velocity=msg.velocity,
+                                                      effort=msg.effort)
+            if topic == JOINT_STATES and 1.3 <= t < 1.9:
+                t, held = 1.8995 + held * 1e-6, held + 1
+            out.append((topic, t, msg))
+        return out
+
+    by_receipts, by_stamps = run(backlog(stamps=False)), run(backlog(stamps=True))
+    assert len(by_receipts.grasps) == 2 and np.all(by_receipts.grasps[0].x[7:] < 0.5 * CLOSED)
+    assert len(by_stamps.grasps) == 1 and (by_stamps.rejected, by_stamps.openings) == ((), 0)
+    assert_allclose(by_stamps.grasps[0].x[7:], CLOSED, rtol=0.0, atol=0.0)
+
+
 def test_a_motion_slower_than_the_tolerance_over_the_window_is_a_rest() -> None:
     """The rule's stated limit: a finger slower than SETTLE_TOLERANCE / SETTLE_WINDOW is always at rest.
 

@@ -11,18 +11,25 @@ import pytest
 from grasp_intent_ros.sessions.bag import QosSpec, read_messages, topics_info
 from grasp_intent_ros.sessions.outputs import Joints, Pose, Rejection, SessionError, Trajectory, Vector, decode
 from grasp_intent_ros.sessions.pairing import compact_session, detect_namespace, load_paired_session, pair_messages
+from grasp_intent_ros.sessions.scenes import Scene, detect_scene, load_paired_scene
 from grasp_intent_ros.wire.model_document import ModelHeader
 from grasp_intent_ros.wire.topics import DIAGNOSTICS, PLAN_TOPICS
 
 from ..session_bags import (
     ARM,
     SHA_A,
+    SHA_B,
     STORE,
     TASKS,
     ZONES,
     P,
+    Q,
+    diagnostics,
     f64,
+    joint_msg,
     model_doc,
+    plan,
+    pose_msg,
     session_messages,
     text,
     v_msg,
@@ -114,6 +121,85 @@ def test_pair_messages_accepts_any_message_stream() -> None:
     assert initial is None and unpaired == () and [len(s.expected) for s in steps] == [1]
 
 
+
+
+# ---------------------------------------------------------------- scenes
+def test_a_scene_is_the_arms_joint_states_and_one_chain_per_namespace_directly_below() -> None:
+    assert detect_scene(['/joint_states', '/cup/intent/w', '/cup/intent/v', '/flashlight/model/active', DIAGNOSTICS,
+                         '/rosout']) == Scene('', ('/cup', '/flashlight'))
+    assert detect_scene(['/robot1/joint_states', '/robot1/cup/grasp/pose']) == Scene('/robot1', ('/robot1/cup',))
+    one = detect_scene(['/robot1/intent/w', '/robot1/joint_states'])
+    assert one == Scene('/robot1', ('/robot1',)) and one.one_chain
+    assert not Scene('', ('/cup',)).one_chain
+
+
+@pytest.mark.parametrize(('topics', 'reason'), [
+    (['/r1/intent/w', '/r2/intent/v'], r"several namespaces \['/r1', '/r2'\], 0 of them with joint_states"),
+    (['/r1/joint_states', '/r1/intent/w', '/r2/joint_states', '/r2/intent/w'], '2 of them with joint_states'),
+    (['/joint_states', '/intent/w', '/cup/intent/w'], 'belong to no chain of the scene in /.*: /intent/w$'),
+    (['/joint_states', '/cup/intent/w', '/cup/x/grasp/pose'], 'belong to no chain.*: /cup/x/grasp/pose$'),
+    (['/rosout'], 'no session topic'),
+])
+def test_topics_of_no_chain_are_refused_naming_them(topics: list[str], reason: str) -> None:
+    with pytest.raises(SessionError, match=reason):
+        detect_scene(topics)
+
+
+def scene_messages() -> list[tuple[str, Any]]:
+    """A scene at the root: the arm's joint states, a cup and a flashlight chain answering out of turn."""
+    cup, flashlight = '/cup/grasp_planner: planning', '/flashlight/grasp_planner: planning'
+    return [
+        ('/cup/model/active', model_doc('cup_7zone')),
+        ('/flashlight/model/active', model_doc('flashlight_7zone', SHA_B)),
+        ('/joint_states', joint_msg(Q)),                                   # 1: both chains, no answer
+        ('/cup/intent/w', f64([0.9, 0.9, 0.1])),                           # 2: cup
+        ('/flashlight/intent/w', f64([0.1, 0.9, 0.1])),                    # 3: flashlight, sent before cup answered
+        *[(f'/cup/{topic}', msg) for topic, msg in [('intent/v', v_msg(P)), *plan()]],
+        *[(f'/flashlight/{topic}', msg) for topic, msg in [('intent/v', v_msg(P)), *plan((0.3, 0.3, 0.1))]],
+        ('/joint_states', joint_msg([float('nan')] * 9)),                  # 4: both planners reject it
+        (DIAGNOSTICS, diagnostics(cup, received=2, rejected=1, reason='joint_states: NaN')),
+        (DIAGNOSTICS, diagnostics(flashlight, received=2, rejected=1, reason='joint_states: NaN')),
+        ('/flashlight/object/pose', pose_msg((0.3, 0.3, 0.0))),           # 5: flashlight
+        *[(f'/flashlight/{topic}', msg) for topic, msg in plan((0.3, 0.31, 0.1))],
+    ]
+
+
+def test_each_chain_of_a_scene_is_paired_by_its_namespace_with_the_arms_joint_states(tmp_path: Path) -> None:
+    scene = load_paired_scene(write_bag(tmp_path / 'scene', scene_messages()))
+
+    assert scene.scene == Scene('', ('/cup', '/flashlight'))
+    cup, flashlight = scene.chains
+    assert (cup.namespace, cup.name, cup.arm_namespace, cup.joint_states) == ('/cup', 'cup', '', '/joint_states')
+    assert cup.initial_model == ModelHeader('cup_7zone', 1, SHA_A)
+    assert flashlight.initial_model == ModelHeader('flashlight_7zone', 1, SHA_B)
+    # each chain's inputs are its own and the arm's; its outputs are its own, after its own input
+    assert [s.topic for s in cup.steps] == ['joint_states', 'intent/w', 'joint_states']
+    assert [s.topic for s in flashlight.steps] == ['joint_states', 'intent/w', 'joint_states', 'object/pose']
+    # the cup's answer, received after the flashlight's w, is the answer to the cup's w
+    assert [sorted(o.topic for o in s.expected) for s in cup.steps] == [
+        [], sorted(['intent/v', *PLAN_TOPICS]), [DIAGNOSTICS]]
+    assert [len(s.expected) for s in flashlight.steps] == [0, 6, 1, 5]
+    # the rejections of a chain are those of its own nodes
+    assert [o.value.status for s in flashlight.steps for o in s.expected if o.topic == DIAGNOSTICS] == [
+        '/flashlight/grasp_planner: planning']
+    assert [s.description.partition(' ')[0] for s in flashlight.steps] == [
+        'joint_states', 'flashlight:', 'joint_states', 'flashlight:']
+    # every input once, in receive order; the arm's joint states feed both chains
+    assert [(i.index, [(k, s.index) for k, s in i.steps]) for i in scene.inputs] == [
+        (1, [(0, 1), (1, 1)]), (2, [(0, 2)]), (3, [(1, 2)]), (4, [(0, 3), (1, 3)]), (5, [(1, 4)])]
+    assert scene.n_outputs == cup.n_outputs + flashlight.n_outputs
+
+
+def test_a_one_chain_session_is_a_scene_of_one_chain_paired_as_before(session_bag: Path, tmp_path: Path) -> None:
+    for bag in (session_bag, write_bag(tmp_path / 'ns', session_messages(), namespace='/robot1')):
+        session, scene = load_paired_session(bag), load_paired_scene(bag)
+        assert scene.scene.one_chain and scene.chains[0].namespace == session.namespace
+        assert scene.chains[0].name == '' and scene.chains[0].joint_states == 'joint_states'
+        assert [(s.index, s.topic, s.t_ns, s.cdr, s.description, [(o.topic, o.t_ns) for o in s.expected])
+                for s in scene.chains[0].steps] == [
+            (s.index, s.topic, s.t_ns, s.cdr, s.description, [(o.topic, o.t_ns) for o in s.expected])
+            for s in session.steps]
+        assert [[(k, s.index) for k, s in i.steps] for i in scene.inputs] == [[(0, s.index)] for s in session.steps]
 
 
 # ---------------------------------------------------------------- compaction

@@ -1,8 +1,8 @@
 """joint_states as a real arm's driver publishes them: each joint's latest position, staleness, the hand, the rest.
 
 Hand-built message sequences: split (the arm and the fingers from two publishers), reordered with extra joints,
-partial (some joints only), velocity-less; and the mock arm's own close, read by the position rule and by the
-velocity rule the suite used before.
+partial (some joints only), velocity-less, stamped or not, taken in a burst after a backlog; and the mock arm's own
+close, read by the position rule and by the velocity rule the suite used before, and by stamps and by receipts.
 """
 
 from __future__ import annotations
@@ -30,6 +30,8 @@ from grasp_intent_ros.wire.joint_states import (
 )
 
 FINGERS = np.array([0.8, 0.75, 0.9])
+TARGETS = (FINGERS, np.array([0.3, 1.2, 0.05]), np.zeros(3))
+"""The mock arm's closes: the last to where the fingers are."""
 JOINTS = (*ARM_JOINTS, *FINGER_JOINTS)
 RATE = 100
 DT = 1.0 / RATE
@@ -196,7 +198,7 @@ def test_the_mock_arms_close_gives_the_velocity_rules_fingers_a_window_later(kin
     SETTLE_TOLERANCE / FINGER_VELOCITY_LIMIT and a step (the close's last steps within the tolerance); as soon, for
     a close to where the fingers are.
     """
-    for target in (FINGERS, np.array([0.3, 1.2, 0.05]), np.zeros(3)):  # the last: closed where the fingers are
+    for target in TARGETS:
         arm, tracker = MockArm(kin, [*HOME_Q, 0.0, 0.0, 0.0]), HandTracker(kin)
         t, closed, by_velocity, by_position = 0.0, 1.0, None, None
         while by_position is None:
@@ -217,6 +219,111 @@ def test_the_mock_arms_close_gives_the_velocity_rules_fingers_a_window_later(kin
             assert SETTLE_WINDOW - SETTLE_TOLERANCE / FINGER_VELOCITY_LIMIT - DT - 1e-9 <= delay <= SETTLE_WINDOW
         else:
             assert delay == 0.0
+
+
+# ------------------------------------------------------------------------------------------ the rest's clock
+STAMP0 = 1_764_500_000_000_000_000
+"""A driver's clock (ns) at t = 0: stamps on another clock than the receipts."""
+STALL = (1.3, 1.9)
+"""The subscriber's stall (s): what is published in [1.3, 1.9) is taken at 1.9, in a burst, 1 us apart."""
+
+
+def stamped(t: float, msg: SimpleNamespace) -> SimpleNamespace:
+    """``msg`` stamped at ``t`` s on the driver's clock."""
+    return joint_state(msg.name, msg.position, stamp_ns=STAMP0 + round(t * 1e9))
+
+
+def backlogged(kin: MicoKinematics, stamps: bool) -> list[tuple[float, list[Any]]]:
+    """closing() at 1 rad/s as a stalled subscriber takes it: (receipt, messages), stamped at publication or not.
+
+    Received 1 ms after publication but for those published during :data:`STALL`, taken at its end in a burst.
+    """
+    out, held = [], 0
+    for t, (msg,) in closing(kin):
+        stalled = STALL[0] <= t < STALL[1]
+        out.append((STALL[1] + held * 1e-6 if stalled else t + 1e-3, [stamped(t, msg) if stamps else msg]))
+        held += stalled
+    return out
+
+
+def test_a_backlog_taken_in_a_burst_is_judged_by_the_stamps_not_the_receipts(kin: MicoKinematics) -> None:
+    """A burst's first reading, published 0.6 s before its receipt, has the reading before the stall in its window.
+
+    By receipts (unstamped) it is still over that window, 10 ms of motion: the fingers, still closing, are called at
+    rest and settled (the rule's limit without stamps). By stamps they settle where they stop, as without a stall.
+    """
+    t, hand = settled_at(kin, backlogged(kin, stamps=False), 1.0)
+    assert t == STALL[1] and np.all(hand.fingers < FINGERS - 0.4)  # mid-close
+    sequence = backlogged(kin, stamps=True)
+    t, hand = settled_at(kin, sequence, 1.0)
+    assert_array_equal(hand.fingers, FINGERS)
+    reached = next(t for t, (msg,) in sequence if msg.position[6:] == FINGERS.tolist())
+    assert reached + SETTLE_WINDOW - SETTLE_TOLERANCE - 1e-9 <= t <= reached + SETTLE_WINDOW + 1e-9
+
+
+def rest_flags(kin: MicoKinematics, sequence: list[tuple[float, list[Any]]]) -> tuple[list[bool], HandTracker]:
+    """Whether the fingers are at rest after each message of ``sequence`` (a hand throughout), and the tracker."""
+    tracker, flags = HandTracker(kin), []
+    for t, msgs in sequence:
+        for msg in msgs:
+            tracker.add(msg, t)
+            hand = tracker.hand()
+            assert hand is not None
+            flags.append(hand.fingers_at_rest)
+    return flags, tracker
+
+
+@pytest.mark.parametrize('stamp', ['zero', 'the same', 'earlier'])
+def test_a_reading_unstamped_or_not_later_than_the_one_before_times_the_rest_by_receipts_for_good(
+        kin: MicoKinematics, stamp: str) -> None:
+    """From there the readings are timed by receipts, stamped or not; never at rest sooner than by receipts alone.
+
+    The break comes in the burst (where receipts and stamps differ most), the stamps after it advance again.
+    """
+    sequence = backlogged(kin, stamps=True)
+    k = next(k for k, (t, _) in enumerate(sequence) if t == STALL[1])  # the burst's first reading
+    ((_, (before,)), (t, (msg,))) = sequence[k - 1:k + 1]
+    stamp_ns = {'zero': 0, 'the same': STAMP0 + round(1.29 * 1e9), 'earlier': STAMP0}[stamp]
+    sequence[k] = (t, [joint_state(msg.name, msg.position, stamp_ns=stamp_ns)])
+    flags, tracker = rest_flags(kin, sequence)
+    by_receipts, _ = rest_flags(kin, backlogged(kin, stamps=False))
+    assert rest_flags(kin, sequence[:k])[1].rest.by_stamps and not tracker.rest.by_stamps
+    assert flags[:k] == rest_flags(kin, backlogged(kin, stamps=True)[:k])[0]  # by stamps up to the break
+    assert all(by_receipts[i] for i in range(k, len(flags)) if flags[i])
+    assert flags[-1]  # and they settle
+
+
+def test_a_stamp_that_never_advances_does_not_keep_the_fingers_from_settling(kin: MicoKinematics) -> None:
+    """A driver that stamps every message alike: by those stamps no time passes; by receipts the fingers settle."""
+    sequence = [(t, [joint_state(msg.name, msg.position, stamp_ns=STAMP0)]) for t, (msg,) in closing(kin)]
+    t, hand = settled_at(kin, sequence, 1.0)
+    assert_array_equal(hand.fingers, FINGERS)
+
+
+def test_the_mock_arms_close_stamped_gets_the_decisions_of_its_receipts(kin: MicoKinematics) -> None:
+    """The mock arm's stream stamped at publication, received a constant 3 ms later: decided as by receipts alone.
+
+    At every message the rest and fingers_settled decide as by receipts alone (the rule before stamps), for each
+    close. Only differences of times are read, and here they are the same on both clocks, to the nanosecond.
+    """
+    for target in TARGETS:
+        arm, tracker, receipts = MockArm(kin, [*HOME_Q, 0.0, 0.0, 0.0]), HandTracker(kin), HandTracker(kin)
+        t, closed, decisions = 0.0, 1.0, []
+        while t < closed + 2.0:
+            t = round(t + DT, 9)
+            if t == closed:
+                arm.close_fingers(target)
+            arm.step(t, DT)
+            received = (round(t * 1e9) + 3_000_000) / 1e9  # receipt_ns gives back these whole nanoseconds
+            tracker.add(joint_state(JOINTS, arm.q, arm.qd, stamp_ns=STAMP0 + round(t * 1e9)), received)
+            receipts.add(joint_state(JOINTS, arm.q, arm.qd), received)
+            hand, before = tracker.hand(), receipts.hand()
+            assert hand is not None and before is not None
+            decisions.append((hand.fingers_at_rest, before.fingers_at_rest, fingers_settled(hand, closed),
+                              fingers_settled(before, closed)))
+        assert tracker.rest.by_stamps and not receipts.rest.by_stamps
+        assert all(d[0] == d[1] and d[2] == d[3] for d in decisions)
+        assert any(d[2] for d in decisions) and not all(d[0] for d in decisions)
 
 
 def test_fingers_settled_needs_every_joint_received_settle_seconds_after_the_close_and_at_rest() -> None:
