@@ -750,7 +750,7 @@ def test_plan_for_the_most_likely_task_plans_its_zone_alone_and_a_change_replans
     assert_allclose(single.x, usage.x, rtol=0, atol=1e-6)
     start = rig.now()
     assert rig.node.set_parameters([Parameter('plan_for', value='v')])[0].successful
-    assert rig.ros.wait_for(lambda: rig.grasps.plans(start), timeout=10.0), 'no plan after the change'
+    assert rig.ros.wait_for(lambda: rig.grasps.plans(start), timeout=ANSWER), 'no plan after the change'
     as_received = core_plan(kin, model, tie)  # no warm start: the plans so far were for another target
     assert not np.allclose(as_received.x, usage.x, atol=1e-3), 'the intent-aware grasp differs here'
     assert_allclose(rig.grasps.plans(start)[0].x, as_received.x, rtol=0, atol=1e-6)
