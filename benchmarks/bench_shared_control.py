@@ -2,13 +2,18 @@ r"""Closed-loop shared control without hardware: scripted operators, five real n
 
 The interpreter, model server, planner, mock arm and assistance run as ``python -m`` processes over
 loopback (:meth:`~grasp_intent_ros.launch.suite.NodeSuite.start_nodes` with ``shared_control=True``); this
-process is the operator (a probe node). Each seeded operator is run three times, in a rotating order, one
-per condition, switched by the assistance node's ``arbitration`` parameter: ``none`` (direct
-teleoperation, alpha = 0), ``blend`` (ADA's baseline: alpha_max when v's top zone leads by ``margin``) and
-``confidence`` (the suite's). Between two runs the mock arm is reset to Home (``mock_arm/reset``). Prints
-figures, asserts nothing; ``--json`` keeps every run.
+process is the operator (a probe node). Each seeded operator is run once per condition, in a rotating order,
+switched by the assistance node's ``arbitration`` parameter and the planner node's ``plan_for``
+(:data:`ARBITRATION`, :data:`PLAN_FOR`): ``none`` (direct teleoperation, alpha = 0), ``blend`` (ADA's baseline:
+alpha_max when v's top zone leads by ``margin``), ``confidence`` (the suite's), and ``independent`` (the paper's
+foil, the simulated loop's condition of that name: the grasp separate per-task classifiers would choose, the
+planner's for v on the zone of the single most likely task alone, ``plan_for: most_likely_task``
+(:func:`~grasp_intent_ros.method.intent.single_task_v`: argmax_i w_i, ties to the first task), shown, under the
+suite's assistance, ``confidence``, which keeps the interpreter's v of the whole w). Between two runs the mock
+arm is reset to Home (``mock_arm/reset``). Prints figures, asserts nothing; ``--json`` keeps every run.
 
-The grasp command. Under ``confidence`` (the suite's assistance), a close on the shown grasp executes it, as
+The grasp command. Under the suite's assistance (``confidence``, ``independent``: :data:`EXECUTES`), a close on
+the shown grasp executes it, as
 the scripted operator node does and the simulated loop models (``shared_control/simulator.py``, "The grasp
 command"): zero twists until the hand is seen at rest, ``grasp/execute`` (the mock arm follows the planner's
 latest ``grasp/trajectory``), zero twists until that trajectory has had its time
@@ -19,7 +24,7 @@ stopped; ``--no-execute`` closes there under every condition. The mock arm close
 closures plus its closure error (N(0, ``closure_error``^2) per finger, one draw per close from its stream seeded by
 ``closure_seed``). The probe sets ``closure_seed`` to the operator's closure seed before each of its runs (the set
 restarts the stream): the one close of a run draws the stream's first error, so an operator's closes draw the same
-error in the three conditions (paired, as the simulated loop's). The probe sends zero twists until it receives a joint
+error in every condition (paired, as the simulated loop's). The probe sends zero twists until it receives a joint
 state at least ``CLOSE_SETTLE`` (0.3 s) after the close's answer with the fingers at rest
 (:func:`~grasp_intent_ros.wire.joint_states.fingers_settled`, as the demo reads them: still for 0.5 s, from
 positions, timed by the joint states' stamps), and the hand is judged there: its pose and the closures the fingers
@@ -29,7 +34,7 @@ A close on the operator's OWN grasp calls no ``grasp/close``: the mock arm would
 closures, a grasp the operator did not choose, and judging those would credit (or blame) the planner for the
 operator's own grasp. As in the simulated loop, the own grasp's closures are judged plus the closure error model:
 N(0, ``closure_error``^2) per finger (the mock arm's parameter, read from it), the first draw of the operator's closure
-seed (the error the mock arm would draw on the run's close: the same in the three conditions, and whether the
+seed (the error the mock arm would draw on the run's close: the same in every condition, and whether the
 operator closes on its own grasp or the shown one), clipped to the fingers' limits as the mock arm clips
 (``MockArm.close_fingers``), with the hand where it came to rest under zero twists.
 
@@ -39,7 +44,7 @@ by :func:`~grasp_intent_ros.shared_control.simulator.perturb_pose`, 5 mm and 3 d
 ``--tracker-deg``), and waits up to 5 s for the plan the new pose causes. The operator sees the object with its own
 error, of the same size by default (``--operator-mm``, ``--operator-deg``), and plans its own grasp there. Both
 views and the closure seed (an integer in [0, 2^31)) come from one stream seeded by (seed, object, operator,
-:data:`VIEWS`): the three conditions of an operator see the same. The judge takes the TRUE pose
+:data:`VIEWS`): the conditions of an operator see the same. The judge takes the TRUE pose
 (:data:`_bench.closed_loop.BASE_T_OBJ`).
 The latency and stream phases run before the first operator's pose, at the true pose; ``--record`` publishes none.
 
@@ -59,7 +64,7 @@ The scripted operator (a stated, simple model)
   planner node's default options (:func:`~grasp_intent_ros.planning.options.node_default_options`: for the 1x
   execution noise).
   It follows the grasp the planner shows (``grasp/pose``) when that is on its way (within 6 cm and 0.8 rad
-  of its own), else drives to its own. The rule is the same under the three conditions (the shown grasp is
+  of its own), else drives to its own. The rule is the same under every condition (the shown grasp is
   on the screen whatever alpha is).
 - **Device.** A joystick with two modes, as in ADA's studies: translation (3 axes) or rotation (3 axes),
   never both; switching costs 0.5 s of no input. The operator steers to the goal's pre-grasp (8 cm back
@@ -104,7 +109,7 @@ Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and 
 
     ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST ROS_DOMAIN_ID=97 \
         .venv/bin/python benchmarks/bench_shared_control.py [--quick] [--operators 50] [--json runs.json] \
-            [--intent sharpening] [--conditions none blend confidence] [--no-execute] \
+            [--intent sharpening] [--conditions none blend confidence independent] [--no-execute] \
             [--tracker-mm 5 --tracker-deg 3] [--operator-mm 5 --operator-deg 3]
 """
 
@@ -132,11 +137,15 @@ from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_e
 from grasp_intent_ros.shared_control.operators import OperatorConstants, PersistentIntent, SharpeningIntent
 from grasp_intent_ros.shared_control.simulator import certain_grasp, perturb_pose
 
-CONDITIONS = ('none', 'blend', 'confidence')
-PAIRS = (('confidence', 'none'), ('confidence', 'blend'), ('blend', 'none'))
+CONDITIONS = ('none', 'blend', 'confidence', 'independent')
+ARBITRATION = {'none': 'none', 'blend': 'blend', 'confidence': 'confidence', 'independent': 'confidence'}
+"""The assistance node's ``arbitration`` per condition (module docstring)."""
+PLAN_FOR = {'none': 'v', 'blend': 'v', 'confidence': 'v', 'independent': 'most_likely_task'}
+"""The planner node's ``plan_for`` per condition (module docstring)."""
+PAIRS = (('confidence', 'none'), ('confidence', 'blend'), ('blend', 'none'), ('confidence', 'independent'))
 """The paired comparisons (:func:`paired`): the first condition against the second, on the same operators."""
-EXECUTES = 'confidence'
-"""The condition whose grasp command executes the shown grasp (the suite's assistance; module docstring)."""
+EXECUTES = ('confidence', 'independent')
+"""The conditions whose grasp command executes the shown grasp (the suite's assistance; module docstring)."""
 VIEWS = 1
 """The last seed word of an operator's views (the tracker's and its own) and closure seed: a stream of its own, so
 the intent's and the device's draws (the seed without it) are those of the benchmark before the views."""
@@ -280,7 +289,8 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
             return runs, latency
         closure_error = loop.closure_error()
         for i in args.only or range(args.operators):
-            order = [c for c in CONDITIONS[i % 3:] + CONDITIONS[:i % 3] if c in args.conditions]
+            chosen = [c for c in CONDITIONS if c in args.conditions]
+            order = chosen[i % len(chosen):] + chosen[:i % len(chosen)]  # each first equally often
             views = np.random.default_rng([args.seed, list(OBJECTS).index(name), i, VIEWS])
             tracked = perturb_pose(BASE_T_OBJ, 1e-3 * args.tracker_mm, math.radians(args.tracker_deg), views)
             seen = perturb_pose(BASE_T_OBJ, 1e-3 * args.operator_mm, math.radians(args.operator_deg), views)
@@ -295,12 +305,13 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
                           else SharpeningIntent.draw(rng))
                 if own is None:  # the operator's own grasp for its set, planned where it sees the object
                     own = certain_grasp(model, intent.true_set, seen, kin, options=node_default_options())
-                loop.set_arbitration(condition)
+                loop.set_arbitration(ARBITRATION[condition])
+                loop.set_plan_for(PLAN_FOR[condition])
                 loop.set_closure_seed(closure_seed)
                 loop.reset_arm()
                 run = Run(name, i, condition, intent.true_set)
                 run_operator(loop, op, intent, own, model, rng, args.timeout, run,
-                             execute=condition == EXECUTES and not args.no_execute,
+                             execute=condition in EXECUTES and not args.no_execute,
                              own_closures=fingers.close_fingers(own.positions[6:] + own_error))
                 runs.append(run)
                 print(f'[{name}] operator {i:3d} {condition:10s} S={intent.true_set} success={run.success!s:5s} '
@@ -374,7 +385,8 @@ def main() -> None:
                         '(module docstring)')
     parser.add_argument('--stream-only', action='store_true', help='the latency and stream phases only')
     parser.add_argument('--conditions', nargs='+', default=list(CONDITIONS), choices=CONDITIONS,
-                        help='run only these conditions (in the rotating order of the full run)')
+                        help='run only these conditions (rotating: operator i starts with the (i mod n)-th of them, '
+                             'in the order of the full run)')
     parser.add_argument('--tracker-mm', type=float, default=5.0, help='RMS position error (mm) of the object pose '
                         'published to the suite, drawn per operator (module docstring)')
     parser.add_argument('--tracker-deg', type=float, default=3.0, help='RMS rotation error (deg) of that pose')
@@ -420,6 +432,9 @@ def main() -> None:
             ratio = table['confidence']['median_ttg_all'] / table['none']['median_ttg_all']
             print(f'confidence / direct median time to grasp (failures at the timeout): {ratio:.2f} '
                   f'({100 * (1 - ratio):.0f}% lower)', flush=True)
+        if 'independent' in table and 'confidence' in table:
+            ratio = table['confidence']['median_ttg_all'] / table['independent']['median_ttg_all']
+            print(f'confidence / independent median time to grasp (failures at the timeout): {ratio:.2f}', flush=True)
     print(f'done; {uptime()}')
     if args.json:
         with open(args.json, 'w') as f:

@@ -151,6 +151,7 @@ class Loop:
         self.twist_pub = node.create_publisher(TwistStamped, 'operator/twist', output_qos())
         self.w_pub = node.create_publisher(Float64MultiArray, 'intent/w', output_qos()) if sends_w else None
         self._set_params = node.create_client(SetParameters, 'assistance/set_parameters')
+        self._planner_set_params = node.create_client(SetParameters, 'grasp_planner/set_parameters')
         self._reset = node.create_client(Trigger, 'mock_arm/reset')
         self._execute = node.create_client(Trigger, 'grasp/execute')
         self._close = node.create_client(Trigger, 'grasp/close')
@@ -196,6 +197,10 @@ class Loop:
 
     def set_arbitration(self, rule: str) -> None:
         self._set_parameter(self._set_params, 'arbitration', rule)
+
+    def set_plan_for(self, target: str) -> None:
+        """The planner's ``plan_for`` (``v`` or ``most_likely_task``): a change replans the newest inputs."""
+        self._set_parameter(self._planner_set_params, 'plan_for', target)
 
     def set_closure_seed(self, seed: int) -> None:
         """The mock arm's ``closure_seed``: its closes from now draw the errors of ``seed`` from their start."""

@@ -36,6 +36,9 @@ __all__ = [
     'event_probabilities',
     'interpret',
     'reconstruct_w',
+    'TASK_TIE',
+    'most_likely_task',
+    'single_task_v',
     'restrict',
     'support_zones',
 ]
@@ -381,6 +384,55 @@ def reconstruct_w(p: ArrayLike, zones: Sequence[int], m: int) -> NDArray[np.floa
     if p_arr.shape[-1] != membership.shape[0]:
         raise InvalidIntentError(f'p has {p_arr.shape[-1]} entries but there are {membership.shape[0]} zones')
     out: NDArray[np.float64] = p_arr @ membership
+    return out
+
+
+TASK_TIE = 1e-12
+"""Task probabilities (:func:`most_likely_task`) at most this far apart are tied: far above the few ulp by which
+v's sums separate the tasks of an exact tie of w, far below any difference a w rounded to 12 digits makes."""
+
+
+def most_likely_task(v: ArrayLike, zones: Sequence[int], m: int) -> int:
+    """The single most likely task under the target vector ``v``: the one separate per-task classifiers would pick.
+
+    P(task i) = sum of v_k over the zones k containing task i (:func:`reconstruct_w`); for v = interpret(w).v over
+    all zones it is w_i / (1 - P(no task)), so the answer is argmax_i w_i (over a model's zones alone, the task most
+    likely given them: w = (0.2, 0.3, 0.9) over zones U, T, UT, TH, UTH gives transfer). Ties: the lowest index i
+    whose P(task i) is within :data:`TASK_TIE` of the largest (an exact tie of w must not be decided by the rounding
+    of v's sums).
+
+    Parameters
+    ----------
+    v : array_like, shape (K,)
+        A target vector over ``zones`` (finite, non-negative).
+    zones : sequence of int, length K
+    m : int
+        Number of tasks.
+
+    Raises
+    ------
+    InvalidIntentError
+        For a v of another length than ``zones``, or one that is not finite and non-negative.
+    """
+    arr = np.asarray(v, dtype=np.float64)
+    if arr.ndim != 1 or not np.all(np.isfinite(arr)) or np.any(arr < 0.0):
+        raise InvalidIntentError(f'v must be a finite, non-negative vector, got {arr.tolist()}')
+    p_task = reconstruct_w(arr, zones, m)
+    return int(np.flatnonzero(p_task >= p_task.max() - TASK_TIE)[0])
+
+
+def single_task_v(v: ArrayLike, zones: Sequence[int], m: int) -> NDArray[np.float64] | None:
+    """The target on the zone of the single most likely task alone: one-hot over ``all_zones(m)``, core order.
+
+    What a planner fed by separate per-task classifiers plans for: v on the zone {i} of
+    :func:`most_likely_task` (arguments and errors as there). None when ``v`` gives no zone any probability (the
+    intent-aware target asks for clarification then too).
+    """
+    task = most_likely_task(v, zones, m)
+    if not float(np.sum(np.asarray(v, dtype=np.float64))) > 0.0:
+        return None
+    out = np.zeros(len(all_zones(m)))
+    out[all_zones(m).index(1 << task)] = 1.0
     return out
 
 

@@ -7,12 +7,13 @@ description (test/ros/test_config_files.py) and docs/nodes.md's table lists them
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..method.intent import all_zones, match_zones, single_task_v
 from ..method.parameters import TASK_NAMES
 from ..parameters import ParamSpec, finite_vector, one_of
 from ..planning.options import DEFAULT_METHOD, METHODS, NODE_EXECUTION_NOISE, noise_from
@@ -22,8 +23,8 @@ from .grasp import JOINT_NAMES, check_workspace
 from .kinematics import HOME_Q
 from .mock_arm import FINGER_VELOCITY_LIMIT
 
-__all__ = ['URDF_PATH', 'OBJECT_POSE', 'check_object_pose', 'object_pose', 'check_table_plane', 'GRASP_PLANNER',
-           'TRAJECTORY_EXECUTIONS', 'MOCK_ARM']
+__all__ = ['URDF_PATH', 'OBJECT_POSE', 'check_object_pose', 'object_pose', 'check_table_plane', 'PLAN_FOR',
+           'planned_target', 'GRASP_PLANNER', 'TRAJECTORY_EXECUTIONS', 'MOCK_ARM']
 
 URDF_PATH = ParamSpec('urdf_path', '', "MICO URDF; '' means the package's config/mico_3f.urdf.", read_only=True)
 """The robot's description, read once at start (every node that has the kinematics)."""
@@ -60,6 +61,26 @@ def check_table_plane(value: Any) -> None:
         Table.in_object_frame(value, np.eye(4))
 
 
+PLAN_FOR = ('v', 'most_likely_task')
+"""What the planner node plans for: the target vector v as received, or v on the single most likely task's zone."""
+
+
+def planned_target(plan_for: str, v: NDArray[np.float64], v_labels: Sequence[str] | None,
+                   task_names: Sequence[str]) -> tuple[NDArray[np.float64], tuple[int, ...]]:
+    """The target vector and its zones (over ``task_names``) the planner plans for under ``plan_for``.
+
+    ``v`` as received, its zones read from ``v_labels`` (:func:`~grasp_intent_ros.method.intent.match_zones`, whose
+    errors it raises). ``'v'``: ``v`` over those zones. ``'most_likely_task'``: v on the zone of the single most
+    likely task alone, over all zones of the tasks (:func:`~grasp_intent_ros.method.intent.single_task_v`, ties to
+    the first task); a v that gives no zone any probability is kept (the plan asks for clarification, as for the
+    intent-aware target). Raises InvalidIntentError for a v that is not finite and non-negative
+    (``'most_likely_task'``).
+    """
+    zones = match_zones(v.size, v_labels, task_names)
+    single = single_task_v(v, zones, len(task_names)) if plan_for == 'most_likely_task' else None
+    return (v, zones) if single is None else (single, all_zones(len(task_names)))
+
+
 GRASP_PLANNER = (
     ParamSpec('method', DEFAULT_METHOD, "Planner method: 'task' (default: the demonstration that serves the "
               "likely tasks, docs/planner.md), or the paper's 'lm' (P = v by log-odds projection, else least "
@@ -94,6 +115,12 @@ GRASP_PLANNER = (
     ParamSpec('table_plane', (0.0, 0.0, 0.0, 0.0), 'The table in m1n6s300_link_base: (nx, ny, nz, d), points '
               'with n . p >= d above it, m; all zeros: the plane the object stands on (z = 0 of its frame).',
               validator=check_table_plane),
+    ParamSpec('plan_for', 'v', "'v' (default): the target vector as received, the intent-aware grasp; "
+              "'most_likely_task': the grasp separate per-task classifiers would choose, v on the zone of the single "
+              "most likely task alone (a task's probability: v's sum over the zones holding it; probabilities within "
+              '1e-12 of each other tie, the first task wins), a baseline for benchmarks. The other nodes keep v as '
+              'received.',
+              validator=one_of(PLAN_FOR), constraints=f'one of {", ".join(PLAN_FOR)}'),
     TASK_NAMES,
 )
 """The grasp planner node's parameters (:mod:`grasp_intent_ros.nodes.grasp_planner`, docs/nodes.md)."""

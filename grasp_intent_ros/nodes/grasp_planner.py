@@ -9,10 +9,10 @@ Topics (relative; formats in :mod:`grasp_intent_ros.wire`; each in docs/nodes.md
          ``intent/clarification`` with the reason; ``/diagnostics`` (``inputs``, ``planning``)
 
 A :class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker` plans the newest inputs, never a backlog, with
-:func:`grasp_intent_ros.mico.grasp.plan_grasp`, warm-started from the last plan of the same model; its
-thread takes ``intent/v`` itself. A :class:`~grasp_intent_ros.ros.model_follower.ModelFollower` reads each
-new ``model/active`` in a thread of its own; :mod:`grasp_intent_ros.ros.startup` tunes the process and
-loads every compiled kernel before the node logs that it is ready (docs/nodes.md, "The planner node").
+:func:`grasp_intent_ros.mico.grasp.plan_grasp` for v as ``plan_for`` says (:func:`~.mico.parameters.planned_target`),
+warm-started from the last plan of the same model and ``plan_for``; its thread takes ``intent/v`` itself. A
+:class:`~grasp_intent_ros.ros.model_follower.ModelFollower` reads each new ``model/active`` in a thread of its own;
+:mod:`grasp_intent_ros.ros.startup` tunes the process and loads every compiled kernel before the node logs ready.
 Parameters: :data:`grasp_intent_ros.mico.parameters.GRASP_PLANNER`, ``config/grasp_planner.yaml``.
 """
 
@@ -38,7 +38,7 @@ from ..method.intent import match_zones
 from ..mico.collision import HandCollision
 from ..mico.grasp import plan_grasp
 from ..mico.kinematics import HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
-from ..mico.parameters import GRASP_PLANNER, check_object_pose, object_pose
+from ..mico.parameters import GRASP_PLANNER, check_object_pose, object_pose, planned_target
 from ..planning.options import node_options, noise_from
 from ..planning.task import precompute
 from ..ros.clarification import ClarificationRequests
@@ -70,6 +70,7 @@ class _Inputs:
     base_T_obj: NDArray[np.float64] | None = None
     q_arm: NDArray[np.float64] | None = None
     stamp: Time | None = None
+    plan_for: str = 'v'
 
 
 class GraspPlanner(Node):
@@ -84,7 +85,7 @@ class GraspPlanner(Node):
         self._params = declare_parameters(self, GRASP_PLANNER, on_change=self._on_parameters, check=self._check)
         self._kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
         self._hand = self._params.build('urdf_path', lambda path: HandCollision(path or None))
-        self._warm: tuple[tuple[str, str], NDArray[np.float64]] | None = None
+        self._warm: tuple[tuple[str, str, str], NDArray[np.float64]] | None = None
         self._clarifications = ClarificationRequests(self, self._plan_diag, count_key=KEY_CLARIFICATIONS,
                                                      outcome_key=KEY_PLAN_STATUS, level=WARN, log=True)
         self._plan_diag.set_state(OK, f'waiting for {topics.MODEL_ACTIVE} and {topics.INTENT_V}')
@@ -94,9 +95,9 @@ class GraspPlanner(Node):
         self._kernels = startup.KernelWarmUp(lambda: self._kin.ik(self._kin.fk(HOME_Q), HOME_Q, restarts=0),
                                              report=self._plan_diag.set_value, warn=self.get_logger().warning,
                                              ready=functools.partial(startup.announce_ready, self.get_logger().info))
-        self._worker = LatestOnlyWorker(_Inputs(base_T_obj=object_pose(self._params)),
-                                        self._plan_diag.guard(self._plan),
-                                        ready=self._ready, name=f'{node_name}_planning',
+        first = _Inputs(base_T_obj=object_pose(self._params), plan_for=self._params['plan_for'])
+        self._worker = LatestOnlyWorker(first, self._plan_diag.guard(self._plan), ready=self._ready,
+                                        name=f'{node_name}_planning',
                                         min_period=lambda: float(self._params['min_replan_period']),
                                         prepare=self._kernels.at_start,
                                         context=self.context)
@@ -160,8 +161,8 @@ class GraspPlanner(Node):
     def _on_parameters(self, changed: Mapping[str, Any]) -> None:
         if 'task_names' in changed:
             self._models.recheck()  # the model is served for other tasks, or now one refused is
-        if {'object_position', 'object_orientation'} & set(changed):
-            self._update(base_T_obj=object_pose(self._params))
+        if {'object_position', 'object_orientation', 'plan_for'} & set(changed):  # replan the newest inputs
+            self._update(base_T_obj=object_pose(self._params), plan_for=self._params['plan_for'])
 
     def _ready(self, inputs: _Inputs) -> bool:
         missing = [t for t, x in ((topics.MODEL_ACTIVE, inputs.model), (topics.INTENT_V, inputs.v)) if x is None]
@@ -170,11 +171,11 @@ class GraspPlanner(Node):
 
     def _plan(self, inputs: _Inputs) -> None:
         assert inputs.model and inputs.v is not None and inputs.base_T_obj is not None and inputs.stamp
-        doc, key = inputs.model, (inputs.model.name, inputs.model.sha256)
+        doc, key = inputs.model, (inputs.model.name, inputs.model.sha256, inputs.plan_for)
         warm = self._warm[1] if self._warm is not None and self._warm[0] == key else None
-        grasp = plan_grasp(doc.model, inputs.v, match_zones(inputs.v.size, inputs.v_labels, doc.model.task_names),
-                           inputs.base_T_obj, self._kin, name=doc.name, q_arm=inputs.q_arm, warm_start=warm,
-                           method=self._params['method'],
+        v, zones = planned_target(inputs.plan_for, inputs.v, inputs.v_labels, doc.model.task_names)
+        grasp = plan_grasp(doc.model, v, zones, inputs.base_T_obj, self._kin, name=doc.name, q_arm=inputs.q_arm,
+                           warm_start=warm, method=self._params['method'],
                            options=node_options(self._params['method'], self._params['n_starts'],
                                                 self._params['execution_noise']),
                            ik_restarts=self._params['ik_restarts'],

@@ -26,7 +26,9 @@ Conditions (:data:`CONDITIONS`)
   u + sum_g p(g) a_g, a_g ADA's Huber-gradient twist toward goal g. Nothing is shown (ADA shows goal
   probabilities, not a grasp proposal); the robot assists with zero input too (additive, as published).
 - ``'independent'``: the suite's assistance on the grasp separate per-task classifiers would choose: the
-  planner's grasp for the single most likely task argmax_i w_i (v on that zone alone), shown.
+  planner's grasp for the single most likely task argmax_i w_i (v on that zone alone,
+  :func:`~grasp_intent_ros.method.intent.single_task_v`, ties to the lowest index; the planner node's
+  ``plan_for: most_likely_task``), shown; the assistance keeps v = interpret(w).
 - ``'suite'``: the suite: v = interpret(w), the planner's grasp, the assistance's ``confidence`` rule, shown.
 
 The grasp command (:func:`execute_grasp`). Under the suite's assistance (``'suite'``, ``'independent'``), when
@@ -68,7 +70,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import CommandError
-from ..method.intent import Interpretation, ZoneInterpreter, all_zones, default_task_names, interpret, zone_labels
+from ..method.intent import (
+    Interpretation,
+    ZoneInterpreter,
+    all_zones,
+    default_task_names,
+    interpret,
+    single_task_v,
+    zone_labels,
+)
 from ..method.model import GraspModel
 from ..mico.collision import HandCollision
 from ..mico.grasp import MIN_TRAJECTORY_TIME, Grasp, plan_grasp, trajectory_duration
@@ -178,8 +188,9 @@ class PlanStream:
         v = read.v
         target = v
         if self.kind == 'single':  # separate per-task classifiers: the grasp for the most likely task alone
-            target = np.zeros(len(_ZONES))
-            target[_ZONES.index(1 << int(np.argmax(w)))] = 1.0
+            single = single_task_v(v, _ZONES, 3)
+            assert single is not None  # an interpretation's v sums to 1
+            target = single
         key = self.kind.encode() + target.tobytes() + (b'' if self.warm is None else self.warm.tobytes())
         if key not in self.cache:
             planned = plan_grasp(self.scene.model, target, _ZONES, self.scene.base_T_obj, self.scene.kin,

@@ -35,3 +35,16 @@ def test_the_simulated_closed_loop_judges_one_episode_under_each_condition() -> 
         assert 0.0 < record['time'] <= 15.0
         assert record['success'] <= record['closed']  # judged only where the hand closed
     assert records[0]['alpha_mean'] == 0.0 and records[1]['alpha_mean'] > 0.0  # direct: no help; the suite helps
+
+
+def test_each_live_condition_sets_values_the_assistance_and_the_planner_accept() -> None:
+    from grasp_intent_ros.mico.parameters import PLAN_FOR
+    from grasp_intent_ros.shared_control.assistance import ARBITRATIONS
+
+    live = importlib.import_module('bench_shared_control')
+    assert set(live.ARBITRATION) == set(live.PLAN_FOR) == set(live.CONDITIONS)
+    assert set(live.ARBITRATION.values()) <= set(ARBITRATIONS) and set(live.PLAN_FOR.values()) <= set(PLAN_FOR)
+    assert set(live.EXECUTES) <= set(live.CONDITIONS)
+    # the paper's foil as the simulated loop's `independent`: the suite's assistance on the single task's grasp
+    assert (live.ARBITRATION['independent'], live.PLAN_FOR['independent']) == ('confidence', 'most_likely_task')
+    assert ('confidence', 'independent') in live.PAIRS

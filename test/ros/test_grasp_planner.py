@@ -732,6 +732,32 @@ def test_parameters_are_validated_and_object_pose_parameters_replan(rig: Rig) ->
     assert rig.ros.wait_for(lambda: rig.plans_at(moved, start), timeout=10.0), 'no plan at the new object_position'
 
 
+def test_plan_for_the_most_likely_task_plans_its_zone_alone_and_a_change_replans(
+        make_rig: Callable[..., Rig], model: GraspModel, kin: MicoKinematics) -> None:
+    """``plan_for: most_likely_task``: the core's plan for v on the zone of argmax w alone, whatever else v holds.
+
+    An exact tie of w goes to the first task (v's sums put handover an ulp ahead of usage here); back to ``v``, the
+    newest v is planned again as received, with no new v and not warm-started from the other target's plan; a value
+    outside the two is refused.
+    """
+    rig = make_rig(model, parameter_overrides=[Parameter('markers_period', value=0.0),
+                                               Parameter('plan_for', value='most_likely_task')])
+    tie = interpret((0.67, 0.4, 0.67)).v
+    assert tie is not None
+    single = rig.request(v_msg(tie))
+    usage, handover = (core_plan(kin, model, np.eye(7)[all_zones(3).index(zone)]) for zone in (0b001, 0b100))
+    assert not np.allclose(usage.x, handover.x, atol=1e-3), 'the tie must decide between different grasps'
+    assert_allclose(single.x, usage.x, rtol=0, atol=1e-6)
+    start = rig.now()
+    assert rig.node.set_parameters([Parameter('plan_for', value='v')])[0].successful
+    assert rig.ros.wait_for(lambda: rig.grasps.plans(start), timeout=ANSWER), 'no plan after the change'
+    as_received = core_plan(kin, model, tie)  # no warm start: the plans so far were for another target
+    assert not np.allclose(as_received.x, usage.x, atol=1e-3), 'the intent-aware grasp differs here'
+    assert_allclose(rig.grasps.plans(start)[0].x, as_received.x, rtol=0, atol=1e-6)
+    result = rig.node.set_parameters([Parameter('plan_for', value='argmax')])[0]
+    assert not result.successful and 'must be one of' in result.reason
+
+
 def test_params_file_and_invalid_initial_parameters(ros: Any) -> None:
     node = ros.add(GraspPlanner(context=ros.context, cli_args=[
         '--ros-args', '--params-file', str(REPO / 'config' / 'grasp_planner.yaml')]))

@@ -196,3 +196,34 @@ def test_support_asks_for_clarification_when_no_model_zone_is_possible() -> None
         interpret(w, support=[8])
     assert support_zones(DEFAULT_TASKS, DEFAULT_TASKS, four) == four
     assert support_zones(('a', 'b', 'c'), DEFAULT_TASKS, four) is None
+
+
+def test_the_most_likely_task_is_argmax_w_and_an_exact_tie_goes_to_the_first_task() -> None:
+    rng = np.random.default_rng(0)
+    for w in rng.uniform(0.05, 0.95, (200, 3)):
+        v = intent.interpret(w, clarification_threshold=1.0).v
+        assert v is not None
+        assert intent.most_likely_task(v, intent.all_zones(3), 3) == int(np.argmax(w))
+    # an exact tie of w whose v sums put the later task one ulp ahead: the rounding must not decide it
+    for w, first in (((0.67, 0.4, 0.67), 0), ((0.34, 0.56, 0.56), 1)):
+        v = intent.interpret(w).v
+        assert v is not None
+        p_task = intent.reconstruct_w(v, intent.all_zones(3), 3)
+        assert p_task[2] > p_task[first], 'the case the tie rule is for'
+        assert intent.most_likely_task(v, intent.all_zones(3), 3) == first
+
+
+def test_the_single_task_target_is_one_hot_on_that_tasks_zone_over_all_zones() -> None:
+    zones = intent.all_zones(3)
+    w = (0.2, 0.3, 0.9)
+    for v, v_zones, task in ((intent.interpret(w).v, zones, 0b100),
+                             # over the 5-zone model's zones alone (U, T, UT, TH, UTH): handover comes with transfer
+                             (intent.interpret(w, structure_zones('5zone', TASKS)).v,
+                              structure_zones('5zone', TASKS), 0b010)):
+        single = intent.single_task_v(v, v_zones, 3)
+        assert single is not None
+        assert_allclose(single, np.eye(7)[zones.index(task)], rtol=0, atol=0)
+    assert intent.single_task_v(np.zeros(7), intent.all_zones(3), 3) is None  # no probability: no target
+    for bad in ([0.5, math.nan, 0.5, 0, 0, 0, 0], [-0.1, 1.1, 0, 0, 0, 0, 0], [0.5, 0.5]):
+        with pytest.raises(InvalidIntentError):
+            intent.single_task_v(bad, intent.all_zones(3), 3)
