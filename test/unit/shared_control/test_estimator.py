@@ -24,21 +24,10 @@ from grasp_intent_ros.shared_control.estimator import (
 )
 from grasp_intent_ros.shared_control.operators import OperatorConstants, ScriptedOperator
 
+from .hand_built import DT, SPEED, STRAIGHT, pose
+
 U, T, H = 1, 2, 4
 CONFIG = EstimatorConfig()
-STRAIGHT = EstimatorConfig(standoff=0.0)
-"""An operator model heading straight for each goal (no pre-grasp): the hand-built scenes whose motions are straight
-lines at a goal, which test the rules that do not depend on the pose steered to (the shown grasp's)."""
-SPEED = 0.12
-"""The shared-control benchmark's operator speed limit, m/s."""
-DT = 0.01
-
-
-def pose(position: tuple[float, float, float], rotvec: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> np.ndarray:
-    out = np.eye(4)
-    out[:3, :3] = pin.exp3(np.asarray(rotvec, dtype=np.float64))
-    out[:3, 3] = position
-    return out
 
 
 def scene() -> IntentEstimator:

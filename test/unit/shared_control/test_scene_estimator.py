@@ -18,18 +18,9 @@ from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEst
 from grasp_intent_ros.shared_control.operators import OperatorConstants, ScriptedOperator
 from grasp_intent_ros.shared_control.scene_estimator import SceneEstimator
 
+from .hand_built import DT, SPEED, STRAIGHT, pose
+
 U, T, H = 1, 2, 4
-STRAIGHT = EstimatorConfig(standoff=0.0)
-"""Hand-built scenes whose motions are straight lines at a goal (as in test_estimator)."""
-SPEED = 0.12
-DT = 0.01
-
-
-def pose(position: tuple[float, float, float], rotvec: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> np.ndarray:
-    out = np.eye(4)
-    out[:3, :3] = pin.exp3(np.asarray(rotvec, dtype=np.float64))
-    out[:3, 3] = position
-    return out
 
 
 def two_objects(config: EstimatorConfig = STRAIGHT, b_near: tuple[float, float, float] = (0.3, -0.25, 0.0)
