@@ -18,14 +18,15 @@ from __future__ import annotations
 import dataclasses
 import shutil
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
+from bag_copies import edited_copy
 from processes import replay
 
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.mico.kinematics import MicoKinematics
-from grasp_intent_ros.sessions.bag import QosSpec, SessionWriter, jazzy_typestore, read_messages, topics_info
 from grasp_intent_ros.sessions.closed_loop import is_closed_loop, load_closed_loop, outcome
 from grasp_intent_ros.sessions.pairing import load_paired_session
 
@@ -66,28 +67,22 @@ def test_replay_of_each_bag_passes_the_check(bag: Path, domain_id: int) -> None:
 def perturbed_copy(bag: Path, out: Path, relative: float = 1e-12) -> Path:
     """``bag`` with every operator twist, w and joint position scaled by 1 + N(0, relative) (seeded); else unchanged."""
     rng = np.random.default_rng(0)
-    store = jazzy_typestore()
-    with SessionWriter(out) as writer:
-        for topic, info in topics_info(bag).items():
-            writer.add_topic(topic, info.msgtype, qos=info.qos[0] if info.qos else QosSpec())
-        for msg in read_messages(bag):
-            cdr = bytes(msg.cdr)
-            if msg.topic.endswith('/operator/twist'):
-                twist = store.deserialize_cdr(cdr, msg.msgtype)
-                for part in (twist.twist.linear, twist.twist.angular):
-                    part.x, part.y, part.z = (c * (1.0 + relative * rng.standard_normal()) for c in (part.x, part.y,
-                                                                                                      part.z))
-                cdr = bytes(store.serialize_cdr(twist, msg.msgtype))
-            elif msg.topic.endswith('/intent/w'):
-                w = store.deserialize_cdr(cdr, msg.msgtype)
-                w.data = w.data * (1.0 + relative * rng.standard_normal(w.data.size))
-                cdr = bytes(store.serialize_cdr(w, msg.msgtype))
-            elif msg.topic.endswith('/joint_states'):
-                joints = store.deserialize_cdr(cdr, msg.msgtype)
-                joints.position = joints.position * (1.0 + relative * rng.standard_normal(joints.position.size))
-                cdr = bytes(store.serialize_cdr(joints, msg.msgtype))
-            writer.write(msg.topic, msg.timestamp_ns, cdr)
-    return out
+
+    def scaled(values: np.ndarray) -> np.ndarray:
+        return values * (1.0 + relative * rng.standard_normal(values.size))
+
+    def perturb(topic: str, msg: Any) -> bool:
+        if topic.endswith('/operator/twist'):
+            for part in (msg.twist.linear, msg.twist.angular):
+                part.x, part.y, part.z = scaled(np.array([part.x, part.y, part.z]))
+        elif topic.endswith('/intent/w'):
+            msg.data = scaled(msg.data)
+        elif topic.endswith('/joint_states'):
+            msg.position = scaled(msg.position)
+        else:
+            return False
+        return True
+    return edited_copy(bag, out, perturb)
 
 
 @pytest.mark.wall_clock

@@ -16,7 +16,9 @@ import signal
 import sys
 from collections import Counter
 from pathlib import Path
+from typing import Any
 
+from bag_copies import edited_copy
 from geometry_msgs.msg import PoseStamped
 from processes import ctrl_c, replay, suite_command
 from sensor_msgs.msg import JointState
@@ -24,7 +26,6 @@ from std_msgs.msg import Float64MultiArray
 
 from grasp_intent_ros.launch.suite import NodeProcess, node_environment
 from grasp_intent_ros.mico.kinematics import HOME_Q
-from grasp_intent_ros.sessions.bag import QosSpec, SessionWriter, jazzy_typestore, read_messages, topics_info
 from grasp_intent_ros.sessions.fixtures import joints, pose, w
 from grasp_intent_ros.sessions.scenes import load_paired_scene
 from grasp_intent_ros.wire.diagnostics import KEY_REJECTED
@@ -51,18 +52,11 @@ def recorder_counts(statuses: list) -> dict[str, int]:
 
 def moved_copy(bag: Path, out: Path, topic: str, dx: float) -> Path:
     """``bag`` with every grasp pose on ``topic`` moved ``dx`` m along x; everything else unchanged."""
-    store = jazzy_typestore()
-    with SessionWriter(out) as writer:
-        for name, info in topics_info(bag).items():
-            writer.add_topic(name, info.msgtype, qos=info.qos[0] if info.qos else QosSpec())
-        for msg in read_messages(bag):
-            cdr = bytes(msg.cdr)
-            if msg.topic == topic:
-                grasp = store.deserialize_cdr(cdr, msg.msgtype)
-                grasp.pose.position.x += dx
-                cdr = bytes(store.serialize_cdr(grasp, msg.msgtype))
-            writer.write(msg.topic, msg.timestamp_ns, cdr)
-    return out
+    def move(name: str, msg: Any) -> bool:
+        if name == topic:
+            msg.pose.position.x += dx
+        return name == topic
+    return edited_copy(bag, out, move)
 
 
 def test_a_scene_recorded_from_the_first_message_replays_each_chain_by_its_namespace(
