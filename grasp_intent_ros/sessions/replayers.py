@@ -162,7 +162,11 @@ class SessionReplayer(Generic[S]):
         if problem := self._alive():
             raise ReplayError(problem)
 
-    def _wait(self, predicate: Callable[[], bool], timeout: float) -> bool:
+    def wait_for(self, predicate: Callable[[], bool], timeout: float) -> bool:
+        """Spin ``executor`` (every client it spins) until ``predicate()`` holds: True, or False after ``timeout`` s.
+
+        Raises ReplayError when the live system died meanwhile.
+        """
         deadline = time.monotonic() + timeout
         while not predicate():
             if time.monotonic() >= deadline:
@@ -177,7 +181,7 @@ class SessionReplayer(Generic[S]):
         """
         need_parameters = self._needs_parameters()
         missing = lambda: self.client.missing(need_parameters=need_parameters)  # noqa: E731
-        if not self._wait(lambda: not missing() and self.client.settled(self.options.settle_s),
+        if not self.wait_for(lambda: not missing() and self.client.settled(self.options.settle_s),
                           self.options.startup_timeout_s):
             raise ReplayError(f'the live system is not ready after {self.options.startup_timeout_s:g} s: '
                               f'{"; ".join(missing()) or "nodes still appearing"}')
@@ -204,16 +208,16 @@ class SessionReplayer(Generic[S]):
                 last[:] = [len(self.client.outputs), time.monotonic()]
             return time.monotonic() - last[1] >= seconds
 
-        self._wait(quiet, self.options.timeout_s)
+        self.wait_for(quiet, self.options.timeout_s)
 
     def _activate(self, name: str) -> None:
         future = self.client.set_model(name)
-        if not self._wait(future.done, self.options.timeout_s):
+        if not self.wait_for(future.done, self.options.timeout_s):
             raise ReplayError(f'no answer from the parameter service when setting model {name!r}')
         result = future.result().results[0]
         if not result.successful:
             raise ReplayError(f'the model server rejected model {name!r}: {result.reason}')
-        if not self._wait(lambda: self.client.model is not None and self.client.model.name == name,
+        if not self.wait_for(lambda: self.client.model is not None and self.client.model.name == name,
                           self.options.timeout_s):
             raise ReplayError(f'model {name!r} was accepted but no {MODEL_ACTIVE} for it arrived')
 
@@ -292,7 +296,7 @@ class SceneReplayer:
             result.differences += chain.prepare()
         result.ready_s = time.monotonic() - started
         paced_by_answers = self.options.check or self.options.fast
-        inputs, wait = self.scene.inputs, self.chains[0]._wait
+        inputs, wait = self.scene.inputs, self.chains[0].wait_for
         t_first = inputs[0].steps[0][1].t_ns
         begin = time.monotonic()
         failed_inputs = 0
@@ -351,16 +355,16 @@ class ClosedLoopReplayer(SessionReplayer[ClosedLoopSession]):
         result.differences += self.prepare()
         result.ready_s = time.monotonic() - started
         if self.session.estimated:
-            if not self._wait(lambda: estimator_ready(self.client.last_status), self.options.startup_timeout_s):
+            if not self.wait_for(lambda: estimator_ready(self.client.last_status), self.options.startup_timeout_s):
                 raise ReplayError('the live intent estimator did not report its goals ready')
-        elif not self._wait(lambda: bool(self.client.tracer.trace().joints), self.options.startup_timeout_s):
+        elif not self.wait_for(lambda: bool(self.client.tracer.trace().joints), self.options.startup_timeout_s):
             raise ReplayError('no joint state from the live arm')
         self.client.tracer.restart()
         sends = self.session.sends
         begin = time.monotonic()
         for send in sends:
             send_at = begin + 1e-9 * (send.t_ns - send.lead_ns - sends[0].t_ns + sends[0].lead_ns)
-            self._wait(lambda: time.monotonic() >= send_at, max(0.0, send_at - time.monotonic()) + 1.0)
+            self.wait_for(lambda: time.monotonic() >= send_at, max(0.0, send_at - time.monotonic()) + 1.0)
             if send.model is not None:
                 self.client.set_model(send.model)  # not awaited: the recorded operator did not wait either
             else:
@@ -368,7 +372,7 @@ class ClosedLoopReplayer(SessionReplayer[ClosedLoopSession]):
                 self.client.tracer.add(send.topic, self.client.get_clock().now().nanoseconds + send.lead_ns, send.cdr)
             result.inputs_sent += 1
         last_send = time.monotonic()
-        if not self._wait(lambda: time.monotonic() - last_send >= self.STOPPED_S and self._arm_stopped(),
+        if not self.wait_for(lambda: time.monotonic() - last_send >= self.STOPPED_S and self._arm_stopped(),
                           self.options.timeout_s):
             result.timed_out.append(len(sends))
         result.replay_s = time.monotonic() - begin
