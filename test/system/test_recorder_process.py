@@ -40,9 +40,11 @@ class RecorderProcess(NodeProcess):
     """``python -m grasp_intent_ros recorder BAG --ros-args -r __ns:=/robot1``; output to files."""
 
     def __init__(self, bag: Path, domain_id: int, log_dir: Path,
-                 preexec_fn: Callable[[], None] | None = None, flush_period: float = 1.0) -> None:
+                 preexec_fn: Callable[[], None] | None = None, flush_period: float = 1.0,
+                 depth: int | None = None) -> None:
         command = [sys.executable, '-m', 'grasp_intent_ros', 'recorder', str(bag), '--discovery-period', '0.2',
-                   '--flush-period', str(flush_period), '--ros-args', '-r', f'__ns:={NS}']
+                   '--flush-period', str(flush_period), *(['--depth', str(depth)] if depth else []),
+                   '--ros-args', '-r', f'__ns:={NS}']
         super().__init__(command, module='recorder', env=node_environment(domain_id), log_dir=log_dir,
                          cwd=REPO, preexec_fn=preexec_fn)
 
@@ -103,14 +105,16 @@ def test_process_records_2000_messages_at_1khz_and_closes_on_sigint(ros, start_r
     w_pub = ros.publisher(Float64MultiArray, W, DEEP_RELIABLE)
     statuses = ros.diagnostics()
     bag = tmp_path / 'session'
-    proc = start_recorder(bag)
+    # its queue holds the whole burst: a recorder that a loaded machine leaves 1 s behind (the default depth at
+    # 1 kHz, 1461 of 2000 written at load ~8 on 2 cores) catches up; bench_recorder measures the rate it keeps
+    proc = start_recorder(bag, depth=N)
     assert ros.wait_for(lambda: w_pub.get_subscription_count() >= 1 and recorder_count(statuses, f'topic {MODEL}') == 1,
                         timeout=STARTUP), proc.output()
 
     sent = publish_w(ros, w_pub, range(N))
     assert ros.wait_for(lambda: len(sent) == N, timeout=20.0)
     # the recorder reports what it wrote on /diagnostics (1 Hz): wait until it has all, then SIGINT
-    assert ros.wait_for(lambda: recorder_count(statuses, f'topic {W}') == N, timeout=10.0), \
+    assert ros.wait_for(lambda: recorder_count(statuses, f'topic {W}') == N, timeout=STARTUP), \
         (recorder_count(statuses, f'topic {W}'), proc.output())
     assert proc.stop(signal.SIGINT) == 0, proc.output()
     stdout, stderr = proc.output()
