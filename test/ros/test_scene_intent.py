@@ -133,16 +133,21 @@ def test_a_new_model_on_one_object_restarts_that_object_only(ros, scene: Scene) 
     assert flashlight is not None and flashlight.updates > 0
     assert ros.wait_for(scene.still, 10.0)
     evidence = flashlight.evidence.copy()
+    count = len(scene.p)  # no more while the operator is still
     scene.activate('cup', 'cup_5zone', 2)
-    assert ros.wait_for(lambda: objects['cup'].restarts == 2, 60.0)
-    assert ros.wait_for(lambda: scene.p_of(scene.p[-1]).keys() == set(MODELS), 10.0)
+    assert ros.wait_for(lambda: objects['cup'].restarts == 2 and len(scene.p) > count, 60.0)
+    assert ros.wait_for(lambda: scene.p_of(scene.p[-1]).keys() == set(MODELS), 10.0)  # the cup back with its prior
     assert objects['flashlight'].restarts == 1 and objects['flashlight'].estimator is flashlight
     np.testing.assert_array_equal(flashlight.evidence, evidence)  # kept: no twist since
     assert objects['cup'].estimator is not None and objects['cup'].estimator.updates == 0
     prior = IntentEstimator(goals_at(scene.models.load('cup_5zone'), POSES['cup'])).w  # every goal reachable
     np.testing.assert_allclose(scene.w['cup'][-1].data, prior, rtol=1e-12)  # the cup's restart: its prior
-    # the cup's evidence is gone, the flashlight's (against it) kept: P(cup) at its prior's odds against that
-    assert scene.p_of(scene.p[-1])['cup'] > 0.5
+    # the cup's evidence is gone (log mass 0), the flashlight's kept: P(o) is the softmax of the two
+    log_p = flashlight.log_prior + flashlight.evidence
+    mass = log_p.max() + np.log(np.exp(log_p - log_p.max()).sum())
+    assert abs(mass) > 1.0, 'the flashlight\'s evidence must tell P(o) from 1/2 (and the labels apart)'
+    assert scene.p_of(scene.p[-1]) == pytest.approx({'cup': 1 / (1 + np.exp(mass)),
+                                                     'flashlight': 1 / (1 + np.exp(-mass))}, rel=1e-9, abs=1e-300)
 
 
 def test_bad_input_on_one_object_is_a_warning_and_the_other_is_served(ros, scene: Scene, status_finder) -> None:
