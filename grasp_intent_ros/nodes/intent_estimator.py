@@ -14,7 +14,7 @@ published and twists are not used.
 
 With the ``objects`` parameter (a list of object names, ``suite --object ... --with intent_estimator``) it estimates
 over the goals of several objects from the suite's namespace, each object's inputs and ``intent/w`` in the object's
-namespace, P(o) on ``intent/objects`` (:mod:`grasp_intent_ros.ros.scene_intent`, docs/several_objects.md); without,
+namespace, P(o) on ``intent/objects`` (:mod:`.estimator_scene`, docs/several_objects.md); without,
 it serves one object in its own namespace.
 
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.ESTIMATOR`, ``config/intent_estimator.yaml``.
@@ -35,11 +35,9 @@ from ..mico.kinematics import JOINT_LIMIT_MARGIN, MicoKinematics
 from ..mico.mock_arm import TwistCommand
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_arm, subscribe_operator
-from ..ros.object_goals import ObjectGoals
 from ..ros.params import declare_parameters
 from ..ros.qos import STREAM_DEPTH, input_qos, output_publisher
 from ..ros.run import guard_exit, publish_all, run_node
-from ..ros.scene_intent import SceneIntent
 from ..shared_control.estimator import IntentEstimator, TwistTiming
 from ..shared_control.parameters import ESTIMATOR, check_estimator, estimator_config
 from ..shared_control.stamped_inputs import StampedInputs
@@ -47,8 +45,16 @@ from ..wire import topics
 from ..wire.diagnostics import ESTIMATOR_COMPONENT, OK, WARN
 from ..wire.joint_states import JointReading
 from ..wire.robot_state import stamp_nanoseconds, stamp_seconds, twist_command
+from .estimator_goals import ObjectGoals
+from .estimator_scene import SceneIntent
 
 __all__ = ['IntentEstimatorNode', 'main']
+
+
+def _check(values: Mapping[str, Any]) -> None:
+    """The rules over the parameters: :func:`check_estimator`'s, and the object names a namespace each."""
+    check_estimator(values)
+    topics.check_object_names(values['objects'])
 
 
 class IntentEstimatorNode(Node):
@@ -57,7 +63,7 @@ class IntentEstimatorNode(Node):
     def __init__(self, node_name: str = 'intent_estimator', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, ESTIMATOR_COMPONENT)
-        self._params = declare_parameters(self, ESTIMATOR, on_change=self._configure, check=check_estimator)
+        self._params = declare_parameters(self, ESTIMATOR, on_change=self._configure, check=_check)
         self._kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
         self._config = estimator_config(self._params, None)  # the settings every object shares (max_dt)
         self._q: NDArray[np.float64] | None = None
@@ -70,13 +76,17 @@ class IntentEstimatorNode(Node):
         subscribe_operator(self, self._on_operator, input_qos(STREAM_DEPTH), self._diag,
                            self._params['operator_message_type'])
         subscribe_arm(self, self._on_arm, input_qos(STREAM_DEPTH), self._diag)
-        served = dict(diagnostics=self._diag, params=self._params, kin=self._kin, inputs=self._inputs,
-                      arm=lambda: self._q)
-        self._scene = SceneIntent(self, **served, names=self._params['objects']) if self._params['objects'] else None
+        self._scene: SceneIntent | None = None
         """The estimate over several objects (the ``objects`` parameter), else None: one object, ``_object``."""
-        self._object = None if self._scene is not None else ObjectGoals(
-            self, **served, ready=self._ready, refresh=self._refresh, report=self._diag.set_state)
-        self._pub = None if self._scene is not None else output_publisher(self, Float64MultiArray, topics.INTENT_W)
+        self._object: ObjectGoals | None = None
+        self._pub = None
+        if self._params['objects']:
+            self._scene = SceneIntent(self, self._diag, self._params, self._kin, self._inputs, arm=lambda: self._q,
+                                      names=self._params['objects'])
+        else:
+            self._object = ObjectGoals(self, self._diag, self._params, self._kin, self._inputs, arm=lambda: self._q,
+                                       ready=self._ready, refresh=self._refresh, report=self._diag.set_state)
+            self._pub = output_publisher(self, Float64MultiArray, topics.INTENT_W)
         self.create_timer(float(self._params['publish_period']), self._diag.guard_timer(self._on_timer))
 
     @property
@@ -84,15 +94,20 @@ class IntentEstimatorNode(Node):
         """The one object's estimate; None while its goals are prepared (or with several objects)."""
         return None if self._object is None else self._object.estimator
 
+    @property
+    def _served_scene(self) -> SceneIntent:
+        assert self._scene is not None  # with no one object
+        return self._scene
+
     def destroy_node(self) -> None:
         """Stop the model and goal threads (their current work waited for at most FINISH_WAIT s), then destroy."""
-        (self._object or self._scene).stop()
+        (self._object or self._served_scene).stop()
         super().destroy_node()
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
         self._config = estimator_config(self._params, None)
         self._inputs.wait = self._config.max_dt
-        (self._object or self._scene).configure(changed)
+        (self._object or self._served_scene).configure(changed)
 
     def _ready(self, estimator: IntentEstimator | None) -> None:  # in the goal thread
         if estimator is not None:

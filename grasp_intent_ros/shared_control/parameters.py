@@ -10,15 +10,13 @@ documents each parameter with its description (test/ros/test_config_files.py).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
-from ..errors import InvalidIntentError
 from ..method.parameters import TASK_NAMES
 from ..mico.kinematics import BASE_FRAME, EE_FRAME
 from ..mico.parameters import OBJECT_POSE, URDF_PATH, check_object_pose
 from ..parameters import ParamSpec, config_from, one_of
-from ..wire.topics import object_name_problem
 from .assistance import ARBITRATIONS, AssistanceConfig
 from .calibration import model_calibration
 from .estimator import EstimatorConfig
@@ -26,7 +24,6 @@ from .operator_loop import EXECUTE_TIMEOUT
 from .operators import DEVICES
 
 __all__ = ['OPERATOR_INPUT', 'APPROACH', 'ASSISTANCE', 'ESTIMATOR', 'estimator_config', 'check_estimator',
-           'check_object_names',
            'OPERATOR_INTENTS', 'SCRIPTED_OPERATOR', 'check_scripted_operator']
 
 OPERATOR_INPUT = (
@@ -94,23 +91,12 @@ ASSISTANCE = (
 
 _ESTIMATE = EstimatorConfig()
 _SCALE = (1e-6, 1e6)
-def check_object_names(names: Sequence[str]) -> None:
-    """Object names of a scene: each one ROS name token, not a folder of the suite's topics, none twice.
-
-    Raises InvalidIntentError naming every bad one (:func:`~grasp_intent_ros.wire.topics.object_name_problem`).
-    """
-    problems = [object_name_problem(name) for name in names]
-    problems += [f'object {name!r} is named twice' for name in sorted(set(names)) if names.count(name) > 1]
-    if problems := [p for p in problems if p]:
-        raise InvalidIntentError('; '.join(problems))
-
-
 ESTIMATOR = (
     ParamSpec('objects', [], 'Names of the objects of a scene (suite --object): estimate over all of their goals from '
               'the suite\'s namespace, reading each <object>/object/pose, model/active, grasp/pose and intent/prior, '
               'publishing each <object>/intent/w and P(o) on intent/objects. Empty: one object, in this namespace.',
-              item_type=str, read_only=True, validator=check_object_names,
-              constraints='unique ROS name tokens, none a folder of the suite\'s topics'),
+              item_type=str, read_only=True, constraints='unique ROS name tokens, none a folder of the suite\'s topics '
+              '(checked by the node: wire.topics.check_object_names)'),
     ParamSpec('rationality', _ESTIMATE.rationality, 'beta, 1/m: log-likelihood per metre of progress toward a '
               'goal.', range=_SCALE),
     ParamSpec('memory', _ESTIMATE.memory, 'L, m of the hand\'s pose motion over which the evidence fades by e.',

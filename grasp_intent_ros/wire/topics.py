@@ -34,7 +34,7 @@ __all__ = [
     'ASSISTANCE_ALPHA', 'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS', 'ASSISTANCE_ENABLE',
     'MSGTYPES', 'TOPIC_FOLDERS', 'LATCHED_TOPICS', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS', 'PLAN_TOPICS',
     'OUTPUT_TOPICS', 'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size',
-    'check_names', 'OBJECT_NAME', 'object_name_problem',
+    'check_names', 'OBJECT_NAME', 'object_name_problem', 'check_object_names',
 ]
 
 INTENT_W: Final = 'intent/w'
@@ -141,6 +141,20 @@ def object_name_problem(name: str) -> str:
         return (f'object name {name!r} is a folder of the suite\'s topics ({name}/...): a recorder\'s --topics '
                 f'{name}/ would select those, not the chain\'s')
     return ''
+
+
+def check_object_names(names: Sequence[str]) -> None:
+    """Object names of a scene: each one that :func:`object_name_problem` accepts, none twice.
+
+    Raises
+    ------
+    GraspIntentError
+        Naming every bad one.
+    """
+    problems = [problem for name in names if (problem := object_name_problem(name))]
+    problems += [f'object {name!r} is named twice' for name in sorted(set(names)) if list(names).count(name) > 1]
+    if problems:
+        raise GraspIntentError('; '.join(problems))
 
 
 SHARED_CONTROL_TOPICS: Final = (OPERATOR_TWIST, ASSISTANCE_TWIST, ASSISTANCE_ALPHA)

@@ -1,14 +1,13 @@
 """One object's goals for the intent estimator node: its model and pose followed, its estimator made off the executor.
 
-docs/intent_estimation.md ("Restarts") gives the rules; the maths is :mod:`grasp_intent_ros.shared_control.estimator`.
-:class:`ObjectGoals` follows an object's ``model/active`` (a :class:`~.model_follower.ModelFollower`) and
-``object/pose``, and whenever the model changes or the object moves beyond the node's ``object_tolerance`` and
-``angle_tolerance`` prepares the object's goals (its demonstrations placed at its pose, the reachable ones) in a thread
-of its own (a :class:`~.worker.LatestOnlyWorker`), then hands the node a new
-:class:`~grasp_intent_ros.shared_control.estimator.IntentEstimator` over them, which starts from the prior. It also
-reads the object's ``grasp/pose`` (the grasp shown, into the node's stamped inputs) and ``intent/prior`` (kept across
-restarts). The one-object node has one in its own namespace; the node over several objects one per object, each in
-the object's namespace (``cup/model/active``, ...), whose diagnostics values are then named ``<object>: <key>``.
+A part of :mod:`.intent_estimator`, no node of its own; the rules: docs/intent_estimation.md ("Restarts").
+:class:`ObjectGoals` follows an object's ``model/active`` (:class:`~grasp_intent_ros.ros.model_follower.ModelFollower`)
+and ``object/pose``; when the model changes or the object moves beyond ``object_tolerance`` or ``angle_tolerance``
+it prepares the object's goals (its reachable demonstrations at its pose) in a thread of its own, then hands the node
+a new :class:`~grasp_intent_ros.shared_control.estimator.IntentEstimator`, which starts from the prior. It also reads
+the object's ``grasp/pose`` (the grasp shown) and ``intent/prior`` (kept across restarts). The one-object node has
+one in its own namespace; the node over several objects one per object in the object's namespace (``cup/...``),
+whose diagnostics values are then named ``<object>: <key>``.
 """
 
 from __future__ import annotations
@@ -30,6 +29,11 @@ from ..method.intent import MAX_TASKS
 from ..mico.grasp import check_mico_model
 from ..mico.kinematics import BASE_FRAME, MicoKinematics
 from ..mico.parameters import object_pose
+from ..ros.diagnostics import NodeDiagnostics
+from ..ros.inputs import subscribe_input
+from ..ros.model_follower import ModelFollower, served_models
+from ..ros.qos import input_qos
+from ..ros.worker import LatestOnlyWorker
 from ..shared_control.assistance import offset
 from ..shared_control.estimator import IntentEstimator, goals_at, reachable_goals
 from ..shared_control.parameters import estimator_config
@@ -40,11 +44,6 @@ from ..wire.diagnostics import ERROR, KEY_GOALS, OK
 from ..wire.model_document import ModelDocument
 from ..wire.robot_state import object_pose_msg, pose_msg_to_matrix, stamp_nanoseconds
 from ..wire.topics import GRASP_POSE, INTENT_PRIOR, OBJECT_POSE
-from .diagnostics import NodeDiagnostics
-from .inputs import subscribe_input
-from .model_follower import ModelFollower, served_models
-from .qos import input_qos
-from .worker import LatestOnlyWorker
 
 __all__ = ['ObjectGoals']
 
@@ -61,30 +60,13 @@ class _Scene:
 class ObjectGoals:
     """One object's estimator, renewed on a new model or pose (module docstring).
 
-    Parameters
-    ----------
-    node : Node
-        Owner of the subscriptions.
-    diagnostics : NodeDiagnostics
-        The node's: counts this object's inputs; its values are named ``<namespace>: <key>`` with a namespace.
-    params : mapping
-        The node's parameters (:data:`grasp_intent_ros.shared_control.parameters.ESTIMATOR`), read when used.
-    kin : MicoKinematics
-    inputs : StampedInputs
-        The node's stamped inputs: the object's ``grasp/pose`` goes into its stream ``namespace``.
-    arm : callable
-        ``arm()``: the arm's newest joint positions (or None), to seed the goals' IK.
-    ready : callable
-        ``ready(estimator)``, from the goal thread: the new estimator (starting from the prior), or None when the
-        object's goals are dropped (being prepared again, or no model served).
-    refresh : callable
-        ``refresh()``: the estimate changed without motion (a new ``intent/prior``): the node publishes it.
-    report : callable
-        ``report(level, message)``: the object's standing condition (the node's state, for one object).
-    namespace : str
-        '' for the node's own topics, else the object's relative namespace (e.g. ``'cup'``).
-    base_T_obj : ndarray, shape (4, 4)
-        The object's pose until ``object/pose`` gives one (the node's ``object_position``, ``object_orientation``).
+    ``node``, ``diagnostics`` and ``params`` are the node's (its ``ESTIMATOR`` values, read when used), ``kin`` its
+    kinematics, ``inputs`` its stamped inputs (the object's ``grasp/pose`` goes into stream ``namespace``). ``arm()``
+    gives the arm's newest joints (or None) to seed IK. From the goal thread, ``ready(estimator)`` hands over a new
+    estimator, or None when the object's goals are dropped (being prepared again, or no model served);
+    ``refresh()`` says the estimate changed without motion (a new ``intent/prior``); ``report(level, message)`` is
+    the object's standing condition (the node's state, for one object). ``namespace``: '' for the node's own
+    topics, else the object's relative namespace (``'cup'``).
     """
 
     def __init__(self, node: Node, diagnostics: NodeDiagnostics, params: Mapping[str, Any], kin: MicoKinematics,
@@ -97,19 +79,15 @@ class ObjectGoals:
         self._prefix = f'{namespace}: ' if namespace else ''
         self.estimator: IntentEstimator | None = None
         """The estimate over the object's current goals; None while they are prepared or no model is served."""
-        self.restarts = 0
-        """Estimators made (the first one included)."""
-        self.proposal: NDArray[np.float64] | None = None
-        """The newest ``grasp/pose`` (base frame): the grasp shown."""
-        self.shown: NDArray[np.float64] | None = None
-        """The proposal the estimator holds (:meth:`show`)."""
+        self.restarts = 0  # estimators made (the first one included)
+        self.proposal: NDArray[np.float64] | None = None  # the newest grasp/pose (base frame): the grasp shown
+        self.shown: NDArray[np.float64] | None = None  # the proposal the estimator holds (show)
         self._task_prior: NDArray[np.float64] | None = None  # the newest intent/prior, for every estimator
         self._prior_lock = threading.Lock()  # the prior and the estimator it was set on, one at a time
         thread = node.get_name() + (f'_{namespace}' if namespace else '')
         self._scenes = LatestOnlyWorker(_Scene(base_T_obj=object_pose(params)),
                                         diagnostics.guard(self._prepare, counts_received=False),
-                                        ready=lambda scene: scene.model is not None and scene.base_T_obj is not None,
-                                        name=f'{thread}_goals')
+                                        ready=lambda scene: scene.model is not None, name=f'{thread}_goals')
         node.context.on_shutdown(self._scenes.stop_soon)
         self.models = ModelFollower(node, diagnostics, self._use_model, name=f'{thread}_model', namespace=namespace,
                                     requires=lambda: served_models(params['task_names']))

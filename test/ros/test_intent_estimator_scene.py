@@ -18,6 +18,7 @@ from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.nodes.intent_estimator import IntentEstimatorNode
+from grasp_intent_ros.parameters import ParameterError
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
@@ -191,3 +192,9 @@ def test_until_an_objects_goals_are_ready_p_is_over_the_ready_objects_only(ros) 
     values = {kv.key: kv.value for kv in status.values}
     assert values['flashlight: P(o)'].startswith('none') and values['cup: P(o)'] == '1'
     assert 'flashlight: waiting for flashlight/model/active' in status.message
+
+
+def test_object_names_that_cannot_be_namespaces_are_refused_at_start(ros) -> None:
+    with pytest.raises(ParameterError, match=r"'grasp' is a folder of the suite's topics.*'cup' is named twice"):
+        IntentEstimatorNode(context=ros.context, parameter_overrides=[
+            Parameter('objects', value=['grasp', 'cup', 'cup'])])

@@ -1,9 +1,10 @@
 """The intent estimator node over several objects: each object's w on ``<object>/intent/w``, P(o) on ``intent/objects``.
 
-docs/several_objects.md ("The intent estimator: goals across objects") gives the design, and
+A part of :mod:`.intent_estimator` (no node of its own). docs/several_objects.md ("The intent estimator: goals
+across objects") gives the design, and
 :mod:`grasp_intent_ros.shared_control.scene_estimator` the maths: one posterior over the goals of every object.
 :class:`SceneIntent` is what the node (:mod:`grasp_intent_ros.nodes.intent_estimator`, with its ``objects``
-parameter) does for a scene: one :class:`~.object_goals.ObjectGoals` per object, in the object's namespace
+parameter) does for a scene: one :class:`~.estimator_goals.ObjectGoals` per object, in the object's namespace
 (``cup/model/active``, ``cup/object/pose``, ``cup/grasp/pose``, ``cup/intent/prior``), each renewing only its own
 object's goals (a restart of that object alone: the others keep their evidence), and the outputs:
 
@@ -22,7 +23,7 @@ Bad input on one object's topic is a WARN rejection naming the topic; the others
 from __future__ import annotations
 
 import threading
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from functools import partial
 from typing import Any
 
@@ -32,16 +33,16 @@ from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray
 
 from ..mico.kinematics import MicoKinematics
+from ..ros.conversions import array_to_msg
+from ..ros.diagnostics import NodeDiagnostics
+from ..ros.qos import output_publisher
+from ..ros.run import publish_all
 from ..shared_control.estimator import IntentEstimator
 from ..shared_control.scene_estimator import SceneEstimator
 from ..shared_control.stamped_inputs import StampedInputs
 from ..wire.diagnostics import OK, WARN
 from ..wire.topics import INTENT_OBJECTS, INTENT_W, MODEL_ACTIVE
-from .conversions import array_to_msg
-from .diagnostics import NodeDiagnostics
-from .object_goals import ObjectGoals
-from .qos import output_publisher
-from .run import publish_all
+from .estimator_goals import ObjectGoals
 
 __all__ = ['SceneIntent']
 
@@ -52,13 +53,14 @@ class SceneIntent:
     Parameters
     ----------
     node, diagnostics, params, kin, inputs, arm
-        As for :class:`~.object_goals.ObjectGoals`.
+        As for :class:`~.estimator_goals.ObjectGoals`.
     names : sequence of str
         The objects, each a relative namespace of the node's (checked by the node's ``objects`` parameter).
     """
 
     def __init__(self, node: Node, diagnostics: NodeDiagnostics, params: Mapping[str, Any], kin: MicoKinematics,
-                 inputs: StampedInputs[Any], *, arm: Any, names: Sequence[str]) -> None:
+                 inputs: StampedInputs[Any], *, arm: Callable[[], NDArray[np.float64] | None],
+                 names: Sequence[str]) -> None:
         self._node, self._diag, self._params = node, diagnostics, params
         self.names = tuple(names)
         self._scene = SceneEstimator()
@@ -78,12 +80,12 @@ class SceneIntent:
         self._show_state()
 
     def stop(self) -> None:
-        """Stop every object's threads (:meth:`.ObjectGoals.stop`)."""
+        """Stop every object's threads (:meth:`.estimator_goals.ObjectGoals.stop`)."""
         for goals in self.objects.values():
             goals.stop()
 
     def configure(self, changed: Mapping[str, Any]) -> None:
-        """The node's parameters changed: every object's settings (:meth:`.ObjectGoals.configure`)."""
+        """The node's parameters changed: every object's settings (:meth:`.estimator_goals.ObjectGoals.configure`)."""
         with self._lock:
             for goals in self.objects.values():
                 goals.configure(changed)
