@@ -393,8 +393,10 @@ class TopicRecorder:
             return
         data, info = received
         # the middleware's receive time, not the callback's: an input and a fast answer taken in one
-        # executor wait keep their order of arrival
-        self._bag.put(topic, info.get('received_timestamp', 0) or self._node.get_clock().now().nanoseconds, data)
+        # executor wait keep their order of arrival; and the publisher's send time, which orders a cause before
+        # its effect whatever order the recorder received them in
+        self._bag.put(topic, info.get('received_timestamp', 0) or self._node.get_clock().now().nanoseconds, data,
+                      info.get('source_timestamp', 0) or None)
         subscription = self._subscriptions.get(topic)
         taken = [] if subscription is None else self._take_waiting(subscription, topic, self._depth - 1)
         self._bag.count_received(1 + len(taken))
@@ -408,7 +410,8 @@ class TopicRecorder:
         put, now = self._bag.put, self._node.get_clock().now
         taken: list[int | None] = []
         for data, info in waiting_messages(subscription, limit):
-            put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data)
+            put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data,
+                info.get('source_timestamp', 0) or None)
             taken.append(info.get('publication_sequence_number'))
         return taken
 

@@ -41,7 +41,8 @@ class Recording:
         self._bag = SessionWriter(out_dir, typestore=self._typestore, flush_period=flush_period)
         self._writer = QueuedWriter(self._bag)
         self.put = self._writer.put
-        """Queue one serialized message: ``put(topic, receive time in ns, CDR bytes)``; never blocks or raises."""
+        """Queue one serialized message: ``put(topic, receive time in ns, CDR bytes, send time in ns or None)``;
+        never blocks or raises."""
         self._recorded: dict[str, tuple[str, QosSpec]] = {}  # topic -> (type, subscribed QoS)
         self._received = 0
         self._lost: dict[str, int] = {}
