@@ -29,7 +29,10 @@ Reads the bag with :mod:`grasp_intent_ros.sessions.bag` (no rclpy, matplotlib's 
     Messages per topic, plans, clarifications, rejections (from ``/diagnostics``), planning time, the
     figures written and those skipped for lack of data.
 
-Topics are found by name suffix (``/robot1/intent/v`` is ``intent/v``), so namespaced sessions work.
+Topics are found in the session's namespace (``/robot1/intent/v`` is ``intent/v``), so namespaced sessions work.
+A scene of several objects (a bag :func:`~grasp_intent_ros.sessions.scenes.detect_scene` reads as one, recorded
+beside ``suite --object ...``) gets one such report per chain, in ``DIR/<object>/`` (its topics, its nodes'
+rejections and planning times), and a ``summary.md`` in DIR listing the chains.
 Exit code 2 with a one-line message when the bag is missing or unreadable.
 
 What is read from the bag: :mod:`grasp_intent_ros.sessions.report_data`. One module: one short function
@@ -61,8 +64,10 @@ from ..mico.frames import features_to_obj_T_ee, finger_segments
 from ..scene.geometry import ArmModel, Shape, body_shapes
 from ..scene.plan import plan_object_pose, served_tasks
 from ..wire.arrays import Posterior, Stamp
-from .bag import BagError
+from .bag import BagError, topics_info
+from .outputs import SessionError
 from .report_data import ReportData, load_report_data
+from .scenes import detect_scene
 
 __all__ = ['write_report', 'main',
            'OBJECT_RADIUS', 'OBJECT_HEIGHT', 'CASES_PER_FIGURE', 'MAX_CASE_FIGURES', 'MAX_GRASPS']
@@ -406,12 +411,15 @@ def _nearest_posterior(session: ReportData, stamp: int,
 # ---------------------------------------------------------------------------------------------- summary
 def write_summary(session: ReportData, out: Path, figures: list[str], skipped: list[str]) -> None:
     duration = session.seconds(session.end_ns) if session.end_ns else 0.0
-    total = sum(info.count for info in session.topics.values())
-    lines = [f'# Session report: {session.path.name}', '',
+    topics = {topic: info for topic, info in session.topics.items()
+              if session.chain is None or topic.startswith(f'{session.chain}/') or topic in session.roles.values()}
+    total = sum(info.count for info in topics.values())
+    title = session.path.name if session.chain is None else f'{session.path.name}, chain {session.chain}'
+    lines = [f'# Session report: {title}', '',
              f'- bag: `{session.path}`',
-             f'- duration: {duration:.1f} s, {total} messages on {len(session.topics)} topics', '',
+             f'- duration: {duration:.1f} s, {total} messages on {len(topics)} topics', '',
              '## Messages per topic', '', '| topic | type | messages |', '|---|---|---:|']
-    lines += [f'| {topic} | {info.msgtype} | {info.count} |' for topic, info in sorted(session.topics.items())]
+    lines += [f'| {topic} | {info.msgtype} | {info.count} |' for topic, info in sorted(topics.items())]
     per_node = Counter(r.status for _, r in session.rejections)
     reasons = list(dict.fromkeys(r.reason or f'(level {r.level}, no reason given)' for _, r in session.rejections))
     times = session.planning_ms
@@ -445,11 +453,12 @@ def write_summary(session: ReportData, out: Path, figures: list[str], skipped: l
 
 
 def write_report(bag: Path, out: Path) -> tuple[list[str], list[str]]:
-    """Write the figures and summary.md for ``bag`` into ``out`` (created).
+    """Write the figures and summary.md for ``bag`` into ``out`` (created); for a scene, one report per chain.
 
     Returns
     -------
-        (figure file names written, reasons for figures skipped).
+        (figure file names written, relative to ``out``; reasons for figures skipped, a scene's prefixed with
+        the chain's object).
 
     Raises
     ------
@@ -458,7 +467,31 @@ def write_report(bag: Path, out: Path) -> tuple[list[str], list[str]]:
     OSError
         ``out`` cannot be created or written.
     """
-    session = load_report_data(bag)
+    try:
+        scene = detect_scene(topics_info(bag))
+    except SessionError:  # no session's namespace: the one-chain report says so in its notes
+        scene = None
+    if scene is None or scene.one_chain:
+        return _write_chain(bag, out, None)
+    figures: list[str] = []
+    skipped: list[str] = []
+    lines = [f'# Session report: {bag.name}', '', f'- bag: `{bag}`',
+             f'- a scene of {len(scene.chains)} objects, the arm\'s joint states in {scene.namespace or "/"}: '
+             'one report per chain', '', '## Chains', '']
+    for chain in scene.chains:
+        name = chain.rpartition('/')[2]
+        chain_figures, chain_skipped = _write_chain(bag, out / name, chain)
+        figures += [f'{name}/{figure}' for figure in chain_figures]
+        skipped += [f'{name}: {reason}' for reason in chain_skipped]
+        lines.append(f'- [{chain}]({name}/summary.md): {len(chain_figures)} figures'
+                     + (f', {len(chain_skipped)} skipped' if chain_skipped else ''))
+    (out / 'summary.md').write_text('\n'.join(lines) + '\n')
+    return figures, skipped
+
+
+def _write_chain(bag: Path, out: Path, chain: str | None) -> tuple[list[str], list[str]]:
+    """:func:`write_report` for the session's one chain (``chain`` None) or a scene's chain (its namespace)."""
+    session = load_report_data(bag, chain=chain)
     out.mkdir(parents=True, exist_ok=True)
     figures: list[str] = []
     skipped: list[str] = []
