@@ -16,20 +16,14 @@ Never imports rclpy.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 from ..errors import GraspIntentError, ModelError
 from ..method.registry import ModelFiles
-from ..wire.topics import JOINT_STATES, TOPIC_FOLDERS
+from ..wire.topics import JOINT_STATES, object_name_problem
 
-__all__ = ['OBJECT_NAME', 'SceneObject', 'parse_objects', 'chain_remappings', 'refuse_unbuilt']
-
-OBJECT_NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]*')
-"""An object's name: one ROS name token (letters, digits, underscores, a letter first). A leading underscore,
-which ROS allows, is refused: it would hide the chain's topics from ``ros2 topic list``."""
-
+__all__ = ['SceneObject', 'parse_objects', 'chain_remappings', 'refuse_unbuilt']
 
 @dataclass(frozen=True)
 class SceneObject:
@@ -53,9 +47,9 @@ def parse_objects(specs: Sequence[str], *, models_dir: str = '') -> tuple[SceneO
     Parameters
     ----------
     specs
-        Each ``NAME=MODEL``: NAME matches :data:`OBJECT_NAME` and is not one of
-        :data:`~grasp_intent_ros.wire.topics.TOPIC_FOLDERS` (``grasp``, ``intent``, ...), MODEL is the stem of
-        a YAML file in ``models_dir``.
+        Each ``NAME=MODEL``: NAME an object's name (:func:`~grasp_intent_ros.wire.topics.object_name_problem`:
+        one ROS name token, not a folder of the suite's topics such as ``grasp``), MODEL the stem of a YAML file
+        in ``models_dir``.
     models_dir
         Where the models are ('' means the package's ``config/models``, the model server's default).
 
@@ -77,12 +71,8 @@ def parse_objects(specs: Sequence[str], *, models_dir: str = '') -> tuple[SceneO
         name, equals, model = spec.partition('=')
         if not equals or not name or not model:
             problems.append(f'{spec!r} is not NAME=MODEL, e.g. cup=cup_7zone')
-        elif not OBJECT_NAME.fullmatch(name):
-            problems.append(f'object name {name!r} is not a ROS name token (letters, digits and underscores, '
-                            'a letter first)')
-        elif name in TOPIC_FOLDERS:
-            problems.append(f'object name {name!r} is a folder of the suite\'s topics ({name}/...): a recorder\'s '
-                            f'--topics {name}/ would select those, not the chain\'s')
+        elif problem := object_name_problem(name):
+            problems.append(problem)
         elif name in {o.name for o in objects}:
             problems.append(f'object {name!r} is named twice')
         elif known is not None and model not in known:

@@ -19,6 +19,7 @@ joint state's names (:func:`check_names`), :data:`MAX_FEATURES` a feature vector
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from typing import Final
 
@@ -33,7 +34,7 @@ __all__ = [
     'ASSISTANCE_ALPHA', 'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS', 'ASSISTANCE_ENABLE',
     'MSGTYPES', 'TOPIC_FOLDERS', 'LATCHED_TOPICS', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS', 'PLAN_TOPICS',
     'OUTPUT_TOPICS', 'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size',
-    'check_names',
+    'check_names', 'OBJECT_NAME', 'object_name_problem',
 ]
 
 INTENT_W: Final = 'intent/w'
@@ -108,6 +109,25 @@ TOPIC_FOLDERS: Final = frozenset(
 """Every folder of the relative names of :data:`MSGTYPES` ('intent', 'model', 'model/ambiguity', ...): a
 recorder's topic prefix that ends in one selects topics of a namespace, any other prefix names a namespace
 (:class:`~grasp_intent_ros.ros.recording.TopicSelection`), so no object of a scene may be named after one."""
+
+OBJECT_NAME: Final = re.compile(r'[A-Za-z][A-Za-z0-9_]*')
+"""An object's name in a scene of several objects, its planning chain's namespace token: one ROS name token
+(letters, digits, underscores, a letter first). A leading underscore, which ROS allows, is refused: it would hide
+the chain's topics from ``ros2 topic list``."""
+
+
+def object_name_problem(name: str) -> str:
+    """Why ``name`` cannot name an object of a scene; '' if it can.
+
+    Not :data:`OBJECT_NAME`, or a folder of the suite's topics (:data:`TOPIC_FOLDERS`), which a recorder's
+    ``--topics NAME/`` would read as those topics.
+    """
+    if not OBJECT_NAME.fullmatch(name):
+        return f'object name {name!r} is not a ROS name token (letters, digits and underscores, a letter first)'
+    if name in TOPIC_FOLDERS:
+        return (f'object name {name!r} is a folder of the suite\'s topics ({name}/...): a recorder\'s --topics '
+                f'{name}/ would select those, not the chain\'s')
+    return ''
 
 LATCHED_TOPICS: Final = (MODEL_ACTIVE, MODEL_AMBIGUITY, MODEL_AMBIGUITY_SYMMETRIC, MODEL_AMBIGUITY_PINSKER)
 """Topics the suite publishes latched (transient local, keep-last 1): a late subscriber gets the last message."""
