@@ -52,7 +52,8 @@ def decode_input(topic: str, data: bytes, msg_type: Any = None) -> Any:
 
 def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], qos: QoSProfile,
                     diagnostics: NodeDiagnostics, *, count_dropped: bool = False, serialized: bool = False,
-                    callback_group: CallbackGroup | None = None, msg_type: Any = None) -> Subscription:
+                    callback_group: CallbackGroup | None = None, msg_type: Any = None,
+                    namespace: str = '') -> Subscription:
     """Subscribe ``callback`` to the suite input ``topic``, size-checked before decoding and guarded.
 
     Parameters
@@ -76,6 +77,9 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
         LatestOnlyWorker.take`; the subscription's callback takes the message and its info).
     msg_type : message class, optional
         Instead of the topic's own type (:func:`decode_input`); the topic's size cap still applies.
+    namespace : str
+        A relative namespace the topic is subscribed in ('' the node's own; ``cup``: ``cup/<topic>``, one object's
+        chain of a scene), with ``topic``'s type and cap.
 
     Raises
     ------
@@ -95,8 +99,9 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
     # rclpy passes the message info to a callback of two parameters (its annotation names one)
     handle = cast(Callable[[bytes, Mapping[str, Any]], None], diagnostics.count_dropped(guarded)) if count_dropped \
         else (lambda data, _info: guarded(data))
-    return node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], handle), qos, raw=True,
-                                    event_callbacks=input_events(node.get_logger(), topic),
+    name = f'{namespace}/{topic}' if namespace else topic
+    return node.create_subscription(msg_type, name, cast(Callable[[bytes], None], handle), qos, raw=True,
+                                    event_callbacks=input_events(node.get_logger(), name),
                                     callback_group=callback_group)
 
 

@@ -108,11 +108,15 @@ class ModelFollower:
         :func:`served_models` of its ``task_names``), read for every document.
     name : str
         Name of the thread.
+    namespace : str
+        A relative namespace whose ``model/active`` is followed ('' the node's own; ``cup``: ``cup/model/active``,
+        one object's chain of a scene).
     """
 
     def __init__(self, node: Node, diagnostics: NodeDiagnostics, use: Callable[[ModelDocument | None], object], *,
-                 requires: Callable[[], ModelRequirements], name: str) -> None:
+                 requires: Callable[[], ModelRequirements], name: str, namespace: str = '') -> None:
         self._diagnostics, self._use, self._requires = diagnostics, use, requires
+        self._topic = f'{namespace}/{MODEL_ACTIVE}' if namespace else MODEL_ACTIVE
         self.current: ModelDocument | None = None
         """The last document ``use`` accepted (None after :meth:`recheck` refused it)."""
         self.refused = ''
@@ -123,7 +127,8 @@ class ModelFollower:
             name=name)
         node.context.on_shutdown(self._worker.stop_soon)
         # counted and size-checked on arrival (subscribe_input); a document that fails to read is a rejection
-        self.subscription = subscribe_input(node, MODEL_ACTIVE, self._on_document, latched_qos(), diagnostics)
+        self.subscription = subscribe_input(node, MODEL_ACTIVE, self._on_document, latched_qos(), diagnostics,
+                                            namespace=namespace)
 
     def _on_document(self, msg: String) -> None:
         text = msg.data  # stored as is: the executor thread does no work on a document
@@ -161,7 +166,7 @@ class ModelFollower:
                 self._requires().check(self.current.model.task_names, self.current.model.feature_names)
             except GraspIntentError:
                 self.current = None
-        self.refused = f'{MODEL_ACTIVE}: {reason}'
+        self.refused = f'{self._topic}: {reason}'
         if self.current is None:
             self._diagnostics.set_state(ERROR, f'cannot serve: {self.refused}')
             self._diagnostics.set_value(KEY_REFUSED, self.refused)
