@@ -5,8 +5,9 @@ object's model, the planner) in the object's namespace, so it has its own ``inte
 ``model/active``, ``intent/v`` and ``grasp/*``. The arm is one: every chain reads the suite namespace's
 ``joint_states`` (:func:`chain_remappings`); ``/diagnostics`` is absolute already, and each status is named
 by its node's fully qualified name (``/cup/grasp_planner: planning``). docs/several_objects.md gives the
-design and what is not built yet: the shared-control loop and the optional nodes serve one object, so
-:func:`refuse_unbuilt` refuses them beside objects.
+design and what is not built yet: the shared-control loop and most optional nodes serve one object, so
+:func:`refuse_unbuilt` refuses them beside objects; those of :data:`SCENE_NODES` serve the whole scene, started once
+at the suite's namespace with the objects' names (:func:`scene_parameters`).
 
 - :func:`parse_objects`: the ``NAME=MODEL`` specs of ``suite --object``, checked before anything starts.
 - :class:`SceneObject`: one object, its namespace and its chain's process names.
@@ -23,7 +24,11 @@ from ..errors import GraspIntentError, ModelError
 from ..method.registry import ModelFiles
 from ..wire.topics import JOINT_STATES, object_name_problem
 
-__all__ = ['SceneObject', 'parse_objects', 'chain_remappings', 'refuse_unbuilt']
+__all__ = ['SCENE_NODES', 'SceneObject', 'parse_objects', 'chain_remappings', 'scene_parameters', 'refuse_unbuilt']
+
+SCENE_NODES = ('viewer',)
+"""The optional nodes that serve a scene of several objects: one process at the suite's namespace, given the
+objects' names (:func:`scene_parameters`), following every chain."""
 
 @dataclass(frozen=True)
 class SceneObject:
@@ -89,16 +94,23 @@ def chain_remappings(suite_namespace: str = '') -> tuple[str, ...]:
     return (f'{JOINT_STATES}:={suite_namespace}/{JOINT_STATES}',)
 
 
+def scene_parameters(objects: Sequence[SceneObject]) -> tuple[str, ...]:
+    """The ``--ros-args`` of a :data:`SCENE_NODES` node beside ``objects``: its ``objects`` parameter, their names."""
+    return ('-p', f'objects:=[{",".join(obj.name for obj in objects)}]')
+
+
 def refuse_unbuilt(optional: Sequence[str]) -> None:
-    """Refuse optional nodes beside objects: each serves one object, and which one is not designed in code yet.
+    """Refuse optional nodes beside objects but :data:`SCENE_NODES`.
+
+    Each of them serves one object, and which one is not designed in code yet.
 
     Raises
     ------
     GraspIntentError
-        If ``optional`` (node module names) is not empty, naming them and the design note.
+        If ``optional`` (node module names) holds any but :data:`SCENE_NODES`, naming them and the design note.
     """
-    if optional:
+    if unbuilt := [name for name in optional if name not in SCENE_NODES]:
         raise GraspIntentError(
-            f'{", ".join(optional)} with --object: not built yet (the shared-control loop, the intent estimator, '
-            'the scripted operator and the viewer each serve one object; docs/several_objects.md says what each '
-            'needs); --object starts the planning chains only')
+            f'{", ".join(unbuilt)} with --object: not built yet (the shared-control loop, the intent estimator and '
+            'the scripted operator each serve one object; docs/several_objects.md says what each needs); --object '
+            f'starts the planning chains and {", ".join(SCENE_NODES)} only')

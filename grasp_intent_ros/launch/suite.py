@@ -51,7 +51,7 @@ from ..errors import GraspIntentError
 from ..resources import config_dir
 from ..ros.startup import WATCHDOG_EXIT_CODE, is_ready_line
 from ..wire.topics import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
-from .objects import SceneObject, chain_remappings, refuse_unbuilt
+from .objects import SceneObject, chain_remappings, refuse_unbuilt, scene_parameters
 from .parent_death import ended_with_this_process
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
@@ -362,7 +362,7 @@ class NodeSuite:
             The model server's initial ``model`` and its ``models_dir`` (default: its config file's).
         objects : sequence of SceneObject
             One chain of :data:`SUITE_NODES` per object instead, each process named ``<object>/<module>``
-            (:mod:`grasp_intent_ros.launch.objects`); then no ``model``, ``extra`` or ``shared_control``.
+            (:mod:`grasp_intent_ros.launch.objects`); no ``model``, ``shared_control``, ``extra`` but scene nodes.
         params_files : sequence of paths
             ROS parameters files given to every node after its own ``config/<node>.yaml``; the node-name
             keys in a file pick what each node reads, and a later file wins.
@@ -371,15 +371,14 @@ class NodeSuite:
         shared_control : bool
             Also start :data:`SHARED_CONTROL_NODES` (the mock arm and the assistance), before ``extra``.
         remappings : mapping module -> remappings ('from:=to'), optional
-            Given to that node after :data:`REMAPPINGS` (e.g. the replay of an estimated session feeds the
-            estimator the recorded grasps).
+            Given to that node after :data:`REMAPPINGS` (e.g. a replay feeds the estimator the recorded grasps).
 
         Raises
         ------
         SuiteError
             For a name in ``extra`` that is not in :data:`OPTIONAL_NODES`, before anything is started.
         GraspIntentError
-            For ``objects`` with ``model``, ``extra`` or ``shared_control``, before anything is started.
+            For ``objects`` with ``model``, ``shared_control`` or a one-object ``extra`` node, before anything starts.
         OSError
             If a process cannot be started; those already started stay in :attr:`processes`.
         """
@@ -389,10 +388,11 @@ class NodeSuite:
             if model is not None:
                 raise GraspIntentError('objects name their own models: give no model')
         starts = [(module, obj.namespace(namespace), obj.model, obj.process_name(module), chain_remappings(namespace))
-                  for obj in objects for module in SUITE_NODES] if objects else [
-                      (module, namespace, model, None, ()) for module in (*SUITE_NODES, *wanted)]
+                  for obj in objects for module in SUITE_NODES] + [  # then the optional nodes: once, at the top
+                      (module, namespace, model, None, ()) for module in (*(() if objects else SUITE_NODES), *wanted)]
         for module, node_namespace, node_model, name, own in starts:
             more = [arg for remapping in (*own, *(remappings or {}).get(module, ())) for arg in ('-r', remapping)]
+            more += scene_parameters(objects) if objects and module in wanted else ()
             self.start(module, *self.node_args(module, namespace=node_namespace, model=node_model,
                                                models_dir=models_dir, params_files=params_files), *more, name=name)
 
