@@ -105,7 +105,7 @@ class Parameters(Mapping[str, Any]):
             node.set_parameters([Parameter(spec.name, _param_type(spec), []) for spec in settable])
             unset -= {spec.name for spec in settable}
         self._values: dict[str, Any] = {
-            name: spec.default if name in unset else _plain(node.get_parameter(name).value)
+            name: _plain(spec.default if name in unset else node.get_parameter(name).value)
             for name, spec in self._specs.items()}
         reason = self.validate(self._values, self._values)
         if reason:
