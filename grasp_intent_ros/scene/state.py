@@ -279,8 +279,8 @@ def apply_objects(state: ObjectsState, chain: str | None, topic: str, msg: Any) 
 
     ``topic`` is relative to the chain (one of :data:`CHAIN_TOPICS`) or, with ``chain`` None, one of
     :data:`ARM_TOPICS` or ``/diagnostics``, which updates each chain's planner status from its own planner
-    (:func:`apply` with the chain's namespace). Another topic leaves the scene unchanged; an unknown ``chain``
-    raises KeyError.
+    (:func:`apply` with the chain's namespace). Another topic, or a ``/diagnostics`` without a chain's planner
+    status, returns ``state`` itself; an unknown ``chain`` raises KeyError.
 
     Raises
     ------
@@ -292,5 +292,5 @@ def apply_objects(state: ObjectsState, chain: str | None, topic: str, msg: Any) 
         return state.with_chain(chain, lambda s: apply(s, topic, msg)) if topic in CHAIN_TOPICS else state
     if topic == topics.DIAGNOSTICS:
         chains = {name: apply(s, topic, msg, namespace=state.chain_namespace(name)) for name, s in state.chains.items()}
-        return replace(state, chains=chains)
+        return state if all(chains[name] is s for name, s in state.chains.items()) else replace(state, chains=chains)
     return replace(state, arm=apply(state.arm, topic, msg)) if topic in ARM_TOPICS else state

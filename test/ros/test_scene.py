@@ -290,6 +290,7 @@ def test_each_chain_shows_its_own_planner_s_status(cup: GraspModel, flashlight: 
         state = apply_objects(state, None, topics.DIAGNOSTICS, diagnostic(name, status))
     assert {name: chain.plan_status for name, chain in state.chains.items()} == {
         'cup': 'ok', 'flashlight': 'no reachable grasp'}
+    assert apply_objects(state, None, topics.DIAGNOSTICS, diagnostic('/robot1/cup/model_server: model', 'x')) is state
 
 
 def test_a_bad_message_on_one_chain_changes_no_chain(cup: GraspModel, flashlight: GraspModel) -> None:
