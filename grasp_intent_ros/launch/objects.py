@@ -5,9 +5,9 @@ object's model, the planner) in the object's namespace, so it has its own ``inte
 ``model/active``, ``intent/v`` and ``grasp/*``. The arm is one: every chain reads the suite namespace's
 ``joint_states`` (:func:`chain_remappings`); ``/diagnostics`` is absolute already, and each status is named
 by its node's fully qualified name (``/cup/grasp_planner: planning``). docs/several_objects.md gives the
-design and what is not built yet: the shared-control loop and most optional nodes serve one object, so
-:func:`refuse_unbuilt` refuses them beside objects; those of :data:`SCENE_NODES` serve the whole scene, started once
-at the suite's namespace with the objects' names (:func:`scene_parameters`).
+design and what is not built yet: the shared-control loop and the scripted operator serve one object, so
+:func:`refuse_unbuilt` refuses them beside objects; the intent estimator and the viewer serve every chain from the
+suite's namespace (:data:`SCENE_NODES`).
 
 - :func:`parse_objects`: the ``NAME=MODEL`` specs of ``suite --object``, checked before anything starts.
 - :class:`SceneObject`: one object, its namespace and its chain's process names.
@@ -22,13 +22,15 @@ from dataclasses import dataclass
 
 from ..errors import GraspIntentError, ModelError
 from ..method.registry import ModelFiles
-from ..wire.topics import JOINT_STATES, object_name_problem
+from ..wire.topics import JOINT_STATES, OBJECT_NAME, object_name_problem
 
-__all__ = ['SCENE_NODES', 'SceneObject', 'parse_objects', 'chain_remappings', 'scene_parameters', 'refuse_unbuilt']
+__all__ = ['OBJECT_NAME', 'SceneObject', 'parse_objects', 'chain_remappings', 'refuse_unbuilt', 'SCENE_NODES',
+           'scene_node_args']
 
-SCENE_NODES = ('viewer',)
-"""The optional nodes that serve a scene of several objects: one process at the suite's namespace, given the
-objects' names (:func:`scene_parameters`), following every chain."""
+SCENE_NODES = ('intent_estimator', 'viewer')
+"""The optional nodes (``suite --with``) that serve a scene of several objects: one process at the suite's
+namespace over every chain (:func:`scene_node_args`)."""
+
 
 @dataclass(frozen=True)
 class SceneObject:
@@ -52,9 +54,9 @@ def parse_objects(specs: Sequence[str], *, models_dir: str = '') -> tuple[SceneO
     Parameters
     ----------
     specs
-        Each ``NAME=MODEL``: NAME an object's name (:func:`~grasp_intent_ros.wire.topics.object_name_problem`:
-        one ROS name token, not a folder of the suite's topics such as ``grasp``), MODEL the stem of a YAML file
-        in ``models_dir``.
+        Each ``NAME=MODEL``: NAME matches :data:`OBJECT_NAME` and is not one of
+        :data:`~grasp_intent_ros.wire.topics.TOPIC_FOLDERS` (``grasp``, ``intent``, ...), MODEL is the stem of
+        a YAML file in ``models_dir``.
     models_dir
         Where the models are ('' means the package's ``config/models``, the model server's default).
 
@@ -76,8 +78,8 @@ def parse_objects(specs: Sequence[str], *, models_dir: str = '') -> tuple[SceneO
         name, equals, model = spec.partition('=')
         if not equals or not name or not model:
             problems.append(f'{spec!r} is not NAME=MODEL, e.g. cup=cup_7zone')
-        elif problem := object_name_problem(name):
-            problems.append(problem)
+        elif object_name_problem(name):
+            problems.append(object_name_problem(name))
         elif name in {o.name for o in objects}:
             problems.append(f'object {name!r} is named twice')
         elif known is not None and model not in known:
@@ -94,23 +96,24 @@ def chain_remappings(suite_namespace: str = '') -> tuple[str, ...]:
     return (f'{JOINT_STATES}:={suite_namespace}/{JOINT_STATES}',)
 
 
-def scene_parameters(objects: Sequence[SceneObject]) -> tuple[str, ...]:
-    """The ``--ros-args`` of a :data:`SCENE_NODES` node beside ``objects``: its ``objects`` parameter, their names."""
-    return ('-p', f'objects:=[{",".join(obj.name for obj in objects)}]')
-
-
 def refuse_unbuilt(optional: Sequence[str]) -> None:
-    """Refuse optional nodes beside objects but :data:`SCENE_NODES`.
-
-    Each of them serves one object, and which one is not designed in code yet.
+    """Refuse optional nodes beside objects but :data:`SCENE_NODES`: each of the others serves one object.
 
     Raises
     ------
     GraspIntentError
-        If ``optional`` (node module names) holds any but :data:`SCENE_NODES`, naming them and the design note.
+        If ``optional`` (node module names) holds any other, naming them and the design note.
     """
     if unbuilt := [name for name in optional if name not in SCENE_NODES]:
         raise GraspIntentError(
-            f'{", ".join(unbuilt)} with --object: not built yet (the shared-control loop, the intent estimator and '
-            'the scripted operator each serve one object; docs/several_objects.md says what each needs); --object '
-            f'starts the planning chains and {", ".join(SCENE_NODES)} only')
+            f'{", ".join(unbuilt)} with --object: not built yet (the shared-control loop and the scripted operator '
+            'each serve one object; docs/several_objects.md says what each needs); --object starts the '
+            f'planning chains and, with --with, {", ".join(SCENE_NODES)} over all of them')
+
+
+def scene_node_args(objects: Sequence[SceneObject]) -> tuple[str, ...]:
+    """The ``--ros-args`` that make a :data:`SCENE_NODES` node serve ``objects``: its ``objects`` parameter.
+
+    Each name is quoted: the value is read as YAML, where a name such as ``on`` or ``null`` would not be a string.
+    """
+    return ('-p', 'objects:=[' + ','.join(f"'{obj.name}'" for obj in objects) + ']')

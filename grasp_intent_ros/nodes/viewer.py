@@ -35,7 +35,6 @@ Parameters: :data:`PARAMETERS`.
 from __future__ import annotations
 
 import threading
-from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -58,17 +57,9 @@ from ..scene.page import DEFAULT_HOST, ScenePage
 from ..scene.state import ARM_TOPICS, CHAIN_TOPICS, VIEWER_TOPICS, ObjectsState, SceneState, apply, apply_objects
 from ..wire.diagnostics import OK, WARN
 from ..wire.model_document import ModelDocument
-from ..wire.topics import DIAGNOSTICS, JOINT_STATES, MODEL_ACTIVE, object_name_problem
+from ..wire.topics import DIAGNOSTICS, JOINT_STATES, MODEL_ACTIVE, check_object_names
 
 __all__ = ['Viewer', 'PARAMETERS', 'main']
-
-
-def _check_objects(names: Sequence[str]) -> None:
-    """ValueError naming every name that cannot name an object and every name given twice."""
-    problems = [problem for name in names if (problem := object_name_problem(name))]
-    problems += [f'object {name!r} is named twice' for name in dict.fromkeys(names) if names.count(name) > 1]
-    if problems:
-        raise ValueError('; '.join(problems))
 
 
 PARAMETERS = (
@@ -81,7 +72,7 @@ PARAMETERS = (
     ParamSpec('objects', [], 'The objects of a scene of several objects (docs/several_objects.md), each with its '
               "planning chain in <the viewer's namespace>/<object>, as suite --object starts them (e.g. [cup, "
               "flashlight]); empty: one chain, in the viewer's own namespace.", item_type=str, read_only=True,
-              validator=_check_objects),
+              validator=check_object_names),
 )
 
 

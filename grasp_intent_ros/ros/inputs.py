@@ -78,8 +78,8 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
     msg_type : message class, optional
         Instead of the topic's own type (:func:`decode_input`); the topic's size cap still applies.
     namespace : str
-        A relative namespace the topic is subscribed in ('' the node's own; ``cup``: ``cup/<topic>``, one object's
-        chain of a scene), with ``topic``'s type and cap.
+        A relative namespace to read ``topic`` in (e.g. ``'cup'``: ``cup/object/pose``, one object's of a scene),
+        with ``topic``'s type and cap; every rejection then names the topic read (``cup/object/pose: ...``).
 
     Raises
     ------
@@ -90,16 +90,23 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
     if topic not in MAX_MESSAGE_BYTES:
         raise KeyError(f'{topic!r} is not an input topic with a size cap')
 
+    name = f'{namespace}/{topic}' if namespace else topic
+
     def on_serialized(data: bytes) -> None:
-        check_message_size(topic, len(data))
-        callback(data if serialized else decode_input(topic, data, msg_type))
+        check_message_size(topic, len(data), name=name)
+        msg = data if serialized else decode_input(name, data, msg_type)
+        try:
+            callback(msg)
+        except GraspIntentError as exc:
+            if not namespace:
+                raise
+            raise GraspIntentError(f'{name}: {exc}') from None
 
     on_serialized.__name__ = getattr(callback, '__name__', 'on_message')
     guarded = diagnostics.guard(on_serialized)
     # rclpy passes the message info to a callback of two parameters (its annotation names one)
     handle = cast(Callable[[bytes, Mapping[str, Any]], None], diagnostics.count_dropped(guarded)) if count_dropped \
         else (lambda data, _info: guarded(data))
-    name = f'{namespace}/{topic}' if namespace else topic
     return node.create_subscription(msg_type, name, cast(Callable[[bytes], None], handle), qos, raw=True,
                                     event_callbacks=input_events(node.get_logger(), name),
                                     callback_group=callback_group)

@@ -95,18 +95,16 @@ class Parameters(Mapping[str, Any]):
         self._check = check
         self._on_change = on_change
         empty = [spec for spec in specs if _is_sequence(spec.default) and len(spec.default) == 0]
-        # an empty default declares the type alone (rclpy cannot infer an empty array's), then sets it; rclpy sets
-        # no read-only parameter after its declaration, so one of those stays unset, and its value is the default
+        # an empty default declares the type alone (rclpy cannot infer an empty array's), then sets it
         declared = node.declare_parameters('', [
             (spec.name, _param_type(spec) if spec in empty else _to_rclpy(spec.default), descriptor(spec))
             for spec in specs])
-        unset = {spec.name for spec, param in zip(specs, declared) if param.type_ == Parameter.Type.NOT_SET}
-        if settable := [spec for spec in specs if spec.name in unset and not spec.read_only]:
+        unset = [spec for spec, param in zip(specs, declared) if param.type_ == Parameter.Type.NOT_SET]
+        if settable := [spec for spec in unset if not spec.read_only]:
             node.set_parameters([Parameter(spec.name, _param_type(spec), []) for spec in settable])
-            unset -= {spec.name for spec in settable}
-        self._values: dict[str, Any] = {
-            name: _plain(spec.default if name in unset else node.get_parameter(name).value)
-            for name, spec in self._specs.items()}
+        # a read-only one cannot be set after its declaration: it stays unset in rclpy, empty here
+        self._values: dict[str, Any] = {spec.name: () if spec.read_only and spec in unset
+                                        else _plain(node.get_parameter(spec.name).value) for spec in specs}
         reason = self.validate(self._values, self._values)
         if reason:
             raise ParameterError(f'{node.get_fully_qualified_name()}: {reason}')
