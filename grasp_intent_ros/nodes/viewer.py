@@ -54,7 +54,16 @@ from ..ros.run import guard_exit, run_node
 from ..ros.worker import LatestOnlyWorker
 from ..scene.geometry import ArmModel
 from ..scene.page import DEFAULT_HOST, ScenePage
-from ..scene.state import ARM_TOPICS, CHAIN_TOPICS, VIEWER_TOPICS, ObjectsState, SceneState, apply, apply_objects
+from ..scene.state import (
+    ARM_TOPICS,
+    CHAIN_TOPICS,
+    SCENE_TOPICS,
+    VIEWER_TOPICS,
+    ObjectsState,
+    SceneState,
+    apply,
+    apply_objects,
+)
 from ..wire.diagnostics import OK, WARN
 from ..wire.model_document import ModelDocument
 from ..wire.topics import DIAGNOSTICS, JOINT_STATES, MODEL_ACTIVE, check_object_names
@@ -111,13 +120,14 @@ class Viewer(Node):
                                       namespace=chain or '')
                         for chain in objects or (None,)]
         topics = [(None, topic) for topic in VIEWER_TOPICS] if not objects else [
-            *((None, topic) for topic in (*ARM_TOPICS, DIAGNOSTICS)),
+            *((None, topic) for topic in (*ARM_TOPICS, *SCENE_TOPICS, DIAGNOSTICS)),
             *((chain, topic) for chain in objects for topic in CHAIN_TOPICS)]
         for chain, topic in topics:
             if topic == MODEL_ACTIVE:
                 continue
             depth = 10 if topic in (JOINT_STATES, DIAGNOSTICS) else 1  # several publishers on these
-            self.create_subscription(type_class(VIEWER_TOPICS[topic]), topic if chain is None else f'{chain}/{topic}',
+            self.create_subscription(type_class({**VIEWER_TOPICS, **SCENE_TOPICS}[topic]),
+                                     topic if chain is None else f'{chain}/{topic}',
                                      self._diag.guard(self._on_message(chain, topic)), input_qos(depth=depth))
         if objects:
             self.get_logger().info(f'following the chains {", ".join(map(scene.chain_namespace, objects))}')

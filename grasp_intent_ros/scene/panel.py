@@ -106,7 +106,9 @@ def panel_html(state: SceneState | ObjectsState, *, time_text: str = '') -> str:
         chains = {name: _chain_parts(chain) for name, chain in state.chains.items()}
         for name, chain_parts in chains.items() if any(chains.values()) else ():  # else the suite is waited for
             where = html.escape(state.chain_namespace(name))
-            parts.append(f'<div class="go">object <b>{html.escape(name)}</b> ({where})</div>')
+            p_o = state.object_probabilities.get(name)
+            wanted = '' if p_o is None else f', P(o) = {p_o:.2f}'
+            parts.append(f'<div class="go">object <b>{html.escape(name)}</b> ({where}{wanted})</div>')
             parts += chain_parts or ['<div>no model, intent or plan yet</div>']
     else:
         arm, planned = state, state.q_target is not None

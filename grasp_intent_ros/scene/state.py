@@ -17,8 +17,9 @@ rules' (:func:`~grasp_intent_ros.scene.plan.served_tasks`).
 
 A scene of several objects (docs/several_objects.md: one planning chain per object in ``<namespace>/<object>``,
 one arm) is an :class:`ObjectsState`: one :class:`SceneState` per chain, each updated by :func:`apply` with its
-chain's :data:`CHAIN_TOPICS` and its own planner's status, and the arm's :data:`ARM_TOPICS` once
-(:func:`apply_objects`).
+chain's :data:`CHAIN_TOPICS` and its own planner's status, the arm's :data:`ARM_TOPICS` once, and the
+intent estimator's P(o) (:data:`SCENE_TOPICS`: ``intent/objects``, a value per object labelled with the object
+names; objects whose goals are not ready are not in it) (:func:`apply_objects`).
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ from ..wire.robot_state import joint_positions, named_positions, pose_msg_to_mat
 from .plan import plan_object_pose, served_tasks
 
 __all__ = ['OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA', 'VIEWER_TOPICS', 'ARM_TOPICS', 'CHAIN_TOPICS',
+           'SCENE_TOPICS',
            'SceneState', 'ObjectsState', 'apply', 'apply_objects', 'plan_status']
 
 OPERATOR_TWIST: Final = 'operator/twist'
@@ -63,6 +65,8 @@ ARM_TOPICS: Final = (topics.JOINT_STATES, OPERATOR_TWIST, ASSISTANCE_TWIST, ASSI
 """The viewer topics of the arm: in a scene of several objects, once, in the suite's namespace."""
 CHAIN_TOPICS: Final = tuple(t for t in VIEWER_TOPICS if t not in ARM_TOPICS and t != topics.DIAGNOSTICS)
 """The viewer topics of a planning chain: in a scene of several objects, one set per object in its namespace."""
+SCENE_TOPICS: Final[Mapping[str, str]] = {topics.INTENT_OBJECTS: topics.MSGTYPES[topics.INTENT_OBJECTS]}
+"""The viewer topics of a scene of several objects itself, in the suite's namespace, and their message types."""
 
 
 @dataclass(frozen=True)
@@ -254,11 +258,14 @@ class ObjectsState:
         Of :data:`ARM_TOPICS` only: the live arm, the operator's and the blended twists, alpha.
     chains : mapping of str to SceneState
         Per object name, in the scene's order: each of its chain's :data:`CHAIN_TOPICS` and its planner's status.
+    object_probabilities : mapping of str to float
+        P(o) of the newest ``intent/objects``, for the objects it names (empty before one arrives).
     """
 
     namespace: str
     arm: SceneState
     chains: Mapping[str, SceneState]
+    object_probabilities: Mapping[str, float] = field(default_factory=dict)
 
     @classmethod
     def empty(cls, names: Sequence[str], namespace: str = '') -> ObjectsState:
@@ -278,19 +285,37 @@ def apply_objects(state: ObjectsState, chain: str | None, topic: str, msg: Any) 
     """The scene after ``msg`` on ``topic`` of object ``chain``'s chain (None: the arm's, or ``/diagnostics``).
 
     ``topic`` is relative to the chain (one of :data:`CHAIN_TOPICS`) or, with ``chain`` None, one of
-    :data:`ARM_TOPICS` or ``/diagnostics``, which updates each chain's planner status from its own planner
-    (:func:`apply` with the chain's namespace). Another topic, or a ``/diagnostics`` without a chain's planner
-    status, returns ``state`` itself; an unknown ``chain`` raises KeyError.
+    :data:`ARM_TOPICS`, :data:`SCENE_TOPICS` or ``/diagnostics``, which updates each chain's planner status from its
+    own planner (:func:`apply` with the chain's namespace). Another topic, or a ``/diagnostics`` without a chain's
+    planner status, returns ``state`` itself; an unknown ``chain`` raises KeyError.
 
     Raises
     ------
     GraspIntentError
-        For a message that cannot be read (as :func:`apply`); ``state`` is then still the valid one, every
+        For a message that cannot be read (as :func:`apply`; an ``intent/objects`` that is not one value in
+        [0, 1] per label, or that names an object not in the scene); ``state`` is then still the valid one, every
         chain as it was.
     """
     if chain is not None:
         return state.with_chain(chain, lambda s: apply(s, topic, msg)) if topic in CHAIN_TOPICS else state
+    if topic == topics.INTENT_OBJECTS:
+        return replace(state, object_probabilities=_object_probabilities(msg, state.chains))
     if topic == topics.DIAGNOSTICS:
         chains = {name: apply(s, topic, msg, namespace=state.chain_namespace(name)) for name, s in state.chains.items()}
         return state if all(chains[name] is s for name, s in state.chains.items()) else replace(state, chains=chains)
     return replace(state, arm=apply(state.arm, topic, msg)) if topic in ARM_TOPICS else state
+
+
+def _object_probabilities(msg: Any, names: Mapping[str, Any]) -> dict[str, float]:
+    """P(o) by object name from an ``intent/objects`` message (a value per label) of a scene of ``names``."""
+    values = msg_to_array(msg, what='intent/objects')
+    labels = msg_labels(msg)
+    if len(labels) != 1 or len(labels[0]) != values.size:
+        raise GraspIntentError(f'intent/objects: {values.size} values need one dimension labelled with as many '
+                               f'object names (got {list(labels)})')
+    if np.any((values < 0.0) | (values > 1.0)):
+        raise GraspIntentError(f'intent/objects: probabilities outside [0, 1]: {values.tolist()}')
+    unknown = [name for name in labels[0] if name not in names]
+    if unknown:
+        raise GraspIntentError(f'intent/objects names objects not in this scene: {unknown} (the scene: {list(names)})')
+    return dict(zip(labels[0], values.tolist()))

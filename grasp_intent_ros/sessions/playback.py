@@ -32,7 +32,16 @@ from ..errors import GraspIntentError
 from ..latest_only import LatestOnlyWorker
 from ..scene.geometry import ArmModel
 from ..scene.page import DEFAULT_HOST, ScenePage
-from ..scene.state import ARM_TOPICS, CHAIN_TOPICS, VIEWER_TOPICS, ObjectsState, SceneState, apply, apply_objects
+from ..scene.state import (
+    ARM_TOPICS,
+    CHAIN_TOPICS,
+    SCENE_TOPICS,
+    VIEWER_TOPICS,
+    ObjectsState,
+    SceneState,
+    apply,
+    apply_objects,
+)
 from ..wire.arrays import Stamp
 from ..wire.topics import DIAGNOSTICS
 from .bag import BagError, BagMessage, read_messages, topics_info
@@ -104,7 +113,7 @@ class _Reader:
         names = [chain.rpartition('/')[2] for chain in scene.chains]
         self.empty = ObjectsState.empty(names, scene.namespace)
         self.topics = {DIAGNOSTICS: (None, DIAGNOSTICS),
-                       **{f'{scene.namespace}/{t}': (None, t) for t in ARM_TOPICS},
+                       **{f'{scene.namespace}/{t}': (None, t) for t in (*ARM_TOPICS, *SCENE_TOPICS)},
                        **{f'{chain}/{t}': (name, t) for chain, name in zip(scene.chains, names) for t in CHAIN_TOPICS}}
 
     def apply(self, state: SceneState | ObjectsState, message: BagMessage) -> SceneState | ObjectsState:

@@ -325,6 +325,26 @@ def test_the_panel_shows_each_object_s_v_p_and_w_under_its_name(cup: GraspModel,
     assert 'live arm: no joint_states yet' in panel_html(one)
 
 
+def test_the_intent_estimator_s_p_of_each_object_is_shown_beside_its_name(cup: GraspModel,
+                                                                          flashlight: GraspModel) -> None:
+    state = two_objects(cup, flashlight)
+    assert state.object_probabilities == {} and 'P(o)' not in panel_html(state)
+    seen = apply_objects(state, None, topics.INTENT_OBJECTS, array_to_msg([0.83, 0.17], [['cup', 'flashlight']]))
+    assert seen.object_probabilities == {'cup': 0.83, 'flashlight': 0.17} and seen.chains is state.chains
+    html = panel_html(seen)
+    assert 'object <b>cup</b> (/robot1/cup, P(o) = 0.83)' in html
+    assert 'object <b>flashlight</b> (/robot1/flashlight, P(o) = 0.17)' in html
+    # the flashlight's goals not ready: only the cup is in the estimate, and only the cup shows one
+    one = apply_objects(seen, None, topics.INTENT_OBJECTS, array_to_msg([1.0], [['cup']]))
+    assert one.object_probabilities == {'cup': 1.0}
+    assert 'object <b>flashlight</b> (/robot1/flashlight)<' in panel_html(one)
+    for bad in (array_to_msg([0.5, 0.5], [['cup', 'bottle']]),  # not an object of this scene
+                array_to_msg([1.2, -0.2], [['cup', 'flashlight']]),  # not probabilities
+                Float64MultiArray(data=[0.5, 0.5])):  # no names
+        with pytest.raises(GraspIntentError, match='intent/objects'):
+            apply_objects(seen, None, topics.INTENT_OBJECTS, bad)
+
+
 def test_the_page_draws_each_object_with_its_grasp_at_its_own_pose_and_the_arm_once(
         arm: ArmModel, cup: GraspModel, flashlight: GraspModel) -> None:
     state = two_objects(cup, flashlight)

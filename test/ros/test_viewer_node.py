@@ -15,13 +15,13 @@ from geometry_msgs.msg import PoseStamped
 from numpy.testing import assert_allclose
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64, String
+from std_msgs.msg import Float64, Float64MultiArray, String
 
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q
 from grasp_intent_ros.nodes.viewer import Viewer
-from grasp_intent_ros.ros.conversions import model_to_msg
+from grasp_intent_ros.ros.conversions import array_to_msg, model_to_msg
 from grasp_intent_ros.ros.params import ParameterError
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
@@ -108,6 +108,11 @@ def test_a_viewer_of_two_objects_draws_both_chains_and_a_bad_message_on_one_warn
                              np.allclose(drawn['cup']._body_pose, moved, atol=1e-12), 10.0)
     assert_allclose(drawn['flashlight']._body_pose, poses['flashlight'], atol=1e-12)
     assert {kv.key: kv.value for kv in status.values}['messages rejected'] == '1'
+    # the intent estimator's P(o), at the viewer's namespace
+    p_o = array_to_msg([0.7, 0.3], [['cup', 'flashlight']])
+    assert ros.publish_until(ros.publisher(Float64MultiArray, '/robot1/intent/objects'), p_o,
+                             lambda: viewer._worker.latest.object_probabilities == {'cup': 0.7, 'flashlight': 0.3},
+                             10.0)
 
 
 def test_object_names_that_cannot_name_a_chain_are_a_configuration_error(ros) -> None:
