@@ -28,9 +28,10 @@ playback
     A session bag in the viewer's page, with a time slider (the ``viewer`` extra).
 reindex
     The command line of the bag repair (:func:`grasp_intent_ros.sessions.bag.reindex`).
-demonstrations
+demonstrations, demonstration_objects
     Grasps demonstrated on an arm (closes of the hand in ``joint_states``, against ``object/pose``, labelled)
-    as rows of the training CSV; the ``demonstrations`` command.
+    as rows of the training CSV; the ``demonstrations`` command. Which object a close is at (a scene's bag, one
+    object at a time) and a bag's topics read.
 fixtures
     The session bags of bags/ recorded from real runs of the suite (``scripts/record_sessions.py``), and
     the recording both kinds of fixture share (the closed-loop ones are recorded by

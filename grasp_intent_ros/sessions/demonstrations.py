@@ -1,6 +1,6 @@
 """Grasps demonstrated on an arm, read from session bags into a training CSV (the ``demonstrations`` command).
 
-    python -m grasp_intent_ros demonstrations BAG [BAG ...] --out CSV [--tasks T1,T2]
+    python -m grasp_intent_ros demonstrations BAG [BAG ...] --out CSV [--tasks T1,T2] [--object NAME]
                                               [--task-names T1,T2,T3 | --model MODEL.yaml] [--append]
                                               [--max-pose-age S] [--close-rise RAD]
                                               [--settle-tolerance RAD] [--settle-window S]
@@ -42,24 +42,44 @@ The grasp
     was received more than ``max_pose_age`` s before the settled joint state (in integer ns; stale: default
     :data:`MAX_POSE_AGE`; ``inf`` for an object the demonstrator vouches did not move), or when the features
     fall outside the feature space's bounds (the hand closed away from the object).
+A scene of several objects (``--object NAME``: that object's grasps)
+    A bag whose session topics are a scene (:func:`~grasp_intent_ros.sessions.scenes.detect_scene`: the arm's
+    ``joint_states`` in its namespace, one chain per object below it) is read for one object, named as its
+    chain's last name (``cup`` for ``/cup``): the joint states and labels in the arm's namespace, each object's
+    pose on ``<object>/object/pose`` there. The grasp is measured against ``NAME``'s pose by the rules above
+    (its absence, malformation or staleness rejects the close). The other objects whose pose is *known* (their
+    latest received well-formed, whatever its age: an object no longer tracked is where it was last seen) are
+    checked too: the close is ``NAME``'s grasp when its features are within the bounds relative to ``NAME`` and
+    outside them relative to every other known object; within the bounds of ``NAME`` and of another, it is
+    rejected as ambiguous, naming them; outside ``NAME``'s and within another's, it is that object's close,
+    printed and counted as such (no rejection: that object's own run reads it); outside every one, rejected as
+    away from ``NAME``. An object with no known pose cannot claim a close. Without ``--object`` a scene's bag is
+    refused, naming its chains; with it, a one-chain bag is refused (its objects have no names), and so is a
+    scene without ``NAME``.
 Labels (inclusive: every task the grasp serves)
     A ``std_msgs/String`` on ``operator/grasp_tasks`` holding comma-separated task names labels the next close
     seen after it was received, and that close only (a second label before any close replaces the first,
     and is printed). A close without one takes the command's ``--tasks``; without either it is rejected
-    (unlabelled). A label naming an unknown task rejects the close it labels. Never guessed.
+    (unlabelled). A label naming an unknown task rejects the close it labels. In a scene the operator's topic is
+    the arm's (``operator/grasp_tasks`` in its namespace), and a label may name the object it is meant for,
+    ``cup: usage,transfer``: a close labelled for ``NAME`` that is another object's (for another object that is
+    ``NAME``'s) is rejected, naming both; a close of another object is that object's whatever else its label
+    says; an object not of the scene (or any object in a one-chain bag) makes the label unknown. Never guessed.
 
 Every grasp found (time from the bag's first message, features, tasks) and every close rejected (its time and
 reasons) is printed. Exit status 0 when rows were written, 1 when no grasp was found (nothing written), 2 with
-the reason for a bad bag (unreadable, no ``joint_states``, a malformed joint state) or bad arguments.
+the reason for a bad bag (unreadable, no ``joint_states``, a malformed joint state, a scene without ``--object``
+or one chain with it) or bad arguments.
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import os
 import sys
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final
@@ -70,17 +90,14 @@ from numpy.typing import NDArray
 from ..cli.user_errors import report_user_errors
 from ..errors import DataError, GraspIntentError
 from ..method.data import Demonstrations, load_csv, save_csv
-from ..method.features import MICO_3F
 from ..method.intent import DEFAULT_TASKS
 from ..method.model import GraspModel
 from ..method.parameters import check_task_names
-from ..mico.frames import obj_T_ee_to_features
-from ..mico.kinematics import BASE_FRAME, MicoKinematics
-from ..wire.joint_states import FINGER_SET, SETTLE_TOLERANCE, SETTLE_WINDOW, Hand, HandTracker, RestRule, receipt_ns
-from ..wire.robot_state import pose_msg_to_matrix
-from ..wire.topics import JOINT_STATES, MSGTYPES, OBJECT_POSE, OPERATOR_GRASP_TASKS
-from .bag import BagReadError, read_messages, topics_info
-from .pairing import detect_namespace
+from ..mico.kinematics import MicoKinematics
+from ..wire.joint_states import FINGER_SET, SETTLE_TOLERANCE, SETTLE_WINDOW, Hand, HandTracker, RestRule
+from ..wire.topics import JOINT_STATES, OPERATOR_GRASP_TASKS
+from .bag import read_messages
+from .demonstration_objects import ObjectPoses, bag_topics, split_label
 
 __all__ = ['MAX_POSE_AGE', 'CLOSE_RISE', 'SETTLE_TOLERANCE', 'SETTLE_WINDOW', 'CloseRule', 'Grasp', 'Rejected',
            'Extraction', 'parse_tasks', 'extract', 'read_bag', 'describe', 'main']
@@ -145,12 +162,16 @@ class Rejected:
 
 @dataclass(frozen=True)
 class Extraction:
-    """What one message sequence holds: its grasps, the closes rejected, the openings seen and notes."""
+    """What one message sequence holds: its grasps, the closes rejected, the openings seen and notes.
+
+    ``elsewhere``: the closes of a scene's other objects, each (s it was seen at, the objects it is at).
+    """
 
     grasps: tuple[Grasp, ...]
     rejected: tuple[Rejected, ...]
     openings: int
     notes: tuple[str, ...]
+    elsewhere: tuple[tuple[float, tuple[str, ...]], ...] = ()
 
 
 def parse_tasks(text: str, task_names: Sequence[str]) -> int:
@@ -178,38 +199,34 @@ class _Motion:
 
     start: float
     closing: bool
-    label: tuple[float, int | str] | None
+    label: tuple[float, tuple[str | None, int] | str] | None
     extreme: float
 
 
 class _Extractor:
     """The rules of the module docstring over one bag's messages, fed in receive order."""
 
-    def __init__(self, kin: MicoKinematics, task_names: Sequence[str], tasks: int | None, max_pose_age: float,
+    def __init__(self, kin: MicoKinematics, task_names: Sequence[str], tasks: int | None, poses: ObjectPoses,
                  rule: CloseRule) -> None:
-        self.kin, self.task_names, self.tasks, self.max_pose_age = kin, tuple(task_names), tasks, max_pose_age
+        self.kin, self.task_names, self.tasks, self.poses = kin, tuple(task_names), tasks, poses
         self.rule, self.hands = rule, HandTracker(kin, rule.rest)
         self.rest: float | None = None  # the closure at the latest joint state at rest so far (rad)
-        self.pose: tuple[float, NDArray[np.float64] | str] | None = None  # (received, base_T_obj or why not)
-        self.label: tuple[float, int | str] | None = None  # (received, task set or why not), pending
+        # (received, (object named or None, task set) or why not), pending
+        self.label: tuple[float, tuple[str | None, int] | str] | None = None
         self.motion: _Motion | None = None
         self.grasps: list[Grasp] = []
         self.rejected: list[Rejected] = []
         self.notes: list[str] = []
+        self.elsewhere: list[tuple[float, tuple[str, ...]]] = []
         self.openings = 0
-
-    def object_pose(self, t: float, msg: Any) -> None:
-        try:
-            self.pose = (t, pose_msg_to_matrix(msg, frame_id=BASE_FRAME))
-        except GraspIntentError as exc:
-            self.pose = (t, str(exc))
 
     def grasp_tasks(self, t: float, msg: Any) -> None:
         if self.label is not None and (self.motion is None or self.motion.label is not self.label):
             self.notes.append(f'the label at {self.label[0]:.3f} s is replaced by the one at {t:.3f} s '
                               'before any close')
         try:
-            self.label = (t, parse_tasks(str(msg.data), self.task_names))
+            named, tasks = split_label(str(msg.data), self.poses.objects)
+            self.label = (t, (named, parse_tasks(tasks, self.task_names)))
         except DataError as exc:
             self.label = (t, str(exc))
 
@@ -251,7 +268,7 @@ class _Extractor:
             self.openings += 1
         self.motion = None
 
-    def _take_label(self, motion: _Motion) -> tuple[float, int | str] | None:
+    def _take_label(self, motion: _Motion) -> tuple[float, tuple[str | None, int] | str] | None:
         """The close's own label, no longer pending unless another arrived since the close began."""
         if motion.label is not None and self.label is motion.label:
             self.label = None
@@ -262,47 +279,41 @@ class _Extractor:
         self.rejected.append(Rejected(motion.start, (reason,)))
 
     def _close(self, motion: _Motion, hand: Hand) -> None:
+        label, found, target = self._take_label(motion), self.poses.attribute(hand), self.poses.target
+        named = None if label is None or isinstance(label[1], str) else label[1][0]
+        if found.other and named != target:
+            self.elsewhere.append((motion.start, found.other))
+            return
         reasons = []
-        label = self._take_label(motion)
         if label is not None and isinstance(label[1], str):
             reasons.append(f'the label at {label[0]:.3f} s: {label[1]}')
         elif label is None and self.tasks is None:
             reasons.append('unlabelled: no label before the close and no --tasks')
-        x = None
-        if self.pose is None:
-            reasons.append('no object pose')
-        elif isinstance(self.pose[1], str):
-            reasons.append(f'the latest object pose, at {self.pose[0]:.3f} s, is malformed: {self.pose[1]}')
-        elif receipt_ns(hand.received) - receipt_ns(self.pose[0]) > self.max_pose_age * 1e9:
-            reasons.append(f'stale object pose: the latest, at {self.pose[0]:.3f} s, is '
-                           f'{hand.received - self.pose[0]:.3f} s old (at most {self.max_pose_age:g} s)')
-        else:
-            x = obj_T_ee_to_features(np.linalg.inv(self.pose[1]) @ hand.base_T_ee, hand.fingers)
-            outside = [name for name, value, low, high in zip(MICO_3F.names, x, MICO_3F.lower, MICO_3F.upper)
-                       if not low <= value <= high]
-            if outside:
-                reasons.append('the hand is not at the object: ' + ', '.join(
-                    f'{name} = {x[MICO_3F.names.index(name)]:.4f}' for name in outside) + ' outside the feature bounds')
-        if reasons or x is None:
+        elif label is not None and named is not None and (found.other or (named != target and found.x is not None)):
+            reasons.append(f'the label at {label[0]:.3f} s names {named}, but the hand is at '
+                           f'{", ".join(found.other) or target}')
+        reasons += found.reasons
+        if reasons or found.x is None:
             self.rejected.append(Rejected(motion.start, tuple(reasons)))
-            return
-        if label is not None:
-            assert isinstance(label[1], int)
-            self.grasps.append(Grasp(hand.received, x, label[1], f'label at {label[0]:.3f} s'))
+        elif label is not None:
+            assert not isinstance(label[1], str)
+            self.grasps.append(Grasp(hand.received, found.x, label[1][1], f'label at {label[0]:.3f} s'))
         else:
             assert self.tasks is not None
-            self.grasps.append(Grasp(hand.received, x, self.tasks, '--tasks'))
+            self.grasps.append(Grasp(hand.received, found.x, self.tasks, '--tasks'))
 
 
 def extract(messages: Iterable[tuple[str, float, Any]], kin: MicoKinematics, *, task_names: Sequence[str],
-            tasks: int | None = None, max_pose_age: float = MAX_POSE_AGE, rule: CloseRule = CloseRule()) -> Extraction:
+            tasks: int | None = None, max_pose_age: float = MAX_POSE_AGE, rule: CloseRule = CloseRule(),
+            objects: Sequence[str] = ()) -> Extraction:
     """The grasps and rejected closes of a session's messages, by the rules of the module docstring.
 
     Parameters
     ----------
     messages : iterable of (topic, t, message)
-        In receive order: the relative topic (``joint_states``, ``object/pose``, ``operator/grasp_tasks``;
-        others are ignored), its receive time (s) and the decoded message (attribute access: rosbags' or rclpy's).
+        In receive order: the relative topic (``joint_states``, ``operator/grasp_tasks``, ``object/pose`` or in a
+        scene ``<object>/object/pose``; others are ignored), its receive time (s) and the decoded message
+        (attribute access: rosbags' or rclpy's).
     kin : MicoKinematics
     task_names : sequence of str
         The CSV's task columns, in order: bit i of a task set is ``task_names[i]``.
@@ -312,15 +323,19 @@ def extract(messages: Iterable[tuple[str, float, Any]], kin: MicoKinematics, *, 
         The oldest object pose (s before the settled joint state) a grasp is measured against (> 0, may be inf).
     rule : CloseRule
         What makes a close and its end.
+    objects : sequence of str
+        A scene's objects, the one whose grasps are read first; none for a one-chain session.
 
     Raises
     ------
     DataError
         For a malformed joint state (duplicate names, positions not finite, ...), naming its time.
     """
-    extractor = _Extractor(kin, task_names, tasks, max_pose_age, rule)
-    handlers = {JOINT_STATES: extractor.joint_state, OBJECT_POSE: extractor.object_pose,
-                OPERATOR_GRASP_TASKS: extractor.grasp_tasks}
+    poses = ObjectPoses(objects, max_pose_age)
+    extractor = _Extractor(kin, task_names, tasks, poses, rule)
+    handlers: dict[str, Callable[[float, Any], None]] = {
+        JOINT_STATES: extractor.joint_state, OPERATOR_GRASP_TASKS: extractor.grasp_tasks,
+        **{topic: functools.partial(poses.take, name) for topic, name in poses.topics.items()}}
     t = math.nan
     for topic, t, msg in messages:
         if (handler := handlers.get(topic)) is None:
@@ -330,24 +345,12 @@ def extract(messages: Iterable[tuple[str, float, Any]], kin: MicoKinematics, *, 
         except GraspIntentError as exc:
             raise DataError(f'malformed {topic} message at {t:.3f} s: {exc}') from None
     extractor.end(t)
-    return Extraction(tuple(extractor.grasps), tuple(extractor.rejected), extractor.openings, tuple(extractor.notes))
+    return Extraction(tuple(extractor.grasps), tuple(extractor.rejected), extractor.openings, tuple(extractor.notes),
+                      tuple(extractor.elsewhere))
 
 
-def _bag_messages(path: Path) -> Iterator[tuple[str, float, Any]]:
-    """A bag's ``joint_states``, ``object/pose`` and ``operator/grasp_tasks`` as (topic, t, message).
-
-    ``t``: receive time in s from the bag's first message. Raises BagReadError (SessionError) for an unreadable
-    bag, one without ``joint_states``, or one of these topics with another type.
-    """
-    infos = topics_info(path)
-    namespace = detect_namespace(infos)
-    relative = {f'{namespace}/{topic}': topic for topic in (JOINT_STATES, OBJECT_POSE, OPERATOR_GRASP_TASKS)}
-    if f'{namespace}/{JOINT_STATES}' not in infos:
-        raise BagReadError(f'bag {path} has no {namespace}/{JOINT_STATES}: record the arm with the recorder\'s '
-                           'default topics')
-    for topic, rel in relative.items():
-        if topic in infos and infos[topic].msgtype != MSGTYPES[rel]:
-            raise BagReadError(f'bag {path}: {topic} holds {infos[topic].msgtype}, not {MSGTYPES[rel]}')
+def _bag_messages(path: Path, relative: dict[str, str]) -> Iterator[tuple[str, float, Any]]:
+    """The bag's messages on ``relative``'s topics as (relative topic, s from the bag's first message, message)."""
     t0: int | None = None
     for message in read_messages(path):
         t0 = message.timestamp_ns if t0 is None else t0
@@ -356,19 +359,22 @@ def _bag_messages(path: Path) -> Iterator[tuple[str, float, Any]]:
 
 
 def read_bag(path: str | os.PathLike[str], kin: MicoKinematics, *, task_names: Sequence[str], tasks: int | None = None,
-             max_pose_age: float = MAX_POSE_AGE, rule: CloseRule = CloseRule()) -> Extraction:
-    """:func:`extract` of a session bag's messages (times in s from its first message).
+             max_pose_age: float = MAX_POSE_AGE, rule: CloseRule = CloseRule(),
+             target: str | None = None) -> Extraction:
+    """:func:`extract` of a session bag's messages (times in s from its first message); a scene's ``target``'s.
 
     Raises
     ------
     BagReadError
-        For a bag that cannot be read, one without ``joint_states``, or a topic of another type.
+        As :func:`~.demonstration_objects.bag_topics`: a bag that cannot be read, a scene without ``target`` or a
+        one-chain session with one, no ``joint_states``, a topic of another type.
     DataError
         For a malformed joint state, naming the bag.
     """
+    relative, objects = bag_topics(Path(path), target)
     try:
-        return extract(_bag_messages(Path(path)), kin, task_names=task_names, tasks=tasks,
-                       max_pose_age=max_pose_age, rule=rule)
+        return extract(_bag_messages(Path(path), relative), kin, task_names=task_names, tasks=tasks,
+                       max_pose_age=max_pose_age, rule=rule, objects=objects)
     except DataError as exc:
         raise DataError(f'bag {path}: {exc}') from None
 
@@ -390,12 +396,14 @@ def describe(bag: str, found: Extraction, task_names: Sequence[str]) -> Iterator
         (g.t, f'{bag}: grasp at {g.t:.3f} s, tasks {_task_list(g.task_set, task_names)} ({g.label})\n'
               f'    {_features(g.x)}') for g in found.grasps]
     events += [(r.t, f'{bag}: close at {r.t:.3f} s rejected: {"; ".join(r.reasons)}') for r in found.rejected]
+    events += [(t, f'{bag}: close at {t:.3f} s is at {", ".join(at)}') for t, at in found.elsewhere]
     for _, line in sorted(events, key=lambda event: event[0]):
         yield line
     for note in found.notes:
         yield f'{bag}: note: {note}'
     yield (f'{bag}: {len(found.grasps)} grasp(s), {len(found.rejected)} close(s) rejected, '
-           f'{found.openings} opening(s)')
+           f'{found.openings} opening(s)' + (f', {len(found.elsewhere)} close(s) at other objects'
+                                             if found.elsewhere else ''))
 
 
 def _task_names(args: argparse.Namespace, existing: Demonstrations | None) -> tuple[str, ...]:
@@ -424,6 +432,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     names.add_argument('--task-names', default=None,
                        help=f'the CSV\'s task columns, in order (default {",".join(DEFAULT_TASKS)})')
     names.add_argument('--model', type=Path, default=None, help="a model YAML whose task names are the CSV's")
+    parser.add_argument('--object', default=None, metavar='NAME',
+                        help="the object of a scene's bag whose grasps are read (a one-chain bag refuses it)")
     parser.add_argument('--append', action='store_true', help='add the grasps to an existing CSV (its tasks)')
     parser.add_argument('--max-pose-age', type=float, default=MAX_POSE_AGE,
                         help=f'oldest object pose a grasp is measured against, s before it (default '
@@ -447,7 +457,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         tasks = None if args.tasks is None else parse_tasks(args.tasks, task_names)
         kin = MicoKinematics()
         found = [(bag, read_bag(bag, kin, task_names=task_names, tasks=tasks, max_pose_age=args.max_pose_age,
-                                rule=rule)) for bag in args.bags]  # every bag read before anything is written
+                                rule=rule, target=args.object))
+                 for bag in args.bags]  # every bag read before anything is written
         for bag, extraction in found:
             print('\n'.join(describe(str(bag), extraction, task_names)))
         grasps = [g for _, extraction in found for g in extraction.grasps]
