@@ -485,13 +485,17 @@ def report_cells(records: list[dict[str, Any]], args: argparse.Namespace, object
                 print(f'  {c:12s} success {row["success"]:.3f}  median time {row["median_time"]:5.2f} s  '
                       f'effort {row["effort_linear"]:.3f} m  wrong pull {row["wrong_pull"]:.3f} alpha s{swept}')
             for a, other in [(a, b) for a, b in PAIRS if f'{a}-{b}' in table]:
-                d = table[f'{a}-{other}']
-                print(f'  {a} - {other:12s} success {100 * d["success_diff"]:+5.1f} points '
-                      f'[{100 * d["ci"][0]:+5.1f}, {100 * d["ci"][1]:+5.1f}]  time ratio {d["time_ratio"]:.2f} '
-                      f'[{d["time_ratio_ci"][0]:.2f}, {d["time_ratio_ci"][1]:.2f}]' +
-                      (f'  clear {100 * d["clear_diff"]:+5.1f} [{100 * d["clear_ci"][0]:+5.1f}, '
-                       f'{100 * d["clear_ci"][1]:+5.1f}]' if 'clear_diff' in d else ''))
+                print(_pair_line(a, other, table[f'{a}-{other}']))
     return report
+
+
+def _pair_line(a: str, other: str, d: dict[str, Any], *, clear: bool = True) -> str:
+    """One printed line of ``a`` minus ``other`` (:func:`paired_difference`'s ``d``); the clear path's if ``clear``."""
+    return (f'  {a} - {other:12s} success {100 * d["success_diff"]:+5.1f} points '
+            f'[{100 * d["ci"][0]:+5.1f}, {100 * d["ci"][1]:+5.1f}]  time ratio {d["time_ratio"]:.2f} '
+            f'[{d["time_ratio_ci"][0]:.2f}, {d["time_ratio_ci"][1]:.2f}]' +
+            (f'  clear {100 * d["clear_diff"]:+5.1f} [{100 * d["clear_ci"][0]:+5.1f}, '
+             f'{100 * d["clear_ci"][1]:+5.1f}]' if clear and 'clear_diff' in d else ''))
 
 
 def report_cases(records: list[dict[str, Any]], args: argparse.Namespace, objects: Sequence[str]) -> dict[str, Any]:
@@ -513,10 +517,7 @@ def report_cases(records: list[dict[str, Any]], args: argparse.Namespace, object
             print(f'\n[{o}, w = {case}] {episodes} episodes of {len({r["operator"] for r in cell})} operator models')
             print('  success ' + '  '.join(f'{c} {table[c]["success"]:.3f}' for c in RUN if c in table))
             for a, other in [(a, b) for a, b in PAIRS if a == 'suite' and f'{a}-{b}' in table]:
-                d = table[f'{a}-{other}']
-                print(f'  {a} - {other:12s} success {100 * d["success_diff"]:+5.1f} points '
-                      f'[{100 * d["ci"][0]:+5.1f}, {100 * d["ci"][1]:+5.1f}]  time ratio {d["time_ratio"]:.2f} '
-                      f'[{d["time_ratio_ci"][0]:.2f}, {d["time_ratio_ci"][1]:.2f}]')
+                print(_pair_line(a, other, table[f'{a}-{other}'], clear=False))
     return report
 
 
