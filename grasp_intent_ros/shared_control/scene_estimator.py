@@ -49,6 +49,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidIntentError
+from ..method.log_space import log_sum_exp
 from .estimator import EstimatorConfig, IntentEstimator, checked_motion
 
 __all__ = ['SceneEstimator']
@@ -144,9 +145,7 @@ class SceneEstimator:
         """Lambda_o per object, in order (module docstring): log sum over o's goals of pi_{g|o} exp(E_g)."""
         out = np.empty(len(self._objects))
         for k, est in enumerate(self._objects.values()):
-            log_p = est.log_prior + est.evidence
-            top = float(log_p.max())
-            out[k] = top + float(np.log(np.exp(log_p - top).sum()))
+            out[k] = log_sum_exp(est.log_prior + est.evidence)
         return out
 
     @property
