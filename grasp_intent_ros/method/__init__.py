@@ -19,7 +19,7 @@ features
 body
     The object's solid body, a field of the model document: where the palm may not go.
 log_space
-    Probabilities kept as logarithms: log-sum-exp, shifted by the largest value.
+    Probabilities kept as logarithms: log-sum-exp and softmax, shifted by the largest value.
 registry
     The models of a directory, loaded on demand, a few kept.
 safe_yaml

@@ -1,10 +1,11 @@
-r"""Probabilities kept as logarithms: the log of a sum of exponentials.
+r"""Probabilities kept as logarithms: the log of a sum of exponentials, and the exponentials normalised.
 
-It shifts by the largest value first, so that no exponential overflows and the largest one is exactly 1:
+Both shift by the largest value first, so that no exponential overflows and the largest one is exactly 1:
 
 .. math::
 
-    \operatorname{lse}(a) = m + \log \sum_k e^{a_k - m}, \qquad m = \max_k a_k.
+    \operatorname{lse}(a) = m + \log \sum_k e^{a_k - m}, \qquad
+    \operatorname{softmax}(a)_k = e^{a_k - m} / \sum_j e^{a_j - m}, \qquad m = \max_k a_k.
 
 The sums are numpy's (pairwise, in the array's order). Written out here rather than taken from
 ``scipy.special``: its ``logsumexp`` (since scipy 1.15) sums the terms but the largest and adds ``log1p`` of that
@@ -18,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ['log_sum_exp']
+__all__ = ['log_sum_exp', 'softmax']
 
 
 def log_sum_exp(a: NDArray[np.float64], axis: int = -1) -> NDArray[np.float64]:
@@ -32,3 +33,13 @@ def log_sum_exp(a: NDArray[np.float64], axis: int = -1) -> NDArray[np.float64]:
     out: NDArray[np.float64] = (top + np.log(np.exp(a - top).sum(axis=axis, keepdims=True))).squeeze(axis=axis)
     return out
 
+
+def softmax(a: NDArray[np.float64], axis: int = -1) -> NDArray[np.float64]:
+    """exp(a_k) normalised along ``axis`` (module docstring), a new float64 array of ``a``'s shape.
+
+    Each slice is positive where ``a`` is finite and sums to 1 to rounding; ``-inf`` entries get 0 while some
+    entry of their slice is finite; a slice of all ``-inf`` (or with ``nan``) gives nan.
+    """
+    p: NDArray[np.float64] = np.exp(a - a.max(axis=axis, keepdims=True))
+    p /= p.sum(axis=axis, keepdims=True)
+    return p

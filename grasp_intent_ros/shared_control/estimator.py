@@ -116,6 +116,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidIntentError, KinematicsError
 from ..method.intent import MAX_TASKS, zone_label
+from ..method.log_space import softmax
 from ..method.model import GraspModel
 from ..mico.frames import PRE_GRASP_STANDOFF, check_transform, check_vector, features_to_obj_T_ee
 from ..mico.kinematics import HOME_Q, MicoKinematics
@@ -576,10 +577,7 @@ class IntentEstimator:
     @property
     def posterior(self) -> NDArray[np.float64]:
         """P(g), shape (N,): the prior times exp(E_g), normalised."""
-        log_p = self.log_prior + self.evidence
-        p = np.exp(log_p - log_p.max())
-        out: NDArray[np.float64] = p / p.sum()
-        return out
+        return softmax(self.log_prior + self.evidence)
 
     @property
     def w(self) -> NDArray[np.float64]:

@@ -49,7 +49,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidIntentError
-from ..method.log_space import log_sum_exp
+from ..method.log_space import log_sum_exp, softmax
 from .estimator import EstimatorConfig, IntentEstimator, checked_motion
 
 __all__ = ['SceneEstimator']
@@ -153,10 +153,7 @@ class SceneEstimator:
         """P(o) per object, in order, shape (n,): positive, summing to 1 (to rounding); empty with no object."""
         if not self._objects:
             return np.zeros(0)
-        masses = self.log_masses()
-        p = np.exp(masses - masses.max())
-        out: NDArray[np.float64] = p / p.sum()
-        return out
+        return softmax(self.log_masses())
 
     def goal_posterior(self) -> dict[str, NDArray[np.float64]]:
         """P(g) over every object's goals, per object (the joint: all of them sum to 1), each shape (N_o,)."""

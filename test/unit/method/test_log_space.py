@@ -1,4 +1,4 @@
-"""method.log_space: log-sum-exp against closed forms, far from 0 and with -inf entries."""
+"""method.log_space: log-sum-exp and softmax against closed forms, far from 0 and with -inf entries."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 from numpy.testing import assert_allclose
 
-from grasp_intent_ros.method.log_space import log_sum_exp
+from grasp_intent_ros.method.log_space import log_sum_exp, softmax
 
 EPS = np.finfo(np.float64).eps
 
@@ -39,3 +39,11 @@ def test_minus_infinity_adds_nothing_unless_all_are() -> None:
     assert float(log_sum_exp(np.array([-np.inf, math.log(3.0)]))) == math.log(3.0)
     assert math.isnan(float(log_sum_exp(np.array([-np.inf, -np.inf]))))
 
+
+def test_softmax_normalises_the_exponentials_along_an_axis() -> None:
+    weights = np.array([[1.0, 2.0, 5.0], [3.0, 3.0, 2.0]])
+    p = softmax(np.log(weights) + 800.0)  # exp(800) overflows: shifted first
+    # log w + 800 is rounded to a unit of 800's last place, which p carries as a relative error
+    assert_allclose(p, weights / weights.sum(axis=1, keepdims=True), rtol=8 * EPS * 800.0, atol=0.0)
+    assert_allclose(softmax(np.log(weights), axis=0), weights / weights.sum(axis=0), rtol=8 * EPS, atol=0.0)
+    assert softmax(np.array([-np.inf, 0.0, 0.0])).tolist() == [0.0, 0.5, 0.5]
