@@ -43,7 +43,8 @@ from ..ros.qos import STREAM_DEPTH, input_qos, output_publisher
 from ..ros.run import guard_exit, publish_all, run_node
 from ..ros.worker import LatestOnlyWorker
 from ..shared_control.assistance import offset
-from ..shared_control.estimator import IntentEstimator, TwistTiming, goals_at, reachable_goals
+from ..shared_control.estimator import IntentEstimator, TwistTiming
+from ..shared_control.goals import goals_at, reachable_goals
 from ..shared_control.parameters import ESTIMATOR, check_estimator, estimator_config
 from ..shared_control.stamped_inputs import StampedInputs
 from ..shared_control.task_prior import check_task_prior
