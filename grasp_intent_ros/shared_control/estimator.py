@@ -117,7 +117,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import InvalidIntentError, KinematicsError
 from ..method.intent import zone_label
 from ..method.log_space import softmax
-from ..mico.frames import PRE_GRASP_STANDOFF, check_transform, check_vector
+from ..mico.frames import PRE_GRASP_STANDOFF, check_transform, check_vector, rotation_angles
 from .approach import approach_positions
 from .assistance import AssistanceConfig
 from .calibration import calibrate
@@ -367,9 +367,7 @@ class IntentEstimator:
             return
         offset = self.goals.positions - pose[:3, 3]
         near = np.sqrt(np.einsum('ni,ni->n', offset, offset)) <= cfg.proposal_radius
-        r_rel = self.goals.rotations @ pose[:3, :3].T
-        cos = np.clip(0.5 * (r_rel[:, 0, 0] + r_rel[:, 1, 1] + r_rel[:, 2, 2] - 1.0), -1.0, 1.0)
-        near &= np.arccos(cos) <= cfg.proposal_angle
+        near &= rotation_angles(self.goals.rotations, pose[:3, :3]) <= cfg.proposal_angle
         self._proposal = (pose[None, :3, 3].copy(), pose[None, :3, :3].copy(), near)
 
     def at_proposal(self, base_T_ee: NDArray[np.float64]) -> bool:
