@@ -82,13 +82,15 @@ episodes (10,000 resamples, seeded).
 
 Records (``--records F``): a JSON line per episode as it ends, the list of its runs' records, each carrying the
 run's settings (``run``: :func:`run_settings`; files written before they did lack it). ``--summarise F`` prints
-the figures of such a file (``.jsonl``, or gzip-compressed ``.jsonl.gz``) and runs nothing;
+the figures of such a file (``.jsonl``, or gzip-compressed ``.jsonl.gz``) and runs nothing; with ``--by-case``,
+the persistent intent's figures per ambiguous case instead (:func:`report_cases`: where the help matters most);
 benchmarks/compare_records.py pairs the runs of two of them, a change's against main's or against the shipped
 reference records of the README's rows (``benchmarks/reference/``).
 
     .venv/bin/python benchmarks/bench_shared_control_sim.py [--episodes 50] [--repeats 3] [--jobs 2] \
         [--intent persistent] [--conditions direct suite estimated] [--estimator rationality=300] \
-        [--operator-mm 5 --operator-deg 3] [--json out.json] [--records runs.jsonl] [--summarise runs.jsonl]
+        [--operator-mm 5 --operator-deg 3] [--json out.json] [--records runs.jsonl] [--summarise runs.jsonl \
+        [--by-case]]
 """
 
 from __future__ import annotations
@@ -116,6 +118,7 @@ from grasp_intent_ros.planning.options import Options, node_default_options
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator
 from grasp_intent_ros.shared_control.goals import goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
+    AMBIGUOUS_CASES,
     ChangingIntent,
     OperatorConstants,
     PersistentIntent,
@@ -427,10 +430,22 @@ def main() -> None:
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
     parser.add_argument('--summarise', metavar='JSONL', help='run nothing: summarise the records of a --records file '
                         '(.jsonl or .jsonl.gz; the cells it holds complete)')
+    parser.add_argument('--by-case', action='store_true', help='with --summarise: the persistent intent\'s figures '
+                        'per ambiguous case, each object\'s operators pooled')
     args = parser.parse_args()
+    if args.by_case and not args.summarise:
+        parser.error('--by-case summarises records: give --summarise JSONL')
     if args.summarise:
         done = read_records(args.summarise)
-        report_cells(done, args, sorted({r['object'] for r in done}), sorted({r['operator'] for r in done}))
+        objects = sorted({r['object'] for r in done})
+        if args.by_case:
+            intents = {r.get('run', {}).get('intent') for r in done}
+            if intents != {'persistent'}:
+                parser.error('--by-case needs records of the persistent intent alone; these hold '
+                             f'{sorted(map(str, intents))}')
+            report_cases(done, args, objects)
+        else:
+            report_cells(done, args, objects, sorted({r['operator'] for r in done}))
         return
     tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg,
                   tuple(c for c in RUN if c in args.conditions), not args.no_execute, not args.exact_landing,
@@ -477,6 +492,32 @@ def report_cells(records: list[dict[str, Any]], args: argparse.Namespace, object
                       f'[{d["time_ratio_ci"][0]:.2f}, {d["time_ratio_ci"][1]:.2f}]' +
                       (f'  clear {100 * d["clear_diff"]:+5.1f} [{100 * d["clear_ci"][0]:+5.1f}, '
                        f'{100 * d["clear_ci"][1]:+5.1f}]' if 'clear_diff' in d else ''))
+    return report
+
+
+def report_cases(records: list[dict[str, Any]], args: argparse.Namespace, objects: Sequence[str]) -> dict[str, Any]:
+    """Print and return, per object, the persistent intent's figures for each of :data:`AMBIGUOUS_CASES`.
+
+    Episode i held case i mod 5 (:meth:`PersistentIntent.draw`); a case's figures pool the object's operator models,
+    an episode being (operator, episode) for the pairing, and are :func:`summarise`'s (the same bootstrap).
+    """
+    report: dict[str, Any] = {'args': vars(args), 'cases': {}}
+    for o in objects:
+        for k, case in enumerate(AMBIGUOUS_CASES):
+            cell = [{**r, 'episode': (OPERATORS.index(r['operator']), r['episode'])} for r in records
+                    if r['object'] == o and r['episode'] % len(AMBIGUOUS_CASES) == k]
+            if not cell:
+                continue
+            table = summarise(cell, args.timeout)
+            report['cases'][f'{o}/{case}'] = table
+            episodes = max(row['episodes'] for c, row in table.items() if c in RUN)
+            print(f'\n[{o}, w = {case}] {episodes} episodes of {len({r["operator"] for r in cell})} operator models')
+            print('  success ' + '  '.join(f'{c} {table[c]["success"]:.3f}' for c in RUN if c in table))
+            for a, other in [(a, b) for a, b in PAIRS if a == 'suite' and f'{a}-{b}' in table]:
+                d = table[f'{a}-{other}']
+                print(f'  {a} - {other:12s} success {100 * d["success_diff"]:+5.1f} points '
+                      f'[{100 * d["ci"][0]:+5.1f}, {100 * d["ci"][1]:+5.1f}]  time ratio {d["time_ratio"]:.2f} '
+                      f'[{d["time_ratio_ci"][0]:.2f}, {d["time_ratio_ci"][1]:.2f}]')
     return report
 
 

@@ -5,8 +5,9 @@ object's model, the planner) in the object's namespace, so it has its own ``inte
 ``model/active``, ``intent/v`` and ``grasp/*``. The arm is one: every chain reads the suite namespace's
 ``joint_states`` (:func:`chain_remappings`); ``/diagnostics`` is absolute already, and each status is named
 by its node's fully qualified name (``/cup/grasp_planner: planning``). docs/several_objects.md gives the
-design and what is not built yet: the shared-control loop and the optional nodes serve one object, so
-:func:`refuse_unbuilt` refuses them beside objects.
+design and what is not built yet: the shared-control loop, the scripted operator and the viewer serve one object,
+so :func:`refuse_unbuilt` refuses them beside objects; the intent estimator serves every chain from the suite's
+namespace (:data:`SCENE_NODES`).
 
 - :func:`parse_objects`: the ``NAME=MODEL`` specs of ``suite --object``, checked before anything starts.
 - :class:`SceneObject`: one object, its namespace and its chain's process names.
@@ -16,19 +17,19 @@ Never imports rclpy.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 from ..errors import GraspIntentError, ModelError
 from ..method.registry import ModelFiles
-from ..wire.topics import JOINT_STATES, TOPIC_FOLDERS
+from ..wire.topics import JOINT_STATES, OBJECT_NAME, object_name_problem
 
-__all__ = ['OBJECT_NAME', 'SceneObject', 'parse_objects', 'chain_remappings', 'refuse_unbuilt']
+__all__ = ['OBJECT_NAME', 'SceneObject', 'parse_objects', 'chain_remappings', 'refuse_unbuilt', 'SCENE_NODES',
+           'estimator_args']
 
-OBJECT_NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]*')
-"""An object's name: one ROS name token (letters, digits, underscores, a letter first). A leading underscore,
-which ROS allows, is refused: it would hide the chain's topics from ``ros2 topic list``."""
+SCENE_NODES = ('intent_estimator',)
+"""The optional nodes (``suite --with``) that serve a scene of several objects: one process at the suite's
+namespace over every chain (:func:`estimator_args`)."""
 
 
 @dataclass(frozen=True)
@@ -77,12 +78,8 @@ def parse_objects(specs: Sequence[str], *, models_dir: str = '') -> tuple[SceneO
         name, equals, model = spec.partition('=')
         if not equals or not name or not model:
             problems.append(f'{spec!r} is not NAME=MODEL, e.g. cup=cup_7zone')
-        elif not OBJECT_NAME.fullmatch(name):
-            problems.append(f'object name {name!r} is not a ROS name token (letters, digits and underscores, '
-                            'a letter first)')
-        elif name in TOPIC_FOLDERS:
-            problems.append(f'object name {name!r} is a folder of the suite\'s topics ({name}/...): a recorder\'s '
-                            f'--topics {name}/ would select those, not the chain\'s')
+        elif object_name_problem(name):
+            problems.append(object_name_problem(name))
         elif name in {o.name for o in objects}:
             problems.append(f'object {name!r} is named twice')
         elif known is not None and model not in known:
@@ -100,15 +97,23 @@ def chain_remappings(suite_namespace: str = '') -> tuple[str, ...]:
 
 
 def refuse_unbuilt(optional: Sequence[str]) -> None:
-    """Refuse optional nodes beside objects: each serves one object, and which one is not designed in code yet.
+    """Refuse optional nodes beside objects but :data:`SCENE_NODES`: each of the others serves one object.
 
     Raises
     ------
     GraspIntentError
-        If ``optional`` (node module names) is not empty, naming them and the design note.
+        If ``optional`` (node module names) holds any other, naming them and the design note.
     """
-    if optional:
+    if unbuilt := [name for name in optional if name not in SCENE_NODES]:
         raise GraspIntentError(
-            f'{", ".join(optional)} with --object: not built yet (the shared-control loop, the intent estimator, '
-            'the scripted operator and the viewer each serve one object; docs/several_objects.md says what each '
-            'needs); --object starts the planning chains only')
+            f'{", ".join(unbuilt)} with --object: not built yet (the shared-control loop, the scripted operator and '
+            'the viewer each serve one object; docs/several_objects.md says what each needs); --object starts the '
+            f'planning chains and, with --with, {", ".join(SCENE_NODES)} over all of them')
+
+
+def estimator_args(objects: Sequence[SceneObject]) -> tuple[str, ...]:
+    """The ``--ros-args`` that make the intent estimator serve ``objects``: its ``objects`` parameter, their names.
+
+    Each name is quoted: the value is read as YAML, where a name such as ``on`` or ``null`` would not be a string.
+    """
+    return ('-p', 'objects:=[' + ','.join(f"'{obj.name}'" for obj in objects) + ']')

@@ -28,8 +28,7 @@ and the system tests.
   shutdown (docs/nodes.md, "Shutdown"). A node stopped while its peers are steady meets no such callback.
 - :class:`NodeSuite`: the processes of one run: start (one node, or the three suite nodes with their
   ``config/<node>.yaml``, or one such chain per object of the scene (:mod:`grasp_intent_ros.launch.objects`),
-  and :data:`OPTIONAL_NODES` on request: the shared-control loop's :data:`SHARED_CONTROL_NODES`, the intent
-  estimator, the scripted operator, the viewer), wait until ready, notice a death, stop them all.
+  and :data:`OPTIONAL_NODES` on request), wait until ready, notice a death, stop them all.
 
 Never imports rclpy.
 """
@@ -51,7 +50,7 @@ from ..errors import GraspIntentError
 from ..resources import config_dir
 from ..ros.startup import WATCHDOG_EXIT_CODE, is_ready_line
 from ..wire.topics import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
-from .objects import SceneObject, chain_remappings, refuse_unbuilt
+from .objects import SceneObject, chain_remappings, estimator_args, refuse_unbuilt
 from .parent_death import ended_with_this_process
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
@@ -361,8 +360,8 @@ class NodeSuite:
         model, models_dir : optional
             The model server's initial ``model`` and its ``models_dir`` (default: its config file's).
         objects : sequence of SceneObject
-            One chain of :data:`SUITE_NODES` per object instead, each process named ``<object>/<module>``
-            (:mod:`grasp_intent_ros.launch.objects`); then no ``model``, ``extra`` or ``shared_control``.
+            One chain of :data:`SUITE_NODES` per object instead, each process named ``<object>/<module>``, then no
+            ``model``, no ``shared_control`` and of ``extra`` only those of ``launch.objects.SCENE_NODES``.
         params_files : sequence of paths
             ROS parameters files given to every node after its own ``config/<node>.yaml``; the node-name
             keys in a file pick what each node reads, and a later file wins.
@@ -379,7 +378,7 @@ class NodeSuite:
         SuiteError
             For a name in ``extra`` that is not in :data:`OPTIONAL_NODES`, before anything is started.
         GraspIntentError
-            For ``objects`` with ``model``, ``extra`` or ``shared_control``, before anything is started.
+            For ``objects`` with ``model``, ``shared_control`` or another ``extra``, before anything is started.
         OSError
             If a process cannot be started; those already started stay in :attr:`processes`.
         """
@@ -388,13 +387,14 @@ class NodeSuite:
             refuse_unbuilt(wanted)
             if model is not None:
                 raise GraspIntentError('objects name their own models: give no model')
-        starts = [(module, obj.namespace(namespace), obj.model, obj.process_name(module), chain_remappings(namespace))
-                  for obj in objects for module in SUITE_NODES] if objects else [
-                      (module, namespace, model, None, ()) for module in (*SUITE_NODES, *wanted)]
-        for module, node_namespace, node_model, name, own in starts:
+        starts = [(module, obj.namespace(namespace), obj.model, obj.process_name(module), chain_remappings(namespace),
+                   ()) for obj in objects for module in SUITE_NODES] + [  # then the nodes over every chain
+                      (module, namespace, None, None, (), estimator_args(objects)) for module in wanted] if objects \
+            else [(module, namespace, model, None, (), ()) for module in (*SUITE_NODES, *wanted)]
+        for module, node_ns, node_model, name, own, params in starts:
             more = [arg for remapping in (*own, *(remappings or {}).get(module, ())) for arg in ('-r', remapping)]
-            self.start(module, *self.node_args(module, namespace=node_namespace, model=node_model,
-                                               models_dir=models_dir, params_files=params_files), *more, name=name)
+            self.start(module, *self.node_args(module, namespace=node_ns, model=node_model, models_dir=models_dir,
+                                               params_files=params_files), *more, *params, name=name)
 
     @staticmethod
     def node_args(module: str, *, namespace: str = '', model: str | None = None,

@@ -16,7 +16,10 @@ assistance
 mock_arm
     A simulated MICO taking trajectories and twists.
 intent_estimator
-    w from the operator's own twist (optional).
+    w from the operator's own twist (optional); over several objects each object's w and P(o).
+estimator_goals, estimator_scene
+    Parts of ``intent_estimator``, no nodes of their own: one object's goals followed in its namespace
+    (``ObjectGoals``), and the node's work over several objects (``SceneIntent``).
 scripted_operator
     A scripted operator driving the loop without a device: its twists, a held w, the grasp command (optional).
 viewer

@@ -52,7 +52,8 @@ def decode_input(topic: str, data: bytes, msg_type: Any = None) -> Any:
 
 def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], qos: QoSProfile,
                     diagnostics: NodeDiagnostics, *, count_dropped: bool = False, serialized: bool = False,
-                    callback_group: CallbackGroup | None = None, msg_type: Any = None) -> Subscription:
+                    callback_group: CallbackGroup | None = None, msg_type: Any = None,
+                    namespace: str = '') -> Subscription:
     """Subscribe ``callback`` to the suite input ``topic``, size-checked before decoding and guarded.
 
     Parameters
@@ -76,6 +77,9 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
         LatestOnlyWorker.take`; the subscription's callback takes the message and its info).
     msg_type : message class, optional
         Instead of the topic's own type (:func:`decode_input`); the topic's size cap still applies.
+    namespace : str
+        A relative namespace to read ``topic`` in (e.g. ``'cup'``: ``cup/object/pose``, one object's of a scene),
+        with ``topic``'s type and cap; every rejection then names the topic read (``cup/object/pose: ...``).
 
     Raises
     ------
@@ -86,17 +90,25 @@ def subscribe_input(node: Node, topic: str, callback: Callable[[Any], object], q
     if topic not in MAX_MESSAGE_BYTES:
         raise KeyError(f'{topic!r} is not an input topic with a size cap')
 
+    name = f'{namespace}/{topic}' if namespace else topic
+
     def on_serialized(data: bytes) -> None:
-        check_message_size(topic, len(data))
-        callback(data if serialized else decode_input(topic, data, msg_type))
+        check_message_size(topic, len(data), name=name)
+        msg = data if serialized else decode_input(name, data, msg_type)
+        try:
+            callback(msg)
+        except GraspIntentError as exc:
+            if not namespace:
+                raise
+            raise GraspIntentError(f'{name}: {exc}') from None
 
     on_serialized.__name__ = getattr(callback, '__name__', 'on_message')
     guarded = diagnostics.guard(on_serialized)
     # rclpy passes the message info to a callback of two parameters (its annotation names one)
     handle = cast(Callable[[bytes, Mapping[str, Any]], None], diagnostics.count_dropped(guarded)) if count_dropped \
         else (lambda data, _info: guarded(data))
-    return node.create_subscription(msg_type, topic, cast(Callable[[bytes], None], handle), qos, raw=True,
-                                    event_callbacks=input_events(node.get_logger(), topic),
+    return node.create_subscription(msg_type, name, cast(Callable[[bytes], None], handle), qos, raw=True,
+                                    event_callbacks=input_events(node.get_logger(), name),
                                     callback_group=callback_group)
 
 

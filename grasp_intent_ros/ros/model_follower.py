@@ -108,11 +108,19 @@ class ModelFollower:
         :func:`served_models` of its ``task_names``), read for every document.
     name : str
         Name of the thread.
+    namespace : str
+        A relative namespace whose ``model/active`` to follow (e.g. ``'cup'``, one object's of a scene that the node
+        serves with a follower per object). Then the node's state is the node's own: the follower sets no state,
+        its diagnostics values are named ``<namespace>: <key>``, and ``use(None)`` is the node's cue to say that
+        the object cannot be served (:attr:`refused` says why).
     """
 
     def __init__(self, node: Node, diagnostics: NodeDiagnostics, use: Callable[[ModelDocument | None], object], *,
-                 requires: Callable[[], ModelRequirements], name: str) -> None:
+                 requires: Callable[[], ModelRequirements], name: str, namespace: str = '') -> None:
         self._diagnostics, self._use, self._requires = diagnostics, use, requires
+        self.topic = f'{namespace}/{MODEL_ACTIVE}' if namespace else MODEL_ACTIVE
+        """The topic followed."""
+        self._prefix = f'{namespace}: ' if namespace else ''
         self.current: ModelDocument | None = None
         """The last document ``use`` accepted (None after :meth:`recheck` refused it)."""
         self.refused = ''
@@ -123,7 +131,8 @@ class ModelFollower:
             name=name)
         node.context.on_shutdown(self._worker.stop_soon)
         # counted and size-checked on arrival (subscribe_input); a document that fails to read is a rejection
-        self.subscription = subscribe_input(node, MODEL_ACTIVE, self._on_document, latched_qos(), diagnostics)
+        self.subscription = subscribe_input(node, MODEL_ACTIVE, self._on_document, latched_qos(), diagnostics,
+                                            namespace=namespace)
 
     def _on_document(self, msg: String) -> None:
         text = msg.data  # stored as is: the executor thread does no work on a document
@@ -138,7 +147,7 @@ class ModelFollower:
 
     def _read(self, text: str | None) -> None:
         assert text is not None  # ready() holds back the initial None
-        self._diagnostics.set_value('model documents superseded', self._worker.superseded)
+        self._diagnostics.set_value(f'{self._prefix}model documents superseded', self._worker.superseded)
         start = time.perf_counter()
         try:
             with yielding_reader():  # the size first, then the header, the declaration, the arrays
@@ -146,12 +155,15 @@ class ModelFollower:
             self._use(doc)
         except GraspIntentError as exc:
             self._refuse(str(exc))
+            if self._prefix:  # one of several: the rejection names the topic
+                raise GraspIntentError(self.refused) from None
             raise
         finally:
-            self._diagnostics.set_value('last model read time [ms]', f'{1e3 * (time.perf_counter() - start):.1f}')
+            self._diagnostics.set_value(f'{self._prefix}last model read time [ms]',
+                                        f'{1e3 * (time.perf_counter() - start):.1f}')
         self.current, self.refused = doc, ''
-        self._diagnostics.set_state(OK, '')
-        self._diagnostics.set_value(KEY_REFUSED, '')
+        self._set_state(OK, '')
+        self._diagnostics.set_value(f'{self._prefix}{KEY_REFUSED}', '')
         release_free_memory()  # what the reading freed (see release_free_memory)
 
     def _refuse(self, reason: str) -> None:
@@ -161,13 +173,19 @@ class ModelFollower:
                 self._requires().check(self.current.model.task_names, self.current.model.feature_names)
             except GraspIntentError:
                 self.current = None
-        self.refused = f'{MODEL_ACTIVE}: {reason}'
+        self.refused = f'{self.topic}: {reason}'
         if self.current is None:
-            self._diagnostics.set_state(ERROR, f'cannot serve: {self.refused}')
-            self._diagnostics.set_value(KEY_REFUSED, self.refused)
+            self._set_state(ERROR, f'cannot serve: {self.refused}')
+            self._diagnostics.set_value(f'{self._prefix}{KEY_REFUSED}', self.refused)
             self._use(None)
         else:
-            self._diagnostics.set_value(KEY_REFUSED, f'{self.refused}; still serving with model {self.current.name!r}')
+            self._diagnostics.set_value(f'{self._prefix}{KEY_REFUSED}',
+                                        f'{self.refused}; still serving with model {self.current.name!r}')
+
+    def _set_state(self, level: int, message: str) -> None:
+        """The node's state, unless the follower is one of several (``namespace``)."""
+        if not self._prefix:
+            self._diagnostics.set_state(level, message)
 
     def check(self, requires: ModelRequirements) -> None:
         """Whether the node still serves after its requirements become ``requires``: for a parameter check.

@@ -100,10 +100,11 @@ class Parameters(Mapping[str, Any]):
             (spec.name, _param_type(spec) if spec in empty else _to_rclpy(spec.default), descriptor(spec))
             for spec in specs])
         unset = [spec for spec, param in zip(specs, declared) if param.type_ == Parameter.Type.NOT_SET]
-        if unset:
-            node.set_parameters([Parameter(spec.name, _param_type(spec), []) for spec in unset])
-        self._values: dict[str, Any] = {
-            name: _plain(node.get_parameter(name).value) for name in self._specs}
+        if settable := [spec for spec in unset if not spec.read_only]:
+            node.set_parameters([Parameter(spec.name, _param_type(spec), []) for spec in settable])
+        # a read-only one cannot be set after its declaration: it stays unset in rclpy, empty here
+        self._values: dict[str, Any] = {spec.name: () if spec.read_only and spec in unset
+                                        else _plain(node.get_parameter(spec.name).value) for spec in specs}
         reason = self.validate(self._values, self._values)
         if reason:
             raise ParameterError(f'{node.get_fully_qualified_name()}: {reason}')

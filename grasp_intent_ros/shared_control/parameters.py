@@ -92,6 +92,11 @@ ASSISTANCE = (
 _ESTIMATE = EstimatorConfig()
 _SCALE = (1e-6, 1e6)
 ESTIMATOR = (
+    ParamSpec('objects', [], 'Names of the objects of a scene (suite --object): estimate over all of their goals from '
+              'the suite\'s namespace, reading each <object>/object/pose, model/active, grasp/pose and intent/prior, '
+              'publishing each <object>/intent/w and P(o) on intent/objects. Empty: one object, in this namespace.',
+              item_type=str, read_only=True, constraints='unique ROS name tokens, none a folder of the suite\'s topics '
+              '(checked by the node: wire.topics.check_object_names)'),
     ParamSpec('rationality', _ESTIMATE.rationality, 'beta, 1/m: log-likelihood per metre of progress toward a '
               'goal.', range=_SCALE),
     ParamSpec('memory', _ESTIMATE.memory, 'L, m of the hand\'s pose motion over which the evidence fades by e.',

@@ -16,12 +16,17 @@ Rules, in this order:
   hand and the newest grasp received.
 - A grasp without a stamp replaces every kept grasp (it is shown from now on, to every twist).
 - At most ``history`` joint states and grasps are kept; the grasp shown before the oldest one kept is kept too.
+
+Several grasps may be shown at once, one per stream (e.g. one per object of a scene, each shown by its own
+planner: :meth:`StampedInputs.proposal`'s ``stream``); the rules hold for each stream on its own, and a twist is
+taken with every stream's grasp at its stamp (:attr:`Paired.proposals`).
 """
 
 from __future__ import annotations
 
 import bisect
 from collections import deque
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Generic, TypeVar
 
@@ -48,14 +53,20 @@ class Paired(Generic[C]):
         Its arrival time (s).
     hand : ndarray, shape (4, 4), or None
         The hand's pose at its stamp (module docstring); None before any joint state.
-    proposal : ndarray, shape (4, 4), or None
-        The grasp shown at its stamp; None for none. The same object as given while it is shown.
+    proposals : mapping str -> ndarray, shape (4, 4), or None
+        The grasp shown at its stamp in each stream given (:meth:`StampedInputs.proposal`); None for none. The same
+        object as given while it is shown.
     """
 
     command: C
     arrival: float
     hand: NDArray[np.float64] | None
-    proposal: NDArray[np.float64] | None
+    proposals: Mapping[str, NDArray[np.float64] | None]
+
+    @property
+    def proposal(self) -> NDArray[np.float64] | None:
+        """The grasp shown at its stamp in the default stream ``''`` (one grasp shown at a time)."""
+        return self.proposals.get('')
 
 
 class StampedInputs(Generic[C]):
@@ -83,10 +94,7 @@ class StampedInputs(Generic[C]):
         self._hands: deque[NDArray[np.float64]] = deque()
         self._newest_hand: NDArray[np.float64] | None = None
         self._newest_hand_stamped = False
-        self._grasp_stamps: deque[int] = deque()
-        self._grasps: deque[NDArray[np.float64] | None] = deque()
-        self._grasp_before: NDArray[np.float64] | None = None  # shown before the oldest kept one
-        self._newest_grasp: NDArray[np.float64] | None = None
+        self._shown: dict[str, _Shown] = {}  # per stream
         self._queue: deque[tuple[int | None, float, C]] = deque()
 
     def __len__(self) -> int:
@@ -103,18 +111,9 @@ class StampedInputs(Generic[C]):
             self._hand_stamps.popleft()
             self._hands.popleft()
 
-    def proposal(self, stamp_ns: int | None, base_T_grasp: NDArray[np.float64] | None) -> None:
-        """The grasp shown from ``stamp_ns`` on (None: unstamped, shown from now to every twist)."""
-        self._newest_grasp = base_T_grasp
-        if stamp_ns is None:
-            self._grasp_stamps.clear()
-            self._grasps.clear()
-            self._grasp_before = base_T_grasp
-            return
-        _insert(self._grasp_stamps, self._grasps, stamp_ns, base_T_grasp)
-        while len(self._grasps) > self._history:
-            self._grasp_stamps.popleft()
-            self._grasp_before = self._grasps.popleft()
+    def proposal(self, stamp_ns: int | None, base_T_grasp: NDArray[np.float64] | None, *, stream: str = '') -> None:
+        """The grasp shown in ``stream`` from ``stamp_ns`` on (None: unstamped, shown from now to every twist)."""
+        self._shown.setdefault(stream, _Shown()).add(stamp_ns, base_T_grasp, self._history)
 
     def twist(self, stamp_ns: int | None, arrival: float, command: C) -> None:
         """An operator twist stamped ``stamp_ns`` (None: unstamped) that arrived at ``arrival`` (s)."""
@@ -126,14 +125,42 @@ class StampedInputs(Generic[C]):
         while self._queue:
             stamp, arrival, command = self._queue[0]
             if stamp is None or not self._newest_hand_stamped:
-                out.append(Paired(command, arrival, self._newest_hand, self._newest_grasp))
+                out.append(Paired(command, arrival, self._newest_hand,
+                                  {name: shown.newest for name, shown in self._shown.items()}))
             elif self._hand_stamps[-1] >= stamp or now - arrival >= self.wait:
                 out.append(Paired(command, arrival, _at(self._hand_stamps, self._hands, stamp, self._hands[0]),
-                                  _at(self._grasp_stamps, self._grasps, stamp, self._grasp_before)))
+                                  {name: shown.at(stamp) for name, shown in self._shown.items()}))
             else:
                 break
             self._queue.popleft()
         return out
+
+
+class _Shown:
+    """One stream of shown grasps: those kept by stamp, the one shown before them, the newest received."""
+
+    def __init__(self) -> None:
+        self.stamps: deque[int] = deque()
+        self.grasps: deque[NDArray[np.float64] | None] = deque()
+        self.before: NDArray[np.float64] | None = None  # shown before the oldest kept one
+        self.newest: NDArray[np.float64] | None = None
+
+    def add(self, stamp_ns: int | None, base_T_grasp: NDArray[np.float64] | None, history: int) -> None:
+        """As :meth:`StampedInputs.proposal`, keeping at most ``history`` grasps."""
+        self.newest = base_T_grasp
+        if stamp_ns is None:
+            self.stamps.clear()
+            self.grasps.clear()
+            self.before = base_T_grasp
+            return
+        _insert(self.stamps, self.grasps, stamp_ns, base_T_grasp)
+        while len(self.grasps) > history:
+            self.stamps.popleft()
+            self.before = self.grasps.popleft()
+
+    def at(self, stamp_ns: int) -> NDArray[np.float64] | None:
+        """The grasp shown at ``stamp_ns``."""
+        return _at(self.stamps, self.grasps, stamp_ns, self.before)
 
 
 T = TypeVar('T')

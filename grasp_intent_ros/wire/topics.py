@@ -19,6 +19,7 @@ joint state's names (:func:`check_names`), :data:`MAX_FEATURES` a feature vector
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from typing import Final
 
@@ -26,17 +27,20 @@ from ..errors import GraspIntentError
 from ..method.safe_yaml import MAX_DOCUMENT_CHARS
 
 __all__ = [
-    'INTENT_W', 'INTENT_PRIOR', 'INTENT_V', 'INTENT_CLARIFICATION', 'MODEL_ACTIVE', 'MODEL_AMBIGUITY',
+    'INTENT_W', 'INTENT_OBJECTS', 'INTENT_PRIOR', 'INTENT_V', 'INTENT_CLARIFICATION', 'MODEL_ACTIVE', 'MODEL_AMBIGUITY',
     'MODEL_AMBIGUITY_SYMMETRIC', 'MODEL_AMBIGUITY_PINSKER', 'MODEL_QUERY', 'MODEL_POSTERIOR',
     'OBJECT_POSE', 'JOINT_STATES', 'GRASP_POSE', 'GRASP_JOINT_TARGETS', 'GRASP_TRAJECTORY',
     'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'OPERATOR_TWIST', 'OPERATOR_GRASP_TASKS', 'ASSISTANCE_TWIST',
     'ASSISTANCE_ALPHA', 'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS', 'ASSISTANCE_ENABLE',
     'MSGTYPES', 'TOPIC_FOLDERS', 'LATCHED_TOPICS', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS', 'PLAN_TOPICS',
     'OUTPUT_TOPICS', 'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size',
-    'check_names',
+    'check_names', 'OBJECT_NAME', 'object_name_problem', 'check_object_names',
 ]
 
 INTENT_W: Final = 'intent/w'
+INTENT_OBJECTS: Final = 'intent/objects'
+"""P(o): the probability of each object of a scene that the operator wants it, one dimension labelled with the
+objects' names (the intent estimator over several objects, docs/several_objects.md)."""
 INTENT_PRIOR: Final = 'intent/prior'
 """Task probabilities from another source (e.g. per-task classifiers), the intent estimator's prior."""
 INTENT_V: Final = 'intent/v'
@@ -75,6 +79,7 @@ ASSISTANCE_ENABLE: Final = 'assistance/enable'
 _F64MA, _STRING = 'std_msgs/msg/Float64MultiArray', 'std_msgs/msg/String'
 MSGTYPES: Final[Mapping[str, str]] = {
     INTENT_W: _F64MA,
+    INTENT_OBJECTS: _F64MA,
     INTENT_PRIOR: _F64MA,
     INTENT_V: _F64MA,
     INTENT_CLARIFICATION: _STRING,
@@ -118,6 +123,40 @@ PLAN_TOPICS: Final = (GRASP_POSE, GRASP_JOINT_TARGETS, GRASP_TRAJECTORY, GRASP_P
 """The outputs of one plan (all carry the same stamp)."""
 OUTPUT_TOPICS: Final = (INTENT_V, INTENT_CLARIFICATION, *PLAN_TOPICS)
 """Outputs compared by a replay (relative names), besides ``model/active`` and rejections."""
+OBJECT_NAME: Final = re.compile(r'[A-Za-z][A-Za-z0-9_]*')
+"""An object's name in a scene of several (its chain's namespace token): one ROS name token (letters, digits,
+underscores, a letter first). A leading underscore, which ROS allows, is refused: it would hide the chain's topics
+from ``ros2 topic list``."""
+
+
+def object_name_problem(name: str) -> str:
+    """Why ``name`` cannot name an object of a scene ('' if it can).
+
+    Not :data:`OBJECT_NAME`, or a folder of the suite's topics (:data:`TOPIC_FOLDERS`: a recorder's
+    ``--topics grasp/`` would select those, not the chain's).
+    """
+    if not OBJECT_NAME.fullmatch(name):
+        return f'object name {name!r} is not a ROS name token (letters, digits and underscores, a letter first)'
+    if name in TOPIC_FOLDERS:
+        return (f'object name {name!r} is a folder of the suite\'s topics ({name}/...): a recorder\'s --topics '
+                f'{name}/ would select those, not the chain\'s')
+    return ''
+
+
+def check_object_names(names: Sequence[str]) -> None:
+    """Object names of a scene: each one that :func:`object_name_problem` accepts, none twice.
+
+    Raises
+    ------
+    GraspIntentError
+        Naming every bad one.
+    """
+    problems = [problem for name in names if (problem := object_name_problem(name))]
+    problems += [f'object {name!r} is named twice' for name in sorted(set(names)) if list(names).count(name) > 1]
+    if problems:
+        raise GraspIntentError('; '.join(problems))
+
+
 SHARED_CONTROL_TOPICS: Final = (OPERATOR_TWIST, ASSISTANCE_TWIST, ASSISTANCE_ALPHA)
 """The shared-control loop's topics (the assistance node's input and outputs), recorded with the suite's."""
 
@@ -154,8 +193,8 @@ message never becomes Python objects); each cap leaves ample room for the larges
 """
 
 
-def check_message_size(topic: str, size: int) -> None:
-    """Reject a serialized message of ``size`` bytes larger than the cap of ``topic``.
+def check_message_size(topic: str, size: int, *, name: str = '') -> None:
+    """Reject a serialized message of ``size`` bytes larger than the cap of ``topic`` (read as ``name``, if given).
 
     Raises
     ------
@@ -166,7 +205,7 @@ def check_message_size(topic: str, size: int) -> None:
     """
     cap = MAX_MESSAGE_BYTES[topic]
     if size > cap:
-        raise GraspIntentError(f'{topic}: oversized message of {size} bytes, the limit is {cap} bytes')
+        raise GraspIntentError(f'{name or topic}: oversized message of {size} bytes, the limit is {cap} bytes')
 
 
 def check_names(names: Sequence[str], *, max_count: int, what: str) -> None:

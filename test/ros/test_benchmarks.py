@@ -8,6 +8,7 @@ definitions (each runs its work under ``if __name__ == '__main__'``); ``benchmar
 
 from __future__ import annotations
 
+import argparse
 import importlib
 from pathlib import Path
 
@@ -48,3 +49,22 @@ def test_each_live_condition_sets_values_the_assistance_and_the_planner_accept()
     # the paper's foil as the simulated loop's `independent`: the suite's assistance on the single task's grasp
     assert (live.ARBITRATION['independent'], live.PLAN_FOR['independent']) == ('confidence', 'most_likely_task')
     assert ('confidence', 'independent') in live.PAIRS
+
+
+def test_the_figures_per_ambiguous_case_pool_each_objects_operators_by_the_case_of_the_episode() -> None:
+    sim = importlib.import_module('bench_shared_control_sim')
+    n_cases = len(sim.AMBIGUOUS_CASES)
+    # the suite succeeds exactly on case 1's episodes, direct never; two operator models, two repeats
+    records = [{'object': 'cup', 'operator': op, 'episode': e, 'repeat': rep, 'condition': c,
+                'success': c == 'suite' and e % n_cases == 1, 'time': 5.0 if c == 'suite' else 10.0,
+                'effort_linear': 1.0, 'wrong_pull': 0.0}
+               for op in ('joystick', 'spacemouse') for e in range(2 * n_cases) for rep in range(2)
+               for c in ('direct', 'suite')]
+    args = argparse.Namespace(timeout=25.0)
+    report = sim.report_cases(records, args, ['cup'])
+    assert list(report['cases']) == [f'cup/{case}' for case in sim.AMBIGUOUS_CASES]
+    for k, case in enumerate(sim.AMBIGUOUS_CASES):
+        table = report['cases'][f'cup/{case}']
+        assert table['suite']['episodes'] == 4  # 2 episodes of the case x 2 operator models, not 2 (merged)
+        assert table['suite']['success'] == (1.0 if k == 1 else 0.0) and table['direct']['success'] == 0.0
+        assert table['suite-direct']['time_ratio'] == pytest.approx(0.5)

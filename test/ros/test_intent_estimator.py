@@ -105,21 +105,21 @@ def test_a_moved_object_and_a_new_model_restart_from_the_prior(ros, rig: Rig) ->
     rig.at_home()
     assert ros.publish_until(rig.operator, twist_msg(rig.toward(1)), lambda: rig.w[-1].data[0] > PRIOR + 0.1,
                              20.0, period=0.01)
-    assert rig.node._restarts == 1
+    assert rig.node._object.restarts == 1
     nudged = matrix_to_pose_msg(pose_to_matrix((0.3, -0.3, 0.005), (0.0, 0.0, 1.0, 0.0)), frame_id=BASE_FRAME,
                                 stamp=ros.node.get_clock().now().to_msg())
     received = rig.node._diag._received
     assert ros.publish_until(rig.object, nudged, lambda: rig.node._diag._received > received + 2, 10.0, period=0.05)
-    np.testing.assert_array_equal(rig.node._scenes.latest.base_T_obj, BASE_T_OBJ)  # within the tolerance: kept
+    np.testing.assert_array_equal(rig.node._object.base_T_obj, BASE_T_OBJ)  # within the tolerance: kept
     moved = matrix_to_pose_msg(pose_to_matrix((0.3, -0.25, 0.0), (0.0, 0.0, 1.0, 0.0)), frame_id=BASE_FRAME,
                                stamp=ros.node.get_clock().now().to_msg())
     count = len(rig.w)
     rig.object.publish(moved)
     # the restart is counted just before its prior is published: wait for that w too
-    assert ros.wait_for(lambda: rig.node._restarts == 2 and len(rig.w) > count, 60.0)
+    assert ros.wait_for(lambda: rig.node._object.restarts == 2 and len(rig.w) > count, 60.0)
     np.testing.assert_allclose(rig.w[-1].data, [PRIOR] * 3, rtol=1e-12)
     rig.activate('cup_5zone', 2)
-    assert ros.wait_for(lambda: rig.node._restarts == 3, 60.0)
+    assert ros.wait_for(lambda: rig.node._object.restarts == 3, 60.0)
     assert rig.node._estimator is not None and rig.node._estimator.updates == 0
 
 
@@ -161,9 +161,9 @@ def test_a_classifiers_w_on_intent_prior_is_the_prior_at_once_and_across_restart
     assert ros.publish_until(prior, Float64MultiArray(data=[0.5, 0.5]),
                              lambda: status_finder(rig.statuses, ': intent estimator', level=warn, text='3 probab'),
                              10.0)
-    np.testing.assert_array_equal(rig.node._task_prior, [0.9, 0.9, 0.1])  # the last good one is kept
+    np.testing.assert_array_equal(rig.node._object._task_prior, [0.9, 0.9, 0.1])  # the last good one is kept
     rig.activate('cup_5zone', 2)
-    assert ros.wait_for(lambda: rig.node._restarts == 2 and np.allclose(rig.w[-1].data, prior_w('cup_5zone',
+    assert ros.wait_for(lambda: rig.node._object.restarts == 2 and np.allclose(rig.w[-1].data, prior_w('cup_5zone',
                         [0.9, 0.9, 0.1]), rtol=1e-12, atol=0), 60.0), 'the restart starts from the classifier\'s prior'
 
 
@@ -203,14 +203,14 @@ def test_the_shown_grasp_is_the_proposal_and_survives_a_restart(ros, rig: Rig) -
         return None if estimator is None or estimator._proposal is None else estimator._proposal[0][0]
 
     msg = matrix_to_pose_msg(shown, frame_id=BASE_FRAME, stamp=ros.node.get_clock().now().to_msg())
-    assert ros.publish_until(grasps, msg, lambda: rig.node._proposal is not None, 10.0, period=0.05)
+    assert ros.publish_until(grasps, msg, lambda: rig.node._object.proposal is not None, 10.0, period=0.05)
     assert proposal() is None  # taken with the twists
     assert ros.publish_until(rig.operator, twist_msg(np.zeros(3)), lambda: proposal() is not None, 10.0, period=0.05)
     np.testing.assert_allclose(proposal(), goals.positions[0], rtol=0, atol=1e-9)
     near = rig.node._estimator._proposal[2]
     assert near[0] and 1 < near.sum() < near.size, 'the shown goal and some, not all, others are near it'
     rig.activate('cup_5zone', 2)
-    assert ros.wait_for(lambda: rig.node._restarts == 2, 60.0)
+    assert ros.wait_for(lambda: rig.node._object.restarts == 2, 60.0)
     np.testing.assert_allclose(proposal(), goals.positions[0], rtol=0, atol=1e-9)
     wrong = matrix_to_pose_msg(np.eye(4), frame_id='elsewhere', stamp=ros.node.get_clock().now().to_msg())
     rejected = rig.node._diag._rejected

@@ -11,7 +11,7 @@ import re
 import time
 from pathlib import Path
 
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, TwistStamped
 from processes import alive, ctrl_c, suite_command
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
@@ -22,6 +22,7 @@ from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q
 from grasp_intent_ros.ros.conversions import model_from_msg
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import matrix_to_pose_msg
+from grasp_intent_ros.wire.arrays import msg_labels
 
 UP = 90.0
 """Seconds for six node processes to start and log that they are ready (two planners load their compiled kernels
@@ -111,3 +112,46 @@ def test_one_chain_per_object_each_with_its_model_and_pose_sharing_the_arms_join
     assert not [name for name, pid in pids.items() if alive(pid)], 'a node outlived the suite command'
     assert sorted(p.name for p in (tmp_path / 'logs').iterdir()) == sorted(
         f'{name.replace("/", ".")}.{ext}' for name in chain for ext in ('out', 'err'))
+
+
+def test_the_intent_estimator_over_both_chains_publishes_each_w_and_p_of_the_objects(
+        ros, domain_id: int, tmp_path: Path) -> None:
+    """``suite --object ... --with intent_estimator``: one estimator at the root; twists give both w and P(o)."""
+    out = tmp_path / 'suite.out'
+    objects = [arg for name, model in MODELS.items() for arg in ('--object', f'{name}={model}')]
+    args = ['--domain-id', str(domain_id), *objects, '--with', 'intent_estimator']
+    with suite_command(args, cwd=tmp_path, out=out) as suite:
+        w_msgs = {name: ros.subscribe(Float64MultiArray, f'/{name}/intent/w') for name in MODELS}
+        p_msgs = ros.subscribe(Float64MultiArray, '/intent/objects')
+        joints_pub = ros.publisher(JointState, '/joint_states')
+        twist_pub = ros.publisher(TwistStamped, '/operator/twist')
+        assert ros.wait_for(lambda: 'suite: up' in out.read_text() or suite.poll() is not None, UP), out.read_text()
+        assert suite.poll() is None, out.read_text()
+        # each object's prior w once its goals are ready (both at the default pose until an object/pose comes)
+        assert ros.wait_for(lambda: all(w_msgs.values()) and p_msgs and len(p_msgs[-1].data) == 2, ANSWER), \
+            out.read_text()
+        counts = {name: len(msgs) for name, msgs in w_msgs.items()}
+        twist = TwistStamped()
+        twist.header.frame_id = BASE_FRAME
+        twist.twist.linear.x = 0.05
+        home = JointState(name=list(ARM_JOINTS), position=[float(q) for q in HOME_Q])
+
+        def streamed() -> bool:
+            return all(len(w_msgs[name]) > counts[name] + 3 for name in MODELS)
+        deadline = time.monotonic() + ANSWER
+        while time.monotonic() < deadline:
+            stamp = ros.node.get_clock().now().to_msg()
+            home.header.stamp = twist.header.stamp = stamp
+            joints_pub.publish(home)
+            twist_pub.publish(twist)
+            if ros.wait_for(streamed, 0.02):  # at most the operator's device period
+                break
+        assert streamed(), out.read_text()
+        (labels,) = msg_labels(p_msgs[-1])
+        assert labels == tuple(MODELS) and abs(sum(p_msgs[-1].data) - 1.0) < 1e-12, p_msgs[-1]
+        assert all(0.0 < v < 1.0 for msgs in w_msgs.values() for m in msgs for v in m.data)
+        assert all(0.0 < v <= 1.0 for m in p_msgs for v in m.data)  # 1 while one object alone is ready
+        assert ctrl_c(suite, STOP) == 0, out.read_text()
+    text = out.read_text()
+    assert re.search(r'started cup/intent_interpreter .* intent_estimator \(pid \d+\)', text.splitlines()[0]), text
+    assert text.rstrip().endswith('suite: stopped cleanly') and 'Traceback' not in text, text

@@ -56,10 +56,11 @@ def test_models_are_looked_up_in_the_given_directory(tmp_path: Path) -> None:
         parse_objects(['cup=cup_7zone'], models_dir=str(tmp_path / 'missing'))
 
 
-def test_optional_nodes_beside_objects_are_refused_naming_them() -> None:
+def test_optional_nodes_beside_objects_are_refused_naming_them_but_the_intent_estimator() -> None:
     refuse_unbuilt([])
+    refuse_unbuilt(['intent_estimator'])
     with pytest.raises(GraspIntentError, match=r'^mock_arm, assistance with --object: not built yet'):
-        refuse_unbuilt(['mock_arm', 'assistance'])
+        refuse_unbuilt(['mock_arm', 'intent_estimator', 'assistance'])
 
 
 def test_each_object_gets_a_chain_in_its_namespace_with_its_model_reading_the_arms_joint_states(
@@ -81,6 +82,16 @@ def test_each_object_gets_a_chain_in_its_namespace_with_its_model_reading_the_ar
         assert remaps == [f'__ns:=/robot1/{obj}', 'joint_states:=/robot1/joint_states'], (name, args)
         assert (f'model:={model}' in args) == (module == 'model_server'), (name, args)
     assert chain_remappings() == ('joint_states:=/joint_states',)
+
+    started.clear()
+    suite.start_nodes(namespace='/robot1', objects=objects, extra=['intent_estimator'])
+    assert [name for _, name, _ in started[:-1]] == [f'{obj}/{module}' for obj in ('cup', 'flashlight')
+                                                      for module in SUITE_NODES]
+    module, name, args = started[-1]  # one estimator over both chains, at the suite's namespace
+    assert (module, name) == ('intent_estimator', None)
+    assert args[:2] == ('--params-file', str(config_dir() / 'intent_estimator.yaml'))
+    assert [args[i + 1] for i, a in enumerate(args) if a == '-r'] == ['__ns:=/robot1']
+    assert [args[i + 1] for i, a in enumerate(args) if a == '-p'] == ["objects:=['cup','flashlight']"]
 
     started.clear()
     with pytest.raises(GraspIntentError, match='not built yet'):
