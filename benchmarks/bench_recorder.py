@@ -9,8 +9,10 @@ After the last w, it waits until the recorder's ``/diagnostics`` count of ``inte
 stops the recorder with SIGINT and reads the bag back.
 
 Printed: w sent, recorded, lost (sent - distinct sequence numbers in the bag), out of order, messages
-recorded on all topics, the recorder's CPU over the publishing window (% of one core, from
-/proc/<pid>/stat), the largest writer queue it reported, and the load average before and after.
+recorded on all topics, the messages the recorder itself reports lost (its diagnostics' 'messages lost': the
+middleware's message-lost events and what its keep-last queue dropped), the recorder's CPU over the publishing
+window (% of one core, from /proc/<pid>/stat), the largest writer queue it reported, and the load average before
+and after.
 
 Network rule: refuses to run unless ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; the domain is
 ROS_DOMAIN_ID (default 91).
@@ -138,7 +140,7 @@ def main() -> None:
     print(f'  w sent {count}, recorded {len(seqs)} ({len(set(seqs))} distinct), lost {count - len(set(seqs))}, '
           f'out of order {out_of_order}')
     print(f'  all topics recorded: {total} messages; writer queue peak {written["queue peak"]}; '
-          f'middleware message-lost events reported by the recorder: {written["lost"]}')
+          f'messages the recorder reports lost (middleware events, its queue\'s drops): {written["lost"]}')
     print(f'  recorder CPU while publishing: {cpu_pct:.0f}% of one core')
     print(f'  load average before {load_before[0]:.2f}, after {load_after[0]:.2f}')
     for problem in problems:

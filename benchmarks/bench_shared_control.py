@@ -25,9 +25,10 @@ closures plus its closure error (N(0, ``closure_error``^2) per finger, one draw 
 ``closure_seed``). The probe sets ``closure_seed`` to the operator's closure seed before each of its runs (the set
 restarts the stream): the one close of a run draws the stream's first error, so an operator's closes draw the same
 error in every condition (paired, as the simulated loop's). The probe sends zero twists until it receives a joint
-state at least ``CLOSE_SETTLE`` (0.3 s) after the close's answer with the fingers at rest
+state sampled at least ``CLOSE_SETTLE`` (0.3 s) after the close's answer with the fingers at rest
 (:func:`~grasp_intent_ros.wire.joint_states.fingers_settled`, as the demo reads them: still for 0.5 s, from
-positions, timed by the joint states' stamps), and the hand is judged there: its pose and the closures the fingers
+positions; both timed by the joint states' stamps, so a backlog sampled before the close and taken after it is
+never the closed hand), and the hand is judged there: its pose and the closures the fingers
 executed.
 
 A close on the operator's OWN grasp calls no ``grasp/close``: the mock arm would close to the latest plan's

@@ -22,11 +22,13 @@ HOLD_LIMIT = 60.0
 def held(gate: Path, kin: MicoKinematics, request: PathRequest) -> PathAnswer:
     """:func:`seek_path`, held while ``gate/armed`` exists until ``gate/release`` does.
 
-    Writes ``gate/started`` (the process id) when it holds; after each search, the request's grasp to
-    ``gate/grasp_<n>.npy`` and a line ``<process id>`` to ``gate/sought`` (n: the searches before it).
+    Writes ``gate/started`` (the process id; it appears whole, by a rename) when it holds; after each search, the
+    request's grasp to ``gate/grasp_<n>.npy`` and a line ``<process id>`` to ``gate/sought`` (n: the searches
+    before it).
     """
     if (gate / 'armed').exists():
-        (gate / 'started').write_text(str(os.getpid()))
+        (gate / 'started.tmp').write_text(str(os.getpid()))
+        os.replace(gate / 'started.tmp', gate / 'started')  # whole: the test reads it as soon as it exists
         deadline = time.monotonic() + HOLD_LIMIT
         while not (gate / 'release').exists() and time.monotonic() < deadline:
             time.sleep(0.002)

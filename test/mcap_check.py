@@ -29,13 +29,14 @@ class McapMessage:
     The fields of :class:`grasp_intent_ros.sessions.bag.BagMessage` under the mcap library's names: the channel
     ``topic``, the ``schema_name`` (the message type, e.g. 'std_msgs/msg/String'), the log (receive) time
     ``log_time_ns`` in ns since the epoch, and instead of the bytes the ``mcap_ros2`` dynamic message object
-    ``decoded`` (fields as attributes).
+    ``decoded`` (fields as attributes); the publish (send) time ``publish_time_ns``.
     """
 
     topic: str
     schema_name: str
     log_time_ns: int
     decoded: Any
+    publish_time_ns: int
 
 
 def read_messages_mcap(
@@ -81,4 +82,4 @@ def read_messages_mcap(
 def _mcap_file_messages(stream: Any, topics: list[str] | None) -> Iterator[McapMessage]:
     reader = make_reader(stream, decoder_factories=[DecoderFactory()])
     for schema, channel, message, decoded in reader.iter_decoded_messages(topics=topics, log_time_order=True):
-        yield McapMessage(channel.topic, schema.name if schema else '', message.log_time, decoded)
+        yield McapMessage(channel.topic, schema.name if schema else '', message.log_time, decoded, message.publish_time)

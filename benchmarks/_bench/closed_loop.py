@@ -250,18 +250,21 @@ class Loop:
     def close(self) -> Hand | None:
         """The grasp command's close: ``grasp/close``, then zero twists until the fingers are seen at rest.
 
-        The hand read in joint states received at least :data:`~grasp_intent_ros.wire.joint_states.CLOSE_SETTLE` s
+        The hand read in joint states sampled at least :data:`~grasp_intent_ros.wire.joint_states.CLOSE_SETTLE` s
         after the answer, the fingers at rest (:func:`~grasp_intent_ros.wire.joint_states.fingers_settled`: still
-        for the rest rule's window, from positions): its
-        fingers are the closures the mock arm executed (the latest plan's plus its closure error). None when the close
-        is refused or the fingers are not at rest within :data:`CLOSE_TIMEOUT` s (both printed).
+        for the rest rule's window, from positions, both timed by the joint states' stamps, which the mock arm takes
+        from the system clock this process reads too; by receipts once they are not usable): its fingers are the
+        closures the mock arm executed (the latest plan's plus its closure error), never a backlog of joint states
+        sampled before the close and taken after it (the subscription keeps 100). None when the close is refused or
+        the fingers are not at rest within :data:`CLOSE_TIMEOUT` s (both printed).
         """
         answer = self.call(self._close, self._trigger.Request())
         if not answer.success:
             print(f'bench_shared_control: grasp/close refused: {answer.message}', file=sys.stderr)
             return None
-        closed = time.monotonic()
-        if not self.hold(lambda now: fingers_settled(self.hand(), closed, CLOSE_SETTLE), CLOSE_TIMEOUT):
+        closed, closed_ns = time.monotonic(), self.probe.node.get_clock().now().nanoseconds
+        if not self.hold(lambda now: fingers_settled(self.hand(), closed, CLOSE_SETTLE, closed_ns=closed_ns),
+                         CLOSE_TIMEOUT):
             print(f'bench_shared_control: the fingers not at rest {CLOSE_TIMEOUT:g} s after grasp/close',
                   file=sys.stderr)
             return None

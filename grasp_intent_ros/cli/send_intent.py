@@ -14,7 +14,9 @@ Before it leaves, it waits up to :data:`ACK_TIMEOUT` for every matched subscript
 (a subscription whose side of the match came late gets it resent). A subscriber that discovery finds after the
 interpreter answered gets no w: a recorder started before ``send_intent`` records its w for sure only with
 ``-w 2`` (``--wait-matching-subscriptions``, as ``ros2 topic pub`` has it), which holds the first w until
-two subscriptions, the interpreter's and the recorder's, have matched (within ``--timeout``).
+two subscriptions, the interpreter's and the recorder's, have matched (within ``--timeout``). Matched is not
+ordered: the recorder may receive the w after the interpreter's answer to it (the w reaches each subscription in
+turn); a session is paired by send times (:func:`~grasp_intent_ros.sessions.pairing.send_order`), not by that.
 """
 
 from __future__ import annotations

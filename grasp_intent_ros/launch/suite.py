@@ -50,7 +50,7 @@ from ..errors import GraspIntentError
 from ..resources import config_dir
 from ..ros.startup import WATCHDOG_EXIT_CODE, is_ready_line
 from ..wire.topics import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
-from .objects import SceneObject, chain_remappings, estimator_args, refuse_unbuilt
+from .objects import SceneObject, chain_remappings, refuse_unbuilt, scene_node_args
 from .parent_death import ended_with_this_process
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
@@ -389,7 +389,7 @@ class NodeSuite:
                 raise GraspIntentError('objects name their own models: give no model')
         starts = [(module, obj.namespace(namespace), obj.model, obj.process_name(module), chain_remappings(namespace),
                    ()) for obj in objects for module in SUITE_NODES] + [  # then the nodes over every chain
-                      (module, namespace, None, None, (), estimator_args(objects)) for module in wanted] if objects \
+                      (module, namespace, None, None, (), scene_node_args(objects)) for module in wanted] if objects \
             else [(module, namespace, model, None, (), ()) for module in (*SUITE_NODES, *wanted)]
         for module, node_ns, node_model, name, own, params in starts:
             more = [arg for remapping in (*own, *(remappings or {}).get(module, ())) for arg in ('-r', remapping)]

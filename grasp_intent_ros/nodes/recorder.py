@@ -18,12 +18,12 @@ Crash safety
     A chunk is on disk once its first message is ``--flush-period`` seconds old (default 1 s): a SIGKILLed
     recorder loses at most that much; ``python -m grasp_intent_ros reindex BAG`` repairs the bag.
 Diagnostics
-    ``/diagnostics`` status ``<node>: recorder``: its bag's counts (:class:`~grasp_intent_ros.sessions.bag.Recording`),
-    a WARN naming the topics that lost messages, ERROR with the reason once a write failed.
+    Status ``<node>: recorder``: counts and losses per topic (:class:`~grasp_intent_ros.sessions.bag.Recording`), a
+    WARN naming the topics that lost messages (:class:`~grasp_intent_ros.ros.recording.TopicRecorder`), ERROR
+    with the reason once a write failed.
 Ending
-    SIGINT/SIGTERM: the bag is closed (MCAP summary, metadata.yaml), a one-line summary printed, exit 0.
-    A write error (e.g. disk full): an ERROR log naming the bag and the number of messages written,
-    nothing more is recorded, exit code 1. A bag directory that exists already: exit code 1.
+    SIGINT/SIGTERM: the bag is closed, a summary printed (messages, losses per topic), exit 0. A write error (a
+    full disk): an ERROR log naming the bag and the messages written, exit 1 (also when the bag exists already).
 """
 
 from __future__ import annotations

@@ -10,9 +10,18 @@ Topics (relative; all inputs, :data:`~grasp_intent_ros.scene.state.VIEWER_TOPICS
     ``assistance/twist``, ``assistance/alpha`` when it runs. Publishes only its own ``/diagnostics``
     (``viewer``: ``url``, ``browsers connected``, ``frames drawn``, every rejected message).
 
+    With ``objects`` (a scene of several objects, docs/several_objects.md; the viewer at the suite's namespace):
+    each object's chain topics (:data:`~grasp_intent_ros.scene.state.CHAIN_TOPICS`) in ``<object>/``, e.g.
+    ``cup/object/pose``, ``cup/model/active``, ``cup/grasp/pose``; the arm's
+    (:data:`~grasp_intent_ros.scene.state.ARM_TOPICS`: ``joint_states``, the twists, alpha) and ``/diagnostics``
+    once, each chain's plan status from its own planner (``/<namespace>/cup/grasp_planner: planning``).
+
 Behaviour
-    A message only replaces the newest state (:func:`grasp_intent_ros.scene.state.apply`; ``model/active``
-    is read off the executor, :class:`~grasp_intent_ros.ros.model_follower.ModelFollower`); a thread of its
+    A message only replaces the newest state (:func:`grasp_intent_ros.scene.state.apply`; with ``objects``
+    the state of its chain, :func:`~grasp_intent_ros.scene.state.apply_objects`; ``model/active`` is read off
+    the executor, one :class:`~grasp_intent_ros.ros.model_follower.ModelFollower` per chain); a message that
+    cannot be read is a rejection naming its topic (WARN) and changes nothing, every other chain drawn as
+    before. A thread of its
     own draws the newest state at most ``rate`` times a second and skips the states in between
     (:class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker`). The viewer is a subscriber only, in a process
     of its own, with keep-last queues: a slow browser or viewer never holds up a publisher.
@@ -31,6 +40,7 @@ from typing import Any
 
 from rclpy.node import Node
 
+from ..errors import GraspIntentError
 from ..method.features import MICO_3F
 from ..method.model import ModelRequirements
 from ..mico.parameters import URDF_PATH
@@ -44,12 +54,22 @@ from ..ros.run import guard_exit, run_node
 from ..ros.worker import LatestOnlyWorker
 from ..scene.geometry import ArmModel
 from ..scene.page import DEFAULT_HOST, ScenePage
-from ..scene.state import VIEWER_TOPICS, SceneState, apply
+from ..scene.state import (
+    ARM_TOPICS,
+    CHAIN_TOPICS,
+    SCENE_TOPICS,
+    VIEWER_TOPICS,
+    ObjectsState,
+    SceneState,
+    apply,
+    apply_objects,
+)
 from ..wire.diagnostics import OK, WARN
 from ..wire.model_document import ModelDocument
-from ..wire.topics import DIAGNOSTICS, JOINT_STATES, MODEL_ACTIVE
+from ..wire.topics import DIAGNOSTICS, JOINT_STATES, MODEL_ACTIVE, check_object_names
 
 __all__ = ['Viewer', 'PARAMETERS', 'main']
+
 
 PARAMETERS = (
     ParamSpec('host', DEFAULT_HOST, "Address the page is served on; '0.0.0.0' serves every interface "
@@ -58,6 +78,10 @@ PARAMETERS = (
               range=(0, 65535), read_only=True),
     ParamSpec('rate', 20.0, 'Most frames drawn per second, Hz (the newest state each time).', range=(1.0, 60.0)),
     URDF_PATH,
+    ParamSpec('objects', [], 'The objects of a scene of several objects (docs/several_objects.md), each with its '
+              "planning chain in <the viewer's namespace>/<object>, as suite --object starts them (e.g. [cup, "
+              "flashlight]); empty: one chain, in the viewer's own namespace.", item_type=str, read_only=True,
+              validator=check_object_names),
 )
 
 
@@ -83,30 +107,59 @@ class Viewer(Node):
         moved = '' if self._params['port'] in (0, self._page.port) else \
             f' (port {self._params["port"]} was in use)'
         self.get_logger().info(f'serving the scene on {url}{moved}')
-        self._worker = LatestOnlyWorker(SceneState(), self._diag.guard(self._draw, counts_received=False),
-                                        name=f'{node_name}_draw',
-                                        min_period=lambda: 1.0 / float(self._params['rate']))
+        objects = tuple(self._params['objects'])
+        scene = ObjectsState.empty(objects, self.get_namespace().rstrip('/'))
+        self._worker: LatestOnlyWorker[SceneState | ObjectsState] = LatestOnlyWorker(
+            scene if objects else SceneState(), self._diag.guard(self._draw, counts_received=False),
+            name=f'{node_name}_draw', min_period=lambda: 1.0 / float(self._params['rate']))
         self.context.on_shutdown(self._worker.stop_soon)
         # any tasks (the page names the model's own zones); the MICO's features, which the scene draws
-        self._models = ModelFollower(self, self._diag, self._use_model, name=f'{node_name}_model',
-                                     requires=lambda: ModelRequirements(feature_names=MICO_3F.names))
-        for topic, msgtype in VIEWER_TOPICS.items():
+        self._models = [ModelFollower(self, self._diag, self._use_model(chain),
+                                      name=f'{node_name}_model' + (f'_{chain}' if chain else ''),
+                                      requires=lambda: ModelRequirements(feature_names=MICO_3F.names),
+                                      namespace=chain or '')
+                        for chain in objects or (None,)]
+        topics = [(None, topic) for topic in VIEWER_TOPICS] if not objects else [
+            *((None, topic) for topic in (*ARM_TOPICS, *SCENE_TOPICS, DIAGNOSTICS)),
+            *((chain, topic) for chain in objects for topic in CHAIN_TOPICS)]
+        for chain, topic in topics:
             if topic == MODEL_ACTIVE:
                 continue
             depth = 10 if topic in (JOINT_STATES, DIAGNOSTICS) else 1  # several publishers on these
-            self.create_subscription(type_class(msgtype), topic, self._diag.guard(self._on_message(topic)),
-                                     input_qos(depth=depth))
+            self.create_subscription(type_class({**VIEWER_TOPICS, **SCENE_TOPICS}[topic]),
+                                     topic if chain is None else f'{chain}/{topic}',
+                                     self._diag.guard(self._on_message(chain, topic)), input_qos(depth=depth))
+        if objects:
+            self.get_logger().info(f'following the chains {", ".join(map(scene.chain_namespace, objects))}')
 
-    def _on_message(self, topic: str) -> Any:
+    def _on_message(self, chain: str | None, topic: str) -> Any:
+        name = topic if chain is None else f'{chain}/{topic}'
+
+        def change(state: SceneState | ObjectsState, msg: Any) -> SceneState | ObjectsState:
+            try:
+                if isinstance(state, ObjectsState):
+                    return apply_objects(state, chain, topic, msg)
+                return apply(state, topic, msg)
+            except GraspIntentError as exc:  # the reason names the topic: in a scene, the object's chain
+                raise GraspIntentError(f'{name}: {exc}') from None
+
         def on_message(msg: Any) -> None:
-            self._worker.update(lambda state: apply(state, topic, msg))
-        on_message.__name__ = f'on {topic}'
+            self._worker.update(lambda state: change(state, msg))
+        on_message.__name__ = f'on {name}'
         return on_message
 
-    def _use_model(self, doc: ModelDocument | None) -> None:  # in the model follower's thread
-        self._worker.update(lambda state: replace(state, model=doc))
+    def _use_model(self, chain: str | None) -> Any:
+        def change(state: SceneState | ObjectsState, doc: ModelDocument | None) -> SceneState | ObjectsState:
+            if isinstance(state, ObjectsState):
+                assert chain is not None  # one follower per chain
+                return state.with_chain(chain, lambda s: replace(s, model=doc))
+            return replace(state, model=doc)
 
-    def _draw(self, state: SceneState) -> None:  # in the drawing thread
+        def use(doc: ModelDocument | None) -> None:  # in the model follower's thread
+            self._worker.update(lambda state: change(state, doc))
+        return use
+
+    def _draw(self, state: SceneState | ObjectsState) -> None:  # in the drawing thread
         self._page.show(state)
         self._frames += 1
         self._diag.set_value('frames drawn', self._frames)
@@ -122,7 +175,8 @@ class Viewer(Node):
 
     def destroy_node(self) -> None:
         """Stop drawing and reading models, close the page, then destroy the node."""
-        self._models.stop()
+        for follower in self._models:
+            follower.stop()
         self._worker.stop()
         self._page.stop()
         super().destroy_node()

@@ -66,7 +66,8 @@ DEFAULT_TOPICS = ('intent/', 'model/', 'grasp/', 'object/', 'joint_states', 'ope
 """Recorded by default: relative to the recorder's namespace; a trailing '/' selects a whole subtree."""
 
 DEFAULT_DEPTH = 1000
-"""Keep-last depth of the recorder's subscriptions (messages): absorbs bursts while a write blocks."""
+"""Keep-last depth of the recorder's subscriptions (messages): absorbs bursts while a write blocks; what a longer lag
+drops is counted and reported (:meth:`TopicRecorder._check_queue`)."""
 
 DEFAULT_DISCOVERY_PERIOD = 0.5
 """Seconds between the recorder's looks at the ROS graph for new topics."""
@@ -242,6 +243,8 @@ class TopicRecorder:
         self._unrecorded: dict[str, QosSpec] = {}  # subscribed, not in the bag yet -> the offer assumed
         self._skipped: set[str] = set()
         self._qos_warned: set[str] = set()
+        self._publishers: dict[str, int] = {}  # topic -> its publishers at the last look at the graph
+        self._sequence: dict[str, int] = {}  # topic -> the publication sequence number of its last message taken
         for topic, (msgtype, declared) in known_topics(node, selection).items():
             override = overrides.get(topic)
             if self._subscribe(topic, msgtype, override or declared):
@@ -270,6 +273,9 @@ class TopicRecorder:
             except Exception as exc:  # noqa: BLE001
                 log.warning(f'cannot query the publishers of {topic}: {exc}')
                 continue
+            if len(publishers) != self._publishers.get(topic, 0):  # another publisher's numbers: start again
+                self._sequence.pop(topic, None)
+            self._publishers[topic] = len(publishers)
             if not publishers:
                 continue
             offered = offered_qos(publishers)
@@ -341,7 +347,7 @@ class TopicRecorder:
         msgtype, before = self._subscribed[topic]
         if not self._subscribe(topic, msgtype, qos):
             return
-        self._bag.count_received(self._take_waiting(old, topic, self._depth))
+        self._bag.count_received(len(self._take_waiting(old, topic, self._depth)))
         self._node.destroy_subscription(old)
         self._bag.resubscribe(topic, qos)
         self._node.get_logger().info(f'{topic}: no publisher offers {before.reliability}/{before.durability}; '
@@ -380,34 +386,72 @@ class TopicRecorder:
         rclpy's executor builds a wait set and a task for every message it hands over, which at
         a few kHz costs more than a loaded machine's share of a core; so the callback takes the
         messages already waiting on the same subscription itself (at most ``depth``, so other topics
-        keep their turn), as rclpy's executor does (``handle.take_message``).
+        keep their turn), as rclpy's executor does (``handle.take_message``). A take of ``depth`` messages
+        found the queue full: :meth:`_check_queue` counts what it dropped.
         """
         if topic in self._unrecorded and not self._record(topic, self._offers_now(topic)):
             return
         data, info = received
         # the middleware's receive time, not the callback's: an input and a fast answer taken in one
-        # executor wait keep their order of arrival
-        self._bag.put(topic, info.get('received_timestamp', 0) or self._node.get_clock().now().nanoseconds, data)
+        # executor wait keep their order of arrival; and the publisher's send time, which orders a cause before
+        # its effect whatever order the recorder received them in
+        self._bag.put(topic, info.get('received_timestamp', 0) or self._node.get_clock().now().nanoseconds, data,
+                      info.get('source_timestamp', 0) or None)
         subscription = self._subscriptions.get(topic)
-        taken = 0 if subscription is None else self._take_waiting(subscription, topic, self._depth - 1)
-        self._bag.count_received(1 + taken)
+        taken = [] if subscription is None else self._take_waiting(subscription, topic, self._depth - 1)
+        self._bag.count_received(1 + len(taken))
+        self._check_queue(topic, [info.get('publication_sequence_number'), *taken])
 
-    def _take_waiting(self, subscription: Subscription, topic: str, limit: int) -> int:
+    def _take_waiting(self, subscription: Subscription, topic: str, limit: int) -> list[int | None]:
         """Put up to ``limit`` messages waiting on ``subscription`` (of ``topic``, in the bag) into the bag.
 
-        Returns how many.
+        Returns their publication sequence numbers (None where the middleware gives none), in order.
         """
         put, now = self._bag.put, self._node.get_clock().now
-        taken = 0
+        taken: list[int | None] = []
         for data, info in waiting_messages(subscription, limit):
-            put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data)
-            taken += 1
+            put(topic, info.get('received_timestamp', 0) or now().nanoseconds, data,
+                info.get('source_timestamp', 0) or None)
+            taken.append(info.get('publication_sequence_number'))
         return taken
+
+    def _check_queue(self, topic: str, sequence: Sequence[int | None]) -> None:
+        """Count what ``topic``'s keep-last queue dropped, from one take's publication sequence numbers, in order.
+
+        The queue drops its oldest message, silently (no middleware event), when a message arrives while it holds
+        ``depth``; the next take then finds it full and takes ``depth`` messages. Only then is a jump in the
+        sequence numbers (from the previous message taken, and within the take) counted as lost: while the last
+        look at the graph showed one publisher, the numbers it skipped; with several (their numbers interleave),
+        a full queue is counted as an overflow without a count. A number not above the one before (another
+        publisher, or a new one) starts the sequence again.
+        """
+        previous, skipped = self._sequence.get(topic), 0
+        for number in sequence:
+            if number is not None and previous is not None and number > previous + 1:
+                skipped += number - previous - 1
+            previous = number
+        if previous is None:
+            self._sequence.pop(topic, None)
+        else:
+            self._sequence[topic] = previous
+        if len(sequence) < self._depth:
+            return
+        if self._publishers.get(topic) == 1 and all(n is not None for n in sequence):
+            if skipped:
+                self._report_lost(self._bag.count_lost(topic, skipped), f'{topic}: its queue dropped {skipped}')
+        else:
+            self._report_lost(self._bag.count_overflow(topic), f'{topic}: its queue was full')
 
     def _on_lost(self, topic: str, info: QoSMessageLostInfo) -> None:
         """The middleware reports messages that never reached the subscription: count them, WARN."""
-        lost = self._bag.count_lost(topic, int(info.total_count_change))
-        self._diagnostics.set_state(WARN, f'messages lost before they reached the recorder: {lost}')
+        lost = int(info.total_count_change)
+        self._report_lost(self._bag.count_lost(topic, lost), f'{topic}: {lost} never reached it')
+
+    def _report_lost(self, every: str, what: str) -> None:
+        """WARN (the log at most every 5 s) with what was just lost and every topic's losses so far (``every``)."""
+        message = f'messages lost, the bag misses them (raise --depth if a queue dropped them): {every}'
+        self._node.get_logger().warning(f'{what}; {message}', throttle_duration_sec=5.0)
+        self._diagnostics.set_state(WARN, message)
 
 
 def _parser() -> argparse.ArgumentParser:

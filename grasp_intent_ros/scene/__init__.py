@@ -9,7 +9,8 @@ plan
     ROS-free: the tasks a planned grasp serves by its object's rules, the object pose a plan implies.
 state
     :class:`~grasp_intent_ros.scene.state.SceneState`, the newest content of every topic the viewer follows,
-    updated message by message (rclpy and rosbags messages alike).
+    updated message by message (rclpy and rosbags messages alike); for a scene of several objects,
+    :class:`~grasp_intent_ros.scene.state.ObjectsState`, one per object's chain and the arm once.
 panel
     The side panel's HTML: w, v and P bars labelled with task and zone names, the plan's status.
 page

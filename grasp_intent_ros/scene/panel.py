@@ -1,6 +1,7 @@
 """The viewer's side panel as HTML: intent w, target v and posterior P as labelled bars, and the plan's status.
 
-:func:`panel_html` is a pure function of a :class:`~grasp_intent_ros.scene.state.SceneState`; every number
+:func:`panel_html` is a pure function of a :class:`~grasp_intent_ros.scene.state.SceneState` (or, for several
+objects, of an :class:`~grasp_intent_ros.scene.state.ObjectsState`: the same per object, under its name); every number
 it shows is also text (``0.62``), so the page can be checked by its text. Zones are rows labelled with the
 model's zone labels (``UT``); tasks with the model's task names.
 """
@@ -13,7 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from .state import SceneState
+from .state import ObjectsState, SceneState
 
 __all__ = ['panel_html']
 
@@ -51,14 +52,12 @@ def _twist(name: str, twist: NDArray[np.float64] | None) -> str:
 
 _STYLE = ('<style>.gb{border-collapse:collapse;font-size:12px;margin-bottom:6px}.gb td,.gb th{padding:1px 4px}'
           '.gl{font-weight:600}.gv{text-align:right;font-family:monospace}.gt{font-weight:600;margin-top:4px}'
-          '.gs{font-size:12px}</style>')
+          '.gs{font-size:12px}.go{font-weight:600;margin-top:8px;border-top:1px solid #ccc}</style>')
 
 
-def panel_html(state: SceneState, *, time_text: str = '') -> str:
-    """The panel for ``state``; ``time_text`` (e.g. a playback's session time) is shown first."""
-    parts = [_STYLE, '<div class="gs">']
-    if time_text:
-        parts.append(f'<div><b>{html.escape(time_text)}</b></div>')
+def _chain_parts(state: SceneState) -> list[str]:
+    """A chain's model, v and P per zone, w and w(P) per task, the tasks served, the plan's status, clarification."""
+    parts = []
     model = state.model
     if model is not None:
         parts.append(f'<div>model <b>{html.escape(model.name)}</b> (version {model.version})</div>')
@@ -83,11 +82,40 @@ def panel_html(state: SceneState, *, time_text: str = '') -> str:
         parts.append(f'<div>plan: {html.escape(state.plan_status)}</div>')
     if state.clarification:
         parts.append(f'<div style="color:#b35806">clarification: {html.escape(state.clarification)}</div>')
-    parts += [t for t in (_twist('operator', state.operator_twist), _twist('assisted', state.assistance_twist)) if t]
+    return parts
+
+
+def _arm_parts(state: SceneState) -> list[str]:
+    """The operator's and the blended twists and alpha."""
+    parts = [t for t in (_twist('operator', state.operator_twist), _twist('assisted', state.assistance_twist)) if t]
     if state.alpha is not None:
         parts.append(f'<div>assistance α = {state.alpha:.2f}</div>')
-    if state.q_live is None and len(parts) > 2:
-        ghost = ' (the green ghost is the plan)' if state.q_target is not None else ''
+    return parts
+
+
+def panel_html(state: SceneState | ObjectsState, *, time_text: str = '') -> str:
+    """The panel for ``state``; ``time_text`` (e.g. a playback's session time) is shown first.
+
+    For a scene of several objects, each object in the scene's order under its name, then the arm's part.
+    """
+    parts = [_STYLE, '<div class="gs">']
+    if time_text:
+        parts.append(f'<div><b>{html.escape(time_text)}</b></div>')
+    if isinstance(state, ObjectsState):
+        arm, planned = state.arm, False  # no planned arm is drawn (docs/viewer.md)
+        chains = {name: _chain_parts(chain) for name, chain in state.chains.items()}
+        for name, chain_parts in chains.items() if any(chains.values()) else ():  # else the suite is waited for
+            where = html.escape(state.chain_namespace(name))
+            p_o = state.object_probabilities.get(name)
+            wanted = '' if p_o is None else f', P(o) = {p_o:.2f}'
+            parts.append(f'<div class="go">object <b>{html.escape(name)}</b> ({where}{wanted})</div>')
+            parts += chain_parts or ['<div>no model, intent or plan yet</div>']
+    else:
+        arm, planned = state, state.q_target is not None
+        parts += _chain_parts(state)
+    parts += _arm_parts(arm)
+    if arm.q_live is None and len(parts) > 2:
+        ghost = ' (the green ghost is the plan)' if planned else ''
         parts.append(f'<div>live arm: no joint_states yet{ghost}</div>')
     if len(parts) == 2:
         parts.append('<div>waiting for the suite: no model, intent or plan yet</div>')

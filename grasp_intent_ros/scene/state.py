@@ -14,11 +14,17 @@ The tasks a planned grasp serves are judged by the rules of the object
 (:data:`grasp_intent_ros.objects.demos.OBJECTS`) when the active model is known to be of that object:
 its name is the object's name or starts with ``<object>_`` (``cup_7zone``), and its task names are the
 rules' (:func:`~grasp_intent_ros.scene.plan.served_tasks`).
+
+A scene of several objects (docs/several_objects.md: one planning chain per object in ``<namespace>/<object>``,
+one arm) is an :class:`ObjectsState`: one :class:`SceneState` per chain, each updated by :func:`apply` with its
+chain's :data:`CHAIN_TOPICS` and its own planner's status, the arm's :data:`ARM_TOPICS` once, and the
+intent estimator's P(o) (:data:`SCENE_TOPICS`: ``intent/objects``, a value per object labelled with the object
+names; objects whose goals are not ready are not in it) (:func:`apply_objects`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, Final
 
@@ -34,8 +40,9 @@ from ..wire.model_document import ModelDocument, read_model_document
 from ..wire.robot_state import joint_positions, named_positions, pose_msg_to_matrix
 from .plan import plan_object_pose, served_tasks
 
-__all__ = ['OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA', 'VIEWER_TOPICS', 'SceneState', 'apply',
-           'plan_status']
+__all__ = ['OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA', 'VIEWER_TOPICS', 'ARM_TOPICS', 'CHAIN_TOPICS',
+           'SCENE_TOPICS',
+           'SceneState', 'ObjectsState', 'apply', 'apply_objects', 'plan_status']
 
 OPERATOR_TWIST: Final = 'operator/twist'
 """The operator's command (geometry_msgs/TwistStamped), published by the assistance node's operator input."""
@@ -54,6 +61,12 @@ VIEWER_TOPICS: Final[Mapping[str, str]] = {
     ASSISTANCE_ALPHA: 'std_msgs/msg/Float64',
 }
 """Every topic the viewer follows (relative names; ``/diagnostics`` absolute) and its message type."""
+ARM_TOPICS: Final = (topics.JOINT_STATES, OPERATOR_TWIST, ASSISTANCE_TWIST, ASSISTANCE_ALPHA)
+"""The viewer topics of the arm: in a scene of several objects, once, in the suite's namespace."""
+CHAIN_TOPICS: Final = tuple(t for t in VIEWER_TOPICS if t not in ARM_TOPICS and t != topics.DIAGNOSTICS)
+"""The viewer topics of a planning chain: in a scene of several objects, one set per object in its namespace."""
+SCENE_TOPICS: Final[Mapping[str, str]] = {topics.INTENT_OBJECTS: topics.MSGTYPES[topics.INTENT_OBJECTS]}
+"""The viewer topics of a scene of several objects itself, in the suite's namespace, and their message types."""
 
 
 @dataclass(frozen=True)
@@ -138,10 +151,15 @@ class SceneState:
         return served_tasks(self.model.model, self.x)
 
 
-def plan_status(msg: Any) -> str | None:
-    """The planner's ``last plan status`` in a DiagnosticArray, else None."""
+def plan_status(msg: Any, namespace: str | None = None) -> str | None:
+    """The planner's ``last plan status`` in a DiagnosticArray, else None.
+
+    A planner's status is named ``<its node's full name>: planning``; with ``namespace`` ('' the root, else e.g.
+    ``/cup``) only a planner node in that namespace counts, else any planner.
+    """
     for status in msg.status:
-        if str(status.name).endswith(': planning'):
+        node, _, component = str(status.name).rpartition(': ')
+        if component == 'planning' and (namespace is None or node.rpartition('/')[0] == namespace):
             value = status_values(status).get(KEY_PLAN_STATUS)
             if value is not None:
                 return value
@@ -167,8 +185,11 @@ def _with_plan_object(state: SceneState) -> SceneState:
     return replace(state, plan_T_obj=plan_object_pose(state.base_T_ee, state.x))
 
 
-def apply(state: SceneState, topic: str, msg: Any) -> SceneState:
+def apply(state: SceneState, topic: str, msg: Any, *, namespace: str | None = None) -> SceneState:
     """The state after ``msg`` on ``topic`` (a key of :data:`VIEWER_TOPICS`); unchanged for another topic.
+
+    ``namespace`` is the chain's: its planner's status alone is read from ``/diagnostics``
+    (:func:`plan_status`; None: any planner's).
 
     Raises
     ------
@@ -210,7 +231,7 @@ def apply(state: SceneState, topic: str, msg: Any) -> SceneState:
     if topic == topics.INTENT_CLARIFICATION:
         return replace(state, clarification=str(msg.data))
     if topic == topics.DIAGNOSTICS:
-        status = plan_status(msg)
+        status = plan_status(msg, namespace)
         return state if status is None else replace(state, plan_status=status)
     if topic == OPERATOR_TWIST:
         return replace(state, operator_twist=_twist(msg))
@@ -222,3 +243,79 @@ def apply(state: SceneState, topic: str, msg: Any) -> SceneState:
             raise GraspIntentError(f'{ASSISTANCE_ALPHA} must be finite, got {alpha}')
         return replace(state, alpha=alpha)
     return state
+
+
+@dataclass(frozen=True)
+class ObjectsState:
+    """What the viewer shows of a scene of several objects: the arm once, each object's planning chain.
+
+    Attributes
+    ----------
+    namespace : str
+        The suite's namespace ('' for the root, else absolute, e.g. ``/robot1``): the arm's; object ``name``'s
+        chain is in ``<namespace>/<name>`` (:meth:`chain_namespace`).
+    arm : SceneState
+        Of :data:`ARM_TOPICS` only: the live arm, the operator's and the blended twists, alpha.
+    chains : mapping of str to SceneState
+        Per object name, in the scene's order: each of its chain's :data:`CHAIN_TOPICS` and its planner's status.
+    object_probabilities : mapping of str to float
+        P(o) of the newest ``intent/objects``, for the objects it names (empty before one arrives).
+    """
+
+    namespace: str
+    arm: SceneState
+    chains: Mapping[str, SceneState]
+    object_probabilities: Mapping[str, float] = field(default_factory=dict)
+
+    @classmethod
+    def empty(cls, names: Sequence[str], namespace: str = '') -> ObjectsState:
+        """Nothing received yet, for the objects ``names`` (in this order) of the scene at ``namespace``."""
+        return cls(namespace, SceneState(), {name: SceneState() for name in names})
+
+    def chain_namespace(self, name: str) -> str:
+        """The namespace of object ``name``'s chain."""
+        return f'{self.namespace}/{name}'
+
+    def with_chain(self, name: str, change: Callable[[SceneState], SceneState]) -> ObjectsState:
+        """This state with object ``name``'s chain replaced by ``change(its state)``. KeyError for another name."""
+        return replace(self, chains={**self.chains, name: change(self.chains[name])})
+
+
+def apply_objects(state: ObjectsState, chain: str | None, topic: str, msg: Any) -> ObjectsState:
+    """The scene after ``msg`` on ``topic`` of object ``chain``'s chain (None: the arm's, or ``/diagnostics``).
+
+    ``topic`` is relative to the chain (one of :data:`CHAIN_TOPICS`) or, with ``chain`` None, one of
+    :data:`ARM_TOPICS`, :data:`SCENE_TOPICS` or ``/diagnostics``, which updates each chain's planner status from its
+    own planner (:func:`apply` with the chain's namespace). Another topic, or a ``/diagnostics`` without a chain's
+    planner status, returns ``state`` itself; an unknown ``chain`` raises KeyError.
+
+    Raises
+    ------
+    GraspIntentError
+        For a message that cannot be read (as :func:`apply`; an ``intent/objects`` that is not one value in
+        [0, 1] per label, or that names an object not in the scene); ``state`` is then still the valid one, every
+        chain as it was.
+    """
+    if chain is not None:
+        return state.with_chain(chain, lambda s: apply(s, topic, msg)) if topic in CHAIN_TOPICS else state
+    if topic == topics.INTENT_OBJECTS:
+        return replace(state, object_probabilities=_object_probabilities(msg, state.chains))
+    if topic == topics.DIAGNOSTICS:
+        chains = {name: apply(s, topic, msg, namespace=state.chain_namespace(name)) for name, s in state.chains.items()}
+        return state if all(chains[name] is s for name, s in state.chains.items()) else replace(state, chains=chains)
+    return replace(state, arm=apply(state.arm, topic, msg)) if topic in ARM_TOPICS else state
+
+
+def _object_probabilities(msg: Any, names: Mapping[str, Any]) -> dict[str, float]:
+    """P(o) by object name from an ``intent/objects`` message (a value per label) of a scene of ``names``."""
+    values = msg_to_array(msg, what='intent/objects')
+    labels = msg_labels(msg)
+    if len(labels) != 1 or len(labels[0]) != values.size:
+        raise GraspIntentError(f'intent/objects: {values.size} values need one dimension labelled with as many '
+                               f'object names (got {list(labels)})')
+    if np.any((values < 0.0) | (values > 1.0)):
+        raise GraspIntentError(f'intent/objects: probabilities outside [0, 1]: {values.tolist()}')
+    unknown = [name for name in labels[0] if name not in names]
+    if unknown:
+        raise GraspIntentError(f'intent/objects names objects not in this scene: {unknown} (the scene: {list(names)})')
+    return dict(zip(labels[0], values.tolist()))

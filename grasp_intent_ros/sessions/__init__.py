@@ -20,8 +20,8 @@ compare
     A step's recorded outputs against live ones at the replay's tolerances.
 closed_loop
     A shared-control session replayed by its outcome (the grasp reached, the pose offset).
-report_data, report
-    What the report draws, by role and receive time; the report's figures, summary and command line.
+report_data, report_summary, report
+    What the report draws, by role and receive time; its summary.md (a scene's too); its figures and command line.
 replay_client, replayers, replay
     The replay's rclpy client and engine; its command line (``--check``).
 playback

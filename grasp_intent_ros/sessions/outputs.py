@@ -35,6 +35,7 @@ __all__ = [
     'Output',
     'RawMessage',
     'RejectionTracker',
+    'status_namespace',
     'decode',
     'model_header',
     'reduce_message',
@@ -218,6 +219,11 @@ def output_of(topic: str, t_ns: int, cdr: bytes) -> Output:
     return Output(topic, t_ns, value)
 
 
+def status_namespace(name: str) -> str:
+    """The namespace of the node a package status names, '' for the root (``/cup/grasp_planner: planning``: /cup)."""
+    return name.partition(': ')[0].rpartition('/')[0]
+
+
 class RejectionTracker:
     """Turns ``/diagnostics`` arrays into rejection events (see the module docstring).
 
@@ -240,7 +246,7 @@ class RejectionTracker:
         """The rejections that ``msg`` (a decoded DiagnosticArray) reports for the first time."""
         events = []
         for status in msg.status:
-            if self._nodes_in is not None and str(status.name).partition(': ')[0].rpartition('/')[0] != self._nodes_in:
+            if self._nodes_in is not None and status_namespace(str(status.name)) != self._nodes_in:
                 continue
             values = status_values(status)
             try:

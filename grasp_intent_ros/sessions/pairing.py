@@ -17,11 +17,14 @@ rejections  ``/diagnostics``: a status whose 'messages rejected' count grew sinc
             the same name is one rejection, with the status level and its 'last error' as the reason;
             periodic repeats are not events (:class:`~.outputs.RejectionTracker`)
 
-:func:`pair_messages` splits the time-ordered messages into :class:`Step` s: one per input (or model
-switch), holding the outputs received after it and before the next input. That pairing is exact when
+:func:`pair_messages` splits the messages in send order (:func:`send_order`) into :class:`Step` s: one per input
+(or model switch), holding the outputs sent after it and before the next input. That pairing is exact when
 the session was recorded one input at a time, each sent once the previous one was answered (what
-``scripts/record_sessions.py`` does and ``replay --check`` reproduces). :mod:`.compare` compares a step's
-recorded outputs with live ones.
+``scripts/record_sessions.py`` does and ``replay --check`` reproduces), and its publishers' clocks agree (one
+machine). The send order, not the receive order: a recorder may receive an input after the outputs it caused
+(its publisher delivered it to the chain first; a one-shot w of ``send_intent -w 2`` was received a few ms after
+its v in 4 of 30 recordings on a loaded 2-core machine), never send it after them. :mod:`.compare` compares a
+step's recorded outputs with live ones.
 
 A chain of a scene of several objects (:mod:`.scenes`) is paired by its namespace: its own inputs and the
 arm's ``joint_states`` in the scene's namespace, its outputs, the rejections of its own nodes
@@ -39,7 +42,7 @@ from typing import Final
 from ..wire.model_document import ModelHeader
 from ..wire.topics import DIAGNOSTICS, INPUT_TOPICS, JOINT_STATES, MODEL_ACTIVE, OUTPUT_TOPICS
 from .bag.offered_qos import QosSpec
-from .bag.reader import read_messages, topics_info
+from .bag.reader import BagMessage, read_messages, topics_info
 from .bag.writer import SessionWriter
 from .outputs import Output, RawMessage, RejectionTracker, SessionError, decode, model_header, output_of
 
@@ -50,6 +53,7 @@ __all__ = [
     'detect_namespace',
     'ModelSwitches',
     'ChainPairing',
+    'send_order',
     'pair_messages',
     'load_paired_session',
     'compact_session',
@@ -287,6 +291,15 @@ class ChainPairing:
         return self._models.initial, tuple(self._steps), tuple(self._unpaired)
 
 
+def send_order(messages: Iterable[BagMessage]) -> list[BagMessage]:
+    """``messages`` (receive-time order, :func:`~grasp_intent_ros.sessions.bag.read_messages`) in send order.
+
+    By publish time (the publisher's send time), equal ones in receive order: a bag whose messages have no send
+    time of their own (their publish time is their receive time, as rosbags writes) keeps its receive order.
+    """
+    return sorted(messages, key=lambda message: message.publish_ns)
+
+
 def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '', arm_namespace: str | None = None) -> tuple[
         ModelHeader | None, tuple[Step, ...], tuple[Output, ...]]:
     """Split time-ordered messages into (initial model, steps, outputs before the first input).
@@ -294,7 +307,7 @@ def pair_messages(messages: Iterable[RawMessage], *, namespace: str = '', arm_na
     Parameters
     ----------
     messages
-        Messages in receive-time order (e.g. :func:`~grasp_intent_ros.sessions.bag.read_messages`);
+        Messages in send order (:func:`send_order` of :func:`~grasp_intent_ros.sessions.bag.read_messages`);
         topics outside the session's (in ``namespace``) are ignored.
     namespace
         '' or e.g. '/robot1'.
@@ -335,7 +348,7 @@ def load_paired_session(path: str | os.PathLike[str], *, namespace: str | None =
     bag = Path(path)
     infos = topics_info(bag)
     ns = detect_namespace(infos) if namespace is None else namespace.rstrip('/')
-    initial, steps, unpaired = pair_messages(read_messages(bag), namespace=ns)
+    initial, steps, unpaired = pair_messages(send_order(read_messages(bag)), namespace=ns)
     if not steps:
         raise SessionError(f'bag {bag} holds no inputs ({", ".join(INPUT_TOPICS)} or model switches)')
     return PairedSession(bag, ns, initial, steps, unpaired)
@@ -390,7 +403,7 @@ def compact_session(src: str | os.PathLike[str], dst: str | os.PathLike[str], *,
                 qos = infos[msg.topic].qos
                 writer.add_topic(msg.topic, msg.msgtype, qos=qos or QosSpec())
                 counts[msg.topic] = 0
-            writer.write(msg.topic, msg.timestamp_ns, msg.cdr)
+            writer.write(msg.topic, msg.timestamp_ns, msg.cdr, msg.publish_ns)
             counts[msg.topic] += 1
     return counts
 

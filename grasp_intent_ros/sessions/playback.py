@@ -8,8 +8,9 @@ session's time (receive time, s from the first message) and buttons that jump to
 (:attr:`Timeline.plans`). At a time t the page shows the state after every message received up to t
 (:class:`Timeline`, built once with :func:`grasp_intent_ros.scene.state.apply`), so each grasp is seen with
 the intent, posterior and arm of its moment. A message that cannot be read is skipped and counted (shown on
-the page). Topics are found in the session's namespace (:func:`~grasp_intent_ros.sessions.pairing.
-detect_namespace`).
+the page). Topics are found in the session's namespace, or, in a bag of a scene of several objects
+(:func:`~grasp_intent_ros.sessions.scenes.detect_scene`), in each object's chain and the arm's namespace: the page
+then shows every object as the live viewer does (an :class:`~grasp_intent_ros.scene.state.ObjectsState`).
 
 Exit codes: 0 stopped by SIGINT/SIGTERM; 2 the bag is missing or unreadable, or the page cannot be served.
 """
@@ -31,11 +32,21 @@ from ..errors import GraspIntentError
 from ..latest_only import LatestOnlyWorker
 from ..scene.geometry import ArmModel
 from ..scene.page import DEFAULT_HOST, ScenePage
-from ..scene.state import VIEWER_TOPICS, SceneState, apply
+from ..scene.state import (
+    ARM_TOPICS,
+    CHAIN_TOPICS,
+    SCENE_TOPICS,
+    VIEWER_TOPICS,
+    ObjectsState,
+    SceneState,
+    apply,
+    apply_objects,
+)
 from ..wire.arrays import Stamp
-from .bag import BagError, read_messages, topics_info
+from ..wire.topics import DIAGNOSTICS
+from .bag import BagError, BagMessage, read_messages, topics_info
 from .outputs import SessionError
-from .pairing import detect_namespace
+from .scenes import Scene, detect_scene
 
 __all__ = ['Timeline', 'load_timeline', 'main']
 
@@ -52,17 +63,23 @@ class Timeline:
     times : list of int
         Receive times (ns since the epoch), non-decreasing; ``states[i]`` is the state after the message of
         ``times[i]``.
+    states : list of SceneState or ObjectsState
+        One :class:`~grasp_intent_ros.scene.state.SceneState` each for a session of one chain, one
+        :class:`~grasp_intent_ros.scene.state.ObjectsState` each for a scene of several objects.
     plans : list of int
         Receive times of the plans: when the last of a plan's pose, joint targets, features and posterior
-        arrived (:attr:`~grasp_intent_ros.scene.state.SceneState.plan_stamp`).
+        arrived (:attr:`~grasp_intent_ros.scene.state.SceneState.plan_stamp`), in any chain.
     unreadable : Counter
         Messages skipped, by topic.
+    empty : SceneState or ObjectsState
+        The state before the first message.
     """
 
     times: list[int] = field(default_factory=list)
-    states: list[SceneState] = field(default_factory=list)
+    states: list[SceneState | ObjectsState] = field(default_factory=list)
     plans: list[int] = field(default_factory=list)
     unreadable: Counter[str] = field(default_factory=Counter)
+    empty: SceneState | ObjectsState = field(default_factory=SceneState)
 
     @property
     def start(self) -> int:
@@ -74,44 +91,72 @@ class Timeline:
         """Seconds from the first to the last message."""
         return (self.times[-1] - self.times[0]) * 1e-9 if self.times else 0.0
 
-    def at(self, seconds: float) -> SceneState:
-        """The state after every message received up to ``seconds`` of session time (empty before the first)."""
+    def at(self, seconds: float) -> SceneState | ObjectsState:
+        """The state after every message received up to ``seconds`` of session time (:attr:`empty` before the first)."""
         i = bisect.bisect_right(self.times, self.start + round(seconds * 1e9))
-        return self.states[i - 1] if i else SceneState()
+        return self.states[i - 1] if i else self.empty
 
     def plan_index(self, seconds: float) -> int:
         """How many plans were received up to ``seconds`` of session time."""
         return bisect.bisect_right(self.plans, self.start + round(seconds * 1e9))
 
 
+class _Reader:
+    """A session's topics as the viewer's (chain, relative topic), and the state after each of their messages."""
+
+    def __init__(self, scene: Scene) -> None:
+        if scene.one_chain:
+            self.empty: SceneState | ObjectsState = SceneState()
+            self.topics: dict[str, tuple[str | None, str]] = {
+                (t if t.startswith('/') else f'{scene.namespace}/{t}'): (None, t) for t in VIEWER_TOPICS}
+            return
+        names = [chain.rpartition('/')[2] for chain in scene.chains]
+        self.empty = ObjectsState.empty(names, scene.namespace)
+        self.topics = {DIAGNOSTICS: (None, DIAGNOSTICS),
+                       **{f'{scene.namespace}/{t}': (None, t) for t in (*ARM_TOPICS, *SCENE_TOPICS)},
+                       **{f'{chain}/{t}': (name, t) for chain, name in zip(scene.chains, names) for t in CHAIN_TOPICS}}
+
+    def apply(self, state: SceneState | ObjectsState, message: BagMessage) -> SceneState | ObjectsState:
+        chain, topic = self.topics[message.topic]
+        if isinstance(state, ObjectsState):
+            return apply_objects(state, chain, topic, message.decode())
+        return apply(state, topic, message.decode())
+
+
+def _plan_stamps(state: SceneState | ObjectsState) -> tuple[Stamp | None, ...]:
+    """The stamp of each chain's newest complete plan."""
+    chains = state.chains.values() if isinstance(state, ObjectsState) else (state,)
+    return tuple(chain.plan_stamp for chain in chains)
+
+
 def load_timeline(path: Path) -> Timeline:
-    """Read a session bag into a :class:`Timeline`.
+    """Read a session bag, of one chain or of a scene of several objects, into a :class:`Timeline`.
 
     Raises
     ------
     BagError
         The bag is missing or cannot be read.
     SessionError
-        It holds no session topic, or session topics in several namespaces.
+        It holds no session topic, or session topics in several namespaces that are not a scene
+        (:func:`~grasp_intent_ros.sessions.scenes.detect_scene`).
     """
     names = topics_info(path)
-    namespace = detect_namespace(names)
-    relative = {(t if t.startswith('/') else f'{namespace}/{t}'): t for t in VIEWER_TOPICS}
-    timeline = Timeline()
-    state = SceneState()
-    plan: Stamp | None = None
-    for message in read_messages(path, topics=[t for t in relative if t in names]):
-        topic = relative[message.topic]
+    reader = _Reader(detect_scene(names))
+    timeline = Timeline(empty=reader.empty)
+    state = reader.empty
+    plans = _plan_stamps(state)
+    for message in read_messages(path, topics=[t for t in reader.topics if t in names]):
         try:
-            state = apply(state, topic, message.decode())
+            state = reader.apply(state, message)
         except (GraspIntentError, BagError, AttributeError, TypeError) as exc:
             timeline.unreadable[f'{message.topic} ({type(exc).__name__})'] += 1
             continue
         timeline.times.append(message.timestamp_ns)
         timeline.states.append(state)
-        if state.plan_stamp is not None and state.plan_stamp != plan:
-            plan = state.plan_stamp
+        newest = _plan_stamps(state)
+        if any(stamp is not None and stamp != before for stamp, before in zip(newest, plans)):
             timeline.plans.append(message.timestamp_ns)
+        plans = tuple(stamp if stamp is not None else before for stamp, before in zip(newest, plans))
     return timeline
 
 
@@ -185,8 +230,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     player = _Player(timeline, page, options.bag.name)
     player.show(0.0)
-    print(f'playback: {len(timeline.times)} messages, {len(timeline.plans)} plans over {timeline.duration:.1f} s '
-          f'on http://{options.host}:{page.port}', flush=True)
+    scene = timeline.empty
+    objects = f' of the objects {", ".join(scene.chains)}' if isinstance(scene, ObjectsState) else ''
+    print(f'playback: {len(timeline.times)} messages, {len(timeline.plans)} plans{objects} over '
+          f'{timeline.duration:.1f} s on http://{options.host}:{page.port}', flush=True)
     try:
         stopped.wait()
     finally:

@@ -29,20 +29,21 @@ Reads the bag with :mod:`grasp_intent_ros.sessions.bag` (no rclpy, matplotlib's 
     Messages per topic, plans, clarifications, rejections (from ``/diagnostics``), planning time, the
     figures written and those skipped for lack of data.
 
-Topics are found by name suffix (``/robot1/intent/v`` is ``intent/v``), so namespaced sessions work.
+Topics are found in the session's namespace (``/robot1/intent/v`` is ``intent/v``), so namespaced sessions work.
+A scene of several objects (a bag :func:`~grasp_intent_ros.sessions.scenes.detect_scene` reads as one, recorded
+beside ``suite --object ...``) gets one such report per chain, in ``DIR/<object>/`` (its topics, its nodes'
+rejections and planning times), and a ``summary.md`` in DIR listing the chains.
 Exit code 2 with a one-line message when the bag is missing or unreadable.
 
-What is read from the bag: :mod:`grasp_intent_ros.sessions.report_data`. One module: one short function
-per figure above, and the summary that lists them.
+What is read from the bag: :mod:`grasp_intent_ros.sessions.report_data`; the summaries:
+:mod:`grasp_intent_ros.sessions.report_summary`. One module: one short function per figure above.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import statistics
 import sys
-from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -61,8 +62,11 @@ from ..mico.frames import features_to_obj_T_ee, finger_segments
 from ..scene.geometry import ArmModel, Shape, body_shapes
 from ..scene.plan import plan_object_pose, served_tasks
 from ..wire.arrays import Posterior, Stamp
-from .bag import BagError
+from .bag import BagError, topics_info
+from .outputs import SessionError
 from .report_data import ReportData, load_report_data
+from .report_summary import write_scene_summary, write_summary
+from .scenes import detect_scene
 
 __all__ = ['write_report', 'main',
            'OBJECT_RADIUS', 'OBJECT_HEIGHT', 'CASES_PER_FIGURE', 'MAX_CASE_FIGURES', 'MAX_GRASPS']
@@ -403,53 +407,13 @@ def _nearest_posterior(session: ReportData, stamp: int,
     return best[1] if best is not None and abs(best[0] - stamp) <= tolerance_ns else None
 
 
-# ---------------------------------------------------------------------------------------------- summary
-def write_summary(session: ReportData, out: Path, figures: list[str], skipped: list[str]) -> None:
-    duration = session.seconds(session.end_ns) if session.end_ns else 0.0
-    total = sum(info.count for info in session.topics.values())
-    lines = [f'# Session report: {session.path.name}', '',
-             f'- bag: `{session.path}`',
-             f'- duration: {duration:.1f} s, {total} messages on {len(session.topics)} topics', '',
-             '## Messages per topic', '', '| topic | type | messages |', '|---|---|---:|']
-    lines += [f'| {topic} | {info.msgtype} | {info.count} |' for topic, info in sorted(session.topics.items())]
-    per_node = Counter(r.status for _, r in session.rejections)
-    reasons = list(dict.fromkeys(r.reason or f'(level {r.level}, no reason given)' for _, r in session.rejections))
-    times = session.planning_ms
-    plans = len(session.features) or (session.topics[session.roles['posterior']].count
-                                       if 'posterior' in session.roles else 0)
-    lines += ['', '## Session', '',
-              f'- intent messages (w): {len(session.w)}; target vectors (v): {len(session.v)}',
-              f'- plans: {plans}',
-              f'- clarifications: {len(session.clarifications)}']
-    lines += [f'  - {session.seconds(t):.1f} s: {reason}' for t, reason in session.clarifications[:10]]
-    lines.append(f'- rejections (from /diagnostics): {len(session.rejections)}')
-    lines += [f'  - {name}: {n}' for name, n in sorted(per_node.items())]
-    lines += [f'  - reason: {reason}' for reason in reasons[:10]]
-    if times:
-        lines.append(f'- planning time: {len(times)} plans reported, mean {statistics.fmean(times):.1f} ms, '
-                     f'median {statistics.median(times):.1f} ms, max {max(times):.1f} ms')
-    else:
-        lines.append("- planning time: not in this bag (no planner status with 'last planning time [ms]')")
-    if session.models:
-        lines.append('- models: ' + ', '.join(f'{name} at {session.seconds(t):.1f} s ({len(m.zones)} zones)'
-                                               for t, name, m in session.models))
-    if session.malformed:
-        lines.append('- malformed messages skipped: ' + ', '.join(
-            f'{topic} {n}' for topic, n in sorted(session.malformed.items())))
-    lines += ['', '## Figures', '']
-    lines += [f'- [{name}]({name})' for name in figures] or ['- none']
-    lines += [f'- skipped: {reason}' for reason in skipped]
-    if session.notes:
-        lines += ['', '## Notes', ''] + [f'- {note}' for note in session.notes]
-    (out / 'summary.md').write_text('\n'.join(lines) + '\n')
-
-
 def write_report(bag: Path, out: Path) -> tuple[list[str], list[str]]:
-    """Write the figures and summary.md for ``bag`` into ``out`` (created).
+    """Write the figures and summary.md for ``bag`` into ``out`` (created); for a scene, one report per chain.
 
     Returns
     -------
-        (figure file names written, reasons for figures skipped).
+        (figure file names written, relative to ``out``; reasons for figures skipped, a scene's prefixed with
+        the chain's object).
 
     Raises
     ------
@@ -458,7 +422,27 @@ def write_report(bag: Path, out: Path) -> tuple[list[str], list[str]]:
     OSError
         ``out`` cannot be created or written.
     """
-    session = load_report_data(bag)
+    try:
+        scene = detect_scene(topics_info(bag))
+    except SessionError:  # no session's namespace: the one-chain report says so in its notes
+        scene = None
+    if scene is None or scene.one_chain:
+        return _write_chain(bag, out, None)
+    figures: list[str] = []
+    skipped: list[str] = []
+    chains = {}
+    for chain in scene.chains:
+        name = chain.rpartition('/')[2]
+        chains[chain] = _write_chain(bag, out / name, chain)
+        figures += [f'{name}/{figure}' for figure in chains[chain][0]]
+        skipped += [f'{name}: {reason}' for reason in chains[chain][1]]
+    write_scene_summary(bag, scene.namespace, chains, out)
+    return figures, skipped
+
+
+def _write_chain(bag: Path, out: Path, chain: str | None) -> tuple[list[str], list[str]]:
+    """:func:`write_report` for the session's one chain (``chain`` None) or a scene's chain (its namespace)."""
+    session = load_report_data(bag, chain=chain)
     out.mkdir(parents=True, exist_ok=True)
     figures: list[str] = []
     skipped: list[str] = []

@@ -1,7 +1,9 @@
 """A session bag loaded for the report: what each topic of the suite says, by role (ROS-free).
 
 Topics are found in the session's namespace (:func:`~grasp_intent_ros.sessions.pairing.detect_namespace`), so
-namespaced sessions work. A message that cannot be read is counted as malformed, never raised.
+namespaced sessions work; or in one chain's namespace of a scene of several objects (``chain``, e.g. ``/cup``:
+its topics, and of ``/diagnostics`` only its own nodes' statuses). A message that cannot be read is counted as
+malformed, never raised.
 
 Message layouts read (as the nodes publish them)
 ------------------------------------------------
@@ -41,7 +43,7 @@ from ..wire.diagnostics import KEY_PLANNING_TIME, KEY_PLANS, status_values
 from ..wire.model_document import read_model_document
 from ..wire.robot_state import joint_positions, pose_msg_to_matrix
 from .bag import BagError, TopicInfo, read_messages, topics_info
-from .outputs import Rejection, RejectionTracker, SessionError
+from .outputs import Rejection, RejectionTracker, SessionError, status_namespace
 from .pairing import detect_namespace
 
 __all__ = ['ROLES', 'ReportData', 'load_report_data']
@@ -61,6 +63,7 @@ class ReportData:
     path: Path
     topics: dict[str, TopicInfo]
     roles: dict[str, str]  # role -> topic name found in the bag
+    chain: str | None = None  # a scene's chain the report is of (its namespace), None: the session's one
     start_ns: int = 0
     end_ns: int = 0
     w: list[tuple[int, NDArray[np.float64]]] = field(default_factory=list)
@@ -96,14 +99,17 @@ class ReportData:
         return default_task_names(m)
 
 
-def _find_topics(topics: dict[str, TopicInfo]) -> tuple[dict[str, str], list[str]]:
-    """Role -> topic name in the session's namespace (:func:`~grasp_intent_ros.sessions.pairing.detect_namespace`)."""
+def _find_topics(topics: dict[str, TopicInfo], chain: str | None) -> tuple[dict[str, str], list[str]]:
+    """Role -> topic name in ``chain``, or else the session's namespace (:func:`~.pairing.detect_namespace`)."""
     notes = []
-    try:
-        namespace = detect_namespace(topics)
-    except SessionError as exc:
-        namespace = ''
-        notes.append(f'session namespace not detected ({exc}); the root namespace is reported')
+    if chain is not None:
+        namespace = chain
+    else:
+        try:
+            namespace = detect_namespace(topics)
+        except SessionError as exc:
+            namespace = ''
+            notes.append(f'session namespace not detected ({exc}); the root namespace is reported')
     roles = {}
     for role, relative in ROLES.items():
         name = relative if relative.startswith('/') else f'{namespace}/{relative}'
@@ -112,8 +118,8 @@ def _find_topics(topics: dict[str, TopicInfo]) -> tuple[dict[str, str], list[str
     return roles, notes
 
 
-def load_report_data(path: Path) -> ReportData:
-    """Read the messages the report uses.
+def load_report_data(path: Path, *, chain: str | None = None) -> ReportData:
+    """Read the messages the report uses: the session's, or with ``chain`` (a namespace) that chain's of a scene.
 
     Raises
     ------
@@ -121,8 +127,9 @@ def load_report_data(path: Path) -> ReportData:
         The bag is missing or cannot be read.
     """
     topics = topics_info(path)
-    roles, notes = _find_topics(topics)
-    session = ReportData(path=path, topics=topics, roles=roles, notes=notes)
+    roles, notes = _find_topics(topics, chain)
+    session = ReportData(path=path, topics=topics, roles=roles, chain=chain, notes=notes,
+                         tracker=RejectionTracker(nodes_in=chain))
     by_topic = {topic: role for role, topic in roles.items()}
     first = None
     last = 0
@@ -190,7 +197,8 @@ def _take(session: ReportData, role: str, stamp: int, msg: Any) -> None:
     elif role == 'diagnostics':
         session.rejections.extend((stamp, r) for r in session.tracker.update(msg))
         for status in msg.status:
-            _sample_planning_time(session, status)
+            if session.chain is None or status_namespace(str(status.name)) == session.chain:
+                _sample_planning_time(session, status)
 
 
 def _header_stamp(msg: Any) -> Stamp:

@@ -19,7 +19,7 @@ from pathlib import Path
 from ..wire.topics import INPUT_TOPICS, JOINT_STATES
 from .bag.reader import read_messages, topics_info
 from .outputs import SessionError
-from .pairing import ChainPairing, PairedSession, Step, session_topics
+from .pairing import ChainPairing, PairedSession, Step, send_order, session_topics
 
 __all__ = ['Scene', 'detect_scene', 'SceneInput', 'PairedScene', 'load_paired_scene']
 
@@ -139,7 +139,7 @@ def load_paired_scene(path: str | os.PathLike[str]) -> PairedScene:
     arm = None if scene.one_chain else scene.namespace
     pairings = [ChainPairing(chain, arm) for chain in scene.chains]
     opened: list[tuple[tuple[int, Step], ...]] = []
-    for msg in read_messages(bag):
+    for msg in send_order(read_messages(bag)):
         fed = tuple((i, step) for i, pairing in enumerate(pairings) if (step := pairing.take(msg)) is not None)
         if fed:
             opened.append(fed)

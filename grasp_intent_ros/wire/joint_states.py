@@ -35,8 +35,9 @@ The rule's clock
     advance, a clock that went back), ends the stamps' use for good: the rule goes on by receipts, over the
     readings the stamps' window kept, so in the window after the change it may call the fingers at rest later
     than receipts alone would, never sooner. Only differences of times are read, so a constant offset between
-    the stamps and the receipts changes no decision. A hand's receipt (:class:`Hand`, :func:`fingers_settled`)
-    stays on its reader's clock.
+    the stamps and the receipts changes no decision. A hand's receipt (:class:`Hand`) stays on its reader's clock;
+    its stamp is given while the rule goes by stamps, and :func:`fingers_settled` judges "after the close" by it when
+    told the close's time on the stamps' clock (else by the receipt).
 """
 
 from __future__ import annotations
@@ -209,13 +210,17 @@ class Hand:
     ``received``: s (the oldest receipt of the joints it is read from: each was seen at least then); ``base_T_ee``:
     shape (4, 4), base frame (forward kinematics of the arm joints); ``fingers``: shape (3,), rad (the executed
     closures: a mock arm's closure error included); ``fingers_at_rest``: at the latest finger reading, by the rest
-    rule (:class:`FingerRest`: positions only, timed by stamps or receipts as the module docstring says).
+    rule (:class:`FingerRest`: positions only, timed by stamps or receipts as the module docstring says);
+    ``stamp_ns``: the oldest header stamp of the joints it is read from (integer ns: each was sampled at least
+    then) while the rest rule times the finger readings by their stamps, None when it goes by receipts or a joint's
+    message had no stamp.
     """
 
     received: float
     base_T_ee: NDArray[np.float64]
     fingers: NDArray[np.float64]
     fingers_at_rest: bool
+    stamp_ns: int | None = None
 
 
 FINGER_SET: Final = frozenset(FINGER_JOINTS)
@@ -233,8 +238,9 @@ class HandTracker:
         self.kin = kin
         self.joints = JointStates((*ARM_JOINTS, *FINGER_JOINTS), stale_after=stale_after)
         self.rest = FingerRest(rule)
-        self._fingers: tuple[JointReading, bool] | None = None  # the latest finger reading, at rest there
-        self._state: tuple[JointReading | None, tuple[JointReading, bool] | None] = (None, None)
+        # the latest finger reading, at rest there, by stamps there
+        self._fingers: tuple[JointReading, bool, bool] | None = None
+        self._state: tuple[JointReading | None, tuple[JointReading, bool, bool] | None] = (None, None)
 
     def add(self, msg: Any, received: float) -> tuple[str, ...]:
         """Take a sensor_msgs/JointState received at ``received`` s (non-decreasing); the arm and finger joints named.
@@ -244,7 +250,8 @@ class HandTracker:
         named = self.joints.add(msg, received)
         fingers = self.joints.read(FINGER_JOINTS)
         if fingers is not None and not FINGER_SET.isdisjoint(named):
-            self._fingers = (fingers, self.rest.step(received, stamp_nanoseconds(msg), fingers.positions))
+            at_rest = self.rest.step(received, stamp_nanoseconds(msg), fingers.positions)
+            self._fingers = (fingers, at_rest, self.rest.by_stamps)
         self._state = (self.joints.read(ARM_JOINTS), self._fingers if fingers is not None else None)
         return named
 
@@ -253,8 +260,10 @@ class HandTracker:
         arm, fingers = self._state
         if arm is None or fingers is None:
             return None
-        reading, at_rest = fingers
-        return Hand(min(arm.received, reading.received), self.kin.fk(arm.positions), reading.positions, at_rest)
+        reading, at_rest, by_stamps = fingers
+        stamp = (min(arm.stamp_ns, reading.stamp_ns) if by_stamps and arm.stamp_ns is not None
+                 and reading.stamp_ns is not None else None)
+        return Hand(min(arm.received, reading.received), self.kin.fk(arm.positions), reading.positions, at_rest, stamp)
 
 
 CLOSE_SETTLE = 0.3
@@ -262,14 +271,24 @@ CLOSE_SETTLE = 0.3
 the close request is served within milliseconds, and the fingers must be seen moving or at rest after it."""
 
 
-def fingers_settled(hand: Hand | None, closed: float, settle: float = CLOSE_SETTLE) -> bool:
+def fingers_settled(hand: Hand | None, closed: float, settle: float = CLOSE_SETTLE, *,
+                    closed_ns: int | None = None) -> bool:
     """Whether ``hand`` shows the fingers at rest after a close at ``closed`` s (the clock of its receipts).
 
-    True when every joint of the hand was received at least ``settle`` s after ``closed`` (the fingers seen moving
-    or at rest after the close, not before it) and the fingers are at rest by the rest rule (:class:`FingerRest`,
-    from positions: velocities are never read), so at least the rule's window after they last moved; its
-    ``fingers`` are then the executed closures. Receipts say when a joint state was taken, not when it was sent: a
-    backlog of more than ``settle`` s taken after the close passes for joint states sent after it (a reader that
-    keeps only the newest joint state, as the demo's loop does, has no backlog).
+    True when the fingers are at rest by the rest rule (:class:`FingerRest`, from positions: velocities are never
+    read), so at least the rule's window after they last moved, and every joint of the hand was seen ``settle`` s
+    after the close or later (the fingers seen moving or at rest after the close, not before it); its ``fingers``
+    are then the executed closures. "After the close" is judged on the rest rule's clock: given ``closed_ns``, the
+    close on the stamps' clock (integer ns, the clock the arm stamps its joint states with: one machine's system
+    clock for the mock arm and its caller), and a hand timed by stamps (:attr:`Hand.stamp_ns`), by the stamps:
+    every joint's message sampled at least ``settle`` s after the close, however late it was received (a backlog of
+    joint states sampled before the close, taken in a burst after it, never passes). Otherwise by receipts: every
+    joint received at least ``settle`` s after ``closed``; receipts say when a joint state was taken, not when it
+    was sampled, so a backlog of more than ``settle`` s taken after the close passes for joint states sampled
+    after it (a reader that keeps only the newest joint state, as the demo's loop does, has no backlog).
     """
-    return hand is not None and hand.received >= closed + settle and hand.fingers_at_rest
+    if hand is None or not hand.fingers_at_rest:
+        return False
+    if closed_ns is not None and hand.stamp_ns is not None:
+        return hand.stamp_ns >= closed_ns + receipt_ns(settle)
+    return hand.received >= closed + settle

@@ -30,7 +30,7 @@ def comments(path: Path) -> dict[str, str]:
     return found
 
 
-@pytest.mark.parametrize('node', [*SUITE_NODES, *SHARED_CONTROL_NODES, 'scripted_operator'])
+@pytest.mark.parametrize('node', [*SUITE_NODES, *SHARED_CONTROL_NODES, 'scripted_operator', 'viewer'])
 def test_every_parameter_is_documented_by_its_descriptor_text(node: str) -> None:
     specs = node_parameters(node)
     documented = comments(CONFIG / f'{node}.yaml')

@@ -57,3 +57,13 @@ def test_a_bad_value_rejects_the_whole_change_with_its_reason(ros) -> None:
 def test_an_invalid_initial_value_fails_construction(ros) -> None:
     with pytest.raises(ParameterError, match="mode: must be one of fast, slow; got 'x'"):
         declare_parameters(node(ros, mode='x'), SPECS)
+
+
+def test_a_read_only_sequence_with_an_empty_default_reads_as_empty_or_as_given(ros) -> None:
+    """Unset (rclpy sets no read-only parameter after its declaration), it reads as its empty default."""
+    spec = ParamSpec('fixed_names', [], 'Names, at start only.', item_type=str, read_only=True)
+    assert dict(declare_parameters(node(ros), (spec,))) == {'fixed_names': ()}
+    given = ros.add(rclpy.create_node('params_given', context=ros.context, parameter_overrides=[
+        Parameter('fixed_names', value=['a', 'b'])]))
+    assert dict(declare_parameters(given, (spec,))) == {'fixed_names': ('a', 'b')}
+    assert not given.set_parameters([Parameter('fixed_names', value=['c'])])[0].successful

@@ -101,6 +101,9 @@ def test_nothing_lost_at_1khz_and_latched_model_recorded(ros, tmp_path: Path) ->
     assert [int(m.decode().data[0]) for m in messages] == list(range(N))
     stamps = [m.timestamp_ns for m in messages]
     assert stamps == sorted(stamps)
+    # each with the publisher's send time (one clock here): sent in order, each before it was received
+    assert [m.publish_ns for m in messages] == sorted(m.publish_ns for m in messages)
+    assert all(0 < m.timestamp_ns - m.publish_ns for m in messages)
     for m in messages[:: N // 20]:
         msg = m.decode()
         seq = int(msg.data[0])

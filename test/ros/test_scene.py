@@ -17,21 +17,28 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TwistStamped
 from numpy.testing import assert_allclose
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64, String
+from std_msgs.msg import Float64, Float64MultiArray, String
 
 from grasp_intent_ros.errors import GraspIntentError
 from grasp_intent_ros.method.features import FINGERS, MICO_3F
 from grasp_intent_ros.method.model import GraspModel
-from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, matrix_to_pose, pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
 from grasp_intent_ros.objects.demos import CUP, CUP_PROTOTYPES, CUP_RULES, grasp_features
-from grasp_intent_ros.ros.conversions import model_to_msg, posterior_to_msg, stamped_array_to_msg
+from grasp_intent_ros.ros.conversions import array_to_msg, model_to_msg, posterior_to_msg, stamped_array_to_msg
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.scene.geometry import ArmModel, body_shapes, table_shape
 from grasp_intent_ros.scene.page import ScenePage
 from grasp_intent_ros.scene.panel import panel_html
 from grasp_intent_ros.scene.plan import served_tasks
-from grasp_intent_ros.scene.state import ASSISTANCE_ALPHA, OPERATOR_TWIST, SceneState, apply
+from grasp_intent_ros.scene.state import (
+    ASSISTANCE_ALPHA,
+    OPERATOR_TWIST,
+    ObjectsState,
+    SceneState,
+    apply,
+    apply_objects,
+)
 from grasp_intent_ros.sessions.playback import load_timeline
 from grasp_intent_ros.sessions.report_data import load_report_data
 from grasp_intent_ros.wire import topics
@@ -210,6 +217,172 @@ def test_the_page_is_served_on_loopback_and_draws_any_state(arm: ArmModel, cup: 
         page.show(state)
         page.show(state, time_text='t = 1.0 s')
         assert 'UTH' in page._panel.content and 't = 1.0 s' in page._panel.content
+    finally:
+        page.stop()
+
+
+# ------------------------------------------------------------------------------------------ several objects
+CUP_POSE = pose_to_matrix([0.3, -0.3, 0.0], [0.0, 0.0, 1.0, 0.0])
+FLASHLIGHT_POSE = pose_to_matrix([0.35, 0.25, 0.0], [0.0, 0.0, 0.0, 1.0])
+
+
+@pytest.fixture(scope='module')
+def flashlight() -> GraspModel:
+    return GraspModel.load(REPO / 'config' / 'models' / 'flashlight_7zone.yaml')
+
+
+def diagnostic(name: str, status: str) -> DiagnosticArray:
+    values = [KeyValue(key='last plan status', value=status)]
+    return DiagnosticArray(status=[DiagnosticStatus(name=name, values=values)])
+
+
+def chain_messages(model: GraspModel, name: str, base_T_obj: np.ndarray, x: np.ndarray, stamp: Time
+                   ) -> list[tuple[str, object]]:
+    """One chain's model, object pose, v and a complete plan of grasp ``x`` (object frame) at ``base_T_obj``."""
+    p = np.linspace(0.05, 0.25, len(model.zone_labels))
+    return [
+        (topics.MODEL_ACTIVE, model_to_msg(model, name=name, version=1)),
+        (topics.OBJECT_POSE, matrix_to_pose_msg(base_T_obj, frame_id=BASE_FRAME, stamp=stamp)),
+        (topics.INTENT_V, array_to_msg(p + 0.5, [list(model.zone_labels)])),
+        (topics.GRASP_POSTERIOR, posterior_to_msg(p, [0.5, 0.5, 0.5], model.zone_labels, model.task_names,
+                                                  stamp=stamp)),
+        (topics.GRASP_POSE, matrix_to_pose_msg(base_T_obj @ features_to_obj_T_ee(x), frame_id=BASE_FRAME,
+                                               stamp=stamp)),
+        (topics.GRASP_FEATURES, stamped_array_to_msg(x, list(MICO_3F.names), stamp=stamp)),
+        (topics.GRASP_JOINT_TARGETS, joint_state_msg(ARM_JOINTS + FINGER_JOINTS, [*HOME_Q, *x[FINGERS]], stamp=stamp)),
+    ]
+
+
+def two_objects(cup: GraspModel, flashlight: GraspModel) -> ObjectsState:
+    """The cup's and the flashlight's chains at /robot1, their messages interleaved, the arm's joint state once."""
+    state = ObjectsState.empty(['cup', 'flashlight'], '/robot1')
+    cup_msgs = chain_messages(cup, 'cup_7zone', CUP_POSE, prototype_x(0b011), STAMP)
+    flashlight_msgs = chain_messages(flashlight, 'flashlight_7zone', FLASHLIGHT_POSE, prototype_x(0b001),
+                                     Time(sec=13, nanosec=0))
+    for (topic, msg), (other_topic, other) in zip(cup_msgs, flashlight_msgs):
+        state = apply_objects(apply_objects(state, 'cup', topic, msg), 'flashlight', other_topic, other)
+    return apply_objects(state, None, topics.JOINT_STATES, joint_state_msg(ARM_JOINTS, HOME_Q, stamp=STAMP))
+
+
+def test_each_object_s_chain_keeps_its_own_state_and_the_arm_is_one(cup: GraspModel, flashlight: GraspModel) -> None:
+    state = two_objects(cup, flashlight)
+    chains = state.chains
+    assert list(chains) == ['cup', 'flashlight'] and state.chain_namespace('cup') == '/robot1/cup'
+    assert chains['cup'].model.name == 'cup_7zone' and chains['flashlight'].model.name == 'flashlight_7zone'
+    assert_allclose(chains['cup'].object_pose, CUP_POSE, atol=1e-12)
+    assert_allclose(chains['flashlight'].object_pose, FLASHLIGHT_POSE, atol=1e-12)
+    assert_allclose(chains['cup'].x, prototype_x(0b011)) and chains['cup'].plan_stamp == (12, 345)
+    assert_allclose(chains['flashlight'].x, prototype_x(0b001)) and chains['flashlight'].plan_stamp == (13, 0)
+    assert_allclose(state.arm.q_live, HOME_Q)
+    assert all(chain.q_live is None for chain in chains.values()), 'the arm is one, not a chain\'s'
+    # a topic of the arm given to a chain, a chain's given to the arm: neither changes anything
+    moved_arm = joint_state_msg(ARM_JOINTS, HOME_Q + 0.1, stamp=STAMP)
+    assert apply_objects(state, 'cup', topics.JOINT_STATES, moved_arm) is state
+    assert apply_objects(state, None, topics.INTENT_W, Float64MultiArray(data=[0.5] * 3)) is state
+
+
+def test_each_chain_shows_its_own_planner_s_status(cup: GraspModel, flashlight: GraspModel) -> None:
+    state = two_objects(cup, flashlight)
+    for name, status in (('/robot1/flashlight/grasp_planner: planning', 'no reachable grasp'),
+                         ('/robot1/cup/grasp_planner: planning', 'ok'),
+                         ('/cup/grasp_planner: planning', 'another suite\'s'),
+                         ('/robot1/cup/intent_interpreter: intent', 'not a planner\'s')):
+        state = apply_objects(state, None, topics.DIAGNOSTICS, diagnostic(name, status))
+    assert {name: chain.plan_status for name, chain in state.chains.items()} == {
+        'cup': 'ok', 'flashlight': 'no reachable grasp'}
+    assert apply_objects(state, None, topics.DIAGNOSTICS, diagnostic('/robot1/cup/model_server: model', 'x')) is state
+
+
+def test_a_bad_message_on_one_chain_changes_no_chain(cup: GraspModel, flashlight: GraspModel) -> None:
+    state = two_objects(cup, flashlight)
+    bad_pose = matrix_to_pose_msg(np.eye(4), frame_id='world', stamp=STAMP)
+    with pytest.raises(GraspIntentError):
+        apply_objects(state, 'flashlight', topics.OBJECT_POSE, bad_pose)
+    moved = apply_objects(state, 'cup', topics.OBJECT_POSE, matrix_to_pose_msg(FLASHLIGHT_POSE, frame_id=BASE_FRAME,
+                                                                                  stamp=STAMP))
+    assert_allclose(moved.chains['cup'].object_pose, FLASHLIGHT_POSE, atol=1e-12)
+    assert moved.chains['flashlight'] is state.chains['flashlight'] and moved.arm is state.arm
+
+
+def test_the_panel_shows_each_object_s_v_p_and_w_under_its_name(cup: GraspModel, flashlight: GraspModel) -> None:
+    state = two_objects(cup, flashlight)
+    state = apply_objects(state, None, topics.DIAGNOSTICS, diagnostic('/robot1/flashlight/grasp_planner: planning',
+                                                                      'no reachable grasp'))
+    html = panel_html(state)
+    cup_part = html[html.index('object <b>cup</b> (/robot1/cup)'):html.index('object <b>flashlight</b>')]
+    flashlight_part = html[html.index('object <b>flashlight</b> (/robot1/flashlight)'):]
+    for part, model, name in ((cup_part, cup, 'cup_7zone'), (flashlight_part, flashlight, 'flashlight_7zone')):
+        assert f'model <b>{name}</b>' in part
+        for label, p_k in zip(model.zone_labels, np.linspace(0.05, 0.25, len(model.zone_labels))):
+            row = part[part.index(f'>{label}<'):]
+            assert row.index(f'{p_k + 0.5:.2f}') < row.index(f'{p_k:.2f}') < row.index('</tr>')
+    assert 'plan: no reachable grasp' in flashlight_part and 'plan:' not in cup_part
+    assert 'no joint_states yet' not in html and 'ghost' not in html
+    empty = ObjectsState.empty(['cup', 'flashlight'])
+    assert 'waiting for the suite' in panel_html(empty) and 'object <b>cup' not in panel_html(empty)
+    one = empty.with_chain('flashlight', lambda s: replace(s, clarification='which task?'))
+    assert 'object <b>cup</b> (/cup)</div><div>no model, intent or plan yet' in panel_html(one)
+    assert 'live arm: no joint_states yet' in panel_html(one)
+
+
+def test_the_intent_estimator_s_p_of_each_object_is_shown_beside_its_name(cup: GraspModel,
+                                                                          flashlight: GraspModel) -> None:
+    state = two_objects(cup, flashlight)
+    assert state.object_probabilities == {} and 'P(o)' not in panel_html(state)
+    seen = apply_objects(state, None, topics.INTENT_OBJECTS, array_to_msg([0.83, 0.17], [['cup', 'flashlight']]))
+    assert seen.object_probabilities == {'cup': 0.83, 'flashlight': 0.17} and seen.chains is state.chains
+    html = panel_html(seen)
+    assert 'object <b>cup</b> (/robot1/cup, P(o) = 0.83)' in html
+    assert 'object <b>flashlight</b> (/robot1/flashlight, P(o) = 0.17)' in html
+    # the flashlight's goals not ready: only the cup is in the estimate, and only the cup shows one
+    one = apply_objects(seen, None, topics.INTENT_OBJECTS, array_to_msg([1.0], [['cup']]))
+    assert one.object_probabilities == {'cup': 1.0}
+    assert 'object <b>flashlight</b> (/robot1/flashlight)<' in panel_html(one)
+    for bad in (array_to_msg([0.5, 0.5], [['cup', 'bottle']]),  # not an object of this scene
+                array_to_msg([1.2, -0.2], [['cup', 'flashlight']]),  # not probabilities
+                Float64MultiArray(data=[0.5, 0.5])):  # no names
+        with pytest.raises(GraspIntentError, match='intent/objects'):
+            apply_objects(seen, None, topics.INTENT_OBJECTS, bad)
+
+
+def test_the_page_draws_each_object_with_its_grasp_at_its_own_pose_and_the_arm_once(
+        arm: ArmModel, cup: GraspModel, flashlight: GraspModel) -> None:
+    state = two_objects(cup, flashlight)
+    page = ScenePage(arm, port=0)
+    try:
+        page.show(state)
+        for name, base_T_obj, x in (('cup', CUP_POSE, prototype_x(0b011)),
+                                    ('flashlight', FLASHLIGHT_POSE, prototype_x(0b001))):
+            drawing = page._chains[name]
+            position, xyzw = matrix_to_pose(base_T_obj @ features_to_obj_T_ee(x))
+            assert drawing._grasp.visible and drawing._fingers is not None, name
+            assert_allclose(drawing._grasp.position, position, atol=1e-6)
+            assert_allclose(np.abs(np.dot(drawing._grasp.wxyz, np.roll(xyzw, 1))), 1.0, atol=1e-6)
+            body = body_shapes(state.chains[name].model.model.body, base_T_obj)
+            assert len(drawing._body) == len(body), name
+            for handle, shape in zip(drawing._body, body):
+                assert handle.visible and handle.name.startswith(f'/objects/{name}/object/')
+                assert_allclose(handle.position, shape.base_T_shape[:3, 3], atol=1e-6)
+            assert_allclose(drawing._table.position, table_shape(base_T_obj).base_T_shape[:3, 3], atol=1e-6)
+            assert drawing._label.visible and drawing._label.position[:2] == pytest.approx(base_T_obj[:2, 3])
+        assert all(handle.visible for handle in page._live)
+        assert not any(handle.visible for handle in page._ghost), 'no planned arm in a scene of several objects'
+        assert 'object <b>cup</b>' in page._panel.content and 'object <b>flashlight</b>' in page._panel.content
+    finally:
+        page.stop()
+
+
+def test_a_chain_that_cannot_be_drawn_leaves_the_others_drawn(arm: ArmModel, cup: GraspModel,
+                                                              flashlight: GraspModel) -> None:
+    state = two_objects(cup, flashlight)
+    bad = state.with_chain('cup', lambda s: replace(s, base_T_ee=np.full((4, 4), np.nan)))
+    page = ScenePage(arm, port=0)
+    try:
+        with pytest.raises(GraspIntentError, match='^cannot draw cup: '):
+            page.show(bad)
+        assert page._chains['flashlight']._grasp.visible and not page._chains['cup']._grasp.visible
+        page.show(state)  # the next state is drawn whole
+        assert page._chains['cup']._grasp.visible
     finally:
         page.stop()
 

@@ -224,3 +224,51 @@ def test_sigkill_then_reindex_recovers_every_message_flushed_before_the_kill(ros
         [float(seq), 0.5, 0.5] for seq in range(k)]
     meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     assert meta['message_count'] == sum(i.count for i in topics_info(bag).values()) >= k
+
+
+def recorder_status(statuses: list) -> tuple[int, str, dict[str, str]]:
+    """The recorder's last status: (level, message, values); (-1, '', {}) before any."""
+    for status in reversed(statuses):
+        if status.name == f'{NS}/recorder: recorder':
+            return int.from_bytes(status.level, 'little'), status.message, {kv.key: kv.value for kv in status.values}
+    return -1, '', {}
+
+
+@pytest.mark.parametrize('publishers', [1, 2])
+def test_a_recorder_left_behind_reports_the_messages_its_queue_dropped_per_topic(ros, start_recorder, tmp_path,
+                                                                                   publishers: int) -> None:
+    """A recorder stopped (SIGSTOP) while 200 messages come, its queue 20 deep: it writes the newest 20 and says so.
+
+    The queue (keep-last) drops the oldest without a middleware event; the recorder counts the publisher's sequence
+    numbers it never took: a WARN naming the topic, its diagnostics (per topic) and its exit summary. With a second
+    publisher of the topic (silent here) the numbers cannot be told apart: the full queue is reported, uncounted.
+    """
+    burst, depth = 200, 20
+    w_pub = ros.publisher(Float64MultiArray, W, DEEP_RELIABLE)
+    others = [ros.publisher(Float64MultiArray, W, DEEP_RELIABLE) for _ in range(publishers - 1)]
+    statuses = ros.diagnostics()
+    bag = tmp_path / 'session'
+    proc = start_recorder(bag, depth=depth)
+    assert ros.wait_for(lambda: w_pub.get_subscription_count() >= 1 and recorder_count(statuses, f'topic {W}') == 0,
+                        timeout=STARTUP), proc.output()
+    w_pub.publish(Float64MultiArray(data=[-1.0, 0.5, 0.5]))  # taken before the stall: the sequence's start
+    assert ros.wait_for(lambda: recorder_count(statuses, f'topic {W}') == 1, timeout=STARTUP), proc.output()
+    proc.popen.send_signal(signal.SIGSTOP)  # our own process, by PID
+    try:
+        sent = publish_w(ros, w_pub, range(burst))
+        assert ros.wait_for(lambda: len(sent) == burst, timeout=20.0)
+    finally:
+        proc.popen.send_signal(signal.SIGCONT)
+    key, count = (f'lost {W}', burst - depth) if not others else (f'queue full {W}', 1)
+    assert ros.wait_for(lambda: recorder_status(statuses)[2].get(key) == str(count),
+                        timeout=STARTUP), (recorder_status(statuses), proc.output())
+    level, message, values = recorder_status(statuses)
+    assert level == 1 and W in message and values['messages lost'] == str(count if not others else 0), values
+    assert proc.stop(signal.SIGINT) == 0, proc.output()
+    stdout, stderr = proc.output()
+    summary = stdout.strip().splitlines()[-1]
+    assert f'{W} {1 + depth})' in summary, summary
+    assert (f'LOST {count}: {W} {count}' if not others else f'queue full, losses not counted: {W} 1 time') in summary, \
+        summary
+    assert W in stderr and 'lost' in stderr, stderr
+    assert [int(m.decode().data[0]) for m in read_messages(bag, topics=[W])] == [-1, *range(burst - depth, burst)]

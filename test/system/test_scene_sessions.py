@@ -27,6 +27,7 @@ from std_msgs.msg import Float64MultiArray
 from grasp_intent_ros.launch.suite import NodeProcess, node_environment
 from grasp_intent_ros.mico.kinematics import HOME_Q
 from grasp_intent_ros.sessions.fixtures import joints, pose, w
+from grasp_intent_ros.sessions.report import write_report
 from grasp_intent_ros.sessions.scenes import load_paired_scene
 from grasp_intent_ros.wire.diagnostics import KEY_REJECTED
 from grasp_intent_ros.wire.topics import PLAN_TOPICS
@@ -120,6 +121,14 @@ def test_a_scene_recorded_from_the_first_message_replays_each_chain_by_its_names
         ['/diagnostics'], ['/diagnostics']], 'each chain: its own planner\'s rejection'
     first_cup_w = scene.chains[0].steps[1]
     assert first_cup_w.description == 'cup: intent/w [0.9, 0.9, 0.1]' and len(first_cup_w.expected) == len(PLAN)
+
+    # the report: one per chain, each of its own plans, clarifications and planner's rejection
+    figures, _ = write_report(bag, tmp_path / 'report')
+    assert {figure.partition('/')[0] for figure in figures} == {'cup', 'flashlight'}
+    cup, flashlight = ((tmp_path / 'report' / name / 'summary.md').read_text() for name in ('cup', 'flashlight'))
+    assert '- plans: 1' in cup and '- clarifications: 1' in cup and '- rejections (from /diagnostics): 1' in cup
+    assert '- plans: 2' in flashlight and '- clarifications: 0' in flashlight, flashlight
+    assert '- rejections (from /diagnostics): 1' in flashlight and '/cup/' not in flashlight
 
     result = replay(bag, domain_id)
     assert result.returncode == 0, f'{result.stdout}\n{result.stderr}'

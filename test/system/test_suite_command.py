@@ -93,8 +93,9 @@ def test_bad_arguments_exit_2_before_anything_starts(tmp_path: Path) -> None:
                          (['--domain-id', '300'], '0..101'),
                          (['--object', 'cup=cup_7zone', '--object', 'cup=cup_5zone', '--object', 'mug=mug'],
                           "object 'cup' is named twice; object 'mug': no model 'mug'"),
-                         (['--object', 'cup=cup_7zone', '--shared-control', '--with', 'viewer'],
-                          'mock_arm, assistance, viewer with --object: not built yet'),
+                         (['--object', 'cup=cup_7zone', '--shared-control', '--with', 'viewer', '--with',
+                           'scripted_operator'],
+                          'mock_arm, assistance, scripted_operator with --object: not built yet'),
                          (['--object', 'cup=cup_7zone', '--shared-control', '--with', 'intent_estimator'],
                           ': mock_arm, assistance with --object: not built yet')):
         result = subprocess.run([sys.executable, '-m', 'grasp_intent_ros', 'suite', *args], cwd=tmp_path,

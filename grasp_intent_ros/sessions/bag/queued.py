@@ -41,7 +41,7 @@ class QueuedWriter:
                  on_error: Callable[[BagWriteError], object] | None = None) -> None:
         self._writer = writer
         self._on_error = on_error
-        self._queue: queue.SimpleQueue[tuple[str, int, bytes | memoryview] | None] = queue.SimpleQueue()
+        self._queue: queue.SimpleQueue[tuple[str, int, bytes | memoryview, int | None] | None] = queue.SimpleQueue()
         self._counts: dict[str, int] = {}
         self._error: BagWriteError | None = None
         self._dropped = 0
@@ -75,7 +75,7 @@ class QueuedWriter:
         """The largest :attr:`queued` seen by :meth:`put`."""
         return self._peak
 
-    def put(self, topic: str, timestamp_ns: int, cdr: bytes | memoryview) -> None:
+    def put(self, topic: str, timestamp_ns: int, cdr: bytes | memoryview, publish_ns: int | None = None) -> None:
         """Queue one serialized message (see :meth:`SessionWriter.write`); never blocks, never raises.
 
         After an error or :meth:`close` the message is counted in :attr:`dropped` instead.
@@ -83,7 +83,7 @@ class QueuedWriter:
         if self._error is not None or self._closed:
             self._dropped += 1
             return
-        self._queue.put((topic, timestamp_ns, cdr))
+        self._queue.put((topic, timestamp_ns, cdr, publish_ns))
         self._peak = max(self._peak, self._queue.qsize())
 
     def close(self) -> None:
@@ -114,8 +114,8 @@ class QueuedWriter:
             if self._error is not None:
                 self._dropped += 1
                 continue
-            topic, stamp, cdr = item
-            if self._guarded(functools.partial(writer.write, topic, stamp, cdr)):
+            topic, stamp, cdr, published = item
+            if self._guarded(functools.partial(writer.write, topic, stamp, cdr, published)):
                 self._counts[topic] = self._counts.get(topic, 0) + 1
             else:
                 self._dropped += 1

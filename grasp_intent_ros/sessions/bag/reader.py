@@ -1,15 +1,19 @@
-"""Reading session bags with rosbags (metadata.yaml + MCAP storage)."""
+"""Reading session bags with rosbags (metadata.yaml, topics, types), their MCAP messages with mcap (both times)."""
 
 from __future__ import annotations
 
+import heapq
 import os
 from collections.abc import Collection, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
 from rosbags.interfaces import ConnectionExtRosbag2, MessageDefinitionFormat
 from rosbags.rosbag2 import Reader, ReaderError
+from rosbags.rosbag2.storage_mcap import McapReader
 from rosbags.serde import SerdeError
 from rosbags.typesys import TypesysError, get_types_from_msg
 
@@ -44,6 +48,9 @@ class BagMessage:
         Receive (log) time, ns since the epoch.
     cdr
         Serialized message, CDR with encapsulation header.
+    publish_ns
+        Send time (the MCAP record's publish time: the publisher's source timestamp in a bag the recorder or
+        ``ros2 bag record`` on Jazzy wrote; the receive time where the recorder had none), ns since the epoch.
     """
 
     topic: str
@@ -51,6 +58,7 @@ class BagMessage:
     timestamp_ns: int
     cdr: bytes
     _typestore: Typestore = field(repr=False, compare=False)
+    publish_ns: int
 
     def decode(self) -> object:
         """Deserialize :attr:`cdr` into a rosbags message object (decoded anew on each call).
@@ -86,7 +94,10 @@ def read_messages(
     topics: Collection[str] | None = None,
     typestore: Typestore | None = None,
 ) -> Iterator[BagMessage]:
-    """Iterate over a rosbag2 bag's messages in timestamp order, with rosbags.
+    """Iterate over a rosbag2 bag's messages in receive-time order (ties in the file's order), with both times.
+
+    The bag's topics and types are read with rosbags, an MCAP file's messages with mcap (rosbags reads no publish
+    time; another storage's messages with rosbags, their publish time the receive time).
 
     Parameters
     ----------
@@ -113,10 +124,24 @@ def read_messages(
         with Reader(bag_path) as reader:
             conns = _select(reader.connections, topics, bag_path)
             _register_missing_types(store, conns, bag_path)
-            for conn, stamp, data in reader.messages(connections=conns):
-                yield BagMessage(conn.topic, conn.msgtype, stamp, bytes(data), store)
-    except (ReaderError, OSError) as exc:
+            storages = list(getattr(reader.storage, 'storages', ()))  # a bag directory's files
+            if not storages or not all(isinstance(storage, McapReader) for storage in storages):
+                for conn, stamp, data in reader.messages(connections=conns):
+                    yield BagMessage(conn.topic, conn.msgtype, stamp, bytes(data), store, stamp)
+                return
+            types = {conn.topic: conn.msgtype for conn in conns}
+            files = [_mcap_messages(Path(storage.path), types, store) for storage in storages]
+            yield from heapq.merge(*files, key=lambda message: message.timestamp_ns)
+    except (ReaderError, McapError, OSError) as exc:
         raise BagReadError(f'cannot read bag {bag_path}: {exc}') from exc
+
+
+def _mcap_messages(path: Path, types: dict[str, str], store: Typestore) -> Iterator[BagMessage]:
+    """The messages on the topics of ``types`` (topic -> message type) of one MCAP file, by log time, then position."""
+    with path.open('rb') as stream:
+        for _, channel, message in make_reader(stream).iter_messages(topics=list(types), log_time_order=True):
+            yield BagMessage(channel.topic, types[channel.topic], message.log_time, bytes(message.data), store,
+                             message.publish_time)
 
 
 def topics_info(path: str | os.PathLike[str]) -> dict[str, TopicInfo]:

@@ -41,10 +41,12 @@ class Recording:
         self._bag = SessionWriter(out_dir, typestore=self._typestore, flush_period=flush_period)
         self._writer = QueuedWriter(self._bag)
         self.put = self._writer.put
-        """Queue one serialized message: ``put(topic, receive time in ns, CDR bytes)``; never blocks or raises."""
+        """Queue one serialized message: ``put(topic, receive time in ns, CDR bytes, send time in ns or None)``;
+        never blocks or raises."""
         self._recorded: dict[str, tuple[str, QosSpec]] = {}  # topic -> (type, subscribed QoS)
         self._received = 0
         self._lost: dict[str, int] = {}
+        self._overflows: dict[str, int] = {}
         self._error: BagWriteError | None = None
 
     @property
@@ -108,24 +110,47 @@ class Recording:
         self._received += messages
 
     def count_lost(self, topic: str, messages: int) -> str:
-        """Count messages lost before they reached the recorder; return every topic's losses ('/a 2, /b 1')."""
+        """Count messages lost before they reached the bag; return every topic's losses (:meth:`losses`)."""
         self._lost[topic] = self._lost.get(topic, 0) + messages
-        return ', '.join(f'{t} {n}' for t, n in sorted(self._lost.items()))
+        return self.losses()
+
+    def count_overflow(self, topic: str) -> str:
+        """Count a full queue whose losses are not known; return every topic's losses (:meth:`losses`)."""
+        self._overflows[topic] = self._overflows.get(topic, 0) + 1
+        return self.losses()
+
+    def losses(self) -> str:
+        """Every topic's losses in words: 'LOST 5: /a 2, /b 3', then '; queue full, losses not counted: /c 1 time'.
+
+        '' when nothing was lost.
+        """
+        parts = []
+        if self._lost:
+            parts.append(f'LOST {sum(self._lost.values())}: '
+                         + ', '.join(f'{t} {n}' for t, n in sorted(self._lost.items())))
+        if self._overflows:
+            parts.append('queue full, losses not counted: '
+                         + ', '.join(f'{t} {n} time{"s" if n > 1 else ""}' for t, n in sorted(self._overflows.items())))
+        return '; '.join(parts)
 
     def values(self) -> dict[str, int]:
         """The counts a recorder reports, by key.
 
         'messages received', 'messages written' in total and per topic ('topic /intent/w': n), the 'writer
-        queue' and its 'writer queue peak' (messages received, not yet written), 'messages lost' (the
-        middleware's message-lost events: a reliable publisher whose history dropped messages before the
-        recorder had them, a best-effort gap).
+        queue' and its 'writer queue peak' (messages received, not yet written), 'messages lost' in total and per
+        topic that lost any ('lost /intent/w': n: the middleware's message-lost events, a reliable publisher whose
+        history dropped messages before the recorder had them, a best-effort gap; and what a subscription's
+        keep-last queue dropped, counted by the recorder), 'queue full' per topic whose full queue's losses are
+        not known ('queue full /diagnostics': times).
         """
         written = self._writer.counts
         return {
             'messages received': self._received, 'messages written': self._bag.message_count,
             'writer queue': self._writer.queued, 'writer queue peak': self._writer.peak,
             'messages lost': sum(self._lost.values()),
-            **{f'topic {topic}': written.get(topic, 0) for topic in self._recorded}}
+            **{f'topic {topic}': written.get(topic, 0) for topic in self._recorded},
+            **{f'lost {topic}': n for topic, n in self._lost.items()},
+            **{f'queue full {topic}': n for topic, n in self._overflows.items()}}
 
     def located(self, exc: BagWriteError) -> str:
         """``exc`` with the bag and the messages written before it, unless its text names the bag already."""
@@ -155,11 +180,13 @@ class Recording:
         return failure
 
     def summary(self) -> str:
-        """One line: messages per topic, and the error if the recording failed."""
+        """One line: messages per topic, the losses (:meth:`losses`), and the error if the recording failed."""
         counts = self.counts
         per_topic = ', '.join(f'{t} {n}' for t, n in sorted(counts.items())) or 'no topics'
         line = (f'recorder: {sum(counts.values())} messages on {len(counts)} topics '
                 f'in {self._bag.path} ({per_topic})')
+        if losses := self.losses():
+            line += f'; {losses}'
         if self._error is not None:
             line += f'; FAILED: {self._error}'
             if self._writer.dropped:

@@ -162,7 +162,7 @@ class _Rebuilder:
             topic = self.topics.get(record.channel_id)
             if topic is None:
                 raise _Corrupt(f'message on channel {record.channel_id}, which no earlier record defines')
-            self.writer.write(topic, record.log_time, record.data)
+            self.writer.write(topic, record.log_time, record.data, record.publish_time)
             self.counts[topic] += 1
 
     def _add_channel(self, channel: Channel) -> None:

@@ -10,6 +10,9 @@ are set here as rosbag2 does (ros2/rosbag2, jazzy):
 - MCAP channel metadata: rosbag2_storage_mcap's ``create_topic`` writes two entries per channel,
   ``offered_qos_profiles`` (the YAML list of profiles) and ``topic_type_hash`` (the RIHS01 type hash), so
   a reader of the .mcap alone sees the type hashes; rosbags writes only the first.
+- A message's two times: rosbag2 (Jazzy) writes the receive time as the MCAP record's ``log_time`` and the
+  publisher's send time (the middleware's source timestamp, its ``send_timestamp``) as its ``publish_time``, the
+  receive time when the middleware gives none; rosbags writes the receive time in both.
 
 Crash safety, as rosbag2's MCAP storage has it: rosbags closes a chunk only when it exceeds 1 MiB and keeps
 even the file header in Python's buffer. Here the header is flushed when the bag is created, every closed
@@ -80,12 +83,29 @@ class _McapStorage(storage_mcap.McapWriter):
     def __init__(self, path: Path, compression: CompressionMode) -> None:
         super().__init__(path, compression)
         self.open_since: float | None = None
+        self.publish_time: int | None = None
+        """The next message's publish time (ns), set by its writer just before; None: its log time."""
         self.bio.flush()
 
     def write(self, connection: Connection, timestamp: int, data: bytes | memoryview) -> None:
+        """Write as rosbags' ``McapWriter.write`` does (the index by log time), with :attr:`publish_time`."""
         if self.open_since is None:
             self.open_since = time.monotonic()
-        super().write(connection, timestamp, data)  # closes the chunk when it exceeds 1 MiB
+        self.message_start_time = min(timestamp, self.message_start_time)
+        self.message_end_time = max(timestamp, self.message_end_time)
+        self.channel_stats[connection.id] += 1
+        self.chunk.message_start_time = min(timestamp, self.chunk.message_start_time)
+        self.chunk.message_end_time = max(timestamp, self.chunk.message_end_time)
+        self.chunk.msgs[connection.id].append((timestamp, self.chunk.bio.tell()))
+        rec = BytesIO()
+        storage_mcap.write_uint16(rec, connection.id)
+        storage_mcap.write_uint32(rec, 0)
+        storage_mcap.write_uint64(rec, timestamp)
+        storage_mcap.write_uint64(rec, timestamp if self.publish_time is None else self.publish_time)
+        rec.write(data)
+        storage_mcap.write_record(self.chunk.bio, 0x05, rec)
+        if self.chunk.bio.tell() > 2**20:
+            self.close_chunk()
 
     def close_chunk(self) -> None:
         super().close_chunk()
@@ -254,7 +274,7 @@ class SessionWriter:
                 raise self._error(f'cannot add topic {topic!r}: {exc}') from exc
             self._connections[topic] = conn
 
-    def write(self, topic: str, timestamp_ns: int, cdr: bytes | memoryview) -> None:
+    def write(self, topic: str, timestamp_ns: int, cdr: bytes | memoryview, publish_ns: int | None = None) -> None:
         """Write one already serialized message (CDR with its 4-byte encapsulation header).
 
         Parameters
@@ -265,6 +285,9 @@ class SessionWriter:
             Receive time, ns since the epoch, in [0, 2**63).
         cdr
             The serialized message, e.g. from an rclpy subscription with ``raw=True``.
+        publish_ns
+            Send time (the publisher's source timestamp), ns since the epoch, in [0, 2**63); None: the receive
+            time (the module docstring: a message's two times).
 
         Raises
         ------
@@ -273,7 +296,7 @@ class SessionWriter:
             (e.g. ENOSPC); after an OS error the writer is closed and the bag is incomplete.
         """
         with self._lock:
-            self._write_locked(topic, timestamp_ns, cdr)
+            self._write_locked(topic, timestamp_ns, cdr, publish_ns)
 
     def write_message(self, topic: str, timestamp_ns: int, msg: object) -> None:
         """Serialize a rosbags message object of the topic's type to CDR and write it.
@@ -365,25 +388,38 @@ class SessionWriter:
             f'{len(self._connections)} topics, {self._count} messages)'
         )
 
-    def _write_locked(self, topic: str, timestamp_ns: int, cdr: bytes | memoryview) -> None:
+    def _write_locked(self, topic: str, timestamp_ns: int, cdr: bytes | memoryview,
+                      publish_ns: int | None = None) -> None:
         self._check_open()
         conn = self._connection(topic)
-        try:
-            stamp = operator.index(timestamp_ns)
-        except TypeError:
-            raise self._error(f'timestamp_ns must be an integer (ns), got {timestamp_ns!r}') from None
-        if not 0 <= stamp <= _MAX_TIMESTAMP_NS:
-            raise self._error(f'timestamp_ns must be in [0, 2**63), got {stamp}')
+        stamp = self._nanoseconds('timestamp_ns', timestamp_ns)
+        published = None if publish_ns is None else self._nanoseconds('publish_ns', publish_ns)
         if not isinstance(cdr, (bytes, memoryview)) or len(cdr) < 4:
             raise self._error(f'cdr must be serialized bytes with a 4-byte encapsulation header on {topic!r}')
+        storage = self._storage
         try:
+            if storage is not None:
+                storage.publish_time = published
             self._writer.write(conn, stamp, cdr)
         except OSError as exc:
             raise self._failed('writing', exc) from exc
+        finally:
+            if storage is not None:
+                storage.publish_time = None
         self._count += 1
         due = self.seconds_to_flush
         if due is not None and due <= 0.0:
             self._flush_locked()
+
+    def _nanoseconds(self, name: str, value: object) -> int:
+        """``value`` as an integer time in [0, 2**63) ns; a :class:`BagWriteError` naming ``name`` otherwise."""
+        try:
+            stamp = operator.index(value)  # type: ignore[arg-type]
+        except TypeError:
+            raise self._error(f'{name} must be an integer (ns), got {value!r}') from None
+        if not 0 <= stamp <= _MAX_TIMESTAMP_NS:
+            raise self._error(f'{name} must be in [0, 2**63), got {stamp}')
+        return stamp
 
     def _flush_locked(self) -> None:
         self._check_open()

@@ -7,7 +7,14 @@ from pathlib import Path
 import pytest
 
 from grasp_intent_ros.errors import GraspIntentError
-from grasp_intent_ros.launch.objects import SceneObject, chain_remappings, parse_objects, refuse_unbuilt
+from grasp_intent_ros.launch.objects import (
+    SCENE_NODES,
+    SceneObject,
+    chain_remappings,
+    parse_objects,
+    refuse_unbuilt,
+    scene_node_args,
+)
 from grasp_intent_ros.launch.suite import SUITE_NODES, NodeProcess, NodeSuite, node_environment
 from grasp_intent_ros.resources import config_dir
 
@@ -56,11 +63,11 @@ def test_models_are_looked_up_in_the_given_directory(tmp_path: Path) -> None:
         parse_objects(['cup=cup_7zone'], models_dir=str(tmp_path / 'missing'))
 
 
-def test_optional_nodes_beside_objects_are_refused_naming_them_but_the_intent_estimator() -> None:
+def test_optional_nodes_beside_objects_are_refused_naming_them_but_those_of_the_scene() -> None:
     refuse_unbuilt([])
-    refuse_unbuilt(['intent_estimator'])
+    refuse_unbuilt(['intent_estimator', 'viewer'])
     with pytest.raises(GraspIntentError, match=r'^mock_arm, assistance with --object: not built yet'):
-        refuse_unbuilt(['mock_arm', 'intent_estimator', 'assistance'])
+        refuse_unbuilt(['mock_arm', 'intent_estimator', 'viewer', 'assistance'])
 
 
 def test_each_object_gets_a_chain_in_its_namespace_with_its_model_reading_the_arms_joint_states(
@@ -96,11 +103,29 @@ def test_each_object_gets_a_chain_in_its_namespace_with_its_model_reading_the_ar
     started.clear()
     with pytest.raises(GraspIntentError, match='not built yet'):
         suite.start_nodes(objects=objects, shared_control=True)
-    with pytest.raises(GraspIntentError, match='viewer with --object'):
-        suite.start_nodes(objects=objects, extra=['viewer'])
+    with pytest.raises(GraspIntentError, match='^scripted_operator with --object'):
+        suite.start_nodes(objects=objects, extra=['viewer', 'scripted_operator'])
     with pytest.raises(GraspIntentError, match='give no model'):
         suite.start_nodes(objects=objects, model='cup_7zone')
     assert not started
+
+
+def test_the_viewer_starts_once_after_the_chains_at_the_suites_namespace_with_the_objects_names(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``suite --object ... --with viewer``; no process is started (``start`` recorded)."""
+    started: list[tuple[str, str | None, tuple[str, ...]]] = []
+    monkeypatch.setattr(NodeSuite, 'start',
+                        lambda self, module, *args, name=None: started.append((module, name, args)))
+    assert SCENE_NODES == ('intent_estimator', 'viewer')
+    objects = parse_objects(['cup=cup_5zone', 'flashlight=flashlight_7zone'])
+    NodeSuite(97, log_dir=tmp_path).start_nodes(namespace='/robot1', objects=objects, extra=['viewer'])
+    assert [(module, name) for module, name, _ in started] == [
+        *((module, f'{obj}/{module}') for obj in ('cup', 'flashlight') for module in SUITE_NODES), ('viewer', None)]
+    args = started[-1][2]
+    assert args[:2] == ('--params-file', str(config_dir() / 'viewer.yaml'))
+    assert [args[i + 1] for i, a in enumerate(args) if a == '-r'] == ['__ns:=/robot1']
+    assert [args[i + 1] for i, a in enumerate(args) if a == '-p'] == ["objects:=['cup','flashlight']"]
+    assert scene_node_args(objects[:1]) == ('-p', "objects:=['cup']")
 
 
 def test_a_chain_process_is_named_by_its_object_and_its_logs_too(tmp_path: Path) -> None:

@@ -24,6 +24,7 @@ from mcap.reader import make_reader
 from mcap_check import read_messages_mcap
 from numpy.testing import assert_array_equal
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 
@@ -295,6 +296,35 @@ def test_equal_timestamps_keep_write_order(tmp_path: Path, store: Typestore) -> 
             bag.write_message('/a' if i % 2 else '/b', stamp, store.types[STRING](data=str(i)))
     assert [decoded(m).data for m in read_messages(path)] == [str(i) for i in range(50)]
     assert [m.decoded.data for m in read_messages_mcap(path)] == [str(i) for i in range(50)]
+
+
+def test_each_message_keeps_its_send_time_as_the_mcap_publish_time(tmp_path: Path, store: Typestore) -> None:
+    """Receive time in log_time, send time in publish_time (the receive time when none is given), as rosbag2 does."""
+    path = tmp_path / 'times'
+    with SessionWriter(path, typestore=store) as bag:
+        bag.add_topic('/a', STRING, qos=QosSpec())
+        cdr = store.serialize_cdr(store.types[STRING](data='x'), STRING)
+        bag.write('/a', T0_NS + 10, cdr, T0_NS + 3)
+        bag.write('/a', T0_NS + 20, cdr)
+        for bad in (-1, 2**63, 1.5):
+            with pytest.raises(BagWriteError, match='publish_ns'):
+                bag.write('/a', T0_NS + 30, cdr, bad)  # type: ignore[arg-type]
+    assert [(m.timestamp_ns, m.publish_ns) for m in read_messages(path)] == [(T0_NS + 10, T0_NS + 3),
+                                                                           (T0_NS + 20, T0_NS + 20)]
+    assert [(m.log_time_ns, m.publish_time_ns) for m in read_messages_mcap(path)] == [(T0_NS + 10, T0_NS + 3),
+                                                                                      (T0_NS + 20, T0_NS + 20)]
+
+
+def test_a_bag_of_another_storage_is_read_with_receive_times_as_send_times(tmp_path: Path, store: Typestore) -> None:
+    """A rosbag2 sqlite3 bag (rosbags writes it) holds no send times: read by rosbags, the receive time in both."""
+    path = tmp_path / 'sqlite'
+    with Writer(path, version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        connection = writer.add_connection('/a', STRING, typestore=store)
+        for k in range(3):
+            writer.write(connection, T0_NS + k, store.serialize_cdr(store.types[STRING](data=str(k)), STRING))
+    read = list(read_messages(path))
+    assert [(m.topic, m.timestamp_ns, m.publish_ns, decoded(m).data) for m in read] == [
+        ('/a', T0_NS + k, T0_NS + k, str(k)) for k in range(3)]
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -601,8 +631,9 @@ def chunked(tmp_path_factory: pytest.TempPathFactory, store: Typestore) -> tuple
         for topic, (msgtype, _) in BUILDERS.items():
             bag.add_topic(topic, msgtype, qos=QOS[topic])
         for seq in range(50):
-            for k, (topic, (_, build)) in enumerate(BUILDERS.items()):
-                bag.write_message(topic, T0_NS + 3 * seq + k, build(store, seq))
+            for k, (topic, (msgtype, build)) in enumerate(BUILDERS.items()):  # sent 1 ns before received
+                stamp = T0_NS + 3 * seq + k
+                bag.write(topic, stamp, store.serialize_cdr(build(store, seq), msgtype), stamp - 1)
             if seq % 10 == 9:
                 bag.flush()
     with mcap_file(path).open('rb') as f:
@@ -623,7 +654,8 @@ def test_reindex_of_a_truncated_file_recovers_every_complete_chunk(
     size = mcap_file(source).stat().st_size
     offsets = sorted({*range(0, size + 1, max(1, size // 12)), *(e + d for e, _ in ends for d in (-1, 0)),
                       8, 9, 60, size - 1})
-    everything = [(m.topic, m.timestamp_ns, seq_of(m.topic, decoded(m))) for m in read_messages(source)]
+    everything = [(m.topic, m.timestamp_ns, seq_of(m.topic, decoded(m)), m.publish_ns) for m in read_messages(source)]
+    assert all(publish == stamp - 1 for _, stamp, _, publish in everything)  # the send times are kept too
     for offset in offsets:
         bag = truncated_copy(source, tmp_path, f'cut{offset}', offset)
         expected = max((n for end, n in ends if end <= offset), default=0)
@@ -634,7 +666,8 @@ def test_reindex_of_a_truncated_file_recovers_every_complete_chunk(
             assert (bag / f'cut{offset}.mcap').stat().st_size == offset  # untouched
             continue
         assert result.repaired and result.messages == expected, (offset, result)
-        got = [(m.topic, m.timestamp_ns, seq_of(m.topic, decoded(m))) for m in read_messages(bag, typestore=store)]
+        got = [(m.topic, m.timestamp_ns, seq_of(m.topic, decoded(m)), m.publish_ns)
+               for m in read_messages(bag, typestore=store)]
         assert got == everything[:expected], offset
         assert (bag / f'cut{offset}.mcap{BROKEN_SUFFIX}').read_bytes() == mcap_file(source).read_bytes()[:offset]
         if expected:

@@ -7,8 +7,9 @@ from typing import Any
 
 import numpy as np
 import pytest
+from mcap_check import read_messages_mcap
 
-from grasp_intent_ros.sessions.bag import QosSpec, read_messages, topics_info
+from grasp_intent_ros.sessions.bag import QosSpec, SessionWriter, read_messages, topics_info
 from grasp_intent_ros.sessions.outputs import Joints, Pose, Rejection, SessionError, Trajectory, Vector, decode
 from grasp_intent_ros.sessions.pairing import compact_session, detect_namespace, load_paired_session, pair_messages
 from grasp_intent_ros.sessions.scenes import Scene, detect_scene, load_paired_scene
@@ -17,9 +18,11 @@ from grasp_intent_ros.wire.topics import DIAGNOSTICS, PLAN_TOPICS
 
 from ..session_bags import (
     ARM,
+    MS,
     SHA_A,
     SHA_B,
     STORE,
+    T0,
     TASKS,
     ZONES,
     P,
@@ -67,6 +70,41 @@ def test_each_input_is_paired_with_the_outputs_that_follow_it(session_bag: Path)
     # the recorded bytes are kept for publishing again
     w = decode('std_msgs/msg/Float64MultiArray', session.steps[1].cdr)
     assert list(w.data) == [0.9, 0.9, 0.1]
+
+
+def test_an_input_received_after_the_outputs_it_caused_is_paired_by_the_send_times(tmp_path: Path) -> None:
+    """A w its publisher delivered to the chain first: received after its v and plan, sent before them.
+
+    By receive times the v and the plan are outputs before any input (unpaired, never compared) and the w answers
+    nothing; by send times (the bag's publish times) the w comes first and they are its. Equal send times keep the
+    receive order; a bag without send times of its own (publish time = receive time) pairs by receipts as before.
+    """
+    messages = [('model/active', model_doc('cup_7zone')), ('intent/v', v_msg(P)), *plan(),
+                ('intent/w', f64([0.9, 0.9, 0.1]))]
+    bag, late = tmp_path / 'late_w', T0 + 20 * MS
+    with SessionWriter(bag) as writer:
+        for k, (topic, msg) in enumerate(messages):
+            writer.add_topic(f'/{topic}', msg.__msgtype__, qos=QosSpec())
+            received = late if topic == 'intent/w' else T0 + k * MS
+            sent = T0 + MS // 2 if topic == 'intent/w' else received - MS // 10
+            writer.write(f'/{topic}', received, STORE.serialize_cdr(msg, msg.__msgtype__), sent)
+    read = list(read_messages(bag))
+    assert [m.topic for m in read][-1] == '/intent/w' and read[-1].publish_ns == T0 + MS // 2  # receive order
+    assert [(m.topic, m.publish_time_ns) for m in read_messages_mcap(bag, topics=['/intent/w'])] == [
+        ('/intent/w', T0 + MS // 2)]
+    session = load_paired_session(bag)
+    assert [s.topic for s in session.steps] == ['intent/w'] and session.unpaired == ()
+    assert sorted(o.topic for o in session.steps[0].expected) == sorted(['intent/v', *PLAN_TOPICS])
+    assert session.steps[0].t_ns == late  # the step keeps its receive time
+    def shape(steps: tuple) -> list:
+        return [(step.topic, step.t_ns, [(o.topic, o.t_ns) for o in step.expected]) for step in steps]
+
+    compact_session(bag, tmp_path / 'compact')  # the send times are copied
+    assert shape(load_paired_session(tmp_path / 'compact').steps) == shape(session.steps)
+
+    by_receipts = write_bag(tmp_path / 'receipts', messages)
+    assert [len(s.expected) for s in load_paired_session(by_receipts).steps] == [0]
+    assert len(load_paired_session(by_receipts).unpaired) == 1 + len(PLAN_TOPICS)
 
 
 def test_the_reduced_outputs_carry_what_is_compared(session_bag: Path) -> None:

@@ -92,52 +92,58 @@ def write_session_bag(store: Any, path: Path, model: GraspModel, *, planner: boo
 
     ``planner=False`` leaves out model and grasp topics (a bag lacking topics).
     """
-    zones = ','.join(model.zone_labels)
     with SessionWriter(path, typestore=store) as bag:
-        bag.add_topic(f'{NS}/intent/w', F64MA, qos=QosSpec())
         if planner:
-            bag.add_topic(f'{NS}/intent/v', F64MA, qos=QosSpec())
-            bag.add_topic(f'{NS}/intent/clarification', STRING, qos=QosSpec())
-            bag.add_topic(f'{NS}/model/active', STRING, qos=LATCHED)
-            bag.add_topic(f'{NS}/grasp/posterior', F64MA, qos=QosSpec())
-            bag.add_topic(f'{NS}/grasp/features', F64MA, qos=QosSpec())
-            bag.add_topic(f'{NS}/grasp/pose', POSE_T, qos=QosSpec())
-            bag.add_topic(f'{NS}/grasp/joint_targets', JOINTS_T, qos=QosSpec())
             bag.add_topic('/diagnostics', DIAG_T, qos=QosSpec())
-            doc = model_document(model, name='toy_7zone', version=1)
-            bag.write_message(f'{NS}/model/active', T0, store.types[STRING](data=doc))
-            bag.write_message('/diagnostics', T0 + 1, status(store, 0, '/robot1/grasp_planner: planning',
-                                                             'waiting for intent/v', {'plans': '0'}))
-        for k, w in enumerate([*CASES, CLARIFY]):
-            t = T0 + (k + 1) * S
-            bag.write_message(f'{NS}/intent/w', t, f64ma(store, w))
-            if not planner:
-                continue
-            result = interpret(w)
-            if result.needs_clarification:
-                bag.write_message(f'{NS}/intent/clarification', t + 1000, store.types[STRING](data=result.reason))
-                continue
-            bag.write_message(f'{NS}/intent/v', t + 1000, f64ma(store, result.v, 'U,T,H,UT,UH,TH,UTH'))
-            x = model.means[int(np.argmax(result.v))]  # stands in for the planned grasp
-            p = model.posterior(x)
-            w_rec = reconstruct_w(p, model.zones, 3)
-            label = f'{zones}|{",".join(model.task_names)}'
-            plan_ns = t + 50_000_000
-            bag.write_message(f'{NS}/grasp/posterior', plan_ns, stamped(store, np.r_[p, w_rec], label, t))
-            bag.write_message(f'{NS}/grasp/features', plan_ns, stamped(store, x, ','.join(MICO_3F.names), t))
-            pose, joints = plan_pose_and_targets(store, x, t)
-            bag.write_message(f'{NS}/grasp/pose', plan_ns, pose)
-            bag.write_message(f'{NS}/grasp/joint_targets', plan_ns, joints)
-            for repeat in (0, 1):  # the periodic status repeats the last planning time: one sample
-                bag.write_message('/diagnostics', plan_ns + repeat + 1, status(
-                    store, 0, '/robot1/grasp_planner: planning', 'ok',
-                    {'plans': str(k + 1), 'last planning time [ms]': f'{40.0 + 10 * k:.3f}'}))
-        if planner:  # a NaN w rejected by the interpreter: one WARN, then its periodic repeat
-            for dt in (6 * S, 7 * S):
-                bag.write_message('/diagnostics', T0 + dt, status(
-                    store, 1, '/robot1/intent_interpreter: intent', 'rejected input: w contains NaN or infinity',
-                    {'messages received': '5', 'messages rejected': '1',
-                     'last error': 'w contains NaN or infinity (first at index 1: nan)'}))
+        write_chain(store, bag, model, NS, planner=planner)
+
+
+def write_chain(store: Any, bag: Any, model: GraspModel, ns: str, *, planner: bool = True) -> None:
+    """:func:`write_session_bag`'s messages in namespace ``ns``, into an open ``bag`` (``/diagnostics`` added)."""
+    zones = ','.join(model.zone_labels)
+    bag.add_topic(f'{ns}/intent/w', F64MA, qos=QosSpec())
+    if planner:
+        bag.add_topic(f'{ns}/intent/v', F64MA, qos=QosSpec())
+        bag.add_topic(f'{ns}/intent/clarification', STRING, qos=QosSpec())
+        bag.add_topic(f'{ns}/model/active', STRING, qos=LATCHED)
+        bag.add_topic(f'{ns}/grasp/posterior', F64MA, qos=QosSpec())
+        bag.add_topic(f'{ns}/grasp/features', F64MA, qos=QosSpec())
+        bag.add_topic(f'{ns}/grasp/pose', POSE_T, qos=QosSpec())
+        bag.add_topic(f'{ns}/grasp/joint_targets', JOINTS_T, qos=QosSpec())
+        doc = model_document(model, name='toy_7zone', version=1)
+        bag.write_message(f'{ns}/model/active', T0, store.types[STRING](data=doc))
+        bag.write_message('/diagnostics', T0 + 1, status(store, 0, f'{ns}/grasp_planner: planning',
+                                                         'waiting for intent/v', {'plans': '0'}))
+    for k, w in enumerate([*CASES, CLARIFY]):
+        t = T0 + (k + 1) * S
+        bag.write_message(f'{ns}/intent/w', t, f64ma(store, w))
+        if not planner:
+            continue
+        result = interpret(w)
+        if result.needs_clarification:
+            bag.write_message(f'{ns}/intent/clarification', t + 1000, store.types[STRING](data=result.reason))
+            continue
+        bag.write_message(f'{ns}/intent/v', t + 1000, f64ma(store, result.v, 'U,T,H,UT,UH,TH,UTH'))
+        x = model.means[int(np.argmax(result.v))]  # stands in for the planned grasp
+        p = model.posterior(x)
+        w_rec = reconstruct_w(p, model.zones, 3)
+        label = f'{zones}|{",".join(model.task_names)}'
+        plan_ns = t + 50_000_000
+        bag.write_message(f'{ns}/grasp/posterior', plan_ns, stamped(store, np.r_[p, w_rec], label, t))
+        bag.write_message(f'{ns}/grasp/features', plan_ns, stamped(store, x, ','.join(MICO_3F.names), t))
+        pose, joints = plan_pose_and_targets(store, x, t)
+        bag.write_message(f'{ns}/grasp/pose', plan_ns, pose)
+        bag.write_message(f'{ns}/grasp/joint_targets', plan_ns, joints)
+        for repeat in (0, 1):  # the periodic status repeats the last planning time: one sample
+            bag.write_message('/diagnostics', plan_ns + repeat + 1, status(
+                store, 0, f'{ns}/grasp_planner: planning', 'ok',
+                {'plans': str(k + 1), 'last planning time [ms]': f'{40.0 + 10 * k:.3f}'}))
+    if planner:  # a NaN w rejected by the interpreter: one WARN, then its periodic repeat
+        for dt in (6 * S, 7 * S):
+            bag.write_message('/diagnostics', T0 + dt, status(
+                store, 1, f'{ns}/intent_interpreter: intent', 'rejected input: w contains NaN or infinity',
+                {'messages received': '5', 'messages rejected': '1',
+                 'last error': 'w contains NaN or infinity (first at index 1: nan)'}))
 
 
 def assert_png(path: Path, min_size: tuple[int, int] = (300, 300)) -> None:
@@ -171,6 +177,30 @@ def test_report_writes_figures_and_summary(store, toy_model, tmp_path: Path, cap
         assert line in summary, f'{line!r} not in\n{summary}'
     assert 'P(no task) = 0.7290' in summary
     assert 'skipped' not in summary
+
+
+def test_a_scene_gets_one_report_per_chain_each_of_its_own_topics_and_nodes(store, toy_model, tmp_path: Path,
+                                                                           capsys) -> None:
+    bag, out = tmp_path / 'scene', tmp_path / 'report'
+    with SessionWriter(bag, typestore=store) as writer:
+        writer.add_topic('/diagnostics', DIAG_T, qos=QosSpec())
+        writer.add_topic('/joint_states', JOINTS_T, qos=QosSpec())
+        writer.write_message('/joint_states', T0, store.types[JOINTS_T](
+            header=header(store, T0), name=[*ARM_JOINTS, *FINGER_JOINTS], position=np.r_[HOME_Q, 0.0, 0.0, 0.0],
+            velocity=np.array([]), effort=np.array([])))
+        write_chain(store, writer, toy_model, '/cup')
+        write_chain(store, writer, toy_model, '/flashlight', planner=False)
+    assert report.main([str(bag), '--out', str(out)]) == 0
+    assert 'report: 8 figures' in capsys.readouterr().out  # the cup's 7, the flashlight's w over time
+    root = (out / 'summary.md').read_text()
+    assert '- [/cup](cup/summary.md): 7 figures' in root and '- [/flashlight](flashlight/summary.md): 1 figures' in root
+    cup, flashlight = (out / 'cup' / 'summary.md').read_text(), (out / 'flashlight' / 'summary.md').read_text()
+    assert_png(out / 'cup' / 'grasp_scene_01.png')
+    assert '- plans: 3' in cup and '- rejections (from /diagnostics): 1' in cup and '/cup/intent_interpreter' in cup
+    assert '- planning time: 3 plans reported' in cup and '/flashlight/' not in cup
+    assert '- plans: 0' in flashlight and '- rejections (from /diagnostics): 0' in flashlight
+    assert 'planning time: not in this bag' in flashlight and '/cup/' not in flashlight
+    assert sorted(p.name for p in (out / 'flashlight').glob('*.png')) == ['w_over_time.png']
 
 
 def test_bag_lacking_topics_skips_figures_and_says_so(store, toy_model, tmp_path: Path) -> None:

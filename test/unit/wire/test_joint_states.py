@@ -326,6 +326,56 @@ def test_the_mock_arms_close_stamped_gets_the_decisions_of_its_receipts(kin: Mic
         assert any(d[2] for d in decisions) and not all(d[0] for d in decisions)
 
 
+CLOSE_STALL = (0.9, 1.5)
+"""A stall around the close at 1.0 s: what is published in [0.9, 1.5) is taken at 1.5 (> 1.0 + CLOSE_SETTLE)."""
+
+
+def test_a_backlog_sampled_before_the_close_and_taken_after_it_is_not_the_settled_hand(kin: MicoKinematics) -> None:
+    """The live benchmark's close read from a keep-100 queue that a stall left 0.6 s behind, taken in a burst.
+
+    The burst's first joint state, sampled at 0.9 s with the fingers open and still for 0.9 s, is received 0.5 s
+    after the close: by receipts it passes for a hand seen after the close, settled with open fingers. Judged by its
+    stamp against the close's on the same clock, it was sampled before the close: the fingers settle where the
+    close ends, as without a stall.
+    """
+    sequence, held = [], 0
+    for t, (msg,) in closing(kin):
+        stalled = CLOSE_STALL[0] <= t < CLOSE_STALL[1]
+        sequence.append((CLOSE_STALL[1] + held * 1e-6 if stalled else t + 1e-3, stamped(t, msg)))
+        held += stalled
+    closed, closed_ns = 1.0, STAMP0 + 1_000_000_000
+    by_receipts = by_stamps = None
+    tracker = HandTracker(kin)
+    for received, msg in sequence:
+        tracker.add(msg, received)
+        hand = tracker.hand()
+        assert hand is not None and hand.stamp_ns == msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        if by_receipts is None and fingers_settled(hand, closed):
+            by_receipts = hand
+        if by_stamps is None and fingers_settled(hand, closed, closed_ns=closed_ns):
+            by_stamps, t_stamps = hand, received
+    assert by_receipts is not None and by_stamps is not None
+    assert by_receipts.received == CLOSE_STALL[1] and not np.any(by_receipts.fingers)  # open: the defect receipts allow
+    assert_array_equal(by_stamps.fingers, FINGERS)
+    assert t_stamps == settled_at(kin, [(t + 1e-3, [stamped(t, msg)]) for t, (msg,) in closing(kin)], 1.0)[0]
+
+
+def test_a_hand_has_a_stamp_only_while_the_rest_goes_by_stamps(kin: MicoKinematics) -> None:
+    """Unstamped, or once a stamp did not advance: no stamp, and fingers_settled goes by the receipts."""
+    tracker = HandTracker(kin)
+    tracker.add(arm_msg(stamp_ns=STAMP0 + 5), 0.0)
+    tracker.add(finger_msg(stamp_ns=STAMP0 + 7), 0.0)
+    assert tracker.hand().stamp_ns == STAMP0 + 5  # the oldest of the arm's and the fingers'
+    tracker.add(arm_msg(), 0.01)
+    assert tracker.hand().stamp_ns is None  # the arm's message is unstamped
+    tracker.add(arm_msg(stamp_ns=STAMP0 + 9), 0.02)
+    assert tracker.hand().stamp_ns == STAMP0 + 7
+    tracker.add(finger_msg(stamp_ns=STAMP0 + 7), 0.03)  # does not advance: by receipts for good
+    assert not tracker.rest.by_stamps and tracker.hand().stamp_ns is None
+    hand = Hand(10.5, np.eye(4), FINGERS, True)
+    assert fingers_settled(hand, 10.0, 0.5, closed_ns=STAMP0)  # no stamp: the receipt
+
+
 def test_fingers_settled_needs_every_joint_received_settle_seconds_after_the_close_and_at_rest() -> None:
     def hand(received: float, at_rest: bool) -> Hand:
         return Hand(received, np.eye(4), FINGERS, at_rest)
@@ -334,6 +384,17 @@ def test_fingers_settled_needs_every_joint_received_settle_seconds_after_the_clo
     assert not fingers_settled(hand(math.nextafter(10.5, 0.0), True), 10.0, 0.5)  # perhaps before the close
     assert not fingers_settled(hand(10.75, False), 10.0, 0.5)  # still closing
     assert fingers_settled(hand(10.5, True), 10.0, 0.5)
+
+
+def test_fingers_settled_given_the_close_on_the_stamps_clock_needs_every_joint_sampled_settle_seconds_after() -> None:
+    def hand(received: float, stamp_ns: int, at_rest: bool = True) -> Hand:
+        return Hand(received, np.eye(4), FINGERS, at_rest, stamp_ns)
+
+    closed_ns = STAMP0 + 10_000_000_000
+    assert fingers_settled(hand(10.5, closed_ns + 500_000_000), 10.0, 0.5, closed_ns=closed_ns)
+    assert not fingers_settled(hand(99.0, closed_ns + 499_999_999), 10.0, 0.5, closed_ns=closed_ns)  # a backlog
+    assert fingers_settled(hand(10.0, closed_ns + 500_000_000), 10.0, 0.5, closed_ns=closed_ns)  # the stamp decides
+    assert not fingers_settled(hand(10.5, closed_ns + 500_000_000, at_rest=False), 10.0, 0.5, closed_ns=closed_ns)
 
 
 def test_the_rest_rule_checks_its_amounts() -> None:
