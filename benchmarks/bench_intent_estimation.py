@@ -64,7 +64,8 @@ from grasp_intent_ros.mico.mock_arm import MockArm, check_twist
 from grasp_intent_ros.objects.demos import ObjectRules, object_of, sample_grasp, taken
 from grasp_intent_ros.sessions.closed_loop import reached
 from grasp_intent_ros.shared_control.calibration import calibrate, fit_calibration
-from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
+from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator
+from grasp_intent_ros.shared_control.goals import goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import Device, OperatorConstants, ScriptedOperator, SharpeningIntent
 
 FRACTIONS = (0.25, 0.5, 0.75)

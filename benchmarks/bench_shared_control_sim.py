@@ -115,7 +115,8 @@ from grasp_intent_ros.mico.kinematics import MicoKinematics
 from grasp_intent_ros.objects.demos import object_of
 from grasp_intent_ros.objects.judge import Judgement, judge
 from grasp_intent_ros.planning.options import Options, node_default_options
-from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, reachable_goals
+from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator
+from grasp_intent_ros.shared_control.goals import goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
     AMBIGUOUS_CASES,
     ChangingIntent,

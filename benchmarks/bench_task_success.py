@@ -78,6 +78,7 @@ from bench_planner import CASES, random_targets  # the same w as the planner ben
 from numpy.typing import NDArray
 
 from grasp_intent_ros.method import intent
+from grasp_intent_ros.method.log_space import log_sum_exp
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.objects import demos as rules_module
 from grasp_intent_ros.objects.demos import OBJECTS, ObjectRules, object_of
@@ -130,10 +131,7 @@ def top_zone(model: GraspModel, v: NDArray[np.float64]) -> int:
 
 def log_density(model: GraspModel, x: NDArray[np.float64]) -> NDArray[np.float64]:
     """The mixture's log density, log sum_k pi_k N_k(x), for rows x (N, d)."""
-    lj = model.log_joint(x)
-    top = lj.max(axis=-1, keepdims=True)
-    out: NDArray[np.float64] = (top + np.log(np.exp(lj - top).sum(axis=-1, keepdims=True)))[..., 0]
-    return out
+    return log_sum_exp(model.log_joint(x))
 
 
 @dataclass

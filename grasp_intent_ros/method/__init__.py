@@ -18,6 +18,8 @@ features
     The feature space a model is over (names, units, bounds); the MICO's 3-finger layout is the default.
 body
     The object's solid body, a field of the model document: where the palm may not go.
+log_space
+    Probabilities kept as logarithms: log-sum-exp and softmax, shifted by the largest value.
 registry
     The models of a directory, loaded on demand, a few kept.
 safe_yaml

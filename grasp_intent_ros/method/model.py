@@ -33,6 +33,7 @@ from .body import ObjectBody
 from .data import Demonstrations
 from .features import MICO_3F, PALM, FeatureSpace
 from .intent import MAX_TASKS, all_zones, parse_zones, zone_labels
+from .log_space import softmax
 from .safe_yaml import document_events, parse_document, read_document
 
 __all__ = [
@@ -610,8 +611,7 @@ class GraspModel:
             arr = x if np.ndim(x) == 2 else np.reshape(x, (1, -1))  # type: ignore[assignment]
             single = np.ndim(x) == 1
             lj, g = self._log_joint_and_score(arr)
-        p = np.exp(lj - lj.max(axis=1, keepdims=True))
-        p /= p.sum(axis=1, keepdims=True)
+        p = softmax(lj, axis=1)
         g_mean = np.matmul(p[:, None, :], g)  # (N, 1, d)
         jac = p[:, :, None] * (g - g_mean)
         return (p[0], jac[0]) if single else (p, jac)

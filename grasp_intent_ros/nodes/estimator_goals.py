@@ -35,7 +35,8 @@ from ..ros.model_follower import ModelFollower, served_models
 from ..ros.qos import input_qos
 from ..ros.worker import LatestOnlyWorker
 from ..shared_control.assistance import offset
-from ..shared_control.estimator import IntentEstimator, goals_at, reachable_goals
+from ..shared_control.estimator import IntentEstimator
+from ..shared_control.goals import goals_at, reachable_goals
 from ..shared_control.parameters import estimator_config
 from ..shared_control.stamped_inputs import StampedInputs
 from ..shared_control.task_prior import check_task_prior

@@ -16,6 +16,8 @@ limits
     The output twist's speed and acceleration limits; norms without overflow.
 barrier
     The command kept out of the object as perceived: the twist nearest the blend that nears it no faster than a barrier.
+goals
+    The intent estimator's goals: the model's demonstrations placed at the object, the reachable ones, their prior.
 estimator
     The intent estimator: the operator's twist -> a posterior over the model's demonstrated grasps -> w.
 scene_estimator

@@ -24,6 +24,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from ..mico.frames import rotation_angles
+
 __all__ = ['in_corridor', 'approach_positions']
 
 
@@ -51,10 +53,8 @@ def in_corridor(base_T_ee: NDArray[np.float64], positions: NDArray[np.float64], 
     axis = rotations[:, :, 2]
     along = np.einsum('ni,ni->n', offset, axis)
     lateral = offset - along[:, None] * axis
-    r_rel = rotations @ base_T_ee[:3, :3].T  # R_g R^T
-    cos = np.clip(0.5 * (r_rel[:, 0, 0] + r_rel[:, 1, 1] + r_rel[:, 2, 2] - 1.0), -1.0, 1.0)
     behind = ((along <= 0.0) & (np.sqrt(np.einsum('ni,ni->n', lateral, lateral)) <= corridor_radius)
-              & (np.arccos(cos) <= corridor_angle))
+              & (rotation_angles(rotations, base_T_ee[:3, :3]) <= corridor_angle))
     out: NDArray[np.bool_] = (distance <= corridor_radius) | behind
     return out
 

@@ -49,6 +49,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidIntentError
+from ..method.log_space import log_sum_exp, softmax
 from .estimator import EstimatorConfig, IntentEstimator, checked_motion
 
 __all__ = ['SceneEstimator']
@@ -144,9 +145,7 @@ class SceneEstimator:
         """Lambda_o per object, in order (module docstring): log sum over o's goals of pi_{g|o} exp(E_g)."""
         out = np.empty(len(self._objects))
         for k, est in enumerate(self._objects.values()):
-            log_p = est.log_prior + est.evidence
-            top = float(log_p.max())
-            out[k] = top + float(np.log(np.exp(log_p - top).sum()))
+            out[k] = log_sum_exp(est.log_prior + est.evidence)
         return out
 
     @property
@@ -154,10 +153,7 @@ class SceneEstimator:
         """P(o) per object, in order, shape (n,): positive, summing to 1 (to rounding); empty with no object."""
         if not self._objects:
             return np.zeros(0)
-        masses = self.log_masses()
-        p = np.exp(masses - masses.max())
-        out: NDArray[np.float64] = p / p.sum()
-        return out
+        return softmax(self.log_masses())
 
     def goal_posterior(self) -> dict[str, NDArray[np.float64]]:
         """P(g) over every object's goals, per object (the joint: all of them sum to 1), each shape (N_o,)."""

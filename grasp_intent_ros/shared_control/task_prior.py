@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidIntentError
 from ..method.intent import MAX_TASKS
+from ..method.log_space import log_sum_exp
 
 __all__ = ['check_task_prior', 'task_log_prior']
 
@@ -54,8 +55,6 @@ def task_log_prior(task_sets: NDArray[np.int64], membership: NDArray[np.float64]
     log_set = membership @ np.log(w) + (1.0 - membership) @ np.log1p(-w)  # log prod, per goal's set
     _, first, inverse, counts = np.unique(task_sets, return_index=True, return_inverse=True, return_counts=True)
     per_set = log_set[first]
-    top = float(per_set.max())
-    log_norm = top + float(np.log(np.exp(per_set - top).sum()))
-    out: NDArray[np.float64] = (per_set - log_norm)[inverse] - np.log(counts[inverse].astype(np.float64))
+    out: NDArray[np.float64] = (per_set - log_sum_exp(per_set))[inverse] - np.log(counts[inverse].astype(np.float64))
     out.flags.writeable = False
     return out

@@ -388,8 +388,9 @@ def test_unreachable_object_publishes_no_targets_and_says_why(rig: Rig) -> None:
     assert values['last plan status'].startswith('clarification requested: no reachable grasp')
     assert rig.ros.wait_for(lambda: clarifications)
     # one clarification for the intent, however often the (unreachable) object pose is re-sent
-    rig.ros.publish_until(rig.pose_pub, pose_msg((1.2, 0.01, 0.0), (0.0, 0.0, 1.0, 0.0)),
-                          lambda: int(values_of(rig.warn('no reachable grasp')()[-1])['plans']) >= 3, period=0.5)
+    assert rig.ros.publish_until(rig.pose_pub, pose_msg((1.2, 0.01, 0.0), (0.0, 0.0, 1.0, 0.0)),
+                                 lambda: int(values_of(rig.warn('no reachable grasp')()[-1])['plans']) >= 3, ANSWER,
+                                 period=0.5)
     assert [m.data.split(':')[0] for m in clarifications] == ['no reachable grasp']
     assert 'IK failed for all' in clarifications[0].data
     assert rig.grasps.stamps_after(start) == []

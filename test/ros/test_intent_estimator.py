@@ -18,7 +18,8 @@ from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control.calibration import calibrate
-from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at
+from grasp_intent_ros.shared_control.estimator import IntentEstimator
+from grasp_intent_ros.shared_control.goals import goals_at
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.diagnostics import WARN
 from grasp_intent_ros.wire.model_document import model_document
@@ -80,12 +81,24 @@ def test_the_prior_then_motion_toward_a_usage_grasp_raises_w_usage(ros, rig: Rig
     twist = twist_msg(rig.toward(1))
     assert ros.publish_until(rig.operator, twist, lambda: rig.w[-1].data[0] > PRIOR + 0.1, 20.0, period=0.01)
     assert all(0.0 < v < 1.0 for msg in rig.w for v in msg.data)
-    # the operator lets go: w is no longer published (the estimate kept)
-    count = len(rig.w)
-    ros.wait_for(lambda: False, 0.5)
-    settled = len(rig.w)
-    ros.wait_for(lambda: False, 0.5)
-    assert len(rig.w) == settled and settled - count <= 5
+    # the operator lets go: w goes out until the last twist is operator_timeout old, then no more (the estimate kept);
+    # read on the node's own clock and publish timer, so a loaded machine's late ticks only lengthen the wait
+    node, published = rig.node, rig.node._published
+    timeout, period = node._params['operator_timeout'], node._params['publish_period']
+    timer = next(t for t in node.timers if t.timer_period_ns == round(period * 1e9))
+
+    def last_tick() -> float:
+        """The node-clock time (s) of the publish timer's last tick."""
+        return node._now() - timer.time_since_last_call() * 1e-9
+
+    assert ros.wait_for(lambda: last_tick() > node._timing.arrival + timeout and not node._fresh, 10.0)
+    idle = node._published
+    assert idle - published <= 5  # the ticks within operator_timeout of the last twist, and the last twist's
+    since = last_tick()
+    # the ticks of five more periods (five, or fewer when the machine is late: a late timer skips the missed ones)
+    assert ros.wait_for(lambda: last_tick() > since + 5 * period, 10.0)
+    assert node._published == idle, 'w went out after the operator let go'
+    assert ros.wait_for(lambda: rig.w[-1].data.tolist() == node._estimator.w.tolist(), 10.0)  # the estimate kept
 
 
 def test_a_moved_object_and_a_new_model_restart_from_the_prior(ros, rig: Rig) -> None:

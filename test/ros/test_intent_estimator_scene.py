@@ -22,7 +22,8 @@ from grasp_intent_ros.parameters import ParameterError
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
-from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at
+from grasp_intent_ros.shared_control.estimator import IntentEstimator
+from grasp_intent_ros.shared_control.goals import goals_at
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.arrays import msg_labels
 from grasp_intent_ros.wire.diagnostics import WARN

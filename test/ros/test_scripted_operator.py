@@ -135,7 +135,7 @@ def test_it_follows_the_shown_grasp_only_near_its_own_and_closes_once_at_it(ros:
     np.testing.assert_allclose(loop.closed[0].goal, near, atol=1e-12)  # as the message carried it
     assert ros.wait_for(lambda: rig.status(text='done: episode 1 reached the shown grasp') is not None, 5.0)
     count = len(rig.twists)
-    ros.wait_for(lambda: len(rig.twists) > count + 20, 5.0)
+    assert ros.wait_for(lambda: len(rig.twists) > count + 20, 5.0)  # it still publishes
     assert rig.closes == 1 and not any(linear(m).any() for m in rig.twists[count:])  # done: it holds still
     assert not rig.w  # intent none: another source gives w
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -22,6 +23,7 @@ from grasp_intent_ros.mico.frames import (
     matrix_to_pose,
     obj_T_ee_to_features,
     pose_to_matrix,
+    rotation_angles,
 )
 
 _unit_approach = st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)).filter(
@@ -145,3 +147,13 @@ def test_drawn_fingers_bend_inwards_by_their_closure() -> None:
     assert_allclose(open_[0, 0], [0.03, 0.0, 0.0], atol=1e-15)  # finger 1 (thumb) at +x of the EE frame
     radial = np.linalg.norm(closed[:, 1, :2], axis=1) < np.linalg.norm(open_[:, 1, :2], axis=1)
     assert radial.all(), 'closed fingertips are nearer the approach axis'
+
+
+def test_rotation_angles_are_each_rotations_angle_from_the_reference() -> None:
+    rotation = pin.exp3(np.array([0.3, -0.2, 0.5]))
+    turns = [np.zeros(3), np.array([0.0, 0.0, 0.4]), np.array([1.0, 2.0, -2.0]) / 3.0 * 2.5,
+             np.array([0.0, math.pi, 0.0])]
+    rotations = np.stack([pin.exp3(t) @ rotation for t in turns])  # turned by |t| from rotation
+    # arccos near cosines of +-1 (0 and pi) is good to sqrt(2 eps) ~ 2e-8 rad; elsewhere to a few eps
+    assert_allclose(rotation_angles(rotations, rotation), [0.0, 0.4, 2.5, math.pi], rtol=0.0, atol=3e-8)
+

@@ -8,7 +8,8 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from grasp_intent_ros.errors import InvalidIntentError
 from grasp_intent_ros.shared_control.calibration import calibrate, fit_calibration, model_calibration
-from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_from_poses
+from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator
+from grasp_intent_ros.shared_control.goals import goals_from_poses
 from grasp_intent_ros.shared_control.parameters import ESTIMATOR, estimator_config
 
 FLOOR = 0.01

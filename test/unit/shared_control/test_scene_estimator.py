@@ -14,7 +14,8 @@ from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.resources import config_dir
-from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator, goals_at, goals_from_poses
+from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator
+from grasp_intent_ros.shared_control.goals import goals_at, goals_from_poses
 from grasp_intent_ros.shared_control.operators import OperatorConstants, ScriptedOperator
 from grasp_intent_ros.shared_control.scene_estimator import SceneEstimator
 

@@ -15,7 +15,8 @@ from grasp_intent_ros.objects.judge import judge
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.ada import AdaAssistance
 from grasp_intent_ros.shared_control.assistance import TwistLimiter, offset, pose_error
-from grasp_intent_ros.shared_control.estimator import IntentEstimator, goals_at, reachable_goals
+from grasp_intent_ros.shared_control.estimator import IntentEstimator
+from grasp_intent_ros.shared_control.goals import goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
     AMBIGUOUS_CASES,
     ChangingIntent,
