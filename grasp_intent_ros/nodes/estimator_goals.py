@@ -1,13 +1,12 @@
 """One object's goals for the intent estimator node: its model and pose followed, its estimator made off the executor.
 
-A part of :mod:`.intent_estimator`, no node of its own; the rules: docs/intent_estimation.md ("Restarts").
-:class:`ObjectGoals` follows an object's ``model/active`` (:class:`~grasp_intent_ros.ros.model_follower.ModelFollower`)
-and ``object/pose``; when the model changes or the object moves beyond ``object_tolerance`` or ``angle_tolerance``
-it prepares the object's goals (its reachable demonstrations at its pose) in a thread of its own, then hands the node
-a new :class:`~grasp_intent_ros.shared_control.estimator.IntentEstimator`, which starts from the prior. It also reads
-the object's ``grasp/pose`` (the grasp shown) and ``intent/prior`` (kept across restarts). The one-object node has
-one in its own namespace; the node over several objects one per object in the object's namespace (``cup/...``),
-whose diagnostics values are then named ``<object>: <key>``.
+A part of :mod:`.intent_estimator` (rules: docs/intent_estimation.md, "Restarts"). :class:`ObjectGoals` follows an
+object's ``model/active`` (:class:`~grasp_intent_ros.ros.model_follower.ModelFollower`) and ``object/pose``; when the
+model changes or the object moves beyond ``object_tolerance`` or ``angle_tolerance`` it prepares the object's goals
+(its reachable demonstrations at its pose) in a thread of its own, then hands the node a new
+:class:`~grasp_intent_ros.shared_control.estimator.IntentEstimator`, starting from the prior. It also reads the
+object's ``grasp/pose`` (the grasp shown) and ``intent/prior`` (kept across restarts). One per object, in its
+namespace (``cup/...``, diagnostics values named ``<object>: <key>``); the one-object node's in its own.
 """
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ from geometry_msgs.msg import PoseStamped, TwistStamped
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
+from test_intent_estimator import PRIOR, twist_msg
 
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
@@ -32,15 +33,6 @@ from grasp_intent_ros.wire.model_document import model_document
 MODELS = {'cup': 'cup_7zone', 'flashlight': 'flashlight_7zone'}
 POSES = {'cup': pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0)),
          'flashlight': pose_to_matrix((0.3, 0.3, 0.0), (0.0, 0.0, 1.0, 0.0))}
-PRIOR = 4 / 7
-"""Each task's prior probability: uniform over the seven task sets, four of which contain it."""
-
-
-def twist_msg(linear: np.ndarray) -> TwistStamped:
-    msg = TwistStamped()
-    msg.header.frame_id = BASE_FRAME
-    msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z = (float(v) for v in linear)
-    return msg
 
 
 class Scene:

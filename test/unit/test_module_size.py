@@ -31,9 +31,6 @@ OVER_LIMIT: Mapping[str, tuple[int, str]] = {
     'nodes/assistance.py': (250, 'eight inputs (the operator, the joints, the grasp and its posterior and features, v, '
                                  "the model, the object pose), the switch, the warm-up and the output's cadence; "
                                  'not split yet'),
-    'nodes/estimator_goals.py': (205, "an object's four inputs for the intent estimator (its model, its pose, the "
-                                      'grasp shown, the task prior) and the thread that prepares its goals; not split '
-                                      'yet'),
     'nodes/scripted_operator.py': (235, 'five inputs, the own grasp\'s thread, the held w and three service calls '
                                         'in sequence (the grasp command\'s execute and close, the reset); not split '
                                         'yet'),
