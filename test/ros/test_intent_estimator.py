@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from estimator_inputs import PRIOR, twist_msg
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from rclpy.parameter import Parameter
 from rclpy.time import Time
@@ -25,15 +26,6 @@ from grasp_intent_ros.wire.diagnostics import WARN
 from grasp_intent_ros.wire.model_document import model_document
 
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
-PRIOR = 4 / 7
-"""Each task's prior probability: uniform over the seven task sets, four of which contain it."""
-
-
-def twist_msg(linear: np.ndarray) -> TwistStamped:
-    msg = TwistStamped()
-    msg.header.frame_id = BASE_FRAME
-    msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z = (float(v) for v in linear)
-    return msg
 
 
 class Rig:
