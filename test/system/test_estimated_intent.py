@@ -51,11 +51,13 @@ def test_the_estimator_alone_drives_intent_w_from_the_operators_reach(ros: Any, 
 
     usage = sorted((n for n, s in enumerate(model.demo_sets) if s == 1), key=separation, reverse=True)
     goal = next(poses[n] for n in usage if kin.ik(poses[n], HOME_Q, restarts=2).success)
-    launch.start_nodes(model='cup_7zone', shared_control=True, extra=('intent_estimator',))
+    # subscribed before the nodes start: the estimator's prior w goes out once, when its goals are ready, which
+    # can come before a subscription made after the start has matched
     ws = ros.subscribe(Float64MultiArray, topics.INTENT_W)
     grasps = ros.subscribe(PoseStamped, topics.GRASP_POSE)
     states = ros.subscribe(JointState, topics.JOINT_STATES)
     operator = ros.publisher(TwistStamped, topics.OPERATOR_TWIST)
+    launch.start_nodes(model='cup_7zone', shared_control=True, extra=('intent_estimator',))
 
     def steer() -> None:
         msg = TwistStamped()
