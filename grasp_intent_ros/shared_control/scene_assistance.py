@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from ..errors import GraspIntentError
 from ..method.body import ObjectBody
 from .assistance import Assistance, Command, approach_agreement, assistance_target, new_proposal, serving_probability
 from .scene_target import Follower, FollowRule, object_probabilities
@@ -138,6 +139,8 @@ class SceneAssistance:
         """Each scored object's c_o (objects with a grasp) at the last :meth:`command`."""
         self.probabilities: dict[str, float] = {}
         """Each scored object's P(o) at the last :meth:`command`."""
+        self.serving: dict[str, float] = {}
+        """Each scored object's s_o = P(o) P(grasp_o serves T | w^o) at the last :meth:`command`."""
         self._operator: tuple[NDArray[np.float64], float] | None = None
 
     @property
@@ -152,11 +155,11 @@ class SceneAssistance:
         return ObjectChannel(self, name)
 
     def set_probabilities(self, probabilities: Mapping[str, float]) -> None:
-        """P(o) by object (``intent/objects``). ValueError: a name not an object's, or a value outside [0, 1]."""
+        """P(o) by object (``intent/objects``). GraspIntentError: a name not an object's, a value outside [0, 1]."""
         if unknown := sorted(set(probabilities) - set(self.names)):
-            raise ValueError(f'P(o) of unknown objects {unknown}; the objects are {list(self.names)}')
+            raise GraspIntentError(f'P(o) of unknown objects {unknown}; the objects are {list(self.names)}')
         if not all(0.0 <= float(p) <= 1.0 for p in probabilities.values()):
-            raise ValueError('every P(o) must be in [0, 1]')
+            raise GraspIntentError('every P(o) must be in [0, 1]')
         self.received = {name: float(p) for name, p in probabilities.items()}
 
     def set_operator(self, twist: NDArray[np.float64], now: float) -> None:
@@ -169,8 +172,8 @@ class SceneAssistance:
         self._update_agreements(now)
         grasped = [name for name in self.names if self.objects[name].grasp is not None]
         self.probabilities = object_probabilities(grasped, self.received) if grasped else {}
-        self.scores = {name: self.probabilities[name] * self.objects[name].serving() * min(self.objects[name].agreement)
-                       for name in grasped}
+        self.serving = {name: self.probabilities[name] * self.objects[name].serving() for name in grasped}
+        self.scores = {name: self.serving[name] * min(self.objects[name].agreement) for name in grasped}
         before = self.follower.followed
         if (after := self.follower.update(self.scores, now)) != before and after is not None:
             self._load(after)
