@@ -40,8 +40,11 @@ def as_array(msg: TwistStamped) -> np.ndarray:
 
 
 class Scene:
-    """The node over the cup and the flashlight, the hand at Home: the cup's grasp 0.2 m ahead along the approach
-    axis (in the corridor), the flashlight's 0.2 m to the side of the hand (its pre-grasp off the cup's way)."""
+    """The node over the cup and the flashlight, the hand at Home.
+
+    The cup's grasp 0.2 m ahead along the approach axis (in the corridor), the flashlight's 0.2 m to the side of the
+    hand (its pre-grasp off the cup's way).
+    """
 
     def __init__(self, ros, **params) -> None:
         overrides = [Parameter('objects', value=list(OBJECTS)), *(Parameter(k, value=v) for k, v in params.items())]
