@@ -94,7 +94,7 @@ class Scene:
 def test_the_cup_is_followed_and_assisted_then_the_flashlight_after_the_hold_time(ros) -> None:
     scene = Scene(ros)
     assert scene.drive('cup', 0.9, lambda: any(a.data > 0.5 for a in scene.alphas[-5:]))
-    assert scene.followed and scene.followed[-1].data == 'cup'
+    assert ros.wait_for(lambda: scene.followed and scene.followed[-1].data == 'cup', 5.0)  # a topic of its own
     assert max(a.data for a in scene.alphas[-5:]) <= 0.9 * 0.9 + 1e-12  # alpha_max P(cup) s o, s = o = 1
     # the operator turns to the flashlight and the intent follows: the flashlight after the hold time
     start = time.monotonic()
@@ -102,7 +102,7 @@ def test_the_cup_is_followed_and_assisted_then_the_flashlight_after_the_hold_tim
     switch = time.monotonic() - start
     assert switch >= 0.3  # follow_hold_time: never before it (after it by the executor's latency)
     assert scene.drive('flashlight', 0.1, lambda: any(a.data > 0.5 for a in scene.alphas[-5:]))
-    assert [m.data for m in scene.followed] == ['cup', 'flashlight']
+    assert [m.data for m in scene.followed][-2:] == ['cup', 'flashlight']  # (the first grasp in may be either)
     statuses = ros.diagnostics()
     assert ros.wait_for(lambda: any(v.key == 'following' and v.value == 'flashlight' for status in statuses[-5:]
                                     if status.name.endswith(': assistance') for v in status.values), 5.0)
@@ -118,7 +118,7 @@ def test_bad_input_on_one_chain_warns_naming_its_topic_and_the_other_is_served(r
     assert ros.publish_until(scene.pubs['flashlight', topics.INTENT_V], bad, lambda: status_finder(
         statuses, ': assistance', level=bytes([WARN]), text='flashlight/intent/v'), 10.0)
     assert scene.drive('cup', 0.9, lambda: any(a.data > 0.5 for a in scene.alphas[-5:]))
-    assert scene.followed[-1].data == 'cup'
+    assert ros.wait_for(lambda: scene.followed and scene.followed[-1].data == 'cup', 5.0)
     unknown = array_to_msg([1.0], [['mug']])
     assert ros.publish_until(scene.objects, unknown, lambda: status_finder(
         statuses, ': assistance', level=bytes([WARN]), text='mug'), 10.0)
