@@ -248,7 +248,7 @@ def test_the_object_pose_sets_the_path_clearance_and_a_bad_one_is_rejected(ros, 
     assert loop.node._assist.clearance is None
     pose = pose_to_matrix((0.35, -0.25, 0.0), (0.0, 0.0, 0.0, 1.0))
     cup = ModelFiles(config_dir() / 'models').load('cup_7zone')
-    loop.node._use_model(ModelDocument('cup_7zone', 1, '0' * 64, cup))
+    loop.node._chains[0]._use_model(ModelDocument('cup_7zone', 1, '0' * 64, cup))
     object_pose = ros.publisher(PoseStamped, topics.OBJECT_POSE)
     msg = matrix_to_pose_msg(pose, frame_id=BASE_FRAME, stamp=ros.node.get_clock().now().to_msg())
     assert ros.publish_until(object_pose, msg, lambda: loop.node._assist.clearance is not None and np.allclose(
