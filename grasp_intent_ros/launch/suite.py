@@ -53,7 +53,8 @@ from ..wire.topics import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_
 from .objects import SceneObject, chain_remappings, refuse_unbuilt, scene_node_args
 from .parent_death import ended_with_this_process
 
-__all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
+__all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS',
+           'ONE_CHAIN_REMAPPINGS', 'MAX_DOMAIN_ID',
            'TEST_DOMAIN_IDS', 'RUN_DOMAIN_IDS', 'FASTDDS_PROFILE', 'SuiteError', 'domain_id_from_environment',
            'use_loopback_discovery', 'node_environment', 'optional_nodes', 'NodeProcess', 'NodeSuite']
 
@@ -67,10 +68,15 @@ OPTIONAL_NODES: tuple[str, ...] = (*SHARED_CONTROL_NODES, 'intent_estimator', 's
 """Node modules started only on request, after :data:`SUITE_NODES`: ``suite --with NAME``,
 :meth:`NodeSuite.start_nodes`'s ``extra``. Each is ``python -m grasp_intent_ros.nodes.<name>`` with its
 ``config/<name>.yaml`` when there is one, like the suite's own nodes."""
-REMAPPINGS: Mapping[str, tuple[str, ...]] = {
-    'mock_arm': (f'{ARM_TRAJECTORY_COMMAND}:={GRASP_TRAJECTORY}', f'{ARM_TWIST_COMMAND}:={ASSISTANCE_TWIST}'),
+ONE_CHAIN_REMAPPINGS: Mapping[str, tuple[str, ...]] = {
+    'mock_arm': (f'{ARM_TRAJECTORY_COMMAND}:={GRASP_TRAJECTORY}',),
 }
-"""Each node's remappings in the suite: the mock arm executes the planner's trajectory and the blended twist."""
+"""Each node's remappings in a suite of one chain, before :data:`REMAPPINGS`: the mock arm executes the planner's
+trajectory. Over a scene's chains it reads each ``<object>/grasp/trajectory`` itself (:mod:`..nodes.arm_plans`)."""
+REMAPPINGS: Mapping[str, tuple[str, ...]] = {
+    'mock_arm': (f'{ARM_TWIST_COMMAND}:={ASSISTANCE_TWIST}',),
+}
+"""Each node's remappings in every suite: the mock arm executes the blended twist."""
 MAX_DOMAIN_ID = 101
 """Largest ROS domain id usable with LOCALHOST discovery."""
 TEST_DOMAIN_IDS = range(1, MAX_DOMAIN_ID - 10)
@@ -394,13 +400,17 @@ class NodeSuite:
         for module, node_ns, node_model, name, own, params in starts:
             more = [arg for remapping in (*own, *(remappings or {}).get(module, ())) for arg in ('-r', remapping)]
             self.start(module, *self.node_args(module, namespace=node_ns, model=node_model, models_dir=models_dir,
-                                               params_files=params_files), *more, *params, name=name)
+                                               params_files=params_files, scene=bool(objects)),
+                       *more, *params, name=name)
 
     @staticmethod
     def node_args(module: str, *, namespace: str = '', model: str | None = None,
                   models_dir: str | os.PathLike[str] | None = None,
-                  params_files: Sequence[str | os.PathLike[str]] = ()) -> list[str]:
-        """The ``--ros-args`` of a suite node (as :meth:`start_nodes` gives them), e.g. to restart it."""
+                  params_files: Sequence[str | os.PathLike[str]] = (), scene: bool = False) -> list[str]:
+        """The ``--ros-args`` of a suite node (as :meth:`start_nodes` gives them), e.g. to restart it.
+
+        ``scene``: of a suite over several objects' chains (no :data:`ONE_CHAIN_REMAPPINGS`).
+        """
         try:
             config: Path | None = config_dir()
         except FileNotFoundError:
@@ -412,7 +422,7 @@ class NodeSuite:
             ros_args += ['--params-file', str(Path(path).resolve())]
         if namespace:
             ros_args += ['-r', f'__ns:={namespace}']
-        for remapping in REMAPPINGS.get(module, ()):
+        for remapping in (*(() if scene else ONE_CHAIN_REMAPPINGS.get(module, ())), *REMAPPINGS.get(module, ())):
             ros_args += ['-r', remapping]
         if module == 'model_server':
             if model is not None:

@@ -257,4 +257,6 @@ def test_the_shared_control_nodes_get_their_config_and_the_suite_remappings() ->
     assert args[:2] == ['--params-file', str(config_dir() / 'mock_arm.yaml')]
     assert args[2:] == ['-r', '__ns:=/robot1', '-r', 'arm_controller/joint_trajectory:=grasp/trajectory',
                         '-r', 'servo/delta_twist_cmds:=assistance/twist']
+    # over a scene's chains the arm reads each chain's trajectory: the twist's remapping alone
+    assert NodeSuite.node_args('mock_arm', scene=True)[2:] == ['-r', 'servo/delta_twist_cmds:=assistance/twist']
     assert NodeSuite.node_args('assistance') == ['--params-file', str(config_dir() / 'assistance.yaml')]
