@@ -50,7 +50,7 @@ from ..errors import GraspIntentError
 from ..resources import config_dir
 from ..ros.startup import WATCHDOG_EXIT_CODE, is_ready_line
 from ..wire.topics import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
-from .objects import SceneObject, chain_remappings, refuse_unbuilt, scene_node_args
+from .objects import SceneObject, chain_remappings, operator_object, scene_node_args
 from .parent_death import ended_with_this_process
 
 __all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS',
@@ -356,7 +356,7 @@ class NodeSuite:
                     models_dir: str | os.PathLike[str] | None = None,
                     params_files: Sequence[str | os.PathLike[str]] = (), extra: Sequence[str] = (),
                     shared_control: bool = False, remappings: Mapping[str, Sequence[str]] | None = None,
-                    objects: Sequence[SceneObject] = ()) -> None:
+                    objects: Sequence[SceneObject] = (), operator: str = '') -> None:
         """Start :data:`SUITE_NODES` (once, or once per object), then ``extra``, each with :meth:`node_args`.
 
         Parameters
@@ -367,7 +367,9 @@ class NodeSuite:
             The model server's initial ``model`` and its ``models_dir`` (default: its config file's).
         objects : sequence of SceneObject
             One chain of :data:`SUITE_NODES` per object instead, each process named ``<object>/<module>``, then no
-            ``model``, and of ``extra`` only those of ``launch.objects.SCENE_NODES`` (``shared_control``'s are).
+            ``model``; the optional nodes serve the scene (:func:`~grasp_intent_ros.launch.objects.scene_node_args`).
+        operator : str
+            With ``objects``: the object the scripted operator reaches for ('': the first).
         params_files : sequence of paths
             ROS parameters files given to every node after its own ``config/<node>.yaml``; the node-name
             keys in a file pick what each node reads, and a later file wins.
@@ -384,32 +386,40 @@ class NodeSuite:
         SuiteError
             For a name in ``extra`` that is not in :data:`OPTIONAL_NODES`, before anything is started.
         GraspIntentError
-            For ``objects`` with ``model`` or another ``extra``, before anything is started.
+            For ``objects`` with ``model``, or an ``operator`` that is none of them, before anything is started.
         OSError
             If a process cannot be started; those already started stay in :attr:`processes`.
         """
         wanted = optional_nodes(tuple(dict.fromkeys((*(SHARED_CONTROL_NODES if shared_control else ()), *extra))))
         if objects:
-            refuse_unbuilt(wanted)
+            operator_object(objects, operator)
             if model is not None:
                 raise GraspIntentError('objects name their own models: give no model')
         starts = [(module, obj.namespace(namespace), obj.model, obj.process_name(module), chain_remappings(namespace),
                    ()) for obj in objects for module in SUITE_NODES] + [  # then the nodes over every chain
-                      (module, namespace, None, None, (), scene_node_args(objects)) for module in wanted] if objects \
+                      (module, namespace, None, None, (), objects) for module in wanted] if objects \
             else [(module, namespace, model, None, (), ()) for module in (*SUITE_NODES, *wanted)]
-        for module, node_ns, node_model, name, own, params in starts:
+        for module, node_ns, node_model, name, own, scene in starts:
             more = [arg for remapping in (*own, *(remappings or {}).get(module, ())) for arg in ('-r', remapping)]
             self.start(module, *self.node_args(module, namespace=node_ns, model=node_model, models_dir=models_dir,
-                                               params_files=params_files, scene=bool(objects)),
-                       *more, *params, name=name)
+                                               params_files=params_files, objects=scene, operator=operator,
+                                               estimated='intent_estimator' in wanted),
+                       *more, name=name)
 
     @staticmethod
     def node_args(module: str, *, namespace: str = '', model: str | None = None,
                   models_dir: str | os.PathLike[str] | None = None,
-                  params_files: Sequence[str | os.PathLike[str]] = (), scene: bool = False) -> list[str]:
+                  params_files: Sequence[str | os.PathLike[str]] = (), objects: Sequence[SceneObject] = (),
+                  operator: str = '', estimated: bool = False) -> list[str]:
         """The ``--ros-args`` of a suite node (as :meth:`start_nodes` gives them), e.g. to restart it.
 
-        ``scene``: of a suite over several objects' chains (no :data:`ONE_CHAIN_REMAPPINGS`).
+        With ``objects``, of an optional node over that scene's chains: no :data:`ONE_CHAIN_REMAPPINGS`, and
+        :func:`~grasp_intent_ros.launch.objects.scene_node_args` (``operator``, ``estimated``) last.
+
+        Raises
+        ------
+        GraspIntentError
+            For an ``operator`` that is none of ``objects`` (the scripted operator's).
         """
         try:
             config: Path | None = config_dir()
@@ -422,13 +432,15 @@ class NodeSuite:
             ros_args += ['--params-file', str(Path(path).resolve())]
         if namespace:
             ros_args += ['-r', f'__ns:={namespace}']
-        for remapping in (*(() if scene else ONE_CHAIN_REMAPPINGS.get(module, ())), *REMAPPINGS.get(module, ())):
+        for remapping in (*(() if objects else ONE_CHAIN_REMAPPINGS.get(module, ())), *REMAPPINGS.get(module, ())):
             ros_args += ['-r', remapping]
         if module == 'model_server':
             if model is not None:
                 ros_args += ['-p', f'model:={model}']
             if models_dir is not None:
                 ros_args += ['-p', f'models_dir:={Path(models_dir).resolve()}']
+        if objects:
+            ros_args += scene_node_args(module, objects, operator=operator, estimated=estimated)
         return ros_args
 
     def node(self, module: str) -> NodeProcess:

@@ -249,16 +249,16 @@ def test_with_objects_grasp_execute_runs_the_trajectory_of_the_object_the_assist
 
     The followed object's is executed; refused before an object is followed and before a trajectory of that one.
     """
-    from rclpy.parameter import Parameter
     from std_msgs.msg import String
 
+    from grasp_intent_ros.launch.objects import SceneObject
     from grasp_intent_ros.launch.suite import NodeSuite
     from grasp_intent_ros.nodes.mock_arm import GRASP_EXECUTE
     from grasp_intent_ros.ros.qos import latched_qos
 
-    args = ['--ros-args', *NodeSuite.node_args('mock_arm', scene=True)]
-    arm = ros.add(MockArmNode(context=ros.context, cli_args=args,
-                              parameter_overrides=[Parameter('objects', value=['cup', 'flashlight'])]))
+    objects = [SceneObject('cup', 'cup_7zone'), SceneObject('flashlight', 'flashlight_7zone')]
+    arm = ros.add(MockArmNode(context=ros.context, cli_args=['--ros-args', *NodeSuite.node_args('mock_arm',
+                                                                                                objects=objects)]))
     states = ros.subscribe(JointState, topics.JOINT_STATES)
     client = ros.node.create_client(Trigger, GRASP_EXECUTE)
     assert client.wait_for_service(timeout_sec=5.0)

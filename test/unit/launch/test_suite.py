@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from grasp_intent_ros.launch.objects import SceneObject
 from grasp_intent_ros.launch.suite import (
     FASTDDS_PROFILE,
     RUN_DOMAIN_IDS,
@@ -258,5 +259,7 @@ def test_the_shared_control_nodes_get_their_config_and_the_suite_remappings() ->
     assert args[2:] == ['-r', '__ns:=/robot1', '-r', 'arm_controller/joint_trajectory:=grasp/trajectory',
                         '-r', 'servo/delta_twist_cmds:=assistance/twist']
     # over a scene's chains the arm reads each chain's trajectory: the twist's remapping alone
-    assert NodeSuite.node_args('mock_arm', scene=True)[2:] == ['-r', 'servo/delta_twist_cmds:=assistance/twist']
+    cup = SceneObject('cup', 'cup_7zone')
+    assert NodeSuite.node_args('mock_arm', objects=[cup])[2:] == ['-r', 'servo/delta_twist_cmds:=assistance/twist',
+                                                                  '-p', "objects:=['cup']"]
     assert NodeSuite.node_args('assistance') == ['--params-file', str(config_dir() / 'assistance.yaml')]
