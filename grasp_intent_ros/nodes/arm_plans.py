@@ -17,7 +17,7 @@ from __future__ import annotations
 import array
 from collections.abc import Callable, Mapping, Sequence
 from functools import partial
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,9 +35,25 @@ from ..ros.qos import input_qos, latched_qos
 from ..wire import topics
 from ..wire.robot_state import joint_positions, seconds
 
-__all__ = ['ArmPlans', 'trajectory_command']
+__all__ = ['ArmPlans', 'check_objects', 'trajectory_command']
 
 _Plan = TypeVar('_Plan')
+
+
+def check_objects(values: Mapping[str, Any]) -> None:
+    """The mock arm's ``objects``: valid names; with any, ``trajectory_execution`` ``on_request``.
+
+    A chain's trajectory run on arrival would move the arm to a grasp of an object the assistance may not follow.
+
+    Raises
+    ------
+    GraspIntentError
+        Naming the problem.
+    """
+    topics.check_object_names(values['objects'])
+    if values['objects'] and values['trajectory_execution'] != 'on_request':
+        raise GraspIntentError('with objects, trajectory_execution must be on_request: a chain\'s grasp/trajectory '
+                               'runs only on grasp/execute, and only the object followed\'s')
 
 
 def trajectory_command(msg: JointTrajectory) -> TrajectoryCommand:

@@ -71,7 +71,7 @@ from ..ros.robot import joint_state_msg
 from ..ros.run import guard_exit, publish_all, run_node
 from ..wire import topics
 from ..wire.robot_state import twist_command
-from .arm_plans import ArmPlans, trajectory_command
+from .arm_plans import ArmPlans, check_objects, trajectory_command
 
 __all__ = ['MockArmNode', 'GRASP_CLOSE', 'GRASP_EXECUTE', 'main']
 
@@ -88,7 +88,7 @@ class MockArmNode(Node):
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, 'arm')
         self._closure_rng: np.random.Generator  # made by _configure from closure_seed
-        self._params = declare_parameters(self, MOCK_ARM, on_change=self._configure, check=_check_objects)
+        self._params = declare_parameters(self, MOCK_ARM, on_change=self._configure, check=check_objects)
         kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
         self._arm = self._params.build('initial_positions', lambda q0: MockArm(
             kin, q0, finger_velocity_limit=self._params['finger_velocity_limit']))
@@ -186,17 +186,6 @@ class MockArmNode(Node):
         msg.velocity = array.array('d', self._arm.qd.tolist())
         publish_all(self, self._pubs, {topics.JOINT_STATES: msg})  # dropped once a signal ended the context
         self._diag.set_value('mode', self._arm.mode)
-
-
-def _check_objects(values: Mapping[str, Any]) -> None:
-    """``objects``: valid names; with any, ``trajectory_execution`` ``on_request``.
-
-    A chain's trajectory run on arrival would move the arm to a grasp of an object the assistance may not follow.
-    """
-    topics.check_object_names(values['objects'])
-    if values['objects'] and values['trajectory_execution'] != 'on_request':
-        raise GraspIntentError('with objects, trajectory_execution must be on_request: a chain\'s grasp/trajectory '
-                               'runs only on grasp/execute, and only the object followed\'s')
 
 
 def main(args: list[str] | None = None) -> None:

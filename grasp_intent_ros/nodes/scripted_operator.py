@@ -14,9 +14,8 @@ Topics and services (relative)
     out  ``operator/twist`` (TwistStamped, base frame, every ``publish_period`` s; zero unless reaching),
          ``intent/w`` (``intent: held``), ``/diagnostics`` (``scripted operator``: state, episode, times to grasp,
          the last execute's answer)
-    With ``object`` set (a scene of several objects, docs/several_objects.md; the node at the suite's namespace):
-    that object's chain's ``<object>/grasp/pose``, ``grasp/trajectory``, ``object/pose``, ``model/active`` and
-    ``<object>/intent/w`` instead; ``joint_states``, ``operator/twist`` and the services as above (the arm's).
+    With ``object`` (a scene, docs/several_objects.md): that chain's ``<object>/grasp/pose``, ``grasp/trajectory``,
+    ``object/pose``, ``model/active``, ``intent/w`` instead; the arm's ``joint_states``, twist and services as above.
     call ``grasp/execute`` then ``grasp/close`` (std_srvs/Trigger, with ``close_on_reach``; the execute only on the
          shown grasp, with ``execute_shown``), ``mock_arm/reset`` (between episodes)
 
@@ -229,11 +228,9 @@ class ScriptedOperatorNode(Node):
                                KEY_TIMES_TO_GRASP: ', '.join(f'{c.time_to_grasp:.2f}' for c in loop.closed)})
 
 
-def _check(values: Mapping[str, Any]) -> None:
-    """The rules over the parameters: :func:`check_scripted_operator`'s, and ``object`` '' or a name of a chain."""
+def _check(values: Mapping[str, Any]) -> None:  # check_scripted_operator's rules; object '' or a chain's name
     check_scripted_operator(values)
-    if values['object']:
-        topics.check_object_names([values['object']])
+    topics.check_object_names([values['object']] if values['object'] else [])
 
 
 def main(args: list[str] | None = None) -> None:

@@ -14,7 +14,8 @@ from grasp_intent_ros.launch.objects import (
     parse_objects,
     scene_node_args,
 )
-from grasp_intent_ros.launch.suite import REMAPPINGS, SUITE_NODES, NodeProcess, NodeSuite, node_environment
+from grasp_intent_ros.launch.process import NodeProcess
+from grasp_intent_ros.launch.suite import REMAPPINGS, SUITE_NODES, NodeSuite, node_environment
 from grasp_intent_ros.resources import config_dir
 
 

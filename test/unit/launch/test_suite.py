@@ -11,11 +11,11 @@ from pathlib import Path
 import pytest
 
 from grasp_intent_ros.launch.objects import SceneObject
+from grasp_intent_ros.launch.process import NodeProcess
 from grasp_intent_ros.launch.suite import (
     FASTDDS_PROFILE,
     RUN_DOMAIN_IDS,
     TEST_DOMAIN_IDS,
-    NodeProcess,
     NodeSuite,
     SuiteError,
     domain_id_from_environment,
@@ -145,7 +145,8 @@ def test_a_process_ends_when_the_command_that_started_it_is_killed(tmp_path: Pat
     launcher_code = (
         'import sys, time\n'
         'from pathlib import Path\n'
-        'from grasp_intent_ros.launch.suite import NodeProcess, node_environment\n'
+        'from grasp_intent_ros.launch.process import NodeProcess\n'
+        'from grasp_intent_ros.launch.suite import node_environment\n'
         f'proc = NodeProcess([sys.executable, "-c", {SLEEPER!r}], module="orphan", env=node_environment(97), '
         f'log_dir=Path({str(tmp_path)!r}))\n'
         'print(proc.pid, flush=True)\n'
