@@ -14,6 +14,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, String
 from std_srvs.srv import SetBool
+from twists import as_array, twist_msg
 
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
@@ -30,19 +31,6 @@ from grasp_intent_ros.wire.model_document import ModelDocument
 
 LABELS = ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
 TASKS = ('usage', 'transfer', 'handover')
-
-
-def twist_msg(linear=(0.0, 0.0, 0.0), angular=(0.0, 0.0, 0.0), frame=BASE_FRAME) -> TwistStamped:
-    msg = TwistStamped()
-    msg.header.frame_id = frame
-    (msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z) = linear
-    (msg.twist.angular.x, msg.twist.angular.y, msg.twist.angular.z) = angular
-    return msg
-
-
-def as_array(msg: TwistStamped) -> np.ndarray:
-    t = msg.twist
-    return np.array([t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z])
 
 
 class Loop:

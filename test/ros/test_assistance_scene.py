@@ -10,6 +10,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray, String
 from std_srvs.srv import SetBool
+from twists import as_array, twist_msg
 
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.nodes.assistance import ENABLE_SERVICE, AssistanceNode
@@ -24,19 +25,6 @@ TASKS = ('usage', 'transfer', 'handover')
 OBJECTS = ('cup', 'flashlight')
 CHAIN_TOPICS = ((topics.GRASP_POSE, PoseStamped), (topics.GRASP_POSTERIOR, Float64MultiArray),
                 (topics.INTENT_V, Float64MultiArray))
-
-
-def twist_msg(linear=(0.0, 0.0, 0.0), angular=(0.0, 0.0, 0.0)) -> TwistStamped:
-    msg = TwistStamped()
-    msg.header.frame_id = BASE_FRAME
-    (msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z) = linear
-    (msg.twist.angular.x, msg.twist.angular.y, msg.twist.angular.z) = angular
-    return msg
-
-
-def as_array(msg: TwistStamped) -> np.ndarray:
-    t = msg.twist
-    return np.array([t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z])
 
 
 class Scene:
