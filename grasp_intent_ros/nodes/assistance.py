@@ -61,6 +61,7 @@ from ..mico.collision import HandCollision
 from ..mico.kinematics import BASE_FRAME, MicoKinematics
 from ..mico.parameters import check_object_pose, object_pose
 from ..parameters import config_from
+from ..ros.clock import now_seconds
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_arm, subscribe_input, subscribe_operator
 from ..ros.model_follower import ModelFollower
@@ -170,12 +171,9 @@ class AssistanceNode(Node):
             self._base_T_obj = object_pose(p)
         self._assist.set_object(self._base_T_obj, self._body)  # the object, or the clearance's margin, changed
 
-    def _now(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
-
     def _on_operator(self, msg: Any) -> None:
         xi = twist_command(msg, default_frame=self._params['operator_frame']).in_base(self._assist.base_T_ee)
-        self._assist.set_operator(xi, self._now())
+        self._assist.set_operator(xi, now_seconds(self))
         age = (time.monotonic() - self._last_output) / self._period
         if age >= _EARLY or (self._by_timer and age >= _HALF):
             self._answer()
