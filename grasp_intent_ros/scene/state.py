@@ -34,7 +34,15 @@ from numpy.typing import NDArray
 from ..errors import GraspIntentError
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS
 from ..wire import topics
-from ..wire.arrays import Posterior, Stamp, msg_labels, msg_to_array, read_features, read_posterior
+from ..wire.arrays import (
+    Posterior,
+    Stamp,
+    msg_labels,
+    msg_to_array,
+    read_features,
+    read_object_probabilities,
+    read_posterior,
+)
 from ..wire.diagnostics import KEY_PLAN_STATUS, status_values
 from ..wire.model_document import ModelDocument, read_model_document
 from ..wire.robot_state import joint_positions, named_positions, pose_msg_to_matrix
@@ -313,7 +321,7 @@ def apply_objects(state: ObjectsState, chain: str | None, topic: str, msg: Any) 
     if chain is not None:
         return state.with_chain(chain, lambda s: apply(s, topic, msg)) if topic in CHAIN_TOPICS else state
     if topic == topics.INTENT_OBJECTS:
-        return replace(state, object_probabilities=_object_probabilities(msg, state.chains))
+        return replace(state, object_probabilities=read_object_probabilities(msg, tuple(state.chains)))
     if topic == topics.DIAGNOSTICS:
         chains = {name: apply(s, topic, msg, namespace=state.chain_namespace(name)) for name, s in state.chains.items()}
         return state if all(chains[name] is s for name, s in state.chains.items()) else replace(state, chains=chains)
@@ -330,17 +338,3 @@ def apply_to(state: SceneState | ObjectsState, chain: str | None, topic: str, ms
         return apply_objects(state, chain, topic, msg)
     return apply(state, topic, msg)
 
-
-def _object_probabilities(msg: Any, names: Mapping[str, Any]) -> dict[str, float]:
-    """P(o) by object name from an ``intent/objects`` message (a value per label) of a scene of ``names``."""
-    values = msg_to_array(msg, what='intent/objects')
-    labels = msg_labels(msg)
-    if len(labels) != 1 or len(labels[0]) != values.size:
-        raise GraspIntentError(f'intent/objects: {values.size} values need one dimension labelled with as many '
-                               f'object names (got {list(labels)})')
-    if np.any((values < 0.0) | (values > 1.0)):
-        raise GraspIntentError(f'intent/objects: probabilities outside [0, 1]: {values.tolist()}')
-    unknown = [name for name in labels[0] if name not in names]
-    if unknown:
-        raise GraspIntentError(f'intent/objects names objects not in this scene: {unknown} (the scene: {list(names)})')
-    return dict(zip(labels[0], values.tolist()))

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from estimator_inputs import PRIOR, twist_msg
+from estimator_inputs import PRIOR
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from rclpy.parameter import Parameter
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
+from twists import twist_msg
 
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
