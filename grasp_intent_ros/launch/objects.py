@@ -5,9 +5,9 @@ object's model, the planner) in the object's namespace, so it has its own ``inte
 ``model/active``, ``intent/v`` and ``grasp/*``. The arm is one: every chain reads the suite namespace's
 ``joint_states`` (:func:`chain_remappings`); ``/diagnostics`` is absolute already, and each status is named
 by its node's fully qualified name (``/cup/grasp_planner: planning``). docs/several_objects.md gives the
-design and what is not built yet: the shared-control loop and the scripted operator serve one object, so
-:func:`refuse_unbuilt` refuses them beside objects; the intent estimator and the viewer serve every chain from the
-suite's namespace (:data:`SCENE_NODES`).
+design and what is not built yet: the scripted operator serves one object, so :func:`refuse_unbuilt` refuses it
+beside objects; the shared-control loop (the mock arm and the assistance), the intent estimator and the viewer serve
+every chain from the suite's namespace (:data:`SCENE_NODES`).
 
 - :func:`parse_objects`: the ``NAME=MODEL`` specs of ``suite --object``, checked before anything starts.
 - :class:`SceneObject`: one object, its namespace and its chain's process names.
@@ -27,9 +27,11 @@ from ..wire.topics import JOINT_STATES, OBJECT_NAME, object_name_problem
 __all__ = ['OBJECT_NAME', 'SceneObject', 'parse_objects', 'chain_remappings', 'refuse_unbuilt', 'SCENE_NODES',
            'scene_node_args']
 
-SCENE_NODES = ('intent_estimator', 'viewer')
-"""The optional nodes (``suite --with``) that serve a scene of several objects: one process at the suite's
-namespace over every chain (:func:`scene_node_args`)."""
+SCENE_NODES = ('mock_arm', 'assistance', 'intent_estimator', 'viewer')
+"""The optional nodes (``suite --shared-control``, ``--with``) that serve a scene of several objects: one process at
+the suite's namespace over every chain (:func:`scene_node_args`). The assistance without the intent estimator takes
+P(o) uniform over the objects with a grasp (:func:`~grasp_intent_ros.shared_control.scene_target.object_probabilities`).
+"""
 
 
 @dataclass(frozen=True)
@@ -106,9 +108,9 @@ def refuse_unbuilt(optional: Sequence[str]) -> None:
     """
     if unbuilt := [name for name in optional if name not in SCENE_NODES]:
         raise GraspIntentError(
-            f'{", ".join(unbuilt)} with --object: not built yet (the shared-control loop and the scripted operator '
-            'each serve one object; docs/several_objects.md says what each needs); --object starts the '
-            f'planning chains and, with --with, {", ".join(SCENE_NODES)} over all of them')
+            f'{", ".join(unbuilt)} with --object: not built yet (the scripted operator serves one object; '
+            'docs/several_objects.md says what it needs); --object starts the planning chains and, with '
+            f'--shared-control and --with, {", ".join(SCENE_NODES)} over all of them')
 
 
 def scene_node_args(objects: Sequence[SceneObject]) -> tuple[str, ...]:

@@ -361,7 +361,7 @@ class NodeSuite:
             The model server's initial ``model`` and its ``models_dir`` (default: its config file's).
         objects : sequence of SceneObject
             One chain of :data:`SUITE_NODES` per object instead, each process named ``<object>/<module>``, then no
-            ``model``, no ``shared_control`` and of ``extra`` only those of ``launch.objects.SCENE_NODES``.
+            ``model``, and of ``extra`` only those of ``launch.objects.SCENE_NODES`` (``shared_control``'s are).
         params_files : sequence of paths
             ROS parameters files given to every node after its own ``config/<node>.yaml``; the node-name
             keys in a file pick what each node reads, and a later file wins.
@@ -378,7 +378,7 @@ class NodeSuite:
         SuiteError
             For a name in ``extra`` that is not in :data:`OPTIONAL_NODES`, before anything is started.
         GraspIntentError
-            For ``objects`` with ``model``, ``shared_control`` or another ``extra``, before anything is started.
+            For ``objects`` with ``model`` or another ``extra``, before anything is started.
         OSError
             If a process cannot be started; those already started stay in :attr:`processes`.
         """

@@ -129,6 +129,11 @@ TRAJECTORY_EXECUTIONS = ('on_arrival', 'on_request')
 """When the mock arm follows a trajectory (:mod:`grasp_intent_ros.nodes.mock_arm`)."""
 
 MOCK_ARM = (
+    ParamSpec('objects', [], 'Names of the objects of a scene (suite --object ... --shared-control sets it): '
+              'grasp/close closes to the newest <object>/grasp/joint_targets of the object the assistance follows '
+              '(assistance/object). Empty: to the newest grasp/joint_targets.', item_type=str, read_only=True,
+              constraints='unique ROS name tokens, none a folder of the suite\'s topics (checked by the node: '
+              'wire.topics.check_object_names)'),
     ParamSpec('initial_positions', (*HOME_Q.tolist(), 0.0, 0.0, 0.0),
               f'Start (and reset) positions, rad, of {", ".join(JOINT_NAMES)}; default Home, fingers open.',
               validator=finite_vector(len(JOINT_NAMES), 'rad')),

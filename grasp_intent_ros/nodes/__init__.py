@@ -12,9 +12,14 @@ model_server
 grasp_planner
     v + model + object pose -> a MICO grasp.
 assistance
-    The operator's twist blended toward the grasp (shared control).
+    The operator's twist blended toward the grasp (shared control); over several objects, one object's at a time.
+assistance_inputs, assistance_scene
+    Parts of ``assistance``, no nodes of their own: one chain's inputs (``ChainInputs``), and the node's work over
+    several objects (``SceneInputs``).
 mock_arm
     A simulated MICO taking trajectories and twists.
+arm_closures
+    A part of ``mock_arm``: the plan ``grasp/close`` closes to (``PlanClosures``).
 intent_estimator
     w from the operator's own twist (optional); over several objects each object's w and P(o).
 estimator_goals, estimator_scene

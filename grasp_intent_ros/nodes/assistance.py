@@ -37,6 +37,13 @@ Threads and processes
     a bit-identical grasp and object keep the previous path in use, else the output is the operator's twist alone
     (alpha 0, ``seeking a path``). A search that raises, or the process ending: ERROR (the path sought no more).
 
+Several objects
+    With the ``objects`` parameter (``suite --object ... --shared-control``) it serves from the suite's namespace
+    each ``<object>/`` chain's inputs above, ``intent/objects`` (P(o)), and publishes ``assistance/object`` (the object
+    followed, latched) beside its twist and alpha (:mod:`.assistance_scene`, docs/several_objects.md); the operator,
+    the joints, the switch and the output are the arm's, as for one object. Each chain's inputs:
+    :mod:`.assistance_inputs`.
+
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.ASSISTANCE`, ``config/assistance.yaml``.
 """
 
@@ -47,23 +54,19 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-from geometry_msgs.msg import PoseStamped, TwistStamped
-from numpy.typing import NDArray
+from geometry_msgs.msg import TwistStamped
 from rclpy.node import Node
-from std_msgs.msg import Float64, String
+from std_msgs.msg import Float64
 from std_srvs.srv import SetBool
 
-from ..errors import GraspIntentError
-from ..method.body import ObjectBody
 from ..method.features import MICO_3F
-from ..method.model import ModelRequirements
 from ..mico.collision import HandCollision
 from ..mico.kinematics import BASE_FRAME, MicoKinematics
-from ..mico.parameters import check_object_pose, object_pose
+from ..mico.parameters import check_object_pose
 from ..parameters import config_from
+from ..ros.clock import now_seconds
 from ..ros.diagnostics import NodeDiagnostics
-from ..ros.inputs import subscribe_arm, subscribe_input, subscribe_operator
-from ..ros.model_follower import ModelFollower
+from ..ros.inputs import subscribe_arm, subscribe_operator
 from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, output_publisher
 from ..ros.robot import twist_msg
@@ -72,11 +75,11 @@ from ..shared_control.assistance import Assistance, AssistanceConfig, TwistLimit
 from ..shared_control.parameters import ASSISTANCE
 from ..shared_control.path_search import PathWorker
 from ..wire import topics
-from ..wire.arrays import msg_labels, msg_to_array, read_features, read_posterior
 from ..wire.diagnostics import ERROR
 from ..wire.joint_states import JointReading
-from ..wire.model_document import ModelDocument
-from ..wire.robot_state import object_pose_msg, pose_msg_to_matrix, twist_command
+from ..wire.robot_state import twist_command
+from .assistance_inputs import ChainInputs
+from .assistance_scene import SceneInputs
 
 __all__ = ['AssistanceNode', 'ENABLE_SERVICE', 'main']
 
@@ -90,20 +93,26 @@ _GRACE = 1.25
 """Periods the timer waits for the next operator twist after answering one (then one period after its own)."""
 
 
+def _check(values: Mapping[str, Any]) -> None:
+    """The rules over the parameters: the object pose's, and the object names a namespace each."""
+    check_object_pose(values)
+    topics.check_object_names(values['objects'])
+
+
 class AssistanceNode(Node):
     """Blends the operator's twist with the robot's toward the planned grasp. ``kwargs`` go to ``Node``."""
 
     def __init__(self, node_name: str = 'assistance', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, 'assistance')
-        self._params = declare_parameters(self, ASSISTANCE, check=check_object_pose, on_change=self._configure)
+        self._params = declare_parameters(self, ASSISTANCE, check=_check, on_change=self._configure)
         self._kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
         hand = self._params.build('urdf_path', lambda path: HandCollision(path or None))
         self._paths = PathWorker(self._params['urdf_path'] or None, name=f'{node_name}_paths', on_error=lambda text:
                                  self._diag.rejected('internal error: path search', level=ERROR, detail=text))
         self._assist = Assistance(AssistanceConfig(), TwistLimiter(1.0, 1.0, 1.0, 1.0), self._kin, hand)
-        self._base_T_obj = object_pose(self._params)
-        self._body: ObjectBody | None = None
+        self._scene: SceneInputs | None = None
+        self._chains: list[ChainInputs] = []
         self._configure(self._params)
         warm_up(self._assist)
         grasp_task_set(np.zeros(MICO_3F.dim), np.zeros((1, MICO_3F.dim)), np.ones(1, dtype=np.int64),
@@ -111,21 +120,17 @@ class AssistanceNode(Node):
         self._paths.wait_ready(60.0)  # its start (a fresh install's compile) overlaps the warm-up above
         self._assist.paths = self._paths
         self._last_output, self._outputs = -float('inf'), 0
-        self._demos: tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]] | None = None
-        self._features: NDArray[np.float64] | None = None
         self._pubs = {topics.ASSISTANCE_TWIST: output_publisher(self, TwistStamped, topics.ASSISTANCE_TWIST),
                       topics.ASSISTANCE_ALPHA: output_publisher(self, Float64, topics.ASSISTANCE_ALPHA)}
         latest, diag = input_qos(depth=1), self._diag
         subscribe_operator(self, self._on_operator, latest, diag, self._params['operator_message_type'])
         subscribe_arm(self, self._on_arm, input_qos(), diag)
-        subscribe_input(self, topics.GRASP_POSE, self._on_grasp, latest, diag)
-        subscribe_input(self, topics.GRASP_POSTERIOR, self._on_posterior, latest, diag)
-        subscribe_input(self, topics.INTENT_V, self._on_v, latest, diag)
-        subscribe_input(self, topics.INTENT_CLARIFICATION, self._on_clarification, input_qos(), diag)
-        subscribe_input(self, topics.GRASP_FEATURES, self._on_features, latest, diag)
-        subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, latest, diag)
-        self._models = ModelFollower(self, diag, self._use_model, name=f'{node_name}_model',
-                                     requires=lambda: ModelRequirements(feature_names=MICO_3F.names))
+        if self._params['objects']:
+            self._scene = SceneInputs(self, diag, self._params, self._assist, self._params['objects'])
+            self._chains = self._scene.chains
+        else:
+            self._chains = [ChainInputs(self, diag, self._params, self._assist)]
+        self._configure({})  # each chain's object set
         self.create_service(SetBool, ENABLE_SERVICE, self._on_enable)
         self._period = float(self._params['publish_period'])
         self._timer = self.create_timer(self._period, self._diag.guard_timer(self._on_timer))
@@ -135,22 +140,6 @@ class AssistanceNode(Node):
         """Stop the path search's process (after its search), then destroy the node."""
         self._paths.stop()
         super().destroy_node()
-
-    def _use_model(self, document: ModelDocument | None) -> None:
-        if document is not None:
-            model = document.model
-            self._demos = (model.demo_x, model.demo_sets, model.feature_scale)
-            self._update_task_set()
-            self._body = model.body
-            self._assist.set_object(self._base_T_obj, self._body)
-
-    def _on_features(self, msg: Any) -> None:
-        self._features = read_features(msg)[0]
-        self._update_task_set()
-
-    def _update_task_set(self) -> None:
-        demos, x = self._demos, self._features
-        self._assist.set_task_set(None if demos is None or x is None else grasp_task_set(x, *demos))
 
     def _on_enable(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         self._assist.enabled = bool(request.data)
@@ -166,16 +155,15 @@ class AssistanceNode(Node):
         limiter.max_linear_acceleration = p['max_linear_acceleration']
         limiter.max_angular_acceleration = p['max_angular_acceleration']
         limiter.max_dt = 2.0 * p['publish_period']
-        if {'object_position', 'object_orientation'} & set(changed):
-            self._base_T_obj = object_pose(p)
-        self._assist.set_object(self._base_T_obj, self._body)  # the object, or the clearance's margin, changed
-
-    def _now(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
+        if self._scene is not None:
+            self._scene.configure(changed)  # the hysteresis and every chain
+        else:
+            for chain in self._chains:
+                chain.configure(changed)  # the object, or the clearance's margin, changed
 
     def _on_operator(self, msg: Any) -> None:
         xi = twist_command(msg, default_frame=self._params['operator_frame']).in_base(self._assist.base_T_ee)
-        self._assist.set_operator(xi, self._now())
+        (self._assist if self._scene is None else self._scene.scene).set_operator(xi, now_seconds(self))
         age = (time.monotonic() - self._last_output) / self._period
         if age >= _EARLY or (self._by_timer and age >= _HALF):
             self._answer()
@@ -204,31 +192,11 @@ class AssistanceNode(Node):
     def _on_arm(self, arm: JointReading) -> None:
         self._assist.set_joints(arm.positions)
 
-    def _on_object_pose(self, msg: PoseStamped) -> None:
-        self._base_T_obj = object_pose_msg(msg, self._params['workspace_radius'])
-        self._assist.set_object(self._base_T_obj, self._body)
-
-    def _on_grasp(self, msg: PoseStamped) -> None:
-        self._assist.set_grasp(pose_msg_to_matrix(msg, frame_id=BASE_FRAME))
-
-    def _on_posterior(self, msg: Any) -> None:
-        posterior = read_posterior(msg)
-        self._assist.set_posterior(posterior.p, posterior.zone_labels, posterior.task_names)
-
-    def _on_v(self, msg: Any) -> None:
-        v = msg_to_array(msg, what='v')
-        labels = msg_labels(msg)
-        if not labels or len(labels[0]) != v.size or np.any(v < 0.0):
-            raise GraspIntentError(f'v must be non-negative and labelled with its {v.size} zones')
-        self._assist.set_v(v, labels[0])
-
-    def _on_clarification(self, msg: String) -> None:
-        self._assist.clarification()
-
     def _publish(self) -> None:
         self._last_output = time.monotonic()
         stamp = self.get_clock().now()
-        command = self._assist.command(stamp.nanoseconds * 1e-9)
+        now = stamp.nanoseconds * 1e-9
+        command = self._assist.command(now) if self._scene is None else self._scene.command(now)
         out = twist_msg(command.twist, frame_id=BASE_FRAME, stamp=stamp.to_msg())
         publish_all(self, self._pubs, {topics.ASSISTANCE_TWIST: out,
                                        topics.ASSISTANCE_ALPHA: Float64(data=command.alpha)})

@@ -14,7 +14,9 @@ Topics and services (relative)
     out  ``joint_states`` (the 6 arm joints and 3 fingers: positions and velocities, every ``period`` s),
          ``/diagnostics`` (``arm``: commands received and rejected with the reason, mode, trajectories
          ignored, the trajectory kept)
-    in   ``grasp/joint_targets`` (sensor_msgs/JointState: the plan's finger closures, the latest kept)
+    in   ``grasp/joint_targets`` (sensor_msgs/JointState: the plan's finger closures, the latest kept); with the
+         ``objects`` parameter each ``<object>/grasp/joint_targets`` and ``assistance/object`` instead
+         (:mod:`.arm_closures`: the plan of the object the assistance follows)
     srv  ``~/reset`` (std_srvs/Trigger): back to ``initial_positions``, at rest, commands dropped
     srv  ``grasp/close`` (std_srvs/Trigger): close the fingers to the latest plan's closures plus the hand's own
          closure error (each finger N(0, ``closure_error``^2), one draw per close from a stream seeded by
@@ -49,7 +51,6 @@ from typing import Any
 
 import numpy as np
 from geometry_msgs.msg import TwistStamped
-from numpy.typing import NDArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
@@ -57,9 +58,10 @@ from trajectory_msgs.msg import JointTrajectory
 
 from ..errors import GraspIntentError
 from ..mico.grasp import JOINT_NAMES
-from ..mico.kinematics import FINGER_JOINTS, MicoKinematics
+from ..mico.kinematics import MicoKinematics
 from ..mico.mock_arm import MockArm, TrajectoryCommand, check_trajectory
 from ..mico.parameters import MOCK_ARM
+from ..ros.clock import now_seconds
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input
 from ..ros.params import declare_parameters
@@ -67,7 +69,8 @@ from ..ros.qos import input_qos, output_publisher
 from ..ros.robot import joint_state_msg
 from ..ros.run import guard_exit, publish_all, run_node
 from ..wire import topics
-from ..wire.robot_state import joint_positions, seconds, twist_command
+from ..wire.robot_state import seconds, twist_command
+from .arm_closures import PlanClosures
 
 __all__ = ['MockArmNode', 'GRASP_CLOSE', 'GRASP_EXECUTE', 'main']
 
@@ -84,7 +87,8 @@ class MockArmNode(Node):
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, 'arm')
         self._closure_rng: np.random.Generator  # made by _configure from closure_seed
-        self._params = declare_parameters(self, MOCK_ARM, on_change=self._configure)
+        self._params = declare_parameters(self, MOCK_ARM, on_change=self._configure,
+                                          check=lambda values: topics.check_object_names(values['objects']))
         kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
         self._arm = self._params.build('initial_positions', lambda q0: MockArm(
             kin, q0, finger_velocity_limit=self._params['finger_velocity_limit']))
@@ -93,13 +97,12 @@ class MockArmNode(Node):
         self._pubs = {topics.JOINT_STATES: output_publisher(self, JointState, topics.JOINT_STATES)}
         subscribe_input(self, topics.ARM_TRAJECTORY_COMMAND, self._on_trajectory, input_qos(), self._diag)
         subscribe_input(self, topics.ARM_TWIST_COMMAND, self._on_twist, input_qos(depth=1), self._diag)
-        subscribe_input(self, topics.GRASP_JOINT_TARGETS, self._on_joint_targets, input_qos(depth=1), self._diag)
-        self._closures: NDArray[np.float64] | None = None
+        self._plans = PlanClosures(self, self._diag, self._params['objects'])
         self._kept: TrajectoryCommand | None = None
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(Trigger, GRASP_CLOSE, self._on_close)
         self.create_service(Trigger, GRASP_EXECUTE, self._on_execute)
-        self._last = self._now()
+        self._last = now_seconds(self)
         self.create_timer(self._params['period'], self._diag.guard_timer(self._on_timer))
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
@@ -109,11 +112,8 @@ class MockArmNode(Node):
         if 'closure_seed' in changed:  # set, even to its value: the errors' sequence starts again
             self._closure_rng = np.random.default_rng(self._params['closure_seed'])
 
-    def _now(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
-
     def _on_trajectory(self, msg: JointTrajectory) -> None:
-        now = self._now()
+        now = now_seconds(self)
         start = seconds(msg.header.stamp)
         points = msg.points
         cmd = TrajectoryCommand(tuple(msg.joint_names), array.array('d', (seconds(p.time_from_start) for p in points)),
@@ -137,7 +137,7 @@ class MockArmNode(Node):
         if (self._params['trajectory_execution'] == 'on_request' and self._arm.mode == 'trajectory'
                 and not (np.any(twist.linear) or np.any(twist.angular))):
             return  # a requested trajectory runs on through the zero twists of an operator at rest
-        self._arm.command_twist(twist, self._now())
+        self._arm.command_twist(twist, now_seconds(self))
 
     def _on_execute(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         if self._params['trajectory_execution'] != 'on_request':
@@ -146,7 +146,7 @@ class MockArmNode(Node):
             response.success, response.message = False, 'no trajectory received: nothing to execute'
         else:
             try:
-                self._arm.command_trajectory(dataclasses.replace(self._kept, start=None), self._now(),
+                self._arm.command_trajectory(dataclasses.replace(self._kept, start=None), now_seconds(self),
                                              allow_partial=self._params['allow_partial_joints_goal'])
             except GraspIntentError as exc:  # allow_partial_joints_goal changed since it was kept
                 response.success, response.message = False, str(exc)
@@ -154,20 +154,16 @@ class MockArmNode(Node):
                 response.success, response.message = True, 'following the latest trajectory from now'
         return response
 
-    def _on_joint_targets(self, msg: JointState) -> None:
-        closures = joint_positions(msg, FINGER_JOINTS)
-        if closures is None:
-            raise GraspIntentError(f'grasp/joint_targets must name the fingers {list(FINGER_JOINTS)}')
-        self._closures = closures
-
     def _on_close(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        if self._closures is None:
-            response.success, response.message = False, 'no grasp planned: nothing to close to'
+        closures, plan = self._plans.closures()
+        if closures is None:
+            response.success, response.message = False, plan
             return response
         error = self._closure_rng.normal(0.0, self._params['closure_error'], 3)
-        executed = self._arm.close_fingers(self._closures + error)
+        executed = self._arm.close_fingers(closures + error)
         response.success = True
-        response.message = 'closing to ' + ', '.join(f'{c:.4f}' for c in executed.tolist()) + ' rad'
+        response.message = 'closing to ' + ', '.join(f'{c:.4f}' for c in executed.tolist()) + ' rad' + (
+            f' ({plan}\'s plan)' if plan else '')
         return response
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
@@ -180,7 +176,7 @@ class MockArmNode(Node):
         return response
 
     def _on_timer(self) -> None:
-        now = self._now()
+        now = now_seconds(self)
         self._arm.step(now, now - self._last)
         self._last = now
         msg = joint_state_msg(JOINT_NAMES, self._arm.q, stamp=self.get_clock().now().to_msg())

@@ -34,7 +34,15 @@ from numpy.typing import NDArray
 from ..errors import GraspIntentError
 from ..mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS
 from ..wire import topics
-from ..wire.arrays import Posterior, Stamp, msg_labels, msg_to_array, read_features, read_posterior
+from ..wire.arrays import (
+    Posterior,
+    Stamp,
+    msg_labels,
+    msg_to_array,
+    read_features,
+    read_object_probabilities,
+    read_posterior,
+)
 from ..wire.diagnostics import KEY_PLAN_STATUS, status_values
 from ..wire.model_document import ModelDocument, read_model_document
 from ..wire.robot_state import joint_positions, named_positions, pose_msg_to_matrix
@@ -42,7 +50,7 @@ from .plan import plan_object_pose, served_tasks
 
 __all__ = ['OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA', 'VIEWER_TOPICS', 'ARM_TOPICS', 'CHAIN_TOPICS',
            'SCENE_TOPICS',
-           'SceneState', 'ObjectsState', 'apply', 'apply_objects', 'plan_status']
+           'SceneState', 'ObjectsState', 'followed_topics', 'apply', 'apply_objects', 'apply_to', 'plan_status']
 
 OPERATOR_TWIST: Final = 'operator/twist'
 """The operator's command (geometry_msgs/TwistStamped), published by the assistance node's operator input."""
@@ -67,6 +75,20 @@ CHAIN_TOPICS: Final = tuple(t for t in VIEWER_TOPICS if t not in ARM_TOPICS and 
 """The viewer topics of a planning chain: in a scene of several objects, one set per object in its namespace."""
 SCENE_TOPICS: Final[Mapping[str, str]] = {topics.INTENT_OBJECTS: topics.MSGTYPES[topics.INTENT_OBJECTS]}
 """The viewer topics of a scene of several objects itself, in the suite's namespace, and their message types."""
+
+
+def followed_topics(objects: Sequence[str]) -> tuple[tuple[str | None, str], ...]:
+    """The (chain, topic) pairs the viewer follows, live or played back from a bag.
+
+    With no ``objects`` (one chain): each of :data:`VIEWER_TOPICS`, chain None. For a scene of several
+    ``objects``: the :data:`ARM_TOPICS`, the :data:`SCENE_TOPICS` and ``/diagnostics`` once (chain None), then
+    each object's :data:`CHAIN_TOPICS`, in the order of ``objects``. The topics are relative to the suite's
+    namespace (chain None) or to the object's chain; ``/diagnostics`` is absolute.
+    """
+    if not objects:
+        return tuple((None, topic) for topic in VIEWER_TOPICS)
+    return (*((None, topic) for topic in (*ARM_TOPICS, *SCENE_TOPICS, topics.DIAGNOSTICS)),
+            *((chain, topic) for chain in objects for topic in CHAIN_TOPICS))
 
 
 @dataclass(frozen=True)
@@ -299,23 +321,20 @@ def apply_objects(state: ObjectsState, chain: str | None, topic: str, msg: Any) 
     if chain is not None:
         return state.with_chain(chain, lambda s: apply(s, topic, msg)) if topic in CHAIN_TOPICS else state
     if topic == topics.INTENT_OBJECTS:
-        return replace(state, object_probabilities=_object_probabilities(msg, state.chains))
+        return replace(state, object_probabilities=read_object_probabilities(msg, tuple(state.chains)))
     if topic == topics.DIAGNOSTICS:
         chains = {name: apply(s, topic, msg, namespace=state.chain_namespace(name)) for name, s in state.chains.items()}
         return state if all(chains[name] is s for name, s in state.chains.items()) else replace(state, chains=chains)
     return replace(state, arm=apply(state.arm, topic, msg)) if topic in ARM_TOPICS else state
 
 
-def _object_probabilities(msg: Any, names: Mapping[str, Any]) -> dict[str, float]:
-    """P(o) by object name from an ``intent/objects`` message (a value per label) of a scene of ``names``."""
-    values = msg_to_array(msg, what='intent/objects')
-    labels = msg_labels(msg)
-    if len(labels) != 1 or len(labels[0]) != values.size:
-        raise GraspIntentError(f'intent/objects: {values.size} values need one dimension labelled with as many '
-                               f'object names (got {list(labels)})')
-    if np.any((values < 0.0) | (values > 1.0)):
-        raise GraspIntentError(f'intent/objects: probabilities outside [0, 1]: {values.tolist()}')
-    unknown = [name for name in labels[0] if name not in names]
-    if unknown:
-        raise GraspIntentError(f'intent/objects names objects not in this scene: {unknown} (the scene: {list(names)})')
-    return dict(zip(labels[0], values.tolist()))
+def apply_to(state: SceneState | ObjectsState, chain: str | None, topic: str, msg: Any) -> SceneState | ObjectsState:
+    """The state after ``msg`` on ``topic`` of ``chain``, one of the :func:`followed_topics`.
+
+    :func:`apply_objects` for a scene of several objects, :func:`apply` for one chain (``chain`` is then None);
+    raises as they do.
+    """
+    if isinstance(state, ObjectsState):
+        return apply_objects(state, chain, topic, msg)
+    return apply(state, topic, msg)
+

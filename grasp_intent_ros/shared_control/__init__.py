@@ -22,6 +22,10 @@ estimator
     The intent estimator: the operator's twist -> a posterior over the model's demonstrated grasps -> w.
 scene_estimator
     The intent estimator over several objects: one posterior over every object's goals -> P(o) and each object's w.
+scene_target
+    Which object's grasp the assistance over several objects follows: the scores and the hysteresis.
+scene_assistance
+    The assistance of one arm over several objects: the followed object's inputs fed to one ``Assistance``.
 task_prior
     A prior over task sets from independent task probabilities: a classifier's w as the estimator's prior.
 calibration

@@ -110,9 +110,9 @@ from .limits import TwistLimiter, clip_norm, norm
 from .path_search import PathRequest, PathSearch, PathSource, warm_up_scene
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
-           'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached', 'assistance_target', 'robot_twist',
-           'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter', 'AssistanceConfig', 'Command', 'Assistance',
-           'warm_up']
+           'approach_agreement', 'new_proposal', 'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached',
+           'assistance_target', 'robot_twist', 'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter',
+           'AssistanceConfig', 'Command', 'Assistance', 'warm_up']
 
 Arbitration = Literal['confidence', 'blend', 'none']
 ARBITRATIONS: tuple[str, ...] = typing.get_args(Arbitration)
@@ -210,6 +210,22 @@ def operator_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64]
         cos = float(h @ r) / (float(np.linalg.norm(h)) * float(np.linalg.norm(r)))
         parts.append(min(max(cos, 0.0), 1.0))
     return parts[0], parts[1]
+
+
+def approach_agreement(config: AssistanceConfig, operator: NDArray[np.float64], base_T_ee: NDArray[np.float64],
+                       base_T_target: NDArray[np.float64]) -> tuple[float | None, float | None]:
+    """:func:`operator_agreement` with the gain-scaled pose error toward ``base_T_target`` (an approach target)."""
+    error = pose_error(base_T_ee, base_T_target)  # toward the proposal by its approach (module docstring)
+    goal = np.concatenate([config.gain_linear * error[:3], config.gain_angular * error[3:]])
+    return operator_agreement(operator, goal, deadband_linear=config.deadband_linear,
+                              deadband_angular=config.deadband_angular)
+
+
+def new_proposal(config: AssistanceConfig, old: NDArray[np.float64], new: NDArray[np.float64]) -> bool:
+    """Whether grasp ``new`` moved from ``old`` by more than the approach corridor's radius or angle."""
+    error = pose_error(old, new)
+    return (float(np.linalg.norm(error[:3])) > config.corridor_radius
+            or float(np.linalg.norm(error[3:])) > config.corridor_angle)
 
 
 def assistance_target(base_T_ee: NDArray[np.float64], base_T_grasp: NDArray[np.float64], *, standoff: float,
@@ -346,6 +362,8 @@ class Assistance:
         self.q: NDArray[np.float64] | None = None
         self.enabled = True
         """False: the output is the operator's twist, exactly (the operator's switch)."""
+        self.object_probability = 1.0
+        """P(o) of the grasp's object in a scene ('confidence': a factor of s; 1, one object's, changes nothing)."""
         self._jacobian: NDArray[np.float64] | None = None
         self.paths: PathSource | None = None if kin is None else PathSearch(kin)
         self._epoch = 0
@@ -381,12 +399,9 @@ class Assistance:
         bit-identical to the current one (the planner's same plan, sent again) keeps them in use meanwhile.
         """
         same = self.base_T_grasp is not None and np.array_equal(self.base_T_grasp, base_T_grasp)
-        if self.base_T_grasp is not None and not same:
-            error = pose_error(self.base_T_grasp, base_T_grasp)
-            if (float(np.linalg.norm(error[:3])) > self.config.corridor_radius
-                    or float(np.linalg.norm(error[3:])) > self.config.corridor_angle):
-                self.agreement, self.yielded, self._since = (1.0, 1.0), False, None
-                self._path_reference, self._cleared = None, {}
+        if self.base_T_grasp is not None and not same and new_proposal(self.config, self.base_T_grasp, base_T_grasp):
+            self.agreement, self.yielded, self._since = (1.0, 1.0), False, None
+            self._path_reference, self._cleared = None, {}
         self.base_T_grasp, self.clarification_pending = base_T_grasp, False
         self._generation += 1
         if not same:
@@ -466,18 +481,15 @@ class Assistance:
             return 0.0, 'no joint state'
         if self._v is None:
             return 0.0, 'no intent'
-        alpha = arbitration(cfg.arbitration, self._v[0], self.serving() if cfg.arbitration == 'confidence' else 0.0,
-                            alpha_max=cfg.alpha_max, margin=cfg.margin)
+        serving = self.object_probability * self.serving() if cfg.arbitration == 'confidence' else 0.0
+        alpha = arbitration(cfg.arbitration, self._v[0], serving, alpha_max=cfg.alpha_max, margin=cfg.margin)
         return alpha, 'assisting'
 
     def _agree(self, operator: NDArray[np.float64], now: float, target: NDArray[np.float64]) -> float:
         """Update the held agreement and the yielding from the operator's twist at ``now``, toward :meth:`target`."""
         cfg = self.config
         assert self.base_T_ee is not None
-        error = pose_error(self.base_T_ee, target)  # toward the proposal by its approach (module docstring)
-        goal = np.concatenate([cfg.gain_linear * error[:3], cfg.gain_angular * error[3:]])
-        measured = operator_agreement(operator, goal, deadband_linear=cfg.deadband_linear,
-                                      deadband_angular=cfg.deadband_angular)
+        measured = approach_agreement(cfg, operator, self.base_T_ee, target)
         linear, angular = (held if fresh is None else fresh for fresh, held in zip(measured, self.agreement))
         self.agreement = (linear, angular)
         parts = [m for m in measured if m is not None]

@@ -22,6 +22,7 @@ from .calibration import model_calibration
 from .estimator import EstimatorConfig
 from .operator_loop import EXECUTE_TIMEOUT
 from .operators import DEVICES
+from .scene_target import FollowRule
 
 __all__ = ['OPERATOR_INPUT', 'APPROACH', 'ASSISTANCE', 'ESTIMATOR', 'estimator_config', 'check_estimator',
            'OPERATOR_INTENTS', 'SCRIPTED_OPERATOR', 'check_scripted_operator']
@@ -45,7 +46,17 @@ APPROACH = (
 )
 """The approach to a grasp via its pre-grasp (:mod:`.approach`): the assistance's and the estimator's operator's."""
 
+_FOLLOW = FollowRule()
 ASSISTANCE = (
+    ParamSpec('objects', [], 'Names of the objects of a scene (suite --object ... --shared-control sets it): assist '
+              'toward the grasp of one of them at a time from the suite\'s namespace, reading each <object>/grasp/*, '
+              '<object>/intent/v, intent/clarification, model/active and object/pose, and P(o) on intent/objects; '
+              'the object followed on assistance/object. Empty: one object, in this namespace.',
+              item_type=str, read_only=True, constraints='unique ROS name tokens, none a folder of the suite\'s topics '
+              '(checked by the node: wire.topics.check_object_names)'),
+    ParamSpec('follow_margin', _FOLLOW.margin, 'objects: the lead in score (P(o) P(grasp serves T) agreement, in '
+              '[0, 1]) another object needs over the followed one to be followed instead.', range=(0.0, 1.0)),
+    ParamSpec('follow_hold_time', _FOLLOW.hold_time, 'objects: seconds that lead must last.', range=(0.0, 10.0)),
     ParamSpec('arbitration', _ASSIST.arbitration, "alpha's rule: 'confidence' (the probability that the grasp "
               "serves the operator's task, times the operator's agreement), 'blend' (alpha_max when v's top zone "
               "leads by margin) or 'none' (alpha = 0).",

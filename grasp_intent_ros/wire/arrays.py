@@ -50,7 +50,7 @@ __all__ = [
     'MAX_ARRAY_SIZE', 'join_labels', 'split_labels', 'array_layout', 'msg_to_array', 'serialized_vector',
     'RepeatedLayout', 'msg_labels',
     'Stamp', 'stamp_label', 'stamped_values', 'posterior_label', 'split_posterior', 'Posterior',
-    'read_posterior', 'read_features',
+    'read_posterior', 'read_features', 'read_object_probabilities',
 ]
 
 MAX_ARRAY_SIZE: Final = 65536
@@ -397,3 +397,24 @@ def read_features(msg: Any, *, what: str = 'grasp/features') -> tuple[NDArray[np
     elif x.size != MICO_3F.dim:
         raise GraspIntentError(f'{what} must have {MICO_3F.dim} values, got {x.size}')
     return x, stamp
+
+
+def read_object_probabilities(msg: Any, names: Sequence[str]) -> dict[str, float]:
+    """P(o) by object name from an ``intent/objects`` message (one value per label) of a scene of objects ``names``.
+
+    Raises
+    ------
+    GraspIntentError
+        Unless the values are one dimension labelled with as many object names, each in [0, 1] and each in ``names``.
+    """
+    values = msg_to_array(msg, what='intent/objects')
+    labels = msg_labels(msg)
+    if len(labels) != 1 or len(labels[0]) != values.size:
+        raise GraspIntentError(f'intent/objects: {values.size} values need one dimension labelled with as many '
+                               f'object names (got {list(labels)})')
+    if np.any((values < 0.0) | (values > 1.0)):
+        raise GraspIntentError(f'intent/objects: probabilities outside [0, 1]: {values.tolist()}')
+    unknown = [name for name in labels[0] if name not in names]
+    if unknown:
+        raise GraspIntentError(f'intent/objects names objects not in this scene: {unknown} (the scene: {list(names)})')
+    return dict(zip(labels[0], values.tolist()))

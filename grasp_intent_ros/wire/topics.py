@@ -31,7 +31,8 @@ __all__ = [
     'MODEL_AMBIGUITY_SYMMETRIC', 'MODEL_AMBIGUITY_PINSKER', 'MODEL_QUERY', 'MODEL_POSTERIOR',
     'OBJECT_POSE', 'JOINT_STATES', 'GRASP_POSE', 'GRASP_JOINT_TARGETS', 'GRASP_TRAJECTORY',
     'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'OPERATOR_TWIST', 'OPERATOR_GRASP_TASKS', 'ASSISTANCE_TWIST',
-    'ASSISTANCE_ALPHA', 'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS', 'ASSISTANCE_ENABLE',
+    'ASSISTANCE_ALPHA', 'ASSISTANCE_OBJECT', 'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS',
+    'ASSISTANCE_ENABLE',
     'MSGTYPES', 'TOPIC_FOLDERS', 'LATCHED_TOPICS', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS', 'PLAN_TOPICS',
     'OUTPUT_TOPICS', 'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size',
     'check_names', 'OBJECT_NAME', 'object_name_problem', 'check_object_names',
@@ -69,6 +70,10 @@ ASSISTANCE_TWIST: Final = 'assistance/twist'
 """The blended twist, for a servo (remap it to e.g. ``/servo_node/delta_twist_cmds``)."""
 ASSISTANCE_ALPHA: Final = 'assistance/alpha'
 """The arbitration weight of each blended twist."""
+ASSISTANCE_OBJECT: Final = 'assistance/object'
+"""The object whose grasp the assistance over several objects follows (std_msgs/String, its name), latched: a state,
+published at each change, that a late subscriber (the mock arm's ``grasp/close``) needs at once
+(docs/several_objects.md)."""
 ARM_TRAJECTORY_COMMAND: Final = 'arm_controller/joint_trajectory'
 """The mock arm's trajectory input (a joint_trajectory_controller's topic); the suite remaps it to grasp/trajectory."""
 ARM_TWIST_COMMAND: Final = 'servo/delta_twist_cmds'
@@ -102,6 +107,7 @@ MSGTYPES: Final[Mapping[str, str]] = {
     OPERATOR_GRASP_TASKS: _STRING,
     ASSISTANCE_TWIST: 'geometry_msgs/msg/TwistStamped',
     ASSISTANCE_ALPHA: 'std_msgs/msg/Float64',
+    ASSISTANCE_OBJECT: _STRING,
     ARM_TRAJECTORY_COMMAND: 'trajectory_msgs/msg/JointTrajectory',
     ARM_TWIST_COMMAND: 'geometry_msgs/msg/TwistStamped',
 }
@@ -171,6 +177,8 @@ MAX_FEATURES: Final = 1024
 MAX_MESSAGE_BYTES: Final[Mapping[str, int]] = {
     INTENT_W: 16 << 10,        # 10 tasks; labels of up to 10 task names
     INTENT_PRIOR: 16 << 10,    # as INTENT_W
+    INTENT_OBJECTS: 16 << 10,  # a value and a name per object
+    ASSISTANCE_OBJECT: 1 << 10,  # an object's name (a ROS name token)
     INTENT_V: 64 << 10,        # 1023 zones and their labels
     MODEL_QUERY: 64 << 10,     # MAX_FEATURES values and their labels
     OBJECT_POSE: 4 << 10,      # a pose and a frame id of MAX_NAME_LENGTH

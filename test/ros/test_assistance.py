@@ -14,6 +14,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, String
 from std_srvs.srv import SetBool
+from twists import as_array, twist_msg
 
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
@@ -30,19 +31,6 @@ from grasp_intent_ros.wire.model_document import ModelDocument
 
 LABELS = ('U', 'T', 'H', 'UT', 'UH', 'TH', 'UTH')
 TASKS = ('usage', 'transfer', 'handover')
-
-
-def twist_msg(linear=(0.0, 0.0, 0.0), angular=(0.0, 0.0, 0.0), frame=BASE_FRAME) -> TwistStamped:
-    msg = TwistStamped()
-    msg.header.frame_id = frame
-    (msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z) = linear
-    (msg.twist.angular.x, msg.twist.angular.y, msg.twist.angular.z) = angular
-    return msg
-
-
-def as_array(msg: TwistStamped) -> np.ndarray:
-    t = msg.twist
-    return np.array([t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z])
 
 
 class Loop:
@@ -248,7 +236,7 @@ def test_the_object_pose_sets_the_path_clearance_and_a_bad_one_is_rejected(ros, 
     assert loop.node._assist.clearance is None
     pose = pose_to_matrix((0.35, -0.25, 0.0), (0.0, 0.0, 0.0, 1.0))
     cup = ModelFiles(config_dir() / 'models').load('cup_7zone')
-    loop.node._use_model(ModelDocument('cup_7zone', 1, '0' * 64, cup))
+    loop.node._chains[0]._use_model(ModelDocument('cup_7zone', 1, '0' * 64, cup))
     object_pose = ros.publisher(PoseStamped, topics.OBJECT_POSE)
     msg = matrix_to_pose_msg(pose, frame_id=BASE_FRAME, stamp=ros.node.get_clock().now().to_msg())
     assert ros.publish_until(object_pose, msg, lambda: loop.node._assist.clearance is not None and np.allclose(

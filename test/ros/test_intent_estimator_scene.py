@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from estimator_inputs import PRIOR, twist_msg
+from estimator_inputs import PRIOR
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
+from twists import twist_msg
 
 from grasp_intent_ros.method.registry import ModelFiles
 from grasp_intent_ros.mico.frames import pose_to_matrix
@@ -21,6 +22,7 @@ from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, Mic
 from grasp_intent_ros.nodes.intent_estimator import IntentEstimatorNode
 from grasp_intent_ros.parameters import ParameterError
 from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.ros.clock import now_seconds
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control.estimator import IntentEstimator
@@ -78,7 +80,7 @@ class Scene:
         """No twist waiting, and the last one older than the operator timeout: the estimate no longer changes."""
         last = self.node._timing.arrival
         return len(self.node._inputs) == 0 and last is not None and \
-            self.node._now() - last > self.node._params['operator_timeout']
+            now_seconds(self.node) - last > self.node._params['operator_timeout']
 
     def p_of(self, msg: Float64MultiArray) -> dict[str, float]:
         (names,) = msg_labels(msg)

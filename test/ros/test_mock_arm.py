@@ -98,7 +98,7 @@ def test_the_hand_closes_to_the_plans_closures_with_its_own_error(ros) -> None:
     plan = np.array([0.9, 1.0, 0.6])
     targets = ros.publisher(JointState, topics.GRASP_JOINT_TARGETS)
     msg = joint_state_msg(JOINT_NAMES, np.r_[HOME_Q, plan], stamp=ros.node.get_clock().now().to_msg())
-    assert ros.publish_until(targets, msg, lambda: arm._closures is not None, 5.0)
+    assert ros.publish_until(targets, msg, lambda: arm._plans.closures()[0] is not None, 5.0)
     future = client.call_async(Trigger.Request())
     assert ros.wait_for(future.done, 5.0) and future.result().success
     executed = np.random.default_rng(7).normal(0.0, 0.05, 3) + plan  # the seeded error, the same draws
@@ -120,7 +120,7 @@ def test_a_set_closure_seed_restarts_the_closure_errors_and_a_bad_seed_is_refuse
     plan = np.array([0.9, 1.0, 0.6])
     targets = ros.publisher(JointState, topics.GRASP_JOINT_TARGETS)
     msg = joint_state_msg(JOINT_NAMES, np.r_[HOME_Q, plan], stamp=ros.node.get_clock().now().to_msg())
-    assert ros.publish_until(targets, msg, lambda: arm._closures is not None, 5.0)
+    assert ros.publish_until(targets, msg, lambda: arm._plans.closures()[0] is not None, 5.0)
 
     def close() -> str:
         future = client.call_async(Trigger.Request())
@@ -197,3 +197,46 @@ def test_in_the_suites_shared_control_loop_a_trajectory_moves_the_arm_only_when_
     assert ros.wait_for(lambda: not np.allclose(latest_positions(states), END, atol=1e-3, rtol=0), 5.0)
     zero.twist.linear.z = 0.02  # the operator moves: the trajectory ends, the twist drives
     assert ros.wait_for(lambda: arm._arm.mode == 'twist', 5.0)
+
+
+def test_with_objects_the_hand_closes_to_the_plan_of_the_object_the_assistance_follows(ros) -> None:
+    from rclpy.parameter import Parameter
+    from std_msgs.msg import String
+
+    from grasp_intent_ros.nodes.mock_arm import GRASP_CLOSE
+    from grasp_intent_ros.ros.qos import latched_qos
+    from grasp_intent_ros.ros.robot import joint_state_msg
+
+    arm = ros.add(MockArmNode(context=ros.context, parameter_overrides=[
+        Parameter('closure_error', value=0.0), Parameter('objects', value=['cup', 'flashlight'])]))
+    states = ros.subscribe(JointState, topics.JOINT_STATES)
+    client = ros.node.create_client(Trigger, GRASP_CLOSE)
+    assert client.wait_for_service(timeout_sec=5.0)
+
+    def close() -> Trigger.Response:
+        future = client.call_async(Trigger.Request())
+        assert ros.wait_for(future.done, 5.0)
+        return future.result()
+
+    plans = {'cup': np.array([0.9, 1.0, 0.6]), 'flashlight': np.array([0.4, 0.5, 0.3])}
+    stamp = ros.node.get_clock().now().to_msg()
+    cup = ros.publisher(JointState, f'cup/{topics.GRASP_JOINT_TARGETS}')
+    assert ros.publish_until(cup, joint_state_msg(JOINT_NAMES, np.r_[HOME_Q, plans['cup']], stamp=stamp),
+                             lambda: arm._plans._closures.get('cup') is not None, 5.0)
+    refused = close()  # a plan, but no object followed yet
+    assert not refused.success and topics.ASSISTANCE_OBJECT in refused.message
+    followed = ros.publisher(String, topics.ASSISTANCE_OBJECT, latched_qos())
+    assert ros.publish_until(followed, String(data='flashlight'), lambda: arm._plans.followed == 'flashlight', 5.0)
+    refused = close()  # the flashlight followed, planned never: the cup's plan is not used
+    assert not refused.success and 'flashlight' in refused.message
+    flashlight = ros.publisher(JointState, f'flashlight/{topics.GRASP_JOINT_TARGETS}')
+    assert ros.publish_until(flashlight, joint_state_msg(JOINT_NAMES, np.r_[HOME_Q, plans['flashlight']],
+                                                         stamp=stamp),
+                             lambda: arm._plans._closures.get('flashlight') is not None, 5.0)
+    closed = close()
+    assert closed.success and "flashlight's plan" in closed.message
+    assert ros.wait_for(lambda: states and np.allclose(latest_positions(states)[6:], plans['flashlight'], atol=1e-12),
+                        5.0)
+    assert ros.publish_until(followed, String(data='cup'), lambda: arm._plans.followed == 'cup', 5.0)
+    assert close().success
+    assert ros.wait_for(lambda: np.allclose(latest_positions(states)[6:], plans['cup'], atol=1e-12), 5.0)

@@ -15,6 +15,7 @@ from geometry_msgs.msg import PoseStamped, TwistStamped
 from processes import alive, ctrl_c, suite_command
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
+from std_srvs.srv import Trigger
 
 from grasp_intent_ros.launch.suite import SUITE_NODES
 from grasp_intent_ros.mico.frames import pose_to_matrix
@@ -27,6 +28,9 @@ from grasp_intent_ros.wire.arrays import msg_labels
 UP = 90.0
 """Seconds for six node processes to start and log that they are ready (two planners load their compiled kernels
 at once) on a loaded 2-core machine."""
+SHARED_UP = 150.0
+"""Seconds for nine node processes (two chains, the mock arm, the assistance with its path search's process, the
+estimator) to start on a loaded 2-core machine."""
 ANSWER = 30.0
 """Seconds for a chain to answer a w (discovery of the test's publishers, one plan)."""
 STOP = 30.0
@@ -85,12 +89,14 @@ def test_one_chain_per_object_each_with_its_model_and_pose_sharing_the_arms_join
                     return True
             return False
 
-        assert publish_until('flashlight', lambda: any(g.pose.position.y > 0.0 for g in grasps['flashlight']),
+        assert publish_until('flashlight', lambda: v_msgs['flashlight'] and any(g.pose.position.y > 0.0
+                                                                              for g in grasps['flashlight']),
                              (flashlight_pose_pub, flashlight_pose)), out.read_text()
         assert grasps['cup'] == [] and v_msgs['cup'] == [], 'a w on /flashlight/intent/w reached the cup\'s chain'
 
         # a flashlight v still in flight may be planned after this; a v of the cup's w never reaches the flashlight
-        assert publish_until('cup', lambda: grasps['cup']), out.read_text()
+        # (v and the grasp come on topics of their own: the probe may take the grasp first)
+        assert publish_until('cup', lambda: grasps['cup'] and v_msgs['cup']), out.read_text()
         assert all(g.pose.position.y < 0.0 for g in grasps['cup']), 'the cup was planned at the flashlight\'s pose'
         vs = {name: {tuple(m.data) for m in msgs} for name, msgs in v_msgs.items()}
         assert len(vs['cup']) == 1 and len(vs['flashlight']) == 1, f'a w reached the other object\'s chain: {vs}'
@@ -154,4 +160,61 @@ def test_the_intent_estimator_over_both_chains_publishes_each_w_and_p_of_the_obj
         assert ctrl_c(suite, STOP) == 0, out.read_text()
     text = out.read_text()
     assert re.search(r'started cup/intent_interpreter .* intent_estimator \(pid \d+\)', text.splitlines()[0]), text
+    assert text.rstrip().endswith('suite: stopped cleanly') and 'Traceback' not in text, text
+
+
+def test_the_shared_control_loop_follows_one_object_and_closes_to_its_plan(ros, domain_id: int, tmp_path: Path) -> None:
+    """``suite --object ... --shared-control --with intent_estimator``: one loop over both chains.
+
+    The assistance at the root streams and publishes the object it follows; the mock arm's ``grasp/close`` closes
+    to that object's plan.
+    """
+    out = tmp_path / 'suite.out'
+    objects = [arg for name, model in MODELS.items() for arg in ('--object', f'{name}={model}')]
+    args = ['--domain-id', str(domain_id), *objects, '--shared-control', '--with', 'intent_estimator']
+    with suite_command(args, cwd=tmp_path, out=out) as suite:
+        twists = ros.subscribe(TwistStamped, '/assistance/twist')
+        followed = ros.subscribe(String, '/assistance/object', latched_qos())
+        plans = {name: ros.subscribe(JointState, f'/{name}/grasp/joint_targets') for name in MODELS}
+        states = ros.subscribe(JointState, '/joint_states')
+        twist_pub = ros.publisher(TwistStamped, '/operator/twist')
+        assert ros.wait_for(lambda: 'suite: up' in out.read_text() or suite.poll() is not None, SHARED_UP), \
+            out.read_text()
+        assert suite.poll() is None, out.read_text()
+        twist = TwistStamped()
+        twist.header.frame_id = BASE_FRAME
+        twist.twist.linear.z = -0.02  # down, slowly: the estimator's prior w plans both objects meanwhile
+
+        def ready() -> bool:
+            return bool(len(twists) > 10 and followed and plans[followed[-1].data])
+        deadline = time.monotonic() + ANSWER
+        while time.monotonic() < deadline:
+            twist.header.stamp = ros.node.get_clock().now().to_msg()
+            twist_pub.publish(twist)
+            if ros.wait_for(ready, 0.02):
+                break
+        assert ready(), out.read_text()
+        name = followed[-1].data
+        assert name in MODELS
+        client = ros.node.create_client(Trigger, '/grasp/close')
+        assert client.wait_for_service(timeout_sec=ANSWER)
+
+        def close() -> Trigger.Response | None:  # refused until the arm has the plan and the object followed too
+            future = client.call_async(Trigger.Request())
+            return future.result() if ros.wait_for(future.done, ANSWER) else None
+        deadline = time.monotonic() + ANSWER
+        while (answer := close()) is not None and not answer.success and time.monotonic() < deadline:
+            pass  # each call a round trip: asked again at once
+        assert answer is not None and answer.success, answer
+        message = answer.message
+        assert f"({name}'s plan)" in message, message
+        executed = [float(c) for c in re.findall(r'-?\d+\.\d+', message.split(' rad')[0])]
+        plan = list(plans[name][-1].position)[-3:]  # the fingers, last in the planner's joint targets
+        assert all(abs(e - p) < 0.25 for e, p in zip(executed, plan, strict=True)), (executed, plan)  # 5 sigma
+        assert ros.wait_for(lambda: all(abs(q - e) < 1e-3 for q, e in zip(list(states[-1].position)[-3:], executed,
+                                                                         strict=True)), ANSWER)
+        assert ctrl_c(suite, STOP) == 0, out.read_text()
+    text = out.read_text()
+    assert re.search(r'mock_arm \(pid \d+\).* assistance \(pid \d+\).* intent_estimator \(pid \d+\)',
+                     text.splitlines()[0]), text
     assert text.rstrip().endswith('suite: stopped cleanly') and 'Traceback' not in text, text

@@ -15,7 +15,7 @@ from grasp_intent_ros.launch.objects import (
     refuse_unbuilt,
     scene_node_args,
 )
-from grasp_intent_ros.launch.suite import SUITE_NODES, NodeProcess, NodeSuite, node_environment
+from grasp_intent_ros.launch.suite import REMAPPINGS, SUITE_NODES, NodeProcess, NodeSuite, node_environment
 from grasp_intent_ros.resources import config_dir
 
 
@@ -65,9 +65,9 @@ def test_models_are_looked_up_in_the_given_directory(tmp_path: Path) -> None:
 
 def test_optional_nodes_beside_objects_are_refused_naming_them_but_those_of_the_scene() -> None:
     refuse_unbuilt([])
-    refuse_unbuilt(['intent_estimator', 'viewer'])
-    with pytest.raises(GraspIntentError, match=r'^mock_arm, assistance with --object: not built yet'):
-        refuse_unbuilt(['mock_arm', 'intent_estimator', 'viewer', 'assistance'])
+    refuse_unbuilt(['mock_arm', 'intent_estimator', 'viewer', 'assistance'])
+    with pytest.raises(GraspIntentError, match=r'^scripted_operator with --object: not built yet'):
+        refuse_unbuilt(['mock_arm', 'scripted_operator', 'assistance'])
 
 
 def test_each_object_gets_a_chain_in_its_namespace_with_its_model_reading_the_arms_joint_states(
@@ -100,9 +100,15 @@ def test_each_object_gets_a_chain_in_its_namespace_with_its_model_reading_the_ar
     assert [args[i + 1] for i, a in enumerate(args) if a == '-r'] == ['__ns:=/robot1']
     assert [args[i + 1] for i, a in enumerate(args) if a == '-p'] == ["objects:=['cup','flashlight']"]
 
+    started.clear()  # the shared-control loop: the mock arm and the assistance at the suite's namespace, over both
+    suite.start_nodes(namespace='/robot1', objects=objects, shared_control=True, extra=['intent_estimator'])
+    assert [(module, name) for module, name, _ in started[len(objects) * len(SUITE_NODES):]] == [
+        ('mock_arm', None), ('assistance', None), ('intent_estimator', None)]
+    for module, _, args in started[-3:-1]:
+        assert [args[i + 1] for i, a in enumerate(args) if a == '-r'] == ['__ns:=/robot1', *REMAPPINGS.get(module, ())]
+        assert [args[i + 1] for i, a in enumerate(args) if a == '-p'] == ["objects:=['cup','flashlight']"]
+
     started.clear()
-    with pytest.raises(GraspIntentError, match='not built yet'):
-        suite.start_nodes(objects=objects, shared_control=True)
     with pytest.raises(GraspIntentError, match='^scripted_operator with --object'):
         suite.start_nodes(objects=objects, extra=['viewer', 'scripted_operator'])
     with pytest.raises(GraspIntentError, match='give no model'):
@@ -116,7 +122,7 @@ def test_the_viewer_starts_once_after_the_chains_at_the_suites_namespace_with_th
     started: list[tuple[str, str | None, tuple[str, ...]]] = []
     monkeypatch.setattr(NodeSuite, 'start',
                         lambda self, module, *args, name=None: started.append((module, name, args)))
-    assert SCENE_NODES == ('intent_estimator', 'viewer')
+    assert SCENE_NODES == ('mock_arm', 'assistance', 'intent_estimator', 'viewer')
     objects = parse_objects(['cup=cup_5zone', 'flashlight=flashlight_7zone'])
     NodeSuite(97, log_dir=tmp_path).start_nodes(namespace='/robot1', objects=objects, extra=['viewer'])
     assert [(module, name) for module, name, _ in started] == [
