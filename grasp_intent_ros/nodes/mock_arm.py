@@ -63,6 +63,7 @@ from ..mico.grasp import JOINT_NAMES
 from ..mico.kinematics import MicoKinematics
 from ..mico.mock_arm import MockArm, TrajectoryCommand, check_trajectory
 from ..mico.parameters import MOCK_ARM
+from ..ros.clock import now_seconds
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input
 from ..ros.params import declare_parameters
@@ -102,7 +103,7 @@ class MockArmNode(Node):
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(Trigger, GRASP_CLOSE, self._on_close)
         self.create_service(Trigger, GRASP_EXECUTE, self._on_execute)
-        self._last = self._now()
+        self._last = now_seconds(self)
         self.create_timer(self._params['period'], self._diag.guard_timer(self._on_timer))
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
@@ -112,20 +113,17 @@ class MockArmNode(Node):
         if 'closure_seed' in changed:  # set, even to its value: the errors' sequence starts again
             self._closure_rng = np.random.default_rng(self._params['closure_seed'])
 
-    def _now(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
-
     def _check_trajectory(self, cmd: TrajectoryCommand) -> None:  # as grasp/execute would run it, from now
         arm = self._arm
-        check_trajectory(dataclasses.replace(cmd, start=None), arm.joint_names, arm.lower, arm.upper, now=self._now(),
-                         allow_partial=self._params['allow_partial_joints_goal'])
+        check_trajectory(dataclasses.replace(cmd, start=None), arm.joint_names, arm.lower, arm.upper,
+                         now=now_seconds(self), allow_partial=self._params['allow_partial_joints_goal'])
 
     def _on_trajectory(self, msg: JointTrajectory) -> None:
         cmd = trajectory_command(msg)
         if self._params['trajectory_execution'] == 'on_request':
             self._plans.keep(cmd)
             return
-        now, arm = self._now(), self._arm
+        now, arm = now_seconds(self), self._arm
         if arm.twist_live(now):
             self._ignored += 1
             self._diag.set_value('trajectories ignored while a twist is live', self._ignored)
@@ -137,7 +135,7 @@ class MockArmNode(Node):
         if (self._params['trajectory_execution'] == 'on_request' and self._arm.mode == 'trajectory'
                 and not (np.any(twist.linear) or np.any(twist.angular))):
             return  # a requested trajectory runs on through the zero twists of an operator at rest
-        self._arm.command_twist(twist, self._now())
+        self._arm.command_twist(twist, now_seconds(self))
 
     def _on_execute(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         kept, plan = self._plans.trajectory()
@@ -147,7 +145,7 @@ class MockArmNode(Node):
             response.success, response.message = False, plan
         else:
             try:
-                self._arm.command_trajectory(dataclasses.replace(kept, start=None), self._now(),
+                self._arm.command_trajectory(dataclasses.replace(kept, start=None), now_seconds(self),
                                              allow_partial=self._params['allow_partial_joints_goal'])
             except GraspIntentError as exc:  # allow_partial_joints_goal changed since it was kept
                 response.success, response.message = False, str(exc)
@@ -179,7 +177,7 @@ class MockArmNode(Node):
         return response
 
     def _on_timer(self) -> None:
-        now = self._now()
+        now = now_seconds(self)
         self._arm.step(now, now - self._last)
         self._last = now
         msg = joint_state_msg(JOINT_NAMES, self._arm.q, stamp=self.get_clock().now().to_msg())

@@ -56,16 +56,7 @@ from ..ros.run import guard_exit, run_node
 from ..ros.worker import LatestOnlyWorker
 from ..scene.geometry import ArmModel
 from ..scene.page import DEFAULT_HOST, ScenePage
-from ..scene.state import (
-    ARM_TOPICS,
-    CHAIN_TOPICS,
-    SCENE_TOPICS,
-    VIEWER_TOPICS,
-    ObjectsState,
-    SceneState,
-    apply,
-    apply_objects,
-)
+from ..scene.state import SCENE_TOPICS, VIEWER_TOPICS, ObjectsState, SceneState, apply_to, followed_topics
 from ..wire.diagnostics import OK, WARN
 from ..wire.model_document import ModelDocument
 from ..wire.topics import DIAGNOSTICS, JOINT_STATES, LATCHED_TOPICS, MODEL_ACTIVE, check_object_names
@@ -121,10 +112,7 @@ class Viewer(Node):
                                       requires=lambda: ModelRequirements(feature_names=MICO_3F.names),
                                       namespace=chain or '')
                         for chain in objects or (None,)]
-        topics = [(None, topic) for topic in VIEWER_TOPICS] if not objects else [
-            *((None, topic) for topic in (*ARM_TOPICS, *SCENE_TOPICS, DIAGNOSTICS)),
-            *((chain, topic) for chain in objects for topic in CHAIN_TOPICS)]
-        for chain, topic in topics:
+        for chain, topic in followed_topics(objects):
             if topic == MODEL_ACTIVE:
                 continue
             depth = 10 if topic in (JOINT_STATES, DIAGNOSTICS) else 1  # several publishers on these
@@ -140,9 +128,7 @@ class Viewer(Node):
 
         def change(state: SceneState | ObjectsState, msg: Any) -> SceneState | ObjectsState:
             try:
-                if isinstance(state, ObjectsState):
-                    return apply_objects(state, chain, topic, msg)
-                return apply(state, topic, msg)
+                return apply_to(state, chain, topic, msg)
             except GraspIntentError as exc:  # the reason names the topic: in a scene, the object's chain
                 raise GraspIntentError(f'{name}: {exc}') from None
 

@@ -51,7 +51,7 @@ from .plan import plan_object_pose, served_tasks
 
 __all__ = ['OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA', 'VIEWER_TOPICS', 'ARM_TOPICS', 'CHAIN_TOPICS',
            'SCENE_TOPICS',
-           'SceneState', 'ObjectsState', 'apply', 'apply_objects', 'plan_status']
+           'SceneState', 'ObjectsState', 'followed_topics', 'apply', 'apply_objects', 'apply_to', 'plan_status']
 
 OPERATOR_TWIST: Final = 'operator/twist'
 """The operator's command (geometry_msgs/TwistStamped), published by the assistance node's operator input."""
@@ -77,6 +77,20 @@ CHAIN_TOPICS: Final = tuple(t for t in VIEWER_TOPICS if t not in ARM_TOPICS and 
 SCENE_TOPICS: Final[Mapping[str, str]] = {t: topics.MSGTYPES[t] for t in (topics.INTENT_OBJECTS,
                                                                            topics.ASSISTANCE_OBJECT)}
 """The viewer topics of a scene of several objects itself, in the suite's namespace, and their message types."""
+
+
+def followed_topics(objects: Sequence[str]) -> tuple[tuple[str | None, str], ...]:
+    """The (chain, topic) pairs the viewer follows, live or played back from a bag.
+
+    With no ``objects`` (one chain): each of :data:`VIEWER_TOPICS`, chain None. For a scene of several
+    ``objects``: the :data:`ARM_TOPICS`, the :data:`SCENE_TOPICS` and ``/diagnostics`` once (chain None), then
+    each object's :data:`CHAIN_TOPICS`, in the order of ``objects``. The topics are relative to the suite's
+    namespace (chain None) or to the object's chain; ``/diagnostics`` is absolute.
+    """
+    if not objects:
+        return tuple((None, topic) for topic in VIEWER_TOPICS)
+    return (*((None, topic) for topic in (*ARM_TOPICS, *SCENE_TOPICS, topics.DIAGNOSTICS)),
+            *((chain, topic) for chain in objects for topic in CHAIN_TOPICS))
 
 
 @dataclass(frozen=True)
@@ -321,3 +335,15 @@ def apply_objects(state: ObjectsState, chain: str | None, topic: str, msg: Any) 
         chains = {name: apply(s, topic, msg, namespace=state.chain_namespace(name)) for name, s in state.chains.items()}
         return state if all(chains[name] is s for name, s in state.chains.items()) else replace(state, chains=chains)
     return replace(state, arm=apply(state.arm, topic, msg)) if topic in ARM_TOPICS else state
+
+
+def apply_to(state: SceneState | ObjectsState, chain: str | None, topic: str, msg: Any) -> SceneState | ObjectsState:
+    """The state after ``msg`` on ``topic`` of ``chain``, one of the :func:`followed_topics`.
+
+    :func:`apply_objects` for a scene of several objects, :func:`apply` for one chain (``chain`` is then None);
+    raises as they do.
+    """
+    if isinstance(state, ObjectsState):
+        return apply_objects(state, chain, topic, msg)
+    return apply(state, topic, msg)
+

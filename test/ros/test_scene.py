@@ -32,12 +32,18 @@ from grasp_intent_ros.scene.page import ScenePage
 from grasp_intent_ros.scene.panel import panel_html
 from grasp_intent_ros.scene.plan import served_tasks
 from grasp_intent_ros.scene.state import (
+    ARM_TOPICS,
     ASSISTANCE_ALPHA,
+    CHAIN_TOPICS,
     OPERATOR_TWIST,
+    SCENE_TOPICS,
+    VIEWER_TOPICS,
     ObjectsState,
     SceneState,
     apply,
     apply_objects,
+    apply_to,
+    followed_topics,
 )
 from grasp_intent_ros.sessions.playback import load_timeline
 from grasp_intent_ros.sessions.report_data import load_report_data
@@ -279,6 +285,28 @@ def test_each_object_s_chain_keeps_its_own_state_and_the_arm_is_one(cup: GraspMo
     moved_arm = joint_state_msg(ARM_JOINTS, HOME_Q + 0.1, stamp=STAMP)
     assert apply_objects(state, 'cup', topics.JOINT_STATES, moved_arm) is state
     assert apply_objects(state, None, topics.INTENT_W, Float64MultiArray(data=[0.5] * 3)) is state
+
+
+def test_the_followed_topics_are_the_viewer_s_for_one_chain_and_the_arm_s_once_in_a_scene() -> None:
+    assert followed_topics([]) == tuple((None, topic) for topic in VIEWER_TOPICS)
+    pairs = followed_topics(['cup', 'flashlight'])
+    shared = [topic for chain, topic in pairs if chain is None]
+    assert sorted(shared) == sorted([*ARM_TOPICS, *SCENE_TOPICS, topics.DIAGNOSTICS])
+    for name in ('cup', 'flashlight'):
+        assert [topic for chain, topic in pairs if chain == name] == list(CHAIN_TOPICS)
+    assert len(pairs) == len(set(pairs)) == len(shared) + 2 * len(CHAIN_TOPICS)
+
+
+def test_apply_to_gives_a_scene_s_message_to_its_chain_and_one_chain_s_to_it(cup: GraspModel,
+                                                                            flashlight: GraspModel) -> None:
+    pose = matrix_to_pose_msg(CUP_POSE, frame_id=BASE_FRAME, stamp=STAMP)
+    moved = apply_to(two_objects(cup, flashlight), 'flashlight', topics.OBJECT_POSE, pose)
+    assert isinstance(moved, ObjectsState)
+    assert_allclose(moved.chains['flashlight'].object_pose, CUP_POSE, atol=1e-12)
+    assert_allclose(moved.chains['cup'].object_pose, CUP_POSE, atol=1e-12)  # as it was
+    one = apply_to(SceneState(), None, topics.OBJECT_POSE, pose)
+    assert isinstance(one, SceneState) and one.object_pose is not None
+    assert_allclose(one.object_pose, CUP_POSE, atol=1e-12)
 
 
 def test_each_chain_shows_its_own_planner_s_status(cup: GraspModel, flashlight: GraspModel) -> None:
