@@ -260,18 +260,20 @@ def test_a_scripted_operator_reaching_for_the_cup_is_followed_and_the_hand_close
         message = closed()
         assert "closing to" in message and "(cup's plan)" in message, message
         assert followed and followed[-1].data == 'cup', [m.data for m in followed]
-        # on the cup's shown grasp: the arm ran the cup chain's trajectory (grasp/execute) before the close
-        assert "grasp/execute: following the latest trajectory (cup's plan) from now" in out.read_text(), \
-            out.read_text()[-3000:]
+        # an execute (on the cup's shown grasp; on its own grasp, when the estimated w's grasp lies farther, it closes
+        # where the hand is) ran the cup chain's trajectory, never another's
+        executes = [line for line in out.read_text().splitlines()
+                    if '[scripted_operator]' in line and 'grasp/execute: following' in line]
+        assert all("(cup's plan)" in line for line in executes), executes
         executed = [float(c) for c in re.findall(r'-?\d+\.\d+', message.split('closing to')[1].split(' rad')[0])]
         plan = list(plans['cup'][-1].position)[-3:]  # the fingers, last in the planner's joint targets
         assert all(abs(e - p) < 0.25 for e, p in zip(executed, plan, strict=True)), (executed, plan)  # 5 sigma
         assert ros.wait_for(lambda: all(abs(q - e) < 1e-3 for q, e in zip(list(states[-1].position)[-3:], executed,
                                                                          strict=True)), ANSWER)
-        # P(cup) while both objects are in the estimate (an object whose goals are not ready is not): from the prior's
-        # 0.5 up
+        # P(cup) while both objects are in the estimate (an object whose goals are not ready is not): up from the
+        # prior's 0.5 (the flashlight's goals restart from the prior when its tracked pose first comes)
         p_cup = [m.data[0] for m in p_msgs if msg_labels(m) == (tuple(MODELS),)]
-        assert p_cup and p_cup[0] == 0.5 and p_cup[-1] > 0.9, (p_cup[:3], p_cup[-3:])
+        assert p_cup and p_cup[-1] > 0.9, (p_cup[:3], p_cup[-3:])
         assert ctrl_c(suite, STOP) == 0, out.read_text()[-3000:]
     text = out.read_text()
     assert re.search(r'suite: started scripted_operator \(pid \d+\)', text), text[-3000:]
