@@ -14,7 +14,9 @@ Topics (relative; all inputs, :data:`~grasp_intent_ros.scene.state.VIEWER_TOPICS
     each object's chain topics (:data:`~grasp_intent_ros.scene.state.CHAIN_TOPICS`) in ``<object>/``, e.g.
     ``cup/object/pose``, ``cup/model/active``, ``cup/grasp/pose``; the arm's
     (:data:`~grasp_intent_ros.scene.state.ARM_TOPICS`: ``joint_states``, the twists, alpha) and ``/diagnostics``
-    once, each chain's plan status from its own planner (``/<namespace>/cup/grasp_planner: planning``).
+    once, each chain's plan status from its own planner (``/<namespace>/cup/grasp_planner: planning``), and
+    :data:`~grasp_intent_ros.scene.state.SCENE_TOPICS` once: P(o) on ``intent/objects`` and the object the
+    assistance follows on ``assistance/object`` (latched), marked in the panel.
 
 Behaviour
     A message only replaces the newest state (:func:`grasp_intent_ros.scene.state.apply`; with ``objects``
@@ -49,7 +51,7 @@ from ..ros.conversions import type_class
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.model_follower import ModelFollower
 from ..ros.params import declare_parameters
-from ..ros.qos import input_qos
+from ..ros.qos import input_qos, latched_qos
 from ..ros.run import guard_exit, run_node
 from ..ros.worker import LatestOnlyWorker
 from ..scene.geometry import ArmModel
@@ -57,7 +59,7 @@ from ..scene.page import DEFAULT_HOST, ScenePage
 from ..scene.state import SCENE_TOPICS, VIEWER_TOPICS, ObjectsState, SceneState, apply_to, followed_topics
 from ..wire.diagnostics import OK, WARN
 from ..wire.model_document import ModelDocument
-from ..wire.topics import DIAGNOSTICS, JOINT_STATES, MODEL_ACTIVE, check_object_names
+from ..wire.topics import DIAGNOSTICS, JOINT_STATES, LATCHED_TOPICS, MODEL_ACTIVE, check_object_names
 
 __all__ = ['Viewer', 'PARAMETERS', 'main']
 
@@ -116,7 +118,8 @@ class Viewer(Node):
             depth = 10 if topic in (JOINT_STATES, DIAGNOSTICS) else 1  # several publishers on these
             self.create_subscription(type_class({**VIEWER_TOPICS, **SCENE_TOPICS}[topic]),
                                      topic if chain is None else f'{chain}/{topic}',
-                                     self._diag.guard(self._on_message(chain, topic)), input_qos(depth=depth))
+                                     self._diag.guard(self._on_message(chain, topic)),
+                                     latched_qos() if topic in LATCHED_TOPICS else input_qos(depth=depth))
         if objects:
             self.get_logger().info(f'following the chains {", ".join(map(scene.chain_namespace, objects))}')
 

@@ -17,9 +17,10 @@ rules' (:func:`~grasp_intent_ros.scene.plan.served_tasks`).
 
 A scene of several objects (docs/several_objects.md: one planning chain per object in ``<namespace>/<object>``,
 one arm) is an :class:`ObjectsState`: one :class:`SceneState` per chain, each updated by :func:`apply` with its
-chain's :data:`CHAIN_TOPICS` and its own planner's status, the arm's :data:`ARM_TOPICS` once, and the
+chain's :data:`CHAIN_TOPICS` and its own planner's status, the arm's :data:`ARM_TOPICS` once, the
 intent estimator's P(o) (:data:`SCENE_TOPICS`: ``intent/objects``, a value per object labelled with the object
-names; objects whose goals are not ready are not in it) (:func:`apply_objects`).
+names; objects whose goals are not ready are not in it) and the object whose grasp the assistance follows
+(``assistance/object``, latched) (:func:`apply_objects`).
 """
 
 from __future__ import annotations
@@ -73,7 +74,8 @@ ARM_TOPICS: Final = (topics.JOINT_STATES, OPERATOR_TWIST, ASSISTANCE_TWIST, ASSI
 """The viewer topics of the arm: in a scene of several objects, once, in the suite's namespace."""
 CHAIN_TOPICS: Final = tuple(t for t in VIEWER_TOPICS if t not in ARM_TOPICS and t != topics.DIAGNOSTICS)
 """The viewer topics of a planning chain: in a scene of several objects, one set per object in its namespace."""
-SCENE_TOPICS: Final[Mapping[str, str]] = {topics.INTENT_OBJECTS: topics.MSGTYPES[topics.INTENT_OBJECTS]}
+SCENE_TOPICS: Final[Mapping[str, str]] = {t: topics.MSGTYPES[t] for t in (topics.INTENT_OBJECTS,
+                                                                           topics.ASSISTANCE_OBJECT)}
 """The viewer topics of a scene of several objects itself, in the suite's namespace, and their message types."""
 
 
@@ -282,12 +284,15 @@ class ObjectsState:
         Per object name, in the scene's order: each of its chain's :data:`CHAIN_TOPICS` and its planner's status.
     object_probabilities : mapping of str to float
         P(o) of the newest ``intent/objects``, for the objects it names (empty before one arrives).
+    followed : str
+        The object whose grasp the assistance follows (the newest ``assistance/object``; '' before one).
     """
 
     namespace: str
     arm: SceneState
     chains: Mapping[str, SceneState]
     object_probabilities: Mapping[str, float] = field(default_factory=dict)
+    followed: str = ''
 
     @classmethod
     def empty(cls, names: Sequence[str], namespace: str = '') -> ObjectsState:
@@ -315,13 +320,17 @@ def apply_objects(state: ObjectsState, chain: str | None, topic: str, msg: Any) 
     ------
     GraspIntentError
         For a message that cannot be read (as :func:`apply`; an ``intent/objects`` that is not one value in
-        [0, 1] per label, or that names an object not in the scene); ``state`` is then still the valid one, every
-        chain as it was.
+        [0, 1] per label, or that names an object not in the scene; an ``assistance/object`` that names none of
+        the scene's); ``state`` is then still the valid one, every chain as it was.
     """
     if chain is not None:
         return state.with_chain(chain, lambda s: apply(s, topic, msg)) if topic in CHAIN_TOPICS else state
     if topic == topics.INTENT_OBJECTS:
         return replace(state, object_probabilities=read_object_probabilities(msg, tuple(state.chains)))
+    if topic == topics.ASSISTANCE_OBJECT:
+        if (name := str(msg.data)) not in state.chains:
+            raise GraspIntentError(f'{name!r} is not one of the objects {list(state.chains)}')
+        return replace(state, followed=name)
     if topic == topics.DIAGNOSTICS:
         chains = {name: apply(s, topic, msg, namespace=state.chain_namespace(name)) for name, s in state.chains.items()}
         return state if all(chains[name] is s for name, s in state.chains.items()) else replace(state, chains=chains)

@@ -373,6 +373,21 @@ def test_the_intent_estimator_s_p_of_each_object_is_shown_beside_its_name(cup: G
             apply_objects(seen, None, topics.INTENT_OBJECTS, bad)
 
 
+def test_the_object_the_assistance_follows_is_marked_beside_its_name(cup: GraspModel, flashlight: GraspModel) -> None:
+    state = two_objects(cup, flashlight)
+    assert state.followed == '' and 'follows' not in panel_html(state)
+    cup_followed = apply_objects(state, None, topics.ASSISTANCE_OBJECT, String(data='cup'))
+    assert cup_followed.followed == 'cup' and cup_followed.chains is state.chains
+    html = panel_html(cup_followed)
+    assert 'object <b>cup</b> (/robot1/cup) ◀ the assistance follows it</div>' in html
+    assert 'object <b>flashlight</b> (/robot1/flashlight)</div>' in html
+    switched = apply_objects(cup_followed, None, topics.ASSISTANCE_OBJECT, String(data='flashlight'))
+    assert 'object <b>flashlight</b> (/robot1/flashlight) ◀ the assistance follows it' in panel_html(switched)
+    assert 'object <b>cup</b> (/robot1/cup)</div>' in panel_html(switched)
+    with pytest.raises(GraspIntentError, match="'bottle' is not one of the objects"):
+        apply_objects(switched, None, topics.ASSISTANCE_OBJECT, String(data='bottle'))
+
+
 def test_the_page_draws_each_object_with_its_grasp_at_its_own_pose_and_the_arm_once(
         arm: ArmModel, cup: GraspModel, flashlight: GraspModel) -> None:
     state = two_objects(cup, flashlight)
