@@ -80,7 +80,8 @@ def floor_phase(domain_id: int, n: int, period: float) -> dict[str, Any]:
     from geometry_msgs.msg import PoseStamped
     from std_msgs.msg import Float64MultiArray
 
-    from grasp_intent_ros.launch.suite import NodeProcess, NodeSuite
+    from grasp_intent_ros.launch.process import NodeProcess
+    from grasp_intent_ros.launch.suite import NodeSuite
     from grasp_intent_ros.ros.qos import input_qos, output_qos
 
     suite = NodeSuite(domain_id)

@@ -59,7 +59,8 @@ def main() -> None:
     from rclpy.executors import SingleThreadedExecutor
     from std_msgs.msg import Float64MultiArray
 
-    from grasp_intent_ros.launch.suite import NodeProcess, NodeSuite
+    from grasp_intent_ros.launch.process import NodeProcess
+    from grasp_intent_ros.launch.suite import NodeSuite
     from grasp_intent_ros.ros.qos import output_qos
     from grasp_intent_ros.sessions.bag import read_messages
     from grasp_intent_ros.wire.topics import INTENT_W

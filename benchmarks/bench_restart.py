@@ -84,7 +84,8 @@ def main() -> None:
     from geometry_msgs.msg import PoseStamped
     from std_msgs.msg import Float64MultiArray, String
 
-    from grasp_intent_ros.launch.suite import NodeProcess, NodeSuite
+    from grasp_intent_ros.launch.process import NodeProcess
+    from grasp_intent_ros.launch.suite import NodeSuite
     from grasp_intent_ros.method import intent
     from grasp_intent_ros.ros.qos import input_qos, latched_qos, output_qos
 

@@ -46,7 +46,8 @@ from pathlib import Path
 import numpy as np
 from _bench import REPO, Probe, loopback_domain, uptime
 
-from grasp_intent_ros.launch.suite import SUITE_NODES, NodeProcess, NodeSuite, node_environment
+from grasp_intent_ros.launch.process import NodeProcess
+from grasp_intent_ros.launch.suite import SUITE_NODES, NodeSuite, node_environment
 
 QUIET = '''
 import linecache, sys, threading, time

@@ -41,6 +41,8 @@ from _bench import uptime
 from _bench.closed_loop import OBJECTS
 from bench_shared_control_sim import ESTIMATED, OPERATORS, RUN, Task, estimator_fields, read_records, run_tasks
 
+from grasp_intent_ros.mico.frames import rotation_angle
+
 CLASSES = ('timeout', 'wrong plan, w wrong', 'wrong plan, w right', 'right plan, rules fail', 'own, rules fail')
 CORRIDOR = (0.02, 0.2)
 """A shown grasp that moves by more than this (m, rad) is a new proposal (the assistance's corridor)."""
@@ -76,7 +78,7 @@ def proposals(trace: list[dict[str, Any]]) -> int:
         p, R = np.asarray(row['shown_p']), np.asarray(row['shown_R']).reshape(3, 3)
         if last is not None:
             moved = float(np.linalg.norm(p - last[0]))
-            angle = float(np.arccos(np.clip((np.trace(R @ last[1].T) - 1.0) / 2.0, -1.0, 1.0)))
+            angle = rotation_angle(last[1], R)
             if moved <= CORRIDOR[0] and angle <= CORRIDOR[1]:
                 continue
         count, last = count + 1, (p, R)

@@ -4,6 +4,8 @@ Modules
 -------
 suite
     :class:`~grasp_intent_ros.launch.suite.NodeSuite`: the nodes as processes, their environment.
+process
+    :class:`~grasp_intent_ros.launch.process.NodeProcess`: one node process, its logs, its stop and its judgement.
 parent_death
     :func:`~grasp_intent_ros.launch.parent_death.ended_with_this_process`: a node process ends with its launcher.
 objects

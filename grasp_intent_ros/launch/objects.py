@@ -5,9 +5,9 @@ object's model, the planner) in the object's namespace, so it has its own ``inte
 ``model/active``, ``intent/v`` and ``grasp/*``. The arm is one: every chain reads the suite namespace's
 ``joint_states`` (:func:`chain_remappings`); ``/diagnostics`` is absolute already, and each status is named
 by its node's fully qualified name (``/cup/grasp_planner: planning``). docs/several_objects.md gives the
-design and what is not built yet: the scripted operator serves one object, so :func:`refuse_unbuilt` refuses it
-beside objects; the shared-control loop (the mock arm and the assistance), the intent estimator and the viewer serve
-every chain from the suite's namespace (:data:`SCENE_NODES`).
+design. Every optional node runs once, at the suite's namespace, over the chains (:func:`scene_node_args`): the
+shared-control loop (the mock arm and the assistance), the intent estimator and the viewer serve every chain, the
+scripted operator reaches for one object (:func:`operator_object`).
 
 - :func:`parse_objects`: the ``NAME=MODEL`` specs of ``suite --object``, checked before anything starts.
 - :class:`SceneObject`: one object, its namespace and its chain's process names.
@@ -24,14 +24,7 @@ from ..errors import GraspIntentError, ModelError
 from ..method.registry import ModelFiles
 from ..wire.topics import JOINT_STATES, OBJECT_NAME, object_name_problem
 
-__all__ = ['OBJECT_NAME', 'SceneObject', 'parse_objects', 'chain_remappings', 'refuse_unbuilt', 'SCENE_NODES',
-           'scene_node_args']
-
-SCENE_NODES = ('mock_arm', 'assistance', 'intent_estimator', 'viewer')
-"""The optional nodes (``suite --shared-control``, ``--with``) that serve a scene of several objects: one process at
-the suite's namespace over every chain (:func:`scene_node_args`). The assistance without the intent estimator takes
-P(o) uniform over the objects with a grasp (:func:`~grasp_intent_ros.shared_control.scene_target.object_probabilities`).
-"""
+__all__ = ['OBJECT_NAME', 'SceneObject', 'parse_objects', 'chain_remappings', 'operator_object', 'scene_node_args']
 
 
 @dataclass(frozen=True)
@@ -98,24 +91,38 @@ def chain_remappings(suite_namespace: str = '') -> tuple[str, ...]:
     return (f'{JOINT_STATES}:={suite_namespace}/{JOINT_STATES}',)
 
 
-def refuse_unbuilt(optional: Sequence[str]) -> None:
-    """Refuse optional nodes beside objects but :data:`SCENE_NODES`: each of the others serves one object.
+def operator_object(objects: Sequence[SceneObject], name: str = '') -> SceneObject:
+    """The object the scripted operator reaches for: the one named ``name``, or the first ('', the default).
 
     Raises
     ------
     GraspIntentError
-        If ``optional`` (node module names) holds any other, naming them and the design note.
+        For a ``name`` that is none of ``objects`` (naming them), or no objects.
     """
-    if unbuilt := [name for name in optional if name not in SCENE_NODES]:
-        raise GraspIntentError(
-            f'{", ".join(unbuilt)} with --object: not built yet (the scripted operator serves one object; '
-            'docs/several_objects.md says what it needs); --object starts the planning chains and, with '
-            f'--shared-control and --with, {", ".join(SCENE_NODES)} over all of them')
+    if not objects:
+        raise GraspIntentError('no objects: the scripted operator reaches for one of the scene\'s objects')
+    for obj in objects:
+        if obj.name == (name or objects[0].name):
+            return obj
+    raise GraspIntentError(f'the scripted operator\'s object {name!r} is not one of the objects '
+                           f'{", ".join(o.name for o in objects)}')
 
 
-def scene_node_args(objects: Sequence[SceneObject]) -> tuple[str, ...]:
-    """The ``--ros-args`` that make a :data:`SCENE_NODES` node serve ``objects``: its ``objects`` parameter.
+def scene_node_args(module: str, objects: Sequence[SceneObject], *, operator: str = '',
+                    estimated: bool = False) -> tuple[str, ...]:
+    """The ``--ros-args`` that make optional node ``module`` serve the scene of ``objects``.
 
-    Each name is quoted: the value is read as YAML, where a name such as ``on`` or ``null`` would not be a string.
+    The scripted operator: its ``object``, :func:`operator_object` of ``operator``, and with ``estimated`` (the
+    intent estimator runs: each object's w is its) ``intent: none``, so that no chain gets w from two sources. Any
+    other: its ``objects`` parameter, every object. Each name is quoted: the value is read as YAML, where a name
+    such as ``on`` or ``null`` would not be a string.
+
+    Raises
+    ------
+    GraspIntentError
+        As :func:`operator_object`, for the scripted operator.
     """
+    if module == 'scripted_operator':
+        return ('-p', f"object:='{operator_object(objects, operator).name}'",
+                *(('-p', 'intent:=none') if estimated else ()))
     return ('-p', 'objects:=[' + ','.join(f"'{obj.name}'" for obj in objects) + ']')

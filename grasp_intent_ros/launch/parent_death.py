@@ -1,7 +1,7 @@
 """A child process that ends with the process that started it (Linux ``PR_SET_PDEATHSIG``).
 
 :func:`ended_with_this_process` is the ``preexec_fn`` every node process gets
-(:class:`~grasp_intent_ros.launch.suite.NodeProcess`): a test run, suite command or benchmark killed
+(:class:`~grasp_intent_ros.launch.process.NodeProcess`): a test run, suite command or benchmark killed
 without its cleanup (SIGKILL, a crash) leaves no node serving on its ROS domain.
 
 Never imports rclpy.

@@ -15,11 +15,7 @@ and the system tests.
   (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, no ``ROS_STATIC_PEERS``), the run's ``ROS_DOMAIN_ID``,
   unbuffered output, so the log of a SIGKILLed node is complete, and the Fast DDS discovery timing of
   ``config/fastdds_loopback.xml`` (:data:`FASTDDS_PROFILE`; it also puts user data on UDP 127.0.0.1).
-- :class:`NodeProcess`: stdout and stderr go to files (no pipe can fill up and block a node); it runs in a
-  session of its own, so it is signalled only by its own PID (a terminal's Ctrl-C reaches the command that
-  started it, never the node directly), gets SIGTERM when the command that started it dies (on Linux; a
-  killed test run or suite leaves no node on its domain), is SIGKILLed after a deadline, and is judged clean
-  on exit code 0 with no traceback on stderr, or on death by the SIGTERM it was sent before it logged that it is ready.
+- :class:`~grasp_intent_ros.launch.process.NodeProcess` (:mod:`.process`): one node process, its logs and its stop.
 - Nodes are stopped one at a time, the last started first (:meth:`NodeSuite.stop`). Stopped together,
   two nodes can end in a livelock of the middleware: rmw_fastrtps destroys a process's DDS participant with
   its last node, first calling ``DomainParticipant::set_listener(nullptr)``, which in Fast DDS 2.14.5 as
@@ -38,8 +34,6 @@ from __future__ import annotations
 import os
 import shutil
 import signal
-import subprocess
-import sys
 import tempfile
 import time
 from collections.abc import Callable, Collection, Mapping, MutableMapping, Sequence
@@ -48,17 +42,14 @@ from types import TracebackType
 
 from ..errors import GraspIntentError
 from ..resources import config_dir
-from ..ros.startup import WATCHDOG_EXIT_CODE, is_ready_line
 from ..wire.topics import ARM_TRAJECTORY_COMMAND, ARM_TWIST_COMMAND, ASSISTANCE_TWIST, GRASP_TRAJECTORY
-from .objects import SceneObject, chain_remappings, refuse_unbuilt, scene_node_args
-from .parent_death import ended_with_this_process
+from .objects import SceneObject, chain_remappings, operator_object, scene_node_args
+from .process import STOP_TIMEOUT, NodeProcess
 
-__all__ = ['STOP_TIMEOUT', 'SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'MAX_DOMAIN_ID',
+__all__ = ['SUITE_NODES', 'SHARED_CONTROL_NODES', 'OPTIONAL_NODES', 'REMAPPINGS', 'CHAIN_REMAPPINGS', 'MAX_DOMAIN_ID',
            'TEST_DOMAIN_IDS', 'RUN_DOMAIN_IDS', 'FASTDDS_PROFILE', 'SuiteError', 'domain_id_from_environment',
-           'use_loopback_discovery', 'node_environment', 'optional_nodes', 'NodeProcess', 'NodeSuite']
+           'use_loopback_discovery', 'node_environment', 'optional_nodes', 'NodeSuite']
 
-STOP_TIMEOUT = 10.0
-"""Seconds a node gets to exit after SIGINT/SIGTERM before it is SIGKILLed."""
 SUITE_NODES = ('intent_interpreter', 'model_server', 'grasp_planner')
 """The node modules of the suite, in start order."""
 SHARED_CONTROL_NODES = ('mock_arm', 'assistance')
@@ -67,10 +58,11 @@ OPTIONAL_NODES: tuple[str, ...] = (*SHARED_CONTROL_NODES, 'intent_estimator', 's
 """Node modules started only on request, after :data:`SUITE_NODES`: ``suite --with NAME``,
 :meth:`NodeSuite.start_nodes`'s ``extra``. Each is ``python -m grasp_intent_ros.nodes.<name>`` with its
 ``config/<name>.yaml`` when there is one, like the suite's own nodes."""
-REMAPPINGS: Mapping[str, tuple[str, ...]] = {
-    'mock_arm': (f'{ARM_TRAJECTORY_COMMAND}:={GRASP_TRAJECTORY}', f'{ARM_TWIST_COMMAND}:={ASSISTANCE_TWIST}'),
-}
-"""Each node's remappings in the suite: the mock arm executes the planner's trajectory and the blended twist."""
+REMAPPINGS: Mapping[str, tuple[str, ...]] = {'mock_arm': (f'{ARM_TWIST_COMMAND}:={ASSISTANCE_TWIST}',)}
+"""Each node's remappings in the suite: the mock arm executes the blended twist."""
+CHAIN_REMAPPINGS: Mapping[str, tuple[str, ...]] = {'mock_arm': (f'{ARM_TRAJECTORY_COMMAND}:={GRASP_TRAJECTORY}',)}
+"""Each node's remappings in a suite of one chain, before :data:`REMAPPINGS`: the mock arm executes the planner's
+trajectory. Over a scene's chains it reads each ``<object>/grasp/trajectory`` itself (:mod:`..nodes.arm_plans`)."""
 MAX_DOMAIN_ID = 101
 """Largest ROS domain id usable with LOCALHOST discovery."""
 TEST_DOMAIN_IDS = range(1, MAX_DOMAIN_ID - 10)
@@ -161,132 +153,6 @@ def node_environment(domain_id: int, base: Mapping[str, str] | None = None) -> d
     return env
 
 
-class NodeProcess:
-    """One process, started on construction, its output in ``<log_dir>/<prefix><module>.out`` and ``.err``.
-
-    Parameters
-    ----------
-    command
-        The command line (:meth:`start` builds the one of a node module).
-    module
-        Name of the process in messages and log file names (the node module's, or ``<object>/<module>`` for an
-        object's chain: a '/' is a '.' in the file names).
-    env
-        Its whole environment (see :func:`node_environment`).
-    log_dir
-        Existing directory for the two log files.
-    prefix
-        Prepended to the log file names (e.g. ``'00_'``).
-    cwd
-        Its working directory (default this process's).
-    preexec_fn
-        Run in the child before the command (e.g. to set a resource limit).
-
-    On Linux the process is sent SIGTERM when the thread that started it ends (``PR_SET_PDEATHSIG``), and
-    is never started if this process has already ended: a test runner, suite or benchmark killed without
-    its cleanup leaves no node behind on its ROS domain. So start processes from a thread that lives as long
-    as they should (the main thread does).
-    """
-
-    def __init__(self, command: Sequence[str], *, module: str, env: Mapping[str, str], log_dir: Path,
-                 prefix: str = '', cwd: Path | None = None,
-                 preexec_fn: Callable[[], None] | None = None) -> None:
-        self.module = module
-        self.stdout_path = log_dir / f'{prefix}{module.replace("/", ".")}.out'
-        self.stderr_path = log_dir / f'{prefix}{module.replace("/", ".")}.err'
-        self._signal_sent: signal.Signals | None = None
-        self._killed = False
-        with self.stdout_path.open('wb') as out, self.stderr_path.open('wb') as err:
-            self.popen = subprocess.Popen(list(command), cwd=cwd, env=dict(env), stdout=out, stderr=err,
-                                          stdin=subprocess.DEVNULL,
-                                          preexec_fn=ended_with_this_process(preexec_fn),
-                                          start_new_session=True)
-
-    @classmethod
-    def start(cls, module: str, ros_args: Sequence[str] = (), *, env: Mapping[str, str], log_dir: Path,
-              prefix: str = '', cwd: Path | None = None, name: str | None = None) -> NodeProcess:
-        """``python -m grasp_intent_ros.nodes.<module> --ros-args <ros_args>``, named ``name`` (or ``module``)."""
-        command = [sys.executable, '-m', f'grasp_intent_ros.nodes.{module}']
-        if ros_args:
-            command += ['--ros-args', *ros_args]
-        return cls(command, module=name or module, env=env, log_dir=log_dir, prefix=prefix, cwd=cwd)
-
-    @property
-    def pid(self) -> int:
-        """The process id."""
-        return self.popen.pid
-
-    def poll(self) -> int | None:
-        """The exit code (negative: killed by that signal), or None while it runs."""
-        return self.popen.poll()
-
-    def stderr(self) -> str:
-        """Everything it has written to stderr so far."""
-        return self.stderr_path.read_text(errors='replace')
-
-    def stderr_tail(self, lines: int = 15) -> str:
-        """The last ``lines`` lines of stderr, indented with ``'    | '``, for a message."""
-        try:
-            tail = self.stderr().strip().splitlines()[-lines:]
-        except OSError as exc:
-            return f'    | (stderr unreadable: {exc})'
-        return '\n'.join(f'    | {line}' for line in tail) if tail else '    | (empty)'
-
-    def logged_ready(self) -> bool:
-        """Whether its output so far holds its ready line (:func:`~grasp_intent_ros.ros.startup.is_ready_line`)."""
-        return any(is_ready_line(line) for path in (self.stdout_path, self.stderr_path)
-                   for line in path.read_text(errors='replace').splitlines())
-
-    def send_signal(self, sig: signal.Signals) -> None:
-        """Send ``sig`` to this PID unless the process has exited."""
-        if self.popen.poll() is None:
-            self.popen.send_signal(sig)
-            self._signal_sent = sig
-
-    def wait(self, timeout: float) -> int:
-        """Wait up to ``timeout`` seconds for the exit, then SIGKILL; the exit code."""
-        try:
-            return self.popen.wait(timeout)
-        except subprocess.TimeoutExpired:
-            self.popen.kill()
-            self._killed = True
-            return self.popen.wait()
-
-    def stop(self, sig: signal.Signals = signal.SIGTERM, timeout: float = STOP_TIMEOUT) -> int:
-        """Send ``sig`` (unless it has exited), wait up to ``timeout`` s, then SIGKILL; the exit code."""
-        self.send_signal(sig)
-        return self.wait(timeout)
-
-    def problem(self) -> str:
-        """After the exit: '' when clean, else one line saying why not.
-
-        Clean is exit code 0 with no 'Traceback' on stderr, or death by the SIGTERM this object sent before
-        the process logged that it is ready (a node signalled while it still imports, before ``rclpy.init``
-        installs its handlers, has built nothing).
-
-        Raises
-        ------
-        RuntimeError
-            The process is still running.
-        """
-        code = self.popen.poll()
-        if code is None:
-            raise RuntimeError(f'{self.module} (pid {self.pid}) is still running')
-        who = f'{self.module} (pid {self.pid})'
-        if self._killed:
-            sent = self._signal_sent.name if self._signal_sent is not None else 'no signal'
-            return f'{who} did not exit after {sent} and was killed'
-        if code == -signal.SIGTERM and self._signal_sent is signal.SIGTERM and not self.logged_ready():
-            return ''  # ended by our SIGTERM while importing, before rclpy's handlers: nothing built, nothing lost
-        if code == WATCHDOG_EXIT_CODE:
-            return f'{who} was ended by its watchdog: its stop did not finish in time (the stacks are in its log)'
-        if code != 0:
-            return f'{who} exited with code {code}'
-        if 'Traceback' in self.stderr():
-            return f'{who} printed a traceback'
-        return ''
-
-
 def optional_nodes(names: Sequence[str]) -> tuple[str, ...]:
     """``names``, each checked against :data:`OPTIONAL_NODES`.
 
@@ -350,7 +216,7 @@ class NodeSuite:
                     models_dir: str | os.PathLike[str] | None = None,
                     params_files: Sequence[str | os.PathLike[str]] = (), extra: Sequence[str] = (),
                     shared_control: bool = False, remappings: Mapping[str, Sequence[str]] | None = None,
-                    objects: Sequence[SceneObject] = ()) -> None:
+                    objects: Sequence[SceneObject] = (), operator: str = '') -> None:
         """Start :data:`SUITE_NODES` (once, or once per object), then ``extra``, each with :meth:`node_args`.
 
         Parameters
@@ -359,9 +225,9 @@ class NodeSuite:
             '' or e.g. '/robot1' (``-r __ns:=``).
         model, models_dir : optional
             The model server's initial ``model`` and its ``models_dir`` (default: its config file's).
-        objects : sequence of SceneObject
+        objects, operator : sequence of SceneObject, str
             One chain of :data:`SUITE_NODES` per object instead, each process named ``<object>/<module>``, then no
-            ``model``, and of ``extra`` only those of ``launch.objects.SCENE_NODES`` (``shared_control``'s are).
+            ``model``; the optional nodes serve the scene, the scripted operator reaching for ``operator``.
         params_files : sequence of paths
             ROS parameters files given to every node after its own ``config/<node>.yaml``; the node-name
             keys in a file pick what each node reads, and a later file wins.
@@ -378,29 +244,35 @@ class NodeSuite:
         SuiteError
             For a name in ``extra`` that is not in :data:`OPTIONAL_NODES`, before anything is started.
         GraspIntentError
-            For ``objects`` with ``model`` or another ``extra``, before anything is started.
+            For ``objects`` with ``model``, or an ``operator`` that is none of them, before anything is started.
         OSError
             If a process cannot be started; those already started stay in :attr:`processes`.
         """
         wanted = optional_nodes(tuple(dict.fromkeys((*(SHARED_CONTROL_NODES if shared_control else ()), *extra))))
         if objects:
-            refuse_unbuilt(wanted)
+            operator_object(objects, operator)
             if model is not None:
                 raise GraspIntentError('objects name their own models: give no model')
         starts = [(module, obj.namespace(namespace), obj.model, obj.process_name(module), chain_remappings(namespace),
                    ()) for obj in objects for module in SUITE_NODES] + [  # then the nodes over every chain
-                      (module, namespace, None, None, (), scene_node_args(objects)) for module in wanted] if objects \
+                      (module, namespace, None, None, (), objects) for module in wanted] if objects \
             else [(module, namespace, model, None, (), ()) for module in (*SUITE_NODES, *wanted)]
-        for module, node_ns, node_model, name, own, params in starts:
+        for module, node_ns, node_model, name, own, scene in starts:
             more = [arg for remapping in (*own, *(remappings or {}).get(module, ())) for arg in ('-r', remapping)]
             self.start(module, *self.node_args(module, namespace=node_ns, model=node_model, models_dir=models_dir,
-                                               params_files=params_files), *more, *params, name=name)
+                                               params_files=params_files, objects=scene, operator=operator,
+                                               estimated='intent_estimator' in wanted), *more, name=name)
 
     @staticmethod
     def node_args(module: str, *, namespace: str = '', model: str | None = None,
                   models_dir: str | os.PathLike[str] | None = None,
-                  params_files: Sequence[str | os.PathLike[str]] = ()) -> list[str]:
-        """The ``--ros-args`` of a suite node (as :meth:`start_nodes` gives them), e.g. to restart it."""
+                  params_files: Sequence[str | os.PathLike[str]] = (), objects: Sequence[SceneObject] = (),
+                  operator: str = '', estimated: bool = False) -> list[str]:
+        """The ``--ros-args`` of a suite node (as :meth:`start_nodes` gives them), e.g. to restart it.
+
+        With ``objects``, an optional node's over that scene: no :data:`CHAIN_REMAPPINGS`, and last
+        :func:`~grasp_intent_ros.launch.objects.scene_node_args` (raising its GraspIntentError).
+        """
         try:
             config: Path | None = config_dir()
         except FileNotFoundError:
@@ -412,13 +284,15 @@ class NodeSuite:
             ros_args += ['--params-file', str(Path(path).resolve())]
         if namespace:
             ros_args += ['-r', f'__ns:={namespace}']
-        for remapping in REMAPPINGS.get(module, ()):
+        for remapping in (*(() if objects else CHAIN_REMAPPINGS.get(module, ())), *REMAPPINGS.get(module, ())):
             ros_args += ['-r', remapping]
         if module == 'model_server':
             if model is not None:
                 ros_args += ['-p', f'model:={model}']
             if models_dir is not None:
                 ros_args += ['-p', f'models_dir:={Path(models_dir).resolve()}']
+        if objects:
+            ros_args += scene_node_args(module, objects, operator=operator, estimated=estimated)
         return ros_args
 
     def node(self, module: str) -> NodeProcess:

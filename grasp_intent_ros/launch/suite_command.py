@@ -6,9 +6,10 @@ ready (:func:`~grasp_intent_ros.ros.startup.is_ready_line`; the scripted operato
 others are, :data:`_HELD_BACK`), and stops them all on Ctrl-C (SIGINT), SIGTERM
 or SIGHUP (its terminal closed). With ``--object NAME=MODEL`` (repeatable) it starts one planning chain per
 object under ``<namespace>/<NAME>/`` instead (:mod:`grasp_intent_ros.launch.objects`), each process's lines
-prefixed ``[NAME/node]``, and ``suite: up`` waits for every chain. Its last line says whether every node
-stopped cleanly, else names each that did not (died, killed, or ended by its watchdog); exit code 0 when every
-node stopped cleanly, 1 when one died or did not stop cleanly, 2 for bad arguments.
+prefixed ``[NAME/node]``, and ``suite: up`` waits for every chain; the optional nodes then serve the scene, the
+scripted operator reaching for ``--operator-object NAME`` (default: the first object). Its last line says
+whether every node stopped cleanly, else names each that did not (died, killed, or ended by its watchdog); exit
+code 0 when every node stopped cleanly, 1 when one died or did not stop cleanly, 2 for bad arguments.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from pathlib import Path
 
 from ..errors import GraspIntentError
 from ..ros.startup import is_ready_line
-from .objects import parse_objects, refuse_unbuilt
+from .objects import operator_object, parse_objects
 from .suite import (
     MAX_DOMAIN_ID,
     OPTIONAL_NODES,
@@ -97,6 +98,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help='instead of one planning chain, one per object of the scene under <namespace>/NAME/ '
                              'with its own model (a stem in config/models) and object/pose, all reading the arm\'s '
                              'joint_states; repeatable (docs/several_objects.md)')
+    parser.add_argument('--operator-object', default='', metavar='NAME',
+                        help='with --object and --with scripted_operator: the object the scripted operator reaches '
+                             'for (default: the first --object)')
     parser.add_argument('--log-dir', type=Path, metavar='DIR',
                         help="keep each node's stdout and stderr in DIR (default: a temporary directory, deleted)")
     args = parser.parse_args(argv)
@@ -107,8 +111,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         extra = optional_nodes(args.extra)
         objects = parse_objects(args.objects)
+        if args.operator_object and not (objects and 'scripted_operator' in extra):
+            raise GraspIntentError('--operator-object names the object of a scene (--object) that the scripted '
+                                   'operator (--with scripted_operator) reaches for: give both')
         if objects:
-            refuse_unbuilt([*(SHARED_CONTROL_NODES if args.shared_control else ()), *extra])
+            operator_object(objects, args.operator_object)
         domain_id = args.domain_id if args.domain_id is not None else domain_id_from_environment(unset=0)
         suite = NodeSuite(domain_id, log_dir=args.log_dir)
     except (SuiteError, GraspIntentError) as exc:
@@ -122,7 +129,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         held = [module for module in extra if module in _HELD_BACK]
         suite.start_nodes(namespace=args.namespace, params_files=args.params_file,
                           extra=[module for module in extra if module not in held], shared_control=args.shared_control,
-                          objects=objects)
+                          objects=objects, operator=args.operator_object)
         scene = ''.join(f'; object {o.name} ({o.model}) in {o.namespace(args.namespace)}' for o in objects)
         print(f'suite: ROS_DOMAIN_ID={domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, namespace '
               f'{args.namespace or "/"}{scene}; started '
@@ -134,8 +141,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             echo.copy()
             if not up and {p.pid for p in suite.processes} <= echo.ready:
                 if held:  # the others are ready: now the held-back ones, then up once they are too
-                    later = [suite.start(module, *suite.node_args(module, namespace=args.namespace,
-                                                                  params_files=args.params_file)) for module in held]
+                    later = [suite.start(module, *suite.node_args(
+                        module, namespace=args.namespace, params_files=args.params_file, objects=objects,
+                        operator=args.operator_object, estimated='intent_estimator' in extra)) for module in held]
                     print('suite: started ' + ', '.join(f'{p.module} (pid {p.pid})' for p in later), flush=True)
                     held = []
                 else:

@@ -65,6 +65,7 @@ __all__ = [
     'REACH_POS',
     'REACH_ROT',
     'offset',
+    'rotation_angle',
     'rotation_angles',
     'reached',
     'finger_segments',
@@ -314,6 +315,18 @@ def offset(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[float, float
     """How far pose ``b`` is from pose ``a`` (4x4): (distance m, rotation angle rad), by :func:`pose_error`."""
     error = pose_error(a, b)
     return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
+
+
+def rotation_angle(rotation_a: NDArray[np.float64], rotation_b: NDArray[np.float64]) -> float:
+    """The angle (rad, in [0, pi]) of ``R_a^T R_b``: how far rotation ``b`` is turned from rotation ``a``.
+
+    ``rotation_a``, ``rotation_b`` (3, 3), not checked. ``acos((tr(R_a^T R_b) - 1) / 2)``, the cosine clipped to
+    [-1, 1]; the trace is the correctly rounded sum of the nine products ``R_a[i, j] R_b[i, j]``, so the angle is
+    the same bits on every CPU (no BLAS kernel in it). Good to about 1e-8 rad near 0 and pi, like
+    :func:`rotation_angles` (its vectorised sibling), which suits thresholds; :func:`offset` is accurate everywhere.
+    """
+    trace = math.fsum((np.asarray(rotation_a, dtype=np.float64) * rotation_b).ravel().tolist())
+    return math.acos(min(1.0, max(-1.0, 0.5 * (trace - 1.0))))
 
 
 def rotation_angles(rotations: NDArray[np.float64], rotation: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -27,7 +27,7 @@ from ..method.model import GraspModel
 from ..planning import common, planner
 from ..planning.options import DEFAULT_METHOD, Method, Options
 from .collision import LIMITS, Clearance, CollisionFree, HandCollision, Limits, Table
-from .frames import PRE_GRASP_STANDOFF, pre_grasp
+from .frames import PRE_GRASP_STANDOFF, pre_grasp, rotation_angle
 from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 
 __all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'OUTCOMES', 'APPROACH_STEP', 'NoModelZone', 'PlanOutcome', 'Grasp',
@@ -266,8 +266,7 @@ def check_grasp(grasp: Grasp, kin: MicoKinematics, *, pos_tol: float = 1e-3, rot
     # ee_T_fk = inv(base_T_ee) @ base_T_fk for a rigid base_T_ee: R_ee^T (p_fk - p_ee) and R_ee^T R_fk
     base_T_fk, base_T_ee = kin.fk(q), grasp.base_T_ee
     pos_err = float(np.linalg.norm(base_T_fk[:3, 3] - base_T_ee[:3, 3]))
-    trace = float(np.vdot(base_T_ee[:3, :3], base_T_fk[:3, :3]))  # trace(R_ee^T R_fk)
-    rot_err = math.acos(min(1.0, max(-1.0, 0.5 * (trace - 1.0))))
+    rot_err = rotation_angle(base_T_ee[:3, :3], base_T_fk[:3, :3])
     if not (pos_err <= pos_tol and rot_err <= rot_tol):
         raise PlanningError(f'the arm joint targets miss the planned end-effector pose by {1e3 * pos_err:.3g} mm '
                             f'and {rot_err:.3g} rad')

@@ -130,8 +130,10 @@ TRAJECTORY_EXECUTIONS = ('on_arrival', 'on_request')
 
 MOCK_ARM = (
     ParamSpec('objects', [], 'Names of the objects of a scene (suite --object ... --shared-control sets it): '
-              'grasp/close closes to the newest <object>/grasp/joint_targets of the object the assistance follows '
-              '(assistance/object). Empty: to the newest grasp/joint_targets.', item_type=str, read_only=True,
+              'grasp/close closes to the newest <object>/grasp/joint_targets and grasp/execute runs the newest '
+              '<object>/grasp/trajectory of the object the assistance follows (assistance/object); needs '
+              'trajectory_execution on_request. Empty: grasp/joint_targets and arm_controller/joint_trajectory.',
+              item_type=str, read_only=True,
               constraints='unique ROS name tokens, none a folder of the suite\'s topics (checked by the node: '
               'wire.topics.check_object_names)'),
     ParamSpec('initial_positions', (*HOME_Q.tolist(), 0.0, 0.0, 0.0),

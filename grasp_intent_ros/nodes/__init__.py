@@ -18,8 +18,8 @@ assistance_inputs, assistance_scene
     several objects (``SceneInputs``).
 mock_arm
     A simulated MICO taking trajectories and twists.
-arm_closures
-    A part of ``mock_arm``: the plan ``grasp/close`` closes to (``PlanClosures``).
+arm_plans
+    A part of ``mock_arm``: the plan ``grasp/close`` closes to and ``grasp/execute`` runs (``ArmPlans``).
 intent_estimator
     w from the operator's own twist (optional); over several objects each object's w and P(o).
 estimator_goals, estimator_scene

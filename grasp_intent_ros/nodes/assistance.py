@@ -64,6 +64,7 @@ from ..mico.collision import HandCollision
 from ..mico.kinematics import BASE_FRAME, MicoKinematics
 from ..mico.parameters import check_object_pose
 from ..parameters import config_from
+from ..ros.clock import now_seconds
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_arm, subscribe_operator
 from ..ros.params import declare_parameters
@@ -160,12 +161,9 @@ class AssistanceNode(Node):
             for chain in self._chains:
                 chain.configure(changed)  # the object, or the clearance's margin, changed
 
-    def _now(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
-
     def _on_operator(self, msg: Any) -> None:
         xi = twist_command(msg, default_frame=self._params['operator_frame']).in_base(self._assist.base_T_ee)
-        (self._assist if self._scene is None else self._scene.scene).set_operator(xi, self._now())
+        (self._assist if self._scene is None else self._scene.scene).set_operator(xi, now_seconds(self))
         age = (time.monotonic() - self._last_output) / self._period
         if age >= _EARLY or (self._by_timer and age >= _HALF):
             self._answer()

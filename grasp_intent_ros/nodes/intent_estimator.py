@@ -33,6 +33,7 @@ from std_msgs.msg import Float64MultiArray
 
 from ..mico.kinematics import JOINT_LIMIT_MARGIN, MicoKinematics
 from ..mico.mock_arm import TwistCommand
+from ..ros.clock import now_seconds
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_arm, subscribe_operator
 from ..ros.params import declare_parameters
@@ -126,15 +127,12 @@ class IntentEstimatorNode(Node):
 
     def _on_operator(self, msg: Any) -> None:
         cmd = twist_command(msg, default_frame=self._params['operator_frame'])
-        self._inputs.twist(stamp_nanoseconds(msg), self._now(), (cmd, stamp_seconds(msg)))
+        self._inputs.twist(stamp_nanoseconds(msg), now_seconds(self), (cmd, stamp_seconds(msg)))
         self._take_twists()
-
-    def _now(self) -> float:
-        return float(self.get_clock().now().nanoseconds * 1e-9)
 
     def _take_twists(self) -> None:
         """Update the estimate with every twist whose hand is known (:mod:`~.shared_control.stamped_inputs`)."""
-        for paired in self._inputs.due(self._now()):
+        for paired in self._inputs.due(now_seconds(self)):
             (cmd, stamp), hand = paired.command, paired.hand
             dt = self._timing.duration(stamp, paired.arrival, self._config.max_dt)
             if hand is None:
@@ -157,7 +155,7 @@ class IntentEstimatorNode(Node):
 
     def _on_timer(self) -> None:
         self._take_twists()  # a twist whose joint state is late waits at most max_dt
-        now = self._now()
+        now = now_seconds(self)
         last = self._timing.arrival
         moving = last is not None and now - last <= self._params['operator_timeout']
         if self._scene is not None:

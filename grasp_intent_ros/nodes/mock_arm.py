@@ -15,16 +15,18 @@ Topics and services (relative)
          ``/diagnostics`` (``arm``: commands received and rejected with the reason, mode, trajectories
          ignored, the trajectory kept)
     in   ``grasp/joint_targets`` (sensor_msgs/JointState: the plan's finger closures, the latest kept); with the
-         ``objects`` parameter each ``<object>/grasp/joint_targets`` and ``assistance/object`` instead
-         (:mod:`.arm_closures`: the plan of the object the assistance follows)
+         ``objects`` parameter each ``<object>/grasp/joint_targets``, each ``<object>/grasp/trajectory`` and
+         ``assistance/object`` instead of it and of ``arm_controller/joint_trajectory`` (:mod:`.arm_plans`: the plan
+         of the object the assistance follows; ``trajectory_execution`` must then be ``on_request``)
     srv  ``~/reset`` (std_srvs/Trigger): back to ``initial_positions``, at rest, commands dropped
     srv  ``grasp/close`` (std_srvs/Trigger): close the fingers to the latest plan's closures plus the hand's own
          closure error (each finger N(0, ``closure_error``^2), one draw per close from a stream seeded by
          ``closure_seed``, which a set of that parameter restarts); the answer's message gives the executed
          closures; refused (success false) before any plan
+         (with ``objects``: before a plan of the object followed)
     srv  ``grasp/execute`` (std_srvs/Trigger): with ``trajectory_execution: on_request``, follow the latest
-         trajectory received, from now (its stamp ignored); refused (success false) before any, or under
-         ``on_arrival``
+         trajectory received (with ``objects``: the object followed's), from now (its stamp
+         ignored); refused (success false) before any, or under ``on_arrival``
 
 ``trajectory_execution`` says who owns the arm:
 
@@ -61,6 +63,7 @@ from ..mico.grasp import JOINT_NAMES
 from ..mico.kinematics import MicoKinematics
 from ..mico.mock_arm import MockArm, TrajectoryCommand, check_trajectory
 from ..mico.parameters import MOCK_ARM
+from ..ros.clock import now_seconds
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input
 from ..ros.params import declare_parameters
@@ -68,8 +71,8 @@ from ..ros.qos import input_qos, output_publisher
 from ..ros.robot import joint_state_msg
 from ..ros.run import guard_exit, publish_all, run_node
 from ..wire import topics
-from ..wire.robot_state import seconds, twist_command
-from .arm_closures import PlanClosures
+from ..wire.robot_state import twist_command
+from .arm_plans import ArmPlans, check_objects, trajectory_command
 
 __all__ = ['MockArmNode', 'GRASP_CLOSE', 'GRASP_EXECUTE', 'main']
 
@@ -86,22 +89,21 @@ class MockArmNode(Node):
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, 'arm')
         self._closure_rng: np.random.Generator  # made by _configure from closure_seed
-        self._params = declare_parameters(self, MOCK_ARM, on_change=self._configure,
-                                          check=lambda values: topics.check_object_names(values['objects']))
+        self._params = declare_parameters(self, MOCK_ARM, on_change=self._configure, check=check_objects)
         kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
         self._arm = self._params.build('initial_positions', lambda q0: MockArm(
             kin, q0, finger_velocity_limit=self._params['finger_velocity_limit']))
         self._configure(self._params)
         self._ignored = 0
         self._pubs = {topics.JOINT_STATES: output_publisher(self, JointState, topics.JOINT_STATES)}
-        subscribe_input(self, topics.ARM_TRAJECTORY_COMMAND, self._on_trajectory, input_qos(), self._diag)
+        if not self._params['objects']:  # with objects the chains' trajectories (arm_plans)
+            subscribe_input(self, topics.ARM_TRAJECTORY_COMMAND, self._on_trajectory, input_qos(), self._diag)
         subscribe_input(self, topics.ARM_TWIST_COMMAND, self._on_twist, input_qos(depth=1), self._diag)
-        self._plans = PlanClosures(self, self._diag, self._params['objects'])
-        self._kept: TrajectoryCommand | None = None
+        self._plans = ArmPlans(self, self._diag, self._params['objects'], check=self._check_trajectory)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(Trigger, GRASP_CLOSE, self._on_close)
         self.create_service(Trigger, GRASP_EXECUTE, self._on_execute)
-        self._last = self._now()
+        self._last = now_seconds(self)
         self.create_timer(self._params['period'], self._diag.guard_timer(self._on_timer))
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
@@ -111,49 +113,46 @@ class MockArmNode(Node):
         if 'closure_seed' in changed:  # set, even to its value: the errors' sequence starts again
             self._closure_rng = np.random.default_rng(self._params['closure_seed'])
 
-    def _now(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
+    def _check_trajectory(self, cmd: TrajectoryCommand) -> None:  # as grasp/execute would run it, from now
+        arm = self._arm
+        check_trajectory(dataclasses.replace(cmd, start=None), arm.joint_names, arm.lower, arm.upper,
+                         now=now_seconds(self), allow_partial=self._params['allow_partial_joints_goal'])
 
     def _on_trajectory(self, msg: JointTrajectory) -> None:
-        now = self._now()
-        start = seconds(msg.header.stamp)
-        points = msg.points
-        cmd = TrajectoryCommand(tuple(msg.joint_names), array.array('d', (seconds(p.time_from_start) for p in points)),
-                                [p.positions for p in points], [p.velocities for p in points],
-                                [p.accelerations for p in points], start=start or None)
-        arm, partial = self._arm, self._params['allow_partial_joints_goal']
+        cmd = trajectory_command(msg)
         if self._params['trajectory_execution'] == 'on_request':
-            check_trajectory(dataclasses.replace(cmd, start=None), arm.joint_names, arm.lower, arm.upper, now=now,
-                             allow_partial=partial)
-            self._kept = cmd
-            self._diag.set_value('trajectory kept for grasp/execute', f'{len(points)} points')
+            self._plans.keep(cmd)
             return
+        now, arm = now_seconds(self), self._arm
         if arm.twist_live(now):
             self._ignored += 1
             self._diag.set_value('trajectories ignored while a twist is live', self._ignored)
             return
-        arm.command_trajectory(cmd, now, allow_partial=partial)
+        arm.command_trajectory(cmd, now, allow_partial=self._params['allow_partial_joints_goal'])
 
     def _on_twist(self, msg: TwistStamped) -> None:
         twist = twist_command(msg)
         if (self._params['trajectory_execution'] == 'on_request' and self._arm.mode == 'trajectory'
                 and not (np.any(twist.linear) or np.any(twist.angular))):
             return  # a requested trajectory runs on through the zero twists of an operator at rest
-        self._arm.command_twist(twist, self._now())
+        self._arm.command_twist(twist, now_seconds(self))
 
     def _on_execute(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        kept, plan = self._plans.trajectory()
         if self._params['trajectory_execution'] != 'on_request':
             response.success, response.message = False, 'trajectory_execution is on_arrival: nothing is kept'
-        elif self._kept is None:
-            response.success, response.message = False, 'no trajectory received: nothing to execute'
+        elif kept is None:
+            response.success, response.message = False, plan
         else:
             try:
-                self._arm.command_trajectory(dataclasses.replace(self._kept, start=None), self._now(),
+                self._arm.command_trajectory(dataclasses.replace(kept, start=None), now_seconds(self),
                                              allow_partial=self._params['allow_partial_joints_goal'])
             except GraspIntentError as exc:  # allow_partial_joints_goal changed since it was kept
                 response.success, response.message = False, str(exc)
             else:
-                response.success, response.message = True, 'following the latest trajectory from now'
+                response.success = True
+                response.message = 'following the latest trajectory' + (f' ({plan}\'s plan)' if plan else '') + \
+                    ' from now'
         return response
 
     def _on_close(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
@@ -178,7 +177,7 @@ class MockArmNode(Node):
         return response
 
     def _on_timer(self) -> None:
-        now = self._now()
+        now = now_seconds(self)
         self._arm.step(now, now - self._last)
         self._last = now
         msg = joint_state_msg(JOINT_NAMES, self._arm.q, stamp=self.get_clock().now().to_msg())

@@ -65,7 +65,7 @@ class ModelServer(Node):
         self._files: ModelFiles | None = None
         self._version = 0
         self._pubs = {topic: output_publisher(self, message_class(topic), topic, latched_qos())
-                      for topic in topics.LATCHED_TOPICS}
+                      for topic in topics.MODEL_LATCHED_TOPICS}
         self._pubs[topics.MODEL_POSTERIOR] = output_publisher(self, Float64MultiArray, topics.MODEL_POSTERIOR)
         self._params = declare_parameters(self, MODEL_SERVER, check=self._check, on_change=self._activate)
         self._activate(self._params)

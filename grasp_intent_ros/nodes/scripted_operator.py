@@ -14,6 +14,8 @@ Topics and services (relative)
     out  ``operator/twist`` (TwistStamped, base frame, every ``publish_period`` s; zero unless reaching),
          ``intent/w`` (``intent: held``), ``/diagnostics`` (``scripted operator``: state, episode, times to grasp,
          the last execute's answer)
+    With ``object`` (a scene, docs/several_objects.md): that chain's ``<object>/grasp/pose``, ``grasp/trajectory``,
+    ``object/pose``, ``model/active``, ``intent/w`` instead; the arm's ``joint_states``, twist and services as above.
     call ``grasp/execute`` then ``grasp/close`` (std_srvs/Trigger, with ``close_on_reach``; the execute only on the
          shown grasp, with ``execute_shown``), ``mock_arm/reset`` (between episodes)
 
@@ -82,8 +84,8 @@ class ScriptedOperatorNode(Node):
     def __init__(self, node_name: str = 'scripted_operator', **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._diag = NodeDiagnostics(self, OPERATOR_COMPONENT)
-        p = self._params = declare_parameters(self, SCRIPTED_OPERATOR, on_change=self._configure,
-                                              check=check_scripted_operator)
+        p = self._params = declare_parameters(self, SCRIPTED_OPERATOR, on_change=self._configure, check=_check)
+        chain = p['object']  # '' or the object's chain namespace (relative)
         self._kin = p.build('urdf_path', lambda path: MicoKinematics(path or None))
         self._loop = OperatorEpisodes(ScriptedOperator(p['device'], OperatorConstants(), np.random.default_rng(
             [p['seed'], 0]), p['publish_period']), p['start_delay'], p['hold'], p['episodes'],
@@ -95,18 +97,21 @@ class ScriptedOperatorNode(Node):
         self._waiting_on: str | None = None  # the service call in flight
         self._unavailable = ''  # the service last found unavailable ('' once a call is made)
         self._twist_pub = output_publisher(self, TwistStamped, topics.OPERATOR_TWIST)
-        self._w_pub = output_publisher(self, Float64MultiArray, topics.INTENT_W)
+        self._w_topic = f'{chain}/{topics.INTENT_W}' if chain else topics.INTENT_W
+        self._w_pub = output_publisher(self, Float64MultiArray, self._w_topic)
         self._triggers = {name: self.create_client(Trigger, name) for name in (GRASP_EXECUTE, GRASP_CLOSE, ARM_RESET)}
         self._scenes = LatestOnlyWorker(_Scene(None, object_pose(p), p['task_set']),
                                         self._diag.guard(self._prepare, counts_received=False),
                                         ready=lambda scene: scene.model is not None, name=f'{node_name}_goal')
         self.context.on_shutdown(self._scenes.stop_soon)
         self._models = ModelFollower(self, self._diag, self._use_model, name=f'{node_name}_model',
-                                     requires=lambda: ModelRequirements(feature_names=MICO_3F.names))
+                                     requires=lambda: ModelRequirements(feature_names=MICO_3F.names),
+                                     namespace=chain)
         subscribe_arm(self, self._on_arm, input_qos(STREAM_DEPTH), self._diag)
-        subscribe_input(self, topics.GRASP_POSE, self._on_grasp, input_qos(), self._diag)
-        subscribe_input(self, topics.GRASP_TRAJECTORY, self._on_trajectory, input_qos(), self._diag)
-        subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, input_qos(depth=1), self._diag)
+        subscribe_input(self, topics.GRASP_POSE, self._on_grasp, input_qos(), self._diag, namespace=chain)
+        subscribe_input(self, topics.GRASP_TRAJECTORY, self._on_trajectory, input_qos(), self._diag, namespace=chain)
+        subscribe_input(self, topics.OBJECT_POSE, self._on_object_pose, input_qos(depth=1), self._diag,
+                        namespace=chain)
         self.create_timer(p['publish_period'], self._diag.guard_timer(self._on_tick))
         self.create_timer(p['w_period'], self._diag.guard_timer(self._on_w))
 
@@ -162,7 +167,7 @@ class ScriptedOperatorNode(Node):
     def _on_w(self) -> None:
         if self._params['intent'] == 'held' and (task_set := self._task_set) is not None:
             w = PersistentIntent(tuple(self._params['w']), task_set, self._params['w_noise']).w(0.0, self._w_rng)
-            publish_all(self, {topics.INTENT_W: self._w_pub}, {topics.INTENT_W: Float64MultiArray(data=w.tolist())})
+            publish_all(self, {self._w_topic: self._w_pub}, {self._w_topic: Float64MultiArray(data=w.tolist())})
 
     def _on_tick(self) -> None:
         now, loop = time.monotonic(), self._loop
@@ -216,11 +221,16 @@ class ScriptedOperatorNode(Node):
 
     def _show(self, now: float) -> None:
         loop = self._loop
-        text = loop.status(now) if self._scenes.latest.model is not None else f'waiting for {topics.MODEL_ACTIVE}'
+        text = loop.status(now) if self._scenes.latest.model is not None else f'waiting for {self._models.topic}'
         self._diag.set_state(*((ERROR, self._problem) if self._problem else (WARN, self._unavailable)
                                if self._unavailable else (OK, text)))
         self._diag.set_values({'state': loop.state, 'episode': loop.episode,
                                KEY_TIMES_TO_GRASP: ', '.join(f'{c.time_to_grasp:.2f}' for c in loop.closed)})
+
+
+def _check(values: Mapping[str, Any]) -> None:  # check_scripted_operator's rules; object '' or a chain's name
+    check_scripted_operator(values)
+    topics.check_object_names([values['object']] if values['object'] else [])
 
 
 def main(args: list[str] | None = None) -> None:

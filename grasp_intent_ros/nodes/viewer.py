@@ -14,7 +14,9 @@ Topics (relative; all inputs, :data:`~grasp_intent_ros.scene.state.VIEWER_TOPICS
     each object's chain topics (:data:`~grasp_intent_ros.scene.state.CHAIN_TOPICS`) in ``<object>/``, e.g.
     ``cup/object/pose``, ``cup/model/active``, ``cup/grasp/pose``; the arm's
     (:data:`~grasp_intent_ros.scene.state.ARM_TOPICS`: ``joint_states``, the twists, alpha) and ``/diagnostics``
-    once, each chain's plan status from its own planner (``/<namespace>/cup/grasp_planner: planning``).
+    once, each chain's plan status from its own planner (``/<namespace>/cup/grasp_planner: planning``), and
+    :data:`~grasp_intent_ros.scene.state.SCENE_TOPICS` once: P(o) on ``intent/objects`` and the object the
+    assistance follows on ``assistance/object`` (latched), marked in the panel.
 
 Behaviour
     A message only replaces the newest state (:func:`grasp_intent_ros.scene.state.apply`; with ``objects``
@@ -49,24 +51,15 @@ from ..ros.conversions import type_class
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.model_follower import ModelFollower
 from ..ros.params import declare_parameters
-from ..ros.qos import input_qos
+from ..ros.qos import input_qos, latched_qos
 from ..ros.run import guard_exit, run_node
 from ..ros.worker import LatestOnlyWorker
 from ..scene.geometry import ArmModel
 from ..scene.page import DEFAULT_HOST, ScenePage
-from ..scene.state import (
-    ARM_TOPICS,
-    CHAIN_TOPICS,
-    SCENE_TOPICS,
-    VIEWER_TOPICS,
-    ObjectsState,
-    SceneState,
-    apply,
-    apply_objects,
-)
+from ..scene.state import SCENE_TOPICS, VIEWER_TOPICS, ObjectsState, SceneState, apply_to, followed_topics
 from ..wire.diagnostics import OK, WARN
 from ..wire.model_document import ModelDocument
-from ..wire.topics import DIAGNOSTICS, JOINT_STATES, MODEL_ACTIVE, check_object_names
+from ..wire.topics import DIAGNOSTICS, JOINT_STATES, LATCHED_TOPICS, MODEL_ACTIVE, check_object_names
 
 __all__ = ['Viewer', 'PARAMETERS', 'main']
 
@@ -119,16 +112,14 @@ class Viewer(Node):
                                       requires=lambda: ModelRequirements(feature_names=MICO_3F.names),
                                       namespace=chain or '')
                         for chain in objects or (None,)]
-        topics = [(None, topic) for topic in VIEWER_TOPICS] if not objects else [
-            *((None, topic) for topic in (*ARM_TOPICS, *SCENE_TOPICS, DIAGNOSTICS)),
-            *((chain, topic) for chain in objects for topic in CHAIN_TOPICS)]
-        for chain, topic in topics:
+        for chain, topic in followed_topics(objects):
             if topic == MODEL_ACTIVE:
                 continue
             depth = 10 if topic in (JOINT_STATES, DIAGNOSTICS) else 1  # several publishers on these
             self.create_subscription(type_class({**VIEWER_TOPICS, **SCENE_TOPICS}[topic]),
                                      topic if chain is None else f'{chain}/{topic}',
-                                     self._diag.guard(self._on_message(chain, topic)), input_qos(depth=depth))
+                                     self._diag.guard(self._on_message(chain, topic)),
+                                     latched_qos() if topic in LATCHED_TOPICS else input_qos(depth=depth))
         if objects:
             self.get_logger().info(f'following the chains {", ".join(map(scene.chain_namespace, objects))}')
 
@@ -137,9 +128,7 @@ class Viewer(Node):
 
         def change(state: SceneState | ObjectsState, msg: Any) -> SceneState | ObjectsState:
             try:
-                if isinstance(state, ObjectsState):
-                    return apply_objects(state, chain, topic, msg)
-                return apply(state, topic, msg)
+                return apply_to(state, chain, topic, msg)
             except GraspIntentError as exc:  # the reason names the topic: in a scene, the object's chain
                 raise GraspIntentError(f'{name}: {exc}') from None
 

@@ -31,6 +31,8 @@ conversions
     the message class of a suite topic.
 robot
     PoseStamped <-> 4x4 transforms, joint states, joint trajectories.
+clock
+    ``now_seconds``: a node's clock (ROS time) in the float seconds the core takes.
 model_follower
     ``ModelFollower``: a node's copy of the active model, read from ``model/active`` in a thread of its own.
 clarification

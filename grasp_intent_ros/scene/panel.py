@@ -108,7 +108,8 @@ def panel_html(state: SceneState | ObjectsState, *, time_text: str = '') -> str:
             where = html.escape(state.chain_namespace(name))
             p_o = state.object_probabilities.get(name)
             wanted = '' if p_o is None else f', P(o) = {p_o:.2f}'
-            parts.append(f'<div class="go">object <b>{html.escape(name)}</b> ({where}{wanted})</div>')
+            followed = ' ◀ the assistance follows it' if name == state.followed else ''
+            parts.append(f'<div class="go">object <b>{html.escape(name)}</b> ({where}{wanted}){followed}</div>')
             parts += chain_parts or ['<div>no model, intent or plan yet</div>']
     else:
         arm, planned = state, state.q_target is not None

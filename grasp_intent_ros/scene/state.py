@@ -17,9 +17,10 @@ rules' (:func:`~grasp_intent_ros.scene.plan.served_tasks`).
 
 A scene of several objects (docs/several_objects.md: one planning chain per object in ``<namespace>/<object>``,
 one arm) is an :class:`ObjectsState`: one :class:`SceneState` per chain, each updated by :func:`apply` with its
-chain's :data:`CHAIN_TOPICS` and its own planner's status, the arm's :data:`ARM_TOPICS` once, and the
+chain's :data:`CHAIN_TOPICS` and its own planner's status, the arm's :data:`ARM_TOPICS` once, the
 intent estimator's P(o) (:data:`SCENE_TOPICS`: ``intent/objects``, a value per object labelled with the object
-names; objects whose goals are not ready are not in it) (:func:`apply_objects`).
+names; objects whose goals are not ready are not in it) and the object whose grasp the assistance follows
+(``assistance/object``, latched) (:func:`apply_objects`).
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ from .plan import plan_object_pose, served_tasks
 
 __all__ = ['OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA', 'VIEWER_TOPICS', 'ARM_TOPICS', 'CHAIN_TOPICS',
            'SCENE_TOPICS',
-           'SceneState', 'ObjectsState', 'apply', 'apply_objects', 'plan_status']
+           'SceneState', 'ObjectsState', 'followed_topics', 'apply', 'apply_objects', 'apply_to', 'plan_status']
 
 OPERATOR_TWIST: Final = 'operator/twist'
 """The operator's command (geometry_msgs/TwistStamped), published by the assistance node's operator input."""
@@ -73,8 +74,23 @@ ARM_TOPICS: Final = (topics.JOINT_STATES, OPERATOR_TWIST, ASSISTANCE_TWIST, ASSI
 """The viewer topics of the arm: in a scene of several objects, once, in the suite's namespace."""
 CHAIN_TOPICS: Final = tuple(t for t in VIEWER_TOPICS if t not in ARM_TOPICS and t != topics.DIAGNOSTICS)
 """The viewer topics of a planning chain: in a scene of several objects, one set per object in its namespace."""
-SCENE_TOPICS: Final[Mapping[str, str]] = {topics.INTENT_OBJECTS: topics.MSGTYPES[topics.INTENT_OBJECTS]}
+SCENE_TOPICS: Final[Mapping[str, str]] = {t: topics.MSGTYPES[t] for t in (topics.INTENT_OBJECTS,
+                                                                           topics.ASSISTANCE_OBJECT)}
 """The viewer topics of a scene of several objects itself, in the suite's namespace, and their message types."""
+
+
+def followed_topics(objects: Sequence[str]) -> tuple[tuple[str | None, str], ...]:
+    """The (chain, topic) pairs the viewer follows, live or played back from a bag.
+
+    With no ``objects`` (one chain): each of :data:`VIEWER_TOPICS`, chain None. For a scene of several
+    ``objects``: the :data:`ARM_TOPICS`, the :data:`SCENE_TOPICS` and ``/diagnostics`` once (chain None), then
+    each object's :data:`CHAIN_TOPICS`, in the order of ``objects``. The topics are relative to the suite's
+    namespace (chain None) or to the object's chain; ``/diagnostics`` is absolute.
+    """
+    if not objects:
+        return tuple((None, topic) for topic in VIEWER_TOPICS)
+    return (*((None, topic) for topic in (*ARM_TOPICS, *SCENE_TOPICS, topics.DIAGNOSTICS)),
+            *((chain, topic) for chain in objects for topic in CHAIN_TOPICS))
 
 
 @dataclass(frozen=True)
@@ -268,12 +284,15 @@ class ObjectsState:
         Per object name, in the scene's order: each of its chain's :data:`CHAIN_TOPICS` and its planner's status.
     object_probabilities : mapping of str to float
         P(o) of the newest ``intent/objects``, for the objects it names (empty before one arrives).
+    followed : str
+        The object whose grasp the assistance follows (the newest ``assistance/object``; '' before one).
     """
 
     namespace: str
     arm: SceneState
     chains: Mapping[str, SceneState]
     object_probabilities: Mapping[str, float] = field(default_factory=dict)
+    followed: str = ''
 
     @classmethod
     def empty(cls, names: Sequence[str], namespace: str = '') -> ObjectsState:
@@ -301,14 +320,30 @@ def apply_objects(state: ObjectsState, chain: str | None, topic: str, msg: Any) 
     ------
     GraspIntentError
         For a message that cannot be read (as :func:`apply`; an ``intent/objects`` that is not one value in
-        [0, 1] per label, or that names an object not in the scene); ``state`` is then still the valid one, every
-        chain as it was.
+        [0, 1] per label, or that names an object not in the scene; an ``assistance/object`` that names none of
+        the scene's); ``state`` is then still the valid one, every chain as it was.
     """
     if chain is not None:
         return state.with_chain(chain, lambda s: apply(s, topic, msg)) if topic in CHAIN_TOPICS else state
     if topic == topics.INTENT_OBJECTS:
         return replace(state, object_probabilities=read_object_probabilities(msg, tuple(state.chains)))
+    if topic == topics.ASSISTANCE_OBJECT:
+        if (name := str(msg.data)) not in state.chains:
+            raise GraspIntentError(f'{name!r} is not one of the objects {list(state.chains)}')
+        return replace(state, followed=name)
     if topic == topics.DIAGNOSTICS:
         chains = {name: apply(s, topic, msg, namespace=state.chain_namespace(name)) for name, s in state.chains.items()}
         return state if all(chains[name] is s for name, s in state.chains.items()) else replace(state, chains=chains)
     return replace(state, arm=apply(state.arm, topic, msg)) if topic in ARM_TOPICS else state
+
+
+def apply_to(state: SceneState | ObjectsState, chain: str | None, topic: str, msg: Any) -> SceneState | ObjectsState:
+    """The state after ``msg`` on ``topic`` of ``chain``, one of the :func:`followed_topics`.
+
+    :func:`apply_objects` for a scene of several objects, :func:`apply` for one chain (``chain`` is then None);
+    raises as they do.
+    """
+    if isinstance(state, ObjectsState):
+        return apply_objects(state, chain, topic, msg)
+    return apply(state, topic, msg)
+

@@ -32,18 +32,8 @@ from ..errors import GraspIntentError
 from ..latest_only import LatestOnlyWorker
 from ..scene.geometry import ArmModel
 from ..scene.page import DEFAULT_HOST, ScenePage
-from ..scene.state import (
-    ARM_TOPICS,
-    CHAIN_TOPICS,
-    SCENE_TOPICS,
-    VIEWER_TOPICS,
-    ObjectsState,
-    SceneState,
-    apply,
-    apply_objects,
-)
+from ..scene.state import ObjectsState, SceneState, apply_to, followed_topics
 from ..wire.arrays import Stamp
-from ..wire.topics import DIAGNOSTICS
 from .bag import BagError, BagMessage, read_messages, topics_info
 from .outputs import SessionError
 from .scenes import Scene, detect_scene
@@ -105,22 +95,21 @@ class _Reader:
     """A session's topics as the viewer's (chain, relative topic), and the state after each of their messages."""
 
     def __init__(self, scene: Scene) -> None:
-        if scene.one_chain:
-            self.empty: SceneState | ObjectsState = SceneState()
-            self.topics: dict[str, tuple[str | None, str]] = {
-                (t if t.startswith('/') else f'{scene.namespace}/{t}'): (None, t) for t in VIEWER_TOPICS}
-            return
-        names = [chain.rpartition('/')[2] for chain in scene.chains]
-        self.empty = ObjectsState.empty(names, scene.namespace)
-        self.topics = {DIAGNOSTICS: (None, DIAGNOSTICS),
-                       **{f'{scene.namespace}/{t}': (None, t) for t in (*ARM_TOPICS, *SCENE_TOPICS)},
-                       **{f'{chain}/{t}': (name, t) for chain, name in zip(scene.chains, names) for t in CHAIN_TOPICS}}
+        paths = {} if scene.one_chain else {chain.rpartition('/')[2]: chain for chain in scene.chains}
+        self.empty: SceneState | ObjectsState = ObjectsState.empty(list(paths), scene.namespace) if paths \
+            else SceneState()
+
+        def absolute(chain: str | None, topic: str) -> str:
+            if chain is not None:
+                return f'{paths[chain]}/{topic}'
+            return topic if topic.startswith('/') else f'{scene.namespace}/{topic}'
+
+        self.topics: dict[str, tuple[str | None, str]] = {
+            absolute(chain, topic): (chain, topic) for chain, topic in followed_topics(list(paths))}
 
     def apply(self, state: SceneState | ObjectsState, message: BagMessage) -> SceneState | ObjectsState:
         chain, topic = self.topics[message.topic]
-        if isinstance(state, ObjectsState):
-            return apply_objects(state, chain, topic, message.decode())
-        return apply(state, topic, message.decode())
+        return apply_to(state, chain, topic, message.decode())
 
 
 def _plan_stamps(state: SceneState | ObjectsState) -> tuple[Stamp | None, ...]:

@@ -117,7 +117,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import InvalidIntentError, KinematicsError
 from ..method.intent import zone_label
 from ..method.log_space import softmax
-from ..mico.frames import PRE_GRASP_STANDOFF, check_transform, check_vector, rotation_angles
+from ..mico.frames import PRE_GRASP_STANDOFF, check_transform, check_vector, rotation_angle, rotation_angles
 from .approach import approach_positions
 from .assistance import AssistanceConfig
 from .calibration import calibrate
@@ -380,9 +380,8 @@ class IntentEstimator:
             return False
         position, rotation, _ = self._proposal
         offset = position[0] - base_T_ee[:3, 3]
-        cos = 0.5 * (float(np.trace(rotation[0] @ base_T_ee[:3, :3].T)) - 1.0)
         return (float(np.sqrt(offset @ offset)) <= self.config.position_scale
-                and math.acos(min(max(cos, -1.0), 1.0)) <= self.config.angle_scale)
+                and rotation_angle(rotation[0], base_T_ee[:3, :3]) <= self.config.angle_scale)
 
     def update(self, base_T_ee: ArrayLike, twist: ArrayLike, dt: float) -> NDArray[np.float64]:
         """Take one operator twist held for ``dt`` s with the hand at ``base_T_ee``; returns the new w.

@@ -17,6 +17,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from ..mico.frames import rotation_angle
 from ..mico.kinematics import HOME_Q, MicoKinematics
 
 __all__ = ['LINE_IK_SEEDS', 'LINE_IK_CHECKS', 'VIA_REACHED', 'WRIST_TURNS', 'TURN_SLACK', 'TURN_STEP', 'TIME_STEP',
@@ -111,8 +112,7 @@ def _turn_away(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.floa
     points of the line after q (0 when it never rises).
     """
     def error(q_s: NDArray[np.float64]) -> float:
-        cos = (float(np.trace(base_R_target.T @ kin.fk(q_s)[:3, :3])) - 1.0) / 2.0
-        return math.acos(min(1.0, max(-1.0, cos)))
+        return rotation_angle(base_R_target, kin.fk(q_s)[:3, :3])
 
     start = error(q)
     steps = np.linspace(0.0, 1.0, LINE_IK_CHECKS + 1)[1:]

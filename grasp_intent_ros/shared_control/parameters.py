@@ -178,6 +178,12 @@ def _task_names(value: Any) -> None:
 
 
 SCRIPTED_OPERATOR = (
+    ParamSpec('object', '', "The object of a scene it reaches for (suite --object ... --with scripted_operator sets "
+              "it): it reads that object's chain, <object>/grasp/pose, grasp/trajectory, object/pose and model/active, "
+              "and publishes a held w on <object>/intent/w; the arm's joint_states, operator/twist and the arm's "
+              "services stay in its namespace. Empty: one object, in its namespace.", read_only=True,
+              constraints='empty, or a ROS name token that is not a folder of the suite\'s topics (checked by the '
+              'node: wire.topics.check_object_names)'),
     ParamSpec('device', 'spacemouse', "The device model: 'spacemouse' (six axes at once) or 'joystick' (translation "
               'or rotation, 0.5 s to switch).', validator=one_of(DEVICES), constraints=f'one of {", ".join(DEVICES)}',
               read_only=True),

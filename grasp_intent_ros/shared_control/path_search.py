@@ -263,8 +263,12 @@ class PathWorker:
         self._on_error(f'the path search process {self.name} ended (exit code {code}): no joint path from now')
 
 
-STOP_TIMEOUT = 5.0
-"""Seconds :meth:`PathWorker.stop` waits for the process to end before it kills it."""
+STOP_TIMEOUT = 1.0
+"""Seconds :meth:`PathWorker.stop` waits for the process to end before it kills it.
+
+Well within the node's shutdown grace (:data:`grasp_intent_ros.ros.run.SHUTDOWN_GRACE`, 5 s), which the node's other
+stops share: a process still warming up (it reads the stop only once ready) or searching under a heavy load is
+killed rather than leaving the node to the watchdog; a search has no effect outside the process, so nothing is lost."""
 _READY = 'ready'
 """The process's first message: its models built and its warm-up run."""
 

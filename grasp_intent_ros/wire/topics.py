@@ -5,7 +5,8 @@ ROS-free (plain strings and numbers); every node, session tool and test names a 
 Topics
 ------
 :data:`MSGTYPES` maps every topic of the suite (relative names; ``/diagnostics`` is absolute) to its
-message type; :data:`LATCHED_TOPICS` are those it publishes latched. :data:`INPUT_TOPICS` are the inputs a
+message type; :data:`LATCHED_TOPICS` are those it publishes latched (:data:`MODEL_LATCHED_TOPICS` the model
+server's). :data:`INPUT_TOPICS` are the inputs a
 replay publishes again, :data:`PLAN_TOPICS` the outputs of one plan (one stamp), :data:`OUTPUT_TOPICS` the
 outputs a replay compares. One service is named
 here too, the assistance's switch :data:`ASSISTANCE_ENABLE`.
@@ -33,7 +34,8 @@ __all__ = [
     'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'OPERATOR_TWIST', 'OPERATOR_GRASP_TASKS', 'ASSISTANCE_TWIST',
     'ASSISTANCE_ALPHA', 'ASSISTANCE_OBJECT', 'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS',
     'ASSISTANCE_ENABLE',
-    'MSGTYPES', 'TOPIC_FOLDERS', 'LATCHED_TOPICS', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS', 'PLAN_TOPICS',
+    'MSGTYPES', 'TOPIC_FOLDERS', 'MODEL_LATCHED_TOPICS', 'LATCHED_TOPICS', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS',
+    'PLAN_TOPICS',
     'OUTPUT_TOPICS', 'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size',
     'check_names', 'OBJECT_NAME', 'object_name_problem', 'check_object_names',
 ]
@@ -120,8 +122,11 @@ TOPIC_FOLDERS: Final = frozenset(
 recorder's topic prefix that ends in one selects topics of a namespace, any other prefix names a namespace
 (:class:`~grasp_intent_ros.ros.recording.TopicSelection`), so no object of a scene may be named after one."""
 
-LATCHED_TOPICS: Final = (MODEL_ACTIVE, MODEL_AMBIGUITY, MODEL_AMBIGUITY_SYMMETRIC, MODEL_AMBIGUITY_PINSKER)
-"""Topics the suite publishes latched (transient local, keep-last 1): a late subscriber gets the last message."""
+MODEL_LATCHED_TOPICS: Final = (MODEL_ACTIVE, MODEL_AMBIGUITY, MODEL_AMBIGUITY_SYMMETRIC, MODEL_AMBIGUITY_PINSKER)
+"""The model server's latched topics: the active model and its ambiguity."""
+LATCHED_TOPICS: Final = (*MODEL_LATCHED_TOPICS, ASSISTANCE_OBJECT)
+"""Topics the suite publishes latched (transient local, keep-last 1): a late subscriber gets the last message
+(a recorder too: it subscribes to these transient local, ``ros.recording.declared_qos``)."""
 
 INPUT_TOPICS: Final = (INTENT_W, OBJECT_POSE, JOINT_STATES)
 """Inputs a replay publishes again (relative names)."""
@@ -163,8 +168,9 @@ def check_object_names(names: Sequence[str]) -> None:
         raise GraspIntentError('; '.join(problems))
 
 
-SHARED_CONTROL_TOPICS: Final = (OPERATOR_TWIST, ASSISTANCE_TWIST, ASSISTANCE_ALPHA)
-"""The shared-control loop's topics (the assistance node's input and outputs), recorded with the suite's."""
+SHARED_CONTROL_TOPICS: Final = (OPERATOR_TWIST, ASSISTANCE_TWIST, ASSISTANCE_ALPHA, ASSISTANCE_OBJECT)
+"""The shared-control loop's topics (the assistance node's input and outputs; ``assistance/object`` over several
+objects only), recorded with the suite's (``--topics operator/ assistance/``)."""
 
 # ------------------------------------------------------------------------------------------ input caps
 MAX_NAME_LENGTH: Final = 256

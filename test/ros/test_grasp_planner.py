@@ -37,7 +37,7 @@ from grasp_intent_ros.method.features import FINGERS, MICO_3F
 from grasp_intent_ros.method.intent import all_zones, interpret, restrict
 from grasp_intent_ros.method.model import GraspModel, structure_zones
 from grasp_intent_ros.mico.collision import CollisionFree, HandCollision
-from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix, rotation_angle
 from grasp_intent_ros.mico.grasp import MIN_TRAJECTORY_TIME, ApproachReach
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
 from grasp_intent_ros.mico.parameters import GRASP_PLANNER
@@ -310,8 +310,7 @@ def assert_fk_reproduces_pose(kin: MicoKinematics, plan: Plan) -> None:
     base_T_ee = pose_msg_to_matrix(plan.pose, frame_id=BASE_FRAME)
     fk = kin.fk(plan.q_arm)
     assert np.linalg.norm(fk[:3, 3] - base_T_ee[:3, 3]) < 1e-3
-    cos = (np.trace(fk[:3, :3].T @ base_T_ee[:3, :3]) - 1.0) / 2.0
-    assert math.acos(min(1.0, max(-1.0, cos))) < 0.01
+    assert rotation_angle(fk[:3, :3], base_T_ee[:3, :3]) < 0.01
 
 
 def values_of(status: Any) -> dict[str, str]:

@@ -17,6 +17,7 @@ from grasp_intent_ros.mico.frames import pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.nodes.intent_estimator import IntentEstimatorNode
 from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.ros.clock import now_seconds
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control.calibration import calibrate
@@ -82,7 +83,7 @@ def test_the_prior_then_motion_toward_a_usage_grasp_raises_w_usage(ros, rig: Rig
 
     def last_tick() -> float:
         """The node-clock time (s) of the publish timer's last tick."""
-        return node._now() - timer.time_since_last_call() * 1e-9
+        return now_seconds(node) - timer.time_since_last_call() * 1e-9
 
     assert ros.wait_for(lambda: last_tick() > node._timing.arrival + timeout and not node._fresh, 10.0)
     idle = node._published

@@ -22,6 +22,7 @@ from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, Mic
 from grasp_intent_ros.nodes.intent_estimator import IntentEstimatorNode
 from grasp_intent_ros.parameters import ParameterError
 from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.ros.clock import now_seconds
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control.estimator import IntentEstimator
@@ -79,7 +80,7 @@ class Scene:
         """No twist waiting, and the last one older than the operator timeout: the estimate no longer changes."""
         last = self.node._timing.arrival
         return len(self.node._inputs) == 0 and last is not None and \
-            self.node._now() - last > self.node._params['operator_timeout']
+            now_seconds(self.node) - last > self.node._params['operator_timeout']
 
     def p_of(self, msg: Float64MultiArray) -> dict[str, float]:
         (names,) = msg_labels(msg)

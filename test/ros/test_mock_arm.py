@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import rclpy
 from builtin_interfaces.msg import Duration
 from geometry_msgs.msg import TwistStamped
@@ -179,7 +180,7 @@ def test_in_the_suites_shared_control_loop_a_trajectory_moves_the_arm_only_when_
     assert ros.wait_for(future.done, 5.0) and not future.result().success  # nothing received: nothing to execute
     plans = ros.publisher(JointTrajectory, topics.GRASP_TRAJECTORY)
     assert ros.publish_until(plans, trajectory(JOINT_NAMES, [(0.5, (Q0 + END) / 2), (1.0, END)]),
-                             lambda: arm._kept is not None, 10.0)
+                             lambda: arm._plans.trajectory()[0] is not None, 10.0)
     kept_at = len(states)
     assert ros.wait_for(lambda: len(states) > kept_at + 50, 10.0)  # 0.5 s of ticks, half the trajectory's time
     assert_allclose(latest_positions(states), Q0, atol=0)  # nothing moved
@@ -191,7 +192,7 @@ def test_in_the_suites_shared_control_loop_a_trajectory_moves_the_arm_only_when_
     assert ros.wait_for(future.done, 5.0) and future.result().success
     assert ros.wait_for(lambda: np.allclose(latest_positions(states), END, atol=1e-3, rtol=0), 15.0)
     assert ros.publish_until(plans, trajectory(JOINT_NAMES, [(1.0, Q0)]),
-                             lambda: np.array_equal(arm._kept.positions[0], Q0), 10.0)
+                             lambda: np.array_equal(arm._plans.trajectory()[0].positions[0], Q0), 10.0)
     future = client.call_async(Trigger.Request())
     assert ros.wait_for(future.done, 5.0) and future.result().success
     assert ros.wait_for(lambda: not np.allclose(latest_positions(states), END, atol=1e-3, rtol=0), 5.0)
@@ -208,7 +209,8 @@ def test_with_objects_the_hand_closes_to_the_plan_of_the_object_the_assistance_f
     from grasp_intent_ros.ros.robot import joint_state_msg
 
     arm = ros.add(MockArmNode(context=ros.context, parameter_overrides=[
-        Parameter('closure_error', value=0.0), Parameter('objects', value=['cup', 'flashlight'])]))
+        Parameter('closure_error', value=0.0), Parameter('objects', value=['cup', 'flashlight']),
+        Parameter('trajectory_execution', value='on_request')]))
     states = ros.subscribe(JointState, topics.JOINT_STATES)
     client = ros.node.create_client(Trigger, GRASP_CLOSE)
     assert client.wait_for_service(timeout_sec=5.0)
@@ -240,3 +242,57 @@ def test_with_objects_the_hand_closes_to_the_plan_of_the_object_the_assistance_f
     assert ros.publish_until(followed, String(data='cup'), lambda: arm._plans.followed == 'cup', 5.0)
     assert close().success
     assert ros.wait_for(lambda: np.allclose(latest_positions(states)[6:], plans['cup'], atol=1e-12), 5.0)
+
+
+def test_with_objects_grasp_execute_runs_the_trajectory_of_the_object_the_assistance_follows(ros) -> None:
+    """The suite's mock arm over a scene (its config and remappings): each chain's grasp/trajectory kept.
+
+    The followed object's is executed; refused before an object is followed and before a trajectory of that one.
+    """
+    from std_msgs.msg import String
+
+    from grasp_intent_ros.launch.objects import SceneObject
+    from grasp_intent_ros.launch.suite import NodeSuite
+    from grasp_intent_ros.nodes.mock_arm import GRASP_EXECUTE
+    from grasp_intent_ros.ros.qos import latched_qos
+
+    objects = [SceneObject('cup', 'cup_7zone'), SceneObject('flashlight', 'flashlight_7zone')]
+    arm = ros.add(MockArmNode(context=ros.context, cli_args=['--ros-args', *NodeSuite.node_args('mock_arm',
+                                                                                                objects=objects)]))
+    states = ros.subscribe(JointState, topics.JOINT_STATES)
+    client = ros.node.create_client(Trigger, GRASP_EXECUTE)
+    assert client.wait_for_service(timeout_sec=5.0)
+
+    def execute() -> Trigger.Response:
+        future = client.call_async(Trigger.Request())
+        assert ros.wait_for(future.done, 5.0)
+        return future.result()
+
+    ends = {'cup': END, 'flashlight': Q0 + np.r_[-0.2, 0.1, -0.1, -0.3, 0.2, -0.1, 0.5, 0.5, 0.5]}
+    cup = ros.publisher(JointTrajectory, f'cup/{topics.GRASP_TRAJECTORY}')
+    assert ros.publish_until(cup, trajectory(JOINT_NAMES, [(0.5, ends['cup'])]),
+                             lambda: 'cup' in arm._plans._trajectories, 5.0)
+    refused = execute()  # a trajectory, but no object followed yet
+    assert not refused.success and topics.ASSISTANCE_OBJECT in refused.message
+    followed = ros.publisher(String, topics.ASSISTANCE_OBJECT, latched_qos())
+    assert ros.publish_until(followed, String(data='flashlight'), lambda: arm._plans.followed == 'flashlight', 5.0)
+    refused = execute()  # the flashlight followed, no trajectory of it: the cup's is not run
+    assert not refused.success and 'flashlight' in refused.message
+    assert ros.wait_for(lambda: states, 5.0)
+    assert_allclose(latest_positions(states), Q0, atol=0)  # nothing moved, nor on the cup's arrival
+    flashlight = ros.publisher(JointTrajectory, f'flashlight/{topics.GRASP_TRAJECTORY}')
+    assert ros.publish_until(flashlight, trajectory(JOINT_NAMES, [(0.5, ends['flashlight'])]),
+                             lambda: 'flashlight' in arm._plans._trajectories, 5.0)
+    done = execute()
+    assert done.success and "flashlight's plan" in done.message
+    assert ros.wait_for(lambda: np.allclose(latest_positions(states), ends['flashlight'], atol=1e-3, rtol=0), 10.0)
+    assert ros.publish_until(followed, String(data='cup'), lambda: arm._plans.followed == 'cup', 5.0)
+    assert execute().success
+    assert ros.wait_for(lambda: np.allclose(latest_positions(states), ends['cup'], atol=1e-3, rtol=0), 10.0)
+
+
+def test_objects_with_trajectories_on_arrival_are_refused_with_the_reason(ros) -> None:
+    from rclpy.parameter import Parameter
+
+    with pytest.raises(ValueError, match='on_request'):
+        MockArmNode(context=ros.context, parameter_overrides=[Parameter('objects', value=['cup'])])

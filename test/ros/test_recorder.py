@@ -298,6 +298,23 @@ def test_a_one_shot_w_in_a_chain_of_a_scene_right_after_ready_is_recorded(ros, t
     assert set(topics_info(bag)) - {DIAG} == {cup_w, flashlight_model}  # /diagnostics: the recorder's own
 
 
+def test_a_scenes_closed_loop_records_the_object_the_assistance_follows_sent_before_the_recorder(
+        ros, tmp_path: Path) -> None:
+    """``assistance/object`` is latched: a recorder of a scene's loop started after its last change still has it."""
+    followed = '/assistance/object'
+    pub = ros.publisher(String, followed, latched_qos())
+    pub.publish(String(data='flashlight'))
+    pub.publish(String(data='cup'))  # keep-last 1: only this one is left for a late subscriber
+    bag = tmp_path / 'scene_loop'
+    recorder = ros.add(Recorder(bag, context=ros.context, topics=(*SCENE_TOPICS, 'operator/', 'assistance/'),
+                                discovery_period=NO_LOOK))
+    assert recorder_qos(ros, followed) == [(ReliabilityPolicy.RELIABLE, DurabilityPolicy.TRANSIENT_LOCAL)]
+    assert ros.wait_for(lambda: recorder.counts.get(followed) == 1, timeout=10.0), recorder.summary()
+    ros.remove(recorder)
+    assert [m.decode().data for m in read_messages(bag, topics=[followed])] == ['cup']
+    assert topics_info(bag)[followed].qos == (QosSpec('reliable', 'transient_local', 0),)
+
+
 def test_latched_topic_gets_its_last_message_and_best_effort_only_publisher_matches(ros, tmp_path: Path) -> None:
     """The package's latched topic is subscribed transient local.
 

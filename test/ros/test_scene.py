@@ -32,12 +32,18 @@ from grasp_intent_ros.scene.page import ScenePage
 from grasp_intent_ros.scene.panel import panel_html
 from grasp_intent_ros.scene.plan import served_tasks
 from grasp_intent_ros.scene.state import (
+    ARM_TOPICS,
     ASSISTANCE_ALPHA,
+    CHAIN_TOPICS,
     OPERATOR_TWIST,
+    SCENE_TOPICS,
+    VIEWER_TOPICS,
     ObjectsState,
     SceneState,
     apply,
     apply_objects,
+    apply_to,
+    followed_topics,
 )
 from grasp_intent_ros.sessions.playback import load_timeline
 from grasp_intent_ros.sessions.report_data import load_report_data
@@ -281,6 +287,28 @@ def test_each_object_s_chain_keeps_its_own_state_and_the_arm_is_one(cup: GraspMo
     assert apply_objects(state, None, topics.INTENT_W, Float64MultiArray(data=[0.5] * 3)) is state
 
 
+def test_the_followed_topics_are_the_viewer_s_for_one_chain_and_the_arm_s_once_in_a_scene() -> None:
+    assert followed_topics([]) == tuple((None, topic) for topic in VIEWER_TOPICS)
+    pairs = followed_topics(['cup', 'flashlight'])
+    shared = [topic for chain, topic in pairs if chain is None]
+    assert sorted(shared) == sorted([*ARM_TOPICS, *SCENE_TOPICS, topics.DIAGNOSTICS])
+    for name in ('cup', 'flashlight'):
+        assert [topic for chain, topic in pairs if chain == name] == list(CHAIN_TOPICS)
+    assert len(pairs) == len(set(pairs)) == len(shared) + 2 * len(CHAIN_TOPICS)
+
+
+def test_apply_to_gives_a_scene_s_message_to_its_chain_and_one_chain_s_to_it(cup: GraspModel,
+                                                                            flashlight: GraspModel) -> None:
+    pose = matrix_to_pose_msg(CUP_POSE, frame_id=BASE_FRAME, stamp=STAMP)
+    moved = apply_to(two_objects(cup, flashlight), 'flashlight', topics.OBJECT_POSE, pose)
+    assert isinstance(moved, ObjectsState)
+    assert_allclose(moved.chains['flashlight'].object_pose, CUP_POSE, atol=1e-12)
+    assert_allclose(moved.chains['cup'].object_pose, CUP_POSE, atol=1e-12)  # as it was
+    one = apply_to(SceneState(), None, topics.OBJECT_POSE, pose)
+    assert isinstance(one, SceneState) and one.object_pose is not None
+    assert_allclose(one.object_pose, CUP_POSE, atol=1e-12)
+
+
 def test_each_chain_shows_its_own_planner_s_status(cup: GraspModel, flashlight: GraspModel) -> None:
     state = two_objects(cup, flashlight)
     for name, status in (('/robot1/flashlight/grasp_planner: planning', 'no reachable grasp'),
@@ -343,6 +371,21 @@ def test_the_intent_estimator_s_p_of_each_object_is_shown_beside_its_name(cup: G
                 Float64MultiArray(data=[0.5, 0.5])):  # no names
         with pytest.raises(GraspIntentError, match='intent/objects'):
             apply_objects(seen, None, topics.INTENT_OBJECTS, bad)
+
+
+def test_the_object_the_assistance_follows_is_marked_beside_its_name(cup: GraspModel, flashlight: GraspModel) -> None:
+    state = two_objects(cup, flashlight)
+    assert state.followed == '' and 'follows' not in panel_html(state)
+    cup_followed = apply_objects(state, None, topics.ASSISTANCE_OBJECT, String(data='cup'))
+    assert cup_followed.followed == 'cup' and cup_followed.chains is state.chains
+    html = panel_html(cup_followed)
+    assert 'object <b>cup</b> (/robot1/cup) ◀ the assistance follows it</div>' in html
+    assert 'object <b>flashlight</b> (/robot1/flashlight)</div>' in html
+    switched = apply_objects(cup_followed, None, topics.ASSISTANCE_OBJECT, String(data='flashlight'))
+    assert 'object <b>flashlight</b> (/robot1/flashlight) ◀ the assistance follows it' in panel_html(switched)
+    assert 'object <b>cup</b> (/robot1/cup)</div>' in panel_html(switched)
+    with pytest.raises(GraspIntentError, match="'bottle' is not one of the objects"):
+        apply_objects(switched, None, topics.ASSISTANCE_OBJECT, String(data='bottle'))
 
 
 def test_the_page_draws_each_object_with_its_grasp_at_its_own_pose_and_the_arm_once(

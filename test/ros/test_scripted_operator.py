@@ -58,26 +58,34 @@ def moved(pose: np.ndarray, by: tuple[float, float, float]) -> np.ndarray:
 
 
 class Rig:
-    """The node with the cup model latched, the arm at ``q`` (Home at first), the mock arm's calls recorded."""
+    """The node with the cup model latched, the arm at ``q`` (Home at first), the mock arm's calls recorded.
 
-    def __init__(self, ros: Any, **params: Any) -> None:
+    ``chain``: the planning chain's topics (the model, the shown grasp, w) in that namespace, the arm's at the root.
+    """
+
+    def __init__(self, ros: Any, chain: str = '', **params: Any) -> None:
         self.ros = ros
+        self.chain = chain
         overrides = [Parameter(k, value=v) for k, v in {'start_delay': 0.0, 'hold': 0.0, **params}.items()]
         self.node = ros.add(ScriptedOperatorNode(context=ros.context, parameter_overrides=overrides))
         self.twists = ros.subscribe(TwistStamped, topics.OPERATOR_TWIST)
-        self.w = ros.subscribe(Float64MultiArray, topics.INTENT_W)
+        self.w = ros.subscribe(Float64MultiArray, self.topic(topics.INTENT_W))
         self.statuses = ros.diagnostics()
         self.calls: list[tuple[str, float]] = []  # (service, monotonic time of the call)
         for name in (GRASP_EXECUTE, GRASP_CLOSE):
             ros.node.create_service(Trigger, name, lambda request, response, name=name: self._call(name, response))
-        self.shown = ros.publisher(PoseStamped, topics.GRASP_POSE)
+        self.shown = ros.publisher(PoseStamped, self.topic(topics.GRASP_POSE))
         self.q = HOME_Q.copy()
         joints = ros.publisher(JointState, topics.JOINT_STATES)
         ros.node.create_timer(0.01, lambda: joints.publish(joint_state_msg(
             ARM_JOINTS, self.q, stamp=ros.node.get_clock().now().to_msg())))
-        models = ros.publisher(String, topics.MODEL_ACTIVE, latched_qos())
+        models = ros.publisher(String, self.topic(topics.MODEL_ACTIVE), latched_qos())
         models.publish(String(data=model_document(ModelFiles(config_dir() / 'models').load('cup_7zone'),
                                                   name='cup_7zone', version=1)))
+
+    def topic(self, name: str) -> str:
+        """A topic of the planning chain."""
+        return f'{self.chain}/{name}' if self.chain else name
 
     @property
     def closes(self) -> int:
@@ -156,6 +164,33 @@ def test_on_the_shown_grasp_it_executes_then_closes_once_the_trajectory_has_had_
     assert loop.closed[0].executed and loop.closed[0].pursued == 'shown'
     assert ros.wait_for(lambda: rig.status(text='reached the shown grasp') is not None, 5.0)
     assert 'execute' in {v.key for v in rig.status(text='reached the shown grasp').values}
+
+
+def test_over_a_scene_it_reaches_for_its_objects_grasp_from_that_chain_and_commands_the_arm_at_the_root(
+        ros: Any, own: Grasp) -> None:
+    """``object: cup``: the cup chain's model, shown grasp, trajectory and pose; w on cup/intent/w; the arm's at /."""
+    rig = Rig(ros, chain='cup', object='cup')
+    loop = rig.node._loop
+    assert ros.wait_for(lambda: loop.state == 'reaching', 30.0), rig.status()
+    assert ros.wait_for(lambda: len(rig.w) >= 3, 5.0) and all(len(m.data) == 3 for m in rig.w)  # the cup's held w
+    trajectories = ros.publisher(JointTrajectory, rig.topic(topics.GRASP_TRAJECTORY))
+    assert ros.publish_until(trajectories, joint_trajectory_msg(ARM_JOINTS, own.positions[:6], 0.5),
+                             lambda: rig.node._trajectory_time == 0.5, 10.0)
+    assert rig.show(moved(own.base_T_ee, (0.0, 0.0, 0.003)), lambda: loop.pursued == 'shown')
+    rig.q = own.positions[:6]
+    assert ros.wait_for(lambda: rig.closes == 1 and loop.state == 'done', 10.0), (rig.calls, loop.state)
+    assert [name for name, _ in rig.calls] == [GRASP_EXECUTE, GRASP_CLOSE]  # the arm's services, at the root
+    # the cup moved: its own grasp is planned again at the cup chain's object/pose
+    poses = ros.publisher(PoseStamped, rig.topic(topics.OBJECT_POSE))
+    moved_cup = moved(BASE_T_OBJ, (0.0, 0.05, 0.0))
+    pose = matrix_to_pose_msg(moved_cup, frame_id=BASE_FRAME, stamp=ros.node.get_clock().now().to_msg())
+    assert ros.publish_until(poses, pose,
+                             lambda: np.allclose(rig.node._scenes.latest.base_T_obj, moved_cup, atol=1e-12), 10.0)
+
+
+def test_an_object_that_cannot_name_a_chain_is_a_configuration_error(ros: Any) -> None:
+    with pytest.raises(ValueError, match="object name 'grasp' is a folder"):
+        ScriptedOperatorNode(context=ros.context, parameter_overrides=[Parameter('object', value='grasp')])
 
 
 def test_on_its_own_grasp_it_closes_without_executing(ros: Any, own: Grasp) -> None:

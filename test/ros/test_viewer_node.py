@@ -66,6 +66,8 @@ def test_a_missing_urdf_is_a_configuration_error(ros, tmp_path) -> None:
 def test_a_viewer_of_two_objects_draws_both_chains_and_a_bad_message_on_one_warns_and_stops_neither(ros) -> None:
     """The viewer at /robot1, the cup's and the flashlight's chains below it, the arm's joint states at /robot1."""
     statuses = ros.diagnostics()
+    # the object the assistance follows, latched: sent before the viewer started, shown all the same
+    ros.publisher(String, '/robot1/assistance/object', latched_qos()).publish(String(data='cup'))
     viewer = ros.add(Viewer(context=ros.context, namespace='/robot1', parameter_overrides=[
         Parameter('port', value=0), Parameter('objects', value=['cup', 'flashlight'])]))
     assert ros.wait_for(lambda: viewer_values(statuses).get('url', '').startswith('http://127.0.0.1:'), 10.0)
@@ -113,6 +115,7 @@ def test_a_viewer_of_two_objects_draws_both_chains_and_a_bad_message_on_one_warn
     assert ros.publish_until(ros.publisher(Float64MultiArray, '/robot1/intent/objects'), p_o,
                              lambda: viewer._worker.latest.object_probabilities == {'cup': 0.7, 'flashlight': 0.3},
                              10.0)
+    assert ros.wait_for(lambda: viewer._worker.latest.followed == 'cup', 10.0)
 
 
 def test_object_names_that_cannot_name_a_chain_are_a_configuration_error(ros) -> None:

@@ -168,11 +168,12 @@ def test_a_stop_from_the_thread_itself_asks_only() -> None:
 def test_a_taken_subscription_is_handled_in_the_worker_thread_and_the_executor_stays_asleep(ros, capfd) -> None:
     """Its messages reach the callback in the worker's thread, whose update is handled in the same wake-up.
 
-    The node's executor never wakes for them. Before the worker also waited on the subscription's QoS event
+    The node's executor never wakes for them: while they wait unread, each of its waits ends with work or with
+    its timeout, never with nothing to do. Before the worker also waited on the subscription's QoS event
     handler, the executor waited on that handler alone, woke at every message (Fast DDS shares one status
     condition between a reader and its events) and found nothing to do, over and over: its thread used all
-    the CPU of the spin below while the messages waited. The bound is a quarter of that spin, far above an
-    idle executor's cost.
+    the CPU of the spin below while the messages waited. The executor's waits are counted by its gathering of
+    the node's other subscription, which it does once before each wait.
     """
     import rclpy
     from rclpy.qos import ReliabilityPolicy
@@ -198,7 +199,7 @@ def test_a_taken_subscription_is_handled_in_the_worker_thread_and_the_executor_s
 
     try:
         with pytest.raises(ValueError, match='callback group'):
-            worker.take(node.create_subscription(Float64MultiArray, 'other', on_message, input_qos()))
+            worker.take(other := node.create_subscription(Float64MultiArray, 'other', on_message, input_qos()))
         worker.take(node.create_subscription(Float64MultiArray, 'taken', on_message, input_qos(depth=100),
                                              callback_group=worker.callback_group))
         pub = ros.publisher(Float64MultiArray, 'taken')
@@ -214,13 +215,25 @@ def test_a_taken_subscription_is_handled_in_the_worker_thread_and_the_executor_s
         assert wait(lambda: len(received) == 21)  # the worker handles it and blocks
         for _ in range(5):
             pub.publish(Float64MultiArray(data=[1.0]))
-        cpu, end = time.thread_time(), time.monotonic() + 0.5
-        while (left := end - time.monotonic()) > 0.0:
-            ros.executor.spin_once(timeout_sec=left)
-        spent = time.thread_time() - cpu
+        ros.executor.spin_once(timeout_sec=0.0)  # the wake-up rclpy left for the subscriptions made above
+        waits, spins = 0, 0
+        gathers = ros.executor.can_execute
+
+        def counting(entity: object) -> bool:
+            nonlocal waits
+            waits += entity is other
+            return gathers(entity)
+
+        ros.executor.can_execute, end = counting, time.monotonic() + 0.5
+        try:
+            while (left := end - time.monotonic()) > 0.0:
+                ros.executor.spin_once(timeout_sec=left)  # after work or its timeout; a wake for nothing waits again
+                spins += 1
+        finally:
+            del ros.executor.can_execute
         release.set()
         assert wait(lambda: len(received) == 26 and handled[-1][0] == 26), (len(received), handled[-1])
-        assert spent < 0.125, f'the executor thread used {spent:.3f} s of CPU: it woke for the taken subscription'
+        assert waits <= spins, f'the executor woke {waits - spins} times for nothing: for the taken subscription'
 
         # the subscription's incompatible-QoS warning comes from the worker's thread
         best_effort = input_qos()

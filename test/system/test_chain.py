@@ -42,7 +42,7 @@ from grasp_intent_ros.cli.send_intent import GraspAnswer, IntentSender
 from grasp_intent_ros.method.features import FINGERS
 from grasp_intent_ros.method.intent import all_zones, interpret, restrict
 from grasp_intent_ros.method.model import GraspModel
-from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix, rotation_angle
 from grasp_intent_ros.mico.grasp import ApproachReach
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
 from grasp_intent_ros.planning import common, planner
@@ -206,8 +206,7 @@ def _assert_fk_reproduces_pose(answer: GraspAnswer, kin: MicoKinematics) -> np.n
     base_T_ee = pose_msg_to_matrix(answer.pose, frame_id=BASE_FRAME)
     fk = kin.fk(q)
     assert np.linalg.norm(fk[:3, 3] - base_T_ee[:3, 3]) <= 1e-3
-    cos_angle = (np.trace(fk[:3, :3].T @ base_T_ee[:3, :3]) - 1.0) / 2.0
-    assert math.acos(min(1.0, max(-1.0, cos_angle))) <= 0.01
+    assert rotation_angle(fk[:3, :3], base_T_ee[:3, :3]) <= 0.01
     return base_T_ee
 
 

@@ -114,10 +114,10 @@ def test_the_suite_command_says_when_a_stop_needed_the_watchdog(tmp_path: Path) 
             "print('[INFO] [0.0] [grasp_planner]: ready', flush=True)\n"
             "time.sleep(60)\n") % WATCHDOG_EXIT_CODE
     command = ("import os, signal, sys, threading\n"
-               "from grasp_intent_ros.launch import suite, suite_command\n"
+               "from grasp_intent_ros.launch import process, suite, suite_command\n"
                "def start_nodes(self, **_):\n"
-               "    self.processes.append(suite.NodeProcess([sys.executable, '-c', %r], module='grasp_planner',\n"
-               "                                            env=self.env, log_dir=self.log_dir))\n"
+               "    self.processes.append(process.NodeProcess([sys.executable, '-c', %r], module='grasp_planner',\n"
+               "                                              env=self.env, log_dir=self.log_dir))\n"
                "suite.NodeSuite.start_nodes = start_nodes\n"
                "threading.Timer(3.0, os.kill, (os.getpid(), signal.SIGINT)).start()\n"
                "sys.exit(suite_command.main(['--domain-id', '0']))\n") % node

@@ -21,7 +21,8 @@ from mcap_check import read_messages_mcap
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, String
 
-from grasp_intent_ros.launch.suite import NodeProcess, node_environment
+from grasp_intent_ros.launch.process import NodeProcess
+from grasp_intent_ros.launch.suite import node_environment
 from grasp_intent_ros.ros.qos import latched_qos
 from grasp_intent_ros.sessions.bag import QosSpec, read_messages, topics_info
 

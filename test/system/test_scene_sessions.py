@@ -24,7 +24,8 @@ from processes import ctrl_c, replay, suite_command
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from grasp_intent_ros.launch.suite import NodeProcess, node_environment
+from grasp_intent_ros.launch.process import NodeProcess
+from grasp_intent_ros.launch.suite import node_environment
 from grasp_intent_ros.mico.kinematics import HOME_Q
 from grasp_intent_ros.sessions.fixtures import joints, pose, w
 from grasp_intent_ros.sessions.report import write_report

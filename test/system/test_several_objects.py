@@ -218,3 +218,63 @@ def test_the_shared_control_loop_follows_one_object_and_closes_to_its_plan(ros, 
     assert re.search(r'mock_arm \(pid \d+\).* assistance \(pid \d+\).* intent_estimator \(pid \d+\)',
                      text.splitlines()[0]), text
     assert text.rstrip().endswith('suite: stopped cleanly') and 'Traceback' not in text, text
+
+
+REACH = 180.0
+"""Seconds for the scripted operator, started once the others are up, to reach for the cup and close (its own grasp
+planned, the estimator's w planned by the cup's chain, the reach at 0.12 m/s, the execute) on a loaded machine."""
+
+
+def test_a_scripted_operator_reaching_for_the_cup_is_followed_and_the_hand_closes_on_the_cups_plan(
+        ros, domain_id: int, tmp_path: Path) -> None:
+    """The researcher's command, without the viewer (it needs the viewer extra).
+
+    ``suite --object cup=... --object flashlight=... --shared-control --with intent_estimator --with
+    scripted_operator``.
+
+    The operator reaches for the cup (the first object: ``--operator-object`` by default), the flashlight on the
+    other side of the arm; P(cup) rises, the assistance follows the cup and the hand closes to the cup's plan.
+    """
+    out = tmp_path / 'suite.out'
+    objects = [arg for name, model in MODELS.items() for arg in ('--object', f'{name}={model}')]
+    args = ['--domain-id', str(domain_id), *objects, '--shared-control', '--with', 'intent_estimator', '--with',
+            'scripted_operator', '--log-dir', str(tmp_path / 'logs')]
+    with suite_command(args, cwd=tmp_path, out=out) as suite:
+        followed = ros.subscribe(String, '/assistance/object', latched_qos())
+        p_msgs = ros.subscribe(Float64MultiArray, '/intent/objects')
+        plans = {name: ros.subscribe(JointState, f'/{name}/grasp/joint_targets') for name in MODELS}
+        states = ros.subscribe(JointState, '/joint_states')
+        flashlight_pose_pub = ros.publisher(PoseStamped, '/flashlight/object/pose')
+        flashlight_pose = matrix_to_pose_msg(pose_to_matrix((0.3, 0.3, 0.0), (0.0, 0.0, 1.0, 0.0)),
+                                             frame_id=BASE_FRAME, stamp=ros.node.get_clock().now().to_msg())
+
+        def track() -> None:  # the flashlight's tracker, 10 Hz; the cup at every node's default pose (y -0.3)
+            flashlight_pose.header.stamp = ros.node.get_clock().now().to_msg()
+            flashlight_pose_pub.publish(flashlight_pose)
+        ros.node.create_timer(0.1, track)  # spun whenever the test waits
+
+        def closed() -> str:  # the operator's log line of the mock arm's answer to its grasp/close
+            return next((line for line in out.read_text().splitlines()
+                         if '[scripted_operator]' in line and 'grasp/close: ' in line), '')
+        assert ros.wait_for(lambda: closed() or suite.poll() is not None, SHARED_UP + REACH), out.read_text()[-3000:]
+        message = closed()
+        assert "closing to" in message and "(cup's plan)" in message, message
+        assert followed and followed[-1].data == 'cup', [m.data for m in followed]
+        # an execute (on the cup's shown grasp; on its own grasp, when the estimated w's grasp lies farther, it closes
+        # where the hand is) ran the cup chain's trajectory, never another's
+        executes = [line for line in out.read_text().splitlines()
+                    if '[scripted_operator]' in line and 'grasp/execute: following' in line]
+        assert all("(cup's plan)" in line for line in executes), executes
+        executed = [float(c) for c in re.findall(r'-?\d+\.\d+', message.split('closing to')[1].split(' rad')[0])]
+        plan = list(plans['cup'][-1].position)[-3:]  # the fingers, last in the planner's joint targets
+        assert all(abs(e - p) < 0.25 for e, p in zip(executed, plan, strict=True)), (executed, plan)  # 5 sigma
+        assert ros.wait_for(lambda: all(abs(q - e) < 1e-3 for q, e in zip(list(states[-1].position)[-3:], executed,
+                                                                         strict=True)), ANSWER)
+        # P(cup) while both objects are in the estimate (an object whose goals are not ready is not): up from the
+        # prior's 0.5 (the flashlight's goals restart from the prior when its tracked pose first comes)
+        p_cup = [m.data[0] for m in p_msgs if msg_labels(m) == (tuple(MODELS),)]
+        assert p_cup and p_cup[-1] > 0.9, (p_cup[:3], p_cup[-3:])
+        assert ctrl_c(suite, STOP) == 0, out.read_text()[-3000:]
+    text = out.read_text()
+    assert re.search(r'suite: started scripted_operator \(pid \d+\)', text), text[-3000:]
+    assert text.rstrip().endswith('suite: stopped cleanly') and 'Traceback' not in text, text[-3000:]

@@ -93,9 +93,11 @@ def test_bad_arguments_exit_2_before_anything_starts(tmp_path: Path) -> None:
                          (['--domain-id', '300'], '0..101'),
                          (['--object', 'cup=cup_7zone', '--object', 'cup=cup_5zone', '--object', 'mug=mug'],
                           "object 'cup' is named twice; object 'mug': no model 'mug'"),
-                         (['--object', 'cup=cup_7zone', '--shared-control', '--with', 'viewer', '--with',
-                           'scripted_operator'],
-                          ': scripted_operator with --object: not built yet')):
+                         (['--object', 'cup=cup_7zone', '--shared-control', '--with', 'scripted_operator',
+                           '--operator-object', 'mug'],
+                          "the scripted operator's object 'mug' is not one of the objects cup"),
+                         (['--shared-control', '--with', 'scripted_operator', '--operator-object', 'cup'],
+                          '--operator-object names the object of a scene')):
         result = subprocess.run([sys.executable, '-m', 'grasp_intent_ros', 'suite', *args], cwd=tmp_path,
                                 capture_output=True, text=True, timeout=60)
         assert result.returncode == 2 and reason in result.stderr, (args, result)

@@ -30,7 +30,7 @@ from websockets.sync.client import connect
 from websockets.typing import Subprotocol
 
 from grasp_intent_ros.cli.send_intent import IntentSender
-from grasp_intent_ros.launch.suite import NodeProcess
+from grasp_intent_ros.launch.process import NodeProcess
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, HOME_Q
 from grasp_intent_ros.ros.robot import joint_state_msg
 from grasp_intent_ros.sessions.report_data import load_report_data

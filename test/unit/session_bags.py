@@ -54,6 +54,12 @@ def features_msg(x: list[float]) -> Any:
     return f64(x, ('stamp=1.000000005', 1), (names, 10))
 
 
+def twist_msg(vx: float = 0.0) -> Any:
+    vector = T['geometry_msgs/msg/Vector3']
+    return T['geometry_msgs/msg/TwistStamped'](header=header(), twist=T['geometry_msgs/msg/Twist'](
+        linear=vector(x=vx, y=0.0, z=0.0), angular=vector(x=0.0, y=0.0, z=0.0)))
+
+
 def text(value: str) -> Any:
     return T['std_msgs/msg/String'](data=value)
 

@@ -34,9 +34,9 @@ OVER_LIMIT: Mapping[str, tuple[int, str]] = {
     'nodes/assistance.py': (225, "the operator, the joints, the switch, the warm-up, the output's cadence and the "
                                  'choice of one object or several (each chain\'s inputs: nodes/assistance_inputs.py); '
                                  'not split yet'),
-    'nodes/scripted_operator.py': (235, 'five inputs, the own grasp\'s thread, the held w and three service calls '
-                                        'in sequence (the grasp command\'s execute and close, the reset); not split '
-                                        'yet'),
+    'nodes/scripted_operator.py': (243, 'five inputs (over a scene, one object\'s chain), the own grasp\'s thread, '
+                                        'the held w and three service calls in sequence (the grasp command\'s '
+                                        'execute and close, the reset); not split yet'),
 }
 """Module (relative to the package) -> (its ceiling in lines, why it is over the limit)."""
 

@@ -6,14 +6,14 @@ import heapq
 import os
 from collections.abc import Collection, Iterator
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import TYPE_CHECKING
 
+import yaml
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from rosbags.interfaces import ConnectionExtRosbag2, MessageDefinitionFormat
 from rosbags.rosbag2 import Reader, ReaderError
-from rosbags.rosbag2.storage_mcap import McapReader
 from rosbags.serde import SerdeError
 from rosbags.typesys import TypesysError, get_types_from_msg
 
@@ -96,8 +96,9 @@ def read_messages(
 ) -> Iterator[BagMessage]:
     """Iterate over a rosbag2 bag's messages in receive-time order (ties in the file's order), with both times.
 
-    The bag's topics and types are read with rosbags, an MCAP file's messages with mcap (rosbags reads no publish
-    time; another storage's messages with rosbags, their publish time the receive time).
+    The bag's topics and types are read with rosbags; the messages of the MCAP files its metadata.yaml lists with
+    mcap (rosbags reads no publish time). Another storage's messages, or those of compressed files, are read with
+    rosbags, their publish time the receive time.
 
     Parameters
     ----------
@@ -124,16 +125,45 @@ def read_messages(
         with Reader(bag_path) as reader:
             conns = _select(reader.connections, topics, bag_path)
             _register_missing_types(store, conns, bag_path)
-            storages = list(getattr(reader.storage, 'storages', ()))  # a bag directory's files
-            if not storages or not all(isinstance(storage, McapReader) for storage in storages):
+            mcap_files = _mcap_files(bag_path)
+            if mcap_files is None:
                 for conn, stamp, data in reader.messages(connections=conns):
                     yield BagMessage(conn.topic, conn.msgtype, stamp, bytes(data), store, stamp)
                 return
             types = {conn.topic: conn.msgtype for conn in conns}
-            files = [_mcap_messages(Path(storage.path), types, store) for storage in storages]
+            files = [_mcap_messages(file, types, store) for file in mcap_files]
             yield from heapq.merge(*files, key=lambda message: message.timestamp_ns)
     except (ReaderError, McapError, OSError) as exc:
         raise BagReadError(f'cannot read bag {bag_path}: {exc}') from exc
+
+
+def _mcap_files(bag_path: Path) -> list[Path] | None:
+    """The MCAP files of the bag directory ``bag_path``, in the order its metadata.yaml lists them.
+
+    Each listed path is taken by its file name inside the bag directory (as rosbags opens them: older rosbag2
+    listed paths with the bag's own directory in front). None when the messages are not in plain MCAP files:
+    another storage (sqlite3), or compressed files (``compression_mode`` 'file' or 'message').
+
+    Raises
+    ------
+    BagReadError
+        metadata.yaml does not parse, lacks ``rosbag2_bagfile_information``'s ``storage_identifier`` or
+        ``relative_file_paths``, or lists a file the directory does not hold.
+    """
+    metadata = bag_path / 'metadata.yaml'
+    try:
+        info = yaml.safe_load(metadata.read_text(encoding='utf-8'))['rosbag2_bagfile_information']
+        storage, listed = info['storage_identifier'], info['relative_file_paths']
+        compression = str(info.get('compression_mode') or 'none').lower()
+        names = [PurePath(str(name)).name for name in listed]
+    except (yaml.YAMLError, KeyError, TypeError, AttributeError, UnicodeDecodeError) as exc:
+        raise BagReadError(f'bag {bag_path}: {metadata.name} lists no storage and files: {exc!r}') from exc
+    if storage != 'mcap' or compression != 'none':
+        return None
+    files = [bag_path / name for name in names]
+    if missing := [file.name for file in files if not file.is_file()]:
+        raise BagReadError(f'bag {bag_path}: {metadata.name} lists {missing}, which the directory does not hold')
+    return files
 
 
 def _mcap_messages(path: Path, types: dict[str, str], store: Typestore) -> Iterator[BagMessage]:

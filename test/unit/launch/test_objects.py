@@ -8,14 +8,14 @@ import pytest
 
 from grasp_intent_ros.errors import GraspIntentError
 from grasp_intent_ros.launch.objects import (
-    SCENE_NODES,
     SceneObject,
     chain_remappings,
+    operator_object,
     parse_objects,
-    refuse_unbuilt,
     scene_node_args,
 )
-from grasp_intent_ros.launch.suite import REMAPPINGS, SUITE_NODES, NodeProcess, NodeSuite, node_environment
+from grasp_intent_ros.launch.process import NodeProcess
+from grasp_intent_ros.launch.suite import REMAPPINGS, SUITE_NODES, NodeSuite, node_environment
 from grasp_intent_ros.resources import config_dir
 
 
@@ -63,11 +63,17 @@ def test_models_are_looked_up_in_the_given_directory(tmp_path: Path) -> None:
         parse_objects(['cup=cup_7zone'], models_dir=str(tmp_path / 'missing'))
 
 
-def test_optional_nodes_beside_objects_are_refused_naming_them_but_those_of_the_scene() -> None:
-    refuse_unbuilt([])
-    refuse_unbuilt(['mock_arm', 'intent_estimator', 'viewer', 'assistance'])
-    with pytest.raises(GraspIntentError, match=r'^scripted_operator with --object: not built yet'):
-        refuse_unbuilt(['mock_arm', 'scripted_operator', 'assistance'])
+def test_the_scripted_operator_reaches_for_the_object_named_or_the_first() -> None:
+    objects = parse_objects(['cup=cup_7zone', 'flashlight=flashlight_7zone'])
+    assert operator_object(objects) == objects[0] and operator_object(objects, 'flashlight') == objects[1]
+    with pytest.raises(GraspIntentError, match="object 'mug' is not one of the objects cup, flashlight"):
+        operator_object(objects, 'mug')
+    with pytest.raises(GraspIntentError, match='no objects'):
+        operator_object(())
+    assert scene_node_args('scripted_operator', objects) == ('-p', "object:='cup'")
+    # beside the intent estimator, each object's w is the estimator's: the operator holds none
+    assert scene_node_args('scripted_operator', objects, operator='flashlight', estimated=True) == (
+        '-p', "object:='flashlight'", '-p', 'intent:=none')
 
 
 def test_each_object_gets_a_chain_in_its_namespace_with_its_model_reading_the_arms_joint_states(
@@ -108,9 +114,20 @@ def test_each_object_gets_a_chain_in_its_namespace_with_its_model_reading_the_ar
         assert [args[i + 1] for i, a in enumerate(args) if a == '-r'] == ['__ns:=/robot1', *REMAPPINGS.get(module, ())]
         assert [args[i + 1] for i, a in enumerate(args) if a == '-p'] == ["objects:=['cup','flashlight']"]
 
+    started.clear()  # the scripted operator at the suite's namespace, reaching for the flashlight, w the estimator's
+    suite.start_nodes(namespace='/robot1', objects=objects, shared_control=True, operator='flashlight',
+                      extra=['intent_estimator', 'scripted_operator'])
+    module, name, args = started[-1]
+    assert (module, name) == ('scripted_operator', None)
+    assert [args[i + 1] for i, a in enumerate(args) if a == '-r'] == ['__ns:=/robot1']
+    assert [args[i + 1] for i, a in enumerate(args) if a == '-p'] == ["object:='flashlight'", 'intent:=none']
+    arm_args = next(args for module, _, args in started if module == 'mock_arm')
+    assert [arm_args[i + 1] for i, a in enumerate(arm_args) if a == '-r'] == [  # each chain's trajectory, unmapped
+        '__ns:=/robot1', 'servo/delta_twist_cmds:=assistance/twist']
+
     started.clear()
-    with pytest.raises(GraspIntentError, match='^scripted_operator with --object'):
-        suite.start_nodes(objects=objects, extra=['viewer', 'scripted_operator'])
+    with pytest.raises(GraspIntentError, match="object 'mug' is not one of the objects"):
+        suite.start_nodes(objects=objects, extra=['scripted_operator'], operator='mug')
     with pytest.raises(GraspIntentError, match='give no model'):
         suite.start_nodes(objects=objects, model='cup_7zone')
     assert not started
@@ -122,7 +139,6 @@ def test_the_viewer_starts_once_after_the_chains_at_the_suites_namespace_with_th
     started: list[tuple[str, str | None, tuple[str, ...]]] = []
     monkeypatch.setattr(NodeSuite, 'start',
                         lambda self, module, *args, name=None: started.append((module, name, args)))
-    assert SCENE_NODES == ('mock_arm', 'assistance', 'intent_estimator', 'viewer')
     objects = parse_objects(['cup=cup_5zone', 'flashlight=flashlight_7zone'])
     NodeSuite(97, log_dir=tmp_path).start_nodes(namespace='/robot1', objects=objects, extra=['viewer'])
     assert [(module, name) for module, name, _ in started] == [
@@ -131,7 +147,7 @@ def test_the_viewer_starts_once_after_the_chains_at_the_suites_namespace_with_th
     assert args[:2] == ('--params-file', str(config_dir() / 'viewer.yaml'))
     assert [args[i + 1] for i, a in enumerate(args) if a == '-r'] == ['__ns:=/robot1']
     assert [args[i + 1] for i, a in enumerate(args) if a == '-p'] == ["objects:=['cup','flashlight']"]
-    assert scene_node_args(objects[:1]) == ('-p', "objects:=['cup']")
+    assert scene_node_args('viewer', objects[:1]) == ('-p', "objects:=['cup']")
 
 
 def test_a_chain_process_is_named_by_its_object_and_its_logs_too(tmp_path: Path) -> None:

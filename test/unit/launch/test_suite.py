@@ -10,11 +10,12 @@ from pathlib import Path
 
 import pytest
 
+from grasp_intent_ros.launch.objects import SceneObject
+from grasp_intent_ros.launch.process import NodeProcess
 from grasp_intent_ros.launch.suite import (
     FASTDDS_PROFILE,
     RUN_DOMAIN_IDS,
     TEST_DOMAIN_IDS,
-    NodeProcess,
     NodeSuite,
     SuiteError,
     domain_id_from_environment,
@@ -144,7 +145,8 @@ def test_a_process_ends_when_the_command_that_started_it_is_killed(tmp_path: Pat
     launcher_code = (
         'import sys, time\n'
         'from pathlib import Path\n'
-        'from grasp_intent_ros.launch.suite import NodeProcess, node_environment\n'
+        'from grasp_intent_ros.launch.process import NodeProcess\n'
+        'from grasp_intent_ros.launch.suite import node_environment\n'
         f'proc = NodeProcess([sys.executable, "-c", {SLEEPER!r}], module="orphan", env=node_environment(97), '
         f'log_dir=Path({str(tmp_path)!r}))\n'
         'print(proc.pid, flush=True)\n'
@@ -257,4 +259,8 @@ def test_the_shared_control_nodes_get_their_config_and_the_suite_remappings() ->
     assert args[:2] == ['--params-file', str(config_dir() / 'mock_arm.yaml')]
     assert args[2:] == ['-r', '__ns:=/robot1', '-r', 'arm_controller/joint_trajectory:=grasp/trajectory',
                         '-r', 'servo/delta_twist_cmds:=assistance/twist']
+    # over a scene's chains the arm reads each chain's trajectory: the twist's remapping alone
+    cup = SceneObject('cup', 'cup_7zone')
+    assert NodeSuite.node_args('mock_arm', objects=[cup])[2:] == ['-r', 'servo/delta_twist_cmds:=assistance/twist',
+                                                                  '-p', "objects:=['cup']"]
     assert NodeSuite.node_args('assistance') == ['--params-file', str(config_dir() / 'assistance.yaml')]

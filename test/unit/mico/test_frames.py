@@ -23,6 +23,7 @@ from grasp_intent_ros.mico.frames import (
     matrix_to_pose,
     obj_T_ee_to_features,
     pose_to_matrix,
+    rotation_angle,
     rotation_angles,
 )
 
@@ -157,3 +158,14 @@ def test_rotation_angles_are_each_rotations_angle_from_the_reference() -> None:
     # arccos near cosines of +-1 (0 and pi) is good to sqrt(2 eps) ~ 2e-8 rad; elsewhere to a few eps
     assert_allclose(rotation_angles(rotations, rotation), [0.0, 0.4, 2.5, math.pi], rtol=0.0, atol=3e-8)
 
+
+def test_rotation_angle_is_the_turn_from_a_to_b_in_either_order() -> None:
+    base_R_a = pin.exp3(np.array([0.3, -0.2, 0.5]))
+    turns = [np.zeros(3), np.array([0.0, 0.0, 0.4]), np.array([1.0, 2.0, -2.0]) / 3.0 * 2.5,
+             np.array([0.0, math.pi, 0.0])]
+    for turn, angle in zip(turns, [0.0, 0.4, 2.5, math.pi]):
+        base_R_b = base_R_a @ pin.exp3(turn)  # R_a^T R_b = exp3(turn), turned about an axis of a's own frame
+        # arccos near cosines of +-1 (0 and pi) is good to sqrt(2 eps) ~ 2e-8 rad; elsewhere to a few eps
+        assert rotation_angle(base_R_a, base_R_b) == pytest.approx(angle, rel=0.0, abs=3e-8)
+        assert rotation_angle(base_R_b, base_R_a) == rotation_angle(base_R_a, base_R_b)  # the same nine products
+        assert rotation_angles(base_R_b[None], base_R_a)[0] == pytest.approx(angle, rel=0.0, abs=3e-8)

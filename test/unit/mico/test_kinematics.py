@@ -18,7 +18,7 @@ from grasp_intent_ros.errors import KinematicsError
 from grasp_intent_ros.kernels import warm_up
 from grasp_intent_ros.kernels.ik import _chain_fk, _ik_descent, _ik_jacobian, _ik_residual, _log3
 from grasp_intent_ros.method.features import APPROACH, FINGER_CLOSED
-from grasp_intent_ros.mico.frames import features_to_obj_T_ee, obj_T_ee_to_features, pose_to_matrix
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, obj_T_ee_to_features, pose_to_matrix, rotation_angle
 from grasp_intent_ros.mico.kinematics import (
     ARM_JOINTS,
     EE_FRAME,
@@ -68,8 +68,7 @@ def random_q(kin: MicoKinematics, rng: np.random.Generator) -> NDArray[np.float6
 
 def pose_errors(base_T_a: NDArray[np.float64], base_T_b: NDArray[np.float64]) -> tuple[float, float]:
     pos = float(np.linalg.norm(base_T_a[:3, 3] - base_T_b[:3, 3]))
-    cos_angle = (np.trace(base_T_a[:3, :3].T @ base_T_b[:3, :3]) - 1.0) / 2.0
-    return pos, math.acos(min(1.0, max(-1.0, cos_angle)))
+    return pos, rotation_angle(base_T_a[:3, :3], base_T_b[:3, :3])
 
 
 # -- URDF and model ---------------------------------------------------------------------------------

@@ -21,7 +21,7 @@ from numpy.testing import assert_allclose
 
 from grasp_intent_ros.method.intent import parse_zones, restrict
 from grasp_intent_ros.method.model import GraspModel
-from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix, rotation_angle
 from grasp_intent_ros.mico.grasp import ApproachReach
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, MicoKinematics, Reachability
 from grasp_intent_ros.planning import planner
@@ -36,11 +36,6 @@ REPO = Path(__file__).resolve().parents[3]
 BAGS = sorted(p for p in (REPO / 'bags').iterdir() if (p / 'metadata.yaml').is_file() and not is_closed_loop(p))
 PARAMS = yaml.safe_load((config_dir() / 'grasp_planner.yaml').read_text())['/**/grasp_planner']['ros__parameters']
 TOL = Tolerances()
-
-
-def _rotation_angle(a: np.ndarray, b: np.ndarray) -> float:
-    cos = (np.trace(a[:3, :3].T @ b[:3, :3]) - 1.0) / 2.0
-    return float(np.arccos(np.clip(cos, -1.0, 1.0)))
 
 
 def _output(step: Any, topic: str) -> Any:
@@ -95,7 +90,7 @@ def test_every_recorded_plan_is_planned_again_with_v_perturbed_at_the_last_bits(
         again = base_T_obj @ features_to_obj_T_ee(result.x)
         where = f'{bag.name} input #{step.index} ({step.description})'
         assert np.linalg.norm(again[:3, 3] - base_T_ee[:3, 3]) <= TOL.position_m, where
-        assert _rotation_angle(again, base_T_ee) <= TOL.angle_rad, where
+        assert rotation_angle(again[:3, :3], base_T_ee[:3, :3]) <= TOL.angle_rad, where
         posterior = _output(step, 'grasp/posterior')
         if isinstance(posterior, Vector):
             assert_allclose(result.posterior, posterior.data[:len(model.zones)], atol=TOL.posterior,

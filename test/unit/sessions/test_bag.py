@@ -327,6 +327,44 @@ def test_a_bag_of_another_storage_is_read_with_receive_times_as_send_times(tmp_p
         ('/a', T0_NS + k, T0_NS + k, str(k)) for k in range(3)]
 
 
+def two_file_bag(tmp_path: Path, store: Typestore) -> Path:
+    """A bag directory of two MCAP files, as a split recording leaves it.
+
+    /a's messages at receive times 0, 2, 4 (x 10 ns) in ``part_1.mcap`` and 1, 3, 5 in ``part_0.mcap``, each sent
+    1 ns before; metadata.yaml lists both, part_1 first; a stray ``old.mcap`` beside them that it does not list.
+    """
+    path = tmp_path / 'split'
+    path.mkdir()
+    cdr = {k: store.serialize_cdr(store.types[STRING](data=str(k)), STRING) for k in range(6)}
+    for name, ks in (('part_1', (0, 2, 4)), ('part_0', (1, 3, 5)), ('old', (9,))):
+        with SessionWriter(tmp_path / name, typestore=store) as bag:
+            bag.add_topic('/a', STRING, qos=QosSpec())
+            for k in ks:
+                bag.write('/a', T0_NS + 10 * k, cdr.get(k, cdr[0]), T0_NS + 10 * k - 1)
+        (tmp_path / name / f'{name}.mcap').rename(path / f'{name}.mcap')
+    metadata = yaml.safe_load((tmp_path / 'part_1' / 'metadata.yaml').read_text())
+    info = metadata['rosbag2_bagfile_information']
+    info['relative_file_paths'] = ['part_1.mcap', 'part_0.mcap']
+    info['files'] = []
+    info['message_count'] = info['topics_with_message_count'][0]['message_count'] = 6
+    (path / 'metadata.yaml').write_text(yaml.safe_dump(metadata))
+    return path
+
+
+def test_a_bag_of_two_files_is_read_from_the_files_its_metadata_lists(tmp_path: Path, store: Typestore) -> None:
+    """Both listed files' messages, merged by receive time, each with its send time; the unlisted file is not read."""
+    read = list(read_messages(two_file_bag(tmp_path, store)))
+    assert [(m.timestamp_ns, m.publish_ns, decoded(m).data) for m in read] == [
+        (T0_NS + 10 * k, T0_NS + 10 * k - 1, str(k)) for k in range(6)]
+
+
+def test_a_metadata_listing_a_missing_file_is_a_read_error(tmp_path: Path, store: Typestore) -> None:
+    path = two_file_bag(tmp_path, store)
+    (path / 'part_0.mcap').unlink()
+    with pytest.raises(BagReadError, match='part_0.mcap'):
+        next(read_messages(path))
+
+
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(
     values=st.lists(st.floats(allow_nan=True, allow_infinity=True, width=64), max_size=20),

@@ -34,6 +34,7 @@ from ..session_bags import (
     joint_msg,
     model_doc,
     session_messages,
+    twist_msg,
     write_bag,
 )
 
@@ -45,12 +46,6 @@ STEPS = 20
 @pytest.fixture(scope='module')
 def kin() -> MicoKinematics:
     return MicoKinematics()
-
-
-def twist_msg(vx: float) -> Any:
-    vector = T['geometry_msgs/msg/Vector3']
-    return T['geometry_msgs/msg/TwistStamped'](header=header(), twist=T['geometry_msgs/msg/Twist'](
-        linear=vector(x=vx, y=0.0, z=0.0), angular=vector(x=0.0, y=0.0, z=0.0)))
 
 
 def grasp_msg(base_T: np.ndarray) -> Any:

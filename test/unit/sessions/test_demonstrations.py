@@ -20,7 +20,13 @@ from numpy.testing import assert_allclose
 from grasp_intent_ros.errors import DataError
 from grasp_intent_ros.method.data import load_csv
 from grasp_intent_ros.method.intent import DEFAULT_TASKS
-from grasp_intent_ros.mico.frames import default_base_T_obj, features_to_obj_T_ee, matrix_to_pose, obj_T_ee_to_features
+from grasp_intent_ros.mico.frames import (
+    default_base_T_obj,
+    features_to_obj_T_ee,
+    matrix_to_pose,
+    obj_T_ee_to_features,
+    rotation_angle,
+)
 from grasp_intent_ros.mico.grasp import JOINT_NAMES
 from grasp_intent_ros.mico.kinematics import HOME_Q, IK_POS_TOL, IK_ROT_TOL, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import MockArm, TrajectoryCommand
@@ -474,8 +480,7 @@ def test_demonstrations_recorded_on_the_mock_arm_come_back_as_their_features(tmp
     for x, (x_known, _), closures in zip(demos.x, rows, executed):
         obj_T_ee, obj_T_known = features_to_obj_T_ee(x), features_to_obj_T_ee(x_known)
         assert np.linalg.norm(obj_T_ee[:3, 3] - obj_T_known[:3, 3]) <= IK_POS_TOL + 2 * rounding
-        cos_angle = (np.trace(obj_T_known[:3, :3].T @ obj_T_ee[:3, :3]) - 1.0) / 2.0
-        assert math.acos(min(cos_angle, 1.0)) <= IK_ROT_TOL + 1e-5  # + the rounding of approach and roll
+        assert rotation_angle(obj_T_known[:3, :3], obj_T_ee[:3, :3]) <= IK_ROT_TOL + 1e-5  # + rounding of x
         assert_allclose(x[7:], closures, atol=rounding)
         assert np.any(np.abs(x[7:] - x_known[7:]) > rounding)  # the executed closures, not the plan's
     model, _, _ = train(csv, 'U,T,UT', out=tmp_path / 'model.yaml')

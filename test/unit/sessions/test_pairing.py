@@ -35,6 +35,7 @@ from ..session_bags import (
     pose_msg,
     session_messages,
     text,
+    twist_msg,
     v_msg,
     write_bag,
 )
@@ -226,6 +227,23 @@ def test_each_chain_of_a_scene_is_paired_by_its_namespace_with_the_arms_joint_st
     assert [(i.index, [(k, s.index) for k, s in i.steps]) for i in scene.inputs] == [
         (1, [(0, 1), (1, 1)]), (2, [(0, 2)]), (3, [(1, 2)]), (4, [(0, 3), (1, 3)]), (5, [(1, 4)])]
     assert scene.n_outputs == cup.n_outputs + flashlight.n_outputs
+
+
+def test_a_scenes_closed_loop_pairs_its_chains_as_without_the_loop_and_ignores_the_object_followed(
+        tmp_path: Path) -> None:
+    """The loop's topics at the arm's namespace are neither a chain's inputs nor its outputs.
+
+    The operator's and the assistance's twists, the object followed: a replay compares the chains' answers alone.
+    """
+    loop = [('/operator/twist', twist_msg()), ('/assistance/twist', twist_msg()), ('/assistance/object', text('cup'))]
+    messages = scene_messages()
+    bare = load_paired_scene(write_bag(tmp_path / 'scene', messages))
+    with_loop = load_paired_scene(write_bag(tmp_path / 'scene_loop', [*messages[:3], *loop, *messages[3:], *loop]))
+    assert with_loop.scene == bare.scene == Scene('', ('/cup', '/flashlight'))
+    for chain, bare_chain in zip(with_loop.chains, bare.chains, strict=True):
+        assert [(s.topic, sorted(o.topic for o in s.expected)) for s in chain.steps] == [
+            (s.topic, sorted(o.topic for o in s.expected)) for s in bare_chain.steps]
+    assert [i.index for i in with_loop.inputs] == [i.index for i in bare.inputs]
 
 
 def test_a_one_chain_session_is_a_scene_of_one_chain_paired_as_before(session_bag: Path, tmp_path: Path) -> None:

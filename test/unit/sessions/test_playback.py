@@ -71,6 +71,7 @@ def scene_messages() -> list[tuple[str, Any]]:
         (DIAGNOSTICS, plan_status(f'{ns}/flashlight/grasp_planner', 'ok')),
         *plan(f'{ns}/flashlight', (0.3, 0.32, 0.1), 3),
         (f'{ns}/intent/objects', f64([0.25, 0.75], ('cup,flashlight', 2))),  # the intent estimator's P(o)
+        (f'{ns}/assistance/object', text('flashlight')),  # the object the assistance follows
     ]
 
 
@@ -95,7 +96,7 @@ def test_a_scene_bag_is_played_back_chain_by_chain_with_the_arm_once(tmp_path: P
     assert cup.v is not None and flashlight.v is None
     assert (cup.plan_status, flashlight.plan_status) == ('', 'ok')
     assert_allclose(final.arm.q_live, Q[:6]) and cup.q_live is None
-    assert final.object_probabilities == {'cup': 0.25, 'flashlight': 0.75}
+    assert final.object_probabilities == {'cup': 0.25, 'flashlight': 0.75} and final.followed == 'flashlight'
     # at the cup's plan the flashlight has no plan yet
     at_cup_plan = timeline.at((timeline.plans[0] - timeline.start) * 1e-9)
     assert at_cup_plan.chains['cup'].plan_stamp == (1, 5) and at_cup_plan.chains['flashlight'].base_T_ee is None

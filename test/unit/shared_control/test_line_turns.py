@@ -8,7 +8,7 @@ import numpy as np
 from numpy.testing import assert_allclose
 from numpy.typing import NDArray
 
-from grasp_intent_ros.mico.frames import pose_error
+from grasp_intent_ros.mico.frames import pose_error, rotation_angle
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.shared_control.assistance import AssistanceConfig
 from grasp_intent_ros.shared_control.joint_path import TURN_SLACK, WRIST_TURNS, joint_path, line_turns
@@ -99,8 +99,7 @@ def _exhaustive(kin: MicoKinematics, q: NDArray[np.float64], q_t: NDArray[np.flo
     from grasp_intent_ros.shared_control.joint_path import TIME_STEP, TURN_STEP, near_grasp
 
     def error(q_s: NDArray[np.float64]) -> float:
-        cos = (float(np.trace(target[:3, :3].T @ kin.fk(q_s)[:3, :3])) - 1.0) / 2.0
-        return math.acos(min(1.0, max(-1.0, cos)))
+        return rotation_angle(target[:3, :3], kin.fk(q_s)[:3, :3])
 
     best, best_cost = q_t, None
     for turns in product((0, -1, 1), repeat=len(WRIST_TURNS)):
