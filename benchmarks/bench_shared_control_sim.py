@@ -100,7 +100,7 @@ import gzip
 import json
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import Any
@@ -386,12 +386,16 @@ def estimator_fields(items: Sequence[str]) -> tuple[tuple[str, float], ...]:
     return tuple((k, float(v)) for k, v in (item.split('=', 1) for item in items))
 
 
-def run_tasks(tasks: Sequence[Task], jobs: int, records_path: str | None) -> list[dict[str, Any]]:
-    """Every task's records, ``jobs`` processes at once; each episode's appended to ``records_path`` as it ends."""
+def run_tasks(tasks: Sequence[Any], jobs: int, records_path: str | None,
+              run: Callable[[Any], list[dict[str, Any]]] = run_task) -> list[dict[str, Any]]:
+    """Every task's records by ``run``, ``jobs`` processes at once; each episode's appended to ``records_path``.
+
+    ``run``: one task's records (:func:`run_task`; bench_shared_control_scene.py passes its own).
+    """
     t0 = time.monotonic()
     records: list[dict[str, Any]] = []
     with ProcessPoolExecutor(jobs) as pool:
-        for i, result in enumerate(pool.map(run_task, tasks)):
+        for i, result in enumerate(pool.map(run, tasks)):
             records.extend(result)
             if records_path:
                 with open(records_path, 'a') as f:

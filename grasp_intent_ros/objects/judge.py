@@ -22,7 +22,7 @@ from ..method.model import GraspModel
 from ..mico.frames import obj_T_ee_to_features
 from .demos import OBJECTS, object_of
 
-__all__ = ['Judgement', 'judge', 'operator_verdict']
+__all__ = ['Judgement', 'SceneJudgement', 'judge', 'judge_scene', 'operator_verdict']
 
 
 @dataclass(frozen=True)
@@ -74,6 +74,52 @@ def judge(model: GraspModel, base_T_obj: NDArray[np.float64], base_T_ee: NDArray
                                                            for task, names in failed.items()) + ')', failed)
     names = ', '.join(n for i, n in enumerate(model.task_names) if label >> i & 1)
     return Judgement(label, f'{names} ({zone_label(label, model.task_names)})', failed)
+
+
+@dataclass(frozen=True)
+class SceneJudgement:
+    """The rules' verdicts on one grasp in a scene of several objects, for the operator's true object and task set.
+
+    Attributes
+    ----------
+    verdicts : tuple of Judgement
+        :func:`judge` at each object's pose by that object's rules (the scene's order).
+    at : int
+        The object the hand closed at: the one whose frame's origin is nearest the hand's (the end effector's)
+        position, the first of equal ones. An object's rules may give a task to a grasp of another object lying
+        within their wide feature bounds, so which object the hand is at is decided by the distance, not by them.
+    true_object : int
+        The index of the object the operator wanted.
+    task_set : int
+        The operator's true task set (bitmask over the true object's model's tasks).
+    """
+
+    verdicts: tuple[Judgement, ...]
+    at: int
+    true_object: int
+    task_set: int
+
+    @property
+    def serves(self) -> bool:
+        """Whether the hand closed at the true object with a grasp serving every task of the true set by its rules."""
+        return self.at == self.true_object and self.verdicts[self.true_object].serves(self.task_set)
+
+    @property
+    def wrong_object(self) -> bool:
+        """Whether the hand closed at another object than the true one (whatever its rules say of the grasp)."""
+        return self.at != self.true_object
+
+
+def judge_scene(objects: Sequence[tuple[GraspModel, NDArray[np.float64]]], true_object: int, task_set: int,
+                base_T_ee: NDArray[np.float64], closures: ArrayLike) -> SceneJudgement:
+    """The grasp judged in a scene: ``objects`` (model, true ``base_T_obj``) in order, each by :func:`judge`.
+
+    The operator wanted object ``true_object`` for the tasks ``task_set``; :attr:`SceneJudgement.serves` holds only
+    for a grasp at that object (:attr:`SceneJudgement.at`) serving them by its rules.
+    """
+    distances = [float(np.linalg.norm(base_T_obj[:3, 3] - base_T_ee[:3, 3])) for _, base_T_obj in objects]
+    return SceneJudgement(tuple(judge(model, base_T_obj, base_T_ee, closures) for model, base_T_obj in objects),
+                          int(np.argmin(distances)), true_object, task_set)
 
 
 def operator_verdict(judgement: Judgement, wanted: Sequence[str], task_names: Sequence[str]) -> str:

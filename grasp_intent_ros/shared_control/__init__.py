@@ -37,9 +37,11 @@ operators
 operator_loop
     A scripted operator on a wall clock, in episodes, against what it perceives late (the scripted operator node's).
 ada
-    ADA's shared autonomy as published: the simulated closed loop's baseline.
+    ADA's shared autonomy as published (goals of one or more targets): the simulated closed loops' baseline.
 simulator
     The closed loop on a simulated clock with the nodes' core functions (planner policy, assistance, mock arm).
+scene_simulator
+    That loop over several objects: each chain's plans, the assistance over several objects, the operator's object.
 sweep
     The judge's measure the loop lacks a contact model for: how deep the open hand's path goes into the object.
 parameters (ROS-free tables)

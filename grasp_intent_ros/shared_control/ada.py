@@ -2,15 +2,22 @@
 
 Javdani et al.; personalrobotics/ada_assistance_policy; :mod:`.simulator`, condition ``'ada'``.
 
-A goal distribution over the task-serving grasps, uniform at the start, updated from each operator twist u by
+A goal distribution, uniform at the start, updated from each operator twist u by
 ``log p(g) -= Q_g(x, u) - V_g(x)`` (Huber distance costs with ADA's constants, the action applied for
 :data:`ADA_APPLY_TIME`; no goal above 0.99), and the command ``u + sum_g p(g) a_g``, ``a_g`` ADA's Huber-gradient
 twist toward goal g, within the assistance's output limits.
+
+A goal has one or more *targets* (poses), as ADA's ``Goal`` holds an object's grasp poses: its value, its
+Q-value and its action are those of its target of least value at the hand's pose (``AssistancePolicyOneGoal``:
+the first of equal ones), so ``Q_g - V_g`` is that target's. One object's task-serving grasps are one target
+each (:mod:`.simulator`, condition ``'ada'``); over several objects a goal is an object and its targets are its
+task-serving grasps (:mod:`.scene_simulator`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,14 +38,16 @@ def _huber(d: float, linear: float, delta: float, constant: float) -> tuple[floa
 
 
 class AdaAssistance:
-    """ADA's shared autonomy over ``goals`` (module docstring), with the assistance's output limits.
+    """ADA's shared autonomy over ``goals`` (each a sequence of target poses, 4x4, base frame; module docstring).
 
     Constants are ADA's (its HuberAssistancePolicy): translation 2.25 /m beyond 0.07 m plus 0.2, rotation
     0.07 (0.2 /rad beyond pi/32 plus 0.01), robot cost 40 (translation) and 0.05 (rotation).
     """
 
-    def __init__(self, goals: list[NDArray[np.float64]], limiter: TwistLimiter) -> None:
-        self.goals, self.limiter = goals, limiter
+    def __init__(self, goals: Sequence[Sequence[NDArray[np.float64]]], limiter: TwistLimiter) -> None:
+        if not goals or not all(goals):
+            raise ValueError('ADA needs at least one goal, each with at least one target')
+        self.goals, self.limiter = [list(targets) for targets in goals], limiter
         self.log_p = np.full(len(goals), -math.log(len(goals)))
 
     def distribution(self) -> NDArray[np.float64]:
@@ -65,11 +74,16 @@ class AdaAssistance:
 
     def command(self, hand: NDArray[np.float64], operator: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
         """The limited command for the operator's twist (base frame) with the hand at ``hand``."""
-        errors = [pose_error(hand, g) for g in self.goals]
+        errors = []
+        for targets in self.goals:  # each goal's target of least value (the first of equal ones)
+            target_errors = [pose_error(hand, t) for t in targets]
+            values = [self._value(e) for e in target_errors]
+            best = int(np.argmin(values))
+            errors.append((target_errors[best], values[best]))
         moved = operator * ADA_APPLY_TIME
-        for i, e in enumerate(errors):
+        for i, (e, value) in enumerate(errors):
             after = e - moved  # the error after the operator's action (first order in the rotation)
-            self.log_p[i] -= self._value(after) - self._value(e)
+            self.log_p[i] -= self._value(after) - value
         self.log_p -= np.logaddexp.reduce(self.log_p)
         p = self.distribution()
         top = int(np.argmax(p))
@@ -78,5 +92,5 @@ class AdaAssistance:
             p = p + extra
             p[top] = 0.99
             self.log_p = np.log(p)
-        assist = sum((pg * self._action(e) for pg, e in zip(p, errors)), np.zeros(6))
+        assist = sum((pg * self._action(e) for pg, (e, _) in zip(p, errors)), np.zeros(6))
         return self.limiter.limit(operator + assist, dt)

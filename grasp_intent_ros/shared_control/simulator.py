@@ -62,9 +62,9 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -92,8 +92,9 @@ from .estimator import IntentEstimator
 from .operators import IntentScript, ScriptedOperator, certain_w
 from .sweep import SWEEP_TICKS, PathSweep
 
-__all__ = ['Condition', 'CONDITIONS', 'Scene', 'PlanStream', 'Episode', 'TraceRow', 'executes_shown', 'execute_grasp',
-           'simulate', 'perturb_pose', 'certain_grasp', 'certain_grasps']
+__all__ = ['Condition', 'CONDITIONS', 'Scene', 'PlanStream', 'PlanInputs', 'Episode', 'TraceRow', 'executes_shown',
+           'execute_grasp', 'feed_plan', 'close_hand', 'swept_into', 'simulate', 'perturb_pose', 'certain_grasp',
+           'certain_grasps']
 
 Condition = Literal['direct', 'ada', 'independent', 'suite']
 CONDITIONS: tuple[Condition, ...] = ('direct', 'ada', 'independent', 'suite')
@@ -169,6 +170,21 @@ class Scene:
     object_margin: float | None = None
 
 
+class PlanInputs(Protocol):
+    """What takes a plan's answer (:func:`feed_plan`): :class:`~.assistance.Assistance`'s setters."""
+
+    def clarification(self) -> None: ...
+
+    def set_v(self, v: NDArray[np.float64], labels: Sequence[str]) -> None: ...
+
+    def set_grasp(self, base_T_grasp: NDArray[np.float64]) -> None: ...
+
+    def set_posterior(self, posterior: NDArray[np.float64], zone_labels: Sequence[str],
+                      task_names: Sequence[str]) -> None: ...
+
+    def set_task_set(self, task_set: int | None) -> None: ...
+
+
 class PlanStream:
     """The planner node's stream of plans on the simulated clock: warm-started, cached by (v, warm start).
 
@@ -241,6 +257,43 @@ def execute_grasp(arm: MockArm, base_T_grasp: NDArray[np.float64], now: float, p
         if on_step is not None:
             on_step(arm.q[:6].copy())
     return now
+
+
+def feed_plan(assistance: PlanInputs, model: GraspModel, v: NDArray[np.float64] | None,
+              grasp: Grasp | None) -> None:
+    """The planner's answer (v, grasp) to one w into ``assistance``, as the nodes deliver it.
+
+    v None (clarification asked): ``clarification()``. Else ``set_v``, then with a grasp ``set_grasp``,
+    ``set_posterior`` and ``set_task_set`` (the demonstration's set the grasp's features are nearest,
+    :func:`~.assistance.grasp_task_set`). ``assistance``: the one arm's :class:`~.assistance.Assistance`, or one
+    object's channel into the assistance over several objects (:class:`~.scene_assistance.ObjectChannel`).
+    """
+    if v is None:
+        assistance.clarification()
+        return
+    assistance.set_v(v, _LABELS)
+    if grasp is not None:
+        assistance.set_grasp(grasp.base_T_ee)
+        assistance.set_posterior(grasp.result.posterior, model.zone_labels, model.task_names)
+        assistance.set_task_set(grasp_task_set(grasp.result.x, model.demo_x, model.demo_sets, model.feature_scale))
+
+
+def close_hand(arm: MockArm, hand: NDArray[np.float64], closures: NDArray[np.float64], execute: Grasp | None,
+               now: float, period: float, closure_rng: np.random.Generator, closure_error: float,
+               on_step: Callable[[NDArray[np.float64]], object] | None = None
+               ) -> tuple[float, NDArray[np.float64], NDArray[np.float64], bool]:
+    """The grasp command: (the time, the hand's pose, the closures the fingers executed, whether a plan was executed).
+
+    With ``execute`` (a plan: grasp/execute, then grasp/close), the arm first moves to its grasp
+    (:func:`execute_grasp`, ``on_step`` after every step) and the fingers close to its closures; else they close to
+    ``closures`` where the hand is (``hand``, its pose now). Either closure gets the closure error
+    N(0, ``closure_error``^2) per finger from ``closure_rng`` (clipped to the limits by the arm).
+    """
+    executed = execute is not None
+    if execute is not None:
+        now = execute_grasp(arm, execute.base_T_ee, now, period, on_step)
+        closures, hand = execute.positions[6:], arm.kin.fk(arm.q[:6])
+    return now, hand, arm.close_fingers(closures + closure_rng.normal(0.0, closure_error, 3)), executed
 
 
 @dataclass
@@ -340,6 +393,13 @@ class Episode:
     in_at_closing: bool = False
 
 
+def swept_into(episode: Episode, sweep: PathSweep) -> None:
+    """``episode``'s sweep figures (``swept_palm`` ... ``in_at_closing``) from ``sweep``, closed at the hand's end."""
+    episode.swept_palm, episode.swept_finger, episode.swept = sweep.palm, sweep.finger, sweep.swept()
+    episode.closing_palm, episode.closing_finger = sweep.closing_palm, sweep.closing_finger
+    episode.in_at_closing = sweep.in_at_closing()
+
+
 def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator: ScriptedOperator,
              own_goals: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]], intent_rng: np.random.Generator,
              closure_rng: np.random.Generator, *, ada_goals: list[tuple[NDArray[np.float64], NDArray[np.float64]]],
@@ -377,7 +437,7 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
     limiter = TwistLimiter(0.2, 1.0, 1.0, 5.0, max_dt=2.0 * period)
     assistance = Assistance(AssistanceConfig(**{**base.__dict__, 'arbitration': rule}), limiter, kin)
     assistance.set_object(scene.base_T_obj, scene.model.body)  # the robot's perception: the tracked pose
-    ada = AdaAssistance([g for g, _ in ada_goals], limiter) if condition == 'ada' else None
+    ada = AdaAssistance([[g] for g, _ in ada_goals], limiter) if condition == 'ada' else None
     stream = PlanStream(scene, 'single' if condition == 'independent' else 'intent', plan_cache)
     arm = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0])
     reaction_ticks = max(int(round(operator.c.reaction / period)), 0)
@@ -406,19 +466,11 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
                     estimator.set_task_prior(intent.w(now, intent_rng))
                 w = estimator.w
             v, grasp = stream.plan(w)
-            if v is None:
-                assistance.clarification()
-            else:
-                assistance.set_v(v, _LABELS)
-                if grasp is not None:
-                    shown = grasp
-                    assistance.set_grasp(grasp.base_T_ee)
-                    if estimator is not None:
-                        estimator.set_proposal(grasp.base_T_ee)
-                    model = scene.model
-                    assistance.set_posterior(grasp.result.posterior, model.zone_labels, model.task_names)
-                    assistance.set_task_set(grasp_task_set(grasp.result.x, model.demo_x, model.demo_sets,
-                                                           model.feature_scale))
+            feed_plan(assistance, scene.model, v, grasp)
+            if v is not None and grasp is not None:
+                shown = grasp
+                if estimator is not None:
+                    estimator.set_proposal(grasp.base_T_ee)
             if trace is not None:
                 trace.append(TraceRow(now, w, v, assistance.task_set, None if shown is None else shown.base_T_ee,
                                       None if shown is None else shown.result.x, kin.fk(arm.q[:6]),
@@ -438,14 +490,11 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
             trace[-1].pursued = pursued
         if operator.at_goal(seen, goal):
             closures = own_closures if pursued == 'own' or shown_seen is None else shown_seen.positions[6:]
-            if executes_shown(pursued, execute and condition in ('suite', 'independent')) and shown is not None:
-                # grasp/execute: the newest plan
-                now = execute_grasp(arm, shown.base_T_ee, now, period, sweep.check)
-                closures, episode.executed = shown.positions[6:], True
-                hand_now = kin.fk(arm.q[:6])
-            executed = arm.close_fingers(closures + closure_rng.normal(0.0, closure_error, 3))
+            executes = executes_shown(pursued, execute and condition in ('suite', 'independent'))
+            now, episode.hand, episode.closures, episode.executed = close_hand(
+                arm, hand_now, closures, shown if executes else None, now, period, closure_rng, closure_error,
+                sweep.check)  # grasp/execute: the newest plan
             episode.closed_at, episode.pursued, episode.goal = now, pursued, goal
-            episode.hand, episode.closures = hand_now, executed
             break
         h = operator.twist(now, seen, goal)
         if estimator is not None:
@@ -471,9 +520,7 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
         arm.command_twist(TwistCommand(twist[:3], twist[3:], BASE_FRAME), now)
         arm.step(now + period, period)
     sweep.close(arm.q[:6])  # where the hand closed (or stood at the timeout)
-    episode.swept_palm, episode.swept_finger, episode.swept = sweep.palm, sweep.finger, sweep.swept()
-    episode.closing_palm, episode.closing_finger = sweep.closing_palm, sweep.closing_finger
-    episode.in_at_closing = sweep.in_at_closing()
+    swept_into(episode, sweep)
     episode.task_set = intent.task_set(tick * period)
     episode.alpha_mean = alpha_sum / max(tick, 1)
     episode.pulls = [(np.asarray(x), float(s)) for x, s in pull.values()]  # type: ignore[arg-type]

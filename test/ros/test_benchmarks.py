@@ -12,6 +12,7 @@ import argparse
 import importlib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 BENCHMARKS = Path(__file__).resolve().parents[2] / 'benchmarks'
@@ -68,3 +69,33 @@ def test_the_figures_per_ambiguous_case_pool_each_objects_operators_by_the_case_
         assert table['suite']['episodes'] == 4  # 2 episodes of the case x 2 operator models, not 2 (merged)
         assert table['suite']['success'] == (1.0 if k == 1 else 0.0) and table['direct']['success'] == 0.0
         assert table['suite-direct']['time_ratio'] == pytest.approx(0.5)
+
+
+def test_the_two_object_loop_judges_one_episode_under_each_condition() -> None:
+    scene = importlib.import_module('bench_shared_control_scene')
+    records = scene.run_scene_task(scene.SceneTask('spacemouse', 0, seed=0, repeats=1, timeout=15.0))
+    assert [r['condition'] for r in records] == list(scene.SCENE_CONDITIONS)
+    for record in records:
+        assert record['true_object'] in scene.SCENE_OBJECTS and 1 <= record['task_set'] <= 7
+        assert record['success'] <= record['serves'] <= record['closed']  # success: served, and no object swept
+        assert not (record['serves'] and record['wrong_object'])
+        assert record['success'] == (record['serves'] and not any(record['swept_objects'].values()))
+        (x0, y0), (x1, y1) = record['positions']
+        assert np.hypot(x0 - x1, y0 - y1) >= scene.GAP
+    by = {r['condition']: r for r in records}
+    assert by['direct']['alpha_mean'] == 0.0 and by['direct']['followed'] is None
+    assert by['ada']['followed'] is None and by['suite']['followed'] in scene.SCENE_OBJECTS
+    table = scene.summarise(records)
+    assert {f'{a}-{b}' for a, b in scene.PAIRS} <= set(table)
+
+
+def test_the_two_objects_are_drawn_apart_in_the_stated_region() -> None:
+    scene = importlib.import_module('bench_shared_control_scene')
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        poses = scene.draw_positions([0.11, 0.12], rng)
+        assert np.linalg.norm(poses[0][:3, 3] - poses[1][:3, 3]) >= 0.11 + 0.12 + scene.GAP
+        for pose in poses:
+            (x0, x1), (y0, y1) = scene.REGION
+            assert x0 <= pose[0, 3] <= x1 and y0 <= pose[1, 3] <= y1 and pose[2, 3] == 0.0
+            assert np.array_equal(pose[:3, :3], scene.BASE_T_OBJ[:3, :3])

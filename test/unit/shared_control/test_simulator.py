@@ -283,7 +283,7 @@ def test_the_trace_follows_the_loop_and_the_estimator_is_shown_each_plan(cup) ->
 def test_ada_s_goal_distribution_follows_the_operators_motion(cup) -> None:
     scene, grasps = cup
     goals = [g.base_T_ee for g in grasps.values()]
-    ada = AdaAssistance(goals, TwistLimiter(0.2, 1.0, 1.0, 5.0))
+    ada = AdaAssistance([[g] for g in goals], TwistLimiter(0.2, 1.0, 1.0, 5.0))
     hand = scene.kin.fk(HOME_Q)
     toward = pose_error(hand, goals[3])
     for _ in range(100):

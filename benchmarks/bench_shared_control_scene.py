@@ -1,0 +1,303 @@
+r"""Shared control over two objects, closed loop on a simulated clock: success on the true object at the reached grasp.
+
+Runs :func:`grasp_intent_ros.shared_control.scene_simulator.simulate_scene` (the nodes' own cores: each chain's
+interpreter and planner policy, the assistance over several objects, the mock arm) on a cup and a flashlight on
+the table, for the operator models x 4 conditions (direct, ADA as published over objects, the suite, the suite
+betting on the top object), on the same seeded episodes, faster than real time, and prints per operator model:
+success, wrong-object closes, median time to grasp, alpha on the wrong object, the runs that swept into an object,
+with paired differences and 95% bootstrap confidence intervals over episodes (bench_shared_control_sim.py's).
+docs/several_objects.md ("The simulated benchmark with two objects") gives the design.
+
+The episodes
+------------
+- The objects' poses (:func:`draw_positions`, per episode): both upright in their default orientation (half a
+  turn about z), each position (x, y) on the table (z = 0) uniform in [0.25, 0.35] x [-0.35, -0.05] m, redrawn
+  until the two are at least the sum of their bodies' reach (the bounding sphere of each body about its frame)
+  plus 2 cm apart: no overlap. In that region the pair ends up near opposite ends of the y range (about 0.26 to
+  0.32 m apart), either object the nearer one. The whole draw (poses
+  and the two views below) is repeated until the planner reaches the grasp for every certain task set on each
+  object both as the operator and as the tracker sees it (:func:`draw_objects`; the region's edges are not
+  everywhere reachable for every set).
+- Each object seen by the tracker with its error, as bench_shared_control_sim.py: position N(0, (5 mm)^2 / 3)
+  per axis, rotation vector N(0, (3 deg)^2 / 3) per axis (``--tracker-mm``, ``--tracker-deg``), drawn per object;
+  the operator sees each with its own error of the same size (``--operator-mm``, ``--operator-deg``).
+- The intent (:class:`~grasp_intent_ros.shared_control.scene_simulator.SceneIntent`, persistent): each object's
+  w^o held at the paper's case (episode i mod 5) with N(0, 0.05^2) noise per report, as the one-object persistent
+  script (each object's own true set drawn from it); P(o) held ambiguous: the favoured object uniform of the two,
+  its P ``--favoured`` (0.6), the other 1 - that, each report N(0, 0.05^2) per object, clipped to [0.02, 0.98],
+  renormalised; the true object drawn from the held P(o) (so it is the favoured one in 60% of the episodes), the
+  true set its w's draw.
+- The operator (``--operators``: ``joystick``, ``spacemouse``; the one-object benchmark's devices and constants)
+  reaches for the true object: its own grasp for the true set is the planner's for the certain w on that object
+  where it sees it; it follows that object's shown grasp when it lies on its way (the one-object rule); it never
+  reads a rule or which object the assistance follows.
+- The conditions (:data:`~grasp_intent_ros.shared_control.scene_simulator.SCENE_CONDITIONS`): ``direct`` (alpha 0),
+  ``ada`` (one goal per object, its targets the planner's grasps for the seven certain task sets on the tracked
+  object, the distribution over objects from the operator's motion, u + sum_o p(o) a_o), ``suite`` (the
+  assistance over several objects, P(o) from the script, the hysteresis's defaults), ``top_object`` (the suite's
+  assistance on the top object's grasp alone, chosen at the first report, never switching). Under the suite's
+  assistance a close on the shown grasp executes the followed object's newest plan (the simulator's docstring).
+- The planner: the node's defaults (:func:`~grasp_intent_ros.planning.options.node_default_options`), no
+  collision check, as bench_shared_control_sim.py's default.
+- Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
+  poses, the intent, its noise and the errors are the episode's).
+
+Judged here, after the episode, at the objects' true poses (nothing judged informs the planner, the assistance or
+the operator): **success** = the hand closed before the timeout on the true object with a grasp that serves the
+true task set by that object's rules with the executed closures
+(:func:`~grasp_intent_ros.objects.judge.judge_scene`: ``serves``), and the open hand's path, from the start until
+it closed, did not sweep into either object (:class:`~grasp_intent_ros.shared_control.sweep.PathSweep` per object,
+its true frame). Reported beside it: ``serves`` (the rules alone, the one-object benchmark's success), the
+**wrong-object closes** (the closed hand holds the other object: its rules give the grasp some task there), the
+time to grasp (the timeout for a run that never closed), the alpha-seconds on the wrong object (the assistance
+following the other object; ADA: its probability-seconds on the other object), the runs that swept.
+
+Statistics: per episode the mean over repeats; paired differences (:data:`PAIRS`) of success (points) and of
+the time (geometric mean ratio), 95% percentile bootstrap over episodes (10,000 resamples, seeded):
+bench_shared_control_sim.py's :func:`paired_difference`. Records (``--records F``): a JSON line per episode,
+its runs' records; ``--summarise F`` prints the figures of such a file.
+
+    .venv/bin/python benchmarks/bench_shared_control_scene.py [--episodes 50] [--repeats 3] [--jobs 2] \
+        [--operators joystick] [--conditions direct ada suite top_object] [--records runs.jsonl] \
+        [--summarise runs.jsonl]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from _bench import uptime
+from _bench.closed_loop import BASE_T_OBJ
+from bench_shared_control_sim import _mm, _options, _setup, paired_difference, per_episode, read_records, run_tasks
+
+from grasp_intent_ros.mico.grasp import Grasp
+from grasp_intent_ros.objects.judge import judge_scene
+from grasp_intent_ros.shared_control.operators import OperatorConstants, ScriptedOperator
+from grasp_intent_ros.shared_control.scene_simulator import (
+    SCENE_CONDITIONS,
+    SceneIntent,
+    SceneObject,
+    simulate_scene,
+)
+from grasp_intent_ros.shared_control.simulator import Scene, certain_grasps, perturb_pose
+
+SCENE_OBJECTS = ('cup', 'flashlight')
+"""The scene's objects, in the order of every per-object list (the models: _bench.closed_loop.OBJECTS)."""
+OPERATORS = ('joystick', 'spacemouse')
+REGION = ((0.25, 0.35), (-0.35, -0.05))
+"""Where each object's position (x, y, m) is drawn (:func:`draw_positions`)."""
+GAP = 0.02
+"""The least gap (m) between two objects' bounding spheres."""
+PAIRS = (('suite', 'direct'), ('suite', 'ada'), ('suite', 'top_object'))
+"""The paired differences reported (a minus b)."""
+
+
+def draw_positions(reaches: list[float], rng: np.random.Generator) -> list[np.ndarray]:
+    """Each object's true pose (4x4, base frame): :data:`BASE_T_OBJ`'s orientation, (x, y) uniform in :data:`REGION`.
+
+    Redrawn (the whole set) until every two objects' positions are at least their ``reaches`` summed plus
+    :data:`GAP` apart. Draws x then y per object, in order.
+    """
+    while True:
+        xy = [np.array([rng.uniform(*REGION[0]), rng.uniform(*REGION[1])]) for _ in reaches]
+        if all(np.linalg.norm(xy[i] - xy[j]) >= reaches[i] + reaches[j] + GAP
+               for i in range(len(xy)) for j in range(i)):
+            break
+    poses = []
+    for p in xy:
+        pose = BASE_T_OBJ.copy()
+        pose[:2, 3] = p
+        poses.append(pose)
+    return poses
+
+
+def draw_objects(models: list[Any], kin: Any, task: SceneTask, rng: np.random.Generator
+                 ) -> tuple[list[SceneObject], list[np.ndarray]]:
+    """The episode's objects (:data:`SCENE_OBJECTS`' order) and their true poses, drawn from ``rng``.
+
+    The true poses (:func:`draw_positions`), then per object the tracker's view and the operator's
+    (:func:`~grasp_intent_ros.shared_control.simulator.perturb_pose`); the whole draw is repeated until the planner
+    (the node's options) reaches the grasp for every certain task set on every object both as the operator sees it
+    (the operator's own grasps) and as the tracker sees it (ADA's targets).
+    """
+    options = _options(True)
+    while True:
+        true_poses = draw_positions([m.body.reach for m in models], rng)
+        objects = []
+        try:
+            for name, model, true_pose in zip(SCENE_OBJECTS, models, true_poses):
+                tracked = perturb_pose(true_pose, task.tracker_mm * 1e-3, math.radians(task.tracker_deg), rng)
+                seen = perturb_pose(true_pose, task.operator_mm * 1e-3, math.radians(task.operator_deg), rng)
+                own = {s: (g.base_T_ee, g.positions[6:]) for s, g in certain_grasps(model, seen, kin, options).items()}
+                ada = [g.base_T_ee for g in certain_grasps(model, tracked, kin, options).values()]
+                objects.append(SceneObject(name, Scene(model, true_pose, tracked, kin, options), own, ada))
+        except ValueError:  # a certain task set out of the arm's reach: the whole draw again
+            continue
+        return objects, true_poses
+
+
+@dataclass(frozen=True)
+class SceneTask:
+    """One episode: the operator model, its index, and the run's settings."""
+
+    operator: str
+    index: int
+    seed: int
+    repeats: int
+    timeout: float
+    tracker_mm: float = 5.0
+    tracker_deg: float = 3.0
+    operator_mm: float = 5.0
+    operator_deg: float = 3.0
+    favoured: float = 0.6
+    conditions: tuple[str, ...] = SCENE_CONDITIONS
+    execute: bool = True
+
+
+def run_settings(task: SceneTask) -> dict[str, Any]:
+    """The run's settings, which every record carries as ``run``."""
+    return {name: getattr(task, name) for name in ('seed', 'timeout', 'tracker_mm', 'tracker_deg', 'operator_mm',
+                                                   'operator_deg', 'favoured', 'execute')}
+
+
+def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
+    """Every repeat and condition of one episode: judged records."""
+    states = [_setup(name, True) for name in SCENE_OBJECTS]
+    kin = states[0]['kin']
+    models = [state['model'] for state in states]
+    setup_rng = np.random.default_rng([task.seed, OPERATORS.index(task.operator), task.index, 7])
+    intent = SceneIntent.draw(task.index, len(models), setup_rng, task.favoured)
+    objects, true_poses = draw_objects(models, kin, task, setup_rng)
+    caches: list[dict[bytes, Grasp | None]] = [{} for _ in objects]
+    true = intent.true_object
+    device = 'joystick' if task.operator == 'joystick' else 'spacemouse'
+    records = []
+    for repeat in range(task.repeats):
+        for condition in task.conditions:
+            intent_rng = np.random.default_rng([task.seed, task.index, 1, 7])  # the same reports in every run
+            op_rng = np.random.default_rng([task.seed, OPERATORS.index(task.operator), task.index, repeat, 2, 7])
+            closure_rng = np.random.default_rng([task.seed, task.index, repeat, 3, 7])
+            operator = ScriptedOperator(device, OperatorConstants(), op_rng)
+            t0 = time.perf_counter()
+            ep = simulate_scene(objects, condition, intent, operator, intent_rng, closure_rng,  # type: ignore[arg-type]
+                                plan_caches=caches, timeout=task.timeout, execute=task.execute)
+            verdict = None if ep.hand is None else judge_scene(
+                [(o.scene.model, o.scene.base_T_obj_true) for o in objects], true, ep.task_set, ep.hand,
+                ep.closures if ep.closures is not None else np.zeros(3))
+            serves = verdict is not None and verdict.serves
+            records.append({'operator': task.operator, 'episode': task.index, 'repeat': repeat,
+                            'condition': condition, 'true_object': SCENE_OBJECTS[true],
+                            'favoured': intent.probabilities[true] == max(intent.probabilities),
+                            'task_set': ep.task_set, 'success': bool(serves and not ep.swept), 'serves': bool(serves),
+                            'wrong_object': bool(verdict is not None and verdict.wrong_object),
+                            'closed': ep.closed_at is not None,
+                            'time': ep.closed_at if ep.closed_at is not None else task.timeout,
+                            'pursued': ep.pursued, 'executed': ep.executed, 'executed_object': ep.executed_object,
+                            'followed': ep.followed, 'switches': ep.switches,
+                            'wrong_object_alpha': ep.wrong_object_alpha, 'alpha_mean': ep.alpha_mean,
+                            'effort_linear': ep.effort_linear, 'swept': ep.swept,
+                            'swept_objects': dict(zip(SCENE_OBJECTS, ep.swept_objects)),
+                            'in_at_closing': ep.in_at_closing, 'swept_palm_mm': _mm(ep.swept_palm),
+                            'swept_finger_mm': _mm(ep.swept_finger),
+                            'positions': [[round(float(v), 4) for v in p[:2, 3]] for p in true_poses],
+                            'wall_s': time.perf_counter() - t0, 'run': run_settings(task)})
+    return records
+
+
+def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """The figures of one operator model's records (module docstring), by condition, and the paired differences."""
+    rng, rng_clear = np.random.default_rng(0), np.random.default_rng(1)
+    success, time_ = per_episode(records, 'success'), per_episode(records, 'time')
+    table: dict[str, Any] = {}
+    for c in [c for c in SCENE_CONDITIONS if c in success]:
+        runs = [r for r in records if r['condition'] == c]
+        eps = sorted(success[c])
+        table[c] = {'success': float(np.mean([success[c][e] for e in eps])),
+                    'serves': float(np.mean([r['serves'] for r in runs])),
+                    'success_favoured': _share(runs, 'success', True),
+                    'success_other': _share(runs, 'success', False),
+                    'wrong_object': [sum(r['wrong_object'] for r in runs), len(runs)],
+                    'median_time': float(np.median([r['time'] for r in runs])),
+                    'wrong_object_alpha': float(np.mean([r['wrong_object_alpha'] for r in runs])),
+                    'swept': [sum(r['swept'] for r in runs), len(runs)],
+                    'timeouts': sum(not r['closed'] for r in runs), 'episodes': len(eps)}
+    for a, b in [(a, b) for a, b in PAIRS if a in success and b in success]:
+        table[f'{a}-{b}'] = paired_difference({'success': success[a], 'time': time_[a]},
+                                              {'success': success[b], 'time': time_[b]}, rng, rng_clear)
+    return table
+
+
+def _share(runs: list[dict[str, Any]], key: str, favoured: bool) -> float | None:
+    """The mean of ``key`` over the runs whose true object was (not) the favoured one; None without such runs."""
+    chosen = [r[key] for r in runs if r['favoured'] == favoured]
+    return float(np.mean(chosen)) if chosen else None
+
+
+def report(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """Print and return each operator model's summary."""
+    out: dict[str, Any] = {}
+    repeats = 1 + max(r['repeat'] for r in records)
+    for op in [op for op in OPERATORS if any(r['operator'] == op for r in records)]:
+        table = summarise([r for r in records if r['operator'] == op])
+        out[op] = table
+        episodes = max(row['episodes'] for c, row in table.items() if c in SCENE_CONDITIONS)
+        print(f'\n[cup + flashlight / {op}] {episodes} episodes x {repeats} repeats')
+        for c in [c for c in SCENE_CONDITIONS if c in table]:
+            row = table[c]
+            split = ' / '.join('-' if s is None else f'{s:.3f}' for s in (row['success_favoured'],
+                                                                           row['success_other']))
+            print(f'  {c:10s} success {row["success"]:.3f} (true object favoured / not: {split})  serves '
+                  f'{row["serves"]:.3f}  wrong object {row["wrong_object"][0]}/{row["wrong_object"][1]}  median time '
+                  f'{row["median_time"]:5.2f} s  alpha on the wrong object {row["wrong_object_alpha"]:.3f} s  swept '
+                  f'{row["swept"][0]}/{row["swept"][1]}  timeouts {row["timeouts"]}')
+        for a, b in [(a, b) for a, b in PAIRS if f'{a}-{b}' in table]:
+            d = table[f'{a}-{b}']
+            print(f'  {a} - {b:10s} success {100 * d["success_diff"]:+5.1f} points [{100 * d["ci"][0]:+5.1f}, '
+                  f'{100 * d["ci"][1]:+5.1f}]  time ratio {d["time_ratio"]:.2f} [{d["time_ratio_ci"][0]:.2f}, '
+                  f'{d["time_ratio_ci"][1]:.2f}]')
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--episodes', type=int, default=50)
+    parser.add_argument('--repeats', type=int, default=3)
+    parser.add_argument('--operators', nargs='+', default=['joystick'], choices=list(OPERATORS))
+    parser.add_argument('--conditions', nargs='+', default=list(SCENE_CONDITIONS), choices=list(SCENE_CONDITIONS))
+    parser.add_argument('--timeout', type=float, default=25.0)
+    parser.add_argument('--tracker-mm', type=float, default=5.0)
+    parser.add_argument('--tracker-deg', type=float, default=3.0)
+    parser.add_argument('--operator-mm', type=float, default=5.0)
+    parser.add_argument('--operator-deg', type=float, default=3.0)
+    parser.add_argument('--favoured', type=float, default=0.6, help='the held P(o) of the favoured object')
+    parser.add_argument('--no-execute', action='store_true', help='the suite\'s grasp command closes the hand where '
+                        'it is instead of executing the followed object\'s plan')
+    parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--jobs', type=int, default=2)
+    parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
+    parser.add_argument('--summarise', metavar='JSONL', help='run nothing: summarise the records of a --records file')
+    args = parser.parse_args()
+    if not 0.5 <= args.favoured < 1.0:
+        parser.error('--favoured must be in [0.5, 1)')
+    if args.summarise:
+        report(read_records(args.summarise))
+        return
+    tasks = [SceneTask(op, i, args.seed, args.repeats, args.timeout, args.tracker_mm, args.tracker_deg,
+                       args.operator_mm, args.operator_deg, args.favoured,
+                       tuple(c for c in SCENE_CONDITIONS if c in args.conditions), not args.no_execute)
+             for i in range(args.episodes) for op in args.operators]
+    print(f'bench_shared_control_scene: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
+          f'conditions; {uptime()}', flush=True)
+    t0 = time.monotonic()
+    records = run_tasks(tasks, args.jobs, args.records, run_scene_task)
+    report(records)
+    print(f'\ndone in {time.monotonic() - t0:.0f} s; {uptime()}')
+
+
+if __name__ == '__main__':
+    main()

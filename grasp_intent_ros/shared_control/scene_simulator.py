@@ -1,0 +1,313 @@
+r"""The shared-control loop over several objects on a simulated clock (ROS-free): the two-object benchmark's episode.
+
+:func:`simulate_scene` is :func:`.simulator.simulate` with several objects on the table, built from its parts (the
+planner's stream per object :class:`~.simulator.PlanStream`, the plan fed as the nodes deliver it
+:func:`~.simulator.feed_plan`, the grasp command :func:`~.simulator.close_hand`, the sweep :mod:`.sweep`) and the
+assistance over several objects (:class:`~.scene_assistance.SceneAssistance`, the assistance node's core with
+``objects``). docs/several_objects.md ("The simulated benchmark with two objects") gives the design.
+
+Every ``period`` (0.01 s) the arm's joints go to the assistance, the operator's twist (seen ``reaction`` s late)
+is answered with one command, the arm follows it for one period. Every ``w_period`` (0.1 s) the intent script
+reports P(o) (the estimator's ``intent/objects``) and each object's w^o (its chain's ``intent/w``), in the
+objects' order; each chain interprets and plans its w^o at once on the object where the tracker sees it
+(:class:`~.simulator.PlanStream`) and its grasp is shown.
+
+The operator (:class:`~.operators.ScriptedOperator`) wants the *true object* (:attr:`SceneIntent.true_object`)
+and its true task set; it drives to that object's shown grasp when it is on its way (near its own grasp for the
+set on that object), else to its own grasp there, and closes the hand once it sees the hand at the goal. It
+never reads a rule, the judge or which object the assistance follows.
+
+Conditions (:data:`SCENE_CONDITIONS`)
+-------------------------------------
+- ``'direct'``: every chain plans and shows its grasp, alpha = 0.
+- ``'ada'``: ADA as published over objects (:class:`~.ada.AdaAssistance`): one goal per object whose targets are
+  its task-serving grasps (the caller's :attr:`SceneObject.ada_targets`: the planner's grasp for each certain task
+  set on the tracked object), the distribution over objects uniform at the start, updated from the operator's
+  twist, a goal's value its target of least cost, the command u + sum_o p(o) a_o. Nothing is shown.
+- ``'suite'``: the assistance over several objects: each chain's grasp, v, posterior and task set into its
+  channel, P(o) from the script, the follower's hysteresis (``follow_rule``; default
+  :class:`~.scene_target.FollowRule`'s).
+- ``'top_object'``: the foil "bet on the top object": the suite's assistance on the grasp of one object alone,
+  the most likely at the first report (the largest P(o) reported then, a tie to the first object), as if it were
+  the only object (P(o) = 1), never switching. Every chain still plans and shows its grasp.
+
+The grasp command. Under the suite's assistance (``'suite'``, ``'top_object'``) a close on the shown grasp
+executes the newest plan of the object *followed* (grasp/execute, then grasp/close: the mock arm closes to the
+followed object's plan, docs/several_objects.md), which is another object's grasp when the assistance follows
+another object than the operator's. Nothing followed yet, a close on the operator's own grasp, ``execute``
+False, or under ``'direct'`` and ``'ada'``: the fingers close where the hand is, to the closures of the goal
+pursued, as in the one-object loop.
+
+A scene of one object with P(o) = 1 (:meth:`SceneIntent.draw` with one object draws nothing for P(o)) runs the
+one-object episode under ``'direct'`` and ``'suite'`` to the last bit (the assistance over one object is the
+one-object assistance's, :mod:`.scene_assistance`): the same hand, closures, times, effort, alpha and sweeps from
+the same seeds (tested). Not under ``'ada'``: ADA over objects has one goal for the object (its seven targets,
+always p = 1), where the one-object ADA's goals are the seven grasps themselves.
+
+The simulation returns what happened, never a verdict (:class:`SceneEpisode`): where the hand closed and the
+closures executed, the object followed then, the assistance's weight on another object than the true one, and the
+open hand's sweep into *each* object's body in its true frame; the caller judges at each object's true pose.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..mico.grasp import Grasp
+from ..mico.kinematics import BASE_FRAME, HOME_Q
+from ..mico.mock_arm import MockArm, TwistCommand
+from .ada import AdaAssistance
+from .assistance import Assistance, AssistanceConfig, TwistLimiter
+from .operators import PersistentIntent, ScriptedOperator
+from .scene_assistance import SceneAssistance
+from .scene_target import FollowRule
+from .simulator import Episode, PlanStream, Scene, close_hand, executes_shown, feed_plan, swept_into
+from .sweep import SWEEP_TICKS, PathSweep
+
+__all__ = ['SceneCondition', 'SCENE_CONDITIONS', 'SceneIntent', 'SceneObject', 'SceneEpisode', 'simulate_scene']
+
+SceneCondition = Literal['direct', 'ada', 'suite', 'top_object']
+SCENE_CONDITIONS: tuple[SceneCondition, ...] = ('direct', 'ada', 'suite', 'top_object')
+
+
+@dataclass(frozen=True)
+class SceneIntent:
+    """What the operator wants among several objects, and what the intent sources report (persistent ambiguity).
+
+    Attributes
+    ----------
+    probabilities : tuple of float
+        The held P(o), one per object (the objects' order), summing to 1.
+    intents : tuple of PersistentIntent
+        Each object's w^o script (held at a case with noise) and its true set, one per object.
+    true_object : int
+        The index of the object the operator wants; its intent's true set is the operator's.
+    noise : float
+        The reported P(o)'s noise (module docstring of :meth:`object_probabilities`).
+    """
+
+    probabilities: tuple[float, ...]
+    intents: tuple[PersistentIntent, ...]
+    true_object: int
+    noise: float = 0.05
+
+    @classmethod
+    def draw(cls, index: int, n_objects: int, rng: np.random.Generator, favoured: float = 0.6) -> SceneIntent:
+        """Episode ``index``'s intent over ``n_objects`` objects, drawn from ``rng`` in this order.
+
+        Each object's w^o script: :meth:`PersistentIntent.draw` (``index``, so the paper's case ``index`` mod 5 for
+        every object, each true set drawn from it). With one object, nothing more: P(o) = (1,), the true object the
+        one (the one-object episode's draws exactly). With more: the favoured object uniform among them, its held
+        P(o) ``favoured``, the rest shared equally by the others; then the true object drawn from the held P(o).
+        """
+        intents = tuple(PersistentIntent.draw(index, rng) for _ in range(n_objects))
+        if n_objects == 1:
+            return cls((1.0,), intents, 0)
+        top = int(rng.integers(n_objects))
+        held = np.full(n_objects, (1.0 - favoured) / (n_objects - 1))
+        held[top] = favoured
+        return cls(tuple(held.tolist()), intents, int(rng.choice(n_objects, p=held)))
+
+    def task_set(self, t: float) -> int:
+        """The operator's true task set: the true object's intent's."""
+        return self.intents[self.true_object].task_set(t)
+
+    def object_probabilities(self, rng: np.random.Generator) -> NDArray[np.float64]:
+        """One report of P(o): the held P(o) with N(0, ``noise``^2) each, clipped to [0.02, 0.98], renormalised.
+
+        One object: exactly (1,), drawing nothing from ``rng``.
+        """
+        if len(self.probabilities) == 1:
+            return np.ones(1)
+        p = np.clip(np.asarray(self.probabilities) + rng.normal(0.0, self.noise, len(self.probabilities)), 0.02, 0.98)
+        out: NDArray[np.float64] = p / p.sum()
+        return out
+
+
+@dataclass(frozen=True)
+class SceneObject:
+    """One object of the scene: its name, its :class:`~.simulator.Scene`, the operator's grasps and ADA's targets.
+
+    ``own_goals``: the operator's own grasp per task set on this object (base_T_ee, closures), planned where the
+    operator sees it (without the rules); ``ada_targets``: the planner's grasps for the certain task sets on the
+    tracked object (ADA's targets of this object's goal).
+    """
+
+    name: str
+    scene: Scene
+    own_goals: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]]
+    ada_targets: list[NDArray[np.float64]]
+
+
+@dataclass
+class SceneEpisode(Episode):
+    """What one episode over several objects did (nothing judged): :class:`~.simulator.Episode`'s figures and these.
+
+    Attributes
+    ----------
+    true_object : int
+        The index of the object the operator wanted.
+    followed : str or None
+        The object the suite's assistance followed when the hand closed (or at the timeout); None under
+        ``'direct'`` and ``'ada'``, or before any was followed.
+    executed_object : str or None
+        The object whose plan the grasp command executed (None: nothing executed).
+    wrong_object_alpha : float
+        Alpha-seconds of assistance toward another object than the true one (ADA: its goal probabilities' seconds
+        on the other objects, its weight being 1).
+    switches : int
+        How many times the object the suite's assistance followed changed after the first (0 under ``'direct'``
+        and ``'ada'``).
+    swept_objects : tuple of bool
+        Per object (the scene's order), whether the open hand's path swept into its body (:class:`~.sweep.PathSweep`
+        in its true frame); the inherited ``swept`` is whether any did, ``swept_palm`` ... ``closing_finger`` the
+        deepest over the objects, ``in_at_closing`` whether the closing pose was in any.
+    """
+
+    true_object: int = 0
+    followed: str | None = None
+    executed_object: str | None = None
+    wrong_object_alpha: float = 0.0
+    switches: int = 0
+    swept_objects: tuple[bool, ...] = field(default_factory=tuple)
+
+
+def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, intent: SceneIntent,
+                   operator: ScriptedOperator, intent_rng: np.random.Generator, closure_rng: np.random.Generator, *,
+                   plan_caches: Sequence[dict[bytes, Grasp | None]], timeout: float = 25.0, period: float = 0.01,
+                   w_period: float = 0.1, closure_error: float = 0.05, config: AssistanceConfig | None = None,
+                   follow_rule: FollowRule | None = None, execute: bool = True) -> SceneEpisode:
+    """Run one episode over ``objects`` (module docstring); they share one :class:`~.mico.kinematics.MicoKinematics`.
+
+    ``intent`` has one entry per object, in their order. ``plan_caches``: one per object (each
+    :class:`~.simulator.PlanStream`'s; may be shared between runs of the same object and tracked pose).
+    ``intent_rng``: the reports' noise (per report: P(o), then each object's w^o in order); ``closure_rng``: the
+    closure error. ``config``: the assistance's settings (default: the node's), its ``arbitration`` set by the
+    condition. ``follow_rule``: the suite's hysteresis. ``execute``: whether the suite's grasp command executes the
+    followed object's plan (module docstring).
+    """
+    if len(intent.intents) != len(objects) or len(plan_caches) != len(objects):
+        raise ValueError(f'{len(objects)} objects need as many intents and plan caches')
+    names = [o.name for o in objects]
+    kin = objects[0].scene.kin
+    base = config or AssistanceConfig()
+    limiter = TwistLimiter(0.2, 1.0, 1.0, 5.0, max_dt=2.0 * period)
+    rule = 'none' if condition == 'direct' else 'confidence'
+    assistance = Assistance(AssistanceConfig(**{**base.__dict__, 'arbitration': rule}), limiter, kin)
+    scene_assistance: SceneAssistance | None = None
+    if condition in ('direct', 'suite'):
+        scene_assistance = _scene_assistance(assistance, objects, names, follow_rule)
+    ada = AdaAssistance([o.ada_targets for o in objects], limiter) if condition == 'ada' else None
+    streams = [PlanStream(o.scene, 'intent', cache) for o, cache in zip(objects, plan_caches)]
+    arm = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0])
+    true = intent.true_object
+    reaction_ticks = max(int(round(operator.c.reaction / period)), 0)
+    hands: deque[NDArray[np.float64]] = deque(maxlen=reaction_ticks + 1)
+    shown_history: deque[Grasp | None] = deque(maxlen=reaction_ticks + 1)
+    shown: list[Grasp | None] = [None] * len(objects)
+    episode = SceneEpisode(true_object=true)
+    alpha_sum = 0.0
+    w_every = max(int(round(w_period / period)), 1)
+    ticks = int(round(timeout / period))
+    tick = 0
+    sweeps = [PathSweep(kin, o.scene.model.body, o.scene.base_T_obj_true) for o in objects]  # the judge's
+
+    def check(q: NDArray[np.float64]) -> None:
+        for sweep in sweeps:
+            sweep.check(q)
+
+    for tick in range(ticks):
+        now = tick * period
+        if tick % SWEEP_TICKS == 0:
+            check(arm.q[:6])
+        if tick % w_every == 0:
+            p = intent.object_probabilities(intent_rng)
+            if condition == 'top_object' and scene_assistance is None:  # the bet, once, on the first report
+                top = int(np.argmax(p))
+                scene_assistance = _scene_assistance(assistance, [objects[top]], [names[top]], follow_rule)
+            elif scene_assistance is not None and condition == 'suite':
+                scene_assistance.set_probabilities(dict(zip(names, p.tolist())))
+            for k, obj in enumerate(objects):
+                v, grasp = streams[k].plan(intent.intents[k].w(now, intent_rng))
+                if scene_assistance is not None and names[k] in scene_assistance.objects:
+                    feed_plan(scene_assistance.channel(names[k]), obj.scene.model, v, grasp)
+                if v is not None and grasp is not None:
+                    shown[k] = grasp
+        q = arm.q[:6].copy()
+        assistance.set_joints(q)
+        assert assistance.base_T_ee is not None
+        hand_now = assistance.base_T_ee
+        hands.append(hand_now)
+        shown_history.append(shown[true])
+        seen, shown_seen = hands[0], shown_history[0]
+        own_pose, own_closures = objects[true].own_goals[intent.task_set(now)]
+        shown_pose = None if shown_seen is None or condition == 'ada' else shown_seen.base_T_ee  # on the screen
+        goal, pursued = operator.choose_goal(shown_pose, own_pose)
+        if operator.at_goal(seen, goal):
+            closures = own_closures if pursued == 'own' or shown_seen is None else shown_seen.positions[6:]
+            followed = None if scene_assistance is None else scene_assistance.followed
+            plan = None if followed is None else shown[names.index(followed)]
+            executes = executes_shown(pursued, execute and condition in ('suite', 'top_object')) and plan is not None
+            now, episode.hand, episode.closures, episode.executed = close_hand(
+                arm, hand_now, closures, plan if executes else None, now, period, closure_rng, closure_error, check)
+            episode.closed_at, episode.pursued, episode.goal = now, pursued, goal
+            episode.executed_object = followed if executes else None
+            break
+        h = operator.twist(now, seen, goal)
+        episode.effort_linear += float(np.linalg.norm(h[:3])) * period
+        episode.effort_angular += float(np.linalg.norm(h[3:])) * period
+        if ada is not None:
+            twist = ada.command(hand_now, h, period)
+            alpha_sum += 1.0
+            episode.wrong_object_alpha += float(1.0 - ada.distribution()[true]) * period
+        else:
+            assert scene_assistance is not None  # made at the first report, tick 0
+            before = scene_assistance.followed
+            scene_assistance.set_operator(h, now)
+            command = scene_assistance.command(now)
+            twist = command.twist
+            alpha_sum += command.alpha
+            if condition != 'direct' and before is not None and scene_assistance.followed != before:
+                episode.switches += 1
+            if scene_assistance.followed is not None and scene_assistance.followed != names[true]:
+                episode.wrong_object_alpha += command.alpha * period
+        arm.command_twist(TwistCommand(twist[:3], twist[3:], BASE_FRAME), now)
+        arm.step(now + period, period)
+    for sweep in sweeps:
+        sweep.close(arm.q[:6])  # where the hand closed (or stood at the timeout)
+    _sweep_figures(episode, sweeps)
+    episode.followed = None if scene_assistance is None or condition == 'direct' else scene_assistance.followed
+    episode.task_set = intent.task_set(tick * period)
+    episode.alpha_mean = alpha_sum / max(tick, 1)
+    return episode
+
+
+def _scene_assistance(assistance: Assistance, objects: Sequence[SceneObject], names: Sequence[str],
+                      follow_rule: FollowRule | None) -> SceneAssistance:
+    """The assistance over ``objects``, each object's tracked pose and body given (the robot's perception)."""
+    scene_assistance = SceneAssistance(assistance, names, follow_rule)
+    for obj, name in zip(objects, names):
+        scene_assistance.channel(name).set_object(obj.scene.base_T_obj, obj.scene.model.body)
+    return scene_assistance
+
+
+def _sweep_figures(episode: SceneEpisode, sweeps: Sequence[PathSweep]) -> None:
+    """Each object's sweep into ``episode``: per object whether swept, and the deepest over the objects."""
+    figures = []
+    for sweep in sweeps:
+        one = Episode()
+        swept_into(one, sweep)
+        figures.append(one)
+    episode.swept_objects = tuple(f.swept for f in figures)
+    episode.swept = any(episode.swept_objects)
+    episode.in_at_closing = any(f.in_at_closing for f in figures)
+    episode.swept_palm = max(f.swept_palm for f in figures)
+    episode.swept_finger = max(f.swept_finger for f in figures)
+    episode.closing_palm = max(f.closing_palm for f in figures)
+    episode.closing_finger = max(f.closing_finger for f in figures)

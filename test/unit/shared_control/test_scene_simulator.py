@@ -1,0 +1,142 @@
+"""grasp_intent_ros.shared_control.scene_simulator: the simulated loop over several objects, its intent and judge."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grasp_intent_ros.method.registry import ModelFiles
+from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.grasp import Grasp
+from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
+from grasp_intent_ros.objects.judge import judge, judge_scene
+from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.shared_control.ada import AdaAssistance
+from grasp_intent_ros.shared_control.assistance import TwistLimiter, pose_error
+from grasp_intent_ros.shared_control.operators import OperatorConstants, PersistentIntent, ScriptedOperator
+from grasp_intent_ros.shared_control.scene_simulator import SceneIntent, SceneObject, simulate_scene
+from grasp_intent_ros.shared_control.simulator import Scene, certain_grasps, simulate
+
+CUP_AT = pose_to_matrix((0.3, -0.33, 0.0), (0.0, 0.0, 1.0, 0.0))
+FLASHLIGHT_AT = pose_to_matrix((0.3, -0.06, 0.0), (0.0, 0.0, 1.0, 0.0))
+H = 4
+
+
+@pytest.fixture(scope='module')
+def scene() -> list[SceneObject]:
+    """The cup and the flashlight 0.27 m apart, each seen exactly (tracker and operator)."""
+    kin = MicoKinematics()
+    models = ModelFiles(config_dir() / 'models')
+    objects = []
+    for name, model_name, at in (('cup', 'cup_7zone', CUP_AT), ('flashlight', 'flashlight_7zone', FLASHLIGHT_AT)):
+        model = models.load(model_name)
+        grasps = certain_grasps(model, at, kin)
+        objects.append(SceneObject(name, Scene(model, at, at, kin), {s: (g.base_T_ee, g.positions[6:])
+                                                                     for s, g in grasps.items()},
+                                   [g.base_T_ee for g in grasps.values()]))
+    return objects
+
+
+def test_the_true_object_is_drawn_from_the_held_p_o_and_its_intent_gives_the_true_set() -> None:
+    for favoured in (0.6, 0.9):
+        draws = [SceneIntent.draw(i, 2, np.random.default_rng(i), favoured) for i in range(2000)]
+        top = [int(np.argmax(d.probabilities)) for d in draws]
+        assert np.mean(top) == pytest.approx(0.5, abs=0.04)  # the favoured object uniform of the two
+        assert all(sorted(d.probabilities) == pytest.approx([1.0 - favoured, favoured]) for d in draws)
+        on_top = np.mean([d.true_object == t for d, t in zip(draws, top)])
+        assert on_top == pytest.approx(favoured, abs=0.03)  # the true object drawn from P(o)
+        assert all(d.task_set(0.0) == d.intents[d.true_object].true_set for d in draws)
+        assert all(d.intents[0].case == d.intents[1].case for d in draws)  # the paper's case i mod 5, each object
+    rng = np.random.default_rng(3)
+    reports = np.array([draws[0].object_probabilities(rng) for _ in range(500)])
+    assert np.allclose(reports.sum(axis=1), 1.0)
+    assert reports.mean(axis=0) == pytest.approx(draws[0].probabilities, abs=0.01)  # centred on the held P(o)
+    assert 0.01 < reports.std(axis=0)[0] < 0.1
+
+
+def test_one_object_draws_the_one_object_intent_and_reports_p_o_one_drawing_nothing() -> None:
+    one, rng = SceneIntent.draw(7, 1, np.random.default_rng(5)), np.random.default_rng(5)
+    assert one.intents == (PersistentIntent.draw(7, rng),) and one.probabilities == (1.0,) and one.true_object == 0
+    report_rng, untouched = np.random.default_rng(9), np.random.default_rng(9)
+    assert one.object_probabilities(report_rng).tolist() == [1.0]
+    assert report_rng.uniform() == untouched.uniform()
+
+
+def test_the_judge_fails_a_close_on_the_wrong_object_even_when_it_serves_the_task_there(scene) -> None:
+    cup, flashlight = scene
+    placed = [(o.scene.model, o.scene.base_T_obj_true) for o in scene]
+    hand, closures = cup.own_goals[H]  # the cup's handover grasp: the flashlight's rules give it handover too
+    assert judge(flashlight.scene.model, FLASHLIGHT_AT, hand, closures).serves(H)
+    wrong = judge_scene(placed, 1, H, hand, closures)  # the operator wanted the flashlight
+    assert wrong.at == 0 and wrong.wrong_object and not wrong.serves
+    right = judge_scene(placed, 0, H, hand, closures)  # the same grasp, the cup wanted
+    assert right.serves and not right.wrong_object
+    hand, closures = flashlight.own_goals[H]
+    assert judge_scene(placed, 1, H, hand, closures).serves and judge_scene(placed, 0, H, hand, closures).wrong_object
+
+
+@pytest.mark.parametrize(('condition', 'device'), [('suite', 'spacemouse'), ('suite', 'joystick'),
+                                                   ('direct', 'joystick')])
+def test_one_object_with_p_o_one_is_the_one_object_episode_bit_for_bit(scene, condition, device) -> None:
+    cup = scene[0]
+    one = SceneIntent.draw(0, 1, np.random.default_rng(11))
+    intent = one.intents[0]
+    episodes = []
+    for run in ('scene', 'one'):
+        operator = ScriptedOperator(device, OperatorConstants(), np.random.default_rng(3))
+        intent_rng, closure_rng = np.random.default_rng(4), np.random.default_rng(5)
+        if run == 'scene':
+            episodes.append(simulate_scene([cup], condition, one, operator, intent_rng, closure_rng,
+                                           plan_caches=[{}], timeout=15.0))
+        else:
+            cache: dict[bytes, Grasp | None] = {}
+            episodes.append(simulate(cup.scene, condition, intent, operator, cup.own_goals, intent_rng, closure_rng,
+                                     ada_goals=[], plan_cache=cache, timeout=15.0))
+    scene_ep, one_ep = episodes
+    assert one_ep.closed_at is not None and scene_ep.closed_at == one_ep.closed_at
+    assert one_ep.hand is not None and scene_ep.hand is not None and np.array_equal(scene_ep.hand, one_ep.hand)
+    assert one_ep.closures is not None and scene_ep.closures is not None
+    assert np.array_equal(scene_ep.closures, one_ep.closures)
+    for name in ('alpha_mean', 'effort_linear', 'effort_angular', 'executed', 'pursued', 'task_set', 'swept',
+                 'swept_palm', 'swept_finger', 'closing_palm', 'closing_finger', 'in_at_closing'):
+        assert getattr(scene_ep, name) == getattr(one_ep, name), name
+    assert scene_ep.wrong_object_alpha == 0.0 and scene_ep.switches == 0
+    assert scene_ep.followed == ('cup' if condition == 'suite' else None)
+
+
+def test_the_suite_follows_the_less_likely_object_the_operator_reaches_and_top_object_never_switches(scene) -> None:
+    intent = SceneIntent((0.6, 0.4), (PersistentIntent((0.9, 0.9, 0.1), 3), PersistentIntent((0.9, 0.9, 0.1), 3)),
+                         true_object=1)  # the flashlight wanted, the cup more likely
+    runs = {}
+    for condition in ('suite', 'top_object'):
+        operator = ScriptedOperator('spacemouse', OperatorConstants(), np.random.default_rng(3))
+        runs[condition] = simulate_scene(scene, condition, intent, operator, np.random.default_rng(4),
+                                         np.random.default_rng(5), plan_caches=[{}, {}], timeout=20.0)
+    suite, top = runs['suite'], runs['top_object']
+    assert suite.followed == 'flashlight' and suite.executed_object == 'flashlight'
+    assert suite.wrong_object_alpha < top.wrong_object_alpha
+    assert top.followed == 'cup' and top.switches == 0  # the bet on the first report's top object, held
+    placed = [(o.scene.model, o.scene.base_T_obj_true) for o in scene]
+    assert suite.hand is not None and suite.closures is not None
+    assert judge_scene(placed, 1, 3, suite.hand, suite.closures).serves
+
+
+def test_ada_over_objects_takes_each_goals_target_of_least_value(scene) -> None:
+    cup, flashlight = scene
+    hand = cup.scene.kin.fk(HOME_Q)
+    near = min(cup.ada_targets, key=lambda t: float(np.linalg.norm(t[:3, 3] - hand[:3, 3])))
+    far = max(cup.ada_targets, key=lambda t: float(np.linalg.norm(t[:3, 3] - hand[:3, 3])))
+    u = np.r_[0.05, 0.0, 0.0, 0.0, 0.0, 0.0]
+    both = AdaAssistance([[far, near]], TwistLimiter(0.2, 1.0, 1.0, 5.0)).command(hand, u, 0.01)
+    alone = AdaAssistance([[near]], TwistLimiter(0.2, 1.0, 1.0, 5.0)).command(hand, u, 0.01)
+    assert np.array_equal(both, alone) and not np.array_equal(both, AdaAssistance(
+        [[far]], TwistLimiter(0.2, 1.0, 1.0, 5.0)).command(hand, u, 0.01))
+    # the distribution over objects moves to the object the operator heads for
+    ada = AdaAssistance([cup.ada_targets, flashlight.ada_targets], TwistLimiter(0.2, 1.0, 1.0, 5.0))
+    toward = pose_error(hand, flashlight.ada_targets[0])[:3]
+    for _ in range(100):
+        ada.command(hand, np.r_[0.1 * toward / np.linalg.norm(toward), 0.0, 0.0, 0.0], 0.01)
+    p = ada.distribution()
+    assert p.sum() == pytest.approx(1.0) and p[1] > 0.6  # from 0.5, the hand held still
+    with pytest.raises(ValueError):
+        AdaAssistance([[near], []], TwistLimiter(0.2, 1.0, 1.0, 5.0))
