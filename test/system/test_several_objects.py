@@ -266,8 +266,11 @@ def test_a_scripted_operator_reaching_for_the_cup_is_followed_and_the_hand_close
                     if '[scripted_operator]' in line and 'grasp/execute: following' in line]
         assert all("(cup's plan)" in line for line in executes), executes
         executed = [float(c) for c in re.findall(r'-?\d+\.\d+', message.split('closing to')[1].split(' rad')[0])]
-        plan = list(plans['cup'][-1].position)[-3:]  # the fingers, last in the planner's joint targets
-        assert all(abs(e - p) < 0.25 for e, p in zip(executed, plan, strict=True)), (executed, plan)  # 5 sigma
+        # the fingers, last in the planner's joint targets: a cup plan within 5 sigma of the closure error (the
+        # planner may plan again after the close, on the estimator's newer w: not necessarily the last plan)
+        fingers = [list(m.position)[-3:] for m in plans['cup']]
+        assert any(all(abs(e - p) < 0.25 for e, p in zip(executed, plan, strict=True)) for plan in fingers), \
+            (executed, fingers[-3:])
         assert ros.wait_for(lambda: all(abs(q - e) < 1e-3 for q, e in zip(list(states[-1].position)[-3:], executed,
                                                                          strict=True)), ANSWER)
         # P(cup) while both objects are in the estimate (an object whose goals are not ready is not): up from the
