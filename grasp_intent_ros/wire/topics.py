@@ -34,7 +34,7 @@ __all__ = [
     'GRASP_POSTERIOR', 'GRASP_FEATURES', 'GRASP_MARKERS', 'OPERATOR_TWIST', 'OPERATOR_GRASP_TASKS', 'ASSISTANCE_TWIST',
     'ASSISTANCE_ALPHA', 'ASSISTANCE_OBJECT', 'ARM_TRAJECTORY_COMMAND', 'ARM_TWIST_COMMAND', 'DIAGNOSTICS',
     'ASSISTANCE_ENABLE',
-    'MSGTYPES', 'TOPIC_FOLDERS', 'MODEL_LATCHED_TOPICS', 'LATCHED_TOPICS', 'SHARED_CONTROL_TOPICS', 'INPUT_TOPICS',
+    'MSGTYPES', 'TOPIC_FOLDERS', 'MODEL_LATCHED_TOPICS', 'LATCHED_TOPICS', 'INPUT_TOPICS',
     'PLAN_TOPICS',
     'OUTPUT_TOPICS', 'MAX_FEATURES', 'MAX_NAME_LENGTH', 'MAX_JOINTS', 'MAX_MESSAGE_BYTES', 'check_message_size',
     'check_names', 'OBJECT_NAME', 'object_name_problem', 'check_object_names',
@@ -167,10 +167,6 @@ def check_object_names(names: Sequence[str]) -> None:
     if problems:
         raise GraspIntentError('; '.join(problems))
 
-
-SHARED_CONTROL_TOPICS: Final = (OPERATOR_TWIST, ASSISTANCE_TWIST, ASSISTANCE_ALPHA, ASSISTANCE_OBJECT)
-"""The shared-control loop's topics (the assistance node's input and outputs; ``assistance/object`` over several
-objects only), recorded with the suite's (``--topics operator/ assistance/``)."""
 
 # ------------------------------------------------------------------------------------------ input caps
 MAX_NAME_LENGTH: Final = 256
