@@ -7,6 +7,7 @@ Only the recorder processes started here are ever signalled, by PID.
 
 from __future__ import annotations
 
+import re
 import resource
 import signal
 import subprocess
@@ -238,11 +239,13 @@ def recorder_status(statuses: list) -> tuple[int, str, dict[str, str]]:
 @pytest.mark.parametrize('publishers', [1, 2])
 def test_a_recorder_left_behind_reports_the_messages_its_queue_dropped_per_topic(ros, start_recorder, tmp_path,
                                                                                    publishers: int) -> None:
-    """A recorder stopped (SIGSTOP) while 200 messages come, its queue 20 deep: it writes the newest 20 and says so.
+    """A recorder stopped (SIGSTOP) during 200 messages, its queue 20 deep: it keeps the newest 20 (or more), says so.
 
     The queue (keep-last) drops the oldest without a middleware event; the recorder counts the publisher's sequence
-    numbers it never took: a WARN naming the topic, its diagnostics (per topic) and its exit summary. With a second
-    publisher of the topic (silent here) the numbers cannot be told apart: the full queue is reported, uncounted.
+    numbers it never took: a WARN naming the topic, its diagnostics (per topic) and its exit summary. How many more
+    than the newest 20 it takes as it resumes is the middleware's (the reliable writer still holds them): every one
+    not in the bag is counted. With a second publisher of the topic (silent here) the numbers cannot be told apart:
+    the full queue is reported, uncounted.
     """
     burst, depth = 200, 20
     w_pub = ros.publisher(Float64MultiArray, W, DEEP_RELIABLE)
@@ -260,16 +263,24 @@ def test_a_recorder_left_behind_reports_the_messages_its_queue_dropped_per_topic
         assert ros.wait_for(lambda: len(sent) == burst, timeout=20.0)
     finally:
         proc.popen.send_signal(signal.SIGCONT)
-    key, count = (f'lost {W}', burst - depth) if not others else (f'queue full {W}', 1)
-    assert ros.wait_for(lambda: recorder_status(statuses)[2].get(key) == str(count),
+    key = f'lost {W}' if not others else f'queue full {W}'
+    assert ros.wait_for(lambda: int(recorder_status(statuses)[2].get(key, '0')) > 0,
                         timeout=STARTUP), (recorder_status(statuses), proc.output())
     level, message, values = recorder_status(statuses)
-    assert level == 1 and W in message and values['messages lost'] == str(count if not others else 0), values
+    assert level == 1 and W in message, (level, message)
+    assert others or int(values['messages lost']) > 0, values
+    assert not others or values['messages lost'] == '0', values
     assert proc.stop(signal.SIGINT) == 0, proc.output()
     stdout, stderr = proc.output()
     summary = stdout.strip().splitlines()[-1]
-    assert f'{W} {1 + depth})' in summary, summary
-    assert (f'LOST {count}: {W} {count}' if not others else f'queue full, losses not counted: {W} 1 time') in summary, \
-        summary
+    recorded = [int(m.decode().data[0]) for m in read_messages(bag, topics=[W])]
+    kept = recorded[1:]  # after the one taken before the stall
+    assert recorded[0] == -1 and kept[-depth:] == list(range(burst - depth, burst)), recorded
+    assert kept == sorted(set(kept)) and set(kept) <= set(range(burst)), recorded
+    assert f'{W} {len(recorded)})' in summary, summary
+    if others:
+        assert re.search(rf'queue full, losses not counted: {re.escape(W)} \d+ times?', summary), summary
+    else:
+        lost = burst - len(kept)
+        assert f'LOST {lost}: {W} {lost}' in summary, summary
     assert W in stderr and 'lost' in stderr, stderr
-    assert [int(m.decode().data[0]) for m in read_messages(bag, topics=[W])] == [-1, *range(burst - depth, burst)]
