@@ -40,8 +40,26 @@ Twists (a servo's input)
 with damping only near a singularity (Chiaverini's rule: :math:`\sigma_{min}` the smallest singular
 value of J, :math:`\epsilon` the threshold), so that the twist is tracked exactly elsewhere; unique
 for :math:`\lambda > 0` and for a full-rank J. The answer is then scaled as a whole (the direction kept)
-so that no joint exceeds its velocity limit. :class:`MockArm` integrates it for one step and clips the
-positions to the limits.
+so that no joint exceeds its velocity limit. :class:`MockArm` integrates it for one step and keeps the positions
+within the limits by its ``twist_joint_limit`` rule (:data:`TWIST_JOINT_LIMITS`):
+
+- ``'clip'`` (the default): each joint clipped to its limits on its own. A joint at its limit stops while the
+  others go on, so the hand leaves the commanded direction (it may move against it).
+- ``'stop'``: the arm's step scaled as a whole to stop where the first joint reaches its limit
+  (:func:`joint_limit_scale`), so the hand keeps the commanded direction and halts when a joint at its limit is
+  driven further out; a command that moves that joint inward moves the arm again. This is MoveIt Servo's rule
+  for twists (Jazzy, ``moveit_servo``: ``jointVariablesToHalt`` in ``src/utils/common.cpp`` finds the joints whose
+  next position passes a limit less ``joint_limit_margins`` while moving outward, and ``Servo::haltJoints`` in
+  ``src/servo.cpp`` then holds *every* joint at its current position, ``halt_all_joints_in_cartesian_mode``
+  being true by default), with a margin of 0 and the last part of the step taken: the mock's state is its
+  commanded position (no tracking error or overshoot for a margin to absorb), its limits are the ones the
+  planner's IK and :func:`check_trajectory` use, and the arm stops at the limit whatever the step length
+  ``dt`` (Servo's halt stops up to one step short, by a distance that depends on its period).
+
+Joint trajectories are not affected by the rule: their steps are clipped per joint (a trajectory within the
+limits only leaves them where a cubic or quintic segment overshoots between two points, and there each joint
+stops at its limit, as ros2_control's position limits would hold it). The fingers are clipped per finger under
+either rule.
 
 State and steps
 ---------------
@@ -67,11 +85,18 @@ from .frames import check_vector
 from .grasp import JOINT_NAMES
 from .kinematics import BASE_FRAME, EE_FRAME, MicoKinematics
 
-__all__ = ['FINGER_VELOCITY_LIMIT', 'TrajectoryCommand', 'TrajectoryExecution', 'check_trajectory',
-           'dls_joint_velocities', 'TwistCommand', 'check_twist', 'MockArm']
+__all__ = ['FINGER_VELOCITY_LIMIT', 'TWIST_JOINT_LIMITS', 'JOINT_LIMIT_TOLERANCE', 'TrajectoryCommand',
+           'TrajectoryExecution', 'check_trajectory', 'dls_joint_velocities', 'joint_limit_scale', 'TwistCommand',
+           'check_twist', 'MockArm']
 
 FINGER_VELOCITY_LIMIT = 1.0
 """Finger joint speed limit (rad/s), the URDF's."""
+TWIST_JOINT_LIMITS = ('clip', 'stop')
+"""What a twist's step does at a joint limit (module docstring): each joint clipped, or the arm stopped as a whole."""
+JOINT_LIMIT_TOLERANCE = 1e-9
+"""rad: a joint stops the arm (:func:`joint_limit_scale`) only when the step would take it more than this past
+its limit. Far above the rounding of a joint angle or of a DLS step (about 1e-15 rad), far below any motion
+that matters (1 nm at 1 m), so that which joints stop the arm is never decided by a last bit."""
 
 
 @dataclass(frozen=True)
@@ -301,6 +326,40 @@ def dls_joint_velocities(jacobian: NDArray[np.float64], twist: NDArray[np.float6
     return unit / peak if peak * size > 1.0 else unit * size
 
 
+def joint_limit_scale(q: NDArray[np.float64], step: NDArray[np.float64], lower: NDArray[np.float64],
+                      upper: NDArray[np.float64], *, tolerance: float = JOINT_LIMIT_TOLERANCE) -> float:
+    """The share s of ``step`` the arm takes so that no joint passes its limit: the ``'stop'`` rule's scale.
+
+    ``s = min(1, min_i (limit_i - q_i) / step_i)`` over the joints i whose full step would end more than
+    ``tolerance`` past their limit (``q_i + step_i > upper_i + tolerance``, or below ``lower_i - tolerance``),
+    ``limit_i`` the limit passed. That is the largest s in [0, 1] for which ``q + s step`` is within the limits
+    widened by ``tolerance``, i.e. the point of the segment from ``q`` to ``q + step`` nearest the full step that
+    the limits allow: the step's direction is kept (so the hand's, to first order), its length shortened. Ties:
+    a joint exactly at its limit stops the arm (s = 0) when its step leads outward by more than ``tolerance``;
+    one moving inward, not at all, or outward by at most ``tolerance`` does not (the caller then clips that joint
+    back to the limit, a motion of at most ``tolerance``). Of several joints the first to reach its limit sets s.
+
+    Parameters
+    ----------
+    q : ndarray, shape (n,)
+        Positions (rad), within ``[lower, upper]``.
+    step : ndarray, shape (n,)
+        The full step (rad).
+    lower, upper : ndarray, shape (n,)
+        Position limits (rad).
+    tolerance : float
+        (>= 0, rad) :data:`JOINT_LIMIT_TOLERANCE`.
+
+    Returns
+    -------
+    float
+        s in [0, 1]; 1 when no joint would pass its limit by more than ``tolerance``.
+    """
+    high, low = q + step > upper + tolerance, q + step < lower - tolerance
+    shares = np.concatenate([(upper[high] - q[high]) / step[high], (lower[low] - q[low]) / step[low]])
+    return float(np.clip(shares.min(), 0.0, 1.0)) if shares.size else 1.0
+
+
 @dataclass(frozen=True)
 class TwistCommand:
     """An EE twist command: linear (m/s) and angular (rad/s) velocity, shape (3,) each, in ``frame``."""
@@ -357,17 +416,26 @@ class MockArm:
         A twist older than this (s) stops the arm (MoveIt Servo's ``incoming_command_timeout``).
     finger_velocity_limit : float
         rad/s.
+    twist_joint_limit : str
+        One of :data:`TWIST_JOINT_LIMITS`: what a twist's step does at a joint limit (module docstring), ``'clip'``
+        each joint on its own, ``'stop'`` the arm as a whole (:func:`joint_limit_scale`).
 
     Raises
     ------
     KinematicsError
         For a ``q0`` of the wrong shape, not finite, or outside the limits.
+    ValueError
+        For a ``twist_joint_limit`` not in :data:`TWIST_JOINT_LIMITS`.
     """
 
     joint_names: tuple[str, ...] = JOINT_NAMES
 
     def __init__(self, kin: MicoKinematics, q0: ArrayLike, *, damping: float = 0.05, singular_threshold: float = 0.05,
-                 command_timeout: float = 0.1, finger_velocity_limit: float = FINGER_VELOCITY_LIMIT) -> None:
+                 command_timeout: float = 0.1, finger_velocity_limit: float = FINGER_VELOCITY_LIMIT,
+                 twist_joint_limit: str = 'clip') -> None:
+        if twist_joint_limit not in TWIST_JOINT_LIMITS:
+            raise ValueError(f'twist_joint_limit must be one of {TWIST_JOINT_LIMITS}, got {twist_joint_limit!r}')
+        self.twist_joint_limit = twist_joint_limit
         self.kin = kin
         self.lower = np.concatenate([kin.lower, MICO_3F.lower[FINGERS]])
         self.upper = np.concatenate([kin.upper, MICO_3F.upper[FINGERS]])
@@ -429,7 +497,11 @@ class MockArm:
         self._trajectory = None
 
     def step(self, now: float, dt: float) -> None:
-        """Advance the state by ``dt`` (s) to time ``now`` (s) under the active command."""
+        """Advance the state by ``dt`` (s) to time ``now`` (s) under the active command, within the position limits.
+
+        A twist's step is kept within them by ``twist_joint_limit`` (module docstring), a trajectory's and the
+        fingers' by clipping each joint.
+        """
         if dt <= 0.0:
             return
         if self._trajectory is not None:
@@ -446,6 +518,8 @@ class MockArm:
             step = np.zeros_like(self.q)
             step[:6] = dls_joint_velocities(self.kin.jacobian(self.q[:6]), xi, self.damping,
                                             self.velocity_limits[:6], threshold=self.singular_threshold) * dt
+            if self.twist_joint_limit == 'stop':
+                step[:6] *= joint_limit_scale(self.q[:6], step[:6], self.lower[:6], self.upper[:6])
         else:
             step = np.zeros_like(self.q)
         if self._fingers is not None:
