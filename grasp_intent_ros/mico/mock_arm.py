@@ -332,12 +332,13 @@ def joint_limit_scale(q: NDArray[np.float64], step: NDArray[np.float64], lower: 
 
     ``s = min(1, min_i (limit_i - q_i) / step_i)`` over the joints i whose full step would end more than
     ``tolerance`` past their limit (``q_i + step_i > upper_i + tolerance``, or below ``lower_i - tolerance``),
-    ``limit_i`` the limit passed. That is the largest s in [0, 1] for which ``q + s step`` is within the limits
-    widened by ``tolerance``, i.e. the point of the segment from ``q`` to ``q + step`` nearest the full step that
-    the limits allow: the step's direction is kept (so the hand's, to first order), its length shortened. Ties:
-    a joint exactly at its limit stops the arm (s = 0) when its step leads outward by more than ``tolerance``;
-    one moving inward, not at all, or outward by at most ``tolerance`` does not (the caller then clips that joint
-    back to the limit, a motion of at most ``tolerance``). Of several joints the first to reach its limit sets s.
+    ``limit_i`` the limit passed. That is the largest s in [0, 1] (so ``q + s step`` the point of the segment from
+    ``q`` to ``q + step`` nearest the full step) for which each of those joints ends within its limits, every other
+    joint ending within ``tolerance`` of them: the step's direction is kept (so the hand's, to first order), its
+    length shortened. Ties: a joint exactly at its limit stops the arm (s = 0) when its step leads outward by more
+    than ``tolerance``; one moving inward, not at all, or outward by at most ``tolerance`` does not (the caller then
+    clips that joint back to the limit, a motion of at most ``tolerance``). Of several joints the first to reach its
+    limit sets s.
 
     Parameters
     ----------
