@@ -404,10 +404,9 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
              own_goals: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]], intent_rng: np.random.Generator,
              closure_rng: np.random.Generator, *, ada_goals: list[tuple[NDArray[np.float64], NDArray[np.float64]]],
              plan_cache: dict[bytes, Grasp | None], timeout: float = 25.0, period: float = 0.01,
-             w_period: float = 0.1, closure_error: float = 0.05,
-             config: AssistanceConfig | None = None, estimator: IntentEstimator | None = None,
-             classifier_prior: bool = False, execute: bool = True, trace: list[TraceRow] | None = None,
-             twist_joint_limit: str = 'clip') -> Episode:
+             w_period: float = 0.1, closure_error: float = 0.05, config: AssistanceConfig | None = None,
+             estimator: IntentEstimator | None = None, classifier_prior: bool = False, execute: bool = True,
+             trace: list[TraceRow] | None = None, twist_joint_limit: str = 'clip') -> Episode:
     """Run one episode (module docstring).
 
     Parameters
