@@ -40,6 +40,8 @@ ada
     ADA's shared autonomy as published (goals of one or more targets): the simulated closed loops' baseline.
 simulator
     The closed loop on a simulated clock with the nodes' core functions (planner policy, assistance, mock arm).
+loop_steps
+    The steps both simulated loops take: the plan fed, the grasp command (execute, close), the episode's record.
 scene_simulator
     That loop over several objects: each chain's plans, the assistance over several objects, the operator's object.
 sweep

@@ -60,8 +60,9 @@ from ..mico.grasp import Grasp
 from ..mico.kinematics import MicoKinematics
 from ..planning.options import node_default_options
 from .assistance import offset
+from .loop_steps import executes_shown
 from .operators import ScriptedOperator
-from .simulator import certain_grasp, executes_shown
+from .simulator import certain_grasp
 
 __all__ = ['Perceived', 'Step', 'operator_step', 'task_set_of', 'own_grasp', 'SETTLE', 'EXECUTE_TIMEOUT', 'STOP_WAIT',
            'REST_DISTANCE', 'REST_ANGLE', 'hand_at_rest', 'executes', 'GraspCommand',
@@ -221,7 +222,7 @@ def executes(step: Step, execute_shown: bool) -> bool:
     """Whether the grasp command at ``step`` executes the goal before the fingers close (module docstring).
 
     True for a close on the shown grasp when ``execute_shown`` (the suite's assistance), by the simulated loop's
-    rule (:func:`~.simulator.executes_shown`); a close on the operator's own grasp, or without ``execute_shown``,
+    rule (:func:`~.loop_steps.executes_shown`); a close on the operator's own grasp, or without ``execute_shown``,
     closes the hand where it is.
     """
     return step.close and executes_shown(step.pursued, execute_shown)

@@ -28,9 +28,6 @@ OVER_LIMIT: Mapping[str, tuple[int, str]] = {
                                 'docstring); not split yet'),
     'mico/collision.py': (540, 'the hand against the table and the object: the scene, the query and the robot '
                                'constraint; not split yet'),
-    'shared_control/simulator.py': (530, 'the one-object loop with its conditions stated (a 60-line docstring) and '
-                                         'the steps the loop over several objects reuses (the plan fed, the grasp '
-                                         'command, the sweep\'s figures); not split yet'),
     'nodes/assistance.py': (225, "the operator, the joints, the switch, the warm-up, the output's cadence and the "
                                  'choice of one object or several (each chain\'s inputs: nodes/assistance_inputs.py); '
                                  'not split yet'),
