@@ -14,6 +14,8 @@ path_search
     The robot's joint path sought from a snapshot: the search (one definition), at once or in a process of its own.
 limits
     The output twist's speed and acceleration limits; norms without overflow.
+output_cadence
+    When the assistance publishes: one output per period, at the operator's cadence when its source streams.
 barrier
     The command kept out of the object as perceived: the twist nearest the blend that nears it no faster than a barrier.
 goals
