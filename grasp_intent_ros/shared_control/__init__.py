@@ -38,6 +38,8 @@ operators
     Scripted teleoperators and their intents (a device model, a goal choice without the rules, an intent script).
 operator_loop
     A scripted operator on a wall clock, in episodes, against what it perceives late (the scripted operator node's).
+operator_calls
+    That operator's service calls in sequence (the grasp command's execute and close, the arm's reset): the node's.
 ada
     ADA's shared autonomy as published (goals of one or more targets): the simulated closed loops' baseline.
 simulator

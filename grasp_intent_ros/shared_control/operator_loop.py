@@ -172,17 +172,22 @@ def task_set_of(names: Sequence[str], task_names: Sequence[str]) -> int:
 
 
 def own_grasp(model: GraspModel, names: Sequence[str], base_T_obj: NDArray[np.float64],
-              kin: MicoKinematics) -> tuple[int, Grasp]:
+              kin: MicoKinematics, held_w: Sequence[float] | None = None) -> tuple[int, Grasp]:
     """An operator's task set (:func:`task_set_of` ``names`` over ``model``'s tasks) and its own grasp for it.
 
     The grasp is the planner's for the certain w of the set (:func:`.simulator.certain_grasp`) with the planner
     node's default options, the object at ``base_T_obj`` (4x4, base frame): the live benchmark's operator goal.
+    ``held_w``: the w the operator publishes (the scripted operator node's with ``intent: held``), checked first.
 
     Raises
     ------
     GraspIntentError
-        For a task the model lacks, or when no grasp for the set is reachable.
+        For a ``held_w`` without one probability per task of the model, a task the model lacks, or when no grasp
+        for the set is reachable.
     """
+    if held_w is not None and len(held_w) != len(model.task_names):
+        raise GraspIntentError(f'w {list(held_w)} has not one probability per task of the model '
+                               f'({", ".join(model.task_names)})')
     task_set = task_set_of(names, model.task_names)
     try:
         return task_set, certain_grasp(model, task_set, base_T_obj, kin, options=node_default_options())
