@@ -5,14 +5,14 @@ with :class:`Client`'s methods), their answers come back in the thread their fut
 executor); this says which call each tick asks for and what an answer means for the episodes
 (:class:`~.operator_loop.OperatorEpisodes`), and logs and reports them.
 
-Each tick, after :meth:`~.operator_loop.OperatorEpisodes.step` (:meth:`OperatorCalls.tick`): a step with
-``execute`` asks the execute, a step with ``close`` the close (with ``close_on_reach``), and ``resetting`` the
-reset while no call is in flight (so once per reset). The grasp command: on the operator's own grasp the close at
-once; on the shown grasp (with ``execute_shown``) zero twists until the hand is at rest, the execute, zero twists
-until the latest ``grasp/trajectory``'s time has passed, then the close (:class:`~.operator_loop.GraspCommand`).
-An execute refused, unanswered or whose service is not available is logged (a warning) and reported, and the
-fingers close where the hand is; a close whose service is not available is not asked again; a reset is asked
-again the next tick.
+Each tick, after :meth:`~.operator_loop.OperatorEpisodes.step` (:meth:`OperatorCalls.tick`): a step with ``execute``
+asks the execute, a step with ``close`` the close (with ``close_on_reach``), and ``resetting`` the reset whenever no
+call is in flight (the answered reset ends ``resetting``). The grasp command: on the operator's own grasp the close
+at once; on the shown grasp (with ``execute_shown``) zero twists until the hand is at rest, the execute, zero twists
+until the latest ``grasp/trajectory``'s time has passed, then the close (:class:`~.operator_loop.GraspCommand`). An
+execute refused, unanswered or whose service is not available is logged (a warning) and reported, and the fingers
+close where the hand is; a close whose service is not available is not asked again; a reset is asked again the next
+tick.
 """
 
 from __future__ import annotations
