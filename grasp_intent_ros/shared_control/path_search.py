@@ -232,11 +232,11 @@ class PathWorker:
             return answer
         return None
 
-    def stop(self, timeout: float = STOP_TIMEOUT) -> None:
+    def stop(self, timeout: float | None = None) -> None:
         """Ask the process to stop after its current search and wait for it (``timeout`` s, then kill it).
 
-        ``timeout``: :data:`STOP_TIMEOUT` by default, the node's; a caller that must see the process end by the
-        request (its exit code 0), even on a loaded machine, gives more.
+        ``timeout``: None for :data:`STOP_TIMEOUT` as it is at the call, the node's; a caller that must see the
+        process end by the request (its exit code 0), even on a loaded machine, gives more.
         """
         if not self._ended:
             try:
@@ -244,7 +244,7 @@ class PathWorker:
             except OSError:
                 pass
         try:
-            self._process.wait(timeout)
+            self._process.wait(STOP_TIMEOUT if timeout is None else timeout)
         except subprocess.TimeoutExpired:
             self._process.kill()
             self._process.wait()

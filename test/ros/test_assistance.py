@@ -209,6 +209,7 @@ def test_the_output_keeps_coming_while_the_path_is_sought_in_a_process_of_its_ow
     # outputs go on at alpha 0 (the operator's twist alone) while it runs; released, the path comes in over the
     # pipe and the robot assists; the node destroyed, the process has ended
     monkeypatch.setattr(path_search, 'seek_path', functools.partial(held_search.held, tmp_path))
+    monkeypatch.setattr(path_search, 'STOP_TIMEOUT', 60.0)  # the node's 1 s would kill it on a loaded machine
     loop = Loop(ros)
     worker = loop.node._paths
     (tmp_path / 'armed').touch()  # after the warm-up, which seeks in this process
