@@ -61,8 +61,9 @@ from trajectory_msgs.msg import JointTrajectory
 from ..errors import GraspIntentError
 from ..mico.grasp import JOINT_NAMES
 from ..mico.kinematics import MicoKinematics
-from ..mico.mock_arm import MockArm, TrajectoryCommand, check_trajectory
+from ..mico.mock_arm import MockArm
 from ..mico.parameters import MOCK_ARM
+from ..mico.trajectory import TrajectoryCommand, check_trajectory
 from ..ros.clock import now_seconds
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input

@@ -1,4 +1,4 @@
-"""grasp_intent_ros.mico.mock_arm: trajectories by the joint_trajectory_controller's rules, twists by DLS IK, limits."""
+"""mico.mock_arm and mico.trajectory: trajectories by the controller's rules, twists by DLS IK, joint limits."""
 
 from __future__ import annotations
 
@@ -12,13 +12,11 @@ from grasp_intent_ros.mico.kinematics import EE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import (
     JOINT_LIMIT_TOLERANCE,
     MockArm,
-    TrajectoryCommand,
-    TrajectoryExecution,
-    check_trajectory,
     check_twist,
     dls_joint_velocities,
     joint_limit_scale,
 )
+from grasp_intent_ros.mico.trajectory import TrajectoryCommand, TrajectoryExecution, check_trajectory
 
 Q0 = np.concatenate([HOME_Q, np.zeros(3)])
 
