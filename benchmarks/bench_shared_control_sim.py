@@ -40,6 +40,9 @@ The episodes
   (shown, ADA's goals; not the operator's own) with the collision check and the node's ``object_margin`` at K x
   :func:`~grasp_intent_ros.mico.collision.tracker_margin` of the tracker's error, the lever arm the body's reach
   (docs/planner.md, "The hand's clearance").
+- The suite's assistance: the node's defaults; ``--keep-pace`` sets its ``keep_pace`` (the robot's twist at least
+  the operator's speed along the operator's direction, docs/shared_control.md, "Keeping the operator's pace") in
+  every condition that assists with it (the suite, the independent-task grasp, estimated and fused w).
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   intent, its noise and the tracker error are the episode's).
 
@@ -115,6 +118,7 @@ from grasp_intent_ros.mico.kinematics import MicoKinematics
 from grasp_intent_ros.objects.demos import object_of
 from grasp_intent_ros.objects.judge import Judgement, judge
 from grasp_intent_ros.planning.options import Options, node_default_options
+from grasp_intent_ros.shared_control.assistance import AssistanceConfig
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator
 from grasp_intent_ros.shared_control.goals import goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
@@ -187,6 +191,8 @@ class Task:
     """The RMS error of the operator's view of the object (module docstring): mm, deg."""
     margin_sigmas: float = 0.0
     """The planner's object margin in tracker sigmas (module docstring); 0: the collision check unasked."""
+    keep_pace: bool = False
+    """The suite's assistance with ``keep_pace`` (module docstring); False: its defaults."""
 
 
 EPISODE_SETTINGS = ('seed', 'intent', 'timeout', 'tracker_mm', 'tracker_deg', 'operator_mm', 'operator_deg')
@@ -199,11 +205,12 @@ def run_settings(task: Task) -> dict[str, Any]:
     """The run's settings, which every record carries as ``run``.
 
     :data:`EPISODE_SETTINGS`, then the loop's: the grasp command executing, the planner's execution noise and
-    object margin, the estimator's fields set.
+    object margin, the estimator's fields set, and ``keep_pace`` when set (runs of the assistance's defaults carry
+    no such key, as the records written before it).
     """
     return {**{name: getattr(task, name) for name in EPISODE_SETTINGS}, 'execute': task.execute,
             'execution_noise': task.execution_noise, 'margin_sigmas': task.margin_sigmas,
-            'estimator': dict(task.estimator)}
+            'estimator': dict(task.estimator), **({'keep_pace': True} if task.keep_pace else {})}
 
 
 def read_records(path: str) -> list[dict[str, Any]]:
@@ -264,7 +271,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
             ep = simulate(scene, 'suite' if estimated else condition, intent, operator, own, intent_rng,
                           closure_rng, ada_goals=ada_goals, plan_cache=cache, timeout=task.timeout,
                           estimator=estimator if estimated else None, classifier_prior=condition == FUSED,
-                          execute=task.execute, trace=trace)
+                          execute=task.execute, trace=trace, config=AssistanceConfig(keep_pace=task.keep_pace))
             true_set = ep.task_set
             verdict = None if ep.hand is None else judge(model, scene.base_T_obj_true, ep.hand, ep.closures)
             success = verdict is not None and verdict.serves(true_set)
@@ -429,6 +436,9 @@ def main() -> None:
     parser.add_argument('--margin-sigmas', type=float, default=0.0, help='the planner\'s object margin (its '
                         'object_margin) in bounds on the tracker error\'s depth sigma (collision.tracker_margin, '
                         'lever arm: the body\'s reach); 0: the collision check unasked, as the demonstrations pass it')
+    parser.add_argument('--keep-pace', action='store_true', help='the suite\'s assistance keeps the operator\'s '
+                        'pace (AssistanceConfig.keep_pace: the robot\'s twist at least the operator\'s speed along the '
+                        'operator\'s direction; default: off)')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--json', help='write every record and the summaries here')
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
@@ -454,7 +464,7 @@ def main() -> None:
     tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg,
                   tuple(c for c in RUN if c in args.conditions), not args.no_execute, not args.exact_landing,
                   estimator_fields(args.estimator), operator_mm=args.operator_mm, operator_deg=args.operator_deg,
-                  margin_sigmas=args.margin_sigmas)
+                  margin_sigmas=args.margin_sigmas, keep_pace=args.keep_pace)
              for i in range(args.episodes) for o in args.objects for op in args.operators]  # cells fill evenly
     print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
           f'conditions, intent {args.intent}; {uptime()}', flush=True)
