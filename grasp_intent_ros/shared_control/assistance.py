@@ -77,6 +77,15 @@ the arm's joint state: :class:`Assistance` decides that.
 alpha is therefore in [0, alpha_max] for every rule: 0 means the operator's twist alone, alpha_max (< 1 by
 default) the most the robot ever gets, so the operator always keeps 1 - alpha_max of the command.
 
+**Keeping the operator's pace** (``keep_pace``, off by default; :func:`keep_pace`). The robot's twist follows a
+straight line in joint space, so its linear part can point well away from the approach target's Cartesian error
+(against which the agreement is measured) while the operator heads straight at it: a two-mode operator's
+translation then meets a robot's twist that runs against it, and at alpha about 0.4 the two cancel
+(docs/shared_control.md, "Keeping the operator's pace"). With ``keep_pace``, before blending, the robot's twist
+is raised in each part the operator moves (faster than its deadband) to at least the operator's speed along
+the operator's direction of that part: the blend then never slows the operator's own motion, and the robot adds
+what lies across it (its turn of the hand, its correction sideways).
+
 Limits (:class:`~.limits.TwistLimiter`)
 ---------------------------------------
 The blended twist's linear and angular parts are scaled down to their speed limits, then each part's
@@ -111,7 +120,7 @@ from .path_search import PathRequest, PathSearch, PathSource, warm_up_scene
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
            'approach_agreement', 'new_proposal', 'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached',
-           'assistance_target', 'robot_twist', 'joint_space_twist', 'blend', 'clip_norm', 'TwistLimiter',
+           'assistance_target', 'robot_twist', 'joint_space_twist', 'keep_pace', 'blend', 'clip_norm', 'TwistLimiter',
            'AssistanceConfig', 'Command', 'Assistance', 'warm_up']
 
 Arbitration = Literal['confidence', 'blend', 'none']
@@ -268,6 +277,26 @@ def joint_space_twist(jacobian: NDArray[np.float64], q: NDArray[np.float64], q_t
     return np.concatenate([clip_norm(twist[:3], max_linear), clip_norm(twist[3:], max_angular)])
 
 
+def keep_pace(robot: NDArray[np.float64], operator: NDArray[np.float64], *, deadband_linear: float,
+              deadband_angular: float) -> NDArray[np.float64]:
+    """``robot`` (shape (6,)) at least as fast as ``operator`` along the operator's direction, per part.
+
+    For each part (linear, angular) the operator moves faster than its deadband (m/s, rad/s), with e the unit
+    vector of the operator's part h: the part of ``robot`` nearest it (Euclidean) whose component along e is at
+    least |h|, i.e. ``r + max(0, |h| - r . e) e`` (the projection onto that half-space: unique); its part across
+    e is kept. The other parts are ``robot``'s. So ``alpha r' + (1 - alpha) h`` has at least h's speed along h.
+    Not clipped to the robot's speed limits (the output's limits follow the blend).
+    """
+    out = np.array(robot, dtype=np.float64)
+    for part, deadband in ((slice(0, 3), deadband_linear), (slice(3, 6), deadband_angular)):
+        speed = norm(operator[part])
+        if speed <= deadband:
+            continue
+        unit = operator[part] / speed
+        out[part] += max(0.0, speed - float(out[part] @ unit)) * unit
+    return out
+
+
 def blend(alpha: float, robot: NDArray[np.float64], operator: NDArray[np.float64]) -> NDArray[np.float64]:
     """The blended twist alpha * robot + (1 - alpha) * operator."""
     return alpha * robot + (1.0 - alpha) * operator
@@ -294,6 +323,9 @@ class AssistanceConfig:
         after which it assists again ('confidence').
     assist_without_input : bool
         Whether the robot's twist moves the hand while the operator gives no input (default False).
+    keep_pace : bool
+        Whether the robot's twist is raised to the operator's speed along the operator's direction in each part
+        the operator moves, before blending (:func:`keep_pace`; module docstring). Default False: the blend as is.
     operator_timeout : float
         An operator twist older than this gives the zero twist.
     clearance_margin : float
@@ -315,6 +347,7 @@ class AssistanceConfig:
     deadband_angular: float = 0.05
     yield_time: float = 0.15
     assist_without_input: bool = False
+    keep_pace: bool = False
     operator_timeout: float = 0.1
     clearance_margin: float = 0.0
 
@@ -523,6 +556,9 @@ class Assistance:
                 alpha, phase = 0.0, 'no operator input'
             elif alpha > 0.0:
                 twist, phase = self.robot(aim)
+                if twist is not None and cfg.keep_pace:
+                    twist = keep_pace(twist, operator, deadband_linear=cfg.deadband_linear,
+                                      deadband_angular=cfg.deadband_angular)
                 alpha, robot, phase = (0.0, robot, 'seeking a path') if twist is None else (alpha, twist, phase)
             else:
                 phase = 'yielded to the operator' if self.yielded else phase

@@ -83,6 +83,9 @@ ASSISTANCE = (
               range=(0.0, 10.0)),
     ParamSpec('assist_without_input', _ASSIST.assist_without_input, "Whether the robot's twist moves the hand "
               'while the operator gives no input (both parts within their deadbands).'),
+    ParamSpec('keep_pace', _ASSIST.keep_pace, "Whether the robot's twist, before blending, goes at least the "
+              "operator's speed along the operator's direction in each part the operator moves (the blend never "
+              "slows the operator's own motion; the robot adds what lies across it)."),
     ParamSpec('operator_timeout', _ASSIST.operator_timeout, 'Operator twist age (s) from which the output is '
               'the zero twist (MoveIt Servo: incoming_command_timeout).', range=(0.001, 10.0)),
     ParamSpec('clearance_margin', _ASSIST.clearance_margin, "m: how far beyond the planner's collision limits the "

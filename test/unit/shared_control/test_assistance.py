@@ -21,6 +21,7 @@ from grasp_intent_ros.shared_control.assistance import (
     assistance_target,
     grasp_task_set,
     joint_space_twist,
+    keep_pace,
     operator_agreement,
     pose_error,
     robot_twist,
@@ -167,6 +168,32 @@ def test_the_blend_and_the_safety_rules() -> None:
     assistance.set_grasp(GRASP)  # the same grasp: the operator's oblique motion (o = cos 45 deg) is remembered
     assistance.set_operator(np.array([0.0, 0.0, 0.0, 0.0, 0.06, 0.0]), now=1.02)  # turning only: no evidence
     assert assistance.command(1.02).alpha == pytest.approx(alpha)
+
+
+def test_keeping_pace_raises_the_robots_twist_to_the_operators_speed_along_its_direction() -> None:
+    kw = dict(deadband_linear=0.01, deadband_angular=0.05)
+    operator = np.r_[0.0, 0.12, 0.0, 0.0, 0.0, 0.0]  # a joystick translating: no rotation
+    against = np.r_[0.03, -0.15, 0.0, 0.4, 0.0, 0.8]  # the joint path's image, against the operator's translation
+    paced = keep_pace(against, operator, **kw)
+    assert_allclose(paced, [0.03, 0.12, 0.0, 0.4, 0.0, 0.8], atol=1e-15)  # across kept; the turn kept (no input)
+    for alpha in (0.0, 0.4, 0.9):  # the blend keeps the operator's speed along its direction, whatever alpha
+        assert (alpha * paced + (1.0 - alpha) * operator)[1] == pytest.approx(0.12, abs=1e-15)
+    faster = np.r_[0.0, 0.15, 0.02, 0.0, 0.0, 0.0]
+    assert_allclose(keep_pace(faster, operator, **kw), faster, atol=0)  # already ahead: unchanged
+    turning = np.r_[0.0, 0.0, 0.0, 0.0, 0.0, -0.5]  # a turn against the robot's: the angular part alone raised
+    assert_allclose(keep_pace(against, turning, **kw), [0.03, -0.15, 0.0, 0.4, 0.0, -0.5], atol=1e-15)
+    assert_allclose(keep_pace(against, np.r_[0.0, 0.005, 0.0, 0.0, 0.0, 0.04], **kw), against, atol=0)  # deadbands
+
+
+@pytest.mark.parametrize('pace', [False, True])
+def test_keep_pace_lets_the_blend_never_slow_the_operator(pace: bool) -> None:
+    assistance = make_assistance(keep_pace=pace)
+    fast = np.r_[0.0, 0.0, -0.3, 0.0, 0.0, 0.0]  # straight at the grasp, faster than the robot's 0.15 limit
+    assistance.set_operator(fast, now=0.0)
+    command = assistance.command(0.01)
+    assert command.alpha == pytest.approx(0.9)  # the arbitration is unchanged
+    assert command.twist[2] == pytest.approx(-0.3 if pace else -(0.9 * 0.15 + 0.1 * 0.3), abs=1e-12)
+    assert AssistanceConfig().keep_pace is False  # off by default: the blend as published
 
 
 @pytest.mark.parametrize('missing, phase', [('base_T_grasp', 'no grasp'), ('base_T_ee', 'no joint state')])
