@@ -39,6 +39,9 @@ The episodes
   assistance a close on the shown grasp executes the followed object's newest plan (the simulator's docstring).
 - The planner: the node's defaults (:func:`~grasp_intent_ros.planning.options.node_default_options`), no
   collision check, as bench_shared_control_sim.py's default.
+- The mock arm at a joint limit: each joint clipped on its own, the mock arm node's default;
+  ``--twist-joint-limit stop`` stops the arm's twist step as a whole there
+  (:class:`~grasp_intent_ros.mico.mock_arm.MockArm`'s ``twist_joint_limit``).
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   poses, the intent, its noise and the errors are the episode's).
 
@@ -58,7 +61,8 @@ bench_shared_control_sim.py's :func:`paired_difference`. Records (``--records F`
 its runs' records; ``--summarise F`` prints the figures of such a file.
 
     .venv/bin/python benchmarks/bench_shared_control_scene.py [--episodes 50] [--repeats 3] [--jobs 2] \
-        [--operators joystick] [--conditions direct ada suite top_object] [--records runs.jsonl] \
+        [--operators joystick] [--conditions direct ada suite top_object] [--twist-joint-limit stop] \
+        [--records runs.jsonl] \
         [--summarise runs.jsonl]
 """
 
@@ -76,6 +80,7 @@ from _bench.closed_loop import BASE_T_OBJ
 from bench_shared_control_sim import _mm, _options, _setup, paired_difference, per_episode, read_records, run_tasks
 
 from grasp_intent_ros.mico.grasp import Grasp
+from grasp_intent_ros.mico.mock_arm import TWIST_JOINT_LIMITS
 from grasp_intent_ros.objects.judge import judge_scene
 from grasp_intent_ros.shared_control.operators import OperatorConstants, ScriptedOperator
 from grasp_intent_ros.shared_control.scene_simulator import (
@@ -157,12 +162,18 @@ class SceneTask:
     favoured: float = 0.6
     conditions: tuple[str, ...] = SCENE_CONDITIONS
     execute: bool = True
+    twist_joint_limit: str = 'clip'
 
 
 def run_settings(task: SceneTask) -> dict[str, Any]:
-    """The run's settings, which every record carries as ``run``."""
-    return {name: getattr(task, name) for name in ('seed', 'timeout', 'tracker_mm', 'tracker_deg', 'operator_mm',
-                                                   'operator_deg', 'favoured', 'execute')}
+    """The run's settings, which every record carries as ``run``.
+
+    The mock arm's ``twist_joint_limit`` only when not ``'clip'``: records of the default carry the settings records
+    carried before the option.
+    """
+    limit = {} if task.twist_joint_limit == 'clip' else {'twist_joint_limit': task.twist_joint_limit}
+    return {**{name: getattr(task, name) for name in ('seed', 'timeout', 'tracker_mm', 'tracker_deg', 'operator_mm',
+                                                      'operator_deg', 'favoured', 'execute')}, **limit}
 
 
 def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
@@ -185,7 +196,8 @@ def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
             operator = ScriptedOperator(device, OperatorConstants(), op_rng)
             t0 = time.perf_counter()
             ep = simulate_scene(objects, condition, intent, operator, intent_rng, closure_rng,  # type: ignore[arg-type]
-                                plan_caches=caches, timeout=task.timeout, execute=task.execute)
+                                plan_caches=caches, timeout=task.timeout, execute=task.execute,
+                                twist_joint_limit=task.twist_joint_limit)
             verdict = None if ep.hand is None else judge_scene(
                 [(o.scene.model, o.scene.base_T_obj_true) for o in objects], true, ep.task_set, ep.hand,
                 ep.closures if ep.closures is not None else np.zeros(3))
@@ -277,6 +289,8 @@ def main() -> None:
     parser.add_argument('--favoured', type=float, default=0.6, help='the held P(o) of the favoured object')
     parser.add_argument('--no-execute', action='store_true', help='the suite\'s grasp command closes the hand where '
                         'it is instead of executing the followed object\'s plan')
+    parser.add_argument('--twist-joint-limit', default='clip', choices=TWIST_JOINT_LIMITS, help='the mock arm\'s '
+                        'rule for a twist at a joint limit: clip each joint, or stop the arm as a whole')
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
@@ -289,7 +303,8 @@ def main() -> None:
         return
     tasks = [SceneTask(op, i, args.seed, args.repeats, args.timeout, args.tracker_mm, args.tracker_deg,
                        args.operator_mm, args.operator_deg, args.favoured,
-                       tuple(c for c in SCENE_CONDITIONS if c in args.conditions), not args.no_execute)
+                       tuple(c for c in SCENE_CONDITIONS if c in args.conditions), not args.no_execute,
+                       args.twist_joint_limit)
              for i in range(args.episodes) for op in args.operators]
     print(f'bench_shared_control_scene: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
           f'conditions; {uptime()}', flush=True)

@@ -40,6 +40,9 @@ The episodes
   (shown, ADA's goals; not the operator's own) with the collision check and the node's ``object_margin`` at K x
   :func:`~grasp_intent_ros.mico.collision.tracker_margin` of the tracker's error, the lever arm the body's reach
   (docs/planner.md, "The hand's clearance").
+- The mock arm at a joint limit: each joint clipped on its own, the mock arm node's default;
+  ``--twist-joint-limit stop`` stops the arm's twist step as a whole there
+  (:class:`~grasp_intent_ros.mico.mock_arm.MockArm`'s ``twist_joint_limit``).
 - The suite's assistance: the node's defaults; ``--keep-pace`` sets its ``keep_pace`` (the robot's twist at least
   the operator's speed along the operator's direction, docs/shared_control.md, "Keeping the operator's pace") in
   every condition that assists with it (the suite, the independent-task grasp, estimated and fused w).
@@ -92,8 +95,8 @@ reference records of the README's rows (``benchmarks/reference/``).
 
     .venv/bin/python benchmarks/bench_shared_control_sim.py [--episodes 50] [--repeats 3] [--jobs 2] \
         [--intent persistent] [--conditions direct suite estimated] [--estimator rationality=300] \
-        [--operator-mm 5 --operator-deg 3] [--json out.json] [--records runs.jsonl] [--summarise runs.jsonl \
-        [--by-case]]
+        [--operator-mm 5 --operator-deg 3] [--twist-joint-limit stop] [--json out.json] [--records runs.jsonl] \
+        [--summarise runs.jsonl [--by-case]]
 """
 
 from __future__ import annotations
@@ -115,6 +118,7 @@ from _bench.closed_loop import BASE_T_OBJ, OBJECTS, load_model
 from grasp_intent_ros.mico.collision import tracker_margin
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
+from grasp_intent_ros.mico.mock_arm import TWIST_JOINT_LIMITS
 from grasp_intent_ros.objects.demos import object_of
 from grasp_intent_ros.objects.judge import Judgement, judge
 from grasp_intent_ros.planning.options import Options, node_default_options
@@ -191,6 +195,8 @@ class Task:
     """The RMS error of the operator's view of the object (module docstring): mm, deg."""
     margin_sigmas: float = 0.0
     """The planner's object margin in tracker sigmas (module docstring); 0: the collision check unasked."""
+    twist_joint_limit: str = 'clip'
+    """The mock arm's rule for a twist at a joint limit (module docstring)."""
     keep_pace: bool = False
     """The suite's assistance with ``keep_pace`` (module docstring); False: its defaults."""
 
@@ -205,12 +211,13 @@ def run_settings(task: Task) -> dict[str, Any]:
     """The run's settings, which every record carries as ``run``.
 
     :data:`EPISODE_SETTINGS`, then the loop's: the grasp command executing, the planner's execution noise and
-    object margin, the estimator's fields set, and ``keep_pace`` when set (runs of the assistance's defaults carry
-    no such key, as the records written before it).
+    object margin, the estimator's fields set, the mock arm's ``twist_joint_limit`` when it is not ``'clip'`` and
+    ``keep_pace`` when set (runs of the defaults carry no such keys, as the records written before them).
     """
+    limit = {} if task.twist_joint_limit == 'clip' else {'twist_joint_limit': task.twist_joint_limit}
     return {**{name: getattr(task, name) for name in EPISODE_SETTINGS}, 'execute': task.execute,
             'execution_noise': task.execution_noise, 'margin_sigmas': task.margin_sigmas,
-            'estimator': dict(task.estimator), **({'keep_pace': True} if task.keep_pace else {})}
+            'estimator': dict(task.estimator), **limit, **({'keep_pace': True} if task.keep_pace else {})}
 
 
 def read_records(path: str) -> list[dict[str, Any]]:
@@ -271,7 +278,8 @@ def run_task(task: Task) -> list[dict[str, Any]]:
             ep = simulate(scene, 'suite' if estimated else condition, intent, operator, own, intent_rng,
                           closure_rng, ada_goals=ada_goals, plan_cache=cache, timeout=task.timeout,
                           estimator=estimator if estimated else None, classifier_prior=condition == FUSED,
-                          execute=task.execute, trace=trace, config=AssistanceConfig(keep_pace=task.keep_pace))
+                          execute=task.execute, trace=trace, config=AssistanceConfig(keep_pace=task.keep_pace),
+                          twist_joint_limit=task.twist_joint_limit)
             true_set = ep.task_set
             verdict = None if ep.hand is None else judge(model, scene.base_T_obj_true, ep.hand, ep.closures)
             success = verdict is not None and verdict.serves(true_set)
@@ -436,6 +444,8 @@ def main() -> None:
     parser.add_argument('--margin-sigmas', type=float, default=0.0, help='the planner\'s object margin (its '
                         'object_margin) in bounds on the tracker error\'s depth sigma (collision.tracker_margin, '
                         'lever arm: the body\'s reach); 0: the collision check unasked, as the demonstrations pass it')
+    parser.add_argument('--twist-joint-limit', default='clip', choices=TWIST_JOINT_LIMITS, help='the mock arm\'s '
+                        'rule for a twist at a joint limit: clip each joint, or stop the arm as a whole')
     parser.add_argument('--keep-pace', action='store_true', help='the suite\'s assistance keeps the operator\'s '
                         'pace (AssistanceConfig.keep_pace: the robot\'s twist at least the operator\'s speed along the '
                         'operator\'s direction; default: off)')
@@ -464,7 +474,7 @@ def main() -> None:
     tasks = [Task(o, op, i, args.seed, args.repeats, args.intent, args.timeout, args.tracker_mm, args.tracker_deg,
                   tuple(c for c in RUN if c in args.conditions), not args.no_execute, not args.exact_landing,
                   estimator_fields(args.estimator), operator_mm=args.operator_mm, operator_deg=args.operator_deg,
-                  margin_sigmas=args.margin_sigmas, keep_pace=args.keep_pace)
+                  margin_sigmas=args.margin_sigmas, keep_pace=args.keep_pace, twist_joint_limit=args.twist_joint_limit)
              for i in range(args.episodes) for o in args.objects for op in args.operators]  # cells fill evenly
     print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
           f'conditions, intent {args.intent}; {uptime()}', flush=True)

@@ -18,8 +18,10 @@ limits
     margin for the error of the object's pose.
 grasp
     The planner node's policy: plan, then a grasp the arm reaches (joint targets, move time).
+trajectory
+    A joint trajectory by the joint_trajectory_controller's rules: checked, then sampled as its splines.
 mock_arm
-    A simulated arm for the closed loop without hardware: trajectories, twists, differential IK.
+    A simulated arm for the closed loop without hardware: trajectories, twists, differential IK, joint limits.
 reach
     A grasp the arm reaches from home: IK, the approach corridor, a Cartesian servo of the mock arm.
 

@@ -21,7 +21,7 @@ from .frames import DEFAULT_OBJECT_ORIENTATION, DEFAULT_OBJECT_POSITION, check_u
 from .grasp import JOINT_NAMES, check_workspace
 from .grasp_clearance import Table
 from .kinematics import HOME_Q
-from .mock_arm import FINGER_VELOCITY_LIMIT
+from .mock_arm import FINGER_VELOCITY_LIMIT, TWIST_JOINT_LIMITS
 
 __all__ = ['URDF_PATH', 'OBJECT_POSE', 'check_object_pose', 'object_pose', 'check_table_plane', 'PLAN_FOR',
            'planned_target', 'GRASP_PLANNER', 'TRAJECTORY_EXECUTIONS', 'MOCK_ARM']
@@ -152,6 +152,11 @@ MOCK_ARM = (
               validator=one_of(TRAJECTORY_EXECUTIONS), constraints=f'one of {", ".join(TRAJECTORY_EXECUTIONS)}'),
     ParamSpec('allow_partial_joints_goal', False, 'Accept trajectories for some of the joints (the '
               "joint_trajectory_controller's parameter)."),
+    ParamSpec('twist_joint_limit', 'clip', "What a twist does at a joint limit: 'clip' each joint on its own (the "
+              "others go on, so the hand may leave the commanded direction) or 'stop' the arm as a whole where a "
+              'joint reaches its limit (MoveIt Servo halts all joints; a twist moving that joint inward moves the '
+              'arm again). Trajectories and fingers: clipped per joint either way.',
+              validator=one_of(TWIST_JOINT_LIMITS), constraints=f'one of {", ".join(TWIST_JOINT_LIMITS)}'),
     ParamSpec('finger_velocity_limit', FINGER_VELOCITY_LIMIT, 'Finger speed limit, rad/s.', range=(1e-3, 10.0)),
     ParamSpec('closure_error', 0.05, "Standard deviation (rad) of each finger's closure error on grasp/close.",
               range=(0.0, 1.0)),

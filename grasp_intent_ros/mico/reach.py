@@ -45,8 +45,9 @@ def servo_reaches(kin: MicoKinematics, q0: ArrayLike, goals: Sequence[NDArray[np
     Each step of :data:`SERVO_PERIOD` s commands the twist ``SERVO_GAIN * pose_error(hand, goal)`` (base frame,
     :func:`~.frames.pose_error`), scaled down as a whole so that its speed is at most :data:`SERVO_MAX_LINEAR` and
     its turn rate at most :data:`SERVO_MAX_ANGULAR`; a goal is reached within :data:`~.frames.REACH_POS` and
-    :data:`~.frames.REACH_ROT` (:func:`~.frames.reached`), then the next one is aimed at. The arm stops at a joint
-    limit and is damped at a singularity (:meth:`~.mock_arm.MockArm.step`), so a goal behind either is not reached.
+    :data:`~.frames.REACH_ROT` (:func:`~.frames.reached`), then the next one is aimed at. A joint stops at its
+    limit while the others go on (the mock arm's default ``twist_joint_limit``, ``'clip'``) and the arm is damped at
+    a singularity (:meth:`~.mock_arm.MockArm.step`), so a goal behind either is not reached.
 
     Parameters
     ----------

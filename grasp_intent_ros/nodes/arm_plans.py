@@ -28,7 +28,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from ..errors import GraspIntentError
 from ..mico.kinematics import FINGER_JOINTS
-from ..mico.mock_arm import TrajectoryCommand
+from ..mico.trajectory import TrajectoryCommand
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input
 from ..ros.qos import input_qos, latched_qos

@@ -61,8 +61,9 @@ from trajectory_msgs.msg import JointTrajectory
 from ..errors import GraspIntentError
 from ..mico.grasp import JOINT_NAMES
 from ..mico.kinematics import MicoKinematics
-from ..mico.mock_arm import MockArm, TrajectoryCommand, check_trajectory
+from ..mico.mock_arm import MockArm
 from ..mico.parameters import MOCK_ARM
+from ..mico.trajectory import TrajectoryCommand, check_trajectory
 from ..ros.clock import now_seconds
 from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input
@@ -92,7 +93,8 @@ class MockArmNode(Node):
         self._params = declare_parameters(self, MOCK_ARM, on_change=self._configure, check=check_objects)
         kin = self._params.build('urdf_path', lambda path: MicoKinematics(path or None))
         self._arm = self._params.build('initial_positions', lambda q0: MockArm(
-            kin, q0, finger_velocity_limit=self._params['finger_velocity_limit']))
+            kin, q0, finger_velocity_limit=self._params['finger_velocity_limit'],
+            twist_joint_limit=self._params['twist_joint_limit']))
         self._configure(self._params)
         self._ignored = 0
         self._pubs = {topics.JOINT_STATES: output_publisher(self, JointState, topics.JOINT_STATES)}
@@ -109,6 +111,7 @@ class MockArmNode(Node):
     def _configure(self, changed: Mapping[str, Any]) -> None:
         self._arm.damping, self._arm.singular_threshold = self._params['ik_damping'], self._params['singular_threshold']
         self._arm.command_timeout = self._params['command_timeout']
+        self._arm.twist_joint_limit = self._params['twist_joint_limit']
         self._arm.velocity_limits[6:] = self._params['finger_velocity_limit']
         if 'closure_seed' in changed:  # set, even to its value: the errors' sequence starts again
             self._closure_rng = np.random.default_rng(self._params['closure_seed'])

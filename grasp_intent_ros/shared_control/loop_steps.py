@@ -23,7 +23,8 @@ from ..method.intent import all_zones, default_task_names, zone_labels
 from ..method.model import GraspModel
 from ..mico.grasp import MIN_TRAJECTORY_TIME, Grasp, trajectory_duration
 from ..mico.kinematics import ARM_JOINTS
-from ..mico.mock_arm import MockArm, TrajectoryCommand
+from ..mico.mock_arm import MockArm
+from ..mico.trajectory import TrajectoryCommand
 from .assistance import grasp_task_set
 from .sweep import PathSweep
 

@@ -183,7 +183,8 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
                    operator: ScriptedOperator, intent_rng: np.random.Generator, closure_rng: np.random.Generator, *,
                    plan_caches: Sequence[dict[bytes, Grasp | None]], timeout: float = 25.0, period: float = 0.01,
                    w_period: float = 0.1, closure_error: float = 0.05, config: AssistanceConfig | None = None,
-                   follow_rule: FollowRule | None = None, execute: bool = True) -> SceneEpisode:
+                   follow_rule: FollowRule | None = None, execute: bool = True,
+                   twist_joint_limit: str = 'clip') -> SceneEpisode:
     """Run one episode over ``objects`` (module docstring); they share one :class:`~.mico.kinematics.MicoKinematics`.
 
     ``intent`` has one entry per object, in their order. ``plan_caches``: one per object (each
@@ -191,7 +192,8 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
     ``intent_rng``: the reports' noise (per report: P(o), then each object's w^o in order); ``closure_rng``: the
     closure error. ``config``: the assistance's settings (default: the node's), its ``arbitration`` set by the
     condition. ``follow_rule``: the suite's hysteresis. ``execute``: whether the suite's grasp command executes the
-    followed object's plan (module docstring).
+    followed object's plan (module docstring). ``twist_joint_limit``: the mock arm's rule for a twist at a joint
+    limit (:class:`~.mico.mock_arm.MockArm`).
     """
     if len(intent.intents) != len(objects) or len(plan_caches) != len(objects):
         raise ValueError(f'{len(objects)} objects need as many intents and plan caches')
@@ -206,7 +208,7 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
         scene_assistance = _scene_assistance(assistance, objects, names, follow_rule)
     ada = AdaAssistance([o.ada_targets for o in objects], limiter) if condition == 'ada' else None
     streams = [PlanStream(o.scene, 'intent', cache) for o, cache in zip(objects, plan_caches)]
-    arm = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0])
+    arm = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0], twist_joint_limit=twist_joint_limit)
     true = intent.true_object
     reaction_ticks = max(int(round(operator.c.reaction / period)), 0)
     hands: deque[NDArray[np.float64]] = deque(maxlen=reaction_ticks + 1)

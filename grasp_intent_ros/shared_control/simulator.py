@@ -238,9 +238,9 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
              own_goals: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]], intent_rng: np.random.Generator,
              closure_rng: np.random.Generator, *, ada_goals: list[tuple[NDArray[np.float64], NDArray[np.float64]]],
              plan_cache: dict[bytes, Grasp | None], timeout: float = 25.0, period: float = 0.01,
-             w_period: float = 0.1, closure_error: float = 0.05,
-             config: AssistanceConfig | None = None, estimator: IntentEstimator | None = None,
-             classifier_prior: bool = False, execute: bool = True, trace: list[TraceRow] | None = None) -> Episode:
+             w_period: float = 0.1, closure_error: float = 0.05, config: AssistanceConfig | None = None,
+             estimator: IntentEstimator | None = None, classifier_prior: bool = False, execute: bool = True,
+             trace: list[TraceRow] | None = None, twist_joint_limit: str = 'clip') -> Episode:
     """Run one episode (module docstring).
 
     Parameters
@@ -264,6 +264,8 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
         where it is under every condition.
     trace : list of TraceRow, optional
         When given, one row per ``w_period`` is appended to it (the loop's state; a diagnostic's record).
+    twist_joint_limit : str
+        The mock arm's rule for a twist at a joint limit (:class:`~.mico.mock_arm.MockArm`): ``'clip'`` or ``'stop'``.
     """
     kin = scene.kin
     base = config or AssistanceConfig()
@@ -273,7 +275,7 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
     assistance.set_object(scene.base_T_obj, scene.model.body)  # the robot's perception: the tracked pose
     ada = AdaAssistance([[g] for g, _ in ada_goals], limiter) if condition == 'ada' else None
     stream = PlanStream(scene, 'single' if condition == 'independent' else 'intent', plan_cache)
-    arm = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0])
+    arm = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0], twist_joint_limit=twist_joint_limit)
     reaction_ticks = max(int(round(operator.c.reaction / period)), 0)
     hands: deque[NDArray[np.float64]] = deque(maxlen=reaction_ticks + 1)
     shown_history: deque[Grasp | None] = deque(maxlen=reaction_ticks + 1)

@@ -296,3 +296,27 @@ def test_objects_with_trajectories_on_arrival_are_refused_with_the_reason(ros) -
 
     with pytest.raises(ValueError, match='on_request'):
         MockArmNode(context=ros.context, parameter_overrides=[Parameter('objects', value=['cup'])])
+
+
+def test_twist_joint_limit_stop_holds_the_arm_at_a_limit_and_is_set_at_run_time(ros) -> None:
+    """With the elbow at its limit, a twist down drives it outward: 'stop' holds the arm, 'clip' lets it drift."""
+    from rclpy.parameter import Parameter
+
+    kin = MicoKinematics()
+    q0 = Q0.copy()
+    q0[2] = kin.lower[2]
+    arm = ros.add(MockArmNode(context=ros.context, parameter_overrides=[
+        Parameter('initial_positions', value=q0.tolist()), Parameter('twist_joint_limit', value='stop')]))
+    states = ros.subscribe(JointState, topics.JOINT_STATES)
+    pub = ros.publisher(TwistStamped, topics.ARM_TWIST_COMMAND)
+    down = TwistStamped()
+    down.header.frame_id = BASE_FRAME
+    down.twist.linear.z = -0.05
+    assert ros.wait_for(lambda: states, 10.0)
+    assert ros.publish_until(pub, down, lambda: arm._arm.mode == 'twist' and len(states) > 50, 10.0, period=0.02)
+    assert_allclose(latest_positions(states), q0, atol=0)  # driven at the limit: held, every joint
+    refused = arm.set_parameters([Parameter('twist_joint_limit', value='halt')])[0]
+    assert not refused.successful and 'twist_joint_limit' in refused.reason
+    assert arm.set_parameters([Parameter('twist_joint_limit', value='clip')])[0].successful
+    assert ros.publish_until(pub, down, lambda: np.any(latest_positions(states)[:6] != q0[:6]), 10.0, period=0.02)
+    assert latest_positions(states)[2] == kin.lower[2]  # the elbow clipped at its limit, the others moving on

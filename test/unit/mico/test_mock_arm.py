@@ -1,4 +1,4 @@
-"""grasp_intent_ros.mico.mock_arm: trajectories by the joint_trajectory_controller's rules, twists by DLS IK."""
+"""mico.mock_arm and mico.trajectory: trajectories by the controller's rules, twists by DLS IK, joint limits."""
 
 from __future__ import annotations
 
@@ -10,13 +10,13 @@ from grasp_intent_ros.errors import CommandError, KinematicsError
 from grasp_intent_ros.mico.grasp import JOINT_NAMES
 from grasp_intent_ros.mico.kinematics import EE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import (
+    JOINT_LIMIT_TOLERANCE,
     MockArm,
-    TrajectoryCommand,
-    TrajectoryExecution,
-    check_trajectory,
     check_twist,
     dls_joint_velocities,
+    joint_limit_scale,
 )
+from grasp_intent_ros.mico.trajectory import TrajectoryCommand, TrajectoryExecution, check_trajectory
 
 Q0 = np.concatenate([HOME_Q, np.zeros(3)])
 
@@ -176,3 +176,105 @@ def test_a_twist_ends_a_trajectory_and_bad_twists_are_rejected(kin: MicoKinemati
         check_twist([np.nan, 0.0, 0.0], [0.0] * 3, '')
     with pytest.raises(KinematicsError, match='outside the joint limits'):
         arm.reset(np.r_[HOME_Q, 0.0, 0.0, 2.0])
+
+
+def test_joint_limit_scale_stops_at_the_first_limit_reached_with_its_tolerance() -> None:
+    lower, upper = np.array([-1.0, -1.0, -1.0]), np.array([1.0, 1.0, 1.0])
+    q = np.array([0.8, -0.5, 0.0])
+    assert joint_limit_scale(q, np.array([0.4, -0.1, 0.3]), lower, upper) == pytest.approx(0.5, abs=1e-15)
+    assert joint_limit_scale(q, np.array([0.4, -1.0, 0.3]), lower, upper) == pytest.approx(0.5, abs=1e-15)  # tie
+    assert joint_limit_scale(q, np.array([0.1, -2.0, 0.3]), lower, upper) == pytest.approx(0.25, abs=1e-15)
+    assert joint_limit_scale(q, np.array([-1.8, 0.5, 1.0]), lower, upper) == 1.0  # within, or onto a limit
+    at = np.array([1.0, -1.0, 0.0])  # two joints exactly at a limit
+    assert joint_limit_scale(at, np.array([-0.1, 0.1, 0.3]), lower, upper) == 1.0  # both inward: free
+    assert joint_limit_scale(at, np.array([0.0, 0.0, 0.3]), lower, upper) == 1.0  # not moving: free
+    assert joint_limit_scale(at, np.array([1e-3, 0.1, 0.3]), lower, upper) == 0.0  # one outward: halted
+    assert joint_limit_scale(at, np.array([-0.1, -1e-3, 0.3]), lower, upper) == 0.0
+    # no decision by a last bit: an outward step within the tolerance does not halt; beyond it, it does
+    assert joint_limit_scale(at, np.array([0.5 * JOINT_LIMIT_TOLERANCE, 0.1, 0.3]), lower, upper) == 1.0
+    assert joint_limit_scale(at, np.array([2.0 * JOINT_LIMIT_TOLERANCE, 0.1, 0.3]), lower, upper) == 0.0
+    assert joint_limit_scale(np.nextafter(at, 0.0), np.array([1e-17, -1e-17, 0.3]), lower, upper) == 1.0
+
+
+def hand_steps(kin: MicoKinematics, arm: MockArm, linear: list[float], seconds: float) -> list[np.ndarray]:
+    """The hand's displacement (m, base frame) in each 0.01 s step of ``seconds`` under a live base-frame twist."""
+    steps, t = [], 0.0
+    while t < seconds - 1e-12:
+        before = kin.fk(arm.q[:6])[:3, 3]
+        t += 0.01
+        arm.command_twist(check_twist(linear, [0.0] * 3, ''), now=t)
+        arm.step(t, 0.01)
+        steps.append(kin.fk(arm.q[:6])[:3, 3] - before)
+    return steps
+
+
+def test_at_a_joint_limit_the_stopping_arm_never_drifts_against_the_command(kin: MicoKinematics) -> None:
+    """Down from Home with the elbow 0.01 rad above its limit: the elbow reaches it in four steps, then the arm stops.
+
+    Clipping each joint instead lets the others carry the hand sideways and at times against the command.
+    """
+    q0 = Q0.copy()
+    q0[2] = kin.lower[2] + 0.01
+    down = np.array([0.0, 0.0, -0.05])
+    stopping = MockArm(kin, q0, twist_joint_limit='stop')
+    steps = hand_steps(kin, stopping, list(down), 1.0)
+    moved = [d for d in steps if np.linalg.norm(d) > 0.0]
+    assert 3 <= len(moved) <= 4  # 0.01 rad at the DLS answer's 0.28 rad/s of the elbow
+    assert all(d @ down / (np.linalg.norm(d) * np.linalg.norm(down)) > 0.99 for d in moved)
+    assert stopping.q[2] == pytest.approx(kin.lower[2], abs=1e-12)  # stopped at the limit, not short of it
+    assert np.linalg.norm(sum(steps[len(moved):])) < 1e-12 and stopping.mode == 'twist' and not np.any(stopping.qd)
+    clipping = MockArm(kin, q0)
+    drift = hand_steps(kin, clipping, list(down), 1.0)
+    assert min(float(d @ down) for d in drift) < 0.0  # today's rule: some steps go up while the command is down
+    assert np.linalg.norm(sum(drift)[:2]) > 0.03  # and the hand drifts sideways by centimetres
+
+
+def test_a_joint_at_its_limit_moving_inward_moves_the_stopping_arm(kin: MicoKinematics) -> None:
+    q0 = Q0.copy()
+    q0[2] = kin.lower[2]  # exactly at the limit
+    arm = MockArm(kin, q0, twist_joint_limit='stop')
+    assert np.linalg.norm(sum(hand_steps(kin, arm, [0.0, 0.0, -0.05], 0.2))) == 0.0  # outward: halted
+    assert_allclose(arm.q, q0, atol=0)
+    up = np.array([0.0, 0.0, 0.05])
+    steps = hand_steps(kin, arm, list(up), 0.5)  # the elbow opens: the hand goes up
+    assert arm.q[2] > kin.lower[2] + 0.1
+    assert all(d @ up / (np.linalg.norm(d) * np.linalg.norm(up)) > 0.98 for d in steps)
+    assert sum(steps) @ up / np.linalg.norm(up) > 0.02  # of 0.025 commanded: damped, the Jacobian near singular
+
+
+def clip_reference(kin: MicoKinematics, q: np.ndarray, linear: list[float], dt: float) -> np.ndarray:
+    """One twist step as MockArm took it before the option: each joint clipped to its limits on its own."""
+    step = np.zeros(9)
+    step[:6] = dls_joint_velocities(kin.jacobian(q[:6]), np.r_[linear, 0.0, 0.0, 0.0], 0.05, kin.velocity_limits,
+                                    threshold=0.05) * dt
+    return np.clip(q + step, np.r_[kin.lower, 0.0, 0.0, 0.0], np.r_[kin.upper, 1.51, 1.51, 1.51])
+
+
+def test_the_default_clips_each_joint_bit_for_bit_and_trajectories_and_fingers_ignore_the_rule(
+        kin: MicoKinematics) -> None:
+    q0 = Q0.copy()
+    q0[2] = kin.lower[2] + 0.01
+    default, stopping = MockArm(kin, q0), MockArm(kin, q0, twist_joint_limit='stop')
+    expected = q0.copy()
+    for i in range(1, 101):  # into the elbow's limit and along it
+        for arm in (default, stopping):
+            arm.command_twist(check_twist([0.0, 0.0, -0.05], [0.0] * 3, ''), now=0.01 * i)
+            arm.step(0.01 * i, 0.01)
+        expected = clip_reference(kin, expected, [0.0, 0.0, -0.05], 0.01)
+        assert np.array_equal(default.q, expected), f'step {i}'
+    assert not np.array_equal(stopping.q, default.q)
+    # a trajectory within the limits (onto the elbow's) and the fingers' close: the same under either rule
+    end = q0 + np.r_[0.2, -0.1, 0.0, 0.3, -0.2, 0.1, 0.0, 0.0, 0.0]
+    end[2] = kin.lower[2]
+    for arm in (default, stopping):
+        arm.reset(q0)
+        arm.command_trajectory(command([0.5, 1.0], [(q0 + end) / 2, end], [list(0.8 * (end - q0)), [0.0] * 9]),
+                               now=0.0)
+        arm.close_fingers([1.0, 1.2, 0.4])
+    for i in range(1, 151):
+        for arm in (default, stopping):
+            arm.step(0.01 * i, 0.01)
+        assert np.array_equal(default.q, stopping.q), f'step {i}'
+    assert_allclose(default.q, np.r_[end[:6], 1.0, 1.2, 0.4], atol=1e-12)
+    with pytest.raises(ValueError, match='twist_joint_limit'):
+        MockArm(kin, Q0, twist_joint_limit='halt')

@@ -29,8 +29,9 @@ from grasp_intent_ros.mico.frames import (
 )
 from grasp_intent_ros.mico.grasp import JOINT_NAMES
 from grasp_intent_ros.mico.kinematics import HOME_Q, IK_POS_TOL, IK_ROT_TOL, MicoKinematics
-from grasp_intent_ros.mico.mock_arm import MockArm, TrajectoryCommand
+from grasp_intent_ros.mico.mock_arm import MockArm
 from grasp_intent_ros.mico.parameters import MOCK_ARM
+from grasp_intent_ros.mico.trajectory import TrajectoryCommand
 from grasp_intent_ros.objects.train import train
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.sessions.bag import QosSpec, SessionWriter
