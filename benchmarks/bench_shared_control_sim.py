@@ -30,7 +30,7 @@ The episodes
   robot's perception). So every grasp is planned on a perceived object, the robot's on the tracker's, the
   operator's on its own view, each with an error of the same size; the judge alone sees the true object.
 - The grasp command: under the suite's assistance, closing on the shown grasp executes it (the arm moves to
-  the planned grasp, then closes: :func:`~grasp_intent_ros.shared_control.simulator.execute_grasp`);
+  the planned grasp, then closes: :func:`~grasp_intent_ros.shared_control.loop_steps.execute_grasp`);
   ``--no-execute`` closes where the hand is, as under direct and ADA.
 - The planner (every plan: the shown grasps, the operators' own grasps, ADA's goals): the planner node's
   defaults (:func:`~grasp_intent_ros.planning.options.node_default_options`: planning for the documented 1x

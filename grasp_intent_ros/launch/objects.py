@@ -108,13 +108,11 @@ def operator_object(objects: Sequence[SceneObject], name: str = '') -> SceneObje
                            f'{", ".join(o.name for o in objects)}')
 
 
-def scene_node_args(module: str, objects: Sequence[SceneObject], *, operator: str = '',
-                    estimated: bool = False) -> tuple[str, ...]:
+def scene_node_args(module: str, objects: Sequence[SceneObject], *, operator: str = '') -> tuple[str, ...]:
     """The ``--ros-args`` that make optional node ``module`` serve the scene of ``objects``.
 
-    The scripted operator: its ``object``, :func:`operator_object` of ``operator``, and with ``estimated`` (the
-    intent estimator runs: each object's w is its) ``intent: none``, so that no chain gets w from two sources. Any
-    other: its ``objects`` parameter, every object. Each name is quoted: the value is read as YAML, where a name
+    The scripted operator: its ``object``, :func:`operator_object` of ``operator``. Any other: its ``objects``
+    parameter, every object. Each name is quoted: the value is read as YAML, where a name
     such as ``on`` or ``null`` would not be a string.
 
     Raises
@@ -123,6 +121,5 @@ def scene_node_args(module: str, objects: Sequence[SceneObject], *, operator: st
         As :func:`operator_object`, for the scripted operator.
     """
     if module == 'scripted_operator':
-        return ('-p', f"object:='{operator_object(objects, operator).name}'",
-                *(('-p', 'intent:=none') if estimated else ()))
+        return ('-p', f"object:='{operator_object(objects, operator).name}'")
     return ('-p', 'objects:=[' + ','.join(f"'{obj.name}'" for obj in objects) + ']')

@@ -271,7 +271,9 @@ class NodeSuite:
         """The ``--ros-args`` of a suite node (as :meth:`start_nodes` gives them), e.g. to restart it.
 
         With ``objects``, an optional node's over that scene: no :data:`CHAIN_REMAPPINGS`, and last
-        :func:`~grasp_intent_ros.launch.objects.scene_node_args` (raising its GraspIntentError).
+        :func:`~grasp_intent_ros.launch.objects.scene_node_args` (raising its GraspIntentError). The scripted
+        operator with ``estimated`` (the intent estimator runs: it gives w, every object's in a scene) holds no w
+        (``intent: none``), so that no chain gets w from two sources.
         """
         try:
             config: Path | None = config_dir()
@@ -292,7 +294,9 @@ class NodeSuite:
             if models_dir is not None:
                 ros_args += ['-p', f'models_dir:={Path(models_dir).resolve()}']
         if objects:
-            ros_args += scene_node_args(module, objects, operator=operator, estimated=estimated)
+            ros_args += scene_node_args(module, objects, operator=operator)
+        if module == 'scripted_operator' and estimated:
+            ros_args += ['-p', 'intent:=none']
         return ros_args
 
     def node(self, module: str) -> NodeProcess:

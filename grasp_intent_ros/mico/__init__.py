@@ -11,6 +11,8 @@ parameters (ROS-free tables)
 collision
     The hand (the URDF's collision primitives, coal) against the table and the object: on the approach with the
     fingers open, and closing until contact.
+grasp_clearance
+    What that check reports for one grasp (the table, the depths, where the fingers stop) and its verdict.
 limits
     How deep the hand may go in before a grasp counts as in collision (the collision check's thresholds), and a
     margin for the error of the object's pose.

@@ -3,8 +3,8 @@
 A grasp x (:mod:`grasp_intent_ros.method.features`, object frame) puts the end effector at
 ``features_to_obj_T_ee(x)``. The hand is the URDF's collision primitives fixed to link 6 (the wrist and palm,
 ``'palm'``) and to the three finger joints (each finger's proximal link and tip): pinocchio's geometry model of
-``config/mico_3f.urdf``, its shapes coal's. The scene is the table, a plane (:class:`Table`: the free side is
-``normal . p >= offset``, object frame), and the object's body
+``config/mico_3f.urdf``, its shapes coal's. The scene is the table, a plane (:class:`~.grasp_clearance.Table`: the
+free side is ``normal . p >= offset``, object frame), and the object's body
 (:class:`~grasp_intent_ros.method.body.ObjectBody`, its primitives, the cup's handle included).
 
 :class:`HandCollision` answers, for one grasp (:meth:`HandCollision.clearance`), in metres:
@@ -17,13 +17,13 @@ A grasp x (:mod:`grasp_intent_ros.method.features`, object frame) puts the end e
   (coal's signed distance at poses ``SWEEP_STEP`` apart along the corridor, both ends included);
 - **the closure**: each finger closes from 0 toward its planned closure in steps of ``CLOSURE_STEP`` and
   stops at the first step where it touches (signed distance <= 0) the object or the table; ``stops`` says
-  where and on what (:class:`FingerStop`).
+  where and on what (:class:`~.grasp_clearance.FingerStop`).
 
 :meth:`HandCollision.open_hand_depth` gives the same two object depths at one hand pose (a path's, at each pose).
 
-:data:`LIMITS` turn that into a verdict (:meth:`Clearance.fault`): a grasp is in collision when a hand part
-goes more than ``table`` below the table, the palm/wrist more than ``palm`` into the object, or an open finger
-more than ``finger`` into it. A finger that meets the table while closing stops there (a MICO's fingers take
+:data:`LIMITS` turn that into a verdict (:meth:`~.grasp_clearance.Clearance.fault`): a grasp is in collision when a
+hand part goes more than ``table`` below the table, the palm/wrist more than ``palm`` into the object, or an open
+finger more than ``finger`` into it. A finger that meets the table while closing stops there (a MICO's fingers take
 position commands and stall at contact): reported, never a collision.
 
 The object's part of a grasp's clearance (coal's, the costly part) does not depend on the table nor on the
@@ -38,7 +38,6 @@ import math
 import os
 import threading
 from collections import OrderedDict
-from dataclasses import dataclass
 from typing import Any
 
 import coal  # type: ignore[import-untyped, unused-ignore]
@@ -50,11 +49,12 @@ from ..errors import KinematicsError
 from ..method.body import Box, Cylinder, ObjectBody
 from ..method.features import FINGERS, MICO_3F
 from .frames import PRE_GRASP_STANDOFF, check_transform, features_to_obj_T_ee, pre_grasp
+from .grasp_clearance import Clearance, FingerStop, Table
 from .kinematics import EE_FRAME, FINGER_JOINTS, default_urdf_path
 from .limits import LIMITS, Limits, tracker_margin
 
-__all__ = ['SWEEP_STEP', 'CLOSURE_STEP', 'Limits', 'LIMITS', 'tracker_margin', 'Table', 'FingerStop',
-           'Clearance', 'HandCollision', 'CollisionFree', 'HAND_PARTS']
+__all__ = ['SWEEP_STEP', 'CLOSURE_STEP', 'Limits', 'LIMITS', 'tracker_margin', 'HandCollision', 'CollisionFree',
+           'HAND_PARTS']
 
 SWEEP_STEP = 0.005
 """Largest spacing (m) of the poses checked against the object along the approach corridor (below the
@@ -62,8 +62,8 @@ thinnest primitive of hand and object, 10 mm)."""
 CLOSURE_STEP = 0.02
 """Step (rad) of a closing finger; it stops at the first step that touches the object or the table."""
 HAND_PARTS = ('palm', 'finger_1', 'finger_tip_1', 'finger_2', 'finger_tip_2', 'finger_3', 'finger_tip_3')
-"""The hand's collision parts, in :attr:`Clearance.part` order: link 6 (wrist and palm), then each finger's
-proximal link and tip."""
+"""The hand's collision parts, named in :attr:`~.grasp_clearance.Clearance.table_part`: link 6 (wrist and palm),
+then each finger's proximal link and tip."""
 _FINGER_OF_PART = (-1, 0, 0, 1, 1, 2, 2)
 _MAX_CACHE = 8192
 _CLOSED = float(MICO_3F.upper[FINGERS][0])
@@ -72,106 +72,7 @@ _FINGER_REACH = 0.12
 _MAX_SCENES = 16
 
 
-@dataclass(frozen=True)
-class Table:
-    """The support plane in the object frame: points with ``normal . p >= offset`` are above it (m).
-
-    Raises
-    ------
-    KinematicsError
-        For a normal that is not finite and non-zero, or a non-finite offset.
-    """
-
-    normal: tuple[float, float, float] = (0.0, 0.0, 1.0)
-    offset: float = 0.0
-
-    def __post_init__(self) -> None:
-        n = np.asarray(self.normal, dtype=np.float64)
-        norm = float(np.linalg.norm(n)) if n.shape == (3,) and np.all(np.isfinite(n)) else 0.0
-        if norm < 1e-9 or not math.isfinite(self.offset):
-            raise KinematicsError(f'a table needs a finite non-zero normal and a finite offset, got {self.normal!r}, '
-                                  f'{self.offset!r}')
-        object.__setattr__(self, 'normal', tuple(float(c) for c in n / norm))
-        object.__setattr__(self, 'offset', float(self.offset) / norm)
-
-    @classmethod
-    def in_object_frame(cls, base_plane: ArrayLike, base_T_obj: ArrayLike) -> Table:
-        """The table ``(nx, ny, nz, d)`` of the base frame (``n . p >= d`` above it) in the object's frame.
-
-        Raises
-        ------
-        KinematicsError
-            For a plane that is not 4 finite numbers with a non-zero normal, or a bad transform.
-        """
-        plane = np.asarray(base_plane, dtype=np.float64)
-        if plane.shape != (4,) or not np.all(np.isfinite(plane)):
-            raise KinematicsError(f'a table plane is 4 finite numbers (nx, ny, nz, d), got {plane.tolist()}')
-        T = check_transform(base_T_obj, 'base_T_obj')
-        n_base = plane[:3]
-        return cls(tuple((T[:3, :3].T @ n_base).tolist()), float(plane[3] - n_base @ T[:3, 3]))
-
-    def depth(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
-        """How far points (..., 3) lie below the plane (m; negative above it)."""
-        out: NDArray[np.float64] = self.offset - points @ np.asarray(self.normal)
-        return out
-
-
 _STANDING = Table()  # the plane z = 0 of the object frame, the object's own (immutable: built once)
-
-
-@dataclass(frozen=True)
-class FingerStop:
-    """Where a closing finger stopped: ``closure`` (rad) and ``on`` 'object', 'table' or '' (reached its plan)."""
-
-    closure: float
-    on: str
-
-
-@dataclass(frozen=True)
-class Clearance:
-    """One grasp's clearance (module docstring); depths in m, positive into the table or the object.
-
-    Attributes
-    ----------
-    table_depth : float
-        Deepest hand part below the table along the approach, fingers open (negative: clear by that much).
-    table_part : str
-        Which part (:data:`HAND_PARTS`).
-    palm_depth, finger_depth : float
-        Deepest the palm/wrist and an open finger go into the object along the approach (negative: clear).
-    stops : tuple of FingerStop, length 3
-    """
-
-    table_depth: float
-    table_part: str
-    palm_depth: float
-    finger_depth: float
-    stops: tuple[FingerStop, FingerStop, FingerStop]
-
-    def fault(self, limits: Limits = LIMITS) -> str | None:
-        """Why the grasp is in collision under ``limits``, or None when it is not."""
-        faults = []
-        if self.table_depth > limits.table:
-            faults.append(f'{self.table_part} {1e3 * self.table_depth:.1f} mm below the table')
-        if self.palm_depth > limits.palm:
-            faults.append(f'palm {1e3 * self.palm_depth:.1f} mm into the object')
-        if self.finger_depth > limits.finger:
-            faults.append(f'an open finger {1e3 * self.finger_depth:.1f} mm into the object')
-        return '; '.join(faults) or None
-
-    def summary(self) -> str:
-        """The clearance in words (mm; 'into' for a depth, 'clear' for a distance), then where the fingers stop."""
-        def mm(depth: float) -> str:
-            return 'clear' if depth == -math.inf else \
-                f'{1e3 * abs(depth):.1f} mm {"into" if depth > 0.0 else "clear"}'
-        stops = ', '.join(f'{s.on or "its plan"} at {s.closure:.2f} rad' for s in self.stops)
-        return (f'table {mm(self.table_depth)} ({self.table_part}), palm {mm(self.palm_depth)}, open fingers '
-                f'{mm(self.finger_depth)}; fingers stop on {stops}')
-
-    @property
-    def fingers_on_table(self) -> int:
-        """How many fingers stop on the table while closing."""
-        return sum(stop.on == 'table' for stop in self.stops)
 
 
 def _rz(angles: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -26,8 +26,9 @@ from ..method.intent import restrict
 from ..method.model import GraspModel
 from ..planning import common, planner
 from ..planning.options import DEFAULT_METHOD, Method, Options
-from .collision import LIMITS, Clearance, CollisionFree, HandCollision, Limits, Table
+from .collision import LIMITS, CollisionFree, HandCollision, Limits
 from .frames import PRE_GRASP_STANDOFF, pre_grasp, rotation_angle
+from .grasp_clearance import Clearance, Table
 from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
 
 __all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'OUTCOMES', 'APPROACH_STEP', 'NoModelZone', 'PlanOutcome', 'Grasp',

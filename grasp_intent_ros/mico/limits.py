@@ -1,6 +1,6 @@
 """How deep the hand may go into the scene before a grasp counts as in collision, and a margin for the object's pose.
 
-:class:`Limits` are the thresholds of :meth:`~.collision.Clearance.fault` (the planner's :data:`LIMITS`, also
+:class:`Limits` are the thresholds of :meth:`~.grasp_clearance.Clearance.fault` (the planner's :data:`LIMITS`, also
 the judge's of the closed-loop simulation's sweeps); :meth:`Limits.less` lowers the object's two by a margin, and
 :func:`tracker_margin` states one for a tracker's error. Re-exported by :mod:`.collision`.
 """

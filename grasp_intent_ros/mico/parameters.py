@@ -17,9 +17,9 @@ from ..method.intent import all_zones, match_zones, single_task_v
 from ..method.parameters import TASK_NAMES
 from ..parameters import ParamSpec, finite_vector, one_of
 from ..planning.options import DEFAULT_METHOD, METHODS, NODE_EXECUTION_NOISE, noise_from
-from .collision import Table
 from .frames import DEFAULT_OBJECT_ORIENTATION, DEFAULT_OBJECT_POSITION, check_unit_quaternion, pose_to_matrix
 from .grasp import JOINT_NAMES, check_workspace
+from .grasp_clearance import Table
 from .kinematics import HOME_Q
 from .mock_arm import FINGER_VELOCITY_LIMIT
 

@@ -17,17 +17,15 @@ Topics (relative)
 
 Behaviour
     One blended twist per ``publish_period``, at the operator's cadence when its source streams: an operator twist
-    is answered at once when the last output is at least 0.95 ``publish_period`` old, or at least half of it when
-    that output was the timer's; one that comes sooner after the timer's output is answered half a period after it.
-    After answering an operator twist the timer waits 1.25 ``publish_period`` from its start; after its own output,
-    one ``publish_period``, whatever arrived (a slower operator source, or a stale one: then the zero twist).
-    Without the half-period rule a source at the period whose twists come just after the timer's outputs would have
-    every twist held for most of a period (measured: 5-10 ms in most runs); with it the twists are answered at once
-    after one re-phasing, whose two gaps are at least half a period. The kinematics, the maths and the path search's
-    process run once at start (warm-up), before the first output. The maths, alpha's definition and the rules are
-    :mod:`grasp_intent_ros.shared_control.assistance`. Inputs are keep-last 1 (latest only); staleness is judged by
-    arrival time on the node's clock. With a model that has a body, the robot's joint path keeps the open hand clear
-    of it at the object's pose (:mod:`grasp_intent_ros.shared_control.clearance`); without one, unchecked.
+    is answered at once when the last output is at least 0.95 ``publish_period`` old, or half of it when that was
+    the timer's (sooner after the timer's: half a period after it); the timer's own output follows one
+    ``publish_period`` after its last, 1.25 after an answer, whatever arrived (a stale operator source: the zero
+    twist). The rule and why: :mod:`grasp_intent_ros.shared_control.output_cadence`. The kinematics, the maths and
+    the path search's process run once at start (warm-up), before the first output. The maths, alpha's definition
+    and the rules are :mod:`grasp_intent_ros.shared_control.assistance`. Inputs are keep-last 1 (latest only);
+    staleness is judged by arrival time on the node's clock. With a model that has a body, the robot's joint path
+    keeps the open hand clear of it at the object's pose (:mod:`grasp_intent_ros.shared_control.clearance`); without
+    one, unchecked.
 
 Threads and processes
     The executor's thread (single-threaded) runs every callback and owns the
@@ -49,7 +47,6 @@ Parameters: :data:`grasp_intent_ros.shared_control.parameters.ASSISTANCE`, ``con
 
 from __future__ import annotations
 
-import time
 from collections.abc import Mapping
 from typing import Any
 
@@ -72,6 +69,7 @@ from ..ros.qos import input_qos, output_publisher
 from ..ros.robot import twist_msg
 from ..ros.run import guard_exit, publish_all, run_node
 from ..shared_control.assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, warm_up
+from ..shared_control.output_cadence import OutputCadence
 from ..shared_control.parameters import ASSISTANCE
 from ..shared_control.path_search import PathWorker
 from ..wire import topics
@@ -85,12 +83,6 @@ __all__ = ['AssistanceNode', 'ENABLE_SERVICE', 'main']
 
 ENABLE_SERVICE = topics.ASSISTANCE_ENABLE
 """The operator's switch (std_srvs/SetBool)."""
-_EARLY = 0.95
-"""An operator twist is answered at once when the last output is at least this many periods old."""
-_HALF = 0.5
-"""Periods after the timer's output from which an operator twist is answered at once (sooner: at this age)."""
-_GRACE = 1.25
-"""Periods the timer waits for the next operator twist after answering one (then one period after its own)."""
 
 
 def _check(values: Mapping[str, Any]) -> None:
@@ -119,7 +111,7 @@ class AssistanceNode(Node):
                        np.ones(MICO_3F.dim))
         self._paths.wait_ready(60.0)  # its start (a fresh install's compile) overlaps the warm-up above
         self._assist.paths = self._paths
-        self._last_output, self._outputs = -float('inf'), 0
+        self._outputs = 0
         self._pubs = {topics.ASSISTANCE_TWIST: output_publisher(self, TwistStamped, topics.ASSISTANCE_TWIST),
                       topics.ASSISTANCE_ALPHA: output_publisher(self, Float64, topics.ASSISTANCE_ALPHA)}
         latest, diag = input_qos(depth=1), self._diag
@@ -132,9 +124,9 @@ class AssistanceNode(Node):
             self._chains = [ChainInputs(self, diag, self._params, self._assist)]
         self._configure({})  # each chain's object set
         self.create_service(SetBool, ENABLE_SERVICE, self._on_enable)
-        self._period = float(self._params['publish_period'])
-        self._timer = self.create_timer(self._period, self._diag.guard_timer(self._on_timer))
-        self._by_timer, self._answer_due = True, False  # the last output the timer's; an answer set
+        period = float(self._params['publish_period'])
+        timer = self.create_timer(period, self._diag.guard_timer(self._on_timer))
+        self._cadence = OutputCadence(period, timer, self._publish)
 
     def destroy_node(self) -> None:
         """Stop the path search's process (after its search), then destroy the node."""
@@ -164,36 +156,15 @@ class AssistanceNode(Node):
     def _on_operator(self, msg: Any) -> None:
         xi = twist_command(msg, default_frame=self._params['operator_frame']).in_base(self._assist.base_T_ee)
         (self._assist if self._scene is None else self._scene.scene).set_operator(xi, now_seconds(self))
-        age = (time.monotonic() - self._last_output) / self._period
-        if age >= _EARLY or (self._by_timer and age >= _HALF):
-            self._answer()
-        elif self._by_timer and not self._answer_due:
-            self._answer_due = True  # the timer answers it half a period after its own output
-            self._rearm(_HALF - age)
-
-    def _answer(self) -> None:
-        self._publish()
-        self._by_timer, self._answer_due = False, False
-        self._rearm(_GRACE - (time.monotonic() - self._last_output) / self._period)  # the grace from its start
+        self._cadence.on_operator()
 
     def _on_timer(self) -> None:
-        if self._answer_due:
-            self._answer()
-            return
-        self._publish()
-        self._by_timer = True
-        if self._timer.timer_period_ns != round(self._period * 1e9):
-            self._rearm(1.0)  # back to one output per period from now
-
-    def _rearm(self, periods: float) -> None:
-        self._timer.timer_period_ns = max(1, round(periods * self._period * 1e9))
-        self._timer.reset()
+        self._cadence.on_timer()
 
     def _on_arm(self, arm: JointReading) -> None:
         self._assist.set_joints(arm.positions)
 
     def _publish(self) -> None:
-        self._last_output = time.monotonic()
         stamp = self.get_clock().now()
         now = stamp.nanoseconds * 1e-9
         command = self._assist.command(now) if self._scene is None else self._scene.command(now)

@@ -19,10 +19,8 @@ Topics and services (relative)
     call ``grasp/execute`` then ``grasp/close`` (std_srvs/Trigger, with ``close_on_reach``; the execute only on the
          shown grasp, with ``execute_shown``), ``mock_arm/reset`` (between episodes)
 
-The grasp command (with ``close_on_reach``; :mod:`~grasp_intent_ros.shared_control.operator_loop`): on its own
-grasp ``grasp/close`` at once; on the shown grasp (with ``execute_shown``) zero twists until the hand is at rest,
-``grasp/execute``, zero twists until the latest ``grasp/trajectory``'s time has passed, then ``grasp/close`` (a
-refused execute, logged and in the diagnostics, closes at once). ``hold`` counts from the fingers' close.
+The grasp command (with ``close_on_reach``) and the reset, in sequence:
+:mod:`~grasp_intent_ros.shared_control.operator_calls`. ``hold`` counts from the fingers' close.
 
 Parameters: :data:`grasp_intent_ros.shared_control.parameters.SCRIPTED_OPERATOR`, ``config/scripted_operator.yaml``.
 """
@@ -56,9 +54,10 @@ from ..ros.qos import STREAM_DEPTH, input_qos, output_publisher
 from ..ros.robot import twist_msg
 from ..ros.run import guard_exit, publish_all, run_node
 from ..ros.worker import LatestOnlyWorker
+from ..shared_control.operator_calls import OperatorCalls
 from ..shared_control.operator_loop import OperatorEpisodes, own_grasp
 from ..shared_control.operators import OperatorConstants, PersistentIntent, ScriptedOperator
-from ..shared_control.parameters import SCRIPTED_OPERATOR, check_scripted_operator
+from ..shared_control.parameters import SCRIPTED_OPERATOR, check_scripted_operator, episodes_settings
 from ..wire import topics
 from ..wire.diagnostics import ERROR, KEY_EXECUTE, KEY_TIMES_TO_GRASP, OK, OPERATOR_COMPONENT, WARN
 from ..wire.joint_states import JointReading
@@ -88,18 +87,17 @@ class ScriptedOperatorNode(Node):
         chain = p['object']  # '' or the object's chain namespace (relative)
         self._kin = p.build('urdf_path', lambda path: MicoKinematics(path or None))
         self._loop = OperatorEpisodes(ScriptedOperator(p['device'], OperatorConstants(), np.random.default_rng(
-            [p['seed'], 0]), p['publish_period']), p['start_delay'], p['hold'], p['episodes'],
-            execute_shown=p['execute_shown'] and p['close_on_reach'], execute_timeout=p['execute_timeout'])
-        self._trajectory_time: float | None = None  # the latest grasp/trajectory's last time_from_start, s
+            [p['seed'], 0]), p['publish_period']), **episodes_settings(p))
         self._w_rng = np.random.default_rng([p['seed'], 1])
         self._task_set: int | None = None  # the task set over the model's tasks, once validated
         self._problem = ''  # why there is no own grasp ('' while there is one, or none was tried)
-        self._waiting_on: str | None = None  # the service call in flight
-        self._unavailable = ''  # the service last found unavailable ('' once a call is made)
         self._twist_pub = output_publisher(self, TwistStamped, topics.OPERATOR_TWIST)
         self._w_topic = f'{chain}/{topics.INTENT_W}' if chain else topics.INTENT_W
         self._w_pub = output_publisher(self, Float64MultiArray, self._w_topic)
-        self._triggers = {name: self.create_client(Trigger, name) for name in (GRASP_EXECUTE, GRASP_CLOSE, ARM_RESET)}
+        clients = {name: self.create_client(Trigger, name) for name in (GRASP_EXECUTE, GRASP_CLOSE, ARM_RESET)}
+        self._calls = OperatorCalls(self._loop, execute=GRASP_EXECUTE, close=GRASP_CLOSE, reset=ARM_RESET,
+                                    clients=clients, request=Trigger.Request, logger=self.get_logger(),
+                                    report=lambda text: self._diag.set_values({KEY_EXECUTE: text}))
         self._scenes = LatestOnlyWorker(_Scene(None, object_pose(p), p['task_set']),
                                         self._diag.guard(self._prepare, counts_received=False),
                                         ready=lambda scene: scene.model is not None, name=f'{node_name}_goal')
@@ -121,9 +119,9 @@ class ScriptedOperatorNode(Node):
         super().destroy_node()
 
     def _configure(self, changed: Mapping[str, Any]) -> None:
-        p, loop = self._params, self._loop
-        loop.start_delay, loop.hold, loop.episodes = p['start_delay'], p['hold'], p['episodes']
-        loop.execute_shown, loop.execute_timeout = p['execute_shown'] and p['close_on_reach'], p['execute_timeout']
+        p = self._params
+        for name, value in episodes_settings(p).items():
+            setattr(self._loop, name, value)
         if {'object_position', 'object_orientation'} & set(changed):
             self._scenes.update(lambda scene: replace(scene, base_T_obj=object_pose(p)))
         if {'task_set', 'w', 'intent'} & set(changed):  # planned again: a w that fits the model is checked there
@@ -137,17 +135,14 @@ class ScriptedOperatorNode(Node):
     def _prepare(self, scene: _Scene) -> None:
         assert scene.model is not None
         self._loop.own = self._task_set = None
-        model, name = scene.model.model, scene.model.name
+        held = self._params['w'] if self._params['intent'] == 'held' else None
         try:
-            if self._params['intent'] == 'held' and len(self._params['w']) != len(model.task_names):
-                raise GraspIntentError(f'w {list(self._params["w"])} has not one probability per task of the '
-                                       f'model ({", ".join(model.task_names)})')
-            self._task_set, own = own_grasp(model, scene.task_names, scene.base_T_obj, self._kin)
+            self._task_set, own = own_grasp(scene.model.model, scene.task_names, scene.base_T_obj, self._kin, held)
         except GraspIntentError as exc:
-            self._problem = f'model {name}: {exc}'
+            self._problem = f'model {scene.model.name}: {exc}'
             raise GraspIntentError(self._problem) from None
         self._problem, self._loop.own = '', own.base_T_ee
-        self._diag.set_values({'model': name, 'task set': ', '.join(scene.task_names),
+        self._diag.set_values({'model': scene.model.name, 'task set': ', '.join(scene.task_names),
                                'own grasp (m)': ', '.join(f'{v:.3f}' for v in own.base_T_ee[:3, 3])})
 
     def _on_arm(self, arm: JointReading) -> None:
@@ -158,7 +153,7 @@ class ScriptedOperatorNode(Node):
         self._loop.shown(time.monotonic(), pose_msg_to_matrix(msg, frame_id=BASE_FRAME))
 
     def _on_trajectory(self, msg: JointTrajectory) -> None:
-        self._trajectory_time = trajectory_time(msg)
+        self._calls.trajectory_time = trajectory_time(msg)
 
     def _on_object_pose(self, msg: PoseStamped) -> None:
         base_T_obj = object_pose_msg(msg, self._params['workspace_radius'])
@@ -170,60 +165,18 @@ class ScriptedOperatorNode(Node):
             publish_all(self, {self._w_topic: self._w_pub}, {self._w_topic: Float64MultiArray(data=w.tolist())})
 
     def _on_tick(self) -> None:
-        now, loop = time.monotonic(), self._loop
-        step = loop.step(now)
-        if step is not None and step.execute:
-            self.get_logger().info(f'episode {loop.episode}: at the shown grasp, at '
-                                   f'{step.goal[:3, 3].round(3).tolist()} m: executing it')
-            self._call(GRASP_EXECUTE)
-        if step is not None and step.close:
-            done = loop.closed[-1]
-            self.get_logger().info(f'episode {done.episode}: at the {done.pursued} grasp, at '
-                                   f'{done.goal[:3, 3].round(3).tolist()} m, after {done.time_to_grasp:.2f} s'
-                                   + (' (executed)' if done.executed else ''))
-            if self._params['close_on_reach']:
-                self._call(GRASP_CLOSE)
-        if loop.state == 'resetting' and self._waiting_on is None:
-            self._call(ARM_RESET)
+        now = time.monotonic()
+        step = self._loop.step(now)
+        self._calls.tick(step, self._params['close_on_reach'])
         publish_all(self, {topics.OPERATOR_TWIST: self._twist_pub}, {topics.OPERATOR_TWIST: twist_msg(
             np.zeros(6) if step is None else step.twist, frame_id=BASE_FRAME, stamp=self.get_clock().now().to_msg())})
         self._show(now)
 
-    def _call(self, name: str) -> None:
-        client = self._triggers[name]
-        if not client.service_is_ready():  # a close is not asked again, an execute closes at once, a reset is retried
-            self._unavailable = f'{name} is not available (no mock arm?)'
-            if name == GRASP_EXECUTE:
-                self._refused(self._unavailable)
-            return
-        self._unavailable, self._waiting_on = '', name
-        future = client.call_async(Trigger.Request())
-        future.add_done_callback(lambda done: self._answered(name, done))
-
-    def _answered(self, name: str, future: Any) -> None:
-        self._waiting_on = None
-        answer = future.result() if future.exception() is None else None
-        self.get_logger().info(f'{name}: ' + ('no answer' if answer is None else answer.message))
-        if name == ARM_RESET:
-            self._loop.reset_done(answer is not None and answer.success)
-        elif name == GRASP_EXECUTE:
-            if answer is None or not answer.success:
-                self._refused('no answer' if answer is None else answer.message)
-            else:
-                self._loop.executed(time.monotonic(), True, answer.message, self._trajectory_time)
-                self._diag.set_values({KEY_EXECUTE: answer.message + ('' if self._trajectory_time is None else
-                                                                    f' ({self._trajectory_time:.2f} s)')})
-
-    def _refused(self, reason: str) -> None:  # an execute not done: the fingers close where the hand is
-        self.get_logger().warning(f'{GRASP_EXECUTE} refused: {reason}; closing where the hand is')
-        self._diag.set_values({KEY_EXECUTE: f'refused: {reason}'})
-        self._loop.executed(time.monotonic(), False, reason, None)
-
     def _show(self, now: float) -> None:
         loop = self._loop
         text = loop.status(now) if self._scenes.latest.model is not None else f'waiting for {self._models.topic}'
-        self._diag.set_state(*((ERROR, self._problem) if self._problem else (WARN, self._unavailable)
-                               if self._unavailable else (OK, text)))
+        self._diag.set_state(*((ERROR, self._problem) if self._problem else (WARN, self._calls.unavailable)
+                               if self._calls.unavailable else (OK, text)))
         self._diag.set_values({'state': loop.state, 'episode': loop.episode,
                                KEY_TIMES_TO_GRASP: ', '.join(f'{c.time_to_grasp:.2f}' for c in loop.closed)})
 

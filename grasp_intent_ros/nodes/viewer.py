@@ -22,8 +22,9 @@ Behaviour
     A message only replaces the newest state (:func:`grasp_intent_ros.scene.state.apply`; with ``objects``
     the state of its chain, :func:`~grasp_intent_ros.scene.state.apply_objects`; ``model/active`` is read off
     the executor, one :class:`~grasp_intent_ros.ros.model_follower.ModelFollower` per chain); a message that
-    cannot be read is a rejection naming its topic (WARN) and changes nothing, every other chain drawn as
-    before. A thread of its
+    cannot be read, or larger than its topic's cap (:data:`~grasp_intent_ros.wire.topics.MAX_MESSAGE_BYTES`,
+    checked before decoding, as every node's input: :func:`~grasp_intent_ros.ros.inputs.subscribe_input`), is a
+    rejection naming its topic (WARN) and changes nothing, every other chain drawn as before. A thread of its
     own draws the newest state at most ``rate`` times a second and skips the states in between
     (:class:`~grasp_intent_ros.ros.worker.LatestOnlyWorker`). The viewer is a subscriber only, in a process
     of its own, with keep-last queues: a slow browser or viewer never holds up a publisher.
@@ -47,8 +48,8 @@ from ..method.features import MICO_3F
 from ..method.model import ModelRequirements
 from ..mico.parameters import URDF_PATH
 from ..parameters import ParameterError, ParamSpec
-from ..ros.conversions import type_class
 from ..ros.diagnostics import NodeDiagnostics
+from ..ros.inputs import subscribe_input
 from ..ros.model_follower import ModelFollower
 from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, latched_qos
@@ -56,7 +57,7 @@ from ..ros.run import guard_exit, run_node
 from ..ros.worker import LatestOnlyWorker
 from ..scene.geometry import ArmModel
 from ..scene.page import DEFAULT_HOST, ScenePage
-from ..scene.state import SCENE_TOPICS, VIEWER_TOPICS, ObjectsState, SceneState, apply_to, followed_topics
+from ..scene.state import ObjectsState, SceneState, apply_to, followed_topics
 from ..wire.diagnostics import OK, WARN
 from ..wire.model_document import ModelDocument
 from ..wire.topics import DIAGNOSTICS, JOINT_STATES, LATCHED_TOPICS, MODEL_ACTIVE, check_object_names
@@ -116,25 +117,24 @@ class Viewer(Node):
             if topic == MODEL_ACTIVE:
                 continue
             depth = 10 if topic in (JOINT_STATES, DIAGNOSTICS) else 1  # several publishers on these
-            self.create_subscription(type_class({**VIEWER_TOPICS, **SCENE_TOPICS}[topic]),
-                                     topic if chain is None else f'{chain}/{topic}',
-                                     self._diag.guard(self._on_message(chain, topic)),
-                                     latched_qos() if topic in LATCHED_TOPICS else input_qos(depth=depth))
+            subscribe_input(self, topic, self._on_message(chain, topic),  # each topic's type and size cap
+                            latched_qos() if topic in LATCHED_TOPICS else input_qos(depth=depth), self._diag,
+                            namespace=chain or '')
         if objects:
             self.get_logger().info(f'following the chains {", ".join(map(scene.chain_namespace, objects))}')
 
     def _on_message(self, chain: str | None, topic: str) -> Any:
-        name = topic if chain is None else f'{chain}/{topic}'
-
         def change(state: SceneState | ObjectsState, msg: Any) -> SceneState | ObjectsState:
             try:
                 return apply_to(state, chain, topic, msg)
-            except GraspIntentError as exc:  # the reason names the topic: in a scene, the object's chain
-                raise GraspIntentError(f'{name}: {exc}') from None
+            except GraspIntentError as exc:  # the reason names the topic (subscribe_input names a chain's)
+                if chain is not None:
+                    raise
+                raise GraspIntentError(f'{topic}: {exc}') from None
 
         def on_message(msg: Any) -> None:
             self._worker.update(lambda state: change(state, msg))
-        on_message.__name__ = f'on {name}'
+        on_message.__name__ = f'on {topic if chain is None else f"{chain}/{topic}"}'
         return on_message
 
     def _use_model(self, chain: str | None) -> Any:

@@ -697,8 +697,8 @@ def taken(rules: ObjectRules, x: NDArray[np.float64], *, hand: HandCollision | N
     """Whether the MICO takes grasp x of ``rules``' object: what :func:`generate` asks of a demonstration.
 
     The open hand clear of the table and ``rules.body`` along the approach
-    (:meth:`~grasp_intent_ros.mico.collision.Clearance.fault`), and the arm reaches it from home with the object at
-    its default pose (:meth:`~grasp_intent_ros.mico.reach.ArmReach.fault`). ``hand`` and ``arm``: as
+    (:meth:`~grasp_intent_ros.mico.grasp_clearance.Clearance.fault`), and the arm reaches it from home with the object
+    at its default pose (:meth:`~grasp_intent_ros.mico.reach.ArmReach.fault`). ``hand`` and ``arm``: as
     :func:`generate`'s.
     """
     robot = hand if hand is not None else _default_hand()
@@ -726,7 +726,7 @@ def generate(rules: ObjectRules, count: int = DEFAULT_COUNT, *, seed: int = 0, h
     rounds it to the CSV precision, drops it when it leaves the feature bounds, labels it by the rules
     and keeps it when its (possibly different) task set is still short, the hand takes it and the arm reaches it:
     the open hand clear of the table (the plane the object stands on, z = 0) and of ``rules.body`` along the
-    approach (:meth:`~grasp_intent_ros.mico.collision.Clearance.fault` under the planner's
+    approach (:meth:`~grasp_intent_ros.mico.grasp_clearance.Clearance.fault` under the planner's
     :data:`~grasp_intent_ros.mico.collision.LIMITS`; a closing finger that stops on the table or the object
     is kept), and the arm at home takes the grasp with the object at its default pose
     (:meth:`~grasp_intent_ros.mico.reach.ArmReach.fault`: IK from home, the approach corridor, and a Cartesian

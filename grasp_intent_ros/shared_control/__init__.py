@@ -14,6 +14,8 @@ path_search
     The robot's joint path sought from a snapshot: the search (one definition), at once or in a process of its own.
 limits
     The output twist's speed and acceleration limits; norms without overflow.
+output_cadence
+    When the assistance publishes: one output per period, at the operator's cadence when its source streams.
 barrier
     The command kept out of the object as perceived: the twist nearest the blend that nears it no faster than a barrier.
 goals
@@ -36,10 +38,14 @@ operators
     Scripted teleoperators and their intents (a device model, a goal choice without the rules, an intent script).
 operator_loop
     A scripted operator on a wall clock, in episodes, against what it perceives late (the scripted operator node's).
+operator_calls
+    That operator's service calls in sequence (the grasp command's execute and close, the arm's reset): the node's.
 ada
     ADA's shared autonomy as published (goals of one or more targets): the simulated closed loops' baseline.
 simulator
     The closed loop on a simulated clock with the nodes' core functions (planner policy, assistance, mock arm).
+loop_steps
+    The steps both simulated loops take: the plan fed, the grasp command (execute, close), the episode's record.
 scene_simulator
     That loop over several objects: each chain's plans, the assistance over several objects, the operator's object.
 sweep

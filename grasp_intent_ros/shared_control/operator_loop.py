@@ -60,8 +60,9 @@ from ..mico.grasp import Grasp
 from ..mico.kinematics import MicoKinematics
 from ..planning.options import node_default_options
 from .assistance import offset
+from .loop_steps import executes_shown
 from .operators import ScriptedOperator
-from .simulator import certain_grasp, executes_shown
+from .simulator import certain_grasp
 
 __all__ = ['Perceived', 'Step', 'operator_step', 'task_set_of', 'own_grasp', 'SETTLE', 'EXECUTE_TIMEOUT', 'STOP_WAIT',
            'REST_DISTANCE', 'REST_ANGLE', 'hand_at_rest', 'executes', 'GraspCommand',
@@ -171,17 +172,22 @@ def task_set_of(names: Sequence[str], task_names: Sequence[str]) -> int:
 
 
 def own_grasp(model: GraspModel, names: Sequence[str], base_T_obj: NDArray[np.float64],
-              kin: MicoKinematics) -> tuple[int, Grasp]:
+              kin: MicoKinematics, held_w: Sequence[float] | None = None) -> tuple[int, Grasp]:
     """An operator's task set (:func:`task_set_of` ``names`` over ``model``'s tasks) and its own grasp for it.
 
     The grasp is the planner's for the certain w of the set (:func:`.simulator.certain_grasp`) with the planner
     node's default options, the object at ``base_T_obj`` (4x4, base frame): the live benchmark's operator goal.
+    ``held_w``: the w the operator publishes (the scripted operator node's with ``intent: held``), checked first.
 
     Raises
     ------
     GraspIntentError
-        For a task the model lacks, or when no grasp for the set is reachable.
+        For a ``held_w`` without one probability per task of the model, a task the model lacks, or when no grasp
+        for the set is reachable.
     """
+    if held_w is not None and len(held_w) != len(model.task_names):
+        raise GraspIntentError(f'w {list(held_w)} has not one probability per task of the model '
+                               f'({", ".join(model.task_names)})')
     task_set = task_set_of(names, model.task_names)
     try:
         return task_set, certain_grasp(model, task_set, base_T_obj, kin, options=node_default_options())
@@ -221,7 +227,7 @@ def executes(step: Step, execute_shown: bool) -> bool:
     """Whether the grasp command at ``step`` executes the goal before the fingers close (module docstring).
 
     True for a close on the shown grasp when ``execute_shown`` (the suite's assistance), by the simulated loop's
-    rule (:func:`~.simulator.executes_shown`); a close on the operator's own grasp, or without ``execute_shown``,
+    rule (:func:`~.loop_steps.executes_shown`); a close on the operator's own grasp, or without ``execute_shown``,
     closes the hand where it is.
     """
     return step.close and executes_shown(step.pursued, execute_shown)

@@ -25,7 +25,7 @@ from .operators import DEVICES
 from .scene_target import FollowRule
 
 __all__ = ['OPERATOR_INPUT', 'APPROACH', 'ASSISTANCE', 'ESTIMATOR', 'estimator_config', 'check_estimator',
-           'OPERATOR_INTENTS', 'SCRIPTED_OPERATOR', 'check_scripted_operator']
+           'OPERATOR_INTENTS', 'SCRIPTED_OPERATOR', 'check_scripted_operator', 'episodes_settings']
 
 OPERATOR_INPUT = (
     ParamSpec('operator_message_type', 'TwistStamped', 'Type on operator/twist: TwistStamped or Twist.',
@@ -225,3 +225,13 @@ SCRIPTED_OPERATOR = (
 def check_scripted_operator(values: Mapping[str, Any]) -> None:
     """The rules over :data:`SCRIPTED_OPERATOR`'s values: the object in the workspace."""
     check_object_pose(values)
+
+
+def episodes_settings(values: Mapping[str, Any]) -> dict[str, Any]:
+    """:class:`~.operator_loop.OperatorEpisodes`' settings from :data:`SCRIPTED_OPERATOR`'s values (its fields').
+
+    A close on the shown grasp executes it first only when the operator closes at all (``close_on_reach``).
+    """
+    return {'start_delay': values['start_delay'], 'hold': values['hold'], 'episodes': values['episodes'],
+            'execute_shown': values['execute_shown'] and values['close_on_reach'],
+            'execute_timeout': values['execute_timeout']}

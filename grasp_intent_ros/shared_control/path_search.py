@@ -139,6 +139,14 @@ class PathSearch:
         return seek_path(self.kin, request)
 
 
+STOP_TIMEOUT = 1.0
+"""Seconds :meth:`PathWorker.stop` waits for the process to end before it kills it.
+
+Well within the node's shutdown grace (:data:`grasp_intent_ros.ros.run.SHUTDOWN_GRACE`, 5 s), which the node's other
+stops share: a process still warming up (it reads the stop only once ready) or searching under a heavy load is
+killed rather than leaving the node to the watchdog; a search has no effect outside the process, so nothing is lost."""
+
+
 class PathWorker:
     """Seeks in a process of its own (module docstring); :meth:`stop` ends it.
 
@@ -224,15 +232,19 @@ class PathWorker:
             return answer
         return None
 
-    def stop(self) -> None:
-        """Ask the process to stop after its current search and wait for it (:data:`STOP_TIMEOUT` s, then kill it)."""
+    def stop(self, timeout: float | None = None) -> None:
+        """Ask the process to stop after its current search and wait for it (``timeout`` s, then kill it).
+
+        ``timeout``: None for :data:`STOP_TIMEOUT` as it is at the call, the node's; a caller that must see the
+        process end by the request (its exit code 0), even on a loaded machine, gives more.
+        """
         if not self._ended:
             try:
                 self._conn.send(None)
             except OSError:
                 pass
         try:
-            self._process.wait(STOP_TIMEOUT)
+            self._process.wait(STOP_TIMEOUT if timeout is None else timeout)
         except subprocess.TimeoutExpired:
             self._process.kill()
             self._process.wait()
@@ -263,12 +275,6 @@ class PathWorker:
         self._on_error(f'the path search process {self.name} ended (exit code {code}): no joint path from now')
 
 
-STOP_TIMEOUT = 1.0
-"""Seconds :meth:`PathWorker.stop` waits for the process to end before it kills it.
-
-Well within the node's shutdown grace (:data:`grasp_intent_ros.ros.run.SHUTDOWN_GRACE`, 5 s), which the node's other
-stops share: a process still warming up (it reads the stop only once ready) or searching under a heavy load is
-killed rather than leaving the node to the watchdog; a search has no effect outside the process, so nothing is lost."""
 _READY = 'ready'
 """The process's first message: its models built and its warm-up run."""
 

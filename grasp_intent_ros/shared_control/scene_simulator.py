@@ -74,11 +74,12 @@ from ..mico.kinematics import BASE_FRAME, HOME_Q
 from ..mico.mock_arm import MockArm, TwistCommand
 from .ada import AdaAssistance
 from .assistance import Assistance, AssistanceConfig, TwistLimiter
+from .loop_steps import Episode, close_hand, executes_shown, feed_plan, swept_into
 from .operators import PersistentIntent, ScriptedOperator
 from .scene_assistance import SceneAssistance
 from .scene_estimator import SceneEstimator
 from .scene_target import FollowRule
-from .simulator import Episode, PlanStream, Scene, close_hand, executes_shown, feed_plan, swept_into
+from .simulator import PlanStream, Scene
 from .sweep import SWEEP_TICKS, PathSweep
 
 __all__ = ['SceneCondition', 'SCENE_CONDITIONS', 'SceneIntent', 'SceneObject', 'SceneEpisode', 'simulate_scene']

@@ -15,7 +15,7 @@ Spacing of the checks: the teleoperated loop checks every :data:`SWEEP_TICKS` si
 assistance's output limits (0.2 m/s, 1 rad/s; ADA's command has the same limiter) every hand part, within
 :data:`~.clearance.HAND_REACH` of the end effector, moves at most 0.2 + 1.0 x 0.17 = 0.37 m/s,
 so at most 7.4 mm between two checks 0.02 s apart. The executed grasp's trajectory
-(:func:`.simulator.execute_grasp`) runs at the joints' speed limits, so it is checked at every step (0.01 s).
+(:func:`.loop_steps.execute_grasp`) runs at the joints' speed limits, so it is checked at every step (0.01 s).
 """
 
 from __future__ import annotations

@@ -193,6 +193,9 @@ MAX_MESSAGE_BYTES: Final[Mapping[str, int]] = {
     GRASP_JOINT_TARGETS: 64 << 10,  # as JOINT_STATES
     GRASP_TRAJECTORY: 1 << 20,  # as ARM_TRAJECTORY_COMMAND
     OPERATOR_TWIST: 4 << 10,   # a twist and a frame id of MAX_NAME_LENGTH
+    ASSISTANCE_TWIST: 4 << 10,  # as OPERATOR_TWIST (the viewer's input)
+    ASSISTANCE_ALPHA: 1 << 10,  # one float (the viewer's input)
+    DIAGNOSTICS: 1 << 20,      # one publisher's statuses (the suite's texts capped at 1 kB; the viewer's input)
     ARM_TWIST_COMMAND: 4 << 10,
     ARM_TRAJECTORY_COMMAND: 1 << 20,  # e.g. 4,000 points of 9 joints with positions, velocities, accelerations
 }

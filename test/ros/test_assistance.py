@@ -150,53 +150,6 @@ def test_a_stale_operator_input_gives_the_zero_twist_and_it_goes_on(ros) -> None
                         5.0)
 
 
-def test_operator_twists_set_the_output_cadence(ros, monkeypatch) -> None:
-    """At once 0.95 period after an output, or half a period after the timer's; sooner, half a period after it.
-
-    The timer's grace after an answer counts from the answer's start.
-
-    The callbacks are called directly between spins (the executor spins only in ``wait_for``).
-    """
-    loop = Loop(ros)
-    node = loop.node
-    assert ros.wait_for(lambda: loop.twists, 10.0)  # the timer's outputs
-    calls: list[float] = []
-    published: list[float] = []
-    slow: list[bool] = []  # an output whose computation takes 3 ms
-    rearm, publish = node._rearm, node._publish
-
-    def timed_publish() -> None:
-        published.append(time.monotonic())
-        publish()
-        if slow:
-            node._last_output -= 0.003
-    monkeypatch.setattr(node, '_rearm', lambda periods: (calls.append(periods), rearm(periods)))
-    monkeypatch.setattr(node, '_publish', timed_publish)
-    msg = twist_msg(linear=(0.01, 0.0, 0.0))
-    node._on_timer()  # the timer's own output
-    node._on_operator(msg)  # just after it: answered half a period after that output, not now
-    assert len(published) == 1 and 0.0 < calls[-1] <= 0.5
-    node._on_timer()  # that answer; then the timer waits 1.25 periods from its start for the next twist
-    assert len(published) == 2 and 1.0 < calls[-1] <= 1.25
-    rearms = len(calls)
-    node._last_output = time.monotonic() - 0.006  # 0.6 period after an answer: held
-    node._on_operator(msg)
-    assert len(published) == 2 and len(calls) == rearms
-    node._last_output = time.monotonic() - 0.0096  # 0.96 period: at once
-    node._on_operator(msg)
-    assert len(published) == 3 and 1.0 < calls[-1] <= 1.25
-    slow.append(True)
-    node._last_output = time.monotonic() - 0.0096
-    node._on_operator(msg)  # an answer that took 3 ms: the grace counts from its start, 0.3 period before
-    assert len(published) == 4 and 0.0 < calls[-1] <= 0.95
-    slow.clear()
-    node._on_timer()  # no twist within the grace: the timer's output, then one per period
-    assert len(published) == 5 and calls[-1] == 1.0 and node._timer.timer_period_ns == 10_000_000
-    node._last_output = time.monotonic() - 0.006  # 0.6 period after the timer's output: at once
-    node._on_operator(msg)
-    assert len(published) == 6 and 1.0 < calls[-1] <= 1.25
-
-
 def test_a_plain_twist_source_in_the_hand_frame(ros) -> None:
     loop = Loop(ros, Twist, operator_message_type='Twist', operator_frame='m1n6s300_end_effector')
     msg = Twist()
@@ -256,6 +209,7 @@ def test_the_output_keeps_coming_while_the_path_is_sought_in_a_process_of_its_ow
     # outputs go on at alpha 0 (the operator's twist alone) while it runs; released, the path comes in over the
     # pipe and the robot assists; the node destroyed, the process has ended
     monkeypatch.setattr(path_search, 'seek_path', functools.partial(held_search.held, tmp_path))
+    monkeypatch.setattr(path_search, 'STOP_TIMEOUT', 60.0)  # the node's 1 s would kill it on a loaded machine
     loop = Loop(ros)
     worker = loop.node._paths
     (tmp_path / 'armed').touch()  # after the warm-up, which seeks in this process

@@ -297,6 +297,12 @@ def test_the_followed_topics_are_the_viewer_s_for_one_chain_and_the_arm_s_once_i
     assert len(pairs) == len(set(pairs)) == len(shared) + 2 * len(CHAIN_TOPICS)
 
 
+def test_every_topic_the_viewer_follows_has_the_suite_s_type_and_a_size_cap() -> None:
+    """The live viewer reads each with its type and cap from wire.topics (ros.inputs.subscribe_input)."""
+    for topic, msgtype in {**VIEWER_TOPICS, **SCENE_TOPICS}.items():
+        assert topics.MSGTYPES[topic] == msgtype and topic in topics.MAX_MESSAGE_BYTES, topic
+
+
 def test_apply_to_gives_a_scene_s_message_to_its_chain_and_one_chain_s_to_it(cup: GraspModel,
                                                                             flashlight: GraspModel) -> None:
     pose = matrix_to_pose_msg(CUP_POSE, frame_id=BASE_FRAME, stamp=STAMP)

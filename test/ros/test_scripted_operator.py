@@ -154,7 +154,7 @@ def test_on_the_shown_grasp_it_executes_then_closes_once_the_trajectory_has_had_
     trajectories = ros.publisher(JointTrajectory, topics.GRASP_TRAJECTORY)
     assert ros.wait_for(lambda: loop.state == 'reaching', 30.0), rig.status()
     assert ros.publish_until(trajectories, joint_trajectory_msg(ARM_JOINTS, own.positions[:6], 0.5),
-                             lambda: rig.node._trajectory_time == 0.5, 10.0)
+                             lambda: rig.node._calls.trajectory_time == 0.5, 10.0)
     assert rig.show(moved(own.base_T_ee, (0.0, 0.0, 0.003)), lambda: loop.pursued == 'shown')
     rig.q = own.positions[:6]
     # 'done' comes with the close's request; the rig's server counts it once its callback has run
@@ -175,7 +175,7 @@ def test_over_a_scene_it_reaches_for_its_objects_grasp_from_that_chain_and_comma
     assert ros.wait_for(lambda: len(rig.w) >= 3, 5.0) and all(len(m.data) == 3 for m in rig.w)  # the cup's held w
     trajectories = ros.publisher(JointTrajectory, rig.topic(topics.GRASP_TRAJECTORY))
     assert ros.publish_until(trajectories, joint_trajectory_msg(ARM_JOINTS, own.positions[:6], 0.5),
-                             lambda: rig.node._trajectory_time == 0.5, 10.0)
+                             lambda: rig.node._calls.trajectory_time == 0.5, 10.0)
     assert rig.show(moved(own.base_T_ee, (0.0, 0.0, 0.003)), lambda: loop.pursued == 'shown')
     rig.q = own.positions[:6]
     assert ros.wait_for(lambda: rig.closes == 1 and loop.state == 'done', 10.0), (rig.calls, loop.state)

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, TwistStamped
 from numpy.testing import assert_allclose
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
@@ -123,3 +123,24 @@ def test_object_names_that_cannot_name_a_chain_are_a_configuration_error(ros) ->
     with pytest.raises(ParameterError, match=reason):
         Viewer(context=ros.context, parameter_overrides=[Parameter('port', value=0),
                                                          Parameter('objects', value=['cup', 'grasp', 'cup'])])
+
+
+def test_an_oversized_message_is_rejected_by_its_size_and_the_viewer_keeps_serving(ros) -> None:
+    """Every input has its topic's size cap, checked before decoding: the assistance's twist as the object's pose."""
+    statuses = ros.diagnostics()
+    viewer = ros.add(Viewer(context=ros.context, parameter_overrides=[Parameter('port', value=0)]))
+    assert ros.wait_for(lambda: viewer_values(statuses).get('url', '').startswith('http://127.0.0.1:'), 10.0)
+    rejected = lambda: int(viewer_values(statuses).get('messages rejected', 0))  # noqa: E731
+    for n, (msg_type, topic) in enumerate([(PoseStamped, 'object/pose'), (TwistStamped, 'assistance/twist')], 1):
+        big = msg_type()
+        big.header.frame_id = BASE_FRAME + ' ' * 5000  # over the topic's 4 kB cap
+        assert ros.publish_until(ros.publisher(msg_type, topic), big, lambda n=n: rejected() >= n, 10.0)
+        status = viewer_status(statuses)
+        assert status.level == DiagnosticStatus.WARN and f'{topic}: oversized message' in status.message, status
+    assert viewer._worker.latest.base_T_obj is None and viewer._worker.latest.assistance_twist is None
+    base_T_obj = pose_to_matrix([0.3, -0.3, 0.0], [0.0, 0.0, 1.0, 0.0])
+    good = matrix_to_pose_msg(base_T_obj, frame_id=BASE_FRAME, stamp=ros.node.get_clock().now().to_msg())
+    assert ros.publish_until(ros.publisher(PoseStamped, 'object/pose'), good,
+                             lambda: viewer._worker.latest.base_T_obj is not None, 10.0)
+    assert_allclose(viewer._worker.latest.base_T_obj, base_T_obj, atol=1e-12)
+    assert rejected() == 2

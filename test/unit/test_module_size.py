@@ -26,17 +26,6 @@ OVER_LIMIT: Mapping[str, tuple[int, str]] = {
                                           'arbitration and limits; not split yet'),
     'mico/kinematics.py': (550, "the MICO's forward and inverse kinematics with their frames stated (a 44-line "
                                 'docstring); not split yet'),
-    'mico/collision.py': (540, 'the hand against the table and the object: the scene, the query and the robot '
-                               'constraint; not split yet'),
-    'shared_control/simulator.py': (530, 'the one-object loop with its conditions stated (a 60-line docstring) and '
-                                         'the steps the loop over several objects reuses (the plan fed, the grasp '
-                                         'command, the sweep\'s figures); not split yet'),
-    'nodes/assistance.py': (225, "the operator, the joints, the switch, the warm-up, the output's cadence and the "
-                                 'choice of one object or several (each chain\'s inputs: nodes/assistance_inputs.py); '
-                                 'not split yet'),
-    'nodes/scripted_operator.py': (243, 'five inputs (over a scene, one object\'s chain), the own grasp\'s thread, '
-                                        'the held w and three service calls in sequence (the grasp command\'s '
-                                        'execute and close, the reset); not split yet'),
 }
 """Module (relative to the package) -> (its ceiling in lines, why it is over the limit)."""
 

@@ -184,7 +184,8 @@ TYPED = ('__init__.py', '__main__.py', 'errors.py', 'resources.py', 'parameters.
 """What mypy --strict checks: every module but the command lines (launch, cli) and the data set (objects)..."""
 UNTYPED = ('sessions/reindex.py', 'sessions/replay.py', 'sessions/replay_client.py', 'sessions/replayers.py',
            'sessions/report.py', 'sessions/playback.py')
-"""... but these command-line modules, which were never held to it (their errors are not fixed yet)."""
+"""... but these modules of the sessions' command lines and their replay clients, which were never held to it
+(their errors are not fixed yet)."""
 
 
 def test_mypy_strict() -> None:

@@ -71,9 +71,7 @@ def test_the_scripted_operator_reaches_for_the_object_named_or_the_first() -> No
     with pytest.raises(GraspIntentError, match='no objects'):
         operator_object(())
     assert scene_node_args('scripted_operator', objects) == ('-p', "object:='cup'")
-    # beside the intent estimator, each object's w is the estimator's: the operator holds none
-    assert scene_node_args('scripted_operator', objects, operator='flashlight', estimated=True) == (
-        '-p', "object:='flashlight'", '-p', 'intent:=none')
+    assert scene_node_args('scripted_operator', objects, operator='flashlight') == ('-p', "object:='flashlight'")
 
 
 def test_each_object_gets_a_chain_in_its_namespace_with_its_model_reading_the_arms_joint_states(

@@ -27,6 +27,7 @@ from grasp_intent_ros.ros.startup import READY_LOG
 
 SLEEPER = 'import time; time.sleep(60)'
 READY_SLEEPER = f'print("[INFO] [1.0] [probe]: {READY_LOG}"); {SLEEPER}'
+SCENE = (SceneObject('cup', 'cup_7zone'), SceneObject('flashlight', 'flashlight_7zone'))
 """A sleeper that first logs a node's ready line: dying by SIGTERM after it is a problem."""
 
 
@@ -264,3 +265,14 @@ def test_the_shared_control_nodes_get_their_config_and_the_suite_remappings() ->
     assert NodeSuite.node_args('mock_arm', objects=[cup])[2:] == ['-r', 'servo/delta_twist_cmds:=assistance/twist',
                                                                   '-p', "objects:=['cup']"]
     assert NodeSuite.node_args('assistance') == ['--params-file', str(config_dir() / 'assistance.yaml')]
+
+
+@pytest.mark.parametrize('objects', [(), SCENE], ids=['one object', 'a scene'])
+def test_beside_the_intent_estimator_the_scripted_operator_holds_no_w(objects: tuple[SceneObject, ...]) -> None:
+    """The estimator gives w (every object's, in a scene): the operator's held w would be a second publisher."""
+    def intent(estimated: bool) -> list[str]:
+        args = NodeSuite.node_args('scripted_operator', objects=objects, estimated=estimated)
+        return [value for flag, value in zip(args, args[1:]) if flag == '-p' and value.startswith('intent:=')]
+
+    assert intent(False) == []
+    assert intent(True) == ['intent:=none']

@@ -20,11 +20,11 @@ from grasp_intent_ros.mico.collision import (
     CollisionFree,
     HandCollision,
     Limits,
-    Table,
     tracker_margin,
 )
 from grasp_intent_ros.mico.frames import default_base_T_obj, features_to_obj_T_ee, pose_to_matrix
 from grasp_intent_ros.mico.grasp import Grasp, NoReachableGrasp, plan_grasp
+from grasp_intent_ros.mico.grasp_clearance import Table
 from grasp_intent_ros.mico.kinematics import EE_FRAME, MicoKinematics, default_urdf_path
 from grasp_intent_ros.objects.demos import CUP, FLASHLIGHT, grasp_features
 from grasp_intent_ros.resources import config_dir

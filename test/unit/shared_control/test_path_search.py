@@ -35,6 +35,9 @@ from .robot_alone import LABELS, TASKS
 
 CUP = ObjectBody((Cylinder(np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, 1.0]), 0.04, 0.1),))
 STILL = np.zeros(6)
+END_TIMEOUT = 60.0
+"""Seconds a test that asserts the worker's clean end (exit code 0) lets it take: the node's 1 s kills a process
+that a loaded machine keeps from ending in time."""
 """The operator's twist: no input (the tests' assistance assists without input)."""
 
 
@@ -171,7 +174,7 @@ def test_the_worker_seeks_in_a_process_of_its_own_and_answers_as_this_one(kin: M
         for a, b in zip(answer.path, here.path, strict=True):
             assert_allclose(a, b, atol=0.0)  # the same search on the same inputs: the same answer
     finally:
-        worker.stop()
+        worker.stop(timeout=END_TIMEOUT)
     assert worker.returncode == 0 and not errors  # ended by the request, not killed
 
 
@@ -221,7 +224,7 @@ def test_a_search_that_raises_answers_no_path_and_is_reported(kin: MicoKinematic
         second = replace(request, key=(1, 2, 'grasp'))
         assert wait_until(lambda: worker.seek(second) == PathAnswer(second.key, None, False))  # it serves on
     finally:
-        worker.stop()
+        worker.stop(timeout=END_TIMEOUT)
     assert worker.returncode == 0
 
 

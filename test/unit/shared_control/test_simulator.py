@@ -27,14 +27,7 @@ from grasp_intent_ros.shared_control.operators import (
     certain_w,
     draw_task_set,
 )
-from grasp_intent_ros.shared_control.simulator import (
-    Scene,
-    TraceRow,
-    certain_grasps,
-    executes_shown,
-    perturb_pose,
-    simulate,
-)
+from grasp_intent_ros.shared_control.simulator import Scene, TraceRow, certain_grasps, perturb_pose, simulate
 
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 U, T, H = 1, 2, 4
@@ -185,12 +178,6 @@ def test_the_suites_grasp_command_executes_the_shown_grasp(cup) -> None:
             assert distance <= 1e-4 and angle <= 1e-3  # the planned grasp (IK's tolerances)
             assert judge(scene.model, scene.base_T_obj_true, hand, ep.closures).serves(T | H)
     assert shortfall[False] > 0.003 and abs(shortfall[True]) <= 1e-4
-
-
-def test_only_the_shown_grasp_is_executed_and_only_under_the_suites_assistance() -> None:
-    assert executes_shown('shown', True)
-    assert not executes_shown('own', True)  # the operator's own grasp: the fingers close where the hand is
-    assert not executes_shown('shown', False)  # direct, ADA, or the grasp command's execute off
 
 
 class _TrueSetOnly:
