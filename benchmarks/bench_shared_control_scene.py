@@ -66,7 +66,7 @@ bench_shared_control_sim.py's :func:`paired_difference`. Records (``--records F`
 its runs' records; ``--summarise F`` prints the figures of such a file.
 
     .venv/bin/python benchmarks/bench_shared_control_scene.py [--episodes 50] [--repeats 3] [--jobs 2] \
-        [--operators joystick] [--conditions direct ada suite top_object] [--records runs.jsonl] \
+        [--operators joystick] [--conditions direct ada suite top_object estimated] [--records runs.jsonl] \
         [--summarise runs.jsonl]
 """
 
