@@ -2,8 +2,9 @@ r"""Shared control over two objects, closed loop on a simulated clock: success o
 
 Runs :func:`grasp_intent_ros.shared_control.scene_simulator.simulate_scene` (the nodes' own cores: each chain's
 interpreter and planner policy, the assistance over several objects, the mock arm) on a cup and a flashlight on
-the table, for the operator models x 4 conditions (direct, ADA as published over objects, the suite, the suite
-betting on the top object), on the same seeded episodes, faster than real time, and prints per operator model:
+the table, for the operator models x 5 conditions (direct, ADA as published over objects, the suite, the suite
+betting on the top object, the suite with P(o) and w^o estimated from the operator's motion), on the same seeded
+episodes, faster than real time, and prints per operator model:
 success, wrong-object closes, median time to grasp, alpha on the wrong object, the runs that swept into an object,
 with paired differences and 95% bootstrap confidence intervals over episodes (bench_shared_control_sim.py's).
 docs/several_objects.md ("The simulated benchmark with two objects") gives the design.
@@ -35,8 +36,14 @@ The episodes
   ``ada`` (one goal per object, its targets the planner's grasps for the seven certain task sets on the tracked
   object, the distribution over objects from the operator's motion, u + sum_o p(o) a_o), ``suite`` (the
   assistance over several objects, P(o) from the script, the hysteresis's defaults), ``top_object`` (the suite's
-  assistance on the top object's grasp alone, chosen at the first report, never switching). Under the suite's
-  assistance a close on the shown grasp executes the followed object's newest plan (the simulator's docstring).
+  assistance on the top object's grasp alone, chosen at the first report, never switching), ``estimated`` (the
+  suite, with P(o) and every w^o from the intent estimator over the objects,
+  :class:`~grasp_intent_ros.shared_control.scene_estimator.SceneEstimator`, its default settings, fed the
+  operator's own twist before blending and each object's shown grasp; each object's goals: its model's
+  demonstrations at the tracked object that the arm reaches from Home, as the node prepares them,
+  :func:`scene_estimator`; the script's P(o) and w^o are not used, only the true object and its true set, which the
+  operator pursues and the judge reads). Under the suite's assistance a close on the shown grasp executes the
+  followed object's newest plan (the simulator's docstring).
 - The planner: the node's defaults (:func:`~grasp_intent_ros.planning.options.node_default_options`), no
   collision check, as bench_shared_control_sim.py's default.
 - The mock arm at a joint limit: each joint clipped on its own, the mock arm node's default;
@@ -53,7 +60,8 @@ it closed, did not sweep into either object (:class:`~grasp_intent_ros.shared_co
 its true frame). Reported beside it: ``serves`` (the rules alone, the one-object benchmark's success), the
 **wrong-object closes** (the closed hand holds the other object: its rules give the grasp some task there), the
 time to grasp (the timeout for a run that never closed), the alpha-seconds on the wrong object (the assistance
-following the other object; ADA: its probability-seconds on the other object), the runs that swept.
+following the other object; ADA: its probability-seconds on the other object), the runs that swept, and under
+``estimated`` the estimator's mean P(o) of the true object when the hand closed (or at the timeout).
 
 Statistics: per episode the mean over repeats; paired differences (:data:`PAIRS`) of success (points) and of
 the time (geometric mean ratio), 95% percentile bootstrap over episodes (10,000 resamples, seeded):
@@ -61,7 +69,7 @@ bench_shared_control_sim.py's :func:`paired_difference`. Records (``--records F`
 its runs' records; ``--summarise F`` prints the figures of such a file.
 
     .venv/bin/python benchmarks/bench_shared_control_scene.py [--episodes 50] [--repeats 3] [--jobs 2] \
-        [--operators joystick] [--conditions direct ada suite top_object] [--twist-joint-limit stop] \
+        [--operators joystick] [--conditions direct ada suite top_object estimated] [--twist-joint-limit stop] \
         [--records runs.jsonl] \
         [--summarise runs.jsonl]
 """
@@ -77,12 +85,22 @@ from typing import Any
 import numpy as np
 from _bench import uptime
 from _bench.closed_loop import BASE_T_OBJ
-from bench_shared_control_sim import _mm, _options, _setup, paired_difference, per_episode, read_records, run_tasks
+from bench_shared_control_sim import (
+    _mm,
+    _options,
+    _setup,
+    paired_difference,
+    per_episode,
+    read_records,
+    run_tasks,
+    tracked_estimator,
+)
 
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.mock_arm import TWIST_JOINT_LIMITS
 from grasp_intent_ros.objects.judge import judge_scene
 from grasp_intent_ros.shared_control.operators import OperatorConstants, ScriptedOperator
+from grasp_intent_ros.shared_control.scene_estimator import SceneEstimator
 from grasp_intent_ros.shared_control.scene_simulator import (
     SCENE_CONDITIONS,
     SceneIntent,
@@ -98,7 +116,8 @@ REGION = ((0.25, 0.35), (-0.35, -0.05))
 """Where each object's position (x, y, m) is drawn (:func:`draw_positions`)."""
 GAP = 0.02
 """The least gap (m) between two objects' bounding spheres."""
-PAIRS = (('suite', 'direct'), ('suite', 'ada'), ('suite', 'top_object'))
+PAIRS = (('suite', 'direct'), ('suite', 'ada'), ('suite', 'top_object'), ('estimated', 'suite'),
+         ('estimated', 'direct'), ('estimated', 'ada'), ('estimated', 'top_object'))
 """The paired differences reported (a minus b)."""
 
 
@@ -146,6 +165,18 @@ def draw_objects(models: list[Any], kin: Any, task: SceneTask, rng: np.random.Ge
         return objects, true_poses
 
 
+def scene_estimator(objects: list[SceneObject], kin: Any) -> SceneEstimator:
+    """The intent estimator over ``objects`` (in their order), each object's as the node prepares it.
+
+    Each object's goals at its tracked pose: bench_shared_control_sim.py's :func:`tracked_estimator` (the default
+    settings).
+    """
+    estimator = SceneEstimator()
+    for obj in objects:
+        estimator.set_object(obj.name, tracked_estimator(obj.scene.model, obj.scene.base_T_obj, kin))
+    return estimator
+
+
 @dataclass(frozen=True)
 class SceneTask:
     """One episode: the operator model, its index, and the run's settings."""
@@ -185,6 +216,7 @@ def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
     intent = SceneIntent.draw(task.index, len(models), setup_rng, task.favoured)
     objects, true_poses = draw_objects(models, kin, task, setup_rng)
     caches: list[dict[bytes, Grasp | None]] = [{} for _ in objects]
+    estimator = scene_estimator(objects, kin) if 'estimated' in task.conditions else None
     true = intent.true_object
     device = 'joystick' if task.operator == 'joystick' else 'spacemouse'
     records = []
@@ -197,7 +229,8 @@ def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
             t0 = time.perf_counter()
             ep = simulate_scene(objects, condition, intent, operator, intent_rng, closure_rng,  # type: ignore[arg-type]
                                 plan_caches=caches, timeout=task.timeout, execute=task.execute,
-                                twist_joint_limit=task.twist_joint_limit)
+                                twist_joint_limit=task.twist_joint_limit,
+                                estimator=estimator if condition == 'estimated' else None)
             verdict = None if ep.hand is None else judge_scene(
                 [(o.scene.model, o.scene.base_T_obj_true) for o in objects], true, ep.task_set, ep.hand,
                 ep.closures if ep.closures is not None else np.zeros(3))
@@ -211,6 +244,7 @@ def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
                             'time': ep.closed_at if ep.closed_at is not None else task.timeout,
                             'pursued': ep.pursued, 'executed': ep.executed, 'executed_object': ep.executed_object,
                             'followed': ep.followed, 'switches': ep.switches,
+                            'estimated_p_true': ep.estimated_p_true,
                             'wrong_object_alpha': ep.wrong_object_alpha, 'alpha_mean': ep.alpha_mean,
                             'effort_linear': ep.effort_linear, 'swept': ep.swept,
                             'swept_objects': dict(zip(SCENE_OBJECTS, ep.swept_objects)),
@@ -237,11 +271,18 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
                     'median_time': float(np.median([r['time'] for r in runs])),
                     'wrong_object_alpha': float(np.mean([r['wrong_object_alpha'] for r in runs])),
                     'swept': [sum(r['swept'] for r in runs), len(runs)],
-                    'timeouts': sum(not r['closed'] for r in runs), 'episodes': len(eps)}
+                    'timeouts': sum(not r['closed'] for r in runs), 'episodes': len(eps),
+                    'estimated_p_true': _mean([r.get('estimated_p_true') for r in runs])}
     for a, b in [(a, b) for a, b in PAIRS if a in success and b in success]:
         table[f'{a}-{b}'] = paired_difference({'success': success[a], 'time': time_[a]},
                                               {'success': success[b], 'time': time_[b]}, rng, rng_clear)
     return table
+
+
+def _mean(values: list[float | None]) -> float | None:
+    """The mean of the values that are not None; None without any."""
+    present = [v for v in values if v is not None]
+    return float(np.mean(present)) if present else None
 
 
 def _share(runs: list[dict[str, Any]], key: str, favoured: bool) -> float | None:
@@ -266,7 +307,9 @@ def report(records: list[dict[str, Any]]) -> dict[str, Any]:
             print(f'  {c:10s} success {row["success"]:.3f} (true object favoured / not: {split})  serves '
                   f'{row["serves"]:.3f}  wrong object {row["wrong_object"][0]}/{row["wrong_object"][1]}  median time '
                   f'{row["median_time"]:5.2f} s  alpha on the wrong object {row["wrong_object_alpha"]:.3f} s  swept '
-                  f'{row["swept"][0]}/{row["swept"][1]}  timeouts {row["timeouts"]}')
+                  f'{row["swept"][0]}/{row["swept"][1]}  timeouts {row["timeouts"]}'
+                  + ('' if row['estimated_p_true'] is None else
+                     f'  estimated P(true object) at the close {row["estimated_p_true"]:.3f}'))
         for a, b in [(a, b) for a, b in PAIRS if f'{a}-{b}' in table]:
             d = table[f'{a}-{b}']
             print(f'  {a} - {b:10s} success {100 * d["success_diff"]:+5.1f} points [{100 * d["ci"][0]:+5.1f}, '

@@ -243,6 +243,17 @@ def _intent(task: Task, rng: np.random.Generator) -> Any:
     return ChangingIntent(persistent, int(rng.choice(others)), float(rng.uniform(1.5, 3.0)))
 
 
+def tracked_estimator(model: Any, base_T_obj: np.ndarray, kin: Any,
+                      fields: tuple[tuple[str, float], ...] = ()) -> IntentEstimator:
+    """The intent estimator the node prepares for an object tracked at ``base_T_obj`` (4x4, base frame).
+
+    Its goals: ``model``'s demonstrations placed there that the arm reaches from Home; its settings
+    EstimatorConfig's defaults with ``fields`` set (:attr:`Task.estimator`).
+    """
+    return IntentEstimator(goals_at(model, base_T_obj, reachable_goals(model, base_T_obj, kin)),
+                           EstimatorConfig(**dict(fields)))
+
+
 def run_task(task: Task) -> list[dict[str, Any]]:
     """Every repeat and condition of one episode: judged records."""
     state = _setup(task.object, task.execution_noise)
@@ -261,8 +272,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
     cache: dict[bytes, Grasp | None] = {}
     estimator = None
     if {ESTIMATED, FUSED} & set(task.conditions):  # the goals the node would prepare for the tracked object
-        estimator = IntentEstimator(goals_at(model, tracked, reachable_goals(model, tracked, kin)),
-                                    EstimatorConfig(**dict(task.estimator)))
+        estimator = tracked_estimator(model, tracked, kin, task.estimator)
     device = 'joystick' if task.operator == 'joystick' else 'spacemouse'
     records = []
     for repeat in range(task.repeats):

@@ -10,7 +10,8 @@ Every ``period`` (0.01 s) the arm's joints go to the assistance, the operator's 
 is answered with one command, the arm follows it for one period. Every ``w_period`` (0.1 s) the intent script
 reports P(o) (the estimator's ``intent/objects``) and each object's w^o (its chain's ``intent/w``), in the
 objects' order; each chain interprets and plans its w^o at once on the object where the tracker sees it
-(:class:`~.simulator.PlanStream`) and its grasp is shown.
+(:class:`~.simulator.PlanStream`) and its grasp is shown. Under ``'estimated'`` the intent estimator over the
+objects reports them instead (below).
 
 The operator (:class:`~.operators.ScriptedOperator`) wants the *true object* (:attr:`SceneIntent.true_object`)
 and its true task set; it drives to that object's shown grasp when it is on its way (near its own grasp for the
@@ -30,13 +31,22 @@ Conditions (:data:`SCENE_CONDITIONS`)
 - ``'top_object'``: the foil "bet on the top object": the suite's assistance on the grasp of one object alone,
   the most likely at the first report (the largest P(o) reported then, a tie to the first object), as if it were
   the only object (P(o) = 1), never switching. Every chain still plans and shows its grasp.
+- ``'estimated'``: ``'suite'`` with P(o) and every w^o from the intent estimator over the objects
+  (:class:`~.scene_estimator.SceneEstimator`, the ``intent_estimator`` node's core with ``objects``; the
+  caller's, one object per scene object in their order, its goals each object's demonstrations at the tracked
+  pose), as the suite runs with ``--with intent_estimator``: it is reset at the start and fed, every period, the
+  operator's own twist (before blending: the assistance never creates its own evidence) with the hand's pose at
+  that tick, and each object's grasp as it is planned, as that object's shown grasp (the node's
+  ``/<object>/grasp/pose``); every ``w_period`` its P(o) goes to the assistance and each w^o to its chain. The
+  script then gives only the true object and its true set, which the operator pursues and the caller judges:
+  the estimator never sees them (nor the script's P(o) or w^o).
 
-The grasp command. Under the suite's assistance (``'suite'``, ``'top_object'``) a close on the shown grasp
-executes the newest plan of the object *followed* (grasp/execute, then grasp/close: the mock arm closes to the
-followed object's plan, docs/several_objects.md), which is another object's grasp when the assistance follows
-another object than the operator's. Nothing followed yet, a close on the operator's own grasp, ``execute``
-False, or under ``'direct'`` and ``'ada'``: the fingers close where the hand is, to the closures of the goal
-pursued, as in the one-object loop.
+The grasp command. Under the suite's assistance (``'suite'``, ``'top_object'``, ``'estimated'``) a close on the
+shown grasp executes the newest plan of the object *followed* (grasp/execute, then grasp/close: the mock arm
+closes to the followed object's plan, docs/several_objects.md), which is another object's grasp when the
+assistance follows another object than the operator's. Nothing followed yet, a close on the operator's own
+grasp, ``execute`` False, or under ``'direct'`` and ``'ada'``: the fingers close where the hand is, to the closures
+of the goal pursued, as in the one-object loop.
 
 A scene of one object with P(o) = 1 (:meth:`SceneIntent.draw` with one object draws nothing for P(o)) runs the
 one-object episode under ``'direct'`` and ``'suite'`` to the last bit (the assistance over one object is the
@@ -67,14 +77,15 @@ from .assistance import Assistance, AssistanceConfig, TwistLimiter
 from .loop_steps import Episode, close_hand, executes_shown, feed_plan, swept_into
 from .operators import PersistentIntent, ScriptedOperator
 from .scene_assistance import SceneAssistance
+from .scene_estimator import SceneEstimator
 from .scene_target import FollowRule
 from .simulator import PlanStream, Scene
 from .sweep import SWEEP_TICKS, PathSweep
 
 __all__ = ['SceneCondition', 'SCENE_CONDITIONS', 'SceneIntent', 'SceneObject', 'SceneEpisode', 'simulate_scene']
 
-SceneCondition = Literal['direct', 'ada', 'suite', 'top_object']
-SCENE_CONDITIONS: tuple[SceneCondition, ...] = ('direct', 'ada', 'suite', 'top_object')
+SceneCondition = Literal['direct', 'ada', 'suite', 'top_object', 'estimated']
+SCENE_CONDITIONS: tuple[SceneCondition, ...] = ('direct', 'ada', 'suite', 'top_object', 'estimated')
 
 
 @dataclass(frozen=True)
@@ -165,6 +176,9 @@ class SceneEpisode(Episode):
     switches : int
         How many times the object the suite's assistance followed changed after the first (0 under ``'direct'``
         and ``'ada'``).
+    estimated_p_true : float or None
+        Under ``'estimated'``: the estimator's P(o) of the true object when the hand closed (or at the timeout);
+        None under the other conditions.
     swept_objects : tuple of bool
         Per object (the scene's order), whether the open hand's path swept into its body (:class:`~.sweep.PathSweep`
         in its true frame); the inherited ``swept`` is whether any did, ``swept_palm`` ... ``closing_finger`` the
@@ -176,6 +190,7 @@ class SceneEpisode(Episode):
     executed_object: str | None = None
     wrong_object_alpha: float = 0.0
     switches: int = 0
+    estimated_p_true: float | None = None
     swept_objects: tuple[bool, ...] = field(default_factory=tuple)
 
 
@@ -184,7 +199,7 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
                    plan_caches: Sequence[dict[bytes, Grasp | None]], timeout: float = 25.0, period: float = 0.01,
                    w_period: float = 0.1, closure_error: float = 0.05, config: AssistanceConfig | None = None,
                    follow_rule: FollowRule | None = None, execute: bool = True,
-                   twist_joint_limit: str = 'clip') -> SceneEpisode:
+                   twist_joint_limit: str = 'clip', estimator: SceneEstimator | None = None) -> SceneEpisode:
     """Run one episode over ``objects`` (module docstring); they share one :class:`~.mico.kinematics.MicoKinematics`.
 
     ``intent`` has one entry per object, in their order. ``plan_caches``: one per object (each
@@ -193,18 +208,28 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
     closure error. ``config``: the assistance's settings (default: the node's), its ``arbitration`` set by the
     condition. ``follow_rule``: the suite's hysteresis. ``execute``: whether the suite's grasp command executes the
     followed object's plan (module docstring). ``twist_joint_limit``: the mock arm's rule for a twist at a joint
-    limit (:class:`~.mico.mock_arm.MockArm`).
+    limit (:class:`~.mico.mock_arm.MockArm`). ``estimator``: the source of P(o) and w^o under ``'estimated'``
+    (module docstring; reset here), its objects ``objects``' names in their order; given under ``'estimated'``
+    alone.
+
+    Raises ValueError for as many intents or plan caches as objects, or an ``estimator`` missing under
+    ``'estimated'``, given under another condition, or over other objects than ``objects``' names in order.
     """
     if len(intent.intents) != len(objects) or len(plan_caches) != len(objects):
         raise ValueError(f'{len(objects)} objects need as many intents and plan caches')
     names = [o.name for o in objects]
+    if (estimator is not None) != (condition == 'estimated'):
+        raise ValueError(f'an intent estimator is given under \'estimated\' alone (condition {condition!r}, '
+                         f'estimator {"given" if estimator is not None else "missing"})')
+    if estimator is not None and list(estimator) != names:
+        raise ValueError(f'the estimator\'s objects {list(estimator)} are not the scene\'s {names}')
     kin = objects[0].scene.kin
     base = config or AssistanceConfig()
     limiter = TwistLimiter(0.2, 1.0, 1.0, 5.0, max_dt=2.0 * period)
     rule = 'none' if condition == 'direct' else 'confidence'
     assistance = Assistance(AssistanceConfig(**{**base.__dict__, 'arbitration': rule}), limiter, kin)
     scene_assistance: SceneAssistance | None = None
-    if condition in ('direct', 'suite'):
+    if condition in ('direct', 'suite', 'estimated'):
         scene_assistance = _scene_assistance(assistance, objects, names, follow_rule)
     ada = AdaAssistance([o.ada_targets for o in objects], limiter) if condition == 'ada' else None
     streams = [PlanStream(o.scene, 'intent', cache) for o, cache in zip(objects, plan_caches)]
@@ -225,23 +250,29 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
         for sweep in sweeps:
             sweep.check(q)
 
+    if estimator is not None:
+        estimator.reset()
+
     for tick in range(ticks):
         now = tick * period
         if tick % SWEEP_TICKS == 0:
             check(arm.q[:6])
         if tick % w_every == 0:
-            p = intent.object_probabilities(intent_rng)
+            p = intent.object_probabilities(intent_rng) if estimator is None else estimator.object_probabilities
             if condition == 'top_object' and scene_assistance is None:  # the bet, once, on the first report
                 top = int(np.argmax(p))
                 scene_assistance = _scene_assistance(assistance, [objects[top]], [names[top]], follow_rule)
-            elif scene_assistance is not None and condition == 'suite':
+            elif scene_assistance is not None and condition in ('suite', 'estimated'):
                 scene_assistance.set_probabilities(dict(zip(names, p.tolist())))
             for k, obj in enumerate(objects):
-                v, grasp = streams[k].plan(intent.intents[k].w(now, intent_rng))
+                w = intent.intents[k].w(now, intent_rng) if estimator is None else estimator.w(names[k])
+                v, grasp = streams[k].plan(w)
                 if scene_assistance is not None and names[k] in scene_assistance.objects:
                     feed_plan(scene_assistance.channel(names[k]), obj.scene.model, v, grasp)
                 if v is not None and grasp is not None:
                     shown[k] = grasp
+                    if estimator is not None:  # the object's grasp/pose
+                        estimator[names[k]].set_proposal(grasp.base_T_ee)
         q = arm.q[:6].copy()
         assistance.set_joints(q)
         assert assistance.base_T_ee is not None
@@ -256,13 +287,16 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
             closures = own_closures if pursued == 'own' or shown_seen is None else shown_seen.positions[6:]
             followed = None if scene_assistance is None else scene_assistance.followed
             plan = None if followed is None else shown[names.index(followed)]
-            executes = executes_shown(pursued, execute and condition in ('suite', 'top_object')) and plan is not None
+            executes = (executes_shown(pursued, execute and condition in ('suite', 'top_object', 'estimated'))
+                        and plan is not None)
             now, episode.hand, episode.closures, episode.executed = close_hand(
                 arm, hand_now, closures, plan if executes else None, now, period, closure_rng, closure_error, check)
             episode.closed_at, episode.pursued, episode.goal = now, pursued, goal
             episode.executed_object = followed if executes else None
             break
         h = operator.twist(now, seen, goal)
+        if estimator is not None:
+            estimator.update(hand_now, h, period)
         episode.effort_linear += float(np.linalg.norm(h[:3])) * period
         episode.effort_angular += float(np.linalg.norm(h[3:])) * period
         if ada is not None:
@@ -287,6 +321,8 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
     _sweep_figures(episode, sweeps)
     episode.followed = None if scene_assistance is None or condition == 'direct' else scene_assistance.followed
     episode.task_set = intent.task_set(tick * period)
+    if estimator is not None:
+        episode.estimated_p_true = float(estimator.object_probabilities[true])
     episode.alpha_mean = alpha_sum / max(tick, 1)
     return episode
 

@@ -85,6 +85,8 @@ def test_the_two_object_loop_judges_one_episode_under_each_condition() -> None:
     by = {r['condition']: r for r in records}
     assert by['direct']['alpha_mean'] == 0.0 and by['direct']['followed'] is None
     assert by['ada']['followed'] is None and by['suite']['followed'] in scene.SCENE_OBJECTS
+    assert 0.0 < by['estimated']['estimated_p_true'] <= 1.0 and by['estimated']['followed'] in scene.SCENE_OBJECTS
+    assert all(r['estimated_p_true'] is None for r in records if r['condition'] != 'estimated')
     table = scene.summarise(records)
     assert {f'{a}-{b}' for a, b in scene.PAIRS} <= set(table)
 

@@ -13,7 +13,10 @@ from grasp_intent_ros.objects.judge import judge, judge_scene
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.ada import AdaAssistance
 from grasp_intent_ros.shared_control.assistance import TwistLimiter, pose_error
+from grasp_intent_ros.shared_control.estimator import IntentEstimator
+from grasp_intent_ros.shared_control.goals import goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import OperatorConstants, PersistentIntent, ScriptedOperator
+from grasp_intent_ros.shared_control.scene_estimator import SceneEstimator
 from grasp_intent_ros.shared_control.scene_simulator import SceneIntent, SceneObject, simulate_scene
 from grasp_intent_ros.shared_control.simulator import Scene, certain_grasps, simulate
 
@@ -35,6 +38,16 @@ def scene() -> list[SceneObject]:
                                                                      for s, g in grasps.items()},
                                    [g.base_T_ee for g in grasps.values()]))
     return objects
+
+
+@pytest.fixture(scope='module')
+def scene_estimator(scene) -> SceneEstimator:
+    """The intent estimator over the scene's objects, each object's goals its reachable demonstrations there."""
+    estimator = SceneEstimator()
+    for obj in scene:
+        model, at = obj.scene.model, obj.scene.base_T_obj
+        estimator.set_object(obj.name, IntentEstimator(goals_at(model, at, reachable_goals(model, at, obj.scene.kin))))
+    return estimator
 
 
 def test_the_true_object_is_drawn_from_the_held_p_o_and_its_intent_gives_the_true_set() -> None:
@@ -140,3 +153,45 @@ def test_ada_over_objects_takes_each_goals_target_of_least_value(scene) -> None:
     assert p.sum() == pytest.approx(1.0) and p[1] > 0.6  # from 0.5, the hand held still
     with pytest.raises(ValueError):
         AdaAssistance([[near], []], TwistLimiter(0.2, 1.0, 1.0, 5.0))
+
+
+@pytest.mark.parametrize('true_object', [0, 1])
+def test_estimated_p_o_rises_for_the_object_the_operator_reaches_whatever_the_script_says(
+        scene, scene_estimator, true_object) -> None:
+    script_for_the_other = (0.98, 0.02) if true_object == 1 else (0.02, 0.98)  # the script bets on the other one
+    cases = (PersistentIntent((0.9, 0.9, 0.1), 3), PersistentIntent((0.9, 0.9, 0.1), 3))
+    intent = SceneIntent(script_for_the_other, cases, true_object=true_object)
+    operator = ScriptedOperator('spacemouse', OperatorConstants(), np.random.default_rng(3))
+    ep = simulate_scene(scene, 'estimated', intent, operator, np.random.default_rng(4), np.random.default_rng(5),
+                        plan_caches=[{}, {}], timeout=20.0, estimator=scene_estimator)
+    name = scene[true_object].name
+    assert ep.estimated_p_true is not None and ep.estimated_p_true > 0.9  # from 0.5 at the start (reset)
+    assert scene_estimator.object_probabilities[true_object] == ep.estimated_p_true
+    assert scene_estimator.updates > 100  # fed every period the operator moved
+    assert ep.followed == name and ep.executed_object == name
+    assert ep.wrong_object_alpha < 0.5
+    placed = [(o.scene.model, o.scene.base_T_obj_true) for o in scene]
+    assert ep.hand is not None and ep.closures is not None
+    assert judge_scene(placed, true_object, 3, ep.hand, ep.closures).serves
+    # the script's P(o) and w^o never reach the loop: another script with the same true object and set, the same run
+    other = SceneIntent((0.5, 0.5), (PersistentIntent((0.1, 0.1, 0.9), 3), PersistentIntent((0.1, 0.2, 0.3), 3)),
+                        true_object=true_object)
+    again = simulate_scene(scene, 'estimated', other, ScriptedOperator('spacemouse', OperatorConstants(),
+                                                                        np.random.default_rng(3)),
+                           np.random.default_rng(6), np.random.default_rng(5), plan_caches=[{}, {}], timeout=20.0,
+                           estimator=scene_estimator)
+    assert again.closed_at == ep.closed_at and again.estimated_p_true == ep.estimated_p_true
+    assert again.hand is not None and np.array_equal(again.hand, ep.hand)
+
+
+def test_the_estimator_is_the_source_under_estimated_alone_and_over_the_scenes_objects(scene, scene_estimator) -> None:
+    intent = SceneIntent((0.5, 0.5), (PersistentIntent((0.9, 0.9, 0.1), 3),) * 2, true_object=0)
+    operator = ScriptedOperator('spacemouse', OperatorConstants(), np.random.default_rng(3))
+    rngs = (np.random.default_rng(4), np.random.default_rng(5))
+    with pytest.raises(ValueError, match='estimated'):
+        simulate_scene(scene, 'estimated', intent, operator, *rngs, plan_caches=[{}, {}])
+    with pytest.raises(ValueError, match='estimated'):
+        simulate_scene(scene, 'suite', intent, operator, *rngs, plan_caches=[{}, {}], estimator=scene_estimator)
+    with pytest.raises(ValueError, match='objects'):
+        simulate_scene(scene[::-1], 'estimated', intent, operator, *rngs, plan_caches=[{}, {}],
+                       estimator=scene_estimator)
