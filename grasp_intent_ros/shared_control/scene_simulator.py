@@ -2,7 +2,7 @@ r"""The shared-control loop over several objects on a simulated clock (ROS-free)
 
 :func:`simulate_scene` is :func:`.simulator.simulate` with several objects on the table, built from its parts (the
 planner's stream per object :class:`~.simulator.PlanStream`, the plan fed as the nodes deliver it
-:func:`~.simulator.feed_plan`, the grasp command :func:`~.simulator.close_hand`, the sweep :mod:`.sweep`) and the
+:func:`~.loop_steps.feed_plan`, the grasp command :func:`~.loop_steps.close_hand`, the sweep :mod:`.sweep`) and the
 assistance over several objects (:class:`~.scene_assistance.SceneAssistance`, the assistance node's core with
 ``objects``). docs/several_objects.md ("The simulated benchmark with two objects") gives the design.
 
@@ -159,7 +159,7 @@ class SceneObject:
 
 @dataclass
 class SceneEpisode(Episode):
-    """What one episode over several objects did (nothing judged): :class:`~.simulator.Episode`'s figures and these.
+    """What one episode over several objects did (nothing judged): :class:`~.loop_steps.Episode`'s figures and these.
 
     Attributes
     ----------
