@@ -171,7 +171,7 @@ class SceneAssistance:
         """The agreements updated, the object followed (a switch loads its inputs), then the assistance's command."""
         self._update_agreements(now)
         grasped = [name for name in self.names if self.objects[name].grasp is not None]
-        self.probabilities = object_probabilities(grasped, self.received) if grasped else {}
+        self.probabilities = object_probabilities(grasped, self.received, len(self.names)) if grasped else {}
         self.serving = {name: self.probabilities[name] * self.objects[name].serving() for name in grasped}
         self.scores = {name: self.serving[name] * min(self.objects[name].agreement) for name in grasped}
         before = self.follower.followed

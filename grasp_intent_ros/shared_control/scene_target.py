@@ -93,14 +93,16 @@ def _best(names: Sequence[str], scores: Mapping[str, float]) -> str:
     return max(names, key=lambda name: scores[name])
 
 
-def object_probabilities(names: Sequence[str], received: Mapping[str, float] | None) -> dict[str, float]:
-    """P(o) of each object of ``names`` (the objects with a grasp).
+def object_probabilities(names: Sequence[str], received: Mapping[str, float] | None,
+                         scene_size: int) -> dict[str, float]:
+    """P(o) of each object of ``names`` (the objects with a grasp), in a scene of ``scene_size`` objects.
 
     ``received``: the newest ``intent/objects`` (object -> P(o)); an object it does not name has P(o) 0 (the
     estimator names only the objects whose goals are ready). None (none received, e.g. no estimator running):
-    uniform over ``names``, so alpha stays at most ``alpha_max / len(names)`` while the object is unknown, and one
-    object alone has P(o) = 1 exactly (today's one-object assistance).
+    ``1 / scene_size`` each, uniform over the scene's objects whether or not their grasps have come yet, so alpha
+    stays at most ``alpha_max / scene_size`` while the object is unknown (an object whose chain answered first is
+    not favoured for that), and one object alone has P(o) = 1 exactly (today's one-object assistance).
     """
     if received is None:
-        return {name: 1.0 / len(names) for name in names}
+        return {name: 1.0 / scene_size for name in names}
     return {name: float(received.get(name, 0.0)) for name in names}

@@ -52,11 +52,13 @@ def test_a_holder_without_a_score_is_replaced_at_once_and_no_score_changes_nothi
     assert follower.update({'flashlight': 0.0}, 1.0) == 'flashlight'
 
 
-def test_p_o_is_uniform_over_the_objects_with_a_grasp_until_one_is_received() -> None:
-    assert object_probabilities(['cup'], None) == {'cup': 1.0}
-    assert object_probabilities(['cup', 'flashlight'], None) == {'cup': 0.5, 'flashlight': 0.5}
+def test_p_o_is_uniform_over_the_scenes_objects_until_one_is_received() -> None:
+    assert object_probabilities(['cup'], None, 1) == {'cup': 1.0}
+    assert object_probabilities(['cup', 'flashlight'], None, 2) == {'cup': 0.5, 'flashlight': 0.5}
+    # the flashlight's chain has not answered yet: the cup is not favoured for answering first
+    assert object_probabilities(['cup'], None, 2) == {'cup': 0.5}
     received = {'flashlight': 0.75}  # the estimator names only the objects whose goals are ready
-    assert object_probabilities(['cup', 'flashlight'], received) == {'cup': 0.0, 'flashlight': 0.75}
+    assert object_probabilities(['cup', 'flashlight'], received, 2) == {'cup': 0.0, 'flashlight': 0.75}
 
 
 @pytest.mark.parametrize('margin', [0.0, 0.1])
