@@ -49,28 +49,19 @@ from ..wire.model_document import ModelDocument, read_model_document
 from ..wire.robot_state import joint_positions, named_positions, pose_msg_to_matrix
 from .plan import plan_object_pose, served_tasks
 
-__all__ = ['OPERATOR_TWIST', 'ASSISTANCE_TWIST', 'ASSISTANCE_ALPHA', 'VIEWER_TOPICS', 'ARM_TOPICS', 'CHAIN_TOPICS',
+__all__ = ['VIEWER_TOPICS', 'ARM_TOPICS', 'CHAIN_TOPICS',
            'SCENE_TOPICS',
            'SceneState', 'ObjectsState', 'followed_topics', 'apply', 'apply_objects', 'apply_to', 'plan_status']
 
-OPERATOR_TWIST: Final = 'operator/twist'
-"""The operator's command (geometry_msgs/TwistStamped), published by the assistance node's operator input."""
-ASSISTANCE_TWIST: Final = 'assistance/twist'
-"""The blended command sent to the arm (geometry_msgs/TwistStamped)."""
-ASSISTANCE_ALPHA: Final = 'assistance/alpha'
-"""The blending weight of the assistance (std_msgs/Float64): 0 operator only .. 1 assistance only."""
-
 VIEWER_TOPICS: Final[Mapping[str, str]] = {
-    **{t: topics.MSGTYPES[t] for t in (topics.JOINT_STATES, topics.GRASP_JOINT_TARGETS, topics.OBJECT_POSE,
-                                       topics.MODEL_ACTIVE, topics.GRASP_POSE, topics.GRASP_FEATURES,
-                                       topics.GRASP_POSTERIOR, topics.INTENT_W, topics.INTENT_V,
-                                       topics.INTENT_CLARIFICATION, topics.DIAGNOSTICS)},
-    OPERATOR_TWIST: 'geometry_msgs/msg/TwistStamped',
-    ASSISTANCE_TWIST: 'geometry_msgs/msg/TwistStamped',
-    ASSISTANCE_ALPHA: 'std_msgs/msg/Float64',
+    t: topics.MSGTYPES[t] for t in (topics.JOINT_STATES, topics.GRASP_JOINT_TARGETS, topics.OBJECT_POSE,
+                                    topics.MODEL_ACTIVE, topics.GRASP_POSE, topics.GRASP_FEATURES,
+                                    topics.GRASP_POSTERIOR, topics.INTENT_W, topics.INTENT_V,
+                                    topics.INTENT_CLARIFICATION, topics.DIAGNOSTICS, topics.OPERATOR_TWIST,
+                                    topics.ASSISTANCE_TWIST, topics.ASSISTANCE_ALPHA)
 }
 """Every topic the viewer follows (relative names; ``/diagnostics`` absolute) and its message type."""
-ARM_TOPICS: Final = (topics.JOINT_STATES, OPERATOR_TWIST, ASSISTANCE_TWIST, ASSISTANCE_ALPHA)
+ARM_TOPICS: Final = (topics.JOINT_STATES, topics.OPERATOR_TWIST, topics.ASSISTANCE_TWIST, topics.ASSISTANCE_ALPHA)
 """The viewer topics of the arm: in a scene of several objects, once, in the suite's namespace."""
 CHAIN_TOPICS: Final = tuple(t for t in VIEWER_TOPICS if t not in ARM_TOPICS and t != topics.DIAGNOSTICS)
 """The viewer topics of a planning chain: in a scene of several objects, one set per object in its namespace."""
@@ -257,14 +248,14 @@ def apply(state: SceneState, topic: str, msg: Any, *, namespace: str | None = No
     if topic == topics.DIAGNOSTICS:
         status = plan_status(msg, namespace)
         return state if status is None else replace(state, plan_status=status)
-    if topic == OPERATOR_TWIST:
+    if topic == topics.OPERATOR_TWIST:
         return replace(state, operator_twist=_twist(msg))
-    if topic == ASSISTANCE_TWIST:
+    if topic == topics.ASSISTANCE_TWIST:
         return replace(state, assistance_twist=_twist(msg))
-    if topic == ASSISTANCE_ALPHA:
+    if topic == topics.ASSISTANCE_ALPHA:
         alpha = float(msg.data)
         if not np.isfinite(alpha):
-            raise GraspIntentError(f'{ASSISTANCE_ALPHA} must be finite, got {alpha}')
+            raise GraspIntentError(f'{topics.ASSISTANCE_ALPHA} must be finite, got {alpha}')
         return replace(state, alpha=alpha)
     return state
 

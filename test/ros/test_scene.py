@@ -33,9 +33,7 @@ from grasp_intent_ros.scene.panel import panel_html
 from grasp_intent_ros.scene.plan import served_tasks
 from grasp_intent_ros.scene.state import (
     ARM_TOPICS,
-    ASSISTANCE_ALPHA,
     CHAIN_TOPICS,
-    OPERATOR_TWIST,
     SCENE_TOPICS,
     VIEWER_TOPICS,
     ObjectsState,
@@ -152,11 +150,11 @@ def test_joint_states_naming_some_joints_each_fill_the_arm_once_every_joint_was_
 
 
 def test_bad_messages_raise_and_leave_the_state_as_it_was() -> None:
-    state = apply(SceneState(), OPERATOR_TWIST, TwistStamped())
+    state = apply(SceneState(), topics.OPERATOR_TWIST, TwistStamped())
     bad_pose = matrix_to_pose_msg(np.eye(4), frame_id='world', stamp=STAMP)
     bad_alpha = Float64(data=float('nan'))
     bad_targets = joint_state_msg(FINGER_JOINTS, [0.0, 0.0, 0.0], stamp=STAMP)
-    for topic, msg in ((topics.OBJECT_POSE, bad_pose), (ASSISTANCE_ALPHA, bad_alpha),
+    for topic, msg in ((topics.OBJECT_POSE, bad_pose), (topics.ASSISTANCE_ALPHA, bad_alpha),
                        (topics.GRASP_JOINT_TARGETS, bad_targets), (topics.MODEL_ACTIVE, String(data='no model'))):
         with pytest.raises(GraspIntentError):
             apply(state, topic, msg)
@@ -219,7 +217,7 @@ def test_the_page_is_served_on_loopback_and_draws_any_state(arm: ArmModel, cup: 
         state = apply(state, topics.GRASP_POSE, matrix_to_pose_msg(features_to_obj_T_ee(x), frame_id=BASE_FRAME,
                                                                    stamp=STAMP))
         state = apply(state, topics.GRASP_FEATURES, stamped_array_to_msg(x, list(MICO_3F.names), stamp=STAMP))
-        state = apply(state, OPERATOR_TWIST, TwistStamped())
+        state = apply(state, topics.OPERATOR_TWIST, TwistStamped())
         page.show(state)
         page.show(state, time_text='t = 1.0 s')
         assert 'UTH' in page._panel.content and 't = 1.0 s' in page._panel.content
