@@ -86,6 +86,11 @@ is raised in each part the operator moves (faster than its deadband) to at least
 the operator's direction of that part: the blend then never slows the operator's own motion, and the robot adds
 what lies across it (its turn of the hand, its correction sideways).
 
+**Agreeing with the robot's twist** (``robot_agreement``, off by default; :func:`robot_agreement`). The other
+remedy for the same cancellation: alpha is also multiplied by the operator's agreement with the robot's own twist
+(per part max(cos, 0), faded out below the deadbands; the smaller part's), so where the robot's twist runs against
+the operator's the operator moves alone at full speed, and where it goes the operator's way the robot helps.
+
 Limits (:class:`~.limits.TwistLimiter`)
 ---------------------------------------
 The blended twist's linear and angular parts are scaled down to their speed limits, then each part's
@@ -120,8 +125,8 @@ from .path_search import PathRequest, PathSearch, PathSource, warm_up_scene
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
            'approach_agreement', 'new_proposal', 'pose_error', 'REACH_POS', 'REACH_ROT', 'offset', 'reached',
-           'assistance_target', 'robot_twist', 'joint_space_twist', 'keep_pace', 'blend', 'clip_norm', 'TwistLimiter',
-           'AssistanceConfig', 'Command', 'Assistance', 'warm_up']
+           'assistance_target', 'robot_twist', 'joint_space_twist', 'keep_pace', 'robot_agreement', 'blend',
+           'clip_norm', 'TwistLimiter', 'AssistanceConfig', 'Command', 'Assistance', 'warm_up']
 
 Arbitration = Literal['confidence', 'blend', 'none']
 ARBITRATIONS: tuple[str, ...] = typing.get_args(Arbitration)
@@ -215,10 +220,37 @@ def operator_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64]
         if norm(operator[part]) <= deadband or norm(robot[part]) <= deadband:
             parts.append(None)
             continue
-        h, r = clip_norm(operator[part], 1.0), clip_norm(robot[part], 1.0)  # no overflow in the products
-        cos = float(h @ r) / (float(np.linalg.norm(h)) * float(np.linalg.norm(r)))
-        parts.append(min(max(cos, 0.0), 1.0))
+        parts.append(_agreement(operator[part], robot[part]))
     return parts[0], parts[1]
+
+
+def _agreement(h: NDArray[np.float64], r: NDArray[np.float64]) -> float:
+    """max(cos theta, 0) of the angle theta between two non-zero vectors, in [0, 1]; no overflow for finite ones."""
+    h, r = clip_norm(h, 1.0), clip_norm(r, 1.0)  # no overflow in the products
+    cos = float(h @ r) / (float(np.linalg.norm(h)) * float(np.linalg.norm(r)))
+    return min(max(cos, 0.0), 1.0)
+
+
+def robot_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64], *, deadband_linear: float,
+                    deadband_angular: float) -> float:
+    """The factor in [0, 1] by which the operator's disagreement with the robot's own twist lowers alpha.
+
+    Per part (linear, angular), with h and r the operator's and the robot's part, d the part's deadband
+    (m/s, rad/s) and c = max(cos theta, 0) of their angle theta: ``1 - (1 - c) min(|h| / d, 1) min(|r| / d, 1)``;
+    the factor is the smaller of the two parts'. So where both move beyond the deadband it is c (0 where r runs
+    at right angles to h or against it: the operator moves alone; 1 where r goes h's way: alpha unchanged), and
+    the disagreement fades out linearly below the deadband of either: 1 (alpha unchanged) at zero h or zero r.
+    Continuous in h and r everywhere (the weights vanish where theta is undefined), with no threshold: no
+    decision turns on a last bit.
+    """
+    factor = 1.0
+    for part, deadband in ((slice(0, 3), deadband_linear), (slice(3, 6), deadband_angular)):
+        h_speed, r_speed = norm(operator[part]), norm(robot[part])
+        if h_speed == 0.0 or r_speed == 0.0:
+            continue  # the weight is 0: no disagreement (the cosine undefined)
+        weight = min(h_speed / deadband, 1.0) * min(r_speed / deadband, 1.0) if deadband > 0.0 else 1.0
+        factor = min(factor, 1.0 - (1.0 - _agreement(operator[part], robot[part])) * weight)
+    return factor
 
 
 def approach_agreement(config: AssistanceConfig, operator: NDArray[np.float64], base_T_ee: NDArray[np.float64],
@@ -326,6 +358,9 @@ class AssistanceConfig:
     keep_pace : bool
         Whether the robot's twist is raised to the operator's speed along the operator's direction in each part
         the operator moves, before blending (:func:`keep_pace`; module docstring). Default False: the blend as is.
+    robot_agreement : bool
+        Whether alpha is also multiplied by the operator's agreement with the robot's own twist (the one blended,
+        after ``keep_pace``) (:func:`robot_agreement`; module docstring). Default False: alpha as is.
     operator_timeout : float
         An operator twist older than this gives the zero twist.
     clearance_margin : float
@@ -348,6 +383,7 @@ class AssistanceConfig:
     yield_time: float = 0.15
     assist_without_input: bool = False
     keep_pace: bool = False
+    robot_agreement: bool = False
     operator_timeout: float = 0.1
     clearance_margin: float = 0.0
 
@@ -559,6 +595,9 @@ class Assistance:
                 if twist is not None and cfg.keep_pace:
                     twist = keep_pace(twist, operator, deadband_linear=cfg.deadband_linear,
                                       deadband_angular=cfg.deadband_angular)
+                if twist is not None and cfg.robot_agreement:
+                    alpha *= robot_agreement(operator, twist, deadband_linear=cfg.deadband_linear,
+                                             deadband_angular=cfg.deadband_angular)
                 alpha, robot, phase = (0.0, robot, 'seeking a path') if twist is None else (alpha, twist, phase)
             else:
                 phase = 'yielded to the operator' if self.yielded else phase

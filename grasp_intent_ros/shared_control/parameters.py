@@ -86,6 +86,9 @@ ASSISTANCE = (
     ParamSpec('keep_pace', _ASSIST.keep_pace, "Whether the robot's twist, before blending, goes at least the "
               "operator's speed along the operator's direction in each part the operator moves (the blend never "
               "slows the operator's own motion; the robot adds what lies across it)."),
+    ParamSpec('robot_agreement', _ASSIST.robot_agreement, "Whether alpha is also multiplied by the operator's "
+              "agreement with the robot's own twist (per part max(cos, 0), faded out below the deadbands; the "
+              "smaller part's): where the robot's twist runs against the operator's, the operator moves alone."),
     ParamSpec('operator_timeout', _ASSIST.operator_timeout, 'Operator twist age (s) from which the output is '
               'the zero twist (MoveIt Servo: incoming_command_timeout).', range=(0.001, 10.0)),
     ParamSpec('clearance_margin', _ASSIST.clearance_margin, "m: how far beyond the planner's collision limits the "

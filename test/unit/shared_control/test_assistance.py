@@ -24,6 +24,7 @@ from grasp_intent_ros.shared_control.assistance import (
     keep_pace,
     operator_agreement,
     pose_error,
+    robot_agreement,
     robot_twist,
     serving_probability,
 )
@@ -194,6 +195,47 @@ def test_keep_pace_lets_the_blend_never_slow_the_operator(pace: bool) -> None:
     assert command.alpha == pytest.approx(0.9)  # the arbitration is unchanged
     assert command.twist[2] == pytest.approx(-0.3 if pace else -(0.9 * 0.15 + 0.1 * 0.3), abs=1e-12)
     assert AssistanceConfig().keep_pace is False  # off by default: the blend as published
+
+
+def test_the_agreement_with_the_robots_twist_is_the_cosine_faded_out_below_the_deadbands() -> None:
+    kw = dict(deadband_linear=0.01, deadband_angular=0.05)
+    operator = np.r_[0.0, 0.12, 0.0, 0.0, 0.0, 0.0]  # a joystick translating: no rotation
+    assert robot_agreement(operator, np.r_[0.0, -0.15, 0.0, 0.0, 0.0, 0.8], **kw) == 0.0  # against: the operator alone
+    assert robot_agreement(operator, np.r_[0.15, 0.0, 0.0, 0.4, 0.0, 0.8], **kw) == 0.0  # at right angles: alone too
+    assert robot_agreement(operator, np.r_[0.0, 0.15, 0.0, 0.4, 0.0, 0.8], **kw) == 1.0  # its way: alpha unchanged
+    oblique = np.r_[0.1, 0.1, 0.0, 0.0, 0.0, 0.0]
+    assert robot_agreement(operator, oblique, **kw) == pytest.approx(0.5**0.5, abs=1e-15)  # cos 45 deg
+    turning = np.r_[0.0, 0.0, 0.0, 0.0, 0.0, 0.3]  # a turn against the robot's, no translation: the angular part's
+    assert robot_agreement(turning, np.r_[0.0, -0.15, 0.0, 0.0, 0.0, -0.8], **kw) == 0.0
+    assert robot_agreement(np.zeros(6), np.r_[0.0, -0.15, 0.0, 0.0, 0.0, -0.8], **kw) == 1.0  # zero h: unchanged
+    assert robot_agreement(operator, np.zeros(6), **kw) == 1.0  # zero r: unchanged
+    # below a deadband the disagreement fades out linearly: continuous, no threshold for a last bit to cross
+    assert robot_agreement(operator, np.r_[0.0, -0.005, 0.0, 0.0, 0.0, 0.0], **kw) == pytest.approx(0.5, abs=1e-15)
+    assert robot_agreement(np.r_[0.0, 0.0025, 0.0, 0.0, 0.0, 0.0], np.r_[0.0, -0.15, 0.0, 0.0, 0.0, 0.0],
+                           **kw) == pytest.approx(0.75, abs=1e-15)
+    edge = np.r_[0.0, -0.01, 0.0, 0.0, 0.0, 0.0]
+    for bit in (-1.0, 1.0):
+        near = robot_agreement(operator, np.nextafter(edge, bit), **kw)
+        assert near == pytest.approx(0.0, abs=1e-12)
+
+
+@pytest.mark.parametrize('agree', [False, True])
+def test_robot_agreement_lets_the_operator_move_alone_where_the_robots_twist_runs_against_it(
+        agree: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    straight = np.r_[0.0, 0.0, -0.05, 0.0, 0.0, 0.0]  # straight at the grasp below: o = 1
+    for robot, alpha in ((np.r_[0.0, 0.0, 0.15, 0.0, 0.0, 0.0], 0.0 if agree else 0.9),  # the joint line, against
+                         (np.r_[0.0, 0.0, -0.15, 0.0, 0.0, 0.3], 0.9)):  # the operator's way (and a turn): unchanged
+        assistance, today = make_assistance(robot_agreement=agree), make_assistance()
+        for a in (assistance, today):
+            monkeypatch.setattr(a, '_robot_twist', lambda target, phase, robot=robot: robot.copy())
+            a.set_operator(straight, now=0.0)
+        command, reference = assistance.command(0.01), today.command(0.01)
+        assert command.alpha == alpha
+        assert_allclose(command.twist, alpha * robot + (1.0 - alpha) * straight, atol=1e-15)
+        if not agree:  # off: today's command to the bit
+            assert command.alpha == reference.alpha and command.phase == reference.phase
+            assert np.array_equal(command.twist, reference.twist)
+    assert AssistanceConfig().robot_agreement is False  # off by default
 
 
 @pytest.mark.parametrize('missing, phase', [('base_T_grasp', 'no grasp'), ('base_T_ee', 'no joint state')])
