@@ -5,7 +5,9 @@ The one-object loop (:func:`.simulator.simulate`) and the loop over several obje
 or one object's channel of it), give the grasp command the same way (:func:`executes_shown` decides whether the
 shown grasp is executed first; :func:`close_hand` closes, after :func:`execute_grasp` when it is: the nodes'
 ``grasp/execute`` then ``grasp/close``), and record what an episode did in an :class:`Episode`, the open hand's
-sweep into the object's body included (:func:`swept_into`, from a :class:`~.sweep.PathSweep`). Nothing here judges.
+sweep into the object's body included (:func:`swept_into`, from a :class:`~.sweep.PathSweep`); each operator twist
+goes to the intent estimator, when one runs, and into the episode's effort (:func:`take_operator_twist`). Nothing
+here judges.
 """
 
 from __future__ import annotations
@@ -28,7 +30,8 @@ from ..mico.trajectory import TrajectoryCommand
 from .assistance import grasp_task_set
 from .sweep import PathSweep
 
-__all__ = ['PlanInputs', 'feed_plan', 'executes_shown', 'execute_grasp', 'close_hand', 'Episode', 'swept_into']
+__all__ = ['PlanInputs', 'feed_plan', 'executes_shown', 'execute_grasp', 'close_hand', 'Episode', 'TwistEvidence',
+           'take_operator_twist', 'swept_into']
 
 _LABELS = zone_labels(all_zones(3), default_task_names(3))
 
@@ -179,6 +182,25 @@ class Episode:
     closing_palm: float = -math.inf
     closing_finger: float = -math.inf
     in_at_closing: bool = False
+
+
+class TwistEvidence(Protocol):
+    """What reads the operator's own twist as evidence: :meth:`.estimator.IntentEstimator.update`, the scene's."""
+
+    def update(self, base_T_ee: NDArray[np.float64], twist: NDArray[np.float64], dt: float) -> object: ...
+
+
+def take_operator_twist(episode: Episode, twist: NDArray[np.float64], hand: NDArray[np.float64], period: float,
+                        estimator: TwistEvidence | None) -> None:
+    """The operator's own ``twist`` (shape (6,), before blending) held for ``period`` s with the hand at ``hand``.
+
+    The estimator's evidence, when one runs (the assistance never creates its own), and the episode's effort: its
+    ``effort_linear`` and ``effort_angular`` grow by the twist's linear and angular speeds times ``period``.
+    """
+    if estimator is not None:
+        estimator.update(hand, twist, period)
+    episode.effort_linear += float(np.linalg.norm(twist[:3])) * period
+    episode.effort_angular += float(np.linalg.norm(twist[3:])) * period
 
 
 def swept_into(episode: Episode, sweep: PathSweep) -> None:

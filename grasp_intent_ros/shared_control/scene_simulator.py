@@ -74,7 +74,7 @@ from ..mico.kinematics import BASE_FRAME, HOME_Q
 from ..mico.mock_arm import MockArm, TwistCommand
 from .ada import AdaAssistance
 from .assistance import Assistance, AssistanceConfig, TwistLimiter
-from .loop_steps import Episode, close_hand, executes_shown, feed_plan, swept_into
+from .loop_steps import Episode, close_hand, executes_shown, feed_plan, swept_into, take_operator_twist
 from .operators import PersistentIntent, ScriptedOperator
 from .scene_assistance import SceneAssistance
 from .scene_estimator import SceneEstimator
@@ -295,10 +295,7 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
             episode.executed_object = followed if executes else None
             break
         h = operator.twist(now, seen, goal)
-        if estimator is not None:
-            estimator.update(hand_now, h, period)
-        episode.effort_linear += float(np.linalg.norm(h[:3])) * period
-        episode.effort_angular += float(np.linalg.norm(h[3:])) * period
+        take_operator_twist(episode, h, hand_now, period, estimator)
         if ada is not None:
             twist = ada.command(hand_now, h, period)
             alpha_sum += 1.0

@@ -79,7 +79,7 @@ from .ada import AdaAssistance
 from .assistance import Assistance, AssistanceConfig, TwistLimiter
 from .clearance import default_hand
 from .estimator import IntentEstimator
-from .loop_steps import Episode, close_hand, executes_shown, feed_plan, swept_into
+from .loop_steps import Episode, close_hand, executes_shown, feed_plan, swept_into, take_operator_twist
 from .operators import IntentScript, ScriptedOperator, certain_w
 from .sweep import SWEEP_TICKS, PathSweep
 
@@ -333,10 +333,7 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
             episode.closed_at, episode.pursued, episode.goal = now, pursued, goal
             break
         h = operator.twist(now, seen, goal)
-        if estimator is not None:
-            estimator.update(hand_now, h, period)
-        episode.effort_linear += float(np.linalg.norm(h[:3])) * period
-        episode.effort_angular += float(np.linalg.norm(h[3:])) * period
+        take_operator_twist(episode, h, hand_now, period, estimator)
         if ada is not None:
             twist = ada.command(hand_now, h, period)
             p = ada.distribution()
