@@ -66,7 +66,10 @@ following the other object; ADA: its probability-seconds on the other object), t
 Statistics: per episode the mean over repeats; paired differences (:data:`PAIRS`) of success (points) and of
 the time (geometric mean ratio), 95% percentile bootstrap over episodes (10,000 resamples, seeded):
 bench_shared_control_sim.py's :func:`paired_difference`. Records (``--records F``): a JSON line per episode,
-its runs' records; ``--summarise F`` prints the figures of such a file.
+its runs' records, each carrying the run's settings (``run``: :func:`run_settings`); ``--summarise F`` prints the
+figures of such a file (``.jsonl`` or ``.jsonl.gz``) and runs nothing; benchmarks/compare_records.py pairs the
+runs of two of them, a change's against main's or against the shipped reference records of the README's row
+(``benchmarks/reference/scene.jsonl.gz``).
 
     .venv/bin/python benchmarks/bench_shared_control_scene.py [--episodes 50] [--repeats 3] [--jobs 2] \
         [--operators joystick] [--conditions direct ada suite top_object estimated] [--twist-joint-limit stop] \

@@ -18,9 +18,10 @@ cell.
 
 Verdict per cell: **regression** when the success or the clear-path difference has its CI wholly below -2 points,
 or the time ratio its CI wholly above 1.0 (any slowdown the CI is sure of). A flag for a person to look at, not a
-gate: a change that alters the runs without making the loop worse can cross it by chance in one of 36 cells.
-Fewer episodes widen the CIs, but with very few (under about 10) the percentile bootstrap's interval is narrower
-than it should be (one episode gives a point): a small run's flag is a hint to confirm on the full run.
+gate: a change that alters the runs without making the loop worse can cross it by chance in one of the cells (36
+for one object, 10 for two). Fewer episodes widen the CIs, but with very few (under about 10) the percentile
+bootstrap's interval is narrower than it should be (one episode gives a point): a small run's flag is a hint to
+confirm on the full run.
 
 Pairing. The records carry the run's settings (``run``: each benchmark's ``run_settings``); the files are refused
 when they are of different benchmarks (one object's runs against two objects'), when one file holds runs of more
@@ -97,7 +98,7 @@ class Kind:
 
     @property
     def needed(self) -> tuple[str, ...]:
-        """The fields a comparison reads (``swept`` and ``run`` where carried)."""
+        """The fields a comparison needs in every record (it reads ``swept`` and ``run`` too, where carried)."""
         return (*self.key, *self.episode, *OUTCOME)
 
     @property
