@@ -130,11 +130,12 @@ from _bench import REPO, Probe, bootstrap_ci, loopback_domain, stopped_after, up
 from _bench.closed_loop import BASE_T_OBJ, OBJECTS, PERIOD, W_EVERY, Loop, Run, load_model, run_operator
 from _bench.closed_loop_record import record_session
 
+from grasp_intent_ros.mico.frames import offset, pose_error
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import MockArm
 from grasp_intent_ros.planning.options import node_default_options
-from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error
+from grasp_intent_ros.shared_control.limits import clip_norm
 from grasp_intent_ros.shared_control.operators import OperatorConstants, PersistentIntent, SharpeningIntent
 from grasp_intent_ros.shared_control.simulator import certain_grasp, perturb_pose
 
