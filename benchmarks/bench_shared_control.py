@@ -1,4 +1,4 @@
-r"""Closed-loop shared control without hardware: scripted operators, five real node processes (issue 30).
+r"""Closed-loop shared control without hardware: scripted operators, five real node processes.
 
 The interpreter, model server, planner, mock arm and assistance run as ``python -m`` processes over
 loopback (:meth:`~grasp_intent_ros.launch.suite.NodeSuite.start_nodes` with ``shared_control=True``); this
@@ -10,7 +10,9 @@ foil, the simulated loop's condition of that name: the grasp separate per-task c
 planner's for v on the zone of the single most likely task alone, ``plan_for: most_likely_task``
 (:func:`~grasp_intent_ros.method.intent.single_task_v`: argmax_i w_i, ties to the first task), shown, under the
 suite's assistance, ``confidence``, which keeps the interpreter's v of the whole w). Between two runs the mock
-arm is reset to Home (``mock_arm/reset``). Prints figures, asserts nothing; ``--json`` keeps every run.
+arm is reset to Home (``mock_arm/reset``). Prints figures, asserts nothing; ``--json`` keeps every run. The method
+and the figures measured: docs/shared_control.md, "The closed-loop benchmark (real processes)"; the targets: the
+README's rows "closed loop with real node processes".
 
 The grasp command. Under the suite's assistance (``confidence``, ``independent``: :data:`EXECUTES`), a close on
 the shown grasp executes it, as
