@@ -111,6 +111,33 @@ def test_home_fk(kin: MicoKinematics) -> None:
     assert_allclose(base_T_ee[:3, 3], (0.2149, -0.2036, 0.4187), atol=1e-3)
 
 
+def test_check_q_gives_a_float_vector_and_names_what_is_wrong(kin: MicoKinematics) -> None:
+    q = np.array(HOME_Q)
+    assert kin.check_q(q) is q  # a float64 vector of shape (6,): as given
+    assert_allclose(kin.check_q(HOME_Q.tolist()), HOME_Q, rtol=0, atol=0)
+    for bad in (np.zeros(5), np.full(6, np.inf), 'abcdef'):
+        with pytest.raises(KinematicsError, match='q_seed'):
+            kin.check_q(bad, 'q_seed')
+
+
+def test_into_limits_wraps_the_wide_joints_by_whole_turns_then_clips(kin: MicoKinematics) -> None:
+    q = np.array(HOME_Q)
+    q[0] = kin.upper[0] + 1.0  # a wide joint past its limit: wrapped by whole turns, the pose kept
+    q[3] = kin.lower[3] - 7.0
+    q[1] = kin.upper[1] + 0.3  # joint 2 (end stops, range < 2 pi): clipped
+    before = q.copy()
+    out = kin.into_limits(q)
+    assert np.array_equal(q, before) and out is not q  # a new array
+    assert np.all((kin.lower <= out) & (out <= kin.upper))
+    turns = (out[[0, 3]] - q[[0, 3]]) / (2 * math.pi)
+    assert_allclose(turns, np.round(turns), rtol=0, atol=1e-12) and np.all(np.round(turns) != 0)
+    assert out[1] == kin.upper[1]
+    assert_allclose(out[[2, 4, 5]], q[[2, 4, 5]], rtol=0, atol=0)  # within the limits: as given
+    unclipped = out.copy()
+    unclipped[1] = q[1]
+    assert_allclose(kin.fk(unclipped), kin.fk(q), atol=1e-12)  # the wrap keeps the pose
+
+
 def test_fk_rejects_bad_q(kin: MicoKinematics) -> None:
     for bad in (np.zeros(5), np.zeros((6, 1)), np.full(6, np.nan), 'abcdef'):
         with pytest.raises(KinematicsError):
