@@ -37,7 +37,7 @@ class Reachability:
     base_T_obj : array_like, shape (4, 4)
         Object pose in the base frame.
     q_seed : array_like, shape (6,), optional
-        IK seed and branch reference (rad), e.g. the latest joint reading; :data:`HOME_Q` if None.
+        IK seed and branch reference (rad), e.g. the latest joint reading; :data:`~.kinematics.HOME_Q` if None.
     restarts : int
         Random IK restarts after the seeded attempt fails.
     """

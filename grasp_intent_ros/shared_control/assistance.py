@@ -57,7 +57,6 @@ def blend(alpha: float, robot: NDArray[np.float64], operator: NDArray[np.float64
     return alpha * robot + (1.0 - alpha) * operator
 
 
-
 @dataclass(frozen=True)
 class Command:
     """One output of :class:`Assistance`.
