@@ -13,7 +13,8 @@ import time
 import numpy as np
 from numpy.typing import NDArray
 
-from grasp_intent_ros.mico.kinematics import HOME_Q, IkResult, MicoKinematics
+from grasp_intent_ros.mico.ik import IkResult
+from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 
 WIDE = [0, 3, 4, 5]
 

@@ -7,7 +7,7 @@ switch must not stall planning: the new model is read off the planning path and 
 Printed, with the load average before and after:
 - the time to read one model document (:func:`grasp_intent_ros.wire.model_document.read_model_document`: hash,
   YAML, model) beside PyYAML's pure-Python ``safe_load`` of the same document plus the model's
-  construction (the reader before issue 10), medians in this process;
+  construction (how a document was read before ``read_model_document``), medians in this process;
 - the gaps between consecutive answers (``grasp/posterior`` received by the probe): the largest within
   half a switch period after each switch (largest and median over the switches), how many switches
   saw a gap over 50 ms (the target: none), and the gaps in the other half of the periods (the same

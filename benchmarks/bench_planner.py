@@ -1,6 +1,6 @@
 """Planner benchmark: optimality, stability, continuity, plausibility and speed. Prints figures, asserts nothing.
 
-Sections (all seeded; ``--n`` random w per model, 500 by default, as issue 7 states them):
+Sections (all seeded; ``--n`` random w per model, 500 by default; the targets are the README's planner rows):
 
 Sections 2-5 measure ``--method`` (default: the planner's default, ``'task'``); section 1 the paper's planner
 (``'lm'``), whose objective it checks. Task success: bench_task_success.py.

@@ -1,4 +1,4 @@
-r"""Closed-loop shared control without hardware: scripted operators, five real node processes (issue 30).
+r"""Closed-loop shared control without hardware: scripted operators, five real node processes.
 
 The interpreter, model server, planner, mock arm and assistance run as ``python -m`` processes over
 loopback (:meth:`~grasp_intent_ros.launch.suite.NodeSuite.start_nodes` with ``shared_control=True``); this
@@ -10,7 +10,9 @@ foil, the simulated loop's condition of that name: the grasp separate per-task c
 planner's for v on the zone of the single most likely task alone, ``plan_for: most_likely_task``
 (:func:`~grasp_intent_ros.method.intent.single_task_v`: argmax_i w_i, ties to the first task), shown, under the
 suite's assistance, ``confidence``, which keeps the interpreter's v of the whole w). Between two runs the mock
-arm is reset to Home (``mock_arm/reset``). Prints figures, asserts nothing; ``--json`` keeps every run.
+arm is reset to Home (``mock_arm/reset``). Prints figures, asserts nothing; ``--json`` keeps every run. The method
+and the figures measured: docs/shared_control.md, "The closed-loop benchmark (real processes)"; the targets: the
+README's rows "closed loop with real node processes".
 
 The grasp command. Under the suite's assistance (``confidence``, ``independent``: :data:`EXECUTES`), a close on
 the shown grasp executes it, as
@@ -130,11 +132,12 @@ from _bench import REPO, Probe, bootstrap_ci, loopback_domain, stopped_after, up
 from _bench.closed_loop import BASE_T_OBJ, OBJECTS, PERIOD, W_EVERY, Loop, Run, load_model, run_operator
 from _bench.closed_loop_record import record_session
 
+from grasp_intent_ros.mico.frames import offset, pose_error
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import MockArm
 from grasp_intent_ros.planning.options import node_default_options
-from grasp_intent_ros.shared_control.assistance import clip_norm, offset, pose_error
+from grasp_intent_ros.shared_control.limits import clip_norm
 from grasp_intent_ros.shared_control.operators import OperatorConstants, PersistentIntent, SharpeningIntent
 from grasp_intent_ros.shared_control.simulator import certain_grasp, perturb_pose
 

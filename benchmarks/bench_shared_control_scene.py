@@ -78,7 +78,10 @@ following the other object; ADA: its probability-seconds on the other object), t
 Statistics: per episode the mean over repeats; paired differences (:data:`PAIRS`) of success (points) and of
 the time (geometric mean ratio), 95% percentile bootstrap over episodes (10,000 resamples, seeded):
 bench_shared_control_sim.py's :func:`paired_difference`. Records (``--records F``): a JSON line per episode,
-its runs' records; ``--summarise F`` prints the figures of such a file.
+its runs' records, each carrying the run's settings (``run``: :func:`run_settings`); ``--summarise F`` prints the
+figures of such a file (``.jsonl`` or ``.jsonl.gz``) and runs nothing; benchmarks/compare_records.py pairs the
+runs of two of them, a change's against main's or against the shipped reference records of the README's row
+(``benchmarks/reference/scene.jsonl.gz``).
 
     .venv/bin/python benchmarks/bench_shared_control_scene.py [--episodes 50] [--repeats 3] [--jobs 2] \
         [--operators joystick] [--conditions direct ada suite top_object estimated] [--twist-joint-limit stop] \
@@ -130,6 +133,9 @@ REGION = ((0.25, 0.35), (-0.35, -0.05))
 """Where each object's position (x, y, m) is drawn (:func:`draw_positions`)."""
 GAP = 0.02
 """The least gap (m) between two objects' bounding spheres."""
+EPISODE_SETTINGS = ('seed', 'timeout', 'tracker_mm', 'tracker_deg', 'operator_mm', 'operator_deg', 'favoured')
+"""The settings of :func:`run_settings` that make other episodes (the poses, the views, the intent, the operator's
+noise); the others (``execute``, ``twist_joint_limit``) are the loop's."""
 PAIRS = (('suite', 'direct'), ('suite', 'ada'), ('suite', 'top_object'), ('estimated', 'suite'),
          ('estimated', 'direct'), ('estimated', 'ada'), ('estimated', 'top_object'),
          ('estimated_objects', 'suite'), ('estimated_tasks', 'suite'), ('estimated', 'estimated_objects'),
@@ -219,8 +225,7 @@ def run_settings(task: SceneTask) -> dict[str, Any]:
     carried before the option.
     """
     limit = {} if task.twist_joint_limit == 'clip' else {'twist_joint_limit': task.twist_joint_limit}
-    return {**{name: getattr(task, name) for name in ('seed', 'timeout', 'tracker_mm', 'tracker_deg', 'operator_mm',
-                                                      'operator_deg', 'favoured', 'execute')}, **limit}
+    return {**{name: getattr(task, name) for name in (*EPISODE_SETTINGS, 'execute')}, **limit}
 
 
 def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
@@ -285,10 +290,20 @@ def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
     return records
 
 
+def episode_figures(records: list[dict[str, Any]]) -> dict[str, dict[str, dict[int, float]]]:
+    """The figures paired: figure -> condition -> episode -> the mean over the episode's repeats.
+
+    Success and time (a run that never closed: the timeout). No separate clear-path success: this benchmark's
+    success already requires that no object was swept.
+    """
+    return {'success': per_episode(records, 'success'), 'time': per_episode(records, 'time')}
+
+
 def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
     """The figures of one operator model's records (module docstring), by condition, and the paired differences."""
     rng, rng_clear = np.random.default_rng(0), np.random.default_rng(1)
-    success, time_ = per_episode(records, 'success'), per_episode(records, 'time')
+    figures = episode_figures(records)
+    success = figures['success']
     table: dict[str, Any] = {}
     for c in [c for c in ALL_SCENE_CONDITIONS if c in success]:
         runs = [r for r in records if r['condition'] == c]
@@ -307,8 +322,8 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
             table[c].update(_delays(runs, 'follow_delay'), **_delays(runs, 'estimate_delay'),
                             wrong_object_alpha_after=float(np.mean([r['wrong_object_alpha_after'] for r in runs])))
     for a, b in [(a, b) for a, b in PAIRS if a in success and b in success]:
-        table[f'{a}-{b}'] = paired_difference({'success': success[a], 'time': time_[a]},
-                                              {'success': success[b], 'time': time_[b]}, rng, rng_clear)
+        table[f'{a}-{b}'] = paired_difference({f: v[a] for f, v in figures.items()},
+                                              {f: v[b] for f, v in figures.items()}, rng, rng_clear)
     return table
 
 

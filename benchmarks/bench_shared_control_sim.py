@@ -124,7 +124,7 @@ from grasp_intent_ros.mico.mock_arm import TWIST_JOINT_LIMITS
 from grasp_intent_ros.objects.demos import object_of
 from grasp_intent_ros.objects.judge import Judgement, judge
 from grasp_intent_ros.planning.options import Options, node_default_options
-from grasp_intent_ros.shared_control.assistance import AssistanceConfig
+from grasp_intent_ros.shared_control.assistance_config import AssistanceConfig
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator
 from grasp_intent_ros.shared_control.goals import goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (

@@ -5,7 +5,11 @@ ROS-free. Modules
 frames
     Grasp features <-> the end-effector pose in the object frame; poses as 4x4 transforms.
 kinematics
-    Forward and inverse kinematics (pinocchio, the URDF in config/), reachability.
+    The arm's model (pinocchio, the URDF in config/): forward kinematics, the Jacobian, joint limits and branches.
+ik
+    Inverse kinematics: joint angles that put the hand at a pose (seeded, random restarts).
+reachability
+    The planner's robot constraint: a grasp is reachable when IK of its pose converges; the answers kept.
 parameters (ROS-free tables)
     The grasp planner node's and the mock arm node's parameter tables; the object pose and the URDF they share.
 collision

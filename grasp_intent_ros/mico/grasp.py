@@ -29,7 +29,8 @@ from ..planning.options import DEFAULT_METHOD, Method, Options
 from .collision import LIMITS, CollisionFree, HandCollision, Limits
 from .frames import PRE_GRASP_STANDOFF, pre_grasp, rotation_angle
 from .grasp_clearance import Clearance, Table
-from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
+from .kinematics import ARM_JOINTS, FINGER_JOINTS, HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
+from .reachability import Reachability
 
 __all__ = ['MIN_TRAJECTORY_TIME', 'JOINT_NAMES', 'OUTCOMES', 'APPROACH_STEP', 'NoModelZone', 'PlanOutcome', 'Grasp',
            'NoReachableGrasp', 'ApproachReach', 'check_mico_model', 'check_workspace', 'check_grasp',
@@ -133,7 +134,7 @@ class ApproachReach:
     joint past its limit stops the follow there. Two tries, the first that holds gives the grasp's joint
     targets (:meth:`joints`):
 
-    1. back from the grasp's IK answer (``reachable``, :class:`~.kinematics.Reachability`) to the pre-grasp
+    1. back from the grasp's IK answer (``reachable``, :class:`~.reachability.Reachability`) to the pre-grasp
        (the targets are that answer);
     2. IK of the pre-grasp (from the seed, with the random restarts of ``reachable``), then forward to the
        grasp (the targets are the follow's end, another configuration of the arm at the grasp).

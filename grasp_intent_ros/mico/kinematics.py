@@ -39,8 +39,9 @@ i  a (m)  d (m)                     alpha    s    o
 turn without end stops on the robot; the URDF gives them +-4 pi limits so that Pinocchio keeps one plain
 angle per joint. Joint 2 is limited to [50, 310] deg and joint 3 to [35, 325] deg.
 
-One module: the DH table, forward kinematics and IK share the arm's model and limits; the IK's compiled
-descent is :mod:`grasp_intent_ros.kernels.ik`'s.
+This module is the arm's model: its joints, frames and limits, forward kinematics and the Jacobian, the checks
+of joint angles and their 2 pi branches. The IK is :mod:`.ik` (:meth:`MicoKinematics.ik` checks and calls it),
+the planner's reachability constraint :mod:`.reachability`.
 """
 
 from __future__ import annotations
@@ -48,8 +49,6 @@ from __future__ import annotations
 import math
 import os
 import threading
-import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -58,14 +57,12 @@ import pinocchio as pin  # type: ignore[import-untyped, unused-ignore]
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import KinematicsError
-from ..kernels import ik_descent
 from ..resources import config_dir
-from .frames import check_transform, check_vector, features_to_obj_T_ee
+from .frames import check_transform, check_vector
+from .ik import IK_MAX_ITER, IK_POS_TOL, IK_ROT_TOL, IkResult, chain_arrays, solve_ik
 
 __all__ = [
-    'MAX_REACH',
     'JOINT_LIMIT_MARGIN',
-    'Reachability',
     'ARM_JOINTS',
     'FINGER_JOINTS',
     'BASE_FRAME',
@@ -73,7 +70,6 @@ __all__ = [
     'HOME_Q',
     'URDF_FILENAME',
     'default_urdf_path',
-    'IkResult',
     'MicoKinematics',
 ]
 
@@ -90,20 +86,9 @@ HOME_Q: NDArray[np.float64] = np.array([4.80469, 2.92482, 1.002, 4.20319, 1.4458
 """kinova-ros "Home" (rad), tool at about (0.2149, -0.2036, 0.4187) m in the base frame. Read-only."""
 HOME_Q.setflags(write=False)
 
-_SHOULDER = np.array([0.0, 0.0, 0.2755])
-"""Joint 2's axis point in the base frame (m): height D1 of the DH table."""
-
-MAX_REACH = 0.7285
-"""Upper bound on the distance from :data:`_SHOULDER` to the EE origin (m): the sum of the link lengths
-D2 + D3 + D4 + D5 + D6 + e2; FK of 20,000 random joint vectors reaches at most 0.708 m. IK answers a
-target beyond it at once instead of spending its restarts."""
-
 JOINT_LIMIT_MARGIN = 0.1
 """How far (rad) a joint reading may lie outside the joint limits (sensor noise, a controller's overshoot)
 and still be used as an IK seed: :meth:`MicoKinematics.check_limits`."""
-
-IK_POS_TOL, IK_ROT_TOL, IK_MAX_ITER = 1e-4, 1e-3, 100
-"""IK's default success tolerances (m, rad) and iterations per attempt (:meth:`MicoKinematics.ik`)."""
 
 _WIDE_JOINTS = np.array([True, False, False, True, True, True])
 """Joints without end stops on the robot (1, 4, 5, 6): IK answers are wrapped by 2 pi towards the seed."""
@@ -124,74 +109,8 @@ def default_urdf_path() -> Path:
     return path
 
 
-@dataclass(frozen=True)
-class IkResult:
-    """Outcome of :meth:`MicoKinematics.ik`.
-
-    Attributes
-    ----------
-    q : ndarray, shape (6,)
-        Joint angles (rad) within the limits; the best attempt when ``success`` is False.
-    success : bool
-        True when both errors are within the requested tolerances.
-    pos_error_m : float
-        Distance between the reached and the target EE origin (m).
-    rot_error_rad : float
-        Angle of the rotation between the reached and the target EE orientation (rad).
-    iterations : int
-        Solver iterations summed over all attempts.
-    attempts : int
-        1 + number of random restarts used.
-    message : str
-        Human-readable summary.
-    """
-
-    q: NDArray[np.float64]
-    success: bool
-    pos_error_m: float
-    rot_error_rad: float
-    iterations: int
-    attempts: int
-    message: str
-
-
-def _chain_arrays(model: Any, tip_frame: int) -> tuple[NDArray[np.float64], ...]:
-    """The serial chain of 1-dof revolute joints of a Pinocchio model, as the compiled IK takes it.
-
-    Returns each joint's placement in its parent's frame (rotations (n, 3, 3), translations (n, 3)), its
-    axis in its own frame (n, 3; read from the joint's motion subspace, which must be a pure rotation),
-    and the tip frame's placement in the last joint's frame (3, 3) and (3,).
-
-    Raises
-    ------
-    KinematicsError
-        If a joint is not revolute or the joints do not form one chain from the world to the tip.
-    """
-    n = model.njoints - 1
-    data = model.createData()
-    q0 = pin.neutral(model)
-    pin.computeJointJacobians(model, data, q0)
-    axes = np.empty((n, 3))
-    for jid in range(1, n + 1):
-        if model.parents[jid] != jid - 1 or model.nqs[jid] != 1 or model.idx_vs[jid] != jid - 1:
-            raise KinematicsError(f'joint {model.names[jid]!r} is not the next 1-dof joint of a serial chain')
-        twist = np.array(pin.getJointJacobian(model, data, jid, pin.LOCAL))[:, jid - 1]
-        if not (np.allclose(twist[:3], 0.0, atol=1e-12) and abs(np.linalg.norm(twist[3:]) - 1.0) < 1e-12):
-            raise KinematicsError(f'joint {model.names[jid]!r} is not a revolute joint about an axis through '
-                                  'its origin')
-        axes[jid - 1] = twist[3:]
-    tip = model.frames[tip_frame]
-    if tip.parentJoint != n:
-        raise KinematicsError(f'frame {tip.name!r} is not fixed to the last joint')
-    rots = np.stack([np.array(model.jointPlacements[jid].rotation) for jid in range(1, n + 1)])
-    trans = np.stack([np.array(model.jointPlacements[jid].translation) for jid in range(1, n + 1)])
-    # C order throughout (Pinocchio hands out Fortran-ordered matrices): the types the kernels are warmed up with
-    return tuple(np.ascontiguousarray(a) for a in (rots, trans, axes, tip.placement.rotation,
-                                                   tip.placement.translation))
-
-
 class MicoKinematics:
-    """Forward and inverse kinematics of the MICO arm from the project URDF (Pinocchio).
+    """The MICO arm from the project URDF (Pinocchio): forward kinematics, the Jacobian, joint limits and IK.
 
     The Pinocchio model (arm joints only; the fingers are locked open since they do not move the EE)
     is built once and never modified; each thread has its own ``pinocchio.Data`` (made at its first
@@ -212,6 +131,10 @@ class MicoKinematics:
         Joint position limits (rad), read-only.
     velocity_limits : ndarray, shape (6,)
         Joint speed limits (rad/s), read-only.
+    world_T_base : ndarray, shape (4, 4)
+        The base frame's placement in the URDF's root frame (Pinocchio's world), read-only.
+    ik_chain : tuple of ndarray
+        The joint chain as the compiled IK takes it (:func:`~.ik.chain_arrays`). Treat as read-only.
 
     Raises
     ------
@@ -259,13 +182,21 @@ class MicoKinematics:
         self._wide_full_turn = tuple(j for j in self._wide if self._upper[j] - self._lower[j] >= _TWO_PI)
         self._ee_id: int = model.getFrameId(EE_FRAME)
         self._base_M_world = model.frames[base_id].placement.inverse()
-        self._world_T_base = np.array(model.frames[base_id].placement.homogeneous)
-        self._chain = _chain_arrays(model, self._ee_id)
+        self.world_T_base: NDArray[np.float64] = np.array(model.frames[base_id].placement.homogeneous)
+        self.world_T_base.setflags(write=False)
+        self.ik_chain = chain_arrays(model, self._ee_id)  # writable: the types the IK's kernel is warmed up with
         self._data = threading.local()  # a pinocchio.Data per thread, made at its first use
 
     # -- forward kinematics ---------------------------------------------------------------------------
 
-    def _check_q(self, q: ArrayLike, what: str = 'q') -> NDArray[np.float64]:
+    def check_q(self, q: ArrayLike, what: str = 'q') -> NDArray[np.float64]:
+        """``q`` as an array of shape (6,) (float64; an array of that type as given, not copied).
+
+        Raises
+        ------
+        KinematicsError
+            Naming ``what``, if ``q`` is not a finite numeric vector of shape (6,).
+        """
         return check_vector(q, 6, what)
 
     def fk(self, q: ArrayLike) -> NDArray[np.float64]:
@@ -285,7 +216,7 @@ class MicoKinematics:
         KinematicsError
             If ``q`` is not a finite vector of shape (6,).
         """
-        q = self._check_q(q)
+        q = self.check_q(q)
         data = self._thread_data()
         pin.forwardKinematics(self.model, data, q)
         world_M_ee = pin.updateFramePlacement(self.model, data, self._ee_id)
@@ -310,7 +241,7 @@ class MicoKinematics:
         KinematicsError
             If ``q`` is not a finite vector of shape (6,).
         """
-        q = self._check_q(q)
+        q = self.check_q(q)
         world_J = pin.computeFrameJacobian(self.model, self._thread_data(), q, self._ee_id,
                                            pin.LOCAL_WORLD_ALIGNED)
         base_R_world = self._base_M_world.rotation
@@ -332,7 +263,7 @@ class MicoKinematics:
             If ``q`` is not a finite vector of shape (6,), or naming the joints outside
             ``[lower - margin, upper + margin]``.
         """
-        q = self._check_q(q, what)
+        q = self.check_q(q, what)
         outside = (q < self.lower - margin) | (q > self.upper + margin)
         if np.any(outside):
             bad = ', '.join(f'{name} = {value:.6g}' for name, value, out in zip(self.joint_names, q, outside)
@@ -352,11 +283,8 @@ class MicoKinematics:
         KinematicsError
             If either argument is not a finite vector of shape (6,).
         """
-        return self._nearest_branch(self._check_q(q), self._check_q(q_ref, 'q_ref'))
-
-    def _nearest_branch(self, q: NDArray[np.float64], q_ref: NDArray[np.float64]) -> NDArray[np.float64]:
         # per joint in Python floats: numpy's masked updates of six values cost more (run once per plan)
-        out, refs = q.tolist(), q_ref.tolist()
+        out, refs = self.check_q(q).tolist(), self.check_q(q_ref, 'q_ref').tolist()
         for j in self._wide:
             ref, lo, hi = refs[j], self._lower[j], self._upper[j]
             value = out[j] + _TWO_PI * round((ref - out[j]) / _TWO_PI)
@@ -367,8 +295,12 @@ class MicoKinematics:
             out[j] = value
         return np.array(out)
 
-    def _into_limits(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Wide joints wrapped by 2 pi into the limits (pose kept), then everything clipped."""
+    def into_limits(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``q`` (shape (6,), rad) within the limits, as a new array.
+
+        Joints 1, 4, 5, 6 whose range spans a whole turn are wrapped by 2 pi into it (the pose kept), then every
+        joint is clipped to its limits.
+        """
         out = q.tolist()
         for j in self._wide_full_turn:
             lo, hi = self._lower[j], self._upper[j]
@@ -387,23 +319,16 @@ class MicoKinematics:
         """
         q_start = rng.uniform(self.lower, self.upper)
         q_start[_WIDE_JOINTS] = q_ref[_WIDE_JOINTS] + rng.uniform(-math.pi, math.pi, int(_WIDE_JOINTS.sum()))
-        return self._into_limits(q_start)
+        return self.into_limits(q_start)
 
     def ik(self, base_T_ee_target: ArrayLike, q_seed: ArrayLike | None = None, *, restarts: int = 8,
            pos_tol: float = IK_POS_TOL, rot_tol: float = IK_ROT_TOL, max_iter: int = IK_MAX_ITER,
            rng: np.random.Generator | int | None = None) -> IkResult:
-        """Joint angles that put the EE at ``base_T_ee_target``.
+        """Joint angles that put the EE at ``base_T_ee_target``: :func:`~.ik.solve_ik` on the arguments checked.
 
-        Levenberg-Marquardt (damped least squares with adaptive damping and step acceptance) on the EE
-        pose error in the EE frame, e = (R^T (p_t - p), log3(R^T R_t)), iterates clipped to the joint
-        limits, run to the solution (errors below 1e-10; :func:`grasp_intent_ros.kernels.ik_descent`,
-        compiled, on the joint chain read from the Pinocchio model), so that the answer does not depend on
-        where the errors first fell within the tolerances. An attempt succeeds when its position error
-        |e_p| and rotation error |log3| are within ``pos_tol`` and ``rot_tol``. The first attempt starts
-        from ``q_seed``; if it fails, up to ``restarts`` further attempts start from random joint angles
-        (:meth:`restart_seed` about ``q_seed``: joints 2, 3 uniform within limits, the others uniform in
-        seed +- pi). The answer is wrapped per joint to the 2 pi branch nearest ``q_seed``
-        (:meth:`nearest_branch`). Never raises for an unreachable target: ``success`` is then False.
+        The first attempt starts from ``q_seed``, the restarts from :meth:`restart_seed` about it, and the answer
+        is on the 2 pi branch nearest it (:meth:`nearest_branch`). Never raises for an unreachable target:
+        ``success`` is then False.
 
         Parameters
         ----------
@@ -431,104 +356,10 @@ class MicoKinematics:
             On a malformed target, seed or option.
         """
         base_T_target = check_transform(base_T_ee_target, 'base_T_ee_target')
-        q_ref = np.array(HOME_Q) if q_seed is None else self._check_q(q_seed, 'q_seed')
+        q_ref = np.array(HOME_Q) if q_seed is None else self.check_q(q_seed, 'q_seed')
         if restarts < 0 or max_iter < 1 or not (pos_tol > 0.0 and rot_tol > 0.0):
             raise KinematicsError(
                 f'need restarts >= 0, max_iter >= 1, tolerances > 0; got {restarts}, {max_iter}, '
                 f'{pos_tol}, {rot_tol}')
-        return self._ik(base_T_target, q_ref, restarts, pos_tol, rot_tol, max_iter, rng)
-
-    def _ik(self, base_T_target: NDArray[np.float64], q_ref: NDArray[np.float64], restarts: int, pos_tol: float,
-            rot_tol: float, max_iter: int, rng: np.random.Generator | int | None) -> IkResult:
-        """:meth:`ik` on arguments already checked (``base_T_target`` a rigid transform)."""
-        generator = rng if isinstance(rng, np.random.Generator) else None  # made at the first restart
-        shoulder_to_target = float(np.linalg.norm(base_T_target[:3, 3] - _SHOULDER))
-        if shoulder_to_target > MAX_REACH + pos_tol:
-            return IkResult(q=q_ref.copy(), success=False, pos_error_m=shoulder_to_target - MAX_REACH,
-                            rot_error_rad=math.nan, iterations=0, attempts=0,
-                            message=f'target {shoulder_to_target:.3f} m from the shoulder, beyond the arm\'s '
-                                    f'reach of {MAX_REACH:.3f} m')
-        world_T_target = self._world_T_base @ base_T_target
-        R_t, p_t = np.ascontiguousarray(world_T_target[:3, :3]), np.ascontiguousarray(world_T_target[:3, 3])
-        q_start = self._into_limits(q_ref)
-        best: tuple[float, NDArray[np.float64], float, float] | None = None
-        iterations = 0
-        for attempt in range(restarts + 1):
-            if attempt > 0:
-                if generator is None:
-                    generator = np.random.default_rng(0 if rng is None else rng)
-                q_start = self.restart_seed(q_ref, generator)
-            q, pos_err, rot_err, used = ik_descent(q_start, self.lower, self.upper, self._chain, R_t, p_t,
-                                                   max_iter)
-            iterations += used
-            score = pos_err / pos_tol + rot_err / rot_tol
-            if best is None or score < best[0]:
-                best = (score, q, pos_err, rot_err)
-            if pos_err <= pos_tol and rot_err <= rot_tol:
-                break
-        assert best is not None
-        _, q, pos_err, rot_err = best
-        success = pos_err <= pos_tol and rot_err <= rot_tol
-        message = (f'{"converged" if success else "did not converge"} after {attempt + 1} attempt(s), '
-                   f'{iterations} iterations: position error {pos_err:.3g} m (tol {pos_tol:g}), '
-                   f'rotation error {rot_err:.3g} rad (tol {rot_tol:g})')
-        return IkResult(q=self._nearest_branch(q, q_ref), success=success, pos_error_m=pos_err,
-                        rot_error_rad=rot_err, iterations=iterations, attempts=attempt + 1,
-                        message=message)
-
-
-class Reachability:
-    """The MICO's reachability as a robot constraint for :func:`grasp_intent_ros.planning.planner.plan`.
-
-    Passed as ``accept=``: grasp features x are reachable when IK of ``base_T_obj @ features_to_obj_T_ee(x)``
-    converges from ``q_seed`` (then random restarts).
-
-    Every IK answer and its target pose are kept, so the accepted candidate's joint angles and pose are not
-    computed twice.
-
-    Parameters
-    ----------
-    kin : MicoKinematics
-    base_T_obj : array_like, shape (4, 4)
-        Object pose in the base frame.
-    q_seed : array_like, shape (6,), optional
-        IK seed and branch reference (rad), e.g. the latest joint reading; :data:`HOME_Q` if None.
-    restarts : int
-        Random IK restarts after the seeded attempt fails.
-    """
-
-    def __init__(self, kin: MicoKinematics, base_T_obj: ArrayLike, q_seed: ArrayLike | None = None, *,
-                 restarts: int = 8) -> None:
-        self.kin = kin
-        self.base_T_obj = check_transform(base_T_obj, 'base_T_obj')
-        self.q_seed = np.array(HOME_Q) if q_seed is None else kin._check_q(q_seed, 'q_seed')
-        if restarts < 0:
-            raise KinematicsError(f'need restarts >= 0, got {restarts}')
-        self.restarts = restarts
-        self.answers: dict[bytes, IkResult] = {}
-        """IK answer per candidate (key: ``x.tobytes()``)."""
-        self._targets: dict[bytes, NDArray[np.float64]] = {}
-        self.seconds = 0.0
-        """Time spent in IK so far (s)."""
-
-    def target(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``base_T_ee`` of features x, shape (4, 4): the pose IK solves for (computed on first use; read-only)."""
-        key = np.asarray(x, dtype=np.float64).tobytes()
-        if (base_T_ee := self._targets.get(key)) is None:
-            base_T_ee = self._targets[key] = self.base_T_obj @ features_to_obj_T_ee(x)
-            base_T_ee.flags.writeable = False
-        return base_T_ee
-
-    def answer(self, x: NDArray[np.float64]) -> IkResult:
-        """The IK answer for features x (solved on first use)."""
-        key = np.asarray(x, dtype=np.float64).tobytes()
-        if key not in self.answers:
-            start = time.perf_counter()
-            self.answers[key] = self.kin._ik(self.target(x), self.q_seed, self.restarts, IK_POS_TOL, IK_ROT_TOL,
-                                             IK_MAX_ITER, None)
-            self.seconds += time.perf_counter() - start
-        return self.answers[key]
-
-    def __call__(self, x: NDArray[np.float64]) -> bool:
-        """Whether the arm reaches the grasp x."""
-        return self.answer(x).success
+        return solve_ik(self, base_T_target, q_ref, restarts=restarts, pos_tol=pos_tol, rot_tol=rot_tol,
+                        max_iter=max_iter, rng=rng)

@@ -19,8 +19,9 @@ from numpy.typing import ArrayLike, NDArray
 from ..method.features import FINGERS, MICO_3F
 from .frames import PRE_GRASP_STANDOFF, REACH_POS, REACH_ROT, pose_error, pre_grasp
 from .grasp import ApproachReach
-from .kinematics import BASE_FRAME, MicoKinematics, Reachability
+from .kinematics import BASE_FRAME, MicoKinematics
 from .mock_arm import MockArm, TwistCommand
+from .reachability import Reachability
 
 __all__ = ['SERVO_GAIN', 'SERVO_MAX_LINEAR', 'SERVO_MAX_ANGULAR', 'SERVO_PERIOD', 'SERVO_TIMEOUT', 'servo_reaches',
            'ArmReach']
@@ -65,7 +66,7 @@ def servo_reaches(kin: MicoKinematics, q0: ArrayLike, goals: Sequence[NDArray[np
         True when the hand has reached the last goal within ``timeout`` s (True for no goals). Costs one forward
         kinematics and one Jacobian (SVD) per step: at most ``timeout / SERVO_PERIOD`` steps.
     """
-    arm = MockArm(kin, np.concatenate([kin._check_q(q0, 'q0'), MICO_3F.lower[FINGERS]]))
+    arm = MockArm(kin, np.concatenate([kin.check_q(q0, 'q0'), MICO_3F.lower[FINGERS]]))
     pending = list(goals)
     now = 0.0
     while pending:
@@ -87,7 +88,7 @@ class ArmReach:
     """Whether the MICO at ``q_home`` takes a grasp at an object's pose, and why not.
 
     A grasp x (MICO 3-finger features, object frame) is taken when (1) IK of its pose converges from ``q_home``
-    with the planner's random restarts (:class:`~.kinematics.Reachability`), (2) its approach corridor from the
+    with the planner's random restarts (:class:`~.reachability.Reachability`), (2) its approach corridor from the
     pre-grasp (:data:`~.frames.PRE_GRASP_STANDOFF` behind it) is followed within the joint limits
     (:class:`~.grasp.ApproachReach`), and (3) the servo from ``q_home`` reaches the pre-grasp and then the grasp (the
     assistance's way in), and, started again from ``q_home``, the grasp straight (a person heading for it), each

@@ -68,7 +68,10 @@ from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, output_publisher
 from ..ros.robot import twist_msg
 from ..ros.run import guard_exit, publish_all, run_node
-from ..shared_control.assistance import Assistance, AssistanceConfig, TwistLimiter, grasp_task_set, warm_up
+from ..shared_control.arbitration import grasp_task_set
+from ..shared_control.assistance import Assistance, warm_up
+from ..shared_control.assistance_config import AssistanceConfig
+from ..shared_control.limits import TwistLimiter
 from ..shared_control.output_cadence import OutputCadence
 from ..shared_control.parameters import ASSISTANCE
 from ..shared_control.path_search import PathWorker

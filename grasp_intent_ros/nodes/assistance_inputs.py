@@ -4,7 +4,7 @@ A part of :mod:`.assistance` (no node of its own). :class:`ChainInputs` subscrib
 ``grasp/posterior``, ``grasp/features``, ``intent/v``, ``intent/clarification``, ``object/pose`` and ``model/active``
 (in the node's namespace for one object, in ``<object>/`` for each object of a scene: every rejection then names the
 topic read, ``flashlight/intent/v: ...``), turns them into the assistance's inputs (the grasp's task set from the
-model's demonstrations and the grasp's features, :func:`~grasp_intent_ros.shared_control.assistance.grasp_task_set`;
+model's demonstrations and the grasp's features, :func:`~grasp_intent_ros.shared_control.arbitration.grasp_task_set`;
 the object's pose and body for the clearance) and hands them to a sink with
 :class:`~grasp_intent_ros.shared_control.assistance.Assistance`'s setters: the assistance itself for one object, the
 object's :class:`~grasp_intent_ros.shared_control.scene_assistance.ObjectChannel` in a scene.
@@ -31,7 +31,7 @@ from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_input
 from ..ros.model_follower import ModelFollower
 from ..ros.qos import input_qos
-from ..shared_control.assistance import grasp_task_set
+from ..shared_control.arbitration import grasp_task_set
 from ..wire import topics
 from ..wire.arrays import msg_labels, msg_to_array, read_features, read_posterior
 from ..wire.model_document import ModelDocument

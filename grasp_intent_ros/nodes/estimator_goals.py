@@ -25,6 +25,7 @@ from std_msgs.msg import Float64MultiArray
 
 from ..errors import GraspIntentError, InvalidIntentError
 from ..method.intent import MAX_TASKS
+from ..mico.frames import offset
 from ..mico.grasp import check_mico_model
 from ..mico.kinematics import BASE_FRAME, MicoKinematics
 from ..mico.parameters import object_pose
@@ -33,7 +34,6 @@ from ..ros.inputs import subscribe_input
 from ..ros.model_follower import ModelFollower, served_models
 from ..ros.qos import input_qos
 from ..ros.worker import LatestOnlyWorker
-from ..shared_control.assistance import offset
 from ..shared_control.estimator import IntentEstimator
 from ..shared_control.goals import goals_at, reachable_goals
 from ..shared_control.parameters import estimator_config

@@ -45,9 +45,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import GraspIntentError
-from ..mico.frames import pose_to_matrix
+from ..mico.frames import REACH_POS, REACH_ROT, offset, pose_to_matrix, reached
 from ..mico.kinematics import ARM_JOINTS, MicoKinematics
-from ..shared_control.assistance import REACH_POS, REACH_ROT, offset, reached
 from ..wire.diagnostics import ESTIMATOR_COMPONENT, KEY_GOALS
 from ..wire.joint_states import JointStates
 from ..wire.model_document import ModelHeader

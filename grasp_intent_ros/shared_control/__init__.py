@@ -5,7 +5,13 @@ ROS-free. Modules
 approach
     The approach to a grasp via its pre-grasp: the pose a hand steers to (assistance, operators, estimator).
 assistance
-    Arbitration (how much to help), the robot's twist toward the grasp, blending and limits.
+    The operator's twist blended with the robot's, within the limits: the core that composes the three below.
+arbitration
+    How much the robot gets, alpha: the probability that the grasp serves the task, the operator's agreement.
+robot_twist
+    The robot's twist toward the grasp (via its pre-grasp): in joint space or Cartesian; raised to the operator's pace.
+assistance_config
+    The assistance's settings (the node's parameters).
 joint_path
     The robot twist's joint-space target for a pose with no IK from the arm's joints (the line IK).
 clearance

@@ -22,7 +22,8 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from .assistance import TwistLimiter, pose_error
+from ..mico.frames import pose_error
+from .limits import TwistLimiter
 
 __all__ = ['ADA_APPLY_TIME', 'AdaAssistance']
 

@@ -14,7 +14,7 @@ then to the grasp itself. The hand at ``p`` (orientation ``R``) is in the corrid
 is inclusive. The pre-grasp keeps the grasp's orientation, so only the position of the pose steered to
 depends on the hand. The rule holds no state: a hand that leaves the corridor steers to the pre-grasp again.
 
-One definition, used by the assistance's robot twist (:func:`~.assistance.assistance_target`), the scripted
+One definition, used by the assistance's robot twist (:func:`~.robot_twist.assistance_target`), the scripted
 operators (:meth:`~.operators.ScriptedOperator.approach_target`) and the intent estimator's operator model
 (:mod:`.estimator`), vectorised over grasps for the estimator's hundreds of goals.
 """

@@ -119,7 +119,7 @@ from ..method.intent import zone_label
 from ..method.log_space import softmax
 from ..mico.frames import PRE_GRASP_STANDOFF, check_transform, check_vector, rotation_angle, rotation_angles
 from .approach import approach_positions
-from .assistance import AssistanceConfig
+from .assistance_config import AssistanceConfig
 from .calibration import calibrate
 from .goals import Goals
 from .task_prior import check_task_prior, task_log_prior

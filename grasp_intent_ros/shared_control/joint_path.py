@@ -1,7 +1,7 @@
 """The robot twist's joint-space path: the wrist's branch of a straight line's end, the line IK and its via point.
 
 The assistance's robot twist moves the joints straight toward the target's inverse kinematics
-(:func:`~grasp_intent_ros.shared_control.assistance.joint_space_twist`), solved from the joints q, its end on the
+(:func:`~grasp_intent_ros.shared_control.robot_twist.joint_space_twist`), solved from the joints q, its end on the
 2 pi branch of the wrist's joints that turns the hand the short way (:func:`line_turns`). When that IK
 fails (the descent from q stops with a joint at its limit or in the wrist's singularity), :func:`joint_path`
 looks for a solution from other seeds reached by a joint path the servo can follow and that keeps the hand near

@@ -27,7 +27,7 @@ from ..mico.grasp import MIN_TRAJECTORY_TIME, Grasp, trajectory_duration
 from ..mico.kinematics import ARM_JOINTS
 from ..mico.mock_arm import MockArm
 from ..mico.trajectory import TrajectoryCommand
-from .assistance import grasp_task_set
+from .arbitration import grasp_task_set
 from .sweep import PathSweep
 
 __all__ = ['PlanInputs', 'feed_plan', 'executes_shown', 'execute_grasp', 'close_hand', 'Episode', 'TwistEvidence',
@@ -57,7 +57,7 @@ def feed_plan(assistance: PlanInputs, model: GraspModel, v: NDArray[np.float64] 
 
     v None (clarification asked): ``clarification()``. Else ``set_v``, then with a grasp ``set_grasp``,
     ``set_posterior`` and ``set_task_set`` (the demonstration's set the grasp's features are nearest,
-    :func:`~.assistance.grasp_task_set`). ``assistance``: the one arm's :class:`~.assistance.Assistance`, or one
+    :func:`~.arbitration.grasp_task_set`). ``assistance``: the one arm's :class:`~.assistance.Assistance`, or one
     object's channel into the assistance over several objects (:class:`~.scene_assistance.ObjectChannel`).
     """
     if v is None:

@@ -56,10 +56,10 @@ from numpy.typing import NDArray
 
 from ..errors import GraspIntentError
 from ..method.model import GraspModel
+from ..mico.frames import offset
 from ..mico.grasp import Grasp
 from ..mico.kinematics import MicoKinematics
 from ..planning.options import node_default_options
-from .assistance import offset
 from .loop_steps import executes_shown
 from .operators import ScriptedOperator
 from .simulator import certain_grasp

@@ -20,7 +20,7 @@ The operator's own goal for T is a grasp it picks without the rules (the caller 
 uses the planner's grasp for the certain w_T). It follows the *shown* grasp (the planner's, on the screen)
 when that is on its way, i.e. within ``accept_position`` and ``accept_angle`` of its own goal (it looks like
 the grasp it wanted), else drives to its own goal. It closes the hand (the grasp command) once the hand it
-sees is within :data:`~grasp_intent_ros.shared_control.assistance.REACH_POS` / ``REACH_ROT`` of the goal it
+sees is within :data:`~grasp_intent_ros.mico.frames.REACH_POS` / ``REACH_ROT`` of the goal it
 pursues.
 
 The approach (:meth:`ScriptedOperator.approach_target`)
@@ -31,7 +31,7 @@ check clears, :mod:`~grasp_intent_ros.mico.collision`, and the assistance takes)
 operator steers to the goal's **pre-grasp**, the goal moved back by ``standoff`` along its approach axis (the
 EE z axis; default :data:`~grasp_intent_ros.mico.frames.PRE_GRASP_STANDOFF`, the assistance's), until the hand
 it sees is **in the approach corridor**, then to the goal itself. The corridor is the assistance's
-(:func:`~.assistance.assistance_target`, with ``corridor_radius`` and ``corridor_angle``, by default the
+(:func:`~.robot_twist.assistance_target`, with ``corridor_radius`` and ``corridor_angle``, by default the
 assistance's): the hand is within ``corridor_radius`` of the goal, or behind it along the approach axis,
 within ``corridor_radius`` of that axis and within ``corridor_angle`` of the goal's orientation. The rule holds
 no state: a hand that leaves the corridor (a new goal, noise) is steered to the pre-grasp again. ``standoff``
@@ -61,8 +61,10 @@ from typing import Literal, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from ..mico.frames import PRE_GRASP_STANDOFF
-from .assistance import AssistanceConfig, assistance_target, clip_norm, offset, pose_error, reached
+from ..mico.frames import PRE_GRASP_STANDOFF, offset, pose_error, reached
+from .assistance_config import AssistanceConfig
+from .limits import clip_norm
+from .robot_twist import assistance_target
 
 __all__ = ['Device', 'DEVICES', 'AMBIGUOUS_CASES', 'IntentScript', 'PersistentIntent', 'SharpeningIntent',
            'ChangingIntent', 'certain_w', 'draw_task_set', 'OperatorConstants', 'ScriptedOperator']

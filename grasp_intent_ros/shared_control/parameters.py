@@ -2,7 +2,7 @@
 
 Each table is a tuple of :class:`~grasp_intent_ros.parameters.ParamSpec`, declared on a node by
 :func:`grasp_intent_ros.ros.params.declare_parameters`; the defaults of the maths' settings are those of
-:class:`~.assistance.AssistanceConfig` and :class:`~.estimator.EstimatorConfig`, which the nodes build from
+:class:`~.assistance_config.AssistanceConfig` and :class:`~.estimator.EstimatorConfig`, which the nodes build from
 the values of the same names (:func:`~grasp_intent_ros.parameters.config_from`). config/<node>.yaml
 documents each parameter with its description (test/ros/test_config_files.py).
 """
@@ -17,7 +17,8 @@ from ..method.parameters import TASK_NAMES
 from ..mico.kinematics import BASE_FRAME, EE_FRAME
 from ..mico.parameters import OBJECT_POSE, URDF_PATH, check_object_pose
 from ..parameters import ParamSpec, config_from, one_of
-from .assistance import ARBITRATIONS, AssistanceConfig
+from .arbitration import ARBITRATIONS
+from .assistance_config import AssistanceConfig
 from .calibration import model_calibration
 from .estimator import EstimatorConfig
 from .operator_loop import EXECUTE_TIMEOUT

@@ -29,7 +29,9 @@ from numpy.typing import NDArray
 
 from ..errors import GraspIntentError
 from ..method.body import ObjectBody
-from .assistance import Assistance, Command, approach_agreement, assistance_target, new_proposal, serving_probability
+from .arbitration import approach_agreement, new_proposal, serving_probability
+from .assistance import Assistance, Command
+from .robot_twist import assistance_target
 from .scene_target import Follower, FollowRule, object_probabilities
 
 __all__ = ['ObjectInputs', 'ObjectChannel', 'SceneAssistance']
@@ -50,7 +52,7 @@ class ObjectInputs:
     """Held linear and angular agreement with this grasp's approach target (reset by a grasp beyond the corridor)."""
 
     def serving(self) -> float:
-        """P(this grasp serves T | w^o): :func:`~.assistance.serving_probability`; 0 without v or a posterior."""
+        """P(this grasp serves T | w^o): :func:`~.arbitration.serving_probability`; 0 without v or a posterior."""
         if self.v is None or self.posterior is None:
             return 0.0
         posterior, zone_labels, task_names = self.posterior
@@ -182,7 +184,7 @@ class SceneAssistance:
         return self.assistance.command(now)
 
     def _update_agreements(self, now: float) -> None:
-        """Each grasp's held agreement with a fresh operator twist (:func:`~.assistance.approach_agreement`)."""
+        """Each grasp's held agreement with a fresh operator twist (:func:`~.arbitration.approach_agreement`)."""
         assist, cfg = self.assistance, self.assistance.config
         if self._operator is None or not assist.operator_fresh(now) or assist.base_T_ee is None:
             return

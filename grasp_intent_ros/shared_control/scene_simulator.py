@@ -84,7 +84,9 @@ from ..mico.grasp import Grasp
 from ..mico.kinematics import BASE_FRAME, HOME_Q
 from ..mico.mock_arm import MockArm, TwistCommand
 from .ada import AdaAssistance
-from .assistance import Assistance, AssistanceConfig, TwistLimiter
+from .assistance import Assistance
+from .assistance_config import AssistanceConfig
+from .limits import TwistLimiter
 from .loop_steps import Episode, close_hand, executes_shown, feed_plan, swept_into, take_operator_twist
 from .operators import PersistentIntent, ScriptedOperator
 from .scene_assistance import SceneAssistance

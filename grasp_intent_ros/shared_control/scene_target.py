@@ -6,9 +6,9 @@ object o with a grasp has the score
     c_o = s_o * o_o,    s_o = P(o) * P(grasp_o serves T | w^o),
 
 ``P(o)`` the operator's wanting the object (the intent estimator's ``intent/objects``, :func:`object_probabilities`),
-``P(grasp_o serves T | w^o)`` the one-object :func:`~.assistance.serving_probability` on that chain's v and its
+``P(grasp_o serves T | w^o)`` the one-object :func:`~.arbitration.serving_probability` on that chain's v and its
 grasp's task set (or posterior), ``o_o`` the operator's held agreement with the grasp's approach target (the
-smaller of the linear and the angular part, :func:`~.assistance.approach_agreement`, held per part while the
+smaller of the linear and the angular part, :func:`~.arbitration.approach_agreement`, held per part while the
 operator moves that part within its deadband, 1 before any measure: as the one-object assistance holds it).
 The assistance's alpha is then ``alpha_max * c_o`` of the object it follows (:mod:`.scene_assistance`).
 

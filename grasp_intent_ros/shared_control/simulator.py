@@ -76,9 +76,11 @@ from ..mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
 from ..mico.mock_arm import MockArm, TwistCommand
 from ..planning.options import Options
 from .ada import AdaAssistance
-from .assistance import Assistance, AssistanceConfig, TwistLimiter
+from .assistance import Assistance
+from .assistance_config import AssistanceConfig
 from .clearance import default_hand
 from .estimator import IntentEstimator
+from .limits import TwistLimiter
 from .loop_steps import Episode, close_hand, executes_shown, feed_plan, swept_into, take_operator_twist
 from .operators import IntentScript, ScriptedOperator, certain_w
 from .sweep import SWEEP_TICKS, PathSweep

@@ -24,7 +24,7 @@ from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.conversions import array_to_msg, posterior_to_msg
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control import path_search
-from grasp_intent_ros.shared_control.assistance import joint_space_twist
+from grasp_intent_ros.shared_control.robot_twist import joint_space_twist
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.diagnostics import WARN
 from grasp_intent_ros.wire.model_document import ModelDocument

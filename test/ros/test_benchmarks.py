@@ -41,7 +41,7 @@ def test_the_simulated_closed_loop_judges_one_episode_under_each_condition() -> 
 
 def test_each_live_condition_sets_values_the_assistance_and_the_planner_accept() -> None:
     from grasp_intent_ros.mico.parameters import PLAN_FOR
-    from grasp_intent_ros.shared_control.assistance import ARBITRATIONS
+    from grasp_intent_ros.shared_control.arbitration import ARBITRATIONS
 
     live = importlib.import_module('bench_shared_control')
     assert set(live.ARBITRATION) == set(live.PLAN_FOR) == set(live.CONDITIONS)

@@ -39,8 +39,9 @@ from grasp_intent_ros.method.model import GraspModel, structure_zones
 from grasp_intent_ros.mico.collision import CollisionFree, HandCollision
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix, rotation_angle
 from grasp_intent_ros.mico.grasp import MIN_TRAJECTORY_TIME, ApproachReach
-from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics, Reachability
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, HOME_Q, MicoKinematics
 from grasp_intent_ros.mico.parameters import GRASP_PLANNER
+from grasp_intent_ros.mico.reachability import Reachability
 from grasp_intent_ros.nodes.grasp_planner import GraspPlanner
 from grasp_intent_ros.objects.demos import grasp_features
 from grasp_intent_ros.planning import common, planner

@@ -30,7 +30,7 @@ from std_msgs.msg import String
 from grasp_intent_ros.launch.suite import NodeSuite
 from grasp_intent_ros.method.intent import all_zones, default_task_names, interpret, zone_labels
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.frames import offset, pose_to_matrix
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinematics
 from grasp_intent_ros.nodes.assistance import AssistanceNode
@@ -39,7 +39,7 @@ from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.conversions import array_to_msg
 from grasp_intent_ros.ros.grasp_messages import grasp_messages
 from grasp_intent_ros.ros.qos import latched_qos
-from grasp_intent_ros.shared_control.assistance import grasp_task_set, offset
+from grasp_intent_ros.shared_control.arbitration import grasp_task_set
 from grasp_intent_ros.shared_control.operators import OperatorConstants, PersistentIntent, ScriptedOperator
 from grasp_intent_ros.shared_control.simulator import Scene, certain_grasps, simulate
 from grasp_intent_ros.wire import topics

@@ -22,11 +22,11 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_error, pose_to_matrix
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.resources import config_dir
-from grasp_intent_ros.shared_control.assistance import clip_norm, pose_error
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig
+from grasp_intent_ros.shared_control.limits import clip_norm
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.robot_state import joint_positions
 

@@ -17,8 +17,8 @@ from geometry_msgs.msg import PoseStamped, TwistStamped
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
+from grasp_intent_ros.mico.frames import offset
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, MicoKinematics
-from grasp_intent_ros.shared_control.assistance import offset
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.diagnostics import OPERATOR_COMPONENT
 from grasp_intent_ros.wire.robot_state import joint_positions, pose_msg_to_matrix

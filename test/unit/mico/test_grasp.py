@@ -33,7 +33,8 @@ from grasp_intent_ros.mico.grasp import (
     plan_grasp,
     trajectory_duration,
 )
-from grasp_intent_ros.mico.kinematics import HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics, Reachability
+from grasp_intent_ros.mico.kinematics import HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
+from grasp_intent_ros.mico.reachability import Reachability
 from grasp_intent_ros.planning import planner
 from grasp_intent_ros.resources import config_dir
 

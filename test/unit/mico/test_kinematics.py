@@ -1,4 +1,4 @@
-"""Unit tests of grasp_intent_ros.mico.kinematics and resources (no rclpy)."""
+"""Unit tests of grasp_intent_ros.mico.kinematics, .ik, .reachability and resources (no rclpy)."""
 
 from __future__ import annotations
 
@@ -25,9 +25,9 @@ from grasp_intent_ros.mico.kinematics import (
     FINGER_JOINTS,
     HOME_Q,
     MicoKinematics,
-    Reachability,
     default_urdf_path,
 )
+from grasp_intent_ros.mico.reachability import Reachability
 
 WIDE = (0, 3, 4, 5)
 
@@ -111,6 +111,33 @@ def test_home_fk(kin: MicoKinematics) -> None:
     assert_allclose(base_T_ee[:3, 3], (0.2149, -0.2036, 0.4187), atol=1e-3)
 
 
+def test_check_q_gives_a_float_vector_and_names_what_is_wrong(kin: MicoKinematics) -> None:
+    q = np.array(HOME_Q)
+    assert kin.check_q(q) is q  # a float64 vector of shape (6,): as given
+    assert_allclose(kin.check_q(HOME_Q.tolist()), HOME_Q, rtol=0, atol=0)
+    for bad in (np.zeros(5), np.full(6, np.inf), 'abcdef'):
+        with pytest.raises(KinematicsError, match='q_seed'):
+            kin.check_q(bad, 'q_seed')
+
+
+def test_into_limits_wraps_the_wide_joints_by_whole_turns_then_clips(kin: MicoKinematics) -> None:
+    q = np.array(HOME_Q)
+    q[0] = kin.upper[0] + 1.0  # a wide joint past its limit: wrapped by whole turns, the pose kept
+    q[3] = kin.lower[3] - 7.0
+    q[1] = kin.upper[1] + 0.3  # joint 2 (end stops, range < 2 pi): clipped
+    before = q.copy()
+    out = kin.into_limits(q)
+    assert np.array_equal(q, before) and out is not q  # a new array
+    assert np.all((kin.lower <= out) & (out <= kin.upper))
+    turns = (out[[0, 3]] - q[[0, 3]]) / (2 * math.pi)
+    assert_allclose(turns, np.round(turns), rtol=0, atol=1e-12) and np.all(np.round(turns) != 0)
+    assert out[1] == kin.upper[1]
+    assert_allclose(out[[2, 4, 5]], q[[2, 4, 5]], rtol=0, atol=0)  # within the limits: as given
+    unclipped = out.copy()
+    unclipped[1] = q[1]
+    assert_allclose(kin.fk(unclipped), kin.fk(q), atol=1e-12)  # the wrap keeps the pose
+
+
 def test_fk_rejects_bad_q(kin: MicoKinematics) -> None:
     for bad in (np.zeros(5), np.zeros((6, 1)), np.full(6, np.nan), 'abcdef'):
         with pytest.raises(KinematicsError):
@@ -125,9 +152,9 @@ def test_compiled_chain_fk_matches_pinocchio(kin: MicoKinematics) -> None:
     origins, zs = np.empty((6, 3)), np.empty((6, 3))
     for _ in range(50):
         q = random_q(kin, rng)
-        R, p = _chain_fk(q, *kin._chain, origins, zs)
-        assert_allclose(kin._world_T_base[:3, :3] @ kin.fk(q)[:3, :3], R, atol=1e-12)
-        assert_allclose(kin._world_T_base[:3, :3] @ kin.fk(q)[:3, 3] + kin._world_T_base[:3, 3], p, atol=1e-12)
+        R, p = _chain_fk(q, *kin.ik_chain, origins, zs)
+        assert_allclose(kin.world_T_base[:3, :3] @ kin.fk(q)[:3, :3], R, atol=1e-12)
+        assert_allclose(kin.world_T_base[:3, :3] @ kin.fk(q)[:3, 3] + kin.world_T_base[:3, 3], p, atol=1e-12)
 
 
 def test_ik_kernel_warmed_up_with_the_types_ik_uses(kin: MicoKinematics) -> None:
@@ -161,9 +188,9 @@ def test_ik_jacobian_matches_central_differences(kin: MicoKinematics) -> None:
     origins, zs = np.empty((6, 3)), np.empty((6, 3))
     for _ in range(20):
         q_target, q = random_q(kin, rng), random_q(kin, rng)
-        W = kin._world_T_base @ kin.fk(q_target)
+        W = kin.world_T_base @ kin.fk(q_target)
         R_t, p_t = np.ascontiguousarray(W[:3, :3]), np.ascontiguousarray(W[:3, 3])
-        e, R, p = _ik_residual(q, *kin._chain, R_t, p_t, origins, zs)
+        e, R, p = _ik_residual(q, *kin.ik_chain, R_t, p_t, origins, zs)
         if np.linalg.norm(e[3:]) > 3.0:  # log3 is not differentiable at pi
             continue
         J = _ik_jacobian(e, R, p, origins, zs)
@@ -172,8 +199,8 @@ def test_ik_jacobian_matches_central_differences(kin: MicoKinematics) -> None:
         for i in range(6):
             dq = np.zeros(6)
             dq[i] = h
-            plus = _ik_residual(q + dq, *kin._chain, R_t, p_t, origins.copy(), zs.copy())[0]
-            minus = _ik_residual(q - dq, *kin._chain, R_t, p_t, origins.copy(), zs.copy())[0]
+            plus = _ik_residual(q + dq, *kin.ik_chain, R_t, p_t, origins.copy(), zs.copy())[0]
+            minus = _ik_residual(q - dq, *kin.ik_chain, R_t, p_t, origins.copy(), zs.copy())[0]
             numeric[:, i] = (plus - minus) / (2 * h)
         assert_allclose(J, numeric, rtol=1e-6, atol=1e-7)
 
@@ -354,7 +381,6 @@ def test_ee_frame_name(kin: MicoKinematics) -> None:
 
 
 def test_reachability_constraint_caches_ik_answers(kin: MicoKinematics) -> None:
-    from grasp_intent_ros.mico.kinematics import Reachability
     base_T_obj = np.eye(4)
     base_T_ee = kin.fk(HOME_Q)  # reachable: the home pose, as a grasp of an object at the base origin
     x = obj_T_ee_to_features(base_T_ee, np.zeros(3))

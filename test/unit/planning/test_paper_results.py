@@ -24,7 +24,8 @@ from grasp_intent_ros.resources import config_dir
 from ..fixed_reference import FixedReference
 
 W_TOLERANCE = 0.1
-"""|reconstructed w_i - w_i| must stay below this (issue 2, "Must show")."""
+"""|reconstructed w_i - w_i| must stay below this: w read back from the planned grasp's final pose against the
+target w, as the paper's tables compare them (this module's docstring)."""
 
 P_TOLERANCE = 0.05
 """The paper's final P are within a few hundredths of the targets v."""

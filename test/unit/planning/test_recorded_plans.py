@@ -23,7 +23,8 @@ from grasp_intent_ros.method.intent import parse_zones, restrict
 from grasp_intent_ros.method.model import GraspModel
 from grasp_intent_ros.mico.frames import features_to_obj_T_ee, pose_to_matrix, rotation_angle
 from grasp_intent_ros.mico.grasp import ApproachReach
-from grasp_intent_ros.mico.kinematics import ARM_JOINTS, MicoKinematics, Reachability
+from grasp_intent_ros.mico.kinematics import ARM_JOINTS, MicoKinematics
+from grasp_intent_ros.mico.reachability import Reachability
 from grasp_intent_ros.planning import planner
 from grasp_intent_ros.planning.options import node_options
 from grasp_intent_ros.resources import config_dir

@@ -28,7 +28,8 @@ from grasp_intent_ros.mico.frames import (
     rotation_angle,
 )
 from grasp_intent_ros.mico.grasp import JOINT_NAMES
-from grasp_intent_ros.mico.kinematics import HOME_Q, IK_POS_TOL, IK_ROT_TOL, MicoKinematics
+from grasp_intent_ros.mico.ik import IK_POS_TOL, IK_ROT_TOL
+from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import MockArm
 from grasp_intent_ros.mico.parameters import MOCK_ARM
 from grasp_intent_ros.mico.trajectory import TrajectoryCommand

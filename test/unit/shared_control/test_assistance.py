@@ -1,4 +1,4 @@
-"""grasp_intent_ros.shared_control.assistance: arbitration, the robot's twist, blending, limits, the safety rules."""
+"""shared_control.assistance, .arbitration, .robot_twist: arbitration, the robot's twist, blending, limits, safety."""
 
 from __future__ import annotations
 
@@ -10,24 +10,20 @@ from numpy.testing import assert_allclose
 from numpy.typing import NDArray
 
 from grasp_intent_ros.method.intent import all_zones, interpret, zone_labels
-from grasp_intent_ros.mico.frames import pose_to_matrix, pre_grasp
+from grasp_intent_ros.mico.frames import pose_error, pose_to_matrix, pre_grasp
 from grasp_intent_ros.mico.kinematics import BASE_FRAME, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import MockArm, TwistCommand
-from grasp_intent_ros.shared_control.assistance import (
-    Assistance,
-    AssistanceConfig,
-    TwistLimiter,
+from grasp_intent_ros.shared_control.arbitration import (
     arbitration,
-    assistance_target,
     grasp_task_set,
-    joint_space_twist,
-    keep_pace,
     operator_agreement,
-    pose_error,
     robot_agreement,
-    robot_twist,
     serving_probability,
 )
+from grasp_intent_ros.shared_control.assistance import Assistance
+from grasp_intent_ros.shared_control.assistance_config import AssistanceConfig
+from grasp_intent_ros.shared_control.limits import TwistLimiter
+from grasp_intent_ros.shared_control.robot_twist import assistance_target, joint_space_twist, keep_pace, robot_twist
 
 from .robot_alone import LABELS, TASKS, assistance_joint_path, robot_alone
 

@@ -9,9 +9,11 @@ from scipy.spatial.transform import Rotation
 
 from grasp_intent_ros.method.body import Cylinder, ObjectBody
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
-from grasp_intent_ros.shared_control.assistance import Assistance, AssistanceConfig, TwistLimiter
+from grasp_intent_ros.shared_control.assistance import Assistance
+from grasp_intent_ros.shared_control.assistance_config import AssistanceConfig
 from grasp_intent_ros.shared_control.barrier import RATE, WEIGHTS, clearance_filter, intrusion_gradient
 from grasp_intent_ros.shared_control.clearance import PathClearance, default_hand
+from grasp_intent_ros.shared_control.limits import TwistLimiter
 
 CUP = ObjectBody((Cylinder(np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, 1.0]), 0.04, 0.1),))
 """A cup-sized cylinder standing on the object frame's z = 0."""

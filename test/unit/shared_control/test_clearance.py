@@ -10,9 +10,11 @@ from grasp_intent_ros.errors import KinematicsError
 from grasp_intent_ros.method.body import Box, Cylinder, ObjectBody
 from grasp_intent_ros.mico.frames import pose_error
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
-from grasp_intent_ros.shared_control.assistance import Assistance, AssistanceConfig, TwistLimiter
+from grasp_intent_ros.shared_control.assistance import Assistance
+from grasp_intent_ros.shared_control.assistance_config import AssistanceConfig
 from grasp_intent_ros.shared_control.clearance import JOINT_REACH, PathClearance, clear_path, default_hand
 from grasp_intent_ros.shared_control.joint_path import near_grasp
+from grasp_intent_ros.shared_control.limits import TwistLimiter
 
 CUP = ObjectBody((Cylinder(np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, 1.0]), 0.04, 0.1),))
 """A cup-sized cylinder standing on the object frame's z = 0."""

@@ -11,8 +11,10 @@ from numpy.typing import NDArray
 
 from grasp_intent_ros.mico.frames import pose_error, pre_grasp
 from grasp_intent_ros.mico.kinematics import MicoKinematics
-from grasp_intent_ros.shared_control.assistance import Assistance, AssistanceConfig, TwistLimiter
+from grasp_intent_ros.shared_control.assistance import Assistance
+from grasp_intent_ros.shared_control.assistance_config import AssistanceConfig
 from grasp_intent_ros.shared_control.joint_path import LINE_IK_SEEDS, joint_path
+from grasp_intent_ros.shared_control.limits import TwistLimiter
 
 from .robot_alone import assistance_joint_path, robot_alone
 

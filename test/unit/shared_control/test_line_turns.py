@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from grasp_intent_ros.mico.frames import pose_error, rotation_angle
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
-from grasp_intent_ros.shared_control.assistance import AssistanceConfig
+from grasp_intent_ros.shared_control.assistance_config import AssistanceConfig
 from grasp_intent_ros.shared_control.joint_path import TURN_SLACK, WRIST_TURNS, joint_path, line_turns
 from grasp_intent_ros.shared_control.path_search import PathRequest, seek_path
 

@@ -21,15 +21,12 @@ from numpy.typing import NDArray
 from grasp_intent_ros.method.body import Cylinder, ObjectBody
 from grasp_intent_ros.mico.collision import HandCollision
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
-from grasp_intent_ros.shared_control.assistance import (
-    Assistance,
-    AssistanceConfig,
-    Command,
-    TwistLimiter,
-    joint_space_twist,
-)
+from grasp_intent_ros.shared_control.assistance import Assistance, Command
+from grasp_intent_ros.shared_control.assistance_config import AssistanceConfig
 from grasp_intent_ros.shared_control.clearance import PathClearance
+from grasp_intent_ros.shared_control.limits import TwistLimiter
 from grasp_intent_ros.shared_control.path_search import PathAnswer, PathRequest, PathSearch, PathWorker, seek_path
+from grasp_intent_ros.shared_control.robot_twist import joint_space_twist
 
 from .robot_alone import LABELS, TASKS
 

@@ -9,7 +9,9 @@ from grasp_intent_ros.errors import GraspIntentError
 from grasp_intent_ros.mico.frames import pose_to_matrix, pre_grasp
 from grasp_intent_ros.mico.kinematics import BASE_FRAME, HOME_Q, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import MockArm, TwistCommand
-from grasp_intent_ros.shared_control.assistance import Assistance, AssistanceConfig, TwistLimiter
+from grasp_intent_ros.shared_control.assistance import Assistance
+from grasp_intent_ros.shared_control.assistance_config import AssistanceConfig
+from grasp_intent_ros.shared_control.limits import TwistLimiter
 from grasp_intent_ros.shared_control.path_search import warm_up_scene
 from grasp_intent_ros.shared_control.scene_assistance import SceneAssistance
 from grasp_intent_ros.shared_control.scene_target import FollowRule

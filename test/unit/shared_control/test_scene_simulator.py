@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import pose_to_matrix
+from grasp_intent_ros.mico.frames import pose_error, pose_to_matrix
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.objects.judge import judge, judge_scene
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.ada import AdaAssistance
-from grasp_intent_ros.shared_control.assistance import TwistLimiter, pose_error
 from grasp_intent_ros.shared_control.estimator import IntentEstimator
 from grasp_intent_ros.shared_control.goals import goals_at, reachable_goals
+from grasp_intent_ros.shared_control.limits import TwistLimiter
 from grasp_intent_ros.shared_control.operators import OperatorConstants, PersistentIntent, ScriptedOperator
 from grasp_intent_ros.shared_control.scene_estimator import SceneEstimator
 from grasp_intent_ros.shared_control.scene_simulator import SceneIntent, SceneObject, simulate_scene

@@ -8,15 +8,15 @@ import pytest
 from numpy.testing import assert_allclose
 
 from grasp_intent_ros.method.registry import ModelFiles
-from grasp_intent_ros.mico.frames import PRE_GRASP_STANDOFF, pose_to_matrix, pre_grasp, reached
+from grasp_intent_ros.mico.frames import PRE_GRASP_STANDOFF, offset, pose_error, pose_to_matrix, pre_grasp, reached
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.objects.judge import judge
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.shared_control.ada import AdaAssistance
-from grasp_intent_ros.shared_control.assistance import TwistLimiter, offset, pose_error
 from grasp_intent_ros.shared_control.estimator import IntentEstimator
 from grasp_intent_ros.shared_control.goals import goals_at, reachable_goals
+from grasp_intent_ros.shared_control.limits import TwistLimiter
 from grasp_intent_ros.shared_control.operators import (
     AMBIGUOUS_CASES,
     ChangingIntent,
