@@ -32,6 +32,16 @@ The episodes
   reaches for the true object: its own grasp for the true set is the planner's for the certain w on that object
   where it sees it; it follows that object's shown grasp when it lies on its way (the one-object rule); it never
   reads a rule or which object the assistance follows.
+- The operator that changes its mind (``joystick-changing``, ``spacemouse-changing``: that device's episode, the
+  same draws, then :meth:`~grasp_intent_ros.shared_control.scene_simulator.SceneIntent.first_move_other`): it heads
+  first for the object the device's operator reaches in that episode (drawn from the held P(o); its shown grasp
+  when on its way, else its own grasp there for that object's true set), and at a time drawn U(1.5, 3) s after
+  the start turns to the other object for good, the true one, with that object's true set; the script's P(o)
+  follows 1 s later (then certain of the true object: 0.95 with the same noise), as the one-object goal-changing
+  operator's w follows its change; under ``estimated`` the estimator takes the operator's twist alone, as always.
+  Recorded beside the figures: when it switched (``switch_at``, s), how long after the switch the assistance first
+  followed the true object (``follow_delay``) and the estimator's P(o) of it first passed 0.5 (``estimate_delay``,
+  read every 0.1 s), and the alpha-seconds on the other object from the switch on (``wrong_object_alpha_after``).
 - The conditions (:data:`~grasp_intent_ros.shared_control.scene_simulator.SCENE_CONDITIONS`): ``direct`` (alpha 0),
   ``ada`` (one goal per object, its targets the planner's grasps for the seven certain task sets on the tracked
   object, the distribution over objects from the operator's motion, u + sum_o p(o) a_o), ``suite`` (the
@@ -43,7 +53,9 @@ The episodes
   demonstrations at the tracked object that the arm reaches from Home, as the node prepares them,
   :func:`scene_estimator`; the script's P(o) and w^o are not used, only the true object and its true set, which the
   operator pursues and the judge reads). Under the suite's assistance a close on the shown grasp executes the
-  followed object's newest plan (the simulator's docstring).
+  followed object's newest plan (the simulator's docstring). Not run by default: ``estimated_objects`` (P(o) from
+  the estimator, each w^o the script's) and ``estimated_tasks`` (each w^o from the estimator, P(o) the script's),
+  ``estimated`` split into its two sources (the scripted part the suite's run's reports to the last bit).
 - The planner: the node's defaults (:func:`~grasp_intent_ros.planning.options.node_default_options`), no
   collision check, as bench_shared_control_sim.py's default.
 - The mock arm at a joint limit: each joint clipped on its own, the mock arm node's default;
@@ -105,6 +117,7 @@ from grasp_intent_ros.objects.judge import judge_scene
 from grasp_intent_ros.shared_control.operators import OperatorConstants, ScriptedOperator
 from grasp_intent_ros.shared_control.scene_estimator import SceneEstimator
 from grasp_intent_ros.shared_control.scene_simulator import (
+    ALL_SCENE_CONDITIONS,
     SCENE_CONDITIONS,
     SceneIntent,
     SceneObject,
@@ -114,7 +127,8 @@ from grasp_intent_ros.shared_control.simulator import Scene, certain_grasps, per
 
 SCENE_OBJECTS = ('cup', 'flashlight')
 """The scene's objects, in the order of every per-object list (the models: _bench.closed_loop.OBJECTS)."""
-OPERATORS = ('joystick', 'spacemouse')
+OPERATORS = ('joystick', 'spacemouse', 'joystick-changing', 'spacemouse-changing')
+"""The operator models: the devices, then each device's operator that heads for the other object first."""
 REGION = ((0.25, 0.35), (-0.35, -0.05))
 """Where each object's position (x, y, m) is drawn (:func:`draw_positions`)."""
 GAP = 0.02
@@ -123,7 +137,9 @@ EPISODE_SETTINGS = ('seed', 'timeout', 'tracker_mm', 'tracker_deg', 'operator_mm
 """The settings of :func:`run_settings` that make other episodes (the poses, the views, the intent, the operator's
 noise); the others (``execute``, ``twist_joint_limit``) are the loop's."""
 PAIRS = (('suite', 'direct'), ('suite', 'ada'), ('suite', 'top_object'), ('estimated', 'suite'),
-         ('estimated', 'direct'), ('estimated', 'ada'), ('estimated', 'top_object'))
+         ('estimated', 'direct'), ('estimated', 'ada'), ('estimated', 'top_object'),
+         ('estimated_objects', 'suite'), ('estimated_tasks', 'suite'), ('estimated', 'estimated_objects'),
+         ('estimated', 'estimated_tasks'))
 """The paired differences reported (a minus b)."""
 
 
@@ -213,29 +229,37 @@ def run_settings(task: SceneTask) -> dict[str, Any]:
 
 
 def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
-    """Every repeat and condition of one episode: judged records."""
+    """Every repeat and condition of one episode: judged records.
+
+    An operator that changes its mind (``*-changing``) runs its device's episode (the same seeds and draws) with
+    the intent then changed (:meth:`SceneIntent.first_move_other`, from the same generator).
+    """
     states = [_setup(name, True) for name in SCENE_OBJECTS]
     kin = states[0]['kin']
     models = [state['model'] for state in states]
-    setup_rng = np.random.default_rng([task.seed, OPERATORS.index(task.operator), task.index, 7])
+    device = task.operator.removesuffix('-changing')
+    changing = device != task.operator
+    setup_rng = np.random.default_rng([task.seed, OPERATORS.index(device), task.index, 7])
     intent = SceneIntent.draw(task.index, len(models), setup_rng, task.favoured)
     objects, true_poses = draw_objects(models, kin, task, setup_rng)
+    if changing:
+        intent = intent.first_move_other(setup_rng)
     caches: list[dict[bytes, Grasp | None]] = [{} for _ in objects]
-    estimator = scene_estimator(objects, kin) if 'estimated' in task.conditions else None
+    estimated = {'estimated', 'estimated_objects', 'estimated_tasks'}
+    estimator = scene_estimator(objects, kin) if estimated & set(task.conditions) else None
     true = intent.true_object
-    device = 'joystick' if task.operator == 'joystick' else 'spacemouse'
     records = []
     for repeat in range(task.repeats):
         for condition in task.conditions:
             intent_rng = np.random.default_rng([task.seed, task.index, 1, 7])  # the same reports in every run
-            op_rng = np.random.default_rng([task.seed, OPERATORS.index(task.operator), task.index, repeat, 2, 7])
+            op_rng = np.random.default_rng([task.seed, OPERATORS.index(device), task.index, repeat, 2, 7])
             closure_rng = np.random.default_rng([task.seed, task.index, repeat, 3, 7])
-            operator = ScriptedOperator(device, OperatorConstants(), op_rng)
+            operator = ScriptedOperator(device, OperatorConstants(), op_rng)  # type: ignore[arg-type]
             t0 = time.perf_counter()
             ep = simulate_scene(objects, condition, intent, operator, intent_rng, closure_rng,  # type: ignore[arg-type]
                                 plan_caches=caches, timeout=task.timeout, execute=task.execute,
                                 twist_joint_limit=task.twist_joint_limit,
-                                estimator=estimator if condition == 'estimated' else None)
+                                estimator=estimator if condition in estimated else None)
             verdict = None if ep.hand is None else judge_scene(
                 [(o.scene.model, o.scene.base_T_obj_true) for o in objects], true, ep.task_set, ep.hand,
                 ep.closures if ep.closures is not None else np.zeros(3))
@@ -257,6 +281,12 @@ def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
                             'swept_finger_mm': _mm(ep.swept_finger),
                             'positions': [[round(float(v), 4) for v in p[:2, 3]] for p in true_poses],
                             'wall_s': time.perf_counter() - t0, 'run': run_settings(task)})
+            if changing:
+                assert intent.first_object is not None
+                records[-1].update({'first_object': SCENE_OBJECTS[intent.first_object],
+                                    'switch_at': intent.t_switch, 'follow_delay': ep.follow_delay,
+                                    'estimate_delay': ep.estimate_delay,
+                                    'wrong_object_alpha_after': ep.wrong_object_alpha_after})
     return records
 
 
@@ -275,7 +305,7 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
     figures = episode_figures(records)
     success = figures['success']
     table: dict[str, Any] = {}
-    for c in [c for c in SCENE_CONDITIONS if c in success]:
+    for c in [c for c in ALL_SCENE_CONDITIONS if c in success]:
         runs = [r for r in records if r['condition'] == c]
         eps = sorted(success[c])
         table[c] = {'success': float(np.mean([success[c][e] for e in eps])),
@@ -288,10 +318,21 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
                     'swept': [sum(r['swept'] for r in runs), len(runs)],
                     'timeouts': sum(not r['closed'] for r in runs), 'episodes': len(eps),
                     'estimated_p_true': _mean([r.get('estimated_p_true') for r in runs])}
+        if any('switch_at' in r for r in runs):  # the operator that changes its mind
+            table[c].update(_delays(runs, 'follow_delay'), **_delays(runs, 'estimate_delay'),
+                            wrong_object_alpha_after=float(np.mean([r['wrong_object_alpha_after'] for r in runs])))
     for a, b in [(a, b) for a, b in PAIRS if a in success and b in success]:
         table[f'{a}-{b}'] = paired_difference({f: v[a] for f, v in figures.items()},
                                               {f: v[b] for f, v in figures.items()}, rng, rng_clear)
     return table
+
+
+def _delays(runs: list[dict[str, Any]], key: str) -> dict[str, Any]:
+    """``key``'s median and 90th percentile over the runs that have it, and how many have none (never, closed first)."""
+    present = [r[key] for r in runs if r.get(key) is not None]
+    return {f'{key}_median': float(np.median(present)) if present else None,
+            f'{key}_p90': float(np.percentile(present, 90)) if present else None,
+            f'{key}_none': len(runs) - len(present)}
 
 
 def _mean(values: list[float | None]) -> float | None:
@@ -313,9 +354,9 @@ def report(records: list[dict[str, Any]]) -> dict[str, Any]:
     for op in [op for op in OPERATORS if any(r['operator'] == op for r in records)]:
         table = summarise([r for r in records if r['operator'] == op])
         out[op] = table
-        episodes = max(row['episodes'] for c, row in table.items() if c in SCENE_CONDITIONS)
+        episodes = max(row['episodes'] for c, row in table.items() if c in ALL_SCENE_CONDITIONS)
         print(f'\n[cup + flashlight / {op}] {episodes} episodes x {repeats} repeats')
-        for c in [c for c in SCENE_CONDITIONS if c in table]:
+        for c in [c for c in ALL_SCENE_CONDITIONS if c in table]:
             row = table[c]
             split = ' / '.join('-' if s is None else f'{s:.3f}' for s in (row['success_favoured'],
                                                                            row['success_other']))
@@ -325,6 +366,13 @@ def report(records: list[dict[str, Any]]) -> dict[str, Any]:
                   f'{row["swept"][0]}/{row["swept"][1]}  timeouts {row["timeouts"]}'
                   + ('' if row['estimated_p_true'] is None else
                      f'  estimated P(true object) at the close {row["estimated_p_true"]:.3f}'))
+            if 'follow_delay_none' in row:
+                print(f'  {"":10s} after the switch: alpha on the wrong object {row["wrong_object_alpha_after"]:.3f} s'
+                      + ''.join(f'  {what} median / p90 {_seconds(row[key + "_median"])} / '
+                                f'{_seconds(row[key + "_p90"])} (none in {row[key + "_none"]} runs)'
+                                for what, key in (('true object followed', 'follow_delay'),
+                                                  ('estimated P(true) > 0.5', 'estimate_delay'))
+                                if key != 'estimate_delay' or row['estimated_p_true'] is not None))
         for a, b in [(a, b) for a, b in PAIRS if f'{a}-{b}' in table]:
             d = table[f'{a}-{b}']
             print(f'  {a} - {b:10s} success {100 * d["success_diff"]:+5.1f} points [{100 * d["ci"][0]:+5.1f}, '
@@ -333,12 +381,17 @@ def report(records: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def _seconds(value: float | None) -> str:
+    """``value`` s to two decimals, '-' for None."""
+    return '-' if value is None else f'{value:.2f} s'
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--episodes', type=int, default=50)
     parser.add_argument('--repeats', type=int, default=3)
     parser.add_argument('--operators', nargs='+', default=['joystick'], choices=list(OPERATORS))
-    parser.add_argument('--conditions', nargs='+', default=list(SCENE_CONDITIONS), choices=list(SCENE_CONDITIONS))
+    parser.add_argument('--conditions', nargs='+', default=list(SCENE_CONDITIONS), choices=list(ALL_SCENE_CONDITIONS))
     parser.add_argument('--timeout', type=float, default=25.0)
     parser.add_argument('--tracker-mm', type=float, default=5.0)
     parser.add_argument('--tracker-deg', type=float, default=3.0)
@@ -361,7 +414,7 @@ def main() -> None:
         return
     tasks = [SceneTask(op, i, args.seed, args.repeats, args.timeout, args.tracker_mm, args.tracker_deg,
                        args.operator_mm, args.operator_deg, args.favoured,
-                       tuple(c for c in SCENE_CONDITIONS if c in args.conditions), not args.no_execute,
+                       tuple(c for c in ALL_SCENE_CONDITIONS if c in args.conditions), not args.no_execute,
                        args.twist_joint_limit)
              for i in range(args.episodes) for op in args.operators]
     print(f'bench_shared_control_scene: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '

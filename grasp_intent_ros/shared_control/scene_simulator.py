@@ -40,8 +40,19 @@ Conditions (:data:`SCENE_CONDITIONS`)
   ``/<object>/grasp/pose``); every ``w_period`` its P(o) goes to the assistance and each w^o to its chain. The
   script then gives only the true object and its true set, which the operator pursues and the caller judges:
   the estimator never sees them (nor the script's P(o) or w^o).
+- ``'estimated_objects'`` and ``'estimated_tasks'`` (:data:`SPLIT_CONDITIONS`): ``'estimated'`` with one of its two
+  sources scripted, to tell their shares apart. The estimator is fed as under ``'estimated'``; the script reports
+  as under ``'suite'`` (every report drawn, in its order, so the scripted part is the suite's run's to the last
+  bit). ``'estimated_objects'``: P(o) from the estimator, every w^o the script's; ``'estimated_tasks'``: every w^o
+  from the estimator, P(o) the script's.
 
-The grasp command. Under the suite's assistance (``'suite'``, ``'top_object'``, ``'estimated'``) a close on the
+The operator that changes its mind (:meth:`SceneIntent.first_move_other`) heads for another object first (its
+shown grasp when on its way, else its own grasp there for its intent's true set, the rule above) and turns to the
+true object at :attr:`SceneIntent.t_switch`; what it sees of the shown grasps is ``reaction`` s old, whichever
+object it pursues. Nothing else changes: the estimator takes its twist alone, the script's P(o) follows the
+change late (:meth:`SceneIntent.object_probabilities`).
+
+The grasp command. Under the suite's assistance (every condition but ``'direct'`` and ``'ada'``) a close on the
 shown grasp executes the newest plan of the object *followed* (grasp/execute, then grasp/close: the mock arm
 closes to the followed object's plan, docs/several_objects.md), which is another object's grasp when the
 assistance follows another object than the operator's. Nothing followed yet, a close on the operator's own
@@ -63,7 +74,7 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -84,10 +95,21 @@ from .scene_target import FollowRule
 from .simulator import PlanStream, Scene
 from .sweep import SWEEP_TICKS, PathSweep
 
-__all__ = ['SceneCondition', 'SCENE_CONDITIONS', 'SceneIntent', 'SceneObject', 'SceneEpisode', 'simulate_scene']
+__all__ = ['SceneCondition', 'SCENE_CONDITIONS', 'SPLIT_CONDITIONS', 'ALL_SCENE_CONDITIONS', 'SceneIntent',
+           'SceneObject', 'SceneEpisode', 'simulate_scene']
 
-SceneCondition = Literal['direct', 'ada', 'suite', 'top_object', 'estimated']
+SceneCondition = Literal['direct', 'ada', 'suite', 'top_object', 'estimated', 'estimated_objects', 'estimated_tasks']
 SCENE_CONDITIONS: tuple[SceneCondition, ...] = ('direct', 'ada', 'suite', 'top_object', 'estimated')
+"""The benchmark's conditions (module docstring)."""
+SPLIT_CONDITIONS: tuple[SceneCondition, ...] = ('estimated_objects', 'estimated_tasks')
+"""``'estimated'`` split into its two sources, one estimated and the other scripted (module docstring)."""
+ALL_SCENE_CONDITIONS: tuple[SceneCondition, ...] = SCENE_CONDITIONS + SPLIT_CONDITIONS
+_ESTIMATED_P: tuple[SceneCondition, ...] = ('estimated', 'estimated_objects')
+"""The conditions whose P(o) is the estimator's."""
+_ESTIMATED_W: tuple[SceneCondition, ...] = ('estimated', 'estimated_tasks')
+"""The conditions whose w^o are the estimator's."""
+_SUITE: tuple[SceneCondition, ...] = ('suite', 'estimated') + SPLIT_CONDITIONS
+"""The conditions of the suite's assistance over every object with P(o) streamed to it."""
 
 
 @dataclass(frozen=True)
@@ -101,15 +123,25 @@ class SceneIntent:
     intents : tuple of PersistentIntent
         Each object's w^o script (held at a case with noise) and its true set, one per object.
     true_object : int
-        The index of the object the operator wants; its intent's true set is the operator's.
+        The index of the object the operator wants (for good); its intent's true set is the operator's.
     noise : float
         The reported P(o)'s noise (module docstring of :meth:`object_probabilities`).
+    first_object : int or None
+        The object the operator heads for first, until ``t_switch`` (:meth:`first_move_other`); None: the
+        true object from the first move.
+    t_switch : float
+        When (s from the episode's start) the operator turns to the true object for good (with ``first_object``).
+    delay : float
+        How long (s) after ``t_switch`` the reported P(o) follows the change (:meth:`object_probabilities`).
     """
 
     probabilities: tuple[float, ...]
     intents: tuple[PersistentIntent, ...]
     true_object: int
     noise: float = 0.05
+    first_object: int | None = None
+    t_switch: float = 0.0
+    delay: float = 1.0
 
     @classmethod
     def draw(cls, index: int, n_objects: int, rng: np.random.Generator, favoured: float = 0.6) -> SceneIntent:
@@ -128,18 +160,53 @@ class SceneIntent:
         held[top] = favoured
         return cls(tuple(held.tolist()), intents, int(rng.choice(n_objects, p=held)))
 
+    def first_move_other(self, rng: np.random.Generator, switch: tuple[float, float] = (1.5, 3.0)) -> SceneIntent:
+        """This intent with an operator that first heads for another object, then changes its mind (a stated model).
+
+        The object drawn as the true one (:attr:`true_object`, from the held P(o)) is the one the operator heads
+        for first (its intent's true set there); the operator wants another object for good, uniform among the
+        others (drawn from ``rng``; with two objects the other one, still one draw), from ``t_switch`` ~
+        U(``switch``) s after the episode's start (then drawn from ``rng``), as the one-object goal-changing
+        operator's change (``operators.ChangingIntent``). The reported P(o) follows ``delay`` s after the switch
+        (:meth:`object_probabilities`). The held P(o), the objects' intents and their true sets are kept.
+        Raises ValueError for fewer than two objects or an intent that changes already.
+        """
+        n = len(self.probabilities)
+        if n < 2 or self.first_object is not None:
+            raise ValueError(f'an operator heading for another object first needs two objects or more and a true '
+                             f'object from the first move ({n} objects, first object {self.first_object})')
+        others = [k for k in range(n) if k != self.true_object]
+        true = int(rng.choice(others))
+        return replace(self, true_object=true, first_object=self.true_object, t_switch=float(rng.uniform(*switch)))
+
+    def pursued_object(self, t: float) -> int:
+        """The object the operator heads for at ``t``: :attr:`first_object` before :attr:`t_switch`, then the true."""
+        return self.true_object if self.first_object is None or t >= self.t_switch else self.first_object
+
     def task_set(self, t: float) -> int:
         """The operator's true task set: the true object's intent's."""
         return self.intents[self.true_object].task_set(t)
 
-    def object_probabilities(self, rng: np.random.Generator) -> NDArray[np.float64]:
-        """One report of P(o): the held P(o) with N(0, ``noise``^2) each, clipped to [0.02, 0.98], renormalised.
+    def pursued_task_set(self, t: float) -> int:
+        """The task set the operator pursues at ``t``: the intent's true set on :meth:`pursued_object` (``t``)."""
+        return self.intents[self.pursued_object(t)].task_set(t)
 
-        One object: exactly (1,), drawing nothing from ``rng``.
+    def object_probabilities(self, rng: np.random.Generator, t: float = 0.0) -> NDArray[np.float64]:
+        """One report of P(o) at ``t``: the held P(o) with N(0, ``noise``^2) each, clipped to [0.02, 0.98], normalised.
+
+        With :attr:`first_object` from ``t_switch + delay`` on, the held P(o) is replaced by the certain one of the
+        true object (0.95 on it, 0.05 shared by the others; the same noise): the reported P(o) follows the change
+        ``delay`` s late, as a goal-changing operator's w follows (``operators.ChangingIntent``). One object:
+        exactly (1,), drawing nothing from ``rng``.
         """
-        if len(self.probabilities) == 1:
+        n = len(self.probabilities)
+        if n == 1:
             return np.ones(1)
-        p = np.clip(np.asarray(self.probabilities) + rng.normal(0.0, self.noise, len(self.probabilities)), 0.02, 0.98)
+        held = np.asarray(self.probabilities)
+        if self.first_object is not None and t >= self.t_switch + self.delay:
+            held = np.full(n, 0.05 / (n - 1))
+            held[self.true_object] = 0.95
+        p = np.clip(held + rng.normal(0.0, self.noise, n), 0.02, 0.98)
         out: NDArray[np.float64] = p / p.sum()
         return out
 
@@ -179,8 +246,17 @@ class SceneEpisode(Episode):
         How many times the object the suite's assistance followed changed after the first (0 under ``'direct'``
         and ``'ada'``).
     estimated_p_true : float or None
-        Under ``'estimated'``: the estimator's P(o) of the true object when the hand closed (or at the timeout);
-        None under the other conditions.
+        Under the estimator (``'estimated'``, :data:`SPLIT_CONDITIONS`): its P(o) of the true object when the hand
+        closed (or at the timeout), whether or not it drove the assistance; None under the other conditions.
+    follow_delay : float or None
+        With an operator that changes its mind (:attr:`SceneIntent.first_object`) under the suite's assistance
+        over every object: the time from the switch to the first output that followed the true object (0 when it
+        did at the switch); None when none did before the end, the hand closed before the switch, or otherwise.
+    estimate_delay : float or None
+        As ``follow_delay`` under the estimator, for its P(o) of the true object above 0.5, read at each report
+        (every ``w_period``).
+    wrong_object_alpha_after : float or None
+        With an operator that changes its mind: ``wrong_object_alpha`` from the switch on (None otherwise).
     swept_objects : tuple of bool
         Per object (the scene's order), whether the open hand's path swept into its body (:class:`~.sweep.PathSweep`
         in its true frame); the inherited ``swept`` is whether any did, ``swept_palm`` ... ``closing_finger`` the
@@ -193,6 +269,9 @@ class SceneEpisode(Episode):
     wrong_object_alpha: float = 0.0
     switches: int = 0
     estimated_p_true: float | None = None
+    follow_delay: float | None = None
+    estimate_delay: float | None = None
+    wrong_object_alpha_after: float | None = None
     swept_objects: tuple[bool, ...] = field(default_factory=tuple)
 
 
@@ -211,18 +290,20 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
     condition. ``follow_rule``: the suite's hysteresis. ``execute``: whether the suite's grasp command executes the
     followed object's plan (module docstring). ``twist_joint_limit``: the mock arm's rule for a twist at a joint
     limit (:class:`~.mico.mock_arm.MockArm`). ``estimator``: the source of P(o) and w^o under ``'estimated'``
-    (module docstring; reset here), its objects ``objects``' names in their order; given under ``'estimated'``
-    alone.
+    (of one of them under :data:`SPLIT_CONDITIONS`; module docstring; reset here), its objects ``objects``' names
+    in their order; given under those conditions alone.
 
     Raises ValueError for as many intents or plan caches as objects, or an ``estimator`` missing under
-    ``'estimated'``, given under another condition, or over other objects than ``objects``' names in order.
+    ``'estimated'`` or a split condition, given under another condition, or over other objects than ``objects``'
+    names in order.
     """
     if len(intent.intents) != len(objects) or len(plan_caches) != len(objects):
         raise ValueError(f'{len(objects)} objects need as many intents and plan caches')
     names = [o.name for o in objects]
-    if (estimator is not None) != (condition == 'estimated'):
-        raise ValueError(f'an intent estimator is given under \'estimated\' alone (condition {condition!r}, '
-                         f'estimator {"given" if estimator is not None else "missing"})')
+    estimated = condition in ('estimated',) + SPLIT_CONDITIONS
+    if (estimator is not None) != estimated:
+        raise ValueError(f'an intent estimator is given under \'estimated\' and its split alone (condition '
+                         f'{condition!r}, estimator {"given" if estimator is not None else "missing"})')
     if estimator is not None and list(estimator) != names:
         raise ValueError(f'the estimator\'s objects {list(estimator)} are not the scene\'s {names}')
     kin = objects[0].scene.kin
@@ -231,17 +312,18 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
     rule = 'none' if condition == 'direct' else 'confidence'
     assistance = Assistance(AssistanceConfig(**{**base.__dict__, 'arbitration': rule}), limiter, kin)
     scene_assistance: SceneAssistance | None = None
-    if condition in ('direct', 'suite', 'estimated'):
+    if condition == 'direct' or condition in _SUITE:
         scene_assistance = _scene_assistance(assistance, objects, names, follow_rule)
     ada = AdaAssistance([o.ada_targets for o in objects], limiter) if condition == 'ada' else None
     streams = [PlanStream(o.scene, 'intent', cache) for o, cache in zip(objects, plan_caches)]
     arm = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0], twist_joint_limit=twist_joint_limit)
     true = intent.true_object
+    changing = intent.first_object is not None
     reaction_ticks = max(int(round(operator.c.reaction / period)), 0)
     hands: deque[NDArray[np.float64]] = deque(maxlen=reaction_ticks + 1)
-    shown_history: deque[Grasp | None] = deque(maxlen=reaction_ticks + 1)
+    shown_history: deque[tuple[Grasp | None, ...]] = deque(maxlen=reaction_ticks + 1)
     shown: list[Grasp | None] = [None] * len(objects)
-    episode = SceneEpisode(true_object=true)
+    episode = SceneEpisode(true_object=true, wrong_object_alpha_after=0.0 if changing else None)
     alpha_sum = 0.0
     w_every = max(int(round(w_period / period)), 1)
     ticks = int(round(timeout / period))
@@ -260,14 +342,26 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
         if tick % SWEEP_TICKS == 0:
             check(arm.q[:6])
         if tick % w_every == 0:
-            p = intent.object_probabilities(intent_rng) if estimator is None else estimator.object_probabilities
+            scripted = condition != 'estimated'  # the script's report, drawn (in order) under any other
+            p = intent.object_probabilities(intent_rng, now) if scripted else None
+            if estimator is not None:
+                p_estimated = estimator.object_probabilities
+                if condition in _ESTIMATED_P:
+                    p = p_estimated
+                if changing and now >= intent.t_switch and episode.estimate_delay is None \
+                        and p_estimated[true] > 0.5:
+                    episode.estimate_delay = now - intent.t_switch
+            assert p is not None
             if condition == 'top_object' and scene_assistance is None:  # the bet, once, on the first report
                 top = int(np.argmax(p))
                 scene_assistance = _scene_assistance(assistance, [objects[top]], [names[top]], follow_rule)
-            elif scene_assistance is not None and condition in ('suite', 'estimated'):
+            elif scene_assistance is not None and condition in _SUITE:
                 scene_assistance.set_probabilities(dict(zip(names, p.tolist())))
             for k, obj in enumerate(objects):
-                w = intent.intents[k].w(now, intent_rng) if estimator is None else estimator.w(names[k])
+                w = intent.intents[k].w(now, intent_rng) if scripted else None
+                if estimator is not None and condition in _ESTIMATED_W:
+                    w = estimator.w(names[k])
+                assert w is not None
                 v, grasp = streams[k].plan(w)
                 if scene_assistance is not None and names[k] in scene_assistance.objects:
                     feed_plan(scene_assistance.channel(names[k]), obj.scene.model, v, grasp)
@@ -280,16 +374,17 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
         assert assistance.base_T_ee is not None
         hand_now = assistance.base_T_ee
         hands.append(hand_now)
-        shown_history.append(shown[true])
-        seen, shown_seen = hands[0], shown_history[0]
-        own_pose, own_closures = objects[true].own_goals[intent.task_set(now)]
+        shown_history.append(tuple(shown))
+        pursued_object = intent.pursued_object(now)
+        seen, shown_seen = hands[0], shown_history[0][pursued_object]
+        own_pose, own_closures = objects[pursued_object].own_goals[intent.pursued_task_set(now)]
         shown_pose = None if shown_seen is None or condition == 'ada' else shown_seen.base_T_ee  # on the screen
         goal, pursued = operator.choose_goal(shown_pose, own_pose)
         if operator.at_goal(seen, goal):
             closures = own_closures if pursued == 'own' or shown_seen is None else shown_seen.positions[6:]
             followed = None if scene_assistance is None else scene_assistance.followed
             plan = None if followed is None else shown[names.index(followed)]
-            executes = (executes_shown(pursued, execute and condition in ('suite', 'top_object', 'estimated'))
+            executes = (executes_shown(pursued, execute and condition not in ('direct', 'ada'))
                         and plan is not None)
             now, episode.hand, episode.closures, episode.executed = close_hand(
                 arm, hand_now, closures, plan if executes else None, now, period, closure_rng, closure_error, check)
@@ -301,7 +396,7 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
         if ada is not None:
             twist = ada.command(hand_now, h, period)
             alpha_sum += 1.0
-            episode.wrong_object_alpha += float(1.0 - ada.distribution()[true]) * period
+            wrong_alpha = float(1.0 - ada.distribution()[true]) * period
         else:
             assert scene_assistance is not None  # made at the first report, tick 0
             before = scene_assistance.followed
@@ -311,8 +406,13 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
             alpha_sum += command.alpha
             if condition != 'direct' and before is not None and scene_assistance.followed != before:
                 episode.switches += 1
-            if scene_assistance.followed is not None and scene_assistance.followed != names[true]:
-                episode.wrong_object_alpha += command.alpha * period
+            wrong_alpha = command.alpha * period if scene_assistance.followed not in (None, names[true]) else 0.0
+            if changing and condition != 'direct' and now >= intent.t_switch and episode.follow_delay is None \
+                    and scene_assistance.followed == names[true]:
+                episode.follow_delay = now - intent.t_switch
+        episode.wrong_object_alpha += wrong_alpha
+        if changing and now >= intent.t_switch:
+            episode.wrong_object_alpha_after = (episode.wrong_object_alpha_after or 0.0) + wrong_alpha
         arm.command_twist(TwistCommand(twist[:3], twist[3:], BASE_FRAME), now)
         arm.step(now + period, period)
     for sweep in sweeps:

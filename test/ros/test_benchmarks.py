@@ -88,7 +88,26 @@ def test_the_two_object_loop_judges_one_episode_under_each_condition() -> None:
     assert 0.0 < by['estimated']['estimated_p_true'] <= 1.0 and by['estimated']['followed'] in scene.SCENE_OBJECTS
     assert all(r['estimated_p_true'] is None for r in records if r['condition'] != 'estimated')
     table = scene.summarise(records)
-    assert {f'{a}-{b}' for a, b in scene.PAIRS} <= set(table)
+    assert {f'{a}-{b}' for a, b in scene.PAIRS if {a, b} <= set(scene.SCENE_CONDITIONS)} <= set(table)
+
+
+def test_the_operator_that_changes_its_mind_runs_its_devices_episode_and_the_split_conditions_their_estimator() -> None:
+    scene = importlib.import_module('bench_shared_control_scene')
+    conditions = ('direct', 'estimated_objects', 'estimated_tasks')
+    straight, changing = (scene.run_scene_task(scene.SceneTask(op, 0, seed=0, repeats=1, timeout=6.0,
+                                                               conditions=conditions))
+                          for op in ('spacemouse', 'spacemouse-changing'))
+    assert [r['condition'] for r in changing] == list(conditions)
+    for one, other in zip(straight, changing):
+        assert other['positions'] == one['positions']  # the device's episode: the same draws
+        assert other['first_object'] == one['true_object'] != other['true_object']  # its true object first
+        assert 1.5 <= other['switch_at'] <= 3.0 and 'switch_at' not in one
+    by = {r['condition']: r for r in changing}
+    assert by['direct']['follow_delay'] is None and by['direct']['estimate_delay'] is None
+    assert all(0.0 < by[c]['estimated_p_true'] <= 1.0 for c in conditions[1:])
+    table = scene.summarise(changing)
+    assert {'follow_delay_median', 'estimate_delay_p90', 'wrong_object_alpha_after'} <= set(table['estimated_tasks'])
+    assert 'follow_delay_median' not in scene.summarise(straight)['estimated_tasks']
 
 
 def test_the_two_objects_are_drawn_apart_in_the_stated_region() -> None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -195,3 +197,78 @@ def test_the_estimator_is_the_source_under_estimated_alone_and_over_the_scenes_o
     with pytest.raises(ValueError, match='objects'):
         simulate_scene(scene[::-1], 'estimated', intent, operator, *rngs, plan_caches=[{}, {}],
                        estimator=scene_estimator)
+
+
+def test_the_operator_heading_for_the_other_object_first_switches_at_a_time_drawn_from_the_seed() -> None:
+    base = SceneIntent((0.6, 0.4), (PersistentIntent((0.9, 0.9, 0.1), 3), PersistentIntent((0.9, 0.1, 0.9), 5)),
+                       true_object=0)
+    changed = base.first_move_other(np.random.default_rng(8))
+    again = base.first_move_other(np.random.default_rng(8))
+    assert changed == again  # the switch's time drawn from the generator alone
+    assert len({base.first_move_other(np.random.default_rng(seed)).t_switch for seed in range(50)}) == 50
+    draws = np.random.default_rng(0)
+    times = [base.first_move_other(draws).t_switch for _ in range(2000)]
+    assert 1.5 <= min(times) and max(times) <= 3.0
+    assert np.mean(times) == pytest.approx(2.25, abs=0.04) and np.std(times) == pytest.approx(0.433, abs=0.03)
+    assert changed.first_object == 0 and changed.true_object == 1  # the drawn object first, then the other for good
+    t = changed.t_switch
+    assert changed.pursued_object(0.0) == changed.pursued_object(t - 1e-9) == 0
+    assert changed.pursued_object(t) == changed.pursued_object(t + 30.0) == 1
+    assert changed.pursued_task_set(t - 1e-9) == 3 and changed.pursued_task_set(t) == 5 == changed.task_set(0.0)
+    assert base.pursued_object(0.0) == 0 and base.pursued_task_set(0.0) == 3  # a straight operator: the true object
+    # the script's P(o) follows the change `delay` s late: the held P(o) until then, certain of the true object after
+    rng = np.random.default_rng(1)
+    before = np.mean([changed.object_probabilities(rng, t + changed.delay - 0.01) for _ in range(400)], axis=0)
+    after = np.mean([changed.object_probabilities(rng, t + changed.delay) for _ in range(400)], axis=0)
+    assert before == pytest.approx([0.6, 0.4], abs=0.01) and after == pytest.approx([0.05, 0.95], abs=0.01)
+    with pytest.raises(ValueError):
+        changed.first_move_other(np.random.default_rng(8))  # it changes already
+    with pytest.raises(ValueError):
+        SceneIntent.draw(0, 1, np.random.default_rng(0)).first_move_other(np.random.default_rng(8))
+
+
+def test_the_operator_heads_for_the_other_object_until_the_switch_then_the_estimator_follows_it(
+        scene, scene_estimator) -> None:
+    cases = (PersistentIntent((0.9, 0.9, 0.1), 3), PersistentIntent((0.9, 0.9, 0.1), 3))
+    intent = replace(SceneIntent((0.5, 0.5), cases, true_object=1, first_object=0), t_switch=2.0)
+
+    def run(timeout: float):
+        operator = ScriptedOperator('spacemouse', OperatorConstants(), np.random.default_rng(3))
+        return simulate_scene(scene, 'estimated', intent, operator, np.random.default_rng(4),
+                              np.random.default_rng(5), plan_caches=[{}, {}], timeout=timeout,
+                              estimator=scene_estimator)
+
+    cut = run(1.9)  # before the switch: the estimator is sure of the object the operator heads for first
+    assert cut.closed_at is None and cut.estimated_p_true is not None and cut.estimated_p_true < 0.1
+    assert cut.follow_delay is None and cut.estimate_delay is None and cut.wrong_object_alpha > 0.0
+    assert cut.wrong_object_alpha_after == 0.0
+    ep = run(20.0)  # then the flashlight for good
+    assert ep.estimated_p_true is not None and ep.estimated_p_true > 0.9
+    assert ep.followed == 'flashlight' and ep.executed_object == 'flashlight'
+    assert ep.estimate_delay is not None and ep.follow_delay is not None and 0.0 < ep.estimate_delay < ep.follow_delay
+    assert ep.wrong_object_alpha_after is not None and ep.wrong_object_alpha_after < ep.wrong_object_alpha
+    placed = [(o.scene.model, o.scene.base_T_obj_true) for o in scene]
+    assert ep.hand is not None and ep.closures is not None
+    assert judge_scene(placed, 1, 3, ep.hand, ep.closures).serves
+
+
+@pytest.mark.parametrize(('condition', 'estimated', 'scripted'), [('estimated_objects', 'p', 'w'),
+                                                                   ('estimated_tasks', 'w', 'p')])
+def test_the_split_conditions_take_one_source_from_the_estimator_and_the_other_from_the_script(
+        scene, scene_estimator, condition, estimated, scripted) -> None:
+    cases = (PersistentIntent((0.9, 0.9, 0.1), 3), PersistentIntent((0.9, 0.9, 0.1), 3))
+    scripts = {'base': SceneIntent((0.3, 0.7), cases, true_object=0),
+               'p': SceneIntent((0.9, 0.1), cases, true_object=0),  # another script's P(o) only
+               'w': SceneIntent((0.3, 0.7), (PersistentIntent((0.1, 0.1, 0.9), 3),) * 2, true_object=0)}  # its w^o
+    runs = {}
+    for name, intent in scripts.items():
+        operator = ScriptedOperator('spacemouse', OperatorConstants(), np.random.default_rng(3))
+        runs[name] = simulate_scene(scene, condition, intent, operator, np.random.default_rng(4),
+                                    np.random.default_rng(5), plan_caches=[{}, {}], timeout=20.0,
+                                    estimator=scene_estimator)
+    same, other = runs[estimated], runs[scripted]
+    base = runs['base']
+    assert base.hand is not None and same.hand is not None and other.hand is not None
+    assert np.array_equal(same.hand, base.hand) and same.alpha_mean == base.alpha_mean  # the script's part unread
+    assert other.alpha_mean != base.alpha_mean  # the script's other part drives the run
+    assert base.estimated_p_true is not None and base.estimated_p_true > 0.9
