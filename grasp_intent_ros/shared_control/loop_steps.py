@@ -153,6 +153,8 @@ class Episode:
     pulls : list of (ndarray, float)
         Each proposal the robot pulled toward (its features, in the tracked frame) and its alpha-seconds.
     alpha_mean : float
+        The mean arbitration weight over the commands the loop sent (each period's one; 1 for ADA, whose help is
+        added in full); 0 when it sent none.
     swept_palm, swept_finger : float
         The deepest (m) the palm/wrist and an open finger went into the object's body along the hand's path
         from the start until the hand closed (the executed trajectory included), in the true object frame

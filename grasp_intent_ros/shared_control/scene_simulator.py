@@ -324,7 +324,7 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
     shown_history: deque[tuple[Grasp | None, ...]] = deque(maxlen=reaction_ticks + 1)
     shown: list[Grasp | None] = [None] * len(objects)
     episode = SceneEpisode(true_object=true, wrong_object_alpha_after=0.0 if changing else None)
-    alpha_sum = 0.0
+    alpha_sum, commands = 0.0, 0
     w_every = max(int(round(w_period / period)), 1)
     ticks = int(round(timeout / period))
     tick = 0
@@ -414,6 +414,7 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
         if changing and now >= intent.t_switch:
             episode.wrong_object_alpha_after = (episode.wrong_object_alpha_after or 0.0) + wrong_alpha
         arm.command_twist(TwistCommand(twist[:3], twist[3:], BASE_FRAME), now)
+        commands += 1
         arm.step(now + period, period)
     for sweep in sweeps:
         sweep.close(arm.q[:6])  # where the hand closed (or stood at the timeout)
@@ -422,7 +423,7 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
     episode.task_set = intent.task_set(tick * period)
     if estimator is not None:
         episode.estimated_p_true = float(estimator.object_probabilities[true])
-    episode.alpha_mean = alpha_sum / max(tick, 1)
+    episode.alpha_mean = alpha_sum / max(commands, 1)
     return episode
 
 

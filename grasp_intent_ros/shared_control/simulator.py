@@ -284,7 +284,7 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
     shown: Grasp | None = None
     episode = Episode()
     pull: dict[int, list[object]] = {}
-    alpha_sum = 0.0
+    alpha_sum, commands = 0.0, 0
     w_every = max(int(round(w_period / period)), 1)
     ticks = int(round(timeout / period))
     tick = 0
@@ -353,11 +353,12 @@ def simulate(scene: Scene, condition: Condition, intent: IntentScript, operator:
                 entry = pull.setdefault(id(shown), [shown.result.x, 0.0])
                 entry[1] += command.alpha * period  # type: ignore[operator]
         arm.command_twist(TwistCommand(twist[:3], twist[3:], BASE_FRAME), now)
+        commands += 1
         arm.step(now + period, period)
     sweep.close(arm.q[:6])  # where the hand closed (or stood at the timeout)
     swept_into(episode, sweep)
     episode.task_set = intent.task_set(tick * period)
-    episode.alpha_mean = alpha_sum / max(tick, 1)
+    episode.alpha_mean = alpha_sum / max(commands, 1)
     episode.pulls = [(np.asarray(x), float(s)) for x, s in pull.values()]  # type: ignore[arg-type]
     return episode
 

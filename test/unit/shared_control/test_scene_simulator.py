@@ -272,3 +272,20 @@ def test_the_split_conditions_take_one_source_from_the_estimator_and_the_other_f
     assert np.array_equal(same.hand, base.hand) and same.alpha_mean == base.alpha_mean  # the script's part unread
     assert other.alpha_mean != base.alpha_mean  # the script's other part drives the run
     assert base.estimated_p_true is not None and base.estimated_p_true > 0.9
+
+
+def test_alpha_mean_is_the_mean_over_the_commands_sent_also_at_the_timeout(scene) -> None:
+    # ADA's help is added in full: alpha 1 in every command, so its mean is 1 exactly, whether or not the episode
+    # timed out (a timeout sends one command per tick, none after the last)
+    intent = SceneIntent((0.6, 0.4), (PersistentIntent((0.9, 0.9, 0.1), 3), PersistentIntent((0.9, 0.9, 0.1), 3)),
+                         true_object=1)
+    operator = ScriptedOperator('spacemouse', OperatorConstants(), np.random.default_rng(3))
+    ep = simulate_scene(scene, 'ada', intent, operator, np.random.default_rng(4), np.random.default_rng(5),
+                        plan_caches=[{}, {}], timeout=0.5)
+    assert ep.closed_at is None and ep.alpha_mean == 1.0
+    cup = scene[0]
+    own = cup.own_goals
+    one = simulate(cup.scene, 'ada', PersistentIntent((0.9, 0.9, 0.1), 3), ScriptedOperator(
+        'spacemouse', OperatorConstants(), np.random.default_rng(3)), own, np.random.default_rng(4),
+        np.random.default_rng(5), ada_goals=[(g[0], np.zeros(1)) for g in own.values()], plan_cache={}, timeout=0.5)
+    assert one.closed_at is None and one.alpha_mean == 1.0
