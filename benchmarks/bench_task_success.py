@@ -8,8 +8,8 @@ non-empty. A grasp x succeeds when the rule of every task in T holds, T <= label
     S(x; w) = P(T <= label(x) | T != {}) = (prod_{i not in label(x)} (1 - w_i) - u_0) / (1 - u_0),
     u_0 = prod_i (1 - w_i)
 
-(exact; ``--draws`` also prints the Monte-Carlo estimate with that many draws of T per w, as the issue
-measured it). Per model and method, on seeded random w (uniform in [0, 1]^3, w asking for clarification
+(exact; ``--draws`` also prints the Monte-Carlo estimate with that many draws of T per w, the sampling check
+of the exact sum). Per model and method, on seeded random w (uniform in [0, 1]^3, w asking for clarification
 redrawn, as bench_planner) and on the paper's seven cases per object (every task alone, every pair, all three
 at 0.9 against 0.1):
 

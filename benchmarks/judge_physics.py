@@ -31,7 +31,7 @@ from grasp_intent_ros.mico.kinematics import default_urdf_path
 __all__ = ['PhysicsJudge', 'Verdict', 'TABLE_LIMIT', 'PALM_LIMIT']
 
 TABLE_LIMIT = 0.005
-"""A hand part deeper than this below the table (m) is a collision (the issue's target)."""
+"""A hand part deeper than this below the table (m) is a collision (the collision row's target in the README)."""
 PALM_LIMIT = 0.002
 """The wrist/palm deeper than this into the object (m) is a collision."""
 _HAND_BODIES = ('m1n6s300_link_6', 'm1n6s300_link_finger_1', 'm1n6s300_link_finger_2', 'm1n6s300_link_finger_3',

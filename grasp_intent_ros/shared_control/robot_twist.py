@@ -10,26 +10,26 @@ Toward the pre-grasp (the grasp pose moved back by ``standoff`` along its approa
 until the hand is in the approach corridor, then toward the grasp (:func:`assistance_target`): the hand
 is in the corridor when it is within ``corridor_radius`` of the grasp, or behind it (along the approach
 axis) within ``corridor_radius`` of that axis and within ``corridor_angle`` of the grasp's orientation.
-With the arm's kinematics (:class:`~.assistance.Assistance` given a :class:`~.kinematics.MicoKinematics`), the
-twist is the end effector's motion while the joints move straight toward the target's inverse kinematics q_t
-(solved from the current joints q without random restarts, its wrist on the 2 pi branch that turns the hand the
-short way, :func:`~.joint_path.line_turns`, once per target and planned grasp), ``J(q) k_q (q_t - q)``
-(:func:`joint_space_twist`). When the target has no IK solution from q (the descent from q stops at a joint
-limit or in the wrist's singularity), q_t is an IK solution from other seeds whose straight joint line from q
-keeps the hand near the grasp and the wrist on its side, or, when no straight line does, whose two lines
-through one via point do: the joints aim at the via point until within :data:`~.joint_path.VIA_REACHED` of it,
-then at q_t (:func:`~.joint_path.joint_path`; "near": within the hand's distance to the grasp when the first
-path to this proposal was sought, or its present distance if larger, plus ``corridor_radius``). A path whose
-open hand goes into the object as perceived (:meth:`~.assistance.Assistance.set_object`) is replaced by a clear
-one (:func:`~.clearance.clear_path`). Without the kinematics, or when there is no such path either, it is
-proportional to the pose error, ``(k_lin (p_t - p), k_ang log3(R_t R^T))`` (the rotation vector in the base
-frame, :func:`robot_twist`). Either way each part is scaled down to its speed limit. Why joint space: the
-Cartesian twist turns the hand along the straight rotation to the target, which for many of the MICO's grasps
-runs the wrist (joint 5) through 0 or pi, a singularity; there a servo's damped least squares cannot make the
-motion asked for and the arm settles in the singular configuration, short of the grasp. The joint-space twist
-lies in the range of J, so the servo can follow it, and following it the joints go straight to q_t. Its price:
-the hand's path curves and the hand turns on the way (the image of a straight joint-space line); near the
-target it agrees with the Cartesian error to first order.
+With the arm's kinematics (:class:`~.assistance.Assistance` given a
+:class:`~grasp_intent_ros.mico.kinematics.MicoKinematics`), the twist is the end effector's motion while the joints
+move straight toward the target's inverse kinematics q_t (solved from the current joints q without random restarts,
+its wrist on the 2 pi branch that turns the hand the short way, :func:`~.joint_path.line_turns`, once per target and
+planned grasp), ``J(q) k_q (q_t - q)`` (:func:`joint_space_twist`). When the target has no IK solution from q (the
+descent from q stops at a joint limit or in the wrist's singularity), q_t is an IK solution from other seeds whose
+straight joint line from q keeps the hand near the grasp and the wrist on its side, or, when no straight line does,
+whose two lines through one via point do: the joints aim at the via point until within
+:data:`~.joint_path.VIA_REACHED` of it, then at q_t (:func:`~.joint_path.joint_path`; "near": within the hand's
+distance to the grasp when the first path to this proposal was sought, or its present distance if larger, plus
+``corridor_radius``). A path whose open hand goes into the object as perceived
+(:meth:`~.assistance.Assistance.set_object`) is replaced by a clear one (:func:`~.clearance.clear_path`). Without
+the kinematics, or when there is no such path either, it is proportional to the pose error, ``(k_lin (p_t - p),
+k_ang log3(R_t R^T))`` (the rotation vector in the base frame, :func:`robot_twist`). Either way each part is scaled
+down to its speed limit. Why joint space: the Cartesian twist turns the hand along the straight rotation to the
+target, which for many of the MICO's grasps runs the wrist (joint 5) through 0 or pi, a singularity; there a servo's
+damped least squares cannot make the motion asked for and the arm settles in the singular configuration, short of
+the grasp. The joint-space twist lies in the range of J, so the servo can follow it, and following it the joints go
+straight to q_t. Its price: the hand's path curves and the hand turns on the way (the image of a straight
+joint-space line); near the target it agrees with the Cartesian error to first order.
 
 **Keeping the operator's pace** (``keep_pace``, off by default; :func:`keep_pace`). The robot's twist follows a
 straight line in joint space, so its linear part can point well away from the approach target's Cartesian error
@@ -81,8 +81,8 @@ def joint_space_twist(jacobian: NDArray[np.float64], q: NDArray[np.float64], q_t
     Parameters
     ----------
     jacobian : ndarray, shape (6, 6)
-        The geometric Jacobian at ``q`` (:meth:`~.kinematics.MicoKinematics.jacobian`: linear rows m/rad,
-        angular rows rad/rad, base frame).
+        The geometric Jacobian at ``q`` (:meth:`~grasp_intent_ros.mico.kinematics.MicoKinematics.jacobian`:
+        linear rows m/rad, angular rows rad/rad, base frame).
     q, q_target : ndarray, shape (6,)
         Joint angles now and at the target (rad), ``q_target`` on the 2 pi branch the joints are to turn to.
     gain : float

@@ -568,7 +568,7 @@ def test_a_plan_failing_its_checks_publishes_nothing_and_asks(rig: Rig, kin: Mic
     clarifications = rig.ros.subscribe(String, 'intent/clarification')
     real_plan_grasp = grasp_planner.plan_grasp
 
-    def beyond_the_limits(*args: Any, **kwargs: Any) -> Any:  # the IK seed Home + 1e14, at the output
+    def beyond_the_limits(*args: Any, **kwargs: Any) -> Any:  # an IK seed of Home + 1e14, at the output
         grasp = real_plan_grasp(*args, **kwargs)
         positions = grasp.positions.copy()
         positions[0] += 1e14

@@ -134,7 +134,7 @@ def test_check_grasp_passes_a_plan_and_names_what_is_wrong_with_a_corrupted_one(
     check_grasp(grasp, kin)
     q = grasp.positions.copy()
     far = q.copy()
-    far[0] += 1e14  # the seed Home + 1e14: joint targets beyond the limits
+    far[0] += 1e14  # an IK seed of Home + 1e14: joint targets beyond the limits
     branch = q.copy()
     branch[1] = kin.lower[1] + 0.01  # within the limits, but another pose
     nan_w = dataclasses.replace(grasp.result, w=np.full_like(grasp.result.w, np.nan))

@@ -51,7 +51,7 @@ def test_the_arm_follows_a_trajectory_to_its_end_state(kin: MicoKinematics, fiel
     arm.command_trajectory(command([1.0, 2.0], [mid, end], vel, acc), now=0.0)
     assert arm.mode == 'trajectory'
     run(arm, 3.0)
-    assert_allclose(arm.q, end, atol=1e-3)  # the tolerance; exact in fact after the hold
+    assert_allclose(arm.q, end, atol=1e-3)  # within 1 mrad; exact in fact after the hold
     assert arm.mode == 'hold' and not np.any(arm.qd)
 
 

@@ -38,7 +38,7 @@ from ..fixed_reference import FixedReference
 
 CASES = [(0.9, 0.1, 0.1), (0.1, 0.9, 0.1), (0.1, 0.1, 0.9), (0.9, 0.9, 0.1), (0.9, 0.1, 0.9), (0.1, 0.9, 0.9),
          (0.9, 0.9, 0.9)]
-"""Every task alone, every pair, all three (the issue's 7 cases)."""
+"""Every task alone, every pair, all three (the paper's 7 cases per object)."""
 
 
 

@@ -33,7 +33,7 @@ U, T, H = 1, 2, 4
 
 
 @pytest.mark.parametrize('w, task_set, serving', [
-    # the table: the planned grasp's task set by the rules, and P(it serves T | w)
+    # the ambiguous cases: the planned grasp's task set by the rules, and P(it serves T | w)
     ((0.7, 0.7, 0.7), U | T | H, 1.0),
     ((0.9, 0.5, 0.5), U | T | H, 1.0),
     ((0.6, 0.6, 0.1), U | T, (0.9 - 0.4 * 0.4 * 0.9) / (1 - 0.4 * 0.4 * 0.9)),
