@@ -111,7 +111,7 @@ SIM = Kind('bench_shared_control_sim', (('object', tuple(OBJECTS)), ('operator',
            ('task_set',), 'true task set', sim.EPISODE_SETTINGS, sim.episode_figures,
            ('in_at_closing', 'effort_linear', 'wrong_pull'))
 """One object's closed loop (``bench_shared_control_sim.py``); its records carry ``object``."""
-SCENE = Kind('bench_shared_control_scene', (('operator', scene.OPERATORS),), scene.SCENE_CONDITIONS,
+SCENE = Kind('bench_shared_control_scene', (('operator', scene.OPERATORS),), scene.ALL_SCENE_CONDITIONS,
              ('true_object', 'task_set'), 'true object or task set', scene.EPISODE_SETTINGS, scene.episode_figures,
              ('favoured', 'serves', 'wrong_object', 'wrong_object_alpha', 'estimated_p_true'))
 """Two objects' closed loop (``bench_shared_control_scene.py``); its records carry ``true_object``, not ``object``."""
