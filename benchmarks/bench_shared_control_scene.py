@@ -118,6 +118,7 @@ from grasp_intent_ros.shared_control.operators import OperatorConstants, Scripte
 from grasp_intent_ros.shared_control.scene_estimator import SceneEstimator
 from grasp_intent_ros.shared_control.scene_simulator import (
     ALL_SCENE_CONDITIONS,
+    ESTIMATOR_CONDITIONS,
     SCENE_CONDITIONS,
     SceneIntent,
     SceneObject,
@@ -245,8 +246,7 @@ def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
     if changing:
         intent = intent.first_move_other(setup_rng)
     caches: list[dict[bytes, Grasp | None]] = [{} for _ in objects]
-    estimated = {'estimated', 'estimated_objects', 'estimated_tasks'}
-    estimator = scene_estimator(objects, kin) if estimated & set(task.conditions) else None
+    estimator = scene_estimator(objects, kin) if set(ESTIMATOR_CONDITIONS) & set(task.conditions) else None
     true = intent.true_object
     records = []
     for repeat in range(task.repeats):
@@ -259,7 +259,7 @@ def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
             ep = simulate_scene(objects, condition, intent, operator, intent_rng, closure_rng,  # type: ignore[arg-type]
                                 plan_caches=caches, timeout=task.timeout, execute=task.execute,
                                 twist_joint_limit=task.twist_joint_limit,
-                                estimator=estimator if condition in estimated else None)
+                                estimator=estimator if condition in ESTIMATOR_CONDITIONS else None)
             verdict = None if ep.hand is None else judge_scene(
                 [(o.scene.model, o.scene.base_T_obj_true) for o in objects], true, ep.task_set, ep.hand,
                 ep.closures if ep.closures is not None else np.zeros(3))

@@ -95,8 +95,8 @@ from .scene_target import FollowRule
 from .simulator import PlanStream, Scene
 from .sweep import SWEEP_TICKS, PathSweep
 
-__all__ = ['SceneCondition', 'SCENE_CONDITIONS', 'SPLIT_CONDITIONS', 'ALL_SCENE_CONDITIONS', 'SceneIntent',
-           'SceneObject', 'SceneEpisode', 'simulate_scene']
+__all__ = ['SceneCondition', 'SCENE_CONDITIONS', 'SPLIT_CONDITIONS', 'ALL_SCENE_CONDITIONS', 'ESTIMATOR_CONDITIONS',
+           'SceneIntent', 'SceneObject', 'SceneEpisode', 'simulate_scene']
 
 SceneCondition = Literal['direct', 'ada', 'suite', 'top_object', 'estimated', 'estimated_objects', 'estimated_tasks']
 SCENE_CONDITIONS: tuple[SceneCondition, ...] = ('direct', 'ada', 'suite', 'top_object', 'estimated')
@@ -104,6 +104,8 @@ SCENE_CONDITIONS: tuple[SceneCondition, ...] = ('direct', 'ada', 'suite', 'top_o
 SPLIT_CONDITIONS: tuple[SceneCondition, ...] = ('estimated_objects', 'estimated_tasks')
 """``'estimated'`` split into its two sources, one estimated and the other scripted (module docstring)."""
 ALL_SCENE_CONDITIONS: tuple[SceneCondition, ...] = SCENE_CONDITIONS + SPLIT_CONDITIONS
+ESTIMATOR_CONDITIONS: tuple[SceneCondition, ...] = ('estimated', *SPLIT_CONDITIONS)
+"""The conditions run with the intent estimator over the objects (:func:`simulate_scene`'s ``estimator``)."""
 _ESTIMATED_P: tuple[SceneCondition, ...] = ('estimated', 'estimated_objects')
 """The conditions whose P(o) is the estimator's."""
 _ESTIMATED_W: tuple[SceneCondition, ...] = ('estimated', 'estimated_tasks')
@@ -300,8 +302,7 @@ def simulate_scene(objects: Sequence[SceneObject], condition: SceneCondition, in
     if len(intent.intents) != len(objects) or len(plan_caches) != len(objects):
         raise ValueError(f'{len(objects)} objects need as many intents and plan caches')
     names = [o.name for o in objects]
-    estimated = condition in ('estimated',) + SPLIT_CONDITIONS
-    if (estimator is not None) != estimated:
+    if (estimator is not None) != (condition in ESTIMATOR_CONDITIONS):
         raise ValueError(f'an intent estimator is given under \'estimated\' and its split alone (condition '
                          f'{condition!r}, estimator {"given" if estimator is not None else "missing"})')
     if estimator is not None and list(estimator) != names:
