@@ -133,11 +133,10 @@ ESTIMATOR = (
               'that does not move away from it is no evidence (0: the shown grasp is ignored).', range=(0.0, 10.0)),
     ParamSpec('proposal_angle', _ESTIMATE.proposal_angle, 'rad: the same for the orientation.', range=(0.0, 3.15)),
     *APPROACH,
-    ParamSpec('calibration_models', ['flashlight_7zone'], 'Models whose task marginals are mapped to '
-              'sigmoid(a logit(w) + b) (a map fitted on training reaches of that model); another model\'s w is not '
-              'mapped.', item_type=str),
-    ParamSpec('calibration_slopes', [1.405], 'a (> 0) of the map of each of calibration_models.', item_type=float),
-    ParamSpec('calibration_offsets', [-0.1724], 'b of the map of each of calibration_models.', item_type=float),
+    ParamSpec('calibration_models', [], 'Models whose task marginals are mapped to sigmoid(a logit(w) + b) (a map '
+              'fitted on training reaches of that model); another model\'s w is not mapped.', item_type=str),
+    ParamSpec('calibration_slopes', [], 'a (> 0) of the map of each of calibration_models.', item_type=float),
+    ParamSpec('calibration_offsets', [], 'b of the map of each of calibration_models.', item_type=float),
     ParamSpec('publish_period', 0.04, 'Time between two w while the operator moves, s.', range=(0.001, 1.0),
               read_only=True),
     ParamSpec('operator_timeout', 0.1, 'Operator twist age (s) after which the operator counts as still (no w '

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import yaml
 from estimator_inputs import PRIOR
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from rclpy.parameter import Parameter
@@ -24,13 +23,11 @@ from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control.calibration import calibrate
 from grasp_intent_ros.shared_control.estimator import IntentEstimator
 from grasp_intent_ros.shared_control.goals import goals_at
-from grasp_intent_ros.shared_control.parameters import ESTIMATOR, default_estimator_config
 from grasp_intent_ros.wire import topics
 from grasp_intent_ros.wire.diagnostics import WARN
 from grasp_intent_ros.wire.model_document import model_document
 
 BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
-CALIBRATION = ('calibration_models', 'calibration_slopes', 'calibration_offsets')
 
 
 class Rig:
@@ -226,16 +223,3 @@ def test_a_listed_models_marginals_are_mapped_and_another_models_not(ros) -> Non
     estimator = rig.node._estimator
     assert estimator is not None
     np.testing.assert_allclose(rig.w[-1].data, IntentEstimator(estimator.goals).w, rtol=0, atol=0)
-
-
-def test_by_default_the_flashlights_marginals_are_mapped_as_the_params_file_lists(ros) -> None:
-    default = default_estimator_config('flashlight_7zone')
-    mapped = (default.calibration_slope, default.calibration_offset)
-    assert mapped != (1.0, 0.0), 'the defaults list a map for the flashlight'
-    params = yaml.safe_load((config_dir() / 'intent_estimator.yaml').read_text())['/**/intent_estimator']
-    listed = {name: params['ros__parameters'][name] for name in CALIBRATION}
-    assert listed == {spec.name: spec.default for spec in ESTIMATOR if spec.name in CALIBRATION}
-    rig = Rig(ros)  # no parameter set
-    rig.activate('flashlight_7zone', 1)
-    assert ros.wait_for(lambda: rig.w, 60.0), 'no prior w after the model'
-    np.testing.assert_allclose(rig.w[-1].data, [float(calibrate(PRIOR, *mapped, 0.01))] * 3, rtol=1e-12)

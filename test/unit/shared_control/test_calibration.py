@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
@@ -12,7 +10,7 @@ from grasp_intent_ros.errors import InvalidIntentError
 from grasp_intent_ros.shared_control.calibration import calibrate, fit_calibration, model_calibration
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator
 from grasp_intent_ros.shared_control.goals import goals_from_poses
-from grasp_intent_ros.shared_control.parameters import ESTIMATOR, default_estimator_config, estimator_config
+from grasp_intent_ros.shared_control.parameters import ESTIMATOR, estimator_config
 
 FLOOR = 0.01
 
@@ -109,15 +107,10 @@ def test_each_model_gets_its_listed_map_and_another_model_none() -> None:
             model_calibration('a', *bad)
 
 
-def test_the_node_settings_pick_the_listed_models_map_and_by_default_the_flashlights_alone() -> None:
+def test_the_node_settings_pick_the_listed_models_map_and_none_by_default() -> None:
     defaults = {spec.name: spec.default for spec in ESTIMATOR}
     plain = estimator_config(defaults, 'cup_7zone')
     assert (plain.calibration_slope, plain.calibration_offset) == (1.0, 0.0)
-    assert default_estimator_config('cup_7zone') == EstimatorConfig() == default_estimator_config(None)
-    flashlight = default_estimator_config('flashlight_7zone')
-    assert flashlight == estimator_config(defaults, 'flashlight_7zone')
-    assert flashlight.calibration_slope > 1.0 and flashlight.calibration_offset != 0.0  # spreads w: a map, not none
-    assert replace(flashlight, calibration_slope=1.0, calibration_offset=0.0) == EstimatorConfig()
     listed = {**defaults, 'calibration_models': ['cup_7zone'], 'calibration_slopes': [1.4],
               'calibration_offsets': [-0.1]}
     mapped = estimator_config(listed, 'cup_7zone')
