@@ -9,9 +9,8 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from types import MappingProxyType
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -97,7 +96,7 @@ def parse_zones(labels: Sequence[str], task_names: Sequence[str]) -> tuple[int, 
     InvalidIntentError
         For an unknown label.
     """
-    known = _known_zones(tuple(task_names))
+    known = {zone_label(z, task_names): z for z in all_zones(len(task_names))}
     out = []
     for label in labels:
         if label not in known:
@@ -105,12 +104,6 @@ def parse_zones(labels: Sequence[str], task_names: Sequence[str]) -> tuple[int, 
                 f'unknown zone {label!r} for tasks {list(task_names)}; known: {", ".join(known)}')
         out.append(known[label])
     return tuple(out)
-
-
-@functools.lru_cache(maxsize=64)  # the assistance parses the same labels of the same tasks at every output
-def _known_zones(task_names: tuple[str, ...]) -> Mapping[str, int]:
-    """Each zone's label -> its bitmask, for ``task_names`` (read-only: shared by every call with them)."""
-    return MappingProxyType({zone_label(z, task_names): z for z in all_zones(len(task_names))})
 
 
 def match_zones(n_values: int, labels: Sequence[str] | None, task_names: Sequence[str]) -> tuple[int, ...]:

@@ -142,15 +142,6 @@ def test_labels_for_generic_tasks() -> None:
     assert intent.parse_zones(['1+3'], names) == (0b0101,)
 
 
-def test_parse_zones_reads_each_call_by_its_own_task_names() -> None:
-    # the label table is kept per task names: two names whose initials collide read 'U' differently
-    assert intent.parse_zones(['U', 'T'], TASKS) == (0b001, 0b010)
-    assert intent.parse_zones(['T', 'U'], ('transfer', 'usage', 'handover')) == (0b001, 0b010)
-    assert intent.parse_zones(['1+3'], ('a', 'b', 'c', 'a2')) == (0b0101,)  # initials not unique: numbers
-    with pytest.raises(InvalidIntentError):
-        intent.parse_zones(['1+3'], TASKS)  # the same label is not one of these tasks'
-
-
 @pytest.mark.parametrize('structure', ['7zone', '5zone', '4zone'])
 def test_restrict_equals_interpreting_for_the_model(structure: str) -> None:
     zones = structure_zones(structure, TASKS)
