@@ -76,7 +76,8 @@ _MAX_SCENES = 16
 
 _STANDING = Table()  # the plane z = 0 of the object frame, the object's own (immutable: built once)
 _OPEN = np.zeros(3)
-"""The open fingers' closures (rad): :meth:`HandCollision.open_hand_depth`'s, built once (never written to)."""
+_OPEN.setflags(write=False)
+"""The open fingers' closures (rad): :meth:`HandCollision.open_hand_depth`'s, built once."""
 
 
 def _rz(angles: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -62,8 +62,8 @@ from .limits import clip_norm, norm
 if TYPE_CHECKING:
     from .assistance_config import AssistanceConfig
 
-__all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'ServingMemo', 'grasp_task_set', 'arbitration', 'operator_agreement',
-           'robot_agreement', 'approach_agreement', 'new_proposal']
+__all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'ServingMemo', 'grasp_task_set', 'arbitration',
+           'operator_agreement', 'robot_agreement', 'approach_agreement', 'new_proposal']
 
 Arbitration = Literal['confidence', 'blend', 'none']
 ARBITRATIONS: tuple[str, ...] = typing.get_args(Arbitration)

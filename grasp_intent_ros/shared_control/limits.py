@@ -33,8 +33,10 @@ def clip_norm(x: NDArray[np.float64], limit: float) -> NDArray[np.float64]:
 
 
 def _length(unit: NDArray[np.float64]) -> float:
-    """``float(np.linalg.norm(unit))`` for a real array, computed as it does (its flattened self's dot product, the
-    root), without its dispatch: these run several times per output."""
+    """``float(np.linalg.norm(unit))`` of a real array, computed as it computes it, without its dispatch.
+
+    Its flattened self's dot product, then the root (the same sum: the same bits); these run several times per output.
+    """
     flat = unit.ravel(order='K')
     return math.sqrt(float(flat.dot(flat)))
 
