@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from grasp_intent_ros.shared_control.arbitration import (
+    ServingMemo,
     arbitration,
     grasp_task_set,
     operator_agreement,
@@ -28,6 +29,36 @@ def test_serving_probability_of_a_grasp_that_is_no_demonstration_is_the_models_e
     assert serving_probability(v, LABELS, TASKS, posterior=[1.0, 0.0], zone_labels=('U', 'X')) == 0.0
     assert serving_probability(np.zeros(7), LABELS, TASKS, task_set=U) == 0.0
     assert serving_probability(v, LABELS, TASKS) == 0.0  # neither a task set nor a posterior
+
+
+def test_the_serving_memo_answers_as_the_function_for_every_change_of_an_input() -> None:
+    v = np.array([0.5, 0.1, 0.1, 0.1, 0.1, 0.05, 0.05])
+    base = dict(v=v, v_labels=LABELS, task_names=TASKS, task_set=None, posterior=np.array([0.1, 0.2, 0.3, 0.4]),
+                zone_labels=('U', 'T', 'UT', 'UTH'))
+    changes = [dict(v=np.array([0.1, 0.5, 0.1, 0.1, 0.1, 0.05, 0.05])),  # each input changed alone
+               dict(v=v.view(np.int64)),  # the same bytes and shape, another dtype
+               dict(v_labels=('T', 'U', 'H', 'UT', 'UH', 'TH', 'UTH')),
+               dict(task_names=('transfer', 'usage', 'handover')),
+               dict(task_set=U | T),
+               dict(posterior=np.array([0.4, 0.3, 0.2, 0.1])),
+               dict(zone_labels=('T', 'U', 'UT', 'UTH'))]
+    memo = ServingMemo()
+
+    def call(inputs: dict) -> float:  # type: ignore[type-arg]
+        args = {k: val for k, val in inputs.items() if k not in ('v', 'v_labels', 'task_names')}
+        return memo(inputs['v'], inputs['v_labels'], inputs['task_names'], **args)
+
+    def direct(inputs: dict) -> float:  # type: ignore[type-arg]
+        args = {k: val for k, val in inputs.items() if k not in ('v', 'v_labels', 'task_names')}
+        return serving_probability(inputs['v'], inputs['v_labels'], inputs['task_names'], **args)
+
+    for change in changes:
+        changed = {**base, **change}
+        assert call(base) == direct(base)
+        assert call(changed) == direct(changed)  # a memo that ignored this input would answer base's
+        assert direct(changed) != direct(base), change  # the case can catch it
+    v[0] = 0.6  # an array changed in place is a new input too
+    assert call(base) == direct(base) != direct({**base, 'v': np.array([0.5, 0.1, 0.1, 0.1, 0.1, 0.05, 0.05])})
 
 
 def test_the_grasp_task_set_is_the_demonstrations_label() -> None:
