@@ -65,6 +65,8 @@ HAND_PARTS = ('palm', 'finger_1', 'finger_tip_1', 'finger_2', 'finger_tip_2', 'f
 """The hand's collision parts, named in :attr:`~.grasp_clearance.Clearance.table_part`: link 6 (wrist and palm),
 then each finger's proximal link and tip."""
 _FINGER_OF_PART = (-1, 0, 0, 1, 1, 2, 2)
+_JOINT_OF_PART = np.repeat(np.arange(3), 2)
+"""The finger joint each finger part (links 1-6 of :data:`HAND_PARTS`) turns with."""
 _MAX_CACHE = 8192
 _CLOSED = float(MICO_3F.upper[FINGERS][0])
 _FINGER_REACH = 0.12
@@ -73,6 +75,9 @@ _MAX_SCENES = 16
 
 
 _STANDING = Table()  # the plane z = 0 of the object frame, the object's own (immutable: built once)
+_OPEN = np.zeros(3)
+_OPEN.setflags(write=False)
+"""The open fingers' closures (rad): :meth:`HandCollision.open_hand_depth`'s, built once."""
 
 
 def _rz(angles: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -139,6 +144,16 @@ class _Scene:
         self.shapes, self.poses = shapes, poses
         self.centres, self.radii = np.array(centres), np.array(radii)
 
+    def near(self, centres: NDArray[np.float64], radii: NDArray[np.float64], within: float) -> NDArray[np.bool_]:
+        """Which primitives each sphere may come within ``within`` (m) of: shape (N, primitives), bool.
+
+        Spheres ``centres`` (N, 3) with ``radii`` (N,), object frame: True where the centres' distance is at most
+        the two bounding radii plus ``within`` (each row the same numbers as the one sphere's test alone).
+        """
+        distance = np.linalg.norm(self.centres[None, :, :] - centres[:, None, :], axis=2)
+        near: NDArray[np.bool_] = distance <= self.radii[None, :] + radii[:, None] + within
+        return near
+
 
 class HandCollision:
     """The MICO hand's collision geometry (URDF) and its clearance from a table and an object body.
@@ -199,6 +214,8 @@ class HandCollision:
             raise KinematicsError(f'{path}: expected one collision primitive on the wrist link and two per finger '
                                   f'(proximal link, tip), found {finger_of}')
         self._fixed = np.array(fixed)
+        self._radii = np.array([shape.radius for shape in self.shapes])
+        self._rz_open = _rz(_OPEN)  # the open fingers' turns, the same numbers every call computed
         self._ee_T_joint = np.array([np.array((ee_M_wrist * model.jointPlacements[j]).homogeneous) for j in fingers])
         self._request = coal.DistanceRequest()
         self._lock = threading.Lock()
@@ -215,8 +232,8 @@ class HandCollision:
         c = np.asarray(closures, dtype=np.float64)
         out = np.empty((len(HAND_PARTS), 4, 4))
         out[0] = obj_T_ee @ self._fixed[0]
-        joints = obj_T_ee @ self._ee_T_joint @ _rz(c)        # (3, 4, 4)
-        out[1:] = joints[np.repeat(np.arange(3), 2)] @ self._fixed[1:]
+        joints = obj_T_ee @ self._ee_T_joint @ (self._rz_open if c is _OPEN else _rz(c))        # (3, 4, 4)
+        out[1:] = joints[_JOINT_OF_PART] @ self._fixed[1:]
         return out
 
     def _finger_sweep(self, obj_T_ee: NDArray[np.float64], finger: int,
@@ -357,7 +374,9 @@ class HandCollision:
             If ``obj_T_ee`` is not a rigid transform.
         """
         T, scene = check_transform(obj_T_ee, 'obj_T_ee'), self._scene(body)
-        depth = [self._depth(sh, pose, scene, within) for sh, pose in zip(self.shapes, self.parts(T, np.zeros(3)))]
+        poses = self.parts(T, _OPEN)
+        near = scene.near(poses[:, :3, 3], self._radii, within).tolist()  # every part's test in one array operation
+        depth = [self._deepest(sh, pose, scene, row) for sh, pose, row in zip(self.shapes, poses, near)]
         return depth[0], max(depth[1:])
 
     def _scene(self, body: ObjectBody) -> _Scene:
@@ -372,13 +391,16 @@ class HandCollision:
 
     def _depth(self, shape: _Shape, pose: NDArray[np.float64], scene: _Scene, within: float = 0.0) -> float:
         """How deep a part at ``pose`` goes in (m; < 0: clear; -inf: its bounding sphere ``within`` m clear of all)."""
-        centre = pose[:3, 3]
-        near = np.flatnonzero(np.linalg.norm(scene.centres - centre, axis=1) <= scene.radii + shape.radius + within)
-        if near.size == 0:
+        near = scene.near(pose[None, :3, 3], np.array([shape.radius]), within)[0].tolist()
+        return self._deepest(shape, pose, scene, near)
+
+    def _deepest(self, shape: _Shape, pose: NDArray[np.float64], scene: _Scene, near: list[bool]) -> float:
+        """:meth:`_depth` of a part at ``pose`` given which primitives are ``near`` it (:meth:`_Scene.near`'s row)."""
+        if not any(near):
             return -math.inf
         tf = _tf(pose)
         return max(-float(coal.distance(shape.geometry, tf, scene.shapes[j], scene.poses[j], self._request,
-                                        coal.DistanceResult())) for j in near.tolist())
+                                        coal.DistanceResult())) for j, hit in enumerate(near) if hit)
 
 
 

@@ -37,6 +37,7 @@ kinematics).
 from __future__ import annotations
 
 import math
+from itertools import chain
 from typing import Final
 
 import numpy as np
@@ -93,7 +94,7 @@ def check_vector(value: ArrayLike, n: int, what: str) -> NDArray[np.float64]:
         raise KinematicsError(f'{what} must be numeric: {exc}') from None
     if vec.shape != (n,):
         raise KinematicsError(f'{what} must have shape ({n},), got {vec.shape}')
-    if not np.all(np.isfinite(vec)):
+    if not np.isfinite(vec).all():
         raise KinematicsError(f'{what} must be finite, got {vec}')
     return vec
 
@@ -119,7 +120,7 @@ def check_transform(value: ArrayLike, what: str, *, tol: float = 1e-6) -> NDArra
     if T.shape != (4, 4):
         raise KinematicsError(f'{what} must have shape (4, 4), got {T.shape}')
     (a, b, c, _), (d, e, f, _), (g, h, i, _), last = rows = T.tolist()
-    if not all(math.isfinite(v) for row in rows for v in row):
+    if not all(map(math.isfinite, chain.from_iterable(rows))):
         raise KinematicsError(f'{what} must be finite')
     if not (abs(last[0]) <= tol and abs(last[1]) <= tol and abs(last[2]) <= tol and abs(last[3] - 1.0) <= tol + 1e-5):
         raise KinematicsError(f'{what} must have last row (0, 0, 0, 1), got {T[3]}')

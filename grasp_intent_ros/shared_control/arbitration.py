@@ -62,8 +62,8 @@ from .limits import clip_norm, norm
 if TYPE_CHECKING:
     from .assistance_config import AssistanceConfig
 
-__all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'grasp_task_set', 'arbitration', 'operator_agreement',
-           'robot_agreement', 'approach_agreement', 'new_proposal']
+__all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'ServingMemo', 'grasp_task_set', 'arbitration',
+           'operator_agreement', 'robot_agreement', 'approach_agreement', 'new_proposal']
 
 Arbitration = Literal['confidence', 'blend', 'none']
 ARBITRATIONS: tuple[str, ...] = typing.get_args(Arbitration)
@@ -108,6 +108,37 @@ def serving_probability(v: ArrayLike, v_labels: Sequence[str], task_names: Seque
     if p.shape != per_set.shape or not float(p.sum()) > 0.0:
         return 0.0
     return float(min(max(float(p @ per_set) / float(p.sum()), 0.0), 1.0))
+
+
+class ServingMemo:
+    """:func:`serving_probability` of the newest inputs, computed again only when an input changed.
+
+    The assistance asks at every output, and its inputs change with each plan (every 0.1 s): the answer is kept
+    with its inputs (the arrays' dtype, shape and bytes; the label sequences, the task names and the task set as
+    tuples) and returned while a call's inputs equal them, bit for bit: the function is pure, so a kept answer is
+    the one it would compute again. One entry: a changed input replaces it.
+    """
+
+    def __init__(self) -> None:
+        self._key: tuple[object, ...] | None = None
+        self._value = 0.0
+
+    def __call__(self, v: NDArray[np.float64], v_labels: Sequence[str], task_names: Sequence[str], *,
+                 task_set: int | None, posterior: NDArray[np.float64], zone_labels: Sequence[str]) -> float:
+        """:func:`serving_probability` (its arguments), kept for the next call with the same inputs."""
+        key = (*_array_key(v), tuple(v_labels), tuple(task_names), task_set, *_array_key(posterior),
+               tuple(zone_labels))
+        if key != self._key:
+            self._value = serving_probability(v, v_labels, task_names, task_set=task_set, posterior=posterior,
+                                              zone_labels=zone_labels)
+            self._key = key
+        return self._value
+
+
+def _array_key(x: ArrayLike) -> tuple[str, tuple[int, ...], bytes]:
+    """An array's dtype, shape and bytes: equal for two arrays exactly when they hold the same numbers, bit for bit."""
+    array = np.asarray(x)
+    return array.dtype.str, array.shape, array.tobytes()
 
 
 def grasp_task_set(x: NDArray[np.float64], demo_x: NDArray[np.float64], demo_sets: NDArray[np.int64],

@@ -40,7 +40,7 @@ from ..method.body import ObjectBody
 from ..method.intent import all_zones, default_task_names, zone_labels
 from ..mico.collision import HandCollision
 from ..mico.kinematics import HOME_Q, MicoKinematics
-from .arbitration import approach_agreement, arbitration, new_proposal, robot_agreement, serving_probability
+from .arbitration import ServingMemo, approach_agreement, arbitration, new_proposal, robot_agreement
 from .assistance_config import AssistanceConfig
 from .barrier import clearance_filter
 from .clearance import PathClearance, default_hand
@@ -128,6 +128,7 @@ class Assistance:
         self._v: tuple[NDArray[np.float64], tuple[str, ...]] | None = None
         self._operator: tuple[NDArray[np.float64], float] | None = None
         self._last_output: float | None = None
+        self._serving = ServingMemo()
 
     def set_grasp(self, base_T_grasp: NDArray[np.float64]) -> None:
         """A new planned grasp: valid from now on, and it answers any clarification pending.
@@ -205,8 +206,8 @@ class Assistance:
             return 0.0
         posterior, zone_labels, task_names = self._posterior
         v, labels = self._v
-        return serving_probability(v, labels, task_names, task_set=self._task_set, posterior=posterior,
-                                   zone_labels=zone_labels)
+        return self._serving(v, labels, task_names, task_set=self._task_set, posterior=posterior,
+                             zone_labels=zone_labels)
 
     def alpha(self) -> tuple[float, str]:
         """The arbitration weight now before the operator's agreement, and the robot's phase or why it is 0."""

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from ..errors import GraspIntentError
 from ..method.body import ObjectBody
-from .arbitration import approach_agreement, new_proposal, serving_probability
+from .arbitration import ServingMemo, approach_agreement, new_proposal
 from .assistance import Assistance, Command
 from .robot_twist import assistance_target
 from .scene_target import Follower, FollowRule, object_probabilities
@@ -50,14 +50,16 @@ class ObjectInputs:
     body: ObjectBody | None = None
     agreement: tuple[float, float] = field(default=(1.0, 1.0))
     """Held linear and angular agreement with this grasp's approach target (reset by a grasp beyond the corridor)."""
+    serving_memo: ServingMemo = field(default_factory=ServingMemo, repr=False, compare=False)
+    """:meth:`serving`'s answer kept with its inputs."""
 
     def serving(self) -> float:
         """P(this grasp serves T | w^o): :func:`~.arbitration.serving_probability`; 0 without v or a posterior."""
         if self.v is None or self.posterior is None:
             return 0.0
         posterior, zone_labels, task_names = self.posterior
-        return serving_probability(self.v[0], self.v[1], task_names, task_set=self.task_set, posterior=posterior,
-                                   zone_labels=zone_labels)
+        return self.serving_memo(self.v[0], self.v[1], task_names, task_set=self.task_set, posterior=posterior,
+                                 zone_labels=zone_labels)
 
 
 class ObjectChannel:

@@ -12,6 +12,7 @@ from grasp_intent_ros.method.data import Demonstrations
 from grasp_intent_ros.method.features import MICO_3F
 from grasp_intent_ros.method.intent import DEFAULT_TASKS, all_zones
 from grasp_intent_ros.method.model import GraspModel
+from grasp_intent_ros.mico.kinematics import MicoKinematics
 from grasp_intent_ros.sessions.pairing import Step, load_paired_session
 
 from .fixed_reference import FixedReference
@@ -42,6 +43,12 @@ def demos() -> Demonstrations:
 @pytest.fixture(scope='session')
 def toy_model(demos: Demonstrations) -> GraspModel:
     return GraspModel.fit(demos, name='toy')
+
+
+@pytest.fixture(scope='module')
+def kin() -> MicoKinematics:
+    """The MICO's model from the shipped URDF, one per test module."""
+    return MicoKinematics()
 
 
 @pytest.fixture

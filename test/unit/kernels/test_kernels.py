@@ -1,6 +1,6 @@
 """grasp_intent_ros.kernels: the package's cache handling, and the lexicographic order against numpy's.
 
-The kernels' maths is tested in test_planner.py, test_kinematics.py and test_body.py.
+The kernels' maths is tested in test_planner.py, mico/test_ik.py and test_body.py.
 """
 
 from __future__ import annotations

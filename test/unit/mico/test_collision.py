@@ -20,9 +20,8 @@ from grasp_intent_ros.mico.collision import (
     CollisionFree,
     HandCollision,
     Limits,
-    tracker_margin,
 )
-from grasp_intent_ros.mico.frames import default_base_T_obj, features_to_obj_T_ee, pose_to_matrix
+from grasp_intent_ros.mico.frames import default_base_T_obj, features_to_obj_T_ee
 from grasp_intent_ros.mico.grasp import Grasp, NoReachableGrasp, plan_grasp
 from grasp_intent_ros.mico.grasp_clearance import Table
 from grasp_intent_ros.mico.kinematics import EE_FRAME, MicoKinematics, default_urdf_path
@@ -126,17 +125,6 @@ def test_the_flashlight_s_switch_is_part_of_its_body() -> None:
     switch = FLASHLIGHT.body().primitives[1]
     sd = FLASHLIGHT.body().distance(np.array([[FLASHLIGHT.switch_x, FLASHLIGHT.radius + 0.003, FLASHLIGHT.radius]]))[0]
     assert sd[0] < 0.0 and switch.centre[0] == FLASHLIGHT.switch_x
-
-
-def test_a_table_of_the_base_frame_in_the_object_frame() -> None:
-    base_T_obj = pose_to_matrix((0.3, -0.3, 0.1), (0.0, 0.0, 1.0, 0.0))  # the object 10 cm above the base's plane
-    table = Table.in_object_frame((0.0, 0.0, 2.0, 0.0), base_T_obj)
-    assert_allclose(table.normal, (0.0, 0.0, 1.0), atol=1e-15)
-    assert table.offset == pytest.approx(-0.1)
-    with pytest.raises(KinematicsError, match='4 finite numbers'):
-        Table.in_object_frame((0.0, 0.0, 1.0), base_T_obj)
-    with pytest.raises(KinematicsError, match='non-zero normal'):
-        Table.in_object_frame((0.0, 0.0, 0.0, 1.0), base_T_obj)
 
 
 def test_the_planner_turns_down_grasps_in_collision_and_says_so(hand: HandCollision) -> None:
@@ -262,28 +250,3 @@ def test_the_planner_prefers_the_margin_and_plans_at_the_limits_when_no_grasp_ke
     assert fallback.result.x.tobytes() == plain.result.x.tobytes()
     assert fallback.note.endswith('none with the object margin: planned at the limits')
     assert not plain.note.endswith('planned at the limits')
-
-
-def test_the_tracker_margin_bounds_the_depth_error_of_the_simulated_tracker() -> None:
-    """tracker_margin is the depth sigma of perturb_pose's errors for a contact at the lever arm, across the normal.
-
-    20,000 draws (seeded): a contact at r with normal n moves along n with the formula's sigma for r perpendicular
-    to n at |r| = lever arm (within 3 %), and less for r along n.
-    """
-    from grasp_intent_ros.shared_control.simulator import perturb_pose
-
-    rng = np.random.default_rng(7)
-    position_rms, angle_rms, lever = 0.005, math.radians(3.0), 0.12
-    bound = tracker_margin(position_rms, angle_rms, lever)
-    assert bound == pytest.approx(math.sqrt((position_rms ** 2 + (angle_rms * lever) ** 2) / 3.0), rel=1e-12)
-    n = np.array([0.0, 0.0, 1.0])
-    moves = {'across': [], 'along': []}
-    for _ in range(20_000):
-        T = perturb_pose(np.eye(4), position_rms, angle_rms, rng)
-        moves['across'].append(float((T[:3, :3] @ np.array([lever, 0.0, 0.0]) + T[:3, 3]) @ n))
-        moves['along'].append(float((T[:3, :3] @ (lever * n) + T[:3, 3]) @ n) - lever)
-    assert float(np.std(moves['across'])) == pytest.approx(bound, rel=0.03)
-    assert float(np.std(moves['along'])) < 0.75 * bound
-    assert tracker_margin(0.0, 0.0, 1.0) == 0.0
-    with pytest.raises(KinematicsError):
-        tracker_margin(-0.001, 0.0, 0.1)

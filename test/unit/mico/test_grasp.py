@@ -33,7 +33,7 @@ from grasp_intent_ros.mico.grasp import (
     plan_grasp,
     trajectory_duration,
 )
-from grasp_intent_ros.mico.kinematics import HOME_Q, JOINT_LIMIT_MARGIN, MicoKinematics
+from grasp_intent_ros.mico.kinematics import HOME_Q, JOINT_LIMIT_MARGIN
 from grasp_intent_ros.mico.reachability import Reachability
 from grasp_intent_ros.planning import planner
 from grasp_intent_ros.resources import config_dir
@@ -45,11 +45,6 @@ BASE_T_OBJ = pose_to_matrix((0.3, -0.3, 0.0), (0.0, 0.0, 1.0, 0.0))
 @pytest.fixture(scope='module')
 def cup() -> GraspModel:
     return GraspModel.load(config_dir() / 'models' / 'cup_7zone.yaml')
-
-
-@pytest.fixture(scope='module')
-def kin() -> MicoKinematics:
-    return MicoKinematics()
 
 
 def test_reachable_grasp_is_the_core_plan_with_its_pose_joints_and_timing(cup, kin) -> None:

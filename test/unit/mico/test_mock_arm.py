@@ -21,11 +21,6 @@ from grasp_intent_ros.mico.trajectory import TrajectoryCommand, TrajectoryExecut
 Q0 = np.concatenate([HOME_Q, np.zeros(3)])
 
 
-@pytest.fixture(scope='module')
-def kin() -> MicoKinematics:
-    return MicoKinematics()
-
-
 def command(times, positions, velocities=None, accelerations=None, names=JOINT_NAMES, start=None):
     n = len(times)
     return TrajectoryCommand(tuple(names), np.asarray(times, dtype=float), [list(p) for p in positions],

@@ -44,11 +44,6 @@ def _output(step: Any, topic: str) -> Any:
     return values[-1] if values else None
 
 
-@pytest.fixture(scope='module')
-def kin() -> MicoKinematics:
-    return MicoKinematics()
-
-
 @pytest.mark.parametrize('bag', BAGS, ids=[p.name for p in BAGS])
 def test_every_recorded_plan_is_planned_again_with_v_perturbed_at_the_last_bits(bag: Path,
                                                                                   kin: MicoKinematics) -> None:

@@ -1,4 +1,4 @@
-"""shared_control.assistance, .arbitration, .robot_twist: arbitration, the robot's twist, blending, limits, safety."""
+"""shared_control.assistance: the blend of the operator's and the robot's twists, alpha in it, the safety rules."""
 
 from __future__ import annotations
 
@@ -15,21 +15,15 @@ from grasp_intent_ros.mico.kinematics import BASE_FRAME, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import MockArm, TwistCommand
 from grasp_intent_ros.shared_control.arbitration import (
     arbitration,
-    grasp_task_set,
-    operator_agreement,
-    robot_agreement,
     serving_probability,
 )
 from grasp_intent_ros.shared_control.assistance import Assistance
 from grasp_intent_ros.shared_control.assistance_config import AssistanceConfig
 from grasp_intent_ros.shared_control.limits import TwistLimiter
-from grasp_intent_ros.shared_control.robot_twist import assistance_target, joint_space_twist, keep_pace, robot_twist
+from grasp_intent_ros.shared_control.robot_twist import assistance_target
 
+from .assistance_case import ARGS, GRASP, H, T, U
 from .robot_alone import LABELS, TASKS, assistance_joint_path, robot_alone
-
-GRASP = pose_to_matrix((0.3, -0.3, 0.05), (1.0, 0.0, 0.0, 0.0))  # approach (EE z) straight down
-ARGS = dict(alpha_max=0.9, margin=0.2)
-U, T, H = 1, 2, 4
 
 
 @pytest.mark.parametrize('w, task_set, serving', [
@@ -56,82 +50,6 @@ def test_alpha_is_high_where_the_grasp_serves_every_likely_task(w: tuple[float, 
     straight = np.array([0.0, 0.0, -0.05, 0.0, 0.0, 0.0])  # the grasp is straight below the hand: o = 1
     assistance.set_operator(straight, now=0.0)
     assert assistance.command(0.01).alpha == pytest.approx(0.9 * serving, abs=1e-12)
-
-
-def test_serving_probability_of_a_grasp_that_is_no_demonstration_is_the_models_expectation() -> None:
-    v = np.array([0.5, 0.1, 0.1, 0.1, 0.1, 0.05, 0.05])  # over LABELS: U, T, H, UT, UH, TH, UTH
-    model = ('U', 'T', 'UT', 'UTH')  # a 4-zone model: its posterior names only these
-    e = {'U': 0.5, 'T': 0.1, 'UT': 0.7, 'UTH': 1.0}
-    p = np.array([0.1, 0.2, 0.3, 0.4])
-    expected = sum(pk * e[k] for pk, k in zip(p, model))
-    assert serving_probability(v, LABELS, TASKS, posterior=p, zone_labels=model) == pytest.approx(expected, abs=1e-15)
-    assert serving_probability(v, LABELS, TASKS, task_set=U | T) == pytest.approx(0.7, abs=1e-15)
-    assert serving_probability(v, LABELS, TASKS, posterior=[1.0, 0.0], zone_labels=('U', 'X')) == 0.0
-    assert serving_probability(np.zeros(7), LABELS, TASKS, task_set=U) == 0.0
-    assert serving_probability(v, LABELS, TASKS) == 0.0  # neither a task set nor a posterior
-
-
-def test_the_grasp_task_set_is_the_demonstrations_label() -> None:
-    demo_x = np.array([[0.0, 1.0], [1.0, 1.0], [1.0, 1.0]])
-    sets = np.array([U, T | H, U], dtype=np.int64)
-    scale = np.array([0.5, 2.0])
-    assert grasp_task_set(np.array([1.0, 1.0 + 1e-7]), demo_x, sets, scale) == T | H  # the first of equal ones
-    assert grasp_task_set(np.array([0.5, 1.0]), demo_x, sets, scale) is None  # moved: no label
-
-
-def test_arbitration_rules() -> None:
-    certain, uniform = np.eye(7)[0], np.full(7, 1 / 7)
-    assert arbitration('confidence', certain, 1.0, **ARGS) == pytest.approx(0.9)
-    assert arbitration('confidence', uniform, 1.0, **ARGS) == pytest.approx(0.9)  # v's spread vetoes nothing
-    assert arbitration('confidence', certain, 0.5, **ARGS) == pytest.approx(0.45)
-    assert arbitration('none', certain, 1.0, **ARGS) == 0.0
-    assert arbitration('blend', [0.5, 0.35, 0.15], 0.0, **ARGS) == 0.0  # leads by 0.15 < 0.2
-    assert arbitration('blend', [0.5, 0.25, 0.25], 0.0, **ARGS) == 0.9
-
-
-def test_the_robot_aims_at_the_pre_grasp_then_the_grasp() -> None:
-    pre = pre_grasp(GRASP, 0.08)
-    assert_allclose(pre[:3, 3], [0.3, -0.3, 0.13], atol=1e-15)  # 8 cm back up the approach axis
-    kw = dict(standoff=0.08, corridor_radius=0.02, corridor_angle=0.2)
-    side = pose_to_matrix((0.4, -0.3, 0.05), (1.0, 0.0, 0.0, 0.0))
-    assert assistance_target(side, GRASP, **kw)[1] == 'pre-grasp'  # beside the object
-    above = pose_to_matrix((0.305, -0.3, 0.12), (1.0, 0.0, 0.0, 0.0))
-    assert assistance_target(above, GRASP, **kw)[1] == 'grasp'  # in the corridor
-    tilted = pose_to_matrix((0.305, -0.3, 0.12), (math.sin(0.2), 0.0, 0.0, math.cos(0.2)))  # 0.4 rad off
-    assert assistance_target(tilted, GRASP, **kw)[1] == 'pre-grasp'
-    below = pose_to_matrix((0.3, -0.3, 0.035), (1.0, 0.0, 0.0, 0.0))  # past the grasp
-    assert assistance_target(below, GRASP, **kw)[1] == 'grasp'  # within the radius of the grasp
-
-
-def test_the_robot_twist_is_proportional_and_bounded() -> None:
-    hand = pose_to_matrix((0.3, -0.3, 0.10), (1.0, 0.0, 0.0, 0.0))
-    twist = robot_twist(hand, GRASP, gain_linear=2.0, gain_angular=2.0, max_linear=0.15, max_angular=0.8)
-    assert_allclose(twist, [0.0, 0.0, -0.10, 0.0, 0.0, 0.0], atol=1e-15)
-    far = pose_to_matrix((0.0, 0.0, 0.5), (0.0, 0.0, 0.0, 1.0))
-    twist = robot_twist(far, GRASP, gain_linear=2.0, gain_angular=2.0, max_linear=0.15, max_angular=0.8)
-    assert np.linalg.norm(twist[:3]) == pytest.approx(0.15) and np.linalg.norm(twist[3:]) == pytest.approx(0.8)
-    error = pose_error(far, GRASP)  # the twist points along the error
-    assert_allclose(twist[:3] / 0.15, error[:3] / np.linalg.norm(error[:3]), atol=1e-12)
-    # integrating the rotation part takes the hand's orientation to the grasp's
-    import pinocchio as pin
-    R = far[:3, :3]
-    for _ in range(2000):
-        w = robot_twist(np.r_[np.c_[R, far[:3, 3]], [[0, 0, 0, 1]]], GRASP, gain_linear=2.0, gain_angular=2.0,
-                        max_linear=0.15, max_angular=0.8)[3:]
-        R = pin.exp3(w * 0.01) @ R
-    assert_allclose(R, GRASP[:3, :3], atol=1e-9)
-
-
-def test_limits_bound_speed_and_acceleration_and_never_pass_a_nan() -> None:
-    limiter = TwistLimiter(0.2, 1.0, 1.0, 5.0)
-    out = limiter.limit(np.array([1.0, 0, 0, 0, 0, 10.0]), 0.01)
-    assert_allclose(out, [0.01, 0, 0, 0, 0, 0.05], atol=1e-15)  # acceleration-limited from rest
-    for _ in range(100):
-        out = limiter.limit(np.array([1.0, 0, 0, 0, 0, 10.0]), 0.01)
-    assert_allclose(out, [0.2, 0, 0, 0, 0, 1.0], atol=1e-15)  # speed-limited
-    out = limiter.limit(np.array([1.0, 0, 0, 0, 0, 10.0]), 5.0)  # a gap grants max_dt only
-    assert np.all(np.isfinite(limiter.limit(np.full(6, np.nan), 0.01)))
-    assert_allclose(limiter.stop(), 0.0, atol=0)
 
 
 def make_assistance(**config: object) -> Assistance:
@@ -167,21 +85,6 @@ def test_the_blend_and_the_safety_rules() -> None:
     assert assistance.command(1.02).alpha == pytest.approx(alpha)
 
 
-def test_keeping_pace_raises_the_robots_twist_to_the_operators_speed_along_its_direction() -> None:
-    kw = dict(deadband_linear=0.01, deadband_angular=0.05)
-    operator = np.r_[0.0, 0.12, 0.0, 0.0, 0.0, 0.0]  # a joystick translating: no rotation
-    against = np.r_[0.03, -0.15, 0.0, 0.4, 0.0, 0.8]  # the joint path's image, against the operator's translation
-    paced = keep_pace(against, operator, **kw)
-    assert_allclose(paced, [0.03, 0.12, 0.0, 0.4, 0.0, 0.8], atol=1e-15)  # across kept; the turn kept (no input)
-    for alpha in (0.0, 0.4, 0.9):  # the blend keeps the operator's speed along its direction, whatever alpha
-        assert (alpha * paced + (1.0 - alpha) * operator)[1] == pytest.approx(0.12, abs=1e-15)
-    faster = np.r_[0.0, 0.15, 0.02, 0.0, 0.0, 0.0]
-    assert_allclose(keep_pace(faster, operator, **kw), faster, atol=0)  # already ahead: unchanged
-    turning = np.r_[0.0, 0.0, 0.0, 0.0, 0.0, -0.5]  # a turn against the robot's: the angular part alone raised
-    assert_allclose(keep_pace(against, turning, **kw), [0.03, -0.15, 0.0, 0.4, 0.0, -0.5], atol=1e-15)
-    assert_allclose(keep_pace(against, np.r_[0.0, 0.005, 0.0, 0.0, 0.0, 0.04], **kw), against, atol=0)  # deadbands
-
-
 @pytest.mark.parametrize('pace', [False, True])
 def test_keep_pace_lets_the_blend_never_slow_the_operator(pace: bool) -> None:
     assistance = make_assistance(keep_pace=pace)
@@ -191,28 +94,6 @@ def test_keep_pace_lets_the_blend_never_slow_the_operator(pace: bool) -> None:
     assert command.alpha == pytest.approx(0.9)  # the arbitration is unchanged
     assert command.twist[2] == pytest.approx(-0.3 if pace else -(0.9 * 0.15 + 0.1 * 0.3), abs=1e-12)
     assert AssistanceConfig().keep_pace is False  # off by default: the blend as published
-
-
-def test_the_agreement_with_the_robots_twist_is_the_cosine_faded_out_below_the_deadbands() -> None:
-    kw = dict(deadband_linear=0.01, deadband_angular=0.05)
-    operator = np.r_[0.0, 0.12, 0.0, 0.0, 0.0, 0.0]  # a joystick translating: no rotation
-    assert robot_agreement(operator, np.r_[0.0, -0.15, 0.0, 0.0, 0.0, 0.8], **kw) == 0.0  # against: the operator alone
-    assert robot_agreement(operator, np.r_[0.15, 0.0, 0.0, 0.4, 0.0, 0.8], **kw) == 0.0  # at right angles: alone too
-    assert robot_agreement(operator, np.r_[0.0, 0.15, 0.0, 0.4, 0.0, 0.8], **kw) == 1.0  # its way: alpha unchanged
-    oblique = np.r_[0.1, 0.1, 0.0, 0.0, 0.0, 0.0]
-    assert robot_agreement(operator, oblique, **kw) == pytest.approx(0.5**0.5, abs=1e-15)  # cos 45 deg
-    turning = np.r_[0.0, 0.0, 0.0, 0.0, 0.0, 0.3]  # a turn against the robot's, no translation: the angular part's
-    assert robot_agreement(turning, np.r_[0.0, -0.15, 0.0, 0.0, 0.0, -0.8], **kw) == 0.0
-    assert robot_agreement(np.zeros(6), np.r_[0.0, -0.15, 0.0, 0.0, 0.0, -0.8], **kw) == 1.0  # zero h: unchanged
-    assert robot_agreement(operator, np.zeros(6), **kw) == 1.0  # zero r: unchanged
-    # below a deadband the disagreement fades out linearly: continuous, no threshold for a last bit to cross
-    assert robot_agreement(operator, np.r_[0.0, -0.005, 0.0, 0.0, 0.0, 0.0], **kw) == pytest.approx(0.5, abs=1e-15)
-    assert robot_agreement(np.r_[0.0, 0.0025, 0.0, 0.0, 0.0, 0.0], np.r_[0.0, -0.15, 0.0, 0.0, 0.0, 0.0],
-                           **kw) == pytest.approx(0.75, abs=1e-15)
-    edge = np.r_[0.0, -0.01, 0.0, 0.0, 0.0, 0.0]
-    for bit in (-1.0, 1.0):
-        near = robot_agreement(operator, np.nextafter(edge, bit), **kw)
-        assert near == pytest.approx(0.0, abs=1e-12)
 
 
 @pytest.mark.parametrize('agree', [False, True])
@@ -242,19 +123,6 @@ def test_no_assistance_without_a_grasp_or_a_hand(missing: str, phase: str) -> No
     command = assistance.command(0.01)
     assert command.alpha == 0.0 and command.phase == phase and not np.any(command.twist)
     assert make_assistance(arbitration='none').alpha() == (0.0, 'direct teleoperation')
-
-
-def test_operator_agreement_lets_the_operator_take_the_control_back() -> None:
-    kw = dict(deadband_linear=0.01, deadband_angular=0.05)
-    robot = np.array([0.1, 0.0, 0.0, 0.0, 0.0, 0.5])
-    assert operator_agreement(np.zeros(6), robot, **kw) == (None, None)  # holding still: no evidence
-    assert operator_agreement(np.r_[0.005, 0, 0, 0, 0, 0], -robot, **kw) == (None, None)  # within the deadband
-    assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, 0], robot, **kw) == (pytest.approx(1.0), None)
-    assert operator_agreement(np.r_[0, 0.05, 0, 0, 0, 0], robot, **kw)[0] == pytest.approx(0.0)  # at right angles
-    assert operator_agreement(np.r_[-0.05, 0, 0, 0, 0, 0], robot, **kw)[0] == pytest.approx(0.0)  # against it
-    assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, -0.2], robot, **kw) == (pytest.approx(1.0), pytest.approx(0.0))
-    assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, 0], np.zeros(6), **kw) == (None, None)  # the robot holds
-    assert operator_agreement(np.r_[1e308, -1e308, 0, 0, 0, 0], robot, **kw)[0] == pytest.approx(0.5**0.5)
 
 
 @pytest.mark.parametrize('degrees', [0.0, 30.0, 60.0, 80.0, 90.0, 135.0])
@@ -409,19 +277,6 @@ def test_no_robot_motion_without_operator_input(assist_without_input: bool) -> N
     else:
         assert all(c.alpha == 0.0 and c.phase == 'no operator input' for c in outputs)
         assert_allclose(outputs[-1].twist, within, atol=1e-15)  # the operator's own (tiny) twist, nothing more
-
-
-def test_the_joint_space_twist_is_the_hands_motion_under_the_joint_motion() -> None:
-    kin = MicoKinematics()
-    q = np.radians([244.0, 233.0, 62.0, 192.0, 50.0, 125.0])
-    step = np.radians([1.0, -2.0, 0.5, 3.0, -1.0, 2.0]) * 1e-2
-    jacobian = kin.jacobian(q)
-    assert_allclose(joint_space_twist(jacobian, q, q + step, gain=2.0, max_linear=0.15, max_angular=0.8),
-                    jacobian @ (2.0 * step), atol=1e-15)
-    far = joint_space_twist(jacobian, q, q + 100 * step, gain=2.0, max_linear=0.01, max_angular=0.02)
-    assert np.linalg.norm(far[:3]) == pytest.approx(0.01, abs=1e-15)
-    assert np.linalg.norm(far[3:]) == pytest.approx(0.02, abs=1e-15)
-    assert_allclose(far[:3] / 0.01, (jacobian @ step)[:3] / np.linalg.norm((jacobian @ step)[:3]), atol=1e-12)
 
 
 def _unit(q: tuple[float, ...]) -> tuple[float, ...]:

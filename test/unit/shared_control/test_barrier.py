@@ -21,11 +21,6 @@ PERIOD = 0.01
 """s: the output's period (100 Hz)."""
 
 
-@pytest.fixture(scope='module')
-def kin() -> MicoKinematics:
-    return MicoKinematics()
-
-
 def _ahead(kin: MicoKinematics, distance: float = 0.15) -> tuple[NDArray[np.float64], NDArray[np.float64],
                                                                  PathClearance]:
     """The hand at Home, its approach axis (EE z, base frame) and CUP ``distance`` m ahead of it along that axis."""

@@ -22,11 +22,6 @@ STEP = np.array([-0.034, -0.544, 0.375, -0.618, -0.174, 0.027])
 """From Home, a joint line whose hand passes 5 cm deep through CUP centred at the line's middle hand pose."""
 
 
-@pytest.fixture(scope='module')
-def kin() -> MicoKinematics:
-    return MicoKinematics()
-
-
 def _on_the_way(kin: MicoKinematics, q0: NDArray[np.float64], q1: NDArray[np.float64]) -> NDArray[np.float64]:
     """The object pose that puts CUP's centre at the hand of the line's midpoint (upright, base-aligned)."""
     base_T_obj = np.eye(4)

@@ -14,7 +14,6 @@ from pathlib import Path
 
 import held_search
 import numpy as np
-import pytest
 from numpy.testing import assert_allclose
 from numpy.typing import NDArray
 
@@ -36,11 +35,6 @@ END_TIMEOUT = 60.0
 """Seconds a test that asserts the worker's clean end (exit code 0) lets it take: the node's 1 s kills a process
 that a loaded machine keeps from ending in time."""
 """The operator's twist: no input (the tests' assistance assists without input)."""
-
-
-@pytest.fixture(scope='module')
-def kin() -> MicoKinematics:
-    return MicoKinematics()
 
 
 class Held:

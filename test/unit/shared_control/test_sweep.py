@@ -22,11 +22,6 @@ ANCHOR_Q = HOME_Q + np.array([0.0, 0.3, 0.0, 0.0, 0.0, 0.0])
 """The arm's joints at that grasp (the object is placed so): every path below has an IK near them."""
 
 
-@pytest.fixture(scope='module')
-def kin() -> MicoKinematics:
-    return MicoKinematics()
-
-
 def _joints(kin: MicoKinematics, base_T_ees: list[np.ndarray]) -> list[np.ndarray]:
     """The arm's joints along hand poses (IK, each seeded with the previous; the first with ANCHOR_Q)."""
     q, out = ANCHOR_Q.copy(), []
