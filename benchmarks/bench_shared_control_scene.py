@@ -62,6 +62,9 @@ The episodes
 - The mock arm at a joint limit: each joint clipped on its own, the mock arm node's default;
   ``--twist-joint-limit stop`` stops the arm's twist step as a whole there
   (:class:`~grasp_intent_ros.mico.mock_arm.MockArm`'s ``twist_joint_limit``).
+- The suite's assistance: the node's defaults; ``--assist-idle-part`` sets its ``assist_idle_part`` (the robot's
+  share alpha_max in the part the operator leaves idle, docs/shared_control.md, "The part the operator leaves
+  idle").
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   poses, the intent, its noise and the errors are the episode's).
 
@@ -115,6 +118,7 @@ from bench_shared_control_sim import (
 from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.mock_arm import TWIST_JOINT_LIMITS
 from grasp_intent_ros.objects.judge import judge_scene
+from grasp_intent_ros.shared_control.assistance_config import AssistanceConfig
 from grasp_intent_ros.shared_control.operators import OperatorConstants, ScriptedOperator
 from grasp_intent_ros.shared_control.scene_estimator import SceneEstimator
 from grasp_intent_ros.shared_control.scene_simulator import (
@@ -218,16 +222,18 @@ class SceneTask:
     conditions: tuple[str, ...] = SCENE_CONDITIONS
     execute: bool = True
     twist_joint_limit: str = 'clip'
+    assist_idle_part: bool = False
 
 
 def run_settings(task: SceneTask) -> dict[str, Any]:
     """The run's settings, which every record carries as ``run``.
 
-    The mock arm's ``twist_joint_limit`` only when not ``'clip'``: records of the default carry the settings records
-    carried before the option.
+    The mock arm's ``twist_joint_limit`` only when not ``'clip'``, the assistance's ``assist_idle_part`` only when
+    set: records of the defaults carry the settings records carried before the options.
     """
     limit = {} if task.twist_joint_limit == 'clip' else {'twist_joint_limit': task.twist_joint_limit}
-    return {**{name: getattr(task, name) for name in (*EPISODE_SETTINGS, 'execute')}, **limit}
+    return {**{name: getattr(task, name) for name in (*EPISODE_SETTINGS, 'execute')}, **limit,
+            **({'assist_idle_part': True} if task.assist_idle_part else {})}
 
 
 def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
@@ -260,6 +266,7 @@ def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
             ep = simulate_scene(objects, condition, intent, operator, intent_rng, closure_rng,  # type: ignore[arg-type]
                                 plan_caches=caches, timeout=task.timeout, execute=task.execute,
                                 twist_joint_limit=task.twist_joint_limit,
+                                config=AssistanceConfig(assist_idle_part=task.assist_idle_part),
                                 estimator=estimator if condition in ESTIMATOR_CONDITIONS else None)
             verdict = None if ep.hand is None else judge_scene(
                 [(o.scene.model, o.scene.base_T_obj_true) for o in objects], true, ep.task_set, ep.hand,
@@ -403,6 +410,8 @@ def main() -> None:
                         'it is instead of executing the followed object\'s plan')
     parser.add_argument('--twist-joint-limit', default='clip', choices=TWIST_JOINT_LIMITS, help='the mock arm\'s '
                         'rule for a twist at a joint limit: clip each joint, or stop the arm as a whole')
+    parser.add_argument('--assist-idle-part', action='store_true', help='the suite\'s assistance takes the part '
+                        'the operator leaves idle with alpha_max (AssistanceConfig.assist_idle_part; default: off)')
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
@@ -416,7 +425,7 @@ def main() -> None:
     tasks = [SceneTask(op, i, args.seed, args.repeats, args.timeout, args.tracker_mm, args.tracker_deg,
                        args.operator_mm, args.operator_deg, args.favoured,
                        tuple(c for c in ALL_SCENE_CONDITIONS if c in args.conditions), not args.no_execute,
-                       args.twist_joint_limit)
+                       args.twist_joint_limit, args.assist_idle_part)
              for i in range(args.episodes) for op in args.operators]
     print(f'bench_shared_control_scene: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
           f'conditions; {uptime()}', flush=True)

@@ -47,7 +47,9 @@ The episodes
   the operator's speed along the operator's direction, docs/shared_control.md, "Keeping the operator's pace") in
   every condition that assists with it (the suite, the independent-task grasp, estimated and fused w);
   ``--robot-agreement`` sets its ``robot_agreement`` (alpha also times the operator's agreement with the robot's
-  own twist, docs/shared_control.md, "Agreeing with the robot's twist") in the same conditions.
+  own twist, docs/shared_control.md, "Agreeing with the robot's twist") in the same conditions;
+  ``--assist-idle-part`` its ``assist_idle_part`` (the robot's share alpha_max in the part the operator leaves idle,
+  docs/shared_control.md, "The part the operator leaves idle").
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   intent, its noise and the tracker error are the episode's).
 
@@ -206,6 +208,8 @@ class Task:
     """The suite's assistance with ``keep_pace`` (module docstring); False: its defaults."""
     robot_agreement: bool = False
     """The suite's assistance with ``robot_agreement`` (module docstring); False: its defaults."""
+    assist_idle_part: bool = False
+    """The suite's assistance with ``assist_idle_part`` (module docstring); False: its defaults."""
 
 
 EPISODE_SETTINGS = ('seed', 'intent', 'timeout', 'tracker_mm', 'tracker_deg', 'operator_mm', 'operator_deg')
@@ -219,14 +223,15 @@ def run_settings(task: Task) -> dict[str, Any]:
 
     :data:`EPISODE_SETTINGS`, then the loop's: the grasp command executing, the planner's execution noise and
     object margin, the estimator's fields set, the mock arm's ``twist_joint_limit`` when it is not ``'clip'`` and
-    ``keep_pace`` and ``robot_agreement`` when set (runs of the defaults carry no such keys, as the records written
-    before them).
+    ``keep_pace``, ``robot_agreement`` and ``assist_idle_part`` when set (runs of the defaults carry no such keys,
+    as the records written before them).
     """
     limit = {} if task.twist_joint_limit == 'clip' else {'twist_joint_limit': task.twist_joint_limit}
     return {**{name: getattr(task, name) for name in EPISODE_SETTINGS}, 'execute': task.execute,
             'execution_noise': task.execution_noise, 'margin_sigmas': task.margin_sigmas,
             'estimator': dict(task.estimator), **limit, **({'keep_pace': True} if task.keep_pace else {}),
-            **({'robot_agreement': True} if task.robot_agreement else {})}
+            **({'robot_agreement': True} if task.robot_agreement else {}),
+            **({'assist_idle_part': True} if task.assist_idle_part else {})}
 
 
 def read_records(path: str) -> list[dict[str, Any]]:
@@ -299,7 +304,8 @@ def run_task(task: Task) -> list[dict[str, Any]]:
                           closure_rng, ada_goals=ada_goals, plan_cache=cache, timeout=task.timeout,
                           estimator=estimator if estimated else None, classifier_prior=condition == FUSED,
                           execute=task.execute, trace=trace, config=AssistanceConfig(keep_pace=task.keep_pace,
-                                                                  robot_agreement=task.robot_agreement),
+                                                                  robot_agreement=task.robot_agreement,
+                                                                  assist_idle_part=task.assist_idle_part),
                           twist_joint_limit=task.twist_joint_limit)
             true_set = ep.task_set
             verdict = None if ep.hand is None else judge(model, scene.base_T_obj_true, ep.hand, ep.closures)
@@ -473,6 +479,8 @@ def main() -> None:
     parser.add_argument('--robot-agreement', action='store_true', help='the suite\'s assistance lowers alpha by '
                         'the operator\'s agreement with the robot\'s own twist (AssistanceConfig.robot_agreement; '
                         'default: off)')
+    parser.add_argument('--assist-idle-part', action='store_true', help='the suite\'s assistance takes the part the '
+                        'operator leaves idle with alpha_max (AssistanceConfig.assist_idle_part; default: off)')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--json', help='write every record and the summaries here')
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
@@ -499,7 +507,8 @@ def main() -> None:
                   tuple(c for c in RUN if c in args.conditions), not args.no_execute, not args.exact_landing,
                   estimator_fields(args.estimator), operator_mm=args.operator_mm, operator_deg=args.operator_deg,
                   margin_sigmas=args.margin_sigmas, keep_pace=args.keep_pace,
-                  robot_agreement=args.robot_agreement, twist_joint_limit=args.twist_joint_limit)
+                  robot_agreement=args.robot_agreement, assist_idle_part=args.assist_idle_part,
+                  twist_joint_limit=args.twist_joint_limit)
              for i in range(args.episodes) for o in args.objects for op in args.operators]  # cells fill evenly
     print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '
           f'conditions, intent {args.intent}; {uptime()}', flush=True)

@@ -42,6 +42,14 @@ the robot's twist running against the operator's (:mod:`.robot_twist`, "Keeping 
 also multiplied by the operator's agreement with the robot's own twist (per part max(cos, 0), faded out below the
 deadbands; the smaller part's), so where the robot's twist runs against the operator's the operator moves alone at
 full speed, and where it goes the operator's way the robot helps.
+
+**The part the operator leaves idle** (``assist_idle_part``, off by default; :func:`part_shares`). A two-mode
+device (a joystick that translates or rotates, never both) leaves one part at zero while it moves the other. There
+the blend has nothing to weigh: ``alpha r + (1 - alpha) 0`` only slows the robot. With ``assist_idle_part`` the
+robot's share in a part the operator leaves within its deadband, while it moves the other, is ``alpha_max``
+whenever alpha > 0 (the robot assists at all: not yielded, a grasp, an intent); in the part the operator moves it
+stays alpha. The operator takes the idle part back by moving it (its agreement is measured there, and opposition
+yields as ever); no input at all is still no motion.
 """
 
 from __future__ import annotations
@@ -63,7 +71,7 @@ if TYPE_CHECKING:
     from .assistance_config import AssistanceConfig
 
 __all__ = ['Arbitration', 'ARBITRATIONS', 'serving_probability', 'ServingMemo', 'grasp_task_set', 'arbitration',
-           'operator_agreement', 'robot_agreement', 'approach_agreement', 'new_proposal']
+           'part_shares', 'operator_agreement', 'robot_agreement', 'approach_agreement', 'new_proposal']
 
 Arbitration = Literal['confidence', 'blend', 'none']
 ARBITRATIONS: tuple[str, ...] = typing.get_args(Arbitration)
@@ -174,6 +182,21 @@ def arbitration(rule: Arbitration, v: ArrayLike, serving: float, *, alpha_max: f
         lead = float(top[0] - (top[1] if top.size > 1 else 0.0)) / float(top.sum())
         return alpha_max if lead >= margin else 0.0
     return alpha_max * min(max(serving, 0.0), 1.0)
+
+
+def part_shares(alpha: float, operator: NDArray[np.float64], *, alpha_max: float, deadband_linear: float,
+                deadband_angular: float) -> NDArray[np.float64]:
+    """The robot's share of each component of the command under ``assist_idle_part`` (module docstring); shape (6,).
+
+    ``alpha`` in the components of a part (linear, angular) the operator moves faster than its deadband (m/s,
+    rad/s); ``alpha_max`` in those of a part it leaves within it while it moves the other, when ``alpha`` > 0.
+    ``alpha`` everywhere when ``alpha`` is 0 or the operator moves both parts or neither.
+    """
+    idle = (norm(operator[:3]) <= deadband_linear, norm(operator[3:]) <= deadband_angular)
+    shares = np.full(6, alpha)
+    if alpha > 0.0 and idle[0] != idle[1]:
+        shares[slice(0, 3) if idle[0] else slice(3, 6)] = alpha_max
+    return shares
 
 
 def operator_agreement(operator: NDArray[np.float64], robot: NDArray[np.float64], *, deadband_linear: float,

@@ -40,7 +40,7 @@ from ..method.body import ObjectBody
 from ..method.intent import all_zones, default_task_names, zone_labels
 from ..mico.collision import HandCollision
 from ..mico.kinematics import HOME_Q, MicoKinematics
-from .arbitration import ServingMemo, approach_agreement, arbitration, new_proposal, robot_agreement
+from .arbitration import ServingMemo, approach_agreement, arbitration, new_proposal, part_shares, robot_agreement
 from .assistance_config import AssistanceConfig
 from .barrier import clearance_filter
 from .clearance import PathClearance, default_hand
@@ -52,8 +52,9 @@ from .robot_twist import assistance_target, joint_space_twist, keep_pace, robot_
 __all__ = ['blend', 'Command', 'Assistance', 'warm_up']
 
 
-def blend(alpha: float, robot: NDArray[np.float64], operator: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The blended twist alpha * robot + (1 - alpha) * operator."""
+def blend(alpha: float | NDArray[np.float64], robot: NDArray[np.float64],
+          operator: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The blended twist alpha * robot + (1 - alpha) * operator (alpha a number, or one share per component)."""
     return alpha * robot + (1.0 - alpha) * operator
 
 
@@ -275,7 +276,9 @@ class Assistance:
                 alpha, robot, phase = (0.0, robot, 'seeking a path') if twist is None else (alpha, twist, phase)
             else:
                 phase = 'yielded to the operator' if self.yielded else phase
-        twist = self.limiter.limit(blend(alpha, robot, operator), dt)
+        shares = (part_shares(alpha, operator, alpha_max=cfg.alpha_max, deadband_linear=cfg.deadband_linear,
+                              deadband_angular=cfg.deadband_angular) if cfg.assist_idle_part else alpha)
+        twist = self.limiter.limit(blend(shares, robot, operator), dt)
         if self.clearance is not None and self.base_T_ee is not None and cfg.arbitration != 'none':
             twist = self.limiter.last = clearance_filter(self.clearance, self.base_T_ee, twist)  # the limiter's last
         return Command(twist.copy(), alpha, phase)

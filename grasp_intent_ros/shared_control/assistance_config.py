@@ -41,6 +41,10 @@ class AssistanceConfig:
         Whether alpha is also multiplied by the operator's agreement with the robot's own twist (the one blended,
         after ``keep_pace``) (:func:`~.arbitration.robot_agreement`; :mod:`.arbitration`). Default False: alpha
         as is.
+    assist_idle_part : bool
+        Whether the robot's share in a part (linear, angular) the operator leaves within its deadband while moving
+        the other is ``alpha_max`` rather than alpha, when alpha > 0 (:func:`~.arbitration.part_shares`;
+        :mod:`.arbitration`). Default False: alpha in both parts.
     operator_timeout : float
         An operator twist older than this gives the zero twist.
     clearance_margin : float
@@ -64,5 +68,6 @@ class AssistanceConfig:
     assist_without_input: bool = False
     keep_pace: bool = False
     robot_agreement: bool = False
+    assist_idle_part: bool = False
     operator_timeout: float = 0.1
     clearance_margin: float = 0.0

@@ -91,6 +91,9 @@ ASSISTANCE = (
     ParamSpec('robot_agreement', _ASSIST.robot_agreement, "Whether alpha is also multiplied by the operator's "
               "agreement with the robot's own twist (per part max(cos, 0), faded out below the deadbands; the "
               "smaller part's): where the robot's twist runs against the operator's, the operator moves alone."),
+    ParamSpec('assist_idle_part', _ASSIST.assist_idle_part, "Whether the robot's share in a part (linear, angular) "
+              'the operator leaves idle (within its deadband) while moving the other is alpha_max rather than alpha '
+              '(a two-mode device: the robot turns the hand while the operator translates).'),
     ParamSpec('operator_timeout', _ASSIST.operator_timeout, 'Operator twist age (s) from which the output is '
               'the zero twist (MoveIt Servo: incoming_command_timeout).', range=(0.001, 10.0)),
     ParamSpec('clearance_margin', _ASSIST.clearance_margin, "m: how far beyond the planner's collision limits the "
@@ -139,6 +142,9 @@ ESTIMATOR = (
     ParamSpec('calibration_offsets', [], 'b of the map of each of calibration_models.', item_type=float),
     ParamSpec('publish_period', 0.04, 'Time between two w while the operator moves, s.', range=(0.001, 1.0),
               read_only=True),
+    ParamSpec('assist_idle_part', _ASSIST.assist_idle_part, "Whether the robot's share in a part (linear, angular) "
+              'the operator leaves idle (within its deadband) while moving the other is alpha_max rather than alpha '
+              '(a two-mode device: the robot turns the hand while the operator translates).'),
     ParamSpec('operator_timeout', 0.1, 'Operator twist age (s) after which the operator counts as still (no w '
               'published).', range=(0.001, 10.0)),
     *OBJECT_POSE[:2],

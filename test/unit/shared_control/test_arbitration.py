@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from numpy.testing import assert_array_equal
 
 from grasp_intent_ros.shared_control.arbitration import (
     ServingMemo,
     arbitration,
     grasp_task_set,
     operator_agreement,
+    part_shares,
     robot_agreement,
     serving_probability,
 )
@@ -112,3 +114,16 @@ def test_operator_agreement_lets_the_operator_take_the_control_back() -> None:
     assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, -0.2], robot, **kw) == (pytest.approx(1.0), pytest.approx(0.0))
     assert operator_agreement(np.r_[0.05, 0, 0, 0, 0, 0], np.zeros(6), **kw) == (None, None)  # the robot holds
     assert operator_agreement(np.r_[1e308, -1e308, 0, 0, 0, 0], robot, **kw)[0] == pytest.approx(0.5**0.5)
+
+
+def test_the_part_the_operator_leaves_idle_gets_alpha_max() -> None:
+    bands = dict(alpha_max=0.9, deadband_linear=0.01, deadband_angular=0.05)
+    translating = np.r_[0.05, 0.0, 0.0, 0.0, 0.0, 0.04]  # the angular part within its deadband
+    assert_array_equal(part_shares(0.3, translating, **bands), [0.3, 0.3, 0.3, 0.9, 0.9, 0.9])
+    turning = np.r_[0.0, 0.01, 0.0, 0.0, 0.2, 0.0]  # the linear part at its deadband: idle
+    assert_array_equal(part_shares(0.3, turning, **bands), [0.9, 0.9, 0.9, 0.3, 0.3, 0.3])
+    both = np.r_[0.05, 0.0, 0.0, 0.0, 0.2, 0.0]
+    neither = np.r_[0.005, 0.0, 0.0, 0.0, 0.02, 0.0]
+    for h in (both, neither):
+        assert_array_equal(part_shares(0.3, h, **bands), np.full(6, 0.3))  # nothing to take over
+    assert_array_equal(part_shares(0.0, translating, **bands), np.zeros(6))  # no help at all: none in the idle part
