@@ -27,9 +27,12 @@ a reliability diagram. The targets (the README's row "intent from the operator's
 Brier score <= 0.15 and a calibration error <= 0.1 (the prior's Brier score: 0.25); the method and the figures
 measured: docs/intent_estimation.md, "Calibration (bench_intent_estimation)".
 
-``--compare FIELD=VALUE ...`` also scores an estimator with those settings (the rest as the defaults') on the same
-reaches: its Brier score and calibration error, and the paired Brier difference of the defaults minus it; e.g. a
-candidate default, or a calibration map (``calibration_slope=1.4 calibration_offset=-0.09``).
+The estimator's settings are the node's defaults for the object's model
+(:func:`~grasp_intent_ros.shared_control.parameters.default_estimator_config`: with its calibration map if the
+defaults list one). ``--compare FIELD=VALUE ...`` also scores an estimator with those settings (the rest as the
+defaults') on the same reaches: its Brier score and calibration error, and the paired Brier difference of the
+defaults minus it; e.g. a candidate default, a calibration map (``calibration_slope=1.4 calibration_offset=-0.09``)
+or none (``calibration_slope=1 calibration_offset=0``).
 
 ``--fit`` searches the estimator's rationality and memory on training seeds (``--seed`` + 100), both devices
 (``--device`` is ignored), and prints the grid of both devices' scores and their mean, and the point whose mean
@@ -69,6 +72,7 @@ from grasp_intent_ros.shared_control.calibration import calibrate, fit_calibrati
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator
 from grasp_intent_ros.shared_control.goals import goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import Device, OperatorConstants, ScriptedOperator, SharpeningIntent
+from grasp_intent_ros.shared_control.parameters import default_estimator_config
 
 FRACTIONS = (0.25, 0.5, 0.75)
 BETAS = (30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0)
@@ -213,8 +217,11 @@ def ci95(diff: np.ndarray, rng: np.random.Generator) -> tuple[float, float]:
     return float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
 
 
-def estimator_for(name: str, kin: MicoKinematics, config: EstimatorConfig) -> IntentEstimator:
+def estimator_for(name: str, kin: MicoKinematics, config: EstimatorConfig | None = None) -> IntentEstimator:
+    """Object ``name``'s estimator at :data:`BASE_T_OBJ` (its reachable goals), ``config`` or the node's defaults."""
     model = load_model(name)
+    if config is None:
+        config = default_estimator_config(model.name)
     return IntentEstimator(goals_at(model, BASE_T_OBJ, reachable_goals(model, BASE_T_OBJ, kin)), config)
 
 
@@ -373,13 +380,13 @@ def main() -> None:
     curves = {}
     for name in args.objects:
         runs = reaches(name, args.seed, args.operators, args.goals, kin, op, args.timeout, args.device)
-        estimator = estimator_for(name, kin, EstimatorConfig())
+        estimator = estimator_for(name, kin)
         timings: list[tuple[float, float]] = []
         est = estimates(runs, estimator, timings)
         prior = IntentEstimator(estimator.goals, estimator.config).w
         report(name, runs, est, scripted_at(runs), prior)
         if args.compare:
-            other = IntentEstimator(estimator.goals, EstimatorConfig(**dict(estimator_fields(args.compare))))
+            other = IntentEstimator(estimator.goals, replace(estimator.config, **dict(estimator_fields(args.compare))))
             compare(runs, est, estimates(runs, other), ' '.join(args.compare))
         t = np.array(timings) * 1e3
         print(f'one update, {len(estimator.goals)} goals ({len(t)} updates): wall median {np.median(t[:, 0]):.3f} ms, '

@@ -48,14 +48,15 @@ The episodes
   assistance over several objects, P(o) from the script, the hysteresis's defaults), ``top_object`` (the suite's
   assistance on the top object's grasp alone, chosen at the first report, never switching), ``estimated`` (the
   suite, with P(o) and every w^o from the intent estimator over the objects,
-  :class:`~grasp_intent_ros.shared_control.scene_estimator.SceneEstimator`, its default settings, fed the
-  operator's own twist before blending and each object's shown grasp; each object's goals: its model's
-  demonstrations at the tracked object that the arm reaches from Home, as the node prepares them,
-  :func:`scene_estimator`; the script's P(o) and w^o are not used, only the true object and its true set, which the
-  operator pursues and the judge reads). Under the suite's assistance a close on the shown grasp executes the
-  followed object's newest plan (the simulator's docstring). Not run by default: ``estimated_objects`` (P(o) from
-  the estimator, each w^o the script's) and ``estimated_tasks`` (each w^o from the estimator, P(o) the script's),
-  ``estimated`` split into its two sources (the scripted part the suite's run's reports to the last bit).
+  :class:`~grasp_intent_ros.shared_control.scene_estimator.SceneEstimator`, the node's default settings for each
+  object's model (its calibration map if the defaults list one), fed the operator's own twist before blending and
+  each object's shown grasp; each object's goals: its model's demonstrations at the tracked object that the arm
+  reaches from Home, as the node prepares them, :func:`scene_estimator`; the script's P(o) and w^o are not used,
+  only the true object and its true set, which the operator pursues and the judge reads). Under the suite's
+  assistance a close on the shown grasp executes the followed object's newest plan (the simulator's docstring).
+  Not run by default: ``estimated_objects`` (P(o) from the estimator, each w^o the script's) and
+  ``estimated_tasks`` (each w^o from the estimator, P(o) the script's), ``estimated`` split into its two sources
+  (the scripted part the suite's run's reports to the last bit).
 - The planner: the node's defaults (:func:`~grasp_intent_ros.planning.options.node_default_options`), no
   collision check, as bench_shared_control_sim.py's default.
 - The mock arm at a joint limit: each joint clipped on its own, the mock arm node's default;
@@ -195,8 +196,8 @@ def draw_objects(models: list[Any], kin: Any, task: SceneTask, rng: np.random.Ge
 def scene_estimator(objects: list[SceneObject], kin: Any) -> SceneEstimator:
     """The intent estimator over ``objects`` (in their order), each object's as the node prepares it.
 
-    Each object's goals at its tracked pose: bench_shared_control_sim.py's :func:`tracked_estimator` (the default
-    settings).
+    Each object's goals at its tracked pose: bench_shared_control_sim.py's :func:`tracked_estimator` (the node's
+    default settings for the object's model).
     """
     estimator = SceneEstimator()
     for obj in objects:

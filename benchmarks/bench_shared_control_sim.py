@@ -54,10 +54,12 @@ The episodes
   intent, its noise and the tracker error are the episode's).
 
 Estimated w (condition ``estimated``): the suite, with w from the intent estimator
-(:class:`~grasp_intent_ros.shared_control.estimator.IntentEstimator`, its default settings; goals: the
-model's demonstrations at the tracked object that the arm reaches from Home) fed the operator's own twist
-before blending; the intent script's w is not used, only its true set, which the operator pursues and the
-judge reads. The estimator never sees the true set, the rules or the operator's goal.
+(:class:`~grasp_intent_ros.shared_control.estimator.IntentEstimator`, the node's default settings for the model,
+:func:`~grasp_intent_ros.shared_control.parameters.default_estimator_config`, with its calibration map if the
+defaults list one; ``--estimator FIELD=VALUE`` sets fields over them; goals: the model's demonstrations at the
+tracked object that the arm reaches from Home) fed the operator's own twist before blending; the intent script's
+w is not used, only its true set, which the operator pursues and the judge reads. The estimator never sees the
+true set, the rules or the operator's goal.
 
 Fused (condition ``fused``): as ``estimated``, and the intent script's w (the suite condition's, with its noise)
 is the estimator's task prior, set every 0.1 s before its w is read (``simulate``'s ``classifier_prior``; the
@@ -112,7 +114,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -127,7 +129,7 @@ from grasp_intent_ros.objects.demos import object_of
 from grasp_intent_ros.objects.judge import Judgement, judge
 from grasp_intent_ros.planning.options import Options, node_default_options
 from grasp_intent_ros.shared_control.assistance_config import AssistanceConfig
-from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator
+from grasp_intent_ros.shared_control.estimator import IntentEstimator
 from grasp_intent_ros.shared_control.goals import goals_at, reachable_goals
 from grasp_intent_ros.shared_control.operators import (
     AMBIGUOUS_CASES,
@@ -137,6 +139,7 @@ from grasp_intent_ros.shared_control.operators import (
     ScriptedOperator,
     SharpeningIntent,
 )
+from grasp_intent_ros.shared_control.parameters import default_estimator_config
 from grasp_intent_ros.shared_control.simulator import (
     CONDITIONS,
     Scene,
@@ -191,7 +194,7 @@ class Task:
     execute: bool = True
     execution_noise: bool = True
     estimator: tuple[tuple[str, float], ...] = ()
-    """EstimatorConfig fields set for the ``estimated`` condition (the rest: its defaults)."""
+    """EstimatorConfig fields set for the ``estimated`` condition (the rest: the node's defaults for the model)."""
     trace: bool = False
     """Whether each record carries the loop's trace and the failed rules (:func:`trace_record`)."""
     operator_mm: float = 5.0
@@ -258,11 +261,12 @@ def tracked_estimator(model: Any, base_T_obj: np.ndarray, kin: Any,
                       fields: tuple[tuple[str, float], ...] = ()) -> IntentEstimator:
     """The intent estimator the node prepares for an object tracked at ``base_T_obj`` (4x4, base frame).
 
-    Its goals: ``model``'s demonstrations placed there that the arm reaches from Home; its settings
-    EstimatorConfig's defaults with ``fields`` set (:attr:`Task.estimator`).
+    Its goals: ``model``'s demonstrations placed there that the arm reaches from Home; its settings the node's
+    defaults for ``model`` (:func:`~grasp_intent_ros.shared_control.parameters.default_estimator_config`: its
+    calibration map if the defaults list one) with ``fields`` set (:attr:`Task.estimator`).
     """
     return IntentEstimator(goals_at(model, base_T_obj, reachable_goals(model, base_T_obj, kin)),
-                           EstimatorConfig(**dict(fields)))
+                           replace(default_estimator_config(model.name), **dict(fields)))
 
 
 def run_task(task: Task) -> list[dict[str, Any]]:
@@ -463,7 +467,7 @@ def main() -> None:
     parser.add_argument('--exact-landing', action='store_true', help='the planner plans for an exact landing '
                         '(the planner node\'s execution_noise zero; default: the node\'s default, the 1x noise)')
     parser.add_argument('--estimator', nargs='*', default=[], metavar='FIELD=VALUE',
-                        help='EstimatorConfig fields for the estimated condition (default: its defaults)')
+                        help="EstimatorConfig fields for the estimated condition (default: the node's defaults)")
     parser.add_argument('--margin-sigmas', type=float, default=0.0, help='the planner\'s object margin (its '
                         'object_margin) in bounds on the tracker error\'s depth sigma (collision.tracker_margin, '
                         'lever arm: the body\'s reach); 0: the collision check unasked, as the demonstrations pass it')

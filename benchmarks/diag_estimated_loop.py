@@ -142,7 +142,7 @@ def main() -> None:
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--estimator', nargs='*', default=[], metavar='FIELD=VALUE',
-                        help='EstimatorConfig fields for the estimated condition (default: its defaults)')
+                        help='EstimatorConfig fields for the estimated condition (default: the node\'s defaults)')
     parser.add_argument('--records', help='append each episode\'s traced records here (JSON lines)')
     parser.add_argument('--from', dest='source', metavar='JSONL', help='run nothing: classify these records '
                         '(.jsonl or .jsonl.gz)')

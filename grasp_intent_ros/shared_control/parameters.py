@@ -25,7 +25,8 @@ from .operator_loop import EXECUTE_TIMEOUT
 from .operators import DEVICES
 from .scene_target import FollowRule
 
-__all__ = ['OPERATOR_INPUT', 'APPROACH', 'ASSISTANCE', 'ESTIMATOR', 'estimator_config', 'check_estimator',
+__all__ = ['OPERATOR_INPUT', 'APPROACH', 'ASSISTANCE', 'ESTIMATOR', 'estimator_config', 'default_estimator_config',
+           'check_estimator',
            'OPERATOR_INTENTS', 'SCRIPTED_OPERATOR', 'check_scripted_operator', 'episodes_settings']
 
 OPERATOR_INPUT = (
@@ -168,6 +169,16 @@ def estimator_config(values: Mapping[str, Any], model_name: str | None) -> Estim
     slope, offset = model_calibration(model_name, values['calibration_models'], values['calibration_slopes'],
                                       values['calibration_offsets'])
     return config_from(EstimatorConfig, {**values, 'calibration_slope': slope, 'calibration_offset': offset})
+
+
+def default_estimator_config(model_name: str | None) -> EstimatorConfig:
+    """The intent estimator node's settings for ``model_name`` when no parameter is set: :data:`ESTIMATOR`'s defaults.
+
+    Those defaults' calibration lists name the models that are mapped by default, so this is EstimatorConfig's
+    defaults with that model's map, if one is listed. The benchmarks' "defaults" are these (one definition with the
+    node's). Raises InvalidIntentError as :func:`estimator_config`.
+    """
+    return estimator_config({spec.name: spec.default for spec in ESTIMATOR}, model_name)
 
 
 def check_estimator(values: Mapping[str, Any]) -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -120,3 +121,19 @@ def test_the_two_objects_are_drawn_apart_in_the_stated_region() -> None:
             (x0, x1), (y0, y1) = scene.REGION
             assert x0 <= pose[0, 3] <= x1 and y0 <= pose[1, 3] <= y1 and pose[2, 3] == 0.0
             assert np.array_equal(pose[:3, :3], scene.BASE_T_OBJ[:3, :3])
+
+
+def test_the_estimated_conditions_estimator_is_the_nodes_defaults_for_its_model_with_the_fields_set(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from _bench.closed_loop import BASE_T_OBJ, load_model
+
+    from grasp_intent_ros.mico.kinematics import MicoKinematics
+    from grasp_intent_ros.shared_control import parameters
+    from grasp_intent_ros.shared_control.estimator import EstimatorConfig
+
+    sim = importlib.import_module('bench_shared_control_sim')
+    listed = {'calibration_models': ['cup_7zone'], 'calibration_slopes': [1.4], 'calibration_offsets': [-0.1]}
+    monkeypatch.setattr(parameters, 'ESTIMATOR', tuple(replace(spec, default=listed.get(spec.name, spec.default))
+                                                       for spec in parameters.ESTIMATOR))
+    estimator = sim.tracked_estimator(load_model('cup'), BASE_T_OBJ, MicoKinematics(), (('memory', 0.2),))
+    assert estimator.config == replace(EstimatorConfig(), memory=0.2, calibration_slope=1.4, calibration_offset=-0.1)

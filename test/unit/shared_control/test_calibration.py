@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from grasp_intent_ros.errors import InvalidIntentError
+from grasp_intent_ros.shared_control import parameters
 from grasp_intent_ros.shared_control.calibration import calibrate, fit_calibration, model_calibration
 from grasp_intent_ros.shared_control.estimator import EstimatorConfig, IntentEstimator
 from grasp_intent_ros.shared_control.goals import goals_from_poses
-from grasp_intent_ros.shared_control.parameters import ESTIMATOR, estimator_config
+from grasp_intent_ros.shared_control.parameters import ESTIMATOR, default_estimator_config, estimator_config
 
 FLOOR = 0.01
 
@@ -118,3 +121,13 @@ def test_the_node_settings_pick_the_listed_models_map_and_none_by_default() -> N
     assert estimator_config(listed, 'flashlight_7zone').calibration_slope == 1.0
     with pytest.raises(InvalidIntentError):
         estimator_config({**listed, 'calibration_slopes': [1.0, 2.0]}, 'cup_7zone')
+
+
+def test_the_default_settings_are_the_nodes_with_the_map_its_defaults_list(monkeypatch: pytest.MonkeyPatch) -> None:
+    assert default_estimator_config('cup_7zone') == EstimatorConfig() == default_estimator_config('flashlight_7zone')
+    listed = {'calibration_models': ['cup_7zone'], 'calibration_slopes': [1.4], 'calibration_offsets': [-0.1]}
+    specs = tuple(replace(spec, default=listed.get(spec.name, spec.default)) for spec in ESTIMATOR)
+    monkeypatch.setattr(parameters, 'ESTIMATOR', specs)
+    assert default_estimator_config('cup_7zone') == replace(EstimatorConfig(), calibration_slope=1.4,
+                                                            calibration_offset=-0.1)
+    assert default_estimator_config('flashlight_7zone') == EstimatorConfig()
