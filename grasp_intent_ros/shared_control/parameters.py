@@ -26,8 +26,7 @@ from .operators import DEVICES
 from .scene_target import FollowRule
 
 __all__ = ['OPERATOR_INPUT', 'APPROACH', 'ASSISTANCE', 'ESTIMATOR', 'estimator_config', 'default_estimator_config',
-           'check_estimator',
-           'OPERATOR_INTENTS', 'SCRIPTED_OPERATOR', 'check_scripted_operator', 'episodes_settings']
+           'check_estimator', 'OPERATOR_INTENTS', 'SCRIPTED_OPERATOR', 'check_scripted_operator', 'episodes_settings']
 
 OPERATOR_INPUT = (
     ParamSpec('operator_message_type', 'TwistStamped', 'Type on operator/twist: TwistStamped or Twist.',
@@ -142,9 +141,6 @@ ESTIMATOR = (
     ParamSpec('calibration_offsets', [], 'b of the map of each of calibration_models.', item_type=float),
     ParamSpec('publish_period', 0.04, 'Time between two w while the operator moves, s.', range=(0.001, 1.0),
               read_only=True),
-    ParamSpec('assist_idle_part', _ASSIST.assist_idle_part, "Whether the robot's share in a part (linear, angular) "
-              'the operator leaves idle (within its deadband) while moving the other is alpha_max rather than alpha '
-              '(a two-mode device: the robot turns the hand while the operator translates).'),
     ParamSpec('operator_timeout', 0.1, 'Operator twist age (s) after which the operator counts as still (no w '
               'published).', range=(0.001, 10.0)),
     *OBJECT_POSE[:2],

@@ -1,4 +1,4 @@
-"""config/<node>.yaml documents every parameter with the text ``ros2 param describe`` shows: its descriptor's."""
+"""config/<node>.yaml sets every parameter of its node and no other, and documents each with its descriptor's text."""
 
 from __future__ import annotations
 
@@ -7,9 +7,10 @@ import textwrap
 from pathlib import Path
 
 import pytest
+import yaml
 from node_parameters import node_parameters
 
-from grasp_intent_ros.launch.suite import SHARED_CONTROL_NODES, SUITE_NODES
+from grasp_intent_ros.launch.suite import OPTIONAL_NODES, SHARED_CONTROL_NODES, SUITE_NODES
 
 CONFIG = Path(__file__).resolve().parents[2] / 'config'
 WIDTH = 114
@@ -39,3 +40,11 @@ def test_every_parameter_is_documented_by_its_descriptor_text(node: str) -> None
         assert documented.get(spec.name) == spec.description, (
             f'config/{node}.yaml: the comment above {spec.name} must be its description:\n{wrapped}')
     assert set(documented) <= {spec.name for spec in specs}, f'config/{node}.yaml sets an unknown parameter'
+
+
+@pytest.mark.parametrize('node', [*SUITE_NODES, *OPTIONAL_NODES])
+def test_every_node_config_sets_exactly_its_nodes_parameters(node: str) -> None:
+    document = yaml.safe_load((CONFIG / f'{node}.yaml').read_text())
+    (section,) = document.values()
+    assert sorted(section['ros__parameters']) == sorted(spec.name for spec in node_parameters(node)), (
+        f'config/{node}.yaml: its parameters are not the node\'s')
