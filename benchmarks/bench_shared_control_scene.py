@@ -64,7 +64,7 @@ The episodes
   (:class:`~grasp_intent_ros.mico.mock_arm.MockArm`'s ``twist_joint_limit``).
 - The suite's assistance: the node's defaults; ``--no-assist-idle-part`` turns off its ``assist_idle_part`` (the
   robot's share alpha_max in the part the operator leaves idle, docs/shared_control.md, "The part the operator
-  leaves idle"; on by default since 2026-12-01).
+  leaves idle"; on by default).
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   poses, the intent, its noise and the errors are the episode's).
 
@@ -229,8 +229,8 @@ def run_settings(task: SceneTask) -> dict[str, Any]:
     """The run's settings, which every record carries as ``run``.
 
     The mock arm's ``twist_joint_limit`` only when not ``'clip'``, the assistance's ``assist_idle_part`` only when
-    off: records of the defaults carry the settings records carried before the options (records before
-    2026-12-01, when it was off by default, carry ``assist_idle_part: true`` where it was on).
+    off: records of the defaults carry the settings records carried before the options (records written
+    while it was off by default carry ``assist_idle_part: true`` where it was on).
     """
     limit = {} if task.twist_joint_limit == 'clip' else {'twist_joint_limit': task.twist_joint_limit}
     return {**{name: getattr(task, name) for name in (*EPISODE_SETTINGS, 'execute')}, **limit,

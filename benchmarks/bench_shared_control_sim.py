@@ -49,8 +49,7 @@ The episodes
   ``--robot-agreement`` sets its ``robot_agreement`` (alpha also times the operator's agreement with the robot's
   own twist, docs/shared_control.md, "Agreeing with the robot's twist") in the same conditions;
   ``--no-assist-idle-part`` turns off its ``assist_idle_part`` (the robot's share alpha_max in the part the
-  operator leaves idle, docs/shared_control.md, "The part the operator leaves idle"; on by default since
-  2026-12-01).
+  operator leaves idle, docs/shared_control.md, "The part the operator leaves idle"; on by default).
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   intent, its noise and the tracker error are the episode's).
 
@@ -225,7 +224,7 @@ def run_settings(task: Task) -> dict[str, Any]:
     :data:`EPISODE_SETTINGS`, then the loop's: the grasp command executing, the planner's execution noise and
     object margin, the estimator's fields set, the mock arm's ``twist_joint_limit`` when it is not ``'clip'`` and
     ``keep_pace`` and ``robot_agreement`` when set and ``assist_idle_part`` when off (runs of the defaults carry no
-    such keys, as the records written before them; records before 2026-12-01, when it was off by default, carry
+    such keys, as the records written before them; records written while it was off by default carry
     ``assist_idle_part: true`` where it was on).
     """
     limit = {} if task.twist_joint_limit == 'clip' else {'twist_joint_limit': task.twist_joint_limit}
