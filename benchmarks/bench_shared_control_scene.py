@@ -62,9 +62,9 @@ The episodes
 - The mock arm at a joint limit: each joint clipped on its own, the mock arm node's default;
   ``--twist-joint-limit stop`` stops the arm's twist step as a whole there
   (:class:`~grasp_intent_ros.mico.mock_arm.MockArm`'s ``twist_joint_limit``).
-- The suite's assistance: the node's defaults; ``--assist-idle-part`` sets its ``assist_idle_part`` (the robot's
-  share alpha_max in the part the operator leaves idle, docs/shared_control.md, "The part the operator leaves
-  idle").
+- The suite's assistance: the node's defaults; ``--no-assist-idle-part`` turns off its ``assist_idle_part`` (the
+  robot's share alpha_max in the part the operator leaves idle, docs/shared_control.md, "The part the operator
+  leaves idle"; on by default).
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   poses, the intent, its noise and the errors are the episode's).
 
@@ -222,18 +222,19 @@ class SceneTask:
     conditions: tuple[str, ...] = SCENE_CONDITIONS
     execute: bool = True
     twist_joint_limit: str = 'clip'
-    assist_idle_part: bool = False
+    assist_idle_part: bool = AssistanceConfig().assist_idle_part
 
 
 def run_settings(task: SceneTask) -> dict[str, Any]:
     """The run's settings, which every record carries as ``run``.
 
     The mock arm's ``twist_joint_limit`` only when not ``'clip'``, the assistance's ``assist_idle_part`` only when
-    set: records of the defaults carry the settings records carried before the options.
+    off: records of the defaults carry the settings records carried before the options (records written
+    while it was off by default carry ``assist_idle_part: true`` where it was on).
     """
     limit = {} if task.twist_joint_limit == 'clip' else {'twist_joint_limit': task.twist_joint_limit}
     return {**{name: getattr(task, name) for name in (*EPISODE_SETTINGS, 'execute')}, **limit,
-            **({'assist_idle_part': True} if task.assist_idle_part else {})}
+            **({} if task.assist_idle_part else {'assist_idle_part': False})}
 
 
 def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
@@ -410,8 +411,9 @@ def main() -> None:
                         'it is instead of executing the followed object\'s plan')
     parser.add_argument('--twist-joint-limit', default='clip', choices=TWIST_JOINT_LIMITS, help='the mock arm\'s '
                         'rule for a twist at a joint limit: clip each joint, or stop the arm as a whole')
-    parser.add_argument('--assist-idle-part', action='store_true', help='the suite\'s assistance takes the part '
-                        'the operator leaves idle with alpha_max (AssistanceConfig.assist_idle_part; default: off)')
+    parser.add_argument('--no-assist-idle-part', dest='assist_idle_part', action='store_false', help='the suite\'s '
+                        'assistance blends the part the operator leaves idle with alpha, as the moved part '
+                        '(AssistanceConfig.assist_idle_part off; default: on, alpha_max there)')
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')

@@ -48,8 +48,8 @@ The episodes
   every condition that assists with it (the suite, the independent-task grasp, estimated and fused w);
   ``--robot-agreement`` sets its ``robot_agreement`` (alpha also times the operator's agreement with the robot's
   own twist, docs/shared_control.md, "Agreeing with the robot's twist") in the same conditions;
-  ``--assist-idle-part`` its ``assist_idle_part`` (the robot's share alpha_max in the part the operator leaves idle,
-  docs/shared_control.md, "The part the operator leaves idle").
+  ``--no-assist-idle-part`` turns off its ``assist_idle_part`` (the robot's share alpha_max in the part the
+  operator leaves idle, docs/shared_control.md, "The part the operator leaves idle"; on by default).
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   intent, its noise and the tracker error are the episode's).
 
@@ -208,8 +208,8 @@ class Task:
     """The suite's assistance with ``keep_pace`` (module docstring); False: its defaults."""
     robot_agreement: bool = False
     """The suite's assistance with ``robot_agreement`` (module docstring); False: its defaults."""
-    assist_idle_part: bool = False
-    """The suite's assistance with ``assist_idle_part`` (module docstring); False: its defaults."""
+    assist_idle_part: bool = AssistanceConfig().assist_idle_part
+    """The suite's assistance's ``assist_idle_part`` (module docstring); default: its default."""
 
 
 EPISODE_SETTINGS = ('seed', 'intent', 'timeout', 'tracker_mm', 'tracker_deg', 'operator_mm', 'operator_deg')
@@ -223,15 +223,16 @@ def run_settings(task: Task) -> dict[str, Any]:
 
     :data:`EPISODE_SETTINGS`, then the loop's: the grasp command executing, the planner's execution noise and
     object margin, the estimator's fields set, the mock arm's ``twist_joint_limit`` when it is not ``'clip'`` and
-    ``keep_pace``, ``robot_agreement`` and ``assist_idle_part`` when set (runs of the defaults carry no such keys,
-    as the records written before them).
+    ``keep_pace`` and ``robot_agreement`` when set and ``assist_idle_part`` when off (runs of the defaults carry no
+    such keys, as the records written before them; records written while it was off by default carry
+    ``assist_idle_part: true`` where it was on).
     """
     limit = {} if task.twist_joint_limit == 'clip' else {'twist_joint_limit': task.twist_joint_limit}
     return {**{name: getattr(task, name) for name in EPISODE_SETTINGS}, 'execute': task.execute,
             'execution_noise': task.execution_noise, 'margin_sigmas': task.margin_sigmas,
             'estimator': dict(task.estimator), **limit, **({'keep_pace': True} if task.keep_pace else {}),
             **({'robot_agreement': True} if task.robot_agreement else {}),
-            **({'assist_idle_part': True} if task.assist_idle_part else {})}
+            **({} if task.assist_idle_part else {'assist_idle_part': False})}
 
 
 def read_records(path: str) -> list[dict[str, Any]]:
@@ -479,8 +480,9 @@ def main() -> None:
     parser.add_argument('--robot-agreement', action='store_true', help='the suite\'s assistance lowers alpha by '
                         'the operator\'s agreement with the robot\'s own twist (AssistanceConfig.robot_agreement; '
                         'default: off)')
-    parser.add_argument('--assist-idle-part', action='store_true', help='the suite\'s assistance takes the part the '
-                        'operator leaves idle with alpha_max (AssistanceConfig.assist_idle_part; default: off)')
+    parser.add_argument('--no-assist-idle-part', dest='assist_idle_part', action='store_false', help='the suite\'s '
+                        'assistance blends the part the operator leaves idle with alpha, as the moved part '
+                        '(AssistanceConfig.assist_idle_part off; default: on, alpha_max there)')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--json', help='write every record and the summaries here')
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')

@@ -43,7 +43,7 @@ also multiplied by the operator's agreement with the robot's own twist (per part
 deadbands; the smaller part's), so where the robot's twist runs against the operator's the operator moves alone at
 full speed, and where it goes the operator's way the robot helps.
 
-**The part the operator leaves idle** (``assist_idle_part``, off by default; :func:`part_shares`). A two-mode
+**The part the operator leaves idle** (``assist_idle_part``, on by default; :func:`part_shares`). A two-mode
 device (a joystick that translates or rotates, never both) leaves one part at zero while it moves the other. There
 the blend has nothing to weigh: ``alpha r + (1 - alpha) 0`` only slows the robot. With ``assist_idle_part`` the
 robot's share in a part the operator leaves within its deadband, while it moves the other, is ``alpha_max``

@@ -44,7 +44,7 @@ class AssistanceConfig:
     assist_idle_part : bool
         Whether the robot's share in a part (linear, angular) the operator leaves within its deadband while moving
         the other is ``alpha_max`` rather than alpha, when alpha > 0 (:func:`~.arbitration.part_shares`;
-        :mod:`.arbitration`). Default False: alpha in both parts.
+        :mod:`.arbitration`). Default True (``False``: alpha in both parts).
     operator_timeout : float
         An operator twist older than this gives the zero twist.
     clearance_margin : float
@@ -68,6 +68,6 @@ class AssistanceConfig:
     assist_without_input: bool = False
     keep_pace: bool = False
     robot_agreement: bool = False
-    assist_idle_part: bool = False
+    assist_idle_part: bool = True
     operator_timeout: float = 0.1
     clearance_margin: float = 0.0
