@@ -49,7 +49,9 @@ The episodes
   ``--robot-agreement`` sets its ``robot_agreement`` (alpha also times the operator's agreement with the robot's
   own twist, docs/shared_control.md, "Agreeing with the robot's twist") in the same conditions;
   ``--no-assist-idle-part`` turns off its ``assist_idle_part`` (the robot's share alpha_max in the part the
-  operator leaves idle, docs/shared_control.md, "The part the operator leaves idle"; on by default).
+  operator leaves idle, docs/shared_control.md, "The part the operator leaves idle"; on by default);
+  ``--keep-joint-line`` sets its ``keep_joint_line`` (the joint-space robot twist scaled into its speed limits by one
+  factor, docs/shared_control.md, "Keeping the joint line") in the same conditions.
 - Repeats: each episode is run ``--repeats`` times with other operator-noise and closure-error seeds (the
   intent, its noise and the tracker error are the episode's).
 
@@ -210,6 +212,8 @@ class Task:
     """The suite's assistance with ``robot_agreement`` (module docstring); False: its defaults."""
     assist_idle_part: bool = AssistanceConfig().assist_idle_part
     """The suite's assistance's ``assist_idle_part`` (module docstring); default: its default."""
+    keep_joint_line: bool = False
+    """The suite's assistance with ``keep_joint_line`` (module docstring); False: its defaults."""
 
 
 EPISODE_SETTINGS = ('seed', 'intent', 'timeout', 'tracker_mm', 'tracker_deg', 'operator_mm', 'operator_deg')
@@ -223,15 +227,16 @@ def run_settings(task: Task) -> dict[str, Any]:
 
     :data:`EPISODE_SETTINGS`, then the loop's: the grasp command executing, the planner's execution noise and
     object margin, the estimator's fields set, the mock arm's ``twist_joint_limit`` when it is not ``'clip'`` and
-    ``keep_pace`` and ``robot_agreement`` when set and ``assist_idle_part`` when off (runs of the defaults carry no
-    such keys, as the records written before them; records written while it was off by default carry
-    ``assist_idle_part: true`` where it was on).
+    ``keep_pace``, ``robot_agreement`` and ``keep_joint_line`` when set and ``assist_idle_part`` when off (runs of
+    the defaults carry no such keys, as the records written before them; records written while it was off by default
+    carry ``assist_idle_part: true`` where it was on).
     """
     limit = {} if task.twist_joint_limit == 'clip' else {'twist_joint_limit': task.twist_joint_limit}
     return {**{name: getattr(task, name) for name in EPISODE_SETTINGS}, 'execute': task.execute,
             'execution_noise': task.execution_noise, 'margin_sigmas': task.margin_sigmas,
             'estimator': dict(task.estimator), **limit, **({'keep_pace': True} if task.keep_pace else {}),
             **({'robot_agreement': True} if task.robot_agreement else {}),
+            **({'keep_joint_line': True} if task.keep_joint_line else {}),
             **({} if task.assist_idle_part else {'assist_idle_part': False})}
 
 
@@ -306,7 +311,8 @@ def run_task(task: Task) -> list[dict[str, Any]]:
                           estimator=estimator if estimated else None, classifier_prior=condition == FUSED,
                           execute=task.execute, trace=trace, config=AssistanceConfig(keep_pace=task.keep_pace,
                                                                   robot_agreement=task.robot_agreement,
-                                                                  assist_idle_part=task.assist_idle_part),
+                                                                  assist_idle_part=task.assist_idle_part,
+                                                                  keep_joint_line=task.keep_joint_line),
                           twist_joint_limit=task.twist_joint_limit)
             true_set = ep.task_set
             verdict = None if ep.hand is None else judge(model, scene.base_T_obj_true, ep.hand, ep.closures)
@@ -483,6 +489,9 @@ def main() -> None:
     parser.add_argument('--no-assist-idle-part', dest='assist_idle_part', action='store_false', help='the suite\'s '
                         'assistance blends the part the operator leaves idle with alpha, as the moved part '
                         '(AssistanceConfig.assist_idle_part off; default: on, alpha_max there)')
+    parser.add_argument('--keep-joint-line', action='store_true', help='the suite\'s assistance scales its joint-space '
+                        'robot twist into the speed limits by one factor (AssistanceConfig.keep_joint_line; default: '
+                        'off, each part to its own limit)')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--json', help='write every record and the summaries here')
     parser.add_argument('--records', help='append each episode\'s records here as they come (JSON lines)')
@@ -510,6 +519,7 @@ def main() -> None:
                   estimator_fields(args.estimator), operator_mm=args.operator_mm, operator_deg=args.operator_deg,
                   margin_sigmas=args.margin_sigmas, keep_pace=args.keep_pace,
                   robot_agreement=args.robot_agreement, assist_idle_part=args.assist_idle_part,
+                  keep_joint_line=args.keep_joint_line,
                   twist_joint_limit=args.twist_joint_limit)
              for i in range(args.episodes) for o in args.objects for op in args.operators]  # cells fill evenly
     print(f'bench_shared_control_sim: {len(tasks)} episodes x {args.repeats} repeats x {len(args.conditions)} '

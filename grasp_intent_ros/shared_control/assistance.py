@@ -323,7 +323,8 @@ class Assistance:
                 if len(path) > 1 and float(np.linalg.norm(path[0] - self.q)) <= VIA_REACHED:
                     path.pop(0)  # the via point reached: on to the target
                 return joint_space_twist(self._jacobian, self.q, path[0], gain=cfg.gain_joint,
-                                         max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)
+                                         max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular,
+                                         whole=cfg.keep_joint_line)
         assert self.base_T_ee is not None
         return robot_twist(self.base_T_ee, base_T_target, gain_linear=cfg.gain_linear, gain_angular=cfg.gain_angular,
                            max_linear=cfg.robot_max_linear, max_angular=cfg.robot_max_angular)

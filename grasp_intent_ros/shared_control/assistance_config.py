@@ -45,6 +45,11 @@ class AssistanceConfig:
         Whether the robot's share in a part (linear, angular) the operator leaves within its deadband while moving
         the other is ``alpha_max`` rather than alpha, when alpha > 0 (:func:`~.arbitration.part_shares`;
         :mod:`.arbitration`). Default True (``False``: alpha in both parts).
+    keep_joint_line : bool
+        Whether the joint-space robot twist is scaled into ``robot_max_linear`` and ``robot_max_angular`` by one
+        factor, so that its joint image stays on the straight joint line to the path's point
+        (:func:`~.robot_twist.joint_space_twist`'s ``whole``; :mod:`.robot_twist`). Default False: each part
+        scaled to its own limit.
     operator_timeout : float
         An operator twist older than this gives the zero twist.
     clearance_margin : float
@@ -69,5 +74,6 @@ class AssistanceConfig:
     keep_pace: bool = False
     robot_agreement: bool = False
     assist_idle_part: bool = True
+    keep_joint_line: bool = False
     operator_timeout: float = 0.1
     clearance_margin: float = 0.0

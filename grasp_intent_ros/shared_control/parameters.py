@@ -93,6 +93,9 @@ ASSISTANCE = (
     ParamSpec('assist_idle_part', _ASSIST.assist_idle_part, "Whether the robot's share in a part (linear, angular) "
               'the operator leaves idle (within its deadband) while moving the other is alpha_max rather than alpha '
               '(a two-mode device: the robot turns the hand while the operator translates).'),
+    ParamSpec('keep_joint_line', _ASSIST.keep_joint_line, "Whether the joint-space robot twist is scaled into "
+              'robot_max_linear and robot_max_angular by one factor (its joint image stays on the straight joint line '
+              'to its target) rather than each part to its own limit.'),
     ParamSpec('operator_timeout', _ASSIST.operator_timeout, 'Operator twist age (s) from which the output is '
               'the zero twist (MoveIt Servo: incoming_command_timeout).', range=(0.001, 10.0)),
     ParamSpec('clearance_margin', _ASSIST.clearance_margin, "m: how far beyond the planner's collision limits the "

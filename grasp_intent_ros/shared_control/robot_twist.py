@@ -24,7 +24,9 @@ distance to the grasp when the first path to this proposal was sought, or its pr
 (:meth:`~.assistance.Assistance.set_object`) is replaced by a clear one (:func:`~.clearance.clear_path`). Without
 the kinematics, or when there is no such path either, it is proportional to the pose error, ``(k_lin (p_t - p),
 k_ang log3(R_t R^T))`` (the rotation vector in the base frame, :func:`robot_twist`). Either way each part is scaled
-down to its speed limit. Why joint space: the Cartesian twist turns the hand along the straight rotation to the
+down to its speed limit; with ``keep_joint_line`` (off by default) the joint-space twist is scaled by one factor
+instead, so that it stays the image of a motion along the straight joint line (:func:`joint_space_twist`'s
+``whole``). Why joint space: the Cartesian twist turns the hand along the straight rotation to the
 target, which for many of the MICO's grasps runs the wrist (joint 5) through 0 or pi, a singularity; there a servo's
 damped least squares cannot make the motion asked for and the arm settles in the singular configuration, short of
 the grasp. The joint-space twist lies in the range of J, so the servo can follow it, and following it the joints go
@@ -75,8 +77,13 @@ def robot_twist(base_T_ee: NDArray[np.float64], base_T_target: NDArray[np.float6
 
 
 def joint_space_twist(jacobian: NDArray[np.float64], q: NDArray[np.float64], q_target: NDArray[np.float64], *,
-                      gain: float, max_linear: float, max_angular: float) -> NDArray[np.float64]:
-    """The EE twist ``J(q) gain (q_target - q)``, each part within its speed limit; shape (6,).
+                      gain: float, max_linear: float, max_angular: float,
+                      whole: bool = False) -> NDArray[np.float64]:
+    """The EE twist ``J(q) gain (q_target - q)`` within the speed limits; shape (6,).
+
+    Each part scaled down to its own limit (default), or, with ``whole``, the twist scaled by one factor, the largest
+    in (0, 1] that brings both parts within their limits (``keep_joint_line``: its joint image then stays on the
+    straight joint line to ``q_target``, which separate factors turn off it).
 
     Parameters
     ----------
@@ -91,6 +98,11 @@ def joint_space_twist(jacobian: NDArray[np.float64], q: NDArray[np.float64], q_t
         m/s, rad/s.
     """
     twist = jacobian @ (gain * (q_target - q))
+    if whole:
+        linear, angular = norm(twist[:3]), norm(twist[3:])
+        scale = min(1.0, max_linear / linear if linear > max_linear else 1.0,
+                    max_angular / angular if angular > max_angular else 1.0)
+        return scale * twist
     return np.concatenate([clip_norm(twist[:3], max_linear), clip_norm(twist[3:], max_angular)])
 
 

@@ -392,3 +392,32 @@ def test_no_joint_line_through_the_wrist_singularity() -> None:
     assert max(float(np.linalg.norm(p - grasp[:3, 3])) for p in line) <= start + config.corridor_radius
     assert np.sin(across[4]) * np.sin(q[4]) < 0.0
     assert assistance_joint_path(assistance, target) is None
+
+
+@pytest.mark.parametrize('whole', [False, True])
+def test_keep_joint_line_moves_the_joints_straight_to_the_targets_ik(whole: bool) -> None:
+    # the robot alone (the operator still) toward a pre-grasp whose IK from the joints is 0.6 rad away: the
+    # joint-space twist's linear and angular parts are over their limits by other factors; scaled as a whole the
+    # arm's joints stay on the straight line to the IK, each part to its own limit they leave it
+    kin = MicoKinematics()
+    q0 = np.radians([244.0, 233.0, 62.0, 192.0, 50.0, 125.0])
+    q_t = q0 + np.radians([10.0, -20.0, 5.0, 30.0, -10.0, 20.0])
+    assistance = Assistance(AssistanceConfig(assist_without_input=True, keep_joint_line=whole),
+                            TwistLimiter(10.0, 10.0, 1e6, 1e6), kin)
+    assistance.set_grasp(_grasp_ahead_of(kin.fk(q_t), 0.08))  # its pre-grasp is the hand's pose at q_t
+    arm = MockArm(kin, np.r_[q0, 0.0, 0.0, 0.0])
+    assistance.set_v(np.eye(7)[1], LABELS)
+    assistance.set_posterior(np.eye(7)[1], LABELS, TASKS)
+    off_line = 0.0
+    for tick in range(40):
+        now = 0.01 * tick
+        assistance.set_joints(arm.q[:6].copy())
+        assistance.set_operator(np.zeros(6), now)
+        command = assistance.command(now)
+        assert command.phase == 'pre-grasp' and command.alpha == pytest.approx(0.9, abs=1e-12)
+        arm.command_twist(TwistCommand(command.twist[:3], command.twist[3:], BASE_FRAME), now)
+        arm.step(now + 0.01, 0.01)
+        moved, line = arm.q[:6] - q0, (q_t - q0) / np.linalg.norm(q_t - q0)
+        off_line = max(off_line, float(np.linalg.norm(moved - (moved @ line) * line)))
+    assert (off_line < 1e-6) if whole else (off_line > 0.01)
+    assert AssistanceConfig().keep_joint_line is False  # off by default

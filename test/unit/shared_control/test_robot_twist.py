@@ -74,3 +74,24 @@ def test_the_joint_space_twist_is_the_hands_motion_under_the_joint_motion() -> N
     assert np.linalg.norm(far[:3]) == pytest.approx(0.01, abs=1e-15)
     assert np.linalg.norm(far[3:]) == pytest.approx(0.02, abs=1e-15)
     assert_allclose(far[:3] / 0.01, (jacobian @ step)[:3] / np.linalg.norm((jacobian @ step)[:3]), atol=1e-12)
+
+
+def test_the_joint_space_twist_scaled_as_a_whole_keeps_the_joint_line() -> None:
+    kin = MicoKinematics()
+    q = np.radians([244.0, 233.0, 62.0, 192.0, 50.0, 125.0])
+    step = np.radians([1.0, -2.0, 0.5, 3.0, -1.0, 2.0])
+    jacobian = kin.jacobian(q)
+    full = jacobian @ (2.0 * step)
+    kw = dict(gain=2.0, max_linear=0.02, max_angular=0.05)
+    linear, angular = 0.02 / np.linalg.norm(full[:3]), 0.05 / np.linalg.norm(full[3:])
+    assert linear < 1.0 and angular < 1.0 and abs(linear - angular) > 0.05  # both parts over, by other factors
+    whole = joint_space_twist(jacobian, q, q + step, whole=True, **kw)
+    assert_allclose(whole, min(linear, angular) * full, atol=1e-15)  # one factor: the binding part at its limit
+    assert max(np.linalg.norm(whole[:3]) / 0.02, np.linalg.norm(whole[3:]) / 0.05) == pytest.approx(1.0, abs=1e-12)
+    # its joint image is on the line to the target; each part to its own limit leaves it
+    assert_allclose(np.linalg.solve(jacobian, whole), min(linear, angular) * 2.0 * step, atol=1e-12)
+    per_part = np.linalg.solve(jacobian, joint_space_twist(jacobian, q, q + step, **kw))
+    cos = float(per_part @ step) / (np.linalg.norm(per_part) * np.linalg.norm(step))
+    assert cos < 0.9  # here 33 degrees off the line
+    near = joint_space_twist(jacobian, q, q + 1e-3 * step, whole=True, **kw)  # within both limits: unscaled
+    assert_allclose(near, jacobian @ (2e-3 * step), atol=1e-15)
