@@ -103,7 +103,7 @@ from typing import Any
 
 import numpy as np
 from _bench import uptime
-from _bench.closed_loop import BASE_T_OBJ
+from _bench.closed_loop import BASE_T_OBJ, assistance_changes
 from bench_shared_control_sim import (
     _mm,
     _options,
@@ -228,13 +228,18 @@ class SceneTask:
 def run_settings(task: SceneTask) -> dict[str, Any]:
     """The run's settings, which every record carries as ``run``.
 
-    The mock arm's ``twist_joint_limit`` only when not ``'clip'``, the assistance's ``assist_idle_part`` only when
-    off: records of the defaults carry the settings records carried before the options (records written
-    while it was off by default carry ``assist_idle_part: true`` where it was on).
+    The mock arm's ``twist_joint_limit`` only when not ``'clip'``, the assistance's fields only where they differ
+    from its defaults (``assist_idle_part`` off): records of the defaults carry the settings records carried before
+    the options (records written while it was off by default carry ``assist_idle_part: true`` where it was on).
     """
     limit = {} if task.twist_joint_limit == 'clip' else {'twist_joint_limit': task.twist_joint_limit}
     return {**{name: getattr(task, name) for name in (*EPISODE_SETTINGS, 'execute')}, **limit,
-            **({} if task.assist_idle_part else {'assist_idle_part': False})}
+            **assistance_changes(assistance_config(task))}
+
+
+def assistance_config(task: SceneTask) -> AssistanceConfig:
+    """The suite's assistance of ``task``'s runs: its defaults with the task's ``assist_idle_part``."""
+    return AssistanceConfig(assist_idle_part=task.assist_idle_part)
 
 
 def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
@@ -267,7 +272,7 @@ def run_scene_task(task: SceneTask) -> list[dict[str, Any]]:
             ep = simulate_scene(objects, condition, intent, operator, intent_rng, closure_rng,  # type: ignore[arg-type]
                                 plan_caches=caches, timeout=task.timeout, execute=task.execute,
                                 twist_joint_limit=task.twist_joint_limit,
-                                config=AssistanceConfig(assist_idle_part=task.assist_idle_part),
+                                config=assistance_config(task),
                                 estimator=estimator if condition in ESTIMATOR_CONDITIONS else None)
             verdict = None if ep.hand is None else judge_scene(
                 [(o.scene.model, o.scene.base_T_obj_true) for o in objects], true, ep.task_set, ep.hand,

@@ -121,7 +121,7 @@ from typing import Any
 
 import numpy as np
 from _bench import bootstrap_ci, uptime
-from _bench.closed_loop import BASE_T_OBJ, OBJECTS, load_model
+from _bench.closed_loop import BASE_T_OBJ, OBJECTS, assistance_changes, load_model
 
 from grasp_intent_ros.mico.collision import tracker_margin
 from grasp_intent_ros.mico.grasp import Grasp
@@ -227,17 +227,20 @@ def run_settings(task: Task) -> dict[str, Any]:
 
     :data:`EPISODE_SETTINGS`, then the loop's: the grasp command executing, the planner's execution noise and
     object margin, the estimator's fields set, the mock arm's ``twist_joint_limit`` when it is not ``'clip'`` and
-    ``keep_pace``, ``robot_agreement`` and ``keep_joint_line`` when set and ``assist_idle_part`` when off (runs of
-    the defaults carry no such keys, as the records written before them; records written while it was off by default
+    the assistance's fields that differ from its defaults (:func:`assistance_config`; runs of the defaults carry no
+    such keys, as the records written before them; records written while ``assist_idle_part`` was off by default
     carry ``assist_idle_part: true`` where it was on).
     """
     limit = {} if task.twist_joint_limit == 'clip' else {'twist_joint_limit': task.twist_joint_limit}
     return {**{name: getattr(task, name) for name in EPISODE_SETTINGS}, 'execute': task.execute,
             'execution_noise': task.execution_noise, 'margin_sigmas': task.margin_sigmas,
-            'estimator': dict(task.estimator), **limit, **({'keep_pace': True} if task.keep_pace else {}),
-            **({'robot_agreement': True} if task.robot_agreement else {}),
-            **({'keep_joint_line': True} if task.keep_joint_line else {}),
-            **({} if task.assist_idle_part else {'assist_idle_part': False})}
+            'estimator': dict(task.estimator), **limit, **assistance_changes(assistance_config(task))}
+
+
+def assistance_config(task: Task) -> AssistanceConfig:
+    """The suite's assistance of ``task``'s runs: its defaults with the task's options."""
+    return AssistanceConfig(keep_pace=task.keep_pace, robot_agreement=task.robot_agreement,
+                            assist_idle_part=task.assist_idle_part, keep_joint_line=task.keep_joint_line)
 
 
 def read_records(path: str) -> list[dict[str, Any]]:
@@ -309,10 +312,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
             ep = simulate(scene, 'suite' if estimated else condition, intent, operator, own, intent_rng,
                           closure_rng, ada_goals=ada_goals, plan_cache=cache, timeout=task.timeout,
                           estimator=estimator if estimated else None, classifier_prior=condition == FUSED,
-                          execute=task.execute, trace=trace, config=AssistanceConfig(keep_pace=task.keep_pace,
-                                                                  robot_agreement=task.robot_agreement,
-                                                                  assist_idle_part=task.assist_idle_part,
-                                                                  keep_joint_line=task.keep_joint_line),
+                          execute=task.execute, trace=trace, config=assistance_config(task),
                           twist_joint_limit=task.twist_joint_limit)
             true_set = ep.task_set
             verdict = None if ep.hand is None else judge(model, scene.base_T_obj_true, ep.hand, ep.closures)

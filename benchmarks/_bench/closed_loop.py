@@ -12,7 +12,7 @@ import math
 import sys
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -27,6 +27,7 @@ from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, MicoKinemat
 from grasp_intent_ros.objects.demos import object_of
 from grasp_intent_ros.objects.judge import judge
 from grasp_intent_ros.resources import config_dir
+from grasp_intent_ros.shared_control.assistance_config import AssistanceConfig
 from grasp_intent_ros.shared_control.operator_loop import (
     EXECUTE_TIMEOUT,
     GraspCommand,
@@ -47,6 +48,17 @@ W_EVERY = 10
 """Operator ticks per w (10 Hz)."""
 CLOSE_TIMEOUT = 10.0
 """Seconds the probe waits for the fingers at rest after ``grasp/close`` (they close at their speed limit)."""
+
+
+def assistance_changes(config: AssistanceConfig) -> dict[str, Any]:
+    """The fields of ``config`` that differ from :class:`AssistanceConfig`'s defaults, by name.
+
+    What a simulated benchmark's record carries of the suite's assistance in its ``run``: nothing for the defaults,
+    so records of the defaults compare with records written before an option existed.
+    """
+    default = AssistanceConfig()
+    return {f.name: getattr(config, f.name) for f in fields(config)
+            if getattr(config, f.name) != getattr(default, f.name)}
 
 
 def load_model(name: str) -> GraspModel:
