@@ -39,7 +39,9 @@ lie in the basin of one local minimum (every flashlight grasp is from above, so 
 neighbour each other's); method 'lm' reaches P = v from the same starts (docs/planner.md, "The paper's solvers
 on the feasible data"). From 20 starts SLSQP's best start there stopped at its iteration limit (f 3.7e-5 to
 4.5e-5) with OpenBLAS's SkylakeX and Prescott kernels and converged (f 4.6e-7) with its Haswell ones, so the
-verdict was the machine's; from 40 it converges with all three (f 6.9e-7)."""
+verdict was the machine's; from 40 it converges with those three, and with the SandyBridge kernels it stops at its
+iteration limit with P within 1e-3 of v (w within 0.08 on all four; 2026-12-01). So the test judges P = v by the
+tolerances, not by the solver's stop reason."""
 
 SAME_MINIMUM = 1e-5
 """Two objectives this close are one minimum: each solver stops where its steps stall (SLSQP at ftol or its
@@ -91,7 +93,8 @@ def test_planner_reconstructs_intent(models: dict[str, GraspModel], name: str,
     r = intent.interpret(w, model.zones)
     assert r.v is not None
     res = planner.plan(model, r.v, method=method, options=SQP_STARTS if method == 'slsqp' else None)
-    assert res.success, res.message
+    # the property is the paper's, P = v, judged by the tolerances; not the solver's stop reason, which is the
+    # machine's (SQP_STARTS)
     assert np.all(np.abs(res.w - np.asarray(w)) < W_TOLERANCE), (res.w, w)
     assert_allclose(res.posterior, r.v, atol=P_TOLERANCE)
 

@@ -186,7 +186,8 @@ def test_the_agreement_is_measured_against_the_grasps_approach_target() -> None:
     assert all(a == pytest.approx(0.9, abs=1e-12) for _, a in alphas) and not assistance.yielded
     rotate = np.r_[0.0, 0.0, 0.0, 0.3 * toward[3:] / np.linalg.norm(toward[3:])]  # the linear agreement held: 1
     alphas = run_operator(assistance, rotate, 0.5, 0.3)
-    assert all(a == pytest.approx(0.9, abs=1e-12) for _, a in alphas) and assistance.agreement[0] == 1.0
+    assert all(a == pytest.approx(0.9, abs=1e-12) for _, a in alphas)
+    assert assistance.agreement[0] == pytest.approx(1.0, abs=1e-12)  # a cosine of parallel vectors: 1 to rounding
     # heading at the grasp itself from out of the corridor (through the object's side) is off the approach by 80
     # degrees, and away from the pre-grasp is against it
     alphas = run_operator(assistance, np.r_[0.05 * grasp[:3] / np.linalg.norm(grasp[:3]), 0.0, 0.0, 0.0], 1.0, 0.01)
