@@ -34,11 +34,8 @@ Threads and processes
     delayed outputs). Every grasp and object pose asks for the path again from the joints of that moment; meanwhile
     a bit-identical grasp and object keep the previous path in use, else the output is the operator's twist alone
     (alpha 0, ``seeking a path``). A search that raises, or the process ending: ERROR (the path sought no more).
-    With ``thread_priority`` 1-99, once the warm-up is done and the search's process has started, every thread of
-    the node's process (the executor's, and the middleware's that carry each input to it) is raised to Linux's
-    ``SCHED_FIFO`` at that priority, reset on fork (the search's process, started before, stays at the normal
-    priority, and so does anything started later): :func:`grasp_intent_ros.ros.realtime.raise_to_fifo`. Without the
-    privilege: a WARN status (``thread_priority ... not set``) and the node runs on at the normal priority.
+    With ``thread_priority`` 1-99, once warmed up (the search's process started), every thread of the node's process
+    goes to ``SCHED_FIFO``, reset on fork (:func:`grasp_intent_ros.ros.realtime.apply_thread_priority`).
 
 Several objects
     With the ``objects`` parameter (``suite --object ... --shared-control``) it serves from the suite's namespace
@@ -71,7 +68,7 @@ from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_arm, subscribe_operator
 from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, output_publisher
-from ..ros.realtime import OFF, raise_to_fifo
+from ..ros.realtime import apply_thread_priority
 from ..ros.robot import twist_msg
 from ..ros.run import guard_exit, publish_all, run_node
 from ..shared_control.arbitration import grasp_task_set
@@ -136,18 +133,12 @@ class AssistanceNode(Node):
         period = float(self._params['publish_period'])
         timer = self.create_timer(period, self._diag.guard_timer(self._on_timer))
         self._cadence = OutputCadence(period, timer, self._publish)
-        self._raise_priority(int(self._params['thread_priority']))
+        apply_thread_priority(int(self._params['thread_priority']), report=self._diag.set_value, warn=self._warn)
 
-    def _raise_priority(self, priority: int) -> None:
-        """``thread_priority`` applied to the process's threads (module docstring, "Threads"); WARN when it fails."""
-        if priority == OFF:
-            return
-        reason = raise_to_fifo(priority)
-        self._diag.set_value('thread_priority', f'SCHED_FIFO {priority}' if not reason else 'normal')
-        if reason:
-            text = f'thread_priority {priority} not set ({reason}): running at the normal priority'
-            self._diag.set_state(WARN, text)
-            self.get_logger().warning(text)
+    def _warn(self, text: str) -> None:
+        """A standing WARN status and its log line (a ``thread_priority`` refused)."""
+        self._diag.set_state(WARN, text)
+        self.get_logger().warning(text)
 
     def destroy_node(self) -> None:
         """Stop the path search's process (after its search), then destroy the node."""

@@ -19,8 +19,9 @@ ROS-free; Linux only (``os.sched_setscheduler``): elsewhere the reason says so.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 
-__all__ = ['raise_to_fifo', 'thread_policies', 'OFF']
+__all__ = ['raise_to_fifo', 'apply_thread_priority', 'thread_policies', 'OFF']
 
 OFF = 0
 """The priority that leaves the process's threads as they are (the parameter's default)."""
@@ -75,3 +76,18 @@ def raise_to_fifo(priority: int) -> str:
         return f'{type(exc).__name__}: {exc.strerror or exc}'
     return ''
 
+
+def apply_thread_priority(priority: int, *, report: Callable[[str, str], object],
+                          warn: Callable[[str], object]) -> None:
+    """A node's ``thread_priority``: :data:`OFF` leaves all as it is; 1-99 :func:`raise_to_fifo`, never raising.
+
+    Then ``report('thread_priority', got)`` with ``'SCHED_FIFO <priority>'`` or ``'normal'`` (e.g. a
+    :meth:`NodeDiagnostics.set_value <grasp_intent_ros.ros.diagnostics.NodeDiagnostics.set_value>`), and, when it was
+    refused, ``warn(text)`` with the reason (e.g. a WARN status and a log line); the node runs on either way.
+    """
+    if priority == OFF:
+        return
+    reason = raise_to_fifo(priority)
+    report('thread_priority', 'normal' if reason else f'SCHED_FIFO {priority}')
+    if reason:
+        warn(f'thread_priority {priority} not set ({reason}): running at the normal priority')
