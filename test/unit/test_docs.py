@@ -18,8 +18,8 @@
   names is in a topic table of the docs, and docs/viewer.md's table is the viewer's topics;
 - every value the docs state for a constant (``5 mm (`SWEEP_STEP`)``) or a node's parameter (```standoff` = 8 cm``)
   is the code's, and each config/<node>.yaml sets its node's defaults but the changes the docs state;
-- every ``--option`` written after a command (``python -m grasp_intent_ros <command>``, a benchmark script) is
-  one its parser defines;
+- every ``--option`` written after a command (``python -m grasp_intent_ros <command>``, a benchmark script, a
+  script of scripts/) is one its parser defines (a shell script: one its text names);
 - docs/sessions.md names every file ``report`` writes;
 - the README's library example runs.
 
@@ -608,8 +608,9 @@ def test_every_config_file_sets_its_nodes_defaults_but_the_documented_changes() 
         assert f'`{name}: {value}`' in (REPO / 'docs' / page).read_text(), f'docs/{page}: config/{node}.yaml sets it'
 
 
-OPTIONS = re.compile(rf'(?:{COMMAND.pattern}|(?:benchmarks/)?\b(\w+)\.py)([^\n`#]*)')
-"""A command or a benchmark script, then what follows it on its line up to a quote's end or a comment."""
+OPTIONS = re.compile(rf'(?:{COMMAND.pattern}|((?:benchmarks|scripts)/\w+\.(?:py|sh)|\b\w+\.py))([^\n`#]*)')
+"""A command, a benchmark or a script of scripts/, then what follows it on its line up to a quote's end or a
+comment."""
 
 
 def parser_sources(module: Path) -> str:
@@ -629,20 +630,26 @@ def parser_sources(module: Path) -> str:
 
 
 def unknown_options(match: re.Match[str]) -> list[str]:
-    """The ``--options`` after a command or benchmark that its parser does not define (any but ROS's own)."""
+    """The ``--options`` after a command, benchmark or script that it does not define (any but ROS's own).
+
+    A Python command line defines an option its parser names (``'--check'``); a shell script one its text names
+    (its usage comment says what it passes on, e.g. ``scripts/lock.sh --upgrade`` to uv).
+    """
     from grasp_intent_ros.commands import COMMANDS
     command, script, rest = match.groups()
+    options = re.findall(r'(?<![\w-])(--[a-z][\w-]*)', rest.split('--ros-args')[0])
     if command is not None:
         if command not in COMMANDS:
             return []  # test_every_reference_to_the_package_names_what_exists names it
-        module = PACKAGE.joinpath(*COMMANDS[command].split('.')).with_suffix('.py')
-        source = parser_sources(module)
+        source = parser_sources(PACKAGE.joinpath(*COMMANDS[command].split('.')).with_suffix('.py'))
     else:
-        module = REPO / 'benchmarks' / f'{script}.py'
-        if not module.is_file():
+        path = REPO / script if '/' in script else REPO / 'benchmarks' / script
+        if not path.is_file():
             return []
-        source = '\n'.join(p.read_text() for p in [module, *(REPO / 'benchmarks' / '_bench').glob('*.py')])
-    options = re.findall(r'(?<![\w-])(--[a-z][\w-]*)', rest.split('--ros-args')[0])
+        if path.suffix == '.sh':
+            return [option for option in options if not re.search(rf'(?<![\w-]){option}(?![\w-])', path.read_text())]
+        helpers = (REPO / 'benchmarks' / '_bench').glob('*.py')  # the benchmarks' shared options
+        source = '\n'.join([parser_sources(path), *(p.read_text() for p in helpers)])
     return [option for option in options if f"'{option}'" not in source]
 
 
@@ -657,10 +664,11 @@ def test_every_option_the_docs_give_a_command_is_one_it_takes() -> None:
 def test_the_option_check_tells_unknown_options_from_known_ones() -> None:
     for known in ('python -m grasp_intent_ros replay BAG --check --start-suite --ros-args --log-level debug',
                   'python -m grasp_intent_ros recorder my_session --topics intent/ --flush-period 1',
-                  'benchmarks/bench_shutdown.py --suite [--together]'):
+                  'benchmarks/bench_shutdown.py --suite [--together]', './scripts/test.sh --other-cpu [test/unit]',
+                  'scripts/venv.sh --latest'):
         assert [m for m in OPTIONS.finditer(known) if not unknown_options(m)], known
     for unknown in ('python -m grasp_intent_ros replay BAG --checks', 'grasp-intent-ros train x.csv --zone 7zone',
-                    'bench_task_success.py --physic'):
+                    'bench_task_success.py --physic', 'scripts/test.sh --other-cpus', 'scripts/venv.sh --lattest'):
         assert [m for m in OPTIONS.finditer(unknown) if unknown_options(m)], unknown
 
 
