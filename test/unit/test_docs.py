@@ -16,8 +16,9 @@
   tests' (:data:`grasp_intent_ros.launch.suite.TEST_DOMAIN_IDS`);
 - every type the docs give a topic is its type (:data:`grasp_intent_ros.wire.topics.MSGTYPES`), every topic a node
   names is in a topic table of the docs, and docs/viewer.md's table is the viewer's topics;
-- every value the docs state for a constant (``5 mm (`SWEEP_STEP`)``) or a node's parameter (```standoff` = 8 cm``)
-  is the code's, and each config/<node>.yaml sets its node's defaults but the changes the docs state;
+- every value the docs state for a constant (``5 mm (`SWEEP_STEP`)``), a node's parameter (```standoff` = 8 cm``)
+  or a topic's size cap (``16 kB on `intent/w```) is the code's, and each config/<node>.yaml sets its node's
+  defaults but the changes the docs state;
 - every ``--option`` written after a command (``python -m grasp_intent_ros <command>``, a benchmark script, a
   script of scripts/) is one its parser defines (a shell script: one its text names);
 - docs/sessions.md names every file ``report`` writes;
@@ -519,8 +520,9 @@ UNITS = {'': 1.0, 'm': 1.0, 'cm': 1e-2, 'mm': 1e-3, 's': 1.0, 'ms': 1e-3, 'rad':
          'MB': 1 << 20, 'deg': math.pi / 180, 'degrees': math.pi / 180}
 """A unit the docs write -> its value in the code's unit (SI, radians, bytes)."""
 VALUE = rf'(\d[\d,]*(?:\.\d+)?(?:e-?\d+)?)(?: ?({"|".join(u for u in UNITS if u)})\b)?'
-STATED = re.compile(rf'`([\w.]+)`(?: = | \(| ){VALUE}|{VALUE}(?:[ \n][a-z][\w \n]{{0,30}}?)?[ \n]\(`([\w.]+)`\)')
-"""A value the docs state for a name: ```standoff` = 8 cm``, ```yield_time` (0.15 s``, ``5 mm (`SWEEP_STEP`)``."""
+STATED = re.compile(rf'`([\w.]+)`(?: = | \(| ){VALUE}|{VALUE}(?:[ \n][a-z][\w \n]{{0,30}}?)?[ \n]\(`([\w./]+)`\)')
+"""A value the docs state for a name: ```standoff` = 8 cm``, ```yield_time` (0.15 s``, ``5 mm (`SWEEP_STEP`)``,
+``1 kB (`ros/diagnostics.MAX_TEXT`)``."""
 
 
 @functools.cache
@@ -558,7 +560,7 @@ def stated_values(page: str, text: str) -> Iterator[tuple[str, float, list[float
     """
     for m in STATED.finditer(text):
         name, number, unit = m.group(1, 2, 3) if m.group(1) else m.group(6, 4, 5)
-        module, _, last = name.rpartition('.')
+        module, _, last = name.replace('/', '.').rpartition('.')
         if last.isupper():
             code = [value for where, value in module_constants().get(last, {}).items()
                     if not module or where == module or where.endswith(f'.{module}')]
@@ -586,6 +588,38 @@ def test_the_stated_value_check_reads_units_and_names() -> None:
         '8 shortest candidates (`MAX_CHECKED`)': (8.0, [8]), '`yield_time` (0.2 s': (0.2, [0.15]),
         '1 s (`ros.run.SHUTDOWN_GRACE`)': (1.0, [5.0]), '`period` (0.01 s': (0.01, [0.01])}
     assert list(stated_values('intent_estimation.md', '`period` (0.01 s)')) == []  # not the estimator's parameter
+    assert [v for _, v, _ in stated_values('nodes.md', 'capped at 1 kB (`ros/diagnostics.MAX_TEXT`)')] == [1024.0]
+
+
+CAPS = re.compile(r'(\d+) (kB|MB) on ((?:`[\w/]+`(?:,? (?:and )?)?)+)')
+"""A size cap the docs state for topics: ``64 kB on `intent/v`, `model/query` and `joint_states```."""
+
+
+def wrong_caps(text: str) -> list[str]:
+    """The topics whose cap ``text`` states otherwise than :data:`~grasp_intent_ros.wire.topics.MAX_MESSAGE_BYTES`.
+
+    A cap is stated in whole kB or MB (1024 and 1024^2 bytes), the code's rounded to the nearest.
+    """
+    from grasp_intent_ros.wire.topics import MAX_MESSAGE_BYTES
+    wrong = []
+    for m in CAPS.finditer(' '.join(text.split())):
+        for topic in re.findall(r'`([\w/]+)`', m.group(3)):
+            cap = MAX_MESSAGE_BYTES.get(suite_topic(topic) or topic)
+            if cap is None or round(cap / UNITS[m.group(2)]) != int(m.group(1)):
+                wrong.append(f'{topic}: {m.group(1)} {m.group(2)} (the code: {cap} bytes)')
+    return wrong
+
+
+def test_every_size_cap_the_docs_state_is_the_codes() -> None:
+    text = (REPO / 'docs' / 'nodes.md').read_text()
+    assert len(CAPS.findall(' '.join(text.split()))) >= 5
+    assert [problem for path in CURRENT_DOCS for problem in wrong_caps(path.read_text())] == []
+
+
+def test_the_size_cap_check_tells_wrong_caps_from_right_ones() -> None:
+    assert wrong_caps('16 kB on `intent/w`,\n4 kB on `object/pose`, 64 kB on `intent/v`, `model/query` and\n'
+                      '`joint_states`, 4 MB on `model/active`') == []
+    assert len(wrong_caps('32 kB on `intent/w`, 64 kB on `object/pose` and `joint_states`, 4 kB on `no/topic`')) == 3
 
 
 CONFIG_CHANGES = {('mock_arm', 'trajectory_execution'): 'on_request'}
