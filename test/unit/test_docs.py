@@ -15,7 +15,8 @@
   every ``ros2 param set/get/describe`` a parameter of that node, and every domain id they write is none of the
   tests' (:data:`grasp_intent_ros.launch.suite.TEST_DOMAIN_IDS`);
 - every type the docs give a topic is its type (:data:`grasp_intent_ros.wire.topics.MSGTYPES`), every topic a node
-  names is in a topic table of the docs, and docs/viewer.md's table is the viewer's topics;
+  names is in a topic table of the docs, and docs/viewer.md's table is the viewer's topics; every type the docs
+  give a service is the one a node serves or calls it with;
 - every value the docs state for a constant (``5 mm (`SWEEP_STEP`)``), a node's parameter (```standoff` = 8 cm``)
   or a topic's size cap (``16 kB on `intent/w```) is the code's, and each config/<node>.yaml sets its node's
   defaults but the changes the docs state;
@@ -506,6 +507,67 @@ def test_the_viewers_topic_table_is_what_it_follows() -> None:
     shown = {topic for line in table.splitlines() if line.startswith('|')
              for m in QUOTED.finditer(line) if (topic := suite_topic(m.group(1)))}
     assert shown == set(VIEWER_TOPICS), 'docs/viewer.md, "What is shown": the topics of scene.state.VIEWER_TOPICS'
+
+
+@functools.cache
+def node_services() -> dict[str, set[str]]:
+    """Service name -> the types (``std_srvs/Trigger``) a node of nodes/ serves or calls it with.
+
+    Read from each ``create_service(Type, name, ...)`` and ``create_client(Type, name)``: the name a string, a
+    module-level constant of the package (``GRASP_CLOSE``, ``topics.ASSISTANCE_ENABLE``) or one of the names a
+    comprehension runs over.
+    """
+    assignments = [(target.id, node.value) for path in MODULES for node in ast.parse(path.read_text()).body
+                   if isinstance(node, (ast.Assign, ast.AnnAssign)) and node.value is not None
+                   for target in (node.targets if isinstance(node, ast.Assign) else [node.target])
+                   if isinstance(target, ast.Name)]
+    constants = {name: value.value for name, value in assignments
+                 if isinstance(value, ast.Constant) and isinstance(value.value, str)}
+    for name, value in assignments:  # aliases: ENABLE_SERVICE = topics.ASSISTANCE_ENABLE
+        alias = value.id if isinstance(value, ast.Name) else value.attr if isinstance(value, ast.Attribute) else ''
+        if alias in constants:
+            constants[name] = constants[alias]
+    services: dict[str, set[str]] = {}
+    for path in (PACKAGE / 'nodes').glob('*.py'):
+        tree = ast.parse(path.read_text())
+        loops = {g.target.id: g.iter.elts for n in ast.walk(tree) if isinstance(n, (ast.ListComp, ast.DictComp))
+                 for g in n.generators if isinstance(g.target, ast.Name) and isinstance(g.iter, ast.Tuple)}
+        for call in ast.walk(tree):
+            if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Attribute)
+                    and call.func.attr in ('create_service', 'create_client') and len(call.args) >= 2
+                    and isinstance(call.args[0], ast.Name)):
+                continue
+            name = call.args[1]
+            for expr in loops.get(name.id, [name]) if isinstance(name, ast.Name) else [name]:
+                key = expr.id if isinstance(expr, ast.Name) else expr.attr if isinstance(expr, ast.Attribute) else ''
+                service = expr.value if isinstance(expr, ast.Constant) else constants.get(key)
+                assert isinstance(service, str), f'nodes/{path.name}: a service name not read: {ast.unparse(expr)}'
+                services.setdefault(service, set()).add(f'std_srvs/{call.args[0].id}')
+    return services
+
+
+def mistyped_services(line: str) -> list[str]:
+    """The service types (``std_srvs/Trigger``) a docs row or list item names that none of its services has."""
+    services = {name for name in re.findall(r'`([~\w/]+)`', line) if name in node_services()}
+    theirs = {t for name in services for t in node_services()[name]}
+    return [f'std_srvs/{t} (the type of none of {sorted(services)})'
+            for t in re.findall(r'\bstd_srvs/(?:srv/)?(\w+)', line) if services and f'std_srvs/{t}' not in theirs]
+
+
+def test_every_type_the_docs_give_a_service_is_its_type() -> None:
+    assert node_services() == {'assistance/enable': {'std_srvs/SetBool'}, '~/reset': {'std_srvs/Trigger'},
+                               'grasp/close': {'std_srvs/Trigger'}, 'grasp/execute': {'std_srvs/Trigger'},
+                               'mock_arm/reset': {'std_srvs/Trigger'}}
+    wrong = [f'{path.relative_to(REPO)}:{number}: {problem}' for path in CURRENT_DOCS for number, line in rows(path)
+             for problem in mistyped_services(line)]
+    assert wrong == [], f'services given a type they do not have: {wrong}'
+
+
+def test_the_service_type_check_tells_wrong_types_from_right_ones() -> None:
+    assert mistyped_services('| mock_arm | service | `~/reset`, `grasp/close` | std_srvs/Trigger |') == []
+    assert mistyped_services('- `assistance/enable` (std_srvs/srv/SetBool): the switch') == []
+    assert mistyped_services('| mock_arm | service | `grasp/close` | std_srvs/SetBool |')
+    assert mistyped_services('- `assistance/enable` (std_srvs/Trigger)')
 
 
 ROS_FREE_NODES = tuple(node for node in (*SUITE_NODES, *OPTIONAL_NODES)
