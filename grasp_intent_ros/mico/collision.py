@@ -30,6 +30,10 @@ The object's part of a grasp's clearance (coal's, the costly part) does not depe
 object's pose: it is cached per body and grasp (keyed by the feature vector's bytes), and the whole clearance
 per body, table and grasp, so a planner that asks about the same demonstrations again pays a dictionary look-up,
 or, after the table moved in the object's frame, the table's part (a few array operations).
+
+Every answer depends on its inputs alone, not on the coal queries the process ran before (which objects, which
+episodes, in which order): importing this module pins the one state coal keeps from query to query
+(:func:`_pin_box_support`).
 """
 
 from __future__ import annotations
@@ -78,6 +82,28 @@ _STANDING = Table()  # the plane z = 0 of the object frame, the object's own (im
 _OPEN = np.zeros(3)
 _OPEN.setflags(write=False)
 """The open fingers' closures (rad): :meth:`HandCollision.open_hand_depth`'s, built once."""
+
+
+def _pin_box_support() -> None:
+    """Pin the state coal keeps across queries, so that each distance with a box depends on its inputs alone.
+
+    coal's support function of a box (every GJK and EPA step on a box) moves the box's negative faces out by a
+    factor ``inflate`` that is a function-local static: set by the first direction that function is given in the
+    process, 1 + 1e-10 when that direction has a component exactly 0, else 1, and kept until the process ends
+    (coal's API has no reset). Left to the process's first query with a box, every later distance with a box
+    would depend, in its last digits, on which query came first: another object's, another episode's. This is
+    that first query, a box at the identity as the first shape against a cylinder above it: GJK's first direction
+    is then an axis of the box's frame, so it pins 1 + 1e-10 (the box's negative faces 1e-10 of their half-side
+    further out than its positive ones), in every process. It runs at this module's import, before any query of
+    the package's own; a process that asks coal about a box before importing this module keeps what that query
+    pinned. Only the support function GJK and EPA use is pinned (coal's other one, with swept spheres, serves
+    planes, half-spaces and contact patches, which this module never asks for).
+    """
+    coal.distance(coal.Box(0.01, 0.01, 0.01), coal.Transform3s(), coal.Cylinder(0.01, 0.01),
+                  coal.Transform3s(np.eye(3), np.array([0.0, 0.0, 1.0])), coal.DistanceRequest(), coal.DistanceResult())
+
+
+_pin_box_support()
 
 
 def _rz(angles: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -2,7 +2,8 @@
 
 Each table is a tuple of :class:`~grasp_intent_ros.parameters.ParamSpec`, declared on a node by
 :func:`grasp_intent_ros.ros.params.declare_parameters`; config/<node>.yaml documents each parameter with its
-description (test/ros/test_config_files.py) and docs/nodes.md's table lists them (test/unit/test_docs.py).
+description (test/ros/test_config_files.py) and docs/nodes.md's table lists them
+(test/unit/test_parameter_docs.py).
 """
 
 from __future__ import annotations

@@ -22,10 +22,11 @@ Behaviour
     ``publish_period`` after its last, 1.25 after an answer, whatever arrived (a stale operator source: the zero
     twist). The rule and why: :mod:`grasp_intent_ros.shared_control.output_cadence`. The kinematics, the maths and
     the path search's process run once at start (warm-up), before the first output. The maths, alpha's definition
-    and the rules are :mod:`grasp_intent_ros.shared_control.assistance`. Inputs are keep-last 1 (latest only);
-    staleness is judged by arrival time on the node's clock. With a model that has a body, the robot's joint path
-    keeps the open hand clear of it at the object's pose (:mod:`grasp_intent_ros.shared_control.clearance`); without
-    one, unchecked.
+    and the rules are :mod:`grasp_intent_ros.shared_control.assistance`. Inputs are keep-last 1 (latest only) but
+    ``joint_states`` (the arm and the fingers may come from separate publishers) and ``intent/clarification``,
+    keep-last 10; staleness is judged by arrival time on the node's clock. With a model that has a body, the robot's
+    joint path keeps the open hand clear of it at the object's pose (:mod:`grasp_intent_ros.shared_control.clearance`);
+    without one, unchecked.
 
 Threads and processes
     The executor's thread (single-threaded) runs every callback and owns the

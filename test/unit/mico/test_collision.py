@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 
 import coal
 import numpy as np
@@ -33,6 +35,46 @@ CYLINDER_ONLY = ObjectBody(CUP_BODY.primitives[:1])
 BASE_T_OBJ = default_base_T_obj()
 SIDE_THUMB_SIDEWAYS = math.pi / 2
 """Roll of a horizontal approach from +x with the thumb along +y: the fingers close in the horizontal plane."""
+
+
+HISTORY_THEN_PROBE = """
+import sys
+import coal
+import numpy as np
+import pinocchio as pin
+import grasp_intent_ros.mico.collision
+
+def distance(a, a_R, a_t, b, b_R, b_t):
+    return coal.distance(a, coal.Transform3s(a_R, np.array(a_t, dtype=float)), b,
+                         coal.Transform3s(b_R, np.array(b_t, dtype=float)), coal.DistanceRequest(),
+                         coal.DistanceResult())
+
+turned, box, rod = pin.exp3(np.array([0.3, -0.5, 0.7])), coal.Box(0.01, 0.02, 0.03), coal.Cylinder(0.01, 0.02)
+if sys.argv[1] == 'box first':
+    distance(box, np.eye(3), (0, 0, 0), rod, np.eye(3), (0, 0, 0.5))
+elif sys.argv[1] == 'box second':
+    distance(rod, np.eye(3), (0, 0, 0.5), box, turned, (0, 0, 0))
+palm_R = np.array([[-0.1376543286683126, -0.7079285619128521, -0.692739804707999],
+                   [-0.9904802835695544, 0.0981699296833075, 0.09649597279653077],
+                   [-0.00030603733521738136, 0.6994282065615991, -0.7147027985164]])
+print(distance(coal.Cylinder(0.04, 0.16), palm_R, (0.11298218437660074, -0.02612667782358058, 0.14792122388138707),
+               coal.Box(0.008, 0.012, 0.05), np.eye(3), (0.066, 0.0, 0.05)).hex())
+"""
+"""The palm's cylinder against a cup handle's bar (a pose of a closed-loop run), after a history in a fresh process:
+none, a box query whose first support direction is an axis of the box's frame, one whose is not."""
+
+
+def test_a_distance_does_not_depend_on_the_queries_its_process_ran_before() -> None:
+    """The same coal query, after each history, in fresh processes that imported mico.collision: equal bit for bit.
+
+    Without the import's pin, coal's box support function keeps the inflation its first direction set, and the
+    query after the axis-aligned history differs from the others in its last digits.
+    """
+    runs = [subprocess.Popen([sys.executable, '-c', HISTORY_THEN_PROBE, history], stdout=subprocess.PIPE, text=True)
+            for history in ('none', 'box first', 'box second')]
+    outputs = [run.communicate(timeout=120)[0].strip() for run in runs]
+    assert [run.returncode for run in runs] == [0, 0, 0]
+    assert len(set(outputs)) == 1, outputs
 
 
 @pytest.fixture(scope='module')
