@@ -90,9 +90,13 @@ grasp did not serve S by the rules, and how many operators met any), mean alpha.
 none, 100 Hz operator twists carrying a sequence number in ``angular.z``): the blended twist's rate and the
 latency from the operator's publish to the blended twist's receipt (the middleware's receive time). Then a stream
 phase (:func:`stream_phase`, ``confidence``), whose gaps while the operator heads at the grasp are measured between
-the blended twists' receipts (the middleware's receive time: what a servo that receives promptly sees), and, as
-``callback_*``, between the times this process's callback ran (its own delays included: the executor thread shares
-the interpreter's lock with the operator's thread, and callbacks queue behind the joint states' kinematics).
+the blended twists' receipts (the middleware's receive time: what a servo that receives promptly sees), as
+``source_*`` between their source times (the assistance's middleware's time at each publish: the node's own gaps,
+without this process's receive delays), and, as ``callback_*``, between the times this process's callback ran (its
+own delays included: the executor thread shares the interpreter's lock with the operator's thread, and callbacks
+queue behind the joint states' kinematics). ``--thread-priority P`` gives the assistance node its
+``thread_priority`` (a params file after its own); the stream phase reports how many of its threads ran at
+``SCHED_FIFO`` (``fifo_threads`` of ``threads``), read from /proc after the phase.
 
 ``--record BAG`` runs no benchmark: it records one operator (the first of ``--only``, of the first of ``--objects``)
 under ``confidence`` as a closed-loop session bag, holding still for 2 s after the grasp
@@ -121,7 +125,9 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
+import tempfile
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -137,6 +143,7 @@ from grasp_intent_ros.mico.grasp import Grasp
 from grasp_intent_ros.mico.kinematics import HOME_Q, MicoKinematics
 from grasp_intent_ros.mico.mock_arm import MockArm
 from grasp_intent_ros.planning.options import node_default_options
+from grasp_intent_ros.ros.realtime import thread_policies
 from grasp_intent_ros.shared_control.limits import clip_norm
 from grasp_intent_ros.shared_control.operators import OperatorConstants, PersistentIntent, SharpeningIntent
 from grasp_intent_ros.shared_control.simulator import certain_grasp, perturb_pose
@@ -228,15 +235,18 @@ def stream_phase(loop: Loop) -> dict[str, float]:
 
     loop.reset_arm()
     start, end = _send_for(loop, 4.0, toward)
-    receipts = [(t, received) for t, received in loop.receipts if start <= t <= end]
-    received = np.array([r for _, r in receipts], dtype=np.int64)  # the middleware's receive times (ns)
+    receipts = [(t, received, sent) for t, received, sent in loop.receipts if start <= t <= end]
+    received = np.array([r for _, r, _ in receipts], dtype=np.int64)  # the middleware's receive times (ns)
     gaps = np.diff(received) * 1e-9
     out['rate_hz'] = (received.size - 1) / float((received[-1] - received[0]) * 1e-9)
     out['max_gap_ms'] = 1e3 * float(gaps.max())
     out['gaps_over_20ms'] = int(np.sum(gaps > 0.02))
-    gaps = np.diff([t for t, _ in receipts])  # when this process's callback ran: its own delays too
+    gaps = np.diff([t for t, _, _ in receipts])  # when this process's callback ran: its own delays too
     out['callback_max_gap_ms'] = 1e3 * float(gaps.max())
     out['callback_gaps_over_20ms'] = int(np.sum(gaps > 0.02))
+    gaps = np.diff(np.array([s for _, _, s in receipts], dtype=np.int64)) * 1e-9  # the node's publishes
+    out['source_max_gap_ms'] = 1e3 * float(gaps.max())
+    out['source_gaps_over_20ms'] = int(np.sum(gaps > 0.02))
     alphas = [a for t, a in loop.alphas if start <= t <= end]
     out['alpha_heading_mean'] = float(np.mean(alphas))
     # sustained opposition: from 1 s into an assisted reach (the hand well short of the grasp), straight away
@@ -274,10 +284,13 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
     model, kin = load_model(name), MicoKinematics()
     fingers = MockArm(kin, np.r_[HOME_Q, 0.0, 0.0, 0.0])  # its close_fingers: the own closures as the arm clips
     suite = NodeSuite(domain_id, cwd=REPO)
-    suite.start_nodes(model=OBJECTS[name], shared_control=True)
+    folder = tempfile.TemporaryDirectory()  # the nodes read their params files as they start: kept until they stop
+    priority = Path(folder.name) / 'thread_priority.yaml'
+    priority.write_text(f'/**/assistance:\n  ros__parameters:\n    thread_priority: {args.thread_priority}\n')
+    suite.start_nodes(model=OBJECTS[name], shared_control=True, params_files=[priority])
     probe = Probe(domain_id, 'bench_operator')
     runs: list[Run] = []
-    with stopped_after(suite, probe):
+    with folder, stopped_after(suite, probe):
         loop = Loop(probe, kin)
         warm = np.array([0.9, 0.1, 0.1])
         if not probe.wait_for(lambda: (loop.plans and loop.hands and loop.alphas) or loop.send_w(warm), 90.0,
@@ -287,6 +300,9 @@ def run_object(name: str, args: argparse.Namespace, domain_id: int,
         latency = latency_phase(loop, args.latency_seconds)
         latency['load'] = uptime()
         stream = stream_phase(loop)
+        assistance = next(p for p in suite.processes if p.module.endswith('assistance'))
+        policies = thread_policies(assistance.popen.pid).values()
+        stream['fifo_threads'], stream['threads'] = sum(p == os.SCHED_FIFO for p in policies), len(policies)
         print(f'[{name}] stream: ' + ', '.join(f'{k} {v:.3g}' for k, v in stream.items()), flush=True)
         latency.update({f'stream_{k}': v for k, v in stream.items()})
         if args.stream_only:
@@ -388,6 +404,9 @@ def main() -> None:
     parser.add_argument('--estimator', action='store_true', help='with --record: w from the intent estimator node '
                         '(module docstring)')
     parser.add_argument('--stream-only', action='store_true', help='the latency and stream phases only')
+    parser.add_argument('--thread-priority', type=int, default=0, metavar='P', help='the assistance node\'s '
+                        'thread_priority (0: off, its default; 1-99: SCHED_FIFO); the stream phase reports how many '
+                        'of its threads ran at SCHED_FIFO')
     parser.add_argument('--conditions', nargs='+', default=list(CONDITIONS), choices=CONDITIONS,
                         help='run only these conditions (rotating: operator i starts with the (i mod n)-th of them, '
                              'in the order of the full run)')

@@ -151,14 +151,15 @@ class Loop:
         node.create_subscription(Float64, 'assistance/alpha', lambda m: self.alphas.append(
             (time.monotonic(), m.data)), input_qos(1000))
         def on_blended(m: Any, info: Any) -> None:
-            self.receipts.append((time.monotonic(), info['received_timestamp']))
+            self.receipts.append((time.monotonic(), info['received_timestamp'], info['source_timestamp']))
             self.outputs.append((info['received_timestamp'], m.twist.angular.z))
             t = m.twist
             self.blended.append((time.monotonic(), np.array([t.linear.x, t.linear.y, t.linear.z, t.angular.x,
                                                              t.angular.y, t.angular.z])))
 
         self.blended: list[tuple[float, np.ndarray]] = []  # (monotonic, twist)
-        self.receipts: list[tuple[float, int]] = []  # (monotonic in the callback, the middleware's receive ns)
+        self.receipts: list[tuple[float, int, int]] = []  # (monotonic in the callback, the middleware's receive
+        # ns, the publisher's source ns: its middleware's time at the publish)
         node.create_subscription(TwistStamped, 'assistance/twist', on_blended, input_qos(1000))
         self.twist_pub = node.create_publisher(TwistStamped, 'operator/twist', output_qos())
         self.w_pub = node.create_publisher(Float64MultiArray, 'intent/w', output_qos()) if sends_w else None

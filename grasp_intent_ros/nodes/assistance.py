@@ -35,6 +35,8 @@ Threads and processes
     delayed outputs). Every grasp and object pose asks for the path again from the joints of that moment; meanwhile
     a bit-identical grasp and object keep the previous path in use, else the output is the operator's twist alone
     (alpha 0, ``seeking a path``). A search that raises, or the process ending: ERROR (the path sought no more).
+    With ``thread_priority`` 1-99, once warmed up (the search's process started), every thread of the node's process
+    goes to ``SCHED_FIFO``, reset on fork (:func:`grasp_intent_ros.ros.realtime.apply_thread_priority`).
 
 Several objects
     With the ``objects`` parameter (``suite --object ... --shared-control``) it serves from the suite's namespace
@@ -67,6 +69,7 @@ from ..ros.diagnostics import NodeDiagnostics
 from ..ros.inputs import subscribe_arm, subscribe_operator
 from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, output_publisher
+from ..ros.realtime import apply_thread_priority
 from ..ros.robot import twist_msg
 from ..ros.run import guard_exit, publish_all, run_node
 from ..shared_control.arbitration import grasp_task_set
@@ -77,7 +80,7 @@ from ..shared_control.output_cadence import OutputCadence
 from ..shared_control.parameters import ASSISTANCE
 from ..shared_control.path_search import PathWorker
 from ..wire import topics
-from ..wire.diagnostics import ERROR
+from ..wire.diagnostics import ERROR, WARN
 from ..wire.joint_states import JointReading
 from ..wire.robot_state import twist_command
 from .assistance_inputs import ChainInputs
@@ -131,6 +134,12 @@ class AssistanceNode(Node):
         period = float(self._params['publish_period'])
         timer = self.create_timer(period, self._diag.guard_timer(self._on_timer))
         self._cadence = OutputCadence(period, timer, self._publish)
+        apply_thread_priority(int(self._params['thread_priority']), report=self._diag.set_value, warn=self._warn)
+
+    def _warn(self, text: str) -> None:
+        """A standing WARN status and its log line (a ``thread_priority`` refused)."""
+        self._diag.set_state(WARN, text)
+        self.get_logger().warning(text)
 
     def destroy_node(self) -> None:
         """Stop the path search's process (after its search), then destroy the node."""

@@ -11,6 +11,9 @@ startup
     A node process tuned for a fast start and quick answers (``run``: no cyclic garbage collection until its
     code is loaded, OpenBLAS single-threaded, a short GIL switch interval; ``KernelWarmUp``: the compiled
     kernels loaded ahead); imports neither rclpy nor numpy.
+realtime
+    ``apply_thread_priority``: a node process's threads at Linux's ``SCHED_FIFO`` (opt-in; a warning, never a
+    crash, without the privilege), reset on fork; ``thread_policies`` of a process, read from /proc.
 qos
     QoS profiles: input (compatible with ``ros2 topic pub``), output, latched.
 params

@@ -107,6 +107,11 @@ ASSISTANCE = (
     ParamSpec('max_angular_acceleration', 5.0, 'Output angular acceleration limit, rad/s^2.', range=_POSITIVE),
     ParamSpec('publish_period', 0.01, 'Longest time between two outputs, s (MoveIt Servo: publish_period).',
               range=(0.001, 1.0), read_only=True),
+    ParamSpec('thread_priority', 0, 'Real-time priority (Linux SCHED_FIFO, 1-99) of the node process\'s threads, set '
+              'once its warm-up is done and its path search has started (that process stays at the normal '
+              'priority); 0: the normal priority. Needs the privilege (CAP_SYS_NICE or RLIMIT_RTPRIO); without it '
+              'a WARN and the node runs on (ros2_control and MoveIt Servo: thread_priority).', range=(0, 99),
+              read_only=True),
     *OBJECT_POSE,
     *OPERATOR_INPUT,
     URDF_PATH,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import functools
 import os
 import time
@@ -10,6 +11,7 @@ import held_search
 import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
+from rclpy.exceptions import InvalidParameterValueException
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, String
@@ -22,6 +24,7 @@ from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, HOME_Q, Mic
 from grasp_intent_ros.nodes.assistance import ENABLE_SERVICE, AssistanceNode
 from grasp_intent_ros.resources import config_dir
 from grasp_intent_ros.ros.conversions import array_to_msg, posterior_to_msg
+from grasp_intent_ros.ros.realtime import thread_policies
 from grasp_intent_ros.ros.robot import joint_state_msg, matrix_to_pose_msg
 from grasp_intent_ros.shared_control import path_search
 from grasp_intent_ros.shared_control.robot_twist import joint_space_twist
@@ -230,3 +233,22 @@ def test_the_output_keeps_coming_while_the_path_is_sought_in_a_process_of_its_ow
     loop.assist()
     ros.remove(loop.node)
     assert worker.returncode == 0  # stopped by the node's destruction, not killed
+
+
+def test_a_thread_priority_it_may_not_set_is_a_warning_and_the_node_serves_on(ros, monkeypatch, status_finder) -> None:
+    def refused(pid: int, policy: int, param: os.sched_param) -> None:
+        raise PermissionError(errno.EPERM, 'Operation not permitted')
+
+    monkeypatch.setattr(os, 'sched_setscheduler', refused)
+    statuses = ros.diagnostics()
+    loop = Loop(ros, thread_priority=50)
+    assert ros.wait_for(lambda: status_finder(statuses, ': assistance', level=bytes([WARN]),
+                                              text='thread_priority 50 not set (PermissionError'), 10.0)
+    assert os.SCHED_FIFO not in thread_policies().values()
+    loop.assist()
+
+
+@pytest.mark.parametrize('priority', [-1, 100])
+def test_a_thread_priority_out_of_range_fails_construction(ros, priority: int) -> None:
+    with pytest.raises(InvalidParameterValueException, match='thread_priority'):
+        AssistanceNode(context=ros.context, parameter_overrides=[Parameter('thread_priority', value=priority)])

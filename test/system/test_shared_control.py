@@ -9,6 +9,10 @@ deadline.
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -19,8 +23,9 @@ from std_msgs.msg import Float64, Float64MultiArray
 
 from grasp_intent_ros.mico.frames import offset
 from grasp_intent_ros.mico.kinematics import ARM_JOINTS, BASE_FRAME, FINGER_JOINTS, MicoKinematics
+from grasp_intent_ros.ros.realtime import thread_policies
 from grasp_intent_ros.wire import topics
-from grasp_intent_ros.wire.diagnostics import OPERATOR_COMPONENT
+from grasp_intent_ros.wire.diagnostics import OPERATOR_COMPONENT, WARN
 from grasp_intent_ros.wire.robot_state import joint_positions, pose_msg_to_matrix
 
 STARTUP = 60.0
@@ -110,3 +115,52 @@ def test_the_suite_with_a_scripted_operator_reaches_executes_and_closes_on_the_s
     assert distance < 0.001 and angle < 0.01, (distance, angle)
     assert any('done: episode 1 reached the shown grasp' in m and m.endswith('(executed)') for m in operator()), \
         operator()[-1:]
+
+
+def _children(pid: int) -> list[int]:
+    """The ids of the processes whose parent is ``pid`` (from /proc)."""
+    found = []
+    for entry in os.listdir('/proc'):
+        try:
+            stat = Path(f'/proc/{entry}/stat').read_text() if entry.isdigit() else ''
+        except OSError:
+            continue  # ended meanwhile
+        if stat and int(stat.rpartition(')')[2].split()[1]) == pid:
+            found.append(int(entry))
+    return found
+
+
+def _fifo_permitted() -> bool:
+    """Whether a process started from here may set SCHED_FIFO (tried in a child: this process stays as it is)."""
+    code = 'import os; os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))'
+    return subprocess.run([sys.executable, '-c', code], check=False).returncode == 0
+
+
+def test_thread_priority_raises_the_node_process_and_not_its_path_search(ros: Any, launch: Any,
+                                                                        status_finder: Any) -> None:
+    # thread_priority 50: once the node is warmed up, every thread of its process at SCHED_FIFO 50, its path search's
+    # process (started before) at the normal policy; where the privilege is missing, a WARN and the node serves on
+    statuses = ros.diagnostics()
+    alphas = ros.subscribe(Float64, topics.ASSISTANCE_ALPHA)
+    node = launch.start('assistance', '-p', 'thread_priority:=50')
+    pid = node.popen.pid
+
+    def reported(value: str) -> bool:
+        status = status_finder(statuses, ': assistance')
+        return status is not None and any(v.key == 'thread_priority' and v.value == value for v in status.values)
+
+    if _fifo_permitted():
+        assert ros.wait_for(lambda: reported('SCHED_FIFO 50'), STARTUP)
+        policies = thread_policies(pid)
+        assert len(policies) > 1 and set(policies.values()) == {os.SCHED_FIFO}, policies
+        assert os.sched_getparam(pid).sched_priority == 50
+        assert os.sched_getscheduler(pid) & os.SCHED_RESET_ON_FORK
+    else:
+        assert ros.wait_for(lambda: status_finder(statuses, ': assistance', level=bytes([WARN]),
+                                                  text='thread_priority 50 not set') and reported('normal'), STARTUP)
+        assert os.SCHED_FIFO not in thread_policies(pid).values()
+    searches = [child for child in _children(pid) if 'path_search' in Path(f'/proc/{child}/cmdline').read_text()]
+    assert len(searches) == 1, _children(pid)
+    assert set(thread_policies(searches[0]).values()) == {os.SCHED_OTHER}
+    count = len(alphas)
+    assert ros.wait_for(lambda: len(alphas) > count + 10, 10.0)  # serving
