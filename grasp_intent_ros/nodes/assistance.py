@@ -36,7 +36,10 @@ Threads and processes
     a bit-identical grasp and object keep the previous path in use, else the output is the operator's twist alone
     (alpha 0, ``seeking a path``). A search that raises, or the process ending: ERROR (the path sought no more).
     With ``thread_priority`` 1-99, once warmed up (the search's process started), every thread of the node's process
-    goes to ``SCHED_FIFO``, reset on fork (:func:`grasp_intent_ros.ros.realtime.apply_thread_priority`).
+    goes to ``SCHED_FIFO``, reset on fork (:func:`grasp_intent_ros.ros.realtime.apply_thread_priority`). As a process
+    (``main``) it is tuned as the planner's (:mod:`grasp_intent_ros.ros.startup`): OpenBLAS single-threaded, no cyclic
+    garbage collection until its constructor ends (the warm-up done), then everything alive frozen out of later
+    collections.
 
 Several objects
     With the ``objects`` parameter (``suite --object ... --shared-control``) it serves from the suite's namespace
@@ -49,6 +52,11 @@ Parameters: :data:`grasp_intent_ros.shared_control.parameters.ASSISTANCE`, ``con
 """
 
 from __future__ import annotations
+
+from ..ros import startup
+
+if __name__ == '__main__':  # a node process: before the imports below (grasp_intent_ros.ros.startup)
+    startup.begin()
 
 from collections.abc import Mapping
 from typing import Any
@@ -71,7 +79,7 @@ from ..ros.params import declare_parameters
 from ..ros.qos import input_qos, output_publisher
 from ..ros.realtime import apply_thread_priority
 from ..ros.robot import twist_msg
-from ..ros.run import guard_exit, publish_all, run_node
+from ..ros.run import publish_all
 from ..shared_control.arbitration import grasp_task_set
 from ..shared_control.assistance import Assistance, warm_up
 from ..shared_control.assistance_config import AssistanceConfig
@@ -134,6 +142,7 @@ class AssistanceNode(Node):
         period = float(self._params['publish_period'])
         timer = self.create_timer(period, self._diag.guard_timer(self._on_timer))
         self._cadence = OutputCadence(period, timer, self._publish)
+        startup.end()  # warmed up, the path search's process started: the start's objects frozen, the collector on
         apply_thread_priority(int(self._params['thread_priority']), report=self._diag.set_value, warn=self._warn)
 
     def _warn(self, text: str) -> None:
@@ -189,9 +198,8 @@ class AssistanceNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    """Entry point: run the node until SIGINT/SIGTERM."""
-    run_node(AssistanceNode, args)
-    guard_exit()
+    """Entry point: run the node until SIGINT/SIGTERM, in a process tuned by :func:`.ros.startup.run`."""
+    startup.run(AssistanceNode, args)
 
 
 if __name__ == '__main__':

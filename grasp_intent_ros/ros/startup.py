@@ -2,7 +2,9 @@
 
 A node module runs as a process through :func:`run` (its ``main``), which applies the settings below and
 runs the node with :func:`grasp_intent_ros.ros.run.run_node`; a node whose worker thread answers with
-compiled kernels loads them ahead with a :class:`KernelWarmUp`.
+compiled kernels loads them ahead with a :class:`KernelWarmUp`. Two node modules run this way: the grasp
+planner (whose kernels and restart are the reason for the start's settings below) and the assistance node
+(a timed stream, whose collections then never traverse the start's objects).
 
 **The start.** A restarted planner is CPU-bound until its first grasp (imports, numba's CPU target, the cached kernels,
 nearly all of it under one GIL), so what it does not have to do shortens its restart. Two things, for the
@@ -25,8 +27,10 @@ process's start only:
 :func:`begin` must run before the node's module imports numpy to have its full effect: a node module calls
 it first thing when it runs as ``python -m`` (``__name__ == '__main__'``: a module's imports run before
 any of its functions can), and :func:`run` calls it again (a console script imports
-the module first). Only a process that called :func:`begin` is changed by :func:`end`: a node built in a
-test process leaves that process's collector alone.
+the module first). :func:`end` is called once the node's code is loaded: by :meth:`KernelWarmUp.at_start` in
+the planner's worker thread, and at the end of the assistance node's constructor (after its warm-up). Only a
+process that called :func:`begin` is changed by :func:`end`: a node built in a test process leaves that
+process's collector alone.
 
 **The answers.** :func:`run` sets the GIL switch interval to :data:`GIL_SWITCH_INTERVAL`, and
 :class:`KernelWarmUp` loads every compiled kernel in the worker thread while the node discovers its peers

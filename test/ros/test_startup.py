@@ -78,6 +78,25 @@ def test_the_planner_process_collects_again_once_its_kernels_are_loaded(domain_i
          'rclpy.shutdown()\n', env=node_environment(domain_id))
 
 
+def test_the_assistance_process_is_tuned_while_built_and_frozen_once_warmed_up(domain_id: int) -> None:
+    """Its ``main`` goes through :func:`startup.run`, and the node's constructor ends the start (after its warm-up)."""
+    _run('import gc, os, signal, sys\n'
+         'from grasp_intent_ros.ros import startup\n'
+         'from grasp_intent_ros.nodes import assistance\n'
+         'seen = []\n'
+         'class Node(assistance.AssistanceNode):\n'
+         '    def __init__(self):\n'
+         '        seen.append((gc.isenabled(), sys.getswitchinterval(), os.environ["OPENBLAS_NUM_THREADS"]))\n'
+         '        super().__init__()\n'
+         '        seen.append((gc.isenabled(), gc.get_freeze_count()))\n'
+         '        os.kill(os.getpid(), signal.SIGINT)  # then stopped as a user stops it\n'
+         'assistance.AssistanceNode = Node\n'
+         'assistance.main([])\n'
+         'assert seen[0] == (False, startup.GIL_SWITCH_INTERVAL, "1"), seen\n'
+         'assert seen[1][0] and seen[1][1] > 1000, f"not frozen once warmed up: {seen}"\n',
+         env={k: v for k, v in node_environment(domain_id).items() if k != 'OPENBLAS_NUM_THREADS'})
+
+
 def test_run_tunes_the_process_before_the_node_is_built(domain_id: int) -> None:
     code = ('import gc, sys\n'
             'from grasp_intent_ros.ros import startup\n'
