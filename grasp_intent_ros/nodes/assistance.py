@@ -16,30 +16,22 @@ Topics (relative)
          twist exactly
 
 Behaviour
-    One blended twist per ``publish_period``, at the operator's cadence when its source streams: an operator twist
-    is answered at once when the last output is at least 0.95 ``publish_period`` old, or half of it when that was
-    the timer's (sooner after the timer's: half a period after it); the timer's own output follows one
-    ``publish_period`` after its last, 1.25 after an answer, whatever arrived (a stale operator source: the zero
-    twist). The rule and why: :mod:`grasp_intent_ros.shared_control.output_cadence`. The kinematics, the maths and
-    the path search's process run once at start (warm-up), before the first output. The maths, alpha's definition
-    and the rules are :mod:`grasp_intent_ros.shared_control.assistance`. Inputs are keep-last 1 (latest only) but
-    ``joint_states`` (the arm and the fingers may come from separate publishers) and ``intent/clarification``,
-    keep-last 10; staleness is judged by arrival time on the node's clock. With a model that has a body, the robot's
-    joint path keeps the open hand clear of it at the object's pose (:mod:`grasp_intent_ros.shared_control.clearance`);
-    without one, unchecked.
+    One blended twist per ``publish_period``: at the operator's cadence while its source streams, else by the
+    timer (a stale operator source: the zero twist); the rule and why:
+    :mod:`grasp_intent_ros.shared_control.output_cadence`. The kinematics, the maths and the path search's process
+    run once at start (warm-up), before the first output. The maths, alpha's definition and the rules are
+    :mod:`grasp_intent_ros.shared_control.assistance`. Inputs are keep-last 1 (latest only) but ``joint_states`` (the
+    arm and the fingers may come from separate publishers) and ``intent/clarification``, keep-last 10; staleness is
+    judged by arrival time on the node's clock. With a model that has a body, the robot's joint path keeps the open
+    hand clear of it at the object's pose (:mod:`grasp_intent_ros.shared_control.clearance`); without one, unchecked.
 
 Threads and processes
-    The executor's thread (single-threaded) runs every callback and owns the
-    :class:`~grasp_intent_ros.shared_control.assistance.Assistance`. The joint path's search runs in a process of
-    its own (:class:`~grasp_intent_ros.shared_control.path_search.PathWorker`; in a thread its share of the lock
-    delayed outputs). Every grasp and object pose asks for the path again from the joints of that moment; meanwhile
-    a bit-identical grasp and object keep the previous path in use, else the output is the operator's twist alone
-    (alpha 0, ``seeking a path``). A search that raises, or the process ending: ERROR (the path sought no more).
-    With ``thread_priority`` 1-99, once warmed up (the search's process started), every thread of the node's process
-    goes to ``SCHED_FIFO``, reset on fork (:func:`grasp_intent_ros.ros.realtime.apply_thread_priority`). As a process
-    (``main``) it is tuned as the planner's (:mod:`grasp_intent_ros.ros.startup`): OpenBLAS single-threaded, no cyclic
-    garbage collection until its constructor ends (the warm-up done), then everything alive frozen out of later
-    collections.
+    The executor's thread runs every callback and owns the ``Assistance``; the joint path is sought in a process of
+    its own (:class:`~grasp_intent_ros.shared_control.path_search.PathWorker`), again for every grasp and object
+    pose; meanwhile a bit-identical grasp and object keep the path in use, else the output is the operator's twist
+    alone (alpha 0, ``seeking a path``); a search that raises or ends: ERROR. The process (``main``) is tuned as
+    the planner's (:mod:`grasp_intent_ros.ros.startup`: the start's objects frozen once warmed up); then
+    ``thread_priority`` 1-99 sets its threads to ``SCHED_FIFO``, reset on fork (:mod:`grasp_intent_ros.ros.realtime`).
 
 Several objects
     With the ``objects`` parameter (``suite --object ... --shared-control``) it serves from the suite's namespace
